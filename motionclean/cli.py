@@ -1,0 +1,241 @@
+"""The ``motionclean`` command line.
+
+Exit codes: 0 success, 1 a data error (bad file, failed step, failed check), 2 a usage
+error (bad option or pipeline, refused overwrite). Errors are one line on stderr,
+``motionclean: error: FILE[:LINE]: what is wrong``; ``--debug`` shows the traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+
+import click
+import numpy as np
+
+from . import __version__, metrics
+from .errors import MotionError, UsageError
+from .io import atomic_write, load, save
+from .motion import Motion
+from .pipeline import REGISTRY, REQUIRED, Pipeline
+from .report import build_report, format_table, to_json
+
+
+def _echo_error(message: str) -> None:
+    click.echo(f"motionclean: error: {message}", err=True)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console entry point: run the click group and turn every error into one line."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in args
+    try:
+        cli.main(args=args, prog_name="motionclean", standalone_mode=False)
+    except MotionError as error:
+        if debug:
+            traceback.print_exc()
+        _echo_error(str(error))
+        sys.exit(error.exit_code)
+    except click.exceptions.Exit as done:
+        sys.exit(done.exit_code)
+    except click.Abort:
+        _echo_error("aborted")
+        sys.exit(1)
+    except click.ClickException as error:
+        if debug:
+            traceback.print_exc()
+        _echo_error(error.format_message().replace("\n", " "))
+        sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
+    except KeyboardInterrupt:
+        _echo_error("interrupted")
+        sys.exit(130)
+    except Exception as error:  # a bug: still one line unless --debug
+        if debug:
+            traceback.print_exc()
+        _echo_error(f"internal error: {type(error).__name__}: {error} (rerun with --debug)")
+        sys.exit(1)
+    sys.exit(0)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="motionclean")
+@click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
+def cli(debug: bool) -> None:
+    """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
+    """The pipeline from ``-p`` or ``-f``, or the default one; validated, no clip read."""
+    if pipe and steps:
+        raise UsageError("use either -p PIPE.toml or -f STEP, not both")
+    if pipe:
+        return Pipeline.from_toml(pipe)
+    if steps:
+        return Pipeline.from_inline(list(steps))
+    return Pipeline.default()
+
+
+def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
+    """Raise unless ``target`` is a different file from ``source`` or ``in_place`` is set."""
+    same = target.exists() and source.exists() and target.resolve() == source.resolve()
+    if same and not in_place:
+        raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
+
+
+def write_report(report: dict, path: Path) -> None:
+    """Write a report as JSON or HTML, by extension."""
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        atomic_write(path, to_json(report))
+    elif suffix in (".html", ".htm"):
+        from .html import render_html
+
+        atomic_write(path, render_html(report).encode("utf-8"))
+    else:
+        raise UsageError(f"{path}: a report is .json or .html")
+
+
+def notes_by_joint(logs) -> dict[str, dict]:
+    """Merge each step's per-joint notes into one dict for the report."""
+    merged: dict[str, dict] = {}
+    for log in logs:
+        for joint, note in log.notes.items():
+            merged.setdefault(joint, {}).update(note)
+    return merged
+
+
+PIPE_OPTION = click.option(
+    "-p", "--pipeline", "pipe", type=click.Path(dir_okay=False),
+    help="Pipeline TOML file with [[step]] tables (see README).")
+STEP_OPTION = click.option(
+    "-f", "--filter", "steps", multiple=True, metavar="STEP",
+    help="Inline step NAME:key=value,...; repeatable, applied in order.")
+
+
+# ----------------------------------------------------------------------------- commands
+
+
+@cli.command()
+@click.argument("clip", type=click.Path())
+def info(clip: str) -> None:
+    """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
+    motion = load(clip)
+    layout = motion.layout
+    click.echo(f"{clip}")
+    click.echo(f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
+               f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s")
+    click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
+    steps, at = metrics.largest_steps(motion.rotations)
+    acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
+    acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
+    click.echo(f"  {'joint':<24}{'parent':<16}{'channels':<28}{'largest step':>14}"
+               f"{'at frame':>9}{'accel rms':>12}")
+    for j, name in enumerate(motion.names):
+        parent = motion.names[motion.parents[j]] if motion.parents[j] >= 0 else "-"
+        channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
+        order = layout.rotation_orders[j] or ""
+        if layout.has_rotation[j]:
+            figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}"
+        else:
+            figures = f"{'-':>14}{'':>9}{'':>12}"
+        click.echo(f"  {name[:23]:<24}{parent[:15]:<16}{(channels + ' ' + order)[:27]:<28}"
+                   f"{figures}")
+    click.echo("  (largest step: rotation between consecutive frames, degrees; accel rms: "
+               "deg/s^2)")
+
+
+@cli.command()
+@click.argument("source", type=click.Path())
+@click.argument("target", type=click.Path())
+@click.option("--skeleton", type=click.Path(),
+              help="BVH whose skeleton a channel CSV is written back into.")
+def convert(source: str, target: str, skeleton: str | None) -> None:
+    """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
+    template = load(skeleton) if skeleton else None
+    refuse_overwrite(Path(source), Path(target), in_place=False)
+    motion = load(source, skeleton=template)
+    save(motion, target)
+
+
+@cli.command()
+@click.argument("source", type=click.Path())
+@click.option("-o", "--output", type=click.Path(), help="Cleaned clip to write.")
+@PIPE_OPTION
+@STEP_OPTION
+@click.option("--report", "report_path", type=click.Path(dir_okay=False),
+              help="Also write a report, FILE.json or FILE.html.")
+@click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
+@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, ...],
+          report_path: str | None, in_place: bool, quiet: bool) -> None:
+    """Clean SOURCE with a pipeline and write it to OUTPUT.
+
+    Without -p or -f the default pipeline runs (see `motionclean filters` and the README).
+    """
+    pipeline = pipeline_from_options(pipe, steps)
+    if output is None:
+        if not in_place:
+            raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
+        output = source
+    refuse_overwrite(Path(source), Path(output), in_place)
+    motion = load(source)
+    cleaned, logs = pipeline.run(motion)
+    save(cleaned, output)
+    report = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs), source)
+    if report_path:
+        write_report(report, Path(report_path))
+    if not quiet:
+        click.echo(format_table(report))
+
+
+@cli.command()
+@click.argument("source", type=click.Path())
+@click.argument("cleaned", type=click.Path(), required=False)
+@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write JSON here.")
+@click.option("--html", "html_path", type=click.Path(dir_okay=False), help="Write HTML here.")
+def report(source: str, cleaned: str | None, json_path: str | None,
+           html_path: str | None) -> None:
+    """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
+    before = load(source)
+    after = load(cleaned) if cleaned else None
+    if after is not None:
+        check_compatible(before, after)
+    result = build_report(before, after, file=source)
+    if json_path:
+        write_report(result, Path(json_path))
+    if html_path:
+        write_report(result, Path(html_path))
+    click.echo(format_table(result))
+
+
+def check_compatible(a: Motion, b: Motion) -> None:
+    """Raise unless ``a`` and ``b`` share the skeleton, frame count and frame rate."""
+    if a.names != b.names or not np.array_equal(a.parents, b.parents):
+        raise MotionError("the two clips have different skeletons", b.path)
+    if a.n_frames != b.n_frames:
+        raise MotionError(f"{a.n_frames} frames against {b.n_frames}", b.path)
+    if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
+        raise MotionError(f"frame time {b.frame_time:g} s against {a.frame_time:g} s", b.path)
+
+
+@cli.command(name="filters")
+def filters_command() -> None:
+    """List every filter with its parameters, defaults, units and paper equations."""
+    for spec in REGISTRY.values():
+        click.echo(f"{spec.name}: {spec.summary}  [{spec.paper}]")
+        for param in spec.params:
+            if param.default is REQUIRED:
+                default = "required"
+            elif param.default is None:
+                default = "optional"
+            else:
+                default = f"default {param.default}"
+            click.echo(f"    {param.name:<14}{param.help} ({param.allowed()}; {default})")
+        click.echo(f"    {'joints':<14}fnmatch patterns, '!' excludes (default [\"*\"])")
+        click.echo(f"    {'positions':<14}also filter translation channels "
+                   f"(default {str(spec.positions_default).lower()})")
+        click.echo("")

@@ -1,0 +1,9 @@
+"""Orientation filters: pure functions from ``(F, ..., 4)`` quaternion arrays to new arrays.
+
+Each filter takes the rotation array first and returns a new array; position counterparts
+(suffix ``_positions``) take ``(F, ..., 3)``. Filters never see files or joint names.
+"""
+
+from .linear import lee_shin, lee_shin_positions
+
+__all__ = ["lee_shin", "lee_shin_positions"]

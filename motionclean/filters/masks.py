@@ -1,0 +1,93 @@
+"""Filter masks: odd-length coefficient arrays ``(a_-k, ..., a_0, ..., a_k)`` summing to one.
+
+Any such mask is affine invariant on vectors, and 000's construction (Eq. 19-20) turns it
+into a coordinate-invariant orientation filter (:func:`motionclean.filters.lee_shin`).
+Masks are plain float64 numpy arrays; :func:`validate_mask` checks the two requirements.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "MaskError",
+    "binomial",
+    "custom",
+    "gaussian",
+    "high_boost",
+    "reduction",
+    "smoothing",
+    "validate_mask",
+]
+
+SUM_TOLERANCE = 1e-9
+
+
+class MaskError(ValueError):
+    """A mask that cannot define an orientation filter (even length, wrong sum, ...)."""
+
+
+def validate_mask(mask) -> np.ndarray:
+    """Return ``mask`` as a 1-D float64 array, or raise :class:`MaskError`.
+
+    A mask must be one-dimensional, finite, of odd length (centred on the sample) and sum
+    to 1 within 1e-9, so that the vector filter is affine invariant (000 Eq. 15).
+    """
+    a = np.asarray(mask, dtype=np.float64)
+    if a.ndim != 1 or a.size == 0:
+        raise MaskError(f"a mask must be a non-empty list of numbers, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise MaskError("a mask must contain finite numbers only")
+    if a.size % 2 == 0:
+        raise MaskError(f"a mask must have odd length (centred), got {a.size} coefficients")
+    total = float(np.sum(a))
+    if abs(total - 1.0) > SUM_TOLERANCE:
+        raise MaskError(f"mask coefficients must sum to 1, these sum to {total:.12g}")
+    return a
+
+
+def binomial(k: int) -> np.ndarray:
+    """Binomial mask ``B^{2k+1}`` of half-width ``k`` (000 Eq. 23); ``binomial(2)`` is B^5."""
+    if int(k) != k or k < 0:
+        raise MaskError(f"binomial half-width k must be a non-negative integer, got {k}")
+    k = int(k)
+    coeffs = np.array([math.comb(2 * k, k + i) for i in range(-k, k + 1)], dtype=np.float64)
+    return coeffs / 4.0**k
+
+
+def smoothing(lam: float) -> np.ndarray:
+    """Smoothing mask ``(-lam, 4 lam, 24 - 6 lam, 4 lam, -lam) / 24`` (000 Eq. 21-22).
+
+    One step of the fourth-order fairing update with damping ``lam`` (0 < lam <= 1).
+    """
+    return np.array([-lam, 4 * lam, 24 - 6 * lam, 4 * lam, -lam], dtype=np.float64) / 24.0
+
+
+def high_boost(lam: float) -> np.ndarray:
+    """High-frequency boost ``original + lam (original - B^5 original)`` (000 Sec. V-C, Eq. 25)."""
+    return np.array([-lam, -4 * lam, 16 + 10 * lam, -4 * lam, -lam], dtype=np.float64) / 16.0
+
+
+def reduction() -> np.ndarray:
+    """The reduction mask ``(-1, 4, 18, 4, -1) / 24`` of 003 Eq. 13."""
+    return np.array([-1.0, 4.0, 18.0, 4.0, -1.0]) / 24.0
+
+
+def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
+    """Gaussian ``exp(-r^2 / 2 sigma_t^2)`` truncated at ``radius`` frames and normalised.
+
+    ``sigma_t`` is in frames; ``radius`` defaults to ``ceil(3 sigma_t)``.
+    """
+    if sigma_t <= 0:
+        raise MaskError(f"sigma_t must be positive, got {sigma_t}")
+    radius = math.ceil(3 * sigma_t) if radius is None else int(radius)
+    r = np.arange(-radius, radius + 1, dtype=np.float64)
+    w = np.exp(-(r**2) / (2.0 * sigma_t**2))
+    return w / w.sum()
+
+
+def custom(coefficients) -> np.ndarray:
+    """A user mask, validated by :func:`validate_mask`."""
+    return validate_mask(coefficients)

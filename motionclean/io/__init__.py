@@ -1,0 +1,85 @@
+"""File formats: load and save a :class:`~motionclean.motion.Motion` by file extension."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from ..errors import MotionError
+from ..motion import Motion
+from . import bvh, csv
+
+__all__ = ["atomic_write", "load", "save"]
+
+_READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
+_WRITERS = {".bvh": bvh.format_bvh, ".csv": csv.format_csv}
+
+
+def _suffix(path: Path, table: dict) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in table:
+        raise MotionError(
+            f"unknown file type {suffix or '(none)'!r}; expected one of {', '.join(table)}",
+            path,
+        )
+    return suffix
+
+
+def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
+    """Read a clip; the format follows the extension (``.bvh`` or ``.csv``).
+
+    ``skeleton`` is the BVH template a channel CSV is read into (see ``io.csv``).
+    """
+    path = Path(path)
+    suffix = _suffix(path, _READERS)
+    if not path.exists():
+        raise MotionError("no such file", path)
+    if path.is_dir():
+        raise MotionError("is a directory, not a clip", path)
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise MotionError(f"cannot read: {error.strerror}", path) from None
+    if suffix == ".csv":
+        return csv.parse_csv(data, path, skeleton=skeleton)
+    return _READERS[suffix](data, path)
+
+
+def save(motion: Motion, path: str | os.PathLike) -> None:
+    """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``)."""
+    path = Path(path)
+    atomic_write(path, _WRITERS[_suffix(path, _WRITERS)](motion))
+
+
+def atomic_write(path: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then rename it into place.
+
+    Readers never see a partial file; on failure the target is left as it was.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise MotionError("is a directory", path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+                                   dir=path.parent if str(path.parent) else ".")
+    except OSError as error:
+        raise MotionError(f"cannot write: {error.strerror}", path) from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.chmod(tmp, _target_mode(path))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _target_mode(path: Path) -> int:
+    """The existing file's permissions, or the default ones for a new file (umask applied)."""
+    try:
+        return path.stat().st_mode & 0o777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask

@@ -1,0 +1,72 @@
+"""Noise and deviation figures, in the units users read: degrees of rotation and seconds.
+
+Angular acceleration follows 000 Sec. VI-B: with ``w_i = log(q_i^-1 q_{i+1})`` the estimate
+at frame ``i`` is ``|w_i - w_{i-1}| / dt^2``; it is reported in degrees of rotation per s^2,
+i.e. twice the log norm converted to degrees. Linear acceleration is the second difference of
+the position channels in length units per s^2. All functions take time-major arrays and work
+on every joint at once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import quat
+from .filters.linear import angular_displacements
+
+__all__ = [
+    "angular_acceleration",
+    "deviation_deg",
+    "largest_steps",
+    "linear_acceleration",
+    "rms",
+    "step_deg",
+]
+
+
+def rms(x: np.ndarray, axis=0) -> np.ndarray:
+    """Root mean square along ``axis`` (0 for an empty axis)."""
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape[axis] == 0:
+        return np.zeros(np.delete(x.shape, axis))
+    return np.sqrt(np.mean(x * x, axis=axis))
+
+
+def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
+    """``(F-2, ...)`` angular acceleration magnitudes in degrees of rotation per s^2.
+
+    ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B).
+    """
+    q = quat.make_continuous(q, axis=0)
+    if q.shape[0] < 3:
+        return np.zeros((0, *q.shape[1:-1]))
+    w = angular_displacements(q)
+    return np.degrees(2.0 * np.linalg.norm(np.diff(w, axis=0), axis=-1)) / frame_time**2
+
+
+def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
+    """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2)."""
+    p = np.asarray(p, dtype=np.float64)
+    if p.shape[0] < 3:
+        return np.zeros((0, *p.shape[1:-1]))
+    return np.linalg.norm(np.diff(p, n=2, axis=0), axis=-1) / frame_time**2
+
+
+def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """``(F, ...)`` rotation angle between matching samples, in degrees."""
+    return np.degrees(quat.angle_between(before, after))
+
+
+def step_deg(q: np.ndarray) -> np.ndarray:
+    """``(F-1, ...)`` rotation angle between consecutive frames, in degrees."""
+    return np.degrees(quat.angle_between(q[:-1], q[1:]))
+
+
+def largest_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per trailing index, the largest frame-to-frame step (degrees) and the frame it ends at."""
+    steps = step_deg(q)
+    if steps.shape[0] == 0:
+        shape = q.shape[1:-1]
+        return np.zeros(shape), np.zeros(shape, dtype=np.intp)
+    at = np.argmax(steps, axis=0)
+    return np.take_along_axis(steps, at[None], axis=0)[0], at + 1

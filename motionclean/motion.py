@@ -1,0 +1,235 @@
+"""The in-memory clip: skeleton, channel layout and time-major motion arrays.
+
+A :class:`Motion` is format independent. Rotations are ``(F, J, 4)`` unit quaternions
+``(w, x, y, z)`` local to the parent joint and sign-continuous in time; translations are
+``(F, J, 3)`` position channels in the file's length unit (zero where a joint has none).
+What a writer needs to reproduce the input (the original channel values and the
+quaternions read from them, plus format text in ``source``) travels along, so that
+unchanged samples are written back exactly as they were read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import quat
+from .errors import MotionError
+
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
+
+#: Channel values closer than this to the value read (degrees or length units) are
+#: written back with the input's own text.
+UNCHANGED_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class ChannelLayout:
+    """Where each joint's channels sit in a frame row of ``C`` values.
+
+    ``rotation_columns[j]`` lists the columns of joint ``j``'s rotation channels in file
+    order (``-1`` when it has none) and ``rotation_orders[j]`` their axes, e.g. ``"ZYX"``;
+    ``position_columns[j, a]`` is the column of axis ``a`` (X, Y, Z) or ``-1``.
+    """
+
+    n_channels: int
+    rotation_columns: np.ndarray  # (J, 3) int
+    rotation_orders: tuple[str | None, ...]
+    position_columns: np.ndarray  # (J, 3) int
+
+    @classmethod
+    def from_channels(cls, names: list[str], channels: list[tuple[str, ...]]) -> ChannelLayout:
+        n_joints = len(channels)
+        rot_cols = np.full((n_joints, 3), -1, dtype=np.intp)
+        pos_cols = np.full((n_joints, 3), -1, dtype=np.intp)
+        orders: list[str | None] = []
+        column = 0
+        for j, joint_channels in enumerate(channels):
+            rot_axes, rot_at = "", []
+            for name in joint_channels:
+                if name in ROTATION_CHANNELS:
+                    rot_axes += name[0]
+                    rot_at.append(column)
+                elif name in POSITION_CHANNELS:
+                    pos_cols[j, "XYZ".index(name[0])] = column
+                else:
+                    raise MotionError(f"joint {names[j]!r}: unknown channel {name!r}")
+                column += 1
+            if rot_axes and sorted(rot_axes) != ["X", "Y", "Z"]:
+                raise MotionError(
+                    f"joint {names[j]!r}: rotation channels {rot_axes!r} are not one each of "
+                    "X, Y and Z; only three-axis rotations are supported"
+                )
+            if rot_at:
+                rot_cols[j] = rot_at
+            orders.append(rot_axes or None)
+        return cls(column, rot_cols, tuple(orders), pos_cols)
+
+    @property
+    def has_rotation(self) -> np.ndarray:
+        """``(J,)`` bool: joints with rotation channels."""
+        return self.rotation_columns[:, 0] >= 0
+
+    @property
+    def has_position(self) -> np.ndarray:
+        """``(J,)`` bool: joints with at least one position channel."""
+        return np.any(self.position_columns >= 0, axis=1)
+
+    def order_groups(self) -> dict[str, np.ndarray]:
+        """Joint indices grouped by rotation order (at most six groups)."""
+        groups: dict[str, list[int]] = {}
+        for j, order in enumerate(self.rotation_orders):
+            if order is not None:
+                groups.setdefault(order, []).append(j)
+        return {order: np.array(idx, dtype=np.intp) for order, idx in groups.items()}
+
+
+@dataclass
+class Motion:
+    """A motion clip: skeleton, channel layout and ``(F, J, ...)`` float64 motion arrays.
+
+    Attributes
+    ----------
+    names : list of str
+        Joint names, in file order (``J`` joints).
+    parents : (J,) int array
+        Parent index of each joint, ``-1`` for a root.
+    offsets : (J, 3) array
+        Joint offsets from the parent in the file's length unit.
+    channels : list of tuple of str
+        Each joint's channel names in file order (``Xposition`` ... ``Zrotation``).
+    end_sites : dict
+        Joint index -> ``(3,)`` end-site offset.
+    frame_time : float
+        Seconds per frame.
+    rotations : (F, J, 4) array
+        Local unit quaternions ``(w, x, y, z)``, sign-continuous; identity where a joint has
+        no rotation channels.
+    translations : (F, J, 3) array
+        Position channels in length units; zero where a joint has none.
+    source_values : (F, C) array or None
+        The channel values as read (degrees, length units); guides write-back.
+    source_rotations : (F, J, 4) array or None
+        The quaternions computed from ``source_values`` at load time.
+    source : object or None
+        Format-specific text a writer reuses (hierarchy, line endings, tokens).
+    """
+
+    names: list[str]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: list[tuple[str, ...]]
+    frame_time: float
+    rotations: np.ndarray
+    translations: np.ndarray
+    end_sites: dict[int, np.ndarray] = field(default_factory=dict)
+    source_values: np.ndarray | None = None
+    source_rotations: np.ndarray | None = None
+    source: Any = None
+    path: str | None = None
+
+    @classmethod
+    def from_channel_values(
+        cls,
+        names: list[str],
+        parents,
+        offsets,
+        channels: list[tuple[str, ...]],
+        frame_time: float,
+        values: np.ndarray,
+        **kwargs,
+    ) -> Motion:
+        """Build a Motion from a ``(F, C)`` array of channel values (degrees, length units)."""
+        layout = ChannelLayout.from_channels(names, channels)
+        values = np.asarray(values, dtype=np.float64)
+        n_frames = values.shape[0]
+        rotations = quat.identity((n_frames, len(names)))
+        for order, joints in layout.order_groups().items():
+            angles = values[:, layout.rotation_columns[joints]]
+            rotations[:, joints] = quat.from_euler(angles, order)
+        rotations = quat.make_continuous(rotations, axis=0)
+        translations = np.zeros((n_frames, len(names), 3))
+        has = layout.position_columns >= 0
+        translations[:, has] = values[:, layout.position_columns[has]]
+        return cls(
+            names=list(names),
+            parents=np.asarray(parents, dtype=np.intp),
+            offsets=np.asarray(offsets, dtype=np.float64).reshape(len(names), 3),
+            channels=[tuple(c) for c in channels],
+            frame_time=float(frame_time),
+            rotations=rotations,
+            translations=translations,
+            source_values=values,
+            source_rotations=rotations.copy(),
+            **kwargs,
+        )
+
+    @property
+    def layout(self) -> ChannelLayout:
+        return ChannelLayout.from_channels(self.names, self.channels)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    @property
+    def frame_rate(self) -> float:
+        """Frames per second."""
+        return 1.0 / self.frame_time
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the first to the last frame."""
+        return max(self.n_frames - 1, 0) * self.frame_time
+
+    def replace(self, **changes) -> Motion:
+        """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""
+        return dataclasses.replace(self, **changes)
+
+    def joint_index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise MotionError(f"no joint named {name!r}", self.path) from None
+
+    def has_source_frames(self) -> bool:
+        """True when the source values still describe the same frames."""
+        return self.source_values is not None and self.source_values.shape[0] == self.n_frames
+
+    def channel_values(self) -> np.ndarray:
+        """``(F, C)`` channel values for the current motion (degrees, length units).
+
+        Rotations go back to Euler angles in each joint's own channel order. Where the
+        source values describe the same frames, each triple is the equivalent one nearest
+        to the frame's original angles, and samples whose quaternion did not change keep
+        their original values bit for bit. Otherwise angles are unwrapped along time.
+        """
+        layout = self.layout
+        same_frames = self.has_source_frames()
+        if same_frames:
+            values = self.source_values.copy()
+        else:
+            values = np.zeros((self.n_frames, layout.n_channels))
+        for order, joints in layout.order_groups().items():
+            cols = layout.rotation_columns[joints]
+            q = self.rotations[:, joints]
+            if same_frames:
+                reference = values[:, cols]
+                angles = quat.to_euler(q, order, reference=reference)
+                kept = np.all(q == self.source_rotations[:, joints], axis=-1)
+                angles = np.where(kept[..., None], reference, angles)
+            else:
+                angles = np.unwrap(quat.to_euler(q, order), period=360.0, axis=0)
+            values[:, cols] = angles
+        has = layout.position_columns >= 0
+        values[:, layout.position_columns[has]] = self.translations[:, has]
+        return values

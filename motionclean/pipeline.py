@@ -1,0 +1,406 @@
+"""Pipelines: the step registry, TOML and inline parsing, validation, and running a Motion.
+
+A pipeline is an ordered list of steps. Each step names a filter from :data:`REGISTRY`, its
+parameters, the joints it applies to (fnmatch patterns, ``!`` excludes) and whether
+translation channels are filtered too. This module is the only place that maps joint names
+to array columns; filters only ever see arrays.
+
+Everything is validated before any clip is read: an unknown filter, an unknown or missing
+parameter, a wrong type or a value out of range raises :class:`UsageError` naming the step,
+the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import MotionError, UsageError
+from .filters import masks
+from .filters.linear import lee_shin, lee_shin_positions
+from .motion import Motion
+
+REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Param:
+    """One step parameter: its type, default, allowed range and a help line with units."""
+
+    name: str
+    type: str  # "int", "float", "bool", "str", "floats" (list of numbers), "strs"
+    default: Any
+    help: str
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    choices: tuple[str, ...] | None = None
+
+    def allowed(self) -> str:
+        """What values are allowed, for error messages and the catalogue."""
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        kind = {"int": "an integer", "float": "a number", "bool": "true or false",
+                "str": "a string", "floats": "a list of numbers",
+                "strs": "a list of strings"}[self.type]
+        bounds = []
+        if self.minimum is not None:
+            bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
+        if self.maximum is not None:
+            bounds.append(f"<= {self.maximum:g}")
+        return kind + (" " + " and ".join(bounds) if bounds else "")
+
+    def coerce(self, value: Any, where: str) -> Any:
+        """Check ``value`` against the type and range; return it in canonical form."""
+        bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {value!r}")
+        if self.type == "bool":
+            if not isinstance(value, bool):
+                raise bad
+            return value
+        if self.type in ("str", "strs"):
+            if self.type == "strs" and isinstance(value, str):
+                value = [value]
+            items = value if self.type == "strs" else [value]
+            if not isinstance(items, list) or not all(isinstance(v, str) for v in items):
+                raise bad
+            if self.choices and value not in self.choices:
+                raise bad
+            return value
+        if self.type == "floats":
+            if not isinstance(value, list) or not all(_is_number(v) for v in value):
+                raise bad
+            if not all(self._in_range(float(v)) for v in value):
+                raise bad
+            return [float(v) for v in value]
+        if not _is_number(value):
+            raise bad
+        if self.type == "int":
+            if not float(value).is_integer():
+                raise bad
+            value = int(value)
+        else:
+            value = float(value)
+        if not self._in_range(value):
+            raise bad
+        return value
+
+    def _in_range(self, value: float) -> bool:
+        if not math.isfinite(value):
+            return False
+        below = self.minimum is not None and (
+            value < self.minimum or (self.exclusive_minimum and value == self.minimum))
+        return not below and (self.maximum is None or value <= self.maximum)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+@dataclass
+class StepData:
+    """What a step sees: the selected joints' arrays and the clip's frame time (s)."""
+
+    rotations: np.ndarray  # (F, Jr, 4)
+    translations: np.ndarray | None  # (F, Jp, 3), None when positions are off or absent
+    frame_time: float
+    # Per selected column (index into rotations / translations): notes for the report.
+    rotation_notes: dict[int, dict] = field(default_factory=dict)
+    translation_notes: dict[int, dict] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class StepSpec:
+    """A registered filter: its pipeline name, parameters and how to run it on arrays."""
+
+    name: str
+    summary: str
+    paper: str
+    params: tuple[Param, ...]
+    run: Callable[[StepData, dict], StepData]
+    positions_default: bool = True
+    check: Callable[[dict, str], None] | None = None
+
+    def param(self, name: str) -> Param | None:
+        return next((p for p in self.params if p.name == name), None)
+
+
+COMMON_PARAMS = (
+    Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
+    Param("positions", "bool", True, "also filter translation channels (vector counterpart)"),
+)
+
+# ----------------------------------------------------------------------------- lee-shin
+
+MASKS = ("binomial", "smoothing", "high-boost", "gaussian", "reduction", "custom")
+
+
+def _mask_from(params: dict) -> np.ndarray:
+    kind = params["mask"]
+    if kind == "binomial":
+        return masks.binomial(params["k"])
+    if kind == "smoothing":
+        return masks.smoothing(params["lam"])
+    if kind == "high-boost":
+        return masks.high_boost(params["lam"])
+    if kind == "gaussian":
+        return masks.gaussian(params["sigma_t"])
+    if kind == "reduction":
+        return masks.reduction()
+    return masks.custom(params["coefficients"])
+
+
+def _check_lee_shin(params: dict, where: str) -> None:
+    if params["mask"] == "custom" and params["coefficients"] is None:
+        raise UsageError(
+            f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]")
+    if params["mask"] != "custom" and params["coefficients"] is not None:
+        raise UsageError(f"{where}: coefficients only apply to mask=custom")
+    try:
+        _mask_from(params)
+    except masks.MaskError as error:
+        raise UsageError(f"{where}: {error}") from None
+
+
+def _run_lee_shin(data: StepData, params: dict) -> StepData:
+    mask = _mask_from(params)
+    data.rotations = lee_shin(data.rotations, mask, params["iterations"])
+    if data.translations is not None:
+        data.translations = lee_shin_positions(data.translations, mask, params["iterations"])
+    return data
+
+
+LEE_SHIN = StepSpec(
+    name="lee-shin",
+    summary="any filter mask as a coordinate-invariant orientation filter",
+    paper="000 Eq. 19-20 (masks Eq. 21-25, boundary Eq. 26)",
+    params=(
+        Param("mask", "str", "binomial", "filter mask", choices=MASKS),
+        Param("k", "int", 2, "binomial half-width: a mask of 2k+1 taps (000 Eq. 23)",
+              minimum=0, maximum=50),
+        Param("lam", "float", 0.5, "damping of mask=smoothing (000 Eq. 22) or gain of "
+              "mask=high-boost (Eq. 25)", minimum=0.0, maximum=10.0),
+        Param("sigma_t", "float", 1.0, "mask=gaussian width in frames (truncated at 3 sigma_t)",
+              minimum=0.0, exclusive_minimum=True, maximum=50.0),
+        Param("coefficients", "floats", None, "mask=custom: odd-length list summing to 1"),
+        Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
+    ),
+    run=_run_lee_shin,
+    check=_check_lee_shin,
+)
+
+REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN,)}
+
+
+# ----------------------------------------------------------------------------- steps
+
+
+@dataclass(frozen=True)
+class Step:
+    """A validated pipeline step: the filter, its parameters, joints and positions flag."""
+
+    spec: StepSpec
+    params: dict
+    joints: tuple[str, ...]
+    positions: bool
+
+    def describe(self) -> dict:
+        """The step as a plain dict (report and TOML form), defaults filled in."""
+        out = {"filter": self.spec.name}
+        out.update({k: v for k, v in self.params.items() if v is not None})
+        out["joints"] = list(self.joints)
+        out["positions"] = self.positions
+        return out
+
+
+def make_step(table: dict, where: str) -> Step:
+    """Validate one step table (``{"filter": ..., params...}``) into a :class:`Step`."""
+    if not isinstance(table, dict):
+        raise UsageError(f"{where}: a step must be a table of key = value pairs")
+    table = dict(table)
+    name = table.pop("filter", None)
+    if name is None:
+        raise UsageError(f"{where}: missing 'filter'; one of {', '.join(REGISTRY)}")
+    spec = REGISTRY.get(name)
+    if spec is None:
+        raise UsageError(f"{where}: unknown filter {name!r}; one of {', '.join(REGISTRY)}")
+    where = f"{where} ({name})"
+    allowed = spec.params + COMMON_PARAMS
+    params: dict[str, Any] = {}
+    for key, value in table.items():
+        param = next((p for p in allowed if p.name == key), None)
+        if param is None:
+            raise UsageError(f"{where}: unknown parameter {key!r}; allowed: "
+                             + ", ".join(p.name for p in allowed))
+        params[key] = param.coerce(value, where)
+    for param in spec.params:
+        if param.name not in params:
+            if param.default is REQUIRED:
+                raise UsageError(f"{where}: missing parameter {param.name!r} ({param.help})")
+            params[param.name] = param.default
+    joints = tuple(params.pop("joints", ["*"]))
+    positions = params.pop("positions", spec.positions_default)
+    if spec.check is not None:
+        spec.check(params, where)
+    return Step(spec, params, joints, positions)
+
+
+def parse_value(text: str) -> Any:
+    """An inline value read as TOML (numbers, booleans, lists); bare words are strings."""
+    text = text.strip()
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    if text.startswith("[") and text.endswith("]"):
+        return [parse_value(item) for item in _split_top(text[1:-1]) if item.strip()]
+    return text
+
+
+def _split_top(text: str) -> list[str]:
+    """Split on commas outside brackets and quotes."""
+    parts, depth, quote, start = [], 0, None, 0
+    for i, ch in enumerate(text):
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def parse_inline(text: str) -> dict:
+    """``"bilateral:sigma_t=1,sigma_g=0.1"`` -> ``{"filter": "bilateral", ...}``."""
+    name, _, rest = text.partition(":")
+    table: dict[str, Any] = {"filter": name.strip()}
+    for item in _split_top(rest) if rest.strip() else []:
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise UsageError(f"-f {text!r}: expected key=value, got {item.strip()!r}")
+        table[key.strip()] = parse_value(value)
+    return table
+
+
+def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
+    """``(J,)`` bool: joints matched by the patterns, applied in order.
+
+    A pattern adds the joints it matches (``fnmatch``, case sensitive); ``!pattern`` removes
+    them. When every pattern is an exclusion, selection starts from all joints.
+    """
+    selected = np.full(len(names), all(p.startswith("!") for p in patterns))
+    for pattern in patterns:
+        exclude = pattern.startswith("!")
+        hits = np.array([fnmatch.fnmatchcase(n, pattern[exclude:]) for n in names], dtype=bool)
+        selected = selected & ~hits if exclude else selected | hits
+    return selected
+
+
+@dataclass
+class StepLog:
+    """What one step did: the step, the joints it touched, per-joint notes."""
+
+    step: Step
+    rotation_joints: list[str]
+    translation_joints: list[str]
+    notes: dict[str, dict]
+
+
+@dataclass
+class Pipeline:
+    """An ordered list of validated steps."""
+
+    steps: list[Step]
+    origin: str = "pipeline"
+
+    @classmethod
+    def from_tables(cls, tables: list, origin: str) -> Pipeline:
+        if not tables:
+            raise UsageError(f"{origin}: the pipeline has no steps")
+        return cls([make_step(t, f"{origin}: step {i}") for i, t in enumerate(tables, 1)],
+                   origin)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Pipeline:
+        """Read ``[[step]]`` tables from a TOML file."""
+        path = Path(path)
+        try:
+            document = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise UsageError(f"{path}: no such pipeline file") from None
+        except (OSError, UnicodeDecodeError) as error:
+            raise UsageError(f"{path}: cannot read pipeline: {error}") from None
+        except tomllib.TOMLDecodeError as error:
+            raise UsageError(f"{path}: invalid TOML: {error}") from None
+        unknown = set(document) - {"step"}
+        if unknown:
+            raise UsageError(f"{path}: unknown top-level key {sorted(unknown)[0]!r}; "
+                             "steps are [[step]] tables")
+        steps = document.get("step", [])
+        if not isinstance(steps, list):
+            raise UsageError(f"{path}: 'step' must be an array of tables ([[step]])")
+        return cls.from_tables(steps, str(path))
+
+    @classmethod
+    def from_inline(cls, texts: list[str]) -> Pipeline:
+        """Steps given as ``-f NAME:key=value,...`` options, in order."""
+        return cls.from_tables([parse_inline(t) for t in texts], "-f")
+
+    @classmethod
+    def default(cls) -> Pipeline:
+        """The pipeline ``clean`` uses when none is given (see README, "Default pipeline")."""
+        return cls.from_tables(DEFAULT_STEPS, "default pipeline")
+
+    def describe(self) -> list[dict]:
+        return [step.describe() for step in self.steps]
+
+    def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:
+        """Run every step on ``motion``; return the cleaned copy and what each step did."""
+        layout = motion.layout
+        rotations = motion.rotations.copy()
+        translations = motion.translations.copy()
+        logs: list[StepLog] = []
+        for number, step in enumerate(self.steps, 1):
+            chosen = select_joints(motion.names, step.joints)
+            rot_idx = np.flatnonzero(chosen & layout.has_rotation)
+            pos_idx = np.flatnonzero(chosen & layout.has_position) if step.positions else []
+            data = StepData(
+                rotations[:, rot_idx],
+                translations[:, pos_idx] if len(pos_idx) else None,
+                motion.frame_time,
+            )
+            try:
+                data = step.spec.run(data, step.params)
+            except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+                raise MotionError(f"step {number} ({step.spec.name}) failed: {error}",
+                                  motion.path) from None
+            rotations[:, rot_idx] = data.rotations
+            if data.translations is not None:
+                translations[:, pos_idx] = data.translations
+            notes: dict[str, dict] = {}
+            for column, note in data.rotation_notes.items():
+                notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
+            for column, note in data.translation_notes.items():
+                notes.setdefault(motion.names[pos_idx[column]], {}).update(
+                    {f"position_{k}": v for k, v in note.items()})
+            logs.append(StepLog(step, [motion.names[i] for i in rot_idx],
+                                [motion.names[i] for i in pos_idx], notes))
+        return motion.replace(rotations=rotations, translations=translations), logs
+
+
+#: The default pipeline (README, "Default pipeline").
+DEFAULT_STEPS: list[dict] = [
+    {"filter": "lee-shin", "mask": "binomial", "k": 2, "iterations": 2},
+]

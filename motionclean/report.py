@@ -1,0 +1,135 @@
+"""Reports: per-joint noise and deviation figures as JSON and as a terminal table.
+
+The JSON schema is the one in DESIGN.md ("Report contract"). Joints with rotation channels
+get angular figures (degrees of rotation per s^2, degrees); joints with position channels
+get ``linear_accel_rms`` / ``linear_accel_max`` (length units per s^2) and
+``deviation_length`` (length units). ``summary.noise_reduction`` is the fraction of the
+RMS angular acceleration removed, ``1 - after / before``.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from . import metrics
+from .motion import Motion
+
+__all__ = ["build_report", "format_table", "to_json"]
+
+
+def _pair(before: float, after: float | None) -> dict:
+    return {"before": float(before), "after": None if after is None else float(after)}
+
+
+def _stats(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-joint RMS and max over axis 0 of ``(N, J)`` figures (zeros when N = 0)."""
+    if values.shape[0] == 0:
+        zeros = np.zeros(values.shape[1:])
+        return zeros, zeros
+    return metrics.rms(values), np.max(values, axis=0)
+
+
+def build_report(
+    before: Motion,
+    after: Motion | None = None,
+    pipeline: list[dict] | None = None,
+    notes: dict[str, dict] | None = None,
+    file: str | None = None,
+) -> dict[str, Any]:
+    """Figures for ``before`` alone, or before/after a cleaning when ``after`` is given."""
+    layout = before.layout
+    dt = before.frame_time
+    rot = np.flatnonzero(layout.has_rotation)
+    pos = np.flatnonzero(layout.has_position)
+    acc_b = metrics.angular_acceleration(before.rotations[:, rot], dt)
+    rms_b, max_b = _stats(acc_b)
+    lin_b = metrics.linear_acceleration(before.translations[:, pos], dt)
+    lrms_b, lmax_b = _stats(lin_b)
+    if after is not None:
+        acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
+        rms_a, max_a = _stats(acc_a)
+        dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
+        dev_rms, dev_max = _stats(dev)
+        lin_a = metrics.linear_acceleration(after.translations[:, pos], dt)
+        lrms_a, lmax_a = _stats(lin_a)
+        ldev = np.linalg.norm(after.translations[:, pos] - before.translations[:, pos], axis=-1)
+        ldev_rms, ldev_max = _stats(ldev)
+
+    joints: dict[str, dict] = {}
+    for n, j in enumerate(rot):
+        entry = joints.setdefault(before.names[j], {})
+        a = after is not None
+        entry["angular_accel_rms"] = _pair(rms_b[n], rms_a[n] if a else None)
+        entry["angular_accel_max"] = _pair(max_b[n], max_a[n] if a else None)
+        if a:
+            entry["deviation_deg"] = {"rms": float(dev_rms[n]), "max": float(dev_max[n])}
+    for n, j in enumerate(pos):
+        entry = joints.setdefault(before.names[j], {})
+        a = after is not None
+        entry["linear_accel_rms"] = _pair(lrms_b[n], lrms_a[n] if a else None)
+        entry["linear_accel_max"] = _pair(lmax_b[n], lmax_a[n] if a else None)
+        if a:
+            entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
+    for name, note in (notes or {}).items():
+        joints.setdefault(name, {}).update(note)
+
+    total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
+    summary: dict[str, Any] = {"angular_accel_rms": _pair(total_b, None)}
+    if after is not None:
+        total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
+        summary["angular_accel_rms"]["after"] = total_a
+        summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
+        summary["deviation_deg_max"] = float(dev_max.max()) if dev_max.size else 0.0
+    return {
+        "file": file if file is not None else before.path,
+        "frames": before.n_frames,
+        "frame_time": before.frame_time,
+        "pipeline": pipeline or [],
+        "joints": joints,
+        "summary": summary,
+    }
+
+
+def to_json(report: dict) -> bytes:
+    return (json.dumps(report, indent=2) + "\n").encode("utf-8")
+
+
+def noisiest(report: dict) -> list[str]:
+    """Joint names with angular figures, noisiest (largest RMS acceleration before) first."""
+    rows = [(v["angular_accel_rms"]["before"], k) for k, v in report["joints"].items()
+            if "angular_accel_rms" in v]
+    return [name for _, name in sorted(rows, key=lambda r: -r[0])]
+
+
+def format_table(report: dict, limit: int = 10) -> str:
+    """A readable table: the ``limit`` noisiest joints, then the totals."""
+    cleaned = "noise_reduction" in report["summary"]
+    head = f"{'joint':<22}{'accel rms':>14}"
+    if cleaned:
+        head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
+    lines = [f"{report['file']}: {report['frames']} frames at "
+             f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2, "
+             "deviation in deg)", head, "-" * len(head)]
+
+    def row(name: str, acc: dict, dev: float | None) -> str:
+        text = f"{name[:21]:<22}{acc['before']:>14,.0f}"
+        if cleaned:
+            removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
+            text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
+        return text
+
+    names = noisiest(report)
+    for name in names[:limit]:
+        entry = report["joints"][name]
+        dev = entry.get("deviation_deg", {}).get("max")
+        lines.append(row(name, entry["angular_accel_rms"], dev))
+    if len(names) > limit:
+        lines.append(f"... {len(names) - limit} more joints")
+    lines.append("-" * len(head))
+    summary = report["summary"]
+    lines.append(row("all joints", summary["angular_accel_rms"],
+                     summary.get("deviation_deg_max")))
+    return "\n".join(lines)
