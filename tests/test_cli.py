@@ -1,0 +1,125 @@
+"""The command line as a user runs it: outputs, reports, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import motionclean as mc
+from motionclean.cli import main
+from motionclean.pipeline import REGISTRY
+
+
+def run(args, capsys):
+    """Run the console entry point; return (exit code, stdout, stderr)."""
+    with pytest.raises(SystemExit) as done:
+        main([str(a) for a in args])
+    out = capsys.readouterr()
+    return done.value.code, out.out, out.err
+
+
+def test_version(capsys):
+    code, out, _ = run(["--version"], capsys)
+    assert code == 0 and mc.__version__ in out
+
+
+def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
+    out, report = tmp_path / "clean.bvh", tmp_path / "report.json"
+    code, stdout, err = run(["clean", noisy_path, "-o", out, "-f",
+                             "lee-shin:mask=binomial,k=2,iterations=5", "--report", report],
+                            capsys)
+    assert code == 0, err
+    assert "all joints" in stdout
+    data = json.loads(report.read_text())
+    assert set(data) == {"file", "frames", "frame_time", "pipeline", "joints", "summary"}
+    assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5
+    knee = data["joints"]["LeftKnee"]
+    assert set(knee) >= {"angular_accel_rms", "angular_accel_max", "deviation_deg"}
+    assert knee["angular_accel_rms"]["after"] < knee["angular_accel_rms"]["before"]
+    summary = data["summary"]
+    assert 0.0 < summary["noise_reduction"] < 1.0
+    assert summary["deviation_deg_max"] > 0.0
+    cleaned = mc.load(out)
+    assert cleaned.n_frames == data["frames"]
+
+
+def test_clean_refuses_to_overwrite_its_input(sample_path, tmp_path, capsys):
+    target = tmp_path / "clip.bvh"
+    target.write_bytes(sample_path.read_bytes())
+    code, _, err = run(["clean", target, "-o", target], capsys)
+    assert code == 2
+    assert err.count("\n") == 1 and "refusing to overwrite the input" in err
+    assert target.read_bytes() == sample_path.read_bytes()
+    code, _, err = run(["clean", target, "--in-place", "-q"], capsys)
+    assert code == 0, err
+    assert target.read_bytes() != sample_path.read_bytes()
+
+
+def test_invalid_pipeline_exits_2_before_reading_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "out.bvh"
+    code, _, err = run(["clean", tmp_path / "missing.bvh", "-o", out, "-f", "lee-shin:k=x"],
+                       capsys)
+    assert code == 2
+    assert err.startswith("motionclean: error: -f: step 1 (lee-shin): k must be an integer")
+    assert err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_pipeline_file_and_inline_steps_are_exclusive(sample_path, tmp_path, capsys):
+    pipe = tmp_path / "p.toml"
+    pipe.write_text('[[step]]\nfilter = "lee-shin"\n')
+    code, _, err = run(["clean", sample_path, "-o", tmp_path / "o.bvh", "-p", pipe, "-f",
+                        "lee-shin"], capsys)
+    assert code == 2 and "either -p" in err
+
+
+def test_bad_clip_is_one_line_with_exit_1_and_no_output(tmp_path, capsys):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation\n")
+    out = tmp_path / "out.bvh"
+    code, _, err = run(["clean", bad, "-o", out], capsys)
+    assert code == 1
+    assert err == f"motionclean: error: {bad}:5: CHANNELS says 3 but names 2\n"
+    assert not out.exists()
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_unknown_command_is_a_one_line_usage_error(capsys):
+    code, _, err = run(["frobnicate"], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("motionclean: error:")
+
+
+def test_info_finds_the_rthumb_flip(sample_path, capsys):
+    code, out, _ = run(["info", sample_path], capsys)
+    assert code == 0
+    assert "frames: 300" in out and "rate: 120 fps" in out
+    motion = mc.load(sample_path)
+    steps = np.degrees(mc.quat.angle_between(motion.rotations[:-1], motion.rotations[1:]))
+    thumb = motion.names.index("RThumb")
+    line = next(row for row in out.splitlines() if row.strip().startswith("RThumb "))
+    assert f"{steps[:, thumb].max():.2f}" in line
+    assert str(int(np.argmax(steps[:, thumb])) + 1) in line.split()
+
+
+def test_filters_catalogue_lists_every_filter_with_parameters(capsys):
+    code, out, _ = run(["filters"], capsys)
+    assert code == 0
+    for spec in REGISTRY.values():
+        assert f"{spec.name}: " in out
+        assert spec.paper in out
+        for param in spec.params:
+            assert param.name in out
+
+
+def test_report_before_and_after_pair(noisy_path, tmp_path, capsys):
+    cleaned = tmp_path / "c.bvh"
+    assert run(["clean", noisy_path, "-o", cleaned, "-q"], capsys)[0] == 0
+    js = tmp_path / "r.json"
+    code, out, _ = run(["report", noisy_path, cleaned, "--json", js], capsys)
+    assert code == 0 and "removed" in out
+    data = json.loads(js.read_text())
+    assert data["summary"]["noise_reduction"] > 0.3
+    code, _, err = run(["report", noisy_path, tmp_path / "nope.bvh"], capsys)
+    assert code == 1 and "no such file" in err

@@ -1,0 +1,124 @@
+"""Pipeline parsing, validation, joint selection and running."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import motionclean as mc
+from motionclean.errors import UsageError
+from motionclean.filters import lee_shin
+from motionclean.filters.masks import binomial
+from motionclean.pipeline import REGISTRY, Pipeline, parse_inline, parse_value, select_joints
+
+
+def test_inline_values_are_read_as_toml():
+    assert parse_value("2") == 2 and isinstance(parse_value("2"), int)
+    assert parse_value("0.1") == 0.1
+    assert parse_value("true") is True
+    assert parse_value("binomial") == "binomial"
+    assert parse_value("[0, 0.5]") == [0, 0.5]
+    assert parse_value("[LeftKnee, 'Right*']") == ["LeftKnee", "Right*"]
+
+
+def test_inline_step_keeps_list_commas_inside_one_value():
+    table = parse_inline("lee-shin:mask=custom,coefficients=[0.25,0.5,0.25],iterations=3")
+    assert table == {"filter": "lee-shin", "mask": "custom",
+                     "coefficients": [0.25, 0.5, 0.25], "iterations": 3}
+
+
+def test_toml_and_inline_give_the_same_steps(tmp_path):
+    toml = tmp_path / "pipe.toml"
+    toml.write_text('[[step]]\nfilter = "lee-shin"\nmask = "binomial"\nk = 2\niterations = 5\n'
+                    'joints = ["*", "!RThumb"]\npositions = false\n')
+    from_file = Pipeline.from_toml(toml)
+    inline = Pipeline.from_inline(
+        ["lee-shin:mask=binomial,k=2,iterations=5,joints=['*','!RThumb'],positions=false"])
+    assert from_file.describe() == inline.describe()
+
+
+@pytest.mark.parametrize(
+    ("step", "message"),
+    [
+        ("nonsense", "unknown filter 'nonsense'; one of lee-shin"),
+        ("lee-shin:sigma=3", "unknown parameter 'sigma'; allowed: mask, k"),
+        ("lee-shin:k=2.5", "k must be an integer >= 0 and <= 50, got 2.5"),
+        ("lee-shin:k=-1", "k must be an integer >= 0"),
+        ("lee-shin:iterations=0", "iterations must be an integer >= 1"),
+        ("lee-shin:iterations=yes", "iterations must be an integer"),
+        ("lee-shin:positions=3", "positions must be true or false"),
+        ("lee-shin:mask=custom", "mask=custom needs coefficients"),
+        ("lee-shin:mask=custom,coefficients=[0.5,0.6,0.5]", "these sum to 1.6"),
+        ("lee-shin:mask=custom,coefficients=[0.5,0.5]", "odd length"),
+        ("lee-shin:mask=smooth", "mask must be one of binomial, smoothing"),
+        ("lee-shin:k", "expected key=value"),
+    ],
+)
+def test_invalid_steps_name_the_step_and_the_key(step, message):
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_inline(["lee-shin:k=1", step])
+    text = str(caught.value)
+    assert "step 2" in text or "-f" in text
+    assert message in text
+
+
+def test_toml_errors_name_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[step]]\nfilter = lee-shin\n")
+    with pytest.raises(UsageError, match="bad.toml: invalid TOML"):
+        Pipeline.from_toml(bad)
+    empty = tmp_path / "empty.toml"
+    empty.write_text("")
+    with pytest.raises(UsageError, match="no steps"):
+        Pipeline.from_toml(empty)
+    with pytest.raises(UsageError, match="no such pipeline file"):
+        Pipeline.from_toml(tmp_path / "missing.toml")
+
+
+def test_joint_selection_patterns_and_exclusions():
+    names = ["Hips", "LeftHip", "LeftKnee", "RightHip", "mixamorig:Spine"]
+    assert select_joints(names, ("*",)).all()
+    assert select_joints(names, ("Left*",)).tolist() == [False, True, True, False, False]
+    assert select_joints(names, ("*", "!Left*")).tolist() == [True, False, False, True, True]
+    assert select_joints(names, ("!*Hip",)).tolist() == [True, False, True, False, True]
+    assert select_joints(names, ("mixamorig:*",)).tolist() == [False] * 4 + [True]
+
+
+def test_run_touches_only_selected_joints_and_channels(sample_path):
+    motion = mc.load(sample_path)
+    pipeline = Pipeline.from_inline(["lee-shin:k=2,iterations=3,joints=['Left*'],positions=false"])
+    cleaned, logs = pipeline.run(motion)
+    left = np.array([n.startswith("Left") for n in motion.names])
+    assert np.array_equal(cleaned.rotations[:, ~left], motion.rotations[:, ~left])
+    assert np.array_equal(cleaned.translations, motion.translations)
+    expected = lee_shin(motion.rotations[:, left], binomial(2), 3)
+    assert np.allclose(cleaned.rotations[:, left], expected, atol=1e-12)
+    assert logs[0].rotation_joints == [n for n in motion.names if n.startswith("Left")]
+
+
+def test_positions_are_filtered_with_the_vector_counterpart(sample_path):
+    motion = mc.load(sample_path)
+    cleaned, _ = Pipeline.from_inline(["lee-shin:k=1,iterations=2"]).run(motion)
+    root = motion.names.index("Hips")
+    assert not np.allclose(cleaned.translations[:, root], motion.translations[:, root])
+    # joints without position channels keep zero translations
+    assert np.all(cleaned.translations[:, root + 1 :] == 0.0)
+
+
+def test_every_registered_filter_runs_with_its_defaults(sample_path):
+    motion = mc.load(sample_path)
+    for name in REGISTRY:
+        cleaned, _ = Pipeline.from_inline([name]).run(motion)
+        norms = np.linalg.norm(cleaned.rotations, axis=-1)
+        assert np.allclose(norms, 1.0, atol=1e-9), name
+        assert np.all(np.isfinite(cleaned.translations)), name
+
+
+def test_default_pipeline_reduces_noise(noisy_path):
+    from motionclean.metrics import angular_acceleration, rms
+
+    motion = mc.load(noisy_path)
+    cleaned, _ = Pipeline.default().run(motion)
+    before = rms(angular_acceleration(motion.rotations, motion.frame_time).ravel())
+    after = rms(angular_acceleration(cleaned.rotations, motion.frame_time).ravel())
+    assert after < 0.5 * before
