@@ -24,6 +24,7 @@ import numpy as np
 
 from .errors import MotionError, UsageError
 from .filters import masks
+from .filters.bilateral import bilateral, bilateral_positions
 from .filters.linear import lee_shin, lee_shin_positions
 from .motion import Motion
 
@@ -42,6 +43,7 @@ class Param:
     maximum: float | None = None
     exclusive_minimum: bool = False
     choices: tuple[str, ...] | None = None
+    infinite_ok: bool = False
 
     def allowed(self) -> str:
         """What values are allowed, for error messages and the catalogue."""
@@ -55,6 +57,8 @@ class Param:
             bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
         if self.maximum is not None:
             bounds.append(f"<= {self.maximum:g}")
+        if self.infinite_ok:
+            bounds.append("(inf allowed)")
         return kind + (" " + " and ".join(bounds) if bounds else "")
 
     def coerce(self, value: Any, where: str) -> Any:
@@ -92,7 +96,7 @@ class Param:
         return value
 
     def _in_range(self, value: float) -> bool:
-        if not math.isfinite(value):
+        if math.isnan(value) or (math.isinf(value) and not (self.infinite_ok and value > 0)):
             return False
         below = self.minimum is not None and (
             value < self.minimum or (self.exclusive_minimum and value == self.minimum))
@@ -195,7 +199,41 @@ LEE_SHIN = StepSpec(
     check=_check_lee_shin,
 )
 
-REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN,)}
+# ----------------------------------------------------------------------------- bilateral
+
+
+def _run_bilateral(data: StepData, params: dict) -> StepData:
+    window = {"sigma_t": params["sigma_t"], "radius": params["radius"],
+              "iterations": params["iterations"]}
+    data.rotations = bilateral(data.rotations, sigma_g=params["sigma_g"], **window)
+    if data.translations is not None:
+        sigma_p = math.inf if params["sigma_p"] is None else params["sigma_p"]
+        data.translations = bilateral_positions(data.translations, sigma_p=sigma_p, **window)
+    return data
+
+
+BILATERAL = StepSpec(
+    name="bilateral",
+    summary="edge-preserving smoothing: Gaussian in time and in rotation distance",
+    paper="002 Eq. 2-5, Algorithm 1 (boundary 000 Eq. 26)",
+    params=(
+        Param("sigma_t", "float", 1.0, "temporal Gaussian width, frames",
+              minimum=0.0, exclusive_minimum=True, maximum=50.0),
+        Param("sigma_g", "float", 0.1, "range width in log units (half the rotation angle, "
+              "rad; 0.1 is about 11.5 degrees); inf gives the Gaussian Lee-Shin filter",
+              minimum=0.0, exclusive_minimum=True, infinite_ok=True),
+        Param("radius", "int", None, "window half-width in frames (default ceil(3 sigma_t))",
+              minimum=0, maximum=150),
+        Param("iterations", "int", 1, "number of passes (weights recomputed each pass)",
+              minimum=1, maximum=1000),
+        Param("sigma_p", "float", None, "range width for translation channels, file length "
+              "unit (default inf: a plain Gaussian on positions)",
+              minimum=0.0, exclusive_minimum=True, infinite_ok=True),
+    ),
+    run=_run_bilateral,
+)
+
+REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN, BILATERAL)}
 
 
 # ----------------------------------------------------------------------------- steps

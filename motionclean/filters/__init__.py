@@ -4,6 +4,7 @@ Each filter takes the rotation array first and returns a new array; position cou
 (suffix ``_positions``) take ``(F, ..., 3)``. Filters never see files or joint names.
 """
 
+from .bilateral import bilateral, bilateral_positions
 from .linear import lee_shin, lee_shin_positions
 
-__all__ = ["lee_shin", "lee_shin_positions"]
+__all__ = ["bilateral", "bilateral_positions", "lee_shin", "lee_shin_positions"]
