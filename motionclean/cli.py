@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from . import __version__, metrics
+from . import __version__, metrics, multires
 from .errors import MotionError, UsageError
 from .io import atomic_write, load, save
 from .motion import Motion
@@ -212,14 +212,73 @@ def report(source: str, cleaned: str | None, json_path: str | None,
     click.echo(format_table(result))
 
 
-def check_compatible(a: Motion, b: Motion) -> None:
-    """Raise unless ``a`` and ``b`` share the skeleton, frame count and frame rate."""
+def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
+    """Raise unless ``a`` and ``b`` share the skeleton, frame rate and (optionally) length."""
     if a.names != b.names or not np.array_equal(a.parents, b.parents):
-        raise MotionError("the two clips have different skeletons", b.path)
-    if a.n_frames != b.n_frames:
-        raise MotionError(f"{a.n_frames} frames against {b.n_frames}", b.path)
+        raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
+    if a.channels != b.channels:
+        raise MotionError(f"channels differ from {a.path}'s", b.path)
     if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
-        raise MotionError(f"frame time {b.frame_time:g} s against {a.frame_time:g} s", b.path)
+        raise MotionError(f"frame time {b.frame_time:g} s differs from {a.path}'s "
+                          f"{a.frame_time:g} s", b.path)
+    if same_length and a.n_frames != b.n_frames:
+        raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
+
+
+LEVELS_OPTION = click.option(
+    "--levels", type=click.IntRange(1, 30), default=4, show_default=True,
+    help="Pyramid depth: each level halves the frame rate.")
+
+
+@cli.command()
+@click.argument("first", type=click.Path())
+@click.argument("second", type=click.Path())
+@click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
+@click.option("--weight", type=float, default=0.5, show_default=True,
+              help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).")
+@click.option("--detail-weights", type=str, default=None,
+              help="Weight of SECOND per detail level, finest first, e.g. '0,0.5'.")
+@LEVELS_OPTION
+def blend(first: str, second: str, output: str, weight: float, detail_weights: str | None,
+          levels: int) -> None:
+    """Blend two time-aligned clips level by level (003 Eq. 20)."""
+    weights = None
+    if detail_weights:
+        try:
+            weights = [float(x) for x in detail_weights.split(",")]
+        except ValueError:
+            raise UsageError(
+                f"--detail-weights: expected numbers, got {detail_weights!r}") from None
+    a, b = load(first), load(second)
+    check_compatible(a, b)
+    refuse_overwrite(Path(first), Path(output), in_place=False)
+    refuse_overwrite(Path(second), Path(output), in_place=False)
+    try:
+        q, p = multires.blend(a.rotations, b.rotations, levels, weight, weights,
+                              a.translations, b.translations)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    save(a.replace(rotations=q, translations=p), output)
+
+
+@cli.command()
+@click.argument("first", type=click.Path())
+@click.argument("second", type=click.Path())
+@click.option("-o", "--output", type=click.Path(), required=True, help="Stitched clip.")
+@LEVELS_OPTION
+def stitch(first: str, second: str, output: str, levels: int) -> None:
+    """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
+
+    The result has len(FIRST) + len(SECOND) - 1 frames; only frames within 3 (2^levels - 1)
+    of the seam change.
+    """
+    a, b = load(first), load(second)
+    check_compatible(a, b, same_length=False)
+    refuse_overwrite(Path(first), Path(output), in_place=False)
+    refuse_overwrite(Path(second), Path(output), in_place=False)
+    q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
+    save(a.replace(rotations=q, translations=p, source_values=None, source_rotations=None),
+         output)
 
 
 @cli.command(name="filters")

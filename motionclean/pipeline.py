@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from . import multires
 from .errors import MotionError, UsageError
 from .filters import masks
 from .filters.bilateral import bilateral, bilateral_positions
@@ -233,7 +234,50 @@ BILATERAL = StepSpec(
     run=_run_bilateral,
 )
 
-REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN, BILATERAL)}
+# ----------------------------------------------------------------------------- multires
+
+
+def _multires_gains(params: dict) -> list[float]:
+    if params["level"] is not None:
+        return multires.level_gains(params["levels"], params["level"])
+    return params["gains"]
+
+
+def _check_multires(params: dict, where: str) -> None:
+    if params["level"] is not None and params["gains"] != [0.0]:
+        raise UsageError(f"{where}: give either gains or level, not both")
+    if len(params["gains"]) > params["levels"]:
+        raise UsageError(f"{where}: {len(params['gains'])} gains for {params['levels']} levels")
+    if params["level"] is not None and params["level"] > params["levels"]:
+        raise UsageError(f"{where}: level must lie in [0, levels={params['levels']}]")
+
+
+def _run_multires(data: StepData, params: dict) -> StepData:
+    gains = _multires_gains(params)
+    data.rotations = multires.edit(data.rotations, params["levels"], gains)
+    if data.translations is not None:
+        data.translations = multires.edit_positions(data.translations, params["levels"], gains)
+    return data
+
+
+MULTIRES = StepSpec(
+    name="multires",
+    summary="multiresolution pyramid of displacement maps, detail levels scaled by gains",
+    paper="003 Eq. 7-16, editing Sec. 5.1",
+    params=(
+        Param("levels", "int", 4, "pyramid depth N (each level halves the frame rate; cut to "
+              "what the clip allows)", minimum=1, maximum=30),
+        Param("gains", "floats", [0.0], "detail gains, finest level first; unlisted levels "
+              "keep 1; 0 removes a band, <1 attenuates, >1 enhances",
+              minimum=0.0, maximum=10.0),
+        Param("level", "float", None, "fractional level n+alpha counted from the base "
+              "(levels = the original); replaces gains", minimum=0.0, maximum=30.0),
+    ),
+    run=_run_multires,
+    check=_check_multires,
+)
+
+REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN, BILATERAL, MULTIRES)}
 
 
 # ----------------------------------------------------------------------------- steps

@@ -123,3 +123,36 @@ def test_report_before_and_after_pair(noisy_path, tmp_path, capsys):
     assert data["summary"]["noise_reduction"] > 0.3
     code, _, err = run(["report", noisy_path, tmp_path / "nope.bvh"], capsys)
     assert code == 1 and "no such file" in err
+
+
+def test_stitch_and_blend_commands(sample_path, tmp_path, capsys):
+    motion = mc.load(sample_path)
+    first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    mc.save(motion.replace(rotations=motion.rotations[:120], translations=motion.translations[:120],
+                           source_values=None, source_rotations=None), first)
+    mc.save(motion.replace(rotations=motion.rotations[150:], translations=motion.translations[150:],
+                           source_values=None, source_rotations=None), second)
+    out = tmp_path / "s.bvh"
+    code, _, err = run(["stitch", first, second, "-o", out, "--levels", "3"], capsys)
+    assert code == 0, err
+    stitched = mc.load(out)
+    assert stitched.n_frames == 120 + 150 - 1
+    a = mc.load(first)
+    unchanged = 120 - 3 * (2**3 - 1) - 1
+    gap = mc.quat.angle_between(stitched.rotations[:unchanged], a.rotations[:unchanged])
+    assert np.degrees(gap).max() < 1e-5
+    code, _, err = run(["blend", first, second, "-o", tmp_path / "x.bvh"], capsys)
+    assert code == 1 and "frames" in err and err.count("\n") == 1
+    code, _, err = run(["blend", first, first, "-o", tmp_path / "x.bvh", "--weight", "0.3"],
+                       capsys)
+    assert code == 0, err
+    blended = mc.load(tmp_path / "x.bvh")
+    assert np.degrees(mc.quat.angle_between(blended.rotations, a.rotations)).max() < 1e-5
+
+
+def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
+    other = tmp_path / "other.bvh"
+    other.write_bytes(sample_path.read_bytes().replace(b"LeftKnee", b"LeftKnee2"))
+    code, _, err = run(["stitch", sample_path, other, "-o", tmp_path / "s.bvh"], capsys)
+    assert code == 1 and "skeleton differs" in err
+    assert not (tmp_path / "s.bvh").exists()
