@@ -10,6 +10,9 @@ Conventions (used everywhere in motionclean):
   means ``R = Rz(a0) Rx(a1) Ry(a2)``, exactly as BVH channel lists are read.
 
 Every function broadcasts over leading axes and never loops in Python over samples.
+:func:`multiply`, :func:`exp` and :func:`log` run the plane kernels (:func:`multiply_planes`,
+:func:`exp_planes`, :func:`log_planes`, for hot loops that keep components in separate
+contiguous arrays) over cache-sized blocks, so they need no temporaries of the input's size.
 """
 
 from __future__ import annotations
@@ -22,13 +25,16 @@ __all__ = [
     "as_matrix",
     "conjugate",
     "exp",
+    "exp_planes",
     "from_axis_angle",
     "from_euler",
     "identity",
     "inverse",
     "log",
+    "log_planes",
     "make_continuous",
     "multiply",
+    "multiply_planes",
     "normalize",
     "rotate",
     "slerp",
@@ -47,16 +53,7 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p q`` (apply ``q`` first, then ``p``), broadcasting."""
-    p = np.asarray(p, dtype=np.float64)
-    q = np.asarray(q, dtype=np.float64)
-    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    out = np.empty(np.broadcast_shapes(p.shape, q.shape))
-    out[..., 0] = pw * qw - px * qx - py * qy - pz * qz
-    out[..., 1] = pw * qx + px * qw + py * qz - pz * qy
-    out[..., 2] = pw * qy - px * qz + py * qw + pz * qx
-    out[..., 3] = pw * qz + px * qy - py * qx + pz * qw
-    return out
+    return _blockwise(multiply_planes, (p, q), 4, 2)
 
 
 def conjugate(q: np.ndarray) -> np.ndarray:
@@ -79,16 +76,11 @@ def normalize(q: np.ndarray) -> np.ndarray:
 
 
 def exp(v: np.ndarray) -> np.ndarray:
-    """Exponential map R^3 -> S^3: ``(cos|v|, v/|v| sin|v|)`` (000 Eq. 7).
+    """Exponential map R^3 -> S^3: ``(cos|v|, v/|v| sin|v|)`` (000 Eq. 9).
 
     ``v`` has shape ``(..., 3)``; ``|v|`` is half the rotation angle in radians.
     """
-    v = np.asarray(v, dtype=np.float64)
-    theta = np.sqrt(np.einsum("...i,...i->...", v, v))
-    out = np.empty((*v.shape[:-1], 4))
-    out[..., 0] = np.cos(theta)
-    out[..., 1:] = v * np.sinc(theta / np.pi)[..., None]
-    return out
+    return _blockwise(exp_planes, (v,), 4, 3)
 
 
 def log(q: np.ndarray) -> np.ndarray:
@@ -98,15 +90,141 @@ def log(q: np.ndarray) -> np.ndarray:
     the result has norm above ``pi/2`` (a rotation of more than 180 degrees in S^3); make a
     signal sign-continuous first when displacements between samples are wanted.
     """
-    q = np.asarray(q, dtype=np.float64)
-    v = q[..., 1:]
-    s = np.sqrt(np.einsum("...i,...i->...", v, v))
-    w = q[..., 0]
-    theta = np.arctan2(s, w)
-    # theta / s -> 1 / w as s -> 0 (w > 0); the branch avoids 0/0 at the identity.
-    small = s < 1e-12
-    ratio = np.where(small, 1.0 / np.where(small, w, 1.0), theta / np.where(small, 1.0, s))
-    return v * ratio[..., None]
+    return _blockwise(log_planes, (q,), 3, 2)
+
+
+# ----------------------------------------------------------------------------- plane kernels
+#
+# The functions below work on quaternions stored as separate component arrays ("planes"):
+# a sequence ``(w, x, y, z)`` of equally shaped float64 arrays (a vector is ``(x, y, z)``).
+# They write into caller-supplied arrays and use caller-supplied scratch arrays of the same
+# shape, so a hot loop can run them on contiguous, reused buffers without allocating. Output
+# planes must not share memory with the inputs unless a kernel says otherwise.
+
+#: Terms ``(p component, q component, sign)`` of each component of the Hamilton product.
+_PRODUCT_TERMS = (
+    ((0, 0, 1.0), (1, 1, -1.0), (2, 2, -1.0), (3, 3, -1.0)),
+    ((0, 1, 1.0), (1, 0, 1.0), (2, 3, 1.0), (3, 2, -1.0)),
+    ((0, 2, 1.0), (1, 3, -1.0), (2, 0, 1.0), (3, 1, 1.0)),
+    ((0, 3, 1.0), (1, 2, 1.0), (2, 1, -1.0), (3, 0, 1.0)),
+)
+
+_TINY = np.finfo(np.float64).tiny
+
+
+#: Samples per block in :func:`_blockwise` and in a Lee-Shin pass: a block's dozen or so
+#: planes (about 2 MB) stay in cache while numpy's per-call overhead stays small.
+BLOCK_SAMPLES = 16384
+
+
+def _blockwise(kernel, arrays, n_out: int, n_tmp: int) -> np.ndarray:
+    """Apply a plane kernel ``kernel(out, *inputs, tmp)`` to ``(..., C)`` arrays, broadcasting.
+
+    Works through blocks of the first axis: each block's inputs are copied into contiguous
+    component planes, so memory beyond the ``(..., n_out)`` result stays a few hundred
+    kilobytes and every operation runs on cache-resident, contiguous data.
+    """
+    arrays = [np.asarray(a, dtype=np.float64) for a in arrays]
+    shape = np.broadcast_shapes(*(a.shape[:-1] for a in arrays))
+    out = np.empty((*shape, n_out))
+    if out.size == 0:
+        return out
+    lead = shape or (1,)
+    views = [np.broadcast_to(a, (*shape, a.shape[-1])).reshape(*lead, a.shape[-1]) for a in arrays]
+    flat_out = out.reshape(*lead, n_out)
+    inner = int(np.prod(lead[1:]))
+    rows = min(max(1, BLOCK_SAMPLES // max(inner, 1)), lead[0])
+    widths = [a.shape[-1] for a in arrays]
+    work = np.empty((sum(widths) + n_tmp, rows * inner))
+    for r0 in range(0, lead[0], rows):
+        r1 = min(r0 + rows, lead[0])
+        size = (r1 - r0) * inner
+        planes, first = [], 0
+        for view, width in zip(views, widths, strict=True):
+            block = work[first : first + width, :size]
+            np.copyto(block.reshape(width, r1 - r0, *lead[1:]), np.moveaxis(view[r0:r1], -1, 0))
+            planes.append(block)
+            first += width
+        dst = flat_out[r0:r1].reshape(size, n_out)
+        kernel([dst[:, c] for c in range(n_out)], *planes, work[first:, :size])
+    return out
+
+
+def multiply_planes(out, p, q, tmp, conjugate_p: bool = False) -> None:
+    """``out = p q`` (or ``conj(p) q`` with ``conjugate_p``) on planes; ``tmp``: two scratch.
+
+    Each output plane is written once (its terms are summed in ``tmp``), so ``out`` may be
+    strided views into an ``(..., 4)`` array at little cost. ``out`` must not overlap ``p``
+    or ``q``. Broadcasting follows numpy's rules per plane.
+    """
+    acc, term = tmp
+    for dst, terms in zip(out, _PRODUCT_TERMS, strict=True):
+        i, j, _ = terms[0]  # the leading term is always +p_i q_j, also for conj(p)
+        np.multiply(p[i], q[j], acc)
+        for n, (i, j, sign) in enumerate(terms[1:], 2):
+            np.multiply(p[i], q[j], term)
+            if conjugate_p:
+                sign = -sign
+            (np.add if sign > 0.0 else np.subtract)(acc, term, dst if n == 4 else acc)
+
+
+def log_planes(out, q, tmp, shortest: bool = False) -> None:
+    """``out = log(q)`` on planes (3 out, 4 in); ``tmp``: two scratch planes.
+
+    ``|log q| = atan2(|v|, w)`` as in :func:`log`; with ``shortest`` the sign of ``q`` is
+    chosen so that ``w >= 0`` (``log(+-q)`` of the shorter arc, ``|log| <= pi/2``). ``out``
+    may be the planes ``q[1:]`` themselves (in place).
+    """
+    w, x, y, z = q
+    norm, ratio = tmp
+    np.multiply(x, x, norm)
+    np.multiply(y, y, ratio)
+    np.add(norm, ratio, norm)
+    np.multiply(z, z, ratio)
+    np.add(norm, ratio, norm)
+    np.sqrt(norm, norm)
+    if shortest:
+        np.abs(w, ratio)
+        np.arctan2(norm, ratio, ratio)
+    else:
+        np.arctan2(norm, w, ratio)
+    # atan2(|v|, w) / |v|: at |v| = 0 the vector part is zero, any finite ratio will do.
+    np.maximum(norm, _TINY, out=norm)
+    np.divide(ratio, norm, ratio)
+    if shortest:
+        np.copysign(ratio, w, ratio)
+    for dst, src in zip(out, (x, y, z), strict=True):
+        np.multiply(src, ratio, dst)
+
+
+def exp_planes(out, v, tmp) -> None:
+    """``out = exp(v)`` on planes (4 out, 3 in); ``tmp``: three scratch planes.
+
+    With ``h = tan(|v|/2)``: ``cos|v| = (1 - h^2) / (1 + h^2)`` and ``sin|v| / |v| =
+    2 h / ((1 + h^2) |v|)``, exact identities valid for every ``|v|`` (numpy's vectorised
+    ``tan`` is several times faster than ``sin`` and ``cos``). ``out[1:]`` may be the planes
+    ``v`` themselves (in place); ``out[0]`` must not overlap ``v``.
+    """
+    x, y, z = v
+    t, h, d = tmp
+    np.multiply(x, x, t)
+    np.multiply(y, y, h)
+    np.add(t, h, t)
+    np.multiply(z, z, h)
+    np.add(t, h, t)
+    np.sqrt(t, t)  # |v|
+    np.multiply(t, 0.5, h)
+    np.tan(h, h)
+    np.multiply(h, h, d)
+    np.subtract(1.0, d, out[0])
+    np.add(d, 1.0, d)  # 1 + h^2
+    np.divide(out[0], d, out[0])  # cos|v|
+    np.maximum(t, _TINY, out=t)  # at |v| = 0, h = 0 and the vector part is zero anyway
+    np.multiply(t, d, t)
+    np.add(h, h, h)
+    np.divide(h, t, h)  # sin|v| / |v|
+    for dst, src in zip(out[1:], v, strict=True):
+        np.multiply(src, h, dst)
 
 
 def angle(q: np.ndarray) -> np.ndarray:

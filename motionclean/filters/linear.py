@@ -10,6 +10,13 @@ ordinary convolution with the mask in the interior.
 
 Arrays are time-major: ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ..., 3)``
 vectors; every trailing axis (joints, ...) is filtered at once.
+
+Implementation: a pass costs one logarithm and one exponential per sample (Sec. VII-D),
+fused with the two quaternion products. It runs over blocks of frames on component planes
+(:func:`motionclean.quat.log_planes`, ...) in one reused work area of about 15 x
+``quat.BLOCK_SAMPLES`` doubles, so memory is the result (plus a second buffer when
+iterating) and the work stays in cache; only displacements beyond the two ends are
+mirrored (copied).
 """
 
 from __future__ import annotations
@@ -29,7 +36,6 @@ __all__ = [
     "mirrored_displacements",
 ]
 
-
 def displacement_coefficients(mask) -> np.ndarray:
     """Coefficients ``(b_-k, ..., b_{k-1})`` of 000 Eq. 20 for a mask ``(a_-k, ..., a_k)``.
 
@@ -45,18 +51,22 @@ def displacement_coefficients(mask) -> np.ndarray:
     return b
 
 
+def _mirror(positions: np.ndarray, n: int) -> np.ndarray:
+    """Index in ``0 .. n-1`` of the displacement at each position (000 Eq. 26)."""
+    if n == 1:
+        return np.zeros_like(positions)
+    period = 2 * (n - 1)
+    j = np.mod(positions, period)
+    return np.where(j > n - 1, period - j, j)
+
+
 def mirror_indices(n: int, before: int, after: int) -> np.ndarray:
     """Indices into ``n`` displacements for positions ``-before .. n-1+after`` (000 Eq. 26).
 
     ``w_i = w_{-i}`` for ``i < 0`` and ``w_i = w_{2n-i-2}`` for ``i >= n``: reflection about
     the first and the last displacement, repeated as often as a short signal needs.
     """
-    j = np.arange(-before, n + after)
-    if n == 1:
-        return np.zeros_like(j)
-    period = 2 * (n - 1)
-    j = np.mod(j, period)
-    return np.where(j > n - 1, period - j, j)
+    return _mirror(np.arange(-before, n + after), n)
 
 
 def angular_displacements(q: np.ndarray) -> np.ndarray:
@@ -73,20 +83,113 @@ def mirrored_displacements(w: np.ndarray, before: int, after: int) -> np.ndarray
     return w[mirror_indices(w.shape[0], before, after)]
 
 
-def _weighted_window_sum(w: np.ndarray, b: np.ndarray, n_out: int) -> np.ndarray:
-    """``s_i = sum_m b_m w_{i+m}`` for ``i = 0 .. n_out-1`` and ``m = -k .. k-1``."""
-    k = b.size // 2
-    ext = mirrored_displacements(w, k, k + n_out - w.shape[0] - 1)
-    total = np.zeros((n_out, *w.shape[1:]))
-    for tap, coeff in enumerate(b):  # loop over mask taps only
-        if coeff != 0.0:
-            total += coeff * ext[tap : tap + n_out]
-    return total
-
-
 def apply_displacement_sums(q: np.ndarray, s: np.ndarray) -> np.ndarray:
     """``q_i exp(s_i)``: move each sample by a tangent vector measured in its own frame."""
     return quat.multiply(q, quat.exp(s))
+
+
+def _window_sums(ext: np.ndarray, b: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
+    """``out[:, r] = sum_t b_t ext[:, r + t]`` (Eq. 19's sum; time is axis 1).
+
+    ``ext`` holds the displacements at positions ``i - k .. i + k - 1 + L - 1`` for the
+    ``L = out.shape[1]`` outputs; ``tmp`` is scratch shaped like ``out``.
+    """
+    n_out = out.shape[1]
+    first = True
+    for tap, coeff in enumerate(b):  # loop over mask taps only
+        if coeff == 0.0:
+            continue
+        src = ext[:, tap : tap + n_out]
+        if first:
+            np.multiply(src, coeff, out)
+            first = False
+        else:
+            np.multiply(src, coeff, tmp)
+            np.add(out, tmp, out)
+    if first:
+        out[...] = 0.0
+
+
+def _fill_mirrored_ends(ext: np.ndarray, start: int, lo: int, hi: int, n: int) -> None:
+    """Fill the positions of ``ext`` (axis 1, first position ``start``) outside ``lo .. hi-1``.
+
+    ``ext`` already holds displacements ``lo .. hi-1``; the others are copied by Eq. 26.
+    """
+    for first, last in ((start, lo), (hi, start + ext.shape[1])):
+        if last > first:
+            src = _mirror(np.arange(first, last), n)
+            ext[:, first - start : last - start] = ext[:, src - start]
+
+
+def _blocks(n_frames: int, rows: int) -> list[tuple[int, int]]:
+    """Split ``0 .. n_frames-1`` into near-equal runs of about ``rows`` frames."""
+    count = max(1, -(-n_frames // rows))
+    edges = np.linspace(0, n_frames, count + 1).round().astype(int)
+    return list(zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True))
+
+
+def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
+    """One pass of Eq. 19 from ``src`` to ``dst``, both ``(F, M, 4)`` with ``F >= 2``.
+
+    Each block of output frames ``f0 .. f1-1`` needs the displacements at positions
+    ``f0-k .. f1+k-2``: those inside ``0 .. F-2`` are computed from the block's samples,
+    the rest mirrored (Eq. 26). Displacements take the shorter arc (``log(+-q_i^-1
+    q_{i+1})``), which are those of the sign-continuous signal ``sigma_i q_i`` with
+    ``sigma_{i+1} = sigma_i sign(q_i . q_{i+1})`` (000 Sec. VI-A), and the output is
+    ``sigma_i q_i exp(s_i)``: the filter of the sign-continuous input.
+    """
+    n_frames, n_sig = src.shape[:2]
+    n = n_frames - 1  # displacements
+    k = b.size // 2
+    # With several blocks each has >= 2k + 2 frames, so mirrored displacements come from
+    # inside the block's own window (_fill_mirrored_ends); one block covers the signal.
+    blocks = _blocks(n_frames, max(quat.BLOCK_SAMPLES // n_sig, 4 * k + 4))
+    span = max(f1 - f0 for f0, f1 in blocks) + 2 * k  # longest window, in frames
+    # Work planes: 0-3 samples, 4-6 displacement window, 7 w of q_i^-1 q_{i+1}, 8-10
+    # scratch, 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i).
+    work = np.empty((15, span * n_sig))
+
+    def planes(first: int, count: int, length: int) -> np.ndarray:
+        return work[first : first + count, : length * n_sig].reshape(count, length, n_sig)
+
+    sigma = None  # sign of the continuous signal at the block's first frame, if any is -1
+    for f0, f1 in blocks:
+        length = f1 - f0
+        start, stop = f0 - k, f1 + k - 1  # displacement positions the block needs
+        lo, hi = max(start, 0), min(stop, n)  # ... of which these lie inside the signal
+        qc = planes(0, 4, hi + 1 - lo)  # samples lo .. hi, component planes
+        np.copyto(qc, src[lo : hi + 1].transpose(2, 0, 1))
+        ext = planes(4, 3, stop - start)
+        inside = ext[:, lo - start : hi - start]
+        rel_w = planes(7, 1, hi - lo)[0]
+        scratch = planes(8, 2, hi - lo)
+        # w_i = log(+-q_i^-1 q_{i+1}), written straight into the block's displacement window.
+        quat.multiply_planes([rel_w, *inside], qc[:, :-1], qc[:, 1:], scratch, True)
+        quat.log_planes(inside, [rel_w, *inside], scratch, shortest=True)
+        _fill_mirrored_ends(ext, start, lo, hi, n)
+
+        flips = np.signbit(rel_w[f0 - lo : f1 - lo])  # steps f0 -> f0+1, ..., (f1-1) -> f1
+        signs = None
+        if sigma is not None or flips.any():
+            step = np.where(flips, -1.0, 1.0)
+            signs = np.empty((length, n_sig))
+            signs[0] = 1.0 if sigma is None else sigma
+            np.cumprod(step[: length - 1], axis=0, out=signs[1:])
+            signs[1:] *= signs[0]
+            sigma = signs[-1] * step[-1] if step.shape[0] == length else None
+            if sigma is not None and np.all(sigma > 0.0):
+                sigma = None
+
+        sums = planes(11, 3, length)
+        scratch = planes(8, 3, length)
+        _window_sums(ext, b, sums, scratch)
+        e = [planes(14, 1, length)[0], *sums]  # exp(s) in place of s
+        quat.exp_planes(e, sums, scratch)
+        if signs is not None:
+            for plane in e:
+                plane *= signs
+        body = qc[:, f0 - lo : f1 - lo]
+        quat.multiply_planes([dst[f0:f1, :, c] for c in range(4)], body, e, scratch[:2])
 
 
 def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
@@ -100,22 +203,30 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     mask : sequence of float
         Odd-length mask summing to one, e.g. :func:`masks.binomial` ``(2)``.
     iterations : int
-        Number of passes.
+        Number of passes (a non-negative whole number).
 
     Returns
     -------
     (F, ..., 4) array
-        Filtered unit quaternions, sign-continuous. Coordinate invariant on both sides
-        (Prop. 1), time invariant (Prop. 2) and symmetric for symmetric masks (Prop. 3).
+        Filtered unit quaternions, signs following the sign-continuous input. Coordinate
+        invariant on both sides (Prop. 1), time invariant (Prop. 2) and symmetric for
+        symmetric masks (Prop. 3).
     """
     b = displacement_coefficients(mask)
-    out = quat.make_continuous(q, axis=0)
-    if out.shape[0] < 2 or b.size == 0:
-        return out
-    for _ in range(int(iterations)):
-        w = angular_displacements(out)
-        out = apply_displacement_sums(out, _weighted_window_sum(w, b, out.shape[0]))
-    return out
+    if int(iterations) != iterations or iterations < 0:
+        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
+    q = np.asarray(q, dtype=np.float64)
+    if q.ndim < 2 or q.shape[-1] != 4:
+        raise ValueError(f"expected (F, ..., 4) quaternions, got shape {q.shape}")
+    n_frames = q.shape[0]
+    if n_frames < 2 or b.size == 0 or iterations == 0 or q.size == 0:
+        return quat.make_continuous(q, axis=0)
+    cur = np.ascontiguousarray(q).reshape(n_frames, -1, 4)
+    buffers = [np.empty(cur.shape) for _ in range(min(int(iterations), 2))]
+    for n in range(int(iterations)):  # ping-pong between the output buffers
+        _lee_shin_pass(cur, buffers[n % 2], b)
+        cur = buffers[n % 2]
+    return cur.reshape(q.shape)
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
@@ -125,10 +236,18 @@ def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     convolution with the mask in the interior, the same boundary rule as orientations.
     """
     b = displacement_coefficients(mask)
+    if int(iterations) != iterations or iterations < 0:
+        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
     out = np.array(p, dtype=np.float64, copy=True)
     if out.shape[0] < 2 or b.size == 0:
         return out
+    n, k = out.shape[0] - 1, b.size // 2
+    ext = np.empty((1, n + 2 * k, *out.shape[1:]))  # displacement positions -k .. n-1+k
+    sums = np.empty((1, *out.shape))
+    tmp = np.empty_like(sums)
     for _ in range(int(iterations)):
-        d = np.diff(out, axis=0)
-        out = out + _weighted_window_sum(d, b, out.shape[0])
+        np.subtract(out[1:], out[:-1], ext[0, k : k + n])
+        _fill_mirrored_ends(ext, -k, 0, n, n)
+        _window_sums(ext, b, sums, tmp)
+        out += sums[0]
     return out
