@@ -26,6 +26,8 @@ from . import multires
 from .errors import MotionError, UsageError
 from .filters import masks
 from .filters.bilateral import bilateral, bilateral_positions
+from .filters.despike import despike_positions_with_report, despike_with_report
+from .filters.fairing import fairing, fairing_positions, sse_fairing, sse_fairing_positions
 from .filters.linear import lee_shin, lee_shin_positions
 from .motion import Motion
 
@@ -277,7 +279,133 @@ MULTIRES = StepSpec(
     check=_check_multires,
 )
 
-REGISTRY: dict[str, StepSpec] = {spec.name: spec for spec in (LEE_SHIN, BILATERAL, MULTIRES)}
+# ----------------------------------------------------------------------------- despike
+
+
+def _check_despike(params: dict, where: str) -> None:
+    if params["min_deg_per_s"] > params["max_deg_per_s"]:
+        raise UsageError(f"{where}: min_deg_per_s must not exceed max_deg_per_s")
+    if params["min_units_per_s"] > params["max_units_per_s"]:
+        raise UsageError(f"{where}: min_units_per_s must not exceed max_units_per_s")
+
+
+def _run_despike(data: StepData, params: dict) -> StepData:
+    shared = {"threshold": params["threshold"], "max_run": params["max_run"]}
+    data.rotations, report = despike_with_report(
+        data.rotations, data.frame_time, method=params["method"],
+        min_deg_per_s=params["min_deg_per_s"], max_deg_per_s=params["max_deg_per_s"],
+        flip_deg=params["flip_deg"], unflip=params["unflip"], **shared)
+    for column in np.flatnonzero(report.counts()):
+        data.rotation_notes[int(column)] = {"despike": report.summary(column)}
+    if data.translations is not None:
+        data.translations, report = despike_positions_with_report(
+            data.translations, data.frame_time,
+            method="linear" if params["method"] == "slerp" else "cubic",
+            min_units_per_s=params["min_units_per_s"],
+            max_units_per_s=params["max_units_per_s"], **shared)
+        for column in np.flatnonzero(report.counts()):
+            data.translation_notes[int(column)] = {"despike": report.summary(column)}
+    return data
+
+
+DESPIKE = StepSpec(
+    name="despike",
+    summary="repair half-turn flips (un-flip) and spikes (interpolate) before smoothing",
+    paper="robust jump detection; interpolation by 003 Eq. 15-17",
+    params=(
+        Param("threshold", "float", 8.0, "a step is a jump above median + threshold * 1.4826 "
+              "MAD of the joint's own steps (robust deviations)", minimum=0.0, maximum=1000.0),
+        Param("min_deg_per_s", "float", 600.0, "steps slower than this are never jumps, "
+              "degrees of rotation per s", minimum=0.0),
+        Param("max_deg_per_s", "float", 3600.0, "absolute cap: faster steps are always "
+              "repaired, degrees of rotation per s", minimum=0.0, exclusive_minimum=True,
+              infinite_ok=True),
+        Param("max_run", "int", 8, "longest spike in frames (and widening passes for the cap)",
+              minimum=1, maximum=1000),
+        Param("flip_deg", "float", 150.0, "smallest one-frame step taken as a half-turn flip, "
+              "degrees", minimum=90.0, exclusive_minimum=True, maximum=180.0),
+        Param("unflip", "bool", True, "undo half-turn flips; false interpolates short flips "
+              "like spikes"),
+        Param("method", "str", "cubic", "interpolant for spikes", choices=("cubic", "slerp")),
+        Param("min_units_per_s", "float", 0.0, "positions: steps slower than this are never "
+              "jumps, length units per s", minimum=0.0),
+        Param("max_units_per_s", "float", math.inf, "positions: absolute cap, length units "
+              "per s", minimum=0.0, exclusive_minimum=True, infinite_ok=True),
+    ),
+    run=_run_despike,
+    check=_check_despike,
+)
+
+# ----------------------------------------------------------------------------- fairing
+
+
+def _run_fairing(data: StepData, params: dict) -> StepData:
+    shared = {"order": params["order"], "tol": params["tol"],
+              "max_iterations": params["max_iterations"]}
+    data.rotations = fairing(data.rotations, lam_r=params["lam_r"],
+                             epsilon_r=params["epsilon_r"], **shared)
+    if data.translations is not None:
+        data.translations = fairing_positions(data.translations, lam_t=params["lam_t"],
+                                              epsilon_t=params["epsilon_t"], **shared)
+    return data
+
+
+FAIRING = StepSpec(
+    name="fairing",
+    summary="iterative fairing of order 2 or 3 within a bound of the input",
+    paper="001 Eq. 11-20, Fig. 1",
+    params=(
+        Param("order", "int", 3, "order m of the fairing energy: 2 = constant angular "
+              "velocity, 3 = constant angular acceleration", minimum=2, maximum=3),
+        Param("lam_r", "float", 0.1, "damping of each orientation step (slerp toward the "
+              "fairing operator, Eq. 17); keep below 0.5 for order 3",
+              minimum=0.0, exclusive_minimum=True, maximum=1.0),
+        Param("lam_t", "float", 0.5, "damping of each position step (Eq. 17)",
+              minimum=0.0, exclusive_minimum=True, maximum=1.0),
+        Param("epsilon_r", "float", 0.02, "bound: no orientation moves farther than this, log "
+              "units (half the rotation angle, rad; 0.02 is 2.29 degrees)", minimum=0.0,
+              infinite_ok=True),
+        Param("epsilon_t", "float", 1.0, "bound: no position moves farther than this, file "
+              "length unit", minimum=0.0, infinite_ok=True),
+        Param("tol", "float", 1e-7, "stop when no sample moves this much in one iteration",
+              minimum=0.0),
+        Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=100000),
+    ),
+    run=_run_fairing,
+)
+
+
+def _run_sse_fairing(data: StepData, params: dict) -> StepData:
+    shared = {"epsilon": params["epsilon"], "max_iterations": params["max_iterations"]}
+    data.rotations = sse_fairing(data.rotations, beta=params["beta"], **shared)
+    if data.translations is not None:
+        data.translations = sse_fairing_positions(data.translations, alpha=params["alpha"],
+                                                  **shared)
+    return data
+
+
+SSE_FAIRING = StepSpec(
+    name="sse-fairing",
+    summary="minimise squared error + weighted strain energy by gradient descent on S^3",
+    paper="004 Eq. 13-25",
+    params=(
+        Param("beta", "float", 1.0, "weight of the angular-acceleration energy against the "
+              "squared distance, per frame (h = 1); 0 leaves the input", minimum=0.0,
+              maximum=1e6),
+        Param("alpha", "float", 1.0, "the same weight for translation channels", minimum=0.0,
+              maximum=1e6),
+        Param("epsilon", "float", 1e-6, "stop when the gradient norm is below this",
+              minimum=0.0),
+        Param("max_iterations", "int", 200, "iteration cap (about 80 per unit of beta to "
+              "converge)", minimum=0, maximum=100000),
+    ),
+    run=_run_sse_fairing,
+)
+
+REGISTRY: dict[str, StepSpec] = {
+    spec.name: spec
+    for spec in (LEE_SHIN, BILATERAL, FAIRING, SSE_FAIRING, MULTIRES, DESPIKE)
+}
 
 
 # ----------------------------------------------------------------------------- steps
@@ -484,5 +612,6 @@ class Pipeline:
 
 #: The default pipeline (README, "Default pipeline").
 DEFAULT_STEPS: list[dict] = [
+    {"filter": "despike"},
     {"filter": "lee-shin", "mask": "binomial", "k": 2, "iterations": 2},
 ]

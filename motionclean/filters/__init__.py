@@ -5,6 +5,19 @@ Each filter takes the rotation array first and returns a new array; position cou
 """
 
 from .bilateral import bilateral, bilateral_positions
+from .despike import despike, despike_positions
+from .fairing import fairing, fairing_positions, sse_fairing, sse_fairing_positions
 from .linear import lee_shin, lee_shin_positions
 
-__all__ = ["bilateral", "bilateral_positions", "lee_shin", "lee_shin_positions"]
+__all__ = [
+    "bilateral",
+    "bilateral_positions",
+    "despike",
+    "despike_positions",
+    "fairing",
+    "fairing_positions",
+    "lee_shin",
+    "lee_shin_positions",
+    "sse_fairing",
+    "sse_fairing_positions",
+]

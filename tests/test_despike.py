@@ -1,0 +1,276 @@
+"""Flip and spike repair: planted defects on a real clip, fast motion kept, corpus limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import CORPUS, SAMPLE, needs_corpus
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.filters.despike import (
+    DespikeReport,
+    _lagrange,
+    despike,
+    despike_positions,
+    despike_positions_with_report,
+    despike_with_report,
+)
+
+# Joints of the sample clip with real motion and no defect (RThumb has real flips).
+CLEAN = ["Hips", "LeftHip", "LeftKnee", "RightAnkle", "Chest", "Head", "LeftShoulder",
+         "RightElbow", "RightWrist"]
+
+
+@pytest.fixture(scope="module")
+def clip():
+    return mc.load(SAMPLE)
+
+
+def clean_columns(m):
+    cols = [m.names.index(n) for n in CLEAN]
+    return m.rotations[:, cols].copy(), cols
+
+
+def degrees_between(a, b):
+    return np.rad2deg(quat.angle_between(a, b))
+
+
+def random_axes(rng, n):
+    v = rng.normal(size=(n, 3))
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@pytest.mark.parametrize("side", ["parent", "own"])
+def test_planted_flips_are_undone_and_nothing_else_moves(clip, side):
+    truth, _ = clean_columns(clip)
+    rng = np.random.default_rng(7)
+    q = truth.copy()
+    planted = np.zeros(q.shape[:2], dtype=bool)
+    half_turns = quat.from_axis_angle(random_axes(rng, q.shape[1]), np.pi)
+    for c in range(q.shape[1] - 1):  # the last column stays clean
+        for start, length in ((40 + 23 * c, 1 + c % 4), (200 + 7 * c, 4 - c % 4)):
+            planted[start:start + length, c] = True
+    f = np.broadcast_to(half_turns, q.shape)
+    flipped = quat.multiply(f, q) if side == "parent" else quat.multiply(q, f)
+    q = np.where(planted[..., None], flipped, q)
+
+    out, report = despike_with_report(q, clip.frame_time)
+
+    np.testing.assert_array_equal(report.unflipped, planted)
+    assert not report.interpolated.any()
+    assert degrees_between(out, truth).max() < 3.0
+    np.testing.assert_array_equal(out[:, -1], q[:, -1])  # bit for bit
+
+
+def test_planted_spikes_are_interpolated_close_to_the_truth(clip):
+    truth, _ = clean_columns(clip)
+    rng = np.random.default_rng(11)
+    q = truth.copy()
+    planted = np.zeros(q.shape[:2], dtype=bool)
+    for c in range(q.shape[1] - 1):
+        for start, length in ((30 + 17 * c, 1 + c % 4), (170 + 11 * c, 1 + (c + 2) % 4)):
+            rows = slice(start, start + length)
+            kick = quat.from_axis_angle(random_axes(rng, length), np.deg2rad(
+                rng.uniform(40.0, 120.0, size=length)))
+            q[rows, c] = quat.multiply(q[rows, c], kick)
+            planted[rows, c] = True
+
+    out, report = despike_with_report(q, clip.frame_time)
+
+    np.testing.assert_array_equal(report.interpolated, planted)
+    assert not report.unflipped.any()
+    assert degrees_between(out, truth).max() < 3.0
+    np.testing.assert_array_equal(out[:, -1], q[:, -1])
+    assert report.counts().tolist() == planted.sum(axis=0).tolist()
+
+
+def test_without_unflip_short_flips_are_interpolated(clip):
+    truth, _ = clean_columns(clip)
+    q = truth.copy()
+    half_turn = quat.from_axis_angle([0.0, 0.8, 0.6], np.pi)
+    q[100:103] = quat.multiply(half_turn, q[100:103])
+    out, report = despike_with_report(q, clip.frame_time, unflip=False)
+    assert not report.unflipped.any()
+    assert report.runs(0, "interpolated") == [(100, 103)]
+    assert degrees_between(out, truth).max() < 3.0
+
+
+def test_steps_above_the_cap_are_spread_until_under_it():
+    """A ragged transition: 150 degrees in 3 frames that never comes back."""
+    angle = np.deg2rad(np.concatenate([np.arange(100) * 0.5, 49.5 + np.array([40.0, 95.0, 150.0]),
+                                       199.5 + np.arange(97) * 0.5]))
+    q = quat.from_axis_angle([1.0, 0.0, 0.0], angle)[:, None]
+    out, report = despike_with_report(q, 1 / 120, max_deg_per_s=2400.0)
+    steps = degrees_between(out[:-1], out[1:])
+    assert steps.max() <= 20.0 + 1e-9 < report.max_step_before[0]
+    changed = np.flatnonzero(degrees_between(out, q)[:, 0] > 0)
+    assert report.runs(0) == [(changed[0], changed[-1] + 1)]
+    assert not report.unflipped.any()
+
+
+def test_constant_angular_velocity_is_rebuilt_exactly_across_a_spike():
+    n = 60
+    omega = np.deg2rad(4.0) * np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    q = quat.multiply(quat.from_euler([10.0, -20.0, 30.0], "ZXY"),
+                      quat.exp(0.5 * np.arange(n)[:, None] * omega))
+    spiked = q.copy()
+    spiked[30:33] = quat.multiply(spiked[30:33], quat.from_axis_angle([1.0, 0.0, 0.0], 1.2))
+    for method in ("cubic", "slerp"):
+        out = despike(spiked[:, None], 1 / 120, method=method)[:, 0]
+        assert degrees_between(out, q).max() < 1e-9
+
+
+def test_cubic_weights_are_the_four_point_scheme():
+    """003 Eq. 15: halfway between uniform knots the weights are (-1, 9, 9, -1) / 16."""
+    w = _lagrange(np.array([0.5]), np.array([0]), np.array([1]))
+    np.testing.assert_allclose(np.concatenate(w), np.array([-1, 9, 9, -1]) / 16, atol=1e-15)
+    # Non-uniform knots (a gap): the weights still reproduce cubic polynomials.
+    t, left, right = np.array([3, 4, 5]), np.array([2, 2, 2]), np.array([6, 6, 6])
+    c = _lagrange(t, left, right)
+    knots = [left - 1, left, right, right + 1]
+    for power in range(4):
+        np.testing.assert_allclose(sum(cj * k**power for cj, k in zip(c, knots, strict=True)),
+                                   t**power, rtol=1e-12)
+
+
+@pytest.mark.parametrize("profile", ["constant", "smooth"])
+def test_fast_smooth_turn_is_left_untouched(clip, profile):
+    """180 degrees in 20 frames at 120 fps (1080 deg/s), on top of real motion."""
+    base, _ = clean_columns(clip)
+    s = np.clip((np.arange(base.shape[0]) - 100) / 20.0, 0.0, 1.0)
+    if profile == "smooth":
+        s = s * s * (3 - 2 * s)  # peak 1620 deg/s
+    turn = quat.from_axis_angle([0.0, 0.6, 0.8], np.pi * s)[:, None]
+    q = quat.make_continuous(quat.multiply(turn, base))
+    out, report = despike_with_report(q, 1 / 120)
+    assert not report.repaired.any()
+    np.testing.assert_array_equal(out, q)
+
+
+def test_fast_oscillation_is_left_untouched():
+    """+-60 degrees at 2.5 Hz (peak 940 deg/s) goes out and back, smoothly: not a spike."""
+    t = np.arange(240) / 120
+    angle = np.deg2rad(60) * np.sin(2 * np.pi * 2.5 * t)
+    q = quat.from_axis_angle([0.0, 0.0, 1.0], angle)[:, None]
+    out, report = despike_with_report(q, 1 / 120)
+    assert not report.repaired.any()
+    np.testing.assert_array_equal(out, q)
+
+
+def test_sign_and_layout_do_not_matter(clip):
+    q = clip.rotations
+    out, report = despike_with_report(q, clip.frame_time)
+    rng = np.random.default_rng(3)
+    signs = rng.choice([-1.0, 1.0], size=q.shape[:2])[..., None]
+    out_signed = despike(q * signs, clip.frame_time)
+    assert degrees_between(out_signed, out).max() < 1e-9
+    clean = ~report.repaired.any(axis=0)
+    np.testing.assert_array_equal(out_signed[:, clean], (q * signs)[:, clean])
+    # Columns are independent and trailing axes are only a layout.
+    pairs = q[:, :30].reshape(q.shape[0], 15, 2, 4)
+    np.testing.assert_array_equal(despike(pairs, clip.frame_time).reshape(q.shape[0], 30, 4),
+                                  out[:, :30])
+    thumb = clip.names.index("RThumb")
+    np.testing.assert_array_equal(despike(q[:, [thumb]], clip.frame_time)[:, 0], out[:, thumb])
+
+
+def test_report_runs_and_counts():
+    mask = np.zeros((10, 2, 3), dtype=bool)
+    mask[2:4, 1, 2] = mask[7:10, 1, 2] = True
+    zero = np.zeros((2, 3))
+    report = DespikeReport(mask, np.zeros_like(mask), zero, zero, zero)
+    assert report.runs((1, 2)) == [(2, 4), (7, 10)]
+    assert report.runs((0, 0), "interpolated") == []
+    assert report.counts("unflipped")[1, 2] == 5
+    assert report.counts().sum() == 5
+    with pytest.raises(ValueError, match="kind"):
+        report.counts("smoothed")
+
+
+def test_report_summary_is_json_ready(clip):
+    import json
+
+    thumb = clip.names.index("RThumb")
+    report = despike_with_report(clip.rotations, clip.frame_time)[1]
+    summary = report.summary(thumb)
+    assert json.loads(json.dumps(summary)) == summary
+    assert summary["frames_repaired"] == sum(b - a for a, b in summary["unflipped"])
+    assert summary["max_step"]["before"] > 179.0 > 15.0 > summary["max_step"]["after"]
+
+
+def test_sample_thumb_flips_are_unflipped(clip):
+    """The real RThumb half-turn runs of the sample (frames 48, 52, 64, 71, 233 on)."""
+    thumb = clip.names.index("RThumb")
+    out, report = despike_with_report(clip.rotations, clip.frame_time)
+    runs = report.runs(thumb, "unflipped")
+    assert runs[:3] == [(48, 52), (64, 71), (233, 256)]
+    assert report.max_step_before[thumb] > 179.0
+    assert report.max_step_after[thumb] < 15.0
+    others = np.arange(len(clip.names)) != thumb
+    np.testing.assert_array_equal(out[:, others], clip.rotations[:, others])
+
+
+def test_planted_position_jumps_are_repaired(clip):
+    p = clip.translations.copy()  # root moves, other joints have no position channels
+    truth = p.copy()
+    p[100:103, 0] += [20.0, -5.0, 3.0]  # a marker swap: the root jumps away and back
+    p[200, 0] -= [0.0, 8.0, 0.0]
+    out, report = despike_positions_with_report(p, clip.frame_time)
+    assert report.runs(0) == [(100, 103), (200, 201)]
+    assert np.linalg.norm(out - truth, axis=-1).max() < 0.05
+    np.testing.assert_array_equal(out[:, 1:], p[:, 1:])
+    np.testing.assert_array_equal(despike_positions(truth, clip.frame_time), truth)
+
+
+def test_position_cap_spreads_a_permanent_jump():
+    p = np.zeros((50, 1, 3))
+    p[:, 0, 0] = np.arange(50) * 0.1
+    p[25:, 0, 0] += 3.0  # a step that never comes back: only the cap catches it
+    assert not despike_positions_with_report(p, 0.01)[1].repaired.any()
+    out, report = despike_positions_with_report(p, 0.01, max_units_per_s=100.0)
+    assert np.abs(np.diff(out[:, 0, 0])).max() <= 1.0 + 1e-12
+    assert report.max_step_after[0] <= 1.0 + 1e-12 < report.max_step_before[0]
+
+
+@pytest.mark.parametrize("bad", [
+    dict(threshold=-1.0), dict(max_deg_per_s=0.0), dict(min_deg_per_s=5000.0),
+    dict(max_run=0), dict(max_run=2.5), dict(flip_deg=80.0), dict(method="linear"),
+])
+def test_invalid_parameters_are_refused(bad):
+    with pytest.raises(ValueError):
+        despike(quat.identity((5, 1)), 1 / 120, **bad)
+
+
+def test_invalid_inputs_are_refused():
+    with pytest.raises(ValueError, match="frame_time"):
+        despike(quat.identity((5, 1)), 0.0)
+    with pytest.raises(ValueError, match="shape"):
+        despike(np.zeros((5, 3)), 1 / 120)
+    with pytest.raises(ValueError, match="method"):
+        despike_positions(np.zeros((5, 1, 3)), 1 / 120, method="slerp")
+
+
+def test_short_clips():
+    for n in (0, 1, 2):
+        q = quat.identity((n, 2))
+        np.testing.assert_array_equal(despike(q, 1 / 120), q)
+
+
+@needs_corpus
+@pytest.mark.parametrize("name", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
+def test_corpus_steps_are_bounded_and_clean_joints_untouched(name):
+    """After despike no joint turns more than 30 degrees in a frame. The corpus defects
+    are the RThumb flips (corpus README) and the RightWrist steps of up to 55 degrees
+    per frame in 131_01 and 131_03; every other joint comes back bit for bit."""
+    m = mc.load(CORPUS / name)
+    out, report = despike_with_report(m.rotations, m.frame_time)
+    steps = degrees_between(out[:-1], out[1:])
+    assert steps.max() <= 30.0
+    np.testing.assert_allclose(report.max_step_after, steps.max(axis=0), atol=1e-5)
+    changed = {m.names[j] for j in np.flatnonzero(report.repaired.any(axis=0))}
+    assert "RThumb" in changed and changed <= {"RThumb", "RightWrist"}
+    untouched = [j for j, n in enumerate(m.names) if n not in changed]
+    np.testing.assert_array_equal(out[:, untouched], m.rotations[:, untouched])
+    root = despike_positions(m.translations, m.frame_time)
+    np.testing.assert_array_equal(root, m.translations)
