@@ -132,4 +132,30 @@ def format_table(report: dict, limit: int = 10) -> str:
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"],
                      summary.get("deviation_deg_max")))
+    lines.extend(format_repairs(report))
     return "\n".join(lines)
+
+
+def _ranges(runs: list[list[int]]) -> str:
+    """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
+    return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
+
+
+def format_repairs(report: dict) -> list[str]:
+    """Lines naming each joint the despike step repaired: how, where, largest step."""
+    lines = []
+    for name, entry in report["joints"].items():
+        for key, unit in (("despike", "deg"), ("position_despike", "units")):
+            note = entry.get(key)
+            if not note:
+                continue
+            what = "position " if key.startswith("position") else ""
+            parts = [f"{note['frames_repaired']} frames"]
+            if note.get("unflipped"):
+                parts.append(f"un-flipped {_ranges(note['unflipped'])}")
+            if note["interpolated"]:
+                parts.append(f"interpolated {_ranges(note['interpolated'])}")
+            step = note["max_step"]
+            parts.append(f"largest {what}step {step['before']:.1f} -> {step['after']:.1f} {unit}")
+            lines.append(f"repaired {name}{' (positions)' if what else ''}: " + "; ".join(parts))
+    return lines

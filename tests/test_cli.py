@@ -156,3 +156,18 @@ def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
     code, _, err = run(["stitch", sample_path, other, "-o", tmp_path / "s.bvh"], capsys)
     assert code == 1 and "skeleton differs" in err
     assert not (tmp_path / "s.bvh").exists()
+
+
+def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, capsys):
+    report = tmp_path / "r.json"
+    code, out, err = run(["clean", sample_path, "-o", tmp_path / "c.bvh", "--report", report],
+                         capsys)
+    assert code == 0, err
+    data = json.loads(report.read_text())
+    assert data["pipeline"][0]["filter"] == "despike"
+    thumb = data["joints"]["RThumb"]["despike"]
+    assert thumb["frames_repaired"] > 0 and thumb["max_step"]["after"] < 30.0
+    assert "repaired RThumb:" in out
+    cleaned = mc.load(tmp_path / "c.bvh")
+    steps = np.degrees(mc.quat.angle_between(cleaned.rotations[:-1], cleaned.rotations[1:]))
+    assert steps.max() < 30.0
