@@ -7,7 +7,9 @@ error (bad option or pipeline, refused overwrite). Errors are one line on stderr
 
 from __future__ import annotations
 
+import math
 import sys
+import textwrap
 import traceback
 from pathlib import Path
 
@@ -18,7 +20,7 @@ from . import __version__, metrics, multires
 from .errors import MotionError, UsageError
 from .io import atomic_write, load, save
 from .motion import Motion
-from .pipeline import REGISTRY, REQUIRED, Pipeline
+from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED, Pipeline
 from .report import build_report, format_table, to_json
 
 
@@ -281,20 +283,32 @@ def stitch(first: str, second: str, output: str, levels: int) -> None:
          output)
 
 
+def _shown(value) -> str:
+    """A default as it would be written in a pipeline file."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float) and value == math.inf:
+        return "inf"
+    return str(value)
+
+
 @cli.command(name="filters")
 def filters_command() -> None:
     """List every filter with its parameters, defaults, units and paper equations."""
+    indent = " " * 20
     for spec in REGISTRY.values():
-        click.echo(f"{spec.name}: {spec.summary}  [{spec.paper}]")
-        for param in spec.params:
+        click.echo(f"{spec.name}: {spec.summary}")
+        click.echo(f"    implements {spec.paper}")
+        for param in (*spec.params, *COMMON_PARAMS):
             if param.default is REQUIRED:
                 default = "required"
             elif param.default is None:
                 default = "optional"
+            elif param.name == "positions":
+                default = f"default {_shown(spec.positions_default)}"
             else:
-                default = f"default {param.default}"
-            click.echo(f"    {param.name:<14}{param.help} ({param.allowed()}; {default})")
-        click.echo(f"    {'joints':<14}fnmatch patterns, '!' excludes (default [\"*\"])")
-        click.echo(f"    {'positions':<14}also filter translation channels "
-                   f"(default {str(spec.positions_default).lower()})")
+                default = f"default {_shown(param.default)}"
+            click.echo(f"  {param.name:<17} {param.allowed()}; {default}")
+            click.echo(textwrap.fill(param.help, width=96, initial_indent=indent,
+                                     subsequent_indent=indent))
         click.echo("")

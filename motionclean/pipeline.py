@@ -60,9 +60,8 @@ class Param:
             bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
         if self.maximum is not None:
             bounds.append(f"<= {self.maximum:g}")
-        if self.infinite_ok:
-            bounds.append("(inf allowed)")
-        return kind + (" " + " and ".join(bounds) if bounds else "")
+        text = kind + (" " + " and ".join(bounds) if bounds else "")
+        return text + (" (inf allowed)" if self.infinite_ok else "")
 
     def coerce(self, value: Any, where: str) -> Any:
         """Check ``value`` against the type and range; return it in canonical form."""
