@@ -24,7 +24,8 @@ import numpy as np
 
 from . import multires
 from .errors import MotionError, UsageError
-from .filters import masks
+from .filters import design, masks
+from .filters.auto import FAMILIES, auto, auto_positions
 from .filters.bilateral import bilateral, bilateral_positions
 from .filters.despike import despike_positions_with_report, despike_with_report
 from .filters.fairing import fairing, fairing_positions, sse_fairing, sse_fairing_positions
@@ -144,11 +145,18 @@ COMMON_PARAMS = (
 
 # ----------------------------------------------------------------------------- lee-shin
 
-MASKS = ("binomial", "smoothing", "high-boost", "gaussian", "reduction", "custom")
+MASKS = ("binomial", "smoothing", "high-boost", "gaussian", "savgol", "lowpass", "reduction",
+         "custom")
 
 
-def _mask_from(params: dict) -> np.ndarray:
+def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
+    """The mask a lee-shin step describes; ``frame_time`` (s) is needed by mask=lowpass."""
     kind = params["mask"]
+    if kind == "savgol":
+        half_width = 3 if params["half_width"] is None else params["half_width"]
+        return design.savgol(half_width, params["degree"])
+    if kind == "lowpass":
+        return design.lowpass(params["cutoff_hz"], 1.0 / frame_time, params["half_width"])
     if kind == "binomial":
         return masks.binomial(params["k"])
     if kind == "smoothing":
@@ -168,6 +176,12 @@ def _check_lee_shin(params: dict, where: str) -> None:
             f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]")
     if params["mask"] != "custom" and params["coefficients"] is not None:
         raise UsageError(f"{where}: coefficients only apply to mask=custom")
+    if params["mask"] == "lowpass":
+        if params["cutoff_hz"] is None:
+            raise UsageError(f"{where}: mask=lowpass needs cutoff_hz, e.g. cutoff_hz=8")
+        return  # the Nyquist check needs the clip's frame rate: done when the step runs
+    if params["cutoff_hz"] is not None:
+        raise UsageError(f"{where}: cutoff_hz only applies to mask=lowpass")
     try:
         _mask_from(params)
     except masks.MaskError as error:
@@ -175,7 +189,7 @@ def _check_lee_shin(params: dict, where: str) -> None:
 
 
 def _run_lee_shin(data: StepData, params: dict) -> StepData:
-    mask = _mask_from(params)
+    mask = _mask_from(params, data.frame_time)
     data.rotations = lee_shin(data.rotations, mask, params["iterations"])
     if data.translations is not None:
         data.translations = lee_shin_positions(data.translations, mask, params["iterations"])
@@ -194,6 +208,13 @@ LEE_SHIN = StepSpec(
               "mask=high-boost (Eq. 25)", minimum=0.0, maximum=10.0),
         Param("sigma_t", "float", 1.0, "mask=gaussian width in frames (truncated at 3 sigma_t)",
               minimum=0.0, exclusive_minimum=True, maximum=50.0),
+        Param("half_width", "int", None, "mask=savgol: half-width in frames (default 3); "
+              "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz))",
+              minimum=0, maximum=1000),
+        Param("degree", "int", 2, "mask=savgol: degree of the local polynomial "
+              "(<= 2 half_width)", minimum=0, maximum=20),
+        Param("cutoff_hz", "float", None, "mask=lowpass: -6 dB cutoff in Hz, below half the "
+              "frame rate (a windowed sinc, zero phase)", minimum=0.0, exclusive_minimum=True),
         Param("coefficients", "floats", None, "mask=custom: odd-length list summing to 1"),
         Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
     ),
@@ -401,9 +422,55 @@ SSE_FAIRING = StepSpec(
     run=_run_sse_fairing,
 )
 
+# ----------------------------------------------------------------------------- auto
+
+
+def _auto_note(result, column: int, unit: str) -> dict:
+    choice = result.choices[column]
+    return {"noise": float(result.noise.reshape(-1)[column]), "unit": unit,
+            "filter": choice.params(), "expected_error": choice.expected_error}
+
+
+def _run_auto(data: StepData, params: dict) -> StepData:
+    families = FAMILIES if params["mask"] == "any" else (params["mask"],)
+    shared = {"strength": params["strength"], "max_seconds": params["max_seconds"],
+              "families": families}
+    result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
+    data.rotations = result.values
+    for column in range(data.rotations.shape[1]):
+        data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
+    if data.translations is not None:
+        result = auto_positions(data.translations, data.frame_time,
+                                noise=params["position_noise"], **shared)
+        data.translations = result.values
+        for column in range(data.translations.shape[1]):
+            data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
+    return data
+
+
+AUTO = StepSpec(
+    name="auto",
+    summary="estimate each joint's noise and pick the Lee-Shin mask and strength for it",
+    paper="000 Eq. 19-20, 23, 26; noise from third differences; choice by SURE",
+    params=(
+        Param("strength", "float", 1.0, "multiplies the noise used for the choice: 0 leaves "
+              "the clip unchanged, 2 smooths as if the noise were twice the estimate",
+              minimum=0.0, maximum=10.0),
+        Param("max_seconds", "float", 1.0, "widest candidate mask half-width, seconds",
+              minimum=0.0, exclusive_minimum=True, maximum=10.0),
+        Param("mask", "str", "any", "mask families to choose from",
+              choices=("any", *FAMILIES)),
+        Param("noise_deg", "float", None, "assumed per-sample rotation noise (RMS rotation "
+              "angle, degrees) instead of the estimate", minimum=0.0, maximum=180.0),
+        Param("position_noise", "float", None, "assumed per-sample translation noise (RMS, "
+              "file length unit) instead of the estimate", minimum=0.0),
+    ),
+    run=_run_auto,
+)
+
 REGISTRY: dict[str, StepSpec] = {
     spec.name: spec
-    for spec in (LEE_SHIN, BILATERAL, FAIRING, SSE_FAIRING, MULTIRES, DESPIKE)
+    for spec in (LEE_SHIN, BILATERAL, FAIRING, SSE_FAIRING, MULTIRES, DESPIKE, AUTO)
 }
 
 
@@ -612,5 +679,5 @@ class Pipeline:
 #: The default pipeline (README, "Default pipeline").
 DEFAULT_STEPS: list[dict] = [
     {"filter": "despike"},
-    {"filter": "lee-shin", "mask": "binomial", "k": 2, "iterations": 2},
+    {"filter": "auto"},
 ]

@@ -107,25 +107,32 @@ def noisiest(report: dict) -> list[str]:
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
     cleaned = "noise_reduction" in report["summary"]
+    estimated = any("auto" in entry for entry in report["joints"].values())
     head = f"{'joint':<22}{'accel rms':>14}"
     if cleaned:
         head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
+    if estimated:
+        head += f"{'noise est':>10}  filter chosen"
     lines = [f"{report['file']}: {report['frames']} frames at "
-             f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2, "
-             "deviation in deg)", head, "-" * len(head)]
+             f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2; "
+             "deviation and estimated noise in deg)", head, "-" * len(head)]
 
-    def row(name: str, acc: dict, dev: float | None) -> str:
+    def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
         text = f"{name[:21]:<22}{acc['before']:>14,.0f}"
         if cleaned:
             removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
             text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
+        if auto:
+            chosen = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                               for k, v in auto["filter"].items())
+            text += f"{auto['noise']:>10.2f}  {chosen}"
         return text
 
     names = noisiest(report)
     for name in names[:limit]:
         entry = report["joints"][name]
         dev = entry.get("deviation_deg", {}).get("max")
-        lines.append(row(name, entry["angular_accel_rms"], dev))
+        lines.append(row(name, entry["angular_accel_rms"], dev, entry.get("auto")))
     if len(names) > limit:
         lines.append(f"... {len(names) - limit} more joints")
     lines.append("-" * len(head))

@@ -4,12 +4,15 @@ Each filter takes the rotation array first and returns a new array; position cou
 (suffix ``_positions``) take ``(F, ..., 3)``. Filters never see files or joint names.
 """
 
+from .auto import auto, auto_positions
 from .bilateral import bilateral, bilateral_positions
 from .despike import despike, despike_positions
 from .fairing import fairing, fairing_positions, sse_fairing, sse_fairing_positions
 from .linear import lee_shin, lee_shin_positions
 
 __all__ = [
+    "auto",
+    "auto_positions",
     "bilateral",
     "bilateral_positions",
     "despike",

@@ -1,0 +1,260 @@
+"""Automatic cleaning: noise estimate, SURE choice per joint, no over-smoothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import CORPUS, needs_corpus
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.filters.auto import (
+    _residual_energies,
+    _trace,
+    auto,
+    auto_positions,
+    candidates,
+    estimate_noise,
+    estimate_position_noise,
+)
+from motionclean.filters.design import lowpass, savgol
+from motionclean.filters.linear import lee_shin, lee_shin_positions
+from motionclean.filters.masks import binomial
+
+
+def plant(q: np.ndarray, noise_deg, seed: int) -> np.ndarray:
+    """``q exp(e)`` with RMS rotation angle ``2|e|`` of ``noise_deg`` (per column)."""
+    rng = np.random.default_rng(seed)
+    sigma = np.radians(np.asarray(noise_deg, dtype=np.float64)) / (2 * math.sqrt(3))
+    e = rng.normal(size=q.shape[:-1] + (3,)) * np.asarray(sigma)[..., None]
+    return quat.multiply(q, quat.exp(e))
+
+
+def rms_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.degrees(quat.angle_between(a, b)) ** 2)))
+
+
+def smooth_synthetic(frames: int = 400, joints: int = 6, seed: int = 0) -> np.ndarray:
+    """Slow rotations: sums of low-frequency sinusoids as rotation vectors (log units)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(frames)[:, None, None] / 120.0
+    freq = rng.uniform(0.2, 1.5, size=(1, joints, 3))
+    phase = rng.uniform(0, 2 * np.pi, size=(1, joints, 3))
+    amp = rng.uniform(0.1, 0.6, size=(1, joints, 3))
+    return quat.exp(amp * np.sin(2 * np.pi * freq * t + phase))
+
+
+@pytest.fixture(scope="module")
+def smooth_clip():
+    """A real walk (131_02, 600 frames at 120 fps, no RThumb) smoothed by 20 B^3 passes."""
+    if not CORPUS.is_dir():
+        pytest.skip(f"CMU corpus not found at {CORPUS} (see ../shared/corpus/README.md)")
+    m = mc.load(CORPUS / "131_02.bvh")
+    keep = [i for i, n in enumerate(m.names) if n != "RThumb"]
+    return lee_shin(m.rotations[200:800, keep], binomial(1), 20), m.frame_time
+
+
+# ----------------------------------------------------------------------------- estimate
+
+
+@pytest.mark.parametrize("noise", [0.5, 2.0, 6.0])
+def test_noise_estimate_recovers_planted_noise_on_synthetic_motion(noise):
+    q = plant(smooth_synthetic(), noise, seed=int(noise * 10))
+    est = estimate_noise(q)
+    assert est.shape == (6,)
+    assert np.all(np.abs(est / noise - 1.0) < 0.12)
+
+
+def test_noise_estimate_is_zero_for_constant_angular_velocity():
+    i = np.arange(50, dtype=np.float64)[:, None, None]
+    q = quat.exp(i * np.array([[0.02, -0.05, 0.01]]))
+    assert estimate_noise(q).max() < 1e-6
+    assert estimate_noise(q[:3]).tolist() == [0.0]  # too short to tell
+
+
+@needs_corpus
+def test_noise_estimate_recovers_planted_levels_on_a_smooth_real_clip(smooth_clip):
+    q, _ = smooth_clip
+    for noise in (1.0, 3.0, 6.0):
+        est = estimate_noise(plant(q, noise, seed=int(noise)))
+        assert np.all(np.abs(est / noise - 1.0) < 0.25), est
+        assert abs(np.median(est) / noise - 1.0) < 0.05
+
+
+def test_noise_estimate_is_per_joint_and_coordinate_invariant():
+    q = plant(smooth_synthetic(joints=3), [0.5, 2.0, 5.0], seed=3)
+    a = quat.normalize(np.array([0.2, 0.9, -0.3, 0.1]))
+    b = quat.normalize(np.array([-0.5, 0.1, 0.6, 0.6]))
+    est = estimate_noise(q)
+    np.testing.assert_allclose(est, estimate_noise(quat.multiply(a, quat.multiply(q, b))),
+                               rtol=1e-9)
+    np.testing.assert_allclose(est / np.array([0.5, 2.0, 5.0]), 1.0, atol=0.15)
+
+
+def test_position_noise_estimate_recovers_planted_noise():
+    t = np.arange(500)[:, None, None] / 120.0
+    p = np.concatenate([np.sin(2 * np.pi * 0.7 * t) * [3.0, 1.0, 2.0],
+                        np.cos(2 * np.pi * 0.3 * t) * [1.0, 4.0, 0.5]], axis=1)  # (500, 2, 3)
+    noise = np.array([0.05, 0.3])  # RMS length of the noise vector
+    rng = np.random.default_rng(4)
+    noisy = p + rng.normal(size=p.shape) * (noise / math.sqrt(3))[:, None]
+    np.testing.assert_allclose(estimate_position_noise(noisy) / noise, 1.0, atol=0.12)
+
+
+# ----------------------------------------------------------------------------- choice
+
+
+def test_trace_includes_the_mirrored_boundary_exactly():
+    for n in (4, 9, 40, 300):
+        for mask in (binomial(3), savgol(6, 2), savgol(30, 2)):
+            dense = np.trace(lee_shin_positions(np.eye(n), mask))
+            assert _trace(mask, n) == pytest.approx(dense, rel=1e-12, abs=1e-12)
+
+
+def test_residual_energies_match_running_every_filter():
+    rng = np.random.default_rng(3)
+    masks = [binomial(1), binomial(9), savgol(5, 2), savgol(40, 2), lowpass(7.0, 120.0)]
+    for frames in (3, 4, 7, 60, 257):
+        p = rng.normal(size=(frames, 2, 3))
+        direct = [np.sum((lee_shin_positions(p, m) - p) ** 2, axis=(0, 2)) for m in masks]
+        np.testing.assert_allclose(_residual_energies(np.diff(p, axis=0), masks), direct,
+                                   rtol=1e-10)
+    q = plant(smooth_synthetic(frames=150, joints=3), 4.0, seed=1)
+    q = quat.make_continuous(q, axis=0)
+    w = quat.log(quat.multiply(quat.conjugate(q[:-1]), q[1:]))
+    direct = [np.sum((0.5 * quat.angle_between(q, lee_shin(q, m))) ** 2, axis=0) for m in masks]
+    np.testing.assert_allclose(_residual_energies(w, masks), direct, rtol=1e-9)
+
+
+def test_candidates_ladder():
+    cands = candidates(1 / 120)
+    for family in ("binomial", "savgol", "lowpass"):
+        values = [value for fam, value, _ in cands if fam == family]
+        assert values == sorted(set(values))
+        assert np.all(np.diff(values) / np.array(values[:-1]) <= 1.5)
+    assert [v for f, v, _ in cands if f == "savgol"][-1] == 120  # 1 s at 120 fps
+    cutoffs = [v for f, v, _ in cands if f == "lowpass"]
+    assert cutoffs[0] == 2.0 and cutoffs[-1] == 54.0  # 2 / max_seconds .. 0.45 x 120 Hz
+    assert all(abs(mask.sum() - 1) < 1e-12 for _, _, mask in cands)
+    assert max(mask.size // 2 for _, _, mask in cands) <= 121
+    short = candidates(1 / 30, max_seconds=0.5)
+    assert max(mask.size // 2 for _, _, mask in short) == 15
+    assert {fam for fam, _, _ in candidates(1 / 30, families=("savgol",))} == {"savgol"}
+    for bad in ({"frame_time": 0.0}, {"frame_time": 0.01, "max_seconds": -1},
+                {"frame_time": 0.01, "families": ("gaussian",)}):
+        with pytest.raises(ValueError):
+            candidates(**bad)
+
+
+def test_auto_adapts_per_joint_and_beats_every_fixed_setting():
+    truth = np.repeat(smooth_synthetic(frames=500, joints=1, seed=7), 4, axis=1)
+    levels = np.array([0.0, 1.0, 3.0, 6.0])
+    noisy = plant(truth, levels, seed=8)
+    values, noise, choices = auto(noisy, 1 / 120)
+    assert values.shape == noisy.shape and noise.shape == (4,) and len(choices) == 4
+    assert rms_deg(values[:, 0], noisy[:, 0]) < 0.01  # the clean joint stays as it is
+    # More noise on the same motion: a mask that passes less white noise (sum a^2).
+    table = {(family, value): mask for family, value, mask in candidates(1 / 120)}
+    gains = [float(np.sum(table[c.mask, c.value] ** 2)) for c in choices[1:]]
+    assert gains[0] > gains[1] >= gains[2]
+    for j in (1, 2, 3):
+        ours = rms_deg(values[:, j], truth[:, j])
+        fixed = [rms_deg(lee_shin(noisy[:, j], binomial(1), p), truth[:, j]) for p in (1, 4, 16)]
+        assert ours < min(fixed), (j, ours, fixed)
+
+
+def test_expected_error_predicts_the_actual_error():
+    truth = smooth_synthetic(frames=800, joints=3, seed=11)
+    noisy = plant(truth, [1.0, 3.0, 6.0], seed=12)
+    values, _, choices = auto(noisy, 1 / 120)
+    for j, (choice, noise) in enumerate(zip(choices, (1.0, 3.0, 6.0), strict=True)):
+        # SURE estimates the mean squared error; its spread is a few % of the noise power.
+        actual = rms_deg(values[:, j], truth[:, j])
+        assert abs(choice.expected_error**2 - actual**2) < 0.1 * noise**2
+        assert actual < 0.5 * noise
+        assert choice.params()["mask"] in ("binomial", "savgol", "lowpass")
+
+
+def test_auto_is_coordinate_invariant():
+    noisy = plant(smooth_synthetic(frames=200, joints=2, seed=2), 2.0, seed=5)
+    a = quat.normalize(np.array([0.4, -0.2, 0.8, 0.1]))
+    b = quat.normalize(np.array([0.1, 0.7, 0.2, -0.6]))
+    out = auto(noisy, 1 / 120).values
+    moved = auto(quat.multiply(a, quat.multiply(noisy, b)), 1 / 120).values
+    assert rms_deg(moved, quat.multiply(a, quat.multiply(out, b))) < 1e-9
+
+
+def test_strength_and_given_noise():
+    truth = smooth_synthetic(frames=300, joints=2, seed=9)
+    noisy = plant(truth, 3.0, seed=10)
+    unchanged = auto(noisy, 1 / 120, strength=0.0)
+    assert rms_deg(unchanged.values, noisy) < 1e-12
+    assert [c.mask for c in unchanged.choices] == ["none", "none"]
+    assert rms_deg(auto(noisy, 1 / 120, noise=0.0).values, noisy) < 1e-12
+    given = auto(noisy, 1 / 120, noise=[3.0, 3.0])
+    np.testing.assert_array_equal(given.noise, [3.0, 3.0])
+    default, strong = auto(noisy, 1 / 120), auto(noisy, 1 / 120, strength=3.0)
+    assert rms_deg(strong.values, noisy) > rms_deg(default.values, noisy)
+    for bad in ({"strength": -1.0}, {"noise": -2.0}, {"strength": math.nan}):
+        with pytest.raises(ValueError):
+            auto(noisy, 1 / 120, **bad)
+
+
+def test_auto_keeps_any_trailing_shape():
+    noisy = plant(smooth_synthetic(frames=120, joints=6, seed=1), 2.0, seed=2)
+    out = auto(noisy.reshape(120, 2, 3, 4), 1 / 120)
+    assert out.values.shape == (120, 2, 3, 4) and out.noise.shape == (2, 3)
+    assert len(out.choices) == 6
+    np.testing.assert_allclose(out.values.reshape(120, 6, 4), auto(noisy, 1 / 120).values)
+    single = auto(noisy[:, 0], 1 / 120)
+    assert single.values.shape == (120, 4) and single.noise.shape == ()
+
+
+@pytest.mark.parametrize("frames", [0, 1, 2, 3])
+def test_short_clips_are_returned_unchanged(frames):
+    q = quat.exp(np.random.default_rng(frames).normal(scale=0.1, size=(frames, 2, 3)))
+    result = auto(q, 1 / 120)
+    np.testing.assert_array_equal(result.noise, [0.0, 0.0])
+    np.testing.assert_allclose(result.values, quat.make_continuous(q, axis=0))
+    assert [c.mask for c in result.choices] == ["none", "none"]
+    p = np.arange(frames * 3, dtype=float).reshape(frames, 1, 3) ** 2
+    np.testing.assert_array_equal(auto_positions(p, 1 / 120).values, p)
+
+
+def test_auto_positions_cleans_translations():
+    t = np.arange(600)[:, None, None] / 120.0
+    p = np.sin(2 * np.pi * np.array([0.5, 0.9])[:, None] * t + [0.0, 1.0, 2.0]) * 2.0
+    rng = np.random.default_rng(6)
+    noisy = p + rng.normal(scale=0.2 / math.sqrt(3), size=p.shape)
+    values, noise, choices = auto_positions(noisy, 1 / 120)
+
+    def err(x, ref=p):
+        return float(np.sqrt(np.mean(np.sum((x - ref) ** 2, axis=-1))))
+
+    np.testing.assert_allclose(noise, 0.2, rtol=0.15)
+    assert err(values) < min(err(lee_shin_positions(noisy, binomial(1), n)) for n in (1, 4, 16))
+    for j, choice in enumerate(choices):
+        actual = err(values[:, j], p[:, j])
+        assert abs(choice.expected_error**2 - actual**2) < 0.1 * 0.2**2
+    assert np.array_equal(auto_positions(noisy, 1 / 120, strength=0).values, noisy)
+
+
+# ----------------------------------------------------------------------------- real clip
+
+
+@needs_corpus
+def test_auto_leaves_a_smooth_real_clip_alone(smooth_clip):
+    q, frame_time = smooth_clip
+    assert rms_deg(auto(q, frame_time).values, q) < 0.1
+
+
+@needs_corpus
+def test_auto_beats_fixed_binomial_passes_on_a_noisy_real_clip(smooth_clip):
+    q, frame_time = smooth_clip
+    for noise in (1.0, 6.0):
+        noisy = plant(q, noise, seed=20 + int(noise))
+        ours = rms_deg(auto(noisy, frame_time).values, q)
+        for passes in (1, 4, 16):
+            assert ours < rms_deg(lee_shin(noisy, binomial(1), passes), q), (noise, passes)
