@@ -49,7 +49,14 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
 def save(motion: Motion, path: str | os.PathLike) -> None:
     """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``)."""
     path = Path(path)
-    atomic_write(path, _WRITERS[_suffix(path, _WRITERS)](motion))
+    write = _WRITERS[_suffix(path, _WRITERS)]
+    try:
+        data = write(motion)
+    except MotionError as error:
+        if error.path is not None:
+            raise
+        raise MotionError(error.message, path) from None
+    atomic_write(path, data)
 
 
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:
@@ -70,6 +77,9 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
             f.write(data)
         os.chmod(tmp, _target_mode(path))
         os.replace(tmp, path)
+    except OSError as error:  # disk full, permissions: still one clear line
+        Path(tmp).unlink(missing_ok=True)
+        raise MotionError(f"cannot write: {error.strerror or error}", path) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

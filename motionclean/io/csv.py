@@ -1,13 +1,552 @@
-"""CSV read and write (placeholder until the CSV formats land)."""
+"""CSV read and write: a channel layout mirroring BVH, and a rigid-body layout for trackers.
+
+Both layouts are comma-separated with one header line, then one row per frame. A UTF-8
+byte-order mark, CRLF or LF line endings, spaces around values and blank lines are
+accepted; header fields may be quoted (RFC 4180) when a name contains a comma. Values are
+decimal numbers (exponents allowed); NaN, inf and empty cells are errors. The layout is
+detected from the header.
+
+Channel CSV: the BVH MOTION block with named columns::
+
+    frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,Hips.Yrotation,...
+    0,0,4.9520,17.0575,-18.0767,-4.9118,41.8207,...
+    1,0.0083333,4.9551,17.0583,-18.0681,-4.9005,41.6923,...
+
+``frame`` is optional, ``time`` (seconds) is required; every other column is
+``<joint>.<channel>`` with the joint name before the last dot and a BVH channel name after it
+(``Xposition`` ... ``Zrotation``; angles in degrees). A joint's columns are adjacent and its
+rotation columns (all three or none) give its Euler order, as in BVH ``CHANNELS``.
+
+- With a skeleton template (``motionclean convert clip.csv out.bvh --skeleton clip.bvh``,
+  or ``load(path, skeleton=motion)``), columns are matched to the template's channels by
+  name (any column order; all of them must be present and no others; a joint's rotation
+  columns must follow the template's order). The clip takes the template's hierarchy. It is
+  an edit of the template: values equal to the template's keep its text, so an unchanged
+  CSV gives back the template file byte for byte, and changed values are written like any
+  edited BVH value (six decimals).
+- Without a template, the skeleton is flat: each joint becomes a root with a zero offset
+  and the channels of its columns. ``info``, ``clean`` and ``report`` work and CSV output
+  keeps the columns, but writing BVH needs ``--skeleton`` (a clear error says so): the
+  offsets and parents a BVH needs are not in the CSV.
+
+Rigid-body CSV, as trackers and VR devices record it::
+
+    time,head.px,head.py,head.pz,head.qw,head.qx,head.qy,head.qz,hand_l.px,...
+    0,0.012,1.621,0.034,0.9987,0.0132,-0.0481,0.0071,0.251,...
+    0.0111111,0.012,1.622,0.034,0.9986,0.0135,-0.0483,0.0070,0.253,...
+
+``frame`` optional, ``time`` (seconds), then for each body the seven columns
+``<body>.px .py .pz`` (position, any length unit) and ``<body>.qw .qx .qy .qz`` (the
+orientation as a scalar-first Hamilton quaternion rotating body-frame vectors into the
+world frame), in any column order. Each body becomes an independent root joint
+(parent -1, no offset) whose rotation is the quaternion itself (no Euler angles involved),
+renormalised where its norm is not 1 (a norm under 1e-6 is an error) and made
+sign-continuous in time. For BVH output a body gets the channels ``Xposition Yposition
+Zposition Yrotation Xrotation Zrotation``.
+
+Time: the rows must be uniformly sampled. Times must increase, each step must be within
+10% of the mean step and each time within 10% of a frame of the uniform grid; otherwise the
+error names the row (resample the clip first). The frame time is the mean step rounded to
+12 significant digits, or the template's frame time when the time column fits it. A clip
+without a template needs at least two rows.
+
+Writing (``save(motion, "out.csv")``): a clip read from a rigid-body CSV is written as a
+rigid-body CSV, every other clip as a channel CSV (``format_csv(motion, layout=...)``
+chooses). Values equal to the ones read keep the input's text (the BVH text for a clip
+read from BVH), other values are written with Python's shortest round-trip repr and times
+with 12 significant digits, so reading the file back gives the same numbers bit for bit
+and an unchanged clip writes the input bytes exactly.
+"""
 
 from __future__ import annotations
 
+import csv as _csv
+import io as _io
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import quat
 from ..errors import MotionError
+from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion
+from .bvh import (
+    BOM,
+    BvhText,
+    check_finite,
+    join_rows,
+    pack_texts,
+    parse_numbers,
+    scan_tokens,
+    splice,
+)
+
+#: Column suffixes of a rigid body, in the order they are written.
+RIGID_SUFFIXES = ("px", "py", "pz", "qw", "qx", "qy", "qz")
+#: BVH channels given to a rigid body.
+RIGID_CHANNELS = ("Xposition", "Yposition", "Zposition", "Yrotation", "Xrotation", "Zrotation")
+#: Largest allowed deviation of a time step, or of a time from the uniform grid, in frames.
+TIME_TOLERANCE = 0.1
+#: Quaternions with a smaller norm are rejected.
+MIN_QUAT_NORM = 1e-6
 
 
-def parse_csv(data: bytes, path=None, skeleton=None):
-    raise MotionError("CSV reading is not available yet", path)
+@dataclass(frozen=True, eq=False)
+class CsvText:
+    """A CSV file as read, for writers that reuse its text.
+
+    ``starts``/``ends`` are the ``(F, K)`` byte offsets of the cells in ``raw`` and
+    ``values`` their numbers. ``columns`` maps the clip to CSV columns: ``(C,)`` per
+    channel for the channel layout, ``(B, 7)`` per body and :data:`RIGID_SUFFIXES` entry
+    for the rigid-body layout.
+    """
+
+    layout: str  # "channel" or "rigid"
+    raw: bytes
+    starts: np.ndarray
+    ends: np.ndarray
+    values: np.ndarray
+    columns: np.ndarray
+    time_column: int
+    skeleton: tuple  # (names, channels) the columns were mapped to
+    frame_time: float
+    eol: bytes
+    needs_skeleton: bool = False
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.values.shape[0])
+
+    def matches(self, motion: Motion) -> bool:
+        """True when ``motion`` still has the frames and joints this text describes."""
+        return (self.n_frames == motion.n_frames
+                and self.skeleton == (tuple(motion.names), tuple(motion.channels)))
 
 
-def format_csv(motion) -> bytes:
-    raise MotionError("CSV writing is not available yet")
+def _fail(message: str, path, line: int | None = None):
+    raise MotionError(message, path, None if line is None else int(line))
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
+    """The header fields, its line number and the offset of the line after it."""
+    pos = len(BOM) if data.startswith(BOM) else 0
+    number = 0
+    while pos < len(data):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end + 1
+        number += 1
+        line = data[pos:end]
+        pos = end
+        if line.strip():
+            try:
+                text = line.decode("utf-8")
+            except UnicodeDecodeError:
+                _fail("not a text file (bytes that are not UTF-8)", path, number)
+            try:
+                fields = next(_csv.reader([text.rstrip("\r\n")], strict=True,
+                                     skipinitialspace=True))
+            except _csv.Error as error:
+                _fail(f"bad header: {error}", path, number)
+            return [f.strip() for f in fields], number, pos
+    _fail("empty file", path)
+
+
+def _classify(fields: list[str], path, line: int):
+    """Split the header into frame/time columns and ``(name, suffix, column)`` entries."""
+    expected = ("expected a header such as 'frame,time,Hips.Xposition,...' (channel CSV) "
+                "or 'time,head.px,...,head.qz' (rigid-body CSV)")
+    seen: set[str] = set()
+    special = {"frame": -1, "time": -1}
+    entries: list[tuple[str, str, int]] = []
+    kinds = set()
+    for k, field in enumerate(fields):
+        if not field:
+            _fail(f"bad header: column {k + 1} has no name", path, line)
+        if field in seen:
+            _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
+        seen.add(field)
+        if field in special:
+            special[field] = k
+            continue
+        name, dot, suffix = field.rpartition(".")
+        if not dot or not name:
+            _fail(f"bad header: column {field[:60]!r} is not <joint>.<channel> or "
+                  f"<body>.<px|py|pz|qw|qx|qy|qz>; {expected}", path, line)
+        if suffix in KNOWN_CHANNELS:
+            kinds.add("channel")
+        elif suffix in RIGID_SUFFIXES:
+            kinds.add("rigid")
+        else:
+            _fail(f"bad header: column {field[:60]!r} has an unknown suffix {suffix[:20]!r} "
+                  "(a BVH channel such as Xrotation, or px py pz qw qx qy qz)", path, line)
+        entries.append((name, suffix, k))
+    if special["time"] < 0:
+        _fail(f"bad header: no 'time' column; {expected}", path, line)
+    if not entries:
+        _fail(f"bad header: no channel or body columns; {expected}", path, line)
+    if len(kinds) > 1:
+        _fail("bad header: mixes BVH channel columns and rigid-body columns", path, line)
+    return kinds.pop(), entries, special["time"]
+
+
+def _parse_body(data: bytes, body_start: int, n_columns: int, first_line: int, path):
+    """Parse the data rows: ``(F, K)`` values, token offsets and each row's line number."""
+    buf = np.frombuffer(data, dtype=np.uint8)
+    starts, ends = scan_tokens(buf, body_start, b",")
+    newlines = np.flatnonzero(buf[body_start:] == 10) + body_start
+    commas = np.flatnonzero(buf[body_start:] == 44) + body_start
+    token_line = np.searchsorted(newlines, starts)
+    n_lines = len(newlines) + 1
+    tokens_per_line = np.bincount(token_line, minlength=n_lines)
+    commas_per_line = np.bincount(np.searchsorted(newlines, commas), minlength=n_lines)
+    rows = np.flatnonzero((tokens_per_line > 0) | (commas_per_line > 0))
+    if not rows.size:
+        _fail("no data rows after the header", path, first_line - 1)
+    n_tokens, n_commas = tokens_per_line[rows], commas_per_line[rows]
+    bad = np.flatnonzero((n_tokens != n_columns) | (n_commas != n_columns - 1))
+    if bad.size:
+        row = bad[0]
+        line = first_line + rows[row]
+        if n_commas[row] != n_columns - 1:
+            _fail(f"row has {n_commas[row] + 1} columns, the header has {n_columns}", path, line)
+        _fail("row has an empty value or two values in one column", path, line)
+    # Exactly one comma between neighbouring values of a row.
+    gaps = np.searchsorted(commas, starts[1:]) - np.searchsorted(commas, ends[:-1])
+    inner = token_line[1:] == token_line[:-1]
+    wrong = np.flatnonzero(inner & (gaps != 1))
+    if wrong.size:
+        _fail("row has an empty value or two values in one column", path,
+              first_line + token_line[wrong[0] + 1])
+    values, bad_token = parse_numbers(buf, starts, ends)
+    if bad_token >= 0:
+        text = buf[starts[bad_token]:ends[bad_token]].tobytes().decode("utf-8", "replace")[:40]
+        try:
+            float(text)
+            problem = "is not finite"
+        except ValueError:
+            problem = "is not a number"
+        _fail(f"value {text!r} {problem}", path, first_line + token_line[bad_token])
+    shape = (rows.size, n_columns)
+    return values.reshape(shape), starts.reshape(shape), ends.reshape(shape), first_line + rows
+
+
+def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | None) -> float:
+    """The frame time of a uniformly sampled time column (see the module docstring)."""
+    n = times.size
+    if n < 2:
+        if template is not None:
+            return template
+        _fail("a single row cannot give the frame time; at least two rows are needed",
+              path, int(lines[0]))
+    steps = np.diff(times)
+    back = np.flatnonzero(steps <= 0)
+    if back.size:
+        i = back[0] + 1
+        _fail(f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s)", path,
+              int(lines[i]))
+    grid = np.arange(n)
+    if template is not None and np.all(
+            np.abs(times - times[0] - grid * template) <= TIME_TOLERANCE * template):
+        return template
+    mean = (times[-1] - times[0]) / (n - 1)
+    off = np.abs(steps - mean) > TIME_TOLERANCE * mean
+    if off.any():
+        i = np.flatnonzero(off)[0] + 1
+        _fail(f"not uniformly sampled: a time step of {steps[i - 1]:.6g} s against a mean "
+              f"step of {mean:.6g} s (more than {TIME_TOLERANCE:.0%} apart); resample the "
+              "clip first", path, int(lines[i]))
+    drift = np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean
+    if drift.any():
+        i = np.flatnonzero(drift)[0]
+        _fail(f"not uniformly sampled: time {times[i]:.6g} s is more than "
+              f"{TIME_TOLERANCE:.0%} of a frame off the uniform grid of {mean:.6g} s steps; "
+              "resample the clip first", path, int(lines[i]))
+    return float(f"{mean:.12g}")
+
+
+def _channel_skeleton(entries, path, line):
+    """Joint names and channel tuples, in column order, from channel column entries."""
+    names: list[str] = []
+    channels: list[list[str]] = []
+    columns: list[int] = []
+    for name, suffix, k in entries:
+        if not names or names[-1] != name:
+            if name in names:
+                _fail(f"bad header: the columns of joint {name[:60]!r} are not next to each "
+                      "other", path, line)
+            names.append(name)
+            channels.append([])
+        channels[-1].append(suffix)
+        columns.append(k)
+    for name, joint_channels in zip(names, channels, strict=True):
+        rotations = sum(c in ROTATION_CHANNELS for c in joint_channels)
+        if rotations not in (0, 3):
+            _fail(f"bad header: joint {name[:60]!r} has {rotations} rotation columns; a joint "
+                  "needs all three (Xrotation, Yrotation, Zrotation) or none", path, line)
+    return names, [tuple(c) for c in channels], np.array(columns, dtype=np.intp)
+
+
+def _template_columns(entries, skeleton: Motion, path, line) -> np.ndarray:
+    """CSV column of each of the template's channels, in the template's channel order."""
+    where = {(name, suffix): k for name, suffix, k in entries}
+    columns = []
+    for name, joint_channels in zip(skeleton.names, skeleton.channels, strict=True):
+        for channel in joint_channels:
+            k = where.pop((name, channel), None)
+            if k is None:
+                _fail(f"column {name}.{channel} of the skeleton is missing", path, line)
+            columns.append(k)
+        csv_order = [s for n, s, _ in entries if n == name and s in ROTATION_CHANNELS]
+        bvh_order = [c for c in joint_channels if c in ROTATION_CHANNELS]
+        if csv_order != bvh_order:
+            _fail(f"joint {name!r}: rotation columns in order {''.join(c[0] for c in csv_order)}"
+                  f" but the skeleton's order is {''.join(c[0] for c in bvh_order)}", path, line)
+    if where:
+        name, suffix = next(iter(where))
+        _fail(f"column {name}.{suffix} is not a channel of the skeleton", path, line)
+    return np.array(columns, dtype=np.intp)
+
+
+def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
+    """Parse a channel or rigid-body CSV (see the module docstring).
+
+    ``skeleton`` is the template a channel CSV is read into; it is not used for a
+    rigid-body CSV. Errors name ``path`` and the line.
+    """
+    if not data.strip():
+        _fail("empty file", path)
+    if b"\x00" in data[:4096]:
+        _fail("not a text file (binary data)", path)
+    fields, header_line, body_start = _split_header(data, path)
+    layout, entries, time_column = _classify(fields, path, header_line)
+    values, starts, ends, lines = _parse_body(data, body_start, len(fields), header_line + 1,
+                                              path)
+    eol = b"\r\n" if data[:body_start].endswith(b"\r\n") else b"\n"
+    path_text = None if path is None else str(path)
+    times = values[:, time_column]
+    if layout == "rigid":
+        return _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol,
+                             path, header_line)
+    if skeleton is None:
+        names, channels, columns = _channel_skeleton(entries, path, header_line)
+        frame_time = _frame_time(times, lines, path, None)
+        text = CsvText("channel", data, starts, ends, values, columns, time_column,
+                       (tuple(names), tuple(channels)), frame_time, eol, needs_skeleton=True)
+        n = len(names)
+        return Motion.from_channel_values(names, np.full(n, -1), np.zeros((n, 3)), channels,
+                                          frame_time, values[:, columns], source=text,
+                                          path=path_text)
+    if getattr(skeleton.source, "needs_skeleton", False):
+        _fail("the skeleton template has no skeleton itself (a channel CSV); pass a BVH file",
+              skeleton.path)
+    columns = _template_columns(entries, skeleton, path, header_line)
+    frame_time = _frame_time(times, lines, path, skeleton.frame_time)
+    motion = Motion.from_channel_values(
+        skeleton.names, skeleton.parents, skeleton.offsets, skeleton.channels, frame_time,
+        values[:, columns], end_sites=dict(skeleton.end_sites), path=path_text)
+    template = skeleton.source
+    if isinstance(template, BvhText):
+        if (skeleton.has_source_frames() and template.n_frames == motion.n_frames
+                and frame_time == template.frame_time):
+            motion.source = template
+            motion.source_values = skeleton.source_values
+            motion.source_rotations = skeleton.source_rotations
+        else:
+            motion.source = BvhText.hierarchy_only(template)
+    return motion
+
+
+def _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol, path,
+                  header_line) -> Motion:
+    bodies: list[str] = []
+    found: dict[str, dict[str, int]] = {}
+    for name, suffix, k in entries:
+        if name not in found:
+            bodies.append(name)
+            found[name] = {}
+        found[name][suffix] = k
+    columns = np.empty((len(bodies), len(RIGID_SUFFIXES)), dtype=np.intp)
+    for b, name in enumerate(bodies):
+        for s, suffix in enumerate(RIGID_SUFFIXES):
+            if suffix not in found[name]:
+                _fail(f"bad header: body {name[:60]!r} has no column {name[:60]}.{suffix} "
+                      "(a body needs px py pz qw qx qy qz)", path, header_line)
+            columns[b, s] = found[name][suffix]
+    frame_time = _frame_time(values[:, time_column], lines, path, None)
+    translations = values[:, columns[:, :3]]
+    q = values[:, columns[:, 3:]]
+    norm = np.sqrt(np.sum(q * q, axis=-1))
+    tiny = norm < MIN_QUAT_NORM
+    if tiny.any():
+        f, b = np.argwhere(tiny)[0]
+        _fail(f"body {bodies[b]!r}: quaternion of norm {norm[f, b]:.3g} (below "
+              f"{MIN_QUAT_NORM:g}) is not a rotation", path, int(lines[f]))
+    unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
+    rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
+    channels = [RIGID_CHANNELS] * len(bodies)
+    text = CsvText("rigid", data, starts, ends, values, columns, time_column,
+                   (tuple(bodies), tuple(channels)), frame_time, eol)
+    n = len(bodies)
+    return Motion(names=bodies, parents=np.full(n, -1, dtype=np.intp), offsets=np.zeros((n, 3)),
+                  channels=channels, frame_time=frame_time, rotations=rotations,
+                  translations=translations, source_rotations=rotations.copy(), source=text,
+                  path=None if path is None else str(path))
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def format_repr(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shortest round-trip text (``repr``) of each value as ``(buffer, starts, lengths)``."""
+    text = " ".join(map(repr, np.asarray(values, dtype=np.float64).ravel().tolist())).encode()
+    buf = np.frombuffer(text, dtype=np.uint8)
+    starts, ends = scan_tokens(buf)
+    return buf, starts, ends - starts
+
+
+def _header(fields: list[str], eol: bytes) -> bytes:
+    out = _io.StringIO()
+    _csv.writer(out, lineterminator="").writerow(fields)
+    return out.getvalue().encode("utf-8") + eol
+
+
+class _Cells:
+    """Text pieces from several buffers, addressed in one concatenated buffer."""
+
+    def __init__(self):
+        self.parts: list[np.ndarray] = []
+        self.size = 0
+
+    def add(self, buf: np.ndarray, starts, lengths) -> tuple[np.ndarray, np.ndarray]:
+        self.parts.append(buf)
+        offset, self.size = self.size, self.size + buf.size
+        return np.asarray(starts) + offset, np.asarray(lengths)
+
+    def buffer(self) -> np.ndarray:
+        return np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=np.uint8)
+
+
+def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray) -> bytes:
+    """The source text with the ``mask``ed ``(F, K)`` cells replaced by ``placed`` values;
+    the time column is rewritten too when the frame time changed."""
+    is_time = np.zeros(mask.shape, dtype=bool)
+    if motion.frame_time != src.frame_time:
+        first = float(src.values[0, src.time_column])
+        mask[:, src.time_column] = is_time[:, src.time_column] = True
+        placed[:, src.time_column] = first + np.arange(motion.n_frames) * motion.frame_time
+    if not mask.any():
+        return src.raw
+    new, new_is_time = placed[mask].tolist(), is_time[mask].tolist()
+
+    def texts(a: int, b: int):
+        return pack_texts([b"%.12g" % v if t else repr(v).encode()
+                           for v, t in zip(new[a:b], new_is_time[a:b], strict=True)])
+
+    return splice(src.raw, src.starts[mask], src.ends[mask], texts)
+
+
+def _fresh(fields: list[str], eol: bytes, cells: _Cells, starts, lengths) -> bytes:
+    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol,
+                     _header(fields, eol))
+
+
+def _frame_and_time(motion: Motion, cells: _Cells):
+    n = motion.n_frames
+    first = 0.0
+    if isinstance(motion.source, CsvText) and motion.source.n_frames:
+        first = float(motion.source.values[0, motion.source.time_column])
+    frames = cells.add(*pack_texts([b"%d" % i for i in range(n)]))
+    times = cells.add(*pack_texts([b"%.12g" % (first + i * motion.frame_time)
+                                   for i in range(n)]))
+    return frames, times
+
+
+def _format_channel(motion: Motion) -> bytes:
+    values = motion.channel_values()
+    check_finite(motion, values)
+    n_frames, n_channels = values.shape
+    src = motion.source
+    same = motion.has_source_frames() and motion.source_values.shape[1] == n_channels
+    if isinstance(src, CsvText) and src.layout == "channel" and src.matches(motion) and same:
+        mask = np.zeros(src.starts.shape, dtype=bool)
+        mask[:, src.columns] = values != motion.source_values
+        placed = np.zeros(src.starts.shape)
+        placed[:, src.columns] = values
+        return _rewrite(src, motion, mask, placed)
+
+    cells = _Cells()
+    starts = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
+    lengths = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
+    fresh = np.ones((n_frames, n_channels), dtype=bool)
+    if isinstance(src, BvhText) and same and src.n_frames == n_frames:
+        fresh = values != motion.source_values
+        kept = ~fresh
+        s, n = cells.add(np.frombuffer(src.raw, dtype=np.uint8), src.starts[kept],
+                         (src.ends - src.starts)[kept])
+        starts[:, 2:][kept], lengths[:, 2:][kept] = s, n
+    starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(values[fresh]))
+    (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(motion,
+                                                                                  cells)
+    fields = ["frame", "time"] + [
+        f"{motion.names[j]}.{channel}"
+        for j in range(motion.n_joints) for channel in motion.channels[j]
+    ]
+    return _fresh(fields, _eol(src), cells, starts, lengths)
+
+
+def _eol(source) -> bytes:
+    return source.eol if isinstance(source, BvhText | CsvText) else b"\n"
+
+
+def _format_rigid(motion: Motion) -> bytes:
+    src = motion.source
+    q, t = motion.rotations, motion.translations
+    check_finite(motion, np.concatenate([t, q], axis=-1).reshape(len(q), -1),
+                 [len(RIGID_SUFFIXES)] * motion.n_joints)
+    if (isinstance(src, CsvText) and src.layout == "rigid" and src.matches(motion)
+            and motion.source_rotations is not None):
+        read = src.values[:, src.columns]  # (F, B, 7) as in the file
+        read_q = motion.source_rotations  # q and -q are the same rotation
+        q_changed = np.any(q != read_q, axis=-1) & np.any(q != -read_q, axis=-1)
+        t_changed = t != read[..., :3]
+        sign = np.where(np.sum(q * read[..., 3:], axis=-1) < 0.0, -1.0, 1.0)
+        new = np.concatenate([t, q * sign[..., None]], axis=-1)
+        mask = np.zeros(src.starts.shape, dtype=bool)
+        placed = np.zeros(src.starts.shape)
+        rows = np.arange(motion.n_frames)[:, None, None]
+        mask[rows, src.columns] = np.concatenate(
+            [t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1)
+        placed[rows, src.columns] = new
+        return _rewrite(src, motion, mask, placed)
+
+    if np.any(motion.parents >= 0):
+        raise MotionError("a rigid-body CSV holds independent bodies, but this clip has a "
+                          "joint hierarchy; write a channel CSV instead", motion.path)
+    cells = _Cells()
+    n_frames, n_bodies = q.shape[:2]
+    values = np.concatenate([t, q], axis=-1).reshape(n_frames, 7 * n_bodies)
+    starts = np.zeros((n_frames, values.shape[1] + 1), dtype=np.int64)
+    lengths = np.zeros_like(starts)
+    starts[:, 1:], lengths[:, 1:] = (a.reshape(values.shape)
+                                     for a in cells.add(*format_repr(values)))
+    _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells)
+    fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
+    return _fresh(fields, _eol(src), cells, starts, lengths)
+
+
+def format_csv(motion: Motion, layout: str | None = None) -> bytes:
+    """Serialise ``motion`` as CSV bytes: ``layout`` ``"channel"`` or ``"rigid"``.
+
+    By default a clip read from a rigid-body CSV is written as one, every other clip as a
+    channel CSV. Unchanged values keep the input's text (see the module docstring).
+    """
+    if layout is None:
+        src = motion.source
+        layout = src.layout if isinstance(src, CsvText) else "channel"
+    if layout == "rigid":
+        return _format_rigid(motion)
+    if layout == "channel":
+        return _format_channel(motion)
+    raise ValueError(f"layout must be 'channel' or 'rigid', got {layout!r}")

@@ -1,0 +1,354 @@
+"""BVH read/write: exact identity round trips on real and synthetic files from other
+exporters, minimal rewrites after an edit, and the Euler conventions against bvhio."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.io.bvh import format_bvh, format_fixed6, parse_bvh, parse_numbers, scan_tokens
+
+ROOT = Path(__file__).resolve().parents[1]
+CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
+SAMPLES = sorted((ROOT / "sample_data").glob("*.bvh"))
+ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+NAMES = ("mixamorig:Hips", "Left Up Leg", "spine.001", "R:Arm 2", "Neck", "joint_7",
+         "mixamorig:LeftHandIndex1", "Bip01 L Thigh")
+
+
+def corpus_clips() -> list[Path]:
+    if not CORPUS.is_dir():
+        pytest.skip(f"corpus not found at {CORPUS} (../shared/corpus)")
+    return sorted(CORPUS.glob("*.bvh"))
+
+
+def frame_rows(data: bytes) -> list[bytes]:
+    """The frame rows of BVH bytes, each with its line ending."""
+    body = data[data.index(b"Frame Time"):].split(b"\n", 1)[1]
+    return [row for row in body.splitlines(keepends=True) if row.strip()]
+
+
+def line_endings(data: bytes) -> list[bytes]:
+    return re.findall(rb"\r?\n", data) + [b"" if data.endswith(b"\n") else b"open"]
+
+
+# ----------------------------------------------------------------------------- real files
+
+
+@pytest.mark.parametrize("name", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
+def test_corpus_identity_round_trip(name, tmp_path):
+    path = next((p for p in corpus_clips() if p.name == name), None)
+    if path is None:
+        pytest.skip(f"{name} not in the corpus")
+    mc.save(mc.load(path), tmp_path / name)
+    assert (tmp_path / name).read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize("path", SAMPLES, ids=lambda p: p.name)
+def test_sample_identity_round_trip(path, tmp_path):
+    clip = mc.load(path)
+    assert clip.n_frames > 0 and clip.source_values.shape[1] == clip.layout.n_channels
+    mc.save(clip, tmp_path / path.name)
+    assert (tmp_path / path.name).read_bytes() == path.read_bytes()
+    # A copy of the arrays (no longer the same objects) still writes the input bytes.
+    copy = clip.replace(rotations=clip.rotations.copy(), translations=clip.translations.copy())
+    assert format_bvh(copy) == path.read_bytes()
+
+
+def test_sample_values_match_float():
+    path = SAMPLES[0]
+    clip = mc.load(path)
+    expected = [[float(t) for t in row.split()] for row in frame_rows(path.read_bytes())]
+    np.testing.assert_array_equal(clip.source_values, np.array(expected))
+
+
+# ----------------------------------------------------------------------------- other exporters
+
+
+def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fps: int,
+                 open_end: bool):
+    """A BVH file as some other exporter might write it; returns the bytes and the
+    expected ``(names, parents, channels, values)``."""
+    rng = np.random.default_rng(seed)
+    n_joints = int(rng.integers(2, 7))
+    names = [str(n) for n in rng.permutation(NAMES)[:n_joints]]
+    parents, path = [-1], [0]  # parents chosen on the open path keep file order = index
+    for j in range(1, n_joints):
+        path = path[:int(rng.integers(1, len(path) + 1))]
+        parents.append(path[-1])
+        path.append(j)
+    channels = []
+    for j in range(n_joints):
+        order = ORDERS[rng.integers(6)]
+        rotation = [f"{a}rotation" for a in order]
+        position = [f"{a}position" for a in rng.permutation(list("XYZ"))]
+        kind = "both" if j == 0 else rng.choice(["rotation", "rotation", "position", "both"])
+        if kind == "rotation":
+            channels.append(tuple(rotation))
+        elif kind == "position":
+            channels.append(tuple(position))
+        else:  # six channels, positions interleaved anywhere
+            slots = set(rng.choice(6, 3, replace=False).tolist())
+            rot, pos = iter(rotation), iter(position)
+            channels.append(tuple(next(pos) if k in slots else next(rot) for k in range(6)))
+    n_frames = int(rng.integers(2, 30))
+    columns = [(j, c) for j in range(n_joints) for c in channels[j]]
+    values = np.where([c.endswith("rotation") for _, c in columns],
+                      rng.uniform(-400, 400, (n_frames, len(columns))),
+                      rng.uniform(-100, 100, (n_frames, len(columns))))
+    # Frames exactly at gimbal lock: the middle rotation angle at +-90 degrees.
+    for j in range(n_joints):
+        middle = [k for k, (jj, c) in enumerate(columns) if jj == j and "rotation" in c][1:2]
+        if middle:
+            locked = rng.uniform(size=n_frames) < 0.3
+            values[locked, middle[0]] = rng.choice([-90.0, 90.0, 270.0], locked.sum())
+    styles = ["%.6f", "%.4f", "%g", "%.2f", "%.0f", "%.9f"]
+    texts = [[styles[(seed + k) % len(styles)] % v for k, v in enumerate(row)]
+             for row in values.tolist()]
+    values = np.array([[float(t) for t in row] for row in texts])
+
+    lines = ["HIERARCHY"]
+
+    def joint(j: int, depth: int) -> None:
+        pad = indent * depth
+        lines.append(f"{pad}{'ROOT' if parents[j] < 0 else 'JOINT'} {names[j]}")
+        lines.append(f"{pad}{{")
+        lines.append(f"{pad}{indent}OFFSET {rng.uniform(-9, 9):.5f} {rng.uniform(-9, 9):g} 0")
+        lines.append(f"{pad}{indent}CHANNELS {len(channels[j])} {' '.join(channels[j])}")
+        kids = [k for k in range(n_joints) if parents[k] == j]
+        for k in kids:
+            joint(k, depth + 1)
+        if not kids:
+            lines.extend([f"{pad}{indent}End Site", f"{pad}{indent}{{",
+                          f"{pad}{indent * 2}OFFSET 0 1.5 0", f"{pad}{indent}}}"])
+        lines.append(f"{pad}}}")
+
+    joint(0, 0)
+    lines += ["MOTION", f"Frames: {n_frames}", f"Frame Time: {1 / fps:.{rng.integers(6, 17)}g}"]
+    for row in texts:
+        gaps = rng.choice([" ", "\t", "  ", " \t"], len(row) - 1)
+        lines.append(row[0] + "".join(g + t for g, t in zip(gaps, row[1:], strict=True)))
+    if trailing:
+        lines = [line + rng.choice(["", " ", "\t", "  "]) for line in lines]
+    ends = {"lf": ["\n"], "crlf": ["\r\n"], "mixed": ["\n", "\r\n"]}[eol]
+    out = "".join(line + ends[rng.integers(len(ends))] for line in lines)
+    if open_end:
+        out = out.rstrip("\r\n \t")
+    data = (b"\xef\xbb\xbf" if bom else b"") + out.encode("utf-8")
+    return data, (names, parents, channels, values)
+
+
+EXPORTERS = dict(
+    seed=st.integers(0, 2**31 - 1),
+    eol=st.sampled_from(["lf", "crlf", "mixed"]),
+    bom=st.booleans(),
+    indent=st.sampled_from(["\t", "  ", "    "]),
+    trailing=st.booleans(),
+    fps=st.sampled_from([24, 25, 30, 50, 60, 100, 120]),
+    open_end=st.booleans(),
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(**EXPORTERS)
+def test_exporter_identity_round_trip(seed, eol, bom, indent, trailing, fps, open_end):
+    data, (names, parents, channels, values) = exporter_bvh(seed, eol, bom, indent, trailing,
+                                                            fps, open_end)
+    clip = parse_bvh(data, "x.bvh")
+    assert clip.names == names
+    assert clip.parents.tolist() == parents
+    assert clip.channels == channels
+    np.testing.assert_array_equal(clip.source_values, values)
+    assert format_bvh(clip) == data
+    # Rotations are the channel values' quaternions, in each joint's own order.
+    layout = clip.layout
+    for j, order in enumerate(layout.rotation_orders):
+        if order is not None:
+            expected = quat.from_euler(values[:, layout.rotation_columns[j]], order)
+            dots = np.abs(np.sum(clip.rotations[:, j] * expected, axis=-1))
+            np.testing.assert_allclose(dots, 1.0, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(**EXPORTERS, axis=st.lists(st.floats(-1, 1), min_size=3, max_size=3),
+       degrees=st.floats(0.01, 40))
+def test_exporter_edit_one_joint(seed, eol, bom, indent, trailing, fps, open_end, axis,
+                                 degrees):
+    data, _ = exporter_bvh(seed, eol, bom, indent, trailing, fps, open_end)
+    clip = parse_bvh(data, "x.bvh")
+    layout = clip.layout
+    rotating = np.flatnonzero(layout.has_rotation)
+    j = int(rotating[seed % rotating.size])
+    axis = np.asarray(axis) + [0.0, 0.0, 1e-3]
+    turn = quat.from_axis_angle(axis / np.linalg.norm(axis), np.deg2rad(degrees))
+    rotations = clip.rotations.copy()
+    rotations[:, j] = quat.multiply(rotations[:, j], turn)
+    out = format_bvh(clip.replace(rotations=rotations))
+    again = parse_bvh(out, "y.bvh")
+
+    # Everything but the edited joint's rotation values is the same text.
+    edited = set(layout.rotation_columns[j].tolist())
+    assert out[:out.index(b"MOTION")] == data[:data.index(b"MOTION")]
+    assert line_endings(out) == line_endings(data)
+    for row_in, row_out in zip(frame_rows(data), frame_rows(out), strict=True):
+        parts_in, parts_out = re.split(rb"(\s+)", row_in), re.split(rb"(\s+)", row_out)
+        assert len(parts_in) == len(parts_out)
+        for k, (a, b) in enumerate(zip(parts_in, parts_out, strict=True)):
+            if not (k % 2 == 0 and k // 2 in edited and a.strip()):
+                assert a == b
+    others = np.setdiff1d(np.arange(layout.n_channels), sorted(edited))
+    np.testing.assert_array_equal(again.source_values[:, others], clip.source_values[:, others])
+    # The edited joint is the written quaternion to printing precision (1e-6 degrees).
+    error = np.rad2deg(quat.angle_between(again.rotations[:, j], rotations[:, j]))
+    assert np.max(error) < 2e-6
+    # ... on the original Euler branch: no whole-turn jumps away from the input angles.
+    cols = layout.rotation_columns[j]
+    clear = np.abs(np.abs(clip.source_values[:, cols[1]]) % 180 - 90) > 30
+    jump = np.abs(again.source_values[clear][:, cols] - clip.source_values[clear][:, cols])
+    assert np.all(jump < 180)
+
+
+def test_exporter_file_agrees_with_bvhio(tmp_path):
+    bvhio = pytest.importorskip("bvhio")
+    data, (names, _, _, _) = exporter_bvh(11, "crlf", False, "\t", True, 30, False)
+    data = data.replace(b"Left Up Leg", b"LeftUpLeg").replace(b"R:Arm 2", b"R:Arm2")
+    data = data.replace(b"Bip01 L Thigh", b"Bip01_L_Thigh")
+    (tmp_path / "x.bvh").write_bytes(data)
+    clip = mc.load(tmp_path / "x.bvh")
+    theirs = bvhio.readAsBvh(str(tmp_path / "x.bvh"))
+    joints, stack = {}, [theirs.Root]
+    while stack:
+        joint = stack.pop()
+        joints[joint.Name] = joint
+        stack.extend(joint.Children)
+    assert sorted(joints) == sorted(clip.names)
+    for j, name in enumerate(clip.names):
+        if not clip.layout.has_rotation[j]:
+            continue
+        q = np.array([[k.Rotation.w, k.Rotation.x, k.Rotation.y, k.Rotation.z]
+                      for k in joints[name].Keyframes])
+        assert np.max(np.rad2deg(quat.angle_between(clip.rotations[:, j], q))) < 1e-3
+
+
+# ----------------------------------------------------------------------------- Euler angles
+
+
+def bvhio_quaternion(angles: np.ndarray, order: str) -> np.ndarray:
+    """bvhio's intrinsic Euler conversion; ``angles[n]`` is about axis ``order[n]``."""
+    glm = pytest.importorskip("glm")
+    euler = pytest.importorskip("SpatialTransform").Euler
+    xyz = [0.0, 0.0, 0.0]
+    for axis, angle in zip(order, angles.tolist(), strict=True):
+        xyz["XYZ".index(axis)] = angle
+    q = euler.toQuatFrom(glm.radians(glm.vec3(*xyz)), order=order, extrinsic=False)
+    return np.array([q.w, q.x, q.y, q.z])
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_euler_agrees_with_bvhio(order):
+    rng = np.random.default_rng(ORDERS.index(order))
+    angles = rng.uniform(-360, 360, (150, 3))
+    ours = quat.from_euler(angles, order)
+    theirs = np.array([bvhio_quaternion(a, order) for a in angles])
+    assert np.max(np.rad2deg(quat.angle_between(ours, theirs))) < 2e-4  # bvhio is float32
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_euler_round_trip(order):
+    rng = np.random.default_rng(10 + ORDERS.index(order))
+    principal = np.stack([rng.uniform(-180, 180, 5000), rng.uniform(-89.9, 89.9, 5000),
+                          rng.uniform(-180, 180, 5000)], axis=-1)
+    back = quat.to_euler(quat.from_euler(principal, order), order)
+    np.testing.assert_allclose(back, principal, rtol=0, atol=1e-9)
+    # Any triple, also beyond +-180, comes back exactly when it is its own reference.
+    wide = rng.uniform(-720, 720, (5000, 3))
+    wide[:, 1] = np.where(np.abs(np.cos(np.deg2rad(wide[:, 1]))) < 1e-3, 0.0, wide[:, 1])
+    back = quat.to_euler(quat.from_euler(wide, order), order, reference=wide)
+    np.testing.assert_allclose(back, wide, rtol=0, atol=1e-9)
+
+
+def equivalent_triples(principal: np.ndarray) -> np.ndarray:
+    """Both Euler solutions of each triple shifted by every whole turn in -3..3."""
+    second = principal * [1, -1, 1] + [180.0, 180.0, 180.0]
+    turns = np.stack(np.meshgrid(*[np.arange(-3, 4)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    both = np.stack([principal, second], axis=-2)  # (..., 2, 3)
+    return (both[..., None, :] + 360.0 * turns).reshape(*principal.shape[:-1], -1, 3)
+
+
+@settings(max_examples=30, deadline=None)
+@given(order=st.sampled_from(ORDERS), seed=st.integers(0, 2**31 - 1))
+def test_to_euler_picks_the_nearest_triple(order, seed):
+    rng = np.random.default_rng(seed)
+    q = quat.normalize(rng.normal(size=(64, 4)))
+    reference = rng.uniform(-540, 540, (64, 3))
+    got = quat.to_euler(q, order, reference=reference)
+    assert np.all(np.rad2deg(quat.angle_between(quat.from_euler(got, order), q)) < 1e-9)
+    candidates = equivalent_triples(quat.to_euler(q, order))
+    best = np.min(np.sum((candidates - reference[:, None]) ** 2, axis=-1), axis=-1)
+    assert np.all(np.sum((got - reference) ** 2, axis=-1) <= best + 1e-6)
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_to_euler_keeps_the_reference_split_at_gimbal_lock(order):
+    rng = np.random.default_rng(20 + ORDERS.index(order))
+    angles = rng.uniform(-180, 180, (200, 3))
+    angles[:, 1] = rng.choice([-90.0, 90.0], 200)
+    q = quat.from_euler(angles, order)
+    reference = angles + rng.uniform(-30, 30, (200, 3)) * [1, 0, 1]
+    got = quat.to_euler(q, order, reference=reference)
+    np.testing.assert_allclose(got[:, 0], reference[:, 0], atol=1e-9)
+    np.testing.assert_allclose(got[:, 1], angles[:, 1], atol=1e-6)
+    assert np.all(np.rad2deg(quat.angle_between(quat.from_euler(got, order), q)) < 1e-6)
+    # The original triple is its own nearest: written back unchanged.
+    np.testing.assert_allclose(quat.to_euler(q, order, reference=angles), angles, atol=1e-6)
+
+
+# ----------------------------------------------------------------------------- number text
+
+
+def test_parse_numbers_is_float():
+    rng = np.random.default_rng(0)
+    values = rng.standard_normal(3000) * 10.0 ** rng.integers(-12, 12, 3000)
+    texts = ([repr(v) for v in values.tolist()] + [f"{v:.6f}" for v in values.tolist()]
+             + [f"{v:.3e}" for v in values.tolist()]
+             + ["-0", "+5", ".5", "5.", "-.25", "007", "123456789012345", "1234567890123456789",
+                "0.1000000000000000055511151231257827", "1E5", "-0.0000"])
+    text = " \t".join(texts).encode()
+    buf = np.frombuffer(text, dtype=np.uint8)
+    starts, ends = scan_tokens(buf)
+    got, bad = parse_numbers(buf, starts, ends)
+    assert bad == -1
+    expected = np.array([float(t) for t in texts])
+    np.testing.assert_array_equal(got, expected)
+    assert np.array_equal(np.signbit(got), np.signbit(expected))
+
+
+@pytest.mark.parametrize("token", ["abc", "1.2.3", "--1", "1-2", "+", ".", "1_000", "nan",
+                                   "inf", "-Infinity", "0x10", "1e", "1e400", "12a"])
+def test_parse_numbers_rejects(token):
+    text = f"1.5 {token} 2.5".encode()
+    buf = np.frombuffer(text, dtype=np.uint8)
+    _, bad = parse_numbers(buf, *scan_tokens(buf))
+    assert bad == 1
+
+
+def test_format_fixed6_is_printf():
+    rng = np.random.default_rng(1)
+    values = np.concatenate([
+        rng.standard_normal(20000) * 10.0 ** rng.integers(-9, 10, 20000),
+        np.arange(-3000, 3000) / 2e6,  # exact and near halves of the last digit
+        [0.0078125, -0.0078125, -4e-7, -5e-7, 5e-7, -0.0, 1e300, -1e-300, 9999999.9999995],
+    ])
+    buf, starts, lengths = format_fixed6(values)
+    got = [buf[s:s + n].tobytes() for s, n in zip(starts.tolist(), lengths.tolist(),
+                                                  strict=True)]
+    expected = [b"%.6f" % v for v in values.tolist()]
+    expected = [e[1:] if e.startswith(b"-") and float(e) == 0 else e for e in expected]
+    assert got == expected
