@@ -11,7 +11,8 @@ Run ``python bench/bilateral.py``. Prints markdown tables:
    trailing axis). Shown at the clip's 120 fps and decimated to 30 fps, nearer the
    sampling the paper's figures suggest.
 2. Cost of one bilateral pass against one Lee-Shin pass with the same window (the
-   Gaussian mask of the same sigma_t), same process and data.
+   Gaussian mask of the same sigma_t), same process and data; the same for positions
+   (bilateral_positions against lee_shin_positions on a random walk).
 3. The paper's workload: 75 joints x 150 frames x 5 passes (002 reports 300 ms).
 """
 
@@ -25,8 +26,8 @@ import numpy as np
 
 import motionclean as mc
 from motionclean import quat
-from motionclean.filters.bilateral import bilateral
-from motionclean.filters.linear import lee_shin
+from motionclean.filters.bilateral import bilateral, bilateral_positions
+from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import gaussian
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -128,6 +129,18 @@ def main() -> None:
                 f"| {label} | {sigma_t:g} | {mask.size // 2} | {1e3 * t_ls:.1f} | "
                 f"{1e3 * t_bf:.1f} | {t_bf / t_ls:.2f} |"
             )
+    print()
+    print("| positions | sigma_t | radius | Lee-Shin ms | bilateral ms | ratio |")
+    print("|---|---:|---:|---:|---:|---:|")
+    walk = np.cumsum(np.random.default_rng(1).normal(size=(10000, 31, 3)), axis=0)
+    for sigma_t in (1.0, 2.0):
+        mask = gaussian(sigma_t)
+        t_ls = best_time(lambda mask=mask: lee_shin_positions(walk, mask), args.repeats)
+        t_bf = best_time(lambda s=sigma_t: bilateral_positions(walk, s, 1.0), args.repeats)
+        print(
+            f"| random walk {walk.shape}, sigma_p 1 | {sigma_t:g} | {mask.size // 2} | "
+            f"{1e3 * t_ls:.1f} | {1e3 * t_bf:.1f} | {t_bf / t_ls:.2f} |"
+        )
     print()
 
     clips = [mc.load(p).rotations[:150] for p in sorted(CORPUS.glob("131_0*.bvh"))]

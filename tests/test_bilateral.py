@@ -186,6 +186,28 @@ def test_positions_interior_is_classical_bilateral():
     np.testing.assert_allclose(got[i], num / den, atol=1e-12)
 
 
+def test_positions_ends_are_bilateral_of_the_extension():
+    # At the ends the neighbours are p_{-j} = p_0 - (d_{-1} + ... + d_{-j}) and p_{n-1+j} =
+    # p_{n-1} + (d_{n-1} + ... + d_{n-2+j}) with d mirrored by 000 Eq. 26; on that extended
+    # signal, Eq. 20 turns the output into 002 Eq. 4 for every frame, ends included.
+    p = np.cumsum(np.random.default_rng(17).normal(size=(20, 2, 3)), axis=0)
+    sigma_t, sigma_p, k = 1.2, 1.5, 4
+    d = mirrored_displacements(np.diff(p, axis=0), k, k)  # positions -k .. n-2+k
+    before = p[0] - np.cumsum(d[:k][::-1], axis=0)  # p_{-1} .. p_{-k}
+    after = p[-1] + np.cumsum(d[k + p.shape[0] - 1 :], axis=0)  # p_n .. p_{n-1+k}
+    ext = np.concatenate([before[::-1], p, after])
+    i = np.arange(p.shape[0])
+    num, den = 0.0, 0.0
+    for r in range(-k, k + 1):
+        dist2 = np.sum((ext[i + k + r] - p) ** 2, axis=-1, keepdims=True)
+        weight = np.exp(-(r**2) / (2 * sigma_t**2) - dist2 / (2 * sigma_p**2))
+        num, den = num + weight * ext[i + k + r], den + weight
+    got = bilateral_positions(p, sigma_t, sigma_p)
+    np.testing.assert_allclose(got, num / den, atol=1e-12)
+    # the weights at the ends really see the extension (not merely Eq. 4 on the clip)
+    assert np.max(np.abs(got[:k] - bilateral_positions(p, sigma_t, np.inf)[:k])) > 1e-3
+
+
 def test_sign_flips_and_short_signals():
     q = add_noise(smooth_rotations(25, 2, seed=7), 0.05, seed=8)
     flipped = q * np.where(np.random.default_rng(9).random((25, 2, 1)) < 0.5, -1.0, 1.0)
@@ -198,6 +220,28 @@ def test_sign_flips_and_short_signals():
     np.testing.assert_array_equal(
         bilateral(flipped, 1.0, 0.1, radius=0), quat.make_continuous(flipped)
     )
+
+
+@pytest.mark.parametrize(("sigma_t", "radius"), [(1.0, None), (0.7, 5)])
+def test_blocks_do_not_change_the_result(monkeypatch, sigma_t, radius):
+    # A pass works through blocks of about quat.BLOCK_SAMPLES samples; the smallest blocks
+    # (4k + 4 frames) must give the same result as one block: windows, the Eq. 26 extension
+    # at both ends and the sign continuity carried across block boundaries.
+    q = add_noise(smooth_rotations(150, 3, seed=13, speed=0.2), 0.05, seed=14)
+    q = q * np.where(np.random.default_rng(15).random((150, 3, 1)) < 0.3, -1.0, 1.0)
+    p = np.cumsum(np.random.default_rng(16).normal(size=(150, 3, 3)), axis=0)
+    whole = bilateral(q, sigma_t, 0.1, radius=radius, iterations=2)
+    whole_p = bilateral_positions(p, sigma_t, 1.5, radius=radius, iterations=2)
+    monkeypatch.setattr(quat, "BLOCK_SAMPLES", 1)
+    np.testing.assert_allclose(
+        bilateral(q, sigma_t, 0.1, radius=radius, iterations=2), whole, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        bilateral_positions(p, sigma_t, 1.5, radius=radius, iterations=2), whole_p, atol=1e-12
+    )
+    # the input really has sign flips, and the output is sign-continuous
+    assert np.any(np.sum(q[1:] * q[:-1], axis=-1) < 0.0)
+    assert np.all(np.sum(whole[1:] * whole[:-1], axis=-1) > 0.0)
 
 
 @pytest.mark.parametrize(

@@ -35,7 +35,15 @@ Positions use ``d(i, j) = |p_j - p_i|`` (``sigma_p`` in the file's length unit),
 displacements mirrored by the same rule and ``p_i + sum_m b_m^(i) (p_{i+m+1} - p_{i+m})``.
 
 Arrays are time-major, ``(F, ..., 4)`` or ``(F, ..., 3)``; all trailing axes are filtered at
-once, the only Python loops run over window offsets and passes.
+once, the only Python loops run over blocks of frames, window offsets and passes.
+
+Implementation: like :func:`motionclean.filters.lee_shin`, a pass runs over blocks of about
+``quat.BLOCK_SAMPLES`` samples on contiguous component planes of one reused work area of
+about ``(17 + k) x quat.BLOCK_SAMPLES`` doubles (the plane kernels of :mod:`motionclean.quat`):
+per block the samples, the relative rotations and their logs, the weights of the offsets
+``r = 1 .. k``, the weighted sums, ``exp`` and the product. Memory is the result (plus a
+second buffer when iterating) and the work stays in cache; a pass costs about 1.5-2 Lee-Shin
+passes with the same window (``python bench/bilateral.py``).
 """
 
 from __future__ import annotations
@@ -45,7 +53,7 @@ import math
 import numpy as np
 
 from .. import quat
-from .linear import mirror_indices, mirrored_displacements
+from .linear import _blocks, _fill_mirrored_ends, _mirror
 
 __all__ = ["bilateral", "bilateral_positions", "window_radius"]
 
@@ -74,84 +82,209 @@ def _check_iterations(iterations: int) -> int:
     return int(iterations)
 
 
-def _extend_rotations(q: np.ndarray, rel: np.ndarray, k: int) -> np.ndarray:
-    """Samples ``q_{-k} .. q_{n-1+k}`` of the signal whose displacements are mirrored by Eq. 26.
+def _continuity_signs(dots: np.ndarray, length: int, carry):
+    """Signs ``sigma_i`` making a block's samples sign-continuous (000 Sec. VI-A).
 
-    ``rel[m] = q_m^-1 q_{m+1} = exp(w_m)``. The actual samples are kept inside; outside,
-    the mirrored relative rotations are cumulated outward from the end samples.
+    ``dots`` holds the scalar parts of ``q_i^-1 q_{i+1}`` for the block's steps ``f0 ->
+    f0+1, ...`` (``length`` of them, one fewer in the last block) and ``carry`` the sign at
+    ``f0`` (``None``: +1). Returns the ``(length, M)`` signs (``None`` when all are +1) and the
+    carry for the next block.
     """
-    n = q.shape[0]
-    ext = np.empty((n + 2 * k, *q.shape[1:]))
-    ext[k : k + n] = q
-    idx = mirror_indices(n - 1, k, k)  # displacement positions -k .. n-2+k
-    inv = quat.conjugate(rel[idx[:k]])  # exp(w_{-j})^-1 for positions -k .. -1
-    fwd = rel[idx[k + n - 1 :]]  # exp(w_{n-2+j}) for positions n-1 .. n-2+k
-    for j in range(1, k + 1):  # loop over window offsets only
-        ext[k - j] = quat.multiply(ext[k - j + 1], inv[k - j])
-        ext[k + n - 1 + j] = quat.multiply(ext[k + n - 2 + j], fwd[j - 1])
-    return ext
+    flips = np.signbit(dots)
+    if carry is None and not flips.any():
+        return None, None
+    step = np.where(flips, -1.0, 1.0)
+    signs = np.empty((length, *dots.shape[1:]))
+    signs[0] = 1.0 if carry is None else carry
+    np.cumprod(step[: length - 1], axis=0, out=signs[1:])
+    signs[1:] *= signs[0]
+    carry = signs[-1] * step[-1] if step.shape[0] == length else None
+    if carry is not None and np.all(carry > 0.0):
+        carry = None
+    return signs, carry
 
 
-def _extend_positions(p: np.ndarray, disp: np.ndarray, k: int) -> np.ndarray:
-    """Positions ``p_{-k} .. p_{n-1+k}`` cumulated from the mirrored displacements (Eq. 26)."""
-    n = p.shape[0]
-    ext_d = mirrored_displacements(disp, k, k)  # positions -k .. n-2+k
-    before = p[0] - np.cumsum(ext_d[:k][::-1], axis=0)  # p_{-1}, p_{-2}, ..., p_{-k}
-    after = p[-1] + np.cumsum(ext_d[k + n - 1 :], axis=0)  # p_n, ..., p_{n-1+k}
-    return np.concatenate([before[::-1], p, after], axis=0)
+def _weighted_sums(weights, disp, out, tail, head, tmp) -> None:
+    """``out_i = sum_m b_m^(i) disp_{i+m}`` for a block of ``L`` samples (time on axis 1).
 
-
-def _squared_angular_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``arccos(|a . b|)^2``: squared half rotation angle between paired quaternions."""
-    c = np.einsum("...i,...i->...", a, b)
-    np.abs(c, out=c)
-    np.minimum(c, 1.0, out=c)
-    np.arccos(c, out=c)
-    return np.square(c, out=c)
-
-
-def _squared_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``|b - a|^2`` over the last axis."""
-    diff = b - a
-    return np.einsum("...i,...i->...", diff, diff)
-
-
-def _bilateral_sums(ext, disp, k, sigma_t, sigma_g, sq_dist) -> np.ndarray:
-    """``s_i = sum_m b_m^(i) disp_{i+m}`` with ``b^(i)`` from the normalised weights W(i, r).
-
-    ``ext`` holds the samples at positions ``-k .. n-1+k`` and ``disp`` the ``n-1``
-    displacements. Un-normalised weights are summed into the Eq. 20 coefficients
-    (``B_m = sum_{j>m} W_j``, ``B_m = -sum_{j<=m} W_j``) and the total divided by
-    ``sum_r W(i, r)`` once, which is Eq. 20 applied to the normalised mask.
+    ``weights[r-1, t] = W(f0-k+t, r)`` for ``t = 0 .. L+k-1`` (so ``W(i, -r) = W(i-r, r)``
+    is read from the same rows) and ``disp[:, t]`` is the displacement at position
+    ``f0-k+t``. Un-normalised weights are summed into the Eq. 20 coefficients
+    (``B_m = sum_{j>m} W_j``, ``B_m = -sum_{j<=m} W_j``) and the total divided by ``sum_r
+    W(i, r)`` once, which is Eq. 20 applied to the normalised mask. ``tail`` and ``head``
+    are ``(L, ...)`` scratch, ``tmp`` is shaped like ``out``.
     """
-    n = ext.shape[0] - 2 * k
-    dext = mirrored_displacements(disp, k, k)  # positions -k .. n-2+k
-    inv_g = 0.5 / sigma_g**2
-    # e[r][j + r] = W(j, r) for j in -r .. n-1: row i of W(i, +r) is e[r][r + i],
-    # row i of W(i, -r) = W(i - r, r) is e[r][i].
-    e = [None]
-    for r in range(1, k + 1):
-        x = sq_dist(ext[k - r : k + n], ext[k : k + n + r])
-        x *= -inv_g
-        x -= r * r / (2.0 * sigma_t**2)
-        e.append(np.exp(x, out=x))
-    total = np.zeros((n, *disp.shape[1:]))
-    tmp = np.empty_like(total)
-    tail = np.zeros(total.shape[:-1])
-    head = np.zeros(total.shape[:-1])
+    k = weights.shape[0]
+    n_out = out.shape[1]
     for m in range(k - 1, -1, -1):  # B_m = sum_{j=m+1}^{k} W_j, m = k-1 .. 0
-        tail += e[m + 1][m + 1 : m + 1 + n]
-        np.multiply(dext[k + m : k + m + n], tail[..., None], out=tmp)
-        total += tmp
+        w_next = weights[m, k : k + n_out]  # W(i, m+1)
+        src = disp[:, k + m : k + m + n_out]
+        if m == k - 1:
+            np.copyto(tail, w_next)
+            np.multiply(src, tail, out)
+        else:
+            tail += w_next
+            np.multiply(src, tail, tmp)
+            out += tmp
     for m in range(-k, 0):  # B_m = -sum_{j=-k}^{m} W_j, m = -k .. -1
-        head += e[-m][:n]
-        np.multiply(dext[k + m : k + m + n], head[..., None], out=tmp)
-        total -= tmp
-    den = head
-    den += tail
-    den += 1.0  # W(i, 0) = 1
-    total /= den[..., None]
-    return total
+        w_here = weights[-m - 1, k + m : k + m + n_out]  # W(i, m) = W(i+m, -m)
+        if m == -k:
+            np.copyto(head, w_here)
+        else:
+            head += w_here
+        np.multiply(disp[:, k + m : k + m + n_out], head, tmp)
+        out -= tmp
+    head += tail
+    head += 1.0  # W(i, 0) = 1
+    out /= head
+
+
+def _work_area(n_frames: int, n_sig: int, k: int, n_planes: int):
+    """Blocks of frames and a reused work area of ``n_planes`` planes for one pass."""
+    # With several blocks each has >= 2k + 2 frames, so mirrored displacements come from
+    # inside the block's own window (_fill_mirrored_ends); one block covers the signal.
+    blocks = _blocks(n_frames, max(quat.BLOCK_SAMPLES // n_sig, 4 * k + 4))
+    span = max(f1 - f0 for f0, f1 in blocks) + 2 * k  # longest window, in frames
+    work = np.empty((n_planes, span * n_sig))
+
+    def planes(first: int, count: int, length: int) -> np.ndarray:
+        return work[first : first + count, : length * n_sig].reshape(count, length, n_sig)
+
+    return blocks, planes
+
+
+def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
+    """One pass of 002 Algorithm 1 from ``src`` to ``dst``, both ``(F, M, 4)``, ``F >= 2``.
+
+    Each block of output frames ``f0 .. f1-1`` needs the samples at positions ``f0-k ..
+    f1-1+k`` and the displacements at ``f0-k .. f1+k-2``: those inside the signal are
+    computed from the block's samples, the rest extended by Eq. 26 (see the module
+    docstring). Relative rotations take the shorter arc, so the displacements are those of
+    the sign-continuous signal ``sigma_i q_i`` (000 Sec. VI-A), ``d`` is sign independent,
+    and the output is ``sigma_i q_i exp(s_i)``: the filter of the sign-continuous input.
+    """
+    n_frames, n_sig = src.shape[:2]
+    n = n_frames - 1  # displacements
+    inv_g = 0.5 / sigma_g**2
+    # Work planes: 0-3 samples, 4 w of q_i^-1 q_{i+1}, 5-7 displacements, 8-10 scratch,
+    # 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i),
+    # 15-16 the running coefficient sums, 17.. the weights of the offsets 1 .. k.
+    blocks, planes = _work_area(n_frames, n_sig, k, 17 + k)
+    carry = None
+    for f0, f1 in blocks:
+        length = f1 - f0
+        base = f0 - k  # position of the first sample and displacement in the window
+        lo, hi = max(base, 0), min(f1 + k - 1, n)  # samples lo .. hi lie inside the signal
+        qs = planes(0, 4, length + 2 * k)
+        np.copyto(qs[:, lo - base : hi + 1 - base], src[lo : hi + 1].transpose(2, 0, 1))
+        rel = planes(4, 4, length + 2 * k - 1)  # [w, *displacements]
+        disp = rel[1:]
+        scratch = planes(8, 3, length + 2 * k)
+        inside = rel[:, lo - base : hi - base]
+        quat.multiply_planes(
+            inside,
+            qs[:, lo - base : hi - base],
+            qs[:, lo + 1 - base : hi + 1 - base],
+            scratch[:2, : hi - lo],
+            True,
+        )
+        # Samples beyond the ends, cumulated outward from the mirrored q_m^-1 q_{m+1}.
+        tmp = scratch[:2, 0]
+        for pos in range(-1, base - 1, -1):  # loop over window offsets only
+            inv = rel[:, _mirror(pos, n) - base] * [[1.0], [-1.0], [-1.0], [-1.0]]
+            quat.multiply_planes(qs[:, pos - base], qs[:, pos + 1 - base], inv, tmp)
+        for pos in range(n_frames, f1 + k):
+            step = rel[:, _mirror(pos - 1, n) - base].copy()
+            quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
+
+        # Weights W(f0-k+t, r) = exp(-r^2 / 2 sigma_t^2 - arccos(|q . q_{+r}|)^2 / 2 sigma_g^2).
+        rows = length + k
+        weights = planes(17, k, rows)
+        dot = scratch[0, :rows]
+        for r in range(1, k + 1):
+            x = weights[r - 1]
+            np.multiply(qs[0, :rows], qs[0, r : r + rows], x)
+            for c in range(1, 4):
+                np.multiply(qs[c, :rows], qs[c, r : r + rows], dot)
+                x += dot
+            np.abs(x, out=x)
+            np.minimum(x, 1.0, out=x)
+            np.arccos(x, out=x)
+            np.square(x, out=x)
+            x *= -inv_g
+            x -= r * r / (2.0 * sigma_t**2)
+            np.exp(x, out=x)
+
+        # w_i = log(+-q_i^-1 q_{i+1}), in place, then Eq. 26 beyond the ends.
+        quat.log_planes(inside[1:], inside, scratch[:2, : hi - lo], shortest=True)
+        _fill_mirrored_ends(disp, base, lo, hi, n)
+        signs, carry = _continuity_signs(rel[0, k : min(k + length, hi - base)], length, carry)
+
+        sums = planes(11, 3, length)
+        tail, head = planes(15, 2, length)
+        _weighted_sums(weights, disp, sums, tail, head, scratch[:, :length])
+        e = [planes(14, 1, length)[0], *sums]  # exp(s) in place of s
+        quat.exp_planes(e, sums, scratch[:, :length])
+        if signs is not None:
+            for plane in e:
+                plane *= signs
+        body = qs[:, k : k + length]
+        quat.multiply_planes([dst[f0:f1, :, c] for c in range(4)], body, e, scratch[:2, :length])
+
+
+def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) -> None:
+    """One pass of the vector bilateral filter from ``src`` to ``dst``, both ``(F, M, 3)``.
+
+    Blocked as :func:`_bilateral_pass`; samples beyond the ends are ``p_{-j} = p_{-j+1} -
+    d_{-j}`` and ``p_{n-1+j} = p_{n-2+j} + d_{n-2+j}`` with the displacements mirrored by
+    000 Eq. 26.
+    """
+    n_frames, n_sig = src.shape[:2]
+    n = n_frames - 1
+    inv_p = 0.5 / sigma_p**2
+    # Work planes: 0-2 samples, 3-5 displacements, 6-8 scratch, 9-11 sums, 12-13 the
+    # running coefficient sums, 14.. the weights of the offsets 1 .. k.
+    blocks, planes = _work_area(n_frames, n_sig, k, 14 + k)
+    for f0, f1 in blocks:
+        length = f1 - f0
+        base = f0 - k
+        lo, hi = max(base, 0), min(f1 + k - 1, n)
+        ps = planes(0, 3, length + 2 * k)
+        np.copyto(ps[:, lo - base : hi + 1 - base], src[lo : hi + 1].transpose(2, 0, 1))
+        disp = planes(3, 3, length + 2 * k - 1)
+        np.subtract(
+            ps[:, lo + 1 - base : hi + 1 - base],
+            ps[:, lo - base : hi - base],
+            disp[:, lo - base : hi - base],
+        )
+        _fill_mirrored_ends(disp, base, lo, hi, n)
+        for pos in range(-1, base - 1, -1):  # loop over window offsets only
+            np.subtract(ps[:, pos + 1 - base], disp[:, pos - base], ps[:, pos - base])
+        for pos in range(n_frames, f1 + k):
+            np.add(ps[:, pos - 1 - base], disp[:, pos - 1 - base], ps[:, pos - base])
+
+        rows = length + k
+        weights = planes(14, k, rows)
+        scratch = planes(6, 3, length + 2 * k)
+        diff = scratch[0, :rows]
+        for r in range(1, k + 1):
+            x = weights[r - 1]
+            for c in range(3):
+                np.subtract(ps[c, r : r + rows], ps[c, :rows], diff)
+                if c:
+                    np.square(diff, out=diff)
+                    x += diff
+                else:
+                    np.square(diff, out=x)
+            x *= -inv_p
+            x -= r * r / (2.0 * sigma_t**2)
+            np.exp(x, out=x)
+
+        sums = planes(9, 3, length)
+        tail, head = planes(12, 2, length)
+        _weighted_sums(weights, disp, sums, tail, head, scratch[:, :length])
+        for c in range(3):
+            np.add(ps[c, k : k + length], sums[c], dst[f0:f1, :, c])
 
 
 def bilateral(
@@ -188,18 +321,15 @@ def bilateral(
     k = window_radius(sigma_t, radius)
     sigma_g = _check_sigma("sigma_g", sigma_g)
     iterations = _check_iterations(iterations)
-    out = quat.make_continuous(q, axis=0)
-    if out.shape[0] < 2 or k == 0:
-        return out
-    for n_pass in range(iterations):
-        if n_pass:
-            out = quat.make_continuous(out, axis=0)
-        rel = quat.multiply(quat.conjugate(out[:-1]), out[1:])  # exp(w_i)
-        w = quat.log(rel)
-        ext = _extend_rotations(out, rel, k)
-        s = _bilateral_sums(ext, w, k, sigma_t, sigma_g, _squared_angular_distance)
-        out = quat.multiply(out, quat.exp(s))
-    return out
+    q = np.asarray(q, dtype=np.float64)
+    if q.shape[0] < 2 or k == 0 or iterations == 0 or q.size == 0:
+        return quat.make_continuous(q, axis=0)
+    cur = np.ascontiguousarray(q).reshape(q.shape[0], -1, 4)
+    buffers = [np.empty(cur.shape) for _ in range(min(iterations, 2))]
+    for n_pass in range(iterations):  # ping-pong between the output buffers
+        _bilateral_pass(cur, buffers[n_pass % 2], k, sigma_t, sigma_g)
+        cur = buffers[n_pass % 2]
+    return cur.reshape(q.shape)
 
 
 def bilateral_positions(
@@ -220,11 +350,12 @@ def bilateral_positions(
     k = window_radius(sigma_t, radius)
     sigma_p = _check_sigma("sigma_p", sigma_p)
     iterations = _check_iterations(iterations)
-    out = np.array(p, dtype=np.float64, copy=True)
-    if out.shape[0] < 2 or k == 0:
-        return out
-    for _ in range(iterations):
-        disp = np.diff(out, axis=0)
-        ext = _extend_positions(out, disp, k)
-        out = out + _bilateral_sums(ext, disp, k, sigma_t, sigma_p, _squared_distance)
-    return out
+    p = np.asarray(p, dtype=np.float64)
+    if p.shape[0] < 2 or k == 0 or iterations == 0 or p.size == 0:
+        return p.copy()
+    cur = np.ascontiguousarray(p).reshape(p.shape[0], -1, 3)
+    buffers = [np.empty(cur.shape) for _ in range(min(iterations, 2))]
+    for n_pass in range(iterations):  # ping-pong between the output buffers
+        _bilateral_positions_pass(cur, buffers[n_pass % 2], k, sigma_t, sigma_p)
+        cur = buffers[n_pass % 2]
+    return cur.reshape(p.shape)
