@@ -316,19 +316,36 @@ def from_euler(angles_deg: np.ndarray, order: str) -> np.ndarray:
     """Quaternions from intrinsic Euler angles in degrees, ``(..., 3)`` in ``order``.
 
     ``angles_deg[..., n]`` is the angle about axis ``order[n]``; the rotation is
-    ``R = R_order[0](a0) R_order[1](a1) R_order[2](a2)`` (BVH channel order).
+    ``R = R_order[0](a0) R_order[1](a1) R_order[2](a2)`` (BVH channel order). Evaluated in
+    closed form: with half-angle cosines/sines ``c*, s*`` and ``p = +1`` for a cyclic order
+    (XYZ, YZX, ZXY), ``-1`` otherwise, the product ``q_i(a) q_j(b) q_k(c)`` is
+    ``w = ca cb cc - p sa sb sc``, ``v_i = sa cb cc + p ca sb sc``,
+    ``v_j = ca sb cc - p sa cb sc``, ``v_k = p sa sb cc + ca cb sc``.
     """
     angles = np.asarray(angles_deg, dtype=np.float64)
-    axes = _order_axes(order)
+    i, j, k = _order_axes(order)
+    p = 1.0 if (j - i) % 3 == 1 else -1.0
     half = np.deg2rad(angles) * 0.5
-    c, s = np.cos(half), np.sin(half)
-    out = None
-    for n, ax in enumerate(axes):
-        f = np.zeros((*angles.shape[:-1], 4))
-        f[..., 0] = c[..., n]
-        f[..., 1 + ax] = s[..., n]
-        out = f if out is None else multiply(out, f)
+    cos, sin = np.cos(half), np.sin(half)
+    ca, cb, cc = cos[..., 0], cos[..., 1], cos[..., 2]
+    sa, sb, sc = sin[..., 0], sin[..., 1], sin[..., 2]
+    cacb, sasb, sacb, casb = ca * cb, sa * sb, sa * cb, ca * sb
+    out = np.empty((*angles.shape[:-1], 4))
+    out[..., 0] = cacb * cc - p * sasb * sc
+    out[..., 1 + i] = sacb * cc + p * casb * sc
+    out[..., 1 + j] = casb * cc - p * sacb * sc
+    out[..., 1 + k] = p * sasb * cc + cacb * sc
     return out
+
+
+def _matrix_element(q: np.ndarray, r: int, c: int) -> np.ndarray:
+    """Element ``(r, c)`` of :func:`as_matrix` ``(q)``, without building the matrix."""
+    w, v = q[..., 0], (q[..., 1], q[..., 2], q[..., 3])
+    if r == c:
+        s, t = (a for a in range(3) if a != r)
+        return 1.0 - 2.0 * (v[s] * v[s] + v[t] * v[t])
+    sign = -1.0 if (c - r) % 3 == 1 else 1.0
+    return 2.0 * (v[r] * v[c] + sign * w * v[3 - r - c])
 
 
 def _nearest_turn(angle_rad: np.ndarray, ref_rad: np.ndarray) -> np.ndarray:
@@ -352,38 +369,45 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
     """
     i, j, k = _order_axes(order)
     parity = 1.0 if (j - i) % 3 == 1 else -1.0
-    m = as_matrix(q)
-    sin_b = np.clip(parity * m[..., i, k], -1.0, 1.0)
-    cos_b = np.hypot(m[..., i, i], m[..., i, j])
+    q = np.asarray(q, dtype=np.float64)
+    m_ii, m_ij = _matrix_element(q, i, i), _matrix_element(q, i, j)
+    sin_b = np.clip(parity * _matrix_element(q, i, k), -1.0, 1.0)
+    cos_b = np.hypot(m_ii, m_ij)
     b = np.arctan2(sin_b, cos_b)
-    a = np.arctan2(-parity * m[..., j, k], m[..., k, k])
-    c = np.arctan2(-parity * m[..., i, j], m[..., i, i])
+    a = np.arctan2(-parity * _matrix_element(q, j, k), _matrix_element(q, k, k))
+    c = np.arctan2(-parity * m_ij, m_ii)
     locked = cos_b < GIMBAL_EPS
-    # At the lock R = R_i(a + s c) R_j(+-90 deg) with s = parity * sign(sin b).
-    theta = np.arctan2(parity * m[..., k, j], m[..., j, j])
-    lock_sign = parity * np.where(sin_b >= 0.0, 1.0, -1.0)
+    out = np.empty((*b.shape, 3))
+    out[..., 1] = b
     if reference is None:
-        a = np.where(locked, theta, a)
-        c = np.where(locked, 0.0, c)
-        return np.rad2deg(np.stack([a, b, c], axis=-1))
+        out[..., 0], out[..., 2] = a, c
+        if locked.any():  # R = R_i(a + s c) R_j(+-90 deg): report a + s c as the first angle
+            out[locked, 0] = _locked_sum(q[locked], i, j, k, parity)
+            out[locked, 2] = 0.0
+        return np.rad2deg(out, out=out)
 
-    ref = np.deg2rad(np.broadcast_to(np.asarray(reference, dtype=np.float64), a.shape + (3,)))
+    ref = np.deg2rad(np.broadcast_to(np.asarray(reference, dtype=np.float64), out.shape))
     ra, rb, rc = ref[..., 0], ref[..., 1], ref[..., 2]
-    first = np.stack([_nearest_turn(a, ra), _nearest_turn(b, rb), _nearest_turn(c, rc)], -1)
-    second = np.stack(
-        [
-            _nearest_turn(a + np.pi, ra),
-            _nearest_turn(np.pi - b, rb),
-            _nearest_turn(c + np.pi, rc),
-        ],
-        axis=-1,
-    )
-    d1 = np.sum((first - ref) ** 2, axis=-1)
-    d2 = np.sum((second - ref) ** 2, axis=-1)
-    best = np.where((d2 < d1)[..., None], second, first)
-    # Gimbal lock: keep the reference's first angle, give the rest to the last one.
-    lock_b = _nearest_turn(b, rb)
-    lock_c = _nearest_turn(lock_sign * (theta - ra), rc)
-    locked_triple = np.stack([ra, lock_b, lock_c], axis=-1)
-    best = np.where(locked[..., None], locked_triple, best)
-    return np.rad2deg(best)
+    a1, b1, c1 = _nearest_turn(a, ra), _nearest_turn(b, rb), _nearest_turn(c, rc)
+    a2 = _nearest_turn(a + np.pi, ra)
+    b2 = _nearest_turn(np.pi - b, rb)
+    c2 = _nearest_turn(c + np.pi, rc)
+    second = (a2 - ra) ** 2 + (b2 - rb) ** 2 + (c2 - rc) ** 2 < (
+        (a1 - ra) ** 2 + (b1 - rb) ** 2 + (c1 - rc) ** 2)
+    out[..., 0] = np.where(second, a2, a1)
+    out[..., 1] = np.where(second, b2, b1)
+    out[..., 2] = np.where(second, c2, c1)
+    if locked.any():
+        # Gimbal lock: only a + s c is determined (s = parity * sign(sin b)); keep the
+        # reference's first angle and give the rest to the last one.
+        theta = _locked_sum(q[locked], i, j, k, parity)
+        s_lock = parity * np.where(sin_b[locked] >= 0.0, 1.0, -1.0)
+        ra_l = ra[locked]
+        out[locked] = np.stack(
+            [ra_l, b1[locked], _nearest_turn(s_lock * (theta - ra_l), rc[locked])], axis=-1)
+    return np.rad2deg(out, out=out)
+
+
+def _locked_sum(q: np.ndarray, i: int, j: int, k: int, parity: float) -> np.ndarray:
+    """At gimbal lock ``R = R_i(theta) R_j(+-90 deg)``: the determined angle ``theta``, rad."""
+    return np.arctan2(parity * _matrix_element(q, k, j), _matrix_element(q, j, j))
