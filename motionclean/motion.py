@@ -210,8 +210,8 @@ class Motion:
 
         Rotations go back to Euler angles in each joint's own channel order. Where the
         source values describe the same frames, each triple is the equivalent one nearest
-        to the frame's original angles, and samples whose quaternion did not change keep
-        their original values bit for bit. Otherwise angles are unwrapped along time.
+        to the frame's original angles, and samples whose quaternion did not change (up to
+        sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for bit. Otherwise angles are unwrapped along time.
         """
         layout = self.layout
         same_frames = self.has_source_frames()
@@ -225,7 +225,8 @@ class Motion:
             if same_frames:
                 reference = values[:, cols]
                 angles = quat.to_euler(q, order, reference=reference)
-                kept = np.all(q == self.source_rotations[:, joints], axis=-1)
+                source = self.source_rotations[:, joints]
+                kept = np.all(q == source, axis=-1) | np.all(q == -source, axis=-1)
                 angles = np.where(kept[..., None], reference, angles)
             else:
                 angles = np.unwrap(quat.to_euler(q, order), period=360.0, axis=0)
