@@ -5,10 +5,14 @@ Run ``python bench/despike.py``. Prints markdown tables:
 1. Per corpus clip: frames repaired (un-flipped / interpolated), and the largest
    frame-to-frame rotation step over all joints before and after ``despike`` (defaults).
 2. Per repaired joint: the runs of frames un-flipped and interpolated.
-3. Why it comes first: five passes of the 5-tap binomial Lee-Shin filter on RThumb, the
+3. Lower frame rates: each clip kept at every 2nd, 4th and 5th frame (60, 30, 24 fps).
+   The joints repaired, the RMS and largest change of all other joints than RThumb
+   (genuine motion, which must stay as it is unless a step is above the cap), and whether
+   RThumb's un-flipped frames are the 120 fps ones, subsampled.
+4. Why it comes first: five passes of the 5-tap binomial Lee-Shin filter on RThumb, the
    largest error on frames that despike leaves alone (the flips smeared onto their good
    neighbours), without and with despike first.
-4. Cost of one despike pass against one Lee-Shin pass (binomial 5 taps) on the same
+5. Cost of one despike pass against one Lee-Shin pass (binomial 5 taps) on the same
    rotations, same process (best of several runs).
 """
 
@@ -83,6 +87,25 @@ def main() -> None:
         print(f"| {name} | {joint} | {fmt_runs(rep.runs(j, 'unflipped'))} "
               f"| {fmt_runs(rep.runs(j, 'interpolated'))} "
               f"| {rep.max_step_before[j]:.1f} -> {rep.max_step_after[j]:.1f} |")
+
+    print("\n## Lower frame rates (defaults)\n")
+    print("| clip | fps | joints repaired | RMS / largest change, other joints than RThumb "
+          "(deg) | RThumb un-flipped frames | same as at 120 fps |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name, m in motions.items():
+        thumb = m.names.index("RThumb")
+        full = reports[name][1].unflipped[:, thumb]
+        others = np.arange(len(m.names)) != thumb
+        for every in (2, 4, 5):
+            q = quat.make_continuous(m.rotations[::every], axis=0)
+            out, rep = despike_with_report(q, m.frame_time * every)
+            change = np.rad2deg(quat.angle_between(out[:, others], q[:, others]))
+            joints = np.flatnonzero(rep.counts())
+            same = np.array_equal(rep.unflipped[:, thumb], full[::every])
+            print(f"| {name} | {round(1 / (m.frame_time * every))} "
+                  f"| {', '.join(m.names[j] for j in joints)} "
+                  f"| {np.sqrt(np.mean(change ** 2)):.3f} / {change.max():.1f} "
+                  f"| {int(rep.counts('unflipped')[thumb])} | {'yes' if same else 'no'} |")
 
     print("\n## Lee-Shin after despike (RThumb, binomial 5 taps x 5 passes)\n")
     print("| clip | largest error on untouched frames, raw (deg) | same after despike (deg) |")

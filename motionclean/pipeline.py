@@ -310,7 +310,7 @@ def _check_despike(params: dict, where: str) -> None:
 
 
 def _run_despike(data: StepData, params: dict) -> StepData:
-    shared = {"threshold": params["threshold"], "max_run": params["max_run"]}
+    shared = {key: params[key] for key in ("threshold", "max_spike_s", "trend_ratio", "max_run")}
     data.rotations, report = despike_with_report(
         data.rotations, data.frame_time, method=params["method"],
         min_deg_per_s=params["min_deg_per_s"], max_deg_per_s=params["max_deg_per_s"],
@@ -340,8 +340,14 @@ DESPIKE = StepSpec(
         Param("max_deg_per_s", "float", 3600.0, "absolute cap: faster steps are always "
               "repaired, degrees of rotation per s", minimum=0.0, exclusive_minimum=True,
               infinite_ok=True),
-        Param("max_run", "int", 8, "longest spike in frames (and widening passes for the cap)",
-              minimum=1, maximum=1000),
+        Param("max_spike_s", "float", 0.07, "longest spike, seconds (whole frames, at least "
+              "one: 8 at 120 fps, 2 at 30 fps); also how far the cap may widen a gap",
+              minimum=0.0, exclusive_minimum=True, maximum=10.0),
+        Param("trend_ratio", "float", 3.0, "a spike must leave the cubic trend of its good "
+              "neighbours by this many times that trend's own error there (0: no test)",
+              minimum=0.0, maximum=1000.0),
+        Param("max_run", "int", None, "optional extra limit on spike length, frames",
+              minimum=1, maximum=100000),
         Param("flip_deg", "float", 150.0, "smallest one-frame step taken as a half-turn flip, "
               "degrees", minimum=90.0, exclusive_minimum=True, maximum=180.0),
         Param("unflip", "bool", True, "undo half-turn flips; false interpolates short flips "

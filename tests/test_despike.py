@@ -1,10 +1,11 @@
-"""Flip and spike repair: planted defects on a real clip, fast motion kept, corpus limits."""
+"""Flip and spike repair: planted defects on a real clip at 120 and 30 fps, genuine fast
+motion kept at any frame rate, corpus limits."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import CORPUS, SAMPLE, needs_corpus
+from conftest import CORPUS_CLIPS, SAMPLE, needs_corpus
 
 import motionclean as mc
 from motionclean import quat
@@ -27,9 +28,16 @@ def clip():
     return mc.load(SAMPLE)
 
 
-def clean_columns(m):
+@pytest.fixture(scope="module")
+def corpus():
+    """The corpus clips by file name, loaded once."""
+    return {path.name: mc.load(path) for path in CORPUS_CLIPS}
+
+
+def clean_columns(m, every=1):
+    """The CLEAN joints' rotations, keeping every ``every``-th frame (sign-continuous)."""
     cols = [m.names.index(n) for n in CLEAN]
-    return m.rotations[:, cols].copy(), cols
+    return quat.make_continuous(m.rotations[::every, cols], axis=0), cols
 
 
 def degrees_between(a, b):
@@ -41,48 +49,126 @@ def random_axes(rng, n):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
+# Planted defects per column c (the last column stays clean): (start, length) pairs at
+# 120 fps, and on the same clip kept at every 4th frame (30 fps, 75 frames).
+FLIPS = {1: lambda c: ((40 + 23 * c, 1 + c % 4), (200 + 7 * c, 4 - c % 4)),
+         4: lambda c: ((5 + 3 * c, 1 + c % 4), (40 + 3 * c, 4 - c % 4))}
+# Spikes last at most max_spike_s (70 ms): up to 4 frames at 120 fps, 2 at 30 fps. At
+# 30 fps a joint's own steps reach 30 degrees, so the kicks there are larger.
+SPIKES = {1: (lambda c: ((30 + 17 * c, 1 + c % 4), (170 + 11 * c, 1 + (c + 2) % 4)), 40.0),
+          4: (lambda c: ((6 + 3 * c, 1 + c % 2), (40 + 3 * c, 2 - c % 2)), 60.0)}
+
+
+@pytest.mark.parametrize("every", [1, 4], ids=["120fps", "30fps"])
 @pytest.mark.parametrize("side", ["parent", "own"])
-def test_planted_flips_are_undone_and_nothing_else_moves(clip, side):
-    truth, _ = clean_columns(clip)
+def test_planted_flips_are_undone_and_nothing_else_moves(clip, side, every):
+    truth, _ = clean_columns(clip, every)
     rng = np.random.default_rng(7)
     q = truth.copy()
     planted = np.zeros(q.shape[:2], dtype=bool)
     half_turns = quat.from_axis_angle(random_axes(rng, q.shape[1]), np.pi)
     for c in range(q.shape[1] - 1):  # the last column stays clean
-        for start, length in ((40 + 23 * c, 1 + c % 4), (200 + 7 * c, 4 - c % 4)):
+        for start, length in FLIPS[every](c):
             planted[start:start + length, c] = True
     f = np.broadcast_to(half_turns, q.shape)
     flipped = quat.multiply(f, q) if side == "parent" else quat.multiply(q, f)
     q = np.where(planted[..., None], flipped, q)
 
-    out, report = despike_with_report(q, clip.frame_time)
+    out, report = despike_with_report(q, clip.frame_time * every)
 
     np.testing.assert_array_equal(report.unflipped, planted)
     assert not report.interpolated.any()
-    assert degrees_between(out, truth).max() < 3.0
+    # The half-turn axis is estimated from the flip steps, which also hold a frame of
+    # genuine motion: four times more of it at 30 fps.
+    assert degrees_between(out, truth).max() < 3.0 * every ** 0.5
     np.testing.assert_array_equal(out[:, -1], q[:, -1])  # bit for bit
 
 
-def test_planted_spikes_are_interpolated_close_to_the_truth(clip):
-    truth, _ = clean_columns(clip)
+@pytest.mark.parametrize("every", [1, 4], ids=["120fps", "30fps"])
+def test_planted_spikes_are_interpolated_close_to_the_truth(clip, every):
+    truth, _ = clean_columns(clip, every)
+    places, smallest = SPIKES[every]
     rng = np.random.default_rng(11)
     q = truth.copy()
     planted = np.zeros(q.shape[:2], dtype=bool)
     for c in range(q.shape[1] - 1):
-        for start, length in ((30 + 17 * c, 1 + c % 4), (170 + 11 * c, 1 + (c + 2) % 4)):
+        for start, length in places(c):
             rows = slice(start, start + length)
             kick = quat.from_axis_angle(random_axes(rng, length), np.deg2rad(
-                rng.uniform(40.0, 120.0, size=length)))
+                rng.uniform(smallest, 120.0, size=length)))
             q[rows, c] = quat.multiply(q[rows, c], kick)
             planted[rows, c] = True
 
-    out, report = despike_with_report(q, clip.frame_time)
+    out, report = despike_with_report(q, clip.frame_time * every)
 
     np.testing.assert_array_equal(report.interpolated, planted)
     assert not report.unflipped.any()
     assert degrees_between(out, truth).max() < 3.0
     np.testing.assert_array_equal(out[:, -1], q[:, -1])
     assert report.counts().tolist() == planted.sum(axis=0).tolist()
+
+
+def kicked(fps, length, start):
+    """A 30 deg/s turn for 3 s, and the same with ``length`` frames kicked by 28 degrees
+    from ``start`` on, as ``(F, 1, 4)``."""
+    omega = np.deg2rad(30.0) / fps * np.array([0.0, 0.6, 0.8])
+    base = quat.exp(0.5 * np.arange(3 * fps)[:, None] * omega)[:, None]
+    q = base.copy()
+    rows = slice(start, start + length)
+    q[rows] = quat.multiply(q[rows], quat.from_axis_angle([1.0, 0.0, 0.0], np.deg2rad(28.0)))
+    return base, q
+
+
+@pytest.mark.parametrize("fps, longest", [(120, 8), (60, 4), (30, 2), (24, 1)])
+def test_the_longest_spike_is_a_duration(fps, longest):
+    """``max_spike_s`` (70 ms) is 8 frames at 120 fps and 2 at 30 fps: a 28 degree kick
+    that long is a spike, one frame longer it is left alone (its steps stay under the
+    cap) unless ``max_spike_s`` allows it; ``max_run`` can only shorten the limit."""
+    start, dt = fps, 1 / fps
+    base, q = kicked(fps, longest, start)
+    out, report = despike_with_report(q, dt)
+    assert report.runs(0) == [(start, start + longest)]
+    assert degrees_between(out, base).max() < 1e-9  # constant angular velocity, rebuilt
+    if longest > 1:
+        assert not despike_with_report(q, dt, max_run=longest - 1)[1].repaired.any()
+
+    _, q = kicked(fps, longest + 1, start)
+    out, report = despike_with_report(q, dt)
+    assert not report.repaired.any()
+    np.testing.assert_array_equal(out, q)
+    report = despike_with_report(q, dt, max_spike_s=(longest + 1) * dt)[1]
+    assert report.runs(0) == [(start, start + longest + 1)]
+
+
+def bump(fps, sigma_s):
+    """70 degrees out and back as a Gaussian of ``sigma_s`` seconds, on a slow swing."""
+    t = np.arange(-fps, fps) / fps
+    angle = np.deg2rad(70.0) * np.exp(-0.5 * (t / sigma_s) ** 2) + np.deg2rad(20.0) * np.sin(
+        np.pi * t)
+    return quat.from_axis_angle([0.6, 0.0, 0.8], angle)[:, None]
+
+
+@pytest.mark.parametrize("fps, sigma_ms", [(120, 20), (120, 30), (60, 20), (60, 30),
+                                            (30, 30), (30, 40), (24, 30), (24, 40)])
+def test_fast_genuine_excursion_is_left_untouched_at_any_rate(fps, sigma_ms):
+    """A joint flexing 70 degrees out and back within about 100 ms (peak 1000-2100 deg/s,
+    like a toe at push-off) is motion, not a spike: at 30 fps it spans 3 to 5 frames, with
+    steps of up to 35 degrees."""
+    q = bump(fps, sigma_ms / 1000)
+    out, report = despike_with_report(q, 1 / fps)
+    assert not report.repaired.any()
+    np.testing.assert_array_equal(out, q)
+
+
+def test_the_trend_and_the_duration_tell_motion_from_spikes():
+    """What keeps the excursions above: at 120 fps the local trend (without it the jump
+    tests alone take the 20 ms bump for a 7-frame spike), at 30 fps also the duration
+    (the 30 ms bump would be a 3-frame spike, 100 ms)."""
+    report = despike_with_report(bump(120, 0.02), 1 / 120, trend_ratio=0.0)[1]
+    assert report.counts()[0] == 7
+    q = bump(30, 0.03)
+    assert despike_with_report(q, 1 / 30, trend_ratio=0.0, max_spike_s=0.1)[1].counts()[0] == 3
+    assert not despike_with_report(q, 1 / 30, trend_ratio=0.0)[1].repaired.any()
 
 
 def test_without_unflip_short_flips_are_interpolated(clip):
@@ -236,6 +322,7 @@ def test_position_cap_spreads_a_permanent_jump():
 @pytest.mark.parametrize("bad", [
     dict(threshold=-1.0), dict(max_deg_per_s=0.0), dict(min_deg_per_s=5000.0),
     dict(max_run=0), dict(max_run=2.5), dict(flip_deg=80.0), dict(method="linear"),
+    dict(max_spike_s=0.0), dict(max_spike_s=np.nan), dict(trend_ratio=-1.0),
 ])
 def test_invalid_parameters_are_refused(bad):
     with pytest.raises(ValueError):
@@ -259,11 +346,11 @@ def test_short_clips():
 
 @needs_corpus
 @pytest.mark.parametrize("name", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
-def test_corpus_steps_are_bounded_and_clean_joints_untouched(name):
+def test_corpus_steps_are_bounded_and_clean_joints_untouched(corpus, name):
     """After despike no joint turns more than 30 degrees in a frame. The corpus defects
     are the RThumb flips (corpus README) and the RightWrist steps of up to 55 degrees
     per frame in 131_01 and 131_03; every other joint comes back bit for bit."""
-    m = mc.load(CORPUS / name)
+    m = corpus[name]
     out, report = despike_with_report(m.rotations, m.frame_time)
     steps = degrees_between(out[:-1], out[1:])
     assert steps.max() <= 30.0
@@ -274,3 +361,40 @@ def test_corpus_steps_are_bounded_and_clean_joints_untouched(name):
     np.testing.assert_array_equal(out[:, untouched], m.rotations[:, untouched])
     root = despike_positions(m.translations, m.frame_time)
     np.testing.assert_array_equal(root, m.translations)
+
+
+@needs_corpus
+@pytest.mark.parametrize("every", [2, 4], ids=["60fps", "30fps"])
+@pytest.mark.parametrize("name", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
+def test_corpus_at_lower_rates_keeps_genuine_motion_bit_for_bit(corpus, name, every):
+    """Kept at every 2nd or 4th frame, the fast genuine motion (RightToe flexing 70
+    degrees out and back within 3 frames, RightWrist steps of up to 115 degrees at 30
+    fps) comes back bit for bit. Only RThumb and joints with a step above the cap of
+    3600 deg/s change (at 60 fps, the RightWrist twists of 131_01 and 131_03 that the
+    120 fps test repairs too), and no step is left above the cap."""
+    m = corpus[name]
+    q = quat.make_continuous(m.rotations[::every], axis=0)
+    dt = m.frame_time * every
+    out, report = despike_with_report(q, dt)
+    changed = np.flatnonzero(report.repaired.any(axis=0))
+    thumb = m.names.index("RThumb")
+    assert thumb in changed
+    others = changed[changed != thumb]
+    assert (report.max_step_before[others] > 3600.0 * dt).all(), [m.names[j] for j in others]
+    untouched = np.setdiff1d(np.arange(len(m.names)), changed)
+    np.testing.assert_array_equal(out[:, untouched], q[:, untouched])
+    assert report.max_step_after.max() <= 3600.0 * dt
+
+
+@needs_corpus
+def test_corpus_flips_are_found_alike_at_any_rate(corpus):
+    """131_02's RThumb has clean half-turn flips only: the frames un-flipped at 60, 30
+    and 24 fps are those un-flipped at 120 fps, subsampled, and nothing is interpolated."""
+    m = corpus["131_02.bvh"]
+    thumb = m.rotations[:, [m.names.index("RThumb")]]
+    full = despike_with_report(thumb, m.frame_time)[1]
+    assert full.counts("unflipped")[0] > 200
+    for every in (2, 4, 5):
+        report = despike_with_report(thumb[::every], m.frame_time * every)[1]
+        np.testing.assert_array_equal(report.unflipped, full.unflipped[::every])
+        assert not report.interpolated.any()

@@ -25,18 +25,37 @@ one over its whole support. Two defects, two repairs:
        T = clip(median(s) + threshold * 1.4826 * MAD(s),  min_deg_per_s dt,  max_deg_per_s dt)
 
    where ``s`` are the joint's frame-to-frame rotation angles and ``1.4826 MAD`` is the
-   robust standard deviation (``dt`` the frame time). Frames ``a+1 .. a+L``
-   (``L <= max_run``) form a *spike* when the steps into and out of them are jumps, are
-   abrupt (each differs by more than ``T`` from the step on its outer side, as a vector
-   ``2 log(q_i^-1 q_{i+1})``: a smooth reversal of direction is not abrupt), and the
-   signal comes back: the rotation from frame ``a`` to frame ``a+L+1`` is smaller than
-   both jumps. A turn in one direction, however fast, never comes back. Finally no step
-   may exceed the absolute cap ``max_deg_per_s dt`` (no human joint turns that fast): the
-   two frames of a step above the cap join the interpolated set, and every gap whose
-   interpolated steps still exceed the cap widens by one frame per side and pass (at most
-   ``max_run`` passes). A spike touching the first or last frame has no good frame on one
-   side and is only caught by the cap. ``T`` comes from the steps as read, before
-   un-flipping (the median and MAD are not moved by a few dozen flips).
+   robust standard deviation (``dt`` the frame time). Frames ``a+1 .. a+L`` form a
+   *spike* when all of these hold:
+
+   * it is brief: ``L dt <= max_spike_s`` (whole frames, at least one; also ``L <=
+     max_run`` when given). A defect is brief; the same excursion lasting longer may be
+     genuine (a toe flexing out and back within 100 ms spans 12 frames at 120 fps but 3
+     at 30 fps, where its steps are four times larger);
+   * the steps into and out of the run are jumps, and abrupt: each differs by more than
+     ``T`` from the step on its outer side, as a vector ``2 log(q_i^-1 q_{i+1})`` (a
+     smooth reversal of direction is not abrupt);
+   * the signal comes back: the rotation from frame ``a`` to frame ``b = a+L+1`` is
+     smaller than both jumps (a turn in one direction, however fast, never comes back);
+   * it leaves the local trend: with ``P`` the cubic through the good neighbours ``a-1,
+     a`` and ``b, b+1`` (the interpolant below, i.e. the repair itself), the first and
+     the last frame of the run are both further from ``P`` than ``trend_ratio`` times
+     the error of that cubic at the neighbours, ``e = max(d(q_a, P'_a), d(q_b, P''_b))``
+     with ``P'`` the cubic across the gap from ``a-2, a-1`` to ``b, b+1`` and ``P''``
+     from ``a-1, a`` to ``b+1, b+2``. ``e`` measures how well a cubic follows this
+     motion over a gap of ``L+1`` frames, so the test scales with the frame rate and
+     with the motion's own smoothness: fast genuine motion that is sampled too coarsely
+     to follow leaves the neighbours off the cubic too, a spike on a smooth signal does
+     not (a neighbour at a clip end is not predicted).
+
+   Finally no step may exceed the absolute cap ``max_deg_per_s dt`` (no human joint
+   turns that fast): the two frames of a step above the cap join the interpolated set,
+   and every gap whose interpolated steps still exceed the cap widens by one frame per
+   side and pass (at most as many passes as the longest spike has frames). A spike
+   touching the first or last frame has no good frame on one side and is only caught by
+   the cap. ``T`` comes from the steps as read, before un-flipping (the median and MAD
+   are not moved by a few dozen flips); all limits are in degrees per second, so they
+   keep their meaning at any frame rate.
 
 The interpolant is the cubic of the four-point subdivision scheme (Eq. 15-17 of 003)
 through the two good frames on each side of a gap, on their actual (non-uniform) knots,
@@ -201,24 +220,26 @@ def _parity(toggles: np.ndarray) -> np.ndarray:
     return parity ^ (parity.sum(axis=0) > parity.shape[0] / 2)
 
 
-def _spike_runs(x, steps, jump, max_run, dist, velocity):
-    """Runs of frames ``a+1 .. a+L`` (``L <= max_run``) entered and left by abrupt jumps
-    that come back, as arrays ``(first frame a+1, length L, column)``.
+def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate):
+    """Runs of frames ``a+1 .. a+L`` (``L <= max_len``) entered and left by abrupt jumps
+    that come back off the local trend, as arrays ``(first frame a+1, length L, column)``.
 
     ``steps`` (F-1, C) are the distances between consecutive frames of ``x``, ``jump``
-    (C,) the jump threshold, ``dist(x, y)`` the distance between samples and
+    (C,) the jump threshold, ``dist(x, y)`` the distance between samples,
     ``velocity(x, i, c)`` the displacement vectors of steps ``i`` in columns ``c`` (their
-    norms are the steps). Step ``a`` into the run and step ``a+L`` out of it must both
-    exceed ``jump`` and differ from the step on their outer side by more than ``jump``
-    (an abrupt change of velocity, which a smooth reversal of direction is not), and
-    ``dist(x_a, x_{a+L+1})`` must be under both jumps. Only the sparse jumps are examined.
+    norms are the steps) and ``interpolate`` the gap interpolant. Step ``a`` into the run
+    and step ``a+L`` out of it must both exceed ``jump`` and differ from the step on their
+    outer side by more than ``jump`` (an abrupt change of velocity, which a smooth
+    reversal of direction is not), ``dist(x_a, x_{a+L+1})`` must be under both jumps, and
+    the run must stand off the trend (:func:`_off_trend`). Only the sparse jumps are
+    examined.
     """
     n_steps = steps.shape[0]
     is_jump = steps > jump
     start, col = np.nonzero(is_jump)
-    a = np.repeat(start, max_run)
-    c = np.repeat(col, max_run)
-    run = np.tile(np.arange(1, max_run + 1), start.size)
+    a = np.repeat(start, max_len)
+    c = np.repeat(col, max_len)
+    run = np.tile(np.arange(1, max_len + 1), start.size)
     keep = a + run < n_steps
     a, c, run = a[keep], c[keep], run[keep]
     keep = is_jump[a + run, c]
@@ -235,7 +256,34 @@ def _spike_runs(x, steps, jump, max_run, dist, velocity):
     abrupt_in = (a == 0) | (_norm(v[n:2 * n] - v[:n]) > limit)
     abrupt_out = (b == n_steps - 1) | (_norm(v[2 * n:3 * n] - v[3 * n:]) > limit)
     keep = abrupt_in & abrupt_out
-    return a[keep] + 1, run[keep], c[keep]
+    a, c, run = a[keep], c[keep], run[keep]
+    if trend_ratio > 0 and a.size:
+        keep = _off_trend(x, a, run, c, trend_ratio, dist, interpolate)
+        a, c, run = a[keep], c[keep], run[keep]
+    return a + 1, run, c
+
+
+def _off_trend(x, a, run, c, trend_ratio, dist, interpolate):
+    """Whether the runs ``a+1 .. a+L`` (``L = run``) of columns ``c`` leave the local trend.
+
+    ``P``: the cubic through the good neighbours ``a-1, a`` and ``b, b+1`` (``b = a+L+1``;
+    003 Eq. 17, the repair's own interpolant). The run's first and last frames must both
+    be further from ``P`` than ``trend_ratio`` times the error ``e`` of the same cubic
+    at the neighbours: ``x_a`` predicted across the gap from ``a-2, a-1`` to ``b, b+1``
+    and ``x_b`` from ``a-1, a`` to ``b+1, b+2`` (a neighbour at a clip end is not
+    predicted; with neither, ``e = 0``). See the module docstring.
+    """
+    n_frames = x.shape[0]
+    b = a + run + 1
+    predict_a, predict_b = a >= 1, b + 1 < n_frames
+    frame = np.concatenate([a + 1, a + run, a, b])
+    left = np.concatenate([a, a, np.maximum(a - 1, 0), a])
+    right = np.concatenate([b, b, b, np.minimum(b + 1, n_frames - 1)])
+    cols = np.tile(c, 4)
+    off = dist(x[frame, cols], interpolate(x, _Knots.around(frame, cols, left, right, n_frames),
+                                           "cubic")).reshape(4, a.size)
+    error = np.maximum(np.where(predict_a, off[2], 0.0), np.where(predict_b, off[3], 0.0))
+    return np.minimum(off[0], off[1]) > trend_ratio * error
 
 
 def _mark(first, length, col, shape) -> np.ndarray:
@@ -259,12 +307,32 @@ def _runs(mask: np.ndarray):
     return start, stop, cols[slot]
 
 
+@dataclass(frozen=True)
+class _Knots:
+    """Samples to interpolate: per sample its ``frame`` and ``col``, the good frames
+    ``left`` and ``right`` around its gap (``-1`` / ``F`` at a clip end) and the next good
+    frames outward ``left2`` and ``right2`` (``-1`` when missing)."""
+
+    frame: np.ndarray
+    col: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    left2: np.ndarray
+    right2: np.ndarray
+
+    @classmethod
+    def around(cls, frame, col, left, right, n_frames: int) -> _Knots:
+        """Knots for gaps ``left+1 .. right-1`` with every frame outside them good."""
+        return cls(frame, col, left, right, np.where(left >= 1, left - 1, -1),
+                   np.where(right + 1 < n_frames, right + 1, -1))
+
+
 class _Gaps:
     """The masked samples of ``mask`` (F, C) with the good frames around their gap.
 
-    Per masked sample: ``frame``, ``col``, its gap's number ``run`` and the gap's good
-    neighbours ``left = start - 1`` and ``right = stop`` (``-1`` / ``F`` at a clip end);
-    ``left2`` / ``right2`` are the next frames outward, ``-1`` when missing or masked.
+    ``knots`` (:class:`_Knots`) holds, per masked sample, the gap's good neighbours and
+    the next frames outward when they are good; ``run`` is the sample's gap number and
+    ``start``, ``stop``, ``gap_col`` describe the gaps.
     """
 
     def __init__(self, mask: np.ndarray):
@@ -273,14 +341,14 @@ class _Gaps:
         length = self.stop - self.start
         self.run = np.repeat(np.arange(length.size), length)
         offset = np.arange(self.run.size) - np.repeat(np.cumsum(length) - length, length)
-        self.frame = self.start[self.run] + offset
-        self.col = self.gap_col[self.run]
-        self.left, self.right = self.frame - offset - 1, self.stop[self.run]
-        left2, right2 = self.left - 1, self.right + 1
-        ok = (left2 >= 0) & ~mask[np.maximum(left2, 0), self.col]
-        self.left2 = np.where(ok, left2, -1)
-        ok = (right2 < n_frames) & ~mask[np.minimum(right2, n_frames - 1), self.col]
-        self.right2 = np.where(ok, right2, -1)
+        frame = self.start[self.run] + offset
+        col = self.gap_col[self.run]
+        left, right = frame - offset - 1, self.stop[self.run]
+        left2, right2 = left - 1, right + 1
+        ok = (left2 >= 0) & ~mask[np.maximum(left2, 0), col]
+        left2 = np.where(ok, left2, -1)
+        ok = (right2 < n_frames) & ~mask[np.minimum(right2, n_frames - 1), col]
+        self.knots = _Knots(frame, col, left, right, left2, np.where(ok, right2, -1))
 
     def widen(self, mask: np.ndarray, runs: np.ndarray) -> None:
         """Add one frame on each side of the gaps numbered ``runs`` to ``mask``."""
@@ -289,21 +357,22 @@ class _Gaps:
         mask[np.minimum(stop, mask.shape[0] - 1), col] = True
 
 
-def _fill(x, mask, dist, interpolate, method, cap, max_run):
+def _fill(x, mask, dist, interpolate, method, cap, passes):
     """Interpolate the masked samples of ``x`` (F, C, n) in place, widening every gap
-    whose interpolated steps exceed ``cap`` by a frame per side, at most ``max_run``
+    whose interpolated steps exceed ``cap`` by a frame per side, at most ``passes``
     times. Steps away from the gaps are not looked at: the caller masked every step above
     the cap. Returns the final mask."""
     n_frames = x.shape[0]
-    for passes in range(max_run + 1):
+    for done in range(passes + 1):
         gaps = _Gaps(mask)
-        x[gaps.frame, gaps.col] = interpolate(x, gaps, method)
-        if passes == max_run:
+        k = gaps.knots
+        x[k.frame, k.col] = interpolate(x, k, method)
+        if done == passes:
             break
         # The steps into and out of every interpolated sample.
-        f = np.concatenate([gaps.frame[gaps.frame > 0] - 1, gaps.frame[gaps.frame < n_frames - 1]])
-        c = np.concatenate([gaps.col[gaps.frame > 0], gaps.col[gaps.frame < n_frames - 1]])
-        run = np.concatenate([gaps.run[gaps.frame > 0], gaps.run[gaps.frame < n_frames - 1]])
+        f = np.concatenate([k.frame[k.frame > 0] - 1, k.frame[k.frame < n_frames - 1]])
+        c = np.concatenate([k.col[k.frame > 0], k.col[k.frame < n_frames - 1]])
+        run = np.concatenate([gaps.run[k.frame > 0], gaps.run[k.frame < n_frames - 1]])
         over = dist(x[f, c], x[f + 1, c]) > cap
         if not over.any():
             break
@@ -323,22 +392,22 @@ def _lagrange(frame, left, right):
             a * (a + 1.0) * (b + 1.0) / inner, -a * (a + 1.0) * b / outer)
 
 
-def _interpolate_rotations(q: np.ndarray, gaps: _Gaps, method: str) -> np.ndarray:
-    """Values ``(n, 4)`` for the masked samples of ``q`` (F, C, 4) described by ``gaps``."""
-    frame, col, left, right = gaps.frame, gaps.col, gaps.left, gaps.right
+def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndarray:
+    """Values ``(n, 4)`` for the samples of ``q`` (F, C, 4) described by ``knots``."""
+    frame, col, left, right = knots.frame, knots.col, knots.left, knots.right
     n_frames = q.shape[0]
     has_l, has_r = left >= 0, right < n_frames
     ql = q[np.maximum(left, 0), col]
     qr = q[np.minimum(right, n_frames - 1), col]
     u = (frame - left) / (right - left)
     if method == "cubic":
-        cubic = has_l & has_r & (gaps.left2 >= 0) & (gaps.right2 >= 0)
+        cubic = has_l & has_r & (knots.left2 >= 0) & (knots.right2 >= 0)
         c0, _, c2, c3 = _lagrange(frame, left, right)
         u = np.where(cubic, c2 + c3, u)
         # One product and log for the gap and both outer displacements w_0 and w_2.
         n = frame.size
-        logs = _shorter_log(_product(np.concatenate([ql, q[gaps.left2, col], qr]),
-                                     np.concatenate([qr, ql, q[gaps.right2, col]]),
+        logs = _shorter_log(_product(np.concatenate([ql, q[knots.left2, col], qr]),
+                                     np.concatenate([qr, ql, q[knots.right2, col]]),
                                      conjugate_p=True))
         gap, w0, w2 = logs[:n], logs[n:2 * n], logs[2 * n:]
         tangent = np.where(cubic[:, None], -c0[:, None] * w0 + c3[:, None] * w2, 0.0)
@@ -352,9 +421,9 @@ def _interpolate_rotations(q: np.ndarray, gaps: _Gaps, method: str) -> np.ndarra
     return np.where((has_l | has_r)[:, None], value, q[frame, col])
 
 
-def _interpolate_positions(p: np.ndarray, gaps: _Gaps, method: str) -> np.ndarray:
+def _interpolate_positions(p: np.ndarray, knots: _Knots, method: str) -> np.ndarray:
     """Vector counterpart of :func:`_interpolate_rotations` (003 Eq. 15, 17): ``(n, 3)``."""
-    frame, col, left, right = gaps.frame, gaps.col, gaps.left, gaps.right
+    frame, col, left, right = knots.frame, knots.col, knots.left, knots.right
     n_frames = p.shape[0]
     has_l, has_r = left >= 0, right < n_frames
     pl = p[np.maximum(left, 0), col]
@@ -362,17 +431,20 @@ def _interpolate_positions(p: np.ndarray, gaps: _Gaps, method: str) -> np.ndarra
     u = ((frame - left) / (right - left))[:, None]
     value = (1.0 - u) * pl + u * pr
     if method == "cubic":
-        cubic = has_l & has_r & (gaps.left2 >= 0) & (gaps.right2 >= 0)
+        cubic = has_l & has_r & (knots.left2 >= 0) & (knots.right2 >= 0)
         c0, c1, c2, c3 = _lagrange(frame, left, right)
-        curve = (c0[:, None] * p[gaps.left2, col] + c1[:, None] * pl + c2[:, None] * pr
-                 + c3[:, None] * p[gaps.right2, col])
+        curve = (c0[:, None] * p[knots.left2, col] + c1[:, None] * pl + c2[:, None] * pr
+                 + c3[:, None] * p[knots.right2, col])
         value = np.where(cubic[:, None], curve, value)
     value = np.where((has_l & ~has_r)[:, None], pl, value)
     value = np.where((~has_l & has_r)[:, None], pr, value)
     return np.where((has_l | has_r)[:, None], value, p[frame, col])
 
 
-def _check(frame_time, threshold, low, high, max_run, method, methods, unit):
+def _check(frame_time, threshold, low, high, max_spike_s, max_run, trend_ratio, method, methods,
+           unit) -> int:
+    """Validate the shared parameters; return the longest spike in frames: ``max_spike_s``
+    in whole frames (at least one), and at most ``max_run`` when given."""
     if not (np.isfinite(frame_time) and frame_time > 0):
         raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
     if not (np.isfinite(threshold) and threshold >= 0):
@@ -380,10 +452,17 @@ def _check(frame_time, threshold, low, high, max_run, method, methods, unit):
     if not (0 <= low <= high and high > 0):
         raise ValueError(f"need 0 <= min_{unit}_per_s <= max_{unit}_per_s and max_{unit}_per_s "
                          f"> 0, got {low} and {high}")
-    if int(max_run) != max_run or max_run < 1:
+    if not (np.isfinite(max_spike_s) and max_spike_s > 0):
+        raise ValueError(f"max_spike_s must be a positive number of seconds, got {max_spike_s}")
+    if max_run is not None and (int(max_run) != max_run or max_run < 1):
         raise ValueError(f"max_run must be a whole number of frames >= 1, got {max_run}")
+    if not (np.isfinite(trend_ratio) and trend_ratio >= 0):
+        raise ValueError(f"trend_ratio must be a number >= 0, got {trend_ratio}")
     if method not in methods:
         raise ValueError(f"method must be one of {', '.join(methods)}, got {method!r}")
+    # The small tolerance keeps 8/120 s at 8 frames despite rounding.
+    frames = max(1, int(np.floor(max_spike_s / frame_time * (1.0 + 1e-9))))
+    return frames if max_run is None else min(frames, int(max_run))
 
 
 def _norm(v: np.ndarray) -> np.ndarray:
@@ -439,15 +518,16 @@ def _position_velocity(p: np.ndarray, step: np.ndarray, col: np.ndarray) -> np.n
     return p[step + 1, col] - p[step, col]
 
 
-def _repair(x, frame_time, rotations, threshold, low, high, max_run, method, flip_rad):
+def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio, method,
+            flip_rad):
     """Shared driver on ``x`` (F, C, 4|3): jump threshold, un-flip, spikes, cap passes.
 
-    Returns the repaired array (columns without repairs are ``x``'s own), the un-flipped
-    and interpolated masks (F, C), the jump threshold and the largest step before and
-    after (C,), all in radians or length units per frame. Beyond the steps and their
+    Spikes are at most ``max_len`` frames long; the cap widens a gap at most ``max_len``
+    times. Returns the repaired array (columns without repairs are ``x``'s own), the
+    un-flipped and interpolated masks (F, C), the jump threshold and the largest step
+    before and after (C,), all in radians or length units per frame. Beyond the steps and their
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
     """
-    max_run = int(max_run)
     if rotations:
         dist, velocity, interpolate = (_rotation_distance, _rotation_velocity,
                                        _interpolate_rotations)
@@ -471,7 +551,8 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_run, method, fli
         if toggles.any():
             # Toggles on the steps of a spike that is not itself a clean flip (half-turn
             # both in and out) are artefacts of the spike: its ends share one state.
-            first, length, col = _spike_runs(x, steps, jump, max_run, dist, velocity)
+            first, length, col = _spike_runs(x, steps, jump, max_len, trend_ratio, dist,
+                                             velocity, interpolate)
             spike = ~(toggles[first - 1, col] & toggles[first + length - 1, col])
             toggles &= ~_mark(first[spike] - 1, length[spike] + 1, col[spike], steps.shape)
             parity = _parity(toggles[:, cols])
@@ -479,12 +560,13 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_run, method, fli
             out[frame, cols[slot]] = _half_turn(x, frame, slot, cols, axis, left)
             flipped[:, cols] = parity
             steps[:, cols] = dist(out[:-1, cols], out[1:, cols])
-    mask = _mark(*_spike_runs(out, steps, jump, max_run, dist, velocity), flipped.shape)
+    mask = _mark(*_spike_runs(out, steps, jump, max_len, trend_ratio, dist, velocity,
+                              interpolate), flipped.shape)
     over = (steps > cap) & ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
     mask[:-1] |= over
     mask[1:] |= over
     if mask.any():
-        mask = _fill(out, mask, dist, interpolate, method, cap, max_run)
+        mask = _fill(out, mask, dist, interpolate, method, cap, max_len)
     changed = np.flatnonzero((flipped | mask).any(axis=0))
     if rotations:
         out[:, changed] = quat.make_continuous(out[:, changed], axis=0)
@@ -516,7 +598,9 @@ def despike_with_report(
     threshold: float = 8.0,
     min_deg_per_s: float = 600.0,
     max_deg_per_s: float = 3600.0,
-    max_run: int = 8,
+    max_spike_s: float = 0.07,
+    trend_ratio: float = 3.0,
+    max_run: int | None = None,
     flip_deg: float = 150.0,
     unflip: bool = True,
     method: str = "cubic",
@@ -536,8 +620,15 @@ def despike_with_report(
         than ``max_deg_per_s`` (default 3600: 30 degrees per frame at 120 fps) are always
         repaired; steps slower than ``min_deg_per_s`` (default 600: 5 degrees per frame at
         120 fps) never count as jumps.
-    max_run : int
-        Longest spike in frames, and the number of widening passes for the cap.
+    max_spike_s : float
+        Longest spike in seconds (whole frames, at least one: 8 frames at 120 fps, 2 at
+        30 fps); also the most frames by which the cap widens a gap on each side.
+    trend_ratio : float
+        A spike's first and last frames must be further from the cubic trend through its
+        good neighbours than ``trend_ratio`` times that trend's error at the neighbours
+        (``0`` skips the test).
+    max_run : int or None
+        Optional bound on the spike length in frames, on top of ``max_spike_s``.
     flip_deg : float
         Smallest single-frame step taken as a half-turn flip, degrees in (90, 180].
     unflip : bool
@@ -551,8 +642,8 @@ def despike_with_report(
         Repaired columns are sign-continuous; columns without defects are returned as given,
         bit for bit. Report angles are in degrees per frame.
     """
-    _check(frame_time, threshold, min_deg_per_s, max_deg_per_s, max_run, method,
-           ("cubic", "slerp"), "deg")
+    max_len = _check(frame_time, threshold, min_deg_per_s, max_deg_per_s, max_spike_s, max_run,
+                     trend_ratio, method, ("cubic", "slerp"), "deg")
     if not 90.0 < flip_deg <= 180.0:
         raise ValueError(f"flip_deg must be in (90, 180] degrees, got {flip_deg}")
     q = np.asarray(q, dtype=np.float64)
@@ -560,7 +651,7 @@ def despike_with_report(
         raise ValueError(f"q must have shape (F, ..., 4), got {q.shape}")
     out, *masks_and_steps = _repair(
         _columns(q), frame_time, True, threshold,
-        np.deg2rad(min_deg_per_s), np.deg2rad(max_deg_per_s), max_run, method,
+        np.deg2rad(min_deg_per_s), np.deg2rad(max_deg_per_s), max_len, trend_ratio, method,
         np.deg2rad(flip_deg) if unflip else None)
     return out.reshape(q.shape), _report(q.shape, *masks_and_steps, np.rad2deg)
 
@@ -577,26 +668,30 @@ def despike_positions_with_report(
     threshold: float = 8.0,
     min_units_per_s: float = 0.0,
     max_units_per_s: float = np.inf,
-    max_run: int = 8,
+    max_spike_s: float = 0.07,
+    trend_ratio: float = 3.0,
+    max_run: int | None = None,
     method: str = "cubic",
 ) -> tuple[np.ndarray, DespikeReport]:
     """Vector counterpart of :func:`despike_with_report` for ``(F, ..., 3)`` translations.
 
     Steps are Euclidean distances between consecutive frames in the file's length unit
     (marker swaps make the root jump). The jump threshold is ``clip(median + threshold *
-    1.4826 MAD, min_units_per_s dt, max_units_per_s dt)``; spikes are interpolated with the
-    cubic of 003 Eq. 15/17 (or ``"linear"``) and steps above ``max_units_per_s`` are spread
-    by widening the gap. There is no flip repair and, as units differ between files, no
-    absolute cap unless ``max_units_per_s`` is given. ``unflipped`` is all false.
+    1.4826 MAD, min_units_per_s dt, max_units_per_s dt)``; spikes (at most ``max_spike_s``
+    long, off the local cubic trend by ``trend_ratio`` times its error at the neighbours)
+    are interpolated with the cubic of 003 Eq. 15/17 (or ``"linear"``) and steps above
+    ``max_units_per_s`` are spread by widening the gap. There is no flip repair and, as
+    units differ between files, no absolute cap unless ``max_units_per_s`` is given.
+    ``unflipped`` is all false.
     """
-    _check(frame_time, threshold, min_units_per_s, max_units_per_s, max_run, method,
-           ("cubic", "linear"), "units")
+    max_len = _check(frame_time, threshold, min_units_per_s, max_units_per_s, max_spike_s,
+                     max_run, trend_ratio, method, ("cubic", "linear"), "units")
     p = np.asarray(p, dtype=np.float64)
     if p.ndim < 2 or p.shape[-1] != 3:
         raise ValueError(f"p must have shape (F, ..., 3), got {p.shape}")
     out, *masks_and_steps = _repair(
         _columns(p), frame_time, False, threshold, min_units_per_s,
-        max_units_per_s, max_run, method, None)
+        max_units_per_s, max_len, trend_ratio, method, None)
     return out.reshape(p.shape), _report(p.shape, *masks_and_steps, np.asarray)
 
 
