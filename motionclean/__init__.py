@@ -10,5 +10,6 @@ __version__ = "0.1.0"
 from .errors import MotionError, UsageError
 from .io import load, save
 from .motion import Motion
+from .pipeline import Pipeline
 
-__all__ = ["Motion", "MotionError", "UsageError", "__version__", "load", "save"]
+__all__ = ["Motion", "MotionError", "Pipeline", "UsageError", "__version__", "load", "save"]
