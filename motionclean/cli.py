@@ -17,11 +17,22 @@ import click
 import numpy as np
 
 from . import __version__, metrics, multires
+from .batch import batch_command
+from .check import check_command
 from .errors import MotionError, UsageError
-from .io import atomic_write, load, save
+from .html import build_series
+from .io import load, save
 from .motion import Motion
-from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED, Pipeline
-from .report import build_report, format_table, to_json
+from .options import (
+    PIPE_OPTION,
+    STEP_OPTION,
+    notes_by_joint,
+    pipeline_from_options,
+    refuse_overwrite,
+    write_report,
+)
+from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED
+from .report import build_report, format_table
 
 
 def _echo_error(message: str) -> None:
@@ -33,7 +44,7 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in args
     try:
-        cli.main(args=args, prog_name="motionclean", standalone_mode=False)
+        code = cli.main(args=args, prog_name="motionclean", standalone_mode=False)
     except MotionError as error:
         if debug:
             traceback.print_exc()
@@ -41,9 +52,9 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(error.exit_code)
     except click.exceptions.Exit as done:
         sys.exit(done.exit_code)
-    except click.Abort:
-        _echo_error("aborted")
-        sys.exit(1)
+    except click.Abort:  # click's form of KeyboardInterrupt
+        _echo_error("interrupted")
+        sys.exit(130)
     except click.ClickException as error:
         if debug:
             traceback.print_exc()
@@ -57,7 +68,7 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         _echo_error(f"internal error: {type(error).__name__}: {error} (rerun with --debug)")
         sys.exit(1)
-    sys.exit(0)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -67,61 +78,14 @@ def cli(debug: bool) -> None:
     """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
 
 
-# ----------------------------------------------------------------------------- helpers
-
-
-def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
-    """The pipeline from ``-p`` or ``-f``, or the default one; validated, no clip read."""
-    if pipe and steps:
-        raise UsageError("use either -p PIPE.toml or -f STEP, not both")
-    if pipe:
-        return Pipeline.from_toml(pipe)
-    if steps:
-        return Pipeline.from_inline(list(steps))
-    return Pipeline.default()
-
-
-def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
-    """Raise unless ``target`` is a different file from ``source`` or ``in_place`` is set."""
-    same = target.exists() and source.exists() and target.resolve() == source.resolve()
-    if same and not in_place:
-        raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
-
-
-def write_report(report: dict, path: Path) -> None:
-    """Write a report as JSON or HTML, by extension."""
-    suffix = path.suffix.lower()
-    if suffix == ".json":
-        atomic_write(path, to_json(report))
-    elif suffix in (".html", ".htm"):
-        from .html import render_html
-
-        atomic_write(path, render_html(report).encode("utf-8"))
-    else:
-        raise UsageError(f"{path}: a report is .json or .html")
-
-
-def notes_by_joint(logs) -> dict[str, dict]:
-    """Merge each step's per-joint notes into one dict for the report."""
-    merged: dict[str, dict] = {}
-    for log in logs:
-        for joint, note in log.notes.items():
-            merged.setdefault(joint, {}).update(note)
-    return merged
-
-
-PIPE_OPTION = click.option(
-    "-p", "--pipeline", "pipe", type=click.Path(dir_okay=False),
-    help="Pipeline TOML file with [[step]] tables (see README).")
-STEP_OPTION = click.option(
-    "-f", "--filter", "steps", multiple=True, metavar="STEP",
-    help="Inline step NAME:key=value,...; repeatable, applied in order.")
+cli.add_command(batch_command)
+cli.add_command(check_command)
 
 
 # ----------------------------------------------------------------------------- commands
 
 
-@cli.command()
+@cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
 @click.argument("clip", type=click.Path())
 def info(clip: str) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
@@ -189,12 +153,12 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
     save(cleaned, output)
     report = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs), source)
     if report_path:
-        write_report(report, Path(report_path))
+        write_report(report, Path(report_path), build_series(motion, cleaned))
     if not quiet:
         click.echo(format_table(report))
 
 
-@cli.command()
+@cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
 @click.argument("source", type=click.Path())
 @click.argument("cleaned", type=click.Path(), required=False)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write JSON here.")
@@ -210,7 +174,7 @@ def report(source: str, cleaned: str | None, json_path: str | None,
     if json_path:
         write_report(result, Path(json_path))
     if html_path:
-        write_report(result, Path(html_path))
+        write_report(result, Path(html_path), build_series(before, after))
     click.echo(format_table(result))
 
 
@@ -232,7 +196,7 @@ LEVELS_OPTION = click.option(
     help="Pyramid depth: each level halves the frame rate.")
 
 
-@cli.command()
+@cli.command(short_help="Blend two time-aligned clips level by level.")
 @click.argument("first", type=click.Path())
 @click.argument("second", type=click.Path())
 @click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
@@ -263,7 +227,7 @@ def blend(first: str, second: str, output: str, weight: float, detail_weights: s
     save(a.replace(rotations=q, translations=p), output)
 
 
-@cli.command()
+@cli.command(short_help="Join two clips with a seamless transition.")
 @click.argument("first", type=click.Path())
 @click.argument("second", type=click.Path())
 @click.option("-o", "--output", type=click.Path(), required=True, help="Stitched clip.")
@@ -292,7 +256,7 @@ def _shown(value) -> str:
     return str(value)
 
 
-@cli.command(name="filters")
+@cli.command(name="filters", short_help="The filter catalogue: parameters, units, papers.")
 def filters_command() -> None:
     """List every filter with its parameters, defaults, units and paper equations."""
     indent = " " * 20

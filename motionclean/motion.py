@@ -211,7 +211,8 @@ class Motion:
         Rotations go back to Euler angles in each joint's own channel order. Where the
         source values describe the same frames, each triple is the equivalent one nearest
         to the frame's original angles, and samples whose quaternion did not change (up to
-        sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for bit. Otherwise angles are unwrapped along time.
+        sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for
+        bit. Otherwise angles are unwrapped along time.
         """
         layout = self.layout
         same_frames = self.has_source_frames()

@@ -1,0 +1,407 @@
+"""Batch cleaning: every clip under a folder, in parallel, into a mirrored folder tree.
+
+The unit of work is :func:`clean_file`, a plain function from an input path, an output path
+and a pipeline description (the list of step tables of ``Pipeline.describe()``) to a small
+picklable :class:`FileResult`. It never raises for a bad clip: the failure is in the result.
+Any executor can run it: :func:`run_jobs` uses a local process pool; a cluster engine can
+map the same function over the same arguments, e.g. with Dask
+``client.map(clean_file, sources, targets, [steps] * n, reports)``.
+
+``motionclean batch`` (:data:`batch_command`) never writes inside IN_DIR, writes every file
+atomically, keeps going when a clip fails, and exits 1 naming each failure.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import signal
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+import click
+
+from .errors import MotionError, UsageError
+from .html import build_series, render_html, render_index
+from .io import atomic_write, load, save
+from .options import PIPE_OPTION, STEP_OPTION, notes_by_joint, pipeline_from_options
+from .pipeline import Pipeline
+from .report import build_report
+
+__all__ = ["DEFAULT_GLOBS", "FileResult", "Job", "batch_command", "clean_file", "find_clips",
+           "raise_failures", "run_jobs"]
+
+#: Clips ``batch`` takes when no ``--glob`` is given.
+DEFAULT_GLOBS = ("*.bvh", "*.csv")
+
+
+@dataclass(frozen=True)
+class FileResult:
+    """What happened to one clip. Figures are ``None`` unless the clip was cleaned.
+
+    ``noise_*``: RMS angular acceleration over all joints and frames (deg/s^2);
+    ``deviation_*``: rotation angle between input and output over all joints (degrees).
+    ``error`` is the one-line ``FILE[:LINE]: reason`` of a failure.
+    """
+
+    source: str
+    target: str | None
+    status: str  # "ok", "skipped" or "failed"
+    frames: int | None = None
+    noise_before: float | None = None
+    noise_after: float | None = None
+    deviation_max: float | None = None
+    deviation_rms: float | None = None
+    report: str | None = None
+    error: str | None = None
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class Job:
+    """The arguments of one :func:`clean_file` call: paths and the step tables only."""
+
+    source: str
+    target: str | None
+    steps: tuple[dict, ...]
+    report: str | None = None
+
+
+def clean_file(source: str | os.PathLike, target: str | os.PathLike | None,
+               pipeline: Pipeline | Sequence[dict],
+               report: str | os.PathLike | None = None) -> FileResult:
+    """Clean ``source`` into ``target`` (atomically) and return the figures.
+
+    ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
+    computes the figures without writing; ``report`` also writes the clip's HTML page.
+    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
+    gives ``status="failed"`` with the reason instead of raising.
+    """
+    start = time.perf_counter()
+    source = os.fspath(source)
+    target = None if target is None else os.fspath(target)
+    report = None if report is None else os.fspath(report)
+    try:
+        if not isinstance(pipeline, Pipeline):
+            pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
+        motion = load(source)
+        cleaned, logs = pipeline.run(motion)
+        if target is not None:
+            Path(target).parent.mkdir(parents=True, exist_ok=True)
+            save(cleaned, target)
+        figures = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs),
+                               source)
+        if report is not None:
+            Path(report).parent.mkdir(parents=True, exist_ok=True)
+            page = render_html(figures, build_series(motion, cleaned))
+            atomic_write(report, page.encode("utf-8"))
+    except MotionError as error:
+        return FileResult(source, target, "failed", error=str(error),
+                          seconds=time.perf_counter() - start)
+    except OSError as error:
+        where = error.filename or source
+        return FileResult(source, target, "failed", error=f"{where}: {error.strerror}",
+                          seconds=time.perf_counter() - start)
+    except Exception as error:  # a bug must not stop the other clips
+        return FileResult(source, target, "failed",
+                          error=f"{source}: internal error: {type(error).__name__}: {error}",
+                          seconds=time.perf_counter() - start)
+    summary = figures["summary"]
+    deviations = [j["deviation_deg"]["rms"] for j in figures["joints"].values()
+                  if "deviation_deg" in j]
+    return FileResult(
+        source, target, "ok", frames=motion.n_frames,
+        noise_before=summary["angular_accel_rms"]["before"],
+        noise_after=summary["angular_accel_rms"]["after"],
+        deviation_max=summary["deviation_deg_max"],
+        # every joint has the same frame count: the RMS over all is the RMS of the RMSs
+        deviation_rms=math.sqrt(sum(d * d for d in deviations) / len(deviations))
+        if deviations else 0.0,
+        report=report, seconds=time.perf_counter() - start)
+
+
+def _run_job(job: Job) -> FileResult:
+    return clean_file(job.source, job.target, job.steps, job.report)
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def default_workers() -> int:
+    """The number of cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _size(path: str) -> int:
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0
+
+
+#: Environment of the worker processes: one BLAS / OpenMP thread each, as the clips already
+#: run in parallel (numpy reads these when a worker imports it). Small matrix products in
+#: the filters are also faster on one thread than on several.
+WORKER_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+                      "MKL_NUM_THREADS": "1"}
+
+
+@contextmanager
+def _worker_environment() -> Iterator[None]:
+    saved = {name: os.environ.get(name) for name in WORKER_ENVIRONMENT}
+    os.environ.update(WORKER_ENVIRONMENT)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """How worker processes start.
+
+    Forked from this process when its BLAS already runs on one thread (the variables of
+    :data:`WORKER_ENVIRONMENT` were set before numpy was imported): nothing to import
+    again. Otherwise they must not inherit its threaded BLAS: a fork server process
+    started with :data:`WORKER_ENVIRONMENT` imports this module once and forks them
+    (``spawn`` where there is no fork server).
+    """
+    methods = multiprocessing.get_all_start_methods()
+    single = all(os.environ.get(k) == v for k, v in WORKER_ENVIRONMENT.items())
+    if single and "fork" in methods:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
+        context = multiprocessing.get_context("forkserver")
+        context.set_forkserver_preload([__name__])
+        return context
+    return multiprocessing.get_context("spawn")
+
+
+def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResult]]:
+    """Run ``jobs`` on ``workers`` local processes; yield ``(index, result)`` as each ends.
+
+    One worker runs in this process. Several run in fresh processes (see
+    :data:`WORKER_ENVIRONMENT`), handed the largest inputs first so that the run does not
+    end waiting on one long clip. A worker that dies (killed, out of memory) fails the
+    clips it had instead of stopping the run. As with any multiprocessing code, a script
+    that calls this needs the ``if __name__ == "__main__":`` guard.
+    """
+    if workers <= 1 or len(jobs) <= 1:
+        for index, job in enumerate(jobs):
+            yield index, _run_job(job)
+        return
+    order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
+    context = _context()  # before the environment changes below
+    with _worker_environment():  # the workers start while the clips are handed out
+        executor = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
+                                       mp_context=context, initializer=_ignore_sigint)
+        pending = {executor.submit(_run_job, jobs[i]): i for i in order}
+    try:
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                index = pending.pop(future)
+                try:
+                    yield index, future.result()
+                except BrokenProcessPool:
+                    job = jobs[index]
+                    yield index, FileResult(job.source, job.target, "failed",
+                                            error=f"{job.source}: the worker process died")
+    finally:
+        executor.shutdown(wait=True, cancel_futures=True)
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def raise_failures(lines: Sequence[str]) -> None:
+    """Report one error line per failure on stderr and end with exit code 1.
+
+    All lines but the last are echoed as ``motionclean: error: LINE``; the last is raised
+    as a :class:`MotionError`, which the CLI prints the same way before exiting with 1.
+    """
+    for line in lines[:-1]:
+        click.echo(f"motionclean: error: {line}", err=True)
+    if lines:
+        raise MotionError(lines[-1])
+
+
+def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
+    """Clip paths under ``root``, relative to it, sorted.
+
+    A file is taken when its relative path matches one of ``patterns`` from the right
+    (``PurePath.match``: ``*.bvh`` matches at any depth, ``walk/*.bvh`` in any folder named
+    walk), case-insensitively. Hidden files and folders (name starting with ".") are left
+    out; symbolic links to folders are not followed.
+    """
+    patterns = [p.lower() for p in patterns]
+    found = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        base = PurePosixPath(Path(folder).relative_to(root).as_posix())
+        for name in files:
+            if name.startswith("."):
+                continue
+            rel = base / name
+            lowered = PurePosixPath(rel.as_posix().lower())
+            if any(lowered.match(p) for p in patterns):
+                found.append(rel)
+    return sorted(found)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    return path == folder or path.is_relative_to(folder)
+
+
+def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None:
+    """Refuse any layout that could write inside IN_DIR (usage errors)."""
+    if not in_dir.exists():
+        raise UsageError(f"{in_dir}: no such folder")
+    if not in_dir.is_dir():
+        raise UsageError(f"{in_dir}: not a folder")
+    source = in_dir.resolve()
+    for option, folder in (("-o", out_dir), ("--report-dir", report_dir)):
+        if folder is None:
+            continue
+        if folder.exists() and not folder.is_dir():
+            raise UsageError(f"{folder}: {option} must be a folder")
+        if _inside(folder.resolve(), source):
+            raise UsageError(f"{folder}: {option} is inside the input folder {in_dir}; "
+                             "batch never writes there, choose a folder outside it")
+
+
+@contextmanager
+def _progress(total: int) -> Iterator[Callable[[str], None]]:
+    """A progress bar on stderr when it is a terminal; otherwise nothing is shown.
+
+    Yields ``advance(name)``, called once per finished clip.
+    """
+    stream = click.get_text_stream("stderr")
+    if total == 0 or not stream.isatty():
+        yield lambda _name: None
+        return
+    with click.progressbar(length=total, label="cleaning", file=stream, show_pos=True,
+                           item_show_func=lambda name: name) as bar:
+        yield lambda name: bar.update(1, name)
+
+
+def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float,
+                   workers: int) -> str:
+    """The end-of-run table: one line per clip, then the totals."""
+    width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
+    head = (f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
+            f"{'dev max':>9}  status")
+    lines = [head, "-" * len(head)]
+    for name, r in rows:
+        shown = name if len(name) < width - 1 else "..." + name[-(width - 5):]
+        if r.status == "ok":
+            removed = 1.0 - r.noise_after / r.noise_before if r.noise_before else 0.0
+            lines.append(f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
+                         f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok")
+        else:
+            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}"
+            lines.append(f"{shown:<{width}}{blank}  {r.status.upper()}")
+    counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
+    lines.append("-" * len(head))
+    plural = "s" if len(rows) != 1 else ""
+    lines.append(f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
+                 f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
+                 f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
+                 "deviation: degrees)")
+    return "\n".join(lines)
+
+
+@click.command("batch")
+@click.argument("in_dir", type=click.Path(file_okay=False))
+@click.option("-o", "--output", "out_dir", required=True, metavar="OUT_DIR",
+              type=click.Path(file_okay=False),
+              help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.")
+@PIPE_OPTION
+@STEP_OPTION
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Worker processes (default: the number of cores).")
+@click.option("--glob", "patterns", multiple=True, metavar="PATTERN",
+              help="Which files are clips, matched on the path relative to IN_DIR, "
+                   "case-insensitive; repeatable (default: *.bvh and *.csv).")
+@click.option("--report-dir", type=click.Path(file_okay=False), metavar="DIR",
+              help="Also write an HTML page per clip (mirrored tree) and index.html here.")
+@click.option("--skip-existing", is_flag=True,
+              help="Leave clips whose output (and page) already exists: resumes a run.")
+@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+def batch_command(in_dir: str, out_dir: str, pipe: str | None,
+                  steps: tuple[str, ...], jobs: int | None, patterns: tuple[str, ...],
+                  report_dir: str | None, skip_existing: bool, quiet: bool) -> None:
+    """Clean every clip under IN_DIR into OUT_DIR, in parallel.
+
+    Clips are found recursively; the folder tree is mirrored under OUT_DIR and nothing is
+    ever written inside IN_DIR. A clip that fails is named on stderr and the others go on;
+    the exit code is then 1. Without -p or -f the default pipeline runs.
+    """
+    pipeline = pipeline_from_options(pipe, steps)
+    source_root, out_root = Path(in_dir), Path(out_dir)
+    pages = Path(report_dir) if report_dir else None
+    _check_folders(source_root, out_root, pages)
+    clips = find_clips(source_root, patterns or DEFAULT_GLOBS)
+    if not clips:
+        raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
+    resolved_in = source_root.resolve()
+    tables = tuple(pipeline.describe())
+    work: list[Job] = []
+    work_names: list[str] = []
+    results: dict[str, FileResult] = {}
+    for rel in clips:
+        source, target = source_root / rel, out_root / rel
+        if _inside(target.resolve(), resolved_in):
+            raise UsageError(f"{target}: would be written inside the input folder {in_dir}")
+        page = None if pages is None else pages / f"{rel}.html"
+        if skip_existing and target.exists() and (page is None or page.exists()):
+            results[str(rel)] = FileResult(str(source), str(target), "skipped",
+                                           report=None if page is None else str(page))
+            continue
+        work.append(Job(str(source), str(target), tables,
+                        None if page is None else str(page)))
+        work_names.append(str(rel))
+
+    workers = min(jobs or default_workers(), max(len(work), 1))
+    start = time.perf_counter()
+    with _progress(len(work)) as advance:
+        for index, result in run_jobs(work, workers):
+            results[work_names[index]] = result
+            advance(work_names[index])
+    seconds = time.perf_counter() - start
+
+    rows = [(str(rel), results[str(rel)]) for rel in clips]
+    if pages is not None:
+        _write_index(pages, rows, tables, in_dir)
+    if not quiet:
+        click.echo(format_summary(rows, seconds, workers))
+    raise_failures([r.error for _, r in rows if r.status == "failed"])
+
+
+def _write_index(pages: Path, rows: Sequence[tuple[str, FileResult]],
+                 tables: Sequence[dict], in_dir: str) -> None:
+    entries = []
+    for name, r in rows:
+        page = pages / f"{name}.html"
+        href = f"{name}.html" if r.status != "failed" and page.exists() else None
+        entries.append({"file": name, "href": href, "frames": r.frames,
+                        "noise_before": r.noise_before, "noise_after": r.noise_after,
+                        "deviation_max": r.deviation_max, "status": r.status,
+                        "error": r.error})
+    pages.mkdir(parents=True, exist_ok=True)
+    page = render_index(entries, list(tables), f"motionclean batch: {in_dir}")
+    atomic_write(pages / "index.html", page.encode("utf-8"))

@@ -1,0 +1,60 @@
+"""Command-line pieces shared by the commands: pipeline options, overwrite rule, reports."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from .errors import UsageError
+from .io import atomic_write
+from .pipeline import Pipeline
+from .report import to_json
+
+
+def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
+    """The pipeline from ``-p`` or ``-f``, or the default one; validated, no clip read."""
+    if pipe and steps:
+        raise UsageError("use either -p PIPE.toml or -f STEP, not both")
+    if pipe:
+        return Pipeline.from_toml(pipe)
+    if steps:
+        return Pipeline.from_inline(list(steps))
+    return Pipeline.default()
+
+
+def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
+    """Raise unless ``target`` is a different file from ``source`` or ``in_place`` is set."""
+    same = target.exists() and source.exists() and target.resolve() == source.resolve()
+    if same and not in_place:
+        raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
+
+
+def write_report(report: dict, path: Path, series: dict | None = None) -> None:
+    """Write a report as JSON or HTML, by extension; ``series`` feeds the HTML plots."""
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        atomic_write(path, to_json(report))
+    elif suffix in (".html", ".htm"):
+        from .html import render_html
+
+        atomic_write(path, render_html(report, series).encode("utf-8"))
+    else:
+        raise UsageError(f"{path}: a report is .json or .html")
+
+
+def notes_by_joint(logs) -> dict[str, dict]:
+    """Merge each step's per-joint notes into one dict for the report."""
+    merged: dict[str, dict] = {}
+    for log in logs:
+        for joint, note in log.notes.items():
+            merged.setdefault(joint, {}).update(note)
+    return merged
+
+
+PIPE_OPTION = click.option(
+    "-p", "--pipeline", "pipe", type=click.Path(dir_okay=False),
+    help="Pipeline TOML file with [[step]] tables (see README).")
+STEP_OPTION = click.option(
+    "-f", "--filter", "steps", multiple=True, metavar="STEP",
+    help="Inline step NAME:key=value,...; repeatable, applied in order.")

@@ -1,0 +1,125 @@
+"""`motionclean check`: a fresh baseline passes; a noisier clip fails, named; clear errors."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.check import DEFAULT_TOLERANCE, check_command, compare
+from motionclean.cli import cli, main
+from motionclean.pipeline import Pipeline
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
+
+cli.add_command(check_command)  # what cli.py registers; adding it again is harmless
+
+
+def cut_bvh(source: Path, target: Path, frames: int) -> Path:
+    """Copy the first ``frames`` frames of a BVH file, every value's text kept."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    target.write_text("".join(lines[:at]) + f"Frames: {frames}\n" + lines[at + 1]
+                      + "".join(lines[at + 2:at + 2 + frames]))
+    return target
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    with pytest.raises(SystemExit) as done:
+        main([os.fspath(a) for a in args])
+    captured = capsys.readouterr()
+    return done.value.code, captured.out, captured.err
+
+
+@pytest.fixture
+def clips(tmp_path, monkeypatch) -> list[str]:
+    monkeypatch.chdir(tmp_path)  # baseline keys are paths relative to the current folder
+    Path("clips").mkdir()
+    return [cut_bvh(SAMPLE, Path("clips") / f"{name}.bvh", 80).as_posix()
+            for name in ("calm", "busy")]
+
+
+def make_noisier(path: str) -> None:
+    motion = mc.load(path)
+    rng = np.random.default_rng(7)
+    noise = quat.exp(rng.normal(scale=0.02, size=motion.rotations.shape[:-1] + (3,)))
+    mc.save(motion.replace(rotations=quat.multiply(motion.rotations, noise)), path)
+
+
+def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
+    code, stdout, _ = run(capsys, "check", *clips, "--baseline", "base.json", "--update")
+    assert code == 0 and "baseline written" in stdout
+    recorded = json.loads(Path("base.json").read_text())
+    assert sorted(recorded["clips"]) == sorted(clips)
+    assert recorded["pipeline"] == json.loads(json.dumps(Pipeline.default().describe()))
+
+    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "base.json")
+    assert code == 0, stderr
+    assert "check passed" in stdout and "WORSE" not in stdout
+
+    make_noisier("clips/busy.bvh")
+    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "base.json")
+    assert code == 1
+    assert "clips/busy.bvh" in stderr and "clips/calm.bvh" not in stderr
+    assert "noise after got worse" in stderr
+    assert all(line.startswith("motionclean: error: clips/busy.bvh: ")
+               for line in stderr.strip().splitlines())
+    worse = [line for line in stdout.splitlines() if line.rstrip().endswith("WORSE")]
+    assert worse and "noise after" in worse[0]
+
+
+def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
+    assert run(capsys, "check", *clips, "--baseline", "b.json", "--update",
+               "-f", "lee-shin:k=2,iterations=3")[0] == 0
+    code, _, stderr = run(capsys, "check", *clips, "--baseline", "b.json",
+                          "-f", "lee-shin:k=2,iterations=2")
+    assert code == 1 and stderr.count("noise after got worse") == 2
+    code, _, _ = run(capsys, "check", *clips, "--baseline", "b.json",
+                     "-f", "lee-shin:k=2,iterations=2", "--tolerance", "100")
+    assert code == 0
+
+
+def test_missing_baseline_is_a_clear_error(clips, capsys):
+    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "none.json")
+    assert code == 2 and stdout == ""
+    assert stderr.strip() == ("motionclean: error: none.json: no such baseline; create it "
+                              "with --update")
+    assert not Path("none.json").exists()
+
+
+def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
+    Path("clips/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
+    code, _, stderr = run(capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json",
+                          "--update")
+    assert code == 1 and "clips/broken.bvh" in stderr
+    assert not Path("b.json").exists()
+
+
+def test_clip_missing_from_the_baseline_fails(clips, capsys):
+    assert run(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+    code, _, stderr = run(capsys, "check", *clips, "--baseline", "b.json")
+    assert code == 1 and f"{clips[1]}: not in the baseline" in stderr
+
+
+def test_compare_limits():
+    base = {"frames": 10, "noise_before": 100.0, "noise_after": 10.0, "deviation_max": 2.0,
+            "deviation_rms": 1.0}
+    t = DEFAULT_TOLERANCE
+
+    def verdicts(**now):
+        return {label: v for label, _, _, v in compare(dict(base, **now), base, t)}
+
+    assert set(verdicts().values()) == {"ok"}
+    assert set(verdicts(noise_after=10.0 * (1 + t) * (1 - 1e-9)).values()) == {"ok"}
+    assert verdicts(noise_after=10.0 * (1 + 2 * t))["noise after, deg/s^2"] == "WORSE"
+    assert verdicts(deviation_max=1.0)["deviation max, deg"] == "better"
+    assert verdicts(noise_before=90.0)["noise before, deg/s^2"] == "CHANGED"
+    assert verdicts(frames=11)["frames"] == "CHANGED"
+    zero = dict(base, deviation_max=0.0)
+    assert compare(dict(zero, deviation_max=1e-12), zero, t)[2][3] == "ok"
