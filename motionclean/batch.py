@@ -150,66 +150,30 @@ def _size(path: str) -> int:
         return 0
 
 
-#: Environment of the worker processes: one BLAS / OpenMP thread each, as the clips already
-#: run in parallel (numpy reads these when a worker imports it). Small matrix products in
-#: the filters are also faster on one thread than on several.
-WORKER_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-                      "MKL_NUM_THREADS": "1"}
-
-
-@contextmanager
-def _worker_environment() -> Iterator[None]:
-    saved = {name: os.environ.get(name) for name in WORKER_ENVIRONMENT}
-    os.environ.update(WORKER_ENVIRONMENT)
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
-
-
 def _context() -> multiprocessing.context.BaseContext:
-    """How worker processes start.
-
-    Forked from this process when its BLAS already runs on one thread (the variables of
-    :data:`WORKER_ENVIRONMENT` were set before numpy was imported): nothing to import
-    again. Otherwise they must not inherit its threaded BLAS: a fork server process
-    started with :data:`WORKER_ENVIRONMENT` imports this module once and forks them
-    (``spawn`` where there is no fork server).
-    """
+    """Workers are forked where the platform allows it (nothing to import again), else
+    spawned."""
     methods = multiprocessing.get_all_start_methods()
-    single = all(os.environ.get(k) == v for k, v in WORKER_ENVIRONMENT.items())
-    if single and "fork" in methods:
-        return multiprocessing.get_context("fork")
-    if "forkserver" in methods:
-        context = multiprocessing.get_context("forkserver")
-        context.set_forkserver_preload([__name__])
-        return context
-    return multiprocessing.get_context("spawn")
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
 
 
 def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResult]]:
     """Run ``jobs`` on ``workers`` local processes; yield ``(index, result)`` as each ends.
 
-    One worker runs in this process. Several run in fresh processes (see
-    :data:`WORKER_ENVIRONMENT`), handed the largest inputs first so that the run does not
-    end waiting on one long clip. A worker that dies (killed, out of memory) fails the
-    clips it had instead of stopping the run. As with any multiprocessing code, a script
-    that calls this needs the ``if __name__ == "__main__":`` guard.
+    One worker runs in this process. Several run in worker processes, handed the largest
+    inputs first so that the run does not end waiting on one long clip. A worker that dies
+    (killed, out of memory) fails the clips it had instead of stopping the run. As with any
+    multiprocessing code, a script that calls this needs the ``if __name__ == "__main__":``
+    guard.
     """
     if workers <= 1 or len(jobs) <= 1:
         for index, job in enumerate(jobs):
             yield index, _run_job(job)
         return
     order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
-    context = _context()  # before the environment changes below
-    with _worker_environment():  # the workers start while the clips are handed out
-        executor = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
-                                       mp_context=context, initializer=_ignore_sigint)
-        pending = {executor.submit(_run_job, jobs[i]): i for i in order}
+    executor = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
+                                   mp_context=_context(), initializer=_ignore_sigint)
+    pending = {executor.submit(_run_job, jobs[i]): i for i in order}
     try:
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)

@@ -27,6 +27,7 @@ from .batch import FileResult, Job, default_workers, raise_failures, run_jobs
 from .errors import MotionError, UsageError
 from .io import atomic_write
 from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options
+from .report import json_safe, to_json
 
 __all__ = ["DEFAULT_TOLERANCE", "FIGURES", "check_command", "compare", "read_baseline"]
 
@@ -170,7 +171,7 @@ def check_command(clips: tuple[str, ...], pipe: str | None, steps: tuple[str, ..
         raise_failures(failures)  # never write a baseline from a partial run
         record = {"motionclean": __version__, "format": FORMAT, "pipeline": list(tables),
                   "clips": {k: _figures(results[i]) for i, k in enumerate(keys)}}
-        atomic_write(baseline_path, (json.dumps(record, indent=2) + "\n").encode("utf-8"))
+        atomic_write(baseline_path, to_json(record))
         table = [(k, [(label, None, getattr(results[i], key), "recorded")
                       for key, label, _ in FIGURES]) for i, k in enumerate(keys)]
         click.echo(format_check(table, recorded=True))
@@ -191,7 +192,7 @@ def check_command(clips: tuple[str, ...], pipe: str | None, steps: tuple[str, ..
                      for label, ref, value, verdict in rows if verdict in ("WORSE", "CHANGED")]
     if table:
         click.echo(format_check(table))
-    if document.get("pipeline") != list(tables):
+    if document.get("pipeline") != json_safe(list(tables)):
         click.echo("note: the pipeline differs from the one the baseline was recorded with")
     if not problems:
         click.echo(f"check passed: {len(keys)} clip{'s' if len(keys) != 1 else ''} within "

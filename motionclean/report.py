@@ -10,6 +10,7 @@ RMS angular acceleration removed, ``1 - after / before``.
 from __future__ import annotations
 
 import json
+import math
 from typing import Any
 
 import numpy as np
@@ -93,8 +94,20 @@ def build_report(
     }
 
 
+def json_safe(value: Any) -> Any:
+    """Non-finite numbers as the strings ``"inf"``, ``"-inf"``, ``"nan"`` (strict JSON)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    return value
+
+
 def to_json(report: dict) -> bytes:
-    return (json.dumps(report, indent=2) + "\n").encode("utf-8")
+    """UTF-8 JSON text, indented, strict (no ``Infinity`` / ``NaN`` tokens)."""
+    return (json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
 def noisiest(report: dict) -> list[str]:

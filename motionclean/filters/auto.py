@@ -262,10 +262,11 @@ def _residual_energies(disp: np.ndarray, masks: list[np.ndarray]) -> np.ndarray:
         np.add.at(kernel, np.arange(-k, k) % period, b)
         gains[row] = np.abs(np.fft.rfft(kernel)) ** 2 * weight
         offsets = np.arange(-k, k) + k_max
-        s_first = np.tensordot(b, disp[mirrored[1 + offsets]], axes=1)
-        s_last = np.tensordot(b, disp[mirrored[n - 1 + offsets]], axes=1)
+        s_first = np.einsum("k,k...->...", b, disp[mirrored[1 + offsets]])
+        s_last = np.einsum("k,k...->...", b, disp[mirrored[n - 1 + offsets]])
         ends[row] = np.sum(s_first**2, axis=-1) + np.sum(s_last**2, axis=-1)
-    return gains @ power / (2.0 * period) + ends
+    # einsum, not a matrix product: no threaded BLAS for these small products
+    return np.einsum("mf,fc->mc", gains, power) / (2.0 * period) + ends
 
 
 def _select(x, disp, sigma2, cands, apply: Callable, to_rms: Callable):
