@@ -133,6 +133,8 @@ class StepSpec:
     run: Callable[[StepData, dict], StepData]
     positions_default: bool = True
     check: Callable[[dict, str], None] | None = None
+    # Names of the parameters that matter for these values (default: all of them).
+    relevant: Callable[[dict], tuple[str, ...]] | None = None
 
     def param(self, name: str) -> Param | None:
         return next((p for p in self.params if p.name == name), None)
@@ -145,6 +147,7 @@ COMMON_PARAMS = (
 
 # ----------------------------------------------------------------------------- lee-shin
 
+SAVGOL_HALF_WIDTH = 3  # frames, when a savgol mask gives none
 MASKS = ("binomial", "smoothing", "high-boost", "gaussian", "savgol", "lowpass", "reduction",
          "custom")
 
@@ -153,8 +156,7 @@ def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
     """The mask a lee-shin step describes; ``frame_time`` (s) is needed by mask=lowpass."""
     kind = params["mask"]
     if kind == "savgol":
-        half_width = 3 if params["half_width"] is None else params["half_width"]
-        return design.savgol(half_width, params["degree"])
+        return design.savgol(params["half_width"], params["degree"])
     if kind == "lowpass":
         return design.lowpass(params["cutoff_hz"], 1.0 / frame_time, params["half_width"])
     if kind == "binomial":
@@ -182,10 +184,22 @@ def _check_lee_shin(params: dict, where: str) -> None:
         return  # the Nyquist check needs the clip's frame rate: done when the step runs
     if params["cutoff_hz"] is not None:
         raise UsageError(f"{where}: cutoff_hz only applies to mask=lowpass")
+    if params["mask"] == "savgol" and params["half_width"] is None:
+        params["half_width"] = SAVGOL_HALF_WIDTH
     try:
         _mask_from(params)
     except masks.MaskError as error:
         raise UsageError(f"{where}: {error}") from None
+
+
+MASK_PARAMS = {"binomial": ("k",), "smoothing": ("lam",), "high-boost": ("lam",),
+               "gaussian": ("sigma_t",), "savgol": ("half_width", "degree"),
+               "lowpass": ("cutoff_hz", "half_width"), "reduction": (),
+               "custom": ("coefficients",)}
+
+
+def _lee_shin_relevant(params: dict) -> tuple[str, ...]:
+    return ("mask", *MASK_PARAMS[params["mask"]], "iterations")
 
 
 def _run_lee_shin(data: StepData, params: dict) -> StepData:
@@ -220,6 +234,7 @@ LEE_SHIN = StepSpec(
     ),
     run=_run_lee_shin,
     check=_check_lee_shin,
+    relevant=_lee_shin_relevant,
 )
 
 # ----------------------------------------------------------------------------- bilateral
@@ -495,7 +510,8 @@ class Step:
     def describe(self) -> dict:
         """The step as a plain dict (report and TOML form), defaults filled in."""
         out = {"filter": self.spec.name}
-        out.update({k: v for k, v in self.params.items() if v is not None})
+        names = self.spec.relevant(self.params) if self.spec.relevant else tuple(self.params)
+        out.update({k: v for k, v in self.params.items() if v is not None and k in names})
         out["joints"] = list(self.joints)
         out["positions"] = self.positions
         return out

@@ -14,6 +14,7 @@ from motionclean import quat
 from motionclean.check import DEFAULT_TOLERANCE, check_command, compare
 from motionclean.cli import cli, main
 from motionclean.pipeline import Pipeline
+from motionclean.report import json_safe
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
@@ -57,7 +58,7 @@ def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
     assert code == 0 and "baseline written" in stdout
     recorded = json.loads(Path("base.json").read_text())
     assert sorted(recorded["clips"]) == sorted(clips)
-    assert recorded["pipeline"] == json.loads(json.dumps(Pipeline.default().describe()))
+    assert recorded["pipeline"] == json_safe(Pipeline.default().describe())
 
     code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "base.json")
     assert code == 0, stderr
