@@ -20,8 +20,11 @@ $(VENV)/.bench: $(STAMP)
 demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(BIN)/motionclean info sample_data/131_02_noisy.bvh
-	$(BIN)/motionclean convert sample_data/131_02_noisy.bvh $(OUT)/roundtrip.bvh
-	cmp sample_data/131_02_noisy.bvh $(OUT)/roundtrip.bvh && echo "round trip: byte-identical"
+	$(BIN)/motionclean clean sample_data/131_02_noisy.bvh -o $(OUT)/131_02_clean.bvh \
+		--report $(OUT)/131_02_report.html
+	$(BIN)/motionclean report sample_data/131_02_noisy.bvh $(OUT)/131_02_clean.bvh \
+		--json $(OUT)/131_02_report.json > /dev/null
+	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
 test: $(STAMP)
 	$(BIN)/ruff check motionclean tests bench scripts

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import __version__, metrics
 from .motion import Motion
-from .report import noisiest
+from .report import noisiest, note_text
 
 __all__ = ["build_series", "envelope", "render_html", "render_index"]
 
@@ -434,8 +434,8 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
     else:
         removed = ""
         figures = f"RMS {_num(rms['before'])}, max {_short(peak['before'])} deg/s\u00b2"
-    notes = [f"<b>{_e(k)}</b> {_e(_value(v))}" for k, v in entry.items()
-             if k not in STANDARD_KEYS]
+    notes = [f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
+             for k, v in entry.items() if k not in STANDARD_KEYS]
     return (f'<section class="card" id="{_anchor(name)}"><h3>{_e(name)}<small>{removed}'
             f'</small></h3><div class="figures">{figures}</div>'
             + "".join(f'<div class="notes">{n}</div>' for n in notes)

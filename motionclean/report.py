@@ -161,21 +161,30 @@ def _ranges(runs: list[list[int]]) -> str:
     return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
 
 
+def note_text(key: str, note: Any) -> str:
+    """One readable line for a step's per-joint note (``despike``, ``auto``, ...)."""
+    if key.endswith("despike"):
+        unit = "units" if key.startswith("position") else "deg"
+        parts = [f"{note['frames_repaired']} frames repaired"]
+        if note.get("unflipped"):
+            parts.append(f"un-flipped {_ranges(note['unflipped'])}")
+        if note["interpolated"]:
+            parts.append(f"interpolated {_ranges(note['interpolated'])}")
+        step = note["max_step"]
+        parts.append(f"largest step {step['before']:.1f} -> {step['after']:.1f} {unit}")
+        return "; ".join(parts)
+    if key.endswith("auto"):
+        unit = "deg" if note["unit"] == "deg" else "units"
+        chosen = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                           for k, v in note["filter"].items())
+        return (f"estimated noise {note['noise']:.3g} {unit}; chose {chosen}; "
+                f"expected error {note['expected_error']:.3g} {unit}")
+    return json.dumps(json_safe(note))
+
+
 def format_repairs(report: dict) -> list[str]:
     """Lines naming each joint the despike step repaired: how, where, largest step."""
-    lines = []
-    for name, entry in report["joints"].items():
-        for key, unit in (("despike", "deg"), ("position_despike", "units")):
-            note = entry.get(key)
-            if not note:
-                continue
-            what = "position " if key.startswith("position") else ""
-            parts = [f"{note['frames_repaired']} frames"]
-            if note.get("unflipped"):
-                parts.append(f"un-flipped {_ranges(note['unflipped'])}")
-            if note["interpolated"]:
-                parts.append(f"interpolated {_ranges(note['interpolated'])}")
-            step = note["max_step"]
-            parts.append(f"largest {what}step {step['before']:.1f} -> {step['after']:.1f} {unit}")
-            lines.append(f"repaired {name}{' (positions)' if what else ''}: " + "; ".join(parts))
-    return lines
+    return [f"repaired {name}{' (positions)' if key.startswith('position') else ''}: "
+            + note_text(key, entry[key])
+            for name, entry in report["joints"].items()
+            for key in ("despike", "position_despike") if entry.get(key)]
