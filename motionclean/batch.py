@@ -17,6 +17,7 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -254,7 +255,7 @@ def _progress(total: int) -> Iterator[Callable[[str], None]]:
 
     Yields ``advance(name)``, called once per finished clip.
     """
-    stream = click.get_text_stream("stderr")
+    stream = sys.stderr
     if total == 0 or not stream.isatty():
         yield lambda _name: None
         return
