@@ -19,10 +19,10 @@ Run ``python bench/bilateral.py``. Prints markdown tables:
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
+from common import CORPUS, best_of, corpus_clips
 
 import motionclean as mc
 from motionclean import quat
@@ -30,23 +30,11 @@ from motionclean.filters.bilateral import bilateral, bilateral_positions
 from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import gaussian
 
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
-
 
 def paper_mse(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """002 Sec. 5: ``1/N sum_{i=0}^{N} |log(a_i^-1 b_i)|^2`` per trailing signal (shortest arc)."""
     half = 0.5 * quat.angle_between(a, b)
     return np.sum(half**2, axis=0) / (a.shape[0] - 1)
-
-
-def best_time(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def mse_table(clean, sigma_n, sigma_gs, passes, seeds, sigma_t=1.0) -> str:
@@ -123,8 +111,8 @@ def main() -> None:
     for label, q in datasets.items():
         for sigma_t in (1.0, 2.0):
             mask = gaussian(sigma_t)
-            t_ls = best_time(lambda q=q, mask=mask: lee_shin(q, mask), args.repeats)
-            t_bf = best_time(lambda q=q, s=sigma_t: bilateral(q, s, 0.1), args.repeats)
+            t_ls = best_of(lambda q=q, mask=mask: lee_shin(q, mask), args.repeats)
+            t_bf = best_of(lambda q=q, s=sigma_t: bilateral(q, s, 0.1), args.repeats)
             print(
                 f"| {label} | {sigma_t:g} | {mask.size // 2} | {1e3 * t_ls:.1f} | "
                 f"{1e3 * t_bf:.1f} | {t_bf / t_ls:.2f} |"
@@ -135,18 +123,18 @@ def main() -> None:
     walk = np.cumsum(np.random.default_rng(1).normal(size=(10000, 31, 3)), axis=0)
     for sigma_t in (1.0, 2.0):
         mask = gaussian(sigma_t)
-        t_ls = best_time(lambda mask=mask: lee_shin_positions(walk, mask), args.repeats)
-        t_bf = best_time(lambda s=sigma_t: bilateral_positions(walk, s, 1.0), args.repeats)
+        t_ls = best_of(lambda mask=mask: lee_shin_positions(walk, mask), args.repeats)
+        t_bf = best_of(lambda s=sigma_t: bilateral_positions(walk, s, 1.0), args.repeats)
         print(
             f"| random walk {walk.shape}, sigma_p 1 | {sigma_t:g} | {mask.size // 2} | "
             f"{1e3 * t_ls:.1f} | {1e3 * t_bf:.1f} | {t_bf / t_ls:.2f} |"
         )
     print()
 
-    clips = [mc.load(p).rotations[:150] for p in sorted(CORPUS.glob("131_0*.bvh"))]
+    clips = [mc.load(p).rotations[:150] for p in corpus_clips("131_0*.bvh")]
     work = np.concatenate(clips, axis=1)[:, :75]
-    t_paper = best_time(lambda: bilateral(work, 1.0, 0.1, iterations=5), args.repeats)
-    t_ls5 = best_time(lambda: lee_shin(work, gaussian(1.0), iterations=5), args.repeats)
+    t_paper = best_of(lambda: bilateral(work, 1.0, 0.1, iterations=5), args.repeats)
+    t_ls5 = best_of(lambda: lee_shin(work, gaussian(1.0), iterations=5), args.repeats)
     print(
         f"Paper workload {work.shape[1]} joints x {work.shape[0]} frames x 5 passes "
         f"(sigma_t = 1, sigma_g = 0.1): bilateral {1e3 * t_paper:.1f} ms, Lee-Shin Gaussian "

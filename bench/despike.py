@@ -18,10 +18,8 @@ Run ``python bench/despike.py``. Prints markdown tables:
 
 from __future__ import annotations
 
-import time
-from pathlib import Path
-
 import numpy as np
+from common import best_of, corpus_clips
 
 import motionclean as mc
 from motionclean import quat
@@ -29,17 +27,7 @@ from motionclean.filters.despike import despike, despike_positions, despike_with
 from motionclean.filters.linear import lee_shin
 from motionclean.filters.masks import binomial
 
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
-
-
-def best_time(fn, repeats: int = 15) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+REPEATS = 15  # timing runs, the best kept
 
 
 def max_step(q: np.ndarray) -> tuple[float, int]:
@@ -54,10 +42,7 @@ def fmt_runs(runs) -> str:
 
 
 def main() -> None:
-    clips = sorted(CORPUS.glob("*.bvh"))
-    if not clips:
-        raise SystemExit(f"corpus not found at {CORPUS}")
-    motions = {path.name: mc.load(path) for path in clips}
+    motions = {path.name: mc.load(path) for path in corpus_clips()}
 
     print("## Repairs per corpus clip (defaults)\n")
     print("| clip | frames | joints repaired | frames un-flipped | frames interpolated "
@@ -125,8 +110,8 @@ def main() -> None:
     print("| clip | despike (ms) | Lee-Shin pass (ms) | ratio |")
     print("| --- | --- | --- | --- |")
     for name, m in motions.items():
-        t_d = best_time(lambda m=m: despike(m.rotations, m.frame_time))
-        t_l = best_time(lambda m=m: lee_shin(m.rotations, mask, iterations=1))
+        t_d = best_of(lambda m=m: despike(m.rotations, m.frame_time), REPEATS)
+        t_l = best_of(lambda m=m: lee_shin(m.rotations, mask, iterations=1), REPEATS)
         print(f"| {name} | {t_d * 1e3:.2f} | {t_l * 1e3:.2f} | {t_d / t_l:.2f} |")
 
 

@@ -23,10 +23,9 @@ Run ``python bench/fairing.py``. Prints markdown tables:
 from __future__ import annotations
 
 import math
-import time
-from pathlib import Path
 
 import numpy as np
+from common import CORPUS, best_of
 
 import motionclean as mc
 from motionclean import quat
@@ -42,8 +41,7 @@ from motionclean.filters.fairing import (
 from motionclean.filters.linear import lee_shin
 from motionclean.filters.masks import binomial
 
-ROOT = Path(__file__).resolve().parents[1]
-CLIP = ROOT.parent / "shared" / "corpus" / "cmu" / "131_02.bvh"
+CLIP = CORPUS / "131_02.bvh"
 
 SAMPLES = 100
 SPLINES = 20
@@ -190,15 +188,6 @@ def sse_table(clean, noisy, clean_p, noisy_p) -> str:
     return "\n".join(lines)
 
 
-def best_time(fn, repeats: int = 3) -> float:
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def clip_data():
     if CLIP.exists():
         m = mc.load(CLIP)
@@ -217,7 +206,7 @@ def cost_table() -> str:
         quat.exp(np.cumsum(rng.normal(scale=0.02, size=q.shape[:-1] + (3,)), axis=0))
     )
     walk_p = np.cumsum(rng.normal(size=q.shape[:-1] + (3,)), axis=0)
-    one_pass = best_time(lambda: lee_shin(q, binomial(2)), 10)
+    one_pass = best_of(lambda: lee_shin(q, binomial(2)), 10)
     runs = [
         ("fairing m=3, lam_r=0.1", name,
          lambda: fairing(q, 3, 0.1, math.inf, 0.0, 100, return_iterations=True)),
@@ -242,15 +231,15 @@ def cost_table() -> str:
     ]
     for label, data_name, fn in runs:
         iterations = float(np.mean(fn()[1]))
-        t = best_time(fn)
+        t = best_of(fn, 3)
         lines.append(f"| {label} | {data_name} | {iterations:.0f} | {t * 1e3:.0f} | "
                      f"{t / one_pass:.0f}x |")
 
     rng = np.random.default_rng(2)
     small_q = quat.make_continuous(quat.exp(np.cumsum(rng.normal(scale=0.05, size=(300, 3)), 0)))
     small_p = np.cumsum(rng.normal(size=(300, 3)), axis=0)
-    t_small = best_time(lambda: (fairing(small_q, 3, 0.1, math.inf, 0.0, 100),
-                                 fairing_positions(small_p, 3, 0.5, math.inf, 0.0, 100)), 5)
+    t_small = best_of(lambda: (fairing(small_q, 3, 0.1, math.inf, 0.0, 100),
+                               fairing_positions(small_p, 3, 0.5, math.inf, 0.0, 100)), 5)
     lines += [
         "",
         f"001's workload (300 samples, positions + orientations, m = 3, 100 iterations): "

@@ -17,22 +17,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
+from common import CORPUS, ROOT, best_of
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import motionclean as mc  # noqa: E402
 from motionclean import quat  # noqa: E402
 from motionclean.filters.linear import displacement_coefficients, lee_shin  # noqa: E402
 from motionclean.filters.masks import binomial  # noqa: E402
-
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
-
 
 # ----------------------------------------------------------------------------- reference
 # A straightforward numpy version of the same filter, as one would write it from the paper.
@@ -92,16 +87,6 @@ def smooth_signal(frames: int, joints: int, seed: int = 7) -> np.ndarray:
     return quat.make_continuous(quat.multiply(base, quat.exp(path)), axis=0)
 
 
-def best_time(fn, repeats: int) -> float:
-    fn()  # warm up (allocator, caches)
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def peak_memory(fn) -> int:
     """Peak bytes allocated by ``fn()`` above what was allocated before, result included."""
     tracemalloc.start()
@@ -129,7 +114,7 @@ def main() -> None:
         "log + exp only (`quat.exp(quat.log(q))`)": lambda: quat.exp(quat.log(q)),
     }
     diff = np.max(quat.angle_between(lee_shin(q, mask), ref_lee_shin(q, mask)))
-    times = {name: best_time(fn, args.repeats) for name, fn in cases.items()}
+    times = {name: best_of(fn, args.repeats, warm_up=True) for name, fn in cases.items()}
     peaks = {name: peak_memory(fn) for name, fn in cases.items()}
     ref_time = times["plain numpy reference, 1 pass"]
 
@@ -147,14 +132,14 @@ def main() -> None:
           "log + exp lower bound. Peak memory is above the input and includes the result "
           f"(input: {q.nbytes / 1e6:.1f} MB).")
 
-    five = best_time(lambda: lee_shin(q, mask, 5), max(3, args.repeats // 3))
+    five = best_of(lambda: lee_shin(q, mask, 5), max(3, args.repeats // 3), warm_up=True)
     print(f"\n5 passes: {five * 1e3:.1f} ms ({5 * samples / five / 1e6:.1f} M samples/s per "
           f"pass), peak memory {peak_memory(lambda: lee_shin(q, mask, 5)) / q.nbytes:.2f}x input")
 
     clip = CORPUS / "131_02.bvh"
     if clip.exists():
         m = mc.load(clip)
-        t = best_time(lambda: lee_shin(m.rotations, mask, 5), args.repeats)
+        t = best_of(lambda: lee_shin(m.rotations, mask, 5), args.repeats, warm_up=True)
         print(f"\n## Corpus clip {clip.name} {m.rotations.shape}: "
               f"`lee_shin(rotations, binomial(2), 5)` {t * 1e3:.1f} ms")
     else:

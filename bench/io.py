@@ -18,23 +18,14 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 import warnings
 from pathlib import Path
 
 import numpy as np
+from common import corpus_clips, elapsed
 
 import motionclean as mc
 from motionclean import quat
-
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
-
-
-def time_once(fn) -> float:
-    start = time.perf_counter()
-    fn()
-    return time.perf_counter() - start
 
 
 def measure(clip: Path, out: Path, repeats: int) -> dict[str, float]:
@@ -59,7 +50,7 @@ def measure(clip: Path, out: Path, repeats: int) -> dict[str, float]:
     best = dict.fromkeys(ops, np.inf)
     for _ in range(repeats):
         for name, fn in ops.items():
-            best[name] = min(best[name], time_once(fn))
+            best[name] = min(best[name], elapsed(fn))
     assert (out / "mc_same.bvh").read_bytes() == clip.read_bytes()
     return best
 
@@ -68,9 +59,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
-    clips = sorted(CORPUS.glob("*.bvh"))
-    if not clips:
-        raise SystemExit(f"no corpus at {CORPUS}")
+    clips = corpus_clips()
     warnings.filterwarnings("ignore")  # pybvh warns about world-up guesses
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -23,29 +23,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
+from common import CORPUS, ROOT, best_of
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import motionclean as mc  # noqa: E402
 from motionclean import metrics, quat  # noqa: E402
 from motionclean import multires as mr  # noqa: E402
 
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 UP = np.array([0.0, 1.0, 0.0])  # the vertical axis of the CMU clips
-
-
-def best_time(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def to_euler_channels(q: np.ndarray, order: str) -> np.ndarray:
@@ -150,7 +138,7 @@ def timing_table(m: mc.Motion, frames: int, repeats: int) -> str:
         "|---|---:|---:|",
     ]
     for name, fn in rows:
-        t = best_time(fn, repeats)
+        t = best_of(fn, repeats)
         lines.append(f"| {name} | {t:.3f} | {frames / t:,.0f} |")
     return "\n".join(lines)
 

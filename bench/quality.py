@@ -41,9 +41,9 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from common import CORPUS
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import butter, filtfilt
 
@@ -57,8 +57,6 @@ from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import binomial, gaussian
 from motionclean.pipeline import Pipeline
 
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 CLIPS = ("131_01", "131_02", "131_03")
 NOISE_DEG = (1.0, 3.0, 6.0)
 POSITION_NOISE = (0.05, 0.15, 0.3)

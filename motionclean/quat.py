@@ -53,6 +53,10 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p q`` (apply ``q`` first, then ``p``), broadcasting."""
+    p = np.asarray(p, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    if _is_small(p, q):
+        return _sum_left_to_right(p[..., _PRODUCT_P] * _PRODUCT_SIGN * q[..., _PRODUCT_Q])
     return _blockwise(multiply_planes, (p, q), 4, 2)
 
 
@@ -80,6 +84,20 @@ def exp(v: np.ndarray) -> np.ndarray:
 
     ``v`` has shape ``(..., 3)``; ``|v|`` is half the rotation angle in radians.
     """
+    v = np.asarray(v, dtype=np.float64)
+    if _is_small(v):  # exp_planes on whole arrays, operation for operation
+        t = np.sqrt(_sum_left_to_right(v * v))
+        h = np.tan(t * 0.5)
+        d = h * h
+        out = np.empty((*v.shape[:-1], 4))
+        np.subtract(1.0, d, out=out[..., 0])
+        d += 1.0
+        out[..., 0] /= d
+        t = np.maximum(t, _TINY) * d
+        h += h
+        h /= t
+        np.multiply(v, h[..., None], out=out[..., 1:])
+        return out
     return _blockwise(exp_planes, (v,), 4, 3)
 
 
@@ -90,6 +108,12 @@ def log(q: np.ndarray) -> np.ndarray:
     the result has norm above ``pi/2`` (a rotation of more than 180 degrees in S^3); make a
     signal sign-continuous first when displacements between samples are wanted.
     """
+    q = np.asarray(q, dtype=np.float64)
+    if _is_small(q):  # log_planes on whole arrays, operation for operation
+        v = q[..., 1:]
+        norm = np.sqrt(_sum_left_to_right(v * v))
+        ratio = np.arctan2(norm, q[..., 0]) / np.maximum(norm, _TINY)
+        return v * ratio[..., None]
     return _blockwise(log_planes, (q,), 3, 2)
 
 
@@ -110,6 +134,28 @@ _PRODUCT_TERMS = (
 )
 
 _TINY = np.finfo(np.float64).tiny
+
+# The same terms as index and sign tables, for whole-array evaluation of small inputs.
+_PRODUCT_P = np.array([[t[0] for t in terms] for terms in _PRODUCT_TERMS])
+_PRODUCT_Q = np.array([[t[1] for t in terms] for terms in _PRODUCT_TERMS])
+_PRODUCT_SIGN = np.array([[t[2] for t in terms] for terms in _PRODUCT_TERMS])
+
+#: Inputs with fewer samples than this are evaluated on whole arrays at once, in the same
+#: order of operations as the plane kernels (same bits): for a few hundred samples the
+#: kernels' per-call overhead would cost more than the arithmetic.
+SMALL_SAMPLES = 512
+
+
+def _is_small(*arrays: np.ndarray) -> bool:
+    return max(a.size // a.shape[-1] if a.ndim else 1 for a in arrays) < SMALL_SAMPLES
+
+
+def _sum_left_to_right(terms: np.ndarray) -> np.ndarray:
+    """``((t0 + t1) + t2) + t3`` over the last axis, in the plane kernels' order."""
+    out = terms[..., 0] + terms[..., 1]
+    for n in range(2, terms.shape[-1]):
+        out += terms[..., n]
+    return out
 
 
 #: Samples per block in :func:`_blockwise` and in a Lee-Shin pass: a block's dozen or so

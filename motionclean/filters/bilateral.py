@@ -53,7 +53,14 @@ import math
 import numpy as np
 
 from .. import quat
-from .linear import _blocks, _fill_mirrored_ends, _mirror
+from .linear import (
+    check_iterations,
+    continuity_signs,
+    fill_mirrored_ends,
+    mirror_position,
+    run_passes,
+    work_area,
+)
 
 __all__ = ["bilateral", "bilateral_positions", "window_radius"]
 
@@ -74,34 +81,6 @@ def _check_sigma(name: str, value: float) -> float:
     if not value > 0:  # also rejects nan; inf means "no range weighting"
         raise ValueError(f"{name} must be positive (inf disables range weighting), got {value}")
     return value
-
-
-def _check_iterations(iterations: int) -> int:
-    if int(iterations) != iterations or iterations < 0:
-        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
-    return int(iterations)
-
-
-def _continuity_signs(dots: np.ndarray, length: int, carry):
-    """Signs ``sigma_i`` making a block's samples sign-continuous (000 Sec. VI-A).
-
-    ``dots`` holds the scalar parts of ``q_i^-1 q_{i+1}`` for the block's steps ``f0 ->
-    f0+1, ...`` (``length`` of them, one fewer in the last block) and ``carry`` the sign at
-    ``f0`` (``None``: +1). Returns the ``(length, M)`` signs (``None`` when all are +1) and the
-    carry for the next block.
-    """
-    flips = np.signbit(dots)
-    if carry is None and not flips.any():
-        return None, None
-    step = np.where(flips, -1.0, 1.0)
-    signs = np.empty((length, *dots.shape[1:]))
-    signs[0] = 1.0 if carry is None else carry
-    np.cumprod(step[: length - 1], axis=0, out=signs[1:])
-    signs[1:] *= signs[0]
-    carry = signs[-1] * step[-1] if step.shape[0] == length else None
-    if carry is not None and np.all(carry > 0.0):
-        carry = None
-    return signs, carry
 
 
 def _weighted_sums(weights, disp, out, tail, head, tmp) -> None:
@@ -139,20 +118,6 @@ def _weighted_sums(weights, disp, out, tail, head, tmp) -> None:
     out /= head
 
 
-def _work_area(n_frames: int, n_sig: int, k: int, n_planes: int):
-    """Blocks of frames and a reused work area of ``n_planes`` planes for one pass."""
-    # With several blocks each has >= 2k + 2 frames, so mirrored displacements come from
-    # inside the block's own window (_fill_mirrored_ends); one block covers the signal.
-    blocks = _blocks(n_frames, max(quat.BLOCK_SAMPLES // n_sig, 4 * k + 4))
-    span = max(f1 - f0 for f0, f1 in blocks) + 2 * k  # longest window, in frames
-    work = np.empty((n_planes, span * n_sig))
-
-    def planes(first: int, count: int, length: int) -> np.ndarray:
-        return work[first : first + count, : length * n_sig].reshape(count, length, n_sig)
-
-    return blocks, planes
-
-
 def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     """One pass of 002 Algorithm 1 from ``src`` to ``dst``, both ``(F, M, 4)``, ``F >= 2``.
 
@@ -169,7 +134,7 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     # Work planes: 0-3 samples, 4 w of q_i^-1 q_{i+1}, 5-7 displacements, 8-10 scratch,
     # 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i),
     # 15-16 the running coefficient sums, 17.. the weights of the offsets 1 .. k.
-    blocks, planes = _work_area(n_frames, n_sig, k, 17 + k)
+    blocks, planes = work_area(n_frames, n_sig, k, 17 + k)
     carry = None
     for f0, f1 in blocks:
         length = f1 - f0
@@ -191,10 +156,10 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
         # Samples beyond the ends, cumulated outward from the mirrored q_m^-1 q_{m+1}.
         tmp = scratch[:2, 0]
         for pos in range(-1, base - 1, -1):  # loop over window offsets only
-            inv = rel[:, _mirror(pos, n) - base] * [[1.0], [-1.0], [-1.0], [-1.0]]
+            inv = rel[:, mirror_position(pos, n) - base] * [[1.0], [-1.0], [-1.0], [-1.0]]
             quat.multiply_planes(qs[:, pos - base], qs[:, pos + 1 - base], inv, tmp)
         for pos in range(n_frames, f1 + k):
-            step = rel[:, _mirror(pos - 1, n) - base].copy()
+            step = rel[:, mirror_position(pos - 1, n) - base].copy()
             quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
 
         # Weights W(f0-k+t, r) = exp(-r^2 / 2 sigma_t^2 - arccos(|q . q_{+r}|)^2 / 2 sigma_g^2).
@@ -217,8 +182,8 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
 
         # w_i = log(+-q_i^-1 q_{i+1}), in place, then Eq. 26 beyond the ends.
         quat.log_planes(inside[1:], inside, scratch[:2, : hi - lo], shortest=True)
-        _fill_mirrored_ends(disp, base, lo, hi, n)
-        signs, carry = _continuity_signs(rel[0, k : min(k + length, hi - base)], length, carry)
+        fill_mirrored_ends(disp, base, lo, hi, n)
+        signs, carry = continuity_signs(rel[0, k : min(k + length, hi - base)], length, carry)
 
         sums = planes(11, 3, length)
         tail, head = planes(15, 2, length)
@@ -244,7 +209,7 @@ def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) 
     inv_p = 0.5 / sigma_p**2
     # Work planes: 0-2 samples, 3-5 displacements, 6-8 scratch, 9-11 sums, 12-13 the
     # running coefficient sums, 14.. the weights of the offsets 1 .. k.
-    blocks, planes = _work_area(n_frames, n_sig, k, 14 + k)
+    blocks, planes = work_area(n_frames, n_sig, k, 14 + k)
     for f0, f1 in blocks:
         length = f1 - f0
         base = f0 - k
@@ -257,7 +222,7 @@ def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) 
             ps[:, lo - base : hi - base],
             disp[:, lo - base : hi - base],
         )
-        _fill_mirrored_ends(disp, base, lo, hi, n)
+        fill_mirrored_ends(disp, base, lo, hi, n)
         for pos in range(-1, base - 1, -1):  # loop over window offsets only
             np.subtract(ps[:, pos + 1 - base], disp[:, pos - base], ps[:, pos - base])
         for pos in range(n_frames, f1 + k):
@@ -320,16 +285,12 @@ def bilateral(
     """
     k = window_radius(sigma_t, radius)
     sigma_g = _check_sigma("sigma_g", sigma_g)
-    iterations = _check_iterations(iterations)
+    iterations = check_iterations(iterations)
     q = np.asarray(q, dtype=np.float64)
     if q.shape[0] < 2 or k == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
-    cur = np.ascontiguousarray(q).reshape(q.shape[0], -1, 4)
-    buffers = [np.empty(cur.shape) for _ in range(min(iterations, 2))]
-    for n_pass in range(iterations):  # ping-pong between the output buffers
-        _bilateral_pass(cur, buffers[n_pass % 2], k, sigma_t, sigma_g)
-        cur = buffers[n_pass % 2]
-    return cur.reshape(q.shape)
+    return run_passes(lambda src, dst: _bilateral_pass(src, dst, k, sigma_t, sigma_g), q,
+                      iterations)
 
 
 def bilateral_positions(
@@ -349,13 +310,9 @@ def bilateral_positions(
     """
     k = window_radius(sigma_t, radius)
     sigma_p = _check_sigma("sigma_p", sigma_p)
-    iterations = _check_iterations(iterations)
+    iterations = check_iterations(iterations)
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 2 or k == 0 or iterations == 0 or p.size == 0:
         return p.copy()
-    cur = np.ascontiguousarray(p).reshape(p.shape[0], -1, 3)
-    buffers = [np.empty(cur.shape) for _ in range(min(iterations, 2))]
-    for n_pass in range(iterations):  # ping-pong between the output buffers
-        _bilateral_positions_pass(cur, buffers[n_pass % 2], k, sigma_t, sigma_p)
-        cur = buffers[n_pass % 2]
-    return cur.reshape(p.shape)
+    return run_passes(lambda src, dst: _bilateral_positions_pass(src, dst, k, sigma_t, sigma_p),
+                      p, iterations)

@@ -70,10 +70,19 @@ Arrays are time-major, ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ...
 vectors; every trailing index (joint column) is treated independently and at once.
 Columns without defects are returned bit for bit. Angles given to or reported by this
 module are in degrees of rotation.
+
+Implementation: the whole array is read for the steps (one dot product and ``acos`` per
+pair), their median and MAD (partial selections, on the columns with a step above the
+floor) and a few comparisons; everything else works on flat indices of the sparse jumps,
+flip steps and gaps, and on the few columns that change, with small-array versions of the
+quaternion product, ``log`` and ``exp`` (the terms of :mod:`motionclean.quat`'s kernels in
+their order) and the four-point weights tabulated for short gaps. A call costs about one
+Lee-Shin pass on the corpus clips (``python bench/despike.py``).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,6 +99,7 @@ __all__ = [
 
 #: Consistency constant turning a median absolute deviation into a standard deviation.
 MAD_TO_SIGMA = 1.4826
+
 
 #: Share of the scatter of the flip-step axes that the half-turn axis must explain (1 when
 #: all flip steps turn about the same axis) for a joint to be un-flipped.
@@ -150,27 +160,41 @@ class DespikeReport:
         return getattr(self, kind)
 
 
+def _median_rows(a: np.ndarray) -> np.ndarray:
+    """``np.median(a, axis=1)`` of ``a`` (C, n), ``n >= 1``, by one partial selection that
+    reorders ``a`` in place (NaN where a row holds one, as numpy's)."""
+    n = a.shape[1]
+    half = n // 2
+    a.partition((half, n - 1) if n % 2 else (half - 1, half, n - 1), axis=1)
+    med = a[:, half].copy() if n % 2 else (a[:, half - 1] + a[:, half]) / 2.0
+    med[np.isnan(a[:, -1])] = np.nan
+    return med
+
+
 def _robust_threshold(steps: np.ndarray, threshold: float, low: float, high: float):
-    """``clip(median + threshold * 1.4826 MAD, low, high)`` per column of ``steps`` (F-1, C)."""
-    med = np.median(steps, axis=0)
-    mad = np.median(np.abs(steps - med), axis=0)
+    """``clip(median + threshold * 1.4826 MAD, low, high)`` per row of ``steps`` (C, F-1),
+    which is overwritten."""
+    med = _median_rows(steps)
+    deviation = np.subtract(steps, med[:, None], out=steps)
+    mad = _median_rows(np.abs(deviation, out=deviation))
     return np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high)
 
 
-def _flip_axes(q, step, col, cols):
+def _flip_axes(x, i, stride, col, cols):
     """Half-turn axis of each column in ``cols``, whether it acts on the left (parent
-    frame), and whether the flip steps (``step``, ``col``: sparse indices) agree on it.
+    frame), and whether the flip steps agree on it.
 
-    Principal eigenvector of ``sum v v^T`` over the flip steps, for the axes ``v`` of
-    ``q_{i+1} q_i^-1`` (parent frame) and of ``q_i^-1 q_{i+1}`` (own frame); the frame
-    whose largest eigenvalue takes the larger share of the trace wins, and the axis is
-    trusted when that share is at least :data:`FLIP_AXIS_SHARE`.
+    The flip steps go from the rows ``i`` to ``i + stride`` of the samples ``x`` (N, 4)
+    and lie in the columns ``col``. Principal eigenvector of ``sum v v^T`` over them, for
+    the axes ``v`` of ``q_{i+1} q_i^-1`` (parent frame) and of ``q_i^-1 q_{i+1}`` (own
+    frame); the frame whose largest eigenvalue takes the larger share of the trace wins,
+    and the axis is trusted when that share is at least :data:`FLIP_AXIS_SHARE`.
     """
-    a, b = q[step, col], q[step + 1, col]
+    a, b = x.take(i, axis=0), x.take(i + stride, axis=0)
     a_inv = quat.conjugate(a)
-    rel = _product(np.concatenate([b, a_inv]), np.concatenate([a_inv, b]))[:, 1:]
+    rel = quat.multiply(np.concatenate([b, a_inv]), np.concatenate([a_inv, b]))[:, 1:]
     v = rel / np.maximum(_norm(rel), 1e-300)[:, None]
-    outer = (v[:, :, None] * v[:, None, :]).reshape(2, step.size, 9)
+    outer = (v[:, :, None] * v[:, None, :]).reshape(2, i.size, 9)
     one_hot = (col[:, None] == cols).astype(np.float64)  # (steps, columns)
     scatter = np.einsum("sc,fsk->fck", one_hot, outer).reshape(2, cols.size, 3, 3)
     values, vectors = np.linalg.eigh(scatter)  # frames: 0 parent, 1 own
@@ -180,37 +204,45 @@ def _flip_axes(q, step, col, cols):
     return axis, left, share.max(axis=0) >= FLIP_AXIS_SHARE
 
 
-def _half_turn(q, frame, slot, cols, axis, left):
-    """``f q`` (parent frame) or ``q f`` (own frame) at the samples ``(frame, cols[slot])``
-    with ``f = (0, axis[slot])``."""
+def _half_turn(x, i, slot, axis, left):
+    """``f q`` (parent frame) or ``q f`` (own frame) for the rows ``i`` of ``x`` (N, 4),
+    with ``f = (0, axis[slot])`` and the side ``left[slot]``."""
     f = np.concatenate([np.zeros((slot.size, 1)), axis[slot]], axis=-1)
-    qs = q[frame, cols[slot]]
+    q = x.take(i, axis=0)
     on_left = left[slot][:, None]
-    return _product(np.where(on_left, f, qs), np.where(on_left, qs, f))
+    return quat.multiply(np.where(on_left, f, q), np.where(on_left, q, f))
 
 
-def _flip_toggles(q: np.ndarray, steps: np.ndarray, flip_rad: float):
+def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float):
     """Where the half-turn parity toggles, and the half-turn of each flipping column.
 
-    Returns ``(F-1, C)`` toggles and ``(cols, axis, left)``: the columns that may toggle
-    (those with a step of at least ``flip_rad`` whose flip steps agree on a half-turn
-    axis), their axes and sides (see :func:`_half_turn`). A step toggles when it exceeds
-    90 degrees and undoing the half-turn leaves a step under both the step itself and
-    ``pi - flip_rad`` (30 degrees by default).
+    ``x`` (F C, 4) are the samples, frame ``a`` of column ``c`` at row ``a C + c``, and
+    ``steps`` (F-1, C) their steps. Returns ``cols``, the columns that may toggle (those
+    with a step of at least ``flip_rad`` whose flip steps agree on a half-turn axis),
+    their ``(F-1, cols)`` toggles, axes and sides (see :func:`_half_turn`). A step toggles
+    when it exceeds 90 degrees and undoing the half-turn leaves a step under both the
+    step itself and ``pi - flip_rad`` (30 degrees by default).
     """
-    toggles = np.zeros(steps.shape, dtype=bool)
-    step, col = np.nonzero(steps >= flip_rad)
-    cols = np.unique(col)
-    if cols.size == 0:
-        return toggles, (cols, None, None)
-    axis, left, agreed = _flip_axes(q, step, col, cols)
-    cols, axis, left = cols[agreed], axis[agreed], left[agreed]
-    step, slot = np.nonzero(steps[:, cols] > 0.5 * np.pi)
-    residual = _rotation_distance(_half_turn(q, step, slot, cols, axis, left),
-                                  q[step + 1, cols[slot]])
-    big = steps[step, cols[slot]]
-    toggles[step, cols[slot]] = (residual < big) & (residual <= np.pi - flip_rad)
-    return toggles, (cols, axis, left)
+    n_cols = steps.shape[1]
+    i = (steps >= flip_rad).reshape(-1).nonzero()[0]  # also the row of the step's frame
+    col = i % n_cols
+    cols = np.bincount(col, minlength=n_cols).nonzero()[0]
+    if cols.size:
+        axis, left, agreed = _flip_axes(x, i, n_cols, col, cols)
+        cols, axis, left = cols[agreed], axis[agreed], left[agreed]
+    else:
+        axis = left = None
+    big = steps.take(cols, axis=1)
+    toggles = np.zeros(big.shape, dtype=bool)
+    k = (big > 0.5 * np.pi).reshape(-1).nonzero()[0]
+    if k.size:
+        step, slot = np.divmod(k, cols.size)
+        i = step * n_cols + cols[slot]
+        residual = _rotation_distance(_half_turn(x, i, slot, axis, left),
+                                      x.take(i + n_cols, axis=0))
+        toggles.reshape(-1)[k] = ((residual < big.reshape(-1).take(k))
+                                  & (residual <= np.pi - flip_rad))
+    return cols, toggles, axis, left
 
 
 def _parity(toggles: np.ndarray) -> np.ndarray:
@@ -220,68 +252,83 @@ def _parity(toggles: np.ndarray) -> np.ndarray:
     return parity ^ (parity.sum(axis=0) > parity.shape[0] / 2)
 
 
-def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate):
+def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate,
+                toggles=None):
     """Runs of frames ``a+1 .. a+L`` (``L <= max_len``) entered and left by abrupt jumps
     that come back off the local trend, as arrays ``(first frame a+1, length L, column)``.
 
-    ``steps`` (F-1, C) are the distances between consecutive frames of ``x``, ``jump``
-    (C,) the jump threshold, ``dist(x, y)`` the distance between samples,
-    ``velocity(x, i, c)`` the displacement vectors of steps ``i`` in columns ``c`` (their
-    norms are the steps) and ``interpolate`` the gap interpolant. Step ``a`` into the run
-    and step ``a+L`` out of it must both exceed ``jump`` and differ from the step on their
-    outer side by more than ``jump`` (an abrupt change of velocity, which a smooth
-    reversal of direction is not), ``dist(x_a, x_{a+L+1})`` must be under both jumps, and
-    the run must stand off the trend (:func:`_off_trend`). Only the sparse jumps are
-    examined.
+    ``x`` (F, C, n) is contiguous, ``steps`` (F-1, C) are the distances between its
+    consecutive frames, ``jump`` (C,) the jump threshold, ``dist(x, y)`` the distance
+    between samples, ``velocity(x, i, stride)`` the displacement vectors from the rows
+    ``i`` to ``i + stride`` of ``x`` as ``(F C, n)`` (their norms are the steps) and
+    ``interpolate`` the gap interpolant. Step ``a`` into the run and step ``a+L`` out of
+    it must both exceed ``jump`` and differ from the step on their outer side by more than
+    ``jump`` (an abrupt change of velocity, which a smooth reversal of direction is not),
+    ``dist(x_a, x_{a+L+1})`` must be under both jumps, and the run must stand off the
+    trend (:func:`_off_trend`). With ``toggles`` (F-1, C), only the runs whose steps
+    ``a .. a+L`` hold a toggle and are not both entered and left by one are returned (the
+    only ones that matter to un-flipping). Only the sparse jumps are examined.
     """
-    n_steps = steps.shape[0]
-    is_jump = steps > jump
-    start, col = np.nonzero(is_jump)
-    a = np.repeat(start, max_len)
-    c = np.repeat(col, max_len)
-    run = np.tile(np.arange(1, max_len + 1), start.size)
-    keep = a + run < n_steps
-    a, c, run = a[keep], c[keep], run[keep]
-    keep = is_jump[a + run, c]
-    a, c, run = a[keep], c[keep], run[keep]
-    back = dist(x[a, c], x[a + run + 1, c])
-    keep = back < np.minimum(steps[a, c], steps[a + run, c])
-    a, c, run = a[keep], c[keep], run[keep]
-    # Abrupt: the velocity changes by more than the threshold into and out of the run.
-    b = a + run
-    n = a.size
-    v = velocity(x, np.concatenate([np.maximum(a - 1, 0), a, b, np.minimum(b + 1, n_steps - 1)]),
-                 np.tile(c, 4))
-    limit = jump[c]
-    abrupt_in = (a == 0) | (_norm(v[n:2 * n] - v[:n]) > limit)
-    abrupt_out = (b == n_steps - 1) | (_norm(v[2 * n:3 * n] - v[3 * n:]) > limit)
-    keep = abrupt_in & abrupt_out
-    a, c, run = a[keep], c[keep], run[keep]
-    if trend_ratio > 0 and a.size:
-        keep = _off_trend(x, a, run, c, trend_ratio, dist, interpolate)
-        a, c, run = a[keep], c[keep], run[keep]
-    return a + 1, run, c
+    n_cols = steps.shape[1]
+    size = steps.size
+    # The flat index a C + c is both step a and frame a of column c; the padding makes
+    # every step a + L (L <= max_len) of a jump addressable.
+    is_jump = np.zeros(size + max_len * n_cols, dtype=bool)
+    np.greater(steps, jump, out=is_jump[:size].reshape(steps.shape))
+    first = is_jump.nonzero()[0]
+    last = (first[:, None] + n_cols * np.arange(1, max_len + 1)).reshape(-1)  # step a + L
+    first = np.repeat(first, max_len)
+    keep = is_jump.take(last)
+    first, last = first[keep], last[keep]
+    if toggles is not None:
+        flat = toggles.reshape(-1)
+        held = np.cumsum(toggles, axis=0).reshape(-1)
+        at_first, at_last = flat.take(first), flat.take(last)
+        keep = (held.take(last) - held.take(first) + at_first > 0) & ~(at_first & at_last)
+        first, last = first[keep], last[keep]
+    flat_x = x.reshape(size + n_cols, x.shape[-1])
+    flat_steps = steps.reshape(-1)
+    keep = (dist(flat_x.take(first, axis=0), flat_x.take(last + n_cols, axis=0))
+            < np.minimum(flat_steps.take(first), flat_steps.take(last)))
+    first, last = first[keep], last[keep]
+    if first.size:
+        # Abrupt: the velocity changes by more than the threshold into and out of the run.
+        n = first.size
+        at_start, at_end = first < n_cols, last + n_cols >= size
+        v = velocity(flat_x, np.concatenate([np.where(at_start, first, first - n_cols), first,
+                                             last, np.where(at_end, last, last + n_cols)]),
+                     n_cols)
+        limit = jump.take(first % n_cols)
+        keep = ((at_start | (_norm(v[n:2 * n] - v[:n]) > limit))
+                & (at_end | (_norm(v[2 * n:3 * n] - v[3 * n:]) > limit)))
+        first, last = first[keep], last[keep]
+        if trend_ratio > 0 and first.size:
+            keep = _off_trend(flat_x, n_cols, first, last, trend_ratio, dist, interpolate)
+            first, last = first[keep], last[keep]
+    a, c = np.divmod(first, n_cols)
+    return a + 1, (last - first) // n_cols, c
 
 
-def _off_trend(x, a, run, c, trend_ratio, dist, interpolate):
-    """Whether the runs ``a+1 .. a+L`` (``L = run``) of columns ``c`` leave the local trend.
+def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
+    """Whether the runs ``a+1 .. a+L`` leave the local trend.
 
-    ``P``: the cubic through the good neighbours ``a-1, a`` and ``b, b+1`` (``b = a+L+1``;
-    003 Eq. 17, the repair's own interpolant). The run's first and last frames must both
-    be further from ``P`` than ``trend_ratio`` times the error ``e`` of the same cubic
-    at the neighbours: ``x_a`` predicted across the gap from ``a-2, a-1`` to ``b, b+1``
-    and ``x_b`` from ``a-1, a`` to ``b+1, b+2`` (a neighbour at a clip end is not
-    predicted; with neither, ``e = 0``). See the module docstring.
+    ``x`` (F C, n) holds frame ``a`` of a column at a row ``r`` and frame ``a + 1`` at
+    ``r + stride``; the runs are given by the rows ``first`` of frame ``a`` and ``last``
+    of frame ``a+L``. ``P``: the cubic through the good neighbours ``a-1, a`` and ``b,
+    b+1`` (``b = a+L+1``; 003 Eq. 17, the repair's own interpolant). The run's first and
+    last frames must both be further from ``P`` than ``trend_ratio`` times the error ``e``
+    of the same cubic at the neighbours: ``x_a`` predicted across the gap from ``a-2,
+    a-1`` to ``b, b+1`` and ``x_b`` from ``a-1, a`` to ``b+1, b+2`` (a neighbour at a clip
+    end is not predicted; with neither, ``e = 0``). See the module docstring.
     """
-    n_frames = x.shape[0]
-    b = a + run + 1
-    predict_a, predict_b = a >= 1, b + 1 < n_frames
-    frame = np.concatenate([a + 1, a + run, a, b])
-    left = np.concatenate([a, a, np.maximum(a - 1, 0), a])
-    right = np.concatenate([b, b, b, np.minimum(b + 1, n_frames - 1)])
-    cols = np.tile(c, 4)
-    off = dist(x[frame, cols], interpolate(x, _Knots.around(frame, cols, left, right, n_frames),
-                                           "cubic")).reshape(4, a.size)
+    n = first.size
+    after = last + stride  # frame b
+    predict_a, predict_b = first >= stride, after + stride < x.shape[0]
+    at = np.concatenate([first + stride, last, first, after])
+    lo = np.concatenate([first, first, np.where(predict_a, first - stride, first), first])
+    hi = np.concatenate([after, after, after, np.where(predict_b, after + stride, after)])
+    off = dist(x.take(at, axis=0), interpolate(x, _Knots.around(at, lo, hi, stride, x.shape[0]),
+                                              "cubic")).reshape(4, n)
     error = np.maximum(np.where(predict_a, off[2], 0.0), np.where(predict_b, off[3], 0.0))
     return np.minimum(off[0], off[1]) > trend_ratio * error
 
@@ -289,94 +336,84 @@ def _off_trend(x, a, run, c, trend_ratio, dist, interpolate):
 def _mark(first, length, col, shape) -> np.ndarray:
     """Boolean ``shape`` mask with rows ``first .. first+length-1`` set in each ``col``."""
     mask = np.zeros(shape, dtype=bool)
-    cols, slot = np.unique(col, return_inverse=True)
-    marks = np.zeros((shape[0] + 1, cols.size), dtype=np.int64)
-    np.add.at(marks, (first, slot), 1)
-    np.add.at(marks, (first + length, slot), -1)
-    mask[:, cols] = np.cumsum(marks[:-1], axis=0) > 0
+    if first.size:
+        offset = np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)
+        mask[np.repeat(first, length) + offset, np.repeat(col, length)] = True
     return mask
-
-
-def _runs(mask: np.ndarray):
-    """Maximal runs of ``True`` along axis 0 of ``mask`` (F, C): arrays ``(start, stop,
-    col)`` with ``stop`` exclusive, ordered by column then frame."""
-    cols = np.flatnonzero(mask.any(axis=0))
-    edge = np.diff(mask[:, cols].astype(np.int8), axis=0, prepend=0, append=0).T
-    slot, start = np.nonzero(edge == 1)
-    stop = np.nonzero(edge == -1)[1]
-    return start, stop, cols[slot]
 
 
 @dataclass(frozen=True)
 class _Knots:
-    """Samples to interpolate: per sample its ``frame`` and ``col``, the good frames
-    ``left`` and ``right`` around its gap (``-1`` / ``F`` at a clip end) and the next good
-    frames outward ``left2`` and ``right2`` (``-1`` when missing)."""
+    """Samples to interpolate, as rows of the samples ``(F C, n)`` (frame ``a`` of a column
+    at a row ``r``, frame ``a+1`` at ``r + stride``): per sample its row ``at``, the rows
+    ``lo`` and ``hi`` of the good frames around its gap and ``lo2`` and ``hi2`` of the
+    next good frames outward (``-1`` where missing: at a clip end or next to another gap),
+    and its distances ``da`` and ``db`` in frames to ``lo`` and ``hi`` (with a positive
+    sum, also where a neighbour is missing)."""
 
-    frame: np.ndarray
-    col: np.ndarray
-    left: np.ndarray
-    right: np.ndarray
-    left2: np.ndarray
-    right2: np.ndarray
+    at: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    lo2: np.ndarray
+    hi2: np.ndarray
+    da: np.ndarray
+    db: np.ndarray
 
     @classmethod
-    def around(cls, frame, col, left, right, n_frames: int) -> _Knots:
-        """Knots for gaps ``left+1 .. right-1`` with every frame outside them good."""
-        return cls(frame, col, left, right, np.where(left >= 1, left - 1, -1),
-                   np.where(right + 1 < n_frames, right + 1, -1))
+    def around(cls, at, lo, hi, stride: int, size: int) -> _Knots:
+        """Knots for gaps between the good rows ``lo`` and ``hi`` with every frame outside
+        them good, in ``size`` rows."""
+        return cls(at, lo, hi, np.where(lo >= stride, lo - stride, -1),
+                   np.where(hi + stride < size, hi + stride, -1),
+                   (at - lo) // stride, (hi - at) // stride)
 
 
-class _Gaps:
-    """The masked samples of ``mask`` (F, C) with the good frames around their gap.
-
-    ``knots`` (:class:`_Knots`) holds, per masked sample, the gap's good neighbours and
-    the next frames outward when they are good; ``run`` is the sample's gap number and
-    ``start``, ``stop``, ``gap_col`` describe the gaps.
-    """
-
-    def __init__(self, mask: np.ndarray):
-        n_frames = mask.shape[0]
-        self.start, self.stop, self.gap_col = _runs(mask)
-        length = self.stop - self.start
-        self.run = np.repeat(np.arange(length.size), length)
-        offset = np.arange(self.run.size) - np.repeat(np.cumsum(length) - length, length)
-        frame = self.start[self.run] + offset
-        col = self.gap_col[self.run]
-        left, right = frame - offset - 1, self.stop[self.run]
-        left2, right2 = left - 1, right + 1
-        ok = (left2 >= 0) & ~mask[np.maximum(left2, 0), col]
-        left2 = np.where(ok, left2, -1)
-        ok = (right2 < n_frames) & ~mask[np.minimum(right2, n_frames - 1), col]
-        self.knots = _Knots(frame, col, left, right, left2, np.where(ok, right2, -1))
-
-    def widen(self, mask: np.ndarray, runs: np.ndarray) -> None:
-        """Add one frame on each side of the gaps numbered ``runs`` to ``mask``."""
-        start, stop, col = self.start[runs], self.stop[runs], self.gap_col[runs]
-        mask[np.maximum(start - 1, 0), col] = True
-        mask[np.minimum(stop, mask.shape[0] - 1), col] = True
+def _gap_knots(mask: np.ndarray) -> _Knots:
+    """The knots (:class:`_Knots`) of the masked samples of ``mask`` (F, C), whose rows
+    are ``a C + c``."""
+    n_frames, n_cols = mask.shape
+    at = mask.reshape(-1).nonzero()[0]
+    frame, col = np.divmod(at, n_cols)
+    # The good samples as sorted keys c F + a (with sentinels): a masked sample's
+    # neighbours are the good keys just before and after its own, within its column.
+    good = np.concatenate([[-1], (~mask).T.reshape(-1).nonzero()[0], [mask.size]])
+    base = col * n_frames
+    j = np.searchsorted(good, base + frame)
+    lo, hi = good.take(j - 1) - base, good.take(j) - base  # frames
+    has_l, has_r = lo >= 0, hi < n_frames
+    # The next frames outward, when good (the keys next to the neighbours' own).
+    lo2 = has_l & (lo >= 1) & (good.take(j - 2) == good.take(j - 1) - 1)
+    hi2 = has_r & (hi + 1 < n_frames) & (good.take(j + 1, mode="clip") == good.take(j) + 1)
+    lo, hi = lo * n_cols + col, hi * n_cols + col  # rows
+    return _Knots(at, np.where(has_l, lo, -1), np.where(has_r, hi, -1),
+                  np.where(lo2, lo - n_cols, -1), np.where(hi2, hi + n_cols, -1),
+                  np.where(has_l, (at - lo) // n_cols, 1), np.where(has_r, (hi - at) // n_cols, 1))
 
 
 def _fill(x, mask, dist, interpolate, method, cap, passes):
-    """Interpolate the masked samples of ``x`` (F, C, n) in place, widening every gap
-    whose interpolated steps exceed ``cap`` by a frame per side, at most ``passes``
-    times. Steps away from the gaps are not looked at: the caller masked every step above
-    the cap. Returns the final mask."""
-    n_frames = x.shape[0]
+    """Interpolate the masked samples of ``x`` (F, C, n, contiguous) in place, widening
+    every gap whose interpolated steps exceed ``cap`` by a frame per side, at most
+    ``passes`` times. Steps away from the gaps are not looked at: the caller masked every
+    step above the cap. Returns the final mask."""
+    n_cols = mask.shape[1]
+    flat_x, flat_mask = x.reshape(mask.size, x.shape[-1]), mask.reshape(-1)
     for done in range(passes + 1):
-        gaps = _Gaps(mask)
-        k = gaps.knots
-        x[k.frame, k.col] = interpolate(x, k, method)
+        knots = _gap_knots(mask)
+        flat_x[knots.at] = interpolate(flat_x, knots, method)
         if done == passes:
             break
-        # The steps into and out of every interpolated sample.
-        f = np.concatenate([k.frame[k.frame > 0] - 1, k.frame[k.frame < n_frames - 1]])
-        c = np.concatenate([k.col[k.frame > 0], k.col[k.frame < n_frames - 1]])
-        run = np.concatenate([gaps.run[k.frame > 0], gaps.run[k.frame < n_frames - 1]])
-        over = dist(x[f, c], x[f + 1, c]) > cap
-        if not over.any():
+        # The steps into and out of every interpolated sample, as the row of their first
+        # frame; those above the cap.
+        step = np.concatenate([knots.at - n_cols, knots.at])
+        step = step[(step >= 0) & (step < mask.size - n_cols)]
+        step = step[dist(flat_x.take(step, axis=0), flat_x.take(step + n_cols, axis=0)) > cap]
+        if not step.size:
             break
-        gaps.widen(mask, np.unique(run[over]))
+        inside = np.where(flat_mask.take(step), step, step + n_cols)  # a frame of the gap
+        k = np.searchsorted(knots.at, inside)
+        lo, hi = knots.lo.take(k), knots.hi.take(k)
+        flat_mask[np.where(lo >= 0, lo, inside)] = True
+        flat_mask[np.where(hi >= 0, hi, inside)] = True
     return mask
 
 
@@ -384,85 +421,135 @@ def _lagrange(frame, left, right):
     """Cubic Lagrange weights ``c0..c3`` at ``frame`` on the knots ``left-1, left, right,
     right+1`` (the non-uniform four-point scheme, Eq. 17 of 003), in closed form with
     ``a = frame - left``, ``b = right - frame`` and ``g = right - left``."""
-    a = (frame - left).astype(np.float64)
-    b = (right - frame).astype(np.float64)
+    a = np.subtract(frame, left, dtype=np.float64)
+    b = np.subtract(right, frame, dtype=np.float64)
     g = a + b
-    outer, inner = (g + 1.0) * (g + 2.0), g * (g + 1.0)
-    return (-a * b * (b + 1.0) / outer, (a + 1.0) * b * (b + 1.0) / inner,
-            a * (a + 1.0) * (b + 1.0) / inner, -a * (a + 1.0) * b / outer)
+    g1 = g + 1.0
+    outer, inner = g1 * (g + 2.0), g * g1
+    a1, b1, minus_a = a + 1.0, b + 1.0, -a
+    return (minus_a * b * b1 / outer, a1 * b * b1 / inner, a * a1 * b1 / inner,
+            minus_a * a1 * b / outer)
+
+
+#: Gaps shorter than this many frames get their weights from a table.
+_TABLE_SIZE = 32
+
+
+def _lagrange_table(size: int) -> np.ndarray:
+    """:func:`_lagrange` ``a`` frames from the left inner knot and ``b`` from the right
+    one, ``a, b < size``, in row ``a * size + b`` of a ``(size^2, 4)`` array (row 0, a
+    gap of no frames, is not a number and never used)."""
+    a, b = np.divmod(np.arange(size * size), size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.stack(_lagrange(a, 0, a + b), axis=-1)
+
+
+_LAGRANGE_TABLE = _lagrange_table(_TABLE_SIZE)
+
+
+def _weights(a: np.ndarray, span: np.ndarray):
+    """:func:`_lagrange` ``(a, 0, span)`` for a sample ``a`` frames into a gap between
+    inner knots ``span`` frames apart (int arrays), looked up for short gaps."""
+    if np.count_nonzero(span >= _TABLE_SIZE):
+        return _lagrange(a, 0, span)
+    w = _LAGRANGE_TABLE.take(a * (_TABLE_SIZE - 1) + span, axis=0)
+    return w[:, 0], w[:, 1], w[:, 2], w[:, 3]
 
 
 def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndarray:
-    """Values ``(n, 4)`` for the samples of ``q`` (F, C, 4) described by ``knots``."""
-    frame, col, left, right = knots.frame, knots.col, knots.left, knots.right
-    n_frames = q.shape[0]
-    has_l, has_r = left >= 0, right < n_frames
-    ql = q[np.maximum(left, 0), col]
-    qr = q[np.minimum(right, n_frames - 1), col]
-    u = (frame - left) / (right - left)
+    """Values ``(n, 4)`` for the samples of ``q`` (F C, 4) described by ``knots``."""
+    n = knots.at.size
+    has_l, has_r = knots.lo >= 0, knots.hi >= 0
+    span = knots.da + knots.db
+    u = knots.da / span
     if method == "cubic":
-        cubic = has_l & has_r & (knots.left2 >= 0) & (knots.right2 >= 0)
-        c0, _, c2, c3 = _lagrange(frame, left, right)
-        u = np.where(cubic, c2 + c3, u)
+        # Both outer knots present (hence both neighbours): the cubic, else slerp.
+        cubic = (knots.lo2 >= 0) & (knots.hi2 >= 0)
+        c0, _, c2, c3 = _weights(knots.da, span)
+        g = q.take(np.concatenate([knots.lo, knots.lo2, knots.hi, knots.hi2]), axis=0)
+        ql, qr = g[:n], g[2 * n:3 * n]
         # One product and log for the gap and both outer displacements w_0 and w_2.
-        n = frame.size
-        logs = _shorter_log(_product(np.concatenate([ql, q[knots.left2, col], qr]),
-                                     np.concatenate([qr, ql, q[knots.right2, col]]),
-                                     conjugate_p=True))
+        logs = _shorter_log(quat.multiply(quat.conjugate(g[:3 * n]),
+                                          np.concatenate([qr, ql, g[3 * n:]])))
         gap, w0, w2 = logs[:n], logs[n:2 * n], logs[2 * n:]
-        tangent = np.where(cubic[:, None], -c0[:, None] * w0 + c3[:, None] * w2, 0.0)
-        moves = _exp(np.concatenate([u[:, None] * gap, tangent]))
-        value = _product(_product(ql, moves[:n]), moves[n:])
+        tangent = -c0[:, None] * w0 + c3[:, None] * w2
+        if np.count_nonzero(cubic) == n:
+            u = c2 + c3
+        else:
+            u = np.where(cubic, c2 + c3, u)
+            tangent = np.where(cubic[:, None], tangent, 0.0)
+        moves = quat.exp(np.concatenate([u[:, None] * gap, tangent]))
+        value = quat.multiply(quat.multiply(ql, moves[:n]), moves[n:])
     else:
-        gap = _shorter_log(_product(ql, qr, conjugate_p=True))
-        value = _product(ql, _exp(u[:, None] * gap))
-    value = np.where((has_l & ~has_r)[:, None], ql, value)
-    value = np.where((~has_l & has_r)[:, None], qr, value)
-    return np.where((has_l | has_r)[:, None], value, q[frame, col])
+        ql, qr = q.take(knots.lo, axis=0), q.take(knots.hi, axis=0)
+        gap = _shorter_log(quat.multiply(quat.conjugate(ql), qr))
+        value = quat.multiply(ql, quat.exp(u[:, None] * gap))
+    return _hold_ends(q, knots, value, ql, qr, has_l, has_r)
+
+
+def _hold_ends(x, knots, value, left, right, has_l, has_r):
+    """``value`` where both neighbours exist; a gap touching a clip end holds its one good
+    neighbour, and a column without good frames keeps its samples."""
+    if np.count_nonzero(has_l & has_r) == has_l.size:
+        return value
+    value = np.where((has_l & ~has_r)[:, None], left, value)
+    value = np.where((~has_l & has_r)[:, None], right, value)
+    return np.where((has_l | has_r)[:, None], value, x.take(knots.at, axis=0))
 
 
 def _interpolate_positions(p: np.ndarray, knots: _Knots, method: str) -> np.ndarray:
     """Vector counterpart of :func:`_interpolate_rotations` (003 Eq. 15, 17): ``(n, 3)``."""
-    frame, col, left, right = knots.frame, knots.col, knots.left, knots.right
-    n_frames = p.shape[0]
-    has_l, has_r = left >= 0, right < n_frames
-    pl = p[np.maximum(left, 0), col]
-    pr = p[np.minimum(right, n_frames - 1), col]
-    u = ((frame - left) / (right - left))[:, None]
+    has_l, has_r = knots.lo >= 0, knots.hi >= 0
+    pl, pr = p.take(knots.lo, axis=0), p.take(knots.hi, axis=0)
+    span = knots.da + knots.db
+    u = (knots.da / span)[:, None]
     value = (1.0 - u) * pl + u * pr
     if method == "cubic":
-        cubic = has_l & has_r & (knots.left2 >= 0) & (knots.right2 >= 0)
-        c0, c1, c2, c3 = _lagrange(frame, left, right)
-        curve = (c0[:, None] * p[knots.left2, col] + c1[:, None] * pl + c2[:, None] * pr
-                 + c3[:, None] * p[knots.right2, col])
+        cubic = (knots.lo2 >= 0) & (knots.hi2 >= 0)
+        c0, c1, c2, c3 = _weights(knots.da, span)
+        curve = (c0[:, None] * p.take(knots.lo2, axis=0) + c1[:, None] * pl
+                 + c2[:, None] * pr + c3[:, None] * p.take(knots.hi2, axis=0))
         value = np.where(cubic[:, None], curve, value)
-    value = np.where((has_l & ~has_r)[:, None], pl, value)
-    value = np.where((~has_l & has_r)[:, None], pr, value)
-    return np.where((has_l | has_r)[:, None], value, p[frame, col])
+    return _hold_ends(p, knots, value, pl, pr, has_l, has_r)
 
 
 def _check(frame_time, threshold, low, high, max_spike_s, max_run, trend_ratio, method, methods,
            unit) -> int:
     """Validate the shared parameters; return the longest spike in frames: ``max_spike_s``
     in whole frames (at least one), and at most ``max_run`` when given."""
-    if not (np.isfinite(frame_time) and frame_time > 0):
+    if not (math.isfinite(frame_time) and frame_time > 0):
         raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
-    if not (np.isfinite(threshold) and threshold >= 0):
+    if not (math.isfinite(threshold) and threshold >= 0):
         raise ValueError(f"threshold must be a number of robust deviations >= 0, got {threshold}")
     if not (0 <= low <= high and high > 0):
         raise ValueError(f"need 0 <= min_{unit}_per_s <= max_{unit}_per_s and max_{unit}_per_s "
                          f"> 0, got {low} and {high}")
-    if not (np.isfinite(max_spike_s) and max_spike_s > 0):
+    if not (math.isfinite(max_spike_s) and max_spike_s > 0):
         raise ValueError(f"max_spike_s must be a positive number of seconds, got {max_spike_s}")
     if max_run is not None and (int(max_run) != max_run or max_run < 1):
         raise ValueError(f"max_run must be a whole number of frames >= 1, got {max_run}")
-    if not (np.isfinite(trend_ratio) and trend_ratio >= 0):
+    if not (math.isfinite(trend_ratio) and trend_ratio >= 0):
         raise ValueError(f"trend_ratio must be a number >= 0, got {trend_ratio}")
     if method not in methods:
         raise ValueError(f"method must be one of {', '.join(methods)}, got {method!r}")
     # The small tolerance keeps 8/120 s at 8 frames despite rounding.
-    frames = max(1, int(np.floor(max_spike_s / frame_time * (1.0 + 1e-9))))
+    frames = max(1, math.floor(max_spike_s / frame_time * (1.0 + 1e-9)))
     return frames if max_run is None else min(frames, int(max_run))
+
+
+def _nonzero(mask: np.ndarray):
+    """``np.nonzero`` of a 2-D mask (same row-major order), several times faster on a
+    sparse mask of thousands of entries."""
+    return np.divmod(mask.reshape(-1).nonzero()[0], mask.shape[1])
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """4-D dot products of ``(..., 4)`` arrays, summed as ``(a0 b0 + a2 b2) + (a1 b1 +
+    a3 b3)`` (the order of ``np.einsum``), without einsum's overhead on strided views."""
+    p = a * b
+    dot = p[..., 0] + p[..., 2]
+    dot += p[..., 1] + p[..., 3]
+    return dot
 
 
 def _norm(v: np.ndarray) -> np.ndarray:
@@ -473,49 +560,36 @@ def _rotation_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle (rad) between unit quaternions, independent of their signs:
     ``2 acos |a . b|``, one dot product per pair (absolute error about 1e-8 rad near 0,
     far below any threshold in degrees)."""
-    dot = np.abs(np.einsum("...i,...i->...", a, b))
-    return 2.0 * np.arccos(np.minimum(dot, 1.0))
+    return _dot_angle(_dot(a, b))
+
+
+def _dot_angle(dot: np.ndarray) -> np.ndarray:
+    """``2 acos min(|dot|, 1)`` in place on ``dot``: the rotation angle (rad) between two
+    unit quaternions with 4-D dot product ``dot``."""
+    np.abs(dot, out=dot)
+    np.minimum(dot, 1.0, out=dot)
+    np.arccos(dot, out=dot)
+    dot *= 2.0
+    return dot
 
 
 def _position_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _norm(b - a)
 
 
-def _sample_kernel(kernel, width: int, n_tmp: int, *arrays, **options) -> np.ndarray:
-    """Run one of :mod:`motionclean.quat`'s plane kernels on ``(n, k)`` sample arrays.
-
-    The sparse samples handled here are a few dozen to a few thousand, where the blocking
-    of :func:`quat.multiply` and friends costs more than the arithmetic.
-    """
-    out = np.empty((arrays[0].shape[0], width))
-    kernel([out[:, c] for c in range(width)], *([a[:, c] for c in range(a.shape[1])]
-                                                for a in arrays),
-           [np.empty(out.shape[0]) for _ in range(n_tmp)], **options)
-    return out
-
-
-def _product(p: np.ndarray, q: np.ndarray, conjugate_p: bool = False) -> np.ndarray:
-    """``p q`` (or ``p^-1 q``) of ``(n, 4)`` samples."""
-    return _sample_kernel(quat.multiply_planes, 4, 2, p, q, conjugate_p=conjugate_p)
-
-
 def _shorter_log(rel: np.ndarray) -> np.ndarray:
-    """``log(+-rel)`` of the shorter arc (``|log| <= pi/2``) of ``(n, 4)`` samples."""
-    return _sample_kernel(quat.log_planes, 3, 2, rel, shortest=True)
+    """``log(+-rel)`` of the shorter arc (``|log| <= pi/2``): the sign with ``w >= 0``."""
+    return quat.log(np.where(np.signbit(rel[..., :1]), -rel, rel))
 
 
-def _exp(v: np.ndarray) -> np.ndarray:
-    """``exp(v)`` of ``(n, 3)`` samples."""
-    return _sample_kernel(quat.exp_planes, 4, 3, v)
+def _rotation_velocity(q: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
+    """Rotation vectors ``2 log(q_i^-1 q_{i+stride})`` (rad) between rows of ``q`` (N, 4)."""
+    return 2.0 * _shorter_log(quat.multiply(quat.conjugate(q.take(i, axis=0)),
+                                            q.take(i + stride, axis=0)))
 
 
-def _rotation_velocity(q: np.ndarray, step: np.ndarray, col: np.ndarray) -> np.ndarray:
-    """Rotation vectors ``2 log(q_i^-1 q_{i+1})`` (rad) of steps ``i`` in columns ``c``."""
-    return 2.0 * _shorter_log(_product(q[step, col], q[step + 1, col], conjugate_p=True))
-
-
-def _position_velocity(p: np.ndarray, step: np.ndarray, col: np.ndarray) -> np.ndarray:
-    return p[step + 1, col] - p[step, col]
+def _position_velocity(p: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
+    return p.take(i + stride, axis=0) - p.take(i, axis=0)
 
 
 def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio, method,
@@ -544,40 +618,62 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
     cap = high * frame_time
     jump = np.full(n_cols, low * frame_time)  # the floor: no jump where no step exceeds it
     moving = np.flatnonzero(before > jump)
-    jump[moving] = _robust_threshold(steps[:, moving], threshold, low * frame_time, cap)
+    jump[moving] = _robust_threshold(steps.T[moving], threshold, low * frame_time, cap)
     out = x.copy()
+    flat = out.reshape(n_frames * n_cols, x.shape[-1])  # frame a of column c at row a C + c
+    turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
     if flip_rad is not None:
-        toggles, (cols, axis, left) = _flip_toggles(x, steps, flip_rad)
+        cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad)
         if toggles.any():
             # Toggles on the steps of a spike that is not itself a clean flip (half-turn
             # both in and out) are artefacts of the spike: its ends share one state.
-            first, length, col = _spike_runs(x, steps, jump, max_len, trend_ratio, dist,
-                                             velocity, interpolate)
-            spike = ~(toggles[first - 1, col] & toggles[first + length - 1, col])
-            toggles &= ~_mark(first[spike] - 1, length[spike] + 1, col[spike], steps.shape)
-            parity = _parity(toggles[:, cols])
-            frame, slot = np.nonzero(parity)
-            out[frame, cols[slot]] = _half_turn(x, frame, slot, cols, axis, left)
+            first, length, slot = _spike_runs(
+                out.take(cols, axis=1), steps.take(cols, axis=1), jump[cols], max_len,
+                trend_ratio, dist, velocity, interpolate, toggles)
+            toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
+            parity = _parity(toggles)
+            frame, slot = _nonzero(parity)
+            i = frame * n_cols + cols[slot]
+            flat[i] = _half_turn(flat, i, slot, axis, left)
             flipped[:, cols] = parity
-            steps[:, cols] = dist(out[:-1, cols], out[1:, cols])
-    mask = _mark(*_spike_runs(out, steps, jump, max_len, trend_ratio, dist, velocity,
-                              interpolate), flipped.shape)
-    over = (steps > cap) & ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
-    mask[:-1] |= over
-    mask[1:] |= over
-    if mask.any():
-        mask = _fill(out, mask, dist, interpolate, method, cap, max_len)
-    changed = np.flatnonzero((flipped | mask).any(axis=0))
-    if rotations:
-        out[:, changed] = quat.make_continuous(out[:, changed], axis=0)
+            turned = cols[parity.any(axis=0)]
+            samples = out.take(turned, axis=1)
+            steps[:, turned] = dist(samples[:-1], samples[1:])
+    first, length, col = _spike_runs(out, steps, jump, max_len, trend_ratio, dist, velocity,
+                                     interpolate)
+    mask = _mark(first, length, col, flipped.shape)
+    over = steps > cap
+    if over.any():
+        over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
+        mask[:-1] |= over
+        mask[1:] |= over
+        col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
     after = before.copy()
-    after[changed] = dist(out[:-1, changed], out[1:, changed]).max(axis=0)
+    changed = np.bincount(np.concatenate([turned, col]), minlength=n_cols).nonzero()[0]
+    if changed.size == 0:
+        return out, flipped, mask, jump, before, after
+    fixed = out.take(changed, axis=1)
+    gaps = mask.take(changed, axis=1)
+    if gaps.any():
+        mask[:, changed] = _fill(fixed, gaps, dist, interpolate, method, cap, max_len)
+    if rotations:
+        # Sign continuity (000 Sec. VI-A, as quat.make_continuous) from the dot products
+        # that also give the steps after repair.
+        dots = _dot(fixed[:-1], fixed[1:])
+        signs = np.ones(fixed.shape[:2])
+        signs[1:][dots < 0.0] = -1.0
+        np.cumprod(signs, axis=0, out=signs)
+        out[:, changed] = fixed * signs[..., None]
+        after[changed] = _dot_angle(dots).max(axis=0)
+    else:
+        out[:, changed] = fixed
+        after[changed] = dist(fixed[:-1], fixed[1:]).max(axis=0)
     return out, flipped, mask, jump, before, after
 
 
 def _columns(x: np.ndarray) -> np.ndarray:
     """``(F, ..., n)`` viewed as ``(F, C, n)``, also for empty arrays."""
-    return x.reshape(x.shape[0], int(np.prod(x.shape[1:-1])), x.shape[-1])
+    return x.reshape(x.shape[0], math.prod(x.shape[1:-1]), x.shape[-1])
 
 
 def _report(shape, flipped, interpolated, jump, before, after, scale) -> DespikeReport:

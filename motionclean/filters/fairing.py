@@ -137,6 +137,29 @@ def _renormalize(q: np.ndarray, iterations: np.ndarray) -> np.ndarray:
     return q
 
 
+def _solve(x0, trailing, min_frames: int, solve, return_iterations: bool, *,
+           rotations: bool = False, continuous: bool = False):
+    """Shared ending of the fairing functions, on the planes ``x0`` ``(width, F, N)``.
+
+    ``solve(x0) -> (planes, iterations per signal)`` runs when the signals have at least
+    ``min_frames`` frames; shorter ones have no energy term and come back unchanged, after
+    no iterations. With ``rotations`` the signals that moved lose the rounding drift of
+    their norms (:func:`_renormalize`); with ``continuous`` the result is made
+    sign-continuous. Returns the ``(F, ..., width)`` result, and with
+    ``return_iterations`` also the iterations, shape ``trailing``.
+    """
+    if x0.shape[1] < min_frames:
+        out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
+    else:
+        out, iterations = solve(x0)
+        if rotations:
+            out = _renormalize(out, iterations)
+    out = _from_planes(out, trailing)
+    if continuous:
+        out = quat.make_continuous(out, axis=0)
+    return (out, iterations.reshape(trailing)) if return_iterations else out
+
+
 # --------------------------------------------------------------------------- validation
 
 
@@ -361,20 +384,21 @@ def fairing(
     tol = _check_nonneg("tol", tol, rotation=True)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(quat.make_continuous(_quaternions(q), axis=0), 4, "q")
-    if x0.shape[1] <= order:
-        out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
-    else:
-        out, iterations = _run_fairing(
-            x0,
+    return _solve(
+        x0,
+        trailing,
+        order + 1,
+        lambda x: _run_fairing(
+            x,
             lambda cur: _fair_r(cur, order, lam),
             _sq_chord,
             _sq_chord_of(epsilon),
             _sq_chord_of(tol),
             iters_max,
-        )
-        out = _renormalize(out, iterations)
-    out = _from_planes(out, trailing)
-    return (out, iterations.reshape(trailing)) if return_iterations else out
+        ),
+        return_iterations,
+        rotations=True,
+    )
 
 
 def fairing_positions(
@@ -403,19 +427,20 @@ def fairing_positions(
     tol = _check_nonneg("tol", tol)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(p, 3, "p")
-    if x0.shape[1] <= order:
-        out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
-    else:
-        out, iterations = _run_fairing(
-            x0,
+    return _solve(
+        x0,
+        trailing,
+        order + 1,
+        lambda x: _run_fairing(
+            x,
             lambda cur: cur + lam * (_rho_t(cur, order) - cur),
             _sq_euclidean,
             epsilon * epsilon,
             tol * tol,
             iters_max,
-        )
-    out = _from_planes(out, trailing)
-    return (out, iterations.reshape(trailing)) if return_iterations else out
+        ),
+        return_iterations,
+    )
 
 
 # --------------------------------------------------------------------------- 004: objective
@@ -625,15 +650,15 @@ def sse_fairing(
     epsilon = _check_nonneg("epsilon", epsilon)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(quat.make_continuous(_quaternions(q), axis=0), 4, "q")
-    if x0.shape[1] < 3:
-        out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
-    else:
-        out, iterations = _descend(
-            x0, _sse_parts, _sse_value, _sse_grad, _step, beta, epsilon, iters_max
-        )
-        out = _renormalize(out, iterations)
-    out = quat.make_continuous(_from_planes(out, trailing), axis=0)
-    return (out, iterations.reshape(trailing)) if return_iterations else out
+    return _solve(
+        x0,
+        trailing,
+        3,
+        lambda x: _descend(x, _sse_parts, _sse_value, _sse_grad, _step, beta, epsilon, iters_max),
+        return_iterations,
+        rotations=True,
+        continuous=True,
+    )
 
 
 def sse_fairing_positions(
@@ -656,11 +681,10 @@ def sse_fairing_positions(
     epsilon = _check_nonneg("epsilon", epsilon)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(p, 3, "p")
-    if x0.shape[1] < 3:
-        out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
-    else:
-        out, iterations = _descend(
-            x0, _pos_parts, _pos_value, _pos_grad, np.add, alpha, epsilon, iters_max
-        )
-    out = _from_planes(out, trailing)
-    return (out, iterations.reshape(trailing)) if return_iterations else out
+    return _solve(
+        x0,
+        trailing,
+        3,
+        lambda x: _descend(x, _pos_parts, _pos_value, _pos_grad, np.add, alpha, epsilon, iters_max),
+        return_iterations,
+    )

@@ -29,11 +29,18 @@ from .masks import validate_mask
 __all__ = [
     "angular_displacements",
     "apply_displacement_sums",
+    "check_iterations",
+    "continuity_signs",
     "displacement_coefficients",
+    "fill_mirrored_ends",
+    "frame_blocks",
     "lee_shin",
     "lee_shin_positions",
     "mirror_indices",
+    "mirror_position",
     "mirrored_displacements",
+    "run_passes",
+    "work_area",
 ]
 
 def displacement_coefficients(mask) -> np.ndarray:
@@ -51,8 +58,9 @@ def displacement_coefficients(mask) -> np.ndarray:
     return b
 
 
-def _mirror(positions: np.ndarray, n: int) -> np.ndarray:
-    """Index in ``0 .. n-1`` of the displacement at each position (000 Eq. 26)."""
+def mirror_position(positions, n: int):
+    """Index in ``0 .. n-1`` of the displacement that 000 Eq. 26 puts at each position
+    (an int or an int array) of a signal of ``n`` displacements."""
     if n == 1:
         return np.zeros_like(positions)
     period = 2 * (n - 1)
@@ -66,7 +74,7 @@ def mirror_indices(n: int, before: int, after: int) -> np.ndarray:
     ``w_i = w_{-i}`` for ``i < 0`` and ``w_i = w_{2n-i-2}`` for ``i >= n``: reflection about
     the first and the last displacement, repeated as often as a short signal needs.
     """
-    return _mirror(np.arange(-before, n + after), n)
+    return mirror_position(np.arange(-before, n + after), n)
 
 
 def angular_displacements(q: np.ndarray) -> np.ndarray:
@@ -110,22 +118,92 @@ def _window_sums(ext: np.ndarray, b: np.ndarray, out: np.ndarray, tmp: np.ndarra
         out[...] = 0.0
 
 
-def _fill_mirrored_ends(ext: np.ndarray, start: int, lo: int, hi: int, n: int) -> None:
+def fill_mirrored_ends(ext: np.ndarray, start: int, lo: int, hi: int, n: int) -> None:
     """Fill the positions of ``ext`` (axis 1, first position ``start``) outside ``lo .. hi-1``.
 
-    ``ext`` already holds displacements ``lo .. hi-1``; the others are copied by Eq. 26.
+    ``ext`` is a window of the displacement positions of a signal of ``n`` displacements
+    and already holds displacements ``lo .. hi-1``; the others are copied by 000 Eq. 26
+    from inside the window.
     """
     for first, last in ((start, lo), (hi, start + ext.shape[1])):
         if last > first:
-            src = _mirror(np.arange(first, last), n)
+            src = mirror_position(np.arange(first, last), n)
             ext[:, first - start : last - start] = ext[:, src - start]
 
 
-def _blocks(n_frames: int, rows: int) -> list[tuple[int, int]]:
-    """Split ``0 .. n_frames-1`` into near-equal runs of about ``rows`` frames."""
+def frame_blocks(n_frames: int, rows: int) -> list[tuple[int, int]]:
+    """Split frames ``0 .. n_frames-1`` into near-equal half-open runs ``(f0, f1)`` of
+    about ``rows`` frames (at least one run)."""
     count = max(1, -(-n_frames // rows))
     edges = np.linspace(0, n_frames, count + 1).round().astype(int)
     return list(zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True))
+
+
+def work_area(n_frames: int, n_sig: int, k: int, n_planes: int):
+    """Blocks of frames and a reused work area for one blocked pass of a windowed filter.
+
+    A pass over ``(F, M, ...)`` signals (``F = n_frames``, ``M = n_sig``) with a window
+    of ``k`` frames on each side works through :func:`frame_blocks` of about
+    ``quat.BLOCK_SAMPLES`` samples each. With several blocks each has at least ``2k + 2``
+    frames, so the displacements mirrored by Eq. 26 come from inside the block's own
+    window (:func:`fill_mirrored_ends`); one block covers the whole signal. Returns the
+    blocks and ``planes(first, count, length)``: ``count`` planes of the work area from
+    plane ``first`` on, each viewed as ``(length, M)``, for any ``length`` up to the
+    longest block plus ``2k``. The area holds ``n_planes`` planes.
+    """
+    blocks = frame_blocks(n_frames, max(quat.BLOCK_SAMPLES // n_sig, 4 * k + 4))
+    span = max(f1 - f0 for f0, f1 in blocks) + 2 * k  # longest window, in frames
+    work = np.empty((n_planes, span * n_sig))
+
+    def planes(first: int, count: int, length: int) -> np.ndarray:
+        return work[first : first + count, : length * n_sig].reshape(count, length, n_sig)
+
+    return blocks, planes
+
+
+def continuity_signs(dots: np.ndarray, length: int, carry):
+    """Signs ``sigma_i`` making a block's samples sign-continuous (000 Sec. VI-A).
+
+    ``sigma_{i+1} = sigma_i sign(q_i . q_{i+1})``. ``dots`` holds the scalar parts of
+    ``q_i^-1 q_{i+1}`` (the 4-D dot products) for the block's steps ``f0 -> f0+1, ...``
+    (``length`` of them, one fewer in the last block), shape ``(steps, M)``, and ``carry``
+    the sign at ``f0`` (``None``: +1). Returns the ``(length, M)`` signs (``None`` when all
+    are +1) and the carry for the next block.
+    """
+    flips = np.signbit(dots)
+    if carry is None and not flips.any():
+        return None, None
+    step = np.where(flips, -1.0, 1.0)
+    signs = np.empty((length, *dots.shape[1:]))
+    signs[0] = 1.0 if carry is None else carry
+    np.cumprod(step[: length - 1], axis=0, out=signs[1:])
+    signs[1:] *= signs[0]
+    carry = signs[-1] * step[-1] if step.shape[0] == length else None
+    if carry is not None and np.all(carry > 0.0):
+        carry = None
+    return signs, carry
+
+
+def check_iterations(iterations) -> int:
+    """``iterations`` as an int, or ValueError unless it is a whole number >= 0."""
+    if int(iterations) != iterations or iterations < 0:
+        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
+    return int(iterations)
+
+
+def run_passes(one_pass, x: np.ndarray, iterations: int) -> np.ndarray:
+    """Apply ``one_pass(src, dst)`` ``iterations >= 1`` times to ``x`` (F, ..., n).
+
+    Each pass reads ``src`` and writes ``dst``, both ``(F, M, n)`` (the trailing axes
+    flattened); the passes ping-pong between two output buffers, so ``x`` is never
+    written. Returns the last output, shaped like ``x``.
+    """
+    cur = np.ascontiguousarray(x).reshape(x.shape[0], -1, x.shape[-1])
+    buffers = [np.empty(cur.shape) for _ in range(min(iterations, 2))]
+    for n in range(iterations):
+        one_pass(cur, buffers[n % 2])
+        cur = buffers[n % 2]
+    return cur.reshape(x.shape)
 
 
 def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
@@ -141,17 +219,9 @@ def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
     n_frames, n_sig = src.shape[:2]
     n = n_frames - 1  # displacements
     k = b.size // 2
-    # With several blocks each has >= 2k + 2 frames, so mirrored displacements come from
-    # inside the block's own window (_fill_mirrored_ends); one block covers the signal.
-    blocks = _blocks(n_frames, max(quat.BLOCK_SAMPLES // n_sig, 4 * k + 4))
-    span = max(f1 - f0 for f0, f1 in blocks) + 2 * k  # longest window, in frames
     # Work planes: 0-3 samples, 4-6 displacement window, 7 w of q_i^-1 q_{i+1}, 8-10
     # scratch, 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i).
-    work = np.empty((15, span * n_sig))
-
-    def planes(first: int, count: int, length: int) -> np.ndarray:
-        return work[first : first + count, : length * n_sig].reshape(count, length, n_sig)
-
+    blocks, planes = work_area(n_frames, n_sig, k, 15)
     sigma = None  # sign of the continuous signal at the block's first frame, if any is -1
     for f0, f1 in blocks:
         length = f1 - f0
@@ -166,19 +236,9 @@ def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
         # w_i = log(+-q_i^-1 q_{i+1}), written straight into the block's displacement window.
         quat.multiply_planes([rel_w, *inside], qc[:, :-1], qc[:, 1:], scratch, True)
         quat.log_planes(inside, [rel_w, *inside], scratch, shortest=True)
-        _fill_mirrored_ends(ext, start, lo, hi, n)
-
-        flips = np.signbit(rel_w[f0 - lo : f1 - lo])  # steps f0 -> f0+1, ..., (f1-1) -> f1
-        signs = None
-        if sigma is not None or flips.any():
-            step = np.where(flips, -1.0, 1.0)
-            signs = np.empty((length, n_sig))
-            signs[0] = 1.0 if sigma is None else sigma
-            np.cumprod(step[: length - 1], axis=0, out=signs[1:])
-            signs[1:] *= signs[0]
-            sigma = signs[-1] * step[-1] if step.shape[0] == length else None
-            if sigma is not None and np.all(sigma > 0.0):
-                sigma = None
+        fill_mirrored_ends(ext, start, lo, hi, n)
+        # Steps f0 -> f0+1, ..., (f1-1) -> f1 (one fewer in the last block).
+        signs, sigma = continuity_signs(rel_w[f0 - lo : f1 - lo], length, sigma)
 
         sums = planes(11, 3, length)
         scratch = planes(8, 3, length)
@@ -213,20 +273,13 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
         symmetric masks (Prop. 3).
     """
     b = displacement_coefficients(mask)
-    if int(iterations) != iterations or iterations < 0:
-        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
+    iterations = check_iterations(iterations)
     q = np.asarray(q, dtype=np.float64)
     if q.ndim < 2 or q.shape[-1] != 4:
         raise ValueError(f"expected (F, ..., 4) quaternions, got shape {q.shape}")
-    n_frames = q.shape[0]
-    if n_frames < 2 or b.size == 0 or iterations == 0 or q.size == 0:
+    if q.shape[0] < 2 or b.size == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
-    cur = np.ascontiguousarray(q).reshape(n_frames, -1, 4)
-    buffers = [np.empty(cur.shape) for _ in range(min(int(iterations), 2))]
-    for n in range(int(iterations)):  # ping-pong between the output buffers
-        _lee_shin_pass(cur, buffers[n % 2], b)
-        cur = buffers[n % 2]
-    return cur.reshape(q.shape)
+    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
@@ -236,8 +289,7 @@ def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     convolution with the mask in the interior, the same boundary rule as orientations.
     """
     b = displacement_coefficients(mask)
-    if int(iterations) != iterations or iterations < 0:
-        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
+    iterations = check_iterations(iterations)
     out = np.array(p, dtype=np.float64, copy=True)
     if out.shape[0] < 2 or b.size == 0:
         return out
@@ -245,9 +297,9 @@ def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     ext = np.empty((1, n + 2 * k, *out.shape[1:]))  # displacement positions -k .. n-1+k
     sums = np.empty((1, *out.shape))
     tmp = np.empty_like(sums)
-    for _ in range(int(iterations)):
+    for _ in range(iterations):
         np.subtract(out[1:], out[:-1], ext[0, k : k + n])
-        _fill_mirrored_ends(ext, -k, 0, n, n)
+        fill_mirrored_ends(ext, -k, 0, n, n)
         _window_sums(ext, b, sums, tmp)
         out += sums[0]
     return out

@@ -1,0 +1,41 @@
+"""What the benchmark scripts share: where the corpus is, and best-of-N wall-clock timing.
+
+The scripts run as ``python bench/<name>.py``, which puts this folder first on ``sys.path``,
+so they import this module as ``common``. It imports nothing from the package itself.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+#: The project folder (the parent of ``bench/``).
+ROOT = Path(__file__).resolve().parents[1]
+
+#: The CMU corpus beside the project: ``../shared/corpus/cmu``.
+CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
+
+
+def corpus_clips(pattern: str = "*.bvh") -> list[Path]:
+    """The corpus clips matching ``pattern``, sorted; exits with a message if there are none."""
+    clips = sorted(CORPUS.glob(pattern))
+    if not clips:
+        raise SystemExit(f"no corpus clips {pattern} in {CORPUS}")
+    return clips
+
+
+def elapsed(fn: Callable[[], object]) -> float:
+    """Wall-clock time of one call ``fn()``, in seconds."""
+    start = time.perf_counter()
+    fn()
+    return time.perf_counter() - start
+
+
+def best_of(fn: Callable[[], object], repeats: int, warm_up: bool = False) -> float:
+    """Shortest of ``repeats`` timed calls ``fn()``, in seconds (``inf`` for none); with
+    ``warm_up`` one untimed call first (allocator, caches)."""
+    if warm_up:
+        fn()
+    return min((elapsed(fn) for _ in range(repeats)), default=math.inf)
