@@ -2,40 +2,24 @@
 
 from __future__ import annotations
 
-import os
 import pickle
 import re
 from pathlib import Path
 
 import pytest
+from conftest import cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.batch import FileResult, batch_command, clean_file, find_clips
-from motionclean.cli import cli, main
+from motionclean.batch import FileResult, clean_file, find_clips
 from motionclean.pipeline import Pipeline
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_noisy.bvh"
 
-cli.add_command(batch_command)  # what cli.py registers; adding it again is harmless
 
 
-def cut_bvh(source: Path, target: Path, frames: int) -> Path:
-    """Copy the first ``frames`` frames of a BVH file, every value's text kept."""
-    lines = source.read_text().splitlines(keepends=True)
-    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
-    target.parent.mkdir(parents=True, exist_ok=True)
-    target.write_text("".join(lines[:at]) + f"Frames: {frames}\n" + lines[at + 1]
-                      + "".join(lines[at + 2:at + 2 + frames]))
-    return target
 
 
-def run(capsys, *args: str) -> tuple[int, str, str]:
-    """Run the console entry point; return exit code, stdout, stderr."""
-    with pytest.raises(SystemExit) as done:
-        main([os.fspath(a) for a in args])
-    captured = capsys.readouterr()
-    return done.value.code, captured.out, captured.err
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -61,7 +45,7 @@ def tree(tmp_path: Path) -> Path:
 def test_tree_with_a_broken_file(tree, tmp_path, capsys):
     before = snapshot(tree)
     out = tmp_path / "out"
-    code, stdout, stderr = run(capsys, "batch", tree, "-o", out, "-j", "1")
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out, "-j", "1")
     assert code == 1
     errors = stderr.strip().splitlines()
     assert len(errors) == 1
@@ -85,7 +69,7 @@ def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
     results = []
     for jobs in ("1", "2"):
         out, pages = tmp_path / f"out{jobs}", tmp_path / f"pages{jobs}"
-        code, _, stderr = run(capsys, "batch", tree, "-o", out, "-j", jobs,
+        code, _, stderr = run_cli(capsys, "batch", tree, "-o", out, "-j", jobs,
                               "--report-dir", pages, "-f", "lee-shin:k=1,iterations=3")
         assert code == 0, stderr
         results.append((snapshot(out), snapshot(pages)))
@@ -102,7 +86,7 @@ def test_refuses_to_write_inside_the_input(tree, tmp_path, capsys, where):
     before = snapshot(tree)
     out = {"same": tree, "inside": tree / "cleaned"}.get(where, tmp_path / "out")
     extra = ["--report-dir", str(tree / "pages")] if where == "report" else []
-    code, _, stderr = run(capsys, "batch", tree, "-o", out, *extra)
+    code, _, stderr = run_cli(capsys, "batch", tree, "-o", out, *extra)
     assert code == 2
     assert "inside the input folder" in stderr and len(stderr.strip().splitlines()) == 1
     assert snapshot(tree) == before
@@ -110,7 +94,7 @@ def test_refuses_to_write_inside_the_input(tree, tmp_path, capsys, where):
 
 
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
-    code, stdout, stderr = run(capsys, "batch", tree, "-o", tmp_path / "out",
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", tmp_path / "out",
                                "-f", "lee-shin:k=-3")
     assert code == 2 and "k must be" in stderr and stdout == ""
     assert not (tmp_path / "out").exists()
@@ -119,10 +103,10 @@ def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
 def test_skip_existing_resumes(tree, tmp_path, capsys):
     (tree / "run" / "broken.bvh").unlink()
     out = tmp_path / "out"
-    assert run(capsys, "batch", tree, "-o", out, "-j", "1")[0] == 0
+    assert run_cli(capsys, "batch", tree, "-o", out, "-j", "1")[0] == 0
     (out / "walk" / "a.bvh").write_text("left alone")
     (out / "top.bvh").unlink()  # as if the run had been interrupted before it
-    code, stdout, _ = run(capsys, "batch", tree, "-o", out, "-j", "1", "--skip-existing")
+    code, stdout, _ = run_cli(capsys, "batch", tree, "-o", out, "-j", "1", "--skip-existing")
     assert code == 0
     assert (out / "walk" / "a.bvh").read_text() == "left alone"
     assert mc.load(out / "top.bvh").n_frames == 40

@@ -3,39 +3,25 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import cut_bvh, run_cli
 
 import motionclean as mc
 from motionclean import quat
-from motionclean.check import DEFAULT_TOLERANCE, check_command, compare
-from motionclean.cli import cli, main
+from motionclean.check import DEFAULT_TOLERANCE, compare
 from motionclean.pipeline import Pipeline
 from motionclean.report import json_safe
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
 
-cli.add_command(check_command)  # what cli.py registers; adding it again is harmless
 
 
-def cut_bvh(source: Path, target: Path, frames: int) -> Path:
-    """Copy the first ``frames`` frames of a BVH file, every value's text kept."""
-    lines = source.read_text().splitlines(keepends=True)
-    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
-    target.write_text("".join(lines[:at]) + f"Frames: {frames}\n" + lines[at + 1]
-                      + "".join(lines[at + 2:at + 2 + frames]))
-    return target
 
 
-def run(capsys, *args: str) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as done:
-        main([os.fspath(a) for a in args])
-    captured = capsys.readouterr()
-    return done.value.code, captured.out, captured.err
 
 
 @pytest.fixture
@@ -54,18 +40,18 @@ def make_noisier(path: str) -> None:
 
 
 def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
-    code, stdout, _ = run(capsys, "check", *clips, "--baseline", "base.json", "--update")
+    code, stdout, _ = run_cli(capsys, "check", *clips, "--baseline", "base.json", "--update")
     assert code == 0 and "baseline written" in stdout
     recorded = json.loads(Path("base.json").read_text())
     assert sorted(recorded["clips"]) == sorted(clips)
     assert recorded["pipeline"] == json_safe(Pipeline.default().describe())
 
-    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "base.json")
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "base.json")
     assert code == 0, stderr
     assert "check passed" in stdout and "WORSE" not in stdout
 
     make_noisier("clips/busy.bvh")
-    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "base.json")
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "base.json")
     assert code == 1
     assert "clips/busy.bvh" in stderr and "clips/calm.bvh" not in stderr
     assert "noise after got worse" in stderr
@@ -76,18 +62,18 @@ def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
 
 
 def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
-    assert run(capsys, "check", *clips, "--baseline", "b.json", "--update",
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update",
                "-f", "lee-shin:k=2,iterations=3")[0] == 0
-    code, _, stderr = run(capsys, "check", *clips, "--baseline", "b.json",
+    code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json",
                           "-f", "lee-shin:k=2,iterations=2")
     assert code == 1 and stderr.count("noise after got worse") == 2
-    code, _, _ = run(capsys, "check", *clips, "--baseline", "b.json",
+    code, _, _ = run_cli(capsys, "check", *clips, "--baseline", "b.json",
                      "-f", "lee-shin:k=2,iterations=2", "--tolerance", "100")
     assert code == 0
 
 
 def test_missing_baseline_is_a_clear_error(clips, capsys):
-    code, stdout, stderr = run(capsys, "check", *clips, "--baseline", "none.json")
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "none.json")
     assert code == 2 and stdout == ""
     assert stderr.strip() == ("motionclean: error: none.json: no such baseline; create it "
                               "with --update")
@@ -96,15 +82,15 @@ def test_missing_baseline_is_a_clear_error(clips, capsys):
 
 def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
     Path("clips/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
-    code, _, stderr = run(capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json",
+    code, _, stderr = run_cli(capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json",
                           "--update")
     assert code == 1 and "clips/broken.bvh" in stderr
     assert not Path("b.json").exists()
 
 
 def test_clip_missing_from_the_baseline_fails(clips, capsys):
-    assert run(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
-    code, _, stderr = run(capsys, "check", *clips, "--baseline", "b.json")
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+    code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json")
     assert code == 1 and f"{clips[1]}: not in the baseline" in stderr
 
 

@@ -5,19 +5,15 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
+from conftest import run_cli
 
 import motionclean as mc
-from motionclean.cli import main
 from motionclean.pipeline import REGISTRY
 
 
 def run(args, capsys):
-    """Run the console entry point; return (exit code, stdout, stderr)."""
-    with pytest.raises(SystemExit) as done:
-        main([str(a) for a in args])
-    out = capsys.readouterr()
-    return done.value.code, out.out, out.err
+    """Run the console entry point with ``args``; return (exit code, stdout, stderr)."""
+    return run_cli(capsys, *args)
 
 
 def test_version(capsys):
