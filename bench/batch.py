@@ -5,9 +5,8 @@
 Copies the corpus clips (/work/shared/corpus/cmu, or $MOTIONCLEAN_CORPUS) COPIES times into a
 temporary folder tree (3 x 10 = 30 clips by default) and times the batch command on it, end
 to end in a fresh process (start-up and imports included), with the default pipeline,
-alternating --jobs 1 and --jobs N, REPEATS times each. Two environments are measured: as
-the shell gives it, and with BLAS limited to one thread (OPENBLAS_NUM_THREADS=1 etc. set
-before numpy is imported, which also lets batch fork its workers directly).
+alternating --jobs 1 and --jobs N, REPEATS times each. Last, the same pure numpy work is
+run in one process and in N: the speed-up this machine's cores allow at all.
 
 Other processes take cores away from a parallel run: before each run the script waits
 (up to 30 s) until the machine has been at least 90 % idle for half a second, and prints
@@ -17,6 +16,7 @@ the idle share it saw (from /proc/stat).
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import shutil
 import statistics
@@ -26,9 +26,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = Path(os.environ.get("MOTIONCLEAN_CORPUS", ROOT.parent / "shared" / "corpus" / "cmu"))
-ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 COMMAND = ("import sys, time\nfrom motionclean.batch import batch_command\n"
            "t = time.perf_counter()\ntry:\n"
            "    batch_command.main(sys.argv[1:], standalone_mode=False)\n"
@@ -73,16 +74,41 @@ def wait_quiet(limit: float = 30.0) -> float | None:
             return idle
 
 
-def run(in_dir: Path, out_dir: Path, jobs: int, env: dict[str, str]) -> tuple[float, float]:
+def run(in_dir: Path, out_dir: Path, jobs: int) -> tuple[float, float]:
     """End-to-end wall time of one fresh `batch` process, and the time inside the command
     (without interpreter start-up and imports)."""
     shutil.rmtree(out_dir, ignore_errors=True)
-    environment = dict(os.environ, PYTHONPATH=str(ROOT), **env)
+    environment = dict(os.environ, PYTHONPATH=str(ROOT))
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", COMMAND, str(in_dir), "-o", str(out_dir),
                            "-j", str(jobs), "-q"], env=environment, check=True,
                           stderr=subprocess.PIPE, text=True)
     return time.perf_counter() - start, float(done.stderr.strip().splitlines()[-1])
+
+
+def _numpy_work(_: int) -> float:
+    """A fixed numpy workload (transcendentals on a clip-sized array), seconds."""
+    a = np.random.default_rng(0).normal(size=(1000, 31, 4))
+    start = time.perf_counter()
+    for _ in range(1500):
+        np.tan(a)
+    return time.perf_counter() - start
+
+
+def machine_ceiling(jobs: int) -> float:
+    """Speed-up of the same pure numpy work in ``jobs`` processes against one: what this
+    machine's cores give, whatever the program."""
+    wait_quiet()
+    start = time.perf_counter()
+    for i in range(2 * jobs):
+        _numpy_work(i)
+    serial = time.perf_counter() - start
+    with multiprocessing.get_context("fork").Pool(jobs) as pool:
+        pool.map(_numpy_work, range(jobs))  # start the workers
+        start = time.perf_counter()
+        pool.map(_numpy_work, range(2 * jobs))
+        parallel = time.perf_counter() - start
+    return serial / parallel
 
 
 def main() -> None:
@@ -91,43 +117,32 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--jobs", type=int, default=2)
     args = parser.parse_args()
-    variants = {"as given": {k: v for k, v in os.environ.items() if k in ONE_THREAD},
-                "one BLAS thread": ONE_THREAD}
-    rows = []
+    times: dict[int, list[tuple[float, float]]] = {1: [], args.jobs: []}
     with tempfile.TemporaryDirectory(prefix="motionclean-bench-") as tmp:
         in_dir, out_dir = Path(tmp) / "in", Path(tmp) / "out"
         clips, frames = make_tree(in_dir, args.copies)
         print(f"{clips} clips, {frames:,} frames, {os.cpu_count()} cores")
-        run(in_dir, out_dir, 1, {})  # warm the file cache
-        for name, env in variants.items():
-            times: dict[int, list[tuple[float, float]]] = {1: [], args.jobs: []}
-            for _ in range(args.repeats):
-                for jobs in times:
-                    idle = wait_quiet()
-                    times[jobs].append(run(in_dir, out_dir, jobs, env))
-                    seen = "" if idle is None else f" (machine {idle:.0%} idle before)"
-                    total, inside = times[jobs][-1]
-                    print(f"  {name}, --jobs {jobs}: {total:.2f} s, {inside:.2f} s in the "
-                          f"command{seen}")
-            rows.append((name, times))
-    print("\nwall time of a fresh process (and of the command itself, without start-up)")
-    print(f"{'environment':<18}{'jobs':>5}{'best s':>14}{'median s':>16}{'clips/s':>9}"
-          f"{'speed-up best':>16}{'median':>14}")
-    for name, times in rows:
-        for jobs, values in times.items():
-            cells = []
-            for pick in (min, statistics.median):
-                whole = pick(v[0] for v in values)
-                inner = pick(v[1] for v in values)
-                cells.append((whole, inner))
-            ref = [(min(v[0] for v in times[1]), min(v[1] for v in times[1])),
-                   (statistics.median(v[0] for v in times[1]),
-                    statistics.median(v[1] for v in times[1]))]
-            (bw, bi), (mw, mi) = cells
-            print(f"{name:<18}{jobs:>5}{bw:>7.2f} ({bi:.2f}){mw:>9.2f} ({mi:.2f})"
-                  f"{clips / bw:>9.1f}"
-                  f"{ref[0][0] / bw:>8.2f}x ({ref[0][1] / bi:.2f}x)"
-                  f"{ref[1][0] / mw:>6.2f}x ({ref[1][1] / mi:.2f}x)")
+        run(in_dir, out_dir, 1)  # warm the file cache
+        for _ in range(args.repeats):
+            for jobs in times:
+                idle = wait_quiet()
+                times[jobs].append(run(in_dir, out_dir, jobs))
+                seen = "" if idle is None else f" (machine {idle:.0%} idle before)"
+                total, inside = times[jobs][-1]
+                print(f"  --jobs {jobs}: {total:.2f} s, {inside:.2f} s in the command{seen}")
+    print("\nwall time of a fresh process (and of the command itself, without start-up)\n")
+    print("| jobs | best s | median s | clips/s | speed-up, best | speed-up, median |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    ref = [(min(v[0] for v in times[1]), min(v[1] for v in times[1])),
+           (statistics.median(v[0] for v in times[1]), statistics.median(v[1] for v in times[1]))]
+    for jobs, values in times.items():
+        (bw, bi), (mw, mi) = [(pick(v[0] for v in values), pick(v[1] for v in values))
+                              for pick in (min, statistics.median)]
+        print(f"| {jobs} | {bw:.2f} ({bi:.2f}) | {mw:.2f} ({mi:.2f}) | {clips / bw:.1f} "
+              f"| {ref[0][0] / bw:.2f}x ({ref[0][1] / bi:.2f}x) "
+              f"| {ref[1][0] / mw:.2f}x ({ref[1][1] / mi:.2f}x) |")
+    print(f"\nmachine ceiling: the same pure numpy work in {args.jobs} processes runs "
+          f"{machine_ceiling(args.jobs):.2f}x faster than in one")
 
 
 if __name__ == "__main__":
