@@ -20,6 +20,7 @@ from . import __version__, metrics, multires
 from .batch import batch_command
 from .check import check_command
 from .errors import MotionError, UsageError
+from .filters.auto import estimate_noise
 from .html import build_series
 from .io import load, save
 from .motion import Motion
@@ -98,20 +99,27 @@ def info(clip: str) -> None:
     steps, at = metrics.largest_steps(motion.rotations)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
+    noise = estimate_noise(motion.rotations)
     click.echo(f"  {'joint':<24}{'parent':<16}{'channels':<28}{'largest step':>14}"
-               f"{'at frame':>9}{'accel rms':>12}")
+               f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}")
     for j, name in enumerate(motion.names):
         parent = motion.names[motion.parents[j]] if motion.parents[j] >= 0 else "-"
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
         if layout.has_rotation[j]:
-            figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}"
+            figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}{noise[j]:>10.2f}"
         else:
-            figures = f"{'-':>14}{'':>9}{'':>12}"
+            figures = f"{'-':>14}"
         click.echo(f"  {name[:23]:<24}{parent[:15]:<16}{(channels + ' ' + order)[:27]:<28}"
                    f"{figures}")
+    rotating = layout.has_rotation
+    if rotating.any():
+        click.echo(f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
+                   f"RMS angular acceleration {metrics.rms(acc[:, rotating].ravel()):,.0f} "
+                   "deg/s^2 over all joints")
     click.echo("  (largest step: rotation between consecutive frames, degrees; accel rms: "
-               "deg/s^2)")
+               "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "
+               "degrees)")
 
 
 @cli.command()
