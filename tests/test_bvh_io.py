@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 import motionclean as mc
 from motionclean import quat
-from motionclean.io.bvh import format_bvh, format_fixed6, parse_bvh, parse_numbers, scan_tokens
+from motionclean.io.bvh import format_bvh, parse_bvh
+from motionclean.io.text import format_fixed6, parse_numbers, scan_tokens
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"

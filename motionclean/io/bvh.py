@@ -12,9 +12,8 @@ values are printed with six decimals (``%.6f``) in place of the old ones, so spa
 endings and every unchanged number stay as they were. An unchanged motion writes the input
 bytes exactly.
 
-The vectorised text helpers at the end of this module (:func:`scan_tokens`,
-:func:`parse_numbers`, :func:`format_fixed6`, :func:`pack_texts`, :func:`gather`) are shared
-with :mod:`motionclean.io.csv`.
+The vectorised text work (token scan, number parsing, ``%.6f`` formatting, splicing) is in
+:mod:`motionclean.io.text`, shared with :mod:`motionclean.io.csv`.
 """
 
 from __future__ import annotations
@@ -30,6 +29,15 @@ from ..motion import (
     ROTATION_CHANNELS,
     UNCHANGED_TOLERANCE,
     Motion,
+)
+from .text import (
+    bad_number_message,
+    check_finite,
+    format_fixed6,
+    join_rows,
+    parse_numbers,
+    scan_tokens,
+    splice,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -252,7 +260,7 @@ def _parse_rows(buf: np.ndarray, body_start: int, n_frames: int, n_channels: int
     values, bad_token = parse_numbers(buf, starts, ends)
     if bad_token >= 0:
         token = buf[starts[bad_token]:ends[bad_token]].tobytes()
-        _fail(_bad_number_message("frame value", token), path,
+        _fail(bad_number_message("frame value", token), path,
               first_line + np.searchsorted(newlines, starts[bad_token]))
     shape = (n_frames, n_channels)
     return values.reshape(shape), starts.reshape(shape), ends.reshape(shape)
@@ -381,269 +389,3 @@ def format_bvh(motion: Motion) -> bytes:
                       lambda a, b: format_fixed6(new[a:b]), start, prefix)
     return join_rows(*format_fixed6(values), values.shape, b" ", eol,
                      hierarchy + motion_header)
-
-
-def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
-    """Refuse to write NaN or inf: name the first joint and frame that has one.
-
-    ``values`` is ``(F, K)`` with ``widths[j]`` columns per joint (default: its channels).
-    """
-    bad = ~np.isfinite(values)
-    if bad.any():
-        frame, column = np.argwhere(bad)[0]
-        widths = [len(c) for c in motion.channels] if widths is None else widths
-        joint = np.searchsorted(np.cumsum(widths), column, side="right")
-        raise MotionError(f"cannot write: joint {motion.names[joint]!r} has a non-finite "
-                          f"value at frame {frame}")
-
-
-# ----------------------------------------------------------------------------------------
-# Vectorised text helpers, shared with io.csv.
-
-#: Work on arrays in pieces of this many items (or bytes) so temporaries stay in cache.
-_CHUNK_ITEMS = 16384
-_CHUNK_BYTES = 131072
-#: Bytes per formatted ``%.6f`` field.
-_FIELD = 16
-#: Decimal powers, exact in float64 up to 1e22.
-_POW10_FLOAT = 10.0 ** np.arange(23)
-#: Two-character groups "00" .. "99" and "0." .. "9." as native uint16 (byte pairs).
-_PAIRS = np.frombuffer(b"".join(b"%02d" % i for i in range(100)), dtype=np.uint16)
-_DIGIT_POINT = np.frombuffer(b"".join(b"%d." % i for i in range(10)), dtype=np.uint16)
-
-
-def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tuple:
-    """Byte offsets ``(starts, ends)`` of the tokens of ``buf[start:]``.
-
-    Tokens are runs of bytes that are neither ASCII whitespace nor one of ``separators``.
-    """
-    edges = []
-    before = np.int8(1)  # a gap before the first byte
-    for at in range(start, buf.size, _CHUNK_BYTES):
-        part = buf[at:at + _CHUNK_BYTES]
-        gap = (part == 32) | ((part >= 9) & (part <= 13))
-        for byte in separators:
-            gap |= part == byte
-        gap = gap.view(np.int8)
-        edges.append(np.flatnonzero(np.diff(gap, prepend=before)) + at)
-        before = gap[-1]
-    if before == 0:  # a token runs to the end of the buffer
-        edges.append(np.array([buf.size]))
-    edges = np.concatenate(edges) if edges else np.zeros(0, dtype=np.intp)
-    return edges[0::2], edges[1::2]
-
-
-def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
-    """Convert the tokens ``buf[starts[i]:ends[i]]`` to float64, exactly like ``float``.
-
-    Plain decimals (optional sign, digits with at most one point, at most 15 digits) are
-    converted in bulk, one character column at a time across all tokens, as
-    ``mantissa / 10**k``: both are exact in float64, so the one division is correctly
-    rounded, i.e. bit-identical to ``float``. Anything else (exponents, longer mantissas)
-    goes through ``float`` one token at a time. Returns ``(values, bad)`` with ``bad`` the
-    index of the first token that is not a finite number (``-1`` when all are).
-    """
-    n = starts.size
-    values = np.empty(n)
-    simple = np.empty(n, dtype=bool)
-    for at in range(0, n, _CHUNK_ITEMS):  # chunks stay in cache
-        part = slice(at, at + _CHUNK_ITEMS)
-        values[part], simple[part] = _parse_plain(buf, starts[part], ends[part])
-
-    bad = -1
-    for i in np.flatnonzero(~simple).tolist():
-        token = buf[starts[i]:ends[i]].tobytes()
-        try:
-            value = float(token) if b"_" not in token else math.nan
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
-            bad = i
-            break
-        values[i] = value
-    return values, bad
-
-
-def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
-    """Values of the plain decimal tokens and a mask of which tokens are plain decimals."""
-    length = ends - starts
-    mantissa = np.zeros(starts.size)  # exact: integers below 2**53
-    n_digits = np.zeros(starts.size, dtype=np.int8)
-    for column in range(int(min(length.max(), 17))):
-        digit = buf.take(starts + column, mode="clip") - np.uint8(48)
-        is_digit = digit < 10
-        is_digit &= length > column
-        mantissa *= np.where(is_digit, 10.0, 1.0)
-        mantissa += digit * is_digit
-        n_digits += is_digit
-    first, last = int(starts[0]), int(ends[-1])
-    is_dot = buf[first:last] == 46
-    before_dot = np.zeros(last - first + 1, dtype=np.int32)
-    np.cumsum(is_dot, out=before_dot[1:])
-    dot_index = before_dot[starts - first]
-    n_dots = before_dot[ends - first] - dot_index
-    dots = np.flatnonzero(is_dot) + first
-    dot_at = dots[np.minimum(dot_index, dots.size - 1)] if dots.size else ends
-    lead = buf[starts]
-    signed = (lead == 45) | (lead == 43)
-    simple = ((n_digits >= 1) & (n_digits <= 15) & (n_dots <= 1)
-              & (n_digits + n_dots + signed == length))
-    decimals = np.where(simple & (n_dots == 1), ends - 1 - dot_at, 0)
-    values = mantissa / _POW10_FLOAT[decimals]
-    values[lead == 45] *= -1.0
-    return values, simple
-
-
-def _bad_number_message(what: str, token: bytes) -> str:
-    text = token.decode("utf-8", "replace")[:40]
-    try:
-        float(text)
-    except ValueError:
-        return f"{what} is not a number: {text!r}"
-    return f"{what} is not finite: {text!r}"
-
-
-def format_fixed6(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``%.6f`` text of each value, as ``(buffer, starts, lengths)`` (see :func:`gather`).
-
-    Vectorised: each value is rounded to an integer count of 1e-6 (the float product
-    ``|v| * 1e6`` is one rounding away from the exact one; values whose product lies too
-    close to a half, and values of 1e7 or more, are printed by Python), then written as
-    two-character groups into a 16-byte field. A value that prints as zero is written
-    ``0.000000``, never ``-0.000000``.
-    """
-    v = np.asarray(values, dtype=np.float64).ravel()
-    field = np.empty((v.size, _FIELD // 2), dtype=np.uint16)
-    starts = np.empty(v.size, dtype=np.int64)
-    lengths = np.empty(v.size, dtype=np.int64)
-    fast = np.empty(v.size, dtype=bool)
-    for at in range(0, v.size, _CHUNK_ITEMS):  # chunks stay in cache
-        part = slice(at, at + _CHUNK_ITEMS)
-        starts[part], lengths[part], fast[part] = _fill_fixed6(v[part], field[part])
-    starts += np.arange(v.size, dtype=np.int64) * _FIELD
-    chars = field.view(np.uint8).ravel()
-    slow = np.flatnonzero(~fast)
-    if not slow.size:
-        return chars, starts, lengths
-    texts = [_fixed6(x) for x in v[slow].tolist()]
-    extra, extra_starts, extra_lengths = pack_texts(texts)
-    starts[slow] = extra_starts + chars.size
-    lengths[slow] = extra_lengths
-    return np.concatenate([chars, extra]), starts, lengths
-
-
-def _fill_fixed6(v: np.ndarray, field: np.ndarray):
-    """Write ``%.6f`` of ``v`` right-aligned into the rows of ``field`` (16 bytes each);
-    return each text's offset in its row, its length and whether it was written."""
-    a = np.abs(v)
-    with np.errstate(invalid="ignore", over="ignore"):
-        x = a * 1e6
-        rounded = np.rint(x)
-        fast = (a < 1e7) & (np.abs(np.abs(x - rounded) - 0.5) > 1e-15 * x)
-    n = np.where(fast, rounded, 0.0)
-    whole = np.floor(n / 1e6)  # exact: n is an integer below 1e13
-    frac = (n - whole * 1e6).astype(np.int32)
-    whole = whole.astype(np.int32)
-    # Bytes 2..8 hold 7 integer digits, 9 the point, 10..15 the decimals; the sign, if
-    # any, goes just before the first digit. (x - x // 100 * 100 is faster than x % 100.)
-    rest = whole // 10
-    field[:, 4] = _DIGIT_POINT.take(whole - rest * 10)
-    for slot in (3, 2, 1):
-        pair, rest = rest, rest // 100
-        field[:, slot] = _PAIRS.take(pair - rest * 100)
-    rest = frac // 100
-    field[:, 7] = _PAIRS.take(frac - rest * 100)
-    pair, rest = rest, rest // 100
-    field[:, 6] = _PAIRS.take(pair - rest * 100)
-    field[:, 5] = _PAIRS.take(rest)
-    n_whole = np.ones(v.size, dtype=np.int8)
-    for power in (10, 100, 1000, 10_000, 100_000, 1_000_000):
-        n_whole += whole >= power
-    minus = (v < 0) & (n > 0)
-    lengths = n_whole + 7 + minus
-    offsets = _FIELD - lengths
-    rows = np.flatnonzero(minus)
-    field.view(np.uint8)[rows, offsets[rows]] = ord("-")
-    return offsets, lengths, fast
-
-
-def _fixed6(x: float) -> bytes:
-    text = b"%.6f" % x
-    return text[1:] if text.startswith(b"-") and text.strip(b"-0.") == b"" else text
-
-
-def pack_texts(texts: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(buffer, starts, lengths)`` of a list of byte strings (see :func:`gather`)."""
-    lengths = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
-    starts = np.cumsum(lengths) - lengths
-    return np.frombuffer(b"".join(texts), dtype=np.uint8), starts, lengths
-
-
-def _gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
-    """Concatenate the non-empty pieces ``buf[starts[i] : starts[i] + lengths[i]]``."""
-    out_ends = np.cumsum(lengths)
-    # index[k] = index[k - 1] + 1 inside a piece and jumps to the next piece's start.
-    step = np.ones(int(out_ends[-1]), dtype=np.int32 if buf.size < 2**31 else np.int64)
-    step[0] = starts[0]
-    step[out_ends[:-1]] = starts[1:] - (starts[:-1] + lengths[:-1] - 1)
-    return buf[np.cumsum(step, out=step)].tobytes()
-
-
-def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: bytes = b"") -> bytes:
-    """``prefix`` followed by the pieces ``buf[starts[i] : starts[i] + lengths[i]]``."""
-    lengths = np.asarray(lengths, dtype=np.int64).ravel()
-    used = lengths > 0
-    starts = np.asarray(starts, dtype=np.int64).ravel()[used]
-    lengths = lengths[used]
-    out = [prefix]
-    for at in range(0, lengths.size, _CHUNK_ITEMS):  # chunks stay in cache
-        part = slice(at, at + _CHUNK_ITEMS)
-        out.append(_gather(buf, starts[part], lengths[part]))
-    return b"".join(out)
-
-
-def splice(raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int = 0,
-           prefix: bytes = b"") -> bytes:
-    """``prefix + raw[start:]`` with the byte ranges ``[starts[i], ends[i])`` (sorted,
-    disjoint, at or after ``start``) replaced by new texts.
-
-    ``texts(a, b)`` returns ``(buffer, starts, lengths)`` of the texts of replacements
-    ``a`` to ``b - 1``; it is called for consecutive chunks, so that every temporary array
-    stays small.
-    """
-    source = np.frombuffer(raw, dtype=np.uint8)
-    starts, ends = starts.ravel(), ends.ravel()
-    out = [prefix]
-    pos = start
-    for at in range(0, starts.size, _CHUNK_ITEMS):
-        old_starts = starts[at:at + _CHUNK_ITEMS] - pos
-        old_ends = ends[at:at + _CHUNK_ITEMS] - pos
-        buf, new_starts, new_lengths = texts(at, at + old_starts.size)
-        region = source[pos:pos + int(old_ends[-1])]
-        pieces = np.empty(2 * old_starts.size, dtype=np.int64)
-        lengths = np.empty(2 * old_starts.size, dtype=np.int64)
-        pieces[0], pieces[2::2] = 0, old_ends[:-1]  # kept text before each replacement
-        lengths[0::2] = old_starts - pieces[0::2]
-        pieces[1::2] = np.asarray(new_starts) + region.size
-        lengths[1::2] = new_lengths
-        used = lengths > 0
-        if used.any():
-            out.append(_gather(np.concatenate([region, buf]), pieces[used], lengths[used]))
-        pos += int(old_ends[-1])
-    out.append(raw[pos:])
-    return b"".join(out)
-
-
-def join_rows(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, shape: tuple,
-              sep: bytes, eol: bytes, prefix: bytes = b"") -> bytes:
-    """``prefix`` followed by rows of ``shape = (F, K)`` cells (pieces of ``buf``) joined
-    by ``sep``, each row ended by ``eol``."""
-    n_rows, n_cols = shape
-    tail = buf.size
-    both = np.concatenate([buf, np.frombuffer(sep + eol, dtype=np.uint8)])
-    piece_starts = np.full((n_rows, 2 * n_cols), tail, dtype=np.int64)
-    piece_lengths = np.full((n_rows, 2 * n_cols), len(sep), dtype=np.int64)
-    piece_starts[:, ::2] = np.asarray(starts).reshape(shape)
-    piece_lengths[:, ::2] = np.asarray(lengths).reshape(shape)
-    piece_starts[:, -1], piece_lengths[:, -1] = tail + len(sep), len(eol)
-    return gather(both, piece_starts, piece_lengths, prefix)

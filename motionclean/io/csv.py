@@ -69,16 +69,8 @@ import numpy as np
 from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion
-from .bvh import (
-    BOM,
-    BvhText,
-    check_finite,
-    join_rows,
-    pack_texts,
-    parse_numbers,
-    scan_tokens,
-    splice,
-)
+from .bvh import BOM, BvhText
+from .text import check_finite, join_rows, pack_texts, parse_numbers, scan_tokens, splice
 
 #: Column suffixes of a rigid body, in the order they are written.
 RIGID_SUFFIXES = ("px", "py", "pz", "qw", "qx", "qy", "qz")
