@@ -27,6 +27,8 @@ from .motion import Motion
 from .options import (
     PIPE_OPTION,
     STEP_OPTION,
+    check_clip_output,
+    check_report_output,
     notes_by_joint,
     pipeline_from_options,
     refuse_overwrite,
@@ -44,6 +46,8 @@ def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in args
+    if not args:  # a bare `motionclean` shows the help
+        args = ["--help"]
     try:
         code = cli.main(args=args, prog_name="motionclean", standalone_mode=False)
     except MotionError as error:
@@ -129,8 +133,11 @@ def info(clip: str) -> None:
               help="BVH whose skeleton a channel CSV is written back into.")
 def convert(source: str, target: str, skeleton: str | None) -> None:
     """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
-    template = load(skeleton) if skeleton else None
     refuse_overwrite(Path(source), Path(target), in_place=False)
+    if skeleton:
+        refuse_overwrite(Path(skeleton), Path(target), in_place=False)
+    check_clip_output(target)
+    template = load(skeleton) if skeleton else None
     motion = load(source, skeleton=template)
     save(motion, target)
 
@@ -156,8 +163,15 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
             raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
         output = source
     refuse_overwrite(Path(source), Path(output), in_place)
+    check_clip_output(output)
+    if report_path:
+        check_report_output(report_path)
     motion = load(source)
     cleaned, logs = pipeline.run(motion)
+    for number, log in enumerate(logs, 1):
+        for pattern in log.unmatched:
+            click.echo(f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
+                       f"joints pattern {pattern!r} matches no joint", err=True)
     save(cleaned, output)
     report = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs), source)
     if report_path:
@@ -174,6 +188,11 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
 def report(source: str, cleaned: str | None, json_path: str | None,
            html_path: str | None) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
+    for path in (json_path, html_path):
+        if path:
+            check_report_output(path)
+    if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
+        raise UsageError(f"{json_path}: --json and --html name the same file")
     before = load(source)
     after = load(cleaned) if cleaned else None
     if after is not None:
@@ -223,10 +242,11 @@ def blend(first: str, second: str, output: str, weight: float, detail_weights: s
         except ValueError:
             raise UsageError(
                 f"--detail-weights: expected numbers, got {detail_weights!r}") from None
+    for given in (first, second):
+        refuse_overwrite(Path(given), Path(output), in_place=False)
+    check_clip_output(output)
     a, b = load(first), load(second)
     check_compatible(a, b)
-    refuse_overwrite(Path(first), Path(output), in_place=False)
-    refuse_overwrite(Path(second), Path(output), in_place=False)
     try:
         q, p = multires.blend(a.rotations, b.rotations, levels, weight, weights,
                               a.translations, b.translations)
@@ -246,13 +266,20 @@ def stitch(first: str, second: str, output: str, levels: int) -> None:
     The result has len(FIRST) + len(SECOND) - 1 frames; only frames within 3 (2^levels - 1)
     of the seam change.
     """
+    for given in (first, second):
+        refuse_overwrite(Path(given), Path(output), in_place=False)
+    check_clip_output(output)
     a, b = load(first), load(second)
     check_compatible(a, b, same_length=False)
-    refuse_overwrite(Path(first), Path(output), in_place=False)
-    refuse_overwrite(Path(second), Path(output), in_place=False)
     q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
-    save(a.replace(rotations=q, translations=p, source_values=None, source_rotations=None),
-         output)
+    # Write-back reference: FIRST's frames, then SECOND's after the shared seam frame, so
+    # every frame keeps its own clip's Euler branch.
+    joined = {"source_values": None, "source_rotations": None}
+    if a.has_source_frames() and b.has_source_frames():
+        joined = {"source_values": np.concatenate([a.source_values, b.source_values[1:]]),
+                  "source_rotations": np.concatenate([a.source_rotations,
+                                                      b.source_rotations[1:]])}
+    save(a.replace(rotations=q, translations=p, **joined), output)
 
 
 def _shown(value) -> str:

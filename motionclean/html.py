@@ -330,7 +330,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
     Joints whose acceleration is zero before and after get no plot; they are listed.
     """
     summary = report["summary"]
-    cleaned = "noise_reduction" in summary
+    cleaned = summary.get("noise_reduction") is not None
     frames = int(report["frames"])
     dt = float(report["frame_time"])
     acc = summary["angular_accel_rms"]

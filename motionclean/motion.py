@@ -11,6 +11,7 @@ unchanged samples are written back exactly as they were read.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -169,8 +170,9 @@ class Motion:
             **kwargs,
         )
 
-    @property
+    @functools.cached_property
     def layout(self) -> ChannelLayout:
+        """Where each joint's channels sit (computed once per Motion)."""
         return ChannelLayout.from_channels(self.names, self.channels)
 
     @property

@@ -507,6 +507,8 @@ def edit(q, levels: int, gains: Sequence[float]) -> np.ndarray:
         Sign-continuous unit quaternions on the input's hemisphere at frame 0. Unit gains
         reproduce the input to floating-point precision; ``edit(r q) = r edit(q)``.
     """
+    if np.shape(q)[0] == 0:  # an empty clip has nothing to edit
+        return np.array(q, dtype=np.float64)
     q = _rotations(q)
     pyramid = decompose(q, levels)
     g = _clamped_gains(gains, levels, pyramid.n_levels)
@@ -531,6 +533,8 @@ def edit_frames(q, positions, levels: int, gains: Sequence[float]):
 
 def edit_positions(p, levels: int, gains: Sequence[float]) -> np.ndarray:
     """:func:`edit` for ``(F, ..., 3)`` positions alone (plain vector details)."""
+    if np.shape(p)[0] == 0:
+        return np.array(p, dtype=np.float64)
     pyramid = decompose_positions(p, levels)
     g = _clamped_gains(gains, levels, pyramid.n_levels)
     return reconstruct(scale(pyramid, g))[1]

@@ -7,9 +7,12 @@ from pathlib import Path
 import click
 
 from .errors import UsageError
-from .io import atomic_write
+from .html import render_html
+from .io import FORMATS, atomic_write
 from .pipeline import Pipeline
 from .report import to_json
+
+REPORT_SUFFIXES = (".json", ".html", ".htm")
 
 
 def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
@@ -30,17 +33,30 @@ def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
         raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
 
 
+def check_output(path: str | Path, suffixes: tuple[str, ...], what: str) -> Path:
+    """Refuse, before any work is done, an output with another suffix or in no folder."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
+    if not path.parent.is_dir():
+        raise UsageError(f"{path}: no folder {str(path.parent)!r} to write into")
+    return path
+
+
+def check_clip_output(path: str | Path) -> Path:
+    return check_output(path, FORMATS, "a clip")
+
+
+def check_report_output(path: str | Path) -> Path:
+    return check_output(path, REPORT_SUFFIXES, "a report")
+
+
 def write_report(report: dict, path: Path, series: dict | None = None) -> None:
     """Write a report as JSON or HTML, by extension; ``series`` feeds the HTML plots."""
-    suffix = path.suffix.lower()
-    if suffix == ".json":
+    if check_report_output(path).suffix.lower() == ".json":
         atomic_write(path, to_json(report))
-    elif suffix in (".html", ".htm"):
-        from .html import render_html
-
-        atomic_write(path, render_html(report, series).encode("utf-8"))
     else:
-        raise UsageError(f"{path}: a report is .json or .html")
+        atomic_write(path, render_html(report, series).encode("utf-8"))
 
 
 def notes_by_joint(logs) -> dict[str, dict]:

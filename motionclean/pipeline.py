@@ -136,9 +136,6 @@ class StepSpec:
     # Names of the parameters that matter for these values (default: all of them).
     relevant: Callable[[dict], tuple[str, ...]] | None = None
 
-    def param(self, name: str) -> Param | None:
-        return next((p for p in self.params if p.name == name), None)
-
 
 COMMON_PARAMS = (
     Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
@@ -274,6 +271,9 @@ BILATERAL = StepSpec(
 # ----------------------------------------------------------------------------- multires
 
 
+MULTIRES_GAINS = (0.0,)  # without gains or level: remove the finest band
+
+
 def _multires_gains(params: dict) -> list[float]:
     if params["level"] is not None:
         return multires.level_gains(params["levels"], params["level"])
@@ -281,9 +281,11 @@ def _multires_gains(params: dict) -> list[float]:
 
 
 def _check_multires(params: dict, where: str) -> None:
-    if params["level"] is not None and params["gains"] != [0.0]:
+    if params["level"] is not None and params["gains"] is not None:
         raise UsageError(f"{where}: give either gains or level, not both")
-    if len(params["gains"]) > params["levels"]:
+    if params["level"] is None and params["gains"] is None:
+        params["gains"] = list(MULTIRES_GAINS)
+    if params["gains"] is not None and len(params["gains"]) > params["levels"]:
         raise UsageError(f"{where}: {len(params['gains'])} gains for {params['levels']} levels")
     if params["level"] is not None and params["level"] > params["levels"]:
         raise UsageError(f"{where}: level must lie in [0, levels={params['levels']}]")
@@ -304,8 +306,9 @@ MULTIRES = StepSpec(
     params=(
         Param("levels", "int", 4, "pyramid depth N (each level halves the frame rate; cut to "
               "what the clip allows)", minimum=1, maximum=30),
-        Param("gains", "floats", [0.0], "detail gains, finest level first; unlisted levels "
-              "keep 1; 0 removes a band, <1 attenuates, >1 enhances",
+        Param("gains", "floats", None, "detail gains, finest level first; unlisted levels "
+              "keep 1; 0 removes a band, <1 attenuates, >1 enhances (default [0]: the finest "
+              "band removed)",
               minimum=0.0, maximum=10.0),
         Param("level", "float", None, "fractional level n+alpha counted from the base "
               "(levels = the original); replaces gains", minimum=0.0, maximum=30.0),
@@ -588,6 +591,8 @@ def parse_inline(text: str) -> dict:
         key, eq, value = item.partition("=")
         if not eq or not key.strip():
             raise UsageError(f"-f {text!r}: expected key=value, got {item.strip()!r}")
+        if key.strip() in table:
+            raise UsageError(f"-f {text!r}: {key.strip()!r} is given twice")
         table[key.strip()] = parse_value(value)
     return table
 
@@ -606,6 +611,12 @@ def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
     return selected
 
 
+def unmatched_patterns(names: list[str], patterns: tuple[str, ...]) -> list[str]:
+    """The include patterns (not ``!``) that match none of ``names``: likely typos."""
+    return [p for p in patterns
+            if not p.startswith("!") and not any(fnmatch.fnmatchcase(n, p) for n in names)]
+
+
 @dataclass
 class StepLog:
     """What one step did: the step, the joints it touched, per-joint notes."""
@@ -614,6 +625,7 @@ class StepLog:
     rotation_joints: list[str]
     translation_joints: list[str]
     notes: dict[str, dict]
+    unmatched: list[str]  # include patterns that matched no joint of this clip
 
 
 @dataclass
@@ -694,7 +706,8 @@ class Pipeline:
                 notes.setdefault(motion.names[pos_idx[column]], {}).update(
                     {f"position_{k}": v for k, v in note.items()})
             logs.append(StepLog(step, [motion.names[i] for i in rot_idx],
-                                [motion.names[i] for i in pos_idx], notes))
+                                [motion.names[i] for i in pos_idx], notes,
+                                unmatched_patterns(motion.names, step.joints)))
         return motion.replace(rotations=rotations, translations=translations), logs
 
 

@@ -78,7 +78,8 @@ def build_report(
         joints.setdefault(name, {}).update(note)
 
     total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
-    summary: dict[str, Any] = {"angular_accel_rms": _pair(total_b, None)}
+    summary: dict[str, Any] = {"angular_accel_rms": _pair(total_b, None),
+                               "noise_reduction": None, "deviation_deg_max": None}
     if after is not None:
         total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
         summary["angular_accel_rms"]["after"] = total_a
@@ -119,7 +120,7 @@ def noisiest(report: dict) -> list[str]:
 
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
-    cleaned = "noise_reduction" in report["summary"]
+    cleaned = report["summary"].get("noise_reduction") is not None
     estimated = any("auto" in entry for entry in report["joints"].values())
     head = f"{'joint':<22}{'accel rms':>14}"
     if cleaned:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 from conftest import run_cli
 
 import motionclean as mc
@@ -167,3 +168,60 @@ def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, ca
     cleaned = mc.load(tmp_path / "c.bvh")
     steps = np.degrees(mc.quat.angle_between(cleaned.rotations[:-1], cleaned.rotations[1:]))
     assert steps.max() < 30.0
+
+
+def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, capsys):
+    out = tmp_path / "s.bvh"
+    code, _, err = run(["stitch", sample_path, sample_path, "-o", out, "--levels", "4"], capsys)
+    assert code == 0, err
+    clip, stitched = mc.load(sample_path), mc.load(out)
+    width = 3 * (2**4 - 1)
+    seam = clip.n_frames - 1
+    # channel values, Euler branch included, are the input's away from the seam
+    assert np.array_equal(stitched.source_values[: seam - width],
+                          clip.source_values[: seam - width])
+    assert np.array_equal(stitched.source_values[seam + width + 1 :],
+                          clip.source_values[width + 1 :])
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--report", "r.txt"], "a report must end in .json or .html"),
+        (["--report", "nowhere/r.json"], "no folder"),
+    ],
+)
+def test_bad_report_path_is_refused_before_anything_is_written(sample_path, tmp_path, capsys,
+                                                                extra, message):
+    out = tmp_path / "c.bvh"
+    args = [a if not a.startswith(("r.", "nowhere")) else tmp_path / a for a in extra]
+    code, _, err = run(["clean", sample_path, "-o", out, *args], capsys)
+    assert code == 2 and message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_clip_output_must_have_a_known_suffix(sample_path, tmp_path, capsys):
+    code, _, err = run(["clean", sample_path, "-o", tmp_path / "c.json"], capsys)
+    assert code == 2 and "a clip must end in .bvh or .csv" in err
+
+
+def test_a_joint_pattern_that_matches_nothing_is_warned_about(sample_path, tmp_path, capsys):
+    code, _, err = run(["clean", sample_path, "-o", tmp_path / "c.bvh", "-q", "-f",
+                        "lee-shin:joints=['LeftKnee','LeftKnea']"], capsys)
+    assert code == 0
+    assert "warning" in err and "'LeftKnea' matches no joint" in err
+    assert "LeftKnee'" not in err
+
+
+def test_bare_command_shows_help(capsys):
+    code, out, _ = run([], capsys)
+    assert code == 0 and "Commands:" in out and "clean" in out
+
+
+def test_single_clip_report_has_the_full_summary_schema(sample_path, tmp_path, capsys):
+    js = tmp_path / "r.json"
+    code, _, _ = run(["report", sample_path, "--json", js], capsys)
+    assert code == 0
+    summary = json.loads(js.read_text())["summary"]
+    assert summary["noise_reduction"] is None and summary["deviation_deg_max"] is None
+    assert summary["angular_accel_rms"]["after"] is None

@@ -39,6 +39,7 @@ CASES = {
     "frame_time_negative.bvh": (18, "Frame Time must be positive"),
     "frame_count_text.bvh": (17, "frame count is not a non-negative integer"),
     "offset_nan.bvh": (8, "OFFSET value is not finite"),
+    "duplicate_joint_name.bvh": (15, "joint name 'Arm' used twice (first at line 6)"),
     "empty.csv": (None, "empty file"),
     "binary.csv": (None, "not a text file"),
     "header_only.csv": (1, "no data rows"),
@@ -176,8 +177,8 @@ def test_unwritable_target(tmp_path, capsys):
     shutil.copyfile(MALFORMED.parent.parent / "sample_data" / "131_02_cut.bvh", source)
     target = tmp_path / "missing" / "out.csv"
     code, _, err = run_cli(["convert", str(source), str(target)], capsys)
-    assert code == 1
-    assert_one_error(err, str(target), None, "cannot write")
+    assert code == 2  # refused before any work: a usage error
+    assert_one_error(err, str(target), None, "no folder")
     assert not target.parent.exists()
 
 

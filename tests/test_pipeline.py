@@ -122,3 +122,15 @@ def test_default_pipeline_reduces_noise(noisy_path):
     before = rms(angular_acceleration(motion.rotations, motion.frame_time).ravel())
     after = rms(angular_acceleration(cleaned.rotations, motion.frame_time).ravel())
     assert after < 0.5 * before
+
+
+def test_a_key_given_twice_inline_is_refused():
+    with pytest.raises(UsageError, match="'k' is given twice"):
+        Pipeline.from_inline(["lee-shin:k=2,k=3"])
+
+
+def test_multires_takes_gains_or_level_not_both():
+    with pytest.raises(UsageError, match="either gains or level"):
+        Pipeline.from_inline(["multires:levels=4,gains=[0],level=2.5"])
+    assert Pipeline.from_inline(["multires:levels=4,level=2.5"]).describe()[0]["level"] == 2.5
+    assert Pipeline.from_inline(["multires"]).describe()[0]["gains"] == [0.0]

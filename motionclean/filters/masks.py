@@ -60,7 +60,8 @@ def binomial(k: int) -> np.ndarray:
 def smoothing(lam: float) -> np.ndarray:
     """Smoothing mask ``(-lam, 4 lam, 24 - 6 lam, 4 lam, -lam) / 24`` (000 Eq. 21-22).
 
-    One step of the fourth-order fairing update with damping ``lam`` (0 < lam <= 1).
+    One step of the fourth-order fairing update with damping ``lam``; values in (0, 1]
+    smooth, larger ones over-shoot (the pipeline accepts up to 10 for experiments).
     """
     return np.array([-lam, 4 * lam, 24 - 6 * lam, 4 * lam, -lam], dtype=np.float64) / 24.0
 

@@ -10,10 +10,12 @@ from ..errors import MotionError
 from ..motion import Motion
 from . import bvh, csv
 
-__all__ = ["atomic_write", "load", "save"]
+__all__ = ["FORMATS", "atomic_write", "load", "save"]
 
 _READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
 _WRITERS = {".bvh": bvh.format_bvh, ".csv": csv.format_csv}
+#: File suffixes that can be read and written.
+FORMATS = tuple(_WRITERS)
 
 
 def _suffix(path: Path, table: dict) -> str:

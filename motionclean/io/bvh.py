@@ -141,6 +141,7 @@ def _parse_hierarchy(lines: _Lines, path):
     if tokens[0] != "HIERARCHY":
         _fail(f"not a BVH file: expected HIERARCHY, found {tokens[0][:40]!r}", path, number)
 
+    first_line: dict[str, int] = {}  # joint name -> line of its header
     names: list[str] = []
     parents: list[int] = []
     offsets: list[list[float] | None] = []
@@ -168,6 +169,10 @@ def _parse_hierarchy(lines: _Lines, path):
                 _fail("ROOT inside another joint", path, number)
             if keyword == "JOINT" and (not stack or stack[-1][0] != "joint"):
                 _fail("JOINT outside a joint", path, number)
+            if name in first_line:
+                _fail(f"joint name {name!r} used twice (first at line {first_line[name]})",
+                      path, number)
+            first_line[name] = number
             parents.append(stack[-1][1] if stack else -1)
             names.append(name)
             offsets.append(None)
@@ -293,11 +298,6 @@ def parse_bvh(data: bytes, path=None) -> Motion:
     except MotionError as error:
         raise MotionError(error.message, path) from None
 
-
-def read_bvh(path) -> Motion:
-    """Read a BVH file (see :func:`parse_bvh`)."""
-    with open(path, "rb") as f:
-        return parse_bvh(f.read(), path)
 
 
 def _format_hierarchy(motion: Motion) -> bytes:
