@@ -449,10 +449,19 @@ def _frame_and_time(motion: Motion, cells: _Cells):
     first = 0.0
     if isinstance(motion.source, CsvText) and motion.source.n_frames:
         first = float(motion.source.values[0, motion.source.time_column])
-    frames = cells.add(*pack_texts([b"%d" % i for i in range(n)]))
-    times = cells.add(*pack_texts([b"%.12g" % (first + i * motion.frame_time)
-                                   for i in range(n)]))
+    frames = cells.add(*_formatted(b"%d", range(n)))
+    times = cells.add(*_formatted(b"%.12g", (first + np.arange(n) * motion.frame_time).tolist()))
     return frames, times
+
+
+def _formatted(field: bytes, values) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``field % value`` for every value, as ``(buffer, starts, lengths)`` (one C-level
+    formatting call for the whole column)."""
+    values = tuple(values)
+    text = b" ".join([field] * len(values)) % values
+    buf = np.frombuffer(text, dtype=np.uint8)
+    starts, ends = scan_tokens(buf)
+    return buf, starts, ends - starts
 
 
 def _format_channel(motion: Motion) -> bytes:
