@@ -132,7 +132,8 @@ class StepSpec:
     params: tuple[Param, ...]
     run: Callable[[StepData, dict], StepData]
     positions_default: bool = True
-    check: Callable[[dict, str], None] | None = None
+    # Cross-parameter rules; may fill defaults that depend on other parameters.
+    resolve: Callable[[dict, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).
     relevant: Callable[[dict], tuple[str, ...]] | None = None
 
@@ -169,7 +170,7 @@ def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
     return masks.custom(params["coefficients"])
 
 
-def _check_lee_shin(params: dict, where: str) -> None:
+def _resolve_lee_shin(params: dict, where: str) -> None:
     if params["mask"] == "custom" and params["coefficients"] is None:
         raise UsageError(
             f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]")
@@ -230,7 +231,7 @@ LEE_SHIN = StepSpec(
         Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
     ),
     run=_run_lee_shin,
-    check=_check_lee_shin,
+    resolve=_resolve_lee_shin,
     relevant=_lee_shin_relevant,
 )
 
@@ -280,7 +281,7 @@ def _multires_gains(params: dict) -> list[float]:
     return params["gains"]
 
 
-def _check_multires(params: dict, where: str) -> None:
+def _resolve_multires(params: dict, where: str) -> None:
     if params["level"] is not None and params["gains"] is not None:
         raise UsageError(f"{where}: give either gains or level, not both")
     if params["level"] is None and params["gains"] is None:
@@ -314,13 +315,13 @@ MULTIRES = StepSpec(
               "(levels = the original); replaces gains", minimum=0.0, maximum=30.0),
     ),
     run=_run_multires,
-    check=_check_multires,
+    resolve=_resolve_multires,
 )
 
 # ----------------------------------------------------------------------------- despike
 
 
-def _check_despike(params: dict, where: str) -> None:
+def _resolve_despike(params: dict, where: str) -> None:
     if params["min_deg_per_s"] > params["max_deg_per_s"]:
         raise UsageError(f"{where}: min_deg_per_s must not exceed max_deg_per_s")
     if params["min_units_per_s"] > params["max_units_per_s"]:
@@ -377,7 +378,7 @@ DESPIKE = StepSpec(
               "per s", minimum=0.0, exclusive_minimum=True, infinite_ok=True),
     ),
     run=_run_despike,
-    check=_check_despike,
+    resolve=_resolve_despike,
 )
 
 # ----------------------------------------------------------------------------- fairing
@@ -547,8 +548,8 @@ def make_step(table: dict, where: str) -> Step:
             params[param.name] = param.default
     joints = tuple(params.pop("joints", ["*"]))
     positions = params.pop("positions", spec.positions_default)
-    if spec.check is not None:
-        spec.check(params, where)
+    if spec.resolve is not None:
+        spec.resolve(params, where)
     return Step(spec, params, joints, positions)
 
 
