@@ -178,8 +178,10 @@ def note_text(key: str, note: Any) -> str:
         unit = "deg" if note["unit"] == "deg" else "units"
         chosen = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                            for k, v in note["filter"].items())
+        error = note["expected_error"]
+        error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
         return (f"estimated noise {note['noise']:.3g} {unit}; chose {chosen}; "
-                f"expected error {note['expected_error']:.3g} {unit}")
+                f"expected error {error} {unit}")
     return json.dumps(json_safe(note))
 
 
