@@ -215,14 +215,14 @@ LEE_SHIN = StepSpec(
     params=(
         Param("mask", "str", "binomial", "filter mask", choices=MASKS),
         Param("k", "int", 2, "binomial half-width: a mask of 2k+1 taps (000 Eq. 23)",
-              minimum=0, maximum=50),
+              minimum=0, maximum=masks.MAX_HALF_WIDTH),
         Param("lam", "float", 0.5, "damping of mask=smoothing (000 Eq. 22) or gain of "
               "mask=high-boost (Eq. 25)", minimum=0.0, maximum=10.0),
         Param("sigma_t", "float", 1.0, "mask=gaussian width in frames (truncated at 3 sigma_t)",
               minimum=0.0, exclusive_minimum=True, maximum=50.0),
         Param("half_width", "int", None, "mask=savgol: half-width in frames (default 3); "
               "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz))",
-              minimum=0, maximum=1000),
+              minimum=0, maximum=masks.MAX_HALF_WIDTH),
         Param("degree", "int", 2, "mask=savgol: degree of the local polynomial "
               "(<= 2 half_width)", minimum=0, maximum=20),
         Param("cutoff_hz", "float", None, "mask=lowpass: -6 dB cutoff in Hz, below half the "

@@ -17,11 +17,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_noisy.bvh"
 
 
-
-
-
-
-
 def snapshot(folder: Path) -> dict[str, bytes]:
     return {p.relative_to(folder).as_posix(): p.read_bytes()
             for p in sorted(folder.rglob("*")) if p.is_file()}
@@ -123,17 +118,17 @@ def test_glob_selects_clips_case_insensitively(tree):
         "run/notes.txt", "walk/a.bvh"]
 
 
-def test_job_is_a_plain_picklable_function(tree, tmp_path):
+def test_job_returns_a_picklable_result_and_reports_failures(tree, tmp_path):
     steps = Pipeline.default().describe()
     result = clean_file(tree / "walk" / "a.bvh", None, steps)
     assert result.status == "ok" and result.frames == 60 and result.target is None
     assert result.noise_after < result.noise_before
     assert 0 < result.deviation_rms <= result.deviation_max
     assert pickle.loads(pickle.dumps(result)) == result
-    assert pickle.loads(pickle.dumps(clean_file)) is clean_file
     failed = clean_file(tree / "run" / "broken.bvh", tmp_path / "x.bvh", steps)
     assert isinstance(failed, FileResult) and failed.status == "failed"
     assert failed.error.startswith(str(tree / "run" / "broken.bvh"))
     assert not (tmp_path / "x.bvh").exists()
+    assert pickle.loads(pickle.dumps(failed)) == failed
     same = clean_file(tree / "walk" / "a.bvh", tmp_path / "y.bvh", Pipeline.default())
     assert same.noise_after == result.noise_after

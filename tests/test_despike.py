@@ -286,11 +286,20 @@ def test_report_summary_is_json_ready(clip):
 
 
 def test_sample_thumb_flips_are_unflipped(clip):
-    """The real RThumb half-turn runs of the sample (frames 48, 52, 64, 71, 233 on)."""
+    """The real RThumb half-turn runs of the sample: each run starts and ends with a
+    one-frame step above 150 degrees (the flip threshold), and nothing else is that fast."""
     thumb = clip.names.index("RThumb")
+    steps = degrees_between(clip.rotations[:-1, thumb], clip.rotations[1:, thumb])
+    edges = (np.flatnonzero(steps > 150.0) + 1).tolist()  # frames the flip steps end at
+    assert len(edges) >= 6 and len(edges) % 2 == 0
+    expected = list(zip(edges[0::2], edges[1::2], strict=True))
     out, report = despike_with_report(clip.rotations, clip.frame_time)
     runs = report.runs(thumb, "unflipped")
-    assert runs[:3] == [(48, 52), (64, 71), (233, 256)]
+    assert runs == expected
+    assert report.runs(thumb) == expected  # un-flipped, nothing interpolated
+    # un-flipping turns each frame of a run by a half turn, and no other frame
+    turned = np.flatnonzero(degrees_between(out[:, thumb], clip.rotations[:, thumb]) > 90.0)
+    assert turned.tolist() == [f for start, stop in expected for f in range(start, stop)]
     assert report.max_step_before[thumb] > 179.0
     assert report.max_step_after[thumb] < 15.0
     others = np.arange(len(clip.names)) != thumb

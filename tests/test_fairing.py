@@ -66,8 +66,6 @@ def corpus_motion(name="131_02.bvh"):
     path = CORPUS / name
     if not path.exists():
         pytest.skip(f"corpus clip not found: {path} (expected at ../shared/corpus)")
-    if not hasattr(motionclean, "load"):
-        pytest.skip("motionclean.load is not available in this checkout")
     return motionclean.load(path)
 
 

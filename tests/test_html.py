@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import tempfile
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -239,3 +240,14 @@ def test_renders_in_a_headless_browser(cleaned, tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
     assert (width, height) == (1366, 900)
+    # the DOM the browser built: one plot per moving joint, noisiest first, three series each
+    with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
+        done = subprocess.run([screenshot_report.find_browser(), *screenshot_report.FLAGS,
+                               f"--user-data-dir={profile}", "--dump-dom", page.as_uri()],
+                              capture_output=True, text=True, timeout=60, check=False)
+    dom = Page(done.stdout)
+    plots = [a["data-joint"] for t, a in dom.tags if t == "svg" and "plot" in a.get("class", "")]
+    moving = [n for n in noisiest(report) if report["joints"][n]["angular_accel_rms"]["before"] > 0]
+    assert plots == moving and len(plots) > 20
+    series = [a.get("data-series") for t, a in dom.tags if t == "path"]
+    assert series.count("before") == series.count("after") == len(moving)

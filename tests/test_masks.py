@@ -9,6 +9,8 @@ import pytest
 
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import (
+    EXACT_BINOMIAL_K,
+    MAX_HALF_WIDTH,
     MaskError,
     binomial,
     custom,
@@ -109,3 +111,15 @@ def test_gaussian_mask(sigma_t, radius):
     np.testing.assert_allclose(mask / mask[r], np.exp(-(offsets**2) / (2 * sigma_t**2)), rtol=1e-14)
     with pytest.raises(MaskError, match="positive"):
         gaussian(0.0)
+
+
+def test_wide_binomial_masks_do_not_overflow():
+    # 4^k and C(2k, k) overflow float64 beyond k ~ 511; the mask must not
+    exact = binomial(EXACT_BINOMIAL_K)
+    for k in (EXACT_BINOMIAL_K + 1, 600, MAX_HALF_WIDTH):
+        b = binomial(k)
+        assert np.all(np.isfinite(b)) and abs(b.sum() - 1.0) < 1e-12
+        assert np.array_equal(b, b[::-1]) and b.argmax() == k
+    # the two constructions agree where they meet: B^{2k+3} = B^{2k+1} * (1/4, 1/2, 1/4)
+    stepped = np.convolve(exact, [0.25, 0.5, 0.25])
+    np.testing.assert_allclose(binomial(EXACT_BINOMIAL_K + 1), stepped, rtol=1e-10, atol=1e-300)

@@ -21,10 +21,7 @@ CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "cmu
 def load_corpus(name: str):
     if not (CORPUS / name).is_file():
         pytest.skip(f"corpus clip {CORPUS / name} not found")
-    load = getattr(motionclean, "load", None)
-    if load is None:
-        pytest.skip("motionclean.load is not available yet")
-    return load(CORPUS / name)
+    return motionclean.load(CORPUS / name)
 
 
 def smooth_rotations(frames: int, shape: tuple[int, ...], seed: int,

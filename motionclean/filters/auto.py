@@ -69,7 +69,7 @@ from .linear import (
     lee_shin_positions,
     mirror_indices,
 )
-from .masks import binomial
+from .masks import MAX_HALF_WIDTH, binomial
 
 __all__ = [
     "FAMILIES",
@@ -177,8 +177,9 @@ def candidates(frame_time: float, max_seconds: float = 1.0,
     """The candidate masks ``(family, value, mask)``.
 
     Binomial k and Savitzky-Golay half-widths ``1.35^n`` (rounded, unique) up to
-    ``max_seconds / frame_time`` frames (at least 2); low-pass cutoffs (Hz, 2 decimals)
-    from ``2 / max_seconds`` up to 0.45 times the frame rate by the same ratio.
+    ``max_seconds / frame_time`` frames (at least 2, at most ``MAX_HALF_WIDTH``); low-pass
+    cutoffs (Hz, 2 decimals) from ``2 / max_seconds`` (and no lower than
+    ``2 fps / MAX_HALF_WIDTH``) up to 0.45 times the frame rate by the same ratio.
     """
     if not (math.isfinite(frame_time) and frame_time > 0):
         raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
@@ -187,7 +188,7 @@ def candidates(frame_time: float, max_seconds: float = 1.0,
     unknown = set(families) - set(FAMILIES)
     if unknown or not families:
         raise ValueError(f"families must be a non-empty subset of {FAMILIES}, got {families}")
-    top = max(2, round(max_seconds / frame_time))
+    top = min(max(2, round(max_seconds / frame_time)), MAX_HALF_WIDTH)
     count = math.ceil(math.log(top) / math.log(LADDER_RATIO)) + 1
     ladder = np.unique(np.round(np.geomspace(1, top, count)).astype(int)).tolist()
     out = []
@@ -196,7 +197,8 @@ def candidates(frame_time: float, max_seconds: float = 1.0,
     if "savgol" in families:
         out += [("savgol", h, savgol(h, 2)) for h in ladder if h >= 2]
     rate = 1.0 / frame_time
-    low, high = 2.0 / max_seconds, TOP_CUTOFF * rate
+    # the default low-pass half-width 2 fps / cutoff stays within MAX_HALF_WIDTH
+    low, high = max(2.0 / max_seconds, 2.0 * rate / MAX_HALF_WIDTH), TOP_CUTOFF * rate
     if "lowpass" in families and low < high:
         count = math.ceil(math.log(high / low) / math.log(LADDER_RATIO)) + 1
         cutoffs = sorted({round(c, 2) for c in np.geomspace(low, high, count).tolist()})

@@ -23,6 +23,11 @@ __all__ = [
 ]
 
 SUM_TOLERANCE = 1e-9
+#: Widest mask half-width (frames) a pipeline step may ask for: 40 s at 120 fps.
+MAX_HALF_WIDTH = 5000
+#: Up to this half-width binomial masks are computed from exact integers (beyond it
+#: C(2k, k) and 4^k overflow float64 and big-integer arithmetic gets slow).
+EXACT_BINOMIAL_K = 512
 
 
 class MaskError(ValueError):
@@ -53,8 +58,15 @@ def binomial(k: int) -> np.ndarray:
     if int(k) != k or k < 0:
         raise MaskError(f"binomial half-width k must be a non-negative integer, got {k}")
     k = int(k)
-    coeffs = np.array([math.comb(2 * k, k + i) for i in range(-k, k + 1)], dtype=np.float64)
-    return coeffs / 4.0**k
+    if k <= EXACT_BINOMIAL_K:  # exact integers, correctly rounded quotients
+        scale = 4**k
+        return np.array([math.comb(2 * k, k + i) / scale for i in range(-k, k + 1)])
+    # wider masks: from the centre C(2k, k) / 4^k by the ratios C(2k, k+i) / C(2k, k+i-1)
+    i = np.arange(1, k + 1)
+    log_centre = math.lgamma(2 * k + 1) - 2.0 * math.lgamma(k + 1) - 2 * k * math.log(2.0)
+    side = np.exp(log_centre + np.cumsum(np.log((k - i + 1) / (k + i))))
+    coeffs = np.concatenate([side[::-1], [math.exp(log_centre)], side])
+    return coeffs / coeffs.sum()
 
 
 def smoothing(lam: float) -> np.ndarray:
