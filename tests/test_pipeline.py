@@ -42,7 +42,7 @@ def test_toml_and_inline_give_the_same_steps(tmp_path):
     [
         ("nonsense", "unknown filter 'nonsense'; one of lee-shin"),
         ("lee-shin:sigma=3", "unknown parameter 'sigma'; allowed: mask, k"),
-        ("lee-shin:k=2.5", "k must be an integer >= 0 and <= 50, got 2.5"),
+        ("lee-shin:k=2.5", "k must be an integer >= 0 and <= 5000, got 2.5"),
         ("lee-shin:k=-1", "k must be an integer >= 0"),
         ("lee-shin:iterations=0", "iterations must be an integer >= 1"),
         ("lee-shin:iterations=yes", "iterations must be an integer"),
