@@ -119,6 +119,8 @@ class Motion:
         The quaternions computed from ``source_values`` at load time.
     source : object or None
         Format-specific text a writer reuses (hierarchy, line endings, tokens).
+    path : str or None
+        The file the clip was read from, for error messages.
     """
 
     names: list[str]
