@@ -29,11 +29,16 @@ from pathlib import Path, PurePosixPath
 import click
 
 from .errors import MotionError, UsageError
-from .html import build_series, render_html, render_index
-from .io import atomic_write, load, save
-from .options import PIPE_OPTION, STEP_OPTION, notes_by_joint, pipeline_from_options
+from .html import render_index
+from .io import atomic_write
+from .options import (
+    PIPE_OPTION,
+    STEP_OPTION,
+    clean_clip,
+    pipeline_from_options,
+    write_report,
+)
 from .pipeline import Pipeline
-from .report import build_report
 
 __all__ = ["DEFAULT_GLOBS", "FileResult", "Job", "batch_command", "clean_file", "find_clips",
            "raise_failures", "run_jobs"]
@@ -91,17 +96,10 @@ def clean_file(source: str | os.PathLike, target: str | os.PathLike | None,
     try:
         if not isinstance(pipeline, Pipeline):
             pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        motion = load(source)
-        cleaned, logs = pipeline.run(motion)
-        if target is not None:
-            Path(target).parent.mkdir(parents=True, exist_ok=True)
-            save(cleaned, target)
-        figures = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs),
-                               source)
+        result = clean_clip(source, target, pipeline)
         if report is not None:
             Path(report).parent.mkdir(parents=True, exist_ok=True)
-            page = render_html(figures, build_series(motion, cleaned))
-            atomic_write(report, page.encode("utf-8"))
+            write_report(result.report, Path(report), result.series)
     except MotionError as error:
         return FileResult(source, target, "failed", error=str(error),
                           seconds=time.perf_counter() - start)
@@ -113,11 +111,11 @@ def clean_file(source: str | os.PathLike, target: str | os.PathLike | None,
         return FileResult(source, target, "failed",
                           error=f"{source}: internal error: {type(error).__name__}: {error}",
                           seconds=time.perf_counter() - start)
-    summary = figures["summary"]
-    deviations = [j["deviation_deg"]["rms"] for j in figures["joints"].values()
+    summary = result.report["summary"]
+    deviations = [j["deviation_deg"]["rms"] for j in result.report["joints"].values()
                   if "deviation_deg" in j]
     return FileResult(
-        source, target, "ok", frames=motion.n_frames,
+        source, target, "ok", frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],
         deviation_max=summary["deviation_deg_max"],

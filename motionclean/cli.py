@@ -21,7 +21,6 @@ from .batch import batch_command
 from .check import check_command
 from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
-from .html import build_series
 from .io import load, save
 from .motion import Motion
 from .options import (
@@ -29,13 +28,13 @@ from .options import (
     STEP_OPTION,
     check_clip_output,
     check_report_output,
-    notes_by_joint,
+    clean_clip,
     pipeline_from_options,
     refuse_overwrite,
     write_report,
 )
 from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED
-from .report import build_report, format_table
+from .report import build_report, build_series, format_table
 
 
 def _echo_error(message: str) -> None:
@@ -166,18 +165,15 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
     check_clip_output(output)
     if report_path:
         check_report_output(report_path)
-    motion = load(source)
-    cleaned, logs = pipeline.run(motion)
-    for number, log in enumerate(logs, 1):
+    result = clean_clip(source, output, pipeline)
+    for number, log in enumerate(result.logs, 1):
         for pattern in log.unmatched:
             click.echo(f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
                        f"joints pattern {pattern!r} matches no joint", err=True)
-    save(cleaned, output)
-    report = build_report(motion, cleaned, pipeline.describe(), notes_by_joint(logs), source)
     if report_path:
-        write_report(report, Path(report_path), build_series(motion, cleaned))
+        write_report(result.report, Path(report_path), result.series)
     if not quiet:
-        click.echo(format_table(report))
+        click.echo(format_table(result.report))
 
 
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
@@ -197,11 +193,12 @@ def report(source: str, cleaned: str | None, json_path: str | None,
     after = load(cleaned) if cleaned else None
     if after is not None:
         check_compatible(before, after)
-    result = build_report(before, after, file=source)
+    series = build_series(before, after)
+    result = build_report(before, after, file=source, series=series)
     if json_path:
         write_report(result, Path(json_path))
     if html_path:
-        write_report(result, Path(html_path), build_series(before, after))
+        write_report(result, Path(html_path), series)
     click.echo(format_table(result))
 
 

@@ -7,8 +7,9 @@ joint (noisiest first) and, per joint, the magnitude of angular acceleration ove
 before and after cleaning (as in Fig. 5 of 000) with the deviation from the input below it.
 
 The figures come from :func:`motionclean.report.build_report`; the time series, which the
-JSON report leaves out, come from :func:`build_series`. Long series are reduced to a
-min/max envelope per plot column, so the page size does not grow with the clip length.
+JSON report leaves out, from :func:`motionclean.report.build_series`. Long series are
+reduced to a min/max envelope per plot column, so the page size does not grow with the clip
+length.
 """
 
 from __future__ import annotations
@@ -20,11 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__, metrics
-from .motion import Motion
+from . import __version__
 from .report import noisiest, note_text
 
-__all__ = ["build_series", "envelope", "render_html", "render_index"]
+__all__ = ["envelope", "render_html", "render_index"]
 
 #: Plot geometry in SVG user units (the SVG scales to the card width).
 WIDTH, LEFT, RIGHT = 620, 54, 12
@@ -86,32 +86,6 @@ details table{margin-bottom:12px}
 
 
 # ----------------------------------------------------------------------------- data
-
-
-def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
-    """Time series for the plots, per joint with rotation channels.
-
-    Returns ``{"frame_time": dt, "joints": {name: {"accel_before": (F-2,),
-    "accel_after": (F-2,) or None, "deviation": (F,) or None}}}``: angular acceleration
-    magnitude in degrees of rotation per s^2 at frames 1..F-2 (000 Sec. VI-B, the same
-    figure as the report) and the rotation angle between input and output in degrees at
-    every frame. Kept out of the JSON report, which holds scalar figures only.
-    """
-    dt = before.frame_time
-    rot = np.flatnonzero(before.layout.has_rotation)
-    acc_b = metrics.angular_acceleration(before.rotations[:, rot], dt)
-    acc_a = dev = None
-    if after is not None:
-        acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
-        dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
-    joints = {}
-    for n, j in enumerate(rot):
-        joints[before.names[j]] = {
-            "accel_before": acc_b[:, n],
-            "accel_after": None if acc_a is None else acc_a[:, n],
-            "deviation": None if dev is None else dev[:, n],
-        }
-    return {"frame_time": dt, "joints": joints}
 
 
 def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,16 +1,20 @@
-"""Command-line pieces shared by the commands: pipeline options, overwrite rule, reports."""
+"""Command-line pieces shared by the commands: pipeline options, output checks, cleaning
+one clip, reports."""
 
 from __future__ import annotations
 
+import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
 
 from .errors import UsageError
 from .html import render_html
-from .io import FORMATS, atomic_write
-from .pipeline import Pipeline
-from .report import to_json
+from .io import FORMATS, atomic_write, load, save
+from .motion import Motion
+from .pipeline import Pipeline, StepLog
+from .report import build_report, build_series, to_json
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
 
@@ -57,6 +61,32 @@ def write_report(report: dict, path: Path, series: dict | None = None) -> None:
         atomic_write(path, to_json(report))
     else:
         atomic_write(path, render_html(report, series).encode("utf-8"))
+
+
+@dataclass
+class CleanedClip:
+    """One clip before and after a pipeline, what each step did, and the report figures."""
+
+    before: Motion
+    after: Motion
+    logs: list[StepLog]
+    report: dict
+    series: dict
+
+
+def clean_clip(source: str | os.PathLike, target: str | os.PathLike | None,
+               pipeline: Pipeline) -> CleanedClip:
+    """Load ``source``, run ``pipeline``, write ``target`` (atomically; its folder is
+    created) unless it is None, and compute the report and its time series."""
+    before = load(source)
+    after, logs = pipeline.run(before)
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(after, target)
+    series = build_series(before, after)
+    report = build_report(before, after, pipeline.describe(), notes_by_joint(logs),
+                          os.fspath(source), series=series)
+    return CleanedClip(before, after, logs, report, series)
 
 
 def notes_by_joint(logs) -> dict[str, dict]:

@@ -18,7 +18,7 @@ import numpy as np
 from . import metrics
 from .motion import Motion
 
-__all__ = ["build_report", "format_table", "to_json"]
+__all__ = ["build_report", "build_series", "format_table", "to_json"]
 
 
 def _pair(before: float, after: float | None) -> dict:
@@ -33,26 +33,64 @@ def _stats(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return metrics.rms(values), np.max(values, axis=0)
 
 
+def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+    """Per-frame figures behind the report, per joint with rotation channels.
+
+    Returns ``{"frame_time": dt, "joints": {name: {"accel_before": (F-2,),
+    "accel_after": (F-2,) or None, "deviation": (F,) or None}}}``: angular acceleration
+    magnitude in degrees of rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and the
+    rotation angle between input and output in degrees at every frame. The HTML report
+    plots them; the JSON report keeps only their RMS and maximum.
+    """
+    dt = before.frame_time
+    rot = np.flatnonzero(before.layout.has_rotation)
+    acc_b = metrics.angular_acceleration(before.rotations[:, rot], dt)
+    acc_a = dev = None
+    if after is not None:
+        acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
+        dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
+    joints = {}
+    for n, j in enumerate(rot):
+        joints[before.names[j]] = {
+            "accel_before": acc_b[:, n],
+            "accel_after": None if acc_a is None else acc_a[:, n],
+            "deviation": None if dev is None else dev[:, n],
+        }
+    return {"frame_time": dt, "joints": joints}
+
+
+def _stacked(series: dict, key: str, length: int) -> np.ndarray:
+    """``(length, R)`` array of one figure of every joint in ``series``."""
+    columns = [data[key] for data in series["joints"].values()]
+    return np.stack(columns, axis=-1) if columns else np.zeros((length, 0))
+
+
 def build_report(
     before: Motion,
     after: Motion | None = None,
     pipeline: list[dict] | None = None,
     notes: dict[str, dict] | None = None,
     file: str | None = None,
+    series: dict | None = None,
 ) -> dict[str, Any]:
-    """Figures for ``before`` alone, or before/after a cleaning when ``after`` is given."""
+    """Figures for ``before`` alone, or before/after a cleaning when ``after`` is given.
+
+    ``series`` is :func:`build_series` of the same clips when the caller already has it.
+    """
     layout = before.layout
     dt = before.frame_time
     rot = np.flatnonzero(layout.has_rotation)
     pos = np.flatnonzero(layout.has_position)
-    acc_b = metrics.angular_acceleration(before.rotations[:, rot], dt)
+    series = build_series(before, after) if series is None else series
+    n_acc = max(before.n_frames - 2, 0)
+    acc_b = _stacked(series, "accel_before", n_acc)
     rms_b, max_b = _stats(acc_b)
     lin_b = metrics.linear_acceleration(before.translations[:, pos], dt)
     lrms_b, lmax_b = _stats(lin_b)
     if after is not None:
-        acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
+        acc_a = _stacked(series, "accel_after", n_acc)
         rms_a, max_a = _stats(acc_a)
-        dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
+        dev = _stacked(series, "deviation", before.n_frames)
         dev_rms, dev_max = _stats(dev)
         lin_a = metrics.linear_acceleration(after.translations[:, pos], dt)
         lrms_a, lmax_a = _stats(lin_a)

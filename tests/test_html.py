@@ -19,13 +19,12 @@ from motionclean.html import (
     COLUMNS,
     LEFT,
     WIDTH,
-    build_series,
     envelope,
     render_html,
     render_index,
 )
 from motionclean.pipeline import Pipeline
-from motionclean.report import build_report, noisiest, to_json
+from motionclean.report import build_report, build_series, noisiest, to_json
 
 ROOT = Path(__file__).resolve().parents[1]
 NOISY = ROOT / "sample_data" / "131_02_noisy.bvh"
