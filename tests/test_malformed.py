@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
 from motionclean import load, save
-from motionclean.cli import main
 from motionclean.errors import MotionError
 
 MALFORMED = Path(__file__).resolve().parent / "malformed"
@@ -64,11 +64,6 @@ CASES = {
 }
 
 
-def run_cli(args: list[str], capsys) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as done:
-        main(args)
-    out, err = capsys.readouterr()
-    return done.value.code, out, err
 
 
 def assert_one_error(err: str, path: str, line: int | None, fragment: str) -> None:
@@ -93,11 +88,11 @@ def test_bad_file(name, tmp_path, capsys):
     shutil.copyfile(MALFORMED / name, source)
     before = source.read_bytes()
     for target in (tmp_path / "out.bvh", tmp_path / "out.csv"):
-        code, out, err = run_cli(["convert", str(source), str(target)], capsys)
+        code, out, err = run_cli(capsys, *["convert", str(source), str(target)])
         assert code == 1
         assert_one_error(err, str(source), line, fragment)
         assert sorted(p.name for p in tmp_path.iterdir()) == [name]  # no output, no temp file
-    code, _, err = run_cli(["info", str(source)], capsys)
+    code, _, err = run_cli(capsys, *["info", str(source)])
     assert code == 1
     assert_one_error(err, str(source), line, fragment)
     assert source.read_bytes() == before
@@ -106,7 +101,7 @@ def test_bad_file(name, tmp_path, capsys):
 def test_missing_path(tmp_path, capsys):
     for name in ("nothing.bvh", "nothing.csv"):
         path = str(tmp_path / name)
-        code, _, err = run_cli(["convert", path, str(tmp_path / "out.bvh")], capsys)
+        code, _, err = run_cli(capsys, *["convert", path, str(tmp_path / "out.bvh")])
         assert code == 1
         assert_one_error(err, path, None, "no such file")
     assert list(tmp_path.iterdir()) == []
@@ -116,7 +111,7 @@ def test_directory(tmp_path, capsys):
     for name in ("clips.bvh", "clips.csv"):
         folder = tmp_path / name
         folder.mkdir()
-        code, _, err = run_cli(["info", str(folder)], capsys)
+        code, _, err = run_cli(capsys, *["info", str(folder)])
         assert code == 1
         assert_one_error(err, str(folder), None, "is a directory")
 
@@ -126,7 +121,7 @@ def test_directory_as_target(tmp_path, capsys):
     shutil.copyfile(MALFORMED.parent.parent / "sample_data" / "131_02_cut.bvh", source)
     target = tmp_path / "out.bvh"
     target.mkdir()
-    code, _, err = run_cli(["convert", str(source), str(target)], capsys)
+    code, _, err = run_cli(capsys, *["convert", str(source), str(target)])
     assert code == 1
     assert_one_error(err, str(target), None, "is a directory")
     assert list(target.iterdir()) == []
@@ -137,7 +132,7 @@ def test_channel_csv_to_bvh_needs_skeleton(tmp_path, capsys):
     source.write_text("frame,time,Hips.Xposition,Hips.Zrotation,Hips.Xrotation,Hips.Yrotation\n"
                       "0,0,1,2,3,4\n1,0.5,1,2,3,4\n")
     target = tmp_path / "out.bvh"
-    code, _, err = run_cli(["convert", str(source), str(target)], capsys)
+    code, _, err = run_cli(capsys, *["convert", str(source), str(target)])
     assert code == 1
     assert_one_error(err, str(source), None, "--skeleton")
     assert not target.exists()
@@ -165,8 +160,7 @@ def test_csv_not_matching_the_skeleton(header, fragment, tmp_path, capsys):
     source.write_text(header + "\n" + "".join(f"{i},{i * 0.5}" + ",1" * n + "\n"
                                               for i in range(3)))
     target = tmp_path / "out.bvh"
-    code, _, err = run_cli(["convert", str(source), str(target), "--skeleton", str(skeleton)],
-                           capsys)
+    code, _, err = run_cli(capsys, "convert", source, target, "--skeleton", skeleton)
     assert code == 1
     assert_one_error(err, str(source), 1, fragment)
     assert not target.exists()
@@ -176,7 +170,7 @@ def test_unwritable_target(tmp_path, capsys):
     source = tmp_path / "clip.bvh"
     shutil.copyfile(MALFORMED.parent.parent / "sample_data" / "131_02_cut.bvh", source)
     target = tmp_path / "missing" / "out.csv"
-    code, _, err = run_cli(["convert", str(source), str(target)], capsys)
+    code, _, err = run_cli(capsys, *["convert", str(source), str(target)])
     assert code == 2  # refused before any work: a usage error
     assert_one_error(err, str(target), None, "no folder")
     assert not target.parent.exists()
