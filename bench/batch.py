@@ -30,10 +30,12 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = Path(os.environ.get("MOTIONCLEAN_CORPUS", ROOT.parent / "shared" / "corpus" / "cmu"))
-COMMAND = ("import sys, time\nfrom motionclean.batch import batch_command\n"
-           "t = time.perf_counter()\ntry:\n"
-           "    batch_command.main(sys.argv[1:], standalone_mode=False)\n"
-           "finally:\n    print(f'{time.perf_counter() - t:.6f}', file=sys.stderr)")
+COMMAND = (
+    "import sys, time\nfrom motionclean.batch import batch_command\n"
+    "t = time.perf_counter()\ntry:\n"
+    "    batch_command.main(sys.argv[1:], standalone_mode=False)\n"
+    "finally:\n    print(f'{time.perf_counter() - t:.6f}', file=sys.stderr)"
+)
 
 
 def make_tree(folder: Path, copies: int) -> tuple[int, int]:
@@ -48,14 +50,16 @@ def make_tree(folder: Path, copies: int) -> tuple[int, int]:
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source, target)
             text = source.read_text()
-            frames += int(text[text.index("Frames:") + 7:].split()[0])
+            frames += int(text[text.index("Frames:") + 7 :].split()[0])
     return copies * len(sources), frames
 
 
 def idle_share(seconds: float = 0.5) -> float | None:
     """Share of the machine's CPU time that was idle over ``seconds`` (Linux)."""
+
     def sample() -> list[int]:
         return [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:9]]
+
     try:
         a = sample()
         time.sleep(seconds)
@@ -80,9 +84,13 @@ def run(in_dir: Path, out_dir: Path, jobs: int) -> tuple[float, float]:
     shutil.rmtree(out_dir, ignore_errors=True)
     environment = dict(os.environ, PYTHONPATH=str(ROOT))
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", COMMAND, str(in_dir), "-o", str(out_dir),
-                           "-j", str(jobs), "-q"], env=environment, check=True,
-                          stderr=subprocess.PIPE, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", COMMAND, str(in_dir), "-o", str(out_dir), "-j", str(jobs), "-q"],
+        env=environment,
+        check=True,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     return time.perf_counter() - start, float(done.stderr.strip().splitlines()[-1])
 
 
@@ -133,16 +141,24 @@ def main() -> None:
     print("\nwall time of a fresh process (and of the command itself, without start-up)\n")
     print("| jobs | best s | median s | clips/s | speed-up, best | speed-up, median |")
     print("|---:|---:|---:|---:|---:|---:|")
-    ref = [(min(v[0] for v in times[1]), min(v[1] for v in times[1])),
-           (statistics.median(v[0] for v in times[1]), statistics.median(v[1] for v in times[1]))]
+    ref = [
+        (min(v[0] for v in times[1]), min(v[1] for v in times[1])),
+        (statistics.median(v[0] for v in times[1]), statistics.median(v[1] for v in times[1])),
+    ]
     for jobs, values in times.items():
-        (bw, bi), (mw, mi) = [(pick(v[0] for v in values), pick(v[1] for v in values))
-                              for pick in (min, statistics.median)]
-        print(f"| {jobs} | {bw:.2f} ({bi:.2f}) | {mw:.2f} ({mi:.2f}) | {clips / bw:.1f} "
-              f"| {ref[0][0] / bw:.2f}x ({ref[0][1] / bi:.2f}x) "
-              f"| {ref[1][0] / mw:.2f}x ({ref[1][1] / mi:.2f}x) |")
-    print(f"\nmachine ceiling: the same pure numpy work in {args.jobs} processes runs "
-          f"{machine_ceiling(args.jobs):.2f}x faster than in one")
+        (bw, bi), (mw, mi) = [
+            (pick(v[0] for v in values), pick(v[1] for v in values))
+            for pick in (min, statistics.median)
+        ]
+        print(
+            f"| {jobs} | {bw:.2f} ({bi:.2f}) | {mw:.2f} ({mi:.2f}) | {clips / bw:.1f} "
+            f"| {ref[0][0] / bw:.2f}x ({ref[0][1] / bi:.2f}x) "
+            f"| {ref[1][0] / mw:.2f}x ({ref[1][1] / mi:.2f}x) |"
+        )
+    print(
+        f"\nmachine ceiling: the same pure numpy work in {args.jobs} processes runs "
+        f"{machine_ceiling(args.jobs):.2f}x faster than in one"
+    )
 
 
 if __name__ == "__main__":

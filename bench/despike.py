@@ -45,8 +45,10 @@ def main() -> None:
     motions = {path.name: mc.load(path) for path in corpus_clips()}
 
     print("## Repairs per corpus clip (defaults)\n")
-    print("| clip | frames | joints repaired | frames un-flipped | frames interpolated "
-          "| largest step before (deg) | largest step after (deg) |")
+    print(
+        "| clip | frames | joints repaired | frames un-flipped | frames interpolated "
+        "| largest step before (deg) | largest step after (deg) |"
+    )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     detail = []
     reports = {}
@@ -56,26 +58,34 @@ def main() -> None:
         before, jb = max_step(m.rotations)
         after, ja = max_step(out)
         joints = np.flatnonzero(rep.counts())
-        print(f"| {name} | {m.n_frames} | {', '.join(m.names[j] for j in joints)} "
-              f"| {int(rep.counts('unflipped').sum())} | {int(rep.counts('interpolated').sum())} "
-              f"| {before:.1f} ({m.names[jb]}) | {after:.1f} ({m.names[ja]}) |")
+        print(
+            f"| {name} | {m.n_frames} | {', '.join(m.names[j] for j in joints)} "
+            f"| {int(rep.counts('unflipped').sum())} | {int(rep.counts('interpolated').sum())} "
+            f"| {before:.1f} ({m.names[jb]}) | {after:.1f} ({m.names[ja]}) |"
+        )
         for j in joints:
             detail.append((name, m.names[j], rep, j))
         moved = despike_positions(m.translations, m.frame_time)
         assert np.array_equal(moved, m.translations)  # no root jumps in the corpus
 
     print("\n## Repaired joints\n")
-    print("| clip | joint | un-flipped frames | interpolated frames | largest step before -> "
-          "after (deg) |")
+    print(
+        "| clip | joint | un-flipped frames | interpolated frames | largest step before -> "
+        "after (deg) |"
+    )
     print("| --- | --- | --- | --- | --- |")
     for name, joint, rep, j in detail:
-        print(f"| {name} | {joint} | {fmt_runs(rep.runs(j, 'unflipped'))} "
-              f"| {fmt_runs(rep.runs(j, 'interpolated'))} "
-              f"| {rep.max_step_before[j]:.1f} -> {rep.max_step_after[j]:.1f} |")
+        print(
+            f"| {name} | {joint} | {fmt_runs(rep.runs(j, 'unflipped'))} "
+            f"| {fmt_runs(rep.runs(j, 'interpolated'))} "
+            f"| {rep.max_step_before[j]:.1f} -> {rep.max_step_after[j]:.1f} |"
+        )
 
     print("\n## Lower frame rates (defaults)\n")
-    print("| clip | fps | joints repaired | RMS / largest change, other joints than RThumb "
-          "(deg) | RThumb un-flipped frames | same as at 120 fps |")
+    print(
+        "| clip | fps | joints repaired | RMS / largest change, other joints than RThumb "
+        "(deg) | RThumb un-flipped frames | same as at 120 fps |"
+    )
     print("| --- | --- | --- | --- | --- | --- |")
     for name, m in motions.items():
         thumb = m.names.index("RThumb")
@@ -87,10 +97,12 @@ def main() -> None:
             change = np.rad2deg(quat.angle_between(out[:, others], q[:, others]))
             joints = np.flatnonzero(rep.counts())
             same = np.array_equal(rep.unflipped[:, thumb], full[::every])
-            print(f"| {name} | {round(1 / (m.frame_time * every))} "
-                  f"| {', '.join(m.names[j] for j in joints)} "
-                  f"| {np.sqrt(np.mean(change ** 2)):.3f} / {change.max():.1f} "
-                  f"| {int(rep.counts('unflipped')[thumb])} | {'yes' if same else 'no'} |")
+            print(
+                f"| {name} | {round(1 / (m.frame_time * every))} "
+                f"| {', '.join(m.names[j] for j in joints)} "
+                f"| {np.sqrt(np.mean(change**2)):.3f} / {change.max():.1f} "
+                f"| {int(rep.counts('unflipped')[thumb])} | {'yes' if same else 'no'} |"
+            )
 
     print("\n## Lee-Shin after despike (RThumb, binomial 5 taps x 5 passes)\n")
     print("| clip | largest error on untouched frames, raw (deg) | same after despike (deg) |")

@@ -50,8 +50,10 @@ KEYS = 10
 
 def cumulative_basis(u: np.ndarray) -> np.ndarray:
     """Cumulative uniform cubic B-spline basis ``B~_1..3(u)``, shape ``(len(u), 3)``."""
-    return np.stack([(5 + 3 * u - 3 * u**2 + u**3) / 6, (1 + 3 * u + 3 * u**2 - 2 * u**3) / 6,
-                     u**3 / 6], axis=-1)
+    return np.stack(
+        [(5 + 3 * u - 3 * u**2 + u**3) / 6, (1 + 3 * u + 3 * u**2 - 2 * u**3) / 6, u**3 / 6],
+        axis=-1,
+    )
 
 
 def quaternion_spline(keys: np.ndarray, samples: int) -> np.ndarray:
@@ -208,18 +210,32 @@ def cost_table() -> str:
     walk_p = np.cumsum(rng.normal(size=q.shape[:-1] + (3,)), axis=0)
     one_pass = best_of(lambda: lee_shin(q, binomial(2)), 10)
     runs = [
-        ("fairing m=3, lam_r=0.1", name,
-         lambda: fairing(q, 3, 0.1, math.inf, 0.0, 100, return_iterations=True)),
-        ("fairing m=3, lam_r=0.1", "random walk",
-         lambda: fairing(walk_q, 3, 0.1, math.inf, 0.0, 100, return_iterations=True)),
-        ("sse-fairing beta=1", name,
-         lambda: sse_fairing(q, 1.0, 0.0, 100, return_iterations=True)),
-        ("sse-fairing beta=1", "random walk",
-         lambda: sse_fairing(walk_q, 1.0, 0.0, 100, return_iterations=True)),
-        ("fairing positions m=3, lam_t=0.5", "random walk",
-         lambda: fairing_positions(walk_p, 3, 0.5, math.inf, 0.0, 100, return_iterations=True)),
-        ("sse-fairing positions alpha=1", "random walk",
-         lambda: sse_fairing_positions(walk_p, 1.0, 0.0, 100, return_iterations=True)),
+        (
+            "fairing m=3, lam_r=0.1",
+            name,
+            lambda: fairing(q, 3, 0.1, math.inf, 0.0, 100, return_iterations=True),
+        ),
+        (
+            "fairing m=3, lam_r=0.1",
+            "random walk",
+            lambda: fairing(walk_q, 3, 0.1, math.inf, 0.0, 100, return_iterations=True),
+        ),
+        ("sse-fairing beta=1", name, lambda: sse_fairing(q, 1.0, 0.0, 100, return_iterations=True)),
+        (
+            "sse-fairing beta=1",
+            "random walk",
+            lambda: sse_fairing(walk_q, 1.0, 0.0, 100, return_iterations=True),
+        ),
+        (
+            "fairing positions m=3, lam_t=0.5",
+            "random walk",
+            lambda: fairing_positions(walk_p, 3, 0.5, math.inf, 0.0, 100, return_iterations=True),
+        ),
+        (
+            "sse-fairing positions alpha=1",
+            "random walk",
+            lambda: sse_fairing_positions(walk_p, 1.0, 0.0, 100, return_iterations=True),
+        ),
     ]
     lines = [
         f"{q.shape[0]} frames x {q.shape[1]} joints, up to 100 iterations (no bound, tol = "
@@ -232,14 +248,20 @@ def cost_table() -> str:
     for label, data_name, fn in runs:
         iterations = float(np.mean(fn()[1]))
         t = best_of(fn, 3)
-        lines.append(f"| {label} | {data_name} | {iterations:.0f} | {t * 1e3:.0f} | "
-                     f"{t / one_pass:.0f}x |")
+        lines.append(
+            f"| {label} | {data_name} | {iterations:.0f} | {t * 1e3:.0f} | {t / one_pass:.0f}x |"
+        )
 
     rng = np.random.default_rng(2)
     small_q = quat.make_continuous(quat.exp(np.cumsum(rng.normal(scale=0.05, size=(300, 3)), 0)))
     small_p = np.cumsum(rng.normal(size=(300, 3)), axis=0)
-    t_small = best_of(lambda: (fairing(small_q, 3, 0.1, math.inf, 0.0, 100),
-                               fairing_positions(small_p, 3, 0.5, math.inf, 0.0, 100)), 5)
+    t_small = best_of(
+        lambda: (
+            fairing(small_q, 3, 0.1, math.inf, 0.0, 100),
+            fairing_positions(small_p, 3, 0.5, math.inf, 0.0, 100),
+        ),
+        5,
+    )
     lines += [
         "",
         f"001's workload (300 samples, positions + orientations, m = 3, 100 iterations): "
@@ -250,15 +272,17 @@ def cost_table() -> str:
 
 def main() -> None:
     clean_q, noisy_q, clean_p, noisy_p = synthetic()
-    print(f"### 001 Fig. 2-3: average error (S^3 rad) of iterate k, {SPLINES} perturbed "
-          f"splines x {SAMPLES} samples, |delta| < 0.1 rad, no bound\n")
-    print(f"Average error of the noisy input to the clean spline: "
-          f"{avg_error(clean_q, noisy_q):.4f}\n")
+    print(
+        f"### 001 Fig. 2-3: average error (S^3 rad) of iterate k, {SPLINES} perturbed "
+        f"splines x {SAMPLES} samples, |delta| < 0.1 rad, no bound\n"
+    )
+    print(
+        f"Average error of the noisy input to the clean spline: {avg_error(clean_q, noisy_q):.4f}\n"
+    )
     print(fig2_3_table(clean_q, noisy_q))
     print("\n### 001 with the bound (Eq. 19-20): last iterate inside epsilon, up to 1000\n")
     print(bounded_table(clean_q, noisy_q, clean_p, noisy_p))
-    print("\n### 004: alpha / beta sweep (h = 1 sample, epsilon = 1e-6, up to 5000 "
-          "iterations)\n")
+    print("\n### 004: alpha / beta sweep (h = 1 sample, epsilon = 1e-6, up to 5000 iterations)\n")
     print(sse_table(clean_q, noisy_q, clean_p, noisy_p))
     print("\n### Cost\n")
     print(cost_table())

@@ -118,30 +118,40 @@ def main() -> None:
     peaks = {name: peak_memory(fn) for name, fn in cases.items()}
     ref_time = times["plain numpy reference, 1 pass"]
 
-    print(f"## One 5-tap pass (binomial(2)) on {q.shape}, {samples:,} samples, "
-          f"best of {args.repeats}\n")
+    print(
+        f"## One 5-tap pass (binomial(2)) on {q.shape}, {samples:,} samples, "
+        f"best of {args.repeats}\n"
+    )
     print(f"motionclean vs reference: max difference {np.degrees(diff):.1e} degrees\n")
     print("| implementation | time (ms) | M samples/s | speed vs reference | peak memory |")
     print("|---|---:|---:|---:|---:|")
     for name in cases:
         t = times[name]
-        print(f"| {name} | {t * 1e3:.1f} | {samples / t / 1e6:.1f} | {ref_time / t:.2f}x "
-              f"| {peaks[name] / q.nbytes:.2f}x input |")
+        print(
+            f"| {name} | {t * 1e3:.1f} | {samples / t / 1e6:.1f} | {ref_time / t:.2f}x "
+            f"| {peaks[name] / q.nbytes:.2f}x input |"
+        )
     bound = times["log + exp only (`quat.exp(quat.log(q))`)"]
-    print(f"\nA full pass takes {times['motionclean `lee_shin`, 1 pass'] / bound:.2f}x the "
-          "log + exp lower bound. Peak memory is above the input and includes the result "
-          f"(input: {q.nbytes / 1e6:.1f} MB).")
+    print(
+        f"\nA full pass takes {times['motionclean `lee_shin`, 1 pass'] / bound:.2f}x the "
+        "log + exp lower bound. Peak memory is above the input and includes the result "
+        f"(input: {q.nbytes / 1e6:.1f} MB)."
+    )
 
     five = best_of(lambda: lee_shin(q, mask, 5), max(3, args.repeats // 3), warm_up=True)
-    print(f"\n5 passes: {five * 1e3:.1f} ms ({5 * samples / five / 1e6:.1f} M samples/s per "
-          f"pass), peak memory {peak_memory(lambda: lee_shin(q, mask, 5)) / q.nbytes:.2f}x input")
+    print(
+        f"\n5 passes: {five * 1e3:.1f} ms ({5 * samples / five / 1e6:.1f} M samples/s per "
+        f"pass), peak memory {peak_memory(lambda: lee_shin(q, mask, 5)) / q.nbytes:.2f}x input"
+    )
 
     clip = CORPUS / "131_02.bvh"
     if clip.exists():
         m = mc.load(clip)
         t = best_of(lambda: lee_shin(m.rotations, mask, 5), args.repeats, warm_up=True)
-        print(f"\n## Corpus clip {clip.name} {m.rotations.shape}: "
-              f"`lee_shin(rotations, binomial(2), 5)` {t * 1e3:.1f} ms")
+        print(
+            f"\n## Corpus clip {clip.name} {m.rotations.shape}: "
+            f"`lee_shin(rotations, binomial(2), 5)` {t * 1e3:.1f} ms"
+        )
     else:
         print(f"\n(corpus clip {clip} not found: skipped the corpus timing)")
 

@@ -68,31 +68,40 @@ def main() -> None:
             rows.append((clip, mc.load(clip).n_frames, t))
 
     ms = 1e3
-    print(f"BVH read + write, best of {args.repeats}, milliseconds "
-          "(motionclean write: identity / every rotation changed)\n")
-    print("| clip | frames | motionclean read | write identity | write changed "
-          "| pybvh read | pybvh write | bvhio read | bvhio write |")
+    print(
+        f"BVH read + write, best of {args.repeats}, milliseconds "
+        "(motionclean write: identity / every rotation changed)\n"
+    )
+    print(
+        "| clip | frames | motionclean read | write identity | write changed "
+        "| pybvh read | pybvh write | bvhio read | bvhio write |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for clip, frames, t in rows:
-        print(f"| {clip.name} | {frames} | {t['mc read'] * ms:.1f} "
-              f"| {t['mc write identity'] * ms:.1f} | {t['mc write changed'] * ms:.1f} "
-              f"| {t['pybvh read'] * ms:.1f} | {t['pybvh write'] * ms:.1f} "
-              f"| {t['bvhio read'] * ms:.1f} | {t['bvhio write'] * ms:.1f} |")
+        print(
+            f"| {clip.name} | {frames} | {t['mc read'] * ms:.1f} "
+            f"| {t['mc write identity'] * ms:.1f} | {t['mc write changed'] * ms:.1f} "
+            f"| {t['pybvh read'] * ms:.1f} | {t['pybvh write'] * ms:.1f} "
+            f"| {t['bvhio read'] * ms:.1f} | {t['bvhio write'] * ms:.1f} |"
+        )
 
-    print("\nRead + write: time of the peer / time of motionclean (above 1: motionclean "
-          "faster)\n")
-    print("| clip | motionclean identity | motionclean changed | pybvh | bvhio "
-          "| pybvh / mc (identity) | pybvh / mc (changed) | bvhio / mc (identity) "
-          "| bvhio / mc (changed) |")
+    print("\nRead + write: time of the peer / time of motionclean (above 1: motionclean faster)\n")
+    print(
+        "| clip | motionclean identity | motionclean changed | pybvh | bvhio "
+        "| pybvh / mc (identity) | pybvh / mc (changed) | bvhio / mc (identity) "
+        "| bvhio / mc (changed) |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for clip, _, t in rows:
         same = t["mc read"] + t["mc write identity"]
         edit = t["mc read"] + t["mc write changed"]
         pyb = t["pybvh read"] + t["pybvh write"]
         bio = t["bvhio read"] + t["bvhio write"]
-        print(f"| {clip.name} | {same * ms:.1f} | {edit * ms:.1f} | {pyb * ms:.1f} "
-              f"| {bio * ms:.1f} | {pyb / same:.2f} | {pyb / edit:.2f} | {bio / same:.1f} "
-              f"| {bio / edit:.1f} |")
+        print(
+            f"| {clip.name} | {same * ms:.1f} | {edit * ms:.1f} | {pyb * ms:.1f} "
+            f"| {bio * ms:.1f} | {pyb / same:.2f} | {pyb / edit:.2f} | {bio / same:.1f} "
+            f"| {bio / edit:.1f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -125,13 +125,19 @@ def timing_table(m: mc.Motion, frames: int, repeats: int) -> str:
     rows = [
         (f"decompose, {n_levels} levels", lambda: mr.decompose(q, n_levels)),
         (f"reconstruct, {n_levels} levels", lambda: mr.reconstruct(pyramid)),
-        (f"decompose + reconstruct, {n_levels} levels",
-         lambda: mr.reconstruct(mr.decompose(q, n_levels))),
+        (
+            f"decompose + reconstruct, {n_levels} levels",
+            lambda: mr.reconstruct(mr.decompose(q, n_levels)),
+        ),
         ("edit(levels=4, gains=[0])", lambda: mr.edit(q, 4, [0.0])),
-        (f"edit_frames with translations, {n_levels} levels, gains=[0]",
-         lambda: mr.edit_frames(q, p, n_levels, [0.0])),
-        (f"peer: Euler per-channel pyramid, {n_levels} levels (decompose + reconstruct)",
-         lambda: mr.reconstruct(mr.decompose_positions(angles, n_levels))),
+        (
+            f"edit_frames with translations, {n_levels} levels, gains=[0]",
+            lambda: mr.edit_frames(q, p, n_levels, [0.0]),
+        ),
+        (
+            f"peer: Euler per-channel pyramid, {n_levels} levels (decompose + reconstruct)",
+            lambda: mr.reconstruct(mr.decompose_positions(angles, n_levels)),
+        ),
     ]
     lines = [
         f"| {q.shape[1]} joints x {frames} frames | best of {repeats} (s) | frames/s |",
@@ -156,8 +162,10 @@ def main() -> int:
         print(f"corpus clip {path} not found: nothing to measure", file=sys.stderr)
         return 1
     m = mc.load(path)
-    print(f"## Coordinate invariance (003 Sec. 5.2): {args.clip} root, {m.n_frames} frames, "
-          f"levels={args.levels}, gains={args.gains}\n")
+    print(
+        f"## Coordinate invariance (003 Sec. 5.2): {args.clip} root, {m.n_frames} frames, "
+        f"levels={args.levels}, gains={args.gains}\n"
+    )
     print(invariance_table(m, args.levels, args.gains))
     print(f"\n## Attenuation: {args.clip}, all {m.n_joints} joints, levels={args.levels}\n")
     print(attenuation_table(m, args.levels))

@@ -93,12 +93,15 @@ class Euler:
         self.layout = motion.layout
         self.groups = self.layout.order_groups()
         values = motion.source_values[::sub]
-        self.reference = {o: values[:, self.layout.rotation_columns[j]]
-                          for o, j in self.groups.items()}
+        self.reference = {
+            o: values[:, self.layout.rotation_columns[j]] for o, j in self.groups.items()
+        }
 
     def angles(self, q):
-        return {o: quat.to_euler(q[:, j], o, reference=self.reference[o])
-                for o, j in self.groups.items()}
+        return {
+            o: quat.to_euler(q[:, j], o, reference=self.reference[o])
+            for o, j in self.groups.items()
+        }
 
     def rotations(self, angles, like):
         out = like.copy()
@@ -151,6 +154,7 @@ def ints(lo, hi, ratio):
 
 def tuned_methods(truth, noisy, cols, euler, fps):
     """``{column: (rmse, label)}`` for every hindsight-tuned method."""
+
     def err(q):
         return rmse_deg(truth, q, cols)
 
@@ -160,15 +164,15 @@ def tuned_methods(truth, noisy, cols, euler, fps):
 
     def bw(cutoff):
         b, a = butter(2, cutoff / nyq)
-        return err(euler.rotations({o: filtfilt(b, a, x, axis=0) for o, x in ang.items()},
-                                   noisy))
+        return err(euler.rotations({o: filtfilt(b, a, x, axis=0) for o, x in ang.items()}, noisy))
 
     e, c = tune(bw, geom(0.5, 0.9 * nyq, 1.2))
     out["Euler Butterworth"] = (e, f"{c:.1f} Hz")
 
     def eg(sigma):
-        return err(euler.rotations({o: gaussian_filter1d(x, sigma, axis=0)
-                                    for o, x in ang.items()}, noisy))
+        return err(
+            euler.rotations({o: gaussian_filter1d(x, sigma, axis=0) for o, x in ang.items()}, noisy)
+        )
 
     e, s = tune(eg, geom(0.3, 40.0 * fps / 120.0 + 3, 1.25))
     out["Euler Gaussian"] = (e, f"σ {s:.2g} fr")
@@ -187,28 +191,40 @@ def tuned_methods(truth, noisy, cols, euler, fps):
         best = min(best, (err(q), p))
     out["Lee-Shin B^3 passes"] = (best[0], f"{best[1]} passes")
 
-    e, s = tune(lambda s: err(lee_shin(noisy, gaussian(s))),
-                geom(0.3, 30.0 * fps / 120.0 + 3, 1.25))
+    e, s = tune(
+        lambda s: err(lee_shin(noisy, gaussian(s))), geom(0.3, 30.0 * fps / 120.0 + 3, 1.25)
+    )
     out["Lee-Shin Gaussian"] = (e, f"σ_t {s:.2g} fr")
 
-    rows = [(*tune(lambda h, d=d: err(lee_shin(noisy, savgol(h, d))),
-                   ints(max(2, d), 80 * fps / 120.0 + 6, 1.25), integer=True), d)
-            for d in (2, 4)]
+    rows = [
+        (
+            *tune(
+                lambda h, d=d: err(lee_shin(noisy, savgol(h, d))),
+                ints(max(2, d), 80 * fps / 120.0 + 6, 1.25),
+                integer=True,
+            ),
+            d,
+        )
+        for d in (2, 4)
+    ]
     e, h, d = min(rows)
     out["Lee-Shin savgol"] = (e, f"h {h}, deg {d}")
 
     e, c = tune(lambda c: err(lee_shin(noisy, lowpass(c, fps))), geom(0.7, 0.8 * nyq, 1.2))
     out["Lee-Shin lowpass"] = (e, f"{c:.1f} Hz")
 
-    st_best = tune(lambda s: err(bilateral(noisy, s, math.inf)),
-                   geom(0.5, 20.0 * fps / 120.0 + 2, 1.3))[1]
-    grid = [(st_best * f, g) for f in (0.8, 1.0, 1.25, 1.6, 2.0)
-            for g in geom(0.005, 0.16, 2.0)]
+    st_best = tune(
+        lambda s: err(bilateral(noisy, s, math.inf)), geom(0.5, 20.0 * fps / 120.0 + 2, 1.3)
+    )[1]
+    grid = [(st_best * f, g) for f in (0.8, 1.0, 1.25, 1.6, 2.0) for g in geom(0.005, 0.16, 2.0)]
     e, (st, sg) = min((err(bilateral(noisy, st, sg)), (st, sg)) for st, sg in grid)
     out["bilateral"] = (e, f"σ_t {st:.2g}, σ_g {sg:.2g}")
 
-    e, n = tune(lambda n: err(fairing(noisy, 3, 0.2, math.inf, max_iterations=n)),
-                ints(1, 40 + 160 * fps / 120.0, 1.6), integer=True)
+    e, n = tune(
+        lambda n: err(fairing(noisy, 3, 0.2, math.inf, max_iterations=n)),
+        ints(1, 40 + 160 * fps / 120.0, 1.6),
+        integer=True,
+    )
     out["fairing"] = (e, f"{n} it")
     return out
 
@@ -235,8 +251,17 @@ def position_rows(clip, n_clip, motion):
             x = lee_shin_positions(x, binomial(1))
             passes = min(passes, (err(x), n))
         result = auto_positions(p, ft)
-        rows.append((clip, noise, err(p), tune(bw, geom(0.5, 0.45 / ft, 1.2)), passes,
-                     err(result.values), float(result.noise[0])))
+        rows.append(
+            (
+                clip,
+                noise,
+                err(p),
+                tune(bw, geom(0.5, 0.45 / ft, 1.2)),
+                passes,
+                err(result.values),
+                float(result.noise[0]),
+            )
+        )
     return rows
 
 
@@ -254,8 +279,14 @@ def run_default(motion):
 # ----------------------------------------------------------------------------- tables
 
 EULER = ("Euler Butterworth", "Euler Gaussian")
-OURS = ("Lee-Shin B^3 passes", "Lee-Shin Gaussian", "Lee-Shin savgol", "Lee-Shin lowpass",
-        "bilateral", "fairing")
+OURS = (
+    "Lee-Shin B^3 passes",
+    "Lee-Shin Gaussian",
+    "Lee-Shin savgol",
+    "Lee-Shin lowpass",
+    "bilateral",
+    "fairing",
+)
 
 
 def main(argv=None) -> int:
@@ -263,12 +294,17 @@ def main(argv=None) -> int:
     parser.add_argument("--clips", nargs="+", default=list(CLIPS))
     args = parser.parse_args(argv)
     if not CORPUS.is_dir():
-        print(f"corpus not found: {CORPUS} (expected ../shared/corpus/cmu beside the "
-              "project root)", file=sys.stderr)
+        print(
+            f"corpus not found: {CORPUS} (expected ../shared/corpus/cmu beside the project root)",
+            file=sys.stderr,
+        )
         return 1
     start = time.perf_counter()
-    default_label = ("Pipeline.default().run(motion)" if default_uses_auto() else
-                     "auto() called directly (the default pipeline has no auto step yet)")
+    default_label = (
+        "Pipeline.default().run(motion)"
+        if default_uses_auto()
+        else "auto() called directly (the default pipeline has no auto step yet)"
+    )
     print("# Cleanup quality: geodesic RMSE to the captured motion, degrees\n")
     print(f"Default: {default_label}.\n")
     rows, summary, smooth_rows, pos_rows, timing = [], [], [], [], []
@@ -276,13 +312,21 @@ def main(argv=None) -> int:
         motion = mc.load(CORPUS / f"{clip}.bvh")
         cols = scored_joints(motion)
         skipped = [n for i, n in enumerate(motion.names) if i not in set(cols.tolist())]
-        print(f"{clip}: {motion.n_frames} frames, scoring {cols.size} joints "
-              f"(not {', '.join(skipped)})", file=sys.stderr)
+        print(
+            f"{clip}: {motion.n_frames} frames, scoring {cols.size} joints "
+            f"(not {', '.join(skipped)})",
+            file=sys.stderr,
+        )
         for sub in SUBSAMPLE:
             ft = motion.frame_time * sub
             truth = quat.make_continuous(motion.rotations[::sub], axis=0)
-            base = motion.replace(rotations=truth, translations=motion.translations[::sub],
-                                  frame_time=ft, source_values=None, source_rotations=None)
+            base = motion.replace(
+                rotations=truth,
+                translations=motion.translations[::sub],
+                frame_time=ft,
+                source_values=None,
+                source_rotations=None,
+            )
             euler = Euler(motion, sub)
             for noise in NOISE_DEG:
                 rng = np.random.default_rng([n_clip, sub, int(noise * 10)])
@@ -301,16 +345,26 @@ def main(argv=None) -> int:
                 best_ours = min(res[k][0] for k in OURS)
                 rows.append((clip, round(1 / ft), noise, rmse_deg(truth, noisy, cols), res, d))
                 summary.append((round(1 / ft), noise, d / best_euler, d / best_ours, est))
-                print(f"  {clip} {round(1 / ft)} fps {noise:g} deg: default {d:.3f}, best "
-                      f"Euler {best_euler:.3f}, best tuned {best_ours:.3f} "
-                      f"(tuning {t1 - t0:.1f} s, default {t2 - t1:.2f} s)", file=sys.stderr)
+                print(
+                    f"  {clip} {round(1 / ft)} fps {noise:g} deg: default {d:.3f}, best "
+                    f"Euler {best_euler:.3f}, best tuned {best_ours:.3f} "
+                    f"(tuning {t1 - t0:.1f} s, default {t2 - t1:.2f} s)",
+                    file=sys.stderr,
+                )
             smooth = lee_shin(truth, binomial(1), 20)
             for label, clean in (("smoothed (20 x B^3)", smooth), ("as captured", truth)):
-                change = np.degrees(quat.angle_between(
-                    clean, run_default(base.replace(rotations=clean))))
-                smooth_rows.append((clip, round(1 / ft), label,
-                                    float(np.sqrt(np.mean(change[:, cols] ** 2))),
-                                    float(change[:, cols].max())))
+                change = np.degrees(
+                    quat.angle_between(clean, run_default(base.replace(rotations=clean)))
+                )
+                smooth_rows.append(
+                    (
+                        clip,
+                        round(1 / ft),
+                        label,
+                        float(np.sqrt(np.mean(change[:, cols] ** 2))),
+                        float(change[:, cols].max()),
+                    )
+                )
             if sub == 1:
                 pos_rows += position_rows(clip, n_clip, motion)
 
@@ -319,12 +373,17 @@ def main(argv=None) -> int:
     print("|" + " --- |" * (len(methods) + 5))
     for clip, fps, noise, noisy_err, res, d in rows:
         cells = [f"{res[m][0]:.3f} ({res[m][1]})" for m in methods]
-        print(f"| {clip} | {fps} | {noise:g}° | {noisy_err:.3f} | " + " | ".join(cells)
-              + f" | **{d:.3f}** |")
+        print(
+            f"| {clip} | {fps} | {noise:g}° | {noisy_err:.3f} | "
+            + " | ".join(cells)
+            + f" | **{d:.3f}** |"
+        )
 
     print("\n## Default against the hindsight-tuned methods (ratio of RMSE, below 1 is better)\n")
-    print("| fps | noise | estimated noise (median joint) | default / best Euler (worst clip)"
-          " | default / best tuned motionclean filter (worst clip) |")
+    print(
+        "| fps | noise | estimated noise (median joint) | default / best Euler (worst clip)"
+        " | default / best tuned motionclean filter (worst clip) |"
+    )
     print("| --- | --- | --- | --- | --- |")
     met_euler = met_ours = True
     for fps in sorted({s[0] for s in summary}, reverse=True):
@@ -335,9 +394,11 @@ def main(argv=None) -> int:
             met_ours &= r_o <= 1.05
             ests = ", ".join(f"{s[4]:.2f}°" for s in sel)
             print(f"| {fps} | {noise:g}° | {ests} | {r_e:.3f} | {r_o:.3f} |")
-    print(f"\nTarget 'default <= best tuned Euler smoother everywhere': "
-          f"{'met' if met_euler else 'NOT met'}; 'default within 5% of the best tuned "
-          f"motionclean filter': {'met' if met_ours else 'NOT met'}.")
+    print(
+        f"\nTarget 'default <= best tuned Euler smoother everywhere': "
+        f"{'met' if met_euler else 'NOT met'}; 'default within 5% of the best tuned "
+        f"motionclean filter': {'met' if met_ours else 'NOT met'}."
+    )
 
     print("\n## Clips without planted noise: how much the default changes them (degrees)\n")
     print("| clip | fps | input | RMS change | max change |")
@@ -345,19 +406,27 @@ def main(argv=None) -> int:
     for clip, fps, label, rms_change, max_change in smooth_rows:
         print(f"| {clip} | {fps} | {label} | {rms_change:.4f} | {max_change:.3f} |")
     smooth_ok = all(r[3] < 0.1 for r in smooth_rows if r[2].startswith("smoothed"))
-    print(f"\nTarget 'smoothed clip changed by < 0.1 degrees RMS': "
-          f"{'met' if smooth_ok else 'NOT met'}.")
+    print(
+        f"\nTarget 'smoothed clip changed by < 0.1 degrees RMS': "
+        f"{'met' if smooth_ok else 'NOT met'}."
+    )
 
     print("\n## Root translation (120 fps), RMSE in file length units\n")
-    print("| clip | noise | noisy | Butterworth per coordinate, tuned | Lee-Shin B^3 passes, "
-          "tuned | auto_positions (estimated noise) |")
+    print(
+        "| clip | noise | noisy | Butterworth per coordinate, tuned | Lee-Shin B^3 passes, "
+        "tuned | auto_positions (estimated noise) |"
+    )
     print("| --- | --- | --- | --- | --- | --- |")
     for clip, noise, noisy_err, bw, ls, au, est in pos_rows:
-        print(f"| {clip} | {noise:g} | {noisy_err:.4f} | {bw[0]:.4f} ({bw[1]:.1f} Hz) | "
-              f"{ls[0]:.4f} ({ls[1]}) | **{au:.4f}** ({est:.3f}) |")
+        print(
+            f"| {clip} | {noise:g} | {noisy_err:.4f} | {bw[0]:.4f} ({bw[1]:.1f} Hz) | "
+            f"{ls[0]:.4f} ({ls[1]}) | **{au:.4f}** ({est:.3f}) |"
+        )
     default_s, pass_s = np.median(np.array(timing), axis=0)
-    print(f"\nDefault run time on a 120 fps clip (31 joints, about 1100 frames): median "
-          f"{1000 * default_s:.0f} ms, against {1000 * pass_s:.0f} ms for one Lee-Shin B^5 pass.")
+    print(
+        f"\nDefault run time on a 120 fps clip (31 joints, about 1100 frames): median "
+        f"{1000 * default_s:.0f} ms, against {1000 * pass_s:.0f} ms for one Lee-Shin B^5 pass."
+    )
     print(f"\nBenchmark time: {time.perf_counter() - start:.0f} s.")
     return 0
 

@@ -40,8 +40,16 @@ from .options import (
 )
 from .pipeline import Pipeline
 
-__all__ = ["DEFAULT_GLOBS", "FileResult", "Job", "batch_command", "clean_file", "find_clips",
-           "raise_failures", "run_jobs"]
+__all__ = [
+    "DEFAULT_GLOBS",
+    "FileResult",
+    "Job",
+    "batch_command",
+    "clean_file",
+    "find_clips",
+    "raise_failures",
+    "run_jobs",
+]
 
 #: Clips ``batch`` takes when no ``--glob`` is given.
 DEFAULT_GLOBS = ("*.bvh", "*.csv")
@@ -79,9 +87,12 @@ class Job:
     report: str | None = None
 
 
-def clean_file(source: str | os.PathLike, target: str | os.PathLike | None,
-               pipeline: Pipeline | Sequence[dict],
-               report: str | os.PathLike | None = None) -> FileResult:
+def clean_file(
+    source: str | os.PathLike,
+    target: str | os.PathLike | None,
+    pipeline: Pipeline | Sequence[dict],
+    report: str | os.PathLike | None = None,
+) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures.
 
     ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
@@ -101,28 +112,45 @@ def clean_file(source: str | os.PathLike, target: str | os.PathLike | None,
             Path(report).parent.mkdir(parents=True, exist_ok=True)
             write_report(result.report, Path(report), result.series)
     except MotionError as error:
-        return FileResult(source, target, "failed", error=str(error),
-                          seconds=time.perf_counter() - start)
+        return FileResult(
+            source, target, "failed", error=str(error), seconds=time.perf_counter() - start
+        )
     except OSError as error:
         where = error.filename or source
-        return FileResult(source, target, "failed", error=f"{where}: {error.strerror}",
-                          seconds=time.perf_counter() - start)
+        return FileResult(
+            source,
+            target,
+            "failed",
+            error=f"{where}: {error.strerror}",
+            seconds=time.perf_counter() - start,
+        )
     except Exception as error:  # a bug must not stop the other clips
-        return FileResult(source, target, "failed",
-                          error=f"{source}: internal error: {type(error).__name__}: {error}",
-                          seconds=time.perf_counter() - start)
+        return FileResult(
+            source,
+            target,
+            "failed",
+            error=f"{source}: internal error: {type(error).__name__}: {error}",
+            seconds=time.perf_counter() - start,
+        )
     summary = result.report["summary"]
-    deviations = [j["deviation_deg"]["rms"] for j in result.report["joints"].values()
-                  if "deviation_deg" in j]
+    deviations = [
+        j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
+    ]
     return FileResult(
-        source, target, "ok", frames=result.before.n_frames,
+        source,
+        target,
+        "ok",
+        frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],
         deviation_max=summary["deviation_deg_max"],
         # every joint has the same frame count: the RMS over all is the RMS of the RMSs
         deviation_rms=math.sqrt(sum(d * d for d in deviations) / len(deviations))
-        if deviations else 0.0,
-        report=report, seconds=time.perf_counter() - start)
+        if deviations
+        else 0.0,
+        report=report,
+        seconds=time.perf_counter() - start,
+    )
 
 
 def _run_job(job: Job) -> FileResult:
@@ -170,8 +198,9 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
             yield index, _run_job(job)
         return
     order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
-    executor = ProcessPoolExecutor(max_workers=min(workers, len(jobs)),
-                                   mp_context=_context(), initializer=_ignore_sigint)
+    executor = ProcessPoolExecutor(
+        max_workers=min(workers, len(jobs)), mp_context=_context(), initializer=_ignore_sigint
+    )
     pending = {executor.submit(_run_job, jobs[i]): i for i in order}
     try:
         while pending:
@@ -182,8 +211,15 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
                     yield index, future.result()
                 except BrokenProcessPool:
                     job = jobs[index]
-                    yield index, FileResult(job.source, job.target, "failed",
-                                            error=f"{job.source}: the worker process died")
+                    yield (
+                        index,
+                        FileResult(
+                            job.source,
+                            job.target,
+                            "failed",
+                            error=f"{job.source}: the worker process died",
+                        ),
+                    )
     finally:
         executor.shutdown(wait=True, cancel_futures=True)
 
@@ -243,8 +279,10 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{folder}: {option} must be a folder")
         if _inside(folder.resolve(), source):
-            raise UsageError(f"{folder}: {option} is inside the input folder {in_dir}; "
-                             "batch never writes there, choose a folder outside it")
+            raise UsageError(
+                f"{folder}: {option} is inside the input folder {in_dir}; "
+                "batch never writes there, choose a folder outside it"
+            )
 
 
 @contextmanager
@@ -257,57 +295,95 @@ def _progress(total: int) -> Iterator[Callable[[str], None]]:
     if total == 0 or not stream.isatty():
         yield lambda _name: None
         return
-    with click.progressbar(length=total, label="cleaning", file=stream, show_pos=True,
-                           item_show_func=lambda name: name) as bar:
+    with click.progressbar(
+        length=total, label="cleaning", file=stream, show_pos=True, item_show_func=lambda name: name
+    ) as bar:
         yield lambda name: bar.update(1, name)
 
 
-def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float,
-                   workers: int) -> str:
+def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, workers: int) -> str:
     """The end-of-run table: one line per clip, then the totals."""
     width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
-    head = (f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
-            f"{'dev max':>9}  status")
+    head = (
+        f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
+        f"{'dev max':>9}  status"
+    )
     lines = [head, "-" * len(head)]
     for name, r in rows:
-        shown = name if len(name) < width - 1 else "..." + name[-(width - 5):]
+        shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
             removed = 1.0 - r.noise_after / r.noise_before if r.noise_before else 0.0
-            lines.append(f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
-                         f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok")
+            lines.append(
+                f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
+                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok"
+            )
         else:
             blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}"
             lines.append(f"{shown:<{width}}{blank}  {r.status.upper()}")
     counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
     lines.append("-" * len(head))
     plural = "s" if len(rows) != 1 else ""
-    lines.append(f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
-                 f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
-                 f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
-                 "deviation: degrees)")
+    lines.append(
+        f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
+        f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
+        f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
+        "deviation: degrees)"
+    )
     return "\n".join(lines)
 
 
 @click.command("batch")
 @click.argument("in_dir", type=click.Path(file_okay=False))
-@click.option("-o", "--output", "out_dir", required=True, metavar="OUT_DIR",
-              type=click.Path(file_okay=False),
-              help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.")
+@click.option(
+    "-o",
+    "--output",
+    "out_dir",
+    required=True,
+    metavar="OUT_DIR",
+    type=click.Path(file_okay=False),
+    help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.",
+)
 @PIPE_OPTION
 @STEP_OPTION
-@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None, metavar="N",
-              help="Worker processes (default: the number of cores).")
-@click.option("--glob", "patterns", multiple=True, metavar="PATTERN",
-              help="Which files are clips, matched on the path relative to IN_DIR, "
-                   "case-insensitive; repeatable (default: *.bvh and *.csv).")
-@click.option("--report-dir", type=click.Path(file_okay=False), metavar="DIR",
-              help="Also write an HTML page per clip (mirrored tree) and index.html here.")
-@click.option("--skip-existing", is_flag=True,
-              help="Leave clips whose output (and page) already exists: resumes a run.")
+@click.option(
+    "-j",
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="Worker processes (default: the number of cores).",
+)
+@click.option(
+    "--glob",
+    "patterns",
+    multiple=True,
+    metavar="PATTERN",
+    help="Which files are clips, matched on the path relative to IN_DIR, "
+    "case-insensitive; repeatable (default: *.bvh and *.csv).",
+)
+@click.option(
+    "--report-dir",
+    type=click.Path(file_okay=False),
+    metavar="DIR",
+    help="Also write an HTML page per clip (mirrored tree) and index.html here.",
+)
+@click.option(
+    "--skip-existing",
+    is_flag=True,
+    help="Leave clips whose output (and page) already exists: resumes a run.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
-def batch_command(in_dir: str, out_dir: str, pipe: str | None,
-                  steps: tuple[str, ...], jobs: int | None, patterns: tuple[str, ...],
-                  report_dir: str | None, skip_existing: bool, quiet: bool) -> None:
+def batch_command(
+    in_dir: str,
+    out_dir: str,
+    pipe: str | None,
+    steps: tuple[str, ...],
+    jobs: int | None,
+    patterns: tuple[str, ...],
+    report_dir: str | None,
+    skip_existing: bool,
+    quiet: bool,
+) -> None:
     """Clean every clip under IN_DIR into OUT_DIR, in parallel.
 
     Clips are found recursively; the folder tree is mirrored under OUT_DIR and nothing is
@@ -332,11 +408,11 @@ def batch_command(in_dir: str, out_dir: str, pipe: str | None,
             raise UsageError(f"{target}: would be written inside the input folder {in_dir}")
         page = None if pages is None else pages / f"{rel}.html"
         if skip_existing and target.exists() and (page is None or page.exists()):
-            results[str(rel)] = FileResult(str(source), str(target), "skipped",
-                                           report=None if page is None else str(page))
+            results[str(rel)] = FileResult(
+                str(source), str(target), "skipped", report=None if page is None else str(page)
+            )
             continue
-        work.append(Job(str(source), str(target), tables,
-                        None if page is None else str(page)))
+        work.append(Job(str(source), str(target), tables, None if page is None else str(page)))
         work_names.append(str(rel))
 
     workers = min(jobs or default_workers(), max(len(work), 1))
@@ -355,16 +431,25 @@ def batch_command(in_dir: str, out_dir: str, pipe: str | None,
     raise_failures([r.error for _, r in rows if r.status == "failed"])
 
 
-def _write_index(pages: Path, rows: Sequence[tuple[str, FileResult]],
-                 tables: Sequence[dict], in_dir: str) -> None:
+def _write_index(
+    pages: Path, rows: Sequence[tuple[str, FileResult]], tables: Sequence[dict], in_dir: str
+) -> None:
     entries = []
     for name, r in rows:
         page = pages / f"{name}.html"
         href = f"{name}.html" if r.status != "failed" and page.exists() else None
-        entries.append({"file": name, "href": href, "frames": r.frames,
-                        "noise_before": r.noise_before, "noise_after": r.noise_after,
-                        "deviation_max": r.deviation_max, "status": r.status,
-                        "error": r.error})
+        entries.append(
+            {
+                "file": name,
+                "href": href,
+                "frames": r.frames,
+                "noise_before": r.noise_before,
+                "noise_after": r.noise_after,
+                "deviation_max": r.deviation_max,
+                "status": r.status,
+                "error": r.error,
+            }
+        )
     pages.mkdir(parents=True, exist_ok=True)
     page = render_index(entries, list(tables), f"motionclean batch: {in_dir}")
     atomic_write(pages / "index.html", page.encode("utf-8"))

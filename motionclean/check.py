@@ -63,7 +63,7 @@ def read_baseline(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
         raise MotionError(f"not a readable baseline: {error}", path) from None
     if not (isinstance(document, dict) and isinstance(document.get("clips"), dict)):
-        raise MotionError("not a motionclean baseline (no \"clips\" table)", path)
+        raise MotionError('not a motionclean baseline (no "clips" table)', path)
     return document
 
 
@@ -73,8 +73,9 @@ def _figures(result: FileResult) -> dict[str, Any]:
     return out
 
 
-def compare(now: dict[str, Any], base: dict[str, Any], tolerance: float
-            ) -> list[tuple[str, float | None, float | None, str]]:
+def compare(
+    now: dict[str, Any], base: dict[str, Any], tolerance: float
+) -> list[tuple[str, float | None, float | None, str]]:
     """Rows ``(label, baseline, now, verdict)``; verdict is ok, better, WORSE or CHANGED."""
     rows = []
     if now.get("frames") != base.get("frames"):
@@ -109,18 +110,18 @@ def format_check(table: Sequence[tuple[str, list[tuple]]], recorded: bool = Fals
     """The comparison table: one line per clip and figure (``recorded``: values only)."""
     width = min(max((len(k) for k, _ in table), default=4) + 2, 60)
     head = f"{'clip':<{width}}{'figure':<24}"
-    head += f"{'recorded':>13}" if recorded else (f"{'baseline':>13}{'now':>13}{'change':>9}"
-                                                  "  result")
+    head += (
+        f"{'recorded':>13}" if recorded else (f"{'baseline':>13}{'now':>13}{'change':>9}  result")
+    )
     lines = [head, "-" * len(head)]
     for key, rows in table:
-        shown = key if len(key) < width - 1 else "..." + key[-(width - 5):]
+        shown = key if len(key) < width - 1 else "..." + key[-(width - 5) :]
         for n, (label, ref, value, verdict) in enumerate(rows):
             line = f"{shown if n == 0 else '':<{width}}{label:<24}"
             if recorded:
                 line += f"{_fmt(value):>13}"
             else:
-                line += (f"{_fmt(ref):>13}{_fmt(value):>13}{_change(ref, value):>9}  "
-                         f"{verdict}")
+                line += f"{_fmt(ref):>13}{_fmt(value):>13}{_change(ref, value):>9}  {verdict}"
             lines.append(line)
     return "\n".join(lines)
 
@@ -129,29 +130,51 @@ def _percent(tolerance: float) -> str:
     return f"{tolerance * 100:g}%"
 
 
-def _why(key: str, label: str, ref: float | None, value: float | None, verdict: str,
-         tolerance: float) -> str:
+def _why(
+    key: str, label: str, ref: float | None, value: float | None, verdict: str, tolerance: float
+) -> str:
     if verdict == "WORSE":
-        return (f"{key}: {label.split(',')[0]} got worse: {_fmt(ref)} -> {_fmt(value)} "
-                f"({_change(ref, value)}, tolerance {_percent(tolerance)})")
-    return (f"{key}: {label.split(',')[0]} changed from {_fmt(ref)} to {_fmt(value)}: the "
-            "clip is not the one of the baseline; rerun with --update if that is intended")
+        return (
+            f"{key}: {label.split(',')[0]} got worse: {_fmt(ref)} -> {_fmt(value)} "
+            f"({_change(ref, value)}, tolerance {_percent(tolerance)})"
+        )
+    return (
+        f"{key}: {label.split(',')[0]} changed from {_fmt(ref)} to {_fmt(value)}: the "
+        "clip is not the one of the baseline; rerun with --update if that is intended"
+    )
 
 
 @click.command("check")
 @click.argument("clips", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @PIPE_OPTION
 @STEP_OPTION
-@click.option("--baseline", required=True, type=click.Path(dir_okay=False),
-              help="Baseline JSON file with the expected figures per clip.")
-@click.option("--update", is_flag=True,
-              help="Write the baseline from these clips (replacing it) instead of checking.")
-@click.option("--tolerance", type=click.FloatRange(min=0.0), default=DEFAULT_TOLERANCE,
-              metavar="T",
-              show_default=True,
-              help="Relative tolerance: a figure fails above baseline x (1 + T).")
-def check_command(clips: tuple[str, ...], pipe: str | None, steps: tuple[str, ...],
-                  baseline: str, update: bool, tolerance: float) -> None:
+@click.option(
+    "--baseline",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Baseline JSON file with the expected figures per clip.",
+)
+@click.option(
+    "--update",
+    is_flag=True,
+    help="Write the baseline from these clips (replacing it) instead of checking.",
+)
+@click.option(
+    "--tolerance",
+    type=click.FloatRange(min=0.0),
+    default=DEFAULT_TOLERANCE,
+    metavar="T",
+    show_default=True,
+    help="Relative tolerance: a figure fails above baseline x (1 + T).",
+)
+def check_command(
+    clips: tuple[str, ...],
+    pipe: str | None,
+    steps: tuple[str, ...],
+    baseline: str,
+    update: bool,
+    tolerance: float,
+) -> None:
     """Clean CLIPs and compare their figures with a baseline, for CI.
 
     Exit 0 when every clip's noise after cleaning and deviation are within the tolerance
@@ -169,11 +192,17 @@ def check_command(clips: tuple[str, ...], pipe: str | None, steps: tuple[str, ..
 
     if update:
         raise_failures(failures)  # never write a baseline from a partial run
-        record = {"motionclean": __version__, "format": FORMAT, "pipeline": list(tables),
-                  "clips": {k: _figures(results[i]) for i, k in enumerate(keys)}}
+        record = {
+            "motionclean": __version__,
+            "format": FORMAT,
+            "pipeline": list(tables),
+            "clips": {k: _figures(results[i]) for i, k in enumerate(keys)},
+        }
         atomic_write(baseline_path, to_json(record))
-        table = [(k, [(label, None, getattr(results[i], key), "recorded")
-                      for key, label, _ in FIGURES]) for i, k in enumerate(keys)]
+        table = [
+            (k, [(label, None, getattr(results[i], key), "recorded") for key, label, _ in FIGURES])
+            for i, k in enumerate(keys)
+        ]
         click.echo(format_check(table, recorded=True))
         click.echo(f"baseline written: {baseline_path} ({len(keys)} clips)")
         return
@@ -188,13 +217,18 @@ def check_command(clips: tuple[str, ...], pipe: str | None, steps: tuple[str, ..
             continue
         rows = compare(_figures(results[i]), base, tolerance)
         table.append((key, rows))
-        problems += [_why(key, label, ref, value, verdict, tolerance)
-                     for label, ref, value, verdict in rows if verdict in ("WORSE", "CHANGED")]
+        problems += [
+            _why(key, label, ref, value, verdict, tolerance)
+            for label, ref, value, verdict in rows
+            if verdict in ("WORSE", "CHANGED")
+        ]
     if table:
         click.echo(format_check(table))
     if document.get("pipeline") != json_safe(list(tables)):
         click.echo("note: the pipeline differs from the one the baseline was recorded with")
     if not problems:
-        click.echo(f"check passed: {len(keys)} clip{'s' if len(keys) != 1 else ''} within "
-                   f"{_percent(tolerance)} of {baseline_path}")
+        click.echo(
+            f"check passed: {len(keys)} clip{'s' if len(keys) != 1 else ''} within "
+            f"{_percent(tolerance)} of {baseline_path}"
+        )
     raise_failures(problems)

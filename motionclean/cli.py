@@ -96,15 +96,19 @@ def info(clip: str) -> None:
     motion = load(clip)
     layout = motion.layout
     click.echo(f"{clip}")
-    click.echo(f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
-               f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s")
+    click.echo(
+        f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
+        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s"
+    )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
     steps, at = metrics.largest_steps(motion.rotations)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
     noise = estimate_noise(motion.rotations)
-    click.echo(f"  {'joint':<24}{'parent':<16}{'channels':<28}{'largest step':>14}"
-               f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}")
+    click.echo(
+        f"  {'joint':<24}{'parent':<16}{'channels':<28}{'largest step':>14}"
+        f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
+    )
     for j, name in enumerate(motion.names):
         parent = motion.names[motion.parents[j]] if motion.parents[j] >= 0 else "-"
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
@@ -113,23 +117,29 @@ def info(clip: str) -> None:
             figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}{noise[j]:>10.2f}"
         else:
             figures = f"{'-':>14}"
-        click.echo(f"  {name[:23]:<24}{parent[:15]:<16}{(channels + ' ' + order)[:27]:<28}"
-                   f"{figures}")
+        click.echo(
+            f"  {name[:23]:<24}{parent[:15]:<16}{(channels + ' ' + order)[:27]:<28}{figures}"
+        )
     rotating = layout.has_rotation
     if rotating.any():
-        click.echo(f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
-                   f"RMS angular acceleration {metrics.rms(acc[:, rotating].ravel()):,.0f} "
-                   "deg/s^2 over all joints")
-    click.echo("  (largest step: rotation between consecutive frames, degrees; accel rms: "
-               "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "
-               "degrees)")
+        click.echo(
+            f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
+            f"RMS angular acceleration {metrics.rms(acc[:, rotating].ravel()):,.0f} "
+            "deg/s^2 over all joints"
+        )
+    click.echo(
+        "  (largest step: rotation between consecutive frames, degrees; accel rms: "
+        "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "
+        "degrees)"
+    )
 
 
 @cli.command()
 @click.argument("source", type=click.Path())
 @click.argument("target", type=click.Path())
-@click.option("--skeleton", type=click.Path(),
-              help="BVH whose skeleton a channel CSV is written back into.")
+@click.option(
+    "--skeleton", type=click.Path(), help="BVH whose skeleton a channel CSV is written back into."
+)
 def convert(source: str, target: str, skeleton: str | None) -> None:
     """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
     refuse_overwrite(Path(source), Path(target), in_place=False)
@@ -146,12 +156,23 @@ def convert(source: str, target: str, skeleton: str | None) -> None:
 @click.option("-o", "--output", type=click.Path(), help="Cleaned clip to write.")
 @PIPE_OPTION
 @STEP_OPTION
-@click.option("--report", "report_path", type=click.Path(dir_okay=False),
-              help="Also write a report, FILE.json or FILE.html.")
+@click.option(
+    "--report",
+    "report_path",
+    type=click.Path(dir_okay=False),
+    help="Also write a report, FILE.json or FILE.html.",
+)
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
-def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, ...],
-          report_path: str | None, in_place: bool, quiet: bool) -> None:
+def clean(
+    source: str,
+    output: str | None,
+    pipe: str | None,
+    steps: tuple[str, ...],
+    report_path: str | None,
+    in_place: bool,
+    quiet: bool,
+) -> None:
     """Clean SOURCE with a pipeline and write it to OUTPUT.
 
     Without -p or -f the default pipeline runs (see `motionclean filters` and the README).
@@ -168,8 +189,11 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
     result = clean_clip(source, output, pipeline)
     for number, log in enumerate(result.logs, 1):
         for pattern in log.unmatched:
-            click.echo(f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
-                       f"joints pattern {pattern!r} matches no joint", err=True)
+            click.echo(
+                f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
+                f"joints pattern {pattern!r} matches no joint",
+                err=True,
+            )
     if report_path:
         write_report(result.report, Path(report_path), result.series)
     if not quiet:
@@ -181,8 +205,7 @@ def clean(source: str, output: str | None, pipe: str | None, steps: tuple[str, .
 @click.argument("cleaned", type=click.Path(), required=False)
 @click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write JSON here.")
 @click.option("--html", "html_path", type=click.Path(dir_okay=False), help="Write HTML here.")
-def report(source: str, cleaned: str | None, json_path: str | None,
-           html_path: str | None) -> None:
+def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
     for path in (json_path, html_path):
         if path:
@@ -209,28 +232,43 @@ def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
     if a.channels != b.channels:
         raise MotionError(f"channels differ from {a.path}'s", b.path)
     if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
-        raise MotionError(f"frame time {b.frame_time:g} s differs from {a.path}'s "
-                          f"{a.frame_time:g} s", b.path)
+        raise MotionError(
+            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
+        )
     if same_length and a.n_frames != b.n_frames:
         raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
 
 
 LEVELS_OPTION = click.option(
-    "--levels", type=click.IntRange(1, 30), default=4, show_default=True,
-    help="Pyramid depth: each level halves the frame rate.")
+    "--levels",
+    type=click.IntRange(1, 30),
+    default=4,
+    show_default=True,
+    help="Pyramid depth: each level halves the frame rate.",
+)
 
 
 @cli.command(short_help="Blend two time-aligned clips level by level.")
 @click.argument("first", type=click.Path())
 @click.argument("second", type=click.Path())
 @click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
-@click.option("--weight", type=float, default=0.5, show_default=True,
-              help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).")
-@click.option("--detail-weights", type=str, default=None,
-              help="Weight of SECOND per detail level, finest first, e.g. '0,0.5'.")
+@click.option(
+    "--weight",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).",
+)
+@click.option(
+    "--detail-weights",
+    type=str,
+    default=None,
+    help="Weight of SECOND per detail level, finest first, e.g. '0,0.5'.",
+)
 @LEVELS_OPTION
-def blend(first: str, second: str, output: str, weight: float, detail_weights: str | None,
-          levels: int) -> None:
+def blend(
+    first: str, second: str, output: str, weight: float, detail_weights: str | None, levels: int
+) -> None:
     """Blend two time-aligned clips level by level (003 Eq. 20)."""
     weights = None
     if detail_weights:
@@ -238,15 +276,17 @@ def blend(first: str, second: str, output: str, weight: float, detail_weights: s
             weights = [float(x) for x in detail_weights.split(",")]
         except ValueError:
             raise UsageError(
-                f"--detail-weights: expected numbers, got {detail_weights!r}") from None
+                f"--detail-weights: expected numbers, got {detail_weights!r}"
+            ) from None
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
     a, b = load(first), load(second)
     check_compatible(a, b)
     try:
-        q, p = multires.blend(a.rotations, b.rotations, levels, weight, weights,
-                              a.translations, b.translations)
+        q, p = multires.blend(
+            a.rotations, b.rotations, levels, weight, weights, a.translations, b.translations
+        )
     except ValueError as error:
         raise UsageError(str(error)) from None
     save(a.replace(rotations=q, translations=p), output)
@@ -273,9 +313,10 @@ def stitch(first: str, second: str, output: str, levels: int) -> None:
     # every frame keeps its own clip's Euler branch.
     joined = {"source_values": None, "source_rotations": None}
     if a.has_source_frames() and b.has_source_frames():
-        joined = {"source_values": np.concatenate([a.source_values, b.source_values[1:]]),
-                  "source_rotations": np.concatenate([a.source_rotations,
-                                                      b.source_rotations[1:]])}
+        joined = {
+            "source_values": np.concatenate([a.source_values, b.source_values[1:]]),
+            "source_rotations": np.concatenate([a.source_rotations, b.source_rotations[1:]]),
+        }
     save(a.replace(rotations=q, translations=p, **joined), output)
 
 
@@ -305,6 +346,7 @@ def filters_command() -> None:
             else:
                 default = f"default {_shown(param.default)}"
             click.echo(f"  {param.name:<17} {param.allowed()}; {default}")
-            click.echo(textwrap.fill(param.help, width=96, initial_indent=indent,
-                                     subsequent_indent=indent))
+            click.echo(
+                textwrap.fill(param.help, width=96, initial_indent=indent, subsequent_indent=indent)
+            )
         click.echo("")

@@ -149,8 +149,15 @@ def _anchor(name: str) -> str:
 # ----------------------------------------------------------------------------- plots
 
 
-def _path(position: np.ndarray, low: np.ndarray, high: np.ndarray, x_scale: float,
-          y0: float, y_scale: float, top: float) -> str:
+def _path(
+    position: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    x_scale: float,
+    y0: float,
+    y_scale: float,
+    top: float,
+) -> str:
     """SVG path data tracing an envelope as a zig-zag (min then max, then max then min).
 
     Columns whose min and max are within half a unit get a single point.
@@ -170,8 +177,14 @@ def _path(position: np.ndarray, low: np.ndarray, high: np.ndarray, x_scale: floa
     return "M" + points[0] + ("L" + " ".join(points[1:]) if len(points) > 1 else "")
 
 
-def _panel(series: list[tuple[np.ndarray, str, str]], offset: int, frames: int, top_y: float,
-           height: float, label: str) -> list[str]:
+def _panel(
+    series: list[tuple[np.ndarray, str, str]],
+    offset: int,
+    frames: int,
+    top_y: float,
+    height: float,
+    label: str,
+) -> list[str]:
     """One plot panel: grid, axes, ticks and the series ``(values, colour, name)``.
 
     ``values[k]`` belongs to frame ``offset + k``; the x axis spans frames 0..frames-1.
@@ -190,22 +203,25 @@ def _panel(series: list[tuple[np.ndarray, str, str]], offset: int, frames: int, 
     y_scale = height / top
     for k in range(int(round(top / step)) + 1):
         y = y0 - k * step * y_scale
-        out.append(f'<line class="gridline" x1="{LEFT}" x2="{WIDTH - RIGHT}" '
-                   f'y1="{y:.1f}" y2="{y:.1f}"/>')
-        out.append(f'<text x="{LEFT - 5}" y="{y + 4:.1f}" text-anchor="end">'
-                   f'{_short(k * step)}</text>')
+        out.append(
+            f'<line class="gridline" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y:.1f}" y2="{y:.1f}"/>'
+        )
+        out.append(
+            f'<text x="{LEFT - 5}" y="{y + 4:.1f}" text-anchor="end">{_short(k * step)}</text>'
+        )
     out.append(f'<text x="{LEFT}" y="{top_y - 6:.1f}">{_e(label)}</text>')
     if clipped:
-        out.append(f'<text x="{WIDTH - RIGHT}" y="{top_y - 6:.1f}" text-anchor="end">'
-                   f'clipped at {_short(top)}, peak {_short(peak)}</text>')
+        out.append(
+            f'<text x="{WIDTH - RIGHT}" y="{top_y - 6:.1f}" text-anchor="end">'
+            f"clipped at {_short(top)}, peak {_short(peak)}</text>"
+        )
     for values, colour, name in series:
         if not values.size:
             continue
         columns = COLUMNS if values.size <= COLUMNS else ENVELOPE_COLUMNS
         position, low, high = envelope(values, columns)
         data = _path(position + offset, low, high, x_scale, y0, y_scale, top)
-        out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" '
-                   f'd="{data}"/>')
+        out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y0}" y2="{y0}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
     return out
@@ -228,42 +244,55 @@ def _joint_svg(name: str, data: dict, frames: int) -> str:
     accel = [(np.asarray(data["accel_before"]), BEFORE, "before")]
     if data.get("accel_after") is not None:
         accel.append((np.asarray(data["accel_after"]), AFTER, "after"))
-    parts = _panel(accel, 1, frames, ACCEL_TOP, ACCEL_HEIGHT,
-                   "angular acceleration, deg/s\u00b2")
+    parts = _panel(accel, 1, frames, ACCEL_TOP, ACCEL_HEIGHT, "angular acceleration, deg/s\u00b2")
     height = ACCEL_TOP + ACCEL_HEIGHT + 22
     if data.get("deviation") is not None:
-        parts += _panel([(np.asarray(data["deviation"]), DEVIATION, "deviation")], 0, frames,
-                        DEV_TOP, DEV_HEIGHT, "deviation from the input, deg")
+        parts += _panel(
+            [(np.asarray(data["deviation"]), DEVIATION, "deviation")],
+            0,
+            frames,
+            DEV_TOP,
+            DEV_HEIGHT,
+            "deviation from the input, deg",
+        )
         height = SVG_HEIGHT
     parts += _frame_ticks(frames, height - 22)
-    return (f'<svg class="plot" data-joint="{_e(name)}" viewBox="0 0 {WIDTH} {height}" '
-            f'role="img" aria-label="{_e(name)}: angular acceleration over frames">'
-            f'<title>{_e(name)}</title>' + "".join(parts) + "</svg>")
+    return (
+        f'<svg class="plot" data-joint="{_e(name)}" viewBox="0 0 {WIDTH} {height}" '
+        f'role="img" aria-label="{_e(name)}: angular acceleration over frames">'
+        f"<title>{_e(name)}</title>" + "".join(parts) + "</svg>"
+    )
 
 
 # ----------------------------------------------------------------------------- page parts
 
 
 def _page(title: str, body: list[str]) -> str:
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>{_e(title)}</title><style>{CSS}</style></head><body><main>\n"
-            + "\n".join(body)
-            + f"\n<p class=\"note\">motionclean {_e(__version__)}. Angular acceleration is "
-            "2|w<sub>i</sub> &minus; w<sub>i&minus;1</sub>|/&Delta;t&sup2; with "
-            "w<sub>i</sub> = log(q<sub>i</sub><sup>&minus;1</sup>q<sub>i+1</sub>), in degrees "
-            "of rotation per s&sup2;; deviation is the rotation angle between the input and "
-            "the cleaned sample, in degrees.</p>\n</main></body></html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>{_e(title)}</title><style>{CSS}</style></head><body><main>\n"
+        + "\n".join(body)
+        + f'\n<p class="note">motionclean {_e(__version__)}. Angular acceleration is '
+        "2|w<sub>i</sub> &minus; w<sub>i&minus;1</sub>|/&Delta;t&sup2; with "
+        "w<sub>i</sub> = log(q<sub>i</sub><sup>&minus;1</sup>q<sub>i+1</sub>), in degrees "
+        "of rotation per s&sup2;; deviation is the rotation angle between the input and "
+        "the cleaned sample, in degrees.</p>\n</main></body></html>\n"
+    )
 
 
 def _pipeline(steps: Sequence[dict], cleaned: bool = True) -> str:
     if not steps:
-        return ('<p class="note">Not recorded: the two clips were compared as given.</p>'
-                if cleaned else '<p class="note">None: figures of the input only.</p>')
+        return (
+            '<p class="note">Not recorded: the two clips were compared as given.</p>'
+            if cleaned
+            else '<p class="note">None: figures of the input only.</p>'
+        )
     items = []
     for step in steps:
-        params = " ".join(f"{k}={_e(_value(v)).replace(', ', ',')}" for k, v in step.items()
-                          if k != "filter")
+        params = " ".join(
+            f"{k}={_e(_value(v)).replace(', ', ',')}" for k, v in step.items() if k != "filter"
+        )
         items.append(f"<li><code>{_e(step.get('filter', '?'))}</code> {params}</li>")
     return '<ol class="pipeline">' + "".join(items) + "</ol>"
 
@@ -293,8 +322,14 @@ def _stat(value: str, label: str) -> str:
     return f'<div class="stat"><b>{value}</b><span>{label}</span></div>'
 
 
-STANDARD_KEYS = {"angular_accel_rms", "angular_accel_max", "deviation_deg", "linear_accel_rms",
-                 "linear_accel_max", "deviation_length"}
+STANDARD_KEYS = {
+    "angular_accel_rms",
+    "angular_accel_max",
+    "deviation_deg",
+    "linear_accel_rms",
+    "linear_accel_max",
+    "deviation_length",
+}
 
 
 def render_html(report: dict, series: dict | None = None) -> str:
@@ -308,49 +343,72 @@ def render_html(report: dict, series: dict | None = None) -> str:
     frames = int(report["frames"])
     dt = float(report["frame_time"])
     acc = summary["angular_accel_rms"]
-    body = [f"<h1>{_e(report['file'])}</h1>",
-            f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
-            f"({frames * dt:.2f} s), {len(report['joints'])} joints</div>"]
+    body = [
+        f"<h1>{_e(report['file'])}</h1>",
+        f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
+        f"({frames * dt:.2f} s), {len(report['joints'])} joints</div>",
+    ]
     stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
     if cleaned:
-        stats += [_stat(_num(acc["after"]), "noise after: RMS angular acceleration, deg/s\u00b2"),
-                  _stat(f"{summary['noise_reduction']:.1%}", "noise removed"),
-                  _stat(_num(summary["deviation_deg_max"], 2) + "\u00b0",
-                        "largest deviation from the input")]
+        stats += [
+            _stat(_num(acc["after"]), "noise after: RMS angular acceleration, deg/s\u00b2"),
+            _stat(f"{summary['noise_reduction']:.1%}", "noise removed"),
+            _stat(
+                _num(summary["deviation_deg_max"], 2) + "\u00b0", "largest deviation from the input"
+            ),
+        ]
     body.append('<div class="stats">' + "".join(stats) + "</div>")
     body += ["<h2>Pipeline</h2>", _pipeline(report.get("pipeline") or [], cleaned)]
 
     names = noisiest(report)
     joints = report["joints"]
-    plotted = [n for n in names
-               if series is not None and n in series["joints"]
-               and (joints[n]["angular_accel_rms"]["before"] > 0
-                    or (joints[n]["angular_accel_rms"]["after"] or 0) > 0)]
+    plotted = [
+        n
+        for n in names
+        if series is not None
+        and n in series["joints"]
+        and (
+            joints[n]["angular_accel_rms"]["before"] > 0
+            or (joints[n]["angular_accel_rms"]["after"] or 0) > 0
+        )
+    ]
     tables = _joint_table(joints, names, set(plotted), cleaned)
     positions = [n for n in joints if "linear_accel_rms" in joints[n]]
     if positions:
         tables += _position_table(joints, positions, cleaned)
-    body.append(f"<details><summary>Figures of all {len(names)} joints, noisiest first"
-                f"</summary>{tables}</details>")
+    body.append(
+        f"<details><summary>Figures of all {len(names)} joints, noisiest first"
+        f"</summary>{tables}</details>"
+    )
     if series is None:
         body.append('<p class="note">No time series were given: plots left out.</p>')
     elif plotted:
-        body.append(f"<h2>Angular acceleration{' and deviation' if cleaned else ''} over "
-                    "frames, noisiest joint first</h2>")
-        keys = [("before", BEFORE)] + ([("after", AFTER), ("deviation", DEVIATION)]
-                                       if cleaned else [])
-        body.append('<div class="legend">' + "".join(
-            f'<span><i class="key" style="background:{c}"></i>{k}</span>' for k, c in keys)
+        body.append(
+            f"<h2>Angular acceleration{' and deviation' if cleaned else ''} over "
+            "frames, noisiest joint first</h2>"
+        )
+        keys = [("before", BEFORE)] + (
+            [("after", AFTER), ("deviation", DEVIATION)] if cleaned else []
+        )
+        body.append(
+            '<div class="legend">'
+            + "".join(
+                f'<span><i class="key" style="background:{c}"></i>{k}</span>' for k, c in keys
+            )
             + f"<span>clips longer than {COLUMNS} frames: min and max per plot column</span>"
-            "</div>")
+            "</div>"
+        )
         body.append('<div class="grid">')
         for name in plotted:
             body.append(_joint_card(name, joints[name], series["joints"][name], frames))
         body.append("</div>")
     still = [n for n in names if n not in plotted and series is not None]
     if still:
-        body.append('<p class="note">Not plotted (no angular acceleration): '
-                    + ", ".join(_e(n) for n in still) + "</p>")
+        body.append(
+            '<p class="note">Not plotted (no angular acceleration): '
+            + ", ".join(_e(n) for n in still)
+            + "</p>"
+        )
     return _page(f"motionclean report: {report['file']}", body)
 
 
@@ -365,8 +423,7 @@ def _joint_table(joints: dict, names: list[str], plotted: set[str], cleaned: boo
     for name in names:
         entry = joints[name]
         rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
-        label = (f'<a href="#{_anchor(name)}">{_e(name)}</a>' if name in plotted
-                 else _e(name))
+        label = f'<a href="#{_anchor(name)}">{_e(name)}</a>' if name in plotted else _e(name)
         cells = [label, _num(rms["before"])]
         if cleaned:
             cells += [_num(rms["after"]), _percent(rms["before"], rms["after"])]
@@ -391,29 +448,40 @@ def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
             dev = entry.get("deviation_length", {})
             cells += [_num(peak["after"], 1), _num(dev.get("rms"), 3), _num(dev.get("max"), 3)]
         rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    return ("<table>" + "".join(rows) + "</table><p class=\"note\">Length units of the file "
-            "per s\u00b2; deviation in length units.</p>")
+    return (
+        "<table>" + "".join(rows) + '</table><p class="note">Length units of the file '
+        "per s\u00b2; deviation in length units.</p>"
+    )
 
 
 def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
     rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
     if rms["after"] is not None:
         removed = f"{_percent(rms['before'], rms['after'])} of the noise removed"
-        figures = (f"RMS {_num(rms['before'])} \u2192 {_num(rms['after'])}, max "
-                   f"{_short(peak['before'])} \u2192 {_short(peak['after'])} deg/s\u00b2")
+        figures = (
+            f"RMS {_num(rms['before'])} \u2192 {_num(rms['after'])}, max "
+            f"{_short(peak['before'])} \u2192 {_short(peak['after'])} deg/s\u00b2"
+        )
         dev = entry.get("deviation_deg")
         if dev:
-            figures += (f"; deviation RMS {_num(dev['rms'], 2)}\u00b0, "
-                        f"max {_num(dev['max'], 2)}\u00b0")
+            figures += (
+                f"; deviation RMS {_num(dev['rms'], 2)}\u00b0, max {_num(dev['max'], 2)}\u00b0"
+            )
     else:
         removed = ""
         figures = f"RMS {_num(rms['before'])}, max {_short(peak['before'])} deg/s\u00b2"
-    notes = [f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
-             for k, v in entry.items() if k not in STANDARD_KEYS]
-    return (f'<section class="card" id="{_anchor(name)}"><h3>{_e(name)}<small>{removed}'
-            f'</small></h3><div class="figures">{figures}</div>'
-            + "".join(f'<div class="notes">{n}</div>' for n in notes)
-            + _joint_svg(name, data, frames) + "</section>")
+    notes = [
+        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
+        for k, v in entry.items()
+        if k not in STANDARD_KEYS
+    ]
+    return (
+        f'<section class="card" id="{_anchor(name)}"><h3>{_e(name)}<small>{removed}'
+        f'</small></h3><div class="figures">{figures}</div>'
+        + "".join(f'<div class="notes">{n}</div>' for n in notes)
+        + _joint_svg(name, data, frames)
+        + "</section>"
+    )
 
 
 # ----------------------------------------------------------------------------- batch index
@@ -427,26 +495,38 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     ``status`` ("ok", "skipped", "failed") and ``error``.
     """
     counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "skipped", "failed")}
-    body = [f"<h1>{_e(title)}</h1>",
-            f'<div class="meta">{len(entries)} clips: {counts["ok"]} cleaned, '
-            f'{counts["skipped"]} skipped (already done), {counts["failed"]} failed</div>',
-            "<h2>Pipeline</h2>", _pipeline(pipeline), "<h2>Clips</h2>"]
-    head = ["clip", "frames", "noise before", "after", "removed", "deviation max, \u00b0",
-            "status"]
+    body = [
+        f"<h1>{_e(title)}</h1>",
+        f'<div class="meta">{len(entries)} clips: {counts["ok"]} cleaned, '
+        f"{counts['skipped']} skipped (already done), {counts['failed']} failed</div>",
+        "<h2>Pipeline</h2>",
+        _pipeline(pipeline),
+        "<h2>Clips</h2>",
+    ]
+    head = ["clip", "frames", "noise before", "after", "removed", "deviation max, \u00b0", "status"]
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
     for e in entries:
         name = _e(e["file"])
         link = f'<a href="{_e(e["href"])}">{name}</a>' if e.get("href") else name
         if e["status"] == "failed":
-            rows.append(f'<tr class="failed"><td>{link}</td>'
-                        f'<td class="error" colspan="6">failed: {_e(e["error"])}</td></tr>')
+            rows.append(
+                f'<tr class="failed"><td>{link}</td>'
+                f'<td class="error" colspan="6">failed: {_e(e["error"])}</td></tr>'
+            )
             continue
-        cells = [link, _num(e.get("frames")), _num(e.get("noise_before")),
-                 _num(e.get("noise_after")),
-                 _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
-                 _num(e.get("deviation_max"), 2), _e(e["status"])]
+        cells = [
+            link,
+            _num(e.get("frames")),
+            _num(e.get("noise_before")),
+            _num(e.get("noise_after")),
+            _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
+            _num(e.get("deviation_max"), 2),
+            _e(e["status"]),
+        ]
         rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     body.append("<table>" + "".join(rows) + "</table>")
-    body.append('<p class="note">Noise: RMS angular acceleration over all joints and frames, '
-                "deg/s\u00b2.</p>")
+    body.append(
+        '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
+        "deg/s\u00b2.</p>"
+    )
     return _page(title, body)

@@ -227,8 +227,12 @@ def oplus(q, v, p=None, u=None):
     q = np.asarray(q, dtype=np.float64)
     if p is None:
         return _oplus(q, None, np.asarray(v, dtype=np.float64), None)
-    return _oplus(q, np.asarray(p, dtype=np.float64), np.asarray(v, dtype=np.float64),
-                  np.asarray(u, dtype=np.float64))
+    return _oplus(
+        q,
+        np.asarray(p, dtype=np.float64),
+        np.asarray(v, dtype=np.float64),
+        np.asarray(u, dtype=np.float64),
+    )
 
 
 def ominus(q_to, q_from, p_to=None, p_from=None):
@@ -244,8 +248,9 @@ def ominus(q_to, q_from, p_to=None, p_from=None):
         if (p_to is None) != (p_from is None):
             raise ValueError("give positions for both frames or for neither")
         return _ominus(q_to, q_from, None, None)
-    return _ominus(q_to, q_from, np.asarray(p_to, dtype=np.float64),
-                   np.asarray(p_from, dtype=np.float64))
+    return _ominus(
+        q_to, q_from, np.asarray(p_to, dtype=np.float64), np.asarray(p_from, dtype=np.float64)
+    )
 
 
 # ------------------------------------------------------- reduction and expansion (Eq. 10-17)
@@ -571,8 +576,15 @@ def _combine(levels: Sequence[Detail], coeffs: Sequence[float]) -> Detail:
     return Detail(ang, lin, levels[0].phase)
 
 
-def blend(q_a, q_b, levels: int, weight: float = 0.5,
-          detail_weights: Sequence[float] | None = None, p_a=None, p_b=None):
+def blend(
+    q_a,
+    q_b,
+    levels: int,
+    weight: float = 0.5,
+    detail_weights: Sequence[float] | None = None,
+    p_a=None,
+    p_b=None,
+):
     """Level-wise blend of two clips of the same shape (003 Eq. 20 with weights).
 
     The base signal moves from A toward B along the displacement map between them,
@@ -691,8 +703,7 @@ def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
     n = min(_levels(levels), max_levels(q_a.shape[0]), max_levels(q_b.shape[0]))
     pa = decompose(q_a, n, p_a, align="end")
     pb = decompose(q_b, n, p_b, align="start")
-    q0 = _join(pa.rotations, pb.rotations,
-               quat.slerp(pa.rotations[-1], pb.rotations[0], 0.5))
+    q0 = _join(pa.rotations, pb.rotations, quat.slerp(pa.rotations[-1], pb.rotations[0], 0.5))
     p0 = None
     if p_a is not None:
         p0 = _join(pa.positions, pb.positions, 0.5 * (pa.positions[-1] + pb.positions[0]))

@@ -74,8 +74,9 @@ class CleanedClip:
     series: dict
 
 
-def clean_clip(source: str | os.PathLike, target: str | os.PathLike | None,
-               pipeline: Pipeline) -> CleanedClip:
+def clean_clip(
+    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
+) -> CleanedClip:
     """Load ``source``, run ``pipeline``, write ``target`` (atomically; its folder is
     created) unless it is None, and compute the report and its time series."""
     before = load(source)
@@ -84,8 +85,9 @@ def clean_clip(source: str | os.PathLike, target: str | os.PathLike | None,
         Path(target).parent.mkdir(parents=True, exist_ok=True)
         save(after, target)
     series = build_series(before, after)
-    report = build_report(before, after, pipeline.describe(), notes_by_joint(logs),
-                          os.fspath(source), series=series)
+    report = build_report(
+        before, after, pipeline.describe(), notes_by_joint(logs), os.fspath(source), series=series
+    )
     return CleanedClip(before, after, logs, report, series)
 
 
@@ -99,8 +101,17 @@ def notes_by_joint(logs) -> dict[str, dict]:
 
 
 PIPE_OPTION = click.option(
-    "-p", "--pipeline", "pipe", type=click.Path(dir_okay=False),
-    help="Pipeline TOML file with [[step]] tables (see README).")
+    "-p",
+    "--pipeline",
+    "pipe",
+    type=click.Path(dir_okay=False),
+    help="Pipeline TOML file with [[step]] tables (see README).",
+)
 STEP_OPTION = click.option(
-    "-f", "--filter", "steps", multiple=True, metavar="STEP",
-    help="Inline step NAME:key=value,...; repeatable, applied in order.")
+    "-f",
+    "--filter",
+    "steps",
+    multiple=True,
+    metavar="STEP",
+    help="Inline step NAME:key=value,...; repeatable, applied in order.",
+)

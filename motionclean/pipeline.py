@@ -53,9 +53,14 @@ class Param:
         """What values are allowed, for error messages and the catalogue."""
         if self.choices:
             return "one of " + ", ".join(self.choices)
-        kind = {"int": "an integer", "float": "a number", "bool": "true or false",
-                "str": "a string", "floats": "a list of numbers",
-                "strs": "a list of strings"}[self.type]
+        kind = {
+            "int": "an integer",
+            "float": "a number",
+            "bool": "true or false",
+            "str": "a string",
+            "floats": "a list of numbers",
+            "strs": "a list of strings",
+        }[self.type]
         bounds = []
         if self.minimum is not None:
             bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
@@ -102,7 +107,8 @@ class Param:
         if math.isnan(value) or (math.isinf(value) and not (self.infinite_ok and value > 0)):
             return False
         below = self.minimum is not None and (
-            value < self.minimum or (self.exclusive_minimum and value == self.minimum))
+            value < self.minimum or (self.exclusive_minimum and value == self.minimum)
+        )
         return not below and (self.maximum is None or value <= self.maximum)
 
 
@@ -146,8 +152,16 @@ COMMON_PARAMS = (
 # ----------------------------------------------------------------------------- lee-shin
 
 SAVGOL_HALF_WIDTH = 3  # frames, when a savgol mask gives none
-MASKS = ("binomial", "smoothing", "high-boost", "gaussian", "savgol", "lowpass", "reduction",
-         "custom")
+MASKS = (
+    "binomial",
+    "smoothing",
+    "high-boost",
+    "gaussian",
+    "savgol",
+    "lowpass",
+    "reduction",
+    "custom",
+)
 
 
 def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
@@ -173,7 +187,8 @@ def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
 def _resolve_lee_shin(params: dict, where: str) -> None:
     if params["mask"] == "custom" and params["coefficients"] is None:
         raise UsageError(
-            f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]")
+            f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]"
+        )
     if params["mask"] != "custom" and params["coefficients"] is not None:
         raise UsageError(f"{where}: coefficients only apply to mask=custom")
     if params["mask"] == "lowpass":
@@ -190,10 +205,16 @@ def _resolve_lee_shin(params: dict, where: str) -> None:
         raise UsageError(f"{where}: {error}") from None
 
 
-MASK_PARAMS = {"binomial": ("k",), "smoothing": ("lam",), "high-boost": ("lam",),
-               "gaussian": ("sigma_t",), "savgol": ("half_width", "degree"),
-               "lowpass": ("cutoff_hz", "half_width"), "reduction": (),
-               "custom": ("coefficients",)}
+MASK_PARAMS = {
+    "binomial": ("k",),
+    "smoothing": ("lam",),
+    "high-boost": ("lam",),
+    "gaussian": ("sigma_t",),
+    "savgol": ("half_width", "degree"),
+    "lowpass": ("cutoff_hz", "half_width"),
+    "reduction": (),
+    "custom": ("coefficients",),
+}
 
 
 def _lee_shin_relevant(params: dict) -> tuple[str, ...]:
@@ -214,19 +235,57 @@ LEE_SHIN = StepSpec(
     paper="000 Eq. 19-20 (masks Eq. 21-25, boundary Eq. 26)",
     params=(
         Param("mask", "str", "binomial", "filter mask", choices=MASKS),
-        Param("k", "int", 2, "binomial half-width: a mask of 2k+1 taps (000 Eq. 23)",
-              minimum=0, maximum=masks.MAX_HALF_WIDTH),
-        Param("lam", "float", 0.5, "damping of mask=smoothing (000 Eq. 22) or gain of "
-              "mask=high-boost (Eq. 25)", minimum=0.0, maximum=10.0),
-        Param("sigma_t", "float", 1.0, "mask=gaussian width in frames (truncated at 3 sigma_t)",
-              minimum=0.0, exclusive_minimum=True, maximum=50.0),
-        Param("half_width", "int", None, "mask=savgol: half-width in frames (default 3); "
-              "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz))",
-              minimum=0, maximum=masks.MAX_HALF_WIDTH),
-        Param("degree", "int", 2, "mask=savgol: degree of the local polynomial "
-              "(<= 2 half_width)", minimum=0, maximum=20),
-        Param("cutoff_hz", "float", None, "mask=lowpass: -6 dB cutoff in Hz, below half the "
-              "frame rate (a windowed sinc, zero phase)", minimum=0.0, exclusive_minimum=True),
+        Param(
+            "k",
+            "int",
+            2,
+            "binomial half-width: a mask of 2k+1 taps (000 Eq. 23)",
+            minimum=0,
+            maximum=masks.MAX_HALF_WIDTH,
+        ),
+        Param(
+            "lam",
+            "float",
+            0.5,
+            "damping of mask=smoothing (000 Eq. 22) or gain of mask=high-boost (Eq. 25)",
+            minimum=0.0,
+            maximum=10.0,
+        ),
+        Param(
+            "sigma_t",
+            "float",
+            1.0,
+            "mask=gaussian width in frames (truncated at 3 sigma_t)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=50.0,
+        ),
+        Param(
+            "half_width",
+            "int",
+            None,
+            "mask=savgol: half-width in frames (default 3); "
+            "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz))",
+            minimum=0,
+            maximum=masks.MAX_HALF_WIDTH,
+        ),
+        Param(
+            "degree",
+            "int",
+            2,
+            "mask=savgol: degree of the local polynomial (<= 2 half_width)",
+            minimum=0,
+            maximum=20,
+        ),
+        Param(
+            "cutoff_hz",
+            "float",
+            None,
+            "mask=lowpass: -6 dB cutoff in Hz, below half the "
+            "frame rate (a windowed sinc, zero phase)",
+            minimum=0.0,
+            exclusive_minimum=True,
+        ),
         Param("coefficients", "floats", None, "mask=custom: odd-length list summing to 1"),
         Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
     ),
@@ -239,8 +298,11 @@ LEE_SHIN = StepSpec(
 
 
 def _run_bilateral(data: StepData, params: dict) -> StepData:
-    window = {"sigma_t": params["sigma_t"], "radius": params["radius"],
-              "iterations": params["iterations"]}
+    window = {
+        "sigma_t": params["sigma_t"],
+        "radius": params["radius"],
+        "iterations": params["iterations"],
+    }
     data.rotations = bilateral(data.rotations, sigma_g=params["sigma_g"], **window)
     if data.translations is not None:
         sigma_p = math.inf if params["sigma_p"] is None else params["sigma_p"]
@@ -253,18 +315,51 @@ BILATERAL = StepSpec(
     summary="edge-preserving smoothing: Gaussian in time and in rotation distance",
     paper="002 Eq. 2-5, Algorithm 1 (boundary 000 Eq. 26)",
     params=(
-        Param("sigma_t", "float", 1.0, "temporal Gaussian width, frames",
-              minimum=0.0, exclusive_minimum=True, maximum=50.0),
-        Param("sigma_g", "float", 0.1, "range width in log units (half the rotation angle, "
-              "rad; 0.1 is about 11.5 degrees); inf gives the Gaussian Lee-Shin filter",
-              minimum=0.0, exclusive_minimum=True, infinite_ok=True),
-        Param("radius", "int", None, "window half-width in frames (default ceil(3 sigma_t))",
-              minimum=0, maximum=150),
-        Param("iterations", "int", 1, "number of passes (weights recomputed each pass)",
-              minimum=1, maximum=1000),
-        Param("sigma_p", "float", None, "range width for translation channels, file length "
-              "unit (default inf: a plain Gaussian on positions)",
-              minimum=0.0, exclusive_minimum=True, infinite_ok=True),
+        Param(
+            "sigma_t",
+            "float",
+            1.0,
+            "temporal Gaussian width, frames",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=50.0,
+        ),
+        Param(
+            "sigma_g",
+            "float",
+            0.1,
+            "range width in log units (half the rotation angle, "
+            "rad; 0.1 is about 11.5 degrees); inf gives the Gaussian Lee-Shin filter",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
+        Param(
+            "radius",
+            "int",
+            None,
+            "window half-width in frames (default ceil(3 sigma_t))",
+            minimum=0,
+            maximum=150,
+        ),
+        Param(
+            "iterations",
+            "int",
+            1,
+            "number of passes (weights recomputed each pass)",
+            minimum=1,
+            maximum=1000,
+        ),
+        Param(
+            "sigma_p",
+            "float",
+            None,
+            "range width for translation channels, file length "
+            "unit (default inf: a plain Gaussian on positions)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
     ),
     run=_run_bilateral,
 )
@@ -305,14 +400,33 @@ MULTIRES = StepSpec(
     summary="multiresolution pyramid of displacement maps, detail levels scaled by gains",
     paper="003 Eq. 7-16, editing Sec. 5.1",
     params=(
-        Param("levels", "int", 4, "pyramid depth N (each level halves the frame rate; cut to "
-              "what the clip allows)", minimum=1, maximum=30),
-        Param("gains", "floats", None, "detail gains, finest level first; unlisted levels "
-              "keep 1; 0 removes a band, <1 attenuates, >1 enhances (default [0]: the finest "
-              "band removed)",
-              minimum=0.0, maximum=10.0),
-        Param("level", "float", None, "fractional level n+alpha counted from the base "
-              "(levels = the original); replaces gains", minimum=0.0, maximum=30.0),
+        Param(
+            "levels",
+            "int",
+            4,
+            "pyramid depth N (each level halves the frame rate; cut to what the clip allows)",
+            minimum=1,
+            maximum=30,
+        ),
+        Param(
+            "gains",
+            "floats",
+            None,
+            "detail gains, finest level first; unlisted levels "
+            "keep 1; 0 removes a band, <1 attenuates, >1 enhances (default [0]: the finest "
+            "band removed)",
+            minimum=0.0,
+            maximum=10.0,
+        ),
+        Param(
+            "level",
+            "float",
+            None,
+            "fractional level n+alpha counted from the base "
+            "(levels = the original); replaces gains",
+            minimum=0.0,
+            maximum=30.0,
+        ),
     ),
     run=_run_multires,
     resolve=_resolve_multires,
@@ -331,17 +445,26 @@ def _resolve_despike(params: dict, where: str) -> None:
 def _run_despike(data: StepData, params: dict) -> StepData:
     shared = {key: params[key] for key in ("threshold", "max_spike_s", "trend_ratio", "max_run")}
     data.rotations, report = despike_with_report(
-        data.rotations, data.frame_time, method=params["method"],
-        min_deg_per_s=params["min_deg_per_s"], max_deg_per_s=params["max_deg_per_s"],
-        flip_deg=params["flip_deg"], unflip=params["unflip"], **shared)
+        data.rotations,
+        data.frame_time,
+        method=params["method"],
+        min_deg_per_s=params["min_deg_per_s"],
+        max_deg_per_s=params["max_deg_per_s"],
+        flip_deg=params["flip_deg"],
+        unflip=params["unflip"],
+        **shared,
+    )
     for column in np.flatnonzero(report.counts()):
         data.rotation_notes[int(column)] = {"despike": report.summary(column)}
     if data.translations is not None:
         data.translations, report = despike_positions_with_report(
-            data.translations, data.frame_time,
+            data.translations,
+            data.frame_time,
             method="linear" if params["method"] == "slerp" else "cubic",
             min_units_per_s=params["min_units_per_s"],
-            max_units_per_s=params["max_units_per_s"], **shared)
+            max_units_per_s=params["max_units_per_s"],
+            **shared,
+        )
         for column in np.flatnonzero(report.counts()):
             data.translation_notes[int(column)] = {"despike": report.summary(column)}
     return data
@@ -352,30 +475,90 @@ DESPIKE = StepSpec(
     summary="repair half-turn flips (un-flip) and spikes (interpolate) before smoothing",
     paper="robust jump detection; interpolation by 003 Eq. 15-17",
     params=(
-        Param("threshold", "float", 8.0, "a step is a jump above median + threshold * 1.4826 "
-              "MAD of the joint's own steps (robust deviations)", minimum=0.0, maximum=1000.0),
-        Param("min_deg_per_s", "float", 600.0, "steps slower than this are never jumps, "
-              "degrees of rotation per s", minimum=0.0),
-        Param("max_deg_per_s", "float", 3600.0, "absolute cap: faster steps are always "
-              "repaired, degrees of rotation per s", minimum=0.0, exclusive_minimum=True,
-              infinite_ok=True),
-        Param("max_spike_s", "float", 0.07, "longest spike, seconds (whole frames, at least "
-              "one: 8 at 120 fps, 2 at 30 fps); also how far the cap may widen a gap",
-              minimum=0.0, exclusive_minimum=True, maximum=10.0),
-        Param("trend_ratio", "float", 3.0, "a spike must leave the cubic trend of its good "
-              "neighbours by this many times that trend's own error there (0: no test)",
-              minimum=0.0, maximum=1000.0),
-        Param("max_run", "int", None, "optional extra limit on spike length, frames",
-              minimum=1, maximum=100000),
-        Param("flip_deg", "float", 150.0, "smallest one-frame step taken as a half-turn flip, "
-              "degrees", minimum=90.0, exclusive_minimum=True, maximum=180.0),
-        Param("unflip", "bool", True, "undo half-turn flips; false interpolates short flips "
-              "like spikes"),
+        Param(
+            "threshold",
+            "float",
+            8.0,
+            "a step is a jump above median + threshold * 1.4826 "
+            "MAD of the joint's own steps (robust deviations)",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "min_deg_per_s",
+            "float",
+            600.0,
+            "steps slower than this are never jumps, degrees of rotation per s",
+            minimum=0.0,
+        ),
+        Param(
+            "max_deg_per_s",
+            "float",
+            3600.0,
+            "absolute cap: faster steps are always repaired, degrees of rotation per s",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
+        Param(
+            "max_spike_s",
+            "float",
+            0.07,
+            "longest spike, seconds (whole frames, at least "
+            "one: 8 at 120 fps, 2 at 30 fps); also how far the cap may widen a gap",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=10.0,
+        ),
+        Param(
+            "trend_ratio",
+            "float",
+            3.0,
+            "a spike must leave the cubic trend of its good "
+            "neighbours by this many times that trend's own error there (0: no test)",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "max_run",
+            "int",
+            None,
+            "optional extra limit on spike length, frames",
+            minimum=1,
+            maximum=100000,
+        ),
+        Param(
+            "flip_deg",
+            "float",
+            150.0,
+            "smallest one-frame step taken as a half-turn flip, degrees",
+            minimum=90.0,
+            exclusive_minimum=True,
+            maximum=180.0,
+        ),
+        Param(
+            "unflip",
+            "bool",
+            True,
+            "undo half-turn flips; false interpolates short flips like spikes",
+        ),
         Param("method", "str", "cubic", "interpolant for spikes", choices=("cubic", "slerp")),
-        Param("min_units_per_s", "float", 0.0, "positions: steps slower than this are never "
-              "jumps, length units per s", minimum=0.0),
-        Param("max_units_per_s", "float", math.inf, "positions: absolute cap, length units "
-              "per s", minimum=0.0, exclusive_minimum=True, infinite_ok=True),
+        Param(
+            "min_units_per_s",
+            "float",
+            0.0,
+            "positions: steps slower than this are never jumps, length units per s",
+            minimum=0.0,
+        ),
+        Param(
+            "max_units_per_s",
+            "float",
+            math.inf,
+            "positions: absolute cap, length units per s",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
     ),
     run=_run_despike,
     resolve=_resolve_despike,
@@ -385,13 +568,18 @@ DESPIKE = StepSpec(
 
 
 def _run_fairing(data: StepData, params: dict) -> StepData:
-    shared = {"order": params["order"], "tol": params["tol"],
-              "max_iterations": params["max_iterations"]}
-    data.rotations = fairing(data.rotations, lam_r=params["lam_r"],
-                             epsilon_r=params["epsilon_r"], **shared)
+    shared = {
+        "order": params["order"],
+        "tol": params["tol"],
+        "max_iterations": params["max_iterations"],
+    }
+    data.rotations = fairing(
+        data.rotations, lam_r=params["lam_r"], epsilon_r=params["epsilon_r"], **shared
+    )
     if data.translations is not None:
-        data.translations = fairing_positions(data.translations, lam_t=params["lam_t"],
-                                              epsilon_t=params["epsilon_t"], **shared)
+        data.translations = fairing_positions(
+            data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared
+        )
     return data
 
 
@@ -400,20 +588,58 @@ FAIRING = StepSpec(
     summary="iterative fairing of order 2 or 3 within a bound of the input",
     paper="001 Eq. 11-20, Fig. 1",
     params=(
-        Param("order", "int", 3, "order m of the fairing energy: 2 = constant angular "
-              "velocity, 3 = constant angular acceleration", minimum=2, maximum=3),
-        Param("lam_r", "float", 0.1, "damping of each orientation step (slerp toward the "
-              "fairing operator, Eq. 17); keep below 0.5 for order 3",
-              minimum=0.0, exclusive_minimum=True, maximum=1.0),
-        Param("lam_t", "float", 0.5, "damping of each position step (Eq. 17)",
-              minimum=0.0, exclusive_minimum=True, maximum=1.0),
-        Param("epsilon_r", "float", 0.02, "bound: no orientation moves farther than this, log "
-              "units (half the rotation angle, rad; 0.02 is 2.29 degrees)", minimum=0.0,
-              infinite_ok=True),
-        Param("epsilon_t", "float", 1.0, "bound: no position moves farther than this, file "
-              "length unit", minimum=0.0, infinite_ok=True),
-        Param("tol", "float", 1e-7, "stop when no sample moves this much in one iteration",
-              minimum=0.0),
+        Param(
+            "order",
+            "int",
+            3,
+            "order m of the fairing energy: 2 = constant angular "
+            "velocity, 3 = constant angular acceleration",
+            minimum=2,
+            maximum=3,
+        ),
+        Param(
+            "lam_r",
+            "float",
+            0.1,
+            "damping of each orientation step (slerp toward the "
+            "fairing operator, Eq. 17); keep below 0.5 for order 3",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
+        ),
+        Param(
+            "lam_t",
+            "float",
+            0.5,
+            "damping of each position step (Eq. 17)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
+        ),
+        Param(
+            "epsilon_r",
+            "float",
+            0.02,
+            "bound: no orientation moves farther than this, log "
+            "units (half the rotation angle, rad; 0.02 is 2.29 degrees)",
+            minimum=0.0,
+            infinite_ok=True,
+        ),
+        Param(
+            "epsilon_t",
+            "float",
+            1.0,
+            "bound: no position moves farther than this, file length unit",
+            minimum=0.0,
+            infinite_ok=True,
+        ),
+        Param(
+            "tol",
+            "float",
+            1e-7,
+            "stop when no sample moves this much in one iteration",
+            minimum=0.0,
+        ),
         Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=100000),
     ),
     run=_run_fairing,
@@ -424,8 +650,9 @@ def _run_sse_fairing(data: StepData, params: dict) -> StepData:
     shared = {"epsilon": params["epsilon"], "max_iterations": params["max_iterations"]}
     data.rotations = sse_fairing(data.rotations, beta=params["beta"], **shared)
     if data.translations is not None:
-        data.translations = sse_fairing_positions(data.translations, alpha=params["alpha"],
-                                                  **shared)
+        data.translations = sse_fairing_positions(
+            data.translations, alpha=params["alpha"], **shared
+        )
     return data
 
 
@@ -434,15 +661,32 @@ SSE_FAIRING = StepSpec(
     summary="minimise squared error + weighted strain energy by gradient descent on S^3",
     paper="004 Eq. 13-25",
     params=(
-        Param("beta", "float", 1.0, "weight of the angular-acceleration energy against the "
-              "squared distance, per frame (h = 1); 0 leaves the input", minimum=0.0,
-              maximum=1e6),
-        Param("alpha", "float", 1.0, "the same weight for translation channels", minimum=0.0,
-              maximum=1e6),
-        Param("epsilon", "float", 1e-6, "stop when the gradient norm is below this",
-              minimum=0.0),
-        Param("max_iterations", "int", 200, "iteration cap (about 80 per unit of beta to "
-              "converge)", minimum=0, maximum=100000),
+        Param(
+            "beta",
+            "float",
+            1.0,
+            "weight of the angular-acceleration energy against the "
+            "squared distance, per frame (h = 1); 0 leaves the input",
+            minimum=0.0,
+            maximum=1e6,
+        ),
+        Param(
+            "alpha",
+            "float",
+            1.0,
+            "the same weight for translation channels",
+            minimum=0.0,
+            maximum=1e6,
+        ),
+        Param("epsilon", "float", 1e-6, "stop when the gradient norm is below this", minimum=0.0),
+        Param(
+            "max_iterations",
+            "int",
+            200,
+            "iteration cap (about 80 per unit of beta to converge)",
+            minimum=0,
+            maximum=100000,
+        ),
     ),
     run=_run_sse_fairing,
 )
@@ -452,21 +696,29 @@ SSE_FAIRING = StepSpec(
 
 def _auto_note(result, column: int, unit: str) -> dict:
     choice = result.choices[column]
-    return {"noise": float(result.noise.reshape(-1)[column]), "unit": unit,
-            "filter": choice.params(), "expected_error": choice.expected_error}
+    return {
+        "noise": float(result.noise.reshape(-1)[column]),
+        "unit": unit,
+        "filter": choice.params(),
+        "expected_error": choice.expected_error,
+    }
 
 
 def _run_auto(data: StepData, params: dict) -> StepData:
     families = FAMILIES if params["mask"] == "any" else (params["mask"],)
-    shared = {"strength": params["strength"], "max_seconds": params["max_seconds"],
-              "families": families}
+    shared = {
+        "strength": params["strength"],
+        "max_seconds": params["max_seconds"],
+        "families": families,
+    }
     result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
     data.rotations = result.values
     for column in range(data.rotations.shape[1]):
         data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
     if data.translations is not None:
-        result = auto_positions(data.translations, data.frame_time,
-                                noise=params["position_noise"], **shared)
+        result = auto_positions(
+            data.translations, data.frame_time, noise=params["position_noise"], **shared
+        )
         data.translations = result.values
         for column in range(data.translations.shape[1]):
             data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
@@ -478,24 +730,47 @@ AUTO = StepSpec(
     summary="estimate each joint's noise and pick the Lee-Shin mask and strength for it",
     paper="000 Eq. 19-20, 23, 26; noise from third differences; choice by SURE",
     params=(
-        Param("strength", "float", 1.0, "multiplies the noise used for the choice: 0 leaves "
-              "the clip unchanged, 2 smooths as if the noise were twice the estimate",
-              minimum=0.0, maximum=10.0),
-        Param("max_seconds", "float", 1.0, "widest candidate mask half-width, seconds",
-              minimum=0.0, exclusive_minimum=True, maximum=10.0),
-        Param("mask", "str", "any", "mask families to choose from",
-              choices=("any", *FAMILIES)),
-        Param("noise_deg", "float", None, "assumed per-sample rotation noise (RMS rotation "
-              "angle, degrees) instead of the estimate", minimum=0.0, maximum=180.0),
-        Param("position_noise", "float", None, "assumed per-sample translation noise (RMS, "
-              "file length unit) instead of the estimate", minimum=0.0),
+        Param(
+            "strength",
+            "float",
+            1.0,
+            "multiplies the noise used for the choice: 0 leaves "
+            "the clip unchanged, 2 smooths as if the noise were twice the estimate",
+            minimum=0.0,
+            maximum=10.0,
+        ),
+        Param(
+            "max_seconds",
+            "float",
+            1.0,
+            "widest candidate mask half-width, seconds",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=10.0,
+        ),
+        Param("mask", "str", "any", "mask families to choose from", choices=("any", *FAMILIES)),
+        Param(
+            "noise_deg",
+            "float",
+            None,
+            "assumed per-sample rotation noise (RMS rotation "
+            "angle, degrees) instead of the estimate",
+            minimum=0.0,
+            maximum=180.0,
+        ),
+        Param(
+            "position_noise",
+            "float",
+            None,
+            "assumed per-sample translation noise (RMS, file length unit) instead of the estimate",
+            minimum=0.0,
+        ),
     ),
     run=_run_auto,
 )
 
 REGISTRY: dict[str, StepSpec] = {
-    spec.name: spec
-    for spec in (LEE_SHIN, BILATERAL, FAIRING, SSE_FAIRING, MULTIRES, DESPIKE, AUTO)
+    spec.name: spec for spec in (LEE_SHIN, BILATERAL, FAIRING, SSE_FAIRING, MULTIRES, DESPIKE, AUTO)
 }
 
 
@@ -538,8 +813,10 @@ def make_step(table: dict, where: str) -> Step:
     for key, value in table.items():
         param = next((p for p in allowed if p.name == key), None)
         if param is None:
-            raise UsageError(f"{where}: unknown parameter {key!r}; allowed: "
-                             + ", ".join(p.name for p in allowed))
+            raise UsageError(
+                f"{where}: unknown parameter {key!r}; allowed: "
+                + ", ".join(p.name for p in allowed)
+            )
         params[key] = param.coerce(value, where)
     for param in spec.params:
         if param.name not in params:
@@ -614,8 +891,11 @@ def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
 
 def unmatched_patterns(names: list[str], patterns: tuple[str, ...]) -> list[str]:
     """The include patterns (not ``!``) that match none of ``names``: likely typos."""
-    return [p for p in patterns
-            if not p.startswith("!") and not any(fnmatch.fnmatchcase(n, p) for n in names)]
+    return [
+        p
+        for p in patterns
+        if not p.startswith("!") and not any(fnmatch.fnmatchcase(n, p) for n in names)
+    ]
 
 
 @dataclass
@@ -640,8 +920,7 @@ class Pipeline:
     def from_tables(cls, tables: list, origin: str) -> Pipeline:
         if not tables:
             raise UsageError(f"{origin}: the pipeline has no steps")
-        return cls([make_step(t, f"{origin}: step {i}") for i, t in enumerate(tables, 1)],
-                   origin)
+        return cls([make_step(t, f"{origin}: step {i}") for i, t in enumerate(tables, 1)], origin)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Pipeline:
@@ -657,8 +936,9 @@ class Pipeline:
             raise UsageError(f"{path}: invalid TOML: {error}") from None
         unknown = set(document) - {"step"}
         if unknown:
-            raise UsageError(f"{path}: unknown top-level key {sorted(unknown)[0]!r}; "
-                             "steps are [[step]] tables")
+            raise UsageError(
+                f"{path}: unknown top-level key {sorted(unknown)[0]!r}; steps are [[step]] tables"
+            )
         steps = document.get("step", [])
         if not isinstance(steps, list):
             raise UsageError(f"{path}: 'step' must be an array of tables ([[step]])")
@@ -695,8 +975,9 @@ class Pipeline:
             try:
                 data = step.spec.run(data, step.params)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
-                raise MotionError(f"step {number} ({step.spec.name}) failed: {error}",
-                                  motion.path) from None
+                raise MotionError(
+                    f"step {number} ({step.spec.name}) failed: {error}", motion.path
+                ) from None
             rotations[:, rot_idx] = data.rotations
             if data.translations is not None:
                 translations[:, pos_idx] = data.translations
@@ -705,10 +986,17 @@ class Pipeline:
                 notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
             for column, note in data.translation_notes.items():
                 notes.setdefault(motion.names[pos_idx[column]], {}).update(
-                    {f"position_{k}": v for k, v in note.items()})
-            logs.append(StepLog(step, [motion.names[i] for i in rot_idx],
-                                [motion.names[i] for i in pos_idx], notes,
-                                unmatched_patterns(motion.names, step.joints)))
+                    {f"position_{k}": v for k, v in note.items()}
+                )
+            logs.append(
+                StepLog(
+                    step,
+                    [motion.names[i] for i in rot_idx],
+                    [motion.names[i] for i in pos_idx],
+                    notes,
+                    unmatched_patterns(motion.names, step.joints),
+                )
+            )
         return motion.replace(rotations=rotations, translations=translations), logs
 
 

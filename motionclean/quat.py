@@ -439,7 +439,8 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
     b2 = _nearest_turn(np.pi - b, rb)
     c2 = _nearest_turn(c + np.pi, rc)
     second = (a2 - ra) ** 2 + (b2 - rb) ** 2 + (c2 - rc) ** 2 < (
-        (a1 - ra) ** 2 + (b1 - rb) ** 2 + (c1 - rc) ** 2)
+        (a1 - ra) ** 2 + (b1 - rb) ** 2 + (c1 - rc) ** 2
+    )
     out[..., 0] = np.where(second, a2, a1)
     out[..., 1] = np.where(second, b2, b1)
     out[..., 2] = np.where(second, c2, c1)
@@ -450,7 +451,8 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
         s_lock = parity * np.where(sin_b[locked] >= 0.0, 1.0, -1.0)
         ra_l = ra[locked]
         out[locked] = np.stack(
-            [ra_l, b1[locked], _nearest_turn(s_lock * (theta - ra_l), rc[locked])], axis=-1)
+            [ra_l, b1[locked], _nearest_turn(s_lock * (theta - ra_l), rc[locked])], axis=-1
+        )
     return np.rad2deg(out, out=out)
 
 

@@ -116,8 +116,11 @@ def build_report(
         joints.setdefault(name, {}).update(note)
 
     total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
-    summary: dict[str, Any] = {"angular_accel_rms": _pair(total_b, None),
-                               "noise_reduction": None, "deviation_deg_max": None}
+    summary: dict[str, Any] = {
+        "angular_accel_rms": _pair(total_b, None),
+        "noise_reduction": None,
+        "deviation_deg_max": None,
+    }
     if after is not None:
         total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
         summary["angular_accel_rms"]["after"] = total_a
@@ -151,8 +154,11 @@ def to_json(report: dict) -> bytes:
 
 def noisiest(report: dict) -> list[str]:
     """Joint names with angular figures, noisiest (largest RMS acceleration before) first."""
-    rows = [(v["angular_accel_rms"]["before"], k) for k, v in report["joints"].items()
-            if "angular_accel_rms" in v]
+    rows = [
+        (v["angular_accel_rms"]["before"], k)
+        for k, v in report["joints"].items()
+        if "angular_accel_rms" in v
+    ]
     return [name for _, name in sorted(rows, key=lambda r: -r[0])]
 
 
@@ -165,9 +171,13 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
     if estimated:
         head += f"{'noise est':>10}  filter chosen"
-    lines = [f"{report['file']}: {report['frames']} frames at "
-             f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2; "
-             "deviation and estimated noise in deg)", head, "-" * len(head)]
+    lines = [
+        f"{report['file']}: {report['frames']} frames at "
+        f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2; "
+        "deviation and estimated noise in deg)",
+        head,
+        "-" * len(head),
+    ]
 
     def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
         text = f"{name[:21]:<22}{acc['before']:>14,.0f}"
@@ -175,8 +185,10 @@ def format_table(report: dict, limit: int = 10) -> str:
             removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
             text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
         if auto:
-            chosen = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                               for k, v in auto["filter"].items())
+            chosen = ", ".join(
+                f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                for k, v in auto["filter"].items()
+            )
             text += f"{auto['noise']:>10.2f}  {chosen}"
         return text
 
@@ -189,8 +201,7 @@ def format_table(report: dict, limit: int = 10) -> str:
         lines.append(f"... {len(names) - limit} more joints")
     lines.append("-" * len(head))
     summary = report["summary"]
-    lines.append(row("all joints", summary["angular_accel_rms"],
-                     summary.get("deviation_deg_max")))
+    lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
     lines.extend(format_repairs(report))
     return "\n".join(lines)
 
@@ -214,18 +225,24 @@ def note_text(key: str, note: Any) -> str:
         return "; ".join(parts)
     if key.endswith("auto"):
         unit = "deg" if note["unit"] == "deg" else "units"
-        chosen = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                           for k, v in note["filter"].items())
+        chosen = ", ".join(
+            f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in note["filter"].items()
+        )
         error = note["expected_error"]
         error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
-        return (f"estimated noise {note['noise']:.3g} {unit}; chose {chosen}; "
-                f"expected error {error} {unit}")
+        return (
+            f"estimated noise {note['noise']:.3g} {unit}; chose {chosen}; "
+            f"expected error {error} {unit}"
+        )
     return json.dumps(json_safe(note))
 
 
 def format_repairs(report: dict) -> list[str]:
     """Lines naming each joint the despike step repaired: how, where, largest step."""
-    return [f"repaired {name}{' (positions)' if key.startswith('position') else ''}: "
-            + note_text(key, entry[key])
-            for name, entry in report["joints"].items()
-            for key in ("despike", "position_despike") if entry.get(key)]
+    return [
+        f"repaired {name}{' (positions)' if key.startswith('position') else ''}: "
+        + note_text(key, entry[key])
+        for name, entry in report["joints"].items()
+        for key in ("despike", "position_despike")
+        if entry.get(key)
+    ]

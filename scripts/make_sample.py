@@ -33,8 +33,16 @@ def cut(source: Path, target: Path, start: int, stop: int) -> None:
     hierarchy, _, _ = head.rpartition(b"Frames:")
     eol = b"\r\n" if hierarchy.endswith(b"\r\n") else b"\n"
     kept = rows.split(b"\n")[start:stop]
-    target.write_bytes(hierarchy + b"Frames: %d" % len(kept) + eol + b"Frame Time:" + time_line
-                       + b"\n" + b"\n".join(kept) + b"\n")
+    target.write_bytes(
+        hierarchy
+        + b"Frames: %d" % len(kept)
+        + eol
+        + b"Frame Time:"
+        + time_line
+        + b"\n"
+        + b"\n".join(kept)
+        + b"\n"
+    )
 
 
 def add_noise(motion: mc.Motion, rng: np.random.Generator) -> mc.Motion:
@@ -47,7 +55,8 @@ def add_noise(motion: mc.Motion, rng: np.random.Generator) -> mc.Motion:
     has_rotation = motion.layout.has_rotation
     rotations = np.where(has_rotation[None, :, None], rotations, motion.rotations)
     translations = motion.translations + rng.uniform(
-        -POSITION_NOISE, POSITION_NOISE, motion.translations.shape)
+        -POSITION_NOISE, POSITION_NOISE, motion.translations.shape
+    )
     return motion.replace(rotations=rotations, translations=translations)
 
 

@@ -20,9 +20,17 @@ import tempfile
 from pathlib import Path
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
-FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--hide-scrollbars")
+FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--hide-scrollbars",
+)
 
 
 def find_browser() -> str | None:
@@ -35,24 +43,42 @@ def find_browser() -> str | None:
 
 def _run(browser: str, args: list[str], timeout: float) -> subprocess.CompletedProcess:
     with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
-        return subprocess.run([browser, *FLAGS, f"--user-data-dir={profile}", *args],
-                              capture_output=True, text=True, timeout=timeout, check=False)
+        return subprocess.run(
+            [browser, *FLAGS, f"--user-data-dir={profile}", *args],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=False,
+        )
 
 
-def screenshot(html_path: Path, png_path: Path, width: int = 1366, height: int = 900,
-               browser: str | None = None, timeout: float = 60.0) -> Path:
+def screenshot(
+    html_path: Path,
+    png_path: Path,
+    width: int = 1366,
+    height: int = 900,
+    browser: str | None = None,
+    timeout: float = 60.0,
+) -> Path:
     """Render ``html_path`` at ``width`` x ``height`` CSS pixels into ``png_path``."""
     browser = browser or find_browser()
     if browser is None:
-        raise FileNotFoundError("no Chromium found (apt-get install chromium, or set "
-                                "$CHROMIUM)")
+        raise FileNotFoundError("no Chromium found (apt-get install chromium, or set $CHROMIUM)")
     png_path = png_path.resolve()
     png_path.unlink(missing_ok=True)
-    done = _run(browser, [f"--screenshot={png_path}", f"--window-size={width},{height}",
-                          html_path.resolve().as_uri()], timeout)
+    done = _run(
+        browser,
+        [
+            f"--screenshot={png_path}",
+            f"--window-size={width},{height}",
+            html_path.resolve().as_uri(),
+        ],
+        timeout,
+    )
     if not png_path.is_file():
-        raise RuntimeError(f"{browser} wrote no screenshot (exit {done.returncode}): "
-                           f"{done.stderr.strip()[-500:]}")
+        raise RuntimeError(
+            f"{browser} wrote no screenshot (exit {done.returncode}): {done.stderr.strip()[-500:]}"
+        )
     return png_path
 
 
@@ -61,8 +87,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("report", type=Path, help="the HTML report to render")
     parser.add_argument("-o", "--output", type=Path, help="PNG to write (default: beside it)")
     parser.add_argument("--size", default="1366,900", help="window WIDTH,HEIGHT in CSS px")
-    parser.add_argument("--full-height", type=int, metavar="PX", default=None,
-                        help="use a window this tall, to capture a long page")
+    parser.add_argument(
+        "--full-height",
+        type=int,
+        metavar="PX",
+        default=None,
+        help="use a window this tall, to capture a long page",
+    )
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.split(","))
     if args.full_height:

@@ -43,6 +43,10 @@ def cut_bvh(source: Path, target: Path, frames: int) -> Path:
     lines = source.read_text().splitlines(keepends=True)
     at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
     target.parent.mkdir(parents=True, exist_ok=True)
-    target.write_text("".join(lines[:at]) + f"Frames: {frames}\n" + lines[at + 1]
-                      + "".join(lines[at + 2:at + 2 + frames]))
+    target.write_text(
+        "".join(lines[:at])
+        + f"Frames: {frames}\n"
+        + lines[at + 1]
+        + "".join(lines[at + 2 : at + 2 + frames])
+    )
     return target

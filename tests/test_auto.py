@@ -88,15 +88,21 @@ def test_noise_estimate_is_per_joint_and_coordinate_invariant():
     a = quat.normalize(np.array([0.2, 0.9, -0.3, 0.1]))
     b = quat.normalize(np.array([-0.5, 0.1, 0.6, 0.6]))
     est = estimate_noise(q)
-    np.testing.assert_allclose(est, estimate_noise(quat.multiply(a, quat.multiply(q, b))),
-                               rtol=1e-9)
+    np.testing.assert_allclose(
+        est, estimate_noise(quat.multiply(a, quat.multiply(q, b))), rtol=1e-9
+    )
     np.testing.assert_allclose(est / np.array([0.5, 2.0, 5.0]), 1.0, atol=0.15)
 
 
 def test_position_noise_estimate_recovers_planted_noise():
     t = np.arange(500)[:, None, None] / 120.0
-    p = np.concatenate([np.sin(2 * np.pi * 0.7 * t) * [3.0, 1.0, 2.0],
-                        np.cos(2 * np.pi * 0.3 * t) * [1.0, 4.0, 0.5]], axis=1)  # (500, 2, 3)
+    p = np.concatenate(
+        [
+            np.sin(2 * np.pi * 0.7 * t) * [3.0, 1.0, 2.0],
+            np.cos(2 * np.pi * 0.3 * t) * [1.0, 4.0, 0.5],
+        ],
+        axis=1,
+    )  # (500, 2, 3)
     noise = np.array([0.05, 0.3])  # RMS length of the noise vector
     rng = np.random.default_rng(4)
     noisy = p + rng.normal(size=p.shape) * (noise / math.sqrt(3))[:, None]
@@ -119,8 +125,9 @@ def test_residual_energies_match_running_every_filter():
     for frames in (3, 4, 7, 60, 257):
         p = rng.normal(size=(frames, 2, 3))
         direct = [np.sum((lee_shin_positions(p, m) - p) ** 2, axis=(0, 2)) for m in masks]
-        np.testing.assert_allclose(_residual_energies(np.diff(p, axis=0), masks), direct,
-                                   rtol=1e-10)
+        np.testing.assert_allclose(
+            _residual_energies(np.diff(p, axis=0), masks), direct, rtol=1e-10
+        )
     q = plant(smooth_synthetic(frames=150, joints=3), 4.0, seed=1)
     q = quat.make_continuous(q, axis=0)
     w = quat.log(quat.multiply(quat.conjugate(q[:-1]), q[1:]))
@@ -142,8 +149,11 @@ def test_candidates_ladder():
     short = candidates(1 / 30, max_seconds=0.5)
     assert max(mask.size // 2 for _, _, mask in short) == 15
     assert {fam for fam, _, _ in candidates(1 / 30, families=("savgol",))} == {"savgol"}
-    for bad in ({"frame_time": 0.0}, {"frame_time": 0.01, "max_seconds": -1},
-                {"frame_time": 0.01, "families": ("gaussian",)}):
+    for bad in (
+        {"frame_time": 0.0},
+        {"frame_time": 0.01, "max_seconds": -1},
+        {"frame_time": 0.01, "families": ("gaussian",)},
+    ):
         with pytest.raises(ValueError):
             candidates(**bad)
 

@@ -18,8 +18,11 @@ SAMPLE = ROOT / "sample_data" / "131_02_noisy.bvh"
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
-    return {p.relative_to(folder).as_posix(): p.read_bytes()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
 
 
 @pytest.fixture
@@ -48,15 +51,27 @@ def test_tree_with_a_broken_file(tree, tmp_path, capsys):
     assert snapshot(tree) == before  # byte-identical, and nothing added inside IN_DIR
     written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert written == ["csv/c.csv", "run/deep/b.BVH", "top.bvh", "walk/a.bvh"]
-    for rel, frames in (("top.bvh", 40), ("walk/a.bvh", 60), ("run/deep/b.BVH", 50),
-                        ("csv/c.csv", 60)):
+    for rel, frames in (
+        ("top.bvh", 40),
+        ("walk/a.bvh", 60),
+        ("run/deep/b.BVH", 50),
+        ("csv/c.csv", 60),
+    ):
         cleaned, source = mc.load(out / rel), mc.load(tree / rel)
         assert cleaned.n_frames == frames and cleaned.names == source.names
         assert (out / rel).read_bytes() != (tree / rel).read_bytes()  # it was filtered
-    table = {line.split()[0]: line.split()[-1] for line in stdout.splitlines()
-             if line.split() and line.split()[0].endswith((".bvh", ".BVH", ".csv"))}
-    assert table == {"top.bvh": "ok", "walk/a.bvh": "ok", "run/deep/b.BVH": "ok",
-                     "csv/c.csv": "ok", "run/broken.bvh": "FAILED"}
+    table = {
+        line.split()[0]: line.split()[-1]
+        for line in stdout.splitlines()
+        if line.split() and line.split()[0].endswith((".bvh", ".BVH", ".csv"))
+    }
+    assert table == {
+        "top.bvh": "ok",
+        "walk/a.bvh": "ok",
+        "run/deep/b.BVH": "ok",
+        "csv/c.csv": "ok",
+        "run/broken.bvh": "FAILED",
+    }
 
 
 def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
@@ -64,15 +79,31 @@ def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
     results = []
     for jobs in ("1", "2"):
         out, pages = tmp_path / f"out{jobs}", tmp_path / f"pages{jobs}"
-        code, _, stderr = run_cli(capsys, "batch", tree, "-o", out, "-j", jobs,
-                              "--report-dir", pages, "-f", "lee-shin:k=1,iterations=3")
+        code, _, stderr = run_cli(
+            capsys,
+            "batch",
+            tree,
+            "-o",
+            out,
+            "-j",
+            jobs,
+            "--report-dir",
+            pages,
+            "-f",
+            "lee-shin:k=1,iterations=3",
+        )
         assert code == 0, stderr
         results.append((snapshot(out), snapshot(pages)))
     assert results[0] == results[1]
     outputs, pages = results[0]
     assert len(outputs) == 4
-    assert set(pages) == {"index.html", "top.bvh.html", "walk/a.bvh.html",
-                          "run/deep/b.BVH.html", "csv/c.csv.html"}
+    assert set(pages) == {
+        "index.html",
+        "top.bvh.html",
+        "walk/a.bvh.html",
+        "run/deep/b.BVH.html",
+        "csv/c.csv.html",
+    }
     assert b'href="walk/a.bvh.html"' in pages["index.html"]
 
 
@@ -89,8 +120,9 @@ def test_refuses_to_write_inside_the_input(tree, tmp_path, capsys, where):
 
 
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
-    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", tmp_path / "out",
-                               "-f", "lee-shin:k=-3")
+    code, stdout, stderr = run_cli(
+        capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"
+    )
     assert code == 2 and "k must be" in stderr and stdout == ""
     assert not (tmp_path / "out").exists()
 
@@ -113,9 +145,15 @@ def test_glob_selects_clips_case_insensitively(tree):
     (tree / ".hidden").mkdir()
     cut_bvh(SAMPLE, tree / ".hidden" / "x.bvh", 5)
     assert [p.as_posix() for p in find_clips(tree, ["*.BVH"])] == [
-        "run/broken.bvh", "run/deep/b.BVH", "top.bvh", "walk/a.bvh"]
+        "run/broken.bvh",
+        "run/deep/b.BVH",
+        "top.bvh",
+        "walk/a.bvh",
+    ]
     assert [p.as_posix() for p in find_clips(tree, ["walk/*.bvh", "*.TXT"])] == [
-        "run/notes.txt", "walk/a.bvh"]
+        "run/notes.txt",
+        "walk/a.bvh",
+    ]
 
 
 def test_job_returns_a_picklable_result_and_reports_failures(tree, tmp_path):

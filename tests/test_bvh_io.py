@@ -20,8 +20,16 @@ ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 SAMPLES = sorted((ROOT / "sample_data").glob("*.bvh"))
 ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
-NAMES = ("mixamorig:Hips", "Left Up Leg", "spine.001", "R:Arm 2", "Neck", "joint_7",
-         "mixamorig:LeftHandIndex1", "Bip01 L Thigh")
+NAMES = (
+    "mixamorig:Hips",
+    "Left Up Leg",
+    "spine.001",
+    "R:Arm 2",
+    "Neck",
+    "joint_7",
+    "mixamorig:LeftHandIndex1",
+    "Bip01 L Thigh",
+)
 
 
 def corpus_clips() -> list[Path]:
@@ -32,7 +40,7 @@ def corpus_clips() -> list[Path]:
 
 def frame_rows(data: bytes) -> list[bytes]:
     """The frame rows of BVH bytes, each with its line ending."""
-    body = data[data.index(b"Frame Time"):].split(b"\n", 1)[1]
+    body = data[data.index(b"Frame Time") :].split(b"\n", 1)[1]
     return [row for row in body.splitlines(keepends=True) if row.strip()]
 
 
@@ -73,8 +81,9 @@ def test_sample_values_match_float():
 # ----------------------------------------------------------------------------- other exporters
 
 
-def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fps: int,
-                 open_end: bool):
+def exporter_bvh(
+    seed: int, eol: str, bom: bool, indent: str, trailing: bool, fps: int, open_end: bool
+):
     """A BVH file as some other exporter might write it; returns the bytes and the
     expected ``(names, parents, channels, values)``."""
     rng = np.random.default_rng(seed)
@@ -82,7 +91,7 @@ def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fp
     names = [str(n) for n in rng.permutation(NAMES)[:n_joints]]
     parents, path = [-1], [0]  # parents chosen on the open path keep file order = index
     for j in range(1, n_joints):
-        path = path[:int(rng.integers(1, len(path) + 1))]
+        path = path[: int(rng.integers(1, len(path) + 1))]
         parents.append(path[-1])
         path.append(j)
     channels = []
@@ -101,9 +110,11 @@ def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fp
             channels.append(tuple(next(pos) if k in slots else next(rot) for k in range(6)))
     n_frames = int(rng.integers(2, 30))
     columns = [(j, c) for j in range(n_joints) for c in channels[j]]
-    values = np.where([c.endswith("rotation") for _, c in columns],
-                      rng.uniform(-400, 400, (n_frames, len(columns))),
-                      rng.uniform(-100, 100, (n_frames, len(columns))))
+    values = np.where(
+        [c.endswith("rotation") for _, c in columns],
+        rng.uniform(-400, 400, (n_frames, len(columns))),
+        rng.uniform(-100, 100, (n_frames, len(columns))),
+    )
     # Frames exactly at gimbal lock: the middle rotation angle at +-90 degrees.
     for j in range(n_joints):
         middle = [k for k, (jj, c) in enumerate(columns) if jj == j and "rotation" in c][1:2]
@@ -111,8 +122,9 @@ def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fp
             locked = rng.uniform(size=n_frames) < 0.3
             values[locked, middle[0]] = rng.choice([-90.0, 90.0, 270.0], locked.sum())
     styles = ["%.6f", "%.4f", "%g", "%.2f", "%.0f", "%.9f"]
-    texts = [[styles[(seed + k) % len(styles)] % v for k, v in enumerate(row)]
-             for row in values.tolist()]
+    texts = [
+        [styles[(seed + k) % len(styles)] % v for k, v in enumerate(row)] for row in values.tolist()
+    ]
     values = np.array([[float(t) for t in row] for row in texts])
 
     lines = ["HIERARCHY"]
@@ -127,8 +139,14 @@ def exporter_bvh(seed: int, eol: str, bom: bool, indent: str, trailing: bool, fp
         for k in kids:
             joint(k, depth + 1)
         if not kids:
-            lines.extend([f"{pad}{indent}End Site", f"{pad}{indent}{{",
-                          f"{pad}{indent * 2}OFFSET 0 1.5 0", f"{pad}{indent}}}"])
+            lines.extend(
+                [
+                    f"{pad}{indent}End Site",
+                    f"{pad}{indent}{{",
+                    f"{pad}{indent * 2}OFFSET 0 1.5 0",
+                    f"{pad}{indent}}}",
+                ]
+            )
         lines.append(f"{pad}}}")
 
     joint(0, 0)
@@ -160,8 +178,9 @@ EXPORTERS = dict(
 @settings(max_examples=40, deadline=None)
 @given(**EXPORTERS)
 def test_exporter_identity_round_trip(seed, eol, bom, indent, trailing, fps, open_end):
-    data, (names, parents, channels, values) = exporter_bvh(seed, eol, bom, indent, trailing,
-                                                            fps, open_end)
+    data, (names, parents, channels, values) = exporter_bvh(
+        seed, eol, bom, indent, trailing, fps, open_end
+    )
     clip = parse_bvh(data, "x.bvh")
     assert clip.names == names
     assert clip.parents.tolist() == parents
@@ -178,10 +197,12 @@ def test_exporter_identity_round_trip(seed, eol, bom, indent, trailing, fps, ope
 
 
 @settings(max_examples=40, deadline=None)
-@given(**EXPORTERS, axis=st.lists(st.floats(-1, 1), min_size=3, max_size=3),
-       degrees=st.floats(0.01, 40))
-def test_exporter_edit_one_joint(seed, eol, bom, indent, trailing, fps, open_end, axis,
-                                 degrees):
+@given(
+    **EXPORTERS,
+    axis=st.lists(st.floats(-1, 1), min_size=3, max_size=3),
+    degrees=st.floats(0.01, 40),
+)
+def test_exporter_edit_one_joint(seed, eol, bom, indent, trailing, fps, open_end, axis, degrees):
     data, _ = exporter_bvh(seed, eol, bom, indent, trailing, fps, open_end)
     clip = parse_bvh(data, "x.bvh")
     layout = clip.layout
@@ -196,7 +217,7 @@ def test_exporter_edit_one_joint(seed, eol, bom, indent, trailing, fps, open_end
 
     # Everything but the edited joint's rotation values is the same text.
     edited = set(layout.rotation_columns[j].tolist())
-    assert out[:out.index(b"MOTION")] == data[:data.index(b"MOTION")]
+    assert out[: out.index(b"MOTION")] == data[: data.index(b"MOTION")]
     assert line_endings(out) == line_endings(data)
     for row_in, row_out in zip(frame_rows(data), frame_rows(out), strict=True):
         parts_in, parts_out = re.split(rb"(\s+)", row_in), re.split(rb"(\s+)", row_out)
@@ -233,8 +254,12 @@ def test_exporter_file_agrees_with_bvhio(tmp_path):
     for j, name in enumerate(clip.names):
         if not clip.layout.has_rotation[j]:
             continue
-        q = np.array([[k.Rotation.w, k.Rotation.x, k.Rotation.y, k.Rotation.z]
-                      for k in joints[name].Keyframes])
+        q = np.array(
+            [
+                [k.Rotation.w, k.Rotation.x, k.Rotation.y, k.Rotation.z]
+                for k in joints[name].Keyframes
+            ]
+        )
         assert np.max(np.rad2deg(quat.angle_between(clip.rotations[:, j], q))) < 1e-3
 
 
@@ -264,8 +289,14 @@ def test_euler_agrees_with_bvhio(order):
 @pytest.mark.parametrize("order", ORDERS)
 def test_euler_round_trip(order):
     rng = np.random.default_rng(10 + ORDERS.index(order))
-    principal = np.stack([rng.uniform(-180, 180, 5000), rng.uniform(-89.9, 89.9, 5000),
-                          rng.uniform(-180, 180, 5000)], axis=-1)
+    principal = np.stack(
+        [
+            rng.uniform(-180, 180, 5000),
+            rng.uniform(-89.9, 89.9, 5000),
+            rng.uniform(-180, 180, 5000),
+        ],
+        axis=-1,
+    )
     back = quat.to_euler(quat.from_euler(principal, order), order)
     np.testing.assert_allclose(back, principal, rtol=0, atol=1e-9)
     # Any triple, also beyond +-180, comes back exactly when it is its own reference.
@@ -317,10 +348,24 @@ def test_to_euler_keeps_the_reference_split_at_gimbal_lock(order):
 def test_parse_numbers_is_float():
     rng = np.random.default_rng(0)
     values = rng.standard_normal(3000) * 10.0 ** rng.integers(-12, 12, 3000)
-    texts = ([repr(v) for v in values.tolist()] + [f"{v:.6f}" for v in values.tolist()]
-             + [f"{v:.3e}" for v in values.tolist()]
-             + ["-0", "+5", ".5", "5.", "-.25", "007", "123456789012345", "1234567890123456789",
-                "0.1000000000000000055511151231257827", "1E5", "-0.0000"])
+    texts = (
+        [repr(v) for v in values.tolist()]
+        + [f"{v:.6f}" for v in values.tolist()]
+        + [f"{v:.3e}" for v in values.tolist()]
+        + [
+            "-0",
+            "+5",
+            ".5",
+            "5.",
+            "-.25",
+            "007",
+            "123456789012345",
+            "1234567890123456789",
+            "0.1000000000000000055511151231257827",
+            "1E5",
+            "-0.0000",
+        ]
+    )
     text = " \t".join(texts).encode()
     buf = np.frombuffer(text, dtype=np.uint8)
     starts, ends = scan_tokens(buf)
@@ -331,8 +376,25 @@ def test_parse_numbers_is_float():
     assert np.array_equal(np.signbit(got), np.signbit(expected))
 
 
-@pytest.mark.parametrize("token", ["abc", "1.2.3", "--1", "1-2", "+", ".", "1_000", "nan",
-                                   "inf", "-Infinity", "0x10", "1e", "1e400", "12a"])
+@pytest.mark.parametrize(
+    "token",
+    [
+        "abc",
+        "1.2.3",
+        "--1",
+        "1-2",
+        "+",
+        ".",
+        "1_000",
+        "nan",
+        "inf",
+        "-Infinity",
+        "0x10",
+        "1e",
+        "1e400",
+        "12a",
+    ],
+)
 def test_parse_numbers_rejects(token):
     text = f"1.5 {token} 2.5".encode()
     buf = np.frombuffer(text, dtype=np.uint8)
@@ -342,14 +404,15 @@ def test_parse_numbers_rejects(token):
 
 def test_format_fixed6_is_printf():
     rng = np.random.default_rng(1)
-    values = np.concatenate([
-        rng.standard_normal(20000) * 10.0 ** rng.integers(-9, 10, 20000),
-        np.arange(-3000, 3000) / 2e6,  # exact and near halves of the last digit
-        [0.0078125, -0.0078125, -4e-7, -5e-7, 5e-7, -0.0, 1e300, -1e-300, 9999999.9999995],
-    ])
+    values = np.concatenate(
+        [
+            rng.standard_normal(20000) * 10.0 ** rng.integers(-9, 10, 20000),
+            np.arange(-3000, 3000) / 2e6,  # exact and near halves of the last digit
+            [0.0078125, -0.0078125, -4e-7, -5e-7, 5e-7, -0.0, 1e300, -1e-300, 9999999.9999995],
+        ]
+    )
     buf, starts, lengths = format_fixed6(values)
-    got = [buf[s:s + n].tobytes() for s, n in zip(starts.tolist(), lengths.tolist(),
-                                                  strict=True)]
+    got = [buf[s : s + n].tobytes() for s, n in zip(starts.tolist(), lengths.tolist(), strict=True)]
     expected = [b"%.6f" % v for v in values.tolist()]
     expected = [e[1:] if e.startswith(b"-") and float(e) == 0 else e for e in expected]
     assert got == expected

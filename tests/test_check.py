@@ -19,17 +19,13 @@ ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
 
 
-
-
-
-
-
 @pytest.fixture
 def clips(tmp_path, monkeypatch) -> list[str]:
     monkeypatch.chdir(tmp_path)  # baseline keys are paths relative to the current folder
     Path("clips").mkdir()
-    return [cut_bvh(SAMPLE, Path("clips") / f"{name}.bvh", 80).as_posix()
-            for name in ("calm", "busy")]
+    return [
+        cut_bvh(SAMPLE, Path("clips") / f"{name}.bvh", 80).as_posix() for name in ("calm", "busy")
+    ]
 
 
 def make_noisier(path: str) -> None:
@@ -55,35 +51,60 @@ def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
     assert code == 1
     assert "clips/busy.bvh" in stderr and "clips/calm.bvh" not in stderr
     assert "noise after got worse" in stderr
-    assert all(line.startswith("motionclean: error: clips/busy.bvh: ")
-               for line in stderr.strip().splitlines())
+    assert all(
+        line.startswith("motionclean: error: clips/busy.bvh: ")
+        for line in stderr.strip().splitlines()
+    )
     worse = [line for line in stdout.splitlines() if line.rstrip().endswith("WORSE")]
     assert worse and "noise after" in worse[0]
 
 
 def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
-    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update",
-               "-f", "lee-shin:k=2,iterations=3")[0] == 0
-    code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json",
-                          "-f", "lee-shin:k=2,iterations=2")
+    assert (
+        run_cli(
+            capsys,
+            "check",
+            *clips,
+            "--baseline",
+            "b.json",
+            "--update",
+            "-f",
+            "lee-shin:k=2,iterations=3",
+        )[0]
+        == 0
+    )
+    code, _, stderr = run_cli(
+        capsys, "check", *clips, "--baseline", "b.json", "-f", "lee-shin:k=2,iterations=2"
+    )
     assert code == 1 and stderr.count("noise after got worse") == 2
-    code, _, _ = run_cli(capsys, "check", *clips, "--baseline", "b.json",
-                     "-f", "lee-shin:k=2,iterations=2", "--tolerance", "100")
+    code, _, _ = run_cli(
+        capsys,
+        "check",
+        *clips,
+        "--baseline",
+        "b.json",
+        "-f",
+        "lee-shin:k=2,iterations=2",
+        "--tolerance",
+        "100",
+    )
     assert code == 0
 
 
 def test_missing_baseline_is_a_clear_error(clips, capsys):
     code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "none.json")
     assert code == 2 and stdout == ""
-    assert stderr.strip() == ("motionclean: error: none.json: no such baseline; create it "
-                              "with --update")
+    assert stderr.strip() == (
+        "motionclean: error: none.json: no such baseline; create it with --update"
+    )
     assert not Path("none.json").exists()
 
 
 def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
     Path("clips/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
-    code, _, stderr = run_cli(capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json",
-                          "--update")
+    code, _, stderr = run_cli(
+        capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json", "--update"
+    )
     assert code == 1 and "clips/broken.bvh" in stderr
     assert not Path("b.json").exists()
 
@@ -95,8 +116,13 @@ def test_clip_missing_from_the_baseline_fails(clips, capsys):
 
 
 def test_compare_limits():
-    base = {"frames": 10, "noise_before": 100.0, "noise_after": 10.0, "deviation_max": 2.0,
-            "deviation_rms": 1.0}
+    base = {
+        "frames": 10,
+        "noise_before": 100.0,
+        "noise_after": 10.0,
+        "deviation_max": 2.0,
+        "deviation_rms": 1.0,
+    }
     t = DEFAULT_TOLERANCE
 
     def verdicts(**now):

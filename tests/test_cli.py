@@ -24,9 +24,19 @@ def test_version(capsys):
 
 def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
     out, report = tmp_path / "clean.bvh", tmp_path / "report.json"
-    code, stdout, err = run(["clean", noisy_path, "-o", out, "-f",
-                             "lee-shin:mask=binomial,k=2,iterations=5", "--report", report],
-                            capsys)
+    code, stdout, err = run(
+        [
+            "clean",
+            noisy_path,
+            "-o",
+            out,
+            "-f",
+            "lee-shin:mask=binomial,k=2,iterations=5",
+            "--report",
+            report,
+        ],
+        capsys,
+    )
     assert code == 0, err
     assert "all joints" in stdout
     data = json.loads(report.read_text())
@@ -56,8 +66,7 @@ def test_clean_refuses_to_overwrite_its_input(sample_path, tmp_path, capsys):
 
 def test_invalid_pipeline_exits_2_before_reading_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "out.bvh"
-    code, _, err = run(["clean", tmp_path / "missing.bvh", "-o", out, "-f", "lee-shin:k=x"],
-                       capsys)
+    code, _, err = run(["clean", tmp_path / "missing.bvh", "-o", out, "-f", "lee-shin:k=x"], capsys)
     assert code == 2
     assert err.startswith("motionclean: error: -f: step 1 (lee-shin): k must be an integer")
     assert err.count("\n") == 1
@@ -67,8 +76,9 @@ def test_invalid_pipeline_exits_2_before_reading_and_writes_nothing(tmp_path, ca
 def test_pipeline_file_and_inline_steps_are_exclusive(sample_path, tmp_path, capsys):
     pipe = tmp_path / "p.toml"
     pipe.write_text('[[step]]\nfilter = "lee-shin"\n')
-    code, _, err = run(["clean", sample_path, "-o", tmp_path / "o.bvh", "-p", pipe, "-f",
-                        "lee-shin"], capsys)
+    code, _, err = run(
+        ["clean", sample_path, "-o", tmp_path / "o.bvh", "-p", pipe, "-f", "lee-shin"], capsys
+    )
     assert code == 2 and "either -p" in err
 
 
@@ -125,10 +135,24 @@ def test_report_before_and_after_pair(noisy_path, tmp_path, capsys):
 def test_stitch_and_blend_commands(sample_path, tmp_path, capsys):
     motion = mc.load(sample_path)
     first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
-    mc.save(motion.replace(rotations=motion.rotations[:120], translations=motion.translations[:120],
-                           source_values=None, source_rotations=None), first)
-    mc.save(motion.replace(rotations=motion.rotations[150:], translations=motion.translations[150:],
-                           source_values=None, source_rotations=None), second)
+    mc.save(
+        motion.replace(
+            rotations=motion.rotations[:120],
+            translations=motion.translations[:120],
+            source_values=None,
+            source_rotations=None,
+        ),
+        first,
+    )
+    mc.save(
+        motion.replace(
+            rotations=motion.rotations[150:],
+            translations=motion.translations[150:],
+            source_values=None,
+            source_rotations=None,
+        ),
+        second,
+    )
     out = tmp_path / "s.bvh"
     code, _, err = run(["stitch", first, second, "-o", out, "--levels", "3"], capsys)
     assert code == 0, err
@@ -140,8 +164,7 @@ def test_stitch_and_blend_commands(sample_path, tmp_path, capsys):
     assert np.degrees(gap).max() < 1e-5
     code, _, err = run(["blend", first, second, "-o", tmp_path / "x.bvh"], capsys)
     assert code == 1 and "frames" in err and err.count("\n") == 1
-    code, _, err = run(["blend", first, first, "-o", tmp_path / "x.bvh", "--weight", "0.3"],
-                       capsys)
+    code, _, err = run(["blend", first, first, "-o", tmp_path / "x.bvh", "--weight", "0.3"], capsys)
     assert code == 0, err
     blended = mc.load(tmp_path / "x.bvh")
     assert np.degrees(mc.quat.angle_between(blended.rotations, a.rotations)).max() < 1e-5
@@ -157,8 +180,9 @@ def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
 
 def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, capsys):
     report = tmp_path / "r.json"
-    code, out, err = run(["clean", sample_path, "-o", tmp_path / "c.bvh", "--report", report],
-                         capsys)
+    code, out, err = run(
+        ["clean", sample_path, "-o", tmp_path / "c.bvh", "--report", report], capsys
+    )
     assert code == 0, err
     data = json.loads(report.read_text())
     assert data["pipeline"][0]["filter"] == "despike"
@@ -178,10 +202,12 @@ def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, 
     width = 3 * (2**4 - 1)
     seam = clip.n_frames - 1
     # channel values, Euler branch included, are the input's away from the seam
-    assert np.array_equal(stitched.source_values[: seam - width],
-                          clip.source_values[: seam - width])
-    assert np.array_equal(stitched.source_values[seam + width + 1 :],
-                          clip.source_values[width + 1 :])
+    assert np.array_equal(
+        stitched.source_values[: seam - width], clip.source_values[: seam - width]
+    )
+    assert np.array_equal(
+        stitched.source_values[seam + width + 1 :], clip.source_values[width + 1 :]
+    )
 
 
 @pytest.mark.parametrize(
@@ -191,8 +217,9 @@ def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, 
         (["--report", "nowhere/r.json"], "no folder"),
     ],
 )
-def test_bad_report_path_is_refused_before_anything_is_written(sample_path, tmp_path, capsys,
-                                                                extra, message):
+def test_bad_report_path_is_refused_before_anything_is_written(
+    sample_path, tmp_path, capsys, extra, message
+):
     out = tmp_path / "c.bvh"
     args = [a if not a.startswith(("r.", "nowhere")) else tmp_path / a for a in extra]
     code, _, err = run(["clean", sample_path, "-o", out, *args], capsys)
@@ -206,8 +233,18 @@ def test_clip_output_must_have_a_known_suffix(sample_path, tmp_path, capsys):
 
 
 def test_a_joint_pattern_that_matches_nothing_is_warned_about(sample_path, tmp_path, capsys):
-    code, _, err = run(["clean", sample_path, "-o", tmp_path / "c.bvh", "-q", "-f",
-                        "lee-shin:joints=['LeftKnee','LeftKnea']"], capsys)
+    code, _, err = run(
+        [
+            "clean",
+            sample_path,
+            "-o",
+            tmp_path / "c.bvh",
+            "-q",
+            "-f",
+            "lee-shin:joints=['LeftKnee','LeftKnea']",
+        ],
+        capsys,
+    )
     assert code == 0
     assert "warning" in err and "'LeftKnea' matches no joint" in err
     assert "LeftKnee'" not in err

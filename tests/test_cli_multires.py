@@ -24,9 +24,15 @@ def clips(tmp_path_factory):
     paths = []
     for name, window in (("a.bvh", slice(0, FRAMES)), ("b.bvh", slice(FRAMES, 2 * FRAMES))):
         path = folder / name
-        mc.save(motion.replace(rotations=motion.rotations[window],
-                               translations=motion.translations[window],
-                               source_values=None, source_rotations=None), path)
+        mc.save(
+            motion.replace(
+                rotations=motion.rotations[window],
+                translations=motion.translations[window],
+                source_values=None,
+                source_rotations=None,
+            ),
+            path,
+        )
         paths.append(path)
     return tuple(paths)
 
@@ -64,19 +70,23 @@ def test_weight_zero_gives_first_and_one_gives_second(clips, tmp_path, capsys, w
 def test_intermediate_weight_lies_between_and_matches_the_library(clips, tmp_path, capsys):
     out = blend(capsys, tmp_path / "x.bvh", *clips, "--weight", "0.3", "--levels", "3")
     a, b = (mc.load(p) for p in clips)
-    q, p = multires.blend(a.rotations, b.rotations, 3, 0.3, None, a.translations,
-                          b.translations)
+    q, p = multires.blend(a.rotations, b.rotations, 3, 0.3, None, a.translations, b.translations)
     assert float(np.degrees(quat.angle_between(out.rotations, q)).max()) < PRINTED_DEG
     assert float(np.abs(out.translations - p).max()) < PRINTED_LENGTH
     assert max_deg(out, a) > 1.0 and max_deg(out, b) > 1.0
 
 
-@pytest.mark.parametrize(("forward", "backward"), [
-    (["--weight", "0.3"], ["--weight", "0.7"]),
-    (["--weight", "0.8", "--levels", "2"], ["--weight", "0.2", "--levels", "2"]),
-    (["--weight", "0.25", "--detail-weights", "0,1,0.4"],
-     ["--weight", "0.75", "--detail-weights", "1,0,0.6"]),
-])
+@pytest.mark.parametrize(
+    ("forward", "backward"),
+    [
+        (["--weight", "0.3"], ["--weight", "0.7"]),
+        (["--weight", "0.8", "--levels", "2"], ["--weight", "0.2", "--levels", "2"]),
+        (
+            ["--weight", "0.25", "--detail-weights", "0,1,0.4"],
+            ["--weight", "0.75", "--detail-weights", "1,0,0.6"],
+        ),
+    ],
+)
 def test_blend_is_symmetric_in_the_clips(clips, tmp_path, capsys, forward, backward):
     ab = blend(capsys, tmp_path / "ab.bvh", clips[0], clips[1], *forward)
     ba = blend(capsys, tmp_path / "ba.bvh", clips[1], clips[0], *backward)
@@ -89,26 +99,39 @@ def test_detail_weights_are_read_finest_first(clips, tmp_path, capsys):
     plain = blend(capsys, tmp_path / "plain.bvh", *clips, "--weight", "0")
     assert max_deg(plain, a) < PRINTED_DEG
     # only the finest band comes from B: near A, yet not A
-    finest = blend(capsys, tmp_path / "finest.bvh", *clips, "--weight", "0",
-                   "--detail-weights", "1")
-    q, _ = multires.blend(a.rotations, b.rotations, 4, 0.0, [1.0], a.translations,
-                          b.translations)
+    finest = blend(
+        capsys, tmp_path / "finest.bvh", *clips, "--weight", "0", "--detail-weights", "1"
+    )
+    q, _ = multires.blend(a.rotations, b.rotations, 4, 0.0, [1.0], a.translations, b.translations)
     assert float(np.degrees(quat.angle_between(finest.rotations, q)).max()) < PRINTED_DEG
     assert max_deg(finest, a) > 0.1
     # spaces around the numbers are accepted; listed levels override --weight
-    listed = blend(capsys, tmp_path / "listed.bvh", *clips, "--weight", "1",
-                   "--detail-weights", "0, 0.5,1 ,0", "--levels", "4")
-    q, p = multires.blend(a.rotations, b.rotations, 4, 1.0, [0.0, 0.5, 1.0, 0.0],
-                          a.translations, b.translations)
+    listed = blend(
+        capsys,
+        tmp_path / "listed.bvh",
+        *clips,
+        "--weight",
+        "1",
+        "--detail-weights",
+        "0, 0.5,1 ,0",
+        "--levels",
+        "4",
+    )
+    q, p = multires.blend(
+        a.rotations, b.rotations, 4, 1.0, [0.0, 0.5, 1.0, 0.0], a.translations, b.translations
+    )
     assert float(np.degrees(quat.angle_between(listed.rotations, q)).max()) < PRINTED_DEG
     assert float(np.abs(listed.translations - p).max()) < PRINTED_LENGTH
     assert max_deg(listed, b) > 0.1
 
 
-@pytest.mark.parametrize(("value", "message"), [
-    ("a,b", "--detail-weights: expected numbers, got 'a,b'"),
-    ("0.5,", "--detail-weights: expected numbers"),
-])
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("a,b", "--detail-weights: expected numbers, got 'a,b'"),
+        ("0.5,", "--detail-weights: expected numbers"),
+    ],
+)
 def test_bad_detail_weights_exit_2_with_one_line(clips, tmp_path, capsys, value, message):
     out = tmp_path / "x.bvh"
     code, _, err = run_cli(capsys, "blend", *clips, "-o", out, "--detail-weights", value)
@@ -119,8 +142,9 @@ def test_bad_detail_weights_exit_2_with_one_line(clips, tmp_path, capsys, value,
 
 def test_more_detail_weights_than_levels_is_a_usage_error(clips, tmp_path, capsys):
     out = tmp_path / "x.bvh"
-    code, _, err = run_cli(capsys, "blend", *clips, "-o", out, "--levels", "2",
-                           "--detail-weights", "0,0,0")
+    code, _, err = run_cli(
+        capsys, "blend", *clips, "-o", out, "--levels", "2", "--detail-weights", "0,0,0"
+    )
     assert code == 2 and err.count("\n") == 1 and "detail_weights" in err
     assert not out.exists()
 
@@ -130,9 +154,12 @@ def test_mismatched_channels_or_frame_time_exit_1_with_one_line(clips, tmp_path,
     first_joint = "\tJOINT LHipJoint\n\t{\n\t\tOFFSET 0 0 0\n\t\tCHANNELS 3 Zrotation Yrotation "
     assert text.count(first_joint + "Xrotation") == 1
     swapped = tmp_path / "swapped.bvh"
-    swapped.write_text(text.replace(first_joint + "Xrotation",
-                                    first_joint.replace("Zrotation Yrotation ",
-                                                        "Xrotation Yrotation ") + "Zrotation"))
+    swapped.write_text(
+        text.replace(
+            first_joint + "Xrotation",
+            first_joint.replace("Zrotation Yrotation ", "Xrotation Yrotation ") + "Zrotation",
+        )
+    )
     frame_time = next(line for line in text.splitlines() if line.startswith("Frame Time:"))
     slower = tmp_path / "slower.bvh"
     slower.write_text(text.replace(frame_time, "Frame Time: 0.0333333"))

@@ -55,13 +55,17 @@ def test_channel_csv_mirrors_the_motion_block(tmp_path):
     clip = mc.load(SAMPLE)
     convert(SAMPLE, tmp_path / "clip.csv")
     header, table = read_table(tmp_path / "clip.csv")
-    expected = [f"{name}.{ch}" for name, chans in zip(clip.names, clip.channels, strict=True)
-                for ch in chans]
+    expected = [
+        f"{name}.{ch}"
+        for name, chans in zip(clip.names, clip.channels, strict=True)
+        for ch in chans
+    ]
     assert header == ["frame", "time", *expected]
     assert header[2] == "Hips.Xposition"
     np.testing.assert_array_equal(table[:, 0], np.arange(clip.n_frames))
-    np.testing.assert_allclose(table[:, 1], np.arange(clip.n_frames) * clip.frame_time,
-                               rtol=1e-11, atol=1e-12)
+    np.testing.assert_allclose(
+        table[:, 1], np.arange(clip.n_frames) * clip.frame_time, rtol=1e-11, atol=1e-12
+    )
     np.testing.assert_array_equal(table[:, 2:], clip.source_values)
     # Unchanged values keep the BVH text, so each cell reads exactly like the BVH token.
     with open(tmp_path / "clip.csv", newline="") as f:
@@ -85,8 +89,10 @@ def test_corpus_present_or_skipped():
 def test_csv_with_full_precision_values_converts_exactly(tmp_path):
     """A CSV written by another tool (repr values, 4-decimal times) still gives the template."""
     clip = mc.load(SAMPLE)
-    rows = ["time," + ",".join(f"{n}.{c}" for n, cs in zip(clip.names, clip.channels,
-                                                            strict=True) for c in cs)]
+    rows = [
+        "time,"
+        + ",".join(f"{n}.{c}" for n, cs in zip(clip.names, clip.channels, strict=True) for c in cs)
+    ]
     for i, values in enumerate(clip.source_values.tolist()):
         rows.append(f"{i * clip.frame_time:.4f}," + ",".join(map(repr, values)))
     (tmp_path / "clip.csv").write_text("\r\n".join(rows) + "\r\n")
@@ -101,8 +107,9 @@ def test_edited_csv_changes_only_the_edited_values(tmp_path):
     convert(SAMPLE, tmp_path / "clip.csv")
     header, table = read_table(tmp_path / "clip.csv")
     rng = np.random.default_rng(3)
-    edits = [(int(rng.integers(clip.n_frames)), int(rng.integers(2, len(header))))
-             for _ in range(25)]
+    edits = [
+        (int(rng.integers(clip.n_frames)), int(rng.integers(2, len(header)))) for _ in range(25)
+    ]
     lines = (tmp_path / "clip.csv").read_text().splitlines()
     for frame, column in edits:
         cells = lines[frame + 1].split(",")
@@ -122,15 +129,16 @@ def test_edited_csv_changes_only_the_edited_values(tmp_path):
                 assert a == b
     # Everything outside the frame rows is the template's text.
     text = SAMPLE.read_bytes()
-    assert (tmp_path / "back.bvh").read_bytes().startswith(text[:text.index(b"Frame Time")])
+    assert (tmp_path / "back.bvh").read_bytes().startswith(text[: text.index(b"Frame Time")])
 
 
 def test_modified_motion_via_csv_equals_direct_bvh(tmp_path):
     clip = mc.load(SAMPLE)
     tilt = quat.from_axis_angle(np.array([0.0, 0.6, 0.8]), np.deg2rad(7.0))
     shift = np.where(clip.layout.has_position[:, None], 0.25, 0.0)
-    moved = clip.replace(rotations=quat.multiply(clip.rotations, tilt),
-                         translations=clip.translations + shift)
+    moved = clip.replace(
+        rotations=quat.multiply(clip.rotations, tilt), translations=clip.translations + shift
+    )
     mc.save(moved, tmp_path / "direct.bvh")
     mc.save(moved, tmp_path / "moved.csv")
     back = mc.load(tmp_path / "moved.csv", skeleton=clip)
@@ -156,8 +164,9 @@ def test_channel_csv_without_skeleton_is_a_flat_clip(tmp_path):
     # CSV to CSV keeps the file; a changed clip rewrites only what changed, exactly.
     mc.save(flat, tmp_path / "same.csv")
     assert (tmp_path / "same.csv").read_bytes() == (tmp_path / "clip.csv").read_bytes()
-    turned = flat.replace(rotations=quat.multiply(
-        flat.rotations, quat.from_axis_angle(np.array([1.0, 0, 0]), 0.3)))
+    turned = flat.replace(
+        rotations=quat.multiply(flat.rotations, quat.from_axis_angle(np.array([1.0, 0, 0]), 0.3))
+    )
     mc.save(turned, tmp_path / "turned.csv")
     again = mc.load(tmp_path / "turned.csv")
     np.testing.assert_array_equal(again.source_values, turned.channel_values())
@@ -192,11 +201,13 @@ def test_frame_time_change_rewrites_the_time_column(tmp_path):
 
 def test_channel_csv_text_variants(tmp_path):
     """BOM, CRLF, spaces, blank lines, no frame column and a quoted name with a comma."""
-    text = ('\ufefftime, "Hip,s.Xposition", "Hip,s.Zrotation","Hip,s.Xrotation",'
-            '"Hip,s.Yrotation"\r\n'
-            "0, 1.5, 10, 20, 30\r\n\r\n"
-            " 0.25 ,1.5e0,11,21,31\r\n"
-            "0.5,1.5,12,22,32\r\n\r\n")
+    text = (
+        '\ufefftime, "Hip,s.Xposition", "Hip,s.Zrotation","Hip,s.Xrotation",'
+        '"Hip,s.Yrotation"\r\n'
+        "0, 1.5, 10, 20, 30\r\n\r\n"
+        " 0.25 ,1.5e0,11,21,31\r\n"
+        "0.5,1.5,12,22,32\r\n\r\n"
+    )
     path = tmp_path / "clip.csv"
     path.write_bytes(text.encode("utf-8"))
     clip = mc.load(path)
@@ -238,14 +249,17 @@ def rigid_table(n_frames: int, n_bodies: int, seed: int, frame_time: float = 1 /
     """Smooth random rigid-body tracks: times, positions, and quaternions of random
     norm and random sign (as some trackers emit them)."""
     rng = np.random.default_rng(seed)
-    steps = quat.from_axis_angle(quat.normalize(rng.normal(size=(n_frames, n_bodies, 3))),
-                                 rng.uniform(0, 0.2, (n_frames, n_bodies)))
+    steps = quat.from_axis_angle(
+        quat.normalize(rng.normal(size=(n_frames, n_bodies, 3))),
+        rng.uniform(0, 0.2, (n_frames, n_bodies)),
+    )
     q = np.empty((n_frames, n_bodies, 4))
     q[0] = quat.normalize(rng.normal(size=(n_bodies, 4)))
     for i in range(1, n_frames):  # a test fixture, not a hot path
         q[i] = quat.multiply(q[i - 1], steps[i])
-    q *= rng.choice([-1.0, 1.0], (n_frames, n_bodies, 1)) * rng.uniform(0.5, 2, (n_frames,
-                                                                               n_bodies, 1))
+    q *= rng.choice([-1.0, 1.0], (n_frames, n_bodies, 1)) * rng.uniform(
+        0.5, 2, (n_frames, n_bodies, 1)
+    )
     p = np.cumsum(rng.normal(scale=0.01, size=(n_frames, n_bodies, 3)), axis=0)
     return np.arange(n_frames) * frame_time, p, q
 
@@ -291,8 +305,12 @@ def test_rigid_columns_in_any_order(tmp_path):
 
 
 @settings(max_examples=15, deadline=None)
-@given(seed=st.integers(0, 2**32 - 1), n_frames=st.integers(2, 40), n_bodies=st.integers(1, 4),
-       changed=st.floats(0.0, 1.0))
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_frames=st.integers(2, 40),
+    n_bodies=st.integers(1, 4),
+    changed=st.floats(0.0, 1.0),
+)
 def test_rigid_round_trip_is_exact(tmp_path_factory, seed, n_frames, n_bodies, changed):
     folder = tmp_path_factory.mktemp("rigid")
     times, p, q = rigid_table(n_frames, n_bodies, seed)
@@ -303,12 +321,15 @@ def test_rigid_round_trip_is_exact(tmp_path_factory, seed, n_frames, n_bodies, c
 
     rng = np.random.default_rng(seed)
     pick = rng.uniform(size=(n_frames, n_bodies)) < changed
-    turn = quat.from_axis_angle(quat.normalize(rng.normal(size=(n_frames, n_bodies, 3))),
-                                rng.uniform(0, 3, (n_frames, n_bodies)))
+    turn = quat.from_axis_angle(
+        quat.normalize(rng.normal(size=(n_frames, n_bodies, 3))),
+        rng.uniform(0, 3, (n_frames, n_bodies)),
+    )
     rotations = np.where(pick[..., None], quat.multiply(clip.rotations, turn), clip.rotations)
-    moved = clip.replace(rotations=quat.make_continuous(rotations),
-                         translations=np.where(pick[..., None], clip.translations * 1.1 + 0.3,
-                                               clip.translations))
+    moved = clip.replace(
+        rotations=quat.make_continuous(rotations),
+        translations=np.where(pick[..., None], clip.translations * 1.1 + 0.3, clip.translations),
+    )
     mc.save(moved, folder / "moved.csv")
     back = mc.load(folder / "moved.csv")
     np.testing.assert_array_equal(back.rotations, moved.rotations)
@@ -318,8 +339,9 @@ def test_rigid_round_trip_is_exact(tmp_path_factory, seed, n_frames, n_bodies, c
     kept = ~pick.any(axis=1)
     before = (folder / "in.csv").read_text().splitlines()[1:]
     after = (folder / "moved.csv").read_text().splitlines()[1:]
-    assert [a for a, k in zip(after, kept, strict=True) if k] == \
-        [b for b, k in zip(before, kept, strict=True) if k]
+    assert [a for a, k in zip(after, kept, strict=True) if k] == [
+        b for b, k in zip(before, kept, strict=True) if k
+    ]
     # And a second save of the re-read clip is byte-identical.
     mc.save(back, folder / "again.csv")
     assert (folder / "again.csv").read_bytes() == (folder / "moved.csv").read_bytes()

@@ -91,18 +91,24 @@ def test_default_clean_estimates_the_planted_noise_and_removes_it(planted, tmp_p
     error_in = rms_error_deg(noisy, truth, keep)
     error_despike = rms_error_deg(despiked, truth, keep)
     error_out = rms_error_deg(cleaned, truth, keep)
-    assert np.all(error_out < error_in), [n for n, e, i in
-                                          zip(names, error_out, error_in, strict=True) if e >= i]
-    total = {name: math.sqrt(np.mean(e**2)) for name, e in
-             (("in", error_in), ("despike", error_despike), ("out", error_out))}
+    assert np.all(error_out < error_in), [
+        n for n, e, i in zip(names, error_out, error_in, strict=True) if e >= i
+    ]
+    total = {
+        name: math.sqrt(np.mean(e**2))
+        for name, e in (("in", error_in), ("despike", error_despike), ("out", error_out))
+    }
     assert total["out"] < 0.6 * total["in"]
     assert total["out"] < 0.6 * total["despike"]
     # most of the angular acceleration was the noise
     assert report["summary"]["noise_reduction"] > 0.5
 
     def position_error(m: mc.Motion) -> float:
-        return float(np.sqrt(np.mean(np.sum((m.translations[:, 0]
-                                             - truth.translations[:, 0]) ** 2, axis=-1))))
+        return float(
+            np.sqrt(
+                np.mean(np.sum((m.translations[:, 0] - truth.translations[:, 0]) ** 2, axis=-1))
+            )
+        )
 
     assert position_error(cleaned) < 0.6 * position_error(noisy)
     assert position_error(cleaned) < 0.6 * position_error(despiked)

@@ -49,8 +49,7 @@ def test_savgol_matches_the_classical_tables():
     # Savitzky & Golay (1964): 5-point quadratic (-3, 12, 17, 12, -3) / 35,
     # 7-point quadratic (-2, 3, 6, 7, 6, 3, -2) / 21; degree 0 is the moving average.
     np.testing.assert_allclose(savgol(2, 2), np.array([-3, 12, 17, 12, -3]) / 35, atol=1e-14)
-    np.testing.assert_allclose(savgol(3, 3), np.array([-2, 3, 6, 7, 6, 3, -2]) / 21,
-                               atol=1e-14)
+    np.testing.assert_allclose(savgol(3, 3), np.array([-2, 3, 6, 7, 6, 3, -2]) / 21, atol=1e-14)
     np.testing.assert_allclose(savgol(4, 0), np.full(9, 1 / 9), atol=1e-15)
     np.testing.assert_allclose(savgol(3, 6), np.eye(7)[3], atol=1e-12)  # interpolates
 
@@ -112,8 +111,10 @@ def test_lowpass_shorter_mask_rolls_off_more_gently():
     assert short_gain[0] == pytest.approx(1.0, abs=1e-12)
 
 
-@pytest.mark.parametrize(("cutoff", "rate"), [(0.0, 120.0), (-1.0, 120.0), (60.0, 120.0),
-                                              (20.0, 30.0), (5.0, 0.0), (math.nan, 30.0)])
+@pytest.mark.parametrize(
+    ("cutoff", "rate"),
+    [(0.0, 120.0), (-1.0, 120.0), (60.0, 120.0), (20.0, 30.0), (5.0, 0.0), (math.nan, 30.0)],
+)
 def test_lowpass_rejects_cutoffs_outside_the_band(cutoff, rate):
     with pytest.raises(MaskError):
         lowpass(cutoff, rate)
@@ -138,9 +139,11 @@ def test_lowpass_on_orientations_means_a_cutoff_in_hz():
 # ----------------------------------------------------------------------------- with lee_shin
 
 
-@pytest.mark.parametrize("mask", [savgol(4, 2), savgol(10, 4), lowpass(8.0, 120.0),
-                                  lowpass(5.0, 30.0)], ids=["sg4-2", "sg10-4", "lp8@120",
-                                                            "lp5@30"])
+@pytest.mark.parametrize(
+    "mask",
+    [savgol(4, 2), savgol(10, 4), lowpass(8.0, 120.0), lowpass(5.0, 30.0)],
+    ids=["sg4-2", "sg10-4", "lp8@120", "lp5@30"],
+)
 def test_constant_angular_velocity_is_a_fixed_point(mask):
     q = constant_velocity(90)
     out = lee_shin(q, mask, iterations=2)

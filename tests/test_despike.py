@@ -19,8 +19,17 @@ from motionclean.filters.despike import (
 )
 
 # Joints of the sample clip with real motion and no defect (RThumb has real flips).
-CLEAN = ["Hips", "LeftHip", "LeftKnee", "RightAnkle", "Chest", "Head", "LeftShoulder",
-         "RightElbow", "RightWrist"]
+CLEAN = [
+    "Hips",
+    "LeftHip",
+    "LeftKnee",
+    "RightAnkle",
+    "Chest",
+    "Head",
+    "LeftShoulder",
+    "RightElbow",
+    "RightWrist",
+]
 
 
 @pytest.fixture(scope="module")
@@ -51,12 +60,16 @@ def random_axes(rng, n):
 
 # Planted defects per column c (the last column stays clean): (start, length) pairs at
 # 120 fps, and on the same clip kept at every 4th frame (30 fps, 75 frames).
-FLIPS = {1: lambda c: ((40 + 23 * c, 1 + c % 4), (200 + 7 * c, 4 - c % 4)),
-         4: lambda c: ((5 + 3 * c, 1 + c % 4), (40 + 3 * c, 4 - c % 4))}
+FLIPS = {
+    1: lambda c: ((40 + 23 * c, 1 + c % 4), (200 + 7 * c, 4 - c % 4)),
+    4: lambda c: ((5 + 3 * c, 1 + c % 4), (40 + 3 * c, 4 - c % 4)),
+}
 # Spikes last at most max_spike_s (70 ms): up to 4 frames at 120 fps, 2 at 30 fps. At
 # 30 fps a joint's own steps reach 30 degrees, so the kicks there are larger.
-SPIKES = {1: (lambda c: ((30 + 17 * c, 1 + c % 4), (170 + 11 * c, 1 + (c + 2) % 4)), 40.0),
-          4: (lambda c: ((6 + 3 * c, 1 + c % 2), (40 + 3 * c, 2 - c % 2)), 60.0)}
+SPIKES = {
+    1: (lambda c: ((30 + 17 * c, 1 + c % 4), (170 + 11 * c, 1 + (c + 2) % 4)), 40.0),
+    4: (lambda c: ((6 + 3 * c, 1 + c % 2), (40 + 3 * c, 2 - c % 2)), 60.0),
+}
 
 
 @pytest.mark.parametrize("every", [1, 4], ids=["120fps", "30fps"])
@@ -69,7 +82,7 @@ def test_planted_flips_are_undone_and_nothing_else_moves(clip, side, every):
     half_turns = quat.from_axis_angle(random_axes(rng, q.shape[1]), np.pi)
     for c in range(q.shape[1] - 1):  # the last column stays clean
         for start, length in FLIPS[every](c):
-            planted[start:start + length, c] = True
+            planted[start : start + length, c] = True
     f = np.broadcast_to(half_turns, q.shape)
     flipped = quat.multiply(f, q) if side == "parent" else quat.multiply(q, f)
     q = np.where(planted[..., None], flipped, q)
@@ -80,7 +93,7 @@ def test_planted_flips_are_undone_and_nothing_else_moves(clip, side, every):
     assert not report.interpolated.any()
     # The half-turn axis is estimated from the flip steps, which also hold a frame of
     # genuine motion: four times more of it at 30 fps.
-    assert degrees_between(out, truth).max() < 3.0 * every ** 0.5
+    assert degrees_between(out, truth).max() < 3.0 * every**0.5
     np.testing.assert_array_equal(out[:, -1], q[:, -1])  # bit for bit
 
 
@@ -94,8 +107,9 @@ def test_planted_spikes_are_interpolated_close_to_the_truth(clip, every):
     for c in range(q.shape[1] - 1):
         for start, length in places(c):
             rows = slice(start, start + length)
-            kick = quat.from_axis_angle(random_axes(rng, length), np.deg2rad(
-                rng.uniform(smallest, 120.0, size=length)))
+            kick = quat.from_axis_angle(
+                random_axes(rng, length), np.deg2rad(rng.uniform(smallest, 120.0, size=length))
+            )
             q[rows, c] = quat.multiply(q[rows, c], kick)
             planted[rows, c] = True
 
@@ -144,12 +158,15 @@ def bump(fps, sigma_s):
     """70 degrees out and back as a Gaussian of ``sigma_s`` seconds, on a slow swing."""
     t = np.arange(-fps, fps) / fps
     angle = np.deg2rad(70.0) * np.exp(-0.5 * (t / sigma_s) ** 2) + np.deg2rad(20.0) * np.sin(
-        np.pi * t)
+        np.pi * t
+    )
     return quat.from_axis_angle([0.6, 0.0, 0.8], angle)[:, None]
 
 
-@pytest.mark.parametrize("fps, sigma_ms", [(120, 20), (120, 30), (60, 20), (60, 30),
-                                            (30, 30), (30, 40), (24, 30), (24, 40)])
+@pytest.mark.parametrize(
+    "fps, sigma_ms",
+    [(120, 20), (120, 30), (60, 20), (60, 30), (30, 30), (30, 40), (24, 30), (24, 40)],
+)
 def test_fast_genuine_excursion_is_left_untouched_at_any_rate(fps, sigma_ms):
     """A joint flexing 70 degrees out and back within about 100 ms (peak 1000-2100 deg/s,
     like a toe at push-off) is motion, not a spike: at 30 fps it spans 3 to 5 frames, with
@@ -184,8 +201,15 @@ def test_without_unflip_short_flips_are_interpolated(clip):
 
 def test_steps_above_the_cap_are_spread_until_under_it():
     """A ragged transition: 150 degrees in 3 frames that never comes back."""
-    angle = np.deg2rad(np.concatenate([np.arange(100) * 0.5, 49.5 + np.array([40.0, 95.0, 150.0]),
-                                       199.5 + np.arange(97) * 0.5]))
+    angle = np.deg2rad(
+        np.concatenate(
+            [
+                np.arange(100) * 0.5,
+                49.5 + np.array([40.0, 95.0, 150.0]),
+                199.5 + np.arange(97) * 0.5,
+            ]
+        )
+    )
     q = quat.from_axis_angle([1.0, 0.0, 0.0], angle)[:, None]
     out, report = despike_with_report(q, 1 / 120, max_deg_per_s=2400.0)
     steps = degrees_between(out[:-1], out[1:])
@@ -198,8 +222,9 @@ def test_steps_above_the_cap_are_spread_until_under_it():
 def test_constant_angular_velocity_is_rebuilt_exactly_across_a_spike():
     n = 60
     omega = np.deg2rad(4.0) * np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
-    q = quat.multiply(quat.from_euler([10.0, -20.0, 30.0], "ZXY"),
-                      quat.exp(0.5 * np.arange(n)[:, None] * omega))
+    q = quat.multiply(
+        quat.from_euler([10.0, -20.0, 30.0], "ZXY"), quat.exp(0.5 * np.arange(n)[:, None] * omega)
+    )
     spiked = q.copy()
     spiked[30:33] = quat.multiply(spiked[30:33], quat.from_axis_angle([1.0, 0.0, 0.0], 1.2))
     for method in ("cubic", "slerp"):
@@ -216,8 +241,9 @@ def test_cubic_weights_are_the_four_point_scheme():
     c = _lagrange(t, left, right)
     knots = [left - 1, left, right, right + 1]
     for power in range(4):
-        np.testing.assert_allclose(sum(cj * k**power for cj, k in zip(c, knots, strict=True)),
-                                   t**power, rtol=1e-12)
+        np.testing.assert_allclose(
+            sum(cj * k**power for cj, k in zip(c, knots, strict=True)), t**power, rtol=1e-12
+        )
 
 
 @pytest.mark.parametrize("profile", ["constant", "smooth"])
@@ -255,8 +281,9 @@ def test_sign_and_layout_do_not_matter(clip):
     np.testing.assert_array_equal(out_signed[:, clean], (q * signs)[:, clean])
     # Columns are independent and trailing axes are only a layout.
     pairs = q[:, :30].reshape(q.shape[0], 15, 2, 4)
-    np.testing.assert_array_equal(despike(pairs, clip.frame_time).reshape(q.shape[0], 30, 4),
-                                  out[:, :30])
+    np.testing.assert_array_equal(
+        despike(pairs, clip.frame_time).reshape(q.shape[0], 30, 4), out[:, :30]
+    )
     thumb = clip.names.index("RThumb")
     np.testing.assert_array_equal(despike(q[:, [thumb]], clip.frame_time)[:, 0], out[:, thumb])
 
@@ -328,11 +355,21 @@ def test_position_cap_spreads_a_permanent_jump():
     assert report.max_step_after[0] <= 1.0 + 1e-12 < report.max_step_before[0]
 
 
-@pytest.mark.parametrize("bad", [
-    dict(threshold=-1.0), dict(max_deg_per_s=0.0), dict(min_deg_per_s=5000.0),
-    dict(max_run=0), dict(max_run=2.5), dict(flip_deg=80.0), dict(method="linear"),
-    dict(max_spike_s=0.0), dict(max_spike_s=np.nan), dict(trend_ratio=-1.0),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(threshold=-1.0),
+        dict(max_deg_per_s=0.0),
+        dict(min_deg_per_s=5000.0),
+        dict(max_run=0),
+        dict(max_run=2.5),
+        dict(flip_deg=80.0),
+        dict(method="linear"),
+        dict(max_spike_s=0.0),
+        dict(max_spike_s=np.nan),
+        dict(trend_ratio=-1.0),
+    ],
+)
 def test_invalid_parameters_are_refused(bad):
     with pytest.raises(ValueError):
         despike(quat.identity((5, 1)), 1 / 120, **bad)

@@ -49,8 +49,9 @@ def test_columns_are_repaired_independently(every):
         alone, alone_report = despike_with_report(q[:, c : c + 1], dt)
         np.testing.assert_allclose(out[:, c], alone[:, 0], rtol=0, atol=1e-15)
         for kind in ("unflipped", "interpolated"):
-            np.testing.assert_array_equal(getattr(report, kind)[:, c],
-                                          getattr(alone_report, kind)[:, 0])
+            np.testing.assert_array_equal(
+                getattr(report, kind)[:, c], getattr(alone_report, kind)[:, 0]
+            )
         assert report.threshold[c] == alone_report.threshold[0]
         assert report.max_step_after[c] == alone_report.max_step_after[0]
 
@@ -86,8 +87,7 @@ def test_tabulated_weights_are_the_closed_form():
     # The four-point weights reproduce cubics, e.g. 1 and the frame number itself.
     c0, c1, c2, c3 = _weights(a[short], span[short])
     np.testing.assert_allclose(c0 + c1 + c2 + c3, 1.0, atol=1e-12)
-    np.testing.assert_allclose(-c0 + c2 * span[short] + c3 * (span[short] + 1), a[short],
-                               atol=1e-9)
+    np.testing.assert_allclose(-c0 + c2 * span[short] + c3 * (span[short] + 1), a[short], atol=1e-9)
 
 
 def test_shorter_log_takes_the_short_arc():

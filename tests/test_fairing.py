@@ -79,7 +79,12 @@ def test_fairing_stays_within_epsilon_r_random(order, lam_r, epsilon_r):
     rng = np.random.default_rng(order * 100 + int(lam_r * 10) + int(epsilon_r * 1000))
     q = noisy_rotations(rng, 150, (3, 2), noise=0.002)
     out, iterations = fairing(
-        q, order=order, lam_r=lam_r, epsilon_r=epsilon_r, tol=0.0, max_iterations=400,
+        q,
+        order=order,
+        lam_r=lam_r,
+        epsilon_r=epsilon_r,
+        tol=0.0,
+        max_iterations=400,
         return_iterations=True,
     )
     assert out.shape == q.shape and iterations.shape == (3, 2)
@@ -94,7 +99,12 @@ def test_fairing_positions_stay_within_epsilon_t_random(order, epsilon_t):
     rng = np.random.default_rng(7 + order)
     p = noisy_positions(rng, 200, (4,), noise=0.002)
     out, iterations = fairing_positions(
-        p, order=order, lam_t=0.5, epsilon_t=epsilon_t, tol=0.0, max_iterations=3000,
+        p,
+        order=order,
+        lam_t=0.5,
+        epsilon_t=epsilon_t,
+        tol=0.0,
+        max_iterations=3000,
         return_iterations=True,
     )
     assert np.all(np.linalg.norm(out - p, axis=-1) < epsilon_t)
@@ -107,7 +117,12 @@ def test_fairing_returns_the_last_iterate_inside_the_bound():
     q = noisy_rotations(rng, 80, (4,), noise=0.005)
     eps = 0.02
     out, iterations = fairing(
-        q, order=3, lam_r=0.2, epsilon_r=eps, tol=0.0, max_iterations=400,
+        q,
+        order=3,
+        lam_r=0.2,
+        epsilon_r=eps,
+        tol=0.0,
+        max_iterations=400,
         return_iterations=True,
     )
     for j in range(q.shape[1]):
@@ -222,10 +237,12 @@ def test_fairing_positions_rigid_and_scale_invariance():
     r = quat.as_matrix(random_rotation(rng))
     t = np.array([3.0, -7.0, 11.0])
     out = fairing_positions(p, 3, 0.5, 0.4)
-    np.testing.assert_allclose(fairing_positions(p @ r.T + t, 3, 0.5, 0.4), out @ r.T + t,
-                               atol=1e-9)
-    np.testing.assert_allclose(fairing_positions(25.0 * p, 3, 0.5, 25.0 * 0.4), 25.0 * out,
-                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        fairing_positions(p @ r.T + t, 3, 0.5, 0.4), out @ r.T + t, atol=1e-9
+    )
+    np.testing.assert_allclose(
+        fairing_positions(25.0 * p, 3, 0.5, 25.0 * 0.4), 25.0 * out, rtol=1e-12, atol=1e-9
+    )
 
 
 def test_sse_fairing_coordinate_invariance():
@@ -253,8 +270,9 @@ def test_sse_fairing_positions_rigid_and_scale_invariance():
     assert np.abs(out - p).max() > 0.1  # the test is not about an unchanged signal
     r = quat.as_matrix(random_rotation(rng))
     t = np.array([-2.0, 5.0, 1.0])
-    np.testing.assert_allclose(sse_fairing_positions(p @ r.T + t, 3.0, 0.0, 40),
-                               out @ r.T + t, atol=1e-10)
+    np.testing.assert_allclose(
+        sse_fairing_positions(p @ r.T + t, 3.0, 0.0, 40), out @ r.T + t, atol=1e-10
+    )
 
 
 # ------------------------------------------------------------------ 004: objective
@@ -330,8 +348,9 @@ def test_sse_objective_falls_every_step():
         assert np.all(np.diff(g, axis=0)[steps > 0] < 0.0)
         assert np.all(np.diff(g, axis=0)[steps == 0] == 0.0)  # a stopped signal stays put
     p = noisy_positions(rng, 60, (2,))
-    f = [sse_objective_positions(sse_fairing_positions(p, 3.0, 0.0, k), p, 3.0)
-         for k in range(0, 25)]
+    f = [
+        sse_objective_positions(sse_fairing_positions(p, 3.0, 0.0, k), p, 3.0) for k in range(0, 25)
+    ]
     assert np.all(np.diff(f, axis=0) < 0.0)
 
 

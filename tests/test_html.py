@@ -66,9 +66,18 @@ class Page(HTMLParser):
 
 def external_resources(text: str) -> list[str]:
     """Anything a browser would fetch or follow outside the page."""
-    patterns = [r"""\b(?:src|href|action|poster|data)\s*=\s*["']?\s*(?:https?:|//|file:|ftp:)""",
-                r"<script\b", r"<link\b", r"<iframe\b", r"<object\b", r"<embed\b", r"<img\b",
-                r"@import", r"url\(", r"""xlink:href"""]
+    patterns = [
+        r"""\b(?:src|href|action|poster|data)\s*=\s*["']?\s*(?:https?:|//|file:|ftp:)""",
+        r"<script\b",
+        r"<link\b",
+        r"<iframe\b",
+        r"<object\b",
+        r"<embed\b",
+        r"<img\b",
+        r"@import",
+        r"url\(",
+        r"""xlink:href""",
+    ]
     return [p for p in patterns if re.search(p, text, flags=re.IGNORECASE)]
 
 
@@ -89,12 +98,12 @@ def test_report_page_is_valid_self_contained_and_plots_every_moving_joint(cleane
     assert page.stack == [], "unclosed elements"
     assert external_resources(text) == []
     svgs = [a for t, a in page.tags if t == "svg" and "plot" in a.get("class", "")]
-    moving = [n for n in noisiest(report)
-              if report["joints"][n]["angular_accel_rms"]["before"] > 0]
+    moving = [n for n in noisiest(report) if report["joints"][n]["angular_accel_rms"]["before"] > 0]
     assert [a["data-joint"] for a in svgs] == moving  # one per joint, noisiest first
     series = [a["data-series"] for t, a in page.tags if t == "path"]
-    assert series.count("before") == series.count("after") == series.count("deviation") \
-        == len(moving)
+    assert (
+        series.count("before") == series.count("after") == series.count("deviation") == len(moving)
+    )
     body = "".join(page.text)
     assert all(f"{step['filter']}" in body for step in report["pipeline"])
     assert f"{report['summary']['noise_reduction']:.1%}" in body
@@ -124,8 +133,10 @@ def test_page_size_does_not_grow_with_clip_length(cleaned):
     motion, _, _ = cleaned
     sizes = []
     for repeats in (8, 40):  # 2,400 and 12,000 frames
-        long = motion.replace(rotations=np.tile(motion.rotations, (repeats, 1, 1)),
-                              translations=np.tile(motion.translations, (repeats, 1, 1)))
+        long = motion.replace(
+            rotations=np.tile(motion.rotations, (repeats, 1, 1)),
+            translations=np.tile(motion.translations, (repeats, 1, 1)),
+        )
         smooth, _ = Pipeline.default().run(long)
         report = build_report(long, smooth, [], None, "long.bvh")
         sizes.append(len(render_html(report, build_series(long, smooth))))
@@ -162,12 +173,26 @@ def test_json_report_is_unchanged_by_series(cleaned):
 
 def test_index_page_links_only_to_sibling_pages():
     entries = [
-        {"file": "walk/a.bvh", "href": "walk/a.bvh.html", "frames": 300,
-         "noise_before": 100.0, "noise_after": 20.0, "deviation_max": 1.5, "status": "ok",
-         "error": None},
-        {"file": "bad <1>.bvh", "href": None, "frames": None, "noise_before": None,
-         "noise_after": None, "deviation_max": None, "status": "failed",
-         "error": "bad <1>.bvh:3: truncated"},
+        {
+            "file": "walk/a.bvh",
+            "href": "walk/a.bvh.html",
+            "frames": 300,
+            "noise_before": 100.0,
+            "noise_after": 20.0,
+            "deviation_max": 1.5,
+            "status": "ok",
+            "error": None,
+        },
+        {
+            "file": "bad <1>.bvh",
+            "href": None,
+            "frames": None,
+            "noise_before": None,
+            "noise_after": None,
+            "deviation_max": None,
+            "status": "failed",
+            "error": "bad <1>.bvh:3: truncated",
+        },
     ]
     text = render_index(entries, Pipeline.default().describe(), "batch")
     page = Page(text)
@@ -189,7 +214,7 @@ def test_envelope_keeps_every_column_extreme(n):
     assert low.min() == values.min() and high.max() == values.max()
     edges = (np.arange(columns + 1) * n) // columns
     for c in (0, columns // 2, columns - 1):
-        chunk = values[edges[c]:edges[c + 1]]
+        chunk = values[edges[c] : edges[c + 1]]
         assert low[c] == chunk.min() and high[c] == chunk.max()
         assert edges[c] <= position[c] <= edges[c + 1] - 1
 
@@ -200,9 +225,9 @@ def test_series_match_the_report_figures(cleaned):
     for name, data in series["joints"].items():
         entry = report["joints"][name]
         assert np.sqrt(np.mean(data["accel_after"] ** 2)) == pytest.approx(
-            entry["angular_accel_rms"]["after"], rel=1e-12)
-        assert data["deviation"].max() == pytest.approx(entry["deviation_deg"]["max"],
-                                                        rel=1e-12)
+            entry["angular_accel_rms"]["after"], rel=1e-12
+        )
+        assert data["deviation"].max() == pytest.approx(entry["deviation_deg"]["max"], rel=1e-12)
         assert data["deviation"].shape == (motion.n_frames,)
 
 
@@ -211,8 +236,9 @@ def test_rotation_noise_shows_in_the_plot_order():
     j = motion.names.index("LeftKnee")
     rotations = motion.rotations.copy()
     rng = np.random.default_rng(0)
-    rotations[:, j] = quat.multiply(rotations[:, j],
-                                    quat.exp(rng.normal(scale=0.3, size=(motion.n_frames, 3))))
+    rotations[:, j] = quat.multiply(
+        rotations[:, j], quat.exp(rng.normal(scale=0.3, size=(motion.n_frames, 3)))
+    )
     noisy = motion.replace(rotations=rotations)
     report = build_report(noisy, None, None, None, "x.bvh")
     text = render_html(report, build_series(noisy))
@@ -241,9 +267,19 @@ def test_renders_in_a_headless_browser(cleaned, tmp_path):
     assert (width, height) == (1366, 900)
     # the DOM the browser built: one plot per moving joint, noisiest first, three series each
     with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
-        done = subprocess.run([screenshot_report.find_browser(), *screenshot_report.FLAGS,
-                               f"--user-data-dir={profile}", "--dump-dom", page.as_uri()],
-                              capture_output=True, text=True, timeout=60, check=False)
+        done = subprocess.run(
+            [
+                screenshot_report.find_browser(),
+                *screenshot_report.FLAGS,
+                f"--user-data-dir={profile}",
+                "--dump-dom",
+                page.as_uri(),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
     dom = Page(done.stdout)
     plots = [a["data-joint"] for t, a in dom.tags if t == "svg" and "plot" in a.get("class", "")]
     moving = [n for n in noisiest(report) if report["joints"][n]["angular_accel_rms"]["before"] > 0]

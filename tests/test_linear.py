@@ -80,8 +80,11 @@ def signal(request) -> np.ndarray:
 # ----------------------------------------------------------------------------- Prop. 1-3
 
 
-@pytest.mark.parametrize("mask", [binomial(2), smoothing(0.5), high_boost(0.5), ASYMMETRIC],
-                         ids=["binomial", "smoothing", "high_boost", "asymmetric"])
+@pytest.mark.parametrize(
+    "mask",
+    [binomial(2), smoothing(0.5), high_boost(0.5), ASYMMETRIC],
+    ids=["binomial", "smoothing", "high_boost", "asymmetric"],
+)
 @pytest.mark.parametrize("iterations", [1, 3])
 def test_coordinate_invariance_both_sides(signal, mask, iterations):
     # 000 Prop. 1: H(a q b) = a H(q) b for a global a and a per-joint (local) b.
@@ -193,8 +196,10 @@ def test_no_drift_a_local_change_stays_local(iterations):
     before, after = lee_shin(q, mask, iterations), lee_shin(bumped, mask, iterations)
     outside = np.r_[0 : j - reach, j + reach + 1 : q.shape[0]]
     np.testing.assert_array_equal(after[outside], before[outside])
-    assert np.all(quat.angle_between(after[j - reach : j + reach + 1],
-                                     before[j - reach : j + reach + 1]) > 1e-9)
+    assert np.all(
+        quat.angle_between(after[j - reach : j + reach + 1], before[j - reach : j + reach + 1])
+        > 1e-9
+    )
     drift = quat.angle_between(cumulative_filter(bumped, mask)[-1], cumulative_filter(q, mask)[-1])
     assert np.all(drift > 1e-3)
 
@@ -256,8 +261,9 @@ def test_displacement_coefficients_eq_20():
         np.testing.assert_allclose(p[k:-k] + gain, np.convolve(p, a[::-1], "valid"), atol=1e-13)
 
 
-@pytest.mark.parametrize("mask", [binomial(2), ASYMMETRIC, gaussian(1.5)],
-                         ids=["binomial", "asymmetric", "gaussian"])
+@pytest.mark.parametrize(
+    "mask", [binomial(2), ASYMMETRIC, gaussian(1.5)], ids=["binomial", "asymmetric", "gaussian"]
+)
 @pytest.mark.parametrize("iterations", [1, 2])
 def test_vector_counterpart_is_convolution_in_the_interior(mask, iterations):
     rng = np.random.default_rng(8)
@@ -286,8 +292,9 @@ def test_shapes_short_signals_and_argument_checks():
     np.testing.assert_array_equal(out.reshape(40, 6, 4), lee_shin(q.reshape(40, 6, 4), binomial(2)))
     np.testing.assert_array_equal(lee_shin(q[:, 0, 0], binomial(2)), out[:, 0, 0])  # (F, 4)
     strided = np.asfortranarray(q)[::2]
-    np.testing.assert_array_equal(lee_shin(strided, binomial(1)),
-                                  lee_shin(q[::2].copy(), binomial(1)))
+    np.testing.assert_array_equal(
+        lee_shin(strided, binomial(1)), lee_shin(q[::2].copy(), binomial(1))
+    )
     one = random_rotations(rng, (1, 3))
     np.testing.assert_array_equal(lee_shin(one, binomial(2)), one)
     np.testing.assert_array_equal(lee_shin(q, custom([1.0])), q)  # identity mask
@@ -317,8 +324,15 @@ def motion_section(path: Path) -> bytes:
 @pytest.mark.parametrize("clip", CORPUS_CLIPS, ids=lambda p: p.stem)
 def test_cli_clean_matches_lee_shin_on_corpus(clip, tmp_path):
     out_path = tmp_path / "clean.bvh"
-    run_cli("clean", str(clip), "-o", str(out_path), "-q",
-            "-f", "lee-shin:mask=binomial,k=2,iterations=5")
+    run_cli(
+        "clean",
+        str(clip),
+        "-o",
+        str(out_path),
+        "-q",
+        "-f",
+        "lee-shin:mask=binomial,k=2,iterations=5",
+    )
     source, cleaned = mc.load(clip), mc.load(out_path)
     has_rot = source.layout.has_rotation
     expected = lee_shin(source.rotations, binomial(2), 5)
@@ -333,6 +347,7 @@ def test_cli_clean_matches_lee_shin_on_corpus(clip, tmp_path):
 @pytest.mark.parametrize("clip", [SAMPLE, *CORPUS_CLIPS], ids=lambda p: p.stem)
 def test_identity_step_writes_the_input_motion_unchanged(clip, tmp_path):
     out_path = tmp_path / "same.bvh"
-    run_cli("clean", str(clip), "-o", str(out_path), "-q",
-            "-f", "lee-shin:mask=custom,coefficients=[1]")
+    run_cli(
+        "clean", str(clip), "-o", str(out_path), "-q", "-f", "lee-shin:mask=custom,coefficients=[1]"
+    )
     assert motion_section(out_path) == motion_section(clip)

@@ -64,8 +64,6 @@ CASES = {
 }
 
 
-
-
 def assert_one_error(err: str, path: str, line: int | None, fragment: str) -> None:
     lines = err.splitlines()
     assert len(lines) == 1, err
@@ -129,8 +127,10 @@ def test_directory_as_target(tmp_path, capsys):
 
 def test_channel_csv_to_bvh_needs_skeleton(tmp_path, capsys):
     source = tmp_path / "clip.csv"
-    source.write_text("frame,time,Hips.Xposition,Hips.Zrotation,Hips.Xrotation,Hips.Yrotation\n"
-                      "0,0,1,2,3,4\n1,0.5,1,2,3,4\n")
+    source.write_text(
+        "frame,time,Hips.Xposition,Hips.Zrotation,Hips.Xrotation,Hips.Yrotation\n"
+        "0,0,1,2,3,4\n1,0.5,1,2,3,4\n"
+    )
     target = tmp_path / "out.bvh"
     code, _, err = run_cli(capsys, *["convert", str(source), str(target)])
     assert code == 1
@@ -141,24 +141,33 @@ def test_channel_csv_to_bvh_needs_skeleton(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("header", "fragment"),
     [
-        ("frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,"
-         "Hips.Xrotation", "column Hips.Yrotation of the skeleton is missing"),
-        ("frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,"
-         "Hips.Xrotation,Hips.Yrotation,Tail.Xposition", "Tail.Xposition is not a channel"),
-        ("frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Xrotation,"
-         "Hips.Yrotation,Hips.Zrotation", "rotation columns in order XYZ"),
+        (
+            "frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,Hips.Xrotation",
+            "column Hips.Yrotation of the skeleton is missing",
+        ),
+        (
+            "frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,"
+            "Hips.Xrotation,Hips.Yrotation,Tail.Xposition",
+            "Tail.Xposition is not a channel",
+        ),
+        (
+            "frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Xrotation,"
+            "Hips.Yrotation,Hips.Zrotation",
+            "rotation columns in order XYZ",
+        ),
     ],
 )
 def test_csv_not_matching_the_skeleton(header, fragment, tmp_path, capsys):
     skeleton = tmp_path / "skeleton.bvh"
-    skeleton.write_text("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition "
-                        "Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n"
-                        "  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.5\n"
-                        "0 0 0 0 0 0\n")
+    skeleton.write_text(
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition "
+        "Yposition Zposition Zrotation Xrotation Yrotation\n End Site\n {\n"
+        "  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.5\n"
+        "0 0 0 0 0 0\n"
+    )
     n = header.count(",") - 1
     source = tmp_path / "clip.csv"
-    source.write_text(header + "\n" + "".join(f"{i},{i * 0.5}" + ",1" * n + "\n"
-                                              for i in range(3)))
+    source.write_text(header + "\n" + "".join(f"{i},{i * 0.5}" + ",1" * n + "\n" for i in range(3)))
     target = tmp_path / "out.bvh"
     code, _, err = run_cli(capsys, "convert", source, target, "--skeleton", skeleton)
     assert code == 1
@@ -182,8 +191,9 @@ def test_non_finite_motion_is_not_written(suffix, tmp_path):
     rotations = clip.rotations.copy()
     rotations[7, 3] = np.nan
     target = tmp_path / f"out{suffix}"
-    with pytest.raises(MotionError, match=f"joint '{clip.names[3]}' has a non-finite value "
-                                          "at frame 7") as error:
+    with pytest.raises(
+        MotionError, match=f"joint '{clip.names[3]}' has a non-finite value at frame 7"
+    ) as error:
         save(clip.replace(rotations=rotations), target)
     assert error.value.path == str(target)
     assert not target.exists()

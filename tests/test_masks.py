@@ -59,8 +59,10 @@ def test_sum_tolerance_is_1e_9():
 @pytest.mark.parametrize("k", range(8))
 def test_binomial_matches_eq_23(k):
     # B_i^{2k+1} = (2k)! / ((k-i)! (k+i)!) / 2^{2k}, -k <= i <= k
-    expected = [math.factorial(2 * k) / (math.factorial(k - i) * math.factorial(k + i)) / 4**k
-                for i in range(-k, k + 1)]
+    expected = [
+        math.factorial(2 * k) / (math.factorial(k - i) * math.factorial(k + i)) / 4**k
+        for i in range(-k, k + 1)
+    ]
     mask = binomial(k)
     np.testing.assert_allclose(mask, expected, rtol=1e-15)
     validate_mask(mask)

@@ -79,8 +79,9 @@ def test_linear_acceleration_of_a_uniformly_accelerated_point(dt):
     p = p0 + v0 * t[:, None, None] + 0.5 * a * t[:, None, None] ** 2
     acc = metrics.linear_acceleration(p, dt)
     assert acc.shape == (frames - 2, 4)
-    np.testing.assert_allclose(acc, np.broadcast_to(np.linalg.norm(a, axis=-1), acc.shape),
-                               rtol=1e-7)
+    np.testing.assert_allclose(
+        acc, np.broadcast_to(np.linalg.norm(a, axis=-1), acc.shape), rtol=1e-7
+    )
     assert metrics.linear_acceleration(p0 + v0 * t[:, None, None], dt).max() < 1e-9
 
 
@@ -121,8 +122,9 @@ def test_largest_steps_find_a_planted_step():
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
 
 
-def synthetic(dt: float, a_root: float, a_arm: float, hand_deg: float, b: np.ndarray,
-              frames: int = 30) -> Motion:
+def synthetic(
+    dt: float, a_root: float, a_arm: float, hand_deg: float, b: np.ndarray, frames: int = 30
+) -> Motion:
     """Root turning about Z with ``a_root`` rad/s^2 and moving with acceleration ``b``; an
     arm turning about X with ``a_arm``; a hand held at ``hand_deg`` about Y."""
     t = dt * np.arange(frames)
@@ -132,9 +134,18 @@ def synthetic(dt: float, a_root: float, a_arm: float, hand_deg: float, b: np.nda
     values[:, 7] = np.degrees(a_arm * t**2 / 2)  # the arm's Xrotation
     values[:, 11] = hand_deg  # the hand's Yrotation
     return Motion.from_channel_values(
-        ["Root", "Arm", "Hand"], [-1, 0, 1], np.zeros((3, 3)),
-        [ROOT_CHANNELS, ("Zrotation", "Xrotation", "Yrotation"),
-         ("Zrotation", "Xrotation", "Yrotation")], dt, values, path="synthetic.bvh")
+        ["Root", "Arm", "Hand"],
+        [-1, 0, 1],
+        np.zeros((3, 3)),
+        [
+            ROOT_CHANNELS,
+            ("Zrotation", "Xrotation", "Yrotation"),
+            ("Zrotation", "Xrotation", "Yrotation"),
+        ],
+        dt,
+        values,
+        path="synthetic.bvh",
+    )
 
 
 def approx(x):
@@ -155,17 +166,22 @@ def test_report_carries_the_closed_form_figures(dt):
     assert report["frame_time"] == dt and report["pipeline"] == [{"filter": "x"}]
     joints = report["joints"]
 
-    for name, a1, a2 in (("Root", a_root, a_root2), ("Arm", a_arm, a_arm2),
-                         ("Hand", 0.0, 0.0)):
+    for name, a1, a2 in (("Root", a_root, a_root2), ("Arm", a_arm, a_arm2), ("Hand", 0.0, 0.0)):
         entry = joints[name]
-        assert entry["angular_accel_rms"] == {"before": approx(math.degrees(a1)),
-                                              "after": approx(math.degrees(a2))}
-        assert entry["angular_accel_max"] == {"before": approx(math.degrees(a1)),
-                                              "after": approx(math.degrees(a2))}
+        assert entry["angular_accel_rms"] == {
+            "before": approx(math.degrees(a1)),
+            "after": approx(math.degrees(a2)),
+        }
+        assert entry["angular_accel_max"] == {
+            "before": approx(math.degrees(a1)),
+            "after": approx(math.degrees(a2)),
+        }
     for name, a1, a2 in (("Root", a_root, a_root2), ("Arm", a_arm, a_arm2)):
         dev = np.degrees(abs(a1 - a2) * t**2 / 2)
-        assert joints[name]["deviation_deg"] == {"rms": approx(np.sqrt(np.mean(dev**2))),
-                                                 "max": approx(dev.max())}
+        assert joints[name]["deviation_deg"] == {
+            "rms": approx(np.sqrt(np.mean(dev**2))),
+            "max": approx(dev.max()),
+        }
     assert joints["Hand"]["deviation_deg"] == {"rms": approx(12.5), "max": approx(12.5)}
 
     root = joints["Root"]
@@ -173,8 +189,7 @@ def test_report_carries_the_closed_form_figures(dt):
     assert root["linear_accel_rms"]["after"] == pytest.approx(np.linalg.norm(b2), rel=1e-7)
     assert root["linear_accel_max"]["before"] == pytest.approx(np.linalg.norm(b), rel=1e-7)
     shift = np.linalg.norm(b - b2) * t**2 / 2
-    assert root["deviation_length"]["rms"] == pytest.approx(np.sqrt(np.mean(shift**2)),
-                                                            rel=1e-9)
+    assert root["deviation_length"]["rms"] == pytest.approx(np.sqrt(np.mean(shift**2)), rel=1e-9)
     assert root["deviation_length"]["max"] == pytest.approx(shift.max(), rel=1e-9)
     assert "linear_accel_rms" not in joints["Arm"] and "deviation_length" not in joints["Hand"]
 
@@ -184,15 +199,20 @@ def test_report_carries_the_closed_form_figures(dt):
     assert summary["angular_accel_rms"] == {"before": approx(total), "after": approx(total2)}
     assert summary["noise_reduction"] == approx(1.0 - total2 / total)
     assert summary["deviation_deg_max"] == approx(
-        max(12.5, math.degrees(abs(a_root - a_root2) * span / 2)))
+        max(12.5, math.degrees(abs(a_root - a_root2) * span / 2))
+    )
 
 
 def test_single_clip_report_has_before_figures_only():
     before = synthetic(1 / 60, 3.0, 1.0, 0.0, np.array([0.0, 9.8, 0.0]))
     report = build_report(before)
     assert report["joints"]["Root"]["angular_accel_rms"] == {
-        "before": pytest.approx(math.degrees(3.0), rel=1e-9), "after": None}
+        "before": pytest.approx(math.degrees(3.0), rel=1e-9),
+        "after": None,
+    }
     assert report["joints"]["Root"]["linear_accel_rms"] == {
-        "before": pytest.approx(9.8, rel=1e-7), "after": None}
+        "before": pytest.approx(9.8, rel=1e-7),
+        "after": None,
+    }
     assert "deviation_deg" not in report["joints"]["Arm"]
     assert report["summary"]["noise_reduction"] is None

@@ -24,8 +24,9 @@ def load_corpus(name: str):
     return motionclean.load(CORPUS / name)
 
 
-def smooth_rotations(frames: int, shape: tuple[int, ...], seed: int,
-                     speed: float = 1.0) -> np.ndarray:
+def smooth_rotations(
+    frames: int, shape: tuple[int, ...], seed: int, speed: float = 1.0
+) -> np.ndarray:
     """Smooth unit quaternions ``(frames, *shape, 4)``: ``a exp(v(t))``, ``v`` a sum of sines."""
     rng = np.random.default_rng(seed)
     t = np.arange(frames, dtype=np.float64).reshape(-1, *([1] * len(shape)), 1)
@@ -42,7 +43,8 @@ def smooth_positions(frames: int, shape: tuple[int, ...], seed: int) -> np.ndarr
     rng = np.random.default_rng(seed)
     t = np.arange(frames, dtype=np.float64).reshape(-1, *([1] * len(shape)), 1)
     return 20.0 * np.sin(rng.uniform(0.01, 0.05, size=(*shape, 3)) * t) + rng.normal(
-        scale=5.0, size=(*shape, 3))
+        scale=5.0, size=(*shape, 3)
+    )
 
 
 def add_noise(q: np.ndarray, sigma: float, seed: int) -> np.ndarray:
@@ -148,8 +150,9 @@ def test_expansion_interior_is_eq16_and_eq15():
     assert quat.angle_between(fine[0::2], coarse).max() < 1e-14
     w = angular_displacements(coarse)
     i = np.arange(1, 9)  # interior intervals: nodes i-1 .. i+2 exist
-    eq16 = quat.multiply(quat.slerp(coarse[i], coarse[i + 1], 0.5),
-                         quat.exp((w[i - 1] - w[i + 1]) / 16.0))
+    eq16 = quat.multiply(
+        quat.slerp(coarse[i], coarse[i + 1], 0.5), quat.exp((w[i - 1] - w[i + 1]) / 16.0)
+    )
     assert quat.angle_between(fine[2 * i + 1], eq16).max() < 1e-14
     eq15 = (-p[i - 1] + 9 * p[i] + 9 * p[i + 1] - p[i + 2]) / 16.0
     assert np.abs(fine_p[2 * i + 1] - eq15).max() < 1e-12
@@ -157,10 +160,11 @@ def test_expansion_interior_is_eq16_and_eq15():
     assert np.abs(fine_p[1] - (5 * p[0] + 15 * p[1] - 5 * p[2] + p[3]) / 16).max() < 1e-12
 
 
-@pytest.mark.parametrize(("coarse_frames", "fine_frames", "phase"),
-                         [(4, 7, 0), (4, 8, 0), (4, 8, 1), (4, 9, 1), (9, 18, 1), (2, 4, 1)])
-def test_expansion_reproduces_cubics_and_geodesics_at_both_ends(coarse_frames, fine_frames,
-                                                                phase):
+@pytest.mark.parametrize(
+    ("coarse_frames", "fine_frames", "phase"),
+    [(4, 7, 0), (4, 8, 0), (4, 8, 1), (4, 9, 1), (9, 18, 1), (2, 4, 1)],
+)
+def test_expansion_reproduces_cubics_and_geodesics_at_both_ends(coarse_frames, fine_frames, phase):
     # Interpolatory subdivision with cubic end handling reproduces cubic polynomials exactly,
     # including the extrapolated end frames of odd/even lengths; the orientation version
     # reproduces constant angular velocity (any mask summing to one does, 000 Sec. VI-A).
@@ -173,8 +177,9 @@ def test_expansion_reproduces_cubics_and_geodesics_at_both_ends(coarse_frames, f
     start = quat.normalize(np.array([0.3, -0.5, 0.2, 0.7]))
     geodesic = quat.multiply(start, quat.exp(t_fine[:, None, None] * omega))
     kept = slice(phase, None, 2)
-    pyramid = mr.Pyramid(geodesic[kept], cubic[kept],
-                         (mr.Detail(np.zeros(shape), np.zeros(shape), phase),))
+    pyramid = mr.Pyramid(
+        geodesic[kept], cubic[kept], (mr.Detail(np.zeros(shape), np.zeros(shape), phase),)
+    )
     assert pyramid.rotations.shape[0] == coarse_frames
     q, p = mr.reconstruct(pyramid)
     assert np.abs(p - cubic).max() < 1e-12
@@ -228,8 +233,10 @@ def test_edits_commute_with_rigid_transforms():
     r_q, r_p = rigid(e_q, e_p, a, t)
     assert quat.angle_between(m_q, r_q).max() < 1e-12
     assert np.abs(m_p - r_p).max() < 1e-11
-    assert quat.angle_between(mr.edit(qt, 6, gains), quat.multiply(a, mr.edit(q, 6, gains))).max() \
+    assert (
+        quat.angle_between(mr.edit(qt, 6, gains), quat.multiply(a, mr.edit(q, 6, gains))).max()
         < 1e-12
+    )
     moved_p = mr.edit_positions(quat.rotate(a, p) + t, 6, gains)
     assert np.abs(moved_p - (quat.rotate(a, mr.edit_positions(p, 6, gains)) + t)).max() < 1e-11
 
@@ -258,8 +265,7 @@ def test_gain_zero_on_finest_level_is_expanded_reduction(frames):
     # finest level of any deeper pyramid gives E(R m), whatever the number of levels.
     q = add_noise(smooth_rotations(frames, (3,), seed=50), 0.02, seed=51)
     one = mr.decompose(q, 1)
-    expected, _ = mr.reconstruct(mr.Pyramid(one.rotations, None, (
-        zero_detail(frames, (3,), 0),)))
+    expected, _ = mr.reconstruct(mr.Pyramid(one.rotations, None, (zero_detail(frames, (3,), 0),)))
     for levels in (1, 3, 6):
         assert quat.angle_between(mr.edit(q, levels, [0.0]), expected).max() < 1e-12
     assert quat.angle_between(mr.edit(q, 6, [1.0, 0.0]), expected).max() > 1e-3
@@ -274,8 +280,9 @@ def test_fractional_levels():
     q = add_noise(smooth_rotations(300, (4,), seed=21), 0.01, seed=22)
     assert np.abs(mr.edit(q, 8, mr.level_gains(8, 8)) - q).max() < 1e-13
     # A continuous path between levels: detail-rich to smooth as the level goes down.
-    accel = [angular_accel_rms(mr.edit(q, 8, mr.level_gains(8, x)))
-             for x in np.arange(8.0, 3.9, -0.25)]
+    accel = [
+        angular_accel_rms(mr.edit(q, 8, mr.level_gains(8, x))) for x in np.arange(8.0, 3.9, -0.25)
+    ]
     assert np.all(np.diff(accel) < 0.0), accel
 
 
@@ -315,8 +322,7 @@ def test_blend_end_points_self_blend_and_equivariance():
     a, t = quat.normalize(rng.normal(size=4)), rng.normal(size=3)
     ta, tb = rigid(qa, pa, a, t), rigid(qb, pb, a, t)
     qh, ph = mr.blend(qa, qb, 4, weight=0.4, detail_weights=[0.1, 0.7], p_a=pa, p_b=pb)
-    qt, pt = mr.blend(ta[0], tb[0], 4, weight=0.4, detail_weights=[0.1, 0.7],
-                      p_a=ta[1], p_b=tb[1])
+    qt, pt = mr.blend(ta[0], tb[0], 4, weight=0.4, detail_weights=[0.1, 0.7], p_a=ta[1], p_b=tb[1])
     moved = rigid(qh, ph, a, t)
     assert quat.angle_between(qt, moved[0]).max() < 1e-12
     assert np.abs(pt - moved[1]).max() < 1e-11
@@ -350,8 +356,9 @@ def test_blend_shape_errors():
 # ----------------------------------------------------------------- stitching (Eq. 21)
 
 
-@pytest.mark.parametrize(("frames_a", "frames_b", "levels"),
-                         [(100, 90, 3), (101, 77, 4), (64, 65, 2), (30, 1, 3)])
+@pytest.mark.parametrize(
+    ("frames_a", "frames_b", "levels"), [(100, 90, 3), (101, 77, 4), (64, 65, 2), (30, 1, 3)]
+)
 def test_stitch_changes_only_the_seam_region(frames_a, frames_b, levels):
     qa, qb = smooth_rotations(frames_a, (2,), seed=37), smooth_rotations(frames_b, (2,), seed=38)
     pa, pb = smooth_positions(frames_a, (2,), seed=39), smooth_positions(frames_b, (2,), seed=40)

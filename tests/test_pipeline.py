@@ -23,17 +23,24 @@ def test_inline_values_are_read_as_toml():
 
 def test_inline_step_keeps_list_commas_inside_one_value():
     table = parse_inline("lee-shin:mask=custom,coefficients=[0.25,0.5,0.25],iterations=3")
-    assert table == {"filter": "lee-shin", "mask": "custom",
-                     "coefficients": [0.25, 0.5, 0.25], "iterations": 3}
+    assert table == {
+        "filter": "lee-shin",
+        "mask": "custom",
+        "coefficients": [0.25, 0.5, 0.25],
+        "iterations": 3,
+    }
 
 
 def test_toml_and_inline_give_the_same_steps(tmp_path):
     toml = tmp_path / "pipe.toml"
-    toml.write_text('[[step]]\nfilter = "lee-shin"\nmask = "binomial"\nk = 2\niterations = 5\n'
-                    'joints = ["*", "!RThumb"]\npositions = false\n')
+    toml.write_text(
+        '[[step]]\nfilter = "lee-shin"\nmask = "binomial"\nk = 2\niterations = 5\n'
+        'joints = ["*", "!RThumb"]\npositions = false\n'
+    )
     from_file = Pipeline.from_toml(toml)
     inline = Pipeline.from_inline(
-        ["lee-shin:mask=binomial,k=2,iterations=5,joints=['*','!RThumb'],positions=false"])
+        ["lee-shin:mask=binomial,k=2,iterations=5,joints=['*','!RThumb'],positions=false"]
+    )
     assert from_file.describe() == inline.describe()
 
 

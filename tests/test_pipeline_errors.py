@@ -14,23 +14,35 @@ from motionclean.errors import UsageError
 from motionclean.pipeline import Pipeline
 
 
-@pytest.mark.parametrize(("step", "key", "message"), [
-    ("lee-shin:mask=lowpass", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
-    ("lee-shin:mask=lowpass,half_width=4", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
-    ("lee-shin:cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
-    ("lee-shin:mask=savgol,cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
-    ("lee-shin:coefficients=[1]", "coefficients", "coefficients only apply to mask=custom"),
-    ("lee-shin:mask=lowpass,cutoff_hz=8,coefficients=[1]", "coefficients",
-     "coefficients only apply to mask=custom"),
-    ("lee-shin:mask=savgol,half_width=2,degree=5", "degree", "degree"),
-    ("despike:min_deg_per_s=5000,max_deg_per_s=100", "min_deg_per_s",
-     "min_deg_per_s must not exceed max_deg_per_s"),
-    ("despike:min_units_per_s=3,max_units_per_s=2", "min_units_per_s",
-     "min_units_per_s must not exceed max_units_per_s"),
-    ("multires:levels=2,gains=[0,0,0]", "gains", "3 gains for 2 levels"),
-    ("multires:levels=2,level=3", "level", "level must lie in [0, levels=2]"),
-    ("multires:gains=[0],level=1", "level", "either gains or level"),
-])
+@pytest.mark.parametrize(
+    ("step", "key", "message"),
+    [
+        ("lee-shin:mask=lowpass", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
+        ("lee-shin:mask=lowpass,half_width=4", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
+        ("lee-shin:cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
+        ("lee-shin:mask=savgol,cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
+        ("lee-shin:coefficients=[1]", "coefficients", "coefficients only apply to mask=custom"),
+        (
+            "lee-shin:mask=lowpass,cutoff_hz=8,coefficients=[1]",
+            "coefficients",
+            "coefficients only apply to mask=custom",
+        ),
+        ("lee-shin:mask=savgol,half_width=2,degree=5", "degree", "degree"),
+        (
+            "despike:min_deg_per_s=5000,max_deg_per_s=100",
+            "min_deg_per_s",
+            "min_deg_per_s must not exceed max_deg_per_s",
+        ),
+        (
+            "despike:min_units_per_s=3,max_units_per_s=2",
+            "min_units_per_s",
+            "min_units_per_s must not exceed max_units_per_s",
+        ),
+        ("multires:levels=2,gains=[0,0,0]", "gains", "3 gains for 2 levels"),
+        ("multires:levels=2,level=3", "level", "level must lie in [0, levels=2]"),
+        ("multires:gains=[0],level=1", "level", "either gains or level"),
+    ],
+)
 def test_cross_parameter_errors_name_the_step_and_the_key(step, key, message):
     name = step.partition(":")[0]
     with pytest.raises(UsageError) as caught:
@@ -41,10 +53,15 @@ def test_cross_parameter_errors_name_the_step_and_the_key(step, key, message):
     assert "\n" not in text
 
 
-@pytest.mark.parametrize("step", [
-    "lee-shin:mask=lowpass,cutoff_hz=59.9", "multires:levels=2,gains=[0,0]",
-    "multires:levels=2,level=2", "despike:min_deg_per_s=100,max_deg_per_s=100",
-])
+@pytest.mark.parametrize(
+    "step",
+    [
+        "lee-shin:mask=lowpass,cutoff_hz=59.9",
+        "multires:levels=2,gains=[0,0]",
+        "multires:levels=2,level=2",
+        "despike:min_deg_per_s=100,max_deg_per_s=100",
+    ],
+)
 def test_the_limits_themselves_are_allowed(step):
     assert Pipeline.from_inline([step]).describe()[0]["filter"] == step.partition(":")[0]
 
@@ -52,8 +69,19 @@ def test_the_limits_themselves_are_allowed(step):
 @pytest.mark.parametrize("cutoff", ["70", "60.5"])
 def test_a_cutoff_above_nyquist_fails_on_the_clip_with_one_line(tmp_path, capsys, cutoff):
     out, report = tmp_path / "c.bvh", tmp_path / "r.json"
-    code, stdout, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "--report", report,
-                                "-f", "despike", "-f", f"lee-shin:mask=lowpass,cutoff_hz={cutoff}")
+    code, stdout, err = run_cli(
+        capsys,
+        "clean",
+        SAMPLE,
+        "-o",
+        out,
+        "--report",
+        report,
+        "-f",
+        "despike",
+        "-f",
+        f"lee-shin:mask=lowpass,cutoff_hz={cutoff}",
+    )
     assert code == 1
     assert err.count("\n") == 1 and err.startswith(f"motionclean: error: {SAMPLE}: ")
     assert "step 2 (lee-shin) failed" in err and "Nyquist" in err and cutoff in err
@@ -91,8 +119,9 @@ def test_report_json_and_html_together(tmp_path, capsys):
 
 @pytest.mark.parametrize("same", ["r.html", "r.json"])
 def test_report_refuses_json_and_html_in_the_same_file(tmp_path, capsys, same):
-    code, stdout, err = run_cli(capsys, "report", SAMPLE, "--json", tmp_path / same,
-                                "--html", tmp_path / same)
+    code, stdout, err = run_cli(
+        capsys, "report", SAMPLE, "--json", tmp_path / same, "--html", tmp_path / same
+    )
     assert code == 2
     assert err.count("\n") == 1 and "--json and --html name the same file" in err
     assert stdout == "" and not list(tmp_path.iterdir())

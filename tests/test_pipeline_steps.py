@@ -53,15 +53,19 @@ MOVED_LENGTH = 1e-3
 def clip():
     """The first 120 frames of the noisy sample (120 fps; RThumb flips at 48-52, 64-71)."""
     m = mc.load(NOISY)
-    return m.replace(rotations=m.rotations[:FRAMES].copy(),
-                     translations=m.translations[:FRAMES].copy(),
-                     source_values=m.source_values[:FRAMES].copy(),
-                     source_rotations=m.source_rotations[:FRAMES].copy())
+    return m.replace(
+        rotations=m.rotations[:FRAMES].copy(),
+        translations=m.translations[:FRAMES].copy(),
+        source_values=m.source_values[:FRAMES].copy(),
+        source_rotations=m.source_rotations[:FRAMES].copy(),
+    )
 
 
 # Joint selections: the patterns as given to the step, and the same rule written out.
-ALL_BUT_LEFT = ("['*','!Left*','!RThumb']",
-                lambda n: not n.startswith("Left") and n != "RThumb")  # the root is in
+ALL_BUT_LEFT = (
+    "['*','!Left*','!RThumb']",
+    lambda n: not n.startswith("Left") and n != "RThumb",
+)  # the root is in
 RIGHT_ARM_SPINE = ("['Right*','Chest*']", lambda n: n.startswith(("Right", "Chest")))
 HIPS_RIGHT = ("['Hips','Right*']", lambda n: n == "Hips" or n.startswith("Right"))
 
@@ -73,101 +77,221 @@ def rate(dt: float) -> float:
 # (inline step without joints, joints, direct rotation filter, direct position filter or
 # None when positions are off, identity?). Direct calls spell the parameters out.
 CASES = [
-    ("lee-shin", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, binomial(2)),
-     lambda p, dt: lee_shin_positions(p, binomial(2)), False),
-    ("lee-shin:mask=binomial,k=3,iterations=4", RIGHT_ARM_SPINE,
-     lambda q, dt: lee_shin(q, binomial(3), 4),
-     lambda p, dt: lee_shin_positions(p, binomial(3), 4), False),
-    ("lee-shin:mask=savgol,half_width=5,degree=3", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, savgol(5, 3)),
-     lambda p, dt: lee_shin_positions(p, savgol(5, 3)), False),
-    ("lee-shin:mask=savgol", ALL_BUT_LEFT,  # half_width defaults to 3, degree to 2
-     lambda q, dt: lee_shin(q, savgol(3, 2)),
-     lambda p, dt: lee_shin_positions(p, savgol(3, 2)), False),
-    ("lee-shin:mask=lowpass,cutoff_hz=8", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, lowpass(8.0, rate(dt))),
-     lambda p, dt: lee_shin_positions(p, lowpass(8.0, rate(dt))), False),
-    ("lee-shin:mask=lowpass,cutoff_hz=15.5,half_width=9,iterations=2", HIPS_RIGHT,
-     lambda q, dt: lee_shin(q, lowpass(15.5, rate(dt), 9), 2),
-     lambda p, dt: lee_shin_positions(p, lowpass(15.5, rate(dt), 9), 2), False),
-    ("lee-shin:mask=gaussian,sigma_t=2.5", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, gaussian(2.5)),
-     lambda p, dt: lee_shin_positions(p, gaussian(2.5)), False),
-    ("lee-shin:mask=smoothing,lam=0.3,iterations=3", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, smoothing(0.3), 3),
-     lambda p, dt: lee_shin_positions(p, smoothing(0.3), 3), False),
-    ("lee-shin:mask=high-boost,lam=0.4", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, high_boost(0.4)),
-     lambda p, dt: lee_shin_positions(p, high_boost(0.4)), False),
-    ("lee-shin:mask=reduction", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, reduction()),
-     lambda p, dt: lee_shin_positions(p, reduction()), False),
-    ("lee-shin:mask=custom,coefficients=[0.1,0.2,0.4,0.2,0.1],positions=false", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, custom([0.1, 0.2, 0.4, 0.2, 0.1])), None, False),
-    ("lee-shin:mask=binomial,k=0", ALL_BUT_LEFT,
-     lambda q, dt: lee_shin(q, binomial(0)),
-     lambda p, dt: lee_shin_positions(p, binomial(0)), True),
-    ("bilateral", ALL_BUT_LEFT,
-     lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1),
-     lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf), False),
-    ("bilateral:sigma_t=2,sigma_g=0.05,radius=4,iterations=2,sigma_p=0.02", RIGHT_ARM_SPINE,
-     lambda q, dt: bilateral(q, sigma_t=2.0, sigma_g=0.05, radius=4, iterations=2),
-     lambda p, dt: bilateral_positions(p, sigma_t=2.0, sigma_p=0.02, radius=4, iterations=2),
-     False),
-    ("bilateral:sigma_t=1.5,sigma_g=0.2,sigma_p=0.05", HIPS_RIGHT,
-     lambda q, dt: bilateral(q, sigma_t=1.5, sigma_g=0.2),
-     lambda p, dt: bilateral_positions(p, sigma_t=1.5, sigma_p=0.05), False),
-    ("bilateral:radius=0", ALL_BUT_LEFT,
-     lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1, radius=0),
-     lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf, radius=0), True),
-    ("fairing", ALL_BUT_LEFT,
-     lambda q, dt: fairing(q), lambda p, dt: fairing_positions(p), False),
-    ("fairing:order=2,lam_r=0.3,lam_t=0.4,epsilon_r=0.05,epsilon_t=0.2,max_iterations=5",
-     HIPS_RIGHT,
-     lambda q, dt: fairing(q, order=2, lam_r=0.3, epsilon_r=0.05, max_iterations=5),
-     lambda p, dt: fairing_positions(p, order=2, lam_t=0.4, epsilon_t=0.2, max_iterations=5),
-     False),
-    ("fairing:tol=0.001", ALL_BUT_LEFT,
-     lambda q, dt: fairing(q, tol=1e-3), lambda p, dt: fairing_positions(p, tol=1e-3), False),
-    ("fairing:epsilon_r=0,epsilon_t=0", ALL_BUT_LEFT,
-     lambda q, dt: fairing(q, epsilon_r=0.0),
-     lambda p, dt: fairing_positions(p, epsilon_t=0.0), True),
-    ("sse-fairing", ALL_BUT_LEFT,
-     lambda q, dt: sse_fairing(q), lambda p, dt: sse_fairing_positions(p), False),
-    ("sse-fairing:beta=3,alpha=0.5,max_iterations=60,epsilon=0.01", HIPS_RIGHT,
-     lambda q, dt: sse_fairing(q, beta=3.0, epsilon=0.01, max_iterations=60),
-     lambda p, dt: sse_fairing_positions(p, alpha=0.5, epsilon=0.01, max_iterations=60),
-     False),
-    ("sse-fairing:beta=0,alpha=0", ALL_BUT_LEFT,
-     lambda q, dt: sse_fairing(q, beta=0.0), lambda p, dt: sse_fairing_positions(p, alpha=0.0),
-     True),
-    ("multires", ALL_BUT_LEFT,  # levels 4, the finest band removed
-     lambda q, dt: multires.edit(q, 4, [0.0]),
-     lambda p, dt: multires.edit_positions(p, 4, [0.0]), False),
-    ("multires:levels=3,gains=[0.5,2]", HIPS_RIGHT,
-     lambda q, dt: multires.edit(q, 3, [0.5, 2.0]),
-     lambda p, dt: multires.edit_positions(p, 3, [0.5, 2.0]), False),
+    (
+        "lee-shin",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, binomial(2)),
+        lambda p, dt: lee_shin_positions(p, binomial(2)),
+        False,
+    ),
+    (
+        "lee-shin:mask=binomial,k=3,iterations=4",
+        RIGHT_ARM_SPINE,
+        lambda q, dt: lee_shin(q, binomial(3), 4),
+        lambda p, dt: lee_shin_positions(p, binomial(3), 4),
+        False,
+    ),
+    (
+        "lee-shin:mask=savgol,half_width=5,degree=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, savgol(5, 3)),
+        lambda p, dt: lee_shin_positions(p, savgol(5, 3)),
+        False,
+    ),
+    (
+        "lee-shin:mask=savgol",
+        ALL_BUT_LEFT,  # half_width defaults to 3, degree to 2
+        lambda q, dt: lee_shin(q, savgol(3, 2)),
+        lambda p, dt: lee_shin_positions(p, savgol(3, 2)),
+        False,
+    ),
+    (
+        "lee-shin:mask=lowpass,cutoff_hz=8",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, lowpass(8.0, rate(dt))),
+        lambda p, dt: lee_shin_positions(p, lowpass(8.0, rate(dt))),
+        False,
+    ),
+    (
+        "lee-shin:mask=lowpass,cutoff_hz=15.5,half_width=9,iterations=2",
+        HIPS_RIGHT,
+        lambda q, dt: lee_shin(q, lowpass(15.5, rate(dt), 9), 2),
+        lambda p, dt: lee_shin_positions(p, lowpass(15.5, rate(dt), 9), 2),
+        False,
+    ),
+    (
+        "lee-shin:mask=gaussian,sigma_t=2.5",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, gaussian(2.5)),
+        lambda p, dt: lee_shin_positions(p, gaussian(2.5)),
+        False,
+    ),
+    (
+        "lee-shin:mask=smoothing,lam=0.3,iterations=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, smoothing(0.3), 3),
+        lambda p, dt: lee_shin_positions(p, smoothing(0.3), 3),
+        False,
+    ),
+    (
+        "lee-shin:mask=high-boost,lam=0.4",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, high_boost(0.4)),
+        lambda p, dt: lee_shin_positions(p, high_boost(0.4)),
+        False,
+    ),
+    (
+        "lee-shin:mask=reduction",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, reduction()),
+        lambda p, dt: lee_shin_positions(p, reduction()),
+        False,
+    ),
+    (
+        "lee-shin:mask=custom,coefficients=[0.1,0.2,0.4,0.2,0.1],positions=false",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, custom([0.1, 0.2, 0.4, 0.2, 0.1])),
+        None,
+        False,
+    ),
+    (
+        "lee-shin:mask=binomial,k=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, binomial(0)),
+        lambda p, dt: lee_shin_positions(p, binomial(0)),
+        True,
+    ),
+    (
+        "bilateral",
+        ALL_BUT_LEFT,
+        lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf),
+        False,
+    ),
+    (
+        "bilateral:sigma_t=2,sigma_g=0.05,radius=4,iterations=2,sigma_p=0.02",
+        RIGHT_ARM_SPINE,
+        lambda q, dt: bilateral(q, sigma_t=2.0, sigma_g=0.05, radius=4, iterations=2),
+        lambda p, dt: bilateral_positions(p, sigma_t=2.0, sigma_p=0.02, radius=4, iterations=2),
+        False,
+    ),
+    (
+        "bilateral:sigma_t=1.5,sigma_g=0.2,sigma_p=0.05",
+        HIPS_RIGHT,
+        lambda q, dt: bilateral(q, sigma_t=1.5, sigma_g=0.2),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.5, sigma_p=0.05),
+        False,
+    ),
+    (
+        "bilateral:radius=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1, radius=0),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf, radius=0),
+        True,
+    ),
+    ("fairing", ALL_BUT_LEFT, lambda q, dt: fairing(q), lambda p, dt: fairing_positions(p), False),
+    (
+        "fairing:order=2,lam_r=0.3,lam_t=0.4,epsilon_r=0.05,epsilon_t=0.2,max_iterations=5",
+        HIPS_RIGHT,
+        lambda q, dt: fairing(q, order=2, lam_r=0.3, epsilon_r=0.05, max_iterations=5),
+        lambda p, dt: fairing_positions(p, order=2, lam_t=0.4, epsilon_t=0.2, max_iterations=5),
+        False,
+    ),
+    (
+        "fairing:tol=0.001",
+        ALL_BUT_LEFT,
+        lambda q, dt: fairing(q, tol=1e-3),
+        lambda p, dt: fairing_positions(p, tol=1e-3),
+        False,
+    ),
+    (
+        "fairing:epsilon_r=0,epsilon_t=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: fairing(q, epsilon_r=0.0),
+        lambda p, dt: fairing_positions(p, epsilon_t=0.0),
+        True,
+    ),
+    (
+        "sse-fairing",
+        ALL_BUT_LEFT,
+        lambda q, dt: sse_fairing(q),
+        lambda p, dt: sse_fairing_positions(p),
+        False,
+    ),
+    (
+        "sse-fairing:beta=3,alpha=0.5,max_iterations=60,epsilon=0.01",
+        HIPS_RIGHT,
+        lambda q, dt: sse_fairing(q, beta=3.0, epsilon=0.01, max_iterations=60),
+        lambda p, dt: sse_fairing_positions(p, alpha=0.5, epsilon=0.01, max_iterations=60),
+        False,
+    ),
+    (
+        "sse-fairing:beta=0,alpha=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: sse_fairing(q, beta=0.0),
+        lambda p, dt: sse_fairing_positions(p, alpha=0.0),
+        True,
+    ),
+    (
+        "multires",
+        ALL_BUT_LEFT,  # levels 4, the finest band removed
+        lambda q, dt: multires.edit(q, 4, [0.0]),
+        lambda p, dt: multires.edit_positions(p, 4, [0.0]),
+        False,
+    ),
+    (
+        "multires:levels=3,gains=[0.5,2]",
+        HIPS_RIGHT,
+        lambda q, dt: multires.edit(q, 3, [0.5, 2.0]),
+        lambda p, dt: multires.edit_positions(p, 3, [0.5, 2.0]),
+        False,
+    ),
     # level n + alpha = 2.5 of 4: the two coarsest details kept, the next halved, the
     # finest dropped (003 Sec. 5.1): gains, finest first, [0, 0.5, 1, 1].
-    ("multires:levels=4,level=2.5", ALL_BUT_LEFT,
-     lambda q, dt: multires.edit(q, 4, [0.0, 0.5, 1.0, 1.0]),
-     lambda p, dt: multires.edit_positions(p, 4, [0.0, 0.5, 1.0, 1.0]), False),
-    ("multires:levels=3,level=3", ALL_BUT_LEFT,
-     lambda q, dt: multires.edit(q, 3, [1.0, 1.0, 1.0]),
-     lambda p, dt: multires.edit_positions(p, 3, [1.0, 1.0, 1.0]), True),
-    ("auto", ALL_BUT_LEFT,
-     lambda q, dt: auto(q, dt).values, lambda p, dt: auto_positions(p, dt).values, False),
-    ("auto:strength=2.5,mask=binomial,max_seconds=0.05", HIPS_RIGHT,
-     lambda q, dt: auto(q, dt, strength=2.5, max_seconds=0.05, families=("binomial",)).values,
-     lambda p, dt: auto_positions(p, dt, strength=2.5, max_seconds=0.05,
-                                  families=("binomial",)).values, False),
-    ("auto:noise_deg=0.8,position_noise=0.05,mask=savgol", ALL_BUT_LEFT,
-     lambda q, dt: auto(q, dt, noise=0.8, families=("savgol",)).values,
-     lambda p, dt: auto_positions(p, dt, noise=0.05, families=("savgol",)).values, False),
-    ("auto:strength=0", ALL_BUT_LEFT,
-     lambda q, dt: auto(q, dt, strength=0.0).values,
-     lambda p, dt: auto_positions(p, dt, strength=0.0).values, True),
+    (
+        "multires:levels=4,level=2.5",
+        ALL_BUT_LEFT,
+        lambda q, dt: multires.edit(q, 4, [0.0, 0.5, 1.0, 1.0]),
+        lambda p, dt: multires.edit_positions(p, 4, [0.0, 0.5, 1.0, 1.0]),
+        False,
+    ),
+    (
+        "multires:levels=3,level=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: multires.edit(q, 3, [1.0, 1.0, 1.0]),
+        lambda p, dt: multires.edit_positions(p, 3, [1.0, 1.0, 1.0]),
+        True,
+    ),
+    (
+        "auto",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt).values,
+        lambda p, dt: auto_positions(p, dt).values,
+        False,
+    ),
+    (
+        "auto:strength=2.5,mask=binomial,max_seconds=0.05",
+        HIPS_RIGHT,
+        lambda q, dt: auto(q, dt, strength=2.5, max_seconds=0.05, families=("binomial",)).values,
+        lambda p, dt: (
+            auto_positions(p, dt, strength=2.5, max_seconds=0.05, families=("binomial",)).values
+        ),
+        False,
+    ),
+    (
+        "auto:noise_deg=0.8,position_noise=0.05,mask=savgol",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt, noise=0.8, families=("savgol",)).values,
+        lambda p, dt: auto_positions(p, dt, noise=0.05, families=("savgol",)).values,
+        False,
+    ),
+    (
+        "auto:strength=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt, strength=0.0).values,
+        lambda p, dt: auto_positions(p, dt, strength=0.0).values,
+        True,
+    ),
 ]
 
 
@@ -183,10 +307,14 @@ def max_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(quat.angle_between(a, b)).max()) if a.size else 0.0
 
 
-@pytest.mark.parametrize(("text", "joints", "direct", "direct_positions", "identity"), CASES,
-                         ids=[case[0] for case in CASES])
-def test_step_equals_the_filter_called_directly(clip, text, joints, direct, direct_positions,
-                                                identity):
+@pytest.mark.parametrize(
+    ("text", "joints", "direct", "direct_positions", "identity"),
+    CASES,
+    ids=[case[0] for case in CASES],
+)
+def test_step_equals_the_filter_called_directly(
+    clip, text, joints, direct, direct_positions, identity
+):
     patterns, rule = joints
     separator = "," if ":" in text else ":"
     step = f"{text}{separator}joints={patterns}"
@@ -207,12 +335,12 @@ def test_step_equals_the_filter_called_directly(clip, text, joints, direct, dire
     root = clip.layout.has_position
     assert root.tolist() == [True] + [False] * (len(clip.names) - 1)
     filtered = root & chosen if direct_positions is not None else np.zeros_like(root)
-    np.testing.assert_array_equal(cleaned.translations[:, ~filtered],
-                                  clip.translations[:, ~filtered])
+    np.testing.assert_array_equal(
+        cleaned.translations[:, ~filtered], clip.translations[:, ~filtered]
+    )
     if filtered.any():
         expected_p = direct_positions(clip.translations[:, filtered], clip.frame_time)
-        np.testing.assert_allclose(cleaned.translations[:, filtered], expected_p, rtol=0,
-                                   atol=1e-9)
+        np.testing.assert_allclose(cleaned.translations[:, filtered], expected_p, rtol=0, atol=1e-9)
         assert logs[0].translation_joints == ["Hips"]
     else:
         assert logs[0].translation_joints == []
@@ -230,8 +358,9 @@ def test_positions_false_leaves_translations_and_filters_rotations(clip):
     cleaned, logs = Pipeline.from_inline(["multires:levels=3,positions=false"]).run(clip)
     np.testing.assert_array_equal(cleaned.translations, clip.translations)
     assert logs[0].translation_joints == []
-    np.testing.assert_allclose(cleaned.rotations, multires.edit(clip.rotations, 3, [0.0]),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        cleaned.rotations, multires.edit(clip.rotations, 3, [0.0]), rtol=0, atol=1e-12
+    )
 
 
 def test_steps_run_in_order_each_on_the_previous_output(clip):
@@ -239,8 +368,9 @@ def test_steps_run_in_order_each_on_the_previous_output(clip):
     cleaned, _ = Pipeline.from_inline(steps).run(clip)
     assert clip.names[-1] == "RThumb"
     first = lee_shin(clip.rotations[:, :-1], binomial(1))
-    expected = bilateral(np.concatenate([first, clip.rotations[:, -1:]], axis=1),
-                         sigma_t=2.0, sigma_g=0.05)
+    expected = bilateral(
+        np.concatenate([first, clip.rotations[:, -1:]], axis=1), sigma_t=2.0, sigma_g=0.05
+    )
     np.testing.assert_allclose(cleaned.rotations, expected, rtol=0, atol=1e-12)
     reversed_, _ = Pipeline.from_inline(steps[::-1]).run(clip)
     assert max_deg(reversed_.rotations, cleaned.rotations) > MOVED_DEG
@@ -266,33 +396,45 @@ def frames_of(runs) -> set[int]:
     return {f for start, stop in runs for f in range(start, stop)}
 
 
-@pytest.mark.parametrize(("params", "kwargs"), [
-    ("", {}),
-    ("threshold=6,method=slerp,max_spike_s=0.05,",
-     {"threshold": 6.0, "method": "slerp", "max_spike_s": 0.05}),
-    ("unflip=false,flip_deg=170,", {"unflip": False, "flip_deg": 170.0}),
-])
-def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(defective, params,
-                                                                           kwargs):
+@pytest.mark.parametrize(
+    ("params", "kwargs"),
+    [
+        ("", {}),
+        (
+            "threshold=6,method=slerp,max_spike_s=0.05,",
+            {"threshold": 6.0, "method": "slerp", "max_spike_s": 0.05},
+        ),
+        ("unflip=false,flip_deg=170,", {"unflip": False, "flip_deg": 170.0}),
+    ],
+)
+def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(
+    defective, params, kwargs
+):
     text = f"despike:{params}joints=['R*','Hips']"
     cleaned, logs = Pipeline.from_inline([text]).run(defective)
     chosen = selection(defective.names, lambda n: n.startswith("R") or n == "Hips")
-    expected, report = despike_with_report(defective.rotations[:, chosen],
-                                           defective.frame_time, **kwargs)
+    expected, report = despike_with_report(
+        defective.rotations[:, chosen], defective.frame_time, **kwargs
+    )
     np.testing.assert_array_equal(cleaned.rotations[:, chosen], expected)
     np.testing.assert_array_equal(cleaned.rotations[:, ~chosen], defective.rotations[:, ~chosen])
     position_kwargs = {k: v for k, v in kwargs.items() if k not in ("flip_deg", "unflip")}
     position_kwargs["method"] = "linear" if kwargs.get("method") == "slerp" else "cubic"
     expected_p, report_p = despike_positions_with_report(
-        defective.translations[:, :1], defective.frame_time, **position_kwargs)
+        defective.translations[:, :1], defective.frame_time, **position_kwargs
+    )
     np.testing.assert_array_equal(cleaned.translations[:, :1], expected_p)
 
     notes = logs[0].notes
     names = [n for n, c in zip(defective.names, chosen, strict=True) if c]
     for column, name in enumerate(names):
-        changed = np.flatnonzero(np.any(cleaned.rotations[:, defective.names.index(name)]
-                                        != defective.rotations[:, defective.names.index(name)],
-                                        axis=-1))
+        changed = np.flatnonzero(
+            np.any(
+                cleaned.rotations[:, defective.names.index(name)]
+                != defective.rotations[:, defective.names.index(name)],
+                axis=-1,
+            )
+        )
         if name not in notes or "despike" not in notes[name]:
             assert changed.size == 0, name
             continue
@@ -343,8 +485,9 @@ def test_auto_notes_report_the_estimated_noise_and_the_choice(clip):
         assert note["noise"] == pytest.approx(float(noise[column]), rel=1e-12)
         assert note["noise"] > 0
         assert note["filter"] == result.choices[column].params()
-        assert note["expected_error"] == pytest.approx(result.choices[column].expected_error,
-                                                       rel=1e-12)
+        assert note["expected_error"] == pytest.approx(
+            result.choices[column].expected_error, rel=1e-12
+        )
         # the note's filter, run directly, gives this joint's output
         j = clip.names.index(name)
         mask = note_mask(note["filter"], clip.frame_time)
@@ -354,7 +497,8 @@ def test_auto_notes_report_the_estimated_noise_and_the_choice(clip):
     root = notes["Hips"]
     assert root["position_auto"]["unit"] == "length"
     assert root["position_auto"]["noise"] == pytest.approx(
-        float(estimate_position_noise(clip.translations[:, :1])[0]), rel=1e-12)
+        float(estimate_position_noise(clip.translations[:, :1])[0]), rel=1e-12
+    )
 
 
 def test_auto_notes_carry_a_given_noise_level(clip):
@@ -368,7 +512,8 @@ def test_auto_notes_carry_a_given_noise_level(clip):
 def test_every_auto_choice_is_a_valid_lee_shin_step(clip, max_seconds):
     # the report's "filter chosen" can be pasted back as a lee-shin step
     _, logs = Pipeline.from_inline(
-        [f"auto:joints=['*','!RThumb'],positions=false,max_seconds={max_seconds}"]).run(clip)
+        [f"auto:joints=['*','!RThumb'],positions=false,max_seconds={max_seconds}"]
+    ).run(clip)
     for name, note in logs[0].notes.items():
         chosen = note["auto"]["filter"]
         if chosen["mask"] != "none":

@@ -64,9 +64,13 @@ def test_associative_norm_multiplicative_and_inverse():
     rng = np.random.default_rng(1)
     p, q, r = (rng.normal(size=(50, 4)) for _ in range(3))
     np.testing.assert_allclose(
-        quat.multiply(quat.multiply(p, q), r), quat.multiply(p, quat.multiply(q, r)), atol=1e-12)
-    np.testing.assert_allclose(np.linalg.norm(quat.multiply(p, q), axis=-1),
-                               np.linalg.norm(p, axis=-1) * np.linalg.norm(q, axis=-1), rtol=1e-13)
+        quat.multiply(quat.multiply(p, q), r), quat.multiply(p, quat.multiply(q, r)), atol=1e-12
+    )
+    np.testing.assert_allclose(
+        np.linalg.norm(quat.multiply(p, q), axis=-1),
+        np.linalg.norm(p, axis=-1) * np.linalg.norm(q, axis=-1),
+        rtol=1e-13,
+    )
     np.testing.assert_allclose(quat.multiply(p, quat.inverse(p)), quat.identity((50,)), atol=1e-14)
     u = quat.normalize(p)
     np.testing.assert_allclose(quat.conjugate(u), quat.inverse(u), atol=1e-15)
@@ -95,8 +99,9 @@ def test_exp_matches_definition_and_is_unit():
     np.testing.assert_array_equal(quat.exp(np.zeros(3)), [1.0, 0.0, 0.0, 0.0])
 
 
-@pytest.mark.parametrize("norm", [0.0, 1e-300, 1e-12, 1e-6, 0.3, 1.5, np.pi / 2,
-                                  np.pi - 1e-6, np.pi - 1e-10])
+@pytest.mark.parametrize(
+    "norm", [0.0, 1e-300, 1e-12, 1e-6, 0.3, 1.5, np.pi / 2, np.pi - 1e-6, np.pi - 1e-10]
+)
 def test_log_inverts_exp(norm):
     # log(exp(v)) = v for |v| < pi (the domain where log is the inverse, 000 Sec. III-B),
     # accurate near the identity and near |v| = pi (a quaternion near -1).
@@ -109,9 +114,17 @@ def test_log_inverts_exp(norm):
 def test_exp_inverts_log_for_both_signs():
     rng = np.random.default_rng(5)
     q = random_unit(rng, (500,))
-    q[:5] = quat.normalize(np.array([[-1.0, 1e-13, 0.0, 0.0], [-1.0, 0.0, 2e-9, 0.0],
-                                     [1.0, 1e-13, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0],
-                                     [-1.0, 0.0, 0.0, 0.0]]))
+    q[:5] = quat.normalize(
+        np.array(
+            [
+                [-1.0, 1e-13, 0.0, 0.0],
+                [-1.0, 0.0, 2e-9, 0.0],
+                [1.0, 1e-13, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [-1.0, 0.0, 0.0, 0.0],
+            ]
+        )
+    )
     w = quat.log(q)
     assert np.all(np.linalg.norm(w, axis=-1) <= np.pi + 1e-15)
     np.testing.assert_allclose(quat.exp(w[:4]), q[:4], atol=1e-15)
@@ -151,11 +164,13 @@ def test_angle_between_is_a_metric_on_rotations():
     v = rng.normal(size=(100, 3))
     v *= rng.uniform(0, np.pi / 2, size=(100, 1)) / np.linalg.norm(v, axis=-1, keepdims=True)
     moved = quat.multiply(p, quat.exp(v))
-    np.testing.assert_allclose(quat.angle_between(p, moved), 2 * np.linalg.norm(v, axis=-1),
-                               atol=1e-13)
+    np.testing.assert_allclose(
+        quat.angle_between(p, moved), 2 * np.linalg.norm(v, axis=-1), atol=1e-13
+    )
     a = random_unit(rng, ())
-    np.testing.assert_allclose(quat.angle_between(quat.multiply(a, p), quat.multiply(a, q)), d,
-                               atol=1e-13)
+    np.testing.assert_allclose(
+        quat.angle_between(quat.multiply(a, p), quat.multiply(a, q)), d, atol=1e-13
+    )
 
 
 # ----------------------------------------------------------------------------- slerp
@@ -205,12 +220,14 @@ def test_as_matrix_rotate_and_composition():
     v = rng.normal(size=(100, 3))
     m = quat.as_matrix(q)
     np.testing.assert_allclose(np.einsum("nij,nj->ni", m, v), quat.rotate(q, v), atol=1e-13)
-    np.testing.assert_allclose(m @ np.swapaxes(m, -1, -2), np.broadcast_to(np.eye(3), m.shape),
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        m @ np.swapaxes(m, -1, -2), np.broadcast_to(np.eye(3), m.shape), atol=1e-14
+    )
     np.testing.assert_allclose(np.linalg.det(m), 1.0, atol=1e-13)
     # apply q first, then p: R(p q) = R(p) R(q); and q, -q give the same rotation
-    np.testing.assert_allclose(quat.as_matrix(quat.multiply(p, q)), quat.as_matrix(p) @ m,
-                               atol=1e-13)
+    np.testing.assert_allclose(
+        quat.as_matrix(quat.multiply(p, q)), quat.as_matrix(p) @ m, atol=1e-13
+    )
     np.testing.assert_allclose(quat.as_matrix(-q), m, atol=1e-15)
     # right-handed, column vectors: +90 degrees about z takes x to y
     rz = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi / 2)
@@ -237,8 +254,9 @@ def test_from_euler_is_intrinsic_product_in_listed_order(order):
 @pytest.mark.parametrize("order", ORDERS)
 def test_to_euler_round_trip_and_reference(order):
     rng = np.random.default_rng(12)
-    angles = np.column_stack([rng.uniform(-179, 179, 200), rng.uniform(-89, 89, 200),
-                              rng.uniform(-179, 179, 200)])
+    angles = np.column_stack(
+        [rng.uniform(-179, 179, 200), rng.uniform(-89, 89, 200), rng.uniform(-179, 179, 200)]
+    )
     q = quat.from_euler(angles, order)
     np.testing.assert_allclose(quat.to_euler(q, order), angles, atol=1e-9)
     # with a reference, the equivalent triple nearest to it: whole turns are kept
@@ -253,8 +271,9 @@ def test_to_euler_round_trip_and_reference(order):
 @pytest.mark.parametrize("order", ORDERS)
 def test_to_euler_at_gimbal_lock_reproduces_rotation(order):
     rng = np.random.default_rng(13)
-    angles = np.column_stack([rng.uniform(-170, 170, 20), np.full(20, 90.0),
-                              rng.uniform(-170, 170, 20)])
+    angles = np.column_stack(
+        [rng.uniform(-170, 170, 20), np.full(20, 90.0), rng.uniform(-170, 170, 20)]
+    )
     angles[10:, 1] = -90.0
     q = quat.from_euler(angles, order)
     principal = quat.to_euler(q, order)

@@ -172,8 +172,9 @@ def estimate_position_noise(p: np.ndarray) -> np.ndarray:
     return (math.sqrt(3.0) * sigma).reshape(np.shape(p)[1:-1])
 
 
-def candidates(frame_time: float, max_seconds: float = 1.0,
-               families: tuple[str, ...] = FAMILIES) -> list[tuple[str, float, np.ndarray]]:
+def candidates(
+    frame_time: float, max_seconds: float = 1.0, families: tuple[str, ...] = FAMILIES
+) -> list[tuple[str, float, np.ndarray]]:
     """The candidate masks ``(family, value, mask)``.
 
     Binomial k and Savitzky-Golay half-widths ``1.35^n`` (rounded, unique) up to
@@ -213,7 +214,7 @@ def _trace(mask: np.ndarray, n_frames: int) -> float:
     displacement ``d_j = p_{j+1} - p_j`` read at position ``i + m``."""
     b = displacement_coefficients(mask)
     k = b.size // 2
-    ends = np.unique(np.r_[0:min(k, n_frames), max(n_frames - k, 0):n_frames])
+    ends = np.unique(np.r_[0 : min(k, n_frames), max(n_frames - k, 0) : n_frames])
     index = mirror_indices(n_frames - 1, k, k)[ends[:, None] + np.arange(2 * k)]
     frame = ends[:, None]
     diag = 1.0 + np.sum(b * ((index == frame - 1).astype(float) - (index == frame)), axis=1)
@@ -294,9 +295,10 @@ def _select(x, disp, sigma2, cands, apply: Callable, to_rms: Callable):
             cols = np.flatnonzero(winner == index)
             out[:, cols] = apply(x[:, cols], masks[index])
     error = to_rms(np.maximum(risk, 0.0) / max(n_frames, 1))
-    choices = [AutoChoice("none", 0, float(e)) if i < 0
-               else AutoChoice(cands[i][0], cands[i][1], float(e))
-               for i, e in zip(winner.tolist(), error.tolist(), strict=True)]
+    choices = [
+        AutoChoice("none", 0, float(e)) if i < 0 else AutoChoice(cands[i][0], cands[i][1], float(e))
+        for i, e in zip(winner.tolist(), error.tolist(), strict=True)
+    ]
     return out, choices
 
 
@@ -311,8 +313,14 @@ def _check(strength: float, noise, shape) -> np.ndarray | None:
     return noise
 
 
-def auto(q: np.ndarray, frame_time: float, strength: float = 1.0, max_seconds: float = 1.0,
-         families: tuple[str, ...] = FAMILIES, noise=None) -> AutoResult:
+def auto(
+    q: np.ndarray,
+    frame_time: float,
+    strength: float = 1.0,
+    max_seconds: float = 1.0,
+    families: tuple[str, ...] = FAMILIES,
+    noise=None,
+) -> AutoResult:
     """Clean orientations with a filter chosen per column from the estimated noise.
 
     Parameters
@@ -346,15 +354,24 @@ def auto(q: np.ndarray, frame_time: float, strength: float = 1.0, max_seconds: f
     level = _rotation_noise(w).reshape(shape) if given is None else given
     sigma = np.radians(level.reshape(-1)) / (2.0 * math.sqrt(3.0)) * strength
     values, choices = _select(
-        cols, w, sigma**2,
-        candidates(frame_time, max_seconds, families), lee_shin,
-        lambda mse: np.degrees(2.0 * np.sqrt(mse)))
+        cols,
+        w,
+        sigma**2,
+        candidates(frame_time, max_seconds, families),
+        lee_shin,
+        lambda mse: np.degrees(2.0 * np.sqrt(mse)),
+    )
     return AutoResult(values.reshape(np.shape(q)), np.array(level, dtype=np.float64), choices)
 
 
-def auto_positions(p: np.ndarray, frame_time: float, strength: float = 1.0,
-                   max_seconds: float = 1.0, families: tuple[str, ...] = FAMILIES,
-                   noise=None) -> AutoResult:
+def auto_positions(
+    p: np.ndarray,
+    frame_time: float,
+    strength: float = 1.0,
+    max_seconds: float = 1.0,
+    families: tuple[str, ...] = FAMILIES,
+    noise=None,
+) -> AutoResult:
     """Vector counterpart of :func:`auto` on ``(F, ..., 3)`` translations.
 
     The noise (:func:`estimate_position_noise`, or ``noise`` in length units) and the
@@ -367,6 +384,11 @@ def auto_positions(p: np.ndarray, frame_time: float, strength: float = 1.0,
     cols = _columns(p, 3, "positions")
     sigma = level.reshape(-1) / math.sqrt(3.0) * strength
     values, choices = _select(
-        cols, np.diff(cols, axis=0), sigma**2, candidates(frame_time, max_seconds, families),
-        lee_shin_positions, np.sqrt)
+        cols,
+        np.diff(cols, axis=0),
+        sigma**2,
+        candidates(frame_time, max_seconds, families),
+        lee_shin_positions,
+        np.sqrt,
+    )
     return AutoResult(values.reshape(np.shape(p)), np.array(level, dtype=np.float64), choices)

@@ -289,8 +289,9 @@ def bilateral(
     q = np.asarray(q, dtype=np.float64)
     if q.shape[0] < 2 or k == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
-    return run_passes(lambda src, dst: _bilateral_pass(src, dst, k, sigma_t, sigma_g), q,
-                      iterations)
+    return run_passes(
+        lambda src, dst: _bilateral_pass(src, dst, k, sigma_t, sigma_g), q, iterations
+    )
 
 
 def bilateral_positions(
@@ -314,5 +315,6 @@ def bilateral_positions(
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 2 or k == 0 or iterations == 0 or p.size == 0:
         return p.copy()
-    return run_passes(lambda src, dst: _bilateral_positions_pass(src, dst, k, sigma_t, sigma_p),
-                      p, iterations)
+    return run_passes(
+        lambda src, dst: _bilateral_positions_pass(src, dst, k, sigma_t, sigma_p), p, iterations
+    )

@@ -49,8 +49,9 @@ def savgol(half_width: int, degree: int = 2) -> np.ndarray:
     h = _whole("savgol half_width", half_width, 0)
     d = _whole("savgol degree", degree, 0)
     if d > 2 * h:
-        raise MaskError(f"a degree-{d} Savitzky-Golay mask needs half_width >= "
-                        f"{math.ceil(d / 2)}, got {h}")
+        raise MaskError(
+            f"a degree-{d} Savitzky-Golay mask needs half_width >= {math.ceil(d / 2)}, got {h}"
+        )
     x = np.arange(-h, h + 1, dtype=np.float64) / max(h, 1)  # scaled: well conditioned
     vandermonde = x[:, None] ** np.arange(d + 1)[None, :]
     coeffs = np.linalg.pinv(vandermonde)[0]  # row 0: the fitted value at x = 0
@@ -85,12 +86,15 @@ def lowpass(cutoff_hz: float, frame_rate: float, half_width: int | None = None) 
     """
     cutoff_hz, frame_rate = float(cutoff_hz), float(frame_rate)
     if not (math.isfinite(frame_rate) and frame_rate > 0):
-        raise MaskError(f"frame_rate must be a positive number of frames per second, "
-                        f"got {frame_rate}")
+        raise MaskError(
+            f"frame_rate must be a positive number of frames per second, got {frame_rate}"
+        )
     nyquist = frame_rate / 2.0
     if not (math.isfinite(cutoff_hz) and 0.0 < cutoff_hz < nyquist):
-        raise MaskError(f"cutoff_hz must be above 0 and below the Nyquist frequency "
-                        f"{nyquist:g} Hz (half the frame rate), got {cutoff_hz:g}")
+        raise MaskError(
+            f"cutoff_hz must be above 0 and below the Nyquist frequency "
+            f"{nyquist:g} Hz (half the frame rate), got {cutoff_hz:g}"
+        )
     if half_width is None:
         h = default_lowpass_half_width(cutoff_hz, frame_rate)
     else:

@@ -138,8 +138,13 @@ class DespikeReport:
         frame ranges. ``index`` is an int or a tuple into the trailing shape."""
         column = self._mask(kind)[(slice(None), *np.atleast_1d(index))]
         edges = np.diff(np.concatenate([[0], column.astype(np.int8), [0]]))
-        return list(zip(np.flatnonzero(edges == 1).tolist(),
-                        np.flatnonzero(edges == -1).tolist(), strict=True))
+        return list(
+            zip(
+                np.flatnonzero(edges == 1).tolist(),
+                np.flatnonzero(edges == -1).tolist(),
+                strict=True,
+            )
+        )
 
     def summary(self, index) -> dict:
         """JSON-ready figures of one column: frames repaired, the un-flipped and the
@@ -150,8 +155,10 @@ class DespikeReport:
             "unflipped": [list(r) for r in self.runs(index, "unflipped")],
             "interpolated": [list(r) for r in self.runs(index, "interpolated")],
             "threshold": float(self.threshold[index]),
-            "max_step": {"before": float(self.max_step_before[index]),
-                         "after": float(self.max_step_after[index])},
+            "max_step": {
+                "before": float(self.max_step_before[index]),
+                "after": float(self.max_step_after[index]),
+            },
         }
 
     def _mask(self, kind: str) -> np.ndarray:
@@ -238,10 +245,12 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float):
     if k.size:
         step, slot = np.divmod(k, cols.size)
         i = step * n_cols + cols[slot]
-        residual = _rotation_distance(_half_turn(x, i, slot, axis, left),
-                                      x.take(i + n_cols, axis=0))
-        toggles.reshape(-1)[k] = ((residual < big.reshape(-1).take(k))
-                                  & (residual <= np.pi - flip_rad))
+        residual = _rotation_distance(
+            _half_turn(x, i, slot, axis, left), x.take(i + n_cols, axis=0)
+        )
+        toggles.reshape(-1)[k] = (residual < big.reshape(-1).take(k)) & (
+            residual <= np.pi - flip_rad
+        )
     return cols, toggles, axis, left
 
 
@@ -252,8 +261,7 @@ def _parity(toggles: np.ndarray) -> np.ndarray:
     return parity ^ (parity.sum(axis=0) > parity.shape[0] / 2)
 
 
-def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate,
-                toggles=None):
+def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate, toggles=None):
     """Runs of frames ``a+1 .. a+L`` (``L <= max_len``) entered and left by abrupt jumps
     that come back off the local trend, as arrays ``(first frame a+1, length L, column)``.
 
@@ -288,19 +296,30 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
         first, last = first[keep], last[keep]
     flat_x = x.reshape(size + n_cols, x.shape[-1])
     flat_steps = steps.reshape(-1)
-    keep = (dist(flat_x.take(first, axis=0), flat_x.take(last + n_cols, axis=0))
-            < np.minimum(flat_steps.take(first), flat_steps.take(last)))
+    keep = dist(flat_x.take(first, axis=0), flat_x.take(last + n_cols, axis=0)) < np.minimum(
+        flat_steps.take(first), flat_steps.take(last)
+    )
     first, last = first[keep], last[keep]
     if first.size:
         # Abrupt: the velocity changes by more than the threshold into and out of the run.
         n = first.size
         at_start, at_end = first < n_cols, last + n_cols >= size
-        v = velocity(flat_x, np.concatenate([np.where(at_start, first, first - n_cols), first,
-                                             last, np.where(at_end, last, last + n_cols)]),
-                     n_cols)
+        v = velocity(
+            flat_x,
+            np.concatenate(
+                [
+                    np.where(at_start, first, first - n_cols),
+                    first,
+                    last,
+                    np.where(at_end, last, last + n_cols),
+                ]
+            ),
+            n_cols,
+        )
         limit = jump.take(first % n_cols)
-        keep = ((at_start | (_norm(v[n:2 * n] - v[:n]) > limit))
-                & (at_end | (_norm(v[2 * n:3 * n] - v[3 * n:]) > limit)))
+        keep = (at_start | (_norm(v[n : 2 * n] - v[:n]) > limit)) & (
+            at_end | (_norm(v[2 * n : 3 * n] - v[3 * n :]) > limit)
+        )
         first, last = first[keep], last[keep]
         if trend_ratio > 0 and first.size:
             keep = _off_trend(flat_x, n_cols, first, last, trend_ratio, dist, interpolate)
@@ -327,8 +346,9 @@ def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
     at = np.concatenate([first + stride, last, first, after])
     lo = np.concatenate([first, first, np.where(predict_a, first - stride, first), first])
     hi = np.concatenate([after, after, after, np.where(predict_b, after + stride, after)])
-    off = dist(x.take(at, axis=0), interpolate(x, _Knots.around(at, lo, hi, stride, x.shape[0]),
-                                              "cubic")).reshape(4, n)
+    off = dist(
+        x.take(at, axis=0), interpolate(x, _Knots.around(at, lo, hi, stride, x.shape[0]), "cubic")
+    ).reshape(4, n)
     error = np.maximum(np.where(predict_a, off[2], 0.0), np.where(predict_b, off[3], 0.0))
     return np.minimum(off[0], off[1]) > trend_ratio * error
 
@@ -363,9 +383,15 @@ class _Knots:
     def around(cls, at, lo, hi, stride: int, size: int) -> _Knots:
         """Knots for gaps between the good rows ``lo`` and ``hi`` with every frame outside
         them good, in ``size`` rows."""
-        return cls(at, lo, hi, np.where(lo >= stride, lo - stride, -1),
-                   np.where(hi + stride < size, hi + stride, -1),
-                   (at - lo) // stride, (hi - at) // stride)
+        return cls(
+            at,
+            lo,
+            hi,
+            np.where(lo >= stride, lo - stride, -1),
+            np.where(hi + stride < size, hi + stride, -1),
+            (at - lo) // stride,
+            (hi - at) // stride,
+        )
 
 
 def _gap_knots(mask: np.ndarray) -> _Knots:
@@ -385,9 +411,15 @@ def _gap_knots(mask: np.ndarray) -> _Knots:
     lo2 = has_l & (lo >= 1) & (good.take(j - 2) == good.take(j - 1) - 1)
     hi2 = has_r & (hi + 1 < n_frames) & (good.take(j + 1, mode="clip") == good.take(j) + 1)
     lo, hi = lo * n_cols + col, hi * n_cols + col  # rows
-    return _Knots(at, np.where(has_l, lo, -1), np.where(has_r, hi, -1),
-                  np.where(lo2, lo - n_cols, -1), np.where(hi2, hi + n_cols, -1),
-                  np.where(has_l, (at - lo) // n_cols, 1), np.where(has_r, (hi - at) // n_cols, 1))
+    return _Knots(
+        at,
+        np.where(has_l, lo, -1),
+        np.where(has_r, hi, -1),
+        np.where(lo2, lo - n_cols, -1),
+        np.where(hi2, hi + n_cols, -1),
+        np.where(has_l, (at - lo) // n_cols, 1),
+        np.where(has_r, (hi - at) // n_cols, 1),
+    )
 
 
 def _fill(x, mask, dist, interpolate, method, cap, passes):
@@ -427,8 +459,12 @@ def _lagrange(frame, left, right):
     g1 = g + 1.0
     outer, inner = g1 * (g + 2.0), g * g1
     a1, b1, minus_a = a + 1.0, b + 1.0, -a
-    return (minus_a * b * b1 / outer, a1 * b * b1 / inner, a * a1 * b1 / inner,
-            minus_a * a1 * b / outer)
+    return (
+        minus_a * b * b1 / outer,
+        a1 * b * b1 / inner,
+        a * a1 * b1 / inner,
+        minus_a * a1 * b / outer,
+    )
 
 
 #: Gaps shorter than this many frames get their weights from a table.
@@ -467,11 +503,12 @@ def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndar
         cubic = (knots.lo2 >= 0) & (knots.hi2 >= 0)
         c0, _, c2, c3 = _weights(knots.da, span)
         g = q.take(np.concatenate([knots.lo, knots.lo2, knots.hi, knots.hi2]), axis=0)
-        ql, qr = g[:n], g[2 * n:3 * n]
+        ql, qr = g[:n], g[2 * n : 3 * n]
         # One product and log for the gap and both outer displacements w_0 and w_2.
-        logs = _shorter_log(quat.multiply(quat.conjugate(g[:3 * n]),
-                                          np.concatenate([qr, ql, g[3 * n:]])))
-        gap, w0, w2 = logs[:n], logs[n:2 * n], logs[2 * n:]
+        logs = _shorter_log(
+            quat.multiply(quat.conjugate(g[: 3 * n]), np.concatenate([qr, ql, g[3 * n :]]))
+        )
+        gap, w0, w2 = logs[:n], logs[n : 2 * n], logs[2 * n :]
         tangent = -c0[:, None] * w0 + c3[:, None] * w2
         if np.count_nonzero(cubic) == n:
             u = c2 + c3
@@ -507,14 +544,19 @@ def _interpolate_positions(p: np.ndarray, knots: _Knots, method: str) -> np.ndar
     if method == "cubic":
         cubic = (knots.lo2 >= 0) & (knots.hi2 >= 0)
         c0, c1, c2, c3 = _weights(knots.da, span)
-        curve = (c0[:, None] * p.take(knots.lo2, axis=0) + c1[:, None] * pl
-                 + c2[:, None] * pr + c3[:, None] * p.take(knots.hi2, axis=0))
+        curve = (
+            c0[:, None] * p.take(knots.lo2, axis=0)
+            + c1[:, None] * pl
+            + c2[:, None] * pr
+            + c3[:, None] * p.take(knots.hi2, axis=0)
+        )
         value = np.where(cubic[:, None], curve, value)
     return _hold_ends(p, knots, value, pl, pr, has_l, has_r)
 
 
-def _check(frame_time, threshold, low, high, max_spike_s, max_run, trend_ratio, method, methods,
-           unit) -> int:
+def _check(
+    frame_time, threshold, low, high, max_spike_s, max_run, trend_ratio, method, methods, unit
+) -> int:
     """Validate the shared parameters; return the longest spike in frames: ``max_spike_s``
     in whole frames (at least one), and at most ``max_run`` when given."""
     if not (math.isfinite(frame_time) and frame_time > 0):
@@ -522,8 +564,10 @@ def _check(frame_time, threshold, low, high, max_spike_s, max_run, trend_ratio, 
     if not (math.isfinite(threshold) and threshold >= 0):
         raise ValueError(f"threshold must be a number of robust deviations >= 0, got {threshold}")
     if not (0 <= low <= high and high > 0):
-        raise ValueError(f"need 0 <= min_{unit}_per_s <= max_{unit}_per_s and max_{unit}_per_s "
-                         f"> 0, got {low} and {high}")
+        raise ValueError(
+            f"need 0 <= min_{unit}_per_s <= max_{unit}_per_s and max_{unit}_per_s "
+            f"> 0, got {low} and {high}"
+        )
     if not (math.isfinite(max_spike_s) and max_spike_s > 0):
         raise ValueError(f"max_spike_s must be a positive number of seconds, got {max_spike_s}")
     if max_run is not None and (int(max_run) != max_run or max_run < 1):
@@ -584,16 +628,16 @@ def _shorter_log(rel: np.ndarray) -> np.ndarray:
 
 def _rotation_velocity(q: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
     """Rotation vectors ``2 log(q_i^-1 q_{i+stride})`` (rad) between rows of ``q`` (N, 4)."""
-    return 2.0 * _shorter_log(quat.multiply(quat.conjugate(q.take(i, axis=0)),
-                                            q.take(i + stride, axis=0)))
+    return 2.0 * _shorter_log(
+        quat.multiply(quat.conjugate(q.take(i, axis=0)), q.take(i + stride, axis=0))
+    )
 
 
 def _position_velocity(p: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
     return p.take(i + stride, axis=0) - p.take(i, axis=0)
 
 
-def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio, method,
-            flip_rad):
+def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio, method, flip_rad):
     """Shared driver on ``x`` (F, C, 4|3): jump threshold, un-flip, spikes, cap passes.
 
     Spikes are at most ``max_len`` frames long; the cap widens a gap at most ``max_len``
@@ -603,11 +647,17 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
     """
     if rotations:
-        dist, velocity, interpolate = (_rotation_distance, _rotation_velocity,
-                                       _interpolate_rotations)
+        dist, velocity, interpolate = (
+            _rotation_distance,
+            _rotation_velocity,
+            _interpolate_rotations,
+        )
     else:
-        dist, velocity, interpolate = (_position_distance, _position_velocity,
-                                       _interpolate_positions)
+        dist, velocity, interpolate = (
+            _position_distance,
+            _position_velocity,
+            _interpolate_positions,
+        )
     n_frames, n_cols = x.shape[:2]
     flipped = np.zeros((n_frames, n_cols), dtype=bool)
     if n_frames < 2:
@@ -628,8 +678,16 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
             # Toggles on the steps of a spike that is not itself a clean flip (half-turn
             # both in and out) are artefacts of the spike: its ends share one state.
             first, length, slot = _spike_runs(
-                out.take(cols, axis=1), steps.take(cols, axis=1), jump[cols], max_len,
-                trend_ratio, dist, velocity, interpolate, toggles)
+                out.take(cols, axis=1),
+                steps.take(cols, axis=1),
+                jump[cols],
+                max_len,
+                trend_ratio,
+                dist,
+                velocity,
+                interpolate,
+                toggles,
+            )
             toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
             parity = _parity(toggles)
             frame, slot = _nonzero(parity)
@@ -639,8 +697,9 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
             turned = cols[parity.any(axis=0)]
             samples = out.take(turned, axis=1)
             steps[:, turned] = dist(samples[:-1], samples[1:])
-    first, length, col = _spike_runs(out, steps, jump, max_len, trend_ratio, dist, velocity,
-                                     interpolate)
+    first, length, col = _spike_runs(
+        out, steps, jump, max_len, trend_ratio, dist, velocity, interpolate
+    )
     mask = _mark(first, length, col, flipped.shape)
     over = steps > cap
     if over.any():
@@ -738,17 +797,35 @@ def despike_with_report(
         Repaired columns are sign-continuous; columns without defects are returned as given,
         bit for bit. Report angles are in degrees per frame.
     """
-    max_len = _check(frame_time, threshold, min_deg_per_s, max_deg_per_s, max_spike_s, max_run,
-                     trend_ratio, method, ("cubic", "slerp"), "deg")
+    max_len = _check(
+        frame_time,
+        threshold,
+        min_deg_per_s,
+        max_deg_per_s,
+        max_spike_s,
+        max_run,
+        trend_ratio,
+        method,
+        ("cubic", "slerp"),
+        "deg",
+    )
     if not 90.0 < flip_deg <= 180.0:
         raise ValueError(f"flip_deg must be in (90, 180] degrees, got {flip_deg}")
     q = np.asarray(q, dtype=np.float64)
     if q.ndim < 2 or q.shape[-1] != 4:
         raise ValueError(f"q must have shape (F, ..., 4), got {q.shape}")
     out, *masks_and_steps = _repair(
-        _columns(q), frame_time, True, threshold,
-        np.deg2rad(min_deg_per_s), np.deg2rad(max_deg_per_s), max_len, trend_ratio, method,
-        np.deg2rad(flip_deg) if unflip else None)
+        _columns(q),
+        frame_time,
+        True,
+        threshold,
+        np.deg2rad(min_deg_per_s),
+        np.deg2rad(max_deg_per_s),
+        max_len,
+        trend_ratio,
+        method,
+        np.deg2rad(flip_deg) if unflip else None,
+    )
     return out.reshape(q.shape), _report(q.shape, *masks_and_steps, np.rad2deg)
 
 
@@ -780,14 +857,33 @@ def despike_positions_with_report(
     units differ between files, no absolute cap unless ``max_units_per_s`` is given.
     ``unflipped`` is all false.
     """
-    max_len = _check(frame_time, threshold, min_units_per_s, max_units_per_s, max_spike_s,
-                     max_run, trend_ratio, method, ("cubic", "linear"), "units")
+    max_len = _check(
+        frame_time,
+        threshold,
+        min_units_per_s,
+        max_units_per_s,
+        max_spike_s,
+        max_run,
+        trend_ratio,
+        method,
+        ("cubic", "linear"),
+        "units",
+    )
     p = np.asarray(p, dtype=np.float64)
     if p.ndim < 2 or p.shape[-1] != 3:
         raise ValueError(f"p must have shape (F, ..., 3), got {p.shape}")
     out, *masks_and_steps = _repair(
-        _columns(p), frame_time, False, threshold, min_units_per_s,
-        max_units_per_s, max_len, trend_ratio, method, None)
+        _columns(p),
+        frame_time,
+        False,
+        threshold,
+        min_units_per_s,
+        max_units_per_s,
+        max_len,
+        trend_ratio,
+        method,
+        None,
+    )
     return out.reshape(p.shape), _report(p.shape, *masks_and_steps, np.asarray)
 
 

@@ -137,8 +137,16 @@ def _renormalize(q: np.ndarray, iterations: np.ndarray) -> np.ndarray:
     return q
 
 
-def _solve(x0, trailing, min_frames: int, solve, return_iterations: bool, *,
-           rotations: bool = False, continuous: bool = False):
+def _solve(
+    x0,
+    trailing,
+    min_frames: int,
+    solve,
+    return_iterations: bool,
+    *,
+    rotations: bool = False,
+    continuous: bool = False,
+):
     """Shared ending of the fairing functions, on the planes ``x0`` ``(width, F, N)``.
 
     ``solve(x0) -> (planes, iterations per signal)`` runs when the signals have at least
@@ -259,7 +267,9 @@ def _fair_r(q: np.ndarray, order: int, lam: float) -> np.ndarray:
     tmp = np.empty((2, *q.shape[1:]))
     for start, stop, a0 in segments:
         quat.multiply_planes(
-            target[:, start:stop], q[:, a0 : a0 + stop - start], e[:, start:stop],
+            target[:, start:stop],
+            q[:, a0 : a0 + stop - start],
+            e[:, start:stop],
             tmp[:, start:stop],
         )
     v = _rel_log(q, target)

@@ -43,6 +43,7 @@ __all__ = [
     "work_area",
 ]
 
+
 def displacement_coefficients(mask) -> np.ndarray:
     """Coefficients ``(b_-k, ..., b_{k-1})`` of 000 Eq. 20 for a mask ``(a_-k, ..., a_k)``.
 

@@ -70,8 +70,9 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     if path.is_dir():
         raise MotionError("is a directory", path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
-                                   dir=path.parent if str(path.parent) else ".")
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else "."
+        )
     except OSError as error:
         raise MotionError(f"cannot write: {error.strerror}", path) from None
     try:

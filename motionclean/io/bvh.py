@@ -122,14 +122,19 @@ class _Lines:
 def _check_channels(listed: list[str], path, number: int) -> None:
     for name in listed:
         if name not in KNOWN_CHANNELS:
-            _fail(f"unknown channel {name[:40]!r} (expected X/Y/Z position or rotation)",
-                  path, number)
+            _fail(
+                f"unknown channel {name[:40]!r} (expected X/Y/Z position or rotation)", path, number
+            )
     if len(set(listed)) != len(listed):
         _fail("CHANNELS lists a channel twice", path, number)
     rotations = sum(name in ROTATION_CHANNELS for name in listed)
     if rotations not in (0, 3):
-        _fail(f"CHANNELS has {rotations} rotation channels; a joint needs all three "
-              "(Xrotation, Yrotation, Zrotation) or none", path, number)
+        _fail(
+            f"CHANNELS has {rotations} rotation channels; a joint needs all three "
+            "(Xrotation, Yrotation, Zrotation) or none",
+            path,
+            number,
+        )
 
 
 def _parse_hierarchy(lines: _Lines, path):
@@ -154,15 +159,18 @@ def _parse_hierarchy(lines: _Lines, path):
         item = lines.next_tokens()
         if item is None:
             if stack or not names:
-                _fail("truncated hierarchy: the file ends inside the HIERARCHY section", path,
-                      lines.number)
+                _fail(
+                    "truncated hierarchy: the file ends inside the HIERARCHY section",
+                    path,
+                    lines.number,
+                )
             _fail("missing MOTION section", path, lines.number)
         number, start, tokens, text = item
         keyword = tokens[0]
         if expect_open and keyword != "{":
             _fail(f"expected '{{' after the joint header, found {keyword[:40]!r}", path, number)
         if keyword in ("ROOT", "JOINT"):
-            name = text[len(keyword):].strip()
+            name = text[len(keyword) :].strip()
             if not name:
                 _fail(f"{keyword} without a name", path, number)
             if keyword == "ROOT" and stack:
@@ -170,8 +178,11 @@ def _parse_hierarchy(lines: _Lines, path):
             if keyword == "JOINT" and (not stack or stack[-1][0] != "joint"):
                 _fail("JOINT outside a joint", path, number)
             if name in first_line:
-                _fail(f"joint name {name!r} used twice (first at line {first_line[name]})",
-                      path, number)
+                _fail(
+                    f"joint name {name!r} used twice (first at line {first_line[name]})",
+                    path,
+                    number,
+                )
             first_line[name] = number
             parents.append(stack[-1][1] if stack else -1)
             names.append(name)
@@ -245,8 +256,9 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
     return n_frames, frame_time
 
 
-def _parse_rows(buf: np.ndarray, body_start: int, n_frames: int, n_channels: int,
-                first_line: int, path):
+def _parse_rows(
+    buf: np.ndarray, body_start: int, n_frames: int, n_channels: int, first_line: int, path
+):
     """Parse the frame rows: ``(F, C)`` values and the ``(F, C)`` token starts and ends."""
     starts, ends = scan_tokens(buf, body_start)
     newlines = np.flatnonzero(buf[body_start:] == 10) + body_start
@@ -255,18 +267,25 @@ def _parse_rows(buf: np.ndarray, body_start: int, n_frames: int, n_channels: int
     bad = np.flatnonzero(counts[row_lines] != n_channels)
     if bad.size and bad[0] < n_frames:
         line = row_lines[bad[0]]
-        _fail(f"frame row has {counts[line]} values, expected {n_channels}", path,
-              first_line + line)
+        _fail(
+            f"frame row has {counts[line]} values, expected {n_channels}", path, first_line + line
+        )
     if row_lines.size < n_frames:
-        _fail(f"the file ends after {row_lines.size} frame rows but Frames: says {n_frames}",
-              path, first_line + (row_lines[-1] if row_lines.size else -1))
+        _fail(
+            f"the file ends after {row_lines.size} frame rows but Frames: says {n_frames}",
+            path,
+            first_line + (row_lines[-1] if row_lines.size else -1),
+        )
     if row_lines.size > n_frames:
         _fail(f"more frame rows than Frames: {n_frames}", path, first_line + row_lines[n_frames])
     values, bad_token = parse_numbers(buf, starts, ends)
     if bad_token >= 0:
-        token = buf[starts[bad_token]:ends[bad_token]].tobytes()
-        _fail(bad_number_message("frame value", token), path,
-              first_line + np.searchsorted(newlines, starts[bad_token]))
+        token = buf[starts[bad_token] : ends[bad_token]].tobytes()
+        _fail(
+            bad_number_message("frame value", token),
+            path,
+            first_line + np.searchsorted(newlines, starts[bad_token]),
+        )
     shape = (n_frames, n_channels)
     return values.reshape(shape), starts.reshape(shape), ends.reshape(shape)
 
@@ -286,18 +305,24 @@ def parse_bvh(data: bytes, path=None) -> Motion:
     eol = b"\r\n" if header.split(b"\n", 1)[0].endswith(b"\r") else b"\n"
     n_channels = sum(len(c) for c in channels)
     buf = np.frombuffer(data, dtype=np.uint8)
-    values, starts, ends = _parse_rows(buf, body_start, n_frames, n_channels,
-                                       lines.number + 1, path)
-    text = BvhText(data, data[:motion_start], header, body_start, starts, ends, frame_time,
-                   eol)
+    values, starts, ends = _parse_rows(
+        buf, body_start, n_frames, n_channels, lines.number + 1, path
+    )
+    text = BvhText(data, data[:motion_start], header, body_start, starts, ends, frame_time, eol)
     try:
         return Motion.from_channel_values(
-            names, parents, offsets, channels, frame_time, values,
-            end_sites=end_sites, source=text, path=None if path is None else str(path),
+            names,
+            parents,
+            offsets,
+            channels,
+            frame_time,
+            values,
+            end_sites=end_sites,
+            source=text,
+            path=None if path is None else str(path),
         )
     except MotionError as error:
         raise MotionError(error.message, path) from None
-
 
 
 def _format_hierarchy(motion: Motion) -> bytes:
@@ -321,8 +346,9 @@ def _format_hierarchy(motion: Motion) -> bytes:
             joint(child, depth + 1)
         if j in motion.end_sites or j not in children:
             site = motion.end_sites.get(j, np.zeros(3))
-            out.extend([f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {offset(site)}",
-                        f"{pad}\t}}"])
+            out.extend(
+                [f"{pad}\tEnd Site", f"{pad}\t{{", f"{pad}\t\tOFFSET {offset(site)}", f"{pad}\t}}"]
+            )
         out.append(f"{pad}}}")
 
     for root in children.get(-1, []):
@@ -352,16 +378,21 @@ def format_bvh(motion: Motion) -> bytes:
         raise MotionError(
             "this clip has no skeleton (a channel CSV read without one); to write BVH, read "
             "it with a skeleton template (motionclean convert CLIP.csv OUT.bvh --skeleton "
-            "TEMPLATE.bvh)", motion.path)
+            "TEMPLATE.bvh)",
+            motion.path,
+        )
     src = motion.source if isinstance(motion.source, BvhText) else None
     if src is None:
         hierarchy, eol = _format_hierarchy(motion), b"\n"
     else:
         hierarchy, eol = src.hierarchy, src.eol
     same_frame_time = src is not None and motion.frame_time == src.frame_time
-    same_frames = (src is not None and motion.has_source_frames()
-                   and src.n_frames == motion.n_frames > 0
-                   and src.starts.shape[1] == motion.layout.n_channels)
+    same_frames = (
+        src is not None
+        and motion.has_source_frames()
+        and src.n_frames == motion.n_frames > 0
+        and src.starts.shape[1] == motion.layout.n_channels
+    )
     if same_frames and same_frame_time and _unchanged(motion):
         return src.raw
     values = motion.channel_values()
@@ -371,8 +402,13 @@ def format_bvh(motion: Motion) -> bytes:
         motion_header = src.motion_header
     else:
         motion_header = (
-            b"MOTION" + eol + b"Frames: %d" % motion.n_frames + eol
-            + b"Frame Time: " + repr(float(motion.frame_time)).encode() + eol
+            b"MOTION"
+            + eol
+            + b"Frames: %d" % motion.n_frames
+            + eol
+            + b"Frame Time: "
+            + repr(float(motion.frame_time)).encode()
+            + eol
         )
     if motion.n_frames == 0:
         return hierarchy + motion_header
@@ -385,7 +421,12 @@ def format_bvh(motion: Motion) -> bytes:
             start, prefix = 0, b""
         else:
             start, prefix = src.body_start, hierarchy + motion_header
-        return splice(src.raw, src.starts[changed], src.ends[changed],
-                      lambda a, b: format_fixed6(new[a:b]), start, prefix)
-    return join_rows(*format_fixed6(values), values.shape, b" ", eol,
-                     hierarchy + motion_header)
+        return splice(
+            src.raw,
+            src.starts[changed],
+            src.ends[changed],
+            lambda a, b: format_fixed6(new[a:b]),
+            start,
+            prefix,
+        )
+    return join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)

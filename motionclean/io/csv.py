@@ -110,8 +110,10 @@ class CsvText:
 
     def matches(self, motion: Motion) -> bool:
         """True when ``motion`` still has the frames and joints this text describes."""
-        return (self.n_frames == motion.n_frames
-                and self.skeleton == (tuple(motion.names), tuple(motion.channels)))
+        return self.n_frames == motion.n_frames and self.skeleton == (
+            tuple(motion.names),
+            tuple(motion.channels),
+        )
 
 
 def _fail(message: str, path, line: int | None = None):
@@ -137,8 +139,9 @@ def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
             except UnicodeDecodeError:
                 _fail("not a text file (bytes that are not UTF-8)", path, number)
             try:
-                fields = next(_csv.reader([text.rstrip("\r\n")], strict=True,
-                                     skipinitialspace=True))
+                fields = next(
+                    _csv.reader([text.rstrip("\r\n")], strict=True, skipinitialspace=True)
+                )
             except _csv.Error as error:
                 _fail(f"bad header: {error}", path, number)
             return [f.strip() for f in fields], number, pos
@@ -147,8 +150,10 @@ def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
 
 def _classify(fields: list[str], path, line: int):
     """Split the header into frame/time columns and ``(name, suffix, column)`` entries."""
-    expected = ("expected a header such as 'frame,time,Hips.Xposition,...' (channel CSV) "
-                "or 'time,head.px,...,head.qz' (rigid-body CSV)")
+    expected = (
+        "expected a header such as 'frame,time,Hips.Xposition,...' (channel CSV) "
+        "or 'time,head.px,...,head.qz' (rigid-body CSV)"
+    )
     seen: set[str] = set()
     special = {"frame": -1, "time": -1}
     entries: list[tuple[str, str, int]] = []
@@ -164,15 +169,23 @@ def _classify(fields: list[str], path, line: int):
             continue
         name, dot, suffix = field.rpartition(".")
         if not dot or not name:
-            _fail(f"bad header: column {field[:60]!r} is not <joint>.<channel> or "
-                  f"<body>.<px|py|pz|qw|qx|qy|qz>; {expected}", path, line)
+            _fail(
+                f"bad header: column {field[:60]!r} is not <joint>.<channel> or "
+                f"<body>.<px|py|pz|qw|qx|qy|qz>; {expected}",
+                path,
+                line,
+            )
         if suffix in KNOWN_CHANNELS:
             kinds.add("channel")
         elif suffix in RIGID_SUFFIXES:
             kinds.add("rigid")
         else:
-            _fail(f"bad header: column {field[:60]!r} has an unknown suffix {suffix[:20]!r} "
-                  "(a BVH channel such as Xrotation, or px py pz qw qx qy qz)", path, line)
+            _fail(
+                f"bad header: column {field[:60]!r} has an unknown suffix {suffix[:20]!r} "
+                "(a BVH channel such as Xrotation, or px py pz qw qx qy qz)",
+                path,
+                line,
+            )
         entries.append((name, suffix, k))
     if special["time"] < 0:
         _fail(f"bad header: no 'time' column; {expected}", path, line)
@@ -209,11 +222,14 @@ def _parse_body(data: bytes, body_start: int, n_columns: int, first_line: int, p
     inner = token_line[1:] == token_line[:-1]
     wrong = np.flatnonzero(inner & (gaps != 1))
     if wrong.size:
-        _fail("row has an empty value or two values in one column", path,
-              first_line + token_line[wrong[0] + 1])
+        _fail(
+            "row has an empty value or two values in one column",
+            path,
+            first_line + token_line[wrong[0] + 1],
+        )
     values, bad_token = parse_numbers(buf, starts, ends)
     if bad_token >= 0:
-        text = buf[starts[bad_token]:ends[bad_token]].tobytes().decode("utf-8", "replace")[:40]
+        text = buf[starts[bad_token] : ends[bad_token]].tobytes().decode("utf-8", "replace")[:40]
         try:
             float(text)
             problem = "is not finite"
@@ -230,31 +246,46 @@ def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | No
     if n < 2:
         if template is not None:
             return template
-        _fail("a single row cannot give the frame time; at least two rows are needed",
-              path, int(lines[0]))
+        _fail(
+            "a single row cannot give the frame time; at least two rows are needed",
+            path,
+            int(lines[0]),
+        )
     steps = np.diff(times)
     back = np.flatnonzero(steps <= 0)
     if back.size:
         i = back[0] + 1
-        _fail(f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s)", path,
-              int(lines[i]))
+        _fail(
+            f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s)",
+            path,
+            int(lines[i]),
+        )
     grid = np.arange(n)
     if template is not None and np.all(
-            np.abs(times - times[0] - grid * template) <= TIME_TOLERANCE * template):
+        np.abs(times - times[0] - grid * template) <= TIME_TOLERANCE * template
+    ):
         return template
     mean = (times[-1] - times[0]) / (n - 1)
     off = np.abs(steps - mean) > TIME_TOLERANCE * mean
     if off.any():
         i = np.flatnonzero(off)[0] + 1
-        _fail(f"not uniformly sampled: a time step of {steps[i - 1]:.6g} s against a mean "
-              f"step of {mean:.6g} s (more than {TIME_TOLERANCE:.0%} apart); resample the "
-              "clip first", path, int(lines[i]))
+        _fail(
+            f"not uniformly sampled: a time step of {steps[i - 1]:.6g} s against a mean "
+            f"step of {mean:.6g} s (more than {TIME_TOLERANCE:.0%} apart); resample the "
+            "clip first",
+            path,
+            int(lines[i]),
+        )
     drift = np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean
     if drift.any():
         i = np.flatnonzero(drift)[0]
-        _fail(f"not uniformly sampled: time {times[i]:.6g} s is more than "
-              f"{TIME_TOLERANCE:.0%} of a frame off the uniform grid of {mean:.6g} s steps; "
-              "resample the clip first", path, int(lines[i]))
+        _fail(
+            f"not uniformly sampled: time {times[i]:.6g} s is more than "
+            f"{TIME_TOLERANCE:.0%} of a frame off the uniform grid of {mean:.6g} s steps; "
+            "resample the clip first",
+            path,
+            int(lines[i]),
+        )
     return float(f"{mean:.12g}")
 
 
@@ -266,8 +297,11 @@ def _channel_skeleton(entries, path, line):
     for name, suffix, k in entries:
         if not names or names[-1] != name:
             if name in names:
-                _fail(f"bad header: the columns of joint {name[:60]!r} are not next to each "
-                      "other", path, line)
+                _fail(
+                    f"bad header: the columns of joint {name[:60]!r} are not next to each other",
+                    path,
+                    line,
+                )
             names.append(name)
             channels.append([])
         channels[-1].append(suffix)
@@ -275,8 +309,12 @@ def _channel_skeleton(entries, path, line):
     for name, joint_channels in zip(names, channels, strict=True):
         rotations = sum(c in ROTATION_CHANNELS for c in joint_channels)
         if rotations not in (0, 3):
-            _fail(f"bad header: joint {name[:60]!r} has {rotations} rotation columns; a joint "
-                  "needs all three (Xrotation, Yrotation, Zrotation) or none", path, line)
+            _fail(
+                f"bad header: joint {name[:60]!r} has {rotations} rotation columns; a joint "
+                "needs all three (Xrotation, Yrotation, Zrotation) or none",
+                path,
+                line,
+            )
     return names, [tuple(c) for c in channels], np.array(columns, dtype=np.intp)
 
 
@@ -293,8 +331,12 @@ def _template_columns(entries, skeleton: Motion, path, line) -> np.ndarray:
         csv_order = [s for n, s, _ in entries if n == name and s in ROTATION_CHANNELS]
         bvh_order = [c for c in joint_channels if c in ROTATION_CHANNELS]
         if csv_order != bvh_order:
-            _fail(f"joint {name!r}: rotation columns in order {''.join(c[0] for c in csv_order)}"
-                  f" but the skeleton's order is {''.join(c[0] for c in bvh_order)}", path, line)
+            _fail(
+                f"joint {name!r}: rotation columns in order {''.join(c[0] for c in csv_order)}"
+                f" but the skeleton's order is {''.join(c[0] for c in bvh_order)}",
+                path,
+                line,
+            )
     if where:
         name, suffix = next(iter(where))
         _fail(f"column {name}.{suffix} is not a channel of the skeleton", path, line)
@@ -313,35 +355,65 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         _fail("not a text file (binary data)", path)
     fields, header_line, body_start = _split_header(data, path)
     layout, entries, time_column = _classify(fields, path, header_line)
-    values, starts, ends, lines = _parse_body(data, body_start, len(fields), header_line + 1,
-                                              path)
+    values, starts, ends, lines = _parse_body(data, body_start, len(fields), header_line + 1, path)
     eol = b"\r\n" if data[:body_start].endswith(b"\r\n") else b"\n"
     path_text = None if path is None else str(path)
     times = values[:, time_column]
     if layout == "rigid":
-        return _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol,
-                             path, header_line)
+        return _rigid_motion(
+            data, values, starts, ends, lines, entries, time_column, eol, path, header_line
+        )
     if skeleton is None:
         names, channels, columns = _channel_skeleton(entries, path, header_line)
         frame_time = _frame_time(times, lines, path, None)
-        text = CsvText("channel", data, starts, ends, values, columns, time_column,
-                       (tuple(names), tuple(channels)), frame_time, eol, needs_skeleton=True)
+        text = CsvText(
+            "channel",
+            data,
+            starts,
+            ends,
+            values,
+            columns,
+            time_column,
+            (tuple(names), tuple(channels)),
+            frame_time,
+            eol,
+            needs_skeleton=True,
+        )
         n = len(names)
-        return Motion.from_channel_values(names, np.full(n, -1), np.zeros((n, 3)), channels,
-                                          frame_time, values[:, columns], source=text,
-                                          path=path_text)
+        return Motion.from_channel_values(
+            names,
+            np.full(n, -1),
+            np.zeros((n, 3)),
+            channels,
+            frame_time,
+            values[:, columns],
+            source=text,
+            path=path_text,
+        )
     if getattr(skeleton.source, "needs_skeleton", False):
-        _fail("the skeleton template has no skeleton itself (a channel CSV); pass a BVH file",
-              skeleton.path)
+        _fail(
+            "the skeleton template has no skeleton itself (a channel CSV); pass a BVH file",
+            skeleton.path,
+        )
     columns = _template_columns(entries, skeleton, path, header_line)
     frame_time = _frame_time(times, lines, path, skeleton.frame_time)
     motion = Motion.from_channel_values(
-        skeleton.names, skeleton.parents, skeleton.offsets, skeleton.channels, frame_time,
-        values[:, columns], end_sites=dict(skeleton.end_sites), path=path_text)
+        skeleton.names,
+        skeleton.parents,
+        skeleton.offsets,
+        skeleton.channels,
+        frame_time,
+        values[:, columns],
+        end_sites=dict(skeleton.end_sites),
+        path=path_text,
+    )
     template = skeleton.source
     if isinstance(template, BvhText):
-        if (skeleton.has_source_frames() and template.n_frames == motion.n_frames
-                and frame_time == template.frame_time):
+        if (
+            skeleton.has_source_frames()
+            and template.n_frames == motion.n_frames
+            and frame_time == template.frame_time
+        ):
             motion.source = template
             motion.source_values = skeleton.source_values
             motion.source_rotations = skeleton.source_rotations
@@ -350,8 +422,9 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     return motion
 
 
-def _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol, path,
-                  header_line) -> Motion:
+def _rigid_motion(
+    data, values, starts, ends, lines, entries, time_column, eol, path, header_line
+) -> Motion:
     bodies: list[str] = []
     found: dict[str, dict[str, int]] = {}
     for name, suffix, k in entries:
@@ -363,8 +436,12 @@ def _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol, 
     for b, name in enumerate(bodies):
         for s, suffix in enumerate(RIGID_SUFFIXES):
             if suffix not in found[name]:
-                _fail(f"bad header: body {name[:60]!r} has no column {name[:60]}.{suffix} "
-                      "(a body needs px py pz qw qx qy qz)", path, header_line)
+                _fail(
+                    f"bad header: body {name[:60]!r} has no column {name[:60]}.{suffix} "
+                    "(a body needs px py pz qw qx qy qz)",
+                    path,
+                    header_line,
+                )
             columns[b, s] = found[name][suffix]
     frame_time = _frame_time(values[:, time_column], lines, path, None)
     translations = values[:, columns[:, :3]]
@@ -373,18 +450,40 @@ def _rigid_motion(data, values, starts, ends, lines, entries, time_column, eol, 
     tiny = norm < MIN_QUAT_NORM
     if tiny.any():
         f, b = np.argwhere(tiny)[0]
-        _fail(f"body {bodies[b]!r}: quaternion of norm {norm[f, b]:.3g} (below "
-              f"{MIN_QUAT_NORM:g}) is not a rotation", path, int(lines[f]))
+        _fail(
+            f"body {bodies[b]!r}: quaternion of norm {norm[f, b]:.3g} (below "
+            f"{MIN_QUAT_NORM:g}) is not a rotation",
+            path,
+            int(lines[f]),
+        )
     unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
     rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
     channels = [RIGID_CHANNELS] * len(bodies)
-    text = CsvText("rigid", data, starts, ends, values, columns, time_column,
-                   (tuple(bodies), tuple(channels)), frame_time, eol)
+    text = CsvText(
+        "rigid",
+        data,
+        starts,
+        ends,
+        values,
+        columns,
+        time_column,
+        (tuple(bodies), tuple(channels)),
+        frame_time,
+        eol,
+    )
     n = len(bodies)
-    return Motion(names=bodies, parents=np.full(n, -1, dtype=np.intp), offsets=np.zeros((n, 3)),
-                  channels=channels, frame_time=frame_time, rotations=rotations,
-                  translations=translations, source_rotations=rotations.copy(), source=text,
-                  path=None if path is None else str(path))
+    return Motion(
+        names=bodies,
+        parents=np.full(n, -1, dtype=np.intp),
+        offsets=np.zeros((n, 3)),
+        channels=channels,
+        frame_time=frame_time,
+        rotations=rotations,
+        translations=translations,
+        source_rotations=rotations.copy(),
+        source=text,
+        path=None if path is None else str(path),
+    )
 
 
 # ----------------------------------------------------------------------------- writing
@@ -433,15 +532,18 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     new, new_is_time = placed[mask].tolist(), is_time[mask].tolist()
 
     def texts(a: int, b: int):
-        return pack_texts([b"%.12g" % v if t else repr(v).encode()
-                           for v, t in zip(new[a:b], new_is_time[a:b], strict=True)])
+        return pack_texts(
+            [
+                b"%.12g" % v if t else repr(v).encode()
+                for v, t in zip(new[a:b], new_is_time[a:b], strict=True)
+            ]
+        )
 
     return splice(src.raw, src.starts[mask], src.ends[mask], texts)
 
 
 def _fresh(fields: list[str], eol: bytes, cells: _Cells, starts, lengths) -> bytes:
-    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol,
-                     _header(fields, eol))
+    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol, _header(fields, eol))
 
 
 def _frame_and_time(motion: Motion, cells: _Cells):
@@ -484,15 +586,16 @@ def _format_channel(motion: Motion) -> bytes:
     if isinstance(src, BvhText) and same and src.n_frames == n_frames:
         fresh = values != motion.source_values
         kept = ~fresh
-        s, n = cells.add(np.frombuffer(src.raw, dtype=np.uint8), src.starts[kept],
-                         (src.ends - src.starts)[kept])
+        s, n = cells.add(
+            np.frombuffer(src.raw, dtype=np.uint8), src.starts[kept], (src.ends - src.starts)[kept]
+        )
         starts[:, 2:][kept], lengths[:, 2:][kept] = s, n
     starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(values[fresh]))
-    (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(motion,
-                                                                                  cells)
+    (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(motion, cells)
     fields = ["frame", "time"] + [
         f"{motion.names[j]}.{channel}"
-        for j in range(motion.n_joints) for channel in motion.channels[j]
+        for j in range(motion.n_joints)
+        for channel in motion.channels[j]
     ]
     return _fresh(fields, _eol(src), cells, starts, lengths)
 
@@ -504,10 +607,17 @@ def _eol(source) -> bytes:
 def _format_rigid(motion: Motion) -> bytes:
     src = motion.source
     q, t = motion.rotations, motion.translations
-    check_finite(motion, np.concatenate([t, q], axis=-1).reshape(len(q), -1),
-                 [len(RIGID_SUFFIXES)] * motion.n_joints)
-    if (isinstance(src, CsvText) and src.layout == "rigid" and src.matches(motion)
-            and motion.source_rotations is not None):
+    check_finite(
+        motion,
+        np.concatenate([t, q], axis=-1).reshape(len(q), -1),
+        [len(RIGID_SUFFIXES)] * motion.n_joints,
+    )
+    if (
+        isinstance(src, CsvText)
+        and src.layout == "rigid"
+        and src.matches(motion)
+        and motion.source_rotations is not None
+    ):
         read = src.values[:, src.columns]  # (F, B, 7) as in the file
         read_q = motion.source_rotations  # q and -q are the same rotation
         q_changed = np.any(q != read_q, axis=-1) & np.any(q != -read_q, axis=-1)
@@ -518,20 +628,25 @@ def _format_rigid(motion: Motion) -> bytes:
         placed = np.zeros(src.starts.shape)
         rows = np.arange(motion.n_frames)[:, None, None]
         mask[rows, src.columns] = np.concatenate(
-            [t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1)
+            [t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1
+        )
         placed[rows, src.columns] = new
         return _rewrite(src, motion, mask, placed)
 
     if np.any(motion.parents >= 0):
-        raise MotionError("a rigid-body CSV holds independent bodies, but this clip has a "
-                          "joint hierarchy; write a channel CSV instead", motion.path)
+        raise MotionError(
+            "a rigid-body CSV holds independent bodies, but this clip has a "
+            "joint hierarchy; write a channel CSV instead",
+            motion.path,
+        )
     cells = _Cells()
     n_frames, n_bodies = q.shape[:2]
     values = np.concatenate([t, q], axis=-1).reshape(n_frames, 7 * n_bodies)
     starts = np.zeros((n_frames, values.shape[1] + 1), dtype=np.int64)
     lengths = np.zeros_like(starts)
-    starts[:, 1:], lengths[:, 1:] = (a.reshape(values.shape)
-                                     for a in cells.add(*format_repr(values)))
+    starts[:, 1:], lengths[:, 1:] = (
+        a.reshape(values.shape) for a in cells.add(*format_repr(values))
+    )
     _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells)
     fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
     return _fresh(fields, _eol(src), cells, starts, lengths)

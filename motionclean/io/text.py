@@ -25,8 +25,9 @@ def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
         frame, column = np.argwhere(bad)[0]
         widths = [len(c) for c in motion.channels] if widths is None else widths
         joint = np.searchsorted(np.cumsum(widths), column, side="right")
-        raise MotionError(f"cannot write: joint {motion.names[joint]!r} has a non-finite "
-                          f"value at frame {frame}")
+        raise MotionError(
+            f"cannot write: joint {motion.names[joint]!r} has a non-finite value at frame {frame}"
+        )
 
 
 #: Work on arrays in pieces of this many items (or bytes) so temporaries stay in cache.
@@ -49,7 +50,7 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     edges = []
     before = np.int8(1)  # a gap before the first byte
     for at in range(start, buf.size, _CHUNK_BYTES):
-        part = buf[at:at + _CHUNK_BYTES]
+        part = buf[at : at + _CHUNK_BYTES]
         gap = (part == 32) | ((part >= 9) & (part <= 13))
         for byte in separators:
             gap |= part == byte
@@ -81,7 +82,7 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
 
     bad = -1
     for i in np.flatnonzero(~simple).tolist():
-        token = buf[starts[i]:ends[i]].tobytes()
+        token = buf[starts[i] : ends[i]].tobytes()
         try:
             value = float(token) if b"_" not in token else math.nan
         except ValueError:
@@ -115,8 +116,9 @@ def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
     dot_at = dots[np.minimum(dot_index, dots.size - 1)] if dots.size else ends
     lead = buf[starts]
     signed = (lead == 45) | (lead == 43)
-    simple = ((n_digits >= 1) & (n_digits <= 15) & (n_dots <= 1)
-              & (n_digits + n_dots + signed == length))
+    simple = (
+        (n_digits >= 1) & (n_digits <= 15) & (n_dots <= 1) & (n_digits + n_dots + signed == length)
+    )
     decimals = np.where(simple & (n_dots == 1), ends - 1 - dot_at, 0)
     values = mantissa / _POW10_FLOAT[decimals]
     values[lead == 45] *= -1.0
@@ -231,8 +233,9 @@ def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: byt
     return b"".join(out)
 
 
-def splice(raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int = 0,
-           prefix: bytes = b"") -> bytes:
+def splice(
+    raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int = 0, prefix: bytes = b""
+) -> bytes:
     """``prefix + raw[start:]`` with the byte ranges ``[starts[i], ends[i])`` (sorted,
     disjoint, at or after ``start``) replaced by new texts.
 
@@ -245,10 +248,10 @@ def splice(raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int =
     out = [prefix]
     pos = start
     for at in range(0, starts.size, _CHUNK_ITEMS):
-        old_starts = starts[at:at + _CHUNK_ITEMS] - pos
-        old_ends = ends[at:at + _CHUNK_ITEMS] - pos
+        old_starts = starts[at : at + _CHUNK_ITEMS] - pos
+        old_ends = ends[at : at + _CHUNK_ITEMS] - pos
         buf, new_starts, new_lengths = texts(at, at + old_starts.size)
-        region = source[pos:pos + int(old_ends[-1])]
+        region = source[pos : pos + int(old_ends[-1])]
         pieces = np.empty(2 * old_starts.size, dtype=np.int64)
         lengths = np.empty(2 * old_starts.size, dtype=np.int64)
         pieces[0], pieces[2::2] = 0, old_ends[:-1]  # kept text before each replacement
@@ -263,8 +266,15 @@ def splice(raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int =
     return b"".join(out)
 
 
-def join_rows(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, shape: tuple,
-              sep: bytes, eol: bytes, prefix: bytes = b"") -> bytes:
+def join_rows(
+    buf: np.ndarray,
+    starts: np.ndarray,
+    lengths: np.ndarray,
+    shape: tuple,
+    sep: bytes,
+    eol: bytes,
+    prefix: bytes = b"",
+) -> bytes:
     """``prefix`` followed by rows of ``shape = (F, K)`` cells (pieces of ``buf``) joined
     by ``sep``, each row ended by ``eol``."""
     n_rows, n_cols = shape
