@@ -4,6 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT := out
+SOURCES := motionclean tests bench scripts
 
 .PHONY: demo test bench lint clean-venv
 
@@ -26,9 +27,12 @@ demo: $(STAMP)
 		--json $(OUT)/131_02_report.json > /dev/null
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
-test: $(STAMP)
-	$(BIN)/ruff check motionclean tests bench scripts
+test: lint
 	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check $(SOURCES)
+	$(BIN)/ruff format --check --quiet $(SOURCES)
 
 bench: $(VENV)/.bench
 	$(BIN)/python bench/run_all.py

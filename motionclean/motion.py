@@ -90,7 +90,7 @@ class ChannelLayout:
         return {order: np.array(idx, dtype=np.intp) for order, idx in groups.items()}
 
 
-@dataclass
+@dataclass(eq=False)
 class Motion:
     """A motion clip: skeleton, channel layout and ``(F, J, ...)`` float64 motion arrays.
 
@@ -198,6 +198,25 @@ class Motion:
     def replace(self, **changes) -> Motion:
         """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""
         return dataclasses.replace(self, **changes)
+
+    def __eq__(self, other: object) -> bool:
+        """Same skeleton, channels, frame time and motion arrays (exactly); the source text
+        and path are not compared."""
+        if not isinstance(other, Motion):
+            return NotImplemented
+        return (
+            self.names == other.names
+            and self.channels == other.channels
+            and self.frame_time == other.frame_time
+            and np.array_equal(self.parents, other.parents)
+            and np.array_equal(self.offsets, other.offsets)
+            and self.end_sites.keys() == other.end_sites.keys()
+            and all(np.array_equal(v, other.end_sites[k]) for k, v in self.end_sites.items())
+            and np.array_equal(self.rotations, other.rotations)
+            and np.array_equal(self.translations, other.translations)
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable arrays
 
     def joint_index(self, name: str) -> int:
         try:

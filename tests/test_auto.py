@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import CORPUS, needs_corpus
+from helpers import corpus_clip, needs_corpus
 
 import motionclean as mc
 from motionclean import quat
@@ -49,9 +49,7 @@ def smooth_synthetic(frames: int = 400, joints: int = 6, seed: int = 0) -> np.nd
 @pytest.fixture(scope="module")
 def smooth_clip():
     """A real walk (131_02, 600 frames at 120 fps, no RThumb) smoothed by 20 B^3 passes."""
-    if not CORPUS.is_dir():
-        pytest.skip(f"CMU corpus not found at {CORPUS} (see ../shared/corpus/README.md)")
-    m = mc.load(CORPUS / "131_02.bvh")
+    m = mc.load(corpus_clip("131_02.bvh"))
     keep = [i for i, n in enumerate(m.names) if n != "RThumb"]
     return lee_shin(m.rotations[200:800, keep], binomial(1), 20), m.frame_time
 

@@ -7,14 +7,13 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import cut_bvh, run_cli
+from helpers import NOISY, cut_bvh, run_cli
 
 import motionclean as mc
 from motionclean.batch import FileResult, clean_file, find_clips
 from motionclean.pipeline import Pipeline
 
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "sample_data" / "131_02_noisy.bvh"
+SAMPLE = NOISY
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
@@ -74,6 +73,7 @@ def test_tree_with_a_broken_file(tree, tmp_path, capsys):
     }
 
 
+@pytest.mark.slow
 def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
     (tree / "run" / "broken.bvh").unlink()
     results = []

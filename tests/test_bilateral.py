@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import corpus_clip
 
 from motionclean import quat
 from motionclean.filters.bilateral import bilateral, bilateral_positions
@@ -17,8 +16,6 @@ from motionclean.filters.linear import (
     mirrored_displacements,
 )
 from motionclean.filters.masks import gaussian
-
-CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "cmu"
 
 
 def smooth_rotations(frames: int, joints: int, seed: int, speed: float = 0.05) -> np.ndarray:
@@ -313,12 +310,9 @@ def test_edge_preservation_fast_turn(iterations):
 
 @pytest.fixture(scope="module")
 def rthumb():
-    clip = CORPUS / "131_02.bvh"
-    if not clip.exists():
-        pytest.skip(f"corpus clip {clip} not found (expected ../shared/corpus beside the project)")
     import motionclean
 
-    motion = motionclean.load(clip)
+    motion = motionclean.load(corpus_clip("131_02.bvh"))
     return motion.rotations[:, motion.names.index("RThumb")]
 
 

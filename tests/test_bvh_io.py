@@ -4,10 +4,10 @@ exporters, minimal rewrites after an edit, and the Euler conventions against bvh
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CORPUS_NAMES, ROOT, corpus_clip
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -16,8 +16,6 @@ from motionclean import quat
 from motionclean.io.bvh import format_bvh, parse_bvh
 from motionclean.io.text import format_fixed6, parse_numbers, scan_tokens
 
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 SAMPLES = sorted((ROOT / "sample_data").glob("*.bvh"))
 ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 NAMES = (
@@ -30,12 +28,6 @@ NAMES = (
     "mixamorig:LeftHandIndex1",
     "Bip01 L Thigh",
 )
-
-
-def corpus_clips() -> list[Path]:
-    if not CORPUS.is_dir():
-        pytest.skip(f"corpus not found at {CORPUS} (../shared/corpus)")
-    return sorted(CORPUS.glob("*.bvh"))
 
 
 def frame_rows(data: bytes) -> list[bytes]:
@@ -51,11 +43,9 @@ def line_endings(data: bytes) -> list[bytes]:
 # ----------------------------------------------------------------------------- real files
 
 
-@pytest.mark.parametrize("name", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
+@pytest.mark.parametrize("name", CORPUS_NAMES)
 def test_corpus_identity_round_trip(name, tmp_path):
-    path = next((p for p in corpus_clips() if p.name == name), None)
-    if path is None:
-        pytest.skip(f"{name} not in the corpus")
+    path = corpus_clip(name)
     mc.save(mc.load(path), tmp_path / name)
     assert (tmp_path / name).read_bytes() == path.read_bytes()
 

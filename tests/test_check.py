@@ -7,16 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import cut_bvh, run_cli
+from helpers import SAMPLE, cut_bvh, run_cli
 
 import motionclean as mc
 from motionclean import quat
 from motionclean.check import DEFAULT_TOLERANCE, compare
 from motionclean.pipeline import Pipeline
 from motionclean.report import json_safe
-
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SAMPLE, run_cli
+from helpers import SAMPLE, max_degrees, run_cli
 
 import motionclean as mc
 from motionclean import multires, quat
@@ -38,7 +38,7 @@ def clips(tmp_path_factory):
 
 
 def max_deg(x: mc.Motion, y: mc.Motion) -> float:
-    return float(np.degrees(quat.angle_between(x.rotations, y.rotations)).max())
+    return max_degrees(x.rotations, y.rotations)
 
 
 def max_length(x: mc.Motion, y: mc.Motion) -> float:

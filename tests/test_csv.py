@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CORPUS_NAMES, SAMPLE, corpus_clip
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -18,10 +19,6 @@ from motionclean import quat
 from motionclean.cli import main
 from motionclean.errors import MotionError
 from motionclean.io.csv import RIGID_SUFFIXES, format_csv, parse_csv
-
-ROOT = Path(__file__).resolve().parents[1]
-SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 
 
 def convert(*args: str) -> None:
@@ -42,10 +39,6 @@ def bvh_rows(path: Path) -> list[list[str]]:
     lines = Path(path).read_text().splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
     return [line.split() for line in lines[start:] if line.strip()]
-
-
-def clips() -> list[Path]:
-    return [SAMPLE] + sorted(CORPUS.glob("*.bvh"))
 
 
 # ----------------------------------------------------------------------------- channel CSV
@@ -73,17 +66,12 @@ def test_channel_csv_mirrors_the_motion_block(tmp_path):
     assert cells == bvh_rows(SAMPLE)
 
 
-@pytest.mark.parametrize("clip_path", clips(), ids=lambda p: p.name)
-def test_bvh_csv_bvh_with_skeleton_is_byte_identical(clip_path, tmp_path):
+@pytest.mark.parametrize("name", ["sample", *CORPUS_NAMES])
+def test_bvh_csv_bvh_with_skeleton_is_byte_identical(name, tmp_path):
+    clip_path = SAMPLE if name == "sample" else corpus_clip(name)
     convert(clip_path, tmp_path / "clip.csv")
     convert(tmp_path / "clip.csv", tmp_path / "back.bvh", "--skeleton", clip_path)
     assert (tmp_path / "back.bvh").read_bytes() == clip_path.read_bytes()
-
-
-def test_corpus_present_or_skipped():
-    if not CORPUS.is_dir():
-        pytest.skip(f"corpus not found at {CORPUS} (../shared/corpus)")
-    assert len(clips()) > 1
 
 
 def test_csv_with_full_precision_values_converts_exactly(tmp_path):

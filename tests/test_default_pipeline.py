@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SAMPLE, run_cli
+from helpers import SAMPLE, run_cli
 
 import motionclean as mc
 from motionclean import quat

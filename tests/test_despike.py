@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import CORPUS_CLIPS, SAMPLE, needs_corpus
+from helpers import CORPUS_CLIPS, SAMPLE, degrees_between, needs_corpus
 
 import motionclean as mc
 from motionclean import quat
@@ -47,10 +47,6 @@ def clean_columns(m, every=1):
     """The CLEAN joints' rotations, keeping every ``every``-th frame (sign-continuous)."""
     cols = [m.names.index(n) for n in CLEAN]
     return quat.make_continuous(m.rotations[::every, cols], axis=0), cols
-
-
-def degrees_between(a, b):
-    return np.rad2deg(quat.angle_between(a, b))
 
 
 def random_axes(rng, n):

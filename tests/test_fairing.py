@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CORPUS_NAMES, corpus_clip
 
 import motionclean
 from motionclean import quat
@@ -22,8 +22,6 @@ from motionclean.filters.fairing import (
     sse_objective,
     sse_objective_positions,
 )
-
-CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "cmu"
 
 
 def s3_dist(a, b):
@@ -63,10 +61,7 @@ def uniform_rotation(frames, a, b, v):
 
 
 def corpus_motion(name="131_02.bvh"):
-    path = CORPUS / name
-    if not path.exists():
-        pytest.skip(f"corpus clip not found: {path} (expected at ../shared/corpus)")
-    return motionclean.load(path)
+    return motionclean.load(corpus_clip(name))
 
 
 # ------------------------------------------------------------------ 001: bounds (Eq. 19-20)
@@ -134,7 +129,7 @@ def test_fairing_returns_the_last_iterate_inside_the_bound():
         assert s3_dist(q[:, j], free_k).max() < eps <= s3_dist(q[:, j], free_next).max()
 
 
-@pytest.mark.parametrize("clip", ["131_01.bvh", "131_02.bvh", "131_03.bvh"])
+@pytest.mark.parametrize("clip", CORPUS_NAMES)
 def test_fairing_corpus_clip_within_bounds(clip):
     m = corpus_motion(clip)
     q, p = m.rotations, m.translations

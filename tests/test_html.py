@@ -7,10 +7,10 @@ import subprocess
 import sys
 import tempfile
 from html.parser import HTMLParser
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import NOISY, ROOT
 
 import motionclean as mc
 from motionclean import quat
@@ -25,9 +25,6 @@ from motionclean.html import (
 )
 from motionclean.pipeline import Pipeline
 from motionclean.report import build_report, build_series, noisiest, to_json
-
-ROOT = Path(__file__).resolve().parents[1]
-NOISY = ROOT / "sample_data" / "131_02_noisy.bvh"
 
 
 class Page(HTMLParser):
@@ -246,6 +243,7 @@ def test_rotation_noise_shows_in_the_plot_order():
     assert first is not None and first.group(1) == "LeftKnee"
 
 
+@pytest.mark.browser
 def test_renders_in_a_headless_browser(cleaned, tmp_path):
     sys.path.insert(0, str(ROOT / "scripts"))
     try:

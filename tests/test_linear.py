@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import CORPUS_NAMES, SAMPLE, corpus_clip
 
 import motionclean as mc
 from motionclean import quat
@@ -17,12 +18,6 @@ from motionclean.filters.linear import (
     mirror_indices,
 )
 from motionclean.filters.masks import binomial, custom, gaussian, high_boost, reduction, smoothing
-
-ROOT = Path(__file__).resolve().parents[1]
-CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
-CORPUS_CLIPS = sorted(CORPUS.glob("*.bvh"))
-SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
-NO_CORPUS = f"corpus folder {CORPUS} is missing (see /work/shared/corpus/README.md)"
 
 ASYMMETRIC = np.array([0.1, 0.3, 0.35, 0.2, 0.05])
 SYMMETRIC_MASKS = {
@@ -65,9 +60,7 @@ def max_angle(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.fixture(scope="module")
 def corpus_rotations() -> np.ndarray:
-    if not CORPUS_CLIPS:
-        pytest.skip(NO_CORPUS)
-    return mc.load(CORPUS / "131_02.bvh").rotations
+    return mc.load(corpus_clip("131_02.bvh")).rotations
 
 
 @pytest.fixture(params=["random", "corpus"])
@@ -320,9 +313,9 @@ def motion_section(path: Path) -> bytes:
     return data[data.index(b"MOTION") :]
 
 
-@pytest.mark.skipif(not CORPUS_CLIPS, reason=NO_CORPUS)
-@pytest.mark.parametrize("clip", CORPUS_CLIPS, ids=lambda p: p.stem)
-def test_cli_clean_matches_lee_shin_on_corpus(clip, tmp_path):
+@pytest.mark.parametrize("name", CORPUS_NAMES)
+def test_cli_clean_matches_lee_shin_on_corpus(name, tmp_path):
+    clip = corpus_clip(name)
     out_path = tmp_path / "clean.bvh"
     run_cli(
         "clean",
@@ -344,8 +337,9 @@ def test_cli_clean_matches_lee_shin_on_corpus(clip, tmp_path):
     np.testing.assert_allclose(cleaned.translations[:, has_pos], expected_pos, atol=1e-5)
 
 
-@pytest.mark.parametrize("clip", [SAMPLE, *CORPUS_CLIPS], ids=lambda p: p.stem)
-def test_identity_step_writes_the_input_motion_unchanged(clip, tmp_path):
+@pytest.mark.parametrize("name", ["sample", *CORPUS_NAMES])
+def test_identity_step_writes_the_input_motion_unchanged(name, tmp_path):
+    clip = SAMPLE if name == "sample" else corpus_clip(name)
     out_path = tmp_path / "same.bvh"
     run_cli(
         "clean", str(clip), "-o", str(out_path), "-q", "-f", "lee-shin:mask=custom,coefficients=[1]"

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from helpers import corpus_clip
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -15,13 +14,9 @@ from motionclean import quat
 from motionclean.filters.linear import angular_displacements, lee_shin, lee_shin_positions
 from motionclean.filters.masks import reduction
 
-CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "cmu"
-
 
 def load_corpus(name: str):
-    if not (CORPUS / name).is_file():
-        pytest.skip(f"corpus clip {CORPUS / name} not found")
-    return motionclean.load(CORPUS / name)
+    return motionclean.load(corpus_clip(name))
 
 
 def smooth_rotations(
@@ -422,3 +417,27 @@ def test_corpus_stitch_smaller_velocity_jump_than_concatenation():
     # The whole stitched transition region against the one concatenation seam.
     stitched = seam_jump(q, a.n_frames - 1, 3 * (2**levels - 1))
     assert stitched < 0.25 * plain, (stitched, plain)
+
+
+def test_oplus_undoes_ominus_for_rotations_and_positions():
+    """003 Eq. 2-3: ``from (+) (to (-) from) = to``, positions in the body frame of ``from``."""
+    rng = np.random.default_rng(11)
+    q_from, q_to = quat.normalize(rng.normal(size=(2, 50, 4)))
+    p_from, p_to = rng.normal(size=(2, 50, 3))
+    v, u = mr.ominus(q_to, q_from, p_to, p_from)
+    assert np.all(np.linalg.norm(v, axis=-1) <= np.pi / 2 + 1e-12)  # shorter arc
+    q_back, p_back = mr.oplus(q_from, v, p_from, u)
+    np.testing.assert_allclose(np.abs(np.sum(q_back * q_to, axis=-1)), 1.0, atol=1e-12)
+    np.testing.assert_allclose(p_back, p_to, atol=1e-12)
+    # u is measured in the body frame: rotating both frames rotates p but not u.
+    turn = quat.from_axis_angle([0.0, 0.0, 1.0], 0.7)
+    v2, u2 = mr.ominus(
+        quat.multiply(turn, q_to),
+        quat.multiply(turn, q_from),
+        quat.rotate(turn, p_to),
+        quat.rotate(turn, p_from),
+    )
+    np.testing.assert_allclose(u2, u, atol=1e-12)
+    np.testing.assert_allclose(v2, v, atol=1e-12)
+    with pytest.raises(ValueError, match="both frames or for neither"):
+        mr.ominus(q_to, q_from, p_to, None)

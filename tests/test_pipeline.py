@@ -42,6 +42,16 @@ def test_toml_and_inline_give_the_same_steps(tmp_path):
         ["lee-shin:mask=binomial,k=2,iterations=5,joints=['*','!RThumb'],positions=false"]
     )
     assert from_file.describe() == inline.describe()
+    assert from_file.describe() == [
+        {
+            "filter": "lee-shin",
+            "mask": "binomial",
+            "k": 2,
+            "iterations": 5,
+            "joints": ["*", "!RThumb"],
+            "positions": False,
+        }
+    ]
 
 
 @pytest.mark.parametrize(

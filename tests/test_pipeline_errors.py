@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import SAMPLE, run_cli
+from helpers import SAMPLE, run_cli
 from test_html import Page
 
 from motionclean.errors import UsageError

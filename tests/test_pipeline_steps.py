@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import NOISY
+from helpers import NOISY, max_degrees
 
 import motionclean as mc
 from motionclean import multires, quat
@@ -304,7 +304,7 @@ def selection(names: list[str], rule) -> np.ndarray:
 
 
 def max_deg(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.degrees(quat.angle_between(a, b)).max()) if a.size else 0.0
+    return max_degrees(a, b) if a.size else 0.0
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,30 @@
+"""Motion: equality on copies, joint look-up."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import SAMPLE
+
+import motionclean as mc
+from motionclean.errors import MotionError
+
+
+def test_equal_to_a_deep_copy_and_not_to_a_changed_one():
+    clip = mc.load(SAMPLE)
+    copy = clip.replace(rotations=clip.rotations.copy(), translations=clip.translations.copy())
+    assert copy == clip
+    moved = clip.translations.copy()
+    moved[3, 0, 1] += 1e-9
+    assert clip.replace(translations=moved) != clip
+    renamed = clip.replace(names=[*clip.names[:-1], "Other"])
+    assert renamed != clip
+    assert clip != "not a motion"
+
+
+def test_joint_index_names_the_missing_joint():
+    clip = mc.load(SAMPLE)
+    assert clip.joint_index("LeftKnee") == clip.names.index("LeftKnee")
+    with pytest.raises(MotionError, match="no joint named 'Tail'"):
+        clip.joint_index("Tail")
+    assert np.all(clip.parents[1:] < np.arange(1, clip.n_joints))  # parents come first
