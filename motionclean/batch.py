@@ -1,242 +1,34 @@
-"""Batch cleaning: every clip under a folder, in parallel, into a mirrored folder tree.
+"""``motionclean batch``: every clip under a folder, in parallel, into a mirrored folder tree.
 
-The unit of work is :func:`clean_file`, a plain function from an input path, an output path
-and a pipeline description (the list of step tables of ``Pipeline.describe()``) to a small
-picklable :class:`FileResult`. It never raises for a bad clip: the failure is in the result.
-Any executor can run it: :func:`run_jobs` uses a local process pool; a cluster engine can
-map the same function over the same arguments, e.g. with Dask
-``client.map(clean_file, sources, targets, [steps] * n, reports)``.
-
-``motionclean batch`` (:data:`batch_command`) never writes inside IN_DIR, writes every file
-atomically, keeps going when a clip fails, and exits 1 naming each failure.
+The per-clip work is :func:`motionclean.jobs.clean_file` (a picklable :class:`~motionclean.jobs.Job`
+in, a small :class:`~motionclean.jobs.FileResult` out, never raising for a bad clip), run on the
+local pool of :mod:`motionclean.pool`. The command never writes inside IN_DIR, writes every
+file atomically, keeps going when a clip fails, and exits 1 naming each failure.
 """
 
 from __future__ import annotations
 
-import math
-import multiprocessing
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 import click
 
-from .errors import MotionError, UsageError
+from .errors import UsageError
 from .html import render_index
 from .io import atomic_write
-from .options import (
-    PIPE_OPTION,
-    STEP_OPTION,
-    clean_clip,
-    pipeline_from_options,
-    write_report,
-)
-from .pipeline import Pipeline
-
-__all__ = [
-    "DEFAULT_GLOBS",
-    "FileResult",
-    "Job",
-    "batch_command",
-    "clean_file",
-    "find_clips",
-    "raise_failures",
-    "run_jobs",
-]
+from .jobs import FileResult, Job
+from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+from .pool import default_workers, run_jobs
 
 #: Clips ``batch`` takes when no ``--glob`` is given.
 DEFAULT_GLOBS = ("*.bvh", "*.csv")
 
 
-@dataclass(frozen=True)
-class FileResult:
-    """What happened to one clip. Figures are ``None`` unless the clip was cleaned.
-
-    ``noise_*``: RMS angular acceleration over all joints and frames (deg/s^2);
-    ``deviation_*``: rotation angle between input and output over all joints (degrees).
-    ``error`` is the one-line ``FILE[:LINE]: reason`` of a failure.
-    """
-
-    source: str
-    target: str | None
-    status: str  # "ok", "skipped" or "failed"
-    frames: int | None = None
-    noise_before: float | None = None
-    noise_after: float | None = None
-    deviation_max: float | None = None
-    deviation_rms: float | None = None
-    report: str | None = None
-    error: str | None = None
-    seconds: float = 0.0
-
-
-@dataclass(frozen=True)
-class Job:
-    """The arguments of one :func:`clean_file` call: paths and the step tables only."""
-
-    source: str
-    target: str | None
-    steps: tuple[dict, ...]
-    report: str | None = None
-
-
-def clean_file(
-    source: str | os.PathLike,
-    target: str | os.PathLike | None,
-    pipeline: Pipeline | Sequence[dict],
-    report: str | os.PathLike | None = None,
-) -> FileResult:
-    """Clean ``source`` into ``target`` (atomically) and return the figures.
-
-    ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
-    computes the figures without writing; ``report`` also writes the clip's HTML page.
-    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
-    gives ``status="failed"`` with the reason instead of raising.
-    """
-    start = time.perf_counter()
-    source = os.fspath(source)
-    target = None if target is None else os.fspath(target)
-    report = None if report is None else os.fspath(report)
-    try:
-        if not isinstance(pipeline, Pipeline):
-            pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        result = clean_clip(source, target, pipeline)
-        if report is not None:
-            Path(report).parent.mkdir(parents=True, exist_ok=True)
-            write_report(result.report, Path(report), result.series)
-    except MotionError as error:
-        return FileResult(
-            source, target, "failed", error=str(error), seconds=time.perf_counter() - start
-        )
-    except OSError as error:
-        where = error.filename or source
-        return FileResult(
-            source,
-            target,
-            "failed",
-            error=f"{where}: {error.strerror}",
-            seconds=time.perf_counter() - start,
-        )
-    except Exception as error:  # a bug must not stop the other clips
-        return FileResult(
-            source,
-            target,
-            "failed",
-            error=f"{source}: internal error: {type(error).__name__}: {error}",
-            seconds=time.perf_counter() - start,
-        )
-    summary = result.report["summary"]
-    deviations = [
-        j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
-    ]
-    return FileResult(
-        source,
-        target,
-        "ok",
-        frames=result.before.n_frames,
-        noise_before=summary["angular_accel_rms"]["before"],
-        noise_after=summary["angular_accel_rms"]["after"],
-        deviation_max=summary["deviation_deg_max"],
-        # every joint has the same frame count: the RMS over all is the RMS of the RMSs
-        deviation_rms=math.sqrt(sum(d * d for d in deviations) / len(deviations))
-        if deviations
-        else 0.0,
-        report=report,
-        seconds=time.perf_counter() - start,
-    )
-
-
-def _run_job(job: Job) -> FileResult:
-    return clean_file(job.source, job.target, job.steps, job.report)
-
-
-def _ignore_sigint() -> None:
-    """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def default_workers() -> int:
-    """The number of cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def _size(path: str) -> int:
-    try:
-        return os.path.getsize(path)
-    except OSError:
-        return 0
-
-
-def _context() -> multiprocessing.context.BaseContext:
-    """Workers are forked where the platform allows it (nothing to import again), else
-    spawned."""
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-
-
-def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResult]]:
-    """Run ``jobs`` on ``workers`` local processes; yield ``(index, result)`` as each ends.
-
-    One worker runs in this process. Several run in worker processes, handed the largest
-    inputs first so that the run does not end waiting on one long clip. A worker that dies
-    (killed, out of memory) fails the clips it had instead of stopping the run. As with any
-    multiprocessing code, a script that calls this needs the ``if __name__ == "__main__":``
-    guard.
-    """
-    if workers <= 1 or len(jobs) <= 1:
-        for index, job in enumerate(jobs):
-            yield index, _run_job(job)
-        return
-    order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
-    executor = ProcessPoolExecutor(
-        max_workers=min(workers, len(jobs)), mp_context=_context(), initializer=_ignore_sigint
-    )
-    pending = {executor.submit(_run_job, jobs[i]): i for i in order}
-    try:
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                index = pending.pop(future)
-                try:
-                    yield index, future.result()
-                except BrokenProcessPool:
-                    job = jobs[index]
-                    yield (
-                        index,
-                        FileResult(
-                            job.source,
-                            job.target,
-                            "failed",
-                            error=f"{job.source}: the worker process died",
-                        ),
-                    )
-    finally:
-        executor.shutdown(wait=True, cancel_futures=True)
-
-
 # ----------------------------------------------------------------------------- the command
-
-
-def raise_failures(lines: Sequence[str]) -> None:
-    """Report one error line per failure on stderr and end with exit code 1.
-
-    All lines but the last are echoed as ``motionclean: error: LINE``; the last is raised
-    as a :class:`MotionError`, which the CLI prints the same way before exiting with 1.
-    """
-    for line in lines[:-1]:
-        click.echo(f"motionclean: error: {line}", err=True)
-    if lines:
-        raise MotionError(lines[-1])
 
 
 def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:

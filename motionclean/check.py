@@ -23,10 +23,11 @@ from typing import Any
 import click
 
 from . import __version__
-from .batch import FileResult, Job, default_workers, raise_failures, run_jobs
 from .errors import MotionError, UsageError
 from .io import atomic_write
-from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options
+from .jobs import FileResult, Job
+from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+from .pool import default_workers, run_jobs
 from .report import json_safe, to_json
 
 __all__ = ["DEFAULT_TOLERANCE", "FIGURES", "check_command", "compare", "read_baseline"]

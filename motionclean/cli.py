@@ -16,22 +16,20 @@ from pathlib import Path
 import click
 import numpy as np
 
-from . import __version__, metrics, multires
+from . import __version__, metrics
 from .batch import batch_command
 from .check import check_command
 from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
 from .io import load, save
-from .motion import Motion
+from .jobs import blend_clips, check_compatible, clean_clip, stitch_clips, write_report
 from .options import (
     PIPE_OPTION,
     STEP_OPTION,
     check_clip_output,
     check_report_output,
-    clean_clip,
     pipeline_from_options,
     refuse_overwrite,
-    write_report,
 )
 from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED
 from .report import build_report, build_series, format_table
@@ -225,20 +223,6 @@ def report(source: str, cleaned: str | None, json_path: str | None, html_path: s
     click.echo(format_table(result))
 
 
-def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
-    """Raise unless ``a`` and ``b`` share the skeleton, frame rate and (optionally) length."""
-    if a.names != b.names or not np.array_equal(a.parents, b.parents):
-        raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
-    if a.channels != b.channels:
-        raise MotionError(f"channels differ from {a.path}'s", b.path)
-    if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
-        raise MotionError(
-            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
-        )
-    if same_length and a.n_frames != b.n_frames:
-        raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
-
-
 LEVELS_OPTION = click.option(
     "--levels",
     type=click.IntRange(1, 30),
@@ -282,14 +266,11 @@ def blend(
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
     a, b = load(first), load(second)
-    check_compatible(a, b)
     try:
-        q, p = multires.blend(
-            a.rotations, b.rotations, levels, weight, weights, a.translations, b.translations
-        )
+        blended = blend_clips(a, b, levels, weight, weights)
     except ValueError as error:
         raise UsageError(str(error)) from None
-    save(a.replace(rotations=q, translations=p), output)
+    save(blended, output)
 
 
 @cli.command(short_help="Join two clips with a seamless transition.")
@@ -306,18 +287,7 @@ def stitch(first: str, second: str, output: str, levels: int) -> None:
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
-    a, b = load(first), load(second)
-    check_compatible(a, b, same_length=False)
-    q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
-    # Write-back reference: FIRST's frames, then SECOND's after the shared seam frame, so
-    # every frame keeps its own clip's Euler branch.
-    joined = {"source_values": None, "source_rotations": None}
-    if a.has_source_frames() and b.has_source_frames():
-        joined = {
-            "source_values": np.concatenate([a.source_values, b.source_values[1:]]),
-            "source_rotations": np.concatenate([a.source_rotations, b.source_rotations[1:]]),
-        }
-    save(a.replace(rotations=q, translations=p, **joined), output)
+    save(stitch_clips(load(first), load(second), levels), output)
 
 
 def _shown(value) -> str:

@@ -1,20 +1,16 @@
-"""Command-line pieces shared by the commands: pipeline options, output checks, cleaning
-one clip, reports."""
+"""Command-line pieces shared by the commands: pipeline options, output checks, failure
+lines. The work itself is in :mod:`motionclean.jobs`."""
 
 from __future__ import annotations
 
-import os
-from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 
 import click
 
-from .errors import UsageError
-from .html import render_html
-from .io import FORMATS, atomic_write, load, save
-from .motion import Motion
-from .pipeline import Pipeline, StepLog
-from .report import build_report, build_series, to_json
+from .errors import MotionError, UsageError
+from .io import FORMATS
+from .pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
 
@@ -55,49 +51,16 @@ def check_report_output(path: str | Path) -> Path:
     return check_output(path, REPORT_SUFFIXES, "a report")
 
 
-def write_report(report: dict, path: Path, series: dict | None = None) -> None:
-    """Write a report as JSON or HTML, by extension; ``series`` feeds the HTML plots."""
-    if check_report_output(path).suffix.lower() == ".json":
-        atomic_write(path, to_json(report))
-    else:
-        atomic_write(path, render_html(report, series).encode("utf-8"))
+def raise_failures(lines: Sequence[str]) -> None:
+    """Report one error line per failure on stderr and end with exit code 1.
 
-
-@dataclass
-class CleanedClip:
-    """One clip before and after a pipeline, what each step did, and the report figures."""
-
-    before: Motion
-    after: Motion
-    logs: list[StepLog]
-    report: dict
-    series: dict
-
-
-def clean_clip(
-    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
-) -> CleanedClip:
-    """Load ``source``, run ``pipeline``, write ``target`` (atomically; its folder is
-    created) unless it is None, and compute the report and its time series."""
-    before = load(source)
-    after, logs = pipeline.run(before)
-    if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(after, target)
-    series = build_series(before, after)
-    report = build_report(
-        before, after, pipeline.describe(), notes_by_joint(logs), os.fspath(source), series=series
-    )
-    return CleanedClip(before, after, logs, report, series)
-
-
-def notes_by_joint(logs) -> dict[str, dict]:
-    """Merge each step's per-joint notes into one dict for the report."""
-    merged: dict[str, dict] = {}
-    for log in logs:
-        for joint, note in log.notes.items():
-            merged.setdefault(joint, {}).update(note)
-    return merged
+    All lines but the last are echoed as ``motionclean: error: LINE``; the last is raised
+    as a :class:`MotionError`, which the CLI prints the same way before exiting with 1.
+    """
+    for line in lines[:-1]:
+        click.echo(f"motionclean: error: {line}", err=True)
+    if lines:
+        raise MotionError(lines[-1])
 
 
 PIPE_OPTION = click.option(

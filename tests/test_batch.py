@@ -10,7 +10,8 @@ import pytest
 from helpers import NOISY, cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.batch import FileResult, clean_file, find_clips
+from motionclean.batch import find_clips
+from motionclean.jobs import FileResult, clean_file
 from motionclean.pipeline import Pipeline
 
 SAMPLE = NOISY

@@ -1,0 +1,245 @@
+"""Clip-level services, free of the command line: clean a clip with its report, the
+picklable per-clip job every batch worker runs, and blending or stitching two clips.
+
+This is what ``clean``, ``batch`` and ``check`` call, and what Python users call::
+
+    from motionclean.jobs import clean_clip, clean_file, stitch_clips
+    result = clean_clip("take.bvh", "take_clean.bvh", Pipeline.default())
+    record = clean_file("take.bvh", "out/take.bvh", Pipeline.default(), report="take.html")
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import multires
+from .errors import MotionError
+from .html import render_html
+from .io import atomic_write, load, save
+from .motion import Motion
+from .pipeline import Pipeline, StepLog
+from .report import build_report, build_series, to_json
+
+__all__ = [
+    "CleanedClip",
+    "FileResult",
+    "Job",
+    "blend_clips",
+    "check_compatible",
+    "clean_clip",
+    "clean_file",
+    "notes_by_joint",
+    "run_job",
+    "stitch_clips",
+    "write_report",
+]
+
+
+def write_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> None:
+    """Write a report atomically: JSON for ``.json``, else the HTML page; ``series`` feeds
+    the HTML plots."""
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        atomic_write(path, to_json(report))
+    else:
+        atomic_write(path, render_html(report, series).encode("utf-8"))
+
+
+@dataclass
+class CleanedClip:
+    """One clip before and after a pipeline, what each step did, and the report figures."""
+
+    before: Motion
+    after: Motion
+    logs: list[StepLog]
+    report: dict
+    series: dict
+
+
+def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
+    """Merge each step's per-joint notes into one dict for the report."""
+    merged: dict[str, dict] = {}
+    for log in logs:
+        for joint, note in log.notes.items():
+            merged.setdefault(joint, {}).update(note)
+    return merged
+
+
+def clean_clip(
+    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
+) -> CleanedClip:
+    """Load ``source``, run ``pipeline``, write ``target`` (atomically; its folder is
+    created) unless it is None, and compute the report and its time series."""
+    before = load(source)
+    after, logs = pipeline.run(before)
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(after, target)
+    series = build_series(before, after)
+    report = build_report(
+        before, after, pipeline.describe(), notes_by_joint(logs), os.fspath(source), series=series
+    )
+    return CleanedClip(before, after, logs, report, series)
+
+
+@dataclass(frozen=True)
+class FileResult:
+    """What happened to one clip. Figures are ``None`` unless the clip was cleaned.
+
+    ``noise_*``: RMS angular acceleration over all joints and frames (deg/s^2);
+    ``deviation_*``: rotation angle between input and output over all joints (degrees).
+    ``error`` is the one-line ``FILE[:LINE]: reason`` of a failure.
+    """
+
+    source: str
+    target: str | None
+    status: str  # "ok", "skipped" or "failed"
+    frames: int | None = None
+    noise_before: float | None = None
+    noise_after: float | None = None
+    deviation_max: float | None = None
+    deviation_rms: float | None = None
+    report: str | None = None
+    error: str | None = None
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class Job:
+    """The arguments of one :func:`clean_file` call: paths and the step tables only."""
+
+    source: str
+    target: str | None
+    steps: tuple[dict, ...]
+    report: str | None = None
+
+
+def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
+    if isinstance(error, MotionError):
+        message = str(error)
+    elif isinstance(error, OSError):
+        message = f"{error.filename or source}: {error.strerror}"
+    else:  # a bug must not stop the other clips
+        message = f"{source}: internal error: {type(error).__name__}: {error}"
+    return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)
+
+
+def _success(result: CleanedClip, job: Job, start: float) -> FileResult:
+    summary = result.report["summary"]
+    deviations = [
+        j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
+    ]
+    # every joint has the same frame count: the RMS over all is the RMS of the RMSs
+    deviation_rms = (
+        math.sqrt(sum(d * d for d in deviations) / len(deviations)) if deviations else 0.0
+    )
+    return FileResult(
+        job.source,
+        job.target,
+        "ok",
+        frames=result.before.n_frames,
+        noise_before=summary["angular_accel_rms"]["before"],
+        noise_after=summary["angular_accel_rms"]["after"],
+        deviation_max=summary["deviation_deg_max"],
+        deviation_rms=deviation_rms,
+        report=job.report,
+        seconds=time.perf_counter() - start,
+    )
+
+
+def clean_file(
+    source: str | os.PathLike,
+    target: str | os.PathLike | None,
+    pipeline: Pipeline | Sequence[dict],
+    report: str | os.PathLike | None = None,
+) -> FileResult:
+    """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
+
+    ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
+    computes the figures without writing; ``report`` also writes the clip's HTML page.
+    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
+    gives ``status="failed"`` with the reason instead of raising.
+    """
+    start = time.perf_counter()
+    job = Job(
+        os.fspath(source),
+        None if target is None else os.fspath(target),
+        (),
+        None if report is None else os.fspath(report),
+    )
+    try:
+        if not isinstance(pipeline, Pipeline):
+            pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
+        result = clean_clip(job.source, job.target, pipeline)
+        if job.report is not None:
+            Path(job.report).parent.mkdir(parents=True, exist_ok=True)
+            write_report(result.report, job.report, result.series)
+    except Exception as error:
+        return _failure(job.source, job.target, error, start)
+    return _success(result, job, start)
+
+
+def run_job(job: Job) -> FileResult:
+    """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
+    return clean_file(job.source, job.target, job.steps, job.report)
+
+
+# ----------------------------------------------------------------------------- two clips
+
+
+def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
+    """Raise :class:`MotionError` unless ``a`` and ``b`` share the skeleton, channels, frame
+    rate and (optionally) length."""
+    if a.names != b.names or not np.array_equal(a.parents, b.parents):
+        raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
+    if a.channels != b.channels:
+        raise MotionError(f"channels differ from {a.path}'s", b.path)
+    if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
+        raise MotionError(
+            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
+        )
+    if same_length and a.n_frames != b.n_frames:
+        raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
+
+
+def blend_clips(
+    a: Motion,
+    b: Motion,
+    levels: int = 4,
+    weight: float = 0.5,
+    detail_weights: Sequence[float] | None = None,
+) -> Motion:
+    """Blend two time-aligned clips level by level (003 Eq. 20); ``weight`` is ``b``'s share
+    of the coarsest level, ``detail_weights`` its share per detail level, finest first.
+
+    Raises :class:`MotionError` for incompatible clips, ValueError for bad weights or levels.
+    """
+    check_compatible(a, b)
+    q, p = multires.blend(
+        a.rotations, b.rotations, levels, weight, detail_weights, a.translations, b.translations
+    )
+    return a.replace(rotations=q, translations=p)
+
+
+def stitch_clips(a: Motion, b: Motion, levels: int = 4) -> Motion:
+    """Join the end of ``a`` to the start of ``b`` with a seamless transition (003 Eq. 21).
+
+    The result has ``len(a) + len(b) - 1`` frames; only frames within ``3 (2^levels - 1)`` of
+    the seam change. Written back, every frame keeps its own clip's Euler branch.
+    """
+    check_compatible(a, b, same_length=False)
+    q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
+    joined: dict = {"source_values": None, "source_rotations": None}
+    if a.has_source_frames() and b.has_source_frames():
+        joined = {
+            "source_values": np.concatenate([a.source_values, b.source_values[1:]]),
+            "source_rotations": np.concatenate([a.source_rotations, b.source_rotations[1:]]),
+        }
+    return a.replace(rotations=q, translations=p, **joined)

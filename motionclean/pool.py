@@ -1,0 +1,74 @@
+"""Run clip jobs on a pool of local worker processes (what ``batch --jobs N`` uses).
+
+Free of the command line; a script that calls :func:`run_jobs` needs the usual
+``if __name__ == "__main__":`` guard of multiprocessing code.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+from collections.abc import Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from .jobs import FileResult, Job, run_job
+
+
+def default_workers() -> int:
+    """The number of cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _size(path: str) -> int:
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0
+
+
+def _context() -> multiprocessing.context.BaseContext:
+    """Workers are forked where the platform allows it (nothing to import again), else
+    spawned."""
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResult]]:
+    """Run ``jobs`` on ``workers`` local processes; yield ``(index, result)`` as each ends.
+
+    One worker runs in this process. Several run in worker processes, handed the largest
+    inputs first so that the run does not end waiting on one long clip. A worker that dies
+    (killed, out of memory) fails the clips it had instead of stopping the run.
+    """
+    if workers <= 1 or len(jobs) <= 1:
+        for index, job in enumerate(jobs):
+            yield index, run_job(job)
+        return
+    order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
+    executor = ProcessPoolExecutor(
+        max_workers=min(workers, len(jobs)), mp_context=_context(), initializer=_ignore_sigint
+    )
+    pending = {executor.submit(run_job, jobs[i]): i for i in order}
+    try:
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                index = pending.pop(future)
+                try:
+                    yield index, future.result()
+                except BrokenProcessPool:
+                    job = jobs[index]
+                    died = f"{job.source}: the worker process died"
+                    yield index, FileResult(job.source, job.target, "failed", error=died)
+    finally:
+        executor.shutdown(wait=True, cancel_futures=True)
