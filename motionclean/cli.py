@@ -31,8 +31,8 @@ from .options import (
     pipeline_from_options,
     refuse_overwrite,
 )
-from .pipeline import COMMON_PARAMS, REGISTRY, REQUIRED
 from .report import build_report, build_series, format_table
+from .steps import COMMON_PARAMS, REGISTRY
 
 
 def _echo_error(message: str) -> None:
@@ -307,9 +307,7 @@ def filters_command() -> None:
         click.echo(f"{spec.name}: {spec.summary}")
         click.echo(f"    implements {spec.paper}")
         for param in (*spec.params, *COMMON_PARAMS):
-            if param.default is REQUIRED:
-                default = "required"
-            elif param.default is None:
+            if param.default is None:
                 default = "optional"
             elif param.name == "positions":
                 default = f"default {_shown(spec.positions_default)}"

@@ -17,6 +17,8 @@ import numpy as np
 
 from . import metrics
 from .motion import Motion
+from .steps import REGISTRY
+from .steps.auto import format_choice
 
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
 
@@ -65,6 +67,67 @@ def _stacked(series: dict, key: str, length: int) -> np.ndarray:
     return np.stack(columns, axis=-1) if columns else np.zeros((length, 0))
 
 
+def _rotation_figures(series: dict, names: list[str], frames: int, cleaned: bool) -> dict:
+    """Per joint with rotation channels: angular acceleration RMS/max (deg/s^2) before and
+    after, and the deviation from the input (degrees) when cleaned."""
+    n_acc = max(frames - 2, 0)
+    rms_b, max_b = _stats(_stacked(series, "accel_before", n_acc))
+    if cleaned:
+        rms_a, max_a = _stats(_stacked(series, "accel_after", n_acc))
+        dev_rms, dev_max = _stats(_stacked(series, "deviation", frames))
+    figures = {}
+    for n, name in enumerate(names):
+        entry = figures[name] = {
+            "angular_accel_rms": _pair(rms_b[n], rms_a[n] if cleaned else None),
+            "angular_accel_max": _pair(max_b[n], max_a[n] if cleaned else None),
+        }
+        if cleaned:
+            entry["deviation_deg"] = {"rms": float(dev_rms[n]), "max": float(dev_max[n])}
+    return figures
+
+
+def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) -> dict:
+    """Per joint with position channels: linear acceleration RMS/max (length units/s^2)
+    before and after, and the deviation from the input (length units) when cleaned."""
+    dt = before.frame_time
+    lrms_b, lmax_b = _stats(metrics.linear_acceleration(before.translations[:, joints], dt))
+    if after is not None:
+        lrms_a, lmax_a = _stats(metrics.linear_acceleration(after.translations[:, joints], dt))
+        moved = after.translations[:, joints] - before.translations[:, joints]
+        ldev_rms, ldev_max = _stats(np.linalg.norm(moved, axis=-1))
+    figures = {}
+    for n, j in enumerate(joints):
+        a = after is not None
+        entry = figures[before.names[j]] = {
+            "linear_accel_rms": _pair(lrms_b[n], lrms_a[n] if a else None),
+            "linear_accel_max": _pair(lmax_b[n], lmax_a[n] if a else None),
+        }
+        if a:
+            entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
+    return figures
+
+
+def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
+    """Clip totals: RMS angular acceleration over all joints and frames, the fraction of it
+    removed and the largest deviation (None for a single clip)."""
+    n_acc = max(frames - 2, 0)
+    acc_b = _stacked(series, "accel_before", n_acc)
+    total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
+    summary: dict[str, Any] = {
+        "angular_accel_rms": _pair(total_b, None),
+        "noise_reduction": None,
+        "deviation_deg_max": None,
+    }
+    if cleaned:
+        acc_a = _stacked(series, "accel_after", n_acc)
+        total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
+        dev = _stacked(series, "deviation", frames)
+        summary["angular_accel_rms"]["after"] = total_a
+        summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
+        summary["deviation_deg_max"] = float(dev.max()) if dev.size else 0.0
+    return summary
+
+
 def build_report(
     before: Motion,
     after: Motion | None = None,
@@ -77,62 +140,22 @@ def build_report(
 
     ``series`` is :func:`build_series` of the same clips when the caller already has it.
     """
-    layout = before.layout
-    dt = before.frame_time
-    rot = np.flatnonzero(layout.has_rotation)
-    pos = np.flatnonzero(layout.has_position)
     series = build_series(before, after) if series is None else series
-    n_acc = max(before.n_frames - 2, 0)
-    acc_b = _stacked(series, "accel_before", n_acc)
-    rms_b, max_b = _stats(acc_b)
-    lin_b = metrics.linear_acceleration(before.translations[:, pos], dt)
-    lrms_b, lmax_b = _stats(lin_b)
-    if after is not None:
-        acc_a = _stacked(series, "accel_after", n_acc)
-        rms_a, max_a = _stats(acc_a)
-        dev = _stacked(series, "deviation", before.n_frames)
-        dev_rms, dev_max = _stats(dev)
-        lin_a = metrics.linear_acceleration(after.translations[:, pos], dt)
-        lrms_a, lmax_a = _stats(lin_a)
-        ldev = np.linalg.norm(after.translations[:, pos] - before.translations[:, pos], axis=-1)
-        ldev_rms, ldev_max = _stats(ldev)
-
-    joints: dict[str, dict] = {}
-    for n, j in enumerate(rot):
-        entry = joints.setdefault(before.names[j], {})
-        a = after is not None
-        entry["angular_accel_rms"] = _pair(rms_b[n], rms_a[n] if a else None)
-        entry["angular_accel_max"] = _pair(max_b[n], max_a[n] if a else None)
-        if a:
-            entry["deviation_deg"] = {"rms": float(dev_rms[n]), "max": float(dev_max[n])}
-    for n, j in enumerate(pos):
-        entry = joints.setdefault(before.names[j], {})
-        a = after is not None
-        entry["linear_accel_rms"] = _pair(lrms_b[n], lrms_a[n] if a else None)
-        entry["linear_accel_max"] = _pair(lmax_b[n], lmax_a[n] if a else None)
-        if a:
-            entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
+    cleaned = after is not None
+    frames = before.n_frames
+    joints = _rotation_figures(series, list(series["joints"]), frames, cleaned)
+    positions = _position_figures(before, after, np.flatnonzero(before.layout.has_position))
+    for name, entry in positions.items():
+        joints.setdefault(name, {}).update(entry)
     for name, note in (notes or {}).items():
         joints.setdefault(name, {}).update(note)
-
-    total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
-    summary: dict[str, Any] = {
-        "angular_accel_rms": _pair(total_b, None),
-        "noise_reduction": None,
-        "deviation_deg_max": None,
-    }
-    if after is not None:
-        total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
-        summary["angular_accel_rms"]["after"] = total_a
-        summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
-        summary["deviation_deg_max"] = float(dev_max.max()) if dev_max.size else 0.0
     return {
         "file": file if file is not None else before.path,
-        "frames": before.n_frames,
+        "frames": frames,
         "frame_time": before.frame_time,
         "pipeline": pipeline or [],
         "joints": joints,
-        "summary": summary,
+        "summary": _summary(series, frames, cleaned),
     }
 
 
@@ -185,11 +208,7 @@ def format_table(report: dict, limit: int = 10) -> str:
             removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
             text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
         if auto:
-            chosen = ", ".join(
-                f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
-                for k, v in auto["filter"].items()
-            )
-            text += f"{auto['noise']:>10.2f}  {chosen}"
+            text += f"{auto['noise']:>10.2f}  {format_choice(auto['filter'])}"
         return text
 
     names = noisiest(report)
@@ -206,43 +225,28 @@ def format_table(report: dict, limit: int = 10) -> str:
     return "\n".join(lines)
 
 
-def _ranges(runs: list[list[int]]) -> str:
-    """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
-    return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
-
-
 def note_text(key: str, note: Any) -> str:
-    """One readable line for a step's per-joint note (``despike``, ``auto``, ...)."""
-    if key.endswith("despike"):
-        unit = "units" if key.startswith("position") else "deg"
-        parts = [f"{note['frames_repaired']} frames repaired"]
-        if note.get("unflipped"):
-            parts.append(f"un-flipped {_ranges(note['unflipped'])}")
-        if note["interpolated"]:
-            parts.append(f"interpolated {_ranges(note['interpolated'])}")
-        step = note["max_step"]
-        parts.append(f"largest step {step['before']:.1f} -> {step['after']:.1f} {unit}")
-        return "; ".join(parts)
-    if key.endswith("auto"):
-        unit = "deg" if note["unit"] == "deg" else "units"
-        chosen = ", ".join(
-            f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in note["filter"].items()
-        )
-        error = note["expected_error"]
-        error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
-        return (
-            f"estimated noise {note['noise']:.3g} {unit}; chose {chosen}; "
-            f"expected error {error} {unit}"
-        )
+    """One readable line for a step's per-joint note (key ``despike``, ``position_auto``, ...):
+    the step's own ``format_note``, or the note as JSON."""
+    positions = key.startswith("position_")
+    spec = REGISTRY.get(key.removeprefix("position_"))
+    if spec is not None and spec.format_note is not None:
+        return spec.format_note(note, positions)
     return json.dumps(json_safe(note))
 
 
 def format_repairs(report: dict) -> list[str]:
-    """Lines naming each joint the despike step repaired: how, where, largest step."""
+    """Lines naming each joint a repairing step (despike) changed: how, where, largest step."""
+    keys = [
+        prefix + name
+        for name, spec in REGISTRY.items()
+        if spec.lists_repairs
+        for prefix in ("", "position_")
+    ]
     return [
-        f"repaired {name}{' (positions)' if key.startswith('position') else ''}: "
+        f"repaired {name}{' (positions)' if key.startswith('position_') else ''}: "
         + note_text(key, entry[key])
         for name, entry in report["joints"].items()
-        for key in ("despike", "position_despike")
+        for key in keys
         if entry.get(key)
     ]

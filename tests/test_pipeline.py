@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import NOISY
 
 import motionclean as mc
 from motionclean.errors import UsageError
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
 from motionclean.pipeline import REGISTRY, Pipeline, parse_inline, parse_value, select_joints
+from motionclean.steps import StepData, StepSpec
 
 
 def test_inline_values_are_read_as_toml():
@@ -151,3 +153,44 @@ def test_multires_takes_gains_or_level_not_both():
         Pipeline.from_inline(["multires:levels=4,gains=[0],level=2.5"])
     assert Pipeline.from_inline(["multires:levels=4,level=2.5"]).describe()[0]["level"] == 2.5
     assert Pipeline.from_inline(["multires"]).describe()[0]["gains"] == [0.0]
+
+
+def test_steps_see_the_whole_clip_and_whole_clip_steps_replace_it(monkeypatch):
+    """A step is given its columns' joint indices and the clip; a ``run_motion`` step may
+    change the frame count, and the steps after it see the new clip."""
+    clip = mc.load(NOISY)
+    seen = {}
+
+    def run(data: StepData, params: dict) -> StepData:
+        seen["frames"] = data.rotations.shape[0]
+        seen["joints"] = [data.motion.names[j] for j in data.rotation_joints]
+        np.testing.assert_array_equal(
+            data.rotations, data.motion.rotations[:, data.rotation_joints]
+        )
+        return data
+
+    def every_other_frame(motion: mc.Motion, params: dict):
+        halved = motion.replace(
+            rotations=motion.rotations[::2],
+            translations=motion.translations[::2],
+            frame_time=2 * motion.frame_time,
+            source_values=None,
+            source_rotations=None,
+        )
+        return halved, {motion.names[0]: {"halved": True}}
+
+    registry = dict(REGISTRY)
+    registry["halve"] = StepSpec("halve", "test", "-", (), run_motion=every_other_frame)
+    registry["look"] = StepSpec("look", "test", "-", (), run=run)
+    monkeypatch.setattr("motionclean.pipeline.REGISTRY", registry)
+    pipeline = Pipeline.from_tables(
+        [{"filter": "halve"}, {"filter": "look", "joints": ["Left*", "!LeftToe*"]}], "t"
+    )
+    out, logs = pipeline.run(clip)
+    assert out.n_frames == (clip.n_frames + 1) // 2 == seen["frames"]
+    assert out.frame_time == 2 * clip.frame_time
+    assert seen["joints"] == [
+        n for n in clip.names if n.startswith("Left") and not n.startswith("LeftToe")
+    ]
+    assert logs[0].notes == {clip.names[0]: {"halved": True}}
+    assert clip.n_frames == mc.load(NOISY).n_frames  # the input is untouched

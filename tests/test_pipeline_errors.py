@@ -12,6 +12,7 @@ from test_html import Page
 
 from motionclean.errors import UsageError
 from motionclean.pipeline import Pipeline
+from motionclean.steps.lee_shin import MASK_KINDS
 
 
 @pytest.mark.parametrize(
@@ -19,13 +20,13 @@ from motionclean.pipeline import Pipeline
     [
         ("lee-shin:mask=lowpass", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
         ("lee-shin:mask=lowpass,half_width=4", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
-        ("lee-shin:cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
-        ("lee-shin:mask=savgol,cutoff_hz=8", "cutoff_hz", "cutoff_hz only applies to mask=lowpass"),
-        ("lee-shin:coefficients=[1]", "coefficients", "coefficients only apply to mask=custom"),
+        ("lee-shin:cutoff_hz=8", "cutoff_hz", "not used with mask=binomial; it takes k"),
+        ("lee-shin:mask=savgol,cutoff_hz=8", "cutoff_hz", "not used with mask=savgol"),
+        ("lee-shin:coefficients=[1]", "coefficients", "not used with mask=binomial"),
         (
             "lee-shin:mask=lowpass,cutoff_hz=8,coefficients=[1]",
             "coefficients",
-            "coefficients only apply to mask=custom",
+            "not used with mask=lowpass; it takes cutoff_hz, half_width",
         ),
         ("lee-shin:mask=savgol,half_width=2,degree=5", "degree", "degree"),
         (
@@ -125,3 +126,36 @@ def test_report_refuses_json_and_html_in_the_same_file(tmp_path, capsys, same):
     assert code == 2
     assert err.count("\n") == 1 and "--json and --html name the same file" in err
     assert stdout == "" and not list(tmp_path.iterdir())
+
+
+MASK_VALUES = {
+    "k": 3,
+    "lam": 0.4,
+    "sigma_t": 2.0,
+    "half_width": 4,
+    "degree": 2,
+    "cutoff_hz": 8.0,
+    "coefficients": [0.25, 0.5, 0.25],
+}
+MASK_NEEDS = {"custom": {"coefficients"}, "lowpass": {"cutoff_hz"}}
+
+
+@pytest.mark.parametrize("mask", sorted(MASK_KINDS))
+@pytest.mark.parametrize("key", sorted(MASK_VALUES))
+def test_every_mask_parameter_is_used_or_refused(mask, key):
+    """A parameter given to lee-shin is either in the recorded step or refused, naming the
+    mask and what it takes (never silently dropped)."""
+    table = {"filter": "lee-shin", "mask": mask, key: MASK_VALUES[key]}
+    table.update({k: MASK_VALUES[k] for k in MASK_NEEDS.get(mask, ()) if k != key})
+    if key in MASK_KINDS[mask].params:
+        (described,) = Pipeline.from_tables([table], "p").describe()
+        assert described[key] == MASK_VALUES[key]
+    else:
+        with pytest.raises(UsageError, match=rf"{key}'? is not used with mask={mask}; it takes "):
+            Pipeline.from_tables([table], "p")
+
+
+def test_from_inline_wants_a_list_of_strings():
+    with pytest.raises(TypeError, match=r"list of step strings.*'lee-shin:k=3'"):
+        Pipeline.from_inline("lee-shin:k=3")
+    assert Pipeline.from_inline(["lee-shin:k=3"]).describe()[0]["k"] == 3

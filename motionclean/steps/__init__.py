@@ -1,0 +1,21 @@
+"""The step registry: one line per step; each step is a module of its own."""
+
+from __future__ import annotations
+
+from . import auto, bilateral, despike, fairing, lee_shin, multires, sse_fairing
+from .base import COMMON_PARAMS, Param, StepData, StepSpec
+
+__all__ = ["COMMON_PARAMS", "REGISTRY", "Param", "StepData", "StepSpec"]
+
+REGISTRY: dict[str, StepSpec] = {
+    step.name: step
+    for step in (
+        lee_shin.STEP,
+        bilateral.STEP,
+        fairing.STEP,
+        sse_fairing.STEP,
+        multires.STEP,
+        despike.STEP,
+        auto.STEP,
+    )
+}

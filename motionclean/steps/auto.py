@@ -1,0 +1,101 @@
+"""The ``auto`` step: per-joint noise estimate and the Lee-Shin mask chosen for it."""
+
+from __future__ import annotations
+
+from ..filters.auto import FAMILIES, auto, auto_positions
+from .base import Param, StepData, StepSpec
+
+
+def _auto_note(result, column: int, unit: str) -> dict:
+    choice = result.choices[column]
+    return {
+        "noise": float(result.noise.reshape(-1)[column]),
+        "unit": unit,
+        "filter": choice.params(),
+        "expected_error": choice.expected_error,
+    }
+
+
+def _run_auto(data: StepData, params: dict) -> StepData:
+    families = FAMILIES if params["mask"] == "any" else (params["mask"],)
+    shared = {
+        "strength": params["strength"],
+        "max_seconds": params["max_seconds"],
+        "families": families,
+    }
+    result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
+    data.rotations = result.values
+    for column in range(data.rotations.shape[1]):
+        data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
+    if data.translations is not None:
+        result = auto_positions(
+            data.translations, data.frame_time, noise=params["position_noise"], **shared
+        )
+        data.translations = result.values
+        for column in range(data.translations.shape[1]):
+            data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
+    return data
+
+
+def format_choice(chosen: dict) -> str:
+    """The chosen filter's parameters as ``mask=binomial, k=3``."""
+    return ", ".join(
+        f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in chosen.items()
+    )
+
+
+def _format_note(note: dict, positions: bool) -> str:
+    """What auto found for one joint: the noise estimate, the choice and its expected error."""
+    unit = "deg" if note["unit"] == "deg" else "units"
+    error = note["expected_error"]
+    error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
+    return (
+        f"estimated noise {note['noise']:.3g} {unit}; chose {format_choice(note['filter'])}; "
+        f"expected error {error} {unit}"
+    )
+
+
+STEP = StepSpec(
+    name="auto",
+    summary="estimate each joint's noise and pick the Lee-Shin mask and strength for it",
+    paper="000 Eq. 19-20, 23, 26; noise from third differences; choice by SURE",
+    params=(
+        Param(
+            "strength",
+            "float",
+            1.0,
+            "multiplies the noise used for the choice: 0 leaves "
+            "the clip unchanged, 2 smooths as if the noise were twice the estimate",
+            minimum=0.0,
+            maximum=10.0,
+        ),
+        Param(
+            "max_seconds",
+            "float",
+            1.0,
+            "widest candidate mask half-width, seconds",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=10.0,
+        ),
+        Param("mask", "str", "any", "mask families to choose from", choices=("any", *FAMILIES)),
+        Param(
+            "noise_deg",
+            "float",
+            None,
+            "assumed per-sample rotation noise (RMS rotation "
+            "angle, degrees) instead of the estimate",
+            minimum=0.0,
+            maximum=180.0,
+        ),
+        Param(
+            "position_noise",
+            "float",
+            None,
+            "assumed per-sample translation noise (RMS, file length unit) instead of the estimate",
+            minimum=0.0,
+        ),
+    ),
+    run=_run_auto,
+    format_note=_format_note,
+)

@@ -1,0 +1,147 @@
+"""What every step module declares: its parameters (:class:`Param`), what it is given to
+run on (:class:`StepData`) and its registration (:class:`StepSpec`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import UsageError
+from ..motion import Motion
+
+
+@dataclass(frozen=True)
+class Param:
+    """One step parameter: its type, default, allowed range and a help line with units."""
+
+    name: str
+    type: str  # "int", "float", "bool", "str", "floats" (list of numbers), "strs"
+    default: Any
+    help: str
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    choices: tuple[str, ...] | None = None
+    infinite_ok: bool = False
+
+    def allowed(self) -> str:
+        """What values are allowed, for error messages and the catalogue."""
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        kind = {
+            "int": "an integer",
+            "float": "a number",
+            "bool": "true or false",
+            "str": "a string",
+            "floats": "a list of numbers",
+            "strs": "a list of strings",
+        }[self.type]
+        bounds = []
+        if self.minimum is not None:
+            bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
+        if self.maximum is not None:
+            bounds.append(f"<= {self.maximum:g}")
+        text = kind + (" " + " and ".join(bounds) if bounds else "")
+        return text + (" (inf allowed)" if self.infinite_ok else "")
+
+    def coerce(self, value: Any, where: str) -> Any:
+        """Check ``value`` against the type and range; return it in canonical form."""
+        bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {value!r}")
+        if self.type == "bool":
+            if not isinstance(value, bool):
+                raise bad
+            return value
+        if self.type in ("str", "strs"):
+            if self.type == "strs" and isinstance(value, str):
+                value = [value]
+            items = value if self.type == "strs" else [value]
+            if not isinstance(items, list) or not all(isinstance(v, str) for v in items):
+                raise bad
+            if self.choices and value not in self.choices:
+                raise bad
+            return value
+        if self.type == "floats":
+            if not isinstance(value, list) or not all(is_number(v) for v in value):
+                raise bad
+            if not all(self._in_range(float(v)) for v in value):
+                raise bad
+            return [float(v) for v in value]
+        if not is_number(value):
+            raise bad
+        if self.type == "int":
+            if not float(value).is_integer():
+                raise bad
+            value = int(value)
+        else:
+            value = float(value)
+        if not self._in_range(value):
+            raise bad
+        return value
+
+    def _in_range(self, value: float) -> bool:
+        if math.isnan(value) or (math.isinf(value) and not (self.infinite_ok and value > 0)):
+            return False
+        below = self.minimum is not None and (
+            value < self.minimum or (self.exclusive_minimum and value == self.minimum)
+        )
+        return not below and (self.maximum is None or value <= self.maximum)
+
+
+def is_number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+@dataclass
+class StepData:
+    """What a step sees: the selected joints' arrays, the clip's frame time and the clip.
+
+    ``rotations`` ``(F, Jr, 4)`` and ``translations`` ``(F, Jp, 3)`` (None when positions
+    are off or absent) are the selected columns; ``rotation_joints`` / ``translation_joints``
+    give each column's index in ``motion.names``. ``motion`` is the whole clip as it enters
+    the step (read-only context: skeleton, every joint's arrays). Notes are per column.
+    """
+
+    rotations: np.ndarray
+    translations: np.ndarray | None
+    frame_time: float
+    motion: Motion | None = None
+    rotation_joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    translation_joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    rotation_notes: dict[int, dict] = field(default_factory=dict)
+    translation_notes: dict[int, dict] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class StepSpec:
+    """A registered step: its pipeline name, parameters and how to run it.
+
+    ``run`` maps the selected joints' arrays to new ones (:class:`StepData`). A whole-clip
+    step (one that changes the frame count) gives ``run_motion(motion, params)`` instead,
+    returning the new clip and notes keyed by joint name. ``format_note(note, positions)``
+    is how one joint's note reads in the terminal and HTML reports (None: shown as JSON);
+    ``lists_repairs`` puts its notes under the terminal table as repairs.
+    """
+
+    name: str
+    summary: str
+    paper: str
+    params: tuple[Param, ...]
+    run: Callable[[StepData, dict], StepData] | None = None
+    run_motion: Callable[[Motion, dict], tuple[Motion, dict[str, dict]]] | None = None
+    positions_default: bool = True
+    format_note: Callable[[dict, bool], str] | None = None
+    lists_repairs: bool = False
+    # Cross-parameter rules; may fill defaults that depend on other parameters.
+    resolve: Callable[[dict, str], None] | None = None
+    # Names of the parameters that matter for these values (default: all of them).
+    relevant: Callable[[dict], tuple[str, ...]] | None = None
+
+
+COMMON_PARAMS = (
+    Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
+    Param("positions", "bool", True, "also filter translation channels (vector counterpart)"),
+)

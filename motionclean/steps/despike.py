@@ -1,0 +1,161 @@
+"""The ``despike`` step: repair half-turn flips and spikes before smoothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import UsageError
+from ..filters.despike import despike_positions_with_report, despike_with_report
+from .base import Param, StepData, StepSpec
+
+
+def _resolve_despike(params: dict, where: str) -> None:
+    if params["min_deg_per_s"] > params["max_deg_per_s"]:
+        raise UsageError(f"{where}: min_deg_per_s must not exceed max_deg_per_s")
+    if params["min_units_per_s"] > params["max_units_per_s"]:
+        raise UsageError(f"{where}: min_units_per_s must not exceed max_units_per_s")
+
+
+def _run_despike(data: StepData, params: dict) -> StepData:
+    shared = {key: params[key] for key in ("threshold", "max_spike_s", "trend_ratio", "max_run")}
+    data.rotations, report = despike_with_report(
+        data.rotations,
+        data.frame_time,
+        method=params["method"],
+        min_deg_per_s=params["min_deg_per_s"],
+        max_deg_per_s=params["max_deg_per_s"],
+        flip_deg=params["flip_deg"],
+        unflip=params["unflip"],
+        **shared,
+    )
+    for column in np.flatnonzero(report.counts()):
+        data.rotation_notes[int(column)] = {"despike": report.summary(column)}
+    if data.translations is not None:
+        data.translations, report = despike_positions_with_report(
+            data.translations,
+            data.frame_time,
+            method="linear" if params["method"] == "slerp" else "cubic",
+            min_units_per_s=params["min_units_per_s"],
+            max_units_per_s=params["max_units_per_s"],
+            **shared,
+        )
+        for column in np.flatnonzero(report.counts()):
+            data.translation_notes[int(column)] = {"despike": report.summary(column)}
+    return data
+
+
+def _ranges(runs: list[list[int]]) -> str:
+    """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
+    return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
+
+
+def _format_note(note: dict, positions: bool) -> str:
+    """What despike did to one joint: frames repaired, where, and the largest step."""
+    unit = "units" if positions else "deg"
+    parts = [f"{note['frames_repaired']} frames repaired"]
+    if note.get("unflipped"):
+        parts.append(f"un-flipped {_ranges(note['unflipped'])}")
+    if note["interpolated"]:
+        parts.append(f"interpolated {_ranges(note['interpolated'])}")
+    step = note["max_step"]
+    parts.append(f"largest step {step['before']:.1f} -> {step['after']:.1f} {unit}")
+    return "; ".join(parts)
+
+
+STEP = StepSpec(
+    name="despike",
+    summary="repair half-turn flips (un-flip) and spikes (interpolate) before smoothing",
+    paper="robust jump detection; interpolation by 003 Eq. 15-17",
+    params=(
+        Param(
+            "threshold",
+            "float",
+            8.0,
+            "a step is a jump above median + threshold * 1.4826 "
+            "MAD of the joint's own steps (robust deviations)",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "min_deg_per_s",
+            "float",
+            600.0,
+            "steps slower than this are never jumps, degrees of rotation per s",
+            minimum=0.0,
+        ),
+        Param(
+            "max_deg_per_s",
+            "float",
+            3600.0,
+            "absolute cap: faster steps are always repaired, degrees of rotation per s",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
+        Param(
+            "max_spike_s",
+            "float",
+            0.07,
+            "longest spike, seconds (whole frames, at least "
+            "one: 8 at 120 fps, 2 at 30 fps); also how far the cap may widen a gap",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=10.0,
+        ),
+        Param(
+            "trend_ratio",
+            "float",
+            3.0,
+            "a spike must leave the cubic trend of its good "
+            "neighbours by this many times that trend's own error there (0: no test)",
+            minimum=0.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "max_run",
+            "int",
+            None,
+            "optional extra limit on spike length, frames",
+            minimum=1,
+            maximum=100000,
+        ),
+        Param(
+            "flip_deg",
+            "float",
+            150.0,
+            "smallest one-frame step taken as a half-turn flip, degrees",
+            minimum=90.0,
+            exclusive_minimum=True,
+            maximum=180.0,
+        ),
+        Param(
+            "unflip",
+            "bool",
+            True,
+            "undo half-turn flips; false interpolates short flips like spikes",
+        ),
+        Param("method", "str", "cubic", "interpolant for spikes", choices=("cubic", "slerp")),
+        Param(
+            "min_units_per_s",
+            "float",
+            0.0,
+            "positions: steps slower than this are never jumps, length units per s",
+            minimum=0.0,
+        ),
+        Param(
+            "max_units_per_s",
+            "float",
+            math.inf,
+            "positions: absolute cap, length units per s",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
+    ),
+    run=_run_despike,
+    resolve=_resolve_despike,
+    format_note=_format_note,
+    lists_repairs=True,
+)

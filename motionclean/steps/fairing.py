@@ -1,0 +1,85 @@
+"""The ``fairing`` step: iterative fairing within a bound of the input (001)."""
+
+from __future__ import annotations
+
+from ..filters.fairing import fairing, fairing_positions
+from .base import Param, StepData, StepSpec
+
+
+def _run_fairing(data: StepData, params: dict) -> StepData:
+    shared = {
+        "order": params["order"],
+        "tol": params["tol"],
+        "max_iterations": params["max_iterations"],
+    }
+    data.rotations = fairing(
+        data.rotations, lam_r=params["lam_r"], epsilon_r=params["epsilon_r"], **shared
+    )
+    if data.translations is not None:
+        data.translations = fairing_positions(
+            data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared
+        )
+    return data
+
+
+STEP = StepSpec(
+    name="fairing",
+    summary="iterative fairing of order 2 or 3 within a bound of the input",
+    paper="001 Eq. 11-20, Fig. 1",
+    params=(
+        Param(
+            "order",
+            "int",
+            3,
+            "order m of the fairing energy: 2 = constant angular "
+            "velocity, 3 = constant angular acceleration",
+            minimum=2,
+            maximum=3,
+        ),
+        Param(
+            "lam_r",
+            "float",
+            0.1,
+            "damping of each orientation step (slerp toward the "
+            "fairing operator, Eq. 17); keep below 0.5 for order 3",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
+        ),
+        Param(
+            "lam_t",
+            "float",
+            0.5,
+            "damping of each position step (Eq. 17)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
+        ),
+        Param(
+            "epsilon_r",
+            "float",
+            0.02,
+            "bound: no orientation moves farther than this, log "
+            "units (half the rotation angle, rad; 0.02 is 2.29 degrees)",
+            minimum=0.0,
+            infinite_ok=True,
+        ),
+        Param(
+            "epsilon_t",
+            "float",
+            1.0,
+            "bound: no position moves farther than this, file length unit",
+            minimum=0.0,
+            infinite_ok=True,
+        ),
+        Param(
+            "tol",
+            "float",
+            1e-7,
+            "stop when no sample moves this much in one iteration",
+            minimum=0.0,
+        ),
+        Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=100000),
+    ),
+    run=_run_fairing,
+)
