@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
-from .filters.linear import angular_displacements
 
 __all__ = [
     "angular_acceleration",
@@ -40,7 +39,7 @@ def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
     q = quat.make_continuous(q, axis=0)
     if q.shape[0] < 3:
         return np.zeros((0, *q.shape[1:-1]))
-    w = angular_displacements(q)
+    w = quat.displacements(q)
     return np.degrees(2.0 * np.linalg.norm(np.diff(w, axis=0), axis=-1)) / frame_time**2
 
 

@@ -53,9 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import quat
+from . import checks, quat
 from .filters.linear import (
-    angular_displacements,
     apply_displacement_sums,
     displacement_coefficients,
     mirrored_displacements,
@@ -145,16 +144,11 @@ class Pyramid:
 
 
 def _rotations(q, name: str = "rotations") -> np.ndarray:
-    q = np.asarray(q, dtype=np.float64)
-    if q.ndim < 2 or q.shape[-1] != 4 or q.shape[0] == 0:
-        raise ValueError(f"{name} must have shape (F, ..., 4) with F >= 1, got {q.shape}")
-    return quat.make_continuous(q, axis=0)
+    return quat.make_continuous(checks.unit_quaternions(q, name, min_frames=1), axis=0)
 
 
 def _positions(p, lead: tuple[int, ...] | None, name: str = "positions") -> np.ndarray:
-    p = np.asarray(p, dtype=np.float64)
-    if p.ndim < 2 or p.shape[-1] != 3 or p.shape[0] == 0:
-        raise ValueError(f"{name} must have shape (F, ..., 3) with F >= 1, got {p.shape}")
+    p = checks.vectors(p, name, min_frames=1)
     if lead is not None and p.shape[:-1] != lead:
         raise ValueError(
             f"{name} {p.shape} do not match the rotations {lead + (4,)}: each position needs "
@@ -201,7 +195,7 @@ def _ominus(q_to, q_from, p_to, p_from):
     v = u = None
     if q_from is not None:
         rel = quat.multiply(quat.conjugate(q_from), q_to)
-        v = quat.log(np.where(rel[..., :1] < 0.0, -rel, rel))
+        v = quat.log_shortest(rel)
     if p_from is not None:
         u = p_to - p_from
         if q_from is not None:
@@ -380,13 +374,13 @@ def _decompose(q, p, levels: int, align: str) -> Pyramid:
     if align not in ("start", "end"):
         raise ValueError(f"align must be 'start' or 'end', got {align!r}")
     n = min(_levels(levels), max_levels((q if q is not None else p).shape[0]))
-    w = None if q is None else angular_displacements(q)
+    w = None if q is None else quat.displacements(q)
     details = []
     for _ in range(n):  # loop over levels only
         length = (q if q is not None else p).shape[0]
         phase = 0 if align == "start" else (length - 1) % 2
         qc, pc = _reduce(q, w, p, phase)
-        wc = None if qc is None else angular_displacements(qc)
+        wc = None if qc is None else quat.displacements(qc)
         qe, pe = _expand(qc, wc, pc, length, phase)
         v, u = _ominus(q, qe, p, pe)
         details.append(Detail(v, u, phase))
@@ -440,7 +434,7 @@ def reconstruct(pyramid: Pyramid):
     if q is not None:
         q = quat.make_continuous(q)
     for level in reversed(pyramid.details):  # coarse to fine
-        w = None if q is None else angular_displacements(q)
+        w = None if q is None else quat.displacements(q)
         qe, pe = _expand(q, w, p, level.n_frames, level.phase)
         fine, p = _oplus(qe, pe, level.angular, level.linear)
         q = None if q is None else _anchor_signs(fine, level.phase, q[0])

@@ -19,11 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from .checks import as_float_array, shaped
+
 __all__ = [
     "angle",
     "angle_between",
     "as_matrix",
     "conjugate",
+    "displacements",
     "exp",
     "exp_planes",
     "from_axis_angle",
@@ -32,6 +35,7 @@ __all__ = [
     "inverse",
     "log",
     "log_planes",
+    "log_shortest",
     "make_continuous",
     "multiply",
     "multiply_planes",
@@ -53,8 +57,8 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p q`` (apply ``q`` first, then ``p``), broadcasting."""
-    p = np.asarray(p, dtype=np.float64)
-    q = np.asarray(q, dtype=np.float64)
+    p = shaped(p, 4, "p")
+    q = shaped(q, 4, "q")
     if _is_small(p, q):
         return _sum_left_to_right(p[..., _PRODUCT_P] * _PRODUCT_SIGN * q[..., _PRODUCT_Q])
     return _blockwise(multiply_planes, (p, q), 4, 2)
@@ -62,21 +66,34 @@ def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 def conjugate(q: np.ndarray) -> np.ndarray:
     """Conjugate ``(w, -x, -y, -z)``; the inverse of a unit quaternion."""
-    out = np.array(q, dtype=np.float64, copy=True)
+    out = shaped(q, 4, "q").copy()
     out[..., 1:] *= -1.0
     return out
 
 
 def inverse(q: np.ndarray) -> np.ndarray:
     """Inverse ``q* / |q|^2`` (equal to the conjugate for unit quaternions)."""
-    q = np.asarray(q, dtype=np.float64)
+    q = shaped(q, 4, "q")
     return conjugate(q) / np.sum(q * q, axis=-1, keepdims=True)
 
 
 def normalize(q: np.ndarray) -> np.ndarray:
-    """Scale each quaternion to unit length."""
-    q = np.asarray(q, dtype=np.float64)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    """Scale each quaternion (or any vector along the last axis) to unit length.
+
+    Safe for any finite magnitude: each is first divided by its largest component, so
+    ``(1e200, 1e200, 0, 0)`` gives ``(0.7071, 0.7071, 0, 0)`` (no overflow). A zero one has
+    no direction: ValueError.
+    """
+    q = as_float_array(q, "q")
+    with np.errstate(over="ignore", under="ignore"):
+        norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    if np.all((norm > 1e-150) & (norm < 1e150)):  # the usual case: plain division
+        return q / norm
+    largest = np.max(np.abs(q), axis=-1, keepdims=True)
+    if not np.all(largest > 0.0):
+        raise ValueError("q: a zero vector or quaternion cannot be normalised")
+    scaled = q / largest
+    return scaled / np.linalg.norm(scaled, axis=-1, keepdims=True)
 
 
 def exp(v: np.ndarray) -> np.ndarray:
@@ -84,7 +101,7 @@ def exp(v: np.ndarray) -> np.ndarray:
 
     ``v`` has shape ``(..., 3)``; ``|v|`` is half the rotation angle in radians.
     """
-    v = np.asarray(v, dtype=np.float64)
+    v = shaped(v, 3, "v")
     if _is_small(v):  # exp_planes on whole arrays, operation for operation
         t = np.sqrt(_sum_left_to_right(v * v))
         h = np.tan(t * 0.5)
@@ -108,7 +125,7 @@ def log(q: np.ndarray) -> np.ndarray:
     the result has norm above ``pi/2`` (a rotation of more than 180 degrees in S^3); make a
     signal sign-continuous first when displacements between samples are wanted.
     """
-    q = np.asarray(q, dtype=np.float64)
+    q = shaped(q, 4, "q")
     if _is_small(q):  # log_planes on whole arrays, operation for operation
         v = q[..., 1:]
         norm = np.sqrt(_sum_left_to_right(v * v))
@@ -278,7 +295,7 @@ def angle(q: np.ndarray) -> np.ndarray:
 
     ``2 atan2(|v|, |w|)``: accurate near 0 and near a half turn, unlike ``2 acos(w)``.
     """
-    q = np.asarray(q, dtype=np.float64)
+    q = shaped(q, 4, "q")
     s = np.sqrt(np.einsum("...i,...i->...", q[..., 1:], q[..., 1:]))
     return 2.0 * np.arctan2(s, np.abs(q[..., 0]))
 
@@ -294,11 +311,26 @@ def slerp(p: np.ndarray, q: np.ndarray, t) -> np.ndarray:
     ``t`` broadcasts against the leading shape; ``t = 0`` gives ``p``, ``t = 1`` gives ``q``
     (up to sign).
     """
-    p = np.asarray(p, dtype=np.float64)
-    rel = multiply(conjugate(p), q)
-    rel = np.where(rel[..., :1] < 0.0, -rel, rel)
+    p = shaped(p, 4, "p")
     t = np.asarray(t, dtype=np.float64)[..., None]
-    return multiply(p, exp(t * log(rel)))
+    return multiply(p, exp(t * log_shortest(multiply(conjugate(p), q))))
+
+
+def log_shortest(q: np.ndarray) -> np.ndarray:
+    """:func:`log` of ``q`` or ``-q``, whichever has ``w >= 0``: the shorter arc, with
+    ``|log| <= pi/2`` (half of a rotation of at most 180 degrees)."""
+    q = shaped(q, 4, "q")
+    return log(np.where(np.signbit(q[..., :1]), -q, q))
+
+
+def displacements(q: np.ndarray) -> np.ndarray:
+    """Angular displacements ``w_i = log(q_i^-1 q_{i+1})`` along axis 0 (000 Eq. 19):
+    ``(F, ..., 4)`` -> ``(F-1, ..., 3)``, half-angle units.
+
+    ``q`` must be sign-continuous (:func:`make_continuous`), so that each ``|w_i| <= pi/2``.
+    """
+    q = shaped(q, 4, "q", signal=True)
+    return log(multiply(conjugate(q[:-1]), q[1:]))
 
 
 def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
@@ -307,7 +339,7 @@ def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
     Sec. VI-A of 000: the first sample keeps its sign; sample ``i`` is negated when it lies
     more than pi/2 (in S^3) from sample ``i-1`` after that one's correction.
     """
-    q = np.moveaxis(np.asarray(q, dtype=np.float64), axis, 0)
+    q = np.moveaxis(shaped(q, 4, "q"), axis, 0)
     if q.shape[0] < 2:
         return np.moveaxis(q.copy(), 0, axis)
     dots = np.einsum("...i,...i->...", q[1:], q[:-1])
@@ -318,7 +350,7 @@ def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
 
 def from_axis_angle(axis: np.ndarray, angle_rad) -> np.ndarray:
     """Rotation by ``angle_rad`` (radians) about the unit vector ``axis`` ``(..., 3)``."""
-    axis = np.asarray(axis, dtype=np.float64)
+    axis = shaped(axis, 3, "axis")
     half = 0.5 * np.asarray(angle_rad, dtype=np.float64)
     out = np.empty(np.broadcast_shapes(axis.shape[:-1], half.shape) + (4,))
     out[..., 0] = np.cos(half)
@@ -328,14 +360,14 @@ def from_axis_angle(axis: np.ndarray, angle_rad) -> np.ndarray:
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v`` ``(..., 3)`` by ``q``: ``q v q^-1``."""
-    v = np.asarray(v, dtype=np.float64)
+    v = shaped(v, 3, "v")
     pure = np.concatenate([np.zeros((*v.shape[:-1], 1)), v], axis=-1)
     return multiply(multiply(q, pure), conjugate(q))[..., 1:]
 
 
 def as_matrix(q: np.ndarray) -> np.ndarray:
     """Rotation matrices ``(..., 3, 3)`` of unit quaternions (column-vector convention)."""
-    q = np.asarray(q, dtype=np.float64)
+    q = shaped(q, 4, "q")
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     m = np.empty((*q.shape[:-1], 3, 3))
     m[..., 0, 0] = 1 - 2 * (y * y + z * z)

@@ -9,7 +9,6 @@ from helpers import corpus_clip
 from motionclean import quat
 from motionclean.filters.bilateral import bilateral, bilateral_positions
 from motionclean.filters.linear import (
-    angular_displacements,
     displacement_coefficients,
     lee_shin,
     lee_shin_positions,
@@ -138,7 +137,7 @@ def reference_bilateral(q: np.ndarray, sigma_t: float, sigma_g: float, k: int) -
     is the product of exp(w) along the window starting at sample i, and each sample's
     normalised mask goes through 000 Eq. 20 (``displacement_coefficients``).
     """
-    w = angular_displacements(q)
+    w = quat.displacements(q)
     ext = mirrored_displacements(w, k, k)  # positions -k .. F-2+k
     out = np.empty_like(q)
     for i in range(q.shape[0]):  # reference only

@@ -13,7 +13,6 @@ from motionclean.filters.despike import (
     _TABLE_SIZE,
     _lagrange,
     _median_rows,
-    _shorter_log,
     _weights,
     despike_positions_with_report,
     despike_with_report,
@@ -90,9 +89,13 @@ def test_tabulated_weights_are_the_closed_form():
     np.testing.assert_allclose(-c0 + c2 * span[short] + c3 * (span[short] + 1), a[short], atol=1e-9)
 
 
-def test_shorter_log_takes_the_short_arc():
+def test_shortest_log_is_the_wrapped_half_angle_about_the_axis():
+    """``log_shortest(exp(theta/2 n))`` is ``wrap(theta)/2 n`` with ``wrap`` into
+    ``[-pi, pi]``: the closed form of the shorter arc, whatever the sign of the input."""
     rng = np.random.default_rng(5)
-    p = quat.normalize(rng.normal(size=(50, 4)))
-    shorter = np.where(p[:, :1] < 0.0, -p, p)
-    np.testing.assert_array_equal(_shorter_log(p), quat.log(shorter))
-    assert np.all(np.linalg.norm(_shorter_log(p), axis=-1) <= np.pi / 2)
+    axis = rng.normal(size=(200, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    theta = rng.uniform(-1.99 * np.pi, 1.99 * np.pi, 200)
+    q = quat.from_axis_angle(axis, theta) * rng.choice([-1.0, 1.0], (200, 1))
+    wrapped = np.angle(np.exp(1j * theta))
+    np.testing.assert_allclose(quat.log_shortest(q), 0.5 * wrapped[:, None] * axis, atol=1e-12)

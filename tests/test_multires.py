@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import motionclean
 from motionclean import multires as mr
 from motionclean import quat
-from motionclean.filters.linear import angular_displacements, lee_shin, lee_shin_positions
+from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import reduction
 
 
@@ -49,7 +49,7 @@ def add_noise(q: np.ndarray, sigma: float, seed: int) -> np.ndarray:
 
 def angular_accel_rms(q: np.ndarray) -> float:
     """RMS of ``|w_{i+1} - w_i|`` over frames and signals (log units per frame^2)."""
-    w = angular_displacements(quat.make_continuous(q))
+    w = quat.displacements(quat.make_continuous(q))
     return float(np.sqrt(np.mean(np.sum(np.diff(w, axis=0) ** 2, axis=-1))))
 
 
@@ -143,7 +143,7 @@ def test_expansion_interior_is_eq16_and_eq15():
     pyramid = mr.Pyramid(coarse, p, (mr.Detail(np.zeros((23, 2, 3)), np.zeros((23, 2, 3)), 0),))
     fine, fine_p = mr.reconstruct(pyramid)
     assert quat.angle_between(fine[0::2], coarse).max() < 1e-14
-    w = angular_displacements(coarse)
+    w = quat.displacements(coarse)
     i = np.arange(1, 9)  # interior intervals: nodes i-1 .. i+2 exist
     eq16 = quat.multiply(
         quat.slerp(coarse[i], coarse[i + 1], 0.5), quat.exp((w[i - 1] - w[i + 1]) / 16.0)
@@ -401,7 +401,7 @@ def test_stitch_shape_errors():
 
 def seam_jump(q: np.ndarray, seam: int, half_width: int) -> float:
     """Largest joint-summed ``|w_{i+1} - w_i|`` for frames within ``half_width`` of ``seam``."""
-    w = angular_displacements(quat.make_continuous(q))
+    w = quat.displacements(quat.make_continuous(q))
     jumps = np.linalg.norm(np.diff(w, axis=0), axis=-1).sum(axis=1)  # jumps[i]: frame i + 1
     lo, hi = max(seam - 1 - half_width, 0), min(seam + half_width, jumps.shape[0])
     return float(jumps[lo:hi].max())

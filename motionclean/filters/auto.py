@@ -60,10 +60,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import quat
+from .. import checks, quat
 from .design import lowpass, savgol
 from .linear import (
-    angular_displacements,
     displacement_coefficients,
     lee_shin,
     lee_shin_positions,
@@ -138,9 +137,7 @@ def _robust_sigma(d: np.ndarray) -> np.ndarray:
 
 
 def _columns(x: np.ndarray, width: int, what: str) -> np.ndarray:
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim < 2 or x.shape[-1] != width:
-        raise ValueError(f"{what} must have shape (F, ..., {width}), got {x.shape}")
+    x = checks.unit_quaternions(x, what) if width == 4 else checks.vectors(x, what)
     return x.reshape(x.shape[0], math.prod(x.shape[1:-1]), width)
 
 
@@ -151,7 +148,7 @@ def estimate_noise(q: np.ndarray) -> np.ndarray:
     differences of ``w_i = log(q_i^-1 q_{i+1})`` (module docstring); clips of fewer than 4
     frames give 0. The estimate does not depend on the frame rate: it is per sample.
     """
-    w = angular_displacements(quat.make_continuous(_columns(q, 4, "rotations"), axis=0))
+    w = quat.displacements(quat.make_continuous(_columns(q, 4, "rotations"), axis=0))
     return _rotation_noise(w).reshape(np.shape(q)[1:-1])
 
 
@@ -350,7 +347,7 @@ def auto(
     shape = np.shape(q)[1:-1]
     given = _check(strength, noise, shape)
     cols = quat.make_continuous(_columns(q, 4, "rotations"), axis=0)
-    w = angular_displacements(cols)
+    w = quat.displacements(cols)
     level = _rotation_noise(w).reshape(shape) if given is None else given
     sigma = np.radians(level.reshape(-1)) / (2.0 * math.sqrt(3.0)) * strength
     values, choices = _select(

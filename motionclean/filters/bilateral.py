@@ -52,7 +52,7 @@ import math
 
 import numpy as np
 
-from .. import quat
+from .. import checks, quat
 from .linear import (
     check_iterations,
     continuity_signs,
@@ -286,7 +286,7 @@ def bilateral(
     k = window_radius(sigma_t, radius)
     sigma_g = _check_sigma("sigma_g", sigma_g)
     iterations = check_iterations(iterations)
-    q = np.asarray(q, dtype=np.float64)
+    q = checks.unit_quaternions(q)
     if q.shape[0] < 2 or k == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
     return run_passes(
@@ -312,7 +312,7 @@ def bilateral_positions(
     k = window_radius(sigma_t, radius)
     sigma_p = _check_sigma("sigma_p", sigma_p)
     iterations = check_iterations(iterations)
-    p = np.asarray(p, dtype=np.float64)
+    p = checks.vectors(p)
     if p.shape[0] < 2 or k == 0 or iterations == 0 or p.size == 0:
         return p.copy()
     return run_passes(

@@ -87,7 +87,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import quat
+from .. import checks, quat
 
 __all__ = [
     "DespikeReport",
@@ -505,7 +505,7 @@ def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndar
         g = q.take(np.concatenate([knots.lo, knots.lo2, knots.hi, knots.hi2]), axis=0)
         ql, qr = g[:n], g[2 * n : 3 * n]
         # One product and log for the gap and both outer displacements w_0 and w_2.
-        logs = _shorter_log(
+        logs = quat.log_shortest(
             quat.multiply(quat.conjugate(g[: 3 * n]), np.concatenate([qr, ql, g[3 * n :]]))
         )
         gap, w0, w2 = logs[:n], logs[n : 2 * n], logs[2 * n :]
@@ -519,7 +519,7 @@ def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndar
         value = quat.multiply(quat.multiply(ql, moves[:n]), moves[n:])
     else:
         ql, qr = q.take(knots.lo, axis=0), q.take(knots.hi, axis=0)
-        gap = _shorter_log(quat.multiply(quat.conjugate(ql), qr))
+        gap = quat.log_shortest(quat.multiply(quat.conjugate(ql), qr))
         value = quat.multiply(ql, quat.exp(u[:, None] * gap))
     return _hold_ends(q, knots, value, ql, qr, has_l, has_r)
 
@@ -621,14 +621,9 @@ def _position_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _norm(b - a)
 
 
-def _shorter_log(rel: np.ndarray) -> np.ndarray:
-    """``log(+-rel)`` of the shorter arc (``|log| <= pi/2``): the sign with ``w >= 0``."""
-    return quat.log(np.where(np.signbit(rel[..., :1]), -rel, rel))
-
-
 def _rotation_velocity(q: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
     """Rotation vectors ``2 log(q_i^-1 q_{i+stride})`` (rad) between rows of ``q`` (N, 4)."""
-    return 2.0 * _shorter_log(
+    return 2.0 * quat.log_shortest(
         quat.multiply(quat.conjugate(q.take(i, axis=0)), q.take(i + stride, axis=0))
     )
 
@@ -811,9 +806,7 @@ def despike_with_report(
     )
     if not 90.0 < flip_deg <= 180.0:
         raise ValueError(f"flip_deg must be in (90, 180] degrees, got {flip_deg}")
-    q = np.asarray(q, dtype=np.float64)
-    if q.ndim < 2 or q.shape[-1] != 4:
-        raise ValueError(f"q must have shape (F, ..., 4), got {q.shape}")
+    q = checks.unit_quaternions(q)
     out, *masks_and_steps = _repair(
         _columns(q),
         frame_time,
@@ -869,9 +862,7 @@ def despike_positions_with_report(
         ("cubic", "linear"),
         "units",
     )
-    p = np.asarray(p, dtype=np.float64)
-    if p.ndim < 2 or p.shape[-1] != 3:
-        raise ValueError(f"p must have shape (F, ..., 3), got {p.shape}")
+    p = checks.vectors(p)
     out, *masks_and_steps = _repair(
         _columns(p),
         frame_time,

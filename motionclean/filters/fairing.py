@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .. import quat
+from .. import checks, quat
 
 __all__ = [
     "fairing",
@@ -61,19 +61,14 @@ STALL = 1e-12
 
 def _to_planes(x, width: int, what: str) -> tuple[np.ndarray, tuple[int, ...]]:
     """``(F, ..., width)`` -> contiguous planes ``(width, F, N)`` and the trailing shape."""
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim < 2 or x.shape[-1] != width:
-        raise ValueError(f"{what} must have shape (F, ..., {width}), got {x.shape}")
+    x = checks.unit_quaternions(x, what) if width == 4 else checks.vectors(x, what)
     flat = x.reshape(x.shape[0], math.prod(x.shape[1:-1]), width)
     return np.ascontiguousarray(np.moveaxis(flat, -1, 0)), x.shape[1:-1]
 
 
 def _quaternions(q) -> np.ndarray:
     """``q`` as float64, checked to be ``(F, ..., 4)`` before its signs are made continuous."""
-    q = np.asarray(q, dtype=np.float64)
-    if q.ndim < 2 or q.shape[-1] != 4:
-        raise ValueError(f"q must have shape (F, ..., 4), got {q.shape}")
-    return q
+    return checks.unit_quaternions(q)
 
 
 def _from_planes(planes: np.ndarray, trailing: tuple[int, ...]) -> np.ndarray:

@@ -23,11 +23,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import quat
+from .. import checks, quat
 from .masks import validate_mask
 
 __all__ = [
-    "angular_displacements",
     "apply_displacement_sums",
     "check_iterations",
     "continuity_signs",
@@ -76,15 +75,6 @@ def mirror_indices(n: int, before: int, after: int) -> np.ndarray:
     the first and the last displacement, repeated as often as a short signal needs.
     """
     return mirror_position(np.arange(-before, n + after), n)
-
-
-def angular_displacements(q: np.ndarray) -> np.ndarray:
-    """``w_i = log(q_i^-1 q_{i+1})`` along axis 0: shape ``(F-1, ..., 3)``.
-
-    ``q`` must be sign-continuous (:func:`motionclean.quat.make_continuous`), so that each
-    ``|w_i| <= pi/2``.
-    """
-    return quat.log(quat.multiply(quat.conjugate(q[:-1]), q[1:]))
 
 
 def mirrored_displacements(w: np.ndarray, before: int, after: int) -> np.ndarray:
@@ -275,9 +265,7 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)
-    q = np.asarray(q, dtype=np.float64)
-    if q.ndim < 2 or q.shape[-1] != 4:
-        raise ValueError(f"expected (F, ..., 4) quaternions, got shape {q.shape}")
+    q = checks.unit_quaternions(q)
     if q.shape[0] < 2 or b.size == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
     return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
@@ -291,7 +279,7 @@ def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)
-    out = np.array(p, dtype=np.float64, copy=True)
+    out = checks.finite(checks.as_float_array(p, "p"), "p").copy()  # any trailing width
     if out.shape[0] < 2 or b.size == 0:
         return out
     n, k = out.shape[0] - 1, b.size // 2
