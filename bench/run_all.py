@@ -12,7 +12,17 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-ORDER = ["io", "filters", "bilateral", "despike", "fairing", "multires", "batch", "quality"]
+ORDER = [
+    "io",
+    "filters",
+    "bilateral",
+    "despike",
+    "fairing",
+    "multires",
+    "world",
+    "batch",
+    "quality",
+]
 
 
 def main() -> int:

@@ -16,17 +16,19 @@ from pathlib import Path
 import click
 import numpy as np
 
-from . import __version__, metrics
+from . import __version__, kinematics, metrics
 from .batch import batch_command
 from .check import check_command
 from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
-from .io import load, save
+from .io import atomic_write, load, save
+from .io.world_csv import format_world_csv
 from .jobs import blend_clips, check_compatible, clean_clip, stitch_clips, write_report
 from .options import (
     PIPE_OPTION,
     STEP_OPTION,
     check_clip_output,
+    check_output,
     check_report_output,
     pipeline_from_options,
     refuse_overwrite,
@@ -99,6 +101,11 @@ def info(clip: str) -> None:
         f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
+    up = kinematics.up_axis(motion)
+    click.echo(
+        f"  up axis: {kinematics.AXES[up]}   body height: "
+        f"{kinematics.body_height(motion, up):.4g} units (rest pose)"
+    )
     steps, at = metrics.largest_steps(motion.rotations)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
@@ -138,11 +145,22 @@ def info(clip: str) -> None:
 @click.option(
     "--skeleton", type=click.Path(), help="BVH whose skeleton a channel CSV is written back into."
 )
-def convert(source: str, target: str, skeleton: str | None) -> None:
+@click.option(
+    "--world",
+    is_flag=True,
+    help="Write world positions of every joint and end site (file units) as CSV: "
+    "time,<joint>.x,<joint>.y,<joint>.z,...",
+)
+def convert(source: str, target: str, skeleton: str | None, world: bool) -> None:
     """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
     refuse_overwrite(Path(source), Path(target), in_place=False)
     if skeleton:
         refuse_overwrite(Path(skeleton), Path(target), in_place=False)
+    if world:
+        check_output(target, (".csv",), "a world-position CSV")
+        template = load(skeleton) if skeleton else None
+        atomic_write(target, format_world_csv(load(source, skeleton=template)))
+        return
     check_clip_output(target)
     template = load(skeleton) if skeleton else None
     motion = load(source, skeleton=template)

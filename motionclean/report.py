@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import metrics
+from . import kinematics, metrics
 from .motion import Motion
 from .steps import REGISTRY
 from .steps.auto import format_choice
@@ -128,6 +128,64 @@ def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
     return summary
 
 
+def format_world(world: dict) -> str:
+    """One line: up axis, body height and the end effector that moved most."""
+    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
+    worst = world.get("worst_deviation")
+    if worst is not None:
+        text += (
+            f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units "
+            f"({worst['max_percent']:.2g} % of body height)"
+        )
+    return text
+
+
+def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+    """The report's ``world`` section: up axis, body height (file units) and, per end
+    effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
+    acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
+    (RMS and max, file units and % of body height), plus the worst effector."""
+    up = kinematics.up_axis(before)
+    height = kinematics.body_height(before, up)
+    index, names = kinematics.end_effectors(before)
+    dt = before.frame_time
+    points_b = kinematics.forward(before, end_sites=True)[0][:, index]
+    rms_b, max_b = _stats(metrics.linear_acceleration(points_b, dt))
+    if after is not None:
+        points_a = kinematics.forward(after, end_sites=True)[0][:, index]
+        rms_a, max_a = _stats(metrics.linear_acceleration(points_a, dt))
+        dev_rms, dev_max = _stats(np.linalg.norm(points_a - points_b, axis=-1))
+    scale = 100.0 / height if height > 0 else math.nan
+    effectors: dict[str, dict] = {}
+    for n, name in enumerate(names):
+        a = after is not None
+        entry = effectors[name] = {
+            "linear_accel_rms": _pair(rms_b[n], rms_a[n] if a else None),
+            "linear_accel_max": _pair(max_b[n], max_a[n] if a else None),
+        }
+        if a:
+            entry["deviation"] = {
+                "rms": float(dev_rms[n]),
+                "max": float(dev_max[n]),
+                "rms_percent": float(dev_rms[n] * scale),
+                "max_percent": float(dev_max[n] * scale),
+            }
+    worst = None
+    if after is not None and names:
+        n = int(np.argmax(dev_max))
+        worst = {
+            "effector": names[n],
+            "max": float(dev_max[n]),
+            "max_percent": float(dev_max[n] * scale),
+        }
+    return {
+        "up_axis": kinematics.AXES[up],
+        "body_height": height,
+        "effectors": effectors,
+        "worst_deviation": worst,
+    }
+
+
 def build_report(
     before: Motion,
     after: Motion | None = None,
@@ -156,6 +214,7 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, frames, cleaned),
+        "world": world_figures(before, after),
     }
 
 
@@ -221,6 +280,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    if "world" in report:
+        lines.append(format_world(report["world"]))
     lines.extend(format_repairs(report))
     return "\n".join(lines)
 
