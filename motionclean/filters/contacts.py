@@ -42,10 +42,10 @@ class Foot:
 class ContactParams:
     """Contact thresholds, in body heights ``H`` and seconds."""
 
-    height: float = 0.04  # lowest foot point within this of the ground to start (H)
-    height_off: float = 0.07  # ... and to stay (H)
-    speed: float = 0.4  # ankle speed below this to start (H/s)
-    speed_off: float = 0.6  # ... and to stay (H/s)
+    height: float = 0.06  # lowest foot point within this of the ground to start (H)
+    height_off: float = 0.08  # ... and to stay (H)
+    speed: float = 0.15  # ankle speed below this to start (H/s)
+    speed_off: float = 0.25  # ... and to stay (H/s)
     min_duration: float = 0.1  # shorter contacts are dropped (s)
     smoothing: float = 0.05  # positions averaged over this window before speeds (s)
 
