@@ -35,6 +35,7 @@ from .options import (
 )
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
+from .world_report import contact_figures, format_contacts
 
 
 def _echo_error(message: str) -> None:
@@ -106,6 +107,11 @@ def info(clip: str) -> None:
         f"  up axis: {kinematics.AXES[up]}   body height: "
         f"{kinematics.body_height(motion, up):.4g} units (rest pose)"
     )
+    contacts, _ = contact_figures(motion)
+    for line in (
+        format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
+    ):
+        click.echo(f"  {line}")
     steps, at = metrics.largest_steps(motion.rotations)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)

@@ -69,3 +69,16 @@ def largest_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(shape), np.zeros(shape, dtype=np.intp)
     at = np.argmax(steps, axis=0)
     return np.take_along_axis(steps, at[None], axis=0)[0], at + 1
+
+
+def pair(before: float, after: float | None) -> dict:
+    """A report figure before and after cleaning (``after`` None for a single clip)."""
+    return {"before": float(before), "after": None if after is None else float(after)}
+
+
+def rms_and_max(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """RMS and max over axis 0 of ``(N, ...)`` figures (zeros when N = 0)."""
+    if values.shape[0] == 0:
+        zeros = np.zeros(values.shape[1:])
+        return zeros, zeros
+    return rms(values), np.max(values, axis=0)

@@ -15,24 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from . import kinematics, metrics
+from . import metrics
+from .metrics import pair, rms_and_max
 from .motion import Motion
 from .steps import REGISTRY
 from .steps.auto import format_choice
+from .world_report import contact_figures, format_contacts, format_world, world_figures
 
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
-
-
-def _pair(before: float, after: float | None) -> dict:
-    return {"before": float(before), "after": None if after is None else float(after)}
-
-
-def _stats(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-joint RMS and max over axis 0 of ``(N, J)`` figures (zeros when N = 0)."""
-    if values.shape[0] == 0:
-        zeros = np.zeros(values.shape[1:])
-        return zeros, zeros
-    return metrics.rms(values), np.max(values, axis=0)
 
 
 def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
@@ -58,7 +48,8 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "accel_after": None if acc_a is None else acc_a[:, n],
             "deviation": None if dev is None else dev[:, n],
         }
-    return {"frame_time": dt, "joints": joints}
+    contacts, feet = contact_figures(before, after)
+    return {"frame_time": dt, "joints": joints, "contacts": contacts, "feet": feet}
 
 
 def _stacked(series: dict, key: str, length: int) -> np.ndarray:
@@ -71,15 +62,15 @@ def _rotation_figures(series: dict, names: list[str], frames: int, cleaned: bool
     """Per joint with rotation channels: angular acceleration RMS/max (deg/s^2) before and
     after, and the deviation from the input (degrees) when cleaned."""
     n_acc = max(frames - 2, 0)
-    rms_b, max_b = _stats(_stacked(series, "accel_before", n_acc))
+    rms_b, max_b = rms_and_max(_stacked(series, "accel_before", n_acc))
     if cleaned:
-        rms_a, max_a = _stats(_stacked(series, "accel_after", n_acc))
-        dev_rms, dev_max = _stats(_stacked(series, "deviation", frames))
+        rms_a, max_a = rms_and_max(_stacked(series, "accel_after", n_acc))
+        dev_rms, dev_max = rms_and_max(_stacked(series, "deviation", frames))
     figures = {}
     for n, name in enumerate(names):
         entry = figures[name] = {
-            "angular_accel_rms": _pair(rms_b[n], rms_a[n] if cleaned else None),
-            "angular_accel_max": _pair(max_b[n], max_a[n] if cleaned else None),
+            "angular_accel_rms": pair(rms_b[n], rms_a[n] if cleaned else None),
+            "angular_accel_max": pair(max_b[n], max_a[n] if cleaned else None),
         }
         if cleaned:
             entry["deviation_deg"] = {"rms": float(dev_rms[n]), "max": float(dev_max[n])}
@@ -90,17 +81,17 @@ def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) 
     """Per joint with position channels: linear acceleration RMS/max (length units/s^2)
     before and after, and the deviation from the input (length units) when cleaned."""
     dt = before.frame_time
-    lrms_b, lmax_b = _stats(metrics.linear_acceleration(before.translations[:, joints], dt))
+    lrms_b, lmax_b = rms_and_max(metrics.linear_acceleration(before.translations[:, joints], dt))
     if after is not None:
-        lrms_a, lmax_a = _stats(metrics.linear_acceleration(after.translations[:, joints], dt))
+        lrms_a, lmax_a = rms_and_max(metrics.linear_acceleration(after.translations[:, joints], dt))
         moved = after.translations[:, joints] - before.translations[:, joints]
-        ldev_rms, ldev_max = _stats(np.linalg.norm(moved, axis=-1))
+        ldev_rms, ldev_max = rms_and_max(np.linalg.norm(moved, axis=-1))
     figures = {}
     for n, j in enumerate(joints):
         a = after is not None
         entry = figures[before.names[j]] = {
-            "linear_accel_rms": _pair(lrms_b[n], lrms_a[n] if a else None),
-            "linear_accel_max": _pair(lmax_b[n], lmax_a[n] if a else None),
+            "linear_accel_rms": pair(lrms_b[n], lrms_a[n] if a else None),
+            "linear_accel_max": pair(lmax_b[n], lmax_a[n] if a else None),
         }
         if a:
             entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
@@ -114,7 +105,7 @@ def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
     acc_b = _stacked(series, "accel_before", n_acc)
     total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
     summary: dict[str, Any] = {
-        "angular_accel_rms": _pair(total_b, None),
+        "angular_accel_rms": pair(total_b, None),
         "noise_reduction": None,
         "deviation_deg_max": None,
     }
@@ -126,64 +117,6 @@ def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
         summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
         summary["deviation_deg_max"] = float(dev.max()) if dev.size else 0.0
     return summary
-
-
-def format_world(world: dict) -> str:
-    """One line: up axis, body height and the end effector that moved most."""
-    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
-    worst = world.get("worst_deviation")
-    if worst is not None:
-        text += (
-            f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units "
-            f"({worst['max_percent']:.2g} % of body height)"
-        )
-    return text
-
-
-def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]:
-    """The report's ``world`` section: up axis, body height (file units) and, per end
-    effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
-    acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
-    (RMS and max, file units and % of body height), plus the worst effector."""
-    up = kinematics.up_axis(before)
-    height = kinematics.body_height(before, up)
-    index, names = kinematics.end_effectors(before)
-    dt = before.frame_time
-    points_b = kinematics.forward(before, end_sites=True)[0][:, index]
-    rms_b, max_b = _stats(metrics.linear_acceleration(points_b, dt))
-    if after is not None:
-        points_a = kinematics.forward(after, end_sites=True)[0][:, index]
-        rms_a, max_a = _stats(metrics.linear_acceleration(points_a, dt))
-        dev_rms, dev_max = _stats(np.linalg.norm(points_a - points_b, axis=-1))
-    scale = 100.0 / height if height > 0 else math.nan
-    effectors: dict[str, dict] = {}
-    for n, name in enumerate(names):
-        a = after is not None
-        entry = effectors[name] = {
-            "linear_accel_rms": _pair(rms_b[n], rms_a[n] if a else None),
-            "linear_accel_max": _pair(max_b[n], max_a[n] if a else None),
-        }
-        if a:
-            entry["deviation"] = {
-                "rms": float(dev_rms[n]),
-                "max": float(dev_max[n]),
-                "rms_percent": float(dev_rms[n] * scale),
-                "max_percent": float(dev_max[n] * scale),
-            }
-    worst = None
-    if after is not None and names:
-        n = int(np.argmax(dev_max))
-        worst = {
-            "effector": names[n],
-            "max": float(dev_max[n]),
-            "max_percent": float(dev_max[n] * scale),
-        }
-    return {
-        "up_axis": kinematics.AXES[up],
-        "body_height": height,
-        "effectors": effectors,
-        "worst_deviation": worst,
-    }
 
 
 def build_report(
@@ -215,6 +148,7 @@ def build_report(
         "joints": joints,
         "summary": _summary(series, frames, cleaned),
         "world": world_figures(before, after),
+        "contacts": series.get("contacts") or contact_figures(before, after)[0],
     }
 
 
@@ -282,6 +216,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
     if "world" in report:
         lines.append(format_world(report["world"]))
+    if report.get("contacts"):
+        lines.extend(format_contacts(report["contacts"]))
     lines.extend(format_repairs(report))
     return "\n".join(lines)
 

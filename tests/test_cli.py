@@ -40,7 +40,16 @@ def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
     assert code == 0, err
     assert "all joints" in stdout
     data = json.loads(report.read_text())
-    assert set(data) == {"file", "frames", "frame_time", "pipeline", "joints", "summary", "world"}
+    assert set(data) == {
+        "file",
+        "frames",
+        "frame_time",
+        "pipeline",
+        "joints",
+        "summary",
+        "world",
+        "contacts",
+    }
     assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5
     knee = data["joints"]["LeftKnee"]
     assert set(knee) >= {"angular_accel_rms", "angular_accel_max", "deviation_deg"}

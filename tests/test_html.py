@@ -165,7 +165,16 @@ def test_json_report_is_unchanged_by_series(cleaned):
     before = to_json(report)
     render_html(report, build_series(motion, after))
     assert to_json(report) == before
-    assert set(report) == {"file", "frames", "frame_time", "pipeline", "joints", "summary", "world"}
+    assert set(report) == {
+        "file",
+        "frames",
+        "frame_time",
+        "pipeline",
+        "joints",
+        "summary",
+        "world",
+        "contacts",
+    }
 
 
 def test_index_page_links_only_to_sibling_pages():

@@ -127,12 +127,12 @@ def test_a_rigid_move_of_the_root_moves_every_point_rigidly():
 
 
 def z_up_copy(motion: mc.Motion) -> mc.Motion:
-    """The same clip with Z up: every offset and the root's motion turned by +90 about X."""
+    """The same clip with Z up: the whole skeleton turned by +90 degrees about X (offsets,
+    end sites and translations turned, every local rotation conjugated), so every world
+    point is turned the same way."""
     turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
-    rotations = motion.rotations.copy()
-    translations = motion.translations.copy()
-    rotations[:, 0] = quat.multiply(turn, quat.multiply(rotations[:, 0], quat.conjugate(turn)))
-    translations[:, 0] = quat.rotate(turn, translations[:, 0])
+    rotations = quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn)))
+    translations = quat.rotate(turn, motion.translations)
     return motion.replace(
         offsets=quat.rotate(turn, motion.offsets),
         end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
@@ -150,6 +150,10 @@ def test_up_axis_and_body_height_follow_the_rest_pose():
     z_up = z_up_copy(motion)
     assert kinematics.up_axis(z_up) == 2
     assert kinematics.body_height(z_up) == pytest.approx(height, rel=1e-12)
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+    np.testing.assert_allclose(
+        kinematics.forward(z_up)[0], quat.rotate(turn, kinematics.forward(motion)[0]), atol=1e-9
+    )
     assert kinematics.up_axis(motion, "z") == 2
     with pytest.raises(ValueError, match="x, y or z"):
         kinematics.up_axis(motion, "w")

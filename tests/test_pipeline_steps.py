@@ -296,7 +296,9 @@ CASES = [
 
 
 def test_every_registered_step_has_cases():
-    assert {text.partition(":")[0] for text, *_ in CASES} | {"despike"} == set(REGISTRY)
+    # despike and footlock (which works on whole legs in world space, tests/test_contacts.py)
+    # are tested on their own
+    assert {text.partition(":")[0] for text, *_ in CASES} | {"despike", "footlock"} == set(REGISTRY)
 
 
 def selection(names: list[str], rule) -> np.ndarray:

@@ -47,7 +47,7 @@ class ContactParams:
     speed: float = 0.15  # ankle speed below this to start (H/s)
     speed_off: float = 0.25  # ... and to stay (H/s)
     min_duration: float = 0.1  # shorter contacts are dropped (s)
-    smoothing: float = 0.05  # positions averaged over this window before speeds (s)
+    smoothing: float = 0.2  # positions averaged over this window before speeds (s)
 
 
 def _children(parents: np.ndarray) -> list[list[int]]:

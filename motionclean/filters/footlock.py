@@ -90,37 +90,43 @@ def two_bone_ik(
     return hip_delta, knee_delta
 
 
-def segment_medians(values: np.ndarray, labels: np.ndarray, count: int) -> np.ndarray:
-    """Median of ``values`` ``(N, 3)`` per label ``0 .. count-1`` (every label present)."""
-    out = np.empty((count, values.shape[1]))
-    sizes = np.bincount(labels, minlength=count)
-    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-    for axis in range(values.shape[1]):
-        order = np.lexsort((values[:, axis], labels))
-        ranked = values[order, axis]
-        out[:, axis] = 0.5 * (ranked[starts + (sizes - 1) // 2] + ranked[starts + sizes // 2])
-    return out
+def held_positions(ankle: np.ndarray, contacts: np.ndarray, hold_frames: float) -> np.ndarray:
+    """``(F, 3)``: on contact frames, the mean ankle position over a window of
+    ``hold_frames`` frames centred on the frame and cut to its contact (the whole contact
+    when it is shorter: the foot is held still); elsewhere the ankle itself. A long contact
+    may so follow a slow, deliberate pivot while its jitter and sliding are removed."""
+    n = len(ankle)
+    index = np.arange(n)
+    first = np.maximum.accumulate(np.where(contacts & ~np.r_[False, contacts[:-1]], index, 0))
+    last = np.minimum.accumulate(np.where(contacts & ~np.r_[contacts[1:], False], index, n)[::-1])[
+        ::-1
+    ]
+    half = int(min(hold_frames, 2 * n) // 2)
+    lo = np.maximum(first, index - half)
+    hi = np.minimum(last, index + half) + 1
+    sums = np.concatenate([np.zeros((1, 3)), np.cumsum(ankle, axis=0)])
+    inside = contacts & (hi > lo)
+    mean = (sums[np.where(inside, hi, 1)] - sums[np.where(inside, lo, 0)]) / np.where(
+        inside, hi - lo, 1
+    )[:, None]
+    return np.where(inside[:, None], mean, ankle)
 
 
 def lock_targets(
-    ankle: np.ndarray, contacts: np.ndarray, blend_frames: float
+    ankle: np.ndarray, contacts: np.ndarray, blend_frames: float, hold_frames: float = np.inf
 ) -> tuple[np.ndarray, np.ndarray]:
     """Where one ankle should be on each frame, and how strongly: ``(F, 3)`` and ``(F,)``.
 
-    During a contact the target is the median of the contact's ankle positions (a robust
-    average) with weight 1. Within ``blend_frames`` frames before a contact starts or after it
-    ends, the weight eases from 0 to 1 (smoothstep) toward that contact's position; when the
-    ramps of two contacts overlap, the target is their weighted mean. Weight 0 elsewhere.
+    During a contact the target is :func:`held_positions` with weight 1. Within
+    ``blend_frames`` frames before a contact starts or after it ends, the weight eases from
+    0 to 1 (smoothstep) toward the contact's first or last target; when the ramps of two
+    contacts overlap, the target is their weighted mean. Weight 0 elsewhere.
     """
     n = len(ankle)
-    starts_mask = contacts & ~np.concatenate(([False], contacts[:-1]))
-    label = np.cumsum(starts_mask) - 1  # contact number of the latest contact start
-    count = int(starts_mask.sum())
-    target = ankle.copy()
     weight = np.zeros(n)
-    if count == 0:
-        return target, weight
-    locks = segment_medians(ankle[contacts], label[contacts], count)
+    if not contacts.any():
+        return ankle.copy(), weight
+    held = held_positions(ankle, contacts, hold_frames)
     index = np.arange(n)
     last_in = np.maximum.accumulate(np.where(contacts, index, -1))
     next_in = np.minimum.accumulate(np.where(contacts, index, n)[::-1])[::-1]
@@ -132,18 +138,17 @@ def lock_targets(
 
     w_prev = np.where(last_in >= 0, ease(index - last_in), 0.0)
     w_next = np.where(next_in < n, ease(next_in - index), 0.0)
-    lock_prev = locks[label.clip(0, count - 1)]
-    lock_next = locks[(label + 1).clip(0, count - 1)]
+    lock_prev = held[last_in.clip(0, n - 1)]
+    lock_next = held[next_in.clip(0, n - 1)]
     total = w_prev + w_next
-    inside = contacts
-    outside_target = np.where(
+    outside = np.where(
         (total > 1.0)[:, None],
         (w_prev[:, None] * lock_prev + w_next[:, None] * lock_next)
         / np.maximum(total, 1e-300)[:, None],
         ankle + w_prev[:, None] * (lock_prev - ankle) + w_next[:, None] * (lock_next - ankle),
     )
-    target = np.where(inside[:, None], lock_prev, outside_target)
-    weight = np.where(inside, 1.0, np.minimum(total, 1.0))
+    target = np.where(contacts[:, None], held, outside)
+    weight = np.where(contacts, 1.0, np.minimum(total, 1.0))
     return target, weight
 
 
@@ -155,8 +160,13 @@ def lock_feet(
     feet: list[Foot],
     contacts: np.ndarray,
     blend_frames: float,
+    up: int | None = None,
+    hold_frames: float = np.inf,
 ) -> np.ndarray:
     """Local rotations ``(F, J, 4)`` with every foot held during its contacts.
+
+    With ``up`` (0, 1, 2) only the horizontal position is held and the ankle keeps its
+    height from the input (the heel rises as it rolls off; only sliding is removed).
 
     ``local`` are the joints' local rotations, ``positions`` ``(F, P, 3)`` and ``world``
     ``(F, J, 4)`` their world positions and rotations, ``contacts`` ``(F, n_feet)``. Each leg's
@@ -166,7 +176,11 @@ def lock_feet(
     """
     out = local.copy()
     for k, foot in enumerate(feet):  # one vectorised solve per leg
-        target, weight = lock_targets(positions[:, foot.ankle], contacts[:, k], blend_frames)
+        target, weight = lock_targets(
+            positions[:, foot.ankle], contacts[:, k], blend_frames, hold_frames
+        )
+        if up is not None:
+            target[:, up] = positions[:, foot.ankle, up]
         rows = np.flatnonzero(weight > 0.0)
         if rows.size == 0:
             continue

@@ -1,0 +1,165 @@
+"""The ``footlock`` step: feet that stand stay planted.
+
+Contacts are found in world space (:mod:`motionclean.filters.contacts`); during each one the
+ankle is held at the median of its positions by two-bone leg IK (:mod:`motionclean.filters.
+footlock`), eased in and out. Only the hip, knee and ankle rotations of a leg change, and
+only around its contacts; a clip with no ground contact is left as it is.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .. import kinematics
+from ..filters import contacts as found
+from ..filters.footlock import lock_feet
+from ..motion import Motion
+from .base import Param, StepData, StepSpec
+
+#: Loose thresholds that keep a contact going, relative to the ones that start it.
+HEIGHT_HYSTERESIS = 4.0 / 3.0
+SPEED_HYSTERESIS = 5.0 / 3.0
+
+
+def contact_params(params: dict) -> found.ContactParams:
+    """The step's parameters as contact thresholds (body heights, seconds)."""
+    return found.ContactParams(
+        height=params["height"],
+        height_off=params["height"] * HEIGHT_HYSTERESIS,
+        speed=params["speed"],
+        speed_off=params["speed"] * SPEED_HYSTERESIS,
+        min_duration=params["min_seconds"],
+    )
+
+
+def find_contacts(motion: Motion, params: dict):
+    """Feet, contacts ``(F, n_feet)``, world positions, world rotations, up axis, body height
+    and ground height of ``motion`` under the step's parameters."""
+    up = kinematics.up_axis(motion, None if params["up"] == "auto" else params["up"])
+    height = kinematics.body_height(motion, up)
+    feet = found.find_feet(
+        kinematics.point_parents(motion),
+        kinematics.rest_positions(motion),
+        up,
+        height,
+        motion.names,
+        params["feet"],
+    )
+    positions, world = kinematics.forward(motion, end_sites=True)
+    contacts, ground = found.detect(
+        positions, feet, up, height, motion.frame_time, contact_params(params)
+    )
+    return feet, contacts, positions, world, up, height, ground
+
+
+def _run(data: StepData, params: dict) -> StepData:
+    motion = data.motion
+    assert motion is not None
+    feet, contacts, positions, world, up, _, _ = find_contacts(motion, params)
+    column = {int(j): c for c, j in enumerate(data.rotation_joints)}
+    usable = [k for k, f in enumerate(feet) if {f.hip, f.knee, f.ankle} <= column.keys()]
+    if not usable or not contacts[:, usable].any():
+        return data
+    blend_frames = params["blend_seconds"] / motion.frame_time
+    local = lock_feet(
+        motion.rotations,
+        motion.parents,
+        positions,
+        world,
+        [feet[k] for k in usable],
+        contacts[:, usable],
+        blend_frames,
+        up if params["horizontal"] else None,
+        params["hold_seconds"] / motion.frame_time,
+    )
+    for k in usable:
+        foot = feet[k]
+        for joint in (foot.hip, foot.knee, foot.ankle):
+            data.rotations[:, column[joint]] = local[:, joint]
+        runs = found.contact_runs(contacts[:, [k]])[0]
+        data.rotation_notes.setdefault(column[foot.ankle], {})["footlock"] = {
+            "contacts": [[a, b] for a, b in runs],
+            "frames": int(contacts[:, k].sum()),
+        }
+    return data
+
+
+def _format_note(note: dict, positions: bool) -> str:
+    shown = ", ".join(f"{a}-{b}" for a, b in note["contacts"][:6])
+    more = len(note["contacts"]) - 6
+    return f"held {len(note['contacts'])} contacts ({note['frames']} frames): {shown}" + (
+        f" and {more} more" if more > 0 else ""
+    )
+
+
+STEP = StepSpec(
+    name="footlock",
+    summary="hold each foot where it stands during ground contacts (two-bone leg IK)",
+    paper="contacts in world space; analytic two-bone IK (law of cosines), smoothstep blends",
+    params=(
+        Param(
+            "feet",
+            "strs",
+            None,
+            "ankle joints to lock, fnmatch patterns (default: found from the rest pose: "
+            "the chains above the lowest leaves)",
+        ),
+        Param("up", "str", "auto", "up axis", choices=("auto", "x", "y", "z")),
+        Param(
+            "height",
+            "float",
+            0.06,
+            "a contact starts with the foot's lowest point this close to the ground, "
+            "body heights (stays up to 4/3 of it)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
+        ),
+        Param(
+            "speed",
+            "float",
+            0.15,
+            "... and the ankle slower than this, body heights per second (stays up to 5/3)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=100.0,
+        ),
+        Param(
+            "min_seconds",
+            "float",
+            0.1,
+            "shorter contacts are ignored, seconds",
+            minimum=0.0,
+            maximum=math.inf,
+            infinite_ok=True,
+        ),
+        Param(
+            "horizontal",
+            "bool",
+            True,
+            "hold only the horizontal position (the ankle keeps its height: heel roll); "
+            "false holds all three axes",
+        ),
+        Param(
+            "hold_seconds",
+            "float",
+            1.0,
+            "the ankle is held at its mean position over this window, cut to the contact "
+            "(a shorter contact is held at one point; inf holds every contact still)",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
+        Param(
+            "blend_seconds",
+            "float",
+            0.1,
+            "ease in before and out after each contact, seconds",
+            minimum=0.0,
+            maximum=10.0,
+        ),
+    ),
+    run=_run,
+    positions_default=False,
+    format_note=_format_note,
+)

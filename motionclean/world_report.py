@@ -1,0 +1,139 @@
+"""World-space figures of a report: end effectors (``world``) and feet on the ground
+(``contacts``), with their terminal lines. Positions in file units; speeds in units/s and in
+body heights per second."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import kinematics, metrics
+from .filters import contacts as found
+from .metrics import pair, rms_and_max
+from .motion import Motion
+from .steps import footlock
+
+
+def format_world(world: dict) -> str:
+    """One line: up axis, body height and the end effector that moved most."""
+    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
+    worst = world.get("worst_deviation")
+    if worst is not None:
+        text += (
+            f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units "
+            f"({worst['max_percent']:.2g} % of body height)"
+        )
+    return text
+
+
+def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+    """The report's ``world`` section: up axis, body height (file units) and, per end
+    effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
+    acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
+    (RMS and max, file units and % of body height), plus the worst effector."""
+    up = kinematics.up_axis(before)
+    height = kinematics.body_height(before, up)
+    index, names = kinematics.end_effectors(before)
+    dt = before.frame_time
+    points_b = kinematics.forward(before, end_sites=True)[0][:, index]
+    rms_b, max_b = rms_and_max(metrics.linear_acceleration(points_b, dt))
+    if after is not None:
+        points_a = kinematics.forward(after, end_sites=True)[0][:, index]
+        rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt))
+        dev_rms, dev_max = rms_and_max(np.linalg.norm(points_a - points_b, axis=-1))
+    scale = 100.0 / height if height > 0 else math.nan
+    effectors: dict[str, dict] = {}
+    for n, name in enumerate(names):
+        a = after is not None
+        entry = effectors[name] = {
+            "linear_accel_rms": pair(rms_b[n], rms_a[n] if a else None),
+            "linear_accel_max": pair(max_b[n], max_a[n] if a else None),
+        }
+        if a:
+            entry["deviation"] = {
+                "rms": float(dev_rms[n]),
+                "max": float(dev_max[n]),
+                "rms_percent": float(dev_rms[n] * scale),
+                "max_percent": float(dev_max[n] * scale),
+            }
+    worst = None
+    if after is not None and names:
+        n = int(np.argmax(dev_max))
+        worst = {
+            "effector": names[n],
+            "max": float(dev_max[n]),
+            "max_percent": float(dev_max[n] * scale),
+        }
+    return {
+        "up_axis": kinematics.AXES[up],
+        "body_height": height,
+        "effectors": effectors,
+        "worst_deviation": worst,
+    }
+
+
+def contact_figures(before: Motion, after: Motion | None = None) -> tuple[dict | None, dict]:
+    """The report's ``contacts`` section and the per-foot plot series.
+
+    Contacts are found on ``before`` with the footlock step's default thresholds; per foot
+    (keyed by ankle joint name): the contact frames (inclusive pairs), skate (mean
+    horizontal ankle speed during contacts, units/s and body heights/s) and ground
+    penetration (deepest point below the ground, units) before and after. ``None`` and no
+    series for a clip without feet. The series hold each foot's lowest point above the
+    ground per frame, before and after.
+    """
+    params = {p.name: p.default for p in footlock.STEP.params}
+    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(before, params)
+    if not feet:
+        return None, {}
+    dt = before.frame_time
+    after_positions = None if after is None else kinematics.forward(after, end_sites=True)[0]
+    skate_b = found.skate(positions, feet, contacts, up, dt)
+    pen_b = found.penetration(positions, feet, up, ground)
+    low_b = found.lowest_points(positions, feet, up) - ground
+    if after_positions is not None:
+        skate_a = found.skate(after_positions, feet, contacts, up, dt)
+        pen_a = found.penetration(after_positions, feet, up, ground)
+        low_a = found.lowest_points(after_positions, feet, up) - ground
+    runs = found.contact_runs(contacts)
+    section: dict[str, Any] = {"up_axis": kinematics.AXES[up], "ground": ground, "feet": {}}
+    series: dict[str, dict] = {}
+    for k, foot in enumerate(feet):
+        a = after_positions is not None
+        skate = pair(skate_b[k], skate_a[k] if a else None)
+        section["feet"][foot.name] = {
+            "contacts": [[first, last] for first, last in runs[k]],
+            "frames": int(contacts[:, k].sum()),
+            "skate": skate,
+            "skate_body_heights": {
+                key: None if value is None else value / height for key, value in skate.items()
+            },
+            "penetration": pair(pen_b[k], pen_a[k] if a else None),
+        }
+        series[foot.name] = {
+            "height_before": low_b[:, k],
+            "height_after": low_a[:, k] if a else None,
+            "contacts": runs[k],
+        }
+    return section, series
+
+
+def format_contacts(section: dict) -> list[str]:
+    """One terminal line per foot: contacts, skate before/after, penetration."""
+    lines = []
+    for name, foot in section["feet"].items():
+        skate = foot["skate_body_heights"]
+        text = f"foot {name}: {len(foot['contacts'])} contacts ({foot['frames']} frames)"
+        if skate["before"] is not None and not math.isnan(skate["before"]):
+            text += f", skate {skate['before']:.3f}"
+            if skate["after"] is not None:
+                text += f" -> {skate['after']:.3f}"
+            text += " body heights/s"
+        pen = foot["penetration"]
+        text += f", below ground {pen['before']:.3g}"
+        if pen["after"] is not None:
+            text += f" -> {pen['after']:.3g}"
+        lines.append(text + " units")
+    return lines
