@@ -30,6 +30,11 @@ Method (the "Quality" section of the README):
 * **Already smooth.** Each clip smoothed by 20 passes of B^3, cleaned by the default:
   RMS change in degrees (must stay below 0.1). Also the raw clip, which has no planted
   noise.
+* **Noise kinds** (``--kinds-only`` runs just this part): the noise kinds of
+  ``noise_kinds.py`` (white, AR(1) 0.5 and 0.8, low-passed at 6 Hz, 0.5 then 5 degrees,
+  extremities 3x, 1 % outliers) at 120 fps; the default against the best tuned Euler
+  smoother, the One Euro filter (Euler channels and quaternion components) and a
+  constant-velocity RTS smoother, all tuned in hindsight.
 * **Positions.** The root translation with planted Gaussian noise of RMS length N (file
   units): tuned Butterworth per coordinate, tuned Lee-Shin binomial passes,
   ``auto_positions``.
@@ -44,6 +49,7 @@ import time
 
 import numpy as np
 from common import CORPUS
+from noise_kinds import KINDS, one_euro, plant, rts_constant_velocity
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import butter, filtfilt
 
@@ -265,6 +271,130 @@ def position_rows(clip, n_clip, motion):
     return rows
 
 
+def euler_smoothers(truth, noisy, cols, euler, fps):
+    """Best hindsight-tuned Euler Butterworth and Gaussian: ``(rmse, label)``."""
+
+    def err(q):
+        return rmse_deg(truth, q, cols)
+
+    ang = euler.angles(noisy)
+
+    def bw(cutoff):
+        b, a = butter(2, cutoff / (fps / 2.0))
+        return err(euler.rotations({o: filtfilt(b, a, x, axis=0) for o, x in ang.items()}, noisy))
+
+    def eg(sigma):
+        return err(
+            euler.rotations({o: gaussian_filter1d(x, sigma, axis=0) for o, x in ang.items()}, noisy)
+        )
+
+    e_bw, c = tune(bw, geom(0.5, 0.45 * fps, 1.2))
+    e_g, s = tune(eg, geom(0.3, 40.0 * fps / 120.0 + 3, 1.25))
+    return min((e_bw, f"Butterworth {c:.1f} Hz"), (e_g, f"Gaussian σ {s:.2g} fr"))
+
+
+def realtime_baselines(truth, noisy, cols, euler, fps):
+    """Hindsight-tuned One Euro (Euler channels, quaternion components) and RTS."""
+
+    def err(q):
+        return rmse_deg(truth, q, cols)
+
+    ang = euler.angles(noisy)
+    cont = quat.make_continuous(noisy, axis=0)
+
+    def euro_euler(fmin, beta):
+        return err(
+            euler.rotations({o: one_euro(x, fps, fmin, beta) for o, x in ang.items()}, noisy)
+        )
+
+    def euro_quat(fmin, beta):
+        return err(quat.normalize(one_euro(cont, fps, fmin, beta)))
+
+    out = {}
+    # beta in 1/deg on Euler channels, per unit on quaternion components (1 rad ~ 60 deg)
+    for label, run, scale in (
+        ("One Euro, Euler", euro_euler, 1.0),
+        ("One Euro, quaternion", euro_quat, 1.0 / 60.0),
+    ):
+        best = (math.inf, "")
+        for beta in [0.0] + [b / scale for b in geom(1e-4, 1.0, 4.0)]:
+            e, fmin = tune(
+                lambda f, beta=beta, run=run: run(f, beta), geom(0.1, 40.0, 1.6), refine=1
+            )
+            best = min(best, (e, f"f_min {fmin:.2g} Hz, β {beta:.2g}"))
+        out[label] = best
+    e, ratio = tune(
+        lambda r: err(
+            euler.rotations({o: rts_constant_velocity(x, fps, r) for o, x in ang.items()}, noisy)
+        ),
+        geom(1e2, 1e9, 4.0),
+    )
+    out["RTS constant velocity"] = (e, f"q/r {ratio:.2g}")
+    return out
+
+
+def noise_kind_rows(clip, n_clip, motion, base, cols, euler):
+    """One row per noise kind at the clip's own rate: errors of every method."""
+    fps = 1.0 / motion.frame_time
+    truth = base.rotations
+    rows = []
+    for n_kind, kind in enumerate(KINDS):
+        rng = np.random.default_rng([n_clip, n_kind, 18])
+        noisy = plant(truth, kind, rng, fps, motion.names)
+        t0 = time.perf_counter()
+        methods = {"best Euler smoother": euler_smoothers(truth, noisy, cols, euler, fps)}
+        methods.update(realtime_baselines(truth, noisy, cols, euler, fps))
+        d = rmse_deg(truth, run_default(base.replace(rotations=noisy)), cols)
+        rows.append((clip, kind, rmse_deg(truth, noisy, cols), methods, d))
+        print(
+            f"  {clip} {kind}: default {d:.3f}, "
+            + ", ".join(f"{k} {v[0]:.3f}" for k, v in methods.items())
+            + f" ({time.perf_counter() - t0:.1f} s)",
+            file=sys.stderr,
+        )
+    return rows
+
+
+def print_noise_kinds(rows) -> None:
+    methods = list(rows[0][3])
+    print("\n## Noise kinds (120 fps, 3 degrees RMS unless stated), RMSE in degrees\n")
+    print("| clip | noise | noisy | " + " | ".join(methods) + " | default |")
+    print("|" + " --- |" * (len(methods) + 4))
+    for clip, kind, noisy_err, res, d in rows:
+        cells = [f"{res[m][0]:.3f} ({res[m][1]})" for m in methods]
+        print(f"| {clip} | {kind} | {noisy_err:.3f} | " + " | ".join(cells) + f" | **{d:.3f}** |")
+    print(
+        "\nDefault / baseline, worst of the clips (below 1: the default is closer to the truth):\n"
+    )
+    print("| noise | best Euler smoother | best One Euro | RTS constant velocity |")
+    print("| --- | ---: | ---: | ---: |")
+    met = True
+    for kind in KINDS:
+        sel = [r for r in rows if r[1] == kind]
+        euler_r = max(r[4] / r[3]["best Euler smoother"][0] for r in sel)
+        euro_r = max(
+            r[4] / min(r[3]["One Euro, Euler"][0], r[3]["One Euro, quaternion"][0]) for r in sel
+        )
+        rts_r = max(r[4] / r[3]["RTS constant velocity"][0] for r in sel)
+        met &= max(euler_r, euro_r, rts_r) <= 1.0 and (kind != "white" or euler_r <= 0.87)
+        print(f"| {kind} | {euler_r:.3f} | {euro_r:.3f} | {rts_r:.3f} |")
+    print(
+        f"\nTarget 'default / every tuned baseline <= 1.0 for every kind, white <= 0.87': "
+        f"{'met' if met else 'NOT met'}."
+    )
+
+
+def clean_base(motion, sub):
+    """The clip at every ``sub``-th frame, sign-continuous, without its source values."""
+    return motion.replace(
+        rotations=quat.make_continuous(motion.rotations[::sub], axis=0),
+        translations=motion.translations[::sub],
+        frame_time=motion.frame_time * sub,
+        source_values=None,
+        source_rotations=None,
+    )
+
+
 def default_uses_auto() -> bool:
     return any(step.spec.name == "auto" for step in Pipeline.default().steps)
 
@@ -292,6 +422,9 @@ OURS = (
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--clips", nargs="+", default=list(CLIPS))
+    parser.add_argument(
+        "--kinds-only", action="store_true", help="only the noise-kinds section (issue 18)"
+    )
     args = parser.parse_args(argv)
     if not CORPUS.is_dir():
         print(
@@ -307,7 +440,7 @@ def main(argv=None) -> int:
     )
     print("# Cleanup quality: geodesic RMSE to the captured motion, degrees\n")
     print(f"Default: {default_label}.\n")
-    rows, summary, smooth_rows, pos_rows, timing = [], [], [], [], []
+    rows, summary, smooth_rows, pos_rows, timing, kind_rows = [], [], [], [], [], []
     for n_clip, clip in enumerate(args.clips):
         motion = mc.load(CORPUS / f"{clip}.bvh")
         cols = scored_joints(motion)
@@ -317,16 +450,13 @@ def main(argv=None) -> int:
             f"(not {', '.join(skipped)})",
             file=sys.stderr,
         )
-        for sub in SUBSAMPLE:
+        kind_rows += noise_kind_rows(
+            clip, n_clip, motion, clean_base(motion, 1), cols, Euler(motion, 1)
+        )
+        for sub in () if args.kinds_only else SUBSAMPLE:
             ft = motion.frame_time * sub
-            truth = quat.make_continuous(motion.rotations[::sub], axis=0)
-            base = motion.replace(
-                rotations=truth,
-                translations=motion.translations[::sub],
-                frame_time=ft,
-                source_values=None,
-                source_rotations=None,
-            )
+            base = clean_base(motion, sub)
+            truth = base.rotations
             euler = Euler(motion, sub)
             for noise in NOISE_DEG:
                 rng = np.random.default_rng([n_clip, sub, int(noise * 10)])
@@ -368,6 +498,10 @@ def main(argv=None) -> int:
             if sub == 1:
                 pos_rows += position_rows(clip, n_clip, motion)
 
+    print_noise_kinds(kind_rows)
+    if args.kinds_only:
+        print(f"\nBenchmark time: {time.perf_counter() - start:.0f} s.")
+        return 0
     methods = list(rows[0][4])
     print("| clip | fps | noise | noisy | " + " | ".join(methods) + " | default |")
     print("|" + " --- |" * (len(methods) + 5))

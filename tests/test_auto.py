@@ -266,3 +266,19 @@ def test_auto_beats_fixed_binomial_passes_on_a_noisy_real_clip(smooth_clip):
         ours = rms_deg(auto(noisy, frame_time).values, q)
         for passes in (1, 4, 16):
             assert ours < rms_deg(lee_shin(noisy, binomial(1), passes), q), (noise, passes)
+
+
+def test_work_follows_the_clip_not_the_frame_time():
+    """A 1 microsecond frame time on a short clip: masks no wider than the clip, little memory."""
+    import tracemalloc
+
+    noisy = plant(smooth_synthetic(frames=300, joints=4, seed=3), 2.0, seed=4)
+    assert max(mask.size // 2 for _, _, mask in candidates(1e-6, n_frames=300)) <= 300
+    tracemalloc.start()
+    try:
+        result = auto(noisy, 1e-6)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, peak  # the clip is 38 kB; a mask per microsecond would need GBs
+    assert rms_deg(result.values, noisy) > 0.1  # the noise is still smoothed

@@ -170,14 +170,19 @@ def estimate_position_noise(p: np.ndarray) -> np.ndarray:
 
 
 def candidates(
-    frame_time: float, max_seconds: float = 1.0, families: tuple[str, ...] = FAMILIES
+    frame_time: float,
+    max_seconds: float = 1.0,
+    families: tuple[str, ...] = FAMILIES,
+    n_frames: int | None = None,
 ) -> list[tuple[str, float, np.ndarray]]:
     """The candidate masks ``(family, value, mask)``.
 
     Binomial k and Savitzky-Golay half-widths ``1.35^n`` (rounded, unique) up to
-    ``max_seconds / frame_time`` frames (at least 2, at most ``MAX_HALF_WIDTH``); low-pass
-    cutoffs (Hz, 2 decimals) from ``2 / max_seconds`` (and no lower than
-    ``2 fps / MAX_HALF_WIDTH``) up to 0.45 times the frame rate by the same ratio.
+    ``max_seconds / frame_time`` frames (at least 2, at most ``MAX_HALF_WIDTH`` and, when
+    ``n_frames`` is given, at most the clip's length); low-pass cutoffs (Hz, 2 decimals)
+    from ``2 / max_seconds`` (and no lower than ``2 fps / MAX_HALF_WIDTH`` nor
+    ``2 fps / n_frames``) up to 0.45 times the frame rate by the same ratio. So the work
+    follows the clip, never the frame time alone.
     """
     if not (math.isfinite(frame_time) and frame_time > 0):
         raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
@@ -186,7 +191,8 @@ def candidates(
     unknown = set(families) - set(FAMILIES)
     if unknown or not families:
         raise ValueError(f"families must be a non-empty subset of {FAMILIES}, got {families}")
-    top = min(max(2, round(max_seconds / frame_time)), MAX_HALF_WIDTH)
+    widest = MAX_HALF_WIDTH if n_frames is None else max(2, min(MAX_HALF_WIDTH, int(n_frames)))
+    top = min(max(2, round(max_seconds / frame_time)), widest)
     count = math.ceil(math.log(top) / math.log(LADDER_RATIO)) + 1
     ladder = np.unique(np.round(np.geomspace(1, top, count)).astype(int)).tolist()
     out = []
@@ -196,7 +202,7 @@ def candidates(
         out += [("savgol", h, savgol(h, 2)) for h in ladder if h >= 2]
     rate = 1.0 / frame_time
     # the default low-pass half-width 2 fps / cutoff stays within MAX_HALF_WIDTH
-    low, high = max(2.0 / max_seconds, 2.0 * rate / MAX_HALF_WIDTH), TOP_CUTOFF * rate
+    low, high = max(2.0 / max_seconds, 2.0 * rate / widest), TOP_CUTOFF * rate
     if "lowpass" in families and low < high:
         count = math.ceil(math.log(high / low) / math.log(LADDER_RATIO)) + 1
         cutoffs = sorted({round(c, 2) for c in np.geomspace(low, high, count).tolist()})
@@ -354,7 +360,7 @@ def auto(
         cols,
         w,
         sigma**2,
-        candidates(frame_time, max_seconds, families),
+        candidates(frame_time, max_seconds, families, cols.shape[0]),
         lee_shin,
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
     )
@@ -384,7 +390,7 @@ def auto_positions(
         cols,
         np.diff(cols, axis=0),
         sigma**2,
-        candidates(frame_time, max_seconds, families),
+        candidates(frame_time, max_seconds, families, cols.shape[0]),
         lee_shin_positions,
         np.sqrt,
     )
