@@ -73,7 +73,7 @@ a:hover{text-decoration:underline}
 .card h3 small{font-weight:400;color:#5a6272;font-size:12.5px}
 .card .figures{font-size:12.5px;color:#2c3445}
 .card .notes{color:#5a6272;font-size:12px}
-svg.plot{display:block;width:100%;height:auto}
+svg.plot,svg.foot{display:block;width:100%;height:auto}
 svg text{font-size:11px;fill:#5a6272}
 svg .axis{stroke:#9aa2b1;stroke-width:1}
 svg .gridline{stroke:#e6e9ef;stroke-width:1}
@@ -380,6 +380,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
         f"<details><summary>Figures of all {len(names)} joints, noisiest first"
         f"</summary>{tables}</details>"
     )
+    body += _feet_section(report, series)
     if series is None:
         body.append('<p class="note">No time series were given: plots left out.</p>')
     elif plotted:
@@ -482,6 +483,73 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
         + _joint_svg(name, data, frames)
         + "</section>"
     )
+
+
+# ----------------------------------------------------------------------------- feet
+
+
+CONTACT = "#d8e8d0"
+
+
+def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
+    """A foot: its contacts and skate, and its lowest point above the ground over frames
+    with the contacts shaded."""
+    skate, pen = figures["skate_body_heights"], figures["penetration"]
+    text = f"{len(figures['contacts'])} contacts, {figures['frames']:,} frames"
+    if skate["before"] is not None and math.isfinite(skate["before"]):
+        text += f"; skate {skate['before']:.3f}"
+        text += f" \u2192 {skate['after']:.3f}" if skate["after"] is not None else ""
+        text += " body heights/s"
+    text += f"; below ground {_short(pen['before'])}"
+    text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
+    text += " units"
+    series = [(np.maximum(data["height_before"], 0.0), BEFORE, "height before")]
+    if data["height_after"] is not None:
+        series.append((np.maximum(data["height_after"], 0.0), AFTER, "height after"))
+    x_scale = COLUMNS / max(frames - 1, 1)
+    shades = [
+        f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '
+        f'width="{max((last - first) * x_scale, 1.0):.1f}" height="{ACCEL_HEIGHT}" '
+        f'fill="{CONTACT}"/>'
+        for first, last in data["contacts"]
+    ]
+    height = ACCEL_TOP + ACCEL_HEIGHT + 30
+    parts = shades + _panel(
+        series, 0, frames, ACCEL_TOP, ACCEL_HEIGHT, "lowest point above the ground, units"
+    )
+    parts += _frame_ticks(frames, ACCEL_TOP + ACCEL_HEIGHT + 4)
+    svg = (
+        f'<svg class="foot" data-foot="{_e(name)}" viewBox="0 0 {WIDTH} {height}" role="img" '
+        f'aria-label="{_e(name)}: height above the ground over frames">'
+        f"<title>{_e(name)}</title>" + "".join(parts) + "</svg>"
+    )
+    return (
+        f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
+        + svg
+        + "</section>"
+    )
+
+
+def _feet_section(report: dict, series: dict | None) -> list[str]:
+    contacts = report.get("contacts")
+    if not contacts or series is None or not series.get("feet"):
+        return []
+    frames = int(report["frames"])
+    return [
+        "<h2>Feet on the ground</h2>",
+        '<div class="legend">'
+        f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on the input)'
+        "</span>"
+        f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
+        f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
+        "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        '<div class="grid">',
+        *(
+            _foot_card(name, contacts["feet"][name], series["feet"][name], frames)
+            for name in contacts["feet"]
+        ),
+        "</div>",
+    ]
 
 
 # ----------------------------------------------------------------------------- batch index

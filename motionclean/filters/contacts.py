@@ -233,3 +233,31 @@ def penetration(positions: np.ndarray, feet: list[Foot], up: int, ground: float)
     if positions.shape[0] == 0:
         return np.zeros(len(feet))
     return np.maximum(ground - lowest_points(positions, feet, up).min(axis=0), 0.0)
+
+
+def sliding_contacts(
+    positions: np.ndarray,
+    feet: list[Foot],
+    contacts: np.ndarray,
+    up: int,
+    frame_time: float,
+    speed: float,
+) -> np.ndarray:
+    """The contacts whose mean horizontal ankle speed exceeds ``speed`` (length units/s):
+    ``(F, n_feet)`` bool, the other contacts cleared. A capture's own feet slide a little
+    (CMU walks: 0.02-0.08 body heights/s); contacts within that are left as they are."""
+    ankles = positions[:, [f.ankle for f in feet]]
+    step = np.diff(ankles, axis=0)
+    step[..., up] = 0.0
+    speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
+    kept = contacts.copy()
+    for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
+        label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
+        if label.max() == 0:
+            continue
+        moving = np.r_[False, contacts[1:, k] & contacts[:-1, k]]  # speed within the contact
+        total = np.bincount(label, weights=np.where(moving, speeds[:, k], 0.0))
+        count = np.bincount(label, weights=moving.astype(np.float64))
+        mean = total / np.maximum(count, 1.0)
+        kept[:, k] &= mean[label] > speed
+    return kept

@@ -90,26 +90,44 @@ def two_bone_ik(
     return hip_delta, knee_delta
 
 
+def _window_sums(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Sums of ``x`` over the frame windows ``lo[i] .. hi[i]-1`` (cumulative sums)."""
+    total = np.concatenate([np.zeros((1, *x.shape[1:])), np.cumsum(x, axis=0)])
+    return total[hi] - total[lo]
+
+
 def held_positions(ankle: np.ndarray, contacts: np.ndarray, hold_frames: float) -> np.ndarray:
-    """``(F, 3)``: on contact frames, the mean ankle position over a window of
-    ``hold_frames`` frames centred on the frame and cut to its contact (the whole contact
-    when it is shorter: the foot is held still); elsewhere the ankle itself. A long contact
-    may so follow a slow, deliberate pivot while its jitter and sliding are removed."""
+    """``(F, 3)``: on contact frames, the ankle's least-squares straight line through a
+    window of ``hold_frames`` frames centred on the frame and cut to its contact, evaluated
+    at the frame; elsewhere the ankle itself.
+
+    Jitter and the sliding it causes are removed while a slow, steady drift of the capture
+    (a pivot, a deliberate slide) is kept; with ``hold_frames`` at least the contact's
+    length the whole contact follows one line (``inf``: the foot held still at the mean).
+    """
     n = len(ankle)
     index = np.arange(n)
-    first = np.maximum.accumulate(np.where(contacts & ~np.r_[False, contacts[:-1]], index, 0))
-    last = np.minimum.accumulate(np.where(contacts & ~np.r_[contacts[1:], False], index, n)[::-1])[
-        ::-1
-    ]
+    starts = contacts & ~np.r_[False, contacts[:-1]]
+    ends = contacts & ~np.r_[contacts[1:], False]
+    first = np.maximum.accumulate(np.where(starts, index, 0))
+    last = np.minimum.accumulate(np.where(ends, index, n)[::-1])[::-1]
+    inside = contacts
+    if not np.isfinite(hold_frames):  # held still: the contact's mean position
+        lo, hi = np.where(inside, first, 0), np.where(inside, last + 1, 1)
+        mean = _window_sums(ankle, lo, hi) / (hi - lo)[:, None]
+        return np.where(inside[:, None], mean, ankle)
     half = int(min(hold_frames, 2 * n) // 2)
-    lo = np.maximum(first, index - half)
-    hi = np.minimum(last, index + half) + 1
-    sums = np.concatenate([np.zeros((1, 3)), np.cumsum(ankle, axis=0)])
-    inside = contacts & (hi > lo)
-    mean = (sums[np.where(inside, hi, 1)] - sums[np.where(inside, lo, 0)]) / np.where(
-        inside, hi - lo, 1
-    )[:, None]
-    return np.where(inside[:, None], mean, ankle)
+    lo = np.where(inside, np.maximum(first, index - half), 0)
+    hi = np.where(inside, np.minimum(last, index + half) + 1, 1)
+    t = (index - index[0]).astype(np.float64)
+    count = (hi - lo).astype(np.float64)
+    t_mean = _window_sums(t, lo, hi) / count
+    p_mean = _window_sums(ankle, lo, hi) / count[:, None]
+    t_var = _window_sums(t * t, lo, hi) / count - t_mean**2
+    cov = _window_sums(t[:, None] * ankle, lo, hi) / count[:, None] - t_mean[:, None] * p_mean
+    slope = np.where(t_var[:, None] > 1e-9, cov / np.maximum(t_var, 1e-9)[:, None], 0.0)
+    line = p_mean + slope * (t - t_mean)[:, None]
+    return np.where(inside[:, None], line, ankle)
 
 
 def lock_targets(

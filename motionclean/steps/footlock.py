@@ -55,7 +55,10 @@ def find_contacts(motion: Motion, params: dict):
 def _run(data: StepData, params: dict) -> StepData:
     motion = data.motion
     assert motion is not None
-    feet, contacts, positions, world, up, _, _ = find_contacts(motion, params)
+    feet, contacts, positions, world, up, height, _ = find_contacts(motion, params)
+    contacts = found.sliding_contacts(
+        positions, feet, contacts, up, motion.frame_time, params["min_skate"] * height
+    )
     column = {int(j): c for c, j in enumerate(data.rotation_joints)}
     usable = [k for k, f in enumerate(feet) if {f.hip, f.knee, f.ankle} <= column.keys()]
     if not usable or not contacts[:, usable].any():
@@ -141,11 +144,20 @@ STEP = StepSpec(
             "false holds all three axes",
         ),
         Param(
+            "min_skate",
+            "float",
+            0.1,
+            "only contacts whose ankle slides faster than this are fixed, body heights per "
+            "second (a capture's own feet slide 0.02-0.08); 0 fixes every contact",
+            minimum=0.0,
+        ),
+        Param(
             "hold_seconds",
             "float",
-            1.0,
-            "the ankle is held at its mean position over this window, cut to the contact "
-            "(a shorter contact is held at one point; inf holds every contact still)",
+            0.5,
+            "the ankle follows its least-squares straight line over this window, cut to the "
+            "contact: jitter and sliding go, a steady drift (pivot) stays; inf holds every "
+            "contact still at its mean position",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,
