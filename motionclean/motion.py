@@ -232,10 +232,10 @@ class Motion:
         """``(F, C)`` channel values for the current motion (degrees, length units).
 
         Rotations go back to Euler angles in each joint's own channel order. Where the
-        source values describe the same frames, each triple is the equivalent one nearest
-        to the frame's original angles, and samples whose quaternion did not change (up to
-        sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for
-        bit. Otherwise angles are unwrapped along time.
+        source values describe the same frames, samples whose quaternion did not change (up
+        to sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for
+        bit, and changed ones continue the curve from the last unchanged frame
+        (:func:`continuous_euler`). Otherwise angles are unwrapped along time.
         """
         layout = self.layout
         same_frames = self.has_source_frames()
@@ -248,13 +248,48 @@ class Motion:
             q = self.rotations[:, joints]
             if same_frames:
                 reference = values[:, cols]
-                angles = quat.to_euler(q, order, reference=reference)
                 source = self.source_rotations[:, joints]
                 kept = np.all(q == source, axis=-1) | np.all(q == -source, axis=-1)
-                angles = np.where(kept[..., None], reference, angles)
+                angles = continuous_euler(q, order, reference, kept)
             else:
                 angles = np.unwrap(quat.to_euler(q, order), period=360.0, axis=0)
             values[:, cols] = angles
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values
+
+
+def continuous_euler(
+    q: np.ndarray, order: str, reference: np.ndarray, kept: np.ndarray
+) -> np.ndarray:
+    """Euler angles ``(F, J, 3)`` (degrees) of ``q`` ``(F, J, 4)`` that keep the written
+    curves continuous: an Euler filter on the changed samples.
+
+    ``reference`` holds the original angles and ``kept`` ``(F, J)`` marks the samples that
+    did not change; those keep their original angles bit for bit. A run of changed samples
+    continues from the last kept sample before it (its anchor): the same Euler solution
+    (the one whose middle angle lies on the anchor's side of +-90 degrees), and each angle
+    unwrapped by whole turns toward the previous frame's. Changed samples with no kept one
+    before them take the equivalent triple nearest to their own original angles.
+    """
+    n_frames = q.shape[0]
+    nearest = quat.to_euler(q, order, reference=reference)
+    frame = np.arange(n_frames)[:, None]
+    anchor = np.maximum.accumulate(np.where(kept, frame, -1), axis=0)  # (F, J)
+    has_anchor = anchor >= 0
+    columns = np.arange(q.shape[1])[None, :]
+    anchor_angles = reference[anchor.clip(0), columns]  # (F, J, 3)
+    principal = quat.to_euler(q, order)
+    flipped = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
+    other = principal + [180.0, 0.0, 180.0]
+    other[..., 1] = 180.0 - principal[..., 1]
+    candidate = np.where(flipped[..., None], other, principal)
+    # Unwrap by whole turns within each run, starting from the anchor's angles.
+    start = np.where(kept[..., None], reference, candidate)
+    step = np.diff(start, axis=0, prepend=start[:1])
+    turns = np.where(kept[..., None], 0.0, np.round(step / 360.0))
+    total = np.cumsum(turns, axis=0)
+    total -= total[anchor.clip(0), columns]
+    unwrapped = start - 360.0 * total
+    continued = np.where(has_anchor[..., None], unwrapped, nearest)
+    return np.where(kept[..., None], reference, continued)

@@ -1,0 +1,50 @@
+"""Written Euler curves stay continuous: a changed sample continues the curve from the last
+unchanged one (an Euler filter), unchanged samples keep their text, every pose is kept."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import CORPUS_NAMES, corpus_clip, degrees_between
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.pipeline import Pipeline
+
+
+def rotation_columns(motion: mc.Motion) -> np.ndarray:
+    layout = motion.layout
+    return np.concatenate([layout.rotation_columns[j] for j in np.flatnonzero(layout.has_rotation)])
+
+
+@pytest.mark.parametrize("name", CORPUS_NAMES)
+def test_no_written_channel_jumps_a_half_turn_where_the_input_did_not(name, tmp_path):
+    source = corpus_clip(name)
+    clip = mc.load(source)
+    cleaned, _ = Pipeline.default().run(clip)
+    mc.save(cleaned, tmp_path / "out.bvh")
+    written = mc.load(tmp_path / "out.bvh")
+    cols = rotation_columns(clip)
+    jump_in = np.abs(np.diff(clip.source_values[:, cols], axis=0)) > 180.0
+    jump_out = np.abs(np.diff(written.source_values[:, cols], axis=0)) > 180.0
+    assert not (jump_out & ~jump_in).any()
+    # the poses are those of the cleaned clip, to the file's six decimals
+    assert degrees_between(written.rotations, cleaned.rotations).max() < 1e-4
+
+
+def test_a_spin_written_over_changed_frames_is_unwrapped():
+    """A joint turning 720 degrees about Z over changed frames is written as one rising
+    curve, not wrapped back to (-180, 180]."""
+    n = 120
+    angles = np.zeros((n, 3))
+    motion = mc.Motion.from_channel_values(
+        ["a"], [-1], np.zeros((1, 3)), [("Zrotation", "Xrotation", "Yrotation")], 1 / 30, angles
+    )
+    spin = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.linspace(0, 4 * np.pi, n))
+    rotations = motion.rotations.copy()
+    rotations[10:, 0] = spin[10:]  # frames 0-9 keep their original (zero) angles
+    values = motion.replace(rotations=rotations).channel_values()
+    z = values[:, 0]
+    assert np.all(np.abs(np.diff(z)) < 180.0)
+    np.testing.assert_allclose(z[10:], np.degrees(np.linspace(0, 4 * np.pi, n))[10:], atol=1e-9)
+    np.testing.assert_array_equal(values[:10], angles[:10])
