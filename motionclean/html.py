@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
-from .report import noisiest, note_text
+from .report import format_rest, noisiest, note_text
 
 __all__ = ["envelope", "render_html", "render_index"]
 
@@ -358,6 +358,9 @@ def render_html(report: dict, series: dict | None = None) -> str:
             ),
         ]
     body.append('<div class="stats">' + "".join(stats) + "</div>")
+    rest = report.get("rest_frames") or {}
+    if rest.get("leading") or rest.get("trailing"):
+        body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
     body += ["<h2>Pipeline</h2>", _pipeline(report.get("pipeline") or [], cleaned)]
 
     names = noisiest(report)

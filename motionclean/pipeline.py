@@ -22,6 +22,7 @@ import numpy as np
 
 from .errors import MotionError, UsageError
 from .motion import Motion
+from .restpose import rest_frames, splice, trim
 from .steps import COMMON_PARAMS, REGISTRY, StepData, StepSpec
 
 __all__ = ["DEFAULT_STEPS", "REGISTRY", "Pipeline", "Step", "StepLog", "make_step"]
@@ -222,11 +223,16 @@ class Pipeline:
     def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:
         """Run every step on ``motion``; return the cleaned copy and what each step did.
 
-        ``motion`` is not changed. A whole-clip step (``run_motion``) replaces the clip, so
-        the steps after it see its frame count and rate.
+        ``motion`` is not changed. Rest-pose frames at either end (:mod:`motionclean.restpose`)
+        are left out of every step and come back bit for bit. A whole-clip step
+        (``run_motion``) replaces the clip, so the steps after it see its frame count and
+        rate.
         """
-        current = motion.replace(
-            rotations=motion.rotations.copy(), translations=motion.translations.copy()
+        whole_clip = any(step.spec.run_motion is not None for step in self.steps)
+        lead, trail = (0, 0) if whole_clip else rest_frames(motion)
+        work = trim(motion, lead, trail)
+        current = work.replace(
+            rotations=work.rotations.copy(), translations=work.translations.copy()
         )
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
@@ -236,8 +242,18 @@ class Pipeline:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
+            if lead and step.spec.shift_note is not None:
+                log.notes = {
+                    joint: {
+                        key: step.spec.shift_note(value, lead)
+                        if key.endswith(step.spec.name)
+                        else value
+                        for key, value in note.items()
+                    }
+                    for joint, note in log.notes.items()
+                }
             logs.append(log)
-        return current, logs
+        return splice(motion, current, lead, trail), logs
 
 
 def _run_step(step: Step, motion: Motion) -> tuple[Motion, StepLog]:

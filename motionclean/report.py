@@ -18,6 +18,7 @@ import numpy as np
 from . import metrics
 from .metrics import pair, rms_and_max
 from .motion import Motion
+from .restpose import rest_frames, trim
 from .steps import REGISTRY
 from .steps.auto import format_choice
 from .world_report import contact_figures, format_contacts, format_world, world_figures
@@ -49,13 +50,22 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "deviation": None if dev is None else dev[:, n],
         }
     contacts, feet = contact_figures(before, after)
-    return {"frame_time": dt, "joints": joints, "contacts": contacts, "feet": feet}
+    return {
+        "frame_time": dt,
+        "joints": joints,
+        "contacts": contacts,
+        "feet": feet,
+        "rest_frames": rest_frames(before),
+    }
 
 
 def _stacked(series: dict, key: str, length: int) -> np.ndarray:
-    """``(length, R)`` array of one figure of every joint in ``series``."""
+    """``(length, R)`` array of one figure of every joint in ``series``, without the rows
+    that involve the clip's rest-pose frames (``series["rest_frames"]``)."""
     columns = [data[key] for data in series["joints"].values()]
-    return np.stack(columns, axis=-1) if columns else np.zeros((length, 0))
+    stacked = np.stack(columns, axis=-1) if columns else np.zeros((length, 0))
+    lead, trail = series.get("rest_frames", (0, 0))
+    return stacked[lead : stacked.shape[0] - trail]
 
 
 def _rotation_figures(series: dict, names: list[str], frames: int, cleaned: bool) -> dict:
@@ -134,8 +144,13 @@ def build_report(
     series = build_series(before, after) if series is None else series
     cleaned = after is not None
     frames = before.n_frames
+    lead, trail = series["rest_frames"]
+    core_before = trim(before, lead, trail)
+    core_after = None if after is None else trim(after, lead, trail)
     joints = _rotation_figures(series, list(series["joints"]), frames, cleaned)
-    positions = _position_figures(before, after, np.flatnonzero(before.layout.has_position))
+    positions = _position_figures(
+        core_before, core_after, np.flatnonzero(before.layout.has_position)
+    )
     for name, entry in positions.items():
         joints.setdefault(name, {}).update(entry)
     for name, note in (notes or {}).items():
@@ -147,8 +162,9 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, frames, cleaned),
-        "world": world_figures(before, after),
+        "world": world_figures(core_before, core_after),
         "contacts": series.get("contacts") or contact_figures(before, after)[0],
+        "rest_frames": {"leading": lead, "trailing": trail},
     }
 
 
@@ -214,12 +230,28 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    rest = report.get("rest_frames") or {}
+    if rest.get("leading") or rest.get("trailing"):
+        lines.append(format_rest(rest, report["frames"]))
     if "world" in report:
         lines.append(format_world(report["world"]))
     if report.get("contacts"):
         lines.extend(format_contacts(report["contacts"]))
     lines.extend(format_repairs(report))
     return "\n".join(lines)
+
+
+def format_rest(rest: dict, frames: int) -> str:
+    """The rest-pose frames left out of every step and every figure."""
+    parts = []
+    if rest["leading"]:
+        parts.append(f"0-{rest['leading'] - 1}")
+    if rest["trailing"]:
+        parts.append(f"{frames - rest['trailing']}-{frames - 1}")
+    return (
+        f"rest pose: frames {' and '.join(parts)} kept as they are and left out of the "
+        "figures (a pose held before or after the motion)"
+    )
 
 
 def note_text(key: str, note: Any) -> str:

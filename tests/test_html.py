@@ -174,6 +174,7 @@ def test_json_report_is_unchanged_by_series(cleaned):
         "summary",
         "world",
         "contacts",
+        "rest_frames",
     }
 
 

@@ -123,7 +123,9 @@ class StepSpec:
     step (one that changes the frame count) gives ``run_motion(motion, params)`` instead,
     returning the new clip and notes keyed by joint name. ``format_note(note, positions)``
     is how one joint's note reads in the terminal and HTML reports (None: shown as JSON);
-    ``lists_repairs`` puts its notes under the terminal table as repairs.
+    ``lists_repairs`` puts its notes under the terminal table as repairs;
+    ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
+    steps without a clip's rest-pose frames and numbers frames as the file does).
     """
 
     name: str
@@ -135,6 +137,7 @@ class StepSpec:
     positions_default: bool = True
     format_note: Callable[[dict, bool], str] | None = None
     lists_repairs: bool = False
+    shift_note: Callable[[dict, int], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.
     resolve: Callable[[dict, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).
@@ -145,3 +148,8 @@ COMMON_PARAMS = (
     Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
     Param("positions", "bool", True, "also filter translation channels (vector counterpart)"),
 )
+
+
+def shift_runs(runs: list[list[int]], frames: int) -> list[list[int]]:
+    """Frame ranges ``[[a, b], ...]`` moved by ``frames``."""
+    return [[a + frames, b + frames] for a, b in runs]

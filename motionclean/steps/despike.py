@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, shift_runs
 
 
 def _resolve_despike(params: dict, where: str) -> None:
@@ -158,4 +158,9 @@ STEP = StepSpec(
     resolve=_resolve_despike,
     format_note=_format_note,
     lists_repairs=True,
+    shift_note=lambda note, frames: {
+        **note,
+        "unflipped": shift_runs(note["unflipped"], frames),
+        "interpolated": shift_runs(note["interpolated"], frames),
+    },
 )

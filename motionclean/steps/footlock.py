@@ -14,7 +14,7 @@ from .. import kinematics
 from ..filters import contacts as found
 from ..filters.footlock import lock_feet
 from ..motion import Motion
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, shift_runs
 
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
@@ -174,4 +174,5 @@ STEP = StepSpec(
     run=_run,
     positions_default=False,
     format_note=_format_note,
+    shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},
 )

@@ -1,0 +1,89 @@
+"""Rest-pose frames at the ends of a clip: a T-pose or bind pose before (or after) the motion.
+
+Many exports start with such a frame (CMU conversions for MotionBuilder, Mixamo), or with a
+run of identical frames. Every step would take the jump into the motion for a spike; the
+pipeline leaves these frames and the transition out of every step, and the report leaves them
+out of its figures.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import quat
+from .motion import Motion
+
+#: A transition is a jump on a joint when its rotation step exceeds both of these.
+JUMP_DEG = 15.0
+JUMP_TIMES_MEDIAN = 8.0
+#: ... and a rest frame when that happens on at least this share of the rotating joints.
+MOST_JOINTS = 0.5
+
+
+def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
+    """How many frames from the first one are exactly equal to it (at least 1)."""
+    same = np.all(rotations == rotations[:1], axis=(1, 2)) & np.all(
+        translations == translations[:1], axis=(1, 2)
+    )
+    return int(np.argmin(same)) if not same.all() else len(same)
+
+
+def _leading(rotations: np.ndarray, translations: np.ndarray, steps: np.ndarray) -> int:
+    """Leading rest frames: the run of frames equal to the first, when the step out of it
+    is a jump on most joints at once."""
+    run = _identical_run(rotations, translations)
+    if run >= len(rotations) - 2:
+        return 0
+    typical = np.median(steps, axis=0)
+    out = steps[run - 1]
+    jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical)
+    return run if jump.mean() >= MOST_JOINTS else 0
+
+
+def rest_frames(motion: Motion) -> tuple[int, int]:
+    """Numbers of leading and trailing rest-pose frames of ``motion`` (0 when none).
+
+    A rest frame (or a run of identical frames) at either end counts when the step from it
+    into the motion is a jump on at least half of the rotating joints at once: larger than
+    15 degrees and than 8 times the joint's median step. No noise makes most joints jump
+    on the same frame; a pose held before the capture does.
+    """
+    rotating = motion.layout.has_rotation
+    if motion.n_frames < 8 or not rotating.any():
+        return 0, 0
+    q = motion.rotations[:, rotating]
+    p = motion.translations
+    steps = np.degrees(quat.angle_between(q[:-1], q[1:]))
+    lead = _leading(q, p, steps)
+    trail = _leading(q[::-1], p[::-1], steps[::-1])
+    if lead + trail >= motion.n_frames - 4:
+        return 0, 0
+    return lead, trail
+
+
+def trim(motion: Motion, lead: int, trail: int) -> Motion:
+    """``motion`` without its first ``lead`` and last ``trail`` frames."""
+    if lead == 0 and trail == 0:
+        return motion
+    rows = slice(lead, motion.n_frames - trail)
+    source = {}
+    if motion.has_source_frames():
+        source = {
+            "source_values": motion.source_values[rows],
+            "source_rotations": motion.source_rotations[rows],
+        }
+    return motion.replace(
+        rotations=motion.rotations[rows], translations=motion.translations[rows], **source
+    )
+
+
+def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:
+    """``original`` with its frames between the rest frames replaced by ``middle``'s."""
+    if lead == 0 and trail == 0:
+        return middle
+    end = original.n_frames - trail
+    rotations = original.rotations.copy()
+    translations = original.translations.copy()
+    rotations[lead:end] = middle.rotations
+    translations[lead:end] = middle.translations
+    return original.replace(rotations=rotations, translations=translations)

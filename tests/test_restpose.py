@@ -1,0 +1,61 @@
+"""Rest-pose frames at the ends of a clip: kept bit for bit, left out of every step and of
+the report's figures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import NOISY, degrees_between, run_cli
+
+import motionclean as mc
+from motionclean.restpose import rest_frames
+
+
+def with_t_pose(source, target, frames: int = 1, at_end: bool = False):
+    """``source`` with ``frames`` T-pose frames (every rotation channel 0, the root at its
+    first position) before (or after) the motion, as MotionBuilder conversions write."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    body = lines[at + 2 :]
+    first = body[0].split()
+    t_pose = " ".join(first[:3] + ["0.000000"] * (len(first) - 3)) + "\n"
+    rows = body + [t_pose] * frames if at_end else [t_pose] * frames + body
+    target.write_text(
+        "".join(lines[:at]) + f"Frames: {len(rows)}\n" + lines[at + 1] + "".join(rows)
+    )
+    return target
+
+
+@pytest.mark.parametrize(("frames", "at_end"), [(1, False), (3, False), (1, True)])
+def test_rest_frames_are_found(tmp_path, frames, at_end):
+    clip = mc.load(with_t_pose(NOISY, tmp_path / "t.bvh", frames, at_end))
+    assert rest_frames(clip) == ((0, frames) if at_end else (frames, 0))
+    assert rest_frames(mc.load(NOISY)) == (0, 0)
+
+
+def test_a_t_pose_first_frame_is_kept_bit_for_bit_and_out_of_the_figures(tmp_path, capsys):
+    posed = with_t_pose(NOISY, tmp_path / "t.bvh")
+    out, report = tmp_path / "out.bvh", tmp_path / "r.json"
+    code, text, _ = run_cli(capsys, "clean", posed, "-o", out, "--report", report)
+    assert code == 0 and "rest pose: frames 0-0 kept" in text
+    rows_in = posed.read_text().splitlines()
+    rows_out = out.read_text().splitlines()
+    start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
+    assert rows_out[start] == rows_in[start]  # the T-pose frame, byte for byte
+    # The motion after it is cleaned as without the T-pose (the same poses; the Euler
+    # branch of a changed sample may follow the frame before it).
+    plain = tmp_path / "plain.bvh"
+    run_cli(capsys, "clean", NOISY, "-o", plain, "--report", tmp_path / "p.json")
+    assert degrees_between(mc.load(out).rotations[1:], mc.load(plain).rotations).max() < 1e-4
+    figures = json.loads(report.read_text())
+    reference = json.loads((tmp_path / "p.json").read_text())
+    assert figures["rest_frames"] == {"leading": 1, "trailing": 0}
+    assert figures["summary"]["noise_reduction"] == pytest.approx(
+        reference["summary"]["noise_reduction"], rel=1e-9
+    )
+    despike = figures["joints"]["RThumb"]["despike"]
+    expected = reference["joints"]["RThumb"]["despike"]
+    assert despike["unflipped"] == [[a + 1, b + 1] for a, b in expected["unflipped"]]
+    assert np.isclose(figures["world"]["body_height"], reference["world"]["body_height"])
