@@ -302,16 +302,23 @@ def blend(
 @click.argument("second", type=click.Path())
 @click.option("-o", "--output", type=click.Path(), required=True, help="Stitched clip.")
 @LEVELS_OPTION
-def stitch(first: str, second: str, output: str, levels: int) -> None:
+@click.option(
+    "--no-align",
+    is_flag=True,
+    help="Keep SECOND where it is instead of moving its root to where FIRST ends "
+    "(horizontal position and heading).",
+)
+def stitch(first: str, second: str, output: str, levels: int, no_align: bool) -> None:
     """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
 
-    The result has len(FIRST) + len(SECOND) - 1 frames; only frames within 3 (2^levels - 1)
-    of the seam change.
+    SECOND is first moved so its root starts where FIRST's ends (same horizontal position
+    and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
+    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
     """
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
-    save(stitch_clips(load(first), load(second), levels), output)
+    save(stitch_clips(load(first), load(second), levels, align=not no_align), output)
 
 
 def _shown(value) -> str:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import multires
+from . import kinematics, multires, quat
 from .errors import MotionError
 from .html import render_html
 from .io import atomic_write, load, save
@@ -207,6 +207,13 @@ def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
         )
     if same_length and a.n_frames != b.n_frames:
         raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
+    scale = 1e-6 * max(float(np.abs(a.offsets).max(initial=0.0)), 1.0)
+    if a.offsets.shape != b.offsets.shape or not np.allclose(a.offsets, b.offsets, atol=scale):
+        worst = int(np.argmax(np.abs(a.offsets - b.offsets).max(axis=1)))
+        raise MotionError(
+            f"skeleton differs from {a.path}'s: joint {b.names[worst]!r} has another OFFSET",
+            b.path,
+        )
 
 
 def blend_clips(
@@ -228,13 +235,61 @@ def blend_clips(
     return a.replace(rotations=q, translations=p)
 
 
-def stitch_clips(a: Motion, b: Motion, levels: int = 4) -> Motion:
+def align_roots(a: Motion, b: Motion) -> Motion:
+    """``b`` moved so that its first frame's roots stand where ``a``'s last frame's stand:
+    the same horizontal position and heading (a turn about the up axis), its own height.
+
+    As fairmotion's append-and-blend: the whole of ``b`` is turned about the up axis and
+    shifted horizontally; nothing else changes. Roots without position channels are only
+    turned.
+    """
+    if a.n_frames == 0 or b.n_frames == 0:
+        return b
+    up = kinematics.up_axis(a)
+    roots = np.flatnonzero(b.parents < 0)
+    local_a = kinematics.local_translations(a)[-1, roots]
+    local_b = kinematics.local_translations(b)
+    heading = _heading(a.rotations[-1, roots[0]], up) - _heading(b.rotations[0, roots[0]], up)
+    axis = np.zeros(3)
+    axis[up] = 1.0
+    turn = quat.from_axis_angle(axis, heading)
+    rotations = b.rotations.copy()
+    rotations[:, roots] = quat.make_continuous(quat.multiply(turn, rotations[:, roots]), axis=0)
+    translations = b.translations.copy()
+    moved = quat.rotate(turn, local_b[:, roots] - local_b[0, roots]) + local_a
+    moved[..., up] = local_b[:, roots, up]  # each clip keeps its own height
+    has_axis = b.layout.position_columns[roots] >= 0
+    translations[:, roots] = np.where(has_axis, moved, translations[:, roots])
+    return b.replace(rotations=rotations, translations=translations)
+
+
+def _heading(q: np.ndarray, up: int) -> float:
+    """Angle (rad) about the up axis of a root's facing: the horizontal axis that stays
+    most horizontal under ``q``, turned by ``q`` and projected on the ground."""
+    horizontal = [k for k in range(3) if k != up]
+    axes = np.eye(3)[horizontal]
+    turned = quat.rotate(q, axes)
+    pick = int(np.argmin(np.abs(turned[:, up])))
+    first, second = (up + 1) % 3, (up + 2) % 3
+    vector, reference = turned[pick], axes[pick]
+    return math.atan2(vector[first], vector[second]) - math.atan2(
+        reference[first], reference[second]
+    )
+
+
+def stitch_clips(a: Motion, b: Motion, levels: int = 4, align: bool = True) -> Motion:
     """Join the end of ``a`` to the start of ``b`` with a seamless transition (003 Eq. 21).
 
-    The result has ``len(a) + len(b) - 1`` frames; only frames within ``3 (2^levels - 1)`` of
-    the seam change. Written back, every frame keeps its own clip's Euler branch.
+    With ``align`` ``b`` first stands where ``a`` ends (:func:`align_roots`), so the root
+    does not slide across the room. The result has ``len(a) + len(b) - 1`` frames; only
+    frames within ``3 (2^levels - 1)`` of the seam change beyond that move. Written back,
+    every frame keeps its own clip's Euler branch.
     """
     check_compatible(a, b, same_length=False)
+    if a.n_frames == 0 or b.n_frames == 0:
+        raise MotionError("cannot stitch a clip without frames", (b if b.n_frames == 0 else a).path)
+    if align:
+        b = align_roots(a, b)
     q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
     joined: dict = {"source_values": None, "source_rotations": None}
     if a.has_source_frames() and b.has_source_frames():

@@ -215,8 +215,18 @@ def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, 
     assert np.array_equal(
         stitched.source_values[: seam - width], clip.source_values[: seam - width]
     )
+    # the second clip's root is moved to where the first ends; without alignment every
+    # channel is the input's, with it every channel but the root's
+    assert not np.array_equal(
+        stitched.source_values[seam + width + 1 :, :6], clip.source_values[width + 1 :, :6]
+    )
     assert np.array_equal(
-        stitched.source_values[seam + width + 1 :], clip.source_values[width + 1 :]
+        stitched.source_values[seam + width + 1 :, 6:], clip.source_values[width + 1 :, 6:]
+    )
+    run(["stitch", sample_path, sample_path, "-o", out, "--no-align"], capsys)
+    unaligned = mc.load(out)
+    assert np.array_equal(
+        unaligned.source_values[seam + width + 1 :], clip.source_values[width + 1 :]
     )
 
 

@@ -171,3 +171,45 @@ def test_mismatched_channels_or_frame_time_exit_1_with_one_line(clips, tmp_path,
         assert err.count("\n") == 1 and err.startswith("motionclean: error: ")
         assert message in err and str(other) in err
         assert not out.exists()
+
+
+def test_stitch_aligns_the_second_roots_position_and_heading(tmp_path, capsys):
+    """Two takes joined: the second starts where the first ends (horizontal position and
+    heading about the up axis), so the root does not slide across the room at the seam."""
+    from helpers import corpus_clip
+
+    from motionclean import kinematics
+
+    first, second = corpus_clip("131_01.bvh"), corpus_clip("131_02.bvh")
+    a = mc.load(first)
+    for flag, aligned in ((), True), (("--no-align",), False):
+        out = tmp_path / f"s{aligned}.bvh"
+        code, _, err = run_cli(capsys, "stitch", first, second, "-o", out, *flag)
+        assert code == 0, err
+        clip = mc.load(out)
+        root = kinematics.local_translations(clip)[:, 0]
+        seam = a.n_frames - 1
+        speed = np.linalg.norm(np.diff(root[:, [0, 2]], axis=0), axis=1) / clip.frame_time
+        own = np.linalg.norm(
+            np.diff(kinematics.local_translations(a)[:, 0, [0, 2]], axis=0), axis=1
+        )
+        own_max = own.max() / a.frame_time
+        near = speed[seam - 30 : seam + 30].max()
+        if aligned:
+            assert near < 2.0 * own_max
+            turn = quat.angle_between(clip.rotations[seam - 1, 0], clip.rotations[seam + 1, 0])
+            assert np.degrees(turn) < 5.0
+            assert root[seam + 5, 1] == pytest.approx(
+                kinematics.local_translations(mc.load(second))[5, 0, 1], abs=0.5
+            )
+        else:
+            assert near > 3.0 * own_max  # the old behaviour: a slide at the seam
+
+
+def test_stitch_refuses_another_skeleton(tmp_path, capsys):
+    moved = tmp_path / "moved.bvh"
+    text = SAMPLE.read_text()
+    assert "OFFSET 1.24777 -1.64261 0.71711" in text
+    moved.write_text(text.replace("OFFSET 1.24777 -1.64261", "OFFSET 790 -1.64261", 1))
+    code, _, err = run_cli(capsys, "stitch", SAMPLE, moved, "-o", tmp_path / "o.bvh")
+    assert code == 1 and "another OFFSET" in err and not (tmp_path / "o.bvh").exists()
