@@ -9,7 +9,11 @@ written) and compares, per clip, the figures of :class:`~motionclean.batch.FileR
 
 A figure is worse when ``now > baseline * (1 + T) + ABSOLUTE`` (relative tolerance ``T``,
 default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from failing on
-round-off). Lower is better for all three. ``--update`` records the figures instead.
+round-off). Lower is better for all three. The same limits apply per joint to the noise
+after cleaning and the largest deviation, so a regression on one joint fails even when the
+clip's maximum is another joint's. ``--update`` records figures instead (merged into the
+baseline; ``--replace`` starts a new one). Clips are keyed by their path relative to the
+baseline's folder.
 """
 
 from __future__ import annotations
@@ -43,16 +47,20 @@ FIGURES = (
     ("deviation_max", "deviation max, deg", True),
     ("deviation_rms", "deviation RMS, deg", True),
 )
-FORMAT = 1
+#: Per-joint figures compared (lower is better): key, label.
+JOINT_FIGURES = (
+    ("noise_after", "noise after, deg/s^2"),
+    ("deviation_max", "deviation max, deg"),
+)
+FORMAT = 2
 
 
-def clip_key(path: str) -> str:
-    """The baseline key of a clip: its path relative to the current folder when inside it."""
-    resolved = Path(path).resolve()
-    try:
-        return resolved.relative_to(Path.cwd().resolve()).as_posix()
-    except ValueError:
-        return resolved.as_posix()
+def clip_key(path: str, baseline: Path) -> str:
+    """The baseline key of a clip: its path as given, relative to the baseline's folder
+    (symbolic links are not followed), so a baseline committed beside its clips works on
+    every machine and in every working folder."""
+    folder = os.path.abspath(baseline.parent)
+    return Path(os.path.relpath(os.path.abspath(path), folder)).as_posix()
 
 
 def read_baseline(path: Path) -> dict[str, Any]:
@@ -71,7 +79,31 @@ def read_baseline(path: Path) -> dict[str, Any]:
 def _figures(result: FileResult) -> dict[str, Any]:
     out: dict[str, Any] = {"frames": result.frames}
     out.update({key: getattr(result, key) for key, _, _ in FIGURES})
+    out["joints"] = result.joints
     return out
+
+
+def _worse(value: float | None, ref: Any, tolerance: float) -> bool:
+    return (
+        isinstance(ref, int | float)
+        and value is not None
+        and value > ref * (1 + tolerance) + ABSOLUTE
+    )
+
+
+def compare_joints(
+    now: dict[str, Any], base: dict[str, Any], tolerance: float
+) -> list[tuple[str, str, float, float]]:
+    """Per joint, the figures that got worse: ``(joint, label, baseline, now)`` rows. A
+    smoothing regression on one joint shows here even when the clip's maximum is another
+    joint's (a repaired flip, say)."""
+    rows = []
+    for joint, figures in (now.get("joints") or {}).items():
+        ref = (base.get("joints") or {}).get(joint) or {}
+        for key, label in JOINT_FIGURES:
+            if _worse(figures.get(key), ref.get(key), tolerance):
+                rows.append((joint, label, float(ref[key]), float(figures[key])))
+    return rows
 
 
 def compare(
@@ -158,7 +190,13 @@ def _why(
 @click.option(
     "--update",
     is_flag=True,
-    help="Write the baseline from these clips (replacing it) instead of checking.",
+    help="Record these clips' figures in the baseline (other clips in it are kept) "
+    "instead of checking.",
+)
+@click.option(
+    "--replace",
+    is_flag=True,
+    help="With --update: write a new baseline holding only these clips.",
 )
 @click.option(
     "--tolerance",
@@ -174,6 +212,7 @@ def check_command(
     steps: tuple[str, ...],
     baseline: str,
     update: bool,
+    replace: bool,
     tolerance: float,
 ) -> None:
     """Clean CLIPs and compare their figures with a baseline, for CI.
@@ -184,8 +223,11 @@ def check_command(
     """
     pipeline = pipeline_from_options(pipe, steps)
     baseline_path = Path(baseline)
-    document = {} if update else read_baseline(baseline_path)  # a missing one fails first
-    keys = [clip_key(c) for c in clips]
+    if replace and not update:
+        raise UsageError("--replace goes with --update")
+    fresh = update and (replace or not baseline_path.exists())
+    document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
+    keys = [clip_key(c, baseline_path) for c in clips]
     tables = tuple(pipeline.describe())
     jobs = [Job(os.fspath(c), None, tables) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
@@ -193,11 +235,13 @@ def check_command(
 
     if update:
         raise_failures(failures)  # never write a baseline from a partial run
+        kept = {} if fresh else dict(document["clips"])
+        kept.update({k: _figures(results[i]) for i, k in enumerate(keys)})
         record = {
             "motionclean": __version__,
             "format": FORMAT,
             "pipeline": list(tables),
-            "clips": {k: _figures(results[i]) for i, k in enumerate(keys)},
+            "clips": kept,
         }
         atomic_write(baseline_path, to_json(record))
         table = [
@@ -205,7 +249,11 @@ def check_command(
             for i, k in enumerate(keys)
         ]
         click.echo(format_check(table, recorded=True))
-        click.echo(f"baseline written: {baseline_path} ({len(keys)} clips)")
+        others = len(kept) - len(set(keys))
+        click.echo(
+            f"baseline written: {baseline_path} ({len(keys)} clips recorded"
+            + (f", {others} others kept)" if others else ")")
+        )
         return
 
     table, problems = [], list(failures)
@@ -214,15 +262,30 @@ def check_command(
             continue
         base = document["clips"].get(key)
         if base is None:
-            problems.append(f"{key}: not in the baseline {baseline_path}; add it with --update")
+            problems.append(
+                f"{key}: not in the baseline {baseline_path}; record it with --update "
+                "(the other clips in it are kept)"
+            )
             continue
-        rows = compare(_figures(results[i]), base, tolerance)
+        now = _figures(results[i])
+        rows = compare(now, base, tolerance)
         table.append((key, rows))
         problems += [
             _why(key, label, ref, value, verdict, tolerance)
             for label, ref, value, verdict in rows
             if verdict in ("WORSE", "CHANGED")
         ]
+        joints = compare_joints(now, base, tolerance)
+        if joints:
+            shown = ", ".join(
+                f"{joint} {label.split(',')[0]} {_change(ref, value)}"
+                for joint, label, ref, value in joints[:3]
+            )
+            more = f" and {len(joints) - 3} more" if len(joints) > 3 else ""
+            problems.append(
+                f"{key}: {len({j for j, *_ in joints})} joints got worse "
+                f"(tolerance {_percent(tolerance)}): {shown}{more}"
+            )
     if table:
         click.echo(format_check(table))
     if document.get("pipeline") != json_safe(list(tables)):

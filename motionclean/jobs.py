@@ -109,6 +109,7 @@ class FileResult:
     report: str | None = None
     error: str | None = None
     seconds: float = 0.0
+    joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
 
 
 @dataclass(frozen=True)
@@ -151,6 +152,14 @@ def _success(result: CleanedClip, job: Job, start: float) -> FileResult:
         deviation_rms=deviation_rms,
         report=job.report,
         seconds=time.perf_counter() - start,
+        joints={
+            name: {
+                "noise_after": entry["angular_accel_rms"]["after"],
+                "deviation_max": entry["deviation_deg"]["max"],
+            }
+            for name, entry in result.report["joints"].items()
+            if "deviation_deg" in entry
+        },
     )
 
 

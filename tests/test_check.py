@@ -133,3 +133,54 @@ def test_compare_limits():
     assert verdicts(frames=11)["frames"] == "CHANGED"
     zero = dict(base, deviation_max=0.0)
     assert compare(dict(zero, deviation_max=1e-12), zero, t)[2][3] == "ok"
+
+
+def test_update_of_a_subset_keeps_the_other_clips_and_replace_starts_anew(clips, capsys):
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    calm_before = json.loads(Path("b.json").read_text())["clips"]["clips/calm.bvh"]
+    make_noisier(clips[1])
+    code, stdout, _ = run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")
+    assert code == 0 and "1 others kept" in stdout
+    recorded = json.loads(Path("b.json").read_text())["clips"]
+    assert sorted(recorded) == sorted(clips) and recorded["clips/calm.bvh"] == calm_before
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json")[0] == 0
+    code, _, _ = run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update", "--replace")
+    assert code == 0 and list(json.loads(Path("b.json").read_text())["clips"]) == [clips[0]]
+    code, _, err = run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--replace")
+    assert code == 2 and "--replace goes with --update" in err
+
+
+def test_keys_are_relative_to_the_baseline_folder_and_links_are_not_followed(
+    clips, tmp_path, capsys
+):
+    Path("ci").mkdir()
+    Path("elsewhere").mkdir()
+    target = Path("elsewhere/real.bvh")
+    target.write_bytes(Path(clips[0]).read_bytes())
+    Path("clips/linked.bvh").symlink_to(target.resolve())
+    code, _, err = run_cli(
+        capsys, "check", "clips/linked.bvh", "--baseline", "ci/b.json", "--update"
+    )
+    assert code == 0, err
+    assert list(json.loads(Path("ci/b.json").read_text())["clips"]) == ["../clips/linked.bvh"]
+    # the same baseline read from another working folder
+    import os
+
+    os.chdir("ci")
+    assert run_cli(capsys, "check", "../clips/linked.bvh", "--baseline", "b.json")[0] == 0
+
+
+def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(clips, capsys):
+    """The clip's largest deviation is RThumb's repaired flip; a weaker smoothing of the
+    other joints leaves it alone but is caught joint by joint."""
+    base = ["-f", "despike", "-f", "lee-shin:k=3,iterations=3,joints=['*','!LeftKnee']"]
+    weak = [
+        "-f",
+        "despike",
+        "-f",
+        "lee-shin:k=3,iterations=3,joints=['*','!LeftKnee','!RightKnee']",
+    ]
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update", *base)[0] == 0
+    code, _, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
+    assert code == 1 and "RightKnee noise after" in err
+    assert "deviation max got worse" not in err  # the clip maximum (RThumb) is unchanged
