@@ -33,6 +33,7 @@ from .options import (
     pipeline_from_options,
     refuse_overwrite,
 )
+from .pipeline import DEFAULT_STEPS
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
 from .world_report import contact_figures, format_contacts
@@ -99,7 +100,8 @@ def info(clip: str) -> None:
     click.echo(f"{clip}")
     click.echo(
         f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
-        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s"
+        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s "
+        "(frames x frame time; frames are numbered from 0)"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
     up = kinematics.up_axis(motion)
@@ -116,8 +118,10 @@ def info(clip: str) -> None:
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
     noise = estimate_noise(motion.rotations)
+    name_width = max(len("joint"), *(len(n) for n in motion.names)) + 2
+    parent_width = max(len("parent"), *(len(n) for n in motion.names)) + 2
     click.echo(
-        f"  {'joint':<24}{'parent':<16}{'channels':<28}{'largest step':>14}"
+        f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
         f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
     )
     for j, name in enumerate(motion.names):
@@ -129,7 +133,8 @@ def info(clip: str) -> None:
         else:
             figures = f"{'-':>14}"
         click.echo(
-            f"  {name[:23]:<24}{parent[:15]:<16}{(channels + ' ' + order)[:27]:<28}{figures}"
+            f"  {name:<{name_width}}{parent:<{parent_width}}"
+            f"{(channels + ' ' + order)[:27]:<28}{figures}"
         )
     rotating = layout.has_rotation
     if rotating.any():
@@ -180,9 +185,10 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
 @STEP_OPTION
 @click.option(
     "--report",
-    "report_path",
+    "report_paths",
+    multiple=True,
     type=click.Path(dir_okay=False),
-    help="Also write a report, FILE.json or FILE.html.",
+    help="Also write a report, FILE.json or FILE.html; repeatable (e.g. one of each).",
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
@@ -191,7 +197,7 @@ def clean(
     output: str | None,
     pipe: str | None,
     steps: tuple[str, ...],
-    report_path: str | None,
+    report_paths: tuple[str, ...],
     in_place: bool,
     quiet: bool,
 ) -> None:
@@ -206,8 +212,10 @@ def clean(
         output = source
     refuse_overwrite(Path(source), Path(output), in_place)
     check_clip_output(output)
-    if report_path:
+    for report_path in report_paths:
         check_report_output(report_path)
+    if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
+        raise UsageError("--report names the same file twice")
     result = clean_clip(source, output, pipeline)
     for number, log in enumerate(result.logs, 1):
         for pattern in log.unmatched:
@@ -216,7 +224,7 @@ def clean(
                 f"joints pattern {pattern!r} matches no joint",
                 err=True,
             )
-    if report_path:
+    for report_path in report_paths:
         write_report(result.report, Path(report_path), result.series)
     if not quiet:
         click.echo(format_table(result.report))
@@ -262,7 +270,7 @@ LEVELS_OPTION = click.option(
 @click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
 @click.option(
     "--weight",
-    type=float,
+    type=click.FloatRange(0.0, 1.0),
     default=0.5,
     show_default=True,
     help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).",
@@ -334,6 +342,8 @@ def _shown(value) -> str:
 def filters_command() -> None:
     """List every filter with its parameters, defaults, units and paper equations."""
     indent = " " * 20
+    default = " ".join(f"-f {step['filter']}" for step in DEFAULT_STEPS)
+    click.echo(f"default pipeline (clean without -p or -f): {default}\n")
     for spec in REGISTRY.values():
         click.echo(f"{spec.name}: {spec.summary}")
         click.echo(f"    implements {spec.paper}")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import html
 import math
+import urllib.parse
 from collections.abc import Sequence
 from typing import Any
 
@@ -39,6 +40,9 @@ ENVELOPE_COLUMNS = COLUMNS // 2
 #: A panel's y axis stops near the 99.5th percentile when the peak is SPIKE times above it.
 SPIKE = 4.0
 
+#: Deviation plots reach at least this (degrees): an untouched joint's rounding-level
+#: differences (1e-15 degrees) draw as the flat line they are.
+DEVIATION_FLOOR = 0.01
 BEFORE, AFTER, DEVIATION = "#e0892b", "#1f57b8", "#7b3fa8"
 
 CSS = """
@@ -184,10 +188,12 @@ def _panel(
     top_y: float,
     height: float,
     label: str,
+    floor: float = 0.0,
 ) -> list[str]:
     """One plot panel: grid, axes, ticks and the series ``(values, colour, name)``.
 
-    ``values[k]`` belongs to frame ``offset + k``; the x axis spans frames 0..frames-1.
+    ``values[k]`` belongs to frame ``offset + k``; the x axis spans frames 0..frames-1. The
+    y axis reaches at least ``floor``, so rounding-level values stay flat at the bottom.
     """
     out: list[str] = []
     span = max(frames - 1, 1)
@@ -195,7 +201,7 @@ def _panel(
     peak = max((float(v.max()) for v, _, _ in series if v.size), default=0.0)
     robust = max((float(np.quantile(v, 0.995)) for v, _, _ in series if v.size), default=0.0)
     # A few samples far above the rest (a glitch) would flatten the plot: clip them.
-    limit = 1.2 * robust if peak > SPIKE * robust > 0 else peak
+    limit = max(1.2 * robust if peak > SPIKE * robust > 0 else peak, floor)
     step = _nice_step(limit, 4 if height >= 100 else 2) if limit > 0 else 1.0
     top = step * max(math.ceil(limit / step - 1e-9), 1)
     clipped = peak > top
@@ -254,6 +260,7 @@ def _joint_svg(name: str, data: dict, frames: int) -> str:
             DEV_TOP,
             DEV_HEIGHT,
             "deviation from the input, deg",
+            floor=DEVIATION_FLOOR,
         )
         height = SVG_HEIGHT
     parts += _frame_ticks(frames, height - 22)
@@ -346,7 +353,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
     body = [
         f"<h1>{_e(report['file'])}</h1>",
         f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
-        f"({frames * dt:.2f} s), {len(report['joints'])} joints</div>",
+        f"({frames * dt:.3f} s), {len(report['joints'])} joints; frames are numbered from 0"
+        "</div>",
     ]
     stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
     if cleaned:
@@ -578,7 +586,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
     for e in entries:
         name = _e(e["file"])
-        link = f'<a href="{_e(e["href"])}">{name}</a>' if e.get("href") else name
+        href = urllib.parse.quote(e["href"]) if e.get("href") else None
+        link = f'<a href="{_e(href)}">{name}</a>' if href else name
         if e["status"] == "failed":
             rows.append(
                 f'<tr class="failed"><td>{link}</td>'

@@ -192,8 +192,8 @@ class Motion:
 
     @property
     def duration(self) -> float:
-        """Seconds from the first to the last frame."""
-        return max(self.n_frames - 1, 0) * self.frame_time
+        """Seconds the clip covers: frames x frame time (as DCC tools count frames / fps)."""
+        return self.n_frames * self.frame_time
 
     def replace(self, **changes) -> Motion:
         """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .. import kinematics
 from ..errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
 from .base import Param, StepData, StepSpec, shift_runs
@@ -16,6 +17,18 @@ def _resolve_despike(params: dict, where: str) -> None:
         raise UsageError(f"{where}: min_deg_per_s must not exceed max_deg_per_s")
     if params["min_units_per_s"] > params["max_units_per_s"]:
         raise UsageError(f"{where}: min_units_per_s must not exceed max_units_per_s")
+
+
+#: Position steps slower than this many body heights per second are never jumps, whatever
+#: the file's unit: rounding jitter of a clip in metres is not a spike.
+POSITION_FLOOR_HEIGHTS_PER_S = 0.5
+
+
+def _position_floor(data: StepData) -> float:
+    """The slowest position step that may be a jump, in file units per second."""
+    if data.motion is None:
+        return 0.0
+    return POSITION_FLOOR_HEIGHTS_PER_S * kinematics.body_height(data.motion)
 
 
 def _run_despike(data: StepData, params: dict) -> StepData:
@@ -37,7 +50,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
             data.translations,
             data.frame_time,
             method="linear" if params["method"] == "slerp" else "cubic",
-            min_units_per_s=params["min_units_per_s"],
+            min_units_per_s=max(params["min_units_per_s"], _position_floor(data)),
             max_units_per_s=params["max_units_per_s"],
             **shared,
         )
@@ -60,7 +73,8 @@ def _format_note(note: dict, positions: bool) -> str:
     if note["interpolated"]:
         parts.append(f"interpolated {_ranges(note['interpolated'])}")
     step = note["max_step"]
-    parts.append(f"largest step {step['before']:.1f} -> {step['after']:.1f} {unit}")
+    digits = ".1f" if not positions else ".3g"
+    parts.append(f"largest step {step['before']:{digits}} -> {step['after']:{digits}} {unit}")
     return "; ".join(parts)
 
 
@@ -141,7 +155,8 @@ STEP = StepSpec(
             "min_units_per_s",
             "float",
             0.0,
-            "positions: steps slower than this are never jumps, length units per s",
+            "positions: steps slower than this are never jumps, length units per s (at "
+            "least half the body height per s)",
             minimum=0.0,
         ),
         Param(
