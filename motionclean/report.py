@@ -1,9 +1,9 @@
 """Reports: per-joint noise and deviation figures as JSON and as a terminal table.
 
 The JSON schema is described in the README ("Conventions", "World space"). Joints with
-rotation channels get angular figures (degrees of rotation per s^2, degrees); joints with position channels
-get ``linear_accel_rms`` / ``linear_accel_max`` (length units per s^2) and
-``deviation_length`` (length units). ``summary.noise_reduction`` is the fraction of the
+rotation channels get angular figures (degrees of rotation per s^2, degrees); joints with
+position channels get ``linear_accel_rms`` / ``linear_accel_max`` (length units per s^2)
+and ``deviation_length`` (length units). ``summary.noise_reduction`` is the fraction of the
 RMS angular acceleration removed, ``1 - after / before``.
 """
 
