@@ -470,7 +470,7 @@ def main(argv=None) -> int:
                     t3 = time.perf_counter()
                     lee_shin(noisy, binomial(2))
                     timing.append((t2 - t1, time.perf_counter() - t3))
-                est = float(np.median(estimate_noise(noisy[:, cols])))
+                est = float(np.median(estimate_noise(noisy[:, cols], ft)))
                 best_euler = min(res[k][0] for k in EULER)
                 best_ours = min(res[k][0] for k in OURS)
                 rows.append((clip, round(1 / ft), noise, rmse_deg(truth, noisy, cols), res, d))

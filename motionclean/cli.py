@@ -117,7 +117,7 @@ def info(clip: str) -> None:
     steps, at = metrics.largest_steps(motion.rotations)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
-    noise = estimate_noise(motion.rotations)
+    noise = estimate_noise(motion.rotations, motion.frame_time)
     name_width = max(len("joint"), *(len(n) for n in motion.names)) + 2
     parent_width = max(len("parent"), *(len(n) for n in motion.names)) + 2
     click.echo(

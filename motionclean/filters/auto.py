@@ -1,51 +1,40 @@
-"""Automatic cleaning: estimate each joint's noise from the clip, then pick its filter.
+"""Automatic cleaning: model each joint's noise from the clip, then pick its filter.
 
 Most users never tune a parameter, and the best strength of any smoother moves with the
-noise level and with how fast each joint moves. This module measures both from the clip.
+noise (its level, how it spreads over frequency, how it changes along the clip) and with
+how fast each joint moves. This module measures both from the clip.
 
-**Noise model.** A captured orientation is ``y_i = s_i exp(e_i)``: the true motion ``s_i``
-times independent noise ``e_i`` in ``R^3`` (log units, ``|e|`` = half the rotation angle)
-with per-component standard deviation ``sigma``. The noise level reported to users is the
-RMS rotation angle of one sample's noise, ``N = 2 sqrt(3) sigma`` (radians, shown in
-degrees). Positions: ``y_i = s_i + n_i`` and ``N = sqrt(3) sigma`` (RMS length of ``n_i``).
-
-**Noise estimate** (:func:`estimate_noise`). With ``w_i = log(y_i^-1 y_{i+1})``
-(000 Eq. 12), ``w_i ~ v_i + e_{i+1} - e_i``, so the second difference of the displacements
-``d_i = w_{i+2} - 2 w_{i+1} + w_i`` is the third difference of the noise, variance
-``20 sigma^2`` per component (``1 + 9 + 9 + 1``), plus the third difference of the motion,
-which is small and sparse (contacts, quick turns) at capture rates. Its robust size is the
-median of ``|d_i|``; for Gaussian noise ``|d| / (sqrt(20) sigma)`` follows a chi law with 3
-degrees of freedom, whose median is ``1.53817``. Hence
-``sigma = median |d| / (1.53817 sqrt(20))`` per joint. The constant is exact for Gaussian
-noise (checked against planted noise in the tests). Genuine motion adds to the estimate
-where the frame rate is low for the motion: on the corpus walks as captured it reads about
-0.01 degrees at 120 fps but 0.2 (up to 0.8 for fast joints) at 30 fps.
+**Noise model** (:mod:`motionclean.filters.noise`). A captured orientation is
+``y_i = s_i exp(e_i)`` with AR(1) noise ``e`` per joint, its level ``sigma^2`` estimated in
+windows of 2 s (never longer than the clip). The level reported to users is the RMS
+rotation angle of one sample's noise, ``N = 2 sqrt(3) sigma`` (degrees); positions:
+``y_i = s_i + e_i`` and ``N = sqrt(3) sigma`` (RMS length).
 
 **Choice of filter** (:func:`auto`). Candidates are Lee-Shin filters (000 Eq. 19-20, one
 pass) of binomial masks ``B^{2k+1}`` (000 Eq. 23) and degree-2 Savitzky-Golay masks
 (:func:`motionclean.filters.design.savgol`) with half-widths on a geometric ladder (ratio
-1.35) up to ``max_seconds`` of frames, low-pass masks
+1.35) up to ``max_seconds`` of frames (and the clip's length), low-pass masks
 (:func:`motionclean.filters.design.lowpass`) with cutoffs on the same ladder from
-``2 / max_seconds`` Hz (the cutoff whose mask is that wide) to 0.45 times the frame rate,
-and the identity. For each joint the candidate
-with the smallest Stein unbiased risk estimate (SURE) of the mean squared error is kept:
+``2 / max_seconds`` Hz to 0.45 times the frame rate, and the identity. In every window of
+every joint the candidate with the least estimated mean squared error is kept:
 
-    R = sum_i |log(y_i^-1 H(y)_i)|^2 - 3 F sigma^2 + 2 * 3 sigma^2 tr(L),
+    R = sum_f weight_f [ |1 - A(f)|^2 / (2 sin pi f)^2 P(f) + (2 A(f) - 1) N(f) ],
 
-``F`` frames, ``tr(L)`` the trace of the mask's linear filter including the mirrored
-boundary of 000 Eq. 26 (``F a_0`` in the interior). The first term is how far the filter
-moved the clip, the last two correct it into an estimate of how far the result is from the
-(unknown) true motion. A joint whose estimated noise is zero is left unchanged, and a
-joint moving fast keeps a narrower mask than a slow one at the same noise. ``strength``
-scales ``sigma`` in this choice (2 chooses as if the noise were twice the estimate).
+``A`` the mask's frequency response, ``P`` the window's periodogram of the displacements
+and ``N`` the model's noise spectrum there. The first term is how far the filter moves the
+clip (000 Eq. 19: ``s_i = sum_m b_m w_{i+m}``); the second turns it into the distance to
+the (unknown) true motion: Stein's unbiased risk estimate, extended to correlated noise,
+where ``E[s . e]`` is the noise's autocovariance seen through the mask. For white noise it
+is the classic ``|y - H y|^2 - 3 F sigma^2 + 6 sigma^2 tr(H)`` per frame.
 
-The residual term needs no filtering: one pass moves sample ``i`` by ``s_i = sum_m b_m
-w_{i+m}`` (000 Eq. 19), so it is ``sum_i |s_i|^2``, and for all candidates at once it
-follows from one FFT of the mirrored displacements (Parseval; see
-:func:`_residual_energies`). Only the winners are run: the joints that chose the same
-mask are filtered together by one vectorised :func:`lee_shin` call, so there is no loop
-over joints or frames (about 40 ms for 31 joints x 1250 frames at 120 fps).
-:func:`auto_positions` does the same for translations with the vector filters.
+**Blending.** The windows' Hann tapers sum to one on every frame, so frame ``i`` moves by
+``sum_w taper_w(i) s^{(w)}_i``: one Lee-Shin filter whose mask ``b(i)`` is a convex blend
+of the windows' masks, changing slowly along the clip. It is coordinate invariant like any
+mask filter (moves are built from displacements in each sample's own frame). A quiet
+stretch keeps a light mask or none, a loud stretch gets a strong one. Only chosen masks
+run, on the segments that chose them, as FFT convolutions over fast lengths; no loop over
+joints or frames. ``strength`` scales ``sigma`` in the choice (2 chooses as if the noise
+were twice the estimate). :func:`auto_positions` does the same for translations.
 
 Arrays are time-major: ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ..., 3)``
 vectors; every trailing index (column) is estimated and filtered on its own.
@@ -54,21 +43,17 @@ vectors; every trailing index (column) is estimated and filtered on its own.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from .. import checks, quat
+from . import noise as noise_model
 from .design import lowpass, savgol
-from .linear import (
-    displacement_coefficients,
-    lee_shin,
-    lee_shin_positions,
-    mirror_indices,
-)
+from .linear import displacement_coefficients, mirror_indices
 from .masks import MAX_HALF_WIDTH, binomial
+from .noise import NoiseModel, fast_length
 
 __all__ = [
     "FAMILIES",
@@ -81,33 +66,41 @@ __all__ = [
     "estimate_position_noise",
 ]
 
-#: Median of the chi distribution with 3 degrees of freedom (norm of a standard 3-D normal).
-CHI3_MEDIAN = 1.5381722544550522
-#: Variance gain of the third difference (1, -3, 3, -1) on white noise.
-THIRD_DIFFERENCE_GAIN = 20.0
 #: Ratio between successive candidate half-widths.
 LADDER_RATIO = 1.35
-#: Largest block (values) of the spectrum of the mirrored displacements taken at once.
-SPECTRUM_BLOCK = 1 << 22
 #: Mask families auto may choose from.
 FAMILIES = ("binomial", "savgol", "lowpass")
 #: Highest candidate cutoff, as a fraction of the frame rate (the Nyquist limit is 0.5).
 TOP_CUTOFF = 0.45
+#: A window is loud when its noise level exceeds this many times the column's quiet level
+#: (its lower quartile over the windows) ...
+LOUD_RATIO = 2.0
+#: ... and this many degrees (or length units for positions).
+LOUD_FLOOR = 0.1
+#: Values (segments x frames x 3) filtered per block when the choices are applied.
+APPLY_BLOCK = 1 << 21
 
 
 @dataclass(frozen=True)
 class AutoChoice:
-    """The filter chosen for one column.
+    """The filter chosen for one column, and what the noise model found there.
 
     ``mask`` is ``"none"``, ``"binomial"`` (``value`` = k of 000 Eq. 23), ``"savgol"``
     (``value`` = half_width in frames, degree 2) or ``"lowpass"`` (``value`` = cutoff_hz,
-    default mask length); ``expected_error`` is the SURE estimate of the RMS error left
-    after filtering (degrees of rotation, or length units for positions).
+    default mask length): the mask used on the largest part of the clip, ``share`` (0-1)
+    of its frames (elsewhere the choice of the local windows, blended); ``expected_error``
+    is the risk estimate of the RMS error left after filtering (degrees of rotation, or
+    length units for positions); ``rho`` the noise's AR(1) coefficient; ``loud`` the
+    stretches ``(start_s, end_s)`` in seconds where the noise is well above the column's
+    quiet level.
     """
 
     mask: str
     value: float
     expected_error: float
+    share: float = 1.0
+    rho: float = 0.0
+    loud: tuple[tuple[float, float], ...] = ()
 
     def params(self) -> dict:
         """The choice as Lee-Shin step parameters, e.g. ``{"mask": "binomial", "k": 3}``."""
@@ -128,45 +121,47 @@ class AutoResult(NamedTuple):
     choices: list[AutoChoice]  # one per column, C order of the trailing shape
 
 
-def _robust_sigma(d: np.ndarray) -> np.ndarray:
-    """Per-component noise deviation from third differences ``d`` (n, C, 3): chi-3 median."""
-    if d.shape[0] == 0:  # fewer than 4 frames
-        return np.zeros(d.shape[1:-1])
-    norms = np.linalg.norm(d, axis=-1)
-    return np.median(norms, axis=0) / (CHI3_MEDIAN * math.sqrt(THIRD_DIFFERENCE_GAIN))
-
-
 def _columns(x: np.ndarray, width: int, what: str) -> np.ndarray:
     x = checks.unit_quaternions(x, what) if width == 4 else checks.vectors(x, what)
     return x.reshape(x.shape[0], math.prod(x.shape[1:-1]), width)
 
 
-def estimate_noise(q: np.ndarray) -> np.ndarray:
-    """Per-sample rotation noise of each column, RMS rotation angle in degrees.
+#: Fewest frames the noise model is fitted on; shorter clips are returned unchanged.
+MIN_FRAMES = 4
 
-    ``q`` is ``(F, ..., 4)``; returns shape ``(...)``. Uses the median norm of the second
-    differences of ``w_i = log(q_i^-1 q_{i+1})`` (module docstring); clips of fewer than 4
-    frames give 0. The estimate does not depend on the frame rate: it is per sample.
+
+def _check_time(frame_time: float) -> float:
+    if not (isinstance(frame_time, (int, float)) and math.isfinite(frame_time) and frame_time > 0):
+        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+    return float(frame_time)
+
+
+def _fit(disp: np.ndarray, frame_time: float) -> NoiseModel | None:
+    return noise_model.fit(disp, frame_time) if disp.shape[0] + 1 >= MIN_FRAMES else None
+
+
+def estimate_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
+    """Per-sample rotation noise of each column over the clip, RMS rotation angle in degrees.
+
+    ``q`` is ``(F, ..., 4)``, ``frame_time`` in seconds; returns shape ``(...)``, from the
+    noise model of :mod:`motionclean.filters.noise` (clips under 4 frames give 0).
     """
-    w = quat.displacements(quat.make_continuous(_columns(q, 4, "rotations"), axis=0))
-    return _rotation_noise(w).reshape(np.shape(q)[1:-1])
+    cols = quat.make_continuous(_columns(q, 4, "rotations"), axis=0)
+    model = _fit(quat.displacements(cols), _check_time(frame_time))
+    level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
+    return np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(q)[1:-1])
 
 
-def _rotation_noise(w: np.ndarray) -> np.ndarray:
-    """``(C,)`` noise in degrees from the ``(F-1, C, 3)`` angular displacements."""
-    sigma = _robust_sigma(np.diff(w, n=2, axis=0))
-    return np.degrees(2.0 * math.sqrt(3.0) * sigma)
-
-
-def estimate_position_noise(p: np.ndarray) -> np.ndarray:
+def estimate_position_noise(p: np.ndarray, frame_time: float) -> np.ndarray:
     """Per-sample position noise of each column: RMS length of the noise vector.
 
-    ``p`` is ``(F, ..., 3)`` in the file's length unit; returns shape ``(...)``, from the
-    median norm of the third differences of ``p`` (clips under 4 frames give 0).
+    ``p`` is ``(F, ..., 3)`` in the file's length unit, ``frame_time`` in seconds; returns
+    shape ``(...)`` (clips under 4 frames give 0).
     """
     cols = _columns(p, 3, "positions")
-    sigma = _robust_sigma(np.diff(cols, n=3, axis=0))
-    return (math.sqrt(3.0) * sigma).reshape(np.shape(p)[1:-1])
+    model = _fit(np.diff(cols, axis=0), _check_time(frame_time))
+    level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
+    return (math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(p)[1:-1])
 
 
 def candidates(
@@ -210,99 +205,137 @@ def candidates(
     return out
 
 
-def _trace(mask: np.ndarray, n_frames: int) -> float:
-    """Trace of the vector filter of ``mask`` on ``n_frames`` samples, mirrored boundary
-    (000 Eq. 26) included: ``a_0`` per interior frame; at the ``k`` frames of each end,
-    ``1 + sum_m b_m ([j(i+m) = i-1] - [j(i+m) = i])`` with ``j`` the mirrored index of the
-    displacement ``d_j = p_{j+1} - p_j`` read at position ``i + m``."""
-    b = displacement_coefficients(mask)
-    k = b.size // 2
-    ends = np.unique(np.r_[0 : min(k, n_frames), max(n_frames - k, 0) : n_frames])
-    index = mirror_indices(n_frames - 1, k, k)[ends[:, None] + np.arange(2 * k)]
-    frame = ends[:, None]
-    diag = 1.0 + np.sum(b * ((index == frame - 1).astype(float) - (index == frame)), axis=1)
-    return float(mask[k] * (n_frames - ends.size) + diag.sum())
+def _response(mask: np.ndarray, freqs: np.ndarray) -> np.ndarray:
+    """Frequency response ``A(f) = sum_m a_m cos(2 pi f m)`` of a symmetric mask."""
+    k = mask.size // 2
+    return np.cos(2.0 * np.pi * np.outer(freqs, np.arange(-k, k + 1))) @ mask
 
 
-def _power_spectrum(disp: np.ndarray) -> np.ndarray:
-    """``sum_xyz |DFT|^2`` over one period of the mirrored displacements (000 Eq. 26).
+def _risks(model: NoiseModel, masks: list[np.ndarray], scale: float) -> np.ndarray:
+    """(M + 1, W, C) estimated mean squared error per frame of each mask in each window
+    (row 0: the identity), for noise of spectrum ``N(f)`` (the model, times ``scale^2``).
 
-    ``disp`` is ``(n, C, 3)`` with ``n >= 2``; the mirrored sequence is periodic with period
-    ``P = 2 (n - 1)`` and this is its one-sided power spectrum, shape ``(P/2 + 1, C)``,
-    computed over blocks of columns to bound memory.
+    The filter moves frame ``i`` by ``s_i = sum_m b_m w_{i+m}`` (000 Eq. 19-20), whose
+    spectrum is ``|1 - A(f)|^2 / (2 sin pi f)^2`` times the displacements' (``P``); the
+    error ``s_i + e_i`` has the expected square ``E|s|^2 + sum_f (2 A(f) - 1) N(f)``, the
+    Stein unbiased risk estimate extended to correlated noise (``E[s . e]`` is the noise's
+    autocovariance seen through the mask). Its window estimate:
+    ``sum_f weight_f [|1 - A|^2 / (2 sin pi f)^2 P_w(f) + (2 A - 1) N_w(f)]``.
     """
-    period = mirror_indices(disp.shape[0], 0, disp.shape[0] - 2)
-    out = np.empty((period.size // 2 + 1, disp.shape[1]))
-    step = max(1, SPECTRUM_BLOCK // (period.size * disp.shape[2]))
-    for c0 in range(0, disp.shape[1], step):  # blocks of columns, not single joints
-        spec = np.fft.rfft(disp[period, c0 : c0 + step], axis=0)
-        out[:, c0 : c0 + step] = np.sum(spec.real**2 + spec.imag**2, axis=-1)
+    freqs, weights = model.freqs, model.weights
+    response = np.array([_response(mask, freqs) for mask in masks]).reshape(-1, freqs.size)
+    sine2 = 4.0 * np.sin(np.pi * freqs) ** 2
+    moved = (
+        np.divide((1.0 - response) ** 2, sine2, out=np.zeros_like(response), where=sine2 > 0)
+        * weights
+    )
+    noise = 3.0 * model.sigma2 * scale**2  # (W, C) variance of the 3 components together
+    shape = model.shape()  # (F, C) unit-variance noise spectrum
+    out = np.empty((len(masks) + 1, *noise.shape))
+    out[0] = noise * (weights @ shape)
+    out[1:] = np.einsum("mf,wfc->mwc", moved, model.power)
+    out[1:] += (((2.0 * response - 1.0) * weights) @ shape)[:, None, :] * noise
     return out
 
 
-def _residual_energies(disp: np.ndarray, masks: list[np.ndarray]) -> np.ndarray:
-    """``sum_i |s_i|^2`` per mask and column, ``s_i = sum_m b_m d_{i+m}`` (000 Eq. 19-20).
-
-    ``s_i`` is how far one pass of the mask's filter moves sample ``i`` (its tangent vector
-    for orientations), so this is the residual of every candidate without running it. For
-    a symmetric mask ``b_{-m-1} = -b_m``, so on the mirrored displacements ``s_{1-i} =
-    -s_i`` and ``s_{2F-3-i} = -s_i``: the ``F`` outputs hold half a period of ``|s|^2``
-    plus ``s_1`` and ``s_{F-2}`` once more (``s_0 = -s_1``, ``s_{F-1} = -s_{F-2}``). By
-    Parseval the period's energy is ``(1/P) sum_f |B_f|^2 |D_f|^2``: one FFT of the data,
-    then a matrix product over all masks. ``disp`` is ``(F-1, C, 3)`` with ``F >= 3``;
-    returns ``(len(masks), C)``.
-    """
-    n = disp.shape[0]
-    period = 2 * (n - 1)
-    power = _power_spectrum(disp)
-    weight = np.full(power.shape[0], 2.0)  # one-sided spectrum of a real sequence
-    weight[0] = weight[-1] = 1.0
-    k_max = max(mask.size // 2 for mask in masks)
-    mirrored = mirror_indices(n, k_max, k_max)  # positions -k_max .. n-1+k_max
-    gains = np.empty((len(masks), power.shape[0]))
-    ends = np.empty((len(masks), disp.shape[1]))
-    for row, mask in enumerate(masks):  # loop over candidate masks only
-        b = displacement_coefficients(mask)
+def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np.ndarray:
+    """(F, C, 3) tangent moves ``s_i``: in window ``w`` of column ``c`` the mask
+    ``masks[choice[w, c] - 1]`` (0: none), blended by the windows' Hann tapers, which sum
+    to one on every frame. Each frame's move is then ``sum_m b_m(i) w_{i+m}`` with the
+    blended mask ``b(i)``: a Lee-Shin filter whose mask changes slowly along the clip."""
+    n_frames, n_cols = model.n_frames, disp.shape[1]
+    window, starts = model.window, model.starts
+    _, taper = noise_model.hann_windows(n_frames, window)
+    used = np.unique(choice[choice > 0]).tolist()
+    k_max = max((masks[m - 1].size // 2 for m in used), default=0)
+    pad = window + k_max
+    index = mirror_indices(disp.shape[0], pad, pad + window)
+    moves = np.zeros((3, n_frames * n_cols))
+    for m in used:  # loop over the chosen masks only
+        b = displacement_coefficients(masks[m - 1])
         k = b.size // 2
-        kernel = np.zeros(period)
-        np.add.at(kernel, np.arange(-k, k) % period, b)
-        gains[row] = np.abs(np.fft.rfft(kernel)) ** 2 * weight
-        offsets = np.arange(-k, k) + k_max
-        s_first = np.einsum("k,k...->...", b, disp[mirrored[1 + offsets]])
-        s_last = np.einsum("k,k...->...", b, disp[mirrored[n - 1 + offsets]])
-        ends[row] = np.sum(s_first**2, axis=-1) + np.sum(s_last**2, axis=-1)
-    # einsum, not a matrix product: no threaded BLAS for these small products
-    return np.einsum("mf,fc->mc", gains, power) / (2.0 * period) + ends
+        span = window + 2 * k - 1  # displacement positions starts - k .. starts + window + k - 2
+        size = fast_length(span + 2 * k - 1)
+        kernel = np.fft.rfft(b[::-1], n=size)
+        wins, cols = np.nonzero(choice == m)
+        step = max(1, APPLY_BLOCK // (size * 3))
+        for p0 in range(0, wins.size, step):  # blocks of (window, column) segments
+            w, c = wins[p0 : p0 + step], cols[p0 : p0 + step]
+            rows = starts[w, None] + np.arange(-k, window + k - 1) + pad
+            seg = disp[index[rows], c[:, None]]  # (p, span, 3)
+            full = np.fft.irfft(np.fft.rfft(seg, n=size, axis=1) * kernel[:, None], size, axis=1)
+            part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
+            frames = starts[w, None] + np.arange(window)
+            keep = (frames >= 0) & (frames < n_frames)
+            flat = (frames * n_cols + c[:, None])[keep]
+            for axis in range(3):
+                moves[axis] += np.bincount(
+                    flat, weights=part[..., axis][keep], minlength=moves.shape[1]
+                )
+    return moves.T.reshape(n_frames, n_cols, 3)
 
 
-def _select(x, disp, sigma2, cands, apply: Callable, to_rms: Callable):
-    """Filter each column of ``x`` (F, C, d) by its candidate of least SURE.
+def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple]:
+    """Per column, the stretches (seconds) whose windows are loud (``LOUD_RATIO``)."""
+    quiet = np.quantile(level, 0.25, axis=0)
+    loud = (level > LOUD_RATIO * quiet) & (level > LOUD_FLOOR)
+    hop = model.window // 2
+    out = []
+    for column in loud.T.tolist():  # runs of loud windows, per column (report text only)
+        runs, start = [], None
+        for w, flag in enumerate([*column, False]):
+            if flag and start is None:
+                start = w
+            elif not flag and start is not None:
+                lo = max(0, int(model.starts[start]) + hop // 2)
+                hi = min(model.n_frames, int(model.starts[w - 1]) + 3 * hop // 2)
+                runs.append((round(lo * frame_time, 2), round(hi * frame_time, 2)))
+                start = None
+        out.append(tuple(runs))
+    return out
 
-    ``disp`` are the (F-1, C, 3) displacements of ``x``; ``sigma2`` (C,) the per-component
-    noise variance in the same units. Columns sharing a winner are filtered by one
-    vectorised ``apply(x[:, cols], mask)`` call. Returns the result and the choices.
-    """
-    n_frames = x.shape[0]
-    risk = 3.0 * n_frames * sigma2  # the identity: no residual, trace F
-    winner = np.full(sigma2.shape, -1)
-    out = x.copy()
-    if n_frames >= 3 and np.any(sigma2 > 0) and cands:
-        masks = [mask for _, _, mask in cands]
-        traces = np.array([_trace(mask, n_frames) for mask in masks])
-        sure = _residual_energies(disp, masks) + 3.0 * sigma2 * (2.0 * traces[:, None] - n_frames)
-        best = np.argmin(sure, axis=0)
-        better = (sure[best, np.arange(best.size)] < risk) & (sigma2 > 0)
-        winner = np.where(better, best, -1)
-        risk = np.where(better, sure[best, np.arange(best.size)], risk)
-        for index in np.unique(winner[winner >= 0]).tolist():  # one call per chosen mask
-            cols = np.flatnonzero(winner == index)
-            out[:, cols] = apply(x[:, cols], masks[index])
-    error = to_rms(np.maximum(risk, 0.0) / max(n_frames, 1))
-    choices = [
-        AutoChoice("none", 0, float(e)) if i < 0 else AutoChoice(cands[i][0], cands[i][1], float(e))
-        for i, e in zip(winner.tolist(), error.tolist(), strict=True)
-    ]
-    return out, choices
+
+def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move):
+    """Fit the noise model to ``disp`` (F-1, C, 3), choose per window and column the
+    candidate of least risk, apply the blend with ``move(x, s)``. Returns
+    ``(values, level (C,), choices)``; ``given`` (C,) replaces the model by white noise of
+    that per-component variance."""
+    n_frames, n_cols = x.shape[:2]
+    model = _fit(disp, frame_time)
+    if model is None:
+        return x.copy(), np.zeros(n_cols), [AutoChoice("none", 0, 0.0)] * n_cols
+    if given is not None:
+        model = model._replace(
+            sigma2=np.broadcast_to(given, model.sigma2.shape), rho=np.zeros(n_cols)
+        )
+    masks = [mask for _, _, mask in cands]
+    risk = _risks(model, masks, strength)
+    choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
+    if strength == 0:
+        choice[:] = 0
+    out = x.copy() if not np.any(choice) else move(x, _apply(disp, model, choice, masks))
+    coverage = model.coverage()
+    share = np.zeros((len(masks) + 1, n_cols))
+    np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
+    main = np.argmax(share, axis=0)
+    chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
+    error = to_rms(np.maximum(coverage @ chosen, 0.0) / n_frames)
+    local = to_level(model.sigma2)
+    loud = _loud(local, model, frame_time)
+    choices = []
+    for c, m in enumerate(main.tolist()):
+        family, value = ("none", 0) if m == 0 else cands[m - 1][:2]
+        choices.append(
+            AutoChoice(
+                family,
+                value,
+                float(error[c]),
+                float(share[m, c] / n_frames),
+                float(model.rho[c]),
+                loud[c],
+            )
+        )
+    return out, to_level(model.clip_sigma2()), choices
 
 
 def _check(strength: float, noise, shape) -> np.ndarray | None:
@@ -324,47 +357,52 @@ def auto(
     families: tuple[str, ...] = FAMILIES,
     noise=None,
 ) -> AutoResult:
-    """Clean orientations with a filter chosen per column from the estimated noise.
+    """Clean orientations with filters chosen per column and along the clip from its noise.
 
     Parameters
     ----------
     q : (F, ..., 4) array
         Unit quaternions ``(w, x, y, z)``, time along axis 0 (signs made continuous).
     frame_time : float
-        Seconds per frame; sets the widest candidate mask (``max_seconds``).
+        Seconds per frame; sets the window length, the noise band and the widest mask.
     strength : float
         Multiplies the noise level used for the choice: 0 leaves the clip unchanged,
-        above 1 smooths more. Default 1 (the SURE optimum).
+        above 1 smooths more. Default 1 (the risk optimum).
     max_seconds : float
-        Largest candidate half-width, in seconds (default 1: 120 frames at 120 fps).
+        Largest candidate half-width, in seconds (default 1: 120 frames at 120 fps), never
+        more than the clip's length.
     families : tuple of str
         Mask families to choose from: any of ``"binomial"``, ``"savgol"``, ``"lowpass"``.
     noise : float or array, optional
         Per-sample rotation noise in degrees (RMS rotation angle), broadcast over the
-        columns, used instead of :func:`estimate_noise`.
+        columns: white noise of that level everywhere instead of the fitted model.
 
     Returns
     -------
     AutoResult
         ``(values, noise, choices)``: the cleaned ``(F, ..., 4)`` rotations (a copy when
-        nothing is filtered), the noise level per column in degrees (estimated or given)
-        and one :class:`AutoChoice` per column.
+        nothing is filtered), the noise level per column over the clip in degrees
+        (estimated or given) and one :class:`AutoChoice` per column.
     """
     shape = np.shape(q)[1:-1]
     given = _check(strength, noise, shape)
+    frame_time = _check_time(frame_time)
     cols = quat.make_continuous(_columns(q, 4, "rotations"), axis=0)
-    w = quat.displacements(cols)
-    level = _rotation_noise(w).reshape(shape) if given is None else given
-    sigma = np.radians(level.reshape(-1)) / (2.0 * math.sqrt(3.0)) * strength
-    values, choices = _select(
+    if given is not None:
+        given = (np.radians(given.reshape(-1)) / (2.0 * math.sqrt(3.0))) ** 2
+    values, level, choices = _select(
         cols,
-        w,
-        sigma**2,
+        quat.displacements(cols),
+        frame_time,
+        strength,
+        given,
         candidates(frame_time, max_seconds, families, cols.shape[0]),
-        lee_shin,
+        lambda s2: np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(s2)),
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
+        lambda x, s: quat.multiply(x, quat.exp(s)),
     )
-    return AutoResult(values.reshape(np.shape(q)), np.array(level, dtype=np.float64), choices)
+    level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
+    return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)
 
 
 def auto_positions(
@@ -377,21 +415,26 @@ def auto_positions(
 ) -> AutoResult:
     """Vector counterpart of :func:`auto` on ``(F, ..., 3)`` translations.
 
-    The noise (:func:`estimate_position_noise`, or ``noise`` in length units) and the
-    choice work as in :func:`auto`, with :func:`lee_shin_positions` as the filter and
-    squared distances as residuals; ``expected_error`` is in length units.
+    The noise model (``noise`` in length units replaces it by white noise) and the choice
+    work as in :func:`auto`, moves added to the positions (the vector filter of the blended
+    mask); levels and ``expected_error`` are in length units.
     """
     shape = np.shape(p)[1:-1]
     given = _check(strength, noise, shape)
-    level = estimate_position_noise(p) if given is None else given
+    frame_time = _check_time(frame_time)
     cols = _columns(p, 3, "positions")
-    sigma = level.reshape(-1) / math.sqrt(3.0) * strength
-    values, choices = _select(
+    if given is not None:
+        given = given.reshape(-1) ** 2 / 3.0
+    values, level, choices = _select(
         cols,
         np.diff(cols, axis=0),
-        sigma**2,
+        frame_time,
+        strength,
+        given,
         candidates(frame_time, max_seconds, families, cols.shape[0]),
-        lee_shin_positions,
+        lambda s2: math.sqrt(3.0) * np.sqrt(s2),
         np.sqrt,
+        lambda x, s: x + s,
     )
-    return AutoResult(values.reshape(np.shape(p)), np.array(level, dtype=np.float64), choices)
+    level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
+    return AutoResult(values.reshape(np.shape(p)), np.broadcast_to(level, shape).copy(), choices)

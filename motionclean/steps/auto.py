@@ -11,7 +11,10 @@ def _auto_note(result, column: int, unit: str) -> dict:
     return {
         "noise": float(result.noise.reshape(-1)[column]),
         "unit": unit,
+        "rho": choice.rho,
+        "loud": [list(stretch) for stretch in choice.loud],
         "filter": choice.params(),
+        "share": choice.share,
         "expected_error": choice.expected_error,
     }
 
@@ -45,20 +48,30 @@ def format_choice(chosen: dict) -> str:
 
 
 def _format_note(note: dict, positions: bool) -> str:
-    """What auto found for one joint: the noise estimate, the choice and its expected error."""
+    """What auto found for one joint: the noise (level, correlation, loud stretches), the
+    choice and its expected error."""
     unit = "deg" if note["unit"] == "deg" else "units"
     error = note["expected_error"]
     error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
+    loud = note.get("loud", [])
+    where = ""
+    if loud:
+        shown = ", ".join(f"{a:g}-{b:g} s" for a, b in loud[:3])
+        where = f", loud at {shown}" + (f" and {len(loud) - 3} more" if len(loud) > 3 else "")
+    share = note.get("share", 1.0)
+    along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     return (
-        f"estimated noise {note['noise']:.3g} {unit}; chose {format_choice(note['filter'])}; "
-        f"expected error {error} {unit}"
+        f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
+        f"{where}); chose {format_choice(note['filter'])}{along}; expected error {error} {unit}"
     )
 
 
 STEP = StepSpec(
     name="auto",
-    summary="estimate each joint's noise and pick the Lee-Shin mask and strength for it",
-    paper="000 Eq. 19-20, 23, 26; noise from third differences; choice by SURE",
+    summary="model each joint's noise (level along the clip, AR(1) correlation) and pick "
+    "the Lee-Shin mask and strength for it, window by window",
+    paper="000 Eq. 19-20, 23, 26; AR(1) noise fitted on the displacements' spectrum; "
+    "choice by a risk estimate valid for correlated noise",
     params=(
         Param(
             "strength",

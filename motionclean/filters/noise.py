@@ -1,0 +1,209 @@
+"""Noise model of a captured signal: AR(1) in frequency, a level that changes over time.
+
+A captured orientation is ``y_i = s_i exp(e_i)`` (positions ``y_i = s_i + e_i``): the true
+motion times noise ``e_i`` in ``R^3`` (log units, ``|e|`` = half the rotation angle). Each
+column (joint) has its own noise, modelled per component as a first-order autoregressive
+process, ``e_i = rho e_{i-1} + u_i``, whose variance ``sigma^2(t)`` may change slowly
+along the clip. Its power spectrum (cycles per frame ``f``) is
+
+    S(f) = sigma^2 (1 - rho^2) / |1 - rho exp(-2 pi i f)|^2,
+
+white for ``rho = 0``, concentrated at low frequencies (the jitter of video pose estimators,
+of smoothing trackers) for ``rho > 0``.
+
+**Estimate** (:func:`fit`). The displacements ``w_i = log(y_i^-1 y_{i+1})`` (000 Eq. 12;
+``y_{i+1} - y_i`` for positions) carry the noise with gain ``|2 sin(pi f)|^2`` plus the
+motion's velocity, which at capture rates lives below a few Hz. They are cut into Hann
+windows of ``window_seconds`` (half overlapping, mirrored at the ends by 000 Eq. 26, and
+never longer than the clip), and each window's periodogram is taken over a fast FFT length.
+Above ``BAND_HZ`` (at most 0.3 cycles per frame) the spectrum is the noise's: there ``rho``
+is fitted per column by the Whittle likelihood over all windows (each window with its own
+level), and each window's level is the mean ratio of its periodogram to the fitted shape.
+Below the band the model extrapolates the AR(1) shape: the noise that hides under the motion
+is accounted for, which an estimate from the top of the spectrum alone cannot do.
+
+The level shown to users is the RMS rotation angle of one sample's noise, ``2 sqrt(3) sigma``
+(degrees; ``sqrt(3) sigma`` in length units for positions), per window and over the clip.
+Everything is vectorised over windows and columns; the windows are processed in blocks, so
+the working set is a few times the clip's own size at any length.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from .linear import mirror_indices
+
+__all__ = ["BAND_HZ", "NoiseModel", "WINDOW_SECONDS", "fast_length", "fit", "hann_windows"]
+
+#: Window length of the local estimate and of the local choice, in seconds.
+WINDOW_SECONDS = 2.0
+#: Lower edge of the band where the noise is fitted, in Hz (capped at 0.3 cycles per frame).
+BAND_HZ = 10.0
+#: Highest lower edge of the band, in cycles per frame (Nyquist is 0.5).
+MAX_BAND_EDGE = 0.3
+#: Median of a chi-square variable with 2 d degrees of freedom over 2 d (d = 1, 2, 3): a
+#: periodogram bin of d Gaussian components over its mean.
+CHI2_MEDIAN = {1: 0.6931471805599453, 2: 0.8391734950083306, 3: 0.8913534379078530}
+#: How far the lower band's rho may exceed the upper band's.
+RHO_MARGIN = 0.15
+#: Lower edge of the upper band where the noise's spectral shape (rho) is fitted, in Hz ...
+SHAPE_BAND_HZ = 20.0
+#: ... and at most, in cycles per frame.
+MAX_SHAPE_EDGE = 0.35
+#: Shortest window, in frames: below it a clip is one window (or too short to estimate).
+MIN_WINDOW = 8
+#: AR(1) coefficients tried by the Whittle fit.
+RHO_GRID = np.round(np.arange(-0.5, 0.901, 0.025), 3)
+#: Values (windows x frequencies x columns) of periodogram computed per block.
+BLOCK_VALUES = 1 << 21
+
+
+class NoiseModel(NamedTuple):
+    """What :func:`fit` finds, per column ``c`` and window ``w``.
+
+    ``sigma2`` (W, C): per-component noise variance (log units, or length units squared);
+    ``rho`` (C,): AR(1) coefficient; ``power`` (W, F, C): the windows' periodograms of the
+    displacements (summed over the 3 components, one-sided, weights in ``weights``);
+    ``freqs`` (F,): cycles per frame; ``weights`` (F,): one-sided weights, summing to 1;
+    ``window``: frames per window (even); ``starts`` (W,): first frame of each window;
+    ``n_frames``: frames of the clip.
+    """
+
+    sigma2: np.ndarray
+    rho: np.ndarray
+    power: np.ndarray
+    freqs: np.ndarray
+    weights: np.ndarray
+    window: int
+    starts: np.ndarray
+    n_frames: int
+
+    def shape(self) -> np.ndarray:
+        """(F, C) unit-variance AR(1) spectrum ``S(f) / sigma^2`` of each column's noise."""
+        return ar1_spectrum(self.freqs, self.rho)
+
+    def coverage(self) -> np.ndarray:
+        """(W,) frames of the clip each window stands for (its taper summed inside the clip)."""
+        _, taper = hann_windows(self.n_frames, self.window)
+        frames = self.starts[:, None] + np.arange(self.window)
+        return np.sum(taper * ((frames >= 0) & (frames < self.n_frames)), axis=1)
+
+    def clip_sigma2(self) -> np.ndarray:
+        """(C,) noise variance over the clip: windows weighted by the frames they cover."""
+        return self.coverage() @ self.sigma2 / max(self.n_frames, 1)
+
+
+def fast_length(n: int) -> int:
+    """Smallest ``2^a 3^b 5^c >= n``: an FFT length without large prime factors."""
+    best = 1 << max(0, math.ceil(math.log2(max(n, 1))))
+    five = 1
+    while five < best:
+        odd = five
+        while odd < best:
+            length = odd
+            while length < n:
+                length *= 2
+            best = min(best, length)
+            odd *= 3
+        five *= 5
+    return best
+
+
+def ar1_spectrum(freqs: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """(F, ...) spectrum of a unit-variance AR(1) process: ``(1 - rho^2) / |1 - rho e^{-iw}|^2``."""
+    rho = np.asarray(rho, dtype=np.float64)
+    cos = np.cos(2.0 * np.pi * np.asarray(freqs)).reshape((-1,) + (1,) * rho.ndim)
+    return (1.0 - rho**2) / (1.0 - 2.0 * rho * cos + rho**2)
+
+
+def window_frames(n_frames: int, frame_time: float, window_seconds: float) -> int:
+    """Frames per window: ``window_seconds`` of frames (no more than the clip's length),
+    rounded up to an even FFT-friendly length (:func:`fast_length`)."""
+    wanted = window_seconds / frame_time if frame_time > 0 else math.inf
+    length = fast_length(math.ceil(min(wanted, n_frames + 1, 1e9)))
+    return max(MIN_WINDOW, length + length % 2)
+
+
+def hann_windows(n_frames: int, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Window starts (first frame, from ``-window/2``, hop ``window/2``) and the periodic
+    Hann taper; the tapers of the windows sum to exactly 1 on every frame."""
+    hop = window // 2
+    starts = np.arange(-hop, n_frames, hop)
+    taper = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(window) / window)
+    return starts, taper
+
+
+def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Windowed periodograms of ``disp`` (n, C, d): ``(power (W, F, C), freqs, weights)``.
+
+    Window ``w`` takes the displacements at positions ``starts[w] .. starts[w] + window - 1``
+    (mirrored outside the clip), less their tapered mean (the motion's mean velocity, which
+    no symmetric mask moves), tapered by Hann, over an FFT of :func:`fast_length`. The
+    power is summed over the ``d`` components and normalised so that ``weights @ power`` is
+    the taper-weighted mean square of the window.
+    """
+    n, n_cols = disp.shape[:2]
+    starts, taper = hann_windows(n + 1, window)
+    size = fast_length(window)
+    freqs = np.fft.rfftfreq(size)
+    weights = np.full(freqs.size, 2.0 / size)
+    weights[0] = 1.0 / size
+    if size % 2 == 0:
+        weights[-1] = 1.0 / size
+    index = mirror_indices(n, window, window + 2 * window)  # positions -window .. n + 3 window
+    power = np.empty((starts.size, freqs.size, n_cols))
+    scale = 1.0 / np.sum(taper**2)
+    step = max(1, BLOCK_VALUES // max(1, freqs.size * n_cols * disp.shape[2]))
+    for w0 in range(0, starts.size, step):  # blocks of windows bound the memory
+        rows = starts[w0 : w0 + step, None] + np.arange(window) + window
+        segment = disp[index[rows]]  # (b, window, C, d)
+        segment -= np.einsum("t,btcd->bcd", taper / taper.sum(), segment)[:, None]
+        segment *= taper[:, None, None]
+        spec = np.fft.rfft(segment, n=size, axis=1)
+        power[w0 : w0 + step] = np.sum(spec.real**2 + spec.imag**2, axis=-1) * scale
+    return power, freqs, weights
+
+
+def _whittle_rho(power, weights, shapes, band) -> np.ndarray:
+    """(C,) AR(1) coefficient of least Whittle deviance on ``band``, a level per window."""
+    wb = weights[band] / weights[band].sum()
+    levels = np.einsum("rf,wfc->rwc", wb / shapes[:, band], power[:, band])  # (R, W, C)
+    tiny = np.finfo(np.float64).tiny
+    whittle = np.mean(np.log(np.maximum(levels, tiny)), axis=1)
+    whittle += (np.log(shapes[:, band]) @ wb)[:, None]
+    return RHO_GRID[np.argmin(whittle, axis=0)]
+
+
+def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECONDS) -> NoiseModel:
+    """Fit the noise model (module docstring) to displacements ``disp`` (n, C, d), n >= 1.
+
+    ``d`` is 3 (rotations in log units, or positions); ``frame_time`` in seconds sets the
+    band (``BAND_HZ``) and, with ``window_seconds``, the window length (capped by the clip).
+    """
+    n, n_cols, dim = disp.shape
+    window = window_frames(n + 1, frame_time, window_seconds)
+    power, freqs, weights = periodograms(disp, window)
+    starts, _ = hann_windows(n + 1, window)
+    gain = 4.0 * np.sin(np.pi * freqs) ** 2  # displacement = difference of the noise
+    shapes = gain * ar1_spectrum(freqs, RHO_GRID).T  # (R, F)
+    # rho: Whittle likelihood (each window with its own level) on the band above BAND_HZ,
+    # and on the band above SHAPE_BAND_HZ, which motion hardly reaches; motion leaking into
+    # the lower band can only look like more correlation, so the first may exceed the
+    # second by at most RHO_MARGIN.
+    rho = np.minimum(
+        _whittle_rho(power, weights, shapes, freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)),
+        _whittle_rho(
+            power, weights, shapes, freqs >= min(SHAPE_BAND_HZ * frame_time, MAX_SHAPE_EDGE)
+        )
+        + RHO_MARGIN,
+    ).round(3)
+    # level of each window: median ratio of its periodogram to the shape over the band
+    # (robust to the few bins where motion leaks in), chi-square median corrected
+    band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
+    shape = gain[band, None] * ar1_spectrum(freqs[band], rho)  # (B, C)
+    sigma2 = np.median(power[:, band] / shape, axis=1) / (CHI2_MEDIAN[dim] * dim)
+    return NoiseModel(sigma2, rho, power, freqs, weights, window, starts, n + 1)

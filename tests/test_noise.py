@@ -1,0 +1,70 @@
+"""The noise model: AR(1) shape and level along the clip, fitted on the displacements."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_auto import plant, smooth_synthetic
+
+from motionclean import quat
+from motionclean.filters.noise import fast_length, fit, hann_windows, window_frames
+
+
+def ar1_noise(frames: int, columns: int, rho: float, noise_deg: float, seed: int) -> np.ndarray:
+    """(frames, columns, 3) stationary AR(1) noise, RMS rotation angle ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    sigma = math.radians(noise_deg) / (2 * math.sqrt(3))
+    u = rng.normal(size=(frames, columns, 3)) * math.sqrt(1 - rho**2)
+    e = np.empty_like(u)
+    e[0] = rng.normal(size=(columns, 3))
+    for i in range(1, frames):  # the recursion defines the process (test data only)
+        e[i] = rho * e[i - 1] + u[i]
+    return e * sigma
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5, 0.8])
+def test_fit_recovers_a_planted_ar1_coefficient_and_level(rho):
+    truth = smooth_synthetic(frames=1200, joints=3, seed=4)
+    e = ar1_noise(1200, 3, rho, 3.0, seed=int(10 * rho))
+    noisy = quat.multiply(truth, quat.exp(e))
+    planted = np.degrees(2 * np.sqrt(np.mean(np.sum(e**2, axis=-1), axis=0)))  # this sample's
+    model = fit(quat.displacements(noisy), 1 / 120)
+    np.testing.assert_allclose(model.rho, rho, atol=0.2)  # each joint: 3,600 noisy values
+    assert abs(np.mean(model.rho) - rho) < 0.1
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(model.clip_sigma2()))
+    np.testing.assert_allclose(level, planted, rtol=0.25)
+    assert abs(np.mean(level / planted) - 1) < 0.1
+
+
+def test_fit_follows_a_level_that_changes_along_the_clip():
+    truth = smooth_synthetic(frames=1200, joints=2, seed=5)
+    level = np.where(np.arange(1200) < 600, 0.5, 5.0)[:, None]
+    model = fit(quat.displacements(plant(truth, level, seed=6)), 1 / 120)
+    local = np.degrees(2 * math.sqrt(3) * np.sqrt(model.sigma2))  # (W, C)
+    centre = model.starts + model.window // 2
+    np.testing.assert_allclose(local[centre < 480], 0.5, rtol=0.3)
+    np.testing.assert_allclose(local[centre > 720], 5.0, rtol=0.2)
+
+
+def test_windows_tile_the_clip_and_stay_within_its_length():
+    for frames, frame_time in ((1247, 1 / 120), (300, 1e-6), (50, 1 / 30), (9, 1.0)):
+        window = window_frames(frames, frame_time, 2.0)
+        assert window % 2 == 0 and window <= max(8, fast_length(frames + 1) + 1)
+        starts, taper = hann_windows(frames, window)
+        total = np.zeros(frames + 2 * window)
+        for s in starts:  # the tapers of all windows sum to one on every frame
+            total[s + window : s + 2 * window] += taper
+        np.testing.assert_allclose(total[window : window + frames], 1.0, atol=1e-12)
+
+
+def test_fast_length_has_only_small_prime_factors():
+    for n in (1, 7, 97, 241, 1247, 100_003):
+        length = fast_length(n)
+        assert n <= length < 1.25 * n + 2
+        rest = length
+        for p in (2, 3, 5):
+            while rest % p == 0:
+                rest //= p
+        assert rest == 1
