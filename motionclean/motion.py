@@ -270,7 +270,9 @@ def continuous_euler(
     continues from the last kept sample before it (its anchor): the same Euler solution
     (the one whose middle angle lies on the anchor's side of +-90 degrees), and each angle
     unwrapped by whole turns toward the previous frame's. Changed samples with no kept one
-    before them take the equivalent triple nearest to their own original angles.
+    before them take the equivalent triple nearest to their own original angles, except in
+    repaired flips (more than a quarter turn from the original), which continue by whole
+    turns from the frame before them.
     """
     n_frames = q.shape[0]
     nearest = quat.to_euler(q, order, reference=reference)
@@ -291,5 +293,13 @@ def continuous_euler(
     total = np.cumsum(turns, axis=0)
     total -= total[anchor.clip(0), columns]
     unwrapped = start - 360.0 * total
+    # A repaired flip (a sample turned by more than a quarter turn from its original) has no
+    # meaningful original branch: there the curve continues by whole turns from the frame
+    # before the repaired run.
+    far = quat.angle_between(q, quat.from_euler(reference, order)) > 0.5 * np.pi
+    steps = np.diff(nearest, axis=0, prepend=nearest[:1])
+    turns = np.cumsum(np.where(far[..., None], np.round(steps / 360.0), 0.0), axis=0)
+    before = np.maximum.accumulate(np.where(far, 0, frame), axis=0)  # last frame not repaired
+    nearest = nearest - 360.0 * (turns - turns[before, columns])
     continued = np.where(has_anchor[..., None], unwrapped, nearest)
     return np.where(kept[..., None], reference, continued)

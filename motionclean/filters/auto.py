@@ -287,9 +287,10 @@ def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple
             if flag and start is None:
                 start = w
             elif not flag and start is not None:
-                lo = max(0, int(model.starts[start]) + hop // 2)
+                lo = min(max(0, int(model.starts[start]) + hop // 2), model.n_frames)
                 hi = min(model.n_frames, int(model.starts[w - 1]) + 3 * hop // 2)
-                runs.append((round(lo * frame_time, 2), round(hi * frame_time, 2)))
+                if hi > lo:
+                    runs.append((round(lo * frame_time, 2), round(hi * frame_time, 2)))
                 start = None
         out.append(tuple(runs))
     return out

@@ -50,6 +50,10 @@ MAX_BAND_EDGE = 0.3
 CHI2_MEDIAN = {1: 0.6931471805599453, 2: 0.8391734950083306, 3: 0.8913534379078530}
 #: How far the lower band's rho may exceed the upper band's.
 RHO_MARGIN = 0.15
+#: Upper quartile of the chi law with d degrees of freedom (norm of a standard d-dimensional
+#: normal): robust to events on under a quarter of a window's frames, and a window half
+#: quiet, half loud still reads as loud.
+CHI_QUARTILE = {1: 1.1503493803760083, 2: 1.6651092223153954, 3: 2.026905260645478}
 #: Lower edge of the upper band where the noise's spectral shape (rho) is fitted, in Hz ...
 SHAPE_BAND_HZ = 20.0
 #: ... and at most, in cycles per frame.
@@ -206,4 +210,41 @@ def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECO
     band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
     shape = gain[band, None] * ar1_spectrum(freqs[band], rho)  # (B, C)
     sigma2 = np.median(power[:, band] / shape, axis=1) / (CHI2_MEDIAN[dim] * dim)
-    return NoiseModel(sigma2, rho, power, freqs, weights, window, starts, n + 1)
+    # ... and never above the level read, robustly in time, from the noise's third
+    # differences (the displacements' second): sparse events (a repaired flip, a swing past
+    # gimbal lock) fill a window's spectrum like noise but not the quartile over its frames.
+    return NoiseModel(
+        np.minimum(sigma2, _third_difference_level(disp, window, rho)),
+        rho,
+        power,
+        freqs,
+        weights,
+        window,
+        starts,
+        n + 1,
+    )
+
+
+def _third_difference_level(disp: np.ndarray, window: int, rho: np.ndarray) -> np.ndarray:
+    """(W, C) per-component variance of AR(1) noise ``rho`` from the upper quartile of the
+    norms of the displacements' second differences in each window (chi law with ``d``
+    degrees of freedom; variance gain of the third difference on the AR(1) spectrum)."""
+    n, n_cols, dim = disp.shape
+    starts, _ = hann_windows(n + 1, window)
+    if n < 3:
+        return np.full((starts.size, n_cols), np.inf)
+    norms = np.linalg.norm(np.diff(disp, 2, axis=0), axis=-1)  # (n - 2, C)
+    index = mirror_indices(n - 2, window, 3 * window)
+    out = np.empty((starts.size, n_cols))
+    step = max(1, BLOCK_VALUES // max(1, window * n_cols))
+    for w0 in range(0, starts.size, step):  # blocks of windows bound the memory
+        rows = starts[w0 : w0 + step, None] + np.arange(window) + window - 1
+        out[w0 : w0 + step] = np.quantile(norms[index[rows]], 0.75, axis=1)
+    grid = np.linspace(0.0, 0.5, 2049)
+    gain = (
+        np.trapezoid(
+            (2.0 * np.sin(np.pi * grid))[:, None] ** 6 * ar1_spectrum(grid, rho), grid, axis=0
+        )
+        * 2.0
+    )
+    return (out / CHI_QUARTILE[dim]) ** 2 / gain
