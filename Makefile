@@ -33,6 +33,7 @@ test: lint
 lint: $(STAMP)
 	$(BIN)/ruff check $(SOURCES)
 	$(BIN)/ruff format --check --quiet $(SOURCES)
+	$(BIN)/mypy motionclean
 
 bench: $(VENV)/.bench
 	$(BIN)/python bench/run_all.py

@@ -104,7 +104,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     for name, r in rows:
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
-            removed = 1.0 - r.noise_after / r.noise_before if r.noise_before else 0.0
+            removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
             lines.append(
                 f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
                 f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok"
@@ -220,7 +220,7 @@ def batch_command(
         _write_index(pages, rows, tables, in_dir)
     if not quiet:
         click.echo(format_summary(rows, seconds, workers))
-    raise_failures([r.error for _, r in rows if r.status == "failed"])
+    raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
 
 
 def _write_index(
@@ -243,5 +243,5 @@ def _write_index(
             }
         )
     pages.mkdir(parents=True, exist_ok=True)
-    page = render_index(entries, list(tables), f"motionclean batch: {in_dir}")
-    atomic_write(pages / "index.html", page.encode("utf-8"))
+    index = render_index(entries, list(tables), f"motionclean batch: {in_dir}")
+    atomic_write(pages / "index.html", index.encode("utf-8"))

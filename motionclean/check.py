@@ -115,7 +115,7 @@ def compare(
         rows.append(("frames", base.get("frames"), now.get("frames"), "CHANGED"))
     for key, label, rise_only in FIGURES:
         value, ref = now.get(key), base.get(key)
-        if not isinstance(ref, int | float):
+        if not isinstance(ref, int | float) or value is None:
             rows.append((label, None, value, "CHANGED"))
             continue
         slack = abs(ref) * tolerance + ABSOLUTE
@@ -231,7 +231,7 @@ def check_command(
     tables = tuple(pipeline.describe())
     jobs = [Job(os.fspath(c), None, tables) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
-    failures = [results[i].error for i in range(len(jobs)) if results[i].status == "failed"]
+    failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]
 
     if update:
         raise_failures(failures)  # never write a baseline from a partial run
@@ -244,11 +244,11 @@ def check_command(
             "clips": kept,
         }
         atomic_write(baseline_path, to_json(record))
-        table = [
+        recorded = [
             (k, [(label, None, getattr(results[i], key), "recorded") for key, label, _ in FIGURES])
             for i, k in enumerate(keys)
         ]
-        click.echo(format_check(table, recorded=True))
+        click.echo(format_check(recorded, recorded=True))
         others = len(kept) - len(set(keys))
         click.echo(
             f"baseline written: {baseline_path} ({len(keys)} clips recorded"
@@ -256,7 +256,8 @@ def check_command(
         )
         return
 
-    table, problems = [], list(failures)
+    table: list[tuple[str, list[tuple]]] = []
+    problems = list(failures)
     for i, key in enumerate(keys):
         if results[i].status != "ok":
             continue

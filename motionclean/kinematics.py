@@ -155,7 +155,7 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
     world_p, world_q = _forward_planes(motion.parents, local_q, local_t)
     if end_sites and motion.end_sites:
         joints = np.array(sorted(motion.end_sites), dtype=np.intp)
-        offsets = np.stack([motion.end_sites[j] for j in joints]).astype(np.float64)
+        offsets = np.stack([motion.end_sites[int(j)] for j in joints]).astype(np.float64)
         tips = world_p[:, joints] + _rotate_planes(
             world_q[:, joints], np.broadcast_to(offsets.T[:, :, None], (3, joints.size, n_frames))
         )

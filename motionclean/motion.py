@@ -224,9 +224,17 @@ class Motion:
         except ValueError:
             raise MotionError(f"no joint named {name!r}", self.path) from None
 
+    def source_frames(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(source_values, source_rotations)`` when they still describe this clip's frames,
+        else None."""
+        values, rotations = self.source_values, self.source_rotations
+        if values is None or rotations is None or values.shape[0] != self.n_frames:
+            return None
+        return values, rotations
+
     def has_source_frames(self) -> bool:
         """True when the source values still describe the same frames."""
-        return self.source_values is not None and self.source_values.shape[0] == self.n_frames
+        return self.source_frames() is not None
 
     def channel_values(self) -> np.ndarray:
         """``(F, C)`` channel values for the current motion (degrees, length units).
@@ -238,17 +246,17 @@ class Motion:
         (:func:`continuous_euler`). Otherwise angles are unwrapped along time.
         """
         layout = self.layout
-        same_frames = self.has_source_frames()
-        if same_frames:
-            values = self.source_values.copy()
+        source_frames = self.source_frames()
+        if source_frames is not None:
+            values = source_frames[0].copy()
         else:
             values = np.zeros((self.n_frames, layout.n_channels))
         for order, joints in layout.order_groups().items():
             cols = layout.rotation_columns[joints]
             q = self.rotations[:, joints]
-            if same_frames:
+            if source_frames is not None:
                 reference = values[:, cols]
-                source = self.source_rotations[:, joints]
+                source = source_frames[1][:, joints]
                 kept = np.all(q == source, axis=-1) | np.all(q == -source, axis=-1)
                 angles = continuous_euler(q, order, reference, kept)
             else:

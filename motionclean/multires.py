@@ -104,6 +104,7 @@ class Detail:
     def n_frames(self) -> int:
         """Number of frames ``L`` of the level this map refines."""
         part = self.angular if self.angular is not None else self.linear
+        assert part is not None  # a map holds angular or linear details, or both
         return part.shape[0]
 
 
@@ -137,6 +138,7 @@ class Pyramid:
         if self.details:
             return self.details[0].n_frames
         base = self.rotations if self.rotations is not None else self.positions
+        assert base is not None  # a pyramid holds rotations or positions, or both
         return base.shape[0]
 
 
@@ -452,7 +454,7 @@ def _scaled(level: Detail, g: float) -> Detail:
     )
 
 
-def scale(pyramid: Pyramid, gains: Sequence[float]) -> Pyramid:
+def scale(pyramid: Pyramid, gains: Sequence[float] | np.ndarray) -> Pyramid:
     """Multiply each detail map by its gain (003 Sec. 5.1, enhancement / attenuation).
 
     ``gains[0]`` scales the finest level; levels without an entry keep gain 1. Gains may be
@@ -562,12 +564,17 @@ def _same_shape(q_a, q_b, what: str) -> None:
 
 def _combine(levels: Sequence[Detail], coeffs: Sequence[float]) -> Detail:
     """``sum_k c_k d_k`` of detail maps with identical layout."""
-    ang = lin = None
-    if levels[0].angular is not None:
-        ang = sum(c * lv.angular for c, lv in zip(coeffs, levels, strict=True))
-    if levels[0].linear is not None:
-        lin = sum(c * lv.linear for c, lv in zip(coeffs, levels, strict=True))
-    return Detail(ang, lin, levels[0].phase)
+
+    def weighted(parts: list[np.ndarray | None]) -> np.ndarray | None:
+        if parts[0] is None:
+            return None
+        return np.sum([c * np.asarray(p) for c, p in zip(coeffs, parts, strict=True)], axis=0)
+
+    return Detail(
+        weighted([lv.angular for lv in levels]),
+        weighted([lv.linear for lv in levels]),
+        levels[0].phase,
+    )
 
 
 def blend(
@@ -697,15 +704,17 @@ def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
     n = min(_levels(levels), max_levels(q_a.shape[0]), max_levels(q_b.shape[0]))
     pa = decompose(q_a, n, p_a, align="end")
     pb = decompose(q_b, n, p_b, align="start")
+    assert pa.rotations is not None and pb.rotations is not None
     q0 = _join(pa.rotations, pb.rotations, quat.slerp(pa.rotations[-1], pb.rotations[0], 0.5))
     p0 = None
-    if p_a is not None:
+    if pa.positions is not None and pb.positions is not None:
         p0 = _join(pa.positions, pb.positions, 0.5 * (pa.positions[-1] + pb.positions[0]))
     details = []
     for da, db in zip(pa.details, pb.details, strict=True):
+        assert da.angular is not None and db.angular is not None
         ang = _join(da.angular, db.angular, 0.5 * (da.angular[-1] + db.angular[0]))
         lin = None
-        if da.linear is not None:
+        if da.linear is not None and db.linear is not None:
             lin = _join(da.linear, db.linear, 0.5 * (da.linear[-1] + db.linear[0]))
         details.append(Detail(ang, lin, da.phase))
     return reconstruct(Pyramid(q0, p0, tuple(details)))

@@ -41,7 +41,7 @@ class Step:
 
     def describe(self) -> dict:
         """The step as a plain dict (report and TOML form), defaults filled in."""
-        out = {"filter": self.spec.name}
+        out: dict[str, Any] = {"filter": self.spec.name}
         names = self.spec.relevant(self.params) if self.spec.relevant else tuple(self.params)
         out.update({k: v for k, v in self.params.items() if v is not None and k in names})
         out["joints"] = list(self.joints)
@@ -260,8 +260,8 @@ def _run_step(step: Step, motion: Motion) -> tuple[Motion, StepLog]:
     """One step on ``motion``, whose arrays the pipeline owns and may change in place."""
     unmatched = unmatched_patterns(motion.names, step.joints)
     if step.spec.run_motion is not None:
-        result, notes = step.spec.run_motion(motion, step.params)
-        return result, StepLog(step, list(motion.names), [], notes, unmatched)
+        result, whole_notes = step.spec.run_motion(motion, step.params)
+        return result, StepLog(step, list(motion.names), [], whole_notes, unmatched)
     assert step.spec.run is not None
     layout = motion.layout
     chosen = select_joints(motion.names, step.joints)

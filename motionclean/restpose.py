@@ -67,11 +67,9 @@ def trim(motion: Motion, lead: int, trail: int) -> Motion:
         return motion
     rows = slice(lead, motion.n_frames - trail)
     source = {}
-    if motion.has_source_frames():
-        source = {
-            "source_values": motion.source_values[rows],
-            "source_rotations": motion.source_rotations[rows],
-        }
+    frames = motion.source_frames()
+    if frames is not None:
+        source = {"source_values": frames[0][rows], "source_rotations": frames[1][rows]}
     return motion.replace(
         rotations=motion.rotations[rows], translations=motion.translations[rows], **source
     )

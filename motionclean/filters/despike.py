@@ -807,7 +807,7 @@ def despike_with_report(
     if not 90.0 < flip_deg <= 180.0:
         raise ValueError(f"flip_deg must be in (90, 180] degrees, got {flip_deg}")
     q = checks.unit_quaternions(q)
-    out, *masks_and_steps = _repair(
+    out, flipped, interpolated, jump, before, after = _repair(
         _columns(q),
         frame_time,
         True,
@@ -819,7 +819,8 @@ def despike_with_report(
         method,
         np.deg2rad(flip_deg) if unflip else None,
     )
-    return out.reshape(q.shape), _report(q.shape, *masks_and_steps, np.rad2deg)
+    report = _report(q.shape, flipped, interpolated, jump, before, after, np.rad2deg)
+    return out.reshape(q.shape), report
 
 
 def despike(q: np.ndarray, frame_time: float, **params) -> np.ndarray:
@@ -863,7 +864,7 @@ def despike_positions_with_report(
         "units",
     )
     p = checks.vectors(p)
-    out, *masks_and_steps = _repair(
+    out, flipped, interpolated, jump, before, after = _repair(
         _columns(p),
         frame_time,
         False,
@@ -875,7 +876,8 @@ def despike_positions_with_report(
         method,
         None,
     )
-    return out.reshape(p.shape), _report(p.shape, *masks_and_steps, np.asarray)
+    report = _report(p.shape, flipped, interpolated, jump, before, after, np.asarray)
+    return out.reshape(p.shape), report
 
 
 def despike_positions(p: np.ndarray, frame_time: float, **params) -> np.ndarray:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
@@ -71,7 +72,7 @@ class BvhText:
         return cls(b"", text.hierarchy, b"", 0, empty, empty, text.frame_time, text.eol)
 
 
-def _fail(message: str, path, line: int | None = None):
+def _fail(message: str, path, line: int | None = None) -> NoReturn:
     raise MotionError(message, path, None if line is None else int(line))
 
 
@@ -358,13 +359,12 @@ def _format_hierarchy(motion: Motion) -> bytes:
 
 def _unchanged(motion: Motion) -> bool:
     """True when rotations and translations are bit for bit the ones read."""
-    if not motion.has_source_frames() or motion.source_rotations is None:
-        return False
-    if not np.array_equal(motion.rotations, motion.source_rotations):
+    frames = motion.source_frames()
+    if frames is None or not np.array_equal(motion.rotations, frames[1]):
         return False
     cols = motion.layout.position_columns
     has = cols >= 0
-    return np.array_equal(motion.translations[:, has], motion.source_values[:, cols[has]])
+    return np.array_equal(motion.translations[:, has], frames[0][:, cols[has]])
 
 
 def format_bvh(motion: Motion) -> bytes:
@@ -393,12 +393,17 @@ def format_bvh(motion: Motion) -> bytes:
         and src.n_frames == motion.n_frames > 0
         and src.starts.shape[1] == motion.layout.n_channels
     )
-    if same_frames and same_frame_time and _unchanged(motion):
+    if src is not None and same_frames and same_frame_time and _unchanged(motion):
         return src.raw
     values = motion.channel_values()
     check_finite(motion, values)
-    keep_header = same_frame_time and bool(src.motion_header) and src.n_frames == motion.n_frames
-    if keep_header:
+    keep_header = (
+        src is not None
+        and same_frame_time
+        and bool(src.motion_header)
+        and src.n_frames == motion.n_frames
+    )
+    if src is not None and keep_header:
         motion_header = src.motion_header
     else:
         motion_header = (
@@ -412,8 +417,9 @@ def format_bvh(motion: Motion) -> bytes:
         )
     if motion.n_frames == 0:
         return hierarchy + motion_header
-    if same_frames:
-        changed = np.abs(values - motion.source_values) > UNCHANGED_TOLERANCE
+    frames = motion.source_frames()
+    if src is not None and frames is not None and same_frames:
+        changed = np.abs(values - frames[0]) > UNCHANGED_TOLERANCE
         if not changed.any() and same_frame_time:
             return src.raw
         new = values[changed]

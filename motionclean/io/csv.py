@@ -63,6 +63,7 @@ from __future__ import annotations
 import csv as _csv
 import io as _io
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
@@ -116,7 +117,7 @@ class CsvText:
         )
 
 
-def _fail(message: str, path, line: int | None = None):
+def _fail(message: str, path, line: int | None = None) -> NoReturn:
     raise MotionError(message, path, None if line is None else int(line))
 
 
@@ -458,7 +459,7 @@ def _rigid_motion(
         )
     unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
     rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
-    channels = [RIGID_CHANNELS] * len(bodies)
+    channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
     text = CsvText(
         "rigid",
         data,
@@ -571,7 +572,8 @@ def _format_channel(motion: Motion) -> bytes:
     check_finite(motion, values)
     n_frames, n_channels = values.shape
     src = motion.source
-    same = motion.has_source_frames() and motion.source_values.shape[1] == n_channels
+    frames = motion.source_frames()
+    same = frames is not None and frames[0].shape[1] == n_channels
     if isinstance(src, CsvText) and src.layout == "channel" and src.matches(motion) and same:
         mask = np.zeros(src.starts.shape, dtype=bool)
         mask[:, src.columns] = values != motion.source_values

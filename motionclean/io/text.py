@@ -59,8 +59,8 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
         before = gap[-1]
     if before == 0:  # a token runs to the end of the buffer
         edges.append(np.array([buf.size]))
-    edges = np.concatenate(edges) if edges else np.zeros(0, dtype=np.intp)
-    return edges[0::2], edges[1::2]
+    flat = np.concatenate(edges) if edges else np.zeros(0, dtype=np.intp)
+    return flat[0::2], flat[1::2]
 
 
 def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):

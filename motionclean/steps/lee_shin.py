@@ -25,6 +25,12 @@ class MaskKind:
     build: Callable[[dict, float | None], np.ndarray]
 
 
+def _rate(fps: float | None) -> float:
+    if fps is None:
+        raise ValueError("mask=lowpass needs the clip's frame rate")
+    return fps
+
+
 MASK_KINDS = {
     kind.name: kind
     for kind in (
@@ -40,7 +46,7 @@ MASK_KINDS = {
         MaskKind(
             "lowpass",
             ("cutoff_hz", "half_width"),
-            lambda p, fps: design.lowpass(p["cutoff_hz"], fps, p["half_width"]),
+            lambda p, fps: design.lowpass(p["cutoff_hz"], _rate(fps), p["half_width"]),
         ),
         MaskKind("reduction", (), lambda p, fps: masks.reduction()),
         MaskKind("custom", ("coefficients",), lambda p, fps: masks.custom(p["coefficients"])),
