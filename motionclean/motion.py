@@ -29,6 +29,10 @@ KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
 UNCHANGED_TOLERANCE = 1e-9
 
 
+#: Quaternion components closer than this to the ones read count as unchanged (rounding).
+SAME_ROTATION = 1e-12
+
+
 @dataclass(frozen=True)
 class ChannelLayout:
     """Where each joint's channels sit in a frame row of ``C`` values.
@@ -241,9 +245,10 @@ class Motion:
 
         Rotations go back to Euler angles in each joint's own channel order. Where the
         source values describe the same frames, samples whose quaternion did not change (up
-        to sign: ``q`` and ``-q`` are the same rotation) keep their original values bit for
-        bit, and changed ones continue the curve from the last unchanged frame
-        (:func:`continuous_euler`). Otherwise angles are unwrapped along time.
+        to sign: ``q`` and ``-q`` are the same rotation; within :data:`SAME_ROTATION` per
+        component, rounding) keep their original values bit for bit, and changed ones
+        continue the curve from the last unchanged frame (:func:`continuous_euler`).
+        Otherwise angles are unwrapped along time.
         """
         layout = self.layout
         source_frames = self.source_frames()
@@ -257,7 +262,9 @@ class Motion:
             if source_frames is not None:
                 reference = values[:, cols]
                 source = source_frames[1][:, joints]
-                kept = np.all(q == source, axis=-1) | np.all(q == -source, axis=-1)
+                kept = (np.abs(q - source).max(axis=-1) < SAME_ROTATION) | (
+                    np.abs(q + source).max(axis=-1) < SAME_ROTATION
+                )
                 angles = continuous_euler(q, order, reference, kept)
             else:
                 angles = np.unwrap(quat.to_euler(q, order), period=360.0, axis=0)
@@ -275,39 +282,32 @@ def continuous_euler(
 
     ``reference`` holds the original angles and ``kept`` ``(F, J)`` marks the samples that
     did not change; those keep their original angles bit for bit. A run of changed samples
-    continues from the last kept sample before it (its anchor): the same Euler solution
-    (the one whose middle angle lies on the anchor's side of +-90 degrees), and each angle
-    unwrapped by whole turns toward the previous frame's. Changed samples with no kept one
-    before them take the equivalent triple nearest to their own original angles, except in
-    repaired flips (more than a quarter turn from the original), which continue by whole
-    turns from the frame before them.
+    continues from the sample before it (its anchor: a kept sample, the first frame, or a
+    frame that turns more than 90 degrees from the one before; a changed anchor is written
+    as the equivalent triple nearest to its original angles): the same Euler
+    solution (the one whose middle angle lies on the anchor's side of +-90 degrees), each
+    angle unwrapped by whole turns toward the previous frame's.
     """
-    n_frames = q.shape[0]
     nearest = quat.to_euler(q, order, reference=reference)
-    frame = np.arange(n_frames)[:, None]
-    anchor = np.maximum.accumulate(np.where(kept, frame, -1), axis=0)  # (F, J)
-    has_anchor = anchor >= 0
+    frame = np.arange(q.shape[0])[:, None]
+    # The chain restarts where the rotation itself turns by more than a quarter turn in one
+    # frame (a cut, or data that is no motion): there is no curve to continue.
+    leap = np.zeros(kept.shape, dtype=bool)
+    leap[1:] = quat.angle_between(q[:-1], q[1:]) > np.pi / 2
+    is_anchor = kept | (frame == 0) | leap
+    anchor_values = np.where(kept[..., None], reference, nearest)
+    anchor = np.maximum.accumulate(np.where(is_anchor, frame, 0), axis=0)  # (F, J)
     columns = np.arange(q.shape[1])[None, :]
-    anchor_angles = reference[anchor.clip(0), columns]  # (F, J, 3)
+    anchor_angles = anchor_values[anchor, columns]  # (F, J, 3)
     principal = quat.to_euler(q, order)
     flipped = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
     other = principal + [180.0, 0.0, 180.0]
     other[..., 1] = 180.0 - principal[..., 1]
     candidate = np.where(flipped[..., None], other, principal)
     # Unwrap by whole turns within each run, starting from the anchor's angles.
-    start = np.where(kept[..., None], reference, candidate)
+    start = np.where(is_anchor[..., None], anchor_values, candidate)
     step = np.diff(start, axis=0, prepend=start[:1])
-    turns = np.where(kept[..., None], 0.0, np.round(step / 360.0))
+    turns = np.where(is_anchor[..., None], 0.0, np.round(step / 360.0))
     total = np.cumsum(turns, axis=0)
-    total -= total[anchor.clip(0), columns]
-    unwrapped = start - 360.0 * total
-    # A repaired flip (a sample turned by more than a quarter turn from its original) has no
-    # meaningful original branch: there the curve continues by whole turns from the frame
-    # before the repaired run.
-    far = quat.angle_between(q, quat.from_euler(reference, order)) > 0.5 * np.pi
-    steps = np.diff(nearest, axis=0, prepend=nearest[:1])
-    turns = np.cumsum(np.where(far[..., None], np.round(steps / 360.0), 0.0), axis=0)
-    before = np.maximum.accumulate(np.where(far, 0, frame), axis=0)  # last frame not repaired
-    nearest = nearest - 360.0 * (turns - turns[before, columns])
-    continued = np.where(has_anchor[..., None], unwrapped, nearest)
-    return np.where(kept[..., None], reference, continued)
+    total -= total[anchor, columns]
+    return np.where(is_anchor[..., None], anchor_values, start - 360.0 * total)
