@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from . import __version__
+from .html_world import world_section
 from .report import format_rest, noisiest, note_text
 
 __all__ = ["envelope", "render_html", "render_index"]
@@ -391,6 +392,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
         f"<details><summary>Figures of all {len(names)} joints, noisiest first"
         f"</summary>{tables}</details>"
     )
+    body += world_section(report, series)
     body += _feet_section(report, series)
     if series is None:
         body.append('<p class="note">No time series were given: plots left out.</p>')

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from . import metrics
+from .html_world import world_series
 from .metrics import pair, rms_and_max
 from .motion import Motion
 from .restpose import rest_frames, trim
@@ -56,6 +57,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         "contacts": contacts,
         "feet": feet,
         "rest_frames": rest_frames(before),
+        "world": world_series(before, after),
     }
 
 
