@@ -68,3 +68,11 @@ def test_fast_length_has_only_small_prime_factors():
             while rest % p == 0:
                 rest //= p
         assert rest == 1
+
+
+def test_at_30_fps_the_noise_is_taken_as_white_and_its_level_found():
+    truth = smooth_synthetic(frames=400, joints=3, seed=7)
+    model = fit(quat.displacements(plant(truth, 2.0, seed=8)), 1 / 30)
+    assert np.all(model.rho == 0.0)
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(model.clip_sigma2()))
+    np.testing.assert_allclose(level, 2.0, rtol=0.2)

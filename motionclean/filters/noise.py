@@ -18,9 +18,15 @@ windows of ``window_seconds`` (half overlapping, mirrored at the ends by 000 Eq.
 never longer than the clip), and each window's periodogram is taken over a fast FFT length.
 Above ``BAND_HZ`` (at most 0.3 cycles per frame) the spectrum is the noise's: there ``rho``
 is fitted per column by the Whittle likelihood over all windows (each window with its own
-level), and each window's level is the mean ratio of its periodogram to the fitted shape.
-Below the band the model extrapolates the AR(1) shape: the noise that hides under the motion
-is accounted for, which an estimate from the top of the spectrum alone cannot do.
+level), no more than ``RHO_MARGIN`` above the fit on the band above ``SHAPE_BAND_HZ``, which
+motion hardly reaches (motion leaking into a band looks like correlation); below about
+57 fps even that band holds motion and the noise is taken as white. Each window's level is
+the median ratio of its periodogram to the fitted shape over the band (robust to the bins
+where motion leaks in), and no more than the level read from the upper quartile of the
+noise's third differences over the window's frames (robust to sparse events: a repaired
+flip fills a window's spectrum, not a quarter of its frames). Below the band the model
+extrapolates the AR(1) shape: the noise that hides under the motion is accounted for,
+which an estimate from the top of the spectrum alone cannot do.
 
 The level shown to users is the RMS rotation angle of one sample's noise, ``2 sqrt(3) sigma``
 (degrees; ``sqrt(3) sigma`` in length units for positions), per window and over the clip.
@@ -54,9 +60,9 @@ RHO_MARGIN = 0.15
 #: normal): robust to events on under a quarter of a window's frames, and a window half
 #: quiet, half loud still reads as loud.
 CHI_QUARTILE = {1: 1.1503493803760083, 2: 1.6651092223153954, 3: 2.026905260645478}
-#: Lower edge of the upper band where the noise's spectral shape (rho) is fitted, in Hz ...
+#: Lower edge of the upper band where the noise's spectral shape (rho) is fitted, in Hz; at
+#: frame rates where it lies above MAX_SHAPE_EDGE cycles per frame the noise is taken as white.
 SHAPE_BAND_HZ = 20.0
-#: ... and at most, in cycles per frame.
 MAX_SHAPE_EDGE = 0.35
 #: Shortest window, in frames: below it a clip is one window (or too short to estimate).
 MIN_WINDOW = 8
@@ -198,13 +204,14 @@ def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECO
     # and on the band above SHAPE_BAND_HZ, which motion hardly reaches; motion leaking into
     # the lower band can only look like more correlation, so the first may exceed the
     # second by at most RHO_MARGIN.
-    rho = np.minimum(
-        _whittle_rho(power, weights, shapes, freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)),
-        _whittle_rho(
-            power, weights, shapes, freqs >= min(SHAPE_BAND_HZ * frame_time, MAX_SHAPE_EDGE)
-        )
-        + RHO_MARGIN,
-    ).round(3)
+    # Below about 57 fps even the upper band holds motion: the noise is taken as white.
+    if SHAPE_BAND_HZ * frame_time > MAX_SHAPE_EDGE:
+        rho = np.zeros(n_cols)
+    else:
+        rho = np.minimum(
+            _whittle_rho(power, weights, shapes, freqs >= BAND_HZ * frame_time),
+            _whittle_rho(power, weights, shapes, freqs >= SHAPE_BAND_HZ * frame_time) + RHO_MARGIN,
+        ).round(3)
     # level of each window: median ratio of its periodogram to the shape over the band
     # (robust to the few bins where motion leaks in), chi-square median corrected
     band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
