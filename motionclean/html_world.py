@@ -111,7 +111,7 @@ def _static_frame(series: dict, frame: int, axes: tuple[int, int]) -> str:
     clips = [("before", series["before"], BEFORE)]
     if series["after"] is not None:
         clips.append(("after", series["after"], AFTER))
-    span = FIGURE_SPAN * series["height"]
+    span = max(FIGURE_SPAN * series["height"], 1e-9)
     here = series["before"][frame][:, axes]
     low = (here.min(axis=0) + here.max(axis=0)) / 2 - span / 2
     for label, points, colour in clips:
