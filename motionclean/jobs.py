@@ -83,8 +83,12 @@ def clean_clip(
         Path(target).parent.mkdir(parents=True, exist_ok=True)
         save(after, target)
     series = build_series(before, after)
+    described = pipeline.describe()
+    for entry, log in zip(described, logs, strict=True):
+        if log.touched is not None:
+            entry["touched"] = list(log.touched)
     report = build_report(
-        before, after, pipeline.describe(), notes_by_joint(logs), os.fspath(source), series=series
+        before, after, described, notes_by_joint(logs), os.fspath(source), series=series
     )
     return CleanedClip(before, after, logs, report, series)
 

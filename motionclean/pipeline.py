@@ -22,6 +22,7 @@ import numpy as np
 
 from .errors import MotionError, UsageError
 from .motion import Motion
+from .ranges import FrameRange, blend_positions, blend_rotations, weights
 from .restpose import rest_frames, splice, trim
 from .steps import COMMON_PARAMS, REGISTRY, StepData, StepSpec
 
@@ -38,6 +39,7 @@ class Step:
     params: dict
     joints: tuple[str, ...]
     positions: bool
+    span: FrameRange | None = None
 
     def describe(self) -> dict:
         """The step as a plain dict (report and TOML form), defaults filled in."""
@@ -46,6 +48,8 @@ class Step:
         out.update({k: v for k, v in self.params.items() if v is not None and k in names})
         out["joints"] = list(self.joints)
         out["positions"] = self.positions
+        if self.span is not None:
+            out.update(self.span.describe())
         return out
 
 
@@ -75,18 +79,24 @@ def make_step(table: dict, where: str) -> Step:
         params.setdefault(param.name, param.default)
     joints = tuple(params.pop("joints", ["*"]))
     positions = params.pop("positions", spec.positions_default)
+    span = FrameRange.from_params(
+        params.pop("frames", None), params.pop("seconds", None), params.pop("blend", 5), where
+    )
+    if span is not None and spec.run_motion is not None:
+        raise UsageError(f"{where}: this step changes the whole clip; it takes no frame range")
     if spec.resolve is not None:
         spec.resolve(params, where)
     if spec.relevant is not None:
         used = spec.relevant(params)
-        unused = [key for key in table if key not in used and key not in ("joints", "positions")]
+        common = {p.name for p in COMMON_PARAMS}
+        unused = [key for key in table if key not in used and key not in common]
         if unused:
             raise UsageError(
                 f"{where}: {unused[0]!r} is not used with "
                 + ", ".join(f"{k}={params[k]}" for k in used if isinstance(params[k], str))
                 + f"; it takes {', '.join(k for k in used if not isinstance(params[k], str))}"
             )
-    return Step(spec, params, joints, positions)
+    return Step(spec, params, joints, positions, span)
 
 
 def parse_value(text: str) -> Any:
@@ -166,6 +176,7 @@ class StepLog:
     translation_joints: list[str]
     notes: dict[str, dict]
     unmatched: list[str]  # include patterns that matched no joint of this clip
+    touched: tuple[int, int] | None = None  # frames a ranged step changed, blends included
 
 
 @dataclass
@@ -237,7 +248,7 @@ class Pipeline:
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
             try:
-                current, log = _run_step(step, current)
+                current, log = _run_step(step, current, lead, motion.n_frames, motion.path)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -256,8 +267,14 @@ class Pipeline:
         return splice(motion, current, lead, trail), logs
 
 
-def _run_step(step: Step, motion: Motion) -> tuple[Motion, StepLog]:
-    """One step on ``motion``, whose arrays the pipeline owns and may change in place."""
+def _run_step(
+    step: Step, motion: Motion, offset: int, file_frames: int, path: str | None
+) -> tuple[Motion, StepLog]:
+    """One step on ``motion``, whose arrays the pipeline owns and may change in place.
+
+    ``motion`` starts at frame ``offset`` of a file of ``file_frames`` frames (rest-pose
+    frames left out); a step's frame range counts the file's frames.
+    """
     unmatched = unmatched_patterns(motion.names, step.joints)
     if step.spec.run_motion is not None:
         result, whole_notes = step.spec.run_motion(motion, step.params)
@@ -276,9 +293,24 @@ def _run_step(step: Step, motion: Motion) -> tuple[Motion, StepLog]:
         translation_joints=pos_idx,
     )
     data = step.spec.run(data, step.params)
-    motion.rotations[:, rot_idx] = data.rotations
-    if data.translations is not None:
-        motion.translations[:, pos_idx] = data.translations
+    touched = None
+    if step.span is None:
+        motion.rotations[:, rot_idx] = data.rotations
+        if data.translations is not None:
+            motion.translations[:, pos_idx] = data.translations
+    else:
+        where = f"{path}: step ({step.spec.name})" if path else f"step ({step.spec.name})"
+        first, last = step.span.frame_span(file_frames, motion.frame_time, where)
+        share = weights(motion.n_frames, first - offset, last - offset, step.span.blend)
+        motion.rotations[:, rot_idx] = blend_rotations(
+            motion.rotations[:, rot_idx], data.rotations, share
+        )
+        if data.translations is not None:
+            motion.translations[:, pos_idx] = blend_positions(
+                motion.translations[:, pos_idx], data.translations, share
+            )
+        moved = np.flatnonzero(share > 0.0) + offset
+        touched = (int(moved[0]), int(moved[-1])) if moved.size else None
     notes: dict[str, dict] = {}
     for column, note in data.rotation_notes.items():
         notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
@@ -287,7 +319,8 @@ def _run_step(step: Step, motion: Motion) -> tuple[Motion, StepLog]:
             {f"position_{k}": v for k, v in note.items()}
         )
     rotated = [motion.names[i] for i in rot_idx]
-    return motion, StepLog(step, rotated, [motion.names[i] for i in pos_idx], notes, unmatched)
+    moved_joints = [motion.names[i] for i in pos_idx]
+    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
 
 
 #: The default pipeline (README, "Default pipeline").

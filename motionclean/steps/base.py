@@ -147,6 +147,22 @@ class StepSpec:
 COMMON_PARAMS = (
     Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
     Param("positions", "bool", True, "also filter translation channels (vector counterpart)"),
+    Param(
+        "frames",
+        "floats",
+        None,
+        "apply only to frames [first, last] (0-based, inclusive); elsewhere the input is kept",
+        minimum=0.0,
+    ),
+    Param("seconds", "floats", None, "the same range in seconds from the first frame", minimum=0.0),
+    Param(
+        "blend",
+        "int",
+        5,
+        "frames on each side of a range over which the result eases in and out (slerp)",
+        minimum=0,
+        maximum=100000,
+    ),
 )
 
 
