@@ -250,7 +250,7 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np
     k_max = max((masks[m - 1].size // 2 for m in used), default=0)
     pad = window + k_max
     index = mirror_indices(disp.shape[0], pad, pad + window)
-    moves = np.zeros((3, n_frames * n_cols))
+    moves = np.zeros((n_frames * n_cols, 3))
     for m in used:  # loop over the chosen masks only
         b = displacement_coefficients(masks[m - 1])
         k = b.size // 2
@@ -269,10 +269,10 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np
             keep = (frames >= 0) & (frames < n_frames)
             flat = (frames * n_cols + c[:, None])[keep]
             for axis in range(3):
-                moves[axis] += np.bincount(
-                    flat, weights=part[..., axis][keep], minlength=moves.shape[1]
+                moves[:, axis] += np.bincount(
+                    flat, weights=part[..., axis][keep], minlength=moves.shape[0]
                 )
-    return moves.T.reshape(n_frames, n_cols, 3)
+    return moves.reshape(n_frames, n_cols, 3)
 
 
 def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple]:
@@ -339,6 +339,15 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move)
     return out, to_level(model.clip_sigma2()), choices
 
 
+def _move_rotations(q: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """``q_i exp(s_i)`` (000 Eq. 19), in blocks of frames so the temporaries stay small."""
+    out = np.empty_like(q)
+    step = max(1, APPLY_BLOCK // max(1, q[0].size))
+    for f0 in range(0, q.shape[0], step):  # blocks of frames, not single frames
+        out[f0 : f0 + step] = quat.multiply(q[f0 : f0 + step], quat.exp(s[f0 : f0 + step]))
+    return out
+
+
 def _check(strength: float, noise, shape) -> np.ndarray | None:
     if not (math.isfinite(strength) and strength >= 0):
         raise ValueError(f"strength must be a non-negative number, got {strength}")
@@ -400,7 +409,7 @@ def auto(
         candidates(frame_time, max_seconds, families, cols.shape[0]),
         lambda s2: np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(s2)),
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
-        lambda x, s: quat.multiply(x, quat.exp(s)),
+        _move_rotations,
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)

@@ -240,7 +240,11 @@ def _third_difference_level(disp: np.ndarray, window: int, rho: np.ndarray) -> n
     starts, _ = hann_windows(n + 1, window)
     if n < 3:
         return np.full((starts.size, n_cols), np.inf)
-    norms = np.linalg.norm(np.diff(disp, 2, axis=0), axis=-1)  # (n - 2, C)
+    norms = np.empty((n - 2, n_cols))
+    step = max(1, BLOCK_VALUES // max(1, n_cols * dim))
+    for i0 in range(0, n - 2, step):  # blocks of frames bound the memory
+        d = disp[i0 : i0 + step + 2]
+        norms[i0 : i0 + step] = np.linalg.norm(d[2:] - 2.0 * d[1:-1] + d[:-2], axis=-1)
     index = mirror_indices(n - 2, window, 3 * window)
     out = np.empty((starts.size, n_cols))
     step = max(1, BLOCK_VALUES // max(1, window * n_cols))
