@@ -19,7 +19,9 @@ never longer than the clip), and each window's periodogram is taken over a fast 
 Above ``BAND_HZ`` (at most 0.3 cycles per frame) the spectrum is the noise's: there ``rho``
 is fitted per column by the Whittle likelihood over all windows (each window with its own
 level), no more than ``RHO_MARGIN`` above the fit on the band above ``SHAPE_BAND_HZ``, which
-motion hardly reaches (motion leaking into a band looks like correlation); below about
+motion hardly reaches (motion leaking into a band looks like correlation; this narrower fit
+also weighs the evidence of all the clip's joints, as one capture system shapes their noise
+alike); below about
 57 fps even that band holds motion and the noise is taken as white. Each window's level is
 the median ratio of its periodogram to the fitted shape over the band (robust to the bins
 where motion leaks in), and no more than the level read from the upper quartile of the
@@ -178,13 +180,18 @@ def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray,
     return power, freqs, weights
 
 
-def _whittle_rho(power, weights, shapes, band) -> np.ndarray:
+def _whittle_rho(power, weights, shapes, band, pool=None) -> np.ndarray:
     """(C,) AR(1) coefficient of least Whittle deviance on ``band``, a level per window."""
     wb = weights[band] / weights[band].sum()
     levels = np.einsum("rf,wfc->rwc", wb / shapes[:, band], power[:, band])  # (R, W, C)
     tiny = np.finfo(np.float64).tiny
     whittle = np.mean(np.log(np.maximum(levels, tiny)), axis=1)
     whittle += (np.log(shapes[:, band]) @ wb)[:, None]
+    if pool is not None:
+        # each joint's evidence, plus as much again from all the joints of the clip (one
+        # capture system shapes all its joints' noise alike), weighted by ``pool`` (C,),
+        # their power in the band, so that joints without noise count for little
+        whittle += (whittle @ pool / max(float(pool.sum()), tiny))[:, None]
     return RHO_GRID[np.argmin(whittle, axis=0)]
 
 
@@ -208,9 +215,11 @@ def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECO
     if SHAPE_BAND_HZ * frame_time > MAX_SHAPE_EDGE:
         rho = np.zeros(n_cols)
     else:
+        upper = freqs >= SHAPE_BAND_HZ * frame_time
+        pool = np.einsum("f,wfc->c", weights[upper], power[:, upper])
         rho = np.minimum(
             _whittle_rho(power, weights, shapes, freqs >= BAND_HZ * frame_time),
-            _whittle_rho(power, weights, shapes, freqs >= SHAPE_BAND_HZ * frame_time) + RHO_MARGIN,
+            _whittle_rho(power, weights, shapes, upper, pool) + RHO_MARGIN,
         ).round(3)
     # level of each window: median ratio of its periodogram to the shape over the band
     # (robust to the few bins where motion leaks in), chi-square median corrected
