@@ -9,6 +9,7 @@ file atomically, keeps going when a clip fails, and exits 1 naming each failure.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -70,11 +71,33 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
             continue
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{folder}: {option} must be a folder")
+
         if _inside(folder.resolve(), source):
             raise UsageError(
                 f"{folder}: {option} is inside the input folder {in_dir}; "
                 "batch never writes there, choose a folder outside it"
             )
+    for option, folder in (("-o", out_dir), ("--report-dir", report_dir)):
+        if folder is None:
+            continue
+        try:  # once, up front: a folder that cannot be made fails no clip after clip
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise UsageError(f"{folder}: cannot create {option}: {error.strerror}") from None
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``) stops the run as Ctrl-C does: no new clips, workers shut down."""
+
+    def interrupt(signum, frame) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
@@ -209,7 +232,7 @@ def batch_command(
 
     workers = min(jobs or default_workers(), max(len(work), 1))
     start = time.perf_counter()
-    with _progress(len(work)) as advance:
+    with _progress(len(work)) as advance, _sigterm_as_interrupt():
         for index, result in run_jobs(work, workers):
             results[work_names[index]] = result
             advance(work_names[index])

@@ -23,7 +23,15 @@ from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
 from .io import atomic_write, load, save
 from .io.world_csv import format_world_csv
-from .jobs import blend_clips, check_compatible, clean_clip, stitch_clips, write_report
+from .jobs import (
+    blend_clips,
+    check_compatible,
+    clean_clip,
+    render_report,
+    stitch_clips,
+    write_outputs,
+    write_report,
+)
 from .options import (
     PIPE_OPTION,
     STEP_OPTION,
@@ -216,7 +224,9 @@ def clean(
         check_report_output(report_path)
     if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
         raise UsageError("--report names the same file twice")
-    result = clean_clip(source, output, pipeline)
+    result = clean_clip(source, None, pipeline)
+    reports = {r: render_report(result.report, r, result.series) for r in report_paths}
+    write_outputs(result.after, _write_target(output), reports)
     for number, log in enumerate(result.logs, 1):
         for pattern in log.unmatched:
             click.echo(
@@ -224,10 +234,15 @@ def clean(
                 f"joints pattern {pattern!r} matches no joint",
                 err=True,
             )
-    for report_path in report_paths:
-        write_report(result.report, Path(report_path), result.series)
     if not quiet:
         click.echo(format_table(result.report))
+
+
+def _write_target(output: str) -> str:
+    """Where ``clean`` writes: through a symbolic link to the file it names (``--in-place``
+    on a link updates the real file and keeps the link)."""
+    path = Path(output)
+    return str(path.resolve()) if path.is_symlink() else output
 
 
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")

@@ -42,14 +42,37 @@ __all__ = [
 ]
 
 
+def render_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> bytes:
+    """A report's file content: JSON for ``.json``, else the HTML page (``series`` feeds its
+    plots)."""
+    if Path(path).suffix.lower() == ".json":
+        return to_json(report)
+    return render_html(report, series).encode("utf-8")
+
+
 def write_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> None:
-    """Write a report atomically: JSON for ``.json``, else the HTML page; ``series`` feeds
-    the HTML plots."""
-    path = Path(path)
-    if path.suffix.lower() == ".json":
-        atomic_write(path, to_json(report))
-    else:
-        atomic_write(path, render_html(report, series).encode("utf-8"))
+    """Write a report atomically (see :func:`render_report`)."""
+    atomic_write(path, render_report(report, path, series))
+
+
+def write_outputs(
+    clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes]
+) -> None:
+    """Write the cleaned clip and its reports, everything or nothing: every report is
+    rendered before anything is written, and a clip whose report cannot be written is
+    removed again (unless it replaced the input in place, which cannot be undone)."""
+    existed = target is not None and Path(target).exists()
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(clip, target)
+    try:
+        for path, data in reports.items():
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(path, data)
+    except BaseException:
+        if target is not None and not existed:
+            Path(target).unlink(missing_ok=True)
+        raise
 
 
 @dataclass
@@ -75,13 +98,11 @@ def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
 def clean_clip(
     source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
 ) -> CleanedClip:
-    """Load ``source``, run ``pipeline``, write ``target`` (atomically; its folder is
-    created) unless it is None, and compute the report and its time series."""
+    """Load ``source``, run ``pipeline``, compute the report and its time series, and write
+    ``target`` (atomically; its folder is created) unless it is None. Nothing is written
+    when the report cannot be made."""
     before = load(source)
     after, logs = pipeline.run(before)
-    if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(after, target)
     series = build_series(before, after)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
@@ -90,6 +111,9 @@ def clean_clip(
     report = build_report(
         before, after, described, notes_by_joint(logs), os.fspath(source), series=series
     )
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(after, target)
     return CleanedClip(before, after, logs, report, series)
 
 
@@ -190,10 +214,11 @@ def clean_file(
     try:
         if not isinstance(pipeline, Pipeline):
             pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        result = clean_clip(job.source, job.target, pipeline)
+        result = clean_clip(job.source, None, pipeline)
+        pages = {}
         if job.report is not None:
-            Path(job.report).parent.mkdir(parents=True, exist_ok=True)
-            write_report(result.report, job.report, result.series)
+            pages[job.report] = render_report(result.report, job.report, result.series)
+        write_outputs(result.after, job.target, pages)
     except Exception as error:
         return _failure(job.source, job.target, error, start)
     return _success(result, job, start)

@@ -9,11 +9,16 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import threading
+import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
 from .jobs import FileResult, Job, run_job
+
+#: How often a worker checks that its parent is still there, seconds.
+PARENT_POLL_S = 0.5
 
 
 def default_workers() -> int:
@@ -24,9 +29,18 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-def _ignore_sigint() -> None:
-    """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips."""
+def _worker_setup(parent: int) -> None:
+    """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips;
+    a worker whose parent is gone (killed, even with SIGKILL) exits within a second instead
+    of holding the caller's pipes open."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="motionclean-parent-watch").start()
 
 
 def _size(path: str) -> int:
@@ -56,7 +70,10 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
         return
     order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
     executor = ProcessPoolExecutor(
-        max_workers=min(workers, len(jobs)), mp_context=_context(), initializer=_ignore_sigint
+        max_workers=min(workers, len(jobs)),
+        mp_context=_context(),
+        initializer=_worker_setup,
+        initargs=(os.getpid(),),
     )
     pending = {executor.submit(run_job, jobs[i]): i for i in order}
     try:

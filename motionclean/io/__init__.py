@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
+from .. import checks
 from ..errors import MotionError
 from ..motion import Motion
 from . import bvh, csv
@@ -35,23 +40,55 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     """
     path = Path(path)
     suffix = _suffix(path, _READERS)
-    if not path.exists():
-        raise MotionError("no such file", path)
-    if path.is_dir():
-        raise MotionError("is a directory, not a clip", path)
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise MotionError(f"cannot read: {error.strerror}", path) from None
+    data = read_regular_file(path)
     if suffix == ".csv":
         return csv.parse_csv(data, path, skeleton=skeleton)
     return _READERS[suffix](data, path)
 
 
+def read_regular_file(path: Path) -> bytes:
+    """The bytes of a regular file, never more than its size when opened.
+
+    FIFOs, devices and sockets are refused (reading one could block forever or never end),
+    and so is a file that grows while it is read. Every failure is a one-line MotionError.
+    """
+    try:
+        # Open without blocking (a FIFO would wait for a writer), then check what was opened.
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(descriptor, "rb") as f:
+            info = os.fstat(f.fileno())
+            if stat.S_ISDIR(info.st_mode):
+                raise MotionError("is a directory, not a clip", path)
+            if not stat.S_ISREG(info.st_mode):
+                raise MotionError("not a regular file (a pipe, device or socket)", path)
+            data = f.read(info.st_size + 1)
+    except IsADirectoryError:
+        raise MotionError("is a directory, not a clip", path) from None
+    except FileNotFoundError:
+        what = "a broken symbolic link" if path.is_symlink() else "no such file"
+        raise MotionError(what, path) from None
+    except PermissionError:
+        raise MotionError("permission denied", path) from None
+    except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise MotionError("a loop of symbolic links", path) from None
+        raise MotionError(f"cannot read: {error.strerror or error}", path) from None
+    if len(data) > info.st_size:
+        raise MotionError("the file grew while it was read; read it once it is complete", path)
+    return data
+
+
 def save(motion: Motion, path: str | os.PathLike) -> None:
-    """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``)."""
+    """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``).
+
+    Rotations must be finite unit quaternions and translations finite (ValueError naming
+    the first bad sample otherwise): a zero or scaled quaternion has no Euler angles.
+    """
     path = Path(path)
     write = _WRITERS[_suffix(path, _WRITERS)]
+    if not isinstance(motion, Motion):
+        raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
+    _check_unit(motion)
     try:
         data = write(motion)
     except MotionError as error:
@@ -59,6 +96,23 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
             raise
         raise MotionError(error.message, path) from None
     atomic_write(path, data)
+
+
+def _check_unit(motion: Motion) -> None:
+    """ValueError unless every finite rotation of a rotating joint is a unit quaternion
+    (non-finite values are the writer's one-line MotionError, with the joint and frame)."""
+    rotating = np.flatnonzero(motion.layout.has_rotation)
+    q = motion.rotations[:, rotating]
+    with np.errstate(over="ignore", invalid="ignore"):
+        norms = np.sqrt(np.einsum("...i,...i->...", q, q))
+    bad = np.isfinite(norms) & (np.abs(norms - 1.0) > checks.UNIT_TOLERANCE)
+    if bad.any():
+        frame, column = (int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(
+            f"rotations: joint {motion.names[rotating[column]]!r} at frame {frame} is not a "
+            f"unit quaternion (norm {norms[frame, column]:.6g}); normalise with "
+            "motionclean.quat.normalize"
+        )
 
 
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:

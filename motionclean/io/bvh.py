@@ -72,6 +72,11 @@ class BvhText:
         return cls(b"", text.hierarchy, b"", 0, empty, empty, text.frame_time, text.eol)
 
 
+#: Frame times outside these (seconds) give rates no capture has: refused.
+MIN_FRAME_TIME = 1e-6
+MAX_FRAME_TIME = 3600.0
+
+
 def _fail(message: str, path, line: int | None = None) -> NoReturn:
     raise MotionError(message, path, None if line is None else int(line))
 
@@ -84,6 +89,8 @@ def _decode(raw: bytes, path, line: int) -> str:
 
 
 def _number(token: str, what: str, path, line: int) -> float:
+    if not token.isascii() or "_" in token:  # float() takes '1_000' and Unicode digits
+        _fail(f"{what} is not a number: {token[:40]!r}", path, line)
     try:
         value = float(token)
     except ValueError:
@@ -91,6 +98,11 @@ def _number(token: str, what: str, path, line: int) -> float:
     if not math.isfinite(value):
         _fail(f"{what} is not finite: {token[:40]!r}", path, line)
     return value
+
+
+def _ascii_digits(token: str) -> bool:
+    """A non-negative integer in ASCII digits (``str.isdigit`` also takes '²' and '٣')."""
+    return token.isascii() and token.isdigit()
 
 
 class _Lines:
@@ -174,6 +186,8 @@ def _parse_hierarchy(lines: _Lines, path):
             name = text[len(keyword) :].strip()
             if not name:
                 _fail(f"{keyword} without a name", path, number)
+            if "\x00" in name:
+                _fail(f"joint name {name[:40]!r} holds a NUL byte", path, number)
             if keyword == "ROOT" and stack:
                 _fail("ROOT inside another joint", path, number)
             if keyword == "JOINT" and (not stack or stack[-1][0] != "joint"):
@@ -220,8 +234,10 @@ def _parse_hierarchy(lines: _Lines, path):
         elif keyword == "CHANNELS":
             if not stack or stack[-1][0] != "joint":
                 _fail("CHANNELS outside a joint", path, number)
-            if len(tokens) < 2 or not tokens[1].isdigit():
+            if len(tokens) < 2 or not _ascii_digits(tokens[1]):
                 _fail("CHANNELS needs a count followed by channel names", path, number)
+            if channels[stack[-1][1]]:
+                _fail(f"a second CHANNELS line for joint {names[stack[-1][1]]!r}", path, number)
             count, listed = int(tokens[1]), tokens[2:]
             if count != len(listed):
                 _fail(f"CHANNELS says {count} but names {len(listed)}", path, number)
@@ -244,7 +260,7 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
     if item is None or item[2][0] != "Frames:" or len(item[2]) != 2:
         _fail("expected 'Frames: N' after MOTION", path, lines.number)
     number, _, tokens, _ = item
-    if not tokens[1].isdigit():
+    if not _ascii_digits(tokens[1]):
         _fail(f"frame count is not a non-negative integer: {tokens[1][:40]!r}", path, number)
     n_frames = int(tokens[1])
     item = lines.next_tokens()
@@ -254,6 +270,19 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
     frame_time = _number(tokens[2], "Frame Time", path, number)
     if frame_time <= 0:
         _fail(f"Frame Time must be positive, got {tokens[2][:40]}", path, number)
+    if not (math.isfinite(1.0 / frame_time) and frame_time < MAX_FRAME_TIME):
+        _fail(
+            f"Frame Time {tokens[2][:40]} s gives no usable frame rate "
+            f"(expected between {1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            path,
+            number,
+        )
+    if frame_time < MIN_FRAME_TIME:
+        _fail(
+            f"Frame Time {tokens[2][:40]} s is a rate over {1.0 / MIN_FRAME_TIME:g} fps",
+            path,
+            number,
+        )
     return n_frames, frame_time
 
 

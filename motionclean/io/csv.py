@@ -70,7 +70,7 @@ import numpy as np
 from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion
-from .bvh import BOM, BvhText
+from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
 from .text import check_finite, join_rows, pack_texts, parse_numbers, scan_tokens, splice
 
 #: Column suffixes of a rigid body, in the order they are written.
@@ -252,8 +252,9 @@ def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | No
             path,
             int(lines[0]),
         )
-    steps = np.diff(times)
-    back = np.flatnonzero(steps <= 0)
+    with np.errstate(over="ignore", invalid="ignore"):  # +-1e308 spans: refused below
+        steps = np.diff(times)
+    back = np.flatnonzero(~(steps > 0))
     if back.size:
         i = back[0] + 1
         _fail(
@@ -266,7 +267,15 @@ def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | No
         np.abs(times - times[0] - grid * template) <= TIME_TOLERANCE * template
     ):
         return template
-    mean = (times[-1] - times[0]) / (n - 1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mean = (times[-1] - times[0]) / (n - 1)
+    if not (MIN_FRAME_TIME <= mean < MAX_FRAME_TIME):
+        _fail(
+            f"a time step of {mean:.6g} s gives no usable frame rate (expected between "
+            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            path,
+            int(lines[1]),
+        )
     off = np.abs(steps - mean) > TIME_TOLERANCE * mean
     if off.any():
         i = np.flatnonzero(off)[0] + 1
@@ -293,17 +302,19 @@ def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | No
 def _channel_skeleton(entries, path, line):
     """Joint names and channel tuples, in column order, from channel column entries."""
     names: list[str] = []
+    seen: set[str] = set()  # a set: a header of 100,000 columns is read in linear time
     channels: list[list[str]] = []
     columns: list[int] = []
     for name, suffix, k in entries:
         if not names or names[-1] != name:
-            if name in names:
+            if name in seen:
                 _fail(
                     f"bad header: the columns of joint {name[:60]!r} are not next to each other",
                     path,
                     line,
                 )
             names.append(name)
+            seen.add(name)
             channels.append([])
         channels[-1].append(suffix)
         columns.append(k)

@@ -128,8 +128,10 @@ def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
 def bad_number_message(what: str, token: bytes) -> str:
     text = token.decode("utf-8", "replace")[:40]
     try:
-        float(text)
+        value = float(text)
     except ValueError:
+        return f"{what} is not a number: {text!r}"
+    if "_" in text or not text.isascii() or math.isfinite(value):  # '1_000', '١': no numbers
         return f"{what} is not a number: {text!r}"
     return f"{what} is not finite: {text!r}"
 

@@ -1,0 +1,156 @@
+"""Hostile input and environments: never a hang, a traceback, a partial output or a silently
+wrong value; one line `motionclean: error: FILE: what is wrong`."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
+
+import motionclean as mc
+from motionclean import quat
+from motionclean.errors import MotionError
+from motionclean.jobs import write_outputs
+
+
+def one_error_line(err: str, fragment: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("motionclean: error: ") and fragment in lines[0]
+
+
+def test_a_fifo_or_device_is_refused_without_blocking(tmp_path, capsys):
+    fifo = tmp_path / "x.bvh"
+    os.mkfifo(fifo)
+    code, _, err = run_cli(capsys, "info", fifo)
+    assert code == 1
+    one_error_line(err, "not a regular file")
+    zero = tmp_path / "zero.bvh"
+    zero.symlink_to("/dev/zero")
+    code, _, err = run_cli(capsys, "info", zero)
+    assert code == 1
+    one_error_line(err, "not a regular file")
+
+
+def test_a_fifo_inside_a_batch_folder_fails_that_clip_only(tmp_path, capsys):
+    source = tmp_path / "in"
+    cut_bvh(SAMPLE, source / "good.bvh", 40)
+    os.mkfifo(source / "pipe.bvh")
+    code, _, err = run_cli(capsys, "batch", source, "-o", tmp_path / "out", "-j", "1", "-q")
+    assert code == 1 and "pipe.bvh: not a regular file" in err
+    assert (tmp_path / "out" / "good.bvh").exists() and not (tmp_path / "out" / "pipe.bvh").exists()
+
+
+def test_links_that_lead_nowhere_say_so(tmp_path, capsys):
+    (tmp_path / "a.bvh").symlink_to(tmp_path / "b.bvh")
+    (tmp_path / "b.bvh").symlink_to(tmp_path / "a.bvh")
+    (tmp_path / "gone.bvh").symlink_to(tmp_path / "missing.bvh")
+    assert run_cli(capsys, "info", tmp_path / "a.bvh")[0] == 1
+    one_error_line(
+        capsys.readouterr().err or run_cli(capsys, "info", tmp_path / "a.bvh")[2],
+        "loop of symbolic links",
+    )
+    code, _, err = run_cli(capsys, "info", tmp_path / "gone.bvh")
+    assert code == 1
+    one_error_line(err, "a broken symbolic link")
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads every file; permissions cannot be denied")
+def test_an_unreadable_file_is_a_data_error(tmp_path, capsys):
+    clip = cut_bvh(SAMPLE, tmp_path / "c.bvh", 20)
+    clip.chmod(0)
+    code, _, err = run_cli(capsys, "info", clip)
+    assert code == 1
+    one_error_line(err, "permission denied")
+
+
+def test_save_refuses_rotations_that_are_not_unit_quaternions(tmp_path):
+    clip = mc.load(SAMPLE)
+    for bad in (np.zeros(4), np.array([2.0, 0.0, 0.0, 0.0])):
+        rotations = clip.rotations.copy()
+        rotations[5, 3] = bad
+        with pytest.raises(ValueError, match=rf"joint '{clip.names[3]}' at frame 5 is not a unit"):
+            mc.save(clip.replace(rotations=rotations), tmp_path / "o.bvh")
+    assert not (tmp_path / "o.bvh").exists()
+    with pytest.raises(TypeError, match="save takes a Motion, got dict"):
+        mc.save({}, tmp_path / "o.bvh")
+
+
+def test_a_huge_quaternion_is_the_rotation_it_points_to():
+    q = quat.normalize(np.array([1e200, 1e200, 0.0, 0.0]))
+    assert np.degrees(quat.angle(q)) == pytest.approx(90.0)
+
+
+def test_clean_in_place_through_a_link_updates_the_real_file(tmp_path, capsys):
+    real = cut_bvh(SAMPLE, tmp_path / "real.bvh", 60)
+    link = tmp_path / "link.bvh"
+    link.symlink_to(real)
+    before = real.read_bytes()
+    code, _, err = run_cli(capsys, "clean", link, "--in-place", "-q", "-f", "lee-shin:k=3")
+    assert code == 0, err
+    assert link.is_symlink() and real.read_bytes() != before
+
+
+def test_a_report_that_cannot_be_written_leaves_no_clip(tmp_path, capsys):
+    (tmp_path / "r.html").mkdir()  # the report path is a folder: refused before any work
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "--report", tmp_path / "r.html")
+    assert code in (1, 2) and not out.exists()
+    one_error_line(err, "r.html")
+    # and when writing a report fails after the clip was written, the clip goes again
+    clip = mc.load(SAMPLE)
+    with pytest.raises(MotionError, match="is a directory"):
+        write_outputs(clip, out, {str(tmp_path / "r.html"): b"<html>"})
+    assert not out.exists()
+
+
+def test_an_output_folder_that_cannot_be_made_is_refused_once_up_front(tmp_path, capsys):
+    source = tmp_path / "in"
+    for name in ("a", "b", "c"):
+        cut_bvh(SAMPLE, source / f"{name}.bvh", 20)
+    (tmp_path / "file").write_text("not a folder")
+    code, _, err = run_cli(capsys, "batch", source, "-o", tmp_path / "file" / "out")
+    assert code == 2
+    one_error_line(err, "cannot create -o")
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
+    source = tmp_path / "in"
+    for k in range(12):
+        cut_bvh(SAMPLE, source / f"c{k}.bvh", 300)
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).parent / "motionclean"),
+            "batch",
+            str(source),
+            "-o",
+            str(tmp_path / "o"),
+            "-j",
+            "2",
+            "-f",
+            "fairing:max_iterations=3000,tol=0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    time.sleep(3.0)
+    children = subprocess.run(
+        ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
+    ).stdout.split()
+    process.send_signal(signal.SIGTERM)
+    try:
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 130 and b"interrupted" in err
+    time.sleep(1.5)
+    alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")]
+    assert children and not alive
