@@ -32,11 +32,12 @@ from ..motion import (
     Motion,
 )
 from .text import (
+    MAX_MAGNITUDE,
     bad_number_message,
     check_finite,
     format_fixed6,
     join_rows,
-    parse_numbers,
+    parse_values,
     scan_tokens,
     splice,
 )
@@ -97,6 +98,12 @@ def _number(token: str, what: str, path, line: int) -> float:
         _fail(f"{what} is not a number: {token[:40]!r}", path, line)
     if not math.isfinite(value):
         _fail(f"{what} is not finite: {token[:40]!r}", path, line)
+    if abs(value) > MAX_MAGNITUDE:
+        _fail(
+            f"{what} is out of range (more than {MAX_MAGNITUDE:g} in size): {token[:40]!r}",
+            path,
+            line,
+        )
     return value
 
 
@@ -308,7 +315,7 @@ def _parse_rows(
         )
     if row_lines.size > n_frames:
         _fail(f"more frame rows than Frames: {n_frames}", path, first_line + row_lines[n_frames])
-    values, bad_token = parse_numbers(buf, starts, ends)
+    values, bad_token = parse_values(buf, starts, ends)
     if bad_token >= 0:
         token = buf[starts[bad_token] : ends[bad_token]].tobytes()
         _fail(

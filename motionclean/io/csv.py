@@ -62,6 +62,7 @@ from __future__ import annotations
 
 import csv as _csv
 import io as _io
+import math
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -71,7 +72,15 @@ from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion
 from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
-from .text import check_finite, join_rows, pack_texts, parse_numbers, scan_tokens, splice
+from .text import (
+    MAX_MAGNITUDE,
+    check_finite,
+    join_rows,
+    pack_texts,
+    parse_values,
+    scan_tokens,
+    splice,
+)
 
 #: Column suffixes of a rigid body, in the order they are written.
 RIGID_SUFFIXES = ("px", "py", "pz", "qw", "qx", "qy", "qz")
@@ -228,12 +237,16 @@ def _parse_body(data: bytes, body_start: int, n_columns: int, first_line: int, p
             path,
             first_line + token_line[wrong[0] + 1],
         )
-    values, bad_token = parse_numbers(buf, starts, ends)
+    values, bad_token = parse_values(buf, starts, ends)
     if bad_token >= 0:
         text = buf[starts[bad_token] : ends[bad_token]].tobytes().decode("utf-8", "replace")[:40]
         try:
-            float(text)
-            problem = "is not finite"
+            value = float(text)
+            problem = (
+                "is not finite"
+                if not math.isfinite(value)
+                else f"is out of range (over {MAX_MAGNITUDE:g})"
+            )
         except ValueError:
             problem = "is not a number"
         _fail(f"value {text!r} {problem}", path, first_line + token_line[bad_token])

@@ -63,6 +63,11 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     return flat[0::2], flat[1::2]
 
 
+#: Largest accepted magnitude of a value in a clip (degrees or length units): anything
+#: larger is no capture and would overflow the arithmetic downstream.
+MAX_MAGNITUDE = 1e12
+
+
 def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
     """Convert the tokens ``buf[starts[i]:ends[i]]`` to float64, exactly like ``float``.
 
@@ -92,6 +97,14 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
             break
         values[i] = value
     return values, bad
+
+
+def parse_values(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+    """:func:`parse_numbers` for a clip's values: also the first token beyond
+    :data:`MAX_MAGNITUDE` is bad."""
+    values, bad = parse_numbers(buf, starts, ends)
+    huge = np.flatnonzero(np.abs(values[: bad if bad >= 0 else values.size]) > MAX_MAGNITUDE)
+    return values, int(huge[0]) if huge.size else bad
 
 
 def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
@@ -131,8 +144,10 @@ def bad_number_message(what: str, token: bytes) -> str:
         value = float(text)
     except ValueError:
         return f"{what} is not a number: {text!r}"
-    if "_" in text or not text.isascii() or math.isfinite(value):  # '1_000', '١': no numbers
+    if "_" in text or not text.isascii():  # '1_000', '١': float() takes them, no numbers here
         return f"{what} is not a number: {text!r}"
+    if math.isfinite(value):
+        return f"{what} is out of range (more than {MAX_MAGNITUDE:g} in size): {text!r}"
     return f"{what} is not finite: {text!r}"
 
 

@@ -1,0 +1,91 @@
+"""A seeded mutation fuzzer over the sample clips: whatever the bytes, the command line either
+succeeds with a readable output or fails with exactly one error line and no output."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
+
+import motionclean as mc
+
+CASES = 600
+TOKENS = [
+    b"nan",
+    b"inf",
+    b"-1e309",
+    b"1e308",
+    b"",
+    b"x",
+    b"\x00",
+    b"\xff\xfe",
+    b"1_0",
+    b"\xd9\xa3",
+    b"{",
+    b"}",
+    b"JOINT",
+    b"End Site",
+    b"CHANNELS 3",
+    b"Frames: 99999999999",
+    b"-0",
+    b"\r",
+]
+
+
+def mutate(data: bytes, rng: np.random.Generator) -> bytes:
+    """One to three random edits: replace, insert or delete bytes, tokens or whole lines."""
+    for _ in range(int(rng.integers(1, 4))):
+        kind = int(rng.integers(6))
+        at = int(rng.integers(0, max(len(data), 1)))
+        if kind == 0:  # flip a byte
+            data = data[:at] + bytes([int(rng.integers(256))]) + data[at + 1 :]
+        elif kind == 1:  # insert a token
+            data = data[:at] + TOKENS[int(rng.integers(len(TOKENS)))] + data[at:]
+        elif kind == 2:  # truncate
+            data = data[:at]
+        elif kind == 3:  # drop a line
+            lines = data.split(b"\n")
+            del lines[int(rng.integers(len(lines)))]
+            data = b"\n".join(lines)
+        elif kind == 4:  # repeat a line
+            lines = data.split(b"\n")
+            k = int(rng.integers(len(lines)))
+            lines.insert(k, lines[k])
+            data = b"\n".join(lines)
+        else:  # replace a whitespace-separated token
+            parts = data.split(b" ")
+            parts[int(rng.integers(len(parts)))] = TOKENS[int(rng.integers(len(TOKENS)))]
+            data = b" ".join(parts)
+    return data
+
+
+@pytest.fixture(scope="module")
+def seeds(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fuzz")
+    clip = cut_bvh(SAMPLE, folder / "seed.bvh", 12).read_bytes()
+    mc.save(mc.load(folder / "seed.bvh"), folder / "seed.csv")
+    return {".bvh": clip, ".csv": (folder / "seed.csv").read_bytes()}
+
+
+@pytest.mark.parametrize("chunk", range(4))
+def test_mutated_clips_succeed_or_fail_with_one_line(seeds, chunk, tmp_path, capsys):
+    rng = np.random.default_rng(1000 + chunk)
+    outcomes = {"ok": 0, "refused": 0}
+    for case in range(CASES // 4):
+        suffix = ".bvh" if case % 3 else ".csv"
+        source = tmp_path / f"in{case}{suffix}"
+        source.write_bytes(mutate(seeds[suffix], rng))
+        out = tmp_path / f"out{case}{suffix}"
+        code, _, err = run_cli(capsys, "clean", source, "-o", out, "-q", "-f", "lee-shin:k=1")
+        if code == 0:
+            assert err == "" or err.startswith("motionclean: warning:"), err
+            mc.load(out)  # what was written reads back
+            outcomes["ok"] += 1
+        else:
+            lines = err.strip().splitlines()
+            assert code in (1, 2), (source.read_bytes()[:200], err)
+            assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), err
+            assert "internal error" not in err, (source.read_bytes()[:300], err)
+            assert not out.exists()
+            outcomes["refused"] += 1
+    assert outcomes["ok"] and outcomes["refused"]  # the mutations reach both outcomes
