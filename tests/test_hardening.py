@@ -154,3 +154,20 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
     time.sleep(1.5)
     alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")]
     assert children and not alive
+
+
+@pytest.mark.parametrize("name", ["a\rb", "line\nbreak", 'q"uote,comma', "x" * 3_000_000])
+def test_any_joint_name_survives_a_csv_round_trip(name, tmp_path):
+    clip = mc.load(SAMPLE)
+    names = list(clip.names)
+    names[3] = name
+    renamed = clip.replace(names=names, source=None, source_values=None, source_rotations=None)
+    mc.save(renamed, tmp_path / "c.csv")
+    assert mc.load(tmp_path / "c.csv").names == names
+
+
+def test_a_clip_too_short_for_a_csv_is_refused_up_front(tmp_path, capsys):
+    one = cut_bvh(SAMPLE, tmp_path / "one.bvh", 1)
+    code, _, err = run_cli(capsys, "convert", one, tmp_path / "one.csv")
+    assert code == 1 and not (tmp_path / "one.csv").exists()
+    one_error_line(err, "a CSV needs at least two frames")

@@ -139,21 +139,27 @@ def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
     number = 0
     while pos < len(data):
         end = data.find(b"\n", pos)
+        while end >= 0 and data.count(b'"', pos, end) % 2:  # a newline inside quotes
+            end = data.find(b"\n", end + 1)
         end = len(data) if end < 0 else end + 1
-        number += 1
         line = data[pos:end]
+        number += 1 + line.count(b"\n", 0, max(len(line) - 1, 0))  # the header's last line
         pos = end
         if line.strip():
             try:
                 text = line.decode("utf-8")
             except UnicodeDecodeError:
                 _fail("not a text file (bytes that are not UTF-8)", path, number)
-            try:
+            limit = _csv.field_size_limit()
+            try:  # a field may be as long as the line (a joint name of megabytes)
+                _csv.field_size_limit(max(limit, len(text) + 1))
                 fields = next(
                     _csv.reader([text.rstrip("\r\n")], strict=True, skipinitialspace=True)
                 )
             except _csv.Error as error:
                 _fail(f"bad header: {error}", path, number)
+            finally:
+                _csv.field_size_limit(limit)
             return [f.strip() for f in fields], number, pos
     _fail("empty file", path)
 
@@ -523,9 +529,10 @@ def format_repr(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def _header(fields: list[str], eol: bytes) -> bytes:
+    """The header line: fields quoted where they hold a comma, a quote, CR or LF."""
     out = _io.StringIO()
-    _csv.writer(out, lineterminator="").writerow(fields)
-    return out.getvalue().encode("utf-8") + eol
+    _csv.writer(out, lineterminator="\r\n").writerow(fields)  # CR and LF then get quoted
+    return out.getvalue()[:-2].encode("utf-8") + eol
 
 
 class _Cells:
@@ -684,6 +691,12 @@ def format_csv(motion: Motion, layout: str | None = None) -> bytes:
     By default a clip read from a rigid-body CSV is written as one, every other clip as a
     channel CSV. Unchanged values keep the input's text (see the module docstring).
     """
+    if motion.n_frames < 2:
+        raise MotionError(
+            f"a CSV needs at least two frames (its time column gives the frame time); "
+            f"this clip has {motion.n_frames}",
+            motion.path,
+        )
     if layout is None:
         src = motion.source
         layout = src.layout if isinstance(src, CsvText) else "channel"
