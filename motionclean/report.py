@@ -256,28 +256,47 @@ def format_rest(rest: dict, frames: int) -> str:
     )
 
 
-def note_text(key: str, note: Any) -> str:
+def note_text(key: str, note: Any, brief: bool = False) -> str:
     """One readable line for a step's per-joint note (key ``despike``, ``position_auto``, ...):
-    the step's own ``format_note``, or the note as JSON."""
+    the step's own ``format_note`` (``format_brief`` when ``brief`` and it has one), or the
+    note as JSON."""
     positions = key.startswith("position_")
     spec = REGISTRY.get(key.removeprefix("position_"))
-    if spec is not None and spec.format_note is not None:
-        return spec.format_note(note, positions)
+    if spec is not None:
+        formatter = (brief and spec.format_brief) or spec.format_note
+        if formatter is not None:
+            return formatter(note, positions)
     return json.dumps(json_safe(note))
 
 
-def format_repairs(report: dict) -> list[str]:
-    """Lines naming each joint a repairing step (despike) changed: how, where, largest step."""
+#: Longest terminal line the repair list prints (characters).
+LINE_LIMIT = 199
+
+
+def format_repairs(report: dict, limit: int = 10) -> list[str]:
+    """One line per joint a repairing step (despike) changed, at most ``limit`` joints: how,
+    where (long frame lists summarised; the full lists are in the JSON and HTML reports),
+    largest step. Lines are cut at :data:`LINE_LIMIT` characters."""
     keys = [
         prefix + name
         for name, spec in REGISTRY.items()
         if spec.lists_repairs
         for prefix in ("", "position_")
     ]
-    return [
-        f"repaired {name}{' (positions)' if key.startswith('position_') else ''}: "
-        + note_text(key, entry[key])
-        for name, entry in report["joints"].items()
-        for key in keys
-        if entry.get(key)
-    ]
+    lines = []
+    for name, entry in report["joints"].items():
+        texts = {key: note_text(key, entry[key], brief=True) for key in keys if entry.get(key)}
+        if not texts:
+            continue
+        if len(texts) == 1:
+            key, text = next(iter(texts.items()))
+            line = f"repaired {name}{' (positions)' if key.startswith('position_') else ''}: {text}"
+        else:
+            line = f"repaired {name}: " + " | ".join(
+                ("positions: " if key.startswith("position_") else "") + text
+                for key, text in texts.items()
+            )
+        lines.append(line if len(line) <= LINE_LIMIT else line[: LINE_LIMIT - 3] + "...")
+    if len(lines) > limit:
+        lines[limit:] = [f"... {len(lines) - limit} more joints repaired (full list in the report)"]
+    return lines

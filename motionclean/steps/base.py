@@ -122,8 +122,10 @@ class StepSpec:
     ``run`` maps the selected joints' arrays to new ones (:class:`StepData`). A whole-clip
     step (one that changes the frame count) gives ``run_motion(motion, params)`` instead,
     returning the new clip and notes keyed by joint name. ``format_note(note, positions)``
-    is how one joint's note reads in the terminal and HTML reports (None: shown as JSON);
-    ``lists_repairs`` puts its notes under the terminal table as repairs;
+    is how one joint's note reads in the HTML report and JSON-less views (None: shown as
+    JSON); ``format_brief(note, positions)``, if given, is its shorter terminal form (long
+    frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
+    repairs;
     ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
     steps without a clip's rest-pose frames and numbers frames as the file does).
     """
@@ -136,6 +138,7 @@ class StepSpec:
     run_motion: Callable[[Motion, dict], tuple[Motion, dict[str, dict]]] | None = None
     positions_default: bool = True
     format_note: Callable[[dict, bool], str] | None = None
+    format_brief: Callable[[dict, bool], str] | None = None
     lists_repairs: bool = False
     shift_note: Callable[[dict, int], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.

@@ -64,18 +64,35 @@ def _ranges(runs: list[list[int]]) -> str:
     return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
 
 
-def _format_note(note: dict, positions: bool) -> str:
+#: Runs listed in full in the terminal; longer lists are summarised.
+BRIEF_RUNS = 3
+
+
+def _brief_ranges(runs: list[list[int]]) -> str:
+    """At most :data:`BRIEF_RUNS` runs in full, else ``"281 frames in 38 runs, first 198-201"``."""
+    if len(runs) <= BRIEF_RUNS:
+        return _ranges(runs)
+    frames = sum(b - a for a, b in runs)
+    return f"{frames} frames in {len(runs)} runs, first {_ranges(runs[:1])}"
+
+
+def _format_note(note: dict, positions: bool, ranges=_ranges) -> str:
     """What despike did to one joint: frames repaired, where, and the largest step."""
     unit = "units" if positions else "deg"
     parts = [f"{note['frames_repaired']} frames repaired"]
     if note.get("unflipped"):
-        parts.append(f"un-flipped {_ranges(note['unflipped'])}")
+        parts.append(f"un-flipped {ranges(note['unflipped'])}")
     if note["interpolated"]:
-        parts.append(f"interpolated {_ranges(note['interpolated'])}")
+        parts.append(f"interpolated {ranges(note['interpolated'])}")
     step = note["max_step"]
     digits = ".1f" if not positions else ".3g"
     parts.append(f"largest step {step['before']:{digits}} -> {step['after']:{digits}} {unit}")
     return "; ".join(parts)
+
+
+def _format_brief(note: dict, positions: bool) -> str:
+    """:func:`_format_note` with long frame lists summarised (the terminal form)."""
+    return _format_note(note, positions, _brief_ranges)
 
 
 STEP = StepSpec(
@@ -172,6 +189,7 @@ STEP = StepSpec(
     run=_run_despike,
     resolve=_resolve_despike,
     format_note=_format_note,
+    format_brief=_format_brief,
     lists_repairs=True,
     shift_note=lambda note, frames: {
         **note,
