@@ -3,15 +3,24 @@
 Public entry points call these once; the kernels behind them run unchecked. Errors name
 the argument and what was expected, e.g. ``q: expected shape (..., 4), got (5, 3)``:
 TypeError for something that is not an array of numbers, ValueError for a wrong shape,
-NaN/inf, or quaternions that are not unit length.
+NaN/inf, or quaternions that are not unit length. Scalar parameters go through
+:func:`number`, :func:`whole` and :func:`frame_time`, which give the same kinds of errors.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 #: Largest accepted deviation of a quaternion's norm from 1 at a filter's entry.
 UNIT_TOLERANCE = 1e-6
+#: Largest accepted magnitude of a vector component (length units): squares and sums of
+#: squares of differences stay finite, so the filters never overflow.
+LARGEST_VALUE = 1e150
+#: Accepted frame times, seconds: the rate ``1 / frame_time`` and products of it with
+#: speeds or durations stay finite.
+FRAME_TIME_RANGE = (1e-9, 1e9)
 _ONES = np.ones(4)
 
 
@@ -19,11 +28,47 @@ def as_float_array(x, name: str) -> np.ndarray:
     """``x`` as a float64 array, or TypeError naming ``name``."""
     if isinstance(x, np.ndarray) and x.dtype == np.float64:
         return x
+    refused = x is None or isinstance(x, str | bytes | dict | set)
     try:
-        array = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected an array of numbers, got {type(x).__name__}") from None
+        array = np.asarray(x, dtype=np.float64) if not refused else None
+    except (TypeError, ValueError, OverflowError):
+        array = None
+    if array is None:
+        raise TypeError(f"{name}: expected an array of numbers, got {type(x).__name__}")
     return array
+
+
+def number(x, name: str) -> float:
+    """``x`` as a float, or TypeError naming ``name`` (strings, None, arrays are refused)."""
+    if isinstance(x, bool) or not isinstance(x, int | float | np.integer | np.floating):
+        raise TypeError(f"{name}: expected a number, got {type(x).__name__}")
+    try:
+        return float(x)
+    except OverflowError:  # an int beyond float64
+        return math.copysign(math.inf, x)
+
+
+def whole(x, name: str, minimum: int = 0, maximum: int | None = None) -> int:
+    """``x`` as an int in ``[minimum, maximum]``: TypeError for a non-number, ValueError for a
+    fraction or a value out of range."""
+    value = number(x, name)
+    if not (value == math.floor(value) if math.isfinite(value) else False):
+        raise ValueError(f"{name}: expected a whole number, got {x!r}")
+    if value < minimum or (maximum is not None and value > maximum):
+        upper = f" and <= {maximum}" if maximum is not None else ""
+        raise ValueError(f"{name}: expected a whole number >= {minimum}{upper}, got {x!r}")
+    return int(x)
+
+
+def frame_time(x, name: str = "frame_time") -> float:
+    """Seconds per frame in :data:`FRAME_TIME_RANGE`, or TypeError / ValueError."""
+    value = number(x, name)
+    low, high = FRAME_TIME_RANGE
+    if not low <= value <= high:  # also false for NaN
+        raise ValueError(
+            f"{name} must be a positive number of seconds in [{low:g}, {high:g}], got {value:g}"
+        )
+    return value
 
 
 def shaped(x, width: int, name: str, signal: bool = False, min_frames: int = 0) -> np.ndarray:
@@ -75,6 +120,18 @@ def unit_quaternions(q, name: str = "q", signal: bool = True, min_frames: int = 
     )
 
 
+def bounded(x: np.ndarray, name: str) -> np.ndarray:
+    """``x`` unchanged, or ValueError for NaN/inf or a magnitude above :data:`LARGEST_VALUE`."""
+    finite(x, name)
+    if x.size and (x.max() > LARGEST_VALUE or x.min() < -LARGEST_VALUE):
+        at = _first_bad(np.abs(x) > LARGEST_VALUE)
+        raise ValueError(
+            f"{name}: value {float(x[at]):.3g} at index {at} is beyond +-{LARGEST_VALUE:g}"
+        )
+    return x
+
+
 def vectors(p, name: str = "p", signal: bool = True, min_frames: int = 0) -> np.ndarray:
-    """``p`` checked to be finite ``(F, ..., 3)`` vectors (``(..., 3)`` when not ``signal``)."""
-    return finite(shaped(p, 3, name, signal, min_frames), name)
+    """``p`` checked to be finite ``(F, ..., 3)`` vectors (``(..., 3)`` when not ``signal``),
+    no component beyond :data:`LARGEST_VALUE`."""
+    return bounded(shaped(p, 3, name, signal, min_frames), name)

@@ -28,6 +28,11 @@ class MotionError(Exception):
         return f"{where}: {self.message}" if where else self.message
 
 
+class InvalidMotion(MotionError, ValueError):
+    """Motion arrays handed to the Python API that describe no clip (wrong shape, NaN/inf,
+    quaternions that are not unit length). A ValueError too; exit code 1."""
+
+
 class UsageError(MotionError):
     """An invalid request: bad pipeline, unknown parameter, refused overwrite. Exit code 2."""
 

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from . import quat
-from .errors import MotionError
+from . import checks, quat
+from .errors import InvalidMotion, MotionError
 
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
@@ -139,6 +139,43 @@ class Motion:
     source_rotations: np.ndarray | None = None
     source: Any = None
     path: str | None = None
+
+    def __post_init__(self) -> None:
+        self.check()
+
+    def check(self) -> None:
+        """Refuse motion arrays that describe no clip: :class:`InvalidMotion` (a ValueError)
+        for a wrong shape, NaN/inf, or a rotation whose norm is not 1 within
+        :data:`checks.UNIT_TOLERANCE` (zero included); TypeError for non-numbers. Run at
+        construction and again by ``save`` (the arrays may be changed in place)."""
+        n = len(self.names)
+        self.rotations = checks.as_float_array(self.rotations, "rotations")
+        self.translations = checks.as_float_array(self.translations, "translations")
+        frames = self.rotations.shape[0] if self.rotations.ndim else 0
+        for name, values, width in (
+            ("rotations", self.rotations, 4),
+            ("translations", self.translations, 3),
+        ):
+            if values.shape != (frames, n, width):
+                raise InvalidMotion(f"{name}: expected shape (F, {n}, {width}), got {values.shape}")
+            with np.errstate(over="ignore", invalid="ignore"):
+                if np.isfinite(np.sum(values)):
+                    continue
+            frame, joint = np.argwhere(~np.isfinite(values).all(axis=-1))[0]
+            raise InvalidMotion(
+                f"{name}: joint {self.names[joint]!r} has a non-finite value at frame {frame}"
+            )
+        with np.errstate(over="ignore"):  # a huge quaternion has norm inf: refused too
+            error = np.abs(np.einsum("...i,...i->...", self.rotations, self.rotations) - 1.0)
+        if np.any(error > 2.0 * checks.UNIT_TOLERANCE):
+            frame, joint = np.argwhere(error > 2.0 * checks.UNIT_TOLERANCE)[0]
+            q = self.rotations[frame, joint]
+            largest = float(np.max(np.abs(q)))  # scaled: the norm of (1e200, 0, 0, 0) is 1e200
+            norm = largest * float(np.linalg.norm(q / largest)) if largest > 0 else 0.0
+            raise InvalidMotion(
+                f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
+                f"quaternion (norm {norm:.6g}); normalise with quat.normalize first"
+            )
 
     @classmethod
     def from_channel_values(

@@ -383,6 +383,8 @@ def as_matrix(q: np.ndarray) -> np.ndarray:
 
 
 def _order_axes(order: str) -> tuple[int, int, int]:
+    if not isinstance(order, str):
+        raise TypeError(f"order: expected a string such as 'ZXY', got {type(order).__name__}")
     order = order.upper()
     if len(order) != 3 or sorted(order) != ["X", "Y", "Z"]:
         raise ValueError(f"Euler order must be a permutation of 'XYZ', got {order!r}")

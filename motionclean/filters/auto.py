@@ -131,9 +131,7 @@ MIN_FRAMES = 4
 
 
 def _check_time(frame_time: float) -> float:
-    if not (isinstance(frame_time, (int, float)) and math.isfinite(frame_time) and frame_time > 0):
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
-    return float(frame_time)
+    return checks.frame_time(frame_time)
 
 
 def _fit(disp: np.ndarray, frame_time: float) -> NoiseModel | None:
@@ -179,15 +177,15 @@ def candidates(
     ``2 fps / n_frames``) up to 0.45 times the frame rate by the same ratio. So the work
     follows the clip, never the frame time alone.
     """
-    if not (math.isfinite(frame_time) and frame_time > 0):
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+    frame_time = checks.frame_time(frame_time)
+    max_seconds = checks.number(max_seconds, "max_seconds")
     if not (math.isfinite(max_seconds) and max_seconds > 0):
         raise ValueError(f"max_seconds must be a positive number of seconds, got {max_seconds}")
     unknown = set(families) - set(FAMILIES)
     if unknown or not families:
         raise ValueError(f"families must be a non-empty subset of {FAMILIES}, got {families}")
     widest = MAX_HALF_WIDTH if n_frames is None else max(2, min(MAX_HALF_WIDTH, int(n_frames)))
-    top = min(max(2, round(max_seconds / frame_time)), widest)
+    top = min(max(2, round(min(max_seconds / frame_time, widest))), widest)
     count = math.ceil(math.log(top) / math.log(LADDER_RATIO)) + 1
     ladder = np.unique(np.round(np.geomspace(1, top, count)).astype(int)).tolist()
     out = []
@@ -349,6 +347,7 @@ def _move_rotations(q: np.ndarray, s: np.ndarray) -> np.ndarray:
 
 
 def _check(strength: float, noise, shape) -> np.ndarray | None:
+    strength = checks.number(strength, "strength")
     if not (math.isfinite(strength) and strength >= 0):
         raise ValueError(f"strength must be a non-negative number, got {strength}")
     if noise is None:

@@ -65,19 +65,28 @@ from .linear import (
 __all__ = ["bilateral", "bilateral_positions", "window_radius"]
 
 
+#: Widest window half-width in frames: the work area holds ``17 + k`` planes per block.
+MAX_RADIUS = 3000
+
+
 def window_radius(sigma_t: float, radius: int | None = None) -> int:
-    """Validated half-width ``k`` of the window: ``radius`` or ``ceil(3 sigma_t)`` frames."""
+    """Validated half-width ``k`` of the window: ``radius`` or ``ceil(3 sigma_t)`` frames, at
+    most :data:`MAX_RADIUS`."""
+    sigma_t = checks.number(sigma_t, "sigma_t")
     if not (math.isfinite(sigma_t) and sigma_t > 0):
         raise ValueError(f"sigma_t must be a positive number of frames, got {sigma_t}")
     if radius is None:
+        if 3.0 * sigma_t > MAX_RADIUS:
+            raise ValueError(
+                f"sigma_t must be at most {MAX_RADIUS // 3} frames (window half-width "
+                f"{MAX_RADIUS}), got {sigma_t:g}"
+            )
         return math.ceil(3.0 * sigma_t)
-    if int(radius) != radius or radius < 0:
-        raise ValueError(f"radius must be a non-negative whole number of frames, got {radius}")
-    return int(radius)
+    return checks.whole(radius, "radius", 0, MAX_RADIUS)
 
 
 def _check_sigma(name: str, value: float) -> float:
-    value = float(value)
+    value = checks.number(value, name)
     if not value > 0:  # also rejects nan; inf means "no range weighting"
         raise ValueError(f"{name} must be positive (inf disables range weighting), got {value}")
     return value

@@ -559,8 +559,7 @@ def _check(
 ) -> int:
     """Validate the shared parameters; return the longest spike in frames: ``max_spike_s``
     in whole frames (at least one), and at most ``max_run`` when given."""
-    if not (math.isfinite(frame_time) and frame_time > 0):
-        raise ValueError(f"frame_time must be a positive number of seconds, got {frame_time}")
+    frame_time = checks.frame_time(frame_time)
     if not (math.isfinite(threshold) and threshold >= 0):
         raise ValueError(f"threshold must be a number of robust deviations >= 0, got {threshold}")
     if not (0 <= low <= high and high > 0):

@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from .. import checks, quat
+from .linear import MAX_ITERATIONS
 
 __all__ = [
     "fairing",
@@ -167,20 +168,21 @@ def _solve(
 
 
 def _check_order(order) -> int:
+    checks.number(order, "order")
     if order not in ORDERS:
         raise ValueError(f"order must be 2 or 3 (001 Eq. 16, 18), got {order!r}")
     return int(order)
 
 
 def _check_unit(name: str, value) -> float:
-    value = float(value)
+    value = checks.number(value, name)
     if not 0.0 < value <= 1.0:
         raise ValueError(f"{name} must be in (0, 1] (damping of 001 Eq. 17), got {value}")
     return value
 
 
 def _check_nonneg(name: str, value, *, finite: bool = True, rotation: bool = False) -> float:
-    value = float(value)
+    value = checks.number(value, name)
     if math.isnan(value) or value < 0.0 or (finite and math.isinf(value)):
         bound = ">= 0" if not finite else "finite and >= 0"
         hint = f" ({math.degrees(2.0 * value):g} degrees of rotation)" if rotation else ""
@@ -189,9 +191,7 @@ def _check_nonneg(name: str, value, *, finite: bool = True, rotation: bool = Fal
 
 
 def _check_iterations(max_iterations) -> int:
-    if int(max_iterations) != max_iterations or max_iterations < 0:
-        raise ValueError(f"max_iterations must be an integer >= 0, got {max_iterations!r}")
-    return int(max_iterations)
+    return checks.whole(max_iterations, "max_iterations", 0, MAX_ITERATIONS)
 
 
 # --------------------------------------------------------------------------- 001: energy

@@ -175,11 +175,13 @@ def continuity_signs(dots: np.ndarray, length: int, carry):
     return signs, carry
 
 
+#: Most passes a filter accepts (more would only run for hours).
+MAX_ITERATIONS = 10_000
+
+
 def check_iterations(iterations) -> int:
-    """``iterations`` as an int, or ValueError unless it is a whole number >= 0."""
-    if int(iterations) != iterations or iterations < 0:
-        raise ValueError(f"iterations must be a non-negative whole number, got {iterations}")
-    return int(iterations)
+    """``iterations`` as an int in ``[0, MAX_ITERATIONS]``; TypeError / ValueError otherwise."""
+    return checks.whole(iterations, "iterations", 0, MAX_ITERATIONS)
 
 
 def run_passes(one_pass, x: np.ndarray, iterations: int) -> np.ndarray:
@@ -279,7 +281,7 @@ def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)
-    out = checks.finite(checks.as_float_array(p, "p"), "p").copy()  # any trailing width
+    out = checks.bounded(checks.as_float_array(p, "p"), "p").copy()  # any trailing width
     if out.shape[0] < 2 or b.size == 0:
         return out
     n, k = out.shape[0] - 1, b.size // 2

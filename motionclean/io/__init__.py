@@ -90,11 +90,12 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
         raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
     _check_unit(motion)
     try:
+        motion.check()
         data = write(motion)
     except MotionError as error:
         if error.path is not None:
             raise
-        raise MotionError(error.message, path) from None
+        raise type(error)(error.message, path) from None
     atomic_write(path, data)
 
 
