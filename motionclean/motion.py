@@ -174,7 +174,7 @@ class Motion:
             norm = largest * float(np.linalg.norm(q / largest)) if largest > 0 else 0.0
             raise InvalidMotion(
                 f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
-                f"quaternion (norm {norm:.6g}); normalise with quat.normalize first"
+                f"quaternion (norm {norm:.6g}); normalise with motionclean.quat.normalize"
             )
 
     @classmethod

@@ -33,14 +33,21 @@ def warnings_are_errors():
         yield
 
 
-def test_rigid_csv_quaternion_of_huge_norm_is_the_rotation_it_describes(tmp_path):
-    path = tmp_path / "huge.csv"
-    rows = ["time,b.px,b.py,b.pz,b.qw,b.qx,b.qy,b.qz"]
-    rows += [f"{f / 100},0,0,0,1e200,1e200,0,0" for f in range(3)]
-    path.write_text("\n".join(rows) + "\n")
-    motion = mc.load(path)
-    np.testing.assert_allclose(motion.rotations[:, 0], [[2**-0.5, 2**-0.5, 0, 0]] * 3, atol=1e-15)
-    assert np.degrees(quat.angle(motion.rotations[0, 0])) == pytest.approx(90.0)
+def test_rigid_csv_quaternion_of_large_norm_is_the_rotation_it_describes(tmp_path):
+    """The largest value the reader takes (1e12, 1e12, 0, 0) is 90 degrees; beyond that the
+    reader refuses the value (1e200 used to become the identity)."""
+    path = tmp_path / "large.csv"
+    for big in ("1e12", "1e200"):
+        rows = ["time,b.px,b.py,b.pz,b.qw,b.qx,b.qy,b.qz"]
+        rows += [f"{f / 100},0,0,0,{big},{big},0,0" for f in range(3)]
+        path.write_text("\n".join(rows) + "\n")
+        if big == "1e200":
+            with pytest.raises(MotionError, match="out of range"):
+                mc.load(path)
+            continue
+        motion = mc.load(path)
+        np.testing.assert_allclose(motion.rotations[:, 0], [[0.5**0.5, 0.5**0.5, 0, 0]] * 3)
+        assert np.degrees(quat.angle(motion.rotations[0, 0])) == pytest.approx(90.0)
 
 
 @pytest.mark.parametrize(

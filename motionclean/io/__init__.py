@@ -8,9 +8,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-import numpy as np
 
-from .. import checks
 from ..errors import MotionError
 from ..motion import Motion
 from . import bvh, csv
@@ -81,14 +79,14 @@ def read_regular_file(path: Path) -> bytes:
 def save(motion: Motion, path: str | os.PathLike) -> None:
     """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``).
 
-    Rotations must be finite unit quaternions and translations finite (ValueError naming
-    the first bad sample otherwise): a zero or scaled quaternion has no Euler angles.
+    Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
+    InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
+    quaternion has no Euler angles.
     """
     path = Path(path)
     write = _WRITERS[_suffix(path, _WRITERS)]
     if not isinstance(motion, Motion):
         raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
-    _check_unit(motion)
     try:
         motion.check()
         data = write(motion)
@@ -97,23 +95,6 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
             raise
         raise type(error)(error.message, path) from None
     atomic_write(path, data)
-
-
-def _check_unit(motion: Motion) -> None:
-    """ValueError unless every finite rotation of a rotating joint is a unit quaternion
-    (non-finite values are the writer's one-line MotionError, with the joint and frame)."""
-    rotating = np.flatnonzero(motion.layout.has_rotation)
-    q = motion.rotations[:, rotating]
-    with np.errstate(over="ignore", invalid="ignore"):
-        norms = np.sqrt(np.einsum("...i,...i->...", q, q))
-    bad = np.isfinite(norms) & (np.abs(norms - 1.0) > checks.UNIT_TOLERANCE)
-    if bad.any():
-        frame, column = (int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(
-            f"rotations: joint {motion.names[rotating[column]]!r} at frame {frame} is not a "
-            f"unit quaternion (norm {norms[frame, column]:.6g}); normalise with "
-            "motionclean.quat.normalize"
-        )
 
 
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:

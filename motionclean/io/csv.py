@@ -477,8 +477,7 @@ def _rigid_motion(
     frame_time = _frame_time(values[:, time_column], lines, path, None)
     translations = values[:, columns[:, :3]]
     q = values[:, columns[:, 3:]]
-    with np.errstate(over="ignore"):  # huge norms are scaled below
-        norm = np.sqrt(np.sum(q * q, axis=-1))
+    norm = np.sqrt(np.sum(q * q, axis=-1))
     tiny = norm < MIN_QUAT_NORM
     if tiny.any():
         f, b = np.argwhere(tiny)[0]
@@ -489,10 +488,7 @@ def _rigid_motion(
             int(lines[f]),
         )
     unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
-    rotations = np.where(unit[..., None], q, q / norm[..., None])
-    huge = np.isinf(norm)  # (1e200, 1e200, 0, 0): scaled by its largest component first
-    rotations[huge] = quat.normalize(q[huge])
-    rotations = quat.make_continuous(rotations, axis=0)
+    rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
     text = CsvText(
         "rigid",
