@@ -8,7 +8,6 @@ import stat
 import tempfile
 from pathlib import Path
 
-
 from ..errors import MotionError
 from ..motion import Motion
 from . import bvh, csv
