@@ -321,9 +321,9 @@ def continuous_euler(
     did not change; those keep their original angles bit for bit. A run of changed samples
     continues from the sample before it (its anchor: a kept sample, the first frame, or a
     frame that turns more than 90 degrees from the one before; a changed anchor is written
-    as the equivalent triple nearest to its original angles): the same Euler
-    solution (the one whose middle angle lies on the anchor's side of +-90 degrees), each
-    angle unwrapped by whole turns toward the previous frame's.
+    as the equivalent triple nearest to its original angles): each frame on the Euler
+    solution nearest the frame before (so a middle angle that passes +-90 degrees goes on
+    past it), each angle unwrapped by whole turns toward the previous frame's.
     """
     nearest = quat.to_euler(q, order, reference=reference)
     frame = np.arange(q.shape[0])[:, None]
@@ -337,9 +337,20 @@ def continuous_euler(
     columns = np.arange(q.shape[1])[None, :]
     anchor_angles = anchor_values[anchor, columns]  # (F, J, 3)
     principal = quat.to_euler(q, order)
-    flipped = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
     other = principal + [180.0, 0.0, 180.0]
     other[..., 1] = 180.0 - principal[..., 1]
+    # Each frame takes the solution nearest the frame before. The two solutions are
+    # symmetric (P->O is as far as O->P, P->P as O->O, modulo whole turns), so whether a
+    # frame switches does not depend on the solution the frame before was written on: the
+    # solution in use is the anchor's, switched at every frame where the other one is nearer.
+    switch = np.zeros(kept.shape, dtype=bool)
+    switch[1:] = _turn_distance(other[1:], principal[:-1]) < _turn_distance(
+        principal[1:], principal[:-1]
+    )
+    switches = np.cumsum(switch, axis=0)
+    switches -= switches[anchor, columns]
+    anchor_other = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
+    flipped = anchor_other ^ (switches % 2 == 1)
     candidate = np.where(flipped[..., None], other, principal)
     # Unwrap by whole turns within each run, starting from the anchor's angles.
     start = np.where(is_anchor[..., None], anchor_values, candidate)
@@ -348,3 +359,11 @@ def continuous_euler(
     total = np.cumsum(turns, axis=0)
     total -= total[anchor, columns]
     return np.where(is_anchor[..., None], anchor_values, start - 360.0 * total)
+
+
+def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared distance between Euler triples ``(..., 3)`` (degrees), each angle's
+    difference taken modulo whole turns."""
+    d = a - b
+    d -= 360.0 * np.round(d / 360.0)
+    return np.sum(d * d, axis=-1)
