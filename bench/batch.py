@@ -78,14 +78,16 @@ def wait_quiet(limit: float = 30.0) -> float | None:
             return idle
 
 
-def run(in_dir: Path, out_dir: Path, jobs: int) -> tuple[float, float]:
+def run(in_dir: Path, out_dir: Path, jobs: int | str) -> tuple[float, float]:
     """End-to-end wall time of one fresh `batch` process, and the time inside the command
-    (without interpreter start-up and imports)."""
+    (without interpreter start-up and imports); ``jobs`` a number of local processes or a
+    Dask scheduler address."""
     shutil.rmtree(out_dir, ignore_errors=True)
     environment = dict(os.environ, PYTHONPATH=str(ROOT))
+    where = ["--scheduler", jobs] if isinstance(jobs, str) else ["-j", str(jobs)]
     start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-c", COMMAND, str(in_dir), "-o", str(out_dir), "-j", str(jobs), "-q"],
+        [sys.executable, "-c", COMMAND, str(in_dir), "-o", str(out_dir), *where, "-q"],
         env=environment,
         check=True,
         stderr=subprocess.PIPE,
@@ -159,6 +161,45 @@ def main() -> None:
         f"\nmachine ceiling: the same pure numpy work in {args.jobs} processes runs "
         f"{machine_ceiling(args.jobs):.2f}x faster than in one"
     )
+    with tempfile.TemporaryDirectory(prefix="motionclean-bench-") as tmp:
+        in_dir, out_dir = Path(tmp) / "in", Path(tmp) / "out"
+        make_tree(in_dir, args.copies)
+        dask_figures(in_dir, out_dir, args.jobs, args.repeats)
+
+
+def _nothing(x: int) -> int:
+    return x
+
+
+def dask_figures(in_dir: Path, out_dir: Path, jobs: int, repeats: int) -> None:
+    """The same batch on a running Dask cluster of ``jobs`` worker processes (started once,
+    like a real cluster) against --jobs ``jobs``, and the cost of one task."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        print("\ndask not installed (pip install motionclean[dask]): cluster figures skipped")
+        return
+    with (
+        LocalCluster(
+            n_workers=jobs, threads_per_worker=1, dashboard_address=None, silence_logs=50
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        pool, dask = [], []
+        for _ in range(repeats):
+            wait_quiet()
+            pool.append(run(in_dir, out_dir, jobs)[0])
+            wait_quiet()
+            dask.append(run(in_dir, out_dir, cluster.scheduler_address)[0])
+        tasks = 2000
+        client.gather(client.map(_nothing, range(100), pure=False))  # warm up
+        start = time.perf_counter()
+        client.gather(client.map(_nothing, range(tasks), pure=False))
+        per_task = (time.perf_counter() - start) / tasks
+    print(f"\nDask cluster of {jobs} worker processes against --jobs {jobs} (same clips):")
+    print(f"  --jobs {jobs}: best {min(pool):.2f} s; --scheduler: best {min(dask):.2f} s")
+    print(f"  ratio cluster / local pool: {min(dask) / min(pool):.2f} (target <= 1.25)")
+    print(f"  overhead of one task on this cluster: {per_task * 1e3:.2f} ms")
 
 
 if __name__ == "__main__":

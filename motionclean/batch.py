@@ -18,6 +18,7 @@ from pathlib import Path, PurePosixPath
 
 import click
 
+from . import cluster
 from .errors import UsageError
 from .html import render_index
 from .io import atomic_write
@@ -187,6 +188,14 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     is_flag=True,
     help="Leave clips whose output (and page) already exists: resumes a run.",
 )
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    default=None,
+    help="Run the clips as tasks on a Dask cluster: a scheduler address such as "
+    "tcp://HOST:8786 (workers read and write the same paths: shared storage), or local[:N] "
+    "for a cluster of N processes on this machine. Needs the dask extra.",
+)
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
 def batch_command(
     in_dir: str,
@@ -197,6 +206,7 @@ def batch_command(
     patterns: tuple[str, ...],
     report_dir: str | None,
     skip_existing: bool,
+    scheduler: str | None,
     quiet: bool,
 ) -> None:
     """Clean every clip under IN_DIR into OUT_DIR, in parallel.
@@ -230,12 +240,22 @@ def batch_command(
         work.append(Job(str(source), str(target), tables, None if page is None else str(page)))
         work_names.append(str(rel))
 
-    workers = min(jobs or default_workers(), max(len(work), 1))
+    if scheduler is not None and jobs is not None:
+        raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
+    if scheduler is not None:
+        cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
     with _progress(len(work)) as advance, _sigterm_as_interrupt():
-        for index, result in run_jobs(work, workers):
-            results[work_names[index]] = result
-            advance(work_names[index])
+        if scheduler is None:
+            workers = min(jobs or default_workers(), max(len(work), 1))
+            for index, result in run_jobs(work, workers):
+                results[work_names[index]] = result
+                advance(work_names[index])
+        else:
+            with cluster.connect(scheduler, default_workers()) as (client, workers):
+                for index, result in cluster.run_jobs_on(client, work):
+                    results[work_names[index]] = result
+                    advance(work_names[index])
     seconds = time.perf_counter() - start
 
     rows = [(str(rel), results[str(rel)]) for rel in clips]
