@@ -31,6 +31,19 @@ UNCHANGED_TOLERANCE = 1e-9
 
 #: Quaternion components closer than this to the ones read count as unchanged (rounding).
 SAME_ROTATION = 1e-12
+#: Frames per block in the Euler <-> quaternion conversions (temporaries stay in cache).
+BLOCK_FRAMES = 512
+
+
+def _by_frames(fn, arrays: tuple[np.ndarray, ...], width: int) -> np.ndarray:
+    """``fn(*arrays)`` for a function that works sample by sample, computed over blocks of
+    :data:`BLOCK_FRAMES` frames (axis 0) into one ``(F, ..., width)`` result."""
+    n_frames = arrays[0].shape[0]
+    out = np.empty((*arrays[0].shape[:-1], width))
+    for at in range(0, n_frames, BLOCK_FRAMES):
+        block = slice(at, at + BLOCK_FRAMES)
+        out[block] = fn(*(a[block] for a in arrays))
+    return out
 
 
 @dataclass(frozen=True)
@@ -195,7 +208,9 @@ class Motion:
         rotations = quat.identity((n_frames, len(names)))
         for order, joints in layout.order_groups().items():
             angles = values[:, layout.rotation_columns[joints]]
-            rotations[:, joints] = quat.from_euler(angles, order)
+            rotations[:, joints] = _by_frames(
+                functools.partial(quat.from_euler, order=order), (angles,), 4
+            )
         rotations = quat.make_continuous(rotations, axis=0)
         translations = np.zeros((n_frames, len(names), 3))
         has = layout.position_columns >= 0
@@ -325,17 +340,38 @@ def continuous_euler(
     solution nearest the frame before (so a middle angle that passes +-90 degrees goes on
     past it), each angle unwrapped by whole turns toward the previous frame's.
     """
-    nearest = quat.to_euler(q, order, reference=reference)
+    n_frames, n_joints = q.shape[:2]
+    out = np.empty((n_frames, n_joints, 3))
+    # What a block needs of the frames before it, per joint: the last rotation and principal
+    # angles, the last start angles, the angles of the last anchor and the switches and
+    # whole turns counted since it.
+    carry = None
+    for at in range(0, n_frames, BLOCK_FRAMES):
+        block = slice(at, at + BLOCK_FRAMES)
+        out[block], carry = _continue_block(q[block], order, reference[block], kept[block], carry)
+    return out
+
+
+def _continue_block(q, order, reference, kept, carry):
+    """:func:`continuous_euler` of a block of frames, continuing from ``carry`` (None for
+    the clip's first block); returns the block's angles and the carry for the next one."""
     frame = np.arange(q.shape[0])[:, None]
+    columns = np.arange(q.shape[1])[None, :]
     # The chain restarts where the rotation itself turns by more than a quarter turn in one
     # frame (a cut, or data that is no motion): there is no curve to continue.
-    leap = np.zeros(kept.shape, dtype=bool)
-    leap[1:] = quat.angle_between(q[:-1], q[1:]) > np.pi / 2
-    is_anchor = kept | (frame == 0) | leap
+    before = q[:1] if carry is None else carry[0][None]
+    leap = quat.angle_between(np.concatenate([before, q[:-1]]), q) > np.pi / 2
+    is_anchor = kept | leap
+    if carry is None:
+        is_anchor[0] = True  # the clip's first frame
+    nearest = quat.to_euler(q, order, reference=reference)
     anchor_values = np.where(kept[..., None], reference, nearest)
-    anchor = np.maximum.accumulate(np.where(is_anchor, frame, 0), axis=0)  # (F, J)
-    columns = np.arange(q.shape[1])[None, :]
-    anchor_angles = anchor_values[anchor, columns]  # (F, J, 3)
+    anchor = np.maximum.accumulate(np.where(is_anchor, frame, -1), axis=0)  # (F, J), -1: before
+    local = anchor >= 0
+    anchor_at = np.maximum(anchor, 0)
+    anchor_angles = anchor_values[anchor_at, columns]  # (F, J, 3)
+    if carry is not None:
+        anchor_angles = np.where(local[..., None], anchor_angles, carry[3][None])
     principal = quat.to_euler(q, order)
     other = principal + [180.0, 0.0, 180.0]
     other[..., 1] = 180.0 - principal[..., 1]
@@ -343,22 +379,28 @@ def continuous_euler(
     # symmetric (P->O is as far as O->P, P->P as O->O, modulo whole turns), so whether a
     # frame switches does not depend on the solution the frame before was written on: the
     # solution in use is the anchor's, switched at every frame where the other one is nearer.
-    switch = np.zeros(kept.shape, dtype=bool)
-    switch[1:] = _turn_distance(other[1:], principal[:-1]) < _turn_distance(
-        principal[1:], principal[:-1]
-    )
+    previous = np.concatenate([principal[:1] if carry is None else carry[1][None], principal[:-1]])
+    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    if carry is None:
+        switch[0] = False
     switches = np.cumsum(switch, axis=0)
-    switches -= switches[anchor, columns]
+    switches_since = switches - switches[anchor_at, columns]
+    if carry is not None:
+        switches_since = np.where(local, switches_since, switches + carry[4][None])
     anchor_other = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
-    flipped = anchor_other ^ (switches % 2 == 1)
+    flipped = anchor_other ^ (switches_since % 2 == 1)
     candidate = np.where(flipped[..., None], other, principal)
     # Unwrap by whole turns within each run, starting from the anchor's angles.
     start = np.where(is_anchor[..., None], anchor_values, candidate)
-    step = np.diff(start, axis=0, prepend=start[:1])
+    step = np.diff(start, axis=0, prepend=start[:1] if carry is None else carry[2][None])
     turns = np.where(is_anchor[..., None], 0.0, np.round(step / 360.0))
-    total = np.cumsum(turns, axis=0)
-    total -= total[anchor, columns]
-    return np.where(is_anchor[..., None], anchor_values, start - 360.0 * total)
+    total = np.cumsum(turns, axis=0)  # whole numbers: exact
+    since = total - total[anchor_at, columns]
+    if carry is not None:
+        since = np.where(local[..., None], since, total + carry[5][None])
+    angles = np.where(is_anchor[..., None], anchor_values, start - 360.0 * since)
+    last = (q[-1], principal[-1], start[-1], anchor_angles[-1], switches_since[-1], since[-1])
+    return angles, last
 
 
 def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
