@@ -127,6 +127,53 @@ def _weighted_sums(weights, disp, out, tail, head, tmp) -> None:
     out /= head
 
 
+def _window_samples(src, qs, rel, scratch, base: int, lo: int, hi: int, end: int) -> None:
+    """Fill a block's window: samples ``qs`` at positions ``base .. end-1`` and the relative
+    rotations ``rel = q_m^-1 q_{m+1}`` (planes ``[w, *displacement slots]``) inside it.
+
+    Samples ``lo .. hi`` lie inside the signal ``src``; those beyond its ends are cumulated
+    outward from the mirrored relative rotations (000 Eq. 26, see the module docstring).
+    """
+    n_frames = src.shape[0]
+    n = n_frames - 1
+    np.copyto(qs[:, lo - base : hi + 1 - base], src[lo : hi + 1].transpose(2, 0, 1))
+    inside = rel[:, lo - base : hi - base]
+    quat.multiply_planes(
+        inside,
+        qs[:, lo - base : hi - base],
+        qs[:, lo + 1 - base : hi + 1 - base],
+        scratch[:2, : hi - lo],
+        True,
+    )
+    tmp = scratch[:2, 0]
+    for pos in range(-1, base - 1, -1):  # loop over window offsets only
+        inv = rel[:, mirror_position(pos, n) - base] * [[1.0], [-1.0], [-1.0], [-1.0]]
+        quat.multiply_planes(qs[:, pos - base], qs[:, pos + 1 - base], inv, tmp)
+    for pos in range(n_frames, end):
+        step = rel[:, mirror_position(pos - 1, n) - base].copy()
+        quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
+
+
+def _range_weights(qs, weights, dot, sigma_t: float, inv_g: float) -> None:
+    """``weights[r-1, t] = W(base+t, r) = exp(-r^2 / 2 sigma_t^2 - arccos(|q . q_{+r}|)^2
+    inv_g)`` for ``r = 1 .. k`` and every row ``t`` of ``weights`` (002 Eq. 4-5);
+    ``inv_g = 1 / (2 sigma_g^2)``, ``dot`` one scratch row."""
+    rows = weights.shape[1]
+    for r in range(1, weights.shape[0] + 1):
+        x = weights[r - 1]
+        np.multiply(qs[0, :rows], qs[0, r : r + rows], x)
+        for c in range(1, 4):
+            np.multiply(qs[c, :rows], qs[c, r : r + rows], dot)
+            x += dot
+        np.abs(x, out=x)
+        np.minimum(x, 1.0, out=x)
+        np.arccos(x, out=x)
+        np.square(x, out=x)
+        x *= -inv_g
+        x -= r * r / (2.0 * sigma_t**2)
+        np.exp(x, out=x)
+
+
 def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     """One pass of 002 Algorithm 1 from ``src`` to ``dst``, both ``(F, M, 4)``, ``F >= 2``.
 
@@ -137,60 +184,29 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     the sign-continuous signal ``sigma_i q_i`` (000 Sec. VI-A), ``d`` is sign independent,
     and the output is ``sigma_i q_i exp(s_i)``: the filter of the sign-continuous input.
     """
-    n_frames, n_sig = src.shape[:2]
+    n_frames = src.shape[0]
     n = n_frames - 1  # displacements
     inv_g = 0.5 / sigma_g**2
     # Work planes: 0-3 samples, 4 w of q_i^-1 q_{i+1}, 5-7 displacements, 8-10 scratch,
     # 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i),
     # 15-16 the running coefficient sums, 17.. the weights of the offsets 1 .. k.
-    blocks, planes = work_area(n_frames, n_sig, k, 17 + k)
+    blocks, planes = work_area(n_frames, src.shape[1], k, 17 + k)
     carry = None
     for f0, f1 in blocks:
         length = f1 - f0
         base = f0 - k  # position of the first sample and displacement in the window
         lo, hi = max(base, 0), min(f1 + k - 1, n)  # samples lo .. hi lie inside the signal
         qs = planes(0, 4, length + 2 * k)
-        np.copyto(qs[:, lo - base : hi + 1 - base], src[lo : hi + 1].transpose(2, 0, 1))
         rel = planes(4, 4, length + 2 * k - 1)  # [w, *displacements]
-        disp = rel[1:]
         scratch = planes(8, 3, length + 2 * k)
-        inside = rel[:, lo - base : hi - base]
-        quat.multiply_planes(
-            inside,
-            qs[:, lo - base : hi - base],
-            qs[:, lo + 1 - base : hi + 1 - base],
-            scratch[:2, : hi - lo],
-            True,
-        )
-        # Samples beyond the ends, cumulated outward from the mirrored q_m^-1 q_{m+1}.
-        tmp = scratch[:2, 0]
-        for pos in range(-1, base - 1, -1):  # loop over window offsets only
-            inv = rel[:, mirror_position(pos, n) - base] * [[1.0], [-1.0], [-1.0], [-1.0]]
-            quat.multiply_planes(qs[:, pos - base], qs[:, pos + 1 - base], inv, tmp)
-        for pos in range(n_frames, f1 + k):
-            step = rel[:, mirror_position(pos - 1, n) - base].copy()
-            quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
-
-        # Weights W(f0-k+t, r) = exp(-r^2 / 2 sigma_t^2 - arccos(|q . q_{+r}|)^2 / 2 sigma_g^2).
-        rows = length + k
-        weights = planes(17, k, rows)
-        dot = scratch[0, :rows]
-        for r in range(1, k + 1):
-            x = weights[r - 1]
-            np.multiply(qs[0, :rows], qs[0, r : r + rows], x)
-            for c in range(1, 4):
-                np.multiply(qs[c, :rows], qs[c, r : r + rows], dot)
-                x += dot
-            np.abs(x, out=x)
-            np.minimum(x, 1.0, out=x)
-            np.arccos(x, out=x)
-            np.square(x, out=x)
-            x *= -inv_g
-            x -= r * r / (2.0 * sigma_t**2)
-            np.exp(x, out=x)
+        _window_samples(src, qs, rel, scratch, base, lo, hi, f1 + k)
+        weights = planes(17, k, length + k)
+        _range_weights(qs, weights, scratch[0, : length + k], sigma_t, inv_g)
 
         # w_i = log(+-q_i^-1 q_{i+1}), in place, then Eq. 26 beyond the ends.
+        inside = rel[:, lo - base : hi - base]
         quat.log_planes(inside[1:], inside, scratch[:2, : hi - lo], shortest=True)
+        disp = rel[1:]
         fill_mirrored_ends(disp, base, lo, hi, n)
         signs, carry = continuity_signs(rel[0, k : min(k + length, hi - base)], length, carry)
 
