@@ -18,6 +18,9 @@ JUMP_DEG = 15.0
 JUMP_TIMES_MEDIAN = 8.0
 #: ... and a rest frame when that happens on at least this share of the rotating joints.
 MOST_JOINTS = 0.5
+#: A run of at least this many identical frames is a held pose whether or not a jump follows
+#: (no capture repeats every channel exactly; padding does).
+HELD_FRAMES = 3
 
 
 def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
@@ -29,11 +32,13 @@ def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
 
 
 def _leading(rotations: np.ndarray, translations: np.ndarray, steps: np.ndarray) -> int:
-    """Leading rest frames: the run of frames equal to the first, when the step out of it
-    is a jump on most joints at once."""
+    """Leading rest frames: the run of frames equal to the first, when it is a held pose or
+    the step out of it is a jump on most joints at once."""
     run = _identical_run(rotations, translations)
     if run >= len(rotations) - 2:
         return 0
+    if run >= HELD_FRAMES:
+        return run
     typical = np.median(steps, axis=0)
     out = steps[run - 1]
     jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical)
@@ -46,7 +51,8 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     A rest frame (or a run of identical frames) at either end counts when the step from it
     into the motion is a jump on at least half of the rotating joints at once: larger than
     15 degrees and than 8 times the joint's median step. No noise makes most joints jump
-    on the same frame; a pose held before the capture does.
+    on the same frame; a pose held before the capture does. A run of at least 3 identical
+    frames (every channel, positions too) counts in any case: a held pose.
     """
     rotating = motion.layout.has_rotation
     if motion.n_frames < 8 or not rotating.any():

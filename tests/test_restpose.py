@@ -59,3 +59,37 @@ def test_a_t_pose_first_frame_is_kept_bit_for_bit_and_out_of_the_figures(tmp_pat
     expected = reference["joints"]["RThumb"]["despike"]
     assert despike["unflipped"] == [[a + 1, b + 1] for a, b in expected["unflipped"]]
     assert np.isclose(figures["world"]["body_height"], reference["world"]["body_height"])
+
+
+def with_held_pose(source, target, frames: int, at_end: bool = False):
+    """``source`` with its first (or last) frame repeated to ``frames`` identical frames, as
+    exports padded with a held pose are."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    body = lines[at + 2 :]
+    rows = body + [body[-1]] * (frames - 1) if at_end else [body[0]] * (frames - 1) + body
+    target.write_text(
+        "".join(lines[:at]) + f"Frames: {len(rows)}\n" + lines[at + 1] + "".join(rows)
+    )
+    return target
+
+
+@pytest.mark.parametrize(("frames", "at_end"), [(3, False), (10, False), (4, True)])
+def test_a_held_pose_at_either_end_is_kept_bit_for_bit(tmp_path, capsys, frames, at_end):
+    """Identical frames at an end are a held pose even when the motion leaves it smoothly:
+    no step smooths the hold into a ramp."""
+    held = with_held_pose(NOISY, tmp_path / "h.bvh", frames, at_end)
+    assert rest_frames(mc.load(held)) == ((0, frames) if at_end else (frames, 0))
+    out = tmp_path / "out.bvh"
+    code, text, _ = run_cli(capsys, "clean", held, "-o", out)
+    assert code == 0 and "rest pose: frames" in text
+    rows_in, rows_out = held.read_text().splitlines(), out.read_text().splitlines()
+    assert len(rows_in) == len(rows_out)
+    start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
+    held_rows = slice(len(rows_in) - frames, None) if at_end else slice(start, start + frames)
+    assert rows_out[held_rows] == rows_in[held_rows]
+    assert rows_out[start + frames] != rows_in[start + frames]  # the motion is cleaned
+
+
+def test_a_single_repeated_frame_is_no_rest_pose(tmp_path):
+    assert rest_frames(mc.load(with_held_pose(NOISY, tmp_path / "h.bvh", 2))) == (0, 0)
