@@ -8,6 +8,7 @@ error (bad option or pipeline, refused overwrite). Errors are one line on stderr
 from __future__ import annotations
 
 import math
+import os
 import sys
 import textwrap
 import traceback
@@ -51,6 +52,17 @@ def _echo_error(message: str) -> None:
     click.echo(f"motionclean: error: {message}", err=True)
 
 
+def _interrupted() -> None:
+    """Ctrl-C or SIGTERM: say so and leave at once, exit code 130. Outputs are written
+    atomically, so nothing partial stays; the interpreter's exit hooks are skipped so the
+    exit does not wait for worker processes still finishing a clip (they exit on their own
+    when their parent is gone)."""
+    _echo_error("interrupted")
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
@@ -67,16 +79,14 @@ def main(argv: list[str] | None = None) -> None:
     except click.exceptions.Exit as done:
         sys.exit(done.exit_code)
     except click.Abort:  # click's form of KeyboardInterrupt
-        _echo_error("interrupted")
-        sys.exit(130)
+        _interrupted()
     except click.ClickException as error:
         if debug:
             traceback.print_exc()
         _echo_error(error.format_message().replace("\n", " "))
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
     except KeyboardInterrupt:
-        _echo_error("interrupted")
-        sys.exit(130)
+        _interrupted()
     except Exception as error:  # a bug: still one line unless --debug
         if debug:
             traceback.print_exc()

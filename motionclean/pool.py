@@ -87,5 +87,10 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
                     job = jobs[index]
                     died = f"{job.source}: the worker process died"
                     yield index, FileResult(job.source, job.target, "failed", error=died)
-    finally:
-        executor.shutdown(wait=True, cancel_futures=True)
+    except BaseException:  # Ctrl-C, SIGTERM, the caller gone: do not wait for running clips
+        running = list((getattr(executor, "_processes", None) or {}).values())
+        executor.shutdown(wait=False, cancel_futures=True)
+        for process in running:
+            process.terminate()
+        raise
+    executor.shutdown(wait=True)

@@ -120,6 +120,15 @@ def test_an_output_folder_that_cannot_be_made_is_refused_once_up_front(tmp_path,
     one_error_line(err, "cannot create -o")
 
 
+def running(pid: str) -> bool:
+    """The process exists and is not a zombie waiting to be reaped."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
 @pytest.mark.slow
 def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
     source = tmp_path / "in"
@@ -152,7 +161,7 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
         process.kill()
     assert process.returncode == 130 and b"interrupted" in err
     time.sleep(1.5)
-    alive = [pid for pid in children if os.path.exists(f"/proc/{pid}")]
+    alive = [pid for pid in children if running(pid)]
     assert children and not alive
 
 
