@@ -304,23 +304,29 @@ class Motion:
         """
         layout = self.layout
         source_frames = self.source_frames()
-        if source_frames is not None:
-            values = source_frames[0].copy()
-        else:
+        if source_frames is None:
             values = np.zeros((self.n_frames, layout.n_channels))
-        for order, joints in layout.order_groups().items():
-            cols = layout.rotation_columns[joints]
-            q = self.rotations[:, joints]
-            if source_frames is not None:
-                reference = values[:, cols]
-                source = source_frames[1][:, joints]
-                kept = (np.abs(q - source).max(axis=-1) < SAME_ROTATION) | (
-                    np.abs(q + source).max(axis=-1) < SAME_ROTATION
-                )
-                angles = continuous_euler(q, order, reference, kept)
-            else:
-                angles = np.unwrap(quat.to_euler(q, order), period=360.0, axis=0)
-            values[:, cols] = angles
+            for order, joints in layout.order_groups().items():
+                angles = quat.to_euler(self.rotations[:, joints], order)
+                values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
+        else:
+            values = source_frames[0].copy()
+            groups = [
+                (order, joints, layout.rotation_columns[joints])
+                for order, joints in layout.order_groups().items()
+            ]
+            carries: list[Any] = [None] * len(groups)
+            for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
+                block = slice(at, at + BLOCK_FRAMES)
+                rotations, source = self.rotations[block], source_frames[1][block]
+                for g, (order, joints, cols) in enumerate(groups):
+                    q, read = rotations[:, joints], source[:, joints]
+                    kept = (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
+                        np.abs(q + read).max(axis=-1) < SAME_ROTATION
+                    )
+                    values[block, cols], carries[g] = _continue_block(
+                        q, order, values[block, cols], kept, carries[g]
+                    )
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values
