@@ -82,6 +82,8 @@ def make_step(table: dict, where: str) -> Step:
     span = FrameRange.from_params(
         params.pop("frames", None), params.pop("seconds", None), params.pop("blend", 5), where
     )
+    if span is None and "blend" in table:
+        raise UsageError(f"{where}: blend is used only with frames or seconds (a range)")
     if span is not None and spec.run_motion is not None:
         raise UsageError(f"{where}: this step changes the whole clip; it takes no frame range")
     if spec.resolve is not None:
@@ -245,10 +247,11 @@ class Pipeline:
         current = work.replace(
             rotations=work.rotations.copy(), translations=work.translations.copy()
         )
+        spans = _frame_spans(self.steps, motion, lead)
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
             try:
-                current, log = _run_step(step, current, lead, motion.n_frames, motion.path)
+                current, log = _run_step(step, current, lead, spans.get(number), motion.path)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -267,13 +270,33 @@ class Pipeline:
         return splice(motion, current, lead, trail), logs
 
 
+def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:
+    """Each ranged step's ``(first, last)`` frames (by step number from 1), checked against
+    the clip up front; a range after a whole-clip step is checked against that step's
+    result when it runs."""
+    spans: dict[int, tuple[int, int]] = {}
+    for number, step in enumerate(steps, 1):
+        if step.spec.run_motion is not None:
+            break
+        if step.span is not None:
+            spans[number] = _frame_span(step, motion.n_frames, motion.frame_time, motion.path)
+    return spans
+
+
+def _frame_span(step: Step, n_frames: int, frame_time: float, path: str | None) -> tuple[int, int]:
+    where = f"{path}: step ({step.spec.name})" if path else f"step ({step.spec.name})"
+    assert step.span is not None
+    return step.span.frame_span(n_frames, frame_time, where)
+
+
 def _run_step(
-    step: Step, motion: Motion, offset: int, file_frames: int, path: str | None
+    step: Step, motion: Motion, offset: int, span: tuple[int, int] | None, path: str | None
 ) -> tuple[Motion, StepLog]:
     """One step on ``motion``, whose arrays the pipeline owns and may change in place.
 
-    ``motion`` starts at frame ``offset`` of a file of ``file_frames`` frames (rest-pose
-    frames left out); a step's frame range counts the file's frames.
+    ``motion`` starts at frame ``offset`` of the file (rest-pose frames left out); a step's
+    frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
+    notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
     """
     unmatched = unmatched_patterns(motion.names, step.joints)
     if step.spec.run_motion is not None:
@@ -292,15 +315,16 @@ def _run_step(
         rotation_joints=rot_idx,
         translation_joints=pos_idx,
     )
+    if step.span is not None and span is None:
+        span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
     data = step.spec.run(data, step.params)
     touched = None
-    if step.span is None:
+    if step.span is None or span is None:
         motion.rotations[:, rot_idx] = data.rotations
         if data.translations is not None:
             motion.translations[:, pos_idx] = data.translations
     else:
-        where = f"{path}: step ({step.spec.name})" if path else f"step ({step.spec.name})"
-        first, last = step.span.frame_span(file_frames, motion.frame_time, where)
+        first, last = span
         share = weights(motion.n_frames, first - offset, last - offset, step.span.blend)
         motion.rotations[:, rot_idx] = blend_rotations(
             motion.rotations[:, rot_idx], data.rotations, share
@@ -309,8 +333,11 @@ def _run_step(
             motion.translations[:, pos_idx] = blend_positions(
                 motion.translations[:, pos_idx], data.translations, share
             )
-        moved = np.flatnonzero(share > 0.0) + offset
-        touched = (int(moved[0]), int(moved[-1])) if moved.size else None
+        moved = np.flatnonzero(share > 0.0)
+        inside = (int(moved[0]), int(moved[-1])) if moved.size else None
+        _crop_notes(step.spec, data.rotation_notes, inside)
+        _crop_notes(step.spec, data.translation_notes, inside)
+        touched = (inside[0] + offset, inside[1] + offset) if inside else None
     notes: dict[str, dict] = {}
     for column, note in data.rotation_notes.items():
         notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
@@ -321,6 +348,23 @@ def _run_step(
     rotated = [motion.names[i] for i in rot_idx]
     moved_joints = [motion.names[i] for i in pos_idx]
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
+
+
+def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] | None) -> None:
+    """Keep, in place, what ``notes`` say about frames ``inside`` (inclusive; None: none)."""
+    if spec.crop_note is None:
+        return
+    for column in list(notes):
+        note = notes[column]
+        if spec.name not in note:
+            continue
+        value = spec.crop_note(note[spec.name], *inside) if inside else None
+        if value is None:
+            del note[spec.name]
+        else:
+            note[spec.name] = value
+        if not note:
+            del notes[column]
 
 
 #: The default pipeline (README, "Default pipeline").

@@ -57,10 +57,17 @@ class FrameRange:
             first, last = self.frames
         else:
             assert self.seconds is not None
-            first = int(math.ceil(self.seconds[0] / frame_time - 1e-9))
-            last = int(math.floor(self.seconds[1] / frame_time + 1e-9))
+            t0, t1 = self.seconds
+            end = (n_frames - 1) * frame_time
+            if t1 / frame_time >= n_frames:
+                raise UsageError(
+                    f"{where}: the range ends at {t1:g} s, but the clip's last frame is at "
+                    f"{end:g} s ({n_frames} frames of {frame_time:g} s)"
+                )
+            first = int(math.ceil(t0 / frame_time - 1e-9))
+            last = int(math.floor(t1 / frame_time + 1e-9))
             if first > last:
-                raise UsageError(f"{where}: seconds {list(self.seconds)} hold no frame")
+                raise UsageError(f"{where}: seconds [{t0:g}, {t1:g}] hold no frame")
         if self.blend >= n_frames:
             raise UsageError(
                 f"{where}: blend={self.blend} frames does not fit a clip of {n_frames} frames"

@@ -3,12 +3,16 @@ the full run, no jump at the edges, clear errors."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from helpers import NOISY, degrees_between, run_cli
 
 import motionclean as mc
 from motionclean.pipeline import Pipeline
+from motionclean.steps import REGISTRY, StepSpec
+from motionclean.steps.base import crop_runs
 
 STEPS = [
     "lee-shin:k=2,iterations=3",
@@ -66,6 +70,8 @@ def test_a_step_on_a_range(step, tmp_path, capsys):
         ("frames=[10,20],blend=400", "does not fit a clip of 300 frames"),
         ("seconds=[0.01,0.015]", "hold no frame"),
         ("frames=[1.5,20]", "whole numbers"),
+        ("seconds=[1,1e300]", "ends at 1e+300 s, but the clip's last frame is at"),
+        ("blend=3", "blend is used only with frames or seconds"),
     ],
 )
 def test_bad_ranges_are_one_line_and_exit_2(extra, message, tmp_path, capsys):
@@ -93,7 +99,103 @@ def test_seconds_pick_the_same_frames_and_the_report_says_which(tmp_path, capsys
         "-f",
         f"lee-shin:frames=[{FIRST},{LAST}],blend=3",
     )
-    import json
-
     entry = json.loads(report.read_text())["pipeline"][0]
     assert entry["frames"] == [FIRST, LAST] and entry["touched"] == [FIRST - 3, LAST + 3]
+
+
+def changed_frames(before: np.ndarray, after: np.ndarray, column: int) -> set[int]:
+    return set(np.flatnonzero(degrees_between(before[:, column], after[:, column]) > 1e-9))
+
+
+def test_a_ranged_despike_reports_only_the_repairs_it_made():
+    """The note lists the runs within the touched frames, each listed frame changed, and the
+    count is theirs; a range without repairs leaves no note."""
+    clip = mc.load(NOISY)
+    _, full_logs = Pipeline.from_inline(["despike"]).run(clip)
+    (joint,) = [j for j, n in full_logs[0].notes.items() if n.get("despike", {}).get("unflipped")]
+    full_runs = full_logs[0].notes[joint]["despike"]["unflipped"]
+    assert len(full_runs) > 1
+    (a, b) = full_runs[0]
+    out, logs = Pipeline.from_inline([f"despike:frames=[{a - 5},{b + 2}],blend=2"]).run(clip)
+    first, last = logs[0].touched
+    assert (first, last) == (a - 7, b + 4)
+    note = logs[0].notes[joint]["despike"]
+    listed = {f for x, y in note["unflipped"] + note["interpolated"] for f in range(x, y)}
+    assert listed and all(first <= f <= last for f in listed)
+    assert note["frames_repaired"] == len(listed) and "max_step" not in note
+    column = clip.names.index(joint)
+    assert listed <= changed_frames(clip.rotations, out.rotations, column)
+    assert changed_frames(clip.rotations, out.rotations, column) <= set(range(first, last + 1))
+
+    quiet = Pipeline.from_inline([f"despike:frames=[{b + 1},{b + 1}],blend=0"])
+    _, logs = quiet.run(clip)
+    assert joint not in logs[0].notes or "despike" not in logs[0].notes[joint]
+
+
+def test_a_ranged_footlock_reports_only_the_contacts_it_held():
+    clip = mc.load(NOISY)
+    _, logs = Pipeline.from_inline([f"footlock:min_skate=0,frames=[{FIRST},{LAST}]"]).run(clip)
+    first, last = logs[0].touched
+    notes = [n["footlock"] for n in logs[0].notes.values() if "footlock" in n]
+    assert notes
+    for note in notes:
+        assert all(first <= a <= b <= last for a, b in note["contacts"])
+        assert note["frames"] == sum(b - a + 1 for a, b in note["contacts"])
+
+
+@pytest.mark.parametrize(
+    ("runs", "exclusive", "expected"),
+    [
+        ([[0, 5], [8, 12], [20, 30]], True, [[3, 5], [8, 11]]),
+        ([[0, 5], [8, 12], [20, 30]], False, [[3, 5], [8, 10]]),
+        ([[0, 3]], True, []),
+        ([[0, 3]], False, [[3, 3]]),
+        ([[11, 14]], True, []),
+    ],
+)
+def test_crop_runs(runs, exclusive, expected):
+    assert crop_runs(runs, 3, 10, stop_exclusive=exclusive) == expected
+
+
+def test_a_range_after_a_whole_clip_step_counts_that_steps_frames(monkeypatch):
+    """Ranges are checked against the clip up front, and after a step that changes the
+    frame count against the clip it made; a whole-clip step itself takes no range."""
+    clip = mc.load(NOISY)
+
+    def halve(motion: mc.Motion, params: dict):
+        return motion.replace(
+            rotations=motion.rotations[::2],
+            translations=motion.translations[::2],
+            frame_time=2 * motion.frame_time,
+            source_values=None,
+            source_rotations=None,
+        ), {}
+
+    registry = dict(REGISTRY)
+    registry["halve"] = StepSpec("halve", "test", "-", (), run_motion=halve)
+    monkeypatch.setattr("motionclean.pipeline.REGISTRY", registry)
+    with pytest.raises(mc.MotionError, match="takes no frame range"):
+        Pipeline.from_tables([{"filter": "halve", "frames": [0, 10]}], "t")
+    late = [{"filter": "halve"}, {"filter": "lee-shin", "frames": [10, 200]}]
+    with pytest.raises(mc.MotionError, match="the clip has 150 frames"):
+        Pipeline.from_tables(late, "t").run(clip)
+    late[1]["frames"] = [10, 140]
+    out, logs = Pipeline.from_tables(late, "t").run(clip)
+    assert out.n_frames == 150 and logs[1].touched == (5, 145)
+
+
+def test_ranges_are_checked_before_any_step_runs(monkeypatch):
+    clip = mc.load(NOISY)
+    ran = []
+
+    def record(data, params):
+        ran.append(True)
+        return data
+
+    registry = dict(REGISTRY)
+    registry["record"] = StepSpec("record", "test", "-", (), run=record)
+    monkeypatch.setattr("motionclean.pipeline.REGISTRY", registry)
+    tables = [{"filter": "record"}, {"filter": "lee-shin", "frames": [10, 300]}]
+    with pytest.raises(mc.MotionError, match="the clip has 300 frames"):
+        Pipeline.from_tables(tables, "t").run(clip)
+    assert not ran

@@ -127,7 +127,10 @@ class StepSpec:
     frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
     repairs;
     ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
-    steps without a clip's rest-pose frames and numbers frames as the file does).
+    steps without a clip's rest-pose frames and numbers frames as the file does);
+    ``crop_note(note, first, last)`` keeps what a note says about frames ``first..last``
+    (inclusive) or gives None (nothing there): a step run on a frame range reports only
+    what it changed.
     """
 
     name: str
@@ -141,6 +144,7 @@ class StepSpec:
     format_brief: Callable[[dict, bool], str] | None = None
     lists_repairs: bool = False
     shift_note: Callable[[dict, int], dict] | None = None
+    crop_note: Callable[[dict, int, int], dict | None] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.
     resolve: Callable[[dict, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).
@@ -172,3 +176,13 @@ COMMON_PARAMS = (
 def shift_runs(runs: list[list[int]], frames: int) -> list[list[int]]:
     """Frame ranges ``[[a, b], ...]`` moved by ``frames``."""
     return [[a + frames, b + frames] for a, b in runs]
+
+
+def crop_runs(
+    runs: list[list[int]], first: int, last: int, stop_exclusive: bool
+) -> list[list[int]]:
+    """Frame ranges ``[[a, b], ...]`` cut to frames ``first..last`` (inclusive); ``b`` is
+    exclusive when ``stop_exclusive``. Ranges outside are dropped."""
+    end = last + 1 if stop_exclusive else last
+    cut = [[max(a, first), min(b, end)] for a, b in runs]
+    return [[a, b] for a, b in cut if (a < b if stop_exclusive else a <= b)]

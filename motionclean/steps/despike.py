@@ -9,7 +9,7 @@ import numpy as np
 from .. import kinematics
 from ..errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
-from .base import Param, StepData, StepSpec, shift_runs
+from .base import Param, StepData, StepSpec, crop_runs, shift_runs
 
 
 def _resolve_despike(params: dict, where: str) -> None:
@@ -84,10 +84,29 @@ def _format_note(note: dict, positions: bool, ranges=_ranges) -> str:
         parts.append(f"un-flipped {ranges(note['unflipped'])}")
     if note["interpolated"]:
         parts.append(f"interpolated {ranges(note['interpolated'])}")
-    step = note["max_step"]
+    step = note.get("max_step")
     digits = ".1f" if not positions else ".3g"
-    parts.append(f"largest step {step['before']:{digits}} -> {step['after']:{digits}} {unit}")
+    if step is not None:
+        parts.append(f"largest step {step['before']:{digits}} -> {step['after']:{digits}} {unit}")
     return "; ".join(parts)
+
+
+def _crop_note(note: dict, first: int, last: int) -> dict | None:
+    """The repairs within frames ``first..last``; the whole-clip largest steps are left out
+    (outside the range the clip keeps its input)."""
+    unflipped = crop_runs(note["unflipped"], first, last, stop_exclusive=True)
+    interpolated = crop_runs(note["interpolated"], first, last, stop_exclusive=True)
+    if not unflipped and not interpolated:
+        return None
+    repaired = np.zeros(last - first + 1, dtype=bool)
+    for a, b in unflipped + interpolated:
+        repaired[a - first : b - first] = True
+    kept = {key: value for key, value in note.items() if key != "max_step"}
+    return kept | {
+        "frames_repaired": int(repaired.sum()),
+        "unflipped": unflipped,
+        "interpolated": interpolated,
+    }
 
 
 def _format_brief(note: dict, positions: bool) -> str:
@@ -191,6 +210,7 @@ STEP = StepSpec(
     format_note=_format_note,
     format_brief=_format_brief,
     lists_repairs=True,
+    crop_note=_crop_note,
     shift_note=lambda note, frames: {
         **note,
         "unflipped": shift_runs(note["unflipped"], frames),

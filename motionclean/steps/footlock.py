@@ -14,7 +14,7 @@ from .. import kinematics
 from ..filters import contacts as found
 from ..filters.footlock import lock_feet
 from ..motion import Motion
-from .base import Param, StepData, StepSpec, shift_runs
+from .base import Param, StepData, StepSpec, crop_runs, shift_runs
 
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
@@ -93,6 +93,14 @@ def _format_note(note: dict, positions: bool) -> str:
     return f"held {len(note['contacts'])} contacts ({note['frames']} frames): {shown}" + (
         f" and {more} more" if more > 0 else ""
     )
+
+
+def _crop_note(note: dict, first: int, last: int) -> dict | None:
+    """The contacts held within frames ``first..last``."""
+    contacts = crop_runs(note["contacts"], first, last, stop_exclusive=False)
+    if not contacts:
+        return None
+    return {**note, "contacts": contacts, "frames": sum(b - a + 1 for a, b in contacts)}
 
 
 STEP = StepSpec(
@@ -174,5 +182,6 @@ STEP = StepSpec(
     run=_run,
     positions_default=False,
     format_note=_format_note,
+    crop_note=_crop_note,
     shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},
 )
