@@ -207,8 +207,8 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'noise est':>10}  filter chosen"
     lines = [
         f"{report['file']}: {report['frames']} frames at "
-        f"{1.0 / report['frame_time']:.4g} fps (angular acceleration in deg/s^2; "
-        "deviation and estimated noise in deg)",
+        f"{1.0 / report['frame_time']:.4g} fps, numbered from 0 (angular acceleration in "
+        "deg/s^2; deviation and estimated noise in deg)",
         head,
         "-" * len(head),
     ]

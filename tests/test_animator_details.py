@@ -42,6 +42,11 @@ def test_info_shows_whole_names_and_the_same_duration_as_the_page(tmp_path, caps
     assert f"({duration} s)" in page and "numbered from 0" in page and "numbered from 0" in out
 
 
+def test_the_terminal_report_header_says_frames_are_numbered_from_0(tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "clean", SAMPLE, "-o", tmp_path / "o.bvh")
+    assert code == 0 and "numbered from 0" in out.splitlines()[0]
+
+
 def test_untouched_joints_plot_flat_deviation():
     clip = mc.load(NOISY)
     cleaned, _ = Pipeline.from_inline(["lee-shin:joints=[LeftKnee]"]).run(clip)
