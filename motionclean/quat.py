@@ -72,9 +72,14 @@ def conjugate(q: np.ndarray) -> np.ndarray:
 
 
 def inverse(q: np.ndarray) -> np.ndarray:
-    """Inverse ``q* / |q|^2`` (equal to the conjugate for unit quaternions)."""
+    """Inverse ``q* / |q|^2`` (equal to the conjugate for unit quaternions); ValueError for
+    a zero quaternion or one whose squared norm is not a finite float64 (above ~1e154)."""
     q = shaped(q, 4, "q")
-    return conjugate(q) / np.sum(q * q, axis=-1, keepdims=True)
+    with np.errstate(over="ignore"):
+        norm2 = np.sum(q * q, axis=-1, keepdims=True)
+    if not np.all((norm2 > 0.0) & (norm2 < np.inf)):
+        raise ValueError("q: a zero, huge or non-finite quaternion has no inverse")
+    return conjugate(q) / norm2
 
 
 def normalize(q: np.ndarray) -> np.ndarray:

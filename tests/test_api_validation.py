@@ -166,3 +166,16 @@ def test_positions_too_large_to_square_are_refused_without_warnings(filt):
     p[6, 1, 2] = 1e300  # squares overflow: was a RuntimeWarning and NaN/inf results
     with pytest.raises(ValueError, match=r"value 1e\+300 at index \(6, 1, 2\) is beyond"):
         filt(p)
+
+
+def test_masks_of_the_wrong_type_and_uninvertible_quaternions():
+    with pytest.raises(TypeError, match="mask: expected an array of numbers, got str"):
+        lee_shin(quat.identity((5,)), "binomial")
+    with pytest.raises(ValueError, match="sum to 1"):
+        lee_shin_positions(np.zeros((5, 3)), [1e308, 1e308, 1e308])  # sum overflows: no warning
+    with pytest.raises(ValueError, match="no inverse"):
+        quat.inverse(np.array([[1.0, 0, 0, 0], [0.0, 0, 0, 0]]))
+    with pytest.raises(ValueError, match="no inverse"):
+        quat.inverse(np.array([1e200, 0, 0, 0]))
+    q = np.array([0.6, -0.4, 1.8, 0.2])  # not unit: the inverse still undoes it
+    np.testing.assert_allclose(quat.multiply(q, quat.inverse(q)), [1, 0, 0, 0], atol=1e-15)

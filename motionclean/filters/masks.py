@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from .. import checks
+
 __all__ = [
     "MaskError",
     "binomial",
@@ -40,14 +42,15 @@ def validate_mask(mask) -> np.ndarray:
     A mask must be one-dimensional, finite, of odd length (centred on the sample) and sum
     to 1 within 1e-9, so that the vector filter is affine invariant (000 Eq. 15).
     """
-    a = np.asarray(mask, dtype=np.float64)
+    a = checks.as_float_array(mask, "mask")
     if a.ndim != 1 or a.size == 0:
         raise MaskError(f"a mask must be a non-empty list of numbers, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise MaskError("a mask must contain finite numbers only")
     if a.size % 2 == 0:
         raise MaskError(f"a mask must have odd length (centred), got {a.size} coefficients")
-    total = float(np.sum(a))
+    with np.errstate(over="ignore"):  # a sum beyond float64 is refused as inf below
+        total = float(np.sum(a))
     if abs(total - 1.0) > SUM_TOLERANCE:
         raise MaskError(f"mask coefficients must sum to 1, these sum to {total:.12g}")
     return a
