@@ -57,8 +57,18 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
 
 
 def _axes(up: int) -> tuple[int, int]:
-    """The two horizontal axes, in x-y-z order after the up axis."""
+    """The two horizontal axes, in x-y-z order after the up axis (seen from above: the
+    first to the right, the second up the screen)."""
     return (up + 1) % 3, (up + 2) % 3
+
+
+def _views(up: int) -> dict[str, tuple[int, int]]:
+    """Screen axes (right, up) of each view. The front view has the lower-numbered
+    horizontal axis to the right (x for Y-up and Z-up clips: the front cameras of both
+    kinds of tools), the side view the other one; the top view looks down."""
+    h1, h2 = _axes(up)
+    first, second = sorted((h1, h2))
+    return {"front": (first, up), "side": (second, up), "top": (h1, h2)}
 
 
 def _to_view(values: np.ndarray, low: np.ndarray, span: float) -> np.ndarray:
@@ -77,10 +87,9 @@ def _polyline(points: np.ndarray, colour: str, name: str) -> str:
 
 
 def _trajectory_card(name: str, point: int, series: dict) -> str:
-    up = series["up"]
-    h1, h2 = _axes(up)
+    axes_of = _views(series["up"])
     views = []
-    for title, axes in (("from above", (h1, h2)), ("from the side", (h1, up))):
+    for title, axes in (("from above", axes_of["top"]), ("from the side", axes_of["front"])):
         tracks = [series["before"][:, point][:, axes]]
         if series["after"] is not None:
             tracks.append(series["after"][:, point][:, axes])
@@ -136,7 +145,7 @@ PLAYER_SCRIPT = """
   var clips = data.after ? [['before', data.before, data.colours[0]],
                             ['after', data.after, data.colours[1]]]
                          : [['before', data.before, data.colours[0]]];
-  var axes = {front: [data.h1, data.up], side: [data.h2, data.up], top: [data.h1, data.h2]};
+  var axes = data.views;
   var lines = [];
   svg.querySelectorAll('line.bone').forEach(function (l) { l.remove(); });
   clips.forEach(function (c) {
@@ -197,8 +206,7 @@ PLAYER_SCRIPT = """
 
 
 def _player(series: dict, frame_time: float) -> str:
-    up = series["up"]
-    h1, h2 = _axes(up)
+    views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
 
     def packed(points: np.ndarray | None) -> list | None:
@@ -213,16 +221,14 @@ def _player(series: dict, frame_time: float) -> str:
         "bones": series["bones"],
         "before": packed(series["before"]),
         "after": packed(series["after"]),
-        "up": up,
-        "h1": h1,
-        "h2": h2,
+        "views": views,
         "size": VIEW,
         "span": FIGURE_SPAN * QUANTUM,
         "colours": [BEFORE, AFTER],
         "step_ms": max(int(round(1000.0 * frame_time * step)), 10),
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
-    static = _static_frame(series, 0, (h1, up))
+    static = _static_frame(series, 0, views["front"])
     return (
         '<div class="player"><svg id="mc-player" class="view" '
         f'viewBox="0 0 {VIEW} {VIEW}" role="img" aria-label="the clip as a stick figure">'

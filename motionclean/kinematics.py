@@ -69,56 +69,155 @@ def forward_arrays(
     """
     rotations = checks.shaped(rotations, 4, "rotations", signal=True)
     translations = checks.shaped(translations, 3, "translations", signal=True)
-    world_p, world_q = _forward_planes(
-        np.asarray(parents, dtype=np.intp),
-        np.ascontiguousarray(rotations.transpose(2, 1, 0)),
-        np.ascontiguousarray(translations.transpose(2, 1, 0)),
-    )
+    world_p, world_q = _forward_planes(np.asarray(parents, dtype=np.intp), rotations, translations)
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 
+#: Frames per block times points: a block's planes stay in the processor's cache.
+BLOCK_ELEMENTS = 1 << 17
+
+
 def _forward_planes(
-    parents: np.ndarray, local_q: np.ndarray, local_t: np.ndarray
+    parents: np.ndarray,
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    channel_axes: np.ndarray | None = None,
+    offsets: np.ndarray | None = None,
+    tips: dict[int, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Forward kinematics on component planes, joint-major: ``local_q`` (4, J, F) and
-    ``local_t`` (3, J, F) in, world planes of the same shapes out. A level's joints (and
-    their parents) are gathered as whole contiguous rows; the arithmetic runs on planes."""
-    world_q = np.empty_like(local_q)
-    world_p = np.empty_like(local_t)
-    for level, joints in enumerate(depth_levels(parents)):
-        if level == 0:
-            world_q[:, joints] = local_q[:, joints]
-            world_p[:, joints] = local_t[:, joints]
-            continue
-        up = parents[joints]
-        parent_q = world_q[:, up]
-        product = np.empty_like(parent_q)
-        scratch = np.empty((2, *product.shape[1:]))
-        quat.multiply_planes(product, parent_q, local_q[:, joints], scratch)
-        world_q[:, joints] = product
-        world_p[:, joints] = world_p[:, up] + _rotate_planes(parent_q, local_t[:, joints])
+    """Forward kinematics of frame-major ``rotations`` (F, J, 4) and ``translations``
+    (F, J, 3) into joint-major world planes: positions (3, P, F), rotations (4, J, F).
+
+    With ``channel_axes`` (J, 3 bools) the local translation takes ``translations`` where
+    it is True and ``offsets`` (J, 3) elsewhere. ``tips`` (joint -> offset) adds end sites
+    after the joints (``P = J + len(tips)``, in ascending joint order). Runs over blocks of
+    frames (cache-sized, :data:`BLOCK_ELEMENTS`, with workspaces reused from block to
+    block); within a block the joints are sorted by depth, so that each level of the tree is
+    one contiguous run of rows computed at once from its parents' rows.
+    """
+    n_frames, n_joints = rotations.shape[:2]
+    tips = tips or {}
+    levels = depth_levels(parents)
+    order = np.concatenate(levels)
+    rank = np.empty(n_joints, dtype=np.intp)
+    rank[order] = np.arange(n_joints)
+    sorted_parents = np.where(parents[order] >= 0, rank[parents[order]], -1)
+    sizes = [len(level) for level in levels]
+    tip_rows = rank[np.array(sorted(tips), dtype=np.intp)]
+    tip_offsets = np.array([tips[j] for j in sorted(tips)], dtype=np.float64).reshape(-1, 3).T
+    if channel_axes is not None and offsets is not None:
+        sorted_axes, sorted_offsets = (
+            channel_axes[order].T[:, :, None],
+            offsets[order].T[:, :, None],
+        )
+    n_points = n_joints + tip_rows.size
+    widest = max(*sizes, tip_rows.size)
+    world_q = np.empty((4, n_joints, n_frames))
+    world_p = np.empty((3, n_points, n_frames))
+    block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
+    work: dict[str, np.ndarray] = {}
+    for start in range(0, n_frames, block):
+        frames = slice(start, min(start + block, n_frames))
+        width = frames.stop - start
+        if not work or work["q"].shape[2] != width:  # the first and the last block
+            work = {
+                "in_q": np.empty((width, n_joints, 4)),
+                "in_t": np.empty((width, n_joints, 3)),
+                "q": np.empty((4, n_joints, width)),  # local, then world rotations
+                "t": np.empty((3, n_joints, width)),  # local translations
+                "p": np.empty((3, n_points, width)),  # world positions
+                "flat": np.empty(20 * widest * width),  # per-level scratch
+            }
+        np.take(rotations[frames], order, axis=1, out=work["in_q"], mode="clip")
+        np.take(translations[frames], order, axis=1, out=work["in_t"], mode="clip")
+        q, t, p = work["q"], work["t"], work["p"]
+        np.copyto(q, work["in_q"].transpose(2, 1, 0))
+        if channel_axes is None:
+            np.copyto(t, work["in_t"].transpose(2, 1, 0))
+        else:
+            np.copyto(t, sorted_offsets)
+            np.copyto(t, work["in_t"].transpose(2, 1, 0), where=sorted_axes)
+        _forward_block(sorted_parents, sizes, q, t, p, work["flat"])
+        if tip_rows.size:
+            scratch = _Scratch(work["flat"], tip_rows.size, width)
+            pq, pp = scratch.take(q, tip_rows, 4), scratch.take(p, tip_rows, 3)
+            v = scratch.planes(3)
+            np.copyto(v, tip_offsets[:, :, None])
+            _rotate_into(pp, pq, v, scratch)
+            np.copyto(p[:, n_joints:], pp)
+        world_q[:, order, frames] = q
+        world_p[:, order, frames] = p[:, :n_joints]
+        world_p[:, n_joints:, frames] = p[:, n_joints:]
     return world_p, world_q
 
 
-def _cross_planes(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty_like(b)
-    np.subtract(a[1] * b[2], a[2] * b[1], out=out[0])
-    np.subtract(a[2] * b[0], a[0] * b[2], out=out[1])
-    np.subtract(a[0] * b[1], a[1] * b[0], out=out[2])
-    return out
+class _Scratch:
+    """Contiguous ``(k, rows, frames)`` planes carved in turn from one flat buffer."""
+
+    def __init__(self, flat: np.ndarray, rows: int, frames: int):
+        self.flat, self.rows, self.frames, self.used = flat, rows, frames, 0
+
+    def planes(self, k: int) -> np.ndarray:
+        size = k * self.rows * self.frames
+        out = self.flat[self.used : self.used + size].reshape(k, self.rows, self.frames)
+        self.used += size
+        return out
+
+    def take(self, source: np.ndarray, rows: np.ndarray, k: int) -> np.ndarray:
+        """Rows ``rows`` of ``source`` (k, R, frames) gathered into new planes."""
+        out = self.planes(k)
+        np.take(source, rows, axis=1, out=out, mode="clip")
+        return out
 
 
-def _rotate_planes(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``q v q^-1`` on planes (unit ``q`` (4, ...), ``v`` (3, ...)) as ``v + 2 (w c + u x c)``
-    with ``c = u x v`` (``u`` the vector part): two cross products, no quaternion products."""
+def _forward_block(
+    parents: np.ndarray,
+    sizes: list[int],
+    q: np.ndarray,
+    t: np.ndarray,
+    p: np.ndarray,
+    flat: np.ndarray,
+) -> None:
+    """One block of :func:`_forward_planes`, joints sorted by depth (``sizes`` joints per
+    level, ``parents`` in that order): ``q`` local rotations become world rotations in
+    place; world positions go to ``p[:, :J]``; ``flat`` is scratch."""
+    frames = q.shape[2]
+    p[:, : sizes[0]] = t[:, : sizes[0]]
+    start = sizes[0]
+    for size in sizes[1:]:
+        rows = slice(start, start + size)
+        start += size
+        scratch = _Scratch(flat, size, frames)
+        up = parents[rows]
+        pq, pp = scratch.take(q, up, 4), scratch.take(p, up, 3)
+        local_q = scratch.planes(4)
+        np.copyto(local_q, q[:, rows])
+        quat.multiply_planes(q[:, rows], pq, local_q, scratch.planes(2))
+        _rotate_into(pp, pq, t[:, rows], scratch)
+        np.copyto(p[:, rows], pp)
+
+
+def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray, tmp: np.ndarray) -> None:
+    """``out = a x b`` on planes (3, ...); ``tmp`` one scratch plane; ``out`` not ``a``/``b``."""
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        np.multiply(a[j], b[k], out[i])
+        np.multiply(a[k], b[j], tmp)
+        np.subtract(out[i], tmp, out[i])
+
+
+def _rotate_into(p: np.ndarray, q: np.ndarray, v: np.ndarray, scratch: _Scratch) -> None:
+    """``p += q v q^-1`` on planes (unit ``q`` (4, ...), ``v`` (3, ...)) as
+    ``v + 2 (w c + u x c)`` with ``c = u x v`` (``u`` the vector part): two cross products,
+    no quaternion products."""
     u = q[1:]
-    c = _cross_planes(u, v)
-    c2 = _cross_planes(u, c)
+    c, c2, tmp = scratch.planes(3), scratch.planes(3), scratch.planes(1)[0]
+    _cross_into(c, u, v, tmp)
+    _cross_into(c2, u, c, tmp)
     c *= q[0]
     c += c2
     c *= 2.0
     c += v
-    return c
+    p += c
 
 
 def local_translations(motion: Motion) -> np.ndarray:
@@ -144,22 +243,14 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
     ``P = J`` joints, or with ``end_sites`` the joints followed by the end sites in the
     order of :func:`end_site_names` (an end site has its joint's world rotation).
     """
-    n_joints, n_frames = motion.n_joints, motion.n_frames
-    local_t = np.empty((3, n_joints, n_frames))
-    local_t[...] = motion.offsets.T[:, :, None]
-    columns = motion.layout.position_columns
-    for axis in range(3):  # channel values replace the OFFSET's axes that have a channel
-        joints = np.flatnonzero(columns[:, axis] >= 0)
-        local_t[axis, joints] = motion.translations[:, joints, axis].T
-    local_q = np.ascontiguousarray(motion.rotations.transpose(2, 1, 0))
-    world_p, world_q = _forward_planes(motion.parents, local_q, local_t)
-    if end_sites and motion.end_sites:
-        joints = np.array(sorted(motion.end_sites), dtype=np.intp)
-        offsets = np.stack([motion.end_sites[int(j)] for j in joints]).astype(np.float64)
-        tips = world_p[:, joints] + _rotate_planes(
-            world_q[:, joints], np.broadcast_to(offsets.T[:, :, None], (3, joints.size, n_frames))
-        )
-        world_p = np.concatenate([world_p, tips], axis=1)
+    world_p, world_q = _forward_planes(
+        motion.parents,
+        motion.rotations,
+        motion.translations,
+        channel_axes=motion.layout.position_columns >= 0,
+        offsets=motion.offsets,
+        tips=motion.end_sites if end_sites else None,
+    )
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 

@@ -54,6 +54,23 @@ def test_without_scripts_the_player_shows_an_upright_figure():
     assert {"Head_end", "LeftToe_end", "RThumb_end"} <= names_in_page
 
 
+def test_the_front_view_has_x_to_the_right():
+    """Y-up like Z-up clips: the player opens on the view with x to the right and the up
+    axis up (the subject of 131_02 faces +z at first, so its shoulders stand side by side)."""
+    text = page_of(NOISY)
+    motion = mc.load(NOISY)
+    parents = kinematics.point_parents(motion)
+    pairs = [(int(p), c) for c, p in enumerate(parents) if p >= 0]
+    bones = bone_lines(text, "before")
+    points, _ = kinematics.forward(motion, end_sites=True)
+    screen_dx = bones[:, 2] - bones[:, 0]  # child minus parent, per bone
+    world_dx = np.array([points[0, c, 0] - points[0, p, 0] for p, c in pairs])
+    assert abs(np.corrcoef(screen_dx, world_dx)[0, 1]) > 0.999
+    left, right = (motion.names.index(n) for n in ("LeftShoulder", "RightShoulder"))
+    ends = {c: bones[i, 2] for i, (_, c) in enumerate(pairs)}
+    assert abs(ends[left] - ends[right]) > 0.1 * 360 / 1.3
+
+
 def test_a_long_clip_is_subsampled_and_the_page_stays_small():
     text = page_of(corpus_clip("131_02.bvh"))
     assert len(text.encode("utf-8")) < 1_500_000

@@ -98,6 +98,31 @@ def test_several_roots_match_a_per_joint_loop(seed):
     np.testing.assert_allclose(np.linalg.norm(world, axis=-1), 1.0, atol=1e-12)
 
 
+def test_blocks_of_frames_agree_with_the_loop(monkeypatch):
+    """Clips longer than one block (here blocks of 256 frames and a shorter last one)."""
+    motion = random_forest(7, n_frames=700)
+    monkeypatch.setattr(kinematics, "BLOCK_ELEMENTS", 1)
+    ours, world = kinematics.forward(motion)
+    np.testing.assert_allclose(ours, loop_forward(motion), rtol=0, atol=1e-9)
+    monkeypatch.undo()
+    whole = kinematics.forward(motion)
+    assert np.array_equal(ours, whole[0]) and np.array_equal(world, whole[1])
+
+
+def test_joints_in_any_order_give_the_same_world_points():
+    """forward_arrays takes parents listed after their children too."""
+    motion = random_forest(3)
+    rng = np.random.default_rng(3)
+    perm = rng.permutation(motion.n_joints)  # new joint i is old joint perm[i]
+    where = np.argsort(perm)
+    parents = np.where(motion.parents[perm] >= 0, where[motion.parents[perm]], -1)
+    local = kinematics.local_translations(motion)
+    ours, world = kinematics.forward_arrays(parents, motion.rotations[:, perm], local[:, perm])
+    expected, expected_world = kinematics.forward(motion)
+    np.testing.assert_allclose(ours, expected[:, perm], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(world, expected_world[:, perm], rtol=0, atol=1e-15)
+
+
 def test_a_5000_deep_chain_works():
     n = 5000
     motion = mc.Motion.from_channel_values(
