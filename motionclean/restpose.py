@@ -39,20 +39,22 @@ def _leading(rotations: np.ndarray, translations: np.ndarray, steps: np.ndarray)
         return 0
     if run >= HELD_FRAMES:
         return run
-    typical = np.median(steps, axis=0)
-    out = steps[run - 1]
+    moving = steps.max(axis=0) > 0.0  # joints held still for the whole clip say nothing
+    typical = np.median(steps[:, moving], axis=0)
+    out = steps[run - 1, moving]
     jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical)
-    return run if jump.mean() >= MOST_JOINTS else 0
+    return run if moving.any() and jump.mean() >= MOST_JOINTS else 0
 
 
 def rest_frames(motion: Motion) -> tuple[int, int]:
     """Numbers of leading and trailing rest-pose frames of ``motion`` (0 when none).
 
     A rest frame (or a run of identical frames) at either end counts when the step from it
-    into the motion is a jump on at least half of the rotating joints at once: larger than
-    15 degrees and than 8 times the joint's median step. No noise makes most joints jump
-    on the same frame; a pose held before the capture does. A run of at least 3 identical
-    frames (every channel, positions too) counts in any case: a held pose.
+    into the motion is a jump on at least half of the joints that move at all (a joint whose
+    rotation never changes says nothing) at once: larger than 15 degrees and than 8 times
+    the joint's median step. No noise makes most joints jump on the same frame; a pose held
+    before the capture does. A run of at least 3 identical frames (every channel, positions
+    too) counts in any case: a held pose.
     """
     rotating = motion.layout.has_rotation
     if motion.n_frames < 8 or not rotating.any():

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import NOISY, degrees_between, run_cli
+from helpers import CORPUS_NAMES, NOISY, corpus_clip, degrees_between, run_cli
 
 import motionclean as mc
 from motionclean.restpose import rest_frames
@@ -93,3 +93,14 @@ def test_a_held_pose_at_either_end_is_kept_bit_for_bit(tmp_path, capsys, frames,
 
 def test_a_single_repeated_frame_is_no_rest_pose(tmp_path):
     assert rest_frames(mc.load(with_held_pose(NOISY, tmp_path / "h.bvh", 2))) == (0, 0)
+
+
+@pytest.mark.parametrize("name", CORPUS_NAMES)
+def test_a_t_pose_is_found_on_every_corpus_clip_and_nothing_else(tmp_path, name):
+    """CMU skeletons carry joints that never rotate (hip joints, collars, hands): they take
+    no part in the vote (counted in, 131_03's leading T-pose and 131_02's trailing one fell
+    just short of half the joints)."""
+    source = corpus_clip(name)
+    assert rest_frames(mc.load(source)) == (0, 0)
+    assert rest_frames(mc.load(with_t_pose(source, tmp_path / "a.bvh"))) == (1, 0)
+    assert rest_frames(mc.load(with_t_pose(source, tmp_path / "b.bvh", at_end=True))) == (0, 1)
