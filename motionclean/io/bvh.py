@@ -157,6 +157,110 @@ def _check_channels(listed: list[str], path, number: int) -> None:
         )
 
 
+class _Hierarchy:
+    """The skeleton read so far from the HIERARCHY lines, one method per keyword."""
+
+    def __init__(self, path):
+        self.path = path
+        self.first_line: dict[str, int] = {}  # joint name -> line of its header
+        self.names: list[str] = []
+        self.parents: list[int] = []
+        self.offsets: list[list[float] | None] = []
+        self.channels: list[tuple[str, ...]] = []
+        self.end_sites: dict[int, np.ndarray] = {}
+        self.stack: list[tuple[str, int]] = []  # ("joint", index) or ("end", parent index)
+        self.expect_open = False
+
+    def _in_joint(self) -> bool:
+        return bool(self.stack) and self.stack[-1][0] == "joint"
+
+    def joint(self, tokens: list[str], text: str, number: int) -> None:
+        keyword = tokens[0]
+        name = text[len(keyword) :].strip()
+        if not name:
+            _fail(f"{keyword} without a name", self.path, number)
+        if "\x00" in name:
+            _fail(f"joint name {name[:40]!r} holds a NUL byte", self.path, number)
+        if keyword == "ROOT" and self.stack:
+            _fail("ROOT inside another joint", self.path, number)
+        if keyword == "JOINT" and not self._in_joint():
+            _fail("JOINT outside a joint", self.path, number)
+        if name in self.first_line:
+            _fail(
+                f"joint name {name!r} used twice (first at line {self.first_line[name]})",
+                self.path,
+                number,
+            )
+        self.first_line[name] = number
+        self.parents.append(self.stack[-1][1] if self.stack else -1)
+        self.names.append(name)
+        self.offsets.append(None)
+        self.channels.append(())
+        self.stack.append(("joint", len(self.names) - 1))
+        self.expect_open = True
+
+    def end_site(self, tokens: list[str], text: str, number: int) -> None:
+        if not self._in_joint():
+            _fail("End Site outside a joint", self.path, number)
+        self.stack.append(("end", self.stack[-1][1]))
+        self.expect_open = True
+
+    def open(self, tokens: list[str], text: str, number: int) -> None:
+        if not self.expect_open or len(tokens) > 1:
+            _fail("unexpected '{'", self.path, number)
+        self.expect_open = False
+
+    def close(self, tokens: list[str], text: str, number: int) -> None:
+        if not self.stack:
+            _fail("unbalanced '}'", self.path, number)
+        kind, index = self.stack.pop()
+        if kind == "joint" and self.offsets[index] is None:
+            _fail(f"joint {self.names[index]!r} has no OFFSET", self.path, number)
+
+    def offset(self, tokens: list[str], text: str, number: int) -> None:
+        if not self.stack:
+            _fail("OFFSET outside a joint", self.path, number)
+        if len(tokens) != 4:
+            _fail(f"OFFSET needs 3 numbers, found {len(tokens) - 1}", self.path, number)
+        offset = [_number(t, "OFFSET value", self.path, number) for t in tokens[1:]]
+        kind, index = self.stack[-1]
+        if kind == "end":
+            self.end_sites[index] = np.array(offset)
+        else:
+            self.offsets[index] = offset
+
+    def channel_list(self, tokens: list[str], text: str, number: int) -> None:
+        if not self._in_joint():
+            _fail("CHANNELS outside a joint", self.path, number)
+        if len(tokens) < 2 or not _ascii_digits(tokens[1]):
+            _fail("CHANNELS needs a count followed by channel names", self.path, number)
+        joint = self.stack[-1][1]
+        if self.channels[joint]:
+            _fail(f"a second CHANNELS line for joint {self.names[joint]!r}", self.path, number)
+        count, listed = int(tokens[1]), tokens[2:]
+        if count != len(listed):
+            _fail(f"CHANNELS says {count} but names {len(listed)}", self.path, number)
+        _check_channels(listed, self.path, number)
+        self.channels[joint] = tuple(listed)
+
+    def motion(self, tokens: list[str], number: int) -> None:
+        """Check that the hierarchy is complete where the MOTION line starts."""
+        if self.stack:
+            _fail("truncated hierarchy: MOTION before the joints are closed", self.path, number)
+        if not self.names:
+            _fail("no joints before MOTION", self.path, number)
+        if len(tokens) > 1:
+            _fail("unexpected text after MOTION", self.path, number)
+
+    def ended(self, number: int) -> NoReturn:
+        """The file ended before the MOTION line."""
+        if self.stack or not self.names:
+            _fail(
+                "truncated hierarchy: the file ends inside the HIERARCHY section", self.path, number
+            )
+        _fail("missing MOTION section", self.path, number)
+
+
 def _parse_hierarchy(lines: _Lines, path):
     """Parse HIERARCHY up to the MOTION line; return the skeleton and MOTION's offset."""
     first = lines.next_tokens()
@@ -165,101 +269,29 @@ def _parse_hierarchy(lines: _Lines, path):
     number, _, tokens, _ = first
     if tokens[0] != "HIERARCHY":
         _fail(f"not a BVH file: expected HIERARCHY, found {tokens[0][:40]!r}", path, number)
-
-    first_line: dict[str, int] = {}  # joint name -> line of its header
-    names: list[str] = []
-    parents: list[int] = []
-    offsets: list[list[float] | None] = []
-    channels: list[tuple[str, ...]] = []
-    end_sites: dict[int, np.ndarray] = {}
-    stack: list[tuple[str, int]] = []  # ("joint", index) or ("end", parent index)
-    expect_open = False
-
-    while True:
-        item = lines.next_tokens()
-        if item is None:
-            if stack or not names:
-                _fail(
-                    "truncated hierarchy: the file ends inside the HIERARCHY section",
-                    path,
-                    lines.number,
-                )
-            _fail("missing MOTION section", path, lines.number)
+    skeleton = _Hierarchy(path)
+    handlers = {
+        "ROOT": skeleton.joint,
+        "JOINT": skeleton.joint,
+        "End": skeleton.end_site,
+        "{": skeleton.open,
+        "}": skeleton.close,
+        "OFFSET": skeleton.offset,
+        "CHANNELS": skeleton.channel_list,
+    }
+    while (item := lines.next_tokens()) is not None:
         number, start, tokens, text = item
         keyword = tokens[0]
-        if expect_open and keyword != "{":
+        if skeleton.expect_open and keyword != "{":
             _fail(f"expected '{{' after the joint header, found {keyword[:40]!r}", path, number)
-        if keyword in ("ROOT", "JOINT"):
-            name = text[len(keyword) :].strip()
-            if not name:
-                _fail(f"{keyword} without a name", path, number)
-            if "\x00" in name:
-                _fail(f"joint name {name[:40]!r} holds a NUL byte", path, number)
-            if keyword == "ROOT" and stack:
-                _fail("ROOT inside another joint", path, number)
-            if keyword == "JOINT" and (not stack or stack[-1][0] != "joint"):
-                _fail("JOINT outside a joint", path, number)
-            if name in first_line:
-                _fail(
-                    f"joint name {name!r} used twice (first at line {first_line[name]})",
-                    path,
-                    number,
-                )
-            first_line[name] = number
-            parents.append(stack[-1][1] if stack else -1)
-            names.append(name)
-            offsets.append(None)
-            channels.append(())
-            stack.append(("joint", len(names) - 1))
-            expect_open = True
-        elif keyword == "End":
-            if not stack or stack[-1][0] != "joint":
-                _fail("End Site outside a joint", path, number)
-            stack.append(("end", stack[-1][1]))
-            expect_open = True
-        elif keyword == "{":
-            if not expect_open or len(tokens) > 1:
-                _fail("unexpected '{'", path, number)
-            expect_open = False
-        elif keyword == "}":
-            if not stack:
-                _fail("unbalanced '}'", path, number)
-            kind, index = stack.pop()
-            if kind == "joint" and offsets[index] is None:
-                _fail(f"joint {names[index]!r} has no OFFSET", path, number)
-        elif keyword == "OFFSET":
-            if not stack:
-                _fail("OFFSET outside a joint", path, number)
-            if len(tokens) != 4:
-                _fail(f"OFFSET needs 3 numbers, found {len(tokens) - 1}", path, number)
-            offset = [_number(t, "OFFSET value", path, number) for t in tokens[1:]]
-            kind, index = stack[-1]
-            if kind == "end":
-                end_sites[index] = np.array(offset)
-            else:
-                offsets[index] = offset
-        elif keyword == "CHANNELS":
-            if not stack or stack[-1][0] != "joint":
-                _fail("CHANNELS outside a joint", path, number)
-            if len(tokens) < 2 or not _ascii_digits(tokens[1]):
-                _fail("CHANNELS needs a count followed by channel names", path, number)
-            if channels[stack[-1][1]]:
-                _fail(f"a second CHANNELS line for joint {names[stack[-1][1]]!r}", path, number)
-            count, listed = int(tokens[1]), tokens[2:]
-            if count != len(listed):
-                _fail(f"CHANNELS says {count} but names {len(listed)}", path, number)
-            _check_channels(listed, path, number)
-            channels[stack[-1][1]] = tuple(listed)
-        elif keyword == "MOTION":
-            if stack:
-                _fail("truncated hierarchy: MOTION before the joints are closed", path, number)
-            if not names:
-                _fail("no joints before MOTION", path, number)
-            if len(tokens) > 1:
-                _fail("unexpected text after MOTION", path, number)
-            return names, parents, offsets, channels, end_sites, start
-        else:
+        if keyword == "MOTION":
+            skeleton.motion(tokens, number)
+            s = skeleton
+            return s.names, s.parents, s.offsets, s.channels, s.end_sites, start
+        if keyword not in handlers:
             _fail(f"unexpected {keyword[:40]!r} in HIERARCHY", path, number)
+        handlers[keyword](tokens, text, number)
+    skeleton.ended(lines.number)
 
 
 def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
