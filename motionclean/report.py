@@ -245,13 +245,15 @@ def format_table(report: dict, limit: int = 10) -> str:
 
 def format_rest(rest: dict, frames: int) -> str:
     """The rest-pose frames left out of every step and every figure."""
-    parts = []
+    spans = []
     if rest["leading"]:
-        parts.append(f"0-{rest['leading'] - 1}")
+        spans.append((0, rest["leading"] - 1))
     if rest["trailing"]:
-        parts.append(f"{frames - rest['trailing']}-{frames - 1}")
+        spans.append((frames - rest["trailing"], frames - 1))
+    parts = [f"{a}-{b}" if b > a else f"{a}" for a, b in spans]
+    noun = "frame" if len(spans) == 1 and spans[0][0] == spans[0][1] else "frames"
     return (
-        f"rest pose: frames {' and '.join(parts)} kept as they are and left out of the "
+        f"rest pose: {noun} {' and '.join(parts)} kept as they are and left out of the "
         "figures (a pose held before or after the motion)"
     )
 

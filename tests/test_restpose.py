@@ -39,7 +39,7 @@ def test_a_t_pose_first_frame_is_kept_bit_for_bit_and_out_of_the_figures(tmp_pat
     posed = with_t_pose(NOISY, tmp_path / "t.bvh")
     out, report = tmp_path / "out.bvh", tmp_path / "r.json"
     code, text, _ = run_cli(capsys, "clean", posed, "-o", out, "--report", report)
-    assert code == 0 and "rest pose: frames 0-0 kept" in text
+    assert code == 0 and "rest pose: frame 0 kept" in text
     rows_in = posed.read_text().splitlines()
     rows_out = out.read_text().splitlines()
     start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
@@ -82,7 +82,9 @@ def test_a_held_pose_at_either_end_is_kept_bit_for_bit(tmp_path, capsys, frames,
     assert rest_frames(mc.load(held)) == ((0, frames) if at_end else (frames, 0))
     out = tmp_path / "out.bvh"
     code, text, _ = run_cli(capsys, "clean", held, "-o", out)
-    assert code == 0 and "rest pose: frames" in text
+    n = mc.load(held).n_frames
+    span = f"{n - frames}-{n - 1}" if at_end else f"0-{frames - 1}"
+    assert code == 0 and f"rest pose: frames {span} kept" in text
     rows_in, rows_out = held.read_text().splitlines(), out.read_text().splitlines()
     assert len(rows_in) == len(rows_out)
     start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
