@@ -83,6 +83,7 @@ Lee-Shin pass on the corpus clips (``python bench/despike.py``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -631,68 +632,71 @@ def _position_velocity(p: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
     return p.take(i + stride, axis=0) - p.take(i, axis=0)
 
 
-def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio, method, flip_rad):
+@dataclass(frozen=True)
+class _Metric:
+    """How samples are compared and gaps filled: rotations (radians) or positions."""
+
+    rotations: bool
+    dist: Callable
+    velocity: Callable
+    interpolate: Callable
+
+
+_ROTATIONS = _Metric(True, _rotation_distance, _rotation_velocity, _interpolate_rotations)
+_POSITIONS = _Metric(False, _position_distance, _position_velocity, _interpolate_positions)
+
+
+@dataclass(frozen=True)
+class _Limits:
+    """The repair's settings: jump ``threshold`` (robust deviations), the clip of the jump
+    threshold ``[low, high]`` per second (``high`` is also the cap), the longest spike
+    ``max_len`` (frames), ``trend_ratio``, the gap ``method`` and the smallest flip
+    ``flip_rad`` (None: no un-flipping)."""
+
+    threshold: float
+    low: float
+    high: float
+    max_len: int
+    trend_ratio: float
+    method: str
+    flip_rad: float | None
+
+
+def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     """Shared driver on ``x`` (F, C, 4|3): jump threshold, un-flip, spikes, cap passes.
 
-    Spikes are at most ``max_len`` frames long; the cap widens a gap at most ``max_len``
-    times. Returns the repaired array (columns without repairs are ``x``'s own), the
+    Spikes are at most ``limits.max_len`` frames long; the cap widens a gap at most that
+    many times. Returns the repaired array (columns without repairs are ``x``'s own), the
     un-flipped and interpolated masks (F, C), the jump threshold and the largest step
     before and after (C,), all in radians or length units per frame. Beyond the steps and their
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
     """
-    if rotations:
-        dist, velocity, interpolate = (
-            _rotation_distance,
-            _rotation_velocity,
-            _interpolate_rotations,
-        )
-    else:
-        dist, velocity, interpolate = (
-            _position_distance,
-            _position_velocity,
-            _interpolate_positions,
-        )
     n_frames, n_cols = x.shape[:2]
     flipped = np.zeros((n_frames, n_cols), dtype=bool)
     if n_frames < 2:
         zeros = np.zeros(n_cols)
         return x.copy(), flipped, flipped.copy(), zeros, zeros, zeros
-    steps = dist(x[:-1], x[1:])
+    steps = metric.dist(x[:-1], x[1:])
     before = steps.max(axis=0)
-    cap = high * frame_time
-    jump = np.full(n_cols, low * frame_time)  # the floor: no jump where no step exceeds it
+    cap = limits.high * frame_time
+    jump = np.full(n_cols, limits.low * frame_time)  # the floor: no jump where no step exceeds it
     moving = np.flatnonzero(before > jump)
-    jump[moving] = _robust_threshold(steps.T[moving], threshold, low * frame_time, cap)
+    jump[moving] = _robust_threshold(
+        steps.T[moving], limits.threshold, limits.low * frame_time, cap
+    )
     out = x.copy()
-    flat = out.reshape(n_frames * n_cols, x.shape[-1])  # frame a of column c at row a C + c
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
-    if flip_rad is not None:
-        cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad)
-        if toggles.any():
-            # Toggles on the steps of a spike that is not itself a clean flip (half-turn
-            # both in and out) are artefacts of the spike: its ends share one state.
-            first, length, slot = _spike_runs(
-                out.take(cols, axis=1),
-                steps.take(cols, axis=1),
-                jump[cols],
-                max_len,
-                trend_ratio,
-                dist,
-                velocity,
-                interpolate,
-                toggles,
-            )
-            toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
-            parity = _parity(toggles)
-            frame, slot = _nonzero(parity)
-            i = frame * n_cols + cols[slot]
-            flat[i] = _half_turn(flat, i, slot, axis, left)
-            flipped[:, cols] = parity
-            turned = cols[parity.any(axis=0)]
-            samples = out.take(turned, axis=1)
-            steps[:, turned] = dist(samples[:-1], samples[1:])
+    if limits.flip_rad is not None:
+        turned = _unflip(out, steps, jump, flipped, metric, limits, limits.flip_rad)
     first, length, col = _spike_runs(
-        out, steps, jump, max_len, trend_ratio, dist, velocity, interpolate
+        out,
+        steps,
+        jump,
+        limits.max_len,
+        limits.trend_ratio,
+        metric.dist,
+        metric.velocity,
+        metric.interpolate,
     )
     mask = _mark(first, length, col, flipped.shape)
     over = steps > cap
@@ -703,13 +707,58 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
         col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
     after = before.copy()
     changed = np.bincount(np.concatenate([turned, col]), minlength=n_cols).nonzero()[0]
-    if changed.size == 0:
-        return out, flipped, mask, jump, before, after
+    if changed.size:
+        _fill_changed(out, mask, changed, after, metric, limits, cap)
+    return out, flipped, mask, jump, before, after
+
+
+def _unflip(
+    out, steps, jump, flipped, metric: _Metric, limits: _Limits, flip_rad: float
+) -> np.ndarray:
+    """Undo half-turn flips (steps of at least ``flip_rad``) in ``out`` (F, C, 4) in place;
+    mark them in ``flipped`` and update ``steps`` of the columns turned back, which are
+    returned."""
+    n_frames, n_cols = out.shape[:2]
+    flat = out.reshape(n_frames * n_cols, out.shape[-1])  # frame a of column c at row a C + c
+    cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad)
+    if not toggles.any():
+        return np.zeros(0, dtype=np.intp)
+    # Toggles on the steps of a spike that is not itself a clean flip (half-turn
+    # both in and out) are artefacts of the spike: its ends share one state.
+    first, length, slot = _spike_runs(
+        out.take(cols, axis=1),
+        steps.take(cols, axis=1),
+        jump[cols],
+        limits.max_len,
+        limits.trend_ratio,
+        metric.dist,
+        metric.velocity,
+        metric.interpolate,
+        toggles,
+    )
+    toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
+    parity = _parity(toggles)
+    frame, slot = _nonzero(parity)
+    i = frame * n_cols + cols[slot]
+    flat[i] = _half_turn(flat, i, slot, axis, left)
+    flipped[:, cols] = parity
+    turned = cols[parity.any(axis=0)]
+    samples = out.take(turned, axis=1)
+    steps[:, turned] = metric.dist(samples[:-1], samples[1:])
+    return turned
+
+
+def _fill_changed(out, mask, changed, after, metric: _Metric, limits: _Limits, cap) -> None:
+    """Fill the gaps of the ``changed`` columns of ``out`` in place (widening ``mask``
+    where the cap asks), make rotations sign-continuous and set their largest step
+    ``after``."""
     fixed = out.take(changed, axis=1)
     gaps = mask.take(changed, axis=1)
     if gaps.any():
-        mask[:, changed] = _fill(fixed, gaps, dist, interpolate, method, cap, max_len)
-    if rotations:
+        mask[:, changed] = _fill(
+            fixed, gaps, metric.dist, metric.interpolate, limits.method, cap, limits.max_len
+        )
+    if metric.rotations:
         # Sign continuity (000 Sec. VI-A, as quat.make_continuous) from the dot products
         # that also give the steps after repair.
         dots = _dot(fixed[:-1], fixed[1:])
@@ -720,8 +769,7 @@ def _repair(x, frame_time, rotations, threshold, low, high, max_len, trend_ratio
         after[changed] = _dot_angle(dots).max(axis=0)
     else:
         out[:, changed] = fixed
-        after[changed] = dist(fixed[:-1], fixed[1:]).max(axis=0)
-    return out, flipped, mask, jump, before, after
+        after[changed] = metric.dist(fixed[:-1], fixed[1:]).max(axis=0)
 
 
 def _columns(x: np.ndarray) -> np.ndarray:
@@ -806,10 +854,7 @@ def despike_with_report(
     if not 90.0 < flip_deg <= 180.0:
         raise ValueError(f"flip_deg must be in (90, 180] degrees, got {flip_deg}")
     q = checks.unit_quaternions(q)
-    out, flipped, interpolated, jump, before, after = _repair(
-        _columns(q),
-        frame_time,
-        True,
+    limits = _Limits(
         threshold,
         np.deg2rad(min_deg_per_s),
         np.deg2rad(max_deg_per_s),
@@ -817,6 +862,9 @@ def despike_with_report(
         trend_ratio,
         method,
         np.deg2rad(flip_deg) if unflip else None,
+    )
+    out, flipped, interpolated, jump, before, after = _repair(
+        _columns(q), frame_time, _ROTATIONS, limits
     )
     report = _report(q.shape, flipped, interpolated, jump, before, after, np.rad2deg)
     return out.reshape(q.shape), report
@@ -863,17 +911,11 @@ def despike_positions_with_report(
         "units",
     )
     p = checks.vectors(p)
+    limits = _Limits(
+        threshold, min_units_per_s, max_units_per_s, max_len, trend_ratio, method, None
+    )
     out, flipped, interpolated, jump, before, after = _repair(
-        _columns(p),
-        frame_time,
-        False,
-        threshold,
-        min_units_per_s,
-        max_units_per_s,
-        max_len,
-        trend_ratio,
-        method,
-        None,
+        _columns(p), frame_time, _POSITIONS, limits
     )
     report = _report(p.shape, flipped, interpolated, jump, before, after, np.asarray)
     return out.reshape(p.shape), report
