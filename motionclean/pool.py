@@ -43,7 +43,8 @@ def _worker_setup(parent: int) -> None:
     threading.Thread(target=watch, daemon=True, name="motionclean-parent-watch").start()
 
 
-def _size(path: str) -> int:
+def input_size(path: str) -> int:
+    """Size of ``path`` in bytes (0 when it cannot be read): the order jobs are handed out."""
     try:
         return os.path.getsize(path)
     except OSError:
@@ -68,7 +69,7 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
         for index, job in enumerate(jobs):
             yield index, run_job(job)
         return
-    order = sorted(range(len(jobs)), key=lambda i: -_size(jobs[i].source))
+    order = sorted(range(len(jobs)), key=lambda i: -input_size(jobs[i].source))
     executor = ProcessPoolExecutor(
         max_workers=min(workers, len(jobs)),
         mp_context=_context(),

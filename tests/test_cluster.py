@@ -3,10 +3,19 @@ failures named, clear errors for a bad or unreachable scheduler."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
-from helpers import NOISY, cut_bvh, run_cli
+from helpers import NOISY, SAMPLE, cut_bvh, run_cli
+
+from motionclean import cluster
+from motionclean.jobs import Job, run_job
+from motionclean.pipeline import Pipeline
 
 pytest.importorskip("distributed", reason="the dask extra is not installed")
 
@@ -55,3 +64,92 @@ def test_bad_scheduler_values_are_usage_errors(tree, capsys, value, message):
         capsys, "batch", tree / "in", "-o", tree / "y", "--scheduler", "local", "-j", "2"
     )
     assert code == 2 and "either --jobs" in err
+
+
+@pytest.mark.slow
+def test_the_clips_of_a_lost_worker_are_run_again_and_none_go_missing(tmp_path):
+    from distributed import Client, LocalCluster
+
+    steps = tuple(Pipeline.from_inline(["fairing:max_iterations=400,tol=0"]).describe())
+    jobs = []
+    for k in range(4):
+        source = cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 120)
+        jobs.append(Job(str(source), str(tmp_path / "out" / f"c{k}.bvh"), steps, None))
+    with (
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as local,
+        Client(local) as client,
+    ):
+        results = cluster.run_jobs_on(client, jobs)
+        while not any(client.processing().values()):
+            time.sleep(0.05)
+        busy = next(address for address, keys in client.processing().items() if keys)
+        os.kill(client.run(os.getpid, workers=[busy])[busy], signal.SIGKILL)
+        done = dict(results)
+    assert sorted(done) == [0, 1, 2, 3]
+    assert all(result.status == "ok" for result in done.values())
+    for job in jobs:
+        expected = tmp_path / "serial.bvh"
+        run_job(Job(job.source, str(expected), steps, None))
+        assert Path(job.target).read_bytes() == expected.read_bytes()
+
+
+def descendants(pid: int) -> list[str]:
+    children = subprocess.run(
+        ["pgrep", "-P", str(pid)], capture_output=True, text=True, check=False
+    ).stdout.split()
+    return children + [grandchild for child in children for grandchild in descendants(int(child))]
+
+
+def alive(pids: list[str]) -> list[str]:
+    return [
+        Path(f"/proc/{pid}/cmdline").read_text()
+        for pid in pids
+        if os.path.exists(f"/proc/{pid}/cmdline")
+    ]
+
+
+@pytest.mark.slow
+def test_sigterm_cancels_the_cluster_run_and_its_workers_exit(tmp_path):
+    for k in range(8):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+    command = [str(Path(sys.executable).parent / "motionclean"), "batch", str(tmp_path / "in")]
+    process = subprocess.Popen(
+        [
+            *command,
+            *("-o", str(tmp_path / "o"), "--scheduler", "local:2"),
+            *("-f", "fairing:max_iterations=3000,tol=0"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 30
+    while len(descendants(process.pid)) < 3 and time.monotonic() < deadline:
+        time.sleep(0.2)  # two worker processes and multiprocessing's resource tracker
+    time.sleep(1.0)
+    workers = descendants(process.pid)
+    process.send_signal(signal.SIGTERM)
+    try:
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 130 and err.decode().strip() == "motionclean: error: interrupted"
+    deadline = time.monotonic() + 5
+    while alive(workers) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert len(workers) >= 3 and not alive(workers)
+    assert len(list((tmp_path / "o").rglob("*.bvh"))) < 8
+
+
+def test_without_dask_the_error_names_the_extra(tmp_path):
+    cut_bvh(SAMPLE, tmp_path / "in" / "a.bvh", 20)
+    hide = "import sys; sys.modules['distributed'] = None; from motionclean.cli import main; main()"
+    done = subprocess.run(
+        [sys.executable, "-c", hide, "batch", str(tmp_path / "in"), "-o", str(tmp_path / "o")]
+        + ["--scheduler", "local:2"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2 and "pip install 'motionclean[dask]'" in done.stderr
+    assert done.stderr.count("\n") == 1 and not (tmp_path / "o" / "a.bvh").exists()
