@@ -13,6 +13,7 @@ import signal
 import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import Any
 
 from .errors import UsageError
 from .jobs import FileResult, Job, run_job
@@ -77,7 +78,7 @@ class _HeldInterrupts:
 
 
 @contextmanager
-def connect(scheduler: str, default_workers: int) -> Iterator[tuple[object, int]]:
+def connect(scheduler: str, default_workers: int) -> Iterator[tuple[Any, int]]:
     """A ``distributed.Client`` for ``scheduler`` (see :func:`parse_scheduler`) and the
     number of workers it has; a local cluster is started and closed here."""
     distributed = _distributed()
