@@ -188,6 +188,21 @@ def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
     assert not (tmp_path / "s.bvh").exists()
 
 
+@pytest.mark.parametrize("empty_first", [False, True])
+def test_stitch_refuses_a_clip_without_frames(sample_path, tmp_path, capsys, empty_first):
+    text = sample_path.read_text()
+    head, motion = text.split("MOTION\n", 1)
+    frame_time = motion.splitlines()[1]
+    empty = tmp_path / "empty.bvh"
+    empty.write_text(f"{head}MOTION\nFrames: 0\n{frame_time}\n")
+    pair = [empty, sample_path] if empty_first else [sample_path, empty]
+    code, _, err = run(["stitch", *pair, "-o", tmp_path / "s.bvh"], capsys)
+    assert (
+        code == 1 and err == f"motionclean: error: {empty}: cannot stitch a clip without frames\n"
+    )
+    assert not (tmp_path / "s.bvh").exists()
+
+
 def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, capsys):
     report = tmp_path / "r.json"
     code, out, err = run(
