@@ -3,6 +3,8 @@ block size (bit for bit), so a long clip is cleaned exactly like a short one."""
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 from helpers import NOISY
@@ -38,3 +40,26 @@ def test_euler_write_back_does_not_depend_on_the_block_size(monkeypatch, block):
         clip.names, clip.parents, clip.offsets, clip.channels, clip.frame_time, whole
     )
     assert np.array_equal(again.rotations, reference.rotations)
+
+
+@pytest.mark.parametrize("block", [1, 5])
+def test_despike_does_not_depend_on_how_many_jumps_are_examined_together(monkeypatch, block):
+    despike_module = importlib.import_module("motionclean.filters.despike")
+    clip = mc.load(NOISY)
+    noisy = clip.rotations.copy()
+    rng = np.random.default_rng(block)
+    for frame, joint in zip(
+        rng.integers(5, 290, 60), rng.integers(0, clip.n_joints, 60), strict=True
+    ):
+        axis = rng.normal(size=3)
+        turn = quat.from_axis_angle(
+            axis / np.linalg.norm(axis), np.deg2rad(rng.choice([60.0, 180.0]))
+        )
+        noisy[frame : frame + 2, joint] = quat.multiply(noisy[frame : frame + 2, joint], turn)
+    whole, report = despike_module.despike_with_report(noisy, clip.frame_time)
+    assert report.interpolated.any()
+    monkeypatch.setattr(despike_module, "JUMPS_PER_BLOCK", block)
+    blocked, again = despike_module.despike_with_report(noisy, clip.frame_time)
+    assert np.array_equal(blocked, whole)
+    assert np.array_equal(again.interpolated, report.interpolated)
+    assert np.array_equal(again.unflipped, report.unflipped)

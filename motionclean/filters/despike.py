@@ -284,18 +284,64 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
     # every step a + L (L <= max_len) of a jump addressable.
     is_jump = np.zeros(size + max_len * n_cols, dtype=bool)
     np.greater(steps, jump, out=is_jump[:size].reshape(steps.shape))
-    first = is_jump.nonzero()[0]
+    jumps = is_jump.nonzero()[0]
+    held = None if toggles is None else np.cumsum(toggles, axis=0).reshape(-1)
+    flat_x = x.reshape(size + n_cols, x.shape[-1])
+    found = [
+        _runs_from(
+            jumps[at : at + JUMPS_PER_BLOCK],
+            is_jump,
+            flat_x,
+            steps,
+            jump,
+            max_len,
+            trend_ratio,
+            dist,
+            velocity,
+            interpolate,
+            toggles,
+            held,
+        )
+        for at in range(0, jumps.size, JUMPS_PER_BLOCK)
+    ]
+    first = np.concatenate([f for f, _ in found]) if found else jumps
+    last = np.concatenate([b for _, b in found]) if found else jumps
+    a, c = np.divmod(first, n_cols)
+    return a + 1, (last - first) // n_cols, c
+
+
+#: Jumps examined together by :func:`_spike_runs` (each with up to ``max_len`` run ends):
+#: the working set stays small however many jumps a noisy clip has.
+JUMPS_PER_BLOCK = 4096
+
+
+def _runs_from(
+    first,
+    is_jump,
+    flat_x,
+    steps,
+    jump,
+    max_len,
+    trend_ratio,
+    dist,
+    velocity,
+    interpolate,
+    toggles,
+    held,
+):
+    """:func:`_spike_runs` for the jumps ``first`` (flat indices): the rows of each kept
+    run's first and last steps, ``(first, last)``."""
+    n_cols = steps.shape[1]
+    size = steps.size
     last = (first[:, None] + n_cols * np.arange(1, max_len + 1)).reshape(-1)  # step a + L
     first = np.repeat(first, max_len)
     keep = is_jump.take(last)
     first, last = first[keep], last[keep]
     if toggles is not None:
         flat = toggles.reshape(-1)
-        held = np.cumsum(toggles, axis=0).reshape(-1)
         at_first, at_last = flat.take(first), flat.take(last)
         keep = (held.take(last) - held.take(first) + at_first > 0) & ~(at_first & at_last)
         first, last = first[keep], last[keep]
-    flat_x = x.reshape(size + n_cols, x.shape[-1])
     flat_steps = steps.reshape(-1)
     keep = dist(flat_x.take(first, axis=0), flat_x.take(last + n_cols, axis=0)) < np.minimum(
         flat_steps.take(first), flat_steps.take(last)
@@ -325,8 +371,7 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
         if trend_ratio > 0 and first.size:
             keep = _off_trend(flat_x, n_cols, first, last, trend_ratio, dist, interpolate)
             first, last = first[keep], last[keep]
-    a, c = np.divmod(first, n_cols)
-    return a + 1, (last - first) // n_cols, c
+    return first, last
 
 
 def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
