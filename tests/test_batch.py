@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import os
 import pickle
 import re
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -171,3 +175,33 @@ def test_job_returns_a_picklable_result_and_reports_failures(tree, tmp_path):
     assert pickle.loads(pickle.dumps(failed)) == failed
     same = clean_file(tree / "walk" / "a.bvh", tmp_path / "y.bvh", Pipeline.default())
     assert same.noise_after == result.noise_after
+
+
+@pytest.mark.slow
+def test_workers_exit_when_the_batch_parent_is_killed(tmp_path):
+    for k in range(6):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).parent / "motionclean"),
+            *("batch", str(tmp_path / "in"), "-o", str(tmp_path / "o"), "-j", "2"),
+            *("-f", "fairing:max_iterations=3000,tol=0"),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 20
+    children: list[str] = []
+    while len(children) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+        children = subprocess.run(
+            ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
+        ).stdout.split()
+    process.kill()  # SIGKILL: no chance to shut the pool down
+    process.wait()
+    deadline = time.monotonic() + 5
+    while any(os.path.exists(f"/proc/{pid}") for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(children) >= 2
+    assert not [pid for pid in children if os.path.exists(f"/proc/{pid}")]
