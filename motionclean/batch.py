@@ -246,7 +246,7 @@ def batch_command(
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
     with _progress(len(work)) as advance, _sigterm_as_interrupt():
-        if scheduler is None:
+        if scheduler is None or not work:  # nothing to send: no cluster to start
             workers = min(jobs or default_workers(), max(len(work), 1))
             for index, result in run_jobs(work, workers):
                 results[work_names[index]] = result

@@ -37,6 +37,21 @@ def test_a_local_cluster_writes_what_one_process_writes(tree, capsys):
     assert code == 1 and "broken.bvh" in err and err.count("motionclean: error:") == 1
     assert "on 2 workers" in out and "4 cleaned" in out
     run_cli(capsys, "batch", tree / "in", "-o", tree / "serial", "-j", "1", "-q")
+    start = time.perf_counter()
+    code, out, _ = run_cli(
+        capsys,
+        "batch",
+        tree / "in",
+        "-o",
+        tree / "dask",
+        "--scheduler",
+        "local:2",
+        "--skip-existing",
+        "--glob",
+        "take*.bvh",
+    )
+    assert code == 0 and "4 skipped" in out and "Dask dashboard" not in out
+    assert time.perf_counter() - start < 1.0  # no cluster started for nothing
     for k in range(4):
         name = f"take{k}.bvh"
         assert (tree / "dask" / name).read_bytes() == (tree / "serial" / name).read_bytes()
