@@ -138,6 +138,10 @@ class Motion:
         Format-specific text a writer reuses (hierarchy, line endings, tokens).
     path : str or None
         The file the clip was read from, for error messages.
+    missing : (F, J) bool array or None
+        True where a joint's sample is unknown (a tracker dropout: blank cells in a CSV).
+        The arrays hold placeholders there (the nearest known sample of the joint, see
+        :func:`hold_missing`), so they stay finite and unit; None when nothing is missing.
     """
 
     names: list[str]
@@ -152,6 +156,7 @@ class Motion:
     source_rotations: np.ndarray | None = None
     source: Any = None
     path: str | None = None
+    missing: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.check()
@@ -178,6 +183,7 @@ class Motion:
             raise InvalidMotion(
                 f"{name}: joint {self.names[joint]!r} has a non-finite value at frame {frame}"
             )
+        self._check_missing(frames, n)
         with np.errstate(over="ignore"):  # a huge quaternion has norm inf: refused too
             error = np.abs(np.einsum("...i,...i->...", self.rotations, self.rotations) - 1.0)
         if np.any(error > 2.0 * checks.UNIT_TOLERANCE):
@@ -189,6 +195,22 @@ class Motion:
                 f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
                 f"quaternion (norm {norm:.6g}); normalise with motionclean.quat.normalize"
             )
+
+    def _check_missing(self, frames: int, n_joints: int) -> None:
+        if self.missing is None:
+            return
+        missing = np.asarray(self.missing)
+        if missing.dtype != bool or missing.shape != (frames, n_joints):
+            raise InvalidMotion(
+                f"missing: expected a bool array of shape ({frames}, {n_joints}), "
+                f"got {missing.dtype} {missing.shape}"
+            )
+        self.missing = missing if missing.any() else None
+
+    @property
+    def has_gaps(self) -> bool:
+        """True when some joint has missing samples (:attr:`missing`)."""
+        return self.missing is not None
 
     @classmethod
     def from_channel_values(
@@ -270,9 +292,16 @@ class Motion:
             and all(np.array_equal(v, other.end_sites[k]) for k, v in self.end_sites.items())
             and np.array_equal(self.rotations, other.rotations)
             and np.array_equal(self.translations, other.translations)
+            and np.array_equal(self.missing_mask(), other.missing_mask())
         )
 
     __hash__ = None  # type: ignore[assignment]  # mutable arrays
+
+    def missing_mask(self) -> np.ndarray:
+        """``(F, J)`` bool: :attr:`missing`, all False when nothing is missing."""
+        if self.missing is None:
+            return np.zeros((self.n_frames, self.n_joints), dtype=bool)
+        return self.missing
 
     def joint_index(self, name: str) -> int:
         try:
@@ -330,6 +359,19 @@ class Motion:
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values
+
+
+def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
+    """``values`` ``(F, J, ...)`` with each missing sample (``missing`` ``(F, J)`` bool)
+    replaced by the joint's last known sample before it, or the first known one after it
+    for a gap at the start; a joint with no known sample keeps its values. A new array."""
+    n_frames = values.shape[0]
+    frames = np.arange(n_frames)[:, None]
+    known = ~missing
+    last = np.maximum.accumulate(np.where(known, frames, -1), axis=0)
+    first = np.minimum.accumulate(np.where(known, frames, n_frames)[::-1], axis=0)[::-1]
+    source = np.where(last >= 0, last, np.where(first < n_frames, first, frames))
+    return np.take_along_axis(values, source.reshape(source.shape + (1,) * (values.ndim - 2)), 0)
 
 
 def continuous_euler(

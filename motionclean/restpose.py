@@ -54,10 +54,11 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     rotation never changes says nothing) at once: larger than 15 degrees and than 8 times
     the joint's median step. No noise makes most joints jump on the same frame; a pose held
     before the capture does. A run of at least 3 identical frames (every channel, positions
-    too) counts in any case: a held pose.
+    too) counts in any case: a held pose. A clip with missing samples (tracker dropouts,
+    held placeholders) has none: trackers do not record a rest pose.
     """
     rotating = motion.layout.has_rotation
-    if motion.n_frames < 8 or not rotating.any():
+    if motion.n_frames < 8 or not rotating.any() or motion.has_gaps:
         return 0, 0
     q = motion.rotations[:, rotating]
     p = motion.translations

@@ -435,6 +435,23 @@ def _unchanged(motion: Motion) -> bool:
     return np.array_equal(motion.translations[:, has], frames[0][:, cols[has]])
 
 
+def _refuse_gaps(motion: Motion) -> None:
+    """BVH has no blank values: a clip with missing samples cannot be written as BVH."""
+    if motion.missing is None:
+        return
+    joint = int(np.argmax(motion.missing.any(axis=0)))
+    frames = np.flatnonzero(motion.missing[:, joint])
+    breaks = np.flatnonzero(np.diff(frames) > 1)
+    runs = np.split(frames, breaks + 1)
+    shown = ", ".join(f"{r[0]}-{r[-1]}" if r.size > 1 else f"{r[0]}" for r in runs[:3])
+    more = f" and {len(runs) - 3} more gaps" if len(runs) > 3 else ""
+    raise MotionError(
+        f"{motion.names[joint]!r} is missing on frames {shown}{more} (frames from 0) and BVH "
+        "has no blank values; fill the gaps (fill-gaps with a larger max_gap) or write CSV",
+        motion.path,
+    )
+
+
 def format_bvh(motion: Motion) -> bytes:
     """Serialise ``motion`` as BVH bytes.
 
@@ -449,6 +466,7 @@ def format_bvh(motion: Motion) -> bytes:
             "TEMPLATE.bvh)",
             motion.path,
         )
+    _refuse_gaps(motion)
     src = motion.source if isinstance(motion.source, BvhText) else None
     if src is None:
         hierarchy, eol = _format_hierarchy(motion), b"\n"
