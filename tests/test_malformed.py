@@ -71,6 +71,8 @@ CASES = {
     "non_uniform_time.csv": (3, "not uniformly sampled"),
     "single_row.csv": (2, "at least two rows"),
     "zero_quaternion.csv": (4, "quaternion of norm 0"),
+    "partly_blank_body.csv": (4, "body 'head' is partly blank: empty value in head.pz"),
+    "blank_time.csv": (3, "the time column is blank"),
 }
 
 

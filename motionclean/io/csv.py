@@ -3,8 +3,13 @@
 Both layouts are comma-separated with one header line, then one row per frame. A UTF-8
 byte-order mark, CRLF or LF line endings, spaces around values and blank lines are
 accepted; header fields may be quoted (RFC 4180) when a name contains a comma. Values are
-decimal numbers (exponents allowed); NaN, inf and empty cells are errors. The layout is
-detected from the header.
+decimal numbers (exponents allowed); inf is an error. The layout is detected from the header.
+
+Blank cells (empty, or the literal NaN in any case) are tracker dropouts: a joint or body
+whose cells are all blank on a row is missing on that frame (``Motion.missing``; its arrays
+hold the nearest known sample, see :func:`motionclean.motion.hold_missing`). A partly blank
+joint or body is an error naming the line and its blank columns; the time and frame
+columns are never blank.
 
 Channel CSV: the BVH MOTION block with named columns::
 
@@ -55,7 +60,9 @@ rigid-body CSV, every other clip as a channel CSV (``format_csv(motion, layout=.
 chooses). Values equal to the ones read keep the input's text (the BVH text for a clip
 read from BVH), other values are written with Python's shortest round-trip repr and times
 with 12 significant digits, so reading the file back gives the same numbers bit for bit
-and an unchanged clip writes the input bytes exactly.
+and an unchanged clip writes the input bytes exactly. Missing samples are written as empty
+cells (a sample missing in the input too keeps its text, e.g. ``NaN``), so a clip with gaps
+reads back with the same mask and the same known values.
 """
 
 from __future__ import annotations
@@ -64,13 +71,13 @@ import csv as _csv
 import io as _io
 import math
 from dataclasses import dataclass
-from typing import NoReturn
+from typing import NamedTuple, NoReturn
 
 import numpy as np
 
 from .. import quat
 from ..errors import MotionError
-from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion
+from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion, hold_missing
 from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
 from .text import (
     MAX_MAGNITUDE,
@@ -78,6 +85,7 @@ from .text import (
     join_rows,
     pack_texts,
     parse_values,
+    scan_cells,
     scan_tokens,
     splice,
 )
@@ -113,6 +121,7 @@ class CsvText:
     frame_time: float
     eol: bytes
     needs_skeleton: bool = False
+    blank: np.ndarray | None = None  # (F, K) bool: empty or NaN cells
 
     @property
     def n_frames(self) -> int:
@@ -124,6 +133,18 @@ class CsvText:
             tuple(motion.names),
             tuple(motion.channels),
         )
+
+
+class BodyCells(NamedTuple):
+    """The data rows of a CSV: ``(F, K)`` ``values`` (NaN where blank or not parsed),
+    ``blank`` (an empty cell or NaN, any case, in a parsed column), the cells' byte offsets
+    ``starts``/``ends`` and each row's line number ``lines`` ``(F,)``."""
+
+    values: np.ndarray
+    blank: np.ndarray
+    starts: np.ndarray
+    ends: np.ndarray
+    lines: np.ndarray
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:
@@ -212,40 +233,50 @@ def _classify(fields: list[str], path, line: int):
     return kinds.pop(), entries, special["time"]
 
 
-def _parse_body(data: bytes, body_start: int, n_columns: int, first_line: int, path):
-    """Parse the data rows: ``(F, K)`` values, token offsets and each row's line number."""
+def _parse_body(
+    data: bytes, body_start: int, n_columns: int, first_line: int, path, parsed=None
+) -> BodyCells:
+    """Parse the data rows: values of the ``parsed`` columns (all by default), which cells
+    are blank, the cells' byte offsets and each row's line number (see :class:`BodyCells`).
+    """
     buf = np.frombuffer(data, dtype=np.uint8)
-    starts, ends = scan_tokens(buf, body_start, b",")
-    newlines = np.flatnonzero(buf[body_start:] == 10) + body_start
-    commas = np.flatnonzero(buf[body_start:] == 44) + body_start
-    token_line = np.searchsorted(newlines, starts)
-    n_lines = len(newlines) + 1
-    tokens_per_line = np.bincount(token_line, minlength=n_lines)
-    commas_per_line = np.bincount(np.searchsorted(newlines, commas), minlength=n_lines)
-    rows = np.flatnonzero((tokens_per_line > 0) | (commas_per_line > 0))
+    starts, ends, tokens, cell_line = scan_cells(buf, body_start)
+    n_lines = int(cell_line[-1]) + 1
+    cells_per_line = np.bincount(cell_line, minlength=n_lines)
+    tokens_per_line = np.bincount(cell_line, weights=tokens, minlength=n_lines)
+    is_row = (cells_per_line > 1) | (tokens_per_line > 0)
+    rows = np.flatnonzero(is_row)
     if not rows.size:
         _fail("no data rows after the header", path, first_line - 1)
-    n_tokens, n_commas = tokens_per_line[rows], commas_per_line[rows]
-    bad = np.flatnonzero((n_tokens != n_columns) | (n_commas != n_columns - 1))
+    bad = np.flatnonzero(cells_per_line[rows] != n_columns)
     if bad.size:
-        row = bad[0]
-        line = first_line + rows[row]
-        if n_commas[row] != n_columns - 1:
-            _fail(f"row has {n_commas[row] + 1} columns, the header has {n_columns}", path, line)
-        _fail("row has an empty value or two values in one column", path, line)
-    # Exactly one comma between neighbouring values of a row.
-    gaps = np.searchsorted(commas, starts[1:]) - np.searchsorted(commas, ends[:-1])
-    inner = token_line[1:] == token_line[:-1]
-    wrong = np.flatnonzero(inner & (gaps != 1))
-    if wrong.size:
-        _fail(
-            "row has an empty value or two values in one column",
-            path,
-            first_line + token_line[wrong[0] + 1],
-        )
-    values, bad_token = parse_values(buf, starts, ends)
+        row = rows[bad[0]]
+        line = first_line + row
+        _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}", path, line)
+    shape = (rows.size, n_columns)
+    keep = is_row[cell_line]
+    starts, ends, tokens = (a[keep].reshape(shape) for a in (starts, ends, tokens))
+    lines = first_line + rows
+    columns = np.arange(n_columns) if parsed is None else np.asarray(parsed, dtype=np.intp)
+    counts = tokens[:, columns]
+    several = np.argwhere(counts > 1)
+    if several.size:
+        row, k = several[0]
+        _fail(f"row has two values in one column (column {columns[k] + 1})", path, lines[row])
+    cell_starts, cell_ends = starts[:, columns], ends[:, columns]
+    blank = (counts == 0).ravel()
+    three = np.flatnonzero((cell_ends - cell_starts).ravel() == 3)  # NaN, any case: blank
+    letters = buf[cell_starts.ravel()[three, None] + np.arange(3)] | np.uint8(0x20)
+    blank[three[np.all(letters == np.frombuffer(b"nan", dtype=np.uint8), axis=1)]] = True
+    blank = blank.reshape(counts.shape)
+    number = np.flatnonzero(~blank.ravel())
+    parsed_values, bad_token = parse_values(
+        buf, cell_starts.ravel()[number], cell_ends.ravel()[number]
+    )
     if bad_token >= 0:
-        text = buf[starts[bad_token] : ends[bad_token]].tobytes().decode("utf-8", "replace")[:40]
+        at = number[bad_token]
+        s, e = cell_starts.ravel()[at], cell_ends.ravel()[at]
+        text = buf[s:e].tobytes().decode("utf-8", "replace")[:40]
         try:
             value = float(text)
             problem = (
@@ -255,9 +286,14 @@ def _parse_body(data: bytes, body_start: int, n_columns: int, first_line: int, p
             )
         except ValueError:
             problem = "is not a number"
-        _fail(f"value {text!r} {problem}", path, first_line + token_line[bad_token])
-    shape = (rows.size, n_columns)
-    return values.reshape(shape), starts.reshape(shape), ends.reshape(shape), first_line + rows
+        _fail(f"value {text!r} {problem}", path, lines[at // columns.size])
+    values = np.full(shape, np.nan)
+    column_values = np.full(blank.size, np.nan)
+    column_values[number] = parsed_values
+    values[:, columns] = column_values.reshape(blank.shape)
+    all_blank = np.zeros(shape, dtype=bool)
+    all_blank[:, columns] = blank
+    return BodyCells(values, all_blank, starts, ends, lines)
 
 
 def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | None) -> float:
@@ -374,6 +410,67 @@ def _template_columns(entries, skeleton: Motion, path, line) -> np.ndarray:
     return np.array(columns, dtype=np.intp)
 
 
+def check_filled(cells: BodyCells, column: int, what: str, path) -> None:
+    """Refuse a blank cell (empty or NaN) in ``column`` (the time or frame column)."""
+    blank = np.flatnonzero(cells.blank[:, column])
+    if blank.size:
+        _fail(
+            f"the {what} column is blank (it must hold a value on every row)",
+            path,
+            cells.lines[blank[0]],
+        )
+
+
+def missing_joints(
+    cells: BodyCells, data: bytes, columns: np.ndarray, widths, names, labels, what: str, path
+) -> np.ndarray:
+    """``(F, J)`` bool: True where all of a joint's cells are blank (empty or NaN).
+
+    Joint ``j`` owns ``widths[j]`` consecutive entries of ``columns`` (CSV columns);
+    ``labels[k]`` names CSV column ``k``. A partly blank joint is an error naming the line,
+    the joint (a ``what``) and its blank columns.
+    """
+    blank = cells.blank[:, columns]
+    widths = np.asarray(widths, dtype=np.intp)
+    if not blank.any():
+        return np.zeros((blank.shape[0], widths.size), dtype=bool)
+    offsets = np.cumsum(widths) - widths
+    count = np.add.reduceat(blank, offsets, axis=1, dtype=np.intp)
+    partial = np.argwhere((count > 0) & (count < widths))
+    if partial.size:
+        f, j = partial[0]
+        own = columns[offsets[j] : offsets[j] + widths[j]]
+        empty, nan = [], []
+        for k in own[blank[f, offsets[j] : offsets[j] + widths[j]]].tolist():
+            text = data[cells.starts[f, k] : cells.ends[f, k]].decode("utf-8", "replace")
+            if text:
+                nan.append(f"value {text!r} is not finite ({labels[k]})")
+            else:
+                empty.append(labels[k])
+        details = "; ".join(([f"empty value in {', '.join(empty)}"] if empty else []) + nan)
+        _fail(
+            f"{what} {names[j][:60]!r} is partly blank: {details} (a {what} is missing on a "
+            f"row only when all its {widths[j]} cells are blank or NaN)",
+            path,
+            cells.lines[f],
+        )
+    return count == widths
+
+
+def _held_channel_values(
+    cells: BodyCells, data: bytes, columns, names, channels, fields, path
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, C)`` channel values (missing samples held) and the ``(F, J)`` missing mask."""
+    widths = [len(c) for c in channels]
+    missing = missing_joints(cells, data, columns, widths, names, fields, "joint", path)
+    values = cells.values[:, columns]
+    if missing.any():
+        per_channel = np.repeat(missing, widths, axis=1)
+        values = hold_missing(values, per_channel)
+        values[np.isnan(values)] = 0.0  # a joint never known: zero angles and positions
+    return values, missing
+
+
 def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     """Parse a channel or rigid-body CSV (see the module docstring).
 
@@ -386,30 +483,33 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         _fail("not a text file (binary data)", path)
     fields, header_line, body_start = _split_header(data, path)
     layout, entries, time_column = _classify(fields, path, header_line)
-    values, starts, ends, lines = _parse_body(data, body_start, len(fields), header_line + 1, path)
+    cells = _parse_body(data, body_start, len(fields), header_line + 1, path)
+    check_filled(cells, time_column, "time", path)
+    if "frame" in fields:
+        check_filled(cells, fields.index("frame"), "frame", path)
     eol = b"\r\n" if data[:body_start].endswith(b"\r\n") else b"\n"
     path_text = None if path is None else str(path)
-    times = values[:, time_column]
+    times = cells.values[:, time_column]
     if layout == "rigid":
-        return _rigid_motion(
-            data, values, starts, ends, lines, entries, time_column, eol, path, header_line
-        )
+        return _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_line)
     if skeleton is None:
         names, channels, columns = _channel_skeleton(entries, path, header_line)
-        frame_time = _frame_time(times, lines, path, None)
+        frame_time = _frame_time(times, cells.lines, path, None)
         text = CsvText(
             "channel",
             data,
-            starts,
-            ends,
-            values,
+            cells.starts,
+            cells.ends,
+            cells.values,
             columns,
             time_column,
             (tuple(names), tuple(channels)),
             frame_time,
             eol,
             needs_skeleton=True,
+            blank=cells.blank,
         )
+        values, missing = _held_channel_values(cells, data, columns, names, channels, fields, path)
         n = len(names)
         return Motion.from_channel_values(
             names,
@@ -417,9 +517,10 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             np.zeros((n, 3)),
             channels,
             frame_time,
-            values[:, columns],
+            values,
             source=text,
             path=path_text,
+            missing=missing,
         )
     if getattr(skeleton.source, "needs_skeleton", False):
         _fail(
@@ -427,16 +528,20 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             skeleton.path,
         )
     columns = _template_columns(entries, skeleton, path, header_line)
-    frame_time = _frame_time(times, lines, path, skeleton.frame_time)
+    frame_time = _frame_time(times, cells.lines, path, skeleton.frame_time)
+    values, missing = _held_channel_values(
+        cells, data, columns, skeleton.names, skeleton.channels, fields, path
+    )
     motion = Motion.from_channel_values(
         skeleton.names,
         skeleton.parents,
         skeleton.offsets,
         skeleton.channels,
         frame_time,
-        values[:, columns],
+        values,
         end_sites=dict(skeleton.end_sites),
         path=path_text,
+        missing=missing,
     )
     template = skeleton.source
     if isinstance(template, BvhText):
@@ -453,9 +558,50 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     return motion
 
 
-def _rigid_motion(
-    data, values, starts, ends, lines, entries, time_column, eol, path, header_line
-) -> Motion:
+def rigid_arrays(
+    cells: BodyCells, data: bytes, columns: np.ndarray, bodies: list[str], labels, path
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(rotations (F, B, 4), translations (F, B, 3), missing (F, B))`` of rigid bodies
+    whose ``(B, 7)`` CSV ``columns`` follow :data:`RIGID_SUFFIXES`.
+
+    A body is missing where its seven cells are blank (placeholders held, identity and
+    zero for a body never seen); quaternions are renormalised (a norm under
+    :data:`MIN_QUAT_NORM` is an error) and made sign-continuous in time.
+    """
+    n_bodies = len(bodies)
+    missing = missing_joints(
+        cells,
+        data,
+        columns.ravel(),
+        [len(RIGID_SUFFIXES)] * n_bodies,
+        bodies,
+        labels,
+        "body",
+        path,
+    )
+    values = cells.values[:, columns]  # (F, B, 7)
+    if missing.any():
+        values = hold_missing(values, missing)
+        never = missing.all(axis=0)
+        values[:, never] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]
+    translations = values[..., :3]
+    q = values[..., 3:]
+    norm = np.sqrt(np.sum(q * q, axis=-1))
+    tiny = norm < MIN_QUAT_NORM
+    if tiny.any():
+        f, b = np.argwhere(tiny)[0]
+        _fail(
+            f"body {bodies[b]!r}: quaternion of norm {norm[f, b]:.3g} (below "
+            f"{MIN_QUAT_NORM:g}) is not a rotation",
+            path,
+            int(cells.lines[f]),
+        )
+    unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
+    rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
+    return rotations, np.ascontiguousarray(translations), missing
+
+
+def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_line) -> Motion:
     bodies: list[str] = []
     found: dict[str, dict[str, int]] = {}
     for name, suffix, k in entries:
@@ -474,33 +620,21 @@ def _rigid_motion(
                     header_line,
                 )
             columns[b, s] = found[name][suffix]
-    frame_time = _frame_time(values[:, time_column], lines, path, None)
-    translations = values[:, columns[:, :3]]
-    q = values[:, columns[:, 3:]]
-    norm = np.sqrt(np.sum(q * q, axis=-1))
-    tiny = norm < MIN_QUAT_NORM
-    if tiny.any():
-        f, b = np.argwhere(tiny)[0]
-        _fail(
-            f"body {bodies[b]!r}: quaternion of norm {norm[f, b]:.3g} (below "
-            f"{MIN_QUAT_NORM:g}) is not a rotation",
-            path,
-            int(lines[f]),
-        )
-    unit = np.abs(norm - 1.0) <= 4 * np.finfo(float).eps
-    rotations = quat.make_continuous(np.where(unit[..., None], q, q / norm[..., None]), axis=0)
+    frame_time = _frame_time(cells.values[:, time_column], cells.lines, path, None)
+    rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, fields, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
     text = CsvText(
         "rigid",
         data,
-        starts,
-        ends,
-        values,
+        cells.starts,
+        cells.ends,
+        cells.values,
         columns,
         time_column,
         (tuple(bodies), tuple(channels)),
         frame_time,
         eol,
+        blank=cells.blank,
     )
     n = len(bodies)
     return Motion(
@@ -514,6 +648,7 @@ def _rigid_motion(
         source_rotations=rotations.copy(),
         source=text,
         path=None if path is None else str(path),
+        missing=missing,
     )
 
 
@@ -552,8 +687,8 @@ class _Cells:
 
 
 def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray) -> bytes:
-    """The source text with the ``mask``ed ``(F, K)`` cells replaced by ``placed`` values;
-    the time column is rewritten too when the frame time changed."""
+    """The source text with the ``mask``ed ``(F, K)`` cells replaced by ``placed`` values
+    (NaN: a blank cell); the time column is rewritten too when the frame time changed."""
     is_time = np.zeros(mask.shape, dtype=bool)
     if motion.frame_time != src.frame_time:
         first = float(src.values[0, src.time_column])
@@ -566,7 +701,7 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     def texts(a: int, b: int):
         return pack_texts(
             [
-                b"%.12g" % v if t else repr(v).encode()
+                b"%.12g" % v if t else repr(v).encode() if v == v else b""  # NaN: blank
                 for v, t in zip(new[a:b], new_is_time[a:b], strict=True)
             ]
         )
@@ -602,23 +737,26 @@ def _format_channel(motion: Motion) -> bytes:
     values = motion.channel_values()
     check_finite(motion, values)
     n_frames, n_channels = values.shape
+    missing = np.repeat(motion.missing_mask(), [len(c) for c in motion.channels], axis=1)
     src = motion.source
     frames = motion.source_frames()
     same = frames is not None and frames[0].shape[1] == n_channels
     if isinstance(src, CsvText) and src.layout == "channel" and src.matches(motion) and same:
         mask = np.zeros(src.starts.shape, dtype=bool)
-        mask[:, src.columns] = values != motion.source_values
+        mask[:, src.columns] = _cells_to_write(
+            values != motion.source_values, missing, _source_blank(src)[:, src.columns]
+        )
         placed = np.zeros(src.starts.shape)
-        placed[:, src.columns] = values
+        placed[:, src.columns] = np.where(missing, np.nan, values)
         return _rewrite(src, motion, mask, placed)
 
     cells = _Cells()
     starts = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
     lengths = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
-    fresh = np.ones((n_frames, n_channels), dtype=bool)
+    fresh = ~missing
     if isinstance(src, BvhText) and same and src.n_frames == n_frames:
-        fresh = values != motion.source_values
-        kept = ~fresh
+        kept = (values == motion.source_values) & fresh
+        fresh &= ~kept
         s, n = cells.add(
             np.frombuffer(src.raw, dtype=np.uint8), src.starts[kept], (src.ends - src.starts)[kept]
         )
@@ -633,53 +771,78 @@ def _format_channel(motion: Motion) -> bytes:
     return _fresh(fields, _eol(src), cells, starts, lengths)
 
 
+def _source_blank(src: CsvText) -> np.ndarray:
+    return np.zeros(src.starts.shape, dtype=bool) if src.blank is None else src.blank
+
+
+def _cells_to_write(changed: np.ndarray, missing: np.ndarray, was_blank: np.ndarray):
+    """Cells to rewrite in the source text: a missing sample where the source had a value
+    (it becomes blank), a known one where it changed or the source cell was blank. A
+    sample missing in both keeps the source's text."""
+    return np.where(missing, ~was_blank, changed | was_blank)
+
+
 def _eol(source) -> bytes:
     return source.eol if isinstance(source, BvhText | CsvText) else b"\n"
 
 
-def _format_rigid(motion: Motion) -> bytes:
-    src = motion.source
+def rewrite_rigid(src: CsvText, motion: Motion) -> bytes:
+    """``src``'s text with the values of ``motion`` (the same frames and bodies, read from
+    ``src``) put in: unchanged values keep their text, missing samples are blank."""
+    assert motion.source_rotations is not None
     q, t = motion.rotations, motion.translations
-    check_finite(
-        motion,
-        np.concatenate([t, q], axis=-1).reshape(len(q), -1),
-        [len(RIGID_SUFFIXES)] * motion.n_joints,
+    read = src.values[:, src.columns]  # (F, B, 7) as in the file, NaN where blank
+    read_q = motion.source_rotations  # q and -q are the same rotation
+    q_changed = np.any(q != read_q, axis=-1) & np.any(q != -read_q, axis=-1)
+    t_changed = t != read[..., :3]
+    sign = np.where(np.sum(q * read[..., 3:], axis=-1) < 0.0, -1.0, 1.0)
+    new = np.concatenate([t, q * sign[..., None]], axis=-1)
+    missing = motion.missing_mask()[..., None]
+    changed = np.concatenate([t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1)
+    rows = np.arange(motion.n_frames)[:, None, None]
+    mask = np.zeros(src.starts.shape, dtype=bool)
+    placed = np.zeros(src.starts.shape)
+    mask[rows, src.columns] = _cells_to_write(
+        changed, missing, _source_blank(src)[rows, src.columns]
     )
-    if (
-        isinstance(src, CsvText)
-        and src.layout == "rigid"
-        and src.matches(motion)
-        and motion.source_rotations is not None
-    ):
-        read = src.values[:, src.columns]  # (F, B, 7) as in the file
-        read_q = motion.source_rotations  # q and -q are the same rotation
-        q_changed = np.any(q != read_q, axis=-1) & np.any(q != -read_q, axis=-1)
-        t_changed = t != read[..., :3]
-        sign = np.where(np.sum(q * read[..., 3:], axis=-1) < 0.0, -1.0, 1.0)
-        new = np.concatenate([t, q * sign[..., None]], axis=-1)
-        mask = np.zeros(src.starts.shape, dtype=bool)
-        placed = np.zeros(src.starts.shape)
-        rows = np.arange(motion.n_frames)[:, None, None]
-        mask[rows, src.columns] = np.concatenate(
-            [t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1
-        )
-        placed[rows, src.columns] = new
-        return _rewrite(src, motion, mask, placed)
+    placed[rows, src.columns] = np.where(missing, np.nan, new)
+    return _rewrite(src, motion, mask, placed)
 
+
+def rigid_values(motion: Motion) -> np.ndarray:
+    """``(F, B, 7)`` values in :data:`RIGID_SUFFIXES` order of a clip of independent
+    bodies (an error for a joint hierarchy); finite (checked)."""
+    q, t = motion.rotations, motion.translations
+    values = np.concatenate([t, q], axis=-1)
+    check_finite(motion, values.reshape(len(q), -1), [len(RIGID_SUFFIXES)] * motion.n_joints)
     if np.any(motion.parents >= 0):
         raise MotionError(
             "a rigid-body CSV holds independent bodies, but this clip has a "
             "joint hierarchy; write a channel CSV instead",
             motion.path,
         )
+    return values
+
+
+def _format_rigid(motion: Motion) -> bytes:
+    src = motion.source
+    values = rigid_values(motion)
+    if (
+        isinstance(src, CsvText)
+        and src.layout == "rigid"
+        and src.matches(motion)
+        and motion.source_rotations is not None
+    ):
+        return rewrite_rigid(src, motion)
     cells = _Cells()
-    n_frames, n_bodies = q.shape[:2]
-    values = np.concatenate([t, q], axis=-1).reshape(n_frames, 7 * n_bodies)
+    n_frames, n_bodies = values.shape[:2]
+    values = values.reshape(n_frames, 7 * n_bodies)
     starts = np.zeros((n_frames, values.shape[1] + 1), dtype=np.int64)
     lengths = np.zeros_like(starts)
     starts[:, 1:], lengths[:, 1:] = (
         a.reshape(values.shape) for a in cells.add(*format_repr(values))
     )
+    lengths[:, 1:][np.repeat(motion.missing_mask(), len(RIGID_SUFFIXES), axis=1)] = 0
     _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells)
     fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
     return _fresh(fields, _eol(src), cells, starts, lengths)
@@ -700,6 +863,7 @@ def format_csv(motion: Motion, layout: str | None = None) -> bytes:
     if layout is None:
         src = motion.source
         layout = src.layout if isinstance(src, CsvText) else "channel"
+        layout = "rigid" if layout == "motive" else layout
     if layout == "rigid":
         return _format_rigid(motion)
     if layout == "channel":

@@ -63,6 +63,36 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     return flat[0::2], flat[1::2]
 
 
+def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
+    """The cells of the lines of ``buf[start:]`` split at ``separator`` (a byte, default
+    comma), empty cells included.
+
+    Returns ``(starts, ends, tokens, lines)``, one entry per cell in file order: the byte
+    range of its text without the surrounding whitespace (for an empty cell, the empty
+    range just after the separator or line start before it), its number of tokens (0: an
+    empty cell, 2 or more: several values in one cell, see :func:`scan_tokens`) and its
+    line (0 for the line at ``start``). A line of ``n`` separators has ``n + 1`` cells; a
+    blank line has one empty cell.
+    """
+    token_starts, token_ends = scan_tokens(buf, start, bytes([separator]))
+    seps = []
+    for at in range(start, buf.size, _CHUNK_BYTES):
+        part = buf[at : at + _CHUNK_BYTES]
+        seps.append(np.flatnonzero((part == separator) | (part == 10)) + at)
+    boundaries = np.concatenate(seps) if seps else np.zeros(0, dtype=np.intp)
+    cell_of_token = np.searchsorted(boundaries, token_starts)
+    tokens = np.bincount(cell_of_token, minlength=boundaries.size + 1)
+    first = np.cumsum(tokens) - tokens  # index of each cell's first token
+    empty_at = np.concatenate([[start], boundaries + 1])
+    starts, ends = empty_at.copy(), empty_at.copy()
+    filled = np.flatnonzero(tokens)
+    starts[filled] = token_starts[first[filled]]
+    ends[filled] = token_ends[first[filled] + tokens[filled] - 1]
+    lines = np.zeros(boundaries.size + 1, dtype=np.intp)
+    np.cumsum(buf[boundaries] == 10, out=lines[1:])
+    return starts, ends, tokens, lines
+
+
 #: Largest accepted magnitude of a value in a clip (degrees or length units): anything
 #: larger is no capture and would overflow the arithmetic downstream.
 MAX_MAGNITUDE = 1e12
