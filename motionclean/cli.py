@@ -42,7 +42,7 @@ from .options import (
     pipeline_from_options,
     refuse_overwrite,
 )
-from .pipeline import DEFAULT_STEPS
+from .pipeline import DEFAULT_STEPS, Pipeline
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
 from .world_report import contact_figures, format_contacts
@@ -194,6 +194,33 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
     template = load(skeleton) if skeleton else None
     motion = load(source, skeleton=template)
     save(motion, target)
+
+
+@cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
+@click.argument("source", type=click.Path())
+@click.argument("target", type=click.Path())
+@click.option("--fps", type=float, help="New frame rate, frames per second.")
+@click.option("--frame-time", type=float, help="Or the new frame time, seconds.")
+def resample_command(source: str, target: str, fps: float | None, frame_time: float | None) -> None:
+    """Write SOURCE at a new frame rate to TARGET (BVH or CSV by extension).
+
+    Rotations follow a C1 cubic in angular displacements, positions the matching cubic;
+    a lower rate is low-passed first so nothing aliases. The same as `clean SOURCE -o
+    TARGET -f resample:fps=N`.
+    """
+    rates = {"fps": fps, "frame_time": frame_time}
+    step: dict[str, object] = {"filter": "resample"}
+    step.update({key: value for key, value in rates.items() if value is not None})
+    pipeline = Pipeline.from_tables([step], "resample")
+    refuse_overwrite(Path(source), Path(target), in_place=False)
+    check_clip_output(target)
+    before = load(source)
+    after, _ = pipeline.run(before)
+    save(after, target)
+    click.echo(
+        f"{source}: {before.n_frames} frames at {before.frame_rate:.6g} fps -> "
+        f"{target}: {after.n_frames} frames at {after.frame_rate:.6g} fps"
+    )
 
 
 @cli.command()

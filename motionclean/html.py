@@ -24,7 +24,7 @@ import numpy as np
 
 from . import __version__
 from .html_world import world_section
-from .report import format_rest, noisiest, note_text
+from .report import format_rest, noisiest, note_text, resampled_to
 
 __all__ = ["envelope", "render_html", "render_index"]
 
@@ -354,8 +354,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
     body = [
         f"<h1>{_e(report['file'])}</h1>",
         f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
-        f"({frames * dt:.3f} s), {len(report['joints'])} joints; frames are numbered from 0"
-        "</div>",
+        f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
+        "frames are numbered from 0</div>",
     ]
     stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
     if cleaned:

@@ -26,6 +26,7 @@ from .io import atomic_write, load, save
 from .motion import Motion
 from .pipeline import Pipeline, StepLog
 from .report import build_report, build_series, to_json
+from .resampling import on_input_frames
 
 __all__ = [
     "CleanedClip",
@@ -100,17 +101,22 @@ def clean_clip(
 ) -> CleanedClip:
     """Load ``source``, run ``pipeline``, compute the report and its time series, and write
     ``target`` (atomically; its folder is created) unless it is None. Nothing is written
-    when the report cannot be made."""
+    when the report cannot be made. A resampled clip is compared with the input on the
+    input's frames (:func:`motionclean.resampling.on_input_frames`); the report's
+    ``output`` then gives the written frame count and frame time."""
     before = load(source)
     after, logs = pipeline.run(before)
-    series = build_series(before, after)
+    compared = on_input_frames(before, after)
+    series = build_series(before, compared)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
     report = build_report(
-        before, after, described, notes_by_joint(logs), os.fspath(source), series=series
+        before, compared, described, notes_by_joint(logs), os.fspath(source), series=series
     )
+    if compared is not after:
+        report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
     if target is not None:
         Path(target).parent.mkdir(parents=True, exist_ok=True)
         save(after, target)

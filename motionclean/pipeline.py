@@ -86,6 +86,10 @@ def make_step(table: dict, where: str) -> Step:
         raise UsageError(f"{where}: blend is used only with frames or seconds (a range)")
     if span is not None and spec.run_motion is not None:
         raise UsageError(f"{where}: this step changes the whole clip; it takes no frame range")
+    if spec.run_motion is not None and ({"joints", "positions"} & set(table)):
+        raise UsageError(
+            f"{where}: this step changes the whole clip; it takes no joints or positions"
+        )
     if spec.resolve is not None:
         spec.resolve(params, where)
     if spec.relevant is not None:
@@ -238,11 +242,10 @@ class Pipeline:
 
         ``motion`` is not changed. Rest-pose frames at either end (:mod:`motionclean.restpose`)
         are left out of every step and come back bit for bit. A whole-clip step
-        (``run_motion``) replaces the clip, so the steps after it see its frame count and
-        rate.
+        (``run_motion``) replaces the clip between them, so the steps after it see its frame
+        count and rate.
         """
-        whole_clip = any(step.spec.run_motion is not None for step in self.steps)
-        lead, trail = (0, 0) if whole_clip else rest_frames(motion)
+        lead, trail = rest_frames(motion)
         work = trim(motion, lead, trail)
         current = work.replace(
             rotations=work.rotations.copy(), translations=work.translations.copy()

@@ -196,6 +196,18 @@ def noisiest(report: dict) -> list[str]:
     return [name for _, name in sorted(rows, key=lambda r: -r[0])]
 
 
+def resampled_to(report: dict) -> str:
+    """ ", written as N frames at R fps" for a resampled clip (figures compare on the
+    input's frames), else ""."""
+    output = report.get("output")
+    if not output:
+        return ""
+    return (
+        f", written as {output['frames']} frames at {1.0 / output['frame_time']:.4g} fps "
+        "(figures on the input's frames)"
+    )
+
+
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
     cleaned = report["summary"].get("noise_reduction") is not None
@@ -207,8 +219,8 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'noise est':>10}  filter chosen"
     lines = [
         f"{report['file']}: {report['frames']} frames at "
-        f"{1.0 / report['frame_time']:.4g} fps, numbered from 0 (angular acceleration in "
-        "deg/s^2; deviation and estimated noise in deg)",
+        f"{1.0 / report['frame_time']:.4g} fps{resampled_to(report)}, numbered from 0 "
+        "(angular acceleration in deg/s^2; deviation and estimated noise in deg)",
         head,
         "-" * len(head),
     ]

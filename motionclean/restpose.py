@@ -80,17 +80,42 @@ def trim(motion: Motion, lead: int, trail: int) -> Motion:
     if frames is not None:
         source = {"source_values": frames[0][rows], "source_rotations": frames[1][rows]}
     return motion.replace(
-        rotations=motion.rotations[rows], translations=motion.translations[rows], **source
+        rotations=motion.rotations[rows],
+        translations=motion.translations[rows],
+        missing=None if motion.missing is None else motion.missing[rows],
+        **source,
     )
 
 
 def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:
-    """``original`` with its frames between the rest frames replaced by ``middle``'s."""
+    """``original`` with its frames between the rest frames replaced by ``middle``'s, which
+    may have another frame count and frame time (a resampled clip: the rest frames are
+    kept one for one)."""
     if lead == 0 and trail == 0:
         return middle
     end = original.n_frames - trail
-    rotations = original.rotations.copy()
-    translations = original.translations.copy()
-    rotations[lead:end] = middle.rotations
-    translations[lead:end] = middle.translations
-    return original.replace(rotations=rotations, translations=translations)
+    ends = (slice(0, lead), slice(end, original.n_frames))
+
+    def joined(field: str) -> np.ndarray:
+        first, last = (getattr(original, field)[rows] for rows in ends)
+        return np.concatenate([first, getattr(middle, field), last])
+
+    missing = None
+    if original.missing is not None or middle.missing is not None:
+        missing = np.concatenate(
+            [
+                original.missing_mask()[ends[0]],
+                middle.missing_mask(),
+                original.missing_mask()[ends[1]],
+            ]
+        )
+    resized = {}
+    if middle.n_frames != end - lead:
+        resized = {"source_values": None, "source_rotations": None}
+    return original.replace(
+        rotations=joined("rotations"),
+        translations=joined("translations"),
+        frame_time=middle.frame_time,
+        missing=missing,
+        **resized,
+    )

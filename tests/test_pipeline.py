@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
 from helpers import NOISY
@@ -126,8 +128,11 @@ def test_positions_are_filtered_with_the_vector_counterpart(sample_path):
 
 def test_every_registered_filter_runs_with_its_defaults(sample_path):
     motion = mc.load(sample_path)
+    required = {"resample": "resample:fps=60"}  # no default rate: it must be asked for
     for name in REGISTRY:
-        cleaned, _ = Pipeline.from_inline([name]).run(motion)
+        with pytest.raises(UsageError) if name in required else contextlib.nullcontext():
+            Pipeline.from_inline([name])
+        cleaned, _ = Pipeline.from_inline([required.get(name, name)]).run(motion)
         norms = np.linalg.norm(cleaned.rotations, axis=-1)
         assert np.allclose(norms, 1.0, atol=1e-9), name
         assert np.all(np.isfinite(cleaned.translations)), name

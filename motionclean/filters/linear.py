@@ -273,6 +273,13 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
 
 
+def lee_shin_unchecked(q: np.ndarray, mask) -> np.ndarray:
+    """One pass of :func:`lee_shin` without validating ``q`` (``(F, ..., 4)``, ``F >= 2``):
+    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations."""
+    b = displacement_coefficients(mask)
+    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, 1)
+
+
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     """Vector counterpart of :func:`lee_shin` on ``(F, ..., 3)`` positions.
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from . import auto, bilateral, despike, fairing, footlock, lee_shin, multires, sse_fairing
+from . import auto, bilateral, despike, fairing, footlock, lee_shin, multires, resample, sse_fairing
 from .base import COMMON_PARAMS, Param, StepData, StepSpec
 
 __all__ = ["COMMON_PARAMS", "REGISTRY", "Param", "StepData", "StepSpec"]
@@ -18,5 +18,6 @@ REGISTRY: dict[str, StepSpec] = {
         despike.STEP,
         auto.STEP,
         footlock.STEP,
+        resample.STEP,
     )
 }

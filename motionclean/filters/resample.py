@@ -1,0 +1,173 @@
+"""Resampling orientation and position signals to a new frame rate.
+
+New frame ``k`` sits at time ``k * new_frame_time`` from the first frame, i.e. at
+``t_k = k * ratio`` old frames with ``ratio = new_frame_time / old_frame_time``. Between
+old samples the signal is the C1 cubic of :mod:`.interpolate` with Catmull-Rom tangents
+(rotations through their angular displacements, positions through their differences),
+exact at old samples the new grid hits (``u = 0``; a ratio within 1e-4 of a fraction with a
+small denominator is taken as that fraction, :func:`nominal_ratio`) and exact on constant
+angular or linear velocity. The clip is continued by one sample at its last velocity, so the
+new clip covers the old duration (``F`` frames x frame time) to within half a new frame:
+``round(F / ratio)`` new frames.
+
+When the new rate is lower (``ratio > 1``), what it cannot carry is removed first: a
+zero-phase low-pass at :data:`ANTIALIAS_CUTOFF` times the new Nyquist frequency
+(:func:`.design.lowpass`, a mask of :data:`ANTIALIAS_PERIODS` periods of the cutoff on each
+side: gain below 1e-2 from the new Nyquist frequency up, about 1 below 0.4 of it), run as
+000's orientation filter (Eq. 19-20) and its vector counterpart, so the result does not
+alias.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+from .. import checks, quat
+from .design import lowpass
+from .interpolate import catmull_rom_tangents, end_tangent, hermite_positions, hermite_rotations
+from .linear import lee_shin_positions, lee_shin_unchecked
+
+#: The anti-aliasing low-pass cuts (-6 dB) at this share of the new Nyquist frequency ...
+ANTIALIAS_CUTOFF = 0.7
+#: ... with a mask this many periods of the cutoff long on each side.
+ANTIALIAS_PERIODS = 2.5
+#: New frames computed at a time (temporaries stay small on long clips).
+BLOCK_FRAMES = 4096
+#: A ratio of frame times this close to a fraction ``p/q`` with ``q <= MAX_DENOMINATOR`` is
+#: that fraction (frame times in files are rounded: 0.008333 s is 120 fps).
+NOMINAL = 1e-4
+MAX_DENOMINATOR = 25
+
+
+def resampled_length(n_frames: int, ratio: float) -> int:
+    """Frames after resampling ``n_frames`` by ``ratio`` (new frame time / old): the
+    duration ``n_frames x frame time`` kept to within half a new frame (measured with the
+    nominal ratio, :func:`nominal_ratio`, when there is one)."""
+    fraction = nominal_ratio(ratio)
+    if fraction is not None:
+        return max(
+            (2 * n_frames * fraction.denominator + fraction.numerator) // (2 * fraction.numerator),
+            1,
+        )
+    return max(int(math.floor(n_frames / ratio + 0.5)), 1)
+
+
+def nominal_ratio(ratio: float) -> Fraction | None:
+    """``ratio`` as a fraction ``p/q`` (``q <= MAX_DENOMINATOR``) when it is one within
+    :data:`NOMINAL` (a Frame Time of 0.008333 s resampled to 60 fps is 2/1, so every other
+    frame is hit exactly), else None."""
+    fraction = Fraction(ratio).limit_denominator(MAX_DENOMINATOR)
+    return fraction if abs(float(fraction) - ratio) <= NOMINAL * ratio else None
+
+
+def sample_positions(n_new: int, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where new frames ``0 .. n_new-1`` fall among old ones: ``(index, u)`` with new frame
+    ``k`` at old time ``index[k] + u[k]``, ``0 <= u < 1``. A nominal ratio
+    (:func:`nominal_ratio`) is used exactly, so the new grid hits old frames (``u = 0``)
+    where it should."""
+    fraction = nominal_ratio(ratio)
+    k = np.arange(n_new, dtype=np.int64)
+    if fraction is not None:
+        whole, rest = np.divmod(k * fraction.numerator, fraction.denominator)
+        return whole.astype(np.intp), rest / fraction.denominator
+    times = k * ratio
+    index = np.floor(times).astype(np.intp)
+    return index, times - index
+
+
+def antialias_mask(ratio: float) -> np.ndarray | None:
+    """The low-pass mask (in old frames) run before resampling by ``ratio``; None when the
+    new rate is not lower."""
+    if ratio <= 1.0:
+        return None
+    cutoff = ANTIALIAS_CUTOFF * 0.5 / ratio  # cycles per old frame
+    return lowpass(cutoff, 1.0, math.ceil(ANTIALIAS_PERIODS / cutoff))
+
+
+def _blocks(n: int):
+    for at in range(0, n, BLOCK_FRAMES):
+        yield slice(at, min(at + BLOCK_FRAMES, n))
+
+
+def _continued(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Displacements continued by one at the last velocity, and the tangents at each
+    sample (``F`` and ``F + 1``)."""
+    steps = np.concatenate([steps, steps[-1:]])
+    return steps, catmull_rom_tangents(steps)
+
+
+def _at_times(x: np.ndarray, steps_of, piece, ratio: float, n_new: int) -> np.ndarray:
+    """``x`` ``(F, ...)`` at the new frames: old samples where the grid hits them, else
+    ``piece(x0, step, tangent0, tangent1, u)`` from ``steps_of(x)`` (``F - 1``
+    displacements)."""
+    index, u = sample_positions(n_new, ratio)
+    hits = u == 0.0
+    if hits.all():
+        return x[index]
+    out = np.empty((n_new, *x.shape[1:]))
+    out[hits] = x[index[hits]]
+    between = np.flatnonzero(~hits)
+    steps, tangents = _continued(steps_of(x))
+    for rows in _blocks(between.size):
+        at = between[rows]
+        i = index[at]
+        t = np.broadcast_to(u[at].reshape((-1,) + (1,) * (x.ndim - 2)), x[i].shape[:-1])
+        out[at] = piece(x[i], steps[i], tangents[i], tangents[i + 1], t)
+    return out
+
+
+def _displacements(q: np.ndarray) -> np.ndarray:
+    """``log(q_i^-1 q_{i+1})`` (000 Eq. 19) block by block, temporaries in cache."""
+    steps = np.empty((q.shape[0] - 1, *q.shape[1:-1], 3))
+    for rows in _blocks(steps.shape[0]):
+        a, b = q[rows], q[rows.start + 1 : rows.stop + 1]
+        steps[rows] = quat.log(quat.multiply(quat.conjugate(a), b))
+    return steps
+
+
+def _rotation_piece(q0, step, v0, v1, u):
+    return hermite_rotations(q0, step, v0, end_tangent(step, v1), u)
+
+
+def _position_piece(p0, step, v0, v1, u):
+    return hermite_positions(p0, v0, p0 + step, v1, u)
+
+
+def resample_rotations(
+    q: np.ndarray, ratio: float, n_new: int | None = None, antialias: bool = True
+) -> np.ndarray:
+    """Orientations ``q`` ``(F, ..., 4)`` (unit quaternions ``(w, x, y, z)``, time along axis
+    0, ``F >= 2``) at ``n_new`` new frames (default :func:`resampled_length`) spaced
+    ``ratio`` old frames apart. Low-passed first when ``ratio > 1`` and ``antialias``
+    (module docstring). Returns ``(n_new, ..., 4)`` sign-continuous unit quaternions;
+    coordinate invariant."""
+    q = quat.make_continuous(checks.unit_quaternions(q), axis=0)
+    return resample_continuous(q, ratio, n_new, antialias)
+
+
+def resample_continuous(
+    q: np.ndarray, ratio: float, n_new: int | None = None, antialias: bool = True
+) -> np.ndarray:
+    """:func:`resample_rotations` without the checks, for sign-continuous unit ``q``."""
+    mask = antialias_mask(ratio) if antialias else None
+    if mask is not None:
+        q = lee_shin_unchecked(q, mask)
+    n_new = resampled_length(q.shape[0], ratio) if n_new is None else n_new
+    return _at_times(q, _displacements, _rotation_piece, ratio, n_new)
+
+
+def resample_positions(
+    p: np.ndarray, ratio: float, n_new: int | None = None, antialias: bool = True
+) -> np.ndarray:
+    """Positions ``p`` ``(F, ..., D)`` (``F >= 2``) resampled like :func:`resample_rotations`:
+    low-passed first when ``ratio > 1`` and ``antialias``, then the matching cubic Hermite.
+    ``(n_new, ..., D)``."""
+    p = checks.bounded(checks.as_float_array(p, "p"), "p")
+    mask = antialias_mask(ratio) if antialias else None
+    if mask is not None:
+        p = lee_shin_positions(p, mask)
+    n_new = resampled_length(p.shape[0], ratio) if n_new is None else n_new
+    return _at_times(p, lambda x: np.diff(x, axis=0), _position_piece, ratio, n_new)

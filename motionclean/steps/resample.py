@@ -1,0 +1,77 @@
+"""The ``resample`` step: the clip at a new frame rate, any ratio up or down."""
+
+from __future__ import annotations
+
+from ..errors import UsageError
+from ..filters.resample import ANTIALIAS_CUTOFF
+from ..io.bvh import MAX_FRAME_TIME, MIN_FRAME_TIME
+from ..motion import Motion
+from ..resampling import new_length, resample_motion, same_rate
+from .base import Param, StepSpec
+
+
+def _resolve(params: dict, where: str) -> None:
+    if (params["fps"] is None) == (params["frame_time"] is None):
+        raise UsageError(f"{where}: give the new rate as either fps or frame_time, e.g. fps=60")
+
+
+def _frame_time(params: dict) -> float:
+    return 1.0 / params["fps"] if params["fps"] is not None else params["frame_time"]
+
+
+def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
+    frame_time = _frame_time(params)
+    if same_rate(motion.frame_time, frame_time):
+        return motion, {}
+    frames = motion.n_frames
+    new_length(motion, frame_time)  # refuses too few or too many frames before any work
+    resampled = resample_motion(motion, frame_time)
+    note = {
+        "from_fps": motion.frame_rate,
+        "to_fps": resampled.frame_rate,
+        "frames": [frames, resampled.n_frames],
+        "antialias_hz": None,
+    }
+    if frame_time > motion.frame_time:
+        note["antialias_hz"] = ANTIALIAS_CUTOFF * 0.5 / frame_time
+    return resampled, {name: {"resample": note} for name in motion.names[:1]}
+
+
+def _format_note(note: dict, positions: bool) -> str:
+    text = (
+        f"{note['from_fps']:.6g} -> {note['to_fps']:.6g} fps, "
+        f"{note['frames'][0]} -> {note['frames'][1]} frames"
+    )
+    if note["antialias_hz"] is not None:
+        text += f", low-passed at {note['antialias_hz']:.3g} Hz first"
+    return text
+
+
+STEP = StepSpec(
+    name="resample",
+    summary="the clip at a new frame rate: C1 cubic in angular displacements, "
+    "anti-aliased when the rate goes down",
+    paper="cubic of 003 Eq. 17 made C1 (cumulative Hermite); low-pass 000 Eq. 19-20",
+    params=(
+        Param(
+            "fps",
+            "float",
+            None,
+            "new frame rate, frames per second (any ratio, up or down)",
+            minimum=1.0 / MAX_FRAME_TIME,
+            maximum=1.0 / MIN_FRAME_TIME,
+        ),
+        Param(
+            "frame_time",
+            "float",
+            None,
+            "or the new frame time, seconds",
+            minimum=MIN_FRAME_TIME,
+            maximum=MAX_FRAME_TIME,
+        ),
+    ),
+    run_motion=_run,
+    resolve=_resolve,
+    format_note=_format_note,
+    shift_note=lambda note, frames: note,
+)
