@@ -21,6 +21,7 @@ ORDER = [
     "despike",
     "fairing",
     "multires",
+    "resample",
     "world",
     "batch",
     "quality",
