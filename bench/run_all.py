@@ -15,6 +15,7 @@ HERE = Path(__file__).resolve().parent
 ORDER = [
     "footlock",
     "io",
+    "motive",
     "scale",
     "filters",
     "bilateral",

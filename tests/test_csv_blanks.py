@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 import motionclean as mc
 from motionclean import quat
 from motionclean.errors import MotionError
-from motionclean.io.csv import RIGID_SUFFIXES, format_csv, parse_csv
+from motionclean.io.csv import RIGID_SUFFIXES, format_csv, parse_body, parse_csv
 from motionclean.motion import Motion, hold_missing
 
 HEADER = "time," + ",".join(f"{b}.{s}" for b in ("a", "b") for s in RIGID_SUFFIXES)
@@ -181,3 +181,39 @@ def test_clean_leaves_blank_cells_blank(tmp_path: Path, capsys):
         cells = line.split(",")[1:]
         assert [c == "" for c in cells] == np.repeat(missing[f], 7).tolist()
     np.testing.assert_array_equal(mc.load(tmp_path / "out.csv").missing, missing)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_rows=st.integers(1, 12),
+    n_columns=st.integers(2, 6),
+    eol=st.sampled_from(["\n", "\r\n"]),
+    padded=st.booleans(),
+    blank_lines=st.booleans(),
+)
+def test_cells_are_found_alike_with_or_without_whitespace(
+    seed, n_rows, n_columns, eol, padded, blank_lines
+):
+    """The scan without whitespace (cells between separators) and the token scan used when
+    there are spaces find the same cells, blanks and values."""
+    rng = np.random.default_rng(seed)
+    values = np.round(rng.normal(size=(n_rows, n_columns)) * 100, rng.integers(0, 7))
+    empty = rng.uniform(size=values.shape) < 0.3
+    cells = np.where(empty, "", values.astype(str))
+    cells[rng.uniform(size=values.shape) < 0.1] = "NaN"
+    pad = (lambda c: f" {c}\t") if padded else (lambda c: c)
+    lines = [",".join(pad(c) for c in row) for row in cells.tolist()]
+    if blank_lines:
+        lines = [x for line in lines for x in (line, "")]
+    data = ("head" + eol + eol.join(lines) + eol).encode()
+    body = parse_body(data, len("head") + len(eol), n_columns, 2, "t.csv")
+    blank = (cells == "") | (cells == "NaN")
+    np.testing.assert_array_equal(body.blank, blank)
+    np.testing.assert_array_equal(body.values[~blank], values[~blank])
+    assert np.isnan(body.values[blank]).all()
+    texts = [
+        data[s:e].decode() for s, e in zip(body.starts.ravel(), body.ends.ravel(), strict=True)
+    ]
+    assert texts == cells.ravel().tolist()
+    np.testing.assert_array_equal(body.lines, 2 + np.arange(n_rows) * (2 if blank_lines else 1))

@@ -73,6 +73,10 @@ CASES = {
     "zero_quaternion.csv": (4, "quaternion of norm 0"),
     "partly_blank_body.csv": (4, "body 'head' is partly blank: empty value in head.pz"),
     "blank_time.csv": (3, "the time column is blank"),
+    "motive_euler.csv": (1, "Rotation Type XYZ is Euler angles, which are not read"),
+    "motive_unknown_rotation.csv": (1, "unknown Rotation Type 'Matrix'"),
+    "motive_property_row.csv": (6, "the property row does not match the axis row"),
+    "motive_partly_blank.csv": (9, "body 'Wand' is partly blank: empty value in Rotation X"),
 }
 
 

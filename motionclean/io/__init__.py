@@ -10,12 +10,20 @@ from pathlib import Path
 
 from ..errors import MotionError
 from ..motion import Motion
-from . import bvh, csv
+from . import bvh, csv, motive
 
 __all__ = ["FORMATS", "atomic_write", "load", "save"]
 
+
+def _format_csv(motion: Motion) -> bytes:
+    """A clip read from a Motive export is written as one, any other as :mod:`.csv` does."""
+    if isinstance(motion.source, motive.MotiveText):
+        return motive.format_motive(motion)
+    return csv.format_csv(motion)
+
+
 _READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
-_WRITERS = {".bvh": bvh.format_bvh, ".csv": csv.format_csv}
+_WRITERS = {".bvh": bvh.format_bvh, ".csv": _format_csv}
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
 
@@ -33,12 +41,16 @@ def _suffix(path: Path, table: dict) -> str:
 def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     """Read a clip; the format follows the extension (``.bvh`` or ``.csv``).
 
-    ``skeleton`` is the BVH template a channel CSV is read into (see ``io.csv``).
+    A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack Motive export
+    (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
+    the BVH template a channel CSV is read into.
     """
     path = Path(path)
     suffix = _suffix(path, _READERS)
     data = read_regular_file(path)
     if suffix == ".csv":
+        if motive.is_motive(data):
+            return motive.parse_motive(data, path)
         return csv.parse_csv(data, path, skeleton=skeleton)
     return _READERS[suffix](data, path)
 

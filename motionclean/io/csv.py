@@ -137,7 +137,7 @@ class CsvText:
 
 class BodyCells(NamedTuple):
     """The data rows of a CSV: ``(F, K)`` ``values`` (NaN where blank or not parsed),
-    ``blank`` (an empty cell or NaN, any case, in a parsed column), the cells' byte offsets
+    ``blank`` (an empty cell or NaN, any case), the cells' byte offsets
     ``starts``/``ends`` and each row's line number ``lines`` ``(F,)``."""
 
     values: np.ndarray
@@ -233,18 +233,16 @@ def _classify(fields: list[str], path, line: int):
     return kinds.pop(), entries, special["time"]
 
 
-def _parse_body(
+def parse_body(
     data: bytes, body_start: int, n_columns: int, first_line: int, path, parsed=None
 ) -> BodyCells:
     """Parse the data rows: values of the ``parsed`` columns (all by default), which cells
     are blank, the cells' byte offsets and each row's line number (see :class:`BodyCells`).
     """
     buf = np.frombuffer(data, dtype=np.uint8)
-    starts, ends, tokens, cell_line = scan_cells(buf, body_start)
-    n_lines = int(cell_line[-1]) + 1
-    cells_per_line = np.bincount(cell_line, minlength=n_lines)
-    tokens_per_line = np.bincount(cell_line, weights=tokens, minlength=n_lines)
-    is_row = (cells_per_line > 1) | (tokens_per_line > 0)
+    starts, ends, tokens, line_starts = scan_cells(buf, body_start)
+    cells_per_line = np.diff(line_starts, append=starts.size)
+    is_row = (cells_per_line > 1) | (np.add.reduceat(tokens, line_starts, dtype=np.intp) > 0)
     rows = np.flatnonzero(is_row)
     if not rows.size:
         _fail("no data rows after the header", path, first_line - 1)
@@ -254,29 +252,35 @@ def _parse_body(
         line = first_line + row
         _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}", path, line)
     shape = (rows.size, n_columns)
-    keep = is_row[cell_line]
+    if rows[-1] == rows.size - 1:  # no blank line but at the end: the first cells
+        keep: slice | np.ndarray = slice(0, rows.size * n_columns)
+    else:
+        keep = np.repeat(is_row, cells_per_line)
     starts, ends, tokens = (a[keep].reshape(shape) for a in (starts, ends, tokens))
     lines = first_line + rows
-    columns = np.arange(n_columns) if parsed is None else np.asarray(parsed, dtype=np.intp)
-    counts = tokens[:, columns]
-    several = np.argwhere(counts > 1)
-    if several.size:
-        row, k = several[0]
-        _fail(f"row has two values in one column (column {columns[k] + 1})", path, lines[row])
-    cell_starts, cell_ends = starts[:, columns], ends[:, columns]
-    blank = (counts == 0).ravel()
-    three = np.flatnonzero((cell_ends - cell_starts).ravel() == 3)  # NaN, any case: blank
-    letters = buf[cell_starts.ravel()[three, None] + np.arange(3)] | np.uint8(0x20)
+    every = parsed is None
+    columns = np.arange(n_columns) if every else np.unique(np.asarray(parsed, np.intp))
+    flat_starts, flat_ends = starts.ravel(), ends.ravel()
+    blank = (tokens == 0).ravel()
+    three = np.flatnonzero(flat_ends - flat_starts == 3)  # NaN, any case: blank
+    letters = buf[flat_starts[three, None] + np.arange(3)] | np.uint8(0x20)
     blank[three[np.all(letters == np.frombuffer(b"nan", dtype=np.uint8), axis=1)]] = True
-    blank = blank.reshape(counts.shape)
-    number = np.flatnonzero(~blank.ravel())
-    parsed_values, bad_token = parse_values(
-        buf, cell_starts.ravel()[number], cell_ends.ravel()[number]
-    )
+    # The parsed cells, as flat indices (None: all of them).
+    chosen = None if every else (np.arange(0, starts.size, n_columns)[:, None] + columns).ravel()
+    counts = tokens.ravel() if chosen is None else tokens.ravel().take(chosen)
+    several = np.flatnonzero(counts > 1)
+    if several.size:
+        row, k = divmod(int(several[0]), columns.size)
+        _fail(f"row has two values in one column (column {columns[k] + 1})", path, lines[row])
+    chosen_blank = blank if chosen is None else blank.take(chosen)
+    gaps = bool(chosen_blank.any())
+    number = chosen
+    if gaps:
+        number = np.flatnonzero(~chosen_blank) if chosen is None else chosen[~chosen_blank]
+    parsed_values, bad_token = parse_values(buf, flat_starts, flat_ends, number)
     if bad_token >= 0:
-        at = number[bad_token]
-        s, e = cell_starts.ravel()[at], cell_ends.ravel()[at]
-        text = buf[s:e].tobytes().decode("utf-8", "replace")[:40]
+        at = bad_token if number is None else int(number[bad_token])
+        text = buf[flat_starts[at] : flat_ends[at]].tobytes().decode("utf-8", "replace")[:40]
         try:
             value = float(text)
             problem = (
@@ -286,17 +290,17 @@ def _parse_body(
             )
         except ValueError:
             problem = "is not a number"
-        _fail(f"value {text!r} {problem}", path, lines[at // columns.size])
-    values = np.full(shape, np.nan)
-    column_values = np.full(blank.size, np.nan)
-    column_values[number] = parsed_values
-    values[:, columns] = column_values.reshape(blank.shape)
-    all_blank = np.zeros(shape, dtype=bool)
-    all_blank[:, columns] = blank
+        _fail(f"value {text!r} {problem}", path, lines[at // n_columns])
+    if number is None:
+        values = parsed_values.reshape(shape)
+    else:
+        values = np.full(shape, np.nan)
+        values.ravel()[number] = parsed_values
+    all_blank = blank.reshape(shape)
     return BodyCells(values, all_blank, starts, ends, lines)
 
 
-def _frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | None) -> float:
+def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | None) -> float:
     """The frame time of a uniformly sampled time column (see the module docstring)."""
     n = times.size
     if n < 2:
@@ -441,7 +445,7 @@ def missing_joints(
         f, j = partial[0]
         own = columns[offsets[j] : offsets[j] + widths[j]]
         empty, nan = [], []
-        for k in own[blank[f, offsets[j] : offsets[j] + widths[j]]].tolist():
+        for k in sorted(own[blank[f, offsets[j] : offsets[j] + widths[j]]].tolist()):
             text = data[cells.starts[f, k] : cells.ends[f, k]].decode("utf-8", "replace")
             if text:
                 nan.append(f"value {text!r} is not finite ({labels[k]})")
@@ -483,7 +487,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         _fail("not a text file (binary data)", path)
     fields, header_line, body_start = _split_header(data, path)
     layout, entries, time_column = _classify(fields, path, header_line)
-    cells = _parse_body(data, body_start, len(fields), header_line + 1, path)
+    cells = parse_body(data, body_start, len(fields), header_line + 1, path)
     check_filled(cells, time_column, "time", path)
     if "frame" in fields:
         check_filled(cells, fields.index("frame"), "frame", path)
@@ -494,7 +498,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         return _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_line)
     if skeleton is None:
         names, channels, columns = _channel_skeleton(entries, path, header_line)
-        frame_time = _frame_time(times, cells.lines, path, None)
+        frame_time = uniform_frame_time(times, cells.lines, path, None)
         text = CsvText(
             "channel",
             data,
@@ -528,7 +532,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             skeleton.path,
         )
     columns = _template_columns(entries, skeleton, path, header_line)
-    frame_time = _frame_time(times, cells.lines, path, skeleton.frame_time)
+    frame_time = uniform_frame_time(times, cells.lines, path, skeleton.frame_time)
     values, missing = _held_channel_values(
         cells, data, columns, skeleton.names, skeleton.channels, fields, path
     )
@@ -620,7 +624,7 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
                     header_line,
                 )
             columns[b, s] = found[name][suffix]
-    frame_time = _frame_time(cells.values[:, time_column], cells.lines, path, None)
+    frame_time = uniform_frame_time(cells.values[:, time_column], cells.lines, path, None)
     rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, fields, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
     text = CsvText(
@@ -663,14 +667,14 @@ def format_repr(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return buf, starts, ends - starts
 
 
-def _header(fields: list[str], eol: bytes) -> bytes:
+def format_header(fields: list[str], eol: bytes) -> bytes:
     """The header line: fields quoted where they hold a comma, a quote, CR or LF."""
     out = _io.StringIO()
     _csv.writer(out, lineterminator="\r\n").writerow(fields)  # CR and LF then get quoted
     return out.getvalue()[:-2].encode("utf-8") + eol
 
 
-class _Cells:
+class Cells:
     """Text pieces from several buffers, addressed in one concatenated buffer."""
 
     def __init__(self):
@@ -709,21 +713,23 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     return splice(src.raw, src.starts[mask], src.ends[mask], texts)
 
 
-def _fresh(fields: list[str], eol: bytes, cells: _Cells, starts, lengths) -> bytes:
-    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol, _header(fields, eol))
+def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:
+    return join_rows(
+        cells.buffer(), starts, lengths, starts.shape, b",", eol, format_header(fields, eol)
+    )
 
 
-def _frame_and_time(motion: Motion, cells: _Cells):
+def _frame_and_time(motion: Motion, cells: Cells):
     n = motion.n_frames
     first = 0.0
     if isinstance(motion.source, CsvText) and motion.source.n_frames:
         first = float(motion.source.values[0, motion.source.time_column])
-    frames = cells.add(*_formatted(b"%d", range(n)))
-    times = cells.add(*_formatted(b"%.12g", (first + np.arange(n) * motion.frame_time).tolist()))
+    frames = cells.add(*format_fields(b"%d", range(n)))
+    times = cells.add(*format_fields(b"%.12g", (first + np.arange(n) * motion.frame_time).tolist()))
     return frames, times
 
 
-def _formatted(field: bytes, values) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def format_fields(field: bytes, values) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``field % value`` for every value, as ``(buffer, starts, lengths)`` (one C-level
     formatting call for the whole column)."""
     values = tuple(values)
@@ -750,7 +756,7 @@ def _format_channel(motion: Motion) -> bytes:
         placed[:, src.columns] = np.where(missing, np.nan, values)
         return _rewrite(src, motion, mask, placed)
 
-    cells = _Cells()
+    cells = Cells()
     starts = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
     lengths = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
     fresh = ~missing
@@ -834,7 +840,7 @@ def _format_rigid(motion: Motion) -> bytes:
         and motion.source_rotations is not None
     ):
         return rewrite_rigid(src, motion)
-    cells = _Cells()
+    cells = Cells()
     n_frames, n_bodies = values.shape[:2]
     values = values.reshape(n_frames, 7 * n_bodies)
     starts = np.zeros((n_frames, values.shape[1] + 1), dtype=np.int64)

@@ -63,34 +63,58 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     return flat[0::2], flat[1::2]
 
 
+#: Byte classes for :func:`scan_cells`: 1 a line end, 2 a space or tab, 3 CR.
+_CELL_CLASS = np.zeros(256, dtype=np.uint8)
+_CELL_CLASS[10] = 1
+_CELL_CLASS[[9, 11, 12, 32]] = 2
+_CELL_CLASS[13] = 3
+
+
 def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
     """The cells of the lines of ``buf[start:]`` split at ``separator`` (a byte, default
     comma), empty cells included.
 
-    Returns ``(starts, ends, tokens, lines)``, one entry per cell in file order: the byte
+    Returns ``(starts, ends, tokens, line_starts)``: per cell in file order, the byte
     range of its text without the surrounding whitespace (for an empty cell, the empty
-    range just after the separator or line start before it), its number of tokens (0: an
-    empty cell, 2 or more: several values in one cell, see :func:`scan_tokens`) and its
-    line (0 for the line at ``start``). A line of ``n`` separators has ``n + 1`` cells; a
-    blank line has one empty cell.
+    range just after the separator or line start before it) and its number of tokens (0:
+    an empty cell, 2 or more: several values in one cell, see :func:`scan_tokens`); per
+    line (from the one at ``start``), the index of its first cell. A line of ``n``
+    separators has ``n + 1`` cells; a blank line has one empty cell.
     """
-    token_starts, token_ends = scan_tokens(buf, start, bytes([separator]))
-    seps = []
+    table = _CELL_CLASS.copy()
+    table[separator] = 1
+    seps, n_spaces, n_returns = [], 0, 0
     for at in range(start, buf.size, _CHUNK_BYTES):
-        part = buf[at : at + _CHUNK_BYTES]
-        seps.append(np.flatnonzero((part == separator) | (part == 10)) + at)
+        kind = table.take(buf[at : at + _CHUNK_BYTES])
+        seps.append(np.flatnonzero(kind == 1) + at)
+        if kind.max(initial=0) >= 2:  # whitespace: rare in machine-written CSV
+            n_spaces += int(np.count_nonzero(kind == 2))
+            n_returns += int(np.count_nonzero(kind == 3))
     boundaries = np.concatenate(seps) if seps else np.zeros(0, dtype=np.intp)
+    at_newline = buf[boundaries] == 10
+    before_newline = np.flatnonzero(at_newline)  # the cells that end at a LF
+    line_starts = np.concatenate([[0], before_newline + 1])
+    starts = np.empty(boundaries.size + 1, dtype=np.intp)
+    starts[0] = start
+    starts[1:] = boundaries + 1
+    ends = np.empty_like(starts)
+    ends[:-1] = boundaries
+    ends[-1] = buf.size
+    newlines = boundaries[before_newline]
+    crlf = before_newline[(newlines > start) & (buf[np.maximum(newlines - 1, 0)] == 13)]
+    if n_spaces == 0 and n_returns == crlf.size:
+        # No whitespace but CR before LF: a cell is the bytes between its separators.
+        ends[crlf] -= 1
+        return starts, ends, (ends > starts).view(np.int8), line_starts
+    token_starts, token_ends = scan_tokens(buf, start, bytes([separator]))
     cell_of_token = np.searchsorted(boundaries, token_starts)
     tokens = np.bincount(cell_of_token, minlength=boundaries.size + 1)
     first = np.cumsum(tokens) - tokens  # index of each cell's first token
-    empty_at = np.concatenate([[start], boundaries + 1])
-    starts, ends = empty_at.copy(), empty_at.copy()
+    ends[:] = starts  # an empty cell: just after the separator before it
     filled = np.flatnonzero(tokens)
     starts[filled] = token_starts[first[filled]]
     ends[filled] = token_ends[first[filled] + tokens[filled] - 1]
-    lines = np.zeros(boundaries.size + 1, dtype=np.intp)
-    np.cumsum(buf[boundaries] == 10, out=lines[1:])
-    return starts, ends, tokens, lines
+    return starts, ends, tokens, line_starts
 
 
 #: Largest accepted magnitude of a value in a clip (degrees or length units): anything
@@ -98,7 +122,7 @@ def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
 MAX_MAGNITUDE = 1e12
 
 
-def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None):
     """Convert the tokens ``buf[starts[i]:ends[i]]`` to float64, exactly like ``float``.
 
     Plain decimals (optional sign, digits with at most one point, at most 15 digits) are
@@ -106,18 +130,25 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
     ``mantissa / 10**k``: both are exact in float64, so the one division is correctly
     rounded, i.e. bit-identical to ``float``. Anything else (exponents, longer mantissas)
     goes through ``float`` one token at a time. Returns ``(values, bad)`` with ``bad`` the
-    index of the first token that is not a finite number (``-1`` when all are).
+    index of the first token that is not a finite number (``-1`` when all are). With
+    ``index`` (sorted ints), only the tokens ``index[i]`` are converted, in that order
+    (gathered chunk by chunk, so no full copy of the offsets is made).
     """
-    n = starts.size
+    n = starts.size if index is None else index.size
     values = np.empty(n)
     simple = np.empty(n, dtype=bool)
     for at in range(0, n, _CHUNK_ITEMS):  # chunks stay in cache
         part = slice(at, at + _CHUNK_ITEMS)
-        values[part], simple[part] = _parse_plain(buf, starts[part], ends[part])
+        if index is None:
+            values[part], simple[part] = _parse_plain(buf, starts[part], ends[part])
+        else:
+            chosen = index[part]
+            values[part], simple[part] = _parse_plain(buf, starts.take(chosen), ends.take(chosen))
 
     bad = -1
     for i in np.flatnonzero(~simple).tolist():
-        token = buf[starts[i] : ends[i]].tobytes()
+        k = i if index is None else int(index[i])
+        token = buf[starts[k] : ends[k]].tobytes()
         try:
             value = float(token) if b"_" not in token else math.nan
         except ValueError:
@@ -129,10 +160,10 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
     return values, bad
 
 
-def parse_values(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+def parse_values(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None):
     """:func:`parse_numbers` for a clip's values: also the first token beyond
     :data:`MAX_MAGNITUDE` is bad."""
-    values, bad = parse_numbers(buf, starts, ends)
+    values, bad = parse_numbers(buf, starts, ends, index)
     huge = np.flatnonzero(np.abs(values[: bad if bad >= 0 else values.size]) > MAX_MAGNITUDE)
     return values, int(huge[0]) if huge.size else bad
 

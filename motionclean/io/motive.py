@@ -1,0 +1,376 @@
+"""OptiTrack Motive CSV exports (format 1.2x): rigid bodies read as joints, the rest carried.
+
+A Motive export starts with ``Format Version,`` (after an optional UTF-8 byte-order mark)::
+
+    Format Version,1.23,Take Name,walk,...,Export Frame Rate,120.000000,...,Rotation Type,...
+
+    ,Type,Rigid Body,Rigid Body,...,Rigid Body,Marker,Marker,Marker
+    ,Name,head,head,...,head,M1,M1,M1
+    ,ID,1,1,...,1,2,2,2
+    ,,Rotation,Rotation,Rotation,Rotation,Position,Position,Position,Mean Marker Error,...
+    Frame,Time (Seconds),X,Y,Z,W,X,Y,Z,,X,Y,Z
+    0,0.000000,0.011302,-0.050931,0.007001,0.998611,0.012345,1.621002,0.034015,0.0002,0.1,1.7,0
+    1,0.008333,,,,,,,,,0.1,1.7,0
+
+(eight ``Rigid Body`` cells per body: Rotation X Y Z W, Position X Y Z, Mean Marker Error).
+Line 1 holds ``key,value`` pairs; ``Rotation Type`` must be ``Quaternion`` (an Euler
+export is refused) and ``Export Frame Rate`` gives the frame rate, which the ``Time``
+column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`).
+Then come the ``,Type``, ``,Name`` and optional ``,ID`` rows, the property row (its first
+two cells empty) and the axis row ``Frame,Time (Seconds),...``. The header rows may
+appear in any order; a header row shorter than the axis row counts as ending in empty cells.
+
+Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset) whose
+rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
+``(w, x, y, z)`` (renormalised, sign-continuous in time), and whose translation is its
+``Position`` columns in the export's ``Length Units``; as BVH it gets the channels of a
+rigid-body CSV body. A rigid body needs exactly Rotation over X, Y, Z, W and Position over
+X, Y, Z; a property row that says otherwise is refused naming its line. Every other column
+(markers, rigid-body markers, Mean Marker Error, Marker Quality, unknown types) is carried
+through as text and never parsed. Blank cells are occlusions: a rigid body whose seven
+cells are blank (or NaN) on a row is missing on that frame (``Motion.missing``); a partly
+blank one is an error. The Frame and Time cells are never blank.
+
+Writing a clip read from a Motive export (``save(motion, "out.csv")``): with the same
+frames, bodies and frame rate, the input text is reused (header rows byte for byte,
+carried columns untouched, unchanged values with their text, changed ones in shortest
+round-trip repr, missing samples blank), so an untouched export is written back byte for
+byte. When the frame count or rate changed (a resampled clip), the old carried columns no
+longer describe the frames: the file is written with its rigid bodies only, the metadata
+line keeping every field but ``Export Frame Rate`` and ``Total Exported Frames``.
+"""
+
+from __future__ import annotations
+
+import csv as _csv
+import math
+from dataclasses import dataclass
+from typing import NoReturn
+
+import numpy as np
+
+from ..errors import MotionError
+from ..motion import Motion
+from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME
+from .csv import (
+    RIGID_CHANNELS,
+    TIME_TOLERANCE,
+    Cells,
+    CsvText,
+    check_filled,
+    format_fields,
+    format_header,
+    format_repr,
+    parse_body,
+    rewrite_rigid,
+    rigid_arrays,
+    rigid_values,
+    uniform_frame_time,
+)
+from .text import join_rows
+
+#: What every Motive export starts with (after an optional byte-order mark).
+SIGNATURE = b"Format Version,"
+#: Rotation Type values of Euler exports (refused: their angles need the export's order).
+EULER_TYPES = frozenset(("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"))
+#: A rigid body's ``(property, axis)`` cells in the order of ``csv.RIGID_SUFFIXES``.
+BODY_CELLS = (
+    ("Position", "X"),
+    ("Position", "Y"),
+    ("Position", "Z"),
+    ("Rotation", "W"),
+    ("Rotation", "X"),
+    ("Rotation", "Y"),
+    ("Rotation", "Z"),
+)
+#: Motive's own column order of a rigid body: Rotation X Y Z W, Position X Y Z (indices
+#: into :data:`BODY_CELLS`).
+WRITE_ORDER = (4, 5, 6, 3, 0, 1, 2)
+#: Labels of the header rows above the axis row (``""``: the property row).
+HEADER_ROWS = ("Type", "Name", "ID", "")
+#: Header lines read at most before the axis row must have appeared.
+MAX_HEADER_LINES = 64
+
+
+def is_motive(data: bytes) -> bool:
+    """True when ``data`` starts like a Motive export (``Format Version,``)."""
+    return data.removeprefix(BOM).startswith(SIGNATURE)
+
+
+@dataclass(frozen=True, eq=False)
+class MotiveText(CsvText):
+    """A Motive export as read: :class:`~motionclean.io.csv.CsvText` (``layout="motive"``,
+    ``columns`` ``(B, 7)`` in the order of
+    :data:`~motionclean.io.csv.RIGID_SUFFIXES`) plus what a fresh write needs:
+    the metadata ``(key, value)`` pairs of line 1, the header rows' labels in file order
+    and each body's ID."""
+
+    metadata: tuple[tuple[str, str], ...] = ()
+    row_labels: tuple[str, ...] = ()
+    ids: tuple[str, ...] = ()
+
+
+def _fail(message: str, path, line: int | None = None) -> NoReturn:
+    raise MotionError(message, path, None if line is None else int(line))
+
+
+def _fields(line: bytes, number: int, path) -> list[str]:
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError:
+        _fail("not a text file (bytes that are not UTF-8)", path, number)
+    try:
+        return next(_csv.reader([text.rstrip("\r\n")], strict=True), [])
+    except _csv.Error as error:
+        _fail(f"bad header: {error}", path, number)
+
+
+def _header_lines(data: bytes, path) -> tuple[list[tuple[int, list[str]]], int, bytes]:
+    """The header lines ``(number, fields)`` up to the axis row (blank ones left out), the
+    offset of the first data line and the line ending."""
+    pos = len(BOM) if data.startswith(BOM) else 0
+    lines: list[tuple[int, list[str]]] = []
+    for number in range(1, MAX_HEADER_LINES + 1):
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end + 1
+        line, pos = data[pos:end], end
+        if line.strip():
+            fields = _fields(line, number, path)
+            lines.append((number, fields))
+            if number > 1 and fields[:1] == ["Frame"]:
+                return lines, pos, b"\r\n" if line.endswith(b"\r\n") else b"\n"
+            if number > 1 and fields[:1] != [""]:
+                break
+        if pos >= len(data):
+            break
+    _fail(
+        "no axis row 'Frame,Time (Seconds),X,Y,...' after the ',Type' / ',Name' / ',ID' / "
+        "property rows (not a Motive CSV export)",
+        path,
+        number,
+    )
+
+
+def _frame_rate(metadata: dict[str, str], path) -> float:
+    """The frame time (s) from the metadata line; Quaternion exports only."""
+    rotation = metadata.get("Rotation Type")
+    if rotation is None:
+        _fail(
+            "no Rotation Type in the metadata line (export with Rotation Type Quaternion)", path, 1
+        )
+    if rotation.strip().upper() in EULER_TYPES:
+        _fail(
+            f"Rotation Type {rotation.strip()} is Euler angles, which are not read; export "
+            "with Rotation Type Quaternion",
+            path,
+            1,
+        )
+    if rotation.strip() != "Quaternion":
+        _fail(f"unknown Rotation Type {rotation[:40]!r} (expected Quaternion)", path, 1)
+    text = metadata.get("Export Frame Rate")
+    if text is None:
+        _fail("no Export Frame Rate in the metadata line", path, 1)
+    try:
+        rate = float(text)
+    except ValueError:
+        _fail(f"Export Frame Rate is not a number: {text[:40]!r}", path, 1)
+    if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME < rate <= 1.0 / MIN_FRAME_TIME):
+        _fail(
+            f"Export Frame Rate {text[:40]} is no usable frame rate (expected between "
+            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            path,
+            1,
+        )
+    return 1.0 / rate
+
+
+def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[str, ...]]:
+    """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``""``), each as
+    ``(line, fields)`` padded to the axis row's width, and the labels in file order."""
+    axis_line, axis = lines[-1]
+    if len(axis) < 3 or not axis[1].startswith("Time"):
+        _fail("the axis row must start with 'Frame,Time (Seconds),'", path, axis_line)
+    rows: dict[str, tuple[int, list[str]]] = {}
+    order = []
+    for number, fields in lines[1:-1]:
+        label = fields[1] if len(fields) > 1 else ""
+        if label not in HEADER_ROWS or (label == "" and len(fields) < 3):
+            _fail(
+                f"unexpected header row {','.join(fields)[:60]!r} (expected ',Type,...', "
+                "',Name,...', ',ID,...' or the property row ',,Rotation,...')",
+                path,
+                number,
+            )
+        if label in rows:
+            _fail(
+                f"a second {label or 'property'} row (first at line {rows[label][0]})", path, number
+            )
+        if len(fields) > len(axis):
+            _fail(
+                f"header row has {len(fields)} columns, the axis row has {len(axis)}", path, number
+            )
+        rows[label] = (number, fields + [""] * (len(axis) - len(fields)))
+        order.append(label)
+    for label in ("Type", "Name", ""):
+        if label not in rows:
+            what = f"',{label},...' row" if label else "property row (',,Rotation,...')"
+            _fail(f"no {what} above the axis row", path, axis_line)
+    return rows, tuple(order)
+
+
+def _bodies(rows, axis: list[str], path):
+    """Body names, IDs and their ``(B, 7)`` columns in :data:`BODY_CELLS` order."""
+    types, names = rows["Type"][1], rows["Name"][1]
+    ids = rows["ID"][1] if "ID" in rows else [""] * len(axis)
+    properties = rows[""][1]
+    cells: dict[str, dict[tuple[str, str], int]] = {}
+    body_ids: dict[str, str] = {}
+    for k in range(2, len(axis)):
+        if types[k].strip() != "Rigid Body":
+            continue
+        name = names[k]
+        if not name:
+            _fail(f"rigid body column {k + 1} has no name", path, rows["Name"][0])
+        if body_ids.setdefault(name, ids[k]) != ids[k]:
+            _fail(
+                f"two rigid bodies named {name[:60]!r} (IDs {body_ids[name][:20]} and "
+                f"{ids[k][:20]})",
+                path,
+                rows["ID"][0],
+            )
+        key = (properties[k].strip(), axis[k].strip())
+        own = cells.setdefault(name, {})
+        own[key] = -1 if key in own else k  # -1: a cell named twice
+    if not cells:
+        _fail("no rigid bodies (no 'Rigid Body' column in the Type row)", path, rows["Type"][0])
+    columns = np.empty((len(cells), len(BODY_CELLS)), dtype=np.intp)
+    for b, (name, own) in enumerate(cells.items()):
+        found = [own.get(key, -1) for key in BODY_CELLS]
+        used = sum(p in ("Rotation", "Position") for p, _ in own)
+        if min(found) < 0 or used != len(BODY_CELLS):
+            said = {
+                p: ",".join(a or "(none)" for q, a in own if q == p) or "no column"
+                for p in ("Rotation", "Position")
+            }
+            _fail(
+                f"the property row does not match the axis row: rigid body {name[:60]!r} has "
+                f"Rotation over {said['Rotation']} and Position over {said['Position']} (a "
+                "rigid body needs Rotation over X, Y, Z, W and Position over X, Y, Z)",
+                path,
+                rows[""][0],
+            )
+        columns[b] = found
+    return list(cells), [body_ids[n] for n in cells], columns
+
+
+def parse_motive(data: bytes, path=None) -> Motion:
+    """Parse a Motive CSV export (see the module docstring); errors name ``path`` and the
+    line."""
+    if b"\x00" in data[:4096]:
+        _fail("not a text file (binary data)", path)
+    lines, body_start, eol = _header_lines(data, path)
+    first = lines[0][1]
+    pairs = tuple(zip(first[0::2], first[1::2], strict=False))
+    metadata = {key.strip(): value for key, value in reversed(pairs)}  # the first one wins
+    frame_time = _frame_rate(metadata, path)
+    rows, order = _header_rows(lines, path)
+    axis_line, axis = lines[-1]
+    bodies, ids, columns = _bodies(rows, axis, path)
+    cells = parse_body(
+        data, body_start, len(axis), axis_line + 1, path, parsed=[0, 1, *columns.ravel()]
+    )
+    check_filled(cells, 0, "Frame", path)
+    check_filled(cells, 1, "Time", path)
+    times = cells.values[:, 1]
+    if uniform_frame_time(times, cells.lines, path, frame_time) != frame_time:
+        grid = times[0] + np.arange(times.size) * frame_time
+        off = int(np.argmax(np.abs(times - grid) > TIME_TOLERANCE * frame_time))
+        _fail(
+            f"the Time column does not follow Export Frame Rate {metadata['Export Frame Rate']}:"
+            f" time {times[off]:.6g} s is more than {TIME_TOLERANCE:.0%} of a frame off the "
+            f"grid of {frame_time:.6g} s steps",
+            path,
+            cells.lines[off],
+        )
+    labels = [f"{rows[''][1][k]} {axis[k]} (column {k + 1})".strip() for k in range(len(axis))]
+    rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, labels, path)
+    channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
+    text = MotiveText(
+        "motive",
+        data,
+        cells.starts,
+        cells.ends,
+        cells.values,
+        columns,
+        1,
+        (tuple(bodies), tuple(channels)),
+        frame_time,
+        eol,
+        blank=cells.blank,
+        metadata=pairs,
+        row_labels=order,
+        ids=tuple(ids),
+    )
+    n = len(bodies)
+    return Motion(
+        names=bodies,
+        parents=np.full(n, -1, dtype=np.intp),
+        offsets=np.zeros((n, 3)),
+        channels=channels,
+        frame_time=frame_time,
+        rotations=rotations,
+        translations=translations,
+        source_rotations=rotations.copy(),
+        source=text,
+        path=None if path is None else str(path),
+        missing=missing,
+    )
+
+
+def format_motive(motion: Motion) -> bytes:
+    """Serialise a clip read from a Motive export as a Motive export (module docstring)."""
+    src = motion.source
+    if not isinstance(src, MotiveText):
+        raise ValueError("format_motive writes clips read from a Motive export")
+    values = rigid_values(motion)
+    if (
+        src.matches(motion)
+        and motion.frame_time == src.frame_time
+        and motion.source_rotations is not None
+    ):
+        return rewrite_rigid(src, motion)
+    if motion.n_frames < 1:
+        raise MotionError("a Motive export needs at least one frame", motion.path)
+    n_frames, n_bodies = values.shape[:2]
+    rate = b"%.6f" % motion.frame_rate
+    changed = {"Export Frame Rate": rate.decode(), "Total Exported Frames": str(n_frames)}
+    metadata = [f for key, value in src.metadata for f in (key, changed.get(key.strip(), value))]
+    ids = dict(zip(src.skeleton[0], src.ids, strict=True))
+    per_body = {
+        "Type": ["Rigid Body"] * len(BODY_CELLS),
+        "": [BODY_CELLS[i][0] for i in WRITE_ORDER],
+    }
+    header = [format_header(metadata, src.eol), src.eol]
+    for label in src.row_labels:
+        fields = ["", label]
+        for name in motion.names:
+            fields += per_body.get(label) or [ids.get(name, "") if label == "ID" else name] * 7
+        header.append(format_header(fields, src.eol))
+    axes = ["Frame", "Time (Seconds)"] + [BODY_CELLS[i][1] for i in WRITE_ORDER] * n_bodies
+    header.append(format_header(axes, src.eol))
+
+    cells = Cells()
+    ordered = values[:, :, list(WRITE_ORDER)].reshape(n_frames, -1)
+    starts = np.zeros((n_frames, ordered.shape[1] + 2), dtype=np.int64)
+    lengths = np.zeros_like(starts)
+    starts[:, 2:], lengths[:, 2:] = (
+        a.reshape(ordered.shape) for a in cells.add(*format_repr(ordered))
+    )
+    lengths[:, 2:][np.repeat(motion.missing_mask(), len(BODY_CELLS), axis=1)] = 0
+    first_frame, first_time = int(src.values[0, 0]), float(src.values[0, 1])
+    starts[:, 0], lengths[:, 0] = cells.add(
+        *format_fields(b"%d", range(first_frame, first_frame + n_frames))
+    )
+    times = (first_time + np.arange(n_frames) * motion.frame_time).tolist()
+    starts[:, 1], lengths[:, 1] = cells.add(*format_fields(b"%.6f", times))
+    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", src.eol, b"".join(header))
