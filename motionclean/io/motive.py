@@ -102,10 +102,10 @@ class MotiveText(CsvText):
     """A Motive export as read: :class:`~motionclean.io.csv.CsvText` (``layout="motive"``,
     ``columns`` ``(B, 7)`` in the order of
     :data:`~motionclean.io.csv.RIGID_SUFFIXES`) plus what a fresh write needs:
-    the metadata ``(key, value)`` pairs of line 1, the header rows' labels in file order
-    and each body's ID."""
+    the metadata fields of line 1 (``key, value, key, value, ...``), the header rows' labels
+    in file order and each body's ID."""
 
-    metadata: tuple[tuple[str, str], ...] = ()
+    metadata: tuple[str, ...] = ()
     row_labels: tuple[str, ...] = ()
     ids: tuple[str, ...] = ()
 
@@ -270,8 +270,8 @@ def parse_motive(data: bytes, path=None) -> Motion:
         _fail("not a text file (binary data)", path)
     lines, body_start, eol = _header_lines(data, path)
     first = lines[0][1]
-    pairs = tuple(zip(first[0::2], first[1::2], strict=False))
-    metadata = {key.strip(): value for key, value in reversed(pairs)}  # the first one wins
+    pairs = zip(first[0::2], first[1::2], strict=False)
+    metadata = {key.strip(): value for key, value in reversed(list(pairs))}  # first one wins
     frame_time = _frame_rate(metadata, path)
     rows, order = _header_rows(lines, path)
     axis_line, axis = lines[-1]
@@ -307,7 +307,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
         frame_time,
         eol,
         blank=cells.blank,
-        metadata=pairs,
+        metadata=tuple(first),
         row_labels=order,
         ids=tuple(ids),
     )
@@ -344,7 +344,9 @@ def format_motive(motion: Motion) -> bytes:
     n_frames, n_bodies = values.shape[:2]
     rate = b"%.6f" % motion.frame_rate
     changed = {"Export Frame Rate": rate.decode(), "Total Exported Frames": str(n_frames)}
-    metadata = [f for key, value in src.metadata for f in (key, changed.get(key.strip(), value))]
+    metadata = list(src.metadata)
+    for at in range(0, len(metadata) - 1, 2):  # a few metadata fields
+        metadata[at + 1] = changed.get(metadata[at].strip(), metadata[at + 1])
     ids = dict(zip(src.skeleton[0], src.ids, strict=True))
     per_body = {
         "Type": ["Rigid Body"] * len(BODY_CELLS),
