@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .errors import MotionError, UsageError
+from .filters.gaps import Gaps
 from .motion import Motion
 from .ranges import FrameRange, blend_positions, blend_rotations, weights
 from .restpose import rest_frames, splice, trim
@@ -46,8 +47,9 @@ class Step:
         out: dict[str, Any] = {"filter": self.spec.name}
         names = self.spec.relevant(self.params) if self.spec.relevant else tuple(self.params)
         out.update({k: v for k, v in self.params.items() if v is not None and k in names})
-        out["joints"] = list(self.joints)
-        out["positions"] = self.positions
+        if self.spec.run_motion is None:  # a whole-clip step takes every joint
+            out["joints"] = list(self.joints)
+            out["positions"] = self.positions
         if self.span is not None:
             out.update(self.span.describe())
         return out
@@ -320,7 +322,10 @@ def _run_step(
     )
     if step.span is not None and span is None:
         span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
-    data = step.spec.run(data, step.params)
+    if motion.missing is None:
+        data = step.spec.run(data, step.params)
+    else:
+        data = _run_on_known(step, data, motion)
     touched = None
     if step.span is None or span is None:
         motion.rotations[:, rot_idx] = data.rotations
@@ -353,6 +358,116 @@ def _run_step(
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
 
 
+def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
+    """``step`` on a clip with missing samples: the columns without gaps in one call, each
+    known stretch (2 frames or more) of a column with gaps on its own (with the clip cut to
+    it as context); missing samples are left as they are. A column's notes from several
+    stretches are merged (:func:`_merged`)."""
+    missing = motion.missing_mask()
+    has_positions = data.translations is not None
+    gaps_r = missing[:, data.rotation_joints].any(axis=0)
+    gaps_p: np.ndarray = np.zeros(0, dtype=bool)
+    if has_positions:
+        gaps_p = np.any(missing[:, data.translation_joints], axis=0)
+    out = _Outputs(data)
+    out.run(step, motion, np.flatnonzero(~gaps_r), np.flatnonzero(~gaps_p))
+    for positions, joints, gappy in (
+        (False, data.rotation_joints, gaps_r),
+        (True, data.translation_joints, gaps_p),
+    ):
+        if not gappy.any():
+            continue
+        columns = np.flatnonzero(gappy)
+        known = Gaps.of(~missing[:, joints[columns]])
+        for c, first, stop in zip(columns[known.joint], known.first, known.stop, strict=True):
+            if stop - first >= 2:
+                picked = np.array([c])
+                empty = np.zeros(0, np.intp)
+                rot, pos = (empty, picked) if positions else (picked, empty)
+                out.run(step, motion, rot, pos, slice(int(first), int(stop)))
+    return out.finish()
+
+
+class _Outputs:
+    """Step results gathered column by column and stretch by stretch."""
+
+    def __init__(self, data: StepData):
+        self.data = data
+        self.rotations = data.rotations.copy()
+        self.translations = None if data.translations is None else data.translations.copy()
+        self.notes: tuple[dict, dict] = ({}, {})  # column -> [(note, frames), ...]
+
+    def run(self, step, motion, rot, pos, rows: slice = slice(None)) -> None:
+        data = self.data
+        whole = rows == slice(None)
+        context = motion if whole else _cut(motion, rows)
+        result = step.spec.run(
+            StepData(
+                data.rotations[rows][:, rot],
+                None if data.translations is None else data.translations[rows][:, pos],
+                data.frame_time,
+                motion=context,
+                rotation_joints=data.rotation_joints[rot],
+                translation_joints=data.translation_joints[pos],
+            ),
+            step.params,
+        )
+        self.rotations[rows, rot] = result.rotations
+        if self.translations is not None and result.translations is not None:
+            self.translations[rows, pos] = result.translations
+        start = 0 if whole else rows.start
+        for book, found, columns in (
+            (self.notes[0], result.rotation_notes, rot),
+            (self.notes[1], result.translation_notes, pos),
+        ):
+            for c, note in found.items():
+                shifted = _shifted(step.spec, note, start)
+                book.setdefault(int(columns[c]), []).append((shifted, context.n_frames))
+
+    def finish(self) -> StepData:
+        data = self.data
+        data.rotations, data.translations = self.rotations, self.translations
+        data.rotation_notes = {c: _merged(n) for c, n in self.notes[0].items()}
+        data.translation_notes = {c: _merged(n) for c, n in self.notes[1].items()}
+        return data
+
+
+def _cut(motion: Motion, rows: slice) -> Motion:
+    """``motion``'s frames ``rows``, with nothing missing (context for one known stretch)."""
+    return motion.replace(
+        rotations=motion.rotations[rows],
+        translations=motion.translations[rows],
+        source_values=None,
+        source_rotations=None,
+        missing=None,
+    )
+
+
+def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
+    """A stretch's note with its frame numbers counted from the clip's start."""
+    if spec.shift_note is None or not frames:
+        return note
+    return {k: spec.shift_note(v, frames) if k == spec.name else v for k, v in note.items()}
+
+
+def _merged(parts: list[tuple[dict, int]]) -> dict:
+    """One column's notes from its known stretches ``(note, frames)`` as one: frame lists
+    joined in order, every other value from the longest stretch."""
+    if len(parts) == 1:
+        return parts[0][0]
+    longest = max(parts, key=lambda part: part[1])[0]
+    merged = {}
+    for key, value in longest.items():
+        if not isinstance(value, dict):
+            merged[key] = value
+            continue
+        merged[key] = {
+            k: sum((p[0].get(key, {}).get(k, []) for p in parts), []) if isinstance(v, list) else v
+            for k, v in value.items()
+        }
+    return merged
+
+
 def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] | None) -> None:
     """Keep, in place, what ``notes`` say about frames ``inside`` (inclusive; None: none)."""
     if spec.crop_note is None:
@@ -372,6 +487,7 @@ def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] 
 
 #: The default pipeline (README, "Default pipeline").
 DEFAULT_STEPS: list[dict] = [
+    {"filter": "fill-gaps"},
     {"filter": "despike"},
     {"filter": "auto"},
 ]

@@ -298,7 +298,7 @@ CASES = [
 def test_every_registered_step_has_cases():
     # despike, footlock (which works on whole legs in world space, tests/test_contacts.py) and
     # resample (which changes the frame count, tests/test_resample.py) are tested on their own
-    alone = {"despike", "footlock", "resample"}
+    alone = {"despike", "footlock", "resample", "fill-gaps"}  # fill-gaps: tests/test_gaps.py
     assert {text.partition(":")[0] for text, *_ in CASES} | alone == set(REGISTRY)
 
 

@@ -2,7 +2,18 @@
 
 from __future__ import annotations
 
-from . import auto, bilateral, despike, fairing, footlock, lee_shin, multires, resample, sse_fairing
+from . import (
+    auto,
+    bilateral,
+    despike,
+    fairing,
+    fill_gaps,
+    footlock,
+    lee_shin,
+    multires,
+    resample,
+    sse_fairing,
+)
 from .base import COMMON_PARAMS, Param, StepData, StepSpec
 
 __all__ = ["COMMON_PARAMS", "REGISTRY", "Param", "StepData", "StepSpec"]
@@ -19,5 +30,6 @@ REGISTRY: dict[str, StepSpec] = {
         auto.STEP,
         footlock.STEP,
         resample.STEP,
+        fill_gaps.STEP,
     )
 }

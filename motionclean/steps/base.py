@@ -186,3 +186,20 @@ def crop_runs(
     end = last + 1 if stop_exclusive else last
     cut = [[max(a, first), min(b, end)] for a, b in runs]
     return [[a, b] for a, b in cut if (a < b if stop_exclusive else a <= b)]
+
+
+def format_runs(runs: list[list[int]]) -> str:
+    """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
+    return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
+
+
+#: Runs listed in full in the terminal; longer lists are summarised.
+BRIEF_RUNS = 3
+
+
+def brief_runs(runs: list[list[int]]) -> str:
+    """At most :data:`BRIEF_RUNS` runs in full, else ``"281 frames in 38 runs, first 198-201"``."""
+    if len(runs) <= BRIEF_RUNS:
+        return format_runs(runs)
+    frames = sum(b - a for a, b in runs)
+    return f"{frames} frames in {len(runs)} runs, first {format_runs(runs[:1])}"

@@ -9,7 +9,7 @@ import numpy as np
 from .. import kinematics
 from ..errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
-from .base import Param, StepData, StepSpec, crop_runs, shift_runs
+from .base import Param, StepData, StepSpec, brief_runs, crop_runs, format_runs, shift_runs
 
 
 def _resolve_despike(params: dict, where: str) -> None:
@@ -59,24 +59,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
     return data
 
 
-def _ranges(runs: list[list[int]]) -> str:
-    """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
-    return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
-
-
-#: Runs listed in full in the terminal; longer lists are summarised.
-BRIEF_RUNS = 3
-
-
-def _brief_ranges(runs: list[list[int]]) -> str:
-    """At most :data:`BRIEF_RUNS` runs in full, else ``"281 frames in 38 runs, first 198-201"``."""
-    if len(runs) <= BRIEF_RUNS:
-        return _ranges(runs)
-    frames = sum(b - a for a, b in runs)
-    return f"{frames} frames in {len(runs)} runs, first {_ranges(runs[:1])}"
-
-
-def _format_note(note: dict, positions: bool, ranges=_ranges) -> str:
+def _format_note(note: dict, positions: bool, ranges=format_runs) -> str:
     """What despike did to one joint: frames repaired, where, and the largest step."""
     unit = "units" if positions else "deg"
     parts = [f"{note['frames_repaired']} frames repaired"]
@@ -111,7 +94,7 @@ def _crop_note(note: dict, first: int, last: int) -> dict | None:
 
 def _format_brief(note: dict, positions: bool) -> str:
     """:func:`_format_note` with long frame lists summarised (the terminal form)."""
-    return _format_note(note, positions, _brief_ranges)
+    return _format_note(note, positions, brief_runs)
 
 
 STEP = StepSpec(

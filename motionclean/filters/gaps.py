@@ -1,0 +1,349 @@
+"""Filling tracker dropouts: a smooth, coordinate-invariant bridge across each gap.
+
+A gap of joint ``j`` is a run of missing frames between known frames ``a`` and ``b``. What is
+bridged is the joint's pose relative to a *donor*: another joint tracked throughout, or the
+world frame (no donor). With donor rotation ``d`` and position ``c``, the relative pose is
+``r = d^-1 q`` and ``s = d^-1 (p - c) d`` (``p`` rotated into the donor's frame); a hand
+seen from its forearm moves far less than in the world, so its bridge follows the forearm
+through the gap, as a pattern fill does. Per gap the donor is the one whose relative pose
+is smoothest (least squared second differences, rotation and position each relative to the
+world frame's) over :data:`DONOR_FRAMES` frames on each side.
+
+The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame ``a`` to
+frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
+cubic): position and velocity continuous at both edges. Edge velocities come from a
+least-squares quadratic through the edge sample and up to :data:`EDGE_FRAMES` known frames
+beside it (in the tangent space at the edge sample), so one noisy edge frame does not steer
+the bridge. Only displacements between samples of the same joint, and poses relative to
+another joint, enter: the fill commutes with a fixed rotation of the world (and of each
+body's own frame).
+
+A gap at the start or end of the clip has one edge: the relative pose at that edge is held
+(with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
+half a second could spin it anywhere).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import quat
+from .interpolate import end_tangent, hermite_positions, hermite_rotations
+
+#: Known frames beside an edge that its velocity is fitted to ...
+EDGE_FRAMES = 3
+#: ... and that donors are judged on.
+DONOR_FRAMES = 6
+#: Median of a chi-squared variable with three degrees of freedom.
+CHI2_3_MEDIAN = 2.3660
+#: Gaps handled at a time when choosing donors (temporaries stay small).
+GAP_BLOCK = 256
+
+
+@dataclass(frozen=True)
+class Gaps:
+    """Runs of missing frames: ``joint``, ``first`` and ``stop`` (frames ``first ..
+    stop-1``) per gap, in joint-major order."""
+
+    joint: np.ndarray
+    first: np.ndarray
+    stop: np.ndarray
+
+    @classmethod
+    def of(cls, missing: np.ndarray) -> Gaps:
+        """The gaps of a ``(F, J)`` bool mask."""
+        padded = np.zeros((missing.shape[0] + 2, missing.shape[1]), dtype=np.int8)
+        padded[1:-1] = missing
+        change = np.diff(padded, axis=0).T  # (J, F + 1): +1 where a gap starts, -1 after
+        joint, first = np.nonzero(change == 1)
+        _, stop = np.nonzero(change == -1)
+        return cls(joint, first, stop)
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return self.stop - self.first
+
+    def select(self, keep: np.ndarray) -> Gaps:
+        return Gaps(self.joint[keep], self.first[keep], self.stop[keep])
+
+
+@dataclass(frozen=True)
+class Filled:
+    """What :func:`fill_gaps` did: the arrays with the gaps filled, the mask of what is
+    still missing, the gaps found, which were filled and each filled gap's donor (-1: the
+    world frame)."""
+
+    rotations: np.ndarray
+    translations: np.ndarray
+    missing: np.ndarray
+    gaps: Gaps
+    filled: np.ndarray
+    donor: np.ndarray
+
+
+# ----------------------------------------------------------------------------- bridging
+
+
+def _edge_weights(count: int) -> np.ndarray:
+    """Weights ``w_k`` (``k = 1 .. count``) with ``sum w_k x_k`` the slope at ``k = 0`` of
+    the least-squares quadratic through ``(0, 0)`` and ``(k, x_k)`` (a line for one point)."""
+    k = np.arange(1, count + 1, dtype=np.float64)
+    basis = np.stack([k, k * k], axis=1) if count >= 2 else k[:, None]
+    return np.linalg.pinv(basis)[0]
+
+
+def _rotation_log(base: np.ndarray, other: np.ndarray) -> np.ndarray:
+    return quat.log_shortest(quat.multiply(quat.conjugate(base), other))
+
+
+def _position_log(base: np.ndarray, other: np.ndarray) -> np.ndarray:
+    return other - base
+
+
+def _edge_velocity(x, edge, room, direction, log_of) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity per frame at rows ``edge`` of the flat signal ``x``, fitted to up to
+    :data:`EDGE_FRAMES` of the ``room`` known rows on the side away from the gap
+    (``direction`` -1: before the edge, +1: after), and the factor that turns the per-sample
+    noise variance into that velocity's (zero where there is no room)."""
+    out, gain = np.zeros((edge.size, 3)), np.zeros(edge.size)
+    count = np.minimum(room, EDGE_FRAMES)
+    for n in np.unique(count[count > 0]):  # a few distinct counts
+        at = np.flatnonzero(count == n)
+        base = x[edge[at]]
+        slope = np.zeros((at.size, 3))
+        weights = _edge_weights(int(n))
+        for k, weight in enumerate(weights, 1):
+            slope += weight * log_of(base, x[edge[at] + direction * k])
+        out[at] = direction * slope
+        gain[at] = np.sum(weights**2) + np.sum(weights) ** 2  # the edge sample is noisy too
+    return out, gain
+
+
+def _shrunk(velocity, gain, chord, noise_var) -> np.ndarray:
+    """The fitted edge velocity pulled toward the chord's by as much as noise explains of
+    their difference (James-Stein shrinkage; noise-free data keep the fit)."""
+    spread = 3.0 * noise_var * gain  # expected |velocity error|^2 (three components)
+    apart = np.sum((velocity - chord) ** 2, axis=-1)
+    keep = np.clip(1.0 - spread / np.maximum(apart, 1e-300), 0.0, 1.0)
+    keep[gain == 0.0] = 0.0  # no room beside the gap: the chord
+    return chord + keep[:, None] * (velocity - chord)
+
+
+def _bridge(x, a, b, room_a, room_b, rows, gap_of, rotations: bool, noise_var) -> np.ndarray:
+    """The C1 cubic across each gap of the flat signal ``x`` (rows ``a`` and ``b`` known,
+    ``room_*`` known rows beyond them, per-sample noise variance ``noise_var`` per gap and
+    component), at ``rows`` (gap ``gap_of``)."""
+    log_of = _rotation_log if rotations else _position_log
+    span = (b - a).astype(np.float64)[:, None]
+    step = log_of(x[a], x[b])
+    chord = step / span
+    v_a = _shrunk(*_edge_velocity(x, a, room_a, -1, log_of), chord, noise_var) * span
+    v_b = _shrunk(*_edge_velocity(x, b, room_b, +1, log_of), chord, noise_var) * span
+    u = (rows - a[gap_of]) / span[gap_of, 0]
+    g = gap_of
+    if rotations:
+        return hermite_rotations(x[a][g], step[g], v_a[g], end_tangent(step, v_b)[g], u)
+    return hermite_positions(x[a][g], v_a[g], x[b][g], v_b[g], u)
+
+
+def noise_variance(x: np.ndarray, missing: np.ndarray, rotations: bool) -> np.ndarray:
+    """Per-sample noise variance per component of each joint of ``x`` ``(F, J, 4|3)``
+    (rotations: of the half-angle log), from the median squared length of the third
+    differences over the known frames (white noise of variance s^2 per component gives
+    third differences of variance 20 s^2 per component, and their squared length a median
+    of :data:`CHI2_3_MEDIAN` times that): rotation invariant. ``(J,)``; 0 for short clips."""
+    if x.shape[0] < 5:
+        return np.zeros(x.shape[1])
+    steps = np.empty((x.shape[0] - 1, x.shape[1], 3))
+    for at in range(0, steps.shape[0], 4096):  # temporaries stay small
+        rows = slice(at, min(at + 4096, steps.shape[0]))
+        a, b = x[rows], x[rows.start + 1 : rows.stop + 1]
+        steps[rows] = _rotation_log(a, b) if rotations else b - a
+    third = steps[2:] - 2.0 * steps[1:-1] + steps[:-2]
+    known = ~(missing[:-3] | missing[1:-2] | missing[2:-1] | missing[3:])
+    squares = np.where(known, np.einsum("fjc,fjc->fj", third, third), np.nan)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a joint with no known run: NaN
+        median = np.nanmedian(squares, axis=0)
+    return np.nan_to_num(median / CHI2_3_MEDIAN / 20.0)
+
+
+# ----------------------------------------------------------------------------- donors
+
+
+def _relative(q, p, joint, donor, frames):
+    """Pose of ``joint`` relative to ``donor`` (-1: the world) at ``frames`` (same shapes):
+    ``d^-1 q`` and ``d^-1 (p - c) d``."""
+    own_q, own_p = q[frames, joint], p[frames, joint]
+    world = donor < 0
+    d = np.where(world[..., None], quat.identity(()), q[frames, np.maximum(donor, 0)])
+    c = np.where(world[..., None], 0.0, p[frames, np.maximum(donor, 0)])
+    inverse = quat.conjugate(d)
+    return quat.multiply(inverse, own_q), quat.rotate(inverse, own_p - c)
+
+
+def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
+    """Sum of squared second differences along axis 1 of ``(G, W, C, n)`` windows."""
+    if rotations:
+        steps = quat.log_shortest(quat.multiply(quat.conjugate(x[:, :-1]), x[:, 1:]))
+    else:
+        steps = np.diff(x, axis=1)
+    return np.sum(np.diff(steps, axis=1) ** 2, axis=(1, 3))
+
+
+def _choose_donors(q, p, missing, gaps: Gaps, use_positions: np.ndarray) -> np.ndarray:
+    """Per gap, the donor (or -1) whose relative pose is smoothest beside the gap among the
+    joints known from :data:`DONOR_FRAMES` frames before it to as many after it."""
+    n_frames, n_joints = missing.shape
+    lo = np.maximum(gaps.first - 1 - DONOR_FRAMES, 0)
+    hi = np.minimum(gaps.stop + DONOR_FRAMES, n_frames - 1)
+    seen = np.concatenate([np.zeros((1, n_joints), int), np.cumsum(missing, axis=0)])
+    donor = np.full(gaps.joint.size, -1)
+    offsets = np.arange(-DONOR_FRAMES, 1)
+    for at in range(0, gaps.joint.size, GAP_BLOCK):
+        block = slice(at, at + GAP_BLOCK)
+        joint = gaps.joint[block]
+        tracked = (seen[hi[block] + 1] - seen[lo[block]]) == 0  # (G, J)
+        tracked[np.arange(joint.size), joint] = False
+        if not tracked.any():
+            continue
+        # Window frames: the known ones nearest each edge (clipped to the clip).
+        before = np.clip(gaps.first[block, None] - 1 + offsets, 0, n_frames - 1)
+        after = np.clip(gaps.stop[block, None] - offsets[::-1], 0, n_frames - 1)
+        rough = np.zeros((joint.size, n_joints + 1))
+        for frames in (before, after):
+            frames = frames[:, :, None]  # (G, W, 1)
+            candidates = np.arange(-1, n_joints)[None, None, :]  # -1: the world
+            shape = (joint.size, frames.shape[1], n_joints + 1)
+            rel_q, rel_p = _relative(
+                q,
+                p,
+                np.broadcast_to(joint[:, None, None], shape),
+                np.broadcast_to(candidates, shape),
+                np.broadcast_to(frames, shape),
+            )
+            rot = _roughness(rel_q, True)
+            pos = _roughness(rel_p, False)
+            tiny = 1e-24
+            score = rot / (rot[:, :1] + tiny)
+            score += np.where(use_positions[joint, None], pos / (pos[:, :1] + tiny), 0.0)
+            rough += score
+        rough[:, 1:][~tracked] = np.inf
+        best = rough.min(axis=1, keepdims=True)  # ties (rigidly attached bodies): the first
+        donor[block] = np.argmax(rough <= best + 1e-9 * (1.0 + best), axis=1) - 1
+    return donor
+
+
+# ----------------------------------------------------------------------------- filling
+
+
+def _known_room(missing: np.ndarray, joint: np.ndarray, edge: np.ndarray, direction: int):
+    """Known frames in a row beyond ``edge`` (excluded) going ``direction``, per gap."""
+    n_frames = missing.shape[0]
+    frames = np.arange(n_frames)[:, None]
+    if direction < 0:
+        last = np.maximum.accumulate(np.where(missing, frames, -1), axis=0)
+        return edge - last[edge, joint] - 1
+    following = np.minimum.accumulate(np.where(missing, frames, n_frames)[::-1], axis=0)[::-1]
+    return following[edge, joint] - edge - 1
+
+
+def fill_gaps(
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    missing: np.ndarray,
+    max_gap: int,
+    use_positions: np.ndarray | None = None,
+    donors: bool = True,
+) -> Filled:
+    """Fill every gap of at most ``max_gap`` frames (module docstring).
+
+    ``rotations`` ``(F, J, 4)`` unit quaternions ``(w, x, y, z)`` and ``translations``
+    ``(F, J, 3)`` with placeholders where ``missing`` ``(F, J)`` is True;
+    ``use_positions`` ``(J,)`` marks the joints whose translations are data (default all);
+    ``donors`` False bridges every joint in the world frame. Longer gaps stay missing and
+    untouched, and so does a joint never seen at all.
+    """
+    n_frames, n_joints = missing.shape
+    use_positions = np.ones(n_joints, bool) if use_positions is None else use_positions
+    gaps = Gaps.of(missing)
+    fillable = gaps.lengths <= max_gap
+    fillable &= (gaps.first > 0) | (gaps.stop < n_frames)  # a joint never seen stays so
+    todo = gaps.select(fillable)
+    q, p = rotations.copy(), translations.copy()
+    still = missing.copy()
+    donor = np.full(todo.joint.size, -1)
+    if donors:
+        donor = _choose_donors(rotations, translations, missing, todo, use_positions)
+    lengths = todo.lengths
+    gap_of = np.repeat(np.arange(lengths.size), lengths)
+    frame = todo.first[gap_of] + _ranks(lengths)
+    joint = todo.joint[gap_of]
+    still[frame, joint] = False
+    # Bridge the relative poses; the edges, and the known rows beside them, come along.
+    inner = (todo.first > 0) & (todo.stop < n_frames)
+    a = np.where(todo.first > 0, todo.first - 1, todo.stop)  # one-sided: the edge
+    rel_q, rel_p = _relative(rotations, translations, joint, donor[gap_of], frame)
+    held = ~inner[gap_of]
+    if held.any():
+        edge_q, edge_p = _relative(rotations, translations, joint, donor[gap_of], a[gap_of])
+        rel_q[held], rel_p[held] = edge_q[held], edge_p[held]
+    if inner.any():
+        noise = (
+            noise_variance(rotations, missing, True),
+            noise_variance(translations, missing, False),
+        )
+        rel_q[~held], rel_p[~held] = _bridge_inner(
+            rotations, translations, missing, todo.select(inner), donor[inner], noise
+        )
+    world = donor[gap_of] < 0
+    source = np.maximum(donor[gap_of], 0)
+    d = np.where(world[:, None], quat.identity(()), rotations[frame, source])
+    c = np.where(world[:, None], 0.0, translations[frame, source])
+    q[frame, joint] = quat.multiply(d, rel_q)
+    moved = use_positions[joint]
+    p[frame[moved], joint[moved]] = (c + quat.rotate(d, rel_p))[moved]
+    q = quat.make_continuous(q, axis=0)
+    return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
+
+
+def _ranks(lengths: np.ndarray) -> np.ndarray:
+    """``0 .. n-1`` for each run of ``n`` in ``lengths``, end to end."""
+    return np.arange(int(lengths.sum())) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+
+
+def _spread(values: np.ndarray, where: np.ndarray) -> np.ndarray:
+    out = np.full(where.size, -1)
+    out[where] = values
+    return out
+
+
+def _bridge_inner(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, noise):
+    """Relative poses across two-sided gaps, gap frames in gap order: each gap's window
+    (known rows before, the gap, known rows after) laid end to end in one flat signal."""
+    n_frames = missing.shape[0]
+    a, b = gaps.first - 1, gaps.stop
+    room_a = np.minimum(_known_room(missing, gaps.joint, a, -1), EDGE_FRAMES)
+    room_b = np.minimum(_known_room(missing, gaps.joint, b, +1), EDGE_FRAMES)
+    start, stop = a - room_a, b + room_b + 1  # each window's frames
+    sizes = stop - start
+    window_of = np.repeat(np.arange(sizes.size), sizes)
+    frames = np.minimum(start[window_of] + _ranks(sizes), n_frames - 1)
+    rel_q, rel_p = _relative(
+        rotations, translations, gaps.joint[window_of], donor[window_of], frames
+    )
+    rel_q = quat.make_continuous(rel_q, axis=0)
+    base = np.cumsum(sizes) - sizes  # flat row of each window's first frame
+    flat_a, flat_b = base + room_a, base + room_a + (b - a)
+    lengths = gaps.lengths
+    gap_of = np.repeat(np.arange(lengths.size), lengths)
+    rows = flat_a[gap_of] + 1 + _ranks(lengths)
+    helper = np.maximum(donor, 0)
+    with_donor = (donor >= 0)[:, None]
+    var_q, var_p = (n[gaps.joint] + np.where(with_donor[:, 0], n[helper], 0.0) for n in noise)
+    bridged_q = _bridge(rel_q, flat_a, flat_b, room_a, room_b, rows, gap_of, True, var_q)
+    bridged_p = _bridge(rel_p, flat_a, flat_b, room_a, room_b, rows, gap_of, False, var_p)
+    return bridged_q, bridged_p
