@@ -280,8 +280,9 @@ def rest_positions(motion: Motion) -> np.ndarray:
 
 
 def up_axis(motion: Motion, override: str | int | None = None) -> int:
-    """The up axis (0 = x, 1 = y, 2 = z): the axis along which the rest pose is tallest,
-    or ``override`` (``"x"``, ``"y"``, ``"z"`` or 0-2)."""
+    """The up axis (0 = x, 1 = y, 2 = z): the axis along which the rest pose (for
+    independent tracked bodies: the first frame) is tallest, or ``override`` (``"x"``,
+    ``"y"``, ``"z"`` or 0-2)."""
     if override is not None:
         if isinstance(override, str):
             if override.lower() not in AXES:
@@ -290,12 +291,21 @@ def up_axis(motion: Motion, override: str | int | None = None) -> int:
         if override not in (0, 1, 2):
             raise ValueError(f"up axis must be 0, 1 or 2, got {override!r}")
         return int(override)
+    return int(np.argmax(np.ptp(_standing_points(motion), axis=0)))
+
+
+def _standing_points(motion: Motion) -> np.ndarray:
+    """The rest pose's points, or for a clip whose offsets span nothing (independent
+    tracked bodies) the bodies' positions on the first frame."""
     rest = rest_positions(motion)
-    return int(np.argmax(np.ptp(rest, axis=0)))
+    if np.ptp(rest, axis=0).max() > 0.0 or motion.n_frames == 0:
+        return rest
+    return forward(motion)[0][0]
 
 
 def body_height(motion: Motion, up: int | None = None) -> float:
     """Height of the rest pose along the up axis, in file units (the scale of every
-    threshold relative to the body)."""
+    threshold relative to the body); for independent tracked bodies, of their positions on
+    the first frame."""
     axis = up_axis(motion) if up is None else up
-    return float(np.ptp(rest_positions(motion)[:, axis]))
+    return float(np.ptp(_standing_points(motion)[:, axis]))

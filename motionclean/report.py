@@ -33,8 +33,9 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     Returns ``{"frame_time": dt, "joints": {name: {"accel_before": (F-2,),
     "accel_after": (F-2,) or None, "deviation": (F,) or None}}}``: angular acceleration
     magnitude in degrees of rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and the
-    rotation angle between input and output in degrees at every frame. The HTML report
-    plots them; the JSON report keeps only their RMS and maximum.
+    rotation angle between input and output in degrees at every frame; 0 where a missing
+    sample (tracker dropout) is involved. The HTML report plots them; the JSON report keeps
+    only their RMS and maximum.
     """
     dt = before.frame_time
     rot = np.flatnonzero(before.layout.has_rotation)
@@ -43,6 +44,11 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     if after is not None:
         acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
         dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
+    for clip, acc in ((before, acc_b), (after, acc_a)):
+        if clip is not None and clip.missing is not None and acc is not None:
+            acc[_touches_missing(clip.missing[:, rot])] = 0.0
+    if dev is not None and after is not None:
+        dev[before.missing_mask()[:, rot] | after.missing_mask()[:, rot]] = 0.0
     joints = {}
     for n, j in enumerate(rot):
         joints[before.names[j]] = {
@@ -59,6 +65,12 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         "rest_frames": rest_frames(before),
         "world": world_series(before, after),
     }
+
+
+def _touches_missing(missing: np.ndarray) -> np.ndarray:
+    """``(F-2, J)``: accelerations at frames 1..F-2 whose three frames include a missing
+    sample (a tracker dropout's placeholder is no motion)."""
+    return missing[:-2] | missing[1:-1] | missing[2:]
 
 
 def _stacked(series: dict, key: str, length: int) -> np.ndarray:

@@ -21,10 +21,9 @@ def format_world(world: dict) -> str:
     text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
     worst = world.get("worst_deviation")
     if worst is not None:
-        text += (
-            f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units "
-            f"({worst['max_percent']:.2g} % of body height)"
-        )
+        text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
+        if math.isfinite(worst["max_percent"]):
+            text += f" ({worst['max_percent']:.2g} % of body height)"
     return text
 
 

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import json
 import sys
 
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, corpus_clip, degrees_between, max_degrees
+from helpers import ROOT, SAMPLE, corpus_clip, degrees_between, max_degrees, run_cli
 
 import motionclean as mc
-from motionclean import quat
+from motionclean import kinematics, quat
 from motionclean.errors import MotionError
 from motionclean.filters import lee_shin, masks
 from motionclean.filters.gaps import Gaps, fill_gaps
@@ -203,3 +204,62 @@ def test_despike_notes_of_several_stretches_are_joined_in_clip_frames():
     assert runs and all(b <= 150 or a >= 160 for a, b in runs)
     whole = whole_logs[0].notes["RThumb"]["despike"]["unflipped"]
     assert [r for r in whole if r[1] <= 150 or r[0] >= 160] == runs
+
+
+def rigid_csv(path, clip: mc.Motion, blanks: dict[str, slice]) -> None:
+    """A rigid-body CSV of some of ``clip``'s joints in world space, six decimals, with the
+    bodies in ``blanks`` blank on those frames (a tracker losing them)."""
+    positions, rotations = kinematics.forward(clip)
+    names = ["Head", "LeftWrist", "RightWrist", "LeftAnkle", "RightAnkle"]
+    columns = [f"{n}.{s}" for n in names for s in ("px", "py", "pz", "qw", "qx", "qy", "qz")]
+    rows = ["time," + ",".join(columns)]
+    for f in range(clip.n_frames):
+        cells = [f"{f * clip.frame_time:.6f}"]
+        for name in names:
+            j = clip.names.index(name)
+            gone = name in blanks and f in range(clip.n_frames)[blanks[name]]
+            values = np.concatenate([positions[f, j], rotations[f, j]])
+            cells += [""] * 7 if gone else [f"{v:.6f}" for v in values]
+        rows.append(",".join(cells))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_default_clean_fills_short_dropouts_and_keeps_long_ones_blank(tmp_path, capsys):
+    source, out, report = tmp_path / "t.csv", tmp_path / "c.csv", tmp_path / "r.json"
+    rigid_csv(
+        source, mc.load(SAMPLE), {"LeftWrist": slice(100, 112), "RightWrist": slice(150, 250)}
+    )
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out, "--report", report)
+    assert code == 0, err
+    assert "LeftWrist: 1 gap, longest 12 frames; filled 100-111" in stdout
+    assert "RightWrist: 1 gap, longest 100 frames; left missing 150-249" in stdout
+    notes = json.loads(report.read_text())["joints"]
+    assert notes["LeftWrist"]["fill-gaps"]["filled"] == [[100, 112]]
+    assert notes["RightWrist"]["fill-gaps"]["missing"] == [[150, 250]]
+    cleaned = mc.load(out)
+    assert cleaned.missing is not None
+    np.testing.assert_array_equal(
+        np.flatnonzero(cleaned.missing.any(axis=0)), [cleaned.names.index("RightWrist")]
+    )
+    lines = out.read_text().splitlines()
+    right = 1 + 7 * 2  # the RightWrist columns
+    assert all(lines[1 + f].split(",")[right : right + 7] == [""] * 7 for f in range(150, 250))
+    # The blank stretch counts as no motion: no spike from its held placeholder.
+    whole, whole_report = tmp_path / "whole.csv", tmp_path / "whole.json"
+    rigid_csv(whole, mc.load(SAMPLE), {})
+    code, _, err = run_cli(
+        capsys, "clean", whole, "-o", tmp_path / "w.csv", "--report", whole_report
+    )
+    full = json.loads(whole_report.read_text())["joints"]["RightWrist"]["angular_accel_rms"]
+    accel = notes["RightWrist"]["angular_accel_rms"]["before"]
+    assert code == 0 and accel < 1.5 * full["before"]
+
+
+def test_default_clean_of_the_motive_sample_fills_the_occluded_hand(tmp_path, capsys):
+    source, out = tmp_path / "take.csv", tmp_path / "clean.csv"
+    source.write_bytes((ROOT / "sample_data" / "131_02_motive.csv").read_bytes())
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out)
+    assert code == 0, err
+    assert "filled 40-47" in stdout
+    assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
+    assert mc.load(out).missing is None

@@ -54,7 +54,8 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
 def _format_note(note: dict, positions: bool, runs=format_runs) -> str:
     """Gaps found, filled (where, from which donors) and left missing."""
     filled, missing = note["filled"], note["missing"]
-    parts = [f"{note['gaps']} gaps, longest {note['longest']} frames"]
+    count = note["gaps"]
+    parts = [f"{count} gap{'' if count == 1 else 's'}, longest {note['longest']} frames"]
     if filled:
         parts.append(f"filled {runs(filled)}")
     if note["donors"]:
