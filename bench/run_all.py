@@ -23,6 +23,7 @@ ORDER = [
     "fairing",
     "multires",
     "resample",
+    "gaps",
     "world",
     "batch",
     "quality",

@@ -254,6 +254,18 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 
+def missing_points(motion: Motion) -> np.ndarray | None:
+    """``(F, P)`` bool: the points of ``forward(motion, end_sites=True)`` whose world
+    position is unknown (their joint, or one above it, is missing); None when nothing is."""
+    if motion.missing is None:
+        return None
+    joints = motion.missing.copy()
+    for level in depth_levels(motion.parents)[1:]:  # a loop over tree depth only
+        joints[:, level] |= joints[:, motion.parents[level]]
+    tips = np.array(sorted(motion.end_sites), dtype=np.intp)
+    return np.concatenate([joints, joints[:, tips]], axis=1)
+
+
 def end_effectors(motion: Motion) -> tuple[np.ndarray, list[str]]:
     """The points that end a chain (hands, feet, head, fingers): every end site and every
     leaf joint without one. Returns their indices into ``forward(motion, end_sites=True)``

@@ -27,6 +27,21 @@ def format_world(world: dict) -> str:
     return text
 
 
+def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
+    """``(F, len(index))``: points whose world position is unknown (tracker dropouts)."""
+    points = kinematics.missing_points(motion)
+    if points is None:
+        return np.zeros((motion.n_frames, index.size), dtype=bool)
+    return points[:, index]
+
+
+def _known_accel(points: np.ndarray, dt: float, unknown: np.ndarray) -> np.ndarray:
+    """Linear accelerations ``(F-2, P)``, 0 where they involve an unknown position."""
+    accel = metrics.linear_acceleration(points, dt)
+    accel[unknown[:-2] | unknown[1:-1] | unknown[2:]] = 0.0
+    return accel
+
+
 def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """The report's ``world`` section: up axis, body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
@@ -37,11 +52,15 @@ def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]
     index, names = kinematics.end_effectors(before)
     dt = before.frame_time
     points_b = kinematics.forward(before, end_sites=True)[0][:, index]
-    rms_b, max_b = rms_and_max(metrics.linear_acceleration(points_b, dt))
+    unknown_b = _unknown(before, index)
+    rms_b, max_b = rms_and_max(_known_accel(points_b, dt, unknown_b))
     if after is not None:
         points_a = kinematics.forward(after, end_sites=True)[0][:, index]
-        rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt))
-        dev_rms, dev_max = rms_and_max(np.linalg.norm(points_a - points_b, axis=-1))
+        unknown_a = _unknown(after, index)
+        rms_a, max_a = rms_and_max(_known_accel(points_a, dt, unknown_a))
+        moved = np.linalg.norm(points_a - points_b, axis=-1)
+        moved[unknown_b | unknown_a] = 0.0
+        dev_rms, dev_max = rms_and_max(moved)
     scale = 100.0 / height if height > 0 else math.nan
     effectors: dict[str, dict] = {}
     for n, name in enumerate(names):
