@@ -37,7 +37,8 @@ def _frames(n_frames: int) -> np.ndarray:
 
 def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """What the page draws: world points of joints and end sites (subsampled frames), the
-    bones as point pairs, the up axis and the body height; ``after`` None for one clip."""
+    bones as point pairs, the up axis and the body height, and where points are unknown
+    (tracker dropouts); ``after`` None for one clip."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
@@ -45,7 +46,12 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     points_b = kinematics.forward(before, end_sites=True)[0][frames]
     points_a = None if after is None else kinematics.forward(after, end_sites=True)[0][frames]
     index, names = kinematics.end_effectors(before)
+    unknown = [
+        kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)
+    ]
     return {
+        "unknown_before": None if unknown[0] is None else unknown[0][frames],
+        "unknown_after": None if unknown[1] is None else unknown[1][frames],
         "up": up,
         "height": height,
         "frames": frames,
@@ -78,12 +84,23 @@ def _to_view(values: np.ndarray, low: np.ndarray, span: float) -> np.ndarray:
     return scaled
 
 
-def _polyline(points: np.ndarray, colour: str, name: str) -> str:
-    data = " ".join(f"{x:.1f},{y:.1f}" for x, y in points.tolist())
-    return (
-        f'<polyline class="track" data-series="{name}" fill="none" stroke="{colour}" '
-        f'stroke-width="1.2" points="{data}"/>'
-    )
+def _polyline(points: np.ndarray, colour: str, name: str, unknown: np.ndarray | None) -> str:
+    """The track as one polyline per run of known frames (a dropout leaves a break)."""
+    known = np.ones(len(points), bool) if unknown is None else ~unknown
+    starts = np.flatnonzero(known & ~np.concatenate([[False], known[:-1]]))
+    stops = np.flatnonzero(known & ~np.concatenate([known[1:], [False]])) + 1
+    lines = []
+    for a, b in zip(starts, stops, strict=True):
+        data = " ".join(f"{x:.1f},{y:.1f}" for x, y in points[a:b].tolist())
+        lines.append(
+            f'<polyline class="track" data-series="{name}" fill="none" stroke="{colour}" '
+            f'stroke-width="1.2" points="{data}"/>'
+        )
+    return "".join(lines)
+
+
+def _unknown_at(unknown: np.ndarray | None, point: int) -> np.ndarray | None:
+    return None if unknown is None else unknown[:, point]
 
 
 def _trajectory_card(name: str, point: int, series: dict) -> str:
@@ -91,15 +108,19 @@ def _trajectory_card(name: str, point: int, series: dict) -> str:
     views = []
     for title, axes in (("from above", axes_of["top"]), ("from the side", axes_of["front"])):
         tracks = [series["before"][:, point][:, axes]]
+        unknown = [_unknown_at(series["unknown_before"], point)]
         if series["after"] is not None:
             tracks.append(series["after"][:, point][:, axes])
+            unknown.append(_unknown_at(series["unknown_after"], point))
         low = np.min([t.min(axis=0) for t in tracks], axis=0)
         high = np.max([t.max(axis=0) for t in tracks], axis=0)
         span = max(float((high - low).max()), 1e-9)
         low = (low + high) / 2 - span / 2  # centred, the same scale on both axes
         lines = [
-            _polyline(_to_view(t, low, span), colour, label)
-            for t, colour, label in zip(tracks, (BEFORE, AFTER), ("before", "after"), strict=False)
+            _polyline(_to_view(t, low, span), colour, label, gone)
+            for t, gone, colour, label in zip(
+                tracks, unknown, (BEFORE, AFTER), ("before", "after"), strict=False
+            )
         ]
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
@@ -130,6 +151,11 @@ def _static_frame(series: dict, frame: int, axes: tuple[int, int]) -> str:
                 f'<line class="bone" data-clip="{label}" x1="{xy[a, 0]:.1f}" y1="{xy[a, 1]:.1f}" '
                 f'x2="{xy[b, 0]:.1f}" y2="{xy[b, 1]:.1f}" stroke="{colour}" stroke-width="2"/>'
             )
+        for x, y in xy.tolist():
+            parts.append(
+                f'<circle class="joint" data-clip="{label}" cx="{x:.1f}" cy="{y:.1f}" r="2.5" '
+                f'fill="{colour}"/>'
+            )
     return "".join(parts)
 
 
@@ -146,8 +172,8 @@ PLAYER_SCRIPT = """
                             ['after', data.after, data.colours[1]]]
                          : [['before', data.before, data.colours[0]]];
   var axes = data.views;
-  var lines = [];
-  svg.querySelectorAll('line.bone').forEach(function (l) { l.remove(); });
+  var lines = [], dots = [];
+  svg.querySelectorAll('line.bone, circle.joint').forEach(function (l) { l.remove(); });
   clips.forEach(function (c) {
     data.bones.forEach(function () {
       var l = document.createElementNS(NS, 'line');
@@ -155,6 +181,12 @@ PLAYER_SCRIPT = """
       l.setAttribute('stroke', c[2]); l.setAttribute('stroke-width', '2');
       svg.appendChild(l); lines.push(l);
     });
+    for (var p = 0; p < c[1][0].length; p += 3) {
+      var d = document.createElementNS(NS, 'circle');
+      d.setAttribute('class', 'joint'); d.setAttribute('data-clip', c[0]);
+      d.setAttribute('r', '2.5'); d.setAttribute('fill', c[2]);
+      svg.appendChild(d); dots.push(d);
+    }
   });
   function draw(i) {
     current = Math.max(0, Math.min(n - 1, i));
@@ -167,8 +199,14 @@ PLAYER_SCRIPT = """
       }
       lo[d] = (mn + mx) / 2 - span / 2;
     }
+    var m = 0;
     clips.forEach(function (c) {
       var f = c[1][current];
+      for (var p = 0; p < f.length; p += 3) {
+        var d = dots[m++];
+        d.setAttribute('cx', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
+        d.setAttribute('cy', S - ((f[p + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
+      }
       data.bones.forEach(function (bone) {
         var l = lines[k++], p = bone[0] * 3, q = bone[1] * 3;
         l.setAttribute('x1', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
