@@ -263,3 +263,19 @@ def test_default_clean_of_the_motive_sample_fills_the_occluded_hand(tmp_path, ca
     assert "filled 40-47" in stdout
     assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
     assert mc.load(out).missing is None
+
+
+def test_the_page_breaks_a_missing_bodys_track_and_draws_bodies_without_bones(tmp_path):
+    from motionclean.jobs import clean_clip, render_report
+
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"RightWrist": slice(150, 250)})
+    result = clean_clip(source, None, Pipeline.default())
+    page = render_report(result.report, tmp_path / "r.html", result.series).decode()
+    card = page.split("<h3>RightWrist</h3>")[1].split("</section>")[0]
+    assert card.count('data-series="before"') == 2 * 2  # two views, a break in each
+    assert card.count('data-series="after"') == 2 * 2  # the long gap stays missing
+    left = page.split("<h3>LeftWrist</h3>")[1].split("</section>")[0]
+    assert left.count('data-series="before"') == 2
+    player = page.split('id="mc-player"')[1].split("</svg>")[0]
+    assert player.count('class="joint"') == 2 * 5 and 'class="bone"' not in player
