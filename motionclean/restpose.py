@@ -23,26 +23,46 @@ MOST_JOINTS = 0.5
 HELD_FRAMES = 3
 
 
+#: Steps sampled per joint for its typical (median) step on long clips (evenly spaced), so
+#: the cost does not grow with the clip.
+TYPICAL_SAMPLES = 4096
+
+
 def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
-    """How many frames from the first one are exactly equal to it (at least 1)."""
-    same = np.all(rotations == rotations[:1], axis=(1, 2)) & np.all(
-        translations == translations[:1], axis=(1, 2)
-    )
-    return int(np.argmin(same)) if not same.all() else len(same)
+    """How many frames from the first one are exactly equal to it (at least 1); looks at
+    growing chunks, so a short run costs little on a long clip."""
+    n_frames, at, size = rotations.shape[0], 1, 64
+    while at < n_frames:
+        stop = min(at + size, n_frames)
+        same = np.all(rotations[at:stop] == rotations[:1], axis=(1, 2)) & np.all(
+            translations[at:stop] == translations[:1], axis=(1, 2)
+        )
+        if not same.all():
+            return at + int(np.argmin(same))
+        at, size = stop, size * 2
+    return n_frames
 
 
-def _leading(rotations: np.ndarray, translations: np.ndarray, steps: np.ndarray) -> int:
+def _typical_steps(q: np.ndarray) -> np.ndarray:
+    """Each joint's median rotation step (degrees) over the clip, or over
+    :data:`TYPICAL_SAMPLES` evenly spaced steps of a longer clip."""
+    n_steps = q.shape[0] - 1
+    at = np.arange(n_steps)
+    if n_steps > TYPICAL_SAMPLES:
+        at = np.unique(np.linspace(0, n_steps - 1, TYPICAL_SAMPLES).round().astype(np.intp))
+    return np.median(np.degrees(quat.angle_between(q[at], q[at + 1])), axis=0)
+
+
+def _leading(q: np.ndarray, translations: np.ndarray, typical: np.ndarray, moving: np.ndarray):
     """Leading rest frames: the run of frames equal to the first, when it is a held pose or
     the step out of it is a jump on most joints at once."""
-    run = _identical_run(rotations, translations)
-    if run >= len(rotations) - 2:
+    run = _identical_run(q, translations)
+    if run >= len(q) - 2:
         return 0
     if run >= HELD_FRAMES:
         return run
-    moving = steps.max(axis=0) > 0.0  # joints held still for the whole clip say nothing
-    typical = np.median(steps[:, moving], axis=0)
-    out = steps[run - 1, moving]
-    jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical)
+    out = np.degrees(quat.angle_between(q[run - 1], q[run]))[moving]
+    jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical[moving])
     return run if moving.any() and jump.mean() >= MOST_JOINTS else 0
 
 
@@ -62,9 +82,12 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
         return 0, 0
     q = motion.rotations[:, rotating]
     p = motion.translations
-    steps = np.degrees(quat.angle_between(q[:-1], q[1:]))
-    lead = _leading(q, p, steps)
-    trail = _leading(q[::-1], p[::-1], steps[::-1])
+    moving = np.zeros(q.shape[1], dtype=bool)
+    for at in range(0, q.shape[0], 4096):  # joints whose rotation ever changes
+        moving |= np.any(q[at : at + 4096] != q[:1], axis=(0, 2))
+    typical = _typical_steps(q)
+    lead = _leading(q, p, typical, moving)
+    trail = _leading(q[::-1], p[::-1], typical, moving)
     if lead + trail >= motion.n_frames - 4:
         return 0, 0
     return lead, trail
