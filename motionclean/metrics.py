@@ -31,16 +31,27 @@ def rms(x: np.ndarray, axis=0) -> np.ndarray:
     return np.sqrt(np.mean(x * x, axis=axis))
 
 
+#: Frames computed at a time (temporaries stay in cache on long clips).
+BLOCK_FRAMES = 4096
+
+
 def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
     """``(F-2, ...)`` angular acceleration magnitudes in degrees of rotation per s^2.
 
-    ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B).
+    ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B), with
+    ``w_i`` the shorter-arc displacement ``log(+-q_i^-1 q_{i+1})`` (the signs of ``q`` do not
+    matter), computed block by block.
     """
-    q = quat.make_continuous(q, axis=0)
-    if q.shape[0] < 3:
-        return np.zeros((0, *q.shape[1:-1]))
-    w = quat.displacements(q)
-    return np.degrees(2.0 * np.linalg.norm(np.diff(w, axis=0), axis=-1)) / frame_time**2
+    q = np.asarray(q, dtype=np.float64)
+    n = q.shape[0]
+    out = np.empty((max(n - 2, 0), *q.shape[1:-1]))
+    for at in range(0, n - 2, BLOCK_FRAMES):
+        stop = min(at + BLOCK_FRAMES, n - 2)
+        block = q[at : stop + 2]
+        w = quat.log_shortest(quat.multiply(quat.conjugate(block[:-1]), block[1:]))
+        change = w[1:] - w[:-1]
+        out[at:stop] = np.sqrt(np.einsum("...i,...i->...", change, change))
+    return np.degrees(2.0 * out) / frame_time**2
 
 
 def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
@@ -52,8 +63,12 @@ def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
 
 
 def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``(F, ...)`` rotation angle between matching samples, in degrees."""
-    return np.degrees(quat.angle_between(before, after))
+    """``(F, ...)`` rotation angle between matching samples, in degrees (block by block)."""
+    out = np.empty(np.shape(before)[:-1])
+    for at in range(0, out.shape[0], BLOCK_FRAMES):
+        rows = slice(at, at + BLOCK_FRAMES)
+        out[rows] = np.degrees(quat.angle_between(before[rows], after[rows]))
+    return out
 
 
 def step_deg(q: np.ndarray) -> np.ndarray:
