@@ -64,8 +64,9 @@ def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
 
 def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     """``(F, ...)`` rotation angle between matching samples, in degrees (block by block)."""
-    out = np.empty(np.shape(before)[:-1])
-    for at in range(0, out.shape[0], BLOCK_FRAMES):
+    before, after = np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64)
+    out = np.empty(before.shape[:-1])
+    for at in range(0, before.shape[0], BLOCK_FRAMES):
         rows = slice(at, at + BLOCK_FRAMES)
         out[rows] = np.degrees(quat.angle_between(before[rows], after[rows]))
     return out

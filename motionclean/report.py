@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import metrics
+from . import kinematics, metrics
 from .html_world import world_series
 from .metrics import pair, rms_and_max
 from .motion import Motion
@@ -56,14 +56,27 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "accel_after": None if acc_a is None else acc_a[:, n],
             "deviation": None if dev is None else dev[:, n],
         }
-    contacts, feet = contact_figures(before, after)
+    world = (
+        kinematics.forward(before, end_sites=True),
+        None if after is None else kinematics.forward(after, end_sites=True),
+    )
+    contacts, feet = contact_figures(before, after, world)
+    lead, trail = rest_frames(before)
+    core = slice(lead, before.n_frames - trail)
+    figures = world_figures(
+        trim(before, lead, trail),
+        None if after is None else trim(after, lead, trail),
+        (world[0][0][core], None if world[1] is None else world[1][0][core]),
+    )
+    del world
     return {
         "frame_time": dt,
         "joints": joints,
         "contacts": contacts,
         "feet": feet,
-        "rest_frames": rest_frames(before),
+        "rest_frames": (lead, trail),
         "world": world_series(before, after),
+        "world_figures": figures,
     }
 
 
@@ -176,7 +189,7 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, frames, cleaned),
-        "world": world_figures(core_before, core_after),
+        "world": series.get("world_figures") or world_figures(core_before, core_after),
         "contacts": series.get("contacts") or contact_figures(before, after)[0],
         "rest_frames": {"leading": lead, "trailing": trail},
     }

@@ -27,6 +27,10 @@ def format_world(world: dict) -> str:
     return text
 
 
+def _points(motion: Motion, given: np.ndarray | None) -> np.ndarray:
+    return kinematics.forward(motion, end_sites=True)[0] if given is None else given
+
+
 def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
     """``(F, len(index))``: points whose world position is unknown (tracker dropouts)."""
     points = kinematics.missing_points(motion)
@@ -42,20 +46,25 @@ def _known_accel(points: np.ndarray, dt: float, unknown: np.ndarray) -> np.ndarr
     return accel
 
 
-def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+def world_figures(
+    before: Motion, after: Motion | None = None, points: tuple | None = None
+) -> dict[str, Any]:
     """The report's ``world`` section: up axis, body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
-    (RMS and max, file units and % of body height), plus the worst effector."""
+    (RMS and max, file units and % of body height), plus the worst effector. ``points``
+    holds the world positions ``(F, P, 3)`` of joints and end sites of both clips when the
+    caller has them."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
     dt = before.frame_time
-    points_b = kinematics.forward(before, end_sites=True)[0][:, index]
+    points = points or (None, None)
+    points_b = _points(before, points[0])[:, index]
     unknown_b = _unknown(before, index)
     rms_b, max_b = rms_and_max(_known_accel(points_b, dt, unknown_b))
     if after is not None:
-        points_a = kinematics.forward(after, end_sites=True)[0][:, index]
+        points_a = _points(after, points[1])[:, index]
         unknown_a = _unknown(after, index)
         rms_a, max_a = rms_and_max(_known_accel(points_a, dt, unknown_a))
         moved = np.linalg.norm(points_a - points_b, axis=-1)
@@ -92,7 +101,9 @@ def world_figures(before: Motion, after: Motion | None = None) -> dict[str, Any]
     }
 
 
-def contact_figures(before: Motion, after: Motion | None = None) -> tuple[dict | None, dict]:
+def contact_figures(
+    before: Motion, after: Motion | None = None, world: tuple | None = None
+) -> tuple[dict | None, dict]:
     """The report's ``contacts`` section and the per-foot plot series.
 
     Contacts are found on ``before`` with the footlock step's default thresholds; per foot
@@ -103,11 +114,16 @@ def contact_figures(before: Motion, after: Motion | None = None) -> tuple[dict |
     ground per frame, before and after.
     """
     params = {p.name: p.default for p in footlock.STEP.params}
-    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(before, params)
+    world = world or (None, None)
+    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(
+        before, params, world[0]
+    )
     if not feet:
         return None, {}
     dt = before.frame_time
-    after_positions = None if after is None else kinematics.forward(after, end_sites=True)[0]
+    after_positions = None
+    if after is not None:
+        after_positions = (world[1] or kinematics.forward(after, end_sites=True))[0]
     skate_b = found.skate(positions, feet, contacts, up, dt)
     pen_b = found.penetration(positions, feet, up, ground)
     low_b = found.lowest_points(positions, feet, up) - ground

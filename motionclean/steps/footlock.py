@@ -32,9 +32,10 @@ def contact_params(params: dict) -> found.ContactParams:
     )
 
 
-def find_contacts(motion: Motion, params: dict):
+def find_contacts(motion: Motion, params: dict, world_points: tuple | None = None):
     """Feet, contacts ``(F, n_feet)``, world positions, world rotations, up axis, body height
-    and ground height of ``motion`` under the step's parameters."""
+    and ground height of ``motion`` under the step's parameters; ``world_points`` is
+    ``kinematics.forward(motion, end_sites=True)`` when the caller has it."""
     up = kinematics.up_axis(motion, None if params["up"] == "auto" else params["up"])
     height = kinematics.body_height(motion, up)
     feet = found.find_feet(
@@ -45,7 +46,9 @@ def find_contacts(motion: Motion, params: dict):
         motion.names,
         params["feet"],
     )
-    positions, world = kinematics.forward(motion, end_sites=True)
+    if world_points is None:
+        world_points = kinematics.forward(motion, end_sites=True)
+    positions, world = world_points
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
