@@ -312,8 +312,9 @@ def _run_step(
     chosen = select_joints(motion.names, step.joints)
     rot_idx = np.flatnonzero(chosen & layout.has_rotation)
     pos_idx = np.flatnonzero(chosen & layout.has_position) if step.positions else np.zeros(0, int)
+    every = rot_idx.size == motion.n_joints  # all columns: no copy in, none out
     data = StepData(
-        motion.rotations[:, rot_idx],
+        motion.rotations if every else motion.rotations[:, rot_idx],
         motion.translations[:, pos_idx] if len(pos_idx) else None,
         motion.frame_time,
         motion=motion,
@@ -328,7 +329,10 @@ def _run_step(
         data = _run_on_known(step, data, motion)
     touched = None
     if step.span is None or span is None:
-        motion.rotations[:, rot_idx] = data.rotations
+        if every:
+            motion.rotations = data.rotations
+        else:
+            motion.rotations[:, rot_idx] = data.rotations
         if data.translations is not None:
             motion.translations[:, pos_idx] = data.translations
     else:

@@ -100,7 +100,8 @@ class StepData:
     """What a step sees: the selected joints' arrays, the clip's frame time and the clip.
 
     ``rotations`` ``(F, Jr, 4)`` and ``translations`` ``(F, Jp, 3)`` (None when positions
-    are off or absent) are the selected columns; ``rotation_joints`` / ``translation_joints``
+    are off or absent) are the selected columns (read-only: a step returns new arrays, as
+    ``rotations`` may be the clip's own array); ``rotation_joints`` / ``translation_joints``
     give each column's index in ``motion.names``. ``motion`` is the whole clip as it enters
     the step (read-only context: skeleton, every joint's arrays). Notes are per column.
     """

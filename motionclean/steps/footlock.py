@@ -78,6 +78,7 @@ def _run(data: StepData, params: dict) -> StepData:
         up if params["horizontal"] else None,
         params["hold_seconds"] / motion.frame_time,
     )
+    data.rotations = data.rotations.copy()  # the input may be the clip's own array
     for k in usable:
         foot = feet[k]
         for joint in (foot.hip, foot.knee, foot.ankle):
