@@ -40,22 +40,25 @@ def end_tangent(step: np.ndarray, v1: np.ndarray) -> np.ndarray:
     """``J(w)^-1 v1``: the rate of ``h`` at ``h = w`` (``step``, ``(..., 3)``) for which
     ``q0 exp(h)`` moves with body angular displacement rate ``v1`` (``(..., 3)``).
 
-    With ``phi = 2 w`` (the rotation vector, angle ``t = |phi|``), the inverse right Jacobian
-    of SO(3) is ``I + [phi]/2 + (1/t^2 - (1 + cos t) / (2 t sin t)) [phi]^2`` (``[phi]`` the
-    cross-product matrix); half-angle units cancel, so it applies to ``v1`` as is.
+    With ``phi = 2 w`` (the rotation vector) and ``theta = |w|``, the inverse right Jacobian
+    of SO(3) is ``I + [phi]/2 + c [phi]^2`` with ``c = (1 - theta cot theta) / (4 theta^2)``
+    (``1/12 + theta^2/180`` near 0) and ``[phi]^2 v = phi (phi . v) - |phi|^2 v``;
+    half-angle units cancel, so it applies to ``v1`` as is.
     """
-    phi = 2.0 * step
-    t2 = np.einsum("...i,...i->...", phi, phi)
-    t = np.sqrt(t2)
-    small = t < 1e-4
-    safe = np.where(small, 1.0, t)
+    theta2 = np.einsum("...i,...i->...", step, step)
+    theta = np.sqrt(theta2)
+    small = theta < 1e-4
+    safe = np.where(small, 1.0, theta)
     coeff = np.where(
-        small,
-        1.0 / 12.0 + t2 / 720.0,
-        1.0 / (safe * safe) - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)),
+        small, 1.0 / 12.0 + theta2 / 180.0, (1.0 - safe / np.tan(safe)) / (4.0 * safe * safe)
     )
-    cross = _cross(phi, v1)
-    return v1 + 0.5 * cross + coeff[..., None] * _cross(phi, cross)
+    phi = 2.0 * step
+    along = np.einsum("...i,...i->...", phi, v1)
+    out = phi * (coeff * along)[..., None]
+    out -= (coeff * 4.0 * theta2)[..., None] * v1
+    out += v1
+    out += 0.5 * _cross(phi, v1)
+    return out
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -35,7 +35,7 @@ ANTIALIAS_CUTOFF = 0.7
 #: ... with a mask this many periods of the cutoff long on each side.
 ANTIALIAS_PERIODS = 2.5
 #: New frames computed at a time (temporaries stay small on long clips).
-BLOCK_FRAMES = 4096
+BLOCK_FRAMES = 1024
 #: A ratio of frame times this close to a fraction ``p/q`` with ``q <= MAX_DENOMINATOR`` is
 #: that fraction (frame times in files are rounded: 0.008333 s is 120 fps).
 NOMINAL = 1e-4
