@@ -56,19 +56,21 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "accel_after": None if acc_a is None else acc_a[:, n],
             "deviation": None if dev is None else dev[:, n],
         }
-    world = (
-        kinematics.forward(before, end_sites=True),
-        None if after is None else kinematics.forward(after, end_sites=True),
-    )
-    contacts, feet = contact_figures(before, after, world)
+    # World positions of joints and end sites, once per clip for the contact and world
+    # figures (the world rotations are not kept).
+    points = [
+        None if clip is None else kinematics.forward(clip, end_sites=True)[0]
+        for clip in (before, after)
+    ]
+    contacts, feet = contact_figures(before, after, points)
     lead, trail = rest_frames(before)
     core = slice(lead, before.n_frames - trail)
     figures = world_figures(
         trim(before, lead, trail),
         None if after is None else trim(after, lead, trail),
-        (world[0][0][core], None if world[1] is None else world[1][0][core]),
+        [None if p is None else p[core] for p in points],
     )
-    del world
+    del points
     return {
         "frame_time": dt,
         "joints": joints,

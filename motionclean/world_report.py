@@ -47,7 +47,7 @@ def _known_accel(points: np.ndarray, dt: float, unknown: np.ndarray) -> np.ndarr
 
 
 def world_figures(
-    before: Motion, after: Motion | None = None, points: tuple | None = None
+    before: Motion, after: Motion | None = None, points: list | None = None
 ) -> dict[str, Any]:
     """The report's ``world`` section: up axis, body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
@@ -59,7 +59,7 @@ def world_figures(
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
     dt = before.frame_time
-    points = points or (None, None)
+    points = points or [None, None]
     points_b = _points(before, points[0])[:, index]
     unknown_b = _unknown(before, index)
     rms_b, max_b = rms_and_max(_known_accel(points_b, dt, unknown_b))
@@ -102,7 +102,7 @@ def world_figures(
 
 
 def contact_figures(
-    before: Motion, after: Motion | None = None, world: tuple | None = None
+    before: Motion, after: Motion | None = None, points: list | None = None
 ) -> tuple[dict | None, dict]:
     """The report's ``contacts`` section and the per-foot plot series.
 
@@ -114,16 +114,14 @@ def contact_figures(
     ground per frame, before and after.
     """
     params = {p.name: p.default for p in footlock.STEP.params}
-    world = world or (None, None)
+    points = points or [None, None]
     feet, contacts, positions, _, up, height, ground = footlock.find_contacts(
-        before, params, world[0]
+        before, params, points[0]
     )
     if not feet:
         return None, {}
     dt = before.frame_time
-    after_positions = None
-    if after is not None:
-        after_positions = (world[1] or kinematics.forward(after, end_sites=True))[0]
+    after_positions = None if after is None else _points(after, points[1])
     skate_b = found.skate(positions, feet, contacts, up, dt)
     pen_b = found.penetration(positions, feet, up, ground)
     low_b = found.lowest_points(positions, feet, up) - ground

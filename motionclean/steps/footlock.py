@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .. import kinematics
 from ..filters import contacts as found
 from ..filters.footlock import lock_feet
@@ -32,10 +34,10 @@ def contact_params(params: dict) -> found.ContactParams:
     )
 
 
-def find_contacts(motion: Motion, params: dict, world_points: tuple | None = None):
-    """Feet, contacts ``(F, n_feet)``, world positions, world rotations, up axis, body height
-    and ground height of ``motion`` under the step's parameters; ``world_points`` is
-    ``kinematics.forward(motion, end_sites=True)`` when the caller has it."""
+def find_contacts(motion: Motion, params: dict, positions: np.ndarray | None = None):
+    """Feet, contacts ``(F, n_feet)``, world positions, world rotations (None when
+    ``positions``, the world positions of joints and end sites, are given), up axis, body
+    height and ground height of ``motion`` under the step's parameters."""
     up = kinematics.up_axis(motion, None if params["up"] == "auto" else params["up"])
     height = kinematics.body_height(motion, up)
     feet = found.find_feet(
@@ -46,9 +48,9 @@ def find_contacts(motion: Motion, params: dict, world_points: tuple | None = Non
         motion.names,
         params["feet"],
     )
-    if world_points is None:
-        world_points = kinematics.forward(motion, end_sites=True)
-    positions, world = world_points
+    world = None
+    if positions is None:
+        positions, world = kinematics.forward(motion, end_sites=True)
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
