@@ -12,6 +12,7 @@ the key and what is allowed.
 
 from __future__ import annotations
 
+import copy
 import fnmatch
 import tomllib
 from dataclasses import dataclass
@@ -248,10 +249,8 @@ class Pipeline:
         count and rate.
         """
         lead, trail = rest_frames(motion)
-        work = trim(motion, lead, trail)
-        current = work.replace(
-            rotations=work.rotations.copy(), translations=work.translations.copy()
-        )
+        # A shallow copy: steps replace its arrays, never write into the input's.
+        current = copy.copy(trim(motion, lead, trail))
         spans = _frame_spans(self.steps, motion, lead)
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
@@ -312,7 +311,7 @@ def _run_step(
     chosen = select_joints(motion.names, step.joints)
     rot_idx = np.flatnonzero(chosen & layout.has_rotation)
     pos_idx = np.flatnonzero(chosen & layout.has_position) if step.positions else np.zeros(0, int)
-    every = rot_idx.size == motion.n_joints  # all columns: no copy in, none out
+    every = rot_idx.size == motion.n_joints  # all columns: no copy in
     data = StepData(
         motion.rotations if every else motion.rotations[:, rot_idx],
         motion.translations[:, pos_idx] if len(pos_idx) else None,
@@ -328,21 +327,13 @@ def _run_step(
     else:
         data = _run_on_known(step, data, motion)
     touched = None
-    if step.span is None or span is None:
-        if every:
-            motion.rotations = data.rotations
-        else:
-            motion.rotations[:, rot_idx] = data.rotations
-        if data.translations is not None:
-            motion.translations[:, pos_idx] = data.translations
-    else:
+    new_rotations, new_translations = data.rotations, data.translations
+    if step.span is not None and span is not None:
         first, last = span
         share = weights(motion.n_frames, first - offset, last - offset, step.span.blend)
-        motion.rotations[:, rot_idx] = blend_rotations(
-            motion.rotations[:, rot_idx], data.rotations, share
-        )
+        new_rotations = blend_rotations(motion.rotations[:, rot_idx], data.rotations, share)
         if data.translations is not None:
-            motion.translations[:, pos_idx] = blend_positions(
+            new_translations = blend_positions(
                 motion.translations[:, pos_idx], data.translations, share
             )
         moved = np.flatnonzero(share > 0.0)
@@ -350,6 +341,9 @@ def _run_step(
         _crop_notes(step.spec, data.rotation_notes, inside)
         _crop_notes(step.spec, data.translation_notes, inside)
         touched = (inside[0] + offset, inside[1] + offset) if inside else None
+    motion.rotations = _placed(motion.rotations, rot_idx, new_rotations)
+    if new_translations is not None:
+        motion.translations = _placed(motion.translations, pos_idx, new_translations)
     notes: dict[str, dict] = {}
     for column, note in data.rotation_notes.items():
         notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
@@ -360,6 +354,16 @@ def _run_step(
     rotated = [motion.names[i] for i in rot_idx]
     moved_joints = [motion.names[i] for i in pos_idx]
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
+
+
+def _placed(array: np.ndarray, columns: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A new array: ``array`` with ``values`` in ``columns`` (axis 1); ``values`` itself when
+    they are every column (the input arrays are never written into)."""
+    if columns.size == array.shape[1]:
+        return values
+    out = array.copy()
+    out[:, columns] = values
+    return out
 
 
 def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:

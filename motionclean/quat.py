@@ -335,7 +335,27 @@ def displacements(q: np.ndarray) -> np.ndarray:
     ``q`` must be sign-continuous (:func:`make_continuous`), so that each ``|w_i| <= pi/2``.
     """
     q = shaped(q, 4, "q", signal=True)
-    return log(multiply(conjugate(q[:-1]), q[1:]))
+    out = np.empty((max(q.shape[0] - 1, 0), *q.shape[1:-1], 3))
+    for at in range(0, out.shape[0], DISPLACEMENT_BLOCK):  # temporaries stay small
+        rows = slice(at, min(at + DISPLACEMENT_BLOCK, out.shape[0]))
+        a, b = q[rows], q[rows.start + 1 : rows.stop + 1]
+        out[rows] = log(multiply(conjugate(a), b))
+    return out
+
+
+#: Frames per block in :func:`displacements`.
+DISPLACEMENT_BLOCK = 4096
+
+
+def continuous(q: np.ndarray) -> np.ndarray:
+    """``q`` itself when it is already sign-continuous along axis 0 (no copy), else
+    :func:`make_continuous` of it."""
+    q = shaped(q, 4, "q")
+    for at in range(0, max(q.shape[0] - 1, 0), DISPLACEMENT_BLOCK):
+        a, b = q[at : at + DISPLACEMENT_BLOCK], q[at + 1 : at + 1 + DISPLACEMENT_BLOCK]
+        if np.any(np.einsum("...i,...i->...", a[: b.shape[0]], b) < 0.0):
+            return make_continuous(q, axis=0)
+    return q
 
 
 def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:

@@ -80,7 +80,7 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     rotating = motion.layout.has_rotation
     if motion.n_frames < 8 or not rotating.any() or motion.has_gaps:
         return 0, 0
-    q = motion.rotations[:, rotating]
+    q = motion.rotations if rotating.all() else motion.rotations[:, rotating]
     p = motion.translations
     moving = np.zeros(q.shape[1], dtype=bool)
     for at in range(0, q.shape[0], 4096):  # joints whose rotation ever changes

@@ -396,7 +396,7 @@ def auto(
     shape = np.shape(q)[1:-1]
     given = _check(strength, noise, shape)
     frame_time = _check_time(frame_time)
-    cols = quat.make_continuous(_columns(q, 4, "rotations"), axis=0)
+    cols = quat.continuous(_columns(q, 4, "rotations"))
     if given is not None:
         given = (np.radians(given.reshape(-1)) / (2.0 * math.sqrt(3.0))) ** 2
     values, level, choices = _select(
