@@ -151,7 +151,7 @@ def test_a_follower_body_is_filled_from_its_donor():
     missing = np.zeros((200, 2), dtype=bool)
     missing[80:130, 1] = True
     filled = fill_gaps(q, p, missing, max_gap=60)
-    assert filled.donor.tolist() == [0]
+    assert filled.donor.tolist() == [[0], [0]]
     assert max_degrees(filled.rotations, quat.make_continuous(q)) < 1e-9
     np.testing.assert_allclose(filled.translations, p, atol=1e-12)
 

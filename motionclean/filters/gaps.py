@@ -5,9 +5,10 @@ bridged is the joint's pose relative to a *donor*: another joint tracked through
 world frame (no donor). With donor rotation ``d`` and position ``c``, the relative pose is
 ``r = d^-1 q`` and ``s = d^-1 (p - c) d`` (``p`` rotated into the donor's frame); a hand
 seen from its forearm moves far less than in the world, so its bridge follows the forearm
-through the gap, as a pattern fill does. Per gap the donor is the one whose relative pose
-is smoothest (least squared second differences, rotation and position each relative to the
-world frame's) over :data:`DONOR_FRAMES` frames on each side.
+through the gap, as a pattern fill does. Per gap the rotation's donor is the one whose
+relative rotation is smoothest (least squared second differences) over
+:data:`DONOR_FRAMES` frames on each side, and the position's the one whose relative
+position is.
 
 The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame ``a`` to
 frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
@@ -36,7 +37,7 @@ from .interpolate import end_tangent, hermite_positions, hermite_rotations
 #: Known frames beside an edge that its velocity is fitted to ...
 EDGE_FRAMES = 3
 #: ... and that donors are judged on.
-DONOR_FRAMES = 6
+DONOR_FRAMES = 8
 #: Median of a chi-squared variable with three degrees of freedom.
 CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
@@ -73,8 +74,8 @@ class Gaps:
 @dataclass(frozen=True)
 class Filled:
     """What :func:`fill_gaps` did: the arrays with the gaps filled, the mask of what is
-    still missing, the gaps found, which were filled and each filled gap's donor (-1: the
-    world frame)."""
+    still missing, the gaps found, which were filled and each filled gap's donors ``(2, G)``
+    for its rotation and its position (-1: the world frame)."""
 
     rotations: np.ndarray
     translations: np.ndarray
@@ -174,15 +175,22 @@ def noise_variance(x: np.ndarray, missing: np.ndarray, rotations: bool) -> np.nd
 # ----------------------------------------------------------------------------- donors
 
 
-def _relative(q, p, joint, donor, frames):
-    """Pose of ``joint`` relative to ``donor`` (-1: the world) at ``frames`` (same shapes):
-    ``d^-1 q`` and ``d^-1 (p - c) d``."""
-    own_q, own_p = q[frames, joint], p[frames, joint]
+def _frame_of(q, p, donor, frames):
+    """Rotation and position of ``donor`` (-1: the world) at ``frames`` (same shapes)."""
     world = donor < 0
     d = np.where(world[..., None], quat.identity(()), q[frames, np.maximum(donor, 0)])
     c = np.where(world[..., None], 0.0, p[frames, np.maximum(donor, 0)])
-    inverse = quat.conjugate(d)
-    return quat.multiply(inverse, own_q), quat.rotate(inverse, own_p - c)
+    return d, c
+
+
+def _relative(q, p, joint, donors, frames):
+    """Pose of ``joint`` at ``frames`` relative to ``donors = (rotation donor, position
+    donor)`` (-1: the world; same shapes): ``d^-1 q`` and ``e^-1 (p - c) e`` for the
+    rotation donor's ``d`` and the position donor's rotation ``e`` and position ``c``."""
+    d, _ = _frame_of(q, p, donors[0], frames)
+    e, c = _frame_of(q, p, donors[1], frames)
+    rel_q = quat.multiply(quat.conjugate(d), q[frames, joint])
+    return rel_q, quat.rotate(quat.conjugate(e), p[frames, joint] - c)
 
 
 def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
@@ -194,14 +202,15 @@ def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
     return np.sum(np.diff(steps, axis=1) ** 2, axis=(1, 3))
 
 
-def _choose_donors(q, p, missing, gaps: Gaps, use_positions: np.ndarray) -> np.ndarray:
-    """Per gap, the donor (or -1) whose relative pose is smoothest beside the gap among the
-    joints known from :data:`DONOR_FRAMES` frames before it to as many after it."""
+def _choose_donors(q, p, missing, gaps: Gaps) -> np.ndarray:
+    """Per gap, ``(2, G)``: the donors (or -1) whose relative rotation, and relative
+    position, are smoothest beside the gap among the joints known from
+    :data:`DONOR_FRAMES` frames before it to as many after it."""
     n_frames, n_joints = missing.shape
     lo = np.maximum(gaps.first - 1 - DONOR_FRAMES, 0)
     hi = np.minimum(gaps.stop + DONOR_FRAMES, n_frames - 1)
     seen = np.concatenate([np.zeros((1, n_joints), int), np.cumsum(missing, axis=0)])
-    donor = np.full(gaps.joint.size, -1)
+    donor = np.full((2, gaps.joint.size), -1)
     offsets = np.arange(-DONOR_FRAMES, 1)
     for at in range(0, gaps.joint.size, GAP_BLOCK):
         block = slice(at, at + GAP_BLOCK)
@@ -213,27 +222,24 @@ def _choose_donors(q, p, missing, gaps: Gaps, use_positions: np.ndarray) -> np.n
         # Window frames: the known ones nearest each edge (clipped to the clip).
         before = np.clip(gaps.first[block, None] - 1 + offsets, 0, n_frames - 1)
         after = np.clip(gaps.stop[block, None] - offsets[::-1], 0, n_frames - 1)
-        rough = np.zeros((joint.size, n_joints + 1))
+        rough = np.zeros((2, joint.size, n_joints + 1))
         for frames in (before, after):
             frames = frames[:, :, None]  # (G, W, 1)
             candidates = np.arange(-1, n_joints)[None, None, :]  # -1: the world
             shape = (joint.size, frames.shape[1], n_joints + 1)
+            candidate = np.broadcast_to(candidates, shape)
             rel_q, rel_p = _relative(
                 q,
                 p,
                 np.broadcast_to(joint[:, None, None], shape),
-                np.broadcast_to(candidates, shape),
+                (candidate, candidate),
                 np.broadcast_to(frames, shape),
             )
-            rot = _roughness(rel_q, True)
-            pos = _roughness(rel_p, False)
-            tiny = 1e-24
-            score = rot / (rot[:, :1] + tiny)
-            score += np.where(use_positions[joint, None], pos / (pos[:, :1] + tiny), 0.0)
-            rough += score
-        rough[:, 1:][~tracked] = np.inf
-        best = rough.min(axis=1, keepdims=True)  # ties (rigidly attached bodies): the first
-        donor[block] = np.argmax(rough <= best + 1e-9 * (1.0 + best), axis=1) - 1
+            rough[0] += _roughness(rel_q, True)
+            rough[1] += _roughness(rel_p, False)
+        rough[:, :, 1:][:, ~tracked] = np.inf
+        best = rough.min(axis=2, keepdims=True)  # ties (rigidly attached bodies): the first
+        donor[:, block] = np.argmax(rough <= best + 1e-9 * (1.0 + best), axis=2) - 1
     return donor
 
 
@@ -275,9 +281,9 @@ def fill_gaps(
     todo = gaps.select(fillable)
     q, p = rotations.copy(), translations.copy()
     still = missing.copy()
-    donor = np.full(todo.joint.size, -1)
+    donor = np.full((2, todo.joint.size), -1)
     if donors:
-        donor = _choose_donors(rotations, translations, missing, todo, use_positions)
+        donor = _choose_donors(rotations, translations, missing, todo)
     lengths = todo.lengths
     gap_of = np.repeat(np.arange(lengths.size), lengths)
     frame = todo.first[gap_of] + _ranks(lengths)
@@ -286,10 +292,10 @@ def fill_gaps(
     # Bridge the relative poses; the edges, and the known rows beside them, come along.
     inner = (todo.first > 0) & (todo.stop < n_frames)
     a = np.where(todo.first > 0, todo.first - 1, todo.stop)  # one-sided: the edge
-    rel_q, rel_p = _relative(rotations, translations, joint, donor[gap_of], frame)
+    rel_q, rel_p = _relative(rotations, translations, joint, donor[:, gap_of], frame)
     held = ~inner[gap_of]
     if held.any():
-        edge_q, edge_p = _relative(rotations, translations, joint, donor[gap_of], a[gap_of])
+        edge_q, edge_p = _relative(rotations, translations, joint, donor[:, gap_of], a[gap_of])
         rel_q[held], rel_p[held] = edge_q[held], edge_p[held]
     if inner.any():
         noise = (
@@ -297,15 +303,13 @@ def fill_gaps(
             noise_variance(translations, missing, False),
         )
         rel_q[~held], rel_p[~held] = _bridge_inner(
-            rotations, translations, missing, todo.select(inner), donor[inner], noise
+            rotations, translations, missing, todo.select(inner), donor[:, inner], noise
         )
-    world = donor[gap_of] < 0
-    source = np.maximum(donor[gap_of], 0)
-    d = np.where(world[:, None], quat.identity(()), rotations[frame, source])
-    c = np.where(world[:, None], 0.0, translations[frame, source])
+    d, _ = _frame_of(rotations, translations, donor[0, gap_of], frame)
+    e, c = _frame_of(rotations, translations, donor[1, gap_of], frame)
     q[frame, joint] = quat.multiply(d, rel_q)
     moved = use_positions[joint]
-    p[frame[moved], joint[moved]] = (c + quat.rotate(d, rel_p))[moved]
+    p[frame[moved], joint[moved]] = (c + quat.rotate(e, rel_p))[moved]
     q = quat.make_continuous(q, axis=0)
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
 
@@ -316,12 +320,12 @@ def _ranks(lengths: np.ndarray) -> np.ndarray:
 
 
 def _spread(values: np.ndarray, where: np.ndarray) -> np.ndarray:
-    out = np.full(where.size, -1)
-    out[where] = values
+    out = np.full((values.shape[0], where.size), -1)
+    out[:, where] = values
     return out
 
 
-def _bridge_inner(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, noise):
+def _bridge_inner(rotations, translations, missing, gaps: Gaps, donors: np.ndarray, noise):
     """Relative poses across two-sided gaps, gap frames in gap order: each gap's window
     (known rows before, the gap, known rows after) laid end to end in one flat signal."""
     n_frames = missing.shape[0]
@@ -333,7 +337,7 @@ def _bridge_inner(rotations, translations, missing, gaps: Gaps, donor: np.ndarra
     window_of = np.repeat(np.arange(sizes.size), sizes)
     frames = np.minimum(start[window_of] + _ranks(sizes), n_frames - 1)
     rel_q, rel_p = _relative(
-        rotations, translations, gaps.joint[window_of], donor[window_of], frames
+        rotations, translations, gaps.joint[window_of], donors[:, window_of], frames
     )
     rel_q = quat.make_continuous(rel_q, axis=0)
     base = np.cumsum(sizes) - sizes  # flat row of each window's first frame
@@ -341,9 +345,10 @@ def _bridge_inner(rotations, translations, missing, gaps: Gaps, donor: np.ndarra
     lengths = gaps.lengths
     gap_of = np.repeat(np.arange(lengths.size), lengths)
     rows = flat_a[gap_of] + 1 + _ranks(lengths)
-    helper = np.maximum(donor, 0)
-    with_donor = (donor >= 0)[:, None]
-    var_q, var_p = (n[gaps.joint] + np.where(with_donor[:, 0], n[helper], 0.0) for n in noise)
+    var_q, var_p = (
+        n[gaps.joint] + np.where(d >= 0, n[np.maximum(d, 0)], 0.0)
+        for n, d in zip(noise, donors, strict=True)
+    )
     bridged_q = _bridge(rel_q, flat_a, flat_b, room_a, room_b, rows, gap_of, True, var_q)
     bridged_p = _bridge(rel_p, flat_a, flat_b, room_a, room_b, rows, gap_of, False, var_p)
     return bridged_q, bridged_p

@@ -36,7 +36,7 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     for joint in np.unique(gaps.joint):
         mine = gaps.joint == joint
         filled, left = mine & result.filled, mine & ~result.filled
-        helpers = sorted({motion.names[d] for d in result.donor[filled] if d >= 0})
+        helpers = sorted({motion.names[d] for d in result.donor[:, filled].ravel() if d >= 0})
         notes[motion.names[joint]] = {
             "fill-gaps": {
                 "gaps": int(mine.sum()),
