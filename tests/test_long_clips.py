@@ -7,7 +7,7 @@ import importlib
 
 import numpy as np
 import pytest
-from helpers import NOISY
+from helpers import NOISY, SAMPLE
 
 import motionclean as mc
 from motionclean import motion as motion_module
@@ -42,7 +42,7 @@ def test_euler_write_back_does_not_depend_on_the_block_size(monkeypatch, block):
     assert np.array_equal(again.rotations, reference.rotations)
 
 
-@pytest.mark.parametrize("block", [1, 5])
+@pytest.mark.parametrize("block", [1, 40])  # run ends: 1 and 5 jumps at a time at 120 fps
 def test_despike_does_not_depend_on_how_many_jumps_are_examined_together(monkeypatch, block):
     despike_module = importlib.import_module("motionclean.filters.despike")
     clip = mc.load(NOISY)
@@ -58,8 +58,29 @@ def test_despike_does_not_depend_on_how_many_jumps_are_examined_together(monkeyp
         noisy[frame : frame + 2, joint] = quat.multiply(noisy[frame : frame + 2, joint], turn)
     whole, report = despike_module.despike_with_report(noisy, clip.frame_time)
     assert report.interpolated.any()
-    monkeypatch.setattr(despike_module, "JUMPS_PER_BLOCK", block)
+    monkeypatch.setattr(despike_module, "RUN_ENDS_PER_BLOCK", block)
     blocked, again = despike_module.despike_with_report(noisy, clip.frame_time)
     assert np.array_equal(blocked, whole)
     assert np.array_equal(again.interpolated, report.interpolated)
     assert np.array_equal(again.unflipped, report.unflipped)
+
+
+@pytest.mark.parametrize("frame_time", [1e-6, 1e-4])
+def test_a_tiny_frame_time_does_not_blow_up_despike(frame_time):
+    """A header claiming 1 MHz turns every step of real motion into a "spike" faster than
+    any body moves: the working set still follows the clip (spikes are never longer than
+    it) and the columns whose steps do not fit the limits are left as they are."""
+    import tracemalloc
+
+    from motionclean.filters.despike import despike_with_report
+
+    q = mc.load(SAMPLE).rotations
+    tracemalloc.start()
+    out, report = despike_with_report(q, frame_time)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 40 * q.nbytes
+    if frame_time == 1e-6:  # every step is "too fast": nothing is rebuilt
+        assert not report.interpolated.any()
+        unflipped = report.unflipped.any(axis=0)
+        np.testing.assert_array_equal(out[:, ~unflipped], q[:, ~unflipped])

@@ -82,6 +82,7 @@ Lee-Shin pass on the corpus clips (``python bench/despike.py``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -280,6 +281,7 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
     """
     n_cols = steps.shape[1]
     size = steps.size
+    per_block = max(1, RUN_ENDS_PER_BLOCK // max_len)
     # The flat index a C + c is both step a and frame a of column c; the padding makes
     # every step a + L (L <= max_len) of a jump addressable.
     is_jump = np.zeros(size + max_len * n_cols, dtype=bool)
@@ -289,7 +291,7 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
     flat_x = x.reshape(size + n_cols, x.shape[-1])
     found = [
         _runs_from(
-            jumps[at : at + JUMPS_PER_BLOCK],
+            jumps[at : at + per_block],
             is_jump,
             flat_x,
             steps,
@@ -302,7 +304,7 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
             toggles,
             held,
         )
-        for at in range(0, jumps.size, JUMPS_PER_BLOCK)
+        for at in range(0, jumps.size, per_block)
     ]
     first = np.concatenate([f for f, _ in found]) if found else jumps
     last = np.concatenate([b for _, b in found]) if found else jumps
@@ -310,9 +312,9 @@ def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolat
     return a + 1, (last - first) // n_cols, c
 
 
-#: Jumps examined together by :func:`_spike_runs` (each with up to ``max_len`` run ends):
-#: the working set stays small however many jumps a noisy clip has.
-JUMPS_PER_BLOCK = 4096
+#: Run ends (jumps x ``max_len``) examined together by :func:`_spike_runs`: the working set
+#: stays small however many jumps a noisy clip has and however long a spike may be.
+RUN_ENDS_PER_BLOCK = 4096 * 16
 
 
 def _runs_from(
@@ -707,6 +709,11 @@ class _Limits:
     flip_rad: float | None
 
 
+#: Largest share of a column's frames that spike and cap repairs may cover (un-flipping is
+#: not limited: a joint may be flipped for much of a clip).
+MAX_SPIKE_SHARE = 0.25
+
+
 def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     """Shared driver on ``x`` (F, C, 4|3): jump threshold, un-flip, spikes, cap passes.
 
@@ -717,6 +724,8 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
     """
     n_frames, n_cols = x.shape[:2]
+    # No spike is longer than the clip, whatever the frame time says.
+    limits = dataclasses.replace(limits, max_len=max(1, min(limits.max_len, n_frames - 2)))
     flipped = np.zeros((n_frames, n_cols), dtype=bool)
     if n_frames < 2:
         zeros = np.zeros(n_cols)
@@ -750,6 +759,12 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
         mask[:-1] |= over
         mask[1:] |= over
         col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
+    # A column whose "spikes" cover much of it has none: its steps do not fit the limits
+    # (a wrong frame time, or another unit); it is left as it is rather than rebuilt.
+    unfit = mask.mean(axis=0) > MAX_SPIKE_SHARE
+    if unfit.any():
+        mask[:, unfit] = False
+        col = col[~unfit[col]]
     after = before.copy()
     changed = np.bincount(np.concatenate([turned, col]), minlength=n_cols).nonzero()[0]
     if changed.size:
