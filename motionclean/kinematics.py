@@ -308,11 +308,23 @@ def up_axis(motion: Motion, override: str | int | None = None) -> int:
 
 def _standing_points(motion: Motion) -> np.ndarray:
     """The rest pose's points, or for a clip whose offsets span nothing (independent
-    tracked bodies) the bodies' positions on the first frame."""
+    tracked bodies) each body's position on the first frame it is tracked."""
     rest = rest_positions(motion)
     if np.ptp(rest, axis=0).max() > 0.0 or motion.n_frames == 0:
         return rest
-    return forward(motion)[0][0]
+    if motion.missing is None:
+        return forward(motion)[0][0]
+    seen = ~motion.missing.all(axis=0)  # bodies never tracked have no place to stand
+    first = np.argmax(~motion.missing, axis=0)[seen]
+    frames = np.unique(first)
+    sample = motion.replace(
+        rotations=motion.rotations[frames],
+        translations=motion.translations[frames],
+        source_values=None,
+        source_rotations=None,
+        missing=None,
+    )
+    return forward(sample)[0][np.searchsorted(frames, first), np.flatnonzero(seen)]
 
 
 def body_height(motion: Motion, up: int | None = None) -> float:

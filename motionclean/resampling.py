@@ -48,12 +48,17 @@ def new_length(motion: Motion, frame_time: float) -> int:
     within half a new frame. Raises :class:`MotionError` when that leaves fewer than two
     frames or would not fit in half of this machine's memory (the message says how many
     frames)."""
-    n_new = resampled_length(motion.n_frames, frame_time / motion.frame_time)
     fps = f"{1.0 / frame_time:.6g} fps"
-    if n_new < 2 or motion.n_frames < 2:
+    if motion.n_frames < 2:
+        raise MotionError(
+            f"a clip of {motion.n_frames} frame cannot be resampled; at least two are needed",
+            motion.path,
+        )
+    n_new = resampled_length(motion.n_frames, frame_time / motion.frame_time)
+    if n_new < 2:
         raise MotionError(
             f"resampling {motion.n_frames} frames of {motion.duration:.6g} s to {fps} leaves "
-            f"{n_new} frame; at least two are needed",
+            "1 frame; at least two are needed",
             motion.path,
         )
     values = motion.n_joints * 7 + motion.layout.n_channels

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import NOISY, SAMPLE, corpus_clip, degrees_between, max_degrees, run_cli
+from helpers import NOISY, SAMPLE, corpus_clip, cut_bvh, degrees_between, max_degrees, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_restpose import with_t_pose
@@ -276,3 +276,10 @@ def test_resample_takes_no_range_joints_or_positions():
     for text in ("resample:fps=30,frames=[0,10]", "resample:fps=30,joints=Hips"):
         with pytest.raises(MotionError, match="changes the whole clip"):
             Pipeline.from_inline([text])
+
+
+def test_a_single_frame_clip_cannot_be_resampled(tmp_path, capsys):
+    one = tmp_path / "one.bvh"
+    cut_bvh(SAMPLE, one, 1)
+    code, _, err = run_cli(capsys, "resample", one, tmp_path / "out.bvh", "--fps", "240")
+    assert code == 1 and "a clip of 1 frame cannot be resampled" in err

@@ -55,7 +55,11 @@ def _format_note(note: dict, positions: bool, runs=format_runs) -> str:
     """Gaps found, filled (where, from which donors) and left missing."""
     filled, missing = note["filled"], note["missing"]
     count = note["gaps"]
-    parts = [f"{count} gap{'' if count == 1 else 's'}, longest {note['longest']} frames"]
+    longest = note["longest"]
+    parts = [
+        f"{count} gap{'' if count == 1 else 's'}, longest {longest} frame"
+        + ("" if longest == 1 else "s")
+    ]
     if filled:
         parts.append(f"filled {runs(filled)}")
     if note["donors"]:
