@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import SAMPLE, cut_bvh, run_cli
+from helpers import ROOT, SAMPLE, cut_bvh, run_cli
 
 import motionclean as mc
 
@@ -64,7 +64,17 @@ def seeds(tmp_path_factory):
     folder = tmp_path_factory.mktemp("fuzz")
     clip = cut_bvh(SAMPLE, folder / "seed.bvh", 12).read_bytes()
     mc.save(mc.load(folder / "seed.bvh"), folder / "seed.csv")
-    return {".bvh": clip, ".csv": (folder / "seed.csv").read_bytes()}
+    motive = (ROOT / "sample_data" / "131_02_motive.csv").read_bytes().splitlines(True)
+    rigid = [b"time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz,b.px,b.py,b.pz,b.qw,b.qx,b.qy,b.qz\n"]
+    for f in range(14):  # body b lost on frames 5-7
+        b = b",,,,,,," if 5 <= f <= 7 else b"%.4f,1,0,0.9950,0.0998,0,0" % (f * 0.01)
+        rigid.append(b"%.6f,%.4f,1,0,1,0,0,0," % (f / 120, f * 0.02) + b + b"\n")
+    return [
+        (".bvh", clip),
+        (".csv", (folder / "seed.csv").read_bytes()),
+        (".csv", b"".join(motive[: 7 + 50])),  # an OptiTrack Motive export with a dropout
+        (".csv", b"".join(rigid)),  # a rigid-body CSV with a dropout
+    ]
 
 
 @pytest.mark.parametrize("chunk", range(4))
@@ -72,11 +82,12 @@ def test_mutated_clips_succeed_or_fail_with_one_line(seeds, chunk, tmp_path, cap
     rng = np.random.default_rng(1000 + chunk)
     outcomes = {"ok": 0, "refused": 0}
     for case in range(CASES // 4):
-        suffix = ".bvh" if case % 3 else ".csv"
+        suffix, seed = seeds[case % len(seeds)]
         source = tmp_path / f"in{case}{suffix}"
-        source.write_bytes(mutate(seeds[suffix], rng))
+        source.write_bytes(mutate(seed, rng))
         out = tmp_path / f"out{case}{suffix}"
-        code, _, err = run_cli(capsys, "clean", source, "-o", out, "-q", "-f", "lee-shin:k=1")
+        steps = ["-f", "fill-gaps", "-f", "lee-shin:k=1"]
+        code, _, err = run_cli(capsys, "clean", source, "-o", out, "-q", *steps)
         if code == 0:
             assert err == "" or err.startswith("motionclean: warning:"), err
             mc.load(out)  # what was written reads back
