@@ -279,3 +279,14 @@ def test_the_page_breaks_a_missing_bodys_track_and_draws_bodies_without_bones(tm
     assert left.count('data-series="before"') == 2
     player = page.split('id="mc-player"')[1].split("</svg>")[0]
     assert player.count('class="joint"') == 2 * 5 and 'class="bone"' not in player
+
+
+def test_a_motive_dropout_longer_than_max_gap_stays_blank(tmp_path, capsys):
+    source, out = tmp_path / "take.csv", tmp_path / "clean.csv"
+    source.write_bytes((ROOT / "sample_data" / "131_02_motive.csv").read_bytes())
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out, "-f", "fill-gaps:max_gap=0.05")
+    assert code == 0, err
+    assert "left missing 40-47 (longer than max_gap)" in stdout
+    before, after = mc.load(source), mc.load(out)
+    np.testing.assert_array_equal(after.missing, before.missing)
+    assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
