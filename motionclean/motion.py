@@ -412,8 +412,14 @@ def _continue_block(q, order, reference, kept, carry):
     is_anchor = kept | leap
     if carry is None:
         is_anchor[0] = True  # the clip's first frame
-    nearest = quat.to_euler(q, order, reference=reference)
-    anchor_values = np.where(kept[..., None], reference, nearest)
+    # A changed anchor is written as the triple nearest its original angles (computed for
+    # those samples only: the others never read it).
+    anchor_values = reference.copy()
+    changed_anchor = is_anchor & ~kept
+    if changed_anchor.any():
+        anchor_values[changed_anchor] = quat.to_euler(
+            q[changed_anchor], order, reference=reference[changed_anchor]
+        )
     anchor = np.maximum.accumulate(np.where(is_anchor, frame, -1), axis=0)  # (F, J), -1: before
     local = anchor >= 0
     anchor_at = np.maximum(anchor, 0)
