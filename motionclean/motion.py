@@ -35,15 +35,31 @@ SAME_ROTATION = 1e-12
 BLOCK_FRAMES = 512
 
 
-def _by_frames(fn, arrays: tuple[np.ndarray, ...], width: int) -> np.ndarray:
-    """``fn(*arrays)`` for a function that works sample by sample, computed over blocks of
-    :data:`BLOCK_FRAMES` frames (axis 0) into one ``(F, ..., width)`` result."""
-    n_frames = arrays[0].shape[0]
-    out = np.empty((*arrays[0].shape[:-1], width))
+def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
+    """``(F, J, 4)`` sign-continuous quaternions of the Euler channels in ``values`` ``(F, C)``
+    (identity for joints without rotation channels), built :data:`BLOCK_FRAMES` frames at a
+    time: the signs continue from block to block exactly as :func:`quat.make_continuous`
+    would make them over the whole clip."""
+    n_frames = values.shape[0]
+    rotations = np.empty((n_frames, len(layout.rotation_orders), 4))
+    groups = [
+        (order, joints, layout.rotation_columns[joints])
+        for order, joints in layout.order_groups().items()
+    ]
+    still = ~layout.has_rotation
+    previous = None  # the last sign-corrected sample of the block before
     for at in range(0, n_frames, BLOCK_FRAMES):
-        block = slice(at, at + BLOCK_FRAMES)
-        out[block] = fn(*(a[block] for a in arrays))
-    return out
+        block = rotations[at : at + BLOCK_FRAMES]
+        rows = values[at : at + BLOCK_FRAMES]
+        block[:, still] = (1.0, 0.0, 0.0, 0.0)
+        for order, joints, columns in groups:
+            block[:, joints] = quat.from_euler(rows[:, columns], order)
+        before = block[:1] if previous is None else previous[None]
+        dots = np.einsum("fji,fji->fj", block, np.concatenate([before, block[:-1]]))
+        signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
+        block *= signs[..., None]
+        previous = block[-1]
+    return rotations
 
 
 @dataclass(frozen=True)
@@ -227,13 +243,7 @@ class Motion:
         layout = ChannelLayout.from_channels(names, channels)
         values = np.asarray(values, dtype=np.float64)
         n_frames = values.shape[0]
-        rotations = quat.identity((n_frames, len(names)))
-        for order, joints in layout.order_groups().items():
-            angles = values[:, layout.rotation_columns[joints]]
-            rotations[:, joints] = _by_frames(
-                functools.partial(quat.from_euler, order=order), (angles,), 4
-            )
-        rotations = quat.make_continuous(rotations, axis=0)
+        rotations = _rotations_from_values(values, layout)
         translations = np.zeros((n_frames, len(names), 3))
         has = layout.position_columns >= 0
         translations[:, has] = values[:, layout.position_columns[has]]
