@@ -45,30 +45,21 @@ def end_tangent(step: np.ndarray, v1: np.ndarray) -> np.ndarray:
     (``1/12 + theta^2/180`` near 0) and ``[phi]^2 v = phi (phi . v) - |phi|^2 v``;
     half-angle units cancel, so it applies to ``v1`` as is.
     """
-    theta2 = np.einsum("...i,...i->...", step, step)
+    sx, sy, sz = step[..., 0], step[..., 1], step[..., 2]
+    vx, vy, vz = v1[..., 0], v1[..., 1], v1[..., 2]
+    theta2 = sx * sx + sy * sy + sz * sz
     theta = np.sqrt(theta2)
     small = theta < 1e-4
     safe = np.where(small, 1.0, theta)
     coeff = np.where(
         small, 1.0 / 12.0 + theta2 / 180.0, (1.0 - safe / np.tan(safe)) / (4.0 * safe * safe)
     )
-    phi = 2.0 * step
-    along = np.einsum("...i,...i->...", phi, v1)
-    out = phi * (coeff * along)[..., None]
-    out -= (coeff * 4.0 * theta2)[..., None] * v1
-    out += v1
-    out += 0.5 * _cross(phi, v1)
-    return out
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` over the last axis (``np.cross`` without its copies)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
-    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
-    np.subtract(ay * bz, az * by, out=out[..., 0])
-    np.subtract(az * bx, ax * bz, out=out[..., 1])
-    np.subtract(ax * by, ay * bx, out=out[..., 2])
+    along = 4.0 * coeff * (sx * vx + sy * vy + sz * vz)  # c phi (phi . v) = along * w
+    keep = 1.0 - 4.0 * coeff * theta2  # 1 - c |phi|^2
+    out = np.empty(np.broadcast_shapes(step.shape, v1.shape))
+    out[..., 0] = keep * vx + along * sx + (sy * vz - sz * vy)  # + [phi] v / 2 = w x v
+    out[..., 1] = keep * vy + along * sy + (sz * vx - sx * vz)
+    out[..., 2] = keep * vz + along * sz + (sx * vy - sy * vx)
     return out
 
 
