@@ -8,7 +8,9 @@ seen from its forearm moves far less than in the world, so its bridge follows th
 through the gap, as a pattern fill does. Per gap the rotation's donor is the one whose
 relative rotation is smoothest (least squared second differences) over
 :data:`DONOR_FRAMES` frames on each side, and the position's the one whose relative
-position is.
+position is (over :data:`POSITION_DONOR_FRAMES`). A gap no longer than
+:data:`DONOR_FRAMES` bridges its rotation in the world frame: its own edge velocities say
+enough, and a donor only adds the donor's noise.
 
 The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame ``a`` to
 frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
@@ -36,8 +38,9 @@ from .interpolate import end_tangent, hermite_positions, hermite_rotations
 
 #: Known frames beside an edge that its velocity is fitted to ...
 EDGE_FRAMES = 3
-#: ... and that donors are judged on.
-DONOR_FRAMES = 8
+#: ... and that donors are judged on, for the rotation and for the position.
+DONOR_FRAMES = 10
+POSITION_DONOR_FRAMES = 8
 #: Median of a chi-squared variable with three degrees of freedom.
 CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
@@ -223,7 +226,8 @@ def _choose_donors(q, p, missing, gaps: Gaps) -> np.ndarray:
         before = np.clip(gaps.first[block, None] - 1 + offsets, 0, n_frames - 1)
         after = np.clip(gaps.stop[block, None] - offsets[::-1], 0, n_frames - 1)
         rough = np.zeros((2, joint.size, n_joints + 1))
-        for frames in (before, after):
+        near = DONOR_FRAMES - POSITION_DONOR_FRAMES  # position windows: the frames nearest
+        for frames, inner in ((before, slice(near, None)), (after, slice(None, -near or None))):
             frames = frames[:, :, None]  # (G, W, 1)
             candidates = np.arange(-1, n_joints)[None, None, :]  # -1: the world
             shape = (joint.size, frames.shape[1], n_joints + 1)
@@ -236,7 +240,7 @@ def _choose_donors(q, p, missing, gaps: Gaps) -> np.ndarray:
                 np.broadcast_to(frames, shape),
             )
             rough[0] += _roughness(rel_q, True)
-            rough[1] += _roughness(rel_p, False)
+            rough[1] += _roughness(rel_p[:, inner], False)
         rough[:, :, 1:][:, ~tracked] = np.inf
         best = rough.min(axis=2, keepdims=True)  # ties (rigidly attached bodies): the first
         donor[:, block] = np.argmax(rough <= best + 1e-9 * (1.0 + best), axis=2) - 1
@@ -284,6 +288,9 @@ def fill_gaps(
     donor = np.full((2, todo.joint.size), -1)
     if donors:
         donor = _choose_donors(rotations, translations, missing, todo)
+        # A gap no longer than the stretch donors are judged on is bridged better by the
+        # body's own rotation (its edge velocities say enough): donors for longer ones.
+        donor[0, todo.lengths <= DONOR_FRAMES] = -1
     lengths = todo.lengths
     gap_of = np.repeat(np.arange(lengths.size), lengths)
     frame = todo.first[gap_of] + _ranks(lengths)
