@@ -46,7 +46,9 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     """Byte offsets ``(starts, ends)`` of the tokens of ``buf[start:]``.
 
     Tokens are runs of bytes that are neither ASCII whitespace nor one of ``separators``.
+    Offsets are int32 for buffers under 2 GiB (half the memory of a long clip's offsets).
     """
+    dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
     edges = []
     before = np.int8(1)  # a gap before the first byte
     for at in range(start, buf.size, _CHUNK_BYTES):
@@ -55,12 +57,18 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
         for byte in separators:
             gap |= part == byte
         gap = gap.view(np.int8)
-        edges.append(np.flatnonzero(np.diff(gap, prepend=before)) + at)
+        found = np.flatnonzero(np.diff(gap, prepend=before)).astype(dtype)
+        found += at
+        edges.append(found)
         before = gap[-1]
     if before == 0:  # a token runs to the end of the buffer
-        edges.append(np.array([buf.size]))
-    flat = np.concatenate(edges) if edges else np.zeros(0, dtype=np.intp)
+        edges.append(np.array([buf.size], dtype=dtype))
+    flat = np.concatenate(edges) if edges else np.zeros(0, dtype=dtype)
     return flat[0::2], flat[1::2]
+
+
+#: Buffers at least this long get 64-bit offsets.
+_INT32_LIMIT = 2**31 - 1
 
 
 #: Byte classes for :func:`scan_cells`: 1 a line end, 2 a space or tab, 3 CR.
