@@ -640,6 +640,16 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
         eol,
         blank=cells.blank,
     )
+    return tracked_bodies(
+        bodies, channels, frame_time, rotations, translations, text, path, missing
+    )
+
+
+def tracked_bodies(
+    bodies, channels, frame_time, rotations, translations, text, path, missing
+) -> Motion:
+    """A clip of independent tracked bodies (rigid-body CSV, Motive): each a root joint
+    without offset, its rotation and translation as read, ``text`` for the writer."""
     n = len(bodies)
     return Motion(
         names=bodies,

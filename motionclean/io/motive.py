@@ -65,6 +65,7 @@ from .csv import (
     rewrite_rigid,
     rigid_arrays,
     rigid_values,
+    tracked_bodies,
     uniform_frame_time,
 )
 from .text import join_rows
@@ -311,19 +312,8 @@ def parse_motive(data: bytes, path=None) -> Motion:
         row_labels=order,
         ids=tuple(ids),
     )
-    n = len(bodies)
-    return Motion(
-        names=bodies,
-        parents=np.full(n, -1, dtype=np.intp),
-        offsets=np.zeros((n, 3)),
-        channels=channels,
-        frame_time=frame_time,
-        rotations=rotations,
-        translations=translations,
-        source_rotations=rotations.copy(),
-        source=text,
-        path=None if path is None else str(path),
-        missing=missing,
+    return tracked_bodies(
+        bodies, channels, frame_time, rotations, translations, text, path, missing
     )
 
 

@@ -57,9 +57,7 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
         for byte in separators:
             gap |= part == byte
         gap = gap.view(np.int8)
-        found = np.flatnonzero(np.diff(gap, prepend=before)).astype(dtype)
-        found += at
-        edges.append(found)
+        edges.append((np.flatnonzero(np.diff(gap, prepend=before)) + at).astype(dtype))
         before = gap[-1]
     if before == 0:  # a token runs to the end of the buffer
         edges.append(np.array([buf.size], dtype=dtype))
