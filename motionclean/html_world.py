@@ -149,20 +149,23 @@ def _trajectory_card(name: str, point: int, series: dict) -> str:
 def _static_frame(series: dict, frame: int, axes: tuple[int, int]) -> str:
     """One frame of the player as plain SVG lines (what a page without scripts shows)."""
     parts = []
-    clips = [("before", series["before"], BEFORE)]
+    clips = [("before", series["before"], BEFORE, series["unknown_before"])]
     if series["after"] is not None:
-        clips.append(("after", series["after"], AFTER))
+        clips.append(("after", series["after"], AFTER, series["unknown_after"]))
     span = max(FIGURE_SPAN * series["height"], 1e-9)
     here = series["before"][frame][:, axes]
     low = (here.min(axis=0) + here.max(axis=0)) / 2 - span / 2
-    for label, points, colour in clips:
+    for label, points, colour, unknown in clips:
         xy = _to_view(points[frame][:, axes], low, span)
+        shown = np.ones(len(xy), bool) if unknown is None else ~unknown[frame]
         for a, b in series["bones"]:
+            if not (shown[a] and shown[b]):
+                continue
             parts.append(
                 f'<line class="bone" data-clip="{label}" x1="{xy[a, 0]:.1f}" y1="{xy[a, 1]:.1f}" '
                 f'x2="{xy[b, 0]:.1f}" y2="{xy[b, 1]:.1f}" stroke="{colour}" stroke-width="2"/>'
             )
-        for x, y in xy.tolist():
+        for x, y in xy[shown].tolist():
             parts.append(
                 f'<circle class="joint" data-clip="{label}" cx="{x:.1f}" cy="{y:.1f}" r="2.5" '
                 f'fill="{colour}"/>'
@@ -211,15 +214,18 @@ PLAYER_SCRIPT = """
       lo[d] = (mn + mx) / 2 - span / 2;
     }
     var m = 0;
-    clips.forEach(function (c) {
-      var f = c[1][current];
+    clips.forEach(function (c, ci) {
+      var f = c[1][current], gone = {}, hidden = data.hidden[ci];
+      if (hidden) hidden[current].forEach(function (p) { gone[p] = true; });
       for (var p = 0; p < f.length; p += 3) {
         var d = dots[m++];
+        d.setAttribute('visibility', gone[p / 3] ? 'hidden' : 'visible');
         d.setAttribute('cx', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
         d.setAttribute('cy', S - ((f[p + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
       }
       data.bones.forEach(function (bone) {
         var l = lines[k++], p = bone[0] * 3, q = bone[1] * 3;
+        l.setAttribute('visibility', gone[bone[0]] || gone[bone[1]] ? 'hidden' : 'visible');
         l.setAttribute('x1', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
         l.setAttribute('y1', S - ((f[p + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
         l.setAttribute('x2', ((f[q + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
@@ -265,7 +271,15 @@ def _player(series: dict, frame_time: float) -> str:
 
     frames = series["frames"]
     step = float(np.median(np.diff(frames))) if len(frames) > 1 else 1.0
+
+    def hidden(unknown: np.ndarray | None) -> list | None:
+        """Per shown frame, the points to hide (unknown: a tracker dropout)."""
+        if unknown is None:
+            return None
+        return [np.flatnonzero(row).tolist() for row in unknown]
+
     payload = {
+        "hidden": [hidden(series["unknown_before"]), hidden(series["unknown_after"])],
         "frames": frames.tolist(),
         "bones": series["bones"],
         "before": packed(series["before"]),

@@ -290,3 +290,19 @@ def test_a_motive_dropout_longer_than_max_gap_stays_blank(tmp_path, capsys):
     before, after = mc.load(source), mc.load(out)
     np.testing.assert_array_equal(after.missing, before.missing)
     assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
+
+
+def test_the_player_hides_a_body_while_it_is_missing(tmp_path):
+    from motionclean.jobs import clean_clip, render_report
+
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"Head": slice(0, 40)})  # from the first frame on
+    steps = Pipeline.from_inline(["fill-gaps:max_gap=0.1"])  # 40 frames stay missing
+    result = clean_clip(source, None, steps)
+    page = render_report(result.report, tmp_path / "r.html", result.series).decode()
+    player = page.split('id="mc-player"')[1].split("</svg>")[0]
+    assert player.count('class="joint"') == 2 * 4  # frame 0 without the head
+    data = json.loads(page.split('id="mc-world">')[1].split("</script>")[0])
+    head = result.before.names.index("Head")
+    assert all(head in data["hidden"][0][f] for f in range(40))
+    assert all(head not in data["hidden"][0][f] for f in range(40, 300))
