@@ -51,7 +51,8 @@ def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
         w = quat.log_shortest(quat.multiply(quat.conjugate(block[:-1]), block[1:]))
         change = w[1:] - w[:-1]
         out[at:stop] = np.sqrt(np.einsum("...i,...i->...", change, change))
-    return np.degrees(2.0 * out) / frame_time**2
+    out *= 2.0 / frame_time**2  # in place: no clip-sized temporaries
+    return np.degrees(out, out=out)
 
 
 def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:

@@ -425,6 +425,16 @@ def _format_hierarchy(motion: Motion) -> bytes:
     return ("\n".join(out) + "\n").encode("utf-8")
 
 
+def _changed(values: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(F, C)`` bool: values further than :data:`UNCHANGED_TOLERANCE` from those read,
+    block by block (no clip-sized temporary)."""
+    out = np.empty(values.shape, dtype=bool)
+    for at in range(0, values.shape[0], 4096):
+        rows = slice(at, at + 4096)
+        np.greater(np.abs(values[rows] - read[rows]), UNCHANGED_TOLERANCE, out=out[rows])
+    return out
+
+
 def _unchanged(motion: Motion) -> bool:
     """True when rotations and translations are bit for bit the ones read."""
     frames = motion.source_frames()
@@ -505,10 +515,11 @@ def format_bvh(motion: Motion) -> bytes:
         return hierarchy + motion_header
     frames = motion.source_frames()
     if src is not None and frames is not None and same_frames:
-        changed = np.abs(values - frames[0]) > UNCHANGED_TOLERANCE
+        changed = _changed(values, frames[0])
         if not changed.any() and same_frame_time:
             return src.raw
         new = values[changed]
+        del values  # only the changed values are formatted
         if keep_header:  # the file up to the rows is unchanged
             start, prefix = 0, b""
         else:
