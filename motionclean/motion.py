@@ -360,9 +360,7 @@ class Motion:
                 rotations, source = self.rotations[block], source_frames[1][block]
                 for g, (order, joints, cols) in enumerate(groups):
                     q, read = rotations[:, joints], source[:, joints]
-                    kept = (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
-                        np.abs(q + read).max(axis=-1) < SAME_ROTATION
-                    )
+                    kept = _same_rotations(q, read)
                     values[block, cols], carries[g] = _continue_block(
                         q, order, values[block, cols], kept, carries[g]
                     )
@@ -382,6 +380,21 @@ def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
     first = np.minimum.accumulate(np.where(known, frames, n_frames)[::-1], axis=0)[::-1]
     source = np.where(last >= 0, last, np.where(first < n_frames, first, frames))
     return np.take_along_axis(values, source.reshape(source.shape + (1,) * (values.ndim - 2)), 0)
+
+
+def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(F, J)``: samples of ``q`` within :data:`SAME_ROTATION` per component of ``read``
+    or of ``-read`` (the same rotation). Only samples whose dot product is within 1e-12 of
+    +-1 can be (a component off by 1e-12 moves it by far less), so the others are not
+    compared component by component."""
+    kept = np.zeros(q.shape[:-1], dtype=bool)
+    close = np.abs(np.einsum("...i,...i->...", q, read)) > 1.0 - 1e-12
+    if close.any():
+        a, b = q[close], read[close]
+        kept[close] = (np.abs(a - b).max(axis=-1) < SAME_ROTATION) | (
+            np.abs(a + b).max(axis=-1) < SAME_ROTATION
+        )
+    return kept
 
 
 def continuous_euler(
