@@ -150,7 +150,8 @@ class Motion:
     source_values : (F, C) array or None
         The channel values as read (degrees, length units); guides write-back.
     source_rotations : (F, J, 4) array or None
-        The quaternions computed from ``source_values`` at load time.
+        The quaternions read (a rigid-body or Motive CSV); None when they follow from
+        ``source_values`` (Euler channels: :meth:`read_rotations` computes them).
     source : object or None
         Format-specific text a writer reuses (hierarchy, line endings, tokens).
     path : str or None
@@ -257,7 +258,6 @@ class Motion:
             rotations=rotations,
             translations=translations,
             source_values=values,
-            source_rotations=rotations.copy(),
             **kwargs,
         )
 
@@ -322,15 +322,38 @@ class Motion:
 
     def source_frames(self) -> tuple[np.ndarray, np.ndarray] | None:
         """``(source_values, source_rotations)`` when they still describe this clip's frames,
-        else None."""
-        values, rotations = self.source_values, self.source_rotations
-        if values is None or rotations is None or values.shape[0] != self.n_frames:
+        else None; rotations not kept (a clip read from Euler channels) are computed from the
+        values, exactly as they were read."""
+        if not self.has_source_frames():
             return None
-        return values, rotations
+        assert self.source_values is not None
+        rotations = self.source_rotations
+        if rotations is None:
+            rotations = _rotations_from_values(self.source_values, self.layout)
+        return self.source_values, rotations
 
     def has_source_frames(self) -> bool:
         """True when the source values still describe the same frames."""
-        return self.source_frames() is not None
+        values, rotations = self.source_values, self.source_rotations
+        return (
+            values is not None
+            and values.shape[0] == self.n_frames
+            and (rotations is None or rotations.shape[0] == self.n_frames)
+        )
+
+    def read_rotations(self, rows: slice) -> np.ndarray:
+        """The quaternions read for frames ``rows``, up to sign (``q`` and ``-q`` are the
+        same rotation): the kept ones, or computed from the source values. Only for a clip
+        with source frames (:meth:`has_source_frames`)."""
+        if self.source_rotations is not None:
+            return self.source_rotations[rows]
+        assert self.source_values is not None
+        values = self.source_values[rows]
+        out = np.empty((values.shape[0], self.n_joints, 4))
+        out[:, ~self.layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
+        for order, joints in self.layout.order_groups().items():
+            out[:, joints] = quat.from_euler(values[:, self.layout.rotation_columns[joints]], order)
+        return out
 
     def channel_values(self) -> np.ndarray:
         """``(F, C)`` channel values for the current motion (degrees, length units).
@@ -343,14 +366,14 @@ class Motion:
         Otherwise angles are unwrapped along time.
         """
         layout = self.layout
-        source_frames = self.source_frames()
-        if source_frames is None:
+        if not self.has_source_frames():
             values = np.zeros((self.n_frames, layout.n_channels))
             for order, joints in layout.order_groups().items():
                 angles = quat.to_euler(self.rotations[:, joints], order)
                 values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
         else:
-            values = source_frames[0].copy()
+            assert self.source_values is not None
+            values = self.source_values.copy()
             groups = [
                 (order, joints, layout.rotation_columns[joints])
                 for order, joints in layout.order_groups().items()
@@ -358,7 +381,7 @@ class Motion:
             carries: list[Any] = [None] * len(groups)
             for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
                 block = slice(at, at + BLOCK_FRAMES)
-                rotations, source = self.rotations[block], source_frames[1][block]
+                rotations, source = self.rotations[block], self.read_rotations(block)
                 for g, (order, joints, cols) in enumerate(groups):
                     q, read = rotations[:, joints], source[:, joints]
                     kept = _same_rotations(q, read)

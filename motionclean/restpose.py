@@ -99,9 +99,13 @@ def trim(motion: Motion, lead: int, trail: int) -> Motion:
         return motion
     rows = slice(lead, motion.n_frames - trail)
     source = {}
-    frames = motion.source_frames()
-    if frames is not None:
-        source = {"source_values": frames[0][rows], "source_rotations": frames[1][rows]}
+    if motion.has_source_frames():
+        assert motion.source_values is not None
+        read = motion.source_rotations
+        source = {
+            "source_values": motion.source_values[rows],
+            "source_rotations": None if read is None else read[rows],
+        }
     return motion.replace(
         rotations=motion.rotations[rows],
         translations=motion.translations[rows],

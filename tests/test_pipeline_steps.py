@@ -57,7 +57,6 @@ def clip():
         rotations=m.rotations[:FRAMES].copy(),
         translations=m.translations[:FRAMES].copy(),
         source_values=m.source_values[:FRAMES].copy(),
-        source_rotations=m.source_rotations[:FRAMES].copy(),
     )
 
 

@@ -436,13 +436,18 @@ def _changed(values: np.ndarray, read: np.ndarray) -> np.ndarray:
 
 
 def _unchanged(motion: Motion) -> bool:
-    """True when rotations and translations are bit for bit the ones read."""
-    frames = motion.source_frames()
-    if frames is None or not np.array_equal(motion.rotations, frames[1]):
+    """True when rotations (up to sign) and translations are bit for bit the ones read."""
+    if not motion.has_source_frames():
         return False
+    assert motion.source_values is not None
+    for at in range(0, motion.n_frames, 4096):  # block by block: no clip-sized temporary
+        rows = slice(at, at + 4096)
+        q, read = motion.rotations[rows], motion.read_rotations(rows)
+        if not (np.all(q == read, axis=-1) | np.all(q == -read, axis=-1)).all():
+            return False
     cols = motion.layout.position_columns
     has = cols >= 0
-    return np.array_equal(motion.translations[:, has], frames[0][:, cols[has]])
+    return np.array_equal(motion.translations[:, has], motion.source_values[:, cols[has]])
 
 
 def _refuse_gaps(motion: Motion) -> None:
@@ -513,9 +518,8 @@ def format_bvh(motion: Motion) -> bytes:
         )
     if motion.n_frames == 0:
         return hierarchy + motion_header
-    frames = motion.source_frames()
-    if src is not None and frames is not None and same_frames:
-        changed = _changed(values, frames[0])
+    if src is not None and same_frames and motion.source_values is not None:
+        changed = _changed(values, motion.source_values)
         if not changed.any() and same_frame_time:
             return src.raw
         new = values[changed]

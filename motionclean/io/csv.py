@@ -755,8 +755,11 @@ def _format_channel(motion: Motion) -> bytes:
     n_frames, n_channels = values.shape
     missing = np.repeat(motion.missing_mask(), [len(c) for c in motion.channels], axis=1)
     src = motion.source
-    frames = motion.source_frames()
-    same = frames is not None and frames[0].shape[1] == n_channels
+    same = (
+        motion.has_source_frames()
+        and motion.source_values is not None
+        and motion.source_values.shape[1] == n_channels
+    )
     if isinstance(src, CsvText) and src.layout == "channel" and src.matches(motion) and same:
         mask = np.zeros(src.starts.shape, dtype=bool)
         mask[:, src.columns] = _cells_to_write(
