@@ -54,8 +54,8 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
     parents = kinematics.point_parents(before)
-    points_b = kinematics.forward(_at(before, frames), end_sites=True)[0]
-    points_a = None if after is None else kinematics.forward(_at(after, frames), end_sites=True)[0]
+    points_b = kinematics.world_positions(_at(before, frames))
+    points_a = None if after is None else kinematics.world_positions(_at(after, frames))
     index, names = kinematics.end_effectors(before)
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)

@@ -70,6 +70,7 @@ def forward_arrays(
     rotations = checks.shaped(rotations, 4, "rotations", signal=True)
     translations = checks.shaped(translations, 3, "translations", signal=True)
     world_p, world_q = _forward_planes(np.asarray(parents, dtype=np.intp), rotations, translations)
+    assert world_q is not None
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 
@@ -84,9 +85,11 @@ def _forward_planes(
     channel_axes: np.ndarray | None = None,
     offsets: np.ndarray | None = None,
     tips: dict[int, np.ndarray] | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    keep_rotations: bool = True,
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Forward kinematics of frame-major ``rotations`` (F, J, 4) and ``translations``
-    (F, J, 3) into joint-major world planes: positions (3, P, F), rotations (4, J, F).
+    (F, J, 3) into joint-major world planes: positions (3, P, F), rotations (4, J, F) (None
+    unless ``keep_rotations``).
 
     With ``channel_axes`` (J, 3 bools) the local translation takes ``translations`` where
     it is True and ``offsets`` (J, 3) elsewhere. ``tips`` (joint -> offset) adds end sites
@@ -112,7 +115,7 @@ def _forward_planes(
         )
     n_points = n_joints + tip_rows.size
     widest = max(*sizes, tip_rows.size)
-    world_q = np.empty((4, n_joints, n_frames))
+    world_q = np.empty((4, n_joints, n_frames)) if keep_rotations else None
     world_p = np.empty((3, n_points, n_frames))
     block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
     work: dict[str, np.ndarray] = {}
@@ -145,7 +148,8 @@ def _forward_planes(
             np.copyto(v, tip_offsets[:, :, None])
             _rotate_into(pp, pq, v, scratch)
             np.copyto(p[:, n_joints:], pp)
-        world_q[:, order, frames] = q
+        if world_q is not None:
+            world_q[:, order, frames] = q
         world_p[:, order, frames] = p[:, :n_joints]
         world_p[:, n_joints:, frames] = p[:, n_joints:]
     return world_p, world_q
@@ -251,6 +255,7 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
         offsets=motion.offsets,
         tips=motion.end_sites if end_sites else None,
     )
+    assert world_q is not None
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 
@@ -264,6 +269,21 @@ def missing_points(motion: Motion) -> np.ndarray | None:
         joints[:, level] |= joints[:, motion.parents[level]]
     tips = np.array(sorted(motion.end_sites), dtype=np.intp)
     return np.concatenate([joints, joints[:, tips]], axis=1)
+
+
+def world_positions(motion: Motion, end_sites: bool = True) -> np.ndarray:
+    """The positions of :func:`forward` alone, ``(F, P, 3)`` (world rotations are not kept:
+    the work stays in blocks of frames)."""
+    world_p, _ = _forward_planes(
+        motion.parents,
+        motion.rotations,
+        motion.translations,
+        channel_axes=motion.layout.position_columns >= 0,
+        offsets=motion.offsets,
+        tips=motion.end_sites if end_sites else None,
+        keep_rotations=False,
+    )
+    return world_p.transpose(2, 1, 0)
 
 
 def end_effectors(motion: Motion) -> tuple[np.ndarray, list[str]]:

@@ -59,8 +59,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     # World positions of joints and end sites, once per clip for the contact and world
     # figures (the world rotations are not kept).
     points = [
-        None if clip is None else kinematics.forward(clip, end_sites=True)[0]
-        for clip in (before, after)
+        None if clip is None else kinematics.world_positions(clip) for clip in (before, after)
     ]
     contacts, feet = contact_figures(before, after, points)
     lead, trail = rest_frames(before)

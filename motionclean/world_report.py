@@ -28,7 +28,7 @@ def format_world(world: dict) -> str:
 
 
 def _points(motion: Motion, given: np.ndarray | None) -> np.ndarray:
-    return kinematics.forward(motion, end_sites=True)[0] if given is None else given
+    return kinematics.world_positions(motion) if given is None else given
 
 
 def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
