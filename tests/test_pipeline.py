@@ -199,3 +199,15 @@ def test_steps_see_the_whole_clip_and_whole_clip_steps_replace_it(monkeypatch):
     ]
     assert logs[0].notes == {clip.names[0]: {"halved": True}}
     assert clip.n_frames == mc.load(NOISY).n_frames  # the input is untouched
+
+
+def test_no_step_writes_into_the_clip_it_is_given():
+    """Steps on every joint get the clip's own rotation array (no copy): none may write into
+    it, and the pipeline never writes into its input."""
+    clip = mc.load(NOISY)
+    rotations, translations = clip.rotations.copy(), clip.translations.copy()
+    required = {"resample": "resample:fps=60"}
+    for name in REGISTRY:
+        Pipeline.from_inline([required.get(name, name)]).run(clip)
+        np.testing.assert_array_equal(clip.rotations, rotations, err_msg=name)
+        np.testing.assert_array_equal(clip.translations, translations, err_msg=name)
