@@ -22,6 +22,7 @@ from .batch import batch_command
 from .check import check_command
 from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
+from .filters.gaps import Gaps
 from .io import atomic_write, load, save
 from .io.world_csv import format_world_csv
 from .jobs import (
@@ -45,6 +46,7 @@ from .options import (
 from .pipeline import DEFAULT_STEPS, Pipeline
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
+from .steps.base import brief_runs
 from .world_report import contact_figures, format_contacts
 
 
@@ -132,8 +134,13 @@ def info(clip: str) -> None:
         format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
     ):
         click.echo(f"  {line}")
-    steps, at = metrics.largest_steps(motion.rotations)
+    for line in _dropout_lines(motion):
+        click.echo(line)
+    steps, at = metrics.largest_steps(motion.rotations, motion.missing)
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
+    if motion.missing is not None:  # a dropout's placeholder is no motion
+        missing = motion.missing
+        acc[missing[:-2] | missing[1:-1] | missing[2:]] = 0.0
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
     noise = estimate_noise(motion.rotations, motion.frame_time)
     name_width = max(len("joint"), *(len(n) for n in motion.names)) + 2
@@ -280,6 +287,23 @@ def _write_target(output: str) -> str:
     on a link updates the real file and keeps the link)."""
     path = Path(output)
     return str(path.resolve()) if path.is_symlink() else output
+
+
+def _dropout_lines(motion) -> list[str]:
+    """One line per joint with missing samples (tracker dropouts): how many, where."""
+    if motion.missing is None:
+        return []
+    gaps = Gaps.of(motion.missing)
+    lines = []
+    for joint in np.unique(gaps.joint).tolist():
+        mine = gaps.joint == joint
+        runs = [[int(a), int(b)] for a, b in zip(gaps.first[mine], gaps.stop[mine], strict=True)]
+        frames = int(gaps.lengths[mine].sum())
+        lines.append(
+            f"  dropouts: {motion.names[joint]} missing on {frames} frames: {brief_runs(runs)}"
+        )
+    lines.append("  (the default pipeline's fill-gaps bridges gaps of up to 0.5 s)")
+    return lines
 
 
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")

@@ -78,9 +78,14 @@ def step_deg(q: np.ndarray) -> np.ndarray:
     return np.degrees(quat.angle_between(q[:-1], q[1:]))
 
 
-def largest_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per trailing index, the largest frame-to-frame step (degrees) and the frame it ends at."""
+def largest_steps(
+    q: np.ndarray, missing: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per trailing index, the largest frame-to-frame step (degrees) and the frame it ends at;
+    steps into or out of a ``missing`` sample (``(F, ...)`` bool) do not count."""
     steps = step_deg(q)
+    if missing is not None:
+        steps[missing[:-1] | missing[1:]] = 0.0
     if steps.shape[0] == 0:
         shape = q.shape[1:-1]
         return np.zeros(shape), np.zeros(shape, dtype=np.intp)

@@ -306,3 +306,13 @@ def test_the_player_hides_a_body_while_it_is_missing(tmp_path):
     head = result.before.names.index("Head")
     assert all(head in data["hidden"][0][f] for f in range(40))
     assert all(head not in data["hidden"][0][f] for f in range(40, 300))
+
+
+def test_info_lists_dropouts_and_leaves_their_placeholders_out_of_the_figures(tmp_path, capsys):
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"RightWrist": slice(150, 250)})
+    code, stdout, err = run_cli(capsys, "info", source)
+    assert code == 0, err
+    assert "dropouts: RightWrist missing on 100 frames: 150-249" in stdout
+    row = next(line for line in stdout.splitlines() if line.strip().startswith("RightWrist"))
+    assert int(row.split()[-3]) not in (150, 250)  # the largest step is no placeholder jump
