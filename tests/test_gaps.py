@@ -316,3 +316,14 @@ def test_info_lists_dropouts_and_leaves_their_placeholders_out_of_the_figures(tm
     assert "dropouts: RightWrist missing on 100 frames: 150-249" in stdout
     row = next(line for line in stdout.splitlines() if line.strip().startswith("RightWrist"))
     assert int(row.split()[-3]) not in (150, 250)  # the largest step is no placeholder jump
+
+
+def test_world_csv_leaves_a_missing_body_blank(tmp_path, capsys):
+    source, world = tmp_path / "t.csv", tmp_path / "world.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"LeftWrist": slice(10, 20)})
+    code, _, err = run_cli(capsys, "convert", source, world, "--world")
+    assert code == 0, err
+    rows = world.read_text().splitlines()
+    column = rows[0].split(",").index("LeftWrist.x")
+    assert all(rows[1 + f].split(",")[column : column + 3] == ["", "", ""] for f in range(10, 20))
+    assert all(rows[1 + f].split(",")[column] != "" for f in (9, 20))

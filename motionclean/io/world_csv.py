@@ -3,7 +3,8 @@
 Columns: ``time`` (seconds from the first frame), then ``<point>.x,<point>.y,<point>.z`` for
 every joint and end site (``<joint>_end``) in the order of
 :func:`motionclean.kinematics.forward` with end sites; values in the file's length unit with
-nine significant digits.
+nine significant digits; blank where a point's place depends on a missing sample (a
+tracker dropout).
 """
 
 from __future__ import annotations
@@ -26,7 +27,13 @@ def format_world_csv(motion: Motion) -> bytes:
         ["time", *(f"{name}.{axis}" for name in names for axis in kinematics.AXES)]
     )
     times = np.arange(motion.n_frames) * motion.frame_time
+    unknown = kinematics.missing_points(motion)
+    if unknown is not None:  # a point whose place depends on a dropout is left blank
+        positions = np.where(unknown[..., None], np.nan, positions)
     table = np.column_stack([times, positions.reshape(motion.n_frames, -1)])
     body = io.StringIO()
     np.savetxt(body, table, fmt="%.9g", delimiter=",")
-    return (header.getvalue() + body.getvalue()).encode("utf-8")
+    text = body.getvalue()
+    if unknown is not None:  # every other value is finite: "nan" marks the blanks only
+        text = text.replace("nan", "")
+    return (header.getvalue() + text).encode("utf-8")
