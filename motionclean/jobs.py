@@ -240,7 +240,14 @@ def run_job(job: Job) -> FileResult:
 
 def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
     """Raise :class:`MotionError` unless ``a`` and ``b`` share the skeleton, channels, frame
-    rate and (optionally) length."""
+    rate and (optionally) length, and neither has missing samples."""
+    for clip in (a, b):
+        if clip.has_gaps:
+            raise MotionError(
+                "has missing samples (tracker dropouts): fill them first "
+                "(motionclean clean CLIP -o FILLED -f fill-gaps)",
+                clip.path,
+            )
     if a.names != b.names or not np.array_equal(a.parents, b.parents):
         raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
     if a.channels != b.channels:

@@ -327,3 +327,13 @@ def test_world_csv_leaves_a_missing_body_blank(tmp_path, capsys):
     column = rows[0].split(",").index("LeftWrist.x")
     assert all(rows[1 + f].split(",")[column : column + 3] == ["", "", ""] for f in range(10, 20))
     assert all(rows[1 + f].split(",")[column] != "" for f in (9, 20))
+
+
+@pytest.mark.parametrize("command", ["stitch", "blend"])
+def test_two_clip_commands_refuse_dropouts(tmp_path, capsys, command):
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"LeftWrist": slice(10, 20)})
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, command, source, source, "-o", out)
+    assert code == 1 and "has missing samples (tracker dropouts): fill them first" in err
+    assert not out.exists()
