@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, ROOT, corpus_clip
+from helpers import CORPUS_NAMES, ROOT, SAMPLE, corpus_clip
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -409,3 +409,23 @@ def test_format_fixed6_is_printf():
     expected = [b"%.6f" % v for v in values.tolist()]
     expected = [e[1:] if e.startswith(b"-") and float(e) == 0 else e for e in expected]
     assert got == expected
+
+
+def test_an_edit_in_place_is_written_and_the_rest_keeps_its_text(tmp_path):
+    """The quaternions read are not kept for a BVH clip (they follow from the values read):
+    a rotation changed in place must still be seen as changed, and every other value keep
+    its text."""
+    clip = mc.load(SAMPLE)
+    joint = clip.names.index("LeftKnee")
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), 0.3)
+    clip.rotations[40, joint] = quat.multiply(clip.rotations[40, joint], turn)
+    out = tmp_path / "edited.bvh"
+    mc.save(clip, out)
+    rows_in = SAMPLE.read_text().split("Frame Time:")[1].splitlines()[1:]
+    rows_out = out.read_text().split("Frame Time:")[1].splitlines()[1:]
+    changed = [f for f, (a, b) in enumerate(zip(rows_in, rows_out, strict=True)) if a != b]
+    assert changed == [40]
+    back = mc.load(out)
+    assert (
+        np.degrees(quat.angle_between(back.rotations[40, joint], clip.rotations[40, joint])) < 1e-4
+    )
