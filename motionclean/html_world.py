@@ -35,17 +35,6 @@ def _frames(n_frames: int) -> np.ndarray:
     return np.unique(np.linspace(0, n_frames - 1, PLAYER_FRAMES).round().astype(int))
 
 
-def _at(motion: Motion, frames: np.ndarray) -> Motion:
-    """``motion``'s frames ``frames`` only (forward kinematics of the frames shown)."""
-    return motion.replace(
-        rotations=motion.rotations[frames],
-        translations=motion.translations[frames],
-        source_values=None,
-        source_rotations=None,
-        missing=None if motion.missing is None else motion.missing[frames],
-    )
-
-
 def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """What the page draws: world points of joints and end sites (subsampled frames), the
     bones as point pairs, the up axis and the body height, and where points are unknown
@@ -54,8 +43,8 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
     parents = kinematics.point_parents(before)
-    points_b = kinematics.world_positions(_at(before, frames))
-    points_a = None if after is None else kinematics.world_positions(_at(after, frames))
+    points_b = kinematics.world_positions(before.at_frames(frames))
+    points_a = None if after is None else kinematics.world_positions(after.at_frames(frames))
     index, names = kinematics.end_effectors(before)
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)

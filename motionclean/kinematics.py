@@ -247,16 +247,22 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
     ``P = J`` joints, or with ``end_sites`` the joints followed by the end sites in the
     order of :func:`end_site_names` (an end site has its joint's world rotation).
     """
-    world_p, world_q = _forward_planes(
+    world_p, world_q = _motion_planes(motion, end_sites, keep_rotations=True)
+    assert world_q is not None
+    return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
+
+
+def _motion_planes(motion: Motion, end_sites: bool, keep_rotations: bool):
+    """:func:`_forward_planes` of a clip: its offsets where it has no position channel."""
+    return _forward_planes(
         motion.parents,
         motion.rotations,
         motion.translations,
         channel_axes=motion.layout.position_columns >= 0,
         offsets=motion.offsets,
         tips=motion.end_sites if end_sites else None,
+        keep_rotations=keep_rotations,
     )
-    assert world_q is not None
-    return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
 
 
 def missing_points(motion: Motion) -> np.ndarray | None:
@@ -274,15 +280,7 @@ def missing_points(motion: Motion) -> np.ndarray | None:
 def world_positions(motion: Motion, end_sites: bool = True) -> np.ndarray:
     """The positions of :func:`forward` alone, ``(F, P, 3)`` (world rotations are not kept:
     the work stays in blocks of frames)."""
-    world_p, _ = _forward_planes(
-        motion.parents,
-        motion.rotations,
-        motion.translations,
-        channel_axes=motion.layout.position_columns >= 0,
-        offsets=motion.offsets,
-        tips=motion.end_sites if end_sites else None,
-        keep_rotations=False,
-    )
+    world_p, _ = _motion_planes(motion, end_sites, keep_rotations=False)
     return world_p.transpose(2, 1, 0)
 
 
@@ -337,14 +335,8 @@ def _standing_points(motion: Motion) -> np.ndarray:
     seen = ~motion.missing.all(axis=0)  # bodies never tracked have no place to stand
     first = np.argmax(~motion.missing, axis=0)[seen]
     frames = np.unique(first)
-    sample = motion.replace(
-        rotations=motion.rotations[frames],
-        translations=motion.translations[frames],
-        source_values=None,
-        source_rotations=None,
-        missing=None,
-    )
-    return forward(sample)[0][np.searchsorted(frames, first), np.flatnonzero(seen)]
+    positions = world_positions(motion.at_frames(frames), end_sites=False)
+    return positions[np.searchsorted(frames, first), np.flatnonzero(seen)]
 
 
 def body_height(motion: Motion, up: int | None = None) -> float:

@@ -55,6 +55,12 @@ def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
     return np.degrees(out, out=out)
 
 
+def touches(missing: np.ndarray) -> np.ndarray:
+    """``(F-2, ...)`` bool: the accelerations at frames ``1 .. F-2`` whose three frames
+    include a ``missing`` ``(F, ...)`` sample (a dropout's placeholder is no motion)."""
+    return missing[:-2] | missing[1:-1] | missing[2:]
+
+
 def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
     """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2)."""
     p = np.asarray(p, dtype=np.float64)

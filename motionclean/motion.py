@@ -36,25 +36,25 @@ SAME_ROTATION = 1e-12
 BLOCK_FRAMES = 512
 
 
+def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarray) -> None:
+    """Quaternions of the Euler channels in ``values`` ``(B, C)`` into ``out`` ``(B, J, 4)``
+    (identity for joints without rotation channels; signs as :func:`quat.from_euler` gives
+    them)."""
+    out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
+    for order, joints in layout.groups:
+        out[:, joints] = quat.from_euler(values[:, layout.rotation_columns[joints]], order)
+
+
 def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
     """``(F, J, 4)`` sign-continuous quaternions of the Euler channels in ``values`` ``(F, C)``
     (identity for joints without rotation channels), built :data:`BLOCK_FRAMES` frames at a
     time: the signs continue from block to block exactly as :func:`quat.make_continuous`
     would make them over the whole clip."""
-    n_frames = values.shape[0]
-    rotations = np.empty((n_frames, len(layout.rotation_orders), 4))
-    groups = [
-        (order, joints, layout.rotation_columns[joints])
-        for order, joints in layout.order_groups().items()
-    ]
-    still = ~layout.has_rotation
+    rotations = np.empty((values.shape[0], len(layout.rotation_orders), 4))
     previous = None  # the last sign-corrected sample of the block before
-    for at in range(0, n_frames, BLOCK_FRAMES):
+    for at in range(0, values.shape[0], BLOCK_FRAMES):
         block = rotations[at : at + BLOCK_FRAMES]
-        rows = values[at : at + BLOCK_FRAMES]
-        block[:, still] = (1.0, 0.0, 0.0, 0.0)
-        for order, joints, columns in groups:
-            block[:, joints] = quat.from_euler(rows[:, columns], order)
+        _euler_quaternions(values[at : at + BLOCK_FRAMES], layout, block)
         before = block[:1] if previous is None else previous[None]
         dots = np.einsum("fji,fji->fj", block, np.concatenate([before, block[:-1]]))
         signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
@@ -114,6 +114,11 @@ class ChannelLayout:
     def has_position(self) -> np.ndarray:
         """``(J,)`` bool: joints with at least one position channel."""
         return np.any(self.position_columns >= 0, axis=1)
+
+    @functools.cached_property
+    def groups(self) -> tuple[tuple[str, np.ndarray], ...]:
+        """:meth:`order_groups` as ``(order, joints)`` pairs, computed once."""
+        return tuple(self.order_groups().items())
 
     def order_groups(self) -> dict[str, np.ndarray]:
         """Joint indices grouped by rotation order (at most six groups)."""
@@ -314,6 +319,17 @@ class Motion:
             return np.zeros((self.n_frames, self.n_joints), dtype=bool)
         return self.missing
 
+    def at_frames(self, frames) -> Motion:
+        """The clip at ``frames`` only (a slice or an index array): skeleton, rotations,
+        translations and missing samples; the source values no longer describe it."""
+        return self.replace(
+            rotations=self.rotations[frames],
+            translations=self.translations[frames],
+            source_values=None,
+            source_rotations=None,
+            missing=None if self.missing is None else self.missing[frames],
+        )
+
     def joint_index(self, name: str) -> int:
         try:
             return self.names.index(name)
@@ -350,9 +366,7 @@ class Motion:
         assert self.source_values is not None
         values = self.source_values[rows]
         out = np.empty((values.shape[0], self.n_joints, 4))
-        out[:, ~self.layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
-        for order, joints in self.layout.order_groups().items():
-            out[:, joints] = quat.from_euler(values[:, self.layout.rotation_columns[joints]], order)
+        _euler_quaternions(values, self.layout, out)
         return out
 
     def channel_values(self) -> np.ndarray:

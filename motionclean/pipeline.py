@@ -260,16 +260,8 @@ class Pipeline:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
-            if lead and step.spec.shift_note is not None:
-                log.notes = {
-                    joint: {
-                        key: step.spec.shift_note(value, lead)
-                        if key.endswith(step.spec.name)
-                        else value
-                        for key, value in note.items()
-                    }
-                    for joint, note in log.notes.items()
-                }
+            if lead:  # numbered as the file's frames
+                log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             logs.append(log)
         return splice(motion, current, lead, trail), logs
 
@@ -408,7 +400,8 @@ class _Outputs:
     def run(self, step, motion, rot, pos, rows: slice = slice(None)) -> None:
         data = self.data
         whole = rows == slice(None)
-        context = motion if whole else _cut(motion, rows)
+        # One known stretch: the clip cut to it, with nothing missing, is its context.
+        context = motion if whole else motion.at_frames(rows).replace(missing=None)
         result = step.spec.run(
             StepData(
                 data.rotations[rows][:, rot],
@@ -440,22 +433,12 @@ class _Outputs:
         return data
 
 
-def _cut(motion: Motion, rows: slice) -> Motion:
-    """``motion``'s frames ``rows``, with nothing missing (context for one known stretch)."""
-    return motion.replace(
-        rotations=motion.rotations[rows],
-        translations=motion.translations[rows],
-        source_values=None,
-        source_rotations=None,
-        missing=None,
-    )
-
-
 def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
-    """A stretch's note with its frame numbers counted from the clip's start."""
+    """A note (``{key: value}``, keys the step's name or ``position_`` + it) with its frame
+    numbers moved by ``frames``."""
     if spec.shift_note is None or not frames:
         return note
-    return {k: spec.shift_note(v, frames) if k == spec.name else v for k, v in note.items()}
+    return {k: spec.shift_note(v, frames) if k.endswith(spec.name) else v for k, v in note.items()}
 
 
 def _merged(parts: list[tuple[dict, int]]) -> dict:

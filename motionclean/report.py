@@ -46,7 +46,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
     for clip, acc in ((before, acc_b), (after, acc_a)):
         if clip is not None and clip.missing is not None and acc is not None:
-            acc[_touches_missing(clip.missing[:, rot])] = 0.0
+            acc[metrics.touches(clip.missing[:, rot])] = 0.0
     if dev is not None and after is not None:
         dev[before.missing_mask()[:, rot] | after.missing_mask()[:, rot]] = 0.0
     joints = {}
@@ -79,12 +79,6 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         "world": world_series(before, after),
         "world_figures": figures,
     }
-
-
-def _touches_missing(missing: np.ndarray) -> np.ndarray:
-    """``(F-2, J)``: accelerations at frames 1..F-2 whose three frames include a missing
-    sample (a tracker dropout's placeholder is no motion)."""
-    return missing[:-2] | missing[1:-1] | missing[2:]
 
 
 def _stacked(series: dict, key: str, length: int) -> np.ndarray:

@@ -42,7 +42,7 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
 def _known_accel(points: np.ndarray, dt: float, unknown: np.ndarray) -> np.ndarray:
     """Linear accelerations ``(F-2, P)``, 0 where they involve an unknown position."""
     accel = metrics.linear_acceleration(points, dt)
-    accel[unknown[:-2] | unknown[1:-1] | unknown[2:]] = 0.0
+    accel[metrics.touches(unknown)] = 0.0
     return accel
 
 

@@ -119,15 +119,6 @@ def _at_times(x: np.ndarray, steps_of, piece, ratio: float, n_new: int) -> np.nd
     return out
 
 
-def _displacements(q: np.ndarray) -> np.ndarray:
-    """``log(q_i^-1 q_{i+1})`` (000 Eq. 19) block by block, temporaries in cache."""
-    steps = np.empty((q.shape[0] - 1, *q.shape[1:-1], 3))
-    for rows in _blocks(steps.shape[0]):
-        a, b = q[rows], q[rows.start + 1 : rows.stop + 1]
-        steps[rows] = quat.log(quat.multiply(quat.conjugate(a), b))
-    return steps
-
-
 def _rotation_piece(q0, step, v0, v1, u):
     return hermite_rotations(q0, step, v0, end_tangent(step, v1), u)
 
@@ -156,7 +147,7 @@ def resample_continuous(
     if mask is not None:
         q = lee_shin_unchecked(q, mask)
     n_new = resampled_length(q.shape[0], ratio) if n_new is None else n_new
-    return _at_times(q, _displacements, _rotation_piece, ratio, n_new)
+    return _at_times(q, quat.displacements, _rotation_piece, ratio, n_new)
 
 
 def resample_positions(
