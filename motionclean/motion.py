@@ -20,6 +20,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
+from .threads import in_parts, run_parts
 
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
@@ -33,7 +34,11 @@ UNCHANGED_TOLERANCE = 1e-9
 #: Quaternion components closer than this to the ones read count as unchanged (rounding).
 SAME_ROTATION = 1e-12
 #: Frames per block in the Euler <-> quaternion conversions (temporaries stay in cache).
-BLOCK_FRAMES = 512
+BLOCK_FRAMES = 2048
+#: Frames per part of a clip-long pass run on a thread of its own.
+PART_FRAMES = 16 * BLOCK_FRAMES
+#: Joints per part of the write-back Euler filter run on a thread of its own.
+PART_JOINTS = 8
 
 
 def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarray) -> None:
@@ -48,19 +53,40 @@ def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarra
 def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
     """``(F, J, 4)`` sign-continuous quaternions of the Euler channels in ``values`` ``(F, C)``
     (identity for joints without rotation channels), built :data:`BLOCK_FRAMES` frames at a
-    time: the signs continue from block to block exactly as :func:`quat.make_continuous`
-    would make them over the whole clip."""
+    time in parts of :data:`PART_FRAMES` run on threads: the signs come out exactly as
+    :func:`quat.make_continuous` would make them over the whole clip."""
     rotations = np.empty((values.shape[0], len(layout.rotation_orders), 4))
-    previous = None  # the last sign-corrected sample of the block before
-    for at in range(0, values.shape[0], BLOCK_FRAMES):
-        block = rotations[at : at + BLOCK_FRAMES]
-        _euler_quaternions(values[at : at + BLOCK_FRAMES], layout, block)
-        before = block[:1] if previous is None else previous[None]
-        dots = np.einsum("fji,fji->fj", block, np.concatenate([before, block[:-1]]))
-        signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
-        block *= signs[..., None]
-        previous = block[-1]
+
+    def build(span: slice) -> None:  # signs continuous within the part, from its first frame
+        previous = None  # the last sign-corrected sample of the block before
+        for at in range(span.start, span.stop, BLOCK_FRAMES):
+            rows = slice(at, min(at + BLOCK_FRAMES, span.stop))
+            block = rotations[rows]
+            _euler_quaternions(values[rows], layout, block)
+            before = block[:1] if previous is None else previous[None]
+            dots = np.einsum("fji,fji->fj", block, np.concatenate([before, block[:-1]]))
+            signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
+            block *= signs[..., None]
+            previous = block[-1]
+
+    spans = in_parts(values.shape[0], PART_FRAMES)
+    run_parts(build, spans)
+    # Each part continues the one before: flip its joints whose first sample turned away.
+    sign = np.ones(rotations.shape[1])
+    flips = []
+    for span in spans[1:]:
+        dots = np.einsum("ji,ji->j", rotations[span.start - 1], rotations[span.start])
+        sign = sign * np.where(dots < 0.0, -1.0, 1.0)
+        flips.append((span, sign))
+    run_parts(lambda flip: _flip(rotations[flip[0]], flip[1]), flips)
     return rotations
+
+
+def _flip(block: np.ndarray, sign: np.ndarray) -> None:
+    """Negate the joints of ``block`` ``(B, J, 4)`` whose ``sign`` ``(J,)`` is -1, in place."""
+    joints = np.flatnonzero(sign < 0.0)
+    if joints.size:
+        block[:, joints] *= -1.0
 
 
 @dataclass(frozen=True)
@@ -357,17 +383,17 @@ class Motion:
             and (rotations is None or rotations.shape[0] == self.n_frames)
         )
 
-    def read_rotations(self, rows: slice) -> np.ndarray:
-        """The quaternions read for frames ``rows``, up to sign (``q`` and ``-q`` are the
-        same rotation): the kept ones, or computed from the source values. Only for a clip
-        with source frames (:meth:`has_source_frames`)."""
+    def read_rotations(self, rows: slice, joints=slice(None)) -> np.ndarray:
+        """The quaternions read for frames ``rows`` (of ``joints``, default all), up to sign
+        (``q`` and ``-q`` are the same rotation): the kept ones, or computed from the source
+        values. Only for a clip with source frames (:meth:`has_source_frames`)."""
         if self.source_rotations is not None:
-            return self.source_rotations[rows]
+            return self.source_rotations[rows, joints]
         assert self.source_values is not None
         values = self.source_values[rows]
         out = np.empty((values.shape[0], self.n_joints, 4))
         _euler_quaternions(values, self.layout, out)
-        return out
+        return out[:, joints]
 
     def channel_values(self) -> np.ndarray:
         """``(F, C)`` channel values for the current motion (degrees, length units).
@@ -377,34 +403,42 @@ class Motion:
         to sign: ``q`` and ``-q`` are the same rotation; within :data:`SAME_ROTATION` per
         component, rounding) keep their original values bit for bit, and changed ones
         continue the curve from the last unchanged frame (:func:`continuous_euler`).
-        Otherwise angles are unwrapped along time.
+        Otherwise angles are unwrapped along time. Groups of joints run on threads.
         """
         layout = self.layout
         if not self.has_source_frames():
             values = np.zeros((self.n_frames, layout.n_channels))
-            for order, joints in layout.order_groups().items():
+            for order, joints in layout.groups:
                 angles = quat.to_euler(self.rotations[:, joints], order)
                 values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
         else:
             assert self.source_values is not None
             values = self.source_values.copy()
-            groups = [
-                (order, joints, layout.rotation_columns[joints])
-                for order, joints in layout.order_groups().items()
+            parts = [
+                (order, group[span])
+                for order, group in layout.groups
+                for span in in_parts(group.size, PART_JOINTS)
             ]
-            carries: list[Any] = [None] * len(groups)
-            for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
-                block = slice(at, at + BLOCK_FRAMES)
-                rotations, source = self.rotations[block], self.read_rotations(block)
-                for g, (order, joints, cols) in enumerate(groups):
-                    q, read = rotations[:, joints], source[:, joints]
-                    kept = _same_rotations(q, read)
-                    values[block, cols], carries[g] = _continue_block(
-                        q, order, values[block, cols], kept, carries[g]
-                    )
+            run_parts(lambda part: self._write_euler(values, *part), parts)
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values
+
+    def _write_euler(self, values: np.ndarray, order: str, joints: np.ndarray) -> None:
+        """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
+        columns of ``values`` (which hold the source values), block by block."""
+        cols = self.layout.rotation_columns[joints]
+        read = self.source_values if self.source_rotations is None else None
+        carry = None
+        for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
+            block = slice(at, at + BLOCK_FRAMES)
+            q = self.rotations[block, joints]
+            if read is not None:  # the quaternions read, from the source angles
+                source = quat.from_euler(read[block][:, cols], order)
+            else:
+                source = self.read_rotations(block, joints)
+            kept = _same_rotations(q, source)
+            values[block, cols], carry = _continue_block(q, order, values[block, cols], kept, carry)
 
 
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:

@@ -265,12 +265,19 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np
             part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
             frames = starts[w, None] + np.arange(window)
             keep = (frames >= 0) & (frames < n_frames)
-            flat = (frames * n_cols + c[:, None])[keep]
-            for axis in range(3):
-                moves[:, axis] += np.bincount(
-                    flat, weights=part[..., axis][keep], minlength=moves.shape[0]
-                )
+            _accumulate(moves, (frames * n_cols + c[:, None])[keep], part[keep])
     return moves.reshape(n_frames, n_cols, 3)
+
+
+def _accumulate(moves: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
+    """``moves[rows[i]] += values[i]`` for ``(n, 3)`` values, repeated rows summed; the
+    work spans only the rows touched (a block of windows), not the whole clip."""
+    if not rows.size:
+        return
+    low, high = int(rows.min()), int(rows.max()) + 1
+    cells = ((rows - low) * 3)[:, None] + np.arange(3)
+    sums = np.bincount(cells.ravel(), weights=values.ravel(), minlength=(high - low) * 3)
+    moves[low:high] += sums.reshape(-1, 3)
 
 
 def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple]:

@@ -37,6 +37,7 @@ from .text import (
     check_finite,
     format_fixed6,
     join_rows,
+    line_ends,
     parse_values,
     scan_tokens,
     splice,
@@ -330,7 +331,7 @@ def _parse_rows(
 ):
     """Parse the frame rows: ``(F, C)`` values and the ``(F, C)`` token starts and ends."""
     starts, ends = scan_tokens(buf, body_start)
-    newlines = np.flatnonzero(buf[body_start:] == 10) + body_start
+    newlines = line_ends(buf, body_start)
     counts = np.diff(np.searchsorted(starts, newlines), prepend=0, append=starts.size)
     row_lines = np.flatnonzero(counts)
     bad = np.flatnonzero(counts[row_lines] != n_channels)

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import MotionError
 from ..motion import Motion
+from ..threads import in_parts, run_parts
 
 
 def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
@@ -31,8 +32,11 @@ def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
 
 
 #: Work on arrays in pieces of this many items (or bytes) so temporaries stay in cache.
-_CHUNK_ITEMS = 16384
+_CHUNK_ITEMS = 65536
 _CHUNK_BYTES = 131072
+#: Items (or bytes) per part run on a thread of its own (:mod:`motionclean.threads`).
+_PART_ITEMS = 8 * _CHUNK_ITEMS
+_PART_BYTES = 32 * _CHUNK_BYTES
 #: Bytes per formatted ``%.6f`` field.
 _FIELD = 16
 #: Decimal powers, exact in float64 up to 1e22.
@@ -49,20 +53,33 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     Offsets are int32 for buffers under 2 GiB (half the memory of a long clip's offsets).
     """
     dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
-    edges = []
-    before = np.int8(1)  # a gap before the first byte
-    for at in range(start, buf.size, _CHUNK_BYTES):
-        part = buf[at : at + _CHUNK_BYTES]
-        gap = (part == 32) | ((part >= 9) & (part <= 13))
-        for byte in separators:
-            gap |= part == byte
-        gap = gap.view(np.int8)
-        edges.append((np.flatnonzero(np.diff(gap, prepend=before)) + at).astype(dtype))
-        before = gap[-1]
-    if before == 0:  # a token runs to the end of the buffer
-        edges.append(np.array([buf.size], dtype=dtype))
-    flat = np.concatenate(edges) if edges else np.zeros(0, dtype=dtype)
+    table = np.zeros(256, dtype=np.int8)  # 1: a byte between tokens
+    table[[9, 10, 11, 12, 13, 32, *separators]] = 1
+
+    def edges(span: slice) -> list[np.ndarray]:
+        found = []
+        before = table[buf[span.start - 1]] if span.start > start else np.int8(1)
+        for at in range(span.start, span.stop, _CHUNK_BYTES):
+            gap = table.take(buf[at : min(at + _CHUNK_BYTES, span.stop)])
+            found.append((np.flatnonzero(np.diff(gap, prepend=before)) + at).astype(dtype))
+            before = gap[-1]
+        return found
+
+    found = [e for part in run_parts(edges, in_parts(buf.size, _PART_BYTES, start)) for e in part]
+    if buf.size > start and table[buf[-1]] == 0:  # a token runs to the end of the buffer
+        found.append(np.array([buf.size], dtype=dtype))
+    flat = np.concatenate(found) if found else np.zeros(0, dtype=dtype)
     return flat[0::2], flat[1::2]
+
+
+def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
+    """Offsets of the LF bytes of ``buf[start:]`` (parts run on threads)."""
+
+    def found(span: slice) -> np.ndarray:
+        return np.flatnonzero(buf[span] == 10) + span.start
+
+    parts = run_parts(found, in_parts(buf.size, _PART_BYTES, start))
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
 
 
 #: Buffers at least this long get 64-bit offsets.
@@ -128,7 +145,9 @@ def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
 MAX_MAGNITUDE = 1e12
 
 
-def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None):
+def parse_numbers(
+    buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None, limit: float = math.inf
+):
     """Convert the tokens ``buf[starts[i]:ends[i]]`` to float64, exactly like ``float``.
 
     Plain decimals (optional sign, digits with at most one point, at most 15 digits) are
@@ -136,30 +155,40 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=N
     ``mantissa / 10**k``: both are exact in float64, so the one division is correctly
     rounded, i.e. bit-identical to ``float``. Anything else (exponents, longer mantissas)
     goes through ``float`` one token at a time. Returns ``(values, bad)`` with ``bad`` the
-    index of the first token that is not a finite number (``-1`` when all are). With
-    ``index`` (sorted ints), only the tokens ``index[i]`` are converted, in that order
-    (gathered chunk by chunk, so no full copy of the offsets is made).
+    index of the first token that is not a finite number of magnitude at most ``limit``
+    (``-1`` when all are). With ``index`` (sorted ints), only the tokens ``index[i]`` are
+    converted, in that order (gathered chunk by chunk, so no full copy of the offsets is
+    made). Parts of the tokens run on threads (:mod:`motionclean.threads`).
     """
     n = starts.size if index is None else index.size
     values = np.empty(n)
-    simple = np.empty(n, dtype=bool)
-    for at in range(0, n, _CHUNK_ITEMS):  # chunks stay in cache
-        part = slice(at, at + _CHUNK_ITEMS)
-        if index is None:
-            values[part], simple[part] = _parse_plain(buf, starts[part], ends[part])
-        else:
-            chosen = index[part]
-            values[part], simple[part] = _parse_plain(buf, starts.take(chosen), ends.take(chosen))
 
+    def convert(span: slice) -> list[np.ndarray]:
+        """Convert the plain tokens of ``span``; return the indices of the others."""
+        others = []
+        for at in range(span.start, span.stop, _CHUNK_ITEMS):  # chunks stay in cache
+            part = slice(at, min(at + _CHUNK_ITEMS, span.stop))
+            if index is None:
+                found, simple = _parse_plain(buf, starts[part], ends[part])
+            else:
+                chosen = index[part]
+                found, simple = _parse_plain(buf, starts.take(chosen), ends.take(chosen))
+            values[part] = found
+            simple &= np.abs(found) <= limit
+            if not simple.all():
+                others.append(np.flatnonzero(~simple) + at)
+        return others
+
+    others = [i for part in run_parts(convert, in_parts(n, _PART_ITEMS)) for i in part]
     bad = -1
-    for i in np.flatnonzero(~simple).tolist():
+    for i in np.concatenate(others).tolist() if others else []:
         k = i if index is None else int(index[i])
         token = buf[starts[k] : ends[k]].tobytes()
         try:
             value = float(token) if b"_" not in token else math.nan
         except ValueError:
             value = math.nan
-        if not math.isfinite(value):
+        if not (math.isfinite(value) and abs(value) <= limit):
             bad = i
             break
         values[i] = value
@@ -167,11 +196,9 @@ def parse_numbers(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=N
 
 
 def parse_values(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None):
-    """:func:`parse_numbers` for a clip's values: also the first token beyond
-    :data:`MAX_MAGNITUDE` is bad."""
-    values, bad = parse_numbers(buf, starts, ends, index)
-    huge = np.flatnonzero(np.abs(values[: bad if bad >= 0 else values.size]) > MAX_MAGNITUDE)
-    return values, int(huge[0]) if huge.size else bad
+    """:func:`parse_numbers` for a clip's values: a token beyond :data:`MAX_MAGNITUDE` is
+    bad too."""
+    return parse_numbers(buf, starts, ends, index, limit=MAX_MAGNITUDE)
 
 
 def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
@@ -325,29 +352,36 @@ def splice(
 
     ``texts(a, b)`` returns ``(buffer, starts, lengths)`` of the texts of replacements
     ``a`` to ``b - 1``; it is called for consecutive chunks, so that every temporary array
-    stays small.
+    stays small. Parts of the chunks run on threads.
     """
     source = np.frombuffer(raw, dtype=np.uint8)
     starts, ends = starts.ravel(), ends.ravel()
-    out = [prefix]
-    pos = start
-    for at in range(0, starts.size, _CHUNK_ITEMS):
-        old_starts = starts[at : at + _CHUNK_ITEMS] - pos
-        old_ends = ends[at : at + _CHUNK_ITEMS] - pos
-        buf, new_starts, new_lengths = texts(at, at + old_starts.size)
-        region = source[pos : pos + int(old_ends[-1])]
-        pieces = np.empty(2 * old_starts.size, dtype=np.int64)
-        lengths = np.empty(2 * old_starts.size, dtype=np.int64)
-        pieces[0], pieces[2::2] = 0, old_ends[:-1]  # kept text before each replacement
-        lengths[0::2] = old_starts - pieces[0::2]
-        pieces[1::2] = np.asarray(new_starts) + region.size
-        lengths[1::2] = new_lengths
-        used = lengths > 0
-        if used.any():
-            out.append(_gather(np.concatenate([region, buf]), pieces[used], lengths[used]))
-        pos += int(old_ends[-1])
-    out.append(raw[pos:])
-    return b"".join(out)
+
+    def spliced(span: slice) -> list[bytes]:
+        """The output from the end of replacement ``span.start - 1`` to the end of
+        replacement ``span.stop - 1``."""
+        out = []
+        pos = start if span.start == 0 else int(ends[span.start - 1])
+        for at in range(span.start, span.stop, _CHUNK_ITEMS):
+            stop = min(at + _CHUNK_ITEMS, span.stop)
+            old_starts, old_ends = starts[at:stop] - pos, ends[at:stop] - pos
+            buf, new_starts, new_lengths = texts(at, stop)
+            region = source[pos : pos + int(old_ends[-1])]
+            pieces = np.empty(2 * old_starts.size, dtype=np.int64)
+            lengths = np.empty(2 * old_starts.size, dtype=np.int64)
+            pieces[0], pieces[2::2] = 0, old_ends[:-1]  # kept text before each replacement
+            lengths[0::2] = old_starts - pieces[0::2]
+            pieces[1::2] = np.asarray(new_starts) + region.size
+            lengths[1::2] = new_lengths
+            used = lengths > 0
+            if used.any():
+                out.append(_gather(np.concatenate([region, buf]), pieces[used], lengths[used]))
+            pos += int(old_ends[-1])
+        return out
+
+    parts = run_parts(spliced, in_parts(starts.size, _PART_ITEMS))
+    end = int(ends[-1]) if ends.size else start
+    return b"".join([prefix, *(piece for part in parts for piece in part), raw[end:]])
 
 
 def join_rows(

@@ -1,0 +1,86 @@
+"""Independent parts of one clip's work, run on the machine's cores.
+
+numpy releases the GIL inside its loops, so threads that work on separate blocks of
+frames or separate joints run at the same time. Callers split work into parts whose
+boundaries never depend on the number of threads, and every part computes exactly what
+the whole would: a result is bit for bit the same with one thread or many.
+
+``MOTIONCLEAN_THREADS`` sets the number of threads (default: the CPUs this process may
+use, at most :data:`MAX_THREADS`); batch workers, which already run one clip per core,
+set it to 1. A part that itself asks for parts runs them in its own thread.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+__all__ = ["MAX_THREADS", "in_parts", "run_parts", "thread_count"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Most threads used for one clip (more cores than this bring little for one clip).
+MAX_THREADS = 8
+_pool: ThreadPoolExecutor | None = None
+_pool_lock = threading.Lock()
+_inside = threading.local()
+
+
+def thread_count() -> int:
+    """Threads for one clip's parts: ``MOTIONCLEAN_THREADS`` if set to a positive whole
+    number, else the CPUs this process may use (at most :data:`MAX_THREADS`)."""
+    text = os.environ.get("MOTIONCLEAN_THREADS", "").strip()
+    if text.isdigit() and int(text) > 0:
+        return min(int(text), MAX_THREADS)
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, MAX_THREADS))
+
+
+def _executor(workers: int) -> ThreadPoolExecutor:
+    global _pool
+    with _pool_lock:
+        if _pool is None or _pool._max_workers != workers:
+            if _pool is not None:
+                _pool.shutdown(wait=False)
+            _pool = ThreadPoolExecutor(workers, thread_name_prefix="motionclean")
+        return _pool
+
+
+def _forget_pool() -> None:
+    """A forked child has none of its parent's threads: it starts its own pool."""
+    global _pool
+    _pool = None
+
+
+os.register_at_fork(after_in_child=_forget_pool)
+
+
+def _part(function: Callable[[T], R], item: T) -> R:
+    _inside.active = True
+    try:
+        return function(item)
+    finally:
+        _inside.active = False
+
+
+def run_parts(function: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """``[function(item) for item in items]``, the items run on :func:`thread_count`
+    threads; results in the items' order, the first exception raised as it was."""
+    items = list(items)
+    workers = min(thread_count(), len(items))
+    if workers <= 1 or getattr(_inside, "active", False):
+        return [function(item) for item in items]
+    return list(_executor(workers).map(lambda item: _part(function, item), items))
+
+
+def in_parts(stop: int, part: int, start: int = 0) -> Sequence[slice]:
+    """``[start, stop)`` cut into slices of ``part`` items (the last may be shorter): a
+    split that depends on the sizes only, never on the number of threads."""
+    return [slice(at, min(at + part, stop)) for at in range(start, stop, max(1, part))]
