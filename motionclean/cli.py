@@ -47,6 +47,7 @@ from .pipeline import DEFAULT_STEPS, Pipeline
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
 from .steps.base import brief_runs
+from .threads import one_malloc_arena
 from .world_report import contact_figures, format_contacts
 
 
@@ -69,6 +70,7 @@ def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in args
+    one_malloc_arena()
     if not args:  # a bare `motionclean` shows the help
         args = ["--help"]
     try:

@@ -49,6 +49,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import checks, quat
+from ..threads import in_parts, run_parts
 from . import noise as noise_model
 from .design import lowpass, savgol
 from .linear import displacement_coefficients, mirror_indices
@@ -79,6 +80,8 @@ LOUD_RATIO = 2.0
 LOUD_FLOOR = 0.1
 #: Values (segments x frames x 3) filtered per block when the choices are applied.
 APPLY_BLOCK = 1 << 21
+#: Blocks filtered at once, on threads, before they are added up in order.
+APPLY_BATCH = 4
 
 
 @dataclass(frozen=True)
@@ -256,16 +259,22 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np
         size = fast_length(span + 2 * k - 1)
         kernel = np.fft.rfft(b[::-1], n=size)
         wins, cols = np.nonzero(choice == m)
-        step = max(1, APPLY_BLOCK // (size * 3))
-        for p0 in range(0, wins.size, step):  # blocks of (window, column) segments
-            w, c = wins[p0 : p0 + step], cols[p0 : p0 + step]
+
+        def filtered(segments: slice, k=k, size=size, kernel=kernel, wins=wins, cols=cols):
+            """The tapered moves of a block of (window, column) segments and their rows."""
+            w, c = wins[segments], cols[segments]
             rows = starts[w, None] + np.arange(-k, window + k - 1) + pad
             seg = disp[index[rows], c[:, None]]  # (p, span, 3)
             full = np.fft.irfft(np.fft.rfft(seg, n=size, axis=1) * kernel[:, None], size, axis=1)
             part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
             frames = starts[w, None] + np.arange(window)
             keep = (frames >= 0) & (frames < n_frames)
-            _accumulate(moves, (frames * n_cols + c[:, None])[keep], part[keep])
+            return (frames * n_cols + c[:, None])[keep], part[keep]
+
+        blocks = in_parts(wins.size, max(1, APPLY_BLOCK // (size * 3)))
+        for batch in range(0, len(blocks), APPLY_BATCH):  # filtered on threads, summed in order
+            for flat, part in run_parts(filtered, blocks[batch : batch + APPLY_BATCH]):
+                _accumulate(moves, flat, part)
     return moves.reshape(n_frames, n_cols, 3)
 
 

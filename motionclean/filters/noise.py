@@ -43,6 +43,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..threads import in_parts, run_parts
 from .linear import mirror_indices
 
 __all__ = ["BAND_HZ", "NoiseModel", "WINDOW_SECONDS", "fast_length", "fit", "hann_windows"]
@@ -170,13 +171,16 @@ def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray,
     power = np.empty((starts.size, freqs.size, n_cols))
     scale = 1.0 / np.sum(taper**2)
     step = max(1, BLOCK_VALUES // max(1, freqs.size * n_cols * disp.shape[2]))
-    for w0 in range(0, starts.size, step):  # blocks of windows bound the memory
-        rows = starts[w0 : w0 + step, None] + np.arange(window) + window
+
+    def block(windows: slice) -> None:  # blocks of windows bound the memory
+        rows = starts[windows, None] + np.arange(window) + window
         segment = disp[index[rows]]  # (b, window, C, d)
         segment -= np.einsum("t,btcd->bcd", taper / taper.sum(), segment)[:, None]
         segment *= taper[:, None, None]
         spec = np.fft.rfft(segment, n=size, axis=1)
-        power[w0 : w0 + step] = np.sum(spec.real**2 + spec.imag**2, axis=-1) * scale
+        power[windows] = np.sum(spec.real**2 + spec.imag**2, axis=-1) * scale
+
+    run_parts(block, in_parts(starts.size, step))
     return power, freqs, weights
 
 
@@ -257,9 +261,12 @@ def _third_difference_level(disp: np.ndarray, window: int, rho: np.ndarray) -> n
     index = mirror_indices(n - 2, window, 3 * window)
     out = np.empty((starts.size, n_cols))
     step = max(1, BLOCK_VALUES // max(1, window * n_cols))
-    for w0 in range(0, starts.size, step):  # blocks of windows bound the memory
-        rows = starts[w0 : w0 + step, None] + np.arange(window) + window - 1
-        out[w0 : w0 + step] = np.quantile(norms[index[rows]], 0.75, axis=1)
+
+    def block(windows: slice) -> None:  # blocks of windows bound the memory
+        rows = starts[windows, None] + np.arange(window) + window - 1
+        out[windows] = np.quantile(norms[index[rows]], 0.75, axis=1)
+
+    run_parts(block, in_parts(starts.size, step))
     grid = np.linspace(0.0, 0.5, 2049)
     gain = (
         np.trapezoid(
