@@ -32,8 +32,10 @@ def default_workers() -> int:
 def _worker_setup(parent: int) -> None:
     """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips;
     a worker whose parent is gone (killed, even with SIGKILL) exits within a second instead
-    of holding the caller's pipes open."""
+    of holding the caller's pipes open. Each worker cleans its clip on one thread: the
+    workers already use the cores."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ["MOTIONCLEAN_THREADS"] = "1"
 
     def watch() -> None:
         while os.getppid() == parent:

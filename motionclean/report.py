@@ -22,6 +22,7 @@ from .motion import Motion
 from .restpose import rest_frames, trim
 from .steps import REGISTRY
 from .steps.auto import format_choice
+from .threads import run_parts
 from .world_report import contact_figures, format_contacts, format_world, world_figures
 
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
@@ -39,10 +40,16 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """
     dt = before.frame_time
     rot = np.flatnonzero(before.layout.has_rotation)
-    acc_b = metrics.angular_acceleration(before.rotations[:, rot], dt)
-    acc_a = dev = None
+    clips = (before, after)
+    acc_b, acc_a = run_parts(  # the input and the output on threads of their own
+        lambda clip: (
+            None if clip is None else metrics.angular_acceleration(clip.rotations[:, rot], dt)
+        ),
+        clips,
+    )
+    assert acc_b is not None
+    dev = None
     if after is not None:
-        acc_a = metrics.angular_acceleration(after.rotations[:, rot], dt)
         dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
     for clip, acc in ((before, acc_b), (after, acc_a)):
         if clip is not None and clip.missing is not None and acc is not None:
@@ -58,9 +65,9 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         }
     # World positions of joints and end sites, once per clip for the contact and world
     # figures (the world rotations are not kept).
-    points = [
-        None if clip is None else kinematics.world_positions(clip) for clip in (before, after)
-    ]
+    points = run_parts(
+        lambda clip: None if clip is None else kinematics.world_positions(clip), clips
+    )
     contacts, feet = contact_figures(before, after, points)
     lead, trail = rest_frames(before)
     core = slice(lead, before.n_frames - trail)

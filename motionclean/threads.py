@@ -6,8 +6,9 @@ boundaries never depend on the number of threads, and every part computes exactl
 the whole would: a result is bit for bit the same with one thread or many.
 
 ``MOTIONCLEAN_THREADS`` sets the number of threads (default: the CPUs this process may
-use, at most :data:`MAX_THREADS`); batch workers, which already run one clip per core,
-set it to 1. A part that itself asks for parts runs them in its own thread.
+use, at most :data:`MAX_THREADS`); the worker processes of a local batch, which already
+run one clip per core, set it to 1. A part that itself asks for parts runs them in its
+own thread.
 """
 
 from __future__ import annotations
