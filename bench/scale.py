@@ -2,7 +2,9 @@
 
 Run ``python bench/scale.py [--frames 1000 10000 100000]``. The clips are the corpus clip
 131_02 (31 joints, 1,247 frames) cut or repeated to each length, every value's text kept.
-For each length it measures, in this process (best of a few runs for the short ones):
+For each length it measures, in this process (best of at least three interleaved runs for
+read + write and ``np.loadtxt``, best of two for ``clean``: the first touch of fresh memory
+costs this machine more than the work on it):
 
 - read + write with every rotation changed (motionclean ``load`` + ``save``) against pybvh
   (``read_bvh_file`` + ``write_bvh_file``): the ratio pybvh / motionclean (above 1: faster);
@@ -116,11 +118,11 @@ def main() -> None:
         out = Path(tmp)
         for frames in args.frames:
             clip = build_clip(source, frames, out / f"scale_{frames}.bvh")
-            repeats = max(1, 30_000 // frames)
+            repeats = max(3, 30_000 // frames)
             ours, theirs = read_write(clip, out, repeats)
             block = motion_block(clip)
-            loadtxt = best_of(lambda b=block: np.loadtxt(io.StringIO(b)), min(repeats, 3))
-            clean_s, lines = clean(clip, out)
+            loadtxt = best_of(lambda b=block: np.loadtxt(io.StringIO(b)), 3)
+            clean_s, lines = min(clean(clip, out) for _ in range(2))
             peak = peak_memory(clip, out)
             size = clip.stat().st_size
             rows.append((frames, size, ours, theirs, clean_s, loadtxt, peak, lines))

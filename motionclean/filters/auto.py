@@ -79,9 +79,9 @@ LOUD_RATIO = 2.0
 #: ... and this many degrees (or length units for positions).
 LOUD_FLOOR = 0.1
 #: Values (segments x frames x 3) filtered per block when the choices are applied.
-APPLY_BLOCK = 1 << 21
+APPLY_BLOCK = 1 << 20
 #: Blocks filtered at once, on threads, before they are added up in order.
-APPLY_BATCH = 4
+APPLY_BATCH = 2
 
 
 @dataclass(frozen=True)
