@@ -419,7 +419,7 @@ class Motion:
                 for order, group in layout.groups
                 for span in in_parts(group.size, PART_JOINTS)
             ]
-            run_parts(lambda part: self._write_euler(values, *part), parts)
+            run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values

@@ -46,6 +46,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             None if clip is None else metrics.angular_acceleration(clip.rotations[:, rot], dt)
         ),
         clips,
+        before.rotations.size,
     )
     assert acc_b is not None
     dev = None
@@ -66,7 +67,9 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     # World positions of joints and end sites, once per clip for the contact and world
     # figures (the world rotations are not kept).
     points = run_parts(
-        lambda clip: None if clip is None else kinematics.world_positions(clip), clips
+        lambda clip: None if clip is None else kinematics.world_positions(clip),
+        clips,
+        before.rotations.size,
     )
     contacts, feet = contact_figures(before, after, points)
     lead, trail = rest_frames(before)

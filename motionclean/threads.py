@@ -27,6 +27,8 @@ R = TypeVar("R")
 
 #: Most threads used for one clip (more cores than this bring little for one clip).
 MAX_THREADS = 8
+#: Fewest values worth sharing among threads (see :func:`run_parts`).
+MIN_SHARED_SIZE = 1 << 18
 _pool: ThreadPoolExecutor | None = None
 _pool_lock = threading.Lock()
 _inside = threading.local()
@@ -87,12 +89,15 @@ def _part(function: Callable[[T], R], item: T) -> R:
         _inside.active = False
 
 
-def run_parts(function: Callable[[T], R], items: Iterable[T]) -> list[R]:
+def run_parts(function: Callable[[T], R], items: Iterable[T], size: int | None = None) -> list[R]:
     """``[function(item) for item in items]``, the items run on :func:`thread_count`
-    threads; results in the items' order, the first exception raised as it was."""
+    threads; results in the items' order, the first exception raised as it was. ``size``,
+    the values all parts hold together: below :data:`MIN_SHARED_SIZE` they run on this
+    thread (handing work to a thread would cost more than the work)."""
     items = list(items)
     workers = min(thread_count(), len(items))
-    if workers <= 1 or getattr(_inside, "active", False):
+    small = size is not None and size < MIN_SHARED_SIZE
+    if workers <= 1 or small or getattr(_inside, "active", False):
         return [function(item) for item in items]
     return list(_executor(workers).map(lambda item: _part(function, item), items))
 

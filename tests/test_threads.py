@@ -32,6 +32,17 @@ def test_parts_come_back_in_order_on_several_threads(monkeypatch):
     assert any(name.startswith("motionclean") for name in seen)
 
 
+def test_small_work_stays_on_the_calling_thread(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
+    here = threading.current_thread().name
+    names = threads.run_parts(lambda _: threading.current_thread().name, range(4), size=10)
+    assert names == [here] * 4
+    big = threads.run_parts(
+        lambda _: threading.current_thread().name, range(4), size=threads.MIN_SHARED_SIZE
+    )
+    assert here not in big
+
+
 def test_a_failing_part_raises_its_own_error(monkeypatch):
     monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
 
