@@ -139,9 +139,7 @@ def info(clip: str) -> None:
     for line in _dropout_lines(motion):
         click.echo(line)
     steps, at = metrics.largest_steps(motion.rotations, motion.missing)
-    acc = metrics.angular_acceleration(motion.rotations, motion.frame_time)
-    if motion.missing is not None:  # a dropout's placeholder is no motion
-        acc[metrics.touches(motion.missing)] = 0.0
+    acc = metrics.angular_acceleration(motion.rotations, motion.frame_time, motion.missing)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
     noise = estimate_noise(motion.rotations, motion.frame_time)
     name_width = max(len("joint"), *(len(n) for n in motion.names)) + 2

@@ -343,10 +343,15 @@ def stitch_clips(a: Motion, b: Motion, levels: int = 4, align: bool = True) -> M
         b = align_roots(a, b)
     q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
     joined: dict = {"source_values": None, "source_rotations": None}
-    frames_a, frames_b = a.source_frames(), b.source_frames()
-    if frames_a is not None and frames_b is not None:
-        joined = {
-            "source_values": np.concatenate([frames_a[0], frames_b[0][1:]]),
-            "source_rotations": np.concatenate([frames_a[1], frames_b[1][1:]]),
+    if a.has_source_frames() and b.has_source_frames():
+        assert a.source_values is not None and b.source_values is not None
+        kept = a.source_rotations is not None or b.source_rotations is not None
+        joined = {  # rotations read follow from the values when neither clip kept them
+            "source_values": np.concatenate([a.source_values, b.source_values[1:]]),
+            "source_rotations": np.concatenate(
+                [a.read_rotations(slice(None)), b.read_rotations(slice(1, None))]
+            )
+            if kept
+            else None,
         }
     return a.replace(rotations=q, translations=p, **joined)

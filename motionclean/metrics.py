@@ -35,12 +35,15 @@ def rms(x: np.ndarray, axis=0) -> np.ndarray:
 BLOCK_FRAMES = 4096
 
 
-def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
+def angular_acceleration(
+    q: np.ndarray, frame_time: float, missing: np.ndarray | None = None
+) -> np.ndarray:
     """``(F-2, ...)`` angular acceleration magnitudes in degrees of rotation per s^2.
 
     ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B), with
     ``w_i`` the shorter-arc displacement ``log(+-q_i^-1 q_{i+1})`` (the signs of ``q`` do not
-    matter), computed block by block.
+    matter), computed block by block; 0 where the three frames include a ``missing``
+    ``(F, ...)`` sample (a tracker dropout's placeholder is no motion).
     """
     q = np.asarray(q, dtype=np.float64)
     n = q.shape[0]
@@ -52,21 +55,25 @@ def angular_acceleration(q: np.ndarray, frame_time: float) -> np.ndarray:
         change = w[1:] - w[:-1]
         out[at:stop] = np.sqrt(np.einsum("...i,...i->...", change, change))
     out *= 2.0 / frame_time**2  # in place: no clip-sized temporaries
-    return np.degrees(out, out=out)
+    return _known(np.degrees(out, out=out), missing)
 
 
-def touches(missing: np.ndarray) -> np.ndarray:
-    """``(F-2, ...)`` bool: the accelerations at frames ``1 .. F-2`` whose three frames
-    include a ``missing`` ``(F, ...)`` sample (a dropout's placeholder is no motion)."""
-    return missing[:-2] | missing[1:-1] | missing[2:]
-
-
-def linear_acceleration(p: np.ndarray, frame_time: float) -> np.ndarray:
-    """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2)."""
+def linear_acceleration(
+    p: np.ndarray, frame_time: float, missing: np.ndarray | None = None
+) -> np.ndarray:
+    """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2);
+    0 where the three frames include a ``missing`` ``(F, ...)`` sample."""
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 3:
         return np.zeros((0, *p.shape[1:-1]))
-    return np.linalg.norm(np.diff(p, n=2, axis=0), axis=-1) / frame_time**2
+    return _known(np.linalg.norm(np.diff(p, n=2, axis=0), axis=-1) / frame_time**2, missing)
+
+
+def _known(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
+    """``accel`` ``(F-2, ...)`` with 0 where its three frames include a ``missing`` sample."""
+    if missing is not None and accel.shape[0]:
+        accel[missing[:-2] | missing[1:-1] | missing[2:]] = 0.0
+    return accel
 
 
 def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:

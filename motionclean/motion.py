@@ -41,13 +41,19 @@ PART_FRAMES = 16 * BLOCK_FRAMES
 PART_JOINTS = 8
 
 
-def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarray) -> None:
-    """Quaternions of the Euler channels in ``values`` ``(B, C)`` into ``out`` ``(B, J, 4)``
-    (identity for joints without rotation channels; signs as :func:`quat.from_euler` gives
-    them)."""
-    out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
-    for order, joints in layout.groups:
-        out[:, joints] = quat.from_euler(values[:, layout.rotation_columns[joints]], order)
+def _euler_quaternions(
+    values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=slice(None)
+) -> None:
+    """Quaternions of the Euler channels of ``joints`` (default all) in ``values`` ``(B, C)``
+    into ``out`` ``(B, len(joints), 4)`` (identity for joints without rotation channels;
+    signs as :func:`quat.from_euler` gives them)."""
+    chosen = np.arange(len(layout.rotation_orders))[joints]
+    out[:, ~layout.has_rotation[chosen]] = (1.0, 0.0, 0.0, 0.0)
+    for order, group in layout.groups:
+        at = np.flatnonzero(np.isin(chosen, group))
+        if at.size:
+            columns = layout.rotation_columns[chosen[at]]
+            out[:, at] = quat.from_euler(values[:, columns], order)
 
 
 def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
@@ -362,18 +368,6 @@ class Motion:
         except ValueError:
             raise MotionError(f"no joint named {name!r}", self.path) from None
 
-    def source_frames(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(source_values, source_rotations)`` when they still describe this clip's frames,
-        else None; rotations not kept (a clip read from Euler channels) are computed from the
-        values, exactly as they were read."""
-        if not self.has_source_frames():
-            return None
-        assert self.source_values is not None
-        rotations = self.source_rotations
-        if rotations is None:
-            rotations = _rotations_from_values(self.source_values, self.layout)
-        return self.source_values, rotations
-
     def has_source_frames(self) -> bool:
         """True when the source values still describe the same frames."""
         values, rotations = self.source_values, self.source_rotations
@@ -391,9 +385,9 @@ class Motion:
             return self.source_rotations[rows, joints]
         assert self.source_values is not None
         values = self.source_values[rows]
-        out = np.empty((values.shape[0], self.n_joints, 4))
-        _euler_quaternions(values, self.layout, out)
-        return out[:, joints]
+        out = np.empty((values.shape[0], np.arange(self.n_joints)[joints].size, 4))
+        _euler_quaternions(values, self.layout, out, joints)
+        return out
 
     def channel_values(self) -> np.ndarray:
         """``(F, C)`` channel values for the current motion (degrees, length units).
@@ -428,16 +422,11 @@ class Motion:
         """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
         columns of ``values`` (which hold the source values), block by block."""
         cols = self.layout.rotation_columns[joints]
-        read = self.source_values if self.source_rotations is None else None
         carry = None
         for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + BLOCK_FRAMES)
             q = self.rotations[block, joints]
-            if read is not None:  # the quaternions read, from the source angles
-                source = quat.from_euler(read[block][:, cols], order)
-            else:
-                source = self.read_rotations(block, joints)
-            kept = _same_rotations(q, source)
+            kept = _same_rotations(q, self.read_rotations(block, joints))
             values[block, cols], carry = _continue_block(q, order, values[block, cols], kept, carry)
 
 

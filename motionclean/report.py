@@ -41,20 +41,19 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     dt = before.frame_time
     rot = np.flatnonzero(before.layout.has_rotation)
     clips = (before, after)
-    acc_b, acc_a = run_parts(  # the input and the output on threads of their own
-        lambda clip: (
-            None if clip is None else metrics.angular_acceleration(clip.rotations[:, rot], dt)
-        ),
-        clips,
-        before.rotations.size,
-    )
+
+    def acceleration(clip: Motion | None) -> np.ndarray | None:
+        if clip is None:
+            return None
+        missing = None if clip.missing is None else clip.missing[:, rot]
+        return metrics.angular_acceleration(clip.rotations[:, rot], dt, missing)
+
+    # the input and the output on threads of their own
+    acc_b, acc_a = run_parts(acceleration, clips, before.rotations.size)
     assert acc_b is not None
     dev = None
     if after is not None:
         dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
-    for clip, acc in ((before, acc_b), (after, acc_a)):
-        if clip is not None and clip.missing is not None and acc is not None:
-            acc[metrics.touches(clip.missing[:, rot])] = 0.0
     if dev is not None and after is not None:
         dev[before.missing_mask()[:, rot] | after.missing_mask()[:, rot]] = 0.0
     joints = {}

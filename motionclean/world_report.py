@@ -39,13 +39,6 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
     return points[:, index]
 
 
-def _known_accel(points: np.ndarray, dt: float, unknown: np.ndarray) -> np.ndarray:
-    """Linear accelerations ``(F-2, P)``, 0 where they involve an unknown position."""
-    accel = metrics.linear_acceleration(points, dt)
-    accel[metrics.touches(unknown)] = 0.0
-    return accel
-
-
 def world_figures(
     before: Motion, after: Motion | None = None, points: list | None = None
 ) -> dict[str, Any]:
@@ -62,11 +55,11 @@ def world_figures(
     points = points or [None, None]
     points_b = _points(before, points[0])[:, index]
     unknown_b = _unknown(before, index)
-    rms_b, max_b = rms_and_max(_known_accel(points_b, dt, unknown_b))
+    rms_b, max_b = rms_and_max(metrics.linear_acceleration(points_b, dt, unknown_b))
     if after is not None:
         points_a = _points(after, points[1])[:, index]
         unknown_a = _unknown(after, index)
-        rms_a, max_a = rms_and_max(_known_accel(points_a, dt, unknown_a))
+        rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt, unknown_a))
         moved = np.linalg.norm(points_a - points_b, axis=-1)
         moved[unknown_b | unknown_a] = 0.0
         dev_rms, dev_max = rms_and_max(moved)

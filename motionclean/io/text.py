@@ -46,6 +46,10 @@ _PAIRS = np.frombuffer(b"".join(b"%02d" % i for i in range(100)), dtype=np.uint1
 _DIGIT_POINT = np.frombuffer(b"".join(b"%d." % i for i in range(10)), dtype=np.uint16)
 
 
+#: Buffers at least this long get 64-bit offsets.
+_INT32_LIMIT = 2**31 - 1
+
+
 def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tuple:
     """Byte offsets ``(starts, ends)`` of the tokens of ``buf[start:]``.
 
@@ -80,10 +84,6 @@ def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
 
     parts = run_parts(found, in_parts(buf.size, _PART_BYTES, start))
     return np.concatenate(parts) if parts else np.zeros(0, dtype=np.intp)
-
-
-#: Buffers at least this long get 64-bit offsets.
-_INT32_LIMIT = 2**31 - 1
 
 
 #: Byte classes for :func:`scan_cells`: 1 a line end, 2 a space or tab, 3 CR.
