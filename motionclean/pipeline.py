@@ -252,10 +252,11 @@ class Pipeline:
         # A shallow copy: steps replace its arrays, never write into the input's.
         current = copy.copy(trim(motion, lead, trail))
         spans = _frame_spans(self.steps, motion, lead)
+        made = _Made()
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
             try:
-                current, log = _run_step(step, current, lead, spans.get(number), motion.path)
+                current, log = _run_step(step, current, lead, spans.get(number), motion.path, made)
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -286,9 +287,15 @@ def _frame_span(step: Step, n_frames: int, frame_time: float, path: str | None) 
 
 
 def _run_step(
-    step: Step, motion: Motion, offset: int, span: tuple[int, int] | None, path: str | None
+    step: Step,
+    motion: Motion,
+    offset: int,
+    span: tuple[int, int] | None,
+    path: str | None,
+    made: _Made,
 ) -> tuple[Motion, StepLog]:
-    """One step on ``motion``, whose arrays the pipeline owns and may change in place.
+    """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
+    and written into only where ``made`` copied them).
 
     ``motion`` starts at frame ``offset`` of the file (rest-pose frames left out); a step's
     frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
@@ -333,9 +340,11 @@ def _run_step(
         _crop_notes(step.spec, data.rotation_notes, inside)
         _crop_notes(step.spec, data.translation_notes, inside)
         touched = (inside[0] + offset, inside[1] + offset) if inside else None
-    motion.rotations = _placed(motion.rotations, rot_idx, new_rotations)
+    motion.rotations = made.placed("rotations", motion.rotations, rot_idx, new_rotations)
     if new_translations is not None:
-        motion.translations = _placed(motion.translations, pos_idx, new_translations)
+        motion.translations = made.placed(
+            "translations", motion.translations, pos_idx, new_translations
+        )
     notes: dict[str, dict] = {}
     for column, note in data.rotation_notes.items():
         notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
@@ -348,14 +357,28 @@ def _run_step(
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
 
 
-def _placed(array: np.ndarray, columns: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """A new array: ``array`` with ``values`` in ``columns`` (axis 1); ``values`` itself when
-    they are every column (the input arrays are never written into)."""
-    if columns.size == array.shape[1]:
-        return values
-    out = array.copy()
-    out[:, columns] = values
-    return out
+class _Made:
+    """The clip arrays the pipeline copied during a run (never the input's own, nor a step's
+    result): the only ones it writes into."""
+
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray | None] = {}
+
+    def placed(
+        self, field: str, array: np.ndarray, columns: np.ndarray, values: np.ndarray
+    ) -> np.ndarray:
+        """``array`` (the clip's ``field``) with ``values`` in ``columns`` (axis 1):
+        ``values`` itself when they are every column, else a copy of ``array`` made once and
+        written in place by the steps after (one root's translations do not copy every
+        joint's at every step)."""
+        if columns.size == array.shape[1]:
+            self.arrays[field] = None  # a step's own result: not ours to write into
+            return values
+        if self.arrays.get(field) is not array:
+            array = array.copy()
+            self.arrays[field] = array
+        array[:, columns] = values
+        return array
 
 
 def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:

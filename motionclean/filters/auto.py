@@ -328,7 +328,13 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move)
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     if strength == 0:
         choice[:] = 0
-    out = x.copy() if not np.any(choice) else move(x, _apply(disp, model, choice, masks))
+    if np.any(choice):
+        moves = _apply(disp, model, choice, masks)
+        del disp  # not needed while the clip is moved: its memory goes first
+        out = move(x, moves)
+        del moves
+    else:
+        out = x.copy()
     coverage = model.coverage()
     share = np.zeros((len(masks) + 1, n_cols))
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
