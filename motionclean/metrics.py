@@ -51,7 +51,7 @@ def angular_acceleration(
     for at in range(0, n - 2, BLOCK_FRAMES):
         stop = min(at + BLOCK_FRAMES, n - 2)
         block = q[at : stop + 2]
-        w = quat.log_shortest(quat.multiply(quat.conjugate(block[:-1]), block[1:]))
+        w = quat.log_shortest(quat.relative(block[:-1], block[1:]))
         change = w[1:] - w[:-1]
         out[at:stop] = np.sqrt(np.einsum("...i,...i->...", change, change))
     out *= 2.0 / frame_time**2  # in place: no clip-sized temporaries

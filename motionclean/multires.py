@@ -196,7 +196,7 @@ def _ominus(q_to, q_from, p_to, p_from):
     """``(q_to, p_to) (-) (q_from, p_from)`` (Eq. 3), shortest arc; either part may be None."""
     v = u = None
     if q_from is not None:
-        rel = quat.multiply(quat.conjugate(q_from), q_to)
+        rel = quat.relative(q_from, q_to)
         v = quat.log_shortest(rel)
     if p_from is not None:
         u = p_to - p_from

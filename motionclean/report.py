@@ -39,23 +39,25 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     only their RMS and maximum.
     """
     dt = before.frame_time
-    rot = np.flatnonzero(before.layout.has_rotation)
+    rotating = before.layout.has_rotation
+    rot = np.flatnonzero(rotating)
+    cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
     clips = (before, after)
 
     def acceleration(clip: Motion | None) -> np.ndarray | None:
         if clip is None:
             return None
-        missing = None if clip.missing is None else clip.missing[:, rot]
-        return metrics.angular_acceleration(clip.rotations[:, rot], dt, missing)
+        missing = None if clip.missing is None else clip.missing[:, cols]
+        return metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
 
     # the input and the output on threads of their own
     acc_b, acc_a = run_parts(acceleration, clips, before.rotations.size)
     assert acc_b is not None
     dev = None
     if after is not None:
-        dev = metrics.deviation_deg(before.rotations[:, rot], after.rotations[:, rot])
-    if dev is not None and after is not None:
-        dev[before.missing_mask()[:, rot] | after.missing_mask()[:, rot]] = 0.0
+        dev = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
+        if before.missing is not None or after.missing is not None:
+            dev[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
     joints = {}
     for n, j in enumerate(rot):
         joints[before.names[j]] = {

@@ -84,6 +84,15 @@ def test_multiply_planes_conjugate_matches_multiply():
     np.testing.assert_allclose(out.T, quat.multiply(quat.conjugate(p), q), atol=1e-15)
 
 
+@pytest.mark.parametrize(("shape_p", "shape_q"), [((30, 4), (30, 4)), ((3, 9000, 4), (9000, 4))])
+def test_relative_is_the_product_with_the_conjugate_bit_for_bit(shape_p, shape_q):
+    # small inputs (whole-array path) and several blocks (plane path)
+    rng = np.random.default_rng(4)
+    p, q = random_unit(rng, shape_p[:-1]), random_unit(rng, shape_q[:-1])
+    np.testing.assert_array_equal(quat.relative(p, q), quat.multiply(quat.conjugate(p), q))
+    np.testing.assert_allclose(quat.relative(p, p), quat.identity(shape_p[:-1]), rtol=0, atol=1e-15)
+
+
 # ----------------------------------------------------------------------------- exp / log
 
 

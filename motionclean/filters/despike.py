@@ -553,9 +553,7 @@ def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndar
         g = q.take(np.concatenate([knots.lo, knots.lo2, knots.hi, knots.hi2]), axis=0)
         ql, qr = g[:n], g[2 * n : 3 * n]
         # One product and log for the gap and both outer displacements w_0 and w_2.
-        logs = quat.log_shortest(
-            quat.multiply(quat.conjugate(g[: 3 * n]), np.concatenate([qr, ql, g[3 * n :]]))
-        )
+        logs = quat.log_shortest(quat.relative(g[: 3 * n], np.concatenate([qr, ql, g[3 * n :]])))
         gap, w0, w2 = logs[:n], logs[n : 2 * n], logs[2 * n :]
         tangent = -c0[:, None] * w0 + c3[:, None] * w2
         if np.count_nonzero(cubic) == n:
@@ -567,7 +565,7 @@ def _interpolate_rotations(q: np.ndarray, knots: _Knots, method: str) -> np.ndar
         value = quat.multiply(quat.multiply(ql, moves[:n]), moves[n:])
     else:
         ql, qr = q.take(knots.lo, axis=0), q.take(knots.hi, axis=0)
-        gap = quat.log_shortest(quat.multiply(quat.conjugate(ql), qr))
+        gap = quat.log_shortest(quat.relative(ql, qr))
         value = quat.multiply(ql, quat.exp(u[:, None] * gap))
     return _hold_ends(q, knots, value, ql, qr, has_l, has_r)
 
@@ -670,9 +668,7 @@ def _position_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _rotation_velocity(q: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:
     """Rotation vectors ``2 log(q_i^-1 q_{i+stride})`` (rad) between rows of ``q`` (N, 4)."""
-    return 2.0 * quat.log_shortest(
-        quat.multiply(quat.conjugate(q.take(i, axis=0)), q.take(i + stride, axis=0))
-    )
+    return 2.0 * quat.log_shortest(quat.relative(q.take(i, axis=0), q.take(i + stride, axis=0)))
 
 
 def _position_velocity(p: np.ndarray, i: np.ndarray, stride: int) -> np.ndarray:

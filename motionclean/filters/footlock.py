@@ -215,9 +215,9 @@ def lock_feet(
         knee_world = world[rows, foot.knee]
         new_hip_world = quat.multiply(hip_delta, hip_world)
         new_knee_world = quat.multiply(hip_delta, quat.multiply(knee_delta, knee_world))
-        hip_local = quat.multiply(quat.conjugate(parent_world), new_hip_world)
-        knee_local = quat.multiply(quat.conjugate(new_hip_world), new_knee_world)
-        ankle_local = quat.multiply(quat.conjugate(new_knee_world), world[rows, foot.ankle])
+        hip_local = quat.relative(parent_world, new_hip_world)
+        knee_local = quat.relative(new_hip_world, new_knee_world)
+        ankle_local = quat.relative(new_knee_world, world[rows, foot.ankle])
         for joint, value in (
             (foot.hip, hip_local),
             (foot.knee, knee_local),

@@ -100,7 +100,7 @@ def _edge_weights(count: int) -> np.ndarray:
 
 
 def _rotation_log(base: np.ndarray, other: np.ndarray) -> np.ndarray:
-    return quat.log_shortest(quat.multiply(quat.conjugate(base), other))
+    return quat.log_shortest(quat.relative(base, other))
 
 
 def _position_log(base: np.ndarray, other: np.ndarray) -> np.ndarray:
@@ -192,14 +192,14 @@ def _relative(q, p, joint, donors, frames):
     rotation donor's ``d`` and the position donor's rotation ``e`` and position ``c``."""
     d, _ = _frame_of(q, p, donors[0], frames)
     e, c = _frame_of(q, p, donors[1], frames)
-    rel_q = quat.multiply(quat.conjugate(d), q[frames, joint])
+    rel_q = quat.relative(d, q[frames, joint])
     return rel_q, quat.rotate(quat.conjugate(e), p[frames, joint] - c)
 
 
 def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
     """Sum of squared second differences along axis 1 of ``(G, W, C, n)`` windows."""
     if rotations:
-        steps = quat.log_shortest(quat.multiply(quat.conjugate(x[:, :-1]), x[:, 1:]))
+        steps = quat.log_shortest(quat.relative(x[:, :-1], x[:, 1:]))
     else:
         steps = np.diff(x, axis=1)
     return np.sum(np.diff(steps, axis=1) ** 2, axis=(1, 3))
