@@ -284,9 +284,9 @@ def _accumulate(moves: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None
     if not rows.size:
         return
     low, high = int(rows.min()), int(rows.max()) + 1
-    cells = ((rows - low) * 3)[:, None] + np.arange(3)
-    sums = np.bincount(cells.ravel(), weights=values.ravel(), minlength=(high - low) * 3)
-    moves[low:high] += sums.reshape(-1, 3)
+    local = rows - low
+    for axis in range(3):  # one bincount per axis: a third of the work of one over all three
+        moves[low:high, axis] += np.bincount(local, weights=values[:, axis], minlength=high - low)
 
 
 def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple]:
