@@ -40,7 +40,7 @@ from .text import (
     line_ends,
     parse_values,
     scan_tokens,
-    splice,
+    splice_cells,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -523,18 +523,14 @@ def format_bvh(motion: Motion) -> bytes:
         changed = _changed(values, motion.source_values)
         if not changed.any() and same_frame_time:
             return src.raw
-        new = values[changed]
-        del values  # only the changed values are formatted
         if keep_header:  # the file up to the rows is unchanged
             start, prefix = 0, b""
         else:
             start, prefix = src.body_start, hierarchy + motion_header
-        return splice(
-            src.raw,
-            src.starts[changed],
-            src.ends[changed],
-            lambda a, b: format_fixed6(new[a:b]),
-            start,
-            prefix,
-        )
+
+        def texts(rows: slice):
+            new = values[rows][changed[rows]]  # only the changed values are printed
+            return lambda a, b: format_fixed6(new[a:b])
+
+        return splice_cells(src.raw, src.starts, src.ends, changed, texts, start, prefix)
     return join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)

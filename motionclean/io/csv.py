@@ -87,7 +87,7 @@ from .text import (
     parse_values,
     scan_cells,
     scan_tokens,
-    splice,
+    splice_cells,
 )
 
 #: Column suffixes of a rigid body, in the order they are written.
@@ -710,17 +710,20 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
         placed[:, src.time_column] = first + np.arange(motion.n_frames) * motion.frame_time
     if not mask.any():
         return src.raw
-    new, new_is_time = placed[mask].tolist(), is_time[mask].tolist()
 
-    def texts(a: int, b: int):
-        return pack_texts(
-            [
-                b"%.12g" % v if t else repr(v).encode() if v == v else b""  # NaN: blank
-                for v, t in zip(new[a:b], new_is_time[a:b], strict=True)
-            ]
+    def texts(rows: slice):
+        chosen = mask[rows]
+        new, new_is_time = placed[rows][chosen].tolist(), is_time[rows][chosen].tolist()
+        return (
+            lambda a, b: pack_texts(
+                [
+                    b"%.12g" % v if t else repr(v).encode() if v == v else b""  # NaN: blank
+                    for v, t in zip(new[a:b], new_is_time[a:b], strict=True)
+                ]
+            )
         )
 
-    return splice(src.raw, src.starts[mask], src.ends[mask], texts)
+    return splice_cells(src.raw, src.starts, src.ends, mask, texts)
 
 
 def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:

@@ -344,44 +344,68 @@ def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: byt
     return b"".join(out)
 
 
-def splice(
-    raw: bytes, starts: np.ndarray, ends: np.ndarray, texts, start: int = 0, prefix: bytes = b""
+def splice_cells(
+    raw: bytes,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    mask: np.ndarray,
+    texts,
+    start: int = 0,
+    prefix: bytes = b"",
 ) -> bytes:
-    """``prefix + raw[start:]`` with the byte ranges ``[starts[i], ends[i])`` (sorted,
-    disjoint, at or after ``start``) replaced by new texts.
+    """``prefix + raw[start:]`` with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)``
+    rows (in file order, at or after ``start``) replaced where ``mask`` is True.
 
-    ``texts(a, b)`` returns ``(buffer, starts, lengths)`` of the texts of replacements
-    ``a`` to ``b - 1``; it is called for consecutive chunks, so that every temporary array
-    stays small. Parts of the chunks run on threads.
+    ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
+    lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
+    Parts of rows run on threads and each works from its own rows only, in chunks, so no
+    array the size of the clip is made.
     """
     source = np.frombuffer(raw, dtype=np.uint8)
-    starts, ends = starts.ravel(), ends.ravel()
+    n_rows = starts.shape[0]
+    spans = in_parts(n_rows, max(1, _PART_ITEMS // max(1, starts.shape[1])))
 
-    def spliced(span: slice) -> list[bytes]:
-        """The output from the end of replacement ``span.start - 1`` to the end of
-        replacement ``span.stop - 1``."""
+    def spliced(rows: slice) -> list[bytes]:
+        """The output from the first cell of row ``rows.start`` (or ``start``) to the first
+        cell of row ``rows.stop`` (or the end of ``raw``)."""
+        pos = start if rows.start == 0 else int(starts[rows.start, 0])
+        end = len(raw) if rows.stop == n_rows else int(starts[rows.stop, 0])
+        chosen = mask[rows]
+        old_starts, old_ends = starts[rows][chosen], ends[rows][chosen]
+        chunk = texts(rows)
         out = []
-        pos = start if span.start == 0 else int(ends[span.start - 1])
-        for at in range(span.start, span.stop, _CHUNK_ITEMS):
-            stop = min(at + _CHUNK_ITEMS, span.stop)
-            old_starts, old_ends = starts[at:stop] - pos, ends[at:stop] - pos
-            buf, new_starts, new_lengths = texts(at, stop)
-            region = source[pos : pos + int(old_ends[-1])]
-            pieces = np.empty(2 * old_starts.size, dtype=np.int64)
-            lengths = np.empty(2 * old_starts.size, dtype=np.int64)
-            pieces[0], pieces[2::2] = 0, old_ends[:-1]  # kept text before each replacement
-            lengths[0::2] = old_starts - pieces[0::2]
-            pieces[1::2] = np.asarray(new_starts) + region.size
-            lengths[1::2] = new_lengths
-            used = lengths > 0
-            if used.any():
-                out.append(_gather(np.concatenate([region, buf]), pieces[used], lengths[used]))
-            pos += int(old_ends[-1])
+        for at in range(0, old_starts.size, _CHUNK_ITEMS):
+            stop = min(at + _CHUNK_ITEMS, old_starts.size)
+            kept_starts = np.empty(stop - at, dtype=np.int64)  # kept text before each one
+            kept_starts[0], kept_starts[1:] = pos, old_ends[at : stop - 1]
+            buf, new_starts, new_lengths = chunk(at, stop)
+            out.append(
+                _interleave(source, kept_starts, old_starts[at:stop], buf, new_starts, new_lengths)
+            )
+            pos = int(old_ends[stop - 1])
+        out.append(raw[pos:end])
         return out
 
-    parts = run_parts(spliced, in_parts(starts.size, _PART_ITEMS))
-    end = int(ends[-1]) if ends.size else start
-    return b"".join([prefix, *(piece for part in parts for piece in part), raw[end:]])
+    parts = run_parts(spliced, spans)
+    return b"".join([prefix, *(piece for part in parts for piece in part)])
+
+
+def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) -> bytes:
+    """``source[kept_starts[i]:kept_ends[i]]`` followed by new text ``i`` (of ``buf``), for
+    every ``i``."""
+    low, high = int(kept_starts[0]), int(kept_ends[-1])
+    region = source[low:high]
+    n = kept_starts.size
+    pieces = np.empty(2 * n, dtype=np.int64)
+    lengths = np.empty(2 * n, dtype=np.int64)
+    pieces[0::2] = kept_starts - low
+    lengths[0::2] = kept_ends - kept_starts
+    pieces[1::2] = np.asarray(new_starts) + region.size
+    lengths[1::2] = new_lengths
+    used = lengths > 0
+    if not used.any():
+        return b""
+    return _gather(np.concatenate([region, buf]), pieces[used], lengths[used])
 
 
 def join_rows(
