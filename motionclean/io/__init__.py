@@ -6,6 +6,7 @@ import errno
 import os
 import stat
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import MotionError
@@ -23,7 +24,11 @@ def _format_csv(motion: Motion) -> bytes:
 
 
 _READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
-_WRITERS = {".bvh": bvh.format_bvh, ".csv": _format_csv}
+#: Writers give the file's bytes, or its pieces to write in turn.
+_WRITERS: dict[str, Callable[[Motion], bytes | list[bytes]]] = {
+    ".bvh": bvh.bvh_pieces,
+    ".csv": _format_csv,
+}
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
 
@@ -108,8 +113,9 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
     atomic_write(path, data)
 
 
-def atomic_write(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it into place.
+def atomic_write(path: str | os.PathLike, data: bytes | list[bytes]) -> None:
+    """Write ``data`` (bytes, or a list of pieces written in turn) to a temporary file beside
+    ``path``, then rename it into place.
 
     Readers never see a partial file; on failure the target is left as it was.
     """
@@ -124,7 +130,7 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
         raise MotionError(f"cannot write: {error.strerror}", path) from None
     try:
         with os.fdopen(fd, "wb") as f:
-            f.write(data)
+            f.writelines([data] if isinstance(data, bytes) else data)
         os.chmod(tmp, _target_mode(path))
         os.replace(tmp, path)
     except OSError as error:  # disk full, permissions: still one clear line

@@ -469,7 +469,13 @@ def _refuse_gaps(motion: Motion) -> None:
 
 
 def format_bvh(motion: Motion) -> bytes:
-    """Serialise ``motion`` as BVH bytes.
+    """Serialise ``motion`` as BVH bytes (:func:`bvh_pieces` joined)."""
+    return b"".join(bvh_pieces(motion))
+
+
+def bvh_pieces(motion: Motion) -> list[bytes]:
+    """``motion`` as BVH, in pieces to write one after the other (no copy of the whole file
+    is made to join them).
 
     With source text and the same frames, only changed values are rewritten (``%.6f``) and an
     unchanged motion returns the input bytes exactly. A motion read from a channel CSV
@@ -496,7 +502,7 @@ def format_bvh(motion: Motion) -> bytes:
         and src.starts.shape[1] == motion.layout.n_channels
     )
     if src is not None and same_frames and same_frame_time and _unchanged(motion):
-        return src.raw
+        return [src.raw]
     values = motion.channel_values()
     check_finite(motion, values)
     keep_header = (
@@ -518,11 +524,11 @@ def format_bvh(motion: Motion) -> bytes:
             + eol
         )
     if motion.n_frames == 0:
-        return hierarchy + motion_header
+        return [hierarchy, motion_header]
     if src is not None and same_frames and motion.source_values is not None:
         changed = _changed(values, motion.source_values)
         if not changed.any() and same_frame_time:
-            return src.raw
+            return [src.raw]
         if keep_header:  # the file up to the rows is unchanged
             start, prefix = 0, b""
         else:
@@ -533,4 +539,4 @@ def format_bvh(motion: Motion) -> bytes:
             return lambda a, b: format_fixed6(new[a:b])
 
         return splice_cells(src.raw, src.starts, src.ends, changed, texts, start, prefix)
-    return join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)
+    return [join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)]

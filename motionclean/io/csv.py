@@ -723,7 +723,7 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
             )
         )
 
-    return splice_cells(src.raw, src.starts, src.ends, mask, texts)
+    return b"".join(splice_cells(src.raw, src.starts, src.ends, mask, texts))
 
 
 def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:

@@ -352,8 +352,9 @@ def splice_cells(
     texts,
     start: int = 0,
     prefix: bytes = b"",
-) -> bytes:
-    """``prefix + raw[start:]`` with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)``
+) -> list[bytes]:
+    """The pieces of ``prefix + raw[start:]`` (a list of bytes to join or write in turn)
+    with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)``
     rows (in file order, at or after ``start``) replaced where ``mask`` is True.
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
@@ -387,7 +388,7 @@ def splice_cells(
         return out
 
     parts = run_parts(spliced, spans)
-    return b"".join([prefix, *(piece for part in parts for piece in part)])
+    return [prefix, *(piece for part in parts for piece in part)]
 
 
 def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) -> bytes:
