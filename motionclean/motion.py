@@ -20,7 +20,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
-from .threads import in_parts, run_parts
+from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
@@ -408,10 +408,11 @@ class Motion:
         else:
             assert self.source_values is not None
             values = self.source_values.copy()
+            shared = values.size >= MIN_SHARED_SIZE  # else one part per group: less overhead
             parts = [
                 (order, group[span])
                 for order, group in layout.groups
-                for span in in_parts(group.size, PART_JOINTS)
+                for span in in_parts(group.size, PART_JOINTS if shared else group.size)
             ]
             run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
         has = layout.position_columns >= 0

@@ -83,6 +83,8 @@ def _small_parts(monkeypatch) -> None:
     monkeypatch.setattr(motion_module, "BLOCK_FRAMES", 16)
     monkeypatch.setattr(motion_module, "PART_FRAMES", 48)
     monkeypatch.setattr(motion_module, "PART_JOINTS", 3)
+    monkeypatch.setattr(motion_module, "MIN_SHARED_SIZE", 0)  # small work shared all the same
+    monkeypatch.setattr(threads, "MIN_SHARED_SIZE", 0)
     monkeypatch.setattr(text_module, "_CHUNK_ITEMS", 500)
     monkeypatch.setattr(text_module, "_PART_ITEMS", 1500)
     monkeypatch.setattr(text_module, "_CHUNK_BYTES", 1024)

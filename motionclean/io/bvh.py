@@ -441,8 +441,8 @@ def _unchanged(motion: Motion) -> bool:
     if not motion.has_source_frames():
         return False
     assert motion.source_values is not None
-    for at in range(0, motion.n_frames, 4096):  # block by block: no clip-sized temporary
-        rows = slice(at, at + 4096)
+    for at in range(0, motion.n_frames, 256):  # small blocks: a changed clip is seen early
+        rows = slice(at, at + 256)
         q, read = motion.rotations[rows], motion.read_rotations(rows)
         if not (np.all(q == read, axis=-1) | np.all(q == -read, axis=-1)).all():
             return False
