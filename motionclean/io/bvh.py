@@ -332,6 +332,34 @@ def _parse_rows(
     """Parse the frame rows: ``(F, C)`` values and the ``(F, C)`` token starts and ends."""
     starts, ends = scan_tokens(buf, body_start)
     newlines = line_ends(buf, body_start)
+    if not _one_row_per_line(starts, ends, newlines, n_frames, n_channels):
+        _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path)
+    values, bad_token = parse_values(buf, starts, ends)
+    if bad_token >= 0:
+        token = buf[starts[bad_token] : ends[bad_token]].tobytes()
+        _fail(
+            bad_number_message("frame value", token),
+            path,
+            first_line + np.searchsorted(newlines, starts[bad_token]),
+        )
+    shape = (n_frames, n_channels)
+    return values.reshape(shape), starts.reshape(shape), ends.reshape(shape)
+
+
+def _one_row_per_line(starts, ends, newlines, n_frames: int, n_channels: int) -> bool:
+    """True when the tokens are ``n_frames`` rows of ``n_channels``, each on a line of its
+    own: no line end within a row, at least one between rows (only the rows' first and
+    last tokens are looked up, not every token)."""
+    if starts.size != n_frames * n_channels or n_channels == 0:
+        return False
+    inside = np.searchsorted(newlines, starts[::n_channels])
+    after = np.searchsorted(newlines, ends[n_channels - 1 :: n_channels])
+    return bool(np.array_equal(inside, after) and np.all(inside[1:] > after[:-1]))
+
+
+def _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path) -> None:
+    """Name the first line whose values do not make a frame row (the file's shape is wrong
+    somewhere: a row too short or too long, too few or too many rows)."""
     counts = np.diff(np.searchsorted(starts, newlines), prepend=0, append=starts.size)
     row_lines = np.flatnonzero(counts)
     bad = np.flatnonzero(counts[row_lines] != n_channels)
@@ -348,21 +376,11 @@ def _parse_rows(
         )
     if row_lines.size > n_frames:
         _fail(f"more frame rows than Frames: {n_frames}", path, first_line + row_lines[n_frames])
-    values, bad_token = parse_values(buf, starts, ends)
-    if bad_token >= 0:
-        token = buf[starts[bad_token] : ends[bad_token]].tobytes()
-        _fail(
-            bad_number_message("frame value", token),
-            path,
-            first_line + np.searchsorted(newlines, starts[bad_token]),
-        )
-    shape = (n_frames, n_channels)
-    return values.reshape(shape), starts.reshape(shape), ends.reshape(shape)
 
 
 def parse_bvh(data: bytes, path=None) -> Motion:
     """Parse BVH bytes into a :class:`Motion`; errors name ``path`` and the line."""
-    if not data.strip():
+    if not data or data.isspace():  # (no copy of the file, unlike strip)
         _fail("empty file", path)
     if b"\x00" in data[:4096]:
         _fail("not a text file (binary data)", path)

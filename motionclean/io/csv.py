@@ -481,7 +481,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     ``skeleton`` is the template a channel CSV is read into; it is not used for a
     rigid-body CSV. Errors name ``path`` and the line.
     """
-    if not data.strip():
+    if not data or data.isspace():  # (no copy of the file, unlike strip)
         _fail("empty file", path)
     if b"\x00" in data[:4096]:
         _fail("not a text file (binary data)", path)
