@@ -407,7 +407,7 @@ class Motion:
                 values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
         else:
             assert self.source_values is not None
-            values = self.source_values.copy()
+            values = np.empty_like(self.source_values)  # every column is written below
             shared = values.size >= MIN_SHARED_SIZE  # else one part per group: less overhead
             parts = [
                 (order, group[span])
@@ -421,14 +421,16 @@ class Motion:
 
     def _write_euler(self, values: np.ndarray, order: str, joints: np.ndarray) -> None:
         """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
-        columns of ``values`` (which hold the source values), block by block."""
+        columns of ``values``, block by block, continuing the source values."""
+        assert self.source_values is not None
         cols = self.layout.rotation_columns[joints]
         carry = None
         for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + BLOCK_FRAMES)
             q = self.rotations[block, joints]
             kept = _same_rotations(q, self.read_rotations(block, joints))
-            values[block, cols], carry = _continue_block(q, order, values[block, cols], kept, carry)
+            read = self.source_values[block][:, cols]
+            values[block, cols], carry = _continue_block(q, order, read, kept, carry)
 
 
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
@@ -501,9 +503,10 @@ def _continue_block(q, order, reference, kept, carry):
         is_anchor[0] = True  # the clip's first frame
     # A changed anchor is written as the triple nearest its original angles (computed for
     # those samples only: the others never read it).
-    anchor_values = reference.copy()
+    anchor_values = reference
     changed_anchor = is_anchor & ~kept
-    if changed_anchor.any():
+    if changed_anchor.any():  # (most blocks have none: no copy)
+        anchor_values = reference.copy()
         anchor_values[changed_anchor] = quat.to_euler(
             q[changed_anchor], order, reference=reference[changed_anchor]
         )
