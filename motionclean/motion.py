@@ -33,20 +33,28 @@ UNCHANGED_TOLERANCE = 1e-9
 
 #: Quaternion components closer than this to the ones read count as unchanged (rounding).
 SAME_ROTATION = 1e-12
-#: Frames per block in the Euler <-> quaternion conversions (temporaries stay in cache).
-BLOCK_FRAMES = 2048
+#: Frames per block in the Euler <-> quaternion conversions of every joint (temporaries
+#: stay in cache) ...
+BLOCK_FRAMES = 512
+#: ... and in the write-back Euler filter, which works on groups of PART_JOINTS joints.
+FILTER_BLOCK_FRAMES = 2048
 #: Frames per part of a clip-long pass run on a thread of its own.
-PART_FRAMES = 16 * BLOCK_FRAMES
+PART_FRAMES = 64 * BLOCK_FRAMES
 #: Joints per part of the write-back Euler filter run on a thread of its own.
 PART_JOINTS = 8
 
 
 def _euler_quaternions(
-    values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=slice(None)
+    values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=None
 ) -> None:
     """Quaternions of the Euler channels of ``joints`` (default all) in ``values`` ``(B, C)``
     into ``out`` ``(B, len(joints), 4)`` (identity for joints without rotation channels;
     signs as :func:`quat.from_euler` gives them)."""
+    if joints is None:
+        out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
+        for order, group in layout.groups:
+            out[:, group] = quat.from_euler(values[:, layout.rotation_columns[group]], order)
+        return
     chosen = np.arange(len(layout.rotation_orders))[joints]
     out[:, ~layout.has_rotation[chosen]] = (1.0, 0.0, 0.0, 0.0)
     for order, group in layout.groups:
@@ -377,15 +385,20 @@ class Motion:
             and (rotations is None or rotations.shape[0] == self.n_frames)
         )
 
-    def read_rotations(self, rows: slice, joints=slice(None)) -> np.ndarray:
+    def read_rotations(self, rows: slice, joints=None) -> np.ndarray:
         """The quaternions read for frames ``rows`` (of ``joints``, default all), up to sign
         (``q`` and ``-q`` are the same rotation): the kept ones, or computed from the source
         values. Only for a clip with source frames (:meth:`has_source_frames`)."""
         if self.source_rotations is not None:
-            return self.source_rotations[rows, joints]
+            return (
+                self.source_rotations[rows]
+                if joints is None
+                else self.source_rotations[rows, joints]
+            )
         assert self.source_values is not None
         values = self.source_values[rows]
-        out = np.empty((values.shape[0], np.arange(self.n_joints)[joints].size, 4))
+        count = self.n_joints if joints is None else np.arange(self.n_joints)[joints].size
+        out = np.empty((values.shape[0], count, 4))
         _euler_quaternions(values, self.layout, out, joints)
         return out
 
@@ -425,8 +438,8 @@ class Motion:
         assert self.source_values is not None
         cols = self.layout.rotation_columns[joints]
         carry = None
-        for at in range(0, self.n_frames, BLOCK_FRAMES):  # temporaries stay small
-            block = slice(at, at + BLOCK_FRAMES)
+        for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
+            block = slice(at, at + FILTER_BLOCK_FRAMES)
             q = self.rotations[block, joints]
             kept = _same_rotations(q, self.read_rotations(block, joints))
             read = self.source_values[block][:, cols]

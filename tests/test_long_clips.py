@@ -31,6 +31,7 @@ def test_euler_write_back_does_not_depend_on_the_block_size(monkeypatch, block):
     clip = edited(mc.load(NOISY), seed=block)
     whole = clip.channel_values()  # default blocks: longer than most runs of 1 to 64
     monkeypatch.setattr(motion_module, "BLOCK_FRAMES", block)
+    monkeypatch.setattr(motion_module, "FILTER_BLOCK_FRAMES", block)
     assert np.array_equal(clip.channel_values(), whole)
     again = mc.Motion.from_channel_values(
         clip.names, clip.parents, clip.offsets, clip.channels, clip.frame_time, whole

@@ -81,6 +81,7 @@ def test_in_parts_covers_the_range_once():
 def _small_parts(monkeypatch) -> None:
     """Parts of a few frames, values and bytes: a short clip is cut into many."""
     monkeypatch.setattr(motion_module, "BLOCK_FRAMES", 16)
+    monkeypatch.setattr(motion_module, "FILTER_BLOCK_FRAMES", 16)
     monkeypatch.setattr(motion_module, "PART_FRAMES", 48)
     monkeypatch.setattr(motion_module, "PART_JOINTS", 3)
     monkeypatch.setattr(motion_module, "MIN_SHARED_SIZE", 0)  # small work shared all the same
