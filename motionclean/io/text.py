@@ -354,8 +354,8 @@ def splice_cells(
     prefix: bytes = b"",
 ) -> list[bytes]:
     """The pieces of ``prefix + raw[start:]`` (a list of bytes to join or write in turn)
-    with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)``
-    rows (in file order, at or after ``start``) replaced where ``mask`` is True.
+    with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)`` rows (in file order, at or
+    after ``start``) replaced where ``mask`` is True.
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
