@@ -44,6 +44,23 @@ PART_FRAMES = 64 * BLOCK_FRAMES
 PART_JOINTS = 8
 
 
+def joint_major_zeros(n_frames: int, n_joints: int, width: int = 3) -> np.ndarray:
+    """``(F, J, width)`` float64 zeros stored joint by joint (a transposed ``(J, F, width)``
+    block): the columns of joints never written, such as the translations of joints without
+    position channels, stay zero pages the system has not handed out, so they take no
+    memory however long the clip."""
+    return np.zeros((n_joints, n_frames, width)).transpose(1, 0, 2)
+
+
+def sparse_copy(array: np.ndarray) -> np.ndarray:
+    """A copy of ``(F, J, width)`` ``array`` in :func:`joint_major_zeros` storage, with only
+    the joints that hold a non-zero value written."""
+    out = joint_major_zeros(*array.shape)
+    written = np.flatnonzero(np.any(array != 0.0, axis=(0, 2)))
+    out[:, written] = array[:, written]
+    return out
+
+
 def _euler_quaternions(
     values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=None
 ) -> None:
@@ -291,7 +308,7 @@ class Motion:
         values = np.asarray(values, dtype=np.float64)
         n_frames = values.shape[0]
         rotations = _rotations_from_values(values, layout)
-        translations = np.zeros((n_frames, len(names), 3))
+        translations = joint_major_zeros(n_frames, len(names))
         has = layout.position_columns >= 0
         translations[:, has] = values[:, layout.position_columns[has]]
         return cls(

@@ -23,7 +23,7 @@ import numpy as np
 
 from .errors import MotionError, UsageError
 from .filters.gaps import Gaps
-from .motion import Motion
+from .motion import Motion, sparse_copy
 from .ranges import FrameRange, blend_positions, blend_rotations, weights
 from .restpose import rest_frames, splice, trim
 from .steps import COMMON_PARAMS, REGISTRY, StepData, StepSpec
@@ -370,12 +370,13 @@ class _Made:
         """``array`` (the clip's ``field``) with ``values`` in ``columns`` (axis 1):
         ``values`` itself when they are every column, else a copy of ``array`` made once and
         written in place by the steps after (one root's translations do not copy every
-        joint's at every step)."""
+        joint's at every step; translations are copied as :func:`sparse_copy`, so the
+        zeros of joints without position channels take no memory)."""
         if columns.size == array.shape[1]:
             self.arrays[field] = None  # a step's own result: not ours to write into
             return values
         if self.arrays.get(field) is not array:
-            array = array.copy()
+            array = sparse_copy(array) if field == "translations" else array.copy()
             self.arrays[field] = array
         array[:, columns] = values
         return array

@@ -23,7 +23,13 @@ from .restpose import rest_frames, trim
 from .steps import REGISTRY
 from .steps.auto import format_choice
 from .threads import run_parts
-from .world_report import contact_figures, format_contacts, format_world, world_figures
+from .world_report import (
+    contact_figures,
+    figure_points,
+    format_contacts,
+    format_world,
+    world_figures,
+)
 
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
 
@@ -65,10 +71,11 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "accel_after": None if acc_a is None else acc_a[:, n],
             "deviation": None if dev is None else dev[:, n],
         }
-    # World positions of joints and end sites, once per clip for the contact and world
-    # figures (the world rotations are not kept).
+    # World positions of the points the contact and world figures read, once per clip
+    # (the world rotations and the other points are not kept).
+    used = figure_points(before)
     points = run_parts(
-        lambda clip: None if clip is None else kinematics.world_positions(clip),
+        lambda clip: None if clip is None else kinematics.world_positions(clip, only=used),
         clips,
         before.rotations.size,
     )

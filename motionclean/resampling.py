@@ -21,7 +21,7 @@ from .filters.resample import (
     resampled_length,
     sample_positions,
 )
-from .motion import Motion
+from .motion import Motion, joint_major_zeros
 from .restpose import rest_frames, splice, trim
 
 #: Rates within this relative difference are the same rate (a Frame Time of 0.008333 s is
@@ -87,7 +87,7 @@ def _resampled(motion: Motion, ratio: float, n_new: int, antialias: bool) -> tup
         rotations = np.empty((n_new, motion.n_joints, 4))
         rotations[:] = motion.rotations[0]
         rotations[:, rot] = resample_continuous(motion.rotations[:, rot], ratio, n_new, antialias)
-    translations = np.zeros((n_new, motion.n_joints, 3))
+    translations = joint_major_zeros(n_new, motion.n_joints)
     if pos.size:
         translations[:, pos] = resample_positions(
             motion.translations[:, pos], ratio, n_new, antialias

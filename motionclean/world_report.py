@@ -15,6 +15,9 @@ from .metrics import pair, rms_and_max
 from .motion import Motion
 from .steps import footlock
 
+#: The footlock step's defaults: the thresholds contacts are reported with.
+_CONTACT_PARAMS = {p.name: p.default for p in footlock.STEP.params}
+
 
 def format_world(world: dict) -> str:
     """One line: up axis, body height and the end effector that moved most."""
@@ -29,6 +32,14 @@ def format_world(world: dict) -> str:
 
 def _points(motion: Motion, given: np.ndarray | None) -> np.ndarray:
     return kinematics.world_positions(motion) if given is None else given
+
+
+def figure_points(motion: Motion) -> np.ndarray:
+    """The points (joints, then end sites) whose world positions :func:`world_figures` and
+    :func:`contact_figures` read: the end effectors and every point of each foot."""
+    index, _ = kinematics.end_effectors(motion)
+    feet, _, _ = footlock.find_feet(motion, _CONTACT_PARAMS)
+    return np.union1d(index, [p for foot in feet for p in (foot.ankle, *foot.points)])
 
 
 def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
@@ -47,7 +58,7 @@ def world_figures(
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
     holds the world positions ``(F, P, 3)`` of joints and end sites of both clips when the
-    caller has them."""
+    caller has them (at least of the :func:`figure_points`)."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
@@ -104,12 +115,11 @@ def contact_figures(
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below the ground, units) before and after. ``None`` and no
     series for a clip without feet. The series hold each foot's lowest point above the
-    ground per frame, before and after.
+    ground per frame, before and after. ``points`` as in :func:`world_figures`.
     """
-    params = {p.name: p.default for p in footlock.STEP.params}
     points = points or [None, None]
     feet, contacts, positions, _, up, height, ground = footlock.find_contacts(
-        before, params, points[0]
+        before, _CONTACT_PARAMS, points[0]
     )
     if not feet:
         return None, {}

@@ -230,3 +230,32 @@ def test_convert_world_writes_every_joint_and_end_site(tmp_path, capsys):
     np.testing.assert_allclose(table[:, 1:], positions.reshape(motion.n_frames, -1), rtol=1e-8)
     code, _, err = run_cli(capsys, "convert", SAMPLE, tmp_path / "w.bvh", "--world")
     assert code == 2 and "must end in .csv" in err and not (tmp_path / "w.bvh").exists()
+
+
+def test_only_some_points_computes_those_exactly_and_leaves_the_rest_zero():
+    motion = mc.load(SAMPLE)
+    full = kinematics.world_positions(motion)
+    only = np.array([0, 4, motion.n_joints, full.shape[1] - 1, 17])
+    some = kinematics.world_positions(motion, only=only)
+    assert np.array_equal(some[:, only], full[:, only])
+    rest = np.setdiff1d(np.arange(full.shape[1]), only)
+    assert not some[:, rest].any() and full[:, rest].any()
+
+
+def test_report_figures_from_the_figure_points_equal_those_from_every_point():
+    """build_series keeps the world positions of the end effectors and feet only: the
+    world and contact figures come out as from every point."""
+    from motionclean.report import build_report, build_series
+    from motionclean.world_report import contact_figures, world_figures
+
+    motion = mc.load(corpus_clip(CORPUS_NAMES[0]))
+    after, _ = mc.Pipeline.default().run(motion)
+    report = build_report(motion, after, series=build_series(motion, after))
+    full = [kinematics.world_positions(clip) for clip in (motion, after)]
+    contacts, _ = contact_figures(motion, after, full)
+    assert contacts is not None and contacts["feet"]
+    assert report["contacts"] == contacts
+    lead, trail = mc.restpose.rest_frames(motion)
+    core = slice(lead, motion.n_frames - trail)
+    trimmed = [mc.restpose.trim(clip, lead, trail) for clip in (motion, after)]
+    assert report["world"] == world_figures(*trimmed, [points[core] for points in full])

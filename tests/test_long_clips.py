@@ -4,6 +4,7 @@ block size (bit for bit), so a long clip is cleaned exactly like a short one."""
 from __future__ import annotations
 
 import importlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,3 +86,36 @@ def test_a_tiny_frame_time_does_not_blow_up_despike(frame_time):
         assert not report.interpolated.any()
         unflipped = report.unflipped.any(axis=0)
         np.testing.assert_array_equal(out[:, ~unflipped], q[:, ~unflipped])
+
+
+def resident_mib() -> int:
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) // 1024 for line in status if line.startswith("VmRSS:"))
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs Linux /proc")
+def test_translations_of_joints_without_position_channels_take_no_memory():
+    """A 1,000,000-frame, 31-joint clip with a root-only position track: the zero columns
+    are never touched (the array spans 744 MB, the root's 24 MB), and a copy that writes
+    the root keeps that property while holding every value."""
+    frames, joints = 1_000_000, 31
+    start = resident_mib()
+    translations = motion_module.joint_major_zeros(frames, joints)
+    translations[:, 0] = np.arange(3.0 * frames).reshape(frames, 3)
+    translations[::7, 5, 2] = 0.0  # written zeros are zeros
+    copy = motion_module.sparse_copy(translations)
+    assert resident_mib() - start < 200
+    assert translations.shape == copy.shape == (frames, joints, 3)
+    assert np.array_equal(copy, translations) and not np.shares_memory(copy, translations)
+    assert not copy[:, 1:].any()
+
+
+def test_a_loaded_clip_writes_the_position_channels_only():
+    clip = mc.load(SAMPLE)
+    has = clip.layout.has_position
+    assert has[0] and not has[1:].any()
+    values = clip.source_values
+    assert np.array_equal(clip.translations[:, 0], values[:, clip.layout.position_columns[0]])
+    assert not clip.translations[:, 1:].any()
+    clip.translations[:, 3] = 1.0  # still an ordinary writable (F, J, 3) array
+    assert clip.translations[5, 3].tolist() == [1.0, 1.0, 1.0]

@@ -34,10 +34,8 @@ def contact_params(params: dict) -> found.ContactParams:
     )
 
 
-def find_contacts(motion: Motion, params: dict, positions: np.ndarray | None = None):
-    """Feet, contacts ``(F, n_feet)``, world positions, world rotations (None when
-    ``positions``, the world positions of joints and end sites, are given), up axis, body
-    height and ground height of ``motion`` under the step's parameters."""
+def find_feet(motion: Motion, params: dict) -> tuple[list[found.Foot], int, float]:
+    """Feet, up axis and body height of ``motion`` under the step's parameters."""
     up = kinematics.up_axis(motion, None if params["up"] == "auto" else params["up"])
     height = kinematics.body_height(motion, up)
     feet = found.find_feet(
@@ -48,6 +46,14 @@ def find_contacts(motion: Motion, params: dict, positions: np.ndarray | None = N
         motion.names,
         params["feet"],
     )
+    return feet, up, height
+
+
+def find_contacts(motion: Motion, params: dict, positions: np.ndarray | None = None):
+    """Feet, contacts ``(F, n_feet)``, world positions, world rotations (None when
+    ``positions``, the world positions of joints and end sites, are given), up axis, body
+    height and ground height of ``motion`` under the step's parameters."""
+    feet, up, height = find_feet(motion, params)
     world = None
     if positions is None:
         positions, world = kinematics.forward(motion, end_sites=True)
