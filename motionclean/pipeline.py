@@ -252,7 +252,7 @@ class Pipeline:
         # A shallow copy: steps replace its arrays, never write into the input's.
         current = copy.copy(trim(motion, lead, trail))
         spans = _frame_spans(self.steps, motion, lead)
-        made = _Made()
+        made = _Made(motion)
         logs: list[StepLog] = []
         for number, step in enumerate(self.steps, 1):
             try:
@@ -318,6 +318,8 @@ def _run_step(
         motion=motion,
         rotation_joints=rot_idx,
         translation_joints=pos_idx,
+        # a ranged step's result is blended with the clip as it was: nothing in place
+        owned=step.span is None and (not every or made.owns(motion.rotations)),
     )
     if step.span is not None and span is None:
         span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
@@ -359,10 +361,21 @@ def _run_step(
 
 class _Made:
     """The clip arrays the pipeline copied during a run (never the input's own, nor a step's
-    result): the only ones it writes into."""
+    result): the only ones it writes into. Steps may write into any array the input clip
+    does not hold (:meth:`owns`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, clip: Motion) -> None:
         self.arrays: dict[str, np.ndarray | None] = {}
+        self.inputs = [
+            a
+            for a in (clip.rotations, clip.translations, clip.source_rotations, clip.missing)
+            if a is not None
+        ]
+
+    def owns(self, array: np.ndarray) -> bool:
+        """True when ``array`` shares no memory with the input clip's arrays: a copy made
+        here or a step's result, which a later step may overwrite."""
+        return not any(np.may_share_memory(array, a) for a in self.inputs)
 
     def placed(
         self, field: str, array: np.ndarray, columns: np.ndarray, values: np.ndarray

@@ -312,3 +312,34 @@ def test_whole_auto_is_coordinate_invariant_with_choices_that_vary_along_the_cli
     moved = auto(quat.multiply(a, quat.multiply(noisy, b)), 1 / 120)
     assert rms_deg(moved.values, quat.multiply(a, quat.multiply(out.values, b))) < 1e-9
     np.testing.assert_allclose(moved.noise, out.noise, rtol=1e-9)
+
+
+@pytest.mark.parametrize("windows", [1, 2, 7])
+def test_moves_do_not_depend_on_how_many_windows_are_built_together(monkeypatch, windows):
+    """Frames are moved as soon as no later window covers them; every frame gets at most
+    two windows' moves, whose sum does not depend on the order: the same bits."""
+    import importlib
+
+    auto_module = importlib.import_module("motionclean.filters.auto")
+    truth = smooth_synthetic(frames=1500, joints=3, seed=31)
+    noisy = plant(truth, np.where(np.arange(1500) < 700, 0.5, 3.0)[:, None], seed=32)
+    whole = auto(noisy, 1 / 120)
+    assert any(c.share < 1.0 for c in whole.choices)  # several masks along the clip
+    monkeypatch.setattr(auto_module, "APPLY_WINDOWS", windows)
+    assert np.array_equal(auto(noisy, 1 / 120).values, whole.values)
+
+
+def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():
+    noisy = plant(smooth_synthetic(frames=600, joints=2, seed=33), 2.0, seed=34)
+    kept = noisy.copy()
+    fresh = auto(noisy, 1 / 120)
+    assert np.array_equal(noisy, kept) and not np.shares_memory(fresh.values, noisy)
+    inplace = auto(noisy, 1 / 120, overwrite=True)
+    assert np.shares_memory(inplace.values, noisy)
+    assert np.array_equal(inplace.values, fresh.values) and not np.array_equal(noisy, kept)
+    p = np.cumsum(np.random.default_rng(35).normal(size=(600, 2, 3)), axis=0)
+    given = p.copy()
+    moved = auto_positions(p, 1 / 120)
+    assert np.array_equal(p, given)
+    assert np.array_equal(auto_positions(p, 1 / 120, overwrite=True).values, moved.values)
+    assert np.array_equal(p, moved.values)

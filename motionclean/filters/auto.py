@@ -78,10 +78,10 @@ TOP_CUTOFF = 0.45
 LOUD_RATIO = 2.0
 #: ... and this many degrees (or length units for positions).
 LOUD_FLOOR = 0.1
-#: Values (segments x frames x 3) filtered per block when the choices are applied.
+#: Values (segments x frames x 3) filtered per block when the choices are applied ...
 APPLY_BLOCK = 1 << 20
-#: Blocks filtered at once, on threads, before they are added up in order.
-APPLY_BATCH = 2
+#: ... for this many windows at a time, whose frames are then moved.
+APPLY_WINDOWS = 64
 
 
 @dataclass(frozen=True)
@@ -239,11 +239,17 @@ def _risks(model: NoiseModel, masks: list[np.ndarray], scale: float) -> np.ndarr
     return out
 
 
-def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np.ndarray:
-    """(F, C, 3) tangent moves ``s_i``: in window ``w`` of column ``c`` the mask
-    ``masks[choice[w, c] - 1]`` (0: none), blended by the windows' Hann tapers, which sum
-    to one on every frame. Each frame's move is then ``sum_m b_m(i) w_{i+m}`` with the
-    blended mask ``b(i)``: a Lee-Shin filter whose mask changes slowly along the clip."""
+def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks, finish) -> None:
+    """Tangent moves ``s_i`` (000 Eq. 19-20), handed to ``finish(rows, s)`` block after block
+    of frames (``rows`` a slice, ``s`` ``(len, C, 3)``): in window ``w`` of column ``c`` the
+    mask ``masks[choice[w, c] - 1]`` (0: none), blended by the windows' Hann tapers, which
+    sum to one on every frame. Each frame's move is then ``sum_m b_m(i) w_{i+m}`` with the
+    blended mask ``b(i)``: a Lee-Shin filter whose mask changes slowly along the clip.
+
+    Windows go in groups of :data:`APPLY_WINDOWS`; a frame is finished when no later window
+    covers it, so only a group's frames are held at a time. The segments of a group are
+    filtered on threads and added in a fixed order (the same sums with any thread count).
+    """
     n_frames, n_cols = model.n_frames, disp.shape[1]
     window, starts = model.window, model.starts
     _, taper = noise_model.hann_windows(n_frames, window)
@@ -251,42 +257,53 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks) -> np
     k_max = max((masks[m - 1].size // 2 for m in used), default=0)
     pad = window + k_max
     index = mirror_indices(disp.shape[0], pad, pad + window)
-    moves = np.zeros((n_frames * n_cols, 3))
-    for m in used:  # loop over the chosen masks only
+    kernels = {}
+    for m in used:
         b = displacement_coefficients(masks[m - 1])
         k = b.size // 2
-        span = window + 2 * k - 1  # displacement positions starts - k .. starts + window + k - 2
-        size = fast_length(span + 2 * k - 1)
-        kernel = np.fft.rfft(b[::-1], n=size)
-        wins, cols = np.nonzero(choice == m)
+        size = fast_length(window + 4 * k - 2)  # displacements starts - k .. + window + k - 2
+        kernels[m] = (k, size, np.fft.rfft(b[::-1], n=size))
 
-        def filtered(segments: slice, k=k, size=size, kernel=kernel, wins=wins, cols=cols):
-            """The tapered moves of a block of (window, column) segments and their rows."""
-            w, c = wins[segments], cols[segments]
-            rows = starts[w, None] + np.arange(-k, window + k - 1) + pad
-            seg = disp[index[rows], c[:, None]]  # (p, span, 3)
-            full = np.fft.irfft(np.fft.rfft(seg, n=size, axis=1) * kernel[:, None], size, axis=1)
-            part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
-            frames = starts[w, None] + np.arange(window)
+    def filtered(task: tuple[int, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The tapered moves of segments (windows ``w``, columns ``c``) filtered by mask
+        ``m``, and their frames."""
+        m, w, c = task
+        k, size, kernel = kernels[m]
+        rows = starts[w, None] + np.arange(-k, window + k - 1) + pad
+        seg = disp[index[rows], c[:, None]]  # (p, window + 2k - 1, 3)
+        full = np.fft.irfft(np.fft.rfft(seg, n=size, axis=1) * kernel[:, None], size, axis=1)
+        part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
+        return starts[w, None] + np.arange(window), part
+
+    done, carry = 0, np.zeros((0, n_cols, 3))
+    for first in range(0, starts.size, APPLY_WINDOWS):
+        last = min(first + APPLY_WINDOWS, starts.size)
+        moves = np.zeros((min(n_frames, starts[last - 1] + window) - done, n_cols, 3))
+        moves[: carry.shape[0]] = carry
+        tasks = []
+        for m in used:  # the chosen masks only, each in blocks of segments
+            w, c = np.nonzero(choice[first:last] == m)
+            step = max(1, APPLY_BLOCK // (kernels[m][1] * 3))
+            tasks += [(m, w[part] + first, c[part]) for part in in_parts(w.size, step)]
+        size = sum(t[1].size for t in tasks) * window * 3
+        for (frames, part), (_, _, c) in zip(run_parts(filtered, tasks, size), tasks, strict=True):
             keep = (frames >= 0) & (frames < n_frames)
-            return (frames * n_cols + c[:, None])[keep], part[keep]
-
-        blocks = in_parts(wins.size, max(1, APPLY_BLOCK // (size * 3)))
-        for batch in range(0, len(blocks), APPLY_BATCH):  # filtered on threads, summed in order
-            for flat, part in run_parts(filtered, blocks[batch : batch + APPLY_BATCH]):
-                _accumulate(moves, flat, part)
-    return moves.reshape(n_frames, n_cols, 3)
+            _accumulate(moves, ((frames - done) * n_cols + c[:, None])[keep], part[keep])
+        finished = n_frames if last == starts.size else min(n_frames, int(starts[last]))
+        finish(slice(done, finished), moves[: finished - done])
+        done, carry = finished, moves[finished - done :]
 
 
 def _accumulate(moves: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
-    """``moves[rows[i]] += values[i]`` for ``(n, 3)`` values, repeated rows summed; the
-    work spans only the rows touched (a block of windows), not the whole clip."""
+    """``moves.reshape(-1, 3)[rows[i]] += values[i]`` for ``(n, 3)`` values, repeated rows
+    summed; the work spans only the rows touched (a block of windows)."""
     if not rows.size:
         return
+    flat = moves.reshape(-1, 3)
     low, high = int(rows.min()), int(rows.max()) + 1
     local = rows - low
     for axis in range(3):  # one bincount per axis: a third of the work of one over all three
-        moves[low:high, axis] += np.bincount(local, weights=values[:, axis], minlength=high - low)
+        flat[low:high, axis] += np.bincount(local, weights=values[:, axis], minlength=high - low)
 
 
 def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple]:
@@ -310,15 +327,16 @@ def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple
     return out
 
 
-def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move):
+def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move, overwrite):
     """Fit the noise model to ``disp`` (F-1, C, 3), choose per window and column the
-    candidate of least risk, apply the blend with ``move(x, s)``. Returns
-    ``(values, level (C,), choices)``; ``given`` (C,) replaces the model by white noise of
-    that per-component variance."""
+    candidate of least risk, apply the blend with ``move(x, s, out)`` block by block (into
+    ``x`` itself when ``overwrite``). Returns ``(values, level (C,), choices)``; ``given``
+    (C,) replaces the model by white noise of that per-component variance."""
     n_frames, n_cols = x.shape[:2]
     model = _fit(disp, frame_time)
     if model is None:
-        return x.copy(), np.zeros(n_cols), [AutoChoice("none", 0, 0.0)] * n_cols
+        none = [AutoChoice("none", 0, 0.0)] * n_cols
+        return x if overwrite else x.copy(), np.zeros(n_cols), none
     if given is not None:
         model = model._replace(
             sigma2=np.broadcast_to(given, model.sigma2.shape), rho=np.zeros(n_cols)
@@ -328,13 +346,12 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move)
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     if strength == 0:
         choice[:] = 0
+    out = x if overwrite else np.empty_like(x)
     if np.any(choice):
-        moves = _apply(disp, model, choice, masks)
-        del disp  # not needed while the clip is moved: its memory goes first
-        out = move(x, moves)
-        del moves
-    else:
-        out = x.copy()
+        _apply(disp, model, choice, masks, lambda rows, s: move(x[rows], s, out[rows]))
+    elif out is not x:
+        out[:] = x
+    del disp
     coverage = model.coverage()
     share = np.zeros((len(masks) + 1, n_cols))
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
@@ -359,13 +376,19 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move)
     return out, to_level(model.clip_sigma2()), choices
 
 
-def _move_rotations(q: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """``q_i exp(s_i)`` (000 Eq. 19), in blocks of frames so the temporaries stay small."""
-    out = np.empty_like(q)
-    step = max(1, APPLY_BLOCK // max(1, q[0].size))
-    for f0 in range(0, q.shape[0], step):  # blocks of frames, not single frames
-        out[f0 : f0 + step] = quat.multiply(q[f0 : f0 + step], quat.exp(s[f0 : f0 + step]))
-    return out
+def _move_rotations(q: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    """``out = q_i exp(s_i)`` (000 Eq. 19); ``out`` may be ``q``."""
+    out[:] = quat.multiply(q, quat.exp(s))
+
+
+def _move_positions(p: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
+    """``out = p_i + s_i``; ``out`` may be ``p``."""
+    np.add(p, s, out=out)
+
+
+def _writable(cols: np.ndarray, given, overwrite: bool) -> bool:
+    """Whether the result may go into ``cols``, the columns of the caller's ``given``."""
+    return overwrite or not (isinstance(given, np.ndarray) and np.may_share_memory(cols, given))
 
 
 def _check(strength: float, noise, shape) -> np.ndarray | None:
@@ -387,6 +410,7 @@ def auto(
     max_seconds: float = 1.0,
     families: tuple[str, ...] = FAMILIES,
     noise=None,
+    overwrite: bool = False,
 ) -> AutoResult:
     """Clean orientations with filters chosen per column and along the clip from its noise.
 
@@ -407,12 +431,15 @@ def auto(
     noise : float or array, optional
         Per-sample rotation noise in degrees (RMS rotation angle), broadcast over the
         columns: white noise of that level everywhere instead of the fitted model.
+    overwrite : bool
+        Write the result into ``q`` (a float64 array the caller no longer needs) instead of
+        a new array: one clip's worth of memory less. Default False.
 
     Returns
     -------
     AutoResult
-        ``(values, noise, choices)``: the cleaned ``(F, ..., 4)`` rotations (a copy when
-        nothing is filtered), the noise level per column over the clip in degrees
+        ``(values, noise, choices)``: the cleaned ``(F, ..., 4)`` rotations (a new array
+        unless ``overwrite``), the noise level per column over the clip in degrees
         (estimated or given) and one :class:`AutoChoice` per column.
     """
     shape = np.shape(q)[1:-1]
@@ -431,6 +458,7 @@ def auto(
         lambda s2: np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(s2)),
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
         _move_rotations,
+        _writable(cols, q, overwrite),
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)
@@ -443,12 +471,13 @@ def auto_positions(
     max_seconds: float = 1.0,
     families: tuple[str, ...] = FAMILIES,
     noise=None,
+    overwrite: bool = False,
 ) -> AutoResult:
     """Vector counterpart of :func:`auto` on ``(F, ..., 3)`` translations.
 
-    The noise model (``noise`` in length units replaces it by white noise) and the choice
-    work as in :func:`auto`, moves added to the positions (the vector filter of the blended
-    mask); levels and ``expected_error`` are in length units.
+    The noise model (``noise`` in length units replaces it by white noise), the choice and
+    ``overwrite`` work as in :func:`auto`, moves added to the positions (the vector filter
+    of the blended mask); levels and ``expected_error`` are in length units.
     """
     shape = np.shape(p)[1:-1]
     given = _check(strength, noise, shape)
@@ -465,7 +494,8 @@ def auto_positions(
         candidates(frame_time, max_seconds, families, cols.shape[0]),
         lambda s2: math.sqrt(3.0) * np.sqrt(s2),
         np.sqrt,
-        lambda x, s: x + s,
+        _move_positions,
+        _writable(cols, p, overwrite),
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(p)), np.broadcast_to(level, shape).copy(), choices)

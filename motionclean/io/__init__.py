@@ -6,7 +6,7 @@ import errno
 import os
 import stat
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from ..errors import MotionError
@@ -25,7 +25,7 @@ def _format_csv(motion: Motion) -> bytes:
 
 _READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
 #: Writers give the file's bytes, or its pieces to write in turn.
-_WRITERS: dict[str, Callable[[Motion], bytes | list[bytes]]] = {
+_WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes]]] = {
     ".bvh": bvh.bvh_pieces,
     ".csv": _format_csv,
 }
@@ -113,9 +113,9 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
     atomic_write(path, data)
 
 
-def atomic_write(path: str | os.PathLike, data: bytes | list[bytes]) -> None:
-    """Write ``data`` (bytes, or a list of pieces written in turn) to a temporary file beside
-    ``path``, then rename it into place.
+def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes]) -> None:
+    """Write ``data`` (bytes, or pieces written in turn as an iterable gives them) to a
+    temporary file beside ``path``, then rename it into place.
 
     Readers never see a partial file; on failure the target is left as it was.
     """

@@ -19,6 +19,7 @@ The vectorised text work (token scan, number parsing, ``%.6f`` formatting, splic
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -491,9 +492,9 @@ def format_bvh(motion: Motion) -> bytes:
     return b"".join(bvh_pieces(motion))
 
 
-def bvh_pieces(motion: Motion) -> list[bytes]:
+def bvh_pieces(motion: Motion) -> Iterable[bytes]:
     """``motion`` as BVH, in pieces to write one after the other (no copy of the whole file
-    is made to join them).
+    is made to join them; the spliced rows are made as they are written).
 
     With source text and the same frames, only changed values are rewritten (``%.6f``) and an
     unchanged motion returns the input bytes exactly. A motion read from a channel CSV

@@ -8,12 +8,13 @@ spliced into the original bytes so that everything not changed keeps its exact t
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
 from ..errors import MotionError
 from ..motion import Motion
-from ..threads import in_parts, run_parts
+from ..threads import in_parts, run_parts, thread_count
 
 
 def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
@@ -352,15 +353,15 @@ def splice_cells(
     texts,
     start: int = 0,
     prefix: bytes = b"",
-) -> list[bytes]:
-    """The pieces of ``prefix + raw[start:]`` (a list of bytes to join or write in turn)
-    with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)`` rows (in file order, at or
-    after ``start``) replaced where ``mask`` is True.
+) -> Iterator[bytes]:
+    """The pieces of ``prefix + raw[start:]`` (bytes to join or write in turn, made as they
+    are asked for) with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)`` rows (in
+    file order, at or after ``start``) replaced where ``mask`` is True.
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
-    Parts of rows run on threads and each works from its own rows only, in chunks, so no
-    array the size of the clip is made.
+    Parts of rows run on threads, as many at a time as there are threads, and each works
+    from its own rows only, in chunks: no array or text the size of the clip is made.
     """
     source = np.frombuffer(raw, dtype=np.uint8)
     n_rows = starts.shape[0]
@@ -387,8 +388,11 @@ def splice_cells(
         out.append(raw[pos:end])
         return out
 
-    parts = run_parts(spliced, spans)
-    return [prefix, *(piece for part in parts for piece in part)]
+    yield prefix
+    batch = thread_count()
+    for first in range(0, len(spans), batch):
+        for part in run_parts(spliced, spans[first : first + batch]):
+            yield from part
 
 
 def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) -> bytes:

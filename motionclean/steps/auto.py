@@ -26,6 +26,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "max_seconds": params["max_seconds"],
         "families": families,
     }
+    shared["overwrite"] = data.owned
     result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
     data.rotations = result.values
     for column in range(data.rotations.shape[1]):

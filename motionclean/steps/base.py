@@ -100,10 +100,12 @@ class StepData:
     """What a step sees: the selected joints' arrays, the clip's frame time and the clip.
 
     ``rotations`` ``(F, Jr, 4)`` and ``translations`` ``(F, Jp, 3)`` (None when positions
-    are off or absent) are the selected columns (read-only: a step returns new arrays, as
-    ``rotations`` may be the clip's own array); ``rotation_joints`` / ``translation_joints``
-    give each column's index in ``motion.names``. ``motion`` is the whole clip as it enters
-    the step (read-only context: skeleton, every joint's arrays). Notes are per column.
+    are off or absent) are the selected columns, read-only unless ``owned`` (a step returns
+    new arrays, as ``rotations`` may be the clip's own array); ``owned`` says they are
+    copies the pipeline made or an earlier step's results, which the step may write into
+    and return. ``rotation_joints`` / ``translation_joints`` give each column's index in
+    ``motion.names``. ``motion`` is the whole clip as it enters the step (read-only
+    context: skeleton, every joint's arrays). Notes are per column.
     """
 
     rotations: np.ndarray
@@ -114,6 +116,7 @@ class StepData:
     translation_joints: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     rotation_notes: dict[int, dict] = field(default_factory=dict)
     translation_notes: dict[int, dict] = field(default_factory=dict)
+    owned: bool = False
 
 
 @dataclass(frozen=True)
