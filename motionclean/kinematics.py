@@ -97,9 +97,8 @@ def _forward_planes(
     after the joints (``P = J + len(tips)``, in ascending joint order). Runs over blocks of
     frames (cache-sized, :data:`BLOCK_ELEMENTS`, with workspaces reused from block to
     block); within a block the joints are sorted by depth, so that each level of the tree is
-    one contiguous run of rows computed at once from its parents' rows. ``only`` (P bools)
-    stores the positions of those points alone: the other rows stay zero pages, which take
-    no memory.
+    one contiguous run of rows computed at once from its parents' rows. ``only`` (indices
+    of points) keeps the positions of those points alone, in that order.
     """
     n_frames, n_joints = rotations.shape[:2]
     tips = tips or {}
@@ -119,13 +118,9 @@ def _forward_planes(
     n_points = n_joints + tip_rows.size
     widest = max(*sizes, tip_rows.size)
     world_q = np.empty((4, n_joints, n_frames)) if keep_rotations else None
-    if only is None:
-        world_p = np.empty((3, n_points, n_frames))
-        joint_rows, tip_rows_kept = np.arange(n_joints), np.arange(tip_rows.size)
-    else:
-        world_p = np.zeros((3, n_points, n_frames))
-        joint_rows = np.flatnonzero(only[:n_joints][order])
-        tip_rows_kept = np.flatnonzero(only[n_joints:])
+    stored = np.arange(n_points) if only is None else np.asarray(only, dtype=np.intp)
+    world_p = np.empty((3, stored.size, n_frames))
+    sorted_rows = np.concatenate([rank, np.arange(n_joints, n_points)])[stored]
     block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
     work: dict[str, np.ndarray] = {}
     for start in range(0, n_frames, block):
@@ -159,8 +154,11 @@ def _forward_planes(
             np.copyto(p[:, n_joints:], pp)
         if world_q is not None:
             world_q[:, order, frames] = q
-        world_p[:, order[joint_rows], frames] = p[:, joint_rows]
-        world_p[:, n_joints + tip_rows_kept, frames] = p[:, n_joints + tip_rows_kept]
+        if only is None:
+            world_p[:, order, frames] = p[:, :n_joints]
+            world_p[:, n_joints:, frames] = p[:, n_joints:]
+        else:
+            world_p[:, :, frames] = p[:, sorted_rows]
     return world_p, world_q
 
 
@@ -289,11 +287,8 @@ def missing_points(motion: Motion) -> np.ndarray | None:
 
 def world_positions(motion: Motion, end_sites: bool = True, only=None) -> np.ndarray:
     """The positions of :func:`forward` alone, ``(F, P, 3)`` (world rotations are not kept:
-    the work stays in blocks of frames). ``only`` (indices of points, joints then end
-    sites) stores just those points: every other column is zero, and takes no memory."""
-    if only is not None:
-        n_points = motion.n_joints + (len(motion.end_sites) if end_sites else 0)
-        only = np.isin(np.arange(n_points), np.asarray(only, dtype=np.intp))
+    the work stays in blocks of frames); with ``only`` (indices of points, joints then end
+    sites), ``(F, len(only), 3)``: the positions of those points alone."""
     world_p, _ = _motion_planes(motion, end_sites, keep_rotations=False, only=only)
     return world_p.transpose(2, 1, 0)
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from . import kinematics, metrics
+from . import metrics
 from .html_world import world_series
 from .metrics import pair, rms_and_max
 from .motion import Motion
@@ -25,7 +25,7 @@ from .steps.auto import format_choice
 from .threads import run_parts
 from .world_report import (
     contact_figures,
-    figure_points,
+    figure_positions,
     format_contacts,
     format_world,
     world_figures,
@@ -73,9 +73,8 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         }
     # World positions of the points the contact and world figures read, once per clip
     # (the world rotations and the other points are not kept).
-    used = figure_points(before)
     points = run_parts(
-        lambda clip: None if clip is None else kinematics.world_positions(clip, only=used),
+        lambda clip: None if clip is None else figure_positions(clip),
         clips,
         before.rotations.size,
     )

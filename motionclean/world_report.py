@@ -4,6 +4,7 @@ body heights per second."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -30,16 +31,32 @@ def format_world(world: dict) -> str:
     return text
 
 
-def _points(motion: Motion, given: np.ndarray | None) -> np.ndarray:
-    return kinematics.world_positions(motion) if given is None else given
-
-
 def figure_points(motion: Motion) -> np.ndarray:
-    """The points (joints, then end sites) whose world positions :func:`world_figures` and
-    :func:`contact_figures` read: the end effectors and every point of each foot."""
+    """The points (joints, then end sites; sorted) whose world positions
+    :func:`world_figures` and :func:`contact_figures` read: the end effectors and every
+    point of each foot."""
     index, _ = kinematics.end_effectors(motion)
     feet, _, _ = footlock.find_feet(motion, _CONTACT_PARAMS)
     return np.union1d(index, [p for foot in feet for p in (foot.ankle, *foot.points)])
+
+
+def figure_positions(motion: Motion) -> np.ndarray:
+    """``(F, len(figure_points), 3)`` world positions of the :func:`figure_points`."""
+    return kinematics.world_positions(motion, only=figure_points(motion))
+
+
+def _positions(motion: Motion, given: np.ndarray | None) -> np.ndarray:
+    return figure_positions(motion) if given is None else given
+
+
+def _feet_on(feet: list[found.Foot], used: np.ndarray) -> list[found.Foot]:
+    """``feet`` with their ankle and points numbered as columns of positions of the points
+    ``used`` (sorted; the IK joints ``hip`` and ``knee`` are not looked up)."""
+    column = {int(p): c for c, p in enumerate(used.tolist())}
+    return [
+        dataclasses.replace(f, ankle=column[f.ankle], points=tuple(column[p] for p in f.points))
+        for f in feet
+    ]
 
 
 def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
@@ -57,18 +74,18 @@ def world_figures(
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
-    holds the world positions ``(F, P, 3)`` of joints and end sites of both clips when the
-    caller has them (at least of the :func:`figure_points`)."""
+    holds both clips' :func:`figure_positions` when the caller has them."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
+    columns = np.searchsorted(figure_points(before), index)
     dt = before.frame_time
     points = points or [None, None]
-    points_b = _points(before, points[0])[:, index]
+    points_b = _positions(before, points[0])[:, columns]
     unknown_b = _unknown(before, index)
     rms_b, max_b = rms_and_max(metrics.linear_acceleration(points_b, dt, unknown_b))
     if after is not None:
-        points_a = _points(after, points[1])[:, index]
+        points_a = _positions(after, points[1])[:, columns]
         unknown_a = _unknown(after, index)
         rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt, unknown_a))
         moved = np.linalg.norm(points_a - points_b, axis=-1)
@@ -117,14 +134,17 @@ def contact_figures(
     series for a clip without feet. The series hold each foot's lowest point above the
     ground per frame, before and after. ``points`` as in :func:`world_figures`.
     """
-    points = points or [None, None]
-    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(
-        before, _CONTACT_PARAMS, points[0]
-    )
-    if not feet:
+    skeleton_feet, up, height = footlock.find_feet(before, _CONTACT_PARAMS)
+    if not skeleton_feet:
         return None, {}
+    feet = _feet_on(skeleton_feet, figure_points(before))
+    points = points or [None, None]
+    positions = _positions(before, points[0])
     dt = before.frame_time
-    after_positions = None if after is None else _points(after, points[1])
+    contacts, ground = found.detect(
+        positions, feet, up, height, dt, footlock.contact_params(_CONTACT_PARAMS)
+    )
+    after_positions = None if after is None else _positions(after, points[1])
     skate_b = found.skate(positions, feet, contacts, up, dt)
     pen_b = found.penetration(positions, feet, up, ground)
     low_b = found.lowest_points(positions, feet, up) - ground

@@ -232,30 +232,36 @@ def test_convert_world_writes_every_joint_and_end_site(tmp_path, capsys):
     assert code == 2 and "must end in .csv" in err and not (tmp_path / "w.bvh").exists()
 
 
-def test_only_some_points_computes_those_exactly_and_leaves_the_rest_zero():
+def test_only_some_points_gives_those_exactly_in_the_order_asked():
     motion = mc.load(SAMPLE)
     full = kinematics.world_positions(motion)
-    only = np.array([0, 4, motion.n_joints, full.shape[1] - 1, 17])
-    some = kinematics.world_positions(motion, only=only)
-    assert np.array_equal(some[:, only], full[:, only])
-    rest = np.setdiff1d(np.arange(full.shape[1]), only)
-    assert not some[:, rest].any() and full[:, rest].any()
+    only = np.array([17, 0, motion.n_joints, full.shape[1] - 1, 4])
+    assert np.array_equal(kinematics.world_positions(motion, only=only), full[:, only])
 
 
 def test_report_figures_from_the_figure_points_equal_those_from_every_point():
     """build_series keeps the world positions of the end effectors and feet only: the
-    world and contact figures come out as from every point."""
+    contacts, skate and end-effector figures are what every joint's positions give."""
+    from motionclean.filters import contacts as found
     from motionclean.report import build_report, build_series
-    from motionclean.world_report import contact_figures, world_figures
+    from motionclean.steps import footlock
+    from motionclean.world_report import _CONTACT_PARAMS
 
     motion = mc.load(corpus_clip(CORPUS_NAMES[0]))
     after, _ = mc.Pipeline.default().run(motion)
     report = build_report(motion, after, series=build_series(motion, after))
-    full = [kinematics.world_positions(clip) for clip in (motion, after)]
-    contacts, _ = contact_figures(motion, after, full)
-    assert contacts is not None and contacts["feet"]
-    assert report["contacts"] == contacts
+    full_b, full_a = (kinematics.world_positions(clip) for clip in (motion, after))
+    feet, up, height = footlock.find_feet(motion, _CONTACT_PARAMS)
+    params = footlock.contact_params(_CONTACT_PARAMS)
+    contacts, _ = found.detect(full_b, feet, up, height, motion.frame_time, params)
+    skate = found.skate(full_a, feet, contacts, up, motion.frame_time)
+    for k, foot in enumerate(feet):
+        entry = report["contacts"]["feet"][foot.name]
+        assert entry["contacts"] == [list(run) for run in found.contact_runs(contacts)[k]]
+        assert entry["skate"]["after"] == skate[k]
     lead, trail = mc.restpose.rest_frames(motion)
     core = slice(lead, motion.n_frames - trail)
-    trimmed = [mc.restpose.trim(clip, lead, trail) for clip in (motion, after)]
-    assert report["world"] == world_figures(*trimmed, [points[core] for points in full])
+    index, names = kinematics.end_effectors(motion)
+    moved = np.linalg.norm(full_a[core][:, index] - full_b[core][:, index], axis=-1)
+    for n, name in enumerate(names):
+        assert report["world"]["effectors"][name]["deviation"]["max"] == moved[:, n].max()

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .. import kinematics
 from ..filters import contacts as found
 from ..filters.footlock import lock_feet
@@ -49,14 +47,12 @@ def find_feet(motion: Motion, params: dict) -> tuple[list[found.Foot], int, floa
     return feet, up, height
 
 
-def find_contacts(motion: Motion, params: dict, positions: np.ndarray | None = None):
-    """Feet, contacts ``(F, n_feet)``, world positions, world rotations (None when
-    ``positions``, the world positions of joints and end sites, are given), up axis, body
-    height and ground height of ``motion`` under the step's parameters."""
+def find_contacts(motion: Motion, params: dict):
+    """Feet, contacts ``(F, n_feet)``, world positions and rotations of joints and end
+    sites, up axis, body height and ground height of ``motion`` under the step's
+    parameters."""
     feet, up, height = find_feet(motion, params)
-    world = None
-    if positions is None:
-        positions, world = kinematics.forward(motion, end_sites=True)
+    positions, world = kinematics.forward(motion, end_sites=True)
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
