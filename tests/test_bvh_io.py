@@ -429,3 +429,25 @@ def test_an_edit_in_place_is_written_and_the_rest_keeps_its_text(tmp_path):
     assert (
         np.degrees(quat.angle_between(back.rotations[40, joint], clip.rotations[40, joint])) < 1e-4
     )
+
+
+def test_values_written_with_hundreds_of_digits_are_kept_and_spliced_around():
+    """Token lengths are stored narrow (uint8) unless a value's text is longer: a 300-digit
+    value is read exactly, kept byte for byte, and an edit next to it lands in place."""
+    long = b"0." + b"0" * 297 + b"1"  # 1e-298 written out
+    data = (
+        b"HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 0\n\tCHANNELS 6 Xposition Yposition Zposition "
+        b"Zrotation Xrotation Yrotation\n\tEnd Site\n\t{\n\t\tOFFSET 0 1 0\n\t}\n}\n"
+        b"MOTION\nFrames: 3\nFrame Time: 0.0333333\n"
+        b"1.5 " + long + b" 2 10 20 30\n4 5 6 11 21 31\n7 8 9 12 22 " + long + b"\n"
+    )
+    clip = parse_bvh(data, "x.bvh")
+    assert clip.source.lengths.dtype == np.uint16
+    assert clip.source_values[0, 1] == float(long) and clip.source_values[2, 5] == float(long)
+    assert format_bvh(clip) == data
+    rotations = clip.rotations.copy()
+    rotations[1] = quat.multiply(rotations[1], quat.from_axis_angle([0, 0, 1], 0.1))
+    out = format_bvh(clip.replace(rotations=rotations))
+    rows = out.split(b"Frame Time: 0.0333333\n")[1].splitlines()
+    assert rows[0] == data.splitlines()[-3] and rows[2] == data.splitlines()[-1]
+    assert rows[1].split()[:3] == [b"4", b"5", b"6"] and rows[1].split()[3] != b"11"

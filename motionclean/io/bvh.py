@@ -42,6 +42,7 @@ from .text import (
     parse_values,
     scan_tokens,
     splice_cells,
+    token_lengths,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -51,22 +52,27 @@ BOM = b"\xef\xbb\xbf"
 class BvhText:
     """The bytes of a BVH file that a writer reuses verbatim.
 
-    ``starts``/``ends`` are the ``(F, C)`` byte offsets in ``raw`` of each frame value's
-    text, in the order of ``Motion.source_values``.
+    ``starts`` are the ``(F, C)`` byte offsets in ``raw`` of each frame value's text, in
+    the order of ``Motion.source_values``, and ``lengths`` the texts' lengths (uint8 unless
+    a value is written with more than 255 characters: a third of the memory of ends).
     """
 
     raw: bytes  # the whole file as read
     hierarchy: bytes  # everything before the MOTION line (BOM included)
     motion_header: bytes  # MOTION, Frames and Frame Time lines with their line endings
     body_start: int  # offset of the first byte after the Frame Time line
-    starts: np.ndarray  # (F, C) int64
-    ends: np.ndarray  # (F, C) int64
+    starts: np.ndarray  # (F, C) int32 (int64 for files of 2 GiB or more)
+    lengths: np.ndarray  # (F, C) uint8 (wider for longer texts)
     frame_time: float  # the Frame Time value as read
     eol: bytes  # line ending of the MOTION header, used for regenerated headers
 
     @property
     def n_frames(self) -> int:
         return int(self.starts.shape[0])
+
+    def ends(self, rows: slice) -> np.ndarray:
+        """``(len, C)`` byte offsets just after the texts of frames ``rows``."""
+        return self.starts[rows] + self.lengths[rows]
 
     @classmethod
     def hierarchy_only(cls, text: BvhText) -> BvhText:
@@ -330,7 +336,7 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
 def _parse_rows(
     buf: np.ndarray, body_start: int, n_frames: int, n_channels: int, first_line: int, path
 ):
-    """Parse the frame rows: ``(F, C)`` values and the ``(F, C)`` token starts and ends."""
+    """Parse the frame rows: ``(F, C)`` values, token starts and lengths (:class:`BvhText`)."""
     starts, ends = scan_tokens(buf, body_start)
     newlines = line_ends(buf, body_start)
     if not _one_row_per_line(starts, ends, newlines, n_frames, n_channels):
@@ -344,7 +350,7 @@ def _parse_rows(
             first_line + np.searchsorted(newlines, starts[bad_token]),
         )
     shape = (n_frames, n_channels)
-    return values.reshape(shape), starts.reshape(shape), ends.reshape(shape)
+    return values.reshape(shape), starts.reshape(shape), token_lengths(starts, ends).reshape(shape)
 
 
 def _one_row_per_line(starts, ends, newlines, n_frames: int, n_channels: int) -> bool:
@@ -394,10 +400,10 @@ def parse_bvh(data: bytes, path=None) -> Motion:
     eol = b"\r\n" if header.split(b"\n", 1)[0].endswith(b"\r") else b"\n"
     n_channels = sum(len(c) for c in channels)
     buf = np.frombuffer(data, dtype=np.uint8)
-    values, starts, ends = _parse_rows(
+    values, starts, lengths = _parse_rows(
         buf, body_start, n_frames, n_channels, lines.number + 1, path
     )
-    text = BvhText(data, data[:motion_start], header, body_start, starts, ends, frame_time, eol)
+    text = BvhText(data, data[:motion_start], header, body_start, starts, lengths, frame_time, eol)
     try:
         return Motion.from_channel_values(
             names,

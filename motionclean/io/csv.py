@@ -723,7 +723,8 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
             )
         )
 
-    return b"".join(splice_cells(src.raw, src.starts, src.ends, mask, texts))
+    ends = src.ends
+    return b"".join(splice_cells(src.raw, src.starts, lambda rows: ends[rows], mask, texts))
 
 
 def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:
@@ -780,7 +781,9 @@ def _format_channel(motion: Motion) -> bytes:
         kept = (values == motion.source_values) & fresh
         fresh &= ~kept
         s, n = cells.add(
-            np.frombuffer(src.raw, dtype=np.uint8), src.starts[kept], (src.ends - src.starts)[kept]
+            np.frombuffer(src.raw, dtype=np.uint8),
+            src.starts[kept],
+            src.lengths[kept].astype(np.int64),
         )
         starts[:, 2:][kept], lengths[:, 2:][kept] = s, n
     starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(values[fresh]))

@@ -8,7 +8,7 @@ spliced into the original bytes so that everything not changed keeps its exact t
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -52,7 +52,8 @@ _INT32_LIMIT = 2**31 - 1
 
 
 def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tuple:
-    """Byte offsets ``(starts, ends)`` of the tokens of ``buf[start:]``.
+    """Byte offsets ``(starts, ends)`` of the tokens of ``buf[start:]``, two contiguous
+    arrays.
 
     Tokens are runs of bytes that are neither ASCII whitespace nor one of ``separators``.
     Offsets are int32 for buffers under 2 GiB (half the memory of a long clip's offsets).
@@ -61,20 +62,41 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     table = np.zeros(256, dtype=np.int8)  # 1: a byte between tokens
     table[[9, 10, 11, 12, 13, 32, *separators]] = 1
 
-    def edges(span: slice) -> list[np.ndarray]:
-        found = []
+    def edges(span: slice) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """The token starts and ends in ``span`` (a token may begin before it)."""
+        starts, ends = [], []
         before = table[buf[span.start - 1]] if span.start > start else np.int8(1)
+        parity = 0 if before else 1  # inside a token: the first edge is an end
         for at in range(span.start, span.stop, _CHUNK_BYTES):
             gap = table.take(buf[at : min(at + _CHUNK_BYTES, span.stop)])
-            found.append((np.flatnonzero(np.diff(gap, prepend=before)) + at).astype(dtype))
+            found = (np.flatnonzero(np.diff(gap, prepend=before)) + at).astype(dtype)
+            starts.append(found[parity::2])
+            ends.append(found[1 - parity :: 2])
+            parity = (parity + found.size) % 2
             before = gap[-1]
-        return found
+        return starts, ends
 
-    found = [e for part in run_parts(edges, in_parts(buf.size, _PART_BYTES, start)) for e in part]
+    parts = run_parts(edges, in_parts(buf.size, _PART_BYTES, start))
+    starts = [s for part, _ in parts for s in part]
+    ends = [e for _, part in parts for e in part]
     if buf.size > start and table[buf[-1]] == 0:  # a token runs to the end of the buffer
-        found.append(np.array([buf.size], dtype=dtype))
-    flat = np.concatenate(found) if found else np.zeros(0, dtype=dtype)
-    return flat[0::2], flat[1::2]
+        ends.append(np.array([buf.size], dtype=dtype))
+    empty = np.zeros(0, dtype=dtype)
+    return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
+
+
+def token_lengths(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """``ends - starts`` in the narrowest unsigned type that holds the longest (uint8 for
+    any number a capture writes), block by block."""
+    longest = 0
+    for at in range(0, starts.size, _PART_ITEMS):
+        part = slice(at, at + _PART_ITEMS)
+        longest = max(longest, int(np.max(ends[part] - starts[part], initial=0)))
+    lengths = np.empty(starts.shape, dtype=np.min_scalar_type(longest))
+    for at in range(0, starts.size, _PART_ITEMS):
+        part = slice(at, at + _PART_ITEMS)
+        np.subtract(ends[part], starts[part], out=lengths[part], casting="unsafe")
+    return lengths
 
 
 def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
@@ -348,15 +370,15 @@ def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: byt
 def splice_cells(
     raw: bytes,
     starts: np.ndarray,
-    ends: np.ndarray,
+    ends: Callable[[slice], np.ndarray],
     mask: np.ndarray,
     texts,
     start: int = 0,
     prefix: bytes = b"",
 ) -> Iterator[bytes]:
     """The pieces of ``prefix + raw[start:]`` (bytes to join or write in turn, made as they
-    are asked for) with the cells ``[starts[f, c], ends[f, c])`` of ``(F, C)`` rows (in
-    file order, at or after ``start``) replaced where ``mask`` is True.
+    are asked for) with the cells ``[starts[f, c], ends(rows)[f - rows.start, c])`` of
+    ``(F, C)`` rows (in file order, at or after ``start``) replaced where ``mask`` is True.
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
@@ -373,7 +395,7 @@ def splice_cells(
         pos = start if rows.start == 0 else int(starts[rows.start, 0])
         end = len(raw) if rows.stop == n_rows else int(starts[rows.stop, 0])
         chosen = mask[rows]
-        old_starts, old_ends = starts[rows][chosen], ends[rows][chosen]
+        old_starts, old_ends = starts[rows][chosen], ends(rows)[chosen]
         chunk = texts(rows)
         out = []
         for at in range(0, old_starts.size, _CHUNK_ITEMS):
