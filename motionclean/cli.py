@@ -269,8 +269,10 @@ def clean(
         raise UsageError("--report names the same file twice")
     result = clean_clip(source, None, pipeline)
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
-    write_outputs(result.after, _write_target(output), reports)
-    for number, log in enumerate(result.logs, 1):
+    after, logs, report = result.after, result.logs, result.report
+    del result  # the input's arrays and the plot series go before the clip is written
+    write_outputs(after, _write_target(output), reports)
+    for number, log in enumerate(logs, 1):
         for pattern in log.unmatched:
             click.echo(
                 f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
@@ -278,7 +280,7 @@ def clean(
                 err=True,
             )
     if not quiet:
-        click.echo(format_table(result.report))
+        click.echo(format_table(report))
 
 
 def _write_target(output: str) -> str:

@@ -14,7 +14,7 @@ import math
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -224,10 +224,12 @@ def clean_file(
         pages = {}
         if job.report is not None:
             pages[job.report] = render_report(result.report, job.report, result.series)
-        write_outputs(result.after, job.target, pages)
+        after, done = result.after, _success(result, job, start)
+        del result  # the input's arrays and the plot series go before the clip is written
+        write_outputs(after, job.target, pages)
     except Exception as error:
         return _failure(job.source, job.target, error, start)
-    return _success(result, job, start)
+    return replace(done, seconds=time.perf_counter() - start)
 
 
 def run_job(job: Job) -> FileResult:

@@ -72,7 +72,7 @@ MIN_WINDOW = 8
 #: AR(1) coefficients tried by the Whittle fit.
 RHO_GRID = np.round(np.arange(-0.5, 0.901, 0.025), 3)
 #: Values (windows x frequencies x columns) of periodogram computed per block.
-BLOCK_VALUES = 1 << 20
+BLOCK_VALUES = 1 << 18
 
 
 class NoiseModel(NamedTuple):
