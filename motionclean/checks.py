@@ -100,18 +100,35 @@ def finite(x: np.ndarray, name: str) -> np.ndarray:
     return x
 
 
+#: Quaternions whose norms are checked at a time (no clip-sized temporary).
+UNIT_BLOCK = 1 << 16
+
+
+def all_unit(q: np.ndarray) -> bool:
+    """True when every quaternion of float64 ``(..., 4)`` ``q`` has a squared norm within
+    ``2 UNIT_TOLERANCE`` of 1 (False for NaN and inf), in blocks along the first axis."""
+    if q.ndim < 2:
+        q = q.reshape(-1, 4)
+    rows = max(1, UNIT_BLOCK // max(1, math.prod(q.shape[1:-1])))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for at in range(0, q.shape[0], rows):
+            error = np.square(q[at : at + rows].reshape(-1, 4)) @ _ONES  # one BLAS pass
+            error -= 1.0
+            np.abs(error, out=error)
+            if not np.all(error <= 2.0 * UNIT_TOLERANCE):
+                return False
+    return True
+
+
 def unit_quaternions(q, name: str = "q", signal: bool = True, min_frames: int = 0) -> np.ndarray:
     """``q`` checked to be finite unit quaternions ``(F, ..., 4)`` (``(..., 4)`` when not
     ``signal``): what every orientation filter takes."""
     q = shaped(q, 4, name, signal, min_frames)
-    with np.errstate(over="ignore", invalid="ignore"):
-        error = np.square(q.reshape(-1, 4)) @ _ONES  # squared norms, one BLAS pass
-        error = error.reshape(q.shape[:-1])
-        error -= 1.0
-        np.abs(error, out=error)
-        if np.all(error <= 2.0 * UNIT_TOLERANCE):  # also false for NaN and inf
-            return q
+    if all_unit(q):
+        return q
     finite(q, name)
+    with np.errstate(over="ignore", invalid="ignore"):
+        error = np.abs(np.einsum("...i,...i->...", q, q) - 1.0)
     at = _first_bad(error > 2.0 * UNIT_TOLERANCE)
     norm = float(np.linalg.norm(q[at]))
     raise ValueError(

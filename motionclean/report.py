@@ -38,11 +38,12 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """Per-frame figures behind the report, per joint with rotation channels.
 
     Returns ``{"frame_time": dt, "joints": {name: {"accel_before": (F-2,),
-    "accel_after": (F-2,) or None, "deviation": (F,) or None}}}``: angular acceleration
-    magnitude in degrees of rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and the
-    rotation angle between input and output in degrees at every frame; 0 where a missing
-    sample (tracker dropout) is involved. The HTML report plots them; the JSON report keeps
-    only their RMS and maximum.
+    "accel_after": (F-2,) or None, "deviation": (F,) or None}}, "tables": {key: (F-2 or
+    F, R)}, ...}``: angular acceleration magnitude in degrees of rotation per s^2 at frames
+    1..F-2 (000 Sec. VI-B) and the rotation angle between input and output in degrees at
+    every frame; 0 where a missing sample (tracker dropout) is involved. ``tables`` holds
+    each figure for the ``R`` joints at once (the per-joint series are its columns). The
+    HTML report plots them; the JSON report keeps only their RMS and maximum.
     """
     dt = before.frame_time
     rotating = before.layout.has_rotation
@@ -90,6 +91,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     return {
         "frame_time": dt,
         "joints": joints,
+        "tables": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
@@ -98,23 +100,21 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     }
 
 
-def _stacked(series: dict, key: str, length: int) -> np.ndarray:
-    """``(length, R)`` array of one figure of every joint in ``series``, without the rows
+def _stacked(series: dict, key: str) -> np.ndarray:
+    """``(F-2 or F, R)`` array of one figure of every joint in ``series``, without the rows
     that involve the clip's rest-pose frames (``series["rest_frames"]``)."""
-    columns = [data[key] for data in series["joints"].values()]
-    stacked = np.stack(columns, axis=-1) if columns else np.zeros((length, 0))
+    stacked = series["tables"][key]
     lead, trail = series.get("rest_frames", (0, 0))
     return stacked[lead : stacked.shape[0] - trail]
 
 
-def _rotation_figures(series: dict, names: list[str], frames: int, cleaned: bool) -> dict:
+def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
     """Per joint with rotation channels: angular acceleration RMS/max (deg/s^2) before and
     after, and the deviation from the input (degrees) when cleaned."""
-    n_acc = max(frames - 2, 0)
-    rms_b, max_b = rms_and_max(_stacked(series, "accel_before", n_acc))
+    rms_b, max_b = rms_and_max(_stacked(series, "accel_before"))
     if cleaned:
-        rms_a, max_a = rms_and_max(_stacked(series, "accel_after", n_acc))
-        dev_rms, dev_max = rms_and_max(_stacked(series, "deviation", frames))
+        rms_a, max_a = rms_and_max(_stacked(series, "accel_after"))
+        dev_rms, dev_max = rms_and_max(_stacked(series, "deviation"))
     figures = {}
     for n, name in enumerate(names):
         entry = figures[name] = {
@@ -147,11 +147,10 @@ def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) 
     return figures
 
 
-def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
+def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
     """Clip totals: RMS angular acceleration over all joints and frames, the fraction of it
     removed and the largest deviation (None for a single clip)."""
-    n_acc = max(frames - 2, 0)
-    acc_b = _stacked(series, "accel_before", n_acc)
+    acc_b = _stacked(series, "accel_before")
     total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
     summary: dict[str, Any] = {
         "angular_accel_rms": pair(total_b, None),
@@ -159,9 +158,9 @@ def _summary(series: dict, frames: int, cleaned: bool) -> dict[str, Any]:
         "deviation_deg_max": None,
     }
     if cleaned:
-        acc_a = _stacked(series, "accel_after", n_acc)
+        acc_a = _stacked(series, "accel_after")
         total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
-        dev = _stacked(series, "deviation", frames)
+        dev = _stacked(series, "deviation")
         summary["angular_accel_rms"]["after"] = total_a
         summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
         summary["deviation_deg_max"] = float(dev.max()) if dev.size else 0.0
@@ -186,7 +185,7 @@ def build_report(
     lead, trail = series["rest_frames"]
     core_before = trim(before, lead, trail)
     core_after = None if after is None else trim(after, lead, trail)
-    joints = _rotation_figures(series, list(series["joints"]), frames, cleaned)
+    joints = _rotation_figures(series, list(series["joints"]), cleaned)
     positions = _position_figures(
         core_before, core_after, np.flatnonzero(before.layout.has_position)
     )
@@ -200,7 +199,7 @@ def build_report(
         "frame_time": before.frame_time,
         "pipeline": pipeline or [],
         "joints": joints,
-        "summary": _summary(series, frames, cleaned),
+        "summary": _summary(series, cleaned),
         "world": series.get("world_figures") or world_figures(core_before, core_after),
         "contacts": series.get("contacts") or contact_figures(before, after)[0],
         "rest_frames": {"leading": lead, "trailing": trail},

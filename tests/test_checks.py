@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import motionclean as mc
-from motionclean import quat
+from motionclean import checks, quat
 from motionclean.filters import bilateral, despike, fairing, lee_shin, lee_shin_positions
 from motionclean.filters.auto import auto
 from motionclean.filters.masks import binomial
@@ -91,3 +91,17 @@ def test_small_inputs_give_the_blocked_kernels_bits(n):
     np.testing.assert_array_equal(quat.multiply(p, q), quat.multiply(big_p, big_q)[:n])
     np.testing.assert_array_equal(quat.log(q), quat.log(big_q)[:n])
     np.testing.assert_array_equal(quat.exp(v), quat.exp(big_v)[:n])
+
+
+@pytest.mark.parametrize("block", [1, 7, 1 << 16])
+def test_unit_check_in_blocks_finds_a_bad_quaternion_in_any_block(monkeypatch, block):
+    monkeypatch.setattr(checks, "UNIT_BLOCK", block)
+    q = quat.normalize(np.random.default_rng(5).normal(size=(50, 3, 4)))
+    assert checks.unit_quaternions(q) is q and checks.all_unit(q[0, 0])
+    for value, what in ((1.01, "not a unit quaternion at index \\(41, 2\\)"), (np.nan, "NaN")):
+        bad = q.copy()
+        bad[41, 2] *= value
+        assert not checks.all_unit(bad)
+        with pytest.raises(ValueError, match=what):
+            checks.unit_quaternions(bad)
+    assert checks.all_unit(np.zeros((0, 3, 4)))
