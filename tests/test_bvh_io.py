@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 import motionclean as mc
 from motionclean import quat
+from motionclean.errors import MotionError
 from motionclean.io.bvh import format_bvh, parse_bvh
 from motionclean.io.text import format_fixed6, parse_numbers, scan_tokens
 
@@ -432,17 +433,23 @@ def test_an_edit_in_place_is_written_and_the_rest_keeps_its_text(tmp_path):
 
 
 def test_values_written_with_hundreds_of_digits_are_kept_and_spliced_around():
-    """Token lengths are stored narrow (uint8) unless a value's text is longer: a 300-digit
-    value is read exactly, kept byte for byte, and an edit next to it lands in place."""
+    """A 300-digit value is read exactly, kept byte for byte, and an edit next to it lands
+    in place (the value texts are found again from the rows when the clip is written)."""
     long = b"0." + b"0" * 297 + b"1"  # 1e-298 written out
     data = (
         b"HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 0\n\tCHANNELS 6 Xposition Yposition Zposition "
         b"Zrotation Xrotation Yrotation\n\tEnd Site\n\t{\n\t\tOFFSET 0 1 0\n\t}\n}\n"
         b"MOTION\nFrames: 3\nFrame Time: 0.0333333\n"
-        b"1.5 " + long + b" 2 10 20 30\n4 5 6 11 21 31\n7 8 9 12 22 " + long + b"\n"
+        b"1.5 "
+        + long
+        + b" 2 10 20 30\n4 5 6 11"
+        + b" " * 300
+        + b"21 31\n7 8 9 12 22 "
+        + long
+        + b"\n"
     )
     clip = parse_bvh(data, "x.bvh")
-    assert clip.source.lengths.dtype == np.uint16
+    assert clip.source.lengths.dtype == clip.source.gaps.dtype == np.uint16  # widened
     assert clip.source_values[0, 1] == float(long) and clip.source_values[2, 5] == float(long)
     assert format_bvh(clip) == data
     rotations = clip.rotations.copy()
@@ -451,3 +458,36 @@ def test_values_written_with_hundreds_of_digits_are_kept_and_spliced_around():
     rows = out.split(b"Frame Time: 0.0333333\n")[1].splitlines()
     assert rows[0] == data.splitlines()[-3] and rows[2] == data.splitlines()[-1]
     assert rows[1].split()[:3] == [b"4", b"5", b"6"] and rows[1].split()[3] != b"11"
+
+
+@pytest.mark.parametrize("part_values", [1, 13, 1 << 19])
+def test_rows_read_in_parts_of_lines_give_the_same_clip_and_name_the_bad_line(
+    monkeypatch, part_values
+):
+    """Rows one per line are read in parts of lines (any part size: the same values and
+    the same output); blank lines between rows take the general path, also exactly."""
+    from motionclean.io import bvh as bvh_module
+
+    data, (_, _, _, values) = exporter_bvh(11, "mixed", False, "\t", True, 120, False)
+    monkeypatch.setattr(bvh_module, "_PART_VALUES", part_values)
+    clip = parse_bvh(data, "x.bvh")
+    np.testing.assert_array_equal(clip.source_values, values)
+    assert format_bvh(clip) == data
+    turned = quat.multiply(clip.rotations, quat.from_axis_angle([0.6, 0.0, 0.8], 0.2))
+    edited = format_bvh(clip.replace(rotations=turned))
+    monkeypatch.setattr(bvh_module, "_PART_VALUES", 1 << 19)
+    assert edited == format_bvh(parse_bvh(data, "x.bvh").replace(rotations=turned))
+    monkeypatch.setattr(bvh_module, "_PART_VALUES", part_values)
+
+    head, body = data.split(b"Frame Time:", 1)
+    time_line, rows = body.split(b"\n", 1)
+    spaced = head + b"Frame Time:" + time_line + b"\n\n" + rows.replace(b"\n", b"\n \n", 2)
+    gapped = parse_bvh(spaced + b"\n\n", "y.bvh")
+    np.testing.assert_array_equal(gapped.source_values, values)
+    assert format_bvh(gapped) == spaced + b"\n\n"
+
+    lines = data.split(b"\n")
+    last = len(lines) - 1 if lines[-1].strip() else len(lines) - 2
+    lines[last] = lines[last].replace(lines[last].split()[0], b"1x", 1)
+    with pytest.raises(MotionError, match=rf"x.bvh:{last + 1}: frame value is not a number"):
+        parse_bvh(b"\n".join(lines), "x.bvh")

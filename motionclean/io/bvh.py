@@ -32,6 +32,7 @@ from ..motion import (
     UNCHANGED_TOLERANCE,
     Motion,
 )
+from ..threads import in_parts, run_parts
 from .text import (
     MAX_MAGNITUDE,
     bad_number_message,
@@ -42,7 +43,6 @@ from .text import (
     parse_values,
     scan_tokens,
     splice_cells,
-    token_lengths,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -52,34 +52,74 @@ BOM = b"\xef\xbb\xbf"
 class BvhText:
     """The bytes of a BVH file that a writer reuses verbatim.
 
-    ``starts`` are the ``(F, C)`` byte offsets in ``raw`` of each frame value's text, in
-    the order of ``Motion.source_values``, and ``lengths`` the texts' lengths (uint8 unless
-    a value is written with more than 255 characters: a third of the memory of ends).
+    Where each frame value's text lies in ``raw`` is kept compactly: ``row_starts`` (F,)
+    is the byte offset of each row's first value, and ``(F, C)`` ``gaps`` and ``lengths``
+    count the bytes between a value and the one before it in its row (0 for the first)
+    and the value's own bytes (uint8 unless some count is larger); :meth:`cells` gives
+    the offsets of any rows.
     """
 
     raw: bytes  # the whole file as read
     hierarchy: bytes  # everything before the MOTION line (BOM included)
     motion_header: bytes  # MOTION, Frames and Frame Time lines with their line endings
     body_start: int  # offset of the first byte after the Frame Time line
-    starts: np.ndarray  # (F, C) int32 (int64 for files of 2 GiB or more)
-    lengths: np.ndarray  # (F, C) uint8 (wider for longer texts)
+    row_starts: np.ndarray  # (F,) int64
+    gaps: np.ndarray  # (F, C) unsigned
+    lengths: np.ndarray  # (F, C) unsigned
     frame_time: float  # the Frame Time value as read
     eol: bytes  # line ending of the MOTION header, used for regenerated headers
 
     @property
     def n_frames(self) -> int:
-        return int(self.starts.shape[0])
+        return int(self.row_starts.size)
 
-    def ends(self, rows: slice) -> np.ndarray:
-        """``(len, C)`` byte offsets just after the texts of frames ``rows``."""
-        return self.starts[rows] + self.lengths[rows]
+    @property
+    def n_channels(self) -> int:
+        return int(self.lengths.shape[1])
+
+    def cells(self, rows: slice) -> tuple[np.ndarray, np.ndarray]:
+        """``(starts, ends)``, each ``(len, C)`` int64: the byte offsets in ``raw`` of the
+        value texts of frames ``rows``."""
+        lengths = self.lengths[rows].astype(np.int64)
+        steps = self.gaps[rows].astype(np.int64)
+        steps[:, 1:] += lengths[:, :-1]
+        starts = np.cumsum(steps, axis=1)
+        starts += self.row_starts[rows, None]
+        return starts, starts + lengths
 
     @classmethod
     def hierarchy_only(cls, text: BvhText) -> BvhText:
         """The hierarchy of ``text`` without its frames (a skeleton template)."""
-        empty = np.zeros((0, text.starts.shape[1]), dtype=np.int64)
-        return cls(b"", text.hierarchy, b"", 0, empty, empty, text.frame_time, text.eol)
+        empty = np.zeros((0, text.n_channels), dtype=np.uint8)
+        return cls(
+            b"",
+            text.hierarchy,
+            b"",
+            0,
+            np.zeros(0, dtype=np.int64),
+            empty,
+            empty,
+            text.frame_time,
+            text.eol,
+        )
 
+
+def _gaps_and_lengths(starts: np.ndarray, ends: np.ndarray, dtype=None):
+    """``(gaps, lengths)`` of ``(R, C)`` token offsets (see :class:`BvhText`), in ``dtype``
+    or the narrowest unsigned type that holds them; None when ``dtype`` is too narrow."""
+    lengths = ends - starts
+    gaps = np.zeros_like(starts)
+    gaps[:, 1:] = starts[:, 1:] - ends[:, :-1]
+    largest = max(int(lengths.max(initial=0)), int(gaps.max(initial=0)))
+    if dtype is None:
+        dtype = np.min_scalar_type(largest)
+    elif largest > np.iinfo(dtype).max:
+        return None
+    return gaps.astype(dtype), lengths.astype(dtype)
+
+
+#: Values per part of the frame rows read on a thread of its own.
+_PART_VALUES = 1 << 19
 
 #: Frame times outside these (seconds) give rates no capture has: refused.
 MIN_FRAME_TIME = 1e-6
@@ -336,9 +376,78 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
 def _parse_rows(
     buf: np.ndarray, body_start: int, n_frames: int, n_channels: int, first_line: int, path
 ):
-    """Parse the frame rows: ``(F, C)`` values, token starts and lengths (:class:`BvhText`)."""
-    starts, ends = scan_tokens(buf, body_start)
+    """Parse the frame rows: ``(F, C)`` values and ``(row_starts, gaps, lengths)``
+    (:class:`BvhText`).
+
+    Rows one per line (what every exporter writes) are scanned and converted in parts of
+    lines, on threads, straight into the values (no clip-long arrays of byte offsets);
+    anything else (blank lines between rows, a row that is too short) goes through
+    :func:`_parse_tokens`, which also names a bad line.
+    """
     newlines = line_ends(buf, body_start)
+    found = _parse_row_lines(buf, body_start, newlines, n_frames, n_channels)
+    if found is None:
+        return _parse_tokens(buf, body_start, newlines, n_frames, n_channels, first_line, path)
+    values, cells, bad = found
+    if bad >= 0:
+        row_starts = cells[0]
+        row, column = divmod(bad, n_channels)
+        line_end = newlines[row] if row < newlines.size else buf.size  # row r is line r
+        row_text = buf[row_starts[row] : line_end]
+        starts, ends = scan_tokens(row_text)
+        token = row_text[starts[column] : ends[column]].tobytes()
+        _fail(bad_number_message("frame value", token), path, first_line + row)
+    return values, cells
+
+
+def _parse_row_lines(buf, body_start: int, newlines, n_frames: int, n_channels: int):
+    """``(values, row_starts, bad)`` when the first ``n_frames`` lines after
+    ``body_start`` hold ``n_channels`` values each and the rest is blank, else None.
+    ``bad`` is the index of the first value that is not a number (``-1``: none)."""
+    line_starts = np.concatenate([[body_start], newlines + 1])
+    line_stops = np.concatenate([newlines, [buf.size]])
+    if n_channels == 0 or n_frames == 0 or line_starts.size < n_frames:
+        return None
+    after = buf[line_starts[n_frames] :] if n_frames < line_starts.size else buf[:0]
+    if after.size and not after.tobytes().isspace():  # more than blank lines after the rows
+        return None
+    values = np.empty((n_frames, n_channels))
+    row_starts = np.empty(n_frames, dtype=np.int64)
+    gaps = np.empty((n_frames, n_channels), dtype=np.uint8)
+    lengths = np.empty((n_frames, n_channels), dtype=np.uint8)
+
+    def part(rows: slice) -> int | None:
+        """Scan and convert the lines ``rows``: the first bad value (-1: none), or None
+        when they are not rows of ``n_channels`` values."""
+        begin, end = int(line_starts[rows.start]), int(line_stops[rows.stop - 1])
+        text = np.frombuffer(buf, np.uint8, end - begin, begin)
+        starts, ends = scan_tokens(text)
+        if starts.size != (rows.stop - rows.start) * n_channels:
+            return None
+        inside = (starts[::n_channels] >= line_starts[rows] - begin) & (
+            ends[n_channels - 1 :: n_channels] <= line_stops[rows] - begin
+        )
+        shape = (rows.stop - rows.start, n_channels)
+        counts = _gaps_and_lengths(starts.reshape(shape), ends.reshape(shape), np.uint8)
+        if not inside.all() or counts is None:  # (a text or space of 256 bytes or more)
+            return None
+        gaps[rows], lengths[rows] = counts
+        row_starts[rows] = starts[::n_channels] + np.int64(begin)
+        found, bad = parse_values(text, starts, ends)
+        values[rows] = found.reshape(-1, n_channels)
+        return bad if bad < 0 else bad + rows.start * n_channels
+
+    results = run_parts(part, in_parts(n_frames, max(1, _PART_VALUES // n_channels)), buf.size)
+    if any(result is None for result in results):
+        return None
+    bad = [result for result in results if result is not None and result >= 0]
+    return values, (row_starts, gaps, lengths), min(bad, default=-1)
+
+
+def _parse_tokens(buf, body_start, newlines, n_frames, n_channels, first_line, path):
+    """:func:`_parse_rows` for any layout of the rows: every token at once; refuses a file
+    whose values do not make ``n_frames`` rows, naming the line."""
+    starts, ends = scan_tokens(buf, body_start)
     if not _one_row_per_line(starts, ends, newlines, n_frames, n_channels):
         _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path)
     values, bad_token = parse_values(buf, starts, ends)
@@ -350,7 +459,10 @@ def _parse_rows(
             first_line + np.searchsorted(newlines, starts[bad_token]),
         )
     shape = (n_frames, n_channels)
-    return values.reshape(shape), starts.reshape(shape), token_lengths(starts, ends).reshape(shape)
+    row_starts = starts[::n_channels] if n_channels else np.zeros(n_frames)
+    counts = _gaps_and_lengths(starts.reshape(shape), ends.reshape(shape))
+    assert counts is not None
+    return values.reshape(shape), (row_starts.astype(np.int64), *counts)
 
 
 def _one_row_per_line(starts, ends, newlines, n_frames: int, n_channels: int) -> bool:
@@ -400,10 +512,12 @@ def parse_bvh(data: bytes, path=None) -> Motion:
     eol = b"\r\n" if header.split(b"\n", 1)[0].endswith(b"\r") else b"\n"
     n_channels = sum(len(c) for c in channels)
     buf = np.frombuffer(data, dtype=np.uint8)
-    values, starts, lengths = _parse_rows(
+    values, (row_starts, gaps, lengths) = _parse_rows(
         buf, body_start, n_frames, n_channels, lines.number + 1, path
     )
-    text = BvhText(data, data[:motion_start], header, body_start, starts, lengths, frame_time, eol)
+    text = BvhText(
+        data, data[:motion_start], header, body_start, row_starts, gaps, lengths, frame_time, eol
+    )
     try:
         return Motion.from_channel_values(
             names,
@@ -524,7 +638,7 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
         src is not None
         and motion.has_source_frames()
         and src.n_frames == motion.n_frames > 0
-        and src.starts.shape[1] == motion.layout.n_channels
+        and src.n_channels == motion.layout.n_channels
     )
     if src is not None and same_frames and same_frame_time and _unchanged(motion):
         return [src.raw]
@@ -563,5 +677,5 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
             new = values[rows][changed[rows]]  # only the changed values are printed
             return lambda a, b: format_fixed6(new[a:b])
 
-        return splice_cells(src.raw, src.starts, src.ends, changed, texts, start, prefix)
+        return splice_cells(src.raw, src.row_starts, src.cells, changed, texts, start, prefix)
     return [join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)]

@@ -723,8 +723,13 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
             )
         )
 
-    ends = src.ends
-    return b"".join(splice_cells(src.raw, src.starts, lambda rows: ends[rows], mask, texts))
+    starts, ends = src.starts, src.ends
+    row_starts = starts[:, 0] if starts.shape[1] else np.zeros(starts.shape[0], np.int64)
+
+    def cells(rows: slice) -> tuple[np.ndarray, np.ndarray]:
+        return starts[rows], ends[rows]
+
+    return b"".join(splice_cells(src.raw, row_starts, cells, mask, texts))
 
 
 def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:
@@ -780,10 +785,11 @@ def _format_channel(motion: Motion) -> bytes:
     if isinstance(src, BvhText) and same and src.n_frames == n_frames:
         kept = (values == motion.source_values) & fresh
         fresh &= ~kept
+        read_starts, read_ends = src.cells(slice(None))
         s, n = cells.add(
             np.frombuffer(src.raw, dtype=np.uint8),
-            src.starts[kept],
-            src.lengths[kept].astype(np.int64),
+            read_starts[kept],
+            (read_ends - read_starts)[kept],
         )
         starts[:, 2:][kept], lengths[:, 2:][kept] = s, n
     starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(values[fresh]))

@@ -85,20 +85,6 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
 
 
-def token_lengths(starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
-    """``ends - starts`` in the narrowest unsigned type that holds the longest (uint8 for
-    any number a capture writes), block by block."""
-    longest = 0
-    for at in range(0, starts.size, _PART_ITEMS):
-        part = slice(at, at + _PART_ITEMS)
-        longest = max(longest, int(np.max(ends[part] - starts[part], initial=0)))
-    lengths = np.empty(starts.shape, dtype=np.min_scalar_type(longest))
-    for at in range(0, starts.size, _PART_ITEMS):
-        part = slice(at, at + _PART_ITEMS)
-        np.subtract(ends[part], starts[part], out=lengths[part], casting="unsafe")
-    return lengths
-
-
 def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
     """Offsets of the LF bytes of ``buf[start:]`` (parts run on threads)."""
 
@@ -369,16 +355,18 @@ def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: byt
 
 def splice_cells(
     raw: bytes,
-    starts: np.ndarray,
-    ends: Callable[[slice], np.ndarray],
+    row_starts: np.ndarray,
+    cells: Callable[[slice], tuple[np.ndarray, np.ndarray]],
     mask: np.ndarray,
     texts,
     start: int = 0,
     prefix: bytes = b"",
 ) -> Iterator[bytes]:
     """The pieces of ``prefix + raw[start:]`` (bytes to join or write in turn, made as they
-    are asked for) with the cells ``[starts[f, c], ends(rows)[f - rows.start, c])`` of
-    ``(F, C)`` rows (in file order, at or after ``start``) replaced where ``mask`` is True.
+    are asked for) with the cells of ``(F, C)`` rows (in file order, at or after ``start``)
+    replaced where ``mask`` is True. ``row_starts`` (F,) is the byte offset of each row's
+    first cell; ``cells(rows)`` gives ``(starts, ends)``, the ``(len, C)`` byte ranges of
+    the cells of a slice of rows.
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
@@ -386,16 +374,19 @@ def splice_cells(
     from its own rows only, in chunks: no array or text the size of the clip is made.
     """
     source = np.frombuffer(raw, dtype=np.uint8)
-    n_rows = starts.shape[0]
-    spans = in_parts(n_rows, max(1, _PART_ITEMS // max(1, starts.shape[1])))
+    n_rows = row_starts.size
+    spans = in_parts(n_rows, max(1, _PART_ITEMS // max(1, mask.shape[1])))
 
     def spliced(rows: slice) -> list[bytes]:
         """The output from the first cell of row ``rows.start`` (or ``start``) to the first
         cell of row ``rows.stop`` (or the end of ``raw``)."""
-        pos = start if rows.start == 0 else int(starts[rows.start, 0])
-        end = len(raw) if rows.stop == n_rows else int(starts[rows.stop, 0])
+        pos = start if rows.start == 0 else int(row_starts[rows.start])
+        end = len(raw) if rows.stop == n_rows else int(row_starts[rows.stop])
         chosen = mask[rows]
-        old_starts, old_ends = starts[rows][chosen], ends(rows)[chosen]
+        if not chosen.any():
+            return [raw[pos:end]]
+        row_cells = cells(rows)
+        old_starts, old_ends = row_cells[0][chosen], row_cells[1][chosen]
         chunk = texts(rows)
         out = []
         for at in range(0, old_starts.size, _CHUNK_ITEMS):
