@@ -99,3 +99,17 @@ def test_shortest_log_is_the_wrapped_half_angle_about_the_axis():
     q = quat.from_axis_angle(axis, theta) * rng.choice([-1.0, 1.0], (200, 1))
     wrapped = np.angle(np.exp(1j * theta))
     np.testing.assert_allclose(quat.log_shortest(q), 0.5 * wrapped[:, None] * axis, atol=1e-12)
+
+
+@pytest.mark.parametrize("block", [1, 5, 1 << 15])
+def test_dot_products_in_blocks_are_the_same_bits(monkeypatch, block):
+    import importlib
+
+    despike_module = importlib.import_module("motionclean.filters.despike")
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=(40, 3, 4)), rng.normal(size=(40, 3, 4))
+    whole = np.einsum("...i,...i->...", a, b)
+    monkeypatch.setattr(despike_module, "DOT_BLOCK", block)
+    assert np.array_equal(despike_module._dot(a, b), whole)
+    assert np.array_equal(despike_module._dot(a[0, 0], b[0, 0]), whole[0, 0])
+    assert np.array_equal(despike_module._dot(a[:1], b), np.einsum("...i,...i->...", a[:1], b))

@@ -632,12 +632,24 @@ def _nonzero(mask: np.ndarray):
     return np.divmod(mask.reshape(-1).nonzero()[0], mask.shape[1])
 
 
+#: Quaternion pairs multiplied at a time in :func:`_dot` (no clip-sized product).
+DOT_BLOCK = 1 << 15
+
+
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """4-D dot products of ``(..., 4)`` arrays, summed as ``(a0 b0 + a2 b2) + (a1 b1 +
-    a3 b3)`` (the order of ``np.einsum``), without einsum's overhead on strided views."""
-    p = a * b
-    dot = p[..., 0] + p[..., 2]
-    dot += p[..., 1] + p[..., 3]
+    a3 b3)`` (the order of ``np.einsum``), without einsum's overhead on strided views;
+    in blocks along the first axis."""
+    a, b = np.broadcast_arrays(a, b)  # views
+    if a.ndim < 2:
+        return _dot(a[None], b[None])[0]
+    dot = np.empty(a.shape[:-1])
+    rows = max(1, DOT_BLOCK // max(1, math.prod(dot.shape[1:])))
+    for at in range(0, dot.shape[0], rows):
+        p = a[at : at + rows] * b[at : at + rows]
+        part = dot[at : at + rows]
+        np.add(p[..., 0], p[..., 2], out=part)
+        part += p[..., 1] + p[..., 3]
     return dot
 
 
