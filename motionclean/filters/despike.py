@@ -640,7 +640,8 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """4-D dot products of ``(..., 4)`` arrays, summed as ``(a0 b0 + a2 b2) + (a1 b1 +
     a3 b3)`` (the order of ``np.einsum``), without einsum's overhead on strided views;
     in blocks along the first axis."""
-    a, b = np.broadcast_arrays(a, b)  # views
+    shape = np.broadcast_shapes(a.shape, b.shape)
+    a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)  # views
     if a.ndim < 2:
         return _dot(a[None], b[None])[0]
     dot = np.empty(a.shape[:-1])
