@@ -646,7 +646,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return _dot(a[None], b[None])[0]
     dot = np.empty(a.shape[:-1])
     rows = max(1, DOT_BLOCK // max(1, math.prod(dot.shape[1:])))
-    for at in range(0, dot.shape[0], rows):
+    for at in range(0, a.shape[0], rows):
         p = a[at : at + rows] * b[at : at + rows]
         part = dot[at : at + rows]
         np.add(p[..., 0], p[..., 2], out=part)
