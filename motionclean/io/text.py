@@ -211,31 +211,33 @@ def parse_values(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=No
 
 
 def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
-    """Values of the plain decimal tokens and a mask of which tokens are plain decimals."""
+    """Values of the plain decimal tokens and a mask of which tokens are plain decimals.
+
+    One pass per character column (at most 17) across all tokens: digits build the
+    mantissa, a point is counted and its column kept."""
     length = ends - starts
     mantissa = np.zeros(starts.size)  # exact: integers below 2**53
     n_digits = np.zeros(starts.size, dtype=np.int8)
+    n_dots = np.zeros(starts.size, dtype=np.int8)
+    dot_column = np.zeros(starts.size, dtype=np.int8)
     for column in range(int(min(length.max(), 17))):
-        digit = buf.take(starts + column, mode="clip") - np.uint8(48)
+        digit = buf.take(starts + column, mode="clip") - np.uint8(48)  # "." becomes 254
+        inside = length > column
         is_digit = digit < 10
-        is_digit &= length > column
+        is_digit &= inside
+        is_dot = digit == np.uint8(254)
+        is_dot &= inside
         mantissa *= np.where(is_digit, 10.0, 1.0)
         mantissa += digit * is_digit
         n_digits += is_digit
-    first, last = int(starts[0]), int(ends[-1])
-    is_dot = buf[first:last] == 46
-    before_dot = np.zeros(last - first + 1, dtype=np.int32)
-    np.cumsum(is_dot, out=before_dot[1:])
-    dot_index = before_dot[starts - first]
-    n_dots = before_dot[ends - first] - dot_index
-    dots = np.flatnonzero(is_dot) + first
-    dot_at = dots[np.minimum(dot_index, dots.size - 1)] if dots.size else ends
+        n_dots += is_dot
+        np.copyto(dot_column, column, where=is_dot)
     lead = buf[starts]
     signed = (lead == 45) | (lead == 43)
     simple = (
         (n_digits >= 1) & (n_digits <= 15) & (n_dots <= 1) & (n_digits + n_dots + signed == length)
     )
-    decimals = np.where(simple & (n_dots == 1), ends - 1 - dot_at, 0)
+    decimals = np.where(simple & (n_dots == 1), length - 1 - dot_column, 0)
     values = mantissa / _POW10_FLOAT[decimals]
     values[lead == 45] *= -1.0
     return values, simple
@@ -333,11 +335,11 @@ def pack_texts(texts: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
     """Concatenate the non-empty pieces ``buf[starts[i] : starts[i] + lengths[i]]``."""
     out_ends = np.cumsum(lengths)
-    # index[k] = index[k - 1] + 1 inside a piece and jumps to the next piece's start.
-    step = np.ones(int(out_ends[-1]), dtype=np.int32 if buf.size < 2**31 else np.int64)
-    step[0] = starts[0]
-    step[out_ends[:-1]] = starts[1:] - (starts[:-1] + lengths[:-1] - 1)
-    return buf[np.cumsum(step, out=step)].tobytes()
+    dtype = np.int32 if buf.size < 2**31 and out_ends[-1] < 2**31 else np.int64
+    # byte k of piece i comes from buf[starts[i] + k]: its output offset plus a shift
+    index = np.arange(int(out_ends[-1]), dtype=dtype)
+    index += np.repeat((starts - (out_ends - lengths)).astype(dtype), lengths)
+    return buf.take(index).tobytes()
 
 
 def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: bytes = b"") -> bytes:
