@@ -337,7 +337,7 @@ def _gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
     out_ends = np.cumsum(lengths)
     dtype = np.int32 if buf.size < 2**31 and out_ends[-1] < 2**31 else np.int64
     # byte k of piece i comes from buf[starts[i] + k]: its output offset plus a shift
-    index = np.arange(int(out_ends[-1]), dtype=dtype)
+    index: np.ndarray = np.arange(int(out_ends[-1]), dtype=dtype)
     index += np.repeat((starts - (out_ends - lengths)).astype(dtype), lengths)
     return buf.take(index).tobytes()
 
