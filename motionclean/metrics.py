@@ -16,6 +16,7 @@ from . import quat
 __all__ = [
     "angular_acceleration",
     "deviation_deg",
+    "distance",
     "largest_steps",
     "linear_acceleration",
     "rms",
@@ -66,7 +67,21 @@ def linear_acceleration(
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 3:
         return np.zeros((0, *p.shape[1:-1]))
-    return _known(np.linalg.norm(np.diff(p, n=2, axis=0), axis=-1) / frame_time**2, missing)
+    out = np.empty((p.shape[0] - 2, *p.shape[1:-1]))
+    for at in range(0, out.shape[0], BLOCK_FRAMES):  # block by block: small temporaries
+        second = np.diff(p[at : at + BLOCK_FRAMES + 2], n=2, axis=0)
+        out[at : at + BLOCK_FRAMES] = np.linalg.norm(second, axis=-1)
+    out /= frame_time**2
+    return _known(out, missing)
+
+
+def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(F, ...)`` distances between matching points ``(F, ..., 3)`` (block by block)."""
+    out = np.empty(np.shape(a)[:-1])
+    for at in range(0, len(a), BLOCK_FRAMES):
+        rows = slice(at, at + BLOCK_FRAMES)
+        out[rows] = np.linalg.norm(b[rows] - a[rows], axis=-1)
+    return out
 
 
 def _known(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:

@@ -133,8 +133,8 @@ def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) 
     lrms_b, lmax_b = rms_and_max(metrics.linear_acceleration(before.translations[:, joints], dt))
     if after is not None:
         lrms_a, lmax_a = rms_and_max(metrics.linear_acceleration(after.translations[:, joints], dt))
-        moved = after.translations[:, joints] - before.translations[:, joints]
-        ldev_rms, ldev_max = rms_and_max(np.linalg.norm(moved, axis=-1))
+        moved = metrics.distance(before.translations[:, joints], after.translations[:, joints])
+        ldev_rms, ldev_max = rms_and_max(moved)
     figures = {}
     for n, j in enumerate(joints):
         a = after is not None

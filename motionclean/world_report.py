@@ -88,7 +88,7 @@ def world_figures(
         points_a = _positions(after, points[1])[:, columns]
         unknown_a = _unknown(after, index)
         rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt, unknown_a))
-        moved = np.linalg.norm(points_a - points_b, axis=-1)
+        moved = metrics.distance(points_b, points_a)
         moved[unknown_b | unknown_a] = 0.0
         dev_rms, dev_max = rms_and_max(moved)
     scale = 100.0 / height if height > 0 else math.nan

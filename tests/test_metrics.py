@@ -216,3 +216,20 @@ def test_single_clip_report_has_before_figures_only():
     }
     assert "deviation_deg" not in report["joints"]["Arm"]
     assert report["summary"]["noise_reduction"] is None
+
+
+@pytest.mark.parametrize("block", [1, 3, 4096])
+def test_linear_figures_in_blocks_of_frames_are_the_same_bits(monkeypatch, block):
+    """Accelerations and distances are computed a block of frames at a time (no clip-long
+    temporaries); any block size gives the whole-array figures exactly."""
+    rng = np.random.default_rng(3)
+    p, q = rng.normal(size=(50, 4, 3)) * 40, rng.normal(size=(50, 4, 3)) * 40
+    accel = np.linalg.norm(np.diff(p, n=2, axis=0), axis=-1) / 0.01**2
+    apart = np.linalg.norm(q - p, axis=-1)
+    monkeypatch.setattr(metrics, "BLOCK_FRAMES", block)
+    assert np.array_equal(metrics.linear_acceleration(p, 0.01), accel)
+    assert np.array_equal(metrics.distance(p, q), apart)
+    missing = np.zeros((50, 4), dtype=bool)
+    missing[20, 1] = True
+    held = metrics.linear_acceleration(p, 0.01, missing)
+    assert not held[18:21, 1].any() and np.array_equal(held[:18], accel[:18])
