@@ -75,7 +75,7 @@ def forward_arrays(
 
 
 #: Frames per block times points: a block's planes stay in the processor's cache.
-BLOCK_ELEMENTS = 1 << 17
+BLOCK_ELEMENTS = 1 << 15
 
 
 def _forward_planes(
