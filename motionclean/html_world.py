@@ -312,9 +312,9 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     world = series["world"]
     frames = len(world["frames"])
     shown = (
-        f"all {frames} frames"
+        f"all {frames:,} frames"
         if frames == report["frames"]
-        else f"{frames} of {report['frames']} frames, evenly spaced"
+        else f"{frames:,} of {report['frames']:,} frames, evenly spaced"
     )
     cards = [_trajectory_card(name, p, world) for name, p in world["effectors"].items()]
     return [
