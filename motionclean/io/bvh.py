@@ -401,9 +401,10 @@ def _parse_rows(
 
 
 def _parse_row_lines(buf, body_start: int, newlines, n_frames: int, n_channels: int):
-    """``(values, row_starts, bad)`` when the first ``n_frames`` lines after
-    ``body_start`` hold ``n_channels`` values each and the rest is blank, else None.
-    ``bad`` is the index of the first value that is not a number (``-1``: none)."""
+    """``(values, (row_starts, gaps, lengths), bad)`` when the first ``n_frames`` lines
+    after ``body_start`` hold ``n_channels`` values each and the rest is blank, else None
+    (also when a value's text or the space before it is 256 bytes or longer). ``bad`` is
+    the index of the first value that is not a number (``-1``: none)."""
     line_starts = np.concatenate([[body_start], newlines + 1])
     line_stops = np.concatenate([newlines, [buf.size]])
     if n_channels == 0 or n_frames == 0 or line_starts.size < n_frames:
