@@ -46,10 +46,27 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     HTML report plots them; the JSON report keeps only their RMS and maximum.
     """
     dt = before.frame_time
+    clips = (before, after)
+    # World positions of the points the contact and world figures read, once per clip
+    # (the world rotations and the other points are not kept), let go of before the
+    # per-frame tables are made.
+    points = run_parts(
+        lambda clip: None if clip is None else figure_positions(clip),
+        clips,
+        before.rotations.size,
+    )
+    contacts, feet = contact_figures(before, after, points)
+    lead, trail = rest_frames(before)
+    core = slice(lead, before.n_frames - trail)
+    figures = world_figures(
+        trim(before, lead, trail),
+        None if after is None else trim(after, lead, trail),
+        [None if p is None else p[core] for p in points],
+    )
+    del points
     rotating = before.layout.has_rotation
     rot = np.flatnonzero(rotating)
     cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
-    clips = (before, after)
 
     def acceleration(clip: Motion | None) -> np.ndarray | None:
         if clip is None:
@@ -72,22 +89,6 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
             "accel_after": None if acc_a is None else acc_a[:, n],
             "deviation": None if dev is None else dev[:, n],
         }
-    # World positions of the points the contact and world figures read, once per clip
-    # (the world rotations and the other points are not kept).
-    points = run_parts(
-        lambda clip: None if clip is None else figure_positions(clip),
-        clips,
-        before.rotations.size,
-    )
-    contacts, feet = contact_figures(before, after, points)
-    lead, trail = rest_frames(before)
-    core = slice(lead, before.n_frames - trail)
-    figures = world_figures(
-        trim(before, lead, trail),
-        None if after is None else trim(after, lead, trail),
-        [None if p is None else p[core] for p in points],
-    )
-    del points
     return {
         "frame_time": dt,
         "joints": joints,

@@ -76,3 +76,21 @@ def test_at_30_fps_the_noise_is_taken_as_white_and_its_level_found():
     assert np.all(model.rho == 0.0)
     level = np.degrees(2 * math.sqrt(3) * np.sqrt(model.clip_sigma2()))
     np.testing.assert_allclose(level, 2.0, rtol=0.2)
+
+
+@pytest.mark.parametrize("block", [1, 5000, 1 << 18])
+def test_the_fit_does_not_depend_on_its_block_size(monkeypatch, block):
+    """Periodograms, band medians, quartiles and the Whittle deviance go a block of
+    windows at a time (no clip-long temporaries): the model is the same for any block size
+    (the deviance is summed block by block, so only its last bits may move)."""
+    import importlib
+
+    noise_module = importlib.import_module("motionclean.filters.noise")
+    truth = smooth_synthetic(frames=1500, joints=4, seed=8)
+    disp = quat.displacements(quat.multiply(truth, quat.exp(ar1_noise(1500, 4, 0.6, 2.0, 9))))
+    whole = fit(disp, 1 / 120)
+    monkeypatch.setattr(noise_module, "BLOCK_VALUES", block)
+    blocked = fit(disp, 1 / 120)
+    assert np.array_equal(blocked.rho, whole.rho)
+    assert np.array_equal(blocked.power, whole.power)
+    assert np.array_equal(blocked.sigma2, whole.sigma2)

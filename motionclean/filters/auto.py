@@ -343,6 +343,7 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move,
         )
     masks = [mask for _, _, mask in cands]
     risk = _risks(model, masks, strength)
+    model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     if strength == 0:
         choice[:] = 0

@@ -187,9 +187,15 @@ def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray,
 def _whittle_rho(power, weights, shapes, band, pool=None) -> np.ndarray:
     """(C,) AR(1) coefficient of least Whittle deviance on ``band``, a level per window."""
     wb = weights[band] / weights[band].sum()
-    levels = np.einsum("rf,wfc->rwc", wb / shapes[:, band], power[:, band])  # (R, W, C)
+    scaled = wb / shapes[:, band]  # (R, B)
     tiny = np.finfo(np.float64).tiny
-    whittle = np.mean(np.log(np.maximum(levels, tiny)), axis=1)
+    n_windows, n_cols = power.shape[0], power.shape[2]
+    whittle = np.zeros((scaled.shape[0], n_cols))
+    step = max(1, BLOCK_VALUES // max(1, scaled.size * n_cols))
+    for w0 in range(0, n_windows, step):  # blocks of windows: no (R, W, C) array
+        levels = np.einsum("rf,wfc->rwc", scaled, power[w0 : w0 + step][:, band])
+        whittle += np.log(np.maximum(levels, tiny, out=levels), out=levels).sum(axis=1)
+    whittle /= n_windows
     whittle += (np.log(shapes[:, band]) @ wb)[:, None]
     if pool is not None:
         # each joint's evidence, plus as much again from all the joints of the clip (one
@@ -229,7 +235,7 @@ def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECO
     # (robust to the few bins where motion leaks in), chi-square median corrected
     band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
     shape = gain[band, None] * ar1_spectrum(freqs[band], rho)  # (B, C)
-    sigma2 = np.median(power[:, band] / shape, axis=1) / (CHI2_MEDIAN[dim] * dim)
+    sigma2 = _band_medians(power, band, shape) / (CHI2_MEDIAN[dim] * dim)
     # ... and never above the level read, robustly in time, from the noise's third
     # differences (the displacements' second): sparse events (a repaired flip, a swing past
     # gimbal lock) fill a window's spectrum like noise but not the quartile over its frames.
@@ -243,6 +249,17 @@ def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECO
         starts,
         n + 1,
     )
+
+
+def _band_medians(power: np.ndarray, band: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """(W, C) median over the ``band`` bins of ``power / shape`` ((W, F, C) over (B, C)),
+    in blocks of windows (no copy of the whole band)."""
+    out = np.empty((power.shape[0], power.shape[2]))
+    step = max(1, BLOCK_VALUES // max(1, shape.size))
+    for w0 in range(0, power.shape[0], step):
+        windows = slice(w0, w0 + step)
+        out[windows] = np.median(power[windows][:, band] / shape, axis=1)
+    return out
 
 
 def _third_difference_level(disp: np.ndarray, window: int, rho: np.ndarray) -> np.ndarray:
