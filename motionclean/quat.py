@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import as_float_array, shaped
+from .threads import in_parts, run_parts
 
 __all__ = [
     "angle",
@@ -353,10 +354,11 @@ def displacements(q: np.ndarray) -> np.ndarray:
     """
     q = shaped(q, 4, "q", signal=True)
     out = np.empty((max(q.shape[0] - 1, 0), *q.shape[1:-1], 3))
-    for at in range(0, out.shape[0], DISPLACEMENT_BLOCK):  # temporaries stay small
-        rows = slice(at, min(at + DISPLACEMENT_BLOCK, out.shape[0]))
-        a, b = q[rows], q[rows.start + 1 : rows.stop + 1]
-        out[rows] = log(relative(a, b))
+
+    def block(rows: slice) -> None:  # temporaries stay small; blocks run on threads
+        out[rows] = log(relative(q[rows], q[rows.start + 1 : rows.stop + 1]))
+
+    run_parts(block, in_parts(len(out), DISPLACEMENT_BLOCK), q.size)
     return out
 
 
