@@ -109,16 +109,24 @@ def step_deg(q: np.ndarray) -> np.ndarray:
 def largest_steps(
     q: np.ndarray, missing: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per trailing index, the largest frame-to-frame step (degrees) and the frame it ends at;
-    steps into or out of a ``missing`` sample (``(F, ...)`` bool) do not count."""
-    steps = step_deg(q)
-    if missing is not None:
-        steps[missing[:-1] | missing[1:]] = 0.0
-    if steps.shape[0] == 0:
-        shape = q.shape[1:-1]
-        return np.zeros(shape), np.zeros(shape, dtype=np.intp)
-    at = np.argmax(steps, axis=0)
-    return np.take_along_axis(steps, at[None], axis=0)[0], at + 1
+    """Per trailing index, the largest frame-to-frame step (degrees) and the frame it ends at
+    (the first such frame); steps into or out of a ``missing`` sample (``(F, ...)`` bool) do
+    not count. Block by block: no clip-long array of steps."""
+    shape = q.shape[1:-1]
+    largest, at = np.zeros(shape), np.zeros(shape, dtype=np.intp)
+    for start in range(0, q.shape[0] - 1, BLOCK_FRAMES):
+        rows = slice(start, start + BLOCK_FRAMES + 1)
+        steps = step_deg(q[rows])
+        if missing is not None:
+            steps[missing[rows][:-1] | missing[rows][1:]] = 0.0
+        first = np.argmax(steps, axis=0)
+        best = np.take_along_axis(steps, first[None], axis=0)[0]
+        better = best > largest
+        if start == 0:
+            better[:] = True
+        largest = np.where(better, best, largest)
+        at = np.where(better, first + start + 1, at)
+    return largest, at
 
 
 def pair(before: float, after: float | None) -> dict:

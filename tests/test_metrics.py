@@ -117,6 +117,24 @@ def test_largest_steps_find_a_planted_step():
     np.testing.assert_allclose(all_steps[others], np.degrees(omega * dt), rtol=1e-6)
 
 
+@pytest.mark.parametrize("block", [1, 2, 7, 4096])
+def test_largest_steps_in_blocks_find_the_first_largest_step(monkeypatch, block):
+    """Blocks of frames give the whole-clip answer: the largest step and the first frame
+    it ends at (ties across blocks keep the earlier), missing samples left out."""
+    rng = np.random.default_rng(4)
+    q = quat.normalize(rng.normal(size=(40, 3, 4)))
+    q[:, 1] = quat.identity((40,))  # column 1: four equal 30-degree steps, the first at frame 10
+    q[[10, 26], 1] = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(30.0))
+    missing = np.zeros((40, 3), dtype=bool)
+    missing[17, 2] = True
+    whole = metrics.largest_steps(q, missing)
+    monkeypatch.setattr(metrics, "BLOCK_FRAMES", block)
+    blocked = metrics.largest_steps(q, missing)
+    np.testing.assert_array_equal(blocked[0], whole[0])
+    np.testing.assert_array_equal(blocked[1], whole[1])
+    assert whole[1][1] == 10  # the first of two equal largest steps
+
+
 # ----------------------------------------------------------------------------- report
 
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")

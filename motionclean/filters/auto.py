@@ -147,7 +147,7 @@ def estimate_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
     ``q`` is ``(F, ..., 4)``, ``frame_time`` in seconds; returns shape ``(...)``, from the
     noise model of :mod:`motionclean.filters.noise` (clips under 4 frames give 0).
     """
-    cols = quat.make_continuous(_columns(q, 4, "rotations"), axis=0)
+    cols = quat.continuous(_columns(q, 4, "rotations"))  # no copy of a continuous clip
     model = _fit(quat.displacements(cols), _check_time(frame_time))
     level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
     return np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(q)[1:-1])
