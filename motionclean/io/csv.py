@@ -78,6 +78,7 @@ import numpy as np
 from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion, hold_missing
+from ..threads import in_parts
 from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
 from .text import (
     MAX_MAGNITUDE,
@@ -732,20 +733,31 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     return b"".join(splice_cells(src.raw, row_starts, cells, mask, texts))
 
 
-def _fresh(fields: list[str], eol: bytes, cells: Cells, starts, lengths) -> bytes:
-    return join_rows(
-        cells.buffer(), starts, lengths, starts.shape, b",", eol, format_header(fields, eol)
-    )
+#: Rows formatted at a time when a CSV is written afresh (no clip-long arrays of pieces).
+_ROW_BLOCK = 4096
 
 
-def _frame_and_time(motion: Motion, cells: Cells):
-    n = motion.n_frames
+def _fresh(fields: list[str], eol: bytes, n_frames: int, fill) -> bytes:
+    """The header and rows of a CSV written afresh, :data:`_ROW_BLOCK` rows at a time:
+    ``fill(rows, cells)`` adds a block's cell texts to ``cells`` and gives their ``(starts,
+    lengths)``, ``(len, K)``."""
+    out = [format_header(fields, eol)]
+    for rows in in_parts(n_frames, _ROW_BLOCK):
+        cells = Cells()
+        starts, lengths = fill(rows, cells)
+        out.append(join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol))
+    return b"".join(out)
+
+
+def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
+    """The frame-number and time cells of frames ``rows``, added to ``cells``."""
     first = 0.0
     if isinstance(motion.source, CsvText) and motion.source.n_frames:
         first = float(motion.source.values[0, motion.source.time_column])
-    frames = cells.add(*format_fields(b"%d", range(n)))
-    times = cells.add(*format_fields(b"%.12g", (first + np.arange(n) * motion.frame_time).tolist()))
-    return frames, times
+    frames = np.arange(rows.start, rows.stop)
+    numbers = cells.add(*format_fields(b"%d", frames.tolist()))
+    times = cells.add(*format_fields(b"%.12g", (first + frames * motion.frame_time).tolist()))
+    return numbers, times
 
 
 def format_fields(field: bytes, values) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -778,28 +790,36 @@ def _format_channel(motion: Motion) -> bytes:
         placed[:, src.columns] = np.where(missing, np.nan, values)
         return _rewrite(src, motion, mask, placed)
 
-    cells = Cells()
-    starts = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
-    lengths = np.zeros((n_frames, n_channels + 2), dtype=np.int64)
-    fresh = ~missing
-    if isinstance(src, BvhText) and same and src.n_frames == n_frames:
-        kept = (values == motion.source_values) & fresh
-        fresh &= ~kept
-        read_starts, read_ends = src.cells(slice(None))
-        s, n = cells.add(
-            np.frombuffer(src.raw, dtype=np.uint8),
-            read_starts[kept],
-            (read_ends - read_starts)[kept],
+    keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
+
+    def fill(rows: slice, cells: Cells) -> tuple[np.ndarray, np.ndarray]:
+        block = values[rows]
+        starts = np.zeros((block.shape[0], n_channels + 2), dtype=np.int64)
+        lengths = np.zeros_like(starts)
+        fresh = ~missing[rows]
+        if keep_text:  # unchanged values keep the BVH's text
+            assert motion.source_values is not None
+            kept = (block == motion.source_values[rows]) & fresh
+            fresh &= ~kept
+            if kept.any():
+                read_starts, read_ends = src.cells(rows)
+                low, high = int(read_starts[kept].min()), int(read_ends[kept].max())
+                region = np.frombuffer(src.raw, np.uint8, high - low, low)
+                starts[:, 2:][kept], lengths[:, 2:][kept] = cells.add(
+                    region, read_starts[kept] - low, (read_ends - read_starts)[kept]
+                )
+        starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(block[fresh]))
+        (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(
+            motion, cells, rows
         )
-        starts[:, 2:][kept], lengths[:, 2:][kept] = s, n
-    starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(values[fresh]))
-    (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(motion, cells)
+        return starts, lengths
+
     fields = ["frame", "time"] + [
         f"{motion.names[j]}.{channel}"
         for j in range(motion.n_joints)
         for channel in motion.channels[j]
     ]
-    return _fresh(fields, _eol(src), cells, starts, lengths)
+    return _fresh(fields, _eol(src), n_frames, fill)
 
 
 def _source_blank(src: CsvText) -> np.ndarray:
@@ -865,18 +885,23 @@ def _format_rigid(motion: Motion) -> bytes:
         and motion.source_rotations is not None
     ):
         return rewrite_rigid(src, motion)
-    cells = Cells()
     n_frames, n_bodies = values.shape[:2]
     values = values.reshape(n_frames, 7 * n_bodies)
-    starts = np.zeros((n_frames, values.shape[1] + 1), dtype=np.int64)
-    lengths = np.zeros_like(starts)
-    starts[:, 1:], lengths[:, 1:] = (
-        a.reshape(values.shape) for a in cells.add(*format_repr(values))
-    )
-    lengths[:, 1:][np.repeat(motion.missing_mask(), len(RIGID_SUFFIXES), axis=1)] = 0
-    _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells)
+    blank = np.repeat(motion.missing_mask(), len(RIGID_SUFFIXES), axis=1)
+
+    def fill(rows: slice, cells: Cells) -> tuple[np.ndarray, np.ndarray]:
+        block = values[rows]
+        starts = np.zeros((block.shape[0], block.shape[1] + 1), dtype=np.int64)
+        lengths = np.zeros_like(starts)
+        starts[:, 1:], lengths[:, 1:] = (
+            a.reshape(block.shape) for a in cells.add(*format_repr(block))
+        )
+        lengths[:, 1:][blank[rows]] = 0
+        _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells, rows)
+        return starts, lengths
+
     fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
-    return _fresh(fields, _eol(src), cells, starts, lengths)
+    return _fresh(fields, _eol(src), n_frames, fill)
 
 
 def format_csv(motion: Motion, layout: str | None = None) -> bytes:
