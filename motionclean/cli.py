@@ -24,7 +24,7 @@ from .errors import MotionError, UsageError
 from .filters.auto import estimate_noise
 from .filters.gaps import Gaps
 from .io import atomic_write, load, save
-from .io.world_csv import format_world_csv
+from .io.world_csv import world_csv_pieces
 from .jobs import (
     blend_clips,
     check_compatible,
@@ -194,7 +194,7 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
     if world:
         check_output(target, (".csv",), "a world-position CSV")
         template = load(skeleton) if skeleton else None
-        atomic_write(target, format_world_csv(load(source, skeleton=template)))
+        atomic_write(target, world_csv_pieces(load(source, skeleton=template)))
         return
     check_clip_output(target)
     template = load(skeleton) if skeleton else None

@@ -265,3 +265,20 @@ def test_report_figures_from_the_figure_points_equal_those_from_every_point():
     moved = np.linalg.norm(full_a[core][:, index] - full_b[core][:, index], axis=-1)
     for n, name in enumerate(names):
         assert report["world"]["effectors"][name]["deviation"]["max"] == moved[:, n].max()
+
+
+@pytest.mark.parametrize("block", [1, 7])
+def test_world_csv_row_block_by_row_block_is_the_same_bytes(monkeypatch, block):
+    from helpers import ROOT
+
+    from motionclean.io import world_csv
+
+    clip = mc.load(SAMPLE)
+    bodies = mc.load(ROOT / "sample_data" / "131_02_motive.csv")
+    missing = np.zeros((bodies.n_frames, bodies.n_joints), dtype=bool)
+    missing[10:14, 1] = True
+    gappy = bodies.replace(missing=missing)
+    whole = [world_csv.format_world_csv(clip), world_csv.format_world_csv(gappy)]
+    monkeypatch.setattr(world_csv, "ROW_BLOCK", block)
+    assert [world_csv.format_world_csv(clip), world_csv.format_world_csv(gappy)] == whole
+    assert b",," in whole[1] and b"nan" not in whole[1]

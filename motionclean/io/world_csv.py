@@ -11,29 +11,43 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Iterator
 
 import numpy as np
 
 from .. import kinematics
 from ..motion import Motion
 
+#: Rows formatted at a time (no clip-long table or text).
+ROW_BLOCK = 4096
 
-def format_world_csv(motion: Motion) -> bytes:
-    """The world-position table of ``motion`` as UTF-8 CSV bytes (LF line ends)."""
-    positions, _ = kinematics.forward(motion, end_sites=True)
+
+def world_csv_pieces(motion: Motion) -> Iterator[bytes]:
+    """The world-position table of ``motion`` as UTF-8 CSV (LF line ends), in pieces of
+    :data:`ROW_BLOCK` rows to write in turn."""
+    positions = kinematics.world_positions(motion, end_sites=True)
     names = list(motion.names) + kinematics.end_site_names(motion)
     header = io.StringIO()
     csv.writer(header, lineterminator="\n").writerow(
         ["time", *(f"{name}.{axis}" for name in names for axis in kinematics.AXES)]
     )
-    times = np.arange(motion.n_frames) * motion.frame_time
+    yield header.getvalue().encode("utf-8")
     unknown = kinematics.missing_points(motion)
-    if unknown is not None:  # a point whose place depends on a dropout is left blank
-        positions = np.where(unknown[..., None], np.nan, positions)
-    table = np.column_stack([times, positions.reshape(motion.n_frames, -1)])
-    body = io.StringIO()
-    np.savetxt(body, table, fmt="%.9g", delimiter=",")
-    text = body.getvalue()
-    if unknown is not None:  # every other value is finite: "nan" marks the blanks only
-        text = text.replace("nan", "")
-    return (header.getvalue() + text).encode("utf-8")
+    for at in range(0, motion.n_frames, ROW_BLOCK):
+        rows = slice(at, at + ROW_BLOCK)
+        block = positions[rows]
+        if unknown is not None:  # a point whose place depends on a dropout is left blank
+            block = np.where(unknown[rows, :, None], np.nan, block)
+        times = np.arange(at, at + block.shape[0]) * motion.frame_time
+        body = io.StringIO()
+        np.savetxt(body, np.column_stack([times, block.reshape(block.shape[0], -1)]), "%.9g", ",")
+        text = body.getvalue()
+        if unknown is not None:  # every other value is finite: "nan" marks the blanks only
+            text = text.replace("nan", "")
+        yield text.encode("utf-8")
+
+
+def format_world_csv(motion: Motion) -> bytes:
+    """The world-position table of ``motion`` as UTF-8 CSV bytes (:func:`world_csv_pieces`
+    joined)."""
+    return b"".join(world_csv_pieces(motion))
