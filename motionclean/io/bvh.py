@@ -19,7 +19,7 @@ The vectorised text work (token scan, number parsing, ``%.6f`` formatting, splic
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -679,4 +679,16 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
             return lambda a, b: format_fixed6(new[a:b])
 
         return splice_cells(src.raw, src.row_starts, src.cells, changed, texts, start, prefix)
-    return [join_rows(*format_fixed6(values), values.shape, b" ", eol, hierarchy + motion_header)]
+    return [hierarchy + motion_header, *_fresh_rows(values, eol)]
+
+
+#: Frame rows printed at a time when a clip is written afresh.
+ROW_BLOCK = 4096
+
+
+def _fresh_rows(values: np.ndarray, eol: bytes) -> Iterator[bytes]:
+    """``(F, C)`` values as ``%.6f`` frame rows, :data:`ROW_BLOCK` rows per piece (no
+    clip-long arrays of texts)."""
+    for at in range(0, values.shape[0], ROW_BLOCK):
+        block = values[at : at + ROW_BLOCK]
+        yield join_rows(*format_fixed6(block), block.shape, b" ", eol)
