@@ -23,7 +23,7 @@ from . import kinematics, multires, quat
 from .errors import MotionError
 from .html import render_html
 from .io import atomic_write, load, save
-from .motion import Motion
+from .motion import Motion, joint_major_zeros
 from .pipeline import Pipeline, StepLog
 from .report import build_report, build_series, to_json
 from .resampling import on_input_frames
@@ -282,10 +282,36 @@ def blend_clips(
     Raises :class:`MotionError` for incompatible clips, ValueError for bad weights or levels.
     """
     check_compatible(a, b)
-    q, p = multires.blend(
-        a.rotations, b.rotations, levels, weight, detail_weights, a.translations, b.translations
+    q, p = _with_positions(
+        lambda q_a, q_b, p_a=None, p_b=None: multires.blend(
+            q_a, q_b, levels, weight, detail_weights, p_a, p_b
+        ),
+        a,
+        b,
     )
     return a.replace(rotations=q, translations=p)
+
+
+def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """``run(q_a, q_b, p_a, p_b) -> (q, p)`` (a multiresolution operation on two clips) on
+    every joint's rotations, and again, with translations, on the joints that have any
+    (position channels, or a non-zero value in either clip). The rotations never depend on
+    the positions (003 Eq. 2-3); the other joints' translations are zero in both clips and
+    stay so, without arrays for them."""
+    q, _ = run(a.rotations, b.rotations)
+    moving = a.layout.has_position | b.layout.has_position
+    for clip in (a, b):
+        moving |= np.any(clip.translations != 0.0, axis=(0, 2))
+    joints = np.flatnonzero(moving)
+    p = joint_major_zeros(q.shape[0], a.n_joints)
+    if joints.size:
+        _, p[:, joints] = run(
+            a.rotations[:, joints],
+            b.rotations[:, joints],
+            a.translations[:, joints],
+            b.translations[:, joints],
+        )
+    return q, p
 
 
 def align_roots(a: Motion, b: Motion) -> Motion:
@@ -343,7 +369,9 @@ def stitch_clips(a: Motion, b: Motion, levels: int = 4, align: bool = True) -> M
         raise MotionError("cannot stitch a clip without frames", (b if b.n_frames == 0 else a).path)
     if align:
         b = align_roots(a, b)
-    q, p = multires.stitch(a.rotations, b.rotations, levels, a.translations, b.translations)
+    q, p = _with_positions(
+        lambda q_a, q_b, p_a=None, p_b=None: multires.stitch(q_a, q_b, levels, p_a, p_b), a, b
+    )
     joined: dict = {"source_values": None, "source_rotations": None}
     if a.has_source_frames() and b.has_source_frames():
         assert a.source_values is not None and b.source_values is not None

@@ -213,3 +213,23 @@ def test_stitch_refuses_another_skeleton(tmp_path, capsys):
     moved.write_text(text.replace("OFFSET 1.24777 -1.64261", "OFFSET 790 -1.64261", 1))
     code, _, err = run_cli(capsys, "stitch", SAMPLE, moved, "-o", tmp_path / "o.bvh")
     assert code == 1 and "another OFFSET" in err and not (tmp_path / "o.bvh").exists()
+
+
+def test_blend_and_stitch_carry_positions_only_where_a_joint_has_some():
+    """Rotations go through the pyramids for every joint and positions only for joints
+    that have any: the same clip as one call on every joint's rotations and positions,
+    including a joint without position channels whose translations are not zero."""
+    from motionclean.jobs import blend_clips, stitch_clips
+
+    a = mc.load(SAMPLE)
+    b = a.replace(rotations=quat.multiply(a.rotations, quat.from_axis_angle([0.0, 0.0, 1.0], 0.3)))
+    moved = a.translations.copy()
+    moved[:, 5] = np.linspace(0.0, 2.0, a.n_frames)[:, None]  # joint 5 has no position channel
+    a = a.replace(translations=moved)
+    q, p = multires.blend(a.rotations, b.rotations, 3, 0.4, None, a.translations, b.translations)
+    blended = blend_clips(a, b, levels=3, weight=0.4)
+    assert np.array_equal(blended.rotations, q) and np.array_equal(blended.translations, p)
+    assert blended.translations[:, 5].any()
+    q, p = multires.stitch(a.rotations, b.rotations, 3, a.translations, b.translations)
+    joined = stitch_clips(a, b, levels=3, align=False)
+    assert np.array_equal(joined.rotations, q) and np.array_equal(joined.translations, p)
