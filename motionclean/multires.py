@@ -146,7 +146,7 @@ class Pyramid:
 
 
 def _rotations(q, name: str = "rotations") -> np.ndarray:
-    return quat.make_continuous(checks.unit_quaternions(q, name, min_frames=1), axis=0)
+    return quat.continuous(checks.unit_quaternions(q, name, min_frames=1))  # no copy if so
 
 
 def _positions(p, lead: tuple[int, ...] | None, name: str = "positions") -> np.ndarray:
@@ -259,7 +259,7 @@ def _anchor_signs(q: np.ndarray, index: int, ref: np.ndarray) -> np.ndarray:
     coarser level keeps (index ``phase``, against the coarse frame 0), so a reconstructed
     level has the signs of the decomposed one, not only the same rotations.
     """
-    q = quat.make_continuous(q)
+    q = quat.continuous(q)
     flip = np.einsum("...i,...i->...", q[index], ref) < 0.0
     return np.where(flip[None, ..., None], -q, q)
 
@@ -434,7 +434,7 @@ def reconstruct(pyramid: Pyramid):
     """
     q, p = pyramid.rotations, pyramid.positions
     if q is not None:
-        q = quat.make_continuous(q)
+        q = quat.continuous(q)
     for level in reversed(pyramid.details):  # coarse to fine
         w = None if q is None else quat.displacements(q)
         qe, pe = _expand(q, w, p, level.n_frames, level.phase)
