@@ -339,8 +339,8 @@ def _standing_points(motion: Motion) -> np.ndarray:
     rest = rest_positions(motion)
     if np.ptp(rest, axis=0).max() > 0.0 or motion.n_frames == 0:
         return rest
-    if motion.missing is None:
-        return forward(motion)[0][0]
+    if motion.missing is None:  # the first frame only
+        return world_positions(motion.at_frames(slice(0, 1)), end_sites=False)[0]
     seen = ~motion.missing.all(axis=0)  # bodies never tracked have no place to stand
     first = np.argmax(~motion.missing, axis=0)[seen]
     frames = np.unique(first)

@@ -84,7 +84,6 @@ from .text import (
     MAX_MAGNITUDE,
     check_finite,
     join_rows,
-    pack_texts,
     parse_values,
     scan_cells,
     scan_tokens,
@@ -714,15 +713,23 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
 
     def texts(rows: slice):
         chosen = mask[rows]
-        new, new_is_time = placed[rows][chosen].tolist(), is_time[rows][chosen].tolist()
-        return (
-            lambda a, b: pack_texts(
-                [
-                    b"%.12g" % v if t else repr(v).encode() if v == v else b""  # NaN: blank
-                    for v, t in zip(new[a:b], new_is_time[a:b], strict=True)
-                ]
-            )
-        )
+        new, new_is_time = placed[rows][chosen], is_time[rows][chosen]
+
+        def chunk(a: int, b: int):
+            """Texts of replacements ``a`` to ``b - 1``: times ``%.12g``, values their
+            shortest round-trip text, NaN a blank cell."""
+            values, timed = new[a:b], new_is_time[a:b]
+            plain = ~timed & ~np.isnan(values)
+            starts = np.zeros(values.size, dtype=np.int64)
+            lengths = np.zeros(values.size, dtype=np.int64)
+            cells = Cells()
+            starts[plain], lengths[plain] = cells.add(*format_repr(values[plain]))
+            if timed.any():
+                times = format_fields(b"%.12g", values[timed].tolist())
+                starts[timed], lengths[timed] = cells.add(*times)
+            return cells.buffer(), starts, lengths
+
+        return chunk
 
     starts, ends = src.starts, src.ends
     row_starts = starts[:, 0] if starts.shape[1] else np.zeros(starts.shape[0], np.int64)
