@@ -119,3 +119,28 @@ def test_a_loaded_clip_writes_the_position_channels_only():
     assert not clip.translations[:, 1:].any()
     clip.translations[:, 3] = 1.0  # still an ordinary writable (F, J, 3) array
     assert clip.translations[5, 3].tolist() == [1.0, 1.0, 1.0]
+
+
+def test_a_read_clip_holds_its_values_rotations_and_little_else():
+    """What a BVH clip keeps once read, besides its text: the values (1x), float64
+    rotations (4/3x), translations (1x as tracemalloc counts them, though only the root's
+    pages are ever touched) and a byte of gap and of length per value (1/4x). No per-value
+    offsets: int32 starts and ends would add 1x."""
+    import tracemalloc
+
+    from motionclean.io.bvh import parse_bvh
+
+    text = SAMPLE.read_bytes()
+    head, _, rest = text.partition(b"Frame Time:")
+    time_line, _, body = rest.partition(b"\n")
+    rows = [row for row in body.splitlines(keepends=True) if row.strip()]
+    frames = 20 * len(rows)
+    head = head.replace(b"Frames: %d" % len(rows), b"Frames: %d" % frames)
+    data = head + b"Frame Time:" + time_line + b"\n" + b"".join(rows * 20)
+    tracemalloc.start()
+    clip = parse_bvh(data, "long.bvh")
+    kept = tracemalloc.get_traced_memory()[0]
+    tracemalloc.stop()
+    assert clip.n_frames == frames
+    values = clip.source_values.nbytes
+    assert kept < 3.8 * values  # (the text was allocated before tracing began)
