@@ -23,7 +23,7 @@ from . import kinematics, multires, quat
 from .errors import MotionError
 from .html import render_html
 from .io import atomic_write, load, save
-from .motion import Motion, joint_major_zeros
+from .motion import Motion, joint_major_zeros, written_joints
 from .pipeline import Pipeline, StepLog
 from .report import build_report, build_series, to_json
 from .resampling import on_input_frames
@@ -299,10 +299,10 @@ def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
     the positions (003 Eq. 2-3); the other joints' translations are zero in both clips and
     stay so, without arrays for them."""
     q, _ = run(a.rotations, b.rotations)
-    moving = a.layout.has_position | b.layout.has_position
-    for clip in (a, b):
-        moving |= np.any(clip.translations != 0.0, axis=(0, 2))
-    joints = np.flatnonzero(moving)
+    joints = np.union1d(
+        np.flatnonzero(a.layout.has_position | b.layout.has_position),
+        written_joints(a.translations, b.translations),
+    )
     p = joint_major_zeros(q.shape[0], a.n_joints)
     if joints.size:
         _, p[:, joints] = run(

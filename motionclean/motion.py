@@ -52,13 +52,26 @@ def joint_major_zeros(n_frames: int, n_joints: int, width: int = 3) -> np.ndarra
     return np.zeros((n_joints, n_frames, width)).transpose(1, 0, 2)
 
 
+def written_joints(*arrays: np.ndarray) -> np.ndarray:
+    """Indices of the joints (axis 1) that hold a non-zero value in any of the
+    ``(F, J, width)`` ``arrays``."""
+    return np.flatnonzero(np.any([np.any(a != 0.0, axis=(0, 2)) for a in arrays], axis=0))
+
+
+def sparse_concatenate(parts: list[np.ndarray]) -> np.ndarray:
+    """``(F, J, width)`` arrays joined along the frames in :func:`joint_major_zeros`
+    storage, with only the :func:`written_joints` copied."""
+    first = parts[0]
+    out = joint_major_zeros(sum(len(part) for part in parts), first.shape[1], first.shape[2])
+    joints = written_joints(*parts)
+    out[:, joints] = np.concatenate([part[:, joints] for part in parts])
+    return out
+
+
 def sparse_copy(array: np.ndarray) -> np.ndarray:
     """A copy of ``(F, J, width)`` ``array`` in :func:`joint_major_zeros` storage, with only
     the joints that hold a non-zero value written."""
-    out = joint_major_zeros(*array.shape)
-    written = np.flatnonzero(np.any(array != 0.0, axis=(0, 2)))
-    out[:, written] = array[:, written]
-    return out
+    return sparse_concatenate([array])
 
 
 def _euler_quaternions(

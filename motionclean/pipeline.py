@@ -367,9 +367,7 @@ class _Made:
     def __init__(self, clip: Motion) -> None:
         self.arrays: dict[str, np.ndarray | None] = {}
         self.inputs = [
-            a
-            for a in (clip.rotations, clip.translations, clip.source_rotations, clip.missing)
-            if a is not None
+            a for a in (clip.rotations, clip.translations, clip.source_rotations) if a is not None
         ]
 
     def owns(self, array: np.ndarray) -> bool:

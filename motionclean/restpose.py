@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
-from .motion import Motion, joint_major_zeros
+from .motion import Motion, sparse_concatenate
 
 #: A transition is a jump on a joint when its rotation step exceeds both of these.
 JUMP_DEG = 15.0
@@ -127,17 +127,6 @@ def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:
         first, last = (getattr(original, field)[rows] for rows in ends)
         return np.concatenate([first, getattr(middle, field), last])
 
-    def joined_translations() -> np.ndarray:  # only joints with a non-zero value written
-        parts = [
-            original.translations[ends[0]],
-            middle.translations,
-            original.translations[ends[1]],
-        ]
-        out = joint_major_zeros(sum(len(part) for part in parts), original.n_joints)
-        written = np.flatnonzero(np.any([np.any(part != 0.0, axis=(0, 2)) for part in parts], 0))
-        out[:, written] = np.concatenate([part[:, written] for part in parts])
-        return out
-
     missing = None
     if original.missing is not None or middle.missing is not None:
         missing = np.concatenate(
@@ -152,7 +141,9 @@ def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:
         resized = {"source_values": None, "source_rotations": None}
     return original.replace(
         rotations=joined("rotations"),
-        translations=joined_translations(),
+        translations=sparse_concatenate(  # zeros of joints without positions: no memory
+            [original.translations[ends[0]], middle.translations, original.translations[ends[1]]]
+        ),
         frame_time=middle.frame_time,
         missing=missing,
         **resized,
