@@ -120,7 +120,7 @@ def _forward_planes(
     world_q = np.empty((4, n_joints, n_frames)) if keep_rotations else None
     stored = np.arange(n_points) if only is None else np.asarray(only, dtype=np.intp)
     world_p = np.empty((3, stored.size, n_frames))
-    sorted_rows = np.concatenate([rank, np.arange(n_joints, n_points)])[stored]
+    sorted_rows = np.concatenate([rank, np.arange(n_joints, n_points)])[stored]  # p's rows
     block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
     work: dict[str, np.ndarray] = {}
     for start in range(0, n_frames, block):
@@ -154,11 +154,7 @@ def _forward_planes(
             np.copyto(p[:, n_joints:], pp)
         if world_q is not None:
             world_q[:, order, frames] = q
-        if only is None:
-            world_p[:, order, frames] = p[:, :n_joints]
-            world_p[:, n_joints:, frames] = p[:, n_joints:]
-        else:
-            world_p[:, :, frames] = p[:, sorted_rows]
+        world_p[:, :, frames] = p[:, sorted_rows]
     return world_p, world_q
 
 
