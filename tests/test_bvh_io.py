@@ -540,12 +540,12 @@ def test_the_row_reader_agrees_with_the_general_one_on_damaged_rows(seed, edits)
 
 @pytest.mark.parametrize("block", [1, 7])
 def test_a_clip_written_afresh_row_block_by_row_block_is_the_same_bytes(monkeypatch, block):
-    from motionclean.io import bvh as bvh_module
+    from motionclean.io import text
 
     clip = mc.load(SAMPLE)
     fresh = clip.replace(source=None, source_values=None)  # nothing to splice into
     whole = format_bvh(fresh)
-    monkeypatch.setattr(bvh_module, "ROW_BLOCK", block)
+    monkeypatch.setattr(text, "ROW_BLOCK", block)
     assert format_bvh(fresh) == whole
     again = parse_bvh(whole, "x.bvh")
     np.testing.assert_allclose(again.source_values, fresh.channel_values(), atol=5e-7)

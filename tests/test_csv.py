@@ -379,7 +379,7 @@ def test_csv_written_afresh_row_block_by_row_block_is_the_same_bytes(monkeypatch
     any block size gives the same bytes, kept BVH texts, blank cells and all."""
     import importlib
 
-    csv_module = importlib.import_module("motionclean.io.csv")
+    text_module = importlib.import_module("motionclean.io.text")
     clip = mc.load(NOISY)
     turned = clip.rotations.copy()
     turned[::3, 4] = quat.multiply(turned[::3, 4], quat.from_axis_angle([0.0, 1.0, 0.0], 0.2))
@@ -389,6 +389,6 @@ def test_csv_written_afresh_row_block_by_row_block_is_the_same_bytes(monkeypatch
     missing[10:14, 1] = True
     rigid = bodies.replace(source=None, missing=missing)
     whole = [format_csv(edited), format_csv(rigid, "rigid")]
-    monkeypatch.setattr(csv_module, "_ROW_BLOCK", block)
+    monkeypatch.setattr(text_module, "ROW_BLOCK", block)
     assert [format_csv(edited), format_csv(rigid, "rigid")] == whole
     assert b",," in whole[1]  # the dropout is written blank

@@ -271,7 +271,7 @@ def test_report_figures_from_the_figure_points_equal_those_from_every_point():
 def test_world_csv_row_block_by_row_block_is_the_same_bytes(monkeypatch, block):
     from helpers import ROOT
 
-    from motionclean.io import world_csv
+    from motionclean.io import text, world_csv
 
     clip = mc.load(SAMPLE)
     bodies = mc.load(ROOT / "sample_data" / "131_02_motive.csv")
@@ -279,6 +279,6 @@ def test_world_csv_row_block_by_row_block_is_the_same_bytes(monkeypatch, block):
     missing[10:14, 1] = True
     gappy = bodies.replace(missing=missing)
     whole = [world_csv.format_world_csv(clip), world_csv.format_world_csv(gappy)]
-    monkeypatch.setattr(world_csv, "ROW_BLOCK", block)
+    monkeypatch.setattr(text, "ROW_BLOCK", block)
     assert [world_csv.format_world_csv(clip), world_csv.format_world_csv(gappy)] == whole
     assert b",," in whole[1] and b"nan" not in whole[1]

@@ -19,7 +19,7 @@ The vectorised text work (token scan, number parsing, ``%.6f`` formatting, splic
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -38,11 +38,11 @@ from .text import (
     bad_number_message,
     check_finite,
     format_fixed6,
-    join_rows,
     line_ends,
     parse_values,
     scan_tokens,
     splice_cells,
+    table_pieces,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -679,16 +679,10 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
             return lambda a, b: format_fixed6(new[a:b])
 
         return splice_cells(src.raw, src.row_starts, src.cells, changed, texts, start, prefix)
-    return [hierarchy + motion_header, *_fresh_rows(values, eol)]
 
+    def cells(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        block = values[rows]
+        buf, starts, lengths = format_fixed6(block)
+        return buf, starts.reshape(block.shape), lengths.reshape(block.shape)
 
-#: Frame rows printed at a time when a clip is written afresh.
-ROW_BLOCK = 4096
-
-
-def _fresh_rows(values: np.ndarray, eol: bytes) -> Iterator[bytes]:
-    """``(F, C)`` values as ``%.6f`` frame rows, :data:`ROW_BLOCK` rows per piece (no
-    clip-long arrays of texts)."""
-    for at in range(0, values.shape[0], ROW_BLOCK):
-        block = values[at : at + ROW_BLOCK]
-        yield join_rows(*format_fixed6(block), block.shape, b" ", eol)
+    return [hierarchy + motion_header, *table_pieces(values.shape[0], cells, b" ", eol)]

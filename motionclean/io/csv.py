@@ -78,16 +78,15 @@ import numpy as np
 from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion, hold_missing
-from ..threads import in_parts
 from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
 from .text import (
     MAX_MAGNITUDE,
     check_finite,
-    join_rows,
     parse_values,
     scan_cells,
     scan_tokens,
     splice_cells,
+    table_pieces,
 )
 
 #: Column suffixes of a rigid body, in the order they are written.
@@ -741,20 +740,9 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     return b"".join(splice_cells(src.raw, row_starts, cells, mask, texts))
 
 
-#: Rows formatted at a time when a CSV is written afresh (no clip-long arrays of pieces).
-_ROW_BLOCK = 4096
-
-
-def _fresh(fields: list[str], eol: bytes, n_frames: int, fill) -> bytes:
-    """The header and rows of a CSV written afresh, :data:`_ROW_BLOCK` rows at a time:
-    ``fill(rows, cells)`` adds a block's cell texts to ``cells`` and gives their ``(starts,
-    lengths)``, ``(len, K)``."""
-    out = [format_header(fields, eol)]
-    for rows in in_parts(n_frames, _ROW_BLOCK):
-        cells = Cells()
-        starts, lengths = fill(rows, cells)
-        out.append(join_rows(cells.buffer(), starts, lengths, starts.shape, b",", eol))
-    return b"".join(out)
+def _fresh(fields: list[str], eol: bytes, n_frames: int, cells) -> bytes:
+    """The header and rows of a CSV written afresh (:func:`table_pieces`)."""
+    return format_header(fields, eol) + b"".join(table_pieces(n_frames, cells, b",", eol))
 
 
 def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
@@ -800,7 +788,8 @@ def _format_channel(motion: Motion) -> bytes:
 
     keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
 
-    def fill(rows: slice, cells: Cells) -> tuple[np.ndarray, np.ndarray]:
+    def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cells = Cells()
         block = values[rows]
         starts = np.zeros((block.shape[0], n_channels + 2), dtype=np.int64)
         lengths = np.zeros_like(starts)
@@ -820,7 +809,7 @@ def _format_channel(motion: Motion) -> bytes:
         (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(
             motion, cells, rows
         )
-        return starts, lengths
+        return cells.buffer(), starts, lengths
 
     fields = ["frame", "time"] + [
         f"{motion.names[j]}.{channel}"
@@ -897,7 +886,8 @@ def _format_rigid(motion: Motion) -> bytes:
     values = values.reshape(n_frames, 7 * n_bodies)
     blank = np.repeat(motion.missing_mask(), len(RIGID_SUFFIXES), axis=1)
 
-    def fill(rows: slice, cells: Cells) -> tuple[np.ndarray, np.ndarray]:
+    def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cells = Cells()
         block = values[rows]
         starts = np.zeros((block.shape[0], block.shape[1] + 1), dtype=np.int64)
         lengths = np.zeros_like(starts)
@@ -906,7 +896,7 @@ def _format_rigid(motion: Motion) -> bytes:
         )
         lengths[:, 1:][blank[rows]] = 0
         _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells, rows)
-        return starts, lengths
+        return cells.buffer(), starts, lengths
 
     fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
     return _fresh(fields, _eol(src), n_frames, fill)

@@ -428,6 +428,19 @@ def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) ->
     return _gather(np.concatenate([region, buf]), pieces[used], lengths[used])
 
 
+#: Rows per piece when a table is written afresh (no clip-long arrays of cell texts).
+ROW_BLOCK = 4096
+
+
+def table_pieces(n_rows: int, cells, sep: bytes, eol: bytes) -> Iterator[bytes]:
+    """The rows of a table written afresh, :data:`ROW_BLOCK` rows per piece:
+    ``cells(rows)`` gives ``(buffer, starts, lengths)`` of the ``(len, K)`` cells of a slice
+    of rows (see :func:`join_rows`)."""
+    for rows in in_parts(n_rows, ROW_BLOCK):
+        buf, starts, lengths = cells(rows)
+        yield join_rows(buf, starts, lengths, starts.shape, sep, eol)
+
+
 def join_rows(
     buf: np.ndarray,
     starts: np.ndarray,

@@ -17,14 +17,13 @@ import numpy as np
 
 from .. import kinematics
 from ..motion import Motion
-
-#: Rows formatted at a time (no clip-long table or text).
-ROW_BLOCK = 4096
+from ..threads import in_parts
+from . import text
 
 
 def world_csv_pieces(motion: Motion) -> Iterator[bytes]:
     """The world-position table of ``motion`` as UTF-8 CSV (LF line ends), in pieces of
-    :data:`ROW_BLOCK` rows to write in turn."""
+    :data:`~motionclean.io.text.ROW_BLOCK` rows to write in turn."""
     positions = kinematics.world_positions(motion, end_sites=True)
     names = list(motion.names) + kinematics.end_site_names(motion)
     header = io.StringIO()
@@ -33,18 +32,17 @@ def world_csv_pieces(motion: Motion) -> Iterator[bytes]:
     )
     yield header.getvalue().encode("utf-8")
     unknown = kinematics.missing_points(motion)
-    for at in range(0, motion.n_frames, ROW_BLOCK):
-        rows = slice(at, at + ROW_BLOCK)
+    for rows in in_parts(motion.n_frames, text.ROW_BLOCK):
         block = positions[rows]
         if unknown is not None:  # a point whose place depends on a dropout is left blank
             block = np.where(unknown[rows, :, None], np.nan, block)
-        times = np.arange(at, at + block.shape[0]) * motion.frame_time
+        times = np.arange(rows.start, rows.stop) * motion.frame_time
         body = io.StringIO()
         np.savetxt(body, np.column_stack([times, block.reshape(block.shape[0], -1)]), "%.9g", ",")
-        text = body.getvalue()
+        lines = body.getvalue()
         if unknown is not None:  # every other value is finite: "nan" marks the blanks only
-            text = text.replace("nan", "")
-        yield text.encode("utf-8")
+            lines = lines.replace("nan", "")
+        yield lines.encode("utf-8")
 
 
 def format_world_csv(motion: Motion) -> bytes:
