@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-import errno
 import os
-import stat
 import tempfile
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 from pathlib import Path
 
 from ..errors import MotionError
 from ..motion import Motion
 from . import bvh, csv, motive
+from .files import read_regular_file
 
 __all__ = ["FORMATS", "atomic_write", "load", "save"]
 
@@ -25,7 +25,7 @@ def _format_csv(motion: Motion) -> bytes:
 
 _READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
 #: Writers give the file's bytes, or its pieces to write in turn.
-_WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes]]] = {
+_WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
     ".csv": _format_csv,
 }
@@ -52,44 +52,15 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     """
     path = Path(path)
     suffix = _suffix(path, _READERS)
-    data = read_regular_file(path)
+    data, on_disk = read_regular_file(path, keep_large=suffix == ".bvh")
     if suffix == ".csv":
         if motive.is_motive(data):
             return motive.parse_motive(data, path)
         return csv.parse_csv(data, path, skeleton=skeleton)
-    return _READERS[suffix](data, path)
-
-
-def read_regular_file(path: Path) -> bytes:
-    """The bytes of a regular file, never more than its size when opened.
-
-    FIFOs, devices and sockets are refused (reading one could block forever or never end),
-    and so is a file that grows while it is read. Every failure is a one-line MotionError.
-    """
-    try:
-        # Open without blocking (a FIFO would wait for a writer), then check what was opened.
-        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-        with os.fdopen(descriptor, "rb") as f:
-            info = os.fstat(f.fileno())
-            if stat.S_ISDIR(info.st_mode):
-                raise MotionError("is a directory, not a clip", path)
-            if not stat.S_ISREG(info.st_mode):
-                raise MotionError("not a regular file (a pipe, device or socket)", path)
-            data = f.read(info.st_size + 1)
-    except IsADirectoryError:
-        raise MotionError("is a directory, not a clip", path) from None
-    except FileNotFoundError:
-        what = "a broken symbolic link" if path.is_symlink() else "no such file"
-        raise MotionError(what, path) from None
-    except PermissionError:
-        raise MotionError("permission denied", path) from None
-    except OSError as error:
-        if error.errno == errno.ELOOP:
-            raise MotionError("a loop of symbolic links", path) from None
-        raise MotionError(f"cannot read: {error.strerror or error}", path) from None
-    if len(data) > info.st_size:
-        raise MotionError("the file grew while it was read; read it once it is complete", path)
-    return data
+    motion = bvh.parse_bvh(data, path)
+    if on_disk is not None:  # the text is read again from the file when it is written
+        motion.source = replace(motion.source, raw=on_disk)
+    return motion
 
 
 def save(motion: Motion, path: str | os.PathLike) -> None:
@@ -113,7 +84,7 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
     atomic_write(path, data)
 
 
-def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes]) -> None:
+def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes | memoryview]) -> None:
     """Write ``data`` (bytes, or pieces written in turn as an iterable gives them) to a
     temporary file beside ``path``, then rename it into place.
 

@@ -33,6 +33,7 @@ from ..motion import (
     Motion,
 )
 from ..threads import in_parts, run_parts
+from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
     bad_number_message,
@@ -59,7 +60,7 @@ class BvhText:
     the offsets of any rows.
     """
 
-    raw: bytes  # the whole file as read
+    raw: bytes | FileBytes  # the whole file as read (a large one is read again from disk)
     hierarchy: bytes  # everything before the MOTION line (BOM included)
     motion_header: bytes  # MOTION, Frames and Frame Time lines with their line endings
     body_start: int  # offset of the first byte after the Frame Time line
@@ -613,7 +614,7 @@ def format_bvh(motion: Motion) -> bytes:
     return b"".join(bvh_pieces(motion))
 
 
-def bvh_pieces(motion: Motion) -> Iterable[bytes]:
+def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     """``motion`` as BVH, in pieces to write one after the other (no copy of the whole file
     is made to join them; the spliced rows are made as they are written).
 
@@ -642,7 +643,7 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
         and src.n_channels == motion.layout.n_channels
     )
     if src is not None and same_frames and same_frame_time and _unchanged(motion):
-        return [src.raw]
+        return pieces(src.raw)
     values = motion.channel_values()
     check_finite(motion, values)
     keep_header = (
@@ -668,7 +669,7 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes]:
     if src is not None and same_frames and motion.source_values is not None:
         changed = _changed(values, motion.source_values)
         if not changed.any() and same_frame_time:
-            return [src.raw]
+            return pieces(src.raw)
         if keep_header:  # the file up to the rows is unchanged
             start, prefix = 0, b""
         else:

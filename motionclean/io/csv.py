@@ -801,7 +801,7 @@ def _format_channel(motion: Motion) -> bytes:
             if kept.any():
                 read_starts, read_ends = src.cells(rows)
                 low, high = int(read_starts[kept].min()), int(read_ends[kept].max())
-                region = np.frombuffer(src.raw, np.uint8, high - low, low)
+                region = np.frombuffer(src.raw[low:high], np.uint8)
                 starts[:, 2:][kept], lengths[:, 2:][kept] = cells.add(
                     region, read_starts[kept] - low, (read_ends - read_starts)[kept]
                 )

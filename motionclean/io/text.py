@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
+from typing import Protocol
 
 import numpy as np
 
@@ -355,15 +356,23 @@ def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: byt
     return b"".join(out)
 
 
+class Bytes(Protocol):
+    """Bytes, or a file's bytes read again when sliced (``io.files.FileBytes``)."""
+
+    def __len__(self) -> int: ...
+
+    def __getitem__(self, key: slice, /) -> bytes: ...
+
+
 def splice_cells(
-    raw: bytes,
+    raw: Bytes,
     row_starts: np.ndarray,
     cells: Callable[[slice], tuple[np.ndarray, np.ndarray]],
     mask: np.ndarray,
     texts,
     start: int = 0,
     prefix: bytes = b"",
-) -> Iterator[bytes]:
+) -> Iterator[bytes | memoryview]:
     """The pieces of ``prefix + raw[start:]`` (bytes to join or write in turn, made as they
     are asked for) with the cells of ``(F, C)`` rows (in file order, at or after ``start``)
     replaced where ``mask`` is True. ``row_starts`` (F,) is the byte offset of each row's
@@ -372,25 +381,29 @@ def splice_cells(
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
-    Parts of rows run on threads, as many at a time as there are threads, and each works
-    from its own rows only, in chunks: no array or text the size of the clip is made.
+    Parts of rows run on threads, as many at a time as there are threads, and each slices
+    only its own rows' bytes from ``raw`` and works on them in chunks: no array or text the
+    size of the clip is made.
     """
-    source = np.frombuffer(raw, dtype=np.uint8)
+    whole = memoryview(raw) if isinstance(raw, bytes) else raw  # parts without copies
     n_rows = row_starts.size
     spans = in_parts(n_rows, max(1, _PART_ITEMS // max(1, mask.shape[1])))
 
-    def spliced(rows: slice) -> list[bytes]:
+    def spliced(rows: slice) -> list[bytes | memoryview]:
         """The output from the first cell of row ``rows.start`` (or ``start``) to the first
         cell of row ``rows.stop`` (or the end of ``raw``)."""
-        pos = start if rows.start == 0 else int(row_starts[rows.start])
-        end = len(raw) if rows.stop == n_rows else int(row_starts[rows.stop])
+        low = start if rows.start == 0 else int(row_starts[rows.start])
+        high = len(raw) if rows.stop == n_rows else int(row_starts[rows.stop])
+        text = whole[low:high]
         chosen = mask[rows]
         if not chosen.any():
-            return [raw[pos:end]]
+            return [text]
+        source = np.frombuffer(text, dtype=np.uint8)
         row_cells = cells(rows)
-        old_starts, old_ends = row_cells[0][chosen], row_cells[1][chosen]
+        old_starts, old_ends = row_cells[0][chosen] - low, row_cells[1][chosen] - low
         chunk = texts(rows)
-        out = []
+        out: list[bytes | memoryview] = []
+        pos = 0
         for at in range(0, old_starts.size, _CHUNK_ITEMS):
             stop = min(at + _CHUNK_ITEMS, old_starts.size)
             kept_starts = np.empty(stop - at, dtype=np.int64)  # kept text before each one
@@ -400,7 +413,7 @@ def splice_cells(
                 _interleave(source, kept_starts, old_starts[at:stop], buf, new_starts, new_lengths)
             )
             pos = int(old_ends[stop - 1])
-        out.append(raw[pos:end])
+        out.append(text[pos:])
         return out
 
     yield prefix
