@@ -28,6 +28,7 @@ __all__ = [
     "as_matrix",
     "conjugate",
     "relative",
+    "Displacements",
     "displacements",
     "exp",
     "exp_planes",
@@ -364,6 +365,23 @@ def displacements(q: np.ndarray) -> np.ndarray:
 
 #: Frames per block in :func:`displacements`.
 DISPLACEMENT_BLOCK = 4096
+
+
+class Displacements:
+    """:func:`displacements` of ``q`` ``(F, ..., 4)``, computed for the rows sliced:
+    ``Displacements(q)[a:b]`` equals ``displacements(q)[a:b]`` bit for bit, and no array of
+    every row is made. ``shape`` is ``(F-1, ..., 3)``. ``q`` must stay as it is while rows
+    are asked for."""
+
+    def __init__(self, q: np.ndarray):
+        self.q = shaped(q, 4, "q", signal=True)
+        self.shape = (max(self.q.shape[0] - 1, 0), *self.q.shape[1:-1], 3)
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        start, stop, step = rows.indices(self.shape[0])
+        if step != 1:
+            raise ValueError("Displacements takes slices of consecutive rows")
+        return displacements(self.q[start : max(start, stop) + 1])
 
 
 def continuous(q: np.ndarray) -> np.ndarray:

@@ -317,7 +317,8 @@ def test_whole_auto_is_coordinate_invariant_with_choices_that_vary_along_the_cli
 @pytest.mark.parametrize("windows", [1, 2, 7])
 def test_moves_do_not_depend_on_how_many_windows_are_built_together(monkeypatch, windows):
     """Frames are moved as soon as no later window covers them; every frame gets at most
-    two windows' moves, whose sum does not depend on the order: the same bits."""
+    two windows' moves, whose sum does not depend on the order: the same bits. Written
+    into the input itself, frames a later group still reads are moved only after it."""
     import importlib
 
     auto_module = importlib.import_module("motionclean.filters.auto")
@@ -327,6 +328,7 @@ def test_moves_do_not_depend_on_how_many_windows_are_built_together(monkeypatch,
     assert any(c.share < 1.0 for c in whole.choices)  # several masks along the clip
     monkeypatch.setattr(auto_module, "APPLY_WINDOWS", windows)
     assert np.array_equal(auto(noisy, 1 / 120).values, whole.values)
+    assert np.array_equal(auto(noisy.copy(), 1 / 120, overwrite=True).values, whole.values)
 
 
 def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():

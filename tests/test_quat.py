@@ -290,3 +290,15 @@ def test_to_euler_at_gimbal_lock_reproduces_rotation(order):
     kept = quat.to_euler(q, order, reference=angles)
     np.testing.assert_allclose(kept[:, 0], angles[:, 0], atol=1e-9)  # the original split
     assert np.all(quat.angle_between(quat.from_euler(kept, order), q) < 1e-7)
+
+
+def test_displacements_computed_when_sliced_are_the_whole_arrays_rows_bit_for_bit():
+    rng = np.random.default_rng(7)
+    q = quat.continuous(quat.exp(rng.normal(scale=0.2, size=(9000, 5, 3))))
+    whole = quat.displacements(q)
+    lazy = quat.Displacements(q)
+    assert lazy.shape == whole.shape
+    for rows in [slice(0, 9000), slice(0, 1), slice(4095, 4097), slice(8000, None), slice(3, 3)]:
+        assert np.array_equal(lazy[rows], whole[rows])
+    with pytest.raises(ValueError, match="consecutive"):
+        lazy[::2]

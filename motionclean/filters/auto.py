@@ -52,7 +52,7 @@ from .. import checks, quat
 from ..threads import in_parts, run_parts
 from . import noise as noise_model
 from .design import lowpass, savgol
-from .linear import displacement_coefficients, mirror_indices
+from .linear import Rows, displacement_coefficients, mirror_indices
 from .masks import MAX_HALF_WIDTH, binomial
 from .noise import NoiseModel, fast_length
 
@@ -137,7 +137,7 @@ def _check_time(frame_time: float) -> float:
     return checks.frame_time(frame_time)
 
 
-def _fit(disp: np.ndarray, frame_time: float) -> NoiseModel | None:
+def _fit(disp: Rows, frame_time: float) -> NoiseModel | None:
     return noise_model.fit(disp, frame_time) if disp.shape[0] + 1 >= MIN_FRAMES else None
 
 
@@ -148,7 +148,7 @@ def estimate_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
     noise model of :mod:`motionclean.filters.noise` (clips under 4 frames give 0).
     """
     cols = quat.continuous(_columns(q, 4, "rotations"))  # no copy of a continuous clip
-    model = _fit(quat.displacements(cols), _check_time(frame_time))
+    model = _fit(quat.Displacements(cols), _check_time(frame_time))
     level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
     return np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(q)[1:-1])
 
@@ -239,15 +239,17 @@ def _risks(model: NoiseModel, masks: list[np.ndarray], scale: float) -> np.ndarr
     return out
 
 
-def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks, finish) -> None:
+def _apply(disp: Rows, model: NoiseModel, choice: np.ndarray, masks, finish) -> None:
     """Tangent moves ``s_i`` (000 Eq. 19-20), handed to ``finish(rows, s)`` block after block
     of frames (``rows`` a slice, ``s`` ``(len, C, 3)``): in window ``w`` of column ``c`` the
     mask ``masks[choice[w, c] - 1]`` (0: none), blended by the windows' Hann tapers, which
     sum to one on every frame. Each frame's move is then ``sum_m b_m(i) w_{i+m}`` with the
     blended mask ``b(i)``: a Lee-Shin filter whose mask changes slowly along the clip.
 
-    Windows go in groups of :data:`APPLY_WINDOWS`; a frame is finished when no later window
-    covers it, so only a group's frames are held at a time. The segments of a group are
+    Windows go in groups of :data:`APPLY_WINDOWS`, each taking the displacements of the
+    frames it covers from ``disp`` once. A frame is finished when no later window covers it
+    and no later group reads it (``finish`` may write the frames ``disp`` is computed
+    from), so only a group's frames are held at a time. The segments of a group are
     filtered on threads and added in a fixed order (the same sums with any thread count).
     """
     n_frames, n_cols = model.n_frames, disp.shape[1]
@@ -263,33 +265,45 @@ def _apply(disp: np.ndarray, model: NoiseModel, choice: np.ndarray, masks, finis
         k = b.size // 2
         size = fast_length(window + 4 * k - 2)  # displacements starts - k .. + window + k - 2
         kernels[m] = (k, size, np.fft.rfft(b[::-1], n=size))
+    groups = in_parts(starts.size, APPLY_WINDOWS)
+    # the displacements each group reads, and the first frame a later group reads
+    spans = []
+    for group in groups:
+        read = index[starts[group, None] + np.arange(-k_max, window + k_max) + pad]
+        spans.append((int(read.min()), int(read.max()) + 1))
+    lows = [*(low for low, _ in spans[1:]), n_frames]
+    read_later = np.minimum.accumulate(lows[::-1])[::-1]
 
-    def filtered(task: tuple[int, np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    def filtered(task) -> tuple[np.ndarray, np.ndarray]:
         """The tapered moves of segments (windows ``w``, columns ``c``) filtered by mask
-        ``m``, and their frames."""
-        m, w, c = task
+        ``m``, and their frames, from the group's displacements ``rows`` (from ``low``)."""
+        m, w, c, rows, low = task
         k, size, kernel = kernels[m]
-        rows = starts[w, None] + np.arange(-k, window + k - 1) + pad
-        seg = disp[index[rows], c[:, None]]  # (p, window + 2k - 1, 3)
+        at = index[starts[w, None] + np.arange(-k, window + k - 1) + pad] - low
+        seg = rows[at, c[:, None]]  # (p, window + 2k - 1, 3)
         full = np.fft.irfft(np.fft.rfft(seg, n=size, axis=1) * kernel[:, None], size, axis=1)
         part = full[:, 2 * k - 1 : 2 * k - 1 + window] * taper[:, None]  # (p, window, 3)
         return starts[w, None] + np.arange(window), part
 
     done, carry = 0, np.zeros((0, n_cols, 3))
-    for first in range(0, starts.size, APPLY_WINDOWS):
-        last = min(first + APPLY_WINDOWS, starts.size)
-        moves = np.zeros((min(n_frames, starts[last - 1] + window) - done, n_cols, 3))
+    for g, group in enumerate(groups):
+        low, high = spans[g]
+        rows = disp[low:high]
+        moves = np.zeros((min(n_frames, starts[group.stop - 1] + window) - done, n_cols, 3))
         moves[: carry.shape[0]] = carry
         tasks = []
         for m in used:  # the chosen masks only, each in blocks of segments
-            w, c = np.nonzero(choice[first:last] == m)
+            w, c = np.nonzero(choice[group] == m)
             step = max(1, APPLY_BLOCK // (kernels[m][1] * 3))
-            tasks += [(m, w[part] + first, c[part]) for part in in_parts(w.size, step)]
+            tasks += [
+                (m, w[part] + group.start, c[part], rows, low) for part in in_parts(w.size, step)
+            ]
         size = sum(t[1].size for t in tasks) * window * 3
-        for (frames, part), (_, _, c) in zip(run_parts(filtered, tasks, size), tasks, strict=True):
+        for (frames, part), task in zip(run_parts(filtered, tasks, size), tasks, strict=True):
             keep = (frames >= 0) & (frames < n_frames)
-            _accumulate(moves, ((frames - done) * n_cols + c[:, None])[keep], part[keep])
-        finished = n_frames if last == starts.size else min(n_frames, int(starts[last]))
+            _accumulate(moves, ((frames - done) * n_cols + task[2][:, None])[keep], part[keep])
+        covered = n_frames if group.stop == starts.size else int(starts[group.stop])
+        finished = max(done, min(covered, n_frames, int(read_later[g])))
         finish(slice(done, finished), moves[: finished - done])
         done, carry = finished, moves[finished - done :]
 
@@ -451,7 +465,7 @@ def auto(
         given = (np.radians(given.reshape(-1)) / (2.0 * math.sqrt(3.0))) ** 2
     values, level, choices = _select(
         cols,
-        quat.displacements(cols),
+        quat.Displacements(cols),  # computed where needed: no clip-long array
         frame_time,
         strength,
         given,

@@ -21,12 +21,15 @@ mirrored (copied).
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
 from .. import checks, quat
 from .masks import validate_mask
 
 __all__ = [
+    "Rows",
     "apply_displacement_sums",
     "check_iterations",
     "continuity_signs",
@@ -39,6 +42,7 @@ __all__ = [
     "mirror_position",
     "mirrored_displacements",
     "run_passes",
+    "take_rows",
     "work_area",
 ]
 
@@ -75,6 +79,23 @@ def mirror_indices(n: int, before: int, after: int) -> np.ndarray:
     the first and the last displacement, repeated as often as a short signal needs.
     """
     return mirror_position(np.arange(-before, n + after), n)
+
+
+class Rows(Protocol):
+    """A signal sliced by rows: an array, or rows computed when sliced."""
+
+    @property
+    def shape(self) -> tuple[int, ...]: ...
+
+    def __getitem__(self, rows: slice, /) -> np.ndarray: ...
+
+
+def take_rows(signal: Rows, index: np.ndarray) -> np.ndarray:
+    """``signal[index]`` for an array of row numbers, asking ``signal`` (an array, or rows
+    computed when sliced such as :class:`motionclean.quat.Displacements`) only for the
+    span of rows the index covers."""
+    low, high = int(index.min()), int(index.max()) + 1
+    return signal[low:high][index - low]
 
 
 def mirrored_displacements(w: np.ndarray, before: int, after: int) -> np.ndarray:

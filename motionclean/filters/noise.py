@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..threads import in_parts, run_parts
-from .linear import mirror_indices
+from .linear import Rows, mirror_indices, take_rows
 
 __all__ = ["BAND_HZ", "NoiseModel", "WINDOW_SECONDS", "fast_length", "fit", "hann_windows"]
 
@@ -150,7 +150,7 @@ def hann_windows(n_frames: int, window: int) -> tuple[np.ndarray, np.ndarray]:
     return starts, taper
 
 
-def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def periodograms(disp: Rows, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Windowed periodograms of ``disp`` (n, C, d): ``(power (W, F, C), freqs, weights)``.
 
     Window ``w`` takes the displacements at positions ``starts[w] .. starts[w] + window - 1``
@@ -174,7 +174,7 @@ def periodograms(disp: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray,
 
     def block(windows: slice) -> None:  # blocks of windows bound the memory
         rows = starts[windows, None] + np.arange(window) + window
-        segment = disp[index[rows]]  # (b, window, C, d)
+        segment = take_rows(disp, index[rows])  # (b, window, C, d)
         segment -= np.einsum("t,btcd->bcd", taper / taper.sum(), segment)[:, None]
         segment *= taper[:, None, None]
         spec = np.fft.rfft(segment, n=size, axis=1)
@@ -205,8 +205,9 @@ def _whittle_rho(power, weights, shapes, band, pool=None) -> np.ndarray:
     return RHO_GRID[np.argmin(whittle, axis=0)]
 
 
-def fit(disp: np.ndarray, frame_time: float, window_seconds: float = WINDOW_SECONDS) -> NoiseModel:
-    """Fit the noise model (module docstring) to displacements ``disp`` (n, C, d), n >= 1.
+def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -> NoiseModel:
+    """Fit the noise model (module docstring) to displacements ``disp`` (n, C, d), n >= 1:
+    an array, or rows computed when sliced (:class:`motionclean.quat.Displacements`).
 
     ``d`` is 3 (rotations in log units, or positions); ``frame_time`` in seconds sets the
     band (``BAND_HZ``) and, with ``window_seconds``, the window length (capped by the clip).
@@ -262,7 +263,7 @@ def _band_medians(power: np.ndarray, band: np.ndarray, shape: np.ndarray) -> np.
     return out
 
 
-def _third_difference_level(disp: np.ndarray, window: int, rho: np.ndarray) -> np.ndarray:
+def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndarray:
     """(W, C) per-component variance of AR(1) noise ``rho`` from the upper quartile of the
     norms of the displacements' second differences in each window (chi law with ``d``
     degrees of freedom; variance gain of the third difference on the AR(1) spectrum)."""
