@@ -34,6 +34,7 @@ from .jobs import (
     write_outputs,
     write_report,
 )
+from .memory import one_malloc_arena
 from .options import (
     PIPE_OPTION,
     STEP_OPTION,
@@ -47,7 +48,6 @@ from .pipeline import DEFAULT_STEPS, Pipeline
 from .report import build_report, build_series, format_table
 from .steps import COMMON_PARAMS, REGISTRY
 from .steps.base import brief_runs
-from .threads import one_malloc_arena
 from .world_report import contact_figures, format_contacts
 
 

@@ -7,9 +7,9 @@ joint (noisiest first) and, per joint, the magnitude of angular acceleration ove
 before and after cleaning (as in Fig. 5 of 000) with the deviation from the input below it.
 
 The figures come from :func:`motionclean.report.build_report`; the time series, which the
-JSON report leaves out, from :func:`motionclean.report.build_series`. Long series are
-reduced to a min/max envelope per plot column, so the page size does not grow with the clip
-length.
+JSON report leaves out, from :func:`motionclean.report.build_series`, already reduced to a
+min/max envelope per plot column (:mod:`motionclean.traces`), so neither the page size nor
+the memory behind it grows with the clip length.
 """
 
 from __future__ import annotations
@@ -25,18 +25,17 @@ import numpy as np
 from . import __version__
 from .html_world import world_section
 from .report import format_rest, noisiest, note_text, resampled_to
+from .traces import COLUMNS, Trace, trace
 
-__all__ = ["envelope", "render_html", "render_index"]
+__all__ = ["render_html", "render_index"]
 
-#: Plot geometry in SVG user units (the SVG scales to the card width).
-WIDTH, LEFT, RIGHT = 620, 54, 12
+#: Plot geometry in SVG user units (the SVG scales to the card width); the plot area is
+#: one unit per plot column (:data:`motionclean.traces.COLUMNS`).
+LEFT, RIGHT = 54, 12
+WIDTH = LEFT + COLUMNS + RIGHT
 ACCEL_TOP, ACCEL_HEIGHT = 20, 120
 DEV_TOP, DEV_HEIGHT = 172, 56
 SVG_HEIGHT = 250
-COLUMNS = WIDTH - LEFT - RIGHT
-#: A series longer than COLUMNS samples becomes a min/max envelope of COLUMNS // 2 columns
-#: (at most COLUMNS points either way): the page size does not grow with the clip length.
-ENVELOPE_COLUMNS = COLUMNS // 2
 
 #: A panel's y axis stops near the 99.5th percentile when the peak is SPIKE times above it.
 SPIKE = 4.0
@@ -91,23 +90,6 @@ details table{margin-bottom:12px}
 
 
 # ----------------------------------------------------------------------------- data
-
-
-def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Reduce ``values`` (N,) to at most ``columns`` plot columns.
-
-    Returns ``(position, low, high)``: the sample position (fractional index) of each
-    column and the min and max of the samples falling in it. With ``N <= columns`` every
-    sample is its own column (``low == high``).
-    """
-    values = np.asarray(values, dtype=np.float64)
-    n = values.shape[0]
-    if n <= columns:
-        return np.arange(n, dtype=np.float64), values, values
-    edges = (np.arange(columns + 1) * n) // columns  # strictly increasing since n > columns
-    low = np.minimum.reduceat(values, edges[:-1])
-    high = np.maximum.reduceat(values, edges[:-1])
-    return (edges[:-1] + edges[1:] - 1) / 2.0, low, high
 
 
 # ----------------------------------------------------------------------------- formatting
@@ -183,7 +165,7 @@ def _path(
 
 
 def _panel(
-    series: list[tuple[np.ndarray, str, str]],
+    series: list[tuple[Trace, str, str]],
     offset: int,
     frames: int,
     top_y: float,
@@ -191,16 +173,17 @@ def _panel(
     label: str,
     floor: float = 0.0,
 ) -> list[str]:
-    """One plot panel: grid, axes, ticks and the series ``(values, colour, name)``.
+    """One plot panel: grid, axes, ticks and the series ``(trace, colour, name)``.
 
-    ``values[k]`` belongs to frame ``offset + k``; the x axis spans frames 0..frames-1. The
-    y axis reaches at least ``floor``, so rounding-level values stay flat at the bottom.
+    Sample ``k`` of a trace belongs to frame ``offset + k``; the x axis spans frames
+    0..frames-1. The y axis reaches at least ``floor``, so rounding-level values stay flat
+    at the bottom.
     """
     out: list[str] = []
     span = max(frames - 1, 1)
     x_scale = COLUMNS / span
-    peak = max((float(v.max()) for v, _, _ in series if v.size), default=0.0)
-    robust = max((float(np.quantile(v, 0.995)) for v, _, _ in series if v.size), default=0.0)
+    peak = max((t.peak for t, _, _ in series if t.size), default=0.0)
+    robust = max((t.robust for t, _, _ in series if t.size), default=0.0)
     # A few samples far above the rest (a glitch) would flatten the plot: clip them.
     limit = max(1.2 * robust if peak > SPIKE * robust > 0 else peak, floor)
     step = _nice_step(limit, 4 if height >= 100 else 2) if limit > 0 else 1.0
@@ -222,12 +205,10 @@ def _panel(
             f'<text x="{WIDTH - RIGHT}" y="{top_y - 6:.1f}" text-anchor="end">'
             f"clipped at {_short(top)}, peak {_short(peak)}</text>"
         )
-    for values, colour, name in series:
-        if not values.size:
+    for drawn, colour, name in series:
+        if not drawn.size:
             continue
-        columns = COLUMNS if values.size <= COLUMNS else ENVELOPE_COLUMNS
-        position, low, high = envelope(values, columns)
-        data = _path(position + offset, low, high, x_scale, y0, y_scale, top)
+        data = _path(drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top)
         out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y0}" y2="{y0}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
@@ -248,14 +229,14 @@ def _frame_ticks(frames: int, y: float) -> list[str]:
 
 def _joint_svg(name: str, data: dict, frames: int) -> str:
     """One SVG per joint: acceleration before/after on top, deviation below."""
-    accel = [(np.asarray(data["accel_before"]), BEFORE, "before")]
+    accel = [(data["accel_before"], BEFORE, "before")]
     if data.get("accel_after") is not None:
-        accel.append((np.asarray(data["accel_after"]), AFTER, "after"))
+        accel.append((data["accel_after"], AFTER, "after"))
     parts = _panel(accel, 1, frames, ACCEL_TOP, ACCEL_HEIGHT, "angular acceleration, deg/s\u00b2")
     height = ACCEL_TOP + ACCEL_HEIGHT + 22
     if data.get("deviation") is not None:
         parts += _panel(
-            [(np.asarray(data["deviation"]), DEVIATION, "deviation")],
+            [(data["deviation"], DEVIATION, "deviation")],
             0,
             frames,
             DEV_TOP,
@@ -516,9 +497,9 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     text += f"; below ground {_short(pen['before'])}"
     text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
     text += " units"
-    series = [(np.maximum(data["height_before"], 0.0), BEFORE, "height before")]
+    series = [(trace(np.maximum(data["height_before"], 0.0)), BEFORE, "height before")]
     if data["height_after"] is not None:
-        series.append((np.maximum(data["height_after"], 0.0), AFTER, "height after"))
+        series.append((trace(np.maximum(data["height_after"], 0.0)), AFTER, "height after"))
     x_scale = COLUMNS / max(frames - 1, 1)
     shades = [
         f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '

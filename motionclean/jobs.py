@@ -23,6 +23,7 @@ from . import kinematics, multires, quat
 from .errors import MotionError
 from .html import render_html
 from .io import atomic_write, load, save
+from .memory import return_free_memory
 from .motion import Motion, joint_major_zeros, written_joints
 from .pipeline import Pipeline, StepLog
 from .report import build_report, build_series, to_json
@@ -106,6 +107,7 @@ def clean_clip(
     ``output`` then gives the written frame count and frame time."""
     before = load(source)
     after, logs = pipeline.run(before)
+    return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
     series = build_series(before, compared)
     described = pipeline.describe()

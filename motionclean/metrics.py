@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import quat
+from .threads import in_parts, run_parts
 
 __all__ = [
     "angular_acceleration",
@@ -33,7 +34,7 @@ def rms(x: np.ndarray, axis=0) -> np.ndarray:
 
 
 #: Frames computed at a time (temporaries stay in cache on long clips).
-BLOCK_FRAMES = 4096
+BLOCK_FRAMES = 1024
 
 
 def angular_acceleration(
@@ -49,14 +50,19 @@ def angular_acceleration(
     q = np.asarray(q, dtype=np.float64)
     n = q.shape[0]
     out = np.empty((max(n - 2, 0), *q.shape[1:-1]))
-    for at in range(0, n - 2, BLOCK_FRAMES):
-        stop = min(at + BLOCK_FRAMES, n - 2)
-        block = q[at : stop + 2]
-        w = quat.log_shortest(quat.relative(block[:-1], block[1:]))
+    scale = 2.0 / frame_time**2
+
+    def block(rows: slice) -> None:  # blocks on threads; no clip-sized temporaries
+        part = q[rows.start : rows.stop + 2]
+        w = quat.log_shortest(quat.relative(part[:-1], part[1:]))
         change = w[1:] - w[:-1]
-        out[at:stop] = np.sqrt(np.einsum("...i,...i->...", change, change))
-    out *= 2.0 / frame_time**2  # in place: no clip-sized temporaries
-    return _known(np.degrees(out, out=out), missing)
+        here = out[rows]
+        np.sqrt(np.einsum("...i,...i->...", change, change), out=here)
+        here *= scale
+        np.degrees(here, out=here)
+
+    run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
+    return _known(out, missing)
 
 
 def linear_acceleration(

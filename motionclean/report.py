@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from .restpose import rest_frames, trim
 from .steps import REGISTRY
 from .steps.auto import format_choice
 from .threads import run_parts
+from .traces import Trace, traces
 from .world_report import (
     contact_figures,
     figure_positions,
@@ -35,15 +36,17 @@ __all__ = ["build_report", "build_series", "format_table", "to_json"]
 
 
 def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
-    """Per-frame figures behind the report, per joint with rotation channels.
+    """Per-frame figures behind the report, per joint with rotation channels, reduced to
+    what the HTML report plots and the figures the report reads.
 
-    Returns ``{"frame_time": dt, "joints": {name: {"accel_before": (F-2,),
-    "accel_after": (F-2,) or None, "deviation": (F,) or None}}, "tables": {key: (F-2 or
-    F, R)}, ...}``: angular acceleration magnitude in degrees of rotation per s^2 at frames
-    1..F-2 (000 Sec. VI-B) and the rotation angle between input and output in degrees at
-    every frame; 0 where a missing sample (tracker dropout) is involved. ``tables`` holds
-    each figure for the ``R`` joints at once (the per-joint series are its columns). The
-    HTML report plots them; the JSON report keeps only their RMS and maximum.
+    Returns ``{"frame_time": dt, "joints": {name: {"accel_before": Trace, "accel_after":
+    Trace or None, "deviation": Trace or None}}, "figures": {...}, ...}``: the
+    :class:`~motionclean.traces.Trace` of the angular acceleration magnitude in degrees of
+    rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and of the rotation angle between
+    input and output in degrees at every frame; 0 where a missing sample (tracker dropout)
+    is involved. ``figures`` holds each figure's RMS and maximum per joint and over all
+    joints, without the rows that involve the clip's rest-pose frames. No per-frame table
+    is kept: each is reduced as soon as it is made.
     """
     dt = before.frame_time
     clips = (before, after)
@@ -68,31 +71,34 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     rot = np.flatnonzero(rotating)
     cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
 
-    def acceleration(clip: Motion | None) -> np.ndarray | None:
+    def acceleration(clip: Motion | None) -> _Reduced | None:
         if clip is None:
             return None
         missing = None if clip.missing is None else clip.missing[:, cols]
-        return metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        return _reduced(table, lead, trail)
 
-    # the input and the output on threads of their own
-    acc_b, acc_a = run_parts(acceleration, clips, before.rotations.size)
+    # one clip after the other (each on threads): one clip-long table at a time
+    acc_b, acc_a = acceleration(before), acceleration(after)
     assert acc_b is not None
     dev = None
     if after is not None:
-        dev = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
+        table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
         if before.missing is not None or after.missing is not None:
-            dev[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+            table[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+        dev = _reduced(table, lead, trail)
+        del table
     joints = {}
     for n, j in enumerate(rot):
         joints[before.names[j]] = {
-            "accel_before": acc_b[:, n],
-            "accel_after": None if acc_a is None else acc_a[:, n],
-            "deviation": None if dev is None else dev[:, n],
+            "accel_before": acc_b.traces[n],
+            "accel_after": None if acc_a is None else acc_a.traces[n],
+            "deviation": None if dev is None else dev.traces[n],
         }
     return {
         "frame_time": dt,
         "joints": joints,
-        "tables": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
+        "figures": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
@@ -101,29 +107,46 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     }
 
 
-def _stacked(series: dict, key: str) -> np.ndarray:
-    """``(F-2 or F, R)`` array of one figure of every joint in ``series``, without the rows
-    that involve the clip's rest-pose frames (``series["rest_frames"]``)."""
-    stacked = series["tables"][key]
-    lead, trail = series.get("rest_frames", (0, 0))
-    return stacked[lead : stacked.shape[0] - trail]
+class _Reduced(NamedTuple):
+    """A ``(N, R)`` table of one figure reduced: each joint's :class:`Trace`, and over the
+    rows without the rest-pose frames, each joint's RMS and max and the RMS and max of
+    all."""
+
+    traces: list[Trace]
+    rms: np.ndarray
+    max: np.ndarray
+    total_rms: float
+    total_max: float
+
+
+def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
+    """:class:`_Reduced` of ``table``, whose values it overwrites (with their squares, for
+    the RMS: no temporary as large as the table)."""
+    drawn = traces(table)
+    core = table[lead : table.shape[0] - trail]
+    if not core.size:
+        zeros = np.zeros(table.shape[1])
+        return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
+    largest, total_max = core.max(axis=0), float(core.max())
+    squares = np.square(core, out=core)
+    rms = np.sqrt(np.mean(squares, axis=0))
+    return _Reduced(drawn, rms, largest, float(np.sqrt(np.mean(squares.ravel()))), total_max)
 
 
 def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
     """Per joint with rotation channels: angular acceleration RMS/max (deg/s^2) before and
     after, and the deviation from the input (degrees) when cleaned."""
-    rms_b, max_b = rms_and_max(_stacked(series, "accel_before"))
-    if cleaned:
-        rms_a, max_a = rms_and_max(_stacked(series, "accel_after"))
-        dev_rms, dev_max = rms_and_max(_stacked(series, "deviation"))
+    before, after, dev = (
+        series["figures"][k] for k in ("accel_before", "accel_after", "deviation")
+    )
     figures = {}
     for n, name in enumerate(names):
         entry = figures[name] = {
-            "angular_accel_rms": pair(rms_b[n], rms_a[n] if cleaned else None),
-            "angular_accel_max": pair(max_b[n], max_a[n] if cleaned else None),
+            "angular_accel_rms": pair(before.rms[n], after.rms[n] if cleaned else None),
+            "angular_accel_max": pair(before.max[n], after.max[n] if cleaned else None),
         }
         if cleaned:
-            entry["deviation_deg"] = {"rms": float(dev_rms[n]), "max": float(dev_max[n])}
+            entry["deviation_deg"] = {"rms": float(dev.rms[n]), "max": float(dev.max[n])}
     return figures
 
 
@@ -151,20 +174,18 @@ def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) 
 def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
     """Clip totals: RMS angular acceleration over all joints and frames, the fraction of it
     removed and the largest deviation (None for a single clip)."""
-    acc_b = _stacked(series, "accel_before")
-    total_b = float(metrics.rms(acc_b.ravel())) if acc_b.size else 0.0
+    figures = series["figures"]
+    total_b = figures["accel_before"].total_rms
     summary: dict[str, Any] = {
         "angular_accel_rms": pair(total_b, None),
         "noise_reduction": None,
         "deviation_deg_max": None,
     }
     if cleaned:
-        acc_a = _stacked(series, "accel_after")
-        total_a = float(metrics.rms(acc_a.ravel())) if acc_a.size else 0.0
-        dev = _stacked(series, "deviation")
+        total_a = figures["accel_after"].total_rms
         summary["angular_accel_rms"]["after"] = total_a
         summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
-        summary["deviation_deg_max"] = float(dev.max()) if dev.size else 0.0
+        summary["deviation_deg_max"] = figures["deviation"].total_max
     return summary
 
 

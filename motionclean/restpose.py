@@ -50,7 +50,11 @@ def _typical_steps(q: np.ndarray) -> np.ndarray:
     at = np.arange(n_steps)
     if n_steps > TYPICAL_SAMPLES:
         at = np.unique(np.linspace(0, n_steps - 1, TYPICAL_SAMPLES).round().astype(np.intp))
-    return np.median(np.degrees(quat.angle_between(q[at], q[at + 1])), axis=0)
+    steps = np.empty((at.size, *q.shape[1:-1]))
+    for part in range(0, at.size, 1024):  # small temporaries
+        rows = at[part : part + 1024]
+        steps[part : part + 1024] = np.degrees(quat.angle_between(q[rows], q[rows + 1]))
+    return np.median(steps, axis=0)
 
 
 def _leading(q: np.ndarray, translations: np.ndarray, typical: np.ndarray, moving: np.ndarray):

@@ -13,14 +13,13 @@ own thread.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import threading
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
-__all__ = ["MAX_THREADS", "in_parts", "one_malloc_arena", "run_parts", "thread_count"]
+__all__ = ["MAX_THREADS", "in_parts", "run_parts", "thread_count"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -64,21 +63,6 @@ def _forget_pool() -> None:
 
 
 os.register_at_fork(after_in_child=_forget_pool)
-
-
-#: glibc's mallopt parameter number for the most heaps (malloc.h).
-_M_ARENA_MAX = -8
-
-
-def one_malloc_arena() -> None:
-    """Let every thread allocate from the process's main heap (glibc ``M_ARENA_MAX`` 1), as
-    the command line does: memory a part frees goes back to the system as it would with
-    one thread, instead of staying in a heap per thread. No effect elsewhere."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt  # the C library the interpreter runs on
-    except (OSError, AttributeError):
-        return
-    mallopt(_M_ARENA_MAX, 1)
 
 
 def _part(function: Callable[[T], R], item: T) -> R:

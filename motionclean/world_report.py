@@ -67,6 +67,15 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
     return points[:, index]
 
 
+def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
+    """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, 0 where
+    the three frames include an ``unknown`` ``(F, len(columns))`` position."""
+    accel = accel.take(columns, axis=1)  # C order, as the sums below expect
+    if accel.shape[0]:
+        accel[unknown[:-2] | unknown[1:-1] | unknown[2:]] = 0.0
+    return rms_and_max(accel)
+
+
 def world_figures(
     before: Motion, after: Motion | None = None, points: list | None = None
 ) -> dict[str, Any]:
@@ -81,14 +90,15 @@ def world_figures(
     columns = np.searchsorted(figure_points(before), index)
     dt = before.frame_time
     points = points or [None, None]
-    points_b = _positions(before, points[0])[:, columns]
+    # every figure point's figures, then the effectors' columns: no copy of their positions
+    points_b = _positions(before, points[0])
     unknown_b = _unknown(before, index)
-    rms_b, max_b = rms_and_max(metrics.linear_acceleration(points_b, dt, unknown_b))
+    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown_b)
     if after is not None:
-        points_a = _positions(after, points[1])[:, columns]
+        points_a = _positions(after, points[1])
         unknown_a = _unknown(after, index)
-        rms_a, max_a = rms_and_max(metrics.linear_acceleration(points_a, dt, unknown_a))
-        moved = metrics.distance(points_b, points_a)
+        rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown_a)
+        moved = metrics.distance(points_b, points_a).take(columns, axis=1)
         moved[unknown_b | unknown_a] = 0.0
         dev_rms, dev_max = rms_and_max(moved)
     scale = 100.0 / height if height > 0 else math.nan

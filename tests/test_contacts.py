@@ -147,3 +147,12 @@ def test_footlock_commutes_with_a_turn_about_the_up_axis_and_a_horizontal_shift(
     b, _ = kinematics.forward(move_then, end_sites=True)
     assert not np.array_equal(then_move.rotations, motion.rotations)
     np.testing.assert_allclose(a, b, atol=1e-9 * kinematics.body_height(motion))
+
+
+@pytest.mark.parametrize(("n", "half"), [(1, 0), (5, 1), (9, 4), (6, 5), (200, 7)])
+def test_moving_average_is_the_mean_of_each_shrunk_window(n, half):
+    from motionclean.filters.contacts import _moving_average
+
+    x = np.random.default_rng(n).normal(size=(n, 2, 3))
+    expected = np.stack([x[max(0, i - half) : min(n, i + half + 1)].mean(axis=0) for i in range(n)])
+    np.testing.assert_allclose(_moving_average(x, half), expected, rtol=1e-12, atol=1e-12)

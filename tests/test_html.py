@@ -13,18 +13,11 @@ import pytest
 from helpers import NOISY, ROOT
 
 import motionclean as mc
-from motionclean import quat
-from motionclean.html import (
-    ACCEL_TOP,
-    COLUMNS,
-    LEFT,
-    WIDTH,
-    envelope,
-    render_html,
-    render_index,
-)
+from motionclean import metrics, quat
+from motionclean.html import ACCEL_TOP, LEFT, WIDTH, render_html, render_index
 from motionclean.pipeline import Pipeline
 from motionclean.report import build_report, build_series, noisiest, to_json
+from motionclean.traces import COLUMNS, ENVELOPE_COLUMNS, envelope, trace, traces
 
 
 class Page(HTMLParser):
@@ -122,9 +115,10 @@ def test_spikes_are_clipped_and_labelled(cleaned):
     motion, after, report = cleaned
     series = build_series(motion, after)
     name = noisiest(report)[0]
-    accel = series["joints"][name]["accel_before"].copy()
+    j = motion.names.index(name)
+    accel = metrics.angular_acceleration(motion.rotations[:, j], motion.frame_time)
     accel[100] = 1e4 * accel.max()  # one absurd sample
-    series["joints"][name]["accel_before"] = accel
+    series["joints"][name]["accel_before"] = trace(accel)
     text = render_html(report, series)
     assert "clipped at" in text and "peak" in text
 
@@ -142,6 +136,22 @@ def test_page_size_does_not_grow_with_clip_length(cleaned):
         sizes.append(len(render_html(report, build_series(long, smooth))))
     assert sizes[1] < 1.1 * sizes[0]
     assert sizes[1] < 1_500_000  # with the skeleton player and trajectories
+
+
+def test_joint_series_are_reduced_to_plot_columns(cleaned):
+    """A 12,000-frame clip's plot series hold at most COLUMNS values per joint: no array
+    the length of the clip stays behind the page."""
+    motion, _, _ = cleaned
+    long = motion.replace(
+        rotations=np.tile(motion.rotations, (40, 1, 1)),
+        translations=np.tile(motion.translations, (40, 1, 1)),
+    )
+    smooth, _ = Pipeline.default().run(long)
+    series = build_series(long, smooth)
+    for data in series["joints"].values():
+        for drawn in data.values():
+            assert drawn.size >= long.n_frames - 2
+            assert max(drawn.position.size, drawn.low.size, drawn.high.size) <= COLUMNS
 
 
 def test_input_only_report_and_no_series():
@@ -234,11 +244,31 @@ def test_series_match_the_report_figures(cleaned):
     series = build_series(motion, after)
     for name, data in series["joints"].items():
         entry = report["joints"][name]
-        assert np.sqrt(np.mean(data["accel_after"] ** 2)) == pytest.approx(
-            entry["angular_accel_rms"]["after"], rel=1e-12
-        )
-        assert data["deviation"].max() == pytest.approx(entry["deviation_deg"]["max"], rel=1e-12)
-        assert data["deviation"].shape == (motion.n_frames,)
+        j = motion.names.index(name)
+        accel = metrics.angular_acceleration(after.rotations[:, j], motion.frame_time)
+        drawn = data["accel_after"]
+        assert drawn.size == motion.n_frames - 2
+        assert drawn.peak == pytest.approx(entry["angular_accel_max"]["after"], rel=1e-12)
+        _, low, high = envelope(accel, COLUMNS if accel.size <= COLUMNS else ENVELOPE_COLUMNS)
+        np.testing.assert_allclose(drawn.low, low, rtol=1e-12)
+        np.testing.assert_allclose(drawn.high, high, rtol=1e-12)
+        assert data["deviation"].peak == pytest.approx(entry["deviation_deg"]["max"], rel=1e-12)
+        assert data["deviation"].size == motion.n_frames
+
+
+@pytest.mark.parametrize("n", [0, 3, COLUMNS, 5 * COLUMNS + 3])
+def test_a_tables_traces_are_its_columns_traces(n):
+    """Reducing a (N, R) table at once gives each column's envelope, peak and 99.5 %
+    quantile, as one series alone would."""
+    table = np.random.default_rng(n).gamma(2.0, size=(n, 4))
+    for column, drawn in zip(table.T, traces(table), strict=True):
+        alone = trace(column)
+        assert drawn.size == alone.size == n
+        for a, b in zip(drawn, alone, strict=True):
+            assert np.array_equal(a, b)
+        if n:
+            assert drawn.peak == column.max()
+            assert drawn.robust == np.quantile(column, 0.995)
 
 
 def test_rotation_noise_shows_in_the_plot_order():

@@ -129,29 +129,42 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _moving_average(x: np.ndarray, half: int) -> np.ndarray:
-    """Centred moving average over ``2 half + 1`` frames along axis 0, window shrunk at ends."""
+    """Centred moving average over ``2 half + 1`` frames along axis 0, window shrunk at ends
+    (``half < len(x)``). Differences of running sums, taken from views of them: no
+    clip-long temporary besides the sums."""
     if half == 0:
         return x
-    c = np.cumsum(np.concatenate([np.zeros_like(x[:1]), x]), axis=0)
     n = x.shape[0]
+    c = np.empty((n + 1, *x.shape[1:]))  # running sums from 0
+    c[0] = 0.0
+    np.cumsum(x, axis=0, out=c[1:])
     lo = np.clip(np.arange(n) - half, 0, n)
     hi = np.clip(np.arange(n) + half + 1, 0, n)
-    shape = (-1,) + (1,) * (x.ndim - 1)
-    return (c[hi] - c[lo]) / (hi - lo).reshape(shape)
+    out = np.empty_like(c[1:])
+    width = 2 * half + 1
+    if n >= width:  # every frame from half to n - half - 1 has the whole window
+        np.subtract(c[width:], c[: n + 1 - width], out=out[half : n - half])
+    ends = np.flatnonzero((hi - lo) < width) if n >= width else np.arange(n)
+    out[ends] = c[hi[ends]] - c[lo[ends]]
+    out /= (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1))
+    return out
 
 
 def ankle_speed(
     positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
 ) -> np.ndarray:
     """``(F, n_feet)`` speed of each ankle (length units / s) after a centred moving average
-    of ``smoothing`` seconds (capped by the clip's length)."""
-    ankles = positions[:, [f.ankle for f in feet]]
-    n = ankles.shape[0]
-    half = min(int(round(0.5 * smoothing / frame_time)), max(n // 2 - 1, 0))
-    smooth = _moving_average(ankles, half)
+    of ``smoothing`` seconds (capped by the clip's length). A foot at a time: temporaries
+    of one ankle's track."""
+    n = positions.shape[0]
+    speed = np.zeros((n, len(feet)))
     if n < 2:
-        return np.zeros(ankles.shape[:2])
-    return np.linalg.norm(np.gradient(smooth, frame_time, axis=0), axis=-1)
+        return speed
+    half = min(int(round(0.5 * smoothing / frame_time)), max(n // 2 - 1, 0))
+    for k, foot in enumerate(feet):
+        smooth = _moving_average(positions[:, foot.ankle], half)
+        speed[:, k] = np.linalg.norm(np.gradient(smooth, frame_time, axis=0), axis=-1)
+    return speed
 
 
 def lowest_points(positions: np.ndarray, feet: list[Foot], up: int) -> np.ndarray:
@@ -217,10 +230,12 @@ def skate(
 ) -> np.ndarray:
     """``(n_feet,)`` mean horizontal ankle speed during contacts (length units / s; NaN for a
     foot without contacts). Speeds are taken between consecutive contact frames."""
-    ankles = positions[:, [f.ankle for f in feet]]
-    step = np.diff(ankles, axis=0)
-    step[..., up] = 0.0
-    speed = np.linalg.norm(step, axis=-1) / frame_time
+    speed = np.empty((max(positions.shape[0] - 1, 0), len(feet)))
+    for k, foot in enumerate(feet):  # a foot at a time: temporaries of one ankle's track
+        step = np.diff(positions[:, foot.ankle], axis=0)
+        step[:, up] = 0.0
+        speed[:, k] = np.linalg.norm(step, axis=-1)
+    speed /= frame_time
     both = contacts[1:] & contacts[:-1]
     count = both.sum(axis=0)
     total = np.where(both, speed, 0.0).sum(axis=0)

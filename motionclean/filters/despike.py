@@ -834,7 +834,8 @@ def _fill_changed(out, mask, changed, after, metric: _Metric, limits: _Limits, c
         signs = np.ones(fixed.shape[:2])
         signs[1:][dots < 0.0] = -1.0
         np.cumprod(signs, axis=0, out=signs)
-        out[:, changed] = fixed * signs[..., None]
+        fixed *= signs[..., None]  # in place: no second copy of the columns
+        out[:, changed] = fixed
         after[changed] = _dot_angle(dots).max(axis=0)
     else:
         out[:, changed] = fixed

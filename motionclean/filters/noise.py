@@ -271,18 +271,16 @@ def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndar
     starts, _ = hann_windows(n + 1, window)
     if n < 3:
         return np.full((starts.size, n_cols), np.inf)
-    norms = np.empty((n - 2, n_cols))
-    step = max(1, BLOCK_VALUES // max(1, n_cols * dim))
-    for i0 in range(0, n - 2, step):  # blocks of frames bound the memory
-        d = disp[i0 : i0 + step + 2]
-        norms[i0 : i0 + step] = np.linalg.norm(d[2:] - 2.0 * d[1:-1] + d[:-2], axis=-1)
     index = mirror_indices(n - 2, window, 3 * window)
     out = np.empty((starts.size, n_cols))
     step = max(1, BLOCK_VALUES // max(1, window * n_cols))
 
     def block(windows: slice) -> None:  # blocks of windows bound the memory
-        rows = starts[windows, None] + np.arange(window) + window - 1
-        out[windows] = np.quantile(norms[index[rows]], 0.75, axis=1)
+        rows = index[starts[windows, None] + np.arange(window) + window - 1]
+        low, high = int(rows.min()), int(rows.max()) + 1
+        d = disp[low : high + 2]  # the norms of this block's rows only
+        norms = np.linalg.norm(d[2:] - 2.0 * d[1:-1] + d[:-2], axis=-1)
+        out[windows] = np.quantile(norms[rows - low], 0.75, axis=1)
 
     run_parts(block, in_parts(starts.size, step))
     grid = np.linspace(0.0, 0.5, 2049)

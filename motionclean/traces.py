@@ -1,0 +1,90 @@
+"""Per-frame figures reduced to what a plot draws of them.
+
+A report's plots draw a series of any length in :data:`COLUMNS` columns, so a series is
+kept as its min/max envelope over those columns plus the two numbers that set the y axis
+(the peak and the 99.5th percentile): a few kB per joint instead of the clip's length.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = [
+    "COLUMNS",
+    "ENVELOPE_COLUMNS",
+    "ROBUST_QUANTILE",
+    "Trace",
+    "envelope",
+    "trace",
+    "traces",
+]
+
+#: Plot columns of a panel: a series of at most this many samples is drawn one per column.
+COLUMNS = 554
+#: A longer series becomes a min/max envelope of this many columns (at most COLUMNS points
+#: either way): the page size does not grow with the clip length.
+ENVELOPE_COLUMNS = COLUMNS // 2
+#: The quantile a plot's y axis may stop at when a few samples are far above the rest.
+ROBUST_QUANTILE = 0.995
+#: Columns whose quantiles are taken together.
+QUANTILE_COLUMNS = 8
+
+
+class Trace(NamedTuple):
+    """One series as a plot draws it: ``low`` and ``high`` (K,), the min and max of the
+    samples in each plot column, at ``position`` (K,), the columns' sample positions
+    (fractional index); ``size`` samples in all, the largest ``peak`` and the
+    :data:`ROBUST_QUANTILE` quantile ``robust`` (0 for an empty series)."""
+
+    position: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    size: int
+    peak: float
+    robust: float
+
+
+def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Reduce ``values`` (N, ...) along axis 0 to at most ``columns`` plot columns.
+
+    Returns ``(position, low, high)``: the sample position (fractional index) of each
+    column and the min and max of the samples falling in it (``(K, ...)``). With
+    ``N <= columns`` every sample is its own column (``low == high``).
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n = values.shape[0]
+    if n <= columns:
+        return np.arange(n, dtype=np.float64), values, values
+    edges = (np.arange(columns + 1) * n) // columns  # strictly increasing since n > columns
+    low = np.minimum.reduceat(values, edges[:-1], axis=0)
+    high = np.maximum.reduceat(values, edges[:-1], axis=0)
+    return (edges[:-1] + edges[1:] - 1) / 2.0, low, high
+
+
+def traces(table: np.ndarray) -> list[Trace]:
+    """The :class:`Trace` of each column of a ``(N, R)`` table of per-frame figures."""
+    table = np.asarray(table, dtype=np.float64)
+    n, n_cols = table.shape
+    columns = COLUMNS if n <= COLUMNS else ENVELOPE_COLUMNS
+    position, low, high = envelope(table, columns)
+    if n:
+        peak = table.max(axis=0)
+        robust = np.concatenate(  # a few columns at a time: quantile copies what it sorts
+            [
+                np.quantile(table[:, at : at + QUANTILE_COLUMNS], ROBUST_QUANTILE, axis=0)
+                for at in range(0, n_cols, QUANTILE_COLUMNS)
+            ]
+        )
+    else:
+        peak = robust = np.zeros(n_cols)
+    return [
+        Trace(position, low[:, c].copy(), high[:, c].copy(), n, float(peak[c]), float(robust[c]))
+        for c in range(n_cols)
+    ]
+
+
+def trace(values: np.ndarray) -> Trace:
+    """The :class:`Trace` of one series ``(N,)``."""
+    return traces(np.asarray(values, dtype=np.float64)[:, None])[0]
