@@ -19,7 +19,7 @@ def _libc_function(name: str):
     """The C library's function ``name``, or None where there is none (not glibc)."""
     try:
         return getattr(ctypes.CDLL(None), name)  # the C library the interpreter runs on
-    except (OSError, AttributeError):
+    except (OSError, AttributeError, TypeError):  # (Windows: no CDLL(None))
         return None
 
 

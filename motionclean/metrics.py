@@ -22,6 +22,7 @@ __all__ = [
     "linear_acceleration",
     "rms",
     "step_deg",
+    "zero_missing",
 ]
 
 
@@ -62,7 +63,7 @@ def angular_acceleration(
         np.degrees(here, out=here)
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
-    return _known(out, missing)
+    return zero_missing(out, missing)
 
 
 def linear_acceleration(
@@ -78,7 +79,7 @@ def linear_acceleration(
         second = np.diff(p[at : at + BLOCK_FRAMES + 2], n=2, axis=0)
         out[at : at + BLOCK_FRAMES] = np.linalg.norm(second, axis=-1)
     out /= frame_time**2
-    return _known(out, missing)
+    return zero_missing(out, missing)
 
 
 def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -90,8 +91,9 @@ def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _known(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
-    """``accel`` ``(F-2, ...)`` with 0 where its three frames include a ``missing`` sample."""
+def zero_missing(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
+    """``accel`` ``(F-2, ...)`` with 0 (in place) where its three frames include a
+    ``missing`` ``(F, ...)`` sample."""
     if missing is not None and accel.shape[0]:
         accel[missing[:-2] | missing[1:-1] | missing[2:]] = 0.0
     return accel

@@ -370,8 +370,8 @@ DISPLACEMENT_BLOCK = 4096
 class Displacements:
     """:func:`displacements` of ``q`` ``(F, ..., 4)``, computed for the rows sliced:
     ``Displacements(q)[a:b]`` equals ``displacements(q)[a:b]`` bit for bit, and no array of
-    every row is made. ``shape`` is ``(F-1, ..., 3)``. ``q`` must stay as it is while rows
-    are asked for."""
+    every row is made. ``shape`` is ``(F-1, ..., 3)``. Rows are computed from ``q`` as it is
+    when they are asked for: frames of rows still to be read must not have changed."""
 
     def __init__(self, q: np.ndarray):
         self.q = shaped(q, 4, "q", signal=True)

@@ -46,7 +46,8 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     input and output in degrees at every frame; 0 where a missing sample (tracker dropout)
     is involved. ``figures`` holds each figure's RMS and maximum per joint and over all
     joints, without the rows that involve the clip's rest-pose frames. No per-frame table
-    is kept: each is reduced as soon as it is made.
+    of the joints is kept: each is reduced as soon as it is made (the feet's heights,
+    ``(F,)`` per foot, are).
     """
     dt = before.frame_time
     clips = (before, after)

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import quat
 from .motion import Motion, sparse_concatenate
+from .threads import in_parts
 
 #: A transition is a jump on a joint when its rotation step exceeds both of these.
 JUMP_DEG = 15.0
@@ -26,6 +27,8 @@ HELD_FRAMES = 3
 #: Steps sampled per joint for its typical (median) step on long clips (evenly spaced), so
 #: the cost does not grow with the clip.
 TYPICAL_SAMPLES = 4096
+#: Steps measured at a time.
+STEP_BLOCK = 1024
 
 
 def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
@@ -51,9 +54,9 @@ def _typical_steps(q: np.ndarray) -> np.ndarray:
     if n_steps > TYPICAL_SAMPLES:
         at = np.unique(np.linspace(0, n_steps - 1, TYPICAL_SAMPLES).round().astype(np.intp))
     steps = np.empty((at.size, *q.shape[1:-1]))
-    for part in range(0, at.size, 1024):  # small temporaries
-        rows = at[part : part + 1024]
-        steps[part : part + 1024] = np.degrees(quat.angle_between(q[rows], q[rows + 1]))
+    for part in in_parts(at.size, STEP_BLOCK):  # small temporaries
+        rows = at[part]
+        steps[part] = np.degrees(quat.angle_between(q[rows], q[rows + 1]))
     return np.median(steps, axis=0)
 
 

@@ -69,7 +69,7 @@ def traces(table: np.ndarray) -> list[Trace]:
     n, n_cols = table.shape
     columns = COLUMNS if n <= COLUMNS else ENVELOPE_COLUMNS
     position, low, high = envelope(table, columns)
-    if n:
+    if n and n_cols:
         peak = table.max(axis=0)
         robust = np.concatenate(  # a few columns at a time: quantile copies what it sorts
             [

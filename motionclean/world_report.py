@@ -37,7 +37,8 @@ def figure_points(motion: Motion) -> np.ndarray:
     point of each foot."""
     index, _ = kinematics.end_effectors(motion)
     feet, _, _ = footlock.find_feet(motion, _CONTACT_PARAMS)
-    return np.union1d(index, [p for foot in feet for p in (foot.ankle, *foot.points)])
+    feet_points = [p for foot in feet for p in (foot.ankle, *foot.points)]
+    return np.union1d(index, feet_points).astype(np.intp)  # (an int array also when empty)
 
 
 def figure_positions(motion: Motion) -> np.ndarray:
@@ -71,9 +72,7 @@ def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
     """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, 0 where
     the three frames include an ``unknown`` ``(F, len(columns))`` position."""
     accel = accel.take(columns, axis=1)  # C order, as the sums below expect
-    if accel.shape[0]:
-        accel[unknown[:-2] | unknown[1:-1] | unknown[2:]] = 0.0
-    return rms_and_max(accel)
+    return rms_and_max(metrics.zero_missing(accel, unknown))
 
 
 def world_figures(

@@ -327,3 +327,24 @@ def test_renders_in_a_headless_browser(cleaned, tmp_path):
     assert plots == moving and len(plots) > 20
     series = [a.get("data-series") for t, a in dom.tags if t == "path"]
     assert series.count("before") == series.count("after") == len(moving)
+
+
+def test_a_clip_without_rotation_channels_gets_its_report(tmp_path):
+    """Positions only (a tracked marker): no joint has angular figures, the page and the
+    JSON report are still made, and a table without columns reduces to no traces."""
+    from motionclean.jobs import clean_file
+
+    rows = "\n".join(f"{np.sin(i / 9):.4f} {i / 50:.4f} 1.0000" for i in range(300))
+    clip = tmp_path / "marker.bvh"
+    clip.write_text(
+        "HIERARCHY\nROOT Marker\n{\n\tOFFSET 0 0 0\n"
+        "\tCHANNELS 3 Xposition Yposition Zposition\n"
+        "\tEnd Site\n\t{\n\t\tOFFSET 0 1 0\n\t}\n}\n"
+        f"MOTION\nFrames: 300\nFrame Time: 0.008333\n{rows}\n"
+    )
+    assert traces(np.zeros((300, 0))) == []
+    for report in ("marker.html", "marker.json"):
+        done = clean_file(clip, tmp_path / "out.bvh", Pipeline.default(), tmp_path / report)
+        assert done.status == "ok", done.error
+    page = Page((tmp_path / "marker.html").read_text(encoding="utf-8"))
+    assert page.errors == []

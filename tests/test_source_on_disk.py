@@ -8,7 +8,6 @@ from __future__ import annotations
 import os
 import pickle
 import shutil
-import time
 import tracemalloc
 from pathlib import Path
 
@@ -83,24 +82,50 @@ def test_clean_in_place_of_a_file_left_on_disk(copied, on_disk, tmp_path, capsys
     assert copied.read_bytes() == (tmp_path / "beside.bvh").read_bytes()
 
 
-@pytest.mark.parametrize("change", ["append", "same size"])
+@pytest.mark.parametrize("change", ["one digit, times set back", "cut short"])
 def test_a_file_changed_in_place_after_reading_is_refused(copied, on_disk, tmp_path, change):
     clip = turned_right_side(mc.load(copied))
-    if change == "append":
-        with open(copied, "ab") as f:
-            f.write(b"0 " * 96 + b"\n")
-    else:
-        time.sleep(0.05)  # past the file system's timestamp resolution
-        data = bytearray(copied.read_bytes())
+    info = copied.stat()
+    data = bytearray(copied.read_bytes())
+    if change == "cut short":
+        data = data[: len(data) // 2]
+    else:  # the same size and, once set back, the same times: only the bytes tell
         last = data.rindex(b".", 0, len(data) - 1) + 1
         data[last] = ord("1") if data[last] != ord("1") else ord("2")
-        with open(copied, "r+b") as f:  # the same file, written over
-            f.write(data)
+    with open(copied, "r+b") as f:  # the same file, written over
+        f.write(data)
+        f.truncate()
+    os.utime(copied, ns=(info.st_atime_ns, info.st_mtime_ns))
     target = tmp_path / "out" / "cleaned.bvh"
     target.parent.mkdir()
     with pytest.raises(MotionError, match="changed on disk after it was read"):
         mc.save(clip, target)
     assert list(target.parent.iterdir()) == []  # no output, no temporary file
+
+
+def test_bytes_appended_after_reading_do_not_change_what_is_written(copied, on_disk, tmp_path):
+    """The clip is what was read: a file that grew since (a capture still being written)
+    is written from the bytes read, which are still there."""
+    expected = written(turned_right_side(mc.load(copied)), tmp_path / "expected.bvh")
+    clip = turned_right_side(mc.load(copied))
+    with open(copied, "ab") as f:
+        f.write(b"0 " * 96 + b"\n")
+    assert written(clip, tmp_path / "grown.bvh") == expected
+
+
+def test_a_failed_read_leaves_no_file_open(copied, on_disk):
+    data = copied.read_bytes()
+    copied.write_bytes(data.replace(b"Frame Time:", b"Frame Tyme:"))
+    descriptors = len(os.listdir("/proc/self/fd")) if Path("/proc/self/fd").exists() else None
+    errors = []
+    for _ in range(5):
+        try:
+            mc.load(copied)
+        except MotionError as error:
+            errors.append(error)  # the tracebacks are kept
+    assert len(errors) == 5 and "Frame Time" in str(errors[0])
+    if descriptors is not None:
+        assert len(os.listdir("/proc/self/fd")) == descriptors
 
 
 def test_a_pickled_clip_carries_its_text(copied, on_disk, tmp_path):

@@ -366,7 +366,6 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move,
         _apply(disp, model, choice, masks, lambda rows, s: move(x[rows], s, out[rows]))
     elif out is not x:
         out[:] = x
-    del disp
     coverage = model.coverage()
     share = np.zeros((len(masks) + 1, n_cols))
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])

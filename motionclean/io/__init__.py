@@ -23,7 +23,8 @@ def _format_csv(motion: Motion) -> bytes:
     return csv.format_csv(motion)
 
 
-_READERS = {".bvh": bvh.parse_bvh, ".csv": csv.parse_csv}
+#: File suffixes that can be read.
+_READERS = (".bvh", ".csv")
 #: Writers give the file's bytes, or its pieces to write in turn.
 _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
@@ -33,7 +34,7 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
 FORMATS = tuple(_WRITERS)
 
 
-def _suffix(path: Path, table: dict) -> str:
+def _suffix(path: Path, table: Iterable[str]) -> str:
     suffix = path.suffix.lower()
     if suffix not in table:
         raise MotionError(
@@ -49,6 +50,10 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack Motive export
     (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
     the BVH template a channel CSV is read into.
+
+    A BVH file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
+    memory: the clip keeps it open (one file descriptor while the clip is in use) and its
+    writer reads the unchanged values' text again (:class:`~motionclean.io.files.FileBytes`).
     """
     path = Path(path)
     suffix = _suffix(path, _READERS)
@@ -57,7 +62,12 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
         if motive.is_motive(data):
             return motive.parse_motive(data, path)
         return csv.parse_csv(data, path, skeleton=skeleton)
-    motion = bvh.parse_bvh(data, path)
+    try:
+        motion = bvh.parse_bvh(data, path)
+    except BaseException:
+        if on_disk is not None:
+            on_disk.close()  # now, not when the traceback is let go of
+        raise
     if on_disk is not None:  # the text is read again from the file when it is written
         motion.source = replace(motion.source, raw=on_disk)
     return motion

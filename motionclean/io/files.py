@@ -1,9 +1,9 @@
-"""Reading clip files: regular files only, and large ones left on disk once parsed.
+"""Reading clip files: regular files only, and large BVH files left on disk once parsed.
 
 A writer that keeps unchanged values' text needs the input's bytes again when it writes.
 For a large file, holding them in memory from reading to writing costs as much as the
 file; :class:`FileBytes` keeps the file open instead and reads the parts the writer asks
-for again, checking that the file did not change in between.
+for again, checking them against checksums taken when the file was read.
 """
 
 from __future__ import annotations
@@ -12,44 +12,56 @@ import errno
 import os
 import stat
 import weakref
+import zlib
 from collections.abc import Iterable
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import MotionError
 
-__all__ = ["KEEP_ON_DISK_BYTES", "FileBytes", "pieces", "read_regular_file"]
+__all__ = [
+    "CHECK_BYTES",
+    "KEEP_ON_DISK_BYTES",
+    "PIECE_BYTES",
+    "FileBytes",
+    "pieces",
+    "read_regular_file",
+]
 
-#: Files of at least this many bytes (about 22,000 frames of a 31-joint clip) are read
+#: BVH files of at least this many bytes (about 22,000 frames of a 31-joint clip) are read
 #: again from disk when written instead of being held in memory.
 KEEP_ON_DISK_BYTES = 16 << 20
 
+#: Bytes per checksum (CRC-32) of a file kept on disk: a slice reads the blocks it touches.
+CHECK_BYTES = 1 << 16
+
 #: Bytes per piece when a whole file kept on disk is copied out.
 PIECE_BYTES = 1 << 22
-
-
-def _stamp(info: os.stat_result) -> tuple[int, int]:
-    """What changes when a file's content does: its size and modification time (the change
-    time also moves when the file is renamed or unlinked, which changes nothing here)."""
-    return info.st_size, info.st_mtime_ns
 
 
 class FileBytes:
     """The bytes of an open file, read again when sliced: ``len()`` and ``[a:b]`` as for
     ``bytes`` (``os.pread``: safe on several threads at once).
 
-    The file stays open while this object lives, so renaming, replacing or deleting its
-    path changes nothing (``clean --in-place`` writes a new file). A slice raises
-    :class:`MotionError` if the file itself was changed since it was opened (its size or
-    modification time; a change that keeps the size and sets the time back is not seen).
-    Pickled as the bytes themselves.
+    The file stays open while this object lives (or until :meth:`close`), so renaming,
+    replacing or deleting its path changes nothing (``clean --in-place`` writes a new
+    file). Each slice reads whole blocks of :data:`CHECK_BYTES` and compares their CRC-32
+    with the one taken from ``data``, the bytes read first: a file whose bytes changed
+    meanwhile raises :class:`MotionError`, whatever its times say. Pickled as the bytes
+    themselves.
     """
 
-    def __init__(self, descriptor: int, path: Path, info: os.stat_result):
+    def __init__(self, descriptor: int, path: Path, data: bytes):
         self._descriptor = descriptor
-        self._size = info.st_size
-        self._stamp = _stamp(info)
+        self._size = len(data)
+        view = memoryview(data)
+        self._checks = np.array(
+            [zlib.crc32(view[at : at + CHECK_BYTES]) for at in range(0, len(data), CHECK_BYTES)],
+            dtype=np.uint32,
+        )
         self.path = path
-        weakref.finalize(self, os.close, descriptor)
+        self.close = weakref.finalize(self, os.close, descriptor)
 
     def __len__(self) -> int:
         return self._size
@@ -58,33 +70,42 @@ class FileBytes:
         start, stop, step = key.indices(self._size)
         if step != 1:
             raise ValueError("FileBytes slices are contiguous")
-        parts, at = [], start
+        if stop <= start:
+            return b""
+        first, last = start // CHECK_BYTES, -(-stop // CHECK_BYTES)
+        low, high = first * CHECK_BYTES, min(last * CHECK_BYTES, self._size)
+        parts, at = [], low
         try:
-            while at < stop:
-                part = os.pread(self._descriptor, stop - at, at)
+            while at < high:
+                part = os.pread(self._descriptor, high - at, at)
                 if not part:
                     break
                 parts.append(part)
                 at += len(part)
-            same = _stamp(os.fstat(self._descriptor)) == self._stamp
         except OSError as error:
             raise MotionError(f"cannot read again: {error.strerror or error}", self.path) from None
-        if at < stop or not same:
+        read = b"".join(parts)
+        view = memoryview(read)
+        same = len(read) == high - low and all(
+            zlib.crc32(view[k * CHECK_BYTES : (k + 1) * CHECK_BYTES]) == check
+            for k, check in enumerate(self._checks[first:last].tolist())
+        )
+        if not same:
             raise MotionError(
                 "the file changed on disk after it was read; nothing was written, run again",
                 self.path,
             )
-        return b"".join(parts)
+        return read[start - low : stop - low]
 
     def __reduce__(self):
         return bytes, (self[:],)
 
 
-def pieces(raw: bytes | FileBytes, start: int = 0) -> Iterable[bytes]:
-    """``raw[start:]`` in pieces to write in turn (one for bytes held in memory)."""
+def pieces(raw: bytes | FileBytes) -> Iterable[bytes]:
+    """``raw`` in pieces to write in turn (one for bytes held in memory)."""
     if isinstance(raw, FileBytes):
-        return (raw[at : at + PIECE_BYTES] for at in range(start, len(raw), PIECE_BYTES))
-    return [raw[start:] if start else raw]
+        return (raw[at : at + PIECE_BYTES] for at in range(0, len(raw), PIECE_BYTES))
+    return [raw]
 
 
 def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, FileBytes | None]:
@@ -122,7 +143,7 @@ def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, File
             raise MotionError("the file grew while it was read; read it once it is complete", path)
         large = len(data) == info.st_size >= KEEP_ON_DISK_BYTES
         if keep_large and large and hasattr(os, "pread"):
-            kept = FileBytes(descriptor, path, info)
+            kept = FileBytes(descriptor, path, data)
     except OSError as error:
         raise MotionError(f"cannot read: {error.strerror or error}", path) from None
     finally:
