@@ -546,6 +546,8 @@ def _continue_block(q, order, reference, kept, carry):
     is_anchor = kept | leap
     if carry is None:
         is_anchor[0] = True  # the clip's first frame
+    elif not is_anchor.any():
+        return _continue_run(q, order, carry)
     # A changed anchor is written as the triple nearest its original angles (computed for
     # those samples only: the others never read it).
     anchor_values = reference
@@ -589,6 +591,26 @@ def _continue_block(q, order, reference, kept, carry):
         since = np.where(local[..., None], since, total + carry[5][None])
     angles = np.where(is_anchor[..., None], anchor_values, start - 360.0 * since)
     last = (q[-1], principal[-1], start[-1], anchor_angles[-1], switches_since[-1], since[-1])
+    return angles, last
+
+
+def _continue_run(q, order, carry):
+    """:func:`_continue_block` of a block without anchors (no kept sample, no leap): every
+    frame continues the run the carry comes from. The same operations on what the general
+    case would select, so the same bits."""
+    principal = quat.to_euler(q, order)
+    other = principal + [180.0, 0.0, 180.0]
+    other[..., 1] = 180.0 - principal[..., 1]
+    previous = np.concatenate([carry[1][None], principal[:-1]])
+    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    switches_since = np.cumsum(switch, axis=0) + carry[4][None]
+    anchor_other = np.cos(np.deg2rad(carry[3][..., 1])) < 0.0
+    flipped = anchor_other ^ (switches_since % 2 == 1)
+    start = np.where(flipped[..., None], other, principal)
+    step = np.diff(start, axis=0, prepend=carry[2][None])
+    since = np.cumsum(np.round(step / 360.0), axis=0) + carry[5][None]
+    angles = start - 360.0 * since
+    last = (q[-1], principal[-1], start[-1], carry[3], switches_since[-1], since[-1])
     return angles, last
 
 

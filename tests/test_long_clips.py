@@ -44,6 +44,21 @@ def test_euler_write_back_does_not_depend_on_the_block_size(monkeypatch, block):
     assert np.array_equal(again.rotations, reference.rotations)
 
 
+@pytest.mark.parametrize("block", [1, 7, 64])
+def test_runs_without_anchors_continue_as_one_block_would(monkeypatch, block):
+    """Every rotation turned, some far (the whole clip is one run after its first frame):
+    blocks after the first have no anchor and take the short path, which must give the
+    bits the general path gives when the clip is a single block."""
+    clip = mc.load(NOISY)
+    q = clip.rotations
+    spin = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.linspace(0.0, 9.0, len(q)))
+    turned = clip.replace(rotations=quat.multiply(q, spin[:, None]))
+    monkeypatch.setattr(motion_module, "FILTER_BLOCK_FRAMES", len(q))
+    whole = turned.channel_values()
+    monkeypatch.setattr(motion_module, "FILTER_BLOCK_FRAMES", block)
+    assert np.array_equal(turned.channel_values(), whole)
+
+
 @pytest.mark.parametrize("block", [1, 40])  # run ends: 1 and 5 jumps at a time at 120 fps
 def test_despike_does_not_depend_on_how_many_jumps_are_examined_together(monkeypatch, block):
     despike_module = importlib.import_module("motionclean.filters.despike")
