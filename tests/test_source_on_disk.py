@@ -158,3 +158,32 @@ def test_a_large_file_is_not_held_in_memory_once_read(tmp_path):
     assert isinstance(clip.source.raw, FileBytes)
     assert kept < 3.8 * clip.source_values.nbytes
     assert written(clip, tmp_path / "same.bvh") == path.read_bytes()
+
+
+def test_csv_files_left_on_disk_write_the_bytes_a_text_in_memory_writes(tmp_path, monkeypatch):
+    """A channel CSV (with its BVH skeleton and without) and a Motive export: the same bytes
+    from text held in memory and from the file read again, edited or not."""
+    root = Path(__file__).resolve().parents[1] / "sample_data"
+    channel = tmp_path / "take.csv"
+    mc.save(mc.load(NOISY), channel)
+    motive = Path(shutil.copy(root / "131_02_motive.csv", tmp_path / "motive.csv"))
+    template = mc.load(NOISY)
+    cases = [(channel, None), (channel, template), (motive, None)]
+    for path, skeleton in cases:
+        in_memory = mc.load(path, skeleton=skeleton)
+        monkeypatch.setattr(files, "KEEP_ON_DISK_BYTES", 0)
+        kept = mc.load(path, skeleton=skeleton)
+        monkeypatch.undo()
+        kept_raw = getattr(kept.source, "raw", b"")
+        assert isinstance(kept_raw, FileBytes) == (skeleton is None)  # a template's text stays
+        for clip, name in ((kept, "a"), (in_memory, "b")):
+            q = clip.rotations.copy()
+            q[10:20] = quat.multiply(q[10:20], quat.from_axis_angle(np.array([1.0, 0, 0]), 0.1))
+            suffix = path.suffix if skeleton is None else ".bvh"
+            mc.save(clip, tmp_path / f"same_{name}{suffix}")
+            mc.save(clip.replace(rotations=q), tmp_path / f"edit_{name}{suffix}")
+        for kind in ("same", "edit"):
+            a, b = (tmp_path / f"{kind}_{n}{suffix}" for n in "ab")
+            assert a.read_bytes() == b.read_bytes(), (path.name, skeleton is None, kind)
+        if skeleton is None:
+            assert (tmp_path / f"same_a{suffix}").read_bytes() == path.read_bytes()

@@ -16,11 +16,11 @@ from .files import read_regular_file
 __all__ = ["FORMATS", "atomic_write", "load", "save"]
 
 
-def _format_csv(motion: Motion) -> bytes:
+def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     """A clip read from a Motive export is written as one, any other as :mod:`.csv` does."""
     if isinstance(motion.source, motive.MotiveText):
-        return motive.format_motive(motion)
-    return csv.format_csv(motion)
+        return motive.motive_pieces(motion)
+    return csv.csv_pieces(motion)
 
 
 #: File suffixes that can be read.
@@ -28,7 +28,7 @@ _READERS = (".bvh", ".csv")
 #: Writers give the file's bytes, or its pieces to write in turn.
 _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
-    ".csv": _format_csv,
+    ".csv": _csv_pieces,
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -51,25 +51,29 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
     the BVH template a channel CSV is read into.
 
-    A BVH file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
+    A file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
     memory: the clip keeps it open (one file descriptor while the clip is in use) and its
     writer reads the unchanged values' text again (:class:`~motionclean.io.files.FileBytes`).
     """
     path = Path(path)
     suffix = _suffix(path, _READERS)
-    data, on_disk = read_regular_file(path, keep_large=suffix == ".bvh")
-    if suffix == ".csv":
-        if motive.is_motive(data):
-            return motive.parse_motive(data, path)
-        return csv.parse_csv(data, path, skeleton=skeleton)
+    data, on_disk = read_regular_file(path, keep_large=True)
     try:
-        motion = bvh.parse_bvh(data, path)
+        if suffix == ".bvh":
+            motion = bvh.parse_bvh(data, path)
+        elif motive.is_motive(data):
+            motion = motive.parse_motive(data, path)
+        else:
+            motion = csv.parse_csv(data, path, skeleton=skeleton)
     except BaseException:
         if on_disk is not None:
             on_disk.close()  # now, not when the traceback is let go of
         raise
-    if on_disk is not None:  # the text is read again from the file when it is written
-        motion.source = replace(motion.source, raw=on_disk)
+    if on_disk is not None:
+        if getattr(motion.source, "raw", None) is data:  # (not a skeleton template's text)
+            motion.source = replace(motion.source, raw=on_disk)  # read again when written
+        else:
+            on_disk.close()
     return motion
 
 

@@ -69,7 +69,9 @@ from __future__ import annotations
 
 import csv as _csv
 import io as _io
+import itertools
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import NamedTuple, NoReturn
 
@@ -79,6 +81,7 @@ from .. import quat
 from ..errors import MotionError
 from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion, hold_missing
 from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
+from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
     check_finite,
@@ -110,7 +113,7 @@ class CsvText:
     """
 
     layout: str  # "channel" or "rigid"
-    raw: bytes
+    raw: bytes | FileBytes  # (a large file is read again from disk)
     starts: np.ndarray
     ends: np.ndarray
     values: np.ndarray
@@ -700,20 +703,31 @@ class Cells:
         return np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=np.uint8)
 
 
-def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray) -> bytes:
-    """The source text with the ``mask``ed ``(F, K)`` cells replaced by ``placed`` values
-    (NaN: a blank cell); the time column is rewritten too when the frame time changed."""
+#: ``placed(rows)``: the ``(len, K)`` values of the cells of a slice of rows (NaN: blank).
+Placed = Callable[[slice], np.ndarray]
+
+
+def _rewrite(
+    src: CsvText, motion: Motion, mask: np.ndarray, placed: Placed
+) -> Iterable[bytes | memoryview]:
+    """The source text, in pieces to write in turn, with the ``mask``ed ``(F, K)`` cells
+    replaced by their ``placed`` values (made a block of rows at a time); the time column
+    is rewritten too when the frame time changed."""
     is_time = np.zeros(mask.shape, dtype=bool)
-    if motion.frame_time != src.frame_time:
+    retimed = motion.frame_time != src.frame_time
+    if retimed:
         first = float(src.values[0, src.time_column])
         mask[:, src.time_column] = is_time[:, src.time_column] = True
-        placed[:, src.time_column] = first + np.arange(motion.n_frames) * motion.frame_time
     if not mask.any():
-        return src.raw
+        return pieces(src.raw)
 
     def texts(rows: slice):
         chosen = mask[rows]
-        new, new_is_time = placed[rows][chosen], is_time[rows][chosen]
+        values = placed(rows)
+        if retimed:
+            frames = np.arange(rows.start, rows.start + values.shape[0])
+            values[:, src.time_column] = first + frames * motion.frame_time
+        new, new_is_time = values[chosen], is_time[rows][chosen]
 
         def chunk(a: int, b: int):
             """Texts of replacements ``a`` to ``b - 1``: times ``%.12g``, values their
@@ -737,12 +751,12 @@ def _rewrite(src: CsvText, motion: Motion, mask: np.ndarray, placed: np.ndarray)
     def cells(rows: slice) -> tuple[np.ndarray, np.ndarray]:
         return starts[rows], ends[rows]
 
-    return b"".join(splice_cells(src.raw, row_starts, cells, mask, texts))
+    return splice_cells(src.raw, row_starts, cells, mask, texts)
 
 
-def _fresh(fields: list[str], eol: bytes, n_frames: int, cells) -> bytes:
-    """The header and rows of a CSV written afresh (:func:`table_pieces`)."""
-    return format_header(fields, eol) + b"".join(table_pieces(n_frames, cells, b",", eol))
+def _fresh(fields: list[str], eol: bytes, n_frames: int, cells) -> Iterable[bytes]:
+    """The header and rows of a CSV written afresh, in pieces (:func:`table_pieces`)."""
+    return itertools.chain([format_header(fields, eol)], table_pieces(n_frames, cells, b",", eol))
 
 
 def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
@@ -766,7 +780,7 @@ def format_fields(field: bytes, values) -> tuple[np.ndarray, np.ndarray, np.ndar
     return buf, starts, ends - starts
 
 
-def _format_channel(motion: Motion) -> bytes:
+def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
     values = motion.channel_values()
     check_finite(motion, values)
     n_frames, n_channels = values.shape
@@ -782,8 +796,12 @@ def _format_channel(motion: Motion) -> bytes:
         mask[:, src.columns] = _cells_to_write(
             values != motion.source_values, missing, _source_blank(src)[:, src.columns]
         )
-        placed = np.zeros(src.starts.shape)
-        placed[:, src.columns] = np.where(missing, np.nan, values)
+
+        def placed(rows: slice) -> np.ndarray:
+            out = np.zeros((values[rows].shape[0], src.starts.shape[1]))
+            out[:, src.columns] = np.where(missing[rows], np.nan, values[rows])
+            return out
+
         return _rewrite(src, motion, mask, placed)
 
     keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
@@ -834,9 +852,10 @@ def _eol(source) -> bytes:
     return source.eol if isinstance(source, BvhText | CsvText) else b"\n"
 
 
-def rewrite_rigid(src: CsvText, motion: Motion) -> bytes:
-    """``src``'s text with the values of ``motion`` (the same frames and bodies, read from
-    ``src``) put in: unchanged values keep their text, missing samples are blank."""
+def rewrite_rigid(src: CsvText, motion: Motion) -> Iterable[bytes | memoryview]:
+    """``src``'s text, in pieces, with the values of ``motion`` (the same frames and
+    bodies, read from ``src``) put in: unchanged values keep their text, missing samples
+    are blank."""
     assert motion.source_rotations is not None
     q, t = motion.rotations, motion.translations
     read = src.values[:, src.columns]  # (F, B, 7) as in the file, NaN where blank
@@ -849,11 +868,18 @@ def rewrite_rigid(src: CsvText, motion: Motion) -> bytes:
     changed = np.concatenate([t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1)
     rows = np.arange(motion.n_frames)[:, None, None]
     mask = np.zeros(src.starts.shape, dtype=bool)
-    placed = np.zeros(src.starts.shape)
     mask[rows, src.columns] = _cells_to_write(
         changed, missing, _source_blank(src)[rows, src.columns]
     )
-    placed[rows, src.columns] = np.where(missing, np.nan, new)
+
+    def placed(block: slice) -> np.ndarray:
+        part = new[block]
+        out = np.zeros((part.shape[0], src.starts.shape[1]))
+        out[np.arange(part.shape[0])[:, None, None], src.columns] = np.where(
+            missing[block], np.nan, part
+        )
+        return out
+
     return _rewrite(src, motion, mask, placed)
 
 
@@ -872,7 +898,7 @@ def rigid_values(motion: Motion) -> np.ndarray:
     return values
 
 
-def _format_rigid(motion: Motion) -> bytes:
+def _format_rigid(motion: Motion) -> Iterable[bytes | memoryview]:
     src = motion.source
     values = rigid_values(motion)
     if (
@@ -903,7 +929,13 @@ def _format_rigid(motion: Motion) -> bytes:
 
 
 def format_csv(motion: Motion, layout: str | None = None) -> bytes:
-    """Serialise ``motion`` as CSV bytes: ``layout`` ``"channel"`` or ``"rigid"``.
+    """Serialise ``motion`` as CSV bytes (:func:`csv_pieces` joined)."""
+    return b"".join(csv_pieces(motion, layout))
+
+
+def csv_pieces(motion: Motion, layout: str | None = None) -> Iterable[bytes | memoryview]:
+    """``motion`` as CSV, in pieces to write one after the other (made as they are asked
+    for: no copy of the whole text): ``layout`` ``"channel"`` or ``"rigid"``.
 
     By default a clip read from a rigid-body CSV is written as one, every other clip as a
     channel CSV. Unchanged values keep the input's text (see the module docstring).

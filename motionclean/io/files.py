@@ -1,4 +1,4 @@
-"""Reading clip files: regular files only, and large BVH files left on disk once parsed.
+"""Reading clip files: regular files only, and large ones left on disk once parsed.
 
 A writer that keeps unchanged values' text needs the input's bytes again when it writes.
 For a large file, holding them in memory from reading to writing costs as much as the
@@ -29,7 +29,7 @@ __all__ = [
     "read_regular_file",
 ]
 
-#: BVH files of at least this many bytes (about 22,000 frames of a 31-joint clip) are read
+#: Files of at least this many bytes (about 22,000 frames of a 31-joint BVH clip) are read
 #: again from disk when written instead of being held in memory.
 KEEP_ON_DISK_BYTES = 16 << 20
 

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import csv as _csv
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import NoReturn
 
@@ -318,7 +319,14 @@ def parse_motive(data: bytes, path=None) -> Motion:
 
 
 def format_motive(motion: Motion) -> bytes:
-    """Serialise a clip read from a Motive export as a Motive export (module docstring)."""
+    """Serialise a clip read from a Motive export as a Motive export (:func:`motive_pieces`
+    joined)."""
+    return b"".join(motive_pieces(motion))
+
+
+def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
+    """A clip read from a Motive export as a Motive export (module docstring), in pieces to
+    write one after the other."""
     src = motion.source
     if not isinstance(src, MotiveText):
         raise ValueError("format_motive writes clips read from a Motive export")
@@ -365,4 +373,6 @@ def format_motive(motion: Motion) -> bytes:
     )
     times = (first_time + np.arange(n_frames) * motion.frame_time).tolist()
     starts[:, 1], lengths[:, 1] = cells.add(*format_fields(b"%.6f", times))
-    return join_rows(cells.buffer(), starts, lengths, starts.shape, b",", src.eol, b"".join(header))
+    return [
+        join_rows(cells.buffer(), starts, lengths, starts.shape, b",", src.eol, b"".join(header))
+    ]
