@@ -36,8 +36,9 @@ def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
 #: Work on arrays in pieces of this many items (or bytes) so temporaries stay in cache.
 _CHUNK_ITEMS = 32768
 _CHUNK_BYTES = 131072
-#: Items (or bytes) per part run on a thread of its own (:mod:`motionclean.threads`).
-_PART_ITEMS = 16 * _CHUNK_ITEMS
+#: Items (or bytes) per part run on a thread of its own (:mod:`motionclean.threads`); a
+#: part's cell offsets and texts are its working set, as many at once as there are threads.
+_PART_ITEMS = 4 * _CHUNK_ITEMS
 _PART_BYTES = 32 * _CHUNK_BYTES
 #: Bytes per formatted ``%.6f`` field.
 _FIELD = 16
