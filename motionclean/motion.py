@@ -563,15 +563,7 @@ def _continue_block(q, order, reference, kept, carry):
     anchor_angles = anchor_values[anchor_at, columns]  # (F, J, 3)
     if carry is not None:
         anchor_angles = np.where(local[..., None], anchor_angles, carry[3][None])
-    principal = quat.to_euler(q, order)
-    other = principal + [180.0, 0.0, 180.0]
-    other[..., 1] = 180.0 - principal[..., 1]
-    # Each frame takes the solution nearest the frame before. The two solutions are
-    # symmetric (P->O is as far as O->P, P->P as O->O, modulo whole turns), so whether a
-    # frame switches does not depend on the solution the frame before was written on: the
-    # solution in use is the anchor's, switched at every frame where the other one is nearer.
-    previous = np.concatenate([principal[:1] if carry is None else carry[1][None], principal[:-1]])
-    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    principal, other, switch = _solutions(q, order, None if carry is None else carry[1])
     if carry is None:
         switch[0] = False
     switches = np.cumsum(switch, axis=0)
@@ -598,11 +590,7 @@ def _continue_run(q, order, carry):
     """:func:`_continue_block` of a block without anchors (no kept sample, no leap): every
     frame continues the run the carry comes from. The same operations on what the general
     case would select, so the same bits."""
-    principal = quat.to_euler(q, order)
-    other = principal + [180.0, 0.0, 180.0]
-    other[..., 1] = 180.0 - principal[..., 1]
-    previous = np.concatenate([carry[1][None], principal[:-1]])
-    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    principal, other, switch = _solutions(q, order, carry[1])
     switches_since = np.cumsum(switch, axis=0) + carry[4][None]
     anchor_other = np.cos(np.deg2rad(carry[3][..., 1])) < 0.0
     flipped = anchor_other ^ (switches_since % 2 == 1)
@@ -612,6 +600,22 @@ def _continue_run(q, order, carry):
     angles = start - 360.0 * since
     last = (q[-1], principal[-1], start[-1], carry[3], switches_since[-1], since[-1])
     return angles, last
+
+
+def _solutions(q, order, last):
+    """The two Euler solutions of ``q`` (principal, other) and the frames where the other is
+    nearer the frame before's principal angles (``last``: those of the frame before the
+    block; None: the block's first frame is compared with itself).
+
+    The two solutions are symmetric (P->O is as far as O->P, P->P as O->O, modulo whole
+    turns), so whether a frame switches does not depend on the solution the frame before
+    was written on: the solution in use is the anchor's, switched at every such frame."""
+    principal = quat.to_euler(q, order)
+    other = principal + [180.0, 0.0, 180.0]
+    other[..., 1] = 180.0 - principal[..., 1]
+    previous = np.concatenate([principal[:1] if last is None else last[None], principal[:-1]])
+    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    return principal, other, switch
 
 
 def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
