@@ -686,4 +686,4 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         buf, starts, lengths = format_fixed6(block)
         return buf, starts.reshape(block.shape), lengths.reshape(block.shape)
 
-    return [hierarchy + motion_header, *table_pieces(values.shape[0], cells, b" ", eol)]
+    return table_pieces(values.shape[0], cells, b" ", eol, hierarchy + motion_header)

@@ -69,7 +69,6 @@ from __future__ import annotations
 
 import csv as _csv
 import io as _io
-import itertools
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -756,7 +755,7 @@ def _rewrite(
 
 def _fresh(fields: list[str], eol: bytes, n_frames: int, cells) -> Iterable[bytes]:
     """The header and rows of a CSV written afresh, in pieces (:func:`table_pieces`)."""
-    return itertools.chain([format_header(fields, eol)], table_pieces(n_frames, cells, b",", eol))
+    return table_pieces(n_frames, cells, b",", eol, format_header(fields, eol))
 
 
 def _frame_and_time(motion: Motion, cells: Cells, rows: slice):

@@ -446,10 +446,11 @@ def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) ->
 ROW_BLOCK = 4096
 
 
-def table_pieces(n_rows: int, cells, sep: bytes, eol: bytes) -> Iterator[bytes]:
-    """The rows of a table written afresh, :data:`ROW_BLOCK` rows per piece:
-    ``cells(rows)`` gives ``(buffer, starts, lengths)`` of the ``(len, K)`` cells of a slice
-    of rows (see :func:`join_rows`)."""
+def table_pieces(n_rows: int, cells, sep: bytes, eol: bytes, head: bytes = b"") -> Iterator[bytes]:
+    """``head``, then the rows of a table written afresh, :data:`ROW_BLOCK` rows per piece,
+    each made when it is asked for: ``cells(rows)`` gives ``(buffer, starts, lengths)`` of
+    the ``(len, K)`` cells of a slice of rows (see :func:`join_rows`)."""
+    yield head
     for rows in in_parts(n_rows, ROW_BLOCK):
         buf, starts, lengths = cells(rows)
         yield join_rows(buf, starts, lengths, starts.shape, sep, eol)
