@@ -168,7 +168,8 @@ def _failure(source: str, target: str | None, error: BaseException, start: float
     return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)
 
 
-def _success(result: CleanedClip, job: Job, start: float) -> FileResult:
+def _success(result: CleanedClip, job: Job) -> FileResult:
+    """The figures of a cleaned clip (its ``seconds`` are set once it is written)."""
     summary = result.report["summary"]
     deviations = [
         j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
@@ -187,7 +188,6 @@ def _success(result: CleanedClip, job: Job, start: float) -> FileResult:
         deviation_max=summary["deviation_deg_max"],
         deviation_rms=deviation_rms,
         report=job.report,
-        seconds=time.perf_counter() - start,
         joints={
             name: {
                 "noise_after": entry["angular_accel_rms"]["after"],
@@ -226,7 +226,7 @@ def clean_file(
         pages = {}
         if job.report is not None:
             pages[job.report] = render_report(result.report, job.report, result.series)
-        after, done = result.after, _success(result, job, start)
+        after, done = result.after, _success(result, job)
         del result  # the input's arrays and the plot series go before the clip is written
         write_outputs(after, job.target, pages)
     except Exception as error:

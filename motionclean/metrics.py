@@ -82,13 +82,21 @@ def linear_acceleration(
     return zero_missing(out, missing)
 
 
-def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(F, ...)`` distances between matching points ``(F, ..., 3)`` (block by block)."""
+def _pairwise(measure, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(F, ...)`` ``measure(a[rows], b[rows])`` of matching samples ``(F, ..., n)``, block
+    by block on threads (no clip-sized temporaries)."""
     out = np.empty(np.shape(a)[:-1])
-    for at in range(0, len(a), BLOCK_FRAMES):
-        rows = slice(at, at + BLOCK_FRAMES)
-        out[rows] = np.linalg.norm(b[rows] - a[rows], axis=-1)
+
+    def block(rows: slice) -> None:
+        out[rows] = measure(a[rows], b[rows])
+
+    run_parts(block, in_parts(len(out), BLOCK_FRAMES), out.size)
     return out
+
+
+def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(F, ...)`` distances between matching points ``(F, ..., 3)``."""
+    return _pairwise(lambda p, q: np.linalg.norm(q - p, axis=-1), a, b)
 
 
 def zero_missing(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
@@ -100,13 +108,9 @@ def zero_missing(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
 
 
 def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``(F, ...)`` rotation angle between matching samples, in degrees (block by block)."""
+    """``(F, ...)`` rotation angle between matching samples, in degrees."""
     before, after = np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64)
-    out = np.empty(before.shape[:-1])
-    for at in range(0, before.shape[0], BLOCK_FRAMES):
-        rows = slice(at, at + BLOCK_FRAMES)
-        out[rows] = np.degrees(quat.angle_between(before[rows], after[rows]))
-    return out
+    return _pairwise(lambda p, q: np.degrees(quat.angle_between(p, q)), before, after)
 
 
 def step_deg(q: np.ndarray) -> np.ndarray:

@@ -223,8 +223,8 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, cleaned),
-        "world": series.get("world_figures") or world_figures(core_before, core_after),
-        "contacts": series.get("contacts") or contact_figures(before, after)[0],
+        "world": series["world_figures"],
+        "contacts": series["contacts"],
         "rest_frames": {"leading": lead, "trailing": trail},
     }
 

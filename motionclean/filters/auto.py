@@ -52,7 +52,7 @@ from .. import checks, quat
 from ..threads import in_parts, run_parts
 from . import noise as noise_model
 from .design import lowpass, savgol
-from .linear import Rows, displacement_coefficients, mirror_indices
+from .linear import Rows, displacement_coefficients, mirror_indices, row_span
 from .masks import MAX_HALF_WIDTH, binomial
 from .noise import NoiseModel, fast_length
 
@@ -270,7 +270,7 @@ def _apply(disp: Rows, model: NoiseModel, choice: np.ndarray, masks, finish) -> 
     spans = []
     for group in groups:
         read = index[starts[group, None] + np.arange(-k_max, window + k_max) + pad]
-        spans.append((int(read.min()), int(read.max()) + 1))
+        spans.append(row_span(read))
     lows = [*(low for low, _ in spans[1:]), n_frames]
     read_later = np.minimum.accumulate(lows[::-1])[::-1]
 
@@ -314,7 +314,7 @@ def _accumulate(moves: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None
     if not rows.size:
         return
     flat = moves.reshape(-1, 3)
-    low, high = int(rows.min()), int(rows.max()) + 1
+    low, high = row_span(rows)
     local = rows - low
     for axis in range(3):  # one bincount per axis: a third of the work of one over all three
         flat[low:high, axis] += np.bincount(local, weights=values[:, axis], minlength=high - low)

@@ -41,6 +41,7 @@ __all__ = [
     "mirror_indices",
     "mirror_position",
     "mirrored_displacements",
+    "row_span",
     "run_passes",
     "take_rows",
     "work_area",
@@ -94,8 +95,13 @@ def take_rows(signal: Rows, index: np.ndarray) -> np.ndarray:
     """``signal[index]`` for an array of row numbers, asking ``signal`` (an array, or rows
     computed when sliced such as :class:`motionclean.quat.Displacements`) only for the
     span of rows the index covers."""
-    low, high = int(index.min()), int(index.max()) + 1
+    low, high = row_span(index)
     return signal[low:high][index - low]
+
+
+def row_span(index: np.ndarray) -> tuple[int, int]:
+    """``(low, high)``: the rows ``index`` (a non-empty array of row numbers) spans."""
+    return int(index.min()), int(index.max()) + 1
 
 
 def mirrored_displacements(w: np.ndarray, before: int, after: int) -> np.ndarray:

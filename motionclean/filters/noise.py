@@ -44,7 +44,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..threads import in_parts, run_parts
-from .linear import Rows, mirror_indices, take_rows
+from .linear import Rows, mirror_indices, row_span, take_rows
 
 __all__ = ["BAND_HZ", "NoiseModel", "WINDOW_SECONDS", "fast_length", "fit", "hann_windows"]
 
@@ -277,7 +277,7 @@ def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndar
 
     def block(windows: slice) -> None:  # blocks of windows bound the memory
         rows = index[starts[windows, None] + np.arange(window) + window - 1]
-        low, high = int(rows.min()), int(rows.max()) + 1
+        low, high = row_span(rows)
         d = disp[low : high + 2]  # the norms of this block's rows only
         norms = np.linalg.norm(d[2:] - 2.0 * d[1:-1] + d[:-2], axis=-1)
         out[windows] = np.quantile(norms[rows - low], 0.75, axis=1)

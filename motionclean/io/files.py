@@ -21,9 +21,7 @@ import numpy as np
 from ..errors import MotionError
 
 __all__ = [
-    "CHECK_BYTES",
     "KEEP_ON_DISK_BYTES",
-    "PIECE_BYTES",
     "FileBytes",
     "pieces",
     "read_regular_file",

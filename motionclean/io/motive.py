@@ -318,18 +318,12 @@ def parse_motive(data: bytes, path=None) -> Motion:
     )
 
 
-def format_motive(motion: Motion) -> bytes:
-    """Serialise a clip read from a Motive export as a Motive export (:func:`motive_pieces`
-    joined)."""
-    return b"".join(motive_pieces(motion))
-
-
 def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     """A clip read from a Motive export as a Motive export (module docstring), in pieces to
     write one after the other."""
     src = motion.source
     if not isinstance(src, MotiveText):
-        raise ValueError("format_motive writes clips read from a Motive export")
+        raise ValueError("motive_pieces writes clips read from a Motive export")
     values = rigid_values(motion)
     if (
         src.matches(motion)
