@@ -26,6 +26,7 @@ from .threads import run_parts
 from .traces import Trace, traces
 from .world_report import (
     contact_figures,
+    figure_points,
     figure_positions,
     format_contacts,
     format_world,
@@ -51,21 +52,23 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """
     dt = before.frame_time
     clips = (before, after)
-    # World positions of the points the contact and world figures read, once per clip
-    # (the world rotations and the other points are not kept), let go of before the
-    # per-frame tables are made.
+    # World positions of the points the contact and world figures read (found once, on the
+    # input), once per clip (the world rotations and the other points are not kept), let
+    # go of before the per-frame tables are made.
+    used = figure_points(before)
     points = run_parts(
-        lambda clip: None if clip is None else figure_positions(clip),
+        lambda clip: None if clip is None else figure_positions(clip, used),
         clips,
         before.rotations.size,
     )
-    contacts, feet = contact_figures(before, after, points)
+    contacts, feet = contact_figures(before, after, points, used)
     lead, trail = rest_frames(before)
     core = slice(lead, before.n_frames - trail)
     figures = world_figures(
         trim(before, lead, trail),
         None if after is None else trim(after, lead, trail),
         [None if p is None else p[core] for p in points],
+        used,
     )
     del points
     rotating = before.layout.has_rotation

@@ -41,13 +41,14 @@ def figure_points(motion: Motion) -> np.ndarray:
     return np.union1d(index, feet_points).astype(np.intp)  # (an int array also when empty)
 
 
-def figure_positions(motion: Motion) -> np.ndarray:
-    """``(F, len(figure_points), 3)`` world positions of the :func:`figure_points`."""
-    return kinematics.world_positions(motion, only=figure_points(motion))
+def figure_positions(motion: Motion, used: np.ndarray | None = None) -> np.ndarray:
+    """``(F, len(used), 3)`` world positions of the points ``used`` (default: the
+    :func:`figure_points` of ``motion``)."""
+    return kinematics.world_positions(motion, only=figure_points(motion) if used is None else used)
 
 
-def _positions(motion: Motion, given: np.ndarray | None) -> np.ndarray:
-    return figure_positions(motion) if given is None else given
+def _positions(motion: Motion, given: np.ndarray | None, used: np.ndarray) -> np.ndarray:
+    return figure_positions(motion, used) if given is None else given
 
 
 def _feet_on(feet: list[found.Foot], used: np.ndarray) -> list[found.Foot]:
@@ -76,25 +77,30 @@ def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
 
 
 def world_figures(
-    before: Motion, after: Motion | None = None, points: list | None = None
+    before: Motion,
+    after: Motion | None = None,
+    points: list | None = None,
+    used: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The report's ``world`` section: up axis, body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
-    holds both clips' :func:`figure_positions` when the caller has them."""
+    holds both clips' :func:`figure_positions` of the points ``used`` (default: the
+    :func:`figure_points` of ``before``) when the caller has them."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
-    columns = np.searchsorted(figure_points(before), index)
+    used = figure_points(before) if used is None else used
+    columns = np.searchsorted(used, index)
     dt = before.frame_time
     points = points or [None, None]
     # every figure point's figures, then the effectors' columns: no copy of their positions
-    points_b = _positions(before, points[0])
+    points_b = _positions(before, points[0], used)
     unknown_b = _unknown(before, index)
     rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown_b)
     if after is not None:
-        points_a = _positions(after, points[1])
+        points_a = _positions(after, points[1], used)
         unknown_a = _unknown(after, index)
         rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown_a)
         moved = metrics.distance(points_b, points_a).take(columns, axis=1)
@@ -132,7 +138,10 @@ def world_figures(
 
 
 def contact_figures(
-    before: Motion, after: Motion | None = None, points: list | None = None
+    before: Motion,
+    after: Motion | None = None,
+    points: list | None = None,
+    used: np.ndarray | None = None,
 ) -> tuple[dict | None, dict]:
     """The report's ``contacts`` section and the per-foot plot series.
 
@@ -141,19 +150,20 @@ def contact_figures(
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below the ground, units) before and after. ``None`` and no
     series for a clip without feet. The series hold each foot's lowest point above the
-    ground per frame, before and after. ``points`` as in :func:`world_figures`.
+    ground per frame, before and after. ``points`` and ``used`` as in :func:`world_figures`.
     """
     skeleton_feet, up, height = footlock.find_feet(before, _CONTACT_PARAMS)
     if not skeleton_feet:
         return None, {}
-    feet = _feet_on(skeleton_feet, figure_points(before))
+    used = figure_points(before) if used is None else used
+    feet = _feet_on(skeleton_feet, used)
     points = points or [None, None]
-    positions = _positions(before, points[0])
+    positions = _positions(before, points[0], used)
     dt = before.frame_time
     contacts, ground = found.detect(
         positions, feet, up, height, dt, footlock.contact_params(_CONTACT_PARAMS)
     )
-    after_positions = None if after is None else _positions(after, points[1])
+    after_positions = None if after is None else _positions(after, points[1], used)
     skate_b = found.skate(positions, feet, contacts, up, dt)
     pen_b = found.penetration(positions, feet, up, ground)
     low_b = found.lowest_points(positions, feet, up) - ground
