@@ -69,7 +69,7 @@ from .csv import (
     tracked_bodies,
     uniform_frame_time,
 )
-from .text import join_rows
+from .text import table_pieces
 
 #: What every Motive export starts with (after an optional byte-order mark).
 SIGNATURE = b"Format Version,"
@@ -353,20 +353,25 @@ def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     axes = ["Frame", "Time (Seconds)"] + [BODY_CELLS[i][1] for i in WRITE_ORDER] * n_bodies
     header.append(format_header(axes, src.eol))
 
-    cells = Cells()
     ordered = values[:, :, list(WRITE_ORDER)].reshape(n_frames, -1)
-    starts = np.zeros((n_frames, ordered.shape[1] + 2), dtype=np.int64)
-    lengths = np.zeros_like(starts)
-    starts[:, 2:], lengths[:, 2:] = (
-        a.reshape(ordered.shape) for a in cells.add(*format_repr(ordered))
-    )
-    lengths[:, 2:][np.repeat(motion.missing_mask(), len(BODY_CELLS), axis=1)] = 0
+    blank = np.repeat(motion.missing_mask(), len(BODY_CELLS), axis=1)
     first_frame, first_time = int(src.values[0, 0]), float(src.values[0, 1])
-    starts[:, 0], lengths[:, 0] = cells.add(
-        *format_fields(b"%d", range(first_frame, first_frame + n_frames))
-    )
-    times = (first_time + np.arange(n_frames) * motion.frame_time).tolist()
-    starts[:, 1], lengths[:, 1] = cells.add(*format_fields(b"%.6f", times))
-    return [
-        join_rows(cells.buffer(), starts, lengths, starts.shape, b",", src.eol, b"".join(header))
-    ]
+
+    def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cells = Cells()
+        block = ordered[rows]
+        starts = np.zeros((block.shape[0], block.shape[1] + 2), dtype=np.int64)
+        lengths = np.zeros_like(starts)
+        starts[:, 2:], lengths[:, 2:] = (
+            a.reshape(block.shape) for a in cells.add(*format_repr(block))
+        )
+        lengths[:, 2:][blank[rows]] = 0
+        frames = np.arange(rows.start, rows.start + block.shape[0])
+        starts[:, 0], lengths[:, 0] = cells.add(
+            *format_fields(b"%d", (first_frame + frames).tolist())
+        )
+        times = (first_time + frames * motion.frame_time).tolist()
+        starts[:, 1], lengths[:, 1] = cells.add(*format_fields(b"%.6f", times))
+        return cells.buffer(), starts, lengths
+
+    return table_pieces(n_frames, fill, b",", src.eol, b"".join(header))
