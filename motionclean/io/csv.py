@@ -897,6 +897,19 @@ def rigid_values(motion: Motion) -> np.ndarray:
     return values
 
 
+def value_cells(cells: Cells, block: np.ndarray, blank: np.ndarray, lead: int):
+    """``(starts, lengths)`` ``(R, lead + K)`` of a block of ``(R, K)`` values printed
+    (shortest round trip) into ``cells`` after ``lead`` columns left for the caller; the
+    ``blank`` ``(R, K)`` cells empty."""
+    starts = np.zeros((block.shape[0], block.shape[1] + lead), dtype=np.int64)
+    lengths = np.zeros_like(starts)
+    starts[:, lead:], lengths[:, lead:] = (
+        a.reshape(block.shape) for a in cells.add(*format_repr(block))
+    )
+    lengths[:, lead:][blank] = 0
+    return starts, lengths
+
+
 def _format_rigid(motion: Motion) -> Iterable[bytes | memoryview]:
     src = motion.source
     values = rigid_values(motion)
@@ -913,13 +926,7 @@ def _format_rigid(motion: Motion) -> Iterable[bytes | memoryview]:
 
     def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cells = Cells()
-        block = values[rows]
-        starts = np.zeros((block.shape[0], block.shape[1] + 1), dtype=np.int64)
-        lengths = np.zeros_like(starts)
-        starts[:, 1:], lengths[:, 1:] = (
-            a.reshape(block.shape) for a in cells.add(*format_repr(block))
-        )
-        lengths[:, 1:][blank[rows]] = 0
+        starts, lengths = value_cells(cells, values[rows], blank[rows], 1)
         _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells, rows)
         return cells.buffer(), starts, lengths
 

@@ -61,13 +61,13 @@ from .csv import (
     check_filled,
     format_fields,
     format_header,
-    format_repr,
     parse_body,
     rewrite_rigid,
     rigid_arrays,
     rigid_values,
     tracked_bodies,
     uniform_frame_time,
+    value_cells,
 )
 from .text import table_pieces
 
@@ -359,14 +359,8 @@ def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
 
     def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cells = Cells()
-        block = ordered[rows]
-        starts = np.zeros((block.shape[0], block.shape[1] + 2), dtype=np.int64)
-        lengths = np.zeros_like(starts)
-        starts[:, 2:], lengths[:, 2:] = (
-            a.reshape(block.shape) for a in cells.add(*format_repr(block))
-        )
-        lengths[:, 2:][blank[rows]] = 0
-        frames = np.arange(rows.start, rows.start + block.shape[0])
+        starts, lengths = value_cells(cells, ordered[rows], blank[rows], 2)
+        frames = np.arange(rows.start, rows.start + starts.shape[0])
         starts[:, 0], lengths[:, 0] = cells.add(
             *format_fields(b"%d", (first_frame + frames).tolist())
         )
