@@ -33,6 +33,9 @@ UNCHANGED_TOLERANCE = 1e-9
 
 #: Quaternion components closer than this to the ones read count as unchanged (rounding).
 SAME_ROTATION = 1e-12
+#: Largest difference of the middle Euler angle's sine between the same rotations: 4
+#: SAME_ROTATION, with room for the rounding of the two ways it is computed.
+MIDDLE_SINE_SLACK = 1e-10
 #: Frames per block in the Euler <-> quaternion conversions of every joint (temporaries
 #: stay in cache) ...
 BLOCK_FRAMES = 512
@@ -473,8 +476,11 @@ class Motion:
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
             q = self.rotations[block, joints]
-            kept = _same_rotations(q, self.read_rotations(block, joints))
             read = self.source_values[block][:, cols]
+            if self.source_rotations is not None:
+                kept = _same_rotations(q, self.source_rotations[block, joints])
+            else:
+                kept = _same_as_angles(q, order, read)
             values[block, cols], carry = _continue_block(q, order, read, kept, carry)
 
 
@@ -503,6 +509,20 @@ def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
         kept[close] = (np.abs(a - b).max(axis=-1) < SAME_ROTATION) | (
             np.abs(a + b).max(axis=-1) < SAME_ROTATION
         )
+    return kept
+
+
+def _same_as_angles(q: np.ndarray, order: str, angles: np.ndarray) -> np.ndarray:
+    """:func:`_same_rotations` of ``q`` ``(F, J, 4)`` and the rotations of Euler ``angles``
+    ``(F, J, 3)`` (degrees, in ``order``), converted only where the middle angle's sine
+    allows the same rotation: a sample within :data:`SAME_ROTATION` per component moves
+    it by at most ``4 SAME_ROTATION`` (:func:`quat.euler_middle_sine`), so one further
+    off than :data:`MIDDLE_SINE_SLACK` has changed (most changed samples are)."""
+    kept = np.zeros(q.shape[:-1], dtype=bool)
+    maybe = np.abs(quat.euler_middle_sine(q, order) - np.sin(np.deg2rad(angles[..., 1])))
+    maybe = maybe <= MIDDLE_SINE_SLACK
+    if maybe.any():
+        kept[maybe] = _same_rotations(q[maybe], quat.from_euler(angles[maybe], order))
     return kept
 
 

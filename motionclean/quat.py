@@ -30,6 +30,7 @@ __all__ = [
     "relative",
     "Displacements",
     "displacements",
+    "euler_middle_sine",
     "exp",
     "exp_planes",
     "from_axis_angle",
@@ -490,6 +491,16 @@ def _matrix_element(q: np.ndarray, r: int, c: int) -> np.ndarray:
     return 2.0 * (v[r] * v[c] + sign * w * v[3 - r - c])
 
 
+def euler_middle_sine(q: np.ndarray, order: str) -> np.ndarray:
+    """The sine of the middle Euler angle of ``q`` ``(..., 4)`` in ``order`` (see
+    :func:`from_euler`): the same for every Euler triple of the rotation (``sin(180 - b) =
+    sin b``, whole turns aside), and as well conditioned as ``q`` itself (a rotation matrix
+    element: a change of ``d`` per component moves it by at most ``4 d``)."""
+    i, j, k = _order_axes(order)
+    parity = 1.0 if (j - i) % 3 == 1 else -1.0
+    return parity * _matrix_element(np.asarray(q, dtype=np.float64), i, k)
+
+
 def _nearest_turn(angle_rad: np.ndarray, ref_rad: np.ndarray) -> np.ndarray:
     """``angle_rad + 2 pi n`` with ``n`` chosen to land nearest ``ref_rad``."""
     return angle_rad + 2.0 * np.pi * np.round((ref_rad - angle_rad) / (2.0 * np.pi))
@@ -513,7 +524,7 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
     parity = 1.0 if (j - i) % 3 == 1 else -1.0
     q = np.asarray(q, dtype=np.float64)
     m_ii, m_ij = _matrix_element(q, i, i), _matrix_element(q, i, j)
-    sin_b = np.clip(parity * _matrix_element(q, i, k), -1.0, 1.0)
+    sin_b = np.clip(euler_middle_sine(q, order), -1.0, 1.0)
     cos_b = np.hypot(m_ii, m_ij)
     b = np.arctan2(sin_b, cos_b)
     a = np.arctan2(-parity * _matrix_element(q, j, k), _matrix_element(q, k, k))

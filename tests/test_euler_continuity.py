@@ -87,3 +87,29 @@ def test_a_middle_angle_that_passes_a_quarter_turn_goes_on_past_it():
         ).max()
         < 1e-9
     )
+
+
+def test_unchanged_samples_are_found_as_the_full_comparison_finds_them():
+    """The write-back finds the samples that are still the rotation read (whose angles it
+    keeps bit for bit) with a shortcut on the middle angle's sine: it finds exactly the
+    samples the comparison of every sample's quaternion finds, at gimbal lock, on the
+    other Euler solution, a whole turn away, and a rounding's width either side of
+    :data:`motionclean.motion.SAME_ROTATION`."""
+    from motionclean.motion import SAME_ROTATION, _same_as_angles, _same_rotations
+
+    rng = np.random.default_rng(5)
+    for order in ("XYZ", "ZXY", "YZX", "ZYX"):
+        angles = rng.uniform(-180, 180, size=(400, 5, 3))
+        angles[:80, :, 1] = rng.choice([-90.0, 90.0, 89.999999, -89.9999999], (80, 5))
+        angles[80:160] += 360.0 * rng.integers(-2, 3, size=(80, 5, 3))
+        other = angles[160:240] + np.array([180.0, 0.0, 180.0])
+        other[..., 1] = 180.0 - angles[160:240, :, 1]
+        angles[160:240] = other
+        q = quat.from_euler(angles, order) * rng.choice([-1.0, 1.0], size=(400, 5, 1))
+        # per component: kept, just inside, just outside the tolerance, clearly changed
+        scale = rng.choice([0.0, 0.5, 0.99, 1.01, 2.0, 1e3, 1e9], size=(400, 5, 1))
+        q = q + scale * SAME_ROTATION * rng.choice([-1.0, 1.0], size=q.shape)
+        q[::7] = quat.multiply(q[::7], quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), 1e-3))
+        expected = _same_rotations(q, quat.from_euler(angles, order))
+        assert expected.any() and not expected.all()
+        np.testing.assert_array_equal(_same_as_angles(q, order, angles), expected)

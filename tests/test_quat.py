@@ -292,6 +292,27 @@ def test_to_euler_at_gimbal_lock_reproduces_rotation(order):
     assert np.all(quat.angle_between(quat.from_euler(kept, order), q) < 1e-7)
 
 
+@pytest.mark.parametrize("order", ORDERS)
+def test_euler_middle_sine_is_the_same_for_every_triple_of_a_rotation(order):
+    rng = np.random.default_rng(14)
+    angles = rng.uniform(-180, 180, size=(300, 3))
+    angles[:30, 1] = rng.choice([-90.0, 90.0], 30)  # gimbal lock
+    other = angles + np.array([180.0, 0.0, 180.0])
+    other[:, 1] = 180.0 - angles[:, 1]
+    turned = angles + 360.0 * rng.integers(-3, 4, size=angles.shape)
+    expected = np.sin(np.deg2rad(angles[:, 1]))
+    for triple in (angles, other, turned):
+        q = quat.from_euler(triple, order)
+        for sign in (1.0, -1.0):
+            got = quat.euler_middle_sine(sign * q, order)
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-14)
+    # as well conditioned as the quaternion: a change of d per component moves it by <= 4 d
+    q = quat.from_euler(angles, order)
+    d = 1e-6 * rng.choice([-1.0, 1.0], size=q.shape)
+    moved = np.abs(quat.euler_middle_sine(q + d, order) - quat.euler_middle_sine(q, order))
+    assert moved.max() <= 4e-6 * (1 + 1e-9)
+
+
 def test_displacements_computed_when_sliced_are_the_whole_arrays_rows_bit_for_bit():
     rng = np.random.default_rng(7)
     q = quat.continuous(quat.exp(rng.normal(scale=0.2, size=(9000, 5, 3))))
