@@ -77,6 +77,15 @@ def sparse_copy(array: np.ndarray) -> np.ndarray:
     return sparse_concatenate([array])
 
 
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (ints, raveled) as the slice it spans when its items follow one another in
+    ascending order (indexing with it gives a view, not a copy), else the raveled ints."""
+    flat = np.asarray(index).ravel()
+    if flat.size and flat[-1] - flat[0] == flat.size - 1 and (np.diff(flat) == 1).all():
+        return slice(int(flat[0]), int(flat[-1]) + 1)
+    return flat
+
+
 def _euler_quaternions(
     values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=None
 ) -> None:
@@ -86,7 +95,8 @@ def _euler_quaternions(
     if joints is None:
         out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
         for order, group in layout.groups:
-            out[:, group] = quat.from_euler(values[:, layout.rotation_columns[group]], order)
+            angles = values[:, _as_slice(layout.rotation_columns[group])]
+            out[:, _as_slice(group)] = quat.from_euler(angles.reshape(-1, group.size, 3), order)
         return
     chosen = np.arange(len(layout.rotation_orders))[joints]
     out[:, ~layout.has_rotation[chosen]] = (1.0, 0.0, 0.0, 0.0)
@@ -471,17 +481,19 @@ class Motion:
         """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
         columns of ``values``, block by block, continuing the source values."""
         assert self.source_values is not None
-        cols = self.layout.rotation_columns[joints]
+        cols = _as_slice(self.layout.rotation_columns[joints])  # (3 n) columns
+        chosen = _as_slice(joints)
         carry = None
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
-            q = self.rotations[block, joints]
-            read = self.source_values[block][:, cols]
+            q = self.rotations[block, chosen]
+            read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
             if self.source_rotations is not None:
-                kept = _same_rotations(q, self.source_rotations[block, joints])
+                kept = _same_rotations(q, self.source_rotations[block, chosen])
             else:
                 kept = _same_as_angles(q, order, read)
-            values[block, cols], carry = _continue_block(q, order, read, kept, carry)
+            angles, carry = _continue_block(q, order, read, kept, carry)
+            values[block, cols] = angles.reshape(q.shape[0], -1)
 
 
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:

@@ -28,3 +28,15 @@ def test_joint_index_names_the_missing_joint():
     with pytest.raises(MotionError, match="no joint named 'Tail'"):
         clip.joint_index("Tail")
     assert np.all(clip.parents[1:] < np.arange(1, clip.n_joints))  # parents come first
+
+
+def test_consecutive_indices_become_a_slice_that_selects_the_same_items():
+    from motionclean.motion import _as_slice
+
+    table = np.arange(60.0).reshape(3, 20)
+    for index in ([[4, 5, 6], [7, 8, 9]], [3], [[4, 5, 6], [8, 9, 10]], [5, 4], [2, 2]):
+        index = np.array(index)
+        chosen = _as_slice(index)
+        consecutive = bool((np.diff(index.ravel()) == 1).all())
+        assert isinstance(chosen, slice) == consecutive
+        np.testing.assert_array_equal(table[:, chosen], table[:, index.ravel()])
