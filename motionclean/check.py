@@ -19,6 +19,7 @@ baseline's folder.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -177,6 +178,13 @@ def _why(
     )
 
 
+def _finite(value: float) -> float:
+    """A tolerance of NaN would pass every comparison, and inf would pass any regression."""
+    if not math.isfinite(value):
+        raise click.BadParameter(f"{value} is not a finite number.")
+    return value
+
+
 @click.command("check")
 @click.argument("clips", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @PIPE_OPTION
@@ -201,6 +209,7 @@ def _why(
 @click.option(
     "--tolerance",
     type=click.FloatRange(min=0.0),
+    callback=lambda _ctx, _param, value: _finite(value),
     default=DEFAULT_TOLERANCE,
     metavar="T",
     show_default=True,

@@ -86,6 +86,15 @@ def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
         "100",
     )
     assert code == 0
+    for tolerance in ("nan", "inf"):  # would pass any regression: refused as usage
+        code, stdout, stderr = run_cli(
+            capsys, "check", *clips, "--baseline", "b.json", "--tolerance", tolerance
+        )
+        assert code == 2 and not stdout
+        assert stderr.strip().splitlines() == [
+            f"motionclean: error: Invalid value for '--tolerance': {tolerance} is not a "
+            "finite number."
+        ]
 
 
 def test_missing_baseline_is_a_clear_error(clips, capsys):

@@ -523,3 +523,14 @@ def test_every_auto_choice_is_a_valid_lee_shin_step(clip, max_seconds):
         if chosen["mask"] != "none":
             params = ",".join(f"{k}={v}" for k, v in chosen.items())
             Pipeline.from_inline([f"lee-shin:{params},joints=['{name}']"])
+
+
+@pytest.mark.parametrize("cutoff", [0.001, 1e-12, 1e-300])
+def test_a_lowpass_cutoff_near_zero_makes_a_mask_no_longer_than_the_clip(clip, cutoff):
+    """Two periods of a cutoff near 0 Hz would be a mask of 2.4e14 taps at 1e-12 Hz: the
+    default half-width stops at the clip's frame count (time and memory follow the clip)."""
+    capped, _ = Pipeline.from_inline([f"lee-shin:mask=lowpass,cutoff_hz={cutoff}"]).run(clip)
+    explicit = f"lee-shin:mask=lowpass,cutoff_hz={cutoff},half_width={clip.n_frames}"
+    expected, _ = Pipeline.from_inline([explicit]).run(clip)
+    np.testing.assert_array_equal(capped.rotations, expected.rotations)
+    assert max_degrees(capped.rotations, clip.rotations) > 1.0  # it does smooth

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .masks import MaskError, validate_mask
+from .masks import MAX_HALF_WIDTH, MaskError, validate_mask
 
 __all__ = ["default_lowpass_half_width", "lowpass", "savgol"]
 
@@ -58,9 +58,13 @@ def savgol(half_width: int, degree: int = 2) -> np.ndarray:
     return validate_mask(coeffs / coeffs.sum())
 
 
-def default_lowpass_half_width(cutoff_hz: float, frame_rate: float) -> int:
-    """``ceil(2 frame_rate / cutoff_hz)`` frames: two periods of the cutoff on each side."""
-    return math.ceil(LOWPASS_PERIODS * frame_rate / cutoff_hz - 1e-9)
+def default_lowpass_half_width(
+    cutoff_hz: float, frame_rate: float, most: int = MAX_HALF_WIDTH
+) -> int:
+    """``ceil(2 frame_rate / cutoff_hz)`` frames: two periods of the cutoff on each side,
+    and no more than ``most`` (default :data:`~.masks.MAX_HALF_WIDTH`): the mask of a cutoff
+    near 0 Hz would otherwise be as long as its period, whatever the clip's length."""
+    return math.ceil(min(LOWPASS_PERIODS * frame_rate / cutoff_hz - 1e-9, most))
 
 
 def lowpass(cutoff_hz: float, frame_rate: float, half_width: int | None = None) -> np.ndarray:

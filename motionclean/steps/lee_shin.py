@@ -83,6 +83,14 @@ def _lee_shin_relevant(params: dict) -> tuple[str, ...]:
 
 
 def _run_lee_shin(data: StepData, params: dict) -> StepData:
+    if params["mask"] == "lowpass" and params["half_width"] is None:
+        # two periods of the cutoff, but no longer than the clip (the time and memory of a
+        # cutoff near 0 Hz follow the clip, not the cutoff)
+        longest = max(1, min(data.rotations.shape[0], masks.MAX_HALF_WIDTH))
+        most = design.default_lowpass_half_width(
+            params["cutoff_hz"], 1.0 / data.frame_time, longest
+        )
+        params = {**params, "half_width": most}
     mask = _mask_from(params, data.frame_time)
     data.rotations = lee_shin(data.rotations, mask, params["iterations"])
     if data.translations is not None:
@@ -126,7 +134,8 @@ STEP = StepSpec(
             "int",
             None,
             "mask=savgol: half-width in frames (default 3); "
-            "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz))",
+            "mask=lowpass: mask half-width (default ceil(2 fps / cutoff_hz), at most the "
+            "clip's frame count)",
             minimum=0,
             maximum=masks.MAX_HALF_WIDTH,
         ),
