@@ -345,3 +345,18 @@ def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():
     assert np.array_equal(p, given)
     assert np.array_equal(auto_positions(p, 1 / 120, overwrite=True).values, moved.values)
     assert np.array_equal(p, moved.values)
+
+
+def test_auto_cleans_band_limited_noise_it_would_leave_without_the_band_limited_model(
+    monkeypatch,
+):
+    from test_noise import low_passed_noise
+
+    truth = smooth_synthetic(frames=1440, joints=12, seed=66)
+    noisy = quat.multiply(truth, quat.exp(low_passed_noise(1440, 12, 6.0, 3.0, seed=66)))
+    with_model = auto(noisy, 1 / 120)
+    assert rms_deg(with_model.values, truth) < 0.7 * rms_deg(noisy, truth)
+    np.testing.assert_allclose(with_model.noise, 3.0, rtol=0.35)  # the level counts it
+    monkeypatch.setattr("motionclean.filters.noise.fit_band_limited", lambda *a: None)
+    without = auto(noisy, 1 / 120)
+    assert rms_deg(with_model.values, truth) < 0.85 * rms_deg(without.values, truth)

@@ -6,10 +6,20 @@ import math
 
 import numpy as np
 import pytest
+from helpers import corpus_clip, needs_corpus
 from test_auto import plant, smooth_synthetic
 
+import motionclean as mc
 from motionclean import quat
-from motionclean.filters.noise import fast_length, fit, hann_windows, window_frames
+from motionclean.filters.linear import lee_shin
+from motionclean.filters.masks import binomial
+from motionclean.filters.noise import (
+    fast_length,
+    fit,
+    fit_band_limited,
+    hann_windows,
+    window_frames,
+)
 
 
 def ar1_noise(frames: int, columns: int, rho: float, noise_deg: float, seed: int) -> np.ndarray:
@@ -94,3 +104,61 @@ def test_the_fit_does_not_depend_on_its_block_size(monkeypatch, block):
     assert np.array_equal(blocked.rho, whole.rho)
     assert np.array_equal(blocked.power, whole.power)
     assert np.array_equal(blocked.sigma2, whole.sigma2)
+
+
+# ----------------------------------------------------------------------------- band-limited
+
+
+def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
+    """(frames, columns, 3) white noise through a zero-phase 4th-order Butterworth of edge
+    ``edge_hz`` (power response ``1 / (1 + (f / f_c)^8)^2``, applied by FFT), RMS angle
+    ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft(rng.normal(size=(frames, columns, 3)), axis=0)
+    f = np.fft.rfftfreq(frames, 1.0 / fps)
+    e = np.fft.irfft(spec / (1.0 + (f / edge_hz) ** 8)[:, None, None], frames, axis=0)
+    return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())
+
+
+def band_limited(noisy, frame_time=1 / 120):
+    return fit_band_limited(fit(quat.displacements(noisy), frame_time), frame_time)
+
+
+@pytest.mark.parametrize(("edge", "seed"), [(6.0, 61), (8.0, 83)])
+def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed):
+    truth = smooth_synthetic(frames=1440, joints=12, seed=seed)
+    e = low_passed_noise(1440, 12, edge, 3.0, seed)
+    found = band_limited(quat.multiply(truth, quat.exp(e)))
+    assert found is not None
+    assert abs(found.edge_hz - edge) <= 0.5
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(found.sigma2))
+    np.testing.assert_allclose(level, 3.0, rtol=0.35)
+
+
+def test_band_limited_gate_stays_off_for_other_noise():
+    truth = smooth_synthetic(frames=1440, joints=12, seed=5)
+    white = ar1_noise(1440, 12, 0.0, 3.0, seed=50)
+    loud = np.where(np.arange(12) % 3 == 0, 3.0, 1.0)[:, None]  # extremities 3x
+    outliers = white.copy()
+    hit = np.random.default_rng(52).random((1440, 12)) < 0.01
+    outliers[hit] = np.radians(30.0) / 2 / math.sqrt(3)
+    cases = {
+        "white": white,
+        "AR(1) 0.5": ar1_noise(1440, 12, 0.5, 3.0, seed=51),
+        "AR(1) 0.8": ar1_noise(1440, 12, 0.8, 3.0, seed=53),
+        "extremities": white * loud,
+        "outliers": outliers,
+        "6 Hz, for contrast": low_passed_noise(1440, 12, 6.0, 3.0, seed=54),
+    }
+    found = {k: band_limited(quat.multiply(truth, quat.exp(e))) for k, e in cases.items()}
+    assert found.pop("6 Hz, for contrast") is not None
+    assert found == dict.fromkeys(found)
+
+
+@needs_corpus
+def test_band_limited_gate_stays_off_for_clean_captures():
+    m = mc.load(corpus_clip("131_02.bvh"))
+    for q, ft in ((m.rotations, m.frame_time), (m.rotations[::4], 4 * m.frame_time)):
+        q = quat.make_continuous(q, axis=0)
+        assert band_limited(q, ft) is None  # as captured
+        assert band_limited(lee_shin(q, binomial(1), 20), ft) is None  # pre-smoothed

@@ -212,9 +212,16 @@ def _response(mask: np.ndarray, freqs: np.ndarray) -> np.ndarray:
     return np.cos(2.0 * np.pi * np.outer(freqs, np.arange(-k, k + 1))) @ mask
 
 
-def _risks(model: NoiseModel, masks: list[np.ndarray], scale: float) -> np.ndarray:
+def _risks(
+    model: NoiseModel,
+    masks: list[np.ndarray],
+    scale: float,
+    band_limited: noise_model.BandLimited | None = None,
+) -> np.ndarray:
     """(M + 1, W, C) estimated mean squared error per frame of each mask in each window
-    (row 0: the identity), for noise of spectrum ``N(f)`` (the model, times ``scale^2``).
+    (row 0: the identity), for noise of spectrum ``N(f)`` (the model, times ``scale^2``;
+    plus, when given, the band-limited noise of :func:`noise_model.fit_band_limited`, the
+    same over the clip's windows).
 
     The filter moves frame ``i`` by ``s_i = sum_m b_m w_{i+m}`` (000 Eq. 19-20), whose
     spectrum is ``|1 - A(f)|^2 / (2 sin pi f)^2`` times the displacements' (``P``); the
@@ -236,6 +243,10 @@ def _risks(model: NoiseModel, masks: list[np.ndarray], scale: float) -> np.ndarr
     out[0] = noise * (weights @ shape)
     out[1:] = np.einsum("mf,wfc->mwc", moved, model.power)
     out[1:] += (((2.0 * response - 1.0) * weights) @ shape)[:, None, :] * noise
+    if band_limited is not None:
+        extra = 3.0 * band_limited.sigma2 * scale**2  # (C,)
+        out[0] += extra * (weights @ band_limited.shape)
+        out[1:] += (((2.0 * response - 1.0) * weights) @ band_limited.shape)[:, None, None] * extra
     return out
 
 
@@ -341,11 +352,15 @@ def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple
     return out
 
 
-def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move, overwrite):
+def _select(
+    x, disp, frame_time, strength, given, cands, to_level, to_rms, move, overwrite, rotations
+):
     """Fit the noise model to ``disp`` (F-1, C, 3), choose per window and column the
     candidate of least risk, apply the blend with ``move(x, s, out)`` block by block (into
     ``x`` itself when ``overwrite``). Returns ``(values, level (C,), choices)``; ``given``
-    (C,) replaces the model by white noise of that per-component variance."""
+    (C,) replaces the model by white noise of that per-component variance. For
+    ``rotations`` (not positions) band-limited noise is added to the model where the clip
+    shows it (:func:`noise_model.fit_band_limited`); the level then counts it too."""
     n_frames, n_cols = x.shape[:2]
     model = _fit(disp, frame_time)
     if model is None:
@@ -355,8 +370,11 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move,
         model = model._replace(
             sigma2=np.broadcast_to(given, model.sigma2.shape), rho=np.zeros(n_cols)
         )
+    band = None
+    if rotations and given is None:
+        band = noise_model.fit_band_limited(model, frame_time)
     masks = [mask for _, _, mask in cands]
-    risk = _risks(model, masks, strength)
+    risk = _risks(model, masks, strength, band)
     model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     if strength == 0:
@@ -387,7 +405,8 @@ def _select(x, disp, frame_time, strength, given, cands, to_level, to_rms, move,
                 loud[c],
             )
         )
-    return out, to_level(model.clip_sigma2()), choices
+    clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
+    return out, to_level(clip_sigma2), choices
 
 
 def _move_rotations(q: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
@@ -473,6 +492,7 @@ def auto(
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
         _move_rotations,
         _writable(cols, q, overwrite),
+        True,
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)
@@ -510,6 +530,7 @@ def auto_positions(
         np.sqrt,
         _move_positions,
         _writable(cols, p, overwrite),
+        False,
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(p)), np.broadcast_to(level, shape).copy(), choices)

@@ -30,6 +30,18 @@ flip fills a window's spectrum, not a quarter of its frames). Below the band the
 extrapolates the AR(1) shape: the noise that hides under the motion is accounted for,
 which an estimate from the top of the spectrum alone cannot do.
 
+**Band-limited noise** (:func:`fit_band_limited`, rotations only). Noise that went through a
+low-pass filter (a tracker's or a solver's smoothing, at an edge of a few Hz) leaves nothing
+above ``BAND_HZ`` for the AR(1) fit to see. Below its edge it adds to the displacements a
+spectrum rising like ``(2 sin pi f)^2`` (a flat spectrum of ``e``), above the edge it falls
+off a cliff: a *bump*, which neither motion (falling) nor white or AR(1) noise (rising up to
+Nyquist) makes. Where the clip's joints show one (:func:`bump_statistic`), a second noise
+term ``e'`` is fitted: per component variance ``sigma_b^2`` per column, spectrum
+``sigma_b^2 |H(f)|^4``, ``|H|^2 = 1 / (1 + (f / f_c)^(2 order))`` (white noise through a
+Butterworth filter run forward and backward, normalised to unit variance), edge ``f_c`` and
+``order`` shared by all the columns (one capture system), on the part of the spectrum the
+AR(1) fit leaves unexplained.
+
 The level shown to users is the RMS rotation angle of one sample's noise, ``2 sqrt(3) sigma``
 (degrees; ``sqrt(3) sigma`` in length units for positions), per window and over the clip.
 Everything is vectorised over windows and columns; the windows are processed in blocks, so
@@ -46,7 +58,17 @@ import numpy as np
 from ..threads import in_parts, run_parts
 from .linear import Rows, mirror_indices, row_span, take_rows
 
-__all__ = ["BAND_HZ", "NoiseModel", "WINDOW_SECONDS", "fast_length", "fit", "hann_windows"]
+__all__ = [
+    "BAND_HZ",
+    "BandLimited",
+    "NoiseModel",
+    "bump_statistic",
+    "fit_band_limited",
+    "WINDOW_SECONDS",
+    "fast_length",
+    "fit",
+    "hann_windows",
+]
 
 #: Window length of the local estimate and of the local choice, in seconds.
 WINDOW_SECONDS = 2.0
@@ -73,6 +95,31 @@ MIN_WINDOW = 8
 RHO_GRID = np.round(np.arange(-0.5, 0.901, 0.025), 3)
 #: Values (windows x frequencies x columns) of periodogram computed per block.
 BLOCK_VALUES = 1 << 18
+
+#: Band-limited noise: peaks of a bump are sought between these frequencies (Hz) ...
+BUMP_PEAK_HZ = (2.0, 9.0)
+#: ... rising at least this much (nats of power, from the lowest point between a third and
+#: 0.8 of the peak frequency: motion falls there, band-limited noise rises like f^2) ...
+BUMP_RISE = 0.3
+#: ... and the fall (nats) from the peak to the highest power between 1.75 and 2.25 times
+#: its frequency that the median column must show for the clip to have band-limited noise
+#: (a 4th-order Butterworth edge falls by 3-6 nats there; white or AR(1) noise rises).
+BUMP_GATE = 0.6
+#: Fewest columns and windows (8: about 7 s at 2 s windows) the bump is judged on: a median
+#: over joints, of periodograms averaged over enough windows (a 2.5 s clean capture passed
+#: the gate with 4).
+BUMP_MIN_COLUMNS = 8
+BUMP_MIN_WINDOWS = 8
+#: Edges (Hz) and orders of the band-limited noise tried (a zero-phase Butterworth filter's).
+SHELF_EDGES_HZ = np.round(np.arange(2.5, 10.01, 0.25), 2)
+SHELF_ORDERS = (2, 4)
+#: Points of the fine frequency grid on which the band-limited noise's autocovariance is taken.
+FINE_GRID = 4096
+#: The fit's band (Hz, at most 0.45 cycles per frame), where motion is taken as a power law
+#: ``(f / MOTION_FROM_HZ)^-slope`` in the displacements' spectrum, a slope of this grid.
+MOTION_FROM_HZ = 1.5
+FIT_TO_HZ = 20.0
+MOTION_SLOPES = np.arange(0.0, 8.01, 0.5)
 
 
 class NoiseModel(NamedTuple):
@@ -291,3 +338,123 @@ def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndar
         * 2.0
     )
     return (out / CHI_QUARTILE[dim]) ** 2 / gain
+
+
+class BandLimited(NamedTuple):
+    """Band-limited noise found by :func:`fit_band_limited`, in addition to the AR(1) model.
+
+    ``edge_hz``: the edge ``f_c`` (Hz, where the power is a quarter of the plateau's);
+    ``order``: the Butterworth order, spectrum ``(1 + (f / f_c)^(2 order))^-2`` (white noise
+    through the filter run forward and backward); ``shape`` (F,):
+    that spectrum at the model's ``freqs``, scaled so that ``weights @ shape == 1`` (unit
+    variance per component); ``sigma2`` (C,): per-component variance of each column's
+    band-limited noise (log units); ``bump``: the clip's :func:`bump_statistic` (nats).
+    """
+
+    edge_hz: float
+    order: int
+    shape: np.ndarray
+    sigma2: np.ndarray
+    bump: float
+
+
+def bump_statistic(power: np.ndarray, freqs_hz: np.ndarray) -> np.ndarray:
+    """(C,) how clearly each column's mean displacement spectrum ``power`` (F, C) has a bump.
+
+    The spectrum is smoothed over 3 bins and taken in logs (nats). A peak at ``f_p`` in
+    ``BUMP_PEAK_HZ`` counts when it stands ``BUMP_RISE`` above the lowest point between
+    ``f_p / 3`` and ``0.8 f_p``; its score is its fall to the highest point between
+    ``1.75 f_p`` and ``2.25 f_p`` (``freqs_hz`` in Hz). The statistic is the largest score
+    (0 without a peak). Motion falls with frequency (no rise), white and AR(1) noise make
+    the displacements' spectrum rise up to Nyquist (no fall), noise low-passed at an edge
+    ``f_c`` peaks near ``0.88 f_c`` and falls by several nats an octave above.
+    """
+    smooth = power.copy()
+    smooth[1:-1] = (power[:-2] + power[1:-1] + power[2:]) / 3.0
+    logs = np.log(np.maximum(smooth, np.finfo(np.float64).tiny))
+    best = np.zeros(power.shape[1])
+    for i in np.flatnonzero((freqs_hz >= BUMP_PEAK_HZ[0]) & (freqs_hz <= BUMP_PEAK_HZ[1])):
+        peak = freqs_hz[i]
+        below = (freqs_hz >= peak / 3.0) & (freqs_hz <= 0.8 * peak)
+        above = (freqs_hz >= 1.75 * peak) & (freqs_hz <= 2.25 * peak)
+        if below.any() and above.any():
+            rise = logs[i] - logs[below].min(axis=0)
+            fall = logs[i] - logs[above].max(axis=0)
+            np.maximum(best, np.where(rise >= BUMP_RISE, fall, 0.0), out=best)
+    return best
+
+
+def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None:
+    """Band-limited noise (module docstring) of a rotation model, or None without a bump.
+
+    Gate: the median over the columns of :func:`bump_statistic` of the windows' mean
+    periodogram is at least ``BUMP_GATE`` nats (and the clip has ``BUMP_MIN_COLUMNS``
+    columns, ``BUMP_MIN_WINDOWS`` windows). Fit, on the part of the mean periodogram ``P``
+    the AR(1) model leaves, ``R = max(P - N_AR1, 0)``, between ``MOTION_FROM_HZ`` and
+    ``FIT_TO_HZ``: per column ``R ~ a m(f) + b n(f)``, ``m`` motion as a power law (slopes
+    ``MOTION_SLOPES``), ``n`` what band-limited noise of unit variance (edge of
+    ``SHELF_EDGES_HZ``, order of ``SHELF_ORDERS``) makes of the mean periodogram through
+    the Hann taper, ``a, b >= 0`` by least squares in relative error (weights ``1 / P^2``:
+    close to a log fit, in closed form). The edge and order of least error summed over the
+    columns are kept, each column with its best slope; ``b = 3 sigma_b^2``, capped by the
+    median column's (a joint whose motion fits the noise's shape would read it as noise).
+    Cost: a few hundred vectorised (bins x columns) products, whatever the clip's length.
+    """
+    n_windows, _, n_cols = model.power.shape
+    if n_cols < BUMP_MIN_COLUMNS or n_windows < BUMP_MIN_WINDOWS or frame_time <= 0:
+        return None
+    hz = model.freqs / frame_time
+    mean = model.power.mean(axis=0)  # (F, C)
+    bump = float(np.median(bump_statistic(mean, hz)))
+    if not bump >= BUMP_GATE:
+        return None
+    gain = 4.0 * np.sin(np.pi * model.freqs) ** 2
+    ar1 = 3.0 * model.clip_sigma2() * gain[:, None] * model.shape()  # (F, C)
+    left = np.maximum(mean - ar1, 0.0)
+    tiny = np.finfo(np.float64).tiny
+    # the windows' periodograms see a spectrum through the Hann taper's kernel (its leakage
+    # fills the cliff): E P(f) = sum_m gamma(m) c(m) cos(2 pi f m) / c(0), gamma the
+    # displacements' autocovariance (from a fine grid), c the taper's autocorrelation
+    _, taper = hann_windows(model.n_frames, model.window)
+    lags = np.arange(model.window)
+    corr = np.array([taper[: taper.size - m] @ taper[m:] for m in lags.tolist()])
+    corr[1:] *= 2.0
+    kernel = np.cos(2.0 * np.pi * np.outer(model.freqs, lags)) * (corr / corr[0])  # (F, L)
+    fine = np.fft.rfftfreq(FINE_GRID)
+    fine_gain = 4.0 * np.sin(np.pi * fine) ** 2
+    # one band for every candidate: from MOTION_FROM_HZ to FIT_TO_HZ (and 0.45 cycles/frame)
+    band = (hz >= MOTION_FROM_HZ) & (hz <= min(FIT_TO_HZ, 0.45 / frame_time))
+    unit = np.maximum(mean[band].max(axis=0, initial=0.0), tiny)  # (C,) scale of each column
+    y = left[band] / unit  # (B, C)
+    w = 1.0 / np.maximum(mean[band] / unit, 1e-12) ** 2  # relative errors: a log fit
+    motion = (hz[band] / MOTION_FROM_HZ) ** -MOTION_SLOPES[:, None]  # (K, B)
+    s_mm, r_m, wyy = motion**2 @ w, motion @ (w * y), np.sum(w * y * y, axis=0)
+    best = None
+    for order in SHELF_ORDERS:
+        for edge in SHELF_EDGES_HZ.tolist():
+            if edge >= 0.4 / frame_time:
+                continue
+            spectrum = (1.0 + (fine / (edge * frame_time)) ** (2 * order)) ** -2.0
+            autocov = np.fft.irfft(spectrum * fine_gain, FINE_GRID)[: model.window]
+            n = kernel[band] @ autocov / np.fft.irfft(spectrum, FINE_GRID)[0]  # (B,) per unit
+            s_nn, r_n, s_mn = n**2 @ w, n @ (w * y), (motion * n) @ w  # (C,), (C,), (K, C)
+            det = np.maximum(s_mm * s_nn - s_mn**2, tiny)
+            a = (s_nn * r_m - s_mn * r_n) / det  # (K, C) motion, noise (3 sigma_b^2) levels
+            b = (s_mm * r_n - s_mn * r_m) / det
+            alone = (a < 0) | (b < 0) | ~(det > 0)
+            a_only = np.maximum(r_m / np.maximum(s_mm, tiny), 0.0)
+            b_only = np.maximum(r_n / np.maximum(s_nn, tiny), 0.0)
+            use_a = a_only * r_m >= b_only * r_n  # the larger drop of the deviance alone
+            a = np.where(alone, np.where(use_a, a_only, 0.0), a)
+            b = np.where(alone, np.where(use_a, 0.0, b_only), b)
+            dev = wyy - 2 * (a * r_m + b * r_n) + a * a * s_mm + 2 * a * b * s_mn + b * b * s_nn
+            k = np.argmin(dev, axis=0)
+            score = float(np.take_along_axis(dev, k[None], 0).sum())
+            if best is None or score < best[0]:
+                shape = (1.0 + (hz / edge) ** (2 * order)) ** -2.0
+                level = np.take_along_axis(b, k[None], 0)[0] * unit
+                best = (score, edge, order, shape / (model.weights @ shape), level)
+    if best is None:
+        return None
+    _, edge, order, shape, level = best
+    return BandLimited(edge, order, shape, np.minimum(level, np.median(level)) / 3.0, bump)
