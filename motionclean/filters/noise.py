@@ -417,7 +417,7 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
     # displacements' autocovariance (from a fine grid), c the taper's autocorrelation
     _, taper = hann_windows(model.n_frames, model.window)
     lags = np.arange(model.window)
-    corr = np.array([taper[: taper.size - m] @ taper[m:] for m in lags.tolist()])
+    corr = np.correlate(taper, taper, mode="full")[taper.size - 1 :]  # lags 0 .. window - 1
     corr[1:] *= 2.0
     kernel = np.cos(2.0 * np.pi * np.outer(model.freqs, lags)) * (corr / corr[0])  # (F, L)
     fine = np.fft.rfftfreq(FINE_GRID)
