@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import NOISY, max_degrees
+from helpers import NOISY, corpus_clip, max_degrees, needs_corpus
 
 import motionclean as mc
 from motionclean import multires, quat
@@ -534,3 +534,27 @@ def test_a_lowpass_cutoff_near_zero_makes_a_mask_no_longer_than_the_clip(clip, c
     expected, _ = Pipeline.from_inline([explicit]).run(clip)
     np.testing.assert_array_equal(capped.rotations, expected.rotations)
     assert max_degrees(capped.rotations, clip.rotations) > 1.0  # it does smooth
+
+
+@needs_corpus
+def test_auto_notes_say_where_noise_was_low_passed():
+    """Noise low-passed at 6 Hz on a whole capture: every joint's note gives the edge the
+    model found, its terminal line says so; the clip as captured has no such note."""
+    from test_noise import low_passed_noise
+
+    from motionclean.steps.auto import STEP as AUTO
+
+    captured = mc.load(corpus_clip("131_02.bvh"))
+    noise = low_passed_noise(captured.n_frames, captured.n_joints, 6.0, 3.0, seed=8)
+    noisy = captured.replace(rotations=quat.multiply(captured.rotations, quat.exp(noise)))
+    for motion, found in ((noisy, True), (captured, False)):
+        _, logs = Pipeline.from_inline(["auto:positions=false"]).run(motion)
+        notes = [note["auto"] for note in logs[0].notes.values()]
+        assert len(notes) == captured.n_joints
+        if not found:
+            assert not any("band_hz" in note for note in notes)
+            continue
+        assert all(abs(note["band_hz"] - 6.0) <= 0.5 for note in notes)
+        assert AUTO.format_note is not None
+        line = AUTO.format_note(notes[0], False)
+        assert f"low-passed below {notes[0]['band_hz']:g} Hz" in line

@@ -95,7 +95,8 @@ class AutoChoice:
     is the risk estimate of the RMS error left after filtering (degrees of rotation, or
     length units for positions); ``rho`` the noise's AR(1) coefficient; ``loud`` the
     stretches ``(start_s, end_s)`` in seconds where the noise is well above the column's
-    quiet level.
+    quiet level; ``band_hz`` the edge (Hz) of the band-limited noise found in the clip
+    (:func:`motionclean.filters.noise.fit_band_limited`; None: none found).
     """
 
     mask: str
@@ -104,6 +105,7 @@ class AutoChoice:
     share: float = 1.0
     rho: float = 0.0
     loud: tuple[tuple[float, float], ...] = ()
+    band_hz: float | None = None
 
     def params(self) -> dict:
         """The choice as Lee-Shin step parameters, e.g. ``{"mask": "binomial", "k": 3}``."""
@@ -403,6 +405,7 @@ def _select(
                 float(share[m, c] / n_frames),
                 float(model.rho[c]),
                 loud[c],
+                None if band is None else float(band.edge_hz),
             )
         )
     clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)

@@ -8,7 +8,7 @@ from .base import Param, StepData, StepSpec
 
 def _auto_note(result, column: int, unit: str) -> dict:
     choice = result.choices[column]
-    return {
+    note = {
         "noise": float(result.noise.reshape(-1)[column]),
         "unit": unit,
         "rho": choice.rho,
@@ -17,6 +17,9 @@ def _auto_note(result, column: int, unit: str) -> dict:
         "share": choice.share,
         "expected_error": choice.expected_error,
     }
+    if choice.band_hz is not None:  # noise low-passed at this edge (Hz), counted in "noise"
+        note["band_hz"] = choice.band_hz
+    return note
 
 
 def _run_auto(data: StepData, params: dict) -> StepData:
@@ -61,9 +64,10 @@ def _format_note(note: dict, positions: bool) -> str:
         where = f", loud at {shown}" + (f" and {len(loud) - 3} more" if len(loud) > 3 else "")
     share = note.get("share", 1.0)
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
+    band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{where}); chose {format_choice(note['filter'])}{along}; expected error {error} {unit}"
+        f"{band}{where}); chose {format_choice(note['filter'])}{along}; expected error {error} {unit}"
     )
 
 
