@@ -67,7 +67,8 @@ def _format_note(note: dict, positions: bool) -> str:
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); chose {format_choice(note['filter'])}{along}; expected error {error} {unit}"
+        f"{band}{where}); chose {format_choice(note['filter'])}{along}; "
+        f"expected error {error} {unit}"
     )
 
 
