@@ -148,19 +148,22 @@ def info(clip: str) -> None:
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
         f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
     )
+    rotating = layout.has_rotation  # computed once: a property of the whole layout
+    rows = []
     for j, name in enumerate(motion.names):
         parent = motion.names[motion.parents[j]] if motion.parents[j] >= 0 else "-"
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
-        if layout.has_rotation[j]:
+        if rotating[j]:
             figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}{noise[j]:>10.2f}"
         else:
             figures = f"{'-':>14}"
-        click.echo(
+        rows.append(
             f"  {name:<{name_width}}{parent:<{parent_width}}"
             f"{(channels + ' ' + order)[:27]:<28}{figures}"
         )
-    rotating = layout.has_rotation
+    if rows:  # one write for the table, not one per joint
+        click.echo("\n".join(rows))
     if rotating.any():
         click.echo(
             f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "

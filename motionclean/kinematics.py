@@ -34,8 +34,26 @@ __all__ = [
 AXES = "xyz"
 
 
-def depth_levels(parents: np.ndarray) -> list[np.ndarray]:
-    """Joint indices grouped by depth in the tree (roots first), each group ascending.
+def _ancestor_jumps(parents: np.ndarray):
+    """Pointer jumping over the tree: yields ``(rows, above)`` steps in which each joint
+    ``rows[i]`` takes over the ancestor ``above[i]`` (whose own pointer it then follows),
+    until every pointer has reached a root. ``log2(depth) + 1`` steps, each whole-array:
+    ``O(J log depth)`` however deep the tree (no loop over its levels). Raises ValueError
+    for a cycle."""
+    up = parents.copy()
+    for _ in range(max(int(parents.size).bit_length(), 1) + 1):
+        rows = np.flatnonzero(up >= 0)
+        if rows.size == 0:
+            return
+        above = up[rows]
+        yield rows, above
+        up[rows] = up[above]  # the gather is a copy: every pointer jumps at once
+    if (up >= 0).any():
+        raise ValueError("parents contain a cycle")
+
+
+def depths(parents: np.ndarray) -> np.ndarray:
+    """Depth of every joint in the tree (0 for a root), by pointer jumping.
 
     Raises ValueError for a parent index out of range or a cycle.
     """
@@ -43,17 +61,22 @@ def depth_levels(parents: np.ndarray) -> list[np.ndarray]:
     n = parents.size
     if np.any((parents < -1) | (parents >= n)):
         raise ValueError(f"parents must lie in [-1, {n - 1}]")
-    depth = np.full(n, -1)
-    depth[parents < 0] = 0
-    level = 0
-    while (depth < 0).any():
-        newly = (depth < 0) & (depth[parents] == level) & (parents >= 0)
-        if not newly.any():
-            raise ValueError("parents contain a cycle")
-        level += 1
-        depth[newly] = level
+    depth = (parents >= 0).astype(np.intp)
+    for rows, above in _ancestor_jumps(parents):
+        depth[rows] += depth[above]  # the right side is gathered before it is added
+    return depth
+
+
+def depth_levels(parents: np.ndarray) -> list[np.ndarray]:
+    """Joint indices grouped by depth in the tree (roots first), each group ascending.
+
+    Raises ValueError for a parent index out of range or a cycle.
+    """
+    depth = depths(parents)
+    if depth.size == 0:
+        return [depth]
     order = np.argsort(depth, kind="stable")
-    counts = np.bincount(depth, minlength=level + 1)
+    counts = np.bincount(depth)
     return np.split(order, np.cumsum(counts)[:-1])
 
 
@@ -102,12 +125,12 @@ def _forward_planes(
     """
     n_frames, n_joints = rotations.shape[:2]
     tips = tips or {}
-    levels = depth_levels(parents)
-    order = np.concatenate(levels)
+    depth = depths(parents)
+    order = np.argsort(depth, kind="stable")  # depth_levels(parents), concatenated
     rank = np.empty(n_joints, dtype=np.intp)
     rank[order] = np.arange(n_joints)
     sorted_parents = np.where(parents[order] >= 0, rank[parents[order]], -1)
-    sizes = [len(level) for level in levels]
+    sizes = np.bincount(depth, minlength=1).tolist()
     tip_rows = rank[np.array(sorted(tips), dtype=np.intp)]
     tip_offsets = np.array([tips[j] for j in sorted(tips)], dtype=np.float64).reshape(-1, 3).T
     if channel_axes is not None and offsets is not None:
@@ -191,7 +214,7 @@ def _forward_block(
     frames = q.shape[2]
     p[:, : sizes[0]] = t[:, : sizes[0]]
     start = sizes[0]
-    for size in sizes[1:]:
+    for size in sizes[1 : LEVEL_LOOP_DEPTH + 1]:
         rows = slice(start, start + size)
         start += size
         scratch = _Scratch(flat, size, frames)
@@ -202,6 +225,36 @@ def _forward_block(
         quat.multiply_planes(q[:, rows], pq, local_q, scratch.planes(2))
         _rotate_into(pp, pq, t[:, rows], scratch)
         np.copyto(p[:, rows], pp)
+    if start < q.shape[1]:
+        _forward_jumps(parents, start - sizes[LEVEL_LOOP_DEPTH], start, q, t, p)
+
+
+def _forward_jumps(
+    parents: np.ndarray, top: int, first: int, q: np.ndarray, t: np.ndarray, p: np.ndarray
+) -> None:
+    """The rows from ``first`` on of :func:`_forward_block`, below the level at rows
+    ``top:first`` (already world), by pointer jumping: each row's transform relative to an
+    ancestor is composed with that ancestor's, ``log2(depth)`` whole-array steps in all
+    (a level at a time would cost a step per level, however few joints it holds)."""
+    n_joints, frames = q.shape[1], q.shape[2]
+    p[:, first:n_joints] = t[:, first:n_joints]  # relative to the parent, for now
+    up = parents[top:n_joints] - top
+    up[: first - top] = -1  # the top level is already world
+    for rows, above in _ancestor_jumps(up):
+        rows, above = rows + top, above + top
+        scratch = _Scratch(np.empty(27 * rows.size * frames), rows.size, frames)
+        aq, ap = scratch.take(q, above, 4), scratch.take(p, above, 3)
+        local_q, local_p = scratch.take(q, rows, 4), scratch.take(p, rows, 3)
+        world_q = scratch.planes(4)
+        quat.multiply_planes(world_q, aq, local_q, scratch.planes(2))
+        q[:, rows] = world_q
+        _rotate_into(ap, aq, local_p, scratch)
+        p[:, rows] = ap
+
+
+#: Tree levels computed one after the other in :func:`_forward_block` (every level of any
+#: real skeleton); deeper ones are composed by pointer jumping (:func:`_forward_jumps`).
+LEVEL_LOOP_DEPTH = 64
 
 
 def _cross_into(out: np.ndarray, a: np.ndarray, b: np.ndarray, tmp: np.ndarray) -> None:
@@ -275,8 +328,8 @@ def missing_points(motion: Motion) -> np.ndarray | None:
     if motion.missing is None:
         return None
     joints = motion.missing.copy()
-    for level in depth_levels(motion.parents)[1:]:  # a loop over tree depth only
-        joints[:, level] |= joints[:, motion.parents[level]]
+    for rows, above in _ancestor_jumps(motion.parents):  # log2(depth) steps
+        joints[:, rows] |= joints[:, above]  # the right side is gathered first
     tips = np.array(sorted(motion.end_sites), dtype=np.intp)
     return np.concatenate([joints, joints[:, tips]], axis=1)
 

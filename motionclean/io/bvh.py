@@ -546,15 +546,7 @@ def _format_hierarchy(motion: Motion) -> bytes:
     def offset(values) -> str:
         return " ".join(f"{v:.6f}" for v in values)
 
-    def joint(j: int, depth: int) -> None:
-        pad = "\t" * depth
-        out.append(f"{pad}{'ROOT' if motion.parents[j] < 0 else 'JOINT'} {motion.names[j]}")
-        out.append(f"{pad}{{")
-        out.append(f"{pad}\tOFFSET {offset(motion.offsets[j])}")
-        if motion.channels[j]:
-            out.append(f"{pad}\tCHANNELS {len(motion.channels[j])} {' '.join(motion.channels[j])}")
-        for child in children.get(j, []):
-            joint(child, depth + 1)
+    def close(j: int, pad: str) -> None:
         if j in motion.end_sites or j not in children:
             site = motion.end_sites.get(j, np.zeros(3))
             out.extend(
@@ -562,8 +554,22 @@ def _format_hierarchy(motion: Motion) -> bytes:
             )
         out.append(f"{pad}}}")
 
-    for root in children.get(-1, []):
-        joint(root, 0)
+    # Depth first with a stack of its own (no recursion: a chain may be any depth); a
+    # negative entry ~j closes joint j once its children are written.
+    stack = [(root, 0) for root in reversed(children.get(-1, []))]
+    while stack:
+        j, depth = stack.pop()
+        pad = "\t" * depth
+        if j < 0:
+            close(~j, pad)
+            continue
+        out.append(f"{pad}{'ROOT' if motion.parents[j] < 0 else 'JOINT'} {motion.names[j]}")
+        out.append(f"{pad}{{")
+        out.append(f"{pad}\tOFFSET {offset(motion.offsets[j])}")
+        if motion.channels[j]:
+            out.append(f"{pad}\tCHANNELS {len(motion.channels[j])} {' '.join(motion.channels[j])}")
+        stack.append((~j, depth))
+        stack.extend((child, depth + 1) for child in reversed(children.get(j, [])))
     return ("\n".join(out) + "\n").encode("utf-8")
 
 
