@@ -32,7 +32,6 @@ from .jobs import (
     render_report,
     stitch_clips,
     write_outputs,
-    write_report,
 )
 from .memory import one_malloc_arena
 from .options import (
@@ -328,11 +327,15 @@ def report(source: str, cleaned: str | None, json_path: str | None, html_path: s
         check_compatible(before, after)
     series = build_series(before, after)
     result = build_report(before, after, file=source, series=series)
+    # every page is rendered before anything is written: a failure leaves no file behind
+    pages = {}
     if json_path:
-        write_report(result, Path(json_path))
+        pages[json_path] = render_report(result, json_path)
     if html_path:
-        write_report(result, Path(html_path), series)
-    click.echo(format_table(result))
+        pages[html_path] = render_report(result, html_path, series)
+    text = format_table(result)
+    write_outputs(before, None, pages)
+    click.echo(text)
 
 
 LEVELS_OPTION = click.option(

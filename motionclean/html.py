@@ -494,6 +494,12 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
         text += f"; skate {skate['before']:.3f}"
         text += f" \u2192 {skate['after']:.3f}" if skate["after"] is not None else ""
         text += " body heights/s"
+    if pen["before"] is None or data["height_before"] is None:
+        text += "; ground not found (needs at least 2 frames)"
+        return (
+            f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
+            "</section>"
+        )
     text += f"; below ground {_short(pen['before'])}"
     text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
     text += " units"

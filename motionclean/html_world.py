@@ -311,6 +311,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         return []
     world = series["world"]
     frames = len(world["frames"])
+    if not frames:
+        return ["<h2>The motion</h2>", '<div class="legend">the clip has no frames</div>']
     shown = (
         f"all {frames:,} frames"
         if frames == report["frames"]

@@ -172,6 +172,8 @@ def contact_figures(
         pen_a = found.penetration(after_positions, feet, up, ground)
         low_a = found.lowest_points(after_positions, feet, up) - ground
     runs = found.contact_runs(contacts)
+    if math.isnan(ground):  # fewer than 2 frames: no ground, so no skate, depth or heights
+        return _no_ground(feet, up, runs, contacts)
     section: dict[str, Any] = {"up_axis": kinematics.AXES[up], "ground": ground, "feet": {}}
     series: dict[str, dict] = {}
     for k, foot in enumerate(feet):
@@ -194,6 +196,25 @@ def contact_figures(
     return section, series
 
 
+def _no_ground(feet: list, up: int, runs: list, contacts: np.ndarray) -> tuple[dict, dict]:
+    """:func:`contact_figures` of a clip too short to find the ground on (fewer than 2
+    frames): no contacts, and the skate, the depth below the ground and the heights above it
+    absent (``None``), not NaN."""
+    absent = {"before": None, "after": None}
+    section: dict[str, Any] = {"up_axis": kinematics.AXES[up], "ground": None, "feet": {}}
+    series: dict[str, dict] = {}
+    for k, foot in enumerate(feet):
+        section["feet"][foot.name] = {
+            "contacts": [[first, last] for first, last in runs[k]],
+            "frames": int(contacts[:, k].sum()),
+            "skate": dict(absent),
+            "skate_body_heights": dict(absent),
+            "penetration": dict(absent),
+        }
+        series[foot.name] = {"height_before": None, "height_after": None, "contacts": runs[k]}
+    return section, series
+
+
 def format_contacts(section: dict) -> list[str]:
     """One terminal line per foot: contacts, skate before/after, penetration."""
     lines = []
@@ -206,6 +227,9 @@ def format_contacts(section: dict) -> list[str]:
                 text += f" -> {skate['after']:.3f}"
             text += " body heights/s"
         pen = foot["penetration"]
+        if pen["before"] is None:
+            lines.append(text + ", ground not found (needs at least 2 frames)")
+            continue
         text += f", below ground {pen['before']:.3g}"
         if pen["after"] is not None:
             text += f" -> {pen['after']:.3g}"

@@ -269,3 +269,39 @@ def test_a_20000_joint_chain_loads_and_stands_straight():
     assert points is not None
     assert np.array_equal(np.flatnonzero(points[1]), np.arange(12_345, n + 1))
     assert not points[[0, 2]].any()
+
+
+@pytest.mark.parametrize("frames", [0, 1, 2])
+def test_reports_of_clips_too_short_for_some_figures(tmp_path, capsys, frames):
+    clip = cut_bvh(SAMPLE, tmp_path / "short.bvh", frames)
+    out_json, out_html = tmp_path / "r.json", tmp_path / "r.html"
+    code, out, err = run_cli(capsys, "report", clip, "--json", out_json, "--html", out_html)
+    assert (code, err) == (0, "")
+    assert out_json.exists() and out_html.exists()
+    code, info, err = run_cli(capsys, "info", clip)
+    assert (code, err) == (0, "")
+    if frames < 2:  # no ground to measure against: said so, never NaN
+        for text in (out, info, out_json.read_text(), out_html.read_text()):
+            assert "nan" not in text.lower()
+        assert "ground not found (needs at least 2 frames)" in out
+        assert "ground not found (needs at least 2 frames)" in info
+    cleaned = tmp_path / "c.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", clip, "-o", cleaned, "--report", tmp_path / "c.html", "-q"
+    )
+    assert (code, err) == (0, "")
+    assert run_cli(capsys, "report", clip, cleaned, "--html", tmp_path / "p.html")[0] == 0
+
+
+def test_report_renders_every_page_before_writing_any(tmp_path, capsys, monkeypatch):
+    import motionclean.jobs
+
+    def broken(*args, **kwargs):
+        raise MotionError("cannot draw", "r.html")
+
+    monkeypatch.setattr(motionclean.jobs, "render_html", broken)
+    out_json, out_html = tmp_path / "r.json", tmp_path / "r.html"
+    code, out, err = run_cli(capsys, "report", SAMPLE, "--json", out_json, "--html", out_html)
+    assert code == 1
+    one_error_line(err, "r.html: cannot draw")
+    assert not out_json.exists() and not out_html.exists() and out == ""
