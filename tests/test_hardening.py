@@ -305,3 +305,37 @@ def test_report_renders_every_page_before_writing_any(tmp_path, capsys, monkeypa
     assert code == 1
     one_error_line(err, "r.html: cannot draw")
     assert not out_json.exists() and not out_html.exists() and out == ""
+
+
+MOTIVE_HEADER = (
+    "Format Version,1.23,Take Name,t,Export Frame Rate,120.000000,Total Exported Frames,3,"
+    "Rotation Type,Quaternion,Length Units,Meters\n\n"
+    ",Type" + ",Rigid Body" * 7 + "\n,Name" + ",a" * 7 + "\n,ID" + ",1" * 7 + "\n"
+    ",,Rotation,Rotation,Rotation,Rotation,Position,Position,Position\n"
+    "Frame,Time (Seconds),X,Y,Z,W,X,Y,Z\n"
+)
+ALL_BLANK = {
+    "rigid": "time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz\n0,,,,,,,\n0.01,,,,,,,\n0.02,,,,,,,\n",
+    "channel": "frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,"
+    "Hips.Yrotation,Hips.Xrotation\n0,0,,,,,,\n1,0.01,,,,,,\n2,0.02,,,,,,\n",
+    "motive": MOTIVE_HEADER + "0,0.000000,,,,,,,\n1,0.008333,,,,,,,\n2,0.016667,,,,,,,\n",
+}
+
+
+@pytest.mark.parametrize("layout", sorted(ALL_BLANK))
+def test_a_csv_with_no_value_in_any_cell_is_refused_everywhere(tmp_path, capsys, layout):
+    clip = tmp_path / "blank.csv"
+    clip.write_text(ALL_BLANK[layout])
+    out = tmp_path / "o.csv"
+    for args in (
+        ["info", clip],
+        ["report", clip, "--json", tmp_path / "r.json"],
+        ["clean", clip, "-o", out],
+        ["resample", clip, out, "--fps", "50"],
+        ["convert", clip, out],
+        ["check", clip, "--baseline", tmp_path / "b.json", "--update"],
+    ):
+        code, _, err = run_cli(capsys, *args)
+        assert code == 1, args
+        one_error_line(err, f"{clip}: no value in any cell: every sample is blank, nothing to")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blank.csv"]

@@ -65,6 +65,9 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
             motion = motive.parse_motive(data, path)
         else:
             motion = csv.parse_csv(data, path, skeleton=skeleton)
+        if motion.missing is not None and motion.missing.size and motion.missing.all():
+            # every body blank on every row: no sample any step, figure or writer can use
+            raise MotionError("no value in any cell: every sample is blank, nothing to clean", path)
     except BaseException:
         if on_disk is not None:
             on_disk.close()  # now, not when the traceback is let go of
