@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
 
 from motionclean import quat
 from motionclean.filters.footlock import MAX_REACH, lock_targets, two_bone_ik
@@ -91,3 +92,21 @@ def test_targets_hold_contacts_and_ease_in_and_out(blend):
     np.testing.assert_array_equal(target[weight == 0.0], ankle[weight == 0.0])
     ramp_in = weight[30 - width : 30]
     assert np.all(np.diff(ramp_in) > 0.0) and np.all((ramp_in > 0.0) & (ramp_in < 1.0))
+
+
+@pytest.mark.parametrize("value", ["inf", "1e308"])
+def test_min_seconds_longer_than_any_clip_finds_no_contact(tmp_path, capsys, value):
+    """inf is allowed by the catalogue: no contact is that long, so nothing is locked."""
+    out = tmp_path / "o.bvh"
+    step = f"footlock:min_seconds={value}"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-f", step, "-q")
+    assert (code, err) == (0, "")
+    assert out.read_bytes() == SAMPLE.read_bytes()  # no contact: the clip is unchanged
+    toml = tmp_path / "p.toml"
+    toml.write_text(f'[[step]]\nfilter = "footlock"\nmin_seconds = {value}\n')
+    args = ("--baseline", tmp_path / "b.json", "--update")
+    code, _, err = run_cli(capsys, "check", SAMPLE, "-p", toml, *args)
+    assert (code, err) == (0, "")
+    cut_bvh(SAMPLE, tmp_path / "in" / "c.bvh", 60)
+    code, _, err = run_cli(capsys, "batch", tmp_path / "in", "-o", tmp_path / "b", "-p", toml, "-q")
+    assert (code, err) == (0, "")

@@ -204,7 +204,9 @@ def detect(
     speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
     strict = (above < params.height) & (speed < params.speed)
     loose = (above < params.height_off) & (speed < params.speed_off)
-    min_frames = max(int(np.ceil(params.min_duration / frame_time)), 1)
+    # a contact lasts at most the clip: a longer minimum (up to inf) keeps none
+    shortest = params.min_duration / frame_time
+    min_frames = max(int(np.ceil(shortest)), 1) if shortest <= n_frames else n_frames + 1
     for k in range(len(feet)):  # a handful of feet; each column is vectorised
         starts, ends = _runs(loose[:, k])
         strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
