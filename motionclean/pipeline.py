@@ -149,8 +149,20 @@ def parse_inline(text: str) -> dict:
             raise UsageError(f"-f {text!r}: expected key=value, got {item.strip()!r}")
         if key.strip() in table:
             raise UsageError(f"-f {text!r}: {key.strip()!r} is given twice")
-        table[key.strip()] = parse_value(value)
+        try:
+            table[key.strip()] = parse_value(value)
+        except RecursionError:
+            raise UsageError(f"-f {_brief(text)}: {key.strip()}: nested too deeply") from None
+        except ValueError:  # an integer of more digits than Python converts
+            raise UsageError(
+                f"-f {_brief(text)}: {key.strip()}: a number with too many digits (out of range)"
+            ) from None
     return table
+
+
+def _brief(text: str, most: int = 60) -> str:
+    """``text`` quoted for an error line, its middle cut when it is long."""
+    return repr(text) if len(text) <= most else repr(text[: most - 20] + "..." + text[-15:])
 
 
 def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
@@ -213,6 +225,10 @@ class Pipeline:
             raise UsageError(f"{path}: cannot read pipeline: {error}") from None
         except tomllib.TOMLDecodeError as error:
             raise UsageError(f"{path}: invalid TOML: {error}") from None
+        except RecursionError:
+            raise UsageError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
+        except ValueError:  # an integer of more digits than Python converts
+            raise UsageError(f"{path}: a number with too many digits (out of range)") from None
         unknown = set(document) - {"step"}
         if unknown:
             raise UsageError(

@@ -159,3 +159,53 @@ def test_from_inline_wants_a_list_of_strings():
     with pytest.raises(TypeError, match=r"list of step strings.*'lee-shin:k=3'"):
         Pipeline.from_inline("lee-shin:k=3")
     assert Pipeline.from_inline(["lee-shin:k=3"]).describe()[0]["k"] == 3
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), err
+    return lines[0][len("motionclean: error: ") :]
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("a=" + "[" * 1000 + "]" * 1000, "invalid TOML: arrays or tables nested too deeply"),
+        (
+            '[[step]]\nfilter = "lee-shin"\nk = ' + "9" * 5000,
+            "a number with too many digits (out of range)",
+        ),
+    ],
+)
+def test_a_pipeline_file_python_cannot_parse_is_one_line(tmp_path, capsys, content, message):
+    pipe = tmp_path / "deep.toml"
+    pipe.write_text(content + "\n")
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "a.bvh").write_bytes(SAMPLE.read_bytes())
+    for args in (
+        ["clean", SAMPLE, "-o", tmp_path / "o.bvh"],
+        ["check", SAMPLE, "--baseline", tmp_path / "b.json", "--update"],
+        ["batch", tmp_path / "in", "-o", tmp_path / "out"],
+    ):
+        code, _, err = run_cli(capsys, *args, "-p", pipe)
+        assert code == 2
+        assert _one_line(err) == f"{pipe}: {message}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep.toml", "in"]
+
+
+@pytest.mark.parametrize(
+    ("step", "message"),
+    [
+        ("lee-shin:k=" + "9" * 5000, "k: a number with too many digits (out of range)"),
+        ("lee-shin:k=" + "[" * 1000 + "]" * 1000, "k: nested too deeply"),
+        ("lee-shin:k=" + "9" * 400, "k must be an integer >= 0 and <= 5000, got 9999"),
+        ("bilateral:sigma_t=" + "9" * 400, "sigma_t must be a number > 0 and <= 50, got 99"),
+        ("footlock:min_seconds=-" + "9" * 400, "min_seconds must be a number >= 0 and <= inf"),
+    ],
+)
+def test_inline_numbers_beyond_any_range_are_one_short_line(tmp_path, capsys, step, message):
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", tmp_path / "o.bvh", "-f", step)
+    assert code == 2
+    line = _one_line(err)
+    assert line.startswith("-f") and message in line and len(line) < 200
+    assert not (tmp_path / "o.bvh").exists()

@@ -50,7 +50,10 @@ class Param:
 
     def coerce(self, value: Any, where: str) -> Any:
         """Check ``value`` against the type and range; return it in canonical form."""
-        bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {value!r}")
+        shown = repr(value)
+        if len(shown) > 60:  # a number of thousands of digits, a deep list: its two ends
+            shown = f"{shown[:30]}...{shown[-15:]} ({len(shown)} characters)"
+        bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {shown}")
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise bad
@@ -67,17 +70,19 @@ class Param:
         if self.type == "floats":
             if not isinstance(value, list) or not all(is_number(v) for v in value):
                 raise bad
-            if not all(self._in_range(float(v)) for v in value):
+            if not all(self._in_range(_as_float(v)) for v in value):
                 raise bad
             return [float(v) for v in value]
         if not is_number(value):
             raise bad
         if self.type == "int":
+            if isinstance(value, int) and math.isinf(_as_float(value)):
+                raise bad  # more digits than any count
             if not float(value).is_integer():
                 raise bad
             value = int(value)
         else:
-            value = float(value)
+            value = _as_float(value)
         if not self._in_range(value):
             raise bad
         return value
@@ -89,6 +94,15 @@ class Param:
             value < self.minimum or (self.exclusive_minimum and value == self.minimum)
         )
         return not below and (self.maximum is None or value <= self.maximum)
+
+
+def _as_float(value: int | float) -> float:
+    """``float(value)``, an integer beyond the float range as an infinity of its sign (then
+    refused as out of range unless inf is allowed)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def is_number(value: Any) -> bool:
