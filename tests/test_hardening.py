@@ -339,3 +339,21 @@ def test_a_csv_with_no_value_in_any_cell_is_refused_everywhere(tmp_path, capsys,
         assert code == 1, args
         one_error_line(err, f"{clip}: no value in any cell: every sample is blank, nothing to")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["blank.csv"]
+
+
+@pytest.mark.parametrize(
+    "step",
+    [
+        "bilateral:sigma_t=1e-300",
+        "bilateral:sigma_t=1e-300,positions=true",
+        "lee-shin:mask=gaussian,sigma_t=1e-300",
+        "lee-shin:mask=gaussian,sigma_t=1e-200,iterations=3",
+    ],
+)
+def test_a_time_sigma_narrower_than_a_frame_leaves_the_clip_as_it_is(tmp_path, capsys, step):
+    """Every neighbour's weight is exactly 0: the identity, no division by zero, no warning."""
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-f", step, "-q")
+    assert (code, err) == (0, "")
+    assert out.read_bytes() == SAMPLE.read_bytes()
+    assert mc.filters.masks.gaussian(1e-300).tolist() == [0.0, 1.0, 0.0]

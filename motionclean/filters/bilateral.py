@@ -154,6 +154,17 @@ def _window_samples(src, qs, rel, scratch, base: int, lo: int, hi: int, end: int
         quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
 
 
+#: Below this sigma_t (frames) a neighbour's time weight exp(-r^2 / 2 sigma_t^2) is exactly 0
+#: in float64 (exp(-1250) underflows), so the window holds the sample alone.
+NARROWEST = 0.02
+
+
+def _time_term(r: int, sigma_t: float) -> float:
+    """``r^2 / 2 sigma_t^2``, infinite (a zero weight) for a sigma_t so small that it is
+    (where ``sigma_t**2`` would underflow to 0 and the division fail)."""
+    return r * r / (2.0 * sigma_t**2) if sigma_t >= NARROWEST else math.inf
+
+
 def _range_weights(qs, weights, dot, sigma_t: float, inv_g: float) -> None:
     """``weights[r-1, t] = W(base+t, r) = exp(-r^2 / 2 sigma_t^2 - arccos(|q . q_{+r}|)^2
     inv_g)`` for ``r = 1 .. k`` and every row ``t`` of ``weights`` (002 Eq. 4-5);
@@ -170,7 +181,7 @@ def _range_weights(qs, weights, dot, sigma_t: float, inv_g: float) -> None:
         np.arccos(x, out=x)
         np.square(x, out=x)
         x *= -inv_g
-        x -= r * r / (2.0 * sigma_t**2)
+        x -= _time_term(r, sigma_t)
         np.exp(x, out=x)
 
 
@@ -267,7 +278,7 @@ def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) 
                 else:
                     np.square(diff, out=x)
             x *= -inv_p
-            x -= r * r / (2.0 * sigma_t**2)
+            x -= _time_term(r, sigma_t)
             np.exp(x, out=x)
 
         sums = planes(9, 3, length)

@@ -100,6 +100,8 @@ def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
         raise MaskError(f"sigma_t must be positive, got {sigma_t}")
     radius = math.ceil(3 * sigma_t) if radius is None else int(radius)
     r = np.arange(-radius, radius + 1, dtype=np.float64)
+    if sigma_t < 0.02:  # exp(-1 / 2 sigma_t^2) underflows to 0: the identity mask
+        return (r == 0).astype(np.float64)
     w = np.exp(-(r**2) / (2.0 * sigma_t**2))
     return w / w.sum()
 
