@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import corpus_clip, needs_corpus
+from helpers import SAMPLE, corpus_clip, needs_corpus, run_cli
 
 import motionclean as mc
 from motionclean import quat
@@ -360,3 +360,17 @@ def test_auto_cleans_band_limited_noise_it_would_leave_without_the_band_limited_
     monkeypatch.setattr("motionclean.filters.noise.fit_band_limited", lambda *a: None)
     without = auto(noisy, 1 / 120)
     assert rms_deg(with_model.values, truth) < 0.85 * rms_deg(without.values, truth)
+
+
+def test_a_given_noise_beyond_any_clip_picks_the_strongest_without_warnings(tmp_path, capsys):
+    import warnings
+
+    outs = {}
+    for value in ("1e10", "1e308"):
+        outs[value] = tmp_path / f"{value}.bvh"
+        step = f"auto:position_noise={value}"
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", outs[value], "-f", step, "-q")
+        assert (code, err) == (0, "")
+    assert outs["1e10"].read_bytes() == outs["1e308"].read_bytes()

@@ -427,6 +427,16 @@ def _writable(cols: np.ndarray, given, overwrite: bool) -> bool:
     return overwrite or not (isinstance(given, np.ndarray) and np.may_share_memory(cols, given))
 
 
+#: A given noise level above this is taken as this: the choice is the same (the noisiest
+#: model already picks the strongest candidate far below it) and its square stays finite.
+LOUDEST = 1e150
+
+
+def _capped(noise: np.ndarray) -> np.ndarray:
+    """A given noise level, flat, at most :data:`LOUDEST` (no overflow when squared)."""
+    return np.minimum(noise.reshape(-1), LOUDEST)
+
+
 def _check(strength: float, noise, shape) -> np.ndarray | None:
     strength = checks.number(strength, "strength")
     if not (math.isfinite(strength) and strength >= 0):
@@ -483,7 +493,7 @@ def auto(
     frame_time = _check_time(frame_time)
     cols = quat.continuous(_columns(q, 4, "rotations"))
     if given is not None:
-        given = (np.radians(given.reshape(-1)) / (2.0 * math.sqrt(3.0))) ** 2
+        given = (np.radians(_capped(given)) / (2.0 * math.sqrt(3.0))) ** 2
     values, level, choices = _select(
         cols,
         quat.Displacements(cols),  # computed where needed: no clip-long array
@@ -521,7 +531,7 @@ def auto_positions(
     frame_time = _check_time(frame_time)
     cols = _columns(p, 3, "positions")
     if given is not None:
-        given = given.reshape(-1) ** 2 / 3.0
+        given = _capped(given) ** 2 / 3.0
     values, level, choices = _select(
         cols,
         np.diff(cols, axis=0),
