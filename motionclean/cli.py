@@ -347,13 +347,41 @@ LEVELS_OPTION = click.option(
 )
 
 
+class _Weight(click.FloatRange):
+    """A blend weight: a number from 0 to 1, NaN refused (a range lets NaN through)."""
+
+    def __init__(self) -> None:
+        super().__init__(0.0, 1.0)
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if math.isnan(number):
+            self.fail(f"{value} is not in the range 0.0<=x<=1.0.", param, ctx)
+        return number
+
+
+def _detail_weights(text: str) -> list[float]:
+    """``--detail-weights``: numbers from 0 to 1, as ``--weight``."""
+    try:
+        weights = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise UsageError(f"--detail-weights: expected numbers, got {text!r}") from None
+    for weight in weights:
+        if not 0.0 <= weight <= 1.0:  # NaN too
+            raise UsageError(
+                f"--detail-weights: each weight must be from 0 (FIRST's detail) to 1 "
+                f"(SECOND's), got {weight:g}"
+            )
+    return weights
+
+
 @cli.command(short_help="Blend two time-aligned clips level by level.")
 @click.argument("first", type=click.Path())
 @click.argument("second", type=click.Path())
 @click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
 @click.option(
     "--weight",
-    type=click.FloatRange(0.0, 1.0),
+    type=_Weight(),
     default=0.5,
     show_default=True,
     help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).",
@@ -362,21 +390,14 @@ LEVELS_OPTION = click.option(
     "--detail-weights",
     type=str,
     default=None,
-    help="Weight of SECOND per detail level, finest first, e.g. '0,0.5'.",
+    help="Weight of SECOND per detail level (0 to 1, as --weight), finest first, e.g. '0,0.5'.",
 )
 @LEVELS_OPTION
 def blend(
     first: str, second: str, output: str, weight: float, detail_weights: str | None, levels: int
 ) -> None:
     """Blend two time-aligned clips level by level (003 Eq. 20)."""
-    weights = None
-    if detail_weights:
-        try:
-            weights = [float(x) for x in detail_weights.split(",")]
-        except ValueError:
-            raise UsageError(
-                f"--detail-weights: expected numbers, got {detail_weights!r}"
-            ) from None
+    weights = _detail_weights(detail_weights) if detail_weights else None
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)

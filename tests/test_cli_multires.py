@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import SAMPLE, max_degrees, run_cli
+from helpers import NOISY, SAMPLE, max_degrees, run_cli
 
 import motionclean as mc
 from motionclean import multires, quat
@@ -233,3 +233,26 @@ def test_blend_and_stitch_carry_positions_only_where_a_joint_has_some():
     q, p = multires.stitch(a.rotations, b.rotations, 3, a.translations, b.translations)
     joined = stitch_clips(a, b, levels=3, align=False)
     assert np.array_equal(joined.rotations, q) and np.array_equal(joined.translations, p)
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--weight", "nan"], "Invalid value for '--weight': nan is not in the range 0.0<=x<=1.0."),
+        (
+            ["--detail-weights", "1e308"],
+            "--detail-weights: each weight must be from 0 (FIRST's detail) to 1 (SECOND's), "
+            "got 1e+308",
+        ),
+        (["--detail-weights", "0,-1"], "to 1 (SECOND's), got -1"),
+        (["--detail-weights", "1e6"], "to 1 (SECOND's), got 1e+06"),
+        (["--detail-weights", "0.5,nan"], "to 1 (SECOND's), got nan"),
+    ],
+)
+def test_blend_weights_outside_0_to_1_are_usage_errors(tmp_path, capsys, option, message):
+    out = tmp_path / "bl.bvh"
+    code, _, err = run_cli(capsys, "blend", SAMPLE, NOISY, "-o", out, *option)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1
+    assert lines[0].startswith("motionclean: error: ") and lines[0].endswith(message)
+    assert not out.exists()
