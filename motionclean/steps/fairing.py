@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..filters.fairing import fairing, fairing_positions
+from ..filters.fairing import MAX_ITERATIONS, fairing, fairing_positions
 from .base import Param, StepData, StepSpec
 
 
@@ -79,7 +79,7 @@ STEP = StepSpec(
             "stop when no sample moves this much in one iteration",
             minimum=0.0,
         ),
-        Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=100000),
+        Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=MAX_ITERATIONS),
     ),
     run=_run_fairing,
 )

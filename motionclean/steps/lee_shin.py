@@ -31,6 +31,22 @@ def _rate(fps: float | None) -> float:
     return fps
 
 
+#: A file's frame time is rounded (BVH ``.0083333`` is 120.0005 fps): a cutoff within this
+#: fraction of half the rate is taken as at the Nyquist frequency, not below it.
+NYQUIST_ROUNDING = 1e-4
+
+
+def _lowpass(cutoff_hz: float, fps: float, half_width: int | None) -> np.ndarray:
+    """``design.lowpass`` for a clip: a cutoff at half its rounded rate is refused too."""
+    nyquist = fps / 2.0
+    if cutoff_hz >= nyquist * (1.0 - NYQUIST_ROUNDING):
+        raise ValueError(
+            f"cutoff_hz must be below the Nyquist frequency {nyquist:.5g} Hz (half the "
+            f"frame rate of {fps:.5g} fps), got {cutoff_hz:g}"
+        )
+    return design.lowpass(cutoff_hz, fps, half_width)
+
+
 MASK_KINDS = {
     kind.name: kind
     for kind in (
@@ -46,7 +62,7 @@ MASK_KINDS = {
         MaskKind(
             "lowpass",
             ("cutoff_hz", "half_width"),
-            lambda p, fps: design.lowpass(p["cutoff_hz"], _rate(fps), p["half_width"]),
+            lambda p, fps: _lowpass(p["cutoff_hz"], _rate(fps), p["half_width"]),
         ),
         MaskKind("reduction", (), lambda p, fps: masks.reduction()),
         MaskKind("custom", ("coefficients",), lambda p, fps: masks.custom(p["coefficients"])),

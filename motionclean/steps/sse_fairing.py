@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..filters.fairing import sse_fairing, sse_fairing_positions
+from ..filters.fairing import MAX_ITERATIONS, sse_fairing, sse_fairing_positions
 from .base import Param, StepData, StepSpec
 
 
@@ -45,7 +45,7 @@ STEP = StepSpec(
             200,
             "iteration cap (about 80 per unit of beta to converge)",
             minimum=0,
-            maximum=100000,
+            maximum=MAX_ITERATIONS,
         ),
     ),
     run=_run_sse_fairing,
