@@ -178,7 +178,11 @@ def contact_figures(
     series: dict[str, dict] = {}
     for k, foot in enumerate(feet):
         a = after_positions is not None
-        skate = pair(skate_b[k], skate_a[k] if a else None)
+        skate = (  # undefined for a foot that never touches the ground: null in JSON
+            pair(skate_b[k], skate_a[k] if a else None)
+            if math.isfinite(skate_b[k])
+            else {"before": None, "after": None}
+        )
         section["feet"][foot.name] = {
             "contacts": [[first, last] for first, last in runs[k]],
             "frames": int(contacts[:, k].sum()),

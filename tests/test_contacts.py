@@ -156,3 +156,25 @@ def test_moving_average_is_the_mean_of_each_shrunk_window(n, half):
     x = np.random.default_rng(n).normal(size=(n, 2, 3))
     expected = np.stack([x[max(0, i - half) : min(n, i + half + 1)].mean(axis=0) for i in range(n)])
     np.testing.assert_allclose(_moving_average(x, half), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_a_clip_without_contacts_reports_no_skate_rather_than_nan(tmp_path):
+    """Skate is a mean over contact frames: with none it is undefined, null in the JSON
+    (not the string "nan") and left out of the terminal line."""
+    from motionclean.report import build_report, build_series, to_json
+    from motionclean.world_report import format_contacts
+
+    motion = mc.load(NOISY)
+    height = kinematics.body_height(motion)
+    translations = motion.translations.copy()
+    translations[:, 0, 1] += height * np.arange(motion.n_frames) * motion.frame_time
+    flying = motion.replace(translations=translations)
+    cleaned, _ = Pipeline.default().run(flying)
+    report = build_report(flying, cleaned, [], {}, "flying.bvh", build_series(flying, cleaned))
+    feet = report["contacts"]["feet"]
+    assert feet and all(foot["frames"] == 0 for foot in feet.values())
+    for foot in feet.values():
+        assert foot["skate"] == {"before": None, "after": None}
+        assert foot["skate_body_heights"] == {"before": None, "after": None}
+    assert b"nan" not in to_json(report)
+    assert "skate" not in "\n".join(format_contacts(report["contacts"]))
