@@ -149,14 +149,14 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 
 
 @click.command("batch")
-@click.argument("in_dir", type=click.Path(file_okay=False))
+@click.argument("in_dir", type=click.Path(file_okay=False, readable=False))
 @click.option(
     "-o",
     "--output",
     "out_dir",
     required=True,
     metavar="OUT_DIR",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False, readable=False),
     help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.",
 )
 @PIPE_OPTION
@@ -179,7 +179,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 )
 @click.option(
     "--report-dir",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False, readable=False),
     metavar="DIR",
     help="Also write an HTML page per clip (mirrored tree) and index.html here.",
 )

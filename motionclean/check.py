@@ -186,13 +186,13 @@ def _finite(value: float) -> float:
 
 
 @click.command("check")
-@click.argument("clips", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.argument("clips", nargs=-1, required=True, type=click.Path(dir_okay=False, readable=False))
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(
     "--baseline",
     required=True,
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     help="Baseline JSON file with the expected figures per clip.",
 )
 @click.option(

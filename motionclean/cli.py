@@ -113,7 +113,7 @@ cli.add_command(check_command)
 
 
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
-@click.argument("clip", type=click.Path())
+@click.argument("clip", type=click.Path(readable=False))
 def info(clip: str) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
     motion = load(clip)
@@ -177,10 +177,12 @@ def info(clip: str) -> None:
 
 
 @cli.command()
-@click.argument("source", type=click.Path())
-@click.argument("target", type=click.Path())
+@click.argument("source", type=click.Path(readable=False))
+@click.argument("target", type=click.Path(readable=False))
 @click.option(
-    "--skeleton", type=click.Path(), help="BVH whose skeleton a channel CSV is written back into."
+    "--skeleton",
+    type=click.Path(readable=False),
+    help="BVH whose skeleton a channel CSV is written back into.",
 )
 @click.option(
     "--world",
@@ -205,8 +207,8 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
 
 
 @cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
-@click.argument("source", type=click.Path())
-@click.argument("target", type=click.Path())
+@click.argument("source", type=click.Path(readable=False))
+@click.argument("target", type=click.Path(readable=False))
 @click.option("--fps", type=float, help="New frame rate, frames per second.")
 @click.option("--frame-time", type=float, help="Or the new frame time, seconds.")
 def resample_command(source: str, target: str, fps: float | None, frame_time: float | None) -> None:
@@ -232,15 +234,15 @@ def resample_command(source: str, target: str, fps: float | None, frame_time: fl
 
 
 @cli.command()
-@click.argument("source", type=click.Path())
-@click.option("-o", "--output", type=click.Path(), help="Cleaned clip to write.")
+@click.argument("source", type=click.Path(readable=False))
+@click.option("-o", "--output", type=click.Path(readable=False), help="Cleaned clip to write.")
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(
     "--report",
     "report_paths",
     multiple=True,
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     help="Also write a report, FILE.json or FILE.html; repeatable (e.g. one of each).",
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
@@ -310,10 +312,14 @@ def _dropout_lines(motion) -> list[str]:
 
 
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
-@click.argument("source", type=click.Path())
-@click.argument("cleaned", type=click.Path(), required=False)
-@click.option("--json", "json_path", type=click.Path(dir_okay=False), help="Write JSON here.")
-@click.option("--html", "html_path", type=click.Path(dir_okay=False), help="Write HTML here.")
+@click.argument("source", type=click.Path(readable=False))
+@click.argument("cleaned", type=click.Path(readable=False), required=False)
+@click.option(
+    "--json", "json_path", type=click.Path(dir_okay=False, readable=False), help="Write JSON here."
+)
+@click.option(
+    "--html", "html_path", type=click.Path(dir_okay=False, readable=False), help="Write HTML here."
+)
 def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
     for path in (json_path, html_path):
@@ -376,9 +382,11 @@ def _detail_weights(text: str) -> list[float]:
 
 
 @cli.command(short_help="Blend two time-aligned clips level by level.")
-@click.argument("first", type=click.Path())
-@click.argument("second", type=click.Path())
-@click.option("-o", "--output", type=click.Path(), required=True, help="Blended clip.")
+@click.argument("first", type=click.Path(readable=False))
+@click.argument("second", type=click.Path(readable=False))
+@click.option(
+    "-o", "--output", type=click.Path(readable=False), required=True, help="Blended clip."
+)
 @click.option(
     "--weight",
     type=_Weight(),
@@ -410,9 +418,11 @@ def blend(
 
 
 @cli.command(short_help="Join two clips with a seamless transition.")
-@click.argument("first", type=click.Path())
-@click.argument("second", type=click.Path())
-@click.option("-o", "--output", type=click.Path(), required=True, help="Stitched clip.")
+@click.argument("first", type=click.Path(readable=False))
+@click.argument("second", type=click.Path(readable=False))
+@click.option(
+    "-o", "--output", type=click.Path(readable=False), required=True, help="Stitched clip."
+)
 @LEVELS_OPTION
 @click.option(
     "--no-align",

@@ -67,7 +67,7 @@ PIPE_OPTION = click.option(
     "-p",
     "--pipeline",
     "pipe",
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     help="Pipeline TOML file with [[step]] tables (see README).",
 )
 STEP_OPTION = click.option(
