@@ -284,6 +284,8 @@ def blend_clips(
     Raises :class:`MotionError` for incompatible clips, ValueError for bad weights or levels.
     """
     check_compatible(a, b)
+    if a.n_frames == 0:
+        raise MotionError("cannot blend a clip without frames", a.path)
     q, p = _with_positions(
         lambda q_a, q_b, p_a=None, p_b=None: multires.blend(
             q_a, q_b, levels, weight, detail_weights, p_a, p_b

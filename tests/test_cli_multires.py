@@ -256,3 +256,16 @@ def test_blend_weights_outside_0_to_1_are_usage_errors(tmp_path, capsys, option,
     assert code == 2 and len(lines) == 1
     assert lines[0].startswith("motionclean: error: ") and lines[0].endswith(message)
     assert not out.exists()
+
+
+def test_blending_clips_without_frames_is_a_data_error_naming_the_file(tmp_path, capsys):
+    from helpers import cut_bvh
+
+    empty = cut_bvh(SAMPLE, tmp_path / "empty.bvh", 0)
+    out = tmp_path / "bl.bvh"
+    code, _, err = run_cli(capsys, "blend", empty, empty, "-o", out)
+    assert code == 1
+    assert err.strip().splitlines() == [
+        f"motionclean: error: {empty}: cannot blend a clip without frames"
+    ]
+    assert not out.exists()
