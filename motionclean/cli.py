@@ -112,6 +112,14 @@ cli.add_command(check_command)
 # ----------------------------------------------------------------------------- commands
 
 
+#: Widest joint name ``info`` prints in full; a longer one is cut to this and ends "...".
+INFO_NAME_WIDTH = 40
+
+
+def _shortened(name: str) -> str:
+    return name if len(name) <= INFO_NAME_WIDTH else name[: INFO_NAME_WIDTH - 3] + "..."
+
+
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
 @click.argument("clip", type=click.Path(readable=False))
 def info(clip: str) -> None:
@@ -141,8 +149,8 @@ def info(clip: str) -> None:
     acc = metrics.angular_acceleration(motion.rotations, motion.frame_time, motion.missing)
     acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
     noise = estimate_noise(motion.rotations, motion.frame_time)
-    name_width = max(len("joint"), *(len(n) for n in motion.names)) + 2
-    parent_width = max(len("parent"), *(len(n) for n in motion.names)) + 2
+    longest = min(max(len(n) for n in motion.names), INFO_NAME_WIDTH)
+    name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
         f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
@@ -150,7 +158,8 @@ def info(clip: str) -> None:
     rotating = layout.has_rotation  # computed once: a property of the whole layout
     rows = []
     for j, name in enumerate(motion.names):
-        parent = motion.names[motion.parents[j]] if motion.parents[j] >= 0 else "-"
+        parent = _shortened(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
+        name = _shortened(name)
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
         if rotating[j]:

@@ -365,7 +365,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
             or (joints[n]["angular_accel_rms"]["after"] or 0) > 0
         )
     ]
-    tables = _joint_table(joints, names, set(plotted), cleaned)
+    drawn = set(plotted)
+    tables = _joint_table(joints, names, drawn, cleaned)
     positions = [n for n in joints if "linear_accel_rms" in joints[n]]
     if positions:
         tables += _position_table(joints, positions, cleaned)
@@ -397,7 +398,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
         for name in plotted:
             body.append(_joint_card(name, joints[name], series["joints"][name], frames))
         body.append("</div>")
-    still = [n for n in names if n not in plotted and series is not None]
+    still = [n for n in names if n not in drawn and series is not None]
     if still:
         body.append(
             '<p class="note">Not plotted (no angular acceleration): '
