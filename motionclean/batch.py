@@ -252,7 +252,7 @@ def batch_command(
                 results[work_names[index]] = result
                 advance(work_names[index])
         else:
-            with cluster.connect(scheduler, default_workers()) as (client, workers):
+            with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
                 if not quiet:
                     click.echo(f"Dask dashboard: {client.dashboard_link}")
                 for index, result in cluster.run_jobs_on(client, work):

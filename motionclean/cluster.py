@@ -78,13 +78,15 @@ class _HeldInterrupts:
 
 
 @contextmanager
-def connect(scheduler: str, default_workers: int) -> Iterator[tuple[Any, int]]:
+def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[Any, int]]:
     """A ``distributed.Client`` for ``scheduler`` (see :func:`parse_scheduler`) and the
-    number of workers it has; a local cluster is started and closed here."""
+    number of workers it has; a local cluster is started and closed here, with no more
+    workers than ``clips`` (each worker is a process: ``local:99999`` for a few clips
+    would start thousands for nothing)."""
     distributed = _distributed()
     address, count = parse_scheduler(scheduler)
     if address == "local":
-        n = count or default_workers
+        n = max(1, min(count or default_workers, clips))
         with _HeldInterrupts() as held:
             cluster = distributed.LocalCluster(
                 n_workers=n,
