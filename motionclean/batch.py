@@ -23,7 +23,13 @@ from .errors import UsageError
 from .html import render_index
 from .io import atomic_write
 from .jobs import FileResult, Job
-from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+from .options import (
+    FOLDER_PATH,
+    PIPE_OPTION,
+    STEP_OPTION,
+    pipeline_from_options,
+    raise_failures,
+)
 from .pool import default_workers, run_jobs
 
 #: Clips ``batch`` takes when no ``--glob`` is given.
@@ -149,14 +155,14 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 
 
 @click.command("batch")
-@click.argument("in_dir", type=click.Path(file_okay=False, readable=False))
+@click.argument("in_dir", type=FOLDER_PATH)
 @click.option(
     "-o",
     "--output",
     "out_dir",
     required=True,
     metavar="OUT_DIR",
-    type=click.Path(file_okay=False, readable=False),
+    type=FOLDER_PATH,
     help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.",
 )
 @PIPE_OPTION
@@ -179,7 +185,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 )
 @click.option(
     "--report-dir",
-    type=click.Path(file_okay=False, readable=False),
+    type=FOLDER_PATH,
     metavar="DIR",
     help="Also write an HTML page per clip (mirrored tree) and index.html here.",
 )

@@ -19,7 +19,6 @@ baseline's folder.
 from __future__ import annotations
 
 import json
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,7 +30,14 @@ from . import __version__
 from .errors import MotionError, UsageError
 from .io import atomic_write
 from .jobs import FileResult, Job
-from .options import PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+from .options import (
+    FILE_PATH,
+    PIPE_OPTION,
+    STEP_OPTION,
+    FiniteRange,
+    pipeline_from_options,
+    raise_failures,
+)
 from .pool import default_workers, run_jobs
 from .report import json_safe, to_json
 
@@ -178,21 +184,14 @@ def _why(
     )
 
 
-def _finite(value: float) -> float:
-    """A tolerance of NaN would pass every comparison, and inf would pass any regression."""
-    if not math.isfinite(value):
-        raise click.BadParameter(f"{value} is not a finite number.")
-    return value
-
-
 @click.command("check")
-@click.argument("clips", nargs=-1, required=True, type=click.Path(dir_okay=False, readable=False))
+@click.argument("clips", nargs=-1, required=True, type=FILE_PATH)
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(
     "--baseline",
     required=True,
-    type=click.Path(dir_okay=False, readable=False),
+    type=FILE_PATH,
     help="Baseline JSON file with the expected figures per clip.",
 )
 @click.option(
@@ -208,8 +207,7 @@ def _finite(value: float) -> float:
 )
 @click.option(
     "--tolerance",
-    type=click.FloatRange(min=0.0),
-    callback=lambda _ctx, _param, value: _finite(value),
+    type=FiniteRange(min=0.0),
     default=DEFAULT_TOLERANCE,
     metavar="T",
     show_default=True,

@@ -35,8 +35,11 @@ from .jobs import (
 )
 from .memory import one_malloc_arena
 from .options import (
+    FILE_PATH,
+    PATH,
     PIPE_OPTION,
     STEP_OPTION,
+    FiniteRange,
     check_clip_output,
     check_output,
     check_report_output,
@@ -121,7 +124,7 @@ def _shortened(name: str) -> str:
 
 
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
-@click.argument("clip", type=click.Path(readable=False))
+@click.argument("clip", type=PATH)
 def info(clip: str) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
     motion = load(clip)
@@ -186,11 +189,11 @@ def info(clip: str) -> None:
 
 
 @cli.command()
-@click.argument("source", type=click.Path(readable=False))
-@click.argument("target", type=click.Path(readable=False))
+@click.argument("source", type=PATH)
+@click.argument("target", type=PATH)
 @click.option(
     "--skeleton",
-    type=click.Path(readable=False),
+    type=PATH,
     help="BVH whose skeleton a channel CSV is written back into.",
 )
 @click.option(
@@ -216,8 +219,8 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
 
 
 @cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
-@click.argument("source", type=click.Path(readable=False))
-@click.argument("target", type=click.Path(readable=False))
+@click.argument("source", type=PATH)
+@click.argument("target", type=PATH)
 @click.option("--fps", type=float, help="New frame rate, frames per second.")
 @click.option("--frame-time", type=float, help="Or the new frame time, seconds.")
 def resample_command(source: str, target: str, fps: float | None, frame_time: float | None) -> None:
@@ -243,15 +246,15 @@ def resample_command(source: str, target: str, fps: float | None, frame_time: fl
 
 
 @cli.command()
-@click.argument("source", type=click.Path(readable=False))
-@click.option("-o", "--output", type=click.Path(readable=False), help="Cleaned clip to write.")
+@click.argument("source", type=PATH)
+@click.option("-o", "--output", type=PATH, help="Cleaned clip to write.")
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(
     "--report",
     "report_paths",
     multiple=True,
-    type=click.Path(dir_okay=False, readable=False),
+    type=FILE_PATH,
     help="Also write a report, FILE.json or FILE.html; repeatable (e.g. one of each).",
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
@@ -321,14 +324,10 @@ def _dropout_lines(motion) -> list[str]:
 
 
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
-@click.argument("source", type=click.Path(readable=False))
-@click.argument("cleaned", type=click.Path(readable=False), required=False)
-@click.option(
-    "--json", "json_path", type=click.Path(dir_okay=False, readable=False), help="Write JSON here."
-)
-@click.option(
-    "--html", "html_path", type=click.Path(dir_okay=False, readable=False), help="Write HTML here."
-)
+@click.argument("source", type=PATH)
+@click.argument("cleaned", type=PATH, required=False)
+@click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
+@click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
 def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
     for path in (json_path, html_path):
@@ -362,19 +361,6 @@ LEVELS_OPTION = click.option(
 )
 
 
-class _Weight(click.FloatRange):
-    """A blend weight: a number from 0 to 1, NaN refused (a range lets NaN through)."""
-
-    def __init__(self) -> None:
-        super().__init__(0.0, 1.0)
-
-    def convert(self, value, param, ctx):
-        number = super().convert(value, param, ctx)
-        if math.isnan(number):
-            self.fail(f"{value} is not in the range 0.0<=x<=1.0.", param, ctx)
-        return number
-
-
 def _detail_weights(text: str) -> list[float]:
     """``--detail-weights``: numbers from 0 to 1, as ``--weight``."""
     try:
@@ -391,14 +377,12 @@ def _detail_weights(text: str) -> list[float]:
 
 
 @cli.command(short_help="Blend two time-aligned clips level by level.")
-@click.argument("first", type=click.Path(readable=False))
-@click.argument("second", type=click.Path(readable=False))
-@click.option(
-    "-o", "--output", type=click.Path(readable=False), required=True, help="Blended clip."
-)
+@click.argument("first", type=PATH)
+@click.argument("second", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Blended clip.")
 @click.option(
     "--weight",
-    type=_Weight(),
+    type=FiniteRange(0.0, 1.0),
     default=0.5,
     show_default=True,
     help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).",
@@ -427,11 +411,9 @@ def blend(
 
 
 @cli.command(short_help="Join two clips with a seamless transition.")
-@click.argument("first", type=click.Path(readable=False))
-@click.argument("second", type=click.Path(readable=False))
-@click.option(
-    "-o", "--output", type=click.Path(readable=False), required=True, help="Stitched clip."
-)
+@click.argument("first", type=PATH)
+@click.argument("second", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Stitched clip.")
 @LEVELS_OPTION
 @click.option(
     "--no-align",

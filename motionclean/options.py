@@ -3,6 +3,7 @@ lines. The work itself is in :mod:`motionclean.jobs`."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -13,6 +14,26 @@ from .io import FORMATS
 from .pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
+
+#: Path arguments and options. The readers and writers check the paths themselves: an
+#: input that cannot be read is a data error (exit 1, ``FILE: permission denied``), which
+#: click's own readability check would turn into a usage error in its own words.
+PATH = click.Path(readable=False)
+FILE_PATH = click.Path(dir_okay=False, readable=False)
+FOLDER_PATH = click.Path(file_okay=False, readable=False)
+
+
+class FiniteRange(click.FloatRange):
+    """A :class:`click.FloatRange` that also refuses NaN (every comparison with it is false,
+    so a range lets it through) and, on an open side, infinity."""
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            if self.min is not None and self.max is not None:
+                self.fail(f"{value} is not in the range {self.min}<=x<={self.max}.", param, ctx)
+            self.fail(f"{value} is not a finite number.", param, ctx)
+        return number
 
 
 def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
@@ -67,7 +88,7 @@ PIPE_OPTION = click.option(
     "-p",
     "--pipeline",
     "pipe",
-    type=click.Path(dir_okay=False, readable=False),
+    type=FILE_PATH,
     help="Pipeline TOML file with [[step]] tables (see README).",
 )
 STEP_OPTION = click.option(
