@@ -75,10 +75,13 @@ def linear_acceleration(
     if p.shape[0] < 3:
         return np.zeros((0, *p.shape[1:-1]))
     out = np.empty((p.shape[0] - 2, *p.shape[1:-1]))
-    for at in range(0, out.shape[0], BLOCK_FRAMES):  # block by block: small temporaries
-        second = np.diff(p[at : at + BLOCK_FRAMES + 2], n=2, axis=0)
-        out[at : at + BLOCK_FRAMES] = np.linalg.norm(second, axis=-1)
-    out /= frame_time**2
+
+    def block(rows: slice) -> None:  # blocks on threads, as angular_acceleration's
+        second = np.diff(p[rows.start : rows.stop + 2], n=2, axis=0)
+        out[rows] = np.linalg.norm(second, axis=-1)
+        out[rows] /= frame_time**2
+
+    run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), p.size)
     return zero_missing(out, missing)
 
 

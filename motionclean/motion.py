@@ -67,7 +67,10 @@ def sparse_concatenate(parts: list[np.ndarray]) -> np.ndarray:
     first = parts[0]
     out = joint_major_zeros(sum(len(part) for part in parts), first.shape[1], first.shape[2])
     joints = written_joints(*parts)
-    out[:, joints] = np.concatenate([part[:, joints] for part in parts])
+    at = 0
+    for part in parts:  # each straight into place: no temporary of the joined joints
+        out[at : at + len(part), joints] = part[:, joints]
+        at += len(part)
     return out
 
 
@@ -86,25 +89,14 @@ def _as_slice(index: np.ndarray) -> slice | np.ndarray:
     return flat
 
 
-def _euler_quaternions(
-    values: np.ndarray, layout: ChannelLayout, out: np.ndarray, joints=None
-) -> None:
-    """Quaternions of the Euler channels of ``joints`` (default all) in ``values`` ``(B, C)``
-    into ``out`` ``(B, len(joints), 4)`` (identity for joints without rotation channels;
-    signs as :func:`quat.from_euler` gives them)."""
-    if joints is None:
-        out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
-        for order, group in layout.groups:
-            angles = values[:, _as_slice(layout.rotation_columns[group])]
-            out[:, _as_slice(group)] = quat.from_euler(angles.reshape(-1, group.size, 3), order)
-        return
-    chosen = np.arange(len(layout.rotation_orders))[joints]
-    out[:, ~layout.has_rotation[chosen]] = (1.0, 0.0, 0.0, 0.0)
+def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarray) -> None:
+    """Quaternions of the Euler channels in ``values`` ``(B, C)`` into ``out`` ``(B, J, 4)``
+    (identity for joints without rotation channels; signs as :func:`quat.from_euler` gives
+    them)."""
+    out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
     for order, group in layout.groups:
-        at = np.flatnonzero(np.isin(chosen, group))
-        if at.size:
-            columns = layout.rotation_columns[chosen[at]]
-            out[:, at] = quat.from_euler(values[:, columns], order)
+        angles = values[:, _as_slice(layout.rotation_columns[group])]
+        out[:, _as_slice(group)] = quat.from_euler(angles.reshape(-1, group.size, 3), order)
 
 
 def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
@@ -430,21 +422,16 @@ class Motion:
             and (rotations is None or rotations.shape[0] == self.n_frames)
         )
 
-    def read_rotations(self, rows: slice, joints=None) -> np.ndarray:
-        """The quaternions read for frames ``rows`` (of ``joints``, default all), up to sign
-        (``q`` and ``-q`` are the same rotation): the kept ones, or computed from the source
-        values. Only for a clip with source frames (:meth:`has_source_frames`)."""
+    def read_rotations(self, rows: slice) -> np.ndarray:
+        """The quaternions read for frames ``rows``, up to sign (``q`` and ``-q`` are the same
+        rotation): the kept ones, or computed from the source values. Only for a clip with
+        source frames (:meth:`has_source_frames`)."""
         if self.source_rotations is not None:
-            return (
-                self.source_rotations[rows]
-                if joints is None
-                else self.source_rotations[rows, joints]
-            )
+            return self.source_rotations[rows]
         assert self.source_values is not None
         values = self.source_values[rows]
-        count = self.n_joints if joints is None else np.arange(self.n_joints)[joints].size
-        out = np.empty((values.shape[0], count, 4))
-        _euler_quaternions(values, self.layout, out, joints)
+        out = np.empty((values.shape[0], self.n_joints, 4))
+        _euler_quaternions(values, self.layout, out)
         return out
 
     def channel_values(self) -> np.ndarray:

@@ -23,8 +23,6 @@ def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     return csv.csv_pieces(motion)
 
 
-#: File suffixes that can be read.
-_READERS = (".bvh", ".csv")
 #: Writers give the file's bytes, or its pieces to write in turn.
 _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
@@ -56,7 +54,7 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     writer reads the unchanged values' text again (:class:`~motionclean.io.files.FileBytes`).
     """
     path = Path(path)
-    suffix = _suffix(path, _READERS)
+    suffix = _suffix(path, FORMATS)
     data, on_disk = read_regular_file(path, keep_large=True)
     try:
         if suffix == ".bvh":

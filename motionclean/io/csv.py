@@ -70,7 +70,7 @@ from __future__ import annotations
 import csv as _csv
 import io as _io
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import NamedTuple, NoReturn
 
@@ -87,6 +87,7 @@ from .text import (
     parse_values,
     scan_cells,
     scan_tokens,
+    sliceable,
     splice_cells,
     table_pieces,
 )
@@ -702,16 +703,13 @@ class Cells:
         return np.concatenate(self.parts) if self.parts else np.zeros(0, dtype=np.uint8)
 
 
-#: ``placed(rows)``: the ``(len, K)`` values of the cells of a slice of rows (NaN: blank).
-Placed = Callable[[slice], np.ndarray]
-
-
 def _rewrite(
-    src: CsvText, motion: Motion, mask: np.ndarray, placed: Placed
+    src: CsvText, motion: Motion, mask: np.ndarray, new: np.ndarray, missing: np.ndarray
 ) -> Iterable[bytes | memoryview]:
     """The source text, in pieces to write in turn, with the ``mask``ed ``(F, K)`` cells
-    replaced by their ``placed`` values (made a block of rows at a time); the time column
-    is rewritten too when the frame time changed."""
+    replaced by the values ``new`` of ``src.columns`` (blank where ``missing``, which
+    broadcasts against ``new``; placed a block of rows at a time); the time column is
+    rewritten too when the frame time changed."""
     is_time = np.zeros(mask.shape, dtype=bool)
     retimed = motion.frame_time != src.frame_time
     if retimed:
@@ -720,18 +718,24 @@ def _rewrite(
     if not mask.any():
         return pieces(src.raw)
 
+    def placed(rows: slice) -> np.ndarray:
+        """The ``(len, K)`` values of the cells of a slice of rows (NaN: blank)."""
+        out = np.zeros((new[rows].shape[0], mask.shape[1]))
+        out[:, src.columns] = np.where(missing[rows], np.nan, new[rows])
+        return out
+
     def texts(rows: slice):
         chosen = mask[rows]
         values = placed(rows)
         if retimed:
             frames = np.arange(rows.start, rows.start + values.shape[0])
             values[:, src.time_column] = first + frames * motion.frame_time
-        new, new_is_time = values[chosen], is_time[rows][chosen]
+        replaced, replaced_is_time = values[chosen], is_time[rows][chosen]
 
         def chunk(a: int, b: int):
             """Texts of replacements ``a`` to ``b - 1``: times ``%.12g``, values their
             shortest round-trip text, NaN a blank cell."""
-            values, timed = new[a:b], new_is_time[a:b]
+            values, timed = replaced[a:b], replaced_is_time[a:b]
             plain = ~timed & ~np.isnan(values)
             starts = np.zeros(values.size, dtype=np.int64)
             lengths = np.zeros(values.size, dtype=np.int64)
@@ -795,13 +799,7 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
         mask[:, src.columns] = _cells_to_write(
             values != motion.source_values, missing, _source_blank(src)[:, src.columns]
         )
-
-        def placed(rows: slice) -> np.ndarray:
-            out = np.zeros((values[rows].shape[0], src.starts.shape[1]))
-            out[:, src.columns] = np.where(missing[rows], np.nan, values[rows])
-            return out
-
-        return _rewrite(src, motion, mask, placed)
+        return _rewrite(src, motion, mask, values, missing)
 
     keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
 
@@ -818,7 +816,7 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
             if kept.any():
                 read_starts, read_ends = src.cells(rows)
                 low, high = int(read_starts[kept].min()), int(read_ends[kept].max())
-                region = np.frombuffer(src.raw[low:high], np.uint8)
+                region = np.frombuffer(sliceable(src.raw)[low:high], np.uint8)
                 starts[:, 2:][kept], lengths[:, 2:][kept] = cells.add(
                     region, read_starts[kept] - low, (read_ends - read_starts)[kept]
                 )
@@ -865,21 +863,9 @@ def rewrite_rigid(src: CsvText, motion: Motion) -> Iterable[bytes | memoryview]:
     new = np.concatenate([t, q * sign[..., None]], axis=-1)
     missing = motion.missing_mask()[..., None]
     changed = np.concatenate([t_changed, np.repeat(q_changed[..., None], 4, axis=-1)], axis=-1)
-    rows = np.arange(motion.n_frames)[:, None, None]
     mask = np.zeros(src.starts.shape, dtype=bool)
-    mask[rows, src.columns] = _cells_to_write(
-        changed, missing, _source_blank(src)[rows, src.columns]
-    )
-
-    def placed(block: slice) -> np.ndarray:
-        part = new[block]
-        out = np.zeros((part.shape[0], src.starts.shape[1]))
-        out[np.arange(part.shape[0])[:, None, None], src.columns] = np.where(
-            missing[block], np.nan, part
-        )
-        return out
-
-    return _rewrite(src, motion, mask, placed)
+    mask[:, src.columns] = _cells_to_write(changed, missing, _source_blank(src)[:, src.columns])
+    return _rewrite(src, motion, mask, new, missing)
 
 
 def rigid_values(motion: Motion) -> np.ndarray:

@@ -344,13 +344,13 @@ def _gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
     return buf.take(index).tobytes()
 
 
-def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, prefix: bytes = b"") -> bytes:
-    """``prefix`` followed by the pieces ``buf[starts[i] : starts[i] + lengths[i]]``."""
+def gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
+    """The pieces ``buf[starts[i] : starts[i] + lengths[i]]``, joined."""
     lengths = np.asarray(lengths, dtype=np.int64).ravel()
     used = lengths > 0
     starts = np.asarray(starts, dtype=np.int64).ravel()[used]
     lengths = lengths[used]
-    out = [prefix]
+    out = []
     for at in range(0, lengths.size, _CHUNK_ITEMS):  # chunks stay in cache
         part = slice(at, at + _CHUNK_ITEMS)
         out.append(_gather(buf, starts[part], lengths[part]))
@@ -363,6 +363,12 @@ class Bytes(Protocol):
     def __len__(self) -> int: ...
 
     def __getitem__(self, key: slice, /) -> bytes: ...
+
+
+def sliceable(raw: Bytes) -> Bytes | memoryview:
+    """``raw`` to take parts of without copies: a memoryview of bytes (a file's bytes on
+    disk are read part by part anyway)."""
+    return memoryview(raw) if isinstance(raw, bytes) else raw
 
 
 def splice_cells(
@@ -386,7 +392,7 @@ def splice_cells(
     only its own rows' bytes from ``raw`` and works on them in chunks: no array or text the
     size of the clip is made.
     """
-    whole = memoryview(raw) if isinstance(raw, bytes) else raw  # parts without copies
+    whole = sliceable(raw)
     n_rows = row_starts.size
     spans = in_parts(n_rows, max(1, _PART_ITEMS // max(1, mask.shape[1])))
 
@@ -453,20 +459,15 @@ def table_pieces(n_rows: int, cells, sep: bytes, eol: bytes, head: bytes = b"") 
     yield head
     for rows in in_parts(n_rows, ROW_BLOCK):
         buf, starts, lengths = cells(rows)
-        yield join_rows(buf, starts, lengths, starts.shape, sep, eol)
+        yield join_rows(buf, starts, lengths, sep, eol)
 
 
 def join_rows(
-    buf: np.ndarray,
-    starts: np.ndarray,
-    lengths: np.ndarray,
-    shape: tuple,
-    sep: bytes,
-    eol: bytes,
-    prefix: bytes = b"",
+    buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray, sep: bytes, eol: bytes
 ) -> bytes:
-    """``prefix`` followed by rows of ``shape = (F, K)`` cells (pieces of ``buf``) joined
-    by ``sep``, each row ended by ``eol``."""
+    """Rows of ``(F, K)`` cells (pieces ``buf[starts : starts + lengths]``) joined by
+    ``sep``, each row ended by ``eol``."""
+    shape = starts.shape
     n_rows, n_cols = shape
     tail = buf.size
     both = np.concatenate([buf, np.frombuffer(sep + eol, dtype=np.uint8)])
@@ -475,4 +476,4 @@ def join_rows(
     piece_starts[:, ::2] = np.asarray(starts).reshape(shape)
     piece_lengths[:, ::2] = np.asarray(lengths).reshape(shape)
     piece_starts[:, -1], piece_lengths[:, -1] = tail + len(sep), len(eol)
-    return gather(both, piece_starts, piece_lengths, prefix)
+    return gather(both, piece_starts, piece_lengths)
