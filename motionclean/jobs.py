@@ -40,7 +40,6 @@ __all__ = [
     "notes_by_joint",
     "run_job",
     "stitch_clips",
-    "write_report",
 ]
 
 
@@ -50,11 +49,6 @@ def render_report(report: dict, path: str | os.PathLike, series: dict | None = N
     if Path(path).suffix.lower() == ".json":
         return to_json(report)
     return render_html(report, series).encode("utf-8")
-
-
-def write_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> None:
-    """Write a report atomically (see :func:`render_report`)."""
-    atomic_write(path, render_report(report, path, series))
 
 
 def write_outputs(

@@ -242,14 +242,20 @@ def _forward_jumps(
     up[: first - top] = -1  # the top level is already world
     for rows, above in _ancestor_jumps(up):
         rows, above = rows + top, above + top
-        scratch = _Scratch(np.empty(27 * rows.size * frames), rows.size, frames)
-        aq, ap = scratch.take(q, above, 4), scratch.take(p, above, 3)
-        local_q, local_p = scratch.take(q, rows, 4), scratch.take(p, rows, 3)
-        world_q = scratch.planes(4)
-        quat.multiply_planes(world_q, aq, local_q, scratch.planes(2))
-        q[:, rows] = world_q
-        _rotate_into(ap, aq, local_p, scratch)
-        p[:, rows] = ap
+        # frames at a time: scratch of at most 27 x 16 values per joint, not per frame
+        width = max(16, BLOCK_ELEMENTS // rows.size)
+        flat = np.empty(27 * rows.size * min(width, frames))
+        for at in range(0, frames, width):
+            part = slice(at, min(at + width, frames))
+            qs, ps = q[:, :, part], p[:, :, part]
+            scratch = _Scratch(flat, rows.size, part.stop - at)
+            aq, ap = scratch.take(qs, above, 4), scratch.take(ps, above, 3)
+            local_q, local_p = scratch.take(qs, rows, 4), scratch.take(ps, rows, 3)
+            world_q = scratch.planes(4)
+            quat.multiply_planes(world_q, aq, local_q, scratch.planes(2))
+            qs[:, rows] = world_q
+            _rotate_into(ap, aq, local_p, scratch)
+            ps[:, rows] = ap
 
 
 #: Tree levels computed one after the other in :func:`_forward_block` (every level of any

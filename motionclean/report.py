@@ -131,7 +131,8 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     if not core.size:
         zeros = np.zeros(table.shape[1])
         return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
-    largest, total_max = core.max(axis=0), float(core.max())
+    largest = core.max(axis=0)
+    total_max = float(largest.max())
     squares = np.square(core, out=core)
     rms = np.sqrt(np.mean(squares, axis=0))
     return _Reduced(drawn, rms, largest, float(np.sqrt(np.mean(squares.ravel()))), total_max)

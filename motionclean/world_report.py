@@ -164,58 +164,45 @@ def contact_figures(
         positions, feet, up, height, dt, footlock.contact_params(_CONTACT_PARAMS)
     )
     after_positions = None if after is None else _positions(after, points[1], used)
-    skate_b = found.skate(positions, feet, contacts, up, dt)
-    pen_b = found.penetration(positions, feet, up, ground)
-    low_b = found.lowest_points(positions, feet, up) - ground
-    if after_positions is not None:
-        skate_a = found.skate(after_positions, feet, contacts, up, dt)
-        pen_a = found.penetration(after_positions, feet, up, ground)
-        low_a = found.lowest_points(after_positions, feet, up) - ground
+    # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the
+    # ground and the heights above it absent (None), not NaN
+    grounded = not math.isnan(ground)
+    absent = {"before": None, "after": None}
+    clips = [positions] if after_positions is None else [positions, after_positions]
+    skate = [found.skate(p, feet, contacts, up, dt) for p in clips]
+    if grounded:
+        depth = [found.penetration(p, feet, up, ground) for p in clips]
+        low = [found.lowest_points(p, feet, up) - ground for p in clips]
     runs = found.contact_runs(contacts)
-    if math.isnan(ground):  # fewer than 2 frames: no ground, so no skate, depth or heights
-        return _no_ground(feet, up, runs, contacts)
-    section: dict[str, Any] = {"up_axis": kinematics.AXES[up], "ground": ground, "feet": {}}
+    section: dict[str, Any] = {
+        "up_axis": kinematics.AXES[up],
+        "ground": ground if grounded else None,
+        "feet": {},
+    }
     series: dict[str, dict] = {}
     for k, foot in enumerate(feet):
         a = after_positions is not None
-        skate = (  # undefined for a foot that never touches the ground: null in JSON
-            pair(skate_b[k], skate_a[k] if a else None)
-            if math.isfinite(skate_b[k])
-            else {"before": None, "after": None}
+        skated = (  # undefined for a foot that never touches the ground: null in JSON
+            pair(skate[0][k], skate[1][k] if a else None)
+            if math.isfinite(skate[0][k])
+            else dict(absent)
         )
         section["feet"][foot.name] = {
             "contacts": [[first, last] for first, last in runs[k]],
             "frames": int(contacts[:, k].sum()),
-            "skate": skate,
+            "skate": skated,
             "skate_body_heights": {
-                key: None if value is None else value / height for key, value in skate.items()
+                key: None if value is None else value / height for key, value in skated.items()
             },
-            "penetration": pair(pen_b[k], pen_a[k] if a else None),
+            "penetration": pair(depth[0][k], depth[1][k] if a else None)
+            if grounded
+            else dict(absent),
         }
         series[foot.name] = {
-            "height_before": low_b[:, k],
-            "height_after": low_a[:, k] if a else None,
+            "height_before": low[0][:, k] if grounded else None,
+            "height_after": low[1][:, k] if grounded and a else None,
             "contacts": runs[k],
         }
-    return section, series
-
-
-def _no_ground(feet: list, up: int, runs: list, contacts: np.ndarray) -> tuple[dict, dict]:
-    """:func:`contact_figures` of a clip too short to find the ground on (fewer than 2
-    frames): no contacts, and the skate, the depth below the ground and the heights above it
-    absent (``None``), not NaN."""
-    absent = {"before": None, "after": None}
-    section: dict[str, Any] = {"up_axis": kinematics.AXES[up], "ground": None, "feet": {}}
-    series: dict[str, dict] = {}
-    for k, foot in enumerate(feet):
-        section["feet"][foot.name] = {
-            "contacts": [[first, last] for first, last in runs[k]],
-            "frames": int(contacts[:, k].sum()),
-            "skate": dict(absent),
-            "skate_body_heights": dict(absent),
-            "penetration": dict(absent),
-        }
-        series[foot.name] = {"height_before": None, "height_after": None, "contacts": runs[k]}
     return section, series
 
 

@@ -3,6 +3,7 @@ failures named, clear errors for a bad or unreachable scheduler."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -114,11 +115,12 @@ def descendants(pid: int) -> list[str]:
 
 
 def alive(pids: list[str]) -> list[str]:
-    return [
-        Path(f"/proc/{pid}/cmdline").read_text()
-        for pid in pids
-        if os.path.exists(f"/proc/{pid}/cmdline")
-    ]
+    """Command lines of the processes of ``pids`` still running (one may exit while read)."""
+    lines = []
+    for pid in pids:
+        with contextlib.suppress(FileNotFoundError, ProcessLookupError):
+            lines.append(Path(f"/proc/{pid}/cmdline").read_text())
+    return lines
 
 
 @pytest.mark.slow

@@ -244,11 +244,12 @@ def _risks(
     out = np.empty((len(masks) + 1, *noise.shape))
     out[0] = noise * (weights @ shape)
     out[1:] = np.einsum("mf,wfc->mwc", moved, model.power)
-    out[1:] += (((2.0 * response - 1.0) * weights) @ shape)[:, None, :] * noise
+    cross = (2.0 * response - 1.0) * weights  # (M, F): the noise left, less its share moved
+    out[1:] += (cross @ shape)[:, None, :] * noise
     if band_limited is not None:
         extra = 3.0 * band_limited.sigma2 * scale**2  # (C,)
         out[0] += extra * (weights @ band_limited.shape)
-        out[1:] += (((2.0 * response - 1.0) * weights) @ band_limited.shape)[:, None, None] * extra
+        out[1:] += (cross @ band_limited.shape)[:, None, None] * extra
     return out
 
 

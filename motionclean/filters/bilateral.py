@@ -61,6 +61,7 @@ from .linear import (
     run_passes,
     work_area,
 )
+from .masks import NARROWEST
 
 __all__ = ["bilateral", "bilateral_positions", "window_radius"]
 
@@ -152,11 +153,6 @@ def _window_samples(src, qs, rel, scratch, base: int, lo: int, hi: int, end: int
     for pos in range(n_frames, end):
         step = rel[:, mirror_position(pos - 1, n) - base].copy()
         quat.multiply_planes(qs[:, pos - base], qs[:, pos - 1 - base], step, tmp)
-
-
-#: Below this sigma_t (frames) a neighbour's time weight exp(-r^2 / 2 sigma_t^2) is exactly 0
-#: in float64 (exp(-1250) underflows), so the window holds the sample alone.
-NARROWEST = 0.02
 
 
 def _time_term(r: int, sigma_t: float) -> float:

@@ -91,6 +91,11 @@ def reduction() -> np.ndarray:
     return np.array([-1.0, 4.0, 18.0, 4.0, -1.0]) / 24.0
 
 
+#: Below this sigma_t (frames) a neighbour's time weight exp(-r^2 / 2 sigma_t^2) is exactly 0
+#: in float64 (exp(-1250) underflows), so a Gaussian window holds the sample alone.
+NARROWEST = 0.02
+
+
 def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
     """Gaussian ``exp(-r^2 / 2 sigma_t^2)`` truncated at ``radius`` frames and normalised.
 
@@ -100,7 +105,7 @@ def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
         raise MaskError(f"sigma_t must be positive, got {sigma_t}")
     radius = math.ceil(3 * sigma_t) if radius is None else int(radius)
     r = np.arange(-radius, radius + 1, dtype=np.float64)
-    if sigma_t < 0.02:  # exp(-1 / 2 sigma_t^2) underflows to 0: the identity mask
+    if sigma_t < NARROWEST:  # exp(-1 / 2 sigma_t^2) underflows to 0: the identity mask
         return (r == 0).astype(np.float64)
     w = np.exp(-(r**2) / (2.0 * sigma_t**2))
     return w / w.sum()
