@@ -34,6 +34,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check $(SOURCES)
 	$(BIN)/ruff format --check --quiet $(SOURCES)
 	$(BIN)/mypy motionclean
+	$(BIN)/lint-imports
 
 bench: $(VENV)/.bench
 	$(BIN)/python bench/run_all.py

@@ -31,7 +31,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = Path(os.environ.get("MOTIONCLEAN_CORPUS", ROOT.parent / "shared" / "corpus" / "cmu"))
 COMMAND = (
-    "import sys, time\nfrom motionclean.batch import batch_command\n"
+    "import sys, time\nfrom motionclean.cli.batch import batch_command\n"
     "t = time.perf_counter()\ntry:\n"
     "    batch_command.main(sys.argv[1:], standalone_mode=False)\n"
     "finally:\n    print(f'{time.perf_counter() - t:.6f}', file=sys.stderr)"

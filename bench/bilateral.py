@@ -25,7 +25,7 @@ import numpy as np
 from common import CORPUS, best_of, corpus_clips
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 from motionclean.filters.bilateral import bilateral, bilateral_positions
 from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import gaussian

@@ -22,7 +22,7 @@ import numpy as np
 from common import best_of, corpus_clips
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 from motionclean.filters.despike import despike, despike_positions, despike_with_report
 from motionclean.filters.linear import lee_shin
 from motionclean.filters.masks import binomial

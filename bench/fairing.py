@@ -28,7 +28,7 @@ import numpy as np
 from common import CORPUS, best_of
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 from motionclean.filters.fairing import (
     fairing,
     fairing_energy,

@@ -25,9 +25,9 @@ from common import CORPUS, ROOT, best_of
 sys.path.insert(0, str(ROOT))
 
 import motionclean as mc  # noqa: E402
-from motionclean import quat  # noqa: E402
-from motionclean.filters.linear import displacement_coefficients, lee_shin  # noqa: E402
-from motionclean.filters.masks import binomial  # noqa: E402
+from motionclean.core import quat
+from motionclean.filters.linear import displacement_coefficients, lee_shin
+from motionclean.filters.masks import binomial
 
 # ----------------------------------------------------------------------------- reference
 # A straightforward numpy version of the same filter, as one would write it from the paper.

@@ -15,12 +15,12 @@ import numpy as np
 from common import best_of, corpus_clips
 
 import motionclean as mc
-from motionclean import kinematics, quat
-from motionclean.filters import contacts as found
+from motionclean.core import contacts as found
+from motionclean.core import kinematics, quat
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
-from motionclean.pipeline import Pipeline
 from motionclean.steps import footlock
+from motionclean.steps.pipeline import Pipeline
 
 NOISE_DEG = 3.0
 

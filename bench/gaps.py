@@ -24,10 +24,10 @@ import numpy as np
 from common import corpus_clips
 
 import motionclean as mc
-from motionclean import kinematics, quat
+from motionclean.core import kinematics, quat
+from motionclean.core.restpose import rest_frames, trim
 from motionclean.filters.gaps import Gaps, fill_gaps
 from motionclean.filters.interpolate import end_tangent, hermite_positions, hermite_rotations
-from motionclean.restpose import rest_frames, trim
 
 LENGTHS = (3, 6, 12, 24, 40, 60)
 #: Independent plantings per clip (about 1,000 gaps per length in all).

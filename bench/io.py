@@ -25,7 +25,7 @@ import numpy as np
 from common import corpus_clips, elapsed
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 
 
 def measure(clip: Path, out: Path, repeats: int) -> dict[str, float]:

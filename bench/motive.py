@@ -24,8 +24,8 @@ import numpy as np
 from common import ROOT, best_of
 
 import motionclean as mc
-from motionclean import quat
-from motionclean.kinematics import forward
+from motionclean.core import quat
+from motionclean.core.kinematics import forward
 
 sys.path.insert(0, str(ROOT / "scripts"))
 from make_motive_sample import BODIES, METRES_PER_UNIT, motive_export  # noqa: E402

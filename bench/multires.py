@@ -8,7 +8,7 @@ Run ``python bench/multires.py``. Prints markdown tables:
    * edit: ``edit(T m)`` against ``T edit(m)`` for the same per-level gains;
    * Sec. 5.2 protocol: the pyramid of ``m`` with its base moved by ``T`` and its details
      kept, reconstructed, against ``T m``.
-   "ours" is :mod:`motionclean.multires` (quaternions, body-frame displacements); "Euler" is
+   "ours" is :mod:`motionclean.filters.multires` (quaternions, body-frame displacements); "Euler" is
    the conventional method of [1] in 003: the same pyramid (same reduction mask, same 4-point
    expansion) run per channel on unwrapped Euler angles in the joint's channel order.
 2. Attenuation: removing the finest levels of a whole clip, RMS angular acceleration of all
@@ -30,8 +30,9 @@ from common import CORPUS, ROOT, best_of
 sys.path.insert(0, str(ROOT))
 
 import motionclean as mc  # noqa: E402
-from motionclean import metrics, quat  # noqa: E402
-from motionclean import multires as mr  # noqa: E402
+from motionclean.core import quat
+from motionclean.filters import multires as mr
+from motionclean.report.summary import metrics
 
 UP = np.array([0.0, 1.0, 0.0])  # the vertical axis of the CMU clips
 

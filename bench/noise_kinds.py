@@ -24,7 +24,7 @@ import re
 import numpy as np
 from scipy.signal import butter, filtfilt, lfilter
 
-from motionclean import quat
+from motionclean.core import quat
 
 KINDS = (
     "white",

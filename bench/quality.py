@@ -54,14 +54,14 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.signal import butter, filtfilt
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 from motionclean.filters.auto import auto, auto_positions, estimate_noise
 from motionclean.filters.bilateral import bilateral
 from motionclean.filters.design import lowpass, savgol
 from motionclean.filters.fairing import fairing
 from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import binomial, gaussian
-from motionclean.pipeline import Pipeline
+from motionclean.steps.pipeline import Pipeline
 
 CLIPS = ("131_01", "131_02", "131_03")
 NOISE_DEG = (1.0, 3.0, 6.0)

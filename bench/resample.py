@@ -19,10 +19,10 @@ import numpy as np
 from common import best_of, corpus_clips
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 from motionclean.filters import lee_shin, masks
 from motionclean.filters.interpolate import catmull_rom_tangents, hermite_positions
-from motionclean.resampling import resample_motion
+from motionclean.steps.resampling import resample_motion
 
 STEP = 4
 

@@ -30,8 +30,8 @@ import numpy as np
 from common import best_of, corpus_clips, elapsed
 
 import motionclean as mc
-from motionclean import quat
-from motionclean.cli import main as cli_main
+from motionclean.cli.main import main as cli_main
+from motionclean.core import quat
 
 # The child's own high-water mark (VmHWM, Linux): ru_maxrss would also count the resident
 # memory of this benchmark process at the moment it started the child (kept across exec).

@@ -1,7 +1,7 @@
 """World space: forward kinematics on a long clip against one Lee-Shin pass of the same array.
 
 Run: ``python bench/world.py``. 131_02 repeated to 100,000 frames x 31 joints; prints the
-time of :func:`motionclean.kinematics.forward` (joints and end sites) and its ratio to one
+time of :func:`motionclean.core.kinematics.forward` (joints and end sites) and its ratio to one
 5-tap Lee-Shin pass over the clip's rotations (target: under 1), best of 5 in wall-clock and
 in the process's CPU time (both single-threaded; CPU time is steadier on a busy machine).
 """
@@ -15,7 +15,7 @@ import numpy as np
 from common import best_of, corpus_clips
 
 import motionclean as mc
-from motionclean import kinematics
+from motionclean.core import kinematics
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
 

@@ -5,11 +5,10 @@
 >>> mc.save(m, "copy.bvh")           # identity round trip reproduces the file
 """
 
-__version__ = "0.1.0"
-
-from .errors import MotionError, UsageError
+from .core.errors import MotionError, UsageError
+from .core.motion import Motion
+from .core.version import __version__
 from .io import load, save
-from .motion import Motion
-from .pipeline import Pipeline
+from .steps.pipeline import Pipeline
 
 __all__ = ["Motion", "MotionError", "Pipeline", "UsageError", "__version__", "load", "save"]

@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 import motionclean as mc
-from motionclean import quat
-from motionclean.kinematics import forward
+from motionclean.core import quat
+from motionclean.core.kinematics import forward
 
 ROOT = Path(__file__).resolve().parents[1]
 BODIES = {"head": "Head", "hand_l": "lhand", "hand_r": "rhand", "foot_l": "LeftAnkle"}

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import motionclean as mc
-from motionclean import quat
+from motionclean.core import quat
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIP, START, STOP = "131_02.bvh", 150, 450

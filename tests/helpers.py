@@ -1,4 +1,5 @@
-"""Shared test helpers: sample and corpus paths, the CLI runner, clip cutting, angles.
+"""Shared test helpers: sample and corpus paths, the CLI runner, clips as other exporters
+write them, planted noise, clip cutting, angles, an HTML tag collector.
 
 Corpus clips are named here (from ``../shared/corpus/README.md``) rather than globbed, so a
 test parametrised over them is collected and skipped with a reason when the corpus is absent,
@@ -7,17 +8,32 @@ instead of vanishing.
 
 from __future__ import annotations
 
+import math
 import os
+from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from motionclean import quat
-from motionclean.cli import main
+import motionclean as mc
+from motionclean.cli.main import main
+from motionclean.core import quat
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
+#: The six Euler orders of BVH rotation channels.
+ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+EXPORTER_NAMES = (
+    "mixamorig:Hips",
+    "Left Up Leg",
+    "spine.001",
+    "R:Arm 2",
+    "Neck",
+    "joint_7",
+    "mixamorig:LeftHandIndex1",
+    "Bip01 L Thigh",
+)
 NOISY = ROOT / "sample_data" / "131_02_noisy.bvh"
 CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 CORPUS_NAMES = ("131_01.bvh", "131_02.bvh", "131_03.bvh")
@@ -65,3 +81,180 @@ def cut_bvh(source: Path, target: Path, frames: int) -> Path:
         + "".join(lines[at + 2 : at + 2 + frames])
     )
     return target
+
+
+def smooth_synthetic(frames: int = 400, joints: int = 6, seed: int = 0) -> np.ndarray:
+    """Slow rotations: sums of low-frequency sinusoids as rotation vectors (log units)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(frames)[:, None, None] / 120.0
+    freq = rng.uniform(0.2, 1.5, size=(1, joints, 3))
+    phase = rng.uniform(0, 2 * np.pi, size=(1, joints, 3))
+    amp = rng.uniform(0.1, 0.6, size=(1, joints, 3))
+    return quat.exp(amp * np.sin(2 * np.pi * freq * t + phase))
+
+
+def plant(q: np.ndarray, noise_deg, seed: int) -> np.ndarray:
+    """``q exp(e)`` with RMS rotation angle ``2|e|`` of ``noise_deg`` (per column)."""
+    rng = np.random.default_rng(seed)
+    sigma = np.radians(np.asarray(noise_deg, dtype=np.float64)) / (2 * math.sqrt(3))
+    e = rng.normal(size=q.shape[:-1] + (3,)) * np.asarray(sigma)[..., None]
+    return quat.multiply(q, quat.exp(e))
+
+
+def z_up_copy(motion: mc.Motion) -> mc.Motion:
+    """The same clip with Z up: the whole skeleton turned by +90 degrees about X (offsets,
+    end sites and translations turned, every local rotation conjugated), so every world
+    point is turned the same way."""
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+    rotations = quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn)))
+    translations = quat.rotate(turn, motion.translations)
+    return motion.replace(
+        offsets=quat.rotate(turn, motion.offsets),
+        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
+        rotations=rotations,
+        translations=translations,
+    )
+
+
+def with_t_pose(source, target, frames: int = 1, at_end: bool = False):
+    """``source`` with ``frames`` T-pose frames (every rotation channel 0, the root at its
+    first position) before (or after) the motion, as MotionBuilder conversions write."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    body = lines[at + 2 :]
+    first = body[0].split()
+    t_pose = " ".join(first[:3] + ["0.000000"] * (len(first) - 3)) + "\n"
+    rows = body + [t_pose] * frames if at_end else [t_pose] * frames + body
+    target.write_text(
+        "".join(lines[:at]) + f"Frames: {len(rows)}\n" + lines[at + 1] + "".join(rows)
+    )
+    return target
+
+
+class Page(HTMLParser):
+    """Collects every start tag with its attributes, the text, and nesting errors."""
+
+    VOID = {"meta", "br", "img", "input", "link", "hr", "line", "path"}
+
+    def __init__(self, text: str):
+        super().__init__()
+        self.tags: list[tuple[str, dict]] = []
+        self.stack: list[str] = []
+        self.errors: list[str] = []
+        self.text: list[str] = []
+        self.feed(text)
+        self.close()
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+        if tag not in self.VOID:
+            self.stack.append(tag)
+
+    def handle_startendtag(self, tag, attrs):
+        self.tags.append((tag, dict(attrs)))
+
+    def handle_endtag(self, tag):
+        if tag in self.VOID:
+            return
+        if not self.stack or self.stack[-1] != tag:
+            self.errors.append(f"unexpected </{tag}> (open: {self.stack[-3:]})")
+        else:
+            self.stack.pop()
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def edited(motion: mc.Motion, seed: int) -> mc.Motion:
+    """Most rotations turned a little, some by 170 degrees (leaps), some sign-flipped."""
+    rng = np.random.default_rng(seed)
+    q = motion.rotations.copy()
+    small = rng.random(q.shape[:2]) < 0.6
+    q[small] = quat.multiply(q[small], quat.from_axis_angle(np.array([0.48, 0.6, 0.64]), 0.01))
+    large = rng.random(q.shape[:2]) < 0.01
+    q[large] = quat.multiply(q[large], quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), 2.97))
+    q[rng.random(q.shape[:2]) < 0.2] *= -1.0
+    return motion.replace(rotations=q)
+
+
+def exporter_bvh(
+    seed: int, eol: str, bom: bool, indent: str, trailing: bool, fps: int, open_end: bool
+):
+    """A BVH file as some other exporter might write it; returns the bytes and the
+    expected ``(names, parents, channels, values)``."""
+    rng = np.random.default_rng(seed)
+    n_joints = int(rng.integers(2, 7))
+    names = [str(n) for n in rng.permutation(EXPORTER_NAMES)[:n_joints]]
+    parents, path = [-1], [0]  # parents chosen on the open path keep file order = index
+    for j in range(1, n_joints):
+        path = path[: int(rng.integers(1, len(path) + 1))]
+        parents.append(path[-1])
+        path.append(j)
+    channels = []
+    for j in range(n_joints):
+        order = ORDERS[rng.integers(6)]
+        rotation = [f"{a}rotation" for a in order]
+        position = [f"{a}position" for a in rng.permutation(list("XYZ"))]
+        kind = "both" if j == 0 else rng.choice(["rotation", "rotation", "position", "both"])
+        if kind == "rotation":
+            channels.append(tuple(rotation))
+        elif kind == "position":
+            channels.append(tuple(position))
+        else:  # six channels, positions interleaved anywhere
+            slots = set(rng.choice(6, 3, replace=False).tolist())
+            rot, pos = iter(rotation), iter(position)
+            channels.append(tuple(next(pos) if k in slots else next(rot) for k in range(6)))
+    n_frames = int(rng.integers(2, 30))
+    columns = [(j, c) for j in range(n_joints) for c in channels[j]]
+    values = np.where(
+        [c.endswith("rotation") for _, c in columns],
+        rng.uniform(-400, 400, (n_frames, len(columns))),
+        rng.uniform(-100, 100, (n_frames, len(columns))),
+    )
+    # Frames exactly at gimbal lock: the middle rotation angle at +-90 degrees.
+    for j in range(n_joints):
+        middle = [k for k, (jj, c) in enumerate(columns) if jj == j and "rotation" in c][1:2]
+        if middle:
+            locked = rng.uniform(size=n_frames) < 0.3
+            values[locked, middle[0]] = rng.choice([-90.0, 90.0, 270.0], locked.sum())
+    styles = ["%.6f", "%.4f", "%g", "%.2f", "%.0f", "%.9f"]
+    texts = [
+        [styles[(seed + k) % len(styles)] % v for k, v in enumerate(row)] for row in values.tolist()
+    ]
+    values = np.array([[float(t) for t in row] for row in texts])
+
+    lines = ["HIERARCHY"]
+
+    def joint(j: int, depth: int) -> None:
+        pad = indent * depth
+        lines.append(f"{pad}{'ROOT' if parents[j] < 0 else 'JOINT'} {names[j]}")
+        lines.append(f"{pad}{{")
+        lines.append(f"{pad}{indent}OFFSET {rng.uniform(-9, 9):.5f} {rng.uniform(-9, 9):g} 0")
+        lines.append(f"{pad}{indent}CHANNELS {len(channels[j])} {' '.join(channels[j])}")
+        kids = [k for k in range(n_joints) if parents[k] == j]
+        for k in kids:
+            joint(k, depth + 1)
+        if not kids:
+            lines.extend(
+                [
+                    f"{pad}{indent}End Site",
+                    f"{pad}{indent}{{",
+                    f"{pad}{indent * 2}OFFSET 0 1.5 0",
+                    f"{pad}{indent}}}",
+                ]
+            )
+        lines.append(f"{pad}}}")
+
+    joint(0, 0)
+    lines += ["MOTION", f"Frames: {n_frames}", f"Frame Time: {1 / fps:.{rng.integers(6, 17)}g}"]
+    for row in texts:
+        gaps = rng.choice([" ", "\t", "  ", " \t"], len(row) - 1)
+        lines.append(row[0] + "".join(g + t for g, t in zip(gaps, row[1:], strict=True)))
+    if trailing:
+        lines = [line + rng.choice(["", " ", "\t", "  "]) for line in lines]
+    ends = {"lf": ["\n"], "crlf": ["\r\n"], "mixed": ["\n", "\r\n"]}[eol]
+    out = "".join(line + ends[rng.integers(len(ends))] for line in lines)
+    if open_end:
+        out = out.rstrip("\r\n \t")
+    data = (b"\xef\xbb\xbf" if bom else b"") + out.encode("utf-8")
+    return data, (names, parents, channels, values)

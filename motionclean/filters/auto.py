@@ -48,8 +48,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import checks, quat
-from ..threads import in_parts, run_parts
+from ..core import checks, quat
+from ..core.threads import in_parts, run_parts
 from . import noise as noise_model
 from .design import lowpass, savgol
 from .linear import Rows, displacement_coefficients, mirror_indices, row_span

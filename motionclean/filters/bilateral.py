@@ -39,7 +39,7 @@ once, the only Python loops run over blocks of frames, window offsets and passes
 
 Implementation: like :func:`motionclean.filters.lee_shin`, a pass runs over blocks of about
 ``quat.BLOCK_SAMPLES`` samples on contiguous component planes of one reused work area of
-about ``(17 + k) x quat.BLOCK_SAMPLES`` doubles (the plane kernels of :mod:`motionclean.quat`):
+about ``(17 + k) x quat.BLOCK_SAMPLES`` doubles (the plane kernels of :mod:`motionclean.core.quat`):
 per block the samples, the relative rotations and their logs, the weights of the offsets
 ``r = 1 .. k``, the weighted sums, ``exp`` and the product. Memory is the result (plus a
 second buffer when iterating) and the work stays in cache; a pass costs about 1.5-2 Lee-Shin
@@ -52,7 +52,7 @@ import math
 
 import numpy as np
 
-from .. import checks, quat
+from ..core import checks, quat
 from .linear import (
     check_iterations,
     continuity_signs,

@@ -75,7 +75,7 @@ Implementation: the whole array is read for the steps (one dot product and ``aco
 pair), their median and MAD (partial selections, on the columns with a step above the
 floor) and a few comparisons; everything else works on flat indices of the sparse jumps,
 flip steps and gaps, and on the few columns that change, with small-array versions of the
-quaternion product, ``log`` and ``exp`` (the terms of :mod:`motionclean.quat`'s kernels in
+quaternion product, ``log`` and ``exp`` (the terms of :mod:`motionclean.core.quat`'s kernels in
 their order) and the four-point weights tabulated for short gaps. A call costs about one
 Lee-Shin pass on the corpus clips (``python bench/despike.py``).
 """
@@ -89,7 +89,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import checks, quat
+from ..core import checks, quat
 
 __all__ = [
     "DespikeReport",

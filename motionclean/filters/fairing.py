@@ -19,7 +19,7 @@ Arrays are time-major, ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ...
 vectors. Every trailing element (joint, ...) is an independent signal: all signals iterate
 together, each with its own stopping rule, and a signal that has stopped stays frozen.
 Internally signals are held as component planes ``(C, F, N)`` (time on axis 1, signals
-last) and run through the plane kernels of :mod:`motionclean.quat`.
+last) and run through the plane kernels of :mod:`motionclean.core.quat`.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from .. import checks, quat
+from ..core import checks, quat
 from .linear import MAX_ITERATIONS
 
 __all__ = [

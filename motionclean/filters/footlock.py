@@ -1,7 +1,7 @@
 """Foot lock: hold each foot where it stands during ground contacts, by two-bone leg IK.
 
 Pure functions on arrays. World positions ``(F, P, 3)`` and world rotations ``(F, J, 4)``
-come from :func:`motionclean.kinematics.forward`; rotations are unit quaternions
+come from :func:`motionclean.core.kinematics.forward`; rotations are unit quaternions
 ``(w, x, y, z)`` (Hamilton product, ``v' = q v q^-1``). Only the hip, knee and ankle local
 rotations of a leg change, and only on frames where its lock weight is positive; every other
 value is returned bit for bit.
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import quat
-from .contacts import Foot
+from ..core import quat
+from ..core.contacts import Foot
 
 #: The leg never straightens past this fraction of its length (keeps the knee bendable).
 MAX_REACH = 0.9999

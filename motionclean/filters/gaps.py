@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import quat
+from ..core import quat
 from .interpolate import end_tangent, hermite_positions, hermite_rotations
 
 #: Known frames beside an edge that its velocity is fitted to ...

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import quat
+from ..core import quat
 
 
 def catmull_rom_tangents(steps: np.ndarray) -> np.ndarray:

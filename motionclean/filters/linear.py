@@ -13,7 +13,7 @@ vectors; every trailing axis (joints, ...) is filtered at once.
 
 Implementation: a pass costs one logarithm and one exponential per sample (Sec. VII-D),
 fused with the two quaternion products. It runs over blocks of frames on component planes
-(:func:`motionclean.quat.log_planes`, ...) in one reused work area of about 15 x
+(:func:`motionclean.core.quat.log_planes`, ...) in one reused work area of about 15 x
 ``quat.BLOCK_SAMPLES`` doubles, so memory is the result (plus a second buffer when
 iterating) and the work stays in cache; only displacements beyond the two ends are
 mirrored (copied).
@@ -25,7 +25,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .. import checks, quat
+from ..core import checks, quat
 from .masks import validate_mask
 
 __all__ = [
@@ -93,7 +93,7 @@ class Rows(Protocol):
 
 def take_rows(signal: Rows, index: np.ndarray) -> np.ndarray:
     """``signal[index]`` for an array of row numbers, asking ``signal`` (an array, or rows
-    computed when sliced such as :class:`motionclean.quat.Displacements`) only for the
+    computed when sliced such as :class:`motionclean.core.quat.Displacements`) only for the
     span of rows the index covers."""
     low, high = row_span(index)
     return signal[low:high][index - low]

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from .. import checks
+from ..core import checks
 
 __all__ = [
     "MaskError",

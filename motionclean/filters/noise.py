@@ -55,7 +55,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..threads import in_parts, run_parts
+from ..core.threads import in_parts, run_parts
 from .linear import Rows, mirror_indices, row_span, take_rows
 
 __all__ = [
@@ -254,7 +254,7 @@ def _whittle_rho(power, weights, shapes, band, pool=None) -> np.ndarray:
 
 def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -> NoiseModel:
     """Fit the noise model (module docstring) to displacements ``disp`` (n, C, d), n >= 1:
-    an array, or rows computed when sliced (:class:`motionclean.quat.Displacements`).
+    an array, or rows computed when sliced (:class:`motionclean.core.quat.Displacements`).
 
     ``d`` is 3 (rotations in log units, or positions); ``frame_time`` in seconds sets the
     band (``BAND_HZ``) and, with ``window_seconds``, the window length (capped by the clip).

@@ -25,7 +25,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from .. import checks, quat
+from ..core import checks, quat
 from .design import lowpass
 from .interpolate import catmull_rom_tangents, end_tangent, hermite_positions, hermite_rotations
 from .linear import lee_shin_positions, lee_shin_unchecked

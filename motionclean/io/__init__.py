@@ -1,4 +1,4 @@
-"""File formats: load and save a :class:`~motionclean.motion.Motion` by file extension."""
+"""File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
 
-from ..errors import MotionError
-from ..motion import Motion
+from ..core.errors import MotionError
+from ..core.motion import Motion
 from . import bvh, csv, motive
 from .files import read_regular_file
 

@@ -25,14 +25,16 @@ from typing import NoReturn
 
 import numpy as np
 
-from ..errors import MotionError
-from ..motion import (
+from ..core.errors import MotionError
+from ..core.motion import (
     KNOWN_CHANNELS,
+    MAX_FRAME_TIME,
+    MIN_FRAME_TIME,
     ROTATION_CHANNELS,
     UNCHANGED_TOLERANCE,
     Motion,
 )
-from ..threads import in_parts, run_parts
+from ..core.threads import in_parts, run_parts
 from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
@@ -121,10 +123,6 @@ def _gaps_and_lengths(starts: np.ndarray, ends: np.ndarray, dtype=None):
 
 #: Values per part of the frame rows read on a thread of its own.
 _PART_VALUES = 1 << 19
-
-#: Frame times outside these (seconds) give rates no capture has: refused.
-MIN_FRAME_TIME = 1e-6
-MAX_FRAME_TIME = 3600.0
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:

@@ -7,7 +7,7 @@ decimal numbers (exponents allowed); inf is an error. The layout is detected fro
 
 Blank cells (empty, or the literal NaN in any case) are tracker dropouts: a joint or body
 whose cells are all blank on a row is missing on that frame (``Motion.missing``; its arrays
-hold the nearest known sample, see :func:`motionclean.motion.hold_missing`). A partly blank
+hold the nearest known sample, see :func:`motionclean.core.motion.hold_missing`). A partly blank
 joint or body is an error naming the line and its blank columns; the time and frame
 columns are never blank.
 
@@ -76,10 +76,17 @@ from typing import NamedTuple, NoReturn
 
 import numpy as np
 
-from .. import quat
-from ..errors import MotionError
-from ..motion import KNOWN_CHANNELS, ROTATION_CHANNELS, Motion, hold_missing
-from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME, BvhText
+from ..core import quat
+from ..core.errors import MotionError
+from ..core.motion import (
+    KNOWN_CHANNELS,
+    MAX_FRAME_TIME,
+    MIN_FRAME_TIME,
+    ROTATION_CHANNELS,
+    Motion,
+    hold_missing,
+)
+from .bvh import BOM, BvhText
 from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,

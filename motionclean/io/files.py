@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MotionError
+from ..core.errors import MotionError
 
 __all__ = [
     "KEEP_ON_DISK_BYTES",

@@ -50,9 +50,9 @@ from typing import NoReturn
 
 import numpy as np
 
-from ..errors import MotionError
-from ..motion import Motion
-from .bvh import BOM, MAX_FRAME_TIME, MIN_FRAME_TIME
+from ..core.errors import MotionError
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from .bvh import BOM
 from .csv import (
     RIGID_CHANNELS,
     TIME_TOLERANCE,

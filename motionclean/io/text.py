@@ -13,9 +13,9 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import MotionError
-from ..motion import Motion
-from ..threads import in_parts, run_parts, thread_count
+from ..core.errors import MotionError
+from ..core.motion import Motion
+from ..core.threads import in_parts, run_parts, thread_count
 
 
 def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
@@ -36,7 +36,7 @@ def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
 #: Work on arrays in pieces of this many items (or bytes) so temporaries stay in cache.
 _CHUNK_ITEMS = 32768
 _CHUNK_BYTES = 131072
-#: Items (or bytes) per part run on a thread of its own (:mod:`motionclean.threads`); a
+#: Items (or bytes) per part run on a thread of its own (:mod:`motionclean.core.threads`); a
 #: part's cell offsets and texts are its working set, as many at once as there are threads.
 _PART_ITEMS = 4 * _CHUNK_ITEMS
 _PART_BYTES = 32 * _CHUNK_BYTES
@@ -169,7 +169,7 @@ def parse_numbers(
     index of the first token that is not a finite number of magnitude at most ``limit``
     (``-1`` when all are). With ``index`` (sorted ints), only the tokens ``index[i]`` are
     converted, in that order (gathered chunk by chunk, so no full copy of the offsets is
-    made). Parts of the tokens run on threads (:mod:`motionclean.threads`).
+    made). Parts of the tokens run on threads (:mod:`motionclean.core.threads`).
     """
     n = starts.size if index is None else index.size
     values = np.empty(n)

@@ -2,7 +2,7 @@
 
 Columns: ``time`` (seconds from the first frame), then ``<point>.x,<point>.y,<point>.z`` for
 every joint and end site (``<joint>_end``) in the order of
-:func:`motionclean.kinematics.forward` with end sites; values in the file's length unit with
+:func:`motionclean.core.kinematics.forward` with end sites; values in the file's length unit with
 nine significant digits; blank where a point's place depends on a missing sample (a
 tracker dropout).
 """
@@ -15,9 +15,9 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from .. import kinematics
-from ..motion import Motion
-from ..threads import in_parts
+from ..core import kinematics
+from ..core.motion import Motion
+from ..core.threads import in_parts
 from . import text
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..filters.auto import FAMILIES, auto, auto_positions
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, format_params
 
 
 def _auto_note(result, column: int, unit: str) -> dict:
@@ -44,13 +44,6 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     return data
 
 
-def format_choice(chosen: dict) -> str:
-    """The chosen filter's parameters as ``mask=binomial, k=3``."""
-    return ", ".join(
-        f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in chosen.items()
-    )
-
-
 def _format_note(note: dict, positions: bool) -> str:
     """What auto found for one joint: the noise (level, correlation, loud stretches), the
     choice and its expected error."""
@@ -67,7 +60,7 @@ def _format_note(note: dict, positions: bool) -> str:
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); chose {format_choice(note['filter'])}{along}; "
+        f"{band}{where}); chose {format_params(note['filter'])}{along}; "
         f"expected error {error} {unit}"
     )
 

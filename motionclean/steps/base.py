@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import UsageError
-from ..motion import Motion
+from ..core.errors import UsageError
+from ..core.motion import Motion
 
 
 @dataclass(frozen=True)
@@ -204,6 +204,13 @@ def crop_runs(
     end = last + 1 if stop_exclusive else last
     cut = [[max(a, first), min(b, end)] for a, b in runs]
     return [[a, b] for a, b in cut if (a < b if stop_exclusive else a <= b)]
+
+
+def format_params(params: dict) -> str:
+    """A step's parameters as ``mask=binomial, k=3`` (floats in ``%g``)."""
+    return ", ".join(
+        f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items()
+    )
 
 
 def format_runs(runs: list[list[int]]) -> str:

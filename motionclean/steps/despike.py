@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from .. import kinematics
-from ..errors import UsageError
+from ..core import kinematics
+from ..core.errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
 from .base import Param, StepData, StepSpec, brief_runs, crop_runs, format_runs, shift_runs
 

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
+from ..core.motion import Motion
 from ..filters.gaps import fill_gaps
-from ..motion import Motion
 from .base import Param, StepSpec, brief_runs, format_runs, shift_runs
 
 #: Default longest gap filled, seconds: about what an occluded marker set is lost for when

@@ -1,6 +1,6 @@
 """The ``footlock`` step: feet that stand stay planted.
 
-Contacts are found in world space (:mod:`motionclean.filters.contacts`); during each one the
+Contacts are found in world space (:mod:`motionclean.core.contacts`); during each one the
 ankle is held at the median of its positions by two-bone leg IK (:mod:`motionclean.filters.
 footlock`), eased in and out. Only the hip, knee and ankle rotations of a leg change, and
 only around its contacts; a clip with no ground contact is left as it is.
@@ -10,48 +10,24 @@ from __future__ import annotations
 
 import math
 
-from .. import kinematics
-from ..filters import contacts as found
+from ..core import contacts as found
+from ..core import kinematics
+from ..core.motion import Motion
 from ..filters.footlock import lock_feet
-from ..motion import Motion
 from .base import Param, StepData, StepSpec, crop_runs, shift_runs
-
-#: Loose thresholds that keep a contact going, relative to the ones that start it.
-HEIGHT_HYSTERESIS = 4.0 / 3.0
-SPEED_HYSTERESIS = 5.0 / 3.0
 
 
 def contact_params(params: dict) -> found.ContactParams:
     """The step's parameters as contact thresholds (body heights, seconds)."""
-    return found.ContactParams(
-        height=params["height"],
-        height_off=params["height"] * HEIGHT_HYSTERESIS,
-        speed=params["speed"],
-        speed_off=params["speed"] * SPEED_HYSTERESIS,
-        min_duration=params["min_seconds"],
-    )
-
-
-def find_feet(motion: Motion, params: dict) -> tuple[list[found.Foot], int, float]:
-    """Feet, up axis and body height of ``motion`` under the step's parameters."""
-    up = kinematics.up_axis(motion, None if params["up"] == "auto" else params["up"])
-    height = kinematics.body_height(motion, up)
-    feet = found.find_feet(
-        kinematics.point_parents(motion),
-        kinematics.rest_positions(motion),
-        up,
-        height,
-        motion.names,
-        params["feet"],
-    )
-    return feet, up, height
+    return found.ContactParams.starting_at(params["height"], params["speed"], params["min_seconds"])
 
 
 def find_contacts(motion: Motion, params: dict):
     """Feet, contacts ``(F, n_feet)``, world positions and rotations of joints and end
     sites, up axis, body height and ground height of ``motion`` under the step's
     parameters."""
-    feet, up, height = find_feet(motion, params)
+    up = None if params["up"] == "auto" else params["up"]
+    feet, up, height = found.skeleton_feet(motion, params["feet"], up)
     positions, world = kinematics.forward(motion, end_sites=True)
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
@@ -127,7 +103,7 @@ STEP = StepSpec(
         Param(
             "height",
             "float",
-            0.06,
+            found.ContactParams.height,
             "a contact starts with the foot's lowest point this close to the ground, "
             "body heights (stays up to 4/3 of it)",
             minimum=0.0,
@@ -137,7 +113,7 @@ STEP = StepSpec(
         Param(
             "speed",
             "float",
-            0.15,
+            found.ContactParams.speed,
             "... and the ankle slower than this, body heights per second (stays up to 5/3)",
             minimum=0.0,
             exclusive_minimum=True,
@@ -146,7 +122,7 @@ STEP = StepSpec(
         Param(
             "min_seconds",
             "float",
-            0.1,
+            found.ContactParams.min_duration,
             "shorter contacts are ignored, seconds",
             minimum=0.0,
             maximum=math.inf,

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UsageError
+from ..core.errors import UsageError
 from ..filters import design, masks
 from ..filters.linear import lee_shin, lee_shin_positions
 from .base import Param, StepData, StepSpec

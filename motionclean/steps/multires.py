@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .. import multires
-from ..errors import UsageError
+from ..core.errors import UsageError
+from ..filters import multires
 from .base import Param, StepData, StepSpec
 
 MULTIRES_GAINS = (0.0,)  # without gains or level: remove the finest band

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from ..errors import UsageError
+from ..core.errors import UsageError
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..filters.resample import ANTIALIAS_CUTOFF
-from ..io.bvh import MAX_FRAME_TIME, MIN_FRAME_TIME
-from ..motion import Motion
-from ..resampling import new_length, resample_motion, same_rate
 from .base import Param, StepSpec
+from .resampling import new_length, resample_motion, same_rate
 
 
 def _resolve(params: dict, where: str) -> None:

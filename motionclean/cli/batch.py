@@ -1,0 +1,293 @@
+"""``motionclean batch``: every clip under a folder, in parallel, into a mirrored folder tree.
+
+The per-clip work is :func:`motionclean.run.jobs.clean_file` (a picklable
+:class:`~motionclean.run.jobs.Job` in, a small :class:`~motionclean.run.jobs.FileResult` out,
+never raising for a bad clip), run on the local pool of :mod:`motionclean.run.pool`. The
+command never writes inside IN_DIR, writes every file atomically, keeps going when a clip
+fails, and exits 1 naming each failure.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path, PurePosixPath
+
+import click
+
+from ..core.errors import UsageError
+from ..io import atomic_write
+from ..report.html import render_index
+from ..run import cluster
+from ..run.jobs import FileResult, Job
+from ..run.pool import default_workers, run_jobs
+from .options import FOLDER_PATH, PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+
+#: Clips ``batch`` takes when no ``--glob`` is given.
+DEFAULT_GLOBS = ("*.bvh", "*.csv")
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
+    """Clip paths under ``root``, relative to it, sorted.
+
+    A file is taken when its relative path matches one of ``patterns`` from the right
+    (``PurePath.match``: ``*.bvh`` matches at any depth, ``walk/*.bvh`` in any folder named
+    walk), case-insensitively. Hidden files and folders (name starting with ".") are left
+    out; symbolic links to folders are not followed.
+    """
+    patterns = [p.lower() for p in patterns]
+    found = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        base = PurePosixPath(Path(folder).relative_to(root).as_posix())
+        for name in files:
+            if name.startswith("."):
+                continue
+            rel = base / name
+            lowered = PurePosixPath(rel.as_posix().lower())
+            if any(lowered.match(p) for p in patterns):
+                found.append(rel)
+    return sorted(found)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    return path == folder or path.is_relative_to(folder)
+
+
+def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None:
+    """Refuse any layout that could write inside IN_DIR (usage errors)."""
+    if not in_dir.exists():
+        raise UsageError(f"{in_dir}: no such folder")
+    if not in_dir.is_dir():
+        raise UsageError(f"{in_dir}: not a folder")
+    source = in_dir.resolve()
+    for option, folder in (("-o", out_dir), ("--report-dir", report_dir)):
+        if folder is None:
+            continue
+        if folder.exists() and not folder.is_dir():
+            raise UsageError(f"{folder}: {option} must be a folder")
+
+        if _inside(folder.resolve(), source):
+            raise UsageError(
+                f"{folder}: {option} is inside the input folder {in_dir}; "
+                "batch never writes there, choose a folder outside it"
+            )
+    for option, folder in (("-o", out_dir), ("--report-dir", report_dir)):
+        if folder is None:
+            continue
+        try:  # once, up front: a folder that cannot be made fails no clip after clip
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise UsageError(f"{folder}: cannot create {option}: {error.strerror}") from None
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (``kill``) stops the run as Ctrl-C does: no new clips, workers shut down."""
+
+    def interrupt(signum, frame) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextmanager
+def _progress(total: int) -> Iterator[Callable[[str], None]]:
+    """A progress bar on stderr when it is a terminal; otherwise nothing is shown.
+
+    Yields ``advance(name)``, called once per finished clip.
+    """
+    stream = sys.stderr
+    if total == 0 or not stream.isatty():
+        yield lambda _name: None
+        return
+    with click.progressbar(
+        length=total, label="cleaning", file=stream, show_pos=True, item_show_func=lambda name: name
+    ) as bar:
+        yield lambda name: bar.update(1, name)
+
+
+def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, workers: int) -> str:
+    """The end-of-run table: one line per clip, then the totals."""
+    width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
+    head = (
+        f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
+        f"{'dev max':>9}  status"
+    )
+    lines = [head, "-" * len(head)]
+    for name, r in rows:
+        shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
+        if r.status == "ok":
+            removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
+            lines.append(
+                f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
+                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok"
+            )
+        else:
+            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}"
+            lines.append(f"{shown:<{width}}{blank}  {r.status.upper()}")
+    counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
+    lines.append("-" * len(head))
+    plural = "s" if len(rows) != 1 else ""
+    lines.append(
+        f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
+        f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
+        f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
+        "deviation: degrees)"
+    )
+    return "\n".join(lines)
+
+
+@click.command("batch")
+@click.argument("in_dir", type=FOLDER_PATH)
+@click.option(
+    "-o",
+    "--output",
+    "out_dir",
+    required=True,
+    metavar="OUT_DIR",
+    type=FOLDER_PATH,
+    help="Folder for the cleaned clips; IN_DIR's tree is mirrored under it.",
+)
+@PIPE_OPTION
+@STEP_OPTION
+@click.option(
+    "-j",
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="Worker processes (default: the number of cores).",
+)
+@click.option(
+    "--glob",
+    "patterns",
+    multiple=True,
+    metavar="PATTERN",
+    help="Which files are clips, matched on the path relative to IN_DIR, "
+    "case-insensitive; repeatable (default: *.bvh and *.csv).",
+)
+@click.option(
+    "--report-dir",
+    type=FOLDER_PATH,
+    metavar="DIR",
+    help="Also write an HTML page per clip (mirrored tree) and index.html here.",
+)
+@click.option(
+    "--skip-existing",
+    is_flag=True,
+    help="Leave clips whose output (and page) already exists: resumes a run.",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    default=None,
+    help="Run the clips as tasks on a Dask cluster: a scheduler address such as "
+    "tcp://HOST:8786 (workers read and write the same paths: shared storage), or local[:N] "
+    "for a cluster of N processes on this machine. Needs the dask extra.",
+)
+@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+def batch_command(
+    in_dir: str,
+    out_dir: str,
+    pipe: str | None,
+    steps: tuple[str, ...],
+    jobs: int | None,
+    patterns: tuple[str, ...],
+    report_dir: str | None,
+    skip_existing: bool,
+    scheduler: str | None,
+    quiet: bool,
+) -> None:
+    """Clean every clip under IN_DIR into OUT_DIR, in parallel.
+
+    Clips are found recursively; the folder tree is mirrored under OUT_DIR and nothing is
+    ever written inside IN_DIR. A clip that fails is named on stderr and the others go on;
+    the exit code is then 1. Without -p or -f the default pipeline runs.
+    """
+    pipeline = pipeline_from_options(pipe, steps)
+    source_root, out_root = Path(in_dir), Path(out_dir)
+    pages = Path(report_dir) if report_dir else None
+    _check_folders(source_root, out_root, pages)
+    clips = find_clips(source_root, patterns or DEFAULT_GLOBS)
+    if not clips:
+        raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
+    resolved_in = source_root.resolve()
+    tables = tuple(pipeline.describe())
+    work: list[Job] = []
+    work_names: list[str] = []
+    results: dict[str, FileResult] = {}
+    for rel in clips:
+        source, target = source_root / rel, out_root / rel
+        if _inside(target.resolve(), resolved_in):
+            raise UsageError(f"{target}: would be written inside the input folder {in_dir}")
+        page = None if pages is None else pages / f"{rel}.html"
+        if skip_existing and target.exists() and (page is None or page.exists()):
+            results[str(rel)] = FileResult(
+                str(source), str(target), "skipped", report=None if page is None else str(page)
+            )
+            continue
+        work.append(Job(str(source), str(target), tables, None if page is None else str(page)))
+        work_names.append(str(rel))
+
+    if scheduler is not None and jobs is not None:
+        raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
+    if scheduler is not None:
+        cluster.parse_scheduler(scheduler)  # a bad address fails before any work
+    start = time.perf_counter()
+    with _progress(len(work)) as advance, _sigterm_as_interrupt():
+        if scheduler is None or not work:  # nothing to send: no cluster to start
+            workers = min(jobs or default_workers(), max(len(work), 1))
+            for index, result in run_jobs(work, workers):
+                results[work_names[index]] = result
+                advance(work_names[index])
+        else:
+            with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                if not quiet:
+                    click.echo(f"Dask dashboard: {client.dashboard_link}")
+                for index, result in cluster.run_jobs_on(client, work):
+                    results[work_names[index]] = result
+                    advance(work_names[index])
+    seconds = time.perf_counter() - start
+
+    rows = [(str(rel), results[str(rel)]) for rel in clips]
+    if pages is not None:
+        _write_index(pages, rows, tables, in_dir)
+    if not quiet:
+        click.echo(format_summary(rows, seconds, workers))
+    raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
+
+
+def _write_index(
+    pages: Path, rows: Sequence[tuple[str, FileResult]], tables: Sequence[dict], in_dir: str
+) -> None:
+    entries = []
+    for name, r in rows:
+        page = pages / f"{name}.html"
+        href = f"{name}.html" if r.status != "failed" and page.exists() else None
+        entries.append(
+            {
+                "file": name,
+                "href": href,
+                "frames": r.frames,
+                "noise_before": r.noise_before,
+                "noise_after": r.noise_after,
+                "deviation_max": r.deviation_max,
+                "status": r.status,
+                "error": r.error,
+            }
+        )
+    pages.mkdir(parents=True, exist_ok=True)
+    index = render_index(entries, list(tables), f"motionclean batch: {in_dir}")
+    atomic_write(pages / "index.html", index.encode("utf-8"))

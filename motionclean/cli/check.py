@@ -1,0 +1,306 @@
+"""Regression check for CI: clean sample clips and compare their figures with a baseline.
+
+``motionclean check CLIP... --baseline FILE.json`` runs the pipeline on each clip (nothing is
+written) and compares, per clip, the figures of :class:`~motionclean.cli.batch.FileResult`:
+
+- ``noise_after``: RMS angular acceleration after cleaning, all joints (deg/s^2);
+- ``deviation_max`` / ``deviation_rms``: rotation angle between input and output (degrees);
+- ``frames`` and ``noise_before`` guard the input: when they differ the clip itself changed.
+
+A figure is worse when ``now > baseline * (1 + T) + ABSOLUTE`` (relative tolerance ``T``,
+default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from failing on
+round-off). Lower is better for all three. The same limits apply per joint to the noise
+after cleaning and the largest deviation, so a regression on one joint fails even when the
+clip's maximum is another joint's. ``--update`` records figures instead (merged into the
+baseline; ``--replace`` starts a new one). Clips are keyed by their path relative to the
+baseline's folder.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import click
+
+from ..core.errors import MotionError, UsageError
+from ..core.version import __version__
+from ..io import atomic_write
+from ..report.summary import json_safe, to_json
+from ..run.jobs import FileResult, Job
+from ..run.pool import default_workers, run_jobs
+from .options import (
+    FILE_PATH,
+    PIPE_OPTION,
+    STEP_OPTION,
+    FiniteRange,
+    pipeline_from_options,
+    raise_failures,
+)
+
+__all__ = ["DEFAULT_TOLERANCE", "FIGURES", "check_command", "compare", "read_baseline"]
+
+#: Default relative tolerance of ``--tolerance``.
+DEFAULT_TOLERANCE = 0.01
+#: Absolute slack added to every limit (units of the figure).
+ABSOLUTE = 1e-9
+#: Figures compared: key, label, and whether only a rise fails (else any change does).
+FIGURES = (
+    ("noise_before", "noise before, deg/s^2", False),
+    ("noise_after", "noise after, deg/s^2", True),
+    ("deviation_max", "deviation max, deg", True),
+    ("deviation_rms", "deviation RMS, deg", True),
+)
+#: Per-joint figures compared (lower is better): key, label.
+JOINT_FIGURES = (
+    ("noise_after", "noise after, deg/s^2"),
+    ("deviation_max", "deviation max, deg"),
+)
+FORMAT = 2
+
+
+def clip_key(path: str, baseline: Path) -> str:
+    """The baseline key of a clip: its path as given, relative to the baseline's folder
+    (symbolic links are not followed), so a baseline committed beside its clips works on
+    every machine and in every working folder."""
+    folder = os.path.abspath(baseline.parent)
+    return Path(os.path.relpath(os.path.abspath(path), folder)).as_posix()
+
+
+def read_baseline(path: Path) -> dict[str, Any]:
+    """Load a baseline file written by ``--update``."""
+    if not path.exists():
+        raise UsageError(f"{path}: no such baseline; create it with --update")
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise MotionError(f"not a readable baseline: {error}", path) from None
+    if not (isinstance(document, dict) and isinstance(document.get("clips"), dict)):
+        raise MotionError('not a motionclean baseline (no "clips" table)', path)
+    return document
+
+
+def _figures(result: FileResult) -> dict[str, Any]:
+    out: dict[str, Any] = {"frames": result.frames}
+    out.update({key: getattr(result, key) for key, _, _ in FIGURES})
+    out["joints"] = result.joints
+    return out
+
+
+def _worse(value: float | None, ref: Any, tolerance: float) -> bool:
+    return (
+        isinstance(ref, int | float)
+        and value is not None
+        and value > ref * (1 + tolerance) + ABSOLUTE
+    )
+
+
+def compare_joints(
+    now: dict[str, Any], base: dict[str, Any], tolerance: float
+) -> list[tuple[str, str, float, float]]:
+    """Per joint, the figures that got worse: ``(joint, label, baseline, now)`` rows. A
+    smoothing regression on one joint shows here even when the clip's maximum is another
+    joint's (a repaired flip, say)."""
+    rows = []
+    for joint, figures in (now.get("joints") or {}).items():
+        ref = (base.get("joints") or {}).get(joint) or {}
+        for key, label in JOINT_FIGURES:
+            if _worse(figures.get(key), ref.get(key), tolerance):
+                rows.append((joint, label, float(ref[key]), float(figures[key])))
+    return rows
+
+
+def compare(
+    now: dict[str, Any], base: dict[str, Any], tolerance: float
+) -> list[tuple[str, float | None, float | None, str]]:
+    """Rows ``(label, baseline, now, verdict)``; verdict is ok, better, WORSE or CHANGED."""
+    rows = []
+    if now.get("frames") != base.get("frames"):
+        rows.append(("frames", base.get("frames"), now.get("frames"), "CHANGED"))
+    for key, label, rise_only in FIGURES:
+        value, ref = now.get(key), base.get(key)
+        if not isinstance(ref, int | float) or value is None:
+            rows.append((label, None, value, "CHANGED"))
+            continue
+        slack = abs(ref) * tolerance + ABSOLUTE
+        if value > ref + slack:
+            verdict = "WORSE" if rise_only else "CHANGED"
+        elif value < ref - slack:
+            verdict = "better" if rise_only else "CHANGED"
+        else:
+            verdict = "ok"
+        rows.append((label, float(ref), value, verdict))
+    return rows
+
+
+def _fmt(value: float | None) -> str:
+    return "-" if value is None else f"{value:,.6g}"
+
+
+def _change(ref: float | None, value: float | None) -> str:
+    if ref is None or value is None or ref == 0:
+        return "-"
+    return f"{value / ref - 1:+.1%}"
+
+
+def format_check(table: Sequence[tuple[str, list[tuple]]], recorded: bool = False) -> str:
+    """The comparison table: one line per clip and figure (``recorded``: values only)."""
+    width = min(max((len(k) for k, _ in table), default=4) + 2, 60)
+    head = f"{'clip':<{width}}{'figure':<24}"
+    head += (
+        f"{'recorded':>13}" if recorded else (f"{'baseline':>13}{'now':>13}{'change':>9}  result")
+    )
+    lines = [head, "-" * len(head)]
+    for key, rows in table:
+        shown = key if len(key) < width - 1 else "..." + key[-(width - 5) :]
+        for n, (label, ref, value, verdict) in enumerate(rows):
+            line = f"{shown if n == 0 else '':<{width}}{label:<24}"
+            if recorded:
+                line += f"{_fmt(value):>13}"
+            else:
+                line += f"{_fmt(ref):>13}{_fmt(value):>13}{_change(ref, value):>9}  {verdict}"
+            lines.append(line)
+    return "\n".join(lines)
+
+
+def _percent(tolerance: float) -> str:
+    return f"{tolerance * 100:g}%"
+
+
+def _why(
+    key: str, label: str, ref: float | None, value: float | None, verdict: str, tolerance: float
+) -> str:
+    if verdict == "WORSE":
+        return (
+            f"{key}: {label.split(',')[0]} got worse: {_fmt(ref)} -> {_fmt(value)} "
+            f"({_change(ref, value)}, tolerance {_percent(tolerance)})"
+        )
+    return (
+        f"{key}: {label.split(',')[0]} changed from {_fmt(ref)} to {_fmt(value)}: the "
+        "clip is not the one of the baseline; rerun with --update if that is intended"
+    )
+
+
+@click.command("check")
+@click.argument("clips", nargs=-1, required=True, type=FILE_PATH)
+@PIPE_OPTION
+@STEP_OPTION
+@click.option(
+    "--baseline",
+    required=True,
+    type=FILE_PATH,
+    help="Baseline JSON file with the expected figures per clip.",
+)
+@click.option(
+    "--update",
+    is_flag=True,
+    help="Record these clips' figures in the baseline (other clips in it are kept) "
+    "instead of checking.",
+)
+@click.option(
+    "--replace",
+    is_flag=True,
+    help="With --update: write a new baseline holding only these clips.",
+)
+@click.option(
+    "--tolerance",
+    type=FiniteRange(min=0.0),
+    default=DEFAULT_TOLERANCE,
+    metavar="T",
+    show_default=True,
+    help="Relative tolerance: a figure fails above baseline x (1 + T).",
+)
+def check_command(
+    clips: tuple[str, ...],
+    pipe: str | None,
+    steps: tuple[str, ...],
+    baseline: str,
+    update: bool,
+    replace: bool,
+    tolerance: float,
+) -> None:
+    """Clean CLIPs and compare their figures with a baseline, for CI.
+
+    Exit 0 when every clip's noise after cleaning and deviation are within the tolerance
+    of the baseline, 1 naming each clip and figure that got worse. Nothing is written
+    except the baseline with --update.
+    """
+    pipeline = pipeline_from_options(pipe, steps)
+    baseline_path = Path(baseline)
+    if replace and not update:
+        raise UsageError("--replace goes with --update")
+    fresh = update and (replace or not baseline_path.exists())
+    document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
+    keys = [clip_key(c, baseline_path) for c in clips]
+    tables = tuple(pipeline.describe())
+    jobs = [Job(os.fspath(c), None, tables) for c in clips]
+    results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
+    failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]
+
+    if update:
+        raise_failures(failures)  # never write a baseline from a partial run
+        kept = {} if fresh else dict(document["clips"])
+        kept.update({k: _figures(results[i]) for i, k in enumerate(keys)})
+        record = {
+            "motionclean": __version__,
+            "format": FORMAT,
+            "pipeline": list(tables),
+            "clips": kept,
+        }
+        atomic_write(baseline_path, to_json(record))
+        recorded = [
+            (k, [(label, None, getattr(results[i], key), "recorded") for key, label, _ in FIGURES])
+            for i, k in enumerate(keys)
+        ]
+        click.echo(format_check(recorded, recorded=True))
+        others = len(kept) - len(set(keys))
+        click.echo(
+            f"baseline written: {baseline_path} ({len(keys)} clips recorded"
+            + (f", {others} others kept)" if others else ")")
+        )
+        return
+
+    table: list[tuple[str, list[tuple]]] = []
+    problems = list(failures)
+    for i, key in enumerate(keys):
+        if results[i].status != "ok":
+            continue
+        base = document["clips"].get(key)
+        if base is None:
+            problems.append(
+                f"{key}: not in the baseline {baseline_path}; record it with --update "
+                "(the other clips in it are kept)"
+            )
+            continue
+        now = _figures(results[i])
+        rows = compare(now, base, tolerance)
+        table.append((key, rows))
+        problems += [
+            _why(key, label, ref, value, verdict, tolerance)
+            for label, ref, value, verdict in rows
+            if verdict in ("WORSE", "CHANGED")
+        ]
+        joints = compare_joints(now, base, tolerance)
+        if joints:
+            shown = ", ".join(
+                f"{joint} {label.split(',')[0]} {_change(ref, value)}"
+                for joint, label, ref, value in joints[:3]
+            )
+            more = f" and {len(joints) - 3} more" if len(joints) > 3 else ""
+            problems.append(
+                f"{key}: {len({j for j, *_ in joints})} joints got worse "
+                f"(tolerance {_percent(tolerance)}): {shown}{more}"
+            )
+    if table:
+        click.echo(format_check(table))
+    if document.get("pipeline") != json_safe(list(tables)):
+        click.echo("note: the pipeline differs from the one the baseline was recorded with")
+    if not problems:
+        click.echo(
+            f"check passed: {len(keys)} clip{'s' if len(keys) != 1 else ''} within "
+            f"{_percent(tolerance)} of {baseline_path}"
+        )
+    raise_failures(problems)

@@ -1,0 +1,468 @@
+"""The ``motionclean`` command line.
+
+Exit codes: 0 success, 1 a data error (bad file, failed step, failed check), 2 a usage
+error (bad option or pipeline, refused overwrite). Errors are one line on stderr,
+``motionclean: error: FILE[:LINE]: what is wrong``; ``--debug`` shows the traceback.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import textwrap
+import traceback
+from pathlib import Path
+
+import click
+import numpy as np
+
+from ..core import kinematics
+from ..core.errors import MotionError, UsageError
+from ..core.version import __version__
+from ..filters.auto import estimate_noise
+from ..filters.gaps import Gaps
+from ..io import atomic_write, load, save
+from ..io.world_csv import world_csv_pieces
+from ..report import metrics
+from ..report.summary import build_report, build_series, format_table
+from ..report.world import contact_figures, format_contacts
+from ..run.jobs import (
+    blend_clips,
+    check_compatible,
+    clean_clip,
+    render_report,
+    stitch_clips,
+    write_outputs,
+)
+from ..run.memory import one_malloc_arena
+from ..steps import COMMON_PARAMS, REGISTRY
+from ..steps.base import brief_runs
+from ..steps.pipeline import DEFAULT_STEPS, Pipeline
+from .batch import batch_command
+from .check import check_command
+from .options import (
+    FILE_PATH,
+    PATH,
+    PIPE_OPTION,
+    STEP_OPTION,
+    FiniteRange,
+    check_clip_output,
+    check_output,
+    check_report_output,
+    pipeline_from_options,
+    refuse_overwrite,
+)
+
+
+def _echo_error(message: str) -> None:
+    click.echo(f"motionclean: error: {message}", err=True)
+
+
+def _interrupted() -> None:
+    """Ctrl-C or SIGTERM: say so and leave at once, exit code 130. Outputs are written
+    atomically, so nothing partial stays; the interpreter's exit hooks are skipped so the
+    exit does not wait for worker processes still finishing a clip (they exit on their own
+    when their parent is gone)."""
+    _echo_error("interrupted")
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console entry point: run the click group and turn every error into one line."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in args
+    one_malloc_arena()
+    if not args:  # a bare `motionclean` shows the help
+        args = ["--help"]
+    try:
+        code = cli.main(args=args, prog_name="motionclean", standalone_mode=False)
+    except MotionError as error:
+        if debug:
+            traceback.print_exc()
+        _echo_error(str(error))
+        sys.exit(error.exit_code)
+    except click.exceptions.Exit as done:
+        sys.exit(done.exit_code)
+    except click.Abort:  # click's form of KeyboardInterrupt
+        _interrupted()
+    except click.ClickException as error:
+        if debug:
+            traceback.print_exc()
+        _echo_error(error.format_message().replace("\n", " "))
+        sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
+    except KeyboardInterrupt:
+        _interrupted()
+    except Exception as error:  # a bug: still one line unless --debug
+        if debug:
+            traceback.print_exc()
+        _echo_error(f"internal error: {type(error).__name__}: {error} (rerun with --debug)")
+        sys.exit(1)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="motionclean")
+@click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
+def cli(debug: bool) -> None:
+    """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
+
+
+cli.add_command(batch_command)
+cli.add_command(check_command)
+
+
+# ----------------------------------------------------------------------------- commands
+
+
+#: Widest joint name ``info`` prints in full; a longer one is cut to this and ends "...".
+INFO_NAME_WIDTH = 40
+
+
+def _shortened(name: str) -> str:
+    return name if len(name) <= INFO_NAME_WIDTH else name[: INFO_NAME_WIDTH - 3] + "..."
+
+
+@cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
+@click.argument("clip", type=PATH)
+def info(clip: str) -> None:
+    """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
+    motion = load(clip)
+    layout = motion.layout
+    click.echo(f"{clip}")
+    click.echo(
+        f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
+        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s "
+        "(frames x frame time; frames are numbered from 0)"
+    )
+    click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
+    up = kinematics.up_axis(motion)
+    click.echo(
+        f"  up axis: {kinematics.AXES[up]}   body height: "
+        f"{kinematics.body_height(motion, up):.4g} units (rest pose)"
+    )
+    contacts, _ = contact_figures(motion)
+    for line in (
+        format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
+    ):
+        click.echo(f"  {line}")
+    for line in _dropout_lines(motion):
+        click.echo(line)
+    steps, at = metrics.largest_steps(motion.rotations, motion.missing)
+    acc = metrics.angular_acceleration(motion.rotations, motion.frame_time, motion.missing)
+    acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
+    noise = estimate_noise(motion.rotations, motion.frame_time)
+    longest = min(max(len(n) for n in motion.names), INFO_NAME_WIDTH)
+    name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
+    click.echo(
+        f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
+        f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
+    )
+    rotating = layout.has_rotation  # computed once: a property of the whole layout
+    rows = []
+    for j, name in enumerate(motion.names):
+        parent = _shortened(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
+        name = _shortened(name)
+        channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
+        order = layout.rotation_orders[j] or ""
+        if rotating[j]:
+            figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}{noise[j]:>10.2f}"
+        else:
+            figures = f"{'-':>14}"
+        rows.append(
+            f"  {name:<{name_width}}{parent:<{parent_width}}"
+            f"{(channels + ' ' + order)[:27]:<28}{figures}"
+        )
+    if rows:  # one write for the table, not one per joint
+        click.echo("\n".join(rows))
+    if rotating.any():
+        click.echo(
+            f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
+            f"RMS angular acceleration {metrics.rms(acc[:, rotating].ravel()):,.0f} "
+            "deg/s^2 over all joints"
+        )
+    click.echo(
+        "  (largest step: rotation between consecutive frames, degrees; accel rms: "
+        "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "
+        "degrees)"
+    )
+
+
+@cli.command()
+@click.argument("source", type=PATH)
+@click.argument("target", type=PATH)
+@click.option(
+    "--skeleton",
+    type=PATH,
+    help="BVH whose skeleton a channel CSV is written back into.",
+)
+@click.option(
+    "--world",
+    is_flag=True,
+    help="Write world positions of every joint and end site (file units) as CSV: "
+    "time,<joint>.x,<joint>.y,<joint>.z,...",
+)
+def convert(source: str, target: str, skeleton: str | None, world: bool) -> None:
+    """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
+    refuse_overwrite(Path(source), Path(target), in_place=False)
+    if skeleton:
+        refuse_overwrite(Path(skeleton), Path(target), in_place=False)
+    if world:
+        check_output(target, (".csv",), "a world-position CSV")
+        template = load(skeleton) if skeleton else None
+        atomic_write(target, world_csv_pieces(load(source, skeleton=template)))
+        return
+    check_clip_output(target)
+    template = load(skeleton) if skeleton else None
+    motion = load(source, skeleton=template)
+    save(motion, target)
+
+
+@cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
+@click.argument("source", type=PATH)
+@click.argument("target", type=PATH)
+@click.option("--fps", type=float, help="New frame rate, frames per second.")
+@click.option("--frame-time", type=float, help="Or the new frame time, seconds.")
+def resample_command(source: str, target: str, fps: float | None, frame_time: float | None) -> None:
+    """Write SOURCE at a new frame rate to TARGET (BVH or CSV by extension).
+
+    Rotations follow a C1 cubic in angular displacements, positions the matching cubic;
+    a lower rate is low-passed first so nothing aliases. The same as `clean SOURCE -o
+    TARGET -f resample:fps=N`.
+    """
+    rates = {"fps": fps, "frame_time": frame_time}
+    step: dict[str, object] = {"filter": "resample"}
+    step.update({key: value for key, value in rates.items() if value is not None})
+    pipeline = Pipeline.from_tables([step], "resample")
+    refuse_overwrite(Path(source), Path(target), in_place=False)
+    check_clip_output(target)
+    before = load(source)
+    after, _ = pipeline.run(before)
+    save(after, target)
+    click.echo(
+        f"{source}: {before.n_frames} frames at {before.frame_rate:.6g} fps -> "
+        f"{target}: {after.n_frames} frames at {after.frame_rate:.6g} fps"
+    )
+
+
+@cli.command()
+@click.argument("source", type=PATH)
+@click.option("-o", "--output", type=PATH, help="Cleaned clip to write.")
+@PIPE_OPTION
+@STEP_OPTION
+@click.option(
+    "--report",
+    "report_paths",
+    multiple=True,
+    type=FILE_PATH,
+    help="Also write a report, FILE.json or FILE.html; repeatable (e.g. one of each).",
+)
+@click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
+@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+def clean(
+    source: str,
+    output: str | None,
+    pipe: str | None,
+    steps: tuple[str, ...],
+    report_paths: tuple[str, ...],
+    in_place: bool,
+    quiet: bool,
+) -> None:
+    """Clean SOURCE with a pipeline and write it to OUTPUT.
+
+    Without -p or -f the default pipeline runs (see `motionclean filters` and the README).
+    """
+    pipeline = pipeline_from_options(pipe, steps)
+    if output is None:
+        if not in_place:
+            raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
+        output = source
+    refuse_overwrite(Path(source), Path(output), in_place)
+    check_clip_output(output)
+    for report_path in report_paths:
+        check_report_output(report_path)
+    if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
+        raise UsageError("--report names the same file twice")
+    result = clean_clip(source, None, pipeline)
+    reports = {r: render_report(result.report, r, result.series) for r in report_paths}
+    after, logs, report = result.after, result.logs, result.report
+    del result  # the input's arrays and the plot series go before the clip is written
+    write_outputs(after, _write_target(output), reports)
+    for number, log in enumerate(logs, 1):
+        for pattern in log.unmatched:
+            click.echo(
+                f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
+                f"joints pattern {pattern!r} matches no joint",
+                err=True,
+            )
+    if not quiet:
+        click.echo(format_table(report))
+
+
+def _write_target(output: str) -> str:
+    """Where ``clean`` writes: through a symbolic link to the file it names (``--in-place``
+    on a link updates the real file and keeps the link)."""
+    path = Path(output)
+    return str(path.resolve()) if path.is_symlink() else output
+
+
+def _dropout_lines(motion) -> list[str]:
+    """One line per joint with missing samples (tracker dropouts): how many, where."""
+    if motion.missing is None:
+        return []
+    gaps = Gaps.of(motion.missing)
+    lines = []
+    for joint in np.unique(gaps.joint).tolist():
+        mine = gaps.joint == joint
+        runs = [[int(a), int(b)] for a, b in zip(gaps.first[mine], gaps.stop[mine], strict=True)]
+        frames = int(gaps.lengths[mine].sum())
+        lines.append(
+            f"  dropouts: {motion.names[joint]} missing on {frames} frames: {brief_runs(runs)}"
+        )
+    lines.append("  (the default pipeline's fill-gaps bridges gaps of up to 0.5 s)")
+    return lines
+
+
+@cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
+@click.argument("source", type=PATH)
+@click.argument("cleaned", type=PATH, required=False)
+@click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
+@click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
+def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
+    """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
+    for path in (json_path, html_path):
+        if path:
+            check_report_output(path)
+    if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
+        raise UsageError(f"{json_path}: --json and --html name the same file")
+    before = load(source)
+    after = load(cleaned) if cleaned else None
+    if after is not None:
+        check_compatible(before, after)
+    series = build_series(before, after)
+    result = build_report(before, after, file=source, series=series)
+    # every page is rendered before anything is written: a failure leaves no file behind
+    pages = {}
+    if json_path:
+        pages[json_path] = render_report(result, json_path)
+    if html_path:
+        pages[html_path] = render_report(result, html_path, series)
+    text = format_table(result)
+    write_outputs(before, None, pages)
+    click.echo(text)
+
+
+LEVELS_OPTION = click.option(
+    "--levels",
+    type=click.IntRange(1, 30),
+    default=4,
+    show_default=True,
+    help="Pyramid depth: each level halves the frame rate.",
+)
+
+
+def _detail_weights(text: str) -> list[float]:
+    """``--detail-weights``: numbers from 0 to 1, as ``--weight``."""
+    try:
+        weights = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise UsageError(f"--detail-weights: expected numbers, got {text!r}") from None
+    for weight in weights:
+        if not 0.0 <= weight <= 1.0:  # NaN too
+            raise UsageError(
+                f"--detail-weights: each weight must be from 0 (FIRST's detail) to 1 "
+                f"(SECOND's), got {weight:g}"
+            )
+    return weights
+
+
+@cli.command(short_help="Blend two time-aligned clips level by level.")
+@click.argument("first", type=PATH)
+@click.argument("second", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Blended clip.")
+@click.option(
+    "--weight",
+    type=FiniteRange(0.0, 1.0),
+    default=0.5,
+    show_default=True,
+    help="Weight of SECOND (0 gives FIRST, 1 gives SECOND).",
+)
+@click.option(
+    "--detail-weights",
+    type=str,
+    default=None,
+    help="Weight of SECOND per detail level (0 to 1, as --weight), finest first, e.g. '0,0.5'.",
+)
+@LEVELS_OPTION
+def blend(
+    first: str, second: str, output: str, weight: float, detail_weights: str | None, levels: int
+) -> None:
+    """Blend two time-aligned clips level by level (003 Eq. 20)."""
+    weights = _detail_weights(detail_weights) if detail_weights else None
+    for given in (first, second):
+        refuse_overwrite(Path(given), Path(output), in_place=False)
+    check_clip_output(output)
+    a, b = load(first), load(second)
+    try:
+        blended = blend_clips(a, b, levels, weight, weights)
+    except ValueError as error:
+        raise UsageError(str(error)) from None
+    save(blended, output)
+
+
+@cli.command(short_help="Join two clips with a seamless transition.")
+@click.argument("first", type=PATH)
+@click.argument("second", type=PATH)
+@click.option("-o", "--output", type=PATH, required=True, help="Stitched clip.")
+@LEVELS_OPTION
+@click.option(
+    "--no-align",
+    is_flag=True,
+    help="Keep SECOND where it is instead of moving its root to where FIRST ends "
+    "(horizontal position and heading).",
+)
+def stitch(first: str, second: str, output: str, levels: int, no_align: bool) -> None:
+    """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
+
+    SECOND is first moved so its root starts where FIRST's ends (same horizontal position
+    and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
+    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
+    """
+    for given in (first, second):
+        refuse_overwrite(Path(given), Path(output), in_place=False)
+    check_clip_output(output)
+    save(stitch_clips(load(first), load(second), levels, align=not no_align), output)
+
+
+def _shown(value) -> str:
+    """A default as it would be written in a pipeline file."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float) and value == math.inf:
+        return "inf"
+    return str(value)
+
+
+@cli.command(name="filters", short_help="The filter catalogue: parameters, units, papers.")
+def filters_command() -> None:
+    """List every filter with its parameters, defaults, units and paper equations."""
+    indent = " " * 20
+    default = " ".join(f"-f {step['filter']}" for step in DEFAULT_STEPS)
+    click.echo(f"default pipeline (clean without -p or -f): {default}\n")
+    for spec in REGISTRY.values():
+        click.echo(f"{spec.name}: {spec.summary}")
+        click.echo(f"    implements {spec.paper}")
+        for param in (*spec.params, *COMMON_PARAMS):
+            if param.default is None:
+                default = "optional"
+            elif param.name == "positions":
+                default = f"default {_shown(spec.positions_default)}"
+            else:
+                default = f"default {_shown(param.default)}"
+            click.echo(f"  {param.name:<17} {param.allowed()}; {default}")
+            click.echo(
+                textwrap.fill(param.help, width=96, initial_indent=indent, subsequent_indent=indent)
+            )
+        click.echo("")

@@ -1,0 +1,101 @@
+"""Command-line pieces shared by the commands: pipeline options, output checks, failure
+lines. The work itself is in :mod:`motionclean.run.jobs`."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import click
+
+from ..core.errors import MotionError, UsageError
+from ..io import FORMATS
+from ..steps.pipeline import Pipeline
+
+REPORT_SUFFIXES = (".json", ".html", ".htm")
+
+#: Path arguments and options. The readers and writers check the paths themselves: an
+#: input that cannot be read is a data error (exit 1, ``FILE: permission denied``), which
+#: click's own readability check would turn into a usage error in its own words.
+PATH = click.Path(readable=False)
+FILE_PATH = click.Path(dir_okay=False, readable=False)
+FOLDER_PATH = click.Path(file_okay=False, readable=False)
+
+
+class FiniteRange(click.FloatRange):
+    """A :class:`click.FloatRange` that also refuses NaN (every comparison with it is false,
+    so a range lets it through) and, on an open side, infinity."""
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            if self.min is not None and self.max is not None:
+                self.fail(f"{value} is not in the range {self.min}<=x<={self.max}.", param, ctx)
+            self.fail(f"{value} is not a finite number.", param, ctx)
+        return number
+
+
+def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
+    """The pipeline from ``-p`` or ``-f``, or the default one; validated, no clip read."""
+    if pipe and steps:
+        raise UsageError("use either -p PIPE.toml or -f STEP, not both")
+    if pipe:
+        return Pipeline.from_toml(pipe)
+    if steps:
+        return Pipeline.from_inline(list(steps))
+    return Pipeline.default()
+
+
+def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
+    """Raise unless ``target`` is a different file from ``source`` or ``in_place`` is set."""
+    same = target.exists() and source.exists() and target.resolve() == source.resolve()
+    if same and not in_place:
+        raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
+
+
+def check_output(path: str | Path, suffixes: tuple[str, ...], what: str) -> Path:
+    """Refuse, before any work is done, an output with another suffix or in no folder."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
+    if not path.parent.is_dir():
+        raise UsageError(f"{path}: no folder {str(path.parent)!r} to write into")
+    return path
+
+
+def check_clip_output(path: str | Path) -> Path:
+    return check_output(path, FORMATS, "a clip")
+
+
+def check_report_output(path: str | Path) -> Path:
+    return check_output(path, REPORT_SUFFIXES, "a report")
+
+
+def raise_failures(lines: Sequence[str]) -> None:
+    """Report one error line per failure on stderr and end with exit code 1.
+
+    All lines but the last are echoed as ``motionclean: error: LINE``; the last is raised
+    as a :class:`MotionError`, which the CLI prints the same way before exiting with 1.
+    """
+    for line in lines[:-1]:
+        click.echo(f"motionclean: error: {line}", err=True)
+    if lines:
+        raise MotionError(lines[-1])
+
+
+PIPE_OPTION = click.option(
+    "-p",
+    "--pipeline",
+    "pipe",
+    type=FILE_PATH,
+    help="Pipeline TOML file with [[step]] tables (see README).",
+)
+STEP_OPTION = click.option(
+    "-f",
+    "--filter",
+    "steps",
+    multiple=True,
+    metavar="STEP",
+    help="Inline step NAME:key=value,...; repeatable, applied in order.",
+)

@@ -1,0 +1,322 @@
+"""Foot contacts: which points are feet, when each foot is on the ground, and skate figures.
+
+Functions on world-space arrays (see :mod:`motionclean.core.kinematics`), and
+:func:`skeleton_feet`, which finds them on a clip; the footlock step and the report both use
+this module. Every threshold is relative to the body height ``H`` (file length units) and in
+seconds, never in frames or file units, so a skeleton in metres or inches, at 24 or 120 fps,
+behaves the same.
+
+Points are the skeleton's joints followed by its end sites: ``parents`` ``(P,)`` gives each
+point's parent point (-1 for a root) and ``positions`` are ``(F, P, 3)``.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import kinematics
+from .motion import Motion
+
+#: Bones at least this long (fraction of the body height) are thigh and shin.
+LONG_BONE = 0.12
+#: Leaves this close to the lowest rest point (fraction of body height) are toes or heels.
+FOOT_ZONE = 0.2
+#: Thigh + shin at least this long (fraction of body height): a leg, not a finger.
+LEG_LENGTH = 0.4
+
+
+@dataclass(frozen=True)
+class Foot:
+    """One leg: the IK chain ``hip -> knee -> ankle`` and the points of the foot.
+
+    ``points`` are the ankle and every point below it (toes, end sites): the foot's lowest
+    point touches the ground, the ankle is what a foot lock holds.
+    """
+
+    name: str
+    hip: int
+    knee: int
+    ankle: int
+    points: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    """Contact thresholds, in body heights ``H`` and seconds."""
+
+    height: float = 0.06  # lowest foot point within this of the ground to start (H)
+    height_off: float = 0.08  # ... and to stay (H)
+    speed: float = 0.15  # ankle speed below this to start (H/s)
+    speed_off: float = 0.25  # ... and to stay (H/s)
+    min_duration: float = 0.1  # shorter contacts are dropped (s)
+    smoothing: float = 0.2  # positions averaged over this window before speeds (s)
+
+    @classmethod
+    def starting_at(cls, height: float, speed: float, min_duration: float) -> ContactParams:
+        """Thresholds that start a contact at ``height`` (H) and ``speed`` (H/s); the ones
+        that keep it going are looser by :data:`HEIGHT_HYSTERESIS` and
+        :data:`SPEED_HYSTERESIS`."""
+        return cls(
+            height=height,
+            height_off=height * HEIGHT_HYSTERESIS,
+            speed=speed,
+            speed_off=speed * SPEED_HYSTERESIS,
+            min_duration=min_duration,
+        )
+
+
+#: Loose thresholds that keep a contact going, relative to the ones that start it.
+HEIGHT_HYSTERESIS = 4.0 / 3.0
+SPEED_HYSTERESIS = 5.0 / 3.0
+
+
+def _children(parents: np.ndarray) -> list[list[int]]:
+    children: list[list[int]] = [[] for _ in parents]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+    return children
+
+
+def _descendants(children: list[list[int]], start: int) -> list[int]:
+    found, stack = [], [start]
+    while stack:
+        j = stack.pop()
+        found.append(j)
+        stack.extend(children[j])
+    return sorted(found)
+
+
+def find_feet(
+    parents: np.ndarray,
+    rest: np.ndarray,
+    up: int,
+    height: float,
+    names: list[str],
+    patterns: list[str] | None = None,
+) -> list[Foot]:
+    """The feet of a skeleton, found from its rest pose (or named by ``patterns``).
+
+    ``rest`` ``(P, 3)`` are the rest-pose world positions of the points, ``up`` the up axis
+    (0, 1, 2) and ``height`` the body height. Without ``patterns``, a foot is the chain above a
+    leaf near the lowest rest point: walking up from the leaf, the ankle is the first point
+    hanging from a long bone (the shin), the knee its parent and the hip the knee's parent
+    (the thigh must be long too). Whatever the joint names, and none on a skeleton with no
+    legs. ``patterns`` (fnmatch on joint names, e.g. ``["*Foot"]``) name the ankles instead.
+    """
+    parents = np.asarray(parents)
+    n_joints = len(names)
+    children = _children(parents)
+    bone = np.zeros(len(parents))
+    has_parent = parents >= 0
+    bone[has_parent] = np.linalg.norm(rest[has_parent] - rest[parents[has_parent]], axis=1)
+    long_bone = bone > LONG_BONE * height
+
+    if patterns is not None:
+        ankles = [
+            j for j in range(n_joints) if any(fnmatch.fnmatchcase(names[j], p) for p in patterns)
+        ]
+    else:
+        low = rest[:, up] - rest[:, up].min() < FOOT_ZONE * height
+        leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
+        ankles = []
+        for leaf in leaves:
+            j = leaf
+            while j >= 0 and not long_bone[j]:
+                j = parents[j]
+            if j >= 0 and j < n_joints and j not in ankles:
+                ankles.append(j)
+    feet = []
+    for ankle in sorted(ankles):
+        knee = parents[ankle]
+        hip = parents[knee] if knee >= 0 else -1
+        if hip < 0 or not (long_bone[ankle] and long_bone[knee]):
+            continue
+        if bone[ankle] + bone[knee] < LEG_LENGTH * height:
+            continue
+        feet.append(
+            Foot(
+                names[ankle], int(hip), int(knee), int(ankle), tuple(_descendants(children, ankle))
+            )
+        )
+    return feet
+
+
+def skeleton_feet(
+    motion: Motion, patterns: list[str] | None = None, up: str | None = None
+) -> tuple[list[Foot], int, float]:
+    """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` on its rest
+    pose, with the up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
+    (:func:`~motionclean.core.kinematics.up_axis`)."""
+    axis = kinematics.up_axis(motion, up)
+    height = kinematics.body_height(motion, axis)
+    feet = find_feet(
+        kinematics.point_parents(motion),
+        kinematics.rest_positions(motion),
+        axis,
+        height,
+        motion.names,
+        patterns,
+    )
+    return feet, axis, height
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) frames of the runs of True in a 1-D bool array."""
+    edges = np.diff(np.concatenate(([0], mask.view(np.int8), [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _moving_average(x: np.ndarray, half: int) -> np.ndarray:
+    """Centred moving average over ``2 half + 1`` frames along axis 0, window shrunk at ends
+    (``half < len(x)``). Differences of running sums, taken from views of them: no
+    clip-long temporary besides the sums."""
+    if half == 0:
+        return x
+    n = x.shape[0]
+    c = np.empty((n + 1, *x.shape[1:]))  # running sums from 0
+    c[0] = 0.0
+    np.cumsum(x, axis=0, out=c[1:])
+    lo = np.clip(np.arange(n) - half, 0, n)
+    hi = np.clip(np.arange(n) + half + 1, 0, n)
+    out = np.empty_like(c[1:])
+    width = 2 * half + 1
+    if n >= width:  # every frame from half to n - half - 1 has the whole window
+        np.subtract(c[width:], c[: n + 1 - width], out=out[half : n - half])
+    ends = np.flatnonzero((hi - lo) < width) if n >= width else np.arange(n)
+    out[ends] = c[hi[ends]] - c[lo[ends]]
+    out /= (hi - lo).reshape((-1,) + (1,) * (x.ndim - 1))
+    return out
+
+
+def ankle_speed(
+    positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
+) -> np.ndarray:
+    """``(F, n_feet)`` speed of each ankle (length units / s) after a centred moving average
+    of ``smoothing`` seconds (capped by the clip's length). A foot at a time: temporaries
+    of one ankle's track."""
+    n = positions.shape[0]
+    speed = np.zeros((n, len(feet)))
+    if n < 2:
+        return speed
+    half = min(int(round(0.5 * smoothing / frame_time)), max(n // 2 - 1, 0))
+    for k, foot in enumerate(feet):
+        smooth = _moving_average(positions[:, foot.ankle], half)
+        speed[:, k] = np.linalg.norm(np.gradient(smooth, frame_time, axis=0), axis=-1)
+    return speed
+
+
+def lowest_points(positions: np.ndarray, feet: list[Foot], up: int) -> np.ndarray:
+    """``(F, n_feet)`` height of each foot's lowest point along the up axis."""
+    return np.stack([positions[:, list(f.points), up].min(axis=1) for f in feet], axis=1)
+
+
+def estimate_ground(lowest: np.ndarray) -> float:
+    """The ground height: the 5th percentile of the feet's lowest points over the clip."""
+    return float(np.percentile(lowest, 5.0))
+
+
+def detect(
+    positions: np.ndarray,
+    feet: list[Foot],
+    up: int,
+    height: float,
+    frame_time: float,
+    params: ContactParams = ContactParams(),
+    ground: float | None = None,
+) -> tuple[np.ndarray, float]:
+    """Frames where each foot is on the ground: ``(F, n_feet)`` bool, and the ground height.
+
+    A contact starts where the foot's lowest point is within ``params.height`` body heights of
+    the ground and the ankle moves slower than ``params.speed`` body heights per second; it
+    lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis); contacts shorter
+    than ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`.
+    """
+    n_frames = positions.shape[0]
+    contacts = np.zeros((n_frames, len(feet)), dtype=bool)
+    if not feet or n_frames < 2:
+        return contacts, float("nan") if ground is None else ground
+    lowest = lowest_points(positions, feet, up)
+    if ground is None:
+        ground = estimate_ground(lowest)
+    above = (lowest - ground) / height
+    speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
+    strict = (above < params.height) & (speed < params.speed)
+    loose = (above < params.height_off) & (speed < params.speed_off)
+    # a contact lasts at most the clip: a longer minimum (up to inf) keeps none
+    shortest = params.min_duration / frame_time
+    min_frames = max(int(np.ceil(shortest)), 1) if shortest <= n_frames else n_frames + 1
+    for k in range(len(feet)):  # a handful of feet; each column is vectorised
+        starts, ends = _runs(loose[:, k])
+        strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
+        keep = (strict_sum[ends] > strict_sum[starts]) & (ends - starts >= min_frames)
+        delta = np.zeros(n_frames + 1, dtype=np.int64)
+        delta[starts[keep]] += 1
+        delta[ends[keep]] -= 1
+        contacts[:, k] = np.cumsum(delta[:-1]) > 0
+    return contacts, ground
+
+
+def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:
+    """Per foot, the contacts as inclusive ``(first, last)`` frame pairs."""
+    runs = []
+    for k in range(contacts.shape[1]):
+        starts, ends = _runs(contacts[:, k])
+        runs.append([(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)])
+    return runs
+
+
+def skate(
+    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int, frame_time: float
+) -> np.ndarray:
+    """``(n_feet,)`` mean horizontal ankle speed during contacts (length units / s; NaN for a
+    foot without contacts). Speeds are taken between consecutive contact frames."""
+    speed = np.empty((max(positions.shape[0] - 1, 0), len(feet)))
+    for k, foot in enumerate(feet):  # a foot at a time: temporaries of one ankle's track
+        step = np.diff(positions[:, foot.ankle], axis=0)
+        step[:, up] = 0.0
+        speed[:, k] = np.linalg.norm(step, axis=-1)
+    speed /= frame_time
+    both = contacts[1:] & contacts[:-1]
+    count = both.sum(axis=0)
+    total = np.where(both, speed, 0.0).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def penetration(positions: np.ndarray, feet: list[Foot], up: int, ground: float) -> np.ndarray:
+    """``(n_feet,)`` deepest point of each foot below the ground (length units, >= 0)."""
+    if positions.shape[0] == 0:
+        return np.zeros(len(feet))
+    return np.maximum(ground - lowest_points(positions, feet, up).min(axis=0), 0.0)
+
+
+def sliding_contacts(
+    positions: np.ndarray,
+    feet: list[Foot],
+    contacts: np.ndarray,
+    up: int,
+    frame_time: float,
+    speed: float,
+) -> np.ndarray:
+    """The contacts whose mean horizontal ankle speed exceeds ``speed`` (length units/s):
+    ``(F, n_feet)`` bool, the other contacts cleared. A capture's own feet slide a little
+    (CMU walks: 0.02-0.08 body heights/s); contacts within that are left as they are."""
+    ankles = positions[:, [f.ankle for f in feet]]
+    step = np.diff(ankles, axis=0)
+    step[..., up] = 0.0
+    speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
+    kept = contacts.copy()
+    for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
+        label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
+        if label.max() == 0:
+            continue
+        moving = np.r_[False, contacts[1:, k] & contacts[:-1, k]]  # speed within the contact
+        total = np.bincount(label, weights=np.where(moving, speeds[:, k], 0.0))
+        count = np.bincount(label, weights=moving.astype(np.float64))
+        mean = total / np.maximum(count, 1.0)
+        kept[:, k] &= mean[label] > speed
+    return kept

@@ -1,0 +1,649 @@
+"""The in-memory clip: skeleton, channel layout and time-major motion arrays.
+
+A :class:`Motion` is format independent. Rotations are ``(F, J, 4)`` unit quaternions
+``(w, x, y, z)`` local to the parent joint and sign-continuous in time; translations are
+``(F, J, 3)`` position channels in the file's length unit (zero where a joint has none).
+What a writer needs to reproduce the input (the original channel values and the
+quaternions read from them, plus format text in ``source``) travels along, so that
+unchanged samples are written back exactly as they were read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import checks, quat
+from .errors import InvalidMotion, MotionError
+from .threads import MIN_SHARED_SIZE, in_parts, run_parts
+
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
+
+#: Frame times outside these (seconds) give rates no capture has: refused.
+MIN_FRAME_TIME = 1e-6
+MAX_FRAME_TIME = 3600.0
+
+#: Channel values closer than this to the value read (degrees or length units) are
+#: written back with the input's own text.
+UNCHANGED_TOLERANCE = 1e-9
+
+
+#: Quaternion components closer than this to the ones read count as unchanged (rounding).
+SAME_ROTATION = 1e-12
+#: Largest difference of the middle Euler angle's sine between the same rotations: 4
+#: SAME_ROTATION, with room for the rounding of the two ways it is computed.
+MIDDLE_SINE_SLACK = 1e-10
+#: Frames per block in the Euler <-> quaternion conversions of every joint (temporaries
+#: stay in cache) ...
+BLOCK_FRAMES = 512
+#: ... and in the write-back Euler filter, which works on groups of PART_JOINTS joints.
+FILTER_BLOCK_FRAMES = 2048
+#: Frames per part of a clip-long pass run on a thread of its own.
+PART_FRAMES = 64 * BLOCK_FRAMES
+#: Joints per part of the write-back Euler filter run on a thread of its own.
+PART_JOINTS = 8
+
+
+def joint_major_zeros(n_frames: int, n_joints: int, width: int = 3) -> np.ndarray:
+    """``(F, J, width)`` float64 zeros stored joint by joint (a transposed ``(J, F, width)``
+    block): the columns of joints never written, such as the translations of joints without
+    position channels, stay zero pages the system has not handed out, so they take no
+    memory however long the clip."""
+    return np.zeros((n_joints, n_frames, width)).transpose(1, 0, 2)
+
+
+def written_joints(*arrays: np.ndarray) -> np.ndarray:
+    """Indices of the joints (axis 1) that hold a non-zero value in any of the
+    ``(F, J, width)`` ``arrays``."""
+    return np.flatnonzero(np.any([np.any(a != 0.0, axis=(0, 2)) for a in arrays], axis=0))
+
+
+def sparse_concatenate(parts: list[np.ndarray]) -> np.ndarray:
+    """``(F, J, width)`` arrays joined along the frames in :func:`joint_major_zeros`
+    storage, with only the :func:`written_joints` copied."""
+    first = parts[0]
+    out = joint_major_zeros(sum(len(part) for part in parts), first.shape[1], first.shape[2])
+    joints = written_joints(*parts)
+    at = 0
+    for part in parts:  # each straight into place: no temporary of the joined joints
+        out[at : at + len(part), joints] = part[:, joints]
+        at += len(part)
+    return out
+
+
+def sparse_copy(array: np.ndarray) -> np.ndarray:
+    """A copy of ``(F, J, width)`` ``array`` in :func:`joint_major_zeros` storage, with only
+    the joints that hold a non-zero value written."""
+    return sparse_concatenate([array])
+
+
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` (ints, raveled) as the slice it spans when its items follow one another in
+    ascending order (indexing with it gives a view, not a copy), else the raveled ints."""
+    flat = np.asarray(index).ravel()
+    if flat.size and flat[-1] - flat[0] == flat.size - 1 and (np.diff(flat) == 1).all():
+        return slice(int(flat[0]), int(flat[-1]) + 1)
+    return flat
+
+
+def _euler_quaternions(values: np.ndarray, layout: ChannelLayout, out: np.ndarray) -> None:
+    """Quaternions of the Euler channels in ``values`` ``(B, C)`` into ``out`` ``(B, J, 4)``
+    (identity for joints without rotation channels; signs as :func:`quat.from_euler` gives
+    them)."""
+    out[:, ~layout.has_rotation] = (1.0, 0.0, 0.0, 0.0)
+    for order, group in layout.groups:
+        angles = values[:, _as_slice(layout.rotation_columns[group])]
+        out[:, _as_slice(group)] = quat.from_euler(angles.reshape(-1, group.size, 3), order)
+
+
+def _rotations_from_values(values: np.ndarray, layout: ChannelLayout) -> np.ndarray:
+    """``(F, J, 4)`` sign-continuous quaternions of the Euler channels in ``values`` ``(F, C)``
+    (identity for joints without rotation channels), built :data:`BLOCK_FRAMES` frames at a
+    time in parts of :data:`PART_FRAMES` run on threads: the signs come out exactly as
+    :func:`quat.make_continuous` would make them over the whole clip."""
+    rotations = np.empty((values.shape[0], len(layout.rotation_orders), 4))
+
+    def build(span: slice) -> None:  # signs continuous within the part, from its first frame
+        previous = None  # the last sign-corrected sample of the block before
+        for at in range(span.start, span.stop, BLOCK_FRAMES):
+            rows = slice(at, min(at + BLOCK_FRAMES, span.stop))
+            block = rotations[rows]
+            _euler_quaternions(values[rows], layout, block)
+            before = block[:1] if previous is None else previous[None]
+            dots = np.einsum("fji,fji->fj", block, np.concatenate([before, block[:-1]]))
+            signs = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
+            block *= signs[..., None]
+            previous = block[-1]
+
+    spans = in_parts(values.shape[0], PART_FRAMES)
+    run_parts(build, spans)
+    # Each part continues the one before: flip its joints whose first sample turned away.
+    sign = np.ones(rotations.shape[1])
+    flips = []
+    for span in spans[1:]:
+        dots = np.einsum("ji,ji->j", rotations[span.start - 1], rotations[span.start])
+        sign = sign * np.where(dots < 0.0, -1.0, 1.0)
+        flips.append((span, sign))
+    run_parts(lambda flip: _flip(rotations[flip[0]], flip[1]), flips)
+    return rotations
+
+
+def _flip(block: np.ndarray, sign: np.ndarray) -> None:
+    """Negate the joints of ``block`` ``(B, J, 4)`` whose ``sign`` ``(J,)`` is -1, in place."""
+    joints = np.flatnonzero(sign < 0.0)
+    if joints.size:
+        block[:, joints] *= -1.0
+
+
+@dataclass(frozen=True)
+class ChannelLayout:
+    """Where each joint's channels sit in a frame row of ``C`` values.
+
+    ``rotation_columns[j]`` lists the columns of joint ``j``'s rotation channels in file
+    order (``-1`` when it has none) and ``rotation_orders[j]`` their axes, e.g. ``"ZYX"``;
+    ``position_columns[j, a]`` is the column of axis ``a`` (X, Y, Z) or ``-1``.
+    """
+
+    n_channels: int
+    rotation_columns: np.ndarray  # (J, 3) int
+    rotation_orders: tuple[str | None, ...]
+    position_columns: np.ndarray  # (J, 3) int
+
+    @classmethod
+    def from_channels(cls, names: list[str], channels: list[tuple[str, ...]]) -> ChannelLayout:
+        n_joints = len(channels)
+        rot_cols = np.full((n_joints, 3), -1, dtype=np.intp)
+        pos_cols = np.full((n_joints, 3), -1, dtype=np.intp)
+        orders: list[str | None] = []
+        column = 0
+        for j, joint_channels in enumerate(channels):
+            rot_axes, rot_at = "", []
+            for name in joint_channels:
+                if name in ROTATION_CHANNELS:
+                    rot_axes += name[0]
+                    rot_at.append(column)
+                elif name in POSITION_CHANNELS:
+                    pos_cols[j, "XYZ".index(name[0])] = column
+                else:
+                    raise MotionError(f"joint {names[j]!r}: unknown channel {name!r}")
+                column += 1
+            if rot_axes and sorted(rot_axes) != ["X", "Y", "Z"]:
+                raise MotionError(
+                    f"joint {names[j]!r}: rotation channels {rot_axes!r} are not one each of "
+                    "X, Y and Z; only three-axis rotations are supported"
+                )
+            if rot_at:
+                rot_cols[j] = rot_at
+            orders.append(rot_axes or None)
+        return cls(column, rot_cols, tuple(orders), pos_cols)
+
+    @property
+    def has_rotation(self) -> np.ndarray:
+        """``(J,)`` bool: joints with rotation channels."""
+        return self.rotation_columns[:, 0] >= 0
+
+    @property
+    def has_position(self) -> np.ndarray:
+        """``(J,)`` bool: joints with at least one position channel."""
+        return np.any(self.position_columns >= 0, axis=1)
+
+    @functools.cached_property
+    def groups(self) -> tuple[tuple[str, np.ndarray], ...]:
+        """:meth:`order_groups` as ``(order, joints)`` pairs, computed once."""
+        return tuple(self.order_groups().items())
+
+    def order_groups(self) -> dict[str, np.ndarray]:
+        """Joint indices grouped by rotation order (at most six groups)."""
+        groups: dict[str, list[int]] = {}
+        for j, order in enumerate(self.rotation_orders):
+            if order is not None:
+                groups.setdefault(order, []).append(j)
+        return {order: np.array(idx, dtype=np.intp) for order, idx in groups.items()}
+
+
+@dataclass(eq=False)
+class Motion:
+    """A motion clip: skeleton, channel layout and ``(F, J, ...)`` float64 motion arrays.
+
+    Attributes
+    ----------
+    names : list of str
+        Joint names, in file order (``J`` joints).
+    parents : (J,) int array
+        Parent index of each joint, ``-1`` for a root.
+    offsets : (J, 3) array
+        Joint offsets from the parent in the file's length unit.
+    channels : list of tuple of str
+        Each joint's channel names in file order (``Xposition`` ... ``Zrotation``).
+    end_sites : dict
+        Joint index -> ``(3,)`` end-site offset.
+    frame_time : float
+        Seconds per frame.
+    rotations : (F, J, 4) array
+        Local unit quaternions ``(w, x, y, z)``, sign-continuous; identity where a joint has
+        no rotation channels.
+    translations : (F, J, 3) array
+        Position channels in length units; zero where a joint has none.
+    source_values : (F, C) array or None
+        The channel values as read (degrees, length units); guides write-back.
+    source_rotations : (F, J, 4) array or None
+        The quaternions read (a rigid-body or Motive CSV); None when they follow from
+        ``source_values`` (Euler channels: :meth:`read_rotations` computes them).
+    source : object or None
+        Format-specific text a writer reuses (hierarchy, line endings, tokens).
+    path : str or None
+        The file the clip was read from, for error messages.
+    missing : (F, J) bool array or None
+        True where a joint's sample is unknown (a tracker dropout: blank cells in a CSV).
+        The arrays hold placeholders there (the nearest known sample of the joint, see
+        :func:`hold_missing`), so they stay finite and unit; None when nothing is missing.
+    """
+
+    names: list[str]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: list[tuple[str, ...]]
+    frame_time: float
+    rotations: np.ndarray
+    translations: np.ndarray
+    end_sites: dict[int, np.ndarray] = field(default_factory=dict)
+    source_values: np.ndarray | None = None
+    source_rotations: np.ndarray | None = None
+    source: Any = None
+    path: str | None = None
+    missing: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.check()
+
+    def check(self) -> None:
+        """Refuse motion arrays that describe no clip: :class:`InvalidMotion` (a ValueError)
+        for a wrong shape, NaN/inf, or a rotation whose norm is not 1 within
+        :data:`checks.UNIT_TOLERANCE` (zero included); TypeError for non-numbers. Run at
+        construction and again by ``save`` (the arrays may be changed in place)."""
+        n = len(self.names)
+        self.rotations = checks.as_float_array(self.rotations, "rotations")
+        self.translations = checks.as_float_array(self.translations, "translations")
+        frames = self.rotations.shape[0] if self.rotations.ndim else 0
+        for name, values, width in (
+            ("rotations", self.rotations, 4),
+            ("translations", self.translations, 3),
+        ):
+            if values.shape != (frames, n, width):
+                raise InvalidMotion(f"{name}: expected shape (F, {n}, {width}), got {values.shape}")
+            with np.errstate(over="ignore", invalid="ignore"):
+                if np.isfinite(np.sum(values)):
+                    continue
+            frame, joint = np.argwhere(~np.isfinite(values).all(axis=-1))[0]
+            raise InvalidMotion(
+                f"{name}: joint {self.names[joint]!r} has a non-finite value at frame {frame}"
+            )
+        self._check_missing(frames, n)
+        if checks.all_unit(self.rotations):
+            return
+        with np.errstate(over="ignore"):  # a huge quaternion has norm inf: refused too
+            error = np.abs(np.einsum("...i,...i->...", self.rotations, self.rotations) - 1.0)
+        if np.any(error > 2.0 * checks.UNIT_TOLERANCE):
+            frame, joint = np.argwhere(error > 2.0 * checks.UNIT_TOLERANCE)[0]
+            q = self.rotations[frame, joint]
+            largest = float(np.max(np.abs(q)))  # scaled: the norm of (1e200, 0, 0, 0) is 1e200
+            norm = largest * float(np.linalg.norm(q / largest)) if largest > 0 else 0.0
+            raise InvalidMotion(
+                f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
+                f"quaternion (norm {norm:.6g}); normalise with motionclean.core.quat.normalize"
+            )
+
+    def _check_missing(self, frames: int, n_joints: int) -> None:
+        if self.missing is None:
+            return
+        missing = np.asarray(self.missing)
+        if missing.dtype != bool or missing.shape != (frames, n_joints):
+            raise InvalidMotion(
+                f"missing: expected a bool array of shape ({frames}, {n_joints}), "
+                f"got {missing.dtype} {missing.shape}"
+            )
+        self.missing = missing if missing.any() else None
+
+    @property
+    def has_gaps(self) -> bool:
+        """True when some joint has missing samples (:attr:`missing`)."""
+        return self.missing is not None
+
+    @classmethod
+    def from_channel_values(
+        cls,
+        names: list[str],
+        parents,
+        offsets,
+        channels: list[tuple[str, ...]],
+        frame_time: float,
+        values: np.ndarray,
+        **kwargs,
+    ) -> Motion:
+        """Build a Motion from a ``(F, C)`` array of channel values (degrees, length units)."""
+        layout = ChannelLayout.from_channels(names, channels)
+        values = np.asarray(values, dtype=np.float64)
+        n_frames = values.shape[0]
+        rotations = _rotations_from_values(values, layout)
+        translations = joint_major_zeros(n_frames, len(names))
+        has = layout.position_columns >= 0
+        translations[:, has] = values[:, layout.position_columns[has]]
+        return cls(
+            names=list(names),
+            parents=np.asarray(parents, dtype=np.intp),
+            offsets=np.asarray(offsets, dtype=np.float64).reshape(len(names), 3),
+            channels=[tuple(c) for c in channels],
+            frame_time=float(frame_time),
+            rotations=rotations,
+            translations=translations,
+            source_values=values,
+            **kwargs,
+        )
+
+    @functools.cached_property
+    def layout(self) -> ChannelLayout:
+        """Where each joint's channels sit (computed once per Motion)."""
+        return ChannelLayout.from_channels(self.names, self.channels)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    @property
+    def frame_rate(self) -> float:
+        """Frames per second."""
+        return 1.0 / self.frame_time
+
+    @property
+    def duration(self) -> float:
+        """Seconds the clip covers: frames x frame time (as DCC tools count frames / fps)."""
+        return self.n_frames * self.frame_time
+
+    def replace(self, **changes) -> Motion:
+        """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""
+        return dataclasses.replace(self, **changes)
+
+    def __eq__(self, other: object) -> bool:
+        """Same skeleton, channels, frame time and motion arrays (exactly); the source text
+        and path are not compared."""
+        if not isinstance(other, Motion):
+            return NotImplemented
+        return (
+            self.names == other.names
+            and self.channels == other.channels
+            and self.frame_time == other.frame_time
+            and np.array_equal(self.parents, other.parents)
+            and np.array_equal(self.offsets, other.offsets)
+            and self.end_sites.keys() == other.end_sites.keys()
+            and all(np.array_equal(v, other.end_sites[k]) for k, v in self.end_sites.items())
+            and np.array_equal(self.rotations, other.rotations)
+            and np.array_equal(self.translations, other.translations)
+            and np.array_equal(self.missing_mask(), other.missing_mask())
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable arrays
+
+    def missing_mask(self) -> np.ndarray:
+        """``(F, J)`` bool: :attr:`missing`, all False when nothing is missing."""
+        if self.missing is None:
+            return np.zeros((self.n_frames, self.n_joints), dtype=bool)
+        return self.missing
+
+    def at_frames(self, frames) -> Motion:
+        """The clip at ``frames`` only (a slice or an index array): skeleton, rotations,
+        translations and missing samples; the source values no longer describe it."""
+        return self.replace(
+            rotations=self.rotations[frames],
+            translations=self.translations[frames],
+            source_values=None,
+            source_rotations=None,
+            missing=None if self.missing is None else self.missing[frames],
+        )
+
+    def joint_index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise MotionError(f"no joint named {name!r}", self.path) from None
+
+    def has_source_frames(self) -> bool:
+        """True when the source values still describe the same frames."""
+        values, rotations = self.source_values, self.source_rotations
+        return (
+            values is not None
+            and values.shape[0] == self.n_frames
+            and (rotations is None or rotations.shape[0] == self.n_frames)
+        )
+
+    def read_rotations(self, rows: slice) -> np.ndarray:
+        """The quaternions read for frames ``rows``, up to sign (``q`` and ``-q`` are the same
+        rotation): the kept ones, or computed from the source values. Only for a clip with
+        source frames (:meth:`has_source_frames`)."""
+        if self.source_rotations is not None:
+            return self.source_rotations[rows]
+        assert self.source_values is not None
+        values = self.source_values[rows]
+        out = np.empty((values.shape[0], self.n_joints, 4))
+        _euler_quaternions(values, self.layout, out)
+        return out
+
+    def channel_values(self) -> np.ndarray:
+        """``(F, C)`` channel values for the current motion (degrees, length units).
+
+        Rotations go back to Euler angles in each joint's own channel order. Where the
+        source values describe the same frames, samples whose quaternion did not change (up
+        to sign: ``q`` and ``-q`` are the same rotation; within :data:`SAME_ROTATION` per
+        component, rounding) keep their original values bit for bit, and changed ones
+        continue the curve from the last unchanged frame (:func:`continuous_euler`).
+        Otherwise angles are unwrapped along time. Groups of joints run on threads.
+        """
+        layout = self.layout
+        if not self.has_source_frames():
+            values = np.zeros((self.n_frames, layout.n_channels))
+            for order, joints in layout.groups:
+                angles = quat.to_euler(self.rotations[:, joints], order)
+                values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
+        else:
+            assert self.source_values is not None
+            values = np.empty_like(self.source_values)  # every column is written below
+            shared = values.size >= MIN_SHARED_SIZE  # else one part per group: less overhead
+            parts = [
+                (order, group[span])
+                for order, group in layout.groups
+                for span in in_parts(group.size, PART_JOINTS if shared else group.size)
+            ]
+            run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
+        has = layout.position_columns >= 0
+        values[:, layout.position_columns[has]] = self.translations[:, has]
+        return values
+
+    def _write_euler(self, values: np.ndarray, order: str, joints: np.ndarray) -> None:
+        """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
+        columns of ``values``, block by block, continuing the source values."""
+        assert self.source_values is not None
+        cols = _as_slice(self.layout.rotation_columns[joints])  # (3 n) columns
+        chosen = _as_slice(joints)
+        carry = None
+        for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
+            block = slice(at, at + FILTER_BLOCK_FRAMES)
+            q = self.rotations[block, chosen]
+            read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
+            if self.source_rotations is not None:
+                kept = _same_rotations(q, self.source_rotations[block, chosen])
+            else:
+                kept = _same_as_angles(q, order, read)
+            angles, carry = _continue_block(q, order, read, kept, carry)
+            values[block, cols] = angles.reshape(q.shape[0], -1)
+
+
+def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
+    """``values`` ``(F, J, ...)`` with each missing sample (``missing`` ``(F, J)`` bool)
+    replaced by the joint's last known sample before it, or the first known one after it
+    for a gap at the start; a joint with no known sample keeps its values. A new array."""
+    n_frames = values.shape[0]
+    frames = np.arange(n_frames)[:, None]
+    known = ~missing
+    last = np.maximum.accumulate(np.where(known, frames, -1), axis=0)
+    first = np.minimum.accumulate(np.where(known, frames, n_frames)[::-1], axis=0)[::-1]
+    source = np.where(last >= 0, last, np.where(first < n_frames, first, frames))
+    return np.take_along_axis(values, source.reshape(source.shape + (1,) * (values.ndim - 2)), 0)
+
+
+def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(F, J)``: samples of ``q`` within :data:`SAME_ROTATION` per component of ``read``
+    or of ``-read`` (the same rotation). Only samples whose dot product is within 1e-12 of
+    +-1 can be (a component off by 1e-12 moves it by far less), so the others are not
+    compared component by component."""
+    kept = np.zeros(q.shape[:-1], dtype=bool)
+    close = np.abs(np.einsum("...i,...i->...", q, read)) > 1.0 - 1e-12
+    if close.any():
+        a, b = q[close], read[close]
+        kept[close] = (np.abs(a - b).max(axis=-1) < SAME_ROTATION) | (
+            np.abs(a + b).max(axis=-1) < SAME_ROTATION
+        )
+    return kept
+
+
+def _same_as_angles(q: np.ndarray, order: str, angles: np.ndarray) -> np.ndarray:
+    """:func:`_same_rotations` of ``q`` ``(F, J, 4)`` and the rotations of Euler ``angles``
+    ``(F, J, 3)`` (degrees, in ``order``), converted only where the middle angle's sine
+    allows the same rotation: a sample within :data:`SAME_ROTATION` per component moves
+    it by at most ``4 SAME_ROTATION`` (:func:`quat.euler_middle_sine`), so one further
+    off than :data:`MIDDLE_SINE_SLACK` has changed (most changed samples are)."""
+    kept = np.zeros(q.shape[:-1], dtype=bool)
+    maybe = np.abs(quat.euler_middle_sine(q, order) - np.sin(np.deg2rad(angles[..., 1])))
+    maybe = maybe <= MIDDLE_SINE_SLACK
+    if maybe.any():
+        kept[maybe] = _same_rotations(q[maybe], quat.from_euler(angles[maybe], order))
+    return kept
+
+
+def continuous_euler(
+    q: np.ndarray, order: str, reference: np.ndarray, kept: np.ndarray
+) -> np.ndarray:
+    """Euler angles ``(F, J, 3)`` (degrees) of ``q`` ``(F, J, 4)`` that keep the written
+    curves continuous: an Euler filter on the changed samples.
+
+    ``reference`` holds the original angles and ``kept`` ``(F, J)`` marks the samples that
+    did not change; those keep their original angles bit for bit. A run of changed samples
+    continues from the sample before it (its anchor: a kept sample, the first frame, or a
+    frame that turns more than 90 degrees from the one before; a changed anchor is written
+    as the equivalent triple nearest to its original angles): each frame on the Euler
+    solution nearest the frame before (so a middle angle that passes +-90 degrees goes on
+    past it), each angle unwrapped by whole turns toward the previous frame's.
+    """
+    n_frames, n_joints = q.shape[:2]
+    out = np.empty((n_frames, n_joints, 3))
+    # What a block needs of the frames before it, per joint: the last rotation and principal
+    # angles, the last start angles, the angles of the last anchor and the switches and
+    # whole turns counted since it.
+    carry = None
+    for at in range(0, n_frames, BLOCK_FRAMES):
+        block = slice(at, at + BLOCK_FRAMES)
+        out[block], carry = _continue_block(q[block], order, reference[block], kept[block], carry)
+    return out
+
+
+def _continue_block(q, order, reference, kept, carry):
+    """:func:`continuous_euler` of a block of frames, continuing from ``carry`` (None for
+    the clip's first block); returns the block's angles and the carry for the next one."""
+    frame = np.arange(q.shape[0])[:, None]
+    columns = np.arange(q.shape[1])[None, :]
+    # The chain restarts where the rotation itself turns by more than a quarter turn in one
+    # frame (a cut, or data that is no motion): there is no curve to continue.
+    before = q[:1] if carry is None else carry[0][None]
+    # (A turn of more than 90 degrees: |q_{i-1} . q_i| = cos(angle / 2) below cos 45.)
+    dots = np.einsum("fji,fji->fj", np.concatenate([before, q[:-1]]), q)
+    leap = np.abs(dots) < math.sqrt(0.5)
+    is_anchor = kept | leap
+    if carry is None:
+        is_anchor[0] = True  # the clip's first frame
+    elif not is_anchor.any():
+        return _continue_run(q, order, carry)
+    # A changed anchor is written as the triple nearest its original angles (computed for
+    # those samples only: the others never read it).
+    anchor_values = reference
+    changed_anchor = is_anchor & ~kept
+    if changed_anchor.any():  # (most blocks have none: no copy)
+        anchor_values = reference.copy()
+        anchor_values[changed_anchor] = quat.to_euler(
+            q[changed_anchor], order, reference=reference[changed_anchor]
+        )
+    anchor = np.maximum.accumulate(np.where(is_anchor, frame, -1), axis=0)  # (F, J), -1: before
+    local = anchor >= 0
+    anchor_at = np.maximum(anchor, 0)
+    anchor_angles = anchor_values[anchor_at, columns]  # (F, J, 3)
+    if carry is not None:
+        anchor_angles = np.where(local[..., None], anchor_angles, carry[3][None])
+    principal, other, switch = _solutions(q, order, None if carry is None else carry[1])
+    if carry is None:
+        switch[0] = False
+    switches = np.cumsum(switch, axis=0)
+    switches_since = switches - switches[anchor_at, columns]
+    if carry is not None:
+        switches_since = np.where(local, switches_since, switches + carry[4][None])
+    anchor_other = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
+    flipped = anchor_other ^ (switches_since % 2 == 1)
+    candidate = np.where(flipped[..., None], other, principal)
+    # Unwrap by whole turns within each run, starting from the anchor's angles.
+    start = np.where(is_anchor[..., None], anchor_values, candidate)
+    step = np.diff(start, axis=0, prepend=start[:1] if carry is None else carry[2][None])
+    turns = np.where(is_anchor[..., None], 0.0, np.round(step / 360.0))
+    total = np.cumsum(turns, axis=0)  # whole numbers: exact
+    since = total - total[anchor_at, columns]
+    if carry is not None:
+        since = np.where(local[..., None], since, total + carry[5][None])
+    angles = np.where(is_anchor[..., None], anchor_values, start - 360.0 * since)
+    last = (q[-1], principal[-1], start[-1], anchor_angles[-1], switches_since[-1], since[-1])
+    return angles, last
+
+
+def _continue_run(q, order, carry):
+    """:func:`_continue_block` of a block without anchors (no kept sample, no leap): every
+    frame continues the run the carry comes from. The same operations on what the general
+    case would select, so the same bits."""
+    principal, other, switch = _solutions(q, order, carry[1])
+    switches_since = np.cumsum(switch, axis=0) + carry[4][None]
+    anchor_other = np.cos(np.deg2rad(carry[3][..., 1])) < 0.0
+    flipped = anchor_other ^ (switches_since % 2 == 1)
+    start = np.where(flipped[..., None], other, principal)
+    step = np.diff(start, axis=0, prepend=carry[2][None])
+    since = np.cumsum(np.round(step / 360.0), axis=0) + carry[5][None]
+    angles = start - 360.0 * since
+    last = (q[-1], principal[-1], start[-1], carry[3], switches_since[-1], since[-1])
+    return angles, last
+
+
+def _solutions(q, order, last):
+    """The two Euler solutions of ``q`` (principal, other) and the frames where the other is
+    nearer the frame before's principal angles (``last``: those of the frame before the
+    block; None: the block's first frame is compared with itself).
+
+    The two solutions are symmetric (P->O is as far as O->P, P->P as O->O, modulo whole
+    turns), so whether a frame switches does not depend on the solution the frame before
+    was written on: the solution in use is the anchor's, switched at every such frame."""
+    principal = quat.to_euler(q, order)
+    other = principal + [180.0, 0.0, 180.0]
+    other[..., 1] = 180.0 - principal[..., 1]
+    previous = np.concatenate([principal[:1] if last is None else last[None], principal[:-1]])
+    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    return principal, other, switch
+
+
+def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared distance between Euler triples ``(..., 3)`` (degrees), each angle's
+    difference taken modulo whole turns."""
+    d = a - b
+    d -= 360.0 * np.round(d / 360.0)
+    return np.sum(d * d, axis=-1)

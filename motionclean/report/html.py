@@ -1,0 +1,602 @@
+"""HTML reports: one self-contained page per clip, and an index page for a batch run.
+
+A page holds everything inline (CSS, SVG plots); it loads no script, font, image or
+stylesheet and links nowhere outside itself except, on the index page, to the sibling
+clip pages by relative path. It shows the pipeline, the summary figures, a table of every
+joint (noisiest first) and, per joint, the magnitude of angular acceleration over time
+before and after cleaning (as in Fig. 5 of 000) with the deviation from the input below it.
+
+The figures come from :func:`motionclean.report.summary.build_report`; the time series, which the
+JSON report leaves out, from :func:`motionclean.report.summary.build_series`, already reduced to a
+min/max envelope per plot column (:mod:`motionclean.report.traces`), so neither the page size nor
+the memory behind it grows with the clip length.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import urllib.parse
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..core.version import __version__
+from .html_world import world_section
+from .summary import format_rest, noisiest, note_text, resampled_to
+from .traces import COLUMNS, Trace, trace
+
+__all__ = ["render_html", "render_index"]
+
+#: Plot geometry in SVG user units (the SVG scales to the card width); the plot area is
+#: one unit per plot column (:data:`motionclean.report.traces.COLUMNS`).
+LEFT, RIGHT = 54, 12
+WIDTH = LEFT + COLUMNS + RIGHT
+ACCEL_TOP, ACCEL_HEIGHT = 20, 120
+DEV_TOP, DEV_HEIGHT = 172, 56
+SVG_HEIGHT = 250
+
+#: A panel's y axis stops near the 99.5th percentile when the peak is SPIKE times above it.
+SPIKE = 4.0
+
+#: Deviation plots reach at least this (degrees): an untouched joint's rounding-level
+#: differences (1e-15 degrees) draw as the flat line they are.
+DEVIATION_FLOOR = 0.01
+BEFORE, AFTER, DEVIATION = "#e0892b", "#1f57b8", "#7b3fa8"
+
+CSS = """
+*{box-sizing:border-box}
+body{margin:0;font:14px/1.45 system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,
+sans-serif;color:#1c2230;background:#f3f4f7}
+main{max-width:1320px;margin:0 auto;padding:18px 24px 40px}
+h1{font-size:21px;margin:0 0 2px;word-break:break-all}
+h2{font-size:16px;margin:26px 0 10px}
+.meta{color:#5a6272}
+.stats{display:flex;flex-wrap:wrap;gap:12px;margin:16px 0 4px}
+.stat{background:#fff;border:1px solid #dde1e8;border-radius:8px;padding:10px 16px;
+min-width:190px}
+.stat b{display:block;font-size:22px;font-weight:600}
+.stat span{color:#5a6272;font-size:12.5px}
+ol.pipeline{margin:0;padding-left:22px}
+ol.pipeline code{background:#fff;border:1px solid #dde1e8;border-radius:4px;padding:1px 6px}
+table{border-collapse:collapse;background:#fff;border:1px solid #dde1e8;font-size:13px}
+th,td{padding:3px 10px;text-align:right;white-space:nowrap}
+th{background:#e9ecf2;font-weight:600;position:sticky;top:0}
+td:first-child,th:first-child{text-align:left}
+tr:nth-child(even) td{background:#f8f9fb}
+tr.failed td{background:#fdeaea;color:#8a1c1c}
+td.error{text-align:left;white-space:normal}
+a{color:#1f57b8;text-decoration:none}
+a:hover{text-decoration:underline}
+.legend{display:flex;gap:18px;color:#5a6272;font-size:13px;margin-bottom:8px}
+.key{display:inline-block;width:22px;height:4px;vertical-align:middle;margin-right:6px}
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:14px}
+.card{background:#fff;border:1px solid #dde1e8;border-radius:8px;padding:8px 10px 4px}
+.card h3{font-size:15px;margin:0;display:flex;justify-content:space-between;gap:10px}
+.card h3 small{font-weight:400;color:#5a6272;font-size:12.5px}
+.card .figures{font-size:12.5px;color:#2c3445}
+.card .notes{color:#5a6272;font-size:12px}
+svg.plot,svg.foot{display:block;width:100%;height:auto}
+svg text{font-size:11px;fill:#5a6272}
+svg .axis{stroke:#9aa2b1;stroke-width:1}
+svg .gridline{stroke:#e6e9ef;stroke-width:1}
+svg .series{fill:none;stroke-width:1;stroke-linejoin:round}
+.note{color:#5a6272;font-size:12.5px}
+details{margin:22px 0 0}
+summary{cursor:pointer;font-weight:600;font-size:15px;margin-bottom:10px}
+details table{margin-bottom:12px}
+"""
+
+
+# ----------------------------------------------------------------------------- data
+
+
+# ----------------------------------------------------------------------------- formatting
+
+
+def _e(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _num(value: float | None, digits: int = 0) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value:,.{digits}f}"
+
+
+def _short(value: float) -> str:
+    """Compact label, three significant digits: 0, 250, 12.5k, 1.5M."""
+    magnitude = abs(value)
+    for limit, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if magnitude >= limit:
+            return f"{value / limit:.3g}{suffix}"
+    return f"{value:.3g}"
+
+
+def _percent(before: float, after: float | None) -> str:
+    if after is None or before <= 0:
+        return "-"
+    return f"{1.0 - after / before:.0%}"
+
+
+def _nice_step(span: float, count: int) -> float:
+    """A step of 1, 2 or 5 times a power of ten giving about ``count`` intervals."""
+    if span <= 0 or not math.isfinite(span):
+        return 1.0
+    raw = span / count
+    power = 10.0 ** math.floor(math.log10(raw))
+    return next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
+
+
+def _anchor(name: str) -> str:
+    return "j-" + "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+
+
+# ----------------------------------------------------------------------------- plots
+
+
+def _path(
+    position: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    x_scale: float,
+    y0: float,
+    y_scale: float,
+    top: float,
+) -> str:
+    """SVG path data tracing an envelope as a zig-zag (min then max, then max then min).
+
+    Columns whose min and max are within half a unit get a single point.
+    """
+    x = LEFT + position * x_scale
+    lo = y0 - np.minimum(low, top) * y_scale
+    hi = y0 - np.minimum(high, top) * y_scale
+    first = np.where(np.arange(x.size) % 2 == 0, lo, hi)
+    second = np.where(np.arange(x.size) % 2 == 0, hi, lo)
+    double = np.abs(lo - hi) >= 0.5
+    xs = np.repeat(x, 1 + double)
+    ys = np.empty(xs.size)
+    starts = np.cumsum(1 + double) - (1 + double)
+    ys[starts] = np.where(double, first, (lo + hi) / 2)
+    ys[starts[double] + 1] = second[double]
+    points = [f"{a:.1f} {b:.1f}" for a, b in zip(xs.tolist(), ys.tolist(), strict=True)]
+    return "M" + points[0] + ("L" + " ".join(points[1:]) if len(points) > 1 else "")
+
+
+def _panel(
+    series: list[tuple[Trace, str, str]],
+    offset: int,
+    frames: int,
+    top_y: float,
+    height: float,
+    label: str,
+    floor: float = 0.0,
+) -> list[str]:
+    """One plot panel: grid, axes, ticks and the series ``(trace, colour, name)``.
+
+    Sample ``k`` of a trace belongs to frame ``offset + k``; the x axis spans frames
+    0..frames-1. The y axis reaches at least ``floor``, so rounding-level values stay flat
+    at the bottom.
+    """
+    out: list[str] = []
+    span = max(frames - 1, 1)
+    x_scale = COLUMNS / span
+    peak = max((t.peak for t, _, _ in series if t.size), default=0.0)
+    robust = max((t.robust for t, _, _ in series if t.size), default=0.0)
+    # A few samples far above the rest (a glitch) would flatten the plot: clip them.
+    limit = max(1.2 * robust if peak > SPIKE * robust > 0 else peak, floor)
+    step = _nice_step(limit, 4 if height >= 100 else 2) if limit > 0 else 1.0
+    top = step * max(math.ceil(limit / step - 1e-9), 1)
+    clipped = peak > top
+    y0 = top_y + height
+    y_scale = height / top
+    for k in range(int(round(top / step)) + 1):
+        y = y0 - k * step * y_scale
+        out.append(
+            f'<line class="gridline" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y:.1f}" y2="{y:.1f}"/>'
+        )
+        out.append(
+            f'<text x="{LEFT - 5}" y="{y + 4:.1f}" text-anchor="end">{_short(k * step)}</text>'
+        )
+    out.append(f'<text x="{LEFT}" y="{top_y - 6:.1f}">{_e(label)}</text>')
+    if clipped:
+        out.append(
+            f'<text x="{WIDTH - RIGHT}" y="{top_y - 6:.1f}" text-anchor="end">'
+            f"clipped at {_short(top)}, peak {_short(peak)}</text>"
+        )
+    for drawn, colour, name in series:
+        if not drawn.size:
+            continue
+        data = _path(drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top)
+        out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
+    out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y0}" y2="{y0}"/>')
+    out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
+    return out
+
+
+def _frame_ticks(frames: int, y: float) -> list[str]:
+    span = max(frames - 1, 1)
+    step = max(_nice_step(span, 8), 1.0)
+    out = [f'<text x="{LEFT - 9}" y="{y + 15}" text-anchor="end">frame</text>']
+    for k in range(int(span // step) + 1):
+        frame = k * step
+        x = LEFT + frame * COLUMNS / span
+        out.append(f'<line class="axis" x1="{x:.1f}" x2="{x:.1f}" y1="{y}" y2="{y + 4}"/>')
+        out.append(f'<text x="{x:.1f}" y="{y + 15}" text-anchor="middle">{frame:.0f}</text>')
+    return out
+
+
+def _joint_svg(name: str, data: dict, frames: int) -> str:
+    """One SVG per joint: acceleration before/after on top, deviation below."""
+    accel = [(data["accel_before"], BEFORE, "before")]
+    if data.get("accel_after") is not None:
+        accel.append((data["accel_after"], AFTER, "after"))
+    parts = _panel(accel, 1, frames, ACCEL_TOP, ACCEL_HEIGHT, "angular acceleration, deg/s\u00b2")
+    height = ACCEL_TOP + ACCEL_HEIGHT + 22
+    if data.get("deviation") is not None:
+        parts += _panel(
+            [(data["deviation"], DEVIATION, "deviation")],
+            0,
+            frames,
+            DEV_TOP,
+            DEV_HEIGHT,
+            "deviation from the input, deg",
+            floor=DEVIATION_FLOOR,
+        )
+        height = SVG_HEIGHT
+    parts += _frame_ticks(frames, height - 22)
+    return (
+        f'<svg class="plot" data-joint="{_e(name)}" viewBox="0 0 {WIDTH} {height}" '
+        f'role="img" aria-label="{_e(name)}: angular acceleration over frames">'
+        f"<title>{_e(name)}</title>" + "".join(parts) + "</svg>"
+    )
+
+
+# ----------------------------------------------------------------------------- page parts
+
+
+def _page(title: str, body: list[str]) -> str:
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>{_e(title)}</title><style>{CSS}</style></head><body><main>\n"
+        + "\n".join(body)
+        + f'\n<p class="note">motionclean {_e(__version__)}. Angular acceleration is '
+        "2|w<sub>i</sub> &minus; w<sub>i&minus;1</sub>|/&Delta;t&sup2; with "
+        "w<sub>i</sub> = log(q<sub>i</sub><sup>&minus;1</sup>q<sub>i+1</sub>), in degrees "
+        "of rotation per s&sup2;; deviation is the rotation angle between the input and "
+        "the cleaned sample, in degrees.</p>\n</main></body></html>\n"
+    )
+
+
+def _pipeline(steps: Sequence[dict], cleaned: bool = True) -> str:
+    if not steps:
+        return (
+            '<p class="note">Not recorded: the two clips were compared as given.</p>'
+            if cleaned
+            else '<p class="note">None: figures of the input only.</p>'
+        )
+    items = []
+    for step in steps:
+        params = " ".join(
+            f"{k}={_e(_value(v)).replace(', ', ',')}" for k, v in step.items() if k != "filter"
+        )
+        items.append(f"<li><code>{_e(step.get('filter', '?'))}</code> {params}</li>")
+    return '<ol class="pipeline">' + "".join(items) + "</ol>"
+
+
+def _value(value: Any) -> str:
+    """A parameter or note value as short text (lists of more than 8 items shortened)."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, dict):
+        return ", ".join(f"{k} {_nested(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        if not value:
+            return "none"
+        items = [_value(v) for v in value[:8]]
+        more = f", +{len(value) - 8} more" if len(value) > 8 else ""
+        return "[" + ", ".join(items) + more + "]"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def _nested(value: Any) -> str:
+    return f"({_value(value)})" if isinstance(value, dict) else _value(value)
+
+
+def _stat(value: str, label: str) -> str:
+    return f'<div class="stat"><b>{value}</b><span>{label}</span></div>'
+
+
+STANDARD_KEYS = {
+    "angular_accel_rms",
+    "angular_accel_max",
+    "deviation_deg",
+    "linear_accel_rms",
+    "linear_accel_max",
+    "deviation_length",
+}
+
+
+def render_html(report: dict, series: dict | None = None) -> str:
+    """The report page of one clip, from a :func:`build_report` dict and optional series.
+
+    Without ``series`` (see :func:`build_series`) the page has the tables but no plots.
+    Joints whose acceleration is zero before and after get no plot; they are listed.
+    """
+    summary = report["summary"]
+    cleaned = summary.get("noise_reduction") is not None
+    frames = int(report["frames"])
+    dt = float(report["frame_time"])
+    acc = summary["angular_accel_rms"]
+    body = [
+        f"<h1>{_e(report['file'])}</h1>",
+        f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
+        f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
+        "frames are numbered from 0</div>",
+    ]
+    stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
+    if cleaned:
+        stats += [
+            _stat(_num(acc["after"]), "noise after: RMS angular acceleration, deg/s\u00b2"),
+            _stat(f"{summary['noise_reduction']:.1%}", "noise removed"),
+            _stat(
+                _num(summary["deviation_deg_max"], 2) + "\u00b0", "largest deviation from the input"
+            ),
+        ]
+    body.append('<div class="stats">' + "".join(stats) + "</div>")
+    rest = report.get("rest_frames") or {}
+    if rest.get("leading") or rest.get("trailing"):
+        body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
+    body += ["<h2>Pipeline</h2>", _pipeline(report.get("pipeline") or [], cleaned)]
+
+    names = noisiest(report)
+    joints = report["joints"]
+    plotted = [
+        n
+        for n in names
+        if series is not None
+        and n in series["joints"]
+        and (
+            joints[n]["angular_accel_rms"]["before"] > 0
+            or (joints[n]["angular_accel_rms"]["after"] or 0) > 0
+        )
+    ]
+    drawn = set(plotted)
+    tables = _joint_table(joints, names, drawn, cleaned)
+    positions = [n for n in joints if "linear_accel_rms" in joints[n]]
+    if positions:
+        tables += _position_table(joints, positions, cleaned)
+    body.append(
+        f"<details><summary>Figures of all {len(names)} joints, noisiest first"
+        f"</summary>{tables}</details>"
+    )
+    body += world_section(report, series)
+    body += _feet_section(report, series)
+    if series is None:
+        body.append('<p class="note">No time series were given: plots left out.</p>')
+    elif plotted:
+        body.append(
+            f"<h2>Angular acceleration{' and deviation' if cleaned else ''} over "
+            "frames, noisiest joint first</h2>"
+        )
+        keys = [("before", BEFORE)] + (
+            [("after", AFTER), ("deviation", DEVIATION)] if cleaned else []
+        )
+        body.append(
+            '<div class="legend">'
+            + "".join(
+                f'<span><i class="key" style="background:{c}"></i>{k}</span>' for k, c in keys
+            )
+            + f"<span>clips longer than {COLUMNS} frames: min and max per plot column</span>"
+            "</div>"
+        )
+        body.append('<div class="grid">')
+        for name in plotted:
+            body.append(_joint_card(name, joints[name], series["joints"][name], frames))
+        body.append("</div>")
+    still = [n for n in names if n not in drawn and series is not None]
+    if still:
+        body.append(
+            '<p class="note">Not plotted (no angular acceleration): '
+            + ", ".join(_e(n) for n in still)
+            + "</p>"
+        )
+    return _page(f"motionclean report: {report['file']}", body)
+
+
+def _joint_table(joints: dict, names: list[str], plotted: set[str], cleaned: bool) -> str:
+    head = ["joint", "accel RMS, deg/s\u00b2"]
+    if cleaned:
+        head += ["after", "removed"]
+    head.append("accel max")
+    if cleaned:
+        head += ["after", "deviation RMS, \u00b0", "max, \u00b0"]
+    rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
+    for name in names:
+        entry = joints[name]
+        rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
+        label = f'<a href="#{_anchor(name)}">{_e(name)}</a>' if name in plotted else _e(name)
+        cells = [label, _num(rms["before"])]
+        if cleaned:
+            cells += [_num(rms["after"]), _percent(rms["before"], rms["after"])]
+        cells.append(_num(peak["before"]))
+        if cleaned:
+            dev = entry.get("deviation_deg", {})
+            cells += [_num(peak["after"]), _num(dev.get("rms"), 2), _num(dev.get("max"), 2)]
+        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return "<table>" + "".join(rows) + "</table>"
+
+
+def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
+    head = ["joint", "linear accel RMS"] + (["after"] if cleaned else []) + ["max"]
+    head += ["after", "deviation RMS", "max"] if cleaned else []
+    rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
+    for name in names:
+        entry = joints[name]
+        rms, peak = entry["linear_accel_rms"], entry["linear_accel_max"]
+        cells = [_e(name), _num(rms["before"], 1)] + ([_num(rms["after"], 1)] if cleaned else [])
+        cells.append(_num(peak["before"], 1))
+        if cleaned:
+            dev = entry.get("deviation_length", {})
+            cells += [_num(peak["after"], 1), _num(dev.get("rms"), 3), _num(dev.get("max"), 3)]
+        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return (
+        "<table>" + "".join(rows) + '</table><p class="note">Length units of the file '
+        "per s\u00b2; deviation in length units.</p>"
+    )
+
+
+def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
+    rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
+    if rms["after"] is not None:
+        removed = f"{_percent(rms['before'], rms['after'])} of the noise removed"
+        figures = (
+            f"RMS {_num(rms['before'])} \u2192 {_num(rms['after'])}, max "
+            f"{_short(peak['before'])} \u2192 {_short(peak['after'])} deg/s\u00b2"
+        )
+        dev = entry.get("deviation_deg")
+        if dev:
+            figures += (
+                f"; deviation RMS {_num(dev['rms'], 2)}\u00b0, max {_num(dev['max'], 2)}\u00b0"
+            )
+    else:
+        removed = ""
+        figures = f"RMS {_num(rms['before'])}, max {_short(peak['before'])} deg/s\u00b2"
+    notes = [
+        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
+        for k, v in entry.items()
+        if k not in STANDARD_KEYS
+    ]
+    return (
+        f'<section class="card" id="{_anchor(name)}"><h3>{_e(name)}<small>{removed}'
+        f'</small></h3><div class="figures">{figures}</div>'
+        + "".join(f'<div class="notes">{n}</div>' for n in notes)
+        + _joint_svg(name, data, frames)
+        + "</section>"
+    )
+
+
+# ----------------------------------------------------------------------------- feet
+
+
+CONTACT = "#d8e8d0"
+
+
+def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
+    """A foot: its contacts and skate, and its lowest point above the ground over frames
+    with the contacts shaded."""
+    skate, pen = figures["skate_body_heights"], figures["penetration"]
+    text = f"{len(figures['contacts'])} contacts, {figures['frames']:,} frames"
+    if skate["before"] is not None and math.isfinite(skate["before"]):
+        text += f"; skate {skate['before']:.3f}"
+        text += f" \u2192 {skate['after']:.3f}" if skate["after"] is not None else ""
+        text += " body heights/s"
+    if pen["before"] is None or data["height_before"] is None:
+        text += "; ground not found (needs at least 2 frames)"
+        return (
+            f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
+            "</section>"
+        )
+    text += f"; below ground {_short(pen['before'])}"
+    text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
+    text += " units"
+    series = [(trace(np.maximum(data["height_before"], 0.0)), BEFORE, "height before")]
+    if data["height_after"] is not None:
+        series.append((trace(np.maximum(data["height_after"], 0.0)), AFTER, "height after"))
+    x_scale = COLUMNS / max(frames - 1, 1)
+    shades = [
+        f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '
+        f'width="{max((last - first) * x_scale, 1.0):.1f}" height="{ACCEL_HEIGHT}" '
+        f'fill="{CONTACT}"/>'
+        for first, last in data["contacts"]
+    ]
+    height = ACCEL_TOP + ACCEL_HEIGHT + 30
+    parts = shades + _panel(
+        series, 0, frames, ACCEL_TOP, ACCEL_HEIGHT, "lowest point above the ground, units"
+    )
+    parts += _frame_ticks(frames, ACCEL_TOP + ACCEL_HEIGHT + 4)
+    svg = (
+        f'<svg class="foot" data-foot="{_e(name)}" viewBox="0 0 {WIDTH} {height}" role="img" '
+        f'aria-label="{_e(name)}: height above the ground over frames">'
+        f"<title>{_e(name)}</title>" + "".join(parts) + "</svg>"
+    )
+    return (
+        f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
+        + svg
+        + "</section>"
+    )
+
+
+def _feet_section(report: dict, series: dict | None) -> list[str]:
+    contacts = report.get("contacts")
+    if not contacts or series is None or not series.get("feet"):
+        return []
+    frames = int(report["frames"])
+    return [
+        "<h2>Feet on the ground</h2>",
+        '<div class="legend">'
+        f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on the input)'
+        "</span>"
+        f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
+        f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
+        "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        '<div class="grid">',
+        *(
+            _foot_card(name, contacts["feet"][name], series["feet"][name], frames)
+            for name in contacts["feet"]
+        ),
+        "</div>",
+    ]
+
+
+# ----------------------------------------------------------------------------- batch index
+
+
+def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) -> str:
+    """The index page of a batch run.
+
+    ``entries`` are dicts with ``file`` (shown), ``href`` (relative link to the clip page
+    or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max``,
+    ``status`` ("ok", "skipped", "failed") and ``error``.
+    """
+    counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "skipped", "failed")}
+    body = [
+        f"<h1>{_e(title)}</h1>",
+        f'<div class="meta">{len(entries)} clips: {counts["ok"]} cleaned, '
+        f"{counts['skipped']} skipped (already done), {counts['failed']} failed</div>",
+        "<h2>Pipeline</h2>",
+        _pipeline(pipeline),
+        "<h2>Clips</h2>",
+    ]
+    head = ["clip", "frames", "noise before", "after", "removed", "deviation max, \u00b0", "status"]
+    rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
+    for e in entries:
+        name = _e(e["file"])
+        href = urllib.parse.quote(e["href"]) if e.get("href") else None
+        link = f'<a href="{_e(href)}">{name}</a>' if href else name
+        if e["status"] == "failed":
+            rows.append(
+                f'<tr class="failed"><td>{link}</td>'
+                f'<td class="error" colspan="6">failed: {_e(e["error"])}</td></tr>'
+            )
+            continue
+        cells = [
+            link,
+            _num(e.get("frames")),
+            _num(e.get("noise_before")),
+            _num(e.get("noise_after")),
+            _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
+            _num(e.get("deviation_max"), 2),
+            _e(e["status"]),
+        ]
+        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    body.append("<table>" + "".join(rows) + "</table>")
+    body.append(
+        '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
+        "deg/s\u00b2.</p>"
+    )
+    return _page(title, body)

@@ -1,0 +1,334 @@
+"""World space in the HTML report: end-effector trajectories and a skeleton player.
+
+Everything is inline (SVG and a few lines of plain JavaScript): the page stays one file with
+nothing to fetch. With scripts off the player still shows one frame. Long clips are
+subsampled (at most :data:`PLAYER_FRAMES` frames), so a page stays well under 1.5 MB.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from typing import Any
+
+import numpy as np
+
+from ..core import kinematics
+from ..core.motion import Motion
+
+__all__ = ["world_section", "world_series"]
+
+#: Most frames the player and the trajectories carry (evenly spaced, first and last kept).
+PLAYER_FRAMES = 400
+#: Coordinates are stored as integers in thousandths of the body height.
+QUANTUM = 1000.0
+BEFORE, AFTER = "#e0892b", "#1f57b8"
+VIEW = 360  # SVG user units of a player or trajectory view
+#: The player frames this many body heights around the figure, which it follows.
+FIGURE_SPAN = 1.3
+
+
+def _frames(n_frames: int) -> np.ndarray:
+    """The frames carried: all of a short clip, evenly spaced ones of a long clip."""
+    if n_frames <= PLAYER_FRAMES:
+        return np.arange(n_frames)
+    return np.unique(np.linspace(0, n_frames - 1, PLAYER_FRAMES).round().astype(int))
+
+
+def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+    """What the page draws: world points of joints and end sites (subsampled frames), the
+    bones as point pairs, the up axis and the body height, and where points are unknown
+    (tracker dropouts); ``after`` None for one clip."""
+    up = kinematics.up_axis(before)
+    height = kinematics.body_height(before, up)
+    frames = _frames(before.n_frames)
+    parents = kinematics.point_parents(before)
+    points_b = kinematics.world_positions(before.at_frames(frames))
+    points_a = None if after is None else kinematics.world_positions(after.at_frames(frames))
+    index, names = kinematics.end_effectors(before)
+    unknown = [
+        kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)
+    ]
+    return {
+        "unknown_before": None if unknown[0] is None else unknown[0][frames],
+        "unknown_after": None if unknown[1] is None else unknown[1][frames],
+        "up": up,
+        "height": height,
+        "frames": frames,
+        "bones": [(int(p), int(c)) for c, p in enumerate(parents) if p >= 0],
+        "before": points_b,
+        "after": points_a,
+        "effectors": dict(zip(names, index.tolist(), strict=True)),
+    }
+
+
+def _axes(up: int) -> tuple[int, int]:
+    """The two horizontal axes, in x-y-z order after the up axis (seen from above: the
+    first to the right, the second up the screen)."""
+    return (up + 1) % 3, (up + 2) % 3
+
+
+def _views(up: int) -> dict[str, tuple[int, int]]:
+    """Screen axes (right, up) of each view. The front view has the lower-numbered
+    horizontal axis to the right (x for Y-up and Z-up clips: the front cameras of both
+    kinds of tools), the side view the other one; the top view looks down."""
+    h1, h2 = _axes(up)
+    first, second = sorted((h1, h2))
+    return {"front": (first, up), "side": (second, up), "top": (h1, h2)}
+
+
+def _to_view(values: np.ndarray, low: np.ndarray, span: float) -> np.ndarray:
+    """Coordinates scaled into the view box (a margin of 5 %), y pointing down."""
+    scaled = (values - low) / span * 0.9 * VIEW + 0.05 * VIEW
+    scaled[..., 1] = VIEW - scaled[..., 1]
+    return scaled
+
+
+def _polyline(points: np.ndarray, colour: str, name: str, unknown: np.ndarray | None) -> str:
+    """The track as one polyline per run of known frames (a dropout leaves a break)."""
+    known = np.ones(len(points), bool) if unknown is None else ~unknown
+    starts = np.flatnonzero(known & ~np.concatenate([[False], known[:-1]]))
+    stops = np.flatnonzero(known & ~np.concatenate([known[1:], [False]])) + 1
+    lines = []
+    for a, b in zip(starts, stops, strict=True):
+        data = " ".join(f"{x:.1f},{y:.1f}" for x, y in points[a:b].tolist())
+        lines.append(
+            f'<polyline class="track" data-series="{name}" fill="none" stroke="{colour}" '
+            f'stroke-width="1.2" points="{data}"/>'
+        )
+    return "".join(lines)
+
+
+def _unknown_at(unknown: np.ndarray | None, point: int) -> np.ndarray | None:
+    return None if unknown is None else unknown[:, point]
+
+
+def _trajectory_card(name: str, point: int, series: dict) -> str:
+    axes_of = _views(series["up"])
+    views = []
+    for title, axes in (("from above", axes_of["top"]), ("from the side", axes_of["front"])):
+        tracks = [series["before"][:, point][:, axes]]
+        unknown = [_unknown_at(series["unknown_before"], point)]
+        if series["after"] is not None:
+            tracks.append(series["after"][:, point][:, axes])
+            unknown.append(_unknown_at(series["unknown_after"], point))
+        low = np.min([t.min(axis=0) for t in tracks], axis=0)
+        high = np.max([t.max(axis=0) for t in tracks], axis=0)
+        span = max(float((high - low).max()), 1e-9)
+        low = (low + high) / 2 - span / 2  # centred, the same scale on both axes
+        lines = [
+            _polyline(_to_view(t, low, span), colour, label, gone)
+            for t, gone, colour, label in zip(
+                tracks, unknown, (BEFORE, AFTER), ("before", "after"), strict=False
+            )
+        ]
+        views.append(
+            f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
+            f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
+            f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>' + "".join(lines) + "</svg>"
+        )
+    labels = "".join(f"<span>{t}</span>" for t in ("from above", "from the side"))
+    return (
+        f'<section class="card"><h3>{html.escape(name)}</h3><div class="views">'
+        + "".join(views)
+        + f'</div><div class="viewlabels">{labels}</div></section>'
+    )
+
+
+def _static_frame(series: dict, frame: int, axes: tuple[int, int]) -> str:
+    """One frame of the player as plain SVG lines (what a page without scripts shows)."""
+    parts = []
+    clips = [("before", series["before"], BEFORE, series["unknown_before"])]
+    if series["after"] is not None:
+        clips.append(("after", series["after"], AFTER, series["unknown_after"]))
+    span = max(FIGURE_SPAN * series["height"], 1e-9)
+    here = series["before"][frame][:, axes]
+    low = (here.min(axis=0) + here.max(axis=0)) / 2 - span / 2
+    for label, points, colour, unknown in clips:
+        xy = _to_view(points[frame][:, axes], low, span)
+        shown = np.ones(len(xy), bool) if unknown is None else ~unknown[frame]
+        for a, b in series["bones"]:
+            if not (shown[a] and shown[b]):
+                continue
+            parts.append(
+                f'<line class="bone" data-clip="{label}" x1="{xy[a, 0]:.1f}" y1="{xy[a, 1]:.1f}" '
+                f'x2="{xy[b, 0]:.1f}" y2="{xy[b, 1]:.1f}" stroke="{colour}" stroke-width="2"/>'
+            )
+        for x, y in xy[shown].tolist():
+            parts.append(
+                f'<circle class="joint" data-clip="{label}" cx="{x:.1f}" cy="{y:.1f}" r="2.5" '
+                f'fill="{colour}"/>'
+            )
+    return "".join(parts)
+
+
+PLAYER_SCRIPT = """
+(function () {
+  var data = JSON.parse(document.getElementById('mc-world').textContent);
+  var svg = document.getElementById('mc-player');
+  var slider = document.getElementById('mc-slider');
+  var label = document.getElementById('mc-frame');
+  var button = document.getElementById('mc-play');
+  var view = document.getElementById('mc-view');
+  var n = data.frames.length, current = 0, timer = null, NS = 'http://www.w3.org/2000/svg';
+  var clips = data.after ? [['before', data.before, data.colours[0]],
+                            ['after', data.after, data.colours[1]]]
+                         : [['before', data.before, data.colours[0]]];
+  var axes = data.views;
+  var lines = [], dots = [];
+  svg.querySelectorAll('line.bone, circle.joint').forEach(function (l) { l.remove(); });
+  clips.forEach(function (c) {
+    data.bones.forEach(function () {
+      var l = document.createElementNS(NS, 'line');
+      l.setAttribute('class', 'bone'); l.setAttribute('data-clip', c[0]);
+      l.setAttribute('stroke', c[2]); l.setAttribute('stroke-width', '2');
+      svg.appendChild(l); lines.push(l);
+    });
+    for (var p = 0; p < c[1][0].length; p += 3) {
+      var d = document.createElementNS(NS, 'circle');
+      d.setAttribute('class', 'joint'); d.setAttribute('data-clip', c[0]);
+      d.setAttribute('r', '2.5'); d.setAttribute('fill', c[2]);
+      svg.appendChild(d); dots.push(d);
+    }
+  });
+  function draw(i) {
+    current = Math.max(0, Math.min(n - 1, i));
+    var a = axes[view.value], k = 0, S = data.size, span = data.span;
+    var f0 = clips[0][1][current], lo = [0, 0];
+    for (var d = 0; d < 2; d++) {
+      var mn = 1e30, mx = -1e30;
+      for (var p0 = 0; p0 < f0.length; p0 += 3) {
+        mn = Math.min(mn, f0[p0 + a[d]]); mx = Math.max(mx, f0[p0 + a[d]]);
+      }
+      lo[d] = (mn + mx) / 2 - span / 2;
+    }
+    var m = 0;
+    clips.forEach(function (c, ci) {
+      var f = c[1][current], gone = {}, hidden = data.hidden[ci];
+      if (hidden) hidden[current].forEach(function (p) { gone[p] = true; });
+      for (var p = 0; p < f.length; p += 3) {
+        var d = dots[m++];
+        d.setAttribute('visibility', gone[p / 3] ? 'hidden' : 'visible');
+        d.setAttribute('cx', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
+        d.setAttribute('cy', S - ((f[p + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
+      }
+      data.bones.forEach(function (bone) {
+        var l = lines[k++], p = bone[0] * 3, q = bone[1] * 3;
+        l.setAttribute('visibility', gone[bone[0]] || gone[bone[1]] ? 'hidden' : 'visible');
+        l.setAttribute('x1', ((f[p + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
+        l.setAttribute('y1', S - ((f[p + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
+        l.setAttribute('x2', ((f[q + a[0]] - lo[0]) / span * 0.9 + 0.05) * S);
+        l.setAttribute('y2', S - ((f[q + a[1]] - lo[1]) / span * 0.9 + 0.05) * S);
+      });
+    });
+    slider.value = current;
+    label.textContent = 'frame ' + data.frames[current];
+  }
+  function nearest(frame) {
+    var best = 0;
+    for (var i = 0; i < n; i++) {
+      if (Math.abs(data.frames[i] - frame) < Math.abs(data.frames[best] - frame)) best = i;
+    }
+    return best;
+  }
+  function fromHash() {
+    var m = /frame=(\\d+)/.exec(window.location.hash);
+    draw(m ? nearest(parseInt(m[1], 10)) : current);
+  }
+  slider.max = n - 1;
+  slider.addEventListener('input', function () { draw(parseInt(slider.value, 10)); });
+  view.addEventListener('change', function () { draw(current); });
+  button.addEventListener('click', function () {
+    if (timer) { clearInterval(timer); timer = null; button.textContent = 'play'; return; }
+    button.textContent = 'pause';
+    timer = setInterval(function () { draw(current + 1 < n ? current + 1 : 0); }, data.step_ms);
+  });
+  window.addEventListener('hashchange', fromHash);
+  fromHash();
+})();
+"""
+
+
+def _player(series: dict, frame_time: float) -> str:
+    views = _views(series["up"])
+    scale = QUANTUM / max(series["height"], 1e-12)
+
+    def packed(points: np.ndarray | None) -> list | None:
+        if points is None:
+            return None
+        return np.round(points * scale).astype(int).reshape(len(points), -1).tolist()
+
+    frames = series["frames"]
+    step = float(np.median(np.diff(frames))) if len(frames) > 1 else 1.0
+
+    def hidden(unknown: np.ndarray | None) -> list | None:
+        """Per shown frame, the points to hide (unknown: a tracker dropout)."""
+        if unknown is None:
+            return None
+        return [np.flatnonzero(row).tolist() for row in unknown]
+
+    payload = {
+        "hidden": [hidden(series["unknown_before"]), hidden(series["unknown_after"])],
+        "frames": frames.tolist(),
+        "bones": series["bones"],
+        "before": packed(series["before"]),
+        "after": packed(series["after"]),
+        "views": views,
+        "size": VIEW,
+        "span": FIGURE_SPAN * QUANTUM,
+        "colours": [BEFORE, AFTER],
+        "step_ms": max(int(round(1000.0 * frame_time * step)), 10),
+    }
+    text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
+    static = _static_frame(series, 0, views["front"])
+    return (
+        '<div class="player"><svg id="mc-player" class="view" '
+        f'viewBox="0 0 {VIEW} {VIEW}" role="img" aria-label="the clip as a stick figure">'
+        f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>{static}</svg>'
+        '<div class="controls"><button id="mc-play" type="button">play</button>'
+        f'<input id="mc-slider" type="range" min="0" max="{len(frames) - 1}" value="0">'
+        '<span id="mc-frame">frame 0</span> <select id="mc-view">'
+        '<option value="front">front</option><option value="side">side</option>'
+        '<option value="top">top</option></select></div></div>'
+        f'<script type="application/json" id="mc-world">{text}</script>'
+        f"<script>{PLAYER_SCRIPT}</script>"
+    )
+
+
+CSS = (
+    ".views{display:grid;grid-template-columns:1fr 1fr;gap:8px}"
+    ".viewlabels{display:grid;grid-template-columns:1fr 1fr;color:#5a6272;font-size:12px}"
+    "svg.view{width:100%;height:auto;border:1px solid #e3e6ea}"
+    ".player{max-width:560px}.controls{display:flex;gap:8px;align-items:center;margin:6px 0}"
+    "#mc-slider{flex:1}"
+)
+
+
+def world_section(report: dict, series: dict | None) -> list[str]:
+    """HTML blocks: the skeleton player, then every end effector's trajectory seen from
+    above and from the side (input and cleaned overlaid)."""
+    if series is None or not series.get("world"):
+        return []
+    world = series["world"]
+    frames = len(world["frames"])
+    if not frames:
+        return ["<h2>The motion</h2>", '<div class="legend">the clip has no frames</div>']
+    shown = (
+        f"all {frames:,} frames"
+        if frames == report["frames"]
+        else f"{frames:,} of {report['frames']:,} frames, evenly spaced"
+    )
+    cards = [_trajectory_card(name, p, world) for name, p in world["effectors"].items()]
+    return [
+        f"<style>{CSS}</style>",
+        "<h2>The motion</h2>",
+        '<div class="legend">'
+        f'<span><i class="key" style="background:{BEFORE}"></i>input</span>'
+        f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
+        f"<span>{shown}; open a frame with #frame=N in the address</span></div>",
+        _player(world, float(report["frame_time"])),
+        "<h2>Where the hands, feet and head go</h2>",
+        '<div class="grid">',
+        *cards,
+        "</div>",
+    ]

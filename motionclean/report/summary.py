@@ -1,0 +1,379 @@
+"""Reports: per-joint noise and deviation figures as JSON and as a terminal table.
+
+The JSON schema is described in the README ("Conventions", "World space"). Joints with
+rotation channels get angular figures (degrees of rotation per s^2, degrees); joints with
+position channels get ``linear_accel_rms`` / ``linear_accel_max`` (length units per s^2)
+and ``deviation_length`` (length units). ``summary.noise_reduction`` is the fraction of the
+RMS angular acceleration removed, ``1 - after / before``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ..core.motion import Motion
+from ..core.restpose import rest_frames, trim
+from ..core.threads import run_parts
+from ..steps import REGISTRY
+from ..steps.base import format_params
+from . import metrics
+from .html_world import world_series
+from .metrics import pair, rms_and_max
+from .traces import Trace, traces
+from .world import (
+    contact_figures,
+    figure_points,
+    figure_positions,
+    format_contacts,
+    format_world,
+    world_figures,
+)
+
+__all__ = ["build_report", "build_series", "format_table", "to_json"]
+
+
+def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+    """Per-frame figures behind the report, per joint with rotation channels, reduced to
+    what the HTML report plots and the figures the report reads.
+
+    Returns ``{"frame_time": dt, "joints": {name: {"accel_before": Trace, "accel_after":
+    Trace or None, "deviation": Trace or None}}, "figures": {...}, ...}``: the
+    :class:`~motionclean.report.traces.Trace` of the angular acceleration magnitude in degrees of
+    rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and of the rotation angle between
+    input and output in degrees at every frame; 0 where a missing sample (tracker dropout)
+    is involved. ``figures`` holds each figure's RMS and maximum per joint and over all
+    joints, without the rows that involve the clip's rest-pose frames. No per-frame table
+    of the joints is kept: each is reduced as soon as it is made (the feet's heights,
+    ``(F,)`` per foot, are).
+    """
+    dt = before.frame_time
+    clips = (before, after)
+    # World positions of the points the contact and world figures read (found once, on the
+    # input), once per clip (the world rotations and the other points are not kept), let
+    # go of before the per-frame tables are made.
+    used = figure_points(before)
+    points = run_parts(
+        lambda clip: None if clip is None else figure_positions(clip, used),
+        clips,
+        before.rotations.size,
+    )
+    contacts, feet = contact_figures(before, after, points, used)
+    lead, trail = rest_frames(before)
+    core = slice(lead, before.n_frames - trail)
+    figures = world_figures(
+        trim(before, lead, trail),
+        None if after is None else trim(after, lead, trail),
+        [None if p is None else p[core] for p in points],
+        used,
+    )
+    del points
+    rotating = before.layout.has_rotation
+    rot = np.flatnonzero(rotating)
+    cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
+
+    def acceleration(clip: Motion | None) -> _Reduced | None:
+        if clip is None:
+            return None
+        missing = None if clip.missing is None else clip.missing[:, cols]
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        return _reduced(table, lead, trail)
+
+    # one clip after the other (each on threads): one clip-long table at a time
+    acc_b, acc_a = acceleration(before), acceleration(after)
+    assert acc_b is not None
+    dev = None
+    if after is not None:
+        table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
+        if before.missing is not None or after.missing is not None:
+            table[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+        dev = _reduced(table, lead, trail)
+        del table
+    joints = {}
+    for n, j in enumerate(rot):
+        joints[before.names[j]] = {
+            "accel_before": acc_b.traces[n],
+            "accel_after": None if acc_a is None else acc_a.traces[n],
+            "deviation": None if dev is None else dev.traces[n],
+        }
+    return {
+        "frame_time": dt,
+        "joints": joints,
+        "figures": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
+        "contacts": contacts,
+        "feet": feet,
+        "rest_frames": (lead, trail),
+        "world": world_series(before, after),
+        "world_figures": figures,
+    }
+
+
+class _Reduced(NamedTuple):
+    """A ``(N, R)`` table of one figure reduced: each joint's :class:`Trace`, and over the
+    rows without the rest-pose frames, each joint's RMS and max and the RMS and max of
+    all."""
+
+    traces: list[Trace]
+    rms: np.ndarray
+    max: np.ndarray
+    total_rms: float
+    total_max: float
+
+
+def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
+    """:class:`_Reduced` of ``table``, whose values it overwrites (with their squares, for
+    the RMS: no temporary as large as the table)."""
+    drawn = traces(table)
+    core = table[lead : table.shape[0] - trail]
+    if not core.size:
+        zeros = np.zeros(table.shape[1])
+        return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
+    largest = core.max(axis=0)
+    total_max = float(largest.max())
+    squares = np.square(core, out=core)
+    rms = np.sqrt(np.mean(squares, axis=0))
+    return _Reduced(drawn, rms, largest, float(np.sqrt(np.mean(squares.ravel()))), total_max)
+
+
+def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
+    """Per joint with rotation channels: angular acceleration RMS/max (deg/s^2) before and
+    after, and the deviation from the input (degrees) when cleaned."""
+    before, after, dev = (
+        series["figures"][k] for k in ("accel_before", "accel_after", "deviation")
+    )
+    figures = {}
+    for n, name in enumerate(names):
+        entry = figures[name] = {
+            "angular_accel_rms": pair(before.rms[n], after.rms[n] if cleaned else None),
+            "angular_accel_max": pair(before.max[n], after.max[n] if cleaned else None),
+        }
+        if cleaned:
+            entry["deviation_deg"] = {"rms": float(dev.rms[n]), "max": float(dev.max[n])}
+    return figures
+
+
+def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) -> dict:
+    """Per joint with position channels: linear acceleration RMS/max (length units/s^2)
+    before and after, and the deviation from the input (length units) when cleaned."""
+    dt = before.frame_time
+    lrms_b, lmax_b = rms_and_max(metrics.linear_acceleration(before.translations[:, joints], dt))
+    if after is not None:
+        lrms_a, lmax_a = rms_and_max(metrics.linear_acceleration(after.translations[:, joints], dt))
+        moved = metrics.distance(before.translations[:, joints], after.translations[:, joints])
+        ldev_rms, ldev_max = rms_and_max(moved)
+    figures = {}
+    for n, j in enumerate(joints):
+        a = after is not None
+        entry = figures[before.names[j]] = {
+            "linear_accel_rms": pair(lrms_b[n], lrms_a[n] if a else None),
+            "linear_accel_max": pair(lmax_b[n], lmax_a[n] if a else None),
+        }
+        if a:
+            entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
+    return figures
+
+
+def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
+    """Clip totals: RMS angular acceleration over all joints and frames, the fraction of it
+    removed and the largest deviation (None for a single clip)."""
+    figures = series["figures"]
+    total_b = figures["accel_before"].total_rms
+    summary: dict[str, Any] = {
+        "angular_accel_rms": pair(total_b, None),
+        "noise_reduction": None,
+        "deviation_deg_max": None,
+    }
+    if cleaned:
+        total_a = figures["accel_after"].total_rms
+        summary["angular_accel_rms"]["after"] = total_a
+        summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
+        summary["deviation_deg_max"] = figures["deviation"].total_max
+    return summary
+
+
+def build_report(
+    before: Motion,
+    after: Motion | None = None,
+    pipeline: list[dict] | None = None,
+    notes: dict[str, dict] | None = None,
+    file: str | None = None,
+    series: dict | None = None,
+) -> dict[str, Any]:
+    """Figures for ``before`` alone, or before/after a cleaning when ``after`` is given.
+
+    ``series`` is :func:`build_series` of the same clips when the caller already has it.
+    """
+    series = build_series(before, after) if series is None else series
+    cleaned = after is not None
+    frames = before.n_frames
+    lead, trail = series["rest_frames"]
+    core_before = trim(before, lead, trail)
+    core_after = None if after is None else trim(after, lead, trail)
+    joints = _rotation_figures(series, list(series["joints"]), cleaned)
+    positions = _position_figures(
+        core_before, core_after, np.flatnonzero(before.layout.has_position)
+    )
+    for name, entry in positions.items():
+        joints.setdefault(name, {}).update(entry)
+    for name, note in (notes or {}).items():
+        joints.setdefault(name, {}).update(note)
+    return {
+        "file": file if file is not None else before.path,
+        "frames": frames,
+        "frame_time": before.frame_time,
+        "pipeline": pipeline or [],
+        "joints": joints,
+        "summary": _summary(series, cleaned),
+        "world": series["world_figures"],
+        "contacts": series["contacts"],
+        "rest_frames": {"leading": lead, "trailing": trail},
+    }
+
+
+def json_safe(value: Any) -> Any:
+    """Non-finite numbers as the strings ``"inf"``, ``"-inf"``, ``"nan"`` (strict JSON)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    return value
+
+
+def to_json(report: dict) -> bytes:
+    """UTF-8 JSON text, indented, strict (no ``Infinity`` / ``NaN`` tokens)."""
+    return (json.dumps(json_safe(report), indent=2, allow_nan=False) + "\n").encode("utf-8")
+
+
+def noisiest(report: dict) -> list[str]:
+    """Joint names with angular figures, noisiest (largest RMS acceleration before) first."""
+    rows = [
+        (v["angular_accel_rms"]["before"], k)
+        for k, v in report["joints"].items()
+        if "angular_accel_rms" in v
+    ]
+    return [name for _, name in sorted(rows, key=lambda r: -r[0])]
+
+
+def resampled_to(report: dict) -> str:
+    """ ", written as N frames at R fps" for a resampled clip (figures compare on the
+    input's frames), else ""."""
+    output = report.get("output")
+    if not output:
+        return ""
+    return (
+        f", written as {output['frames']} frames at {1.0 / output['frame_time']:.4g} fps "
+        "(figures on the input's frames)"
+    )
+
+
+def format_table(report: dict, limit: int = 10) -> str:
+    """A readable table: the ``limit`` noisiest joints, then the totals."""
+    cleaned = report["summary"].get("noise_reduction") is not None
+    estimated = any("auto" in entry for entry in report["joints"].values())
+    head = f"{'joint':<22}{'accel rms':>14}"
+    if cleaned:
+        head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
+    if estimated:
+        head += f"{'noise est':>10}  filter chosen"
+    lines = [
+        f"{report['file']}: {report['frames']} frames at "
+        f"{1.0 / report['frame_time']:.4g} fps{resampled_to(report)}, numbered from 0 "
+        "(angular acceleration in deg/s^2; deviation and estimated noise in deg)",
+        head,
+        "-" * len(head),
+    ]
+
+    def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
+        text = f"{name[:21]:<22}{acc['before']:>14,.0f}"
+        if cleaned:
+            removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
+            text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
+        if auto:
+            text += f"{auto['noise']:>10.2f}  {format_params(auto['filter'])}"
+        return text
+
+    names = noisiest(report)
+    for name in names[:limit]:
+        entry = report["joints"][name]
+        dev = entry.get("deviation_deg", {}).get("max")
+        lines.append(row(name, entry["angular_accel_rms"], dev, entry.get("auto")))
+    if len(names) > limit:
+        lines.append(f"... {len(names) - limit} more joints")
+    lines.append("-" * len(head))
+    summary = report["summary"]
+    lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    rest = report.get("rest_frames") or {}
+    if rest.get("leading") or rest.get("trailing"):
+        lines.append(format_rest(rest, report["frames"]))
+    if "world" in report:
+        lines.append(format_world(report["world"]))
+    if report.get("contacts"):
+        lines.extend(format_contacts(report["contacts"]))
+    lines.extend(format_repairs(report))
+    return "\n".join(lines)
+
+
+def format_rest(rest: dict, frames: int) -> str:
+    """The rest-pose frames left out of every step and every figure."""
+    spans = []
+    if rest["leading"]:
+        spans.append((0, rest["leading"] - 1))
+    if rest["trailing"]:
+        spans.append((frames - rest["trailing"], frames - 1))
+    parts = [f"{a}-{b}" if b > a else f"{a}" for a, b in spans]
+    noun = "frame" if len(spans) == 1 and spans[0][0] == spans[0][1] else "frames"
+    return (
+        f"rest pose: {noun} {' and '.join(parts)} kept as they are and left out of the "
+        "figures (a pose held before or after the motion)"
+    )
+
+
+def note_text(key: str, note: Any, brief: bool = False) -> str:
+    """One readable line for a step's per-joint note (key ``despike``, ``position_auto``, ...):
+    the step's own ``format_note`` (``format_brief`` when ``brief`` and it has one), or the
+    note as JSON."""
+    positions = key.startswith("position_")
+    spec = REGISTRY.get(key.removeprefix("position_"))
+    if spec is not None:
+        formatter = (brief and spec.format_brief) or spec.format_note
+        if formatter is not None:
+            return formatter(note, positions)
+    return json.dumps(json_safe(note))
+
+
+#: Longest terminal line the repair list prints (characters).
+LINE_LIMIT = 199
+
+
+def format_repairs(report: dict, limit: int = 10) -> list[str]:
+    """One line per joint a repairing step (despike) changed, at most ``limit`` joints: how,
+    where (long frame lists summarised; the full lists are in the JSON and HTML reports),
+    largest step. Lines are cut at :data:`LINE_LIMIT` characters."""
+    keys = [
+        prefix + name
+        for name, spec in REGISTRY.items()
+        if spec.lists_repairs
+        for prefix in ("", "position_")
+    ]
+    lines = []
+    for name, entry in report["joints"].items():
+        texts = {key: note_text(key, entry[key], brief=True) for key in keys if entry.get(key)}
+        if not texts:
+            continue
+        if len(texts) == 1:
+            key, text = next(iter(texts.items()))
+            line = f"repaired {name}{' (positions)' if key.startswith('position_') else ''}: {text}"
+        else:
+            line = f"repaired {name}: " + " | ".join(
+                ("positions: " if key.startswith("position_") else "") + text
+                for key, text in texts.items()
+            )
+        lines.append(line if len(line) <= LINE_LIMIT else line[: LINE_LIMIT - 3] + "...")
+    if len(lines) > limit:
+        lines[limit:] = [f"... {len(lines) - limit} more joints repaired (full list in the report)"]
+    return lines

@@ -1,0 +1,223 @@
+"""World-space figures of a report: end effectors (``world``) and feet on the ground
+(``contacts``), with their terminal lines. Positions in file units; speeds in units/s and in
+body heights per second."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from ..core import contacts as found
+from ..core import kinematics
+from ..core.motion import Motion
+from . import metrics
+from .metrics import pair, rms_and_max
+
+
+def format_world(world: dict) -> str:
+    """One line: up axis, body height and the end effector that moved most."""
+    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
+    worst = world.get("worst_deviation")
+    if worst is not None:
+        text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
+        if math.isfinite(worst["max_percent"]):
+            text += f" ({worst['max_percent']:.2g} % of body height)"
+    return text
+
+
+def figure_points(motion: Motion) -> np.ndarray:
+    """The points (joints, then end sites; sorted) whose world positions
+    :func:`world_figures` and :func:`contact_figures` read: the end effectors and every
+    point of each foot."""
+    index, _ = kinematics.end_effectors(motion)
+    feet, _, _ = found.skeleton_feet(motion)
+    feet_points = [p for foot in feet for p in (foot.ankle, *foot.points)]
+    return np.union1d(index, feet_points).astype(np.intp)  # (an int array also when empty)
+
+
+def figure_positions(motion: Motion, used: np.ndarray | None = None) -> np.ndarray:
+    """``(F, len(used), 3)`` world positions of the points ``used`` (default: the
+    :func:`figure_points` of ``motion``)."""
+    return kinematics.world_positions(motion, only=figure_points(motion) if used is None else used)
+
+
+def _positions(motion: Motion, given: np.ndarray | None, used: np.ndarray) -> np.ndarray:
+    return figure_positions(motion, used) if given is None else given
+
+
+def _feet_on(feet: list[found.Foot], used: np.ndarray) -> list[found.Foot]:
+    """``feet`` with their ankle and points numbered as columns of positions of the points
+    ``used`` (sorted; the IK joints ``hip`` and ``knee`` are not looked up)."""
+    column = {int(p): c for c, p in enumerate(used.tolist())}
+    return [
+        dataclasses.replace(f, ankle=column[f.ankle], points=tuple(column[p] for p in f.points))
+        for f in feet
+    ]
+
+
+def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
+    """``(F, len(index))``: points whose world position is unknown (tracker dropouts)."""
+    points = kinematics.missing_points(motion)
+    if points is None:
+        return np.zeros((motion.n_frames, index.size), dtype=bool)
+    return points[:, index]
+
+
+def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
+    """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, 0 where
+    the three frames include an ``unknown`` ``(F, len(columns))`` position."""
+    accel = accel.take(columns, axis=1)  # C order, as the sums below expect
+    return rms_and_max(metrics.zero_missing(accel, unknown))
+
+
+def world_figures(
+    before: Motion,
+    after: Motion | None = None,
+    points: list | None = None,
+    used: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """The report's ``world`` section: up axis, body height (file units) and, per end
+    effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
+    acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
+    (RMS and max, file units and % of body height), plus the worst effector. ``points``
+    holds both clips' :func:`figure_positions` of the points ``used`` (default: the
+    :func:`figure_points` of ``before``) when the caller has them."""
+    up = kinematics.up_axis(before)
+    height = kinematics.body_height(before, up)
+    index, names = kinematics.end_effectors(before)
+    used = figure_points(before) if used is None else used
+    columns = np.searchsorted(used, index)
+    dt = before.frame_time
+    points = points or [None, None]
+    # every figure point's figures, then the effectors' columns: no copy of their positions
+    points_b = _positions(before, points[0], used)
+    unknown_b = _unknown(before, index)
+    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown_b)
+    if after is not None:
+        points_a = _positions(after, points[1], used)
+        unknown_a = _unknown(after, index)
+        rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown_a)
+        moved = metrics.distance(points_b, points_a).take(columns, axis=1)
+        moved[unknown_b | unknown_a] = 0.0
+        dev_rms, dev_max = rms_and_max(moved)
+    scale = 100.0 / height if height > 0 else math.nan
+    effectors: dict[str, dict] = {}
+    for n, name in enumerate(names):
+        a = after is not None
+        entry = effectors[name] = {
+            "linear_accel_rms": pair(rms_b[n], rms_a[n] if a else None),
+            "linear_accel_max": pair(max_b[n], max_a[n] if a else None),
+        }
+        if a:
+            entry["deviation"] = {
+                "rms": float(dev_rms[n]),
+                "max": float(dev_max[n]),
+                "rms_percent": float(dev_rms[n] * scale),
+                "max_percent": float(dev_max[n] * scale),
+            }
+    worst = None
+    if after is not None and names:
+        n = int(np.argmax(dev_max))
+        worst = {
+            "effector": names[n],
+            "max": float(dev_max[n]),
+            "max_percent": float(dev_max[n] * scale),
+        }
+    return {
+        "up_axis": kinematics.AXES[up],
+        "body_height": height,
+        "effectors": effectors,
+        "worst_deviation": worst,
+    }
+
+
+def contact_figures(
+    before: Motion,
+    after: Motion | None = None,
+    points: list | None = None,
+    used: np.ndarray | None = None,
+) -> tuple[dict | None, dict]:
+    """The report's ``contacts`` section and the per-foot plot series.
+
+    Contacts are found on ``before`` with the footlock step's default thresholds; per foot
+    (keyed by ankle joint name): the contact frames (inclusive pairs), skate (mean
+    horizontal ankle speed during contacts, units/s and body heights/s) and ground
+    penetration (deepest point below the ground, units) before and after. ``None`` and no
+    series for a clip without feet. The series hold each foot's lowest point above the
+    ground per frame, before and after. ``points`` and ``used`` as in :func:`world_figures`.
+    """
+    skeleton_feet, up, height = found.skeleton_feet(before)
+    if not skeleton_feet:
+        return None, {}
+    used = figure_points(before) if used is None else used
+    feet = _feet_on(skeleton_feet, used)
+    points = points or [None, None]
+    positions = _positions(before, points[0], used)
+    dt = before.frame_time
+    contacts, ground = found.detect(positions, feet, up, height, dt, found.ContactParams())
+    after_positions = None if after is None else _positions(after, points[1], used)
+    # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the
+    # ground and the heights above it absent (None), not NaN
+    grounded = not math.isnan(ground)
+    absent = {"before": None, "after": None}
+    clips = [positions] if after_positions is None else [positions, after_positions]
+    skate = [found.skate(p, feet, contacts, up, dt) for p in clips]
+    if grounded:
+        depth = [found.penetration(p, feet, up, ground) for p in clips]
+        low = [found.lowest_points(p, feet, up) - ground for p in clips]
+    runs = found.contact_runs(contacts)
+    section: dict[str, Any] = {
+        "up_axis": kinematics.AXES[up],
+        "ground": ground if grounded else None,
+        "feet": {},
+    }
+    series: dict[str, dict] = {}
+    for k, foot in enumerate(feet):
+        a = after_positions is not None
+        skated = (  # undefined for a foot that never touches the ground: null in JSON
+            pair(skate[0][k], skate[1][k] if a else None)
+            if math.isfinite(skate[0][k])
+            else dict(absent)
+        )
+        section["feet"][foot.name] = {
+            "contacts": [[first, last] for first, last in runs[k]],
+            "frames": int(contacts[:, k].sum()),
+            "skate": skated,
+            "skate_body_heights": {
+                key: None if value is None else value / height for key, value in skated.items()
+            },
+            "penetration": pair(depth[0][k], depth[1][k] if a else None)
+            if grounded
+            else dict(absent),
+        }
+        series[foot.name] = {
+            "height_before": low[0][:, k] if grounded else None,
+            "height_after": low[1][:, k] if grounded and a else None,
+            "contacts": runs[k],
+        }
+    return section, series
+
+
+def format_contacts(section: dict) -> list[str]:
+    """One terminal line per foot: contacts, skate before/after, penetration."""
+    lines = []
+    for name, foot in section["feet"].items():
+        skate = foot["skate_body_heights"]
+        text = f"foot {name}: {len(foot['contacts'])} contacts ({foot['frames']} frames)"
+        if skate["before"] is not None and not math.isnan(skate["before"]):
+            text += f", skate {skate['before']:.3f}"
+            if skate["after"] is not None:
+                text += f" -> {skate['after']:.3f}"
+            text += " body heights/s"
+        pen = foot["penetration"]
+        if pen["before"] is None:
+            lines.append(text + ", ground not found (needs at least 2 frames)")
+            continue
+        text += f", below ground {pen['before']:.3g}"
+        if pen["after"] is not None:
+            text += f" -> {pen['after']:.3g}"
+        lines.append(text + " units")
+    return lines

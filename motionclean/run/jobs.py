@@ -1,0 +1,386 @@
+"""Clip-level services, free of the command line: clean a clip with its report, the
+picklable per-clip job every batch worker runs, and blending or stitching two clips.
+
+This is what ``clean``, ``batch`` and ``check`` call, and what Python users call::
+
+    from motionclean.run.jobs import clean_clip, clean_file, stitch_clips
+    result = clean_clip("take.bvh", "take_clean.bvh", Pipeline.default())
+    record = clean_file("take.bvh", "out/take.bvh", Pipeline.default(), report="take.html")
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..core import kinematics, quat
+from ..core.errors import MotionError
+from ..core.motion import Motion, joint_major_zeros, written_joints
+from ..filters import multires
+from ..io import atomic_write, load, save
+from ..report.html import render_html
+from ..report.summary import build_report, build_series, to_json
+from ..steps.pipeline import Pipeline, StepLog
+from ..steps.resampling import on_input_frames
+from .memory import return_free_memory
+
+__all__ = [
+    "CleanedClip",
+    "FileResult",
+    "Job",
+    "blend_clips",
+    "check_compatible",
+    "clean_clip",
+    "clean_file",
+    "notes_by_joint",
+    "run_job",
+    "stitch_clips",
+]
+
+
+def render_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> bytes:
+    """A report's file content: JSON for ``.json``, else the HTML page (``series`` feeds its
+    plots)."""
+    if Path(path).suffix.lower() == ".json":
+        return to_json(report)
+    return render_html(report, series).encode("utf-8")
+
+
+def write_outputs(
+    clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes]
+) -> None:
+    """Write the cleaned clip and its reports, everything or nothing: every report is
+    rendered before anything is written, and a clip whose report cannot be written is
+    removed again (unless it replaced the input in place, which cannot be undone)."""
+    existed = target is not None and Path(target).exists()
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(clip, target)
+    try:
+        for path, data in reports.items():
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(path, data)
+    except BaseException:
+        if target is not None and not existed:
+            Path(target).unlink(missing_ok=True)
+        raise
+
+
+@dataclass
+class CleanedClip:
+    """One clip before and after a pipeline, what each step did, and the report figures."""
+
+    before: Motion
+    after: Motion
+    logs: list[StepLog]
+    report: dict
+    series: dict
+
+
+def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
+    """Merge each step's per-joint notes into one dict for the report."""
+    merged: dict[str, dict] = {}
+    for log in logs:
+        for joint, note in log.notes.items():
+            merged.setdefault(joint, {}).update(note)
+    return merged
+
+
+def clean_clip(
+    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
+) -> CleanedClip:
+    """Load ``source``, run ``pipeline``, compute the report and its time series, and write
+    ``target`` (atomically; its folder is created) unless it is None. Nothing is written
+    when the report cannot be made. A resampled clip is compared with the input on the
+    input's frames (:func:`motionclean.steps.resampling.on_input_frames`); the report's
+    ``output`` then gives the written frame count and frame time."""
+    before = load(source)
+    after, logs = pipeline.run(before)
+    return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
+    compared = on_input_frames(before, after)
+    series = build_series(before, compared)
+    described = pipeline.describe()
+    for entry, log in zip(described, logs, strict=True):
+        if log.touched is not None:
+            entry["touched"] = list(log.touched)
+    report = build_report(
+        before, compared, described, notes_by_joint(logs), os.fspath(source), series=series
+    )
+    if compared is not after:
+        report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(after, target)
+    return CleanedClip(before, after, logs, report, series)
+
+
+@dataclass(frozen=True)
+class FileResult:
+    """What happened to one clip. Figures are ``None`` unless the clip was cleaned.
+
+    ``noise_*``: RMS angular acceleration over all joints and frames (deg/s^2);
+    ``deviation_*``: rotation angle between input and output over all joints (degrees).
+    ``error`` is the one-line ``FILE[:LINE]: reason`` of a failure.
+    """
+
+    source: str
+    target: str | None
+    status: str  # "ok", "skipped" or "failed"
+    frames: int | None = None
+    noise_before: float | None = None
+    noise_after: float | None = None
+    deviation_max: float | None = None
+    deviation_rms: float | None = None
+    report: str | None = None
+    error: str | None = None
+    seconds: float = 0.0
+    joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
+
+
+@dataclass(frozen=True)
+class Job:
+    """The arguments of one :func:`clean_file` call: paths and the step tables only."""
+
+    source: str
+    target: str | None
+    steps: tuple[dict, ...]
+    report: str | None = None
+
+
+def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
+    if isinstance(error, MotionError):
+        message = str(error)
+    elif isinstance(error, OSError):
+        message = f"{error.filename or source}: {error.strerror}"
+    else:  # a bug must not stop the other clips
+        message = f"{source}: internal error: {type(error).__name__}: {error}"
+    return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)
+
+
+def _success(result: CleanedClip, job: Job) -> FileResult:
+    """The figures of a cleaned clip (its ``seconds`` are set once it is written)."""
+    summary = result.report["summary"]
+    deviations = [
+        j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
+    ]
+    # every joint has the same frame count: the RMS over all is the RMS of the RMSs
+    deviation_rms = (
+        math.sqrt(sum(d * d for d in deviations) / len(deviations)) if deviations else 0.0
+    )
+    return FileResult(
+        job.source,
+        job.target,
+        "ok",
+        frames=result.before.n_frames,
+        noise_before=summary["angular_accel_rms"]["before"],
+        noise_after=summary["angular_accel_rms"]["after"],
+        deviation_max=summary["deviation_deg_max"],
+        deviation_rms=deviation_rms,
+        report=job.report,
+        joints={
+            name: {
+                "noise_after": entry["angular_accel_rms"]["after"],
+                "deviation_max": entry["deviation_deg"]["max"],
+            }
+            for name, entry in result.report["joints"].items()
+            if "deviation_deg" in entry
+        },
+    )
+
+
+def clean_file(
+    source: str | os.PathLike,
+    target: str | os.PathLike | None,
+    pipeline: Pipeline | Sequence[dict],
+    report: str | os.PathLike | None = None,
+) -> FileResult:
+    """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
+
+    ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
+    computes the figures without writing; ``report`` also writes the clip's HTML page.
+    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
+    gives ``status="failed"`` with the reason instead of raising.
+    """
+    start = time.perf_counter()
+    job = Job(
+        os.fspath(source),
+        None if target is None else os.fspath(target),
+        (),
+        None if report is None else os.fspath(report),
+    )
+    try:
+        if not isinstance(pipeline, Pipeline):
+            pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
+        result = clean_clip(job.source, None, pipeline)
+        pages = {}
+        if job.report is not None:
+            pages[job.report] = render_report(result.report, job.report, result.series)
+        after, done = result.after, _success(result, job)
+        del result  # the input's arrays and the plot series go before the clip is written
+        write_outputs(after, job.target, pages)
+    except Exception as error:
+        return _failure(job.source, job.target, error, start)
+    return replace(done, seconds=time.perf_counter() - start)
+
+
+def run_job(job: Job) -> FileResult:
+    """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
+    return clean_file(job.source, job.target, job.steps, job.report)
+
+
+# ----------------------------------------------------------------------------- two clips
+
+
+def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
+    """Raise :class:`MotionError` unless ``a`` and ``b`` share the skeleton, channels, frame
+    rate and (optionally) length, and neither has missing samples."""
+    for clip in (a, b):
+        if clip.has_gaps:
+            raise MotionError(
+                "has missing samples (tracker dropouts): fill them first "
+                "(motionclean clean CLIP -o FILLED -f fill-gaps)",
+                clip.path,
+            )
+    if a.names != b.names or not np.array_equal(a.parents, b.parents):
+        raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
+    if a.channels != b.channels:
+        raise MotionError(f"channels differ from {a.path}'s", b.path)
+    if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
+        raise MotionError(
+            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
+        )
+    if same_length and a.n_frames != b.n_frames:
+        raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
+    scale = 1e-6 * max(float(np.abs(a.offsets).max(initial=0.0)), 1.0)
+    if a.offsets.shape != b.offsets.shape or not np.allclose(a.offsets, b.offsets, atol=scale):
+        worst = int(np.argmax(np.abs(a.offsets - b.offsets).max(axis=1)))
+        raise MotionError(
+            f"skeleton differs from {a.path}'s: joint {b.names[worst]!r} has another OFFSET",
+            b.path,
+        )
+
+
+def blend_clips(
+    a: Motion,
+    b: Motion,
+    levels: int = 4,
+    weight: float = 0.5,
+    detail_weights: Sequence[float] | None = None,
+) -> Motion:
+    """Blend two time-aligned clips level by level (003 Eq. 20); ``weight`` is ``b``'s share
+    of the coarsest level, ``detail_weights`` its share per detail level, finest first.
+
+    Raises :class:`MotionError` for incompatible clips, ValueError for bad weights or levels.
+    """
+    check_compatible(a, b)
+    if a.n_frames == 0:
+        raise MotionError("cannot blend a clip without frames", a.path)
+    q, p = _with_positions(
+        lambda q_a, q_b, p_a=None, p_b=None: multires.blend(
+            q_a, q_b, levels, weight, detail_weights, p_a, p_b
+        ),
+        a,
+        b,
+    )
+    return a.replace(rotations=q, translations=p)
+
+
+def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """``run(q_a, q_b, p_a, p_b) -> (q, p)`` (a multiresolution operation on two clips) on
+    every joint's rotations, and again, with translations, on the joints that have any
+    (position channels, or a non-zero value in either clip). The rotations never depend on
+    the positions (003 Eq. 2-3); the other joints' translations are zero in both clips and
+    stay so, without arrays for them."""
+    q, _ = run(a.rotations, b.rotations)
+    joints = np.union1d(
+        np.flatnonzero(a.layout.has_position | b.layout.has_position),
+        written_joints(a.translations, b.translations),
+    )
+    p = joint_major_zeros(q.shape[0], a.n_joints)
+    if joints.size:
+        _, p[:, joints] = run(
+            a.rotations[:, joints],
+            b.rotations[:, joints],
+            a.translations[:, joints],
+            b.translations[:, joints],
+        )
+    return q, p
+
+
+def align_roots(a: Motion, b: Motion) -> Motion:
+    """``b`` moved so that its first frame's roots stand where ``a``'s last frame's stand:
+    the same horizontal position and heading (a turn about the up axis), its own height.
+
+    As fairmotion's append-and-blend: the whole of ``b`` is turned about the up axis and
+    shifted horizontally; nothing else changes. Roots without position channels are only
+    turned.
+    """
+    if a.n_frames == 0 or b.n_frames == 0:
+        return b
+    up = kinematics.up_axis(a)
+    roots = np.flatnonzero(b.parents < 0)
+    local_a = kinematics.local_translations(a)[-1, roots]
+    local_b = kinematics.local_translations(b)
+    heading = _heading(a.rotations[-1, roots[0]], up) - _heading(b.rotations[0, roots[0]], up)
+    axis = np.zeros(3)
+    axis[up] = 1.0
+    turn = quat.from_axis_angle(axis, heading)
+    rotations = b.rotations.copy()
+    rotations[:, roots] = quat.make_continuous(quat.multiply(turn, rotations[:, roots]), axis=0)
+    translations = b.translations.copy()
+    moved = quat.rotate(turn, local_b[:, roots] - local_b[0, roots]) + local_a
+    moved[..., up] = local_b[:, roots, up]  # each clip keeps its own height
+    has_axis = b.layout.position_columns[roots] >= 0
+    translations[:, roots] = np.where(has_axis, moved, translations[:, roots])
+    return b.replace(rotations=rotations, translations=translations)
+
+
+def _heading(q: np.ndarray, up: int) -> float:
+    """Angle (rad) about the up axis of a root's facing: the horizontal axis that stays
+    most horizontal under ``q``, turned by ``q`` and projected on the ground."""
+    horizontal = [k for k in range(3) if k != up]
+    axes = np.eye(3)[horizontal]
+    turned = quat.rotate(q, axes)
+    pick = int(np.argmin(np.abs(turned[:, up])))
+    first, second = (up + 1) % 3, (up + 2) % 3
+    vector, reference = turned[pick], axes[pick]
+    return math.atan2(vector[first], vector[second]) - math.atan2(
+        reference[first], reference[second]
+    )
+
+
+def stitch_clips(a: Motion, b: Motion, levels: int = 4, align: bool = True) -> Motion:
+    """Join the end of ``a`` to the start of ``b`` with a seamless transition (003 Eq. 21).
+
+    With ``align`` ``b`` first stands where ``a`` ends (:func:`align_roots`), so the root
+    does not slide across the room. The result has ``len(a) + len(b) - 1`` frames; only
+    frames within ``3 (2^levels - 1)`` of the seam change beyond that move. Written back,
+    every frame keeps its own clip's Euler branch.
+    """
+    check_compatible(a, b, same_length=False)
+    if a.n_frames == 0 or b.n_frames == 0:
+        raise MotionError("cannot stitch a clip without frames", (b if b.n_frames == 0 else a).path)
+    if align:
+        b = align_roots(a, b)
+    q, p = _with_positions(
+        lambda q_a, q_b, p_a=None, p_b=None: multires.stitch(q_a, q_b, levels, p_a, p_b), a, b
+    )
+    joined: dict = {"source_values": None, "source_rotations": None}
+    if a.has_source_frames() and b.has_source_frames():
+        assert a.source_values is not None and b.source_values is not None
+        kept = a.source_rotations is not None or b.source_rotations is not None
+        joined = {  # rotations read follow from the values when neither clip kept them
+            "source_values": np.concatenate([a.source_values, b.source_values[1:]]),
+            "source_rotations": np.concatenate(
+                [a.read_rotations(slice(None)), b.read_rotations(slice(1, None))]
+            )
+            if kept
+            else None,
+        }
+    return a.replace(rotations=q, translations=p, **joined)

@@ -1,0 +1,535 @@
+"""Pipelines: the step registry, TOML and inline parsing, validation, and running a Motion.
+
+A pipeline is an ordered list of steps. Each step names a filter from :data:`REGISTRY`, its
+parameters, the joints it applies to (fnmatch patterns, ``!`` excludes) and whether
+translation channels are filtered too. This module is the only place that maps joint names
+to array columns; filters only ever see arrays.
+
+Everything is validated before any clip is read: an unknown filter, an unknown or missing
+parameter, a wrong type or a value out of range raises :class:`UsageError` naming the step,
+the key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import copy
+import fnmatch
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import MotionError, UsageError
+from ..core.motion import Motion, sparse_copy
+from ..core.restpose import rest_frames, splice, trim
+from ..filters.gaps import Gaps
+from . import COMMON_PARAMS, REGISTRY, StepData, StepSpec
+from .ranges import FrameRange, blend_positions, blend_rotations, weights
+
+__all__ = ["DEFAULT_STEPS", "REGISTRY", "Pipeline", "Step", "StepLog", "make_step"]
+
+# ----------------------------------------------------------------------------- steps
+
+
+@dataclass(frozen=True)
+class Step:
+    """A validated pipeline step: the filter, its parameters, joints and positions flag."""
+
+    spec: StepSpec
+    params: dict
+    joints: tuple[str, ...]
+    positions: bool
+    span: FrameRange | None = None
+
+    def describe(self) -> dict:
+        """The step as a plain dict (report and TOML form), defaults filled in."""
+        out: dict[str, Any] = {"filter": self.spec.name}
+        names = self.spec.relevant(self.params) if self.spec.relevant else tuple(self.params)
+        out.update({k: v for k, v in self.params.items() if v is not None and k in names})
+        if self.spec.run_motion is None:  # a whole-clip step takes every joint
+            out["joints"] = list(self.joints)
+            out["positions"] = self.positions
+        if self.span is not None:
+            out.update(self.span.describe())
+        return out
+
+
+def make_step(table: dict, where: str) -> Step:
+    """Validate one step table (``{"filter": ..., params...}``) into a :class:`Step`."""
+    if not isinstance(table, dict):
+        raise UsageError(f"{where}: a step must be a table of key = value pairs")
+    table = dict(table)
+    name = table.pop("filter", None)
+    if name is None:
+        raise UsageError(f"{where}: missing 'filter'; one of {', '.join(REGISTRY)}")
+    spec = REGISTRY.get(name)
+    if spec is None:
+        raise UsageError(f"{where}: unknown filter {name!r}; one of {', '.join(REGISTRY)}")
+    where = f"{where} ({name})"
+    allowed = spec.params + COMMON_PARAMS
+    params: dict[str, Any] = {}
+    for key, value in table.items():
+        param = next((p for p in allowed if p.name == key), None)
+        if param is None:
+            raise UsageError(
+                f"{where}: unknown parameter {key!r}; allowed: "
+                + ", ".join(p.name for p in allowed)
+            )
+        params[key] = param.coerce(value, where)
+    for param in spec.params:
+        params.setdefault(param.name, param.default)
+    joints = tuple(params.pop("joints", ["*"]))
+    positions = params.pop("positions", spec.positions_default)
+    span = FrameRange.from_params(
+        params.pop("frames", None), params.pop("seconds", None), params.pop("blend", 5), where
+    )
+    if span is None and "blend" in table:
+        raise UsageError(f"{where}: blend is used only with frames or seconds (a range)")
+    if span is not None and spec.run_motion is not None:
+        raise UsageError(f"{where}: this step changes the whole clip; it takes no frame range")
+    if spec.run_motion is not None and ({"joints", "positions"} & set(table)):
+        raise UsageError(
+            f"{where}: this step changes the whole clip; it takes no joints or positions"
+        )
+    if spec.resolve is not None:
+        spec.resolve(params, where)
+    if spec.relevant is not None:
+        used = spec.relevant(params)
+        common = {p.name for p in COMMON_PARAMS}
+        unused = [key for key in table if key not in used and key not in common]
+        if unused:
+            raise UsageError(
+                f"{where}: {unused[0]!r} is not used with "
+                + ", ".join(f"{k}={params[k]}" for k in used if isinstance(params[k], str))
+                + f"; it takes {', '.join(k for k in used if not isinstance(params[k], str))}"
+            )
+    return Step(spec, params, joints, positions, span)
+
+
+def parse_value(text: str) -> Any:
+    """An inline value read as TOML (numbers, booleans, lists); bare words are strings."""
+    text = text.strip()
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        pass
+    if text.startswith("[") and text.endswith("]"):
+        return [parse_value(item) for item in _split_top(text[1:-1]) if item.strip()]
+    return text
+
+
+def _split_top(text: str) -> list[str]:
+    """Split on commas outside brackets and quotes."""
+    parts, depth, quote, start = [], 0, None, 0
+    for i, ch in enumerate(text):
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def parse_inline(text: str) -> dict:
+    """``"bilateral:sigma_t=1,sigma_g=0.1"`` -> ``{"filter": "bilateral", ...}``."""
+    name, _, rest = text.partition(":")
+    table: dict[str, Any] = {"filter": name.strip()}
+    for item in _split_top(rest) if rest.strip() else []:
+        key, eq, value = item.partition("=")
+        if not eq or not key.strip():
+            raise UsageError(f"-f {text!r}: expected key=value, got {item.strip()!r}")
+        if key.strip() in table:
+            raise UsageError(f"-f {text!r}: {key.strip()!r} is given twice")
+        try:
+            table[key.strip()] = parse_value(value)
+        except RecursionError:
+            raise UsageError(f"-f {_brief(text)}: {key.strip()}: nested too deeply") from None
+        except ValueError:  # an integer of more digits than Python converts
+            raise UsageError(
+                f"-f {_brief(text)}: {key.strip()}: a number with too many digits (out of range)"
+            ) from None
+    return table
+
+
+def _brief(text: str, most: int = 60) -> str:
+    """``text`` quoted for an error line, its middle cut when it is long."""
+    return repr(text) if len(text) <= most else repr(text[: most - 20] + "..." + text[-15:])
+
+
+def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
+    """``(J,)`` bool: joints matched by the patterns, applied in order.
+
+    A pattern adds the joints it matches (``fnmatch``, case sensitive); ``!pattern`` removes
+    them. When every pattern is an exclusion, selection starts from all joints.
+    """
+    selected = np.full(len(names), all(p.startswith("!") for p in patterns))
+    for pattern in patterns:
+        exclude = pattern.startswith("!")
+        hits = np.array([fnmatch.fnmatchcase(n, pattern[exclude:]) for n in names], dtype=bool)
+        selected = selected & ~hits if exclude else selected | hits
+    return selected
+
+
+def unmatched_patterns(names: list[str], patterns: tuple[str, ...]) -> list[str]:
+    """The include patterns (not ``!``) that match none of ``names``: likely typos."""
+    return [
+        p
+        for p in patterns
+        if not p.startswith("!") and not any(fnmatch.fnmatchcase(n, p) for n in names)
+    ]
+
+
+@dataclass
+class StepLog:
+    """What one step did: the step, the joints it touched, per-joint notes."""
+
+    step: Step
+    rotation_joints: list[str]
+    translation_joints: list[str]
+    notes: dict[str, dict]
+    unmatched: list[str]  # include patterns that matched no joint of this clip
+    touched: tuple[int, int] | None = None  # frames a ranged step changed, blends included
+
+
+@dataclass
+class Pipeline:
+    """An ordered list of validated steps."""
+
+    steps: list[Step]
+    origin: str = "pipeline"
+
+    @classmethod
+    def from_tables(cls, tables: list, origin: str) -> Pipeline:
+        if not tables:
+            raise UsageError(f"{origin}: the pipeline has no steps")
+        return cls([make_step(t, f"{origin}: step {i}") for i, t in enumerate(tables, 1)], origin)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> Pipeline:
+        """Read ``[[step]]`` tables from a TOML file."""
+        path = Path(path)
+        try:
+            document = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise UsageError(f"{path}: no such pipeline file") from None
+        except (OSError, UnicodeDecodeError) as error:
+            raise UsageError(f"{path}: cannot read pipeline: {error}") from None
+        except tomllib.TOMLDecodeError as error:
+            raise UsageError(f"{path}: invalid TOML: {error}") from None
+        except RecursionError:
+            raise UsageError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
+        except ValueError:  # an integer of more digits than Python converts
+            raise UsageError(f"{path}: a number with too many digits (out of range)") from None
+        unknown = set(document) - {"step"}
+        if unknown:
+            raise UsageError(
+                f"{path}: unknown top-level key {sorted(unknown)[0]!r}; steps are [[step]] tables"
+            )
+        steps = document.get("step", [])
+        if not isinstance(steps, list):
+            raise UsageError(f"{path}: 'step' must be an array of tables ([[step]])")
+        return cls.from_tables(steps, str(path))
+
+    @classmethod
+    def from_inline(cls, texts: list[str]) -> Pipeline:
+        """Steps given as ``-f NAME:key=value,...`` options, in order (a list of str)."""
+        if isinstance(texts, str) or not all(isinstance(t, str) for t in texts):
+            raise TypeError(
+                f"from_inline takes a list of step strings, e.g. ['lee-shin:k=3'], got {texts!r}"
+            )
+        return cls.from_tables([parse_inline(t) for t in texts], "-f")
+
+    @classmethod
+    def default(cls) -> Pipeline:
+        """The pipeline ``clean`` uses when none is given (see README, "Default pipeline")."""
+        return cls.from_tables(DEFAULT_STEPS, "default pipeline")
+
+    def describe(self) -> list[dict]:
+        return [step.describe() for step in self.steps]
+
+    def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:
+        """Run every step on ``motion``; return the cleaned copy and what each step did.
+
+        ``motion`` is not changed. Rest-pose frames at either end (:mod:`motionclean.core.restpose`)
+        are left out of every step and come back bit for bit. A whole-clip step
+        (``run_motion``) replaces the clip between them, so the steps after it see its frame
+        count and rate.
+        """
+        lead, trail = rest_frames(motion)
+        # A shallow copy: steps replace its arrays, never write into the input's.
+        current = copy.copy(trim(motion, lead, trail))
+        spans = _frame_spans(self.steps, motion, lead)
+        made = _Made(motion)
+        logs: list[StepLog] = []
+        for number, step in enumerate(self.steps, 1):
+            try:
+                current, log = _run_step(step, current, lead, spans.get(number), motion.path, made)
+            except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
+                raise MotionError(
+                    f"step {number} ({step.spec.name}) failed: {error}", motion.path
+                ) from None
+            if lead:  # numbered as the file's frames
+                log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
+            logs.append(log)
+        return splice(motion, current, lead, trail), logs
+
+
+def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:
+    """Each ranged step's ``(first, last)`` frames (by step number from 1), checked against
+    the clip up front; a range after a whole-clip step is checked against that step's
+    result when it runs."""
+    spans: dict[int, tuple[int, int]] = {}
+    for number, step in enumerate(steps, 1):
+        if step.spec.run_motion is not None:
+            break
+        if step.span is not None:
+            spans[number] = _frame_span(step, motion.n_frames, motion.frame_time, motion.path)
+    return spans
+
+
+def _frame_span(step: Step, n_frames: int, frame_time: float, path: str | None) -> tuple[int, int]:
+    where = f"{path}: step ({step.spec.name})" if path else f"step ({step.spec.name})"
+    assert step.span is not None
+    return step.span.frame_span(n_frames, frame_time, where)
+
+
+def _run_step(
+    step: Step,
+    motion: Motion,
+    offset: int,
+    span: tuple[int, int] | None,
+    path: str | None,
+    made: _Made,
+) -> tuple[Motion, StepLog]:
+    """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
+    and written into only where ``made`` copied them).
+
+    ``motion`` starts at frame ``offset`` of the file (rest-pose frames left out); a step's
+    frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
+    notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
+    """
+    unmatched = unmatched_patterns(motion.names, step.joints)
+    if step.spec.run_motion is not None:
+        result, whole_notes = step.spec.run_motion(motion, step.params)
+        return result, StepLog(step, list(motion.names), [], whole_notes, unmatched)
+    assert step.spec.run is not None
+    layout = motion.layout
+    chosen = select_joints(motion.names, step.joints)
+    rot_idx = np.flatnonzero(chosen & layout.has_rotation)
+    pos_idx = np.flatnonzero(chosen & layout.has_position) if step.positions else np.zeros(0, int)
+    every = rot_idx.size == motion.n_joints  # all columns: no copy in
+    data = StepData(
+        motion.rotations if every else motion.rotations[:, rot_idx],
+        motion.translations[:, pos_idx] if len(pos_idx) else None,
+        motion.frame_time,
+        motion=motion,
+        rotation_joints=rot_idx,
+        translation_joints=pos_idx,
+        # a ranged step's result is blended with the clip as it was: nothing in place
+        owned=step.span is None and (not every or made.owns(motion.rotations)),
+    )
+    if step.span is not None and span is None:
+        span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
+    if motion.missing is None:
+        data = step.spec.run(data, step.params)
+    else:
+        data = _run_on_known(step, data, motion)
+    touched = None
+    new_rotations, new_translations = data.rotations, data.translations
+    if step.span is not None and span is not None:
+        first, last = span
+        share = weights(motion.n_frames, first - offset, last - offset, step.span.blend)
+        new_rotations = blend_rotations(motion.rotations[:, rot_idx], data.rotations, share)
+        if data.translations is not None:
+            new_translations = blend_positions(
+                motion.translations[:, pos_idx], data.translations, share
+            )
+        moved = np.flatnonzero(share > 0.0)
+        inside = (int(moved[0]), int(moved[-1])) if moved.size else None
+        _crop_notes(step.spec, data.rotation_notes, inside)
+        _crop_notes(step.spec, data.translation_notes, inside)
+        touched = (inside[0] + offset, inside[1] + offset) if inside else None
+    motion.rotations = made.placed("rotations", motion.rotations, rot_idx, new_rotations)
+    if new_translations is not None:
+        motion.translations = made.placed(
+            "translations", motion.translations, pos_idx, new_translations
+        )
+    notes: dict[str, dict] = {}
+    for column, note in data.rotation_notes.items():
+        notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
+    for column, note in data.translation_notes.items():
+        notes.setdefault(motion.names[pos_idx[column]], {}).update(
+            {f"position_{k}": v for k, v in note.items()}
+        )
+    rotated = [motion.names[i] for i in rot_idx]
+    moved_joints = [motion.names[i] for i in pos_idx]
+    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
+
+
+class _Made:
+    """The clip arrays the pipeline copied during a run (never the input's own, nor a step's
+    result): the only ones it writes into. Steps may write into any array the input clip
+    does not hold (:meth:`owns`)."""
+
+    def __init__(self, clip: Motion) -> None:
+        self.arrays: dict[str, np.ndarray | None] = {}
+        self.inputs = [
+            a for a in (clip.rotations, clip.translations, clip.source_rotations) if a is not None
+        ]
+
+    def owns(self, array: np.ndarray) -> bool:
+        """True when ``array`` shares no memory with the input clip's arrays: a copy made
+        here or a step's result, which a later step may overwrite."""
+        return not any(np.may_share_memory(array, a) for a in self.inputs)
+
+    def placed(
+        self, field: str, array: np.ndarray, columns: np.ndarray, values: np.ndarray
+    ) -> np.ndarray:
+        """``array`` (the clip's ``field``) with ``values`` in ``columns`` (axis 1):
+        ``values`` itself when they are every column, else a copy of ``array`` made once and
+        written in place by the steps after (one root's translations do not copy every
+        joint's at every step; translations are copied as :func:`sparse_copy`, so the
+        zeros of joints without position channels take no memory)."""
+        if columns.size == array.shape[1]:
+            self.arrays[field] = None  # a step's own result: not ours to write into
+            return values
+        if self.arrays.get(field) is not array:
+            array = sparse_copy(array) if field == "translations" else array.copy()
+            self.arrays[field] = array
+        array[:, columns] = values
+        return array
+
+
+def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
+    """``step`` on a clip with missing samples: the columns without gaps in one call, each
+    known stretch (2 frames or more) of a column with gaps on its own (with the clip cut to
+    it as context); missing samples are left as they are. A column's notes from several
+    stretches are merged (:func:`_merged`)."""
+    missing = motion.missing_mask()
+    has_positions = data.translations is not None
+    gaps_r = missing[:, data.rotation_joints].any(axis=0)
+    gaps_p: np.ndarray = np.zeros(0, dtype=bool)
+    if has_positions:
+        gaps_p = np.any(missing[:, data.translation_joints], axis=0)
+    out = _Outputs(data)
+    out.run(step, motion, np.flatnonzero(~gaps_r), np.flatnonzero(~gaps_p))
+    for positions, joints, gappy in (
+        (False, data.rotation_joints, gaps_r),
+        (True, data.translation_joints, gaps_p),
+    ):
+        if not gappy.any():
+            continue
+        columns = np.flatnonzero(gappy)
+        known = Gaps.of(~missing[:, joints[columns]])
+        for c, first, stop in zip(columns[known.joint], known.first, known.stop, strict=True):
+            if stop - first >= 2:
+                picked = np.array([c])
+                empty = np.zeros(0, np.intp)
+                rot, pos = (empty, picked) if positions else (picked, empty)
+                out.run(step, motion, rot, pos, slice(int(first), int(stop)))
+    return out.finish()
+
+
+class _Outputs:
+    """Step results gathered column by column and stretch by stretch."""
+
+    def __init__(self, data: StepData):
+        self.data = data
+        self.rotations = data.rotations.copy()
+        self.translations = None if data.translations is None else data.translations.copy()
+        self.notes: tuple[dict, dict] = ({}, {})  # column -> [(note, frames), ...]
+
+    def run(self, step, motion, rot, pos, rows: slice = slice(None)) -> None:
+        data = self.data
+        whole = rows == slice(None)
+        # One known stretch: the clip cut to it, with nothing missing, is its context.
+        context = motion if whole else motion.at_frames(rows).replace(missing=None)
+        result = step.spec.run(
+            StepData(
+                data.rotations[rows][:, rot],
+                None if data.translations is None else data.translations[rows][:, pos],
+                data.frame_time,
+                motion=context,
+                rotation_joints=data.rotation_joints[rot],
+                translation_joints=data.translation_joints[pos],
+            ),
+            step.params,
+        )
+        self.rotations[rows, rot] = result.rotations
+        if self.translations is not None and result.translations is not None:
+            self.translations[rows, pos] = result.translations
+        start = 0 if whole else rows.start
+        for book, found, columns in (
+            (self.notes[0], result.rotation_notes, rot),
+            (self.notes[1], result.translation_notes, pos),
+        ):
+            for c, note in found.items():
+                shifted = _shifted(step.spec, note, start)
+                book.setdefault(int(columns[c]), []).append((shifted, context.n_frames))
+
+    def finish(self) -> StepData:
+        data = self.data
+        data.rotations, data.translations = self.rotations, self.translations
+        data.rotation_notes = {c: _merged(n) for c, n in self.notes[0].items()}
+        data.translation_notes = {c: _merged(n) for c, n in self.notes[1].items()}
+        return data
+
+
+def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
+    """A note (``{key: value}``, keys the step's name or ``position_`` + it) with its frame
+    numbers moved by ``frames``."""
+    if spec.shift_note is None or not frames:
+        return note
+    return {k: spec.shift_note(v, frames) if k.endswith(spec.name) else v for k, v in note.items()}
+
+
+def _merged(parts: list[tuple[dict, int]]) -> dict:
+    """One column's notes from its known stretches ``(note, frames)`` as one: frame lists
+    joined in order, every other value from the longest stretch."""
+    if len(parts) == 1:
+        return parts[0][0]
+    longest = max(parts, key=lambda part: part[1])[0]
+    merged = {}
+    for key, value in longest.items():
+        if not isinstance(value, dict):
+            merged[key] = value
+            continue
+        merged[key] = {
+            k: sum((p[0].get(key, {}).get(k, []) for p in parts), []) if isinstance(v, list) else v
+            for k, v in value.items()
+        }
+    return merged
+
+
+def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] | None) -> None:
+    """Keep, in place, what ``notes`` say about frames ``inside`` (inclusive; None: none)."""
+    if spec.crop_note is None:
+        return
+    for column in list(notes):
+        note = notes[column]
+        if spec.name not in note:
+            continue
+        value = spec.crop_note(note[spec.name], *inside) if inside else None
+        if value is None:
+            del note[spec.name]
+        else:
+            note[spec.name] = value
+        if not note:
+            del notes[column]
+
+
+#: The default pipeline (README, "Default pipeline").
+DEFAULT_STEPS: list[dict] = [
+    {"filter": "fill-gaps"},
+    {"filter": "despike"},
+    {"filter": "auto"},
+]

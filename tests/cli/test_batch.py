@@ -1,0 +1,207 @@
+"""`motionclean batch`: mirrored tree, failures named, inputs untouched, parallel = serial."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from helpers import NOISY, cut_bvh, run_cli
+
+import motionclean as mc
+from motionclean.cli.batch import find_clips
+from motionclean.run.jobs import FileResult, clean_file
+from motionclean.steps.pipeline import Pipeline
+
+SAMPLE = NOISY
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+@pytest.fixture
+def tree(tmp_path: Path) -> Path:
+    """in/ with clips at three depths, a truncated clip and a file that is not a clip."""
+    root = tmp_path / "in"
+    cut_bvh(SAMPLE, root / "top.bvh", 40)
+    cut_bvh(SAMPLE, root / "walk" / "a.bvh", 60)
+    cut_bvh(SAMPLE, root / "run" / "deep" / "b.BVH", 50)
+    (root / "csv").mkdir()
+    mc.save(mc.load(root / "walk" / "a.bvh"), root / "csv" / "c.csv")
+    text = (root / "top.bvh").read_text()
+    (root / "run" / "broken.bvh").write_text(text[: text.index("MOTION") - 200])
+    (root / "run" / "notes.txt").write_text("not a clip\n")
+    return root
+
+
+def test_tree_with_a_broken_file(tree, tmp_path, capsys):
+    before = snapshot(tree)
+    out = tmp_path / "out"
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out, "-j", "1")
+    assert code == 1
+    errors = stderr.strip().splitlines()
+    assert len(errors) == 1
+    assert re.fullmatch(r"motionclean: error: .*run/broken\.bvh:\d+: .+", errors[0])
+    assert snapshot(tree) == before  # byte-identical, and nothing added inside IN_DIR
+    written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
+    assert written == ["csv/c.csv", "run/deep/b.BVH", "top.bvh", "walk/a.bvh"]
+    for rel, frames in (
+        ("top.bvh", 40),
+        ("walk/a.bvh", 60),
+        ("run/deep/b.BVH", 50),
+        ("csv/c.csv", 60),
+    ):
+        cleaned, source = mc.load(out / rel), mc.load(tree / rel)
+        assert cleaned.n_frames == frames and cleaned.names == source.names
+        assert (out / rel).read_bytes() != (tree / rel).read_bytes()  # it was filtered
+    table = {
+        line.split()[0]: line.split()[-1]
+        for line in stdout.splitlines()
+        if line.split() and line.split()[0].endswith((".bvh", ".BVH", ".csv"))
+    }
+    assert table == {
+        "top.bvh": "ok",
+        "walk/a.bvh": "ok",
+        "run/deep/b.BVH": "ok",
+        "csv/c.csv": "ok",
+        "run/broken.bvh": "FAILED",
+    }
+
+
+@pytest.mark.slow
+def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
+    (tree / "run" / "broken.bvh").unlink()
+    results = []
+    for jobs in ("1", "2"):
+        out, pages = tmp_path / f"out{jobs}", tmp_path / f"pages{jobs}"
+        code, _, stderr = run_cli(
+            capsys,
+            "batch",
+            tree,
+            "-o",
+            out,
+            "-j",
+            jobs,
+            "--report-dir",
+            pages,
+            "-f",
+            "lee-shin:k=1,iterations=3",
+        )
+        assert code == 0, stderr
+        results.append((snapshot(out), snapshot(pages)))
+    assert results[0] == results[1]
+    outputs, pages = results[0]
+    assert len(outputs) == 4
+    assert set(pages) == {
+        "index.html",
+        "top.bvh.html",
+        "walk/a.bvh.html",
+        "run/deep/b.BVH.html",
+        "csv/c.csv.html",
+    }
+    assert b'href="walk/a.bvh.html"' in pages["index.html"]
+
+
+@pytest.mark.parametrize("where", ["same", "inside", "report"])
+def test_refuses_to_write_inside_the_input(tree, tmp_path, capsys, where):
+    before = snapshot(tree)
+    out = {"same": tree, "inside": tree / "cleaned"}.get(where, tmp_path / "out")
+    extra = ["--report-dir", str(tree / "pages")] if where == "report" else []
+    code, _, stderr = run_cli(capsys, "batch", tree, "-o", out, *extra)
+    assert code == 2
+    assert "inside the input folder" in stderr and len(stderr.strip().splitlines()) == 1
+    assert snapshot(tree) == before
+    assert not (tmp_path / "out").exists()
+
+
+def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
+    code, stdout, stderr = run_cli(
+        capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"
+    )
+    assert code == 2 and "k must be" in stderr and stdout == ""
+    assert not (tmp_path / "out").exists()
+
+
+def test_skip_existing_resumes(tree, tmp_path, capsys):
+    (tree / "run" / "broken.bvh").unlink()
+    out = tmp_path / "out"
+    assert run_cli(capsys, "batch", tree, "-o", out, "-j", "1")[0] == 0
+    (out / "walk" / "a.bvh").write_text("left alone")
+    (out / "top.bvh").unlink()  # as if the run had been interrupted before it
+    code, stdout, _ = run_cli(capsys, "batch", tree, "-o", out, "-j", "1", "--skip-existing")
+    assert code == 0
+    assert (out / "walk" / "a.bvh").read_text() == "left alone"
+    assert mc.load(out / "top.bvh").n_frames == 40
+    assert re.search(r"walk/a\.bvh .* SKIPPED", stdout)
+    assert re.search(r"top\.bvh .* ok", stdout)
+
+
+def test_glob_selects_clips_case_insensitively(tree):
+    (tree / ".hidden").mkdir()
+    cut_bvh(SAMPLE, tree / ".hidden" / "x.bvh", 5)
+    assert [p.as_posix() for p in find_clips(tree, ["*.BVH"])] == [
+        "run/broken.bvh",
+        "run/deep/b.BVH",
+        "top.bvh",
+        "walk/a.bvh",
+    ]
+    assert [p.as_posix() for p in find_clips(tree, ["walk/*.bvh", "*.TXT"])] == [
+        "run/notes.txt",
+        "walk/a.bvh",
+    ]
+
+
+def test_job_returns_a_picklable_result_and_reports_failures(tree, tmp_path):
+    steps = Pipeline.default().describe()
+    result = clean_file(tree / "walk" / "a.bvh", None, steps)
+    assert result.status == "ok" and result.frames == 60 and result.target is None
+    assert result.noise_after < result.noise_before
+    assert 0 < result.deviation_rms <= result.deviation_max
+    assert pickle.loads(pickle.dumps(result)) == result
+    failed = clean_file(tree / "run" / "broken.bvh", tmp_path / "x.bvh", steps)
+    assert isinstance(failed, FileResult) and failed.status == "failed"
+    assert failed.error.startswith(str(tree / "run" / "broken.bvh"))
+    assert not (tmp_path / "x.bvh").exists()
+    assert pickle.loads(pickle.dumps(failed)) == failed
+    same = clean_file(tree / "walk" / "a.bvh", tmp_path / "y.bvh", Pipeline.default())
+    assert same.noise_after == result.noise_after
+
+
+@pytest.mark.slow
+def test_workers_exit_when_the_batch_parent_is_killed(tmp_path):
+    for k in range(6):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).parent / "motionclean"),
+            *("batch", str(tmp_path / "in"), "-o", str(tmp_path / "o"), "-j", "2"),
+            *("-f", "fairing:max_iterations=3000,tol=0"),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 20
+    children: list[str] = []
+    while len(children) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+        children = subprocess.run(
+            ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
+        ).stdout.split()
+    process.kill()  # SIGKILL: no chance to shut the pool down
+    process.wait()
+    deadline = time.monotonic() + 5
+    while any(os.path.exists(f"/proc/{pid}") for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(children) >= 2
+    assert not [pid for pid in children if os.path.exists(f"/proc/{pid}")]

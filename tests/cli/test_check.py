@@ -1,0 +1,195 @@
+"""`motionclean check`: a fresh baseline passes; a noisier clip fails, named; clear errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
+
+import motionclean as mc
+from motionclean.cli.check import DEFAULT_TOLERANCE, compare
+from motionclean.core import quat
+from motionclean.report.summary import json_safe
+from motionclean.steps.pipeline import Pipeline
+
+
+@pytest.fixture
+def clips(tmp_path, monkeypatch) -> list[str]:
+    monkeypatch.chdir(tmp_path)  # baseline keys are paths relative to the current folder
+    Path("clips").mkdir()
+    return [
+        cut_bvh(SAMPLE, Path("clips") / f"{name}.bvh", 80).as_posix() for name in ("calm", "busy")
+    ]
+
+
+def make_noisier(path: str) -> None:
+    motion = mc.load(path)
+    rng = np.random.default_rng(7)
+    noise = quat.exp(rng.normal(scale=0.02, size=motion.rotations.shape[:-1] + (3,)))
+    mc.save(motion.replace(rotations=quat.multiply(motion.rotations, noise)), path)
+
+
+def test_fresh_baseline_passes_then_a_noisier_clip_fails(clips, capsys):
+    code, stdout, _ = run_cli(capsys, "check", *clips, "--baseline", "base.json", "--update")
+    assert code == 0 and "baseline written" in stdout
+    recorded = json.loads(Path("base.json").read_text())
+    assert sorted(recorded["clips"]) == sorted(clips)
+    assert recorded["pipeline"] == json_safe(Pipeline.default().describe())
+
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "base.json")
+    assert code == 0, stderr
+    assert "check passed" in stdout and "WORSE" not in stdout
+
+    make_noisier("clips/busy.bvh")
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "base.json")
+    assert code == 1
+    assert "clips/busy.bvh" in stderr and "clips/calm.bvh" not in stderr
+    assert "noise after got worse" in stderr
+    assert all(
+        line.startswith("motionclean: error: clips/busy.bvh: ")
+        for line in stderr.strip().splitlines()
+    )
+    worse = [line for line in stdout.splitlines() if line.rstrip().endswith("WORSE")]
+    assert worse and "noise after" in worse[0]
+
+
+def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
+    assert (
+        run_cli(
+            capsys,
+            "check",
+            *clips,
+            "--baseline",
+            "b.json",
+            "--update",
+            "-f",
+            "lee-shin:k=2,iterations=3",
+        )[0]
+        == 0
+    )
+    code, _, stderr = run_cli(
+        capsys, "check", *clips, "--baseline", "b.json", "-f", "lee-shin:k=2,iterations=2"
+    )
+    assert code == 1 and stderr.count("noise after got worse") == 2
+    code, _, _ = run_cli(
+        capsys,
+        "check",
+        *clips,
+        "--baseline",
+        "b.json",
+        "-f",
+        "lee-shin:k=2,iterations=2",
+        "--tolerance",
+        "100",
+    )
+    assert code == 0
+    for tolerance in ("nan", "inf"):  # would pass any regression: refused as usage
+        code, stdout, stderr = run_cli(
+            capsys, "check", *clips, "--baseline", "b.json", "--tolerance", tolerance
+        )
+        assert code == 2 and not stdout
+        assert stderr.strip().splitlines() == [
+            f"motionclean: error: Invalid value for '--tolerance': {tolerance} is not a "
+            "finite number."
+        ]
+
+
+def test_missing_baseline_is_a_clear_error(clips, capsys):
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "none.json")
+    assert code == 2 and stdout == ""
+    assert stderr.strip() == (
+        "motionclean: error: none.json: no such baseline; create it with --update"
+    )
+    assert not Path("none.json").exists()
+
+
+def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
+    Path("clips/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
+    code, _, stderr = run_cli(
+        capsys, "check", *clips, "clips/broken.bvh", "--baseline", "b.json", "--update"
+    )
+    assert code == 1 and "clips/broken.bvh" in stderr
+    assert not Path("b.json").exists()
+
+
+def test_clip_missing_from_the_baseline_fails(clips, capsys):
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+    code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert code == 1 and f"{clips[1]}: not in the baseline" in stderr
+
+
+def test_compare_limits():
+    base = {
+        "frames": 10,
+        "noise_before": 100.0,
+        "noise_after": 10.0,
+        "deviation_max": 2.0,
+        "deviation_rms": 1.0,
+    }
+    t = DEFAULT_TOLERANCE
+
+    def verdicts(**now):
+        return {label: v for label, _, _, v in compare(dict(base, **now), base, t)}
+
+    assert set(verdicts().values()) == {"ok"}
+    assert set(verdicts(noise_after=10.0 * (1 + t) * (1 - 1e-9)).values()) == {"ok"}
+    assert verdicts(noise_after=10.0 * (1 + 2 * t))["noise after, deg/s^2"] == "WORSE"
+    assert verdicts(deviation_max=1.0)["deviation max, deg"] == "better"
+    assert verdicts(noise_before=90.0)["noise before, deg/s^2"] == "CHANGED"
+    assert verdicts(frames=11)["frames"] == "CHANGED"
+    zero = dict(base, deviation_max=0.0)
+    assert compare(dict(zero, deviation_max=1e-12), zero, t)[2][3] == "ok"
+
+
+def test_update_of_a_subset_keeps_the_other_clips_and_replace_starts_anew(clips, capsys):
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    calm_before = json.loads(Path("b.json").read_text())["clips"]["clips/calm.bvh"]
+    make_noisier(clips[1])
+    code, stdout, _ = run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")
+    assert code == 0 and "1 others kept" in stdout
+    recorded = json.loads(Path("b.json").read_text())["clips"]
+    assert sorted(recorded) == sorted(clips) and recorded["clips/calm.bvh"] == calm_before
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json")[0] == 0
+    code, _, _ = run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update", "--replace")
+    assert code == 0 and list(json.loads(Path("b.json").read_text())["clips"]) == [clips[0]]
+    code, _, err = run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--replace")
+    assert code == 2 and "--replace goes with --update" in err
+
+
+def test_keys_are_relative_to_the_baseline_folder_and_links_are_not_followed(
+    clips, tmp_path, capsys
+):
+    Path("ci").mkdir()
+    Path("elsewhere").mkdir()
+    target = Path("elsewhere/real.bvh")
+    target.write_bytes(Path(clips[0]).read_bytes())
+    Path("clips/linked.bvh").symlink_to(target.resolve())
+    code, _, err = run_cli(
+        capsys, "check", "clips/linked.bvh", "--baseline", "ci/b.json", "--update"
+    )
+    assert code == 0, err
+    assert list(json.loads(Path("ci/b.json").read_text())["clips"]) == ["../clips/linked.bvh"]
+    # the same baseline read from another working folder
+    import os
+
+    os.chdir("ci")
+    assert run_cli(capsys, "check", "../clips/linked.bvh", "--baseline", "b.json")[0] == 0
+
+
+def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(clips, capsys):
+    """The clip's largest deviation is RThumb's repaired flip; a weaker smoothing of the
+    other joints leaves it alone but is caught joint by joint."""
+    base = ["-f", "despike", "-f", "lee-shin:k=3,iterations=3,joints=['*','!LeftKnee']"]
+    weak = [
+        "-f",
+        "despike",
+        "-f",
+        "lee-shin:k=3,iterations=3,joints=['*','!LeftKnee','!RightKnee']",
+    ]
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update", *base)[0] == 0
+    code, _, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
+    assert code == 1 and "RightKnee noise after" in err
+    assert "deviation max got worse" not in err  # the clip maximum (RThumb) is unchanged

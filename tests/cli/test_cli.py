@@ -1,0 +1,315 @@
+"""The command line as a user runs it: outputs, reports, exit codes, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, run_cli
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.steps.pipeline import REGISTRY
+
+
+def run(args, capsys):
+    """Run the console entry point with ``args``; return (exit code, stdout, stderr)."""
+    return run_cli(capsys, *args)
+
+
+def test_version(capsys):
+    code, out, _ = run(["--version"], capsys)
+    assert code == 0 and mc.__version__ in out
+
+
+def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
+    out, report = tmp_path / "clean.bvh", tmp_path / "report.json"
+    code, stdout, err = run(
+        [
+            "clean",
+            noisy_path,
+            "-o",
+            out,
+            "-f",
+            "lee-shin:mask=binomial,k=2,iterations=5",
+            "--report",
+            report,
+        ],
+        capsys,
+    )
+    assert code == 0, err
+    assert "all joints" in stdout
+    data = json.loads(report.read_text())
+    assert set(data) == {
+        "file",
+        "frames",
+        "frame_time",
+        "pipeline",
+        "joints",
+        "summary",
+        "world",
+        "contacts",
+        "rest_frames",
+    }
+    assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5
+    knee = data["joints"]["LeftKnee"]
+    assert set(knee) >= {"angular_accel_rms", "angular_accel_max", "deviation_deg"}
+    assert knee["angular_accel_rms"]["after"] < knee["angular_accel_rms"]["before"]
+    summary = data["summary"]
+    assert 0.0 < summary["noise_reduction"] < 1.0
+    assert summary["deviation_deg_max"] > 0.0
+    cleaned = mc.load(out)
+    assert cleaned.n_frames == data["frames"]
+
+
+def test_clean_refuses_to_overwrite_its_input(sample_path, tmp_path, capsys):
+    target = tmp_path / "clip.bvh"
+    target.write_bytes(sample_path.read_bytes())
+    code, _, err = run(["clean", target, "-o", target], capsys)
+    assert code == 2
+    assert err.count("\n") == 1 and "refusing to overwrite the input" in err
+    assert target.read_bytes() == sample_path.read_bytes()
+    code, _, err = run(["clean", target, "--in-place", "-q"], capsys)
+    assert code == 0, err
+    assert target.read_bytes() != sample_path.read_bytes()
+
+
+def test_invalid_pipeline_exits_2_before_reading_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "out.bvh"
+    code, _, err = run(["clean", tmp_path / "missing.bvh", "-o", out, "-f", "lee-shin:k=x"], capsys)
+    assert code == 2
+    assert err.startswith("motionclean: error: -f: step 1 (lee-shin): k must be an integer")
+    assert err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_pipeline_file_and_inline_steps_are_exclusive(sample_path, tmp_path, capsys):
+    pipe = tmp_path / "p.toml"
+    pipe.write_text('[[step]]\nfilter = "lee-shin"\n')
+    code, _, err = run(
+        ["clean", sample_path, "-o", tmp_path / "o.bvh", "-p", pipe, "-f", "lee-shin"], capsys
+    )
+    assert code == 2 and "either -p" in err
+
+
+def test_bad_clip_is_one_line_with_exit_1_and_no_output(tmp_path, capsys):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 3 Zrotation Xrotation\n")
+    out = tmp_path / "out.bvh"
+    code, _, err = run(["clean", bad, "-o", out], capsys)
+    assert code == 1
+    assert err == f"motionclean: error: {bad}:5: CHANNELS says 3 but names 2\n"
+    assert not out.exists()
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_unknown_command_is_a_one_line_usage_error(capsys):
+    code, _, err = run(["frobnicate"], capsys)
+    assert code == 2 and err.count("\n") == 1 and err.startswith("motionclean: error:")
+
+
+def test_info_finds_the_rthumb_flip(sample_path, capsys):
+    code, out, _ = run(["info", sample_path], capsys)
+    assert code == 0
+    assert "frames: 300" in out and "rate: 120 fps" in out
+    motion = mc.load(sample_path)
+    steps = np.degrees(quat.angle_between(motion.rotations[:-1], motion.rotations[1:]))
+    thumb = motion.names.index("RThumb")
+    line = next(row for row in out.splitlines() if row.strip().startswith("RThumb "))
+    assert f"{steps[:, thumb].max():.2f}" in line
+    assert str(int(np.argmax(steps[:, thumb])) + 1) in line.split()
+
+
+def test_filters_catalogue_lists_every_filter_with_parameters(capsys):
+    code, out, _ = run(["filters"], capsys)
+    assert code == 0
+    for spec in REGISTRY.values():
+        assert f"{spec.name}: " in out
+        assert spec.paper in out
+        for param in spec.params:
+            assert param.name in out
+
+
+def test_report_before_and_after_pair(noisy_path, tmp_path, capsys):
+    cleaned = tmp_path / "c.bvh"
+    assert run(["clean", noisy_path, "-o", cleaned, "-q"], capsys)[0] == 0
+    js = tmp_path / "r.json"
+    code, out, _ = run(["report", noisy_path, cleaned, "--json", js], capsys)
+    assert code == 0 and "removed" in out
+    data = json.loads(js.read_text())
+    assert data["summary"]["noise_reduction"] > 0.3
+    code, _, err = run(["report", noisy_path, tmp_path / "nope.bvh"], capsys)
+    assert code == 1 and "no such file" in err
+
+
+def test_stitch_and_blend_commands(sample_path, tmp_path, capsys):
+    motion = mc.load(sample_path)
+    first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    mc.save(
+        motion.replace(
+            rotations=motion.rotations[:120],
+            translations=motion.translations[:120],
+            source_values=None,
+            source_rotations=None,
+        ),
+        first,
+    )
+    mc.save(
+        motion.replace(
+            rotations=motion.rotations[150:],
+            translations=motion.translations[150:],
+            source_values=None,
+            source_rotations=None,
+        ),
+        second,
+    )
+    out = tmp_path / "s.bvh"
+    code, _, err = run(["stitch", first, second, "-o", out, "--levels", "3"], capsys)
+    assert code == 0, err
+    stitched = mc.load(out)
+    assert stitched.n_frames == 120 + 150 - 1
+    a = mc.load(first)
+    unchanged = 120 - 3 * (2**3 - 1) - 1
+    gap = quat.angle_between(stitched.rotations[:unchanged], a.rotations[:unchanged])
+    assert np.degrees(gap).max() < 1e-5
+    code, _, err = run(["blend", first, second, "-o", tmp_path / "x.bvh"], capsys)
+    assert code == 1 and "frames" in err and err.count("\n") == 1
+    code, _, err = run(["blend", first, first, "-o", tmp_path / "x.bvh", "--weight", "0.3"], capsys)
+    assert code == 0, err
+    blended = mc.load(tmp_path / "x.bvh")
+    assert np.degrees(quat.angle_between(blended.rotations, a.rotations)).max() < 1e-5
+
+
+def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
+    other = tmp_path / "other.bvh"
+    other.write_bytes(sample_path.read_bytes().replace(b"LeftKnee", b"LeftKnee2"))
+    code, _, err = run(["stitch", sample_path, other, "-o", tmp_path / "s.bvh"], capsys)
+    assert code == 1 and "skeleton differs" in err
+    assert not (tmp_path / "s.bvh").exists()
+
+
+@pytest.mark.parametrize("empty_first", [False, True])
+def test_stitch_refuses_a_clip_without_frames(sample_path, tmp_path, capsys, empty_first):
+    text = sample_path.read_text()
+    head, motion = text.split("MOTION\n", 1)
+    frame_time = motion.splitlines()[1]
+    empty = tmp_path / "empty.bvh"
+    empty.write_text(f"{head}MOTION\nFrames: 0\n{frame_time}\n")
+    pair = [empty, sample_path] if empty_first else [sample_path, empty]
+    code, _, err = run(["stitch", *pair, "-o", tmp_path / "s.bvh"], capsys)
+    assert (
+        code == 1 and err == f"motionclean: error: {empty}: cannot stitch a clip without frames\n"
+    )
+    assert not (tmp_path / "s.bvh").exists()
+
+
+def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, capsys):
+    report = tmp_path / "r.json"
+    code, out, err = run(
+        ["clean", sample_path, "-o", tmp_path / "c.bvh", "--report", report], capsys
+    )
+    assert code == 0, err
+    data = json.loads(report.read_text())
+    assert [step["filter"] for step in data["pipeline"]] == ["fill-gaps", "despike", "auto"]
+    thumb = data["joints"]["RThumb"]["despike"]
+    assert thumb["frames_repaired"] > 0 and thumb["max_step"]["after"] < 30.0
+    assert "repaired RThumb:" in out
+    cleaned = mc.load(tmp_path / "c.bvh")
+    steps = np.degrees(quat.angle_between(cleaned.rotations[:-1], cleaned.rotations[1:]))
+    assert steps.max() < 30.0
+
+
+def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, capsys):
+    out = tmp_path / "s.bvh"
+    code, _, err = run(["stitch", sample_path, sample_path, "-o", out, "--levels", "4"], capsys)
+    assert code == 0, err
+    clip, stitched = mc.load(sample_path), mc.load(out)
+    width = 3 * (2**4 - 1)
+    seam = clip.n_frames - 1
+    # channel values, Euler branch included, are the input's away from the seam
+    assert np.array_equal(
+        stitched.source_values[: seam - width], clip.source_values[: seam - width]
+    )
+    # the second clip's root is moved to where the first ends; without alignment every
+    # channel is the input's, with it every channel but the root's
+    assert not np.array_equal(
+        stitched.source_values[seam + width + 1 :, :6], clip.source_values[width + 1 :, :6]
+    )
+    assert np.array_equal(
+        stitched.source_values[seam + width + 1 :, 6:], clip.source_values[width + 1 :, 6:]
+    )
+    run(["stitch", sample_path, sample_path, "-o", out, "--no-align"], capsys)
+    unaligned = mc.load(out)
+    assert np.array_equal(
+        unaligned.source_values[seam + width + 1 :], clip.source_values[width + 1 :]
+    )
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--report", "r.txt"], "a report must end in .json or .html"),
+        (["--report", "nowhere/r.json"], "no folder"),
+    ],
+)
+def test_bad_report_path_is_refused_before_anything_is_written(
+    sample_path, tmp_path, capsys, extra, message
+):
+    out = tmp_path / "c.bvh"
+    args = [a if not a.startswith(("r.", "nowhere")) else tmp_path / a for a in extra]
+    code, _, err = run(["clean", sample_path, "-o", out, *args], capsys)
+    assert code == 2 and message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_clip_output_must_have_a_known_suffix(sample_path, tmp_path, capsys):
+    code, _, err = run(["clean", sample_path, "-o", tmp_path / "c.json"], capsys)
+    assert code == 2 and "a clip must end in .bvh or .csv" in err
+
+
+def test_a_joint_pattern_that_matches_nothing_is_warned_about(sample_path, tmp_path, capsys):
+    code, _, err = run(
+        [
+            "clean",
+            sample_path,
+            "-o",
+            tmp_path / "c.bvh",
+            "-q",
+            "-f",
+            "lee-shin:joints=['LeftKnee','LeftKnea']",
+        ],
+        capsys,
+    )
+    assert code == 0
+    assert "warning" in err and "'LeftKnea' matches no joint" in err
+    assert "LeftKnee'" not in err
+
+
+def test_bare_command_shows_help(capsys):
+    code, out, _ = run([], capsys)
+    assert code == 0 and "Commands:" in out and "clean" in out
+
+
+def test_single_clip_report_has_the_full_summary_schema(sample_path, tmp_path, capsys):
+    js = tmp_path / "r.json"
+    code, _, _ = run(["report", sample_path, "--json", js], capsys)
+    assert code == 0
+    summary = json.loads(js.read_text())["summary"]
+    assert summary["noise_reduction"] is None and summary["deviation_deg_max"] is None
+    assert summary["angular_accel_rms"]["after"] is None
+
+
+def test_info_cuts_very_long_joint_names_so_every_line_stays_short(tmp_path, capsys):
+    """A 100,000-character joint name (as fuzzed files have) is printed cut to 40
+    characters, in its own row and its child's parent column: the table does not pad every
+    row to it (it was 6 MB of output here, 320 MB for a 5 MB name)."""
+    text = SAMPLE.read_text()
+    long_name = "L" * 100_000
+    clip = tmp_path / "long.bvh"
+    clip.write_text(text.replace("JOINT LeftHip", f"JOINT {long_name}", 1))
+    code, out, err = run_cli(capsys, "info", clip)
+    assert code == 0 and not err
+    assert max(map(len, out.splitlines())) < 200
+    shown = "L" * 37 + "..."
+    assert sum(line.count(shown) for line in out.splitlines()) == 2  # its row, its child's

@@ -1,0 +1,272 @@
+"""`motionclean blend` as a user runs it: the weights act, the order of the clips does not
+matter, bad options and mismatched clips are one-line errors that write nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import NOISY, SAMPLE, max_degrees, run_cli
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.filters import multires
+
+#: What survives printing a clip: six decimals of degrees and of length units.
+PRINTED_DEG = 1e-4
+PRINTED_LENGTH = 1e-4
+FRAMES = 150
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory):
+    """Two different 150-frame windows of the sample (frames 0-149 and 150-299)."""
+    folder = tmp_path_factory.mktemp("blend")
+    motion = mc.load(SAMPLE)
+    paths = []
+    for name, window in (("a.bvh", slice(0, FRAMES)), ("b.bvh", slice(FRAMES, 2 * FRAMES))):
+        path = folder / name
+        mc.save(
+            motion.replace(
+                rotations=motion.rotations[window],
+                translations=motion.translations[window],
+                source_values=None,
+                source_rotations=None,
+            ),
+            path,
+        )
+        paths.append(path)
+    return tuple(paths)
+
+
+def max_deg(x: mc.Motion, y: mc.Motion) -> float:
+    return max_degrees(x.rotations, y.rotations)
+
+
+def max_length(x: mc.Motion, y: mc.Motion) -> float:
+    return float(np.abs(x.translations - y.translations).max())
+
+
+def blend(capsys, out, first, second, *options) -> mc.Motion:
+    code, _, err = run_cli(capsys, "blend", first, second, "-o", out, *options)
+    assert code == 0, err
+    return mc.load(out)
+
+
+def test_the_two_windows_differ(clips):
+    a, b = (mc.load(p) for p in clips)
+    assert a.n_frames == b.n_frames == FRAMES
+    assert max_deg(a, b) > 10.0 and max_length(a, b) > 1.0
+
+
+@pytest.mark.parametrize(("weight", "which"), [("0", 0), ("1", 1), ("0.0", 0)])
+def test_weight_zero_gives_first_and_one_gives_second(clips, tmp_path, capsys, weight, which):
+    out = blend(capsys, tmp_path / "x.bvh", *clips, "--weight", weight)
+    expected = mc.load(clips[which])
+    assert max_deg(out, expected) < PRINTED_DEG
+    assert max_length(out, expected) < PRINTED_LENGTH
+    assert out.names == expected.names and out.channels == expected.channels
+    assert out.frame_time == pytest.approx(expected.frame_time, rel=1e-6)
+
+
+def test_intermediate_weight_lies_between_and_matches_the_library(clips, tmp_path, capsys):
+    out = blend(capsys, tmp_path / "x.bvh", *clips, "--weight", "0.3", "--levels", "3")
+    a, b = (mc.load(p) for p in clips)
+    q, p = multires.blend(a.rotations, b.rotations, 3, 0.3, None, a.translations, b.translations)
+    assert float(np.degrees(quat.angle_between(out.rotations, q)).max()) < PRINTED_DEG
+    assert float(np.abs(out.translations - p).max()) < PRINTED_LENGTH
+    assert max_deg(out, a) > 1.0 and max_deg(out, b) > 1.0
+
+
+@pytest.mark.parametrize(
+    ("forward", "backward"),
+    [
+        (["--weight", "0.3"], ["--weight", "0.7"]),
+        (["--weight", "0.8", "--levels", "2"], ["--weight", "0.2", "--levels", "2"]),
+        (
+            ["--weight", "0.25", "--detail-weights", "0,1,0.4"],
+            ["--weight", "0.75", "--detail-weights", "1,0,0.6"],
+        ),
+    ],
+)
+def test_blend_is_symmetric_in_the_clips(clips, tmp_path, capsys, forward, backward):
+    ab = blend(capsys, tmp_path / "ab.bvh", clips[0], clips[1], *forward)
+    ba = blend(capsys, tmp_path / "ba.bvh", clips[1], clips[0], *backward)
+    assert max_deg(ab, ba) < PRINTED_DEG
+    assert max_length(ab, ba) < PRINTED_LENGTH
+
+
+def test_detail_weights_are_read_finest_first(clips, tmp_path, capsys):
+    a, b = (mc.load(p) for p in clips)
+    plain = blend(capsys, tmp_path / "plain.bvh", *clips, "--weight", "0")
+    assert max_deg(plain, a) < PRINTED_DEG
+    # only the finest band comes from B: near A, yet not A
+    finest = blend(
+        capsys, tmp_path / "finest.bvh", *clips, "--weight", "0", "--detail-weights", "1"
+    )
+    q, _ = multires.blend(a.rotations, b.rotations, 4, 0.0, [1.0], a.translations, b.translations)
+    assert float(np.degrees(quat.angle_between(finest.rotations, q)).max()) < PRINTED_DEG
+    assert max_deg(finest, a) > 0.1
+    # spaces around the numbers are accepted; listed levels override --weight
+    listed = blend(
+        capsys,
+        tmp_path / "listed.bvh",
+        *clips,
+        "--weight",
+        "1",
+        "--detail-weights",
+        "0, 0.5,1 ,0",
+        "--levels",
+        "4",
+    )
+    q, p = multires.blend(
+        a.rotations, b.rotations, 4, 1.0, [0.0, 0.5, 1.0, 0.0], a.translations, b.translations
+    )
+    assert float(np.degrees(quat.angle_between(listed.rotations, q)).max()) < PRINTED_DEG
+    assert float(np.abs(listed.translations - p).max()) < PRINTED_LENGTH
+    assert max_deg(listed, b) > 0.1
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("a,b", "--detail-weights: expected numbers, got 'a,b'"),
+        ("0.5,", "--detail-weights: expected numbers"),
+    ],
+)
+def test_bad_detail_weights_exit_2_with_one_line(clips, tmp_path, capsys, value, message):
+    out = tmp_path / "x.bvh"
+    code, _, err = run_cli(capsys, "blend", *clips, "-o", out, "--detail-weights", value)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("motionclean: error: ") and message in err
+    assert not out.exists()
+
+
+def test_more_detail_weights_than_levels_is_a_usage_error(clips, tmp_path, capsys):
+    out = tmp_path / "x.bvh"
+    code, _, err = run_cli(
+        capsys, "blend", *clips, "-o", out, "--levels", "2", "--detail-weights", "0,0,0"
+    )
+    assert code == 2 and err.count("\n") == 1 and "detail_weights" in err
+    assert not out.exists()
+
+
+def test_mismatched_channels_or_frame_time_exit_1_with_one_line(clips, tmp_path, capsys):
+    text = clips[1].read_text()
+    first_joint = "\tJOINT LHipJoint\n\t{\n\t\tOFFSET 0 0 0\n\t\tCHANNELS 3 Zrotation Yrotation "
+    assert text.count(first_joint + "Xrotation") == 1
+    swapped = tmp_path / "swapped.bvh"
+    swapped.write_text(
+        text.replace(
+            first_joint + "Xrotation",
+            first_joint.replace("Zrotation Yrotation ", "Xrotation Yrotation ") + "Zrotation",
+        )
+    )
+    frame_time = next(line for line in text.splitlines() if line.startswith("Frame Time:"))
+    slower = tmp_path / "slower.bvh"
+    slower.write_text(text.replace(frame_time, "Frame Time: 0.0333333"))
+    for other, message in ((swapped, "channels differ"), (slower, "frame time 0.0333333 s")):
+        assert mc.load(other).n_frames == FRAMES  # a valid clip on its own
+        out = tmp_path / "x.bvh"
+        code, _, err = run_cli(capsys, "blend", clips[0], other, "-o", out)
+        assert code == 1, err
+        assert err.count("\n") == 1 and err.startswith("motionclean: error: ")
+        assert message in err and str(other) in err
+        assert not out.exists()
+
+
+def test_stitch_aligns_the_second_roots_position_and_heading(tmp_path, capsys):
+    """Two takes joined: the second starts where the first ends (horizontal position and
+    heading about the up axis), so the root does not slide across the room at the seam."""
+    from helpers import corpus_clip
+
+    from motionclean.core import kinematics
+
+    first, second = corpus_clip("131_01.bvh"), corpus_clip("131_02.bvh")
+    a = mc.load(first)
+    for flag, aligned in ((), True), (("--no-align",), False):
+        out = tmp_path / f"s{aligned}.bvh"
+        code, _, err = run_cli(capsys, "stitch", first, second, "-o", out, *flag)
+        assert code == 0, err
+        clip = mc.load(out)
+        root = kinematics.local_translations(clip)[:, 0]
+        seam = a.n_frames - 1
+        speed = np.linalg.norm(np.diff(root[:, [0, 2]], axis=0), axis=1) / clip.frame_time
+        own = np.linalg.norm(
+            np.diff(kinematics.local_translations(a)[:, 0, [0, 2]], axis=0), axis=1
+        )
+        own_max = own.max() / a.frame_time
+        near = speed[seam - 30 : seam + 30].max()
+        if aligned:
+            assert near < 2.0 * own_max
+            turn = quat.angle_between(clip.rotations[seam - 1, 0], clip.rotations[seam + 1, 0])
+            assert np.degrees(turn) < 5.0
+            assert root[seam + 5, 1] == pytest.approx(
+                kinematics.local_translations(mc.load(second))[5, 0, 1], abs=0.5
+            )
+        else:
+            assert near > 3.0 * own_max  # the old behaviour: a slide at the seam
+
+
+def test_stitch_refuses_another_skeleton(tmp_path, capsys):
+    moved = tmp_path / "moved.bvh"
+    text = SAMPLE.read_text()
+    assert "OFFSET 1.24777 -1.64261 0.71711" in text
+    moved.write_text(text.replace("OFFSET 1.24777 -1.64261", "OFFSET 790 -1.64261", 1))
+    code, _, err = run_cli(capsys, "stitch", SAMPLE, moved, "-o", tmp_path / "o.bvh")
+    assert code == 1 and "another OFFSET" in err and not (tmp_path / "o.bvh").exists()
+
+
+def test_blend_and_stitch_carry_positions_only_where_a_joint_has_some():
+    """Rotations go through the pyramids for every joint and positions only for joints
+    that have any: the same clip as one call on every joint's rotations and positions,
+    including a joint without position channels whose translations are not zero."""
+    from motionclean.run.jobs import blend_clips, stitch_clips
+
+    a = mc.load(SAMPLE)
+    b = a.replace(rotations=quat.multiply(a.rotations, quat.from_axis_angle([0.0, 0.0, 1.0], 0.3)))
+    moved = a.translations.copy()
+    moved[:, 5] = np.linspace(0.0, 2.0, a.n_frames)[:, None]  # joint 5 has no position channel
+    a = a.replace(translations=moved)
+    q, p = multires.blend(a.rotations, b.rotations, 3, 0.4, None, a.translations, b.translations)
+    blended = blend_clips(a, b, levels=3, weight=0.4)
+    assert np.array_equal(blended.rotations, q) and np.array_equal(blended.translations, p)
+    assert blended.translations[:, 5].any()
+    q, p = multires.stitch(a.rotations, b.rotations, 3, a.translations, b.translations)
+    joined = stitch_clips(a, b, levels=3, align=False)
+    assert np.array_equal(joined.rotations, q) and np.array_equal(joined.translations, p)
+
+
+@pytest.mark.parametrize(
+    ("option", "message"),
+    [
+        (["--weight", "nan"], "Invalid value for '--weight': nan is not in the range 0.0<=x<=1.0."),
+        (
+            ["--detail-weights", "1e308"],
+            "--detail-weights: each weight must be from 0 (FIRST's detail) to 1 (SECOND's), "
+            "got 1e+308",
+        ),
+        (["--detail-weights", "0,-1"], "to 1 (SECOND's), got -1"),
+        (["--detail-weights", "1e6"], "to 1 (SECOND's), got 1e+06"),
+        (["--detail-weights", "0.5,nan"], "to 1 (SECOND's), got nan"),
+    ],
+)
+def test_blend_weights_outside_0_to_1_are_usage_errors(tmp_path, capsys, option, message):
+    out = tmp_path / "bl.bvh"
+    code, _, err = run_cli(capsys, "blend", SAMPLE, NOISY, "-o", out, *option)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1
+    assert lines[0].startswith("motionclean: error: ") and lines[0].endswith(message)
+    assert not out.exists()
+
+
+def test_blending_clips_without_frames_is_a_data_error_naming_the_file(tmp_path, capsys):
+    from helpers import cut_bvh
+
+    empty = cut_bvh(SAMPLE, tmp_path / "empty.bvh", 0)
+    out = tmp_path / "bl.bvh"
+    code, _, err = run_cli(capsys, "blend", empty, empty, "-o", out)
+    assert code == 1
+    assert err.strip().splitlines() == [
+        f"motionclean: error: {empty}: cannot blend a clip without frames"
+    ]
+    assert not out.exists()

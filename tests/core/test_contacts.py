@@ -1,0 +1,179 @@
+"""Foot contacts and the footlock step: contacts where a person would mark them, none on a
+flying clip or a hand, the same on a Z-up copy; feet held still, untouched frames bit for
+bit, coordinate invariance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import NOISY, corpus_clip, z_up_copy
+
+import motionclean as mc
+from motionclean.core import contacts as found
+from motionclean.core import kinematics, quat
+from motionclean.filters.footlock import MAX_REACH
+from motionclean.steps import footlock
+from motionclean.steps.pipeline import Pipeline
+
+DEFAULTS = {p.name: p.default for p in footlock.STEP.params}
+
+
+def contacts_of(motion: mc.Motion, **changes):
+    feet, contacts, *_ = footlock.find_contacts(motion, {**DEFAULTS, **changes})
+    return feet, contacts
+
+
+def test_contacts_on_a_real_walk_are_where_a_person_marks_them():
+    """131_02 (checked by hand from foot heights and speeds): both feet stand at the start;
+    the left foot swings around frame 60 and 256 and stands at 24, 200, 300; the right foot
+    swings around frame 112 and stands at 40 and 300."""
+    motion = mc.load(corpus_clip("131_02.bvh"))
+    feet, contacts = contacts_of(motion)
+    assert [f.name for f in feet] == ["LeftAnkle", "RightAnkle"]
+    left, right = contacts[:, 0], contacts[:, 1]
+    assert left[[24, 200, 300]].all() and not left[[60, 256]].any()
+    assert right[[40, 300]].all() and not right[112]
+    runs = found.contact_runs(contacts)
+    assert all(last - first + 1 >= 0.1 / motion.frame_time for foot in runs for first, last in foot)
+
+
+def test_the_same_contacts_on_a_z_up_copy():
+    motion = mc.load(NOISY)
+    _, contacts = contacts_of(motion)
+    assert contacts.any()
+    z_up = z_up_copy(motion)
+    assert kinematics.up_axis(z_up) == 2
+    np.testing.assert_array_equal(contacts_of(z_up)[1], contacts)
+
+
+def test_no_contacts_when_flying():
+    motion = mc.load(NOISY)
+    height = kinematics.body_height(motion)
+    translations = motion.translations.copy()
+    rise = height * np.arange(motion.n_frames) * motion.frame_time  # 1 body height per s up
+    translations[:, 0, 1] += rise
+    flying = motion.replace(translations=translations)
+    assert not contacts_of(flying)[1].any()
+    out, _ = Pipeline.from_inline(["footlock"]).run(flying)
+    np.testing.assert_array_equal(out.rotations, flying.rotations)
+
+
+def test_a_hand_has_no_feet():
+    """A hand skeleton (wrist and five three-bone fingers hanging down) is not a pair of
+    legs, whatever its proportions relative to its own height."""
+    names, parents, offsets = ["Wrist"], [-1], [[0.0, 0.0, 0.0]]
+    for finger in range(5):
+        parent = 0
+        for bone, length in enumerate((9.0, 4.5, 2.8)):
+            names.append(f"F{finger}_{bone}")
+            parents.append(parent)
+            offsets.append([finger - 2.0 if bone == 0 else 0.0, -length, 0.0])
+            parent = len(names) - 1
+    motion = mc.Motion.from_channel_values(
+        names,
+        parents,
+        offsets,
+        [("Zrotation", "Xrotation", "Yrotation")] * len(names),
+        1 / 60,
+        np.zeros((30, 3 * len(names))),
+        end_sites={j: np.array([0.0, -2.0, 0.0]) for j in range(3, len(names), 3)},
+    )
+    assert contacts_of(motion)[0] == []
+
+
+@pytest.fixture(scope="module")
+def locked():
+    motion = mc.load(NOISY)
+    steps = ["footlock:hold_seconds=inf,horizontal=false,blend_seconds=0.05"]
+    out, logs = Pipeline.from_inline(steps).run(motion)
+    return motion, out, logs
+
+
+def test_feet_inside_contacts_do_not_move(locked):
+    motion, out, logs = locked
+    feet, contacts = contacts_of(motion)
+    height = kinematics.body_height(motion)
+    positions, _ = kinematics.forward(out)
+    held = 0
+    before, _ = kinematics.forward(motion)
+    for k, foot in enumerate(feet):
+        for first, last in found.contact_runs(contacts[:, [k]])[0]:
+            rows = slice(first, last + 1)
+            target = before[rows, foot.ankle].mean(axis=0)
+            # where the held point is out of the leg's reach the IK clamps instead
+            leg = np.linalg.norm(before[rows, foot.knee] - before[rows, foot.hip], axis=1)
+            leg += np.linalg.norm(before[rows, foot.ankle] - before[rows, foot.knee], axis=1)
+            reach = np.linalg.norm(target - before[rows, foot.hip], axis=1)
+            reachable = reach < MAX_REACH * leg
+            ankle = positions[rows, foot.ankle][reachable]
+            assert np.abs(ankle - target).max() < 1e-6 * height
+            held += 1
+    assert held >= 3
+    notes = logs[0].notes
+    assert set(notes) == {f.name for f in feet} and all("footlock" in notes[f.name] for f in feet)
+
+
+def test_frames_away_from_contacts_are_bit_for_bit_the_input(locked):
+    motion, out, _ = locked
+    feet, contacts = contacts_of(motion)
+    blend = int(np.ceil(0.05 / motion.frame_time)) + 1
+    near = np.zeros(motion.n_frames, dtype=bool)
+    for k in range(len(feet)):
+        for first, last in found.contact_runs(contacts[:, [k]])[0]:
+            near[max(first - blend, 0) : last + blend + 1] = True
+    np.testing.assert_array_equal(out.rotations[~near], motion.rotations[~near])
+    legs = {j for f in feet for j in (f.hip, f.knee, f.ankle)}
+    others = [j for j in range(motion.n_joints) if j not in legs]
+    np.testing.assert_array_equal(out.rotations[:, others], motion.rotations[:, others])
+    np.testing.assert_array_equal(out.translations, motion.translations)
+
+
+def test_footlock_commutes_with_a_turn_about_the_up_axis_and_a_horizontal_shift():
+    motion = mc.load(NOISY)
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), 2.1)
+    shift = np.array([40.0, 0.0, -15.0])
+
+    def move(clip: mc.Motion) -> mc.Motion:
+        rotations, translations = clip.rotations.copy(), clip.translations.copy()
+        rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+        translations[:, 0] = quat.rotate(turn, translations[:, 0]) + shift
+        return clip.replace(rotations=rotations, translations=translations)
+
+    pipeline = Pipeline.from_inline(["footlock"])
+    then_move, _ = pipeline.run(motion)
+    move_then, _ = pipeline.run(move(motion))
+    a, _ = kinematics.forward(move(then_move), end_sites=True)
+    b, _ = kinematics.forward(move_then, end_sites=True)
+    assert not np.array_equal(then_move.rotations, motion.rotations)
+    np.testing.assert_allclose(a, b, atol=1e-9 * kinematics.body_height(motion))
+
+
+@pytest.mark.parametrize(("n", "half"), [(1, 0), (5, 1), (9, 4), (6, 5), (200, 7)])
+def test_moving_average_is_the_mean_of_each_shrunk_window(n, half):
+    from motionclean.core.contacts import _moving_average
+
+    x = np.random.default_rng(n).normal(size=(n, 2, 3))
+    expected = np.stack([x[max(0, i - half) : min(n, i + half + 1)].mean(axis=0) for i in range(n)])
+    np.testing.assert_allclose(_moving_average(x, half), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_a_clip_without_contacts_reports_no_skate_rather_than_nan(tmp_path):
+    """Skate is a mean over contact frames: with none it is undefined, null in the JSON
+    (not the string "nan") and left out of the terminal line."""
+    from motionclean.report.summary import build_report, build_series, to_json
+    from motionclean.report.world import format_contacts
+
+    motion = mc.load(NOISY)
+    height = kinematics.body_height(motion)
+    translations = motion.translations.copy()
+    translations[:, 0, 1] += height * np.arange(motion.n_frames) * motion.frame_time
+    flying = motion.replace(translations=translations)
+    cleaned, _ = Pipeline.default().run(flying)
+    report = build_report(flying, cleaned, [], {}, "flying.bvh", build_series(flying, cleaned))
+    feet = report["contacts"]["feet"]
+    assert feet and all(foot["frames"] == 0 for foot in feet.values())
+    for foot in feet.values():
+        assert foot["skate"] == {"before": None, "after": None}
+        assert foot["skate_body_heights"] == {"before": None, "after": None}
+    assert b"nan" not in to_json(report)
+    assert "skate" not in "\n".join(format_contacts(report["contacts"]))

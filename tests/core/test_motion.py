@@ -1,0 +1,42 @@
+"""Motion: equality on copies, joint look-up."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import SAMPLE
+
+import motionclean as mc
+from motionclean.core.errors import MotionError
+
+
+def test_equal_to_a_deep_copy_and_not_to_a_changed_one():
+    clip = mc.load(SAMPLE)
+    copy = clip.replace(rotations=clip.rotations.copy(), translations=clip.translations.copy())
+    assert copy == clip
+    moved = clip.translations.copy()
+    moved[3, 0, 1] += 1e-9
+    assert clip.replace(translations=moved) != clip
+    renamed = clip.replace(names=[*clip.names[:-1], "Other"])
+    assert renamed != clip
+    assert clip != "not a motion"
+
+
+def test_joint_index_names_the_missing_joint():
+    clip = mc.load(SAMPLE)
+    assert clip.joint_index("LeftKnee") == clip.names.index("LeftKnee")
+    with pytest.raises(MotionError, match="no joint named 'Tail'"):
+        clip.joint_index("Tail")
+    assert np.all(clip.parents[1:] < np.arange(1, clip.n_joints))  # parents come first
+
+
+def test_consecutive_indices_become_a_slice_that_selects_the_same_items():
+    from motionclean.core.motion import _as_slice
+
+    table = np.arange(60.0).reshape(3, 20)
+    for index in ([[4, 5, 6], [7, 8, 9]], [3], [[4, 5, 6], [8, 9, 10]], [5, 4], [2, 2]):
+        index = np.array(index)
+        chosen = _as_slice(index)
+        consecutive = bool((np.diff(index.ravel()) == 1).all())
+        assert isinstance(chosen, slice) == consecutive
+        np.testing.assert_array_equal(table[:, chosen], table[:, index.ravel()])

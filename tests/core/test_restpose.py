@@ -1,0 +1,93 @@
+"""Rest-pose frames at the ends of a clip: kept bit for bit, left out of every step and of
+the report's figures."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import CORPUS_NAMES, NOISY, corpus_clip, degrees_between, run_cli, with_t_pose
+
+import motionclean as mc
+from motionclean.core.restpose import rest_frames
+
+
+@pytest.mark.parametrize(("frames", "at_end"), [(1, False), (3, False), (1, True)])
+def test_rest_frames_are_found(tmp_path, frames, at_end):
+    clip = mc.load(with_t_pose(NOISY, tmp_path / "t.bvh", frames, at_end))
+    assert rest_frames(clip) == ((0, frames) if at_end else (frames, 0))
+    assert rest_frames(mc.load(NOISY)) == (0, 0)
+
+
+def test_a_t_pose_first_frame_is_kept_bit_for_bit_and_out_of_the_figures(tmp_path, capsys):
+    posed = with_t_pose(NOISY, tmp_path / "t.bvh")
+    out, report = tmp_path / "out.bvh", tmp_path / "r.json"
+    code, text, _ = run_cli(capsys, "clean", posed, "-o", out, "--report", report)
+    assert code == 0 and "rest pose: frame 0 kept" in text
+    rows_in = posed.read_text().splitlines()
+    rows_out = out.read_text().splitlines()
+    start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
+    assert rows_out[start] == rows_in[start]  # the T-pose frame, byte for byte
+    # The motion after it is cleaned as without the T-pose (the same poses; the Euler
+    # branch of a changed sample may follow the frame before it).
+    plain = tmp_path / "plain.bvh"
+    run_cli(capsys, "clean", NOISY, "-o", plain, "--report", tmp_path / "p.json")
+    assert degrees_between(mc.load(out).rotations[1:], mc.load(plain).rotations).max() < 1e-4
+    figures = json.loads(report.read_text())
+    reference = json.loads((tmp_path / "p.json").read_text())
+    assert figures["rest_frames"] == {"leading": 1, "trailing": 0}
+    assert figures["summary"]["noise_reduction"] == pytest.approx(
+        reference["summary"]["noise_reduction"], rel=1e-9
+    )
+    despike = figures["joints"]["RThumb"]["despike"]
+    expected = reference["joints"]["RThumb"]["despike"]
+    assert despike["unflipped"] == [[a + 1, b + 1] for a, b in expected["unflipped"]]
+    assert np.isclose(figures["world"]["body_height"], reference["world"]["body_height"])
+
+
+def with_held_pose(source, target, frames: int, at_end: bool = False):
+    """``source`` with its first (or last) frame repeated to ``frames`` identical frames, as
+    exports padded with a held pose are."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    body = lines[at + 2 :]
+    rows = body + [body[-1]] * (frames - 1) if at_end else [body[0]] * (frames - 1) + body
+    target.write_text(
+        "".join(lines[:at]) + f"Frames: {len(rows)}\n" + lines[at + 1] + "".join(rows)
+    )
+    return target
+
+
+@pytest.mark.parametrize(("frames", "at_end"), [(3, False), (10, False), (4, True)])
+def test_a_held_pose_at_either_end_is_kept_bit_for_bit(tmp_path, capsys, frames, at_end):
+    """Identical frames at an end are a held pose even when the motion leaves it smoothly:
+    no step smooths the hold into a ramp."""
+    held = with_held_pose(NOISY, tmp_path / "h.bvh", frames, at_end)
+    assert rest_frames(mc.load(held)) == ((0, frames) if at_end else (frames, 0))
+    out = tmp_path / "out.bvh"
+    code, text, _ = run_cli(capsys, "clean", held, "-o", out)
+    n = mc.load(held).n_frames
+    span = f"{n - frames}-{n - 1}" if at_end else f"0-{frames - 1}"
+    assert code == 0 and f"rest pose: frames {span} kept" in text
+    rows_in, rows_out = held.read_text().splitlines(), out.read_text().splitlines()
+    assert len(rows_in) == len(rows_out)
+    start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
+    held_rows = slice(len(rows_in) - frames, None) if at_end else slice(start, start + frames)
+    assert rows_out[held_rows] == rows_in[held_rows]
+    assert rows_out[start + frames] != rows_in[start + frames]  # the motion is cleaned
+
+
+def test_a_single_repeated_frame_is_no_rest_pose(tmp_path):
+    assert rest_frames(mc.load(with_held_pose(NOISY, tmp_path / "h.bvh", 2))) == (0, 0)
+
+
+@pytest.mark.parametrize("name", CORPUS_NAMES)
+def test_a_t_pose_is_found_on_every_corpus_clip_and_nothing_else(tmp_path, name):
+    """CMU skeletons carry joints that never rotate (hip joints, collars, hands): they take
+    no part in the vote (counted in, 131_03's leading T-pose and 131_02's trailing one fell
+    just short of half the joints)."""
+    source = corpus_clip(name)
+    assert rest_frames(mc.load(source)) == (0, 0)
+    assert rest_frames(mc.load(with_t_pose(source, tmp_path / "a.bvh"))) == (1, 0)
+    assert rest_frames(mc.load(with_t_pose(source, tmp_path / "b.bvh", at_end=True))) == (0, 1)

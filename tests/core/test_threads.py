@@ -1,0 +1,154 @@
+"""Work split into parts on threads gives bit for bit what one thread gives, whatever the
+number of threads and however small the parts."""
+
+from __future__ import annotations
+
+import os
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import NOISY, edited
+
+import motionclean as mc
+from motionclean.core import motion as motion_module
+from motionclean.core import threads
+from motionclean.io import text as text_module
+from motionclean.run.jobs import clean_clip
+from motionclean.steps.pipeline import Pipeline
+
+
+def test_parts_come_back_in_order_on_several_threads(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "3")
+    seen = set()
+
+    def square(x: int) -> int:
+        seen.add(threading.current_thread().name)
+        return x * x
+
+    assert threads.run_parts(square, range(200)) == [x * x for x in range(200)]
+    assert any(name.startswith("motionclean") for name in seen)
+
+
+def test_small_work_stays_on_the_calling_thread(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
+    here = threading.current_thread().name
+    names = threads.run_parts(lambda _: threading.current_thread().name, range(4), size=10)
+    assert names == [here] * 4
+    big = threads.run_parts(
+        lambda _: threading.current_thread().name, range(4), size=threads.MIN_SHARED_SIZE
+    )
+    assert here not in big
+
+
+def test_a_failing_part_raises_its_own_error(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
+
+    def fail_on_seven(x: int) -> int:
+        if x == 7:
+            raise ValueError("part seven")
+        return x
+
+    with pytest.raises(ValueError, match="part seven"):
+        threads.run_parts(fail_on_seven, range(20))
+
+
+def test_parts_within_parts_run_in_their_own_thread(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
+
+    def inner(x: int) -> list[int]:
+        return threads.run_parts(lambda y: x + y, range(3))
+
+    assert threads.run_parts(inner, range(4)) == [[x, x + 1, x + 2] for x in range(4)]
+
+
+@pytest.mark.parametrize("value", ["", "0", "-2", "two"])
+def test_an_unusable_thread_setting_falls_back_to_the_cpus(monkeypatch, value):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert threads.thread_count() == max(1, min(cpus or 1, threads.MAX_THREADS))
+
+
+def test_in_parts_covers_the_range_once():
+    spans = threads.in_parts(1000, 64, start=10)
+    covered = np.concatenate([np.arange(s.start, s.stop) for s in spans])
+    assert np.array_equal(covered, np.arange(10, 1000))
+    assert threads.in_parts(5, 64, start=5) == []
+
+
+def _small_parts(monkeypatch) -> None:
+    """Parts of a few frames, values and bytes: a short clip is cut into many."""
+    monkeypatch.setattr(motion_module, "BLOCK_FRAMES", 16)
+    monkeypatch.setattr(motion_module, "FILTER_BLOCK_FRAMES", 16)
+    monkeypatch.setattr(motion_module, "PART_FRAMES", 48)
+    monkeypatch.setattr(motion_module, "PART_JOINTS", 3)
+    monkeypatch.setattr(motion_module, "MIN_SHARED_SIZE", 0)  # small work shared all the same
+    monkeypatch.setattr(threads, "MIN_SHARED_SIZE", 0)
+    monkeypatch.setattr(text_module, "_CHUNK_ITEMS", 500)
+    monkeypatch.setattr(text_module, "_PART_ITEMS", 1500)
+    monkeypatch.setattr(text_module, "_CHUNK_BYTES", 1024)
+    monkeypatch.setattr(text_module, "_PART_BYTES", 4096)
+
+
+def _spinning(tmp_path) -> Path:
+    """The noisy sample with two joints spinning through several whole turns, written in
+    (-180, 180] as exporters do: their quaternions from Euler angles change sign at every
+    wrap."""
+    clip = mc.load(NOISY)
+    values = clip.source_values.copy()
+    spin = clip.layout.rotation_columns[[0, 5], 1]
+    turned = values[:, spin] + np.linspace(0.0, 2000.0, clip.n_frames)[:, None]
+    values[:, spin] = turned - 360.0 * np.round(turned / 360.0)
+    spun = mc.Motion.from_channel_values(
+        clip.names, clip.parents, clip.offsets, clip.channels, clip.frame_time, values
+    )
+    mc.save(spun, tmp_path / "spinning.bvh")
+    return tmp_path / "spinning.bvh"
+
+
+def _read_edit_write(source: Path, name: str) -> tuple[mc.Motion, bytes]:
+    clip = mc.load(source)
+    mc.save(edited(clip, seed=3), source.parent / name)
+    return clip, (source.parent / name).read_bytes()
+
+
+@pytest.mark.parametrize("count", ["1", "2", "4"])
+def test_read_and_write_in_small_parts_on_threads_match_the_whole(tmp_path, monkeypatch, count):
+    source = _spinning(tmp_path)
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "1")
+    whole, written = _read_edit_write(source, "whole.bvh")
+    _small_parts(monkeypatch)
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", count)
+    parts, written_in_parts = _read_edit_write(source, "parts.bvh")
+    assert np.array_equal(parts.rotations, whole.rotations)  # signs continue across parts
+    steps = np.einsum("fji,fji->fj", parts.rotations[1:], parts.rotations[:-1])
+    assert steps.min() > 0.0  # ... through every half turn of the spinning joints
+    assert np.array_equal(parts.source_values, whole.source_values)
+    assert written_in_parts == written
+    assert mc.load(tmp_path / "parts.bvh") == mc.load(tmp_path / "whole.bvh")
+
+
+def test_a_bad_value_is_found_in_any_part(tmp_path, monkeypatch):
+    _small_parts(monkeypatch)
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "2")
+    lines = NOISY.read_bytes().splitlines(keepends=True)
+    at = len(lines) - 40  # a frame row well past the first part
+    row = lines[at].split(b" ")
+    row[5] = b"1e400"
+    lines[at] = b" ".join(row)
+    (tmp_path / "bad.bvh").write_bytes(b"".join(lines))
+    with pytest.raises(mc.MotionError, match="not finite") as error:
+        mc.load(tmp_path / "bad.bvh")
+    assert error.value.line == at + 1
+
+
+def test_cleaning_does_not_depend_on_the_thread_count(tmp_path, monkeypatch):
+    outputs = []
+    for count in ("1", "2"):
+        monkeypatch.setenv("MOTIONCLEAN_THREADS", count)
+        target = tmp_path / f"clean_{count}.bvh"
+        result = clean_clip(NOISY, target, Pipeline.default())
+        outputs.append((target.read_bytes(), result.report))
+    assert outputs[0][0] == outputs[1][0]
+    assert outputs[0][1] == outputs[1][1]

@@ -1,0 +1,358 @@
+"""Automatic cleaning: noise estimate, SURE choice per joint, no over-smoothing."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, corpus_clip, needs_corpus, plant, run_cli, smooth_synthetic
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.filters.auto import (
+    auto,
+    auto_positions,
+    candidates,
+    estimate_noise,
+    estimate_position_noise,
+)
+from motionclean.filters.linear import lee_shin, lee_shin_positions
+from motionclean.filters.masks import binomial
+
+
+def rms_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.degrees(quat.angle_between(a, b)) ** 2)))
+
+
+@pytest.fixture(scope="module")
+def smooth_clip():
+    """A real walk (131_02, 600 frames at 120 fps, no RThumb) smoothed by 20 B^3 passes."""
+    m = mc.load(corpus_clip("131_02.bvh"))
+    keep = [i for i, n in enumerate(m.names) if n != "RThumb"]
+    return lee_shin(m.rotations[200:800, keep], binomial(1), 20), m.frame_time
+
+
+# ----------------------------------------------------------------------------- estimate
+
+
+@pytest.mark.parametrize("noise", [0.5, 2.0, 6.0])
+def test_noise_estimate_recovers_planted_noise_on_synthetic_motion(noise):
+    q = plant(smooth_synthetic(), noise, seed=int(noise * 10))
+    est = estimate_noise(q, 1 / 120)
+    assert est.shape == (6,)
+    assert np.all(np.abs(est / noise - 1.0) < 0.12)
+
+
+def test_noise_estimate_is_zero_for_constant_angular_velocity():
+    i = np.arange(50, dtype=np.float64)[:, None, None]
+    q = quat.exp(i * np.array([[0.02, -0.05, 0.01]]))
+    assert estimate_noise(q, 1 / 120).max() < 1e-6
+    assert estimate_noise(q[:3], 1 / 120).tolist() == [0.0]  # too short to tell
+
+
+@needs_corpus
+def test_noise_estimate_recovers_planted_levels_on_a_smooth_real_clip(smooth_clip):
+    q, frame_time = smooth_clip
+    for noise in (1.0, 3.0, 6.0):
+        est = estimate_noise(plant(q, noise, seed=int(noise)), frame_time)
+        assert np.all(np.abs(est / noise - 1.0) < 0.25), est
+        assert abs(np.median(est) / noise - 1.0) < 0.05
+
+
+def test_noise_estimate_is_per_joint_and_coordinate_invariant():
+    q = plant(smooth_synthetic(joints=3), [0.5, 2.0, 5.0], seed=3)
+    a = quat.normalize(np.array([0.2, 0.9, -0.3, 0.1]))
+    b = quat.normalize(np.array([-0.5, 0.1, 0.6, 0.6]))
+    est = estimate_noise(q, 1 / 120)
+    np.testing.assert_allclose(
+        est, estimate_noise(quat.multiply(a, quat.multiply(q, b)), 1 / 120), rtol=1e-9
+    )
+    np.testing.assert_allclose(est / np.array([0.5, 2.0, 5.0]), 1.0, atol=0.15)
+
+
+def test_position_noise_estimate_recovers_planted_noise():
+    t = np.arange(500)[:, None, None] / 120.0
+    p = np.concatenate(
+        [
+            np.sin(2 * np.pi * 0.7 * t) * [3.0, 1.0, 2.0],
+            np.cos(2 * np.pi * 0.3 * t) * [1.0, 4.0, 0.5],
+        ],
+        axis=1,
+    )  # (500, 2, 3)
+    noise = np.array([0.05, 0.3])  # RMS length of the noise vector
+    rng = np.random.default_rng(4)
+    noisy = p + rng.normal(size=p.shape) * (noise / math.sqrt(3))[:, None]
+    np.testing.assert_allclose(estimate_position_noise(noisy, 1 / 120) / noise, 1.0, atol=0.12)
+
+
+# ----------------------------------------------------------------------------- choice
+
+
+def test_candidates_ladder():
+    cands = candidates(1 / 120)
+    for family in ("binomial", "savgol", "lowpass"):
+        values = [value for fam, value, _ in cands if fam == family]
+        assert values == sorted(set(values))
+        assert np.all(np.diff(values) / np.array(values[:-1]) <= 1.5)
+    assert [v for f, v, _ in cands if f == "savgol"][-1] == 120  # 1 s at 120 fps
+    cutoffs = [v for f, v, _ in cands if f == "lowpass"]
+    assert cutoffs[0] == 2.0 and cutoffs[-1] == 54.0  # 2 / max_seconds .. 0.45 x 120 Hz
+    assert all(abs(mask.sum() - 1) < 1e-12 for _, _, mask in cands)
+    assert max(mask.size // 2 for _, _, mask in cands) <= 121
+    short = candidates(1 / 30, max_seconds=0.5)
+    assert max(mask.size // 2 for _, _, mask in short) == 15
+    assert {fam for fam, _, _ in candidates(1 / 30, families=("savgol",))} == {"savgol"}
+    for bad in (
+        {"frame_time": 0.0},
+        {"frame_time": 0.01, "max_seconds": -1},
+        {"frame_time": 0.01, "families": ("gaussian",)},
+    ):
+        with pytest.raises(ValueError):
+            candidates(**bad)
+
+
+def test_auto_adapts_per_joint_and_beats_every_fixed_setting():
+    truth = np.repeat(smooth_synthetic(frames=500, joints=1, seed=7), 4, axis=1)
+    levels = np.array([0.0, 1.0, 3.0, 6.0])
+    noisy = plant(truth, levels, seed=8)
+    values, noise, choices = auto(noisy, 1 / 120)
+    assert values.shape == noisy.shape and noise.shape == (4,) and len(choices) == 4
+    assert rms_deg(values[:, 0], noisy[:, 0]) < 0.01  # the clean joint stays as it is
+    # More noise on the same motion: a mask that passes less white noise (sum a^2).
+    table = {(family, value): mask for family, value, mask in candidates(1 / 120)}
+    gains = [float(np.sum(table[c.mask, c.value] ** 2)) for c in choices[1:]]
+    assert gains[0] > gains[1] >= gains[2]
+    for j in (1, 2, 3):
+        ours = rms_deg(values[:, j], truth[:, j])
+        fixed = [rms_deg(lee_shin(noisy[:, j], binomial(1), p), truth[:, j]) for p in (1, 4, 16)]
+        assert ours < min(fixed), (j, ours, fixed)
+
+
+def test_expected_error_predicts_the_actual_error():
+    truth = smooth_synthetic(frames=800, joints=3, seed=11)
+    noisy = plant(truth, [1.0, 3.0, 6.0], seed=12)
+    values, _, choices = auto(noisy, 1 / 120)
+    for j, (choice, noise) in enumerate(zip(choices, (1.0, 3.0, 6.0), strict=True)):
+        # SURE estimates the mean squared error; its spread is a few % of the noise power.
+        actual = rms_deg(values[:, j], truth[:, j])
+        assert abs(choice.expected_error**2 - actual**2) < 0.1 * noise**2
+        assert actual < 0.5 * noise
+        assert choice.params()["mask"] in ("binomial", "savgol", "lowpass")
+
+
+def test_auto_is_coordinate_invariant():
+    noisy = plant(smooth_synthetic(frames=200, joints=2, seed=2), 2.0, seed=5)
+    a = quat.normalize(np.array([0.4, -0.2, 0.8, 0.1]))
+    b = quat.normalize(np.array([0.1, 0.7, 0.2, -0.6]))
+    out = auto(noisy, 1 / 120).values
+    moved = auto(quat.multiply(a, quat.multiply(noisy, b)), 1 / 120).values
+    assert rms_deg(moved, quat.multiply(a, quat.multiply(out, b))) < 1e-9
+
+
+def test_strength_and_given_noise():
+    truth = smooth_synthetic(frames=300, joints=2, seed=9)
+    noisy = plant(truth, 3.0, seed=10)
+    unchanged = auto(noisy, 1 / 120, strength=0.0)
+    assert rms_deg(unchanged.values, noisy) < 1e-12
+    assert [c.mask for c in unchanged.choices] == ["none", "none"]
+    assert rms_deg(auto(noisy, 1 / 120, noise=0.0).values, noisy) < 1e-12
+    given = auto(noisy, 1 / 120, noise=[3.0, 3.0])
+    np.testing.assert_array_equal(given.noise, [3.0, 3.0])
+    default, strong = auto(noisy, 1 / 120), auto(noisy, 1 / 120, strength=3.0)
+    assert rms_deg(strong.values, noisy) > rms_deg(default.values, noisy)
+    for bad in ({"strength": -1.0}, {"noise": -2.0}, {"strength": math.nan}):
+        with pytest.raises(ValueError):
+            auto(noisy, 1 / 120, **bad)
+
+
+def test_auto_keeps_any_trailing_shape():
+    noisy = plant(smooth_synthetic(frames=120, joints=6, seed=1), 2.0, seed=2)
+    out = auto(noisy.reshape(120, 2, 3, 4), 1 / 120)
+    assert out.values.shape == (120, 2, 3, 4) and out.noise.shape == (2, 3)
+    assert len(out.choices) == 6
+    np.testing.assert_allclose(out.values.reshape(120, 6, 4), auto(noisy, 1 / 120).values)
+    single = auto(noisy[:, 0], 1 / 120)
+    assert single.values.shape == (120, 4) and single.noise.shape == ()
+
+
+@pytest.mark.parametrize("frames", [0, 1, 2, 3])
+def test_short_clips_are_returned_unchanged(frames):
+    q = quat.exp(np.random.default_rng(frames).normal(scale=0.1, size=(frames, 2, 3)))
+    result = auto(q, 1 / 120)
+    np.testing.assert_array_equal(result.noise, [0.0, 0.0])
+    np.testing.assert_allclose(result.values, quat.make_continuous(q, axis=0))
+    assert [c.mask for c in result.choices] == ["none", "none"]
+    p = np.arange(frames * 3, dtype=float).reshape(frames, 1, 3) ** 2
+    np.testing.assert_array_equal(auto_positions(p, 1 / 120).values, p)
+
+
+def test_auto_positions_cleans_translations():
+    t = np.arange(600)[:, None, None] / 120.0
+    p = np.sin(2 * np.pi * np.array([0.5, 0.9])[:, None] * t + [0.0, 1.0, 2.0]) * 2.0
+    rng = np.random.default_rng(6)
+    noisy = p + rng.normal(scale=0.2 / math.sqrt(3), size=p.shape)
+    values, noise, choices = auto_positions(noisy, 1 / 120)
+
+    def err(x, ref=p):
+        return float(np.sqrt(np.mean(np.sum((x - ref) ** 2, axis=-1))))
+
+    np.testing.assert_allclose(noise, 0.2, rtol=0.15)
+    assert err(values) < min(err(lee_shin_positions(noisy, binomial(1), n)) for n in (1, 4, 16))
+    for j, choice in enumerate(choices):
+        actual = err(values[:, j], p[:, j])
+        assert abs(choice.expected_error**2 - actual**2) < 0.1 * 0.2**2
+    assert np.array_equal(auto_positions(noisy, 1 / 120, strength=0).values, noisy)
+
+
+# ----------------------------------------------------------------------------- real clip
+
+
+@needs_corpus
+def test_auto_leaves_a_smooth_real_clip_alone(smooth_clip):
+    q, frame_time = smooth_clip
+    assert rms_deg(auto(q, frame_time).values, q) < 0.05
+
+
+@needs_corpus
+def test_auto_beats_fixed_binomial_passes_on_a_noisy_real_clip(smooth_clip):
+    q, frame_time = smooth_clip
+    for noise in (1.0, 6.0):
+        noisy = plant(q, noise, seed=20 + int(noise))
+        ours = rms_deg(auto(noisy, frame_time).values, q)
+        for passes in (1, 4, 16):
+            assert ours < rms_deg(lee_shin(noisy, binomial(1), passes), q), (noise, passes)
+
+
+def test_work_follows_the_clip_not_the_frame_time():
+    """A 1 microsecond frame time on a short clip: masks no wider than the clip, little memory."""
+    import tracemalloc
+
+    noisy = plant(smooth_synthetic(frames=300, joints=4, seed=3), 2.0, seed=4)
+    assert max(mask.size // 2 for _, _, mask in candidates(1e-6, n_frames=300)) <= 300
+    tracemalloc.start()
+    try:
+        result = auto(noisy, 1e-6)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, peak  # the clip is 38 kB; a mask per microsecond would need GBs
+    assert rms_deg(result.values, noisy) > 0.1  # the noise is still smoothed
+
+
+def ar1_log_noise(shape, rho: float, noise_deg: float, seed: int) -> np.ndarray:
+    """Stationary AR(1) noise in log units along axis 0, RMS rotation angle ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=shape) * math.sqrt(1 - rho**2)
+    e = np.empty(shape)
+    e[0] = rng.normal(size=shape[1:])
+    for i in range(1, shape[0]):  # the recursion defines the process (test data only)
+        e[i] = rho * e[i - 1] + u[i]
+    return e * math.radians(noise_deg) / (2 * math.sqrt(3))
+
+
+def test_loud_stretch_is_smoothed_more_than_the_quiet_one():
+    truth = smooth_synthetic(frames=1200, joints=2, seed=21)
+    level = np.where(np.arange(1200) < 600, 0.3, 5.0)[:, None]
+    noisy = plant(truth, level, seed=22)
+    result = auto(noisy, 1 / 120)
+    quiet, loud = slice(0, 480), slice(720, 1200)  # away from the change at 5 s
+
+    def roughness(q, part):  # RMS second difference of the rotation vectors, degrees
+        r = quat.log(quat.make_continuous(q[part], axis=0))
+        return float(np.degrees(np.sqrt(np.mean(np.sum(np.diff(r, 2, axis=0) ** 2, -1)))))
+
+    kept_quiet = roughness(result.values, quiet) / roughness(noisy, quiet)
+    kept_loud = roughness(result.values, loud) / roughness(noisy, loud)
+    assert kept_loud < 0.5 * kept_quiet, (kept_loud, kept_quiet)
+    assert rms_deg(result.values[loud], truth[loud]) < 0.4 * 5.0
+    assert rms_deg(result.values[quiet], truth[quiet]) < 0.3  # the quiet part is not worse
+    for choice in result.choices:  # the report says where it is loud
+        assert choice.loud and 4.0 <= choice.loud[0][0] <= 6.0 and choice.loud[-1][1] >= 9.9
+        assert choice.share < 1.0  # the mask changes along the clip
+
+
+def test_correlated_noise_is_modelled_and_its_error_predicted():
+    truth = smooth_synthetic(frames=1200, joints=3, seed=23)
+    noisy = quat.multiply(truth, quat.exp(ar1_log_noise((1200, 3, 3), 0.8, 3.0, seed=24)))
+    result = auto(noisy, 1 / 120)
+    assert all(abs(c.rho - 0.8) <= 0.2 for c in result.choices)
+    white = auto(noisy, 1 / 120, noise=result.noise)  # same level, assumed white
+    for j, choice in enumerate(result.choices):
+        actual = rms_deg(result.values[:, j], truth[:, j])
+        assert actual < rms_deg(white.values[:, j], truth[:, j])
+        assert abs(choice.expected_error**2 - actual**2) < 0.15 * 3.0**2
+
+
+def test_whole_auto_is_coordinate_invariant_with_choices_that_vary_along_the_clip():
+    truth = smooth_synthetic(frames=900, joints=2, seed=25)
+    noisy = plant(truth, np.where(np.arange(900) < 450, 0.5, 4.0)[:, None], seed=26)
+    a = quat.normalize(np.array([0.3, -0.5, 0.2, 0.7]))
+    b = quat.normalize(np.array([-0.6, 0.1, 0.4, 0.3]))
+    out = auto(noisy, 1 / 120)
+    assert all(c.share < 1.0 for c in out.choices)
+    moved = auto(quat.multiply(a, quat.multiply(noisy, b)), 1 / 120)
+    assert rms_deg(moved.values, quat.multiply(a, quat.multiply(out.values, b))) < 1e-9
+    np.testing.assert_allclose(moved.noise, out.noise, rtol=1e-9)
+
+
+@pytest.mark.parametrize("windows", [1, 2, 7])
+def test_moves_do_not_depend_on_how_many_windows_are_built_together(monkeypatch, windows):
+    """Frames are moved as soon as no later window covers them; every frame gets at most
+    two windows' moves, whose sum does not depend on the order: the same bits. Written
+    into the input itself, frames a later group still reads are moved only after it."""
+    import importlib
+
+    auto_module = importlib.import_module("motionclean.filters.auto")
+    truth = smooth_synthetic(frames=1500, joints=3, seed=31)
+    noisy = plant(truth, np.where(np.arange(1500) < 700, 0.5, 3.0)[:, None], seed=32)
+    whole = auto(noisy, 1 / 120)
+    assert any(c.share < 1.0 for c in whole.choices)  # several masks along the clip
+    monkeypatch.setattr(auto_module, "APPLY_WINDOWS", windows)
+    assert np.array_equal(auto(noisy, 1 / 120).values, whole.values)
+    assert np.array_equal(auto(noisy.copy(), 1 / 120, overwrite=True).values, whole.values)
+
+
+def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():
+    noisy = plant(smooth_synthetic(frames=600, joints=2, seed=33), 2.0, seed=34)
+    kept = noisy.copy()
+    fresh = auto(noisy, 1 / 120)
+    assert np.array_equal(noisy, kept) and not np.shares_memory(fresh.values, noisy)
+    inplace = auto(noisy, 1 / 120, overwrite=True)
+    assert np.shares_memory(inplace.values, noisy)
+    assert np.array_equal(inplace.values, fresh.values) and not np.array_equal(noisy, kept)
+    p = np.cumsum(np.random.default_rng(35).normal(size=(600, 2, 3)), axis=0)
+    given = p.copy()
+    moved = auto_positions(p, 1 / 120)
+    assert np.array_equal(p, given)
+    assert np.array_equal(auto_positions(p, 1 / 120, overwrite=True).values, moved.values)
+    assert np.array_equal(p, moved.values)
+
+
+def test_auto_cleans_band_limited_noise_it_would_leave_without_the_band_limited_model(
+    monkeypatch,
+):
+    from test_noise import low_passed_noise
+
+    truth = smooth_synthetic(frames=1440, joints=12, seed=66)
+    noisy = quat.multiply(truth, quat.exp(low_passed_noise(1440, 12, 6.0, 3.0, seed=66)))
+    with_model = auto(noisy, 1 / 120)
+    assert rms_deg(with_model.values, truth) < 0.7 * rms_deg(noisy, truth)
+    np.testing.assert_allclose(with_model.noise, 3.0, rtol=0.35)  # the level counts it
+    monkeypatch.setattr("motionclean.filters.noise.fit_band_limited", lambda *a: None)
+    without = auto(noisy, 1 / 120)
+    assert rms_deg(with_model.values, truth) < 0.85 * rms_deg(without.values, truth)
+
+
+def test_a_given_noise_beyond_any_clip_picks_the_strongest_without_warnings(tmp_path, capsys):
+    import warnings
+
+    outs = {}
+    for value in ("1e10", "1e308"):
+        outs[value] = tmp_path / f"{value}.bvh"
+        step = f"auto:position_noise={value}"
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", outs[value], "-f", step, "-q")
+        assert (code, err) == (0, "")
+    assert outs["1e10"].read_bytes() == outs["1e308"].read_bytes()

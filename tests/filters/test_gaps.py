@@ -1,0 +1,339 @@
+"""Tracker dropouts: the fill-gaps filter and step, and steps on clips with missing samples."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from helpers import ROOT, SAMPLE, corpus_clip, degrees_between, max_degrees, run_cli
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+from motionclean.core.errors import MotionError
+from motionclean.filters import lee_shin, masks
+from motionclean.filters.gaps import Gaps, fill_gaps
+from motionclean.io.bvh import format_bvh
+from motionclean.steps.pipeline import Pipeline
+
+sys.path.insert(0, str(ROOT / "bench"))
+from gaps import errors, peers, rigid_bodies  # noqa: E402  (the bench's own peers and measure)
+
+
+def planted(n_frames: int, n_bodies: int, length: int, seed: int) -> np.ndarray:
+    """One gap of ``length`` frames per body, at a seeded place away from the ends."""
+    rng = np.random.default_rng(seed)
+    missing = np.zeros((n_frames, n_bodies), dtype=bool)
+    for body in range(n_bodies):
+        at = int(rng.integers(20, n_frames - length - 20))
+        missing[at : at + length, body] = True
+    return missing
+
+
+@pytest.fixture(scope="module")
+def bodies():
+    return rigid_bodies(mc.load(corpus_clip("131_02.bvh")))
+
+
+@pytest.mark.parametrize("length", [1, 3, 12, 30, 60])
+def test_fill_beats_slerp_linear_and_cubic_hermite_on_real_motion(bodies, length):
+    q, p = bodies
+    missing = planted(q.shape[0], q.shape[1], length, seed=length)
+    gaps = Gaps.of(missing)
+    filled = fill_gaps(q, p, missing, max_gap=length)
+    assert not filled.missing.any() and filled.filled.all()
+    ours = errors(filled.rotations, filled.translations, q, p, missing)
+    slerp = errors(*peers(q, p, gaps, catmull=False), q, p, missing)
+    hermite = errors(*peers(q, p, gaps, catmull=True), q, p, missing)
+    assert ours[0] < min(slerp[0], hermite[0])
+    assert ours[1] < min(slerp[1], hermite[1])
+
+
+def smooth_body(n_frames: int = 120):
+    t = np.arange(n_frames, dtype=float)[:, None]
+    axis = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    q = quat.exp((0.4 * np.sin(t / 15.0))[..., None] * axis)
+    p = np.concatenate([np.sin(t / 11.0), np.cos(t / 17.0), t / 50.0], axis=1)[:, None]
+    return q, p
+
+
+def test_velocity_is_continuous_at_both_edges():
+    """No kink where the fill meets the data: the second differences at the edges stay of
+    the size the smooth motion has, where slerp / linear bends by far more."""
+    q, p = smooth_body()
+    missing = np.zeros((120, 1), dtype=bool)
+    missing[50:75] = True
+    filled = fill_gaps(q, p, missing, max_gap=25, donors=False)
+    slerp_q, linear_p = peers(q, p, Gaps.of(missing), catmull=False)
+
+    def bend(x: np.ndarray, rotations: bool) -> np.ndarray:
+        steps = quat.displacements(x[:, 0]) if rotations else np.diff(x[:, 0], axis=0)
+        return np.linalg.norm(np.diff(steps, axis=0), axis=-1)  # at frames 1 .. F-2
+
+    edges = [48, 49, 73, 74]  # second differences centred on frames 49, 50, 74, 75
+    for rotations, ours, peer in (
+        (True, filled.rotations, slerp_q),
+        (False, filled.translations, linear_p),
+    ):
+        truth = bend(q if rotations else p, rotations).max()
+        assert bend(ours, rotations)[edges].max() < 1.5 * truth
+        assert bend(peer, rotations)[edges].max() > 5 * truth
+
+
+def test_a_constant_angular_velocity_is_filled_exactly():
+    w = np.array([0.01, -0.03, 0.02])
+    q = quat.exp(np.arange(80)[:, None, None] * w)
+    p = np.arange(80)[:, None, None] * np.array([0.1, 0.0, -0.2])
+    missing = np.zeros((80, 1), dtype=bool)
+    missing[30:52] = True
+    filled = fill_gaps(q, p, missing, max_gap=60)
+    assert max_degrees(filled.rotations, q) < 1e-9
+    np.testing.assert_allclose(filled.translations, p, atol=1e-12)
+
+
+def test_fill_is_coordinate_invariant(bodies):
+    """A fixed rotation of the world, and of each body's own frame, commutes with the fill
+    (donors chosen the same way)."""
+    q, p = (x[:400, :8] for x in bodies)
+    missing = planted(400, 8, 25, seed=3)
+    rng = np.random.default_rng(5)
+    world = quat.normalize(rng.normal(size=4))
+    own = quat.normalize(rng.normal(size=(8, 4)))
+    base = fill_gaps(q, p, missing, max_gap=30)
+    turned = fill_gaps(
+        quat.multiply(quat.multiply(world, q), own), quat.rotate(world, p), missing, max_gap=30
+    )
+    np.testing.assert_array_equal(turned.donor, base.donor)
+    expected = quat.multiply(quat.multiply(world, base.rotations), own)
+    assert max_degrees(turned.rotations, expected) < 1e-9
+    np.testing.assert_allclose(
+        turned.translations, quat.rotate(world, base.translations), atol=1e-9
+    )
+
+
+def test_gaps_at_the_ends_hold_the_edge_sample_and_longer_ones_stay_missing():
+    q, p = smooth_body()
+    missing = np.zeros((120, 1), dtype=bool)
+    missing[:10] = missing[110:] = True
+    missing[40:90] = True  # longer than max_gap
+    filled = fill_gaps(q, p, missing, max_gap=20, donors=False)
+    assert max_degrees(filled.rotations[:10, 0], q[10, 0]) < 1e-12
+    assert max_degrees(filled.rotations[110:, 0], q[109, 0]) < 1e-12
+    np.testing.assert_array_equal(filled.translations[:10, 0], np.broadcast_to(p[10, 0], (10, 3)))
+    np.testing.assert_array_equal(filled.missing[:, 0], np.isin(np.arange(120), np.arange(40, 90)))
+    np.testing.assert_array_equal(filled.rotations[40:90], q[40:90])  # untouched
+
+
+def test_all_bodies_missing_on_the_same_frames_are_filled_without_donors(bodies):
+    q, p = (x[:300] for x in bodies)
+    missing = np.zeros(q.shape[:2], dtype=bool)
+    missing[100:108] = True
+    filled = fill_gaps(q, p, missing, max_gap=10)
+    assert (filled.donor == -1).all() and not filled.missing.any()
+    assert np.sqrt(np.mean(degrees_between(filled.rotations[100:108], q[100:108]) ** 2)) < 1.0
+
+
+def test_a_follower_body_is_filled_from_its_donor():
+    """A body rigidly attached to another (a marker cluster on the forearm) is filled
+    exactly by following it, however the two move."""
+    rng = np.random.default_rng(8)
+    steps = quat.exp(rng.normal(size=(200, 3)) * 0.03)
+    carrier = np.cumprod(np.ones(200))[:, None] * 0  # placeholder shape helper
+    carrier_q = np.empty((200, 4))
+    carrier_q[0] = [1, 0, 0, 0]
+    for i in range(1, 200):
+        carrier_q[i] = quat.multiply(carrier_q[i - 1], steps[i])
+    carrier_p = np.cumsum(rng.normal(size=(200, 3)) * 0.05, axis=0) + carrier
+    offset_q, offset_p = quat.normalize(np.array([0.9, 0.1, -0.3, 0.2])), np.array([0.1, 0.4, 0.0])
+    q = np.stack([carrier_q, quat.multiply(carrier_q, offset_q)], axis=1)
+    p = np.stack([carrier_p, carrier_p + quat.rotate(carrier_q, offset_p)], axis=1)
+    missing = np.zeros((200, 2), dtype=bool)
+    missing[80:130, 1] = True
+    filled = fill_gaps(q, p, missing, max_gap=60)
+    assert filled.donor.tolist() == [[0], [0]]
+    assert max_degrees(filled.rotations, quat.make_continuous(q)) < 1e-9
+    np.testing.assert_allclose(filled.translations, p, atol=1e-12)
+
+
+def with_gap(clip: mc.Motion, joint: int, frames: slice) -> mc.Motion:
+    missing = np.zeros((clip.n_frames, clip.n_joints), dtype=bool)
+    missing[frames, joint] = True
+    return clip.replace(missing=missing)
+
+
+def test_step_fills_short_gaps_reports_them_and_leaves_long_ones():
+    clip = mc.load(SAMPLE)
+    wrist = clip.names.index("RightWrist")
+    gappy = with_gap(clip, wrist, slice(100, 112))
+    gappy.missing[200:290, wrist] = True  # 0.75 s: longer than the default 0.5 s
+    out, logs = Pipeline.from_inline(["fill-gaps"]).run(gappy)
+    note = logs[0].notes["RightWrist"]["fill-gaps"]
+    assert note["gaps"] == 2 and note["longest"] == 90
+    assert note["filled"] == [[100, 112]] and note["missing"] == [[200, 290]]
+    assert out.missing is not None and out.missing[:, wrist].sum() == 90
+    assert max_degrees(out.rotations[100:112, wrist], clip.rotations[100:112, wrist]) < 3.0
+    with pytest.raises(MotionError, match=r"'RightWrist' is missing on frames 200-289"):
+        format_bvh(out)
+    filled_all, _ = Pipeline.from_inline(["fill-gaps:max_gap=1"]).run(gappy)
+    assert filled_all.missing is None
+
+
+def test_other_steps_filter_each_known_stretch_on_its_own():
+    clip = mc.load(SAMPLE)
+    wrist = clip.names.index("RightWrist")
+    gappy = with_gap(clip, wrist, slice(100, 190))
+    out, _ = Pipeline.from_inline(["lee-shin:k=3"]).run(gappy)
+    mask = masks.binomial(3)
+    for rows in (slice(0, 100), slice(190, None)):
+        expected = lee_shin(clip.rotations[rows, wrist], mask)
+        assert max_degrees(out.rotations[rows, wrist], expected) < 1e-12
+    np.testing.assert_array_equal(out.rotations[100:190, wrist], gappy.rotations[100:190, wrist])
+    others = [j for j in range(clip.n_joints) if j != wrist]
+    whole = lee_shin(clip.rotations[:, others], mask)
+    assert max_degrees(out.rotations[:, others], whole) < 1e-12
+
+
+def test_despike_notes_of_several_stretches_are_joined_in_clip_frames():
+    clip = mc.load(SAMPLE.with_name("131_02_noisy.bvh"))
+    thumb = clip.names.index("RThumb")
+    gappy = with_gap(clip, thumb, slice(150, 160))
+    _, logs = Pipeline.from_inline(["despike"]).run(gappy)
+    _, whole_logs = Pipeline.from_inline(["despike"]).run(clip)
+    runs = logs[0].notes["RThumb"]["despike"]["unflipped"]
+    assert runs and all(b <= 150 or a >= 160 for a, b in runs)
+    whole = whole_logs[0].notes["RThumb"]["despike"]["unflipped"]
+    assert [r for r in whole if r[1] <= 150 or r[0] >= 160] == runs
+
+
+def rigid_csv(path, clip: mc.Motion, blanks: dict[str, slice]) -> None:
+    """A rigid-body CSV of some of ``clip``'s joints in world space, six decimals, with the
+    bodies in ``blanks`` blank on those frames (a tracker losing them)."""
+    positions, rotations = kinematics.forward(clip)
+    names = ["Head", "LeftWrist", "RightWrist", "LeftAnkle", "RightAnkle"]
+    columns = [f"{n}.{s}" for n in names for s in ("px", "py", "pz", "qw", "qx", "qy", "qz")]
+    rows = ["time," + ",".join(columns)]
+    for f in range(clip.n_frames):
+        cells = [f"{f * clip.frame_time:.6f}"]
+        for name in names:
+            j = clip.names.index(name)
+            gone = name in blanks and f in range(clip.n_frames)[blanks[name]]
+            values = np.concatenate([positions[f, j], rotations[f, j]])
+            cells += [""] * 7 if gone else [f"{v:.6f}" for v in values]
+        rows.append(",".join(cells))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_default_clean_fills_short_dropouts_and_keeps_long_ones_blank(tmp_path, capsys):
+    source, out, report = tmp_path / "t.csv", tmp_path / "c.csv", tmp_path / "r.json"
+    rigid_csv(
+        source, mc.load(SAMPLE), {"LeftWrist": slice(100, 112), "RightWrist": slice(150, 250)}
+    )
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out, "--report", report)
+    assert code == 0, err
+    assert "LeftWrist: 1 gap, longest 12 frames; filled 100-111" in stdout
+    assert "RightWrist: 1 gap, longest 100 frames; left missing 150-249" in stdout
+    notes = json.loads(report.read_text())["joints"]
+    assert notes["LeftWrist"]["fill-gaps"]["filled"] == [[100, 112]]
+    assert notes["RightWrist"]["fill-gaps"]["missing"] == [[150, 250]]
+    cleaned = mc.load(out)
+    assert cleaned.missing is not None
+    np.testing.assert_array_equal(
+        np.flatnonzero(cleaned.missing.any(axis=0)), [cleaned.names.index("RightWrist")]
+    )
+    lines = out.read_text().splitlines()
+    right = 1 + 7 * 2  # the RightWrist columns
+    assert all(lines[1 + f].split(",")[right : right + 7] == [""] * 7 for f in range(150, 250))
+    # The blank stretch counts as no motion: no spike from its held placeholder.
+    whole, whole_report = tmp_path / "whole.csv", tmp_path / "whole.json"
+    rigid_csv(whole, mc.load(SAMPLE), {})
+    code, _, err = run_cli(
+        capsys, "clean", whole, "-o", tmp_path / "w.csv", "--report", whole_report
+    )
+    full = json.loads(whole_report.read_text())["joints"]["RightWrist"]["angular_accel_rms"]
+    accel = notes["RightWrist"]["angular_accel_rms"]["before"]
+    assert code == 0 and accel < 1.5 * full["before"]
+
+
+def test_default_clean_of_the_motive_sample_fills_the_occluded_hand(tmp_path, capsys):
+    source, out = tmp_path / "take.csv", tmp_path / "clean.csv"
+    source.write_bytes((ROOT / "sample_data" / "131_02_motive.csv").read_bytes())
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out)
+    assert code == 0, err
+    assert "filled 40-47" in stdout
+    assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
+    assert mc.load(out).missing is None
+
+
+def test_the_page_breaks_a_missing_bodys_track_and_draws_bodies_without_bones(tmp_path):
+    from motionclean.run.jobs import clean_clip, render_report
+
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"RightWrist": slice(150, 250)})
+    result = clean_clip(source, None, Pipeline.default())
+    page = render_report(result.report, tmp_path / "r.html", result.series).decode()
+    card = page.split("<h3>RightWrist</h3>")[1].split("</section>")[0]
+    assert card.count('data-series="before"') == 2 * 2  # two views, a break in each
+    assert card.count('data-series="after"') == 2 * 2  # the long gap stays missing
+    left = page.split("<h3>LeftWrist</h3>")[1].split("</section>")[0]
+    assert left.count('data-series="before"') == 2
+    player = page.split('id="mc-player"')[1].split("</svg>")[0]
+    assert player.count('class="joint"') == 2 * 5 and 'class="bone"' not in player
+
+
+def test_a_motive_dropout_longer_than_max_gap_stays_blank(tmp_path, capsys):
+    source, out = tmp_path / "take.csv", tmp_path / "clean.csv"
+    source.write_bytes((ROOT / "sample_data" / "131_02_motive.csv").read_bytes())
+    code, stdout, err = run_cli(capsys, "clean", source, "-o", out, "-f", "fill-gaps:max_gap=0.05")
+    assert code == 0, err
+    assert "left missing 40-47 (longer than max_gap)" in stdout
+    before, after = mc.load(source), mc.load(out)
+    np.testing.assert_array_equal(after.missing, before.missing)
+    assert out.read_bytes().splitlines()[:7] == source.read_bytes().splitlines()[:7]
+
+
+def test_the_player_hides_a_body_while_it_is_missing(tmp_path):
+    from motionclean.run.jobs import clean_clip, render_report
+
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"Head": slice(0, 40)})  # from the first frame on
+    steps = Pipeline.from_inline(["fill-gaps:max_gap=0.1"])  # 40 frames stay missing
+    result = clean_clip(source, None, steps)
+    page = render_report(result.report, tmp_path / "r.html", result.series).decode()
+    player = page.split('id="mc-player"')[1].split("</svg>")[0]
+    assert player.count('class="joint"') == 2 * 4  # frame 0 without the head
+    data = json.loads(page.split('id="mc-world">')[1].split("</script>")[0])
+    head = result.before.names.index("Head")
+    assert all(head in data["hidden"][0][f] for f in range(40))
+    assert all(head not in data["hidden"][0][f] for f in range(40, 300))
+
+
+def test_info_lists_dropouts_and_leaves_their_placeholders_out_of_the_figures(tmp_path, capsys):
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"RightWrist": slice(150, 250)})
+    code, stdout, err = run_cli(capsys, "info", source)
+    assert code == 0, err
+    assert "dropouts: RightWrist missing on 100 frames: 150-249" in stdout
+    row = next(line for line in stdout.splitlines() if line.strip().startswith("RightWrist"))
+    assert int(row.split()[-3]) not in (150, 250)  # the largest step is no placeholder jump
+
+
+def test_world_csv_leaves_a_missing_body_blank(tmp_path, capsys):
+    source, world = tmp_path / "t.csv", tmp_path / "world.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"LeftWrist": slice(10, 20)})
+    code, _, err = run_cli(capsys, "convert", source, world, "--world")
+    assert code == 0, err
+    rows = world.read_text().splitlines()
+    column = rows[0].split(",").index("LeftWrist.x")
+    assert all(rows[1 + f].split(",")[column : column + 3] == ["", "", ""] for f in range(10, 20))
+    assert all(rows[1 + f].split(",")[column] != "" for f in (9, 20))
+
+
+@pytest.mark.parametrize("command", ["stitch", "blend"])
+def test_two_clip_commands_refuse_dropouts(tmp_path, capsys, command):
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), {"LeftWrist": slice(10, 20)})
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, command, source, source, "-o", out)
+    assert code == 1 and "has missing samples (tracker dropouts): fill them first" in err
+    assert not out.exists()

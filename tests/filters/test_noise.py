@@ -1,0 +1,163 @@
+"""The noise model: AR(1) shape and level along the clip, fitted on the displacements."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import corpus_clip, needs_corpus, plant, smooth_synthetic
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.filters.linear import lee_shin
+from motionclean.filters.masks import binomial
+from motionclean.filters.noise import (
+    fast_length,
+    fit,
+    fit_band_limited,
+    hann_windows,
+    window_frames,
+)
+
+
+def ar1_noise(frames: int, columns: int, rho: float, noise_deg: float, seed: int) -> np.ndarray:
+    """(frames, columns, 3) stationary AR(1) noise, RMS rotation angle ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    sigma = math.radians(noise_deg) / (2 * math.sqrt(3))
+    u = rng.normal(size=(frames, columns, 3)) * math.sqrt(1 - rho**2)
+    e = np.empty_like(u)
+    e[0] = rng.normal(size=(columns, 3))
+    for i in range(1, frames):  # the recursion defines the process (test data only)
+        e[i] = rho * e[i - 1] + u[i]
+    return e * sigma
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.5, 0.8])
+def test_fit_recovers_a_planted_ar1_coefficient_and_level(rho):
+    truth = smooth_synthetic(frames=1200, joints=3, seed=4)
+    e = ar1_noise(1200, 3, rho, 3.0, seed=int(10 * rho))
+    noisy = quat.multiply(truth, quat.exp(e))
+    planted = np.degrees(2 * np.sqrt(np.mean(np.sum(e**2, axis=-1), axis=0)))  # this sample's
+    model = fit(quat.displacements(noisy), 1 / 120)
+    np.testing.assert_allclose(model.rho, rho, atol=0.2)  # each joint: 3,600 noisy values
+    assert abs(np.mean(model.rho) - rho) < 0.1
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(model.clip_sigma2()))
+    np.testing.assert_allclose(level, planted, rtol=0.25)
+    assert abs(np.mean(level / planted) - 1) < 0.1
+
+
+def test_fit_follows_a_level_that_changes_along_the_clip():
+    truth = smooth_synthetic(frames=1200, joints=2, seed=5)
+    level = np.where(np.arange(1200) < 600, 0.5, 5.0)[:, None]
+    model = fit(quat.displacements(plant(truth, level, seed=6)), 1 / 120)
+    local = np.degrees(2 * math.sqrt(3) * np.sqrt(model.sigma2))  # (W, C)
+    centre = model.starts + model.window // 2
+    np.testing.assert_allclose(local[centre < 480], 0.5, rtol=0.3)
+    np.testing.assert_allclose(local[centre > 720], 5.0, rtol=0.2)
+
+
+def test_windows_tile_the_clip_and_stay_within_its_length():
+    for frames, frame_time in ((1247, 1 / 120), (300, 1e-6), (50, 1 / 30), (9, 1.0)):
+        window = window_frames(frames, frame_time, 2.0)
+        assert window % 2 == 0 and window <= max(8, fast_length(frames + 1) + 1)
+        starts, taper = hann_windows(frames, window)
+        total = np.zeros(frames + 2 * window)
+        for s in starts:  # the tapers of all windows sum to one on every frame
+            total[s + window : s + 2 * window] += taper
+        np.testing.assert_allclose(total[window : window + frames], 1.0, atol=1e-12)
+
+
+def test_fast_length_has_only_small_prime_factors():
+    for n in (1, 7, 97, 241, 1247, 100_003):
+        length = fast_length(n)
+        assert n <= length < 1.25 * n + 2
+        rest = length
+        for p in (2, 3, 5):
+            while rest % p == 0:
+                rest //= p
+        assert rest == 1
+
+
+def test_at_30_fps_the_noise_is_taken_as_white_and_its_level_found():
+    truth = smooth_synthetic(frames=400, joints=3, seed=7)
+    model = fit(quat.displacements(plant(truth, 2.0, seed=8)), 1 / 30)
+    assert np.all(model.rho == 0.0)
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(model.clip_sigma2()))
+    np.testing.assert_allclose(level, 2.0, rtol=0.2)
+
+
+@pytest.mark.parametrize("block", [1, 5000, 1 << 18])
+def test_the_fit_does_not_depend_on_its_block_size(monkeypatch, block):
+    """Periodograms, band medians, quartiles and the Whittle deviance go a block of
+    windows at a time (no clip-long temporaries): the model is the same for any block size
+    (the deviance is summed block by block, so only its last bits may move)."""
+    import importlib
+
+    noise_module = importlib.import_module("motionclean.filters.noise")
+    truth = smooth_synthetic(frames=1500, joints=4, seed=8)
+    disp = quat.displacements(quat.multiply(truth, quat.exp(ar1_noise(1500, 4, 0.6, 2.0, 9))))
+    whole = fit(disp, 1 / 120)
+    monkeypatch.setattr(noise_module, "BLOCK_VALUES", block)
+    blocked = fit(disp, 1 / 120)
+    assert np.array_equal(blocked.rho, whole.rho)
+    assert np.array_equal(blocked.power, whole.power)
+    assert np.array_equal(blocked.sigma2, whole.sigma2)
+
+
+# ----------------------------------------------------------------------------- band-limited
+
+
+def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
+    """(frames, columns, 3) white noise through a zero-phase 4th-order Butterworth of edge
+    ``edge_hz`` (power response ``1 / (1 + (f / f_c)^8)^2``, applied by FFT), RMS angle
+    ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft(rng.normal(size=(frames, columns, 3)), axis=0)
+    f = np.fft.rfftfreq(frames, 1.0 / fps)
+    e = np.fft.irfft(spec / (1.0 + (f / edge_hz) ** 8)[:, None, None], frames, axis=0)
+    return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())
+
+
+def band_limited(noisy, frame_time=1 / 120):
+    return fit_band_limited(fit(quat.displacements(noisy), frame_time), frame_time)
+
+
+@pytest.mark.parametrize(("edge", "seed"), [(6.0, 61), (8.0, 83)])
+def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed):
+    truth = smooth_synthetic(frames=1440, joints=12, seed=seed)
+    e = low_passed_noise(1440, 12, edge, 3.0, seed)
+    found = band_limited(quat.multiply(truth, quat.exp(e)))
+    assert found is not None
+    assert abs(found.edge_hz - edge) <= 0.5
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(found.sigma2))
+    np.testing.assert_allclose(level, 3.0, rtol=0.35)
+
+
+def test_band_limited_gate_stays_off_for_other_noise():
+    truth = smooth_synthetic(frames=1440, joints=12, seed=5)
+    white = ar1_noise(1440, 12, 0.0, 3.0, seed=50)
+    loud = np.where(np.arange(12) % 3 == 0, 3.0, 1.0)[:, None]  # extremities 3x
+    outliers = white.copy()
+    hit = np.random.default_rng(52).random((1440, 12)) < 0.01
+    outliers[hit] = np.radians(30.0) / 2 / math.sqrt(3)
+    cases = {
+        "white": white,
+        "AR(1) 0.5": ar1_noise(1440, 12, 0.5, 3.0, seed=51),
+        "AR(1) 0.8": ar1_noise(1440, 12, 0.8, 3.0, seed=53),
+        "extremities": white * loud,
+        "outliers": outliers,
+        "6 Hz, for contrast": low_passed_noise(1440, 12, 6.0, 3.0, seed=54),
+    }
+    found = {k: band_limited(quat.multiply(truth, quat.exp(e))) for k, e in cases.items()}
+    assert found.pop("6 Hz, for contrast") is not None
+    assert found == dict.fromkeys(found)
+
+
+@needs_corpus
+def test_band_limited_gate_stays_off_for_clean_captures():
+    m = mc.load(corpus_clip("131_02.bvh"))
+    for q, ft in ((m.rotations, m.frame_time), (m.rotations[::4], 4 * m.frame_time)):
+        q = quat.make_continuous(q, axis=0)
+        assert band_limited(q, ft) is None  # as captured
+        assert band_limited(lee_shin(q, binomial(1), 20), ft) is None  # pre-smoothed

@@ -1,0 +1,299 @@
+"""OptiTrack Motive CSV exports: rigid bodies read as joints (X Y Z W quaternions into
+(w, x, y, z)), every other column carried through as text, header rows written back byte for
+byte, blank cells as missing samples, and one clear error line for what is not read."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import ROOT, run_cli
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.core.errors import MotionError
+from motionclean.io.csv import format_csv
+from motionclean.io.motive import MotiveText, parse_motive
+
+MOTIVE_SAMPLE = ROOT / "sample_data" / "131_02_motive.csv"
+
+
+def export(
+    n_frames: int = 12,
+    rate: float = 120.0,
+    rotation_type: str = "Quaternion",
+    mean_marker_error: bool = True,
+    gaps: dict | None = None,
+    eol: str = "\r\n",
+    seed: int = 0,
+    rotations: np.ndarray | None = None,
+) -> tuple[str, np.ndarray, np.ndarray]:
+    """A Motive 1.23 export of two rigid bodies (with rigid-body markers), one unlabeled
+    marker; returns its text and the truth: rotations (F, 2, 4) (w, x, y, z), positions.
+    ``gaps`` maps (frame, body) to the cells written for that body's 7 values ("" blanks)."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(n_frames) / rate
+    if rotations is None:
+        axes = quat.normalize(rng.normal(size=(2, 3)))
+        rotations = quat.from_axis_angle(axes, times[:, None] * 3.0 + [0.3, 1.2])
+    positions = rng.normal(size=(2, 3)) + times[:, None, None] * [0.5, 0.1, -0.2]
+    width = 8 if mean_marker_error else 7
+    meta = (
+        "Format Version,1.23,Take Name,Take 2024-05-01 10.00.00 AM,Take Notes,,"
+        f"Capture Frame Rate,{rate:.6f},Export Frame Rate,{rate:.6f},"
+        "Capture Start Time,2024-05-01 10.00.00.000 AM,Capture Start Frame,1200,"
+        f"Total Frames in Take,{n_frames},Total Exported Frames,{n_frames},"
+        f"Rotation Type,{rotation_type},Length Units,Meters,Coordinate Space,Global"
+    )
+    types, names, ids, props, axes_row = [], [], [], [], []
+    for b, name in enumerate(("Wand", "Head Band")):
+        types += ["Rigid Body"] * width + ["Rigid Body Marker"] * 4
+        names += [name] * width + [f"{name}:Marker1"] * 4
+        ids += [str(b + 1)] * width + [f"{b + 1}:1"] * 4
+        props += ["Rotation"] * 4 + ["Position"] * 3
+        props += ["Mean Marker Error"] * (width - 7) + ["Position"] * 3 + ["Marker Quality"]
+        axes_row += ["X", "Y", "Z", "W", "X", "Y", "Z"] + [""] * (width - 7) + ["X", "Y", "Z", ""]
+    types += ["Marker"] * 3
+    names += ["Unlabeled 2001"] * 3
+    ids += ["Unlabeled 2001"] * 3
+    props += ["Position"] * 3
+    axes_row += ["X", "Y", "Z"]
+    lines = [meta, "", ",Type," + ",".join(types), ",Name," + ",".join(names)]
+    lines += [",ID," + ",".join(ids), ",," + ",".join(props)]
+    lines += ["Frame,Time (Seconds)," + ",".join(axes_row)]
+    for f in range(n_frames):
+        cells = [str(f), f"{times[f]:.6f}"]
+        for b in range(2):
+            w, x, y, z = rotations[f, b]
+            body = [f"{v:.6f}" for v in (x, y, z, w, *positions[f, b])]
+            body = (gaps or {}).get((f, b), body)
+            blank = all(c == "" for c in body)
+            cells += body + ["" if blank else "0.000312"] * (width - 7)
+            marker = positions[f, b] + 0.05
+            cells += ["" if blank else f"{v:.6f}" for v in marker] + ["" if blank else "1.0000"]
+        cells += ["", "", ""] if f % 5 == 3 else [f"{0.2 + 0.01 * f:.6f}", "1.500000", "0.000000"]
+        lines.append(",".join(cells))
+    return eol.join(lines) + eol, rotations, positions
+
+
+def write(tmp_path: Path, text: str, name: str = "take.csv") -> Path:
+    path = tmp_path / name
+    path.write_bytes(text.encode("utf-8"))
+    return path
+
+
+def cells_of(path: Path) -> list[list[str]]:
+    return [line.split(",") for line in path.read_text().splitlines()]
+
+
+BLANK = [""] * 7
+
+
+@pytest.mark.parametrize(
+    ("rate", "mme", "eol", "bom"),
+    [(120.0, True, "\r\n", False), (240.0, False, "\n", True), (240.0, True, "\n", False)],
+)
+def test_an_untouched_export_is_written_back_byte_for_byte(tmp_path, rate, mme, eol, bom):
+    text, rotations, positions = export(
+        rate=rate, mean_marker_error=mme, eol=eol, gaps={(4, 1): BLANK, (5, 1): BLANK}
+    )
+    source = write(tmp_path, ("\ufeff" if bom else "") + text)
+    clip = mc.load(source)
+    assert isinstance(clip.source, MotiveText)
+    assert clip.names == ["Wand", "Head Band"] and list(clip.parents) == [-1, -1]
+    assert clip.frame_time == 1.0 / rate
+    np.testing.assert_array_equal(np.flatnonzero(clip.missing[:, 1]), [4, 5])
+    assert not clip.missing[:, 0].any()
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+
+
+def test_quaternions_are_read_as_x_y_z_w_into_w_x_y_z(tmp_path):
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.pi / 2)  # 90 deg about +Y
+    rotations = np.broadcast_to(turn, (12, 2, 4)).copy()
+    text, _, positions = export(rotations=rotations)
+    clip = mc.load(write(tmp_path, text))
+    # The Wand's cells read "0.000000,0.707107,0.000000,0.707107" (X Y Z W).
+    assert cells_of(tmp_path / "take.csv")[7][2:6] == [
+        "0.000000",
+        "0.707107",
+        "0.000000",
+        "0.707107",
+    ]
+    np.testing.assert_allclose(clip.rotations[:, 0], [[0.5**0.5, 0, 0.5**0.5, 0]] * 12, atol=1e-15)
+    # +X turned 90 degrees about +Y is -Z.
+    np.testing.assert_allclose(
+        quat.rotate(clip.rotations[0, 0], [1.0, 0, 0]), [0, 0, -1], atol=1e-12
+    )
+    np.testing.assert_allclose(clip.translations, np.round(positions, 6), atol=1e-15)
+
+
+def test_values_match_the_truth_within_the_printed_precision(tmp_path):
+    text, rotations, positions = export(n_frames=30, rate=240.0, seed=3)
+    clip = mc.load(write(tmp_path, text))
+    assert np.degrees(quat.angle_between(clip.rotations, rotations)).max() < 2e-4
+    np.testing.assert_allclose(clip.translations, positions, atol=5e-7)
+
+
+def test_clean_keeps_header_rows_and_carried_columns_and_changes_the_bodies(tmp_path, capsys):
+    text, _, _ = export(n_frames=60, gaps={(f, 0): BLANK for f in range(20, 26)})
+    source = write(tmp_path, text)
+    out = tmp_path / "clean.csv"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin", "-q")
+    assert code == 0, err
+    before, after = cells_of(source), cells_of(out)
+    head = source.read_bytes().split(b"\r\nFrame,")[0]
+    assert out.read_bytes().startswith(head + b"\r\nFrame,")  # header rows byte for byte
+    assert after[:7] == before[:7]
+    bodies = [2, 3, 4, 5, 6, 7, 8, 14, 15, 16, 17, 18, 19, 20]  # rotation and position cells
+    carried = [k for k in range(len(before[7])) if k not in bodies]
+    assert [[r[k] for k in carried] for r in after[7:]] == [
+        [r[k] for k in carried] for r in before[7:]
+    ]
+    changed = [r[k] != s[k] for r, s in zip(after[7:], before[7:], strict=True) for k in bodies]
+    assert any(changed)
+    for f in range(20, 26):  # the missing Wand stays blank
+        assert after[7 + f][2:10] == [""] * 8
+    back = mc.load(out)
+    np.testing.assert_array_equal(back.missing, mc.load(source).missing)
+
+
+def test_blank_cells_of_the_sample_survive_a_clean(tmp_path, capsys):
+    source = tmp_path / "sample.csv"
+    source.write_bytes(MOTIVE_SAMPLE.read_bytes())
+    out = tmp_path / "clean.csv"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin", "-q")
+    assert code == 0, err
+    clip, cleaned = mc.load(source), mc.load(out)
+    assert clip.missing is not None
+    np.testing.assert_array_equal(cleaned.missing, clip.missing)
+    gap = np.flatnonzero(clip.missing.any(axis=1))
+    for f in gap:
+        line = out.read_text().splitlines()[7 + f].split(",")
+        rows = np.flatnonzero(clip.missing[f])
+        assert all(line[2 + 20 * b : 2 + 20 * b + 8] == [""] * 8 for b in rows)
+
+
+def test_a_resampled_clip_is_written_with_its_rigid_bodies_only(tmp_path):
+    text, _, _ = export(n_frames=20, gaps={(6, 1): BLANK})
+    clip = mc.load(write(tmp_path, text))
+    half = clip.replace(
+        rotations=clip.rotations[::2],
+        translations=clip.translations[::2],
+        missing=clip.missing[::2],
+        frame_time=clip.frame_time * 2,
+    )
+    mc.save(half, tmp_path / "half.csv")
+    rows = cells_of(tmp_path / "half.csv")
+    meta = dict(zip(rows[0][0::2], rows[0][1::2], strict=False))
+    assert meta["Export Frame Rate"] == "60.000000" and meta["Total Exported Frames"] == "10"
+    assert meta["Capture Frame Rate"] == "120.000000" and meta["Take Name"].startswith("Take")
+    assert rows[2] == ["", "Type"] + ["Rigid Body"] * 14
+    assert rows[3] == ["", "Name"] + ["Wand"] * 7 + ["Head Band"] * 7
+    assert rows[5] == ["", ""] + (["Rotation"] * 4 + ["Position"] * 3) * 2
+    assert rows[6] == ["Frame", "Time (Seconds)"] + ["X", "Y", "Z", "W", "X", "Y", "Z"] * 2
+    back = mc.load(tmp_path / "half.csv")
+    assert back.frame_time == 1 / 60
+    np.testing.assert_array_equal(back.missing, half.missing)
+    known = ~half.missing
+    np.testing.assert_array_equal(back.translations[known], half.translations[known])
+    np.testing.assert_array_equal(back.rotations[known], half.rotations[known])
+
+
+def test_csv_extension_is_sniffed(tmp_path):
+    text, _, _ = export()
+    clip = mc.load(write(tmp_path, "\ufeff" + text))
+    assert isinstance(clip.source, MotiveText)
+    rigid = format_csv(clip, layout="rigid")  # the same clip as a rigid-body CSV
+    again = mc.load(write(tmp_path, rigid.decode(), "rigid.csv"))
+    assert not isinstance(again.source, MotiveText)
+    np.testing.assert_array_equal(again.rotations, clip.rotations)
+    np.testing.assert_array_equal(again.translations, clip.translations)
+
+
+def test_a_clip_without_gaps_converts_to_bvh(tmp_path, capsys):
+    text, _, _ = export()
+    source = write(tmp_path, text)
+    code, _, err = run_cli(capsys, "convert", source, tmp_path / "take.bvh")
+    assert code == 0, err
+    bvh = mc.load(tmp_path / "take.bvh")
+    assert bvh.names == ["Wand", "Head Band"]
+    assert np.degrees(quat.angle_between(bvh.rotations, mc.load(source).rotations)).max() < 1e-5
+
+
+def replace_line(text: str, number: int, old: str, new: str) -> str:
+    lines = text.split("\r\n")
+    assert old in lines[number - 1]
+    lines[number - 1] = lines[number - 1].replace(old, new, 1)
+    return "\r\n".join(lines)
+
+
+def check_error(tmp_path, capsys, text: str, line: int, fragment: str) -> None:
+    source = write(tmp_path, text)
+    with pytest.raises(MotionError, match=re.escape(fragment)) as error:
+        parse_motive(source.read_bytes(), source)
+    assert error.value.line == line
+    code, _, err = run_cli(capsys, "convert", source, tmp_path / "out.csv")
+    assert code == 1
+    assert err.splitlines() == [f"motionclean: error: {source}:{line}: {error.value.message}"]
+    assert not (tmp_path / "out.csv").exists()
+
+
+@pytest.mark.parametrize("kind", ["XYZ", "ZYX"])
+def test_euler_exports_are_refused(tmp_path, capsys, kind):
+    text, _, _ = export(rotation_type=kind)
+    check_error(tmp_path, capsys, text, 1, f"Rotation Type {kind} is Euler angles")
+
+
+def test_an_unknown_rotation_type_is_refused(tmp_path, capsys):
+    text, _, _ = export(rotation_type="Matrix")
+    check_error(tmp_path, capsys, text, 1, "unknown Rotation Type 'Matrix' (expected Quaternion)")
+
+
+def test_a_property_row_that_does_not_match_the_axis_row_is_refused(tmp_path, capsys):
+    text, _, _ = export()
+    # The Wand loses its W column: Rotation over X, Y, Z and a Position over W.
+    shifted = replace_line(
+        text, 6, ",,Rotation,Rotation,Rotation,Rotation,", ",,Rotation,Rotation,Rotation,Position,"
+    )
+    check_error(
+        tmp_path,
+        capsys,
+        shifted,
+        6,
+        "the property row does not match the axis row: rigid body 'Wand' has Rotation over "
+        "X,Y,Z and Position over W,X,Y,Z",
+    )
+    no_w = replace_line(text, 7, "Frame,Time (Seconds),X,Y,Z,W,", "Frame,Time (Seconds),X,Y,Z,,")
+    check_error(tmp_path, capsys, no_w, 6, "rigid body 'Wand' has Rotation over X,Y,Z,(none)")
+
+
+def test_a_partly_blank_rigid_body_is_refused(tmp_path, capsys):
+    text, _, _ = export(gaps={(3, 1): ["0.1", "0.2", "0.3", "", "1.0", "2.0", "3.0"]})
+    check_error(
+        tmp_path,
+        capsys,
+        text,
+        11,
+        "body 'Head Band' is partly blank: empty value in Rotation W (column 18)",
+    )
+
+
+def test_the_time_column_must_follow_the_export_frame_rate(tmp_path, capsys):
+    text, _, _ = export(rate=120.0)
+    text = replace_line(text, 1, "Export Frame Rate,120.000000", "Export Frame Rate,240.000000")
+    check_error(
+        tmp_path, capsys, text, 9, "the Time column does not follow Export Frame Rate 240.000000"
+    )
+
+
+def test_the_header_must_have_its_rows(tmp_path, capsys):
+    text, _, _ = export()
+    no_axis = "\r\n".join(line for line in text.split("\r\n") if not line.startswith("Frame,"))
+    check_error(tmp_path, capsys, no_axis, 7, "no axis row 'Frame,Time (Seconds),X,Y,...'")
+    no_name = "\r\n".join(line for line in text.split("\r\n") if not line.startswith(",Name,"))
+    check_error(tmp_path, capsys, no_name, 6, "no ',Name,...' row above the axis row")
+    blank_time = replace_line(text, 10, "2,0.016667,", "2,,")
+    check_error(tmp_path, capsys, blank_time, 10, "the Time column is blank")

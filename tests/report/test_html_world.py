@@ -1,0 +1,119 @@
+"""The world part of the HTML page: a skeleton player that opens at #frame=N in a real
+headless Chromium, a static frame without scripts, trajectories of every end effector."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import pytest
+from helpers import NOISY, ROOT, corpus_clip
+
+import motionclean as mc
+from motionclean.core import kinematics
+from motionclean.report.html import render_html
+from motionclean.report.html_world import PLAYER_FRAMES
+from motionclean.report.summary import build_report, build_series
+from motionclean.steps.pipeline import Pipeline
+
+
+def page_of(path) -> str:
+    clip = mc.load(path)
+    cleaned, _ = Pipeline.default().run(clip)
+    return render_html(build_report(clip, cleaned), build_series(clip, cleaned))
+
+
+def bone_lines(text: str, clip: str) -> np.ndarray:
+    """``(bones, 4)`` end points of the player's lines of one clip, whatever the attribute
+    order (the page's own or the browser's)."""
+    rows = []
+    for tag in re.findall(r"<line\b[^>]*>", text):
+        attrs = dict(re.findall(r'([\w-]+)="([^"]*)"', tag))
+        if attrs.get("class") == "bone" and attrs.get("data-clip") == clip:
+            rows.append([float(attrs[k]) for k in ("x1", "y1", "x2", "y2")])
+    return np.array(rows)
+
+
+def test_without_scripts_the_player_shows_an_upright_figure():
+    text = page_of(NOISY)
+    motion = mc.load(NOISY)
+    bones = len(kinematics.point_parents(motion)) - 1
+    before, after = bone_lines(text, "before"), bone_lines(text, "after")
+    assert len(before) == len(after) == bones
+    # y grows downward: the head is above the toes
+    names = motion.names + kinematics.end_site_names(motion)
+    parents = kinematics.point_parents(motion)
+    pairs = [(int(p), c) for c, p in enumerate(parents) if p >= 0]
+    head = pairs.index((names.index("Head"), names.index("Head_end")))
+    toe = pairs.index((names.index("LeftToe"), names.index("LeftToe_end")))
+    assert before[head, 3] < before[toe, 3]
+    names_in_page = set(re.findall(r"<h3>([^<]+)</h3>", text))
+    assert {"Head_end", "LeftToe_end", "RThumb_end"} <= names_in_page
+
+
+def test_the_front_view_has_x_to_the_right():
+    """Y-up like Z-up clips: the player opens on the view with x to the right and the up
+    axis up (the subject of 131_02 faces +z at first, so its shoulders stand side by side)."""
+    text = page_of(NOISY)
+    motion = mc.load(NOISY)
+    parents = kinematics.point_parents(motion)
+    pairs = [(int(p), c) for c, p in enumerate(parents) if p >= 0]
+    bones = bone_lines(text, "before")
+    points, _ = kinematics.forward(motion, end_sites=True)
+    screen_dx = bones[:, 2] - bones[:, 0]  # child minus parent, per bone
+    world_dx = np.array([points[0, c, 0] - points[0, p, 0] for p, c in pairs])
+    assert abs(np.corrcoef(screen_dx, world_dx)[0, 1]) > 0.999
+    left, right = (motion.names.index(n) for n in ("LeftShoulder", "RightShoulder"))
+    ends = {c: bones[i, 2] for i, (_, c) in enumerate(pairs)}
+    assert abs(ends[left] - ends[right]) > 0.1 * 360 / 1.3
+
+
+def test_a_long_clip_is_subsampled_and_the_page_stays_small():
+    text = page_of(corpus_clip("131_02.bvh"))
+    assert len(text.encode("utf-8")) < 1_500_000
+    frames = re.search(r'"frames":\[([\d,]+)\]', text).group(1).split(",")
+    assert len(frames) == PLAYER_FRAMES and frames[0] == "0" and frames[-1] == "1246"
+
+
+def chromium_dom(page, fragment: str) -> str:
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import screenshot_report
+    finally:
+        sys.path.pop(0)
+    browser = screenshot_report.find_browser()
+    if browser is None:
+        pytest.skip("no Chromium on PATH (apt-get install chromium); browser check skipped")
+    with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
+        done = subprocess.run(
+            [
+                browser,
+                *screenshot_report.FLAGS,
+                f"--user-data-dir={profile}",
+                "--virtual-time-budget=3000",
+                "--dump-dom",
+                page.as_uri() + fragment,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=90,
+            check=False,
+        )
+    if not done.stdout:
+        pytest.skip(f"Chromium could not run here: {done.stderr[-300:]}")
+    return done.stdout
+
+
+@pytest.mark.browser
+def test_the_player_opens_the_frame_named_in_the_address(tmp_path):
+    page = tmp_path / "report.html"
+    page.write_text(page_of(NOISY), encoding="utf-8")
+    first = chromium_dom(page, "#frame=0")
+    later = chromium_dom(page, "#frame=150")
+    assert re.search(r'id="mc-frame">frame 0<', first)
+    assert re.search(r'id="mc-frame">frame 150<', later)
+    a, b = bone_lines(first, "before"), bone_lines(later, "before")
+    assert a.shape == b.shape and a.size > 0 and not np.allclose(a, b)

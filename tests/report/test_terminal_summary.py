@@ -1,0 +1,48 @@
+"""The terminal summary stays one screenful: one line per repaired joint, short lines."""
+
+from __future__ import annotations
+
+from helpers import NOISY, run_cli
+
+from motionclean.report.summary import LINE_LIMIT, format_repairs, note_text
+
+
+def despike_note(runs: list[list[int]]) -> dict:
+    return {
+        "frames_repaired": sum(b - a for a, b in runs),
+        "unflipped": [],
+        "interpolated": runs,
+        "max_step": {"before": 170.0, "after": 2.0},
+    }
+
+
+def test_long_frame_lists_are_summarised_in_the_terminal_only():
+    runs = [[198 + 10 * i, 202 + 10 * i] for i in range(38)]
+    report = {"joints": {"Hips": {"despike": despike_note(runs)}}}
+    (line,) = format_repairs(report)
+    assert "152 frames in 38 runs, first 198-201" in line
+    assert "568-571" in note_text("despike", despike_note(runs))  # the full list elsewhere
+
+
+def test_short_frame_lists_are_listed_in_full():
+    report = {"joints": {"Hips": {"despike": despike_note([[5, 6], [9, 12]])}}}
+    assert "interpolated 5, 9-11;" in format_repairs(report)[0]
+
+
+def test_one_line_per_joint_and_at_most_limit_joints():
+    note = despike_note([[1, 3]])
+    joints = {f"J{i}" * (1 + 100 * (i == 0)): {"despike": note} for i in range(14)}
+    joints["J1"]["position_despike"] = note
+    lines = format_repairs({"joints": joints}, limit=10)
+    assert len(lines) == 11 and lines[-1].startswith("... 4 more joints")
+    assert all(len(line) <= LINE_LIMIT for line in lines)
+    assert "positions:" in lines[1]
+
+
+def test_clean_prints_short_lines(tmp_path, capsys):
+    code, out, err = run_cli(capsys, "clean", NOISY, "-o", tmp_path / "out.bvh")
+    assert code == 0, err
+    lines = out.splitlines()
+    assert len(lines) < 50 and max(map(len, lines)) < 200
+    repaired = [line.split(":")[0] for line in lines if line.startswith("repaired ")]
+    assert len(repaired) == len(set(repaired))

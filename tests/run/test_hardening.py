@@ -1,0 +1,388 @@
+"""Hostile input and environments: never a hang, a traceback, a partial output or a silently
+wrong value; one line `motionclean: error: FILE: what is wrong`."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.core.errors import MotionError
+from motionclean.run.jobs import write_outputs
+
+
+def one_error_line(err: str, fragment: str) -> None:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("motionclean: error: ") and fragment in lines[0]
+
+
+def test_a_fifo_or_device_is_refused_without_blocking(tmp_path, capsys):
+    fifo = tmp_path / "x.bvh"
+    os.mkfifo(fifo)
+    code, _, err = run_cli(capsys, "info", fifo)
+    assert code == 1
+    one_error_line(err, "not a regular file")
+    zero = tmp_path / "zero.bvh"
+    zero.symlink_to("/dev/zero")
+    code, _, err = run_cli(capsys, "info", zero)
+    assert code == 1
+    one_error_line(err, "not a regular file")
+
+
+def test_a_fifo_inside_a_batch_folder_fails_that_clip_only(tmp_path, capsys):
+    source = tmp_path / "in"
+    cut_bvh(SAMPLE, source / "good.bvh", 40)
+    os.mkfifo(source / "pipe.bvh")
+    code, _, err = run_cli(capsys, "batch", source, "-o", tmp_path / "out", "-j", "1", "-q")
+    assert code == 1 and "pipe.bvh: not a regular file" in err
+    assert (tmp_path / "out" / "good.bvh").exists() and not (tmp_path / "out" / "pipe.bvh").exists()
+
+
+def test_links_that_lead_nowhere_say_so(tmp_path, capsys):
+    (tmp_path / "a.bvh").symlink_to(tmp_path / "b.bvh")
+    (tmp_path / "b.bvh").symlink_to(tmp_path / "a.bvh")
+    (tmp_path / "gone.bvh").symlink_to(tmp_path / "missing.bvh")
+    assert run_cli(capsys, "info", tmp_path / "a.bvh")[0] == 1
+    one_error_line(
+        capsys.readouterr().err or run_cli(capsys, "info", tmp_path / "a.bvh")[2],
+        "loop of symbolic links",
+    )
+    code, _, err = run_cli(capsys, "info", tmp_path / "gone.bvh")
+    assert code == 1
+    one_error_line(err, "a broken symbolic link")
+
+
+#: Runs a command without root's power to read any file (Linux capabilities).
+NO_READ_OVERRIDE = [
+    "setpriv",
+    "--inh-caps=-dac_override,-dac_read_search",
+    "--bounding-set=-dac_override,-dac_read_search",
+]
+
+
+@pytest.mark.skipif(
+    os.geteuid() == 0 and not shutil.which("setpriv"),
+    reason="root reads every file and setpriv is missing: permissions cannot be denied",
+)
+@pytest.mark.parametrize("command", ["info", "clean", "report", "convert", "check"])
+def test_an_unreadable_file_is_a_data_error(tmp_path, command):
+    """Exit 1 and the file named, in every command (click's own check said exit 2)."""
+    clip = cut_bvh(SAMPLE, tmp_path / "c.bvh", 20)
+    clip.chmod(0)
+    args = {
+        "info": [clip],
+        "clean": [clip, "-o", tmp_path / "o.bvh"],
+        "report": [clip],
+        "convert": [clip, tmp_path / "o.csv"],
+        "check": [clip, "--baseline", tmp_path / "b.json", "--update"],
+    }[command]
+    prefix = NO_READ_OVERRIDE if os.geteuid() == 0 else []
+    cli = "from motionclean.cli import main; main()"
+    done = subprocess.run(
+        [*prefix, sys.executable, "-c", cli, command, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [f"motionclean: error: {clip}: permission denied"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.bvh"]
+
+
+def test_save_refuses_rotations_that_are_not_unit_quaternions(tmp_path):
+    clip = mc.load(SAMPLE)
+    for bad in (np.zeros(4), np.array([2.0, 0.0, 0.0, 0.0])):
+        rotations = clip.rotations.copy()
+        rotations[5, 3] = bad
+        with pytest.raises(ValueError, match=rf"joint '{clip.names[3]}' at frame 5 is not a unit"):
+            mc.save(clip.replace(rotations=rotations), tmp_path / "o.bvh")
+    assert not (tmp_path / "o.bvh").exists()
+    with pytest.raises(TypeError, match="save takes a Motion, got dict"):
+        mc.save({}, tmp_path / "o.bvh")
+
+
+def test_a_huge_quaternion_is_the_rotation_it_points_to():
+    q = quat.normalize(np.array([1e200, 1e200, 0.0, 0.0]))
+    assert np.degrees(quat.angle(q)) == pytest.approx(90.0)
+
+
+def test_clean_in_place_through_a_link_updates_the_real_file(tmp_path, capsys):
+    real = cut_bvh(SAMPLE, tmp_path / "real.bvh", 60)
+    link = tmp_path / "link.bvh"
+    link.symlink_to(real)
+    before = real.read_bytes()
+    code, _, err = run_cli(capsys, "clean", link, "--in-place", "-q", "-f", "lee-shin:k=3")
+    assert code == 0, err
+    assert link.is_symlink() and real.read_bytes() != before
+
+
+def test_a_report_that_cannot_be_written_leaves_no_clip(tmp_path, capsys):
+    (tmp_path / "r.html").mkdir()  # the report path is a folder: refused before any work
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "--report", tmp_path / "r.html")
+    assert code in (1, 2) and not out.exists()
+    one_error_line(err, "r.html")
+    # and when writing a report fails after the clip was written, the clip goes again
+    clip = mc.load(SAMPLE)
+    with pytest.raises(MotionError, match="is a directory"):
+        write_outputs(clip, out, {str(tmp_path / "r.html"): b"<html>"})
+    assert not out.exists()
+
+
+def test_an_output_folder_that_cannot_be_made_is_refused_once_up_front(tmp_path, capsys):
+    source = tmp_path / "in"
+    for name in ("a", "b", "c"):
+        cut_bvh(SAMPLE, source / f"{name}.bvh", 20)
+    (tmp_path / "file").write_text("not a folder")
+    code, _, err = run_cli(capsys, "batch", source, "-o", tmp_path / "file" / "out")
+    assert code == 2
+    one_error_line(err, "cannot create -o")
+
+
+def running(pid: str) -> bool:
+    """The process exists and is not a zombie waiting to be reaped."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
+    source = tmp_path / "in"
+    for k in range(12):
+        cut_bvh(SAMPLE, source / f"c{k}.bvh", 300)
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).parent / "motionclean"),
+            "batch",
+            str(source),
+            "-o",
+            str(tmp_path / "o"),
+            "-j",
+            "2",
+            "-f",
+            "fairing:max_iterations=3000,tol=0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    time.sleep(3.0)
+    children = subprocess.run(
+        ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
+    ).stdout.split()
+    process.send_signal(signal.SIGTERM)
+    try:
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 130 and b"interrupted" in err
+    time.sleep(1.5)
+    alive = [pid for pid in children if running(pid)]
+    assert children and not alive
+
+
+@pytest.mark.parametrize("name", ["a\rb", "line\nbreak", 'q"uote,comma', "x" * 3_000_000])
+def test_any_joint_name_survives_a_csv_round_trip(name, tmp_path):
+    clip = mc.load(SAMPLE)
+    names = list(clip.names)
+    names[3] = name
+    renamed = clip.replace(names=names, source=None, source_values=None, source_rotations=None)
+    mc.save(renamed, tmp_path / "c.csv")
+    assert mc.load(tmp_path / "c.csv").names == names
+
+
+def test_a_clip_too_short_for_a_csv_is_refused_up_front(tmp_path, capsys):
+    one = cut_bvh(SAMPLE, tmp_path / "one.bvh", 1)
+    code, _, err = run_cli(capsys, "convert", one, tmp_path / "one.csv")
+    assert code == 1 and not (tmp_path / "one.csv").exists()
+    one_error_line(err, "a CSV needs at least two frames")
+
+
+# ----------------------------------------------------------------------------- deep trees
+
+
+def chain_bvh(n_joints: int, n_frames: int = 3) -> bytes:
+    """One chain of ``n_joints`` joints, each OFFSET 0 1 0 above its parent, zero motion."""
+    head = "ROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 6 Xposition Yposition Zposition Zrotation "
+    head += "Xrotation Yrotation\n"
+    joint = "JOINT j{}\n{{\nOFFSET 0 1 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"
+    body = "".join(joint.format(j) for j in range(1, n_joints))
+    tip = "End Site\n{\nOFFSET 0 1 0\n}\n" + "}\n" * n_joints
+    row = " ".join(["0"] * (3 + 3 * n_joints)) + "\n"
+    motion = f"MOTION\nFrames: {n_frames}\nFrame Time: 0.033333\n" + row * n_frames
+    return ("HIERARCHY\n" + head + body + tip + motion).encode()
+
+
+def naive_depth_levels(parents: np.ndarray) -> list[np.ndarray]:
+    depth = []
+    for j in range(parents.size):
+        d, up = 0, parents[j]
+        while up >= 0:
+            d, up = d + 1, parents[up]
+        depth.append(d)
+    depth = np.array(depth)
+    return [np.flatnonzero(depth == level) for level in range(depth.max() + 1)]
+
+
+def test_depth_levels_of_random_trees_match_a_walk_up_each_joint():
+    from motionclean.core import kinematics
+
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 9, 300, 2000):
+        parents = np.array([-1] + [rng.integers(max(0, j - 3), j) for j in range(1, n)])
+        perm = rng.permutation(n)  # parents need not come before their children
+        parents = np.where(parents[perm] >= 0, np.argsort(perm)[parents[perm]], -1)
+        got, want = kinematics.depth_levels(parents), naive_depth_levels(parents)
+        assert len(got) == len(want)
+        assert all(np.array_equal(a, b) for a, b in zip(got, want, strict=True))
+    for cyclic in ([1, 0], [-1, 2, 1], [0]):
+        with pytest.raises(ValueError, match="cycle"):
+            kinematics.depth_levels(np.array(cyclic))
+
+
+def test_a_deep_chain_costs_no_step_per_level(monkeypatch):
+    """Forward kinematics of a 3,000-joint chain (random rotations) agrees with a joint by
+    joint reference, with a number of quaternion products that does not grow with the depth
+    (one per level was 3,000 per call, seconds per command on a 10,000-joint chain)."""
+    from motionclean.core import kinematics
+
+    rng = np.random.default_rng(3)
+    n, frames = 3000, 4
+    parents = np.arange(-1, n - 1)
+    rotations = rng.normal(size=(frames, n, 4))
+    rotations /= np.linalg.norm(rotations, axis=-1, keepdims=True)
+    translations = rng.normal(size=(frames, n, 3)) * 0.01
+    calls = []
+    real = quat.multiply_planes
+    monkeypatch.setattr(quat, "multiply_planes", lambda *a, **k: calls.append(1) or real(*a, **k))
+    positions, world = kinematics.forward_arrays(parents, rotations, translations)
+    assert len(calls) < kinematics.LEVEL_LOOP_DEPTH + 2 * 14
+    monkeypatch.undo()
+    want_q, want_p = rotations[:, 0], translations[:, 0]
+    for j in range(1, n):  # the reference: one joint after the other down the chain
+        want_p = want_p + quat.rotate(want_q, translations[:, j])
+        want_q = quat.multiply(want_q, rotations[:, j])
+        if j % 97 == 0 or j == n - 1:
+            np.testing.assert_allclose(world[:, j], want_q, atol=1e-9)
+            np.testing.assert_allclose(positions[:, j], want_p, atol=1e-9)
+
+
+def test_a_20000_joint_chain_loads_and_stands_straight():
+    from motionclean.core import kinematics
+    from motionclean.io.bvh import parse_bvh
+
+    n = 20_000
+    motion = parse_bvh(chain_bvh(n))
+    assert motion.n_joints == n and motion.n_frames == 3
+    positions, _ = kinematics.forward(motion, end_sites=True)
+    want = np.zeros((n + 1, 3))
+    want[:, 1] = np.arange(n + 1)
+    assert np.array_equal(positions, np.broadcast_to(want, positions.shape))
+    missing = np.zeros((3, n), dtype=bool)
+    missing[1, 12_345] = True
+    motion.missing = missing
+    points = kinematics.missing_points(motion)
+    assert points is not None
+    assert np.array_equal(np.flatnonzero(points[1]), np.arange(12_345, n + 1))
+    assert not points[[0, 2]].any()
+
+
+@pytest.mark.parametrize("frames", [0, 1, 2])
+def test_reports_of_clips_too_short_for_some_figures(tmp_path, capsys, frames):
+    clip = cut_bvh(SAMPLE, tmp_path / "short.bvh", frames)
+    out_json, out_html = tmp_path / "r.json", tmp_path / "r.html"
+    code, out, err = run_cli(capsys, "report", clip, "--json", out_json, "--html", out_html)
+    assert (code, err) == (0, "")
+    assert out_json.exists() and out_html.exists()
+    code, info, err = run_cli(capsys, "info", clip)
+    assert (code, err) == (0, "")
+    if frames < 2:  # no ground to measure against: said so, never NaN
+        for text in (out, info, out_json.read_text(), out_html.read_text()):
+            assert "nan" not in text.lower()
+        assert "ground not found (needs at least 2 frames)" in out
+        assert "ground not found (needs at least 2 frames)" in info
+    cleaned = tmp_path / "c.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", clip, "-o", cleaned, "--report", tmp_path / "c.html", "-q"
+    )
+    assert (code, err) == (0, "")
+    assert run_cli(capsys, "report", clip, cleaned, "--html", tmp_path / "p.html")[0] == 0
+
+
+def test_report_renders_every_page_before_writing_any(tmp_path, capsys, monkeypatch):
+    import motionclean.run.jobs
+
+    def broken(*args, **kwargs):
+        raise MotionError("cannot draw", "r.html")
+
+    monkeypatch.setattr(motionclean.run.jobs, "render_html", broken)
+    out_json, out_html = tmp_path / "r.json", tmp_path / "r.html"
+    code, out, err = run_cli(capsys, "report", SAMPLE, "--json", out_json, "--html", out_html)
+    assert code == 1
+    one_error_line(err, "r.html: cannot draw")
+    assert not out_json.exists() and not out_html.exists() and out == ""
+
+
+MOTIVE_HEADER = (
+    "Format Version,1.23,Take Name,t,Export Frame Rate,120.000000,Total Exported Frames,3,"
+    "Rotation Type,Quaternion,Length Units,Meters\n\n"
+    ",Type" + ",Rigid Body" * 7 + "\n,Name" + ",a" * 7 + "\n,ID" + ",1" * 7 + "\n"
+    ",,Rotation,Rotation,Rotation,Rotation,Position,Position,Position\n"
+    "Frame,Time (Seconds),X,Y,Z,W,X,Y,Z\n"
+)
+ALL_BLANK = {
+    "rigid": "time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz\n0,,,,,,,\n0.01,,,,,,,\n0.02,,,,,,,\n",
+    "channel": "frame,time,Hips.Xposition,Hips.Yposition,Hips.Zposition,Hips.Zrotation,"
+    "Hips.Yrotation,Hips.Xrotation\n0,0,,,,,,\n1,0.01,,,,,,\n2,0.02,,,,,,\n",
+    "motive": MOTIVE_HEADER + "0,0.000000,,,,,,,\n1,0.008333,,,,,,,\n2,0.016667,,,,,,,\n",
+}
+
+
+@pytest.mark.parametrize("layout", sorted(ALL_BLANK))
+def test_a_csv_with_no_value_in_any_cell_is_refused_everywhere(tmp_path, capsys, layout):
+    clip = tmp_path / "blank.csv"
+    clip.write_text(ALL_BLANK[layout])
+    out = tmp_path / "o.csv"
+    for args in (
+        ["info", clip],
+        ["report", clip, "--json", tmp_path / "r.json"],
+        ["clean", clip, "-o", out],
+        ["resample", clip, out, "--fps", "50"],
+        ["convert", clip, out],
+        ["check", clip, "--baseline", tmp_path / "b.json", "--update"],
+    ):
+        code, _, err = run_cli(capsys, *args)
+        assert code == 1, args
+        one_error_line(err, f"{clip}: no value in any cell: every sample is blank, nothing to")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["blank.csv"]
+
+
+@pytest.mark.parametrize(
+    "step",
+    [
+        "bilateral:sigma_t=1e-300",
+        "bilateral:sigma_t=1e-300,positions=true",
+        "lee-shin:mask=gaussian,sigma_t=1e-300",
+        "lee-shin:mask=gaussian,sigma_t=1e-200,iterations=3",
+    ],
+)
+def test_a_time_sigma_narrower_than_a_frame_leaves_the_clip_as_it_is(tmp_path, capsys, step):
+    """Every neighbour's weight is exactly 0: the identity, no division by zero, no warning."""
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-f", step, "-q")
+    assert (code, err) == (0, "")
+    assert out.read_bytes() == SAMPLE.read_bytes()
+    assert mc.filters.masks.gaussian(1e-300).tolist() == [0.0, 1.0, 0.0]

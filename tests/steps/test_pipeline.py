@@ -1,0 +1,233 @@
+"""Pipeline parsing, validation, joint selection and running."""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+import pytest
+from helpers import NOISY
+
+import motionclean as mc
+from motionclean.core.errors import UsageError
+from motionclean.filters import lee_shin
+from motionclean.filters.masks import binomial
+from motionclean.steps import StepData, StepSpec
+from motionclean.steps.pipeline import REGISTRY, Pipeline, parse_inline, parse_value, select_joints
+
+
+def test_inline_values_are_read_as_toml():
+    assert parse_value("2") == 2 and isinstance(parse_value("2"), int)
+    assert parse_value("0.1") == 0.1
+    assert parse_value("true") is True
+    assert parse_value("binomial") == "binomial"
+    assert parse_value("[0, 0.5]") == [0, 0.5]
+    assert parse_value("[LeftKnee, 'Right*']") == ["LeftKnee", "Right*"]
+
+
+def test_inline_step_keeps_list_commas_inside_one_value():
+    table = parse_inline("lee-shin:mask=custom,coefficients=[0.25,0.5,0.25],iterations=3")
+    assert table == {
+        "filter": "lee-shin",
+        "mask": "custom",
+        "coefficients": [0.25, 0.5, 0.25],
+        "iterations": 3,
+    }
+
+
+def test_toml_and_inline_give_the_same_steps(tmp_path):
+    toml = tmp_path / "pipe.toml"
+    toml.write_text(
+        '[[step]]\nfilter = "lee-shin"\nmask = "binomial"\nk = 2\niterations = 5\n'
+        'joints = ["*", "!RThumb"]\npositions = false\n'
+    )
+    from_file = Pipeline.from_toml(toml)
+    inline = Pipeline.from_inline(
+        ["lee-shin:mask=binomial,k=2,iterations=5,joints=['*','!RThumb'],positions=false"]
+    )
+    assert from_file.describe() == inline.describe()
+    assert from_file.describe() == [
+        {
+            "filter": "lee-shin",
+            "mask": "binomial",
+            "k": 2,
+            "iterations": 5,
+            "joints": ["*", "!RThumb"],
+            "positions": False,
+        }
+    ]
+
+
+@pytest.mark.parametrize(
+    ("step", "message"),
+    [
+        ("nonsense", "unknown filter 'nonsense'; one of lee-shin"),
+        ("lee-shin:sigma=3", "unknown parameter 'sigma'; allowed: mask, k"),
+        ("lee-shin:k=2.5", "k must be an integer >= 0 and <= 5000, got 2.5"),
+        ("lee-shin:k=-1", "k must be an integer >= 0"),
+        ("lee-shin:iterations=0", "iterations must be an integer >= 1"),
+        ("lee-shin:iterations=yes", "iterations must be an integer"),
+        ("lee-shin:positions=3", "positions must be true or false"),
+        ("lee-shin:mask=custom", "mask=custom needs coefficients"),
+        ("lee-shin:mask=custom,coefficients=[0.5,0.6,0.5]", "these sum to 1.6"),
+        ("lee-shin:mask=custom,coefficients=[0.5,0.5]", "odd length"),
+        ("lee-shin:mask=smooth", "mask must be one of binomial, smoothing"),
+        ("lee-shin:k", "expected key=value"),
+    ],
+)
+def test_invalid_steps_name_the_step_and_the_key(step, message):
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_inline(["lee-shin:k=1", step])
+    text = str(caught.value)
+    assert "step 2" in text or "-f" in text
+    assert message in text
+
+
+def test_toml_errors_name_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[step]]\nfilter = lee-shin\n")
+    with pytest.raises(UsageError, match="bad.toml: invalid TOML"):
+        Pipeline.from_toml(bad)
+    empty = tmp_path / "empty.toml"
+    empty.write_text("")
+    with pytest.raises(UsageError, match="no steps"):
+        Pipeline.from_toml(empty)
+    with pytest.raises(UsageError, match="no such pipeline file"):
+        Pipeline.from_toml(tmp_path / "missing.toml")
+
+
+def test_joint_selection_patterns_and_exclusions():
+    names = ["Hips", "LeftHip", "LeftKnee", "RightHip", "mixamorig:Spine"]
+    assert select_joints(names, ("*",)).all()
+    assert select_joints(names, ("Left*",)).tolist() == [False, True, True, False, False]
+    assert select_joints(names, ("*", "!Left*")).tolist() == [True, False, False, True, True]
+    assert select_joints(names, ("!*Hip",)).tolist() == [True, False, True, False, True]
+    assert select_joints(names, ("mixamorig:*",)).tolist() == [False] * 4 + [True]
+
+
+def test_run_touches_only_selected_joints_and_channels(sample_path):
+    motion = mc.load(sample_path)
+    pipeline = Pipeline.from_inline(["lee-shin:k=2,iterations=3,joints=['Left*'],positions=false"])
+    cleaned, logs = pipeline.run(motion)
+    left = np.array([n.startswith("Left") for n in motion.names])
+    assert np.array_equal(cleaned.rotations[:, ~left], motion.rotations[:, ~left])
+    assert np.array_equal(cleaned.translations, motion.translations)
+    expected = lee_shin(motion.rotations[:, left], binomial(2), 3)
+    assert np.allclose(cleaned.rotations[:, left], expected, atol=1e-12)
+    assert logs[0].rotation_joints == [n for n in motion.names if n.startswith("Left")]
+
+
+def test_positions_are_filtered_with_the_vector_counterpart(sample_path):
+    motion = mc.load(sample_path)
+    cleaned, _ = Pipeline.from_inline(["lee-shin:k=1,iterations=2"]).run(motion)
+    root = motion.names.index("Hips")
+    assert not np.allclose(cleaned.translations[:, root], motion.translations[:, root])
+    # joints without position channels keep zero translations
+    assert np.all(cleaned.translations[:, root + 1 :] == 0.0)
+
+
+def test_every_registered_filter_runs_with_its_defaults(sample_path):
+    motion = mc.load(sample_path)
+    required = {"resample": "resample:fps=60"}  # no default rate: it must be asked for
+    for name in REGISTRY:
+        with pytest.raises(UsageError) if name in required else contextlib.nullcontext():
+            Pipeline.from_inline([name])
+        cleaned, _ = Pipeline.from_inline([required.get(name, name)]).run(motion)
+        norms = np.linalg.norm(cleaned.rotations, axis=-1)
+        assert np.allclose(norms, 1.0, atol=1e-9), name
+        assert np.all(np.isfinite(cleaned.translations)), name
+
+
+def test_default_pipeline_reduces_noise(noisy_path):
+    from motionclean.report.metrics import angular_acceleration, rms
+
+    motion = mc.load(noisy_path)
+    cleaned, _ = Pipeline.default().run(motion)
+    before = rms(angular_acceleration(motion.rotations, motion.frame_time).ravel())
+    after = rms(angular_acceleration(cleaned.rotations, motion.frame_time).ravel())
+    assert after < 0.5 * before
+
+
+def test_a_key_given_twice_inline_is_refused():
+    with pytest.raises(UsageError, match="'k' is given twice"):
+        Pipeline.from_inline(["lee-shin:k=2,k=3"])
+
+
+def test_multires_takes_gains_or_level_not_both():
+    with pytest.raises(UsageError, match="either gains or level"):
+        Pipeline.from_inline(["multires:levels=4,gains=[0],level=2.5"])
+    assert Pipeline.from_inline(["multires:levels=4,level=2.5"]).describe()[0]["level"] == 2.5
+    assert Pipeline.from_inline(["multires"]).describe()[0]["gains"] == [0.0]
+
+
+def test_steps_see_the_whole_clip_and_whole_clip_steps_replace_it(monkeypatch):
+    """A step is given its columns' joint indices and the clip; a ``run_motion`` step may
+    change the frame count, and the steps after it see the new clip."""
+    clip = mc.load(NOISY)
+    seen = {}
+
+    def run(data: StepData, params: dict) -> StepData:
+        seen["frames"] = data.rotations.shape[0]
+        seen["joints"] = [data.motion.names[j] for j in data.rotation_joints]
+        np.testing.assert_array_equal(
+            data.rotations, data.motion.rotations[:, data.rotation_joints]
+        )
+        return data
+
+    def every_other_frame(motion: mc.Motion, params: dict):
+        halved = motion.replace(
+            rotations=motion.rotations[::2],
+            translations=motion.translations[::2],
+            frame_time=2 * motion.frame_time,
+            source_values=None,
+            source_rotations=None,
+        )
+        return halved, {motion.names[0]: {"halved": True}}
+
+    registry = dict(REGISTRY)
+    registry["halve"] = StepSpec("halve", "test", "-", (), run_motion=every_other_frame)
+    registry["look"] = StepSpec("look", "test", "-", (), run=run)
+    monkeypatch.setattr("motionclean.steps.pipeline.REGISTRY", registry)
+    pipeline = Pipeline.from_tables(
+        [{"filter": "halve"}, {"filter": "look", "joints": ["Left*", "!LeftToe*"]}], "t"
+    )
+    out, logs = pipeline.run(clip)
+    assert out.n_frames == (clip.n_frames + 1) // 2 == seen["frames"]
+    assert out.frame_time == 2 * clip.frame_time
+    assert seen["joints"] == [
+        n for n in clip.names if n.startswith("Left") and not n.startswith("LeftToe")
+    ]
+    assert logs[0].notes == {clip.names[0]: {"halved": True}}
+    assert clip.n_frames == mc.load(NOISY).n_frames  # the input is untouched
+
+
+def test_no_step_writes_into_the_clip_it_is_given():
+    """Steps on every joint get the clip's own rotation array (no copy): none may write into
+    it, and the pipeline never writes into its input."""
+    clip = mc.load(NOISY)
+    rotations, translations = clip.rotations.copy(), clip.translations.copy()
+    required = {"resample": "resample:fps=60"}
+    for name in REGISTRY:
+        Pipeline.from_inline([required.get(name, name)]).run(clip)
+        np.testing.assert_array_equal(clip.rotations, rotations, err_msg=name)
+        np.testing.assert_array_equal(clip.translations, translations, err_msg=name)
+
+
+@pytest.mark.parametrize(
+    "steps",
+    [
+        ["despike", "auto"],
+        ["despike", "auto:frames=[100, 250]"],
+        ["lee-shin:joints=['Left*']", "auto", "lee-shin:k=1"],
+    ],
+)
+def test_steps_that_overwrite_their_input_never_touch_the_clip(steps):
+    """Later steps write into the arrays earlier steps made, never into the clip's: the
+    input is bit for bit what was read, and the result is what fresh copies give."""
+    clip = mc.load(NOISY)
+    rotations, translations = clip.rotations.copy(), clip.translations.copy()
+    after, _ = mc.Pipeline.from_inline(steps).run(clip)
+    assert np.array_equal(clip.rotations, rotations)
+    assert np.array_equal(clip.translations, translations)
+    again, _ = mc.Pipeline.from_inline(steps).run(clip.replace(rotations=rotations.copy()))
+    assert np.array_equal(after.rotations, again.rotations)

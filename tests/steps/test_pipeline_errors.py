@@ -1,0 +1,242 @@
+"""Cross-parameter rules and the command-line errors around them: refused up front with the
+step and the key named, or (the Nyquist limit, which needs the clip's rate) as a one-line
+data error that writes nothing."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from helpers import SAMPLE, Page, run_cli
+
+from motionclean.core.errors import UsageError
+from motionclean.steps.lee_shin import MASK_KINDS
+from motionclean.steps.pipeline import Pipeline
+
+
+@pytest.mark.parametrize(
+    ("step", "key", "message"),
+    [
+        ("lee-shin:mask=lowpass", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
+        ("lee-shin:mask=lowpass,half_width=4", "cutoff_hz", "mask=lowpass needs cutoff_hz"),
+        ("lee-shin:cutoff_hz=8", "cutoff_hz", "not used with mask=binomial; it takes k"),
+        ("lee-shin:mask=savgol,cutoff_hz=8", "cutoff_hz", "not used with mask=savgol"),
+        ("lee-shin:coefficients=[1]", "coefficients", "not used with mask=binomial"),
+        (
+            "lee-shin:mask=lowpass,cutoff_hz=8,coefficients=[1]",
+            "coefficients",
+            "not used with mask=lowpass; it takes cutoff_hz, half_width",
+        ),
+        ("lee-shin:mask=savgol,half_width=2,degree=5", "degree", "degree"),
+        (
+            "despike:min_deg_per_s=5000,max_deg_per_s=100",
+            "min_deg_per_s",
+            "min_deg_per_s must not exceed max_deg_per_s",
+        ),
+        (
+            "despike:min_units_per_s=3,max_units_per_s=2",
+            "min_units_per_s",
+            "min_units_per_s must not exceed max_units_per_s",
+        ),
+        ("multires:levels=2,gains=[0,0,0]", "gains", "3 gains for 2 levels"),
+        ("multires:levels=2,level=3", "level", "level must lie in [0, levels=2]"),
+        ("multires:gains=[0],level=1", "level", "either gains or level"),
+    ],
+)
+def test_cross_parameter_errors_name_the_step_and_the_key(step, key, message):
+    name = step.partition(":")[0]
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_inline(["lee-shin", step])
+    text = str(caught.value)
+    assert text.startswith(f"-f: step 2 ({name}): "), text
+    assert key in text and message in text
+    assert "\n" not in text
+
+
+@pytest.mark.parametrize(
+    "step",
+    [
+        "lee-shin:mask=lowpass,cutoff_hz=59.9",
+        "multires:levels=2,gains=[0,0]",
+        "multires:levels=2,level=2",
+        "despike:min_deg_per_s=100,max_deg_per_s=100",
+    ],
+)
+def test_the_limits_themselves_are_allowed(step):
+    assert Pipeline.from_inline([step]).describe()[0]["filter"] == step.partition(":")[0]
+
+
+@pytest.mark.parametrize("cutoff", ["70", "60.5"])
+def test_a_cutoff_above_nyquist_fails_on_the_clip_with_one_line(tmp_path, capsys, cutoff):
+    out, report = tmp_path / "c.bvh", tmp_path / "r.json"
+    code, stdout, err = run_cli(
+        capsys,
+        "clean",
+        SAMPLE,
+        "-o",
+        out,
+        "--report",
+        report,
+        "-f",
+        "despike",
+        "-f",
+        f"lee-shin:mask=lowpass,cutoff_hz={cutoff}",
+    )
+    assert code == 1
+    assert err.count("\n") == 1 and err.startswith(f"motionclean: error: {SAMPLE}: ")
+    assert "step 2 (lee-shin) failed" in err and "Nyquist" in err and cutoff in err
+    assert stdout == ""
+    assert not out.exists() and not report.exists()
+    assert not list(tmp_path.iterdir())
+
+
+def test_clean_needs_an_output_or_in_place(tmp_path, capsys):
+    before = SAMPLE.read_bytes()
+    code, stdout, err = run_cli(capsys, "clean", SAMPLE)
+    assert code == 2
+    assert err.count("\n") == 1 and "missing -o OUTPUT" in err and "--in-place" in err
+    assert stdout == "" and SAMPLE.read_bytes() == before
+
+
+def test_report_writes_html(tmp_path, capsys):
+    page = tmp_path / "r.html"
+    code, stdout, err = run_cli(capsys, "report", SAMPLE, "--html", page)
+    assert code == 0, err
+    assert "all joints" in stdout
+    parsed = Page(page.read_text(encoding="utf-8"))
+    assert parsed.errors == []
+    plots = [a for t, a in parsed.tags if t == "svg" and "plot" in a.get("class", "")]
+    assert "RThumb" in [a["data-joint"] for a in plots]
+
+
+def test_report_json_and_html_together(tmp_path, capsys):
+    js, page = tmp_path / "r.json", tmp_path / "r.html"
+    code, _, err = run_cli(capsys, "report", SAMPLE, "--json", js, "--html", page)
+    assert code == 0, err
+    assert json.loads(js.read_text())["frames"] == 300
+    assert page.read_text(encoding="utf-8").lstrip().lower().startswith("<!doctype html")
+
+
+@pytest.mark.parametrize("same", ["r.html", "r.json"])
+def test_report_refuses_json_and_html_in_the_same_file(tmp_path, capsys, same):
+    code, stdout, err = run_cli(
+        capsys, "report", SAMPLE, "--json", tmp_path / same, "--html", tmp_path / same
+    )
+    assert code == 2
+    assert err.count("\n") == 1 and "--json and --html name the same file" in err
+    assert stdout == "" and not list(tmp_path.iterdir())
+
+
+MASK_VALUES = {
+    "k": 3,
+    "lam": 0.4,
+    "sigma_t": 2.0,
+    "half_width": 4,
+    "degree": 2,
+    "cutoff_hz": 8.0,
+    "coefficients": [0.25, 0.5, 0.25],
+}
+MASK_NEEDS = {"custom": {"coefficients"}, "lowpass": {"cutoff_hz"}}
+
+
+@pytest.mark.parametrize("mask", sorted(MASK_KINDS))
+@pytest.mark.parametrize("key", sorted(MASK_VALUES))
+def test_every_mask_parameter_is_used_or_refused(mask, key):
+    """A parameter given to lee-shin is either in the recorded step or refused, naming the
+    mask and what it takes (never silently dropped)."""
+    table = {"filter": "lee-shin", "mask": mask, key: MASK_VALUES[key]}
+    table.update({k: MASK_VALUES[k] for k in MASK_NEEDS.get(mask, ()) if k != key})
+    if key in MASK_KINDS[mask].params:
+        (described,) = Pipeline.from_tables([table], "p").describe()
+        assert described[key] == MASK_VALUES[key]
+    else:
+        with pytest.raises(UsageError, match=rf"{key}'? is not used with mask={mask}; it takes "):
+            Pipeline.from_tables([table], "p")
+
+
+def test_from_inline_wants_a_list_of_strings():
+    with pytest.raises(TypeError, match=r"list of step strings.*'lee-shin:k=3'"):
+        Pipeline.from_inline("lee-shin:k=3")
+    assert Pipeline.from_inline(["lee-shin:k=3"]).describe()[0]["k"] == 3
+
+
+def _one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), err
+    return lines[0][len("motionclean: error: ") :]
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("a=" + "[" * 1000 + "]" * 1000, "invalid TOML: arrays or tables nested too deeply"),
+        (
+            '[[step]]\nfilter = "lee-shin"\nk = ' + "9" * 5000,
+            "a number with too many digits (out of range)",
+        ),
+    ],
+)
+def test_a_pipeline_file_python_cannot_parse_is_one_line(tmp_path, capsys, content, message):
+    pipe = tmp_path / "deep.toml"
+    pipe.write_text(content + "\n")
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "a.bvh").write_bytes(SAMPLE.read_bytes())
+    for args in (
+        ["clean", SAMPLE, "-o", tmp_path / "o.bvh"],
+        ["check", SAMPLE, "--baseline", tmp_path / "b.json", "--update"],
+        ["batch", tmp_path / "in", "-o", tmp_path / "out"],
+    ):
+        code, _, err = run_cli(capsys, *args, "-p", pipe)
+        assert code == 2
+        assert _one_line(err) == f"{pipe}: {message}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep.toml", "in"]
+
+
+@pytest.mark.parametrize(
+    ("step", "message"),
+    [
+        ("lee-shin:k=" + "9" * 5000, "k: a number with too many digits (out of range)"),
+        ("lee-shin:k=" + "[" * 1000 + "]" * 1000, "k: nested too deeply"),
+        ("lee-shin:k=" + "9" * 400, "k must be an integer >= 0 and <= 5000, got 9999"),
+        ("bilateral:sigma_t=" + "9" * 400, "sigma_t must be a number > 0 and <= 50, got 99"),
+        ("footlock:min_seconds=-" + "9" * 400, "min_seconds must be a number >= 0 and <= inf"),
+    ],
+)
+def test_inline_numbers_beyond_any_range_are_one_short_line(tmp_path, capsys, step, message):
+    code, line = _clean_refused(tmp_path, capsys, step)
+    assert code == 2
+    assert line.startswith("-f") and message in line and len(line) < 200
+
+
+def _clean_refused(tmp_path, capsys, step: str) -> tuple[int, str]:
+    """Exit code and the one error line of ``clean -f step`` on the sample, which writes
+    nothing."""
+    clip = tmp_path / "o.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", clip, "-f", step)
+    assert not clip.exists()
+    return code, _one_line(err)
+
+
+@pytest.mark.parametrize("name", ["fairing", "sse-fairing"])
+def test_max_iterations_has_one_limit_in_catalogue_validation_and_filter(tmp_path, capsys, name):
+    from motionclean.filters.fairing import MAX_ITERATIONS
+
+    code, out, _ = run_cli(capsys, "filters")
+    assert code == 0 and f"an integer >= 0 and <= {MAX_ITERATIONS}" in out
+    code, line = _clean_refused(tmp_path, capsys, f"{name}:max_iterations={MAX_ITERATIONS + 1}")
+    assert code == 2
+    assert line == (
+        f"-f: step 1 ({name}): max_iterations must be an integer >= 0 and <= "
+        f"{MAX_ITERATIONS}, got {MAX_ITERATIONS + 1}"
+    )
+
+
+@pytest.mark.parametrize("cutoff", ["60", "60.0001", "75"])
+def test_a_lowpass_cutoff_at_half_the_rounded_frame_rate_is_refused(tmp_path, capsys, cutoff):
+    """131_02's frame time .0083333 is 120.0005 fps: 60 Hz is its Nyquist frequency."""
+    code, line = _clean_refused(tmp_path, capsys, f"lee-shin:mask=lowpass,cutoff_hz={cutoff}")
+    assert code == 1
+    assert line == (
+        f"{SAMPLE}: step 1 (lee-shin) failed: cutoff_hz must be below the Nyquist frequency "
+        f"60 Hz (half the frame rate of 120 fps), got {float(cutoff):g}"
+    )

@@ -1,0 +1,555 @@
+"""Each pipeline step equals its filter called directly: same parameters, same columns.
+
+For every registered step and a few parameter sets, ``Pipeline.from_inline([...]).run``
+on a 120-frame window of the noisy sample must give, on the selected joints, exactly the
+filter function's output (rotations) and its vector counterpart's (the root's translation
+channels); unselected joints stay bit-identical, and the step really changes the signal
+unless its parameters mean the identity. The auto and despike notes must match what the
+filters report.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import NOISY, corpus_clip, max_degrees, needs_corpus
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.filters import (
+    auto,
+    auto_positions,
+    bilateral,
+    bilateral_positions,
+    fairing,
+    fairing_positions,
+    lee_shin,
+    lee_shin_positions,
+    multires,
+    sse_fairing,
+    sse_fairing_positions,
+)
+from motionclean.filters.auto import estimate_noise, estimate_position_noise
+from motionclean.filters.design import lowpass, savgol
+from motionclean.filters.despike import despike_positions_with_report, despike_with_report
+from motionclean.filters.masks import binomial, custom, gaussian, high_boost, reduction, smoothing
+from motionclean.steps.pipeline import REGISTRY, Pipeline
+
+FRAMES = 120
+#: Smallest change (degrees of rotation; length units) that counts as "the step acted".
+MOVED_DEG = 0.01
+MOVED_LENGTH = 1e-3
+
+
+@pytest.fixture(scope="module")
+def clip():
+    """The first 120 frames of the noisy sample (120 fps; RThumb flips at 48-52, 64-71)."""
+    m = mc.load(NOISY)
+    return m.replace(
+        rotations=m.rotations[:FRAMES].copy(),
+        translations=m.translations[:FRAMES].copy(),
+        source_values=m.source_values[:FRAMES].copy(),
+    )
+
+
+# Joint selections: the patterns as given to the step, and the same rule written out.
+ALL_BUT_LEFT = (
+    "['*','!Left*','!RThumb']",
+    lambda n: not n.startswith("Left") and n != "RThumb",
+)  # the root is in
+RIGHT_ARM_SPINE = ("['Right*','Chest*']", lambda n: n.startswith(("Right", "Chest")))
+HIPS_RIGHT = ("['Hips','Right*']", lambda n: n == "Hips" or n.startswith("Right"))
+
+
+def rate(dt: float) -> float:
+    return 1.0 / dt
+
+
+# (inline step without joints, joints, direct rotation filter, direct position filter or
+# None when positions are off, identity?). Direct calls spell the parameters out.
+CASES = [
+    (
+        "lee-shin",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, binomial(2)),
+        lambda p, dt: lee_shin_positions(p, binomial(2)),
+        False,
+    ),
+    (
+        "lee-shin:mask=binomial,k=3,iterations=4",
+        RIGHT_ARM_SPINE,
+        lambda q, dt: lee_shin(q, binomial(3), 4),
+        lambda p, dt: lee_shin_positions(p, binomial(3), 4),
+        False,
+    ),
+    (
+        "lee-shin:mask=savgol,half_width=5,degree=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, savgol(5, 3)),
+        lambda p, dt: lee_shin_positions(p, savgol(5, 3)),
+        False,
+    ),
+    (
+        "lee-shin:mask=savgol",
+        ALL_BUT_LEFT,  # half_width defaults to 3, degree to 2
+        lambda q, dt: lee_shin(q, savgol(3, 2)),
+        lambda p, dt: lee_shin_positions(p, savgol(3, 2)),
+        False,
+    ),
+    (
+        "lee-shin:mask=lowpass,cutoff_hz=8",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, lowpass(8.0, rate(dt))),
+        lambda p, dt: lee_shin_positions(p, lowpass(8.0, rate(dt))),
+        False,
+    ),
+    (
+        "lee-shin:mask=lowpass,cutoff_hz=15.5,half_width=9,iterations=2",
+        HIPS_RIGHT,
+        lambda q, dt: lee_shin(q, lowpass(15.5, rate(dt), 9), 2),
+        lambda p, dt: lee_shin_positions(p, lowpass(15.5, rate(dt), 9), 2),
+        False,
+    ),
+    (
+        "lee-shin:mask=gaussian,sigma_t=2.5",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, gaussian(2.5)),
+        lambda p, dt: lee_shin_positions(p, gaussian(2.5)),
+        False,
+    ),
+    (
+        "lee-shin:mask=smoothing,lam=0.3,iterations=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, smoothing(0.3), 3),
+        lambda p, dt: lee_shin_positions(p, smoothing(0.3), 3),
+        False,
+    ),
+    (
+        "lee-shin:mask=high-boost,lam=0.4",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, high_boost(0.4)),
+        lambda p, dt: lee_shin_positions(p, high_boost(0.4)),
+        False,
+    ),
+    (
+        "lee-shin:mask=reduction",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, reduction()),
+        lambda p, dt: lee_shin_positions(p, reduction()),
+        False,
+    ),
+    (
+        "lee-shin:mask=custom,coefficients=[0.1,0.2,0.4,0.2,0.1],positions=false",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, custom([0.1, 0.2, 0.4, 0.2, 0.1])),
+        None,
+        False,
+    ),
+    (
+        "lee-shin:mask=binomial,k=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: lee_shin(q, binomial(0)),
+        lambda p, dt: lee_shin_positions(p, binomial(0)),
+        True,
+    ),
+    (
+        "bilateral",
+        ALL_BUT_LEFT,
+        lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf),
+        False,
+    ),
+    (
+        "bilateral:sigma_t=2,sigma_g=0.05,radius=4,iterations=2,sigma_p=0.02",
+        RIGHT_ARM_SPINE,
+        lambda q, dt: bilateral(q, sigma_t=2.0, sigma_g=0.05, radius=4, iterations=2),
+        lambda p, dt: bilateral_positions(p, sigma_t=2.0, sigma_p=0.02, radius=4, iterations=2),
+        False,
+    ),
+    (
+        "bilateral:sigma_t=1.5,sigma_g=0.2,sigma_p=0.05",
+        HIPS_RIGHT,
+        lambda q, dt: bilateral(q, sigma_t=1.5, sigma_g=0.2),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.5, sigma_p=0.05),
+        False,
+    ),
+    (
+        "bilateral:radius=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: bilateral(q, sigma_t=1.0, sigma_g=0.1, radius=0),
+        lambda p, dt: bilateral_positions(p, sigma_t=1.0, sigma_p=math.inf, radius=0),
+        True,
+    ),
+    ("fairing", ALL_BUT_LEFT, lambda q, dt: fairing(q), lambda p, dt: fairing_positions(p), False),
+    (
+        "fairing:order=2,lam_r=0.3,lam_t=0.4,epsilon_r=0.05,epsilon_t=0.2,max_iterations=5",
+        HIPS_RIGHT,
+        lambda q, dt: fairing(q, order=2, lam_r=0.3, epsilon_r=0.05, max_iterations=5),
+        lambda p, dt: fairing_positions(p, order=2, lam_t=0.4, epsilon_t=0.2, max_iterations=5),
+        False,
+    ),
+    (
+        "fairing:tol=0.001",
+        ALL_BUT_LEFT,
+        lambda q, dt: fairing(q, tol=1e-3),
+        lambda p, dt: fairing_positions(p, tol=1e-3),
+        False,
+    ),
+    (
+        "fairing:epsilon_r=0,epsilon_t=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: fairing(q, epsilon_r=0.0),
+        lambda p, dt: fairing_positions(p, epsilon_t=0.0),
+        True,
+    ),
+    (
+        "sse-fairing",
+        ALL_BUT_LEFT,
+        lambda q, dt: sse_fairing(q),
+        lambda p, dt: sse_fairing_positions(p),
+        False,
+    ),
+    (
+        "sse-fairing:beta=3,alpha=0.5,max_iterations=60,epsilon=0.01",
+        HIPS_RIGHT,
+        lambda q, dt: sse_fairing(q, beta=3.0, epsilon=0.01, max_iterations=60),
+        lambda p, dt: sse_fairing_positions(p, alpha=0.5, epsilon=0.01, max_iterations=60),
+        False,
+    ),
+    (
+        "sse-fairing:beta=0,alpha=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: sse_fairing(q, beta=0.0),
+        lambda p, dt: sse_fairing_positions(p, alpha=0.0),
+        True,
+    ),
+    (
+        "multires",
+        ALL_BUT_LEFT,  # levels 4, the finest band removed
+        lambda q, dt: multires.edit(q, 4, [0.0]),
+        lambda p, dt: multires.edit_positions(p, 4, [0.0]),
+        False,
+    ),
+    (
+        "multires:levels=3,gains=[0.5,2]",
+        HIPS_RIGHT,
+        lambda q, dt: multires.edit(q, 3, [0.5, 2.0]),
+        lambda p, dt: multires.edit_positions(p, 3, [0.5, 2.0]),
+        False,
+    ),
+    # level n + alpha = 2.5 of 4: the two coarsest details kept, the next halved, the
+    # finest dropped (003 Sec. 5.1): gains, finest first, [0, 0.5, 1, 1].
+    (
+        "multires:levels=4,level=2.5",
+        ALL_BUT_LEFT,
+        lambda q, dt: multires.edit(q, 4, [0.0, 0.5, 1.0, 1.0]),
+        lambda p, dt: multires.edit_positions(p, 4, [0.0, 0.5, 1.0, 1.0]),
+        False,
+    ),
+    (
+        "multires:levels=3,level=3",
+        ALL_BUT_LEFT,
+        lambda q, dt: multires.edit(q, 3, [1.0, 1.0, 1.0]),
+        lambda p, dt: multires.edit_positions(p, 3, [1.0, 1.0, 1.0]),
+        True,
+    ),
+    (
+        "auto",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt).values,
+        lambda p, dt: auto_positions(p, dt).values,
+        False,
+    ),
+    (
+        "auto:strength=2.5,mask=binomial,max_seconds=0.05",
+        HIPS_RIGHT,
+        lambda q, dt: auto(q, dt, strength=2.5, max_seconds=0.05, families=("binomial",)).values,
+        lambda p, dt: (
+            auto_positions(p, dt, strength=2.5, max_seconds=0.05, families=("binomial",)).values
+        ),
+        False,
+    ),
+    (
+        "auto:noise_deg=0.8,position_noise=0.05,mask=savgol",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt, noise=0.8, families=("savgol",)).values,
+        lambda p, dt: auto_positions(p, dt, noise=0.05, families=("savgol",)).values,
+        False,
+    ),
+    (
+        "auto:strength=0",
+        ALL_BUT_LEFT,
+        lambda q, dt: auto(q, dt, strength=0.0).values,
+        lambda p, dt: auto_positions(p, dt, strength=0.0).values,
+        True,
+    ),
+]
+
+
+def test_every_registered_step_has_cases():
+    # tested on their own: despike, footlock (whole legs in world space,
+    # tests/core/test_contacts.py), resample (it changes the frame count,
+    # tests/steps/test_resample.py) and fill-gaps (tests/filters/test_gaps.py)
+    alone = {"despike", "footlock", "resample", "fill-gaps"}
+    assert {text.partition(":")[0] for text, *_ in CASES} | alone == set(REGISTRY)
+
+
+def selection(names: list[str], rule) -> np.ndarray:
+    return np.array([bool(rule(n)) for n in names])
+
+
+def max_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return max_degrees(a, b) if a.size else 0.0
+
+
+@pytest.mark.parametrize(
+    ("text", "joints", "direct", "direct_positions", "identity"),
+    CASES,
+    ids=[case[0] for case in CASES],
+)
+def test_step_equals_the_filter_called_directly(
+    clip, text, joints, direct, direct_positions, identity
+):
+    patterns, rule = joints
+    separator = "," if ":" in text else ":"
+    step = f"{text}{separator}joints={patterns}"
+    cleaned, logs = Pipeline.from_inline([step]).run(clip)
+    chosen = selection(clip.names, rule)
+    assert 0 < chosen.sum() < len(clip.names)
+    assert logs[0].rotation_joints == [n for n, c in zip(clip.names, chosen, strict=True) if c]
+
+    # selected rotations: exactly the direct call on the same columns
+    expected = direct(clip.rotations[:, chosen], clip.frame_time)
+    got = cleaned.rotations[:, chosen]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert np.allclose(np.linalg.norm(got, axis=-1), 1.0, atol=1e-12)
+    # unselected joints: untouched, bit for bit
+    np.testing.assert_array_equal(cleaned.rotations[:, ~chosen], clip.rotations[:, ~chosen])
+
+    # translations: only the root has position channels
+    root = clip.layout.has_position
+    assert root.tolist() == [True] + [False] * (len(clip.names) - 1)
+    filtered = root & chosen if direct_positions is not None else np.zeros_like(root)
+    np.testing.assert_array_equal(
+        cleaned.translations[:, ~filtered], clip.translations[:, ~filtered]
+    )
+    if filtered.any():
+        expected_p = direct_positions(clip.translations[:, filtered], clip.frame_time)
+        np.testing.assert_allclose(cleaned.translations[:, filtered], expected_p, rtol=0, atol=1e-9)
+        assert logs[0].translation_joints == ["Hips"]
+    else:
+        assert logs[0].translation_joints == []
+
+    moved = max_deg(clip.rotations[:, chosen], got)
+    moved_p = float(np.abs(cleaned.translations - clip.translations).max())
+    if identity:
+        assert moved < 1e-6 and moved_p < 1e-9
+    else:
+        assert moved > MOVED_DEG
+        assert moved_p > MOVED_LENGTH or not filtered.any()
+
+
+def test_positions_false_leaves_translations_and_filters_rotations(clip):
+    cleaned, logs = Pipeline.from_inline(["multires:levels=3,positions=false"]).run(clip)
+    np.testing.assert_array_equal(cleaned.translations, clip.translations)
+    assert logs[0].translation_joints == []
+    np.testing.assert_allclose(
+        cleaned.rotations, multires.edit(clip.rotations, 3, [0.0]), rtol=0, atol=1e-12
+    )
+
+
+def test_steps_run_in_order_each_on_the_previous_output(clip):
+    steps = ["lee-shin:k=1,joints=['*','!RThumb']", "bilateral:sigma_t=2,sigma_g=0.05"]
+    cleaned, _ = Pipeline.from_inline(steps).run(clip)
+    assert clip.names[-1] == "RThumb"
+    first = lee_shin(clip.rotations[:, :-1], binomial(1))
+    expected = bilateral(
+        np.concatenate([first, clip.rotations[:, -1:]], axis=1), sigma_t=2.0, sigma_g=0.05
+    )
+    np.testing.assert_allclose(cleaned.rotations, expected, rtol=0, atol=1e-12)
+    reversed_, _ = Pipeline.from_inline(steps[::-1]).run(clip)
+    assert max_deg(reversed_.rotations, cleaned.rotations) > MOVED_DEG
+
+
+# ----------------------------------------------------------------------------- despike
+
+
+@pytest.fixture(scope="module")
+def defective(clip):
+    """The window with a planted rotation spike (RightElbow, frames 90-91) and a root jump
+    (frames 30-31); RThumb keeps its real half-turn flips."""
+    rotations = clip.rotations.copy()
+    elbow = clip.names.index("RightElbow")
+    kick = quat.from_axis_angle(np.array([0.0, 0.6, 0.8]), math.radians(50.0))
+    rotations[90:92, elbow] = quat.multiply(rotations[90:92, elbow], kick)
+    translations = clip.translations.copy()
+    translations[30:32, 0] += [15.0, -4.0, 2.0]
+    return clip.replace(rotations=rotations, translations=translations)
+
+
+def frames_of(runs) -> set[int]:
+    return {f for start, stop in runs for f in range(start, stop)}
+
+
+@pytest.mark.parametrize(
+    ("params", "kwargs"),
+    [
+        ("", {}),
+        (
+            "threshold=6,method=slerp,max_spike_s=0.05,",
+            {"threshold": 6.0, "method": "slerp", "max_spike_s": 0.05},
+        ),
+        ("unflip=false,flip_deg=170,", {"unflip": False, "flip_deg": 170.0}),
+    ],
+)
+def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(
+    defective, params, kwargs
+):
+    text = f"despike:{params}joints=['R*','Hips']"
+    cleaned, logs = Pipeline.from_inline([text]).run(defective)
+    chosen = selection(defective.names, lambda n: n.startswith("R") or n == "Hips")
+    expected, report = despike_with_report(
+        defective.rotations[:, chosen], defective.frame_time, **kwargs
+    )
+    np.testing.assert_array_equal(cleaned.rotations[:, chosen], expected)
+    np.testing.assert_array_equal(cleaned.rotations[:, ~chosen], defective.rotations[:, ~chosen])
+    position_kwargs = {k: v for k, v in kwargs.items() if k not in ("flip_deg", "unflip")}
+    position_kwargs["method"] = "linear" if kwargs.get("method") == "slerp" else "cubic"
+    expected_p, report_p = despike_positions_with_report(
+        defective.translations[:, :1], defective.frame_time, **position_kwargs
+    )
+    np.testing.assert_array_equal(cleaned.translations[:, :1], expected_p)
+
+    notes = logs[0].notes
+    names = [n for n, c in zip(defective.names, chosen, strict=True) if c]
+    for column, name in enumerate(names):
+        changed = np.flatnonzero(
+            np.any(
+                cleaned.rotations[:, defective.names.index(name)]
+                != defective.rotations[:, defective.names.index(name)],
+                axis=-1,
+            )
+        )
+        if name not in notes or "despike" not in notes[name]:
+            assert changed.size == 0, name
+            continue
+        note = notes[name]["despike"]
+        assert note == report.summary(column)
+        listed = frames_of(note["unflipped"]) | frames_of(note["interpolated"])
+        assert note["frames_repaired"] == len(listed)
+        assert set(changed.tolist()) == listed, name
+    # the planted and the real defects are all named
+    assert frames_of(notes["RightElbow"]["despike"]["interpolated"]) >= {90, 91}
+    thumb = notes["RThumb"]["despike"]
+    if kwargs.get("unflip", True):
+        assert thumb["unflipped"] == [[48, 52], [64, 71]]
+    else:
+        assert thumb["unflipped"] == [] and frames_of(thumb["interpolated"]) >= {48, 64}
+    position = notes["Hips"]["position_despike"]
+    assert position == report_p.summary(0)
+    assert frames_of(position["interpolated"]) == {30, 31}
+    assert not any("despike" in notes.get(n, {}) for n in defective.names if n.startswith("L"))
+
+
+# ----------------------------------------------------------------------------- auto notes
+
+
+def note_mask(chosen: dict, frame_time: float) -> np.ndarray | None:
+    """The Lee-Shin mask an auto note names (None for ``mask=none``)."""
+    if chosen["mask"] == "binomial":
+        return binomial(chosen["k"])
+    if chosen["mask"] == "savgol":
+        return savgol(chosen["half_width"], chosen["degree"])
+    if chosen["mask"] == "lowpass":
+        return lowpass(chosen["cutoff_hz"], 1.0 / frame_time)
+    assert chosen == {"mask": "none"}
+    return None
+
+
+def test_auto_notes_report_the_estimated_noise_and_the_choice(clip):
+    cleaned, logs = Pipeline.from_inline(["auto:joints=['*','!RThumb']"]).run(clip)
+    notes = logs[0].notes
+    chosen = selection(clip.names, lambda n: n != "RThumb")
+    noise = estimate_noise(clip.rotations[:, chosen], clip.frame_time)
+    result = auto(clip.rotations[:, chosen], clip.frame_time)
+    names = [n for n, c in zip(clip.names, chosen, strict=True) if c]
+    assert set(notes) == set(names)
+    for column, name in enumerate(names):
+        note = notes[name]["auto"]
+        assert note["unit"] == "deg"
+        assert note["noise"] == pytest.approx(float(noise[column]), rel=1e-12)
+        assert note["noise"] > 0
+        assert note["filter"] == result.choices[column].params()
+        assert note["expected_error"] == pytest.approx(
+            result.choices[column].expected_error, rel=1e-12
+        )
+        assert note["rho"] == result.choices[column].rho and -1 < note["rho"] < 1
+        assert 0 < note["share"] <= 1 and isinstance(note["loud"], list)
+        # the step's output is the filter's
+        j = clip.names.index(name)
+        np.testing.assert_allclose(
+            cleaned.rotations[:, j], result.values[:, column], rtol=0, atol=1e-12
+        )
+    assert {notes[n]["auto"]["filter"]["mask"] for n in names} - {"none"}
+    root = notes["Hips"]
+    assert root["position_auto"]["unit"] == "length"
+    assert root["position_auto"]["noise"] == pytest.approx(
+        float(estimate_position_noise(clip.translations[:, :1], clip.frame_time)[0]), rel=1e-12
+    )
+
+
+def test_auto_notes_carry_a_given_noise_level(clip):
+    _, logs = Pipeline.from_inline(["auto:noise_deg=1.25,position_noise=0.5"]).run(clip)
+    notes = logs[0].notes
+    assert {notes[n]["auto"]["noise"] for n in clip.names} == {1.25}
+    assert notes["Hips"]["position_auto"]["noise"] == 0.5
+
+
+@pytest.mark.parametrize("max_seconds", [1.0, 10.0])
+def test_every_auto_choice_is_a_valid_lee_shin_step(clip, max_seconds):
+    # the report's "filter chosen" can be pasted back as a lee-shin step
+    _, logs = Pipeline.from_inline(
+        [f"auto:joints=['*','!RThumb'],positions=false,max_seconds={max_seconds}"]
+    ).run(clip)
+    for name, note in logs[0].notes.items():
+        chosen = note["auto"]["filter"]
+        if chosen["mask"] != "none":
+            params = ",".join(f"{k}={v}" for k, v in chosen.items())
+            Pipeline.from_inline([f"lee-shin:{params},joints=['{name}']"])
+
+
+@pytest.mark.parametrize("cutoff", [0.001, 1e-12, 1e-300])
+def test_a_lowpass_cutoff_near_zero_makes_a_mask_no_longer_than_the_clip(clip, cutoff):
+    """Two periods of a cutoff near 0 Hz would be a mask of 2.4e14 taps at 1e-12 Hz: the
+    default half-width stops at the clip's frame count (time and memory follow the clip)."""
+    capped, _ = Pipeline.from_inline([f"lee-shin:mask=lowpass,cutoff_hz={cutoff}"]).run(clip)
+    explicit = f"lee-shin:mask=lowpass,cutoff_hz={cutoff},half_width={clip.n_frames}"
+    expected, _ = Pipeline.from_inline([explicit]).run(clip)
+    np.testing.assert_array_equal(capped.rotations, expected.rotations)
+    assert max_degrees(capped.rotations, clip.rotations) > 1.0  # it does smooth
+
+
+@needs_corpus
+def test_auto_notes_say_where_noise_was_low_passed():
+    """Noise low-passed at 6 Hz on a whole capture: every joint's note gives the edge the
+    model found, its terminal line says so; the clip as captured has no such note."""
+    from test_noise import low_passed_noise
+
+    from motionclean.steps.auto import STEP as AUTO
+
+    captured = mc.load(corpus_clip("131_02.bvh"))
+    noise = low_passed_noise(captured.n_frames, captured.n_joints, 6.0, 3.0, seed=8)
+    noisy = captured.replace(rotations=quat.multiply(captured.rotations, quat.exp(noise)))
+    for motion, found in ((noisy, True), (captured, False)):
+        _, logs = Pipeline.from_inline(["auto:positions=false"]).run(motion)
+        notes = [note["auto"] for note in logs[0].notes.values()]
+        assert len(notes) == captured.n_joints
+        if not found:
+            assert not any("band_hz" in note for note in notes)
+            continue
+        assert all(abs(note["band_hz"] - 6.0) <= 0.5 for note in notes)
+        assert AUTO.format_note is not None
+        line = AUTO.format_note(notes[0], False)
+        assert f"low-passed below {notes[0]['band_hz']:g} Hz" in line

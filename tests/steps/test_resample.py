@@ -1,0 +1,293 @@
+"""Resampling to a new frame rate: the interpolant, the step, the command and the report."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import (
+    NOISY,
+    SAMPLE,
+    corpus_clip,
+    cut_bvh,
+    degrees_between,
+    max_degrees,
+    run_cli,
+    with_t_pose,
+)
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.core.errors import MotionError
+from motionclean.filters.interpolate import catmull_rom_tangents, end_tangent, hermite_rotations
+from motionclean.filters.resample import (
+    resample_positions,
+    resample_rotations,
+    resampled_length,
+    sample_positions,
+)
+from motionclean.steps.pipeline import Pipeline
+from motionclean.steps.resampling import on_input_frames, resample_motion
+
+RNG = np.random.default_rng(21)
+
+
+def constant_velocity(frames: int, joints: int = 3, speed: float = 0.06):
+    """``q0 exp(i w)`` per joint: constant angular velocity (half-angle ``w`` per frame)."""
+    w = RNG.normal(size=(1, joints, 3))
+    w *= speed / np.linalg.norm(w, axis=-1, keepdims=True)
+    q0 = quat.normalize(RNG.normal(size=(joints, 4)))
+    return q0, w, quat.multiply(q0[None], quat.exp(np.arange(frames)[:, None, None] * w))
+
+
+@settings(max_examples=30, deadline=None)
+@given(ratio=st.floats(0.13, 7.0), frames=st.integers(12, 80))
+def test_constant_angular_velocity_stays_constant_at_any_ratio(ratio, frames):
+    """The interpolant is exact on constant angular velocity, and so is the anti-aliasing
+    low-pass (its mask sums to one and is symmetric), up or down."""
+    q0, w, q = constant_velocity(frames)
+    out = resample_rotations(q, ratio)
+    index, u = sample_positions(out.shape[0], ratio)
+    times = index + u
+    truth = quat.multiply(q0[None], quat.exp(times[:, None, None] * w))
+    assert max_degrees(out, truth) < 1e-9
+    p = np.cumsum(np.broadcast_to(w, q.shape[:-1] + (3,)), axis=0)
+    np.testing.assert_allclose(
+        resample_positions(p, ratio), w * (times[:, None, None] + 1), atol=1e-9
+    )
+
+
+def test_angular_velocity_is_continuous_at_the_samples():
+    """C1: the angular velocity at the end of one piece equals the one at the start of the
+    next (finite differences), on an irregular signal where slerp would jump."""
+    q = quat.make_continuous(quat.normalize(RNG.normal(size=(8, 4)) * 0.4 + [1, 0, 0, 0]))
+    steps = np.concatenate([quat.displacements(q), quat.displacements(q)[-1:]])
+    tangents = catmull_rom_tangents(steps)
+
+    def piece(i: int, u: float) -> np.ndarray:
+        m1 = end_tangent(steps[i], tangents[i + 1])
+        return hermite_rotations(q[i], steps[i], tangents[i], m1, np.array(u))
+
+    eps = 1e-6
+    for i in range(1, 6):
+        assert max_degrees(piece(i, 1.0), q[i + 1]) < 1e-10  # reaches the next sample
+        left = quat.log(quat.multiply(quat.conjugate(piece(i, 1.0 - eps)), piece(i, 1.0))) / eps
+        right = quat.log(quat.multiply(quat.conjugate(piece(i + 1, 0.0)), piece(i + 1, eps))) / eps
+        np.testing.assert_allclose(left, right, atol=1e-5)
+        slerp_left, slerp_right = steps[i], steps[i + 1]
+        assert np.abs(slerp_left - slerp_right).max() > 1e-2  # the test has teeth
+
+
+@settings(max_examples=20, deadline=None)
+@given(ratio=st.sampled_from([0.25, 0.4, 0.5, 0.8, 1.25, 2.0, 2.5, 4.0]), seed=st.integers(0, 99))
+def test_resampling_is_coordinate_invariant(ratio, seed):
+    """A fixed rotation on either side of every sample commutes with resampling (003
+    Sec. 4); rotated positions with rotation-equivariant positions."""
+    rng = np.random.default_rng(seed)
+    q = quat.make_continuous(
+        quat.normalize(rng.normal(size=(40, 2, 4)) * 0.15 + [1, 0, 0, 0]), axis=0
+    )
+    a, b = quat.normalize(rng.normal(size=(2, 4)))
+    out = resample_rotations(q, ratio)
+    assert max_degrees(resample_rotations(quat.multiply(a, q), ratio), quat.multiply(a, out)) < 1e-9
+    assert max_degrees(resample_rotations(quat.multiply(q, b), ratio), quat.multiply(out, b)) < 1e-9
+    p = rng.normal(size=(40, 2, 3))
+    np.testing.assert_allclose(
+        resample_positions(quat.rotate(a, p), ratio),
+        quat.rotate(a, resample_positions(p, ratio)),
+        atol=1e-12,
+    )
+
+
+def test_new_grid_lengths_and_positions():
+    assert resampled_length(300, 4.0) == 75  # 120 -> 30 fps
+    assert resampled_length(300, 0.5) == 600
+    assert resampled_length(5, 2.0) == 3  # 2.5 frames of duration: rounded half up
+    index, u = sample_positions(6, 1.2)  # 120 -> 100 fps: 6/5, hits every fifth frame
+    np.testing.assert_array_equal(index, [0, 1, 2, 3, 4, 6])
+    np.testing.assert_allclose(u, [0, 0.2, 0.4, 0.6, 0.8, 0])
+    # A file's rounded Frame Time (0.008333 s) resampled to 60 fps hits every other frame.
+    index, u = sample_positions(4, (1 / 60) / 0.008333)
+    np.testing.assert_array_equal(index, [0, 2, 4, 6])
+    assert not u.any()
+
+
+def test_same_rate_is_the_identity_byte_for_byte(tmp_path, capsys):
+    for fps in ("120", "120.0048", "119.95"):  # 0.008333 s per frame is 120 fps
+        out = tmp_path / f"same_{fps}.bvh"
+        code, _, err = run_cli(capsys, "resample", SAMPLE, out, "--fps", fps)
+        assert code == 0, err
+        assert out.read_bytes() == SAMPLE.read_bytes()
+
+
+def test_two_times_up_hits_every_sample_and_down_again_returns_the_clip(tmp_path, capsys):
+    clip = mc.load(NOISY)
+    up = resample_motion(clip, clip.frame_time / 2)
+    assert up.n_frames == 2 * clip.n_frames
+    assert max_degrees(up.rotations[::2], clip.rotations) < 1e-12
+    np.testing.assert_array_equal(up.translations[::2], clip.translations)
+    down = resample_motion(up, clip.frame_time)
+    assert down.n_frames == clip.n_frames
+    # Up 2.5x and down again low-passes at 0.7 x 60 Hz: a smooth joint comes back within a
+    # small angle (the sample's RThumb flips by ~180 degrees: no smooth joint, left out).
+    smooth = mc.load(SAMPLE)
+    back = resample_motion(resample_motion(smooth, smooth.frame_time / 2.5), smooth.frame_time)
+    assert back.n_frames == smooth.n_frames
+    kept = [j for j, name in enumerate(smooth.names) if name != "RThumb"]
+    angles = degrees_between(back.rotations[:, kept], smooth.rotations[:, kept])
+    assert np.sqrt(np.mean(angles**2)) < 0.02 and angles.max() < 0.2
+
+
+def test_frame_count_time_and_duration_follow(tmp_path, capsys):
+    for fps, suffix in ((30.0, ".bvh"), (100.0, ".bvh"), (24.0, ".csv"), (73.5, ".csv")):
+        out = tmp_path / f"out{suffix}"
+        code, stdout, err = run_cli(capsys, "resample", SAMPLE, out, "--fps", str(fps))
+        assert code == 0, err
+        clip, new = mc.load(SAMPLE), mc.load(out)
+        assert abs(new.frame_rate - fps) < 1e-6 * fps
+        assert abs(new.duration - clip.duration) <= 0.5 * new.frame_time + 1e-9
+        assert f"{new.n_frames} frames at {fps:g} fps" in stdout
+        assert max_degrees(new.rotations[0], clip.rotations[0]) < 1.0  # the first frame kept
+        if suffix == ".bvh":  # the hierarchy text stays byte for byte
+            head = SAMPLE.read_bytes().split(b"MOTION")[0]
+            assert out.read_bytes().split(b"MOTION")[0] == head
+        else:  # CSV time column regenerated on the new grid
+            times = np.loadtxt(out, delimiter=",", skiprows=1, usecols=1)
+            np.testing.assert_allclose(np.diff(times), 1 / fps, rtol=1e-9)
+
+
+def test_steps_after_resample_see_the_new_rate_and_frames():
+    clip = mc.load(NOISY)
+    pipeline = Pipeline.from_inline(["resample:fps=60", "lee-shin:frames=[10,40],blend=0"])
+    out, logs = pipeline.run(clip)
+    assert out.n_frames == 150 and abs(out.frame_rate - 60.0) < 1e-9
+    assert logs[1].touched == (10, 40)
+    alone = resample_motion(clip, 1 / 60)
+    assert max_degrees(out.rotations[41:], alone.rotations[41:]) < 1e-9
+    assert max_degrees(out.rotations[10:41], alone.rotations[10:41]) > 0.0
+    with pytest.raises(MotionError, match=r"ends at frame 200, but the clip has 150 frames"):
+        Pipeline.from_inline(["resample:fps=60", "lee-shin:frames=[10,200]"]).run(clip)
+
+
+def test_a_t_pose_is_kept_one_for_one_and_not_blended_in(tmp_path, capsys):
+    source = with_t_pose(SAMPLE, tmp_path / "tpose.bvh")
+    out = tmp_path / "out.bvh"
+    code, _, err = run_cli(capsys, "resample", source, out, "--fps", "30")
+    assert code == 0, err
+    rows_in = source.read_text().split("Frame Time:")[1].splitlines()[1:]
+    rows_out = out.read_text().split("Frame Time:")[1].splitlines()[1:]
+    tpose_in, tpose_out = (np.array(row.split(), dtype=float) for row in (rows_in[0], rows_out[0]))
+    np.testing.assert_array_equal(tpose_out, tpose_in)  # the T-pose frame, value for value
+    clip = mc.load(SAMPLE)
+    alone = resample_motion(clip, 1 / 30)
+    assert len(rows_out) == 1 + alone.n_frames
+    assert max_degrees(mc.load(out).rotations[1:], alone.rotations) < 1e-4
+
+
+def test_a_flip_repaired_by_despike_is_not_smeared_by_resampling():
+    """The noisy sample's RThumb flips by ~180 degrees for a few frames: resampled as it is
+    the flip is smeared over its neighbours; despike first and the result stays on the
+    repaired curve."""
+    clip = mc.load(NOISY)
+    thumb = clip.names.index("RThumb")
+    repaired, _ = Pipeline.from_inline(["despike"]).run(clip)
+    both, _ = Pipeline.from_inline(["despike", "resample:fps=40"]).run(clip)
+    raw, _ = Pipeline.from_inline(["resample:fps=40"]).run(clip)
+    on_grid = on_input_frames(clip, both)
+    smeared = on_input_frames(clip, raw)
+    step = degrees_between(repaired.rotations[:, thumb], on_grid.rotations[:, thumb])
+    assert step.max() < 10.0
+    assert degrees_between(repaired.rotations[:, thumb], smeared.rotations[:, thumb]).max() > 40
+
+
+def test_beats_per_channel_euler_cubic_where_channels_wrap():
+    """4x subsampled and restored: on a clip turned to face backwards (its root's Z and X
+    channels wrap at +-180 degrees as a DCC tool writes them) the per-channel Euler cubic
+    spins the root through wrong rotations; ours does not. On the clip itself it is not
+    worse (bench/resample.py has the full table)."""
+    import sys
+
+    sys.path.insert(0, str(SAMPLE.parents[1] / "bench"))
+    from resample import restore_errors, turned  # the bench's own peer and measure
+
+    clip = mc.load(corpus_clip("131_01.bvh"))
+    ours, euler = restore_errors(clip)
+    assert ours <= 1.05 * euler
+    back = turned(clip, quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.pi))
+    ours, euler = restore_errors(back, np.array([0]))
+    assert ours < 0.1 * euler
+
+
+def test_missing_samples_stay_missing_after_resampling():
+    clip = mc.load(SAMPLE)
+    missing = np.zeros((clip.n_frames, clip.n_joints), dtype=bool)
+    missing[100:110, 4] = True
+    out = resample_motion(clip.replace(missing=missing), clip.frame_time * 2)
+    assert out.missing is not None
+    np.testing.assert_array_equal(np.flatnonzero(out.missing[:, 4]), np.arange(50, 55))
+    assert out.missing.sum() == 5
+
+
+@pytest.mark.parametrize(
+    ("args", "message", "code"),
+    [
+        (["--fps", "0"], "fps must be a number >= ", 2),
+        (["--fps", "nan"], "fps must be a number", 2),
+        (["--fps", "-30"], "fps must be a number", 2),
+        (["--fps", "inf"], "fps must be a number", 2),
+        ([], "give the new rate as either fps or frame_time", 2),
+        (["--fps", "30", "--frame-time", "0.1"], "either fps or frame_time", 2),
+        (["--frame-time", "2"], "leaves 1 frame; at least two are needed", 1),
+    ],
+)
+def test_bad_rates_get_one_line(tmp_path, capsys, args, message, code):
+    out = tmp_path / "out.bvh"
+    got, stdout, err = run_cli(capsys, "resample", SAMPLE, out, *args)
+    assert got == code and message in err and err.count("\n") == 1 and not stdout
+    assert not out.exists()
+
+
+def test_a_length_beyond_memory_is_refused_saying_how_many_frames(tmp_path, capsys):
+    """1,000,000 fps makes 2.5 million frames of a 2.5 s clip: more than fit in half of any
+    machine's memory this suite runs on? Not necessarily, so the limit is asked for."""
+    from motionclean.steps.resampling import BYTES_PER_VALUE, _memory_bytes
+
+    clip = mc.load(SAMPLE)
+    per_frame = (clip.n_joints * 7 + clip.layout.n_channels) * BYTES_PER_VALUE
+    fits = _memory_bytes() // 2 // per_frame
+    fps = (fits + 10) / clip.duration
+    if fps > 1e6:
+        pytest.skip(f"this machine fits {fits:,} frames, more than 1e6 fps gives")
+    out = tmp_path / "out.bvh"
+    code, _, err = run_cli(capsys, "resample", SAMPLE, out, "--fps", repr(fps))
+    assert code == 1 and f"at most {fits:,} fit in memory" in err and not out.exists()
+
+
+def test_clean_report_compares_on_the_input_frames_and_says_what_was_written(tmp_path, capsys):
+    out, report = tmp_path / "out.bvh", tmp_path / "r.json"
+    code, stdout, err = run_cli(
+        capsys, "clean", NOISY, "-o", out, "-f", "resample:fps=30", "--report", report
+    )
+    assert code == 0, err
+    data = json.loads(report.read_text())
+    assert data["frames"] == 300 and data["output"] == {"frames": 75, "frame_time": 1 / 30}
+    assert "written as 75 frames at 30 fps" in stdout
+    assert data["joints"]["Hips"]["resample"]["frames"] == [300, 75]
+    rms = data["joints"]["Head"]["deviation_deg"]["rms"]
+    assert 0.0 < rms < 5.0  # compared frame by frame on the input's grid
+
+
+def test_resample_takes_no_range_joints_or_positions():
+    for text in ("resample:fps=30,frames=[0,10]", "resample:fps=30,joints=Hips"):
+        with pytest.raises(MotionError, match="changes the whole clip"):
+            Pipeline.from_inline([text])
+
+
+def test_a_single_frame_clip_cannot_be_resampled(tmp_path, capsys):
+    one = tmp_path / "one.bvh"
+    cut_bvh(SAMPLE, one, 1)
+    code, _, err = run_cli(capsys, "resample", one, tmp_path / "out.bvh", "--fps", "240")
+    assert code == 1 and "a clip of 1 frame cannot be resampled" in err
