@@ -27,6 +27,7 @@ ORDER = [
     "world",
     "batch",
     "quality",
+    "realnoise",
 ]
 
 
