@@ -58,6 +58,7 @@ from .noise import NoiseModel, fast_length
 
 __all__ = [
     "FAMILIES",
+    "SOURCES",
     "AutoChoice",
     "AutoResult",
     "auto",
@@ -65,6 +66,7 @@ __all__ = [
     "candidates",
     "estimate_noise",
     "estimate_position_noise",
+    "noise_source",
 ]
 
 #: Ratio between successive candidate half-widths.
@@ -78,6 +80,12 @@ TOP_CUTOFF = 0.45
 LOUD_RATIO = 2.0
 #: ... and this many degrees (or length units for positions).
 LOUD_FLOOR = 0.1
+#: Capture systems ``auto`` knows (``source``): ``"video"`` is the same model as
+#: ``"markerless"``; ``"auto"`` picks by the frame rate.
+SOURCES = ("auto", "optical", "markerless", "video")
+#: Highest frame rate (fps, within 1 %) taken as a video capture by ``source="auto"``:
+#: video and markerless systems record at 24-60 fps, optical systems at 100-360.
+VIDEO_FPS = 60.0
 #: Values (segments x frames x 3) filtered per block when the choices are applied ...
 APPLY_BLOCK = 1 << 20
 #: ... for this many windows at a time, whose frames are then moved.
@@ -96,7 +104,12 @@ class AutoChoice:
     length units for positions); ``rho`` the noise's AR(1) coefficient; ``loud`` the
     stretches ``(start_s, end_s)`` in seconds where the noise is well above the column's
     quiet level; ``band_hz`` the edge (Hz) of the band-limited noise found in the clip
-    (:func:`motionclean.filters.noise.fit_band_limited`; None: none found).
+    (:func:`motionclean.filters.noise.fit_band_limited`; None: none found). ``model`` is
+    the noise model used (``"optical"`` or ``"markerless"``, see :func:`noise_source`);
+    with the markerless model, ``wander`` is the part of the noise (same units) that
+    reaches down into the motion's band (:func:`motionclean.filters.noise.fit_coloured`)
+    and ``wander_edge_hz`` the edge above which it is gone (None: none below 0.45 times
+    the frame rate).
     """
 
     mask: str
@@ -106,6 +119,9 @@ class AutoChoice:
     rho: float = 0.0
     loud: tuple[tuple[float, float], ...] = ()
     band_hz: float | None = None
+    model: str = "optical"
+    wander: float = 0.0
+    wander_edge_hz: float | None = None
 
     def params(self) -> dict:
         """The choice as Lee-Shin step parameters, e.g. ``{"mask": "binomial", "k": 3}``."""
@@ -137,6 +153,16 @@ MIN_FRAMES = 4
 
 def _check_time(frame_time: float) -> float:
     return checks.frame_time(frame_time)
+
+
+def noise_source(source: str, frame_time: float) -> str:
+    """The noise model ``auto`` uses for a capture ``source`` (:data:`SOURCES`) at
+    ``frame_time`` seconds per frame: ``"markerless"`` or ``"optical"``."""
+    if source not in SOURCES:
+        raise ValueError(f"source must be one of {', '.join(SOURCES)}, got {source!r}")
+    if source == "auto":
+        return "markerless" if frame_time * VIDEO_FPS * 1.01 >= 1.0 else "optical"
+    return "markerless" if source == "video" else source
 
 
 def _fit(disp: Rows, frame_time: float) -> NoiseModel | None:
@@ -219,11 +245,13 @@ def _risks(
     masks: list[np.ndarray],
     scale: float,
     band_limited: noise_model.BandLimited | None = None,
+    coloured: noise_model.Coloured | None = None,
 ) -> np.ndarray:
     """(M + 1, W, C) estimated mean squared error per frame of each mask in each window
     (row 0: the identity), for noise of spectrum ``N(f)`` (the model, times ``scale^2``;
-    plus, when given, the band-limited noise of :func:`noise_model.fit_band_limited`, the
-    same over the clip's windows).
+    plus, when given, the band-limited noise of :func:`noise_model.fit_band_limited` and
+    the coloured noise of :func:`noise_model.fit_coloured`, the same over the clip's
+    windows).
 
     The filter moves frame ``i`` by ``s_i = sum_m b_m w_{i+m}`` (000 Eq. 19-20), whose
     spectrum is ``|1 - A(f)|^2 / (2 sin pi f)^2`` times the displacements' (``P``); the
@@ -250,6 +278,10 @@ def _risks(
         extra = 3.0 * band_limited.sigma2 * scale**2  # (C,)
         out[0] += extra * (weights @ band_limited.shape)
         out[1:] += (cross @ band_limited.shape)[:, None, None] * extra
+    if coloured is not None:
+        extra = coloured.level * scale**2  # (C,)
+        out[0] += extra * (weights @ coloured.shape)
+        out[1:] += (cross @ coloured.shape)[:, None, None] * extra
     return out
 
 
@@ -356,14 +388,26 @@ def _loud(level: np.ndarray, model: NoiseModel, frame_time: float) -> list[tuple
 
 
 def _select(
-    x, disp, frame_time, strength, given, cands, to_level, to_rms, move, overwrite, rotations
+    x,
+    disp,
+    frame_time,
+    strength,
+    given,
+    cands,
+    to_level,
+    to_rms,
+    move,
+    overwrite,
+    rotations,
+    source="optical",
 ):
     """Fit the noise model to ``disp`` (F-1, C, 3), choose per window and column the
     candidate of least risk, apply the blend with ``move(x, s, out)`` block by block (into
     ``x`` itself when ``overwrite``). Returns ``(values, level (C,), choices)``; ``given``
     (C,) replaces the model by white noise of that per-component variance. For
     ``rotations`` (not positions) band-limited noise is added to the model where the clip
-    shows it (:func:`noise_model.fit_band_limited`); the level then counts it too."""
+    shows it (:func:`noise_model.fit_band_limited`), or, for a ``"markerless"`` ``source``,
+    coloured noise (:func:`noise_model.fit_coloured`); the level then counts it too."""
     n_frames, n_cols = x.shape[:2]
     model = _fit(disp, frame_time)
     if model is None:
@@ -373,13 +417,27 @@ def _select(
         model = model._replace(
             sigma2=np.broadcast_to(given, model.sigma2.shape), rho=np.zeros(n_cols)
         )
-    band = None
+    band = coloured = None
     if rotations and given is None:
-        band = noise_model.fit_band_limited(model, frame_time)
+        if source == "markerless":
+            coloured = noise_model.fit_coloured(model, frame_time)
+        if coloured is not None:
+            # the white part of the coloured fit replaces the AR(1) model, its level
+            # following the windows' own levels along the clip
+            along = model.sigma2 / np.maximum(model.clip_sigma2(), np.finfo(np.float64).tiny)
+            model = model._replace(sigma2=coloured.white * along, rho=np.zeros(n_cols))
+        else:
+            band = noise_model.fit_band_limited(model, frame_time)
     masks = [mask for _, _, mask in cands]
-    risk = _risks(model, masks, strength, band)
+    risk = _risks(model, masks, strength, band, coloured)
     model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
+    if coloured is not None:
+        # one choice per column over the clip: the coloured level is the clip's, and a
+        # window's periodogram of one coordinate is too rough to choose on its own
+        coverage = model.coverage()
+        pooled = np.einsum("w,mwc->mc", coverage / coverage.sum(), risk)
+        choice[:] = np.argmin(pooled, axis=0)
     if strength == 0:
         choice[:] = 0
     out = x if overwrite else np.empty_like(x)
@@ -392,9 +450,18 @@ def _select(
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
     main = np.argmax(share, axis=0)
     chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
-    error = to_rms(np.maximum(coverage @ chosen, 0.0) / n_frames)
+    seen = 0.0  # noise held below the coloured fit's band: in every risk, not reported
+    if coloured is not None:
+        seen = coloured.level * coloured.below * strength**2
+    error = to_rms(np.maximum(coverage @ chosen / n_frames - seen, 0.0))
     local = to_level(model.sigma2)
     loud = _loud(local, model, frame_time)
+    wander = np.zeros(n_cols)
+    if coloured is not None:
+        wander = to_level(coloured.level * (1.0 - coloured.below) / 3.0)
+    edge = None
+    if coloured is not None and math.isfinite(coloured.edge_hz):
+        edge = coloured.edge_hz
     choices = []
     for c, m in enumerate(main.tolist()):
         family, value = ("none", 0) if m == 0 else cands[m - 1][:2]
@@ -407,9 +474,14 @@ def _select(
                 float(model.rho[c]),
                 loud[c],
                 None if band is None else float(band.edge_hz),
+                "optical" if coloured is None else "markerless",
+                float(wander[c]),
+                edge,
             )
         )
     clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
+    if coloured is not None:
+        clip_sigma2 = clip_sigma2 + coloured.level * (1.0 - coloured.below) / 3.0
     return out, to_level(clip_sigma2), choices
 
 
@@ -458,6 +530,7 @@ def auto(
     families: tuple[str, ...] = FAMILIES,
     noise=None,
     overwrite: bool = False,
+    source: str = "auto",
 ) -> AutoResult:
     """Clean orientations with filters chosen per column and along the clip from its noise.
 
@@ -481,6 +554,12 @@ def auto(
     overwrite : bool
         Write the result into ``q`` (a float64 array the caller no longer needs) instead of
         a new array: one clip's worth of memory less. Default False.
+    source : str
+        The capture system, which says which frequencies may hold noise (:data:`SOURCES`):
+        ``"markerless"`` or ``"video"`` (pose estimators, whose noise reaches down into
+        the motion's band: :func:`motionclean.filters.noise.fit_coloured`), ``"optical"``
+        (noise above the motion, or low-passed white noise), or ``"auto"`` (default):
+        markerless at video frame rates (:data:`VIDEO_FPS` or less), else optical.
 
     Returns
     -------
@@ -507,6 +586,7 @@ def auto(
         _move_rotations,
         _writable(cols, q, overwrite),
         True,
+        noise_source(source, frame_time),
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)

@@ -61,9 +61,11 @@ from .linear import Rows, mirror_indices, row_span, take_rows
 __all__ = [
     "BAND_HZ",
     "BandLimited",
+    "Coloured",
     "NoiseModel",
     "bump_statistic",
     "fit_band_limited",
+    "fit_coloured",
     "WINDOW_SECONDS",
     "fast_length",
     "fit",
@@ -458,3 +460,140 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
         return None
     _, edge, order, shape, level = best
     return BandLimited(edge, order, shape, np.minimum(level, np.median(level)) / 3.0, bump)
+
+
+#: Coloured noise (:func:`fit_coloured`): the fit's band in Hz (capped at 0.45 cycles per
+#: frame). Below 1 Hz the motion of every joint outweighs any capture's noise.
+COLOURED_BAND_HZ = (1.0, 25.0)
+#: Slopes of the motion's displacement spectrum ``f^-s`` in the band: the prior that human
+#: joint motion falls at least like ``f^-2`` there (its angle like ``f^-4``), as in the
+#: marker-based captures of the realnoise takes and the slow moves of the corpus clips.
+COLOURED_MOTION_SLOPES = np.arange(2.0, 8.01, 0.5)
+#: Slopes ``g`` of the noise's displacement spectrum ``f^-g`` below its edge: 0 is flat (a
+#: wander, as markerless and video pose estimators make), 0.5 and 1 fall slower than any
+#: motion, -2 rises (white angle noise, as through a solver's low-pass: the bump above).
+COLOURED_NOISE_SLOPES = (0.0, 0.5, 1.0)
+#: Edges (Hz; inf: none) and orders of the cliff above which the noise is gone (an
+#: estimator's or solver's own low-pass), ``(1 + (f / edge)^(2 order))^-1``.
+COLOURED_EDGES_HZ = (math.inf, *np.round(np.arange(3.0, 14.01, 0.5), 2).tolist())
+COLOURED_ORDERS = (4, 8)
+#: Fewest windows the coloured noise is fitted on (about 3 s at 2 s windows).
+COLOURED_MIN_WINDOWS = 4
+
+
+class Coloured(NamedTuple):
+    """Noise that reaches down into the motion's band, found by :func:`fit_coloured`.
+
+    Its displacements' spectrum is ``f^-slope`` below an edge ``edge_hz`` (inf: none) with
+    a cliff of ``order`` above it; ``shape`` (F,) is its spectrum (of the rotation, not of
+    the displacements) at the model's ``freqs``, held below the fit's band and scaled so
+    that ``weights @ shape == 1``; ``level`` (C,) each column's noise variance with that
+    shape (log units squared, the three components together); ``white`` (C,) the
+    per-component variance of the white noise fitted beside it (log units squared);
+    ``below`` the share of ``level`` held below the fit's band, where the clip cannot tell
+    noise from motion (what users are told leaves it out).
+    """
+
+    edge_hz: float
+    order: int
+    slope: float
+    shape: np.ndarray
+    level: np.ndarray
+    white: np.ndarray
+    below: float
+
+
+def _nonnegative_fit(y, w, bases):
+    """Weighted least squares ``y ~ sum_t c_t bases[t]`` with every ``c_t >= 0``, for each
+    column of ``y`` (B, C) (weights ``w`` (B, C)) and each row ``k`` of the bases (``bases``
+    a list of (K, B) or (B,) arrays): ``(deviance (K, C), coefficients (T, K, C))``. Every
+    subset of the terms is solved in closed form and the best one without a negative
+    coefficient kept (the exact non-negative solution, for the 2 or 3 terms used here)."""
+    k = max(np.shape(b)[0] if np.ndim(b) == 2 else 1 for b in bases)
+    terms = np.stack([np.broadcast_to(b, (k, y.shape[0])) for b in bases])  # (T, K, B)
+    n_terms = terms.shape[0]
+    gram = np.einsum("tkb,ukb,bc->kctu", terms, terms, w)  # (K, C, T, T)
+    right = np.einsum("tkb,bc->kct", terms, w * y)  # (K, C, T)
+    wyy = np.sum(w * y * y, axis=0)  # (C,)
+    best_dev = np.full(right.shape[:2], np.inf)
+    best = np.zeros((n_terms, *right.shape[:2]))
+    for mask in range(1, 1 << n_terms):
+        used = [t for t in range(n_terms) if mask >> t & 1]
+        g = gram[..., used, :][..., used]
+        r = right[..., used]
+        det = np.linalg.det(g)
+        ok = np.abs(det) > 1e-300
+        g = np.where(ok[..., None, None], g, np.eye(len(used)))
+        c = np.linalg.solve(g, r[..., None])[..., 0]  # (K, C, U)
+        dev = wyy - np.einsum("kcu,kcu->kc", c, r)  # at the optimum: wyy - c . r
+        feasible = ok & np.all(c >= 0.0, axis=-1) & (dev < best_dev)
+        best_dev = np.where(feasible, dev, best_dev)
+        for i, t in enumerate(used):
+            best[t] = np.where(feasible, c[..., i], np.where(feasible, 0.0, best[t]))
+        for t in set(range(n_terms)) - set(used):
+            best[t] = np.where(feasible, 0.0, best[t])
+    return np.maximum(best_dev, 0.0), best
+
+
+def fit_coloured(model: NoiseModel, frame_time: float) -> Coloured | None:
+    """Coloured noise of a rotation model (:class:`Coloured`), or None for a clip too short.
+
+    On the part of the windows' mean periodogram ``P`` that the AR(1) model leaves,
+    ``R = max(P - N_AR1, 0)``, between the ends of ``COLOURED_BAND_HZ``, each column is
+    fitted as ``a (f / 1 Hz)^-s + b n(f)``: motion as a power law of slope ``s`` in
+    ``COLOURED_MOTION_SLOPES`` (at least 2: the prior) and noise of the shape
+    ``n(f) = f^-g (1 + (f / edge)^(2 order))^-1``, ``a, b >= 0`` by least squares in
+    relative error (weights ``1 / P^2``). The noise slope ``g``, edge and order are shared
+    by all the columns (one capture system) and chosen for the least deviance summed over
+    them; each column keeps its best motion slope. Whatever the motion's spectrum cannot
+    explain with a slope of 2 or more is noise: a flat floor under a falling spectrum, the
+    signature of markerless and video capture. Which frequencies are motion is a prior,
+    not something one clip can tell (a dance captured clean has a flat floor too), so the
+    caller decides when this model applies (``auto(source=...)``).
+    """
+    n_windows, _, n_cols = model.power.shape
+    if n_windows < COLOURED_MIN_WINDOWS or frame_time <= 0:
+        return None
+    hz = model.freqs / frame_time
+    low, high = COLOURED_BAND_HZ
+    band = (hz >= low) & (hz <= min(high, 0.45 / frame_time))
+    if np.count_nonzero(band) < 4:
+        return None
+    mean = model.power.mean(axis=0)  # (F, C)
+    gain = 4.0 * np.sin(np.pi * model.freqs) ** 2
+    tiny = np.finfo(np.float64).tiny
+    unit = np.maximum(mean[band].max(axis=0, initial=0.0), tiny)  # (C,) scale of each column
+    y = mean[band] / unit
+    w = 1.0 / np.maximum(y, 1e-12) ** 2  # relative errors: a log fit
+    motion = (hz[band] / low) ** -COLOURED_MOTION_SLOPES[:, None]  # (K, B)
+    white = gain[band] / gain[band].max()  # white noise of the rotation, in displacements
+    floor = hz[1] if hz.size > 1 else low
+    best = None
+    for slope in COLOURED_NOISE_SLOPES:
+        for order in COLOURED_ORDERS:
+            for edge in COLOURED_EDGES_HZ:
+                if math.isinf(edge) and order != COLOURED_ORDERS[0]:
+                    continue  # no edge: the order does not matter
+                shape = np.maximum(hz, floor) ** -slope / (1.0 + (hz / edge) ** (2 * order))
+                dev, coef = _nonnegative_fit(y, w, [motion, shape[band], white])
+                k = np.argmin(dev, axis=0)
+                score = float(np.take_along_axis(dev, k[None], 0).sum())
+                if best is None or score < best[0]:
+                    pick = np.take_along_axis(coef, k[None, None], 1)[:, 0]  # (T, C)
+                    best = (score, edge, order, slope, shape, pick[1] * unit, pick[2] * unit)
+    assert best is not None
+    _, edge, order, slope, shape, level, white_level = best
+    # the rotation's spectrum (the displacements' over the gain), held below the band: the
+    # clip says nothing of the noise there, where motion outweighs it (no candidate mask
+    # removes much of it; ``below`` says how much of ``level`` it is)
+    rotation = shape / np.maximum(gain, tiny)
+    first = int(np.argmax(band))
+    rotation[:first] = rotation[first]
+    total = float(model.weights @ rotation)
+    below = float(model.weights[:first] @ rotation[:first]) / total
+    # white noise: displacements' level ``white_level / gain[band].max()`` times the gain,
+    # i.e. a rotation spectrum of that level; per component over the three components
+    white_sigma2 = white_level / gain[band].max() / 3.0
+    return Coloured(
+        float(edge), int(order), float(slope), rotation / total, level * total, white_sigma2, below
+    )

@@ -307,6 +307,9 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    model = format_noise_model(report)
+    if model:
+        lines.append(model)
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         lines.append(format_rest(rest, report["frames"]))
@@ -316,6 +319,25 @@ def format_table(report: dict, limit: int = 10) -> str:
         lines.extend(format_contacts(report["contacts"]))
     lines.extend(format_repairs(report))
     return "\n".join(lines)
+
+
+def format_noise_model(report: dict) -> str:
+    """Which noise model auto used when it assumed a markerless or video capture, and how
+    much of the noise it found below the motion's top frequencies ("" otherwise)."""
+    notes = [e["auto"] for e in report["joints"].values() if "auto" in e]
+    wander = [n for n in notes if n.get("model") == "markerless"]
+    if not wander:
+        return ""
+    edges = {n.get("wander_edge_hz") for n in wander}
+    edge = edges.pop() if len(edges) == 1 else None
+    below = "" if edge is None else f" below {edge:g} Hz"
+    level = sorted(n["wander"] for n in wander)[len(wander) // 2]
+    return (
+        f"noise model: markerless, as at any video frame rate (60 fps or less): the noise "
+        f"wanders{below}, down where the motion is (median joint {level:.3g} deg); each "
+        "joint gets the one filter of least expected error over the clip. For an optical "
+        "capture: -f despike -f fill-gaps -f auto:source=optical"
+    )
 
 
 def format_rest(rest: dict, frames: int) -> str:

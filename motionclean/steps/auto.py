@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..filters.auto import FAMILIES, auto, auto_positions
+from ..filters.auto import FAMILIES, SOURCES, VIDEO_FPS, auto, auto_positions
 from .base import Param, StepData, StepSpec, format_params
 
 
@@ -19,6 +19,10 @@ def _auto_note(result, column: int, unit: str) -> dict:
     }
     if choice.band_hz is not None:  # noise low-passed at this edge (Hz), counted in "noise"
         note["band_hz"] = choice.band_hz
+    if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
+        note["model"] = choice.model
+        note["wander"] = choice.wander
+        note["wander_edge_hz"] = choice.wander_edge_hz
     return note
 
 
@@ -30,7 +34,13 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "families": families,
     }
     shared["overwrite"] = data.owned
-    result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
+    result = auto(
+        data.rotations,
+        data.frame_time,
+        noise=params["noise_deg"],
+        source=params["source"],
+        **shared,
+    )
     data.rotations = result.values
     for column in range(data.rotations.shape[1]):
         data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
@@ -58,10 +68,19 @@ def _format_note(note: dict, positions: bool) -> str:
     share = note.get("share", 1.0)
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
+    chose = f"chose {format_params(note['filter'])}{along}"
+    if note.get("model") == "markerless":
+        edge = note.get("wander_edge_hz")
+        up_to = "up to the top" if edge is None else f"up to {edge:g} Hz"
+        return (
+            f"estimated noise {note['noise']:.3g} {unit}, {note['wander']:.3g} of it a wander "
+            f"{up_to}, down where the motion is (markerless model, as at any video frame "
+            f"rate; source=optical for optical captures){where}; {chose}; "
+            f"expected error {error} {unit} (unfiltered {note['noise']:.3g})"
+        )
     return (
         f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); chose {format_params(note['filter'])}{along}; "
-        f"expected error {error} {unit}"
+        f"{band}{where}); {chose}; expected error {error} {unit}"
     )
 
 
@@ -91,6 +110,14 @@ STEP = StepSpec(
             maximum=10.0,
         ),
         Param("mask", "str", "any", "mask families to choose from", choices=("any", *FAMILIES)),
+        Param(
+            "source",
+            "str",
+            "auto",
+            "capture system: markerless or video (noise reaching into the motion's band), "
+            f"optical, or auto (markerless at {VIDEO_FPS:g} fps or less, else optical)",
+            choices=SOURCES,
+        ),
         Param(
             "noise_deg",
             "float",

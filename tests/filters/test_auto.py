@@ -6,7 +6,15 @@ import math
 
 import numpy as np
 import pytest
-from helpers import SAMPLE, corpus_clip, needs_corpus, plant, run_cli, smooth_synthetic
+from helpers import (
+    SAMPLE,
+    corpus_clip,
+    needs_corpus,
+    plant,
+    run_cli,
+    smooth_synthetic,
+    wander_noise,
+)
 
 import motionclean as mc
 from motionclean.core import quat
@@ -16,7 +24,9 @@ from motionclean.filters.auto import (
     candidates,
     estimate_noise,
     estimate_position_noise,
+    noise_source,
 )
+from motionclean.filters.design import lowpass
 from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import binomial
 
@@ -356,3 +366,57 @@ def test_a_given_noise_beyond_any_clip_picks_the_strongest_without_warnings(tmp_
             code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", outs[value], "-f", step, "-q")
         assert (code, err) == (0, "")
     assert outs["1e10"].read_bytes() == outs["1e308"].read_bytes()
+
+
+# ----------------------------------------------------------------------------- sources
+
+
+def test_the_source_follows_the_frame_rate_unless_given():
+    assert noise_source("auto", 1 / 60) == "markerless"
+    assert noise_source("auto", 1 / 59.7) == "markerless"  # within 1 % of 60 fps
+    assert noise_source("auto", 1 / 30) == "markerless"
+    assert noise_source("auto", 1 / 100) == "optical"
+    assert noise_source("video", 1 / 120) == "markerless"
+    assert noise_source("optical", 1 / 30) == "optical"
+    with pytest.raises(ValueError, match="source must be one of"):
+        auto(smooth_synthetic(200, 2), 1 / 60, source="inertial")
+
+
+@pytest.fixture(scope="module")
+def wandering():
+    """(truth, noisy): slow motion at 60 fps with a markerless-like wander below 6 Hz (white
+    displacements from about 5 Hz up)."""
+    truth = smooth_synthetic(frames=1200, joints=6, seed=11)
+    e = wander_noise(1200, 6, 6.0, 2.0, seed=11, rho=0.5)
+    return truth, quat.multiply(truth, quat.exp(e))
+
+
+def test_the_markerless_model_cleans_a_wander_the_optical_model_leaves(wandering):
+    truth, noisy = wandering
+    before = rms_deg(noisy, truth)
+    markerless = auto(noisy, 1 / 60, source="markerless")
+    optical = auto(noisy, 1 / 60, source="optical")
+    hindsight = min(rms_deg(lee_shin(noisy, lowpass(c, 60.0)), truth) for c in (1, 1.5, 2, 3))
+    assert rms_deg(markerless.values, truth) < min(0.65 * before, 1.1 * hindsight)
+    assert rms_deg(optical.values, truth) > 0.85 * before
+    assert all(c.model == "markerless" and c.wander > 0.5 for c in markerless.choices)
+    assert all(c.model == "optical" and c.wander == 0 for c in optical.choices)
+    # one choice per column over the clip, and its error predicted within a factor 2
+    assert all(c.share == 1.0 for c in markerless.choices)
+    actual = np.sqrt(np.mean(np.degrees(quat.angle_between(markerless.values, truth)) ** 2, 0))
+    expected = np.array([c.expected_error for c in markerless.choices])
+    np.testing.assert_array_less(expected, 2.0 * actual)
+    np.testing.assert_array_less(actual, 2.0 * expected)
+
+
+def test_the_markerless_model_is_coordinate_invariant(wandering):
+    _, noisy = wandering
+    turn = quat.exp(np.array([0.3, -0.2, 0.5]))
+    a = auto(quat.multiply(turn, noisy), 1 / 60, source="markerless").values
+    b = quat.multiply(turn, auto(noisy, 1 / 60, source="markerless").values)
+    assert np.degrees(quat.angle_between(a, b)).max() < 1e-6
+
+
+def test_the_markerless_model_leaves_smooth_motion_alone():
+    truth = smooth_synthetic(frames=1200, joints=6, seed=12)
+    assert rms_deg(auto(truth, 1 / 60, source="markerless").values, truth) < 0.05

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import corpus_clip, needs_corpus, plant, smooth_synthetic
+from helpers import corpus_clip, needs_corpus, plant, smooth_synthetic, wander_noise
 
 import motionclean as mc
 from motionclean.core import quat
@@ -16,6 +16,7 @@ from motionclean.filters.noise import (
     fast_length,
     fit,
     fit_band_limited,
+    fit_coloured,
     hann_windows,
     window_frames,
 )
@@ -161,3 +162,42 @@ def test_band_limited_gate_stays_off_for_clean_captures():
         q = quat.make_continuous(q, axis=0)
         assert band_limited(q, ft) is None  # as captured
         assert band_limited(lee_shin(q, binomial(1), 20), ft) is None  # pre-smoothed
+
+
+def coloured(noisy, frame_time=1 / 60):
+    return fit_coloured(fit(quat.displacements(noisy), frame_time), frame_time)
+
+
+@pytest.mark.parametrize(("edge", "seed"), [(6.0, 7), (9.0, 9)])
+def test_coloured_noise_is_found_with_its_edge_and_spectrum(edge, seed):
+    truth = smooth_synthetic(frames=1200, joints=6, seed=seed)
+    e = wander_noise(1200, 6, edge, 2.0, seed)
+    model = fit(quat.displacements(quat.multiply(truth, quat.exp(e))), 1 / 60)
+    found = fit_coloured(model, 1 / 60)
+    assert found is not None
+    assert abs(found.edge_hz - edge) <= 1.5
+    assert found.slope <= 0.5  # flat or nearly: a wander
+    # its spectrum (of the rotation) against the planted noise's, from 1.5 Hz to the edge
+    alone = fit(quat.displacements(quat.exp(e)), 1 / 60)
+    gain = 4.0 * np.sin(np.pi * model.freqs) ** 2
+    band = (model.freqs * 60 >= 1.5) & (model.freqs * 60 <= edge - 1.0)
+    planted = alone.power.mean(axis=0)[band] / gain[band, None]
+    fitted = found.level * found.shape[band, None]
+    ratio = np.median(fitted / planted, axis=0)
+    np.testing.assert_allclose(ratio, 1.0, rtol=0.4)
+
+
+def test_coloured_noise_is_nil_on_smooth_motion_and_white_noise_stays_white():
+    truth = smooth_synthetic(frames=1200, joints=6, seed=3)
+    assert np.all(np.degrees(2 * np.sqrt(coloured(truth).level)) < 0.05)
+    white = ar1_noise(1200, 6, 0.0, 2.0, seed=30)
+    found = coloured(quat.multiply(truth, quat.exp(white)))
+    level = np.degrees(2 * np.sqrt(found.level))
+    white_level = np.degrees(2 * math.sqrt(3) * np.sqrt(found.white))
+    np.testing.assert_allclose(white_level, 2.0, rtol=0.25)
+    assert np.all(level < 0.5 * white_level)
+
+
+def test_coloured_noise_needs_a_few_windows():
+    truth = smooth_synthetic(frames=100, joints=2, seed=3)
+    assert coloured(truth) is None  # 1.7 s: three windows
