@@ -538,14 +538,15 @@ def _nonnegative_fit(y, w, bases):
 def fit_coloured(model: NoiseModel, frame_time: float) -> Coloured | None:
     """Coloured noise of a rotation model (:class:`Coloured`), or None for a clip too short.
 
-    On the part of the windows' mean periodogram ``P`` that the AR(1) model leaves,
-    ``R = max(P - N_AR1, 0)``, between the ends of ``COLOURED_BAND_HZ``, each column is
-    fitted as ``a (f / 1 Hz)^-s + b n(f)``: motion as a power law of slope ``s`` in
-    ``COLOURED_MOTION_SLOPES`` (at least 2: the prior) and noise of the shape
-    ``n(f) = f^-g (1 + (f / edge)^(2 order))^-1``, ``a, b >= 0`` by least squares in
-    relative error (weights ``1 / P^2``). The noise slope ``g``, edge and order are shared
-    by all the columns (one capture system) and chosen for the least deviance summed over
-    them; each column keeps its best motion slope. Whatever the motion's spectrum cannot
+    The windows' mean periodogram ``P`` of the displacements, between the ends of
+    ``COLOURED_BAND_HZ``, is fitted per column as ``a (f / 1 Hz)^-s + b n(f) + c (2 sin pi
+    f)^2``: motion as a power law of slope ``s`` in ``COLOURED_MOTION_SLOPES`` (at least 2:
+    the prior), the wander ``n(f) = f^-g (1 + (f / edge)^(2 order))^-1`` and white noise of
+    the rotation, ``a, b, c >= 0`` by least squares in relative error (weights ``1 / P^2``,
+    :func:`_nonnegative_fit`). The noise slope ``g`` (``COLOURED_NOISE_SLOPES``), edge and
+    order are shared by all the columns (one capture system) and chosen for the least
+    deviance summed over them; each column keeps its best motion slope. The white part is
+    returned beside the wander (it replaces the AR(1) model). Whatever the motion cannot
     explain with a slope of 2 or more is noise: a flat floor under a falling spectrum, the
     signature of markerless and video capture. Which frequencies are motion is a prior,
     not something one clip can tell (a dance captured clean has a flat floor too), so the

@@ -86,10 +86,12 @@ def _format_note(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="auto",
-    summary="model each joint's noise (level along the clip, AR(1) correlation) and pick "
-    "the Lee-Shin mask and strength for it, window by window",
-    paper="000 Eq. 19-20, 23, 26; AR(1) noise fitted on the displacements' spectrum; "
-    "choice by a risk estimate valid for correlated noise",
+    summary="model each joint's noise (level along the clip, AR(1) correlation; for "
+    "markerless and video captures also its wander below the motion's top frequencies) and "
+    "pick the Lee-Shin mask and strength for it",
+    paper="000 Eq. 19-20, 23, 26; AR(1) noise fitted on the displacements' spectrum, or "
+    "motion, white noise and a wander fitted on it (markerless); choice by a risk estimate "
+    "valid for correlated noise",
     params=(
         Param(
             "strength",
