@@ -450,15 +450,15 @@ def _select(
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
     main = np.argmax(share, axis=0)
     chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
-    seen = 0.0  # noise held below the coloured fit's band: in every risk, not reported
-    if coloured is not None:
-        seen = coloured.level * coloured.below * strength**2
-    error = to_rms(np.maximum(coverage @ chosen / n_frames - seen, 0.0))
+    if coloured is not None:  # what users are told leaves out the noise held below the fit
+        held = _held_risk(coloured, model, masks, strength)
+        chosen = chosen - np.take_along_axis(held, choice, axis=0)
+    error = to_rms(np.maximum(coverage @ chosen, 0.0) / n_frames)
     local = to_level(model.sigma2)
     loud = _loud(local, model, frame_time)
     wander = np.zeros(n_cols)
     if coloured is not None:
-        wander = to_level(coloured.level * (1.0 - coloured.below) / 3.0)
+        wander = to_level(coloured.level * _seen_share(coloured, model) / 3.0)
     edge = None
     if coloured is not None and math.isfinite(coloured.edge_hz):
         edge = coloured.edge_hz
@@ -481,8 +481,24 @@ def _select(
         )
     clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
     if coloured is not None:
-        clip_sigma2 = clip_sigma2 + coloured.level * (1.0 - coloured.below) / 3.0
+        clip_sigma2 = clip_sigma2 + coloured.level * _seen_share(coloured, model) / 3.0
     return out, to_level(clip_sigma2), choices
+
+
+def _seen_share(coloured: noise_model.Coloured, model: NoiseModel) -> float:
+    """The share of the coloured noise's variance within its fit's band (not held)."""
+    return 1.0 - float(model.weights[coloured.held] @ coloured.shape[coloured.held])
+
+
+def _held_risk(coloured, model: NoiseModel, masks, scale: float) -> np.ndarray:
+    """(M + 1, C): the part of each mask's risk (row 0: the identity) that the coloured
+    noise held below its fit's band contributes, ``sum (2 A - 1) N`` over those bins."""
+    held = coloured.held
+    response = np.ones((len(masks) + 1, int(held.sum())))
+    for m, mask in enumerate(masks, 1):
+        response[m] = _response(mask, model.freqs[held])
+    share = (2.0 * response - 1.0) @ (model.weights[held] * coloured.shape[held])
+    return share[:, None] * coloured.level[None, :] * scale**2
 
 
 def _move_rotations(q: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:

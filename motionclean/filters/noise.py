@@ -490,8 +490,8 @@ class Coloured(NamedTuple):
     that ``weights @ shape == 1``; ``level`` (C,) each column's noise variance with that
     shape (log units squared, the three components together); ``white`` (C,) the
     per-component variance of the white noise fitted beside it (log units squared);
-    ``below`` the share of ``level`` held below the fit's band, where the clip cannot tell
-    noise from motion (what users are told leaves it out).
+    ``held`` (F,) the frequencies below the fit's band, where the shape is held and the
+    clip cannot tell noise from motion (what users are told leaves them out).
     """
 
     edge_hz: float
@@ -500,7 +500,7 @@ class Coloured(NamedTuple):
     shape: np.ndarray
     level: np.ndarray
     white: np.ndarray
-    below: float
+    held: np.ndarray
 
 
 def _nonnegative_fit(y, w, bases):
@@ -591,10 +591,10 @@ def fit_coloured(model: NoiseModel, frame_time: float) -> Coloured | None:
     first = int(np.argmax(band))
     rotation[:first] = rotation[first]
     total = float(model.weights @ rotation)
-    below = float(model.weights[:first] @ rotation[:first]) / total
+    held = np.arange(hz.size) < first
     # white noise: displacements' level ``white_level / gain[band].max()`` times the gain,
     # i.e. a rotation spectrum of that level; per component over the three components
     white_sigma2 = white_level / gain[band].max() / 3.0
     return Coloured(
-        float(edge), int(order), float(slope), rotation / total, level * total, white_sigma2, below
+        float(edge), int(order), float(slope), rotation / total, level * total, white_sigma2, held
     )
