@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import numpy as np
+
+from ..core import quat
+from ..core.motion import hold_missing
 from ..filters.auto import FAMILIES, SOURCES, VIDEO_FPS, auto, auto_positions
+from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
 
@@ -26,6 +31,26 @@ def _auto_note(result, column: int, unit: str) -> dict:
     return note
 
 
+def _bridged(values, data: StepData, joints, rotations: bool):
+    """``values`` with the clip's dropouts in ``joints`` bridged as ``fill-gaps`` would
+    bridge them, whatever their length and on each joint's own (checked against a straight
+    line on gaps planted beside them), so the filter runs across them; and their mask (None
+    without dropouts). The bridges are a neutral support, not a fill: the samples are
+    missing again afterwards."""
+    motion = data.motion
+    if values is None or motion is None or motion.missing is None:
+        return values, None
+    missing = motion.missing[:, joints]
+    if not missing.any():
+        return values, None
+    n_frames = values.shape[0]
+    if rotations:
+        other = np.zeros(values.shape[:-1] + (3,))
+        return fill_gaps(values, other, missing, n_frames, donors=False).rotations, missing
+    other = np.broadcast_to(quat.identity(values.shape[1:-1]), values.shape[:-1] + (4,))
+    return fill_gaps(other, values, missing, n_frames, donors=False).translations, missing
+
+
 def _run_auto(data: StepData, params: dict) -> StepData:
     families = FAMILIES if params["mask"] == "any" else (params["mask"],)
     shared = {
@@ -33,22 +58,29 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "max_seconds": params["max_seconds"],
         "families": families,
     }
-    shared["overwrite"] = data.owned
+    rotations, missing_r = _bridged(data.rotations, data, data.rotation_joints, True)
+    translations, missing_p = _bridged(data.translations, data, data.translation_joints, False)
+    shared["overwrite"] = data.owned or missing_r is not None
     result = auto(
-        data.rotations,
+        rotations,
         data.frame_time,
         noise=params["noise_deg"],
         source=params["source"],
         **shared,
     )
     data.rotations = result.values
+    if missing_r is not None:  # the bridges go: placeholders held again
+        data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
     for column in range(data.rotations.shape[1]):
         data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
-    if data.translations is not None:
+    if translations is not None:
+        shared["overwrite"] = data.owned or missing_p is not None
         result = auto_positions(
-            data.translations, data.frame_time, noise=params["position_noise"], **shared
+            translations, data.frame_time, noise=params["position_noise"], **shared
         )
         data.translations = result.values
+        if missing_p is not None:
+            data.translations = hold_missing(result.values, missing_p)
         for column in range(data.translations.shape[1]):
             data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
     return data
@@ -138,5 +170,6 @@ STEP = StepSpec(
         ),
     ),
     run=_run_auto,
+    sees_missing=True,
     format_note=_format_note,
 )
