@@ -1,7 +1,7 @@
 """File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension.
 
 ``.bvh``, ``.csv`` (channel, rigid-body or OptiTrack Motive), ``.npz`` and ``.pkl`` (SMPL
-parameters).
+parameters), ``.mot`` and ``.sto`` (OpenSim coordinates).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from . import bvh, csv, motive, pkl, smpl
+from . import bvh, csv, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
 __all__ = ["FORMATS", "ReadOptions", "atomic_write", "load", "save"]
@@ -33,6 +33,8 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".csv": _csv_pieces,
     ".npz": smpl.npz_pieces,
     ".pkl": pkl.pickle_pieces,
+    ".mot": opensim.opensim_pieces,
+    ".sto": opensim.opensim_pieces,
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -76,6 +78,8 @@ def load(
             model = None if body_model is None else smpl.read_body_model(body_model)
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
             motion = parse(data, path, skeleton=skeleton, body_model=model)
+        elif suffix in (".mot", ".sto"):
+            motion = opensim.parse_opensim(data, path, exclude=exclude)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)
         else:
