@@ -1,7 +1,7 @@
 """File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension.
 
 ``.bvh``, ``.csv`` (channel, rigid-body or OptiTrack Motive), ``.npz`` and ``.pkl`` (SMPL
-parameters), ``.mot`` and ``.sto`` (OpenSim coordinates).
+parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf`` and ``.glb``.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from . import bvh, csv, motive, opensim, pkl, smpl
+from . import bvh, csv, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
 __all__ = ["FORMATS", "ReadOptions", "atomic_write", "load", "save"]
@@ -35,6 +35,8 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".pkl": pkl.pickle_pieces,
     ".mot": opensim.opensim_pieces,
     ".sto": opensim.opensim_pieces,
+    ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
+    ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -80,6 +82,8 @@ def load(
             motion = parse(data, path, skeleton=skeleton, body_model=model)
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
+        elif suffix in (".gltf", ".glb"):
+            motion = gltf.parse_gltf(data, path)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)
         else:
