@@ -9,9 +9,10 @@ the first animation's ``rotation`` channel, and a joint whose ``translation`` ch
 varies gets position channels (glTF replaces the node's translation, as BVH position
 channels replace an OFFSET). Scale is not read (and never changed).
 
-Keyframes become frames on a uniform grid: the frame time is the smallest median key step
-of the channels (snapped to a whole frame rate when within 0.01 %), from the earliest key
-to the latest. A channel keyed on every frame of the grid is read as it is; any other is
+Keyframes become frames on a uniform grid: the frame time is the smallest key step of the
+channels (a uniform channel's span over its steps, else its median step; snapped to a
+whole frame rate within 0.01 %, the error of exporters' float32 times), from the earliest
+key to the latest. A channel keyed on every frame of the grid is read as it is; any other is
 sampled: ``STEP`` holds the previous key, ``LINEAR`` interpolates (slerp for rotations,
 as glTF specifies), ``CUBICSPLINE`` evaluates its Hermite spline (rotations renormalised),
 each holding its first and last key outside its range.
@@ -44,6 +45,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
+from ..core.kinematics import rest_positions
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from .files import pieces, read_regular_file
 
@@ -69,6 +71,9 @@ MAX_FRAMES_PER_KEY = 1000
 SAME_ROTATION = 1e-12
 #: A channel whose keys lie within this fraction of a frame of the grid is read as it is.
 ON_GRID = 1e-3
+#: A frame rate within this fraction of a whole number is that number: exporters' float32
+#: key times are off by up to about 1e-5 (Blender's 120 fps export reads as 119.9995).
+SNAP = 1e-4
 
 
 def _fail(message: str, path) -> NoReturn:
@@ -408,15 +413,20 @@ def _keys(
 
 def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
     """Start time, frame time and frame count of the grid all channels are sampled on."""
-    steps = [float(np.median(np.diff(k.times))) for k in keys if k.times.size >= 2]
+    steps = [_step(k.times) for k in keys if k.times.size >= 2]
     start = min(float(k.times[0]) for k in keys)
     end = max(float(k.times[-1]) for k in keys)
     if not steps:
         return start, 1.0 / 30.0, 1
-    dt = min(steps)
+    finest = min(range(len(steps)), key=steps.__getitem__)
+    dt = steps[finest]
     rate = 1.0 / dt
-    if abs(rate - round(rate)) <= 1e-4 * rate and round(rate) > 0:
-        dt = 1.0 / round(rate)
+    if abs(rate - round(rate)) <= SNAP * rate and round(rate) > 0:
+        # the whole rate, unless the finest channel's keys then drift off the grid
+        times = [k.times for k in keys if k.times.size >= 2][finest]
+        whole = 1.0 / round(rate)
+        drift = np.abs((times - start) / whole - np.round((times - start) / whole)).max()
+        dt = whole if drift <= ON_GRID else dt
     frames = int(round((end - start) / dt)) + 1
     total_keys = sum(k.times.size for k in keys)
     if frames > MAX_FRAMES_PER_KEY * total_keys:
@@ -426,6 +436,14 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
             path,
         )
     return start, dt, frames
+
+
+def _step(times: np.ndarray) -> float:
+    """A channel's key step: its span over its steps when they are uniform (within 10 %),
+    accurate however long the clip (float32 times); else the median step."""
+    steps = np.diff(times)
+    mean = float(times[-1] - times[0]) / steps.size
+    return mean if np.all(np.abs(steps - mean) <= 0.1 * mean) else float(np.median(steps))
 
 
 def _sample(keys: _Keys, times: np.ndarray, rotation: bool) -> np.ndarray:
@@ -580,7 +598,24 @@ def parse_gltf(data: bytes, path) -> Motion:
         source_rotations=rotations.copy(),
         source=source,
         path=None if path is None else str(path),
+        end_sites=_end_sites(order, nodes, joints, path),
     )
+
+
+def _end_sites(order: list[int], nodes: list, joints: set[int], path) -> dict[int, np.ndarray]:
+    """Per joint (index into ``order``) with no joint among its children, the translation of
+    its first child that is a bare leaf node (no children, mesh or camera): a bone's tip."""
+    sites = {}
+    for j, n in enumerate(order):
+        children = nodes[n].get("children", [])
+        if any(c in joints for c in children):
+            continue
+        for c in children:
+            node = nodes[c]
+            if not (node.get("children") or "mesh" in node or "camera" in node or "matrix" in node):
+                sites[j] = _rest(node, c, path)[0]
+                break
+    return sites
 
 
 def _name(node: dict, n: int) -> str:
@@ -648,14 +683,8 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
     ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI): the input's
     bytes when nothing changed."""
     src = motion.source
-    if not isinstance(src, GltfSource):
-        _fail(
-            "glTF output needs a clip read from a glTF file (its nodes, meshes and skin are "
-            "kept); write this clip as BVH or CSV, or convert a glTF",
-            motion.path,
-        )
-    if motion.n_joints != len(src.nodes):
-        _fail("the clip no longer has the joints of its glTF file", motion.path)
+    if not isinstance(src, GltfSource) or motion.n_joints != len(src.nodes):
+        return [fresh_gltf(motion, glb)]
     same_frames = motion.n_frames == src.n_frames and motion.frame_time == src.frame_time
     assert motion.source_rotations is not None
     if same_frames and motion.source_rotations.shape == motion.rotations.shape:
@@ -781,3 +810,75 @@ def _glb(text: bytes, binary: bytes | None) -> bytes:
         chunks += [struct.pack("<II", len(binary), BIN_CHUNK), binary]
     body = b"".join(chunks)
     return struct.pack("<4sII", GLB_MAGIC, 2, 12 + len(body)) + body
+
+
+# ----------------------------------------------------------------------------- a new file
+
+
+def fresh_gltf(motion: Motion, glb: bool) -> bytes:
+    """A glTF of a clip read from another format: a node per joint (its offset as rest
+    translation, no rest rotation) and per end site (``<joint>_end``, a child node outside
+    the skin), a skin of the joints (inverse bind matrices of the rest pose, so importers
+    make an armature), one animation
+    on the clip's frames (LINEAR rotations, and translations where a joint has position
+    channels), data in the GLB binary chunk or a data URI."""
+    note = getattr(motion.source, "no_world", None)
+    if note is not None:
+        _fail(f"glTF needs joint positions: {note}", motion.path)
+    if motion.missing is not None:
+        frames = np.flatnonzero(motion.missing.any(axis=1))
+        _fail(
+            f"glTF has no missing samples: {frames.size} frames have some (first {frames[0]}); "
+            "fill them first (-f fill-gaps)",
+            motion.path,
+        )
+    n = motion.n_joints
+    tips = sorted(motion.end_sites)
+    nodes: list[dict[str, Any]] = [
+        {"name": name, "translation": [float(v) for v in motion.offsets[j]]}
+        for j, name in enumerate(motion.names)
+    ]
+    for k, j in enumerate(tips):
+        nodes.append(
+            {
+                "name": f"{motion.names[j]}_end",
+                "translation": [float(v) for v in motion.end_sites[j]],
+            }
+        )
+        nodes[j].setdefault("children", []).append(n + k)
+    for j, parent in enumerate(motion.parents.tolist()):
+        if parent >= 0:
+            nodes[parent].setdefault("children", []).append(j)
+    roots = [j for j in range(n) if motion.parents[j] < 0]
+    document: dict[str, Any] = {
+        "asset": {"version": "2.0", "generator": "motionclean"},
+        "scene": 0,
+        "scenes": [{"nodes": roots}],
+        "nodes": nodes,
+        "animations": [{"channels": [], "samplers": []}],
+    }
+    appender = _Appender(document, 0, 0)
+    rest = rest_positions(motion)  # joints, then end sites: their rest world translations
+    inverse_bind = np.zeros((n, 4, 4))
+    inverse_bind[:] = np.eye(4)
+    inverse_bind[:, 3, :3] = -rest[:n]  # column-major: the translation is the last column
+    skin_matrices = appender.accessor(inverse_bind.reshape(n, 16), "MAT4")
+    document["skins"] = [{"joints": list(range(n)), "inverseBindMatrices": skin_matrices}]
+    times = appender.accessor(
+        (np.arange(motion.n_frames) * motion.frame_time)[:, None], "SCALAR", bounds=True
+    )
+    animation = document["animations"][0]
+    positions = motion.layout.position_columns >= 0
+    for j in range(n):
+        rotation = appender.accessor(motion.rotations[:, j][:, [1, 2, 3, 0]], "VEC4")
+        _point(animation, Track(), j, "rotation", times, rotation)
+        if positions[j].any():
+            local = np.where(positions[j], motion.translations[:, j], motion.offsets[j])
+            _point(animation, Track(), j, "translation", times, appender.accessor(local, "VEC3"))
+    data = appender.data()
+    document["buffers"] = [{"byteLength": len(data)}]
+    if not glb:
+        document["buffers"][0]["uri"] = _data_uri(data)
+        return json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    text = json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    return _glb(text, data)

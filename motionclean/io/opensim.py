@@ -112,9 +112,8 @@ def _header(data: bytes, path) -> tuple[int, int, dict[str, tuple[str, int]], by
         if eq:
             text = value.strip().decode("utf-8", "replace")
             pairs[key.strip().decode("utf-8", "replace").lower()] = (text, number)
-    _fail(
-        f"no 'endheader' line in the first {MAX_HEADER_LINES} lines: not an OpenSim .mot/.sto", path
-    )
+    within = f" in the first {MAX_HEADER_LINES} lines" if number > MAX_HEADER_LINES else ""
+    _fail(f"no 'endheader' line{within}: not an OpenSim .mot/.sto", path)
 
 
 def _in_degrees(pairs: dict[str, tuple[str, int]], path) -> tuple[bool, str | None]:

@@ -252,12 +252,26 @@ def test_samplers_are_evaluated_as_the_specification_says(tmp_path):
     )
 
 
-def test_convert_to_bvh_and_refusals(tmp_path, capsys):
+def test_convert_to_bvh_and_from_other_formats(tmp_path, capsys):
     code, _, _ = run_cli(capsys, "convert", BLENDER_GLB, tmp_path / "g.bvh")
     assert code == 0
-    p_glb, _ = relative_world(mc.load(BLENDER_GLB), mc.load(tmp_path / "g.bvh").names)
-    p_bvh, _ = relative_world(mc.load(tmp_path / "g.bvh"), mc.load(tmp_path / "g.bvh").names)
-    assert np.abs(p_glb - p_bvh).max() < 1e-4
+    names = mc.load(tmp_path / "g.bvh").names
+    p_glb, r_glb = relative_world(mc.load(BLENDER_GLB), names)
+    p_bvh, r_bvh = relative_world(mc.load(tmp_path / "g.bvh"), names)
+    assert np.abs(p_glb - p_bvh).max() < 1e-4 and degrees(r_glb, r_bvh) < 0.01
+    for suffix in (".glb", ".gltf"):  # a BVH as a new glTF: nodes, skin, one animation
+        code, _, _ = run_cli(capsys, "convert", SAMPLE, tmp_path / f"s{suffix}")
+        assert code == 0
+        bvh, glb = mc.load(SAMPLE), mc.load(tmp_path / f"s{suffix}")
+        assert glb.names == bvh.names and sorted(glb.end_sites) == sorted(bvh.end_sites)
+        p_bvh, _ = kinematics.forward(bvh, end_sites=True)
+        p_glb, _ = kinematics.forward(glb, end_sites=True)
+        assert np.abs(p_glb - p_bvh).max() < 1e-4
+        assert abs(glb.frame_time - bvh.frame_time) < 1e-9
+    np.savez(tmp_path / "s.npz", poses=np.zeros((3, 72)))
+    code, _, err = run_cli(capsys, "convert", tmp_path / "s.npz", tmp_path / "s2.glb")
+    assert code == 1 and "glTF needs joint positions: SMPL parameters hold no joint" in err
+    assert not (tmp_path / "s2.glb").exists()
 
 
 @pytest.mark.parametrize(

@@ -21,10 +21,12 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def blender_poses(clip) -> dict:
-    """Per frame (1..FRAMES) and bone: Blender's world rotation (w, x, y, z) and head."""
+def blender_poses(clip, first: int = 1) -> dict:
+    """Per frame (``first`` on, FRAMES of them) and bone: Blender's world rotation (w, x, y,
+    z) and head."""
+    last = first + FRAMES - 1
     done = subprocess.run(
-        [str(BLENDER_PYTHON), str(POSE_FRAMES), str(clip), "120", "1", str(FRAMES)],
+        [str(BLENDER_PYTHON), str(POSE_FRAMES), str(clip), "120", str(first), str(last)],
         capture_output=True,
         text=True,
         timeout=300,
@@ -79,6 +81,13 @@ def test_cleaned_glb_imports_in_blender_as_the_cleaned_bvh(tmp_path, capsys):
     q_bvh, p_bvh = arrays(from_bvh, names)
     assert np.abs(p_glb - p_bvh).max() < 1e-3  # bone heads, Blender units (24 tall)
     assert degrees_apart(relative(q_glb), relative(q_bvh)) < 0.01
+    # a BVH written as a new glTF imports in Blender as the BVH does
+    code, _, err = run_cli(capsys, "convert", tmp_path / "clean.bvh", tmp_path / "new.glb")
+    assert code == 0, err
+    # (its keys start at time 0, Blender's frame 0; the BVH importer starts at frame 1)
+    q_new, p_new = arrays(blender_poses(tmp_path / "new.glb", first=0), names)
+    assert np.abs(p_new - p_bvh).max() < 1e-3
+    assert degrees_apart(relative(q_new), relative(q_bvh)) < 0.01
     # and the cleaning did something Blender sees: the thumb's half-turn flips are gone
     q_in, _ = arrays(blender_poses(bvh), names)
     thumb = names.index("RThumb")
