@@ -825,6 +825,12 @@ def fresh_gltf(motion: Motion, glb: bool) -> bytes:
     note = getattr(motion.source, "no_world", None)
     if note is not None:
         _fail(f"glTF needs joint positions: {note}", motion.path)
+    if getattr(motion.source, "needs_skeleton", False):
+        _fail(
+            "glTF needs joint positions: this clip has no skeleton (a channel CSV read "
+            "without one; give --skeleton TEMPLATE.bvh)",
+            motion.path,
+        )
     if motion.missing is not None:
         frames = np.flatnonzero(motion.missing.any(axis=1))
         _fail(

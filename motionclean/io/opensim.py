@@ -86,6 +86,12 @@ class OpenSimText:
 
     #: Why world-space figures are skipped (``core.kinematics.world_note``).
     no_world = "OpenSim coordinates are joint angles without the model's bodies"
+    #: Coordinates make no skeleton: BVH output is refused with this message.
+    needs_skeleton = True
+    no_skeleton_message = (
+        "OpenSim coordinates have no skeleton (the model's bodies are not in the file); "
+        "write .mot, .sto or CSV"
+    )
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:

@@ -13,6 +13,13 @@ from its first to its last: frames in between that it skips are missing samples
 (``Motion.missing``), which ``fill-gaps`` bridges; the writer writes the rows of the
 frames in ``frame_ids`` only.
 
+4D-Humans' tracker (PHALP) writes one entry per video frame instead, each with a list of
+detections: ``tid`` (track ids) and ``smpl`` (per detection ``global_orient`` ``(1, 3, 3)``,
+``body_pose`` ``(23, 3, 3)`` rotation matrices, ``betas``), and ``time`` (the frame number).
+The track seen on the most frames is read (a note says which) as a SMPL record over the
+frames from its first to its last, the frames it was not seen in missing; written back,
+each of its detections gets its changed matrices, everything else shared as read.
+
 Written back (``.pkl``): the same containers with the changed arrays replaced (dtype and
 shape kept), pickled with protocol 4 (readable by ``pickle.load`` and ``joblib.load``;
 defaultdicts come back as dicts); an untouched clip is written as the input bytes.
@@ -21,6 +28,7 @@ defaultdicts come back as dicts); an untouched clip is written as the input byte
 from __future__ import annotations
 
 import pickle
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -92,16 +100,78 @@ def _frame_rows(arrays: dict, path) -> np.ndarray | None:
     return None if rows.size == 0 or rows[-1] == rows.size - 1 else rows
 
 
+@dataclass(frozen=True, eq=False)
+class Tracks:
+    """A per-frame tracker output as read (4D-Humans/PHALP): the whole tree and, per row of
+    the record, the frame's key and the detection's index in its lists."""
+
+    tree: dict
+    places: tuple[tuple[Any, int], ...]
+
+
+def _is_tracks(tree: Any) -> bool:
+    return (
+        isinstance(tree, dict)
+        and bool(tree)
+        and all(isinstance(v, dict) and "smpl" in v and "tid" in v for v in tree.values())
+    )
+
+
+def _tracks_record(tree: dict, path) -> tuple[dict, Tracks, str]:
+    """The SMPL record of the track seen on the most frames of a per-frame tracker output."""
+    seen: dict[Any, list[tuple[float, Any, int, dict]]] = {}
+    for order, (key, frame) in enumerate(tree.items()):
+        detections, ids = frame["smpl"], frame["tid"]
+        if not isinstance(detections, list) or not isinstance(ids, list | tuple | np.ndarray):
+            raise MotionError(f"frame {str(key)[:40]!r}: 'smpl' and 'tid' are not lists", path)
+        time = frame.get("time", order)
+        if not isinstance(time, int | float | np.integer | np.floating):
+            raise MotionError(f"frame {str(key)[:40]!r}: 'time' is not a frame number", path)
+        for index, (tid, params) in enumerate(zip(ids, detections, strict=False)):
+            if isinstance(params, dict) and {"global_orient", "body_pose"} <= params.keys():
+                seen.setdefault(_hashable(tid), []).append((float(time), key, index, params))
+    if not seen:
+        raise MotionError("no SMPL detection in any frame of the tracker output", path)
+    tid, rows = max(seen.items(), key=lambda item: len(item[1]))
+    rows.sort(key=lambda row: row[0])
+    record: dict[str, np.ndarray] = {}
+    for name in ("global_orient", "body_pose", "betas"):
+        parts = [row[3].get(name) for row in rows]
+        stacked = [part for part in parts if isinstance(part, np.ndarray)]
+        if len(stacked) == len(parts):
+            if len({part.shape for part in stacked}) != 1:
+                raise MotionError(f"track {tid!r}: {name} changes shape between frames", path)
+            record[name] = np.stack(stacked)
+    times = np.array([row[0] for row in rows])
+    if np.any(times != np.round(times)):
+        raise MotionError(f"track {tid!r}: frame times are not whole frame numbers", path)
+    record["frame_ids"] = times.astype(np.int64)
+    note = f"{len(seen)} tracks in the file: track {tid!r} read (seen on {len(rows)} frames)"
+    return record, Tracks(tree, tuple((row[1], row[2]) for row in rows)), note
+
+
+def _hashable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist() if value.ndim == 0 else tuple(value.ravel().tolist())
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def parse_pickle(data: bytes, path, skeleton: Motion | None = None, body_model=None) -> Motion:
     """A clip of a pickle's SMPL record (see the module)."""
-    tree = safepickle.loads(data, path)
-    route, record, note = _locate(tree, path)
+    tree: Any = safepickle.loads(data, path)
+    container: Any
+    note: str | None
+    if _is_tracks(tree):
+        record, container, note = _tracks_record(tree, path)
+    else:
+        route, record, note = _locate(tree, path)
+        container = (tree, route)
     arrays = _arrays(record)
     model, model_path = body_model if body_model is not None else (None, None)
     return smpl.smpl_motion(
         arrays,
         path,
-        container=(tree, route),
+        container=container,
         raw=data,
         skeleton=skeleton,
         body_model=model,
@@ -114,12 +184,15 @@ def parse_pickle(data: bytes, path, skeleton: Motion | None = None, body_model=N
 def pickle_pieces(motion: Motion):
     """``motion`` as a pickle (see the module)."""
     src = motion.source
-    if isinstance(src, smpl.SmplParams) and isinstance(src.container, tuple):
+    if isinstance(src, smpl.SmplParams) and isinstance(src.container, tuple | Tracks):
         changed = smpl.changed_arrays(motion)
         if not changed:
             return pieces(src.raw)
-        tree, route = src.container
-        out = _replaced(tree, route, changed)
+        if isinstance(src.container, Tracks):
+            out = _into_tracks(src.container, changed)
+        else:
+            tree, route = src.container
+            out = _replaced(tree, route, changed)
     elif isinstance(src, smpl.SmplParams):  # read from an .npz
         out = {key: value for key, value in src.record.items()}
         out.update(smpl.changed_arrays(motion))
@@ -138,3 +211,18 @@ def _replaced(tree: Any, route: tuple, changed: dict[str, np.ndarray]) -> Any:
     copy = dict(tree)
     copy[route[0]] = _replaced(tree[route[0]], route[1:], changed)
     return copy
+
+
+def _into_tracks(tracks: Tracks, changed: dict[str, np.ndarray]) -> dict:
+    """A copy of a tracker output whose read detections hold the ``changed`` arrays (row by
+    row; the frames, lists and dicts on the way copied, everything else shared)."""
+    out = dict(tracks.tree)
+    for row, (key, index) in enumerate(tracks.places):
+        if out[key] is tracks.tree[key]:
+            out[key] = dict(out[key])
+            out[key]["smpl"] = list(out[key]["smpl"])
+        params = dict(out[key]["smpl"][index])
+        for name, values in changed.items():
+            params[name] = values[row]
+        out[key]["smpl"][index] = params
+    return out

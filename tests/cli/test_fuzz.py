@@ -130,6 +130,7 @@ def new_seeds(tmp_path_factory):
     return [
         (".npz", (folder / "amass.npz").read_bytes()),
         (".pkl", (ROOT / "tests" / "data" / "wham_output.pkl").read_bytes()),
+        (".pkl", (ROOT / "tests" / "data" / "phalp_output.pkl").read_bytes()),
         (".mot", b"".join(mot)),
         (".gltf", (folder / "small.gltf").read_bytes()),
         (".glb", glb.read_bytes()),

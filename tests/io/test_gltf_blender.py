@@ -15,10 +15,13 @@ POSE_FRAMES = ROOT / "tests" / "io" / "blender" / "pose_frames.py"
 BLENDER_GLB = ROOT / "tests" / "data" / "blender" / "131_02_cut.glb"
 FRAMES = 96
 
-pytestmark = pytest.mark.skipif(
-    not BLENDER_PYTHON.exists(),
-    reason=f"no Blender Python at {BLENDER_PYTHON} (make blender creates it: bpy 5.0.1)",
-)
+pytestmark = [
+    pytest.mark.slow,  # four Blender processes, about 8 s
+    pytest.mark.skipif(
+        not BLENDER_PYTHON.exists(),
+        reason=f"no Blender Python at {BLENDER_PYTHON} (make blender creates it: bpy 5.0.1)",
+    ),
+]
 
 
 def blender_poses(clip, first: int = 1) -> dict:

@@ -200,3 +200,13 @@ def test_realnoise_cleans_as_through_the_channel_csv(realnoise_take, tmp_path, c
     assert np.abs(cleaned_rad - cleaned_csv).max() < 1e-4
     moved = np.abs(cleaned_deg - np.genfromtxt(degrees, skip_header=7)[:, 1:])
     assert np.nanmax(moved) > 0.1 and math.isfinite(np.nanmax(moved))
+
+
+def test_coordinates_make_no_bvh_or_gltf(tmp_path, capsys):
+    path = write(tmp_path, IK)
+    for target, message in (
+        ("x.bvh", "OpenSim coordinates have no skeleton"),
+        ("x.glb", "glTF needs joint positions: OpenSim coordinates are joint angles"),
+    ):
+        code, _, err = run_cli(capsys, "convert", path, tmp_path / target, "--exclude", "*_f*")
+        assert code == 1 and message in err and not (tmp_path / target).exists()

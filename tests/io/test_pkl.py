@@ -159,3 +159,38 @@ def test_clean_and_convert(tmp_path, capsys):
     assert np.array_equal(npz.rotations, mc.load(WHAM).rotations)
     code, _, _ = run_cli(capsys, "convert", WHAM, tmp_path / "w.csv")
     assert code == 0 and mc.load(tmp_path / "w.csv").n_joints == 24
+
+
+#: Laid out as 4D-Humans' tracker (PHALP) writes it, with joblib compress=3: one entry per
+#: video frame with its detections (tid, smpl rotation matrices, bbox, mask, ...); track 1
+#: is lost on frames 2-3, track 2 on frames 4, 5 and 9.
+PHALP = ROOT / "tests" / "data" / "phalp_output.pkl"
+
+
+def test_4d_humans_tracks_read_the_longest_track_with_its_gaps(tmp_path):
+    motion = mc.load(PHALP)
+    assert motion.names == list(SMPL.names) and motion.n_frames == 12
+    assert "2 tracks in the file: track 1 read (seen on 10 frames)" in kinematics.source_notes(
+        motion
+    )
+    assert np.flatnonzero(motion.missing[:, 0]).tolist() == [2, 3]
+    tree = safepickle.loads(PHALP.read_bytes(), PHALP)
+    first = tree["frame_000000.jpg"]["smpl"][0]
+    assert np.abs(quat.as_matrix(motion.rotations[0, 1]) - first["body_pose"][0]).max() < 1e-6
+    mc.save(motion, tmp_path / "same.pkl")
+    assert (tmp_path / "same.pkl").read_bytes() == PHALP.read_bytes()
+    filled, _ = mc.Pipeline.from_inline(["fill-gaps"]).run(motion)
+    q = filled.rotations.copy()
+    q[6, 5] = quat.multiply(q[6, 5], quat.exp(np.array([0.0, 0.0, 0.02])))
+    mc.save(filled.replace(rotations=q), tmp_path / "edited.pkl")
+    with open(tmp_path / "edited.pkl", "rb") as f:
+        out = pickle.load(f)
+    assert list(out) == list(tree)
+    for key, frame in tree.items():
+        for index, params in enumerate(frame["smpl"]):
+            new = out[key]["smpl"][index]
+            assert new["body_pose"].dtype == np.float32 and new["body_pose"].shape == (23, 3, 3)
+            same = key != "frame_000006.jpg" or frame["tid"][index] != 1
+            assert np.array_equal(new["body_pose"], params["body_pose"]) == same
+        assert out[key]["mask"] == frame["mask"] and out[key]["tid"] == frame["tid"]
+    assert np.abs(mc.load(tmp_path / "edited.pkl").rotations[6, 5] - q[6, 5]).max() < 1e-6
