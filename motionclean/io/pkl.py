@@ -184,7 +184,19 @@ def parse_pickle(data: bytes, path, skeleton: Motion | None = None, body_model=N
 def pickle_pieces(motion: Motion):
     """``motion`` as a pickle (see the module)."""
     src = motion.source
-    if isinstance(src, smpl.SmplParams) and isinstance(src.container, tuple | Tracks):
+    if isinstance(src, smpl.SmplParams) and not smpl.same_frames(motion):
+        if isinstance(src.container, Tracks):
+            raise MotionError(
+                "a tracker output keeps its video frames: write a resampled clip as .npz",
+                motion.path,
+            )
+        record = smpl.resampled_record(motion)
+        if isinstance(src.container, tuple):
+            tree, route = src.container
+            out = _replaced(tree, route, record, whole=True)
+        else:
+            out = record
+    elif isinstance(src, smpl.SmplParams) and isinstance(src.container, tuple | Tracks):
         changed = smpl.changed_arrays(motion)
         if not changed:
             return pieces(src.raw)
@@ -201,15 +213,19 @@ def pickle_pieces(motion: Motion):
     return [pickle.dumps(out, protocol=4)]
 
 
-def _replaced(tree: Any, route: tuple, changed: dict[str, np.ndarray]) -> Any:
+def _replaced(tree: Any, route: tuple, changed: dict[str, np.ndarray], whole=False) -> Any:
     """A copy of ``tree`` with the record at ``route`` holding the ``changed`` arrays (the
-    containers on the way copied, everything else shared)."""
+    containers on the way copied, everything else shared); with ``whole``, ``changed`` is
+    the record's every array (the record's other values, not arrays, kept)."""
     if not route:
+        if whole:
+            kept = {key: value for key, value in tree.items() if not isinstance(value, np.ndarray)}
+            return {**kept, **changed}
         record = dict(tree)
         record.update(changed)
         return record
     copy = dict(tree)
-    copy[route[0]] = _replaced(tree[route[0]], route[1:], changed)
+    copy[route[0]] = _replaced(tree[route[0]], route[1:], changed, whole)
     return copy
 
 

@@ -101,6 +101,7 @@ class SmplParams:
     has_skeleton: bool
     notes: tuple[str, ...] = field(default=())
     rows: np.ndarray | None = None  # the clip frame of each row (None: row k is frame k)
+    frame_time: float = 0.0  # as read
 
     @property
     def needs_skeleton(self) -> bool:
@@ -415,6 +416,7 @@ def smpl_motion(
         has_skeleton,
         notes,
         rows,
+        frame_time,
     )
     return Motion(
         names=list(tree.names),
@@ -451,18 +453,20 @@ def _same(q: np.ndarray, read: np.ndarray) -> np.ndarray:
     )
 
 
-def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
-    """The record's arrays that ``motion`` changed, new values in their dtype and shape
-    (unchanged samples keep their values bit for bit); empty for an untouched clip."""
+def same_frames(motion: Motion) -> bool:
+    """True when ``motion`` (read from a SMPL record) still has the record's frames."""
     src = motion.source
     assert isinstance(src, SmplParams)
     n_frames = len(src.record[src.fields[0].key]) if src.rows is None else int(src.rows[-1]) + 1
-    if motion.n_frames != n_frames or motion.n_joints != src.tree.n_joints:
-        raise MotionError(
-            "the clip no longer has the frames of its SMPL file (resampled?); "
-            "SMPL output keeps the file's frames",
-            motion.path,
-        )
+    return motion.n_frames == n_frames and motion.frame_time == src.frame_time
+
+
+def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
+    """The record's arrays that ``motion`` changed, new values in their dtype and shape
+    (unchanged samples keep their values bit for bit); empty for an untouched clip. Only
+    for a clip with the record's frames (:func:`same_frames`)."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
     assert motion.source_rotations is not None
     at = slice(None) if src.rows is None else src.rows  # the frames the rows hold
     kept = _same(motion.rotations[at], motion.source_rotations[at])
@@ -492,6 +496,40 @@ def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
             new = old.copy()
             new[moved] = (now[moved] - src.root_offset).astype(old.dtype)
             out[src.trans_key] = new
+    return out
+
+
+def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
+    """The record of a clip whose frames changed (resampled): its rotation and translation
+    arrays anew in their keys, dtypes and forms, the frame rate updated, the arrays that are
+    not per frame (``betas``, ``gender``, ...) carried; per-frame arrays motionclean does not
+    read (``dmpls``, ``verts``, ``frame_ids``, ...) no longer fit the frames and are left
+    out. In the record's key order."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
+    if motion.missing is not None:
+        raise MotionError("a resampled SMPL clip has missing samples; fill them first", motion.path)
+    rows = len(src.record[src.fields[0].key])
+    model = from_clip(motion.rotations, src.stand)
+    vectors = 2.0 * quat.log_shortest(model)  # (F, J, 3)
+    new: dict[str, np.ndarray] = {}
+    for f in src.fields:
+        old = src.record[f.key]
+        joints = slice(f.first, f.first + f.count)
+        values = quat.as_matrix(model[:, joints]) if f.matrix else vectors[:, joints]
+        new[f.key] = values.reshape((motion.n_frames, *old.shape[1:])).astype(old.dtype)
+    if src.trans_key is not None:
+        old = src.record[src.trans_key]
+        new[src.trans_key] = (motion.translations[:, 0] - src.root_offset).astype(old.dtype)
+    rate_key = _first(src.record, RATE_KEYS) or "mocap_framerate"
+    new[rate_key] = np.asarray(motion.frame_rate)
+    out = {}
+    for key, value in src.record.items():
+        if key in new:
+            out[key] = new.pop(key)
+        elif not (value.ndim and value.shape[0] == rows):
+            out[key] = value
+    out.update(new)
     return out
 
 
@@ -546,7 +584,9 @@ def npz_pieces(motion: Motion) -> Iterable[bytes]:
     """``motion`` as an ``.npz``: its own archive with the changed arrays replaced (the
     input bytes when nothing changed), or a fresh ``poses``/``trans`` archive."""
     src = motion.source
-    if isinstance(src, SmplParams):
+    if isinstance(src, SmplParams) and not same_frames(motion):
+        record = resampled_record(motion)
+    elif isinstance(src, SmplParams):
         changed = changed_arrays(motion)
         if isinstance(src.container, list):  # read from an .npz
             return pieces(src.raw) if not changed else [npz.write_npz(src.container, changed)]

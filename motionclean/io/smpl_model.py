@@ -196,6 +196,7 @@ def model_offsets(arrays: dict[str, np.ndarray], tree: Tree, betas, path) -> np.
             f"{tree.n_joints}, {vertices}) for {tree.model}",
             path,
         )
+    _check_model_tree(arrays, regressor.shape[0], tree, path)
     shaped = template
     if "shapedirs" in arrays and betas is not None:
         dirs = np.asarray(arrays["shapedirs"], dtype=np.float64)
@@ -224,6 +225,25 @@ def depth_first(parents: tuple[int, ...]) -> np.ndarray:
         order.append(k)
         stack.extend(children[k][::-1])
     return np.array(order, dtype=np.intp)
+
+
+def _check_model_tree(arrays: dict, rows: int, tree: Tree, path) -> None:
+    """Refuse a body model of another family than the clip's (a SMPL-H model for a SMPL
+    clip gives wrong joints silently): its joint count, and its ``kintree_table`` when it
+    has one, must be the tree's (the 22-joint body fits any of the three)."""
+    fits = rows == tree.n_joints or (tree is SMPL_BODY and rows in TREES and rows != 22)
+    table = arrays.get("kintree_table")
+    if fits and isinstance(table, np.ndarray) and table.ndim == 2 and table.shape[0] == 2:
+        parents = table[0, : tree.n_joints].astype(np.int64)
+        parents = np.where(parents >= rows, -1, parents)  # the root's entry: -1 or 2**32 - 1
+        fits = parents.tolist() == list(tree.parents)
+    if not fits:
+        family = TREES[rows].model if rows in TREES else f"a {rows}-joint model"
+        raise MotionError(
+            f"body model is {family} ({rows} joints), the clip {tree.model} "
+            f"({tree.n_joints} joints): give the model of the clip's family",
+            path,
+        )
 
 
 def _plain(name: str) -> str:

@@ -379,3 +379,39 @@ def test_axis_angle_conversions_are_inverse():
         np.abs(np.abs(np.einsum("ni,ni->n", smpl_model.matrix_to_quaternion(m), q)) - 1).max()
         < 1e-12
     )
+
+
+def test_a_body_model_of_another_family_is_refused(tmp_path, capsys):
+    np.savez(tmp_path / "s.npz", poses=smooth_poses(5, 24), trans=np.zeros((5, 3)))
+    np.savez(tmp_path / "model.npz", **fake_body_model(SMPLH))
+    code, _, err = run_cli(
+        capsys, "info", tmp_path / "s.npz", "--body-model", tmp_path / "model.npz"
+    )
+    assert code == 1 and "body model is SMPL-H (52 joints), the clip SMPL (24 joints)" in err
+    wrong_tree = fake_body_model(SMPL)
+    wrong_tree["kintree_table"] = np.array([[2**32 - 1] + [0] * 23, range(24)])
+    np.savez(tmp_path / "flat.npz", **wrong_tree)
+    code, _, err = run_cli(
+        capsys, "info", tmp_path / "s.npz", "--body-model", tmp_path / "flat.npz"
+    )
+    assert code == 1 and "body model is SMPL (24 joints)" in err
+    np.savez(tmp_path / "smpl.npz", **fake_body_model(SMPL))
+    code, _, _ = run_cli(capsys, "info", tmp_path / "s.npz", "--body-model", tmp_path / "smpl.npz")
+    assert code == 0
+
+
+def test_a_resampled_clip_is_written_with_its_new_frames(tmp_path, capsys):
+    path = amass_h(tmp_path / "a.npz", frames=121)
+    code, _, err = run_cli(capsys, "resample", path, tmp_path / "b.npz", "--fps", "60")
+    assert code == 0, err
+    before, after = np.load(path), np.load(tmp_path / "b.npz")
+    assert list(after.keys()) == ["trans", "gender", "mocap_framerate", "betas", "poses"]
+    assert after["poses"].shape == (61, 156) and after["mocap_framerate"] == 60.0
+    assert np.array_equal(after["betas"], before["betas"])  # not per frame: carried
+    every_other = mc.load(path).rotations[::2]
+    assert (
+        np.abs(
+            np.abs(np.einsum("fji,fji->fj", mc.load(tmp_path / "b.npz").rotations, every_other)) - 1
+        ).max()
+        < 1e-6
+    )
