@@ -4,6 +4,7 @@ positions from a body model or a rig, and refusals."""
 from __future__ import annotations
 
 import io
+import json
 import zipfile
 
 import numpy as np
@@ -415,3 +416,16 @@ def test_a_resampled_clip_is_written_with_its_new_frames(tmp_path, capsys):
         ).max()
         < 1e-6
     )
+
+
+def test_the_html_report_says_why_it_has_no_player(tmp_path, capsys):
+    path = amass_h(tmp_path / "a.npz", frames=20)
+    code, _, _ = run_cli(
+        capsys, "report", path, "--html", tmp_path / "r.html", "--json", tmp_path / "r.json"
+    )
+    assert code == 0
+    page = (tmp_path / "r.html").read_text()
+    assert "no skeleton player: SMPL parameters hold no joint positions" in page
+    assert json.loads((tmp_path / "r.json").read_text())["world"] == {
+        "skipped": "SMPL parameters hold no joint positions; give --skeleton or --body-model"
+    }
