@@ -570,7 +570,7 @@ def parse_gltf(data: bytes, path) -> Motion:
             offsets[j] = translations[0, j]
             translations[:, j] = 0.0
         channels_out.append(POSITION_CHANNELS + ROTATION if moving else ROTATION)
-    rotations = quat.make_continuous(rotations, axis=0)
+    rotations = quat.continuous(rotations)
     source = GltfSource(
         data,
         document,

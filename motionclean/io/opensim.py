@@ -253,7 +253,7 @@ def coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, tex
     rotations[..., 0] = 1.0
     rotations[:, rotational, 0] = np.cos(0.5 * angles)
     rotations[:, rotational, 3] = np.sin(0.5 * angles)
-    rotations = quat.make_continuous(rotations, axis=0)
+    rotations = quat.continuous(rotations)
     translations = joint_major_zeros(n_frames, n)
     for axis in range(3):
         on = np.flatnonzero(axes == axis)

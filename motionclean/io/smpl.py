@@ -400,7 +400,7 @@ def smpl_motion(
         source_row = np.searchsorted(rows, np.maximum(source_row, 0))
         rotations = rotations[source_row]
         trans = None if trans is None else trans[source_row]
-    rotations = quat.make_continuous(rotations, axis=0)
+    rotations = quat.continuous(rotations)  # (a copy only when a sign flips)
     translations = joint_major_zeros(n_frames, tree.n_joints)
     if trans is not None:
         translations[:, 0] = trans
