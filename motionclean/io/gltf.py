@@ -48,6 +48,7 @@ from ..core.errors import MotionError
 from ..core.kinematics import rest_positions
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from .files import pieces, read_regular_file
+from .smpl_model import matrix_to_quaternion
 
 GLB_MAGIC = b"glTF"
 JSON_CHUNK = 0x4E4F534A
@@ -256,7 +257,7 @@ def _accessor(document: dict, buffers: _Buffers, index: object, path) -> np.ndar
         )
     view = views[_index(spec["bufferView"], len(views), f"{where}.bufferView", path)]
     if view.get("extensions"):
-        _fail(f"{where}: compressed data ({', '.join(view['extensions'])[:60]}) is not read", path)
+        _fail(f"{where}: compressed data ({str(view['extensions'])[:60]}) is not read", path)
     buffer_index = _index(
         view.get("buffer"), len(buffers.specs), f"{where}: bufferView.buffer", path
     )
@@ -298,17 +299,21 @@ def _tree(nodes: list, path) -> np.ndarray:
             _fail(f"nodes[{n}].children is not a list", path)
         for child in children:
             c = _index(child, len(nodes), f"nodes[{n}].children", path)
-            if parent[c] >= 0 or c == n:
+            if c == n:
+                _fail(f"node {n} lists itself as a child", path)
+            if parent[c] >= 0:
                 _fail(f"node {c} has two parents", path)
             parent[c] = n
-    depth = np.zeros(len(nodes), dtype=np.intp)  # cycles: a walk longer than the nodes
-    for n in range(len(nodes)):
-        at, steps = n, 0
-        while parent[at] >= 0:
-            at, steps = parent[at], steps + 1
-            if steps > len(nodes):
-                _fail("the node tree has a cycle", path)
-        depth[n] = steps
+    # Every node has one parent at most, so a node that no walk down from the roots
+    # reaches is on a cycle.
+    reached = np.zeros(len(nodes), dtype=bool)
+    stack = np.flatnonzero(parent < 0).tolist()
+    while stack:
+        n = stack.pop()
+        reached[n] = True
+        stack.extend(nodes[n].get("children", []))
+    if not reached.all():
+        _fail("the node tree has a cycle", path)
     return parent
 
 
@@ -339,8 +344,6 @@ def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
         scale = np.linalg.norm(m[:3, :3], axis=0)
         if np.any(scale <= 0.0):
             _fail(f"nodes[{n}].matrix has a zero scale", path)
-        from .smpl_model import matrix_to_quaternion
-
         return m[:3, 3].copy(), matrix_to_quaternion(m[:3, :3] / scale)
     t = node.get("translation", [0.0, 0.0, 0.0])
     r = node.get("rotation", [0.0, 0.0, 0.0, 1.0])

@@ -19,7 +19,7 @@ quaternion of its axis-angle vector. Joint positions are not in the file: with a
 model (``J_regressor``, ``v_template``, ``shapedirs``) or a skeleton the clip gets the
 model's rest offsets and its root translation is ``trans`` plus the pelvis's rest position
 (where SMPL puts it); without either the offsets are zero and world-space figures
-(contacts, footlock, the player) are skipped with a note. With a skeleton, a clip whose
+(contacts, footlock, the player) are skipped with a note. With positions, a clip whose
 root turns the body to stand along another axis (AMASS is Z up, the model Y up) is
 expressed with its rest pose standing the same way: every local rotation is conjugated by
 that constant quarter or half turn (:attr:`SmplParams.stand`), which moves no joint in
@@ -45,7 +45,7 @@ from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from . import npz, smpl_model
-from .files import pieces, read_regular_file
+from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
 
 #: Rotation channels each joint gets (its Euler order when written as BVH or CSV).
@@ -58,7 +58,7 @@ DEFAULT_RATE = 30.0
 #: (WHAM's world-grounded ``pose_world`` / ``trans_world`` before its camera-frame ones).
 POSE_KEYS = ("pose_world", "poses", "pose", "smpl_poses", "fullpose")
 TRANS_KEYS = ("trans_world", "trans", "transl", "smpl_trans")
-#: Split keys: (names, joints of the key) for root, body, jaw, eyes, hands.
+#: Keys of the split pose, by body part (a pair: one array per side).
 ROOT_KEYS = ("root_orient", "global_orient")
 BODY_KEYS = ("pose_body", "body_pose")
 JAW_KEYS = ("pose_jaw", "jaw_pose")
@@ -97,7 +97,7 @@ class SmplParams:
     stand: np.ndarray
     root_offset: np.ndarray
     container: Any
-    raw: bytes
+    raw: bytes | FileBytes
     has_skeleton: bool
     notes: tuple[str, ...] = field(default=())
     rows: np.ndarray | None = None  # the clip frame of each row (None: row k is frame k)
@@ -196,6 +196,8 @@ def find_layout(record: dict, path) -> tuple[Tree, tuple[PoseField, ...], str | 
             path,
         )
     trans = _first(record, TRANS_KEYS)
+    if whole == "pose_world":  # WHAM: the world pose goes with the world translation only
+        trans = "trans_world" if "trans_world" in record else None
     return tree, tuple(fields), trans
 
 
