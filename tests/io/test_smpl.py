@@ -429,3 +429,58 @@ def test_the_html_report_says_why_it_has_no_player(tmp_path, capsys):
     assert json.loads((tmp_path / "r.json").read_text())["world"] == {
         "skipped": "SMPL parameters hold no joint positions; give --skeleton or --body-model"
     }
+
+
+def smplx_layouts(poses: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    """The same SMPL-X motion in every layout the readers take."""
+    frames = len(poses)
+    return {
+        "poses": {"poses": poses},
+        "amass split": {
+            "root_orient": poses[:, :3],
+            "pose_body": poses[:, 3:66],
+            "pose_jaw": poses[:, 66:69],
+            "pose_eye": poses[:, 69:75],
+            "pose_hand": poses[:, 75:],
+        },
+        "smplx keys": {
+            "global_orient": poses[:, :3],
+            "body_pose": poses[:, 3:66].reshape(frames, 21, 3),
+            "jaw_pose": poses[:, 66:69],
+            "leye_pose": poses[:, 69:72],
+            "reye_pose": poses[:, 72:75],
+            "left_hand_pose": poses[:, 75:120],
+            "right_hand_pose": poses[:, 120:],
+        },
+        "matrices": {"fullpose": rodrigues(poses.reshape(frames, 55, 3))},
+    }
+
+
+@pytest.mark.parametrize("layout", ["poses", "amass split", "smplx keys", "matrices"])
+def test_every_layout_reads_the_same_motion_and_writes_back_exactly(tmp_path, layout):
+    poses = smooth_poses(9, 55, seed=9)
+    arrays = smplx_layouts(poses)[layout]
+    np.savez(tmp_path / "x.npz", mocap_frame_rate=np.array(50.0), **arrays)
+    motion = mc.load(tmp_path / "x.npz")
+    expected = smpl_model.axis_angle_to_quaternion(poses.reshape(9, 55, 3))
+    assert motion.names == list(SMPLX.names) and motion.frame_rate == 50.0
+    assert np.abs(np.abs(np.einsum("fji,fji->fj", motion.rotations, expected)) - 1).max() < 1e-12
+    q = motion.rotations.copy()
+    q[4, 40] = quat.multiply(q[4, 40], quat.exp(np.array([0.0, 0.01, 0.0])))  # right_index1
+    mc.save(motion.replace(rotations=q), tmp_path / "y.npz")
+    before, after = np.load(tmp_path / "x.npz"), np.load(tmp_path / "y.npz")
+    changed = [key for key in before if not np.array_equal(before[key], after[key])]
+    where = {"poses": "poses", "amass split": "pose_hand", "smplx keys": "right_hand_pose"}
+    assert changed == [where.get(layout, "fullpose")]
+    assert (
+        np.abs(np.abs(np.einsum("fji,fji->fj", mc.load(tmp_path / "y.npz").rotations, q)) - 1).max()
+        < 1e-12
+    )
+
+
+def test_the_body_alone_is_22_joints(tmp_path):
+    np.savez(tmp_path / "b.npz", poses=smooth_poses(5, 22), trans=np.zeros((5, 3)))
+    motion = mc.load(tmp_path / "b.npz")
+    assert motion.names == list(SMPLX.names[:22]) and motion.parents.tolist() == list(
+        SMPLX.parents[:22]
+    )
