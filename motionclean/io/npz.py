@@ -15,7 +15,9 @@ bytes, a changed one is written with its original dtype, shape and memory order.
 from __future__ import annotations
 
 import io as _io
+import struct
 import zipfile
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,7 +38,7 @@ class Member:
     (None for a member that is not an ``.npy`` file, carried as bytes)."""
 
     info: zipfile.ZipInfo
-    data: bytes
+    data: bytes | memoryview
     array: np.ndarray | None
 
     @property
@@ -46,7 +48,7 @@ class Member:
         return name[:-4] if name.endswith(".npy") else name
 
 
-def _npy_array(data: bytes, name: str, path) -> np.ndarray:
+def _npy_array(data: bytes | memoryview, name: str, path) -> np.ndarray:
     stream = _io.BytesIO(data)
     try:
         version = np.lib.format.read_magic(stream)
@@ -82,6 +84,22 @@ def _npy_array(data: bytes, name: str, path) -> np.ndarray:
     return array.reshape(shape, order="F" if fortran else "C")
 
 
+def _stored(data: bytes, info: zipfile.ZipInfo) -> memoryview | None:
+    """The bytes of an uncompressed member (np.savez) as a view of the archive's bytes (no
+    copy), checked against its CRC-32; None for a compressed member."""
+    if info.compress_type != zipfile.ZIP_STORED or info.flag_bits & 0x1:  # (0x1: encrypted)
+        return None
+    at = info.header_offset
+    if data[at : at + 4] != b"PK\x03\x04":
+        raise zipfile.BadZipFile(f"no local header for {info.filename!r}")
+    name_length, extra_length = struct.unpack_from("<HH", data, at + 26)
+    start = at + 30 + name_length + extra_length
+    body = memoryview(data)[start : start + info.compress_size]
+    if len(body) != info.compress_size or zlib.crc32(body) != info.CRC:
+        raise zipfile.BadZipFile(f"bad CRC-32 or size for {info.filename!r}")
+    return body
+
+
 def read_npz(data: bytes, path) -> list[Member]:
     """The members of an ``.npz`` archive's bytes, in archive order (see the module)."""
     try:
@@ -101,8 +119,10 @@ def read_npz(data: bytes, path) -> list[Member]:
         for info in infos:
             if info.is_dir():
                 raise MotionError(f"member {info.filename!r} is a folder, not an array", path)
-            with archive.open(info) as stream:
-                body = stream.read(info.file_size + 1)
+            body: bytes | memoryview | None = _stored(data, info)
+            if body is None:  # compressed (np.savez_compressed): inflated, to its size
+                with archive.open(info) as stream:
+                    body = stream.read(info.file_size + 1)
             if len(body) != info.file_size:
                 raise MotionError(
                     f"member {info.filename!r}: size differs from the one declared", path
