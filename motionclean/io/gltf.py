@@ -70,8 +70,10 @@ WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 MAX_FRAMES_PER_KEY = 1000
 #: Quaternion components closer than this to the ones read count as unchanged.
 SAME_ROTATION = 1e-12
-#: A channel whose keys lie within this fraction of a frame of the grid is read as it is.
+#: A channel whose keys lie within this fraction of a frame of the grid (plus two float32
+#: rounding steps of the time itself: key times are float32) is read as it is.
 ON_GRID = 1e-3
+FLOAT32_TIME = 2.0**-22
 #: A frame rate within this fraction of a whole number is that number: exporters' float32
 #: key times are off by up to about 1e-5 (Blender's 120 fps export reads as 119.9995).
 SNAP = 1e-4
@@ -428,8 +430,8 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
         # the whole rate, unless the finest channel's keys then drift off the grid
         times = [k.times for k in keys if k.times.size >= 2][finest]
         whole = 1.0 / round(rate)
-        drift = np.abs((times - start) / whole - np.round((times - start) / whole)).max()
-        dt = whole if drift <= ON_GRID else dt
+        grid = start + whole * np.round((times - start) / whole)
+        dt = whole if _on_grid(times, grid, whole) else dt
     frames = int(round((end - start) / dt)) + 1
     total_keys = sum(k.times.size for k in keys)
     if frames > MAX_FRAMES_PER_KEY * total_keys:
@@ -439,6 +441,12 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
             path,
         )
     return start, dt, frames
+
+
+def _on_grid(times: np.ndarray, grid: np.ndarray, frame_time: float) -> bool:
+    """True when float32 key ``times`` are the ``grid`` times (see :data:`ON_GRID`)."""
+    allowed = ON_GRID * frame_time + FLOAT32_TIME * np.abs(grid)
+    return bool(np.all(np.abs(times - grid) <= allowed))
 
 
 def _step(times: np.ndarray) -> float:
@@ -553,7 +561,7 @@ def parse_gltf(data: bytes, path) -> Motion:
                 tracks.append(Track())
                 continue
             exact = found.interpolation != "CUBICSPLINE" and found.times.size == n_frames
-            exact = exact and bool(np.all(np.abs(found.times - grid) <= ON_GRID * frame_time))
+            exact = exact and _on_grid(found.times, grid, frame_time)
             values = found.values if exact else _sample(found, grid, kind == "rotation")
             tracks.append(Track(targets[(n, kind)], exact, found.input))
             if kind == "rotation":
