@@ -28,7 +28,8 @@ Columns the user excludes (``exclude``: fnmatch patterns, e.g. muscle forces in 
 samples (``Motion.missing``).
 
 Writing a clip read from such a file keeps the header and every cell that did not change
-byte for byte (excluded columns included); a changed value is written in shortest
+byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
+counts as unchanged, as for BVH); a changed value is written in shortest
 round-trip form, in the file's unit and on the branch (whole turns) nearest the value
 read. When the frame count changed (resampled), the rows are written afresh and ``nRows``
 is updated.
@@ -49,6 +50,7 @@ from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
 from .csv import format_repr, uniform_frame_time
+from .files import pieces
 from .text import line_ends, parse_values, scan_tokens, splice_cells, table_pieces
 
 #: Channels of a rotational coordinate (a rotation about Z) and of a translational one.
@@ -56,8 +58,6 @@ ROTATIONAL = ("Zrotation", "Xrotation", "Yrotation")
 TRANSLATIONAL = {"tx": ("Xposition",), "ty": ("Yposition",), "tz": ("Zposition",)}
 #: Header lines read at most before ``endheader``.
 MAX_HEADER_LINES = 1000
-#: Quaternion components closer than this to the ones read count as unchanged.
-SAME_ROTATION = 1e-12
 
 
 @dataclass(frozen=True, eq=False)
@@ -269,7 +269,6 @@ def coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, tex
         frame_time=frame_time,
         rotations=rotations,
         translations=translations,
-        source_rotations=rotations.copy(),
         source=text,
         path=None if path is None else str(path),
         missing=missing if missing.any() else None,
@@ -329,18 +328,12 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     reference = src.values[:, 1:]
     values = coordinate_values(motion, src.in_degrees, reference)
     missing = motion.missing_mask()
-    axes = src.translational
-    assert motion.source_rotations is not None
-    q, read = motion.rotations, motion.source_rotations
-    same = (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
-        np.abs(q + read).max(axis=-1) < SAME_ROTATION
-    )
+    # an angle read and turned into a quaternion comes back within 1e-14 of itself
     moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
-    changed = np.where(axes >= 0, moved, ~same)
     was_missing = np.isnan(reference)
-    changed = (changed & ~missing) | (was_missing != missing)
+    changed = (moved & ~missing) | (was_missing != missing)
     if not changed.any():
-        return [src.raw]
+        return pieces(src.raw)
     mask = np.zeros(src.starts.shape, dtype=bool)
     mask[:, src.columns] = changed
     new_text = np.where(missing, np.nan, values)
