@@ -97,12 +97,15 @@ def find_feet(
     height: float,
     names: list[str],
     patterns: list[str] | None = None,
+    elevation: np.ndarray | None = None,
 ) -> list[Foot]:
-    """The feet of a skeleton, found from its rest pose (or named by ``patterns``).
+    """The feet of a skeleton, found from its bones and poses (or named by ``patterns``).
 
-    ``rest`` ``(P, 3)`` are the rest-pose world positions of the points, ``up`` the up axis
-    (0, 1, 2) and ``height`` the body height. Without ``patterns``, a foot is the chain above a
-    leaf near the lowest rest point: walking up from the leaf, the ankle is the first point
+    ``rest`` ``(P, 3)`` are the rest-pose world positions of the points (their bone lengths
+    count), ``up`` the up axis (0, 1, 2) and ``height`` the body height; ``elevation``
+    ``(P,)`` each point's typical height above the lowest point of its pose (default: in
+    the rest pose). Without ``patterns``, a foot is the chain above a leaf near the lowest
+    point: walking up from the leaf, the ankle is the first point
     hanging from a long bone (the shin), the knee its parent and the hip the knee's parent
     (the thigh must be long too). Whatever the joint names, and none on a skeleton with no
     legs. ``patterns`` (fnmatch on joint names, e.g. ``["*Foot"]``) name the ankles instead.
@@ -120,7 +123,9 @@ def find_feet(
             j for j in range(n_joints) if any(fnmatch.fnmatchcase(names[j], p) for p in patterns)
         ]
     else:
-        low = rest[:, up] - rest[:, up].min() < FOOT_ZONE * height
+        if elevation is None:
+            elevation = rest[:, up] - rest[:, up].min()
+        low = elevation < FOOT_ZONE * height
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
         for leaf in leaves:
@@ -148,11 +153,18 @@ def find_feet(
 def skeleton_feet(
     motion: Motion, patterns: list[str] | None = None, up: str | None = None
 ) -> tuple[list[Foot], int, float]:
-    """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` on its rest
-    pose, with the up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
-    (:func:`~motionclean.core.kinematics.up_axis`)."""
+    """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` with the
+    up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
+    (:func:`~motionclean.core.kinematics.up_axis`), and each point's height above the
+    lowest point of its frame, median over the clip's sampled poses
+    (:func:`~motionclean.core.kinematics.sample_poses`): the rest pose may face another
+    way than the motion."""
     axis = kinematics.up_axis(motion, up)
     height = kinematics.body_height(motion, axis)
+    poses, _ = kinematics.sample_poses(motion)
+    elevation = None
+    if poses.shape[0]:
+        elevation = np.median(poses[..., axis] - poses[..., axis].min(axis=1, keepdims=True), 0)
     feet = find_feet(
         kinematics.point_parents(motion),
         kinematics.rest_positions(motion),
@@ -160,6 +172,7 @@ def skeleton_feet(
         height,
         motion.names,
         patterns,
+        elevation,
     )
     return feet, axis, height
 

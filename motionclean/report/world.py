@@ -19,7 +19,8 @@ from .metrics import pair, rms_and_max
 
 def format_world(world: dict) -> str:
     """One line: up axis, body height and the end effector that moved most."""
-    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
+    given = " (given)" if world.get("up_axis_source") == "given" else ""
+    text = f"world: up axis {world['up_axis']}{given}, body height {world['body_height']:.4g} units"
     worst = world.get("worst_deviation")
     if worst is not None:
         text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
@@ -79,7 +80,8 @@ def world_figures(
     points: list | None = None,
     used: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """The report's ``world`` section: up axis, body height (file units) and, per end
+    """The report's ``world`` section: up axis (and whether it was ``"given"`` with the clip,
+    :attr:`Motion.up`, or ``"found"`` from its motion), body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
@@ -128,6 +130,7 @@ def world_figures(
         }
     return {
         "up_axis": kinematics.AXES[up],
+        "up_axis_source": "found" if before.up is None else "given",
         "body_height": height,
         "effectors": effectors,
         "worst_deviation": worst,
