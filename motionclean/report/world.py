@@ -150,7 +150,10 @@ def contact_figures(
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below the ground, units) before and after. ``None`` and no
     series for a clip without feet. The series hold each foot's lowest point above the
-    ground per frame, before and after. ``points`` and ``used`` as in :func:`world_figures`.
+    ground per frame, before and after. ``floor`` is the plane through the contacts' soles
+    (:func:`~motionclean.core.contacts.fit_floor`): its height along the up axis at their
+    centre, its tilt from level (degrees) and normal, and how many contacts it rests on
+    (None without contacts). ``points`` and ``used`` as in :func:`world_figures`.
     """
     skeleton_feet, up, height = found.skeleton_feet(before)
     if not skeleton_feet:
@@ -172,9 +175,18 @@ def contact_figures(
         depth = [found.penetration(p, feet, up, ground) for p in clips]
         low = [found.lowest_points(p, feet, up) - ground for p in clips]
     runs = found.contact_runs(contacts)
+    floor, soles = found.find_floor(positions, feet, up, height, dt)
     section: dict[str, Any] = {
         "up_axis": kinematics.AXES[up],
         "ground": ground if grounded else None,
+        "floor": None
+        if floor is None
+        else {
+            "height": floor.height_at(soles.mean(axis=0)),
+            "tilt_deg": floor.tilt_deg,
+            "normal": [float(v) for v in floor.normal],
+            "contacts": int(soles.shape[0]),
+        },
         "feet": {},
     }
     series: dict[str, dict] = {}
@@ -205,8 +217,15 @@ def contact_figures(
 
 
 def format_contacts(section: dict) -> list[str]:
-    """One terminal line per foot: contacts, skate before/after, penetration."""
+    """One terminal line for the floor, then one per foot: contacts, skate before/after,
+    penetration."""
     lines = []
+    floor = section.get("floor")
+    if floor:
+        lines.append(
+            f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
+            f"(through the soles of {floor['contacts']} contacts)"
+        )
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
         text = f"foot {name}: {len(foot['contacts'])} contacts ({foot['frames']} frames)"
