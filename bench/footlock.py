@@ -106,8 +106,8 @@ def figures(clip, truth, feet, contacts, up, height, legs, knees, truth_pos):
     }
 
 
-def walks() -> None:
-    print(f"## Real walks, {NOISE:g} degrees of white noise on every joint\n")
+def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
+    print(f"## Real walks, {NOISE:g} degrees of white noise on every joint: {label}\n")
     print(
         "| clip | skate / capture's: ankles | toes and toe ends | mean of foot points | leg "
         "RMSE with / without | knee flexion error | largest knee step | cost (default runs) "
@@ -132,8 +132,8 @@ def walks() -> None:
         args = (truth, feet, contacts, up, height, legs, knees, truth_pos)
         own = figures(truth, *args)
         without = figures(WITHOUT.run(planted)[0], *args)
-        with_ = figures(WITH.run(planted)[0], *args)
-        ratio = with_["skate"] / own["skate"]
+        locked = figures(with_.run(planted)[0], *args)
+        ratio = locked["skate"] / own["skate"]
         ankles = [
             i
             for i, (k, p) in enumerate((k, p) for k, f in enumerate(feet) for p in f.points)
@@ -142,21 +142,21 @@ def walks() -> None:
         toes = [i for i in range(ratio.size) if i not in ankles]
         cleaned = WITHOUT.run(planted)[0]
         t_without = best_cpu(lambda c=planted: WITHOUT.run(c), 7)
-        t_lock = best_cpu(lambda c=cleaned: LOCK.run(c), 7)
-        clean_a, clean_b = WITH.run(truth)[0], WITHOUT.run(truth)[0]
+        t_lock = best_cpu(lambda c=cleaned: lock.run(c), 7)
+        clean_a, clean_b = with_.run(truth)[0], WITHOUT.run(truth)[0]
         moved = np.degrees(
             quat.angle_between(clean_a.rotations[:, legs], clean_b.rotations[:, legs])
         )
         smooth = truth.replace(rotations=lee_shin(truth.rotations, binomial(3), iterations=20))
-        smooth_a, smooth_b = WITH.run(smooth)[0], WITHOUT.run(smooth)[0]
+        smooth_a, smooth_b = with_.run(smooth)[0], WITHOUT.run(smooth)[0]
         smoothed = np.degrees(quat.angle_between(smooth_a.rotations, smooth_b.rotations))
         print(
             f"| {path.stem} | {', '.join(f'{r:.2f}' for r in ratio[ankles])} "
             f"| {', '.join(f'{r:.2f}' for r in ratio[toes])} "
-            f"| {with_['skate'].mean() / own['skate'].mean():.2f} "
-            f"| {with_['rmse'] / without['rmse']:.4f} "
-            f"| {with_['flexion'] / without['flexion']:.4f} "
-            f"| {with_['knee_step'] / without['knee_step']:.4f} "
+            f"| {locked['skate'].mean() / own['skate'].mean():.2f} "
+            f"| {locked['rmse'] / without['rmse']:.4f} "
+            f"| {locked['flexion'] / without['flexion']:.4f} "
+            f"| {locked['knee_step'] / without['knee_step']:.4f} "
             f"| {t_lock / t_without:.2f} "
             f"| {math.sqrt(np.mean(moved**2)):.4f}, {moved.max():.3f} "
             f"| {math.sqrt(np.mean(smoothed**2)):.5f} |"
@@ -210,7 +210,13 @@ def untouched() -> None:
 
 
 def main() -> None:
-    walks()
+    walks(WITH, LOCK, "the default (ankles held)")
+    toes = [*DEFAULT_STEPS[:-1], {"filter": "footlock", "toes": True}]
+    walks(
+        Pipeline.from_tables(toes, "toes"),
+        Pipeline.from_inline(["footlock:toes=true"]),
+        "footlock:toes=true (toes held too)",
+    )
     quality()
     untouched()
 

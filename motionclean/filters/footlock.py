@@ -35,8 +35,8 @@ BLOCK_FRAMES = 4096
 #: A point this far below the floor (fraction of the tolerance) is on it: a sole that
 #: defines the floor is not pushed by the rounding of its own height.
 FLOOR_SLACK = 1e-6
-#: Smallest expected error of a variable (radians, or a fraction of the body height for
-#: the root's translation): a joint the noise model calls exact barely moves.
+#: Smallest expected error of a variable (radians, or length units for the root's
+#: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
 
 
@@ -177,59 +177,46 @@ class _Problem:
     moves: np.ndarray  # (K, V) bool: joint v's rotation moves point k
 
 
-def _problem(legs: list[Leg], parents: np.ndarray, n_joints: int, prior: Prior) -> _Problem:
+def _problem(legs: list[Leg], parents: np.ndarray, tips: list[int], prior: Prior) -> _Problem:
+    """The variables, rows and lever structure of planting ``legs``."""
     depth = depths(parents)
     used = sorted({j for leg in legs for j in leg.joints}, key=lambda j: (depth[j], j))
-    joints = np.array(used, dtype=np.intp)
     knees = {leg.knee: leg.hinge for leg in legs}
     hinge = np.array([j in knees for j in used], dtype=bool)
-    hinges = np.array([knees.get(j, np.zeros(3)) for j in used]).reshape(-1, 3)
     axes = np.flatnonzero(prior.root > 0.0)
     widths = np.where(hinge, 1, 3)
     columns = axes.size + np.concatenate([[0], np.cumsum(widths)[:-1]]).astype(np.intp)
-    n_columns = int(axes.size + widths.sum())
-    variance = np.empty(n_columns)
-    variance[: axes.size] = prior.root[axes] ** 2 / 3.0
-    for v, j in enumerate(used):
-        variance[columns[v] : columns[v] + widths[v]] = prior.sigma[j] ** 2 / 3.0
+    variance = (
+        np.concatenate([prior.root[axes] ** 2, np.repeat(prior.sigma[used] ** 2, widths)]) / 3.0
+    )  # per component of a 3-D error
     points = np.array([p for leg in legs for p in leg.points], dtype=np.intp)
-    point_leg = np.array([k for k, leg in enumerate(legs) for _ in leg.points], dtype=np.intp)
-    toe = np.array([i > 0 for leg in legs for i in range(len(leg.points))], dtype=bool)
-    return _Problem(
-        joints=joints,
-        hinge=hinge,
-        hinges=hinges,
-        columns=columns,
-        axes=axes,
-        n_columns=n_columns,
-        prior=1.0 / np.maximum(variance, MIN_SIGMA**2),
-        points=points,
-        point_leg=point_leg,
-        toe=toe,
-        point_joint=np.zeros(0, dtype=np.intp),
-        moves=np.zeros((0, 0), dtype=bool),
-    )
-
-
-def _with_tree(problem: _Problem, parents: np.ndarray, tips: list[int]) -> _Problem:
-    """``problem`` with each point's joint and the joints whose rotation moves it."""
     n_joints = len(parents)
+    tip_joints = np.array(tips, dtype=np.intp)
     point_joint = np.where(
-        problem.points < n_joints,
-        problem.points,
-        np.array(tips, dtype=np.intp)[np.maximum(problem.points - n_joints, 0)]
-        if tips
-        else problem.points,
+        points < n_joints, points, tip_joints[np.maximum(points - n_joints, 0)] if tips else points
     )
-    moves = np.zeros((problem.points.size, problem.joints.size), dtype=bool)
-    rank = {int(j): v for v, j in enumerate(problem.joints)}
-    for k, (point, joint) in enumerate(zip(problem.points, point_joint, strict=True)):
-        j = int(joint) if point >= n_joints else int(parents[joint])
-        while j >= 0:  # the joint's ancestors (and the joint itself for an end site)
+    rank = {j: v for v, j in enumerate(used)}
+    moves = np.zeros((points.size, len(used)), dtype=bool)
+    for k, (point, joint) in enumerate(zip(points.tolist(), point_joint.tolist(), strict=True)):
+        j = joint if point >= n_joints else int(parents[joint])
+        while j >= 0:  # the joints above the point (and its own, for an end site)
             if j in rank:
                 moves[k, rank[j]] = True
             j = int(parents[j])
-    return _Problem(**{**problem.__dict__, "point_joint": point_joint, "moves": moves})
+    return _Problem(
+        joints=np.array(used, dtype=np.intp),
+        hinge=hinge,
+        hinges=np.array([knees.get(j, np.zeros(3)) for j in used]).reshape(-1, 3),
+        columns=columns,
+        axes=axes,
+        n_columns=int(axes.size + widths.sum()),
+        prior=1.0 / np.maximum(variance, MIN_SIGMA**2),
+        points=points,
+        point_joint=point_joint,
+        point_leg=np.array([k for k, leg in enumerate(legs) for _ in leg.points], dtype=np.intp),
+        toe=np.array([i > 0 for leg in legs for i in range(len(leg.points))], dtype=bool),
+        moves=moves,
+    )
 
 
 def plant(
@@ -270,7 +257,7 @@ def plant(
     if not legs:
         return out_q, out_t
     tip_joints = sorted(tips)
-    problem = _with_tree(_problem(legs, parents, len(parents), prior), parents, tip_joints)
+    problem = _problem(legs, parents, tip_joints, prior)
     tip_offsets = np.array([tips[j] for j in tip_joints], dtype=np.float64).reshape(-1, 3)
     start_points = _points(*forward_arrays(parents, rotations, translations), problem, tip_offsets)
     targets = np.empty_like(start_points)
