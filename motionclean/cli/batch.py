@@ -29,6 +29,7 @@ from .options import (
     FOLDER_PATH,
     PIPE_OPTION,
     STEP_OPTION,
+    UP_OPTION,
     pipeline_from_options,
     raise_failures,
     read_options,
@@ -206,6 +207,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     "tcp://HOST:8786 (workers read and write the same paths: shared storage), or local[:N] "
     "for a cluster of N processes on this machine. Needs the dask extra.",
 )
+@UP_OPTION
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
 @read_options
 def batch_command(
@@ -218,6 +220,7 @@ def batch_command(
     report_dir: str | None,
     skip_existing: bool,
     scheduler: str | None,
+    up: str | None,
     quiet: bool,
     skeleton: str | None,
     body_model: str | None,
@@ -252,9 +255,8 @@ def batch_command(
                 str(source), str(target), "skipped", report=None if page is None else str(page)
             )
             continue
-        work.append(
-            Job(str(source), str(target), tables, None if page is None else str(page), read)
-        )
+        report_page = None if page is None else str(page)
+        work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
     if scheduler is not None and jobs is not None:

@@ -19,12 +19,9 @@ quaternion of its axis-angle vector. Joint positions are not in the file: with a
 model (``J_regressor``, ``v_template``, ``shapedirs``) or a skeleton the clip gets the
 model's rest offsets and its root translation is ``trans`` plus the pelvis's rest position
 (where SMPL puts it); without either the offsets are zero and world-space figures
-(contacts, footlock, the player) are skipped with a note. With positions, a clip whose
-root turns the body to stand along another axis (AMASS is Z up, the model Y up) is
-expressed with its rest pose standing the same way: every local rotation is conjugated by
-that constant quarter or half turn (:attr:`SmplParams.stand`), which moves no joint in
-the world and commutes with every filter (they are invariant to constant rotations on
-either side); the writer undoes it.
+(contacts, footlock, the player) are skipped with a note. The rest pose stands along the
+model's Y axis whatever way the clip's root turns it (AMASS is Z up): the up axis, body
+height and feet are found from the motion (``core.kinematics``).
 
 Writing back: every array keeps its key, dtype, shape and place; a sample whose rotation
 (or translation) did not change keeps its values bit for bit, a changed one is written as
@@ -85,16 +82,14 @@ class PoseField:
 @dataclass(frozen=True, eq=False)
 class SmplParams:
     """A SMPL record as read, for the writer: the model tree, where the rotations and
-    translation are, the arrays themselves, the constant ``stand`` rotation ``C`` (clip
-    rotations are ``q_0 C^-1`` for the root and ``C q C^-1`` below it), the root's rest
-    position added to ``trans``, the container the record came from (for its writer) and
-    the file's bytes (an untouched clip is written back as them)."""
+    translation are, the arrays themselves, the root's rest position added to ``trans``,
+    the container the record came from (for its writer) and the file's bytes (an untouched
+    clip is written back as them)."""
 
     tree: Tree
     fields: tuple[PoseField, ...]
     trans_key: str | None
     record: dict[str, np.ndarray]
-    stand: np.ndarray
     root_offset: np.ndarray
     container: Any
     raw: bytes | FileBytes
@@ -303,47 +298,6 @@ def _check_finite(record: dict, keys, path) -> None:
             raise MotionError(f"{key}: a value that is not a finite number at frame {frame}", path)
 
 
-#: Quarter and half turns taking the model's up axis (+Y) to each world direction:
-#: (axis index, sign) -> quaternion C with C (0, 1, 0) = that direction.
-_STAND = {
-    (1, 1.0): (1.0, 0.0, 0.0, 0.0),
-    (2, 1.0): (np.sqrt(0.5), np.sqrt(0.5), 0.0, 0.0),  # +90 about X: Y -> Z
-    (2, -1.0): (np.sqrt(0.5), -np.sqrt(0.5), 0.0, 0.0),
-    (0, 1.0): (np.sqrt(0.5), 0.0, 0.0, -np.sqrt(0.5)),  # -90 about Z: Y -> X
-    (0, -1.0): (np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)),
-    (1, -1.0): (0.0, 1.0, 0.0, 0.0),  # 180 about X
-}
-
-
-def stand_rotation(root: np.ndarray) -> np.ndarray:
-    """The constant ``C`` (a quarter or half turn, or identity) taking the model's up
-    (+Y) to the world axis the root's rotations ``(F, 4)`` point it along on average."""
-    up = quat.rotate(root, np.array([0.0, 1.0, 0.0])).mean(axis=0)
-    axis = int(np.argmax(np.abs(up)))
-    return np.array(_STAND[(axis, 1.0 if up[axis] >= 0.0 else -1.0)])
-
-
-def to_clip(q: np.ndarray, stand: np.ndarray) -> np.ndarray:
-    """Model rotations ``(F, J, 4)`` in the clip's frame: root ``q_0 C^-1``, others
-    ``C q C^-1`` (unchanged for ``C`` = identity)."""
-    if stand[0] == 1.0:
-        return q
-    inverse = quat.conjugate(stand)
-    out = quat.multiply(stand, quat.multiply(q, inverse))
-    out[:, 0] = quat.multiply(q[:, 0], inverse)
-    return out
-
-
-def from_clip(q: np.ndarray, stand: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`to_clip`."""
-    if stand[0] == 1.0:
-        return q
-    inverse = quat.conjugate(stand)
-    out = quat.multiply(inverse, quat.multiply(q, stand))
-    out[:, 0] = quat.multiply(q[:, 0], stand)
-    return out
-
-
 def smpl_motion(
     record: dict[str, np.ndarray],
     path,
@@ -381,11 +335,6 @@ def smpl_motion(
         offsets = smpl_model.model_offsets(body_model, tree, _betas(record), body_model_path)
     elif skeleton is not None:
         offsets = smpl_model.skeleton_offsets(skeleton, tree, path)
-    stand = (
-        stand_rotation(model[:, 0]) if has_skeleton and n_rows else np.array([1.0, 0.0, 0.0, 0.0])
-    )
-    if has_skeleton:  # the root's place is in the world already (SMPL adds it unrotated)
-        offsets[1:] = quat.rotate(stand, offsets[1:])
     root_offset = offsets[0].copy()
     channels: list[tuple[str, ...]] = [ROTATION] * tree.n_joints
     trans = None
@@ -394,7 +343,7 @@ def smpl_motion(
         channels[0] = POSITION_CHANNELS + ROTATION
     n_frames = n_rows if rows is None else int(rows[-1]) + 1
     missing = None
-    rotations = to_clip(model, stand)
+    rotations = model
     if rows is not None:  # frames the person was not seen in: missing, the nearest held
         missing = np.ones((n_frames, tree.n_joints), dtype=bool)
         missing[rows] = False
@@ -411,7 +360,6 @@ def smpl_motion(
         fields,
         trans_key,
         record,
-        stand,
         root_offset,
         container,
         raw,
@@ -472,7 +420,7 @@ def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
     assert motion.source_rotations is not None
     at = slice(None) if src.rows is None else src.rows  # the frames the rows hold
     kept = _same(motion.rotations[at], motion.source_rotations[at])
-    model = from_clip(motion.rotations[at], src.stand)
+    model = motion.rotations[at]
     out: dict[str, np.ndarray] = {}
     for f in src.fields:
         joints = slice(f.first, f.first + f.count)
@@ -512,7 +460,7 @@ def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
     if motion.missing is not None:
         raise MotionError("a resampled SMPL clip has missing samples; fill them first", motion.path)
     rows = len(src.record[src.fields[0].key])
-    model = from_clip(motion.rotations, src.stand)
+    model = motion.rotations
     vectors = 2.0 * quat.log_shortest(model)  # (F, J, 3)
     new: dict[str, np.ndarray] = {}
     for f in src.fields:

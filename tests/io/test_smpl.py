@@ -66,17 +66,56 @@ def amass_x(path, frames: int = 30):
     return path
 
 
-def fake_body_model(tree, vertices: int = 60, shapes: int = 4, seed: int = 1):
-    """A small made-up body model: template, a joint regressor (rows sum to one) and
-    shape directions; returns the arrays."""
+#: Rest offsets (metres, Y up, facing +Z) of a made-up T-pose, by joint name (left side;
+#: the right mirrors it), for fake body models whose joints stand like a body.
+T_POSE = {
+    "pelvis": (0, 0.95, 0),
+    "hip": (0.09, -0.08, 0),
+    "knee": (0, -0.4, 0),
+    "ankle": (0, -0.4, 0),
+    "foot": (0, -0.06, 0.12),
+    "spine1": (0, 0.11, 0),
+    "spine2": (0, 0.12, 0),
+    "spine3": (0, 0.12, 0),
+    "neck": (0, 0.2, 0),
+    "head": (0, 0.12, 0.03),
+    "collar": (0.07, 0.11, 0),
+    "shoulder": (0.11, 0.02, 0),
+    "elbow": (0.26, 0, 0),
+    "wrist": (0.25, 0, 0),
+    "hand": (0.08, 0, 0),
+    "jaw": (0, -0.03, 0.06),
+    "eye_smplhf": (0.03, 0.05, 0.08),
+}
+
+
+def t_pose_joints(tree) -> np.ndarray:
+    """``(J, 3)`` rest joint positions of :data:`T_POSE` (each finger joint 3 cm on)."""
+    joints = np.zeros((tree.n_joints, 3))
+    for k, (name, parent) in enumerate(zip(tree.names, tree.parents, strict=True)):
+        part = name.removeprefix("left_").removeprefix("right_")
+        finger = part[:-1] in ("index", "middle", "pinky", "ring", "thumb")
+        offset = np.array((0.03, 0, 0) if finger else T_POSE[part], dtype=float)
+        if name.startswith("right_"):
+            offset[0] = -offset[0]
+        joints[k] = offset + (joints[parent] if parent >= 0 else 0.0)
+    return joints
+
+
+def fake_body_model(tree, extra: int = 40, shapes: int = 4, seed: int = 1):
+    """A small made-up body model whose joints stand as :data:`T_POSE`: the template's first
+    vertices are the joints (the regressor picks them, with a little of the others) and
+    shape directions move everything a little; returns the arrays."""
     rng = np.random.default_rng(seed)
-    template = rng.normal(0, 0.3, (vertices, 3)) + [0, 0.9, 0]
-    regressor = rng.uniform(0, 1, (tree.n_joints, vertices)) ** 8
-    regressor /= regressor.sum(axis=1, keepdims=True)
+    joints = t_pose_joints(tree)
+    template = np.concatenate([joints, rng.normal(0, 0.2, (extra, 3)) + [0, 0.9, 0]])
+    regressor = np.zeros((tree.n_joints, len(template)))
+    regressor[:, : tree.n_joints] = 0.9 * np.eye(tree.n_joints)
+    regressor[:, tree.n_joints :] = 0.1 / extra
     return {
         "v_template": template,
         "J_regressor": regressor,
-        "shapedirs": rng.normal(0, 0.01, (vertices, 3, shapes)),
+        "shapedirs": rng.normal(0, 0.01, (len(template), 3, shapes)),
         "kintree_table": np.array([tree.parents, range(tree.n_joints)]),
     }
 
@@ -220,10 +259,11 @@ def test_joint_positions_from_a_body_model_follow_smpl(tmp_path):
     expected = smpl_joints(data["poses"], data["trans"], rest, SMPLH.parents)
     positions, _ = kinematics.forward(motion)
     assert np.abs(positions - expected).max() < 1e-12
-    # the body stands along Z (AMASS): the rest pose is expressed standing so too
+    # the body stands along Z (AMASS's root turns the Y-up model): found from the motion
     assert kinematics.up_axis(motion) == 2
+    assert 1.3 < kinematics.body_height(motion) < 1.9
     assert kinematics.world_note(motion) is None
-    mc.save(motion, tmp_path / "b.npz")  # the stand-up turn is undone on write
+    mc.save(motion, tmp_path / "b.npz")
     assert (tmp_path / "b.npz").read_bytes() == path.read_bytes()
 
 
@@ -306,7 +346,8 @@ def test_clean_with_a_body_model_finds_the_feet(tmp_path, capsys):
     path = amass_h(tmp_path / "a.npz", frames=60)
     np.savez(tmp_path / "model.npz", **fake_body_model(SMPLH))
     code, out, _ = run_cli(capsys, "info", path, "--body-model", tmp_path / "model.npz")
-    assert code == 0 and "up axis: z" in out and "world: skipped" not in out
+    assert code == 0 and "up axis: z (found from the motion)" in out
+    assert "foot left_ankle" in out and "foot right_ankle" in out
 
 
 def bad_npz(tmp_path, name: str, **arrays) -> str:
