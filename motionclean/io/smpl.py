@@ -484,22 +484,32 @@ def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
 
 
 def fresh_record(motion: Motion) -> dict[str, np.ndarray]:
-    """A SMPL record (``poses``, ``trans``, ``mocap_framerate``) of a clip read from another
-    format whose joints are a SMPL model's, in its rest pose (zero rotations a T-pose)."""
-    tree = next((t for t in TREES.values() if list(t.names) == motion.names), None)
+    """A SMPL record (``poses`` in model order, ``trans``, ``mocap_framerate``) of a clip read
+    from another format whose joints and tree are a SMPL model's (by name, in any order: a
+    BVH lists them depth first) and whose rest pose is the model's (zero rotations a T-pose);
+    ``trans`` is the pelvis's position less its rest offset, as SMPL adds it back."""
+    names = {name: j for j, name in enumerate(motion.names)}
+    tree = next((t for t in TREES.values() if set(t.names) == names.keys()), None)
     if tree is None:
         raise MotionError(
-            "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X in model order (pelvis, "
-            f"left_hip, ...); this clip has {motion.n_joints} others",
+            "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X (pelvis, left_hip, ...); "
+            f"this clip has {motion.n_joints} others",
             motion.path,
         )
-    r = 2.0 * quat.log_shortest(motion.rotations)
+    order = np.array([names[name] for name in tree.names], dtype=np.intp)
+    parents = [tree.names.index(motion.names[p]) if p >= 0 else -1 for p in motion.parents[order]]
+    if parents != list(tree.parents):
+        raise MotionError(f"the joints are {tree.model}'s but not its tree", motion.path)
+    if motion.missing is not None:
+        raise MotionError("SMPL parameters have no missing samples; fill them first", motion.path)
+    r = 2.0 * quat.log_shortest(motion.rotations[:, order])
     record = {
         "poses": r.reshape(motion.n_frames, -1),
         "mocap_framerate": np.array(motion.frame_rate),
     }
-    if motion.layout.has_position[0]:
-        record["trans"] = motion.translations[:, 0] - motion.offsets[0]
+    root = int(order[0])
+    if motion.layout.has_position[root]:
+        record["trans"] = motion.translations[:, root] - motion.offsets[root]
     return record
 
 

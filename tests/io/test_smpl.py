@@ -9,7 +9,7 @@ import zipfile
 
 import numpy as np
 import pytest
-from helpers import run_cli
+from helpers import ROOT, run_cli
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -525,3 +525,23 @@ def test_the_body_alone_is_22_joints(tmp_path):
     assert motion.names == list(SMPLX.names[:22]) and motion.parents.tolist() == list(
         SMPLX.parents[:22]
     )
+
+
+def test_smpl_to_bvh_and_back(tmp_path, capsys):
+    path = amass_h(tmp_path / "a.npz", frames=30)
+    np.savez(tmp_path / "model.npz", **fake_body_model(SMPLH))
+    model = ("--body-model", tmp_path / "model.npz")
+    assert run_cli(capsys, "convert", path, tmp_path / "a.bvh", *model)[0] == 0
+    code, _, err = run_cli(capsys, "convert", tmp_path / "a.bvh", tmp_path / "back.npz")
+    assert code == 0, err
+    before, after = np.load(path), np.load(tmp_path / "back.npz")
+    q_before = smpl_model.axis_angle_to_quaternion(before["poses"].reshape(30, 52, 3))
+    q_after = smpl_model.axis_angle_to_quaternion(after["poses"].reshape(30, 52, 3))
+    dots = np.abs(np.einsum("fji,fji->fj", q_before, q_after))
+    assert np.degrees(2 * np.arccos(np.clip(dots.min(), 0, 1))) < 1e-3  # BVH's six decimals
+    assert np.abs(after["trans"] - before["trans"]).max() < 1e-5
+    assert after["mocap_framerate"] == pytest.approx(120.0, rel=1e-5)
+    code, _, err = run_cli(
+        capsys, "convert", ROOT / "sample_data" / "131_02_cut.bvh", tmp_path / "x.npz"
+    )
+    assert code == 1 and "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X" in err
