@@ -90,6 +90,7 @@ from .bvh import BOM, BvhText
 from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
+    ascii_float,
     check_finite,
     parse_values,
     scan_cells,
@@ -291,7 +292,7 @@ def parse_body(
         at = bad_token if number is None else int(number[bad_token])
         text = buf[flat_starts[at] : flat_ends[at]].tobytes().decode("utf-8", "replace")[:40]
         try:
-            value = float(text)
+            value = ascii_float(text)
             problem = (
                 "is not finite"
                 if not math.isfinite(value)
