@@ -69,7 +69,7 @@ from .csv import (
     uniform_frame_time,
     value_cells,
 )
-from .text import table_pieces
+from .text import ascii_float, table_pieces
 
 #: What every Motive export starts with (after an optional byte-order mark).
 SIGNATURE = b"Format Version,"
@@ -173,7 +173,7 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
     if text is None:
         _fail("no Export Frame Rate in the metadata line", path, 1)
     try:
-        rate = float(text)
+        rate = ascii_float(text.strip(" "))
     except ValueError:
         _fail(f"Export Frame Rate is not a number: {text[:40]!r}", path, 1)
     if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME < rate <= 1.0 / MIN_FRAME_TIME):

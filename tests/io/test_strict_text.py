@@ -36,3 +36,16 @@ def test_numbers_out_of_range_or_not_finite_keep_their_words(tmp_path, capsys, c
     clip.write_text(RIGID_HEAD + f"0,{cell},0,0,1,0,0,0\n0.01,1,0,0,1,0,0,0\n")
     code, _, err = run_cli(capsys, "info", clip)
     assert code == 1 and one_error_line(err).endswith(f":2: value {cell!r} {problem}")
+
+
+@pytest.mark.parametrize("rate", ["\u0661\u0662\u0660", "1_20", "120.0.0", "0x78"])
+def test_a_motive_frame_rate_that_is_no_ascii_number_is_refused(tmp_path, capsys, rate):
+    """Python's float() reads '١٢٠' and '1_20' as 120: the export's rate is refused instead."""
+    text = MOTIVE_SAMPLE.read_text(encoding="utf-8")
+    assert text.count("Export Frame Rate,120.000000,") == 1
+    clip = tmp_path / "m.csv"
+    clip.write_text(text.replace("Export Frame Rate,120.000000,", f"Export Frame Rate,{rate},"))
+    code, _, err = run_cli(capsys, "info", clip)
+    assert code == 1
+    line = one_error_line(err)
+    assert line == f"motionclean: error: {clip}:1: Export Frame Rate is not a number: {rate!r}"
