@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
 
-from ..core.errors import MotionError
+from ..core.errors import InvalidMotion, MotionError
 from ..core.motion import Motion
 from . import bvh, csv, motive
 from .files import read_regular_file
@@ -83,7 +83,8 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
 
     Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
     InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
-    quaternion has no Euler angles.
+    quaternion has no Euler angles. Joint names the readers would refuse or change are
+    refused too (:func:`_check_names`), so every file written reads back.
     """
     path = Path(path)
     write = _WRITERS[_suffix(path, _WRITERS)]
@@ -91,12 +92,33 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
         raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
     try:
         motion.check()
+        _check_names(motion.names, write is bvh.bvh_pieces)
         data = write(motion)
     except MotionError as error:
         if error.path is not None:
             raise
         raise type(error)(error.message, path) from None
     atomic_write(path, data)
+
+
+def _check_names(names: list[str], bvh_file: bool) -> None:
+    """Refuse joint names the readers would refuse or change (InvalidMotion): empty, with
+    spaces around them (the readers strip them), a NUL byte, used twice, or a line break in
+    a BVH file (a CSV header quotes one)."""
+    seen: set[str] = set()
+    for name in names:
+        if not name or name != name.strip():
+            problem = "is empty or has spaces around it"
+        elif "\x00" in name:
+            problem = "holds a NUL byte"
+        elif bvh_file and ("\n" in name or "\r" in name):
+            problem = "holds a line break, which a BVH file cannot"
+        elif name in seen:
+            problem = "is used twice"
+        else:
+            seen.add(name)
+            continue
+        raise InvalidMotion(f"joint name {name[:40]!r} {problem}")
 
 
 def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes | memoryview]) -> None:

@@ -208,6 +208,8 @@ def _classify(fields: list[str], path, line: int):
     for k, field in enumerate(fields):
         if not field:
             _fail(f"bad header: column {k + 1} has no name", path, line)
+        if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
+            _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, line)
         if field in seen:
             _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
         seen.add(field)

@@ -122,9 +122,13 @@ def _fields(line: bytes, number: int, path) -> list[str]:
     except UnicodeDecodeError:
         _fail("not a text file (bytes that are not UTF-8)", path, number)
     try:
-        return next(_csv.reader([text.rstrip("\r\n")], strict=True), [])
+        fields = next(_csv.reader([text.rstrip("\r\n")], strict=True), [])
     except _csv.Error as error:
         _fail(f"bad header: {error}", path, number)
+    for k, field in enumerate(fields):
+        if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
+            _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, number)
+    return fields
 
 
 def _header_lines(data: bytes, path) -> tuple[list[tuple[int, list[str]]], int, bytes]:

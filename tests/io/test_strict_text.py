@@ -4,8 +4,13 @@ so a file motionclean writes is always one it reads."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
-from helpers import ROOT, run_cli
+from helpers import ROOT, SAMPLE, run_cli
+
+import motionclean as mc
+from motionclean.io.csv import RIGID_SUFFIXES
 
 MOTIVE_SAMPLE = ROOT / "sample_data" / "131_02_motive.csv"
 RIGID_HEAD = "time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz\n"
@@ -49,3 +54,58 @@ def test_a_motive_frame_rate_that_is_no_ascii_number_is_refused(tmp_path, capsys
     assert code == 1
     line = one_error_line(err)
     assert line == f"motionclean: error: {clip}:1: Export Frame Rate is not a number: {rate!r}"
+
+
+def rigid_header_with(name: str, before: int) -> str:
+    """A rigid-body CSV whose header names ``before`` bodies first, then ``name``."""
+    bodies = [f"body{k:04d}" for k in range(before)] + [name]
+    head = "time," + ",".join(f"{b}.{s}" for b in bodies for s in RIGID_SUFFIXES)
+    row = ",".join(["0,0,0,1,0,0,0"] * len(bodies))
+    return f"{head}\n0,{row}\n0.01,{row}\n"
+
+
+@pytest.mark.parametrize("before", [0, 200])  # the NUL in the first 4,096 bytes, or far after
+@pytest.mark.parametrize("at", ["a\x00b", "\x00ab", "ab\x00"])
+def test_a_nul_byte_in_a_csv_name_is_refused_wherever_it_is(tmp_path, capsys, before, at):
+    clip = tmp_path / "n.csv"
+    clip.write_text(rigid_header_with(at, before))
+    assert clip.read_bytes().index(b"\x00") > 4096 or not before
+    for args in (["info", clip], ["convert", clip, tmp_path / "o.bvh"]):
+        code, _, err = run_cli(capsys, *args)
+        assert code == 1
+        if before:
+            assert "holds a NUL byte" in one_error_line(err) and f"{clip}:1: bad header" in err
+        else:
+            assert one_error_line(err).endswith(f"{clip}: not a text file (binary data)")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["n.csv"]
+
+
+def test_a_nul_byte_in_a_motive_body_name_is_refused(tmp_path, capsys):
+    lines = MOTIVE_SAMPLE.read_text(encoding="utf-8").splitlines(keepends=True)
+    number = next(k for k, line in enumerate(lines) if line.startswith(",Name,"))
+    lines[number] = lines[number].replace(",hand_l", ",hand\x00_l")
+    lines[0] = lines[0].replace("Take Notes,,", f"Take Notes,{'n' * 5000},")  # NUL after 4 kB
+    clip = tmp_path / "m.csv"
+    clip.write_text("".join(lines), encoding="utf-8")
+    assert clip.read_bytes().index(b"\x00") > 4096
+    code, _, err = run_cli(capsys, "info", clip)
+    assert code == 1
+    assert f"{clip}:{number + 1}:" in err and "holds a NUL byte" in one_error_line(err)
+
+
+@pytest.mark.parametrize("suffix", [".bvh", ".csv"])
+def test_save_never_writes_a_name_load_refuses(tmp_path, suffix):
+    """Names load would refuse or change: a NUL, empty, spaces around it (both readers strip
+    them), twice, a line break in BVH (CSV quotes it and reads it back)."""
+    clip = mc.load(SAMPLE)
+    for bad in ("a\x00b", "", " padded", "padded\t", clip.names[0], "line\nbreak"):
+        names = list(clip.names)
+        names[2] = bad
+        renamed = clip.replace(names=names)
+        if suffix == ".csv" and bad == "line\nbreak":
+            mc.save(renamed, tmp_path / "ok.csv")
+            assert mc.load(tmp_path / "ok.csv").names[2] == bad
+            continue
+        with pytest.raises(ValueError, match=re.escape(f"joint name {bad!r}")):
+            mc.save(renamed, tmp_path / f"o{suffix}")
+        assert not (tmp_path / f"o{suffix}").exists()
