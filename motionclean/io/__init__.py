@@ -9,7 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..core.errors import InvalidMotion, MotionError
-from ..core.motion import Motion
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from . import bvh, csv, motive
 from .files import read_regular_file
 
@@ -83,8 +83,10 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
 
     Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
     InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
-    quaternion has no Euler angles. Joint names the readers would refuse or change are
-    refused too (:func:`_check_names`), so every file written reads back.
+    quaternion has no Euler angles. A frame time the readers refuse (outside
+    :data:`~motionclean.core.motion.MIN_FRAME_TIME` to ``MAX_FRAME_TIME``, NaN) and joint
+    names they would refuse or change (:func:`_check_names`) are refused too: every file
+    written reads back. An edited skeleton is written, never dropped for the text read.
     """
     path = Path(path)
     write = _WRITERS[_suffix(path, _WRITERS)]
@@ -92,6 +94,11 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
         raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
     try:
         motion.check()
+        if not MIN_FRAME_TIME <= motion.frame_time < MAX_FRAME_TIME:  # NaN too
+            raise InvalidMotion(
+                f"frame_time must be from {MIN_FRAME_TIME:g} to {MAX_FRAME_TIME:g} s, got "
+                f"{motion.frame_time!r} (no reader takes it)"
+            )
         _check_names(motion.names, write is bvh.bvh_pieces)
         data = write(motion)
     except MotionError as error:
