@@ -289,7 +289,7 @@ def clean(
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
-    write_outputs(after, _write_target(output), reports)
+    write_outputs(after, output, reports)
     for number, log in enumerate(logs, 1):
         for pattern in log.unmatched:
             click.echo(
@@ -299,13 +299,6 @@ def clean(
             )
     if not quiet:
         click.echo(format_table(report))
-
-
-def _write_target(output: str) -> str:
-    """Where ``clean`` writes: through a symbolic link to the file it names (``--in-place``
-    on a link updates the real file and keeps the link)."""
-    path = Path(output)
-    return str(path.resolve()) if path.is_symlink() else output
 
 
 def _dropout_lines(motion) -> list[str]:

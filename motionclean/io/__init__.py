@@ -132,9 +132,12 @@ def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes | memoryv
     """Write ``data`` (bytes, or pieces written in turn as an iterable gives them) to a
     temporary file beside ``path``, then rename it into place.
 
-    Readers never see a partial file; on failure the target is left as it was.
+    Readers never see a partial file; on failure the target is left as it was. A symbolic
+    link is written through: the file it leads to is replaced and the link stays.
     """
     path = Path(path)
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
     if path.is_dir():
         raise MotionError("is a directory", path)
     try:
