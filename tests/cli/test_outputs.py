@@ -3,8 +3,13 @@ leads to, and the outputs of one command are written together or not at all."""
 
 from __future__ import annotations
 
+import resource
+import signal
+from contextlib import contextmanager
+from pathlib import Path
+
 import pytest
-from helpers import SAMPLE, cut_bvh, run_cli
+from helpers import NOISY, SAMPLE, cut_bvh, run_cli
 
 
 def one_error_line(err: str) -> str:
@@ -56,3 +61,74 @@ def test_an_output_through_a_link_is_written_where_it_leads(tmp_path, capsys, co
     code, _, err = run_cli(capsys, *output_commands(tmp_path, link)[command])
     assert (code, err) == (0, "")
     assert link.is_symlink() and (tmp_path / "real" / f"o{suffix}").is_file()
+
+
+@contextmanager
+def file_size_limit(limit: int):
+    """Writes past ``limit`` bytes of a file fail (EFBIG) as on a full disk: RLIMIT_FSIZE,
+    which binds root too, in this process only, SIGXFSZ ignored so the write returns the
+    error."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    previous = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        signal.signal(signal.SIGXFSZ, previous)
+
+
+def contents(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_report_writes_its_json_and_html_together_or_neither(tmp_path, capsys, existing):
+    clip = cut_bvh(NOISY, tmp_path / "in.bvh", 60)
+    full = tmp_path / "full"
+    full.mkdir()
+    run_cli(capsys, "report", clip, "--json", full / "r.json", "--html", full / "r.html")
+    sizes = {p.name: p.stat().st_size for p in full.iterdir()}
+    assert sizes["r.json"] < sizes["r.html"]
+    out = tmp_path / "out"
+    out.mkdir()
+    if existing:
+        (out / "r.json").write_text("old json")
+        (out / "r.html").write_text("old html")
+    before = contents(out)
+    with file_size_limit(sizes["r.json"] + 1):  # the JSON fits, the page does not
+        code, stdout, err = run_cli(
+            capsys, "report", clip, "--json", out / "r.json", "--html", out / "r.html"
+        )
+    assert code == 1 and not stdout
+    assert (
+        one_error_line(err) == f"motionclean: error: {out / 'r.html'}: cannot write: File too large"
+    )
+    assert contents(out) == before  # no JSON alone, nothing replaced, no temporary left
+
+
+@pytest.mark.parametrize("in_place", [False, True])
+def test_clean_replaces_an_existing_output_only_when_its_report_is_ready(
+    tmp_path, capsys, in_place
+):
+    clip = cut_bvh(NOISY, tmp_path / "work" / "in.bvh", 60)
+    out = clip if in_place else tmp_path / "work" / "out.bvh"
+    if not in_place:
+        out.write_text("an older cleaned clip")
+    report = tmp_path / "work" / "r.html"
+    args = ["clean", clip, "--report", report, "-q", "-f", "lee-shin:k=2"]
+    args += ["--in-place"] if in_place else ["-o", out]
+    full = tmp_path / "full"
+    full.mkdir()
+    run_cli(capsys, "clean", clip, "-o", full / "o.bvh", "--report", full / "r.html", "-q")
+    clip_size, page_size = ((full / n).stat().st_size for n in ("o.bvh", "r.html"))
+    assert clip_size < page_size
+    before = contents(tmp_path / "work")
+    with file_size_limit(clip_size + 1):  # the clip is written, its page is not
+        code, _, err = run_cli(capsys, *args)
+    assert code == 1
+    assert one_error_line(err) == f"motionclean: error: {report}: cannot write: File too large"
+    assert contents(tmp_path / "work") == before
+    code, _, err = run_cli(capsys, *args)  # and with room, both are written
+    assert (code, err) == (0, "")
+    assert out.read_bytes() != before[out.name] and report.is_file()
