@@ -8,6 +8,8 @@ and only the small :class:`~motionclean.run.jobs.FileResult` records come back. 
 
 from __future__ import annotations
 
+import asyncio
+import ipaddress
 import re
 import signal
 import threading
@@ -19,7 +21,7 @@ from ..core.errors import UsageError
 from .jobs import FileResult, Job, run_job
 from .pool import input_size
 
-#: Seconds to wait for a scheduler before giving up.
+#: Seconds a scheduler has to take a connection; it has 1.5 times as long to also answer.
 CONNECT_TIMEOUT_S = 5
 
 
@@ -33,20 +35,111 @@ def _distributed():
     return distributed
 
 
+#: A host name (RFC 1123 labels, ``_`` as container names have it), an IPv4 address, or an
+#: IPv6 address in brackets.
+_HOST = re.compile(
+    r"(?P<name>(?:[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?\.)*"
+    r"[A-Za-z0-9_](?:[A-Za-z0-9_-]{0,61}[A-Za-z0-9_])?)|\[(?P<ipv6>[0-9A-Fa-f:.]+)\]",
+    re.ASCII,
+)
+_EXAMPLE = "expected a scheduler address such as tcp://HOST:8786, or local[:N] for a cluster "
+_EXAMPLE += "on this machine"
+
+
 def parse_scheduler(text: str) -> tuple[str, int | None]:
-    """``("local", N or None)`` for ``local[:N]``, else ``("address", None)``."""
+    """``("local", N or None)`` for ``local[:N]``, else ``(address, None)`` for
+    ``PROTOCOL://HOST:PORT`` (tcp, tls, ws or wss; a port from 1 to 65535). Anything else is
+    a :class:`UsageError` saying what is wrong, before any connection is tried."""
     match = re.fullmatch(r"local(?::(\d+))?", text)
     if match:
         count = int(match.group(1)) if match.group(1) else None
         if count == 0:
             raise UsageError("--scheduler local:N needs at least one worker")
         return "local", count
-    if not re.fullmatch(r"(tcp|tls|ws|wss|inproc)://\S+", text):
+    shown = repr(text[:80] + ("..." if len(text) > 80 else ""))
+    protocol, sep, location = text.partition("://")
+    if protocol == "inproc":
         raise UsageError(
-            f"--scheduler {text!r}: expected a scheduler address such as "
-            "tcp://HOST:8786, or local[:N] for a cluster on this machine"
+            f"--scheduler {shown}: an inproc:// address exists only inside one Python "
+            f"process; {_EXAMPLE}"
+        )
+    if not sep or protocol not in ("tcp", "tls", "ws", "wss"):
+        raise UsageError(f"--scheduler {shown}: {_EXAMPLE}")
+    host, colon, port = location.rpartition(":")
+    if not colon or not port.isascii() or not port.isdigit() or not 0 < int(port) < 65536:
+        raise UsageError(
+            f"--scheduler {shown}: needs a port from 1 to 65535 after the host "
+            f"({protocol}://HOST:PORT; a scheduler listens on 8786 by default)"
+        )
+    found = _HOST.fullmatch(host)
+    if not found or (found.group("name") and len(host) > 253) or not _ipv6(found.group("ipv6")):
+        raise UsageError(
+            f"--scheduler {shown}: {host[:40]!r} is no host name or IP address (labels of at "
+            "most 63 letters, digits or '-', 253 characters in all; IPv6 in [brackets])"
         )
     return text, None
+
+
+def _ipv6(text: str | None) -> bool:
+    """True when ``text`` is None (no IPv6 address given) or an IPv6 address."""
+    try:
+        return text is None or isinstance(ipaddress.ip_address(text), ipaddress.IPv6Address)
+    except ValueError:
+        return False
+
+
+def _handshake(distributed, address: str) -> None:
+    """Connect to ``address`` once and read the scheduler's handshake, all within
+    :data:`CONNECT_TIMEOUT_S` (1.5 times it for both); a :class:`UsageError` naming the
+    address says what went wrong.
+
+    Dask's own timeout covers the TCP connect only: a port that accepts and never answers (a
+    firewall black hole, a hung service) hung ``batch`` for good, and one that answers in
+    another protocol (the dashboard's HTTP on 8787) had it allocate exabytes for a message
+    length read from ``HTTP/1.1``.
+    """
+    from distributed.comm import connect as comm_connect
+
+    options = distributed.Security().get_connection_args("client")
+
+    async def once() -> None:
+        comm = await asyncio.wait_for(
+            comm_connect(address, timeout=CONNECT_TIMEOUT_S, **options), 1.5 * CONNECT_TIMEOUT_S
+        )
+        await comm.close()
+
+    try:
+        asyncio.run(once())
+    except TimeoutError:  # (an OSError too: first) the connection was taken, then silence
+        raise UsageError(
+            f"--scheduler {address}: accepted the connection but sent no Dask handshake within "
+            f"{CONNECT_TIMEOUT_S:g} s (a firewall, a hung service, or another service's "
+            "port: a scheduler listens on 8786, its dashboard on 8787)"
+        ) from None
+    except OSError as error:  # refused, unreachable, no such host, closed on us
+        raise UsageError(
+            f"--scheduler {address}: no Dask scheduler answers there within "
+            f"{CONNECT_TIMEOUT_S:g} s ({_first_cause(error)})"
+        ) from None
+    except TypeError as error:  # tls:// without certificates: "TLS expects a ssl_context"
+        raise UsageError(
+            f"--scheduler {address}: cannot connect ({error}); a tls:// or wss:// scheduler "
+            "needs the certificates in the Dask configuration (distributed.comm.tls.*)"
+        ) from None
+    except Exception as error:  # what another protocol's bytes give (MemoryError too)
+        raise UsageError(
+            f"--scheduler {address}: something answers there, but not a Dask scheduler "
+            f"({type(error).__name__}; a scheduler listens on 8786, its dashboard on 8787)"
+        ) from None
+
+
+def _first_cause(error: BaseException) -> str:
+    """The reason at the root of a chain of exceptions: 'Connection refused', 'Name or
+    service not known', or the exception's type."""
+    while error.__cause__ is not None:
+        error = error.__cause__
+    strerror = getattr(error, "strerror", None)
+    return strerror if isinstance(strerror, str) else type(error).__name__
 
 
 class _HeldInterrupts:
@@ -100,6 +193,7 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
             held.release()
             yield client, n
         return
+    _handshake(distributed, address)
     try:
         with _HeldInterrupts() as held:
             client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)

@@ -1,0 +1,129 @@
+"""Faults on the Dask path with real sockets and a real LocalCluster: an address that takes
+the connection and never answers, one that answers in another protocol, malformed
+addresses, workers that keep dying, Ctrl-C. Each ends in one line, never a hang."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import pytest
+from helpers import SAMPLE, cut_bvh, run_cli
+
+from motionclean.run import cluster
+
+pytest.importorskip("distributed", reason="the dask extra is not installed")
+
+
+@pytest.fixture(scope="module")
+def clips(tmp_path_factory):
+    root = tmp_path_factory.mktemp("faults")
+    for k in range(2):
+        cut_bvh(SAMPLE, root / "in" / f"c{k}.bvh", 30)
+    return root
+
+
+@pytest.fixture
+def quick_timeout(monkeypatch):
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 0.5)
+
+
+@pytest.fixture
+def silent_port():
+    """A port that completes the TCP handshake (the kernel's backlog) and never answers."""
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(8)
+        yield server.getsockname()[1]
+
+
+@pytest.fixture
+def http_port():
+    """A port that answers every connection as a web server does to bytes it cannot read."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    server.settimeout(0.05)
+    done = threading.Event()
+
+    def serve() -> None:
+        while not done.is_set():
+            try:
+                connection, _ = server.accept()
+            except TimeoutError:
+                continue
+            with connection:
+                connection.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    yield server.getsockname()[1]
+    done.set()
+    thread.join(timeout=5)
+    server.close()
+
+
+def batch_on(capsys, clips, scheduler: str) -> tuple[int, str]:
+    code, out, err = run_cli(
+        capsys, "batch", clips / "in", "-o", clips / "out", "--scheduler", scheduler, "-q"
+    )
+    assert out == "" and not list((clips / "out").rglob("*.bvh"))
+    return code, err
+
+
+def one_error_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), err
+    return lines[0]
+
+
+def test_an_address_that_accepts_and_never_answers_is_named_within_the_timeout(
+    clips, capsys, quick_timeout, silent_port
+):
+    start = time.monotonic()
+    code, err = batch_on(capsys, clips, f"tcp://127.0.0.1:{silent_port}")
+    seconds = time.monotonic() - start
+    assert code == 2 and seconds < 10  # (1.5 x 0.5 s, and never forever)
+    line = one_error_line(err)
+    assert f"--scheduler tcp://127.0.0.1:{silent_port}: accepted the connection but sent " in line
+    assert "no Dask handshake within 0.5 s" in line
+
+
+def test_an_http_answer_is_no_scheduler_and_no_memory_error(
+    clips, capsys, quick_timeout, http_port
+):
+    code, err = batch_on(capsys, clips, f"tcp://127.0.0.1:{http_port}")
+    assert code == 2
+    line = one_error_line(err)
+    assert f"tcp://127.0.0.1:{http_port}: something answers there, but not a Dask" in line
+
+
+@pytest.mark.parametrize(
+    ("address", "message"),
+    [
+        ("notaport", "expected a scheduler address such as tcp://HOST:8786"),
+        ("tls://", "needs a port from 1 to 65535"),
+        ("inproc://", "exists only inside one Python process"),
+        ("inproc://192.0.2.2/1/1", "exists only inside one Python process"),
+        ("tcp://127.0.0.1:notaport", "needs a port from 1 to 65535"),
+        ("tcp://127.0.0.1", "needs a port from 1 to 65535"),
+        ("tcp://127.0.0.1:8786/path", "needs a port from 1 to 65535"),
+        ("tcp://127.0.0.1:0", "needs a port from 1 to 65535"),
+        ("tcp://" + "h" * 300 + ":8786", "is no host name or IP address"),
+        ("tcp://" + "a." * 130 + "b:8786", "is no host name or IP address"),
+        ("tcp://[::1:8786", "is no host name or IP address"),
+        ("tcp://[1::2::3]:8786", "is no host name or IP address"),
+        ("tcp://h h:8786", "is no host name or IP address"),
+    ],
+)
+def test_malformed_addresses_are_usage_lines_before_any_connection(clips, capsys, address, message):
+    code, err = batch_on(capsys, clips, address)
+    assert code == 2 and message in one_error_line(err) and "internal error" not in err
+
+
+def test_a_tls_address_without_certificates_says_what_it_needs(
+    clips, capsys, quick_timeout, http_port
+):
+    code, err = batch_on(capsys, clips, f"tls://127.0.0.1:{http_port}")
+    assert code == 2 and "certificates in the Dask configuration" in one_error_line(err)
