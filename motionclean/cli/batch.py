@@ -20,7 +20,7 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..io import atomic_write
+from ..io import atomic_write, remove_temporaries
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
@@ -246,19 +246,29 @@ def batch_command(
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
-    with _progress(len(work)) as advance, _sigterm_as_interrupt():
-        if scheduler is None or not work:  # nothing to send: no cluster to start
-            workers = min(jobs or default_workers(), max(len(work), 1))
-            for index, result in run_jobs(work, workers):
-                results[work_names[index]] = result
-                advance(work_names[index])
-        else:
-            with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
-                if not quiet:
-                    click.echo(f"Dask dashboard: {client.dashboard_link}")
-                for index, result in cluster.run_jobs_on(client, work):
+    lost = None
+    try:
+        with _progress(len(work)) as advance, _sigterm_as_interrupt():
+            if scheduler is None or not work:  # nothing to send: no cluster to start
+                workers = min(jobs or default_workers(), max(len(work), 1))
+                for index, result in run_jobs(work, workers):
                     results[work_names[index]] = result
                     advance(work_names[index])
+            else:
+                with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                    if not quiet:
+                        click.echo(f"Dask dashboard: {client.dashboard_link}")
+                    for index, result in cluster.run_jobs_on(client, work):
+                        results[work_names[index]] = result
+                        advance(work_names[index])
+    except cluster.ClusterLost as error:  # one line for the clips not done, after the others
+        lost = str(error)
+        for index in error.not_done:
+            results[work_names[index]] = FileResult(
+                work[index].source, work[index].target, "failed"
+            )
+    finally:  # a worker killed while writing leaves its temporary file: none stays
+        remove_temporaries(path for job in work for path in (job.target, job.report) if path)
     seconds = time.perf_counter() - start
 
     rows = [(str(rel), results[str(rel)]) for rel in clips]
@@ -266,7 +276,8 @@ def batch_command(
         _write_index(pages, rows, tables, in_dir)
     if not quiet:
         click.echo(format_summary(rows, seconds, workers))
-    raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
+    failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
+    raise_failures(failures + ([lost] if lost else []))
 
 
 def _write_index(

@@ -13,7 +13,15 @@ from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from . import bvh, csv, motive
 from .files import read_regular_file
 
-__all__ = ["FORMATS", "atomic_write", "encode", "load", "save", "write_together"]
+__all__ = [
+    "FORMATS",
+    "atomic_write",
+    "encode",
+    "load",
+    "remove_temporaries",
+    "save",
+    "write_together",
+]
 
 
 def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
@@ -167,6 +175,24 @@ def write_together(files: Mapping[str | os.PathLike, bytes | Iterable[bytes | me
     finally:
         for tmp, _, _ in staged:
             Path(tmp).unlink(missing_ok=True)
+
+
+def remove_temporaries(paths: Iterable[str | os.PathLike]) -> None:
+    """Remove the temporary files :func:`write_together` left beside ``paths`` when the
+    process writing them was killed (a batch worker): one listing per folder."""
+    by_folder: dict[Path, set[str]] = {}
+    for path in paths:
+        target = _landing(Path(path))
+        by_folder.setdefault(target.parent, set()).add(target.name)
+    for folder, names in by_folder.items():
+        try:
+            entries = [e.name for e in os.scandir(folder) if e.name.endswith(".tmp")]
+        except OSError:  # no such folder: nothing was written there
+            continue
+        for entry in entries:  # ".NAME." + 8 random characters + ".tmp", as mkstemp names it
+            name = entry[1:-13]
+            if entry[0] == "." and entry[-13] == "." and name in names:
+                (folder / entry).unlink(missing_ok=True)
 
 
 def _landing(path: Path) -> Path:

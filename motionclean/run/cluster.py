@@ -13,16 +13,24 @@ import ipaddress
 import re
 import signal
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
-from ..core.errors import UsageError
+from ..core.errors import MotionError, UsageError
 from .jobs import FileResult, Job, run_job
 from .pool import input_size
 
 #: Seconds a scheduler has to take a connection; it has 1.5 times as long to also answer.
 CONNECT_TIMEOUT_S = 5
+#: Seconds a local cluster may be without any worker before the run fails the clips not
+#: done (Dask restarts a lost worker within seconds; one killed while starting stays gone).
+WORKERLESS_S = 10.0
+#: The same for a scheduler elsewhere, whose workers may be starting or scaling up.
+REMOTE_WORKERLESS_S = 120.0
+#: How often the run checks that its cluster has a worker, seconds.
+WATCH_S = 0.5
 
 
 def _distributed():
@@ -181,14 +189,23 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
     if address == "local":
         n = max(1, min(count or default_workers, clips))
         with _HeldInterrupts() as held:
-            cluster = distributed.LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",  # a free port: 8787 may be taken
-                silence_logs=50,
-            )
-            client = distributed.Client(cluster)
+            cluster = client = None
+            try:
+                cluster = distributed.LocalCluster(
+                    n_workers=n,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=":0",  # a free port: 8787 may be taken
+                    silence_logs=50,
+                )
+                client = distributed.Client(cluster)
+            except Exception as error:  # a worker killed while starting, no memory, ...
+                if cluster is not None:
+                    cluster.close()
+                raise MotionError(
+                    f"--scheduler {scheduler}: the local Dask cluster did not start "
+                    f"({type(error).__name__}: {error})"
+                ) from None
         with cluster, client:
             held.release()
             yield client, n
@@ -214,9 +231,12 @@ def run_jobs_on(client, jobs: Sequence[Job]) -> Iterator[tuple[int, FileResult]]
 
     The largest inputs go first, as in the local pool, so the run does not end waiting on
     one long clip. A task whose worker dies is run again elsewhere by the scheduler (up to
-    its ``allowed-failures``, 3 by default); after that its clip fails with the reason
-    instead of stopping the run or going missing. An interrupt cancels the tasks not yet
-    done.
+    its ``allowed-failures``, 3 by default; a lost worker is restarted by its nanny); after
+    that its clip fails with the reason instead of stopping the run or going missing. A
+    cluster left without any worker (:data:`WORKERLESS_S` for a local one,
+    :data:`REMOTE_WORKERLESS_S` for a scheduler elsewhere, which may be scaling up) ends
+    the run with a :class:`ClusterLost` naming the clips not done. An interrupt cancels the
+    tasks not yet done.
     """
     distributed = _distributed()
     order = sorted(range(len(jobs)), key=lambda k: -input_size(jobs[k].source))
@@ -230,21 +250,85 @@ def run_jobs_on(client, jobs: Sequence[Job]) -> Iterator[tuple[int, FileResult]]
         )
         for rank, k in enumerate(order)
     }
-    return _collect(distributed, client, futures, jobs)
+    patience = WORKERLESS_S if client.cluster is not None else REMOTE_WORKERLESS_S
+    return _collect(distributed, client, futures, jobs, _Watch(client, futures, patience))
+
+
+class ClusterLost(MotionError):
+    """The cluster had no worker for too long; ``not_done`` are the indices of the jobs not
+    done, which the message names."""
+
+    def __init__(self, message: str, not_done: Sequence[int]) -> None:
+        super().__init__(message)
+        self.not_done = list(not_done)
+
+
+class _Watch:
+    """Checks every :data:`WATCH_S` that the cluster has a worker; after ``patience``
+    seconds without one it cancels the tasks not done, which ends the run's wait."""
+
+    def __init__(self, client, futures: dict, patience: float) -> None:
+        self.client, self.futures, self.patience = client, futures, patience
+        self.lost = False
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True, name="motionclean-watch")
+
+    def _run(self) -> None:
+        seen = time.monotonic()
+        while not self.stop.wait(WATCH_S):
+            try:
+                workers = len(self.client.nthreads())
+            except Exception:  # the scheduler itself gone: no worker either
+                workers = 0
+            if workers:
+                seen = time.monotonic()
+            elif time.monotonic() - seen >= self.patience:
+                self.lost = True
+                self.client.cancel([f for f in self.futures.values() if not f.done()])
+                return
+
+    def lost_message(self, not_done: Sequence[Job]) -> str:
+        names = ", ".join(job.source for job in not_done[:5])
+        more = f" and {len(not_done) - 5} more" if len(not_done) > 5 else ""
+        plural = "s" if len(not_done) != 1 else ""
+        return (
+            f"the Dask cluster has had no worker for {self.patience:g} s (lost: killed, out "
+            f"of memory, or never started); {len(not_done)} clip{plural} not done: "
+            f"{names}{more}"
+        )
+
+
+def _task_failure(job: Job, error: BaseException) -> FileResult:
+    if type(error).__name__ == "KilledWorker":  # the scheduler gave up on it
+        reason = (
+            f"{job.source}: every Dask worker that ran it died (killed or out of memory; "
+            "the scheduler's allowed-failures reached)"
+        )
+    else:
+        reason = f"{job.source}: the Dask task failed ({type(error).__name__}: {error})"
+    return FileResult(job.source, job.target, "failed", error=reason)
 
 
 def _collect(
-    distributed, client, futures: dict, jobs: Sequence[Job]
+    distributed, client, futures: dict, jobs: Sequence[Job], watch: _Watch
 ) -> Iterator[tuple[int, FileResult]]:
     index = {future.key: k for k, future in futures.items()}
+    not_done: list[int] = []
+    watch.thread.start()
     try:
         for future in distributed.as_completed(list(futures.values())):
             k = index[future.key]
+            if watch.lost and future.cancelled():
+                not_done.append(k)
+                continue
             try:
-                yield k, future.result()
+                result = future.result()
             except Exception as error:  # a worker lost too often, a task cancelled
-                job = jobs[k]
-                reason = f"{job.source}: the Dask task failed ({type(error).__name__}: {error})"
-                yield k, FileResult(job.source, job.target, "failed", error=reason)
+                result = _task_failure(jobs[k], error)
+            yield k, result
     finally:
+        watch.stop.set()
         client.cancel([f for f in futures.values() if not f.done()])
+    if not_done:
+        not_done.sort()
+        raise ClusterLost(watch.lost_message([jobs[k] for k in not_done]), not_done)

@@ -4,9 +4,14 @@ addresses, workers that keep dying, Ctrl-C. Each ends in one line, never a hang.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import socket
+import subprocess
 import threading
 import time
+from pathlib import Path
 
 import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
@@ -127,3 +132,87 @@ def test_a_tls_address_without_certificates_says_what_it_needs(
 ):
     code, err = batch_on(capsys, clips, f"tls://127.0.0.1:{http_port}")
     assert code == 2 and "certificates in the Dask configuration" in one_error_line(err)
+
+
+def spawned_workers() -> list[int]:
+    """Dask worker processes this test process started (multiprocessing's spawn children,
+    not its resource tracker)."""
+    children = subprocess.run(
+        ["pgrep", "-P", str(os.getpid())], capture_output=True, text=True, check=False
+    ).stdout.split()
+    pids = []
+    for pid in map(int, children):
+        with contextlib.suppress(OSError):
+            if b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes():
+                pids.append(pid)
+    return pids
+
+
+@contextlib.contextmanager
+def killing_workers(every: float, monkeypatch):
+    """Once the batch's cluster is up and its clips handed out, SIGKILL every Dask worker
+    process every ``every`` seconds until the block ends."""
+    handed_out = threading.Event()
+    real = cluster.run_jobs_on
+
+    def run_jobs_on(client, jobs):
+        results = real(client, jobs)
+        handed_out.set()
+        return results
+
+    monkeypatch.setattr(cluster, "run_jobs_on", run_jobs_on)
+    done = threading.Event()
+    kills = []
+
+    def kill() -> None:
+        while not handed_out.wait(0.05):
+            if done.is_set():
+                return
+        while not done.wait(every):
+            for pid in spawned_workers():
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGKILL)
+                    kills.append(pid)
+
+    thread = threading.Thread(target=kill, daemon=True)
+    thread.start()
+    try:
+        yield kills
+    finally:
+        done.set()
+        thread.join()
+
+
+@pytest.mark.slow
+def test_workers_killed_again_and_again_end_the_batch_naming_the_clips_not_done(
+    tmp_path, capsys, monkeypatch
+):
+    """Dask restarts a killed worker; one killed while it starts stays gone. With none left
+    the batch used to wait for good (and left a .tmp): now one line names what is not done."""
+    monkeypatch.setattr(cluster, "WORKERLESS_S", 1.0)
+    monkeypatch.setattr(cluster, "WATCH_S", 0.1)
+    for k in range(3):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+    slow = "fairing:max_iterations=3000,tol=0"
+    start = time.monotonic()
+    with killing_workers(0.3, monkeypatch) as kills:
+        code, _, err = run_cli(
+            capsys,
+            "batch",
+            tmp_path / "in",
+            "-o",
+            tmp_path / "out",
+            "-f",
+            slow,
+            "--scheduler",
+            "local:2",
+            "-q",
+        )
+    assert time.monotonic() - start < 60 and kills
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert all(line.startswith("motionclean: error: ") for line in lines), err
+    assert "the Dask cluster has had no worker for 1 s" in lines[-1]
+    not_done = lines[-1].split("not done: ")[1].split(", ")
+    assert len(lines) - 1 + len(not_done) == 3  # every clip named once: failed or not done
+    assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.parent.name == "out"]
