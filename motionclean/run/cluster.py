@@ -12,6 +12,7 @@ import asyncio
 import ipaddress
 import re
 import signal
+import sys
 import threading
 import time
 from collections.abc import Iterator, Sequence
@@ -151,31 +152,55 @@ def _first_cause(error: BaseException) -> str:
 
 
 class _HeldInterrupts:
-    """Ctrl-C and SIGTERM noted, not raised, while a cluster or client starts (an interrupt
+    """Ctrl-C and SIGTERM held, not raised, while a cluster or client starts (an interrupt
     inside Dask's start-up leaves a half-built cluster that fails at exit with a traceback);
-    :meth:`release` raises the noted one once everything can be closed in order."""
+    :meth:`release` raises a held one once everything can be closed in order.
 
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+    Ctrl-C (SIGINT) is blocked in this thread's signal mask, so it waits, pending. The
+    threads Dask starts meanwhile inherit the mask, and so do the worker processes they
+    spawn (at start and when a lost worker is restarted): a terminal sends Ctrl-C to the
+    whole process group, and each worker printed its own traceback. The parent alone
+    takes it and closes them. SIGTERM is noted by a handler instead: Dask stops its
+    workers with SIGTERM, which they must not block.
+    """
 
     def __init__(self) -> None:
         self.noted = False
-        self.previous: dict = {}
+        self.previous: Any = None
+        self.mask: set | None = None
 
-    def __enter__(self) -> _HeldInterrupts:
+    def hold(self) -> _HeldInterrupts:
         if threading.current_thread() is threading.main_thread():
-            self.previous = {s: signal.signal(s, self._note) for s in self.SIGNALS}
+            self.previous = signal.signal(signal.SIGTERM, self._note)
+            self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         return self
 
     def _note(self, signum, frame) -> None:
         self.noted = True
 
-    def __exit__(self, *exc) -> None:
-        for number, handler in self.previous.items():
-            signal.signal(number, handler)
-
     def release(self) -> None:
+        """Take interrupts again; one that came meanwhile is raised now (KeyboardInterrupt)."""
+        if self.mask is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+            signal.pthread_sigmask(signal.SIG_SETMASK, self.mask)  # a pending Ctrl-C: raised
+            self.mask = None
         if self.noted:
+            self.noted = False
             raise KeyboardInterrupt
+
+
+def _quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (a process of its own, which Dask's worker
+    queues use) with warnings off: when ``batch`` is killed with SIGKILL it warned on the
+    caller's terminal about the leaked semaphores it then cleans up."""
+    from multiprocessing import resource_tracker
+
+    flag = "ignore::UserWarning"
+    sys.warnoptions.append(flag)  # read when the tracker's command line is made
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        sys.warnoptions.remove(flag)
 
 
 @contextmanager
@@ -188,36 +213,39 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
     address, count = parse_scheduler(scheduler)
     if address == "local":
         n = max(1, min(count or default_workers, clips))
-        with _HeldInterrupts() as held:
-            cluster = client = None
-            try:
-                cluster = distributed.LocalCluster(
-                    n_workers=n,
-                    threads_per_worker=1,
-                    processes=True,
-                    dashboard_address=":0",  # a free port: 8787 may be taken
-                    silence_logs=50,
-                )
-                client = distributed.Client(cluster)
-            except Exception as error:  # a worker killed while starting, no memory, ...
-                if cluster is not None:
-                    cluster.close()
-                raise MotionError(
-                    f"--scheduler {scheduler}: the local Dask cluster did not start "
-                    f"({type(error).__name__}: {error})"
-                ) from None
+        _quiet_resource_tracker()
+        held = _HeldInterrupts().hold()
+        cluster = client = None
+        try:
+            cluster = distributed.LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",  # a free port: 8787 may be taken
+                silence_logs=50,
+            )
+            client = distributed.Client(cluster)
+        except Exception as error:  # a worker killed while starting, no memory, ...
+            if cluster is not None:
+                cluster.close()
+            held.release()  # an interrupt meanwhile is what the user sees
+            raise MotionError(
+                f"--scheduler {scheduler}: the local Dask cluster did not start "
+                f"({type(error).__name__}: {error})"
+            ) from None
         with cluster, client:
             held.release()
             yield client, n
         return
     _handshake(distributed, address)
+    held = _HeldInterrupts().hold()
     try:
-        with _HeldInterrupts() as held:
-            client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
+        client = distributed.Client(address, timeout=CONNECT_TIMEOUT_S)
     except (OSError, TimeoutError) as error:
+        held.release()
         raise UsageError(
             f"--scheduler {address}: no Dask scheduler answers there within "
-            f"{CONNECT_TIMEOUT_S} s ({type(error).__name__})"
+            f"{CONNECT_TIMEOUT_S:g} s ({_first_cause(error)})"
         ) from None
     with client:
         held.release()

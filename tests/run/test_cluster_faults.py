@@ -9,6 +9,7 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -216,3 +217,74 @@ def test_workers_killed_again_and_again_end_the_batch_naming_the_clips_not_done(
     not_done = lines[-1].split("not done: ")[1].split(", ")
     assert len(lines) - 1 + len(not_done) == 3  # every clip named once: failed or not done
     assert not [p for p in tmp_path.rglob("*") if p.is_file() and p.parent.name == "out"]
+
+
+def descendants(pid: int) -> list[int]:
+    children = subprocess.run(
+        ["pgrep", "-P", str(pid)], capture_output=True, text=True, check=False
+    ).stdout.split()
+    return [int(c) for c in children] + [g for c in children for g in descendants(int(c))]
+
+
+def running(pids: list[int]) -> list[int]:
+    alive = []
+    for pid in pids:
+        with contextlib.suppress(OSError, IndexError):
+            if Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] not in "ZX":
+                alive.append(pid)
+    return alive
+
+
+def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
+    """``batch --scheduler local:2`` in a session of its own (as a shell runs a job), once
+    its two workers and the resource tracker run and a second has passed."""
+    for k in range(6):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+    command = [str(Path(sys.executable).parent / "motionclean"), "batch", str(tmp_path / "in")]
+    process = subprocess.Popen(
+        [*command, "-o", str(tmp_path / "o"), "--scheduler", "local:2", "-q"]
+        + ["-f", "fairing:max_iterations=3000,tol=0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 30
+    while len(descendants(process.pid)) < 3 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)
+    return process, descendants(process.pid)
+
+
+def finish(process: subprocess.Popen) -> str:
+    """stderr once every process holding it has closed it (workers, tracker)."""
+    try:
+        _, err = process.communicate(timeout=30)
+    finally:
+        with contextlib.suppress(OSError):
+            os.killpg(process.pid, signal.SIGKILL)
+    return err.decode()
+
+
+@pytest.mark.slow
+def test_ctrl_c_to_the_whole_process_group_is_one_line(tmp_path):
+    """A terminal sends Ctrl-C to every process of the job: the workers printed 68 lines of
+    tracebacks, click an empty line. Now only the parent takes it."""
+    process, workers = batch_under_way(tmp_path)
+    os.killpg(process.pid, signal.SIGINT)
+    err = finish(process)
+    assert process.returncode == 130 and err == "motionclean: error: interrupted\n"
+    deadline = time.monotonic() + 5
+    while running(workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(workers) >= 3 and not running(workers)
+    assert not [p for p in (tmp_path / "o").rglob("*.tmp")]
+
+
+@pytest.mark.slow
+def test_sigkill_of_the_parent_leaves_no_warning_and_no_worker(tmp_path):
+    """The resource tracker warned about leaked semaphores on the caller's terminal."""
+    process, workers = batch_under_way(tmp_path)
+    process.kill()
+    err = finish(process)
+    assert process.returncode == -signal.SIGKILL and err == ""
+    assert not running(workers)
