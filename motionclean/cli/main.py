@@ -112,6 +112,11 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
     except (KeyboardInterrupt, _Interrupted):
         _interrupted()
+    except MemoryError as error:  # no bug: more than this machine (or its limit) holds
+        if debug:
+            traceback.print_exc()
+        _echo_error(f"out of memory ({error or 'an allocation failed'})")
+        sys.exit(1)
     except Exception as error:  # a bug: still one line unless --debug
         if debug:
             traceback.print_exc()

@@ -154,6 +154,8 @@ def _failure(source: str, target: str | None, error: BaseException, start: float
         message = str(error)
     elif isinstance(error, OSError):
         message = f"{error.filename or source}: {error.strerror}"
+    elif isinstance(error, MemoryError):
+        message = f"{source}: out of memory ({error or 'an allocation failed'})"
     else:  # a bug must not stop the other clips
         message = f"{source}: internal error: {type(error).__name__}: {error}"
     return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)
