@@ -3,13 +3,10 @@ leads to, and the outputs of one command are written together or not at all."""
 
 from __future__ import annotations
 
-import resource
-import signal
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from helpers import NOISY, SAMPLE, cut_bvh, run_cli
+from helpers import NOISY, SAMPLE, cut_bvh, file_size_limit, run_cli
 
 
 def one_error_line(err: str) -> str:
@@ -61,21 +58,6 @@ def test_an_output_through_a_link_is_written_where_it_leads(tmp_path, capsys, co
     code, _, err = run_cli(capsys, *output_commands(tmp_path, link)[command])
     assert (code, err) == (0, "")
     assert link.is_symlink() and (tmp_path / "real" / f"o{suffix}").is_file()
-
-
-@contextmanager
-def file_size_limit(limit: int):
-    """Writes past ``limit`` bytes of a file fail (EFBIG) as on a full disk: RLIMIT_FSIZE,
-    which binds root too, in this process only, SIGXFSZ ignored so the write returns the
-    error."""
-    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
-    previous = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
-    try:
-        yield
-    finally:
-        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
-        signal.signal(signal.SIGXFSZ, previous)
 
 
 def contents(folder: Path) -> dict[str, bytes]:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -15,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import SAMPLE, cut_bvh, run_cli
+from helpers import SAMPLE, answering_server, cut_bvh, run_cli, silent_server
 
 from motionclean.run import cluster
 
@@ -37,37 +36,14 @@ def quick_timeout(monkeypatch):
 
 @pytest.fixture
 def silent_port():
-    """A port that completes the TCP handshake (the kernel's backlog) and never answers."""
-    with socket.socket() as server:
-        server.bind(("127.0.0.1", 0))
-        server.listen(8)
-        yield server.getsockname()[1]
+    with silent_server() as port:
+        yield port
 
 
 @pytest.fixture
 def http_port():
-    """A port that answers every connection as a web server does to bytes it cannot read."""
-    server = socket.socket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(8)
-    server.settimeout(0.05)
-    done = threading.Event()
-
-    def serve() -> None:
-        while not done.is_set():
-            try:
-                connection, _ = server.accept()
-            except TimeoutError:
-                continue
-            with connection:
-                connection.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
-
-    thread = threading.Thread(target=serve, daemon=True)
-    thread.start()
-    yield server.getsockname()[1]
-    done.set()
-    thread.join(timeout=5)
-    server.close()
+    with answering_server(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n") as port:
+        yield port
 
 
 def batch_on(capsys, clips, scheduler: str) -> tuple[int, str]:
