@@ -264,3 +264,19 @@ def test_sigkill_of_the_parent_leaves_no_warning_and_no_worker(tmp_path):
     err = finish(process)
     assert process.returncode == -signal.SIGKILL and err == ""
     assert not running(workers)
+
+
+def test_a_real_scheduler_passes_the_handshake_and_cleans_as_one_process(
+    tmp_path, capsys, dask_scheduler
+):
+    """The handshake check lets a real scheduler through: the clips are those of -j 1."""
+    for k in range(2):
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 40)
+    code, out, err = run_cli(
+        capsys, "batch", tmp_path / "in", "-o", tmp_path / "dask", "--scheduler", dask_scheduler
+    )
+    assert (code, err) == (0, "") and "2 cleaned" in out and "Dask dashboard" in out
+    run_cli(capsys, "batch", tmp_path / "in", "-o", tmp_path / "one", "-j", "1", "-q")
+    for k in range(2):
+        name = f"c{k}.bvh"
+        assert (tmp_path / "dask" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
