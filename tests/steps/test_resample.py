@@ -305,7 +305,18 @@ def rigid_csv(path, frames: int, bodies: int = 2):
     return path
 
 
-@pytest.mark.parametrize("kind", ["bvh", "channel csv", "rigid csv", "motive csv"])
+def opensim_mot(path, frames: int):
+    rows = "".join(
+        f"{f / 120:.8f}\t{10 + f * 0.5:.8f}\t{0.1 + f * 0.001:.8f}\n" for f in range(frames)
+    )
+    head = f"Coordinates\nversion=1\nnRows={frames}\nnColumns=3\ninDegrees=yes\nendheader\n"
+    path.write_text(head + "time\tpelvis_rotation\tpelvis_tx\n" + rows)
+    return path
+
+
+@pytest.mark.parametrize(
+    "kind", ["bvh", "channel csv", "rigid csv", "motive csv", "glb", "opensim mot"]
+)
 def test_every_format_refuses_an_absurd_rate_up_front(tmp_path, capsys, kind):
     """1e6 fps of a 240-frame clip: 2 million frames. The BVH path refused it by memory; a
     tracker CSV of two bodies 'fit' and wrote a gigabyte for minutes. Every format now
@@ -319,14 +330,19 @@ def test_every_format_refuses_an_absurd_rate_up_front(tmp_path, capsys, kind):
         clip = tmp_path / "c.csv"
     elif kind == "rigid csv":
         clip = rigid_csv(tmp_path / "c.csv", 240)
+    elif kind == "glb":
+        mc.save(mc.load(cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)), tmp_path / "c.glb")
+        clip = tmp_path / "c.glb"
+    elif kind == "opensim mot":
+        clip = opensim_mot(tmp_path / "c.mot", 240)
     else:
         clip = ROOT / "sample_data" / "131_02_motive.csv"
     frames = mc.load(clip).n_frames
-    out = tmp_path / "out.csv"
+    out = tmp_path / f"out{clip.suffix}"
     code, stdout, err = run_cli(capsys, "resample", clip, out, "--fps", "1e6")
     assert code == 1 and not stdout and err.count("\n") == 1 and not out.exists()
     bound = f"at most {MAX_UPSAMPLING:,} per frame read ({MAX_UPSAMPLING * frames:,})"
-    if kind in ("rigid csv", "motive csv"):  # few values a frame: within the memory bound
+    if kind in ("rigid csv", "motive csv", "opensim mot"):  # few values: memory would do
         assert bound in err
     else:  # a BVH skeleton's frames may pass the memory bound first
         assert bound in err or "fit in memory" in err
