@@ -82,6 +82,11 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
             continue
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{folder}: {option} must be a folder")
+        if folder.is_symlink() and not folder.exists():  # its target's folders: not made
+            raise UsageError(
+                f"{folder}: {option} is a symbolic link to {os.readlink(folder)!r}, which "
+                "does not exist"
+            )
 
         if _inside(folder.resolve(), source):
             raise UsageError(

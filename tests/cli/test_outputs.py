@@ -114,3 +114,12 @@ def test_clean_replaces_an_existing_output_only_when_its_report_is_ready(
     code, _, err = run_cli(capsys, *args)  # and with room, both are written
     assert (code, err) == (0, "")
     assert out.read_bytes() != before[out.name] and report.is_file()
+
+
+def test_batch_into_a_dangling_link_is_refused_and_makes_nothing(tmp_path, capsys):
+    cut_bvh(SAMPLE, tmp_path / "in" / "a.bvh", 20)
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "missing" / "deeper")
+    code, _, err = run_cli(capsys, "batch", tmp_path / "in", "-o", link, "-q")
+    assert code == 2 and "-o is a symbolic link to" in one_error_line(err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out"]
