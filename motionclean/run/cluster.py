@@ -170,7 +170,8 @@ class _HeldInterrupts:
         self.mask: set | None = None
 
     def hold(self) -> _HeldInterrupts:
-        if threading.current_thread() is threading.main_thread():
+        main = threading.current_thread() is threading.main_thread()
+        if main and hasattr(signal, "pthread_sigmask"):  # (POSIX)
             self.previous = signal.signal(signal.SIGTERM, self._note)
             self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         return self
