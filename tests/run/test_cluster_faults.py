@@ -263,6 +263,9 @@ def test_sigkill_of_the_parent_leaves_no_warning_and_no_worker(tmp_path):
     process.kill()
     err = finish(process)
     assert process.returncode == -signal.SIGKILL and err == ""
+    deadline = time.monotonic() + 5  # (the resource tracker cleans up after it lets go)
+    while running(workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
     assert not running(workers)
 
 
