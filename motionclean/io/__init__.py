@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from . import bvh, csv, motive
+from . import bvh, csv, fbx, motive
 from .files import read_regular_file
 
 __all__ = ["FORMATS", "atomic_write", "load", "save"]
@@ -27,6 +27,7 @@ def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
 _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
     ".csv": _csv_pieces,
+    ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -43,11 +44,12 @@ def _suffix(path: Path, table: Iterable[str]) -> str:
 
 
 def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
-    """Read a clip; the format follows the extension (``.bvh`` or ``.csv``).
+    """Read a clip; the format follows the extension (``.bvh``, ``.csv`` or ``.fbx``).
 
     A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack Motive export
     (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
-    the BVH template a channel CSV is read into.
+    the BVH template a channel CSV is read into. An ``.fbx`` file is read through Blender's
+    ``bpy`` module (the ``[blender]`` extra, :mod:`.fbx`).
 
     A file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
     memory: the clip keeps it open (one file descriptor while the clip is in use) and its
@@ -55,6 +57,8 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     """
     path = Path(path)
     suffix = _suffix(path, FORMATS)
+    if suffix == ".fbx":
+        return fbx.load_fbx(path)
     data, on_disk = read_regular_file(path, keep_large=True)
     try:
         if suffix == ".bvh":
@@ -79,7 +83,8 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
 
 
 def save(motion: Motion, path: str | os.PathLike) -> None:
-    """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``).
+    """Write a clip atomically; the format follows the extension (``.bvh``, ``.csv`` or
+    ``.fbx``, the last through Blender's ``bpy``: :mod:`.fbx`).
 
     Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
     InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
