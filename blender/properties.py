@@ -27,9 +27,7 @@ class MOTIONCLEAN_PG_result(PropertyGroup):
     deviation_max: FloatProperty(
         name="Largest Change", description="Largest rotation change of any bone, degrees"
     )
-    lines: StringProperty(
-        name="Figures", description="The report's repairs and feet, one per line"
-    )
+    lines: StringProperty(name="Figures", description="The report's repairs and feet, one per line")
     report: StringProperty(name="Report", description="The HTML report", subtype="FILE_PATH")
 
 
@@ -66,7 +64,7 @@ class MOTIONCLEAN_PG_settings(PropertyGroup):
     )
     in_place: BoolProperty(
         name="In Place",
-        description="Change the actions themselves; off: a cleaned copy (\"Walk.clean\") is "
+        description='Change the actions themselves; off: a cleaned copy ("Walk.clean") is '
         "made beside each and assigned, the original kept",
         default=False,
     )

@@ -37,6 +37,7 @@ __all__ = [
     "BoneTrack",
     "WriteSummary",
     "action_fcurves",
+    "all_fcurves",
     "key_range",
     "read_action",
     "rest_quaternions",
@@ -51,7 +52,7 @@ ROTATION_PROPERTIES = {
 EULER_MODES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 #: A keyed (not baked) curve keeps its keys over frames whose rotation moved by less than
 #: this (degrees) ...
-KEEP_DEGREES = 1e-3
+KEEP_DEGREES = 1e-4
 #: ... and whose location moved by less than this fraction of the longest bone chain.
 KEEP_LENGTH = 1e-6
 
@@ -124,6 +125,20 @@ def action_fcurves(action: Any, slot: Any, create: bool = False) -> Any:
         strip = layer.strips[0] if len(layer.strips) else layer.strips.new(type="KEYFRAME")
         return strip.channelbags.new(slot).fcurves
     return getattr(action, "fcurves", None)
+
+
+def all_fcurves(action: Any) -> list[Any]:
+    """Every F-curve of ``action``: those of all its channelbags, or ``action.fcurves``."""
+    layers = getattr(action, "layers", None)
+    if layers is not None and len(layers):
+        return [
+            curve
+            for layer in layers
+            for strip in layer.strips
+            for bag in strip.channelbags
+            for curve in bag.fcurves
+        ]
+    return list(getattr(action, "fcurves", ()))
 
 
 def _bone_curves(fcurves: Any) -> dict[str, dict[str, dict[int, Any]]]:
@@ -434,7 +449,8 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
 def _write_keys(
     curve: Any, frames: np.ndarray, values: np.ndarray, changed: np.ndarray, summary: WriteSummary
 ) -> None:
-    points = curve.keyframe_points
+    """Write ``values`` at ``frames`` into ``curve`` (see :func:`write_action`); ``changed``
+    marks the frames where the bone moved."""
     keys = _keys(curve)
     at = _baked_at(keys, frames)
     if at is not None:  # baked: new values in place
@@ -443,37 +459,78 @@ def _write_keys(
         _set_values(curve, keys, new)
         summary.keys_set += int(np.count_nonzero(np.float32(new) != np.float32(keys[:, 1])))
         return
-    # Keyed: between two keys (or beyond the last) where the bone moved, a key goes on
-    # every frame; keys where it moved, and those that bound such a stretch, get the new
-    # value.
+    if not len(keys):  # a new curve: a key on every frame
+        _add_keys(curve, frames, values, "LINEAR")
+        summary.keys_added += len(frames)
+        curve.update()
+        return
+    # Keyed: a key that moved takes its new value; a stretch between two keys (or before
+    # the first, after the last) is keyed on every frame when a frame in it or a key at
+    # its ends moved. Elsewhere the keys and their handles stay as they were, so the curve
+    # plays what it played (within the keep tolerance of the cleaned motion).
     key_frames = keys[:, 0]
     slot = np.searchsorted(key_frames, frames, side="right")  # keys at or before each frame
     on_key = (slot > 0) & (key_frames[np.maximum(slot - 1, 0)] == frames)
-    gaps = np.unique(slot[changed & ~on_key])
-    fill = ~on_key & np.isin(slot, gaps)
-    bounds = np.zeros(len(keys) + 1, dtype=bool)
-    bounds[gaps] = True  # the key after each stretch ...
-    bounds[np.maximum(gaps - 1, 0)[gaps > 0]] = True  # ... and the key before it
-    update = on_key & (changed | bounds[np.maximum(slot - 1, 0)])
+    update = on_key & changed
+    moved_key = np.zeros(len(keys), dtype=bool)
+    moved_key[slot[update] - 1] = True
+    stretch = np.zeros(len(keys) + 1, dtype=bool)  # stretch s: between keys s-1 and s
+    stretch[slot[changed & ~on_key]] = True
+    stretch[1:] |= moved_key
+    stretch[:-1] |= moved_key
+    fill = ~on_key & stretch[slot]
+    handles = [_handles(curve, side) for side in ("handle_left", "handle_right")]
     new = keys[:, 1].copy()
     new[slot[update] - 1] = values[update]
     _set_values(curve, keys, new)
     summary.keys_set += int(np.count_nonzero(np.float32(new) != np.float32(keys[:, 1])))
-    count = int(np.count_nonzero(fill))
-    if count:
-        interpolation = points[0].interpolation if len(points) else "BEZIER"
-        start = len(points)
-        points.add(count)
-        co = np.empty(2 * len(points), dtype=np.float32)
-        points.foreach_get("co", co)
-        co[2 * start :: 2] = frames[fill]
-        co[2 * start + 1 :: 2] = values[fill]
-        points.foreach_set("co", co)
-        for point in list(points)[start:]:
-            point.interpolation = interpolation
-            point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
-        summary.keys_added += count
-    curve.update()
+    if fill.any():
+        points = curve.keyframe_points
+        _add_keys(curve, frames[fill], values[fill], points[0].interpolation)
+        summary.keys_added += int(np.count_nonzero(fill))
+        curve.update()
+        _keep_handles(curve, key_frames[~moved_key], [h[~moved_key] for h in handles])
+
+
+def _handles(curve: Any, side: str) -> np.ndarray:
+    points = curve.keyframe_points
+    flat = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get(side, flat)
+    return flat.reshape(-1, 2)
+
+
+def _keep_handles(curve: Any, frames: np.ndarray, handles: list[np.ndarray]) -> None:
+    """Give the keys at ``frames`` their former handles where recomputing the automatic
+    ones (their neighbours changed) moved them: as free handles, the Bezier stretches
+    between unchanged keys keep their shape."""
+    points = curve.keyframe_points
+    now = _keys(curve)[:, 0]
+    at = np.searchsorted(now, frames)
+    for side, before in zip(("handle_left", "handle_right"), handles, strict=True):
+        current = _handles(curve, side)
+        for index, old in zip(
+            at[np.any(current[at] != before, axis=1)].tolist(),
+            before[np.any(current[at] != before, axis=1)],
+            strict=True,
+        ):
+            point = points[index]
+            point.handle_left_type = point.handle_right_type = "FREE"
+            setattr(point, side, old.tolist())
+
+
+def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation: str) -> None:
+    """Add keys at ``frames`` with ``values`` (automatic clamped handles)."""
+    points = curve.keyframe_points
+    start = len(points)
+    points.add(len(frames))
+    co = np.empty(2 * len(points), dtype=np.float32)
+    points.foreach_get("co", co)
+    co[2 * start :: 2] = frames
+    co[2 * start + 1 :: 2] = values
+    points.foreach_set("co", co)
+    for point in list(points)[start:]:
+        point.interpolation = interpolation
+        point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
 
 
 def _set_values(curve: Any, keys: np.ndarray, new: np.ndarray) -> None:

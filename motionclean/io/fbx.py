@@ -38,6 +38,7 @@ from .blender_action import (
     ActionClip,
     BoneTrack,
     action_fcurves,
+    all_fcurves,
     read_action,
     rest_quaternions,
     write_action,
@@ -146,7 +147,34 @@ def _import(bpy: Any, file: Path, path: str | os.PathLike | None) -> Any:
     data = obj.animation_data
     if data is None or data.action is None:
         raise MotionError(f"armature {obj.name!r} has no animation", path)
+    _whole_frames(bpy)
     return obj
+
+
+def _whole_frames(bpy: Any) -> None:
+    """Put the keys of a file with a fractional frame rate back on the file's frames.
+
+    Blender's importer sets the scene to the file's rate (``fps / fps_base``, e.g. 120 /
+    0.999996 for 120.00048 fps) but places keys at ``time x fps``, so frame ``k`` of the
+    file lands at ``k x fps_base`` (the exporter writes frame ``k`` at ``k x fps_base /
+    fps``, as the scene plays it). Keys are moved back to ``time x fps / fps_base``: whole
+    frames, the same times as the file when written again."""
+    base = float(bpy.context.scene.render.fps_base)
+    if base == 1.0:
+        return
+    for action in bpy.data.actions:
+        for curve in all_fcurves(action):
+            points = curve.keyframe_points
+            for name in ("co", "handle_left", "handle_right"):
+                flat = np.empty(2 * len(points), dtype=np.float64)
+                points.foreach_get(name, flat)
+                frames = flat[0::2] / base
+                if name == "co":  # keys on whole frames (float32 rounding aside)
+                    whole = np.round(frames)
+                    frames = np.where(np.abs(frames - whole) < 1e-3, whole, frames)
+                flat[0::2] = frames
+                points.foreach_set(name, flat)
+            curve.update()
 
 
 def _key_frames(obj: Any) -> np.ndarray:
@@ -225,7 +253,7 @@ def fbx_bytes(motion: Motion) -> bytes:
     else:
         _empty_scene(bpy)
         obj = _build_armature(bpy, motion)
-        _write_new(bpy, obj, motion, 1.0)
+        _write_new(bpy, obj, motion, 0.0)
     with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
         target = Path(folder) / "clip.fbx"
         _export(bpy, obj, target)
