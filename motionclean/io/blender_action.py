@@ -39,6 +39,7 @@ __all__ = [
     "action_fcurves",
     "all_fcurves",
     "key_range",
+    "new_fcurve",
     "read_action",
     "rest_quaternions",
     "write_action",
@@ -125,6 +126,15 @@ def action_fcurves(action: Any, slot: Any, create: bool = False) -> Any:
         strip = layer.strips[0] if len(layer.strips) else layer.strips.new(type="KEYFRAME")
         return strip.channelbags.new(slot).fcurves
     return getattr(action, "fcurves", None)
+
+
+def new_fcurve(fcurves: Any, data_path: str, index: int, group: str) -> Any:
+    """A new F-curve in the bone's group (Blender 4.5's channelbags take no group name:
+    there the curve is left ungrouped)."""
+    try:
+        return fcurves.new(data_path, index=index, group_name=group)
+    except TypeError:
+        return fcurves.new(data_path, index=index)
 
 
 def all_fcurves(action: Any) -> list[Any]:
@@ -430,11 +440,7 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
                 if curve is None:
                     if not changed.any() and np.array_equal(values[:, axis], before[:, axis]):
                         continue
-                    curve = fcurves.new(
-                        bone_path(track.name, prop),
-                        index=axis,
-                        group_name=track.name,
-                    )
+                    curve = new_fcurve(fcurves, bone_path(track.name, prop), axis, track.name)
                     summary.curves_created += 1
                     _write_keys(curve, clip.frames, values[:, axis], np.ones_like(changed), summary)
                 else:

@@ -27,7 +27,7 @@ import numpy as np
 
 import motionclean as mc
 from motionclean.core import quat
-from motionclean.io.blender_action import action_fcurves, read_action
+from motionclean.io.blender_action import action_fcurves, new_fcurve, read_action
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -89,7 +89,7 @@ def to_axis_angle(obj: Any) -> None:
             fcurves.remove(curve)
         target = f'pose.bones["{pose_bone.name}"].rotation_axis_angle'
         for i in range(4):
-            curve = fcurves.new(target, index=i, group_name=pose_bone.name)
+            curve = new_fcurve(fcurves, target, i, pose_bone.name)
             curve.keyframe_points.add(len(values))
             flat = np.empty(2 * len(values), dtype=np.float32)
             flat[0::2], flat[1::2] = co[0][:, 0], values[:, i]

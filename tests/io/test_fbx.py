@@ -23,9 +23,7 @@ def test_reading_fbx_without_bpy_names_the_extra(capsys, tmp_path, command):
     args = [command[0], take, *[tmp_path / a if a.endswith(".bvh") else a for a in command[1:]]]
     code, out, err = run_cli(capsys, *args)
     assert code == 2 and out == ""
-    assert err == (
-        f"motionclean: error: {take}: reading FBX needs Blender's bpy module: {EXTRA}\n"
-    )
+    assert err == (f"motionclean: error: {take}: reading FBX needs Blender's bpy module: {EXTRA}\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["take.fbx"]
 
 
