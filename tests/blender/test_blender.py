@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -95,6 +96,8 @@ def test_operator_gives_the_command_lines_rotations(blender, capsys, tmp_path, r
     report_removed = panel["noise_removed"]
     assert 0.5 < report_removed < 1.0 and panel["deviation_max"] > 90
     assert "repaired RThumb" in panel["lines"] and "foot LeftAnkle" in panel["lines"]
+    page = Path(panel["report"])  # what Open Report opens
+    assert page.suffix == ".html" and "<html" in page.read_text()[:200].lower()
 
 
 def test_one_undo_restores_the_original_action(blender):
