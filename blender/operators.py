@@ -166,7 +166,7 @@ class MOTIONCLEAN_OT_clean(Operator):
             target.use_fake_user = False
             plan.action.use_fake_user = True  # the original stays in the file
             slot = _same_slot(target, plan.slot)
-        write_action(plan.clip, plan.result.after, target, slot)
+        written = write_action(plan.clip, plan.result.after, target, slot)
         if target is not plan.action:
             for obj in plan.objects:
                 obj.animation_data.action = target
@@ -183,6 +183,9 @@ class MOTIONCLEAN_OT_clean(Operator):
         entry.frames = f"{int(frames[0])}-{int(frames[-1])}"
         entry.noise_removed = report["summary"].get("noise_reduction") or 0.0
         entry.deviation_max = report["summary"].get("deviation_deg_max") or 0.0
+        entry.keys = f"Keys: {written.keys_set:,} changed, {written.keys_added:,} added" + (
+            f", {written.curves_created} curves made" if written.curves_created else ""
+        )
         entry.lines = "\n".join(_figure_lines(report))
         entry.report = str(page)
 

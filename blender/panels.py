@@ -33,6 +33,7 @@ class _MotioncleanPanel:
                 text=f"Noise removed {result.noise_removed:.0%}, "
                 f"largest change {result.deviation_max:.2f} deg"
             )
+            lines.label(text=result.keys)
             for line in result.lines.splitlines():
                 lines.label(text=line)
             box.operator("motionclean.open_report", icon="URL").path = result.report

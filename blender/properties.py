@@ -27,6 +27,9 @@ class MOTIONCLEAN_PG_result(PropertyGroup):
     deviation_max: FloatProperty(
         name="Largest Change", description="Largest rotation change of any bone, degrees"
     )
+    keys: StringProperty(
+        name="Keys", description="How many keys got new values and how many were added"
+    )
     lines: StringProperty(name="Figures", description="The report's repairs and feet, one per line")
     report: StringProperty(name="Report", description="The HTML report", subtype="FILE_PATH")
 

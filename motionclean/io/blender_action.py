@@ -23,7 +23,7 @@ and legacy ones (``action.fcurves``, before 4.4) are both read and written.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -99,11 +99,9 @@ class ActionClip:
 class WriteSummary:
     """What :func:`write_action` changed."""
 
-    curves: int = 0  # curves written
     keys_set: int = 0  # existing keys given new values
-    keys_added: int = 0  # keys inserted where a keyed curve had to be resampled per frame
-    curves_created: int = 0
-    bones: list[str] = field(default_factory=list)
+    keys_added: int = 0  # keys set on frames that had none (a stretch keyed per frame)
+    curves_created: int = 0  # curves made for bones that had none
 
 
 # ----------------------------------------------------------------------------- curves
@@ -432,7 +430,6 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
                     shifted[:, j] >= KEEP_LENGTH * reach,
                 )
             )
-        touched = False
         for prop, values, before, changed in jobs:
             curves = existing.get(track.name, {}).get(prop, {})
             for axis in range(values.shape[1]):
@@ -445,10 +442,6 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
                     _write_keys(curve, clip.frames, values[:, axis], np.ones_like(changed), summary)
                 else:
                     _write_keys(curve, clip.frames, values[:, axis], changed, summary)
-                summary.curves += 1
-                touched = True
-        if touched:
-            summary.bones.append(track.name)
     return summary
 
 

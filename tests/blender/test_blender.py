@@ -96,6 +96,7 @@ def test_operator_gives_the_command_lines_rotations(blender, capsys, tmp_path, r
     report_removed = panel["noise_removed"]
     assert 0.5 < report_removed < 1.0 and panel["deviation_max"] > 90
     assert "repaired RThumb" in panel["lines"] and "foot LeftAnkle" in panel["lines"]
+    assert re.fullmatch(r"Keys: [\d,]+ changed, 0 added", panel["keys"])  # baked: no new key
     page = Path(panel["report"])  # what Open Report opens
     assert page.suffix == ".html" and "<html" in page.read_text()[:200].lower()
 
