@@ -313,9 +313,10 @@ def read_action(
     """The motion ``action`` (animating ``slot`` of armature object ``obj``) gives its
     bones at scene ``frames``, ``frame_time`` seconds apart.
 
-    A bone's rotation or location curves make its rotation or position channels; the
+    A bone's rotation or location curves make its rotation or position channels, unless
+    they stay at the rest (within :data:`KEEP_DEGREES`, :data:`REST_LOCATION`); the
     components of a property without a curve take the pose bone's current value. A bone
-    without curves keeps its current pose (channels only when it is not the rest). Bone
+    without curves keeps its current pose (channels when it is not the rest). Bone
     scale, constraints and drivers are not read. MotionError when a curve has modifiers
     other than Cycles (the keys would not be what plays)."""
     frames = np.asarray(frames, dtype=np.float64)
@@ -342,7 +343,9 @@ def read_action(
         values = _values(mine.get(prop, {}), getattr(pose_bone, prop), width, frames, where)
         location = _values(mine.get("location", {}), pose_bone.location, 3, frames, where)
         basis[:, j] = _basis_quaternions(values, mode)
-        rotates = prop in mine or not np.allclose(basis[:1, j], [1.0, 0.0, 0.0, 0.0], atol=0)
+        # (a bone that stays at its rest, keyed or not, as an FBX import keys leaf bones,
+        # has no rotation channels)
+        rotates = bool(np.rad2deg(quat.angle(basis[:, j])).max(initial=0.0) >= KEEP_DEGREES)
         # (location curves that stay at the rest, as an FBX import keys on every bone,
         # make no channels)
         moves = (

@@ -425,11 +425,13 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
             "reports",
         ],
         "info": ["info", "takes/take.fbx"],
+        "report": ["report", "takes/take.fbx", "identity.fbx", "--json", "report.json"],
         "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],
         "from_bvh": ["convert", "take.bvh", "from_bvh.fbx"],
     }
     ran = {}
-    for group in (runs.keys() - {"from_bvh"}, ["from_bvh"]):  # (from_bvh reads take.bvh)
+    first = ["identity", "batch", "info", "to_bvh"]
+    for group in (first, ["from_bvh", "report"]):  # (these read what the first ones write)
         started = {
             name: subprocess.Popen(
                 [command, *runs[name]],

@@ -13,6 +13,7 @@ decimals (5e-7 degrees). The bounds below are these, not looser.
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from pathlib import Path
@@ -151,6 +152,13 @@ def test_fbx_commands_run_through_blender(blender):
         assert run["stderr"] == ""  # nothing Blender prints reaches the terminal
     info = blender.results["fbx_runs"]["info"]["stdout"]
     assert "frames: 994" in info and "joints: 38" in info and "rate: 120 fps" in info
+    report = json.loads((blender.out / "report.json").read_text())  # take.fbx vs identity.fbx
+    assert report["frames"] == 994 and {"Hips", "RThumb", "LeftKnee"} <= report["joints"].keys()
+    # (the rest orientation of CMU's 0.01-long wrist bones comes back from the file's
+    # float32 transforms 0.02 degrees off; every other bone within 1e-3)
+    assert report["summary"]["deviation_deg_max"] < 0.05
+    deviations = [entry["deviation_deg"]["max"] for entry in report["joints"].values()]
+    assert sorted(deviations)[-3] < 1e-3
 
 
 @needs_fbx
