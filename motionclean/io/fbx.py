@@ -3,7 +3,8 @@
 ``bpy`` (Blender as a Python module) is the optional ``[blender]`` extra; without it, reading
 or writing an FBX file is a :class:`~motionclean.core.errors.UsageError` naming the extra.
 Each load or save starts from Blender's factory settings with an empty scene, so nothing of
-the user's Blender setup takes part.
+the user's Blender setup takes part (and it is refused in a Blender with windows, whose
+scene is someone's work).
 
 Reading imports the file (keys at ``time x fps``, no frame offset), takes its one armature
 and the action it plays, and maps the pose bones to a Motion as :mod:`.blender_action`
@@ -81,6 +82,12 @@ def _bpy(doing: str, path: str | os.PathLike | None) -> Any:
             import bpy
     except ImportError:
         raise UsageError(f"{doing} FBX needs Blender's bpy module: {EXTRA}", path) from None
+    if not bpy.app.background:  # a Blender with windows: its scene is the user's work
+        raise UsageError(
+            f"{doing} FBX starts Blender from an empty scene, which would replace the open "
+            "one; inside Blender use File > Import/Export and the motionclean panel",
+            path,
+        )
     return bpy
 
 
