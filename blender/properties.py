@@ -41,7 +41,7 @@ class MOTIONCLEAN_PG_settings(PropertyGroup):
         name="Pipeline",
         description="The steps to run, as on the command line",
         items=(
-            ("DEFAULT", "Default", "fill-gaps, despike, auto: what `motionclean clean` runs"),
+            ("DEFAULT", "Default", "What `motionclean clean` runs without -p or -f"),
             ("FILE", "TOML File", "A pipeline file, as `motionclean clean -p FILE`"),
             ("STEPS", "Steps", "Steps typed in, as `motionclean clean -f STEP -f STEP`"),
         ),

@@ -25,7 +25,14 @@ from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
-from .options import FOLDER_PATH, PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
+from .options import (
+    FOLDER_PATH,
+    PIPE_OPTION,
+    STEP_OPTION,
+    UP_OPTION,
+    pipeline_from_options,
+    raise_failures,
+)
 
 #: Clips ``batch`` takes when no ``--glob`` is given.
 DEFAULT_GLOBS = ("*.bvh", "*.csv")
@@ -197,6 +204,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     "tcp://HOST:8786 (workers read and write the same paths: shared storage), or local[:N] "
     "for a cluster of N processes on this machine. Needs the dask extra.",
 )
+@UP_OPTION
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
 def batch_command(
     in_dir: str,
@@ -208,6 +216,7 @@ def batch_command(
     report_dir: str | None,
     skip_existing: bool,
     scheduler: str | None,
+    up: str | None,
     quiet: bool,
 ) -> None:
     """Clean every clip under IN_DIR into OUT_DIR, in parallel.
@@ -238,7 +247,8 @@ def batch_command(
                 str(source), str(target), "skipped", report=None if page is None else str(page)
             )
             continue
-        work.append(Job(str(source), str(target), tables, None if page is None else str(page)))
+        report_page = None if page is None else str(page)
+        work.append(Job(str(source), str(target), tables, report_page, up))
         work_names.append(str(rel))
 
     if scheduler is not None and jobs is not None:

@@ -46,12 +46,14 @@ from .options import (
     PATH,
     PIPE_OPTION,
     STEP_OPTION,
+    UP_OPTION,
     FiniteRange,
     check_clip_output,
     check_output,
     check_report_output,
     pipeline_from_options,
     refuse_overwrite,
+    with_up,
 )
 
 
@@ -127,9 +129,10 @@ def _shortened(name: str) -> str:
 
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
 @click.argument("clip", type=PATH)
-def info(clip: str) -> None:
+@UP_OPTION
+def info(clip: str, up: str | None) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
-    motion = load(clip)
+    motion = with_up(load(clip), up)
     layout = motion.layout
     click.echo(f"{clip}")
     click.echo(
@@ -138,10 +141,10 @@ def info(clip: str) -> None:
         "(frames x frame time; frames are numbered from 0)"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
-    up = kinematics.up_axis(motion)
+    axis = kinematics.up_axis(motion)
     click.echo(
-        f"  up axis: {kinematics.AXES[up]}   body height: "
-        f"{kinematics.body_height(motion, up):.4g} units (rest pose)"
+        f"  up axis: {kinematics.AXES[axis]} ({'given' if up else 'found from the motion'})"
+        f"   body height: {kinematics.body_height(motion, axis):.4g} units"
     )
     contacts, _ = contact_figures(motion)
     for line in (
@@ -261,6 +264,7 @@ def resample_command(source: str, target: str, fps: float | None, frame_time: fl
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+@UP_OPTION
 def clean(
     source: str,
     output: str | None,
@@ -269,6 +273,7 @@ def clean(
     report_paths: tuple[str, ...],
     in_place: bool,
     quiet: bool,
+    up: str | None,
 ) -> None:
     """Clean SOURCE with a pipeline and write it to OUTPUT.
 
@@ -285,7 +290,7 @@ def clean(
         check_report_output(report_path)
     if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
         raise UsageError("--report names the same file twice")
-    result = clean_clip(source, None, pipeline)
+    result = clean_clip(source, None, pipeline, up)
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
@@ -330,15 +335,18 @@ def _dropout_lines(motion) -> list[str]:
 @click.argument("cleaned", type=PATH, required=False)
 @click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
 @click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
-def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
+@UP_OPTION
+def report(
+    source: str, cleaned: str | None, json_path: str | None, html_path: str | None, up: str | None
+) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
     for path in (json_path, html_path):
         if path:
             check_report_output(path)
     if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
         raise UsageError(f"{json_path}: --json and --html name the same file")
-    before = load(source)
-    after = load(cleaned) if cleaned else None
+    before = with_up(load(source), up)
+    after = with_up(load(cleaned), up) if cleaned else None
     if after is not None:
         check_compatible(before, after)
     series = build_series(before, after)
@@ -423,7 +431,10 @@ def blend(
     help="Keep SECOND where it is instead of moving its root to where FIRST ends "
     "(horizontal position and heading).",
 )
-def stitch(first: str, second: str, output: str, levels: int, no_align: bool) -> None:
+@UP_OPTION
+def stitch(
+    first: str, second: str, output: str, levels: int, no_align: bool, up: str | None
+) -> None:
     """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
 
     SECOND is first moved so its root starts where FIRST's ends (same horizontal position
@@ -433,7 +444,8 @@ def stitch(first: str, second: str, output: str, levels: int, no_align: bool) ->
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
-    save(stitch_clips(load(first), load(second), levels, align=not no_align), output)
+    a, b = with_up(load(first), up), with_up(load(second), up)
+    save(stitch_clips(a, b, levels, align=not no_align), output)
 
 
 def _shown(value) -> str:

@@ -99,3 +99,17 @@ STEP_OPTION = click.option(
     metavar="STEP",
     help="Inline step NAME:key=value,...; repeatable, applied in order.",
 )
+
+
+UP_OPTION = click.option(
+    "--up",
+    type=click.Choice(["x", "y", "z"], case_sensitive=False),
+    callback=lambda ctx, param, value: None if value is None else value.lower(),
+    help="The clips' up axis (default: found from the motion: the feet are below the head; "
+    "a T-pose rest does not mislead it). World-space figures, feet and the player use it.",
+)
+
+
+def with_up(motion, up: str | None):
+    """``motion`` declared to have the up axis ``up`` (``--up``), or as it is."""
+    return motion if up is None else motion.replace(up=up)

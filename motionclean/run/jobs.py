@@ -94,12 +94,19 @@ def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
 
 
 def clean_clip(
-    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
+    source: str | os.PathLike,
+    target: str | os.PathLike | None,
+    pipeline: Pipeline,
+    up: str | None = None,
 ) -> CleanedClip:
     """Load ``source``, run ``pipeline`` (:func:`clean_motion`), and write ``target``
     (atomically; its folder is created) unless it is None. Nothing is written when the
-    report cannot be made."""
-    result = clean_motion(load(source), pipeline, os.fspath(source))
+    report cannot be made. ``up`` (``"x"``, ``"y"``, ``"z"``) declares the clip's up axis
+    (:attr:`Motion.up`; default: found from the motion)."""
+    before = load(source)
+    if up is not None:
+        before = before.replace(up=up)
+    result = clean_motion(before, pipeline, os.fspath(source))
     if target is not None:
         Path(target).parent.mkdir(parents=True, exist_ok=True)
         save(result.after, target)
@@ -157,6 +164,7 @@ class Job:
     target: str | None
     steps: tuple[dict, ...]
     report: str | None = None
+    up: str | None = None  # the clips' up axis, when the user gives it
 
 
 def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
@@ -205,13 +213,15 @@ def clean_file(
     target: str | os.PathLike | None,
     pipeline: Pipeline | Sequence[dict],
     report: str | os.PathLike | None = None,
+    up: str | None = None,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
     ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
     computes the figures without writing; ``report`` also writes the clip's HTML page.
-    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
-    gives ``status="failed"`` with the reason instead of raising.
+    Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
+    axis (as in :func:`clean_clip`). A bad clip or failed step gives ``status="failed"``
+    with the reason instead of raising.
     """
     start = time.perf_counter()
     job = Job(
@@ -223,7 +233,7 @@ def clean_file(
     try:
         if not isinstance(pipeline, Pipeline):
             pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        result = clean_clip(job.source, None, pipeline)
+        result = clean_clip(job.source, None, pipeline, up)
         pages = {}
         if job.report is not None:
             pages[job.report] = render_report(result.report, job.report, result.series)
@@ -237,7 +247,7 @@ def clean_file(
 
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
-    return clean_file(job.source, job.target, job.steps, job.report)
+    return clean_file(job.source, job.target, job.steps, job.report, job.up)
 
 
 # ----------------------------------------------------------------------------- two clips
