@@ -28,7 +28,7 @@ import numpy as np
 
 import motionclean as mc
 from motionclean.core import quat
-from motionclean.io.blender_action import action_fcurves, new_fcurve, read_action
+from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -63,7 +63,7 @@ def import_rig(clip: Path, mode: str) -> Any:
     if mode == "AXIS_ANGLE":
         to_axis_angle(obj)
     scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = key_range(obj)
+    scene.frame_start, scene.frame_end = rig_keys(obj)
     bpy.ops.ed.undo_push(message="Import rig")  # as the import from the menu would
     return obj
 
@@ -128,11 +128,10 @@ def same_state(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
     return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
 
 
-def key_range(obj: Any) -> tuple[int, int]:
-    from motionclean.io.blender_action import key_range as action_key_range
-
+def rig_keys(obj: Any) -> tuple[int, int]:
+    """The first and last key frames of the armature's action."""
     data = obj.animation_data
-    found = action_key_range(data.action, data.action_slot)
+    found = key_range(data.action, data.action_slot)
     assert found is not None
     return found
 
@@ -142,10 +141,11 @@ def frame_time() -> float:
     return scene.render.fps_base / scene.render.fps
 
 
-def read(obj: Any, first: int, last: int, action: Any = None) -> mc.Motion:
+def read(obj: Any, first: int, last: int) -> mc.Motion:
+    """The motion the armature's action gives over frames ``first`` to ``last``."""
     data = obj.animation_data
     frames = np.arange(first, last + 1, dtype=np.float64)
-    return read_action(obj, action or data.action, data.action_slot, frames, frame_time()).motion
+    return read_action(obj, data.action, data.action_slot, frames, frame_time()).motion
 
 
 def save_motion(out: Path, name: str, motion: mc.Motion) -> None:
@@ -224,9 +224,11 @@ def draw_panels() -> dict:
 
 
 def operator_checks(clip: Path, out: Path, results: dict) -> None:
+    """Each rig: Clean Actions with the defaults (a new action); the quaternion rig is
+    undone and redone."""
     for rig, mode in RIGS.items():
         obj = import_rig(clip, mode)
-        first, last = key_range(obj)
+        first, last = rig_keys(obj)
         original = obj.animation_data.action
         slot = obj.animation_data.action_slot
         before_state = key_state(original, slot)
@@ -310,7 +312,7 @@ def keyed_checks(clip: Path, results: dict) -> None:
             point.interpolation = "BEZIER"
             point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
         curve.update()
-    first, last = key_range(obj)
+    first, last = rig_keys(obj)
     knee = f'pose.bones["{KNEES[0]}"]'
     state0 = key_state(data.action, data.action_slot)
     # 1. a step on the other knee: the keyed knee's keys do not move
@@ -355,7 +357,8 @@ def keyed_checks(clip: Path, results: dict) -> None:
     }
 
 
-def extension_checks(zip_path: Path, out: Path, results: dict) -> None:
+def extension_checks(zip_path: Path, results: dict) -> None:
+    """Install the zip with Blender's extension installer; what got registered."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     done = bpy.ops.extensions.package_install_files(
         filepath=str(zip_path), repo="user_default", enable_on_install=True
@@ -378,6 +381,7 @@ def extension_checks(zip_path: Path, out: Path, results: dict) -> None:
 
 
 def unregister_checks(results: dict) -> None:
+    """Disable the extension (its unregister), see what is left, enable it again."""
     import addon_utils
 
     addon_utils.disable(EXTENSION, default_set=True)
@@ -503,7 +507,7 @@ def main() -> None:
         results["seconds"][name] = round(now - start, 2)
         start = now
 
-    extension_checks(zip_path, out, results)
+    extension_checks(zip_path, results)
     timed("install")
     operator_checks(clip, out, results)
     timed("operator")
