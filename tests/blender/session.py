@@ -272,18 +272,18 @@ def range_checks(clip: Path, out: Path, results: dict) -> None:
     obj = import_rig(clip, "QUATERNION")
     scene = bpy.context.scene
     scene.use_preview_range = True
-    scene.frame_preview_start, scene.frame_preview_end = 300, 500
+    scene.frame_preview_start, scene.frame_preview_end = 150, 250
     action, slot = obj.animation_data.action, obj.animation_data.action_slot
     before_state = key_state(action, slot)
-    mc.save(read(obj, 300, 500), out / "range_in.bvh")
+    mc.save(read(obj, 150, 250), out / "range_in.bvh")
     done = clean(frames="PREVIEW", in_place=True)
     after_state = key_state(action, slot)
     outside = {}
     for name in before_state:
         co, new = key_co(before_state, name), key_co(after_state, name)
-        keep = (co[:, 0] < 300) | (co[:, 0] > 500)
+        keep = (co[:, 0] < 150) | (co[:, 0] > 250)
         outside[name] = bool(np.array_equal(co[keep], new[keep]))
-    save_motion(out, "range_out", read(obj, 300, 500))
+    save_motion(out, "range_out", read(obj, 150, 250))
     results["range"] = {
         "done": sorted(done),
         "action": obj.animation_data.action.name,
@@ -324,9 +324,9 @@ def keyed_checks(clip: Path, results: dict) -> None:
     other_changed = any(
         not np.array_equal(state0[k], state1[k]) for k in state0 if f'"{KNEES[1]}"' in k
     )
-    # 2. a step on the keyed knee over frames 400-500: keys per frame only near there
+    # 2. a step on the keyed knee over frames 200-260: keys per frame only near there
     before = read(obj, first, last)
-    steps = f"-f lee-shin:k=3,iterations=4,joints=[{KNEES[0]}],frames=[400,500],blend=5"
+    steps = f"-f lee-shin:k=3,iterations=4,joints=[{KNEES[0]}],frames=[200,260],blend=5"
     expected = clean_motion(before, Pipeline.from_inline(steps.split()[1::2]), "x").after
     done2 = clean(pipeline="STEPS", steps=steps, in_place=True)
     state2 = key_state(data.action, data.action_slot)
@@ -340,7 +340,7 @@ def keyed_checks(clip: Path, results: dict) -> None:
     for i in range(4):
         name = f"{sparse}[{i}]"
         co0, co2 = key_co(state0, name), key_co(state2, name)
-        far = (co0[:, 0] < 380) | (co0[:, 0] > 520)
+        far = (co0[:, 0] < 180) | (co0[:, 0] > 280)
         lookup = {float(f): v for f, v in co2}
         old[name] = all(lookup.get(float(f)) == v for f, v in co0[far])
     results["keyed"] = {
