@@ -35,6 +35,7 @@ class BlenderSession:
     out: Path
     results: dict
     seconds: float
+    clip: Path  # the BVH file the rigs were imported from
 
 
 def _build_extension(folder: Path) -> Path:
@@ -71,4 +72,4 @@ def blender(tmp_path_factory: pytest.TempPathFactory) -> BlenderSession:
         pytest.fail(f"the Blender session failed ({BLENDER_PYTHON}):\n{done.stderr[-4000:]}")
     results = json.loads((out / "results.json").read_text())
     print(f"Blender {results['blender']} session: {seconds:.1f} s", file=sys.stderr)
-    return BlenderSession(out, results, seconds)
+    return BlenderSession(out, results, seconds, clip)

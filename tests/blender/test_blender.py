@@ -23,6 +23,7 @@ import pytest
 from helpers import degrees_between, run_cli
 
 import motionclean as mc
+from motionclean.core import quat
 from motionclean.io.blender_action import KEEP_DEGREES
 
 #: Largest rotation difference between keys read back and the command line's float64
@@ -101,6 +102,25 @@ def test_operator_gives_the_command_lines_rotations(blender, capsys, tmp_path, r
     assert re.fullmatch(r"Keys: [\d,]+ changed, 0 added", panel["keys"])  # baked: no new key
     page = Path(panel["report"])  # what Open Report opens
     assert page.suffix == ".html" and "<html" in page.read_text()[:200].lower()
+
+
+def test_operator_gives_what_cleaning_the_file_itself_gives(blender, capsys, tmp_path):
+    """Against the BVH file the rig was imported from: the same rotations, turned from the
+    file's Y up to Blender's Z up, within what Blender's BVH importer keeps of the file
+    (its float32 arithmetic)."""
+    expected = _cleaned_by_cli(capsys, tmp_path, blender.clip)
+    y_to_z = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+    turned = quat.multiply(quat.multiply(y_to_z, expected.rotations), quat.conjugate(y_to_z))
+    rotations = np.load(blender.out / "quaternion_out_rotations.npy")
+    imported = mc.load(blender.out / "quaternion_in.bvh")  # what the import kept of the file
+    kept = degrees_between(
+        imported.rotations,
+        quat.multiply(
+            quat.multiply(y_to_z, mc.load(blender.clip).rotations), quat.conjugate(y_to_z)
+        ),
+    )
+    errors = degrees_between(rotations, turned)
+    assert errors.max() < 2 * kept.max() + FLOAT32_DEGREES
 
 
 def test_one_undo_restores_the_original_action(blender):
