@@ -54,10 +54,11 @@ EULER_MODES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 #: A keyed (not baked) curve keeps its keys over frames whose rotation moved by less than
 #: this (degrees) ...
 KEEP_DEGREES = 1e-4
-#: ... and whose location moved by less than this fraction of the longest bone chain.
+#: ... and whose location moved by less than this fraction of the skeleton's size (the sum
+#: of its bones' offsets).
 KEEP_LENGTH = 1e-6
 
-#: Location curves within this fraction of the bone chain's reach of zero are the rest.
+#: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
 
 _BONE_PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.(\w+)$')
@@ -401,10 +402,13 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
     """Write ``cleaned`` (the clip's motion after a pipeline, same skeleton and frames) into
     ``action`` (the clip's own, or a copy of it) for ``slot``.
 
-    Baked curves (a key on every frame) get new key values. A keyed curve keeps its keys
-    where the bone moved by less than :data:`KEEP_DEGREES` and :data:`KEEP_LENGTH`; between
-    two keys where it moved more, a key is set on every frame. Handles move with their key;
-    automatic handles are recomputed. Curves are created for bones that have none."""
+    Baked curves (a key on every frame) get new key values, their handles moved with them.
+    A keyed curve keeps its keys where the bone moved by less than :data:`KEEP_DEGREES`
+    (:data:`KEEP_LENGTH` for locations); a key where it moved more takes the new value, and
+    the stretch between two keys is keyed on every frame when a frame in it or a key at
+    its ends moved. The keys that stay keep their handles (made free where recomputing
+    the automatic ones would move them), so the curve plays what it played there. Curves
+    are created, keyed on every frame, for bones that have none."""
     motion = clip.motion
     if cleaned.names != motion.names or cleaned.n_frames != motion.n_frames:
         raise MotionError("the cleaned clip has other joints or frames than the action", None)
