@@ -40,6 +40,7 @@ from .blender_action import (
     BoneTrack,
     action_fcurves,
     all_fcurves,
+    key_range,
     read_action,
     rest_quaternions,
     write_action,
@@ -141,7 +142,8 @@ def _import(bpy: Any, file: Path, path: str | os.PathLike | None) -> Any:
         except (RuntimeError, ValueError, TypeError, KeyError, IndexError) as error:
             done, failure = None, error
     if failure is not None or "FINISHED" not in done:
-        raise MotionError(f"cannot read FBX: {_reason(printed, failure)}", path)
+        reason = _reason(printed, failure).replace(f"'{file}'", "").replace(str(file), "")
+        raise MotionError(f"cannot read FBX: {reason.strip()}", path)
     armatures = [obj for obj in bpy.context.scene.objects if obj.type == "ARMATURE"]
     if not armatures:
         raise MotionError("no armature (skeleton) in the FBX file", path)
@@ -395,7 +397,7 @@ def _export(bpy: Any, obj: Any, target: Path) -> None:
     scene = bpy.context.scene
     data = obj.animation_data
     action, slot = data.action, data.action_slot
-    first, last = (int(np.floor(v)) for v in action.frame_range)
+    first, last = key_range(action, slot) or (scene.frame_start, scene.frame_end)
     scene.frame_start, scene.frame_end = first, max(last, first)
     track = data.nla_tracks.new()
     strip = track.strips.new(action.name, first, action)

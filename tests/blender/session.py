@@ -429,13 +429,19 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
             "reports",
         ],
         "info": ["info", "takes/take.fbx"],
+        "not_binary": ["info", "ascii.fbx"],
+        "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
         "report": ["report", "takes/take.fbx", "identity.fbx", "--json", "report.json"],
         "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],
         "from_bvh": ["convert", "take.bvh", "from_bvh.fbx"],
     }
     ran = {}
-    first = ["identity", "batch", "info", "to_bvh"]
-    for group in (first, ["from_bvh", "report"]):  # (these read what the first ones write)
+    (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
+    first = ["identity", "batch", "info", "to_bvh", "not_binary"]
+    for group in (
+        first,
+        ["from_bvh", "report", "resample"],
+    ):  # (these read what the first ones write)
         started = {
             name: subprocess.Popen(
                 [command, *runs[name]],
@@ -451,7 +457,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
             ran[name] = {"code": process.returncode, "stdout": stdout, "stderr": stderr}
     results["fbx_runs"] = ran
     loaded = {}
-    for name in ("takes/take.fbx", "identity.fbx", "batch/take.fbx", "from_bvh.fbx"):
+    for name in ("takes/take.fbx", "identity.fbx", "batch/take.fbx", "from_bvh.fbx", "r60.fbx"):
         if (out / name).is_file():
             loaded[name] = load_back(out / name)
     results["fbx_loaded"] = loaded

@@ -168,7 +168,13 @@ def _bone_rotations(loaded: dict) -> dict[str, np.ndarray]:
 
 @needs_fbx
 def test_fbx_commands_run_through_blender(blender):
-    for name, run in blender.results["fbx_runs"].items():
+    runs = dict(blender.results["fbx_runs"])
+    refused = runs.pop("not_binary")  # an ASCII FBX: Blender's importer reads binary only
+    assert refused["code"] == 1 and refused["stdout"] == ""
+    assert refused["stderr"] == (
+        "motionclean: error: ascii.fbx: cannot read FBX: ASCII FBX files are not supported\n"
+    )
+    for name, run in runs.items():
         assert run["code"] == 0, (name, run["stderr"])
         assert run["stderr"] == ""  # nothing Blender prints reaches the terminal
     info = blender.results["fbx_runs"]["info"]["stdout"]
@@ -225,6 +231,14 @@ def test_fbx_default_clean_is_the_pipelines_result(blender):
     assert np.median(errors) < 1e-5
     assert np.percentile(errors, 90) < KEEP_DEGREES and errors.max() < 0.05
     assert (blender.out / "reports").is_dir()
+
+
+@needs_fbx
+def test_fbx_resampled_has_the_new_rate_and_frames(blender):
+    resampled = blender.results["fbx_loaded"]["r60.fbx"]
+    source = blender.results["fbx_loaded"]["takes/take.fbx"]
+    assert resampled["fps"] == [60, 1.0] and resampled["bones"] == source["bones"]
+    assert resampled["frames"] == [1, FRAMES // 2]
 
 
 @needs_fbx
