@@ -25,6 +25,7 @@ from bpy.types import Operator
 from .motionclean.core.errors import MotionError, UsageError
 from .motionclean.io import atomic_write
 from .motionclean.io.blender_action import ActionClip, key_range, read_action, write_action
+from .motionclean.report.summary import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, render_report
 from .motionclean.steps.pipeline import Pipeline
 
@@ -192,8 +193,6 @@ class MOTIONCLEAN_OT_clean(Operator):
 
 def _figure_lines(report: dict) -> list[str]:
     """The terminal report's repair and foot lines, as ``motionclean clean`` prints them."""
-    from .motionclean.report.summary import format_table
-
     lines = format_table(report).splitlines()
     return [line for line in lines if line.startswith(FIGURE_LINES)]
 
