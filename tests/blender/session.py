@@ -296,6 +296,32 @@ def range_checks(clip: Path, out: Path, results: dict) -> None:
     scene.use_preview_range = False
 
 
+def error_checks(clip: Path, results: dict) -> None:
+    """A press that cannot clean says why in one line and changes nothing."""
+    obj = import_rig(clip, "QUATERNION")
+    data = obj.animation_data
+    before = key_state(data.action, data.action_slot)
+    errors = {}
+    for name, settings in {
+        "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
+        "no_steps": {"pipeline": "STEPS", "steps": ""},
+        "preview_off": {"frames": "PREVIEW"},
+        "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
+    }.items():
+        try:
+            done = sorted(clean(**settings))
+        except RuntimeError as error:  # what an error report raises in a headless Blender
+            done, message = ["CANCELLED"], str(error).strip()
+        else:
+            message = ""
+        errors[name] = {"done": done, "message": message}
+    results["errors"] = {
+        "runs": errors,
+        "actions": sorted(a.name for a in bpy.data.actions),
+        "untouched": same_state(before, key_state(data.action, data.action_slot)),
+    }
+
+
 def keyed_checks(clip: Path, results: dict) -> None:
     """A keyed (not baked) bone: keys stay where nothing moved, per frame where it did."""
     obj = import_rig(clip, "QUATERNION")
@@ -520,6 +546,7 @@ def main() -> None:
     range_checks(clip, out, results)
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
+    error_checks(clip, results)
     unregister_checks(results)
     timed("range, keyed, unregister")
     if not operator_only:

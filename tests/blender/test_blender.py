@@ -141,6 +141,21 @@ def test_preview_range_in_place(blender, capsys, tmp_path):
     assert degrees_between(rotations, expected.rotations).max() < FLOAT32_DEGREES
 
 
+def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
+    errors = blender.results["errors"]
+    assert errors["untouched"] and errors["actions"] == ["131_01"]
+    expected = {
+        "unknown_step": "unknown filter 'lee-shim'",
+        "no_steps": "type the steps in",
+        "preview_off": "the preview range is off",
+        "resample": "the pipeline changes the frame count",
+    }
+    for name, words in expected.items():
+        run = errors["runs"][name]
+        assert run["done"] == ["CANCELLED"] and run["message"].startswith("Error: motionclean: ")
+        assert words in run["message"] and "\n" not in run["message"]
+
+
 def test_keyed_curves_take_keys_per_frame_only_where_the_motion_moved(blender):
     keyed = blender.results["keyed"]
     assert keyed["done"] == [["FINISHED"], ["FINISHED"]]
