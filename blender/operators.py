@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 import shlex
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,11 +28,14 @@ from .motionclean.io.blender_action import ActionClip, key_range, read_action, w
 from .motionclean.report.summary import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, render_report
 from .motionclean.steps.pipeline import Pipeline
+from .motionclean.steps.ranges import FrameRange
 
 #: Where the HTML reports go.
 REPORTS = Path(tempfile.gettempdir()) / "motionclean-reports"
 #: Lines of the report's text kept for the panel: repairs and feet.
 FIGURE_LINES = ("repaired ", "foot ")
+#: Frames at each end of a range over which its cleaning is blended in and out.
+RANGE_BLEND = 5
 
 
 def pipeline_of(settings: Any) -> Pipeline:
@@ -53,8 +56,22 @@ def pipeline_of(settings: Any) -> Pipeline:
     return Pipeline.default()
 
 
-def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> np.ndarray:
-    """The whole frames to clean: the chosen range, within the action's keys."""
+def ranged(pipeline: Pipeline, first: int, last: int) -> Pipeline:
+    """``pipeline`` with every step that takes a frame range (and was given none) run on
+    clip frames ``first..last``, blended in and out over the range's first and last
+    :data:`RANGE_BLEND` frames, so nothing outside changes and nothing jumps at its ends."""
+    blend = max(0, min(RANGE_BLEND, (last - first) // 4))
+    span = FrameRange(frames=(first + blend, last - blend), blend=blend)
+    steps = [
+        replace(step, span=span) if step.spec.run_motion is None and step.span is None else step
+        for step in pipeline.steps
+    ]
+    return Pipeline(steps, pipeline.origin)
+
+
+def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, int, np.ndarray]:
+    """The range to clean (first and last frame, within the action's keys) and the frames
+    read: every frame from the action's first key to its last."""
     keys = key_range(action, slot)
     if keys is None:
         raise MotionError("no bone keys to clean", action.name)
@@ -73,7 +90,7 @@ def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> np.ndarray:
             f"({keys[0]}-{keys[1]}) in the range",
             action.name,
         )
-    return np.arange(first, last + 1, dtype=np.float64)
+    return first, last, np.arange(keys[0], keys[1] + 1, dtype=np.float64)
 
 
 @dataclass
@@ -85,6 +102,7 @@ class Plan:
     slot: Any
     clip: ActionClip | None = None
     result: CleanedClip | None = None
+    span: tuple[int, int] = (0, 0)  # the range cleaned, scene frames
 
 
 def plans_of(context: Any) -> list[Plan]:
@@ -140,9 +158,13 @@ class MOTIONCLEAN_OT_clean(Operator):
             pipeline = pipeline_of(settings)
             plans = plans_of(context)
             for plan in plans:  # everything is cleaned before anything is written
-                frames = frames_of(scene, settings, plan.action, plan.slot)
+                first, last, frames = frames_of(scene, settings, plan.action, plan.slot)
+                plan.span = (first, last)
                 plan.clip = read_action(plan.objects[0], plan.action, plan.slot, frames, frame_time)
-                plan.result = clean_motion(plan.clip.motion, pipeline, plan.action.name)
+                whole = (first, last) == (frames[0], frames[-1])
+                start = int(frames[0])
+                steps = pipeline if whole else ranged(pipeline, first - start, last - start)
+                plan.result = clean_motion(plan.clip.motion, steps, plan.action.name)
                 if plan.result.after.n_frames != plan.clip.motion.n_frames:
                     raise UsageError(
                         "the pipeline changes the frame count (resample): an action keeps "
@@ -180,8 +202,7 @@ class MOTIONCLEAN_OT_clean(Operator):
         entry = settings.results.add()
         entry.objects = ", ".join(obj.name for obj in plan.objects)
         entry.source, entry.result = plan.action.name, target.name
-        frames = plan.clip.frames
-        entry.frames = f"{int(frames[0])}-{int(frames[-1])}"
+        entry.frames = f"{plan.span[0]}-{plan.span[1]}"
         entry.noise_removed = report["summary"].get("noise_reduction") or 0.0
         entry.deviation_max = report["summary"].get("deviation_deg_max") or 0.0
         entry.keys = f"Keys: {written.keys_set:,} changed, {written.keys_added:,} added" + (

@@ -429,6 +429,8 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
             location = quat.rotate(
                 quat.conjugate(clip.rest[j]), cleaned.translations[:, j] - motion.offsets[j]
             )
+            same = np.all(cleaned.translations[:, j] == motion.translations[:, j], axis=-1)
+            location[same] = clip.location_values[j][same]  # unchanged: the values read
             jobs.append(
                 (
                     "location",

@@ -268,14 +268,16 @@ def operator_checks(clip: Path, out: Path, results: dict) -> None:
 
 
 def range_checks(clip: Path, out: Path, results: dict) -> None:
-    """The preview range, in place: keys outside it stay, inside them the command line's."""
+    """The preview range, in place: keys outside it stay, inside them the command line's
+    result for the same steps limited to the range."""
     obj = import_rig(clip, "QUATERNION")
     scene = bpy.context.scene
     scene.use_preview_range = True
     scene.frame_preview_start, scene.frame_preview_end = 150, 250
     action, slot = obj.animation_data.action, obj.animation_data.action_slot
+    first, last = rig_keys(obj)
     before_state = key_state(action, slot)
-    mc.save(read(obj, 150, 250), out / "range_in.bvh")
+    mc.save(read(obj, first, last), out / "range_in.bvh")
     done = clean(frames="PREVIEW", in_place=True)
     after_state = key_state(action, slot)
     outside = {}
@@ -283,10 +285,12 @@ def range_checks(clip: Path, out: Path, results: dict) -> None:
         co, new = key_co(before_state, name), key_co(after_state, name)
         keep = (co[:, 0] < 150) | (co[:, 0] > 250)
         outside[name] = bool(np.array_equal(co[keep], new[keep]))
-    save_motion(out, "range_out", read(obj, 150, 250))
+    save_motion(out, "range_out", read(obj, first, last))
     results["range"] = {
         "done": sorted(done),
         "action": obj.animation_data.action.name,
+        "clip_range": [150 - first, 250 - first],  # the range in the clip's frames
+        "panel_frames": bpy.context.scene.motionclean.results[0].frames,
         "outside_untouched": all(outside.values()),
         "curves": len(outside),
         "inside_changed": sum(

@@ -25,6 +25,8 @@ from helpers import degrees_between, run_cli
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.io.blender_action import KEEP_DEGREES
+from motionclean.steps import REGISTRY
+from motionclean.steps.pipeline import DEFAULT_STEPS
 
 #: Largest rotation difference between keys read back and the command line's float64
 #: result: float32 keys (up to three Euler angles of 1.2e-5 degrees each, or four
@@ -133,12 +135,31 @@ def test_one_undo_restores_the_original_action(blender):
 
 
 def test_preview_range_in_place(blender, capsys, tmp_path):
+    """A range: the steps run on the whole action limited to it, blended in and out over
+    its first and last 5 frames (`frames`/`blend` on the command line), nothing outside."""
     result = blender.results["range"]
     assert result["done"] == ["FINISHED"] and result["action"] == "131_01"  # in place
+    assert result["panel_frames"] == "150-250"
     assert result["outside_untouched"] and result["inside_changed"] > 0
-    expected = _cleaned_by_cli(capsys, tmp_path, blender.out / "range_in.bvh")
+    first, last = result["clip_range"]
+    steps = []
+    for table in DEFAULT_STEPS:
+        text = table["filter"]
+        if REGISTRY[table["filter"]].run_motion is None:  # a step that takes a range
+            text += f":frames=[{first + 5},{last - 5}],blend=5"
+        steps += ["-f", text]
+    target = tmp_path / "range_cli.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", blender.out / "range_in.bvh", "-o", target, "-q", *steps
+    )
+    assert code == 0, err
+    expected = mc.load(target)
     rotations = np.load(blender.out / "range_out_rotations.npy")
     assert degrees_between(rotations, expected.rotations).max() < FLOAT32_DEGREES
+    before = mc.load(blender.out / "range_in.bvh")
+    moved = degrees_between(before.rotations, expected.rotations).max(axis=1)
+    assert moved[:first].max() < 1e-9 and moved[last + 1 :].max() < 1e-9  # (rounding)
+    assert moved[first : last + 1].max() > 1e-3
 
 
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
