@@ -20,7 +20,7 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..io import atomic_write
+from ..io import FORMATS, atomic_write
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
@@ -32,10 +32,12 @@ from .options import (
     UP_OPTION,
     pipeline_from_options,
     raise_failures,
+    read_options,
+    reading,
 )
 
-#: Clips ``batch`` takes when no ``--glob`` is given.
-DEFAULT_GLOBS = ("*.bvh", "*.csv")
+#: Clips ``batch`` takes when no ``--glob`` is given: every suffix motionclean reads.
+DEFAULT_GLOBS = tuple(f"*{suffix}" for suffix in FORMATS)
 
 
 # ----------------------------------------------------------------------------- the command
@@ -183,7 +185,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     multiple=True,
     metavar="PATTERN",
     help="Which files are clips, matched on the path relative to IN_DIR, "
-    "case-insensitive; repeatable (default: *.bvh and *.csv).",
+    "case-insensitive; repeatable (default: every suffix motionclean reads, *.bvh *.csv "
+    "*.npz *.pkl *.mot *.sto *.gltf *.glb).",
 )
 @click.option(
     "--report-dir",
@@ -206,6 +209,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 )
 @UP_OPTION
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+@read_options
 def batch_command(
     in_dir: str,
     out_dir: str,
@@ -218,6 +222,9 @@ def batch_command(
     scheduler: str | None,
     up: str | None,
     quiet: bool,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
 ) -> None:
     """Clean every clip under IN_DIR into OUT_DIR, in parallel.
 
@@ -234,6 +241,7 @@ def batch_command(
         raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
     resolved_in = source_root.resolve()
     tables = tuple(pipeline.describe())
+    read = reading(skeleton, body_model, exclude)
     work: list[Job] = []
     work_names: list[str] = []
     results: dict[str, FileResult] = {}
@@ -248,7 +256,7 @@ def batch_command(
             )
             continue
         report_page = None if page is None else str(page)
-        work.append(Job(str(source), str(target), tables, report_page, up))
+        work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
     if scheduler is not None and jobs is not None:

@@ -37,6 +37,18 @@ __all__ = [
 AXES = "xyz"
 
 
+def world_note(motion: Motion) -> str | None:
+    """Why ``motion`` has no world positions (its format holds no joint positions, e.g. SMPL
+    parameters read without a skeleton: ``source.no_world``), or None when it has them."""
+    return getattr(motion.source, "no_world", None)
+
+
+def source_notes(motion: Motion) -> tuple[str, ...]:
+    """What the reader had to assume or choose (``source.notes``: a frame rate taken, one
+    person of several read ...), to show beside the clip's figures."""
+    return tuple(getattr(motion.source, "notes", ()))
+
+
 def _ancestor_jumps(parents: np.ndarray):
     """Pointer jumping over the tree: yields ``(rows, above)`` steps in which each joint
     ``rows[i]`` takes over the ancestor ``above[i]`` (whose own pointer it then follows),

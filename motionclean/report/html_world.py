@@ -306,7 +306,13 @@ CSS = (
 
 def world_section(report: dict, series: dict | None) -> list[str]:
     """HTML blocks: the skeleton player, then every end effector's trajectory seen from
-    above and from the side (input and cleaned overlaid)."""
+    above and from the side (input and cleaned overlaid); or why there are none."""
+    skipped = (report.get("world") or {}).get("skipped")
+    if skipped:
+        return [
+            "<h2>The motion</h2>",
+            f'<div class="legend">no skeleton player: {html.escape(skipped)}</div>',
+        ]
     if series is None or not series.get("world"):
         return []
     world = series["world"]

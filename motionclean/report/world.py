@@ -18,7 +18,10 @@ from .metrics import pair, rms_and_max
 
 
 def format_world(world: dict) -> str:
-    """One line: up axis, body height and the end effector that moved most."""
+    """One line: up axis, body height and the end effector that moved most (or why the
+    clip has no world figures)."""
+    if "skipped" in world:
+        return f"world: skipped ({world['skipped']})"
     given = " (given)" if world.get("up_axis_source") == "given" else ""
     text = f"world: up axis {world['up_axis']}{given}, body height {world['body_height']:.4g} units"
     worst = world.get("worst_deviation")

@@ -23,7 +23,7 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..filters import multires
-from ..io import atomic_write, load, save
+from ..io import ReadOptions, atomic_write, save
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
 from ..steps.pipeline import Pipeline, StepLog
@@ -98,12 +98,14 @@ def clean_clip(
     target: str | os.PathLike | None,
     pipeline: Pipeline,
     up: str | None = None,
+    read: ReadOptions | None = None,
 ) -> CleanedClip:
     """Load ``source``, run ``pipeline`` (:func:`clean_motion`), and write ``target``
     (atomically; its folder is created) unless it is None. Nothing is written when the
     report cannot be made. ``up`` (``"x"``, ``"y"``, ``"z"``) declares the clip's up axis
-    (:attr:`Motion.up`; default: found from the motion)."""
-    before = load(source)
+    (:attr:`Motion.up`; default: found from the motion); ``read`` says how to read files
+    that need more than themselves (a skeleton, a body model, excluded columns)."""
+    before = (read or ReadOptions()).load(source)
     if up is not None:
         before = before.replace(up=up)
     result = clean_motion(before, pipeline, os.fspath(source))
@@ -165,6 +167,7 @@ class Job:
     steps: tuple[dict, ...]
     report: str | None = None
     up: str | None = None  # the clips' up axis, when the user gives it
+    read: ReadOptions = ReadOptions()
 
 
 def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
@@ -214,6 +217,7 @@ def clean_file(
     pipeline: Pipeline | Sequence[dict],
     report: str | os.PathLike | None = None,
     up: str | None = None,
+    read: ReadOptions | None = None,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
@@ -229,11 +233,13 @@ def clean_file(
         None if target is None else os.fspath(target),
         (),
         None if report is None else os.fspath(report),
+        up,
+        read or ReadOptions(),
     )
     try:
         if not isinstance(pipeline, Pipeline):
             pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        result = clean_clip(job.source, None, pipeline, up)
+        result = clean_clip(job.source, None, pipeline, job.up, job.read)
         pages = {}
         if job.report is not None:
             pages[job.report] = render_report(result.report, job.report, result.series)
@@ -247,7 +253,7 @@ def clean_file(
 
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
-    return clean_file(job.source, job.target, job.steps, job.report, job.up)
+    return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read)
 
 
 # ----------------------------------------------------------------------------- two clips
