@@ -123,7 +123,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
     head = (
         f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
-        f"{'dev max':>9}  status"
+        f"{'dev max':>9}  {'verdict':<14}status"
     )
     lines = [head, "-" * len(head)]
     for name, r in rows:
@@ -132,13 +132,15 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
             removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
             lines.append(
                 f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
-                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok"
+                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  "
+                f"{r.verdict_status or '-':<14}ok"
             )
         else:
-            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}"
-            lines.append(f"{shown:<{width}}{blank}  {r.status.upper()}")
+            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}  {'-':<14}"
+            lines.append(f"{shown:<{width}}{blank}{r.status.upper()}")
     counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
     lines.append("-" * len(head))
+    lines += [f"{name}: {r.verdict}" for name, r in rows if r.verdict_status == "needs a look"]
     plural = "s" if len(rows) != 1 else ""
     lines.append(
         f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
@@ -284,6 +286,8 @@ def _write_index(
                 "noise_before": r.noise_before,
                 "noise_after": r.noise_after,
                 "deviation_max": r.deviation_max,
+                "verdict": r.verdict,
+                "verdict_status": r.verdict_status,
                 "status": r.status,
                 "error": r.error,
             }

@@ -58,6 +58,9 @@ h2{font-size:16px;margin:26px 0 10px}
 min-width:190px}
 .stat b{display:block;font-size:22px;font-weight:600}
 .stat span{color:#5a6272;font-size:12.5px}
+p.verdict{font-size:16px;font-weight:600;margin:14px 0 0;padding:10px 14px;border-radius:8px;
+border:1px solid #b9d7b0;background:#eef7ea}
+p.verdict.needs-a-look{border-color:#e6c07a;background:#fdf5e3}
 ol.pipeline{margin:0;padding-left:22px}
 ol.pipeline code{background:#fff;border:1px solid #dde1e8;border-radius:4px;padding:1px 6px}
 table{border-collapse:collapse;background:#fff;border:1px solid #dde1e8;font-size:13px}
@@ -67,6 +70,8 @@ td:first-child,th:first-child{text-align:left}
 tr:nth-child(even) td{background:#f8f9fb}
 tr.failed td{background:#fdeaea;color:#8a1c1c}
 td.error{text-align:left;white-space:normal}
+table.index td:nth-child(2){text-align:left;white-space:normal;min-width:320px}
+tr.look td{background:#fdf5e3}
 a{color:#1f57b8;text-decoration:none}
 a:hover{text-decoration:underline}
 .legend{display:flex;gap:18px;color:#5a6272;font-size:13px;margin-bottom:8px}
@@ -311,6 +316,67 @@ def _stat(value: str, label: str) -> str:
     return f'<div class="stat"><b>{value}</b><span>{label}</span></div>'
 
 
+def _headline(report: dict) -> list[str]:
+    """The page's headline figures: smoothing first (jitter removed and the largest change,
+    both outside the repaired frames), then the repairs, then the totals with repairs."""
+    summary = report["summary"]
+    acc = summary["angular_accel_rms"]
+    verdict = report.get("verdict") or {}
+    if summary.get("noise_reduction") is None or "change_deg_max" not in verdict:
+        return [_stat(_num(acc["before"]), "noise: RMS angular acceleration, deg/s\u00b2")]
+    repairs = verdict.get("repairs") or {}
+    stats = [
+        _stat(
+            f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
+            "jitter removed"
+            + (" outside repairs" if repairs else "")
+            + " (RMS angular acceleration)",
+        ),
+        _stat(
+            _num(verdict["change_deg_max"], 2) + "\u00b0",
+            "largest change"
+            + (" outside repairs" if repairs else "")
+            + f" ({_e(verdict['change_joint'])})",
+        ),
+    ]
+    if repairs:
+        counts = {
+            k: sum(r[k] for r in repairs.values()) for k in ("flips", "spikes", "gaps_filled")
+        }
+        done = (
+            ", ".join(
+                f"{n} {word}{'' if n == 1 else 's'}"
+                for n, word in zip(counts.values(), ("flip", "spike", "gap"), strict=True)
+                if n
+            )
+            or "none"
+        )
+        frames = sum(r["frames"] for r in repairs.values())
+        stats.append(
+            _stat(
+                _e(done),
+                f"repaired on {frames:,} frame{'' if frames == 1 else 's'} of "
+                f"{_e(', '.join(repairs))}",
+            )
+        )
+    stats.append(
+        _stat(
+            f"{_num(acc['before'])} \u2192 {_num(acc['after'])}",
+            "RMS angular acceleration, deg/s\u00b2"
+            + (", repairs included" if repairs else "")
+            + f" ({summary['noise_reduction']:.1%} removed)",
+        )
+    )
+    if repairs:
+        stats.append(
+            _stat(
+                _num(summary["deviation_deg_max"], 2) + "\u00b0",
+                "largest change, repairs included",
+            )
+        )
+    return stats
+
+
 STANDARD_KEYS = {
     "angular_accel_rms",
     "angular_accel_max",
@@ -331,23 +397,17 @@ def render_html(report: dict, series: dict | None = None) -> str:
     cleaned = summary.get("noise_reduction") is not None
     frames = int(report["frames"])
     dt = float(report["frame_time"])
-    acc = summary["angular_accel_rms"]
     body = [
         f"<h1>{_e(report['file'])}</h1>",
         f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
         f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
         "frames are numbered from 0</div>",
     ]
-    stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
-    if cleaned:
-        stats += [
-            _stat(_num(acc["after"]), "noise after: RMS angular acceleration, deg/s\u00b2"),
-            _stat(f"{summary['noise_reduction']:.1%}", "noise removed"),
-            _stat(
-                _num(summary["deviation_deg_max"], 2) + "\u00b0", "largest deviation from the input"
-            ),
-        ]
-    body.append('<div class="stats">' + "".join(stats) + "</div>")
+    verdict = report.get("verdict")
+    if verdict:
+        status = verdict["status"].replace(" ", "-")
+        body.append(f'<p class="verdict {status}">{_e(verdict["text"])}</p>')
+    body.append('<div class="stats">' + "".join(_headline(report)) + "</div>")
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
@@ -561,6 +621,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
 
     ``entries`` are dicts with ``file`` (shown), ``href`` (relative link to the clip page
     or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max``,
+    ``verdict`` (the clip's verdict line, :mod:`.verdict`) and ``verdict_status``,
     ``status`` ("ok", "skipped", "failed") and ``error``.
     """
     counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "skipped", "failed")}
@@ -572,7 +633,16 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         _pipeline(pipeline),
         "<h2>Clips</h2>",
     ]
-    head = ["clip", "frames", "noise before", "after", "removed", "deviation max, \u00b0", "status"]
+    head = [
+        "clip",
+        "verdict",
+        "frames",
+        "noise before",
+        "after",
+        "removed",
+        "deviation max, \u00b0",
+        "status",
+    ]
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
     for e in entries:
         name = _e(e["file"])
@@ -581,20 +651,22 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         if e["status"] == "failed":
             rows.append(
                 f'<tr class="failed"><td>{link}</td>'
-                f'<td class="error" colspan="6">failed: {_e(e["error"])}</td></tr>'
+                f'<td class="error" colspan="7">failed: {_e(e["error"])}</td></tr>'
             )
             continue
         cells = [
             link,
+            _e(e.get("verdict") or "-"),
             _num(e.get("frames")),
             _num(e.get("noise_before")),
             _num(e.get("noise_after")),
             _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
             _num(e.get("deviation_max"), 2),
-            _e(e["status"]),
+            _e(e.get("verdict_status") or e["status"]),
         ]
-        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    body.append("<table>" + "".join(rows) + "</table>")
+        look = ' class="look"' if e.get("verdict_status") == "needs a look" else ""
+        rows.append(f"<tr{look}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    body.append('<table class="index">' + "".join(rows) + "</table>")
     body.append(
         '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
         "deg/s\u00b2.</p>"

@@ -24,6 +24,7 @@ from . import metrics
 from .html_world import world_series
 from .metrics import pair, rms_and_max
 from .traces import Trace, traces
+from .verdict import build_verdict
 from .world import (
     contact_figures,
     figure_points,
@@ -36,7 +37,9 @@ from .world import (
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
 
 
-def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+def build_series(
+    before: Motion, after: Motion | None = None, repairs: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
     """Per-frame figures behind the report, per joint with rotation channels, reduced to
     what the HTML report plots and the figures the report reads.
 
@@ -46,9 +49,11 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and of the rotation angle between
     input and output in degrees at every frame; 0 where a missing sample (tracker dropout)
     is involved. ``figures`` holds each figure's RMS and maximum per joint and over all
-    joints, without the rows that involve the clip's rest-pose frames. No per-frame table
-    of the joints is kept: each is reduced as soon as it is made (the feet's heights,
-    ``(F,)`` per foot, are).
+    joints, without the rows that involve the clip's rest-pose frames, and ``figures
+    ["outside_repairs"]`` the same figures of the joints in ``repairs`` (joint name: ``(F,)``
+    mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
+    rows that involve a repaired frame. No per-frame table of the joints is kept: each is
+    reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
     """
     dt = before.frame_time
     clips = (before, after)
@@ -74,22 +79,32 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     rotating = before.layout.has_rotation
     rot = np.flatnonzero(rotating)
     cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
+    repairs = repairs or {}
+    repaired = {
+        n: repairs[before.names[j]] for n, j in enumerate(rot) if before.names[j] in repairs
+    }
+    accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
+    outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
 
-    def acceleration(clip: Motion | None) -> _Reduced | None:
+    def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
+            outside[key] = None
             return None
         missing = None if clip.missing is None else clip.missing[:, cols]
         table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
     # one clip after the other (each on threads): one clip-long table at a time
-    acc_b, acc_a = acceleration(before), acceleration(after)
+    acc_b, acc_a = acceleration(before, "accel_before"), acceleration(after, "accel_after")
     assert acc_b is not None
     dev = None
+    outside["deviation"] = None
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
         if before.missing is not None or after.missing is not None:
             table[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+        outside["deviation"] = _outside(table, lead, trail, repaired)
         dev = _reduced(table, lead, trail)
         del table
     joints = {}
@@ -102,7 +117,12 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     return {
         "frame_time": dt,
         "joints": joints,
-        "figures": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
+        "figures": {
+            "accel_before": acc_b,
+            "accel_after": acc_a,
+            "deviation": dev,
+            "outside_repairs": outside,
+        },
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
@@ -121,6 +141,7 @@ class _Reduced(NamedTuple):
     max: np.ndarray
     total_rms: float
     total_max: float
+    rows: int = 0
 
 
 def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
@@ -135,7 +156,55 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     total_max = float(largest.max())
     squares = np.square(core, out=core)
     rms = np.sqrt(np.mean(squares, axis=0))
-    return _Reduced(drawn, rms, largest, float(np.sqrt(np.mean(squares.ravel()))), total_max)
+    total = float(np.sqrt(np.mean(squares.ravel())))
+    return _Reduced(drawn, rms, largest, total, total_max, core.shape[0])
+
+
+def _outside(
+    table: np.ndarray, lead: int, trail: int, masks: dict[int, np.ndarray]
+) -> dict[int, tuple[float, int, float]]:
+    """Per column ``n`` of ``table`` in ``masks``: the sum of squares, count and max of its
+    rows between the rest frames where ``masks[n]`` (rows of the table) is false."""
+    found = {}
+    stop = table.shape[0] - trail
+    for n, mask in masks.items():
+        values = table[lead:stop, n][~mask[lead:stop]]
+        peak = float(values.max()) if values.size else 0.0
+        found[n] = (float(np.dot(values, values)), int(values.size), peak)
+    return found
+
+
+def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
+    """The figures of smoothing alone (None for a single clip): the fraction of RMS angular
+    acceleration removed and the largest and RMS rotation change (degrees, and the joint of
+    the largest) over every joint and frame, leaving out the rows that involve a frame a
+    repairing step changed (:func:`build_series`' ``outside_repairs``)."""
+    figures = series["figures"]
+    if figures["accel_after"] is None or figures["deviation"] is None:
+        return None
+    outside = figures["outside_repairs"]
+
+    def per_joint(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        reduced = figures[key]
+        squares = np.square(reduced.rms) * reduced.rows
+        counts = np.full(reduced.rms.shape, float(reduced.rows))
+        largest = np.array(reduced.max, dtype=np.float64)
+        for n, (square, count, peak) in (outside.get(key) or {}).items():
+            squares[n], counts[n], largest[n] = square, count, peak
+        return squares, counts, largest
+
+    before, _, _ = per_joint("accel_before")
+    after, _, _ = per_joint("accel_after")
+    squares, counts, largest = per_joint("deviation")
+    total_before = float(before.sum())
+    removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
+    worst = int(np.argmax(largest)) if largest.size else 0
+    return {
+        "noise_removed": removed,
+        "change_deg_max": float(largest[worst]) if largest.size else 0.0,
+        "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
+        "change_joint": names[worst] if names else None,
+    }
 
 
 def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
@@ -220,7 +289,7 @@ def build_report(
         joints.setdefault(name, {}).update(entry)
     for name, note in (notes or {}).items():
         joints.setdefault(name, {}).update(note)
-    return {
+    report = {
         "file": file if file is not None else before.path,
         "frames": frames,
         "frame_time": before.frame_time,
@@ -231,6 +300,8 @@ def build_report(
         "contacts": series["contacts"],
         "rest_frames": {"leading": lead, "trailing": trail},
     }
+    report["verdict"] = build_verdict(report, _smoothing(series, list(series["joints"])))
+    return report
 
 
 def json_safe(value: Any) -> Any:
@@ -315,6 +386,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("contacts"):
         lines.extend(format_contacts(report["contacts"]))
     lines.extend(format_repairs(report))
+    if report.get("verdict"):
+        lines.append(f"verdict: {report['verdict']['text']}")
     return "\n".join(lines)
 
 

@@ -26,6 +26,7 @@ from ..filters import multires
 from ..io import atomic_write, load, save
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
+from ..report.verdict import repaired_frames
 from ..steps.pipeline import Pipeline, StepLog
 from ..steps.resampling import on_input_frames
 from .memory import return_free_memory
@@ -104,14 +105,15 @@ def clean_clip(
     after, logs = pipeline.run(before)
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
-    series = build_series(before, compared)
+    notes = notes_by_joint(logs)
+    # repairs are told apart from smoothing where their frames are the input's
+    repairs = repaired_frames(notes, before.n_frames) if compared is after else None
+    series = build_series(before, compared, repairs)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
-    report = build_report(
-        before, compared, described, notes_by_joint(logs), os.fspath(source), series=series
-    )
+    report = build_report(before, compared, described, notes, os.fspath(source), series=series)
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
     if target is not None:
@@ -141,6 +143,8 @@ class FileResult:
     error: str | None = None
     seconds: float = 0.0
     joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
+    verdict: str | None = None  # the report's verdict line (motionclean.report.verdict)
+    verdict_status: str | None = None  # clean, repaired, cleaned or needs a look
 
 
 @dataclass(frozen=True)
@@ -173,10 +177,13 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
     deviation_rms = (
         math.sqrt(sum(d * d for d in deviations) / len(deviations)) if deviations else 0.0
     )
+    verdict = result.report.get("verdict") or {}
     return FileResult(
         job.source,
         job.target,
         "ok",
+        verdict=verdict.get("text"),
+        verdict_status=verdict.get("status"),
         frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],
