@@ -152,18 +152,35 @@ def _path(
 ) -> str:
     """SVG path data tracing an envelope as a zig-zag (min then max, then max then min).
 
-    Columns whose min and max are within half a unit get a single point.
+    Columns whose min and max are within half a unit get a single point. NaN columns
+    (rest-pose frames, missing samples) break the path: each run of known columns is a
+    subpath of its own, so a gap is drawn as a gap, never as zero.
     """
+    known = ~(np.isnan(low) | np.isnan(high))
+    parts = []
+    edges = np.diff(np.concatenate([[0], known.astype(np.int8), [0]]))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        rows = slice(start, stop)
+        parts.append(
+            _subpath(position[rows], low[rows], high[rows], x_scale, y0, y_scale, top, start)
+        )
+    return "".join(parts)
+
+
+def _subpath(position, low, high, x_scale, y0, y_scale, top, first: int) -> str:
+    """One run of known columns of :func:`_path` (``first``: its first column's index, which
+    sets where the zig-zag starts)."""
     x = LEFT + position * x_scale
     lo = y0 - np.minimum(low, top) * y_scale
     hi = y0 - np.minimum(high, top) * y_scale
-    first = np.where(np.arange(x.size) % 2 == 0, lo, hi)
-    second = np.where(np.arange(x.size) % 2 == 0, hi, lo)
+    even = (np.arange(x.size) + first) % 2 == 0
+    first_y = np.where(even, lo, hi)
+    second = np.where(even, hi, lo)
     double = np.abs(lo - hi) >= 0.5
     xs = np.repeat(x, 1 + double)
     ys = np.empty(xs.size)
     starts = np.cumsum(1 + double) - (1 + double)
-    ys[starts] = np.where(double, first, (lo + hi) / 2)
+    ys[starts] = np.where(double, first_y, (lo + hi) / 2)
     ys[starts[double] + 1] = second[double]
     points = [f"{a:.1f} {b:.1f}" for a, b in zip(xs.tolist(), ys.tolist(), strict=True)]
     return "M" + points[0] + ("L" + " ".join(points[1:]) if len(points) > 1 else "")
@@ -214,7 +231,10 @@ def _panel(
         if not drawn.size:
             continue
         data = _path(drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top)
-        out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
+        if data:
+            out.append(
+                f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>'
+            )
     out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y0}" y2="{y0}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
     return out
@@ -324,7 +344,7 @@ def _headline(report: dict) -> list[str]:
     verdict = report.get("verdict") or {}
     if summary.get("noise_reduction") is None or "change_deg_max" not in verdict:
         return [_stat(_num(acc["before"]), "noise: RMS angular acceleration, deg/s\u00b2")]
-    repairs = verdict.get("repairs") or {}
+    repairs = {n: r for n, r in (verdict.get("repairs") or {}).items() if r["frames"]}
     stats = [
         _stat(
             f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
@@ -454,9 +474,20 @@ def render_html(report: dict, series: dict | None = None) -> str:
             + f"<span>clips longer than {COLUMNS} frames: min and max per plot column</span>"
             "</div>"
         )
+        correlation, own_rho = noise_correlation(joints)
+        if correlation:
+            body.append(f'<p class="note">auto: {_e(correlation)}.</p>')
         body.append('<div class="grid">')
         for name in plotted:
-            body.append(_joint_card(name, joints[name], series["joints"][name], frames))
+            body.append(
+                _joint_card(
+                    name,
+                    joints[name],
+                    series["joints"][name],
+                    frames,
+                    {key for key, joint in own_rho if joint == name},
+                )
+            )
         body.append("</div>")
     still = [n for n in names if n not in drawn and series is not None]
     if still:
@@ -510,7 +541,39 @@ def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
     )
 
 
-def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
+#: A joint's noise correlation (AR(1) rho of ``auto``) is shown where it differs from the
+#: clip's median by at least this much; the median is shown once.
+RHO_APART = 0.2
+
+
+def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
+    """What the page says about ``auto``'s noise correlation: one line for the clip (None
+    without ``auto`` notes) and the ``(note key, joint)`` pairs whose own rho says something
+    about the joint. Below about 57 fps the model takes every joint's noise as white (rho 0,
+    not fitted): no joint shows it. Otherwise the clip's median (rotations and positions
+    each) is shown once, and a joint's rho where it differs from it by :data:`RHO_APART`
+    or more."""
+    said, apart = [], set()
+    for key, what in (("auto", "rotations"), ("position_auto", "positions")):
+        rhos = {n: e[key]["rho"] for n, e in joints.items() if "rho" in (e.get(key) or {})}
+        if not rhos:
+            continue
+        if not any(rhos.values()):
+            said.append(
+                f"{what}: noise taken as white (its correlation is not fitted at this rate)"
+            )
+            continue
+        typical = float(np.median(list(rhos.values())))
+        own = {(key, n) for n, r in rhos.items() if abs(r - typical) >= RHO_APART}
+        apart |= own
+        said.append(
+            f"{what}: noise correlation AR(1) rho {typical:.2f} (median; {len(own)} of "
+            f"{len(rhos)} joints differ by {RHO_APART:g} or more and show their own)"
+        )
+    return ("; ".join(said) if said else None), apart
+
+
+def _joint_card(name: str, entry: dict, data: dict, frames: int, own_rho: bool = True) -> str:
     rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
     if rms["after"] is not None:
         removed = f"{_percent(rms['before'], rms['after'])} of the noise removed"
@@ -527,7 +590,7 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
         removed = ""
         figures = f"RMS {_num(rms['before'])}, max {_short(peak['before'])} deg/s\u00b2"
     notes = [
-        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
+        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, _shown(k, v, own_rho)))}"
         for k, v in entry.items()
         if k not in STANDARD_KEYS
     ]
@@ -538,6 +601,15 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
         + _joint_svg(name, data, frames)
         + "</section>"
     )
+
+
+def _shown(key: str, note: Any, own_rho: set[str] | None) -> Any:
+    """``note`` as the page shows it: ``auto``'s without its rho where that says nothing
+    about the joint (``own_rho``: the note keys whose rho does, None: all;
+    :func:`noise_correlation`)."""
+    if key.endswith("auto") and own_rho is not None and key not in own_rho:
+        return {k: v for k, v in note.items() if k != "rho"}
+    return note
 
 
 # ----------------------------------------------------------------------------- feet

@@ -86,12 +86,20 @@ def build_series(
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
 
+    # rows that involve a missing sample of either clip are left out of both, as gaps
+    missing = None
+    if before.missing is not None or (after is not None and after.missing is not None):
+        missing = before.missing_mask()[:, cols]
+        if after is not None:
+            missing = missing | after.missing_mask()[:, cols]
+
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
             outside[key] = None
             return None
-        missing = None if clip.missing is None else clip.missing[:, cols]
-        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt)
+        if missing is not None and table.shape[0]:
+            table[missing[:-2] | missing[1:-1] | missing[2:]] = np.nan
         outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
@@ -102,8 +110,8 @@ def build_series(
     outside["deviation"] = None
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
-        if before.missing is not None or after.missing is not None:
-            table[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+        if missing is not None:
+            table[missing] = np.nan
         outside["deviation"] = _outside(table, lead, trail, repaired)
         dev = _reduced(table, lead, trail)
         del table
@@ -141,23 +149,32 @@ class _Reduced(NamedTuple):
     max: np.ndarray
     total_rms: float
     total_max: float
-    rows: int = 0
+    counts: np.ndarray | None = None
 
 
 def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     """:class:`_Reduced` of ``table``, whose values it overwrites (with their squares, for
-    the RMS: no temporary as large as the table)."""
+    the RMS: no temporary as large as the table). The rows that involve a rest-pose frame
+    and the NaN rows (missing samples) are left out of the figures and drawn as gaps, the
+    same in every clip."""
+    stop = table.shape[0] - trail
+    table[:lead] = np.nan
+    table[max(stop, lead) :] = np.nan
     drawn = traces(table)
-    core = table[lead : table.shape[0] - trail]
-    if not core.size:
+    core = table[lead:stop]
+    known = ~np.isnan(core)
+    counts = known.sum(axis=0)
+    if not counts.any():
         zeros = np.zeros(table.shape[1])
-        return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
-    largest = core.max(axis=0)
+        return _Reduced(drawn, zeros, zeros, 0.0, 0.0, counts)
+    largest = np.where(counts > 0, np.fmax.reduce(core, axis=0, initial=0.0), 0.0)
     total_max = float(largest.max())
     squares = np.square(core, out=core)
-    rms = np.sqrt(np.mean(squares, axis=0))
-    total = float(np.sqrt(np.mean(squares.ravel())))
-    return _Reduced(drawn, rms, largest, total, total_max, core.shape[0])
+    squares[~known] = 0.0
+    sums = squares.sum(axis=0)
+    rms = np.sqrt(sums / np.maximum(counts, 1))
+    total = float(np.sqrt(sums.sum() / counts.sum()))
+    return _Reduced(drawn, rms, largest, total, total_max, counts)
 
 
 def _outside(
@@ -169,6 +186,7 @@ def _outside(
     stop = table.shape[0] - trail
     for n, mask in masks.items():
         values = table[lead:stop, n][~mask[lead:stop]]
+        values = values[~np.isnan(values)]
         peak = float(values.max()) if values.size else 0.0
         found[n] = (float(np.dot(values, values)), int(values.size), peak)
     return found
@@ -186,8 +204,8 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
 
     def per_joint(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         reduced = figures[key]
-        squares = np.square(reduced.rms) * reduced.rows
-        counts = np.full(reduced.rms.shape, float(reduced.rows))
+        counts = np.array(reduced.counts, dtype=np.float64)
+        squares = np.square(reduced.rms) * counts
         largest = np.array(reduced.max, dtype=np.float64)
         for n, (square, count, peak) in (outside.get(key) or {}).items():
             squares[n], counts[n], largest[n] = square, count, peak
