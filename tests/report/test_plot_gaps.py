@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from helpers import NOISY, SAMPLE, cut_bvh, with_t_pose
+from helpers import NOISY, SAMPLE, with_t_pose
 
 import motionclean as mc
 from motionclean.report.html import render_html
