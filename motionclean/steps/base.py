@@ -139,7 +139,9 @@ class StepSpec:
 
     ``run`` maps the selected joints' arrays to new ones (:class:`StepData`). A whole-clip
     step (one that changes the frame count) gives ``run_motion(motion, params)`` instead,
-    returning the new clip and notes keyed by joint name. ``format_note(note, positions)``
+    returning the new clip and notes keyed by joint name; with ``keeps_rest`` it is given
+    the clip with its rest-pose frames and keeps them itself (a new frame rate changes how
+    many frames they take). ``format_note(note, positions)``
     is how one joint's note reads in the HTML report and JSON-less views (None: shown as
     JSON); ``format_brief(note, positions)``, if given, is its shorter terminal form (long
     frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
@@ -157,6 +159,7 @@ class StepSpec:
     params: tuple[Param, ...]
     run: Callable[[StepData, dict], StepData] | None = None
     run_motion: Callable[[Motion, dict], tuple[Motion, dict[str, dict]]] | None = None
+    keeps_rest: bool = False
     positions_default: bool = True
     format_note: Callable[[dict, bool], str] | None = None
     format_brief: Callable[[dict, bool], str] | None = None

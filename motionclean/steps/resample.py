@@ -48,9 +48,10 @@ def _format_note(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="resample",
-    summary="the clip at a new frame rate: C1 cubic in angular displacements, "
+    summary="the clip at a new frame rate: C2 spline on the sphere through the samples, "
     "anti-aliased when the rate goes down",
-    paper="cubic of 003 Eq. 17 made C1 (cumulative Hermite); low-pass 000 Eq. 19-20",
+    paper="cumulative B-spline of Kim, Kim and Shin 1995 solved to interpolate; "
+    "low-pass 000 Eq. 19-20",
     params=(
         Param(
             "fps",
@@ -70,6 +71,7 @@ STEP = StepSpec(
         ),
     ),
     run_motion=_run,
+    keeps_rest=True,
     resolve=_resolve,
     format_note=_format_note,
     shift_note=lambda note, frames: note,
