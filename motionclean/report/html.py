@@ -162,7 +162,7 @@ def _path(
     for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
         rows = slice(start, stop)
         parts.append(
-            _subpath(position[rows], low[rows], high[rows], x_scale, y0, y_scale, top, start)
+            _subpath(position[rows], low[rows], high[rows], x_scale, y0, y_scale, top, int(start))
         )
     return "".join(parts)
 
@@ -573,7 +573,9 @@ def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
     return ("; ".join(said) if said else None), apart
 
 
-def _joint_card(name: str, entry: dict, data: dict, frames: int, own_rho: bool = True) -> str:
+def _joint_card(
+    name: str, entry: dict, data: dict, frames: int, own_rho: set[str] | None = None
+) -> str:
     rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
     if rms["after"] is not None:
         removed = f"{_percent(rms['before'], rms['after'])} of the noise removed"
