@@ -24,11 +24,36 @@ from ..io import atomic_write
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
-from ..run.pool import default_workers, run_jobs
+from ..run.pool import default_workers, input_size, run_jobs
 from .options import FOLDER_PATH, PIPE_OPTION, STEP_OPTION, pipeline_from_options, raise_failures
 
 #: Clips ``batch`` takes when no ``--glob`` is given.
 DEFAULT_GLOBS = ("*.bvh", "*.csv")
+#: Without ``--jobs``, a batch of less input than this (bytes; about 5,000 frames of a
+#: 31-joint BVH) runs in this process: starting workers and handing clips out would cost
+#: about what a second core gains on so little work.
+SMALL_BATCH_BYTES = 4 << 20
+
+
+def default_jobs(sizes: Sequence[int], cores: int) -> int:
+    """Workers for clips of ``sizes`` bytes when ``--jobs`` is not given: one for a small
+    batch (:data:`SMALL_BATCH_BYTES`), else one per core, at most one per clip."""
+    if sum(sizes) < SMALL_BATCH_BYTES:
+        return 1
+    return max(1, min(cores, len(sizes)))
+
+
+def cluster_note(started: float, results: Sequence[FileResult], workers: int) -> str | None:
+    """A line saying so when starting a local cluster took longer than the cleaning it ran
+    (``started`` seconds; the clips' own seconds spread over ``workers``), else None."""
+    work = sum(r.seconds for r in results if r.status != "skipped")
+    if started <= work / max(workers, 1):
+        return None
+    return (
+        f"note: starting the local Dask cluster took {started:.1f} s, longer than the "
+        f"{work:.1f} s of cleaning it ran; on one machine --jobs (the default) does the same "
+        "without it. A cluster pays off when the clips outgrow one machine's cores."
+    )
 
 
 # ----------------------------------------------------------------------------- the command
@@ -170,7 +195,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     type=click.IntRange(min=1),
     default=None,
     metavar="N",
-    help="Worker processes (default: the number of cores).",
+    help="Worker processes (default: the number of cores, or this process alone for a "
+    "batch of less than 4 MiB of clips, where workers cost more than they gain).",
 )
 @click.option(
     "--glob",
@@ -248,19 +274,23 @@ def batch_command(
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
+    note = None
     with _progress(len(work)) as advance, _sigterm_as_interrupt():
         if scheduler is None or not work:  # nothing to send: no cluster to start
-            workers = min(jobs or default_workers(), max(len(work), 1))
+            workers = min(jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1))
             for index, result in run_jobs(work, workers):
                 results[work_names[index]] = result
                 advance(work_names[index])
         else:
             with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                started = time.perf_counter() - start
                 if not quiet:
                     click.echo(f"Dask dashboard: {client.dashboard_link}")
                 for index, result in cluster.run_jobs_on(client, work):
                     results[work_names[index]] = result
                     advance(work_names[index])
+            if cluster.parse_scheduler(scheduler)[0] == "local":
+                note = cluster_note(started, [results[n] for n in work_names], workers)
     seconds = time.perf_counter() - start
 
     rows = [(str(rel), results[str(rel)]) for rel in clips]
@@ -268,7 +298,14 @@ def batch_command(
         _write_index(pages, rows, tables, in_dir)
     if not quiet:
         click.echo(format_summary(rows, seconds, workers))
+        if note:
+            click.echo(note)
     raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
+
+
+def sizes(work: Sequence[Job]) -> list[int]:
+    """Input sizes of the clips to clean, bytes."""
+    return [input_size(job.source) for job in work]
 
 
 def _write_index(
