@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
+from ..steps.base import fps_text, plural
 from .html_world import world_section
 from .summary import format_rest, noisiest, note_text, resampled_to
 from .traces import COLUMNS, Trace, trace
@@ -419,7 +420,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
     dt = float(report["frame_time"])
     body = [
         f"<h1>{_e(report['file'])}</h1>",
-        f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
+        f'<div class="meta">{frames:,} frames at {fps_text(dt)} fps '
         f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
         "frames are numbered from 0</div>",
     ]
@@ -624,7 +625,7 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     """A foot: its contacts and skate, and its lowest point above the ground over frames
     with the contacts shaded."""
     skate, pen = figures["skate_body_heights"], figures["penetration"]
-    text = f"{len(figures['contacts'])} contacts, {figures['frames']:,} frames"
+    text = f"{plural(len(figures['contacts']), 'contact')}, {plural(figures['frames'], 'frame')}"
     if skate["before"] is not None and math.isfinite(skate["before"]):
         text += f"; skate {skate['before']:.3f}"
         text += f" \u2192 {skate['after']:.3f}" if skate["after"] is not None else ""

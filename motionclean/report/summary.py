@@ -19,7 +19,7 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.threads import run_parts
 from ..steps import REGISTRY
-from ..steps.base import format_params
+from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
 from .metrics import pair, rms_and_max
@@ -355,7 +355,7 @@ def resampled_to(report: dict) -> str:
     if not output:
         return ""
     return (
-        f", written as {output['frames']} frames at {1.0 / output['frame_time']:.4g} fps "
+        f", written as {output['frames']} frames at {fps_text(output['frame_time'])} fps "
         "(figures on the input's frames)"
     )
 
@@ -371,7 +371,7 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'noise est':>10}  filter chosen"
     lines = [
         f"{report['file']}: {report['frames']} frames at "
-        f"{1.0 / report['frame_time']:.4g} fps{resampled_to(report)}, numbered from 0 "
+        f"{fps_text(report['frame_time'])} fps{resampled_to(report)}, numbered from 0 "
         "(angular acceleration in deg/s^2; deviation and estimated noise in deg)",
         head,
         "-" * len(head),
@@ -417,10 +417,11 @@ def format_rest(rest: dict, frames: int) -> str:
     if rest["trailing"]:
         spans.append((frames - rest["trailing"], frames - 1))
     parts = [f"{a}-{b}" if b > a else f"{a}" for a, b in spans]
-    noun = "frame" if len(spans) == 1 and spans[0][0] == spans[0][1] else "frames"
+    one = len(spans) == 1 and spans[0][0] == spans[0][1]
     return (
-        f"rest pose: {noun} {' and '.join(parts)} kept as they are and left out of the "
-        "figures (a pose held before or after the motion)"
+        f"rest pose: {'frame' if one else 'frames'} {' and '.join(parts)} kept as "
+        f"{'it is' if one else 'they are'} and left out of the figures (a pose held before or "
+        "after the motion)"
     )
 
 

@@ -216,6 +216,21 @@ def format_params(params: dict) -> str:
     )
 
 
+def plural(count: int, noun: str) -> str:
+    """``"1 frame"``, ``"2 frames"``: a count with its noun."""
+    return f"{count:,} {noun}{'' if count == 1 else 's'}"
+
+
+def fps_text(frame_time: float) -> str:
+    """A frame rate as every message writes it: a whole number when the frame time is one
+    rounded (0.008333 s is ``"120"``, within 1e-4), else six significant digits."""
+    rate = 1.0 / frame_time
+    whole = round(rate)
+    if whole >= 1 and abs(rate - whole) <= 1e-4 * rate:
+        return f"{whole:d}"
+    return f"{rate:.6g}"
+
+
 def format_runs(runs: list[list[int]]) -> str:
     """``[[198, 202], [214, 221]]`` (stop exclusive) -> ``"198-201, 214-220"``."""
     return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..core.errors import UsageError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..filters.resample import ANTIALIAS_CUTOFF
-from .base import Param, StepSpec
+from .base import Param, StepSpec, fps_text
 from .resampling import new_length, resample_motion, same_rate
 
 
@@ -38,7 +38,7 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
 
 def _format_note(note: dict, positions: bool) -> str:
     text = (
-        f"{note['from_fps']:.6g} -> {note['to_fps']:.6g} fps, "
+        f"{fps_text(1.0 / note['from_fps'])} -> {fps_text(1.0 / note['to_fps'])} fps, "
         f"{note['frames'][0]} -> {note['frames'][1]} frames"
     )
     if note["antialias_hz"] is not None:

@@ -24,6 +24,7 @@ from ..filters.resample import (
     resampled_length,
     sample_positions,
 )
+from .base import fps_text
 
 #: Rates within this relative difference are the same rate (a Frame Time of 0.008333 s is
 #: 120 fps): the clip is left as it is.
@@ -49,7 +50,7 @@ def new_length(motion: Motion, frame_time: float) -> int:
     within half a new frame. Raises :class:`MotionError` when that leaves fewer than two
     frames or would not fit in half of this machine's memory (the message says how many
     frames)."""
-    fps = f"{1.0 / frame_time:.6g} fps"
+    fps = f"{fps_text(frame_time)} fps"
     if motion.n_frames < 2:
         raise MotionError(
             f"a clip of {motion.n_frames} frame cannot be resampled; at least two are needed",
