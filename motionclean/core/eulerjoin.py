@@ -36,7 +36,7 @@ _TURNS = np.array(list(itertools.product((-360.0, 0.0, 360.0), repeat=3)))  # (2
 #: Steps within this of the least largest step (degrees) are as good as it.
 ALLOWANCE = 1e-6
 #: Rows scanned for jumps at a time (temporaries stay small on long clips).
-_SCAN_ROWS = 65536
+_SCAN_ROWS = 8192
 
 
 def _jumps(written: np.ndarray, source: np.ndarray) -> np.ndarray:
