@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.motion import Motion
+from ..core.restpose import rest_frames
 
 __all__ = ["world_section", "world_series"]
 
@@ -58,6 +59,7 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
+    lead, trail = rest_frames(before)
     parents = kinematics.point_parents(before)
     points_b = kinematics.world_positions(before.at_frames(frames))
     points_a = None if after is None else kinematics.world_positions(after.at_frames(frames))
@@ -68,6 +70,7 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     return {
         "unknown_before": None if unknown[0] is None else unknown[0][frames],
         "unknown_after": None if unknown[1] is None else unknown[1][frames],
+        "rest": (frames < lead) | (frames >= before.n_frames - trail),
         "up": up,
         "height": height,
         "frames": frames,
@@ -128,8 +131,15 @@ def _trajectory_card(name: str, point: int, series: dict) -> str:
         if series["after"] is not None:
             tracks.append(series["after"][:, point][:, axes])
             unknown.append(_unknown_at(series["unknown_after"], point))
-        low = np.min([t.min(axis=0) for t in tracks], axis=0)
-        high = np.max([t.max(axis=0) for t in tracks], axis=0)
+        # rest-pose frames are no part of the track (nor of its bounds), as in every figure
+        rest = series.get("rest")
+        if rest is not None and rest.any() and not rest.all():
+            unknown = [rest if u is None else u | rest for u in unknown]
+            tracks_shown = [t[~rest] for t in tracks]
+        else:
+            tracks_shown = tracks
+        low = np.min([t.min(axis=0) for t in tracks_shown], axis=0)
+        high = np.max([t.max(axis=0) for t in tracks_shown], axis=0)
         span = max(float((high - low).max()), 1e-9)
         low = (low + high) / 2 - span / 2  # centred, the same scale on both axes
         lines = [

@@ -122,3 +122,15 @@ def test_the_noise_correlation_is_shown_where_it_tells_something(tmp_path):
     expected = [n for n, r in rhos.items() if abs(r - typical) >= 0.2]
     assert sorted(shown) == sorted(expected)
     assert len(expected) < len(rhos)
+
+
+def test_the_trajectories_leave_the_rest_pose_out(tmp_path):
+    """A T-pose first frame is no part of where the hands and feet go: no track starts with
+    a line out of it, and it does not set the view's bounds."""
+    source = with_t_pose(SAMPLE, tmp_path / "t.bvh")
+    result = clean_clip(source, None, Pipeline.default())
+    page = render_html(result.report, result.series)
+    tracks = re.findall(r'<polyline class="track" data-series="(\w+)"[^>]* points="([^"]+)"', page)
+    assert tracks
+    for _, points in tracks:
+        assert len(points.split()) == result.before.n_frames - 1  # frames 1 .. 300
