@@ -167,7 +167,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     reasons = _missing_words(joints)
     change, joint = smoothing["change_deg_max"], smoothing["change_joint"]
     if change > LOOK_CHANGE_DEG:
-        reasons.append(f"smoothing moved {joint} by {change:.1f} degrees")
+        what = "smoothing moved" if report.get("pipeline") else "the cleaning moved"
+        reasons.append(f"{what} {joint} by {change:.1f} degrees")
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
         if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
@@ -185,9 +186,15 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         lead = "noisy capture, cleaned"
     if feet and not (skate is not None and skate > LOOK_SKATE):
         parts.append(feet)
-    tail = f"largest change {change:.1f} degrees outside repairs"
+    # without the pipeline (two clips compared as given) no step says what it repaired
+    where = (
+        " outside repairs"
+        if report.get("pipeline")
+        else " (steps not recorded: repairs not told apart)"
+    )
+    tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
-        tail = f"largest change {change:.2g} degrees outside repairs"
+        tail = f"largest change {change:.2g} degrees{where}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
     if reasons:

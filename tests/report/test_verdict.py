@@ -205,3 +205,14 @@ def test_batch_index_and_table_carry_each_clips_verdict(tmp_path, capsys):
         row = next(line for line in out.splitlines() if line.startswith(name))
         shown = "repaired" if lead == "clean capture, repaired" else status
         assert row.endswith(f"  {shown:<14}ok")
+
+
+def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, capsys):
+    cleaned = tmp_path / "c.bvh"
+    code, _, err = run_cli(capsys, "clean", NOISY, "-o", cleaned)
+    assert code == 0, err
+    code, out, err = run_cli(capsys, "report", NOISY, cleaned, "--json", tmp_path / "r.json")
+    verdict = json.loads((tmp_path / "r.json").read_text())["verdict"]
+    assert "outside repairs" not in verdict["text"] and "not told apart" in verdict["text"]
+    assert verdict["status"] == "needs a look"  # 180 degrees on RThumb, for all it knows
+    assert f"verdict: {verdict['text']}" in out
