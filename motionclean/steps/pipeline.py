@@ -272,25 +272,30 @@ class Pipeline:
         made = _Made(motion)
         logs: list[StepLog] = []
         outer = motion  # the clip whose rest frames surround ``current``
+        earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
             try:
-                if step.spec.keeps_rest and (lead or trail):
+                whole_clip = step.spec.keeps_rest and bool(lead or trail)
+                if whole_clip:
                     # the step keeps the rest frames itself: it gets them, and says how many
                     # frames they take in its result
                     whole = splice(outer, current, lead, trail)
-                    outer, log = _run_step(step, whole, 0, None, motion.path, made)
+                    outer, log = _run_step(step, whole, 0, None, motion.path, made, earlier)
                     if outer.n_frames != whole.n_frames:
                         ratio = outer.frame_time / whole.frame_time
                         lead, trail = rest_rows(whole.n_frames, lead, trail, ratio, outer.n_frames)
                     current = copy.copy(trim(outer, lead, trail))
-                    logs.append(log)
-                    continue
-                current, log = _run_step(step, current, lead, spans.get(number), motion.path, made)
+                else:
+                    current, log = _run_step(
+                        step, current, lead, spans.get(number), motion.path, made, earlier
+                    )
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
-            if lead:  # numbered as the file's frames
+            for joint, note in log.notes.items():
+                earlier.setdefault(joint, {}).update(note)
+            if lead and not whole_clip:  # numbered as the file's frames
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             logs.append(log)
         return splice(outer, current, lead, trail), logs
@@ -322,6 +327,7 @@ def _run_step(
     span: tuple[int, int] | None,
     path: str | None,
     made: _Made,
+    earlier: dict[str, dict] | None = None,
 ) -> tuple[Motion, StepLog]:
     """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
     and written into only where ``made`` copied them).
@@ -349,6 +355,7 @@ def _run_step(
         translation_joints=pos_idx,
         # a ranged step's result is blended with the clip as it was: nothing in place
         owned=step.span is None and (not every or made.owns(motion.rotations)),
+        earlier=earlier or {},
     )
     if step.span is not None and span is None:
         span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
@@ -474,6 +481,7 @@ class _Outputs:
                 motion=context,
                 rotation_joints=data.rotation_joints[rot],
                 translation_joints=data.translation_joints[pos],
+                earlier=data.earlier,
             ),
             step.params,
         )
@@ -545,4 +553,5 @@ DEFAULT_STEPS: list[dict] = [
     {"filter": "fill-gaps"},
     {"filter": "despike"},
     {"filter": "auto"},
+    {"filter": "footlock"},
 ]
