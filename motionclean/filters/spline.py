@@ -68,16 +68,6 @@ COUPLING = 1e-9
 JUMP_DEG = 90.0
 
 
-def _shifted(x: np.ndarray, by: int, fill: float) -> np.ndarray:
-    """``x[i - by]`` along axis 0 (``by`` may be negative), ``fill`` where that is outside."""
-    out = np.full_like(x, fill)
-    if by > 0:
-        out[by:] = x[:-by]
-    else:
-        out[:by] = x[-by:]
-    return out
-
-
 def solve_tridiagonal(free: np.ndarray, e: np.ndarray, coupling: float = 1e-18) -> np.ndarray:
     """``d`` with ``(d_{i-1} + 4 d_i + d_{i+1}) / 6 = e_i`` on the ``free`` rows of each
     column and ``d_i = 0`` on the others (and outside), ``free`` ``(F, C)``, ``e`` ``(F, C,
@@ -89,17 +79,24 @@ def solve_tridiagonal(free: np.ndarray, e: np.ndarray, coupling: float = 1e-18) 
     ``coupling`` (relative to the diagonal; the default is below rounding: five levels),
     whatever the clip's length.
     """
-    weight = free.astype(np.float64) / 6.0
-    a, c = weight.copy(), weight.copy()  # couplings to the rows before and after
+    a = free / 6.0  # couplings to the rows before and after
+    c = a.copy()
     b = np.where(free, 4.0 / 6.0, 1.0)
     d = np.where(free[..., None], e, 0.0)
     s = 1
     while s < b.shape[0] and max(np.abs(a).max(initial=0.0), np.abs(c).max(initial=0.0)) > coupling:
-        alpha = -a / _shifted(b, s, 1.0)
-        gamma = -c / _shifted(b, -s, 1.0)
-        d = d + alpha[..., None] * _shifted(d, s, 0.0) + gamma[..., None] * _shifted(d, -s, 0.0)
-        b = b + alpha * _shifted(c, s, 0.0) + gamma * _shifted(a, -s, 0.0)
-        a, c = alpha * _shifted(a, s, 0.0), gamma * _shifted(c, -s, 0.0)
+        alpha = -a[s:] / b[:-s]  # rows s.. eliminate the row s before them
+        gamma = -c[:-s] / b[s:]  # rows ..-s eliminate the row s after them
+        d_next = d.copy()
+        d_next[s:] += alpha[..., None] * d[:-s]
+        d_next[:-s] += gamma[..., None] * d[s:]
+        b_next = b.copy()
+        b_next[s:] += alpha * c[:-s]
+        b_next[:-s] += gamma * a[s:]
+        a_next, c_next = np.zeros_like(a), np.zeros_like(c)
+        a_next[s:] = alpha * a[:-s]
+        c_next[:-s] = gamma * c[s:]
+        a, b, c, d = a_next, b_next, c_next, d_next
         s *= 2
     return d / b[..., None]
 
