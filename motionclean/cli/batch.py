@@ -157,16 +157,18 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
     head = (
         f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
-        f"{'dev max':>9}  {'verdict':<14}status"
+        f"{'change':>9}  {'verdict':<14}status"
     )
     lines = [head, "-" * len(head)]
     for name, r in rows:
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
             removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
+            removed = removed if r.jitter_removed is None else r.jitter_removed
+            change = r.deviation_max if r.change_max is None else r.change_max
             lines.append(
                 f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
-                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  "
+                f"{r.noise_after:>12,.0f}{removed:>9.0%}{change:>9.2f}  "
                 f"{r.verdict_status or '-':<14}ok"
             )
         else:
@@ -180,7 +182,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
         f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
         f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
         f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
-        "deviation: degrees)"
+        "removed and change: outside repairs, as in each clip's verdict; change in degrees)"
     )
     return "\n".join(lines)
 
@@ -341,6 +343,8 @@ def _write_index(
                 "noise_before": r.noise_before,
                 "noise_after": r.noise_after,
                 "deviation_max": r.deviation_max,
+                "jitter_removed": r.jitter_removed,
+                "change_max": r.change_max,
                 "verdict": r.verdict,
                 "verdict_status": r.verdict_status,
                 "status": r.status,

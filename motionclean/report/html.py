@@ -715,7 +715,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     """The index page of a batch run.
 
     ``entries`` are dicts with ``file`` (shown), ``href`` (relative link to the clip page
-    or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max``,
+    or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max`` (repairs
+    included), ``jitter_removed`` and ``change_max`` (the verdict's, outside repairs),
     ``verdict`` (the clip's verdict line, :mod:`.verdict`) and ``verdict_status``,
     ``status`` ("ok", "skipped", "failed") and ``error``.
     """
@@ -734,8 +735,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         "frames",
         "noise before",
         "after",
-        "removed",
-        "deviation max, \u00b0",
+        "jitter removed",
+        "largest change, \u00b0",
         "status",
     ]
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
@@ -755,8 +756,10 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
             _num(e.get("frames")),
             _num(e.get("noise_before")),
             _num(e.get("noise_after")),
-            _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
-            _num(e.get("deviation_max"), 2),
+            _percent(e.get("noise_before") or 0.0, e.get("noise_after"))
+            if e.get("jitter_removed") is None
+            else f"{e['jitter_removed']:.0%}",
+            _num(e.get("deviation_max") if e.get("change_max") is None else e["change_max"], 2),
             _e(e.get("verdict_status") or e["status"]),
         ]
         look = ' class="look"' if e.get("verdict_status") == "needs a look" else ""
@@ -764,6 +767,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     body.append('<table class="index">' + "".join(rows) + "</table>")
     body.append(
         '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
-        "deg/s\u00b2.</p>"
+        "deg/s\u00b2 (repairs included). Jitter removed and largest change: outside the frames "
+        "that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
     )
     return _page(title, body)

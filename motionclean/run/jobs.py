@@ -154,6 +154,8 @@ class FileResult:
     joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
     verdict: str | None = None  # the report's verdict line (motionclean.report.verdict)
     verdict_status: str | None = None  # clean, repaired, cleaned or needs a look
+    jitter_removed: float | None = None  # the verdict's: outside repairs, fraction
+    change_max: float | None = None  # the verdict's largest change outside repairs, degrees
 
 
 @dataclass(frozen=True)
@@ -195,6 +197,8 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
         "ok",
         verdict=verdict.get("text"),
         verdict_status=verdict.get("status"),
+        jitter_removed=verdict.get("noise_removed"),
+        change_max=verdict.get("change_deg_max"),
         frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],

@@ -205,6 +205,10 @@ def test_batch_index_and_table_carry_each_clips_verdict(tmp_path, capsys):
         row = next(line for line in out.splitlines() if line.startswith(name))
         shown = "repaired" if lead == "clean capture, repaired" else status
         assert row.endswith(f"  {shown:<14}ok")
+        # the table's removed and change columns are the verdict's, outside repairs
+        figures = clean_clip(source / name, None, Pipeline.default()).report["verdict"]
+        assert f"{figures['noise_removed']:.0%}  " in row.replace("%", "%  ", 1)
+        assert f"{figures['change_deg_max']:.2f}  " in row
 
 
 def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, capsys):
