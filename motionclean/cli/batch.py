@@ -164,11 +164,13 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
             removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
-            removed = removed if r.jitter_removed is None else r.jitter_removed
+            before, after = r.noise_before, r.noise_after
+            if r.jitter_removed is not None:  # the verdict's figures, outside repairs
+                before, after, removed = r.jitter_before, r.jitter_after, r.jitter_removed
             change = r.deviation_max if r.change_max is None else r.change_max
             lines.append(
-                f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
-                f"{r.noise_after:>12,.0f}{removed:>9.0%}{change:>9.2f}  "
+                f"{shown:<{width}}{r.frames:>8}{before:>14,.0f}"
+                f"{after:>12,.0f}{removed:>9.0%}{change:>9.2f}  "
                 f"{r.verdict_status or '-':<14}ok"
             )
         else:
@@ -182,7 +184,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
         f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
         f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
         f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
-        "removed and change: outside repairs, as in each clip's verdict; change in degrees)"
+        "change: degrees; all outside repairs, as in each clip's verdict)"
     )
     return "\n".join(lines)
 
@@ -343,6 +345,8 @@ def _write_index(
                 "noise_before": r.noise_before,
                 "noise_after": r.noise_after,
                 "deviation_max": r.deviation_max,
+                "jitter_before": r.jitter_before,
+                "jitter_after": r.jitter_after,
                 "jitter_removed": r.jitter_removed,
                 "change_max": r.change_max,
                 "verdict": r.verdict,

@@ -716,7 +716,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
 
     ``entries`` are dicts with ``file`` (shown), ``href`` (relative link to the clip page
     or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max`` (repairs
-    included), ``jitter_removed`` and ``change_max`` (the verdict's, outside repairs),
+    included), ``jitter_before``, ``jitter_after``, ``jitter_removed`` and ``change_max`` (the
+    verdict's, outside repairs),
     ``verdict`` (the clip's verdict line, :mod:`.verdict`) and ``verdict_status``,
     ``status`` ("ok", "skipped", "failed") and ``error``.
     """
@@ -754,8 +755,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
             link,
             _e(e.get("verdict") or "-"),
             _num(e.get("frames")),
-            _num(e.get("noise_before")),
-            _num(e.get("noise_after")),
+            _num(e.get("noise_before") if e.get("jitter_before") is None else e["jitter_before"]),
+            _num(e.get("noise_after") if e.get("jitter_after") is None else e["jitter_after"]),
             _percent(e.get("noise_before") or 0.0, e.get("noise_after"))
             if e.get("jitter_removed") is None
             else f"{e['jitter_removed']:.0%}",
@@ -767,7 +768,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     body.append('<table class="index">' + "".join(rows) + "</table>")
     body.append(
         '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
-        "deg/s\u00b2 (repairs included). Jitter removed and largest change: outside the frames "
-        "that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
+        "deg/s\u00b2; noise, jitter removed and largest change are measured outside the "
+        "frames that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
     )
     return _page(title, body)

@@ -204,10 +204,11 @@ def _outside(
 
 
 def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
-    """The figures of smoothing alone (None for a single clip): the fraction of RMS angular
-    acceleration removed and the largest and RMS rotation change (degrees, and the joint of
-    the largest) over every joint and frame, leaving out the rows that involve a frame a
-    repairing step changed (:func:`build_series`' ``outside_repairs``)."""
+    """The figures of smoothing alone (None for a single clip): the RMS angular acceleration
+    before and after (deg/s^2) and the fraction of it removed, and the largest and RMS
+    rotation change (degrees, and the joint of the largest) over every joint and frame,
+    leaving out the rows that involve a frame a repairing step changed
+    (:func:`build_series`' ``outside_repairs``)."""
     figures = series["figures"]
     if figures["accel_after"] is None or figures["deviation"] is None:
         return None
@@ -222,13 +223,16 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
             squares[n], counts[n], largest[n] = square, count, peak
         return squares, counts, largest
 
-    before, _, _ = per_joint("accel_before")
+    before, rows, _ = per_joint("accel_before")
     after, _, _ = per_joint("accel_after")
     squares, counts, largest = per_joint("deviation")
     total_before = float(before.sum())
     removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
     worst = int(np.argmax(largest)) if largest.size else 0
+    known = max(float(rows.sum()), 1.0)
     return {
+        "noise_before": math.sqrt(total_before / known),
+        "noise_after": math.sqrt(float(after.sum()) / known),
         "noise_removed": removed,
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),

@@ -150,7 +150,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     its ``verdict`` key): ``status``, ``text`` and the figures behind them.
 
     ``smoothing`` holds the figures outside repairs (None for a clip reported on its own):
-    ``noise_removed`` (fraction of RMS angular acceleration removed), ``change_deg_max`` and
+    ``noise_before`` and ``noise_after`` (RMS angular acceleration, deg/s^2),
+    ``noise_removed`` (the fraction of it removed), ``change_deg_max`` and
     ``change_deg_rms`` (rotation angle between input and output, degrees) and
     ``change_joint`` (where the largest change is).
     """
@@ -205,6 +206,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     return {
         "status": status,
         "text": text,
+        "noise_before": smoothing.get("noise_before"),
+        "noise_after": smoothing.get("noise_after"),
         "noise_removed": smoothing["noise_removed"],
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],

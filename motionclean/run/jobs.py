@@ -154,8 +154,12 @@ class FileResult:
     joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
     verdict: str | None = None  # the report's verdict line (motionclean.report.verdict)
     verdict_status: str | None = None  # clean, repaired, cleaned or needs a look
-    jitter_removed: float | None = None  # the verdict's: outside repairs, fraction
-    change_max: float | None = None  # the verdict's largest change outside repairs, degrees
+    # the verdict's figures, outside repairs: RMS angular acceleration before and after
+    # (deg/s^2), the fraction removed, the largest change (degrees)
+    jitter_before: float | None = None
+    jitter_after: float | None = None
+    jitter_removed: float | None = None
+    change_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -197,6 +201,8 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
         "ok",
         verdict=verdict.get("text"),
         verdict_status=verdict.get("status"),
+        jitter_before=verdict.get("noise_before"),
+        jitter_after=verdict.get("noise_after"),
         jitter_removed=verdict.get("noise_removed"),
         change_max=verdict.get("change_deg_max"),
         frames=result.before.n_frames,
