@@ -71,7 +71,8 @@ td:first-child,th:first-child{text-align:left}
 tr:nth-child(even) td{background:#f8f9fb}
 tr.failed td{background:#fdeaea;color:#8a1c1c}
 td.error{text-align:left;white-space:normal}
-table.index td:nth-child(2),table.index th:nth-child(2){text-align:left;white-space:normal;min-width:320px}
+table.index td:nth-child(2),table.index th:nth-child(2){text-align:left;white-space:normal;
+min-width:320px}
 tr.look td{background:#fdf5e3}
 a{color:#1f57b8;text-decoration:none}
 a:hover{text-decoration:underline}
