@@ -19,13 +19,14 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
+from ..core.restpose import rest_frames
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
-from ..report.summary import build_report, build_series, format_table
+from ..report.summary import build_report, build_series, format_rest, format_table
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
     blend_clips,
@@ -37,7 +38,7 @@ from ..run.jobs import (
 )
 from ..run.memory import one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
-from ..steps.base import brief_runs
+from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline
 from .batch import batch_command
 from .check import check_command
@@ -168,10 +169,13 @@ def info(
     click.echo(f"{clip}")
     click.echo(
         f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
-        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s "
+        f"rate: {fps_text(motion.frame_time)} fps   duration: {motion.duration:.3f} s "
         "(frames x frame time; frames are numbered from 0)"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
+    lead, trail = rest_frames(motion)
+    if lead or trail:
+        click.echo(f"  {format_rest({'leading': lead, 'trailing': trail}, motion.n_frames)}")
     for note in kinematics.source_notes(motion):
         click.echo(f"  note: {note}")
     skipped = kinematics.world_note(motion)
@@ -298,8 +302,8 @@ def resample_command(
     after, _ = pipeline.run(before)
     save(after, target)
     click.echo(
-        f"{source}: {before.n_frames} frames at {before.frame_rate:.6g} fps -> "
-        f"{target}: {after.n_frames} frames at {after.frame_rate:.6g} fps"
+        f"{source}: {before.n_frames} frames at {fps_text(before.frame_time)} fps -> "
+        f"{target}: {after.n_frames} frames at {fps_text(after.frame_time)} fps"
     )
 
 

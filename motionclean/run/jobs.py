@@ -26,6 +26,7 @@ from ..filters import multires
 from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
+from ..report.verdict import repaired_frames
 from ..steps.pipeline import Pipeline, StepLog
 from ..steps.resampling import on_input_frames
 from .memory import return_free_memory
@@ -120,12 +121,15 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     after, logs = pipeline.run(before)
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
-    series = build_series(before, compared)
+    notes = notes_by_joint(logs)
+    # repairs are told apart from smoothing where their frames are the input's
+    repairs = repaired_frames(notes, before.n_frames) if compared is after else None
+    series = build_series(before, compared, repairs)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
-    report = build_report(before, compared, described, notes_by_joint(logs), file, series=series)
+    report = build_report(before, compared, described, notes, file, series=series)
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
     return CleanedClip(before, after, logs, report, series)
@@ -152,6 +156,14 @@ class FileResult:
     error: str | None = None
     seconds: float = 0.0
     joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
+    verdict: str | None = None  # the report's verdict line (motionclean.report.verdict)
+    verdict_status: str | None = None  # clean, repaired, cleaned or needs a look
+    # the verdict's figures, outside repairs: RMS angular acceleration before and after
+    # (deg/s^2), the fraction removed, the largest change (degrees)
+    jitter_before: float | None = None
+    jitter_after: float | None = None
+    jitter_removed: float | None = None
+    change_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -188,10 +200,17 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
     deviation_rms = (
         math.sqrt(sum(d * d for d in deviations) / len(deviations)) if deviations else 0.0
     )
+    verdict = result.report.get("verdict") or {}
     return FileResult(
         job.source,
         job.target,
         "ok",
+        verdict=verdict.get("text"),
+        verdict_status=verdict.get("status"),
+        jitter_before=verdict.get("noise_before"),
+        jitter_after=verdict.get("noise_after"),
+        jitter_removed=verdict.get("noise_removed"),
+        change_max=verdict.get("change_deg_max"),
         frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],

@@ -58,10 +58,11 @@ def _format_note(note: dict, positions: bool) -> str:
     share = note.get("share", 1.0)
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
+    # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
+    said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
     return (
-        f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); chose {format_params(note['filter'])}{along}; "
-        f"expected error {error} {unit}"
+        f"estimated noise {note['noise']:.3g} {unit}{f' ({said})' if said else ''}; "
+        f"chose {format_params(note['filter'])}{along}; expected error {error} {unit}"
     )
 
 
