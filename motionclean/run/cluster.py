@@ -9,7 +9,9 @@ and only the small :class:`~motionclean.run.jobs.FileResult` records come back. 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ipaddress
+import os
 import re
 import signal
 import sys
@@ -204,6 +206,17 @@ def _quiet_resource_tracker() -> None:
         sys.warnoptions.remove(flag)
 
 
+def _terminate_workers(cluster) -> None:
+    """SIGTERM to each worker process of a local cluster: a busy worker finishes its clip
+    before it heeds its nanny's stop (seconds after Ctrl-C); the clips are written
+    atomically and batch removes a temporary file one leaves."""
+    for nanny in list(cluster.workers.values()):
+        pid = getattr(nanny, "pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGTERM)
+
+
 @contextmanager
 def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[Any, int]]:
     """A ``distributed.Client`` for ``scheduler`` (see :func:`parse_scheduler`) and the
@@ -236,7 +249,11 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
             ) from None
         with cluster, client:
             held.release()
-            yield client, n
+            try:
+                yield client, n
+            except BaseException:  # Ctrl-C, SIGTERM: stop now, not once each clip is done
+                _terminate_workers(cluster)
+                raise
         return
     _handshake(distributed, address)
     held = _HeldInterrupts().hold()

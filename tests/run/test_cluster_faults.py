@@ -212,20 +212,20 @@ def running(pids: list[int]) -> list[int]:
 
 
 def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
-    """``batch --scheduler local:2`` in a session of its own (as a shell runs a job), once
-    its two workers and the resource tracker run and a second has passed."""
+    """``batch --scheduler local:1`` in a session of its own (as a shell runs a job), once
+    its worker and the resource tracker run and a second has passed."""
     for k in range(6):
         cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
     command = [str(Path(sys.executable).parent / "motionclean"), "batch", str(tmp_path / "in")]
     process = subprocess.Popen(
-        [*command, "-o", str(tmp_path / "o"), "--scheduler", "local:2", "-q"]
+        [*command, "-o", str(tmp_path / "o"), "--scheduler", "local:1", "-q"]
         + ["-f", "fairing:max_iterations=3000,tol=0"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,
     )
     deadline = time.monotonic() + 30
-    while len(descendants(process.pid)) < 3 and time.monotonic() < deadline:
+    while len(descendants(process.pid)) < 2 and time.monotonic() < deadline:
         time.sleep(0.1)
     time.sleep(1.0)
     return process, descendants(process.pid)
@@ -252,7 +252,7 @@ def test_ctrl_c_to_the_whole_process_group_is_one_line(tmp_path):
     deadline = time.monotonic() + 5
     while running(workers) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert len(workers) >= 3 and not running(workers)
+    assert len(workers) >= 2 and not running(workers)
     assert not [p for p in (tmp_path / "o").rglob("*.tmp")]
 
 
