@@ -20,7 +20,7 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..io import FORMATS, atomic_write
+from ..io import FORMATS, atomic_write, remove_temporaries
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
@@ -107,6 +107,11 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
             continue
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{folder}: {option} must be a folder")
+        if folder.is_symlink() and not folder.exists():  # its target's folders: not made
+            raise UsageError(
+                f"{folder}: {option} is a symbolic link to {os.readlink(folder)!r}, which "
+                "does not exist"
+            )
 
         if _inside(folder.resolve(), source):
             raise UsageError(
@@ -296,23 +301,34 @@ def batch_command(
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
-    note = None
-    with _progress(len(work)) as advance, _sigterm_as_interrupt():
-        if scheduler is None or not work:  # nothing to send: no cluster to start
-            workers = min(jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1))
-            for index, result in run_jobs(work, workers):
-                results[work_names[index]] = result
-                advance(work_names[index])
-        else:
-            with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
-                started = time.perf_counter() - start
-                if not quiet:
-                    click.echo(f"Dask dashboard: {client.dashboard_link}")
-                for index, result in cluster.run_jobs_on(client, work):
+    note = lost = None
+    try:
+        with _progress(len(work)) as advance, _sigterm_as_interrupt():
+            if scheduler is None or not work:  # nothing to send: no cluster to start
+                workers = min(
+                    jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1)
+                )
+                for index, result in run_jobs(work, workers):
                     results[work_names[index]] = result
                     advance(work_names[index])
-            if cluster.parse_scheduler(scheduler)[0] == "local":
-                note = cluster_note(started, [results[n] for n in work_names], workers)
+            else:
+                with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                    started = time.perf_counter() - start
+                    if not quiet:
+                        click.echo(f"Dask dashboard: {client.dashboard_link}")
+                    for index, result in cluster.run_jobs_on(client, work):
+                        results[work_names[index]] = result
+                        advance(work_names[index])
+                if cluster.parse_scheduler(scheduler)[0] == "local":
+                    note = cluster_note(started, [results[n] for n in work_names], workers)
+    except cluster.ClusterLost as error:  # one line for the clips not done, after the others
+        lost = str(error)
+        for index in error.not_done:
+            results[work_names[index]] = FileResult(
+                work[index].source, work[index].target, "failed"
+            )
+    finally:  # a worker killed while writing leaves its temporary file: none stays
+        remove_temporaries(path for job in work for path in (job.target, job.report) if path)
     seconds = time.perf_counter() - start
 
     rows = [(str(rel), results[str(rel)]) for rel in clips]
@@ -322,7 +338,8 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
-    raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
+    failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
+    raise_failures(failures + ([lost] if lost else []))
 
 
 def sizes(work: Sequence[Job]) -> list[int]:

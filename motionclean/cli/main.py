@@ -64,11 +64,28 @@ def _echo_error(message: str) -> None:
     click.echo(f"motionclean: error: {message}", err=True)
 
 
+class _Interrupted(BaseException):
+    """A KeyboardInterrupt on its way past click, which would print an empty line first."""
+
+
+class _Commands(click.Group):
+    """The command group; an interrupt inside a command leaves it as :class:`_Interrupted`."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise _Interrupted from None
+
+
 def _interrupted() -> None:
     """Ctrl-C or SIGTERM: say so and leave at once, exit code 130. Outputs are written
     atomically, so nothing partial stays; the interpreter's exit hooks are skipped so the
     exit does not wait for worker processes still finishing a clip (they exit on their own
-    when their parent is gone)."""
+    when their parent is gone). The message is one line; on a terminal a line break first
+    ends the ``^C`` the terminal echoed."""
+    if sys.stderr.isatty():
+        click.echo("", err=True)
     _echo_error("interrupted")
     sys.stdout.flush()
     sys.stderr.flush()
@@ -98,8 +115,13 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         _echo_error(error.format_message().replace("\n", " "))
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Interrupted):
         _interrupted()
+    except MemoryError as error:  # no bug: more than this machine (or its limit) holds
+        if debug:
+            traceback.print_exc()
+        _echo_error(f"out of memory ({error or 'an allocation failed'})")
+        sys.exit(1)
     except Exception as error:  # a bug: still one line unless --debug
         if debug:
             traceback.print_exc()
@@ -108,7 +130,7 @@ def main(argv: list[str] | None = None) -> None:
     sys.exit(code if isinstance(code, int) else 0)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "--version", prog_name="motionclean")
 @click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
 def cli(debug: bool) -> None:
@@ -333,7 +355,7 @@ def clean(
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
-    write_outputs(after, _write_target(output), reports)
+    write_outputs(after, output, reports)
     for number, log in enumerate(logs, 1):
         for pattern in log.unmatched:
             click.echo(
@@ -343,13 +365,6 @@ def clean(
             )
     if not quiet:
         click.echo(format_table(report))
-
-
-def _write_target(output: str) -> str:
-    """Where ``clean`` writes: through a symbolic link to the file it names (``--in-place``
-    on a link updates the real file and keeps the link)."""
-    path = Path(output)
-    return str(path.resolve()) if path.is_symlink() else output
 
 
 def _dropout_lines(motion) -> list[str]:

@@ -382,8 +382,13 @@ class Motion:
         return self.n_frames * self.frame_time
 
     def replace(self, **changes) -> Motion:
-        """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields replaced (``rotations=``, ``translations=``, ...); the
+        channel layout, once computed, goes with it unless ``channels`` change (computing
+        it is a Python loop over the joints: seconds for 100,000 of them)."""
+        copy = dataclasses.replace(self, **changes)
+        if "layout" in self.__dict__ and "channels" not in changes:
+            copy.__dict__["layout"] = self.__dict__["layout"]
+        return copy
 
     def __eq__(self, other: object) -> bool:
         """Same skeleton, channels, frame time and motion arrays (exactly); the source text

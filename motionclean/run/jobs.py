@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -23,7 +23,7 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..filters import multires
-from ..io import ReadOptions, atomic_write, save
+from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
 from ..report.verdict import repaired_frames
@@ -57,21 +57,17 @@ def render_report(report: dict, path: str | os.PathLike, series: dict | None = N
 def write_outputs(
     clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes]
 ) -> None:
-    """Write the cleaned clip and its reports, everything or nothing: every report is
-    rendered before anything is written, and a clip whose report cannot be written is
-    removed again (unless it replaced the input in place, which cannot be undone)."""
-    existed = target is not None and Path(target).exists()
+    """Write the cleaned clip and its reports together (:func:`~motionclean.io.write_together`):
+    every one is rendered and written to a temporary file first, then all are renamed; when
+    one cannot be written none is, and an existing output (the input itself with
+    ``--in-place``) is replaced only when all are ready. Missing folders are made."""
+    files: dict[str | os.PathLike, bytes | Iterable[bytes | memoryview]] = {}
     if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(clip, target)
-    try:
-        for path, data in reports.items():
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            atomic_write(path, data)
-    except BaseException:
-        if target is not None and not existed:
-            Path(target).unlink(missing_ok=True)
-        raise
+        files[target] = encode(clip, target)
+    files.update(reports)
+    for path in files:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    write_together(files)
 
 
 @dataclass
@@ -187,6 +183,8 @@ def _failure(source: str, target: str | None, error: BaseException, start: float
         message = str(error)
     elif isinstance(error, OSError):
         message = f"{error.filename or source}: {error.strerror}"
+    elif isinstance(error, MemoryError):
+        message = f"{source}: out of memory ({error or 'an allocation failed'})"
     else:  # a bug must not stop the other clips
         message = f"{source}: internal error: {type(error).__name__}: {error}"
     return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)

@@ -31,6 +31,10 @@ from .base import fps_text
 SAME_RATE = 1e-3
 #: Bytes the resampled arrays and their text take per new frame and channel value, about.
 BYTES_PER_VALUE = 96
+#: Most new frames made per frame read (120 -> 120,000 fps): more interpolates nothing a
+#: capture holds, and costs time and disk by the option, not the data (1e6 fps of a
+#: 240-frame tracker CSV wrote a gigabyte in over a minute).
+MAX_UPSAMPLING = 1000
 
 
 def same_rate(frame_time: float, new_frame_time: float) -> bool:
@@ -48,8 +52,9 @@ def _memory_bytes() -> int:
 def new_length(motion: Motion, frame_time: float) -> int:
     """Frames ``motion`` has at ``frame_time`` seconds per frame: the same duration to
     within half a new frame. Raises :class:`MotionError` when that leaves fewer than two
-    frames or would not fit in half of this machine's memory (the message says how many
-    frames)."""
+    frames, would not fit in half of this machine's memory, or makes more than
+    :data:`MAX_UPSAMPLING` frames per frame read (the message says how many frames), for
+    every format alike."""
     fps = f"{fps_text(frame_time)} fps"
     if motion.n_frames < 2:
         raise MotionError(
@@ -68,6 +73,13 @@ def new_length(motion: Motion, frame_time: float) -> int:
     if n_new > fits:
         raise MotionError(
             f"resampling to {fps} makes {n_new:,} frames; at most {fits:,} fit in memory",
+            motion.path,
+        )
+    if n_new > MAX_UPSAMPLING * motion.n_frames:
+        raise MotionError(
+            f"resampling {motion.n_frames:,} frames to {fps} makes {n_new:,} frames; at most "
+            f"{MAX_UPSAMPLING:,} per frame read ({MAX_UPSAMPLING * motion.n_frames:,}) are "
+            f"made, a rate of up to {MAX_UPSAMPLING * motion.frame_rate:.6g} fps",
             motion.path,
         )
     return n_new

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from helpers import (
     NOISY,
+    ROOT,
     SAMPLE,
     corpus_clip,
     cut_bvh,
@@ -29,6 +30,7 @@ from motionclean.filters.resample import (
     resampled_length,
     sample_positions,
 )
+from motionclean.io.csv import RIGID_SUFFIXES
 from motionclean.steps.pipeline import Pipeline
 from motionclean.steps.resampling import on_input_frames, resample_motion
 
@@ -348,3 +350,66 @@ def test_a_single_frame_clip_cannot_be_resampled(tmp_path, capsys):
     cut_bvh(SAMPLE, one, 1)
     code, _, err = run_cli(capsys, "resample", one, tmp_path / "out.bvh", "--fps", "240")
     assert code == 1 and "a clip of 1 frame cannot be resampled" in err
+
+
+def rigid_csv(path, frames: int, bodies: int = 2):
+    head = ",".join(f"b{k}.{s}" for k in range(bodies) for s in RIGID_SUFFIXES)
+    rows = [f"time,{head}"]
+    for f in range(frames):
+        body = f"{0.01 * f:.4f},1,0,{np.cos(0.02 * f):.6f},{np.sin(0.02 * f):.6f},0,0"
+        rows.append(f"{f / 120:.6f}," + ",".join([body] * bodies))
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def opensim_mot(path, frames: int):
+    rows = "".join(
+        f"{f / 120:.8f}\t{10 + f * 0.5:.8f}\t{0.1 + f * 0.001:.8f}\n" for f in range(frames)
+    )
+    head = f"Coordinates\nversion=1\nnRows={frames}\nnColumns=3\ninDegrees=yes\nendheader\n"
+    path.write_text(head + "time\tpelvis_rotation\tpelvis_tx\n" + rows)
+    return path
+
+
+@pytest.mark.parametrize(
+    "kind", ["bvh", "channel csv", "rigid csv", "motive csv", "glb", "opensim mot"]
+)
+def test_every_format_refuses_an_absurd_rate_up_front(tmp_path, capsys, kind):
+    """1e6 fps of a 240-frame clip: 2 million frames. The BVH path refused it by memory; a
+    tracker CSV of two bodies 'fit' and wrote a gigabyte for minutes. Every format now
+    refuses more than MAX_UPSAMPLING frames per frame read, before any work."""
+    from motionclean.steps.resampling import MAX_UPSAMPLING
+
+    if kind == "bvh":
+        clip = cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)
+    elif kind == "channel csv":
+        mc.save(mc.load(cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)), tmp_path / "c.csv")
+        clip = tmp_path / "c.csv"
+    elif kind == "rigid csv":
+        clip = rigid_csv(tmp_path / "c.csv", 240)
+    elif kind == "glb":
+        mc.save(mc.load(cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)), tmp_path / "c.glb")
+        clip = tmp_path / "c.glb"
+    elif kind == "opensim mot":
+        clip = opensim_mot(tmp_path / "c.mot", 240)
+    else:
+        clip = ROOT / "sample_data" / "131_02_motive.csv"
+    frames = mc.load(clip).n_frames
+    out = tmp_path / f"out{clip.suffix}"
+    code, stdout, err = run_cli(capsys, "resample", clip, out, "--fps", "1e6")
+    assert code == 1 and not stdout and err.count("\n") == 1 and not out.exists()
+    bound = f"at most {MAX_UPSAMPLING:,} per frame read ({MAX_UPSAMPLING * frames:,})"
+    if kind in ("rigid csv", "motive csv", "opensim mot"):  # few values: memory would do
+        assert bound in err
+    else:  # a BVH skeleton's frames may pass the memory bound first
+        assert bound in err or "fit in memory" in err
+    code, _, err = run_cli(capsys, "clean", clip, "-o", out, "-f", "resample:fps=1e6", "-q")
+    assert code == 1 and err.count("\n") == 1 and not out.exists()
+
+
+def test_a_high_rate_within_the_bound_is_made(tmp_path, capsys):
+    clip = rigid_csv(tmp_path / "c.csv", 10, bodies=1)
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, "resample", clip, out, "--fps", "96000")  # 800x
+    assert code == 0, err
+    assert mc.load(out).n_frames == 8000
