@@ -20,6 +20,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
+from .eulerjoin import rejoin
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 
 #: The axes a clip may declare as up (:attr:`Motion.up`).
@@ -381,8 +382,13 @@ class Motion:
         return self.n_frames * self.frame_time
 
     def replace(self, **changes) -> Motion:
-        """A copy with some fields replaced (``rotations=``, ``translations=``, ...)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields replaced (``rotations=``, ``translations=``, ...); the
+        channel layout, once computed, goes with it unless ``channels`` change (computing
+        it is a Python loop over the joints: seconds for 100,000 of them)."""
+        copy = dataclasses.replace(self, **changes)
+        if "layout" in self.__dict__ and "channels" not in changes:
+            copy.__dict__["layout"] = self.__dict__["layout"]
+        return copy
 
     def __eq__(self, other: object) -> bool:
         """Same skeleton, channels, frame time and motion arrays (exactly); the source text
@@ -455,8 +461,10 @@ class Motion:
         source values describe the same frames, samples whose quaternion did not change (up
         to sign: ``q`` and ``-q`` are the same rotation; within :data:`SAME_ROTATION` per
         component, rounding) keep their original values bit for bit, and changed ones
-        continue the curve from the last unchanged frame (:func:`continuous_euler`).
-        Otherwise angles are unwrapped along time. Groups of joints run on threads.
+        continue the curve from the last unchanged frame (:func:`continuous_euler`), on the
+        representations that rejoin the unchanged frames after them without a jump the
+        input lacks (:func:`motionclean.core.eulerjoin.rejoin`). Otherwise angles are
+        unwrapped along time. Groups of joints run on threads.
         """
         layout = self.layout
         if not self.has_source_frames():
@@ -474,6 +482,7 @@ class Motion:
                 for span in in_parts(group.size, PART_JOINTS if shared else group.size)
             ]
             run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
+            rejoin(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values

@@ -8,6 +8,7 @@ spliced into the original bytes so that everything not changed keeps its exact t
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterator
 from typing import Protocol
 
@@ -245,13 +246,27 @@ def _parse_plain(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray):
     return values, simple
 
 
+#: A number as capture files write it: ASCII digits with an optional sign, point and
+#: exponent, or inf / nan (then refused as not finite). ``float`` also takes ``1_000``, digits
+#: of any script (``١٢٠``) and surrounding whitespace, none of which is a number here.
+ASCII_NUMBER = re.compile(
+    r"[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|inf(?:inity)?|nan)",
+    re.ASCII | re.IGNORECASE,
+)
+
+
+def ascii_float(text: str) -> float:
+    """``float(text)`` for a text that is all :data:`ASCII_NUMBER`; ValueError otherwise."""
+    if not ASCII_NUMBER.fullmatch(text):
+        raise ValueError(f"not a number: {text[:40]!r}")
+    return float(text)
+
+
 def bad_number_message(what: str, token: bytes) -> str:
     text = token.decode("utf-8", "replace")[:40]
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
-        return f"{what} is not a number: {text!r}"
-    if "_" in text or not text.isascii():  # '1_000', '١': float() takes them, no numbers here
         return f"{what} is not a number: {text!r}"
     if math.isfinite(value):
         return f"{what} is out of range (more than {MAX_MAGNITUDE:g} in size): {text!r}"

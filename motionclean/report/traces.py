@@ -3,10 +3,13 @@
 A report's plots draw a series of any length in :data:`COLUMNS` columns, so a series is
 kept as its min/max envelope over those columns plus the two numbers that set the y axis
 (the peak and the 99.5th percentile): a few kB per joint instead of the clip's length.
+Samples that are NaN (rest-pose frames, missing samples) are left out: a column without any
+other sample is NaN, drawn as a gap.
 """
 
 from __future__ import annotations
 
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -50,16 +53,17 @@ def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, 
     """Reduce ``values`` (N, ...) along axis 0 to at most ``columns`` plot columns.
 
     Returns ``(position, low, high)``: the sample position (fractional index) of each
-    column and the min and max of the samples falling in it (``(K, ...)``). With
-    ``N <= columns`` every sample is its own column (``low == high``).
+    column and the min and max of the samples falling in it (``(K, ...)``), NaN samples
+    left out (NaN where a column has no other). With ``N <= columns`` every sample is its
+    own column (``low == high``).
     """
     values = np.asarray(values, dtype=np.float64)
     n = values.shape[0]
     if n <= columns:
         return np.arange(n, dtype=np.float64), values, values
     edges = (np.arange(columns + 1) * n) // columns  # strictly increasing since n > columns
-    low = np.minimum.reduceat(values, edges[:-1], axis=0)
-    high = np.maximum.reduceat(values, edges[:-1], axis=0)
+    low = np.fmin.reduceat(values, edges[:-1], axis=0)
+    high = np.fmax.reduceat(values, edges[:-1], axis=0)
     return (edges[:-1] + edges[1:] - 1) / 2.0, low, high
 
 
@@ -70,13 +74,18 @@ def traces(table: np.ndarray) -> list[Trace]:
     columns = COLUMNS if n <= COLUMNS else ENVELOPE_COLUMNS
     position, low, high = envelope(table, columns)
     if n and n_cols:
-        peak = table.max(axis=0)
-        robust = np.concatenate(  # a few columns at a time: quantile copies what it sorts
-            [
-                np.quantile(table[:, at : at + QUANTILE_COLUMNS], ROBUST_QUANTILE, axis=0)
-                for at in range(0, n_cols, QUANTILE_COLUMNS)
-            ]
-        )
+        gaps = bool(np.isnan(table).any())
+        quantile = np.nanquantile if gaps else np.quantile
+        with warnings.catch_warnings():  # a column of gaps only has no quantile: 0 below
+            warnings.simplefilter("ignore", RuntimeWarning)
+            peak = np.fmax.reduce(table, axis=0)
+            robust = np.concatenate(  # a few columns at a time: quantile copies what it sorts
+                [
+                    quantile(table[:, at : at + QUANTILE_COLUMNS], ROBUST_QUANTILE, axis=0)
+                    for at in range(0, n_cols, QUANTILE_COLUMNS)
+                ]
+            )
+        peak, robust = np.nan_to_num(peak), np.nan_to_num(robust)
     else:
         peak = robust = np.zeros(n_cols)
     return [

@@ -110,9 +110,11 @@ def _format_note(note: dict, positions: bool) -> str:
             f"rate; source=optical for optical captures){where}; {chose}; "
             f"expected error {error} {unit} (unfiltered {note['noise']:.3g})"
         )
+    # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
+    said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
     return (
-        f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); {chose}; expected error {error} {unit}"
+        f"estimated noise {note['noise']:.3g} {unit}{f' ({said})' if said else ''}; "
+        f"{chose}; expected error {error} {unit}"
     )
 
 
