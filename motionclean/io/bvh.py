@@ -46,6 +46,7 @@ from .text import (
     line_ends,
     parse_values,
     regular_rows,
+    scan_rows,
     scan_tokens,
     splice_cells,
 )
@@ -423,7 +424,8 @@ def _parse_row_lines(buf, body_start: int, newlines, n_frames: int, n_channels: 
         when they are not rows of ``n_channels`` values."""
         begin, end = int(line_starts[rows.start]), int(line_stops[rows.stop - 1])
         text = np.frombuffer(buf, np.uint8, end - begin, begin)
-        starts, ends = scan_tokens(text)
+        found = scan_rows(text, rows.stop - rows.start, n_channels)
+        starts, ends = scan_tokens(text) if found is None else found
         if starts.size != (rows.stop - rows.start) * n_channels:
             return None
         inside = (starts[::n_channels] >= line_starts[rows] - begin) & (

@@ -83,6 +83,41 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
     return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
 
 
+def scan_rows(buf: np.ndarray, n_rows: int, n_cols: int) -> tuple | None:
+    """:func:`scan_tokens` of ``buf`` when it is ``n_rows`` lines of ``n_cols`` tokens in
+    the layout exporters write (one space between tokens, every line but the last ended by
+    the same LF or CRLF, the last by nothing after an LF or by its CR), else None: one pass for the bytes
+    up to the space, one reshape and a check of the bytes found."""
+    if n_rows < 1 or n_cols < 1:
+        return None
+    dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
+    found = np.flatnonzero(buf <= 32).astype(dtype)  # spaces, line ends, any control byte
+    # with the end of the buffer as the last line's end: n_cols or n_cols + 1 a line
+    width = found.size + 1 - n_rows * n_cols
+    if width not in (0, n_rows):
+        return None
+    width = n_cols + width // n_rows
+    ends: np.ndarray = np.empty(n_rows * width, dtype=dtype)
+    ends[:-1], ends[-1] = found, buf.size
+    grid = ends.reshape(n_rows, width)
+    spaces = buf.take(grid[:, : n_cols - 1]) == 32
+    if width == n_cols:  # LF
+        line_end = buf.take(grid[:-1, -1]) == 10
+        starts = np.empty_like(ends)
+        starts[0], starts[1:] = 0, ends[:-1] + 1
+    else:  # CRLF: the CR ends the last token, the LF follows it
+        line_end = (buf.take(grid[:, -2]) == 13).all() and (buf.take(grid[:-1, -1]) == 10).all()
+        line_end &= bool((grid[:, -1] == grid[:, -2] + 1).all())
+        starts = np.empty_like(grid)
+        starts[:, 1:] = grid[:, :-1] + 1
+        starts[0, 0] = 0
+        starts[1:, 0] = grid[:-1, -1] + 1
+        starts, ends = starts[:, :n_cols].ravel(), grid[:, :n_cols].ravel()
+    if not (spaces.all() and np.all(line_end) and (ends > starts).all()):
+        return None
+    return starts, ends
+
+
 def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
     """Offsets of the LF bytes of ``buf[start:]`` (parts run on threads)."""
 
