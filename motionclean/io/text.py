@@ -86,8 +86,9 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
 def scan_rows(buf: np.ndarray, n_rows: int, n_cols: int) -> tuple | None:
     """:func:`scan_tokens` of ``buf`` when it is ``n_rows`` lines of ``n_cols`` tokens in
     the layout exporters write (one space between tokens, every line but the last ended by
-    the same LF or CRLF, the last by nothing after an LF or by its CR), else None: one pass for the bytes
-    up to the space, one reshape and a check of the bytes found."""
+    the same LF or CRLF, the last by nothing after LFs or by its CR after CRLFs), else
+    None: one pass for the bytes up to the space, one reshape and a check of the bytes
+    found."""
     if n_rows < 1 or n_cols < 1:
         return None
     dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
