@@ -131,7 +131,10 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     if not core.size:
         zeros = np.zeros(table.shape[1])
         return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
-    largest = core.max(axis=0)
+    if core.shape[0] == table.shape[0]:  # no rest-pose frames: the traces' peaks
+        largest = np.array([trace.peak for trace in drawn])
+    else:
+        largest = core.max(axis=0)
     total_max = float(largest.max())
     squares = np.square(core, out=core)
     rms = np.sqrt(np.mean(squares, axis=0))
