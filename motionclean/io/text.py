@@ -470,11 +470,12 @@ def fixed6_rows(
     n_rows, n_cols = values.shape
     if not (len(sep) == 1 and 0 < len(eol) <= _LANE and n_cols and sep != b"\0"):
         return None
+    words = None if kept is None else _words(kept[0])
     out = []
     block = max(1, _CHUNK_ITEMS // n_cols)
     for at in range(0, n_rows, block):
         rows = slice(at, min(at + block, n_rows))
-        shown = None if kept is None else (kept[0], kept[1][rows], kept[2][rows], kept[3][rows])
+        shown = None if kept is None else (words, kept[1][rows], kept[2][rows], kept[3][rows])
         text = _fixed6_block(values[rows], sep[0], eol, shown, last_eol or rows.stop < n_rows)
         if text is None:
             return None
@@ -482,18 +483,39 @@ def fixed6_rows(
     return b"".join(out)
 
 
+#: Lanes of a kept text in a field at most (27 bytes and the separator).
+_MAX_LANES = 7
+#: Masks keeping the first 0 .. 4 bytes of a lane.
+_FIRST_BYTES = _lanes([b"\xff" * n + b"\0" * (_LANE - n) for n in range(_LANE + 1)])
+
+
+def _words(source: np.ndarray) -> np.ndarray:
+    """The 4-byte words of ``source`` at every byte offset ``s``, as ``words[(s % 4) * n +
+    s // 4]`` (four copies of the bytes, each shifted by one; NUL past the end)."""
+    n = source.size // _LANE + _MAX_LANES + 1
+    padded = np.zeros(_LANE * n + _LANE, dtype=np.uint8)
+    padded[: source.size] = source
+    return np.concatenate(
+        [padded[k : k + _LANE * n].view(np.uint32) for k in range(_LANE)]  # (copies: aligned)
+    )
+
+
 def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes | None:
-    """:func:`fixed6_rows` of a block of rows."""
-    v = values if kept is None else np.where(kept[3], 0.0, values)
+    """:func:`fixed6_rows` of a block of rows; ``kept`` holds :func:`_words` of the source
+    instead of its bytes."""
+    mask = None if kept is None or not kept[3].any() else kept[3]
+    v = values if mask is None else np.where(mask, 0.0, values)
     if not (np.abs(v) < _FIXED6_LIMIT).all():
         return None
     n = _microunits(v)
     lanes = _groups(n) + 3
-    if kept is not None and kept[3].any():
-        source, starts, ends, mask = kept
-        longest = int((ends - starts)[mask].max())
-        lanes = max(lanes, -(-(longest + 1) // _LANE))
-        if lanes > 7:
+    if mask is not None:
+        words, starts, ends, _ = kept
+        at = np.flatnonzero(mask)  # kept cells, row-major
+        first = starts.ravel().take(at)
+        length = ends.ravel().take(at) - first
+        lanes = max(lanes, -(-(int(length.max()) + 1) // _LANE))
+        if lanes > _MAX_LANES:
             return None
     n_rows, n_cols = v.shape
     width = lanes * _LANE
@@ -506,15 +528,17 @@ def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes |
         field[:, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
     else:
         field[:-1, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
-    if kept is not None and kept[3].any():
-        rows, cols = np.nonzero(mask)
-        first, length = starts[rows, cols], ends[rows, cols] - starts[rows, cols]
-        offsets = np.arange(width - 1)
-        index = np.minimum(first[:, None] + offsets, source.size - 1)
-        text = source.take(index)
-        text[offsets >= length[:, None]] = 0
-        cell_chars = chars[:, : n_cols * width].reshape(n_rows, n_cols, width)
-        cell_chars[rows, cols, : width - 1] = text
+    if mask is not None:  # each kept cell's text a lane at a time, then its separator
+        row, col = np.divmod(at, n_cols)
+        place = row * field.shape[1] + col * lanes
+        word = (first % _LANE) * (words.size // _LANE) + first // _LANE
+        ends_row = col == n_cols - 1
+        for lane in range(lanes):
+            text = words.take(word + lane)
+            text &= _FIRST_BYTES.take(np.clip(length - _LANE * lane, 0, _LANE))
+            if lane == lanes - 1:
+                text |= np.where(ends_row, 0, _lanes([b"\0\0\0" + bytes([sep])])[0])
+            field.put(place + lane, text)
     return field.tobytes().translate(None, b"\0")
 
 
