@@ -360,12 +360,12 @@ def _microunits(v: np.ndarray) -> np.ndarray:
     a = np.abs(v).ravel()
     x = a * 1e6
     n = np.rint(x)
-    near = np.abs(x - n) == 0.5
-    near |= x >= _WHOLE_PRODUCT
     out = n.astype(np.int64).reshape(v.shape)
-    if not near.any():
-        return out
-    at = np.flatnonzero(near)
+    whole = x.size > 0 and x.max() >= _WHOLE_PRODUCT
+    np.subtract(x, n, out=n)
+    if not (whole or (x.size > 0 and np.abs(n, out=n).max() == 0.5)):
+        return out  # (the common case: two maxima instead of a mask)
+    at = np.flatnonzero((np.abs(n) == 0.5) | (x >= _WHOLE_PRODUCT))
     a, x, n = a[at], x[at], out.reshape(-1)[at]
     split = a * _SPLITTER
     high = split - (split - a)
@@ -505,7 +505,7 @@ def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes |
     instead of its bytes."""
     mask = None if kept is None or not kept[3].any() else kept[3]
     v = values if mask is None else np.where(mask, 0.0, values)
-    if not (np.abs(v) < _FIXED6_LIMIT).all():
+    if v.size and not np.abs(v).max() < _FIXED6_LIMIT:
         return None
     n = _microunits(v)
     lanes = _groups(n) + 3
@@ -519,15 +519,14 @@ def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes |
             return None
     n_rows, n_cols = v.shape
     width = lanes * _LANE
-    field = np.zeros((n_rows, n_cols * lanes + 1), dtype=np.uint32)
+    field = np.empty((n_rows, n_cols * lanes + 1), dtype=np.uint32)  # every lane written
     cells = field[:, :-1].reshape(n_rows, n_cols, lanes)
     _fill_fixed6(v, n, lanes - 3, cells, sep)
     chars = field.view(np.uint8)
     chars[:, n_cols * width - 1] = 0  # no separator after the last cell
-    if last_eol:
-        field[:, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
-    else:
-        field[:-1, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
+    field[:, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
+    if not last_eol:
+        field[-1, -1] = 0
     if mask is not None:  # each kept cell's text a lane at a time, then its separator
         row, col = np.divmod(at, n_cols)
         place = row * field.shape[1] + col * lanes
