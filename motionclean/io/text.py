@@ -92,14 +92,17 @@ def scan_rows(buf: np.ndarray, n_rows: int, n_cols: int) -> tuple | None:
     if n_rows < 1 or n_cols < 1:
         return None
     dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
-    found = np.flatnonzero(buf <= 32).astype(dtype)  # spaces, line ends, any control byte
-    # with the end of the buffer as the last line's end: n_cols or n_cols + 1 a line
-    width = found.size + 1 - n_rows * n_cols
+    found = [  # spaces, line ends, any control byte (in chunks: small temporaries)
+        (np.flatnonzero(buf[at : at + _CHUNK_BYTES] <= 32) + at).astype(dtype)
+        for at in range(0, buf.size, _CHUNK_BYTES)
+    ]
+    found.append(np.array([buf.size], dtype=dtype))  # the last line's end
+    # n_cols or n_cols + 1 a line
+    width = sum(part.size for part in found) - n_rows * n_cols
     if width not in (0, n_rows):
         return None
     width = n_cols + width // n_rows
-    ends: np.ndarray = np.empty(n_rows * width, dtype=dtype)
-    ends[:-1], ends[-1] = found, buf.size
+    ends: np.ndarray = np.concatenate(found)
     grid = ends.reshape(n_rows, width)
     spaces = buf.take(grid[:, : n_cols - 1]) == 32
     if width == n_cols:  # LF
