@@ -592,30 +592,41 @@ def _continue_block(q, order, reference, kept, carry, principal=None):
         )
     anchor = np.maximum.accumulate(np.where(is_anchor, frame, -1), axis=0)  # (F, J), -1: before
     local = anchor >= 0
+    # each sample's anchor as an index into the block's (F * J) samples
     anchor_at = np.maximum(anchor, 0)
-    anchor_angles = anchor_values[anchor_at, columns]  # (F, J, 3)
+    anchor_at *= q.shape[1]
+    anchor_at += columns
+    # whether each anchor is on the other Euler solution (cos of its middle angle < 0),
+    # computed at the anchors only and read through anchor_at
+    anchors = np.flatnonzero(is_anchor)
+    anchor_frames, anchor_joints = np.divmod(anchors, q.shape[1])
+    on_other = np.zeros(is_anchor.size, dtype=bool)
+    on_other[anchors] = np.cos(np.deg2rad(anchor_values[anchor_frames, anchor_joints, 1])) < 0.0
+    anchor_other = on_other.take(anchor_at)
+    last_anchor = anchor_values[anchor_at[-1] // q.shape[1], columns[0]]  # (J, 3)
     if carry is not None:
-        anchor_angles = np.where(local[..., None], anchor_angles, carry[3][None])
+        anchor_other = np.where(local, anchor_other, np.cos(np.deg2rad(carry[3][..., 1])) < 0.0)
+        last_anchor = np.where(local[-1][:, None], last_anchor, carry[3])
     principal, other, switch = _solutions(q, order, None if carry is None else carry[1], principal)
     if carry is None:
         switch[0] = False
     switches = np.cumsum(switch, axis=0)
-    switches_since = switches - switches[anchor_at, columns]
+    switches_since = switches - switches.take(anchor_at)
     if carry is not None:
         switches_since = np.where(local, switches_since, switches + carry[4][None])
-    anchor_other = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
     flipped = anchor_other ^ (switches_since % 2 == 1)
     candidate = np.where(flipped[..., None], other, principal) if flipped.any() else principal
     # Unwrap by whole turns within each run, starting from the anchor's angles.
     start = np.where(is_anchor[..., None], anchor_values, candidate)
     turns = _turns(start, start[0] if carry is None else carry[2])
-    turns[np.broadcast_to(is_anchor[..., None], turns.shape)] = 0.0
+    np.copyto(turns, 0.0, where=is_anchor[..., None])
     total = np.cumsum(turns, axis=0, out=turns)  # whole numbers: exact
-    since = total - total[anchor_at, columns]
+    since = total - total.reshape(-1, 3).take(anchor_at, axis=0)
     if carry is not None:
         since = np.where(local[..., None], since, total + carry[5][None])
-    angles = np.where(is_anchor[..., None], anchor_values, start - 360.0 * since)
-    last = (q[-1], principal[-1], start[-1], anchor_angles[-1], switches_since[-1], since[-1])
+    # (an anchor's own turns since itself are 0: its start, the anchor's angles, as they are)
+    angles = start - 360.0 * since
+    last = (q[-1], principal[-1], start[-1], last_anchor, switches_since[-1], since[-1])
     return angles, last
 
 
