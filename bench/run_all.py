@@ -16,6 +16,7 @@ ORDER = [
     "footlock",
     "io",
     "motive",
+    "formats",
     "scale",
     "filters",
     "bilateral",

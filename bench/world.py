@@ -12,10 +12,10 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from common import best_of, corpus_clips
+from common import ROOT, best_of, corpus_clips
 
 import motionclean as mc
-from motionclean.core import kinematics
+from motionclean.core import kinematics, quat
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
 
@@ -33,7 +33,53 @@ def best_cpu(fn: Callable[[], object], repeats: int) -> float:
     return min(times)
 
 
+#: Other exporters' clips (tests/data/exporters/README.md) and the axis each stands along.
+EXPORTERS = ROOT / "tests" / "data" / "exporters"
+UP = {"video2bvh_zup.bvh": 2}
+
+
+def turned(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
+    """The clip turned as a whole by ``turn`` (offsets, end sites, translations, every
+    local rotation conjugated)."""
+    return motion.replace(
+        offsets=quat.rotate(turn, motion.offsets),
+        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
+        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
+        translations=quat.rotate(turn, motion.translations),
+        source_values=None,
+    )
+
+
+def up_axes() -> None:
+    """The up axis on every real clip and its copies turned to each other axis."""
+    print("| clip | up | before: the rest pose's tallest axis, turned to x, y, z | now |")
+    print("| --- | --- | --- | --- |")
+    right = old_right = total = 0
+    for path in [*corpus_clips(), *sorted(EXPORTERS.glob("*.bvh"))]:
+        motion = mc.load(path)
+        up = UP.get(path.name, 1)
+        found, old = [], []
+        for target in range(3):
+            if target == up:
+                clip = motion
+            else:
+                axis = np.cross(np.eye(3)[up], np.eye(3)[target])
+                clip = turned(motion, quat.from_axis_angle(axis, np.pi / 2))
+            found.append(kinematics.up_axis(clip))
+            old.append(int(np.argmax(np.ptp(kinematics.rest_positions(clip), axis=0))))
+            right += found[-1] == target
+            old_right += old[-1] == target
+            total += 1
+        axes = kinematics.AXES
+        print(
+            f"| {path.name} | {axes[up]} | {', '.join(axes[a] for a in old)} "
+            f"| {', '.join(axes[a] for a in found)} |"
+        )
+    print(f"\nright: {right} of {total} (the rest pose's tallest axis: {old_right} of {total})\n")
+
+
 def main() -> None:
+    up_axes()
     clip = mc.load(next(p for p in corpus_clips() if p.name == "131_02.bvh"))
     repeats = -(-FRAMES // clip.n_frames)
     index = np.tile(np.arange(clip.n_frames), repeats)[:FRAMES]
@@ -48,6 +94,8 @@ def main() -> None:
     def one_pass() -> object:
         return lee_shin(rotations, binomial(2))
 
+    finding = best_of(lambda: kinematics.body_height(long, kinematics.up_axis(long)), 5, True)
+    print(f"up axis and body height of {FRAMES} frames: {finding * 1e3:.1f} ms\n")
     print(f"{FRAMES} frames x {clip.n_joints} joints        wall      CPU")
     fk = (best_of(forward, 5, warm_up=True), best_cpu(forward, 5))
     pass_ = (best_of(one_pass, 5, warm_up=True), best_cpu(one_pass, 5))

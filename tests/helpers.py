@@ -258,3 +258,143 @@ def exporter_bvh(
         out = out.rstrip("\r\n \t")
     data = (b"\xef\xbb\xbf" if bom else b"") + out.encode("utf-8")
     return data, (names, parents, channels, values)
+
+
+#: Exporters' joint names for the sample's skeleton (CMU names; left side, the right side
+#: follows by swapping Left/Right, left/right, L/R); joints not named keep a prefixed name.
+NAMINGS = {
+    "mixamo": {
+        "Hips": "mixamorig:Hips",
+        "LeftHip": "mixamorig:LeftUpLeg",
+        "LeftKnee": "mixamorig:LeftLeg",
+        "LeftAnkle": "mixamorig:LeftFoot",
+        "LeftToe": "mixamorig:LeftToeBase",
+        "Chest": "mixamorig:Spine",
+        "Chest2": "mixamorig:Spine1",
+        "Neck": "mixamorig:Neck",
+        "Head": "mixamorig:Head",
+        "LeftCollar": "mixamorig:LeftShoulder",
+        "LeftShoulder": "mixamorig:LeftArm",
+        "LeftElbow": "mixamorig:LeftForeArm",
+        "LeftWrist": "mixamorig:LeftHand",
+        "": "mixamorig:",
+    },
+    "motionbuilder": {
+        "LeftHip": "LeftUpLeg",
+        "LeftKnee": "LeftLeg",
+        "LeftAnkle": "LeftFoot",
+        "LeftToe": "LeftToeBase",
+        "Chest": "Spine",
+        "Chest2": "Spine1",
+        "LeftCollar": "LeftShoulder",
+        "LeftShoulder": "LeftArm",
+        "LeftElbow": "LeftForeArm",
+        "LeftWrist": "LeftHand",
+        "": "MB_",
+    },
+    "rokoko": {
+        "LeftHip": "LeftThigh",
+        "LeftKnee": "LeftShin",
+        "LeftAnkle": "LeftFoot",
+        "LeftToe": "LeftToe",
+        "Chest": "Spine1",
+        "Chest2": "Spine2",
+        "LeftCollar": "LeftShoulder",
+        "LeftShoulder": "LeftArm",
+        "LeftElbow": "LeftForeArm",
+        "LeftWrist": "LeftHand",
+        "": "Rokoko_",
+    },
+    "smpl": {
+        "Hips": "pelvis",
+        "LeftHip": "left_hip",
+        "LeftKnee": "left_knee",
+        "LeftAnkle": "left_ankle",
+        "LeftToe": "left_foot",
+        "Chest": "spine1",
+        "Chest2": "spine2",
+        "Neck": "neck",
+        "Head": "head",
+        "LeftCollar": "left_collar",
+        "LeftShoulder": "left_shoulder",
+        "LeftElbow": "left_elbow",
+        "LeftWrist": "left_wrist",
+        "": "smpl_",
+    },
+}
+
+
+def _exporter_name(name: str, naming: dict[str, str]) -> str:
+    for key, value in naming.items():
+        if key.startswith("Left") and key.replace("Left", "Right") == name:
+            return value.replace("Left", "Right").replace("left", "right")
+    return naming.get(name, naming[""] + name)
+
+
+def arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Shortest-arc quaternion turning direction ``u`` to direction ``v``."""
+    u, v = u / np.linalg.norm(u), v / np.linalg.norm(v)
+    q = np.concatenate([[1.0 + u @ v], np.cross(u, v)])
+    return q / np.linalg.norm(q)
+
+
+def restposed(motion: mc.Motion, pose: str = "T", naming: str | None = None) -> mc.Motion:
+    """The sample's motion on a skeleton with another rest pose, as other exporters write
+    it: ``"T"`` (arms straight out sideways, legs straight down) or ``"A"`` (arms 45 degrees
+    down), joints renamed as ``naming`` (a key of :data:`NAMINGS`) names them. Every world
+    position is unchanged: joint ``j`` gets a constant rest turn ``B_j``, its children's
+    offsets become ``B_j o`` and its rotations ``B_parent q_j B_j^-1``."""
+    arm = {f"{side}{part}" for side in ("Left", "Right") for part in ("Shoulder", "Elbow", "Wrist")}
+    leg = {"LeftHip", "LeftKnee", "RightHip", "RightKnee"}
+    turns = quat.identity((motion.n_joints,))
+    for j, name in enumerate(motion.names):
+        children = np.flatnonzero(motion.parents == j)
+        if name not in arm | leg or children.size == 0:
+            continue
+        child = children[np.argmax(np.linalg.norm(motion.offsets[children], axis=1))]
+        if not np.linalg.norm(motion.offsets[child]) > 0.0:
+            continue
+        side = 1.0 if name.startswith("Left") else -1.0
+        if name in leg:
+            want = np.array([0.0, -1.0, 0.0])
+        elif pose == "T":
+            want = np.array([side, 0.0, 0.0])
+        else:
+            want = np.array([side, -1.0, 0.0])
+        turns[j] = arc(motion.offsets[child], want)
+    parent_turns = np.where(
+        (motion.parents >= 0)[:, None], turns[np.maximum(motion.parents, 0)], quat.identity()
+    )
+    offsets = quat.rotate(parent_turns, motion.offsets)
+    rotations = quat.multiply(parent_turns, quat.multiply(motion.rotations, quat.conjugate(turns)))
+    translations = quat.rotate(parent_turns, motion.translations)
+    roots = motion.parents < 0
+    translations[:, roots] = motion.translations[:, roots]
+    offsets[roots] = motion.offsets[roots]
+    names = list(motion.names)
+    if naming is not None:
+        names = [_exporter_name(n, NAMINGS[naming]) for n in motion.names]
+    return motion.replace(
+        names=names,
+        offsets=offsets,
+        end_sites={j: quat.rotate(turns[j], v) for j, v in motion.end_sites.items()},
+        rotations=quat.make_continuous(rotations),
+        translations=translations,
+        source=None,
+        source_values=None,
+        source_rotations=None,
+    )
+
+
+def turned_copy(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
+    """The clip turned by the quaternion ``turn`` as a whole (offsets, end sites,
+    translations turned, local rotations conjugated): every world point turns the same."""
+    return motion.replace(
+        offsets=quat.rotate(turn, motion.offsets),
+        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
+        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
+        translations=quat.rotate(turn, motion.translations),
+        source=None,
+        source_values=None,
+        source_rotations=None,
+    )

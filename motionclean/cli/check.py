@@ -36,6 +36,7 @@ from .options import (
     FILE_PATH,
     PIPE_OPTION,
     STEP_OPTION,
+    UP_OPTION,
     FiniteRange,
     pipeline_from_options,
     raise_failures,
@@ -213,6 +214,7 @@ def _why(
     show_default=True,
     help="Relative tolerance: a figure fails above baseline x (1 + T).",
 )
+@UP_OPTION
 def check_command(
     clips: tuple[str, ...],
     pipe: str | None,
@@ -221,6 +223,7 @@ def check_command(
     update: bool,
     replace: bool,
     tolerance: float,
+    up: str | None,
 ) -> None:
     """Clean CLIPs and compare their figures with a baseline, for CI.
 
@@ -236,7 +239,7 @@ def check_command(
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
     keys = [clip_key(c, baseline_path) for c in clips]
     tables = tuple(pipeline.describe())
-    jobs = [Job(os.fspath(c), None, tables) for c in clips]
+    jobs = [Job(os.fspath(c), None, tables, up=up) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
     failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]
 

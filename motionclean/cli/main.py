@@ -46,12 +46,16 @@ from .options import (
     PATH,
     PIPE_OPTION,
     STEP_OPTION,
+    UP_OPTION,
     FiniteRange,
     check_clip_output,
     check_output,
     check_report_output,
     pipeline_from_options,
+    read_options,
+    reading,
     refuse_overwrite,
+    with_up,
 )
 
 
@@ -127,9 +131,17 @@ def _shortened(name: str) -> str:
 
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
 @click.argument("clip", type=PATH)
-def info(clip: str) -> None:
+@UP_OPTION
+@read_options
+def info(
+    clip: str,
+    up: str | None,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
+) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
-    motion = load(clip)
+    motion = with_up(reading(skeleton, body_model, exclude).load(clip), up)
     layout = motion.layout
     click.echo(f"{clip}")
     click.echo(
@@ -138,16 +150,22 @@ def info(clip: str) -> None:
         "(frames x frame time; frames are numbered from 0)"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
-    up = kinematics.up_axis(motion)
-    click.echo(
-        f"  up axis: {kinematics.AXES[up]}   body height: "
-        f"{kinematics.body_height(motion, up):.4g} units (rest pose)"
-    )
-    contacts, _ = contact_figures(motion)
-    for line in (
-        format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
-    ):
-        click.echo(f"  {line}")
+    for note in kinematics.source_notes(motion):
+        click.echo(f"  note: {note}")
+    skipped = kinematics.world_note(motion)
+    if skipped is not None:
+        click.echo(f"  world: skipped ({skipped})")
+    else:
+        axis = kinematics.up_axis(motion)
+        click.echo(
+            f"  up axis: {kinematics.AXES[axis]} ({'given' if up else 'found from the motion'})"
+            f"   body height: {kinematics.body_height(motion, axis):.4g} units"
+        )
+        contacts, _ = contact_figures(motion)
+        for line in (
+            format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
+        ):
+            click.echo(f"  {line}")
     for line in _dropout_lines(motion):
         click.echo(line)
     steps, at = metrics.largest_steps(motion.rotations, motion.missing)
@@ -193,31 +211,38 @@ def info(clip: str) -> None:
 @cli.command()
 @click.argument("source", type=PATH)
 @click.argument("target", type=PATH)
-@click.option(
-    "--skeleton",
-    type=PATH,
-    help="BVH whose skeleton a channel CSV is written back into.",
-)
+@read_options
 @click.option(
     "--world",
     is_flag=True,
     help="Write world positions of every joint and end site (file units) as CSV: "
     "time,<joint>.x,<joint>.y,<joint>.z,...",
 )
-def convert(source: str, target: str, skeleton: str | None, world: bool) -> None:
-    """Convert SOURCE to TARGET (BVH <-> CSV) by file extension."""
+def convert(
+    source: str,
+    target: str,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
+    world: bool,
+) -> None:
+    """Convert SOURCE to TARGET by file extension (BVH, CSV, SMPL .npz/.pkl, OpenSim
+    .mot/.sto, glTF .gltf/.glb), where the target format can hold the clip."""
     refuse_overwrite(Path(source), Path(target), in_place=False)
-    if skeleton:
-        refuse_overwrite(Path(skeleton), Path(target), in_place=False)
+    for extra in (skeleton, body_model):
+        if extra:
+            refuse_overwrite(Path(extra), Path(target), in_place=False)
+    read = reading(skeleton, body_model, exclude)
     if world:
         check_output(target, (".csv",), "a world-position CSV")
-        template = load(skeleton) if skeleton else None
-        atomic_write(target, world_csv_pieces(load(source, skeleton=template)))
+        motion = read.load(source)
+        skipped = kinematics.world_note(motion)
+        if skipped is not None:
+            raise MotionError(f"no world positions: {skipped}", source)
+        atomic_write(target, world_csv_pieces(motion))
         return
     check_clip_output(target)
-    template = load(skeleton) if skeleton else None
-    motion = load(source, skeleton=template)
-    save(motion, target)
+    save(read.load(source), target)
 
 
 @cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
@@ -225,7 +250,16 @@ def convert(source: str, target: str, skeleton: str | None, world: bool) -> None
 @click.argument("target", type=PATH)
 @click.option("--fps", type=float, help="New frame rate, frames per second.")
 @click.option("--frame-time", type=float, help="Or the new frame time, seconds.")
-def resample_command(source: str, target: str, fps: float | None, frame_time: float | None) -> None:
+@read_options
+def resample_command(
+    source: str,
+    target: str,
+    fps: float | None,
+    frame_time: float | None,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
+) -> None:
     """Write SOURCE at a new frame rate to TARGET (BVH or CSV by extension).
 
     Rotations follow a C1 cubic in angular displacements, positions the matching cubic;
@@ -238,7 +272,7 @@ def resample_command(source: str, target: str, fps: float | None, frame_time: fl
     pipeline = Pipeline.from_tables([step], "resample")
     refuse_overwrite(Path(source), Path(target), in_place=False)
     check_clip_output(target)
-    before = load(source)
+    before = reading(skeleton, body_model, exclude).load(source)
     after, _ = pipeline.run(before)
     save(after, target)
     click.echo(
@@ -261,6 +295,8 @@ def resample_command(source: str, target: str, fps: float | None, frame_time: fl
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+@UP_OPTION
+@read_options
 def clean(
     source: str,
     output: str | None,
@@ -269,6 +305,10 @@ def clean(
     report_paths: tuple[str, ...],
     in_place: bool,
     quiet: bool,
+    up: str | None,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
 ) -> None:
     """Clean SOURCE with a pipeline and write it to OUTPUT.
 
@@ -285,7 +325,7 @@ def clean(
         check_report_output(report_path)
     if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
         raise UsageError("--report names the same file twice")
-    result = clean_clip(source, None, pipeline)
+    result = clean_clip(source, None, pipeline, up, reading(skeleton, body_model, exclude))
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
@@ -330,15 +370,27 @@ def _dropout_lines(motion) -> list[str]:
 @click.argument("cleaned", type=PATH, required=False)
 @click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
 @click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
-def report(source: str, cleaned: str | None, json_path: str | None, html_path: str | None) -> None:
+@UP_OPTION
+@read_options
+def report(
+    source: str,
+    cleaned: str | None,
+    json_path: str | None,
+    html_path: str | None,
+    up: str | None,
+    skeleton: str | None,
+    body_model: str | None,
+    exclude: tuple[str, ...],
+) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
     for path in (json_path, html_path):
         if path:
             check_report_output(path)
     if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
         raise UsageError(f"{json_path}: --json and --html name the same file")
-    before = load(source)
-    after = load(cleaned) if cleaned else None
+    read = reading(skeleton, body_model, exclude)
+    before = with_up(read.load(source), up)
+    after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
         check_compatible(before, after)
     series = build_series(before, after)
@@ -423,7 +475,10 @@ def blend(
     help="Keep SECOND where it is instead of moving its root to where FIRST ends "
     "(horizontal position and heading).",
 )
-def stitch(first: str, second: str, output: str, levels: int, no_align: bool) -> None:
+@UP_OPTION
+def stitch(
+    first: str, second: str, output: str, levels: int, no_align: bool, up: str | None
+) -> None:
     """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
 
     SECOND is first moved so its root starts where FIRST's ends (same horizontal position
@@ -433,7 +488,8 @@ def stitch(first: str, second: str, output: str, levels: int, no_align: bool) ->
     for given in (first, second):
         refuse_overwrite(Path(given), Path(output), in_place=False)
     check_clip_output(output)
-    save(stitch_clips(load(first), load(second), levels, align=not no_align), output)
+    a, b = with_up(load(first), up), with_up(load(second), up)
+    save(stitch_clips(a, b, levels, align=not no_align), output)
 
 
 def _shown(value) -> str:

@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from ..core.errors import MotionError, UsageError
-from ..io import FORMATS
+from ..io import FORMATS, ReadOptions
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
@@ -21,6 +21,36 @@ REPORT_SUFFIXES = (".json", ".html", ".htm")
 PATH = click.Path(readable=False)
 FILE_PATH = click.Path(dir_okay=False, readable=False)
 FOLDER_PATH = click.Path(file_okay=False, readable=False)
+
+
+def read_options(command):
+    """The options that tell how to read files needing more than themselves: ``--skeleton``,
+    ``--body-model`` and ``--exclude`` (the command takes ``skeleton``, ``body_model`` and
+    ``exclude``; :func:`reading` makes them a :class:`~motionclean.io.ReadOptions`)."""
+    command = click.option(
+        "--exclude",
+        multiple=True,
+        metavar="PATTERN",
+        help="OpenSim .mot/.sto columns to leave untouched (fnmatch pattern, e.g. '*_force'); "
+        "repeatable.",
+    )(command)
+    command = click.option(
+        "--body-model",
+        type=FILE_PATH,
+        help="SMPL-family body model .npz (J_regressor, v_template, shapedirs) giving the joint "
+        "positions of .npz/.pkl SMPL clips.",
+    )(command)
+    return click.option(
+        "--skeleton",
+        type=FILE_PATH,
+        help="BVH skeleton: the template a channel CSV is read into, or the rig (matched by "
+        "joint name or order) giving the joint positions of .npz/.pkl SMPL clips.",
+    )(command)
+
+
+def reading(skeleton: str | None, body_model: str | None, exclude: tuple[str, ...]) -> ReadOptions:
+    """The :class:`~motionclean.io.ReadOptions` of :func:`read_options`' values."""
+    return ReadOptions(skeleton, body_model, tuple(exclude))
 
 
 class FiniteRange(click.FloatRange):
@@ -99,3 +129,17 @@ STEP_OPTION = click.option(
     metavar="STEP",
     help="Inline step NAME:key=value,...; repeatable, applied in order.",
 )
+
+
+UP_OPTION = click.option(
+    "--up",
+    type=click.Choice(["x", "y", "z"], case_sensitive=False),
+    callback=lambda ctx, param, value: None if value is None else value.lower(),
+    help="The clips' up axis (default: found from the motion: the feet are below the head; "
+    "a T-pose rest does not mislead it). World-space figures, feet and the player use it.",
+)
+
+
+def with_up(motion, up: str | None):
+    """``motion`` declared to have the up axis ``up`` (``--up``), or as it is."""
+    return motion if up is None else motion.replace(up=up)

@@ -97,12 +97,15 @@ def find_feet(
     height: float,
     names: list[str],
     patterns: list[str] | None = None,
+    elevation: np.ndarray | None = None,
 ) -> list[Foot]:
-    """The feet of a skeleton, found from its rest pose (or named by ``patterns``).
+    """The feet of a skeleton, found from its bones and poses (or named by ``patterns``).
 
-    ``rest`` ``(P, 3)`` are the rest-pose world positions of the points, ``up`` the up axis
-    (0, 1, 2) and ``height`` the body height. Without ``patterns``, a foot is the chain above a
-    leaf near the lowest rest point: walking up from the leaf, the ankle is the first point
+    ``rest`` ``(P, 3)`` are the rest-pose world positions of the points (their bone lengths
+    count), ``up`` the up axis (0, 1, 2) and ``height`` the body height; ``elevation``
+    ``(P,)`` each point's typical height above the lowest point of its pose (default: in
+    the rest pose). Without ``patterns``, a foot is the chain above a leaf near the lowest
+    point: walking up from the leaf, the ankle is the first point
     hanging from a long bone (the shin), the knee its parent and the hip the knee's parent
     (the thigh must be long too). Whatever the joint names, and none on a skeleton with no
     legs. ``patterns`` (fnmatch on joint names, e.g. ``["*Foot"]``) name the ankles instead.
@@ -120,7 +123,9 @@ def find_feet(
             j for j in range(n_joints) if any(fnmatch.fnmatchcase(names[j], p) for p in patterns)
         ]
     else:
-        low = rest[:, up] - rest[:, up].min() < FOOT_ZONE * height
+        if elevation is None:
+            elevation = rest[:, up] - rest[:, up].min()
+        low = elevation < FOOT_ZONE * height
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
         for leaf in leaves:
@@ -148,11 +153,18 @@ def find_feet(
 def skeleton_feet(
     motion: Motion, patterns: list[str] | None = None, up: str | None = None
 ) -> tuple[list[Foot], int, float]:
-    """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` on its rest
-    pose, with the up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
-    (:func:`~motionclean.core.kinematics.up_axis`)."""
+    """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` with the
+    up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
+    (:func:`~motionclean.core.kinematics.up_axis`), and each point's height above the
+    lowest point of its frame, median over the clip's sampled poses
+    (:func:`~motionclean.core.kinematics.sample_poses`): the rest pose may face another
+    way than the motion."""
     axis = kinematics.up_axis(motion, up)
     height = kinematics.body_height(motion, axis)
+    poses, _ = kinematics.sample_poses(motion)
+    elevation = None
+    if poses.shape[0]:
+        elevation = np.median(poses[..., axis] - poses[..., axis].min(axis=1, keepdims=True), 0)
     feet = find_feet(
         kinematics.point_parents(motion),
         kinematics.rest_positions(motion),
@@ -160,6 +172,7 @@ def skeleton_feet(
         height,
         motion.names,
         patterns,
+        elevation,
     )
     return feet, axis, height
 
@@ -214,6 +227,124 @@ def lowest_points(positions: np.ndarray, feet: list[Foot], up: int) -> np.ndarra
     return np.stack([positions[:, list(f.points), up].min(axis=1) for f in feet], axis=1)
 
 
+@dataclass(frozen=True)
+class Floor:
+    """A ground plane: ``normal`` ``(3,)`` (unit, pointing up) and ``offset``, so a point
+    ``p`` stands ``normal . p - offset`` above it (length units); ``up`` is the clip's up
+    axis."""
+
+    normal: np.ndarray
+    offset: float
+    up: int
+
+    @classmethod
+    def level(cls, height: float, up: int) -> Floor:
+        """The level floor at ``height`` along the up axis ``up``."""
+        return cls(np.eye(3)[up], float(height), up)
+
+    def above(self, points: np.ndarray) -> np.ndarray:
+        """Height of ``points`` ``(..., 3)`` above the floor (negative below it)."""
+        return points @ self.normal - self.offset
+
+    @property
+    def tilt_deg(self) -> float:
+        """Angle between the floor and the level plane, degrees."""
+        return float(np.degrees(np.arccos(np.clip(self.normal[self.up], -1.0, 1.0))))
+
+    def height_at(self, point: np.ndarray) -> float:
+        """The floor's height along the up axis below ``point`` ``(3,)``."""
+        horizontal = point @ self.normal - point[self.up] * self.normal[self.up]
+        return float((self.offset - horizontal) / self.normal[self.up])
+
+
+#: Floors are fitted with this prior spread of the slope (rise per unit run, about 6
+#: degrees) ...
+FLOOR_SLOPE_PRIOR = 0.1
+#: ... against this spread of the contacts' soles about the plane (body heights): a slope
+#: is believed where the soles span a few body heights (a walk across a tilted floor),
+#: not from the hand's breadth between a left and a right footprint.
+FLOOR_SPREAD = 0.03
+
+
+def contact_soles(
+    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int
+) -> np.ndarray:
+    """``(n, 3)``: for each contact (of every foot), the foot's lowest point on the frame
+    where it is lowest: where the sole meets the floor."""
+    soles = []
+    for k, foot in enumerate(feet):  # a handful of feet; one contact's frames at once
+        points = positions[:, list(foot.points)]
+        lowest = points[..., up].argmin(axis=1)
+        sole = points[np.arange(len(points)), lowest]
+        for first, last in contact_runs(contacts[:, [k]])[0]:
+            soles.append(sole[first + int(sole[first : last + 1, up].argmin())])
+    return np.array(soles, dtype=np.float64).reshape(-1, 3)
+
+
+def fit_floor(soles: np.ndarray, up: int, height: float, quantile: float = 0.5) -> Floor | None:
+    """The plane through the contacts' soles ``(n, 3)`` (:func:`contact_soles`): height
+    along the up axis as a linear function of the horizontal position, least squares with
+    a prior on the slope (:data:`FLOOR_SLOPE_PRIOR`, :data:`FLOOR_SPREAD`). Soles more
+    than 3 robust deviations (1.4826 MAD) from the median height, then from the first fit,
+    are left out (a foot on a step, a misplaced contact). The plane is then moved along
+    the up axis to the ``quantile`` of the kept soles' heights above it (0.5: through the
+    middle of them, 0: under every one). None without soles."""
+    if soles.shape[0] == 0:
+        return None
+    across = [a for a in range(3) if a != up]
+    ridge = (FLOOR_SPREAD * height / FLOOR_SLOPE_PRIOR) ** 2
+    slope, level = np.zeros(2), float(np.median(soles[:, up]))
+    keep = np.ones(soles.shape[0], dtype=bool)
+    for _ in range(2):
+        residual = soles[:, up] - level - soles[:, across] @ slope
+        centre = np.median(residual[keep])
+        spread = 1.4826 * np.median(np.abs(residual[keep] - centre))
+        keep = np.abs(residual - centre) <= 3.0 * spread + 1e-9 * height
+        x, h = soles[keep][:, across], soles[keep][:, up]
+        dx = x - x.mean(axis=0)
+        slope = np.linalg.solve(dx.T @ dx + ridge * np.eye(2), dx.T @ (h - h.mean()))
+        level = float(h.mean() - slope @ x.mean(axis=0))
+    residual = soles[keep, up] - level - soles[keep][:, across] @ slope
+    level += float(np.quantile(residual, quantile))
+    normal = np.zeros(3)
+    normal[up] = 1.0
+    normal[across] = -slope
+    scale = float(np.linalg.norm(normal))
+    return Floor(normal / scale, level / scale, up)
+
+
+#: Passes of contacts found above the floor and the floor fitted again (a tilted floor's
+#: high side joins the contacts a pass at a time).
+FLOOR_PASSES = 4
+
+
+def find_floor(
+    positions: np.ndarray,
+    feet: list[Foot],
+    up: int,
+    height: float,
+    frame_time: float,
+    params: ContactParams = ContactParams(),
+) -> tuple[Floor | None, np.ndarray]:
+    """The floor (:func:`fit_floor`) and the soles ``(n, 3)`` it rests on: contacts found
+    above a level ground, a plane fitted through their soles, then contacts found again
+    above that plane (on a tilted floor the first pass misses the feet on its high side)
+    and the plane fitted again, up to :data:`FLOOR_PASSES` times."""
+    contacts, _ = detect(positions, feet, up, height, frame_time, params)
+    soles = contact_soles(positions, feet, contacts, up)
+    floor = fit_floor(soles, up, height)
+    for _ in range(FLOOR_PASSES):
+        if floor is None:
+            break
+        found, _ = detect(positions, feet, up, height, frame_time, params, floor=floor)
+        if np.array_equal(found, contacts):
+            break
+        contacts = found
+        soles = contact_soles(positions, feet, contacts, up)
+        floor = fit_floor(soles, up, height) or floor
+    return floor, soles
+
+
 def estimate_ground(lowest: np.ndarray) -> float:
     """The ground height: the 5th percentile of the feet's lowest points over the clip."""
     return float(np.percentile(lowest, 5.0))
@@ -227,13 +358,15 @@ def detect(
     frame_time: float,
     params: ContactParams = ContactParams(),
     ground: float | None = None,
+    floor: Floor | None = None,
 ) -> tuple[np.ndarray, float]:
     """Frames where each foot is on the ground: ``(F, n_feet)`` bool, and the ground height.
 
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
     the ground and the ankle moves slower than ``params.speed`` body heights per second; it
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis); contacts shorter
-    than ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`.
+    than ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
+    with a ``floor`` (a plane, tilted or not) heights are taken above it instead.
     """
     n_frames = positions.shape[0]
     contacts = np.zeros((n_frames, len(feet)), dtype=bool)
@@ -242,7 +375,13 @@ def detect(
     lowest = lowest_points(positions, feet, up)
     if ground is None:
         ground = estimate_ground(lowest)
-    above = (lowest - ground) / height
+    if floor is None:
+        above = (lowest - ground) / height
+    else:
+        above = np.stack(
+            [floor.above(positions[:, list(f.points)]).min(axis=1) for f in feet], axis=1
+        )
+        above /= height
     speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
     strict = (above < params.height) & (speed < params.speed)
     loose = (above < params.height_off) & (speed < params.speed_off)
@@ -312,7 +451,7 @@ def sliding_contacts(
     kept = contacts.copy()
     for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
         label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
-        if label.max() == 0:
+        if not label.any():
             continue
         moving = np.r_[False, contacts[1:, k] & contacts[:-1, k]]  # speed within the contact
         total = np.bincount(label, weights=np.where(moving, speeds[:, k], 0.0))

@@ -20,6 +20,7 @@ from .motion import Motion
 
 __all__ = [
     "AXES",
+    "axis_index",
     "body_height",
     "end_effectors",
     "end_site_names",
@@ -28,10 +29,24 @@ __all__ = [
     "local_translations",
     "point_parents",
     "rest_positions",
+    "sample_poses",
+    "trunk_split",
     "up_axis",
 ]
 
 AXES = "xyz"
+
+
+def world_note(motion: Motion) -> str | None:
+    """Why ``motion`` has no world positions (its format holds no joint positions, e.g. SMPL
+    parameters read without a skeleton: ``source.no_world``), or None when it has them."""
+    return getattr(motion.source, "no_world", None)
+
+
+def source_notes(motion: Motion) -> tuple[str, ...]:
+    """What the reader had to assume or choose (``source.notes``: a frame rate taken, one
+    person of several read ...), to show beside the clip's figures."""
+    return tuple(getattr(motion.source, "notes", ()))
 
 
 def _ancestor_jumps(parents: np.ndarray):
@@ -373,39 +388,139 @@ def rest_positions(motion: Motion) -> np.ndarray:
     return positions[0]
 
 
+#: Frames (evenly spaced) of a clip whose poses give its up axis and body height.
+POSE_SAMPLES = 256
+#: A rest pose stands upright when its trunk points within this cosine of an axis.
+UPRIGHT_COSINE = 0.9
+
+
+def axis_index(axis: str | int) -> int:
+    """``"x"``, ``"y"``, ``"z"`` (any case) or 0-2 as an axis index; ValueError otherwise."""
+    if isinstance(axis, str):
+        if axis.lower() not in AXES:
+            raise ValueError(f"up axis must be x, y or z, got {axis!r}")
+        return AXES.index(axis.lower())
+    if axis not in (0, 1, 2):
+        raise ValueError(f"up axis must be 0, 1 or 2, got {axis!r}")
+    return int(axis)
+
+
 def up_axis(motion: Motion, override: str | int | None = None) -> int:
-    """The up axis (0 = x, 1 = y, 2 = z): the axis along which the rest pose (for
-    independent tracked bodies: the first frame) is tallest, or ``override`` (``"x"``,
-    ``"y"``, ``"z"`` or 0-2)."""
+    """The up axis (0 = x, 1 = y, 2 = z): ``override`` (``"x"``, ``"y"``, ``"z"`` or 0-2),
+    else the one the clip declares (:attr:`Motion.up`), else the one found from its motion.
+
+    Found from the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the
+    rest pose alone (a T-pose's arm span equals its height): where the skeleton has a trunk
+    (:func:`trunk_split`: an upper body above the legs), the axis the vector from the legs'
+    centroid to the upper body's points along on average (the feet are below the head);
+    otherwise the axis of the largest median extent of a frame's points. Both are the same
+    answer on a turned copy of the clip (a Z-up export of a Y-up one).
+    """
+    if override is None:
+        override = motion.up
     if override is not None:
-        if isinstance(override, str):
-            if override.lower() not in AXES:
-                raise ValueError(f"up axis must be x, y or z, got {override!r}")
-            return AXES.index(override.lower())
-        if override not in (0, 1, 2):
-            raise ValueError(f"up axis must be 0, 1 or 2, got {override!r}")
-        return int(override)
-    return int(np.argmax(np.ptp(_standing_points(motion), axis=0)))
+        return axis_index(override)
+    poses, known = sample_poses(motion)
+    if poses.shape[0] == 0:
+        poses, known = rest_positions(motion)[None], None
+    split = trunk_split(point_parents(motion))
+    if split is not None and known is None:
+        upper, lower = split
+        along = poses[:, upper].mean(axis=1) - poses[:, lower].mean(axis=1)
+        length = np.linalg.norm(along, axis=-1, keepdims=True)
+        mean = (along / np.where(length > 0.0, length, 1.0)).mean(axis=0)
+        if np.abs(mean).max() > 0.0:
+            return int(np.argmax(np.abs(mean)))
+    return int(np.argmax(_median_extent(poses, known)))
 
 
-def _standing_points(motion: Motion) -> np.ndarray:
-    """The rest pose's points, or for a clip whose offsets span nothing (independent
-    tracked bodies) each body's position on the first frame it is tracked."""
-    rest = rest_positions(motion)
-    if np.ptp(rest, axis=0).max() > 0.0 or motion.n_frames == 0:
-        return rest
-    if motion.missing is None:  # the first frame only
-        return world_positions(motion.at_frames(slice(0, 1)), end_sites=False)[0]
-    seen = ~motion.missing.all(axis=0)  # bodies never tracked have no place to stand
-    first = np.argmax(~motion.missing, axis=0)[seen]
-    frames = np.unique(first)
-    positions = world_positions(motion.at_frames(frames), end_sites=False)
-    return positions[np.searchsorted(frames, first), np.flatnonzero(seen)]
+def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
+    """World positions ``(S, P, 3)`` of joints and end sites on up to
+    :data:`POSE_SAMPLES` evenly spaced frames, and ``(S, P)`` True where a point is known
+    (None when every point is: no tracker dropouts)."""
+    frames = np.unique(np.linspace(0, motion.n_frames - 1, min(motion.n_frames, POSE_SAMPLES)))
+    frames = frames.round().astype(np.intp)
+    poses = world_positions(motion.at_frames(frames))
+    unknown = missing_points(motion)
+    return poses, None if unknown is None else ~unknown[frames]
+
+
+def _median_extent(poses: np.ndarray, known: np.ndarray | None) -> np.ndarray:
+    """``(3,)`` median over frames of the extent of a frame's (known) points per axis."""
+    if known is None:
+        return np.median(np.ptp(poses, axis=1), axis=0)
+    seen = known[..., None]
+    top = np.where(seen, poses, -np.inf).max(axis=1)
+    bottom = np.where(seen, poses, np.inf).min(axis=1)
+    usable = known.sum(axis=1) >= 2
+    if not usable.any():
+        return np.zeros(3)
+    return np.median(top[usable] - bottom[usable], axis=0)
+
+
+def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The upper body and the legs of a skeleton, from its tree alone (any names, any
+    pose): ``(upper, lower)`` point indices, or None when it has no trunk.
+
+    ``parents`` ``(P,)`` are the points' parents (joints then end sites, -1 for the root).
+    From the single root down to the first point with several children (the pelvis; a
+    floor-level root above it is passed), the upper body is the child subtree with the
+    most points, holding at least three leaves (head and hands) and more points than any
+    other; the legs are the other subtrees. A hand, a pair of legs alone or independent
+    tracked bodies have none.
+    """
+    parents = np.asarray(parents, dtype=np.intp)
+    roots = np.flatnonzero(parents < 0)
+    if roots.size != 1:
+        return None
+    children: list[list[int]] = [[] for _ in parents]
+    for child, parent in enumerate(parents.tolist()):
+        if parent >= 0:
+            children[parent].append(child)
+    pelvis = int(roots[0])
+    while len(children[pelvis]) == 1:
+        pelvis = children[pelvis][0]
+    if len(children[pelvis]) < 2:
+        return None
+    subtrees = [_subtree(children, c) for c in children[pelvis]]
+    sizes = [len(t) for t in subtrees]
+    top = int(np.argmax(sizes))
+    leaves = sum(1 for p in subtrees[top] if not children[p])
+    if leaves < 3 or sizes.count(sizes[top]) > 1:
+        return None
+    lower = [p for k, t in enumerate(subtrees) if k != top for p in t]
+    return np.array(subtrees[top], dtype=np.intp), np.array(lower, dtype=np.intp)
+
+
+def _subtree(children: list[list[int]], start: int) -> list[int]:
+    found, stack = [], [start]
+    while stack:
+        point = stack.pop()
+        found.append(point)
+        stack.extend(children[point])
+    return sorted(found)
 
 
 def body_height(motion: Motion, up: int | None = None) -> float:
-    """Height of the rest pose along the up axis, in file units (the scale of every
-    threshold relative to the body); for independent tracked bodies, of their positions on
-    the first frame."""
+    """The body's standing height in file units (the scale of every threshold relative to
+    the body).
+
+    Where the rest pose stands upright (its trunk, :func:`trunk_split`, within
+    :data:`UPRIGHT_COSINE` of an axis: a T- or A-pose, whichever way the clip turns it),
+    its extent along that axis; otherwise the median over frames of the extent of a frame's
+    points along the up axis (``up``, default :func:`up_axis`): a clip whose rest pose is
+    not a standing pose, and independent tracked bodies.
+    """
+    rest = rest_positions(motion)
+    split = trunk_split(point_parents(motion))
+    if split is not None:
+        upper, lower = split
+        trunk = rest[upper].mean(axis=0) - rest[lower].mean(axis=0)
+        length = float(np.linalg.norm(trunk))
+        if length > 0.0 and np.abs(trunk).max() >= UPRIGHT_COSINE * length:
+            return float(np.ptp(rest[:, int(np.argmax(np.abs(trunk)))]))
     axis = up_axis(motion) if up is None else up
-    return float(np.ptp(_standing_points(motion)[:, axis]))
+    poses, known = sample_poses(motion)
+    if poses.shape[0] == 0:
+        return float(np.ptp(rest[:, axis]))
+    return float(_median_extent(poses, known)[axis])

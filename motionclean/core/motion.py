@@ -22,6 +22,9 @@ from . import checks, quat
 from .errors import InvalidMotion, MotionError
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 
+#: The axes a clip may declare as up (:attr:`Motion.up`).
+UP_AXES = ("x", "y", "z")
+
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
@@ -244,6 +247,10 @@ class Motion:
         True where a joint's sample is unknown (a tracker dropout: blank cells in a CSV).
         The arrays hold placeholders there (the nearest known sample of the joint, see
         :func:`hold_missing`), so they stay finite and unit; None when nothing is missing.
+    up : str or None
+        The up axis the clip is declared to have (``"x"``, ``"y"`` or ``"z"``: given by the
+        user, or known from the format); None lets world-space code find it from the
+        motion (:func:`motionclean.core.kinematics.up_axis`).
     """
 
     names: list[str]
@@ -259,6 +266,7 @@ class Motion:
     source: Any = None
     path: str | None = None
     missing: np.ndarray | None = None
+    up: str | None = None
 
     def __post_init__(self) -> None:
         self.check()
@@ -286,6 +294,8 @@ class Motion:
                 f"{name}: joint {self.names[joint]!r} has a non-finite value at frame {frame}"
             )
         self._check_missing(frames, n)
+        if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):
+            raise InvalidMotion(f"up: expected one of x, y, z or None, got {self.up!r}")
         if checks.all_unit(self.rotations):
             return
         with np.errstate(over="ignore"):  # a huge quaternion has norm inf: refused too

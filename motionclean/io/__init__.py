@@ -1,19 +1,24 @@
-"""File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension."""
+"""File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension.
+
+``.bvh``, ``.csv`` (channel, rigid-body or OptiTrack Motive), ``.npz`` and ``.pkl`` (SMPL
+parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf`` and ``.glb``, and
+``.fbx`` through Blender's ``bpy`` module (the ``[blender]`` extra, :mod:`.fbx`).
+"""
 
 from __future__ import annotations
 
 import os
 import tempfile
 from collections.abc import Callable, Iterable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from . import bvh, csv, motive
+from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
-__all__ = ["FORMATS", "atomic_write", "load", "save"]
+__all__ = ["FORMATS", "ReadOptions", "atomic_write", "load", "save"]
 
 
 def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
@@ -27,6 +32,13 @@ def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
 _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
     ".bvh": bvh.bvh_pieces,
     ".csv": _csv_pieces,
+    ".npz": smpl.npz_pieces,
+    ".pkl": pkl.pickle_pieces,
+    ".mot": opensim.opensim_pieces,
+    ".sto": opensim.opensim_pieces,
+    ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
+    ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
+    ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -42,12 +54,19 @@ def _suffix(path: Path, table: Iterable[str]) -> str:
     return suffix
 
 
-def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
-    """Read a clip; the format follows the extension (``.bvh`` or ``.csv``).
+def load(
+    path: str | os.PathLike,
+    skeleton: Motion | None = None,
+    body_model: str | os.PathLike | None = None,
+    exclude: Iterable[str] = (),
+) -> Motion:
+    """Read a clip; the format follows the extension (see the module).
 
     A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack Motive export
     (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
-    the BVH template a channel CSV is read into.
+    the BVH template a channel CSV is read into, or the rig whose offsets SMPL joints take
+    (``io.smpl``), as they take them from a ``body_model`` file (``.npz``); ``exclude``
+    names (fnmatch patterns) OpenSim columns carried untouched (``io.opensim``).
 
     A file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
     memory: the clip keeps it open (one file descriptor while the clip is in use) and its
@@ -55,10 +74,20 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     """
     path = Path(path)
     suffix = _suffix(path, FORMATS)
+    if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
+        return fbx.load_fbx(path)
     data, on_disk = read_regular_file(path, keep_large=True)
     try:
         if suffix == ".bvh":
             motion = bvh.parse_bvh(data, path)
+        elif suffix in (".npz", ".pkl"):
+            model = None if body_model is None else smpl.read_body_model(body_model)
+            parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
+            motion = parse(data, path, skeleton=skeleton, body_model=model)
+        elif suffix in (".mot", ".sto"):
+            motion = opensim.parse_opensim(data, path, exclude=exclude)
+        elif suffix in (".gltf", ".glb"):
+            motion = gltf.parse_gltf(data, path)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)
         else:
@@ -78,8 +107,24 @@ def load(path: str | os.PathLike, skeleton: Motion | None = None) -> Motion:
     return motion
 
 
+@dataclass(frozen=True)
+class ReadOptions:
+    """What some files need besides themselves, given once for every clip a command reads
+    (picklable: batch workers get it): a BVH ``skeleton`` (a channel CSV's template, a SMPL
+    clip's rig), a SMPL ``body_model`` file and OpenSim columns to ``exclude``."""
+
+    skeleton: str | None = None
+    body_model: str | None = None
+    exclude: tuple[str, ...] = ()
+
+    def load(self, path: str | os.PathLike) -> Motion:
+        """:func:`load` of ``path`` with these options."""
+        template = load(self.skeleton) if self.skeleton else None
+        return load(path, skeleton=template, body_model=self.body_model, exclude=self.exclude)
+
+
 def save(motion: Motion, path: str | os.PathLike) -> None:
-    """Write a clip atomically; the format follows the extension (``.bvh`` or ``.csv``).
+    """Write a clip atomically; the format follows the extension (see the module).
 
     Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
     InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled

@@ -538,6 +538,38 @@ def parse_bvh(data: bytes, path=None) -> Motion:
         raise MotionError(error.message, path) from None
 
 
+def _depth_first(motion: Motion) -> Motion:
+    """``motion`` with its joints in the depth-first order a BVH lists them (children in
+    joint order), so that each frame's values follow the hierarchy written; itself when
+    they are already (a clip read from BVH, or independent bodies)."""
+    children: dict[int, list[int]] = {}
+    for j, parent in enumerate(motion.parents.tolist()):
+        children.setdefault(parent, []).append(j)
+    order: list[int] = []
+    stack = list(reversed(children.get(-1, [])))
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(children.get(j, [])))
+    if order == list(range(motion.n_joints)):
+        return motion
+    index = np.array(order, dtype=np.intp)
+    position = np.argsort(index)
+    parents = np.where(motion.parents[index] >= 0, position[motion.parents[index]], -1)
+    return motion.replace(
+        names=[motion.names[j] for j in order],
+        parents=parents,
+        offsets=motion.offsets[index],
+        channels=[motion.channels[j] for j in order],
+        end_sites={int(position[j]): site for j, site in motion.end_sites.items()},
+        rotations=motion.rotations[:, index],
+        translations=motion.translations[:, index],
+        source_values=None,
+        source_rotations=None,
+        missing=None if motion.missing is None else motion.missing[:, index],
+    )
+
+
 def _format_hierarchy(motion: Motion) -> bytes:
     """A tab-indented HIERARCHY section for a motion that has no source text."""
     children: dict[int, list[int]] = {}
@@ -632,14 +664,19 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     """
     if getattr(motion.source, "needs_skeleton", False):
         raise MotionError(
-            "this clip has no skeleton (a channel CSV read without one); to write BVH, read "
-            "it with a skeleton template (motionclean convert CLIP.csv OUT.bvh --skeleton "
-            "TEMPLATE.bvh)",
+            getattr(
+                motion.source,
+                "no_skeleton_message",
+                "this clip has no skeleton (a channel CSV read without one); to write BVH, "
+                "read it with a skeleton template (motionclean convert CLIP.csv OUT.bvh "
+                "--skeleton TEMPLATE.bvh)",
+            ),
             motion.path,
         )
     _refuse_gaps(motion)
     src = motion.source if isinstance(motion.source, BvhText) else None
     if src is None:
+        motion = _depth_first(motion)
         hierarchy, eol = _format_hierarchy(motion), b"\n"
     else:
         hierarchy, eol = src.hierarchy, src.eol

@@ -144,14 +144,16 @@ def _path(
     y0: float,
     y_scale: float,
     top: float,
+    bottom: float = 0.0,
 ) -> str:
-    """SVG path data tracing an envelope as a zig-zag (min then max, then max then min).
+    """SVG path data tracing an envelope as a zig-zag (min then max, then max then min),
+    values clipped to ``bottom..top`` (``y0`` is where ``bottom`` is drawn).
 
     Columns whose min and max are within half a unit get a single point.
     """
     x = LEFT + position * x_scale
-    lo = y0 - np.minimum(low, top) * y_scale
-    hi = y0 - np.minimum(high, top) * y_scale
+    lo = y0 - (np.clip(low, bottom, top) - bottom) * y_scale
+    hi = y0 - (np.clip(high, bottom, top) - bottom) * y_scale
     first = np.where(np.arange(x.size) % 2 == 0, lo, hi)
     second = np.where(np.arange(x.size) % 2 == 0, hi, lo)
     double = np.abs(lo - hi) >= 0.5
@@ -172,27 +174,34 @@ def _panel(
     height: float,
     label: str,
     floor: float = 0.0,
+    signed: bool = False,
 ) -> list[str]:
     """One plot panel: grid, axes, ticks and the series ``(trace, colour, name)``.
 
     Sample ``k`` of a trace belongs to frame ``offset + k``; the x axis spans frames
     0..frames-1. The y axis reaches at least ``floor``, so rounding-level values stay flat
-    at the bottom.
+    at the bottom. It starts at 0, or with ``signed`` at the lowest value when that is
+    negative (a foot below the ground), with a line at 0.
     """
     out: list[str] = []
     span = max(frames - 1, 1)
     x_scale = COLUMNS / span
     peak = max((t.peak for t, _, _ in series if t.size), default=0.0)
     robust = max((t.robust for t, _, _ in series if t.size), default=0.0)
+    deepest = min((float(t.low.min()) for t, _, _ in series if t.size), default=0.0)
+    depth = max(-deepest, 0.0) if signed else 0.0
     # A few samples far above the rest (a glitch) would flatten the plot: clip them.
     limit = max(1.2 * robust if peak > SPIKE * robust > 0 else peak, floor)
-    step = _nice_step(limit, 4 if height >= 100 else 2) if limit > 0 else 1.0
-    top = step * max(math.ceil(limit / step - 1e-9), 1)
+    reach = limit + depth
+    step = _nice_step(reach, 4 if height >= 100 else 2) if reach > 0 else 1.0
+    top = step * max(math.ceil(limit / step - 1e-9), 0 if depth else 1)
+    bottom = -step * math.ceil(depth / step - 1e-9)
     clipped = peak > top
     y0 = top_y + height
-    y_scale = height / top
-    for k in range(int(round(top / step)) + 1):
-        y = y0 - k * step * y_scale
+    y_scale = height / (top - bottom)
+    below = int(round(-bottom / step))
+    for k in range(-below, int(round(top / step)) + 1):
+        y = y0 - (k * step - bottom) * y_scale
         out.append(
             f'<line class="gridline" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y:.1f}" y2="{y:.1f}"/>'
         )
@@ -208,9 +217,12 @@ def _panel(
     for drawn, colour, name in series:
         if not drawn.size:
             continue
-        data = _path(drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top)
+        data = _path(
+            drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top, bottom
+        )
         out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
-    out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{y0}" y2="{y0}"/>')
+    zero = y0 + bottom * y_scale
+    out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{zero}" y2="{zero}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
     return out
 
@@ -504,9 +516,9 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     text += f"; below ground {_short(pen['before'])}"
     text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
     text += " units"
-    series = [(trace(np.maximum(data["height_before"], 0.0)), BEFORE, "height before")]
+    series = [(trace(data["height_before"]), BEFORE, "height before")]
     if data["height_after"] is not None:
-        series.append((trace(np.maximum(data["height_after"], 0.0)), AFTER, "height after"))
+        series.append((trace(data["height_after"]), AFTER, "height after"))
     x_scale = COLUMNS / max(frames - 1, 1)
     shades = [
         f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '
@@ -516,7 +528,13 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     ]
     height = ACCEL_TOP + ACCEL_HEIGHT + 30
     parts = shades + _panel(
-        series, 0, frames, ACCEL_TOP, ACCEL_HEIGHT, "lowest point above the ground, units"
+        series,
+        0,
+        frames,
+        ACCEL_TOP,
+        ACCEL_HEIGHT,
+        "lowest point above the ground (below it: negative), units",
+        signed=True,
     )
     parts += _frame_ticks(frames, ACCEL_TOP + ACCEL_HEIGHT + 4)
     svg = (

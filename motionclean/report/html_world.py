@@ -306,7 +306,13 @@ CSS = (
 
 def world_section(report: dict, series: dict | None) -> list[str]:
     """HTML blocks: the skeleton player, then every end effector's trajectory seen from
-    above and from the side (input and cleaned overlaid)."""
+    above and from the side (input and cleaned overlaid); or why there are none."""
+    skipped = (report.get("world") or {}).get("skipped")
+    if skipped:
+        return [
+            "<h2>The motion</h2>",
+            f'<div class="legend">no skeleton player: {html.escape(skipped)}</div>',
+        ]
     if series is None or not series.get("world"):
         return []
     world = series["world"]
@@ -319,13 +325,21 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         else f"{frames:,} of {report['frames']:,} frames, evenly spaced"
     )
     cards = [_trajectory_card(name, p, world) for name, p in world["effectors"].items()]
+    figures = report.get("world") or {}
+    axes = ""
+    if figures:
+        how = "given" if figures.get("up_axis_source") == "given" else "found from the motion"
+        axes = (
+            f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), body height "
+            f"{figures['body_height']:.4g} units</span>"
+        )
     return [
         f"<style>{CSS}</style>",
         "<h2>The motion</h2>",
         '<div class="legend">'
         f'<span><i class="key" style="background:{BEFORE}"></i>input</span>'
         f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
-        f"<span>{shown}; open a frame with #frame=N in the address</span></div>",
+        f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
         _player(world, float(report["frame_time"])),
         "<h2>Where the hands, feet and head go</h2>",
         '<div class="grid">',

@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.threads import run_parts
@@ -55,21 +56,31 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     # World positions of the points the contact and world figures read (found once, on the
     # input), once per clip (the world rotations and the other points are not kept), let
     # go of before the per-frame tables are made.
-    used = figure_points(before)
-    points = run_parts(
-        lambda clip: None if clip is None else figure_positions(clip, used),
-        clips,
-        before.rotations.size,
+    skipped = kinematics.world_note(before)
+    # (no joint positions: no contact or world figure means anything)
+    used = None if skipped is not None else figure_points(before)
+    points = (
+        [None, None]
+        if used is None
+        else run_parts(
+            lambda clip: None if clip is None else figure_positions(clip, used),
+            clips,
+            before.rotations.size,
+        )
     )
-    contacts, feet = contact_figures(before, after, points, used)
     lead, trail = rest_frames(before)
     core = slice(lead, before.n_frames - trail)
-    figures = world_figures(
-        trim(before, lead, trail),
-        None if after is None else trim(after, lead, trail),
-        [None if p is None else p[core] for p in points],
-        used,
-    )
+    if skipped is not None:
+        contacts, figures = None, {"skipped": skipped}
+        feet: dict = {}
+    else:
+        contacts, feet = contact_figures(before, after, points, used)
+        figures = world_figures(
+            trim(before, lead, trail),
+            None if after is None else trim(after, lead, trail),
+            [None if p is None else p[core] for p in points],
+            used,
+        )
     del points
     rotating = before.layout.has_rotation
     rot = np.flatnonzero(rotating)
@@ -106,7 +117,7 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
-        "world": world_series(before, after),
+        "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
 
@@ -223,7 +234,7 @@ def build_report(
         joints.setdefault(name, {}).update(entry)
     for name, note in (notes or {}).items():
         joints.setdefault(name, {}).update(note)
-    return {
+    report = {
         "file": file if file is not None else before.path,
         "frames": frames,
         "frame_time": before.frame_time,
@@ -234,6 +245,10 @@ def build_report(
         "contacts": series["contacts"],
         "rest_frames": {"leading": lead, "trailing": trail},
     }
+    said = kinematics.source_notes(before)  # what the reader assumed: only when it did
+    if said:
+        report["notes"] = list(said)
+    return report
 
 
 def json_safe(value: Any) -> Any:
@@ -313,6 +328,7 @@ def format_table(report: dict, limit: int = 10) -> str:
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         lines.append(format_rest(rest, report["frames"]))
+    lines.extend(f"note: {note}" for note in report.get("notes", ()))
     if "world" in report:
         lines.append(format_world(report["world"]))
     if report.get("contacts"):

@@ -18,8 +18,12 @@ from .metrics import pair, rms_and_max
 
 
 def format_world(world: dict) -> str:
-    """One line: up axis, body height and the end effector that moved most."""
-    text = f"world: up axis {world['up_axis']}, body height {world['body_height']:.4g} units"
+    """One line: up axis, body height and the end effector that moved most (or why the
+    clip has no world figures)."""
+    if "skipped" in world:
+        return f"world: skipped ({world['skipped']})"
+    given = " (given)" if world.get("up_axis_source") == "given" else ""
+    text = f"world: up axis {world['up_axis']}{given}, body height {world['body_height']:.4g} units"
     worst = world.get("worst_deviation")
     if worst is not None:
         text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
@@ -79,7 +83,8 @@ def world_figures(
     points: list | None = None,
     used: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """The report's ``world`` section: up axis, body height (file units) and, per end
+    """The report's ``world`` section: up axis (and whether it was ``"given"`` with the clip,
+    :attr:`Motion.up`, or ``"found"`` from its motion), body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
@@ -128,6 +133,7 @@ def world_figures(
         }
     return {
         "up_axis": kinematics.AXES[up],
+        "up_axis_source": "found" if before.up is None else "given",
         "body_height": height,
         "effectors": effectors,
         "worst_deviation": worst,
@@ -147,7 +153,10 @@ def contact_figures(
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below the ground, units) before and after. ``None`` and no
     series for a clip without feet. The series hold each foot's lowest point above the
-    ground per frame, before and after. ``points`` and ``used`` as in :func:`world_figures`.
+    ground per frame, before and after. ``floor`` is the plane through the contacts' soles
+    (:func:`~motionclean.core.contacts.fit_floor`): its height along the up axis at their
+    centre, its tilt from level (degrees) and normal, and how many contacts it rests on
+    (None without contacts). ``points`` and ``used`` as in :func:`world_figures`.
     """
     skeleton_feet, up, height = found.skeleton_feet(before)
     if not skeleton_feet:
@@ -169,9 +178,18 @@ def contact_figures(
         depth = [found.penetration(p, feet, up, ground) for p in clips]
         low = [found.lowest_points(p, feet, up) - ground for p in clips]
     runs = found.contact_runs(contacts)
+    floor, soles = found.find_floor(positions, feet, up, height, dt)
     section: dict[str, Any] = {
         "up_axis": kinematics.AXES[up],
         "ground": ground if grounded else None,
+        "floor": None
+        if floor is None
+        else {
+            "height": floor.height_at(soles.mean(axis=0)),
+            "tilt_deg": floor.tilt_deg,
+            "normal": [float(v) for v in floor.normal],
+            "contacts": int(soles.shape[0]),
+        },
         "feet": {},
     }
     series: dict[str, dict] = {}
@@ -202,8 +220,15 @@ def contact_figures(
 
 
 def format_contacts(section: dict) -> list[str]:
-    """One terminal line per foot: contacts, skate before/after, penetration."""
+    """One terminal line for the floor, then one per foot: contacts, skate before/after,
+    penetration."""
     lines = []
+    floor = section.get("floor")
+    if floor:
+        lines.append(
+            f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
+            f"(through the soles of {floor['contacts']} contacts)"
+        )
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
         text = f"foot {name}: {len(foot['contacts'])} contacts ({foot['frames']} frames)"

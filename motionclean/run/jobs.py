@@ -23,7 +23,7 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..filters import multires
-from ..io import atomic_write, load, save
+from ..io import ReadOptions, atomic_write, save
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
 from ..steps.pipeline import Pipeline, StepLog
@@ -38,6 +38,7 @@ __all__ = [
     "check_compatible",
     "clean_clip",
     "clean_file",
+    "clean_motion",
     "notes_by_joint",
     "run_job",
     "stitch_clips",
@@ -93,14 +94,33 @@ def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
 
 
 def clean_clip(
-    source: str | os.PathLike, target: str | os.PathLike | None, pipeline: Pipeline
+    source: str | os.PathLike,
+    target: str | os.PathLike | None,
+    pipeline: Pipeline,
+    up: str | None = None,
+    read: ReadOptions | None = None,
 ) -> CleanedClip:
-    """Load ``source``, run ``pipeline``, compute the report and its time series, and write
-    ``target`` (atomically; its folder is created) unless it is None. Nothing is written
-    when the report cannot be made. A resampled clip is compared with the input on the
+    """Load ``source``, run ``pipeline`` (:func:`clean_motion`), and write ``target``
+    (atomically; its folder is created) unless it is None. Nothing is written when the
+    report cannot be made. ``up`` (``"x"``, ``"y"``, ``"z"``) declares the clip's up axis
+    (:attr:`Motion.up`; default: found from the motion); ``read`` says how to read files
+    that need more than themselves (a skeleton, a body model, excluded columns)."""
+    before = (read or ReadOptions()).load(source)
+    if up is not None:
+        before = before.replace(up=up)
+    result = clean_motion(before, pipeline, os.fspath(source))
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(result.after, target)
+    return result
+
+
+def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
+    """Run ``pipeline`` on ``before`` and compute the report (named after ``file``) and its
+    time series: what ``clean`` does between reading and writing, and what the Blender
+    extension does to an action. A resampled clip is compared with the input on the
     input's frames (:func:`motionclean.steps.resampling.on_input_frames`); the report's
     ``output`` then gives the written frame count and frame time."""
-    before = load(source)
     after, logs = pipeline.run(before)
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
@@ -109,14 +129,9 @@ def clean_clip(
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
-    report = build_report(
-        before, compared, described, notes_by_joint(logs), os.fspath(source), series=series
-    )
+    report = build_report(before, compared, described, notes_by_joint(logs), file, series=series)
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
-    if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(after, target)
     return CleanedClip(before, after, logs, report, series)
 
 
@@ -151,6 +166,8 @@ class Job:
     target: str | None
     steps: tuple[dict, ...]
     report: str | None = None
+    up: str | None = None  # the clips' up axis, when the user gives it
+    read: ReadOptions = ReadOptions()
 
 
 def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
@@ -199,13 +216,16 @@ def clean_file(
     target: str | os.PathLike | None,
     pipeline: Pipeline | Sequence[dict],
     report: str | os.PathLike | None = None,
+    up: str | None = None,
+    read: ReadOptions | None = None,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
     ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
     computes the figures without writing; ``report`` also writes the clip's HTML page.
-    Parent folders of ``target`` and ``report`` are created. A bad clip or failed step
-    gives ``status="failed"`` with the reason instead of raising.
+    Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
+    axis (as in :func:`clean_clip`). A bad clip or failed step gives ``status="failed"``
+    with the reason instead of raising.
     """
     start = time.perf_counter()
     job = Job(
@@ -213,11 +233,13 @@ def clean_file(
         None if target is None else os.fspath(target),
         (),
         None if report is None else os.fspath(report),
+        up,
+        read or ReadOptions(),
     )
     try:
         if not isinstance(pipeline, Pipeline):
             pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
-        result = clean_clip(job.source, None, pipeline)
+        result = clean_clip(job.source, None, pipeline, job.up, job.read)
         pages = {}
         if job.report is not None:
             pages[job.report] = render_report(result.report, job.report, result.series)
@@ -231,7 +253,7 @@ def clean_file(
 
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
-    return clean_file(job.source, job.target, job.steps, job.report)
+    return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read)
 
 
 # ----------------------------------------------------------------------------- two clips

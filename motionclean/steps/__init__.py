@@ -9,6 +9,7 @@ from . import (
     fairing,
     fill_gaps,
     footlock,
+    ground,
     lee_shin,
     multires,
     resample,
@@ -29,6 +30,7 @@ REGISTRY: dict[str, StepSpec] = {
         despike.STEP,
         auto.STEP,
         footlock.STEP,
+        ground.STEP,
         resample.STEP,
         fill_gaps.STEP,
     )

@@ -119,7 +119,10 @@ class StepData:
     copies the pipeline made or an earlier step's results, which the step may write into
     and return. ``rotation_joints`` / ``translation_joints`` give each column's index in
     ``motion.names``. ``motion`` is the whole clip as it enters the step (read-only
-    context: skeleton, every joint's arrays). Notes are per column.
+    context: skeleton, every joint's arrays). Notes are per column. ``earlier`` holds
+    what the steps before this one noted, by joint name (``{"LeftKnee": {"auto": {...},
+    "position_auto": {...}}}``, later steps' notes over earlier ones): a step may read
+    them (footlock weighs each joint by the error ``auto`` expects in it).
     """
 
     rotations: np.ndarray
@@ -131,6 +134,7 @@ class StepData:
     rotation_notes: dict[int, dict] = field(default_factory=dict)
     translation_notes: dict[int, dict] = field(default_factory=dict)
     owned: bool = False
+    earlier: dict[str, dict] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

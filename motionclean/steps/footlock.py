@@ -1,19 +1,26 @@
 """The ``footlock`` step: feet that stand stay planted.
 
-Contacts are found in world space (:mod:`motionclean.core.contacts`); during each one the
-ankle is held at the median of its positions by two-bone leg IK (:mod:`motionclean.filters.
-footlock`), eased in and out. Only the hip, knee and ankle rotations of a leg change, and
-only around its contacts; a clip with no ground contact is left as it is.
+Contacts are found in world space (:mod:`motionclean.core.contacts`). During each contact
+whose ankle slides, the legs are planted by the least weighted change of the joints from
+the root down to the foot (:func:`motionclean.filters.footlock.plant`): each joint is
+weighted by the error the ``auto`` step before it expects in it (its notes'
+``expected_error``; without ``auto``, by the noise estimated on the clip), so a joint
+``auto`` found clean barely moves and a clip it found clean is left as it is. Only those
+joints change, and only around the contacts held; a clip with no ground contact is left
+as it is.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
-from ..filters.footlock import lock_feet
+from ..filters.auto import estimate_noise, estimate_position_noise
+from ..filters.footlock import Leg, Prior, hinge_axis, plant
 from .base import Param, StepData, StepSpec, crop_runs, shift_runs
 
 
@@ -35,34 +42,130 @@ def find_contacts(motion: Motion, params: dict):
     return feet, contacts, positions, world, up, height, ground
 
 
+def _chain(parents: np.ndarray, joint: int) -> list[int]:
+    """``joint`` and its ancestors, root first."""
+    chain = []
+    while joint >= 0:
+        chain.append(joint)
+        joint = int(parents[joint])
+    return chain[::-1]
+
+
+def _legs(
+    motion: Motion, feet: list[found.Foot], turns: set[int], toes: bool
+) -> list[tuple[int, Leg]]:
+    """The legs to plant, with their feet's indices: for each foot whose hip, knee and
+    ankle may turn (are in ``turns``), the joints of ``turns`` from the root down to the
+    knee and to each toe held, the knee's hinge, and the points held (the ankle, then with
+    ``toes`` every joint and end site below it)."""
+    hangs_on = kinematics.point_parents(motion)
+    legs = []
+    for k, foot in enumerate(feet):
+        if not {foot.hip, foot.knee, foot.ankle} <= turns:
+            continue
+        points = foot.points if toes else (foot.ankle,)
+        joints = set(_chain(motion.parents, foot.knee))
+        for point in points[1:]:  # a toe moves with every joint above it
+            joints |= set(_chain(motion.parents, int(hangs_on[point])))
+        hinge = hinge_axis(motion.rotations[:, foot.knee])
+        legs.append((k, Leg(tuple(sorted(joints & turns)), foot.knee, hinge, tuple(points))))
+    return legs
+
+
+def _expected_error(positions: np.ndarray, contacts: np.ndarray, leg: Leg, prior: Prior) -> float:
+    """RMS over a leg's contact frames of the position error of its ankle that ``prior``
+    predicts (length units): each joint's rotation error times its lever arm to the ankle,
+    and the root's translation error."""
+    joints = list(leg.joints)
+    lever = positions[contacts][:, [leg.points[0]]] - positions[contacts][:, joints]
+    spread = np.sum(np.sum(lever**2, axis=-1) * prior.sigma[joints] ** 2, axis=-1)
+    return float(np.sqrt(np.mean(spread) + np.sum(prior.root**2)))
+
+
+def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
+    """Each joint's expected RMS rotation error (radians) and the root translation's
+    (length units per axis) from ``auto``'s notes, or estimated from the clip without
+    them; 0 (fixed) for joints and axes the step was not given."""
+    motion = data.motion
+    assert motion is not None
+    names = motion.names
+    sigma = np.zeros(motion.n_joints)
+    joints = sorted({j for leg in legs for j in leg.joints})
+    noted = [j for j in joints if "auto" in data.earlier.get(names[j], {})]
+    for j in noted:
+        sigma[j] = math.radians(data.earlier[names[j]]["auto"]["expected_error"])
+    guessed = [j for j in joints if j not in noted]
+    if guessed:
+        sigma[guessed] = np.radians(estimate_noise(motion.rotations[:, guessed], motion.frame_time))
+    root_sigma = np.zeros(3)
+    position = motion.layout.position_columns[root] >= 0
+    if position.any() and root in set(data.translation_joints.tolist()):
+        note = data.earlier.get(names[root], {}).get("position_auto")
+        if note is not None:
+            level = float(note["expected_error"])
+        else:
+            level = float(
+                estimate_position_noise(motion.translations[:, [root]], motion.frame_time)[0]
+            )
+        root_sigma[position] = level
+    return Prior(sigma, root_sigma)
+
+
 def _run(data: StepData, params: dict) -> StepData:
     motion = data.motion
     assert motion is not None
-    feet, contacts, positions, world, up, height, _ = find_contacts(motion, params)
+    if motion.n_frames < 2:  # no contact without a ground, none without two frames
+        return data
+    feet, contacts, positions, _, up, height, _ = find_contacts(motion, params)
     contacts = found.sliding_contacts(
         positions, feet, contacts, up, motion.frame_time, params["min_skate"] * height
     )
     column = {int(j): c for c, j in enumerate(data.rotation_joints)}
-    usable = [k for k, f in enumerate(feet) if {f.hip, f.knee, f.ankle} <= column.keys()]
-    if not usable or not contacts[:, usable].any():
+    held: np.ndarray = np.asarray(contacts.any(axis=0))
+    chosen = [(k, leg) for k, leg in _legs(motion, feet, set(column), params["toes"]) if held[k]]
+    if not chosen:
         return data
-    blend_frames = params["blend_seconds"] / motion.frame_time
-    local = lock_feet(
+    root = _chain(motion.parents, chosen[0][1].knee)[0]
+    prior = _prior(data, [leg for _, leg in chosen], root)
+    # a leg whose ankle auto expects within the tolerance of the truth is left as it is
+    # (a clip auto found clean: nothing there to correct)
+    limit = params["tolerance"] * height
+    chosen = [
+        (k, leg)
+        for k, leg in chosen
+        if _expected_error(positions, contacts[:, k], leg, prior) >= limit
+    ]
+    if not chosen:
+        return data
+    kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
+    soles = found.contact_soles(positions, [feet[k] for k in kept], contacts[:, kept], up)
+    # the floor under every sole: no foot is pushed through it while it stands
+    floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
+    rotations, root_translation = plant(
         motion.rotations,
+        kinematics.local_translations(motion),
         motion.parents,
-        positions,
-        world,
-        [feet[k] for k in usable],
-        contacts[:, usable],
-        blend_frames,
-        up if params["horizontal"] else None,
+        motion.end_sites,
+        legs,
+        contacts[:, kept],
+        prior,
+        up,
+        (floor.normal, floor.offset),
+        params["tolerance"] * height,
+        params["blend_seconds"] / motion.frame_time,
         params["hold_seconds"] / motion.frame_time,
+        params["toe_tolerance"],
     )
     data.rotations = data.rotations.copy()  # the input may be the clip's own array
-    for k in usable:
+    changed = sorted({j for leg in legs for j in leg.joints})
+    data.rotations[:, [column[j] for j in changed]] = rotations[:, changed]
+    if prior.root.any() and data.translations is not None:
+        at = int(np.flatnonzero(data.translation_joints == root)[0])
+        data.translations = data.translations.copy()
+        axes = motion.layout.position_columns[root] >= 0
+        data.translations[:, at, axes] = root_translation[:, axes]
+    for k in kept:
         foot = feet[k]
-        for joint in (foot.hip, foot.knee, foot.ankle):
-            data.rotations[:, column[joint]] = local[:, joint]
         runs = found.contact_runs(contacts[:, [k]])[0]
         data.rotation_notes.setdefault(column[foot.ankle], {})["footlock"] = {
             "contacts": [[a, b] for a, b in runs],
@@ -89,8 +192,10 @@ def _crop_note(note: dict, first: int, last: int) -> dict | None:
 
 STEP = StepSpec(
     name="footlock",
-    summary="hold each foot where it stands during ground contacts (two-bone leg IK)",
-    paper="contacts in world space; analytic two-bone IK (law of cosines), smoothstep blends",
+    summary="plant each foot that slides during a ground contact, by the least change of "
+    "the leg joints weighted by the error auto expects in each",
+    paper="contacts in world space; weighted least-change solve (Gauss-Newton, knee as a "
+    "hinge), smoothstep blends",
     params=(
         Param(
             "feet",
@@ -129,11 +234,30 @@ STEP = StepSpec(
             infinite_ok=True,
         ),
         Param(
-            "horizontal",
+            "toes",
             "bool",
-            True,
-            "hold only the horizontal position (the ankle keeps its height: heel roll); "
-            "false holds all three axes",
+            False,
+            "hold the toes (the joints and end sites below the ankle) too, during contacts: "
+            "the ankle and toe joints then turn as well (less toe slide, a little more "
+            "change to the legs); false keeps the ankle's own rotation",
+        ),
+        Param(
+            "toe_tolerance",
+            "float",
+            2.0,
+            "the toes follow their targets this many times more loosely than the ankle",
+            minimum=1.0,
+            maximum=1000.0,
+        ),
+        Param(
+            "tolerance",
+            "float",
+            0.002,
+            "how closely the ankle follows its target, body heights; the change of each "
+            "joint is weighed against it",
+            minimum=0.0,
+            exclusive_minimum=True,
+            maximum=1.0,
         ),
         Param(
             "min_skate",
@@ -147,9 +271,9 @@ STEP = StepSpec(
             "hold_seconds",
             "float",
             0.5,
-            "the ankle follows its least-squares straight line over this window, cut to the "
-            "contact: jitter and sliding go, a steady drift (pivot) stays; inf holds every "
-            "contact still at its mean position",
+            "the ankle (and toes) follow their least-squares straight line over this "
+            "window, cut to the contact: jitter and sliding go, a steady drift (pivot) "
+            "stays; inf holds every contact still at its mean position",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,
@@ -164,7 +288,6 @@ STEP = StepSpec(
         ),
     ),
     run=_run,
-    positions_default=False,
     format_note=_format_note,
     crop_note=_crop_note,
     shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},

@@ -270,13 +270,18 @@ class Pipeline:
         spans = _frame_spans(self.steps, motion, lead)
         made = _Made(motion)
         logs: list[StepLog] = []
+        earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
             try:
-                current, log = _run_step(step, current, lead, spans.get(number), motion.path, made)
+                current, log = _run_step(
+                    step, current, lead, spans.get(number), motion.path, made, earlier
+                )
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
+            for joint, note in log.notes.items():
+                earlier.setdefault(joint, {}).update(note)
             if lead:  # numbered as the file's frames
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             logs.append(log)
@@ -309,6 +314,7 @@ def _run_step(
     span: tuple[int, int] | None,
     path: str | None,
     made: _Made,
+    earlier: dict[str, dict] | None = None,
 ) -> tuple[Motion, StepLog]:
     """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
     and written into only where ``made`` copied them).
@@ -336,6 +342,7 @@ def _run_step(
         translation_joints=pos_idx,
         # a ranged step's result is blended with the clip as it was: nothing in place
         owned=step.span is None and (not every or made.owns(motion.rotations)),
+        earlier=earlier or {},
     )
     if step.span is not None and span is None:
         span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
@@ -461,6 +468,7 @@ class _Outputs:
                 motion=context,
                 rotation_joints=data.rotation_joints[rot],
                 translation_joints=data.translation_joints[pos],
+                earlier=data.earlier,
             ),
             step.params,
         )
@@ -532,4 +540,5 @@ DEFAULT_STEPS: list[dict] = [
     {"filter": "fill-gaps"},
     {"filter": "despike"},
     {"filter": "auto"},
+    {"filter": "footlock"},
 ]

@@ -211,7 +211,12 @@ def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, ca
     )
     assert code == 0, err
     data = json.loads(report.read_text())
-    assert [step["filter"] for step in data["pipeline"]] == ["fill-gaps", "despike", "auto"]
+    assert [step["filter"] for step in data["pipeline"]] == [
+        "fill-gaps",
+        "despike",
+        "auto",
+        "footlock",
+    ]
     thumb = data["joints"]["RThumb"]["despike"]
     assert thumb["frames_repaired"] > 0 and thumb["max_step"]["after"] < 30.0
     assert "repaired RThumb:" in out

@@ -100,3 +100,66 @@ def test_mutated_clips_succeed_or_fail_with_one_line(seeds, chunk, tmp_path, cap
             assert not out.exists()
             outcomes["refused"] += 1
     assert outcomes["ok"] and outcomes["refused"]  # the mutations reach both outcomes
+
+
+#: Cases per chunk for the formats of SMPL parameters, OpenSim and glTF.
+NEW_CASES = 120
+
+
+@pytest.fixture(scope="module")
+def new_seeds(tmp_path_factory):
+    """Small files of the SMPL (.npz, joblib .pkl), OpenSim (.mot) and glTF (.gltf, .glb)
+    readers, written as their tools write them."""
+    folder = tmp_path_factory.mktemp("fuzz_new")
+    rng = np.random.default_rng(5)
+    np.savez(
+        folder / "amass.npz",
+        poses=rng.normal(0, 0.3, (6, 156)),
+        trans=rng.normal(0, 0.1, (6, 3)),
+        mocap_framerate=np.array(120.0),
+        gender=np.array("male"),
+    )
+    mot = [b"Coordinates\nversion=1\nnRows=8\nnColumns=4\ninDegrees=yes\nendheader\n"]
+    mot.append(b"time\tpelvis_tx\thip_flexion_r\tknee_angle_r\n")
+    for f in range(8):
+        knee = b"NaN" if f == 4 else b"%.8f" % (-5.0 - f)
+        mot.append(b"\t%.8f\t%.8f\t%.8f\t%s\n" % (f / 100, 0.1 * f, 20.0 + f, knee))
+    glb = ROOT / "tests" / "data" / "blender" / "131_02_cut.glb"
+    small = mc.load(glb)
+    mc.save(small, folder / "small.gltf")  # a .gltf of the same scene (data URIs)
+    return [
+        (".npz", (folder / "amass.npz").read_bytes()),
+        (".pkl", (ROOT / "tests" / "data" / "wham_output.pkl").read_bytes()),
+        (".pkl", (ROOT / "tests" / "data" / "phalp_output.pkl").read_bytes()),
+        (".mot", b"".join(mot)),
+        (".gltf", (folder / "small.gltf").read_bytes()),
+        (".glb", glb.read_bytes()),
+    ]
+
+
+@pytest.mark.parametrize("chunk", range(3))
+def test_mutated_new_formats_succeed_or_fail_with_one_line(new_seeds, chunk, tmp_path, capsys):
+    rng = np.random.default_rng(2000 + chunk)
+    outcomes = {"ok": 0, "refused": 0}
+    by_suffix = {suffix: set() for suffix, _ in new_seeds}
+    for case in range(NEW_CASES):
+        suffix, seed = new_seeds[case % len(new_seeds)]
+        source = tmp_path / f"in{case}{suffix}"
+        source.write_bytes(mutate(seed, rng))
+        out = tmp_path / f"out{case}{suffix}"
+        code, _, err = run_cli(capsys, "clean", source, "-o", out, "-q", "-f", "lee-shin:k=1")
+        if code == 0:
+            assert err == "" or err.startswith("motionclean: warning:"), err
+            mc.load(out)  # what was written reads back
+            outcomes["ok"] += 1
+            by_suffix[suffix].add("ok")
+        else:
+            lines = err.strip().splitlines()
+            assert code in (1, 2), (source.read_bytes()[:200], err)
+            assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), err
+            assert "internal error" not in err, (suffix, err)
+            assert not out.exists()
+            outcomes["refused"] += 1
+            by_suffix[suffix].add("refused")
+    assert outcomes["ok"] and outcomes["refused"]  # the mutations reach both outcomes
+    assert all(by_suffix.values()), by_suffix  # every reader was reached

@@ -1,5 +1,6 @@
-"""Foot lock: two-bone IK (exact when reachable, clamped when not, knee kept in its plane) and
-lock targets (held during contacts, eased in and out, untouched elsewhere)."""
+"""The footlock filter: targets that hold contacts and ease in and out, the knee's hinge
+axis, and the weighted least-change solve (targets met, weights obeyed, everything else
+bit for bit, coordinate invariance)."""
 
 from __future__ import annotations
 
@@ -7,74 +8,133 @@ import numpy as np
 import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
 
-from motionclean.core import quat
-from motionclean.filters.footlock import MAX_REACH, lock_targets, two_bone_ik
+from motionclean.core import kinematics, quat
+from motionclean.filters.footlock import Leg, Prior, hinge_axis, lock_targets, plant
+
+#: A leg: root (with a position channel) -> hip -> knee -> ankle -> toe, and its toe's end.
+PARENTS = np.array([-1, 0, 1, 2, 3])
+OFFSETS = np.array([[0, 0, 0], [1, -0.5, 0], [0, -4, 0], [0, -4, 0], [0, -1, 1.2]], float)
+TIP = {4: np.array([0.0, 0.0, 0.8])}
+HINGE = np.array([1.0, 0.0, 0.0])
 
 
-def random_legs(n: int, seed: int):
-    """Hips, knees, ankles of ``n`` random bent legs (thigh 4, shin 3.5) and hip rotations."""
+def _leg_clip(frames: int = 60, seed: int = 0):
+    """Local rotations and translations of the leg: a bent knee about x, jitter on all."""
     rng = np.random.default_rng(seed)
-    hip = rng.normal(size=(n, 3))
-    hip_world = quat.normalize(rng.normal(size=(n, 4)))
-    thigh = quat.rotate(hip_world, np.array([0.0, -4.0, 0.0]))
-    bend = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), rng.uniform(0.2, 2.0, n))
-    shin = quat.rotate(quat.multiply(hip_world, bend), np.array([0.0, -3.5, 0.0]))
-    return hip, hip + thigh, hip + thigh + shin, hip_world
+    q = quat.identity((frames, 5))
+    q[:, 2] = quat.from_axis_angle(HINGE, np.full(frames, 0.6))
+    q = quat.multiply(q, quat.exp(rng.normal(scale=0.01, size=(frames, 5, 3))))
+    t = np.broadcast_to(OFFSETS, (frames, 5, 3)).copy()
+    t[:, 0] = [0.0, 9.0, 0.0]
+    return q, t
 
 
-def apply(hip, knee, ankle, hip_delta, knee_delta):
-    new_knee = hip + quat.rotate(hip_delta, knee - hip)
-    shin = quat.rotate(quat.multiply(hip_delta, knee_delta), ankle - knee)
-    return new_knee, new_knee + shin
+LEVEL = (np.array([0.0, 1.0, 0.0]), -np.inf)
 
 
-def test_reachable_targets_are_hit_exactly_with_bone_lengths_kept():
-    hip, knee, ankle, hip_world = random_legs(500, 1)
-    rng = np.random.default_rng(2)
-    direction = rng.normal(size=(500, 3))
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    target = hip + direction * rng.uniform(1.0, 7.0, (500, 1))  # |4 - 3.5| < r < 7.5
-    hip_delta, knee_delta = two_bone_ik(hip, knee, ankle, target, hip_world)
-    new_knee, new_ankle = apply(hip, knee, ankle, hip_delta, knee_delta)
-    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
-    np.testing.assert_allclose(np.linalg.norm(new_knee - hip, axis=1), 4.0, atol=1e-12)
-    np.testing.assert_allclose(np.linalg.norm(new_ankle - new_knee, axis=1), 3.5, atol=1e-12)
+def _plant(q, t, contacts, sigma=None, root=0.0, floor=LEVEL):
+    sigma = np.radians([1.0, 1.0, 1.0, 1.0, 1.0]) if sigma is None else sigma
+    leg = Leg((0, 1, 2, 3), 2, HINGE, (3, 4, 5))
+    return plant(
+        q,
+        t,
+        PARENTS,
+        TIP,
+        [leg],
+        contacts[:, None],
+        Prior(sigma, np.full(3, root)),
+        1,
+        floor,
+        0.002,
+        3.0,
+    )
 
 
-def test_unreachable_targets_are_clamped_on_the_line_to_the_target():
-    hip, knee, ankle, hip_world = random_legs(200, 3)
-    direction = np.tile([0.3, -0.9, 0.1], (200, 1)) / np.linalg.norm([0.3, -0.9, 0.1])
-    far = hip + 20.0 * direction
-    near = hip + 0.1 * direction
-    for target, reach in ((far, MAX_REACH * 7.5), (near, 0.5)):
-        new_knee, new_ankle = apply(
-            hip, knee, ankle, *two_bone_ik(hip, knee, ankle, target, hip_world)
-        )
-        np.testing.assert_allclose(new_ankle, hip + reach * direction, rtol=1e-6, atol=1e-6)
-        np.testing.assert_allclose(np.linalg.norm(new_ankle - new_knee, axis=1), 3.5, atol=1e-12)
+def _points(q, t):
+    positions, world = kinematics.forward_arrays(PARENTS, q, t)
+    tip = positions[:, 4] + quat.rotate(world[:, 4], TIP[4])
+    return np.concatenate([positions, tip[:, None]], axis=1)
 
 
-def test_target_at_the_ankle_changes_nothing_and_knee_stays_in_its_plane():
-    hip, knee, ankle, hip_world = random_legs(100, 4)
-    hip_delta, knee_delta = two_bone_ik(hip, knee, ankle, ankle, hip_world)
-    assert np.degrees(quat.angle(hip_delta)).max() < 1e-6
-    assert np.degrees(quat.angle(knee_delta)).max() < 1e-6
-    # Pull the ankle toward the hip: the knee moves within the plane of hip, knee and target.
-    target = hip + 0.8 * (ankle - hip)
-    new_knee, _ = apply(hip, knee, ankle, *two_bone_ik(hip, knee, ankle, target, hip_world))
-    normal = np.cross(knee - hip, ankle - hip)
-    off_plane = np.sum((new_knee - hip) * normal, axis=1) / np.linalg.norm(normal, axis=1)
-    assert np.abs(off_plane).max() < 1e-9
+def test_held_points_stop_sliding_and_the_rest_is_bit_for_bit():
+    q, t = _leg_clip()
+    contacts = np.zeros(60, dtype=bool)
+    contacts[20:40] = True
+    new_q, new_t = _plant(q, t, contacts)
+    before, after = _points(q, t), _points(new_q, t)
+
+    def step(p):  # mean horizontal step during the contact
+        return np.linalg.norm(np.diff(p[21:40][..., [0, 2]], axis=0), axis=-1).mean()
+
+    assert step(after[:, 3]) < 0.2 * step(before[:, 3])  # the ankle stops sliding
+    assert step(after[:, 5]) < 0.5 * step(before[:, 5])  # and the toe's end
+    untouched = np.ones(60, dtype=bool)
+    untouched[20 - 4 : 40 + 4] = False  # contacts and their 3-frame eases
+    np.testing.assert_array_equal(new_q[untouched], q[untouched])
+    np.testing.assert_array_equal(new_q[:, 4], q[:, 4])  # the toe joint moves nothing held
+    np.testing.assert_array_equal(new_t, t[:, 0])  # the root may not move (sigma 0)
+    knee_change = quat.log(quat.multiply(new_q[:, 2], quat.conjugate(q[:, 2])))
+    assert np.abs(knee_change[:, 1:]).max() < 1e-12  # the knee turns about its hinge only
+    assert np.abs(knee_change[:, 0]).max() > 1e-4
 
 
-def test_a_straight_leg_bends_about_its_neighbours_axis():
-    hip, knee, ankle, hip_world = random_legs(20, 5)
-    ankle[10] = knee[10] + 3.5 * (knee[10] - hip[10]) / 4.0  # straight on frame 10
-    target = hip + 0.7 * (ankle - hip)
-    hip_delta, knee_delta = two_bone_ik(hip, knee, ankle, target, hip_world)
-    _, new_ankle = apply(hip, knee, ankle, hip_delta, knee_delta)
-    np.testing.assert_allclose(new_ankle, target, atol=1e-9)
-    assert np.all(np.isfinite(hip_delta)) and np.all(np.isfinite(knee_delta))
+def test_the_change_goes_where_the_error_is_expected():
+    q, t = _leg_clip()
+    contacts = np.zeros(60, dtype=bool)
+    contacts[10:50] = True
+    moved = {}
+    for stiff in (1, 2):  # the hip or the knee expected exact
+        sigma = np.radians([0.001, 2.0, 2.0, 2.0, 2.0])
+        sigma[stiff] = np.radians(1e-4)
+        new_q, _ = _plant(q, t, contacts, sigma)
+        moved[stiff] = np.degrees(quat.angle_between(new_q, q)).max(axis=0)
+    assert moved[1][1] < 0.01 * moved[2][1]  # an exact hip barely turns
+    assert moved[2][2] < 0.01 * moved[1][2]  # an exact knee barely bends
+
+
+def test_no_held_point_ends_below_the_floor_during_a_contact():
+    q, t = _leg_clip()
+    contacts = np.zeros(60, dtype=bool)
+    contacts[15:45] = True
+    before = _points(q, t)
+    level = np.quantile(before[15:45, 3:, 1], 0.3)  # above a third of the points' heights
+    new_q, _ = _plant(q, t, contacts, floor=(np.array([0.0, 1.0, 0.0]), level))
+    after = _points(new_q, t)
+    assert (before[15:45, 3:, 1] < level - 0.01).any()
+    assert after[15:45, 3:, 1].min() > level - 0.005  # within the tolerance of the floor
+
+
+def test_planting_turns_with_the_clip():
+    """Turning the whole leg (offsets, root, every local rotation conjugated) and its floor
+    turns the result: the same local changes, seen in the turned frame."""
+    q, t = _leg_clip(seed=3)
+    contacts = np.zeros(60, dtype=bool)
+    contacts[5:30] = True
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), 1.3)  # about the up axis
+    new_q, new_t = _plant(q, t, contacts, root=0.05)
+    turned_q = quat.multiply(turn, quat.multiply(q, quat.conjugate(turn)))
+    global TIP, HINGE  # noqa: PLW0603 - the leg's constants, turned for this call
+    saved = TIP, HINGE
+    TIP, HINGE = {4: quat.rotate(turn, saved[0][4])}, quat.rotate(turn, saved[1])
+    try:
+        other_q, other_t = _plant(turned_q, quat.rotate(turn, t), contacts, root=0.05)
+    finally:
+        TIP, HINGE = saved
+    expected = quat.multiply(turn, quat.multiply(new_q, quat.conjugate(turn)))
+    np.testing.assert_allclose(np.abs(np.sum(other_q * expected, axis=-1)), 1.0, atol=1e-9)
+    np.testing.assert_allclose(other_t, quat.rotate(turn, new_t), atol=1e-9)
+
+
+def test_the_hinge_is_the_knees_own_axis_in_any_frame():
+    rng = np.random.default_rng(1)
+    axis = np.array([0.3, -0.2, 0.9]) / np.linalg.norm([0.3, -0.2, 0.9])
+    base = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.4)
+    knee = quat.multiply(quat.from_axis_angle(axis, rng.uniform(0.0, 1.4, 200)), base)
+    knee = quat.multiply(knee, quat.exp(rng.normal(scale=0.005, size=(200, 3))))
+    assert abs(hinge_axis(knee) @ axis) > 0.999
+    turn = quat.from_axis_angle(np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0), 0.7)
+    turned = quat.multiply(turn, quat.multiply(knee, quat.conjugate(turn)))
+    assert abs(hinge_axis(turned) @ quat.rotate(turn, axis)) > 0.999
 
 
 @pytest.mark.parametrize("blend", [0, 3, 10])
@@ -84,7 +144,8 @@ def test_targets_hold_contacts_and_ease_in_and_out(blend):
     contacts = np.zeros(n, dtype=bool)
     contacts[30:50] = True
     contacts[80:100] = True
-    target, weight = lock_targets(ankle, contacts, blend)
+    target, weight = lock_targets(ankle[:, None], contacts, blend)
+    target = target[:, 0]
     np.testing.assert_allclose(target[30:50], np.tile(ankle[30:50].mean(axis=0), (20, 1)))
     np.testing.assert_array_equal(weight[contacts], 1.0)
     width = max(blend, 1)

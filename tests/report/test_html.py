@@ -313,3 +313,18 @@ def test_a_clip_without_rotation_channels_gets_its_report(tmp_path):
         assert done.status == "ok", done.error
     page = Page((tmp_path / "marker.html").read_text(encoding="utf-8"))
     assert page.errors == []
+
+
+def test_the_foot_plot_shows_a_foot_below_the_ground():
+    motion = mc.load(NOISY)
+    translations = motion.translations.copy()
+    translations[100:140, 0, 1] -= 2.0  # the figure sinks 2 units (8 % of its height)
+    sunk = motion.replace(translations=translations, source_values=None)
+    series = build_series(motion, sunk)
+    page = render_html(build_report(motion, sunk, series=series), series)
+    foot = re.search(r'<svg class="foot".*?</svg>', page, flags=re.S)
+    assert foot is not None
+    ticks = [float(t) for t in re.findall(r'text-anchor="end">(-?[\d.]+)</text>', foot.group(0))]
+    assert min(ticks) <= -1.0  # the axis reaches below 0, where the sunk foot is drawn
+    lowest = series["feet"][next(iter(series["feet"]))]["height_after"].min()
+    assert lowest < -1.0

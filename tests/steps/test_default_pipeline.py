@@ -74,7 +74,12 @@ def test_default_clean_estimates_the_planted_noise_and_removes_it(planted, tmp_p
     report_path = tmp_path / "r.json"
     cleaned = clean(capsys, path, tmp_path / "c.bvh", "--report", report_path)
     report = json.loads(report_path.read_text())
-    assert [step["filter"] for step in report["pipeline"]] == ["fill-gaps", "despike", "auto"]
+    assert [step["filter"] for step in report["pipeline"]] == [
+        "fill-gaps",
+        "despike",
+        "auto",
+        "footlock",
+    ]
 
     names = [n for n, k in zip(truth.names, keep, strict=True) if k]
     for name in names:

@@ -290,9 +290,10 @@ CASES = [
 
 def test_every_registered_step_has_cases():
     # tested on their own: despike, footlock (whole legs in world space,
-    # tests/core/test_contacts.py), resample (it changes the frame count,
+    # tests/core/test_contacts.py), ground (the root, from the floor,
+    # tests/steps/test_ground.py), resample (it changes the frame count,
     # tests/steps/test_resample.py) and fill-gaps (tests/filters/test_gaps.py)
-    alone = {"despike", "footlock", "resample", "fill-gaps"}
+    alone = {"despike", "footlock", "ground", "resample", "fill-gaps"}
     assert {text.partition(":")[0] for text, *_ in CASES} | alone == set(REGISTRY)
 
 

@@ -1,0 +1,901 @@
+"""glTF 2.0 (``.gltf``, ``.glb``): a skin's joints and their animation, read with json
+and numpy.
+
+The clip's joints are the first skin's joints (or, in a file without skins, the nodes the
+animation moves), in depth-first order of the node tree; a joint's parent is its nearest
+ancestor among them. Its rest offset is the node's translation; its local rotation is the
+node's ``rotation`` (glTF's ``(x, y, z, w)`` becomes our ``(w, x, y, z)``), animated by
+the first animation's ``rotation`` channel, and a joint whose ``translation`` channel
+varies gets position channels (glTF replaces the node's translation, as BVH position
+channels replace an OFFSET). Scale is not read (and never changed).
+
+Keyframes become frames on a uniform grid: the frame time is the smallest key step of the
+channels (a uniform channel's span over its steps, else its median step; snapped to a
+whole frame rate within 0.01 %, the error of exporters' float32 times), from the earliest
+key to the latest. A channel keyed on every frame of the grid is read as it is; any other is
+sampled: ``STEP`` holds the previous key, ``LINEAR`` interpolates (slerp for rotations,
+as glTF specifies), ``CUBICSPLINE`` evaluates its Hermite spline (rotations renormalised),
+each holding its first and last key outside its range.
+
+Writing back keeps the file: with nothing changed its bytes exactly; otherwise every
+object of the JSON and every byte of the buffers stays, the channels of joints that
+changed point to new samplers (``LINEAR`` on the grid; a channel read as it was keeps its
+time accessor and the values of its unchanged frames), whose data is appended to the GLB
+binary chunk, or for ``.gltf`` to a new buffer embedded as a data URI; a changed ``.gltf``
+is written self-contained (its ``.bin`` files' bytes embedded as data URIs, so it can be
+written to any folder; the ``.bin`` files themselves are never touched). Sparse accessors
+and compressed animation data are refused.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import copy
+import json
+import math
+import os
+import struct
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from ..core import quat
+from ..core.errors import MotionError
+from ..core.kinematics import rest_positions
+from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
+from .files import pieces, read_regular_file
+from .smpl_model import matrix_to_quaternion
+
+GLB_MAGIC = b"glTF"
+JSON_CHUNK = 0x4E4F534A
+BIN_CHUNK = 0x004E4942
+#: Rotation channels a joint gets (its Euler order when written as BVH or CSV).
+ROTATION = ("Zrotation", "Xrotation", "Yrotation")
+#: Component types: numpy dtype and the divisor of normalized integers (glTF 2.0 3.11).
+COMPONENTS = {
+    5120: (np.int8, 127.0),
+    5121: (np.uint8, 255.0),
+    5122: (np.int16, 32767.0),
+    5123: (np.uint16, 65535.0),
+    5125: (np.uint32, None),
+    5126: (np.float32, None),
+}
+WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+#: Largest grid, in frames per keyframe of the whole animation: more means keys too far
+#: apart for the frame time found (memory must follow the file, not its times).
+MAX_FRAMES_PER_KEY = 1000
+#: Quaternion components closer than this to the ones read count as unchanged.
+SAME_ROTATION = 1e-12
+#: A channel whose keys lie within this fraction of a frame of the grid (plus two float32
+#: rounding steps of the time itself: key times are float32) is read as it is.
+ON_GRID = 1e-3
+FLOAT32_TIME = 2.0**-22
+#: A frame rate within this fraction of a whole number is that number: exporters' float32
+#: key times are off by up to about 1e-5 (Blender's 120 fps export reads as 119.9995).
+SNAP = 1e-4
+
+
+def _fail(message: str, path) -> NoReturn:
+    raise MotionError(message, path)
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """A joint's animated property: the channel (index in the animation, or -1 for none),
+    whether its keys are the grid's frames (read as they are), and its input accessor."""
+
+    channel: int = -1
+    exact: bool = False
+    times: int = -1
+
+
+@dataclass(frozen=True, eq=False)
+class GltfSource:
+    """A glTF file as read, for the writer (see the module)."""
+
+    raw: bytes
+    document: dict
+    binary: bytes | None  # the GLB binary chunk
+    glb: bool
+    nodes: tuple[int, ...]  # the joints' node indices
+    animation: int  # -1: none
+    rotation: tuple[Track, ...]
+    translation: tuple[Track, ...]
+    start: float
+    frame_time: float
+    n_frames: int
+    buffers: Any  # the buffers' bytes, read when first asked for
+    translations: np.ndarray  # (F, J, 3) as read
+    notes: tuple[str, ...] = field(default=())
+
+
+# ----------------------------------------------------------------------------- the container
+
+
+def _chunks(data: bytes, path) -> tuple[dict, bytes | None]:
+    """The JSON and binary chunks of a GLB."""
+    if len(data) < 20:
+        _fail("a GLB shorter than its header", path)
+    magic, version, length = struct.unpack_from("<4sII", data)
+    if magic != GLB_MAGIC:
+        _fail("not a GLB file (no 'glTF' magic)", path)
+    if version != 2:
+        _fail(f"glTF version {version}; only glTF 2.0 is read", path)
+    if length != len(data):
+        _fail(f"the header says {length} bytes, the file has {len(data)}", path)
+    at, chunks = 12, []
+    while at < len(data):
+        if at + 8 > len(data):
+            _fail("a chunk header runs past the end of the file", path)
+        size, kind = struct.unpack_from("<II", data, at)
+        if at + 8 + size > len(data):
+            _fail("a chunk runs past the end of the file", path)
+        chunks.append((kind, data[at + 8 : at + 8 + size]))
+        at += 8 + size
+    if not chunks or chunks[0][0] != JSON_CHUNK:
+        _fail("the first chunk of a GLB must be JSON", path)
+    binary = chunks[1][1] if len(chunks) > 1 and chunks[1][0] == BIN_CHUNK else None
+    return _json(chunks[0][1], path), binary
+
+
+def _json(text: bytes, path) -> dict:
+    try:
+        document = json.loads(text.decode("utf-8").removeprefix("\ufeff"))
+    except UnicodeDecodeError:
+        _fail("the glTF JSON is not UTF-8 text", path)
+    except RecursionError:
+        _fail("the glTF JSON is nested too deeply", path)
+    except ValueError as error:
+        _fail(f"the glTF JSON does not parse: {str(error)[:100]}", path)
+    if not isinstance(document, dict):
+        _fail("the glTF JSON is not an object", path)
+    version = (
+        document.get("asset", {}).get("version")
+        if isinstance(document.get("asset"), dict)
+        else None
+    )
+    if not isinstance(version, str) or not version.startswith("2."):
+        _fail(f"asset.version is {version!r}; only glTF 2.0 is read", path)
+    return document
+
+
+def _items(document: dict, key: str, path) -> list:
+    value = document.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(item, dict) for item in value):
+        _fail(f"{key!r} is not a list of objects", path)
+    return value
+
+
+def _index(value, size: int, what: str, path) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
+        _fail(f"{what}: {str(value)[:20]} is not an index below {size}", path)
+    return value
+
+
+def _count(value, what: str, path) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        _fail(f"{what}: {str(value)[:20]} is not a count", path)
+    return value
+
+
+class _Buffers:
+    """The bytes of each buffer, read when first asked for (GLB chunk, data URI or a file
+    beside the glTF)."""
+
+    def __init__(self, document: dict, binary: bytes | None, path):
+        self.specs = _items(document, "buffers", path)
+        self.binary = binary
+        self.path = path
+        self.loaded: dict[int, bytes] = {}
+
+    def __getitem__(self, index: int) -> bytes:
+        if index not in self.loaded:
+            self.loaded[index] = self._load(index)
+        return self.loaded[index]
+
+    def _load(self, index: int) -> bytes:
+        spec = self.specs[index]
+        length = _count(spec.get("byteLength"), f"buffers[{index}].byteLength", self.path)
+        uri = spec.get("uri")
+        if uri is None:
+            if index != 0 or self.binary is None:
+                _fail(f"buffers[{index}] has no uri and no GLB binary chunk", self.path)
+            data = self.binary
+        elif not isinstance(uri, str):
+            _fail(f"buffers[{index}].uri is not text", self.path)
+        elif uri.startswith("data:"):
+            head, comma, payload = uri.partition(",")
+            if not comma or not head.endswith(";base64"):
+                _fail(f"buffers[{index}]: a data URI that is not base64", self.path)
+            try:
+                data = base64.b64decode(payload, validate=True)
+            except (binascii.Error, ValueError):
+                _fail(f"buffers[{index}]: its base64 data does not decode", self.path)
+        else:
+            data = self._file(index, uri)
+        if len(data) < length:
+            _fail(f"buffers[{index}] holds {len(data)} bytes, byteLength says {length}", self.path)
+        return data
+
+    def _file(self, index: int, uri: str) -> bytes:
+        from urllib.parse import unquote
+
+        name = unquote(uri)
+        if "://" in name or os.path.isabs(name) or ".." in Path(name).parts:
+            _fail(f"buffers[{index}]: uri {uri[:60]!r} is not a file beside the glTF", self.path)
+        where = Path(self.path).parent / name
+        try:
+            data, _ = read_regular_file(where)
+        except MotionError as error:
+            _fail(f"buffers[{index}]: {error.message} ({where})", self.path)
+        return data
+
+
+def _accessor(document: dict, buffers: _Buffers, index: object, path) -> np.ndarray:
+    """``(count, width)`` float64 values of accessor ``index`` (normalized integers
+    divided out)."""
+    accessors = _items(document, "accessors", path)
+    index = _index(index, len(accessors), "accessor", path)
+    spec = accessors[index]
+    where = f"accessors[{index}]"
+    if "sparse" in spec:
+        _fail(f"{where}: sparse accessors are not read", path)
+    kind = spec.get("componentType")
+    if kind not in COMPONENTS:
+        _fail(f"{where}: componentType {str(kind)[:12]} is not a glTF component type", path)
+    dtype, divisor = COMPONENTS[kind]
+    width = WIDTHS.get(spec.get("type"))
+    if width is None:
+        _fail(f"{where}: type {str(spec.get('type'))[:12]!r} is not read", path)
+    count = _count(spec.get("count"), f"{where}.count", path)
+    views = _items(document, "bufferViews", path)
+    if "bufferView" not in spec:
+        return (
+            np.zeros((count, width)) if count <= 1 << 16 else _fail(f"{where}: no bufferView", path)
+        )
+    view = views[_index(spec["bufferView"], len(views), f"{where}.bufferView", path)]
+    if view.get("extensions"):
+        _fail(f"{where}: compressed data ({str(view['extensions'])[:60]}) is not read", path)
+    buffer_index = _index(
+        view.get("buffer"), len(buffers.specs), f"{where}: bufferView.buffer", path
+    )
+    item = np.dtype(dtype).itemsize
+    stride = view.get("byteStride", width * item) or width * item
+    view_offset = _count(view.get("byteOffset", 0), f"{where}: bufferView.byteOffset", path)
+    view_length = _count(view.get("byteLength"), f"{where}: bufferView.byteLength", path)
+    offset = _count(spec.get("byteOffset", 0), f"{where}.byteOffset", path)
+    stride = _count(stride, f"{where}: byteStride", path)
+    needed = offset + (stride * (count - 1) + width * item if count else 0)
+    if stride < width * item or needed > view_length:
+        _fail(f"{where}: {count} elements do not fit in their bufferView", path)
+    data = buffers[buffer_index]
+    if view_offset + view_length > len(data):
+        _fail(f"{where}: its bufferView runs past the end of buffer {buffer_index}", path)
+    raw = np.frombuffer(data, dtype=np.uint8, count=needed, offset=view_offset)
+    start = raw[offset:]
+    values = np.lib.stride_tricks.as_strided(
+        start[: max(needed - offset, 0)].view(np.uint8),
+        shape=(count, width * item),
+        strides=(stride, 1),
+    )
+    out = np.ascontiguousarray(values).view(np.dtype(dtype).newbyteorder("<")).reshape(count, width)
+    out = out.astype(np.float64)
+    if divisor is not None and spec.get("normalized"):
+        out = np.maximum(out / divisor, -1.0)
+    return out
+
+
+# ----------------------------------------------------------------------------- the skeleton
+
+
+def _tree(nodes: list, path) -> np.ndarray:
+    """Each node's parent (-1 for a root); a node with two parents or a cycle is refused."""
+    parent = np.full(len(nodes), -1, dtype=np.intp)
+    for n, node in enumerate(nodes):
+        children = node.get("children", [])
+        if not isinstance(children, list):
+            _fail(f"nodes[{n}].children is not a list", path)
+        for child in children:
+            c = _index(child, len(nodes), f"nodes[{n}].children", path)
+            if c == n:
+                _fail(f"node {n} lists itself as a child", path)
+            if parent[c] >= 0:
+                _fail(f"node {c} has two parents", path)
+            parent[c] = n
+    # Every node has one parent at most, so a node that no walk down from the roots
+    # reaches is on a cycle.
+    reached = np.zeros(len(nodes), dtype=bool)
+    stack = np.flatnonzero(parent < 0).tolist()
+    while stack:
+        n = stack.pop()
+        reached[n] = True
+        stack.extend(nodes[n].get("children", []))
+    if not reached.all():
+        _fail("the node tree has a cycle", path)
+    return parent
+
+
+def _order(joints: set[int], nodes: list, parent: np.ndarray) -> tuple[list[int], list[int]]:
+    """``joints`` in depth-first order of the node tree (children in the order their parent
+    lists them) and each one's nearest joint ancestor (an index into that list, -1 for
+    none)."""
+    order: list[int] = []
+    above: list[int] = []
+    stack = [(int(n), -1) for n in reversed(np.flatnonzero(parent < 0))]
+    while stack:
+        n, joint_above = stack.pop()
+        if n in joints:
+            order.append(n)
+            above.append(joint_above)
+            joint_above = len(order) - 1
+        stack.extend((int(c), joint_above) for c in reversed(nodes[n].get("children", [])))
+    return order, above
+
+
+def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
+    """A node's rest translation ``(3,)`` and rotation ``(4,)`` (w, x, y, z)."""
+    if "matrix" in node:
+        m = np.asarray(node["matrix"], dtype=np.float64) if _numbers(node["matrix"], 16) else None
+        if m is None:
+            _fail(f"nodes[{n}].matrix is not 16 numbers", path)
+        m = m.reshape(4, 4).T  # column-major
+        scale = np.linalg.norm(m[:3, :3], axis=0)
+        if np.any(scale <= 0.0):
+            _fail(f"nodes[{n}].matrix has a zero scale", path)
+        return m[:3, 3].copy(), matrix_to_quaternion(m[:3, :3] / scale)
+    t = node.get("translation", [0.0, 0.0, 0.0])
+    r = node.get("rotation", [0.0, 0.0, 0.0, 1.0])
+    if not _numbers(t, 3) or not _numbers(r, 4):
+        _fail(f"nodes[{n}]: translation or rotation is not 3 or 4 numbers", path)
+    q = np.array([r[3], r[0], r[1], r[2]], dtype=np.float64)
+    norm = np.linalg.norm(q)
+    if not norm > 1e-6:
+        _fail(f"nodes[{n}].rotation is not a rotation (norm {norm:.3g})", path)
+    return np.array(t, dtype=np.float64), q / norm
+
+
+def _numbers(value, n: int) -> bool:
+    return (
+        isinstance(value, list)
+        and len(value) == n
+        and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            for v in value
+        )
+    )
+
+
+# ----------------------------------------------------------------------------- sampling
+
+
+@dataclass(frozen=True)
+class _Keys:
+    times: np.ndarray  # (K,)
+    values: np.ndarray  # (K, n), or (K, 3, n) for CUBICSPLINE (in-tangent, value, out-tangent)
+    interpolation: str
+    input: int
+
+
+def _keys(
+    document: dict, buffers: _Buffers, animation: dict, channel: dict, a: int, width: int, path
+) -> _Keys:
+    samplers = animation.get("samplers", [])
+    s = _index(channel.get("sampler"), len(samplers), f"animations[{a}] channel sampler", path)
+    sampler = samplers[s]
+    if not isinstance(sampler, dict):
+        _fail(f"animations[{a}].samplers[{s}] is not an object", path)
+    interpolation = sampler.get("interpolation", "LINEAR")
+    if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
+        _fail(
+            f"animations[{a}].samplers[{s}]: interpolation {str(interpolation)[:20]!r} is unknown",
+            path,
+        )
+    times = _accessor(document, buffers, sampler.get("input"), path)
+    values = _accessor(document, buffers, sampler.get("output"), path)
+    if times.shape[1] != 1 or values.shape[1] != width:
+        _fail(
+            f"animations[{a}].samplers[{s}]: input must be scalars and output {width} values each",
+            path,
+        )
+    times = times[:, 0]
+    per_key = 3 if interpolation == "CUBICSPLINE" else 1
+    if values.shape[0] != per_key * times.size or times.size == 0:
+        _fail(
+            f"animations[{a}].samplers[{s}]: {values.shape[0]} outputs for {times.size} keys", path
+        )
+    if not (np.isfinite(times).all() and np.isfinite(values).all()):
+        _fail(f"animations[{a}].samplers[{s}]: a key time or value is not finite", path)
+    if np.any(np.diff(times) <= 0.0):
+        _fail(f"animations[{a}].samplers[{s}]: key times do not increase", path)
+    if per_key == 3:
+        values = values.reshape(times.size, 3, width)
+    return _Keys(times, values, interpolation, sampler["input"])
+
+
+def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
+    """Start time, frame time and frame count of the grid all channels are sampled on."""
+    steps = [_step(k.times) for k in keys if k.times.size >= 2]
+    start = min(float(k.times[0]) for k in keys)
+    end = max(float(k.times[-1]) for k in keys)
+    if not steps:
+        return start, 1.0 / 30.0, 1
+    finest = min(range(len(steps)), key=steps.__getitem__)
+    dt = steps[finest]
+    rate = 1.0 / dt
+    if abs(rate - round(rate)) <= SNAP * rate and round(rate) > 0:
+        # the whole rate, unless the finest channel's keys then drift off the grid
+        times = [k.times for k in keys if k.times.size >= 2][finest]
+        whole = 1.0 / round(rate)
+        grid = start + whole * np.round((times - start) / whole)
+        dt = whole if _on_grid(times, grid, whole) else dt
+    frames = int(round((end - start) / dt)) + 1
+    total_keys = sum(k.times.size for k in keys)
+    if frames > MAX_FRAMES_PER_KEY * total_keys:
+        _fail(
+            f"keys {end - start:.6g} s apart at {dt:.6g} s per frame: {frames} frames for "
+            f"{total_keys} keys; refused",
+            path,
+        )
+    return start, dt, frames
+
+
+def _on_grid(times: np.ndarray, grid: np.ndarray, frame_time: float) -> bool:
+    """True when float32 key ``times`` are the ``grid`` times (see :data:`ON_GRID`)."""
+    allowed = ON_GRID * frame_time + FLOAT32_TIME * np.abs(grid)
+    return bool(np.all(np.abs(times - grid) <= allowed))
+
+
+def _step(times: np.ndarray) -> float:
+    """A channel's key step: its span over its steps when they are uniform (within 10 %),
+    accurate however long the clip (float32 times); else the median step."""
+    steps = np.diff(times)
+    mean = float(times[-1] - times[0]) / steps.size
+    return mean if np.all(np.abs(steps - mean) <= 0.1 * mean) else float(np.median(steps))
+
+
+def _sample(keys: _Keys, times: np.ndarray, rotation: bool) -> np.ndarray:
+    """Values of a channel at ``times`` (see the module)."""
+    t = keys.times
+    k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, max(t.size - 2, 0))
+    if t.size == 1:
+        value = keys.values[:, 1] if keys.interpolation == "CUBICSPLINE" else keys.values
+        return np.repeat(value, times.size, axis=0)
+    span = t[k + 1] - t[k]
+    u = np.clip((times - t[k]) / span, 0.0, 1.0)[:, None]
+    if keys.interpolation == "STEP":
+        return keys.values[np.where(times >= t[k + 1], k + 1, k)]
+    if keys.interpolation == "LINEAR":
+        a, b = keys.values[k], keys.values[k + 1]
+        if rotation:
+            return quat.slerp(a, b, u[:, 0])
+        return a + (b - a) * u
+    v, tangent_in, tangent_out = keys.values[:, 1], keys.values[:, 0], keys.values[:, 2]
+    u2, u3 = u * u, u * u * u
+    d = span[:, None]
+    out = (
+        (2 * u3 - 3 * u2 + 1) * v[k]
+        + (u3 - 2 * u2 + u) * d * tangent_out[k]
+        + (-2 * u3 + 3 * u2) * v[k + 1]
+        + (u3 - u2) * d * tangent_in[k + 1]
+    )
+    return quat.normalize(out) if rotation else out
+
+
+def _as_wxyz(values: np.ndarray) -> np.ndarray:
+    """glTF ``(x, y, z, w)`` along the last axis as ``(w, x, y, z)``."""
+    return values[..., [3, 0, 1, 2]]
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def parse_gltf(data: bytes, path) -> Motion:
+    """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module)."""
+    glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(".glb")
+    document, binary = _chunks(data, path) if glb else (_json(data, path), None)
+    buffers = _Buffers(document, binary, path)
+    nodes = _items(document, "nodes", path)
+    parent = _tree(nodes, path)
+    animations = _items(document, "animations", path)
+    notes: list[str] = []
+    if len(animations) > 1:
+        name = animations[0].get("name", "")
+        notes.append(f"{len(animations)} animations: the first ({str(name)[:40]!r}) is read")
+    animation = animations[0] if animations else {}
+    channels = animation.get("channels", [])
+    if not isinstance(channels, list) or not all(isinstance(c, dict) for c in channels):
+        _fail("animations[0].channels is not a list of objects", path)
+    targets: dict[tuple[int, str], int] = {}
+    for c, channel in enumerate(channels):
+        target = channel.get("target")
+        if not isinstance(target, dict):
+            _fail(f"animations[0].channels[{c}] has no target", path)
+        if "node" not in target:
+            continue
+        n = _index(target["node"], len(nodes), f"animations[0].channels[{c}].target.node", path)
+        kind = target.get("path")
+        if kind in ("rotation", "translation"):
+            targets[(n, kind)] = c
+    skins = _items(document, "skins", path)
+    if skins:
+        listed = skins[0].get("joints")
+        if not isinstance(listed, list) or not listed:
+            _fail("skins[0].joints is not a list of nodes", path)
+        joints = {_index(j, len(nodes), "skins[0].joints", path) for j in listed}
+        if len(skins) > 1:
+            notes.append(f"{len(skins)} skins: the joints of the first are read")
+    else:
+        joints = {n for n, _ in targets}
+    if not joints:
+        _fail("no skin and no animated node: no skeleton to read", path)
+    order, parents = _order(joints, nodes, parent)
+    rest = [_rest(nodes[n], n, path) for n in order]
+    keys: dict[tuple[int, str], _Keys] = {}
+    for (n, kind), c in targets.items():
+        if n in joints:
+            keys[(n, kind)] = _keys(
+                document, buffers, animation, channels[c], 0, 4 if kind == "rotation" else 3, path
+            )
+    if keys:
+        start, frame_time, n_frames = _grid(list(keys.values()), path)
+    else:
+        start, frame_time, n_frames = 0.0, 1.0 / 30.0, 1
+        notes.append("no animation: the rest pose as one frame at 30 fps")
+    grid = start + frame_time * np.arange(n_frames)
+    n_joints = len(order)
+    rotations = np.empty((n_frames, n_joints, 4))
+    translations = joint_major_zeros(n_frames, n_joints)
+    offsets = np.array([t for t, _ in rest]).reshape(n_joints, 3)
+    rotation_tracks: list[Track] = []
+    translation_tracks: list[Track] = []
+    channels_out: list[tuple[str, ...]] = []
+    for j, n in enumerate(order):
+        tracks = []
+        for kind in ("rotation", "translation"):
+            found = keys.get((n, kind))
+            if found is None:
+                tracks.append(Track())
+                continue
+            exact = found.interpolation != "CUBICSPLINE" and found.times.size == n_frames
+            exact = exact and _on_grid(found.times, grid, frame_time)
+            values = found.values if exact else _sample(found, grid, kind == "rotation")
+            tracks.append(Track(targets[(n, kind)], exact, found.input))
+            if kind == "rotation":
+                q = _as_wxyz(values)
+                norm = np.linalg.norm(q, axis=-1)
+                if not np.all(norm > 1e-6):
+                    _fail(f"node {n} ({_name(nodes[n], n)}): a rotation key of zero length", path)
+                rotations[:, j] = q / norm[:, None]
+            else:
+                translations[:, j] = values
+        rotation_tracks.append(tracks[0])
+        translation_tracks.append(tracks[1])
+        if tracks[0].channel < 0:
+            rotations[:, j] = rest[j][1]
+        moving = tracks[1].channel >= 0 and bool(np.any(translations[:, j] != translations[:1, j]))
+        if tracks[1].channel >= 0 and not moving:
+            offsets[j] = translations[0, j]
+            translations[:, j] = 0.0
+        channels_out.append(POSITION_CHANNELS + ROTATION if moving else ROTATION)
+    rotations = quat.continuous(rotations)
+    source = GltfSource(
+        data,
+        document,
+        binary,
+        glb,
+        tuple(order),
+        0 if animations else -1,
+        tuple(rotation_tracks),
+        tuple(translation_tracks),
+        start,
+        frame_time,
+        n_frames,
+        buffers,
+        np.array(translations),
+        tuple(notes),
+    )
+    return Motion(
+        names=_unique([_name(nodes[n], n) for n in order]),
+        parents=np.array(parents, dtype=np.intp),
+        offsets=offsets,
+        channels=channels_out,
+        frame_time=frame_time,
+        rotations=rotations,
+        translations=translations,
+        source_rotations=rotations.copy(),
+        source=source,
+        path=None if path is None else str(path),
+        end_sites=_end_sites(order, nodes, joints, path),
+    )
+
+
+def _end_sites(order: list[int], nodes: list, joints: set[int], path) -> dict[int, np.ndarray]:
+    """Per joint (index into ``order``) with no joint among its children, the translation of
+    its first child that is a bare leaf node (no children, mesh or camera): a bone's tip."""
+    sites = {}
+    for j, n in enumerate(order):
+        children = nodes[n].get("children", [])
+        if any(c in joints for c in children):
+            continue
+        for c in children:
+            node = nodes[c]
+            if not (node.get("children") or "mesh" in node or "camera" in node or "matrix" in node):
+                sites[j] = _rest(node, c, path)[0]
+                break
+    return sites
+
+
+def _name(node: dict, n: int) -> str:
+    name = node.get("name")
+    return name if isinstance(name, str) and name.strip() else f"node{n}"
+
+
+def _unique(names: list[str]) -> list[str]:
+    seen: dict[str, int] = {}
+    out = []
+    for name in names:
+        seen[name] = seen.get(name, 0) + 1
+        out.append(name if seen[name] == 1 else f"{name}.{seen[name] - 1}")
+    return out
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def _same(q: np.ndarray, read: np.ndarray) -> np.ndarray:
+    return (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
+        np.abs(q + read).max(axis=-1) < SAME_ROTATION
+    )
+
+
+class _Appender:
+    """New binary data for a buffer, with bufferViews and accessors added to ``document``."""
+
+    def __init__(self, document: dict, buffer: int, base: int):
+        self.document, self.buffer, self.base = document, buffer, base
+        self.parts: list[bytes] = []
+        self.size = 0
+
+    def accessor(self, values: np.ndarray, kind: str, bounds: bool = False) -> int:
+        data = np.ascontiguousarray(values, dtype="<f4").tobytes()
+        pad = -(self.base + self.size) % 4
+        self.parts.append(b"\0" * pad)
+        self.size += pad
+        views = self.document.setdefault("bufferViews", [])
+        views.append(
+            {"buffer": self.buffer, "byteOffset": self.base + self.size, "byteLength": len(data)}
+        )
+        self.parts.append(data)
+        self.size += len(data)
+        spec: dict[str, Any] = {
+            "bufferView": len(views) - 1,
+            "componentType": 5126,
+            "count": len(values),
+            "type": kind,
+        }
+        if bounds:
+            flat = np.asarray(values, dtype=np.float32).reshape(len(values), -1)
+            spec["min"] = [float(v) for v in flat.min(axis=0)]
+            spec["max"] = [float(v) for v in flat.max(axis=0)]
+        accessors = self.document.setdefault("accessors", [])
+        accessors.append(spec)
+        return len(accessors) - 1
+
+    def data(self) -> bytes:
+        return b"".join(self.parts)
+
+
+def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
+    """``motion`` written into the glTF it was read from (see the module), as a GLB or a
+    ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI): the input's
+    bytes when nothing changed."""
+    src = motion.source
+    if not isinstance(src, GltfSource) or motion.n_joints != len(src.nodes):
+        return [fresh_gltf(motion, glb)]
+    same_frames = motion.n_frames == src.n_frames and motion.frame_time == src.frame_time
+    assert motion.source_rotations is not None
+    if same_frames and motion.source_rotations.shape == motion.rotations.shape:
+        kept = _same(motion.rotations, motion.source_rotations)
+    else:
+        kept = np.zeros((motion.n_frames, motion.n_joints), dtype=bool)
+    positions = motion.layout.position_columns[:, 0] >= 0
+    if same_frames:
+        moved = np.abs(motion.translations - src.translations).max(axis=-1) > UNCHANGED_TOLERANCE
+    else:
+        moved = np.ones((motion.n_frames, motion.n_joints), dtype=bool)
+    moved &= positions[None, :]
+    if kept.all() and not moved.any() and glb == src.glb:
+        return pieces(src.raw)
+    document = copy.deepcopy(src.document)
+    glb_binary = src.glb and src.binary is not None and _first_buffer_is_binary(document)
+    if glb_binary:
+        assert src.binary is not None
+        appender = _Appender(document, 0, len(src.binary))
+    else:
+        appender = _Appender(document, len(document.get("buffers", [])), 0)
+    animation = _animation(document, src)
+    grid = src.start + motion.frame_time * np.arange(motion.n_frames) if not same_frames else None
+    shared_times: dict[str, int] = {}
+
+    def times_for(track: Track) -> int:
+        if same_frames and track.exact:
+            return track.times
+        if "grid" not in shared_times:
+            t = grid if grid is not None else src.start + src.frame_time * np.arange(src.n_frames)
+            shared_times["grid"] = appender.accessor(t[:, None], "SCALAR", bounds=True)
+        return shared_times["grid"]
+
+    for j, node in enumerate(src.nodes):
+        rotation_changed = not kept[:, j].all()
+        if rotation_changed:
+            track = src.rotation[j]
+            q = motion.rotations[:, j].copy()
+            if same_frames and track.exact:  # unchanged frames keep the values read
+                old = _as_wxyz(
+                    _accessor(src.document, src.buffers, _output(src, track), motion.path)
+                )
+                q[kept[:, j]] = old[kept[:, j]]
+            xyzw = q[:, [1, 2, 3, 0]]
+            _point(
+                animation,
+                track,
+                node,
+                "rotation",
+                times_for(track),
+                appender.accessor(xyzw, "VEC4"),
+            )
+        if moved[:, j].any():
+            track = src.translation[j]
+            _point(
+                animation,
+                track,
+                node,
+                "translation",
+                times_for(track),
+                appender.accessor(motion.translations[:, j], "VEC3"),
+            )
+    new = appender.data()
+    binary = src.binary
+    if glb_binary:
+        assert binary is not None
+        binary += new
+        document["buffers"][0]["byteLength"] = len(binary)
+    elif new:
+        document.setdefault("buffers", []).append({"byteLength": len(new), "uri": _data_uri(new)})
+    for index, buffer in enumerate(src.document.get("buffers", [])):
+        uri = buffer.get("uri")  # .bin files embedded: the file can go to any folder
+        if isinstance(uri, str) and not uri.startswith("data:"):
+            document["buffers"][index]["uri"] = _data_uri(src.buffers[index])
+    if not glb:  # one self-contained file: the binary chunk embedded too
+        if glb_binary or (src.glb and binary is not None and _first_buffer_is_binary(document)):
+            assert binary is not None
+            document["buffers"][0]["uri"] = _data_uri(binary)
+        return [json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")]
+    text = json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    return [_glb(text, binary if src.glb else None)]
+
+
+def _data_uri(data: bytes) -> str:
+    return "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _first_buffer_is_binary(document: dict) -> bool:
+    buffers = document.get("buffers", [])
+    return bool(buffers) and "uri" not in buffers[0]
+
+
+def _output(src: GltfSource, track: Track) -> int:
+    animation = src.document["animations"][src.animation]
+    sampler = animation["samplers"][animation["channels"][track.channel]["sampler"]]
+    return sampler["output"]
+
+
+def _animation(document: dict, src: GltfSource) -> dict:
+    if src.animation >= 0:
+        return document["animations"][src.animation]
+    document.setdefault("animations", []).append({"channels": [], "samplers": []})
+    return document["animations"][-1]
+
+
+def _point(animation: dict, track: Track, node: int, kind: str, times: int, output: int) -> None:
+    """Make the channel of ``track`` (or a new one for ``node``) use a new LINEAR sampler."""
+    samplers = animation.setdefault("samplers", [])
+    samplers.append({"input": times, "interpolation": "LINEAR", "output": output})
+    if track.channel >= 0:
+        animation["channels"][track.channel]["sampler"] = len(samplers) - 1
+    else:
+        animation.setdefault("channels", []).append(
+            {"sampler": len(samplers) - 1, "target": {"node": node, "path": kind}}
+        )
+
+
+def _glb(text: bytes, binary: bytes | None) -> bytes:
+    text += b" " * (-len(text) % 4)
+    chunks = [struct.pack("<II", len(text), JSON_CHUNK), text]
+    if binary is not None:
+        binary += b"\0" * (-len(binary) % 4)
+        chunks += [struct.pack("<II", len(binary), BIN_CHUNK), binary]
+    body = b"".join(chunks)
+    return struct.pack("<4sII", GLB_MAGIC, 2, 12 + len(body)) + body
+
+
+# ----------------------------------------------------------------------------- a new file
+
+
+def fresh_gltf(motion: Motion, glb: bool) -> bytes:
+    """A glTF of a clip read from another format: a node per joint (its offset as rest
+    translation, no rest rotation) and per end site (``<joint>_end``, a child node outside
+    the skin), a skin of the joints (inverse bind matrices of the rest pose, so importers
+    make an armature), one animation
+    on the clip's frames (LINEAR rotations, and translations where a joint has position
+    channels), data in the GLB binary chunk or a data URI."""
+    note = getattr(motion.source, "no_world", None)
+    if note is not None:
+        _fail(f"glTF needs joint positions: {note}", motion.path)
+    if getattr(motion.source, "needs_skeleton", False):
+        _fail(
+            "glTF needs joint positions: this clip has no skeleton (a channel CSV read "
+            "without one; give --skeleton TEMPLATE.bvh)",
+            motion.path,
+        )
+    if motion.missing is not None:
+        frames = np.flatnonzero(motion.missing.any(axis=1))
+        _fail(
+            f"glTF has no missing samples: {frames.size} frames have some (first {frames[0]}); "
+            "fill them first (-f fill-gaps)",
+            motion.path,
+        )
+    n = motion.n_joints
+    tips = sorted(motion.end_sites)
+    nodes: list[dict[str, Any]] = [
+        {"name": name, "translation": [float(v) for v in motion.offsets[j]]}
+        for j, name in enumerate(motion.names)
+    ]
+    for k, j in enumerate(tips):
+        nodes.append(
+            {
+                "name": f"{motion.names[j]}_end",
+                "translation": [float(v) for v in motion.end_sites[j]],
+            }
+        )
+        nodes[j].setdefault("children", []).append(n + k)
+    for j, parent in enumerate(motion.parents.tolist()):
+        if parent >= 0:
+            nodes[parent].setdefault("children", []).append(j)
+    roots = [j for j in range(n) if motion.parents[j] < 0]
+    document: dict[str, Any] = {
+        "asset": {"version": "2.0", "generator": "motionclean"},
+        "scene": 0,
+        "scenes": [{"nodes": roots}],
+        "nodes": nodes,
+        "animations": [{"channels": [], "samplers": []}],
+    }
+    appender = _Appender(document, 0, 0)
+    rest = rest_positions(motion)  # joints, then end sites: their rest world translations
+    inverse_bind = np.zeros((n, 4, 4))
+    inverse_bind[:] = np.eye(4)
+    inverse_bind[:, 3, :3] = -rest[:n]  # column-major: the translation is the last column
+    skin_matrices = appender.accessor(inverse_bind.reshape(n, 16), "MAT4")
+    document["skins"] = [{"joints": list(range(n)), "inverseBindMatrices": skin_matrices}]
+    times = appender.accessor(
+        (np.arange(motion.n_frames) * motion.frame_time)[:, None], "SCALAR", bounds=True
+    )
+    animation = document["animations"][0]
+    positions = motion.layout.position_columns >= 0
+    for j in range(n):
+        rotation = appender.accessor(motion.rotations[:, j][:, [1, 2, 3, 0]], "VEC4")
+        _point(animation, Track(), j, "rotation", times, rotation)
+        if positions[j].any():
+            local = np.where(positions[j], motion.translations[:, j], motion.offsets[j])
+            _point(animation, Track(), j, "translation", times, appender.accessor(local, "VEC3"))
+    data = appender.data()
+    document["buffers"] = [{"byteLength": len(data)}]
+    if not glb:
+        document["buffers"][0]["uri"] = _data_uri(data)
+        return json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    text = json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
+    return _glb(text, data)

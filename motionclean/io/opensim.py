@@ -1,0 +1,392 @@
+"""OpenSim motion and storage files (``.mot``, ``.sto``): joint coordinates over time.
+
+::
+
+    Coordinates
+    version=1
+    nRows=3
+    nColumns=4
+    inDegrees=yes
+    endheader
+    time	pelvis_tilt	pelvis_tx	knee_angle_r
+        0.00000000	-2.44998000	0.12000000	3.51000000
+    ...
+
+A header of any lines up to ``endheader``, then a line of column labels and one row of
+whitespace-separated numbers per sample; the first column is ``time`` (seconds, uniformly
+sampled: a step more than 10 % off the mean is refused, resample first). ``inDegrees=yes``
+says rotational coordinates are in degrees, ``no`` in radians; without the line they are
+read as radians, as OpenSim does (a note says so).
+
+Each coordinate becomes a root joint of the clip named after its column. A translational
+coordinate (named ``*_tx``, ``*_ty``, ``*_tz``, as OpenSim names them) is a position along
+that axis (``Xposition`` ...; metres); any other is a rotation by its angle about a fixed
+axis, the joint's Z axis (``Zrotation Xrotation Yrotation``, the two others zero): filters
+on that quaternion signal act on the angle itself, and it stays a rotation about Z.
+Columns the user excludes (``exclude``: fnmatch patterns, e.g. muscle forces in a
+``.sto``) are carried as text and never parsed. ``NaN`` cells (any case) are missing
+samples (``Motion.missing``).
+
+Writing a clip read from such a file keeps the header and every cell that did not change
+byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
+counts as unchanged, as for BVH); a changed value is written in shortest
+round-trip form, in the file's unit and on the branch (whole turns) nearest the value
+read. When the frame count changed (resampled), the rows are written afresh and ``nRows``
+is updated.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
+
+from ..core import quat
+from ..core.errors import MotionError
+from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
+from .csv import format_repr, uniform_frame_time
+from .files import pieces
+from .text import line_ends, parse_values, scan_tokens, splice_cells, table_pieces
+
+#: Channels of a rotational coordinate (a rotation about Z) and of a translational one.
+ROTATIONAL = ("Zrotation", "Xrotation", "Yrotation")
+TRANSLATIONAL = {"tx": ("Xposition",), "ty": ("Yposition",), "tz": ("Zposition",)}
+#: Header lines read at most before ``endheader``.
+MAX_HEADER_LINES = 1000
+
+
+@dataclass(frozen=True, eq=False)
+class OpenSimText:
+    """A ``.mot``/``.sto`` as read: its bytes, the header's end (where the labels line
+    starts), the labels, the unit of angles, the ``(F, K)`` byte ranges of the cells and
+    values of the coordinate columns (NaN where missing), and which columns the clip's
+    joints are (``columns[j]``)."""
+
+    raw: bytes
+    body: int
+    labels: tuple[str, ...]
+    in_degrees: bool
+    row_starts: np.ndarray
+    starts: np.ndarray
+    ends: np.ndarray
+    values: np.ndarray
+    columns: np.ndarray
+    translational: np.ndarray  # (J,) axis index 0-2, or -1 for a rotational coordinate
+    eol: bytes
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.starts.shape[0])
+
+    #: Why world-space figures are skipped (``core.kinematics.world_note``).
+    no_world = "OpenSim coordinates are joint angles without the model's bodies"
+    #: Coordinates make no skeleton: BVH output is refused with this message.
+    needs_skeleton = True
+    no_skeleton_message = (
+        "OpenSim coordinates have no skeleton (the model's bodies are not in the file); "
+        "write .mot, .sto or CSV"
+    )
+
+
+def _fail(message: str, path, line: int | None = None) -> NoReturn:
+    raise MotionError(message, path, line)
+
+
+def _header(data: bytes, path) -> tuple[int, int, dict[str, tuple[str, int]], bytes]:
+    """The offset after ``endheader``, its line number, the ``key=value`` pairs (each value
+    with its line number) and the line ending."""
+    pos, number = 0, 0
+    pairs: dict[str, tuple[str, int]] = {}
+    eol = b"\r\n" if b"\r\n" in data[:4096] else b"\n"
+    while pos < len(data):
+        number += 1
+        if number > MAX_HEADER_LINES:
+            break
+        end = data.find(b"\n", pos)
+        end = len(data) if end < 0 else end + 1
+        line = data[pos:end].strip()
+        pos = end
+        if line.lower() == b"endheader":
+            return pos, number, pairs, eol
+        key, eq, value = line.partition(b"=")
+        if eq:
+            text = value.strip().decode("utf-8", "replace")
+            pairs[key.strip().decode("utf-8", "replace").lower()] = (text, number)
+    within = f" in the first {MAX_HEADER_LINES} lines" if number > MAX_HEADER_LINES else ""
+    _fail(f"no 'endheader' line{within}: not an OpenSim .mot/.sto", path)
+
+
+def _in_degrees(pairs: dict[str, tuple[str, int]], path) -> tuple[bool, str | None]:
+    if "indegrees" not in pairs:
+        return False, "no inDegrees line: angles read as radians, as OpenSim does"
+    value, line = pairs["indegrees"]
+    if value.lower() in ("yes", "true", "1"):
+        return True, None
+    if value.lower() in ("no", "false", "0"):
+        return False, None
+    _fail(f"inDegrees={value[:20]!r}: expected yes or no", path, line)
+
+
+def is_translational(label: str) -> int:
+    """The axis (0-2) of a translational coordinate's name (``*_tx`` ...), else -1."""
+    head, sep, tail = label.rpartition("_")
+    return "xyz".index(tail[1]) if sep and head and tail.lower() in TRANSLATIONAL else -1
+
+
+def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
+    """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module)."""
+    body, header_lines, pairs, eol = _header(data, path)
+    in_degrees, note = _in_degrees(pairs, path)
+    buf = np.frombuffer(data, dtype=np.uint8)
+    newlines = line_ends(buf, body)
+    line_start = np.concatenate([[body], newlines + 1])
+    line_start = line_start[line_start < len(data)]
+    starts, ends = scan_tokens(buf, body)
+    line_of = np.searchsorted(line_start, starts, side="right") - 1
+    counts = np.bincount(line_of, minlength=line_start.size)
+    used = np.flatnonzero(counts)  # lines with tokens (blank lines skipped)
+    if used.size == 0:
+        _fail("no column labels after endheader", path, header_lines + 1)
+    first_token = np.cumsum(counts) - counts
+    label_line = used[0]
+    k = int(counts[label_line])
+    labels_at = slice(int(first_token[label_line]), int(first_token[label_line]) + k)
+    try:
+        labels = [
+            bytes(buf[a:b]).decode("utf-8")
+            for a, b in zip(starts[labels_at], ends[labels_at], strict=True)
+        ]
+    except UnicodeDecodeError:
+        _fail("column labels are not UTF-8 text", path, header_lines + 1 + label_line)
+    number_of = lambda line: header_lines + 1 + int(line)  # noqa: E731  (file line numbers)
+    if labels[0].lower() != "time":
+        _fail(
+            f"the first column is {labels[0][:40]!r}, expected 'time'", path, number_of(label_line)
+        )
+    if len(set(labels)) != len(labels):
+        twice = next(label for label in labels if labels.count(label) > 1)
+        _fail(f"column {twice[:60]!r} appears twice", path, number_of(label_line))
+    rows = used[1:]
+    bad = rows[counts[rows] != k]
+    if bad.size:
+        line = int(bad[0])
+        _fail(
+            f"{int(counts[line])} values on this row, expected {k} (one per column)",
+            path,
+            number_of(line),
+        )
+    if rows.size < 2:
+        _fail("fewer than two rows of data", path)
+    cell = (first_token[rows][:, None] + np.arange(k)).astype(np.intp)  # (F, K) token index
+    cell_starts, cell_ends = starts[cell], ends[cell]
+    patterns = list(exclude)
+    kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
+    if not kept:
+        _fail("no coordinate columns (all excluded)", path, number_of(label_line))
+    parsed = np.array([0, *kept], dtype=np.intp)
+    nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])
+    if nan[:, 0].any():
+        _fail("the time is NaN", path, number_of(rows[int(np.argmax(nan[:, 0]))]))
+    flat = np.flatnonzero(~nan.ravel())
+    values = np.full(nan.shape, np.nan)
+    found, bad_at = parse_values(
+        buf, cell_starts[:, parsed].ravel(), cell_ends[:, parsed].ravel(), flat
+    )
+    if bad_at >= 0:
+        f, c = divmod(int(flat[bad_at]), parsed.size)
+        token = bytes(buf[cell_starts[f, parsed[c]] : cell_ends[f, parsed[c]]]).decode(
+            "utf-8", "replace"
+        )[:40]
+        _fail(
+            f"column {labels[parsed[c]][:60]!r}: not a finite number: {token!r}",
+            path,
+            number_of(rows[f]),
+        )
+    values.ravel()[flat] = found
+    frame_time = uniform_frame_time(
+        values[:, 0], np.array([number_of(r) for r in rows]), path, None
+    )
+    coords = values[:, 1:]
+    missing = np.isnan(coords)
+    names = [labels[c] for c in kept]
+    axes = np.array([is_translational(name) for name in names], dtype=np.intp)
+    text = OpenSimText(
+        data,
+        int(line_start[label_line]),
+        tuple(labels),
+        in_degrees,
+        line_start[rows].astype(np.int64),
+        cell_starts,
+        cell_ends,
+        values,
+        np.array(kept, dtype=np.intp),
+        axes,
+        eol,
+        (note,) if note else (),
+    )
+    return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
+
+
+def _nan_cells(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """``(F, K)`` True where a cell reads ``nan`` in any case."""
+    three = (ends - starts) == 3
+    letters = [buf.take(starts + i, mode="clip") | np.uint8(32) for i in range(3)]
+    return three & (letters[0] == ord("n")) & (letters[1] == ord("a")) & (letters[2] == ord("n"))
+
+
+def coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path) -> Motion:
+    """A clip of independent coordinates: rotational ones as rotations about Z (angles in
+    degrees or radians), translational ones as positions along their axis."""
+    n_frames, n = coords.shape
+    if missing.any():
+        coords = hold_missing(coords[..., None], missing)[..., 0]
+        coords[:, missing.all(axis=0)] = 0.0
+    rotational = axes < 0
+    angles = coords[:, rotational] if in_degrees is False else np.deg2rad(coords[:, rotational])
+    rotations = np.zeros((n_frames, n, 4))
+    rotations[..., 0] = 1.0
+    rotations[:, rotational, 0] = np.cos(0.5 * angles)
+    rotations[:, rotational, 3] = np.sin(0.5 * angles)
+    rotations = quat.continuous(rotations)
+    translations = joint_major_zeros(n_frames, n)
+    for axis in range(3):
+        on = np.flatnonzero(axes == axis)
+        translations[:, on, axis] = coords[:, on]
+    channels: list[tuple[str, ...]] = [
+        ROTATIONAL if a < 0 else TRANSLATIONAL["t" + "xyz"[a]] for a in axes
+    ]
+    return Motion(
+        names=list(names),
+        parents=np.full(n, -1, dtype=np.intp),
+        offsets=np.zeros((n, 3)),
+        channels=channels,
+        frame_time=frame_time,
+        rotations=rotations,
+        translations=translations,
+        source=text,
+        path=None if path is None else str(path),
+        missing=missing if missing.any() else None,
+    )
+
+
+def coordinate_values(motion: Motion, in_degrees: bool, reference: np.ndarray | None) -> np.ndarray:
+    """``(F, J)`` coordinate values of a clip of independent coordinates: the angle of each
+    rotational joint's rotation about its Z axis (its twist, in degrees or radians, on the
+    whole turn nearest ``reference`` where given, else unwrapped along time) and each
+    translational joint's position along its axis."""
+    axes = _axes_of(motion)
+    q = motion.rotations
+    angle = 2.0 * np.arctan2(q[..., 3], q[..., 0])  # radians, the twist about Z
+    turn = 2.0 * math.pi
+    if reference is not None:
+        ref = reference if not in_degrees else np.deg2rad(reference)
+        ref = np.where(np.isnan(ref), angle, ref)
+        angle = angle + turn * np.round((ref - angle) / turn)
+    else:
+        angle = np.unwrap(angle, axis=0)
+    values = np.rad2deg(angle) if in_degrees else angle
+    for axis in range(3):
+        on = axes == axis
+        values[:, on] = motion.translations[:, on, axis]
+    return values
+
+
+def _axes_of(motion: Motion) -> np.ndarray:
+    """Per joint: the axis of its one position channel (a translational coordinate), else -1.
+    Only clips of independent coordinates (one position channel, or three rotation channels
+    with Z first) are written."""
+    axes = np.full(motion.n_joints, -1, dtype=np.intp)
+    for j, channels in enumerate(motion.channels):
+        if len(channels) == 1 and channels[0].endswith("position"):
+            axes[j] = "XYZ".index(channels[0][0])
+        elif tuple(channels) != ROTATIONAL or motion.parents[j] >= 0:
+            raise MotionError(
+                "an OpenSim file holds independent coordinates (rotations about one axis, "
+                f"positions along one); joint {motion.names[j]!r} has channels "
+                f"{' '.join(channels)}",
+                motion.path,
+            )
+    return axes
+
+
+def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
+    """``motion`` as an OpenSim file: its own file with changed cells replaced (the input
+    bytes when nothing changed), or written afresh (see the module)."""
+    src = motion.source
+    if (
+        not isinstance(src, OpenSimText)
+        or src.n_frames != motion.n_frames
+        or src.columns.size != motion.n_joints
+    ):
+        return _fresh(motion, src if isinstance(src, OpenSimText) else None)
+    reference = src.values[:, 1:]
+    values = coordinate_values(motion, src.in_degrees, reference)
+    missing = motion.missing_mask()
+    # an angle read and turned into a quaternion comes back within 1e-14 of itself
+    moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
+    was_missing = np.isnan(reference)
+    changed = (moved & ~missing) | (was_missing != missing)
+    if not changed.any():
+        return pieces(src.raw)
+    mask = np.zeros(src.starts.shape, dtype=bool)
+    mask[:, src.columns] = changed
+    new_text = np.where(missing, np.nan, values)
+
+    def texts(rows: slice):
+        chosen = new_text[rows][changed[rows]]
+
+        def chunk(a: int, b: int):
+            return format_repr(chosen[a:b])
+
+        return chunk
+
+    return splice_cells(
+        src.raw, src.row_starts, lambda rows: (src.starts[rows], src.ends[rows]), mask, texts
+    )
+
+
+def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
+    """A new file: the source's header (``nRows`` and ``nColumns`` updated; its excluded
+    columns, which no longer describe the frames, left out) or a plain one, then every
+    row from the source's first time (or 0)."""
+    in_degrees = True if src is None else src.in_degrees
+    values = coordinate_values(motion, in_degrees, None)
+    values[motion.missing_mask()] = np.nan
+    start = 0.0 if src is None else float(src.values[0, 0])
+    times = start + np.arange(motion.n_frames) * motion.frame_time
+    if times.size:  # 12 significant digits, as the CSV writer gives them
+        largest = max(float(np.abs(times).max()), motion.frame_time)
+        times = np.round(times, 12 - math.ceil(math.log10(largest)))
+    eol = b"\n" if src is None else src.eol
+    if src is None:
+        head = (
+            f"{Path(motion.path).stem if motion.path else 'motion'}\nversion=1\n"
+            f"nRows={motion.n_frames}\n"
+            f"nColumns={motion.n_joints + 1}\ninDegrees={'yes' if in_degrees else 'no'}\n"
+            "endheader\n"
+        ).encode()
+    else:
+        counts = {b"nrows": motion.n_frames, b"ncolumns": motion.n_joints + 1}
+
+        def counted(line: bytes) -> bytes:
+            key, eq, _ = line.partition(b"=")
+            if not eq or key.strip().lower() not in counts:
+                return line
+            end = b"\r" if line.endswith(b"\r") else b""
+            return key + b"=" + str(counts[key.strip().lower()]).encode() + end
+
+        head = b"\n".join(counted(line) for line in src.raw[: src.body].split(b"\n"))
+    labels = "\t".join(["time", *motion.names]).encode("utf-8") + eol
+    table = np.concatenate([times[:, None], values], axis=1)
+
+    def cells(rows: slice):
+        buf, starts, lengths = format_repr(table[rows])
+        return buf, starts.reshape(-1, table.shape[1]), lengths.reshape(-1, table.shape[1])
+
+    return table_pieces(motion.n_frames, cells, b"\t", eol, head + labels)

@@ -1,0 +1,559 @@
+"""SMPL, SMPL-H and SMPL-X parameters (AMASS ``.npz`` and the same arrays in pickles).
+
+A record is a flat set of named arrays, one row per frame:
+
+- the joint rotations as axis-angle vectors (radians), either all in one ``poses`` (or
+  ``pose``) array of ``3 J`` values per frame (``J`` = 22, 24, 52 or 55: see
+  :data:`~motionclean.io.smpl_model.TREES`), or split into ``root_orient`` (or
+  ``global_orient``, 3 values), ``pose_body`` (``body_pose``: 63 values, or 69 for SMPL),
+  ``pose_hand`` (90; or ``left_hand_pose`` + ``right_hand_pose``), ``pose_jaw``
+  (``jaw_pose``, 3) and ``pose_eye`` (6; or ``leye_pose`` + ``reye_pose``). Rows of
+  ``(J, 3)`` vectors or ``(J, 3, 3)`` rotation matrices are read too. When both forms are
+  present (AMASS SMPL-X), ``poses`` is read and every form is written back;
+- ``trans`` (or ``transl``): the root translation (metres), optional;
+- ``mocap_framerate`` / ``mocap_frame_rate`` / ``fps``: frames per second (30 assumed,
+  with a note, when absent); ``betas``, ``gender`` and anything else are carried as read.
+
+Each joint becomes a joint of the clip (the model's names and tree), its rotation the
+quaternion of its axis-angle vector. Joint positions are not in the file: with a body
+model (``J_regressor``, ``v_template``, ``shapedirs``) or a skeleton the clip gets the
+model's rest offsets and its root translation is ``trans`` plus the pelvis's rest position
+(where SMPL puts it); without either the offsets are zero and world-space figures
+(contacts, footlock, the player) are skipped with a note. The rest pose stands along the
+model's Y axis whatever way the clip's root turns it (AMASS is Z up): the up axis, body
+height and feet are found from the motion (``core.kinematics``).
+
+Writing back: every array keeps its key, dtype, shape and place; a sample whose rotation
+(or translation) did not change keeps its values bit for bit, a changed one is written as
+the axis-angle vector equivalent to the new rotation nearest to the value read.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core import quat
+from ..core.errors import MotionError
+from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
+from . import npz, smpl_model
+from .files import FileBytes, pieces, read_regular_file
+from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
+
+#: Rotation channels each joint gets (its Euler order when written as BVH or CSV).
+ROTATION = ("Zrotation", "Yrotation", "Xrotation")
+#: Keys of the frame rate, in the order they are looked for.
+RATE_KEYS = ("mocap_framerate", "mocap_frame_rate", "fps", "frame_rate", "framerate")
+#: Frame rate taken when the record has none (video pose estimators run at 30 fps).
+DEFAULT_RATE = 30.0
+#: Keys of the whole pose, and of the root translation, in the order they are looked for
+#: (WHAM's world-grounded ``pose_world`` / ``trans_world`` before its camera-frame ones).
+POSE_KEYS = ("pose_world", "poses", "pose", "smpl_poses", "fullpose")
+TRANS_KEYS = ("trans_world", "trans", "transl", "smpl_trans")
+#: Keys of the split pose, by body part (a pair: one array per side).
+ROOT_KEYS = ("root_orient", "global_orient")
+BODY_KEYS = ("pose_body", "body_pose")
+JAW_KEYS = ("pose_jaw", "jaw_pose")
+EYE_KEYS = ("pose_eye",)
+EYE_PAIR = ("leye_pose", "reye_pose")
+HAND_KEYS = ("pose_hand",)
+HAND_PAIR = ("left_hand_pose", "right_hand_pose")
+#: Largest |component| of the unit quaternion a sample may move by and count as unchanged.
+SAME_ROTATION = 1e-12
+
+
+@dataclass(frozen=True)
+class PoseField:
+    """An array holding joints ``first .. first + count - 1`` of the tree: as axis-angle
+    rows (``(F, 3 count)`` or ``(F, count, 3)``) or rotation matrices (``(F, count, 3, 3)``,
+    ``matrix``)."""
+
+    key: str
+    first: int
+    count: int
+    matrix: bool = False
+
+
+@dataclass(frozen=True, eq=False)
+class SmplParams:
+    """A SMPL record as read, for the writer: the model tree, where the rotations and
+    translation are, the arrays themselves, the root's rest position added to ``trans``,
+    the container the record came from (for its writer) and the file's bytes (an untouched
+    clip is written back as them)."""
+
+    tree: Tree
+    fields: tuple[PoseField, ...]
+    trans_key: str | None
+    record: dict[str, np.ndarray]
+    root_offset: np.ndarray
+    container: Any
+    raw: bytes | FileBytes
+    has_skeleton: bool
+    notes: tuple[str, ...] = field(default=())
+    rows: np.ndarray | None = None  # the clip frame of each row (None: row k is frame k)
+    frame_time: float = 0.0  # as read
+
+    @property
+    def needs_skeleton(self) -> bool:
+        """True when the clip has no joint positions (no body model, no skeleton)."""
+        return not self.has_skeleton
+
+    @property
+    def no_world(self) -> str | None:
+        """Why world-space figures are skipped (see ``core.kinematics.world_note``)."""
+        if self.has_skeleton:
+            return None
+        return "SMPL parameters hold no joint positions; give --skeleton or --body-model"
+
+    #: What a BVH writer says when the clip has no skeleton.
+    no_skeleton_message = (
+        "SMPL parameters hold no joint positions; to write BVH give a skeleton "
+        "(--skeleton rig.bvh) or a body model (--body-model model.npz)"
+    )
+
+
+def _first(record: dict, keys: tuple[str, ...]) -> str | None:
+    return next((key for key in keys if key in record), None)
+
+
+def _frames_of(array: np.ndarray, key: str, per_frame: tuple[int, ...], path) -> int:
+    if array.ndim < 1 or array.shape[1:] != per_frame:
+        raise MotionError(
+            f"{key}: shape {array.shape}, expected (frames, {', '.join(map(str, per_frame))})", path
+        )
+    return int(array.shape[0])
+
+
+def _pose_field(record: dict, key: str, first: int, count: int | None, path) -> PoseField:
+    """The field of ``key`` holding ``count`` joints (any count when None: from its shape)."""
+    array = record[key]
+    if not isinstance(array, np.ndarray) or array.dtype.kind not in "fiu":
+        raise MotionError(f"{key}: not an array of numbers", path)
+    shape = array.shape[1:]
+    if len(shape) == 3 and shape[1:] == (3, 3):
+        n, matrix = shape[0], True
+    elif len(shape) == 2 and shape == (3, 3) and count in (1, None):
+        n, matrix = 1, True
+    elif len(shape) == 2 and shape[1] == 3:
+        n, matrix = shape[0], False
+    elif len(shape) == 1 and shape[0] % 3 == 0:
+        n, matrix = shape[0] // 3, False
+    else:
+        raise MotionError(
+            f"{key}: shape {array.shape} holds no axis-angle vectors or rotation matrices", path
+        )
+    if count is not None and n != count:
+        raise MotionError(f"{key}: {n} joints per frame, expected {count}", path)
+    return PoseField(key, first, n, matrix)
+
+
+def find_layout(record: dict, path) -> tuple[Tree, tuple[PoseField, ...], str | None]:
+    """The model tree, the arrays holding its rotations and the translation's key."""
+    fields: list[PoseField] = []
+    whole = _first(record, POSE_KEYS)
+    root = _first(record, ROOT_KEYS)
+    tree = None
+    if whole is not None:
+        full = _pose_field(record, whole, 0, None, path)
+        tree = TREES.get(full.count)
+        if tree is None:
+            raise MotionError(
+                f"{whole}: {full.count} joints per frame; SMPL has 24, SMPL-H 52, SMPL-X 55 "
+                "(22 for the body alone)",
+                path,
+            )
+        fields.append(full)
+    if root is not None:
+        body = _first(record, BODY_KEYS)
+        if body is None:
+            if whole is None:
+                raise MotionError(f"{root} without a body pose (pose_body or body_pose)", path)
+        else:
+            split = _split_fields(record, root, body, path)
+            split_tree = _split_tree(split)
+            if tree is None:
+                tree = split_tree
+            elif split_tree.n_joints > tree.n_joints:
+                raise MotionError(
+                    f"{whole} holds {tree.n_joints} joints, the split arrays {split_tree.n_joints}",
+                    path,
+                )
+            fields.extend(split)
+    if tree is None:
+        raise MotionError(
+            "no SMPL pose: expected 'poses' (AMASS) or 'root_orient' + 'pose_body' "
+            "(or 'global_orient' + 'body_pose')",
+            path,
+        )
+    trans = _first(record, TRANS_KEYS)
+    if whole == "pose_world":  # WHAM: the world pose goes with the world translation only
+        trans = "trans_world" if "trans_world" in record else None
+    return tree, tuple(fields), trans
+
+
+def _split_fields(record: dict, root: str, body: str, path) -> list[PoseField]:
+    fields = [_pose_field(record, root, 0, 1, path)]
+    body_field = _pose_field(record, body, 1, None, path)
+    if body_field.count not in (21, 23):
+        raise MotionError(
+            f"{body}: {body_field.count} joints per frame, expected 21 (SMPL-H/X) or 23 (SMPL)",
+            path,
+        )
+    fields.append(body_field)
+    jaw, eyes = _first(record, JAW_KEYS), _first(record, EYE_KEYS)
+    pair = [key for key in EYE_PAIR if key in record]
+    hands = _first(record, HAND_KEYS)
+    hand_pair = [key for key in HAND_PAIR if key in record]
+    face = jaw is not None
+    if body_field.count == 23 and (face or hands or hand_pair):
+        raise MotionError(
+            f"{body} has SMPL's 23 joints, which have no hand, jaw or eye poses", path
+        )
+    at = 22
+    if jaw is not None:
+        fields.append(_pose_field(record, jaw, at, 1, path))
+        if eyes is not None:
+            fields.append(_pose_field(record, eyes, at + 1, 2, path))
+        elif len(pair) == 2:
+            fields += [
+                _pose_field(record, pair[0], at + 1, 1, path),
+                _pose_field(record, pair[1], at + 2, 1, path),
+            ]
+        else:
+            raise MotionError(
+                f"{jaw} without eye poses (pose_eye, or leye_pose and reye_pose)", path
+            )
+        at += 3
+    if hands is not None:
+        fields.append(_hand_field(record, hands, at, 30, path))
+    elif len(hand_pair) == 2:
+        fields += [
+            _hand_field(record, hand_pair[0], at, 15, path),
+            _hand_field(record, hand_pair[1], at + 15, 15, path),
+        ]
+    elif face:
+        raise MotionError("jaw and eye poses without hand poses: not a SMPL-X layout", path)
+    return fields
+
+
+def _hand_field(record: dict, key: str, first: int, count: int, path) -> PoseField:
+    array = record[key]
+    if isinstance(array, np.ndarray) and array.ndim == 2 and array.shape[1] < 3 * count:
+        raise MotionError(
+            f"{key}: {array.shape[1]} values per frame, not {count} axis-angle vectors (hand "
+            "poses in PCA components are not read; export the full axis-angle pose)",
+            path,
+        )
+    return _pose_field(record, key, first, count, path)
+
+
+def _split_tree(fields: list[PoseField]) -> Tree:
+    last = max(f.first + f.count for f in fields)
+    if last == 24:
+        return SMPL
+    if last == 22:
+        return SMPL_BODY
+    if last == 52:
+        return SMPLH
+    return SMPLX
+
+
+def frame_time_of(record: dict, path) -> tuple[float, str | None]:
+    """Seconds per frame from the record's frame rate, and a note when it had none."""
+    key = _first(record, RATE_KEYS)
+    if key is None:
+        return 1.0 / DEFAULT_RATE, f"no frame rate in the file; {DEFAULT_RATE:g} fps assumed"
+    value = np.asarray(record[key])
+    try:
+        rate = float(value.reshape(-1)[0]) if value.size == 1 else float("nan")
+    except (TypeError, ValueError):
+        rate = float("nan")
+    if not (0.1 <= rate <= 100000.0):
+        raise MotionError(
+            f"{key}: frame rate {value.ravel()[:3].tolist()} is not a number of frames per "
+            "second from 0.1 to 100000",
+            path,
+        )
+    return 1.0 / rate, None
+
+
+def _rotations(record: dict, f: PoseField) -> np.ndarray:
+    """``(F, count, 4)`` quaternions of a field."""
+    array = np.asarray(record[f.key], dtype=np.float64)
+    if f.matrix:
+        return smpl_model.matrix_to_quaternion(array.reshape(array.shape[0], f.count, 3, 3))
+    return smpl_model.axis_angle_to_quaternion(array.reshape(array.shape[0], f.count, 3))
+
+
+def _check_finite(record: dict, keys, path) -> None:
+    for key in keys:
+        array = record[key]
+        if not np.isfinite(array).all():
+            frame = int(np.argwhere(~np.isfinite(array.reshape(array.shape[0], -1)))[0][0])
+            raise MotionError(f"{key}: a value that is not a finite number at frame {frame}", path)
+
+
+def smpl_motion(
+    record: dict[str, np.ndarray],
+    path,
+    *,
+    container: Any,
+    raw: bytes,
+    skeleton: Motion | None = None,
+    body_model: dict[str, np.ndarray] | None = None,
+    body_model_path=None,
+    notes: tuple[str, ...] = (),
+    rows: np.ndarray | None = None,
+) -> Motion:
+    """A clip of the SMPL record ``record`` (see the module)."""
+    tree, fields, trans_key = find_layout(record, path)
+    frames = {_frames_of(record[f.key], f.key, record[f.key].shape[1:], path) for f in fields}
+    if trans_key is not None:
+        frames.add(_frames_of(record[trans_key], trans_key, (3,), path))
+    if len(frames) != 1:
+        raise MotionError(
+            f"pose and translation arrays have different frame counts ({sorted(frames)})", path
+        )
+    n_rows = frames.pop()
+    if rows is not None and rows.size != n_rows:
+        raise MotionError(f"frame_ids has {rows.size} entries for {n_rows} frames of poses", path)
+    _check_finite(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
+    frame_time, rate_note = frame_time_of(record, path)
+    notes = notes + ((rate_note,) if rate_note else ())
+    model = np.empty((n_rows, tree.n_joints, 4))
+    whole = [f for f in fields if f.first == 0 and f.count == tree.n_joints]
+    for f in whole or fields:  # the whole pose when there is one, else the split arrays
+        model[:, f.first : f.first + f.count] = _rotations(record, f)
+    has_skeleton = skeleton is not None or body_model is not None
+    offsets = np.zeros((tree.n_joints, 3))
+    if body_model is not None:
+        offsets = smpl_model.model_offsets(body_model, tree, _betas(record), body_model_path)
+    elif skeleton is not None:
+        offsets = smpl_model.skeleton_offsets(skeleton, tree, path)
+    root_offset = offsets[0].copy()
+    channels: list[tuple[str, ...]] = [ROTATION] * tree.n_joints
+    trans = None
+    if trans_key is not None:
+        trans = np.asarray(record[trans_key], dtype=np.float64) + root_offset
+        channels[0] = POSITION_CHANNELS + ROTATION
+    n_frames = n_rows if rows is None else int(rows[-1]) + 1
+    missing = None
+    rotations = model
+    if rows is not None:  # frames the person was not seen in: missing, the nearest held
+        missing = np.ones((n_frames, tree.n_joints), dtype=bool)
+        missing[rows] = False
+        source_row = np.maximum.accumulate(np.where(missing[:, 0], -1, np.arange(n_frames)))
+        source_row = np.searchsorted(rows, np.maximum(source_row, 0))
+        rotations = rotations[source_row]
+        trans = None if trans is None else trans[source_row]
+    rotations = quat.continuous(rotations)  # (a copy only when a sign flips)
+    translations = joint_major_zeros(n_frames, tree.n_joints)
+    if trans is not None:
+        translations[:, 0] = trans
+    source = SmplParams(
+        tree,
+        fields,
+        trans_key,
+        record,
+        root_offset,
+        container,
+        raw,
+        has_skeleton,
+        notes,
+        rows,
+        frame_time,
+    )
+    return Motion(
+        names=list(tree.names),
+        parents=np.array(tree.parents, dtype=np.intp),
+        offsets=offsets,
+        channels=channels,
+        frame_time=frame_time,
+        rotations=rotations,
+        translations=translations,
+        source_rotations=rotations.copy(),
+        source=source,
+        path=None if path is None else str(path),
+        missing=missing,
+    )
+
+
+def _betas(record: dict) -> np.ndarray | None:
+    betas = record.get("betas")
+    if not isinstance(betas, np.ndarray) or betas.dtype.kind not in "fiu" or betas.size == 0:
+        return None
+    betas = np.asarray(betas, dtype=np.float64)
+    return betas.reshape(-1, betas.shape[-1]).mean(axis=0)  # per-frame shapes: their mean
+
+
+def _read_translation(src: SmplParams) -> np.ndarray:
+    assert src.trans_key is not None
+    return np.asarray(src.record[src.trans_key], dtype=np.float64) + src.root_offset
+
+
+def _same(q: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(F, J)``: samples within :data:`SAME_ROTATION` per component of ``read`` (up to sign)."""
+    return (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
+        np.abs(q + read).max(axis=-1) < SAME_ROTATION
+    )
+
+
+def same_frames(motion: Motion) -> bool:
+    """True when ``motion`` (read from a SMPL record) still has the record's frames."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
+    n_frames = len(src.record[src.fields[0].key]) if src.rows is None else int(src.rows[-1]) + 1
+    return motion.n_frames == n_frames and motion.frame_time == src.frame_time
+
+
+def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
+    """The record's arrays that ``motion`` changed, new values in their dtype and shape
+    (unchanged samples keep their values bit for bit); empty for an untouched clip. Only
+    for a clip with the record's frames (:func:`same_frames`)."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
+    assert motion.source_rotations is not None
+    at = slice(None) if src.rows is None else src.rows  # the frames the rows hold
+    kept = _same(motion.rotations[at], motion.source_rotations[at])
+    model = motion.rotations[at]
+    out: dict[str, np.ndarray] = {}
+    for f in src.fields:
+        joints = slice(f.first, f.first + f.count)
+        if kept[:, joints].all():
+            continue
+        old = src.record[f.key]
+        changed = ~kept[:, joints]
+        shape = (len(old), f.count, 3, 3) if f.matrix else (len(old), f.count, 3)
+        values = np.asarray(old, dtype=np.float64).reshape(shape).copy()
+        if f.matrix:
+            values[changed] = quat.as_matrix(model[:, joints][changed])
+        else:
+            values[changed] = smpl_model.quaternion_to_axis_angle(
+                model[:, joints][changed], values[changed]
+            )
+        # (unchanged samples went to float64 and back: the same bits)
+        out[f.key] = values.reshape(old.shape).astype(old.dtype)
+    if src.trans_key is not None:
+        old = src.record[src.trans_key]
+        now = motion.translations[at, 0]
+        moved = np.abs(now - _read_translation(src)).max(axis=-1) > UNCHANGED_TOLERANCE
+        if moved.any():
+            new = old.copy()
+            new[moved] = (now[moved] - src.root_offset).astype(old.dtype)
+            out[src.trans_key] = new
+    return out
+
+
+def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
+    """The record of a clip whose frames changed (resampled): its rotation and translation
+    arrays anew in their keys, dtypes and forms, the frame rate updated, the arrays that are
+    not per frame (``betas``, ``gender``, ...) carried; per-frame arrays motionclean does not
+    read (``dmpls``, ``verts``, ``frame_ids``, ...) no longer fit the frames and are left
+    out. In the record's key order."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
+    if motion.missing is not None:
+        raise MotionError("a resampled SMPL clip has missing samples; fill them first", motion.path)
+    rows = len(src.record[src.fields[0].key])
+    model = motion.rotations
+    vectors = 2.0 * quat.log_shortest(model)  # (F, J, 3)
+    new: dict[str, np.ndarray] = {}
+    for f in src.fields:
+        old = src.record[f.key]
+        joints = slice(f.first, f.first + f.count)
+        values = quat.as_matrix(model[:, joints]) if f.matrix else vectors[:, joints]
+        new[f.key] = values.reshape((motion.n_frames, *old.shape[1:])).astype(old.dtype)
+    if src.trans_key is not None:
+        old = src.record[src.trans_key]
+        new[src.trans_key] = (motion.translations[:, 0] - src.root_offset).astype(old.dtype)
+    rate_key = _first(src.record, RATE_KEYS) or "mocap_framerate"
+    new[rate_key] = np.asarray(motion.frame_rate)
+    out = {}
+    for key, value in src.record.items():
+        if key in new:
+            out[key] = new.pop(key)
+        elif not (value.ndim and value.shape[0] == rows):
+            out[key] = value
+    out.update(new)
+    return out
+
+
+def fresh_record(motion: Motion) -> dict[str, np.ndarray]:
+    """A SMPL record (``poses`` in model order, ``trans``, ``mocap_framerate``) of a clip read
+    from another format whose joints and tree are a SMPL model's (by name, in any order: a
+    BVH lists them depth first) and whose rest pose is the model's (zero rotations a T-pose);
+    ``trans`` is the pelvis's position less its rest offset, as SMPL adds it back."""
+    names = {name: j for j, name in enumerate(motion.names)}
+    tree = next((t for t in TREES.values() if set(t.names) == names.keys()), None)
+    if tree is None:
+        raise MotionError(
+            "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X (pelvis, left_hip, ...); "
+            f"this clip has {motion.n_joints} others",
+            motion.path,
+        )
+    order = np.array([names[name] for name in tree.names], dtype=np.intp)
+    parents = [tree.names.index(motion.names[p]) if p >= 0 else -1 for p in motion.parents[order]]
+    if parents != list(tree.parents):
+        raise MotionError(f"the joints are {tree.model}'s but not its tree", motion.path)
+    if motion.missing is not None:
+        raise MotionError("SMPL parameters have no missing samples; fill them first", motion.path)
+    r = 2.0 * quat.log_shortest(motion.rotations[:, order])
+    record = {
+        "poses": r.reshape(motion.n_frames, -1),
+        "mocap_framerate": np.array(motion.frame_rate),
+    }
+    root = int(order[0])
+    if motion.layout.has_position[root]:
+        record["trans"] = motion.translations[:, root] - motion.offsets[root]
+    return record
+
+
+# ----------------------------------------------------------------------------- .npz files
+
+
+def parse_smpl_npz(data: bytes, path, skeleton: Motion | None = None, body_model=None) -> Motion:
+    """A clip of an AMASS-style ``.npz`` (see the module); ``body_model`` is the arrays of
+    a body model file (:func:`read_body_model`)."""
+    members = npz.read_npz(data, path)
+    record = {m.key: m.array for m in members if m.array is not None}
+    model, model_path = body_model if body_model is not None else (None, None)
+    return smpl_motion(
+        record,
+        path,
+        container=members,
+        raw=data,
+        skeleton=skeleton,
+        body_model=model,
+        body_model_path=model_path,
+    )
+
+
+def read_body_model(path) -> tuple[dict[str, np.ndarray], str]:
+    """The arrays of a body model ``.npz`` (SMPL-X's ``SMPLX_NEUTRAL.npz`` and the like),
+    read as safely as any clip, and its path."""
+    data, _ = read_regular_file(Path(path))
+    return {m.key: m.array for m in npz.read_npz(data, path) if m.array is not None}, str(path)
+
+
+def npz_pieces(motion: Motion) -> Iterable[bytes]:
+    """``motion`` as an ``.npz``: its own archive with the changed arrays replaced (the
+    input bytes when nothing changed), or a fresh ``poses``/``trans`` archive."""
+    src = motion.source
+    if isinstance(src, SmplParams) and not same_frames(motion):
+        record = resampled_record(motion)
+    elif isinstance(src, SmplParams):
+        changed = changed_arrays(motion)
+        if isinstance(src.container, list):  # read from an .npz
+            return pieces(src.raw) if not changed else [npz.write_npz(src.container, changed)]
+        record = {key: value for key, value in src.record.items() if isinstance(value, np.ndarray)}
+        record.update(changed)
+    else:
+        record = fresh_record(motion)
+    out = io.BytesIO()
+    np.savez(out, **record)  # type: ignore[arg-type]  # (the stubs take one keyword for all)
+    return [out.getvalue()]

@@ -1,0 +1,111 @@
+"""The ``ground`` step: the floor the feet stand on, level and at height 0.
+
+The floor is found from the ground contacts (:func:`motionclean.core.contacts.fit_floor`:
+the plane through each contact's sole, its height and tilt). The step turns and shifts
+the whole clip so that plane becomes level and lies at height 0 along the up axis, by
+moving the root alone (its rotation and position channels): every other channel is kept
+bit for bit, and the motion relative to the floor is unchanged. Video estimates put feet
+below the floor or in the air and tilt it with the camera; after ``ground`` the feet
+stand on ``up = 0``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core import contacts as found
+from ..core import kinematics, quat
+from ..core.motion import Motion
+from .base import Param, StepData, StepSpec
+
+
+def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None, np.ndarray]:
+    """The floor of ``motion`` (None without ground contacts) and the centroid ``(3,)`` of
+    the contacts' soles, with the contact thresholds of the report."""
+    feet, axis, height = found.skeleton_feet(motion, None, up)
+    if not feet:
+        return None, np.zeros(3)
+    positions = kinematics.world_positions(motion)
+    floor, soles = found.find_floor(positions, feet, axis, height, motion.frame_time)
+    return floor, soles.mean(axis=0) if soles.size else np.zeros(3)
+
+
+def _leveller(floor: found.Floor, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The turn ``(4,)`` and shift ``(3,)`` taking ``x`` to ``turn x + shift``: the floor
+    level and at height 0, the point of it below ``centre`` kept in place horizontally."""
+    up = np.eye(3)[floor.up]
+    normal = floor.normal
+    turn = np.concatenate([[1.0 + normal @ up], np.cross(normal, up)])
+    turn /= np.linalg.norm(turn)
+    on_floor = centre - floor.above(centre) * normal  # the centre dropped onto the floor
+    kept = on_floor.copy()
+    kept[floor.up] = 0.0
+    return turn, kept - quat.rotate(turn, on_floor)
+
+
+def _run(data: StepData, params: dict) -> StepData:
+    motion = data.motion
+    assert motion is not None
+    floor, centre = floor_of(motion, None if params["up"] == "auto" else params["up"])
+    if floor is None:
+        return data
+    if not params["level"]:
+        floor = found.Floor.level(floor.height_at(centre), floor.up)
+    turn, shift = _leveller(floor, centre)
+    roots = np.flatnonzero(motion.parents < 0)
+    rotated = {int(j): c for c, j in enumerate(data.rotation_joints)}
+    moved = {int(j): c for c, j in enumerate(data.translation_joints)}
+    has_axis = motion.layout.position_columns >= 0
+    tilted = floor.tilt_deg > 0.0
+    for root in roots.tolist():
+        where = motion.names[root]
+        if tilted and root not in rotated:
+            raise ValueError(f"ground: the root {where!r} has no rotation channels to level")
+        needed = np.ones(3, dtype=bool) if tilted else np.eye(3, dtype=bool)[floor.up]
+        if root not in moved or not has_axis[root][needed].all():
+            raise ValueError(f"ground: the root {where!r} has no position channels to move")
+    data.rotations = data.rotations.copy()
+    assert data.translations is not None  # every root has position channels
+    data.translations = data.translations.copy()
+    for root in roots.tolist():
+        if tilted:
+            column = rotated[root]
+            data.rotations[:, column] = quat.make_continuous(
+                quat.multiply(turn, data.rotations[:, column])
+            )
+        local = kinematics.local_translations(motion)[:, root]
+        placed = quat.rotate(turn, local) + shift
+        column = moved[root]
+        data.translations[:, column, has_axis[root]] = placed[:, has_axis[root]]
+    data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = {
+        "height": floor.height_at(centre),
+        "tilt_deg": floor.tilt_deg,
+        "normal": [float(v) for v in floor.normal],
+    }
+    return data
+
+
+def _format_note(note: dict, positions: bool) -> str:
+    return (
+        f"floor at height {note['height']:.4g} units, tilted {note['tilt_deg']:.2f} deg: "
+        "moved to height 0, level"
+    )
+
+
+STEP = StepSpec(
+    name="ground",
+    summary="put the floor the feet stand on at height 0 and level it, moving the root only",
+    paper="the plane through the ground contacts' soles (least squares, slope prior)",
+    params=(
+        Param("up", "str", "auto", "up axis", choices=("auto", "x", "y", "z")),
+        Param(
+            "level",
+            "bool",
+            True,
+            "also level a tilted floor (turn the clip about the contacts' centre); false "
+            "only moves it along the up axis",
+        ),
+    ),
+    run=_run,
+    format_note=_format_note,
+)

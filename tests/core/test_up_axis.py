@@ -1,0 +1,144 @@
+"""Up axis, body height and feet from the motion: other exporters' skeletons (T- and A-pose
+rests, Mixamo, MotionBuilder, Rokoko and SMPL names, video estimators, Z-up), real files
+and the sample retargeted, and ``--up`` on the commands."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import NAMINGS, ROOT, SAMPLE, arc, restposed, run_cli, turned_copy, z_up_copy
+
+import motionclean as mc
+from motionclean.core import contacts as found
+from motionclean.core import kinematics, quat
+from motionclean.core.errors import InvalidMotion
+
+EXPORTERS = ROOT / "tests" / "data" / "exporters"
+#: Real files of other exporters (tests/data/exporters/README.md): up axis, body height
+#: (file units, the standing rest pose's), the ankles' names.
+REAL = {
+    "mixamo_tpose.bvh": ("y", 178.4, {"mixamorig:LeftFoot", "mixamorig:RightFoot"}),
+    "pymo_walk_tpose.bvh": ("y", 60.6, {"LeftFoot", "RightFoot"}),
+    "tpose_rest_only.bvh": ("y", 23.9, {"LeftFoot", "RightFoot"}),
+    "mocapbank_walk.bvh": ("y", 167.3, {"LeftAnkle", "RightAnkle"}),
+    "video2bvh_zup.bvh": ("z", 1544.8, {"LeftFoot", "RightFoot"}),
+    "video_estimate_cmu_names.bvh": ("y", 23.9, {"LeftFoot", "RightFoot"}),
+}
+#: +90 degrees about x (y up becomes z up) and -90 degrees about z (y up becomes x up).
+TO_Z = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+TO_X = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), -np.pi / 2)
+
+
+def _world(motion: mc.Motion):
+    feet, up, height = found.skeleton_feet(motion)
+    return {f.name for f in feet}, kinematics.AXES[up], height
+
+
+@pytest.mark.parametrize("name", sorted(REAL))
+def test_real_exports_stand_up_and_find_their_feet(name):
+    motion = mc.load(EXPORTERS / name)
+    up, height, ankles = REAL[name]
+    feet, found_up, found_height = _world(motion)
+    assert found_up == up
+    assert found_height == pytest.approx(height, abs=0.05)
+    assert feet == ankles
+
+
+@pytest.mark.parametrize("name", ["mixamo_tpose.bvh", "tpose_rest_only.bvh"])
+def test_a_t_pose_whose_arm_span_outspans_its_height_is_not_lying_on_its_side(name):
+    motion = mc.load(EXPORTERS / name)
+    rest = kinematics.rest_positions(motion)
+    assert np.argmax(np.ptp(rest, axis=0)) == 0  # the rest pose's widest axis is x
+    assert kinematics.up_axis(motion) == 1
+
+
+@pytest.mark.parametrize("name", sorted(REAL))
+def test_the_same_answer_on_turned_copies_of_real_exports(name):
+    motion = mc.load(EXPORTERS / name)
+    feet, up, height = _world(motion)
+    axes = np.eye(3)
+    for target in "xyz":
+        if target == up:
+            continue
+        turn = arc(axes[kinematics.AXES.index(up)], axes[kinematics.AXES.index(target)])
+        assert _world(turned_copy(motion, turn)) == (feet, target, pytest.approx(height))
+
+
+@pytest.mark.parametrize("pose", ["T", "A"])
+@pytest.mark.parametrize("naming", sorted(NAMINGS))
+def test_retargeted_rests_and_names_give_the_same_world(pose, naming):
+    motion = mc.load(SAMPLE)
+    other = restposed(motion, pose, naming)
+    np.testing.assert_allclose(
+        kinematics.forward(other, end_sites=True)[0],
+        kinematics.forward(motion, end_sites=True)[0],
+        atol=1e-9,
+    )
+    feet, up, height = _world(other)
+    assert up == "y" and len(feet) == 2
+    assert height == pytest.approx(np.ptp(kinematics.rest_positions(other)[:, 1]))
+    for turn, axis in ((TO_Z, "z"), (TO_X, "x")):
+        assert _world(turned_copy(other, turn)) == (feet, axis, pytest.approx(height))
+    params = found.ContactParams()
+    contacts = [
+        found.detect(
+            kinematics.forward(clip, end_sites=True)[0],
+            found.skeleton_feet(clip)[0],
+            1,
+            height,  # the same scale: the sample's own rest pose has its legs apart
+            clip.frame_time,
+            params,
+        )[0]
+        for clip in (motion, other)
+    ]
+    assert contacts[0].any()
+    np.testing.assert_array_equal(contacts[0], contacts[1])
+
+
+def test_a_hand_or_legs_alone_have_no_trunk_and_stand_by_their_extent():
+    motion = mc.load(SAMPLE)
+    assert kinematics.trunk_split(kinematics.point_parents(motion)) is not None
+    hand = np.array([-1, 0, 1, 2, 0, 4, 5, 0, 7, 8])  # a wrist and three fingers
+    assert kinematics.trunk_split(hand) is None
+    legs = np.array([-1, 0, 1, 2, 0, 4, 5])  # a pelvis and two legs
+    assert kinematics.trunk_split(legs) is None
+    assert kinematics.trunk_split(np.array([-1, -1, -1])) is None  # tracked bodies
+
+
+def test_a_declared_up_axis_wins_and_a_bad_one_is_refused():
+    motion = mc.load(SAMPLE)
+    assert kinematics.up_axis(motion.replace(up="z")) == 2
+    assert kinematics.up_axis(motion.replace(up="z"), "x") == 0
+    with pytest.raises(InvalidMotion, match="up: expected one of x, y, z"):
+        motion.replace(up="w")
+    with pytest.raises(ValueError, match="x, y or z"):
+        kinematics.up_axis(motion, "w")
+
+
+def test_up_on_the_commands_is_used_and_recorded(tmp_path, capsys):
+    lying = turned_copy(mc.load(EXPORTERS / "mixamo_tpose.bvh"), TO_Z)
+    clip = tmp_path / "lying.bvh"
+    mc.save(lying, clip)
+    code, out, _ = run_cli(capsys, "info", str(clip))
+    assert code == 0 and "up axis: z (found from the motion)" in out
+    code, out, _ = run_cli(capsys, "info", str(clip), "--up", "X")
+    assert code == 0 and "up axis: x (given)" in out
+    report = tmp_path / "r.json"
+    code, out, _ = run_cli(capsys, "report", str(clip), "--up", "y", "--json", str(report))
+    assert code == 0 and "up axis y (given)" in out
+    world = json.loads(report.read_text())["world"]
+    assert (world["up_axis"], world["up_axis_source"]) == ("y", "given")
+    page = tmp_path / "r.html"
+    code, _, _ = run_cli(
+        capsys, "clean", str(clip), "-o", str(tmp_path / "c.bvh"), "--report", str(page), "-q"
+    )
+    assert code == 0 and "up axis z (found from the motion)" in page.read_text()
+    code, _, err = run_cli(capsys, "info", str(clip), "--up", "w")
+    assert code == 2 and "--up" in err
+
+
+def test_z_up_sample_keeps_its_feet_and_height():
+    motion = mc.load(SAMPLE)
+    assert _world(z_up_copy(motion))[1:] == ("z", pytest.approx(_world(motion)[2]))

@@ -1,0 +1,315 @@
+"""glTF 2.0 (.glb, .gltf): files written by Blender's exporter read as the BVH they came
+from, samplers evaluated as the specification says, and write-back that keeps the file."""
+
+from __future__ import annotations
+
+import base64
+import json
+import struct
+
+import numpy as np
+import pytest
+from helpers import ROOT, SAMPLE, cut_bvh, run_cli
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+
+#: Exported by Blender 5.0.1 (glTF I/O 5.0.21) from sample_data/131_02_cut.bvh (CMU 131_02,
+#: free to use, see sample_data/README.md): BVH import at 120 fps, glTF export with
+#: defaults; 96 frames as GLB, 24 as .gltf + .bin.
+BLENDER_GLB = ROOT / "tests" / "data" / "blender" / "131_02_cut.glb"
+BLENDER_GLTF = ROOT / "tests" / "data" / "blender" / "131_02_cut.gltf"
+
+
+def glb_parts(path) -> tuple[dict, bytes]:
+    data = path.read_bytes()
+    size = struct.unpack_from("<I", data, 12)[0]
+    binary = data[20 + size + 8 :]
+    return json.loads(data[20 : 20 + size]), binary
+
+
+def relative_world(motion: mc.Motion, names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """World positions and world rotations relative to the first frame, joints by name."""
+    positions, rotations = kinematics.forward(motion)
+    index = [motion.names.index(name) for name in names]
+    rotations = rotations[:, index]
+    return positions[:, index], quat.multiply(rotations, quat.conjugate(rotations[:1]))
+
+
+def degrees(a: np.ndarray, b: np.ndarray) -> float:
+    dots = np.clip(np.abs(np.einsum("...i,...i->...", a, b)), 0.0, 1.0)
+    return float(np.degrees(2 * np.arccos(dots.min())))
+
+
+@pytest.fixture(scope="module")
+def bvh_96(tmp_path_factory):
+    return cut_bvh(SAMPLE, tmp_path_factory.mktemp("gltf") / "cut96.bvh", 96)
+
+
+def test_blender_export_reads_as_the_bvh_it_came_from(bvh_96):
+    glb, bvh = mc.load(BLENDER_GLB), mc.load(bvh_96)
+    assert sorted(glb.names) == sorted(bvh.names) and glb.n_frames == 96
+    assert glb.frame_rate == 120.0
+    assert glb.channels[glb.names.index("Hips")][:3] == ("Xposition", "Yposition", "Zposition")
+    p_glb, r_glb = relative_world(glb, bvh.names)
+    p_bvh, r_bvh = relative_world(bvh, bvh.names)
+    assert np.abs(p_glb - p_bvh).max() < 1e-4  # float32 in the file, 24 units tall
+    assert degrees(r_glb, r_bvh) < 0.01
+    separate = mc.load(BLENDER_GLTF)
+    assert separate.n_frames == 24 and np.array_equal(separate.names, glb.names)
+    assert np.abs(separate.rotations - glb.rotations[:24]).max() < 1e-6  # separate exports
+
+
+@pytest.mark.parametrize("path", [BLENDER_GLB, BLENDER_GLTF])
+def test_untouched_file_is_written_byte_for_byte(tmp_path, path):
+    mc.save(mc.load(path), tmp_path / path.name)
+    assert (tmp_path / path.name).read_bytes() == path.read_bytes()
+
+
+def test_cleaning_the_glb_equals_cleaning_the_bvh(bvh_96, tmp_path, capsys):
+    code, _, err = run_cli(capsys, "clean", BLENDER_GLB, "-o", tmp_path / "c.glb", "-q")
+    assert code == 0, err
+    code, _, err = run_cli(capsys, "clean", bvh_96, "-o", tmp_path / "c.bvh", "-q")
+    assert code == 0, err
+    glb, bvh = mc.load(tmp_path / "c.glb"), mc.load(tmp_path / "c.bvh")
+    p_glb, r_glb = relative_world(glb, bvh.names)
+    p_bvh, r_bvh = relative_world(bvh, bvh.names)
+    assert np.abs(p_glb - p_bvh).max() < 1e-3  # float32 against six decimals
+    assert degrees(r_glb, r_bvh) < 0.01
+    thumb = bvh.names.index("RThumb")
+    _, before = relative_world(mc.load(bvh_96), bvh.names)
+    assert degrees(before[:, thumb], r_bvh[:, thumb]) > 90  # the half-turn flips repaired
+
+
+def test_written_file_keeps_every_other_part(tmp_path):
+    motion = mc.load(BLENDER_GLB)
+    hips = motion.names.index("Hips")
+    q = motion.rotations.copy()
+    q[10:20, hips] = quat.multiply(q[10:20, hips], quat.exp(np.array([0.0, 0.01, 0.0])))
+    t = motion.translations.copy()
+    t[5, hips] += [0.5, 0.0, 0.0]
+    edited = motion.replace(rotations=q, translations=t)
+    mc.save(edited, tmp_path / "e.glb")
+    before, bin_before = glb_parts(BLENDER_GLB)
+    after, bin_after = glb_parts(tmp_path / "e.glb")
+    assert bin_after[: len(bin_before)] == bin_before  # appended, never rewritten
+    for key in set(before) - {"accessors", "bufferViews", "buffers", "animations"}:
+        assert after[key] == before[key]
+    for key in ("accessors", "bufferViews"):
+        assert after[key][: len(before[key])] == before[key]
+    assert len(after["accessors"]) == len(before["accessors"]) + 2  # hips rotation, translation
+    old, new = before["animations"][0], after["animations"][0]
+    moved = [
+        c for c, (a, b) in enumerate(zip(old["channels"], new["channels"], strict=True)) if a != b
+    ]
+    node = motion.source.nodes[hips]
+    assert {new["channels"][c]["target"]["node"] for c in moved} == {node}
+    assert new["samplers"][: len(old["samplers"])] == old["samplers"]
+    back = mc.load(tmp_path / "e.glb")
+    assert np.abs(np.abs(np.einsum("fji,fji->fj", back.rotations, q)) - 1).max() < 1e-12
+    assert np.abs(back.translations - t).max() < 1e-5
+    others = np.ones(motion.n_joints, dtype=bool)
+    others[hips] = False
+    assert np.array_equal(back.rotations[:, others], motion.rotations[:, others])
+
+
+def test_a_changed_gltf_is_self_contained(tmp_path):
+    motion = mc.load(BLENDER_GLTF)
+    q = motion.rotations.copy()
+    q[3, 5] = quat.multiply(q[3, 5], quat.exp(np.array([0.02, 0.0, 0.0])))
+    (tmp_path / "elsewhere").mkdir()
+    mc.save(motion.replace(rotations=q), tmp_path / "elsewhere" / "e.gltf")
+    document = json.loads((tmp_path / "elsewhere" / "e.gltf").read_text())
+    assert all(b["uri"].startswith("data:") for b in document["buffers"])
+    back = mc.load(tmp_path / "elsewhere" / "e.gltf")
+    assert np.abs(np.abs(np.einsum("fji,fji->fj", back.rotations, q)) - 1).max() < 1e-12
+    mc.save(motion.replace(rotations=q), tmp_path / "e.glb")  # and as a GLB
+    assert np.array_equal(mc.load(tmp_path / "e.glb").rotations, back.rotations)
+
+
+# ----------------------------------------------------------------------------- made files
+
+
+class Builder:
+    """A small glTF made in the test: nodes, one animation, one buffer."""
+
+    def __init__(self):
+        self.doc: dict = {
+            "asset": {"version": "2.0"},
+            "nodes": [],
+            "accessors": [],
+            "bufferViews": [],
+            "animations": [{"channels": [], "samplers": []}],
+        }
+        self.data = b""
+
+    def accessor(self, values, kind: str) -> int:
+        raw = np.asarray(values, dtype="<f4").tobytes()
+        self.doc["bufferViews"].append(
+            {"buffer": 0, "byteOffset": len(self.data), "byteLength": len(raw)}
+        )
+        self.data += raw
+        self.doc["accessors"].append(
+            {
+                "bufferView": len(self.doc["bufferViews"]) - 1,
+                "componentType": 5126,
+                "count": len(values),
+                "type": kind,
+            }
+        )
+        return len(self.doc["accessors"]) - 1
+
+    def channel(self, node: int, path: str, times, values, interpolation="LINEAR") -> None:
+        animation = self.doc["animations"][0]
+        kind = {"rotation": "VEC4", "translation": "VEC3"}[path]
+        animation["samplers"].append(
+            {
+                "input": self.accessor(np.asarray(times)[:, None], "SCALAR"),
+                "output": self.accessor(values, kind),
+                "interpolation": interpolation,
+            }
+        )
+        animation["channels"].append(
+            {"sampler": len(animation["samplers"]) - 1, "target": {"node": node, "path": path}}
+        )
+
+    def gltf(self, path) -> None:
+        self.doc["buffers"] = [
+            {
+                "byteLength": len(self.data),
+                "uri": "data:application/octet-stream;base64,"
+                + base64.b64encode(self.data).decode(),
+            }
+        ]
+        path.write_text(json.dumps(self.doc))
+
+
+def z_turn(angle: np.ndarray) -> np.ndarray:
+    """glTF (x, y, z, w) quaternions of turns about Z."""
+    return np.stack([0 * angle, 0 * angle, np.sin(angle / 2), np.cos(angle / 2)], axis=-1)
+
+
+def chain() -> Builder:
+    made = Builder()
+    made.doc["nodes"] = [
+        {"name": "root", "children": [1], "translation": [0, 1, 0]},
+        {"name": "mid", "children": [2], "translation": [0, 1, 0], "rotation": [0, 0, 0.6, 0.8]},
+        {"name": "tip", "translation": [0, 1, 0]},
+    ]
+    made.doc["scenes"] = [{"nodes": [0]}]
+    made.doc["skins"] = [{"joints": [2, 0, 1]}]
+    return made
+
+
+def test_samplers_are_evaluated_as_the_specification_says(tmp_path):
+    made = chain()
+    grid = np.arange(0, 31) / 30.0
+    made.channel(0, "translation", grid, np.stack([grid, 0 * grid, 0 * grid], axis=-1))
+    sparse = np.array([0.0, 0.5, 1.0])  # keys every 15 frames: slerp between them
+    made.channel(0, "rotation", sparse, z_turn(np.array([0.0, 1.0, 3.0])))
+    made.channel(2, "rotation", sparse, z_turn(np.array([0.0, 0.4, 0.8])), "STEP")
+    # a Hermite spline in the angle about Z: (in-tangent, value, out-tangent) per key
+    keys, values, slopes = np.array([0.0, 1.0]), np.array([0.0, 2.0]), np.array([1.0, -1.0])
+    spline = np.stack([z_turn(slopes) * 0, z_turn(values), z_turn(values) * 0], axis=1)
+    spline[:, 0, 2] = spline[:, 2, 2] = slopes / 2 * np.cos(values / 2)  # d(sin(a/2))/dt
+    spline[:, 0, 3] = spline[:, 2, 3] = -slopes / 2 * np.sin(values / 2)  # d(cos(a/2))/dt
+    made.channel(1, "rotation", keys, spline.reshape(-1, 4), "CUBICSPLINE")
+    made.gltf(tmp_path / "made.gltf")
+    motion = mc.load(tmp_path / "made.gltf")
+    assert motion.names == ["root", "mid", "tip"] and motion.n_frames == 31
+    assert motion.frame_rate == 30.0 and motion.parents.tolist() == [-1, 0, 1]
+    root = 2 * np.arctan2(motion.rotations[:, 0, 3], motion.rotations[:, 0, 0])
+    expected = np.interp(grid, sparse, [0.0, 1.0, 3.0])  # slerp about one axis: linear angle
+    assert np.abs(root - expected).max() < 1e-6
+    tip = 2 * np.arctan2(motion.rotations[:, 2, 3], motion.rotations[:, 2, 0])
+    assert (
+        np.abs(tip - np.where(grid < 0.5 - 1e-9, 0.0, np.where(grid < 1 - 1e-9, 0.4, 0.8))).max()
+        < 1e-6
+    )
+    u = grid
+    h = [2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2]
+    h = [c[:, None] for c in h]
+    q = h[0] * spline[0, 1] + h[1] * spline[0, 2] + h[2] * spline[1, 1] + h[3] * spline[1, 0]
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    assert (
+        np.abs(np.abs(np.einsum("fi,fi->f", motion.rotations[:, 1], q[:, [3, 0, 1, 2]])) - 1).max()
+        < 1e-12
+    )
+    assert np.array_equal(motion.translations[:, 0, 0], grid.astype(np.float32).astype(float))
+    mc.save(motion, tmp_path / "same.gltf")
+    assert (tmp_path / "same.gltf").read_bytes() == (tmp_path / "made.gltf").read_bytes()
+    smoothed = motion.replace(
+        rotations=mc.filters.lee_shin(motion.rotations, mc.filters.masks.binomial(2))
+    )
+    mc.save(smoothed, tmp_path / "smooth.gltf")
+    document = json.loads((tmp_path / "smooth.gltf").read_text())
+    samplers = document["animations"][0]["samplers"]
+    assert [s["interpolation"] for s in samplers[:4]] == ["LINEAR", "LINEAR", "STEP", "CUBICSPLINE"]
+    back = mc.load(tmp_path / "smooth.gltf")
+    assert (
+        np.abs(np.abs(np.einsum("fji,fji->fj", back.rotations, smoothed.rotations)) - 1).max()
+        < 1e-12
+    )
+
+
+def test_convert_to_bvh_and_from_other_formats(tmp_path, capsys):
+    code, _, _ = run_cli(capsys, "convert", BLENDER_GLB, tmp_path / "g.bvh")
+    assert code == 0
+    names = mc.load(tmp_path / "g.bvh").names
+    p_glb, r_glb = relative_world(mc.load(BLENDER_GLB), names)
+    p_bvh, r_bvh = relative_world(mc.load(tmp_path / "g.bvh"), names)
+    assert np.abs(p_glb - p_bvh).max() < 1e-4 and degrees(r_glb, r_bvh) < 0.01
+    for suffix in (".glb", ".gltf"):  # a BVH as a new glTF: nodes, skin, one animation
+        code, _, _ = run_cli(capsys, "convert", SAMPLE, tmp_path / f"s{suffix}")
+        assert code == 0
+        bvh, glb = mc.load(SAMPLE), mc.load(tmp_path / f"s{suffix}")
+        assert glb.names == bvh.names and sorted(glb.end_sites) == sorted(bvh.end_sites)
+        p_bvh, _ = kinematics.forward(bvh, end_sites=True)
+        p_glb, _ = kinematics.forward(glb, end_sites=True)
+        assert np.abs(p_glb - p_bvh).max() < 1e-4
+        assert abs(glb.frame_time - bvh.frame_time) < 1e-9
+    np.savez(tmp_path / "s.npz", poses=np.zeros((3, 72)))
+    code, _, err = run_cli(capsys, "convert", tmp_path / "s.npz", tmp_path / "s2.glb")
+    assert code == 1 and "glTF needs joint positions: SMPL parameters hold no joint" in err
+    assert not (tmp_path / "s2.glb").exists()
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (lambda d: d[:30], "the header says 67672 bytes, the file has 30"),
+        (lambda d: d[:8] + struct.pack("<I", 30) + d[12:30], "chunk runs past the end"),
+        (lambda d: b"glTX" + d[4:], "not a GLB file"),
+        (lambda d: d[:8] + struct.pack("<I", len(d) + 4) + d[12:], "the header says"),
+        (lambda d: d[:20] + b"[" + d[21:], "the glTF JSON does not parse"),
+    ],
+)
+def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
+    (tmp_path / "bad.glb").write_bytes(mutate(BLENDER_GLB.read_bytes()))
+    code, out, err = run_cli(capsys, "info", tmp_path / "bad.glb")
+    assert code == 1 and out == "" and err.count("\n") == 1 and message in err
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d["accessors"][0].update(count=10**9), "do not fit in their bufferView"),
+        (lambda d: d["accessors"][0].update(sparse={}), "sparse accessors are not read"),
+        (lambda d: d["nodes"][2].update(children=[0]), "the node tree has a cycle"),
+        (lambda d: d["nodes"][0].update(children=[1, 1]), "node 1 has two parents"),
+        (lambda d: d["animations"][0]["samplers"][0].update(interpolation="BEZIER"), "is unknown"),
+        (lambda d: d["asset"].update(version="1.0"), "only glTF 2.0 is read"),
+        (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "not a file beside the glTF"),
+        (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
+    ],
+)
+def test_bad_gltf_is_one_line(tmp_path, capsys, edit, message):
+    made = chain()
+    grid = np.arange(0, 11) / 10.0
+    made.channel(0, "rotation", grid, z_turn(grid))
+    made.gltf(tmp_path / "ok.gltf")
+    document = json.loads((tmp_path / "ok.gltf").read_text())
+    edit(document)
+    (tmp_path / "bad.gltf").write_text(json.dumps(document))
+    code, out, err = run_cli(capsys, "info", tmp_path / "bad.gltf")
+    assert code == 1 and out == "" and err.count("\n") == 1 and message in err, err

@@ -1,0 +1,212 @@
+"""OpenSim .mot/.sto: coordinates as rotations about a fixed axis and positions along one,
+byte-exact write-back, degrees and radians, and the real-noise data cleaned as through the
+channel CSV."""
+
+from __future__ import annotations
+
+import csv
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import ROOT, run_cli
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+
+REALNOISE = ROOT.parent / "shared" / "realnoise"
+NO_REALNOISE = f"real-noise data not found at {REALNOISE} (see ../shared/realnoise/README.md)"
+
+IK = """Coordinates
+version=1
+nRows=6
+nColumns=6
+inDegrees=yes
+
+Units are S.I. units (second, meters, Newtons, ...)
+If the header above contains a line with 'inDegrees', this indicates whether rotational \
+values are in degrees (yes) or radians (no).
+
+endheader
+time\tpelvis_rotation\tpelvis_tx\tpelvis_ty\tknee_angle_r\tknee_angle_r_force
+      0.00000000\t    170.00000000\t      0.10000000\t      0.93000000\t     -5.00000000\tn/a
+      0.01000000\t    175.00000000\t      0.11000000\t      0.93100000\t     -6.50000000\tn/a
+      0.02000000\t    180.50000000\t      0.12000000\t      0.93200000\t     -8.00000000\t1.5
+      0.03000000\t    186.00000000\t      0.13000000\t      0.93100000\t     -9.50000000\t2.5
+      0.04000000\t    191.00000000\t      0.14000000\t      0.93000000\t    -11.00000000\t3.5
+      0.05000000\t    196.00000000\t      0.15000000\t      0.92900000\t    -12.50000000\t4.5
+"""
+
+
+def write(tmp_path, text: str, name: str = "ik.mot"):
+    path = tmp_path / name
+    path.write_bytes(text.encode())
+    return path
+
+
+def test_coordinates_become_rotations_about_z_and_positions_along_their_axis(tmp_path):
+    motion = mc.load(write(tmp_path, IK), exclude=["*_force"])
+    assert motion.names == ["pelvis_rotation", "pelvis_tx", "pelvis_ty", "knee_angle_r"]
+    assert motion.channels[1] == ("Xposition",) and motion.channels[2] == ("Yposition",)
+    assert motion.frame_time == pytest.approx(0.01)
+    angle = np.deg2rad([170, 175, 180.5, 186, 191, 196])
+    z_turn = np.stack([np.cos(angle / 2), 0 * angle, 0 * angle, np.sin(angle / 2)], axis=-1)
+    assert np.abs(np.abs(np.einsum("fi,fi->f", motion.rotations[:, 0], z_turn)) - 1).max() < 1e-15
+    assert np.array_equal(motion.translations[:, 1, 0], [0.1, 0.11, 0.12, 0.13, 0.14, 0.15])
+    assert np.array_equal(motion.translations[:, 2, 1], [0.93, 0.931, 0.932, 0.931, 0.93, 0.929])
+    assert kinematics.world_note(motion) is not None
+
+
+def test_untouched_file_is_written_byte_for_byte(tmp_path):
+    path = write(tmp_path, IK.replace("\n", "\r\n"))
+    mc.save(mc.load(path, exclude=["*_force"]), tmp_path / "out.mot")
+    assert (tmp_path / "out.mot").read_bytes() == path.read_bytes()
+
+
+def test_a_changed_coordinate_keeps_header_other_columns_and_its_branch(tmp_path):
+    path = write(tmp_path, IK)
+    motion = mc.load(path, exclude=["*_force"])
+    q = motion.rotations.copy()
+    q[2:4, 0] = quat.multiply(q[2:4, 0], quat.exp(np.array([0.0, 0.0, np.deg2rad(0.5) / 2])))
+    mc.save(motion.replace(rotations=q), tmp_path / "out.mot")
+    before = path.read_text().splitlines()
+    after = (tmp_path / "out.mot").read_text().splitlines()
+    assert after[:11] == before[:11]  # header and labels
+    for row in (0, 1, 4, 5):
+        assert after[11 + row] == before[11 + row]
+    for row, value in ((2, 181.0), (3, 186.5)):  # past 180: the branch read is kept
+        old, new = before[11 + row].split("\t"), after[11 + row].split("\t")
+        assert new[:1] + new[2:] == old[:1] + old[2:]
+        assert float(new[1]) == pytest.approx(value, abs=1e-9)
+
+
+def test_radians_and_a_missing_inDegrees_line(tmp_path):
+    radians = IK.replace("inDegrees=yes", "inDegrees=no")
+    motion = mc.load(write(tmp_path, radians, "r.mot"), exclude=["*_force"])
+    angle = np.array([-5.0, -6.5, -8.0, -9.5, -11.0, -12.5])  # the knee, now in radians
+    z = 2 * np.arctan2(motion.rotations[:, 3, 3], motion.rotations[:, 3, 0])
+    assert np.abs(np.angle(np.exp(1j * (z - angle)))).max() < 1e-12
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_text() == radians
+    bare = mc.load(write(tmp_path, IK.replace("inDegrees=yes\n", ""), "b.sto"), exclude=["*_force"])
+    assert any("read as radians" in note for note in kinematics.source_notes(bare))
+    assert np.array_equal(bare.rotations, motion.rotations)
+
+
+def test_nan_cells_are_missing_samples_and_stay_so(tmp_path):
+    text = IK.replace("     -8.00000000", "NaN").replace("     -9.50000000", "nan")
+    path = write(tmp_path, text)
+    motion = mc.load(path, exclude=["*_force"])
+    assert np.flatnonzero(motion.missing[:, 3]).tolist() == [2, 3]
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == path.read_bytes()
+    filled, _ = mc.Pipeline.from_inline(["fill-gaps"]).run(motion)
+    mc.save(filled, tmp_path / "filled.mot")
+    knee = np.genfromtxt(tmp_path / "filled.mot", skip_header=11, usecols=4)
+    # the knee turns at a constant rate: the bridge over the gap continues it
+    assert np.abs(knee - [-5.0, -6.5, -8.0, -9.5, -11.0, -12.5]).max() < 1e-9
+
+
+def test_convert_to_csv_and_back(tmp_path, capsys):
+    path = write(tmp_path, IK)
+    code, _, _ = run_cli(capsys, "convert", path, tmp_path / "c.csv", "--exclude", "*_force")
+    assert code == 0
+    code, _, _ = run_cli(capsys, "convert", tmp_path / "c.csv", tmp_path / "back.mot")
+    assert code == 0
+    back = np.genfromtxt(tmp_path / "back.mot", skip_header=7)
+    original = np.genfromtxt(path, skip_header=11, usecols=range(5))
+    assert np.abs(back - original).max() < 1e-9
+    code, _, err = run_cli(
+        capsys, "convert", ROOT / "sample_data" / "131_02_cut.bvh", tmp_path / "x.mot"
+    )
+    assert code == 1 and "an OpenSim file holds independent coordinates" in err
+
+
+@pytest.mark.parametrize(
+    ("text", "message", "line"),
+    [
+        ("version=1\ntime\ta\n0\t1\n", "no 'endheader' line", None),
+        (IK.replace("\t1.5\n", "\n"), "5 values on this row, expected 6", 14),
+        (
+            IK.replace("-6.50000000", "x6.5"),
+            "column 'knee_angle_r': not a finite number: 'x6.5'",
+            13,
+        ),
+        (IK.replace("      0.02000000", "      0.05000000"), "time does not increase", 15),
+        (IK.replace("pelvis_ty", "pelvis_tx"), "column 'pelvis_tx' appears twice", 11),
+        (IK.replace("time\t", "frame\t"), "the first column is 'frame'", 11),
+        (IK.replace("inDegrees=yes", "inDegrees=maybe"), "inDegrees='maybe'", 5),
+        (IK.split("endheader")[0] + "endheader\n", "no column labels", 11),
+    ],
+)
+def test_bad_files_are_one_line(tmp_path, capsys, text, message, line):
+    path = write(tmp_path, text)
+    code, out, err = run_cli(capsys, "info", path, "--exclude", "*_force")
+    assert code == 1 and out == "" and err.count("\n") == 1 and message in err
+    where = f"{path}:{line}: " if line else f"{path}: "
+    assert err.startswith(f"motionclean: error: {where}")
+
+
+def test_an_unparsed_column_is_an_error_unless_excluded(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "info", write(tmp_path, IK))
+    assert code == 1 and "knee_angle_r_force': not a finite number: 'n/a'" in err
+
+
+@pytest.fixture(scope="module")
+def realnoise_take(tmp_path_factory):
+    if not REALNOISE.is_dir():
+        pytest.skip(NO_REALNOISE)
+    folder = tmp_path_factory.mktemp("realnoise")
+    source = REALNOISE / "estimates" / "theia3d" / "gait_participant_01.csv"
+    channel = folder / "gait.csv"
+    subprocess.run(
+        [sys.executable, str(REALNOISE / "to_channel_csv.py"), str(source), str(channel)],
+        check=True,
+    )
+    rows = list(csv.reader(channel.open()))
+    columns = [k for k, name in enumerate(rows[0]) if name.endswith(".Zrotation")]
+    names = [rows[0][k].rsplit(".", 1)[0] for k in columns]
+    head = f"gait\nversion=1\nnRows={len(rows) - 1}\nnColumns={len(names) + 1}\n"
+    lines = ["time\t" + "\t".join(names)]
+    for row in rows[1:]:
+        lines.append("\t".join([row[0]] + [row[k] or "NaN" for k in columns]))
+    degrees = folder / "gait.mot"
+    degrees.write_text(head + "inDegrees=yes\nendheader\n" + "\n".join(lines) + "\n")
+    estimate = list(csv.reader(source.open(encoding="utf-8-sig")))
+    keep = [estimate[0].index(name) for name in names]
+    radian_lines = ["time\t" + "\t".join(names)]
+    for row in estimate[1:]:
+        radian_lines.append("\t".join([row[0]] + [row[k] or "NaN" for k in keep]))
+    radians = folder / "gait_radians.sto"
+    radians.write_text(head + "inDegrees=no\nendheader\n" + "\n".join(radian_lines) + "\n")
+    return channel, degrees, radians, names
+
+
+def test_realnoise_cleans_as_through_the_channel_csv(realnoise_take, tmp_path, capsys):
+    channel, degrees, radians, names = realnoise_take
+    for source, target in ((channel, "c.csv"), (degrees, "d.mot"), (radians, "r.sto")):
+        code, _, err = run_cli(capsys, "clean", source, "-o", tmp_path / target, "-q")
+        assert code == 0, err
+    cleaned_csv = np.genfromtxt(tmp_path / "c.csv", delimiter=",", skip_header=1)[:, 1::3]
+    cleaned_deg = np.genfromtxt(tmp_path / "d.mot", skip_header=7)[:, 1:]
+    cleaned_rad = np.rad2deg(np.genfromtxt(tmp_path / "r.sto", skip_header=7)[:, 1:])
+    assert cleaned_csv.shape == cleaned_deg.shape == (1200, len(names))
+    assert np.isfinite(cleaned_deg).all()  # the dropouts were filled, as in the CSV
+    assert np.abs(cleaned_deg - cleaned_csv).max() < 1e-9  # the same angles: same numbers
+    # radians (9 significant digits) against degrees with six decimals: the same within
+    # the rounding of the inputs
+    assert np.abs(cleaned_rad - cleaned_csv).max() < 1e-4
+    moved = np.abs(cleaned_deg - np.genfromtxt(degrees, skip_header=7)[:, 1:])
+    assert np.nanmax(moved) > 0.1 and math.isfinite(np.nanmax(moved))
+
+
+def test_coordinates_make_no_bvh_or_gltf(tmp_path, capsys):
+    path = write(tmp_path, IK)
+    for target, message in (
+        ("x.bvh", "OpenSim coordinates have no skeleton"),
+        ("x.glb", "glTF needs joint positions: OpenSim coordinates are joint angles"),
+    ):
+        code, _, err = run_cli(capsys, "convert", path, tmp_path / target, "--exclude", "*_f*")
+        assert code == 1 and message in err and not (tmp_path / target).exists()

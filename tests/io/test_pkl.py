@@ -1,0 +1,196 @@
+"""SMPL parameters in pickles: WHAM-style joblib files, exact round trips, and pickles
+that would run code refused without running it."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from helpers import ROOT, run_cli
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+from motionclean.io import safepickle
+from motionclean.io.smpl_model import SMPL
+
+#: Written by joblib 1.6 (numpy 1.26) like WHAM's demo: two people, person 3 seen on
+#: frames 0-2 and 5-7 only; the second copy compressed (joblib.dump(..., compress=3)).
+WHAM = ROOT / "tests" / "data" / "wham_output.pkl"
+WHAM_ZLIB = ROOT / "tests" / "data" / "wham_output_zlib.pkl"
+
+
+def test_wham_output_reads_the_world_motion_of_the_longest_track():
+    motion = mc.load(WHAM)
+    assert motion.names == list(SMPL.names) and motion.n_frames == 24
+    notes = kinematics.source_notes(motion)
+    assert "2 people in the file: '0' read (the most frames)" in notes
+    assert any("30 fps assumed" in note for note in notes)
+    record = safepickle.loads(WHAM.read_bytes(), WHAM)[0]
+    expected = quat.exp(0.5 * record["pose_world"].astype(np.float64).reshape(24, 24, 3))
+    assert np.abs(np.abs(np.einsum("fji,fji->fj", motion.rotations, expected)) - 1).max() < 1e-12
+    assert np.array_equal(motion.translations[:, 0], record["trans_world"].astype(np.float64))
+    compressed = mc.load(WHAM_ZLIB)
+    assert np.array_equal(compressed.rotations, motion.rotations)
+
+
+def test_round_trips_byte_and_value_exact(tmp_path):
+    motion = mc.load(WHAM)
+    mc.save(motion, tmp_path / "same.pkl")
+    assert (tmp_path / "same.pkl").read_bytes() == WHAM.read_bytes()
+    q = motion.rotations.copy()
+    q[3:6, 7] = quat.multiply(q[3:6, 7], quat.exp(np.array([0.0, 0.03, 0.0])))
+    mc.save(motion.replace(rotations=q), tmp_path / "edited.pkl")
+    before = safepickle.loads(WHAM.read_bytes(), WHAM)
+    with open(tmp_path / "edited.pkl", "rb") as f:
+        after = pickle.load(f)  # a plain pickle anyone can read
+    assert sorted(after) == sorted(before) and list(after[0]) == list(before[0])
+    for key, value in before[0].items():
+        assert after[0][key].dtype == value.dtype and after[0][key].shape == value.shape
+        if key != "pose_world":
+            assert np.array_equal(after[0][key], value)
+    for key, value in before[3].items():
+        assert np.array_equal(after[3][key], value)
+    changed = np.argwhere(after[0]["pose_world"] != before[0]["pose_world"])
+    assert set(changed[:, 0]) == {3, 4, 5} and set(changed[:, 1]) <= {21, 22, 23}
+    again = mc.load(tmp_path / "edited.pkl")
+    assert np.abs(again.rotations - q).max() < 1e-6  # float32 arrays
+
+
+def test_frames_a_person_was_not_seen_in_are_missing(tmp_path):
+    record = safepickle.loads(WHAM.read_bytes(), WHAM)[3]
+    with open(tmp_path / "one.pkl", "wb") as f:
+        pickle.dump(
+            {
+                "pose": record["pose"],
+                "trans": record["trans"],
+                "frame_ids": record["frame_ids"] + 40,
+                "fps": 25,
+            },
+            f,
+        )
+    motion = mc.load(tmp_path / "one.pkl")
+    assert motion.n_frames == 8 and motion.frame_rate == 25.0
+    assert motion.missing is not None and np.flatnonzero(motion.missing[:, 0]).tolist() == [3, 4]
+    mc.save(motion, tmp_path / "same.pkl")
+    assert (tmp_path / "same.pkl").read_bytes() == (tmp_path / "one.pkl").read_bytes()
+    filled, _ = mc.Pipeline.from_inline(["fill-gaps"]).run(motion)
+    q = filled.rotations.copy()
+    q[6, 2] = quat.multiply(q[6, 2], quat.exp(np.array([0.01, 0.0, 0.0])))
+    mc.save(filled.replace(rotations=q), tmp_path / "edited.pkl")
+    with open(tmp_path / "edited.pkl", "rb") as f:
+        out = pickle.load(f)
+    assert out["pose"].shape == record["pose"].shape  # the rows of the frames seen only
+    assert np.flatnonzero((out["pose"] != record["pose"]).any(axis=1)).tolist() == [4]
+
+
+class _RunsCode:
+    def __init__(self, command: str):
+        self.command = command
+
+    def __reduce__(self):
+        return (os.system, (self.command,))
+
+
+def test_a_pickle_that_would_run_code_is_refused_without_running_it(tmp_path, capsys):
+    marker = tmp_path / "ran"
+    hostile = {"pose": np.zeros((2, 72)), "x": _RunsCode(f"touch {marker}")}
+    path = tmp_path / "hostile.pkl"
+    path.write_bytes(pickle.dumps(hostile, protocol=2))
+    code, out, err = run_cli(capsys, "info", path)
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert (
+        "refused: the pickle asks for posix.system" in err
+        or "refused: the pickle asks for nt.system" in err
+    )
+    assert not marker.exists()
+    # the same file through Python's own pickle does run it: the test would catch a leak
+    subprocess.run(
+        [sys.executable, "-c", f"import pickle; pickle.load(open({str(path)!r}, 'rb'))"], check=True
+    )
+    assert marker.exists()
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        b"cbuiltins\neval\n(S'1'\ntR.",  # protocol 0 GLOBAL + REDUCE
+        b"\x80\x04\x95\x1c\x00\x00\x00\x00\x00\x00\x00\x8c\x08builtins\x94\x8c\x04exec\x94\x93\x94.",
+        b"c__builtin__\ngetattr\n.",
+        b"\x80\x02cnumpy.core.multiarray\n_reconstruct\ncos\nsystem\nK\x00\x85C\x01b\x87R.",
+        b"\x80\x02ccopyreg\n_reconstructor\n.",
+    ],
+)
+def test_globals_outside_the_list_are_refused(payload):
+    with pytest.raises(mc.MotionError, match="refused: the pickle asks for"):
+        safepickle.loads(payload, "x.pkl")
+
+
+def test_object_arrays_and_huge_claims_are_refused():
+    with pytest.raises(mc.MotionError, match="an array of Python objects"):
+        safepickle.loads(pickle.dumps({"pose": np.array([None, 1], dtype=object)}), "x.pkl")
+    huge = pickle.dumps(np.zeros(3)).replace(b"K\x03\x85", b"J\x00\xe1\xf5\x05\x85")
+    with pytest.raises(mc.MotionError):
+        safepickle.loads(huge, "x.pkl")
+
+
+@pytest.mark.parametrize("cut", [10, 500, 5000, 27000])
+def test_a_cut_joblib_file_is_one_line(tmp_path, capsys, cut):
+    (tmp_path / "cut.pkl").write_bytes(WHAM.read_bytes()[:cut])
+    code, _, err = run_cli(capsys, "info", tmp_path / "cut.pkl")
+    assert code == 1 and err.count("\n") == 1 and err.startswith("motionclean: error: ")
+
+
+def test_a_pickle_without_smpl_is_one_line(tmp_path, capsys):
+    (tmp_path / "other.pkl").write_bytes(pickle.dumps({"a": [1, 2], "b": np.zeros(3)}))
+    code, _, err = run_cli(capsys, "info", tmp_path / "other.pkl")
+    assert code == 1 and "no SMPL record in the pickle" in err
+
+
+def test_clean_and_convert(tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "clean", WHAM, "-o", tmp_path / "clean.pkl")
+    assert code == 0 and "note: 2 people in the file" in out
+    code, _, _ = run_cli(capsys, "convert", WHAM, tmp_path / "w.npz")
+    assert code == 0
+    npz = mc.load(tmp_path / "w.npz")
+    assert np.array_equal(npz.rotations, mc.load(WHAM).rotations)
+    code, _, _ = run_cli(capsys, "convert", WHAM, tmp_path / "w.csv")
+    assert code == 0 and mc.load(tmp_path / "w.csv").n_joints == 24
+
+
+#: Laid out as 4D-Humans' tracker (PHALP) writes it, with joblib compress=3: one entry per
+#: video frame with its detections (tid, smpl rotation matrices, bbox, mask, ...); track 1
+#: is lost on frames 2-3, track 2 on frames 4, 5 and 9.
+PHALP = ROOT / "tests" / "data" / "phalp_output.pkl"
+
+
+def test_4d_humans_tracks_read_the_longest_track_with_its_gaps(tmp_path):
+    motion = mc.load(PHALP)
+    assert motion.names == list(SMPL.names) and motion.n_frames == 12
+    assert "2 tracks in the file: track 1 read (seen on 10 frames)" in kinematics.source_notes(
+        motion
+    )
+    assert np.flatnonzero(motion.missing[:, 0]).tolist() == [2, 3]
+    tree = safepickle.loads(PHALP.read_bytes(), PHALP)
+    first = tree["frame_000000.jpg"]["smpl"][0]
+    assert np.abs(quat.as_matrix(motion.rotations[0, 1]) - first["body_pose"][0]).max() < 1e-6
+    mc.save(motion, tmp_path / "same.pkl")
+    assert (tmp_path / "same.pkl").read_bytes() == PHALP.read_bytes()
+    filled, _ = mc.Pipeline.from_inline(["fill-gaps"]).run(motion)
+    q = filled.rotations.copy()
+    q[6, 5] = quat.multiply(q[6, 5], quat.exp(np.array([0.0, 0.0, 0.02])))
+    mc.save(filled.replace(rotations=q), tmp_path / "edited.pkl")
+    with open(tmp_path / "edited.pkl", "rb") as f:
+        out = pickle.load(f)
+    assert list(out) == list(tree)
+    for key, frame in tree.items():
+        for index, params in enumerate(frame["smpl"]):
+            new = out[key]["smpl"][index]
+            assert new["body_pose"].dtype == np.float32 and new["body_pose"].shape == (23, 3, 3)
+            same = key != "frame_000006.jpg" or frame["tid"][index] != 1
+            assert np.array_equal(new["body_pose"], params["body_pose"]) == same
+        assert out[key]["mask"] == frame["mask"] and out[key]["tid"] == frame["tid"]
+    assert np.abs(mc.load(tmp_path / "edited.pkl").rotations[6, 5] - q[6, 5]).max() < 1e-6

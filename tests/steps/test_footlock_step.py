@@ -1,0 +1,109 @@
+"""The footlock step in the default pipeline: it weighs each joint by the error auto expects
+in it, leaves a clip auto found clean as it is, plants the sample's sliding feet, and gives
+the same motion on a Z-up copy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import NOISY, SAMPLE, z_up_copy
+
+import motionclean as mc
+from motionclean.core import contacts as found
+from motionclean.core import kinematics, quat
+from motionclean.filters import lee_shin
+from motionclean.filters.masks import binomial
+from motionclean.steps import footlock
+from motionclean.steps.base import StepData
+from motionclean.steps.pipeline import DEFAULT_STEPS, Pipeline
+
+PARAMS = {p.name: p.default for p in footlock.STEP.params}
+WITHOUT = Pipeline.from_tables([s for s in DEFAULT_STEPS if s["filter"] != "footlock"], "-")
+
+
+def _step(motion: mc.Motion, earlier: dict) -> mc.Motion:
+    data = StepData(
+        motion.rotations,
+        motion.translations[:, :1],
+        motion.frame_time,
+        motion=motion,
+        rotation_joints=np.arange(motion.n_joints),
+        translation_joints=np.array([0]),
+        earlier=earlier,
+    )
+    out = footlock.STEP.run(data, {**PARAMS, "min_skate": 0.0})  # type: ignore[misc]
+    translations = motion.translations.copy()
+    translations[:, :1] = out.translations
+    return motion.replace(rotations=out.rotations, translations=translations)
+
+
+def _notes(motion: mc.Motion, degrees: dict[str, float]) -> dict:
+    return {
+        name: {
+            "auto": {"expected_error": degrees.get(name, 1.0)},
+            "position_auto": {"expected_error": 0.0},
+        }
+        for name in motion.names
+    }
+
+
+def test_each_joint_moves_as_much_as_auto_expects_it_wrong():
+    motion = mc.load(NOISY)
+    knees = ["LeftKnee", "RightKnee"]
+    hips = ["LeftHip", "RightHip"]
+    stiff_knees = _step(motion, _notes(motion, {k: 1e-4 for k in knees}))
+    stiff_hips = _step(motion, _notes(motion, {h: 1e-4 for h in hips}))
+    columns = [motion.names.index(n) for n in knees + hips]
+
+    def moved(clip):
+        return np.degrees(quat.angle_between(clip.rotations, motion.rotations))[:, columns].max(0)
+
+    knee_a, hip_a = moved(stiff_knees)[:2], moved(stiff_knees)[2:]
+    knee_b, hip_b = moved(stiff_hips)[:2], moved(stiff_hips)[2:]
+    assert np.all(knee_a < 0.01 * knee_b) and np.all(hip_b < 0.01 * hip_a)
+    exact = _notes(motion, {n: 0.0 for n in motion.names})
+    np.testing.assert_array_equal(_step(motion, exact).rotations, motion.rotations)
+
+
+def test_a_clip_auto_finds_clean_is_left_as_it_is():
+    motion = mc.load(SAMPLE)
+    smooth = motion.replace(rotations=lee_shin(motion.rotations, binomial(3), iterations=20))
+    with_lock, logs = Pipeline.default().run(smooth)
+    without, _ = WITHOUT.run(smooth)
+    assert not any("footlock" in note for note in logs[-1].notes.values())
+    np.testing.assert_array_equal(with_lock.rotations, without.rotations)
+
+
+@pytest.fixture(scope="module")
+def planted():
+    motion = mc.load(NOISY)
+    return motion, Pipeline.default().run(motion), WITHOUT.run(motion)[0]
+
+
+def test_the_default_plants_sliding_feet_and_keeps_the_rest(planted):
+    motion, (with_lock, logs), without = planted
+    feet, contacts, *_ = footlock.find_contacts(mc.load(SAMPLE), PARAMS)
+    up = kinematics.up_axis(motion)
+    skates = [
+        found.skate(kinematics.forward(clip, end_sites=True)[0], feet, contacts, up, 1.0)
+        for clip in (with_lock, without)
+    ]
+    assert np.all(skates[0] < 0.6 * skates[1])
+    assert {f.name for f in feet} <= {n for n, note in logs[-1].notes.items() if "footlock" in note}
+    legs = {j for f in feet for j in (f.hip, f.knee, f.ankle)} | {0, 1, 6}  # and the pelvis
+    others = [j for j in range(motion.n_joints) if j not in legs]
+    np.testing.assert_array_equal(with_lock.rotations[:, others], without.rotations[:, others])
+    change = np.degrees(quat.angle_between(with_lock.rotations, without.rotations))
+    assert np.sqrt(np.mean(change**2)) < 1.0
+
+
+def test_the_same_motion_on_a_z_up_copy(planted):
+    motion, (with_lock, _), _ = planted
+    turned, _ = Pipeline.default().run(z_up_copy(motion))
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+    expected = quat.rotate(turn, kinematics.forward(with_lock, end_sites=True)[0])
+    np.testing.assert_allclose(
+        kinematics.forward(turned, end_sites=True)[0],
+        expected,
+        atol=1e-6 * kinematics.body_height(motion),
+    )

@@ -1,0 +1,91 @@
+"""The floor found from contacts (height, tilt) and the ``ground`` step: a tilted, raised
+floor is levelled and put at height 0 by moving the root alone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from helpers import corpus_clip, turned_copy
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+from motionclean.report.world import contact_figures
+from motionclean.steps.ground import floor_of
+from motionclean.steps.pipeline import Pipeline
+
+TILT_DEG = 8.0
+
+
+@pytest.fixture(scope="module")
+def walk() -> mc.Motion:
+    return mc.load(corpus_clip("131_02.bvh"))
+
+
+def _tilted(motion: mc.Motion, rise: float) -> mc.Motion:
+    """``motion`` on a floor tilted by TILT_DEG about the x axis and raised by ``rise``."""
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.radians(TILT_DEG))
+    translations = motion.translations.copy()
+    rotations = motion.rotations.copy()
+    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+    translations[:, 0] = quat.rotate(turn, translations[:, 0]) + np.array([0.0, rise, 0.0])
+    return motion.replace(rotations=rotations, translations=translations, source_values=None)
+
+
+def test_the_floor_of_a_flat_capture_is_level_and_a_tilted_one_is_found(walk):
+    section, _ = contact_figures(walk)
+    floor = section["floor"]
+    assert floor["tilt_deg"] < 1.0 and floor["contacts"] >= 10
+    height = kinematics.body_height(walk)
+    tilted, _ = contact_figures(_tilted(walk, 5.0))
+    assert tilted["floor"]["tilt_deg"] == pytest.approx(TILT_DEG, abs=1.0)
+    assert tilted["floor"]["normal"][2] == pytest.approx(np.sin(np.radians(TILT_DEG)), abs=0.02)
+    assert abs(floor["height"]) < 0.05 * height
+
+
+def test_ground_levels_the_floor_and_puts_it_at_zero_moving_the_root_only(walk):
+    height = kinematics.body_height(walk)
+    tilted = _tilted(walk, 5.0)
+    grounded, logs = Pipeline.from_inline(["ground"]).run(tilted)
+    floor, _ = floor_of(grounded)
+    assert floor is not None
+    assert floor.tilt_deg < 1.0
+    assert abs(floor.offset) < 0.01 * height
+    np.testing.assert_array_equal(grounded.rotations[:, 1:], tilted.rotations[:, 1:])
+    np.testing.assert_array_equal(grounded.translations[:, 1:], tilted.translations[:, 1:])
+    # the motion itself is kept: every point moves by one rigid transform
+    before = kinematics.forward(tilted, end_sites=True)[0]
+    after = kinematics.forward(grounded, end_sites=True)[0]
+    centred_b = before - before.mean(axis=(0, 1))
+    centred_a = after - after.mean(axis=(0, 1))
+    u, _, vt = np.linalg.svd(centred_a.reshape(-1, 3).T @ centred_b.reshape(-1, 3))
+    fit = (u @ vt) @ centred_b.reshape(-1, 3).T
+    np.testing.assert_allclose(fit.T, centred_a.reshape(-1, 3), atol=1e-6 * height)
+    note = logs[0].notes["Hips"]["position_ground"]
+    assert note["tilt_deg"] == pytest.approx(TILT_DEG, abs=1.0)
+
+
+def test_ground_commutes_with_a_turn_of_the_whole_clip(walk):
+    """Found on a Z-up copy, the floor is the same plane turned, and ground leaves both
+    clips on the same floor at height 0."""
+    z_turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)
+    tilted = _tilted(walk, 3.0)
+    a, _ = Pipeline.from_inline(["ground"]).run(tilted)
+    b, _ = Pipeline.from_inline(["ground"]).run(turned_copy(tilted, z_turn))
+    pa = kinematics.forward(a, end_sites=True)[0]
+    pb = kinematics.forward(b, end_sites=True)[0]
+    np.testing.assert_allclose(pb[..., 2], pa[..., 1], atol=1e-6 * kinematics.body_height(walk))
+
+
+def test_ground_without_contacts_or_without_level_moves_only_up_and_down(walk):
+    height = kinematics.body_height(walk)
+    translations = walk.translations.copy()
+    translations[:, 0, 1] += height * np.arange(walk.n_frames) * walk.frame_time
+    flying = walk.replace(translations=translations)
+    out, _ = Pipeline.from_inline(["ground"]).run(flying)
+    np.testing.assert_array_equal(out.translations, flying.translations)
+    raised = _tilted(walk, 5.0)
+    out, _ = Pipeline.from_inline(["ground:level=false"]).run(raised)
+    np.testing.assert_array_equal(out.rotations, raised.rotations)
+    moved = out.translations[:, 0] - raised.translations[:, 0]
+    assert np.ptp(moved[:, 1]) < 1e-9 and moved[0, 1] < -4.0
+    np.testing.assert_array_equal(moved[:, [0, 2]], 0.0)
