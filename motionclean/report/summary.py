@@ -178,7 +178,7 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     if not counts.any():
         zeros = np.zeros(table.shape[1])
         return _Reduced(drawn, zeros, zeros, 0.0, 0.0, counts)
-    largest = np.where(counts > 0, np.fmax.reduce(core, axis=0, initial=0.0), 0.0)
+    largest = np.array([trace.peak for trace in drawn])  # the rest rows are NaN: left out
     total_max = float(largest.max())
     squares = np.square(core, out=core)
     squares[~known] = 0.0
