@@ -90,7 +90,8 @@ def test_the_default_plants_sliding_feet_and_keeps_the_rest(planted):
     ]
     assert np.all(skates[0] < 0.6 * skates[1])
     assert {f.name for f in feet} <= {n for n, note in logs[-1].notes.items() if "footlock" in note}
-    legs = {j for f in feet for j in (f.hip, f.knee, f.ankle)} | {0, 1, 6}  # and the pelvis
+    toes = {p for f in feet for p in f.points if p < motion.n_joints}  # the ankle and below
+    legs = {j for f in feet for j in (f.hip, f.knee)} | toes | {0, 1, 6}  # and the pelvis
     others = [j for j in range(motion.n_joints) if j not in legs]
     np.testing.assert_array_equal(with_lock.rotations[:, others], without.rotations[:, others])
     change = np.degrees(quat.angle_between(with_lock.rotations, without.rotations))
