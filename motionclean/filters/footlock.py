@@ -495,6 +495,12 @@ def _hold_toes(
     targets = np.empty_like(start)
     for k in range(len(toe_points)):  # a point at a time, vectorised over frames
         targets[:, k] = lock_targets(start[:, k], toes[:, k], blend_frames, hold_frames)[0]
+    # solved: the frames that hold a toe, or find one below the floor where it must not be
+    normal, level = rows.floor
+    below = (start[frames] @ normal - level < 0.0) & rows.grounded[frames]
+    asked = (weights[frames] > 0.0).any(axis=1) | below.any(axis=1)
+    frames, q, t = frames[asked], q[asked], t[asked]
+    mounts = (mounts[0][asked], mounts[1][asked])
     rows = replace(rows, targets=targets, horizontal=weights > 0.0).take(frames)
     solved, _ = _solve_frames(q, t, part, problem, rows)
     changed = np.any(solved != q, axis=(1, 2))  # the others are left bit for bit
