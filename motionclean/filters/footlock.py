@@ -32,6 +32,9 @@ from ..core.kinematics import depths, forward_arrays
 
 #: Gauss-Newton iterations (the change is small: the second one leaves millimetres).
 ITERATIONS = 3
+#: ... and of the toes' solve (its levers are short and its start close: one more finds a
+#: toe the first put below the floor).
+TOE_ITERATIONS = 2
 #: Frames solved at a time (bounds the per-frame systems' memory).
 BLOCK_FRAMES = 4096
 #: A point this far below the floor (fraction of the tolerance) is on it: a sole that
@@ -502,7 +505,7 @@ def _hold_toes(
     frames, q, t = frames[asked], q[asked], t[asked]
     mounts = (mounts[0][asked], mounts[1][asked])
     rows = replace(rows, targets=targets, horizontal=weights > 0.0).take(frames)
-    solved, _ = _solve_frames(q, t, part, problem, rows)
+    solved, _ = _solve_frames(q, t, part, problem, rows, TOE_ITERATIONS)
     changed = np.any(solved != q, axis=(1, 2))  # the others are left bit for bit
     frames, solved = frames[changed], solved[changed]
     mounts = (mounts[0][changed], mounts[1][changed])
@@ -528,7 +531,12 @@ def _points(
 
 
 def _solve_frames(
-    q: np.ndarray, t: np.ndarray, part: _Part, problem: _Problem, rows: _Rows
+    q: np.ndarray,
+    t: np.ndarray,
+    part: _Part,
+    problem: _Problem,
+    rows: _Rows,
+    iterations: int = ITERATIONS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_solve` over blocks of :data:`BLOCK_FRAMES` frames (bounds the per-frame
     systems' memory)."""
@@ -536,12 +544,19 @@ def _solve_frames(
     for at in range(0, len(q), BLOCK_FRAMES):
         block = slice(at, at + BLOCK_FRAMES)
         frames = np.arange(at, min(at + BLOCK_FRAMES, len(q)))
-        q[block], t[block] = _solve(q[block], t[block], part, problem, rows.take(frames))
+        q[block], t[block] = _solve(
+            q[block], t[block], part, problem, rows.take(frames), iterations
+        )
     return q, t
 
 
 def _solve(
-    rotations: np.ndarray, translations: np.ndarray, part: _Part, problem: _Problem, rows: _Rows
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    part: _Part,
+    problem: _Problem,
+    rows: _Rows,
+    iterations: int = ITERATIONS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The Gauss-Newton solve of :func:`plant` on a block of frames of a part: local
     rotations and translations ``(F, Jc, ...)`` in, the same out."""
@@ -557,7 +572,7 @@ def _solve(
     below = np.zeros((n_frames, n_points), dtype=bool)
     free = ~problem.hinge
     spread = 1.0 / problem.prior  # each column's expected variance
-    for _ in range(ITERATIONS):
+    for _ in range(iterations):
         positions, world = forward_arrays(parents, q, t)
         points = _points(positions, world, problem, part.tip_offsets)  # (F, K, 3)
         jac = _jacobian(positions, world, points, parents, problem, directions)
