@@ -210,12 +210,12 @@ def untouched() -> None:
 
 
 def main() -> None:
-    walks(WITH, LOCK, "the default (ankles and toes held)")
-    ankles = [*DEFAULT_STEPS[:-1], {"filter": "footlock", "toes": False}]
+    walks(WITH, LOCK, "the default (ankles held)")
+    toes = [*DEFAULT_STEPS[:-1], {"filter": "footlock", "toes": True}]
     walks(
-        Pipeline.from_tables(ankles, "ankles"),
-        Pipeline.from_inline(["footlock:toes=false"]),
-        "footlock:toes=false (ankles alone)",
+        Pipeline.from_tables(toes, "toes"),
+        Pipeline.from_inline(["footlock:toes=true"]),
+        "footlock:toes=true (toes held by the foot too)",
     )
     quality()
     untouched()

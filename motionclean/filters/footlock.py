@@ -335,9 +335,9 @@ class _Rows:
     """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
     position on ``targets`` ``(F, K, 3)`` where ``horizontal``, within ``tolerance``
     (length units); not below the floor ``(normal, offset)`` where ``grounded``, within
-    ``floor_tolerance``. ``up`` is
-    the up axis; a target further from a point than ``robust`` times the error the prior
-    predicts for it is followed less (Huber weights)."""
+    ``floor_tolerance``. ``up`` is the up axis; a target further from a point than
+    ``robust`` times the error the prior predicts for it is followed less (Huber
+    weights)."""
 
     targets: np.ndarray
     horizontal: np.ndarray
@@ -384,13 +384,13 @@ def plant(
     no position channel, :func:`motionclean.core.kinematics.local_translations`);
     ``tips`` joint -> end-site offset; ``up`` the up axis (0, 1, 2); ``floor`` ``(n, d)``:
     a point ``p`` is below the floor where ``n . p < d``; ``tolerance`` (length units) how
-    closely the ankle follows its target and every held point keeps above the floor (the
-    toes follow theirs ``toe_tolerance`` times as loosely); a
-    target further from a point than ``robust`` times the error the prior predicts for it
-    is taken as motion, not noise, and followed less (Huber weights). No toe point goes
-    below the floor while its leg or the toe itself is in contact. Frames where nothing is
-    held, and every joint that does not turn, are returned bit for bit; the root (the
-    first joint of the legs) moves only along ``prior.root``'s non-zero axes.
+    closely the ankle follows its target and keeps above the floor (the toes follow theirs
+    ``toe_tolerance`` times as loosely, and keep above the floor :data:`FLOOR_FIRMNESS`
+    times as closely, while their leg or the toe itself is in contact); a target further
+    from a point than ``robust`` times the error the prior predicts for it is taken as
+    motion, not noise, and followed less (Huber weights). Frames where nothing is held, and
+    every joint that does not turn, are returned bit for bit; the root (the first joint of
+    the legs) moves only along ``prior.root``'s non-zero axes.
     """
     out_q = rotations.copy()
     root = legs[0].knee if legs else 0

@@ -266,11 +266,11 @@ STEP = StepSpec(
         Param(
             "toes",
             "bool",
-            True,
+            False,
             "also hold each toe point (the joints and end sites below the ankle) while it is "
             "planted itself, by the least change of the ankle's own rotation and the toe "
-            "joints (the ankle stays where it is held; hip and knee are not touched); false "
-            "keeps the ankle's own rotation",
+            "joints (the ankle stays where it is held; hip and knee are not touched): the toes "
+            "slide less, the ankle's rotation moves a little; false keeps it",
         ),
         Param(
             "toe_tolerance",
