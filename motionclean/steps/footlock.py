@@ -2,8 +2,8 @@
 
 Contacts are found in world space (:mod:`motionclean.core.contacts`). During each contact
 whose ankle slides, the legs are planted by the least weighted change of the joints from
-the root down to the knee, then the toes by the least change of the ankle's own rotation
-and the toe joints while each toe point is planted itself
+the root down to the knee, then (with ``toes``) the toes by the least change of the
+ankle's own rotation and the toe joints while each toe point is planted itself
 (:func:`motionclean.filters.footlock.plant`): each joint is weighted by the error the
 ``auto`` step before it expects in it (its notes' ``expected_error``; without ``auto``, by
 the noise estimated on the clip), so a joint ``auto`` found clean barely moves and a clip
@@ -166,9 +166,7 @@ def _run(data: StepData, params: dict) -> StepData:
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
     # it while it stands, none is lifted that stood below it as captured
     floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
-    floor = replace(
-        floor, offset=min(floor.offset, float(floor.above(soles).min(initial=0.0)) + floor.offset)
-    )
+    floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
     rotations, root_translation = plant(
         motion.rotations,
         kinematics.local_translations(motion),
