@@ -4,15 +4,35 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT := out
-SOURCES := motionclean tests bench scripts
+SOURCES := motionclean tests bench scripts blender
+# Blender as a Python module (bpy) pins Python 3.11 and numpy < 2: its own environments.
+PYTHON_BLENDER ?= python3.11
+BPY_VERSION := 5.0.1
+BPY45_VERSION := 4.5.15
+BLENDER_VENV := .venv-blender
+BLENDER_STAMP := $(BLENDER_VENV)/.installed
+BLENDER45_VENV := .venv-blender45
+BLENDER45_STAMP := $(BLENDER45_VENV)/.installed
 
-.PHONY: demo test bench lint clean-venv
+.PHONY: demo test test-blender45 blender bench lint clean-venv
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test,dask]'
 	touch $(STAMP)
+
+$(BLENDER_STAMP): pyproject.toml
+	$(PYTHON_BLENDER) -m venv $(BLENDER_VENV)
+	$(BLENDER_VENV)/bin/pip install --quiet --upgrade pip
+	$(BLENDER_VENV)/bin/pip install --quiet bpy==$(BPY_VERSION) -e .
+	touch $(BLENDER_STAMP)
+
+$(BLENDER45_STAMP): pyproject.toml
+	$(PYTHON_BLENDER) -m venv $(BLENDER45_VENV)
+	$(BLENDER45_VENV)/bin/pip install --quiet --upgrade pip
+	$(BLENDER45_VENV)/bin/pip install --quiet bpy==$(BPY45_VERSION) -e .
+	touch $(BLENDER45_STAMP)
 
 $(VENV)/.bench: $(STAMP)
 	$(BIN)/pip install --quiet -e '.[test,dask,bench]'
@@ -27,8 +47,17 @@ demo: $(STAMP)
 		--json $(OUT)/131_02_report.json > /dev/null
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
-test: lint
+test: lint $(BLENDER_STAMP)
 	$(BIN)/python -m pytest
+
+# The extension's operator checks in Blender 4.5 LTS (bpy 4.5) instead of 5.0.
+test-blender45: $(STAMP) $(BLENDER45_STAMP)
+	MOTIONCLEAN_BLENDER_PYTHON=$(BLENDER45_VENV)/bin/python MOTIONCLEAN_BLENDER_OPERATOR_ONLY=1 \
+		$(BIN)/python -m pytest tests/blender
+
+# The Blender extension: dist/motionclean-blender-VERSION.zip (drag it into Blender).
+blender: $(STAMP)
+	$(BIN)/python scripts/build_blender_extension.py dist
 
 lint: $(STAMP)
 	$(BIN)/ruff check $(SOURCES)
@@ -40,4 +69,4 @@ bench: $(VENV)/.bench
 	$(BIN)/python bench/run_all.py
 
 clean-venv:
-	rm -rf $(VENV)
+	rm -rf $(VENV) $(BLENDER_VENV) $(BLENDER45_VENV)

@@ -58,6 +58,11 @@ import numpy as np
 from ..core.threads import in_parts, run_parts
 from .linear import Rows, mirror_indices, row_span, take_rows
 
+try:
+    _trapezoid = np.trapezoid
+except AttributeError:  # numpy 1.26, as in Blender's Python (the Blender extension)
+    _trapezoid = np.trapz  # type: ignore[attr-defined]  # noqa: NPY201
+
 __all__ = [
     "BAND_HZ",
     "BandLimited",
@@ -334,7 +339,7 @@ def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndar
     run_parts(block, in_parts(starts.size, step))
     grid = np.linspace(0.0, 0.5, 2049)
     gain = (
-        np.trapezoid(
+        _trapezoid(
             (2.0 * np.sin(np.pi * grid))[:, None] ** 6 * ar1_spectrum(grid, rho), grid, axis=0
         )
         * 2.0

@@ -1,7 +1,8 @@
 """File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension.
 
 ``.bvh``, ``.csv`` (channel, rigid-body or OptiTrack Motive), ``.npz`` and ``.pkl`` (SMPL
-parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf`` and ``.glb``.
+parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf`` and ``.glb``, and
+``.fbx`` through Blender's ``bpy`` module (the ``[blender]`` extra, :mod:`.fbx`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from . import bvh, csv, gltf, motive, opensim, pkl, smpl
+from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
 __all__ = ["FORMATS", "ReadOptions", "atomic_write", "load", "save"]
@@ -37,6 +38,7 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".sto": opensim.opensim_pieces,
     ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
     ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
+    ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -72,6 +74,8 @@ def load(
     """
     path = Path(path)
     suffix = _suffix(path, FORMATS)
+    if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
+        return fbx.load_fbx(path)
     data, on_disk = read_regular_file(path, keep_large=True)
     try:
         if suffix == ".bvh":

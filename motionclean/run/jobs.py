@@ -38,6 +38,7 @@ __all__ = [
     "check_compatible",
     "clean_clip",
     "clean_file",
+    "clean_motion",
     "notes_by_joint",
     "run_job",
     "stitch_clips",
@@ -99,17 +100,27 @@ def clean_clip(
     up: str | None = None,
     read: ReadOptions | None = None,
 ) -> CleanedClip:
-    """Load ``source``, run ``pipeline``, compute the report and its time series, and write
-    ``target`` (atomically; its folder is created) unless it is None. Nothing is written
-    when the report cannot be made. ``up`` (``"x"``, ``"y"``, ``"z"``) declares the clip's
-    up axis (:attr:`Motion.up`; default: found from the motion); ``read`` says how to read
-    files that need more than themselves (a skeleton, a body model, excluded columns). A
-    resampled clip is compared with the input on the input's frames
-    (:func:`motionclean.steps.resampling.on_input_frames`); the report's ``output``
-    then gives the written frame count and frame time."""
+    """Load ``source``, run ``pipeline`` (:func:`clean_motion`), and write ``target``
+    (atomically; its folder is created) unless it is None. Nothing is written when the
+    report cannot be made. ``up`` (``"x"``, ``"y"``, ``"z"``) declares the clip's up axis
+    (:attr:`Motion.up`; default: found from the motion); ``read`` says how to read files
+    that need more than themselves (a skeleton, a body model, excluded columns)."""
     before = (read or ReadOptions()).load(source)
     if up is not None:
         before = before.replace(up=up)
+    result = clean_motion(before, pipeline, os.fspath(source))
+    if target is not None:
+        Path(target).parent.mkdir(parents=True, exist_ok=True)
+        save(result.after, target)
+    return result
+
+
+def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
+    """Run ``pipeline`` on ``before`` and compute the report (named after ``file``) and its
+    time series: what ``clean`` does between reading and writing, and what the Blender
+    extension does to an action. A resampled clip is compared with the input on the
+    input's frames (:func:`motionclean.steps.resampling.on_input_frames`); the report's
+    ``output`` then gives the written frame count and frame time."""
     after, logs = pipeline.run(before)
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
@@ -118,14 +129,9 @@ def clean_clip(
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
-    report = build_report(
-        before, compared, described, notes_by_joint(logs), os.fspath(source), series=series
-    )
+    report = build_report(before, compared, described, notes_by_joint(logs), file, series=series)
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
-    if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(after, target)
     return CleanedClip(before, after, logs, report, series)
 
 

@@ -19,7 +19,7 @@ pytestmark = [
     pytest.mark.slow,  # four Blender processes, about 8 s
     pytest.mark.skipif(
         not BLENDER_PYTHON.exists(),
-        reason=f"no Blender Python at {BLENDER_PYTHON} (make blender creates it: bpy 5.0.1)",
+        reason=f"no Blender Python at {BLENDER_PYTHON} (make test creates it: bpy 5.0.1)",
     ),
 ]
 

@@ -1,0 +1,417 @@
+"""FBX files through Blender: its own importer and exporter, run in ``bpy``.
+
+``bpy`` (Blender as a Python module) is the optional ``[blender]`` extra; without it, reading
+or writing an FBX file is a :class:`~motionclean.core.errors.UsageError` naming the extra.
+Each load or save starts from Blender's factory settings with an empty scene, so nothing of
+the user's Blender setup takes part (and it is refused in a Blender with windows, whose
+scene is someone's work).
+
+Reading imports the file (keys at ``time x fps``, no frame offset), takes its one armature
+and the action it plays, and maps the pose bones to a Motion as :mod:`.blender_action`
+does: joints named after the bones, parents, rest offsets, rotations local to the parent in
+the BVH sense, translations of the bones whose location is animated. Writing a clip read
+from an FBX file imports that file again, writes the clip into its action (curves the clip
+did not change keep their keys) and exports the scene; any other clip becomes an armature
+built from its skeleton, turned so its up axis is Blender's, with a quaternion curve per
+rotating joint and location curves where it has position channels. The exporter writes the
+rest pose as the bones' own transforms (the action plays from an NLA strip, which is off at
+the frame exported as the rest) and a key on every frame; a frame time within 1e-4 of a
+whole frame rate (BVH's ``0.0083333``) is written as that rate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core import kinematics, quat
+from ..core.errors import MotionError, UsageError
+from ..core.motion import Motion
+from .blender_action import (
+    ActionClip,
+    BoneTrack,
+    action_fcurves,
+    all_fcurves,
+    key_range,
+    read_action,
+    rest_quaternions,
+    write_action,
+)
+from .files import read_regular_file
+
+__all__ = ["EXTRA", "FbxSource", "fbx_bytes", "load_fbx"]
+
+#: How to get ``bpy``: named in the error when it is missing.
+EXTRA = "pip install 'motionclean[blender]'"
+#: Frame rates within this relative distance of a whole number are written as that number.
+WHOLE_RATE = 1e-4
+#: Importer and exporter settings: keys at FBX time x fps, a key on every frame, no bones
+#: added, no take per action.
+IMPORT_OPTIONS = {"anim_offset": 0.0}
+EXPORT_OPTIONS = {
+    "bake_anim": True,
+    "bake_anim_use_all_bones": True,
+    "bake_anim_use_nla_strips": False,
+    "bake_anim_use_all_actions": False,
+    "bake_anim_force_startend_keying": True,
+    "bake_anim_simplify_factor": 0.0,
+    "add_leaf_bones": False,
+}
+
+
+@dataclass(frozen=True, repr=False)
+class FbxSource:
+    """The FBX file a clip was read from (its bytes as read): written again with the new
+    motion, so that everything else in it (meshes, rest pose, other curves) stays."""
+
+    data: bytes
+    armature: str
+
+
+def _bpy(doing: str, path: str | os.PathLike | None) -> Any:
+    """The ``bpy`` module, or a UsageError naming the extra that brings it."""
+    try:
+        with _quiet():
+            import bpy
+    except ImportError:
+        raise UsageError(f"{doing} FBX needs Blender's bpy module: {EXTRA}", path) from None
+    if not bpy.app.background:  # a Blender with windows: its scene is the user's work
+        raise UsageError(
+            f"{doing} FBX starts Blender from an empty scene, which would replace the open "
+            "one; inside Blender use File > Import/Export and the motionclean panel",
+            path,
+        )
+    return bpy
+
+
+@contextlib.contextmanager
+def _quiet() -> Iterator[list[str]]:
+    """Send what Blender prints (C-level stdout and stderr) to a temporary file for the
+    duration; the list yielded holds its lines afterwards (for an error's reason)."""
+    printed: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile(mode="w+b") as sink:
+        os.dup2(sink.fileno(), 1)
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield printed
+        finally:
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            sink.seek(0)
+            printed.extend(sink.read().decode("utf-8", "replace").splitlines())
+
+
+def _reason(printed: list[str], error: BaseException | None = None) -> str:
+    """The last error Blender printed (or raised), on one line."""
+    lines = [line.strip() for line in printed if "error" in line.lower()]
+    text = str(error) if error is not None else (lines[-1] if lines else "")
+    text = " ".join(text.replace("Error:", "").split())
+    return text or "Blender's importer gave up"
+
+
+def _empty_scene(bpy: Any) -> None:
+    with _quiet():
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def _import(bpy: Any, file: Path, path: str | os.PathLike | None) -> Any:
+    """Import FBX ``file`` into an empty scene; its one armature object (errors name
+    ``path``)."""
+    _empty_scene(bpy)
+    with _quiet() as printed:
+        failure: BaseException | None = None
+        try:
+            done = bpy.ops.import_scene.fbx(filepath=str(file), **IMPORT_OPTIONS)
+        except (RuntimeError, ValueError, TypeError, KeyError, IndexError) as error:
+            done, failure = None, error
+    if failure is not None or "FINISHED" not in done:
+        reason = _reason(printed, failure).replace(f"'{file}'", "").replace(str(file), "")
+        raise MotionError(f"cannot read FBX: {reason.strip()}", path)
+    armatures = [obj for obj in bpy.context.scene.objects if obj.type == "ARMATURE"]
+    if not armatures:
+        raise MotionError("no armature (skeleton) in the FBX file", path)
+    if len(armatures) > 1:
+        names = ", ".join(repr(obj.name) for obj in armatures[:4])
+        raise MotionError(
+            f"{len(armatures)} armatures ({names}); FBX files with one are read", path
+        )
+    obj = armatures[0]
+    data = obj.animation_data
+    if data is None or data.action is None:
+        raise MotionError(f"armature {obj.name!r} has no animation", path)
+    _whole_frames(bpy)
+    return obj
+
+
+def _whole_frames(bpy: Any) -> None:
+    """Put the keys of a file with a fractional frame rate back on the file's frames.
+
+    Blender's importer sets the scene to the file's rate (``fps / fps_base``, e.g. 120 /
+    0.999996 for 120.00048 fps) but places keys at ``time x fps``, so frame ``k`` of the
+    file lands at ``k x fps_base`` (the exporter writes frame ``k`` at ``k x fps_base /
+    fps``, as the scene plays it). Keys are moved back to ``time x fps / fps_base``: whole
+    frames, the same times as the file when written again."""
+    base = float(bpy.context.scene.render.fps_base)
+    if base == 1.0:
+        return
+    for action in bpy.data.actions:
+        for curve in all_fcurves(action):
+            points = curve.keyframe_points
+            for name in ("co", "handle_left", "handle_right"):
+                flat = np.empty(2 * len(points), dtype=np.float64)
+                points.foreach_get(name, flat)
+                frames = flat[0::2] / base
+                if name == "co":  # keys on whole frames (float32 rounding aside)
+                    whole = np.round(frames)
+                    frames = np.where(np.abs(frames - whole) < 1e-3, whole, frames)
+                flat[0::2] = frames
+                points.foreach_set(name, flat)
+            curve.update()
+
+
+def _key_frames(obj: Any) -> np.ndarray:
+    """The frames to read: the key times every bone curve shares (an FBX export keys all
+    curves at the same times), else each whole frame from the first key to the last."""
+    data = obj.animation_data
+    shared: np.ndarray | None = None
+    same = True
+    first, last = np.inf, -np.inf
+    for curve in action_fcurves(data.action, data.action_slot) or ():
+        if not curve.data_path.startswith("pose.bones["):
+            continue
+        co = np.empty(2 * len(curve.keyframe_points), dtype=np.float32)
+        curve.keyframe_points.foreach_get("co", co)
+        frames = co[::2].astype(np.float64)
+        if frames.size:
+            first, last = min(first, frames[0]), max(last, frames[-1])
+        if shared is None:
+            shared = frames
+        same = same and np.array_equal(shared, frames)
+    if same and shared is not None and shared.size:
+        return shared
+    if first > last:
+        return np.zeros(0)
+    return np.arange(np.ceil(first - 1e-6), np.floor(last + 1e-6) + 1.0)
+
+
+def _frame_time(scene: Any) -> float:
+    return float(scene.render.fps_base) / float(scene.render.fps)
+
+
+def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, ActionClip]:
+    """Import FBX ``data`` (the file at ``path``, named in errors); the armature and its
+    action read over the key frames."""
+    with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
+        copy = Path(folder) / "clip.fbx"
+        copy.write_bytes(data)
+        obj = _import(bpy, copy, path)
+    frames = _key_frames(obj)
+    if not frames.size:
+        raise MotionError(f"armature {obj.name!r} has no keys", path)
+    animation = obj.animation_data
+    clip = read_action(
+        obj, animation.action, animation.action_slot, frames, _frame_time(bpy.context.scene)
+    )
+    return obj, clip
+
+
+def load_fbx(path: str | os.PathLike) -> Motion:
+    """Read the animation of the one armature in an FBX file (see the module notes)."""
+    data, _ = read_regular_file(Path(path))
+    bpy = _bpy("reading", path)
+    obj, clip = _read(bpy, data, path)
+    motion = clip.motion
+    motion.path = os.fspath(path)
+    motion.source = FbxSource(data, obj.name)
+    return motion
+
+
+def fbx_bytes(motion: Motion) -> bytes:
+    """The FBX file of ``motion``, written by Blender's exporter (see the module notes)."""
+    bpy = _bpy("writing", None)
+    source = motion.source
+    if isinstance(source, FbxSource):
+        obj, clip = _read(bpy, source.data, motion.path)
+        if clip.motion.names != motion.names:
+            raise MotionError(f"the clip's joints are not the bones of {motion.path}")
+        if clip.motion.n_frames == motion.n_frames and np.isclose(
+            clip.motion.frame_time, motion.frame_time, rtol=1e-9, atol=0.0
+        ):
+            animation = obj.animation_data
+            write_action(clip, motion, animation.action, animation.action_slot)
+        else:  # resampled: new frames and rate
+            _clear_bone_curves(obj)
+            _write_new(bpy, obj, motion, clip.frames[0] if clip.frames.size else 1.0)
+    else:
+        _empty_scene(bpy)
+        obj = _build_armature(bpy, motion)
+        _write_new(bpy, obj, motion, 0.0)
+    with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
+        target = Path(folder) / "clip.fbx"
+        _export(bpy, obj, target)
+        return target.read_bytes()
+
+
+def _set_rate(scene: Any, frame_time: float) -> None:
+    rate = 1.0 / frame_time
+    whole = round(rate)
+    if whole >= 1 and abs(rate - whole) <= WHOLE_RATE * rate:
+        scene.render.fps, scene.render.fps_base = int(whole), 1.0
+    else:
+        scene.render.fps = max(1, int(np.ceil(rate)))
+        scene.render.fps_base = scene.render.fps * frame_time
+
+
+def _clear_bone_curves(obj: Any) -> None:
+    data = obj.animation_data
+    fcurves = action_fcurves(data.action, data.action_slot)
+    for curve in [c for c in fcurves or () if c.data_path.startswith("pose.bones[")]:
+        fcurves.remove(curve)
+
+
+def _write_new(bpy: Any, obj: Any, motion: Motion, first_frame: float) -> None:
+    """Key ``motion`` frame by frame from ``first_frame`` into the armature's action (made
+    when it has none), every rotating bone in quaternion mode."""
+    scene = bpy.context.scene
+    _set_rate(scene, motion.frame_time)
+    data = obj.animation_data_create()
+    if data.action is None:
+        action = bpy.data.actions.new(obj.name)
+        data.action = action
+        slots = getattr(action, "slots", None)
+        if slots is not None and data.action_slot is None:
+            data.action_slot = slots.new(obj.id_type, obj.name)
+    layout = motion.layout
+    tracks = []
+    for j, name in enumerate(motion.names):
+        pose_bone = obj.pose.bones[name]
+        if layout.has_rotation[j]:
+            pose_bone.rotation_mode = "QUATERNION"
+        tracks.append(
+            BoneTrack(
+                name,
+                pose_bone.rotation_mode,
+                bool(layout.has_rotation[j]),
+                bool(layout.has_position[j]),
+            )
+        )
+    frames = first_frame + np.arange(motion.n_frames, dtype=np.float64)
+    rest = rest_quaternions(obj, motion.names)
+    basis = quat.multiply(quat.multiply(quat.conjugate(rest), motion.rotations), rest)
+    # What the action held before: the rest pose (identity rotations, joints at their
+    # offsets), so every channel of the clip is new; its own rotations guide the signs.
+    at_rest = np.zeros_like(motion.rotations)
+    at_rest[..., 0] = 1.0
+    before = ActionClip(
+        motion=motion.replace(
+            rotations=at_rest,
+            translations=np.broadcast_to(motion.offsets, motion.translations.shape).copy(),
+            source_values=None,
+            source_rotations=None,
+        ),
+        frames=frames,
+        rest=rest,
+        tracks=tracks,
+        rotation_values=[basis[:, j] for j in range(motion.n_joints)],
+        location_values=[np.zeros((motion.n_frames, 3)) for _ in motion.names],
+    )
+    write_action(before, motion, data.action, data.action_slot)
+    scene.frame_start, scene.frame_end = int(frames[0]), int(np.ceil(frames[-1]))
+
+
+def _build_armature(bpy: Any, motion: Motion) -> Any:
+    """An armature of ``motion``'s skeleton at rest: a bone per joint from its head to its
+    first child's (or its end site; a short bone along the parent's where they coincide),
+    standing on Blender's ground (the clip's up axis turned to Z by the object)."""
+    name = Path(motion.path).stem if motion.path else "motion"
+    armature = bpy.data.armatures.new(name)
+    obj = bpy.data.objects.new(name, armature)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    heads = np.zeros((motion.n_joints, 3))
+    for j, parent in enumerate(motion.parents):
+        heads[j] = motion.offsets[j] + (heads[parent] if parent >= 0 else 0.0)
+    lengths = np.linalg.norm(motion.offsets, axis=-1)
+    short = 0.05 * (float(lengths.max()) if lengths.size and lengths.max() > 0 else 1.0)
+    tails = heads.copy()
+    for j in range(motion.n_joints):
+        children = np.flatnonzero(motion.parents == j)
+        ends = [motion.offsets[c] for c in children if np.linalg.norm(motion.offsets[c]) > 0]
+        if j in motion.end_sites and np.linalg.norm(motion.end_sites[j]) > 0:
+            ends.append(motion.end_sites[j])
+        if ends:
+            tails[j] = heads[j] + ends[0]
+        else:
+            parent = motion.parents[j]
+            along = motion.offsets[j] if np.linalg.norm(motion.offsets[j]) > 0 else (0.0, 1.0, 0.0)
+            if parent >= 0 and np.linalg.norm(tails[parent] - heads[parent]) > 0:
+                along = tails[parent] - heads[parent]
+            tails[j] = heads[j] + short * np.asarray(along) / np.linalg.norm(along)
+    with _quiet():
+        bpy.ops.object.mode_set(mode="EDIT")
+        bones = []
+        for j, joint in enumerate(motion.names):
+            bone = armature.edit_bones.new(joint)
+            bone.head, bone.tail = heads[j].tolist(), tails[j].tolist()
+            bones.append(bone)
+        for j, parent in enumerate(motion.parents):
+            if parent >= 0:
+                bones[j].parent = bones[parent]
+        bpy.ops.object.mode_set(mode="OBJECT")
+    names = [bone.name for bone in armature.bones]
+    if sorted(names) != sorted(motion.names):
+        raise MotionError(
+            "joint names that Blender cannot keep as bone names (too long or repeated)"
+        )
+    up = kinematics.up_axis(motion)
+    turn = {
+        0: quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), -np.pi / 2),
+        1: quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2),
+    }.get(up)
+    if turn is not None:
+        obj.rotation_mode = "QUATERNION"
+        obj.rotation_quaternion = turn.tolist()
+    return obj
+
+
+def _export(bpy: Any, obj: Any, target: Path) -> None:
+    """Export the scene with the action on an NLA strip that plays only over its frames,
+    and the scene's current frame outside them: the bones' own transforms are the rest."""
+    scene = bpy.context.scene
+    data = obj.animation_data
+    action, slot = data.action, data.action_slot
+    first, last = key_range(action, slot) or (scene.frame_start, scene.frame_end)
+    scene.frame_start, scene.frame_end = first, max(last, first)
+    track = data.nla_tracks.new()
+    strip = track.strips.new(action.name, first, action)
+    if slot is not None and hasattr(strip, "action_slot"):
+        strip.action_slot = slot
+    strip.extrapolation = "NOTHING"
+    data.action = None
+    for pose_bone in obj.pose.bones:
+        pose_bone.matrix_basis.identity()
+    scene.frame_set(first - 10)
+    with _quiet() as printed:
+        try:
+            done = bpy.ops.export_scene.fbx(filepath=str(target), **EXPORT_OPTIONS)
+        except RuntimeError as error:
+            raise MotionError(f"cannot write FBX: {_reason(printed, error)}") from None
+    if "FINISHED" not in done or not target.is_file():
+        raise MotionError(f"cannot write FBX: {_reason(printed)}")

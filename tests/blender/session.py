@@ -1,0 +1,563 @@
+"""The Blender session the Blender tests read: run in Blender's Python (``bpy``), once.
+
+    .venv-blender/bin/python tests/blender/session.py EXTENSION_ZIP CLIP WORK_DIR [operator]
+
+Installs the built extension with Blender's own extension installer, cleans armatures
+imported from CLIP (a corpus BVH) by Blender's BVH importer with the panel's operator, and
+(unless ``operator`` is given: the bpy 4.5 run of ``make test-blender45``) takes FBX files
+written by Blender's FBX exporter through the ``motionclean`` command line and loads the results
+back with Blender's FBX importer. Nothing is asserted here: WORK_DIR receives
+``results.json`` (figures, names, flags), the BVH files the command line is to clean and
+``.npy`` arrays of what Blender holds, which ``test_blender.py`` compares. Run with
+``BLENDER_USER_RESOURCES`` set to an empty folder, so the extension installs there.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import bpy
+import numpy as np
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
+from motionclean.run.jobs import clean_motion
+from motionclean.steps.pipeline import Pipeline
+
+EXTENSION = "bl_ext.user_default.motionclean"
+#: Rigs: name -> the BVH importer's rotate_mode (AXIS_ANGLE: quaternion curves turned into
+#: axis-angle ones after the import).
+RIGS = {"quaternion": "QUATERNION", "euler": "NATIVE", "euler_yxz": "YXZ", "axis": "AXIS_ANGLE"}
+KNEES = ("LeftKnee", "RightKnee")
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def clear_scene() -> None:
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj)
+    for action in list(bpy.data.actions):
+        bpy.data.actions.remove(action)
+    for armature in list(bpy.data.armatures):
+        bpy.data.armatures.remove(armature)
+
+
+def import_rig(clip: Path, mode: str) -> Any:
+    clear_scene()
+    bpy.ops.import_anim.bvh(
+        filepath=str(clip),
+        update_scene_fps=True,
+        update_scene_duration=True,
+        rotate_mode="QUATERNION" if mode == "AXIS_ANGLE" else mode,
+    )
+    obj = bpy.context.view_layer.objects.active
+    if mode == "AXIS_ANGLE":
+        to_axis_angle(obj)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = rig_keys(obj)
+    bpy.ops.ed.undo_push(message="Import rig")  # as the import from the menu would
+    return obj
+
+
+def to_axis_angle(obj: Any) -> None:
+    """Replace every bone's quaternion curves with axis-angle ones, frame by frame."""
+    data = obj.animation_data
+    fcurves = action_fcurves(data.action, data.action_slot)
+    for pose_bone in obj.pose.bones:
+        path = f'pose.bones["{pose_bone.name}"].rotation_quaternion'
+        curves = [fcurves.find(path, index=i) for i in range(4)]
+        pose_bone.rotation_mode = "AXIS_ANGLE"
+        if curves[0] is None:
+            continue
+        co = [keys(c) for c in curves]
+        q = np.stack([c[:, 1] for c in co], axis=-1)
+        q /= np.linalg.norm(q, axis=-1, keepdims=True)
+        sine = np.linalg.norm(q[:, 1:], axis=-1)
+        axis = np.where(
+            sine[:, None] > 1e-12, q[:, 1:] / np.maximum(sine, 1e-12)[:, None], [0, 1, 0]
+        )
+        values = np.concatenate([2 * np.arctan2(sine, q[:, 0])[:, None], axis], axis=-1)
+        for curve in curves:
+            fcurves.remove(curve)
+        target = f'pose.bones["{pose_bone.name}"].rotation_axis_angle'
+        for i in range(4):
+            curve = new_fcurve(fcurves, target, i, pose_bone.name)
+            curve.keyframe_points.add(len(values))
+            flat = np.empty(2 * len(values), dtype=np.float32)
+            flat[0::2], flat[1::2] = co[0][:, 0], values[:, i]
+            curve.keyframe_points.foreach_set("co", flat)
+            curve.update()
+
+
+def keys(curve: Any) -> np.ndarray:
+    co = np.empty(2 * len(curve.keyframe_points), dtype=np.float32)
+    curve.keyframe_points.foreach_get("co", co)
+    return co.reshape(-1, 2)
+
+
+def key_state(action: Any, slot: Any) -> dict[str, np.ndarray]:
+    """Every curve's keys and handles, exactly as stored."""
+    state = {}
+    for curve in action_fcurves(action, slot):
+        points = curve.keyframe_points
+        arrays = []
+        for name in ("co", "handle_left", "handle_right"):
+            flat = np.empty(2 * len(points), dtype=np.float32)
+            points.foreach_get(name, flat)
+            arrays.append(flat)
+        state[f"{curve.data_path}[{curve.array_index}]"] = np.concatenate(arrays)
+    return state
+
+
+def key_co(state: dict[str, np.ndarray], name: str) -> np.ndarray:
+    """``(n, 2)`` (frame, value) of a curve's keys in a :func:`key_state`."""
+    flat = state[name]
+    return flat[: flat.size // 3].reshape(-1, 2)
+
+
+def same_state(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> bool:
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def rig_keys(obj: Any) -> tuple[int, int]:
+    """The first and last key frames of the armature's action."""
+    data = obj.animation_data
+    found = key_range(data.action, data.action_slot)
+    assert found is not None
+    return found
+
+
+def frame_time() -> float:
+    scene = bpy.context.scene
+    return scene.render.fps_base / scene.render.fps
+
+
+def read(obj: Any, first: int, last: int) -> mc.Motion:
+    """The motion the armature's action gives over frames ``first`` to ``last``."""
+    data = obj.animation_data
+    frames = np.arange(first, last + 1, dtype=np.float64)
+    return read_action(obj, data.action, data.action_slot, frames, frame_time()).motion
+
+
+def save_motion(out: Path, name: str, motion: mc.Motion) -> None:
+    np.save(out / f"{name}_rotations.npy", motion.rotations)
+    np.save(out / f"{name}_translations.npy", np.asarray(motion.translations))
+
+
+def clean(**settings: Any) -> set[str]:
+    """Set the panel's settings and press Clean Actions (one undo step, as from the UI)."""
+    panel = bpy.context.scene.motionclean
+    defaults = {"pipeline": "DEFAULT", "steps": "", "frames": "SCENE", "in_place": False}
+    for key, value in {**defaults, **settings}.items():
+        setattr(panel, key, value)
+    return bpy.ops.motionclean.clean("EXEC_DEFAULT", True)
+
+
+# ----------------------------------------------------------------------------- checks
+
+
+class Recorder:
+    """A stand-in for a panel's UILayout, which only Blender's drawing code can make (a
+    headless Blender draws no regions): it records what the panel asks to draw and checks
+    each property against the real settings' RNA and each operator against the registered
+    ones."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        self.drawn: list[str] = []
+
+    def column(self, **_: Any) -> Recorder:
+        return self
+
+    row = box = column
+
+    def prop(self, data: Any, name: str, **_: Any) -> None:
+        if name not in data.bl_rna.properties:
+            self.problems.append(f"no property {name!r} on {data}")
+        self.drawn.append(f"prop:{name}")
+
+    def label(self, text: str = "", **_: Any) -> None:
+        self.drawn.append(f"label:{text}")
+
+    def operator(self, idname: str, **_: Any) -> Any:
+        module, name = idname.split(".")
+        operator_type = getattr(bpy.types, f"{module.upper()}_OT_{name}", None)
+        if operator_type is None:
+            self.problems.append(f"no operator {idname}")
+            return SimpleNamespace()
+        self.drawn.append(f"operator:{idname}")
+        return SimpleNamespace(**{p.identifier: None for p in operator_type.bl_rna.properties})
+
+
+def draw_panels() -> dict:
+    """Draw both panels with each pipeline choice; what they drew and any problem."""
+    problems: list[str] = []
+    drawn = []
+    panel_types = [bpy.types.MOTIONCLEAN_PT_graph, bpy.types.MOTIONCLEAN_PT_dopesheet]
+    settings = bpy.context.scene.motionclean
+    for pipeline in ("DEFAULT", "FILE", "STEPS"):
+        settings.pipeline = pipeline
+        for panel_type in panel_types:
+            layout = Recorder(problems)
+            try:
+                panel_type.draw(SimpleNamespace(layout=layout), bpy.context)
+            except Exception:
+                problems.append(traceback.format_exc())
+            drawn.append(layout.drawn)
+    settings.pipeline = "DEFAULT"
+    return {
+        "problems": problems,
+        "drawn": drawn,
+        "spaces": [t.bl_space_type for t in panel_types],
+        "regions": [t.bl_region_type for t in panel_types],
+        "categories": [t.bl_category for t in panel_types],
+    }
+
+
+def operator_checks(clip: Path, out: Path, results: dict) -> None:
+    """Each rig: Clean Actions with the defaults (a new action); the quaternion rig is
+    undone and redone."""
+    for rig, mode in RIGS.items():
+        obj = import_rig(clip, mode)
+        first, last = rig_keys(obj)
+        original = obj.animation_data.action
+        slot = obj.animation_data.action_slot
+        before_state = key_state(original, slot)
+        before = read(obj, first, last)
+        mc.save(before, out / f"{rig}_in.bvh")  # what Blender holds, for the command line
+        done = clean()
+        cleaned = obj.animation_data.action
+        save_motion(out, f"{rig}_out", read(obj, first, last))
+        entry = {
+            "done": sorted(done),
+            "modes": sorted({b.rotation_mode for b in obj.pose.bones}),
+            "original": original.name,
+            "result": cleaned.name,
+            "original_untouched": same_state(before_state, key_state(original, slot)),
+            "original_kept": original.use_fake_user,
+            "frames": [first, last],
+            "panel": dict(bpy.context.scene.motionclean.results[0].items()),
+        }
+        if rig == "quaternion":  # one undo step restores everything
+            name = obj.name  # (undo replaces every datablock: look them up again)
+            entry["undo_poll"] = bpy.ops.ed.undo.poll()
+            bpy.ops.ed.undo()
+            obj = bpy.data.objects[name]
+            entry["after_undo"] = {
+                "action": obj.animation_data.action.name,
+                "actions": sorted(a.name for a in bpy.data.actions),
+                "results": len(bpy.context.scene.motionclean.results),
+                "untouched": same_state(
+                    before_state,
+                    key_state(obj.animation_data.action, obj.animation_data.action_slot),
+                ),
+            }
+            bpy.ops.ed.redo()
+            obj = bpy.data.objects[name]
+            entry["after_redo"] = {"action": obj.animation_data.action.name}
+        results["rigs"][rig] = entry
+
+
+def range_checks(clip: Path, out: Path, results: dict) -> None:
+    """The preview range, in place: keys outside it stay, inside them the command line's
+    result for the same steps limited to the range."""
+    obj = import_rig(clip, "QUATERNION")
+    scene = bpy.context.scene
+    scene.use_preview_range = True
+    scene.frame_preview_start, scene.frame_preview_end = 150, 250
+    action, slot = obj.animation_data.action, obj.animation_data.action_slot
+    first, last = rig_keys(obj)
+    before_state = key_state(action, slot)
+    mc.save(read(obj, first, last), out / "range_in.bvh")
+    done = clean(frames="PREVIEW", in_place=True)
+    after_state = key_state(action, slot)
+    outside = {}
+    for name in before_state:
+        co, new = key_co(before_state, name), key_co(after_state, name)
+        keep = (co[:, 0] < 150) | (co[:, 0] > 250)
+        outside[name] = bool(np.array_equal(co[keep], new[keep]))
+    save_motion(out, "range_out", read(obj, first, last))
+    results["range"] = {
+        "done": sorted(done),
+        "action": obj.animation_data.action.name,
+        "clip_range": [150 - first, 250 - first],  # the range in the clip's frames
+        "panel_frames": bpy.context.scene.motionclean.results[0].frames,
+        "outside_untouched": all(outside.values()),
+        "curves": len(outside),
+        "inside_changed": sum(
+            not np.array_equal(before_state[k], after_state[k]) for k in before_state
+        ),
+    }
+    scene.use_preview_range = False
+
+
+def error_checks(clip: Path, results: dict) -> None:
+    """A press that cannot clean says why in one line and changes nothing."""
+    obj = import_rig(clip, "QUATERNION")
+    data = obj.animation_data
+    before = key_state(data.action, data.action_slot)
+    errors = {}
+    for name, settings in {
+        "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
+        "no_steps": {"pipeline": "STEPS", "steps": ""},
+        "preview_off": {"frames": "PREVIEW"},
+        "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
+    }.items():
+        try:
+            done = sorted(clean(**settings))
+        except RuntimeError as error:  # what an error report raises in a headless Blender
+            done, message = ["CANCELLED"], str(error).strip()
+        else:
+            message = ""
+        errors[name] = {"done": done, "message": message}
+    results["errors"] = {
+        "runs": errors,
+        "actions": sorted(a.name for a in bpy.data.actions),
+        "untouched": same_state(before, key_state(data.action, data.action_slot)),
+    }
+
+
+def keyed_checks(clip: Path, results: dict) -> None:
+    """A keyed (not baked) bone: keys stay where nothing moved, per frame where it did."""
+    obj = import_rig(clip, "QUATERNION")
+    data = obj.animation_data
+    fcurves = action_fcurves(data.action, data.action_slot)
+    sparse = f'pose.bones["{KNEES[0]}"].rotation_quaternion'
+    for i in range(4):  # LeftKnee keyed every 10 frames, Bezier
+        curve = fcurves.find(sparse, index=i)
+        points = curve.keyframe_points
+        for at in reversed(range(len(points))):
+            if at % 10:
+                points.remove(points[at], fast=True)
+        for point in points:
+            point.interpolation = "BEZIER"
+            point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
+        curve.update()
+    first, last = rig_keys(obj)
+    knee = f'pose.bones["{KNEES[0]}"]'
+    state0 = key_state(data.action, data.action_slot)
+    # 1. a step on the other knee: the keyed knee's keys do not move
+    done1 = clean(
+        pipeline="STEPS", steps=f"-f lee-shin:k=3,iterations=4,joints=[{KNEES[1]}]", in_place=True
+    )
+    state1 = key_state(data.action, data.action_slot)
+    untouched_knee = all(np.array_equal(state0[k], state1[k]) for k in state0 if k.startswith(knee))
+    other_changed = any(
+        not np.array_equal(state0[k], state1[k]) for k in state0 if f'"{KNEES[1]}"' in k
+    )
+    # 2. a step on the keyed knee over frames 200-260: keys per frame only near there
+    before = read(obj, first, last)
+    steps = f"-f lee-shin:k=3,iterations=4,joints=[{KNEES[0]}],frames=[200,260],blend=5"
+    expected = clean_motion(before, Pipeline.from_inline(steps.split()[1::2]), "x").after
+    done2 = clean(pipeline="STEPS", steps=steps, in_place=True)
+    state2 = key_state(data.action, data.action_slot)
+    after = read(obj, first, last)
+    j = before.names.index(KNEES[0])
+    error = np.rad2deg(quat.angle_between(after.rotations[:, j], expected.rotations[:, j]))
+    moved = np.rad2deg(quat.angle_between(before.rotations[:, j], expected.rotations[:, j]))
+    key_frames = [key_co(state2, f"{sparse}[{i}]")[:, 0] for i in range(4)]
+    old_frames = key_co(state0, f"{sparse}[0]")[:, 0]
+    old = {}
+    for i in range(4):
+        name = f"{sparse}[{i}]"
+        co0, co2 = key_co(state0, name), key_co(state2, name)
+        far = (co0[:, 0] < 180) | (co0[:, 0] > 280)
+        lookup = {float(f): v for f, v in co2}
+        old[name] = all(lookup.get(float(f)) == v for f, v in co0[far])
+    results["keyed"] = {
+        "done": [sorted(done1), sorted(done2)],
+        "untouched_knee": bool(untouched_knee),
+        "other_changed": bool(other_changed),
+        "keys_before": int(old_frames.size),
+        "keys_after": [int(f.size) for f in key_frames],
+        "new_key_frames": sorted(set(key_frames[0].tolist()) - set(old_frames.tolist())),
+        "far_keys_kept": all(old.values()),
+        "error_deg_max": float(error.max()),
+        "moved_deg_max": float(moved.max()),
+        "frames_moved": int(np.count_nonzero(moved >= 1e-3)),
+    }
+
+
+def extension_checks(zip_path: Path, results: dict) -> None:
+    """Install the zip with Blender's extension installer; what got registered."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    done = bpy.ops.extensions.package_install_files(
+        filepath=str(zip_path), repo="user_default", enable_on_install=True
+    )
+    bpy.ops.ed.undo_push(message="start")  # a headless Blender starts without undo steps
+    names = (
+        "MOTIONCLEAN_OT_clean",
+        "MOTIONCLEAN_OT_open_report",
+        "MOTIONCLEAN_PT_graph",
+        "MOTIONCLEAN_PT_dopesheet",
+    )
+    results["install"] = {
+        "done": sorted(done),
+        "enabled": EXTENSION in bpy.context.preferences.addons,
+        "classes": [name for name in names if hasattr(bpy.types, name)],
+        "scene_settings": hasattr(bpy.types.Scene, "motionclean"),
+        "undo_option": sorted(bpy.types.MOTIONCLEAN_OT_clean.bl_options),
+    }
+    results["draw_empty"] = draw_panels()
+
+
+def unregister_checks(results: dict) -> None:
+    """Disable the extension (its unregister), see what is left, enable it again."""
+    import addon_utils
+
+    addon_utils.disable(EXTENSION, default_set=True)
+    left = [n for n in dir(bpy.types) if n.startswith("MOTIONCLEAN_")]
+    results["unregister"] = {
+        "enabled": EXTENSION in bpy.context.preferences.addons,
+        "classes_left": left,
+        "scene_settings": hasattr(bpy.types.Scene, "motionclean"),
+    }
+    addon_utils.enable(EXTENSION, default_set=True)
+    results["unregister"]["enabled_again"] = hasattr(bpy.types, "MOTIONCLEAN_OT_clean")
+
+
+# ----------------------------------------------------------------------------- FBX
+
+
+def fbx_checks(clip: Path, out: Path, results: dict) -> None:
+    """An FBX written by Blender's exporter (its defaults) through the command line."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_anim.bvh(filepath=str(clip), update_scene_fps=True, update_scene_duration=True)
+    takes = out / "takes"
+    takes.mkdir()
+    bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"))
+    command = str(Path(sys.executable).with_name("motionclean"))
+    runs = {
+        "identity": [
+            "clean",
+            "takes/take.fbx",
+            "-o",
+            "identity.fbx",
+            "-q",
+            "-f",
+            "lee-shin:mask=custom,coefficients=[1]",
+        ],
+        "batch": [
+            "batch",
+            "takes",
+            "-o",
+            "batch",
+            "--glob",
+            "*.fbx",
+            "--jobs",
+            "1",
+            "--report-dir",
+            "reports",
+        ],
+        "info": ["info", "takes/take.fbx"],
+        "not_binary": ["info", "ascii.fbx"],
+        "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
+        "report": ["report", "takes/take.fbx", "identity.fbx", "--json", "report.json"],
+        "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],
+        "from_bvh": ["convert", "take.bvh", "from_bvh.fbx"],
+    }
+    ran = {}
+    (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
+    first = ["identity", "batch", "info", "to_bvh", "not_binary"]
+    for group in (
+        first,
+        ["from_bvh", "report", "resample"],
+    ):  # (these read what the first ones write)
+        started = {
+            name: subprocess.Popen(
+                [command, *runs[name]],
+                cwd=out,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            for name in group
+        }
+        for name, process in started.items():
+            stdout, stderr = process.communicate()
+            ran[name] = {"code": process.returncode, "stdout": stdout, "stderr": stderr}
+    results["fbx_runs"] = ran
+    loaded = {}
+    for name in ("takes/take.fbx", "identity.fbx", "batch/take.fbx", "from_bvh.fbx", "r60.fbx"):
+        if (out / name).is_file():
+            loaded[name] = load_back(out / name)
+    results["fbx_loaded"] = loaded
+    # what the default pipeline gives the clip read through the Python API (bpy in-process)
+    motion = mc.load(out / "takes" / "take.fbx")
+    cleaned, _ = Pipeline.default().run(motion)
+    np.save(out / "fbx_expected_rotations.npy", cleaned.rotations)
+    np.save(out / "fbx_input_rotations.npy", motion.rotations)
+    results["fbx_names"] = motion.names
+    back = mc.load(out / "batch" / "take.fbx") if (out / "batch" / "take.fbx").is_file() else None
+    if back is not None:
+        np.save(out / "fbx_batch_rotations.npy", back.rotations)
+
+
+def load_back(path: Path) -> dict:
+    """What Blender's FBX importer (default settings) makes of a file: bones, rest, rate,
+    frame range and every bone curve at each frame."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.fbx(filepath=str(path))
+    obj = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
+    data = obj.animation_data
+    scene = bpy.context.scene
+    first, last = (int(round(v)) for v in data.action.frame_range)
+    frames = np.arange(first, last + 1, dtype=np.float64)
+    curves = {}
+    for curve in action_fcurves(data.action, data.action_slot):
+        co = keys(curve).astype(np.float64)
+        if all(point.interpolation == "LINEAR" for point in curve.keyframe_points):
+            values = np.interp(frames, co[:, 0], co[:, 1])  # what evaluate() gives, at once
+        else:
+            values = np.array([curve.evaluate(f) for f in frames.tolist()])
+        curves[f"{curve.data_path}[{curve.array_index}]"] = values.tolist()
+    rest = np.array([np.array(b.matrix_local) for b in obj.data.bones])
+    np.save(path.with_suffix(".rest.npy"), rest)
+    return {
+        "bones": [b.name for b in obj.data.bones],
+        "parents": [b.parent.name if b.parent else None for b in obj.data.bones],
+        "fps": [scene.render.fps, scene.render.fps_base],
+        "frames": [first, last],
+        "curves": curves,
+    }
+
+
+def main() -> None:
+    zip_path, clip, out = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
+    operator_only = sys.argv[4:] == ["operator"]
+    results: dict = {"blender": bpy.app.version_string, "rigs": {}, "seconds": {}}
+    start = time.perf_counter()
+
+    def timed(name: str) -> None:
+        nonlocal start
+        now = time.perf_counter()
+        results["seconds"][name] = round(now - start, 2)
+        start = now
+
+    extension_checks(zip_path, results)
+    timed("install")
+    operator_checks(clip, out, results)
+    timed("operator")
+    range_checks(clip, out, results)
+    results["draw_results"] = draw_panels()  # with the figures of a run
+    keyed_checks(clip, results)
+    error_checks(clip, results)
+    unregister_checks(results)
+    timed("range, keyed, unregister")
+    if not operator_only:
+        fbx_checks(clip, out, results)
+        timed("fbx")
+    (out / "results.json").write_text(json.dumps(results, default=float))
+
+
+if __name__ == "__main__":
+    main()
