@@ -10,6 +10,13 @@ windows of 2 s (never longer than the clip). The level reported to users is the 
 rotation angle of one sample's noise, ``N = 2 sqrt(3) sigma`` (degrees); positions:
 ``y_i = s_i + e_i`` and ``N = sqrt(3) sigma`` (RMS length).
 
+**Capture source** (:func:`noise_source`). For rotations the model is the optical one
+(AR(1) noise above the motion, plus noise low-passed at a few Hz where the clip shows it),
+or the markerless one (:func:`motionclean.filters.noise.fit_coloured`: a wander reaching
+down into the motion's band), chosen from the clip (``source="auto"``) by how steeply its
+joints' spectrum falls over 2-8 Hz (:func:`motionclean.filters.noise.motion_slope`), never
+by its frame rate, or given.
+
 **Choice of filter** (:func:`auto`). Candidates are Lee-Shin filters (000 Eq. 19-20, one
 pass) of binomial masks ``B^{2k+1}`` (000 Eq. 23) and degree-2 Savitzky-Golay masks
 (:func:`motionclean.filters.design.savgol`) with half-widths on a geometric ladder (ratio

@@ -123,9 +123,10 @@ def _format_note(note: dict, positions: bool) -> str:
             f"{up_to}, down where the motion is (markerless model, {_how(note)})"
             f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
         )
+    source = f" (optical model, {_how(note)})" if "source" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); {chose}; expected error {error} {unit}"
+        f"{band}{where}); {chose}; expected error {error} {unit}{source}"
     )
 
 
@@ -163,7 +164,7 @@ STEP = StepSpec(
             "auto",
             "capture system: markerless or video (noise reaching into the motion's band), "
             "optical or inertial (noise above the motion), or auto (found from the clip: "
-            "markerless when its joints' motion spectrum is flat over 1.5-8 Hz)",
+            "markerless when its joints' motion spectrum is flat over 2-8 Hz)",
             choices=SOURCES,
         ),
         Param(
