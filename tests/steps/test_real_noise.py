@@ -231,20 +231,24 @@ def scores(x, out, y) -> tuple[float, float]:
 
 @needs_realnoise
 @pytest.mark.parametrize(
-    "take, most",
+    "take, most, model",
     [
-        ("openpose-biorbd/sit-stand", 0.6),  # low-passed by its solver: a wander below 10 Hz
-        ("theia3d/gait", 0.6),  # white and wandering noise
-        ("theia-biorbd/gait", 1.02),  # already smooth: no harm
-        ("theia3d/mmh", 0.3),  # 19 % missing, dropouts of up to 68 frames left blank
+        # low-passed by its solver: a wander below 10 Hz, flat over 2-8 Hz
+        ("openpose-biorbd/sit-stand", 0.6, "markerless"),
+        ("theia3d/gait", 0.6, "markerless"),  # white and wandering noise
+        ("theia-biorbd/gait", 1.02, "optical"),  # already smooth: no harm
+        ("theia3d/mmh", 0.3, "markerless"),  # 19 % missing, dropouts of up to 68 frames
     ],
 )
-def test_real_takes_lose_acceleration_error_and_no_accuracy(tmp_path, capsys, take, most):
+def test_real_takes_lose_acceleration_error_and_no_accuracy(tmp_path, capsys, take, most, model):
     x, y, names = load_take(take)
     source, target = tmp_path / "take.csv", tmp_path / "clean.csv"
+    report = tmp_path / "report.json"
     write_channel_csv(source, x, names)
-    code, _, err = run_cli(capsys, "clean", source, "-o", target, "-q")
+    code, _, err = run_cli(capsys, "clean", source, "-o", target, "-q", "--report", report)
     assert code == 0, err
+    notes = [j["auto"] for j in json.loads(report.read_text())["joints"].values()]
+    assert {(n["model"], n["source"]) for n in notes} == {(model, "auto")}  # found
     acc, rmse = scores(x, read_z(target, names), y)
     raw_acc, raw_rmse = scores(x, np.where(np.isnan(x), y, x), y)
     assert acc <= most * raw_acc
