@@ -10,6 +10,12 @@ from __future__ import annotations
 
 import math
 import os
+import resource
+import signal
+import socket
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -276,6 +282,63 @@ def exporter_bvh(
         out = out.rstrip("\r\n \t")
     data = (b"\xef\xbb\xbf" if bom else b"") + out.encode("utf-8")
     return data, (names, parents, channels, values)
+
+
+# ----------------------------------------------------------------------------- faults
+
+
+@contextmanager
+def silent_server() -> Iterator[int]:
+    """A local port that completes the TCP handshake (the kernel's backlog) and never
+    answers: a firewall black hole, a hung service."""
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(64)
+        yield server.getsockname()[1]
+
+
+@contextmanager
+def answering_server(reply: bytes) -> Iterator[int]:
+    """A local port that sends ``reply`` to every connection and closes it (a web server
+    answering bytes it cannot read)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(64)
+    server.settimeout(0.05)
+    done = threading.Event()
+
+    def serve() -> None:
+        while not done.is_set():
+            try:
+                connection, _ = server.accept()
+            except TimeoutError:
+                continue
+            with connection:
+                connection.sendall(reply)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield server.getsockname()[1]
+    finally:
+        done.set()
+        thread.join(timeout=5)
+        server.close()
+
+
+@contextmanager
+def file_size_limit(limit: int) -> Iterator[None]:
+    """Writes past ``limit`` bytes of a file fail (EFBIG) as on a full disk: RLIMIT_FSIZE,
+    which binds root too, in this process only, SIGXFSZ ignored so the write returns the
+    error."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    previous = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+        signal.signal(signal.SIGXFSZ, previous)
 
 
 #: Exporters' joint names for the sample's skeleton (CMU names; left side, the right side

@@ -20,11 +20,11 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..io import FORMATS, atomic_write
+from ..io import FORMATS, atomic_write, remove_temporaries
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
-from ..run.pool import default_workers, run_jobs
+from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
     PIPE_OPTION,
@@ -39,6 +39,31 @@ from .options import (
 
 #: Clips ``batch`` takes when no ``--glob`` is given: every suffix motionclean reads.
 DEFAULT_GLOBS = tuple(f"*{suffix}" for suffix in FORMATS)
+#: Without ``--jobs``, a batch of less input than this (bytes; about 5,000 frames of a
+#: 31-joint BVH) runs in this process: starting workers and handing clips out would cost
+#: about what a second core gains on so little work.
+SMALL_BATCH_BYTES = 4 << 20
+
+
+def default_jobs(sizes: Sequence[int], cores: int) -> int:
+    """Workers for clips of ``sizes`` bytes when ``--jobs`` is not given: one for a small
+    batch (:data:`SMALL_BATCH_BYTES`), else one per core, at most one per clip."""
+    if sum(sizes) < SMALL_BATCH_BYTES:
+        return 1
+    return max(1, min(cores, len(sizes)))
+
+
+def cluster_note(started: float, results: Sequence[FileResult], workers: int) -> str | None:
+    """A line saying so when starting a local cluster took longer than the cleaning it ran
+    (``started`` seconds; the clips' own seconds spread over ``workers``), else None."""
+    work = sum(r.seconds for r in results if r.status != "skipped")
+    if started <= work / max(workers, 1):
+        return None
+    return (
+        f"note: starting the local Dask cluster took {started:.1f} s, longer than the "
+        f"{work:.1f} s of cleaning it ran; on one machine --jobs (the default) does the same "
+        "without it. A cluster pays off when the clips outgrow one machine's cores."
+    )
 
 
 # ----------------------------------------------------------------------------- the command
@@ -83,6 +108,11 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
             continue
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{folder}: {option} must be a folder")
+        if folder.is_symlink() and not folder.exists():  # its target's folders: not made
+            raise UsageError(
+                f"{folder}: {option} is a symbolic link to {os.readlink(folder)!r}, which "
+                "does not exist"
+            )
 
         if _inside(folder.resolve(), source):
             raise UsageError(
@@ -133,28 +163,34 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
     head = (
         f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
-        f"{'dev max':>9}  status"
+        f"{'change':>9}  {'verdict':<14}status"
     )
     lines = [head, "-" * len(head)]
     for name, r in rows:
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
             removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
+            before, after = r.noise_before, r.noise_after
+            if r.jitter_removed is not None:  # the verdict's figures, outside repairs
+                before, after, removed = r.jitter_before, r.jitter_after, r.jitter_removed
+            change = r.deviation_max if r.change_max is None else r.change_max
             lines.append(
-                f"{shown:<{width}}{r.frames:>8}{r.noise_before:>14,.0f}"
-                f"{r.noise_after:>12,.0f}{removed:>9.0%}{r.deviation_max:>9.2f}  ok"
+                f"{shown:<{width}}{r.frames:>8}{before:>14,.0f}"
+                f"{after:>12,.0f}{removed:>9.0%}{change:>9.2f}  "
+                f"{r.verdict_status or '-':<14}ok"
             )
         else:
-            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}"
-            lines.append(f"{shown:<{width}}{blank}  {r.status.upper()}")
+            blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}  {'-':<14}"
+            lines.append(f"{shown:<{width}}{blank}{r.status.upper()}")
     counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
     lines.append("-" * len(head))
+    lines += [f"{name}: {r.verdict}" for name, r in rows if r.verdict_status == "needs a look"]
     plural = "s" if len(rows) != 1 else ""
     lines.append(
         f"{len(rows)} clip{plural}: {counts['ok']} cleaned, {counts['skipped']} "
         f"skipped, {counts['failed']} failed in {seconds:.1f} s on {workers} worker"
         f"{'s' if workers != 1 else ''} (noise: RMS angular acceleration, deg/s^2; "
-        "deviation: degrees)"
+        "change: degrees; all outside repairs, as in each clip's verdict)"
     )
     return "\n".join(lines)
 
@@ -178,7 +214,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     type=click.IntRange(min=1),
     default=None,
     metavar="N",
-    help="Worker processes (default: the number of cores).",
+    help="Worker processes (default: the number of cores, or this process alone for a "
+    "batch of less than 4 MiB of clips, where workers cost more than they gain).",
 )
 @click.option(
     "--glob",
@@ -267,19 +304,34 @@ def batch_command(
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
-    with _progress(len(work)) as advance, _sigterm_as_interrupt():
-        if scheduler is None or not work:  # nothing to send: no cluster to start
-            workers = min(jobs or default_workers(), max(len(work), 1))
-            for index, result in run_jobs(work, workers):
-                results[work_names[index]] = result
-                advance(work_names[index])
-        else:
-            with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
-                if not quiet:
-                    click.echo(f"Dask dashboard: {client.dashboard_link}")
-                for index, result in cluster.run_jobs_on(client, work):
+    note = lost = None
+    try:
+        with _progress(len(work)) as advance, _sigterm_as_interrupt():
+            if scheduler is None or not work:  # nothing to send: no cluster to start
+                workers = min(
+                    jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1)
+                )
+                for index, result in run_jobs(work, workers):
                     results[work_names[index]] = result
                     advance(work_names[index])
+            else:
+                with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                    started = time.perf_counter() - start
+                    if not quiet:
+                        click.echo(f"Dask dashboard: {client.dashboard_link}")
+                    for index, result in cluster.run_jobs_on(client, work):
+                        results[work_names[index]] = result
+                        advance(work_names[index])
+                if cluster.parse_scheduler(scheduler)[0] == "local":
+                    note = cluster_note(started, [results[n] for n in work_names], workers)
+    except cluster.ClusterLost as error:  # one line for the clips not done, after the others
+        lost = str(error)
+        for index in error.not_done:
+            results[work_names[index]] = FileResult(
+                work[index].source, work[index].target, "failed"
+            )
+    finally:  # a worker killed while writing leaves its temporary file: none stays
+        remove_temporaries(path for job in work for path in (job.target, job.report) if path)
     seconds = time.perf_counter() - start
 
     rows = [(str(rel), results[str(rel)]) for rel in clips]
@@ -287,7 +339,15 @@ def batch_command(
         _write_index(pages, rows, tables, in_dir)
     if not quiet:
         click.echo(format_summary(rows, seconds, workers))
-    raise_failures([str(r.error) for _, r in rows if r.status == "failed"])
+        if note:
+            click.echo(note)
+    failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
+    raise_failures(failures + ([lost] if lost else []))
+
+
+def sizes(work: Sequence[Job]) -> list[int]:
+    """Input sizes of the clips to clean, bytes."""
+    return [input_size(job.source) for job in work]
 
 
 def _write_index(
@@ -305,6 +365,12 @@ def _write_index(
                 "noise_before": r.noise_before,
                 "noise_after": r.noise_after,
                 "deviation_max": r.deviation_max,
+                "jitter_before": r.jitter_before,
+                "jitter_after": r.jitter_after,
+                "jitter_removed": r.jitter_removed,
+                "change_max": r.change_max,
+                "verdict": r.verdict,
+                "verdict_status": r.verdict_status,
                 "status": r.status,
                 "error": r.error,
             }

@@ -19,13 +19,14 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
+from ..core.restpose import rest_frames
 from ..core.version import __version__
 from ..filters.auto import capture_source, estimate_noise
 from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
-from ..report.summary import build_report, build_series, format_table
+from ..report.summary import build_report, build_series, format_rest, format_table
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
     blend_clips,
@@ -37,7 +38,7 @@ from ..run.jobs import (
 )
 from ..run.memory import one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
-from ..steps.base import brief_runs
+from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline
 from .batch import batch_command
 from .check import check_command
@@ -64,11 +65,28 @@ def _echo_error(message: str) -> None:
     click.echo(f"motionclean: error: {message}", err=True)
 
 
+class _Interrupted(BaseException):
+    """A KeyboardInterrupt on its way past click, which would print an empty line first."""
+
+
+class _Commands(click.Group):
+    """The command group; an interrupt inside a command leaves it as :class:`_Interrupted`."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise _Interrupted from None
+
+
 def _interrupted() -> None:
     """Ctrl-C or SIGTERM: say so and leave at once, exit code 130. Outputs are written
     atomically, so nothing partial stays; the interpreter's exit hooks are skipped so the
     exit does not wait for worker processes still finishing a clip (they exit on their own
-    when their parent is gone)."""
+    when their parent is gone). The message is one line; on a terminal a line break first
+    ends the ``^C`` the terminal echoed."""
+    if sys.stderr.isatty():
+        click.echo("", err=True)
     _echo_error("interrupted")
     sys.stdout.flush()
     sys.stderr.flush()
@@ -98,8 +116,13 @@ def main(argv: list[str] | None = None) -> None:
             traceback.print_exc()
         _echo_error(error.format_message().replace("\n", " "))
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Interrupted):
         _interrupted()
+    except MemoryError as error:  # no bug: more than this machine (or its limit) holds
+        if debug:
+            traceback.print_exc()
+        _echo_error(f"out of memory ({error or 'an allocation failed'})")
+        sys.exit(1)
     except Exception as error:  # a bug: still one line unless --debug
         if debug:
             traceback.print_exc()
@@ -108,7 +131,7 @@ def main(argv: list[str] | None = None) -> None:
     sys.exit(code if isinstance(code, int) else 0)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, "--version", prog_name="motionclean")
 @click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
 def cli(debug: bool) -> None:
@@ -147,10 +170,13 @@ def info(
     click.echo(f"{clip}")
     click.echo(
         f"  frames: {motion.n_frames}   frame time: {motion.frame_time:g} s   "
-        f"rate: {motion.frame_rate:.4g} fps   duration: {motion.duration:.3f} s "
+        f"rate: {fps_text(motion.frame_time)} fps   duration: {motion.duration:.3f} s "
         "(frames x frame time; frames are numbered from 0)"
     )
     click.echo(f"  joints: {motion.n_joints}   channels: {layout.n_channels}")
+    lead, trail = rest_frames(motion)
+    if lead or trail:
+        click.echo(f"  {format_rest({'leading': lead, 'trailing': trail}, motion.n_frames)}")
     for note in kinematics.source_notes(motion):
         click.echo(f"  note: {note}")
     skipped = kinematics.world_note(motion)
@@ -277,8 +303,8 @@ def resample_command(
     after, _ = pipeline.run(before)
     save(after, target)
     click.echo(
-        f"{source}: {before.n_frames} frames at {before.frame_rate:.6g} fps -> "
-        f"{target}: {after.n_frames} frames at {after.frame_rate:.6g} fps"
+        f"{source}: {before.n_frames} frames at {fps_text(before.frame_time)} fps -> "
+        f"{target}: {after.n_frames} frames at {fps_text(after.frame_time)} fps"
     )
 
 
@@ -332,7 +358,7 @@ def clean(
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
-    write_outputs(after, _write_target(output), reports)
+    write_outputs(after, output, reports)
     for number, log in enumerate(logs, 1):
         for pattern in log.unmatched:
             click.echo(
@@ -342,13 +368,6 @@ def clean(
             )
     if not quiet:
         click.echo(format_table(report))
-
-
-def _write_target(output: str) -> str:
-    """Where ``clean`` writes: through a symbolic link to the file it names (``--in-place``
-    on a link updates the real file and keeps the link)."""
-    path = Path(output)
-    return str(path.resolve()) if path.is_symlink() else output
 
 
 def _dropout_lines(motion) -> list[str]:

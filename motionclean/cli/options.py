@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -114,12 +115,15 @@ def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
 
 
 def check_output(path: str | Path, suffixes: tuple[str, ...], what: str) -> Path:
-    """Refuse, before any work is done, an output with another suffix or in no folder."""
+    """Refuse, before any work is done, an output with another suffix or in no folder (for
+    a symbolic link, the folder of the file it leads to: a dangling link is refused like a
+    missing folder, never made)."""
     path = Path(path)
     if path.suffix.lower() not in suffixes:
         raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
-    if not path.parent.is_dir():
-        raise UsageError(f"{path}: no folder {str(path.parent)!r} to write into")
+    lands = Path(os.path.realpath(path)) if path.is_symlink() else path
+    if not lands.parent.is_dir():
+        raise UsageError(f"{path}: no folder {str(lands.parent)!r} to write into")
     return path
 
 

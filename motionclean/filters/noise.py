@@ -407,13 +407,16 @@ def _third_difference_level(disp: Rows, window: int, rho: np.ndarray) -> np.ndar
 
     run_parts(block, in_parts(starts.size, step))
     grid = np.linspace(0.0, 0.5, 2049)
+    # once per distinct rho (a few values of a grid), not per column: a (2049, C) table was
+    # 16 kB a column whatever the clip's length (7 GB for a CSV of a million columns)
+    values, which = np.unique(rho, return_inverse=True)
     gain = (
         _trapezoid(
-            (2.0 * np.sin(np.pi * grid))[:, None] ** 6 * ar1_spectrum(grid, rho), grid, axis=0
+            (2.0 * np.sin(np.pi * grid))[:, None] ** 6 * ar1_spectrum(grid, values), grid, axis=0
         )
         * 2.0
     )
-    return (out / CHI_QUARTILE[dim]) ** 2 / gain
+    return (out / CHI_QUARTILE[dim]) ** 2 / gain[which.reshape(rho.shape)]
 
 
 class BandLimited(NamedTuple):

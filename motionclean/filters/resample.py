@@ -1,14 +1,16 @@
 """Resampling orientation and position signals to a new frame rate.
 
 New frame ``k`` sits at time ``k * new_frame_time`` from the first frame, i.e. at
-``t_k = k * ratio`` old frames with ``ratio = new_frame_time / old_frame_time``. Between
-old samples the signal is the C1 cubic of :mod:`.interpolate` with Catmull-Rom tangents
-(rotations through their angular displacements, positions through their differences),
-exact at old samples the new grid hits (``u = 0``; a ratio within 1e-4 of a fraction with a
-small denominator is taken as that fraction, :func:`nominal_ratio`) and exact on constant
-angular or linear velocity. The clip is continued by one sample at its last velocity, so the
-new clip covers the old duration (``F`` frames x frame time) to within half a new frame:
-``round(F / ratio)`` new frames.
+``t_k = k * ratio`` old frames with ``ratio = new_frame_time / old_frame_time`` (or
+``k * ratio - shift`` for a part of a clip that starts ``shift`` old frames in, see
+:func:`sample_positions`). Between old samples the signal is the C2 interpolating spline of
+:mod:`.spline` (rotations: the cumulative B-spline on the sphere solved through the samples,
+cut at jumps; positions: the natural cubic spline), exact at old samples the new grid hits
+(``u = 0``; a ratio within 1e-4 of a fraction with a small denominator is taken as that
+fraction, :func:`nominal_ratio`) and exact on constant angular or linear velocity. The clip
+is continued past its last sample at its last velocity, so the new clip covers the old
+duration (``F`` frames x frame time) to within half a new frame: ``round(F / ratio)`` new
+frames.
 
 When the new rate is lower (``ratio > 1``), what it cannot carry is removed first: a
 zero-phase low-pass at :data:`ANTIALIAS_CUTOFF` times the new Nyquist frequency
@@ -27,15 +29,16 @@ import numpy as np
 
 from ..core import checks, quat
 from .design import lowpass
-from .interpolate import catmull_rom_tangents, end_tangent, hermite_positions, hermite_rotations
 from .linear import lee_shin_positions, lee_shin_unchecked
+from .spline import evaluate, evaluate_positions, position_spline, rotation_spline
 
 #: The anti-aliasing low-pass cuts (-6 dB) at this share of the new Nyquist frequency ...
 ANTIALIAS_CUTOFF = 0.7
 #: ... with a mask this many periods of the cutoff long on each side.
 ANTIALIAS_PERIODS = 2.5
-#: New frames computed at a time (temporaries stay small on long clips).
-BLOCK_FRAMES = 1024
+#: Old samples x columns whose spline is solved and evaluated at a time (temporaries stay
+#: small on long clips): columns (joints) go in groups of about this many samples.
+BLOCK_SAMPLES = 1 << 20
 #: A ratio of frame times this close to a fraction ``p/q`` with ``q <= MAX_DENOMINATOR`` is
 #: that fraction (frame times in files are rounded: 0.008333 s is 120 fps).
 NOMINAL = 1e-4
@@ -63,17 +66,22 @@ def nominal_ratio(ratio: float) -> Fraction | None:
     return fraction if abs(float(fraction) - ratio) <= NOMINAL * ratio else None
 
 
-def sample_positions(n_new: int, ratio: float) -> tuple[np.ndarray, np.ndarray]:
-    """Where new frames ``0 .. n_new-1`` fall among old ones: ``(index, u)`` with new frame
-    ``k`` at old time ``index[k] + u[k]``, ``0 <= u < 1``. A nominal ratio
-    (:func:`nominal_ratio`) is used exactly, so the new grid hits old frames (``u = 0``)
-    where it should."""
+def sample_positions(
+    n_new: int, ratio: float, first: int = 0, shift: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where new frames ``first .. first + n_new - 1`` fall among old ones, the old frames
+    counted from ``shift`` (a part of a clip that starts ``shift`` old frames in): ``(index,
+    u)`` with new frame ``k`` at old time ``k * ratio - shift = index + u``, ``0 <= u < 1``
+    (``index`` may be -1 just before the part). A nominal ratio (:func:`nominal_ratio`) is
+    used exactly, so the new grid hits old frames (``u = 0``) where it should."""
     fraction = nominal_ratio(ratio)
-    k = np.arange(n_new, dtype=np.int64)
+    k = np.arange(first, first + n_new, dtype=np.int64)
     if fraction is not None:
-        whole, rest = np.divmod(k * fraction.numerator, fraction.denominator)
+        whole, rest = np.divmod(
+            k * fraction.numerator - shift * fraction.denominator, fraction.denominator
+        )
         return whole.astype(np.intp), rest / fraction.denominator
-    times = k * ratio
+    times = k * ratio - shift
     index = np.floor(times).astype(np.intp)
     return index, times - index
 
@@ -87,44 +95,31 @@ def antialias_mask(ratio: float) -> np.ndarray | None:
     return lowpass(cutoff, 1.0, math.ceil(ANTIALIAS_PERIODS / cutoff))
 
 
-def _blocks(n: int):
-    for at in range(0, n, BLOCK_FRAMES):
-        yield slice(at, min(at + BLOCK_FRAMES, n))
-
-
-def _continued(steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Displacements continued by one at the last velocity, and the tangents at each
-    sample (``F`` and ``F + 1``)."""
-    steps = np.concatenate([steps, steps[-1:]])
-    return steps, catmull_rom_tangents(steps)
-
-
-def _at_times(x: np.ndarray, steps_of, piece, ratio: float, n_new: int) -> np.ndarray:
-    """``x`` ``(F, ...)`` at the new frames: old samples where the grid hits them, else
-    ``piece(x0, step, tangent0, tangent1, u)`` from ``steps_of(x)`` (``F - 1``
-    displacements)."""
-    index, u = sample_positions(n_new, ratio)
+def _at_times(
+    x: np.ndarray, rotations: bool, ratio: float, n_new: int, first: int, shift: int
+) -> np.ndarray:
+    """``x`` ``(F, ..., D)`` at the new frames (:func:`sample_positions`): old samples where
+    the grid hits them, else the spline of :mod:`.spline` through each column, solved and
+    evaluated for groups of columns at a time."""
+    index, u = sample_positions(n_new, ratio, first, shift)
+    index = np.minimum(index, x.shape[0] - 1)  # the last piece continues the clip
     hits = u == 0.0
-    if hits.all():
+    if hits.all() and index.min(initial=0) >= 0:
         return x[index]
-    out = np.empty((n_new, *x.shape[1:]))
-    out[hits] = x[index[hits]]
-    between = np.flatnonzero(~hits)
-    steps, tangents = _continued(steps_of(x))
-    for rows in _blocks(between.size):
-        at = between[rows]
-        i = index[at]
-        t = np.broadcast_to(u[at].reshape((-1,) + (1,) * (x.ndim - 2)), x[i].shape[:-1])
-        out[at] = piece(x[i], steps[i], tangents[i], tangents[i + 1], t)
-    return out
-
-
-def _rotation_piece(q0, step, v0, v1, u):
-    return hermite_rotations(q0, step, v0, end_tangent(step, v1), u)
-
-
-def _position_piece(p0, step, v0, v1, u):
-    return hermite_positions(p0, v0, p0 + step, v1, u)
+    columns = x.reshape(x.shape[0], -1, x.shape[-1])
+    out = np.empty((n_new, *columns.shape[1:]))
+    exact = hits & (index >= 0)
+    out[exact] = columns[index[exact]]
+    between = ~exact
+    index, u = index[between], u[between]
+    group = max(BLOCK_SAMPLES // max(x.shape[0], 1), 1)
+    for at in range(0, columns.shape[1], group):
+        part = columns[:, at : at + group]
+        if rotations:
+            out[between, at : at + group] = evaluate(rotation_spline(part), index, u)
+        else:
+            out[between, at : at + group] = evaluate_positions(position_spline(part), index, u)
+    return out.reshape((n_new, *x.shape[1:]))
 
 
 def resample_rotations(
@@ -140,25 +135,37 @@ def resample_rotations(
 
 
 def resample_continuous(
-    q: np.ndarray, ratio: float, n_new: int | None = None, antialias: bool = True
+    q: np.ndarray,
+    ratio: float,
+    n_new: int | None = None,
+    antialias: bool = True,
+    first: int = 0,
+    shift: int = 0,
 ) -> np.ndarray:
-    """:func:`resample_rotations` without the checks, for sign-continuous unit ``q``."""
+    """:func:`resample_rotations` without the checks, for sign-continuous unit ``q``; the new
+    frames are ``first ..`` of a clip whose ``q`` starts ``shift`` old frames in
+    (:func:`sample_positions`)."""
     mask = antialias_mask(ratio) if antialias else None
     if mask is not None:
         q = lee_shin_unchecked(q, mask)
     n_new = resampled_length(q.shape[0], ratio) if n_new is None else n_new
-    return _at_times(q, quat.displacements, _rotation_piece, ratio, n_new)
+    return _at_times(q, True, ratio, n_new, first, shift)
 
 
 def resample_positions(
-    p: np.ndarray, ratio: float, n_new: int | None = None, antialias: bool = True
+    p: np.ndarray,
+    ratio: float,
+    n_new: int | None = None,
+    antialias: bool = True,
+    first: int = 0,
+    shift: int = 0,
 ) -> np.ndarray:
     """Positions ``p`` ``(F, ..., D)`` (``F >= 2``) resampled like :func:`resample_rotations`:
-    low-passed first when ``ratio > 1`` and ``antialias``, then the matching cubic Hermite.
+    low-passed first when ``ratio > 1`` and ``antialias``, then the natural cubic spline.
     ``(n_new, ..., D)``."""
     p = checks.bounded(checks.as_float_array(p, "p"), "p")
     mask = antialias_mask(ratio) if antialias else None
     if mask is not None:
         p = lee_shin_positions(p, mask)
     n_new = resampled_length(p.shape[0], ratio) if n_new is None else n_new
-    return _at_times(p, lambda x: np.diff(x, axis=0), _position_piece, ratio, n_new)
+    return _at_times(p, False, ratio, n_new, first, shift)

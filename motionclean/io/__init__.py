@@ -9,16 +9,25 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from ..core.errors import MotionError
-from ..core.motion import Motion
+from ..core.errors import InvalidMotion, MotionError
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
-__all__ = ["FORMATS", "ReadOptions", "atomic_write", "load", "save"]
+__all__ = [
+    "FORMATS",
+    "ReadOptions",
+    "atomic_write",
+    "encode",
+    "load",
+    "remove_temporaries",
+    "save",
+    "write_together",
+]
 
 
 def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
@@ -128,48 +137,136 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
 
     Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
     InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
-    quaternion has no Euler angles.
+    quaternion has no Euler angles. A frame time the readers refuse (outside
+    :data:`~motionclean.core.motion.MIN_FRAME_TIME` to ``MAX_FRAME_TIME``, NaN) and joint
+    names the BVH and CSV readers would refuse or change (:func:`_check_names`) are refused
+    too: every file written reads back. An edited skeleton is written, never dropped for
+    the text read.
     """
+    atomic_write(path, encode(motion, path))
+
+
+def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | memoryview]:
+    """The content :func:`save` writes for ``motion`` at ``path``, checked as it checks
+    (pieces may be made as they are written): for :func:`write_together`."""
     path = Path(path)
     write = _WRITERS[_suffix(path, _WRITERS)]
     if not isinstance(motion, Motion):
         raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
     try:
         motion.check()
-        data = write(motion)
+        if not MIN_FRAME_TIME <= motion.frame_time < MAX_FRAME_TIME:  # NaN too
+            raise InvalidMotion(
+                f"frame_time must be from {MIN_FRAME_TIME:g} to {MAX_FRAME_TIME:g} s, got "
+                f"{motion.frame_time!r} (no reader takes it)"
+            )
+        if write in (bvh.bvh_pieces, _csv_pieces):  # text headers: names as text
+            _check_names(motion.names, write is bvh.bvh_pieces)
+        return write(motion)
     except MotionError as error:
         if error.path is not None:
             raise
         raise type(error)(error.message, path) from None
-    atomic_write(path, data)
+
+
+def _check_names(names: list[str], bvh_file: bool) -> None:
+    """Refuse joint names the BVH and CSV readers would refuse or change (InvalidMotion):
+    empty, with spaces around them (the readers strip them), a NUL byte, used twice, or a
+    line break in a BVH file (a CSV header quotes one)."""
+    seen: set[str] = set()
+    for name in names:
+        if not name or name != name.strip():
+            problem = "is empty or has spaces around it"
+        elif "\x00" in name:
+            problem = "holds a NUL byte"
+        elif bvh_file and ("\n" in name or "\r" in name):
+            problem = "holds a line break, which a BVH file cannot"
+        elif name in seen:
+            problem = "is used twice"
+        else:
+            seen.add(name)
+            continue
+        raise InvalidMotion(f"joint name {name[:40]!r} {problem}")
 
 
 def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes | memoryview]) -> None:
     """Write ``data`` (bytes, or pieces written in turn as an iterable gives them) to a
     temporary file beside ``path``, then rename it into place.
 
-    Readers never see a partial file; on failure the target is left as it was.
+    Readers never see a partial file; on failure the target is left as it was. A symbolic
+    link is written through: the file it leads to is replaced and the link stays.
     """
-    path = Path(path)
-    if path.is_dir():
-        raise MotionError("is a directory", path)
+    write_together({path: data})
+
+
+def write_together(files: Mapping[str | os.PathLike, bytes | Iterable[bytes | memoryview]]) -> None:
+    """Write several files as one: each to a temporary file beside it (in turn, as
+    :func:`atomic_write`), and only when every one is complete are they all renamed into
+    place. When one cannot be written (disk full, a folder, no permission) the temporaries
+    go and no target has changed: an existing file is replaced only when all are ready.
+    """
+    targets = [(Path(path), _landing(Path(path))) for path in files]
+    for shown, target in targets:  # before any byte is written
+        if target.is_dir():
+            raise MotionError("is a directory", shown)
+    staged: list[tuple[str, Path, Path]] = []
     try:
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{path.name}.", suffix=".tmp", dir=path.parent if str(path.parent) else "."
-        )
+        for (shown, target), data in zip(targets, files.values(), strict=True):
+            staged.append((_stage(shown, target, data), shown, target))
+        for k, (tmp, shown, target) in enumerate(staged):
+            try:
+                os.replace(tmp, target)
+            except OSError as error:  # (a rename in its own folder: all but impossible)
+                del staged[:k]  # those are in place; this one's temporary and the rest go
+                raise MotionError(f"cannot write: {error.strerror or error}", shown) from None
+        staged.clear()
+    finally:
+        for tmp, _, _ in staged:
+            Path(tmp).unlink(missing_ok=True)
+
+
+def remove_temporaries(paths: Iterable[str | os.PathLike]) -> None:
+    """Remove the temporary files :func:`write_together` left beside ``paths`` when the
+    process writing them was killed (a batch worker): one listing per folder."""
+    by_folder: dict[Path, set[str]] = {}
+    for path in paths:
+        target = _landing(Path(path))
+        by_folder.setdefault(target.parent, set()).add(target.name)
+    for folder, names in by_folder.items():
+        try:
+            entries = [e.name for e in os.scandir(folder) if e.name.endswith(".tmp")]
+        except OSError:  # no such folder: nothing was written there
+            continue
+        for entry in entries:  # ".NAME." + 8 random characters + ".tmp", as mkstemp names it
+            name = entry[1:-13]
+            if entry[0] == "." and entry[-13] == "." and name in names:
+                (folder / entry).unlink(missing_ok=True)
+
+
+def _landing(path: Path) -> Path:
+    """Where a write to ``path`` lands: through a symbolic link, the file it leads to."""
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
+
+
+def _stage(shown: Path, target: Path, data: bytes | Iterable[bytes | memoryview]) -> str:
+    """Write ``data`` to a new temporary file beside ``target`` (with ``target``'s
+    permissions) and return its path; errors name ``shown``."""
+    folder = target.parent if str(target.parent) else Path(".")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     except OSError as error:
-        raise MotionError(f"cannot write: {error.strerror}", path) from None
+        raise MotionError(f"cannot write: {error.strerror}", shown) from None
     try:
         with os.fdopen(fd, "wb") as f:
             f.writelines([data] if isinstance(data, bytes) else data)
-        os.chmod(tmp, _target_mode(path))
-        os.replace(tmp, path)
+        os.chmod(tmp, _target_mode(target))
     except OSError as error:  # disk full, permissions: still one clear line
         Path(tmp).unlink(missing_ok=True)
-        raise MotionError(f"cannot write: {error.strerror or error}", path) from None
+        raise MotionError(f"cannot write: {error.strerror or error}", shown) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    return tmp
 
 
 def _target_mode(path: Path) -> int:

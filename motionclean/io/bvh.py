@@ -40,12 +40,15 @@ from .text import (
     MAX_MAGNITUDE,
     bad_number_message,
     check_finite,
+    fixed6_rows,
     format_fixed6,
+    join_rows,
     line_ends,
     parse_values,
+    regular_rows,
+    scan_rows,
     scan_tokens,
     splice_cells,
-    table_pieces,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -421,7 +424,8 @@ def _parse_row_lines(buf, body_start: int, newlines, n_frames: int, n_channels: 
         when they are not rows of ``n_channels`` values."""
         begin, end = int(line_starts[rows.start]), int(line_stops[rows.stop - 1])
         text = np.frombuffer(buf, np.uint8, end - begin, begin)
-        starts, ends = scan_tokens(text)
+        found = scan_rows(text, rows.stop - rows.start, n_channels)
+        starts, ends = scan_tokens(text) if found is None else found
         if starts.size != (rows.stop - rows.start) * n_channels:
             return None
         inside = (starts[::n_channels] >= line_starts[rows] - begin) & (
@@ -573,8 +577,8 @@ def _format_hierarchy(motion: Motion) -> bytes:
         children.setdefault(int(parent), []).append(j)
     out: list[str] = ["HIERARCHY"]
 
-    def offset(values) -> str:
-        return " ".join(f"{v:.6f}" for v in values)
+    def offset(values) -> str:  # six decimals, or all a value needs to read back the same
+        return " ".join(_offset_text(v) for v in values.tolist())
 
     def close(j: int, pad: str) -> None:
         if j in motion.end_sites or j not in children:
@@ -601,6 +605,28 @@ def _format_hierarchy(motion: Motion) -> bytes:
         stack.append((~j, depth))
         stack.extend((child, depth + 1) for child in reversed(children.get(j, [])))
     return ("\n".join(out) + "\n").encode("utf-8")
+
+
+def _offset_text(value: float) -> str:
+    text = f"{value:.6f}"
+    return text if float(text) == value else repr(value)
+
+
+def _describes(text: BvhText, motion: Motion) -> bool:
+    """True when ``text``'s hierarchy is ``motion``'s skeleton: names, parents, offsets,
+    channels and end sites (an edited skeleton is written afresh, never dropped)."""
+    data = text.hierarchy + b"MOTION\n"
+    lines = _Lines(data, motion.path)
+    lines.pos = len(BOM) if data.startswith(BOM) else 0
+    names, parents, offsets, channels, end_sites, _ = _parse_hierarchy(lines, motion.path)
+    return (
+        names == list(motion.names)
+        and channels == list(motion.channels)
+        and np.array_equal(parents, motion.parents)
+        and np.array_equal(np.asarray(offsets, dtype=np.float64), motion.offsets)
+        and end_sites.keys() == motion.end_sites.keys()
+        and all(np.array_equal(site, motion.end_sites[j]) for j, site in end_sites.items())
+    )
 
 
 def _changed(values: np.ndarray, read: np.ndarray) -> np.ndarray:
@@ -655,7 +681,9 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     is made to join them; the spliced rows are made as they are written).
 
     With source text and the same frames, only changed values are rewritten (``%.6f``) and an
-    unchanged motion returns the input bytes exactly. A motion read from a channel CSV
+    unchanged motion returns the input bytes exactly. An edited skeleton (names, parents,
+    offsets, channels, end sites other than the source text's) is written as a new
+    hierarchy, the frames still spliced. A motion read from a channel CSV
     without a skeleton cannot be written as BVH (it has no real hierarchy).
     """
     if getattr(motion.source, "needs_skeleton", False):
@@ -674,8 +702,11 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     if src is None:
         motion = _depth_first(motion)
         hierarchy, eol = _format_hierarchy(motion), b"\n"
-    else:
+    elif _describes(src, motion):
         hierarchy, eol = src.hierarchy, src.eol
+    else:  # an edited skeleton: a new hierarchy; the frames still keep their text
+        hierarchy, eol = _format_hierarchy(motion), src.eol
+    same_hierarchy = src is not None and hierarchy is src.hierarchy
     same_frame_time = src is not None and motion.frame_time == src.frame_time
     same_frames = (
         src is not None
@@ -683,7 +714,8 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         and src.n_frames == motion.n_frames > 0
         and src.n_channels == motion.layout.n_channels
     )
-    if src is not None and same_frames and same_frame_time and _unchanged(motion):
+    same_head = same_hierarchy and same_frame_time  # the file's text up to the rows
+    if src is not None and same_frames and same_head and _unchanged(motion):
         return pieces(src.raw)
     values = motion.channel_values()
     check_finite(motion, values)
@@ -709,9 +741,9 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         return [hierarchy, motion_header]
     if src is not None and same_frames and motion.source_values is not None:
         changed = _changed(values, motion.source_values)
-        if not changed.any() and same_frame_time:
+        if not changed.any() and same_head:
             return pieces(src.raw)
-        if keep_header:  # the file up to the rows is unchanged
+        if keep_header and same_hierarchy:  # the file up to the rows is unchanged
             start, prefix = 0, b""
         else:
             start, prefix = src.body_start, hierarchy + motion_header
@@ -720,11 +752,35 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
             new = values[rows][changed[rows]]  # only the changed values are printed
             return lambda a, b: format_fixed6(new[a:b])
 
-        return splice_cells(src.raw, src.row_starts, src.cells, changed, texts, start, prefix)
+        def rows_text(rows: slice, source: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+            """Rows of one space between values and the same line end after each: made
+            afresh from fields of digits, the unchanged values' texts copied into theirs."""
+            row_eol = regular_rows(source, starts, ends, b" ")
+            if row_eol is None:
+                return None
+            kept = (source, starts, ends, ~changed[rows])
+            return fixed6_rows(values[rows], b" ", row_eol, kept, last_eol=False)
 
-    def cells(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        block = values[rows]
-        buf, starts, lengths = format_fixed6(block)
-        return buf, starts.reshape(block.shape), lengths.reshape(block.shape)
+        return splice_cells(
+            src.raw, src.row_starts, src.cells, changed, texts, start, prefix, rows_text
+        )
+    return _table_pieces(values, eol, hierarchy + motion_header)
 
-    return table_pieces(values.shape[0], cells, b" ", eol, hierarchy + motion_header)
+
+#: Rows per piece of a table written afresh.
+_TABLE_ROWS = 4096
+
+
+def _table_pieces(values: np.ndarray, eol: bytes, head: bytes) -> Iterable[bytes]:
+    """``head``, then the ``(F, C)`` rows of values as ``%.6f`` texts joined by spaces, a
+    block of rows per piece, each made when it is asked for."""
+    yield head
+    for at in range(0, values.shape[0], _TABLE_ROWS):
+        block = values[at : at + _TABLE_ROWS]
+        text = fixed6_rows(block, b" ", eol)
+        if text is None:  # (a value of 9e12 or more)
+            buf, starts, lengths = format_fixed6(block)
+            text = join_rows(
+                buf, starts.reshape(block.shape), lengths.reshape(block.shape), b" ", eol
+            )
+        yield text

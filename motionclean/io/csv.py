@@ -90,6 +90,7 @@ from .bvh import BOM, BvhText
 from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
+    ascii_float,
     check_finite,
     parse_values,
     scan_cells,
@@ -207,6 +208,8 @@ def _classify(fields: list[str], path, line: int):
     for k, field in enumerate(fields):
         if not field:
             _fail(f"bad header: column {k + 1} has no name", path, line)
+        if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
+            _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, line)
         if field in seen:
             _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
         seen.add(field)
@@ -291,7 +294,7 @@ def parse_body(
         at = bad_token if number is None else int(number[bad_token])
         text = buf[flat_starts[at] : flat_ends[at]].tobytes().decode("utf-8", "replace")[:40]
         try:
-            value = float(text)
+            value = ascii_float(text)
             problem = (
                 "is not finite"
                 if not math.isfinite(value)

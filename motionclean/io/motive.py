@@ -69,7 +69,7 @@ from .csv import (
     uniform_frame_time,
     value_cells,
 )
-from .text import table_pieces
+from .text import ascii_float, table_pieces
 
 #: What every Motive export starts with (after an optional byte-order mark).
 SIGNATURE = b"Format Version,"
@@ -122,9 +122,13 @@ def _fields(line: bytes, number: int, path) -> list[str]:
     except UnicodeDecodeError:
         _fail("not a text file (bytes that are not UTF-8)", path, number)
     try:
-        return next(_csv.reader([text.rstrip("\r\n")], strict=True), [])
+        fields = next(_csv.reader([text.rstrip("\r\n")], strict=True), [])
     except _csv.Error as error:
         _fail(f"bad header: {error}", path, number)
+    for k, field in enumerate(fields):
+        if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
+            _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, number)
+    return fields
 
 
 def _header_lines(data: bytes, path) -> tuple[list[tuple[int, list[str]]], int, bytes]:
@@ -173,7 +177,7 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
     if text is None:
         _fail("no Export Frame Rate in the metadata line", path, 1)
     try:
-        rate = float(text)
+        rate = ascii_float(text.strip(" "))
     except ValueError:
         _fail(f"Export Frame Rate is not a number: {text[:40]!r}", path, 1)
     if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME < rate <= 1.0 / MIN_FRAME_TIME):

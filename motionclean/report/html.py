@@ -23,8 +23,9 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
+from ..steps.base import fps_text, plural
 from .html_world import world_section
-from .summary import format_rest, noisiest, note_text, resampled_to
+from .summary import format_noise_model, format_rest, noisiest, note_text, resampled_to
 from .traces import COLUMNS, Trace, trace
 
 __all__ = ["render_html", "render_index"]
@@ -58,6 +59,9 @@ h2{font-size:16px;margin:26px 0 10px}
 min-width:190px}
 .stat b{display:block;font-size:22px;font-weight:600}
 .stat span{color:#5a6272;font-size:12.5px}
+p.verdict{font-size:16px;font-weight:600;margin:14px 0 0;padding:10px 14px;border-radius:8px;
+border:1px solid #b9d7b0;background:#eef7ea}
+p.verdict.needs-a-look{border-color:#e6c07a;background:#fdf5e3}
 ol.pipeline{margin:0;padding-left:22px}
 ol.pipeline code{background:#fff;border:1px solid #dde1e8;border-radius:4px;padding:1px 6px}
 table{border-collapse:collapse;background:#fff;border:1px solid #dde1e8;font-size:13px}
@@ -67,6 +71,9 @@ td:first-child,th:first-child{text-align:left}
 tr:nth-child(even) td{background:#f8f9fb}
 tr.failed td{background:#fdeaea;color:#8a1c1c}
 td.error{text-align:left;white-space:normal}
+table.index td:nth-child(2),table.index th:nth-child(2){text-align:left;white-space:normal;
+min-width:320px}
+tr.look td{background:#fdf5e3}
 a{color:#1f57b8;text-decoration:none}
 a:hover{text-decoration:underline}
 .legend{display:flex;gap:18px;color:#5a6272;font-size:13px;margin-bottom:8px}
@@ -149,18 +156,37 @@ def _path(
     """SVG path data tracing an envelope as a zig-zag (min then max, then max then min),
     values clipped to ``bottom..top`` (``y0`` is where ``bottom`` is drawn).
 
-    Columns whose min and max are within half a unit get a single point.
+    Columns whose min and max are within half a unit get a single point. NaN columns
+    (rest-pose frames, missing samples) break the path: each run of known columns is a
+    subpath of its own, so a gap is drawn as a gap, never as zero.
     """
+    known = ~(np.isnan(low) | np.isnan(high))
+    parts = []
+    edges = np.diff(np.concatenate([[0], known.astype(np.int8), [0]]))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        rows = slice(start, stop)
+        parts.append(
+            _subpath(
+                position[rows], low[rows], high[rows], x_scale, y0, y_scale, top, bottom, int(start)
+            )
+        )
+    return "".join(parts)
+
+
+def _subpath(position, low, high, x_scale, y0, y_scale, top, bottom, first: int) -> str:
+    """One run of known columns of :func:`_path` (``first``: its first column's index, which
+    sets where the zig-zag starts)."""
     x = LEFT + position * x_scale
     lo = y0 - (np.clip(low, bottom, top) - bottom) * y_scale
     hi = y0 - (np.clip(high, bottom, top) - bottom) * y_scale
-    first = np.where(np.arange(x.size) % 2 == 0, lo, hi)
-    second = np.where(np.arange(x.size) % 2 == 0, hi, lo)
+    even = (np.arange(x.size) + first) % 2 == 0
+    first_y = np.where(even, lo, hi)
+    second = np.where(even, hi, lo)
     double = np.abs(lo - hi) >= 0.5
     xs = np.repeat(x, 1 + double)
     ys = np.empty(xs.size)
     starts = np.cumsum(1 + double) - (1 + double)
-    ys[starts] = np.where(double, first, (lo + hi) / 2)
+    ys[starts] = np.where(double, first_y, (lo + hi) / 2)
     ys[starts[double] + 1] = second[double]
     points = [f"{a:.1f} {b:.1f}" for a, b in zip(xs.tolist(), ys.tolist(), strict=True)]
     return "M" + points[0] + ("L" + " ".join(points[1:]) if len(points) > 1 else "")
@@ -220,7 +246,10 @@ def _panel(
         data = _path(
             drawn.position + offset, drawn.low, drawn.high, x_scale, y0, y_scale, top, bottom
         )
-        out.append(f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>')
+        if data:
+            out.append(
+                f'<path class="series" data-series="{_e(name)}" stroke="{colour}" d="{data}"/>'
+            )
     zero = y0 + bottom * y_scale
     out.append(f'<line class="axis" x1="{LEFT}" x2="{WIDTH - RIGHT}" y1="{zero}" y2="{zero}"/>')
     out.append(f'<line class="axis" x1="{LEFT}" x2="{LEFT}" y1="{top_y}" y2="{y0}"/>')
@@ -323,6 +352,67 @@ def _stat(value: str, label: str) -> str:
     return f'<div class="stat"><b>{value}</b><span>{label}</span></div>'
 
 
+def _headline(report: dict) -> list[str]:
+    """The page's headline figures: smoothing first (jitter removed and the largest change,
+    both outside the repaired frames), then the repairs, then the totals with repairs."""
+    summary = report["summary"]
+    acc = summary["angular_accel_rms"]
+    verdict = report.get("verdict") or {}
+    if summary.get("noise_reduction") is None or "change_deg_max" not in verdict:
+        return [_stat(_num(acc["before"]), "noise: RMS angular acceleration, deg/s\u00b2")]
+    repairs = {n: r for n, r in (verdict.get("repairs") or {}).items() if r["frames"]}
+    stats = [
+        _stat(
+            f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
+            "jitter removed"
+            + (" outside repairs" if repairs else "")
+            + " (RMS angular acceleration)",
+        ),
+        _stat(
+            _num(verdict["change_deg_max"], 2) + "\u00b0",
+            "largest change"
+            + (" outside repairs" if repairs else "")
+            + f" ({_e(verdict['change_joint'])})",
+        ),
+    ]
+    if repairs:
+        counts = {
+            k: sum(r[k] for r in repairs.values()) for k in ("flips", "spikes", "gaps_filled")
+        }
+        done = (
+            ", ".join(
+                f"{n} {word}{'' if n == 1 else 's'}"
+                for n, word in zip(counts.values(), ("flip", "spike", "gap"), strict=True)
+                if n
+            )
+            or "none"
+        )
+        frames = sum(r["frames"] for r in repairs.values())
+        stats.append(
+            _stat(
+                _e(done),
+                f"repaired on {frames:,} frame{'' if frames == 1 else 's'} of "
+                f"{_e(', '.join(repairs))}",
+            )
+        )
+    stats.append(
+        _stat(
+            f"{_num(acc['before'])} \u2192 {_num(acc['after'])}",
+            "RMS angular acceleration, deg/s\u00b2"
+            + (", repairs included" if repairs else "")
+            + f" ({summary['noise_reduction']:.1%} removed)",
+        )
+    )
+    if repairs:
+        stats.append(
+            _stat(
+                _num(summary["deviation_deg_max"], 2) + "\u00b0",
+                "largest change, repairs included",
+            )
+        )
+    return stats
+
+
 STANDARD_KEYS = {
     "angular_accel_rms",
     "angular_accel_max",
@@ -343,23 +433,17 @@ def render_html(report: dict, series: dict | None = None) -> str:
     cleaned = summary.get("noise_reduction") is not None
     frames = int(report["frames"])
     dt = float(report["frame_time"])
-    acc = summary["angular_accel_rms"]
     body = [
         f"<h1>{_e(report['file'])}</h1>",
-        f'<div class="meta">{frames:,} frames at {1.0 / dt:.4g} fps '
+        f'<div class="meta">{frames:,} frames at {fps_text(dt)} fps '
         f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
         "frames are numbered from 0</div>",
     ]
-    stats = [_stat(_num(acc["before"]), "noise before: RMS angular acceleration, deg/s\u00b2")]
-    if cleaned:
-        stats += [
-            _stat(_num(acc["after"]), "noise after: RMS angular acceleration, deg/s\u00b2"),
-            _stat(f"{summary['noise_reduction']:.1%}", "noise removed"),
-            _stat(
-                _num(summary["deviation_deg_max"], 2) + "\u00b0", "largest deviation from the input"
-            ),
-        ]
-    body.append('<div class="stats">' + "".join(stats) + "</div>")
+    verdict = report.get("verdict")
+    if verdict:
+        status = verdict["status"].replace(" ", "-")
+        body.append(f'<p class="verdict {status}">{_e(verdict["text"])}</p>')
+    body.append('<div class="stats">' + "".join(_headline(report)) + "</div>")
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
@@ -406,9 +490,23 @@ def render_html(report: dict, series: dict | None = None) -> str:
             + f"<span>clips longer than {COLUMNS} frames: min and max per plot column</span>"
             "</div>"
         )
+        correlation, own_rho = noise_correlation(joints)
+        source = format_noise_model(report)
+        if source:
+            body.append(f'<p class="note">auto: {_e(source.rstrip("."))}.</p>')
+        if correlation:
+            body.append(f'<p class="note">auto: {_e(correlation)}.</p>')
         body.append('<div class="grid">')
         for name in plotted:
-            body.append(_joint_card(name, joints[name], series["joints"][name], frames))
+            body.append(
+                _joint_card(
+                    name,
+                    joints[name],
+                    series["joints"][name],
+                    frames,
+                    {key for key, joint in own_rho if joint == name},
+                )
+            )
         body.append("</div>")
     still = [n for n in names if n not in drawn and series is not None]
     if still:
@@ -462,7 +560,45 @@ def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
     )
 
 
-def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
+#: A joint's noise correlation (AR(1) rho of ``auto``) is shown where it differs from the
+#: clip's median by at least this much; the median is shown once.
+RHO_APART = 0.2
+
+
+def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
+    """What the page says about ``auto``'s noise correlation: one line for the clip (None
+    without ``auto`` notes) and the ``(note key, joint)`` pairs whose own rho says something
+    about the joint (the markerless model's notes have none to say). Below about 57 fps the
+    model takes every joint's noise as white (rho 0, not fitted): no joint shows it.
+    Otherwise the clip's median (rotations and positions each) is shown once, and a joint's
+    rho where it differs from it by :data:`RHO_APART` or more."""
+    said, apart = [], set()
+    for key, what in (("auto", "rotations"), ("position_auto", "positions")):
+        notes = {n: e.get(key) or {} for n, e in joints.items()}
+        # the markerless model has no AR(1) correlation: its wander is said on its own line
+        rhos = {
+            n: v["rho"] for n, v in notes.items() if "rho" in v and v.get("model") != "markerless"
+        }
+        if not rhos:
+            continue
+        if not any(rhos.values()):
+            said.append(
+                f"{what}: noise taken as white (its correlation is not fitted at this rate)"
+            )
+            continue
+        typical = float(np.median(list(rhos.values())))
+        own = {(key, n) for n, r in rhos.items() if abs(r - typical) >= RHO_APART}
+        apart |= own
+        said.append(
+            f"{what}: noise correlation AR(1) rho {typical:.2f} (median; {len(own)} of "
+            f"{len(rhos)} joints differ by {RHO_APART:g} or more and show their own)"
+        )
+    return ("; ".join(said) if said else None), apart
+
+
+def _joint_card(
+    name: str, entry: dict, data: dict, frames: int, own_rho: set[str] | None = None
+) -> str:
     rms, peak = entry["angular_accel_rms"], entry["angular_accel_max"]
     if rms["after"] is not None:
         removed = f"{_percent(rms['before'], rms['after'])} of the noise removed"
@@ -479,7 +615,7 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
         removed = ""
         figures = f"RMS {_num(rms['before'])}, max {_short(peak['before'])} deg/s\u00b2"
     notes = [
-        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, v))}"
+        f"<b>{_e(k.replace('_', ' '))}</b> {_e(note_text(k, _shown(k, v, own_rho)))}"
         for k, v in entry.items()
         if k not in STANDARD_KEYS
     ]
@@ -492,6 +628,15 @@ def _joint_card(name: str, entry: dict, data: dict, frames: int) -> str:
     )
 
 
+def _shown(key: str, note: Any, own_rho: set[str] | None) -> Any:
+    """``note`` as the page shows it: ``auto``'s without its rho where that says nothing
+    about the joint (``own_rho``: the note keys whose rho does, None: all;
+    :func:`noise_correlation`)."""
+    if key.endswith("auto") and own_rho is not None and key not in own_rho:
+        return {k: v for k, v in note.items() if k != "rho"}
+    return note
+
+
 # ----------------------------------------------------------------------------- feet
 
 
@@ -502,7 +647,7 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     """A foot: its contacts and skate, and its lowest point above the ground over frames
     with the contacts shaded."""
     skate, pen = figures["skate_body_heights"], figures["penetration"]
-    text = f"{len(figures['contacts'])} contacts, {figures['frames']:,} frames"
+    text = f"{plural(len(figures['contacts']), 'contact')}, {plural(figures['frames'], 'frame')}"
     if skate["before"] is not None and math.isfinite(skate["before"]):
         text += f"; skate {skate['before']:.3f}"
         text += f" \u2192 {skate['after']:.3f}" if skate["after"] is not None else ""
@@ -578,7 +723,10 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     """The index page of a batch run.
 
     ``entries`` are dicts with ``file`` (shown), ``href`` (relative link to the clip page
-    or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max``,
+    or None), ``frames``, ``noise_before``, ``noise_after``, ``deviation_max`` (repairs
+    included), ``jitter_before``, ``jitter_after``, ``jitter_removed`` and ``change_max`` (the
+    verdict's, outside repairs),
+    ``verdict`` (the clip's verdict line, :mod:`.verdict`) and ``verdict_status``,
     ``status`` ("ok", "skipped", "failed") and ``error``.
     """
     counts = {s: sum(e["status"] == s for e in entries) for s in ("ok", "skipped", "failed")}
@@ -590,7 +738,16 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         _pipeline(pipeline),
         "<h2>Clips</h2>",
     ]
-    head = ["clip", "frames", "noise before", "after", "removed", "deviation max, \u00b0", "status"]
+    head = [
+        "clip",
+        "verdict",
+        "frames",
+        "noise before",
+        "after",
+        "jitter removed",
+        "largest change, \u00b0",
+        "status",
+    ]
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
     for e in entries:
         name = _e(e["file"])
@@ -599,22 +756,27 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         if e["status"] == "failed":
             rows.append(
                 f'<tr class="failed"><td>{link}</td>'
-                f'<td class="error" colspan="6">failed: {_e(e["error"])}</td></tr>'
+                f'<td class="error" colspan="7">failed: {_e(e["error"])}</td></tr>'
             )
             continue
         cells = [
             link,
+            _e(e.get("verdict") or "-"),
             _num(e.get("frames")),
-            _num(e.get("noise_before")),
-            _num(e.get("noise_after")),
-            _percent(e.get("noise_before") or 0.0, e.get("noise_after")),
-            _num(e.get("deviation_max"), 2),
-            _e(e["status"]),
+            _num(e.get("noise_before") if e.get("jitter_before") is None else e["jitter_before"]),
+            _num(e.get("noise_after") if e.get("jitter_after") is None else e["jitter_after"]),
+            _percent(e.get("noise_before") or 0.0, e.get("noise_after"))
+            if e.get("jitter_removed") is None
+            else f"{e['jitter_removed']:.0%}",
+            _num(e.get("deviation_max") if e.get("change_max") is None else e["change_max"], 2),
+            _e(e.get("verdict_status") or e["status"]),
         ]
-        rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    body.append("<table>" + "".join(rows) + "</table>")
+        look = ' class="look"' if e.get("verdict_status") == "needs a look" else ""
+        rows.append(f"<tr{look}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    body.append('<table class="index">' + "".join(rows) + "</table>")
     body.append(
         '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
-        "deg/s\u00b2.</p>"
+        "deg/s\u00b2; noise, jitter removed and largest change are measured outside the "
+        "frames that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
     )
     return _page(title, body)

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.motion import Motion
+from ..core.restpose import rest_frames
 
 __all__ = ["world_section", "world_series"]
 
@@ -29,10 +30,26 @@ FIGURE_SPAN = 1.3
 
 
 def _frames(n_frames: int) -> np.ndarray:
-    """The frames carried: all of a short clip, evenly spaced ones of a long clip."""
+    """The frames carried: all of a short clip; of a long clip every ``k``-th frame and the
+    last, ``k`` the smallest of 2, 5, 10, 20, 25, 50, 100, 200, 250, ... that carries at
+    most :data:`PLAYER_FRAMES`: the frames a page holds are round numbers (``#frame=150``
+    opens frame 150 on a clip carried every 5th, 10th or 25th frame)."""
     if n_frames <= PLAYER_FRAMES:
         return np.arange(n_frames)
-    return np.unique(np.linspace(0, n_frames - 1, PLAYER_FRAMES).round().astype(int))
+    stride = next(
+        k
+        for k in sorted(
+            {m * 10**e for e in range(32) for m in (1, 2, 5)} | {25 * 10**e for e in range(32)}
+        )
+        if -(-(n_frames - 1) // k) + 1 <= PLAYER_FRAMES
+    )
+    return np.unique(np.append(np.arange(0, n_frames, stride), n_frames - 1))
+
+
+def _stride(frames) -> str:
+    """The spacing of the carried frames (:func:`_frames`) as an ordinal: "2nd", "25th"."""
+    k = int(frames[1] - frames[0]) if len(frames) > 1 else 1
+    return f"{k}{'nd' if k == 2 else 'th'}"
 
 
 def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
@@ -42,6 +59,7 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
+    lead, trail = rest_frames(before)
     parents = kinematics.point_parents(before)
     points_b = kinematics.world_positions(before.at_frames(frames))
     points_a = None if after is None else kinematics.world_positions(after.at_frames(frames))
@@ -52,6 +70,7 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     return {
         "unknown_before": None if unknown[0] is None else unknown[0][frames],
         "unknown_after": None if unknown[1] is None else unknown[1][frames],
+        "rest": (frames < lead) | (frames >= before.n_frames - trail),
         "up": up,
         "height": height,
         "frames": frames,
@@ -112,8 +131,15 @@ def _trajectory_card(name: str, point: int, series: dict) -> str:
         if series["after"] is not None:
             tracks.append(series["after"][:, point][:, axes])
             unknown.append(_unknown_at(series["unknown_after"], point))
-        low = np.min([t.min(axis=0) for t in tracks], axis=0)
-        high = np.max([t.max(axis=0) for t in tracks], axis=0)
+        # rest-pose frames are no part of the track (nor of its bounds), as in every figure
+        rest = series.get("rest")
+        if rest is not None and rest.any() and not rest.all():
+            unknown = [rest if u is None else u | rest for u in unknown]
+            tracks_shown = [t[~rest] for t in tracks]
+        else:
+            tracks_shown = tracks
+        low = np.min([t.min(axis=0) for t in tracks_shown], axis=0)
+        high = np.max([t.max(axis=0) for t in tracks_shown], axis=0)
         span = max(float((high - low).max()), 1e-9)
         low = (low + high) / 2 - span / 2  # centred, the same scale on both axes
         lines = [
@@ -171,6 +197,7 @@ PLAYER_SCRIPT = """
   var button = document.getElementById('mc-play');
   var view = document.getElementById('mc-view');
   var n = data.frames.length, current = 0, timer = null, NS = 'http://www.w3.org/2000/svg';
+  var asked = null;
   var clips = data.after ? [['before', data.before, data.colours[0]],
                             ['after', data.after, data.colours[1]]]
                          : [['before', data.before, data.colours[0]]];
@@ -222,7 +249,9 @@ PLAYER_SCRIPT = """
       });
     });
     slider.value = current;
-    label.textContent = 'frame ' + data.frames[current];
+    label.textContent = 'frame ' + data.frames[current] + (asked === null ||
+      asked === data.frames[current] ? '' : ' (nearest carried to frame ' + asked + ')');
+    asked = null;
   }
   function nearest(frame) {
     var best = 0;
@@ -233,7 +262,8 @@ PLAYER_SCRIPT = """
   }
   function fromHash() {
     var m = /frame=(\\d+)/.exec(window.location.hash);
-    draw(m ? nearest(parseInt(m[1], 10)) : current);
+    asked = m ? parseInt(m[1], 10) : null;
+    draw(m ? nearest(asked) : current);
   }
   slider.max = n - 1;
   slider.addEventListener('input', function () { draw(parseInt(slider.value, 10)); });
@@ -322,7 +352,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     shown = (
         f"all {frames:,} frames"
         if frames == report["frames"]
-        else f"{frames:,} of {report['frames']:,} frames, evenly spaced"
+        else f"{frames:,} of {report['frames']:,} frames: every {_stride(world['frames'])} "
+        "frame and the last"
     )
     cards = [_trajectory_card(name, p, world) for name, p in world["effectors"].items()]
     figures = report.get("world") or {}

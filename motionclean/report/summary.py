@@ -21,11 +21,12 @@ from ..core.restpose import rest_frames, trim
 from ..core.threads import run_parts
 from ..filters.auto import describe_source
 from ..steps import REGISTRY
-from ..steps.base import format_params
+from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
 from .metrics import pair, rms_and_max
 from .traces import Trace, traces
+from .verdict import build_verdict
 from .world import (
     contact_figures,
     figure_points,
@@ -38,7 +39,9 @@ from .world import (
 __all__ = ["build_report", "build_series", "format_table", "to_json"]
 
 
-def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
+def build_series(
+    before: Motion, after: Motion | None = None, repairs: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
     """Per-frame figures behind the report, per joint with rotation channels, reduced to
     what the HTML report plots and the figures the report reads.
 
@@ -48,9 +51,11 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     rotation per s^2 at frames 1..F-2 (000 Sec. VI-B) and of the rotation angle between
     input and output in degrees at every frame; 0 where a missing sample (tracker dropout)
     is involved. ``figures`` holds each figure's RMS and maximum per joint and over all
-    joints, without the rows that involve the clip's rest-pose frames. No per-frame table
-    of the joints is kept: each is reduced as soon as it is made (the feet's heights,
-    ``(F,)`` per foot, are).
+    joints, without the rows that involve the clip's rest-pose frames, and ``figures
+    ["outside_repairs"]`` the same figures of the joints in ``repairs`` (joint name: ``(F,)``
+    mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
+    rows that involve a repaired frame. No per-frame table of the joints is kept: each is
+    reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
     """
     dt = before.frame_time
     clips = (before, after)
@@ -86,22 +91,40 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     rotating = before.layout.has_rotation
     rot = np.flatnonzero(rotating)
     cols = slice(None) if rotating.all() else rot  # every joint: the arrays, not copies
+    repairs = repairs or {}
+    repaired = {
+        n: repairs[before.names[j]] for n, j in enumerate(rot) if before.names[j] in repairs
+    }
+    accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
+    outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
 
-    def acceleration(clip: Motion | None) -> _Reduced | None:
+    # rows that involve a missing sample of either clip are left out of both, as gaps
+    missing = None
+    if before.missing is not None or (after is not None and after.missing is not None):
+        missing = before.missing_mask()[:, cols]
+        if after is not None:
+            missing = missing | after.missing_mask()[:, cols]
+
+    def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
+            outside[key] = None
             return None
-        missing = None if clip.missing is None else clip.missing[:, cols]
-        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt)
+        if missing is not None and table.shape[0]:
+            table[missing[:-2] | missing[1:-1] | missing[2:]] = np.nan
+        outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
     # one clip after the other (each on threads): one clip-long table at a time
-    acc_b, acc_a = acceleration(before), acceleration(after)
+    acc_b, acc_a = acceleration(before, "accel_before"), acceleration(after, "accel_after")
     assert acc_b is not None
     dev = None
+    outside["deviation"] = None
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
-        if before.missing is not None or after.missing is not None:
-            table[before.missing_mask()[:, cols] | after.missing_mask()[:, cols]] = 0.0
+        if missing is not None:
+            table[missing] = np.nan
+        outside["deviation"] = _outside(table, lead, trail, repaired)
         dev = _reduced(table, lead, trail)
         del table
     joints = {}
@@ -114,7 +137,12 @@ def build_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     return {
         "frame_time": dt,
         "joints": joints,
-        "figures": {"accel_before": acc_b, "accel_after": acc_a, "deviation": dev},
+        "figures": {
+            "accel_before": acc_b,
+            "accel_after": acc_a,
+            "deviation": dev,
+            "outside_repairs": outside,
+        },
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
@@ -133,21 +161,84 @@ class _Reduced(NamedTuple):
     max: np.ndarray
     total_rms: float
     total_max: float
+    counts: np.ndarray | None = None
 
 
 def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     """:class:`_Reduced` of ``table``, whose values it overwrites (with their squares, for
-    the RMS: no temporary as large as the table)."""
+    the RMS: no temporary as large as the table). The rows that involve a rest-pose frame
+    and the NaN rows (missing samples) are left out of the figures and drawn as gaps, the
+    same in every clip."""
+    stop = table.shape[0] - trail
+    table[:lead] = np.nan
+    table[max(stop, lead) :] = np.nan
     drawn = traces(table)
-    core = table[lead : table.shape[0] - trail]
-    if not core.size:
+    core = table[lead:stop]
+    known = ~np.isnan(core)
+    counts = known.sum(axis=0)
+    if not counts.any():
         zeros = np.zeros(table.shape[1])
-        return _Reduced(drawn, zeros, zeros, 0.0, 0.0)
-    largest = core.max(axis=0)
+        return _Reduced(drawn, zeros, zeros, 0.0, 0.0, counts)
+    largest = np.array([trace.peak for trace in drawn])  # the rest rows are NaN: left out
     total_max = float(largest.max())
     squares = np.square(core, out=core)
-    rms = np.sqrt(np.mean(squares, axis=0))
-    return _Reduced(drawn, rms, largest, float(np.sqrt(np.mean(squares.ravel()))), total_max)
+    squares[~known] = 0.0
+    sums = squares.sum(axis=0)
+    rms = np.sqrt(sums / np.maximum(counts, 1))
+    total = float(np.sqrt(sums.sum() / counts.sum()))
+    return _Reduced(drawn, rms, largest, total, total_max, counts)
+
+
+def _outside(
+    table: np.ndarray, lead: int, trail: int, masks: dict[int, np.ndarray]
+) -> dict[int, tuple[float, int, float]]:
+    """Per column ``n`` of ``table`` in ``masks``: the sum of squares, count and max of its
+    rows between the rest frames where ``masks[n]`` (rows of the table) is false."""
+    found = {}
+    stop = table.shape[0] - trail
+    for n, mask in masks.items():
+        values = table[lead:stop, n][~mask[lead:stop]]
+        values = values[~np.isnan(values)]
+        peak = float(values.max()) if values.size else 0.0
+        found[n] = (float(np.dot(values, values)), int(values.size), peak)
+    return found
+
+
+def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
+    """The figures of smoothing alone (None for a single clip): the RMS angular acceleration
+    before and after (deg/s^2) and the fraction of it removed, and the largest and RMS
+    rotation change (degrees, and the joint of the largest) over every joint and frame,
+    leaving out the rows that involve a frame a repairing step changed
+    (:func:`build_series`' ``outside_repairs``)."""
+    figures = series["figures"]
+    if figures["accel_after"] is None or figures["deviation"] is None:
+        return None
+    outside = figures["outside_repairs"]
+
+    def per_joint(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        reduced = figures[key]
+        counts = np.array(reduced.counts, dtype=np.float64)
+        squares = np.square(reduced.rms) * counts
+        largest = np.array(reduced.max, dtype=np.float64)
+        for n, (square, count, peak) in (outside.get(key) or {}).items():
+            squares[n], counts[n], largest[n] = square, count, peak
+        return squares, counts, largest
+
+    before, rows, _ = per_joint("accel_before")
+    after, _, _ = per_joint("accel_after")
+    squares, counts, largest = per_joint("deviation")
+    total_before = float(before.sum())
+    removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
+    worst = int(np.argmax(largest)) if largest.size else 0
+    known = max(float(rows.sum()), 1.0)
+    return {
+        "noise_before": math.sqrt(total_before / known),
+        "noise_after": math.sqrt(float(after.sum()) / known),
+        "noise_removed": removed,
+        "change_deg_max": float(largest[worst]) if largest.size else 0.0,
+        "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
+        "change_joint": names[worst] if names else None,
+    }
 
 
 def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
@@ -246,6 +337,7 @@ def build_report(
     said = kinematics.source_notes(before)  # what the reader assumed: only when it did
     if said:
         report["notes"] = list(said)
+    report["verdict"] = build_verdict(report, _smoothing(series, list(series["joints"])))
     return report
 
 
@@ -282,7 +374,7 @@ def resampled_to(report: dict) -> str:
     if not output:
         return ""
     return (
-        f", written as {output['frames']} frames at {1.0 / output['frame_time']:.4g} fps "
+        f", written as {output['frames']} frames at {fps_text(output['frame_time'])} fps "
         "(figures on the input's frames)"
     )
 
@@ -298,7 +390,7 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'noise est':>10}  filter chosen"
     lines = [
         f"{report['file']}: {report['frames']} frames at "
-        f"{1.0 / report['frame_time']:.4g} fps{resampled_to(report)}, numbered from 0 "
+        f"{fps_text(report['frame_time'])} fps{resampled_to(report)}, numbered from 0 "
         "(angular acceleration in deg/s^2; deviation and estimated noise in deg)",
         head,
         "-" * len(head),
@@ -335,6 +427,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("contacts"):
         lines.extend(format_contacts(report["contacts"]))
     lines.extend(format_repairs(report))
+    if report.get("verdict"):
+        lines.append(f"verdict: {report['verdict']['text']}")
     return "\n".join(lines)
 
 
@@ -374,10 +468,11 @@ def format_rest(rest: dict, frames: int) -> str:
     if rest["trailing"]:
         spans.append((frames - rest["trailing"], frames - 1))
     parts = [f"{a}-{b}" if b > a else f"{a}" for a, b in spans]
-    noun = "frame" if len(spans) == 1 and spans[0][0] == spans[0][1] else "frames"
+    one = len(spans) == 1 and spans[0][0] == spans[0][1]
     return (
-        f"rest pose: {noun} {' and '.join(parts)} kept as they are and left out of the "
-        "figures (a pose held before or after the motion)"
+        f"rest pose: {'frame' if one else 'frames'} {' and '.join(parts)} kept as "
+        f"{'it is' if one else 'they are'} and left out of the figures (a pose held before or "
+        "after the motion)"
     )
 
 

@@ -13,6 +13,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
+from ..steps.base import plural
 from . import metrics
 from .metrics import pair, rms_and_max
 
@@ -231,7 +232,10 @@ def format_contacts(section: dict) -> list[str]:
         )
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
-        text = f"foot {name}: {len(foot['contacts'])} contacts ({foot['frames']} frames)"
+        text = (
+            f"foot {name}: {plural(len(foot['contacts']), 'contact')} "
+            f"({plural(foot['frames'], 'frame')})"
+        )
         if skate["before"] is not None and not math.isnan(skate["before"]):
             text += f", skate {skate['before']:.3f}"
             if skate["after"] is not None:

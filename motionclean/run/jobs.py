@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -23,9 +23,10 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..filters import multires
-from ..io import ReadOptions, atomic_write, save
+from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, to_json
+from ..report.verdict import repaired_frames
 from ..steps.pipeline import Pipeline, StepLog
 from ..steps.resampling import on_input_frames
 from .memory import return_free_memory
@@ -56,21 +57,17 @@ def render_report(report: dict, path: str | os.PathLike, series: dict | None = N
 def write_outputs(
     clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes]
 ) -> None:
-    """Write the cleaned clip and its reports, everything or nothing: every report is
-    rendered before anything is written, and a clip whose report cannot be written is
-    removed again (unless it replaced the input in place, which cannot be undone)."""
-    existed = target is not None and Path(target).exists()
+    """Write the cleaned clip and its reports together (:func:`~motionclean.io.write_together`):
+    every one is rendered and written to a temporary file first, then all are renamed; when
+    one cannot be written none is, and an existing output (the input itself with
+    ``--in-place``) is replaced only when all are ready. Missing folders are made."""
+    files: dict[str | os.PathLike, bytes | Iterable[bytes | memoryview]] = {}
     if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(clip, target)
-    try:
-        for path, data in reports.items():
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            atomic_write(path, data)
-    except BaseException:
-        if target is not None and not existed:
-            Path(target).unlink(missing_ok=True)
-        raise
+        files[target] = encode(clip, target)
+    files.update(reports)
+    for path in files:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    write_together(files)
 
 
 @dataclass
@@ -124,12 +121,15 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     after, logs = pipeline.run(before)
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
-    series = build_series(before, compared)
+    notes = notes_by_joint(logs)
+    # repairs are told apart from smoothing where their frames are the input's
+    repairs = repaired_frames(notes, before.n_frames) if compared is after else None
+    series = build_series(before, compared, repairs)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:
             entry["touched"] = list(log.touched)
-    report = build_report(before, compared, described, notes_by_joint(logs), file, series=series)
+    report = build_report(before, compared, described, notes, file, series=series)
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
     return CleanedClip(before, after, logs, report, series)
@@ -156,6 +156,14 @@ class FileResult:
     error: str | None = None
     seconds: float = 0.0
     joints: dict[str, dict[str, float]] | None = None  # per joint: noise_after, deviation_max
+    verdict: str | None = None  # the report's verdict line (motionclean.report.verdict)
+    verdict_status: str | None = None  # clean, repaired, cleaned or needs a look
+    # the verdict's figures, outside repairs: RMS angular acceleration before and after
+    # (deg/s^2), the fraction removed, the largest change (degrees)
+    jitter_before: float | None = None
+    jitter_after: float | None = None
+    jitter_removed: float | None = None
+    change_max: float | None = None
 
 
 @dataclass(frozen=True)
@@ -175,6 +183,8 @@ def _failure(source: str, target: str | None, error: BaseException, start: float
         message = str(error)
     elif isinstance(error, OSError):
         message = f"{error.filename or source}: {error.strerror}"
+    elif isinstance(error, MemoryError):
+        message = f"{source}: out of memory ({error or 'an allocation failed'})"
     else:  # a bug must not stop the other clips
         message = f"{source}: internal error: {type(error).__name__}: {error}"
     return FileResult(source, target, "failed", error=message, seconds=time.perf_counter() - start)
@@ -190,10 +200,17 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
     deviation_rms = (
         math.sqrt(sum(d * d for d in deviations) / len(deviations)) if deviations else 0.0
     )
+    verdict = result.report.get("verdict") or {}
     return FileResult(
         job.source,
         job.target,
         "ok",
+        verdict=verdict.get("text"),
+        verdict_status=verdict.get("status"),
+        jitter_before=verdict.get("noise_before"),
+        jitter_after=verdict.get("noise_after"),
+        jitter_removed=verdict.get("noise_removed"),
+        change_max=verdict.get("change_deg_max"),
         frames=result.before.n_frames,
         noise_before=summary["angular_accel_rms"]["before"],
         noise_after=summary["angular_accel_rms"]["after"],

@@ -123,10 +123,12 @@ def _format_note(note: dict, positions: bool) -> str:
             f"{up_to}, down where the motion is (markerless model, {_how(note)})"
             f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
         )
+    # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
+    said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
     source = f" (optical model, {_how(note)})" if "source" in note else ""
     return (
-        f"estimated noise {note['noise']:.3g} {unit} (AR(1) rho {note.get('rho', 0.0):.2f}"
-        f"{band}{where}); {chose}; expected error {error} {unit}{source}"
+        f"estimated noise {note['noise']:.3g} {unit}{f' ({said})' if said else ''}; "
+        f"{chose}; expected error {error} {unit}{source}"
     )
 
 

@@ -143,7 +143,9 @@ class StepSpec:
 
     ``run`` maps the selected joints' arrays to new ones (:class:`StepData`). A whole-clip
     step (one that changes the frame count) gives ``run_motion(motion, params)`` instead,
-    returning the new clip and notes keyed by joint name. ``format_note(note, positions)``
+    returning the new clip and notes keyed by joint name; with ``keeps_rest`` it is given
+    the clip with its rest-pose frames and keeps them itself (a new frame rate changes how
+    many frames they take). ``format_note(note, positions)``
     is how one joint's note reads in the HTML report and JSON-less views (None: shown as
     JSON); ``format_brief(note, positions)``, if given, is its shorter terminal form (long
     frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
@@ -161,6 +163,7 @@ class StepSpec:
     params: tuple[Param, ...]
     run: Callable[[StepData, dict], StepData] | None = None
     run_motion: Callable[[Motion, dict], tuple[Motion, dict[str, dict]]] | None = None
+    keeps_rest: bool = False
     positions_default: bool = True
     format_note: Callable[[dict, bool], str] | None = None
     format_brief: Callable[[dict, bool], str] | None = None
@@ -219,6 +222,21 @@ def format_params(params: dict) -> str:
     return ", ".join(
         f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items()
     )
+
+
+def plural(count: int, noun: str) -> str:
+    """``"1 frame"``, ``"2 frames"``: a count with its noun."""
+    return f"{count:,} {noun}{'' if count == 1 else 's'}"
+
+
+def fps_text(frame_time: float) -> str:
+    """A frame rate as every message writes it: a whole number when the frame time is one
+    rounded (0.008333 s is ``"120"``, within 1e-4), else six significant digits."""
+    rate = 1.0 / frame_time
+    whole = round(rate)
+    if whole >= 1 and abs(rate - whole) <= 1e-4 * rate:
+        return f"{whole:d}"
+    return f"{rate:.6g}"
 
 
 def format_runs(runs: list[list[int]]) -> str:

@@ -9,7 +9,16 @@ import numpy as np
 from ..core import kinematics
 from ..core.errors import UsageError
 from ..filters.despike import despike_positions_with_report, despike_with_report
-from .base import Param, StepData, StepSpec, brief_runs, crop_runs, format_runs, shift_runs
+from .base import (
+    Param,
+    StepData,
+    StepSpec,
+    brief_runs,
+    crop_runs,
+    format_runs,
+    plural,
+    shift_runs,
+)
 
 
 def _resolve_despike(params: dict, where: str) -> None:
@@ -71,7 +80,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
 def _format_note(note: dict, positions: bool, ranges=format_runs) -> str:
     """What despike did to one joint: frames repaired, where, and the largest step."""
     unit = "units" if positions else "deg"
-    parts = [f"{note['frames_repaired']} frames repaired"]
+    parts = [f"{plural(note['frames_repaired'], 'frame')} repaired"]
     if note.get("unflipped"):
         parts.append(f"un-flipped {ranges(note['unflipped'])}")
     if note["interpolated"]:

@@ -21,7 +21,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..filters.auto import estimate_noise, estimate_position_noise
 from ..filters.footlock import Leg, Prior, hinge_axis, plant
-from .base import Param, StepData, StepSpec, crop_runs, shift_runs
+from .base import Param, StepData, StepSpec, crop_runs, plural, shift_runs
 
 
 def contact_params(params: dict) -> found.ContactParams:
@@ -177,9 +177,8 @@ def _run(data: StepData, params: dict) -> StepData:
 def _format_note(note: dict, positions: bool) -> str:
     shown = ", ".join(f"{a}-{b}" for a, b in note["contacts"][:6])
     more = len(note["contacts"]) - 6
-    return f"held {len(note['contacts'])} contacts ({note['frames']} frames): {shown}" + (
-        f" and {more} more" if more > 0 else ""
-    )
+    held = f"held {plural(len(note['contacts']), 'contact')} ({plural(note['frames'], 'frame')})"
+    return f"{held}: {shown}" + (f" and {more} more" if more > 0 else "")
 
 
 def _crop_note(note: dict, first: int, last: int) -> dict | None:

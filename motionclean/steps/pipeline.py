@@ -27,6 +27,7 @@ from ..core.restpose import rest_frames, splice, trim
 from ..filters.gaps import Gaps
 from . import COMMON_PARAMS, REGISTRY, StepData, StepSpec
 from .ranges import FrameRange, blend_positions, blend_rotations, weights
+from .resampling import rest_rows
 
 __all__ = ["DEFAULT_STEPS", "REGISTRY", "Pipeline", "Step", "StepLog", "make_step"]
 
@@ -270,22 +271,34 @@ class Pipeline:
         spans = _frame_spans(self.steps, motion, lead)
         made = _Made(motion)
         logs: list[StepLog] = []
+        outer = motion  # the clip whose rest frames surround ``current``
         earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
             try:
-                current, log = _run_step(
-                    step, current, lead, spans.get(number), motion.path, made, earlier
-                )
+                whole_clip = step.spec.keeps_rest and bool(lead or trail)
+                if whole_clip:
+                    # the step keeps the rest frames itself: it gets them, and says how many
+                    # frames they take in its result
+                    whole = splice(outer, current, lead, trail)
+                    outer, log = _run_step(step, whole, 0, None, motion.path, made, earlier)
+                    if outer.n_frames != whole.n_frames:
+                        ratio = outer.frame_time / whole.frame_time
+                        lead, trail = rest_rows(whole.n_frames, lead, trail, ratio, outer.n_frames)
+                    current = copy.copy(trim(outer, lead, trail))
+                else:
+                    current, log = _run_step(
+                        step, current, lead, spans.get(number), motion.path, made, earlier
+                    )
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
             for joint, note in log.notes.items():
                 earlier.setdefault(joint, {}).update(note)
-            if lead:  # numbered as the file's frames
+            if lead and not whole_clip:  # numbered as the file's frames
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             logs.append(log)
-        return splice(motion, current, lead, trail), logs
+        return splice(outer, current, lead, trail), logs
 
 
 def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:

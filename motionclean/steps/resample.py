@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..core.errors import UsageError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..filters.resample import ANTIALIAS_CUTOFF
-from .base import Param, StepSpec
+from .base import Param, StepSpec, fps_text
 from .resampling import new_length, resample_motion, same_rate
 
 
@@ -38,7 +38,7 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
 
 def _format_note(note: dict, positions: bool) -> str:
     text = (
-        f"{note['from_fps']:.6g} -> {note['to_fps']:.6g} fps, "
+        f"{fps_text(1.0 / note['from_fps'])} -> {fps_text(1.0 / note['to_fps'])} fps, "
         f"{note['frames'][0]} -> {note['frames'][1]} frames"
     )
     if note["antialias_hz"] is not None:
@@ -48,9 +48,10 @@ def _format_note(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="resample",
-    summary="the clip at a new frame rate: C1 cubic in angular displacements, "
+    summary="the clip at a new frame rate: C2 spline on the sphere through the samples, "
     "anti-aliased when the rate goes down",
-    paper="cubic of 003 Eq. 17 made C1 (cumulative Hermite); low-pass 000 Eq. 19-20",
+    paper="cumulative B-spline of Kim, Kim and Shin 1995 solved to interpolate; "
+    "low-pass 000 Eq. 19-20",
     params=(
         Param(
             "fps",
@@ -70,6 +71,7 @@ STEP = StepSpec(
         ),
     ),
     run_motion=_run,
+    keeps_rest=True,
     resolve=_resolve,
     format_note=_format_note,
     shift_note=lambda note, frames: note,

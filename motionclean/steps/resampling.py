@@ -1,11 +1,12 @@
 """A clip at a new frame rate (:func:`resample_motion`), and a resampled clip brought back onto
 its input's frames for comparison (:func:`on_input_frames`).
 
-Rotations and positions are resampled by :mod:`motionclean.filters.resample` (C1 cubic in
-angular displacements, anti-aliasing low-pass when the rate goes down). A sample is missing
-after resampling when an input sample it is interpolated from was missing. The pipeline
-leaves rest-pose frames (a T-pose before the motion) out of every step, so a resample step
-keeps them one for one and does not blend them into the motion.
+Rotations and positions are resampled by :mod:`motionclean.filters.resample` (C2 spline on
+the sphere, anti-aliasing low-pass when the rate goes down). A sample is missing after
+resampling when an input sample it is interpolated from was missing. Rest-pose frames (a
+T-pose before or after the motion, :mod:`motionclean.core.restpose`) are never blended into
+the motion and keep their time: the new frames that fall within them (at least one) repeat
+the rest pose, and every other new frame samples the motion at its own time in the file.
 """
 
 from __future__ import annotations
@@ -23,12 +24,17 @@ from ..filters.resample import (
     resampled_length,
     sample_positions,
 )
+from .base import fps_text
 
 #: Rates within this relative difference are the same rate (a Frame Time of 0.008333 s is
 #: 120 fps): the clip is left as it is.
 SAME_RATE = 1e-3
 #: Bytes the resampled arrays and their text take per new frame and channel value, about.
 BYTES_PER_VALUE = 96
+#: Most new frames made per frame read (120 -> 120,000 fps): more interpolates nothing a
+#: capture holds, and costs time and disk by the option, not the data (1e6 fps of a
+#: 240-frame tracker CSV wrote a gigabyte in over a minute).
+MAX_UPSAMPLING = 1000
 
 
 def same_rate(frame_time: float, new_frame_time: float) -> bool:
@@ -46,9 +52,10 @@ def _memory_bytes() -> int:
 def new_length(motion: Motion, frame_time: float) -> int:
     """Frames ``motion`` has at ``frame_time`` seconds per frame: the same duration to
     within half a new frame. Raises :class:`MotionError` when that leaves fewer than two
-    frames or would not fit in half of this machine's memory (the message says how many
-    frames)."""
-    fps = f"{1.0 / frame_time:.6g} fps"
+    frames, would not fit in half of this machine's memory, or makes more than
+    :data:`MAX_UPSAMPLING` frames per frame read (the message says how many frames), for
+    every format alike."""
+    fps = f"{fps_text(frame_time)} fps"
     if motion.n_frames < 2:
         raise MotionError(
             f"a clip of {motion.n_frames} frame cannot be resampled; at least two are needed",
@@ -68,45 +75,105 @@ def new_length(motion: Motion, frame_time: float) -> int:
             f"resampling to {fps} makes {n_new:,} frames; at most {fits:,} fit in memory",
             motion.path,
         )
+    if n_new > MAX_UPSAMPLING * motion.n_frames:
+        raise MotionError(
+            f"resampling {motion.n_frames:,} frames to {fps} makes {n_new:,} frames; at most "
+            f"{MAX_UPSAMPLING:,} per frame read ({MAX_UPSAMPLING * motion.n_frames:,}) are "
+            f"made, a rate of up to {MAX_UPSAMPLING * motion.frame_rate:.6g} fps",
+            motion.path,
+        )
     return n_new
 
 
-def _resampled_missing(missing: np.ndarray, ratio: float, n_new: int) -> np.ndarray:
+def _resampled_missing(
+    missing: np.ndarray, ratio: float, n_new: int, first: int = 0, shift: int = 0
+) -> np.ndarray:
     """New frames interpolated from a missing input sample are missing."""
-    index, u = sample_positions(n_new, ratio)
+    index, u = sample_positions(n_new, ratio, first, shift)
+    index = np.clip(index, 0, missing.shape[0] - 1)
     padded = np.concatenate([missing, missing[-1:]])
     return padded[index] | (padded[index + 1] & (u > 0.0)[:, None])
 
 
-def _resampled(motion: Motion, ratio: float, n_new: int, antialias: bool) -> tuple:
+def _resampled(
+    motion: Motion, ratio: float, n_new: int, antialias: bool, first: int = 0, shift: int = 0
+) -> tuple:
     layout = motion.layout
     rot, pos = np.flatnonzero(layout.has_rotation), np.flatnonzero(layout.has_position)
+    where = (first, shift)
     if rot.size == motion.n_joints:
-        rotations = resample_continuous(motion.rotations, ratio, n_new, antialias)
+        rotations = resample_continuous(motion.rotations, ratio, n_new, antialias, *where)
     else:
         rotations = np.empty((n_new, motion.n_joints, 4))
         rotations[:] = motion.rotations[0]
-        rotations[:, rot] = resample_continuous(motion.rotations[:, rot], ratio, n_new, antialias)
+        rotations[:, rot] = resample_continuous(
+            motion.rotations[:, rot], ratio, n_new, antialias, *where
+        )
     translations = joint_major_zeros(n_new, motion.n_joints)
     if pos.size:
         translations[:, pos] = resample_positions(
-            motion.translations[:, pos], ratio, n_new, antialias
+            motion.translations[:, pos], ratio, n_new, antialias, *where
         )
     return rotations, translations
+
+
+def rest_rows(n_frames: int, lead: int, trail: int, ratio: float, n_new: int) -> tuple[int, int]:
+    """How many of ``n_new`` new frames (``ratio`` old frames apart) fall within a clip's
+    ``lead`` leading and ``trail`` trailing rest frames of its ``n_frames``: those at an old
+    time before ``lead`` and from ``n_frames - trail`` on, at least one each where there are
+    rest frames, and at least two left for the motion."""
+    index, u = sample_positions(n_new, ratio)
+    times = index + u
+    new_lead = max(int(np.count_nonzero(times < lead)), 1) if lead else 0
+    new_trail = max(int(np.count_nonzero(times >= n_frames - trail)), 1) if trail else 0
+    if n_new - new_lead - new_trail < 2:
+        new_lead, new_trail = min(lead, 1), min(trail, 1)
+    return new_lead, new_trail
+
+
+def _with_rest(motion: Motion, frame_time: float, n_new: int, lead: int, trail: int) -> Motion:
+    """``motion`` resampled around its rest frames (module docstring)."""
+    ratio = frame_time / motion.frame_time
+    new_lead, new_trail = rest_rows(motion.n_frames, lead, trail, ratio, n_new)
+    core = trim(motion, lead, trail)
+    n_core = n_new - new_lead - new_trail
+    rotations, translations = _resampled(core, ratio, n_core, True, new_lead, lead)
+    first = np.zeros(new_lead, dtype=np.intp)
+    last = np.full(new_trail, motion.n_frames - 1, dtype=np.intp)
+
+    def around(rest: np.ndarray, middle: np.ndarray) -> np.ndarray:
+        return np.concatenate([rest[first], middle, rest[last]])
+
+    missing = None
+    if motion.missing is not None:
+        gaps = _resampled_missing(core.missing_mask(), ratio, n_core, new_lead, lead)
+        missing = around(motion.missing, gaps)
+    return motion.replace(
+        rotations=around(motion.rotations, rotations),
+        translations=around(motion.translations, translations),
+        frame_time=float(frame_time),
+        source_values=None,
+        source_rotations=None,
+        missing=missing,
+    )
 
 
 def resample_motion(motion: Motion, frame_time: float) -> Motion:
     """``motion`` at ``frame_time`` seconds per frame (any ratio, up or down).
 
     The same rate (:func:`same_rate`) gives ``motion`` itself. Otherwise every rotation and
-    position is resampled (module docstring) and the first frame keeps its time; the
-    skeleton and channels stay, the writer keeps the hierarchy text and writes the frames
-    anew. :func:`new_length` says how many frames and refuses too few or too many.
+    position is resampled (module docstring) and the first frame keeps its time; rest-pose
+    frames at either end keep theirs (:func:`rest_rows`); the skeleton and channels stay,
+    the writer keeps the hierarchy text and writes the frames anew. :func:`new_length` says
+    how many frames and refuses too few or too many.
     """
     if same_rate(motion.frame_time, frame_time):
         return motion
     n_new = new_length(motion, frame_time)
     ratio = frame_time / motion.frame_time
+    lead, trail = rest_frames(motion)
+    if lead or trail:
+        return _with_rest(motion, frame_time, n_new, lead, trail)
     rotations, translations = _resampled(motion, ratio, n_new, antialias=True)
     missing = None
     if motion.missing is not None:
@@ -125,13 +192,16 @@ def on_input_frames(before: Motion, after: Motion) -> Motion:
     """``after`` (``before`` resampled, possibly cleaned too) brought back onto ``before``'s
     frames with the same interpolant and no low-pass, so the two compare frame by frame;
     ``after`` itself when it already has ``before``'s frames. Rest-pose frames of
-    ``before`` (kept one for one by the pipeline) are matched one for one."""
+    ``before`` are matched with the rest frames of ``after`` (:func:`rest_rows`), the
+    motion at its own times."""
     if after.n_frames == before.n_frames and after.frame_time == before.frame_time:
         return after
     lead, trail = rest_frames(before)
-    core = trim(after, lead, trail)
+    ratio = after.frame_time / before.frame_time
+    new_lead, new_trail = rest_rows(before.n_frames, lead, trail, ratio, after.n_frames)
+    core = trim(after, new_lead, new_trail)
     n_core = before.n_frames - lead - trail
-    rotations, translations = _resampled(core, before.frame_time / after.frame_time, n_core, False)
+    rotations, translations = _resampled(core, 1.0 / ratio, n_core, False, lead, new_lead)
     middle = before.replace(
         rotations=rotations,
         translations=translations,

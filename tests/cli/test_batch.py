@@ -205,3 +205,15 @@ def test_workers_exit_when_the_batch_parent_is_killed(tmp_path):
         time.sleep(0.1)
     assert len(children) >= 2
     assert not [pid for pid in children if os.path.exists(f"/proc/{pid}")]
+
+
+def test_a_small_batch_runs_in_one_process_unless_told(tree, tmp_path, capsys):
+    from motionclean.cli.batch import SMALL_BATCH_BYTES, default_jobs
+
+    assert default_jobs([300_000] * 8, 2) == 1  # eight short clips: the pool costs more
+    assert default_jobs([SMALL_BATCH_BYTES // 2] * 3, 2) == 2
+    assert default_jobs([SMALL_BATCH_BYTES // 2] * 3, 8) == 3
+    code, out, _ = run_cli(capsys, "batch", tree, "-o", tmp_path / "a", "--glob", "*.bvh")
+    assert "on 1 worker " in out
+    code, out, _ = run_cli(capsys, "batch", tree, "-o", tmp_path / "b", "-j", "2")
+    assert "on 2 workers" in out

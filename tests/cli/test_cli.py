@@ -51,6 +51,7 @@ def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
         "world",
         "contacts",
         "rest_frames",
+        "verdict",
     }
     assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5
     knee = data["joints"]["LeftKnee"]

@@ -1,11 +1,24 @@
 """A seeded mutation fuzzer over the sample clips: whatever the bytes, the command line either
-succeeds with a readable output or fails with exactly one error line and no output."""
+succeeds with a readable output or fails with exactly one error line and no output. The same
+for hostile scheduler addresses, and for commands of several outputs when writing fails."""
 
 from __future__ import annotations
 
+import socket
+from pathlib import Path
+
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, cut_bvh, run_cli
+from helpers import (
+    NOISY,
+    ROOT,
+    SAMPLE,
+    answering_server,
+    cut_bvh,
+    file_size_limit,
+    run_cli,
+    silent_server,
+)
 
 import motionclean as mc
 
@@ -100,6 +113,133 @@ def test_mutated_clips_succeed_or_fail_with_one_line(seeds, chunk, tmp_path, cap
             assert not out.exists()
             outcomes["refused"] += 1
     assert outcomes["ok"] and outcomes["refused"]  # the mutations reach both outcomes
+
+
+# ----------------------------------------------------------------------------- scheduler
+
+
+PROTOCOLS = ["tcp", "tls", "ws", "wss", "inproc", "http", "TCP", "", "tcp:", "udp"]
+HOSTS = [
+    "127.0.0.1",
+    "[::1]",
+    "",
+    "h" * 300,
+    "a." * 140 + "b",
+    "host name",
+    "ho\x00st",
+    "h\u00f6st",
+    "[::1",
+    "[1::2::3]",
+    "::1",
+    "-bad-",
+    "x" * 64,
+    "[nonsense]",
+    "%",
+]
+PORTS = ["8786", "", "0", "65536", "99999999999999999999", "-1", "\u0668\u0667\u0668\u0666"]
+PORTS += ["8786/x", "87 86", "1_0", "notaport", "+80", "80:80"]
+
+
+def address(rng: np.random.Generator) -> str:
+    """A hostile scheduler address: any protocol, host and port of the lists above, or a
+    whole token of its own."""
+    if rng.random() < 0.1:
+        return str(rng.choice(["notaport", "local:", "local:-1", "local:x", "://", "tcp://"]))
+    protocol = PROTOCOLS[int(rng.integers(len(PROTOCOLS)))]
+    host = HOSTS[int(rng.integers(len(HOSTS)))]
+    port = PORTS[int(rng.integers(len(PORTS)))]
+    separator = "://" if rng.random() < 0.9 else ":/"
+    return f"{protocol}{separator}{host}:{port}" if rng.random() < 0.9 else f"{protocol}://{host}"
+
+
+@pytest.fixture(scope="module")
+def batch_folder(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fuzz_batch")
+    cut_bvh(SAMPLE, folder / "in" / "a.bvh", 12)
+    return folder
+
+
+def test_hostile_scheduler_addresses_are_one_line_and_no_work(batch_folder, capsys, monkeypatch):
+    """300 addresses made of hostile parts: none reaches Dask with a shape it cannot take
+    (an internal error), and those that are well formed but lead to a port that never
+    answers, answers HTTP or refuses are one line naming the address, quickly."""
+    pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from motionclean.run import cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 0.3)
+    rng = np.random.default_rng(37)
+    out = batch_folder / "out"
+    cases = [address(rng) for _ in range(300)]
+    with silent_server() as silent, answering_server(b"HTTP/1.1 400 Bad Request\r\n\r\n") as web:
+        closed = socket.create_server(("127.0.0.1", 0))
+        refused = closed.getsockname()[1]
+        closed.close()
+        cases += [f"tcp://127.0.0.1:{port}" for port in (silent, web, refused)]
+        cases += [f"ws://127.0.0.1:{web}", f"tls://127.0.0.1:{web}", f"tcp://[::1]:{refused}"]
+        for scheduler in cases:
+            code, stdout, err = run_cli(
+                capsys, "batch", batch_folder / "in", "-o", out, "--scheduler", scheduler, "-q"
+            )
+            lines = err.strip().splitlines()
+            assert code == 2 and stdout == "", (scheduler, code, err)
+            assert len(lines) == 1 and lines[0].startswith("motionclean: error: "), scheduler
+            assert "internal error" not in err and "--scheduler" in err, (scheduler, err)
+            assert not list(out.rglob("*.bvh")), scheduler
+
+
+# ----------------------------------------------------------------------------- write failure
+
+
+def multi_output_commands(folder: Path, clip: Path) -> list[list]:
+    return [
+        ["report", clip, "--json", folder / "r.json", "--html", folder / "r.html"],
+        ["report", clip, "--html", folder / "r.html", "--json", folder / "r.json"],
+        ["clean", clip, "-o", folder / "c.bvh", "--report", folder / "r.json", "-q"],
+        ["clean", clip, "-o", folder / "c.bvh", "--report", folder / "r.html"]
+        + ["--report", folder / "r.json", "-q", "-f", "lee-shin:k=1"],
+        ["clean", clip, "-o", folder / "c.csv", "--report", folder / "r.html", "-q"],
+    ]
+
+
+def test_multi_output_commands_under_write_failure_write_all_or_nothing(tmp_path, capsys):
+    """Each command, with a file size limit drawn at random over the sizes of its outputs
+    (RLIMIT_FSIZE: a full disk that binds root too) and outputs that exist or not: it writes
+    every output, readable, or exits 1 with one line and leaves the folder as it was."""
+    clip = cut_bvh(NOISY, tmp_path / "clip.bvh", 24)
+    n_commands = len(multi_output_commands(tmp_path, clip))
+    written = []  # per command: each output's bytes when nothing fails
+    for k in range(n_commands):
+        full = tmp_path / f"full{k}"
+        full.mkdir()
+        assert run_cli(capsys, *multi_output_commands(full, clip)[k])[0] == 0
+        written.append({p.name: p.read_bytes() for p in full.iterdir()})
+    rng = np.random.default_rng(36)
+    outcomes = {"all": 0, "none": 0}
+    for case in range(24):
+        folder = tmp_path / f"case{case}"
+        folder.mkdir()
+        args, outputs = (
+            multi_output_commands(folder, clip)[case % n_commands],
+            written[case % n_commands],
+        )
+        if rng.random() < 0.5:  # outputs that exist already
+            for name in outputs:
+                (folder / name).write_bytes(b"an older output " + name.encode())
+        before = {p.name: p.read_bytes() for p in folder.iterdir()}
+        largest = max(map(len, outputs.values()))
+        limit = largest if rng.random() < 0.25 else int(rng.integers(0, largest))
+        with file_size_limit(limit):
+            code, _, err = run_cli(capsys, *args)
+        if code == 0:
+            assert err == ""
+            assert {p.name: p.read_bytes() for p in folder.iterdir()} == outputs
+            outcomes["all"] += 1
+        else:
+            lines = err.strip().splitlines()
+            assert code == 1 and len(lines) == 1 and "cannot write: File too large" in err, err
+            assert {p.name: p.read_bytes() for p in folder.iterdir()} == before, args
+            outcomes["none"] += 1
+    assert outcomes["all"] and outcomes["none"]  # the limits reach both outcomes
 
 
 #: Cases per chunk for the formats of SMPL parameters, OpenSim and glTF.

@@ -153,6 +153,7 @@ def test_json_report_is_unchanged_by_series(cleaned):
         "world",
         "contacts",
         "rest_frames",
+        "verdict",
     }
 
 

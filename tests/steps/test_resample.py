@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from helpers import (
     NOISY,
+    ROOT,
     SAMPLE,
     corpus_clip,
     cut_bvh,
@@ -29,6 +30,7 @@ from motionclean.filters.resample import (
     resampled_length,
     sample_positions,
 )
+from motionclean.io.csv import RIGID_SUFFIXES
 from motionclean.steps.pipeline import Pipeline
 from motionclean.steps.resampling import on_input_frames, resample_motion
 
@@ -92,8 +94,9 @@ def test_resampling_is_coordinate_invariant(ratio, seed):
     )
     a, b = quat.normalize(rng.normal(size=(2, 4)))
     out = resample_rotations(q, ratio)
-    assert max_degrees(resample_rotations(quat.multiply(a, q), ratio), quat.multiply(a, out)) < 1e-9
-    assert max_degrees(resample_rotations(quat.multiply(q, b), ratio), quat.multiply(out, b)) < 1e-9
+    # exact but for the control points' solve, which stops at 1e-9 rad (spline.TOLERANCE)
+    assert max_degrees(resample_rotations(quat.multiply(a, q), ratio), quat.multiply(a, out)) < 1e-6
+    assert max_degrees(resample_rotations(quat.multiply(q, b), ratio), quat.multiply(out, b)) < 1e-6
     p = rng.normal(size=(40, 2, 3))
     np.testing.assert_allclose(
         resample_positions(quat.rotate(a, p), ratio),
@@ -172,19 +175,75 @@ def test_steps_after_resample_see_the_new_rate_and_frames():
         Pipeline.from_inline(["resample:fps=60", "lee-shin:frames=[10,200]"]).run(clip)
 
 
-def test_a_t_pose_is_kept_one_for_one_and_not_blended_in(tmp_path, capsys):
-    source = with_t_pose(SAMPLE, tmp_path / "tpose.bvh")
+def test_a_t_pose_keeps_its_time_and_the_motion_is_not_late_or_stretched(tmp_path, capsys):
+    """A T-pose frame before the motion stays a T-pose (never blended in) and takes the new
+    frames that fall within its own frame time; the motion keeps its times: every new frame
+    samples the motion where it is in the file, and the clip keeps its duration."""
+    motion = mc.load(SAMPLE)
+    for frames in (1, 2):
+        source = with_t_pose(SAMPLE, tmp_path / f"tpose{frames}.bvh", frames)
+        clip = mc.load(source)
+        # 2x up: the new grid hits every old frame, the motion's included, where it was
+        up = resample_motion(clip, clip.frame_time / 2)
+        assert up.n_frames == 2 * clip.n_frames
+        assert max_degrees(up.rotations[: 2 * frames], clip.rotations[:1]) == 0.0
+        assert max_degrees(up.rotations[2 * frames :: 2], motion.rotations) < 1e-12
+    # 2x down with two T-pose frames: they take new frame 0, the motion new frames from 1 on,
+    # each at its own time (new frame k at old frame 2k, motion frame 2k - 2)
+    clip = mc.load(source)
+    down = resample_motion(clip, clip.frame_time * 2)
+    assert down.n_frames == resampled_length(clip.n_frames, 2.0) == 151
+    alone = resample_motion(motion, motion.frame_time * 2)
+    assert max_degrees(down.rotations[1:], alone.rotations) < 1e-9
+    # the issue's clip: 75 frames with a T-pose first, 120 -> 30 fps
+    short = cut_bvh(with_t_pose(SAMPLE, tmp_path / "t.bvh"), tmp_path / "short.bvh", 75)
     out = tmp_path / "out.bvh"
-    code, _, err = run_cli(capsys, "resample", source, out, "--fps", "30")
+    code, _, err = run_cli(capsys, "resample", short, out, "--fps", "30")
     assert code == 0, err
-    rows_in = source.read_text().split("Frame Time:")[1].splitlines()[1:]
+    clip, new = mc.load(short), mc.load(out)
+    assert abs(new.duration - clip.duration) <= 0.5 * new.frame_time  # 0.625 s -> 0.633 s
+    rows_in = short.read_text().split("Frame Time:")[1].splitlines()[1:]
     rows_out = out.read_text().split("Frame Time:")[1].splitlines()[1:]
     tpose_in, tpose_out = (np.array(row.split(), dtype=float) for row in (rows_in[0], rows_out[0]))
     np.testing.assert_array_equal(tpose_out, tpose_in)  # the T-pose frame, value for value
-    clip = mc.load(SAMPLE)
-    alone = resample_motion(clip, 1 / 30)
-    assert len(rows_out) == 1 + alone.n_frames
-    assert max_degrees(mc.load(out).rotations[1:], alone.rotations) < 1e-4
+    # new frame 1 is at 33.3 ms: the motion there (file frame 4), not its first frame (8.3 ms)
+    first = degrees_between(new.rotations[1], clip.rotations[4])
+    late = degrees_between(new.rotations[1], clip.rotations[1])
+    assert first.max() < 0.5 * late.max()
+    # the report compares on the input's frames: the T-pose frame and the motion in place
+    code, _, err = run_cli(
+        capsys,
+        "clean",
+        short,
+        "-o",
+        tmp_path / "c.bvh",
+        "-f",
+        "resample:fps=30",
+        "--report",
+        tmp_path / "r.json",
+    )
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["rest_frames"] == {"leading": 1, "trailing": 0}
+    plain = cut_bvh(SAMPLE, tmp_path / "plain.bvh", 74)  # the same motion without it
+    code, _, err = run_cli(
+        capsys,
+        "clean",
+        plain,
+        "-o",
+        tmp_path / "p.bvh",
+        "-f",
+        "resample:fps=30",
+        "--report",
+        tmp_path / "p.json",
+    )
+    assert code == 0, err
+    alone = json.loads((tmp_path / "p.json").read_text())
+
+    def largest(figures: dict) -> float:  # RThumb's half-turn flips left out
+        return max(j["deviation_deg"]["max"] for n, j in figures["joints"].items() if n != "RThumb")
+
+    assert largest(report) < 1.5 * largest(alone) < 20.0
 
 
 def test_a_flip_repaired_by_despike_is_not_smeared_by_resampling():
@@ -291,3 +350,66 @@ def test_a_single_frame_clip_cannot_be_resampled(tmp_path, capsys):
     cut_bvh(SAMPLE, one, 1)
     code, _, err = run_cli(capsys, "resample", one, tmp_path / "out.bvh", "--fps", "240")
     assert code == 1 and "a clip of 1 frame cannot be resampled" in err
+
+
+def rigid_csv(path, frames: int, bodies: int = 2):
+    head = ",".join(f"b{k}.{s}" for k in range(bodies) for s in RIGID_SUFFIXES)
+    rows = [f"time,{head}"]
+    for f in range(frames):
+        body = f"{0.01 * f:.4f},1,0,{np.cos(0.02 * f):.6f},{np.sin(0.02 * f):.6f},0,0"
+        rows.append(f"{f / 120:.6f}," + ",".join([body] * bodies))
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def opensim_mot(path, frames: int):
+    rows = "".join(
+        f"{f / 120:.8f}\t{10 + f * 0.5:.8f}\t{0.1 + f * 0.001:.8f}\n" for f in range(frames)
+    )
+    head = f"Coordinates\nversion=1\nnRows={frames}\nnColumns=3\ninDegrees=yes\nendheader\n"
+    path.write_text(head + "time\tpelvis_rotation\tpelvis_tx\n" + rows)
+    return path
+
+
+@pytest.mark.parametrize(
+    "kind", ["bvh", "channel csv", "rigid csv", "motive csv", "glb", "opensim mot"]
+)
+def test_every_format_refuses_an_absurd_rate_up_front(tmp_path, capsys, kind):
+    """1e6 fps of a 240-frame clip: 2 million frames. The BVH path refused it by memory; a
+    tracker CSV of two bodies 'fit' and wrote a gigabyte for minutes. Every format now
+    refuses more than MAX_UPSAMPLING frames per frame read, before any work."""
+    from motionclean.steps.resampling import MAX_UPSAMPLING
+
+    if kind == "bvh":
+        clip = cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)
+    elif kind == "channel csv":
+        mc.save(mc.load(cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)), tmp_path / "c.csv")
+        clip = tmp_path / "c.csv"
+    elif kind == "rigid csv":
+        clip = rigid_csv(tmp_path / "c.csv", 240)
+    elif kind == "glb":
+        mc.save(mc.load(cut_bvh(SAMPLE, tmp_path / "c.bvh", 240)), tmp_path / "c.glb")
+        clip = tmp_path / "c.glb"
+    elif kind == "opensim mot":
+        clip = opensim_mot(tmp_path / "c.mot", 240)
+    else:
+        clip = ROOT / "sample_data" / "131_02_motive.csv"
+    frames = mc.load(clip).n_frames
+    out = tmp_path / f"out{clip.suffix}"
+    code, stdout, err = run_cli(capsys, "resample", clip, out, "--fps", "1e6")
+    assert code == 1 and not stdout and err.count("\n") == 1 and not out.exists()
+    bound = f"at most {MAX_UPSAMPLING:,} per frame read ({MAX_UPSAMPLING * frames:,})"
+    if kind in ("rigid csv", "motive csv", "opensim mot"):  # few values: memory would do
+        assert bound in err
+    else:  # a BVH skeleton's frames may pass the memory bound first
+        assert bound in err or "fit in memory" in err
+    code, _, err = run_cli(capsys, "clean", clip, "-o", out, "-f", "resample:fps=1e6", "-q")
+    assert code == 1 and err.count("\n") == 1 and not out.exists()
+
+
+def test_a_high_rate_within_the_bound_is_made(tmp_path, capsys):
+    clip = rigid_csv(tmp_path / "c.csv", 10, bodies=1)
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, "resample", clip, out, "--fps", "96000")  # 800x
+    assert code == 0, err
+    assert mc.load(out).n_frames == 8000

@@ -1,0 +1,140 @@
+"""Euler angles of changed samples that rejoin the input without a jump the input lacks.
+
+The write-back (:meth:`motionclean.core.motion.Motion.channel_values`) continues each run of
+changed samples from the sample before it (an Euler filter). Where the run ends at an
+unchanged sample, whose original values are kept bit for bit, the continued curve may
+arrive on another representation of the same rotation: a whole turn off on a channel, or
+on the other Euler solution. That happens when the cleaned motion turns a joint a full turn
+against the input (smoothing across half-turn flips that nothing repaired, over a frame
+range, does: two flips become one full turn), and it wrote a step of 257 to 478 degrees
+where no input channel stepped more than 186.
+
+:func:`rejoin` finds such steps (over 180 degrees and larger than the input's own step
+between the same frames) and rewrites the run they are in, between its fixed neighbours,
+with the representations whose largest step is least: each frame may take either Euler
+solution ``(a, b, c)`` / ``(a + 180, 180 - b, c + 180)`` with each angle moved by a whole
+turn either way, and a bottleneck shortest path over the run's frames picks them (a pass
+near gimbal lock lets the curve change solution there with small steps). Every rotation
+stays the same; unchanged samples are not touched; a clip without such a step is returned
+as it is, bit for bit.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+__all__ = ["JUMP_DEG", "MAX_RUN", "rejoin"]
+
+#: A written step larger than this (degrees) where the input's is smaller is a jump to undo.
+JUMP_DEG = 180.0
+#: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
+MAX_RUN = 4096
+#: Per-channel whole turns each candidate may add to a representation.
+_TURNS = np.array(list(itertools.product((-360.0, 0.0, 360.0), repeat=3)))  # (27, 3)
+#: Steps within this of the least largest step (degrees) are as good as it.
+ALLOWANCE = 1e-6
+#: Rows scanned for jumps at a time (temporaries stay small on long clips).
+_SCAN_ROWS = 8192
+
+
+def _jumps(written: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """``(row, column)`` pairs where the step from ``row`` to ``row + 1`` of ``written``
+    exceeds :data:`JUMP_DEG` and the step of ``source`` between the same rows."""
+    found = []
+    n = written.shape[0]
+    for at in range(0, max(n - 1, 0), _SCAN_ROWS):
+        rows = slice(at, min(at + _SCAN_ROWS, n - 1) + 1)
+        out = np.abs(np.diff(written[rows], axis=0))
+        inp = np.abs(np.diff(source[rows], axis=0))
+        hit = np.argwhere((out > JUMP_DEG) & (out > inp))
+        hit[:, 0] += at
+        found.append(hit)
+    return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)
+
+
+def _candidates(angles: np.ndarray) -> np.ndarray:
+    """``(n, 54, 3)`` representations of the rotations written as ``angles`` ``(n, 3)``:
+    both Euler solutions, each angle moved by -1, 0 or +1 whole turns."""
+    other = np.stack([angles[:, 0] + 180.0, 180.0 - angles[:, 1], angles[:, 2] + 180.0], axis=1)
+    other -= 360.0 * np.round((other - angles) / 360.0)
+    both = np.stack([angles, other], axis=1)  # (n, 2, 3)
+    return (both[:, :, None, :] + _TURNS[None, None]).reshape(angles.shape[0], -1, 3)
+
+
+def _least_largest_step(
+    angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None
+) -> np.ndarray:
+    """The representations of ``angles`` ``(n, 3)`` whose largest step (from ``before``,
+    between the rows, to ``after``; None: no fixed neighbour) is least, and among those the
+    smoothest (least sum of squared steps, so tiny differences in the rotations do not
+    change the choice): a bottleneck shortest path over :func:`_candidates`, then a
+    shortest path over the steps it allows (loops over the run's frames, each step one
+    ``(54, 54)`` comparison)."""
+    cand = _candidates(angles)
+    n, k = cand.shape[:2]
+
+    def step(i: int) -> np.ndarray:  # (from, to) largest channel step into frame i
+        return np.abs(cand[i][None, :, :] - cand[i - 1][:, None, :]).max(axis=2)
+
+    first = np.zeros(k) if before is None else np.abs(cand[0] - before).max(axis=1)
+    last = np.zeros(k) if after is None else np.abs(cand[-1] - after).max(axis=1)
+    cost = first  # the least largest step ...
+    for i in range(1, n):
+        cost = np.min(np.maximum(cost[:, None], step(i)), axis=0)
+    allowed = float(np.min(np.maximum(cost, last))) + ALLOWANCE
+    cost = np.where(first <= allowed, first**2, np.inf)  # ... then the smoothest within it
+    back = np.zeros((n, k), dtype=np.intp)
+    for i in range(1, n):
+        here = step(i)
+        total = np.where(here <= allowed, cost[:, None] + here**2, np.inf)
+        back[i] = np.argmin(total, axis=0)
+        cost = total[back[i], np.arange(k)]
+    choice = int(np.argmin(np.where(last <= allowed, cost + last**2, np.inf)))
+    out = np.empty_like(angles)
+    for i in range(n - 1, -1, -1):
+        out[i] = cand[i, choice]
+        choice = int(back[i, choice])
+    return out
+
+
+def _largest_step(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
+    rows = [r for r in (before, *angles, after) if r is not None]
+    return float(np.abs(np.diff(np.asarray(rows), axis=0)).max(initial=0.0))
+
+
+def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
+    """Rewrite, in place, the runs of changed samples of ``values`` ``(F, C)`` (written
+    channel values, degrees) that step by more than :data:`JUMP_DEG` where ``source`` (the
+    values read) did not (module docstring). ``rotation_columns`` ``(J, 3)``: each joint's
+    rotation columns, -1 for joints without rotation channels."""
+    rotating = np.flatnonzero(rotation_columns[:, 0] >= 0)
+    if not rotating.size or values.shape[0] < 2:
+        return
+    columns = rotation_columns[rotating].ravel()
+    hits = _jumps(values[:, columns], source[:, columns])
+    if not hits.size:
+        return
+    done: set[tuple[int, int]] = set()
+    n = values.shape[0]
+    for row, column in hits.tolist():
+        cols = rotation_columns[rotating[column // 3]]
+        written, read = values[:, cols], source[:, cols]
+        kept = np.all(written == read, axis=1)
+        first, stop = row, row + 1  # the run of changed samples around the step
+        while first > 0 and not kept[first - 1] and row - first < MAX_RUN // 2:
+            first -= 1
+        while stop < n and not kept[stop] and stop - row < MAX_RUN // 2:
+            stop += 1
+        if kept[first] and first == row:
+            first += 1  # the step leaves a kept sample: the run starts after it
+        if (int(cols[0]), first) in done or first >= stop:
+            continue
+        done.add((int(cols[0]), first))
+        before = written[first - 1] if first > 0 else None
+        after = written[stop] if stop < n else None
+        run = written[first:stop]
+        better = _least_largest_step(run, before, after)
+        if _largest_step(better, before, after) < _largest_step(run, before, after):
+            values[first:stop, cols] = better

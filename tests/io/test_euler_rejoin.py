@@ -1,0 +1,57 @@
+"""The Euler write-back keeps its promise with frame ranges: a ranged Lee-Shin over
+RThumb's half-turn flips, nothing repaired, turns the joint a full turn against the input
+inside the range; the written channels rejoin the untouched frames after it without a step
+larger than 180 degrees where the input's own step is smaller."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import NOISY, SAMPLE, max_degrees
+
+import motionclean as mc
+from motionclean.core.eulerjoin import JUMP_DEG
+from motionclean.steps.pipeline import Pipeline
+
+
+def rows(path: Path) -> np.ndarray:
+    text = path.read_text().split("Frame Time:")[1].splitlines()[1:]
+    return np.array([r.split() for r in text if r.strip()], dtype=float)
+
+
+@pytest.mark.parametrize(
+    ("source", "step"),
+    [
+        (SAMPLE, "lee-shin:k=2,iterations=5,frames=[40,60],blend=5"),  # wrote 478 degrees
+        (SAMPLE, "lee-shin:k=2,iterations=5,frames=[45,52],blend=12"),  # 514
+        (SAMPLE, "lee-shin:k=2,iterations=5,frames=[0,120],blend=0"),  # 362
+        (NOISY, "lee-shin:k=2,iterations=5,frames=[40,60],blend=5"),  # 315
+    ],
+)
+def test_a_ranged_smoothing_over_flips_rejoins_the_input_without_a_new_jump(source, step, tmp_path):
+    clip = mc.load(source)
+    out, _ = Pipeline.from_inline([step]).run(clip)
+    target = tmp_path / "out.bvh"
+    mc.save(out, target)
+    read, written = rows(source), rows(target)
+    step_in = np.abs(np.diff(read, axis=0))
+    step_out = np.abs(np.diff(written, axis=0))
+    new_jumps = (step_out > JUMP_DEG) & (step_out > step_in + 1e-6)
+    assert not new_jumps.any(), np.argwhere(new_jumps)[:5]
+    # the same rotations, and every frame outside the range as it was, byte for byte
+    assert max_degrees(mc.load(target).rotations, out.rotations) < 1e-4
+    first, last = (int(v) for v in step.split("frames=[")[1].split("]")[0].split(","))
+    blend = int(step.rsplit("blend=", 1)[1])
+    lines_in = source.read_text().splitlines()
+    lines_out = target.read_text().splitlines()
+    head = lines_in.index(next(line for line in lines_in if line.startswith("Frame Time")))
+    for frame in (*range(0, max(first - blend, 0)), *range(last + blend + 1, clip.n_frames)):
+        assert lines_out[head + 1 + frame] == lines_in[head + 1 + frame]
+
+
+def test_an_identity_write_stays_byte_for_byte(tmp_path):
+    clip = mc.load(SAMPLE)
+    mc.save(clip, tmp_path / "same.bvh")
+    assert (tmp_path / "same.bvh").read_bytes() == SAMPLE.read_bytes()

@@ -1,0 +1,55 @@
+"""``save`` writes what the Motion holds or refuses it: a frame time no reader takes is an
+error, and an edited skeleton (names, offsets, end sites) is written, never dropped for the
+hierarchy text the clip was read with."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import SAMPLE
+
+import motionclean as mc
+
+
+@pytest.mark.parametrize("suffix", [".bvh", ".csv"])
+@pytest.mark.parametrize("frame_time", [math.nan, 0.0, -1.0, math.inf, 1e-9, 1e5])
+def test_save_refuses_a_frame_time_load_would_refuse(tmp_path, suffix, frame_time):
+    clip = mc.load(SAMPLE).replace(frame_time=frame_time)
+    with pytest.raises(ValueError, match=r"frame_time must be from 1e-06 to 3600 s, got"):
+        mc.save(clip, tmp_path / f"o{suffix}")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_edited_skeleton_is_written_and_the_frames_keep_their_text(tmp_path):
+    clip = mc.load(SAMPLE)
+    names, offsets = list(clip.names), clip.offsets.copy()
+    names[3] = "RenamedKnee"
+    offsets[2] = [1.5, -2.25, 3.125]
+    sites = {j: site.copy() for j, site in clip.end_sites.items()}
+    first_site = min(sites)
+    sites[first_site] = np.array([0.5, 0.25, -0.125])
+    edited = clip.replace(names=names, offsets=offsets, end_sites=sites)
+    mc.save(edited, tmp_path / "e.bvh")
+    back = mc.load(tmp_path / "e.bvh")
+    assert back.names == names and np.array_equal(back.offsets, offsets)
+    assert np.array_equal(back.end_sites[first_site], sites[first_site])
+    assert np.array_equal(back.rotations, clip.rotations)
+    assert np.array_equal(back.translations, clip.translations)
+    rows = SAMPLE.read_bytes().split(b"MOTION", 1)[1]
+    assert (tmp_path / "e.bvh").read_bytes().split(b"MOTION", 1)[1] == rows  # frames as read
+    mc.save(clip, tmp_path / "same.bvh")  # and an unedited clip is still the input's bytes
+    assert (tmp_path / "same.bvh").read_bytes() == SAMPLE.read_bytes()
+
+
+def test_an_edited_skeleton_with_edited_frames_is_written_too(tmp_path):
+    clip = mc.load(SAMPLE)
+    offsets = clip.offsets * 2.0
+    rotations = clip.rotations.copy()
+    rotations[:, 1] = rotations[::-1, 1]
+    edited = clip.replace(offsets=offsets, rotations=rotations, frame_time=clip.frame_time / 2)
+    mc.save(edited, tmp_path / "e.bvh")
+    back = mc.load(tmp_path / "e.bvh")
+    assert np.array_equal(back.offsets, offsets) and back.frame_time == clip.frame_time / 2
+    assert np.degrees(mc.core.quat.angle_between(back.rotations, rotations)).max() < 1e-4

@@ -1,0 +1,222 @@
+"""The verdict: one plain line per clip from the figures, the same on the terminal, the page,
+the JSON report and the batch index; headline figures keep repairs apart from smoothing."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+from helpers import NOISY, SAMPLE, Page, run_cli
+
+import motionclean as mc
+from motionclean.core import kinematics, quat
+from motionclean.report.html import render_html
+from motionclean.report.verdict import (
+    CLEAN_CHANGE_DEG,
+    LOOK_CHANGE_DEG,
+    build_verdict,
+    repaired_frames,
+)
+from motionclean.run.jobs import clean_clip
+from motionclean.steps.pipeline import Pipeline
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return clean_clip(NOISY, None, Pipeline.default())
+
+
+def outside(mask: np.ndarray, rows: int) -> np.ndarray:
+    """Rows of an acceleration table (frames i..i+2) that touch no frame in ``mask``."""
+    touched = mask[:-2] | mask[1:-1] | mask[2:]
+    return ~touched[:rows]
+
+
+def test_demo_verdict_names_the_repairs_and_measures_smoothing_outside_them(demo):
+    verdict = demo.report["verdict"]
+    notes = demo.report["joints"]["RThumb"]["despike"]
+    flips = len(notes["unflipped"])
+    assert verdict["status"] == "cleaned"
+    text = verdict["text"]
+    assert text.startswith("noisy capture, cleaned: ")
+    assert f"{flips} flips repaired on RThumb" in text
+    # the largest change outside repairs, measured here from the clips and the notes alone
+    frames = repaired_frames(demo.report["joints"], demo.before.n_frames)
+    angles = np.degrees(quat.angle_between(demo.before.rotations, demo.after.rotations))
+    names = list(demo.before.names)
+    for name, mask in frames.items():
+        angles[mask, names.index(name)] = 0.0
+    largest = float(angles.max())
+    assert largest < 5.0 < 179.0 < demo.report["summary"]["deviation_deg_max"]
+    assert verdict["change_deg_max"] == pytest.approx(largest, rel=1e-12)
+    assert f"largest change {largest:.1f} degrees outside repairs" in text
+    assert verdict["change_joint"] == names[int(np.argmax(angles.max(axis=0)))]
+    # the jitter removed, outside repairs, from the same clips
+    dt = demo.before.frame_time
+    from motionclean.report.metrics import angular_acceleration
+
+    sums = np.zeros(2)
+    for k, clip in enumerate((demo.before, demo.after)):
+        acc = angular_acceleration(clip.rotations, dt)
+        keep = np.ones_like(acc, dtype=bool)
+        for name, mask in frames.items():
+            keep[:, names.index(name)] = outside(mask, acc.shape[0])
+        sums[k] = np.sum(acc[keep] ** 2)
+    removed = 1.0 - np.sqrt(sums[1] / sums[0])
+    assert verdict["noise_removed"] == pytest.approx(removed, rel=1e-9)
+    assert f"{removed:.0%} of the jitter removed".replace("%", " %") in text
+    assert removed < demo.report["summary"]["noise_reduction"]  # the flips inflated it
+    assert verdict["repairs"]["RThumb"] == {
+        "flips": flips,
+        "spikes": len(notes["interpolated"]),
+        "gaps_filled": 0,
+        "gaps_left": 0,
+        "frames": notes["frames_repaired"],
+    }
+
+
+def test_the_json_report_keeps_its_schema_and_adds_the_verdict(demo):
+    report = demo.report
+    assert list(report)[:6] == ["file", "frames", "frame_time", "pipeline", "joints", "summary"]
+    assert set(report["summary"]) == {"angular_accel_rms", "noise_reduction", "deviation_deg_max"}
+    assert json.loads(json.dumps(report["verdict"]))["text"] == report["verdict"]["text"]
+
+
+def test_page_leads_with_the_verdict_and_no_repair_headline(demo):
+    page = render_html(demo.report, demo.series)
+    text = "".join(Page(page).text)
+    verdict = demo.report["verdict"]["text"]
+    assert verdict in text
+    stats = re.findall(r'<div class="stat"><b>(.*?)</b><span>(.*?)</span>', page)
+    value, label = stats[0]
+    assert "179" not in value and "deviation" not in label
+    assert text.index(verdict) < text.index(label)
+    # the change a repair made is still told, as such
+    assert any("repair" in lab and "179.99" in val for val, lab in stats)
+
+
+def test_terminal_prints_the_same_verdict(tmp_path, capsys):
+    report = tmp_path / "r.json"
+    code, out, err = run_cli(capsys, "clean", NOISY, "-o", tmp_path / "c.bvh", "--report", report)
+    assert code == 0, err
+    verdict = json.loads(report.read_text())["verdict"]["text"]
+    assert f"verdict: {verdict}" in out.splitlines()
+
+
+def test_a_clean_capture_is_called_clean(tmp_path):
+    result = clean_clip(SAMPLE, None, Pipeline.default())
+    verdict = result.report["verdict"]
+    assert verdict["change_deg_rms"] < CLEAN_CHANGE_DEG
+    assert verdict["status"] in ("clean", "repaired")
+    assert verdict["text"].startswith("clean capture")
+
+
+def test_a_joint_moved_far_by_smoothing_needs_a_look():
+    motion = mc.load(SAMPLE)
+    result = clean_clip(SAMPLE, None, Pipeline.from_inline(["lee-shin:k=6,iterations=60"]))
+    verdict = result.report["verdict"]
+    assert verdict["change_deg_max"] > LOOK_CHANGE_DEG
+    assert verdict["status"] == "needs a look"
+    assert verdict["text"].startswith("needs a look: ")
+    assert verdict["change_joint"] in verdict["text"]
+    assert motion.n_frames == result.report["frames"]
+
+
+def rigid_csv(path, clip: mc.Motion, name: str, gone: slice) -> None:
+    """Three bodies of ``clip`` in world space as a tracker writes them, ``name`` blank on
+    the ``gone`` frames."""
+    positions, rotations = kinematics.forward(clip)
+    bodies = ["Head", "LeftWrist", "RightWrist"]
+    rows = [
+        "time,"
+        + ",".join(f"{b}.{s}" for b in bodies for s in ["px", "py", "pz", "qw", "qx", "qy", "qz"])
+    ]
+    for f in range(clip.n_frames):
+        cells = [f"{f * clip.frame_time:.6f}"]
+        for body in bodies:
+            j = clip.names.index(body)
+            values = np.concatenate([positions[f, j], rotations[f, j]])
+            blank = body == name and f in range(clip.n_frames)[gone]
+            cells += [""] * 7 if blank else [f"{v:.6f}" for v in values]
+        rows.append(",".join(cells))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_a_gap_left_missing_needs_a_look(tmp_path):
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), "RightWrist", slice(150, 250))
+    verdict = clean_clip(source, None, Pipeline.default()).report["verdict"]
+    assert verdict["status"] == "needs a look"
+    assert "RightWrist missing on frames 150-249" in verdict["text"]
+    assert verdict["repairs"]["RightWrist"]["gaps_left"] == 1
+
+
+def test_an_input_alone_says_so():
+    from motionclean.report.summary import build_report
+
+    report = build_report(mc.load(SAMPLE))
+    assert report["verdict"]["status"] == "input only"
+    assert report["verdict"]["text"].startswith("input only, not cleaned")
+
+
+def test_verdict_words_follow_the_counts():
+    joints = {
+        "RThumb": {"despike": {"unflipped": [[4, 9]], "interpolated": [], "frames_repaired": 5}},
+        "Head": {"despike": {"unflipped": [], "interpolated": [[2, 3], [7, 9]]}},
+    }
+    report = {
+        "frames": 20,
+        "joints": joints,
+        "summary": {"noise_reduction": 0.5},
+        "contacts": None,
+    }
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 0.02,
+        "change_deg_rms": 0.01,
+        "change_joint": "Head",
+    }
+    text = build_verdict(report, smoothing)["text"]
+    assert "1 flip repaired on RThumb" in text and "2 spikes repaired on Head" in text
+    assert "flips" not in text.replace("1 flip ", "")
+
+
+def test_batch_index_and_table_carry_each_clips_verdict(tmp_path, capsys):
+    from helpers import cut_bvh
+
+    source = tmp_path / "in"
+    cut_bvh(NOISY, source / "a.bvh", 120)
+    cut_bvh(SAMPLE, source / "b.bvh", 120)
+    pages = tmp_path / "pages"
+    code, out, err = run_cli(
+        capsys, "batch", source, "-o", tmp_path / "out", "--jobs", "1", "--report-dir", pages
+    )
+    assert code == 0, err
+    index = "".join(Page((pages / "index.html").read_text()).text)
+    for name in ("a.bvh", "b.bvh"):
+        page = (pages / f"{name}.html").read_text()
+        verdict = re.search(r'<p class="verdict[^"]*">(.*?)</p>', page).group(1)
+        assert verdict.startswith(("noisy capture", "clean capture", "needs a look"))
+        assert verdict.replace("&#x27;", "'") in index
+        lead = verdict.split(":")[0]
+        status = {"noisy capture, cleaned": "cleaned", "clean capture": "clean"}.get(lead, lead)
+        row = next(line for line in out.splitlines() if line.startswith(name))
+        shown = "repaired" if lead == "clean capture, repaired" else status
+        assert row.endswith(f"  {shown:<14}ok")
+        # the table's removed and change columns are the verdict's, outside repairs
+        figures = clean_clip(source / name, None, Pipeline.default()).report["verdict"]
+        assert f"{figures['noise_removed']:.0%}  " in row.replace("%", "%  ", 1)
+        assert f"{figures['change_deg_max']:.2f}  " in row
+
+
+def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, capsys):
+    cleaned = tmp_path / "c.bvh"
+    code, _, err = run_cli(capsys, "clean", NOISY, "-o", cleaned)
+    assert code == 0, err
+    code, out, err = run_cli(capsys, "report", NOISY, cleaned, "--json", tmp_path / "r.json")
+    verdict = json.loads((tmp_path / "r.json").read_text())["verdict"]
+    assert "outside repairs" not in verdict["text"] and "not told apart" in verdict["text"]
+    assert verdict["status"] == "needs a look"  # 180 degrees on RThumb, for all it knows
+    assert f"verdict: {verdict['text']}" in out

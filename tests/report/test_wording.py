@@ -1,0 +1,74 @@
+"""What the program prints agrees with itself: plurals, one frame rate for one file, the
+rest frames named by info, and #frame=N opening frame N on long clips."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from helpers import SAMPLE, corpus_clip, run_cli, with_t_pose
+
+from motionclean.report.html_world import _frames
+from motionclean.report.summary import note_text
+from motionclean.report.world import format_contacts
+from motionclean.steps.base import fps_text
+
+
+def test_one_of_a_thing_is_singular():
+    despike = {"frames_repaired": 1, "unflipped": [[7, 8]], "interpolated": []}
+    assert note_text("despike", despike).startswith("1 frame repaired;")
+    footlock = {"contacts": [[10, 10]], "frames": 1}
+    assert note_text("footlock", footlock).startswith("held 1 contact (1 frame)")
+    feet = {
+        "feet": {
+            "LeftAnkle": {
+                "contacts": [[3, 3]],
+                "frames": 1,
+                "skate_body_heights": {"before": 0.1, "after": None},
+                "penetration": {"before": None, "after": None},
+            }
+        }
+    }
+    assert format_contacts(feet)[0].startswith("foot LeftAnkle: 1 contact (1 frame)")
+    despike["frames_repaired"] = 2
+    assert note_text("despike", despike).startswith("2 frames repaired;")
+
+
+def test_info_and_resample_give_one_rate_for_one_file(tmp_path, capsys):
+    # the sample's Frame Time is 0.008333 s: 120.0048 fps, which every message calls 120
+    assert fps_text(0.008333) == "120" and fps_text(1 / 29.97) == "29.97"
+    code, info, _ = run_cli(capsys, "info", SAMPLE)
+    assert code == 0 and "rate: 120 fps" in info
+    code, out, err = run_cli(capsys, "resample", SAMPLE, tmp_path / "r.bvh", "--fps", "60")
+    assert code == 0, err
+    assert "at 120 fps -> " in out and "at 60 fps" in out
+
+
+def test_info_names_the_rest_frames(tmp_path, capsys):
+    code, out, _ = run_cli(capsys, "info", with_t_pose(SAMPLE, tmp_path / "t.bvh"))
+    assert code == 0
+    assert "rest pose: frame 0 kept as it is" in out
+    code, out, _ = run_cli(capsys, "info", SAMPLE)
+    assert "rest pose:" not in out
+
+
+@pytest.mark.parametrize("n_frames", [1190, 1247, 10_000, 100_000])
+def test_a_long_clip_carries_round_frames(n_frames):
+    frames = _frames(n_frames)
+    assert len(frames) <= 400 and frames[0] == 0 and frames[-1] == n_frames - 1
+    stride = frames[1] - frames[0]
+    assert stride in (2, 5, 10, 20, 25, 50, 100, 200, 250, 500)
+    assert (frames[:-1] % stride == 0).all()
+    if n_frames <= 10_000:
+        assert 150 in frames  # #frame=150 opens frame 150 (149 on a 1,190-frame clip before)
+
+
+@pytest.mark.browser
+def test_the_player_says_when_it_shows_a_nearby_frame(tmp_path):
+    from test_html_world import chromium_dom, page_of
+
+    page = tmp_path / "report.html"
+    page.write_text(page_of(corpus_clip("131_02.bvh")), encoding="utf-8")
+    assert re.search(r'id="mc-frame">frame 150<', chromium_dom(page, "#frame=150"))
+    later = chromium_dom(page, "#frame=152")
+    assert re.search(r'id="mc-frame">frame 150 \(nearest carried to frame 152\)<', later)
