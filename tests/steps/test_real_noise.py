@@ -108,11 +108,23 @@ def test_a_wander_is_found_from_the_clip_modelled_and_said(tmp_path, capsys):
     after = np.sqrt(np.mean(wrapped(read_z(target) - truth) ** 2))
     assert after < 0.7 * before
     # the same clip said to be optical: the model of noise above the motion, and it says so
+    page = tmp_path / "report.html"
     code, out, err = run_cli(
-        capsys, "clean", source, "-o", target, "--report", report, "--source", "optical"
+        capsys,
+        "clean",
+        source,
+        "-o",
+        target,
+        "--report",
+        report,
+        "--report",
+        page,
+        "--source",
+        "optical",
     )
     assert code == 0, err
     assert "capture source: optical, as given (source=optical)" in out
+    assert "capture source: optical, as given (source=optical)" in page.read_text()
     notes = [j["auto"] for j in json.loads(report.read_text())["joints"].values()]
     assert all(n["model"] == "optical" and n["source"] == "optical" for n in notes)
     # the report command says what clean would assume, found or given
