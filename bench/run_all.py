@@ -28,6 +28,7 @@ ORDER = [
     "world",
     "batch",
     "quality",
+    "realnoise",
 ]
 
 

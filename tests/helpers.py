@@ -48,6 +48,11 @@ NO_CORPUS = f"CMU corpus not found at {CORPUS} (see ../shared/corpus/README.md)"
 
 needs_corpus = pytest.mark.skipif(not CORPUS_CLIPS, reason=NO_CORPUS)
 
+#: Markerless takes with their marker-based truth (``../shared/realnoise``, its README).
+REALNOISE = ROOT.parent / "shared" / "realnoise"
+NO_REALNOISE = f"real-noise takes not found at {REALNOISE} (see ../shared/realnoise/README.md)"
+needs_realnoise = pytest.mark.skipif(not (REALNOISE / "estimates").is_dir(), reason=NO_REALNOISE)
+
 
 def corpus_clip(name: str = "131_02.bvh") -> Path:
     """The path of corpus clip ``name``; skips the calling test when it is missing."""
@@ -105,6 +110,19 @@ def plant(q: np.ndarray, noise_deg, seed: int) -> np.ndarray:
     sigma = np.radians(np.asarray(noise_deg, dtype=np.float64)) / (2 * math.sqrt(3))
     e = rng.normal(size=q.shape[:-1] + (3,)) * np.asarray(sigma)[..., None]
     return quat.multiply(q, quat.exp(e))
+
+
+def wander_noise(frames, columns, edge_hz, noise_deg, seed, fps=60.0, rho=0.98):
+    """(frames, columns, 3) noise like a markerless capture's: its displacements white up to
+    ``edge_hz`` (a wander of the rotation, AR(1) with coefficient ``rho``: white
+    displacements above ``(1 - rho) / (2 pi sqrt(rho))`` cycles per frame), then a cliff
+    (power response ``1 / (1 + (f / f_c)^8)^2``), RMS angle ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft(rng.normal(size=(frames, columns, 3)), axis=0)
+    f = np.fft.rfftfreq(frames, 1.0 / fps)
+    ar1 = 1.0 / np.abs(1.0 - rho * np.exp(-2j * np.pi * f / fps))
+    e = np.fft.irfft(spec * (ar1 / (1.0 + (f / edge_hz) ** 8))[:, None, None], frames, axis=0)
+    return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())
 
 
 def z_up_copy(motion: mc.Motion) -> mc.Motion:

@@ -84,12 +84,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core import checks, quat
+from ..core.motion import hold_missing
 
 __all__ = [
     "DespikeReport",
@@ -222,7 +224,7 @@ def _half_turn(x, i, slot, axis, left):
     return quat.multiply(np.where(on_left, f, q), np.where(on_left, q, f))
 
 
-def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float):
+def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, slack=None):
     """Where the half-turn parity toggles, and the half-turn of each flipping column.
 
     ``x`` (F C, 4) are the samples, frame ``a`` of column ``c`` at row ``a C + c``, and
@@ -230,7 +232,9 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float):
     with a step of at least ``flip_rad`` whose flip steps agree on a half-turn axis),
     their ``(F-1, cols)`` toggles, axes and sides (see :func:`_half_turn`). A step toggles
     when it exceeds 90 degrees and undoing the half-turn leaves a step under both the
-    step itself and ``pi - flip_rad`` (30 degrees by default).
+    step itself and ``pi - flip_rad`` (30 degrees by default). ``slack`` (F-1, C), where
+    positive, marks a step across a dropout and what the joint may turn meanwhile
+    (radians): its half-turn residual may reach that much, but never half the step.
     """
     n_cols = steps.shape[1]
     i = (steps >= flip_rad).reshape(-1).nonzero()[0]  # also the row of the step's frame
@@ -250,17 +254,23 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float):
         residual = _rotation_distance(
             _half_turn(x, i, slot, axis, left), x.take(i + n_cols, axis=0)
         )
-        toggles.reshape(-1)[k] = (residual < big.reshape(-1).take(k)) & (
-            residual <= np.pi - flip_rad
-        )
+        step = big.reshape(-1).take(k)
+        limit = np.full(k.size, np.pi - flip_rad)
+        if slack is not None:  # steps across dropouts: what the joint may turn meanwhile
+            across = slack.take(cols, axis=1).reshape(-1).take(k)
+            limit = np.where(across > 0, np.maximum(limit, np.minimum(across, 0.5 * step)), limit)
+        toggles.reshape(-1)[k] = (residual < step) & (residual <= limit)
     return cols, toggles, axis, left
 
 
-def _parity(toggles: np.ndarray) -> np.ndarray:
-    """``(F, C)`` flipped frames: the parity of the toggles so far, the minority state."""
+def _parity(toggles: np.ndarray, known: np.ndarray | None = None) -> np.ndarray:
+    """``(F, C)`` flipped frames: the parity of the toggles so far, the state fewer frames
+    hold (of the ``known`` (F, C) frames, when given)."""
     parity = np.zeros((toggles.shape[0] + 1, toggles.shape[1]), dtype=bool)
     parity[1:] = np.cumsum(toggles, axis=0) % 2 == 1
-    return parity ^ (parity.sum(axis=0) > parity.shape[0] / 2)
+    if known is None:
+        return parity ^ (parity.sum(axis=0) > parity.shape[0] / 2)
+    return parity ^ ((parity & known).sum(axis=0) > known.sum(axis=0) / 2)
 
 
 def _spike_runs(x, steps, jump, max_len, trend_ratio, dist, velocity, interpolate, toggles=None):
@@ -723,7 +733,13 @@ class _Limits:
 MAX_SPIKE_SHARE = 0.25
 
 
-def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
+def _repair(
+    x: np.ndarray,
+    frame_time: float,
+    metric: _Metric,
+    limits: _Limits,
+    missing: np.ndarray | None = None,
+):
     """Shared driver on ``x`` (F, C, 4|3): jump threshold, un-flip, spikes, cap passes.
 
     Spikes are at most ``limits.max_len`` frames long; the cap widens a gap at most that
@@ -731,6 +747,14 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     un-flipped and interpolated masks (F, C), the jump threshold and the largest step
     before and after (C,), all in radians or length units per frame. Beyond the steps and their
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
+
+    ``missing`` (F, C) marks samples that are not data (tracker dropouts): they are held at
+    the last known sample, so the step into the first known frame after a dropout carries
+    the whole change across it. That step may toggle a flip like any other (the run that
+    disagrees with the rest of the clip is the one turned back, whichever side of the
+    dropout it lies on); no step touching a missing sample is a jump, spike or cap breach,
+    or counts in the statistics; the flipped state is the one held by fewer known frames;
+    missing samples come back held at the repaired known ones.
     """
     n_frames, n_cols = x.shape[:2]
     # No spike is longer than the clip, whatever the frame time says.
@@ -739,21 +763,35 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     if n_frames < 2:
         zeros = np.zeros(n_cols)
         return x.copy(), flipped, flipped.copy(), zeros, zeros, zeros
+    blind = None  # steps touching a missing sample
+    if missing is not None and missing.any():
+        x = hold_missing(x, missing)
+        blind = missing[:-1] | missing[1:]
     steps = metric.dist(x[:-1], x[1:])
-    before = steps.max(axis=0)
+    seen = steps if blind is None else np.where(blind, 0.0, steps)
+    before = seen.max(axis=0)
     cap = limits.high * frame_time
     jump = np.full(n_cols, limits.low * frame_time)  # the floor: no jump where no step exceeds it
     moving = np.flatnonzero(before > jump)
-    jump[moving] = _robust_threshold(
-        steps.T[moving], limits.threshold, limits.low * frame_time, cap
-    )
+    if blind is None:
+        jump[moving] = _robust_threshold(
+            seen.T[moving], limits.threshold, limits.low * frame_time, cap
+        )
+    else:
+        jump[moving] = _robust_threshold_known(
+            seen.T[moving], ~blind.T[moving], limits.threshold, limits.low * frame_time, cap
+        )
     out = x.copy()
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
     if limits.flip_rad is not None:
-        turned = _unflip(out, steps, jump, flipped, metric, limits, limits.flip_rad)
+        known = None if missing is None else ~missing
+        slack = None if blind is None else _slack(missing, seen, blind)
+        turned = _unflip(
+            out, steps, seen, jump, flipped, metric, limits, limits.flip_rad, known, blind, slack
+        )
     first, length, col = _spike_runs(
         out,
-        steps,
+        seen,
         jump,
         limits.max_len,
         limits.trend_ratio,
@@ -761,8 +799,10 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
         metric.velocity,
         metric.interpolate,
     )
+    if blind is not None:  # a spike's cubic never reads a missing sample
+        first, length, col = _clear_of(missing, first, length, col)
     mask = _mark(first, length, col, flipped.shape)
-    over = steps > cap
+    over = seen > cap
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
         mask[:-1] |= over
@@ -778,25 +818,97 @@ def _repair(x: np.ndarray, frame_time: float, metric: _Metric, limits: _Limits):
     changed = np.bincount(np.concatenate([turned, col]), minlength=n_cols).nonzero()[0]
     if changed.size:
         _fill_changed(out, mask, changed, after, metric, limits, cap)
+        if missing is not None and blind is not None:
+            _rehold(out, missing, blind, changed, after, metric)
+    if missing is not None:
+        flipped &= ~missing
+        mask &= ~missing
     return out, flipped, mask, jump, before, after
 
 
+#: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.
+DROPOUT_STEP_QUANTILE = 0.9
+#: Most a joint is taken to turn across a dropout when judging a half-turn there (radians).
+DROPOUT_TURN_MAX = np.pi / 3.0
+
+
+def _slack(missing, seen, blind) -> np.ndarray:
+    """(F-1, C): on each step into the first known frame after a dropout, how far the joint
+    may turn across it (its :data:`DROPOUT_STEP_QUANTILE` step per frame times the frames
+    spanned, at most :data:`DROPOUT_TURN_MAX`); zero elsewhere."""
+    n_frames = missing.shape[0]
+    frames = np.arange(n_frames)[:, None]
+    last = np.maximum.accumulate(np.where(~missing, frames, -1), axis=0)  # last known so far
+    across = missing[:-1] & ~missing[1:]
+    span = frames[1:] - last[:-1]  # frames from the last known one before the step's end
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a column without known steps
+        typical = np.nanquantile(np.where(blind, np.nan, seen), DROPOUT_STEP_QUANTILE, axis=0)
+    turn = np.minimum(np.nan_to_num(typical) * span, DROPOUT_TURN_MAX)
+    return np.where(across & (last[:-1] >= 0), turn, 0.0)
+
+
+def _robust_threshold_known(steps, known, threshold: float, low: float, high: float):
+    """:func:`_robust_threshold` of the ``known`` steps of each row only (C, F-1)."""
+    values = np.where(known, steps, np.nan)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a row without known steps
+        med = np.nanmedian(values, axis=1)
+        mad = np.nanmedian(np.abs(values - med[:, None]), axis=1)
+    return np.nan_to_num(np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high), nan=high)
+
+
+def _clear_of(missing, first, length, col):
+    """The spike runs (first frame, length, column) whose frames and the two good frames
+    on each side, which the cubic reads, are all known."""
+    n_frames = missing.shape[0]
+    gappy = np.concatenate(
+        [np.zeros((1, missing.shape[1]), int), np.cumsum(missing, axis=0, dtype=int)]
+    )
+    lo = np.clip(first - 2, 0, n_frames)
+    hi = np.clip(first + length + 2, 0, n_frames)
+    keep = gappy[hi, col] == gappy[lo, col]
+    return first[keep], length[keep], col[keep]
+
+
+def _rehold(out, missing, blind, changed, after, metric: _Metric) -> None:
+    """Missing samples of the ``changed`` columns held again at their repaired known
+    neighbours (sign-continuous for rotations), and their largest known step ``after``."""
+    fixed = hold_missing(out.take(changed, axis=1), missing.take(changed, axis=1))
+    if metric.rotations:
+        fixed = quat.make_continuous(fixed, axis=0)
+    out[:, changed] = fixed
+    steps = metric.dist(fixed[:-1], fixed[1:])
+    after[changed] = np.where(blind.take(changed, axis=1), 0.0, steps).max(axis=0)
+
+
 def _unflip(
-    out, steps, jump, flipped, metric: _Metric, limits: _Limits, flip_rad: float
+    out,
+    steps,
+    seen,
+    jump,
+    flipped,
+    metric: _Metric,
+    limits: _Limits,
+    flip_rad: float,
+    known=None,
+    blind=None,
+    slack=None,
 ) -> np.ndarray:
     """Undo half-turn flips (steps of at least ``flip_rad``) in ``out`` (F, C, 4) in place;
-    mark them in ``flipped`` and update ``steps`` of the columns turned back, which are
-    returned."""
+    mark them in ``flipped`` and update ``steps`` (and ``seen``, the steps with those
+    touching a missing sample, ``blind``, at zero) of the columns turned back, which are
+    returned. The flipped state is the one fewer ``known`` frames hold (all by default)."""
     n_frames, n_cols = out.shape[:2]
     flat = out.reshape(n_frames * n_cols, out.shape[-1])  # frame a of column c at row a C + c
-    cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad)
+    cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad, slack)
     if not toggles.any():
         return np.zeros(0, dtype=np.intp)
     # Toggles on the steps of a spike that is not itself a clean flip (half-turn
     # both in and out) are artefacts of the spike: its ends share one state.
     first, length, slot = _spike_runs(
         out.take(cols, axis=1),
-        steps.take(cols, axis=1),
+        seen.take(cols, axis=1),
         jump[cols],
         limits.max_len,
         limits.trend_ratio,
@@ -806,7 +918,7 @@ def _unflip(
         toggles,
     )
     toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
-    parity = _parity(toggles)
+    parity = _parity(toggles, None if known is None else known.take(cols, axis=1))
     frame, slot = _nonzero(parity)
     i = frame * n_cols + cols[slot]
     flat[i] = _half_turn(flat, i, slot, axis, left)
@@ -814,6 +926,9 @@ def _unflip(
     turned = cols[parity.any(axis=0)]
     samples = out.take(turned, axis=1)
     steps[:, turned] = metric.dist(samples[:-1], samples[1:])
+    seen[:, turned] = (
+        steps[:, turned] if blind is None else np.where(blind[:, turned], 0.0, steps[:, turned])
+    )
     return turned
 
 
@@ -847,6 +962,19 @@ def _columns(x: np.ndarray) -> np.ndarray:
     return x.reshape(x.shape[0], math.prod(x.shape[1:-1]), x.shape[-1])
 
 
+def _missing_columns(missing, shape) -> np.ndarray | None:
+    """The ``missing`` mask (``shape[:-1]``, bool) as ``(F, C)``, or None when nothing is."""
+    if missing is None:
+        return None
+    missing = np.asarray(missing)
+    if missing.dtype != bool or missing.shape != tuple(shape[:-1]):
+        raise ValueError(
+            f"missing: expected a bool array of shape {tuple(shape[:-1])}, "
+            f"got {missing.dtype} {missing.shape}"
+        )
+    return missing.reshape(shape[0], -1) if missing.any() else None
+
+
 def _report(shape, flipped, interpolated, jump, before, after, scale) -> DespikeReport:
     trailing = shape[1:-1]
     return DespikeReport(
@@ -871,6 +999,7 @@ def despike_with_report(
     flip_deg: float = 150.0,
     unflip: bool = True,
     method: str = "cubic",
+    missing: np.ndarray | None = None,
 ) -> tuple[np.ndarray, DespikeReport]:
     """Repair half-turn flips and spikes in unit-quaternion signals (see module docstring).
 
@@ -902,6 +1031,12 @@ def despike_with_report(
         Undo half-turn flips before interpolating.
     method : str
         ``"cubic"`` (003 Eq. 16-17) or ``"slerp"``.
+    missing : (F, ...) bool array, optional
+        Samples that are not data (tracker dropouts), whatever their values: never part of
+        a jump, spike or statistic; the change across a dropout may toggle a flip like any
+        step (so the run on the wrong side of a half-turn is the one repaired, also when a
+        dropout hides its start or end); they come back held at the repaired known samples
+        (the last one before each, the first one after for a dropout at the start).
 
     Returns
     -------
@@ -934,7 +1069,7 @@ def despike_with_report(
         np.deg2rad(flip_deg) if unflip else None,
     )
     out, flipped, interpolated, jump, before, after = _repair(
-        _columns(q), frame_time, _ROTATIONS, limits
+        _columns(q), frame_time, _ROTATIONS, limits, _missing_columns(missing, q.shape)
     )
     report = _report(q.shape, flipped, interpolated, jump, before, after, np.rad2deg)
     return out.reshape(q.shape), report
@@ -956,6 +1091,7 @@ def despike_positions_with_report(
     trend_ratio: float = 3.0,
     max_run: int | None = None,
     method: str = "cubic",
+    missing: np.ndarray | None = None,
 ) -> tuple[np.ndarray, DespikeReport]:
     """Vector counterpart of :func:`despike_with_report` for ``(F, ..., 3)`` translations.
 
@@ -966,7 +1102,7 @@ def despike_positions_with_report(
     are interpolated with the cubic of 003 Eq. 15/17 (or ``"linear"``) and steps above
     ``max_units_per_s`` are spread by widening the gap. There is no flip repair and, as
     units differ between files, no absolute cap unless ``max_units_per_s`` is given.
-    ``unflipped`` is all false.
+    ``unflipped`` is all false; ``missing`` works as in :func:`despike_with_report`.
     """
     max_len = _check(
         frame_time,
@@ -985,7 +1121,7 @@ def despike_positions_with_report(
         threshold, min_units_per_s, max_units_per_s, max_len, trend_ratio, method, None
     )
     out, flipped, interpolated, jump, before, after = _repair(
-        _columns(p), frame_time, _POSITIONS, limits
+        _columns(p), frame_time, _POSITIONS, limits, _missing_columns(missing, p.shape)
     )
     report = _report(p.shape, flipped, interpolated, jump, before, after, np.asarray)
     return out.reshape(p.shape), report

@@ -21,6 +21,17 @@ the bridge. Only displacements between samples of the same joint, and poses rela
 another joint, enter: the fill commutes with a fixed rotation of the world (and of each
 body's own frame).
 
+How much of the edge velocities a bridge follows, and whether the donor helps at all, is
+checked on the joint's own data (:func:`_validated`): gaps of the same length are planted
+in the known frames beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and
+bridged with the donor and without, with the edge velocities' departure from the chord
+weighted by each of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant
+angular velocity); the one of least error there fills the gap, the straight line unless
+another beats it by :data:`LINE_MARGIN`. A clean optical capture keeps its velocities
+(they predict its gaps well); a markerless estimate, whose edge velocities are mostly its
+noise, gets the straight line; a joint that does not move with its would-be donor (a hip
+and an elbow, say) is bridged on its own.
+
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
 half a second could spin it anywhere).
@@ -45,6 +56,14 @@ POSITION_DONOR_FRAMES = 8
 CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
 GAP_BLOCK = 256
+#: Edge-velocity weights a gap's bridge may take (0: the straight line, 1: the edges'
+#: fitted velocities), chosen per gap on gaps of its length planted beside it ...
+VELOCITY_WEIGHTS = (0.0, 0.5, 1.0)
+#: ... up to this many on each side. A bridge using the edge velocities must beat the
+#: straight line by this share of its error there to be taken (the trials are few, and
+#: beside a real dropout the tracker was already losing the body).
+TRIALS_PER_SIDE = 2
+LINE_MARGIN = 0.2
 
 
 @dataclass(frozen=True)
@@ -136,16 +155,22 @@ def _shrunk(velocity, gain, chord, noise_var) -> np.ndarray:
     return chord + keep[:, None] * (velocity - chord)
 
 
-def _bridge(x, a, b, room_a, room_b, rows, gap_of, rotations: bool, noise_var) -> np.ndarray:
+def _bridge(
+    x, a, b, room_a, room_b, rows, gap_of, rotations: bool, noise_var, weight
+) -> np.ndarray:
     """The C1 cubic across each gap of the flat signal ``x`` (rows ``a`` and ``b`` known,
     ``room_*`` known rows beyond them, per-sample noise variance ``noise_var`` per gap and
-    component), at ``rows`` (gap ``gap_of``)."""
+    component), at ``rows`` (gap ``gap_of``); each gap's edge velocities are the chord's
+    plus ``weight`` (G,) times their difference from it (0: the straight line)."""
     log_of = _rotation_log if rotations else _position_log
     span = (b - a).astype(np.float64)[:, None]
     step = log_of(x[a], x[b])
     chord = step / span
-    v_a = _shrunk(*_edge_velocity(x, a, room_a, -1, log_of), chord, noise_var) * span
-    v_b = _shrunk(*_edge_velocity(x, b, room_b, +1, log_of), chord, noise_var) * span
+    keep = weight[:, None]
+    v_a = _shrunk(*_edge_velocity(x, a, room_a, -1, log_of), chord, noise_var)
+    v_b = _shrunk(*_edge_velocity(x, b, room_b, +1, log_of), chord, noise_var)
+    v_a = (chord + keep * (v_a - chord)) * span
+    v_b = (chord + keep * (v_b - chord)) * span
     u = (rows - a[gap_of]) / span[gap_of, 0]
     g = gap_of
     if rotations:
@@ -309,8 +334,17 @@ def fill_gaps(
             noise_variance(rotations, missing, True),
             noise_variance(translations, missing, False),
         )
+        two_sided = todo.select(inner)
+        chosen, weight_q, weight_p = _validated(
+            rotations, translations, missing, two_sided, donor[:, inner], noise
+        )
+        donor[0, inner] = chosen
+        rel_q, rel_p = _relative(rotations, translations, joint, donor[:, gap_of], frame)
+        if held.any():
+            edge_q, edge_p = _relative(rotations, translations, joint, donor[:, gap_of], a[gap_of])
+            rel_q[held], rel_p[held] = edge_q[held], edge_p[held]
         rel_q[~held], rel_p[~held] = _bridge_inner(
-            rotations, translations, missing, todo.select(inner), donor[:, inner], noise
+            rotations, translations, missing, two_sided, donor[:, inner], noise, weight_q, weight_p
         )
     d, _ = _frame_of(rotations, translations, donor[0, gap_of], frame)
     e, c = _frame_of(rotations, translations, donor[1, gap_of], frame)
@@ -319,6 +353,92 @@ def fill_gaps(
     p[frame[moved], joint[moved]] = (c + quat.rotate(e, rel_p))[moved]
     q = quat.make_continuous(q, axis=0)
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
+
+
+def _trials(missing, gaps: Gaps, donor: np.ndarray):
+    """Gaps of the same length as each of ``gaps`` planted in known frames beside it, for
+    :func:`_validated`: ``(trial gaps, index of the real gap of each)``. Up to
+    :data:`TRIALS_PER_SIDE` on each side, spaced by their length plus one; a trial is kept
+    when its frames, the :data:`EDGE_FRAMES` known frames around it and its edges lie in the
+    clip, are all known for the joint and, where ``donor`` (G,) is a joint, for it too."""
+    n_frames = missing.shape[0]
+    lengths = gaps.lengths
+    k = np.arange(TRIALS_PER_SIDE)
+    step = lengths[:, None] + 1
+    left_stop = gaps.first[:, None] - 1 - EDGE_FRAMES - k * step  # (G, K)
+    right_first = gaps.stop[:, None] + EDGE_FRAMES + 1 + k * step
+    first = np.concatenate([left_stop - lengths[:, None], right_first], axis=1).reshape(-1)
+    of = np.repeat(np.arange(lengths.size), 2 * TRIALS_PER_SIDE)
+    stop = first + lengths[of]
+    lo, hi = first - 1 - EDGE_FRAMES, stop + EDGE_FRAMES  # the frames read, inclusive
+    ok = (lo >= 0) & (hi < n_frames)
+    seen = np.concatenate([np.zeros((1, missing.shape[1]), int), np.cumsum(missing, axis=0)])
+    lo_c, hi_c = np.clip(lo, 0, n_frames - 1), np.clip(hi, 0, n_frames - 1)
+    joint = gaps.joint[of]
+    ok &= seen[hi_c + 1, joint] == seen[lo_c, joint]
+    helper = donor[of]
+    tracked = seen[hi_c + 1, np.maximum(helper, 0)] == seen[lo_c, np.maximum(helper, 0)]
+    ok &= (helper < 0) | tracked
+    return Gaps(joint[ok], first[ok], stop[ok]), of[ok]
+
+
+def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, noise):
+    """Per two-sided gap, the rotation donor (the chosen ``donor[0]`` or the world, -1) and
+    the edge-velocity weights (:data:`VELOCITY_WEIGHTS`) of its rotation and of its position
+    bridge that fill best the gaps of the same length planted beside it in the joint's own
+    known frames (least summed squared error there, the straight line, weight 0, taken
+    unless another is :data:`LINE_MARGIN` better; :func:`_trials`). Whatever a joint's
+    motion and noise, its bridges are then no worse there than the straight line, and a
+    donor that does not move with the joint is dropped. A gap without room for
+    a trial keeps its donor and the full edge velocities. Returns ``(donor, weight of the
+    rotation, weight of the position)``, each (G,)."""
+    n_gaps = gaps.joint.size
+    options = [(-1, w) for w in VELOCITY_WEIGHTS]
+    if (donor[0] >= 0).any():
+        options += [(0, w) for w in VELOCITY_WEIGHTS]  # 0: the chosen donor
+    error = np.full((2, len(options), n_gaps), np.inf)  # rotations, positions
+    for i, (use, w) in enumerate(options):
+        helper = donor[0] if use == 0 else np.full(n_gaps, -1)
+        trials, of = _trials(missing, gaps, np.where(helper >= 0, helper, donor[1]))
+        if not of.size:
+            continue
+        both = np.stack([helper[of], donor[1, of]])
+        bridged = _bridge_inner(
+            rotations, translations, missing, trials, both, noise, np.full(of.size, w)
+        )
+        lengths = trials.lengths
+        owner = np.repeat(of, lengths)
+        frames = np.repeat(trials.first, lengths) + _ranks(lengths)
+        truth = _relative(
+            rotations,
+            translations,
+            np.repeat(trials.joint, lengths),
+            np.stack([helper[owner], donor[1, owner]]),
+            frames,
+        )
+        squares = (
+            quat.angle_between(bridged[0], truth[0]) ** 2,
+            np.sum((bridged[1] - truth[1]) ** 2, axis=-1),
+        )
+        tried = np.bincount(of, minlength=n_gaps) > 0
+        if use == 0:
+            tried &= donor[0] >= 0
+        for k in range(2):
+            total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
+            error[k, i] = np.where(tried, total, np.inf)
+    weights = np.array([w for _, w in options])
+    uses = np.array([u for u, _ in options])
+    error[:, weights > 0] /= 1.0 - LINE_MARGIN  # the straight line wins near-ties
+    # rotations: the donor and the weight together; positions: the weight, same donor
+    best = np.argmin(error[0], axis=0)
+    same = uses[:, None] == uses[best][None]
+    position = np.argmin(np.where(same, error[1], np.inf), axis=0)
+    untried = ~np.isfinite(error[0].min(axis=0))
+    return (
+        np.where(untried | (uses[best] == 0), donor[0], -1),
+        np.where(untried, 1.0, weights[best]),
+        np.where(untried, 1.0, weights[position]),
+    )
 
 
 def _ranks(lengths: np.ndarray) -> np.ndarray:
@@ -332,9 +452,13 @@ def _spread(values: np.ndarray, where: np.ndarray) -> np.ndarray:
     return out
 
 
-def _bridge_inner(rotations, translations, missing, gaps: Gaps, donors: np.ndarray, noise):
+def _bridge_inner(
+    rotations, translations, missing, gaps: Gaps, donors: np.ndarray, noise, weight, weight_p=None
+):
     """Relative poses across two-sided gaps, gap frames in gap order: each gap's window
-    (known rows before, the gap, known rows after) laid end to end in one flat signal."""
+    (known rows before, the gap, known rows after) laid end to end in one flat signal;
+    ``weight`` (G,) scales the edge velocities' departure from the chord (:func:`_bridge`),
+    ``weight_p`` the positions' (default: the same)."""
     n_frames = missing.shape[0]
     a, b = gaps.first - 1, gaps.stop
     room_a = np.minimum(_known_room(missing, gaps.joint, a, -1), EDGE_FRAMES)
@@ -356,6 +480,7 @@ def _bridge_inner(rotations, translations, missing, gaps: Gaps, donors: np.ndarr
         n[gaps.joint] + np.where(d >= 0, n[np.maximum(d, 0)], 0.0)
         for n, d in zip(noise, donors, strict=True)
     )
-    bridged_q = _bridge(rel_q, flat_a, flat_b, room_a, room_b, rows, gap_of, True, var_q)
-    bridged_p = _bridge(rel_p, flat_a, flat_b, room_a, room_b, rows, gap_of, False, var_p)
+    bridged_q = _bridge(rel_q, flat_a, flat_b, room_a, room_b, rows, gap_of, True, var_q, weight)
+    weight_p = weight if weight_p is None else weight_p
+    bridged_p = _bridge(rel_p, flat_a, flat_b, room_a, room_b, rows, gap_of, False, var_p, weight_p)
     return bridged_q, bridged_p

@@ -19,6 +19,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.threads import run_parts
+from ..filters.auto import describe_source
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
 from . import metrics
@@ -414,6 +415,9 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    model = format_noise_model(report)
+    if model:
+        lines.append(model)
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         lines.append(format_rest(rest, report["frames"]))
@@ -426,6 +430,34 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("verdict"):
         lines.append(f"verdict: {report['verdict']['text']}")
     return "\n".join(lines)
+
+
+def format_noise_model(report: dict) -> str:
+    """Which capture system auto assumed and why (found from the clip, or given), and with
+    the markerless model how much of the noise it found below the motion's top frequencies;
+    without auto's notes, the report's ``capture_source`` (the ``report`` command's); ""
+    when there is neither."""
+    notes = [e["auto"] for e in report["joints"].values() if "source" in e.get("auto", {})]
+    if not notes and "capture_source" not in report:
+        return ""
+    first = notes[0] if notes else report["capture_source"]
+    slope = first.get("motion_slope")
+    if slope is None and first.get("source_measured"):
+        slope = math.nan
+    line = f"capture source: {describe_source(first['model'], first['source'], slope)}"
+    wander = [n for n in notes if n.get("model") == "markerless"]
+    if not wander:
+        return line
+    edges = {n.get("wander_edge_hz") for n in wander}
+    edge = edges.pop() if len(edges) == 1 else None
+    below = "" if edge is None else f" below {edge:g} Hz"
+    level = sorted(n["wander"] for n in wander)[len(wander) // 2]
+    hint = " For an optical capture: --source optical." if first["source"] == "auto" else ""
+    return (
+        f"{line}. The noise wanders{below}, down where the motion is (median joint "
+        f"{level:.3g} deg); each joint gets the one filter of least expected error over the "
+        f"clip.{hint}"
+    )
 
 
 def format_rest(rest: dict, frames: int) -> str:

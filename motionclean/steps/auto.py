@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
-from ..filters.auto import FAMILIES, auto, auto_positions
+import math
+
+import numpy as np
+
+from ..core import quat
+from ..core.motion import hold_missing
+from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions
+from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
 
@@ -19,7 +26,36 @@ def _auto_note(result, column: int, unit: str) -> dict:
     }
     if choice.band_hz is not None:  # noise low-passed at this edge (Hz), counted in "noise"
         note["band_hz"] = choice.band_hz
+    if unit == "deg":  # the capture system assumed, asked for, and the clip's evidence
+        note["model"] = choice.model
+        note["source"] = choice.source
+        slope = choice.motion_slope
+        note["motion_slope"] = None if slope is None or not math.isfinite(slope) else slope
+        note["source_measured"] = slope is not None
+    if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
+        note["wander"] = choice.wander
+        note["wander_edge_hz"] = choice.wander_edge_hz
     return note
+
+
+def _bridged(values, data: StepData, joints, rotations: bool):
+    """``values`` with the clip's dropouts in ``joints`` bridged as ``fill-gaps`` would
+    bridge them, whatever their length and on each joint's own (checked against a straight
+    line on gaps planted beside them), so the filter runs across them; and their mask (None
+    without dropouts). The bridges are a neutral support, not a fill: the samples are
+    missing again afterwards."""
+    motion = data.motion
+    if values is None or motion is None or motion.missing is None:
+        return values, None
+    missing = motion.missing[:, joints]
+    if not missing.any():
+        return values, None
+    n_frames = values.shape[0]
+    if rotations:
+        other = np.zeros(values.shape[:-1] + (3,))
+        return fill_gaps(values, other, missing, n_frames, donors=False).rotations, missing
+    other = np.broadcast_to(quat.identity(values.shape[1:-1]), values.shape[:-1] + (4,))
+    return fill_gaps(other, values, missing, n_frames, donors=False).translations, missing
 
 
 def _run_auto(data: StepData, params: dict) -> StepData:
@@ -29,19 +65,39 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "max_seconds": params["max_seconds"],
         "families": families,
     }
-    shared["overwrite"] = data.owned
-    result = auto(data.rotations, data.frame_time, noise=params["noise_deg"], **shared)
+    rotations, missing_r = _bridged(data.rotations, data, data.rotation_joints, True)
+    translations, missing_p = _bridged(data.translations, data, data.translation_joints, False)
+    shared["overwrite"] = data.owned or missing_r is not None
+    result = auto(
+        rotations,
+        data.frame_time,
+        noise=params["noise_deg"],
+        source=params["source"],
+        **shared,
+    )
     data.rotations = result.values
+    if missing_r is not None:  # the bridges go: placeholders held again
+        data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
     for column in range(data.rotations.shape[1]):
         data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
-    if data.translations is not None:
+    if translations is not None:
+        shared["overwrite"] = data.owned or missing_p is not None
         result = auto_positions(
-            data.translations, data.frame_time, noise=params["position_noise"], **shared
+            translations, data.frame_time, noise=params["position_noise"], **shared
         )
         data.translations = result.values
+        if missing_p is not None:
+            data.translations = hold_missing(result.values, missing_p)
         for column in range(data.translations.shape[1]):
             data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
     return data
+
+
+def _how(note: dict) -> str:
+    """How auto came by the capture system of a rotation ``note``: found or given."""
+    if note.get("source", "auto") != "auto":
+        return f"as given: source={note['source']}"
+    return "found from the clip" if note.get("source_measured") else "the noise level given"
 
 
 def _format_note(note: dict, positions: bool) -> str:
@@ -58,20 +114,32 @@ def _format_note(note: dict, positions: bool) -> str:
     share = note.get("share", 1.0)
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
+    chose = f"chose {format_params(note['filter'])}{along}"
+    if note.get("model") == "markerless":
+        edge = note.get("wander_edge_hz")
+        up_to = "up to the top" if edge is None else f"up to {edge:g} Hz"
+        return (
+            f"estimated noise {note['noise']:.3g} {unit}, {note['wander']:.3g} of it a wander "
+            f"{up_to}, down where the motion is (markerless model, {_how(note)})"
+            f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
+        )
     # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
     said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
+    source = f" (optical model, {_how(note)})" if "source" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit}{f' ({said})' if said else ''}; "
-        f"chose {format_params(note['filter'])}{along}; expected error {error} {unit}"
+        f"{chose}; expected error {error} {unit}{source}"
     )
 
 
 STEP = StepSpec(
     name="auto",
-    summary="model each joint's noise (level along the clip, AR(1) correlation) and pick "
-    "the Lee-Shin mask and strength for it, window by window",
-    paper="000 Eq. 19-20, 23, 26; AR(1) noise fitted on the displacements' spectrum; "
-    "choice by a risk estimate valid for correlated noise",
+    summary="model each joint's noise (level along the clip, AR(1) correlation; for "
+    "markerless and video captures also its wander below the motion's top frequencies) and "
+    "pick the Lee-Shin mask and strength for it",
+    paper="000 Eq. 19-20, 23, 26; AR(1) noise fitted on the displacements' spectrum, or "
+    "motion, white noise and a wander fitted on it (markerless); choice by a risk estimate "
+    "valid for correlated noise",
     params=(
         Param(
             "strength",
@@ -93,6 +161,15 @@ STEP = StepSpec(
         ),
         Param("mask", "str", "any", "mask families to choose from", choices=("any", *FAMILIES)),
         Param(
+            "source",
+            "str",
+            "auto",
+            "capture system: markerless or video (noise reaching into the motion's band), "
+            "optical or inertial (noise above the motion), or auto (found from the clip: "
+            "markerless when its joints' motion spectrum is flat over 2-8 Hz)",
+            choices=SOURCES,
+        ),
+        Param(
             "noise_deg",
             "float",
             None,
@@ -110,5 +187,6 @@ STEP = StepSpec(
         ),
     ),
     run=_run_auto,
+    sees_missing=True,
     format_note=_format_note,
 )

@@ -174,6 +174,10 @@ class StepSpec:
     resolve: Callable[[dict, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).
     relevant: Callable[[dict], tuple[str, ...]] | None = None
+    # True: the step runs on whole columns of a clip with missing samples and reads the mask
+    # itself (``StepData.motion.missing``, placeholders held); False: each known stretch of
+    # a column with gaps is run on its own.
+    sees_missing: bool = False
 
 
 COMMON_PARAMS = (

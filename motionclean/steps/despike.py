@@ -40,6 +40,13 @@ def _position_floor(data: StepData) -> float:
     return POSITION_FLOOR_HEIGHTS_PER_S * kinematics.body_height(data.motion)
 
 
+def _missing(data: StepData, joints) -> np.ndarray | None:
+    """The dropouts of the given joints' columns, ``(F, len(joints))``, or None."""
+    if data.motion is None or data.motion.missing is None:
+        return None
+    return data.motion.missing[:, joints]
+
+
 def _run_despike(data: StepData, params: dict) -> StepData:
     shared = {key: params[key] for key in ("threshold", "max_spike_s", "trend_ratio", "max_run")}
     data.rotations, report = despike_with_report(
@@ -50,6 +57,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
         max_deg_per_s=params["max_deg_per_s"],
         flip_deg=params["flip_deg"],
         unflip=params["unflip"],
+        missing=_missing(data, data.rotation_joints),
         **shared,
     )
     for column in np.flatnonzero(report.counts()):
@@ -61,6 +69,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
             method="linear" if params["method"] == "slerp" else "cubic",
             min_units_per_s=max(params["min_units_per_s"], _position_floor(data)),
             max_units_per_s=params["max_units_per_s"],
+            missing=_missing(data, data.translation_joints),
             **shared,
         )
         for column in np.flatnonzero(report.counts()):
@@ -198,6 +207,7 @@ STEP = StepSpec(
         ),
     ),
     run=_run_despike,
+    sees_missing=True,
     resolve=_resolve_despike,
     format_note=_format_note,
     format_brief=_format_brief,

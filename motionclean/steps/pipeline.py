@@ -359,7 +359,7 @@ def _run_step(
     )
     if step.span is not None and span is None:
         span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
-    if motion.missing is None:
+    if motion.missing is None or step.spec.sees_missing:
         data = step.spec.run(data, step.params)
     else:
         data = _run_on_known(step, data, motion)
@@ -550,8 +550,8 @@ def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] 
 
 #: The default pipeline (README, "Default pipeline").
 DEFAULT_STEPS: list[dict] = [
-    {"filter": "fill-gaps"},
     {"filter": "despike"},
+    {"filter": "fill-gaps"},
     {"filter": "auto"},
     {"filter": "footlock"},
 ]

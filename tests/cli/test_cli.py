@@ -213,8 +213,8 @@ def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, ca
     assert code == 0, err
     data = json.loads(report.read_text())
     assert [step["filter"] for step in data["pipeline"]] == [
-        "fill-gaps",
         "despike",
+        "fill-gaps",
         "auto",
         "footlock",
     ]

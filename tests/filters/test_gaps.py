@@ -7,7 +7,17 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, corpus_clip, degrees_between, max_degrees, run_cli
+from helpers import (
+    REALNOISE,
+    ROOT,
+    SAMPLE,
+    corpus_clip,
+    degrees_between,
+    max_degrees,
+    needs_realnoise,
+    run_cli,
+    smooth_synthetic,
+)
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -156,6 +166,64 @@ def test_a_follower_body_is_filled_from_its_donor():
     np.testing.assert_allclose(filled.translations, p, atol=1e-12)
 
 
+def test_a_body_that_moves_with_the_gapped_one_only_beside_the_gap_is_no_donor():
+    """Body 1 moves exactly with body 0 for 12 frames on each side of body 0's gap (the
+    stretch donors are judged on) and does its own thing elsewhere, inside the gap too:
+    the fill, checked on gaps planted further out, does not follow it."""
+    truth = smooth_synthetic(frames=400, joints=2, seed=31)
+    other = truth[:, 1].copy()
+    other[168:232] = truth[168:232, 0]  # with body 0 around the gap (180-220) ...
+    bump = quat.exp(np.sin(np.linspace(0.0, np.pi, 40))[:, None] * np.array([0.0, 0.6, 0.0]))
+    other[180:220] = quat.multiply(truth[180:220, 0], bump)  # ... but not inside it
+    q = quat.make_continuous(np.stack([truth[:, 0], other], axis=1))
+    missing = np.zeros((400, 2), dtype=bool)
+    missing[180:220, 0] = True
+    filled = fill_gaps(q, np.zeros((400, 2, 3)), missing, max_gap=60)
+    assert (filled.donor == -1).all()
+    assert max_degrees(filled.rotations[180:220, 0], q[180:220, 0]) < 10.0  # 69 following it
+
+
+@needs_realnoise
+@pytest.mark.parametrize("task", ["dance", "exotic"])
+def test_real_coordinates_that_do_not_move_together_are_no_donors(tmp_path, task):
+    """theia-biorbd loses the trunk and arm coordinates while the legs are tracked: the
+    fill follows no leg coordinate (it once bridged the trunk after the hip, the shoulder
+    after the knee) and is no worse than a straight line against the truth."""
+    estimate = REALNOISE / "estimates" / "theia-biorbd" / f"{task}_participant_01.csv"
+    truth_file = REALNOISE / "truth" / f"{task}_participant_01.csv"
+    header = estimate.read_text().splitlines()[0].split(",")
+    x = np.genfromtxt(estimate, delimiter=",", skip_header=1)
+    keep = [j for j in range(1, len(header)) if np.mean(~np.isnan(x[:, j])) > 0.5]
+    angles = np.degrees(x[:, keep])
+    missing = np.isnan(angles)
+    held = np.where(missing, 0.0, angles)
+    half = np.radians(held)[..., None] / 2.0 * np.array([0.0, 0.0, 1.0])  # about z
+    q = quat.make_continuous(quat.exp(half), axis=0)
+    filled = fill_gaps(q, np.zeros(q.shape[:-1] + (3,)), missing, max_gap=30)
+    assert (filled.donor == -1).all()
+    truth_header = truth_file.read_text().splitlines()[0].split(",")
+    t = np.genfromtxt(truth_file, delimiter=",", skip_header=1)
+    names = [header[j] for j in keep]
+    y = np.stack([np.interp(x[:, 0], t[:, 0], t[:, truth_header.index(n)]) for n in names], 1)
+    done = missing & ~filled.missing
+    frames = np.arange(len(x))
+    line = np.stack(
+        [
+            np.interp(frames, frames[~missing[:, c]], held[~missing[:, c], c])
+            for c in range(len(keep))
+        ],
+        axis=1,
+    )
+    ours = np.degrees(2.0 * quat.log(filled.rotations)[..., 2])
+    bias = np.nanmean(np.where(missing, np.nan, angles - np.degrees(y)), axis=0)
+
+    def error(values):
+        d = (values - np.degrees(y) - bias + 180.0) % 360.0 - 180.0
+        return np.sqrt(np.mean(d[done] ** 2))
+
+    assert error(ours) <= 1.01 * error(line)
+
+
 def with_gap(clip: mc.Motion, joint: int, frames: slice) -> mc.Motion:
     missing = np.zeros((clip.n_frames, clip.n_joints), dtype=bool)
     missing[frames, joint] = True
@@ -172,7 +240,9 @@ def test_step_fills_short_gaps_reports_them_and_leaves_long_ones():
     assert note["gaps"] == 2 and note["longest"] == 90
     assert note["filled"] == [[100, 112]] and note["missing"] == [[200, 290]]
     assert out.missing is not None and out.missing[:, wrist].sum() == 90
-    assert max_degrees(out.rotations[100:112, wrist], clip.rotations[100:112, wrist]) < 3.0
+    # within 4 degrees: beside the gap the donor the wrist would follow (RThumb) flips by
+    # half turns, so the trials bridge it on its own (2.0 degrees with RThumb, 3.7 without)
+    assert max_degrees(out.rotations[100:112, wrist], clip.rotations[100:112, wrist]) < 4.0
     with pytest.raises(MotionError, match=r"'RightWrist' is missing on frames 200-289"):
         format_bvh(out)
     filled_all, _ = Pipeline.from_inline(["fill-gaps:max_gap=1"]).run(gappy)

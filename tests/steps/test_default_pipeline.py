@@ -75,8 +75,8 @@ def test_default_clean_estimates_the_planted_noise_and_removes_it(planted, tmp_p
     cleaned = clean(capsys, path, tmp_path / "c.bvh", "--report", report_path)
     report = json.loads(report_path.read_text())
     assert [step["filter"] for step in report["pipeline"]] == [
-        "fill-gaps",
         "despike",
+        "fill-gaps",
         "auto",
         "footlock",
     ]
