@@ -215,7 +215,7 @@ def main() -> None:
     walks(
         Pipeline.from_tables(toes, "toes"),
         Pipeline.from_inline(["footlock:toes=true"]),
-        "footlock:toes=true (toes held too)",
+        "footlock:toes=true (toes held by the foot too)",
     )
     quality()
     untouched()

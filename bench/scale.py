@@ -1,10 +1,9 @@
 """Long clips: read + write, clean and memory from 1k to 100k frames, against peers.
 
-Run ``python bench/scale.py [--frames 1000 10000 100000]``. The clips are the corpus clip
-131_02 (31 joints, 1,247 frames) cut or repeated to each length, every value's text kept.
-For each length it measures, in this process (best of at least three interleaved runs for
-read + write and ``np.loadtxt``, best of two for ``clean``: the first touch of fresh memory
-costs this machine more than the work on it):
+Run ``python bench/scale.py [--frames 1000 10000 100000] [--rounds 5]``. The clips are the
+corpus clip 131_02 (31 joints, 1,247 frames) cut or repeated to each length, every value's
+text kept. For each length it measures, in this process, in interleaved rounds (ours, then
+the peer, then ours again in the next round: load on a shared machine falls on both alike):
 
 - read + write with every rotation changed (motionclean ``load`` + ``save``; the change
   itself, one quaternion product, is not timed: pybvh changes nothing) against pybvh
@@ -13,6 +12,10 @@ costs this machine more than the work on it):
   the same MOTION block (the floor of any text reader): the ratio clean / loadtxt;
 - peak resident memory of a fresh process running that ``clean``, over the file size;
 - the terminal output of that ``clean``: lines and the longest line.
+
+Each ratio is the median of the rounds' ratios, with their spread (lowest-highest); times
+are medians. Short clips are timed several times a round (the best of them counts), so
+each round's figure is not the timer's noise. The load average is printed before and after.
 """
 
 from __future__ import annotations
@@ -24,10 +27,11 @@ import subprocess
 import sys
 import tempfile
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from common import best_of, corpus_clips, elapsed
+from common import corpus_clips, elapsed
 
 import motionclean as mc
 from motionclean.cli.main import main as cli_main
@@ -50,6 +54,9 @@ except (OSError, StopIteration):
     print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
 """
 
+#: Seconds of work a round gives each short measurement (timed that many times, best kept).
+ROUND_SECONDS = 0.3
+
 
 def build_clip(source: Path, frames: int, target: Path) -> Path:
     """``source`` cut or repeated to ``frames`` frames (rows copied as text)."""
@@ -65,8 +72,8 @@ def build_clip(source: Path, frames: int, target: Path) -> Path:
     return target
 
 
-def read_write(clip: Path, out: Path, repeats: int) -> tuple[float, float]:
-    """Best read + write time of motionclean (every rotation changed) and of pybvh."""
+def read_write_jobs(clip: Path, out: Path) -> tuple[Callable[[], float], Callable[[], float]]:
+    """Timed read + write of motionclean (every rotation changed) and of pybvh."""
     import pybvh
 
     turn = quat.from_axis_angle(np.array([0.48, 0.6, 0.64]), np.deg2rad(0.5))
@@ -77,14 +84,10 @@ def read_write(clip: Path, out: Path, repeats: int) -> tuple[float, float]:
         changed = motion[0].replace(rotations=quat.multiply(motion[0].rotations, turn))
         return read + elapsed(lambda: mc.save(changed, out / "mc.bvh"))
 
-    def theirs() -> None:
-        pybvh.write_bvh_file(pybvh.read_bvh_file(clip), out / "pybvh.bvh")
+    def theirs() -> float:
+        return elapsed(lambda: pybvh.write_bvh_file(pybvh.read_bvh_file(clip), out / "pybvh.bvh"))
 
-    ours_t = theirs_t = np.inf
-    for _ in range(repeats):  # interleaved
-        ours_t = min(ours_t, ours())
-        theirs_t = min(theirs_t, elapsed(theirs))
-    return ours_t, theirs_t
+    return ours, theirs
 
 
 def motion_block(clip: Path) -> str:
@@ -93,17 +96,22 @@ def motion_block(clip: Path) -> str:
     return text[text.index("\n", at) + 1 :]
 
 
-def clean(clip: Path, out: Path) -> tuple[float, list[str]]:
-    """Wall time and terminal lines of the default ``clean`` with an HTML report."""
+def clean_job(clip: Path, out: Path, lines: list[str]) -> Callable[[], float]:
+    """Timed default ``clean`` with an HTML report; its terminal lines go to ``lines``."""
     args = ["clean", str(clip), "-o", str(out / "clean.bvh"), "--report", str(out / "r.html")]
-    stdout = io.StringIO()
 
-    def run() -> None:
-        with contextlib.redirect_stdout(stdout), contextlib.suppress(SystemExit):
-            cli_main(args)
+    def run() -> float:
+        stdout = io.StringIO()
 
-    seconds = elapsed(run)
-    return seconds, stdout.getvalue().splitlines()
+        def clean() -> None:
+            with contextlib.redirect_stdout(stdout), contextlib.suppress(SystemExit):
+                cli_main(args)
+
+        seconds = elapsed(clean)
+        lines[:] = stdout.getvalue().splitlines()
+        return seconds
+
+    return run
 
 
 def peak_memory(clip: Path, out: Path) -> int:
@@ -115,36 +123,80 @@ def peak_memory(clip: Path, out: Path) -> int:
     return int(done.stdout.split()[-1])
 
 
+def interleaved(pairs: dict[str, tuple], rounds: int) -> dict[str, np.ndarray]:
+    """``{name: (ours, peer)}`` of timed jobs run in ``rounds`` interleaved rounds (each job
+    once a round, in turn, after a first run not kept); ``{"name/ours": times, "name/peer":
+    times}``, one time per round. A job that takes under :data:`ROUND_SECONDS` is run that
+    long a round and its best kept."""
+    jobs = {
+        f"{name}/{side}": job
+        for name, pair in pairs.items()
+        for side, job in zip(("ours", "peer"), pair, strict=True)
+    }
+    repeats = {}
+    for key, job in jobs.items():  # warm up (allocator, caches) and size the repeats
+        repeats[key] = max(1, int(ROUND_SECONDS / max(job(), 1e-6)))
+    times: dict[str, list[float]] = {key: [] for key in jobs}
+    for _ in range(rounds):
+        for key, job in jobs.items():
+            times[key].append(min(job() for _ in range(repeats[key])))
+    return {key: np.array(value) for key, value in times.items()}
+
+
+def spread(values: np.ndarray, digits: int = 2) -> str:
+    """``median (lowest-highest)``."""
+    return f"{np.median(values):.{digits}f} ({values.min():.{digits}f}-{values.max():.{digits}f})"
+
+
+def load_average() -> str:
+    try:
+        with open("/proc/loadavg") as status:
+            return " ".join(status.read().split()[:3])
+    except OSError:
+        return "unknown"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, nargs="+", default=[1000, 10_000, 100_000])
+    parser.add_argument("--rounds", type=int, default=5, help="interleaved rounds (>= 5)")
+    parser.add_argument("--source", type=Path, help="clip to cut or repeat (default: 131_02)")
     args = parser.parse_args()
-    source = next(c for c in corpus_clips() if c.name == "131_02.bvh")
+    rounds = max(5, args.rounds)
+    source = args.source or next(c for c in corpus_clips() if c.name == "131_02.bvh")
     warnings.filterwarnings("ignore")  # pybvh warns about world-up guesses
+    load_before = load_average()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         for frames in args.frames:
             clip = build_clip(source, frames, out / f"scale_{frames}.bvh")
-            repeats = max(3, 30_000 // frames)
-            ours, theirs = read_write(clip, out, repeats)
             block = motion_block(clip)
-            loadtxt = best_of(lambda b=block: np.loadtxt(io.StringIO(b)), 3)
-            clean_s, lines = min(clean(clip, out) for _ in range(2))
+            lines: list[str] = []
+            pairs = {
+                "read + write": read_write_jobs(clip, out),
+                "clean": (
+                    clean_job(clip, out, lines),
+                    lambda b=block: elapsed(lambda: np.loadtxt(io.StringIO(b))),
+                ),
+            }
+            times = interleaved(pairs, rounds)
             peak = peak_memory(clip, out)
-            size = clip.stat().st_size
-            rows.append((frames, size, ours, theirs, clean_s, loadtxt, peak, lines))
-
-    print("Long clips: 131_02 (31 joints) cut or repeated; ratios measured in one process\n")
+            rows.append((frames, clip.stat().st_size, times, peak, list(lines)))
+    print(f"Long clips: 131_02 (31 joints) cut or repeated; {rounds} interleaved rounds")
+    print(f"load average before {load_before}, after {load_average()}\n")
     print(
         "| frames | file MB | read + write ms | pybvh ms | pybvh / ours | clean + HTML s "
-        "| loadtxt s | clean / loadtxt | peak MB | peak / file | terminal lines | longest |"
+        "| loadtxt ms | clean / loadtxt | peak MB | peak / file | terminal lines | longest |"
     )
     print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for frames, size, ours, theirs, clean_s, loadtxt, peak, lines in rows:
+    for frames, size, times, peak, lines in rows:
+        ours, theirs = times["read + write/ours"], times["read + write/peer"]
+        clean, loadtxt = times["clean/ours"], times["clean/peer"]
         print(
-            f"| {frames:,} | {size / 1e6:.1f} | {ours * 1e3:.0f} | {theirs * 1e3:.0f} "
-            f"| {theirs / ours:.2f} | {clean_s:.2f} | {loadtxt:.2f} | {clean_s / loadtxt:.1f} "
+            f"| {frames:,} | {size / 1e6:.1f} | {np.median(ours) * 1e3:.0f} "
+            f"| {np.median(theirs) * 1e3:.0f} | {spread(theirs / ours)} | {np.median(clean):.2f} "
+            f"| {np.median(loadtxt) * 1e3:.0f} | {spread(clean / loadtxt, 1)} "
             f"| {peak / 1e6:.0f} | {peak / size:.1f} | {len(lines)} "
             f"| {max(map(len, lines), default=0)} |"
         )

@@ -28,6 +28,7 @@ from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
     PIPE_OPTION,
+    SOURCE_OPTION,
     STEP_OPTION,
     UP_OPTION,
     pipeline_from_options,
@@ -244,6 +245,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     "tcp://HOST:8786 (workers read and write the same paths: shared storage), or local[:N] "
     "for a cluster of N processes on this machine. Needs the dask extra.",
 )
+@SOURCE_OPTION
 @UP_OPTION
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
 @read_options
@@ -257,6 +259,7 @@ def batch_command(
     report_dir: str | None,
     skip_existing: bool,
     scheduler: str | None,
+    capture: str,
     up: str | None,
     quiet: bool,
     skeleton: str | None,
@@ -269,7 +272,7 @@ def batch_command(
     ever written inside IN_DIR. A clip that fails is named on stderr and the others go on;
     the exit code is then 1. Without -p or -f the default pipeline runs.
     """
-    pipeline = pipeline_from_options(pipe, steps)
+    pipeline = pipeline_from_options(pipe, steps, capture)
     source_root, out_root = Path(in_dir), Path(out_dir)
     pages = Path(report_dir) if report_dir else None
     _check_folders(source_root, out_root, pages)

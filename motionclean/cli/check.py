@@ -35,6 +35,7 @@ from ..run.pool import default_workers, run_jobs
 from .options import (
     FILE_PATH,
     PIPE_OPTION,
+    SOURCE_OPTION,
     STEP_OPTION,
     UP_OPTION,
     FiniteRange,
@@ -214,6 +215,7 @@ def _why(
     show_default=True,
     help="Relative tolerance: a figure fails above baseline x (1 + T).",
 )
+@SOURCE_OPTION
 @UP_OPTION
 def check_command(
     clips: tuple[str, ...],
@@ -223,6 +225,7 @@ def check_command(
     update: bool,
     replace: bool,
     tolerance: float,
+    capture: str,
     up: str | None,
 ) -> None:
     """Clean CLIPs and compare their figures with a baseline, for CI.
@@ -231,7 +234,7 @@ def check_command(
     of the baseline, 1 naming each clip and figure that got worse. Nothing is written
     except the baseline with --update.
     """
-    pipeline = pipeline_from_options(pipe, steps)
+    pipeline = pipeline_from_options(pipe, steps, capture)
     baseline_path = Path(baseline)
     if replace and not update:
         raise UsageError("--replace goes with --update")

@@ -21,7 +21,7 @@ from ..core import kinematics
 from ..core.errors import MotionError, UsageError
 from ..core.restpose import rest_frames
 from ..core.version import __version__
-from ..filters.auto import estimate_noise
+from ..filters.auto import capture_source, estimate_noise
 from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
@@ -46,6 +46,7 @@ from .options import (
     FILE_PATH,
     PATH,
     PIPE_OPTION,
+    SOURCE_OPTION,
     STEP_OPTION,
     UP_OPTION,
     FiniteRange,
@@ -321,6 +322,7 @@ def resample_command(
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
+@SOURCE_OPTION
 @UP_OPTION
 @read_options
 def clean(
@@ -331,6 +333,7 @@ def clean(
     report_paths: tuple[str, ...],
     in_place: bool,
     quiet: bool,
+    capture: str,
     up: str | None,
     skeleton: str | None,
     body_model: str | None,
@@ -340,7 +343,7 @@ def clean(
 
     Without -p or -f the default pipeline runs (see `motionclean filters` and the README).
     """
-    pipeline = pipeline_from_options(pipe, steps)
+    pipeline = pipeline_from_options(pipe, steps, capture)
     if output is None:
         if not in_place:
             raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
@@ -389,6 +392,7 @@ def _dropout_lines(motion) -> list[str]:
 @click.argument("cleaned", type=PATH, required=False)
 @click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
 @click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
+@SOURCE_OPTION
 @UP_OPTION
 @read_options
 def report(
@@ -396,12 +400,14 @@ def report(
     cleaned: str | None,
     json_path: str | None,
     html_path: str | None,
+    capture: str,
     up: str | None,
     skeleton: str | None,
     body_model: str | None,
     exclude: tuple[str, ...],
 ) -> None:
-    """Noise figures of SOURCE, or before/after figures against its CLEANED version."""
+    """Noise figures of SOURCE, or before/after figures against its CLEANED version, and the
+    capture system `clean` would assume for SOURCE (--source) and why."""
     for path in (json_path, html_path):
         if path:
             check_report_output(path)
@@ -414,6 +420,7 @@ def report(
         check_compatible(before, after)
     series = build_series(before, after)
     result = build_report(before, after, file=source, series=series)
+    result["capture_source"] = found_source(before, capture)
     # every page is rendered before anything is written: a failure leaves no file behind
     pages = {}
     if json_path:
@@ -423,6 +430,20 @@ def report(
     text = format_table(result)
     write_outputs(before, None, pages)
     click.echo(text)
+
+
+def found_source(motion, source: str) -> dict:
+    """The capture system ``clean`` would assume for ``motion`` given ``--source``, as an
+    auto note says it (``model``, ``source``, ``motion_slope``, ``source_measured``)."""
+    rotations = motion.rotations[:, motion.layout.has_rotation]
+    model, slope = capture_source(rotations, motion.frame_time, source)
+    measured = source == "auto"
+    return {
+        "model": model,
+        "source": source,
+        "motion_slope": slope if measured and math.isfinite(slope) else None,
+        "source_measured": measured,
+    }
 
 
 LEVELS_OPTION = click.option(

@@ -3,6 +3,7 @@ lines. The work itself is in :mod:`motionclean.run.jobs`."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Sequence
@@ -11,6 +12,7 @@ from pathlib import Path
 import click
 
 from ..core.errors import MotionError, UsageError
+from ..filters.auto import SOURCES
 from ..io import FORMATS, ReadOptions
 from ..steps.pipeline import Pipeline
 
@@ -67,15 +69,42 @@ class FiniteRange(click.FloatRange):
         return number
 
 
-def pipeline_from_options(pipe: str | None, steps: tuple[str, ...]) -> Pipeline:
-    """The pipeline from ``-p`` or ``-f``, or the default one; validated, no clip read."""
+def pipeline_from_options(
+    pipe: str | None, steps: tuple[str, ...], source: str = "auto"
+) -> Pipeline:
+    """The pipeline from ``-p`` or ``-f``, or the default one, its ``auto`` steps told the
+    capture ``source`` (``--source``); validated, no clip read."""
     if pipe and steps:
         raise UsageError("use either -p PIPE.toml or -f STEP, not both")
     if pipe:
-        return Pipeline.from_toml(pipe)
-    if steps:
-        return Pipeline.from_inline(list(steps))
-    return Pipeline.default()
+        pipeline = Pipeline.from_toml(pipe)
+    elif steps:
+        pipeline = Pipeline.from_inline(list(steps))
+    else:
+        pipeline = Pipeline.default()
+    return with_source(pipeline, source)
+
+
+def with_source(pipeline: Pipeline, source: str) -> Pipeline:
+    """``pipeline`` with ``source`` as the ``source`` of its ``auto`` steps (``"auto"``:
+    as they are). A step that names another source, or a pipeline without ``auto``, is a
+    usage error: the option would be ignored."""
+    if source == "auto":
+        return pipeline
+    steps, found = [], False
+    for number, step in enumerate(pipeline.steps, 1):
+        if step.spec.name == "auto":
+            found = True
+            asked = step.params.get("source", "auto")
+            if asked not in ("auto", source):
+                raise UsageError(
+                    f"--source {source} conflicts with step {number} (auto): source={asked}"
+                )
+            step = dataclasses.replace(step, params={**step.params, "source": source})
+        steps.append(step)
+    if not found:
+        raise UsageError(f"--source {source}: the pipeline has no auto step, which it tells")
+    return dataclasses.replace(pipeline, steps=steps)
 
 
 def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
@@ -132,6 +161,20 @@ STEP_OPTION = click.option(
     multiple=True,
     metavar="STEP",
     help="Inline step NAME:key=value,...; repeatable, applied in order.",
+)
+
+
+SOURCE_OPTION = click.option(
+    "--source",
+    "capture",
+    type=click.Choice(SOURCES),
+    default="auto",
+    show_default=True,
+    help="The capture system, which tells auto where noise may lie: markerless or video "
+    "(pose estimators: noise that wanders down among the motion's frequencies), optical or "
+    "inertial (noise above the motion), or auto: found from each clip (markerless when its "
+    "joints' motion spectrum is flat over 2-8 Hz, as no clean capture's is). The summary "
+    "and reports say which was assumed and why.",
 )
 
 

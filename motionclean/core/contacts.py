@@ -399,6 +399,23 @@ def detect(
     return contacts, ground
 
 
+def point_contacts(
+    positions: np.ndarray,
+    points: list[int],
+    up: int,
+    height: float,
+    frame_time: float,
+    params: ContactParams,
+    ground: float,
+) -> np.ndarray:
+    """``(F, n_points)``: frames where each point is itself planted, by :func:`detect`'s
+    rules applied to the point alone (its own height above ``ground`` and its own speed):
+    a toe is planted from the foot flat through the heel rising, not while the foot rolls
+    onto it or pivots about the heel."""
+    alone = [Foot(str(p), -1, -1, p, (p,)) for p in points]
+    return detect(positions, alone, up, height, frame_time, params, ground=ground)[0]
+
+
 def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:
     """Per foot, the contacts as inclusive ``(first, last)`` frame pairs."""
     runs = []

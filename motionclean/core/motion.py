@@ -496,13 +496,15 @@ class Motion:
         carry = None
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
-            q = self.rotations[block, chosen]
+            q = np.ascontiguousarray(self.rotations[block, chosen])  # (faster to read)
             read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
+            # the principal angles and the middle angle's sine, made once for both uses
+            principal, sine = quat.euler_and_middle_sine(q, order)
             if self.source_rotations is not None:
                 kept = _same_rotations(q, self.source_rotations[block, chosen])
             else:
-                kept = _same_as_angles(q, order, read)
-            angles, carry = _continue_block(q, order, read, kept, carry)
+                kept = _same_as_angles(q, order, read, sine)
+            angles, carry = _continue_block(q, order, read, kept, carry, principal)
             values[block, cols] = angles.reshape(q.shape[0], -1)
 
 
@@ -534,15 +536,21 @@ def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
     return kept
 
 
-def _same_as_angles(q: np.ndarray, order: str, angles: np.ndarray) -> np.ndarray:
+def _same_as_angles(
+    q: np.ndarray, order: str, angles: np.ndarray, sine: np.ndarray | None = None
+) -> np.ndarray:
     """:func:`_same_rotations` of ``q`` ``(F, J, 4)`` and the rotations of Euler ``angles``
     ``(F, J, 3)`` (degrees, in ``order``), converted only where the middle angle's sine
     allows the same rotation: a sample within :data:`SAME_ROTATION` per component moves
-    it by at most ``4 SAME_ROTATION`` (:func:`quat.euler_middle_sine`), so one further
-    off than :data:`MIDDLE_SINE_SLACK` has changed (most changed samples are)."""
+    it by at most ``4 SAME_ROTATION`` (:func:`quat.euler_middle_sine`, or ``sine`` when
+    given), so one further off than :data:`MIDDLE_SINE_SLACK` has changed (most changed
+    samples are)."""
     kept = np.zeros(q.shape[:-1], dtype=bool)
-    maybe = np.abs(quat.euler_middle_sine(q, order) - np.sin(np.deg2rad(angles[..., 1])))
-    maybe = maybe <= MIDDLE_SINE_SLACK
+    if sine is None:
+        sine = quat.euler_middle_sine(q, order)
+    maybe = np.sin(np.deg2rad(angles[..., 1]))
+    np.subtract(sine, maybe, out=maybe)
+    maybe = np.abs(maybe, out=maybe) <= MIDDLE_SINE_SLACK
     if maybe.any():
         kept[maybe] = _same_rotations(q[maybe], quat.from_euler(angles[maybe], order))
     return kept
@@ -574,22 +582,24 @@ def continuous_euler(
     return out
 
 
-def _continue_block(q, order, reference, kept, carry):
+def _continue_block(q, order, reference, kept, carry, principal=None):
     """:func:`continuous_euler` of a block of frames, continuing from ``carry`` (None for
-    the clip's first block); returns the block's angles and the carry for the next one."""
+    the clip's first block); returns the block's angles and the carry for the next one.
+    ``principal``: ``quat.to_euler(q, order)`` when the caller has it."""
     frame = np.arange(q.shape[0])[:, None]
     columns = np.arange(q.shape[1])[None, :]
     # The chain restarts where the rotation itself turns by more than a quarter turn in one
     # frame (a cut, or data that is no motion): there is no curve to continue.
-    before = q[:1] if carry is None else carry[0][None]
     # (A turn of more than 90 degrees: |q_{i-1} . q_i| = cos(angle / 2) below cos 45.)
-    dots = np.einsum("fji,fji->fj", np.concatenate([before, q[:-1]]), q)
-    leap = np.abs(dots) < math.sqrt(0.5)
+    dots = np.empty(q.shape[:-1])
+    dots[:1] = np.einsum("fji,fji->fj", q[:1] if carry is None else carry[0][None], q[:1])
+    dots[1:] = np.einsum("fji,fji->fj", q[:-1], q[1:])
+    leap = np.abs(dots, out=dots) < math.sqrt(0.5)
     is_anchor = kept | leap
     if carry is None:
         is_anchor[0] = True  # the clip's first frame
     elif not is_anchor.any():
-        return _continue_run(q, order, carry)
+        return _continue_run(q, order, carry, principal)
     # A changed anchor is written as the triple nearest its original angles (computed for
     # those samples only: the others never read it).
     anchor_values = reference
@@ -601,68 +611,103 @@ def _continue_block(q, order, reference, kept, carry):
         )
     anchor = np.maximum.accumulate(np.where(is_anchor, frame, -1), axis=0)  # (F, J), -1: before
     local = anchor >= 0
+    # each sample's anchor as an index into the block's (F * J) samples
     anchor_at = np.maximum(anchor, 0)
-    anchor_angles = anchor_values[anchor_at, columns]  # (F, J, 3)
+    anchor_at *= q.shape[1]
+    anchor_at += columns
+    # whether each anchor is on the other Euler solution (cos of its middle angle < 0),
+    # computed at the anchors only and read through anchor_at
+    anchors = np.flatnonzero(is_anchor)
+    anchor_frames, anchor_joints = np.divmod(anchors, q.shape[1])
+    on_other = np.zeros(is_anchor.size, dtype=bool)
+    on_other[anchors] = np.cos(np.deg2rad(anchor_values[anchor_frames, anchor_joints, 1])) < 0.0
+    anchor_other = on_other.take(anchor_at)
+    last_anchor = anchor_values[anchor_at[-1] // q.shape[1], columns[0]]  # (J, 3)
     if carry is not None:
-        anchor_angles = np.where(local[..., None], anchor_angles, carry[3][None])
-    principal, other, switch = _solutions(q, order, None if carry is None else carry[1])
+        anchor_other = np.where(local, anchor_other, np.cos(np.deg2rad(carry[3][..., 1])) < 0.0)
+        last_anchor = np.where(local[-1][:, None], last_anchor, carry[3])
+    principal, other, switch = _solutions(q, order, None if carry is None else carry[1], principal)
     if carry is None:
         switch[0] = False
     switches = np.cumsum(switch, axis=0)
-    switches_since = switches - switches[anchor_at, columns]
+    switches_since = switches - switches.take(anchor_at)
     if carry is not None:
         switches_since = np.where(local, switches_since, switches + carry[4][None])
-    anchor_other = np.cos(np.deg2rad(anchor_angles[..., 1])) < 0.0
     flipped = anchor_other ^ (switches_since % 2 == 1)
-    candidate = np.where(flipped[..., None], other, principal)
+    candidate = np.where(flipped[..., None], other, principal) if flipped.any() else principal
     # Unwrap by whole turns within each run, starting from the anchor's angles.
     start = np.where(is_anchor[..., None], anchor_values, candidate)
-    step = np.diff(start, axis=0, prepend=start[:1] if carry is None else carry[2][None])
-    turns = np.where(is_anchor[..., None], 0.0, np.round(step / 360.0))
-    total = np.cumsum(turns, axis=0)  # whole numbers: exact
-    since = total - total[anchor_at, columns]
+    turns = _turns(start, start[0] if carry is None else carry[2])
+    np.copyto(turns, 0.0, where=is_anchor[..., None])
+    total = np.cumsum(turns, axis=0, out=turns)  # whole numbers: exact
+    since = total - total.reshape(-1, 3).take(anchor_at, axis=0)
     if carry is not None:
         since = np.where(local[..., None], since, total + carry[5][None])
-    angles = np.where(is_anchor[..., None], anchor_values, start - 360.0 * since)
-    last = (q[-1], principal[-1], start[-1], anchor_angles[-1], switches_since[-1], since[-1])
+    # (an anchor's own turns since itself are 0: its start, the anchor's angles, as they are)
+    angles = start - 360.0 * since
+    last = (q[-1], principal[-1], start[-1], last_anchor, switches_since[-1], since[-1])
     return angles, last
 
 
-def _continue_run(q, order, carry):
+def _continue_run(q, order, carry, principal=None):
     """:func:`_continue_block` of a block without anchors (no kept sample, no leap): every
     frame continues the run the carry comes from. The same operations on what the general
     case would select, so the same bits."""
-    principal, other, switch = _solutions(q, order, carry[1])
-    switches_since = np.cumsum(switch, axis=0) + carry[4][None]
+    principal, other, switch = _solutions(q, order, carry[1], principal)
+    switches_since = np.cumsum(switch, axis=0)
+    switches_since += carry[4][None]
     anchor_other = np.cos(np.deg2rad(carry[3][..., 1])) < 0.0
     flipped = anchor_other ^ (switches_since % 2 == 1)
-    start = np.where(flipped[..., None], other, principal)
-    step = np.diff(start, axis=0, prepend=carry[2][None])
-    since = np.cumsum(np.round(step / 360.0), axis=0) + carry[5][None]
-    angles = start - 360.0 * since
-    last = (q[-1], principal[-1], start[-1], carry[3], switches_since[-1], since[-1])
-    return angles, last
+    start = np.where(flipped[..., None], other, principal) if flipped.any() else principal
+    since = np.cumsum(_turns(start, carry[2]), axis=0)
+    since += carry[5][None]
+    last = (q[-1], principal[-1], start[-1], carry[3], switches_since[-1], since[-1].copy())
+    since *= 360.0
+    return np.subtract(start, since, out=since), last
 
 
-def _solutions(q, order, last):
+def _turns(start: np.ndarray, before: np.ndarray) -> np.ndarray:
+    """``round(step / 360)`` of each step of ``start`` ``(F, J, 3)`` from the frame before
+    (``before`` ``(J, 3)`` before the first): the whole turns an unwrap takes off."""
+    step = np.empty_like(start)
+    np.subtract(start[0], before, out=step[0])
+    np.subtract(start[1:], start[:-1], out=step[1:])
+    step /= 360.0
+    return np.round(step, out=step)
+
+
+def _solutions(q, order, last, principal=None):
     """The two Euler solutions of ``q`` (principal, other) and the frames where the other is
     nearer the frame before's principal angles (``last``: those of the frame before the
-    block; None: the block's first frame is compared with itself).
+    block; None: the block's first frame is compared with itself). ``principal``:
+    ``quat.to_euler(q, order)`` when the caller has it.
 
     The two solutions are symmetric (P->O is as far as O->P, P->P as O->O, modulo whole
     turns), so whether a frame switches does not depend on the solution the frame before
     was written on: the solution in use is the anchor's, switched at every such frame."""
-    principal = quat.to_euler(q, order)
+    if principal is None:
+        principal = quat.to_euler(q, order)
     other = principal + [180.0, 0.0, 180.0]
-    other[..., 1] = 180.0 - principal[..., 1]
-    previous = np.concatenate([principal[:1] if last is None else last[None], principal[:-1]])
-    switch = _turn_distance(other, previous) < _turn_distance(principal, previous)
+    np.subtract(180.0, principal[..., 1], out=other[..., 1])
+    switch = np.empty(principal.shape[:-1], dtype=bool)
+    first = principal[:1] if last is None else last[None]
+    switch[:1] = _turn_distance(other[:1], first) < _turn_distance(principal[:1], first)
+    before = principal[:-1]
+    np.less(
+        _turn_distance(other[1:], before), _turn_distance(principal[1:], before), out=switch[1:]
+    )
     return principal, other, switch
 
 
 def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Squared distance between Euler triples ``(..., 3)`` (degrees), each angle's
-    difference taken modulo whole turns."""
+    difference taken modulo whole turns (summed in the order ``np.sum`` takes)."""
     d = a - b
-    d -= 360.0 * np.round(d / 360.0)
-    return np.sum(d * d, axis=-1)
+    turns = d / 360.0
+    np.round(turns, out=turns)
+    turns *= 360.0
+    d -= turns
+    d *= d
+    total = d[..., 0] + d[..., 1]
+    total += d[..., 2]
+    return total

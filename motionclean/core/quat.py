@@ -348,6 +348,20 @@ def log_shortest(q: np.ndarray) -> np.ndarray:
     return log(np.where(np.signbit(q[..., :1]), -q, q))
 
 
+def log_relative(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``log_shortest(relative(p, q))`` bit for bit, in one pass of planes (no product
+    array, no sign-flipped copy): the shorter-arc displacement from ``p`` to ``q``."""
+    p = shaped(p, 4, "p")
+    q = shaped(q, 4, "q")
+    return _blockwise(_log_relative_planes, (p, q), 3, 6)
+
+
+def _log_relative_planes(out, p, q, tmp) -> None:
+    product, scratch = tmp[:4], tmp[4:]
+    multiply_planes(product, p, q, scratch, conjugate_p=True)
+    log_planes(out, product, scratch, shortest=True)
+
+
 def displacements(q: np.ndarray) -> np.ndarray:
     """Angular displacements ``w_i = log(q_i^-1 q_{i+1})`` along axis 0 (000 Eq. 19):
     ``(F, ..., 4)`` -> ``(F-1, ..., 3)``, half-angle units.
@@ -510,6 +524,36 @@ def _nearest_turn(angle_rad: np.ndarray, ref_rad: np.ndarray) -> np.ndarray:
 GIMBAL_EPS = 1e-9
 
 
+def euler_and_middle_sine(q: np.ndarray, order: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`to_euler` ``(q, order)`` (the principal triple, degrees) and
+    :func:`euler_middle_sine` ``(q, order)``, computed together (the triple is made from
+    that sine)."""
+    angles, sine, _ = _principal(q, order)
+    return angles, sine
+
+
+def _principal(q: np.ndarray, order: str):
+    """The principal triple of ``q`` in degrees, the middle sine (not clipped) and, for
+    ``to_euler``'s other triples, ``(a, b, c, sin_b, cos_b)`` in radians."""
+    i, j, k = _order_axes(order)
+    parity = 1.0 if (j - i) % 3 == 1 else -1.0
+    q = np.asarray(q, dtype=np.float64)
+    m_ii, m_ij = _matrix_element(q, i, i), _matrix_element(q, i, j)
+    sine = parity * _matrix_element(q, i, k)
+    sin_b = np.clip(sine, -1.0, 1.0)
+    cos_b = np.hypot(m_ii, m_ij)
+    b = np.arctan2(sin_b, cos_b)
+    a = np.arctan2(-parity * _matrix_element(q, j, k), _matrix_element(q, k, k))
+    c = np.arctan2(-parity * m_ij, m_ii)
+    locked = cos_b < GIMBAL_EPS
+    out = np.empty((*b.shape, 3))
+    out[..., 0], out[..., 1], out[..., 2] = a, b, c
+    if locked.any():  # R = R_i(a + s c) R_j(+-90 deg): report a + s c as the first angle
+        out[locked, 0] = _locked_sum(q[locked], i, j, k, parity)
+        out[locked, 2] = 0.0
+    return np.rad2deg(out, out=out), sine, (a, b, c, sin_b, cos_b)
+
+
 def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> np.ndarray:
     """Intrinsic Euler angles in degrees ``(..., 3)`` for ``order`` (see :func:`from_euler`).
 
@@ -520,25 +564,14 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
     At gimbal lock (middle angle +-90 degrees) only a sum or difference of the outer angles
     is determined; the reference's first angle is kept and the last absorbs the rest.
     """
+    principal, _, (a, b, c, sin_b, cos_b) = _principal(q, order)
+    if reference is None:
+        return principal
     i, j, k = _order_axes(order)
     parity = 1.0 if (j - i) % 3 == 1 else -1.0
     q = np.asarray(q, dtype=np.float64)
-    m_ii, m_ij = _matrix_element(q, i, i), _matrix_element(q, i, j)
-    sin_b = np.clip(euler_middle_sine(q, order), -1.0, 1.0)
-    cos_b = np.hypot(m_ii, m_ij)
-    b = np.arctan2(sin_b, cos_b)
-    a = np.arctan2(-parity * _matrix_element(q, j, k), _matrix_element(q, k, k))
-    c = np.arctan2(-parity * m_ij, m_ii)
     locked = cos_b < GIMBAL_EPS
-    out = np.empty((*b.shape, 3))
-    out[..., 1] = b
-    if reference is None:
-        out[..., 0], out[..., 2] = a, c
-        if locked.any():  # R = R_i(a + s c) R_j(+-90 deg): report a + s c as the first angle
-            out[locked, 0] = _locked_sum(q[locked], i, j, k, parity)
-            out[locked, 2] = 0.0
-        return np.rad2deg(out, out=out)
-
+    out = principal
     ref = np.deg2rad(np.broadcast_to(np.asarray(reference, dtype=np.float64), out.shape))
     ra, rb, rc = ref[..., 0], ref[..., 1], ref[..., 2]
     a1, b1, c1 = _nearest_turn(a, ra), _nearest_turn(b, rb), _nearest_turn(c, rc)

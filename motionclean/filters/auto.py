@@ -10,6 +10,13 @@ windows of 2 s (never longer than the clip). The level reported to users is the 
 rotation angle of one sample's noise, ``N = 2 sqrt(3) sigma`` (degrees); positions:
 ``y_i = s_i + e_i`` and ``N = sqrt(3) sigma`` (RMS length).
 
+**Capture source** (:func:`noise_source`). For rotations the model is the optical one
+(AR(1) noise above the motion, plus noise low-passed at a few Hz where the clip shows it),
+or the markerless one (:func:`motionclean.filters.noise.fit_coloured`: a wander reaching
+down into the motion's band), chosen from the clip (``source="auto"``) by how steeply its
+joints' spectrum falls over 2-8 Hz (:func:`motionclean.filters.noise.motion_slope`), never
+by its frame rate, or given.
+
 **Choice of filter** (:func:`auto`). Candidates are Lee-Shin filters (000 Eq. 19-20, one
 pass) of binomial masks ``B^{2k+1}`` (000 Eq. 23) and degree-2 Savitzky-Golay masks
 (:func:`motionclean.filters.design.savgol`) with half-widths on a geometric ladder (ratio
@@ -64,6 +71,8 @@ __all__ = [
     "auto",
     "auto_positions",
     "candidates",
+    "capture_source",
+    "describe_source",
     "estimate_noise",
     "estimate_position_noise",
     "noise_source",
@@ -81,11 +90,27 @@ LOUD_RATIO = 2.0
 #: ... and this many degrees (or length units for positions).
 LOUD_FLOOR = 0.1
 #: Capture systems ``auto`` knows (``source``): ``"video"`` is the same model as
-#: ``"markerless"``; ``"auto"`` picks by the frame rate.
-SOURCES = ("auto", "optical", "markerless", "video")
-#: Highest frame rate (fps, within 1 %) taken as a video capture by ``source="auto"``:
-#: video and markerless systems record at 24-60 fps, optical systems at 100-360.
-VIDEO_FPS = 60.0
+#: ``"markerless"``, ``"inertial"`` the same as ``"optical"``; ``"auto"`` finds it from the
+#: clip (:func:`noise_source`).
+SOURCES = ("auto", "optical", "inertial", "markerless", "video")
+#: ``source="auto"`` takes a clip for a markerless capture when its motion slope
+#: (:func:`motionclean.filters.noise.motion_slope`) is flatter than this. Measured: clean
+#: captures at CLEAN_FLATTEST or steeper (CMU 131 at 24-120 fps, 19 Bandai Namco clips at
+#: 30 fps, the 17 marker-based truths of ../shared/realnoise at 60 Hz, the exporters' files,
+#: planted white, AR(1) and low-passed noise); markerless estimates whose noise wanders
+#: (openpose-biorbd, theia3d) at -0.53 to +0.49. The limit sits halfway.
+MARKERLESS_SLOPE = -1.0
+CLEAN_FLATTEST = -1.46
+#: Band-limited noise (:func:`motionclean.filters.noise.fit_band_limited`) is added only
+#: when the motion slope is flatter than this: a periodic move at 30 fps leaves a bump too
+#: (clean Bandai Namco clips at 30 fps: bumps of 0.6-2.2 nats at slopes of -1.89 to -2.54;
+#: noise of 3 degrees low-passed at 6 Hz on the corpus clips: -1.19 to -1.49).
+BAND_LIMITED_SLOPE = -1.7
+#: Joints whose rotation noise over the clip (all of the model's terms) is below this many
+#: degrees are left as they are: a clean capture's own jitter (CMU 131: about 0.01 degree),
+#: too small to see (0.05 degrees moves the end of a 1 m limb by 0.9 mm), whose removal
+#: would only change the clip's accelerations.
+NEGLIGIBLE_DEG = 0.05
 #: Values (segments x frames x 3) filtered per block when the choices are applied ...
 APPLY_BLOCK = 1 << 20
 #: ... for this many windows at a time, whose frames are then moved.
@@ -122,6 +147,8 @@ class AutoChoice:
     model: str = "optical"
     wander: float = 0.0
     wander_edge_hz: float | None = None
+    source: str = "optical"
+    motion_slope: float | None = None
 
     def params(self) -> dict:
         """The choice as Lee-Shin step parameters, e.g. ``{"mask": "binomial", "k": 3}``."""
@@ -155,14 +182,59 @@ def _check_time(frame_time: float) -> float:
     return checks.frame_time(frame_time)
 
 
-def noise_source(source: str, frame_time: float) -> str:
-    """The noise model ``auto`` uses for a capture ``source`` (:data:`SOURCES`) at
-    ``frame_time`` seconds per frame: ``"markerless"`` or ``"optical"``."""
+def noise_source(source: str, slope: float = math.nan) -> str:
+    """The noise model ``auto`` uses for a capture ``source`` (:data:`SOURCES`):
+    ``"markerless"`` or ``"optical"``. For ``"auto"``, markerless when the clip's motion
+    slope ``slope`` (:func:`motionclean.filters.noise.motion_slope`; nan when the clip
+    cannot tell) is flatter than :data:`MARKERLESS_SLOPE`, else optical."""
+    if _checked_source(source) == "auto":
+        return "markerless" if slope > MARKERLESS_SLOPE else "optical"
+    return {"video": "markerless", "inertial": "optical"}.get(source, source)
+
+
+def capture_source(q: np.ndarray, frame_time: float, source: str = "auto") -> tuple[str, float]:
+    """The noise model :func:`auto` uses on rotations ``q`` ``(F, ..., 4)`` at
+    ``frame_time`` seconds per frame for a capture ``source`` (:data:`SOURCES`), and the
+    clip's motion slope (:func:`motionclean.filters.noise.motion_slope`; nan when the clip
+    cannot tell): ``("markerless" or "optical", slope)``. What ``auto`` finds, without
+    cleaning."""
+    source = _checked_source(source)
+    cols = quat.continuous(_columns(q, 4, "rotations"))
+    model = _fit(quat.Displacements(cols), _check_time(frame_time))
+    slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
+    return noise_source(source, slope), slope
+
+
+def describe_source(model: str, source: str, slope: float | None) -> str:
+    """Which capture system ``auto`` assumed and why, in words (``model`` and ``source`` as
+    in :class:`AutoChoice`, ``slope`` its ``motion_slope``; None or nan: not measured)."""
+    band = f"{noise_model.SLOPE_BAND_HZ[0]:g}-{noise_model.SLOPE_BAND_HZ[1]:g} Hz"
+    if source != "auto":
+        return f"{model}, as given (source={source})"
+    if slope is None:
+        return f"{model} (the noise level was given)"
+    if not math.isfinite(slope):
+        return (
+            f"{model}: the clip cannot tell (too few joints move above the noise over "
+            f"{band}); give the source for a markerless or video capture"
+        )
+    if model == "markerless":
+        return (
+            f"markerless, found from the clip: its joints' spectrum is flat over {band} (slope "
+            f"{slope:.2f}, flatter than {MARKERLESS_SLOPE:g}; clean captures measured fall at "
+            f"{CLEAN_FLATTEST:g} or steeper), as a pose estimator's wandering noise leaves it"
+        )
+    return (
+        f"optical, found from the clip: its joints' motion spectrum falls over {band} like "
+        f"clean captures' (slope {slope:.2f}; markerless noise leaves it flatter than "
+        f"{MARKERLESS_SLOPE:g})"
+    )
+
+
+def _checked_source(source: str) -> str:
     if source not in SOURCES:
         raise ValueError(f"source must be one of {', '.join(SOURCES)}, got {source!r}")
-    if source == "auto":
-        return "markerless" if frame_time * VIDEO_FPS * 1.01 >= 1.0 else "optical"
-    return "markerless" if source == "video" else source
+    return source
 
 
 def _fit(disp: Rows, frame_time: float) -> NoiseModel | None:
@@ -406,28 +478,32 @@ def _select(
     ``x`` itself when ``overwrite``). Returns ``(values, level (C,), choices)``; ``given``
     (C,) replaces the model by white noise of that per-component variance. For
     ``rotations`` (not positions) band-limited noise is added to the model where the clip
-    shows it (:func:`noise_model.fit_band_limited`), or, for a ``"markerless"`` ``source``,
-    coloured noise (:func:`noise_model.fit_coloured`); the level then counts it too."""
+    shows it (:func:`noise_model.fit_band_limited`), or, when ``source`` (:data:`SOURCES`)
+    is or is found (:func:`noise_source`) markerless, coloured noise
+    (:func:`noise_model.fit_coloured`); the level then counts it too."""
     n_frames, n_cols = x.shape[:2]
     model = _fit(disp, frame_time)
     if model is None:
-        none = [AutoChoice("none", 0, 0.0)] * n_cols
+        none = [AutoChoice("none", 0, 0.0, source=source if rotations else "optical")] * n_cols
         return x if overwrite else x.copy(), np.zeros(n_cols), none
     if given is not None:
         model = model._replace(
             sigma2=np.broadcast_to(given, model.sigma2.shape), rho=np.zeros(n_cols)
         )
-    band = coloured = None
+    band = coloured = slope = None
     if rotations and given is None:
-        if source == "markerless":
+        band = noise_model.fit_band_limited(model, frame_time)
+        slope = noise_model.motion_slope(model, frame_time).slope
+        if not slope > BAND_LIMITED_SLOPE:
+            band = None  # a bump in a spectrum as steep as clean motion's is motion's
+        if noise_source(source, slope) == "markerless":
             coloured = noise_model.fit_coloured(model, frame_time)
         if coloured is not None:
             # the white part of the coloured fit replaces the AR(1) model, its level
             # following the windows' own levels along the clip
             along = model.sigma2 / np.maximum(model.clip_sigma2(), np.finfo(np.float64).tiny)
             model = model._replace(sigma2=coloured.white * along, rho=np.zeros(n_cols))
-        else:
-            band = noise_model.fit_band_limited(model, frame_time)
+            band = None
     masks = [mask for _, _, mask in cands]
     risk = _risks(model, masks, strength, band, coloured)
     model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
@@ -440,6 +516,11 @@ def _select(
         choice[:] = np.argmin(pooled, axis=0)
     if strength == 0:
         choice[:] = 0
+    if rotations and given is None and NEGLIGIBLE_DEG > 0:
+        total = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
+        if coloured is not None:
+            total = total + coloured.level / 3.0
+        choice[:, to_level(total) < NEGLIGIBLE_DEG] = 0
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         _apply(disp, model, choice, masks, lambda rows, s: move(x[rows], s, out[rows]))
@@ -477,6 +558,8 @@ def _select(
                 "optical" if coloured is None else "markerless",
                 float(wander[c]),
                 edge,
+                source if rotations else "optical",
+                slope,
             )
         )
     clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
@@ -574,8 +657,10 @@ def auto(
         The capture system, which says which frequencies may hold noise (:data:`SOURCES`):
         ``"markerless"`` or ``"video"`` (pose estimators, whose noise reaches down into
         the motion's band: :func:`motionclean.filters.noise.fit_coloured`), ``"optical"``
-        (noise above the motion, or low-passed white noise), or ``"auto"`` (default):
-        markerless at video frame rates (:data:`VIDEO_FPS` or less), else optical.
+        or ``"inertial"`` (noise above the motion, or low-passed white noise), or
+        ``"auto"`` (default): found from the clip, markerless when its motion slope
+        (:func:`motionclean.filters.noise.motion_slope`) is flatter than
+        :data:`MARKERLESS_SLOPE`, else optical. Any frame rate.
 
     Returns
     -------
@@ -602,7 +687,7 @@ def auto(
         _move_rotations,
         _writable(cols, q, overwrite),
         True,
-        noise_source(source, frame_time),
+        _checked_source(source),
     )
     level = level.reshape(shape) if noise is None else np.array(noise, dtype=np.float64)
     return AutoResult(values.reshape(np.shape(q)), np.broadcast_to(level, shape).copy(), choices)

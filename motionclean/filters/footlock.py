@@ -5,11 +5,13 @@ product, ``v' = q v q^-1``), local to the parent joint; positions are in the fil
 unit. Points are the skeleton's joints followed by its end sites (``tips``).
 
 Per frame, :func:`plant` finds the smallest change of the joints from the root down to
-each held foot point (the root's translation, every rotation on the way, the knee as a
-hinge), each weighted by the error expected in it, that puts the held points on their
-targets within a tolerance: the horizontal position of the ankle (and of the toes where the
-foot has them) on a straight line through the contact, the height left free, but no held
-point below the floor during a contact. It is a Gauss-Newton solve of
+the knee (the root's translation, every rotation on the way, the knee as a hinge), each
+weighted by the error expected in it, that puts the ankle on its target within a
+tolerance: its horizontal position on a straight line through the contact, the height left
+free, but not below the floor during a contact. Then, where the foot has toes, the
+smallest change of the ankle's own rotation (and of the toe joints) that holds each toe
+point on its own line while that point is planted: the ankle stays where the first solve
+put it, so the hip and knee keep their change. Each is a Gauss-Newton solve of
 
     min  sum_v |d_v|^2 / s_v^2  +  sum_r w_r (J_r d - e_r)^2 / tol^2
 
@@ -21,7 +23,7 @@ per joint, so the result turns with the clip: it is coordinate invariant.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,11 +32,17 @@ from ..core.kinematics import depths, forward_arrays
 
 #: Gauss-Newton iterations (the change is small: the second one leaves millimetres).
 ITERATIONS = 3
+#: ... and of the toes' solve (its levers are short and its start close: one more finds a
+#: toe the first put below the floor).
+TOE_ITERATIONS = 2
 #: Frames solved at a time (bounds the per-frame systems' memory).
 BLOCK_FRAMES = 4096
 #: A point this far below the floor (fraction of the tolerance) is on it: a sole that
 #: defines the floor is not pushed by the rounding of its own height.
 FLOOR_SLACK = 1e-6
+#: The toes keep above the floor within this fraction of the ankle's tolerance: the foot's
+#: short levers would otherwise trade a toe under the floor against its rotation's change.
+FLOOR_FIRMNESS = 0.01
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
@@ -44,15 +52,18 @@ MIN_SIGMA = 1e-6
 class Leg:
     """One leg to plant.
 
-    ``joints`` may turn (every joint from the root down to the deepest held point's joint,
-    root first); ``knee`` turns only about ``hinge`` (unit, in the knee's parent frame);
-    ``points`` are held, the ankle first, then the toes (joints or end sites).
+    ``joints`` may turn to hold the ankle (from the root down to the knee, root first);
+    ``knee`` turns only about ``hinge`` (unit, in the knee's parent frame); ``points`` are
+    the ankle, then the toe points (joints or end sites below it); ``foot`` may turn to
+    hold the toes (the ankle and joints below it; none: the toes are not held and the
+    ankle keeps its own rotation).
     """
 
     joints: tuple[int, ...]
     knee: int
     hinge: np.ndarray
     points: tuple[int, ...]
+    foot: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -118,6 +129,34 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     return np.where(contacts.reshape(shape), line, points)
 
 
+def _eases(
+    contacts: np.ndarray, blend_frames: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per frame ``(F,)``: the last contact frame at or before it (-1: none), the next at
+    or after it (F: none), and the smoothstep weights easing out of the one and into the
+    other over ``blend_frames`` frames."""
+    n = len(contacts)
+    index = np.arange(n)
+    last_in = np.maximum.accumulate(np.where(contacts, index, -1))
+    next_in = np.minimum.accumulate(np.where(contacts, index, n)[::-1])[::-1]
+    width = max(float(blend_frames), 1.0)
+
+    def ease(distance: np.ndarray) -> np.ndarray:
+        x = np.clip(1.0 - distance / (width + 1.0), 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+
+    w_prev = np.where(last_in >= 0, ease(index - last_in), 0.0)
+    w_next = np.where(next_in < n, ease(next_in - index), 0.0)
+    return last_in, next_in, w_prev, w_next
+
+
+def lock_weights(contacts: np.ndarray, blend_frames: float) -> np.ndarray:
+    """``(F,)``: the weight :func:`lock_targets` gives each frame (1 in a contact, easing
+    to 0 over ``blend_frames`` frames either side of it)."""
+    _, _, w_prev, w_next = _eases(contacts, blend_frames)
+    return np.where(contacts, 1.0, np.minimum(w_prev + w_next, 1.0))
+
+
 def lock_targets(
     points: np.ndarray, contacts: np.ndarray, blend_frames: float, hold_frames: float = np.inf
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -134,17 +173,7 @@ def lock_targets(
     if not contacts.any():
         return points.copy(), np.zeros(n)
     held = held_lines(points, contacts, hold_frames)
-    index = np.arange(n)
-    last_in = np.maximum.accumulate(np.where(contacts, index, -1))
-    next_in = np.minimum.accumulate(np.where(contacts, index, n)[::-1])[::-1]
-    width = max(float(blend_frames), 1.0)
-
-    def ease(distance: np.ndarray) -> np.ndarray:
-        x = np.clip(1.0 - distance / (width + 1.0), 0.0, 1.0)
-        return x * x * (3.0 - 2.0 * x)
-
-    w_prev = np.where(last_in >= 0, ease(index - last_in), 0.0)
-    w_next = np.where(next_in < n, ease(next_in - index), 0.0)
+    last_in, next_in, w_prev, w_next = _eases(contacts, blend_frames)
     total = w_prev + w_next
     shape = (-1,) + (1,) * (points.ndim - 1)
     wp, wn = w_prev.reshape(shape), w_next.reshape(shape)
@@ -160,63 +189,173 @@ def lock_targets(
 
 
 @dataclass(frozen=True)
-class _Problem:
-    """The fixed parts of a solve: variables, rows and what moves what."""
+class _Part:
+    """The joints of a skeleton that a solve needs, as a skeleton of their own.
 
-    joints: np.ndarray  # (V,) joints that turn
+    ``index`` ``(Jc,)`` the joints (ascending, so parents come first), ``parents`` theirs
+    within the part (-1 for a root of the part), ``mounted`` the part roots that hang on
+    a joint outside the part (they are placed by their world transform), ``tips`` the
+    part joints with an end site (ascending) and ``tip_offsets`` their offsets. The part's
+    points are its joints, then those end sites.
+    """
+
+    index: np.ndarray
+    parents: np.ndarray
+    mounted: np.ndarray
+    tips: np.ndarray
+    tip_offsets: np.ndarray
+
+    @classmethod
+    def of(
+        cls, parents: np.ndarray, tips: dict[int, np.ndarray], joints: set[int], cut: set[int]
+    ) -> _Part:
+        """``joints`` and every joint above them, up to a root or to a joint of ``cut``
+        (which becomes a mounted root)."""
+        keep: set[int] = set()
+        for joint in joints:
+            j = joint
+            while j >= 0 and j not in keep:
+                keep.add(j)
+                j = -1 if j in cut else int(parents[j])
+        index = np.array(sorted(keep), dtype=np.intp)
+        rank = {j: c for c, j in enumerate(index.tolist())}
+        local = np.array(
+            [-1 if j in cut else rank.get(int(parents[j]), -1) for j in index.tolist()],
+            dtype=np.intp,
+        )
+        tip_joints = [j for j in sorted(tips) if j in rank]
+        return cls(
+            index=index,
+            parents=local,
+            mounted=np.flatnonzero((local < 0) & (parents[index] >= 0)),
+            tips=np.array([rank[j] for j in tip_joints], dtype=np.intp),
+            tip_offsets=np.array([tips[j] for j in tip_joints], dtype=np.float64).reshape(-1, 3),
+        )
+
+    def point(self, point: int, n_joints: int, tip_joints: list[int]) -> int:
+        """The part's number of a point of the whole skeleton (``n_joints`` joints, then
+        end sites on ``tip_joints``, ascending)."""
+        if point < n_joints:
+            return int(np.searchsorted(self.index, point))
+        joint = int(np.searchsorted(self.index, tip_joints[point - n_joints]))
+        return self.index.size + int(np.searchsorted(self.tips, joint))
+
+    def arrays(
+        self,
+        rotations: np.ndarray,
+        translations: np.ndarray,
+        mounts: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The part's local rotations and translations ``(F, Jc, ...)`` taken from the
+        whole skeleton's ``(F, J, ...)``; ``mounts``: the world rotations ``(F, M, 4)`` of
+        the mounted roots' parents and the roots' world positions ``(F, M, 3)``."""
+        q, t = rotations[:, self.index], translations[:, self.index]
+        if self.mounted.size:
+            assert mounts is not None
+            q[:, self.mounted] = quat.multiply(mounts[0], q[:, self.mounted])
+            t[:, self.mounted] = mounts[1]
+        return q, t
+
+    def local(self, q: np.ndarray, mounts: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """The whole skeleton's local rotations of the part's joints from the part's own
+        ``(F, Jc, 4)`` (undoing :meth:`arrays`' mounting)."""
+        if self.mounted.size:
+            assert mounts is not None
+            q = q.copy()
+            q[:, self.mounted] = quat.multiply(quat.conjugate(mounts[0]), q[:, self.mounted])
+        return q
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The fixed parts of a solve on a part: variables, held points and what moves what."""
+
+    joints: np.ndarray  # (V,) part joints that turn
     hinge: np.ndarray  # (V,) bool: turns about a hinge (1 column) instead of freely (3)
     hinges: np.ndarray  # (V, 3) hinge axis in the parent's frame (unused for free joints)
     columns: np.ndarray  # (V,) first column of each joint's change
     axes: np.ndarray  # (T,) root translation axes that move
     n_columns: int
     prior: np.ndarray  # (n_columns,) 1 / expected variance of each column
-    points: np.ndarray  # (K,) held points (joints, then end sites)
-    point_joint: np.ndarray  # (K,) the joint each point hangs on (itself for a joint)
-    point_leg: np.ndarray  # (K,) leg of each point
-    toe: np.ndarray  # (K,) bool: not the ankle
+    points: np.ndarray  # (K,) held points of the part (joints, then end sites)
+    point_joint: np.ndarray  # (K,) the part joint each point hangs on (itself for a joint)
     moves: np.ndarray  # (K, V) bool: joint v's rotation moves point k
 
 
-def _problem(legs: list[Leg], parents: np.ndarray, tips: list[int], prior: Prior) -> _Problem:
-    """The variables, rows and lever structure of planting ``legs``."""
-    depth = depths(parents)
-    used = sorted({j for leg in legs for j in leg.joints}, key=lambda j: (depth[j], j))
-    knees = {leg.knee: leg.hinge for leg in legs}
-    hinge = np.array([j in knees for j in used], dtype=bool)
-    axes = np.flatnonzero(prior.root > 0.0)
+def _problem(
+    part: _Part,
+    turns: set[int],
+    hinges: dict[int, np.ndarray],
+    points: list[int],
+    sigma: np.ndarray,
+    root: np.ndarray,
+) -> _Problem:
+    """Holding the part's ``points`` by turning its joints ``turns`` (``hinges``: joint ->
+    axis, for those that turn about one), each with the expected RMS error ``sigma``
+    ``(Jc,)`` (radians), and moving the part's first root along the axes where ``root``
+    ``(3,)`` (its expected error per axis, length units) is not 0."""
+    depth = depths(part.parents)
+    used = sorted(turns, key=lambda j: (depth[j], j))
+    hinge = np.array([j in hinges for j in used], dtype=bool)
+    axes = np.flatnonzero(root > 0.0)
     widths = np.where(hinge, 1, 3)
     columns = axes.size + np.concatenate([[0], np.cumsum(widths)[:-1]]).astype(np.intp)
     variance = (
-        np.concatenate([prior.root[axes] ** 2, np.repeat(prior.sigma[used] ** 2, widths)]) / 3.0
+        np.concatenate([root[axes] ** 2, np.repeat(sigma[used] ** 2, widths)]) / 3.0
     )  # per component of a 3-D error
-    points = np.array([p for leg in legs for p in leg.points], dtype=np.intp)
-    n_joints = len(parents)
-    tip_joints = np.array(tips, dtype=np.intp)
+    held = np.array(points, dtype=np.intp)
+    n_joints = part.index.size
     point_joint = np.where(
-        points < n_joints, points, tip_joints[np.maximum(points - n_joints, 0)] if tips else points
+        held < n_joints, held, part.tips[np.maximum(held - n_joints, 0)] if part.tips.size else 0
     )
     rank = {j: v for v, j in enumerate(used)}
-    moves = np.zeros((points.size, len(used)), dtype=bool)
-    for k, (point, joint) in enumerate(zip(points.tolist(), point_joint.tolist(), strict=True)):
-        j = joint if point >= n_joints else int(parents[joint])
+    moves = np.zeros((held.size, len(used)), dtype=bool)
+    for k, (point, joint) in enumerate(zip(held.tolist(), point_joint.tolist(), strict=True)):
+        j = joint if point >= n_joints else int(part.parents[joint])
         while j >= 0:  # the joints above the point (and its own, for an end site)
             if j in rank:
                 moves[k, rank[j]] = True
-            j = int(parents[j])
+            j = int(part.parents[j])
     return _Problem(
         joints=np.array(used, dtype=np.intp),
         hinge=hinge,
-        hinges=np.array([knees.get(j, np.zeros(3)) for j in used]).reshape(-1, 3),
+        hinges=np.array([hinges.get(j, np.zeros(3)) for j in used]).reshape(-1, 3),
         columns=columns,
         axes=axes,
         n_columns=int(axes.size + widths.sum()),
         prior=1.0 / np.maximum(variance, MIN_SIGMA**2),
-        points=points,
+        points=held,
         point_joint=point_joint,
-        point_leg=np.array([k for k, leg in enumerate(legs) for _ in leg.points], dtype=np.intp),
-        toe=np.array([i > 0 for leg in legs for i in range(len(leg.points))], dtype=bool),
         moves=moves,
     )
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
+    position on ``targets`` ``(F, K, 3)`` where ``horizontal``, within ``tolerance``
+    (length units); not below the floor ``(normal, offset)`` where ``grounded``, within
+    ``floor_tolerance``. ``up`` is the up axis; a target further from a point than
+    ``robust`` times the error the prior predicts for it is followed less (Huber
+    weights)."""
+
+    targets: np.ndarray
+    horizontal: np.ndarray
+    grounded: np.ndarray
+    tolerance: float
+    floor_tolerance: float
+    floor: tuple[np.ndarray, float]
+    up: int
+    robust: float
+
+    def take(self, frames: np.ndarray | slice) -> _Rows:
+        """The rows of ``frames``."""
+        return replace(
+            self,
+            targets=self.targets[frames],
+            horizontal=self.horizontal[frames],
+            grounded=self.grounded[frames],
+        )
 
 
 def plant(
@@ -232,22 +371,26 @@ def plant(
     tolerance: float,
     blend_frames: float,
     hold_frames: float = np.inf,
+    toe_contacts: np.ndarray | None = None,
     toe_tolerance: float = 2.0,
     robust: float = 3.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations ``(F, J, 4)`` and root translations ``(F, 3)`` with every leg planted
-    during its ``contacts`` ``(F, n_legs)``.
+    during its ``contacts`` ``(F, n_legs)``, and the toes of each leg with a ``foot`` held
+    during ``toe_contacts`` ``(F, n_toes)`` (a column per toe point of those legs, in
+    order; default: their leg's contacts).
 
     ``translations`` ``(F, J, 3)`` are the local translations (offsets where a joint has
     no position channel, :func:`motionclean.core.kinematics.local_translations`);
     ``tips`` joint -> end-site offset; ``up`` the up axis (0, 1, 2); ``floor`` ``(n, d)``:
     a point ``p`` is below the floor where ``n . p < d``; ``tolerance`` (length units) how
-    closely the ankle follows its target (the toes ``toe_tolerance`` times as loosely,
-    during contacts only: they roll off the ground); a target further from a point than
-    ``robust`` times the error the prior predicts for it is taken as motion, not noise, and
-    followed less (Huber weights). Frames where no leg is locked, and every joint that no
-    leg turns, are returned bit for bit; the root (the first joint of the legs) moves only
-    along ``prior.root``'s non-zero axes.
+    closely the ankle follows its target and keeps above the floor (the toes follow theirs
+    ``toe_tolerance`` times as loosely, and keep above the floor :data:`FLOOR_FIRMNESS`
+    times as closely, while their leg or the toe itself is in contact); a target further
+    from a point than ``robust`` times the error the prior predicts for it is taken as
+    motion, not noise, and followed less (Huber weights). Frames where nothing is held, and
+    every joint that does not turn, are returned bit for bit; the root (the first joint of
+    the legs) moves only along ``prior.root``'s non-zero axes.
     """
     out_q = rotations.copy()
     root = legs[0].knee if legs else 0
@@ -256,47 +399,128 @@ def plant(
     out_t = translations[:, root].copy()
     if not legs:
         return out_q, out_t
-    tip_joints = sorted(tips)
-    problem = _problem(legs, parents, tip_joints, prior)
-    tip_offsets = np.array([tips[j] for j in tip_joints], dtype=np.float64).reshape(-1, 3)
-    start_points = _points(*forward_arrays(parents, rotations, translations), problem, tip_offsets)
-    targets = np.empty_like(start_points)
-    weights = np.zeros((len(rotations), len(legs)))
-    for k in range(len(legs)):  # a leg at a time: its points' targets, vectorised
-        mine = problem.point_leg == k
-        targets[:, mine], weights[:, k] = lock_targets(
-            start_points[:, mine], contacts[:, k], blend_frames, hold_frames
+    ankles = [leg.points[0] for leg in legs]
+    part = _Part.of(parents, tips, set(ankles), set())
+    rank = {int(j): c for c, j in enumerate(part.index)}
+    problem = _problem(
+        part,
+        {rank[j] for leg in legs for j in leg.joints},
+        {rank[leg.knee]: leg.hinge for leg in legs},
+        [rank[a] for a in ankles],
+        prior.sigma[part.index],
+        prior.root,
+    )
+    q, t = part.arrays(rotations, translations)
+    start = forward_arrays(part.parents, q, t)[0][:, problem.points]
+    targets = np.empty_like(start)
+    weights = np.zeros(contacts.shape)
+    for k in range(len(legs)):  # a leg at a time, vectorised over frames
+        targets[:, k], weights[:, k] = lock_targets(
+            start[:, k], contacts[:, k], blend_frames, hold_frames
         )
-    rows = np.flatnonzero((weights > 0.0).any(axis=1))
-    for at in range(0, rows.size, BLOCK_FRAMES):
-        block = rows[at : at + BLOCK_FRAMES]
-        q, t = _solve(
-            rotations[block],
-            translations[block],
-            parents,
-            problem,
-            tip_offsets,
-            targets[block],
-            weights[block],
-            contacts[block],
-            up,
+    rows = _Rows(targets, weights > 0.0, contacts, tolerance, tolerance, floor, up, robust)
+    frames = np.flatnonzero(rows.horizontal.any(axis=1))
+    q, t = _solve_frames(q[frames], t[frames], part, problem, rows.take(frames))
+    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
+    out_t[frames] = t[:, 0]
+    held = [k for k, leg in enumerate(legs) if leg.foot and len(leg.points) > 1]
+    if held:
+        feet = [legs[k] for k in held]
+        moved = translations.copy()
+        moved[:, root] = out_t
+        columns = [k for k in held for _ in legs[k].points[1:]]
+        toes = contacts[:, columns] if toe_contacts is None else toe_contacts
+        rows = _Rows(
+            np.empty((0, 0, 3)),
+            np.empty((0, 0), dtype=bool),
+            toes | contacts[:, columns],
+            tolerance * toe_tolerance,
+            tolerance * FLOOR_FIRMNESS,
             floor,
-            tolerance,
-            toe_tolerance,
+            up,
             robust,
-            root,
         )
-        same = np.sum(q * rotations[block], axis=-1, keepdims=True) >= 0.0
-        out_q[block] = np.where(same, q, -q)
-        out_t[block] = t[:, root]
+        out_q = _hold_toes(
+            out_q, moved, parents, tips, feet, toes, prior, rows, blend_frames, hold_frames
+        )
     return out_q, out_t
+
+
+def _same_sign(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``q`` with each quaternion's sign that of ``reference`` (the same rotation)."""
+    return np.where(np.sum(q * reference, axis=-1, keepdims=True) >= 0.0, q, -q)
+
+
+def _hold_toes(
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    parents: np.ndarray,
+    tips: dict[int, np.ndarray],
+    feet: list[Leg],
+    toes: np.ndarray,
+    prior: Prior,
+    rows: _Rows,
+    blend_frames: float,
+    hold_frames: float,
+) -> np.ndarray:
+    """``rotations`` with the toe points of ``feet`` held on their lines during ``toes``
+    ``(F, n_toes)`` by the least weighted change of each foot's joints: the ankle's own
+    rotation and the toe joints, the ankles left in place. ``rows.grounded`` ``(F, n_toes)``
+    are the frames where each toe point must stay above the floor."""
+    n_joints = len(parents)
+    tip_joints = sorted(tips)
+    weights = np.stack(
+        [lock_weights(toes[:, k], blend_frames) for k in range(toes.shape[1])], axis=1
+    )
+    frames = np.flatnonzero(((weights > 0.0) | rows.grounded).any(axis=1))
+    if frames.size == 0:
+        return rotations
+    ankles = [leg.points[0] for leg in feet]
+    above = _Part.of(parents, tips, set(ankles), set())
+    q, t = above.arrays(rotations[frames], translations[frames])
+    positions, world = forward_arrays(above.parents, q, t)
+    at = np.searchsorted(above.index, ankles)
+    mounts = (world[:, above.parents[at]], positions[:, at])
+    toe_points = [p for leg in feet for p in leg.points[1:]]
+    hangs_on = [p if p < n_joints else tip_joints[p - n_joints] for p in toe_points]
+    part = _Part.of(parents, tips, set(hangs_on), set(ankles))
+    problem = _problem(
+        part,
+        {int(np.searchsorted(part.index, j)) for leg in feet for j in leg.foot},
+        {},
+        [part.point(p, n_joints, tip_joints) for p in toe_points],
+        prior.sigma[part.index],
+        np.zeros(3),
+    )
+    q, t = part.arrays(rotations[frames], translations[frames], mounts)
+    start = np.zeros((len(rotations), len(toe_points), 3))  # only contact frames are read
+    start[frames] = _points(*forward_arrays(part.parents, q, t), problem, part.tip_offsets)
+    targets = np.empty_like(start)
+    for k in range(len(toe_points)):  # a point at a time, vectorised over frames
+        targets[:, k] = lock_targets(start[:, k], toes[:, k], blend_frames, hold_frames)[0]
+    # solved: the frames that hold a toe, or find one below the floor where it must not be
+    normal, level = rows.floor
+    below = (start[frames] @ normal - level < 0.0) & rows.grounded[frames]
+    asked = (weights[frames] > 0.0).any(axis=1) | below.any(axis=1)
+    frames, q, t = frames[asked], q[asked], t[asked]
+    mounts = (mounts[0][asked], mounts[1][asked])
+    rows = replace(rows, targets=targets, horizontal=weights > 0.0).take(frames)
+    solved, _ = _solve_frames(q, t, part, problem, rows, TOE_ITERATIONS)
+    changed = np.any(solved != q, axis=(1, 2))  # the others are left bit for bit
+    frames, solved = frames[changed], solved[changed]
+    mounts = (mounts[0][changed], mounts[1][changed])
+    out = rotations.copy()
+    out[frames[:, None], part.index] = _same_sign(
+        part.local(solved, mounts), rotations[frames][:, part.index]
+    )
+    return out
 
 
 def _points(
     positions: np.ndarray, world: np.ndarray, problem: _Problem, tip_offsets: np.ndarray
 ) -> np.ndarray:
     """``(F, K, 3)`` world positions of the held points from joint positions and world
-    rotations ``(F, J, ...)``."""
+    rotations ``(F, Jc, ...)`` of a part."""
     n_joints = positions.shape[1]
     out = positions[:, problem.point_joint].copy()
     tip = problem.points >= n_joints
@@ -306,77 +530,85 @@ def _points(
     return out
 
 
+def _solve_frames(
+    q: np.ndarray,
+    t: np.ndarray,
+    part: _Part,
+    problem: _Problem,
+    rows: _Rows,
+    iterations: int = ITERATIONS,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_solve` over blocks of :data:`BLOCK_FRAMES` frames (bounds the per-frame
+    systems' memory)."""
+    q, t = q.copy(), t.copy()
+    for at in range(0, len(q), BLOCK_FRAMES):
+        block = slice(at, at + BLOCK_FRAMES)
+        frames = np.arange(at, min(at + BLOCK_FRAMES, len(q)))
+        q[block], t[block] = _solve(
+            q[block], t[block], part, problem, rows.take(frames), iterations
+        )
+    return q, t
+
+
 def _solve(
     rotations: np.ndarray,
     translations: np.ndarray,
-    parents: np.ndarray,
+    part: _Part,
     problem: _Problem,
-    tip_offsets: np.ndarray,
-    targets: np.ndarray,
-    weights: np.ndarray,
-    contacts: np.ndarray,
-    up: int,
-    floor: tuple[np.ndarray, float],
-    tolerance: float,
-    toe_tolerance: float,
-    robust: float,
-    root: int,
+    rows: _Rows,
+    iterations: int = ITERATIONS,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The Gauss-Newton solve of :func:`plant` on a block of frames that all lock a leg."""
+    """The Gauss-Newton solve of :func:`plant` on a block of frames of a part: local
+    rotations and translations ``(F, Jc, ...)`` in, the same out."""
     q, t = rotations.copy(), translations.copy()
-    normal, level = floor
-    directions = np.stack([np.eye(3)[a] for a in range(3) if a != up] + [normal])  # (3, 3)
-    n_frames, n_points = targets.shape[:2]
-    leg_weight = weights[:, problem.point_leg]  # (F, K)
-    in_contact = contacts[:, problem.point_leg]
-    # horizontal rows: the ankle on its eased target, the toes during contacts only
-    horizontal = np.where(problem.toe, in_contact, leg_weight > 0.0)
-    # precision of each row: toes looser along the ground, the floor as tight as the ankle
-    scale = np.repeat(np.where(problem.toe, toe_tolerance**-2, 1.0)[:, None], 3, axis=1)
-    scale[:, 2] = 1.0
-    scale = scale.ravel() / tolerance**2
+    parents = part.parents
+    normal, level = rows.floor
+    directions = np.stack([np.eye(3)[a] for a in range(3) if a != rows.up] + [normal])
+    n_frames, n_points = rows.targets.shape[:2]
+    scale = np.array([1.0, 1.0, (rows.tolerance / rows.floor_tolerance) ** 2] * n_points)
+    scale /= rows.tolerance**2
     total = np.zeros((n_frames, problem.n_columns))
     huber = None
     below = np.zeros((n_frames, n_points), dtype=bool)
     free = ~problem.hinge
-    for _ in range(ITERATIONS):
+    spread = 1.0 / problem.prior  # each column's expected variance
+    for _ in range(iterations):
         positions, world = forward_arrays(parents, q, t)
-        points = _points(positions, world, problem, tip_offsets)  # (F, K, 3)
+        points = _points(positions, world, problem, part.tip_offsets)  # (F, K, 3)
         jac = _jacobian(positions, world, points, parents, problem, directions)
-        residual = np.einsum("fkc,dc->fkd", targets - points, directions)  # (F, K, 3)
+        residual = np.einsum("fkc,dc->fkd", rows.targets - points, directions)  # (F, K, 3)
         height = points @ normal - level
         # a point found below the floor is held on it from then on (the active set only
         # grows: it cannot flip back and forth between iterations)
-        below = below | ((height < -FLOOR_SLACK * tolerance) & in_contact)
+        below = below | ((height < -FLOOR_SLACK * rows.floor_tolerance) & rows.grounded)
         residual[..., 2] = np.where(below, -height, 0.0)
         active = np.concatenate(
-            [np.repeat(horizontal[..., None], 2, axis=-1), below[..., None]], axis=-1
+            [np.repeat(rows.horizontal[..., None], 2, axis=-1), below[..., None]], axis=-1
         ).astype(np.float64)
         jac = jac.reshape(n_frames, n_points * 3, problem.n_columns)
         residual = residual.reshape(n_frames, -1)
-        spread = 1.0 / problem.prior  # each column's expected variance
         if huber is None:  # from the input: a target far beyond the noise is motion
             predicted = np.sqrt((jac * jac) @ spread)
             # per point, along the ground (a sum over both horizontal rows: invariant)
             spread_h = np.sqrt(np.sum(predicted.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
             off = np.sqrt(np.sum(residual.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
             weight = np.ones((n_frames, n_points, 3))  # the floor rows keep 1: no guess
-            weight[..., :2] = np.minimum(1.0, robust * spread_h / np.maximum(off, 1e-300))[
+            weight[..., :2] = np.minimum(1.0, rows.robust * spread_h / np.maximum(off, 1e-300))[
                 ..., None
             ]
             huber = weight.reshape(n_frames, -1)
         root_precision = np.sqrt(active.reshape(n_frames, -1) * huber * scale)
         # the solve in the rows' space (at most 3 per held point, fewer than the columns):
         # z = P^-1 A^T (I + A P^-1 A^T)^-1 b with A = sqrt(M) J, b = sqrt(M) (e + J total)
-        rows = jac * root_precision[..., None]
-        spread_rows = rows * spread
-        gram = spread_rows @ rows.transpose(0, 2, 1)
+        a = jac * root_precision[..., None]
+        spread_rows = a * spread
+        gram = spread_rows @ a.transpose(0, 2, 1)
         gram[:, np.arange(gram.shape[1]), np.arange(gram.shape[1])] += 1.0
         target = root_precision * (residual + (jac @ total[..., None])[..., 0])
         mixed = np.linalg.solve(gram, target[..., None])
         step = (spread_rows.transpose(0, 2, 1) @ mixed)[..., 0] - total
         total += step
-        t[:, root, problem.axes] += step[:, : problem.axes.size]
+        t[:, 0, problem.axes] += step[:, : problem.axes.size]
         change = np.zeros((n_frames, problem.joints.size, 3))
         starts = problem.columns
         change[:, free] = step[:, starts[free, None] + np.arange(3)]
@@ -389,9 +621,9 @@ def _solve(
         change[:, problem.hinge] = (
             step[:, starts[problem.hinge], None] * problem.hinges[problem.hinge]
         )
-        q[:, problem.joints] = quat.normalize(
-            quat.multiply(quat.exp(0.5 * change), q[:, problem.joints])
-        )
+        turned = quat.normalize(quat.multiply(quat.exp(0.5 * change), q[:, problem.joints]))
+        moved = np.any(step != 0.0, axis=1)[:, None, None]  # a frame nothing asks of: as it was
+        q[:, problem.joints] = np.where(moved, turned, q[:, problem.joints])
     return q, t
 
 

@@ -26,7 +26,11 @@ alike); below about
 the median ratio of its periodogram to the fitted shape over the band (robust to the bins
 where motion leaks in), and no more than the level read from the upper quartile of the
 noise's third differences over the window's frames (robust to sparse events: a repaired
-flip fills a window's spectrum, not a quarter of its frames). Below the band the model
+flip fills a window's spectrum, not a quarter of its frames). Over the clip, a column's
+level is also no more than the noise that its mean spectrum over the band shows beside a
+motion falling like ``f^-s`` (``s >= 2``, :func:`_beside_motion`): at 24-30 fps, and in a
+fast joint at any rate, the band still holds motion, which white noise (rising across the
+band) does not resemble. Below the band the model
 extrapolates the AR(1) shape: the noise that hides under the motion is accounted for,
 which an estimate from the top of the spectrum alone cannot do.
 
@@ -41,6 +45,13 @@ term ``e'`` is fitted: per component variance ``sigma_b^2`` per column, spectrum
 Butterworth filter run forward and backward, normalised to unit variance), edge ``f_c`` and
 ``order`` shared by all the columns (one capture system), on the part of the spectrum the
 AR(1) fit leaves unexplained.
+
+**Noise in the motion's band** (:func:`motion_slope`). Which frequencies are motion no
+single joint's spectrum tells; what the clip's joints together tell is how steeply their
+spectrum falls where it stands above the fitted noise: human motion falls (the clean
+captures measured: slopes of -1.46 or steeper over 2-8 Hz for the median joint), the noise
+of markerless and video pose estimators wanders flat over the band in every joint (-0.5 to
++0.5). ``auto`` reads it to choose its noise model (:func:`fit_coloured` when flat).
 
 The level shown to users is the RMS rotation angle of one sample's noise, ``2 sqrt(3) sigma``
 (degrees; ``sqrt(3) sigma`` in length units for positions), per window and over the clip.
@@ -67,6 +78,7 @@ __all__ = [
     "BAND_HZ",
     "BandLimited",
     "Coloured",
+    "MotionSlope",
     "NoiseModel",
     "bump_statistic",
     "fit_band_limited",
@@ -75,6 +87,7 @@ __all__ = [
     "fast_length",
     "fit",
     "hann_windows",
+    "motion_slope",
 ]
 
 #: Window length of the local estimate and of the local choice, in seconds.
@@ -98,6 +111,9 @@ SHAPE_BAND_HZ = 20.0
 MAX_SHAPE_EDGE = 0.35
 #: Shortest window, in frames: below it a clip is one window (or too short to estimate).
 MIN_WINDOW = 8
+#: Slopes ``s`` of the motion's displacement spectrum ``f^-s`` over the noise band that
+#: the noise level is fitted beside (:func:`_beside_motion`): motion falls there.
+NOISE_BAND_MOTION_SLOPES = np.arange(2.0, 12.01, 0.5)
 #: AR(1) coefficients tried by the Whittle fit.
 RHO_GRID = np.round(np.arange(-0.5, 0.901, 0.025), 3)
 #: Values (windows x frequencies x columns) of periodogram computed per block.
@@ -155,9 +171,7 @@ class NoiseModel(NamedTuple):
 
     def coverage(self) -> np.ndarray:
         """(W,) frames of the clip each window stands for (its taper summed inside the clip)."""
-        _, taper = hann_windows(self.n_frames, self.window)
-        frames = self.starts[:, None] + np.arange(self.window)
-        return np.sum(taper * ((frames >= 0) & (frames < self.n_frames)), axis=1)
+        return window_coverage(self.n_frames, self.window)
 
     def clip_sigma2(self) -> np.ndarray:
         """(C,) noise variance over the clip: windows weighted by the frames they cover."""
@@ -202,6 +216,14 @@ def hann_windows(n_frames: int, window: int) -> tuple[np.ndarray, np.ndarray]:
     starts = np.arange(-hop, n_frames, hop)
     taper = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(window) / window)
     return starts, taper
+
+
+def window_coverage(n_frames: int, window: int) -> np.ndarray:
+    """(W,) frames of a clip of ``n_frames`` each window of :func:`hann_windows` stands for
+    (its taper summed over the frames inside the clip)."""
+    starts, taper = hann_windows(n_frames, window)
+    frames = starts[:, None] + np.arange(window)
+    return np.sum(taper * ((frames >= 0) & (frames < n_frames)), axis=1)
 
 
 def periodograms(disp: Rows, window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -291,6 +313,13 @@ def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -
     band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
     shape = gain[band, None] * ar1_spectrum(freqs[band], rho)  # (B, C)
     sigma2 = _band_medians(power, band, shape) / (CHI2_MEDIAN[dim] * dim)
+    # ... over the clip no more than the noise fitted beside a motion that falls across the
+    # band (which at low frame rates, or in a fast joint, still holds motion) ...
+    clip = window_coverage(n + 1, window) @ sigma2 / (n + 1)
+    tiny = np.finfo(np.float64).tiny
+    sigma2 = sigma2 * np.minimum(
+        1.0, _beside_motion(power, band, shape, freqs) / dim / np.maximum(clip, tiny)
+    )
     # ... and never above the level read, robustly in time, from the noise's third
     # differences (the displacements' second): sparse events (a repaired flip, a swing past
     # gimbal lock) fill a window's spectrum like noise but not the quartile over its frames.
@@ -304,6 +333,46 @@ def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -
         starts,
         n + 1,
     )
+
+
+def _beside_motion(power, band, shape, freqs) -> np.ndarray:
+    """(C,) noise level (``sigma^2`` times the components) that the windows' mean
+    periodogram ``P`` over the ``band`` bins shows beside motion: ``P ~ a (f / f_0)^-s +
+    c shape`` (``shape`` (B, C) the noise's unit spectrum, ``f_0`` the band's first bin,
+    ``s`` in ``NOISE_BAND_MOTION_SLOPES``, ``a, c >= 0``) fitted per column by Whittle's
+    likelihood (least squares weighted by the fitted spectrum, reweighted three times),
+    the slope of least deviance kept; ``c`` is returned. White or AR(1) noise fills the
+    band and keeps its level; motion that falls across the band (a fast joint, a low frame
+    rate) is not taken for noise."""
+    mean = power[:, band].mean(axis=0)  # (B, C)
+    tiny = np.finfo(np.float64).tiny
+    unit = np.maximum(mean.max(axis=0), tiny)
+    y = mean / unit
+    f = freqs[band]
+    motion = ((f / f[0]) ** -NOISE_BAND_MOTION_SLOPES[:, None])[:, :, None]  # (K, B, 1)
+    top = np.maximum(shape.max(axis=0), tiny)
+    noise = (shape / top)[None]  # (1, B, C)
+    fitted = np.broadcast_to(y, (NOISE_BAND_MOTION_SLOPES.size, *y.shape))  # (K, B, C)
+    for _ in range(3):
+        w = 1.0 / np.maximum(fitted, 1e-12) ** 2
+        smm, snn = (motion**2 * w).sum(1), (noise**2 * w).sum(1)
+        smn = (motion * noise * w).sum(1)
+        rm, rn = (motion * w * y).sum(1), (noise * w * y).sum(1)
+        det = smm * snn - smn**2
+        ok = det > 1e-12 * smm * snn
+        a = np.where(ok, (snn * rm - smn * rn) / np.where(ok, det, 1.0), -1.0)
+        c = np.where(ok, (smm * rn - smn * rm) / np.where(ok, det, 1.0), -1.0)
+        both = (a >= 0) & (c >= 0)
+        # one term alone where both cannot be positive: the one that explains more
+        a_only = np.maximum(rm / np.maximum(smm, tiny), 0.0)
+        c_only = np.maximum(rn / np.maximum(snn, tiny), 0.0)
+        noise_only = c_only * rn >= a_only * rm
+        a = np.where(both, a, np.where(noise_only, 0.0, a_only))
+        c = np.where(both, c, np.where(noise_only, c_only, 0.0))
+        fitted = np.maximum(a[:, None] * motion + c[:, None] * noise, 1e-12)
+    deviance = (np.log(fitted) + y / fitted).sum(axis=1)  # (K, C)
+    best = np.argmin(deviance, axis=0)
+    return np.take_along_axis(c, best[None], 0)[0] * unit / top
 
 
 def _band_medians(power: np.ndarray, band: np.ndarray, shape: np.ndarray) -> np.ndarray:
@@ -468,6 +537,88 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
         return None
     _, edge, order, shape, level = best
     return BandLimited(edge, order, shape, np.minimum(level, np.median(level)) / 3.0, bump)
+
+
+#: Evidence of noise in the motion's band (:func:`motion_slope`): the band (Hz, capped at
+#: 0.4 cycles per frame) where each column's displacement spectrum is read as a power law ...
+SLOPE_BAND_HZ = (2.0, 8.0)
+#: ... on the bins where it stands this many times above the fitted noise (AR(1), plus any
+#: band-limited noise): the motion's own spectrum there, not the noise the optical model
+#: already explains ...
+SLOPE_OVER = 4.0
+#: ... for the columns whose such bins (at least SLOPE_MIN_BINS) reach up to this
+#: frequency (Hz): the slope of 2 to 4 Hz alone is flat in clean fast motion.
+SLOPE_REACH_HZ = 6.0
+SLOPE_MIN_BINS = 4
+#: Fewest columns with a slope for the clip to have one.
+SLOPE_MIN_COLUMNS = 3
+
+
+class MotionSlope(NamedTuple):
+    """What :func:`motion_slope` measures: ``slope`` the clip's (nan: too few columns with
+    one), ``slopes`` (C,) each column's (nan: none), ``columns`` how many have one."""
+
+    slope: float
+    slopes: np.ndarray
+    columns: int
+
+
+def motion_slope(
+    model: NoiseModel, frame_time: float, band_limited: BandLimited | None = None
+) -> MotionSlope:
+    """How steeply the clip's displacement spectrum falls where motion shows above the noise.
+
+    Per column, the windows' mean periodogram ``P`` less the model's noise spectrum ``N``
+    (AR(1), plus ``band_limited`` when given) is fitted as ``f^slope`` by least squares in
+    logs over the bins of ``SLOPE_BAND_HZ`` where ``P > SLOPE_OVER N``; a column has a slope
+    when at least ``SLOPE_MIN_BINS`` such bins reach up to ``SLOPE_REACH_HZ`` (else the
+    noise hides its motion there). The clip's slope is the median over the columns that
+    move (any power in the band), those without a slope counted as steep: flatter than a
+    value only when more than half of them are. With fewer than ``SLOPE_MIN_COLUMNS``
+    slopes it is nan (the clip cannot tell).
+
+    Human motion's angular velocity falls with frequency: in the clean captures measured
+    (CMU 131 at 24-120 fps, Bandai Namco clips at 30 fps, marker-based truths at 60 Hz,
+    exporters' files) the clip's slope is -1.46 or steeper; its fastest joints alone may be
+    flat, which is why the median is taken, and over all the moving joints (noise hides
+    the steep ones first). The noise of markerless and video pose estimators wanders over
+    the whole band in every joint, flat up to a solver's cliff: a slope near 0 (-0.53 to
+    +0.49 on the markerless takes of ../shared/realnoise whose noise wanders). The band
+    starts at 2 Hz, above the leakage of a slow move's own frequency through the 2 s
+    windows. White and AR(1) noise are in ``N``. Cost: one pass over the (F, C) mean
+    periodogram.
+    """
+    n_cols = model.power.shape[2]
+    none = MotionSlope(math.nan, np.full(n_cols, np.nan), 0)
+    if frame_time <= 0 or model.power.shape[0] == 0:
+        return none
+    hz = model.freqs / frame_time
+    band = (hz >= SLOPE_BAND_HZ[0]) & (hz <= min(SLOPE_BAND_HZ[1], 0.4 / frame_time))
+    if np.count_nonzero(band) < SLOPE_MIN_BINS:
+        return none
+    mean = model.power.mean(axis=0)[band]  # (B, C)
+    gain = 4.0 * np.sin(np.pi * model.freqs[band]) ** 2
+    noise = 3.0 * model.clip_sigma2() * gain[:, None] * ar1_spectrum(model.freqs[band], model.rho)
+    if band_limited is not None:
+        noise = noise + 3.0 * band_limited.sigma2 * gain[:, None] * band_limited.shape[band, None]
+    seen = mean > SLOPE_OVER * noise
+    tiny = np.finfo(np.float64).tiny
+    x = np.log(hz[band])[:, None]
+    y = np.log(np.maximum(mean - noise, tiny))
+    count = seen.sum(axis=0)
+    x_mean = np.sum(seen * x, axis=0) / np.maximum(count, 1)
+    y_mean = np.sum(seen * y, axis=0) / np.maximum(count, 1)
+    sxx = np.sum(seen * (x - x_mean) ** 2, axis=0)
+    sxy = np.sum(seen * (x - x_mean) * (y - y_mean), axis=0)
+    reach = np.max(np.where(seen, hz[band][:, None], 0.0), axis=0)
+    has = (count >= SLOPE_MIN_BINS) & (sxx > 0) & (reach >= SLOPE_REACH_HZ)
+    slopes = np.where(has, sxy / np.where(has, sxx, 1.0), np.nan)
+    columns = int(has.sum())
+    moving = np.any(mean > 0.0, axis=0)
+    if columns < SLOPE_MIN_COLUMNS:
+        return MotionSlope(math.nan, slopes, columns)
+    votes = np.where(has, slopes, -np.inf)[moving]
+    return MotionSlope(float(np.median(votes)), slopes, columns)
 
 
 #: Coloured noise (:func:`fit_coloured`): the fit's band in Hz (capped at 0.45 cycles per

@@ -40,12 +40,15 @@ from .text import (
     MAX_MAGNITUDE,
     bad_number_message,
     check_finite,
+    fixed6_rows,
     format_fixed6,
+    join_rows,
     line_ends,
     parse_values,
+    regular_rows,
+    scan_rows,
     scan_tokens,
     splice_cells,
-    table_pieces,
 )
 
 BOM = b"\xef\xbb\xbf"
@@ -421,7 +424,8 @@ def _parse_row_lines(buf, body_start: int, newlines, n_frames: int, n_channels: 
         when they are not rows of ``n_channels`` values."""
         begin, end = int(line_starts[rows.start]), int(line_stops[rows.stop - 1])
         text = np.frombuffer(buf, np.uint8, end - begin, begin)
-        starts, ends = scan_tokens(text)
+        found = scan_rows(text, rows.stop - rows.start, n_channels)
+        starts, ends = scan_tokens(text) if found is None else found
         if starts.size != (rows.stop - rows.start) * n_channels:
             return None
         inside = (starts[::n_channels] >= line_starts[rows] - begin) & (
@@ -748,11 +752,35 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
             new = values[rows][changed[rows]]  # only the changed values are printed
             return lambda a, b: format_fixed6(new[a:b])
 
-        return splice_cells(src.raw, src.row_starts, src.cells, changed, texts, start, prefix)
+        def rows_text(rows: slice, source: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+            """Rows of one space between values and the same line end after each: made
+            afresh from fields of digits, the unchanged values' texts copied into theirs."""
+            row_eol = regular_rows(source, starts, ends, b" ")
+            if row_eol is None:
+                return None
+            kept = (source, starts, ends, ~changed[rows])
+            return fixed6_rows(values[rows], b" ", row_eol, kept, last_eol=False)
 
-    def cells(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        block = values[rows]
-        buf, starts, lengths = format_fixed6(block)
-        return buf, starts.reshape(block.shape), lengths.reshape(block.shape)
+        return splice_cells(
+            src.raw, src.row_starts, src.cells, changed, texts, start, prefix, rows_text
+        )
+    return _table_pieces(values, eol, hierarchy + motion_header)
 
-    return table_pieces(values.shape[0], cells, b" ", eol, hierarchy + motion_header)
+
+#: Rows per piece of a table written afresh.
+_TABLE_ROWS = 4096
+
+
+def _table_pieces(values: np.ndarray, eol: bytes, head: bytes) -> Iterable[bytes]:
+    """``head``, then the ``(F, C)`` rows of values as ``%.6f`` texts joined by spaces, a
+    block of rows per piece, each made when it is asked for."""
+    yield head
+    for at in range(0, values.shape[0], _TABLE_ROWS):
+        block = values[at : at + _TABLE_ROWS]
+        text = fixed6_rows(block, b" ", eol)
+        if text is None:  # (a value of 9e12 or more)
+            buf, starts, lengths = format_fixed6(block)
+            text = join_rows(
+                buf, starts.reshape(block.shape), lengths.reshape(block.shape), b" ", eol
+            )
+        yield text

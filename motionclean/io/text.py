@@ -7,6 +7,7 @@ spliced into the original bytes so that everything not changed keeps its exact t
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Callable, Iterator
@@ -41,13 +42,8 @@ _CHUNK_BYTES = 131072
 #: part's cell offsets and texts are its working set, as many at once as there are threads.
 _PART_ITEMS = 4 * _CHUNK_ITEMS
 _PART_BYTES = 32 * _CHUNK_BYTES
-#: Bytes per formatted ``%.6f`` field.
-_FIELD = 16
 #: Decimal powers, exact in float64 up to 1e22.
 _POW10_FLOAT = 10.0 ** np.arange(23)
-#: Two-character groups "00" .. "99" and "0." .. "9." as native uint16 (byte pairs).
-_PAIRS = np.frombuffer(b"".join(b"%02d" % i for i in range(100)), dtype=np.uint16)
-_DIGIT_POINT = np.frombuffer(b"".join(b"%d." % i for i in range(10)), dtype=np.uint16)
 
 
 #: Buffers at least this long get 64-bit offsets.
@@ -86,6 +82,45 @@ def scan_tokens(buf: np.ndarray, start: int = 0, separators: bytes = b"") -> tup
         ends.append(np.array([buf.size], dtype=dtype))
     empty = np.zeros(0, dtype=dtype)
     return np.concatenate(starts or [empty]), np.concatenate(ends or [empty])
+
+
+def scan_rows(buf: np.ndarray, n_rows: int, n_cols: int) -> tuple | None:
+    """:func:`scan_tokens` of ``buf`` when it is ``n_rows`` lines of ``n_cols`` tokens in
+    the layout exporters write (one space between tokens, every line but the last ended by
+    the same LF or CRLF, the last by nothing after LFs or by its CR after CRLFs), else
+    None: one pass for the bytes up to the space, one reshape and a check of the bytes
+    found."""
+    if n_rows < 1 or n_cols < 1:
+        return None
+    dtype = np.int32 if buf.size < _INT32_LIMIT else np.intp
+    found = [  # spaces, line ends, any control byte (in chunks: small temporaries)
+        (np.flatnonzero(buf[at : at + _CHUNK_BYTES] <= 32) + at).astype(dtype)
+        for at in range(0, buf.size, _CHUNK_BYTES)
+    ]
+    found.append(np.array([buf.size], dtype=dtype))  # the last line's end
+    # n_cols or n_cols + 1 a line
+    width = sum(part.size for part in found) - n_rows * n_cols
+    if width not in (0, n_rows):
+        return None
+    width = n_cols + width // n_rows
+    ends: np.ndarray = np.concatenate(found)
+    grid = ends.reshape(n_rows, width)
+    spaces = buf.take(grid[:, : n_cols - 1]) == 32
+    if width == n_cols:  # LF
+        line_end = buf.take(grid[:-1, -1]) == 10
+        starts = np.empty_like(ends)
+        starts[0], starts[1:] = 0, ends[:-1] + 1
+    else:  # CRLF: the CR ends the last token, the LF follows it
+        line_end = (buf.take(grid[:, -2]) == 13).all() and (buf.take(grid[:-1, -1]) == 10).all()
+        line_end &= bool((grid[:, -1] == grid[:, -2] + 1).all())
+        starts = np.empty_like(grid)
+        starts[:, 1:] = grid[:, :-1] + 1
+        starts[0, 0] = 0
+        starts[1:, 0] = grid[:-1, -1] + 1
+        starts, ends = starts[:, :n_cols].ravel(), grid[:, :n_cols].ravel()
+    if not (spaces.all() and np.all(line_end) and (ends > starts).all()):
+        return None
+    return starts, ends
 
 
 def line_ends(buf: np.ndarray, start: int = 0) -> np.ndarray:
@@ -273,68 +308,261 @@ def bad_number_message(what: str, token: bytes) -> str:
     return f"{what} is not finite: {text!r}"
 
 
+#: ``%.6f`` texts are made in fields of 4-byte lanes (native uint32 holding the bytes in
+#: memory order) taken from digit tables, NUL where a field has no character; removing the
+#: NULs joins the texts. A field is a sign lane (``-`` or NUL, then the integer digits above
+#: the 4-digit groups, leading zeros as NUL), ``k`` lanes of 4 integer digits, a ``.ddd``
+#: lane and a ``ddd`` + separator lane.
+_LANE = 4
+#: Integer 4-digit groups per field for values below each bound (``k`` = 0 .. 3).
+_GROUP_BOUNDS = (1e3, 1e7, 1e11, 9e12)
+#: Printed by numpy at most this magnitude: ``|v| * 1e6`` and its exact rounding fit int64.
+_FIXED6_LIMIT = _GROUP_BOUNDS[-1]
+#: 2**52: from here on ``|v| * 1e6`` in float64 is a whole number.
+_WHOLE_PRODUCT = 2.0**52
+#: Veltkamp's splitter for float64 (2**27 + 1): splits a value into two 26-bit halves.
+_SPLITTER = 134217729.0
+
+
+def _lanes(texts: list[bytes]) -> np.ndarray:
+    return np.frombuffer(b"".join(texts), dtype=np.uint32)
+
+
+def _digits(number: int, width: int, lead: bool, last: bool) -> bytes:
+    """``number`` in ``width`` digits; with ``lead`` its leading zeros are NUL (all of them
+    for 0 unless ``last``: then a single ``0`` is kept)."""
+    text = b"%0*d" % (width, number)
+    if lead:
+        shown = text.lstrip(b"0") or (b"0" if last else b"")
+        text = shown.rjust(width, b"\0")
+    return text
+
+
+#: 4-digit groups (10,000 entries each): full digits, leading zeros as NUL (0 is all NUL),
+#: leading zeros as NUL with the units digit always shown.
+_GROUPS = _lanes(
+    [
+        _digits(i, 4, lead, last)
+        for lead, last in ((False, False), (True, False), (True, True))
+        for i in range(10_000)
+    ]
+)
+#: Sign lanes (1,000 entries each): NUL or ``-``, then 3 digits with leading zeros as NUL;
+#: for the "units" tables the last digit is always shown.
+_SIGNS = _lanes(
+    [
+        sign + _digits(i, 3, True, last)
+        for last in (False, True)
+        for sign in (b"\0", b"-")
+        for i in range(1000)
+    ]
+)
+#: ``.ddd``: a point and the first three decimals.
+_POINT_DECIMALS = _lanes([b".%03d" % i for i in range(1000)])
+
+
+@functools.cache
+def _last_decimals(sep: int) -> np.ndarray:
+    """``ddd`` + the byte ``sep`` (NUL: none): the last three decimals and a separator."""
+    return _lanes([b"%03d" % i + bytes([sep]) for i in range(1000)])
+
+
+def _microunits(v: np.ndarray) -> np.ndarray:
+    """``|v| * 10**6`` rounded half to even, exactly as ``%.6f`` rounds (int64), for
+    ``|v| < _FIXED6_LIMIT``.
+
+    The float product ``x`` is within half an ulp of the exact one, so below 2**52 its
+    nearest integer is the answer unless ``x`` is exactly half way; there, and above 2**52
+    (where ``x`` is whole), the product's rounding error (exact, from Dekker's product with
+    Veltkamp's split: 1e6 has 14 significant bits) decides."""
+    a = np.abs(v).ravel()
+    x = a * 1e6
+    n = np.rint(x)
+    out = n.astype(np.int64).reshape(v.shape)
+    whole = x.size > 0 and x.max() >= _WHOLE_PRODUCT
+    np.subtract(x, n, out=n)
+    if not (whole or (x.size > 0 and np.abs(n, out=n).max() == 0.5)):
+        return out  # (the common case: two maxima instead of a mask)
+    at = np.flatnonzero((np.abs(n) == 0.5) | (x >= _WHOLE_PRODUCT))
+    a, x, n = a[at], x[at], out.reshape(-1)[at]
+    split = a * _SPLITTER
+    high = split - (split - a)
+    error = (high * 1e6 - x) + (a - high) * 1e6  # a * 1e6 == x + error, exactly
+    half = x - np.rint(x)
+    n += (half == 0.5) & (error > 0.0)
+    n -= (half == -0.5) & (error < 0.0)
+    whole = x >= _WHOLE_PRODUCT  # x is a whole number and error picks the neighbour
+    below = np.floor(error)
+    rest = error - below
+    step = below.astype(np.int64)
+    step += (rest > 0.5) | ((rest == 0.5) & ((n + step) % 2 == 1))
+    n[whole] += step[whole]
+    out.reshape(-1)[at] = n
+    return out
+
+
+def _fill_fixed6(v: np.ndarray, n: np.ndarray, groups: int, out: np.ndarray, sep: int) -> None:
+    """Write the ``%.6f`` fields of ``v`` (any shape) into ``out`` (``v.shape`` + lanes:
+    ``groups + 3``), given ``n`` = :func:`_microunits` of ``v``; the last lane ends with
+    the byte ``sep``."""
+    whole = n // 1_000_000
+    decimals = (n - whole * 1_000_000).astype(np.int32)
+    if groups == 0:
+        head = whole.astype(np.int32) + 1000 * (2 + ((v < 0) & (n > 0)))
+    else:
+        rest = whole
+        lanes = []
+        for _ in range(groups):
+            above = rest // 10_000
+            lanes.append(rest - above * 10_000)
+            rest = above
+        head = rest.astype(np.int32)
+        shown = head > 0  # a higher digit is not zero
+        for lane, group in enumerate(reversed(lanes), start=1):
+            kind = np.where(shown, 0, 1 if lane < groups else 2)
+            out[..., lane] = _GROUPS.take(group.astype(np.int32) + 10_000 * kind)
+            shown |= group > 0
+        head += 1000 * ((v < 0) & (n > 0))
+    out[..., 0] = _SIGNS.take(head)
+    first = decimals // 1000
+    out[..., groups + 1] = _POINT_DECIMALS.take(first)
+    out[..., groups + 2] = _last_decimals(sep).take(decimals - first * 1000)
+
+
 def format_fixed6(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``%.6f`` text of each value, as ``(buffer, starts, lengths)`` (see :func:`gather`).
 
-    Vectorised: each value is rounded to an integer count of 1e-6 (the float product
-    ``|v| * 1e6`` is one rounding away from the exact one; values whose product lies too
-    close to a half, and values of 1e7 or more, are printed by Python), then written as
-    two-character groups into a 16-byte field. A value that prints as zero is written
-    ``0.000000``, never ``-0.000000``.
+    Exactly what ``b"%.6f" % value`` prints (:func:`_microunits`), except that a value
+    that prints as zero is written ``0.000000``, never ``-0.000000``. Vectorised below
+    :data:`_FIXED6_LIMIT` (readers refuse values over 1e12); larger values are printed by
+    Python.
     """
     v = np.asarray(values, dtype=np.float64).ravel()
-    field = np.empty((v.size, _FIELD // 2), dtype=np.uint16)
-    starts = np.empty(v.size, dtype=np.int64)
-    lengths = np.empty(v.size, dtype=np.int64)
-    fast = np.empty(v.size, dtype=bool)
+    texts, lengths = [], np.empty(v.size, dtype=np.int64)
+    large = ~(np.abs(v) < _FIXED6_LIMIT)
     for at in range(0, v.size, _CHUNK_ITEMS):  # chunks stay in cache
         part = slice(at, at + _CHUNK_ITEMS)
-        starts[part], lengths[part], fast[part] = _fill_fixed6(v[part], field[part])
-    starts += np.arange(v.size, dtype=np.int64) * _FIELD
-    chars = field.view(np.uint8).ravel()
-    slow = np.flatnonzero(~fast)
-    if not slow.size:
-        return chars, starts, lengths
-    texts = [_fixed6(x) for x in v[slow].tolist()]
-    extra, extra_starts, extra_lengths = pack_texts(texts)
-    starts[slow] = extra_starts + chars.size
-    lengths[slow] = extra_lengths
-    return np.concatenate([chars, extra]), starts, lengths
+        chunk = np.where(large[part], 0.0, v[part])
+        text, lengths[part] = _fixed6_chunk(chunk)
+        texts.append(text)
+    starts = np.cumsum(lengths) - lengths
+    slow = np.flatnonzero(large)
+    if slow.size:  # printed by Python after the others (their zero texts stay unused)
+        extra = [_fixed6(x) for x in v[slow].tolist()]
+        lengths[slow] = [len(t) for t in extra]
+        starts[slow] = sum(map(len, texts)) + np.cumsum(lengths[slow]) - lengths[slow]
+        texts += extra
+    chars = np.frombuffer(b"".join(texts), dtype=np.uint8)
+    return chars, starts, lengths
 
 
-def _fill_fixed6(v: np.ndarray, field: np.ndarray):
-    """Write ``%.6f`` of ``v`` right-aligned into the rows of ``field`` (16 bytes each);
-    return each text's offset in its row, its length and whether it was written."""
-    a = np.abs(v)
-    with np.errstate(invalid="ignore", over="ignore"):
-        x = a * 1e6
-        rounded = np.rint(x)
-        fast = (a < 1e7) & (np.abs(np.abs(x - rounded) - 0.5) > 1e-15 * x)
-    n = np.where(fast, rounded, 0.0)
-    whole = np.floor(n / 1e6)  # exact: n is an integer below 1e13
-    frac = (n - whole * 1e6).astype(np.int32)
-    whole = whole.astype(np.int32)
-    # Bytes 2..8 hold 7 integer digits, 9 the point, 10..15 the decimals; the sign, if
-    # any, goes just before the first digit. (x - x // 100 * 100 is faster than x % 100.)
-    rest = whole // 10
-    field[:, 4] = _DIGIT_POINT.take(whole - rest * 10)
-    for slot in (3, 2, 1):
-        pair, rest = rest, rest // 100
-        field[:, slot] = _PAIRS.take(pair - rest * 100)
-    rest = frac // 100
-    field[:, 7] = _PAIRS.take(frac - rest * 100)
-    pair, rest = rest, rest // 100
-    field[:, 6] = _PAIRS.take(pair - rest * 100)
-    field[:, 5] = _PAIRS.take(rest)
-    n_whole = np.ones(v.size, dtype=np.int8)
-    for power in (10, 100, 1000, 10_000, 100_000, 1_000_000):
-        n_whole += whole >= power
-    minus = (v < 0) & (n > 0)
-    lengths = n_whole + 7 + minus
-    offsets = _FIELD - lengths
-    rows = np.flatnonzero(minus)
-    field.view(np.uint8)[rows, offsets[rows]] = ord("-")
-    return offsets, lengths, fast
+def _fixed6_chunk(v: np.ndarray) -> tuple[bytes, np.ndarray]:
+    """The joined ``%.6f`` texts of ``v`` (``|v| <`` :data:`_FIXED6_LIMIT`) and their
+    lengths."""
+    n = _microunits(v)
+    groups = _groups(n)
+    field = np.empty((v.size, groups + 3), dtype=np.uint32)
+    _fill_fixed6(v, n, groups, field, 0)
+    whole = n // 1_000_000
+    lengths = ((v < 0) & (n > 0)).astype(np.int64)  # the sign
+    lengths += 8  # a digit, the point, six decimals
+    power = 10
+    for _ in range(3 + 4 * groups - 1):
+        lengths += whole >= power
+        power *= 10
+    return field.tobytes().translate(None, b"\0"), lengths
+
+
+def fixed6_rows(
+    values: np.ndarray, sep: bytes, eol: bytes, kept=None, last_eol: bool = True
+) -> bytes | None:
+    """Rows of ``(R, K)`` ``values`` as :func:`format_fixed6` texts joined by the byte
+    ``sep``, each row ended by ``eol`` (the last one too unless ``last_eol`` is False),
+    made as fields of digit-table lanes (no per-byte offsets).
+
+    With ``kept`` = ``(source, starts, ends, mask)`` the cells where the ``(R, K)`` bool
+    ``mask`` is True are the bytes ``source[starts:ends]`` instead. None when a value is
+    :data:`_FIXED6_LIMIT` or more or a kept text longer than 27 bytes (use the general
+    path: :func:`format_fixed6` and :func:`join_rows`).
+    """
+    n_rows, n_cols = values.shape
+    if not (len(sep) == 1 and 0 < len(eol) <= _LANE and n_cols and sep != b"\0"):
+        return None
+    words = None if kept is None else _words(kept[0])
+    out = []
+    block = max(1, _CHUNK_ITEMS // n_cols)
+    for at in range(0, n_rows, block):
+        rows = slice(at, min(at + block, n_rows))
+        shown = None if kept is None else (words, kept[1][rows], kept[2][rows], kept[3][rows])
+        text = _fixed6_block(values[rows], sep[0], eol, shown, last_eol or rows.stop < n_rows)
+        if text is None:
+            return None
+        out.append(text)
+    return b"".join(out)
+
+
+#: Lanes of a kept text in a field at most (27 bytes and the separator).
+_MAX_LANES = 7
+#: Masks keeping the first 0 .. 4 bytes of a lane.
+_FIRST_BYTES = _lanes([b"\xff" * n + b"\0" * (_LANE - n) for n in range(_LANE + 1)])
+
+
+def _words(source: np.ndarray) -> np.ndarray:
+    """The 4-byte words of ``source`` at every byte offset ``s``, as ``words[(s % 4) * n +
+    s // 4]`` (four copies of the bytes, each shifted by one; NUL past the end)."""
+    n = source.size // _LANE + _MAX_LANES + 1
+    padded = np.zeros(_LANE * n + _LANE, dtype=np.uint8)
+    padded[: source.size] = source
+    return np.concatenate(
+        [padded[k : k + _LANE * n].view(np.uint32) for k in range(_LANE)]  # (copies: aligned)
+    )
+
+
+def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes | None:
+    """:func:`fixed6_rows` of a block of rows; ``kept`` holds :func:`_words` of the source
+    instead of its bytes."""
+    mask = None if kept is None or not kept[3].any() else kept[3]
+    v = values if mask is None else np.where(mask, 0.0, values)
+    if v.size and not np.abs(v).max() < _FIXED6_LIMIT:
+        return None
+    n = _microunits(v)
+    lanes = _groups(n) + 3
+    if mask is not None:
+        words, starts, ends, _ = kept
+        at = np.flatnonzero(mask)  # kept cells, row-major
+        first = starts.ravel().take(at)
+        length = ends.ravel().take(at) - first
+        lanes = max(lanes, -(-(int(length.max()) + 1) // _LANE))
+        if lanes > _MAX_LANES:
+            return None
+    n_rows, n_cols = v.shape
+    width = lanes * _LANE
+    field = np.empty((n_rows, n_cols * lanes + 1), dtype=np.uint32)  # every lane written
+    cells = field[:, :-1].reshape(n_rows, n_cols, lanes)
+    _fill_fixed6(v, n, lanes - 3, cells, sep)
+    chars = field.view(np.uint8)
+    chars[:, n_cols * width - 1] = 0  # no separator after the last cell
+    field[:, -1] = np.frombuffer(eol.ljust(_LANE, b"\0"), dtype=np.uint32)[0]
+    if not last_eol:
+        field[-1, -1] = 0
+    if mask is not None:  # each kept cell's text a lane at a time, then its separator
+        row, col = np.divmod(at, n_cols)
+        place = row * field.shape[1] + col * lanes
+        word = (first % _LANE) * (words.size // _LANE) + first // _LANE
+        ends_row = col == n_cols - 1
+        for lane in range(lanes):
+            text = words.take(word + lane)
+            text &= _FIRST_BYTES.take(np.clip(length - _LANE * lane, 0, _LANE))
+            if lane == lanes - 1:
+                text |= np.where(ends_row, 0, _lanes([b"\0\0\0" + bytes([sep])])[0])
+            field.put(place + lane, text)
+    return field.tobytes().translate(None, b"\0")
+
+
+def _groups(n: np.ndarray) -> int:
+    """4-digit integer groups a field needs for the :func:`_microunits` ``n``."""
+    largest = int(n.max(initial=0))
+    return next(k for k, bound in enumerate(_GROUP_BOUNDS) if largest < bound * 1e6)
 
 
 def _fixed6(x: float) -> bytes:
@@ -394,6 +622,7 @@ def splice_cells(
     texts,
     start: int = 0,
     prefix: bytes = b"",
+    rows_text: Callable[[slice, np.ndarray, np.ndarray, np.ndarray], bytes | None] | None = None,
 ) -> Iterator[bytes | memoryview]:
     """The pieces of ``prefix + raw[start:]`` (bytes to join or write in turn, made as they
     are asked for) with the cells of ``(F, C)`` rows (in file order, at or after ``start``)
@@ -403,9 +632,12 @@ def splice_cells(
 
     ``texts(rows)`` (a slice of rows) returns ``chunk(a, b)``, which gives ``(buffer, starts,
     lengths)`` of the new texts of that part's replacements ``a`` to ``b - 1`` (row-major).
-    Parts of rows run on threads, as many at a time as there are threads, and each slices
-    only its own rows' bytes from ``raw`` and works on them in chunks: no array or text the
-    size of the clip is made.
+    ``rows_text(rows, source, starts, ends)``, when given, may make a part's rows itself
+    (see :func:`fixed6_rows`): from the bytes ``source`` (uint8) of the part and the
+    ``(len, C)`` cell ranges in them, the text from its first cell to its last, or None to
+    splice the part the general way. Parts of rows run on threads, as many at a time as
+    there are threads, and each slices only its own rows' bytes from ``raw`` and works on
+    them in chunks: no array or text the size of the clip is made.
     """
     whole = sliceable(raw)
     n_rows = row_starts.size
@@ -422,6 +654,11 @@ def splice_cells(
             return [text]
         source = np.frombuffer(text, dtype=np.uint8)
         row_cells = cells(rows)
+        if rows_text is not None:
+            starts, ends = row_cells[0] - low, row_cells[1] - low
+            made = rows_text(rows, source, starts, ends)
+            if made is not None:
+                return [text[: starts[0, 0]], made, text[ends[-1, -1] :]]
         old_starts, old_ends = row_cells[0][chosen] - low, row_cells[1][chosen] - low
         chunk = texts(rows)
         out: list[bytes | memoryview] = []
@@ -443,6 +680,24 @@ def splice_cells(
     for first in range(0, len(spans), batch):
         for part in run_parts(spliced, spans[first : first + batch]):
             yield from part
+
+
+def regular_rows(source: np.ndarray, starts: np.ndarray, ends: np.ndarray, sep: bytes):
+    """The line end (LF or CRLF) between the ``(R, C)`` cells ``source[starts:ends]`` of
+    consecutive rows when every row ends with that same one and the cells within a row are
+    separated by the one byte ``sep`` (cells never hold ``sep``, CR or LF), else None (LF
+    for a single row)."""
+    if starts.size == 0 or not (starts[:, 1:] == ends[:, :-1] + 1).all():
+        return None
+    row_ends = ends[:-1, -1]
+    eol = b"\n" if not row_ends.size else source[row_ends[0] : starts[1, 0]].tobytes()
+    if eol not in (b"\n", b"\r\n") or not (starts[1:, 0] - row_ends == len(eol)).all():
+        return None
+    if not all((source[row_ends + k] == byte).all() for k, byte in enumerate(eol)):
+        return None
+    region = source[starts[0, 0] : ends[-1, -1]]
+    spaces = np.count_nonzero(region == sep[0])
+    return eol if spaces == starts.shape[0] * (starts.shape[1] - 1) else None
 
 
 def _interleave(source, kept_starts, kept_ends, buf, new_starts, new_lengths) -> bytes:

@@ -25,7 +25,7 @@ import numpy as np
 from ..core.version import __version__
 from ..steps.base import fps_text, plural
 from .html_world import world_section
-from .summary import format_rest, noisiest, note_text, resampled_to
+from .summary import format_noise_model, format_rest, noisiest, note_text, resampled_to
 from .traces import COLUMNS, Trace, trace
 
 __all__ = ["render_html", "render_index"]
@@ -491,6 +491,9 @@ def render_html(report: dict, series: dict | None = None) -> str:
             "</div>"
         )
         correlation, own_rho = noise_correlation(joints)
+        source = format_noise_model(report)
+        if source:
+            body.append(f'<p class="note">auto: {_e(source.rstrip("."))}.</p>')
         if correlation:
             body.append(f'<p class="note">auto: {_e(correlation)}.</p>')
         body.append('<div class="grid">')
@@ -565,13 +568,17 @@ RHO_APART = 0.2
 def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
     """What the page says about ``auto``'s noise correlation: one line for the clip (None
     without ``auto`` notes) and the ``(note key, joint)`` pairs whose own rho says something
-    about the joint. Below about 57 fps the model takes every joint's noise as white (rho 0,
-    not fitted): no joint shows it. Otherwise the clip's median (rotations and positions
-    each) is shown once, and a joint's rho where it differs from it by :data:`RHO_APART`
-    or more."""
+    about the joint (the markerless model's notes have none to say). Below about 57 fps the
+    model takes every joint's noise as white (rho 0, not fitted): no joint shows it.
+    Otherwise the clip's median (rotations and positions each) is shown once, and a joint's
+    rho where it differs from it by :data:`RHO_APART` or more."""
     said, apart = [], set()
     for key, what in (("auto", "rotations"), ("position_auto", "positions")):
-        rhos = {n: e[key]["rho"] for n, e in joints.items() if "rho" in (e.get(key) or {})}
+        notes = {n: e.get(key) or {} for n, e in joints.items()}
+        # the markerless model has no AR(1) correlation: its wander is said on its own line
+        rhos = {
+            n: v["rho"] for n, v in notes.items() if "rho" in v and v.get("model") != "markerless"
+        }
         if not rhos:
             continue
         if not any(rhos.values()):

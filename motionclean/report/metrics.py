@@ -55,7 +55,7 @@ def angular_acceleration(
 
     def block(rows: slice) -> None:  # blocks on threads; no clip-sized temporaries
         part = q[rows.start : rows.stop + 2]
-        w = quat.log_shortest(quat.relative(part[:-1], part[1:]))
+        w = quat.log_relative(part[:-1], part[1:])
         change = w[1:] - w[:-1]
         here = out[rows]
         np.sqrt(np.einsum("...i,...i->...", change, change), out=here)

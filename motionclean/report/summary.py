@@ -19,6 +19,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.threads import run_parts
+from ..filters.auto import describe_source
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
 from . import metrics
@@ -178,7 +179,7 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     if not counts.any():
         zeros = np.zeros(table.shape[1])
         return _Reduced(drawn, zeros, zeros, 0.0, 0.0, counts)
-    largest = np.where(counts > 0, np.fmax.reduce(core, axis=0, initial=0.0), 0.0)
+    largest = np.array([trace.peak for trace in drawn])  # the rest rows are NaN: left out
     total_max = float(largest.max())
     squares = np.square(core, out=core)
     squares[~known] = 0.0
@@ -432,21 +433,30 @@ def format_table(report: dict, limit: int = 10) -> str:
 
 
 def format_noise_model(report: dict) -> str:
-    """Which noise model auto used when it assumed a markerless or video capture, and how
-    much of the noise it found below the motion's top frequencies ("" otherwise)."""
-    notes = [e["auto"] for e in report["joints"].values() if "auto" in e]
+    """Which capture system auto assumed and why (found from the clip, or given), and with
+    the markerless model how much of the noise it found below the motion's top frequencies;
+    without auto's notes, the report's ``capture_source`` (the ``report`` command's); ""
+    when there is neither."""
+    notes = [e["auto"] for e in report["joints"].values() if "source" in e.get("auto", {})]
+    if not notes and "capture_source" not in report:
+        return ""
+    first = notes[0] if notes else report["capture_source"]
+    slope = first.get("motion_slope")
+    if slope is None and first.get("source_measured"):
+        slope = math.nan
+    line = f"capture source: {describe_source(first['model'], first['source'], slope)}"
     wander = [n for n in notes if n.get("model") == "markerless"]
     if not wander:
-        return ""
+        return line
     edges = {n.get("wander_edge_hz") for n in wander}
     edge = edges.pop() if len(edges) == 1 else None
     below = "" if edge is None else f" below {edge:g} Hz"
     level = sorted(n["wander"] for n in wander)[len(wander) // 2]
+    hint = " For an optical capture: --source optical." if first["source"] == "auto" else ""
     return (
-        f"noise model: markerless, as at any video frame rate (60 fps or less): the noise "
-        f"wanders{below}, down where the motion is (median joint {level:.3g} deg); each "
-        "joint gets the one filter of least expected error over the clip. For an optical "
-        "capture: -f despike -f fill-gaps -f auto:source=optical -f footlock"
+        f"{line}. The noise wanders{below}, down where the motion is (median joint "
+        f"{level:.3g} deg); each joint gets the one filter of least expected error over the "
+        f"clip.{hint}"
     )
 
 

@@ -31,8 +31,6 @@ COLUMNS = 554
 ENVELOPE_COLUMNS = COLUMNS // 2
 #: The quantile a plot's y axis may stop at when a few samples are far above the rest.
 ROBUST_QUANTILE = 0.995
-#: Columns whose quantiles are taken together.
-QUANTILE_COLUMNS = 8
 
 
 class Trace(NamedTuple):
@@ -62,29 +60,33 @@ def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, 
     if n <= columns:
         return np.arange(n, dtype=np.float64), values, values
     edges = (np.arange(columns + 1) * n) // columns  # strictly increasing since n > columns
-    low = np.fmin.reduceat(values, edges[:-1], axis=0)
-    high = np.fmax.reduceat(values, edges[:-1], axis=0)
+    if values.ndim == 2 and values.T.flags.c_contiguous:  # each column's samples contiguous
+        low = np.fmin.reduceat(values.T, edges[:-1], axis=1).T
+        high = np.fmax.reduceat(values.T, edges[:-1], axis=1).T
+    else:
+        low = np.fmin.reduceat(values, edges[:-1], axis=0)
+        high = np.fmax.reduceat(values, edges[:-1], axis=0)
     return (edges[:-1] + edges[1:] - 1) / 2.0, low, high
 
 
 def traces(table: np.ndarray) -> list[Trace]:
-    """The :class:`Trace` of each column of a ``(N, R)`` table of per-frame figures."""
+    """The :class:`Trace` of each column of a ``(N, R)`` table of per-frame figures.
+
+    Made from one copy of the table stored column by column: the envelope reduces each
+    column's contiguous samples, the peak is the largest of the envelope's maxima and the
+    quantile partitions the copy in place (the same figures as from the table itself)."""
     table = np.asarray(table, dtype=np.float64)
     n, n_cols = table.shape
+    by_column = np.array(table.T, order="C")  # (R, N), a copy (the quantile reorders it)
     columns = COLUMNS if n <= COLUMNS else ENVELOPE_COLUMNS
-    position, low, high = envelope(table, columns)
+    # (a short series is its own envelope: the table's, not the copy the quantile reorders)
+    position, low, high = envelope(table if n <= columns else by_column.T, columns)
     if n and n_cols:
-        gaps = bool(np.isnan(table).any())
-        quantile = np.nanquantile if gaps else np.quantile
+        quantile = np.nanquantile if np.isnan(by_column).any() else np.quantile
         with warnings.catch_warnings():  # a column of gaps only has no quantile: 0 below
             warnings.simplefilter("ignore", RuntimeWarning)
-            peak = np.fmax.reduce(table, axis=0)
-            robust = np.concatenate(  # a few columns at a time: quantile copies what it sorts
-                [
-                    quantile(table[:, at : at + QUANTILE_COLUMNS], ROBUST_QUANTILE, axis=0)
-                    for at in range(0, n_cols, QUANTILE_COLUMNS)
-                ]
-            )
+            peak = np.fmax.reduce(high, axis=0)
+            robust = quantile(by_column, ROBUST_QUANTILE, axis=1, overwrite_input=True)
         peak, robust = np.nan_to_num(peak), np.nan_to_num(robust)
     else:
         peak = robust = np.zeros(n_cols)

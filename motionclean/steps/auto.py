@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..core import quat
 from ..core.motion import hold_missing
-from ..filters.auto import FAMILIES, SOURCES, VIDEO_FPS, auto, auto_positions
+from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions
 from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
@@ -24,8 +26,13 @@ def _auto_note(result, column: int, unit: str) -> dict:
     }
     if choice.band_hz is not None:  # noise low-passed at this edge (Hz), counted in "noise"
         note["band_hz"] = choice.band_hz
-    if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
+    if unit == "deg":  # the capture system assumed, asked for, and the clip's evidence
         note["model"] = choice.model
+        note["source"] = choice.source
+        slope = choice.motion_slope
+        note["motion_slope"] = None if slope is None or not math.isfinite(slope) else slope
+        note["source_measured"] = slope is not None
+    if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
         note["wander"] = choice.wander
         note["wander_edge_hz"] = choice.wander_edge_hz
     return note
@@ -86,6 +93,13 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     return data
 
 
+def _how(note: dict) -> str:
+    """How auto came by the capture system of a rotation ``note``: found or given."""
+    if note.get("source", "auto") != "auto":
+        return f"as given: source={note['source']}"
+    return "found from the clip" if note.get("source_measured") else "the noise level given"
+
+
 def _format_note(note: dict, positions: bool) -> str:
     """What auto found for one joint: the noise (level, correlation, loud stretches), the
     choice and its expected error."""
@@ -106,15 +120,15 @@ def _format_note(note: dict, positions: bool) -> str:
         up_to = "up to the top" if edge is None else f"up to {edge:g} Hz"
         return (
             f"estimated noise {note['noise']:.3g} {unit}, {note['wander']:.3g} of it a wander "
-            f"{up_to}, down where the motion is (markerless model, as at any video frame "
-            f"rate; source=optical for optical captures){where}; {chose}; "
-            f"expected error {error} {unit} (unfiltered {note['noise']:.3g})"
+            f"{up_to}, down where the motion is (markerless model, {_how(note)})"
+            f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
         )
     # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
     said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
+    source = f" (optical model, {_how(note)})" if "source" in note else ""
     return (
         f"estimated noise {note['noise']:.3g} {unit}{f' ({said})' if said else ''}; "
-        f"{chose}; expected error {error} {unit}"
+        f"{chose}; expected error {error} {unit}{source}"
     )
 
 
@@ -151,7 +165,8 @@ STEP = StepSpec(
             "str",
             "auto",
             "capture system: markerless or video (noise reaching into the motion's band), "
-            f"optical, or auto (markerless at {VIDEO_FPS:g} fps or less, else optical)",
+            "optical or inertial (noise above the motion), or auto (found from the clip: "
+            "markerless when its joints' motion spectrum is flat over 2-8 Hz)",
             choices=SOURCES,
         ),
         Param(

@@ -2,17 +2,19 @@
 
 Contacts are found in world space (:mod:`motionclean.core.contacts`). During each contact
 whose ankle slides, the legs are planted by the least weighted change of the joints from
-the root down to the foot (:func:`motionclean.filters.footlock.plant`): each joint is
-weighted by the error the ``auto`` step before it expects in it (its notes'
-``expected_error``; without ``auto``, by the noise estimated on the clip), so a joint
-``auto`` found clean barely moves and a clip it found clean is left as it is. Only those
-joints change, and only around the contacts held; a clip with no ground contact is left
-as it is.
+the root down to the knee, then (with ``toes``) the toes by the least change of the
+ankle's own rotation and the toe joints while each toe point is planted itself
+(:func:`motionclean.filters.footlock.plant`): each joint is weighted by the error the
+``auto`` step before it expects in it (its notes' ``expected_error``; without ``auto``, by
+the noise estimated on the clip), so a joint ``auto`` found clean barely moves and a clip
+it found clean is left as it is. Only those joints change, and only around the contacts
+held; a clip with no ground contact is left as it is.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -56,20 +58,42 @@ def _legs(
 ) -> list[tuple[int, Leg]]:
     """The legs to plant, with their feet's indices: for each foot whose hip, knee and
     ankle may turn (are in ``turns``), the joints of ``turns`` from the root down to the
-    knee and to each toe held, the knee's hinge, and the points held (the ankle, then with
-    ``toes`` every joint and end site below it)."""
+    knee, the knee's hinge, and the points held: the ankle, then with ``toes`` every joint
+    and end site below it, held by turning the ankle and the joints of ``turns`` below it
+    on the way to them."""
     hangs_on = kinematics.point_parents(motion)
     legs = []
     for k, foot in enumerate(feet):
         if not {foot.hip, foot.knee, foot.ankle} <= turns:
             continue
         points = foot.points if toes else (foot.ankle,)
-        joints = set(_chain(motion.parents, foot.knee))
-        for point in points[1:]:  # a toe moves with every joint above it
-            joints |= set(_chain(motion.parents, int(hangs_on[point])))
+        above = set(_chain(motion.parents, foot.ankle))
+        below = {j for p in points[1:] for j in _chain(motion.parents, int(hangs_on[p]))}
+        foot_joints = tuple(sorted(((below - above) | {foot.ankle}) & turns)) if toes else ()
+        joints = set(_chain(motion.parents, foot.knee)) & turns
         hinge = hinge_axis(motion.rotations[:, foot.knee])
-        legs.append((k, Leg(tuple(sorted(joints & turns)), foot.knee, hinge, tuple(points))))
+        legs.append((k, Leg(tuple(sorted(joints)), foot.knee, hinge, tuple(points), foot_joints)))
     return legs
+
+
+def _toe_contacts(
+    positions: np.ndarray,
+    legs: list[Leg],
+    contacts: np.ndarray,
+    up: int,
+    height: float,
+    ground: float,
+    frame_time: float,
+    params: dict,
+) -> np.ndarray:
+    """``(F, n_toes)``: for each toe point of the legs whose toes are held, the frames of
+    its leg's ``contacts`` where the point is planted itself (its own height and speed,
+    :func:`motionclean.core.contacts.point_contacts`)."""
+    held = [(k, p) for k, leg in enumerate(legs) if leg.foot for p in leg.points[1:]]
+    own = found.point_contacts(
+        positions, [p for _, p in held], up, height, frame_time, contact_params(params), ground
+    )
+    return own & contacts[:, [k for k, _ in held]]
 
 
 def _expected_error(positions: np.ndarray, contacts: np.ndarray, leg: Leg, prior: Prior) -> float:
@@ -90,7 +114,7 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     assert motion is not None
     names = motion.names
     sigma = np.zeros(motion.n_joints)
-    joints = sorted({j for leg in legs for j in leg.joints})
+    joints = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
     noted = [j for j in joints if "auto" in data.earlier.get(names[j], {})]
     for j in noted:
         sigma[j] = math.radians(data.earlier[names[j]]["auto"]["expected_error"])
@@ -116,7 +140,7 @@ def _run(data: StepData, params: dict) -> StepData:
     assert motion is not None
     if motion.n_frames < 2:  # no contact without a ground, none without two frames
         return data
-    feet, contacts, positions, _, up, height, _ = find_contacts(motion, params)
+    feet, contacts, positions, _, up, height, ground = find_contacts(motion, params)
     contacts = found.sliding_contacts(
         positions, feet, contacts, up, motion.frame_time, params["min_skate"] * height
     )
@@ -139,8 +163,10 @@ def _run(data: StepData, params: dict) -> StepData:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
     soles = found.contact_soles(positions, [feet[k] for k in kept], contacts[:, kept], up)
-    # the floor under every sole: no foot is pushed through it while it stands
+    # the floor under every sole (those the fit leaves out too): no foot is pushed through
+    # it while it stands, none is lifted that stood below it as captured
     floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
+    floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
     rotations, root_translation = plant(
         motion.rotations,
         kinematics.local_translations(motion),
@@ -153,11 +179,14 @@ def _run(data: StepData, params: dict) -> StepData:
         (floor.normal, floor.offset),
         params["tolerance"] * height,
         params["blend_seconds"] / motion.frame_time,
-        params["hold_seconds"] / motion.frame_time,
-        params["toe_tolerance"],
+        hold_frames=params["hold_seconds"] / motion.frame_time,
+        toe_contacts=_toe_contacts(
+            positions, legs, contacts[:, kept], up, height, ground, motion.frame_time, params
+        ),
+        toe_tolerance=params["toe_tolerance"],
     )
     data.rotations = data.rotations.copy()  # the input may be the clip's own array
-    changed = sorted({j for leg in legs for j in leg.joints})
+    changed = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
     data.rotations[:, [column[j] for j in changed]] = rotations[:, changed]
     if prior.root.any() and data.translations is not None:
         at = int(np.flatnonzero(data.translation_joints == root)[0])
@@ -236,16 +265,18 @@ STEP = StepSpec(
             "toes",
             "bool",
             False,
-            "hold the toes (the joints and end sites below the ankle) too, during contacts: "
-            "the ankle and toe joints then turn as well (less toe slide, a little more "
-            "change to the legs); false keeps the ankle's own rotation",
+            "also hold each toe point (the joints and end sites below the ankle) while it is "
+            "planted itself, by the least change of the ankle's own rotation and the toe "
+            "joints (the ankle stays where it is held; hip and knee are not touched): the toes "
+            "slide less, the ankle's rotation moves a little; false keeps it",
         ),
         Param(
             "toe_tolerance",
             "float",
             2.0,
-            "the toes follow their targets this many times more loosely than the ankle",
-            minimum=1.0,
+            "the toes follow their lines this many times more loosely than the ankle (lower: "
+            "less toe slide, the ankle's rotation further from the capture)",
+            minimum=0.1,
             maximum=1000.0,
         ),
         Param(

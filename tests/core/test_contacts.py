@@ -36,6 +36,34 @@ def test_contacts_on_a_real_walk_are_where_a_person_marks_them():
     assert all(last - first + 1 >= 0.1 / motion.frame_time for foot in runs for first, last in foot)
 
 
+def test_a_toe_is_planted_within_its_foots_contact_but_not_while_the_heel_pivots():
+    """Each toe point's own contacts (its height and speed alone) on a real walk: a toe
+    stands for most of its foot's contact (from the foot flat through the heel rising) and
+    never while it swings; and on frames where the ankle stands still but the toe moves
+    fast (the foot turning about the heel) it is not planted."""
+    motion = mc.load(corpus_clip("131_02.bvh"))
+    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(motion, DEFAULTS)
+    for k, foot in enumerate(feet):
+        toes = list(foot.points[1:])
+        own = found.point_contacts(
+            positions,
+            toes,
+            up,
+            height,
+            motion.frame_time,
+            footlock.contact_params(DEFAULTS),
+            ground,
+        )
+        assert own.shape == (motion.n_frames, len(toes))
+        inside = (own & contacts[:, [k]]).sum(axis=0)
+        assert np.all(inside >= 0.6 * contacts[:, k].sum())
+        step = np.diff(positions[:, toes], axis=0)
+        step[..., up] = 0.0
+        speed = np.linalg.norm(step, axis=-1) / motion.frame_time / height
+        fast = speed > 3 * footlock.contact_params(DEFAULTS).speed_off  # H/s
+        assert not (own[1:] & fast).any()
+
+
 def test_the_same_contacts_on_a_z_up_copy():
     motion = mc.load(NOISY)
     _, contacts = contacts_of(motion)

@@ -323,3 +323,24 @@ def test_displacements_computed_when_sliced_are_the_whole_arrays_rows_bit_for_bi
         assert np.array_equal(lazy[rows], whole[rows])
     with pytest.raises(ValueError, match="consecutive"):
         lazy[::2]
+
+
+@pytest.mark.parametrize("shape", [(3,), (7, 2), (5000, 31)])
+def test_log_relative_is_log_shortest_of_relative_bit_for_bit(shape):
+    rng = np.random.default_rng(len(shape))
+    p = quat.normalize(rng.normal(size=(*shape, 4)))
+    q = quat.normalize(rng.normal(size=(*shape, 4)))
+    q[..., 0][rng.random(shape) < 0.1] = 0.0  # w = 0 and -0 after the product's signs
+    expected = quat.log_shortest(quat.relative(p, q))
+    got = quat.log_relative(p, q)
+    np.testing.assert_array_equal(got.view(np.int64), expected.view(np.int64))
+
+
+@pytest.mark.parametrize("order", ["XYZ", "ZXY", "YZX", "ZYX", "XZY", "YXZ"])
+def test_euler_and_middle_sine_are_to_euler_and_euler_middle_sine(order):
+    rng = np.random.default_rng(5)
+    q = quat.normalize(rng.normal(size=(2000, 4)))
+    q[:20] = quat.from_euler(np.array([[30.0, 90.0, 10.0]]), order)  # gimbal lock
+    angles, sine = quat.euler_and_middle_sine(q, order)
+    np.testing.assert_array_equal(angles, quat.to_euler(q, order))
+    np.testing.assert_array_equal(sine, quat.euler_middle_sine(q, order))

@@ -18,6 +18,7 @@ from motionclean.filters.noise import (
     fit_band_limited,
     fit_coloured,
     hann_windows,
+    motion_slope,
     window_frames,
 )
 
@@ -201,3 +202,52 @@ def test_coloured_noise_is_nil_on_smooth_motion_and_white_noise_stays_white():
 def test_coloured_noise_needs_a_few_windows():
     truth = smooth_synthetic(frames=100, joints=2, seed=3)
     assert coloured(truth) is None  # 1.7 s: three windows
+
+
+# ----------------------------------------------------------------------------- motion slope
+
+
+def slope_of(q: np.ndarray, frame_time: float):
+    return motion_slope(
+        fit(quat.Displacements(quat.make_continuous(q, axis=0)), frame_time), frame_time
+    )
+
+
+@needs_corpus
+@pytest.mark.parametrize("step", [1, 2, 4, 5])
+def test_clean_motion_falls_across_the_band_at_any_frame_rate(step):
+    """The corpus clips at 120, 60, 30 and 24 fps: the median joint's motion slope over
+    2-8 Hz is -1.46 or steeper (what the markerless limit of -1 is set against)."""
+    for name in ("131_01.bvh", "131_02.bvh", "131_03.bvh"):
+        motion = mc.load(corpus_clip(name))
+        found = slope_of(motion.rotations[::step], motion.frame_time * step)
+        assert found.columns >= 20
+        assert -2.5 < found.slope < -1.4
+
+
+def test_a_wander_over_the_band_reads_flat_and_planted_white_noise_never_does():
+    truth = smooth_synthetic(frames=1200, joints=8, seed=21)
+    wander = wander_noise(1200, 8, 10.0, 2.0, seed=21, rho=0.5)  # flat up to a 10 Hz cliff
+    assert slope_of(quat.multiply(truth, quat.exp(wander)), 1 / 60).slope > -0.5
+    # white noise is the fitted noise itself: it hides motion (no slope) but is never flat
+    for fps in (30.0, 60.0, 120.0):
+        noisy = plant(smooth_synthetic(frames=int(10 * fps), joints=8, seed=22), 3.0, seed=23)
+        found = slope_of(noisy, 1.0 / fps)
+        assert not found.slope > -1.0
+
+
+@needs_corpus
+def test_a_clean_capture_at_30_fps_keeps_a_noise_level_far_below_its_band_median():
+    """At 30 fps the band above 9 Hz still holds the motion of 131_02: the level is the
+    noise seen beside a falling motion (nearly none), not the band's median ratio; planted
+    white noise fills the band and keeps its level."""
+    motion = mc.load(corpus_clip("131_02.bvh"))
+    keep = [i for i, n in enumerate(motion.names) if n != "RThumb"]
+    q = quat.make_continuous(motion.rotations[::4, keep], axis=0)
+    level = np.degrees(2 * math.sqrt(3) * np.sqrt(fit(quat.displacements(q), 1 / 30).clip_sigma2()))
+    assert np.median(level) < 0.05
+    noisy = plant(q, 2.0, seed=24)
+    level = np.degrees(
+        2 * math.sqrt(3) * np.sqrt(fit(quat.displacements(noisy), 1 / 30).clip_sigma2())
+    )
+    np.testing.assert_allclose(np.median(level), 2.0, rtol=0.1)
