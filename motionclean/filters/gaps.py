@@ -80,6 +80,9 @@ SPLINE_MAX_GAP = 32
 #: The smoothing spline's ``lambda`` stays within these bounds (a clean signal: nearly an
 #: interpolating spline; pure noise: nearly the least-squares line through the window).
 SPLINE_LAMBDA = (1e-6, 1e4)
+#: The spline replaces the chosen bridge where it does better on the gap's own trials and
+#: this share better (geometric mean) on those of the joint's gaps of similar length.
+SPLINE_MARGIN = 0.1
 
 
 @dataclass(frozen=True)
@@ -657,10 +660,12 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
     for k in range(2):
         # 2. the same bridge from smoothed edges (the next option), where it does better
         twin = chosen[k] + 1
-        better = error[k, twin, columns] < error[k, chosen[k], columns]
+        better = _better(error[k, twin, columns], error[k, chosen[k], columns], gaps, 0.0)
         chosen[k] = np.where(better, twin, chosen[k])
         # 3. the smoothing spline with the same donor, where it is clearly better
-        better = error[k, curve, columns] < (1.0 - LINE_MARGIN) * error[k, chosen[k], columns]
+        better = _better(
+            error[k, curve, columns], error[k, chosen[k], columns], gaps, SPLINE_MARGIN
+        )
         chosen[k] = np.where(better, curve, chosen[k])
     untried = ~np.isfinite(error[0].min(axis=0))
     weights = np.where(untried, 1.0, weight_of[chosen])
@@ -670,6 +675,24 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
         (weights[0], smoothed[0]),
         (weights[1], smoothed[1]),
     )
+
+
+def _better(error: np.ndarray, chosen: np.ndarray, gaps: Gaps, margin: float) -> np.ndarray:
+    """Per gap, whether a smoothed bridge of trial error ``error`` (G,) replaces the chosen
+    one (``chosen``): where it does better on the gap's own trials, and by ``margin`` (the
+    geometric mean of the ratios) on those of the joint's gaps of lengths within a factor
+    of two. One gap's few trials would pick a smoothed bridge by chance where it is not
+    better: on clean captures, whose edge samples need no smoothing."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # inf / inf: neither was tried
+        ratio = error / chosen
+    key = np.unique(gaps.joint * 64 + np.log2(gaps.lengths).astype(int), return_inverse=True)[1]
+    finite = np.isfinite(ratio) & (ratio > 0)
+    logs = np.log(np.where(finite, ratio, 1.0))
+    total = np.bincount(key, weights=logs)
+    count = np.bincount(key, weights=finite)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pooled = np.exp(total / count)[key]
+    return finite & (ratio < 1.0) & (pooled < 1.0 - margin)
 
 
 def _ranks(lengths: np.ndarray) -> np.ndarray:
