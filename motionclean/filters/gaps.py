@@ -16,21 +16,38 @@ The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame `
 frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
 cubic): position and velocity continuous at both edges. Edge velocities come from a
 least-squares quadratic through the edge sample and up to :data:`EDGE_FRAMES` known frames
-beside it (in the tangent space at the edge sample), so one noisy edge frame does not steer
-the bridge. Only displacements between samples of the same joint, and poses relative to
-another joint, enter: the fill commutes with a fixed rotation of the world (and of each
-body's own frame).
+beside it (in the tangent space at the edge sample), pulled toward the chord across the gap
+twice over: by each joint's Wiener share of their departure from it (motion over motion
+and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`) and
+by as much as noise explains of one edge's departure (James-Stein, :func:`_shrunk`). The
+noise is the joint's white noise, estimated from its third differences
+(:func:`noise_and_motion_variance`). Only displacements between samples of the same
+joint, and poses relative to another joint, enter: the fill commutes with a fixed rotation
+of the world (and of each body's own frame).
 
-How much of the edge velocities a bridge follows, and whether the donor helps at all, is
-checked on the joint's own data (:func:`_validated`): gaps of the same length are planted
-in the known frames beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and
-bridged with the donor and without, with the edge velocities' departure from the chord
-weighted by each of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant
-angular velocity); the one of least error there fills the gap, the straight line unless
-another beats it by :data:`LINE_MARGIN`. A clean optical capture keeps its velocities
+Under tracker noise the edge samples themselves are off by the noise, and every bridge
+through them (slerp too) carries it into the gap. Two smoothed bridges leave them: the
+same cubic between the edges where a local fit puts them (a smoothing spline with a
+third-difference penalty, a local quadratic, over the edge and :data:`SPLINE_FRAMES`
+frames beyond; :func:`_smoothed_edge`), and for gaps of up to :data:`SPLINE_MAX_GAP`
+frames the discrete cubic smoothing spline through :data:`SPLINE_FRAMES` known frames on
+each side (Whittaker-Henderson, second differences, ``lambda`` the noise variance over
+the motion's; :func:`_spline_bridge`). Their departure from the edge samples is of the
+size of the noise.
+
+Which bridge fills a gap, and whether the donor helps at all, is checked on the joint's
+own data (:func:`_validated`): gaps of the same length are planted in the known frames
+beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and bridged every way, with
+the donor and without, with the edge velocities' departure from the chord weighted by each
+of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant angular velocity).
+The one of least error there fills the gap, the straight line unless another (or the
+donor) beats it by :data:`LINE_MARGIN`; then its smoothed-edge twin, and the smoothing
+spline, where they do better on the gap's trials and on those of the joint's other gaps
+of similar length. A clean optical capture keeps its velocities and its edge samples
 (they predict its gaps well); a markerless estimate, whose edge velocities are mostly its
-noise, gets the straight line; a joint that does not move with its would-be donor (a hip
-and an elbow, say) is bridged on its own.
+noise, gets the straight line; a tracker with white noise gets smoothed bridges; a joint
+that does not move with its would-be donor (a hip and an elbow, say) is bridged on its
+own.
 
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
@@ -63,18 +80,18 @@ KEY = 1 << 32
 #: Edge-velocity weights a gap's bridge may take (0: the straight line, 1: the edges'
 #: fitted velocities), chosen per gap on gaps of its length planted beside it ...
 VELOCITY_WEIGHTS = (0.0, 0.5, 1.0)
-#: ... up to this many on each side. A bridge using the edge velocities must beat the
-#: straight line by this share of its error there to be taken (the trials are few, and
-#: beside a real dropout the tracker was already losing the body).
+#: ... up to this many on each side. A bridge using the edge velocities, or the donor, must
+#: beat the straight line by this share of its error there to be taken (the trials are few,
+#: and beside a real dropout the tracker was already losing the body).
 TRIALS_PER_SIDE = 2
 LINE_MARGIN = 0.2
-#: The "weight" that stands for the smoothing-spline bridge among the options (:func:`_bridge`)
-#: ...
+#: The "weight" that stands for the smoothing-spline bridge among the options
+#: (:func:`_bridge`) ...
 SPLINE = -1.0
-#: ... fitted to up to this many known frames beside each edge (and the edge), for gaps of
-#: up to :data:`SPLINE_MAX_GAP` frames (under noise it beats slerp on short gaps; on long
-#: ones the edge velocities or the straight line do better, and its system grows with the
-#: gap).
+#: ... fitted to up to this many known frames beside each edge (and the edge), as the local
+#: fit of the smoothed edges is, for gaps of up to :data:`SPLINE_MAX_GAP` frames (under
+#: noise it beats slerp on short gaps; on longer ones the edge velocities or the straight
+#: line do better, and its system grows with the gap).
 SPLINE_FRAMES = 8
 SPLINE_MAX_GAP = 32
 #: The smoothing spline's ``lambda`` stays within these bounds (a clean signal: nearly an
