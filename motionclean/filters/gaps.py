@@ -17,9 +17,9 @@ frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matchin
 cubic): position and velocity continuous at both edges. Edge velocities come from a
 least-squares quadratic through the edge sample and up to :data:`EDGE_FRAMES` known frames
 beside it (in the tangent space at the edge sample), pulled toward the chord across the gap
-twice over: by each joint's Wiener share of their departure from it (motion over motion
-and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`) and
-by as much as noise explains of one edge's departure (James-Stein, :func:`_shrunk`). The
+by as much as noise explains of one edge's departure (James-Stein, :func:`_shrunk`) and,
+for rotations, by each joint's Wiener share of their departure from it (motion over motion
+and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`). The
 noise is the joint's white noise, estimated from its third differences
 (:func:`noise_and_motion_variance`). Only displacements between samples of the same
 joint, and poses relative to another joint, enter: the fill commutes with a fixed rotation
@@ -135,7 +135,10 @@ class _Stats:
     per-sample ``noise`` variance and the second differences' variance ``motion`` per
     component (:func:`noise_and_motion_variance`), and the share ``keep`` of the fitted edge
     velocities' departure from the chord that is motion rather than noise, per joint and
-    gap length (``key``: ``joint * KEY + length``, sorted; :func:`_velocity_keep`)."""
+    gap length (``key``: ``joint * KEY + length``, sorted; :func:`_velocity_keep`). Positions
+    keep all of it (their per-edge shrinkage only): measured on the corpus with tracker
+    noise, the share cost their fills of 12-60 frames up to 7 %, while it spares rotations the
+    noisy velocities of long gaps."""
 
     noise: np.ndarray
     motion: np.ndarray
@@ -146,7 +149,9 @@ class _Stats:
     def of(cls, x: np.ndarray, missing: np.ndarray, rotations: bool, gaps: Gaps) -> _Stats:
         noise, motion = noise_and_motion_variance(x, missing, rotations)
         key = np.unique(gaps.joint * KEY + gaps.lengths)
-        keep = _velocity_keep(x, missing, rotations, noise, key // KEY, key % KEY)
+        keep = np.ones(key.size)
+        if rotations:
+            keep = _velocity_keep(x, missing, rotations, noise, key // KEY, key % KEY)
         return cls(noise, motion, key, keep)
 
     def keep_of(self, joint: np.ndarray, length: np.ndarray) -> np.ndarray:
