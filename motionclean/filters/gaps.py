@@ -75,7 +75,7 @@ CHI2_3_MEDIAN = 2.3660
 GAP_BLOCK = 256
 #: Frames taken as edges when weighing a joint's edge velocities against its noise, and the
 #: key of a (joint, gap length) pair, ``joint * KEY + length``.
-KEEP_SAMPLES = 4096
+KEEP_SAMPLES = 1024
 KEY = 1 << 32
 #: Edge-velocity weights a gap's bridge may take (0: the straight line, 1: the edges'
 #: fitted velocities), chosen per gap on gaps of its length planted beside it ...
