@@ -18,8 +18,10 @@ cubic): position and velocity continuous at both edges. Edge velocities come fro
 least-squares quadratic through the edge sample and up to :data:`EDGE_FRAMES` known frames
 beside it (in the tangent space at the edge sample), pulled toward the chord across the gap
 by as much as noise explains of one edge's departure (James-Stein, :func:`_shrunk`) and,
-for rotations, by each joint's Wiener share of their departure from it (motion over motion
-and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`). The
+for rotations, to each joint's Wiener share of their departure from it (motion over motion
+and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`) or
+the weight that fills its own gaps of that length best, whichever is larger
+(:func:`_fill_share`). The
 noise is the joint's white noise, estimated from its third differences
 (:func:`noise_and_motion_variance`). Only displacements between samples of the same
 joint, and poses relative to another joint, enter: the fill commutes with a fixed rotation
@@ -74,9 +76,11 @@ CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
 GAP_BLOCK = 256
 #: Frames taken as edges when weighing a joint's edge velocities against its noise, and the
-#: key of a (joint, gap length) pair, ``joint * KEY + length``.
+#: key of a (joint, gap length class) pair, ``joint * KEY + length``; gap lengths are
+#: weighed in classes a factor ``2 ** (1 / LENGTH_CLASSES)`` apart.
 KEEP_SAMPLES = 1024
 KEY = 1 << 32
+LENGTH_CLASSES = 2
 #: Edge-velocity weights a gap's bridge may take (0: the straight line, 1: the edges'
 #: fitted velocities), chosen per gap on gaps of its length planted beside it ...
 VELOCITY_WEIGHTS = (0.0, 0.5, 1.0)
@@ -134,11 +138,13 @@ class _Stats:
     """What the bridges of one signal (rotations or positions) need to know of each joint:
     per-sample ``noise`` variance and the second differences' variance ``motion`` per
     component (:func:`noise_and_motion_variance`), and the share ``keep`` of the fitted edge
-    velocities' departure from the chord that is motion rather than noise, per joint and
-    gap length (``key``: ``joint * KEY + length``, sorted; :func:`_velocity_keep`). Positions
-    keep all of it (their per-edge shrinkage only): measured on the corpus with tracker
-    noise, the share cost their fills of 12-60 frames up to 7 %, while it spares rotations the
-    noisy velocities of long gaps."""
+    velocities' departure from the chord kept, per joint and gap length (``key``: ``joint *
+    KEY + length``, sorted): the Wiener share of it that is motion rather than noise
+    (:func:`_velocity_keep`) or, if larger, the weight that fills the joint's own gaps of
+    that length best (:func:`_fill_share`). Positions keep all of it (their per-edge
+    shrinkage only): measured on the corpus with tracker noise, the Wiener share cost their
+    fills of 12-60 frames up to 7 %, while it spares rotations the noisy velocities of long
+    gaps."""
 
     noise: np.ndarray
     motion: np.ndarray
@@ -148,18 +154,23 @@ class _Stats:
     @classmethod
     def of(cls, x: np.ndarray, missing: np.ndarray, rotations: bool, gaps: Gaps) -> _Stats:
         noise, motion = noise_and_motion_variance(x, missing, rotations)
-        key = np.unique(gaps.joint * KEY + gaps.lengths)
+        key = np.unique(gaps.joint * KEY + _length_class(gaps.lengths))
         keep = np.ones(key.size)
         if rotations:
-            keep = _velocity_keep(x, missing, rotations, noise, key // KEY, key % KEY)
+            pairs = (x, missing, rotations, noise, key // KEY, key % KEY)
+            keep = np.maximum(_velocity_keep(*pairs), _fill_share(*pairs))
         return cls(noise, motion, key, keep)
 
     def keep_of(self, joint: np.ndarray, length: np.ndarray) -> np.ndarray:
-        at = np.searchsorted(self.key, joint * KEY + length)
-        found = (at < self.key.size) & (
-            self.key[np.minimum(at, self.key.size - 1)] == joint * KEY + length
-        )
-        return np.where(found, self.keep[np.minimum(at, self.key.size - 1)], 1.0)
+        wanted = joint * KEY + _length_class(length)
+        at = np.minimum(np.searchsorted(self.key, wanted), self.key.size - 1)
+        return np.where(self.key[at] == wanted, self.keep[at], 1.0)
+
+
+def _length_class(length: np.ndarray) -> np.ndarray:
+    """The gap length standing for ``length``'s class (:data:`LENGTH_CLASSES`)."""
+    exponent = np.round(LENGTH_CLASSES * np.log2(np.maximum(length, 1)))
+    return np.round(2.0 ** (exponent / LENGTH_CLASSES)).astype(np.int64)
 
 
 @dataclass(frozen=True)
@@ -247,6 +258,58 @@ def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.
         with np.errstate(divide="ignore", invalid="ignore"):
             keep = 1.0 - spread * count / apart.sum(axis=0)
         out[pairs] = np.where(count > 0, np.clip(np.nan_to_num(keep, nan=1.0), 0.0, 1.0), 1.0)
+    return out
+
+
+def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
+    """Per ``(joint, length)`` pair, the weight ``w`` of the (shrunk) edge velocities'
+    departure from the chord that fills gaps of that length best on the joint's own data,
+    in [0, 1]: at up to :data:`KEEP_SAMPLES` places in its known frames taken as gaps, the
+    straight line's error ``e`` and the velocities' part ``d`` of the cubic give ``w = <e,
+    d> / <d, d>`` (least squares, over up to 8 of each gap's frames; their noise does not
+    bias it). It keeps more of the velocities than the Wiener share where their noise,
+    anchored at a noisy edge sample, partly undoes that sample's."""
+    log_of = _rotation_log if rotations else _position_log
+    out = np.ones(joint.size)
+    weights = _edge_weights(EDGE_FRAMES)
+    gain = np.sum(weights**2) + np.sum(weights) ** 2
+    for span in np.unique(length + 1):
+        pairs = np.flatnonzero(length + 1 == span)
+        edges = np.arange(EDGE_FRAMES, x.shape[0] - span - EDGE_FRAMES)
+        if not edges.size:
+            continue
+        edges = edges[:: max(edges.size // KEEP_SAMPLES, 1)]
+        js = joint[pairs]
+        start, end = x[edges][:, js], x[edges + span][:, js]
+        slope_a, slope_b = np.zeros(start.shape[:-1] + (3,)), np.zeros(start.shape[:-1] + (3,))
+        for k, weight in enumerate(weights, 1):
+            slope_a -= weight * log_of(start, x[edges - k][:, js])
+            slope_b += weight * log_of(end, x[edges + span + k][:, js])
+        step = log_of(start, end)
+        chord = step / span
+        flat = (-1, 3)
+        var = np.broadcast_to(noise_var[js], chord.shape[:-1]).reshape(-1)
+        gains = np.full(var.size, gain)
+        d_a, d_b = (
+            (_shrunk(v.reshape(flat), gains, chord.reshape(flat), var).reshape(chord.shape) - chord)
+            * span
+            for v in (slope_a, slope_b)
+        )
+        known = np.ones(chord.shape[:-1], bool)
+        for k in range(-EDGE_FRAMES, span + EDGE_FRAMES + 1):
+            known &= ~missing[edges + k][:, js]
+        along = np.zeros(chord.shape[:-1])
+        squares = np.zeros(chord.shape[:-1])
+        for i in np.unique(np.linspace(1, span - 1, min(span - 1, 8)).round().astype(int)):
+            u = i / span
+            line = log_of(start, x[edges + i][:, js]) - u * step
+            bend = (u**3 - 2 * u**2 + u) * d_a + (u**3 - u**2) * d_b  # the Hermite's tangent part
+            along += np.sum(line * bend, axis=-1)
+            squares += np.sum(bend * bend, axis=-1)
+        along, squares = (np.where(known, v, 0.0).sum(axis=0) for v in (along, squares))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = along / squares
+        out[pairs] = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
     return out
 
 
