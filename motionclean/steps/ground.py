@@ -67,14 +67,14 @@ def _run(data: StepData, params: dict) -> StepData:
     data.rotations = data.rotations.copy()
     assert data.translations is not None  # every root has position channels
     data.translations = data.translations.copy()
+    local = kinematics.local_translations(motion)  # (F, J, 3), once for every root
     for root in roots.tolist():
         if tilted:
             column = rotated[root]
             data.rotations[:, column] = quat.make_continuous(
                 quat.multiply(turn, data.rotations[:, column])
             )
-        local = kinematics.local_translations(motion)[:, root]
-        placed = quat.rotate(turn, local) + shift
+        placed = quat.rotate(turn, local[:, root]) + shift
         column = moved[root]
         data.translations[:, column, has_axis[root]] = placed[:, has_axis[root]]
     data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = {
