@@ -233,3 +233,14 @@ def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, 
     assert "outside repairs" not in verdict["text"] and "not told apart" in verdict["text"]
     assert verdict["status"] == "needs a look"  # 180 degrees on RThumb, for all it knows
     assert f"verdict: {verdict['text']}" in out
+
+
+def test_a_clip_only_put_on_the_floor_is_called_clean_and_says_so():
+    """ground moves and levels the root: no jitter removed, so the clip stays 'clean' and
+    the verdict says what moved it."""
+    result = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground"]))
+    verdict = result.report["verdict"]
+    assert verdict["status"] == "clean", verdict["text"]
+    assert "put on the floor" in verdict["text"]
+    kept = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground:level=false"]))
+    assert "levelled" not in kept.report["verdict"]["text"]
