@@ -42,9 +42,7 @@ demo: $(STAMP)
 	mkdir -p $(OUT)
 	$(BIN)/motionclean info sample_data/131_02_noisy.bvh
 	$(BIN)/motionclean clean sample_data/131_02_noisy.bvh -o $(OUT)/131_02_clean.bvh \
-		--report $(OUT)/131_02_report.html
-	$(BIN)/motionclean report sample_data/131_02_noisy.bvh $(OUT)/131_02_clean.bvh \
-		--json $(OUT)/131_02_report.json > /dev/null
+		--report $(OUT)/131_02_report.html --report $(OUT)/131_02_report.json
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
 test: lint $(BLENDER_STAMP)

@@ -479,3 +479,14 @@ def turned_copy(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
         source_values=None,
         source_rotations=None,
     )
+
+
+def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
+    """(frames, columns, 3) white noise through a zero-phase 4th-order Butterworth of edge
+    ``edge_hz`` (power response ``1 / (1 + (f / f_c)^8)^2``, applied by FFT), RMS angle
+    ``noise_deg``."""
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft(rng.normal(size=(frames, columns, 3)), axis=0)
+    f = np.fft.rfftfreq(frames, 1.0 / fps)
+    e = np.fft.irfft(spec / (1.0 + (f / edge_hz) ** 8)[:, None, None], frames, axis=0)
+    return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())

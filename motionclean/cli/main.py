@@ -550,7 +550,11 @@ def filters_command() -> None:
     for spec in REGISTRY.values():
         click.echo(f"{spec.name}: {spec.summary}")
         click.echo(f"    implements {spec.paper}")
-        for param in (*spec.params, *COMMON_PARAMS):
+        # a step that changes the whole clip takes no joints, positions or frame range
+        common = COMMON_PARAMS if spec.run_motion is None else ()
+        if spec.run_motion is not None:
+            click.echo("    changes the whole clip: no joints, positions or frame range")
+        for param in (*spec.params, *common):
             if param.default is None:
                 default = "optional"
             elif param.name == "positions":

@@ -122,11 +122,12 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         cols = rotation_columns[rotating[column // 3]]
         written, read = values[:, cols], source[:, cols]
         kept = np.all(written == read, axis=1)
-        first, stop = row, row + 1  # the run of changed samples around the step
-        while first > 0 and not kept[first - 1] and row - first < MAX_RUN // 2:
-            first -= 1
-        while stop < n and not kept[stop] and stop - row < MAX_RUN // 2:
-            stop += 1
+        # the run of changed samples around the step, at most MAX_RUN // 2 frames each side
+        low, high = max(row - MAX_RUN // 2, 0), min(row + MAX_RUN // 2, n)
+        kept_before = np.flatnonzero(kept[low:row])
+        kept_after = np.flatnonzero(kept[row + 1 : high])
+        first = low + int(kept_before[-1]) + 1 if kept_before.size else low
+        stop = row + 1 + int(kept_after[0]) if kept_after.size else high
         if kept[first] and first == row:
             first += 1  # the step leaves a kept sample: the run starts after it
         if (int(cols[0]), first) in done or first >= stop:

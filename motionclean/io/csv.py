@@ -137,6 +137,14 @@ class CsvText:
     def n_frames(self) -> int:
         return int(self.values.shape[0])
 
+    @property
+    def no_world(self) -> str | None:
+        """Why world-space figures are skipped (``core.kinematics.world_note``): a channel
+        CSV read without a skeleton has no offsets, so its joints have no world places."""
+        if self.layout == "channel" and self.needs_skeleton:
+            return "a channel CSV holds no skeleton: --skeleton rig.bvh gives one"
+        return None
+
     def matches(self, motion: Motion) -> bool:
         """True when ``motion`` still has the frames and joints this text describes."""
         return self.n_frames == motion.n_frames and self.skeleton == (

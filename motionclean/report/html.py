@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
+from ..filters import noise
 from ..steps.base import fps_text, plural
 from .html_world import world_section
 from .summary import format_noise_model, format_rest, noisiest, note_text, resampled_to
@@ -94,9 +95,6 @@ details{margin:22px 0 0}
 summary{cursor:pointer;font-weight:600;font-size:15px;margin-bottom:10px}
 details table{margin-bottom:12px}
 """
-
-
-# ----------------------------------------------------------------------------- data
 
 
 # ----------------------------------------------------------------------------- formatting
@@ -487,10 +485,14 @@ def render_html(report: dict, series: dict | None = None) -> str:
             + "".join(
                 f'<span><i class="key" style="background:{c}"></i>{k}</span>' for k, c in keys
             )
-            + f"<span>clips longer than {COLUMNS} frames: min and max per plot column</span>"
-            "</div>"
+            + (
+                f"<span>{frames:,} frames: min and max per plot column</span>"
+                if frames > COLUMNS
+                else ""
+            )
+            + "</div>"
         )
-        correlation, own_rho = noise_correlation(joints)
+        correlation, own_rho = noise_correlation(joints, report["frame_time"])
         source = format_noise_model(report)
         if source:
             body.append(f'<p class="note">auto: {_e(source.rstrip("."))}.</p>')
@@ -565,13 +567,15 @@ def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
 RHO_APART = 0.2
 
 
-def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
+def noise_correlation(joints: dict, frame_time: float) -> tuple[str | None, set[tuple[str, str]]]:
     """What the page says about ``auto``'s noise correlation: one line for the clip (None
     without ``auto`` notes) and the ``(note key, joint)`` pairs whose own rho says something
-    about the joint (the markerless model's notes have none to say). Below about 57 fps the
-    model takes every joint's noise as white (rho 0, not fitted): no joint shows it.
-    Otherwise the clip's median (rotations and positions each) is shown once, and a joint's
-    rho where it differs from it by :data:`RHO_APART` or more."""
+    about the joint (the markerless model's notes have none to say). Below about 57 fps
+    (``frame_time`` seconds per frame) the model takes every joint's noise as white (rho 0,
+    not fitted): no joint shows it. Otherwise the clip's median (rotations and positions
+    each) is shown once, and a joint's rho where it differs from it by :data:`RHO_APART` or
+    more."""
+    fitted = noise.SHAPE_BAND_HZ * frame_time <= noise.MAX_SHAPE_EDGE
     said, apart = [], set()
     for key, what in (("auto", "rotations"), ("position_auto", "positions")):
         notes = {n: e.get(key) or {} for n, e in joints.items()}
@@ -583,7 +587,9 @@ def noise_correlation(joints: dict) -> tuple[str | None, set[tuple[str, str]]]:
             continue
         if not any(rhos.values()):
             said.append(
-                f"{what}: noise taken as white (its correlation is not fitted at this rate)"
+                f"{what}: noise white (AR(1) rho 0 on every joint)"
+                if fitted
+                else f"{what}: noise taken as white (its correlation is not fitted at this rate)"
             )
             continue
         typical = float(np.median(list(rhos.values())))

@@ -40,6 +40,9 @@ __all__ = [
 #: left it as it was: a clean capture (the default moves clean 120 fps captures by about
 #: 0.01 degrees RMS, noisy ones by tenths of a degree and more).
 CLEAN_CHANGE_DEG = 0.05
+#: A clip the ``ground`` step moved and whose jitter fell by less than this fraction was
+#: only put on the floor: its root's levelling turn is not smoothing.
+GROUNDED_JITTER = 0.01
 #: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a look.
 LOOK_CHANGE_DEG = 10.0
 #: A joint repaired on more than this share of its frames needs a look.
@@ -134,6 +137,22 @@ def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
     return f"feet slide {fastest:.2f} body heights/s", fastest
 
 
+def _ground_words(joints: dict[str, dict]) -> list[str]:
+    """ "put on the floor: 1.06 units down, levelled from 0.67 deg": what the ``ground`` step
+    did to the whole clip (its note on the root's positions)."""
+    words = []
+    for entry in joints.values():
+        note = entry.get("position_ground")
+        if note:
+            height = note["height"]
+            way = "down" if height > 0 else "up"
+            text = f"put on the floor: {abs(height):.3g} units {way}"
+            if note.get("levelled", True) and note["tilt_deg"] > 0:
+                text += f", levelled from {note['tilt_deg']:.2f} deg"
+            words.append(text)
+    return words
+
+
 def _missing_words(joints: dict[str, dict]) -> list[str]:
     words = []
     for name, entry in joints.items():
@@ -175,15 +194,22 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
             reasons.append(f"{name} repaired on {counts['frames'] / frames:.0%} of its frames")
     if skate is not None and skate > LOOK_SKATE:
-        reasons.append(f"feet slide {skate:.2f} body heights/s (footlock holds them)")
+        locked = any(step.get("filter") == "footlock" for step in report.get("pipeline") or [])
+        hint = "" if locked else " (footlock holds them)"
+        reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
     done = _repair_words(repairs)
-    clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG
+    grounded = _ground_words(joints)
+    # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
+    clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
+        grounded and smoothing["noise_removed"] < GROUNDED_JITTER
+    )
     removed = f"{smoothing['noise_removed']:.0%} of the jitter removed".replace("%", " %")
     if clean:
-        parts = done + ["otherwise left as it was" if done else "left as it was"]
+        parts = done + grounded
+        parts.append("otherwise left as it was" if parts else "left as it was")
         lead = "clean capture, repaired" if done else "clean capture"
     else:
-        parts = [removed] + done
+        parts = [removed] + done + grounded
         lead = "noisy capture, cleaned"
     if feet and not (skate is not None and skate > LOOK_SKATE):
         parts.append(feet)

@@ -152,12 +152,13 @@ def contact_figures(
     Contacts are found on ``before`` with the footlock step's default thresholds; per foot
     (keyed by ankle joint name): the contact frames (inclusive pairs), skate (mean
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
-    penetration (deepest point below the ground, units) before and after. ``None`` and no
-    series for a clip without feet. The series hold each foot's lowest point above the
-    ground per frame, before and after. ``floor`` is the plane through the contacts' soles
-    (:func:`~motionclean.core.contacts.fit_floor`): its height along the up axis at their
-    centre, its tilt from level (degrees) and normal, and how many contacts it rests on
-    (None without contacts). ``points`` and ``used`` as in :func:`world_figures`.
+    penetration (deepest point below each clip's own ground, units) before and after.
+    ``None`` and no series for a clip without feet. The series hold each foot's lowest
+    point above its clip's ground per frame, before and after. ``floor`` is the plane
+    through the contacts' soles (:func:`~motionclean.core.contacts.fit_floor`): its height
+    along the up axis at their centre, its tilt from level (degrees) and normal, and how
+    many contacts it rests on (None without contacts). ``points`` and ``used`` as in
+    :func:`world_figures`.
     """
     skeleton_feet, up, height = found.skeleton_feet(before)
     if not skeleton_feet:
@@ -176,8 +177,16 @@ def contact_figures(
     clips = [positions] if after_positions is None else [positions, after_positions]
     skate = [found.skate(p, feet, contacts, up, dt) for p in clips]
     if grounded:
-        depth = [found.penetration(p, feet, up, ground) for p in clips]
-        low = [found.lowest_points(p, feet, up) - ground for p in clips]
+        # each clip against its own ground: the cleaned clip's is the input's moved by how
+        # far its feet moved during contacts (the median: a step that moves the whole clip,
+        # as ground does, moves its ground; one that sinks a few frames does not)
+        lowest = [found.lowest_points(p, feet, up) for p in clips]
+        grounds = [ground]
+        if len(clips) > 1:
+            moved = lowest[1][contacts] - lowest[0][contacts]
+            grounds.append(ground + float(np.median(moved)) if moved.size else ground)
+        depth = [found.penetration(p, feet, up, g) for p, g in zip(clips, grounds, strict=True)]
+        low = [points - g for points, g in zip(lowest, grounds, strict=True)]
     runs = found.contact_runs(contacts)
     floor, soles = found.find_floor(positions, feet, up, height, dt)
     section: dict[str, Any] = {

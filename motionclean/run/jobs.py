@@ -90,6 +90,24 @@ def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
     return merged
 
 
+def _repaired_input_frames(logs: Sequence[StepLog], before: Motion) -> dict[str, np.ndarray]:
+    """Per joint, the ``(F,)`` mask of the input's frames a repairing step changed
+    (:func:`~motionclean.report.verdict.repaired_frames`), so the report tells repairs apart
+    from smoothing. A step after a change of frame rate numbers the frames of its clip: an
+    input frame counts as repaired where either of the step's frames around its time was."""
+    masks: dict[str, np.ndarray] = {}
+    for log in logs:
+        found = repaired_frames(log.notes, log.n_frames)
+        if found and (log.n_frames, log.frame_time) != (before.n_frames, before.frame_time):
+            at = np.arange(before.n_frames) * (before.frame_time / log.frame_time)
+            below = np.minimum(np.floor(at).astype(np.intp), log.n_frames - 1)
+            above = np.minimum(below + 1, log.n_frames - 1)
+            found = {name: mask[below] | mask[above] for name, mask in found.items()}
+        for name, mask in found.items():
+            masks[name] = masks[name] | mask if name in masks else mask
+    return masks
+
+
 def clean_clip(
     source: str | os.PathLike,
     target: str | os.PathLike | None,
@@ -122,8 +140,7 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
     notes = notes_by_joint(logs)
-    # repairs are told apart from smoothing where their frames are the input's
-    repairs = repaired_frames(notes, before.n_frames) if compared is after else None
+    repairs = _repaired_input_frames(logs, before)
     series = build_series(before, compared, repairs)
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):

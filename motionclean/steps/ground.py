@@ -49,6 +49,12 @@ def _run(data: StepData, params: dict) -> StepData:
     floor, centre = floor_of(motion, None if params["up"] == "auto" else params["up"])
     if floor is None:
         return data
+    note = {
+        "height": floor.height_at(centre),
+        "tilt_deg": floor.tilt_deg,
+        "normal": [float(v) for v in floor.normal],
+        "levelled": bool(params["level"]),
+    }
     if not params["level"]:
         floor = found.Floor.level(floor.height_at(centre), floor.up)
     turn, shift = _leveller(floor, centre)
@@ -67,28 +73,25 @@ def _run(data: StepData, params: dict) -> StepData:
     data.rotations = data.rotations.copy()
     assert data.translations is not None  # every root has position channels
     data.translations = data.translations.copy()
+    local = kinematics.local_translations(motion)  # (F, J, 3), once for every root
     for root in roots.tolist():
         if tilted:
             column = rotated[root]
             data.rotations[:, column] = quat.make_continuous(
                 quat.multiply(turn, data.rotations[:, column])
             )
-        local = kinematics.local_translations(motion)[:, root]
-        placed = quat.rotate(turn, local) + shift
+        placed = quat.rotate(turn, local[:, root]) + shift
         column = moved[root]
         data.translations[:, column, has_axis[root]] = placed[:, has_axis[root]]
-    data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = {
-        "height": floor.height_at(centre),
-        "tilt_deg": floor.tilt_deg,
-        "normal": [float(v) for v in floor.normal],
-    }
+    data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = note
     return data
 
 
 def _format_note(note: dict, positions: bool) -> str:
+    kept = "levelled" if note.get("levelled", True) else "its tilt kept"
     return (
         f"floor at height {note['height']:.4g} units, tilted {note['tilt_deg']:.2f} deg: "
-        "moved to height 0, level"
+        f"moved to height 0, {kept}"
     )
 
 

@@ -199,6 +199,9 @@ class StepLog:
     notes: dict[str, dict]
     unmatched: list[str]  # include patterns that matched no joint of this clip
     touched: tuple[int, int] | None = None  # frames a ranged step changed, blends included
+    # the clip after the step, rest frames included: the frames its notes number
+    n_frames: int = 0
+    frame_time: float = 0.0
 
 
 @dataclass
@@ -297,6 +300,7 @@ class Pipeline:
                 earlier.setdefault(joint, {}).update(note)
             if lead and not whole_clip:  # numbered as the file's frames
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
+            log.n_frames, log.frame_time = current.n_frames + lead + trail, current.frame_time
             logs.append(log)
         return splice(outer, current, lead, trail), logs
 

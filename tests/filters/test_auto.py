@@ -9,6 +9,7 @@ import pytest
 from helpers import (
     SAMPLE,
     corpus_clip,
+    low_passed_noise,
     needs_corpus,
     plant,
     run_cli,
@@ -342,7 +343,6 @@ def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():
 def test_auto_cleans_band_limited_noise_it_would_leave_without_the_band_limited_model(
     monkeypatch,
 ):
-    from test_noise import low_passed_noise
 
     # real motion (131_02, the joints without flips): the band-limited term is kept only
     # where the clip's motion slope is flatter than clean motion's (-1.7), which noise

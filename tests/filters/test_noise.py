@@ -6,7 +6,14 @@ import math
 
 import numpy as np
 import pytest
-from helpers import corpus_clip, needs_corpus, plant, smooth_synthetic, wander_noise
+from helpers import (
+    corpus_clip,
+    low_passed_noise,
+    needs_corpus,
+    plant,
+    smooth_synthetic,
+    wander_noise,
+)
 
 import motionclean as mc
 from motionclean.core import quat
@@ -108,17 +115,6 @@ def test_the_fit_does_not_depend_on_its_block_size(monkeypatch, block):
 
 
 # ----------------------------------------------------------------------------- band-limited
-
-
-def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
-    """(frames, columns, 3) white noise through a zero-phase 4th-order Butterworth of edge
-    ``edge_hz`` (power response ``1 / (1 + (f / f_c)^8)^2``, applied by FFT), RMS angle
-    ``noise_deg``."""
-    rng = np.random.default_rng(seed)
-    spec = np.fft.rfft(rng.normal(size=(frames, columns, 3)), axis=0)
-    f = np.fft.rfftfreq(frames, 1.0 / fps)
-    e = np.fft.irfft(spec / (1.0 + (f / edge_hz) ** 8)[:, None, None], frames, axis=0)
-    return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())
 
 
 def band_limited(noisy, frame_time=1 / 120):

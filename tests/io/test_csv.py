@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip
+from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -136,6 +136,20 @@ def test_modified_motion_via_csv_equals_direct_bvh(tmp_path):
     direct = mc.load(tmp_path / "direct.bvh").source_values
     via_csv = mc.load(tmp_path / "via_csv.bvh").source_values
     np.testing.assert_allclose(via_csv, direct, atol=1.5e-6)
+
+
+def test_channel_csv_without_skeleton_has_no_world_figures(tmp_path, capsys):
+    """Without offsets its joints have no world places: info and the report say world
+    figures are skipped and why, instead of an up axis and a body height of 0; given a
+    skeleton, they are back."""
+    mc.save(mc.load(SAMPLE), tmp_path / "clip.csv")
+    code, out, err = run_cli(capsys, "info", tmp_path / "clip.csv")
+    assert code == 0, err
+    assert "world: skipped (a channel CSV holds no skeleton" in out
+    assert "body height" not in out
+    code, out, err = run_cli(capsys, "info", tmp_path / "clip.csv", "--skeleton", SAMPLE)
+    assert code == 0, err
+    assert "world: skipped" not in out and "body height: 24.27" in out
 
 
 def test_channel_csv_without_skeleton_is_a_flat_clip(tmp_path):

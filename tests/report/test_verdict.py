@@ -113,6 +113,19 @@ def test_a_clean_capture_is_called_clean(tmp_path):
     assert verdict["text"].startswith("clean capture")
 
 
+@pytest.mark.parametrize(
+    "steps", [["despike", "resample:fps=240"], ["resample:fps=240", "despike"]]
+)
+def test_repairs_before_or_after_a_new_frame_rate_are_told_apart(steps):
+    """The sample's RThumb half-turn flips, un-flipped by despike before or after upsampling:
+    the verdict counts them as repairs, numbered as the input's frames either way, not as
+    a 180-degree change made by smoothing."""
+    result = clean_clip(SAMPLE, None, Pipeline.from_inline(steps))
+    verdict = result.report["verdict"]
+    assert verdict["status"] == "repaired", verdict["text"]
+    assert verdict["change_deg_max"] < 1.0
+
+
 def test_a_joint_moved_far_by_smoothing_needs_a_look():
     motion = mc.load(SAMPLE)
     result = clean_clip(SAMPLE, None, Pipeline.from_inline(["lee-shin:k=6,iterations=60"]))
@@ -220,3 +233,14 @@ def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, 
     assert "outside repairs" not in verdict["text"] and "not told apart" in verdict["text"]
     assert verdict["status"] == "needs a look"  # 180 degrees on RThumb, for all it knows
     assert f"verdict: {verdict['text']}" in out
+
+
+def test_a_clip_only_put_on_the_floor_is_called_clean_and_says_so():
+    """ground moves and levels the root: no jitter removed, so the clip stays 'clean' and
+    the verdict says what moved it."""
+    result = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground"]))
+    verdict = result.report["verdict"]
+    assert verdict["status"] == "clean", verdict["text"]
+    assert "put on the floor" in verdict["text"]
+    kept = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground:level=false"]))
+    assert "levelled" not in kept.report["verdict"]["text"]

@@ -89,3 +89,15 @@ def test_ground_without_contacts_or_without_level_moves_only_up_and_down(walk):
     moved = out.translations[:, 0] - raised.translations[:, 0]
     assert np.ptp(moved[:, 1]) < 1e-9 and moved[0, 1] < -4.0
     np.testing.assert_array_equal(moved[:, [0, 2]], 0.0)
+
+
+def test_the_report_measures_feet_below_each_clips_own_ground(walk):
+    """Raised by 5 units and grounded, a walk's feet go as deep below the floor as before,
+    each clip measured against its own ground (the input's ground put the grounded feet
+    5 units under it)."""
+    raised = _tilted(walk, 5.0)
+    grounded, _ = Pipeline.from_inline(["ground:level=false"]).run(raised)
+    section, _ = contact_figures(raised, grounded)
+    for foot in section["feet"].values():
+        depth = foot["penetration"]
+        assert depth["after"] == pytest.approx(depth["before"], abs=0.01)

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import NOISY, corpus_clip, max_degrees, needs_corpus
+from helpers import NOISY, corpus_clip, low_passed_noise, max_degrees, needs_corpus
 
 import motionclean as mc
 from motionclean.core import quat
@@ -536,7 +536,6 @@ def test_a_lowpass_cutoff_near_zero_makes_a_mask_no_longer_than_the_clip(clip, c
 def test_auto_notes_say_where_noise_was_low_passed():
     """Noise low-passed at 6 Hz on a whole capture: every joint's note gives the edge the
     model found, its terminal line says so; the clip as captured has no such note."""
-    from test_noise import low_passed_noise
 
     from motionclean.steps.auto import STEP as AUTO
 
