@@ -169,6 +169,27 @@ def test_fill_is_coordinate_invariant(bodies):
     )
 
 
+@pytest.mark.parametrize("length", [4, 25])
+def test_fill_under_noise_is_coordinate_invariant(bodies, length):
+    """With tracker noise the smoothed bridges (edges from a local fit, the smoothing spline)
+    fill some gaps; they too commute with a fixed rotation of the world and of each body's
+    own frame."""
+    q, p = with_tracker_noise(*(x[:400, :8] for x in bodies), 2.0, seed=9)
+    missing = planted(400, 8, length, seed=4)
+    rng = np.random.default_rng(6)
+    world = quat.normalize(rng.normal(size=4))
+    own = quat.normalize(rng.normal(size=(8, 4)))
+    base = fill_gaps(q, p, missing, max_gap=30)
+    turned = fill_gaps(
+        quat.multiply(quat.multiply(world, q), own), quat.rotate(world, p), missing, max_gap=30
+    )
+    expected = quat.multiply(quat.multiply(world, base.rotations), own)
+    assert max_degrees(turned.rotations, expected) < 1e-8
+    np.testing.assert_allclose(
+        turned.translations, quat.rotate(world, base.translations), atol=1e-9
+    )
+
+
 def test_gaps_at_the_ends_hold_the_edge_sample_and_longer_ones_stay_missing():
     q, p = smooth_body()
     missing = np.zeros((120, 1), dtype=bool)
