@@ -16,21 +16,40 @@ The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame `
 frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
 cubic): position and velocity continuous at both edges. Edge velocities come from a
 least-squares quadratic through the edge sample and up to :data:`EDGE_FRAMES` known frames
-beside it (in the tangent space at the edge sample), so one noisy edge frame does not steer
-the bridge. Only displacements between samples of the same joint, and poses relative to
-another joint, enter: the fill commutes with a fixed rotation of the world (and of each
-body's own frame).
+beside it (in the tangent space at the edge sample), pulled toward the chord across the gap
+by as much as noise explains of one edge's departure (James-Stein, :func:`_shrunk`) and,
+for rotations, to each joint's Wiener share of their departure from it (motion over motion
+and noise, measured on the joint's own frames taken as edges, :func:`_velocity_keep`) or
+the weight that fills its own gaps of that length best, whichever is larger
+(:func:`_fill_share`). The
+noise is the joint's white noise, estimated from its third differences
+(:func:`noise_and_motion_variance`). Only displacements between samples of the same
+joint, and poses relative to another joint, enter: the fill commutes with a fixed rotation
+of the world (and of each body's own frame).
 
-How much of the edge velocities a bridge follows, and whether the donor helps at all, is
-checked on the joint's own data (:func:`_validated`): gaps of the same length are planted
-in the known frames beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and
-bridged with the donor and without, with the edge velocities' departure from the chord
-weighted by each of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant
-angular velocity); the one of least error there fills the gap, the straight line unless
-another beats it by :data:`LINE_MARGIN`. A clean optical capture keeps its velocities
+Under tracker noise the edge samples themselves are off by the noise, and every bridge
+through them (slerp too) carries it into the gap. Two smoothed bridges leave them: the
+same cubic between the edges where a local fit puts them (a smoothing spline with a
+third-difference penalty, a local quadratic, over the edge and :data:`SPLINE_FRAMES`
+frames beyond; :func:`_smoothed_edge`), and for gaps of up to :data:`SPLINE_MAX_GAP`
+frames the discrete cubic smoothing spline through :data:`SPLINE_FRAMES` known frames on
+each side (Whittaker-Henderson, second differences, ``lambda`` the noise variance over
+the motion's; :func:`_spline_bridge`). Their departure from the edge samples is of the
+size of the noise.
+
+Which bridge fills a gap, and whether the donor helps at all, is checked on the joint's
+own data (:func:`_validated`): gaps of the same length are planted in the known frames
+beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and bridged every way, with
+the donor and without, with the edge velocities' departure from the chord weighted by each
+of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant angular velocity).
+The one of least error there fills the gap, the straight line unless another (or the
+donor) beats it by :data:`LINE_MARGIN`; then its smoothed-edge twin, and the smoothing
+spline, where they do better on the gap's trials and on those of the joint's other gaps
+of similar length. A clean optical capture keeps its velocities and its edge samples
 (they predict its gaps well); a markerless estimate, whose edge velocities are mostly its
-noise, gets the straight line; a joint that does not move with its would-be donor (a hip
-and an elbow, say) is bridged on its own.
+noise, gets the straight line; a tracker with white noise gets smoothed bridges; a joint
+that does not move with its would-be donor (a hip and an elbow, say) is bridged on its
+own.
 
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
@@ -56,14 +75,35 @@ POSITION_DONOR_FRAMES = 8
 CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
 GAP_BLOCK = 256
+#: Frames taken as edges when weighing a joint's edge velocities against its noise, and the
+#: key of a (joint, gap length class) pair, ``joint * KEY + length``; gap lengths are
+#: weighed in classes a factor ``2 ** (1 / LENGTH_CLASSES)`` apart.
+KEEP_SAMPLES = 1024
+KEY = 1 << 32
+LENGTH_CLASSES = 2
 #: Edge-velocity weights a gap's bridge may take (0: the straight line, 1: the edges'
 #: fitted velocities), chosen per gap on gaps of its length planted beside it ...
 VELOCITY_WEIGHTS = (0.0, 0.5, 1.0)
-#: ... up to this many on each side. A bridge using the edge velocities must beat the
-#: straight line by this share of its error there to be taken (the trials are few, and
-#: beside a real dropout the tracker was already losing the body).
+#: ... up to this many on each side. A bridge using the edge velocities, or the donor, must
+#: beat the straight line by this share of its error there to be taken (the trials are few,
+#: and beside a real dropout the tracker was already losing the body).
 TRIALS_PER_SIDE = 2
 LINE_MARGIN = 0.2
+#: The "weight" that stands for the smoothing-spline bridge among the options
+#: (:func:`_bridge`) ...
+SPLINE = -1.0
+#: ... fitted to up to this many known frames beside each edge (and the edge), as the local
+#: fit of the smoothed edges is, for gaps of up to :data:`SPLINE_MAX_GAP` frames (under
+#: noise it beats slerp on short gaps; on longer ones the edge velocities or the straight
+#: line do better, and its system grows with the gap).
+SPLINE_FRAMES = 8
+SPLINE_MAX_GAP = 32
+#: The smoothing spline's ``lambda`` stays within these bounds (a clean signal: nearly an
+#: interpolating spline; pure noise: nearly the least-squares line through the window).
+SPLINE_LAMBDA = (1e-6, 1e4)
+#: The spline replaces the chosen bridge where it does better on the gap's own trials and
+#: this share better (geometric mean) on those of the joint's gaps of similar length.
+SPLINE_MARGIN = 0.1
 
 
 @dataclass(frozen=True)
@@ -91,6 +131,46 @@ class Gaps:
 
     def select(self, keep: np.ndarray) -> Gaps:
         return Gaps(self.joint[keep], self.first[keep], self.stop[keep])
+
+
+@dataclass(frozen=True)
+class _Stats:
+    """What the bridges of one signal (rotations or positions) need to know of each joint:
+    per-sample ``noise`` variance and the second differences' variance ``motion`` per
+    component (:func:`noise_and_motion_variance`), and the share ``keep`` of the fitted edge
+    velocities' departure from the chord kept, per joint and gap length (``key``: ``joint *
+    KEY + length``, sorted): the Wiener share of it that is motion rather than noise
+    (:func:`_velocity_keep`) or, if larger, the weight that fills the joint's own gaps of
+    that length best (:func:`_fill_share`). Positions keep all of it (their per-edge
+    shrinkage only): measured on the corpus with tracker noise, the Wiener share cost their
+    fills of 12-60 frames up to 7 %, while it spares rotations the noisy velocities of long
+    gaps."""
+
+    noise: np.ndarray
+    motion: np.ndarray
+    key: np.ndarray
+    keep: np.ndarray
+
+    @classmethod
+    def of(cls, x: np.ndarray, missing: np.ndarray, rotations: bool, gaps: Gaps) -> _Stats:
+        noise, motion = noise_and_motion_variance(x, missing, rotations)
+        key = np.unique(gaps.joint * KEY + _length_class(gaps.lengths))
+        keep = np.ones(key.size)
+        if rotations:
+            pairs = (x, missing, rotations, noise, key // KEY, key % KEY)
+            keep = np.maximum(_velocity_keep(*pairs), _fill_share(*pairs))
+        return cls(noise, motion, key, keep)
+
+    def keep_of(self, joint: np.ndarray, length: np.ndarray) -> np.ndarray:
+        wanted = joint * KEY + _length_class(length)
+        at = np.minimum(np.searchsorted(self.key, wanted), self.key.size - 1)
+        return np.where(self.key[at] == wanted, self.keep[at], 1.0)
+
+
+def _length_class(length: np.ndarray) -> np.ndarray:
+    """The gap length standing for ``length``'s class (:data:`LENGTH_CLASSES`)."""
+    exponent = np.round(LENGTH_CLASSES * np.log2(np.maximum(length, 1)))
+    return np.round(2.0 ** (exponent / LENGTH_CLASSES)).astype(np.int64)
 
 
 @dataclass(frozen=True)
@@ -145,6 +225,94 @@ def _edge_velocity(x, edge, room, direction, log_of) -> tuple[np.ndarray, np.nda
     return out, gain
 
 
+def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
+    """Per ``(joint, length)`` pair, the Wiener weight ``S / (S + N)`` of the fitted edge
+    velocity's departure from the chord across a gap of that length: ``S + N`` the mean of
+    ``|v - chord|^2`` over the joint's known frames taken as edges (up to
+    :data:`KEEP_SAMPLES` of them), ``N`` what the noise alone puts there (the velocity's
+    and the chord's noise variance). A clean capture keeps its velocities; a joint whose
+    velocities are mostly noise keeps little of them, whatever one edge shows."""
+    log_of = _rotation_log if rotations else _position_log
+    out = np.ones(joint.size)
+    n_frames = x.shape[0]
+    weights = _edge_weights(EDGE_FRAMES)
+    gain = np.sum(weights**2) + np.sum(weights) ** 2
+    for span in np.unique(length + 1):
+        pairs = np.flatnonzero(length + 1 == span)
+        edges = np.arange(EDGE_FRAMES, n_frames - span)
+        if not edges.size:
+            continue
+        edges = edges[:: max(edges.size // KEEP_SAMPLES, 1)]
+        js = joint[pairs]
+        base = x[edges][:, js]
+        slope = np.zeros(base.shape[:-1] + (3,))
+        for k, weight in enumerate(weights, 1):
+            slope -= weight * log_of(base, x[edges - k][:, js])
+        chord = log_of(base, x[edges + span][:, js]) / span
+        known = ~missing[edges + span][:, js]
+        for k in range(EDGE_FRAMES + 1):
+            known &= ~missing[edges - k][:, js]
+        apart = np.where(known, np.sum((slope - chord) ** 2, axis=-1), 0.0)
+        count = known.sum(axis=0)
+        spread = 3.0 * noise_var[js] * (gain + 2.0 / span**2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            keep = 1.0 - spread * count / apart.sum(axis=0)
+        out[pairs] = np.where(count > 0, np.clip(np.nan_to_num(keep, nan=1.0), 0.0, 1.0), 1.0)
+    return out
+
+
+def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
+    """Per ``(joint, length)`` pair, the weight ``w`` of the (shrunk) edge velocities'
+    departure from the chord that fills gaps of that length best on the joint's own data,
+    in [0, 1]: at up to :data:`KEEP_SAMPLES` places in its known frames taken as gaps, the
+    straight line's error ``e`` and the velocities' part ``d`` of the cubic give ``w = <e,
+    d> / <d, d>`` (least squares, over up to 8 of each gap's frames; their noise does not
+    bias it). It keeps more of the velocities than the Wiener share where their noise,
+    anchored at a noisy edge sample, partly undoes that sample's."""
+    log_of = _rotation_log if rotations else _position_log
+    out = np.ones(joint.size)
+    weights = _edge_weights(EDGE_FRAMES)
+    gain = np.sum(weights**2) + np.sum(weights) ** 2
+    for span in np.unique(length + 1):
+        pairs = np.flatnonzero(length + 1 == span)
+        edges = np.arange(EDGE_FRAMES, x.shape[0] - span - EDGE_FRAMES)
+        if not edges.size:
+            continue
+        edges = edges[:: max(edges.size // KEEP_SAMPLES, 1)]
+        js = joint[pairs]
+        start, end = x[edges][:, js], x[edges + span][:, js]
+        slope_a, slope_b = np.zeros(start.shape[:-1] + (3,)), np.zeros(start.shape[:-1] + (3,))
+        for k, weight in enumerate(weights, 1):
+            slope_a -= weight * log_of(start, x[edges - k][:, js])
+            slope_b += weight * log_of(end, x[edges + span + k][:, js])
+        step = log_of(start, end)
+        chord = step / span
+        flat = (-1, 3)
+        var = np.broadcast_to(noise_var[js], chord.shape[:-1]).reshape(-1)
+        gains = np.full(var.size, gain)
+        d_a, d_b = (
+            (_shrunk(v.reshape(flat), gains, chord.reshape(flat), var).reshape(chord.shape) - chord)
+            * span
+            for v in (slope_a, slope_b)
+        )
+        known = np.ones(chord.shape[:-1], bool)
+        for k in range(-EDGE_FRAMES, span + EDGE_FRAMES + 1):
+            known &= ~missing[edges + k][:, js]
+        along = np.zeros(chord.shape[:-1])
+        squares = np.zeros(chord.shape[:-1])
+        for i in np.unique(np.linspace(1, span - 1, min(span - 1, 8)).round().astype(int)):
+            u = i / span
+            line = log_of(start, x[edges + i][:, js]) - u * step
+            bend = (u**3 - 2 * u**2 + u) * d_a + (u**3 - u**2) * d_b  # the Hermite's tangent part
+            along += np.sum(line * bend, axis=-1)
+            squares += np.sum(bend * bend, axis=-1)
+        along, squares = (np.where(known, v, 0.0).sum(axis=0) for v in (along, squares))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = along / squares
+        out[pairs] = np.clip(np.nan_to_num(share, nan=1.0), 0.0, 1.0)
+    return out
+
+
 def _shrunk(velocity, gain, chord, noise_var) -> np.ndarray:
     """The fitted edge velocity pulled toward the chord's by as much as noise explains of
     their difference (James-Stein shrinkage; noise-free data keep the fit)."""
@@ -155,49 +323,178 @@ def _shrunk(velocity, gain, chord, noise_var) -> np.ndarray:
     return chord + keep[:, None] * (velocity - chord)
 
 
-def _bridge(
-    x, a, b, room_a, room_b, rows, gap_of, rotations: bool, noise_var, weight
-) -> np.ndarray:
-    """The C1 cubic across each gap of the flat signal ``x`` (rows ``a`` and ``b`` known,
-    ``room_*`` known rows beyond them, per-sample noise variance ``noise_var`` per gap and
-    component), at ``rows`` (gap ``gap_of``); each gap's edge velocities are the chord's
-    plus ``weight`` (G,) times their difference from it (0: the straight line)."""
+def _edges(x, a, b, room_a, room_b, rotations: bool, noise_var) -> dict:
+    """What every bridge option of :func:`_bridge` starts from, per gap of the flat signal
+    ``x``: the edges ``x_a``, ``x_b`` and the step ``log(x_a^-1 x_b)`` between them, as
+    sampled (``raw``) and where a local fit puts them (``smooth``, :func:`_smoothed_edge`),
+    and the fitted edge velocities with their noise gains (``fit_a``, ``fit_b``,
+    :func:`_edge_velocity`)."""
     log_of = _rotation_log if rotations else _position_log
+    x_a, x_b = x[a], x[b]
+    step = log_of(x_a, x_b)
+    shift_a = _smoothed_edge(x, a, room_a, -1, log_of, noise_var)
+    shift_b = _smoothed_edge(x, b, room_b, +1, log_of, noise_var)
+    if rotations:
+        s_a, s_b = quat.multiply(x_a, quat.exp(shift_a)), quat.multiply(x_b, quat.exp(shift_b))
+        s_step = _log_near(quat.relative(s_a, s_b), step)
+    else:
+        s_a, s_b = x_a + shift_a, x_b + shift_b
+        s_step = s_b - s_a
+    return {
+        "raw": (x_a, x_b, step),
+        "smooth": (s_a, s_b, s_step),
+        "fit_a": _edge_velocity(x, a, room_a, -1, log_of),
+        "fit_b": _edge_velocity(x, b, room_b, +1, log_of),
+    }
+
+
+def _bridge(x, where, rotations: bool, stats, edges: dict, option) -> np.ndarray:
+    """The C1 cubic across each gap of the flat signal ``x`` (``where``: rows ``a`` and
+    ``b`` known, ``room_*`` known rows beyond them, gap rows ``rows`` of gap ``gap_of``).
+    ``stats`` per gap: per-sample noise variance, second differences' variance
+    (:func:`noise_and_motion_variance`) and the Wiener share of the edge velocities kept
+    (:func:`_velocity_keep`); ``edges``: :func:`_edges`. ``option`` per gap: ``(weight,
+    smooth)``: each gap's edge velocities are the chord's plus ``weight`` times the kept
+    share of their difference from it (0: the straight line), between the edge samples or,
+    where ``smooth``, where a local fit puts the edges; where ``weight`` is :data:`SPLINE`
+    (and the gap no longer than :data:`SPLINE_MAX_GAP`) the bridge is the smoothing spline
+    (:func:`_spline_bridge`)."""
+    a, b, room_a, room_b, rows, gap_of = where
+    noise_var, motion_var, keep = stats
+    weight, smooth = option
+    x_a, x_b, step = (
+        np.where(smooth[:, None], smoothed, raw)
+        for raw, smoothed in zip(edges["raw"], edges["smooth"], strict=True)
+    )
     span = (b - a).astype(np.float64)[:, None]
-    step = log_of(x[a], x[b])
     chord = step / span
-    keep = weight[:, None]
-    v_a = _shrunk(*_edge_velocity(x, a, room_a, -1, log_of), chord, noise_var)
-    v_b = _shrunk(*_edge_velocity(x, b, room_b, +1, log_of), chord, noise_var)
-    v_a = (chord + keep * (v_a - chord)) * span
-    v_b = (chord + keep * (v_b - chord)) * span
+    kept = (np.where(weight == SPLINE, 1.0, weight) * keep)[:, None]
+    (fit_a, gain_a), (fit_b, gain_b) = edges["fit_a"], edges["fit_b"]
+    v_a = _shrunk(fit_a, gain_a, chord, noise_var)
+    v_b = _shrunk(fit_b, gain_b, chord, noise_var)
+    v_a = (chord + kept * (v_a - chord)) * span
+    v_b = (chord + kept * (v_b - chord)) * span
     u = (rows - a[gap_of]) / span[gap_of, 0]
     g = gap_of
     if rotations:
-        return hermite_rotations(x[a][g], step[g], v_a[g], end_tangent(step, v_b)[g], u)
-    return hermite_positions(x[a][g], v_a[g], x[b][g], v_b[g], u)
+        out = hermite_rotations(x_a[g], step[g], v_a[g], end_tangent(step, v_b)[g], u)
+    else:
+        out = hermite_positions(x_a[g], v_a[g], x_b[g], v_b[g], u)
+    spline = (weight == SPLINE) & ((b - a - 1) <= SPLINE_MAX_GAP)
+    if spline.any():
+        at = spline[gap_of]
+        lam = spline_lambda(noise_var, motion_var)
+        out[at] = _spline_bridge(x, a, b, room_a, room_b, spline, gap_of[at], rotations, lam)
+    return out
 
 
-def noise_variance(x: np.ndarray, missing: np.ndarray, rotations: bool) -> np.ndarray:
+def _log_near(q: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """The log of ``q`` (half-angle units) on the branch nearest ``near``: the shortest way
+    or the other way round (a smoothed edge must not turn a bridge of nearly half a turn
+    the other way)."""
+    short = quat.log_shortest(q)
+    angle = np.linalg.norm(short, axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        other = np.where(angle > 0, short * (1.0 - np.pi / angle), short)
+    flip = np.sum((short - near) ** 2, axis=-1) > np.sum((other - near) ** 2, axis=-1)
+    return np.where(flip[:, None], other, short)
+
+
+def _smoothed_edge(x, edge, room, direction: int, log_of, noise_var) -> np.ndarray:
+    """Where a local fit puts the edge: the discrete smoothing spline with a third-difference
+    penalty (a local quadratic, so a curving motion does not pull the edge aside) through
+    the edge row and up to :data:`SPLINE_FRAMES` of the ``room`` known rows beyond it
+    (``direction`` -1: before it, +1: after), of parameter ``noise_var`` (G,) over the
+    window's own third differences' variance (less the noise's, 20 times its variance);
+    as a displacement from the edge sample (G, 3)."""
+    k = np.arange(SPLINE_FRAMES + 1)
+    rows = np.clip(edge[:, None] + direction * k, 0, x.shape[0] - 1)
+    usable = k <= room[:, None]
+    y = np.where(usable[..., None], log_of(x[edge][:, None], x[rows]), 0.0)
+    ok = usable[:, 3:]
+    jerks = np.sum(np.where(ok[..., None], np.diff(y, 3, axis=1) ** 2, 0.0), axis=(1, 2))
+    jerk = jerks / np.maximum(3 * ok.sum(axis=1), 1)
+    lam = spline_lambda(noise_var, jerk, noise_gain=20.0)
+    third = np.diff(np.eye(k.size), 3, axis=0)
+    system = lam[:, None, None] * (third.T @ third) + usable[:, :, None] * np.eye(k.size)
+    return np.linalg.solve(system, y)[:, 0]
+
+
+def _spline_bridge(x, a, b, room_a, room_b, chosen, gap_of, rotations: bool, lam) -> np.ndarray:
+    """The discrete cubic smoothing spline (Whittaker-Henderson, second differences) through
+    the known rows beside each ``chosen`` gap of the flat signal ``x`` (the edge and up to
+    :data:`SPLINE_FRAMES` of the ``room_*`` known rows beyond it on each side), at the
+    gaps' rows (``gap_of``: the gap of each, in order), in the tangent space at row ``a``.
+
+    Each window's values ``z`` minimise ``sum_known |z_i - y_i|^2 + lambda sum |D2 z|^2``
+    (``lambda`` per gap: the noise variance over the motion's second-difference variance,
+    :func:`spline_lambda`): a cubic across the gap, which under noise leaves the noisy
+    edge samples (by about their noise) for the motion the window shows."""
+    log_of = _rotation_log if rotations else _position_log
+    out = np.empty((gap_of.size, 4 if rotations else 3))
+    edge_rows = np.arange(SPLINE_FRAMES + 1)
+    for length in np.unique(b[chosen] - a[chosen] - 1):
+        mine = np.flatnonzero(chosen & (b - a - 1 == length))
+        n = 2 * (SPLINE_FRAMES + 1) + int(length)
+        # window rows: SPLINE_FRAMES + 1 ending at a, the gap, as many starting at b
+        before = a[mine, None] - edge_rows[::-1]
+        after = b[mine, None] + edge_rows
+        known = np.concatenate([before, after], axis=1)  # (G, 2K + 2)
+        usable = np.concatenate(
+            [edge_rows[::-1] <= room_a[mine, None], edge_rows <= room_b[mine, None]], axis=1
+        )
+        base = x[a[mine]]
+        if rotations:  # the chart at the middle of the chord: least distortion
+            base = quat.multiply(base, quat.exp(0.5 * log_of(base, x[b[mine]])))
+        y = log_of(base[:, None], x[np.clip(known, 0, x.shape[0] - 1)])
+        y[~usable] = 0.0
+        second = np.diff(np.eye(n), 2, axis=0)
+        penalty = second.T @ second
+        index = np.concatenate([edge_rows, SPLINE_FRAMES + 1 + int(length) + edge_rows])
+        weight = np.zeros((mine.size, n))
+        weight[:, index] = usable
+        system = lam[mine, None, None] * penalty + weight[:, :, None] * np.eye(n)
+        rhs = np.zeros((mine.size, n, 3))
+        rhs[:, index] = y
+        scale = np.abs(system).max(axis=2, keepdims=True)  # rows equilibrated
+        z = np.linalg.solve(system / scale, rhs / scale)
+        inside = z[:, SPLINE_FRAMES + 1 : SPLINE_FRAMES + 1 + int(length)].reshape(-1, 3)
+        at = np.flatnonzero(np.isin(gap_of, mine))  # rows in gap order, gaps in order
+        if rotations:
+            out[at] = quat.multiply(np.repeat(base, length, axis=0), quat.exp(inside))
+        else:
+            out[at] = np.repeat(base, length, axis=0) + inside
+    return out
+
+
+def noise_and_motion_variance(
+    x: np.ndarray, missing: np.ndarray, rotations: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-sample noise variance per component of each joint of ``x`` ``(F, J, 4|3)``
     (rotations: of the half-angle log), from the median squared length of the third
     differences over the known frames (white noise of variance s^2 per component gives
     third differences of variance 20 s^2 per component, and their squared length a median
-    of :data:`CHI2_3_MEDIAN` times that): rotation invariant. ``(J,)``; 0 for short clips."""
+    of :data:`CHI2_3_MEDIAN` times that): rotation invariant; and the mean variance per
+    component of the second differences there (motion and noise). Each ``(J,)``; 0 for
+    short clips."""
     if x.shape[0] < 5:
-        return np.zeros(x.shape[1])
+        return np.zeros(x.shape[1]), np.zeros(x.shape[1])
     steps = np.empty((x.shape[0] - 1, x.shape[1], 3))
     for at in range(0, steps.shape[0], 4096):  # temporaries stay small
         rows = slice(at, min(at + 4096, steps.shape[0]))
         a, b = x[rows], x[rows.start + 1 : rows.stop + 1]
         steps[rows] = _rotation_log(a, b) if rotations else b - a
-    third = steps[2:] - 2.0 * steps[1:-1] + steps[:-2]
+    second = np.diff(steps, axis=0)
+    third = np.diff(second, axis=0)
     known = ~(missing[:-3] | missing[1:-2] | missing[2:-1] | missing[3:])
     squares = np.where(known, np.einsum("fjc,fjc->fj", third, third), np.nan)
+    known_2 = ~(missing[:-2] | missing[1:-1] | missing[2:])
+    bends = np.where(known_2, np.einsum("fjc,fjc->fj", second, second), np.nan)
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a joint with no known run: NaN
         median = np.nanmedian(squares, axis=0)
-    return np.nan_to_num(median / CHI2_3_MEDIAN / 20.0)
+        mean = np.nanmean(bends, axis=0)
+    return np.nan_to_num(median / CHI2_3_MEDIAN / 20.0), np.nan_to_num(mean / 3.0)
 
 
 # ----------------------------------------------------------------------------- donors
@@ -330,12 +627,12 @@ def fill_gaps(
         edge_q, edge_p = _relative(rotations, translations, joint, donor[:, gap_of], a[gap_of])
         rel_q[held], rel_p[held] = edge_q[held], edge_p[held]
     if inner.any():
-        noise = (
-            noise_variance(rotations, missing, True),
-            noise_variance(translations, missing, False),
-        )
         two_sided = todo.select(inner)
-        chosen, weight_q, weight_p = _validated(
+        noise = tuple(
+            _Stats.of(x, missing, rotations, two_sided)
+            for x, rotations in ((rotations, True), (translations, False))
+        )
+        chosen, option_q, option_p = _validated(
             rotations, translations, missing, two_sided, donor[:, inner], noise
         )
         donor[0, inner] = chosen
@@ -343,9 +640,8 @@ def fill_gaps(
         if held.any():
             edge_q, edge_p = _relative(rotations, translations, joint, donor[:, gap_of], a[gap_of])
             rel_q[held], rel_p[held] = edge_q[held], edge_p[held]
-        rel_q[~held], rel_p[~held] = _bridge_inner(
-            rotations, translations, missing, two_sided, donor[:, inner], noise, weight_q, weight_p
-        )
+        windows = _Windows.of(rotations, translations, missing, two_sided, donor[:, inner], noise)
+        rel_q[~held], rel_p[~held] = windows.bridged((option_q, option_p))
     d, _ = _frame_of(rotations, translations, donor[0, gap_of], frame)
     e, c = _frame_of(rotations, translations, donor[1, gap_of], frame)
     q[frame, joint] = quat.multiply(d, rel_q)
@@ -384,28 +680,30 @@ def _trials(missing, gaps: Gaps, donor: np.ndarray):
 
 def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, noise):
     """Per two-sided gap, the rotation donor (the chosen ``donor[0]`` or the world, -1) and
-    the edge-velocity weights (:data:`VELOCITY_WEIGHTS`) of its rotation and of its position
-    bridge that fill best the gaps of the same length planted beside it in the joint's own
-    known frames (least summed squared error there, the straight line, weight 0, taken
-    unless another is :data:`LINE_MARGIN` better; :func:`_trials`). Whatever a joint's
-    motion and noise, its bridges are then no worse there than the straight line, and a
-    donor that does not move with the joint is dropped. A gap without room for
-    a trial keeps its donor and the full edge velocities. Returns ``(donor, weight of the
-    rotation, weight of the position)``, each (G,)."""
+    the bridge options ``(weight, smooth)`` (:func:`_bridge`) of its rotation and of its
+    position that fill best the gaps of the same length planted beside it in the joint's
+    own known frames (least summed squared error there; :func:`_trials`), in three steps
+    on the same trials: the donor and the edge velocities' weight
+    (:data:`VELOCITY_WEIGHTS`; the straight line, weight 0, taken unless another is
+    :data:`LINE_MARGIN` better); the edges where a local fit puts them if that does better
+    there; the smoothing spline if it is :data:`LINE_MARGIN` better still. Whatever a
+    joint's motion and noise, its bridges are then no worse there than the straight line,
+    and a donor that does not move with the joint is dropped. A gap without room for a
+    trial keeps its donor and the full edge velocities from its edge samples. Returns
+    ``(donor, (weight, smooth) of the rotation, (weight, smooth) of the position)``, each
+    array (G,)."""
     n_gaps = gaps.joint.size
-    options = [(-1, w) for w in VELOCITY_WEIGHTS]
-    if (donor[0] >= 0).any():
-        options += [(0, w) for w in VELOCITY_WEIGHTS]  # 0: the chosen donor
+    uses = (-1, 0) if (donor[0] >= 0).any() else (-1,)  # 0: the chosen donor
+    kinds = [(w, smooth) for w in VELOCITY_WEIGHTS for smooth in (False, True)]
+    options = [(use, w, smooth) for use in uses for w, smooth in (*kinds, (SPLINE, False))]
     error = np.full((2, len(options), n_gaps), np.inf)  # rotations, positions
-    for i, (use, w) in enumerate(options):
+    for use in uses:
         helper = donor[0] if use == 0 else np.full(n_gaps, -1)
         trials, of = _trials(missing, gaps, np.where(helper >= 0, helper, donor[1]))
         if not of.size:
             continue
         both = np.stack([helper[of], donor[1, of]])
-        bridged = _bridge_inner(
-            rotations, translations, missing, trials, both, noise, np.full(of.size, w)
-        )
+        windows = _Windows.of(rotations, translations, missing, trials, both, noise)
         lengths = trials.lengths
         owner = np.repeat(of, lengths)
         frames = np.repeat(trials.first, lengths) + _ranks(lengths)
@@ -416,29 +714,70 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
             np.stack([helper[owner], donor[1, owner]]),
             frames,
         )
-        squares = (
-            quat.angle_between(bridged[0], truth[0]) ** 2,
-            np.sum((bridged[1] - truth[1]) ** 2, axis=-1),
-        )
         tried = np.bincount(of, minlength=n_gaps) > 0
         if use == 0:
             tried &= donor[0] >= 0
-        for k in range(2):
-            total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
-            error[k, i] = np.where(tried, total, np.inf)
-    weights = np.array([w for _, w in options])
-    uses = np.array([u for u, _ in options])
-    error[:, weights > 0] /= 1.0 - LINE_MARGIN  # the straight line wins near-ties
-    # rotations: the donor and the weight together; positions: the weight, same donor
-    best = np.argmin(error[0], axis=0)
-    same = uses[:, None] == uses[best][None]
-    position = np.argmin(np.where(same, error[1], np.inf), axis=0)
+        for i in (i for i, option in enumerate(options) if option[0] == use):
+            _, w, smooth = options[i]
+            bridged = windows.bridged((np.full(of.size, w), np.full(of.size, smooth)))
+            squares = (
+                quat.angle_between(bridged[0], truth[0]) ** 2,
+                np.sum((bridged[1] - truth[1]) ** 2, axis=-1),
+            )
+            ok = tried & (gaps.lengths <= SPLINE_MAX_GAP) if w == SPLINE else tried
+            for k in range(2):
+                total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
+                error[k, i] = np.where(ok, total, np.inf)
+    use_of, weight_of, smooth_of = (np.array(column) for column in zip(*options, strict=True))
+    spline = weight_of == SPLINE
+    plain = ~smooth_of & ~spline
+    # 1. donor and weight, from the edge samples: the straight line wins near-ties
+    first = np.where(plain[:, None], error[0], np.inf)
+    first[(weight_of != 0) | (use_of == 0)] /= 1.0 - LINE_MARGIN
+    best = np.argmin(first, axis=0)
+    same = use_of[:, None] == use_of[best][None]  # positions: the rotation's donor
+    second = np.where(plain[:, None] & same, error[1], np.inf)
+    second[weight_of != 0] /= 1.0 - LINE_MARGIN
+    chosen = np.stack([best, np.argmin(second, axis=0)])
+    columns = np.arange(n_gaps)
+    alone = int(np.flatnonzero(spline)[0])  # the spline without a donor; with it: next row
+    curve = np.where(use_of[best] == -1, alone, alone + len(kinds) + 1)
+    for k in range(2):
+        # 2. the same bridge from smoothed edges (the next option), where it does better
+        twin = chosen[k] + 1
+        better = _better(error[k, twin, columns], error[k, chosen[k], columns], gaps, 0.0)
+        chosen[k] = np.where(better, twin, chosen[k])
+        # 3. the smoothing spline with the same donor, where it is clearly better
+        better = _better(
+            error[k, curve, columns], error[k, chosen[k], columns], gaps, SPLINE_MARGIN
+        )
+        chosen[k] = np.where(better, curve, chosen[k])
     untried = ~np.isfinite(error[0].min(axis=0))
+    weights = np.where(untried, 1.0, weight_of[chosen])
+    smoothed = np.where(untried, False, smooth_of[chosen])
     return (
-        np.where(untried | (uses[best] == 0), donor[0], -1),
-        np.where(untried, 1.0, weights[best]),
-        np.where(untried, 1.0, weights[position]),
+        np.where(untried | (use_of[best] == 0), donor[0], -1),
+        (weights[0], smoothed[0]),
+        (weights[1], smoothed[1]),
     )
+
+
+def _better(error: np.ndarray, chosen: np.ndarray, gaps: Gaps, margin: float) -> np.ndarray:
+    """Per gap, whether a smoothed bridge of trial error ``error`` (G,) replaces the chosen
+    one (``chosen``): where it does better on the gap's own trials, and by ``margin`` (the
+    geometric mean of the ratios) on those of the joint's gaps of lengths within a factor
+    of two. One gap's few trials would pick a smoothed bridge by chance where it is not
+    better: on clean captures, whose edge samples need no smoothing."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # inf / inf: neither was tried
+        ratio = error / chosen
+    key = np.unique(gaps.joint * 64 + np.log2(gaps.lengths).astype(int), return_inverse=True)[1]
+    finite = np.isfinite(ratio) & (ratio > 0)
+    logs = np.log(np.where(finite, ratio, 1.0))
+    total = np.bincount(key, weights=logs)
+    count = np.bincount(key, weights=finite)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pooled = np.exp(total / count)[key]
+    return finite & (ratio < 1.0) & (pooled < 1.0 - margin)
 
 
 def _ranks(lengths: np.ndarray) -> np.ndarray:
@@ -452,35 +791,71 @@ def _spread(values: np.ndarray, where: np.ndarray) -> np.ndarray:
     return out
 
 
-def _bridge_inner(
-    rotations, translations, missing, gaps: Gaps, donors: np.ndarray, noise, weight, weight_p=None
-):
-    """Relative poses across two-sided gaps, gap frames in gap order: each gap's window
-    (known rows before, the gap, known rows after) laid end to end in one flat signal;
-    ``weight`` (G,) scales the edge velocities' departure from the chord (:func:`_bridge`),
-    ``weight_p`` the positions' (default: the same)."""
-    n_frames = missing.shape[0]
-    a, b = gaps.first - 1, gaps.stop
-    room_a = np.minimum(_known_room(missing, gaps.joint, a, -1), EDGE_FRAMES)
-    room_b = np.minimum(_known_room(missing, gaps.joint, b, +1), EDGE_FRAMES)
-    start, stop = a - room_a, b + room_b + 1  # each window's frames
-    sizes = stop - start
-    window_of = np.repeat(np.arange(sizes.size), sizes)
-    frames = np.minimum(start[window_of] + _ranks(sizes), n_frames - 1)
-    rel_q, rel_p = _relative(
-        rotations, translations, gaps.joint[window_of], donors[:, window_of], frames
-    )
-    rel_q = quat.make_continuous(rel_q, axis=0)
-    base = np.cumsum(sizes) - sizes  # flat row of each window's first frame
-    flat_a, flat_b = base + room_a, base + room_a + (b - a)
-    lengths = gaps.lengths
-    gap_of = np.repeat(np.arange(lengths.size), lengths)
-    rows = flat_a[gap_of] + 1 + _ranks(lengths)
-    var_q, var_p = (
-        n[gaps.joint] + np.where(d >= 0, n[np.maximum(d, 0)], 0.0)
-        for n, d in zip(noise, donors, strict=True)
-    )
-    bridged_q = _bridge(rel_q, flat_a, flat_b, room_a, room_b, rows, gap_of, True, var_q, weight)
-    weight_p = weight if weight_p is None else weight_p
-    bridged_p = _bridge(rel_p, flat_a, flat_b, room_a, room_b, rows, gap_of, False, var_p, weight_p)
-    return bridged_q, bridged_p
+@dataclass(frozen=True)
+class _Windows:
+    """Two-sided gaps' windows (known rows before, the gap, known rows after) laid end to
+    end in one flat signal of relative rotations ``rel_q`` and positions ``rel_p``, with
+    what :func:`_bridge` takes of them: rows ``a`` and ``b`` of each gap's edges, known
+    ``room_*`` beyond them, the gap rows ``rows`` (of gap ``gap_of``), and per signal the
+    ``stats`` (noise variance, second differences' variance, velocity share kept) per gap."""
+
+    rel_q: np.ndarray
+    rel_p: np.ndarray
+    where: tuple
+    stats: tuple
+    edges: tuple
+
+    @classmethod
+    def of(cls, rotations, translations, missing, gaps: Gaps, donors, noise) -> _Windows:
+        n_frames = missing.shape[0]
+        a, b = gaps.first - 1, gaps.stop
+        reach = max(EDGE_FRAMES, SPLINE_FRAMES)
+        room_a = np.minimum(_known_room(missing, gaps.joint, a, -1), reach)
+        room_b = np.minimum(_known_room(missing, gaps.joint, b, +1), reach)
+        start, stop = a - room_a, b + room_b + 1  # each window's frames
+        sizes = stop - start
+        window_of = np.repeat(np.arange(sizes.size), sizes)
+        frames = np.minimum(start[window_of] + _ranks(sizes), n_frames - 1)
+        rel_q, rel_p = _relative(
+            rotations, translations, gaps.joint[window_of], donors[:, window_of], frames
+        )
+        base = np.cumsum(sizes) - sizes  # flat row of each window's first frame
+        flat_a = base + room_a
+        lengths = gaps.lengths
+        gap_of = np.repeat(np.arange(lengths.size), lengths)
+        stats = []
+        for signal, donor in zip(noise, donors, strict=True):
+            var = signal.noise[gaps.joint]
+            var = var + np.where(donor >= 0, signal.noise[np.maximum(donor, 0)], 0.0)
+            stats.append((var, signal.motion[gaps.joint], signal.keep_of(gaps.joint, lengths)))
+        rel_q = quat.make_continuous(rel_q, axis=0)
+        flat_b = flat_a + (b - a)
+        edges = tuple(
+            _edges(x, flat_a, flat_b, room_a, room_b, rotation, var)
+            for x, rotation, (var, _, _) in zip((rel_q, rel_p), (True, False), stats, strict=True)
+        )
+        rows = flat_a[gap_of] + 1 + _ranks(lengths)
+        where = (flat_a, flat_b, room_a, room_b, rows, gap_of)
+        return cls(rel_q, rel_p, where, tuple(stats), edges)
+
+    def bridged(self, option) -> tuple[np.ndarray, np.ndarray]:
+        """Relative poses across the gaps, gap frames in gap order; ``option``: the
+        :func:`_bridge` options ``(weight, smooth)`` (arrays (G,)) of both rotations and
+        positions, or a pair of them (the rotations', the positions')."""
+        options = option if isinstance(option[0], tuple) else (option, option)
+        return (
+            _bridge(self.rel_q, self.where, True, self.stats[0], self.edges[0], options[0]),
+            _bridge(self.rel_p, self.where, False, self.stats[1], self.edges[1], options[1]),
+        )
+
+
+def spline_lambda(noise_var: np.ndarray, data_var: np.ndarray, noise_gain: float = 6.0):
+    """A smoothing spline's ``lambda`` (:func:`_spline_bridge`): the noise variance over
+    the variance of the motion's own second differences (per component; white noise adds
+    ``noise_gain`` = 6 times its variance to the data's ``data_var``; 20 for third
+    differences), as for a cubic smoothing spline whose prior is acceleration as white
+    noise; within :data:`SPLINE_LAMBDA`."""
+    motion = np.maximum(data_var - noise_gain * noise_var, 1e-3 * data_var)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = noise_var / motion
+    return np.clip(np.nan_to_num(lam, nan=0.0, posinf=SPLINE_LAMBDA[1]), *SPLINE_LAMBDA)

@@ -80,8 +80,10 @@ def _shift(note: dict, frames: int) -> dict:
 STEP = StepSpec(
     name="fill-gaps",
     summary="tracker dropouts bridged by a C1 cubic in displacements, following the "
-    "smoothest other body (pattern fill)",
-    paper="cubic of 003 Eq. 17 made C1; displacements 000 Eq. 19",
+    "smoothest other body (pattern fill), each bridge checked on gaps planted beside it "
+    "(the straight line, smoothed edges or a smoothing spline where they do better)",
+    paper="cubic of 003 Eq. 17 made C1; displacements 000 Eq. 19; Whittaker smoothing "
+    "spline under noise",
     params=(
         Param(
             "max_gap",
