@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import ipaddress
+import logging
 import os
 import re
 import signal
@@ -192,6 +193,19 @@ class _HeldInterrupts:
             raise KeyboardInterrupt
 
 
+#: Above every level Dask logs at: its log lines are off (see :func:`_silence_dask_logs`).
+_SILENT = logging.CRITICAL + 1
+
+
+def _silence_dask_logs() -> None:
+    """Dask's own log lines off in this process for good: stderr carries motionclean's
+    one-line errors, and Dask's comms log (with tracebacks) as workers die and after a
+    cluster has closed, when no context could still hold them back."""
+    names = [n for n in logging.root.manager.loggerDict if n.startswith("distributed.")]
+    for name in ("distributed", *names):
+        logging.getLogger(name).setLevel(_SILENT)
+
+
 def _quiet_resource_tracker() -> None:
     """Start multiprocessing's resource tracker (a process of its own, which Dask's worker
     queues use) with warnings off: when ``batch`` is killed with SIGKILL it warned on the
@@ -224,6 +238,7 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
     workers than ``clips`` (each worker is a process: ``local:99999`` for a few clips
     would start thousands for nothing)."""
     distributed = _distributed()
+    _silence_dask_logs()
     address, count = parse_scheduler(scheduler)
     if address == "local":
         n = max(1, min(count or default_workers, clips))
@@ -236,7 +251,7 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=":0",  # a free port: 8787 may be taken
-                silence_logs=50,
+                silence_logs=_SILENT,  # the workers' logs too
             )
             client = distributed.Client(cluster)
         except Exception as error:  # a worker killed while starting, no memory, ...
