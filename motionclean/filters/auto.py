@@ -484,7 +484,11 @@ def _select(
     n_frames, n_cols = x.shape[:2]
     model = _fit(disp, frame_time)
     if model is None:
-        none = [AutoChoice("none", 0, 0.0, source=source if rotations else "optical")] * n_cols
+        none = [  # too short to fit: the source could not be measured (nan), not given
+            AutoChoice(
+                "none", 0, 0.0, source=source if rotations else "optical", motion_slope=math.nan
+            )
+        ] * n_cols
         return x if overwrite else x.copy(), np.zeros(n_cols), none
     if given is not None:
         model = model._replace(

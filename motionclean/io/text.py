@@ -570,13 +570,6 @@ def _fixed6(x: float) -> bytes:
     return text[1:] if text.startswith(b"-") and text.strip(b"-0.") == b"" else text
 
 
-def pack_texts(texts: list[bytes]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(buffer, starts, lengths)`` of a list of byte strings (see :func:`gather`)."""
-    lengths = np.fromiter(map(len, texts), dtype=np.int64, count=len(texts))
-    starts = np.cumsum(lengths) - lengths
-    return np.frombuffer(b"".join(texts), dtype=np.uint8), starts, lengths
-
-
 def _gather(buf: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> bytes:
     """Concatenate the non-empty pieces ``buf[starts[i] : starts[i] + lengths[i]]``."""
     out_ends = np.cumsum(lengths)
