@@ -390,8 +390,10 @@ def rest_positions(motion: Motion) -> np.ndarray:
 
 #: Frames (evenly spaced) of a clip whose poses give its up axis and body height.
 POSE_SAMPLES = 256
-#: A rest pose stands upright when its trunk points within this cosine of an axis.
+#: A rest pose stands upright when its trunk points within this cosine of an axis ...
 UPRIGHT_COSINE = 0.9
+#: ... and its legs reach at least this share of its height below the trunk's lowest point.
+LEGS_BELOW = 0.25
 
 
 def axis_index(axis: str | int) -> int:
@@ -506,8 +508,8 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     the body).
 
     Where the rest pose stands upright (its trunk, :func:`trunk_split`, within
-    :data:`UPRIGHT_COSINE` of an axis: a T- or A-pose, whichever way the clip turns it),
-    its extent along that axis; otherwise the median over frames of the extent of a frame's
+    :data:`UPRIGHT_COSINE` of an axis and the legs hanging below it: a T- or A-pose,
+    whichever way the clip turns it), its extent along that axis; otherwise the median over frames of the extent of a frame's
     points along the up axis (``up``, default :func:`up_axis`): a clip whose rest pose is
     not a standing pose, and independent tracked bodies.
     """
@@ -517,8 +519,14 @@ def body_height(motion: Motion, up: int | None = None) -> float:
         upper, lower = split
         trunk = rest[upper].mean(axis=0) - rest[lower].mean(axis=0)
         length = float(np.linalg.norm(trunk))
-        if length > 0.0 and np.abs(trunk).max() >= UPRIGHT_COSINE * length:
-            return float(np.ptp(rest[:, int(np.argmax(np.abs(trunk)))]))
+        axis = int(np.argmax(np.abs(trunk)))
+        if length > 0.0 and abs(trunk[axis]) >= UPRIGHT_COSINE * length:
+            heights = rest[:, axis] * np.sign(trunk[axis])
+            extent = float(np.ptp(heights))
+            # standing, the legs hang below the trunk (a rest that stacks every bone along
+            # one axis, as the glTF of a Blender rig does, points them up: no height)
+            if heights[lower].min() <= heights[upper].min() - LEGS_BELOW * extent:
+                return extent
     axis = up_axis(motion) if up is None else up
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:

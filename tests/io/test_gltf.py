@@ -12,7 +12,7 @@ import pytest
 from helpers import ROOT, SAMPLE, cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.core import kinematics, quat
+from motionclean.core import contacts, kinematics, quat
 
 #: Exported by Blender 5.0.1 (glTF I/O 5.0.21) from sample_data/131_02_cut.bvh (CMU 131_02,
 #: free to use, see sample_data/README.md): BVH import at 120 fps, glTF export with
@@ -313,3 +313,14 @@ def test_bad_gltf_is_one_line(tmp_path, capsys, edit, message):
     (tmp_path / "bad.gltf").write_text(json.dumps(document))
     code, out, err = run_cli(capsys, "info", tmp_path / "bad.gltf")
     assert code == 1 and out == "" and err.count("\n") == 1 and message in err, err
+
+
+def test_a_blender_glb_has_the_body_height_and_feet_of_its_bvh():
+    """Blender's glTF stacks every bone along its own y in the bind pose (identity
+    rotations): not a standing rest, so the height comes from the poses, within 5 % of the
+    BVH's T-pose height, and the feet are the same ankles (a height from the stacked rest,
+    18.65 of 24.27, made the toe bone 'long' and LeftToe a foot)."""
+    glb, bvh = mc.load(BLENDER_GLB), mc.load(SAMPLE)
+    assert kinematics.body_height(glb) == pytest.approx(kinematics.body_height(bvh), rel=0.05)
+    feet = [foot.name for foot in contacts.skeleton_feet(glb)[0]]
+    assert sorted(feet) == sorted(foot.name for foot in contacts.skeleton_feet(bvh)[0])
