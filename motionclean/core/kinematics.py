@@ -509,9 +509,10 @@ def body_height(motion: Motion, up: int | None = None) -> float:
 
     Where the rest pose stands upright (its trunk, :func:`trunk_split`, within
     :data:`UPRIGHT_COSINE` of an axis and the legs hanging below it: a T- or A-pose,
-    whichever way the clip turns it), its extent along that axis; otherwise the median over frames of the extent of a frame's
-    points along the up axis (``up``, default :func:`up_axis`): a clip whose rest pose is
-    not a standing pose, and independent tracked bodies.
+    whichever way the clip turns it), its extent along that axis; otherwise the median
+    over frames of the extent of a frame's points along the up axis (``up``, default
+    :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
+    tracked bodies.
     """
     rest = rest_positions(motion)
     split = trunk_split(point_parents(motion))
