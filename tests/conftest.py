@@ -31,6 +31,6 @@ def dask_scheduler() -> Iterator[str]:
     session's tests (skips when the dask extra is missing)."""
     distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     with distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=None
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=":0"
     ) as local:
         yield local.scheduler_address

@@ -94,7 +94,7 @@ def test_the_clips_of_a_lost_worker_are_run_again_and_none_go_missing(tmp_path):
         source = cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 120)
         jobs.append(Job(str(source), str(tmp_path / "out" / f"c{k}.bvh"), steps, None))
     with (
-        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as local,
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as local,
         Client(local) as client,
     ):
         results = cluster.run_jobs_on(client, jobs)
