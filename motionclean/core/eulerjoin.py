@@ -39,15 +39,16 @@ ALLOWANCE = 1e-6
 _SCAN_ROWS = 8192
 
 
-def _jumps(written: np.ndarray, source: np.ndarray) -> np.ndarray:
-    """``(row, column)`` pairs where the step from ``row`` to ``row + 1`` of ``written``
-    exceeds :data:`JUMP_DEG` and the step of ``source`` between the same rows."""
+def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``(row, k)`` pairs where the step from ``row`` to ``row + 1`` of ``written``'s
+    column ``columns[k]`` exceeds :data:`JUMP_DEG` and the step of ``source`` between the
+    same rows (the columns gathered a block of rows at a time)."""
     found = []
     n = written.shape[0]
     for at in range(0, max(n - 1, 0), _SCAN_ROWS):
         rows = slice(at, min(at + _SCAN_ROWS, n - 1) + 1)
-        out = np.abs(np.diff(written[rows], axis=0))
-        inp = np.abs(np.diff(source[rows], axis=0))
+        out = np.abs(np.diff(written[rows].take(columns, axis=1), axis=0))
+        inp = np.abs(np.diff(source[rows].take(columns, axis=1), axis=0))
         hit = np.argwhere((out > JUMP_DEG) & (out > inp))
         hit[:, 0] += at
         found.append(hit)
@@ -113,7 +114,7 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     if not rotating.size or values.shape[0] < 2:
         return
     columns = rotation_columns[rotating].ravel()
-    hits = _jumps(values[:, columns], source[:, columns])
+    hits = _jumps(values, source, columns)
     if not hits.size:
         return
     done: set[tuple[int, int]] = set()
