@@ -161,6 +161,9 @@ def _forward_planes(
             channel_axes[order].T[:, :, None],
             offsets[order].T[:, :, None],
         )
+        # rows with a position channel (the others are their offsets alone), their joints
+        channel_rows = np.flatnonzero(channel_axes[order].any(axis=1))
+        channel_joints = order[channel_rows]
     n_points = n_joints + tip_rows.size
     widest = max(*sizes, tip_rows.size)
     world_q = np.empty((4, n_joints, n_frames)) if keep_rotations else None
@@ -178,21 +181,25 @@ def _forward_planes(
         if not work or work["q"].shape[2] != width:  # the first and the last block
             work = {
                 "in_q": np.empty((width, n_joints, 4)),
-                "in_t": np.empty((width, n_joints, 3)),
+                "in_t": np.empty((width, n_joints, 3) if channel_axes is None else 0),
                 "q": np.empty((4, n_joints, width)),  # local, then world rotations
                 "t": np.empty((3, n_joints, width)),  # local translations
                 "p": np.empty((3, n_points, width)),  # world positions
                 "flat": np.empty(20 * widest * width),  # per-level scratch
             }
         np.take(rotations[frames], order, axis=1, out=work["in_q"], mode="clip")
-        np.take(translations[frames], order, axis=1, out=work["in_t"], mode="clip")
         q, t, p = work["q"], work["t"], work["p"]
         np.copyto(q, work["in_q"].transpose(2, 1, 0))
         if channel_axes is None:
+            np.take(translations[frames], order, axis=1, out=work["in_t"], mode="clip")
             np.copyto(t, work["in_t"].transpose(2, 1, 0))
-        else:
+        else:  # the translations of the joints with a position channel alone are read
             np.copyto(t, sorted_offsets)
-            np.copyto(t, work["in_t"].transpose(2, 1, 0), where=sorted_axes)
+            if channel_rows.size:
+                read = translations[frames].take(channel_joints, axis=1).transpose(2, 1, 0)
+                t[:, channel_rows] = np.where(
+                    sorted_axes[:, channel_rows], read, sorted_offsets[:, channel_rows]
+                )
         _forward_block(sorted_parents, sizes, q, t, p, work["flat"])
         if tip_rows.size:
             scratch = _Scratch(work["flat"], tip_rows.size, width)
