@@ -31,8 +31,10 @@ __all__ = ["JUMP_DEG", "MAX_RUN", "rejoin"]
 JUMP_DEG = 180.0
 #: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
 MAX_RUN = 4096
-#: Per-channel whole turns each candidate may add to a representation.
-_TURNS = np.array(list(itertools.product((-360.0, 0.0, 360.0), repeat=3)))  # (27, 3)
+#: Whole turns a candidate may add to each channel of a representation ...
+_WHOLE_TURNS = np.array([-360.0, 0.0, 360.0])
+#: ... and every combination of them over the three channels.
+_TURNS = np.array(list(itertools.product(_WHOLE_TURNS, repeat=3)))  # (27, 3)
 #: Steps within this of the least largest step (degrees) are as good as it.
 ALLOWANCE = 1e-6
 #: Rows scanned for jumps at a time (temporaries stay small on long clips).
@@ -55,13 +57,60 @@ def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.n
     return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)
 
 
+def _solutions(angles: np.ndarray) -> np.ndarray:
+    """``(n, 2, 3)``: both Euler solutions of the rotations written as ``angles`` ``(n, 3)``
+    (the other nearest them, whole turns aside)."""
+    other = np.stack([angles[:, 0] + 180.0, 180.0 - angles[:, 1], angles[:, 2] + 180.0], axis=1)
+    other -= 360.0 * np.round((other - angles) / 360.0)
+    return np.stack([angles, other], axis=1)
+
+
 def _candidates(angles: np.ndarray) -> np.ndarray:
     """``(n, 54, 3)`` representations of the rotations written as ``angles`` ``(n, 3)``:
     both Euler solutions, each angle moved by -1, 0 or +1 whole turns."""
-    other = np.stack([angles[:, 0] + 180.0, 180.0 - angles[:, 1], angles[:, 2] + 180.0], axis=1)
-    other -= 360.0 * np.round((other - angles) / 360.0)
-    both = np.stack([angles, other], axis=1)  # (n, 2, 3)
+    both = _solutions(angles)
     return (both[:, :, None, :] + _TURNS[None, None]).reshape(angles.shape[0], -1, 3)
+
+
+#: Frames whose ``(54, 54)`` steps are made at once in :func:`_least_largest_step`
+#: (their temporaries stay in cache).
+_STEP_FRAMES = 16
+
+
+def _steps(channels: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
+    """``(m, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), the largest channel step
+    from each representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns);
+    ``channels`` are the representations ``(n, 3, 54)``, channels first, and ``work`` a
+    scratch of at least ``(m, 3, 54, 54)``."""
+    m = rows.stop - rows.start
+    d = work[:m]
+    np.subtract(
+        channels[rows][:, :, None, :], channels[rows.start - 1 : rows.stop - 1][..., None], out=d
+    )
+    np.abs(d, out=d)
+    np.maximum(d[:, 0], d[:, 1], out=d[:, 0])
+    return np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
+
+
+def _step_floor(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
+    """The least largest step any representation of ``angles`` (:func:`_candidates`) can
+    take at its worst step: the largest, over the steps from ``before``, between the rows
+    and to ``after``, of the least step between any two representations there (values
+    :func:`_largest_step` finds on one of them, bit for bit). A representation's turns are
+    chosen channel by channel, so that least step is, over the pairs of solutions, the
+    largest over channels of each channel's least step over its turns: 36 values per
+    channel and frame instead of 54 x 54 x 3."""
+    turned = _solutions(angles)[:, :, None, :] + _WHOLE_TURNS[:, None]  # (n, 2, 3, 3)
+    floor = 0.0
+    if before is not None:  # per solution: each channel's nearest turn, the worst channel
+        floor = float(np.abs(turned[0] - before).min(axis=1).max(axis=1).min())
+    if after is not None:
+        floor = max(floor, float(np.abs(turned[-1] - after).min(axis=1).max(axis=1).min()))
+    if len(turned) > 1:  # (n-1, solution, turn, solution, turn, channel)
+        d = np.abs(turned[1:, None, None] - turned[:-1, :, :, None, None])
+        least = d.min(axis=(2, 4)).max(axis=-1)  # (n-1, 2, 2): turns, then channels
+        floor = max(floor, float(least.min(axis=(1, 2)).max()))
+    return floor
 
 
 def _least_largest_step(
@@ -72,26 +121,29 @@ def _least_largest_step(
     smoothest (least sum of squared steps, so tiny differences in the rotations do not
     change the choice): a bottleneck shortest path over :func:`_candidates`, then a
     shortest path over the steps it allows (loops over the run's frames, each step one
-    ``(54, 54)`` comparison)."""
+    ``(54, 54)`` comparison; the steps made :data:`_STEP_FRAMES` frames at a time)."""
     cand = _candidates(angles)
     n, k = cand.shape[:2]
-
-    def step(i: int) -> np.ndarray:  # (from, to) largest channel step into frame i
-        return np.abs(cand[i][None, :, :] - cand[i - 1][:, None, :]).max(axis=2)
-
+    blocks = [slice(at, min(at + _STEP_FRAMES, n)) for at in range(1, n, _STEP_FRAMES)]
+    channels = np.ascontiguousarray(cand.transpose(0, 2, 1))
+    work = np.empty((_STEP_FRAMES, 3, k, k))
     first = np.zeros(k) if before is None else np.abs(cand[0] - before).max(axis=1)
     last = np.zeros(k) if after is None else np.abs(cand[-1] - after).max(axis=1)
     cost = first  # the least largest step ...
-    for i in range(1, n):
-        cost = np.min(np.maximum(cost[:, None], step(i)), axis=0)
+    for rows in blocks:
+        for here in _steps(channels, rows, work):
+            cost = np.maximum(cost[:, None], here).min(axis=0)
     allowed = float(np.min(np.maximum(cost, last))) + ALLOWANCE
     cost = np.where(first <= allowed, first**2, np.inf)  # ... then the smoothest within it
     back = np.zeros((n, k), dtype=np.intp)
-    for i in range(1, n):
-        here = step(i)
-        total = np.where(here <= allowed, cost[:, None] + here**2, np.inf)
-        back[i] = np.argmin(total, axis=0)
-        cost = total[back[i], np.arange(k)]
+    for rows in blocks:
+        here = _steps(channels, rows, work)
+        # a step beyond what is allowed costs inf (as does any path through an inf cost)
+        squares = np.where(here <= allowed, here * here, np.inf)
+        for i, square in enumerate(squares, rows.start):
+            total = cost[:, None] + square
+            back[i] = total.argmin(axis=0)
+            cost = total.min(axis=0)
     choice = int(np.argmin(np.where(last <= allowed, cost + last**2, np.inf)))
     out = np.empty_like(angles)
     for i in range(n - 1, -1, -1):
@@ -136,6 +188,9 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         before = written[first - 1] if first > 0 else None
         after = written[stop] if stop < n else None
         run = written[first:stop]
+        largest = _largest_step(run, before, after)
+        if largest <= _step_floor(run, before, after):
+            continue  # no representation steps less (a full solve would find none)
         better = _least_largest_step(run, before, after)
-        if _largest_step(better, before, after) < _largest_step(run, before, after):
+        if _largest_step(better, before, after) < largest:
             values[first:stop, cols] = better
