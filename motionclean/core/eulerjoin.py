@@ -92,36 +92,54 @@ def _steps(channels: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
     return np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
 
 
-def _step_floor(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
+def _step_floor(
+    angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None
+) -> tuple[float, bool]:
     """The least largest step any representation of ``angles`` (:func:`_candidates`) can
     take at its worst step: the largest, over the steps from ``before``, between the rows
     and to ``after``, of the least step between any two representations there (values
     :func:`_largest_step` finds on one of them, bit for bit). A representation's turns are
     chosen channel by channel, so that least step is, over the pairs of solutions, the
     largest over channels of each channel's least step over its turns: 36 values per
-    channel and frame instead of 54 x 54 x 3."""
+    channel and frame instead of 54 x 54 x 3. Also whether no step of any channel lies
+    above that floor within :data:`ALLOWANCE` (every step of a representation is one of
+    them): then a path that keeps within the floor plus the allowance keeps within the
+    floor itself."""
     turned = _solutions(angles)[:, :, None, :] + _WHOLE_TURNS[:, None]  # (n, 2, 3, 3)
-    floor = 0.0
-    if before is not None:  # per solution: each channel's nearest turn, the worst channel
-        floor = float(np.abs(turned[0] - before).min(axis=1).max(axis=1).min())
+    ends = []
+    if before is not None:
+        ends.append(np.abs(turned[0] - before))
     if after is not None:
-        floor = max(floor, float(np.abs(turned[-1] - after).min(axis=1).max(axis=1).min()))
-    if len(turned) > 1:  # (n-1, solution, turn, solution, turn, channel)
-        d = np.abs(turned[1:, None, None] - turned[:-1, :, :, None, None])
+        ends.append(np.abs(turned[-1] - after))
+    # (n-1, solution, turn, solution, turn, channel)
+    d = np.abs(turned[1:, None, None] - turned[:-1, :, :, None, None])
+    floor = 0.0
+    for end in ends:  # per solution: each channel's nearest turn, the worst channel
+        floor = max(floor, float(end.min(axis=1).max(axis=1).min()))
+    if len(d):
         least = d.min(axis=(2, 4)).max(axis=-1)  # (n-1, 2, 2): turns, then channels
         floor = max(floor, float(least.min(axis=(1, 2)).max()))
-    return floor
+    ceiling = floor + ALLOWANCE
+    alone = not any(np.any((v > floor) & (v <= ceiling)) for v in (d, *ends))
+    return floor, alone
 
 
 def _least_largest_step(
-    angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None
+    angles: np.ndarray,
+    before: np.ndarray | None,
+    after: np.ndarray | None,
+    floor: float | None = None,
 ) -> np.ndarray:
     """The representations of ``angles`` ``(n, 3)`` whose largest step (from ``before``,
     between the rows, to ``after``; None: no fixed neighbour) is least, and among those the
     smoothest (least sum of squared steps, so tiny differences in the rotations do not
     change the choice): a bottleneck shortest path over :func:`_candidates`, then a
     shortest path over the steps it allows (loops over the run's frames, each step one
-    ``(54, 54)`` comparison; the steps made :data:`_STEP_FRAMES` frames at a time)."""
+    ``(54, 54)`` comparison; the steps made :data:`_STEP_FRAMES` frames at a time).
+
+    ``floor``: a least largest step no path can go below, with no step just above it
+    (:func:`_step_floor`): the shortest path is first sought within it (where one is found,
+    it is the least largest step, and the bottleneck pass is not needed)."""
     cand = _candidates(angles)
     n, k = cand.shape[:2]
     blocks = [slice(at, min(at + _STEP_FRAMES, n)) for at in range(1, n, _STEP_FRAMES)]
@@ -129,27 +147,37 @@ def _least_largest_step(
     work = np.empty((_STEP_FRAMES, 3, k, k))
     first = np.zeros(k) if before is None else np.abs(cand[0] - before).max(axis=1)
     last = np.zeros(k) if after is None else np.abs(cand[-1] - after).max(axis=1)
+
+    def smoothest(allowed: float) -> tuple[np.ndarray, bool]:
+        """The smoothest path of steps within ``allowed``, and whether there is one."""
+        cost = np.where(first <= allowed, first**2, np.inf)
+        back = np.zeros((n, k), dtype=np.intp)
+        for rows in blocks:
+            here = _steps(channels, rows, work)
+            # a step beyond what is allowed costs inf (as does any path through an inf cost)
+            squares = np.where(here <= allowed, here * here, np.inf)
+            for i, square in enumerate(squares, rows.start):
+                total = cost[:, None] + square
+                back[i] = total.argmin(axis=0)
+                cost = total.min(axis=0)
+        ending = np.where(last <= allowed, cost + last**2, np.inf)
+        choice = int(np.argmin(ending))
+        found = bool(np.isfinite(ending[choice]))
+        out = np.empty_like(angles)
+        for i in range(n - 1, -1, -1):
+            out[i] = cand[i, choice]
+            choice = int(back[i, choice])
+        return out, found
+
+    if floor is not None:
+        out, found = smoothest(float(floor) + ALLOWANCE)
+        if found:
+            return out
     cost = first  # the least largest step ...
     for rows in blocks:
         for here in _steps(channels, rows, work):
             cost = np.maximum(cost[:, None], here).min(axis=0)
-    allowed = float(np.min(np.maximum(cost, last))) + ALLOWANCE
-    cost = np.where(first <= allowed, first**2, np.inf)  # ... then the smoothest within it
-    back = np.zeros((n, k), dtype=np.intp)
-    for rows in blocks:
-        here = _steps(channels, rows, work)
-        # a step beyond what is allowed costs inf (as does any path through an inf cost)
-        squares = np.where(here <= allowed, here * here, np.inf)
-        for i, square in enumerate(squares, rows.start):
-            total = cost[:, None] + square
-            back[i] = total.argmin(axis=0)
-            cost = total.min(axis=0)
-    choice = int(np.argmin(np.where(last <= allowed, cost + last**2, np.inf)))
-    out = np.empty_like(angles)
-    for i in range(n - 1, -1, -1):
-        out[i] = cand[i, choice]
-        choice = int(back[i, choice])
-    return out
+    return smoothest(float(np.min(np.maximum(cost, last))) + ALLOWANCE)[0]  # ... the smoothest
 
 
 def _largest_step(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
@@ -189,8 +217,9 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         after = written[stop] if stop < n else None
         run = written[first:stop]
         largest = _largest_step(run, before, after)
-        if largest <= _step_floor(run, before, after):
+        floor, alone = _step_floor(run, before, after)
+        if largest <= floor:
             continue  # no representation steps less (a full solve would find none)
-        better = _least_largest_step(run, before, after)
+        better = _least_largest_step(run, before, after, floor if alone else None)
         if _largest_step(better, before, after) < largest:
             values[first:stop, cols] = better
