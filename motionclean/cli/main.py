@@ -36,7 +36,7 @@ from ..run.jobs import (
     stitch_clips,
     write_outputs,
 )
-from ..run.memory import one_malloc_arena
+from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
 from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline
@@ -98,6 +98,7 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in args
     one_malloc_arena()
+    no_huge_page_advice()
     if not args:  # a bare `motionclean` shows the help
         args = ["--help"]
     try:

@@ -273,9 +273,9 @@ def contact_soles(
     where it is lowest: where the sole meets the floor."""
     soles = []
     for k, foot in enumerate(feet):  # a handful of feet; one contact's frames at once
-        points = positions[:, list(foot.points)]
-        lowest = points[..., up].argmin(axis=1)
-        sole = points[np.arange(len(points)), lowest]
+        points = np.array(foot.points, dtype=np.intp)
+        lowest = points[positions[:, points, up].argmin(axis=1)]  # (heights alone gathered)
+        sole = positions[np.arange(len(positions)), lowest]
         for first, last in contact_runs(contacts[:, [k]])[0]:
             soles.append(sole[first + int(sole[first : last + 1, up].argmin())])
     return np.array(soles, dtype=np.float64).reshape(-1, 3)

@@ -31,72 +31,153 @@ __all__ = ["JUMP_DEG", "MAX_RUN", "rejoin"]
 JUMP_DEG = 180.0
 #: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
 MAX_RUN = 4096
-#: Per-channel whole turns each candidate may add to a representation.
-_TURNS = np.array(list(itertools.product((-360.0, 0.0, 360.0), repeat=3)))  # (27, 3)
+#: Whole turns a candidate may add to each channel of a representation ...
+_WHOLE_TURNS = np.array([-360.0, 0.0, 360.0])
+#: ... and every combination of them over the three channels.
+_TURNS = np.array(list(itertools.product(_WHOLE_TURNS, repeat=3)))  # (27, 3)
 #: Steps within this of the least largest step (degrees) are as good as it.
 ALLOWANCE = 1e-6
 #: Rows scanned for jumps at a time (temporaries stay small on long clips).
 _SCAN_ROWS = 8192
 
 
-def _jumps(written: np.ndarray, source: np.ndarray) -> np.ndarray:
-    """``(row, column)`` pairs where the step from ``row`` to ``row + 1`` of ``written``
-    exceeds :data:`JUMP_DEG` and the step of ``source`` between the same rows."""
+def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``(row, k)`` pairs where the step from ``row`` to ``row + 1`` of ``written``'s
+    column ``columns[k]`` exceeds :data:`JUMP_DEG` and the step of ``source`` between the
+    same rows (the columns gathered a block of rows at a time)."""
     found = []
     n = written.shape[0]
     for at in range(0, max(n - 1, 0), _SCAN_ROWS):
         rows = slice(at, min(at + _SCAN_ROWS, n - 1) + 1)
-        out = np.abs(np.diff(written[rows], axis=0))
-        inp = np.abs(np.diff(source[rows], axis=0))
+        out = np.abs(np.diff(written[rows].take(columns, axis=1), axis=0))
+        inp = np.abs(np.diff(source[rows].take(columns, axis=1), axis=0))
         hit = np.argwhere((out > JUMP_DEG) & (out > inp))
         hit[:, 0] += at
         found.append(hit)
     return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)
 
 
+def _solutions(angles: np.ndarray) -> np.ndarray:
+    """``(n, 2, 3)``: both Euler solutions of the rotations written as ``angles`` ``(n, 3)``
+    (the other nearest them, whole turns aside)."""
+    other = np.stack([angles[:, 0] + 180.0, 180.0 - angles[:, 1], angles[:, 2] + 180.0], axis=1)
+    other -= 360.0 * np.round((other - angles) / 360.0)
+    return np.stack([angles, other], axis=1)
+
+
 def _candidates(angles: np.ndarray) -> np.ndarray:
     """``(n, 54, 3)`` representations of the rotations written as ``angles`` ``(n, 3)``:
     both Euler solutions, each angle moved by -1, 0 or +1 whole turns."""
-    other = np.stack([angles[:, 0] + 180.0, 180.0 - angles[:, 1], angles[:, 2] + 180.0], axis=1)
-    other -= 360.0 * np.round((other - angles) / 360.0)
-    both = np.stack([angles, other], axis=1)  # (n, 2, 3)
+    both = _solutions(angles)
     return (both[:, :, None, :] + _TURNS[None, None]).reshape(angles.shape[0], -1, 3)
 
 
-def _least_largest_step(
+#: Frames whose ``(54, 54)`` steps are made at once in :func:`_least_largest_step`
+#: (their temporaries stay in cache).
+_STEP_FRAMES = 16
+
+
+def _steps(channels: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
+    """``(m, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), the largest channel step
+    from each representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns);
+    ``channels`` are the representations ``(n, 3, 54)``, channels first, and ``work`` a
+    scratch of at least ``(m, 3, 54, 54)``."""
+    m = rows.stop - rows.start
+    d = work[:m]
+    np.subtract(
+        channels[rows][:, :, None, :], channels[rows.start - 1 : rows.stop - 1][..., None], out=d
+    )
+    np.abs(d, out=d)
+    np.maximum(d[:, 0], d[:, 1], out=d[:, 0])
+    return np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
+
+
+def _step_floor(
     angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None
+) -> tuple[float, bool]:
+    """The least largest step any representation of ``angles`` (:func:`_candidates`) can
+    take at its worst step: the largest, over the steps from ``before``, between the rows
+    and to ``after``, of the least step between any two representations there (values
+    :func:`_largest_step` finds on one of them, bit for bit). A representation's turns are
+    chosen channel by channel, so that least step is, over the pairs of solutions, the
+    largest over channels of each channel's least step over its turns: 36 values per
+    channel and frame instead of 54 x 54 x 3. Also whether no step of any channel lies
+    above that floor within :data:`ALLOWANCE` (every step of a representation is one of
+    them): then a path that keeps within the floor plus the allowance keeps within the
+    floor itself."""
+    turned = _solutions(angles)[:, :, None, :] + _WHOLE_TURNS[:, None]  # (n, 2, 3, 3)
+    ends = []
+    if before is not None:
+        ends.append(np.abs(turned[0] - before))
+    if after is not None:
+        ends.append(np.abs(turned[-1] - after))
+    # (n-1, solution, turn, solution, turn, channel)
+    d = np.abs(turned[1:, None, None] - turned[:-1, :, :, None, None])
+    floor = 0.0
+    for end in ends:  # per solution: each channel's nearest turn, the worst channel
+        floor = max(floor, float(end.min(axis=1).max(axis=1).min()))
+    if len(d):
+        least = d.min(axis=(2, 4)).max(axis=-1)  # (n-1, 2, 2): turns, then channels
+        floor = max(floor, float(least.min(axis=(1, 2)).max()))
+    ceiling = floor + ALLOWANCE
+    alone = not any(np.any((v > floor) & (v <= ceiling)) for v in (d, *ends))
+    return floor, alone
+
+
+def _least_largest_step(
+    angles: np.ndarray,
+    before: np.ndarray | None,
+    after: np.ndarray | None,
+    floor: float | None = None,
 ) -> np.ndarray:
     """The representations of ``angles`` ``(n, 3)`` whose largest step (from ``before``,
     between the rows, to ``after``; None: no fixed neighbour) is least, and among those the
     smoothest (least sum of squared steps, so tiny differences in the rotations do not
     change the choice): a bottleneck shortest path over :func:`_candidates`, then a
     shortest path over the steps it allows (loops over the run's frames, each step one
-    ``(54, 54)`` comparison)."""
+    ``(54, 54)`` comparison; the steps made :data:`_STEP_FRAMES` frames at a time).
+
+    ``floor``: a least largest step no path can go below, with no step just above it
+    (:func:`_step_floor`): the shortest path is first sought within it (where one is found,
+    it is the least largest step, and the bottleneck pass is not needed)."""
     cand = _candidates(angles)
     n, k = cand.shape[:2]
-
-    def step(i: int) -> np.ndarray:  # (from, to) largest channel step into frame i
-        return np.abs(cand[i][None, :, :] - cand[i - 1][:, None, :]).max(axis=2)
-
+    blocks = [slice(at, min(at + _STEP_FRAMES, n)) for at in range(1, n, _STEP_FRAMES)]
+    channels = np.ascontiguousarray(cand.transpose(0, 2, 1))
+    work = np.empty((_STEP_FRAMES, 3, k, k))
     first = np.zeros(k) if before is None else np.abs(cand[0] - before).max(axis=1)
     last = np.zeros(k) if after is None else np.abs(cand[-1] - after).max(axis=1)
+
+    def smoothest(allowed: float) -> tuple[np.ndarray, bool]:
+        """The smoothest path of steps within ``allowed``, and whether there is one."""
+        cost = np.where(first <= allowed, first**2, np.inf)
+        back = np.zeros((n, k), dtype=np.intp)
+        for rows in blocks:
+            here = _steps(channels, rows, work)
+            # a step beyond what is allowed costs inf (as does any path through an inf cost)
+            squares = np.where(here <= allowed, here * here, np.inf)
+            for i, square in enumerate(squares, rows.start):
+                total = cost[:, None] + square
+                back[i] = total.argmin(axis=0)
+                cost = total.min(axis=0)
+        ending = np.where(last <= allowed, cost + last**2, np.inf)
+        choice = int(np.argmin(ending))
+        found = bool(np.isfinite(ending[choice]))
+        out = np.empty_like(angles)
+        for i in range(n - 1, -1, -1):
+            out[i] = cand[i, choice]
+            choice = int(back[i, choice])
+        return out, found
+
+    if floor is not None:
+        out, found = smoothest(float(floor) + ALLOWANCE)
+        if found:
+            return out
     cost = first  # the least largest step ...
-    for i in range(1, n):
-        cost = np.min(np.maximum(cost[:, None], step(i)), axis=0)
-    allowed = float(np.min(np.maximum(cost, last))) + ALLOWANCE
-    cost = np.where(first <= allowed, first**2, np.inf)  # ... then the smoothest within it
-    back = np.zeros((n, k), dtype=np.intp)
-    for i in range(1, n):
-        here = step(i)
-        total = np.where(here <= allowed, cost[:, None] + here**2, np.inf)
-        back[i] = np.argmin(total, axis=0)
-        cost = total[back[i], np.arange(k)]
-    choice = int(np.argmin(np.where(last <= allowed, cost + last**2, np.inf)))
-    out = np.empty_like(angles)
-    for i in range(n - 1, -1, -1):
-        out[i] = cand[i, choice]
-        choice = int(back[i, choice])
-    return out
+    for rows in blocks:
+        for here in _steps(channels, rows, work):
+            cost = np.maximum(cost[:, None], here).min(axis=0)
+    return smoothest(float(np.min(np.maximum(cost, last))) + ALLOWANCE)[0]  # ... the smoothest
 
 
 def _largest_step(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
@@ -113,7 +194,7 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     if not rotating.size or values.shape[0] < 2:
         return
     columns = rotation_columns[rotating].ravel()
-    hits = _jumps(values[:, columns], source[:, columns])
+    hits = _jumps(values, source, columns)
     if not hits.size:
         return
     done: set[tuple[int, int]] = set()
@@ -136,6 +217,10 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         before = written[first - 1] if first > 0 else None
         after = written[stop] if stop < n else None
         run = written[first:stop]
-        better = _least_largest_step(run, before, after)
-        if _largest_step(better, before, after) < _largest_step(run, before, after):
+        largest = _largest_step(run, before, after)
+        floor, alone = _step_floor(run, before, after)
+        if largest <= floor:
+            continue  # no representation steps less (a full solve would find none)
+        better = _least_largest_step(run, before, after, floor if alone else None)
+        if _largest_step(better, before, after) < largest:
             values[first:stop, cols] = better

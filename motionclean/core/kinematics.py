@@ -136,16 +136,24 @@ def _forward_planes(
     frames (cache-sized, :data:`BLOCK_ELEMENTS`, with workspaces reused from block to
     block); within a block the joints are sorted by depth, so that each level of the tree is
     one contiguous run of rows computed at once from its parents' rows. ``only`` (indices
-    of points) keeps the positions of those points alone, in that order.
+    of points) keeps the positions of those points alone, in that order; without
+    ``keep_rotations`` only the joints they hang on and those above them are computed (a
+    joint's transform is made of its ancestors' alone: the same values).
     """
-    n_frames, n_joints = rotations.shape[:2]
+    n_frames, n_all = rotations.shape[:2]
     tips = tips or {}
+    all_tips = sorted(tips)
     depth = depths(parents)
-    order = np.argsort(depth, kind="stable")  # depth_levels(parents), concatenated
-    rank = np.empty(n_joints, dtype=np.intp)
+    computed = np.arange(n_all)
+    if only is not None and not keep_rotations:
+        computed = _hung_on(parents, all_tips, np.asarray(only, dtype=np.intp))
+        tips = {j: tips[j] for j in all_tips if j in set(computed.tolist())}
+    n_joints = computed.size
+    order = computed[np.argsort(depth[computed], kind="stable")]  # depth levels, in turn
+    rank = np.full(n_all, -1, dtype=np.intp)
     rank[order] = np.arange(n_joints)
     sorted_parents = np.where(parents[order] >= 0, rank[parents[order]], -1)
-    sizes = np.bincount(depth, minlength=1).tolist()
+    sizes = np.bincount(depth[order], minlength=1).tolist()
     tip_rows = rank[np.array(sorted(tips), dtype=np.intp)]
     tip_offsets = np.array([tips[j] for j in sorted(tips)], dtype=np.float64).reshape(-1, 3).T
     if channel_axes is not None and offsets is not None:
@@ -153,12 +161,18 @@ def _forward_planes(
             channel_axes[order].T[:, :, None],
             offsets[order].T[:, :, None],
         )
+        # rows with a position channel (the others are their offsets alone), their joints
+        channel_rows = np.flatnonzero(channel_axes[order].any(axis=1))
+        channel_joints = order[channel_rows]
     n_points = n_joints + tip_rows.size
     widest = max(*sizes, tip_rows.size)
     world_q = np.empty((4, n_joints, n_frames)) if keep_rotations else None
     stored = np.arange(n_points) if only is None else np.asarray(only, dtype=np.intp)
     world_p = np.empty((3, stored.size, n_frames))
-    sorted_rows = np.concatenate([rank, np.arange(n_joints, n_points)])[stored]  # p's rows
+    # p's rows of the points: joints by rank, then the end sites computed (in joint order)
+    tip_row = {j: n_joints + k for k, j in enumerate(sorted(tips))}
+    point_rows = np.concatenate([rank, [tip_row.get(j, -1) for j in all_tips]]).astype(np.intp)
+    sorted_rows = point_rows[stored]
     block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
     work: dict[str, np.ndarray] = {}
     for start in range(0, n_frames, block):
@@ -167,21 +181,25 @@ def _forward_planes(
         if not work or work["q"].shape[2] != width:  # the first and the last block
             work = {
                 "in_q": np.empty((width, n_joints, 4)),
-                "in_t": np.empty((width, n_joints, 3)),
+                "in_t": np.empty((width, n_joints, 3) if channel_axes is None else 0),
                 "q": np.empty((4, n_joints, width)),  # local, then world rotations
                 "t": np.empty((3, n_joints, width)),  # local translations
                 "p": np.empty((3, n_points, width)),  # world positions
                 "flat": np.empty(20 * widest * width),  # per-level scratch
             }
         np.take(rotations[frames], order, axis=1, out=work["in_q"], mode="clip")
-        np.take(translations[frames], order, axis=1, out=work["in_t"], mode="clip")
         q, t, p = work["q"], work["t"], work["p"]
         np.copyto(q, work["in_q"].transpose(2, 1, 0))
         if channel_axes is None:
+            np.take(translations[frames], order, axis=1, out=work["in_t"], mode="clip")
             np.copyto(t, work["in_t"].transpose(2, 1, 0))
-        else:
+        else:  # the translations of the joints with a position channel alone are read
             np.copyto(t, sorted_offsets)
-            np.copyto(t, work["in_t"].transpose(2, 1, 0), where=sorted_axes)
+            if channel_rows.size:
+                read = translations[frames].take(channel_joints, axis=1).transpose(2, 1, 0)
+                t[:, channel_rows] = np.where(
+                    sorted_axes[:, channel_rows], read, sorted_offsets[:, channel_rows]
+                )
         _forward_block(sorted_parents, sizes, q, t, p, work["flat"])
         if tip_rows.size:
             scratch = _Scratch(work["flat"], tip_rows.size, width)
@@ -194,6 +212,19 @@ def _forward_planes(
             world_q[:, order, frames] = q
         world_p[:, :, frames] = p[:, sorted_rows]
     return world_p, world_q
+
+
+def _hung_on(parents: np.ndarray, tip_joints: list[int], points: np.ndarray) -> np.ndarray:
+    """The joints (ascending) that ``points`` (joints, then the end sites of
+    ``tip_joints``, ascending) hang on, and every joint above them."""
+    n_joints = parents.size
+    keep = np.zeros(n_joints, dtype=bool)
+    for point in points.tolist():  # a walk up the tree per point, each joint once
+        j = point if point < n_joints else tip_joints[point - n_joints]
+        while j >= 0 and not keep[j]:
+            keep[j] = True
+            j = int(parents[j])
+    return np.flatnonzero(keep)
 
 
 class _Scratch:

@@ -525,14 +525,18 @@ def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
     """``(F, J)``: samples of ``q`` within :data:`SAME_ROTATION` per component of ``read``
     or of ``-read`` (the same rotation). Only samples whose dot product is within 1e-12 of
     +-1 can be (a component off by 1e-12 moves it by far less), so the others are not
-    compared component by component."""
+    compared component by component; and only with ``read`` where it is near +1, with
+    ``-read`` where it is near -1 (``q`` within 1e-12 of ``-read`` has a dot product near
+    -1)."""
     kept = np.zeros(q.shape[:-1], dtype=bool)
-    close = np.abs(np.einsum("...i,...i->...", q, read)) > 1.0 - 1e-12
+    dots = np.einsum("...i,...i->...", q, read)
+    close = np.abs(dots) > 1.0 - 1e-12
     if close.any():
         a, b = q[close], read[close]
-        kept[close] = (np.abs(a - b).max(axis=-1) < SAME_ROTATION) | (
-            np.abs(a + b).max(axis=-1) < SAME_ROTATION
-        )
+        b *= np.where(dots[close] < 0.0, -1.0, 1.0)[:, None]
+        d = np.abs(np.subtract(a, b, out=a), out=a)  # largest component: 3 maxima, no reduce
+        largest = np.maximum(np.maximum(d[:, 0], d[:, 1]), np.maximum(d[:, 2], d[:, 3]))
+        kept[close] = largest < SAME_ROTATION
     return kept
 
 

@@ -91,7 +91,10 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     p = motion.translations
     moving = np.zeros(q.shape[1], dtype=bool)
     for at in range(0, q.shape[0], 4096):  # joints whose rotation ever changes
-        moving |= np.any(q[at : at + 4096] != q[:1], axis=(0, 2))
+        still = np.flatnonzero(~moving)  # (the others are known to: not read again)
+        if not still.size:
+            break
+        moving[still] = np.any(q[at : at + 4096, still] != q[:1, still], axis=(0, 2))
     typical = _typical_steps(q)
     lead = _leading(q, p, typical, moving)
     trail = _leading(q[::-1], p[::-1], typical, moving)

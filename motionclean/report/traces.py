@@ -69,20 +69,34 @@ def envelope(values: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray, 
     return (edges[:-1] + edges[1:] - 1) / 2.0, low, high
 
 
+#: Table columns traced at a time (:func:`traces`' copy is of these alone).
+TRACE_GROUP = 8
+
+
 def traces(table: np.ndarray) -> list[Trace]:
     """The :class:`Trace` of each column of a ``(N, R)`` table of per-frame figures.
 
-    Made from one copy of the table stored column by column: the envelope reduces each
-    column's contiguous samples, the peak is the largest of the envelope's maxima and the
-    quantile partitions the copy in place (the same figures as from the table itself)."""
+    Made :data:`TRACE_GROUP` columns at a time from a copy of them stored column by column:
+    the envelope reduces each column's contiguous samples, the peak is the largest of the
+    envelope's maxima and the quantile partitions the copy in place (the same figures as
+    from the table itself)."""
     table = np.asarray(table, dtype=np.float64)
+    n_cols = table.shape[1]
+    quantile = np.nanquantile if np.isnan(table).any() else np.quantile
+    return [
+        found
+        for at in range(0, n_cols, TRACE_GROUP)
+        for found in _group_traces(table[:, at : at + TRACE_GROUP], quantile)
+    ]
+
+
+def _group_traces(table: np.ndarray, quantile) -> list[Trace]:
     n, n_cols = table.shape
     by_column = np.array(table.T, order="C")  # (R, N), a copy (the quantile reorders it)
     columns = COLUMNS if n <= COLUMNS else ENVELOPE_COLUMNS
     # (a short series is its own envelope: the table's, not the copy the quantile reorders)
     position, low, high = envelope(table if n <= columns else by_column.T, columns)
     if n and n_cols:
-        quantile = np.nanquantile if np.isnan(by_column).any() else np.quantile
         with warnings.catch_warnings():  # a column of gaps only has no quantile: 0 below
             warnings.simplefilter("ignore", RuntimeWarning)
             peak = np.fmax.reduce(high, axis=0)

@@ -61,6 +61,7 @@ def write_outputs(
     every one is rendered and written to a temporary file first, then all are renamed; when
     one cannot be written none is, and an existing output (the input itself with
     ``--in-place``) is replaced only when all are ready. Missing folders are made."""
+    return_free_memory()  # what the report's work freed: the clip's text starts afresh
     files: dict[str | os.PathLike, bytes | Iterable[bytes | memoryview]] = {}
     if target is not None:
         files[target] = encode(clip, target)
@@ -142,6 +143,7 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     notes = notes_by_joint(logs)
     repairs = _repaired_input_frames(logs, before)
     series = build_series(before, compared, repairs)
+    return_free_memory()  # the series' per-frame tables
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
         if log.touched is not None:

@@ -44,6 +44,34 @@ def find_contacts(motion: Motion, params: dict):
     return feet, contacts, positions, world, up, height, ground
 
 
+def _leg_contacts(motion: Motion, params: dict):
+    """:func:`find_contacts` with the world positions of the points the step reads alone:
+    each foot's points and the joints from the root down to its knee. Returns the feet,
+    contacts, those positions ``(F, n, 3)``, the feet and the point -> column map
+    ``(P,)`` (-1: not kept) for them, up axis, body height and ground height."""
+    up = None if params["up"] == "auto" else params["up"]
+    feet, up, height = found.skeleton_feet(motion, params["feet"], up)
+    used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
+    used_points = np.array(used, dtype=np.intp)
+    positions = kinematics.world_positions(motion, end_sites=True, only=used_points)
+    column = np.full(motion.n_joints + len(motion.end_sites), -1, dtype=np.intp)
+    column[used_points] = np.arange(used_points.size)
+    on_columns = [
+        replace(
+            f,
+            hip=int(column[f.hip]),
+            knee=int(column[f.knee]),
+            ankle=int(column[f.ankle]),
+            points=tuple(int(column[p]) for p in f.points),
+        )
+        for f in feet
+    ]
+    contacts, ground = found.detect(
+        positions, on_columns, up, height, motion.frame_time, contact_params(params)
+    )
+    return feet, contacts, positions, on_columns, column, up, height, ground
+
+
 def _chain(parents: np.ndarray, joint: int) -> list[int]:
     """``joint`` and its ancestors, root first."""
     chain = []
@@ -96,12 +124,21 @@ def _toe_contacts(
     return own & contacts[:, [k for k, _ in held]]
 
 
-def _expected_error(positions: np.ndarray, contacts: np.ndarray, leg: Leg, prior: Prior) -> float:
+def _expected_error(
+    positions: np.ndarray,
+    contacts: np.ndarray,
+    leg: Leg,
+    prior: Prior,
+    column: np.ndarray | None = None,
+) -> float:
     """RMS over a leg's contact frames of the position error of its ankle that ``prior``
     predicts (length units): each joint's rotation error times its lever arm to the ankle,
-    and the root's translation error."""
+    and the root's translation error. ``column`` ``(P,)``: each point's column of
+    ``positions`` (default: its own index)."""
     joints = list(leg.joints)
-    lever = positions[contacts][:, [leg.points[0]]] - positions[contacts][:, joints]
+    at = np.arange(positions.shape[1]) if column is None else column
+    held = positions[contacts]
+    lever = held[:, [at[leg.points[0]]]] - held[:, at[joints]]
     spread = np.sum(np.sum(lever**2, axis=-1) * prior.sigma[joints] ** 2, axis=-1)
     return float(np.sqrt(np.mean(spread) + np.sum(prior.root**2)))
 
@@ -140,9 +177,11 @@ def _run(data: StepData, params: dict) -> StepData:
     assert motion is not None
     if motion.n_frames < 2:  # no contact without a ground, none without two frames
         return data
-    feet, contacts, positions, _, up, height, ground = find_contacts(motion, params)
+    feet, contacts, positions, on_columns, point_column, up, height, ground = _leg_contacts(
+        motion, params
+    )
     contacts = found.sliding_contacts(
-        positions, feet, contacts, up, motion.frame_time, params["min_skate"] * height
+        positions, on_columns, contacts, up, motion.frame_time, params["min_skate"] * height
     )
     column = {int(j): c for c, j in enumerate(data.rotation_joints)}
     held: np.ndarray = np.asarray(contacts.any(axis=0))
@@ -157,12 +196,12 @@ def _run(data: StepData, params: dict) -> StepData:
     chosen = [
         (k, leg)
         for k, leg in chosen
-        if _expected_error(positions, contacts[:, k], leg, prior) >= limit
+        if _expected_error(positions, contacts[:, k], leg, prior, point_column) >= limit
     ]
     if not chosen:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
-    soles = found.contact_soles(positions, [feet[k] for k in kept], contacts[:, kept], up)
+    soles = found.contact_soles(positions, [on_columns[k] for k in kept], contacts[:, kept], up)
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
     # it while it stands, none is lifted that stood below it as captured
     floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
@@ -181,7 +220,14 @@ def _run(data: StepData, params: dict) -> StepData:
         params["blend_seconds"] / motion.frame_time,
         hold_frames=params["hold_seconds"] / motion.frame_time,
         toe_contacts=_toe_contacts(
-            positions, legs, contacts[:, kept], up, height, ground, motion.frame_time, params
+            positions,
+            [replace(leg, points=tuple(int(point_column[p]) for p in leg.points)) for leg in legs],
+            contacts[:, kept],
+            up,
+            height,
+            ground,
+            motion.frame_time,
+            params,
         ),
         toe_tolerance=params["toe_tolerance"],
     )

@@ -222,6 +222,9 @@ def test_only_some_points_gives_those_exactly_in_the_order_asked():
     full = kinematics.world_positions(motion)
     only = np.array([17, 0, motion.n_joints, full.shape[1] - 1, 4])
     assert np.array_equal(kinematics.world_positions(motion, only=only), full[:, only])
+    # one chain alone (only the joints it hangs on are computed): the same bits
+    for only in (np.array([full.shape[1] - 1]), np.array([motion.n_joints - 1, 2])):
+        assert np.array_equal(kinematics.world_positions(motion, only=only), full[:, only])
 
 
 def test_report_figures_from_the_figure_points_equal_those_from_every_point():

@@ -55,3 +55,33 @@ def test_an_identity_write_stays_byte_for_byte(tmp_path):
     clip = mc.load(SAMPLE)
     mc.save(clip, tmp_path / "same.bvh")
     assert (tmp_path / "same.bvh").read_bytes() == SAMPLE.read_bytes()
+
+
+def test_the_step_floor_is_the_least_step_between_representations_bit_for_bit():
+    """A run whose own largest step is no larger than the floor is left without a solve:
+    the floor is, at its worst step, the least step any two representations take there
+    (the same bits as the (54, 54) comparison), so no solve can do better than it; with
+    no step just above it, the solve within it is the full solve's answer."""
+    from motionclean.core import eulerjoin
+
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        n = int(rng.integers(1, 30))
+        angles = np.cumsum(rng.normal(0.0, rng.choice([1.0, 30.0, 120.0]), (n, 3)), axis=0)
+        angles[:, 1] = np.clip(angles[:, 1], -95.0, 95.0)
+        before = None if trial % 4 == 0 else angles[0] + rng.normal(0.0, 100.0, 3)
+        after = None if trial % 5 == 0 else angles[-1] + rng.normal(0.0, 100.0, 3)
+        cand = eulerjoin._candidates(angles)
+        least = [
+            np.abs(cand[i][None] - cand[i - 1][:, None]).max(axis=2).min() for i in range(1, n)
+        ]
+        if before is not None:
+            least.append(np.abs(cand[0] - before).max(axis=1).min())
+        if after is not None:
+            least.append(np.abs(cand[-1] - after).max(axis=1).min())
+        floor, alone = eulerjoin._step_floor(angles, before, after)
+        assert floor == max(least, default=0.0)
+        best = eulerjoin._least_largest_step(angles, before, after)
+        assert eulerjoin._largest_step(best, before, after) >= floor
+        if alone:  # the solve sought within the floor first finds the same representations
+            assert np.array_equal(eulerjoin._least_largest_step(angles, before, after, floor), best)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionclean.run.memory import return_free_memory
+from motionclean.run.memory import no_huge_page_advice, return_free_memory
 
 
 def resident_mib() -> float:
@@ -35,3 +35,32 @@ def test_freed_heap_blocks_are_given_back():
     return_free_memory()
     assert before - resident_mib() > 20
     assert keep.sum() == 12_500
+
+
+def _advised_huge(array: np.ndarray) -> bool:
+    """Whether the mapping holding the middle of ``array`` carries MADV_HUGEPAGE (``hg`` in
+    its VmFlags; numpy advises the pages from the first boundary on)."""
+    address = array.__array_interface__["data"][0] + array.nbytes // 2
+    with open("/proc/self/smaps") as smaps:
+        inside = False
+        for line in smaps:
+            head = line.split()[0]
+            if "-" in head and not head.endswith(":"):
+                start, stop = (int(x, 16) for x in head.split("-"))
+                inside = start <= address < stop
+            elif inside and head == "VmFlags:":
+                return "hg" in line.split()[1:]
+    raise AssertionError("array not found in /proc/self/smaps")
+
+
+@pytest.mark.skipif(not Path("/proc/self/smaps").exists(), reason="needs Linux")
+def test_large_arrays_carry_no_huge_page_advice_once_asked():
+    multiarray = pytest.importorskip("numpy._core.multiarray")  # (numpy 2)
+    was = multiarray._get_madvise_hugepage()
+    try:
+        multiarray._set_madvise_hugepage(True)
+        assert _advised_huge(np.ones(1 << 23))  # 64 MB: mapped on its own, advised
+        no_huge_page_advice()
+        assert not _advised_huge(np.ones(1 << 23))
+    finally:
+        multiarray._set_madvise_hugepage(was)

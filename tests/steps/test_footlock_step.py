@@ -148,3 +148,20 @@ def test_toes_held_the_same_on_a_z_up_copy(planted):
         expected,
         atol=1e-6 * kinematics.body_height(motion),
     )
+
+
+def test_the_step_reads_the_positions_of_the_legs_alone_and_finds_the_same_contacts():
+    """The step computes the world positions of the feet and the chains above them only:
+    its contacts are those of every point's positions, and its positions their columns."""
+    motion = mc.load(NOISY)
+    feet, contacts, positions, *_ = footlock.find_contacts(motion, PARAMS)
+    mine, my_contacts, columns, on_columns, point_column, *_ = footlock._leg_contacts(
+        motion, PARAMS
+    )
+    assert mine == feet and np.array_equal(my_contacts, contacts)
+    used = np.flatnonzero(point_column >= 0)
+    assert used.size < positions.shape[1] // 2
+    assert np.array_equal(columns, positions[:, used])
+    assert [f.points for f in on_columns] == [
+        tuple(point_column[list(f.points)].tolist()) for f in feet
+    ]
