@@ -73,23 +73,6 @@ HEIGHT_HYSTERESIS = 4.0 / 3.0
 SPEED_HYSTERESIS = 5.0 / 3.0
 
 
-def _children(parents: np.ndarray) -> list[list[int]]:
-    children: list[list[int]] = [[] for _ in parents]
-    for j, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(j)
-    return children
-
-
-def _descendants(children: list[list[int]], start: int) -> list[int]:
-    found, stack = [], [start]
-    while stack:
-        j = stack.pop()
-        found.append(j)
-        stack.extend(children[j])
-    return sorted(found)
-
-
 def find_feet(
     parents: np.ndarray,
     rest: np.ndarray,
@@ -112,7 +95,7 @@ def find_feet(
     """
     parents = np.asarray(parents)
     n_joints = len(names)
-    children = _children(parents)
+    children = kinematics.child_lists(parents)
     bone = np.zeros(len(parents))
     has_parent = parents >= 0
     bone[has_parent] = np.linalg.norm(rest[has_parent] - rest[parents[has_parent]], axis=1)
@@ -144,7 +127,11 @@ def find_feet(
             continue
         feet.append(
             Foot(
-                names[ankle], int(hip), int(knee), int(ankle), tuple(_descendants(children, ankle))
+                names[ankle],
+                int(hip),
+                int(knee),
+                int(ankle),
+                tuple(kinematics.subtree(children, ankle)),
             )
         )
     return feet

@@ -10,11 +10,13 @@ range, does: two flips become one full turn), and it wrote a step of 257 to 478 
 where no input channel stepped more than 186.
 
 :func:`rejoin` finds such steps (over 180 degrees and larger than the input's own step
-between the same frames) and rewrites the run they are in, between its fixed neighbours,
-with the representations whose largest step is least: each frame may take either Euler
-solution ``(a, b, c)`` / ``(a + 180, 180 - b, c + 180)`` with each angle moved by a whole
-turn either way, and a bottleneck shortest path over the run's frames picks them (a pass
-near gimbal lock lets the curve change solution there with small steps). Every rotation
+between the same frames by more than :data:`JUMP_MARGIN`: where the input itself flips by
+half a turn, the cleaned curve flips with it, a few degrees more or less) and rewrites the
+run they are in, between its fixed neighbours, with the representations whose largest step
+is least: each frame may take either Euler solution ``(a, b, c)`` /
+``(a + 180, 180 - b, c + 180)`` with each angle moved by a whole turn either way, and a
+bottleneck shortest path over the run's frames picks them (a pass near gimbal lock lets
+the curve change solution there with small steps). Every rotation
 stays the same; unchanged samples are not touched; a clip without such a step is returned
 as it is, bit for bit.
 """
@@ -25,10 +27,16 @@ import itertools
 
 import numpy as np
 
-__all__ = ["JUMP_DEG", "MAX_RUN", "rejoin"]
+__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "rejoin"]
 
-#: A written step larger than this (degrees) where the input's is smaller is a jump to undo.
+#: A written step larger than this (degrees) where the input's is smaller by more than
+#: :data:`JUMP_MARGIN` is a jump to undo.
 JUMP_DEG = 180.0
+#: Degrees a written step over :data:`JUMP_DEG` may exceed the input's own step between the
+#: same frames and still be that step (a half-turn flip the input makes, continued a few
+#: degrees further by the cleaned rotations), not a new turn: another representation of a
+#: rotation lies a whole turn away on a channel, or half a turn on two.
+JUMP_MARGIN = 45.0
 #: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
 MAX_RUN = 4096
 #: Whole turns a candidate may add to each channel of a representation ...
@@ -44,14 +52,14 @@ _SCAN_ROWS = 8192
 def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """``(row, k)`` pairs where the step from ``row`` to ``row + 1`` of ``written``'s
     column ``columns[k]`` exceeds :data:`JUMP_DEG` and the step of ``source`` between the
-    same rows (the columns gathered a block of rows at a time)."""
+    same rows by :data:`JUMP_MARGIN` (the columns gathered a block of rows at a time)."""
     found = []
     n = written.shape[0]
     for at in range(0, max(n - 1, 0), _SCAN_ROWS):
         rows = slice(at, min(at + _SCAN_ROWS, n - 1) + 1)
         out = np.abs(np.diff(written[rows].take(columns, axis=1), axis=0))
         inp = np.abs(np.diff(source[rows].take(columns, axis=1), axis=0))
-        hit = np.argwhere((out > JUMP_DEG) & (out > inp))
+        hit = np.argwhere((out > JUMP_DEG) & (out > inp + JUMP_MARGIN))
         hit[:, 0] += at
         found.append(hit)
     return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)

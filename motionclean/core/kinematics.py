@@ -506,16 +506,13 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     roots = np.flatnonzero(parents < 0)
     if roots.size != 1:
         return None
-    children: list[list[int]] = [[] for _ in parents]
-    for child, parent in enumerate(parents.tolist()):
-        if parent >= 0:
-            children[parent].append(child)
+    children = child_lists(parents)
     pelvis = int(roots[0])
     while len(children[pelvis]) == 1:
         pelvis = children[pelvis][0]
     if len(children[pelvis]) < 2:
         return None
-    subtrees = [_subtree(children, c) for c in children[pelvis]]
+    subtrees = [subtree(children, c) for c in children[pelvis]]
     sizes = [len(t) for t in subtrees]
     top = int(np.argmax(sizes))
     leaves = sum(1 for p in subtrees[top] if not children[p])
@@ -525,7 +522,17 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     return np.array(subtrees[top], dtype=np.intp), np.array(lower, dtype=np.intp)
 
 
-def _subtree(children: list[list[int]], start: int) -> list[int]:
+def child_lists(parents: np.ndarray) -> list[list[int]]:
+    """Each point's children (point indices, ascending), from ``parents`` (-1 for a root)."""
+    children: list[list[int]] = [[] for _ in parents]
+    for child, parent in enumerate(np.asarray(parents).tolist()):
+        if parent >= 0:
+            children[parent].append(child)
+    return children
+
+
+def subtree(children: list[list[int]], start: int) -> list[int]:
+    """``start`` and every point below it (ascending), from :func:`child_lists`."""
     found, stack = [], [start]
     while stack:
         point = stack.pop()

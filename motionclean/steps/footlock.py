@@ -275,8 +275,8 @@ STEP = StepSpec(
             "feet",
             "strs",
             None,
-            "ankle joints to lock, fnmatch patterns (default: found from the rest pose: "
-            "the chains above the lowest leaves)",
+            "ankle joints to lock, fnmatch patterns (default: found from the skeleton's "
+            "bones and the clip's poses: the leg chains above the lowest leaves)",
         ),
         Param("up", "str", "auto", "up axis", choices=("auto", "x", "y", "z")),
         Param(

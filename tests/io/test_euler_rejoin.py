@@ -85,3 +85,20 @@ def test_the_step_floor_is_the_least_step_between_representations_bit_for_bit():
         assert eulerjoin._largest_step(best, before, after) >= floor
         if alone:  # the solve sought within the floor first finds the same representations
             assert np.array_equal(eulerjoin._least_largest_step(angles, before, after, floor), best)
+
+
+def test_the_inputs_own_half_turn_flips_are_written_as_flips_not_solved(tmp_path):
+    """Every rotation turned by half a degree: RThumb's captured half-turn flips are
+    written as flips a few degrees longer or shorter than the input's (within
+    JUMP_MARGIN), and no step is added or removed above 30 degrees on any channel."""
+    from motionclean.core import eulerjoin, quat
+
+    clip = mc.load(SAMPLE)
+    turn = quat.from_axis_angle(np.array([0.48, 0.6, 0.64]), np.deg2rad(0.5))
+    target = tmp_path / "turned.bvh"
+    mc.save(clip.replace(rotations=quat.multiply(clip.rotations, turn)), target)
+    step_in = np.abs(np.diff(rows(SAMPLE), axis=0))
+    step_out = np.abs(np.diff(rows(target), axis=0))
+    assert (step_in > JUMP_DEG).any()  # the sample flips: the case is exercised
+    assert np.array_equal(step_out > 30.0, step_in > 30.0)
+    assert (step_out[step_in > 30.0] <= step_in[step_in > 30.0] + eulerjoin.JUMP_MARGIN).all()
