@@ -58,8 +58,10 @@ def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.n
     for at in range(0, max(n - 1, 0), _SCAN_ROWS):
         rows = slice(at, min(at + _SCAN_ROWS, n - 1) + 1)
         out = np.abs(np.diff(written[rows].take(columns, axis=1), axis=0))
-        inp = np.abs(np.diff(source[rows].take(columns, axis=1), axis=0))
-        hit = np.argwhere((out > JUMP_DEG) & (out > inp + JUMP_MARGIN))
+        hit = np.argwhere(out > JUMP_DEG)  # few: the input's steps are read there alone
+        row, column = hit[:, 0] + at, columns[hit[:, 1]]
+        inp = np.abs(source[row + 1, column] - source[row, column])
+        hit = hit[out[hit[:, 0], hit[:, 1]] > inp + JUMP_MARGIN]
         hit[:, 0] += at
         found.append(hit)
     return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.intp)
