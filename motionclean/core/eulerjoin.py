@@ -7,23 +7,28 @@ arrive on another representation of the same rotation: a whole turn off on a cha
 on the other Euler solution. That happens when the cleaned motion turns a joint a full turn
 against the input (smoothing across half-turn flips that nothing repaired, over a frame
 range, does: two flips become one full turn), and it wrote a step of 257 to 478 degrees
-where no input channel stepped more than 186.
+where no input channel stepped more than 186; and where the input wraps by a whole turn
+inside a changed run (the filter continues the curve across the wrap, and comes back a
+turn off at the next unchanged sample, stepping 360 degrees where the input stepped 0).
 
 :func:`rejoin` finds such steps (over 180 degrees and larger than the input's own step
 between the same frames by more than :data:`JUMP_MARGIN`: where the input itself flips by
 half a turn, the cleaned curve flips with it, a few degrees more or less) and rewrites the
-run they are in, between its fixed neighbours, with the representations whose largest step
-is least: each frame may take either Euler solution ``(a, b, c)`` /
-``(a + 180, 180 - b, c + 180)`` with each angle moved by a whole turn either way, and a
-bottleneck shortest path over the run's frames picks them (a pass near gimbal lock lets
-the curve change solution there with small steps). Every rotation
-stays the same; unchanged samples are not touched; a clip without such a step is returned
-as it is, bit for bit.
+run they are in, between its fixed neighbours. Each frame may take either Euler solution
+``(a, b, c)`` / ``(a + 180, 180 - b, c + 180)``, each angle within a whole turn of the
+input's own (a curve the filter carried turns away comes back); a bottleneck shortest path
+over the run's frames picks the representations whose largest such jump is least, and
+among those the ones that follow the input: least sum of squared steps beyond the input's
+own, so the written curve wraps where the input wraps instead of switching solution twice
+(steps of 175-178 degrees where the input stepped 5). Every rotation stays the same;
+unchanged samples are not touched; a clip without such a step is returned as it is, bit
+for bit.
 """
 
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -82,47 +87,118 @@ def _candidates(angles: np.ndarray) -> np.ndarray:
     return (both[:, :, None, :] + _TURNS[None, None]).reshape(angles.shape[0], -1, 3)
 
 
-#: Frames whose ``(54, 54)`` steps are made at once in :func:`_least_largest_step`
+#: Weight of a representation's distance from the input's own angles (squared degrees) in
+#: the smoothest path, against its squared excess steps: it decides between paths whose
+#: steps are alike (both Euler solutions step alike), never against a degree of excess.
+_NEAR_INPUT = 1e-9
+#: Frames whose ``(54, 54)`` steps are made at once in :func:`_least_overshoot`
 #: (their temporaries stay in cache).
 _STEP_FRAMES = 16
 
 
-def _steps(channels: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
-    """``(m, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), the largest channel step
-    from each representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns);
-    ``channels`` are the representations ``(n, 3, 54)``, channels first, and ``work`` a
-    scratch of at least ``(m, 3, 54, 54)``."""
+@dataclass
+class _Run:
+    """A run of written angles between its fixed neighbours, with the input's own steps.
+
+    ``angles`` and ``read`` ``(n, 3)``: the written and the read angles of the run's frames
+    (degrees); ``before`` / ``after`` ``(3,)``: the written neighbours (None at the clip's
+    ends); ``steps`` ``(n + 1, 3)``: the input's absolute step into each frame of the run
+    and out of its last (row 0 from ``before``'s frame, row ``n`` to ``after``'s; rows
+    without a neighbour unused).
+
+    A written step's *excess* is how far it goes beyond the input's step between the same
+    frames, on the channel where that is most (0 if none); its *overshoot*, how far beyond
+    the larger of :data:`JUMP_DEG` and the input's step plus :data:`JUMP_MARGIN` (a step a
+    tool would spin through the other way that the input does not make): what
+    :func:`rejoin` finds as a jump."""
+
+    angles: np.ndarray
+    read: np.ndarray
+    before: np.ndarray | None
+    after: np.ndarray | None
+    steps: np.ndarray
+
+    @classmethod
+    def of(cls, written: np.ndarray, source: np.ndarray, first: int, stop: int) -> _Run:
+        """The run ``[first, stop)`` of columns ``written`` / ``source`` ``(F, 3)``."""
+        n = written.shape[0]
+        lo, hi = max(first - 1, 0), min(stop + 1, n)
+        steps = np.zeros((stop - first + 1, 3))
+        at = 0 if first > 0 else 1  # row 0 is the step from before's frame
+        steps[at : at + hi - lo - 1] = np.abs(np.diff(source[lo:hi], axis=0))
+        return cls(
+            written[first:stop],
+            source[first:stop],
+            written[first - 1] if first > 0 else None,
+            written[stop] if stop < n else None,
+            steps,
+        )
+
+    @property
+    def centred(self) -> np.ndarray:
+        """The written angles, each moved by whole turns to within half a turn of the read
+        angle (the same rotations): the centre of the representations tried, so a curve
+        the Euler filter carried whole turns away from the input's can come back."""
+        return self.angles - 360.0 * np.round((self.angles - self.read) / 360.0)
+
+    @property
+    def limits(self) -> np.ndarray:
+        """``(n + 1, 3)``: the steps beyond which a written step overshoots."""
+        return np.maximum(self.steps + JUMP_MARGIN, JUMP_DEG)
+
+    def largest_overshoot(self, angles: np.ndarray) -> float:
+        """The largest overshoot of ``angles`` written over the run (from ``before`` to
+        ``after``)."""
+        rows = [r for r in (self.before, *angles, self.after) if r is not None]
+        used = self.limits[(0 if self.before is not None else 1) :][: len(rows) - 1]
+        return float(max((np.abs(np.diff(np.asarray(rows), axis=0)) - used).max(initial=0.0), 0.0))
+
+
+def _steps(channels: np.ndarray, bound: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
+    """``(m, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), how far the step from
+    each representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns) goes
+    beyond ``bound[i - 1]`` ``(3,)`` on its worst channel (0 if nowhere); ``channels`` are
+    the representations ``(n, 3, 54)``, channels first, and ``work`` a scratch of at least
+    ``(m, 3, 54, 54)``."""
     m = rows.stop - rows.start
     d = work[:m]
     np.subtract(
         channels[rows][:, :, None, :], channels[rows.start - 1 : rows.stop - 1][..., None], out=d
     )
     np.abs(d, out=d)
+    d -= bound[rows.start - 1 : rows.stop - 1][:, :, None, None]
     np.maximum(d[:, 0], d[:, 1], out=d[:, 0])
-    return np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
+    np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
+    return np.maximum(d[:, 0], 0.0, out=d[:, 0])
 
 
-def _step_floor(
-    angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None
-) -> tuple[float, bool]:
-    """The least largest step any representation of ``angles`` (:func:`_candidates`) can
+def _end_steps(cand: np.ndarray, end: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """``(54,)``: how far the step between each representation ``cand`` ``(54, 3)`` and the
+    fixed neighbour ``end`` goes beyond ``bound`` ``(3,)`` on its worst channel."""
+    return np.maximum((np.abs(cand - end) - bound).max(axis=1), 0.0)
+
+
+def _step_floor(run: _Run) -> tuple[float, bool]:
+    """The least largest overshoot any representation of the run (:func:`_candidates`) can
     take at its worst step: the largest, over the steps from ``before``, between the rows
-    and to ``after``, of the least step between any two representations there (values
-    :func:`_largest_step` finds on one of them, bit for bit). A representation's turns are
-    chosen channel by channel, so that least step is, over the pairs of solutions, the
-    largest over channels of each channel's least step over its turns: 36 values per
-    channel and frame instead of 54 x 54 x 3. Also whether no step of any channel lies
-    above that floor within :data:`ALLOWANCE` (every step of a representation is one of
-    them): then a path that keeps within the floor plus the allowance keeps within the
-    floor itself."""
-    turned = _solutions(angles)[:, :, None, :] + _WHOLE_TURNS[:, None]  # (n, 2, 3, 3)
+    and to ``after``, of the least overshoot between any two representations there (the
+    values :func:`_least_overshoot` finds, bit for bit). A representation's turns are
+    chosen channel by channel, so that least overshoot is, over the pairs of solutions, the
+    largest over channels of each channel's least step over its turns less its limit: 36
+    values per channel and frame instead of 54 x 54 x 3. Also whether no channel's
+    overshoot lies above that floor within :data:`ALLOWANCE` (every overshoot of a path is
+    one of them): then a path that keeps within the floor plus the allowance keeps within
+    the floor."""
+    limits = run.limits
+    turned = _solutions(run.centred)[:, :, None, :] + _WHOLE_TURNS[:, None]  # (n, 2, 3, 3)
     ends = []
-    if before is not None:
-        ends.append(np.abs(turned[0] - before))
-    if after is not None:
-        ends.append(np.abs(turned[-1] - after))
+    if run.before is not None:
+        ends.append(np.abs(turned[0] - run.before) - limits[0])
+    if run.after is not None:
+        ends.append(np.abs(turned[-1] - run.after) - limits[-1])
     # (n-1, solution, turn, solution, turn, channel)
     d = np.abs(turned[1:, None, None] - turned[:-1, :, :, None, None])
+    d -= limits[1:-1, None, None, None, None, :]
     floor = 0.0
     for end in ends:  # per solution: each channel's nearest turn, the worst channel
         floor = max(floor, float(end.min(axis=1).max(axis=1).min()))
@@ -134,46 +210,53 @@ def _step_floor(
     return floor, alone
 
 
-def _least_largest_step(
-    angles: np.ndarray,
-    before: np.ndarray | None,
-    after: np.ndarray | None,
-    floor: float | None = None,
-) -> np.ndarray:
-    """The representations of ``angles`` ``(n, 3)`` whose largest step (from ``before``,
-    between the rows, to ``after``; None: no fixed neighbour) is least, and among those the
-    smoothest (least sum of squared steps, so tiny differences in the rotations do not
-    change the choice): a bottleneck shortest path over :func:`_candidates`, then a
-    shortest path over the steps it allows (loops over the run's frames, each step one
-    ``(54, 54)`` comparison; the steps made :data:`_STEP_FRAMES` frames at a time).
+def _least_overshoot(run: _Run, floor: float | None = None) -> np.ndarray:
+    """The representations of the run's angles whose largest overshoot (from ``before``,
+    between the rows, to ``after``) is least, and among those the one that follows the
+    input best (least sum of squared excess, so the curve steps where the input steps,
+    then nearest the input's own angles): a bottleneck shortest path over
+    :func:`_candidates`, then a shortest path over the steps it allows (loops over the
+    run's frames, each step one ``(54, 54)`` comparison; the steps made
+    :data:`_STEP_FRAMES` frames at a time).
 
-    ``floor``: a least largest step no path can go below, with no step just above it
+    ``floor``: a least largest overshoot no path can go below, with none just above it
     (:func:`_step_floor`): the shortest path is first sought within it (where one is found,
-    it is the least largest step, and the bottleneck pass is not needed)."""
-    cand = _candidates(angles)
+    it is the least largest overshoot, and the bottleneck pass is not needed)."""
+    cand = _candidates(run.centred)
     n, k = cand.shape[:2]
     blocks = [slice(at, min(at + _STEP_FRAMES, n)) for at in range(1, n, _STEP_FRAMES)]
     channels = np.ascontiguousarray(cand.transpose(0, 2, 1))
+    limits, inside = run.limits[1:-1], run.steps[1:-1]
     work = np.empty((_STEP_FRAMES, 3, k, k))
-    first = np.zeros(k) if before is None else np.abs(cand[0] - before).max(axis=1)
-    last = np.zeros(k) if after is None else np.abs(cand[-1] - after).max(axis=1)
+
+    def ends(bound: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        first = np.zeros(k) if run.before is None else _end_steps(cand[0], run.before, bound[0])
+        last = np.zeros(k) if run.after is None else _end_steps(cand[-1], run.after, bound[-1])
+        return first, last
+
+    over_first, over_last = ends(run.limits)
+    excess_first, excess_last = ends(run.steps)
+    near = _NEAR_INPUT * np.square(cand - run.read[:, None, :]).sum(axis=2)  # (n, 54)
 
     def smoothest(allowed: float) -> tuple[np.ndarray, bool]:
-        """The smoothest path of steps within ``allowed``, and whether there is one."""
-        cost = np.where(first <= allowed, first**2, np.inf)
+        """The path of least squared excess whose overshoot stays within ``allowed``, and
+        whether there is one."""
+        cost = np.where(over_first <= allowed, excess_first**2 + near[0], np.inf)
         back = np.zeros((n, k), dtype=np.intp)
         for rows in blocks:
-            here = _steps(channels, rows, work)
-            # a step beyond what is allowed costs inf (as does any path through an inf cost)
-            squares = np.where(here <= allowed, here * here, np.inf)
+            # an overshoot beyond what is allowed costs inf (as does any path through one)
+            barred = _steps(channels, limits, rows, work) > allowed
+            squares = _steps(channels, inside, rows, work)
+            squares *= squares
+            squares[barred] = np.inf
             for i, square in enumerate(squares, rows.start):
                 total = cost[:, None] + square
                 back[i] = total.argmin(axis=0)
-                cost = total.min(axis=0)
-        ending = np.where(last <= allowed, cost + last**2, np.inf)
+                cost = total.min(axis=0) + near[i]
+        ending = np.where(over_last <= allowed, cost + excess_last**2, np.inf)
         choice = int(np.argmin(ending))
         found = bool(np.isfinite(ending[choice]))
-        out = np.empty_like(angles)
+        out = np.empty_like(run.angles)
         for i in range(n - 1, -1, -1):
             out[i] = cand[i, choice]
             choice = int(back[i, choice])
@@ -183,16 +266,11 @@ def _least_largest_step(
         out, found = smoothest(float(floor) + ALLOWANCE)
         if found:
             return out
-    cost = first  # the least largest step ...
+    cost = over_first  # the least largest overshoot ...
     for rows in blocks:
-        for here in _steps(channels, rows, work):
+        for here in _steps(channels, limits, rows, work):
             cost = np.maximum(cost[:, None], here).min(axis=0)
-    return smoothest(float(np.min(np.maximum(cost, last))) + ALLOWANCE)[0]  # ... the smoothest
-
-
-def _largest_step(angles: np.ndarray, before: np.ndarray | None, after: np.ndarray | None) -> float:
-    rows = [r for r in (before, *angles, after) if r is not None]
-    return float(np.abs(np.diff(np.asarray(rows), axis=0)).max(initial=0.0))
+    return smoothest(float(np.min(np.maximum(cost, over_last))) + ALLOWANCE)[0]  # ... followed
 
 
 def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
@@ -224,13 +302,11 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         if (int(cols[0]), first) in done or first >= stop:
             continue
         done.add((int(cols[0]), first))
-        before = written[first - 1] if first > 0 else None
-        after = written[stop] if stop < n else None
-        run = written[first:stop]
-        largest = _largest_step(run, before, after)
-        floor, alone = _step_floor(run, before, after)
+        run = _Run.of(written, read, first, stop)
+        largest = run.largest_overshoot(run.angles)
+        floor, alone = _step_floor(run)
         if largest <= floor:
-            continue  # no representation steps less (a full solve would find none)
-        better = _least_largest_step(run, before, after, floor if alone else None)
-        if _largest_step(better, before, after) < largest:
+            continue  # no representation overshoots less (a full solve would find none)
+        better = _least_overshoot(run, floor if alone else None)
+        if run.largest_overshoot(better) < largest:
             values[first:stop, cols] = better

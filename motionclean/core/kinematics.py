@@ -17,6 +17,7 @@ import numpy as np
 
 from . import checks, quat
 from .motion import Motion
+from .restpose import rest_frames
 
 __all__ = [
     "AXES",
@@ -469,9 +470,16 @@ def up_axis(motion: Motion, override: str | int | None = None) -> int:
 
 def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
     """World positions ``(S, P, 3)`` of joints and end sites on up to
-    :data:`POSE_SAMPLES` evenly spaced frames, and ``(S, P)`` True where a point is known
-    (None when every point is: no tracker dropouts)."""
-    frames = np.unique(np.linspace(0, motion.n_frames - 1, min(motion.n_frames, POSE_SAMPLES)))
+    :data:`POSE_SAMPLES` evenly spaced frames between the clip's rest-pose frames
+    (:func:`~motionclean.core.restpose.rest_frames`, left out of every figure; all frames
+    where nothing else is left), and ``(S, P)`` True where a point is known (None when
+    every point is: no tracker dropouts)."""
+    lead, trail = rest_frames(motion)
+    first, last = lead, motion.n_frames - 1 - trail
+    if last < first:
+        first, last = 0, motion.n_frames - 1
+    count = min(last - first + 1, POSE_SAMPLES)
+    frames = np.unique(np.linspace(first, last, count))
     frames = frames.round().astype(np.intp)
     poses = world_positions(motion.at_frames(frames))
     unknown = missing_points(motion)

@@ -339,7 +339,9 @@ def _parse_hierarchy(lines: _Lines, path):
             s = skeleton
             return s.names, s.parents, s.offsets, s.channels, s.end_sites, start
         if keyword not in handlers:
-            _fail(f"unexpected {keyword[:40]!r} in HIERARCHY", path, number)
+            spelled = next((k for k in (*handlers, "MOTION") if k.lower() == keyword.lower()), None)
+            hint = f" (keywords are case-sensitive: {spelled})" if spelled else ""
+            _fail(f"unexpected {keyword[:40]!r} in HIERARCHY{hint}", path, number)
         handlers[keyword](tokens, text, number)
     skeleton.ended(lines.number)
 
@@ -629,13 +631,23 @@ def _describes(text: BvhText, motion: Motion) -> bool:
     )
 
 
+#: A value this close to the one read may print, with six decimals, as that same number.
+_SAME_PRINT = 6e-7
+
+
 def _changed(values: np.ndarray, read: np.ndarray) -> np.ndarray:
-    """``(F, C)`` bool: values further than :data:`UNCHANGED_TOLERANCE` from those read,
-    block by block (no clip-sized temporary)."""
+    """``(F, C)`` bool: values further than :data:`UNCHANGED_TOLERANCE` from those read
+    whose six-decimal text would not be the number read either (a joint a step moved by a
+    hundred-millionth of a degree keeps the text it had, ``0.0000`` as it was), block by
+    block (no clip-sized temporary)."""
     out = np.empty(values.shape, dtype=bool)
     for at in range(0, values.shape[0], 4096):
         rows = slice(at, at + 4096)
-        np.greater(np.abs(values[rows] - read[rows]), UNCHANGED_TOLERANCE, out=out[rows])
+        gap = np.abs(values[rows] - read[rows])
+        np.greater(gap, UNCHANGED_TOLERANCE, out=out[rows])
+        close = out[rows] & (gap <= _SAME_PRINT)
+        if close.any():  # (few: most changed values move by more)
+            out[rows][close] = np.round(values[rows][close], 6) != read[rows][close]
     return out
 
 

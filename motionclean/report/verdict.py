@@ -17,6 +17,9 @@ Statuses, first that applies (thresholds below, documented in the README):
 - ``clean``: smoothing changed the clip by less than :data:`CLEAN_CHANGE_DEG` RMS and
   nothing was repaired; ``repaired``: the same, with repairs.
 - ``cleaned``: a noisy capture, smoothed (and repaired, if it says so).
+- ``not smoothed``: the pipeline has no smoothing step (only steps of
+  :data:`NOT_SMOOTHING`) and repaired nothing: what it planted or moved is told, the noise
+  is not judged (with repairs the status is ``repaired``, the line led by "not smoothed").
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ __all__ = [
     "LOOK_CHANGE_DEG",
     "LOOK_REPAIRED_SHARE",
     "LOOK_SKATE",
+    "NOT_SMOOTHING",
     "PLANTED_SKATE",
     "build_verdict",
     "repaired_frames",
@@ -52,6 +56,9 @@ LOOK_REPAIRED_SHARE = 0.5
 PLANTED_SKATE = 0.1
 #: Feet sliding faster than this after cleaning need a look (``footlock`` holds them).
 LOOK_SKATE = 0.5
+#: Steps that repair, plant, put on the floor or resample a clip without smoothing it: a
+#: pipeline of these alone gets no noise judgement.
+NOT_SMOOTHING = frozenset({"despike", "fill-gaps", "footlock", "ground", "resample"})
 
 
 def _runs(note: dict, key: str) -> list[list[int]]:
@@ -153,6 +160,16 @@ def _ground_words(joints: dict[str, dict]) -> list[str]:
     return words
 
 
+def _removed_words(fraction: float) -> str:
+    """ "86 % of the jitter removed", "no jitter removed" (under half a percent either way) or
+    "jitter up 3 %"."""
+    if fraction >= 0.005:
+        return f"{fraction:.0%} of the jitter removed".replace("%", " %")
+    if fraction > -0.005:
+        return "no jitter removed"
+    return f"jitter up {-fraction:.0%}".replace("%", " %")
+
+
 def _missing_words(joints: dict[str, dict]) -> list[str]:
     words = []
     for name, entry in joints.items():
@@ -186,8 +203,10 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     feet, skate = _feet(report.get("contacts"))
     reasons = _missing_words(joints)
     change, joint = smoothing["change_deg_max"], smoothing["change_joint"]
+    filters = [step.get("filter") for step in report.get("pipeline") or []]
+    smoothed = not filters or any(name not in NOT_SMOOTHING for name in filters)
     if change > LOOK_CHANGE_DEG:
-        what = "smoothing moved" if report.get("pipeline") else "the cleaning moved"
+        what = "smoothing moved" if filters and smoothed else "the cleaning moved"
         reasons.append(f"{what} {joint} by {change:.1f} degrees")
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
@@ -203,8 +222,15 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
         grounded and smoothing["noise_removed"] < GROUNDED_JITTER
     )
-    removed = f"{smoothing['noise_removed']:.0%} of the jitter removed".replace("%", " %")
-    if clean:
+    removed = _removed_words(smoothing["noise_removed"])
+    if not smoothed:
+        parts = done + grounded
+        if not feet and "footlock" in filters:
+            parts.append("no foot in contact found, nothing planted")
+        if not parts and not feet:
+            parts.append("nothing repaired")
+        lead = "not smoothed"
+    elif clean:
         parts = done + grounded
         parts.append("otherwise left as it was" if parts else "left as it was")
         lead = "clean capture, repaired" if done else "clean capture"
@@ -222,8 +248,12 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
         tail = f"largest change {change:.2g} degrees{where}"
+    if change < 1e-6:  # (rounding of the conversions: nothing moved)
+        tail = f"no rotation changed{where}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
+    if not smoothed:
+        status = "repaired" if done else "not smoothed"
     if reasons:
         status = "needs a look"
         text = f"needs a look: {'; '.join(reasons)}. {lead[0].upper()}{lead[1:]}: " + (

@@ -268,3 +268,21 @@ def test_world_csv_row_block_by_row_block_is_the_same_bytes(monkeypatch, block):
     monkeypatch.setattr(text, "ROW_BLOCK", block)
     assert [world_csv.format_world_csv(clip), world_csv.format_world_csv(gappy)] == whole
     assert b",," in whole[1] and b"nan" not in whole[1]
+
+
+def test_poses_sampled_for_the_up_axis_and_height_leave_the_rest_frames_out(tmp_path):
+    """The frames a clip's up axis and body height are read from lie between its rest-pose
+    frames (which every figure leaves out), so `info`, the report and the steps measure
+    the same body: 40 T-pose frames after the sample's motion are never sampled."""
+    from helpers import with_t_pose
+
+    clip = mc.load(with_t_pose(SAMPLE, tmp_path / "t.bvh", frames=40, at_end=True))
+    lead, trail = rest_frames(clip)
+    assert trail == 40
+    poses, _ = kinematics.sample_poses(clip)
+    t_pose = kinematics.world_positions(clip.at_frames(np.array([clip.n_frames - 1])))[0]
+    distance = np.linalg.norm(poses - t_pose, axis=-1).max(axis=1)
+    assert (distance > 1e-6).all()  # no sample is a rest frame
+    motion = kinematics.world_positions(clip.at_frames(np.arange(clip.n_frames - trail)))
+    assert poses.shape[0] == min(kinematics.POSE_SAMPLES, clip.n_frames - trail)
+    assert np.allclose(poses[0], motion[0]) and np.allclose(poses[-1], motion[-1])

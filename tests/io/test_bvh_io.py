@@ -338,6 +338,30 @@ def test_an_edit_in_place_is_written_and_the_rest_keeps_its_text(tmp_path):
     )
 
 
+def test_a_value_that_prints_as_the_number_read_keeps_its_text(tmp_path):
+    """A rotation a step moved by a ten-millionth of a degree prints, with six decimals, as
+    the number read: its text stays as the file wrote it (``0.0000`` is not rewritten as
+    ``0.000000``), while a value moved by 1e-5 degrees is written anew."""
+    text = SAMPLE.read_text()
+    head, rows = text.split("Frame Time:")
+    lines = rows.splitlines()
+    first = lines[1].split()
+    first[3:6] = ["0.0000", "0.0000", "-0.00"]  # the root's rotation, short texts
+    source = tmp_path / "short.bvh"
+    source.write_text(
+        head + "Frame Time:" + "\n".join([lines[0], " ".join(first), *lines[2:]]) + "\n"
+    )
+    clip = mc.load(source)
+    tiny = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.deg2rad(1e-7))
+    clip.rotations[0, 0] = quat.multiply(clip.rotations[0, 0], tiny)
+    clip.rotations[1, 0] = quat.multiply(clip.rotations[1, 0], tiny * [1, 100, 100, 100])
+    out = tmp_path / "out.bvh"
+    mc.save(clip.replace(rotations=quat.normalize(clip.rotations)), out)
+    rows_out = out.read_text().split("Frame Time:")[1].splitlines()
+    assert rows_out[1].split()[3:6] == ["0.0000", "0.0000", "-0.00"]
+    assert rows_out[2] != lines[2]  # moved by 1e-5 degrees: printed anew
+
+
 def test_values_written_with_hundreds_of_digits_are_kept_and_spliced_around():
     """A 300-digit value is read exactly, kept byte for byte, and an edit next to it lands
     in place (the value texts are found again from the rows when the clip is written)."""

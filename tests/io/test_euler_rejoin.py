@@ -1,7 +1,7 @@
 """The Euler write-back keeps its promise with frame ranges: a ranged Lee-Shin over
 RThumb's half-turn flips, nothing repaired, turns the joint a full turn against the input
 inside the range; the written channels rejoin the untouched frames after it without a step
-larger than 180 degrees where the input's own step is smaller."""
+larger than 180 degrees where the input's own step is smaller by more than JUMP_MARGIN."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from helpers import NOISY, SAMPLE, max_degrees
 
 import motionclean as mc
-from motionclean.core.eulerjoin import JUMP_DEG
+from motionclean.core.eulerjoin import JUMP_DEG, JUMP_MARGIN
 from motionclean.steps.pipeline import Pipeline
 
 
@@ -38,7 +38,7 @@ def test_a_ranged_smoothing_over_flips_rejoins_the_input_without_a_new_jump(sour
     read, written = rows(source), rows(target)
     step_in = np.abs(np.diff(read, axis=0))
     step_out = np.abs(np.diff(written, axis=0))
-    new_jumps = (step_out > JUMP_DEG) & (step_out > step_in + 1e-6)
+    new_jumps = (step_out > JUMP_DEG) & (step_out > step_in + JUMP_MARGIN)
     assert not new_jumps.any(), np.argwhere(new_jumps)[:5]
     # the same rotations, and every frame outside the range as it was, byte for byte
     assert max_degrees(mc.load(target).rotations, out.rotations) < 1e-4
@@ -57,11 +57,12 @@ def test_an_identity_write_stays_byte_for_byte(tmp_path):
     assert (tmp_path / "same.bvh").read_bytes() == SAMPLE.read_bytes()
 
 
-def test_the_step_floor_is_the_least_step_between_representations_bit_for_bit():
-    """A run whose own largest step is no larger than the floor is left without a solve:
-    the floor is, at its worst step, the least step any two representations take there
-    (the same bits as the (54, 54) comparison), so no solve can do better than it; with
-    no step just above it, the solve within it is the full solve's answer."""
+def test_the_step_floor_is_the_least_overshoot_between_representations_bit_for_bit():
+    """A run whose own largest overshoot (its steps beyond the larger of 180 degrees and
+    the input's plus 45) is no larger than the floor is left without a solve: the floor is, at its
+    worst step, the least overshoot any two representations take there (the same bits as
+    the (54, 54) comparison), so no solve can do better than it; with no overshoot just
+    above it, the solve within it is the full solve's answer."""
     from motionclean.core import eulerjoin
 
     rng = np.random.default_rng(3)
@@ -69,22 +70,54 @@ def test_the_step_floor_is_the_least_step_between_representations_bit_for_bit():
         n = int(rng.integers(1, 30))
         angles = np.cumsum(rng.normal(0.0, rng.choice([1.0, 30.0, 120.0]), (n, 3)), axis=0)
         angles[:, 1] = np.clip(angles[:, 1], -95.0, 95.0)
+        read = angles + rng.normal(0.0, 2.0, (n, 3)) + 360.0 * rng.integers(-2, 3, (n, 3))
         before = None if trial % 4 == 0 else angles[0] + rng.normal(0.0, 100.0, 3)
         after = None if trial % 5 == 0 else angles[-1] + rng.normal(0.0, 100.0, 3)
-        cand = eulerjoin._candidates(angles)
+        steps = np.abs(rng.normal(0.0, rng.choice([20.0, 200.0]), (n + 1, 3))) * (trial % 3 > 0)
+        run = eulerjoin._Run(angles, read, before, after, steps)
+        cand = eulerjoin._candidates(run.centred)
+
+        limits = np.maximum(steps + 45.0, 180.0)
+
+        def overshoot(a, b, limit):
+            return np.maximum((np.abs(a - b) - limit).max(axis=-1), 0.0)
+
         least = [
-            np.abs(cand[i][None] - cand[i - 1][:, None]).max(axis=2).min() for i in range(1, n)
+            overshoot(cand[i][None], cand[i - 1][:, None], limits[i]).min() for i in range(1, n)
         ]
         if before is not None:
-            least.append(np.abs(cand[0] - before).max(axis=1).min())
+            least.append(overshoot(cand[0], before, limits[0]).min())
         if after is not None:
-            least.append(np.abs(cand[-1] - after).max(axis=1).min())
-        floor, alone = eulerjoin._step_floor(angles, before, after)
+            least.append(overshoot(cand[-1], after, limits[-1]).min())
+        floor, alone = eulerjoin._step_floor(run)
         assert floor == max(least, default=0.0)
-        best = eulerjoin._least_largest_step(angles, before, after)
-        assert eulerjoin._largest_step(best, before, after) >= floor
+        best = eulerjoin._least_overshoot(run)
+        assert run.largest_overshoot(best) >= floor
         if alone:  # the solve sought within the floor first finds the same representations
-            assert np.array_equal(eulerjoin._least_largest_step(angles, before, after, floor), best)
+            assert np.array_equal(eulerjoin._least_overshoot(run, floor), best)
+
+
+def test_a_curve_carried_whole_turns_away_rejoins_where_the_input_wraps():
+    """The input wraps from +170 to -170 degrees (a step of 340 on its own); the written
+    curve, continued by the Euler filter, went on to 190 and further, two turns away from
+    the input by the end, and would step back by whole turns into the next unchanged
+    sample. The solve puts the written curve's wrap where the input's is: no step beyond
+    the input's own by more than the cleaning's change."""
+    from motionclean.core import eulerjoin
+
+    n = 40
+    read = np.zeros((n + 1, 3))
+    read[:, 0] = np.linspace(150.0, 230.0, n + 1)
+    read[:, 0] -= 360.0 * (read[:, 0] > 180.0)  # wraps once, as a file stores it
+    written = read.copy()
+    written[:n, 0] = np.linspace(150.0, 230.0, n + 1)[:n] + 0.3 + 720.0 * (np.arange(n) > 30)
+    written[n] = read[n]  # the unchanged sample the run ends at
+    values, source = written.copy(), read.copy()
+    eulerjoin.rejoin(values, source, np.array([[0, 1, 2]]))
+    step_out = np.abs(np.diff(values, axis=0))
+    step_in = np.abs(np.diff(source, axis=0))
+    assert (step_out <= step_in + 1.0).all(), np.argwhere(step_out > step_in + 1.0)
+    assert np.allclose(np.mod(values - written + 180.0, 360.0) - 180.0, 0.0)  # same angles
 
 
 def test_the_inputs_own_half_turn_flips_are_written_as_flips_not_solved(tmp_path):

@@ -26,6 +26,7 @@ CASES = {
     "truncated_hierarchy.bvh": (9, "truncated hierarchy"),
     "missing_motion.bvh": (15, "missing MOTION"),
     "unknown_channel.bvh": (9, "unknown channel 'Wrotation'"),
+    "keyword_case.bvh": (2, "unexpected 'Root' in HIERARCHY (keywords are case-sensitive: ROOT)"),
     "channel_count.bvh": (9, "CHANNELS says 4 but names 3"),
     "two_rotation_channels.bvh": (9, "2 rotation channels"),
     "short_row.bvh": (20, "frame row has 8 values, expected 9"),

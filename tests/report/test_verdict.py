@@ -19,7 +19,7 @@ from motionclean.report.verdict import (
     build_verdict,
     repaired_frames,
 )
-from motionclean.run.jobs import clean_clip
+from motionclean.run.jobs import clean_clip, clean_motion
 from motionclean.steps.pipeline import Pipeline
 
 
@@ -235,12 +235,47 @@ def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, 
     assert f"verdict: {verdict['text']}" in out
 
 
-def test_a_clip_only_put_on_the_floor_is_called_clean_and_says_so():
-    """ground moves and levels the root: no jitter removed, so the clip stays 'clean' and
-    the verdict says what moved it."""
+def test_a_clip_only_put_on_the_floor_is_not_judged_and_says_what_moved_it():
+    """ground moves and levels the root, smoothing nothing: the verdict makes no noise
+    judgement ('not smoothed') and says what moved the clip."""
     result = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground"]))
     verdict = result.report["verdict"]
-    assert verdict["status"] == "clean", verdict["text"]
-    assert "put on the floor" in verdict["text"]
+    assert verdict["status"] == "not smoothed", verdict["text"]
+    assert "put on the floor" in verdict["text"] and "jitter" not in verdict["text"]
     kept = clean_clip(SAMPLE, None, Pipeline.from_inline(["ground:level=false"]))
     assert "levelled" not in kept.report["verdict"]["text"]
+
+
+def test_a_pipeline_without_a_smoothing_step_tells_what_it_did_not_the_noise():
+    """footlock alone on the noisy sample: 'not smoothed: feet ...' (planted, or their slide),
+    no 'jitter removed' and no 'left as it was'; on a skeleton without legs it says that
+    nothing was planted. With a smoothing step the noise is judged again."""
+    planted = clean_clip(NOISY, None, Pipeline.from_inline(["footlock"])).report["verdict"]
+    assert planted["status"] == "not smoothed", planted["text"]
+    assert re.match(r"not smoothed: feet (planted|slide [0-9.]+ body heights/s);", planted["text"])
+    assert "jitter" not in planted["text"] and "left as it was" not in planted["text"]
+    clip = mc.load(NOISY)
+    translations = clip.translations.copy()  # rising a body height per second: no contact
+    translations[:, 0, 1] += kinematics.body_height(clip) * np.arange(clip.n_frames) / 120.0
+    flying = clip.replace(translations=translations)
+    result = clean_motion(flying, Pipeline.from_inline(["footlock"]), "flying.bvh")
+    text = result.report["verdict"]["text"]
+    assert text.startswith("not smoothed: no foot in contact found, nothing planted"), text
+    smoothed = clean_clip(NOISY, None, Pipeline.from_inline(["despike", "footlock", "lee-shin"]))
+    assert smoothed.report["verdict"]["status"] == "cleaned", smoothed.report["verdict"]["text"]
+    assert "of the jitter removed" in smoothed.report["verdict"]["text"]
+
+
+@pytest.mark.parametrize(
+    ("fraction", "words"),
+    [
+        (0.86, "86 % of the jitter removed"),
+        (0.004, "no jitter removed"),
+        (-0.004, "no jitter removed"),
+        (-0.05, "jitter up 5 %"),
+    ],
+)
+def test_jitter_words_never_say_minus_zero(fraction, words):
+    from motionclean.report.verdict import _removed_words
+
+    assert _removed_words(fraction) == words
