@@ -40,6 +40,24 @@ def _position_floor(data: StepData) -> float:
     return POSITION_FLOOR_HEIGHTS_PER_S * kinematics.body_height(data.motion)
 
 
+#: Position steps faster than this many body heights per second are always repaired on a
+#: skeleton with a trunk and legs (garbage frames: a decoder wrote a root 820 body heights
+#: away for five frames); nothing a body does, nor a golf club's head (about 30), comes near.
+POSITION_CAP_HEIGHTS_PER_S = 100.0
+
+
+def _position_cap(data: StepData, given: float) -> float:
+    """The fastest position step left alone, in file units per second: ``given`` when set,
+    else :data:`POSITION_CAP_HEIGHTS_PER_S` body heights per second where the skeleton is a
+    body (independent tracked bodies have no height to scale by: no cap)."""
+    motion = data.motion
+    if math.isfinite(given) or motion is None:
+        return given
+    if kinematics.trunk_split(kinematics.point_parents(motion)) is None:
+        return given
+    return POSITION_CAP_HEIGHTS_PER_S * kinematics.body_height(motion)
+
+
 def _missing(data: StepData, joints) -> np.ndarray | None:
     """The dropouts of the given joints' columns, ``(F, len(joints))``, or None."""
     if data.motion is None or data.motion.missing is None:
@@ -68,7 +86,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
             data.frame_time,
             method="linear" if params["method"] == "slerp" else "cubic",
             min_units_per_s=max(params["min_units_per_s"], _position_floor(data)),
-            max_units_per_s=params["max_units_per_s"],
+            max_units_per_s=_position_cap(data, params["max_units_per_s"]),
             missing=_missing(data, data.translation_joints),
             **shared,
         )
@@ -200,7 +218,8 @@ STEP = StepSpec(
             "max_units_per_s",
             "float",
             math.inf,
-            "positions: absolute cap, length units per s",
+            "positions: absolute cap, length units per s (default: 100 body heights per "
+            "s on a skeleton with a trunk and legs, else none)",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,

@@ -128,3 +128,22 @@ def test_auto_at_strength_zero_adds_nothing_to_despike(planted, tmp_path, capsys
     clean(capsys, SAMPLE, tmp_path / "zs.bvh", "-f", "despike", "-f", "auto:strength=0")
     assert (tmp_path / "zs.bvh").read_bytes() == (tmp_path / "ds.bvh").read_bytes()
     assert (tmp_path / "ds.bvh").read_bytes() != SAMPLE.read_bytes()  # RThumb un-flipped
+
+
+def test_garbage_root_frames_far_beyond_any_body_speed_are_repaired():
+    """A decoder's garbage: the root 800 body heights away for 10 frames (longer than a
+    spike at 120 fps) is repaired by the default on a body (100 body heights per second at
+    most); a cap given in the file's units replaces it."""
+    from motionclean.core import kinematics
+    from motionclean.steps.pipeline import Pipeline
+
+    clip = mc.load(SAMPLE)
+    height = kinematics.body_height(clip)
+    translations = clip.translations.copy()
+    truth = translations[:, 0].copy()
+    translations[100:110, 0] += 800.0 * height * np.array([1.0, -1.0, 1.0]) / math.sqrt(3)
+    broken = clip.replace(translations=translations)
+    out, _ = Pipeline.default().run(broken)
+    assert np.linalg.norm(out.translations[:, 0] - truth, axis=-1).max() < 0.05 * height
+    custom, _ = Pipeline.from_inline(["despike:max_units_per_s=1e9"]).run(broken)
+    np.testing.assert_array_equal(custom.translations[100:110, 0], translations[100:110, 0])
