@@ -88,10 +88,11 @@ def find_feet(
     count), ``up`` the up axis (0, 1, 2) and ``height`` the body height; ``elevation``
     ``(P,)`` each point's typical height above the lowest point of its pose (default: in
     the rest pose). Without ``patterns``, a foot is the chain above a leaf near the lowest
-    point: walking up from the leaf, the ankle is the first point
-    hanging from a long bone (the shin), the knee its parent and the hip the knee's parent
-    (the thigh must be long too). Whatever the joint names, and none on a skeleton with no
-    legs. ``patterns`` (fnmatch on joint names, e.g. ``["*Foot"]``) name the ankles instead.
+    point: walking up from the leaf, the ankle is the first point hanging from a long bone
+    (the shin) whose parent hangs from one too (the thigh: a long toe end site is not a
+    shin), the knee its parent and the hip the knee's parent. Whatever the joint names, and
+    none on a skeleton with no legs. ``patterns`` (fnmatch on joint names, e.g.
+    ``["*Foot"]``) name the ankles instead.
     """
     parents = np.asarray(parents)
     n_joints = len(names)
@@ -112,8 +113,8 @@ def find_feet(
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
         for leaf in leaves:
-            j = leaf
-            while j >= 0 and not long_bone[j]:
+            j = leaf  # up to the first point hanging from two long bones (shin, thigh)
+            while j >= 0 and not (long_bone[j] and parents[j] >= 0 and long_bone[parents[j]]):
                 j = parents[j]
             if j >= 0 and j < n_joints and j not in ankles:
                 ankles.append(j)

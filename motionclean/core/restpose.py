@@ -19,6 +19,11 @@ JUMP_DEG = 15.0
 JUMP_TIMES_MEDIAN = 8.0
 #: ... and a rest frame when that happens on at least this share of the rotating joints.
 MOST_JOINTS = 0.5
+#: A frame whose every rotation is within this of the skeleton's rest (zero channels,
+#: degrees) is a reference pose when the step out of it is a jump on most of the joints it
+#: leaves, whatever their size once one is over :data:`JUMP_DEG` (Second Life's frame 0
+#: before a hand-keyed clip, whose joints hold still between keys: their median step is 0).
+ZERO_POSE_DEG = 2.0
 #: A run of at least this many identical frames is a held pose whether or not a jump follows
 #: (no capture repeats every channel exactly; padding does).
 HELD_FRAMES = 3
@@ -68,9 +73,18 @@ def _leading(q: np.ndarray, translations: np.ndarray, typical: np.ndarray, movin
         return 0
     if run >= HELD_FRAMES:
         return run
+    if not moving.any():
+        return 0
     out = np.degrees(quat.angle_between(q[run - 1], q[run]))[moving]
     jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical[moving])
-    return run if moving.any() and jump.mean() >= MOST_JOINTS else 0
+    if jump.mean() >= MOST_JOINTS:
+        return run
+    # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
+    if np.degrees(quat.angle(q[run - 1, moving])).max() > ZERO_POSE_DEG or out.max() <= JUMP_DEG:
+        return 0
+    posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
+    leaves = out[posed] > JUMP_TIMES_MEDIAN * typical[moving][posed]
+    return run if posed.any() and leaves.mean() >= MOST_JOINTS else 0
 
 
 def rest_frames(motion: Motion) -> tuple[int, int]:
@@ -80,8 +94,11 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     into the motion is a jump on at least half of the joints that move at all (a joint whose
     rotation never changes says nothing) at once: larger than 15 degrees and than 8 times
     the joint's median step. No noise makes most joints jump on the same frame; a pose held
-    before the capture does. A run of at least 3 identical frames (every channel, positions
-    too) counts in any case: a held pose. A clip with missing samples (tracker dropouts,
+    before the capture does. A frame in the skeleton's rest pose (every rotation within
+    :data:`ZERO_POSE_DEG` of zero) counts when the joints that leave it jump (more than 8
+    times their median step) and one by more than 15 degrees: a reference frame before a
+    hand-keyed clip. A run of at least 3 identical frames (every channel, positions too)
+    counts in any case: a held pose. A clip with missing samples (tracker dropouts,
     held placeholders) has none: trackers do not record a rest pose.
     """
     rotating = motion.layout.has_rotation

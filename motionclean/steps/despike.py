@@ -53,9 +53,12 @@ def _position_cap(data: StepData, given: float) -> float:
     motion = data.motion
     if math.isfinite(given) or motion is None:
         return given
+    if kinematics.world_note(motion) is not None:  # no joint positions: no height
+        return given
     if kinematics.trunk_split(kinematics.point_parents(motion)) is None:
         return given
-    return POSITION_CAP_HEIGHTS_PER_S * kinematics.body_height(motion)
+    height = kinematics.body_height(motion)
+    return POSITION_CAP_HEIGHTS_PER_S * height if height > 0.0 else given
 
 
 def _missing(data: StepData, joints) -> np.ndarray | None:

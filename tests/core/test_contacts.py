@@ -215,3 +215,19 @@ def test_a_clip_without_contacts_reports_no_skate_rather_than_nan(tmp_path):
         assert foot["skate_body_heights"] == {"before": None, "after": None}
     assert b"nan" not in to_json(report)
     assert "skate" not in "\n".join(format_contacts(report["contacts"]))
+
+
+def test_long_toe_end_sites_are_not_taken_for_shins():
+    """Some exporters end the toes far ahead of the foot (a fifth of the shin and more: 14 %
+    of the body's height in a pybvh test file): the toe end site hangs from a long bone,
+    but its parent does not, so walking up from it still finds the ankle above the shin."""
+    clip = mc.load(NOISY)
+    feet, _, height = found.skeleton_feet(clip)
+    long_toes = dict(clip.end_sites)
+    for j in (clip.names.index("LeftToe"), clip.names.index("RightToe")):
+        offset = long_toes[j]
+        long_toes[j] = offset * (0.15 * height / np.linalg.norm(offset))
+    stretched = clip.replace(end_sites=long_toes)
+    assert kinematics.body_height(stretched) == height  # (the toes lie along the floor)
+    again, _, _ = found.skeleton_feet(stretched)
+    assert [f.name for f in again] == [f.name for f in feet] == ["LeftAnkle", "RightAnkle"]

@@ -91,3 +91,38 @@ def test_a_t_pose_is_found_on_every_corpus_clip_and_nothing_else(tmp_path, name)
     assert rest_frames(mc.load(source)) == (0, 0)
     assert rest_frames(mc.load(with_t_pose(source, tmp_path / "a.bvh"))) == (1, 0)
     assert rest_frames(mc.load(with_t_pose(source, tmp_path / "b.bvh", at_end=True))) == (0, 1)
+
+
+def _keyed(frames: np.ndarray, hold: int, scale: float) -> np.ndarray:
+    """Rotations of a hand-keyed clip: every ``hold``-th frame of ``frames`` (F, J, 4) a key,
+    held until the next, each rotation's angle scaled by ``scale`` (small poses)."""
+    from motionclean.core import quat
+
+    keys = frames[::hold]
+    small = quat.exp(scale * quat.log(keys))
+    return np.repeat(small, hold, axis=0)[: frames.shape[0]]
+
+
+def test_a_zero_pose_before_a_hand_keyed_clip_is_its_reference_frame():
+    """Second Life's convention: frame 0 is the skeleton's rest (every channel 0, one joint
+    at 1 degree) before keys held for 6 frames each, whose joints mostly sit within 15
+    degrees of zero. Frame 0 is a rest frame; the keys alone, or a smooth clip that starts
+    at the zero pose and leaves it slowly, have none."""
+    from motionclean.core import quat
+
+    clip = mc.load(NOISY)
+    q = _keyed(clip.rotations, 6, 0.35)[:296]  # the last key held 2 frames (3: a held pose)
+    zero = np.zeros_like(q[:1])
+    zero[..., 0] = 1.0
+    zero[0, 3] = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.deg2rad(1.0))
+    rows = np.concatenate([zero, q])
+    t = np.repeat(clip.translations[:1], rows.shape[0], axis=0)
+    keyed = clip.replace(rotations=rows, translations=t, source_values=None, source=None)
+    assert rest_frames(keyed) == (1, 0)
+    # the same keys from a key held 2 frames (3 would be a held pose), no zero frame: none
+    keys_only = keyed.replace(rotations=q[4:], translations=t[5:])
+    assert rest_frames(keys_only) == (0, 0)
+    ramp = np.linspace(0.0, 1.0, 200)[:, None, None]
+    smooth = quat.exp(ramp * quat.log(clip.rotations[150:151]))  # leaves zero slowly
+    rising = clip.replace(rotations=smooth, translations=t[:200], source_values=None, source=None)
+    assert rest_frames(rising) == (0, 0)
