@@ -184,9 +184,12 @@ def info(
     if skipped is not None:
         click.echo(f"  world: skipped ({skipped})")
     else:
-        axis = kinematics.up_axis(motion)
+        axis, sign = kinematics.up_direction(motion)
+        source = "given" if up else "found from the motion"
+        if sign < 0.0:
+            source += ": the figure stands head down along it"
         click.echo(
-            f"  up axis: {kinematics.AXES[axis]} ({'given' if up else 'found from the motion'})"
+            f"  up axis: {kinematics.up_name(motion)} ({source})"
             f"   body height: {kinematics.body_height(motion, axis):.4g} units"
         )
         contacts, _ = contact_figures(motion)

@@ -180,10 +180,12 @@ SOURCE_OPTION = click.option(
 
 UP_OPTION = click.option(
     "--up",
-    type=click.Choice(["x", "y", "z"], case_sensitive=False),
+    type=click.Choice(["x", "y", "z", "-x", "-y", "-z"], case_sensitive=False),
     callback=lambda ctx, param, value: None if value is None else value.lower(),
-    help="The clips' up axis (default: found from the motion: the feet are below the head; "
-    "a T-pose rest does not mislead it). World-space figures, feet and the player use it.",
+    help="The clips' up axis, -y for a figure standing head down along y as a camera's "
+    "y-down coordinates have it (default: found from the motion: the feet are below the "
+    "head; a T-pose rest does not mislead it). World-space figures, feet and the player "
+    "use it.",
 )
 
 

@@ -142,17 +142,19 @@ def skeleton_feet(
     motion: Motion, patterns: list[str] | None = None, up: str | None = None
 ) -> tuple[list[Foot], int, float]:
     """Feet, up axis (0, 1, 2) and body height of ``motion``: :func:`find_feet` with the
-    up axis named by ``up`` (``"x"``, ``"y"``, ``"z"``) or found
-    (:func:`~motionclean.core.kinematics.up_axis`), and each point's height above the
+    up axis named by ``up`` (``"x"`` ... ``"-z"``) or found
+    (:func:`~motionclean.core.kinematics.up_direction`), and each point's height above the
     lowest point of its frame, median over the clip's sampled poses
     (:func:`~motionclean.core.kinematics.sample_poses`): the rest pose may face another
-    way than the motion."""
-    axis = kinematics.up_axis(motion, up)
+    way than the motion. Contacts and floors are found on world positions turned
+    :func:`~motionclean.core.kinematics.upright` (a figure head down stands on them)."""
+    axis, sign = kinematics.up_direction(motion, up)
     height = kinematics.body_height(motion, axis)
     poses, _ = kinematics.sample_poses(motion)
     elevation = None
     if poses.shape[0]:
-        elevation = np.median(poses[..., axis] - poses[..., axis].min(axis=1, keepdims=True), 0)
+        heights = sign * poses[..., axis]  # (a figure head down stands toward -axis)
+        elevation = np.median(heights - heights.min(axis=1, keepdims=True), 0)
     feet = find_feet(
         kinematics.point_parents(motion),
         kinematics.rest_positions(motion),

@@ -22,6 +22,9 @@ from .restpose import rest_frames
 __all__ = [
     "AXES",
     "axis_index",
+    "up_direction",
+    "up_name",
+    "upright",
     "body_height",
     "end_effectors",
     "end_site_names",
@@ -429,31 +432,42 @@ LEGS_BELOW = 0.25
 
 
 def axis_index(axis: str | int) -> int:
-    """``"x"``, ``"y"``, ``"z"`` (any case) or 0-2 as an axis index; ValueError otherwise."""
+    """``"x"``, ``"y"``, ``"z"`` (any case, a leading ``-`` allowed) or 0-2 as an axis
+    index; ValueError otherwise."""
     if isinstance(axis, str):
-        if axis.lower() not in AXES:
-            raise ValueError(f"up axis must be x, y or z, got {axis!r}")
-        return AXES.index(axis.lower())
+        name = axis.lower().removeprefix("-")
+        if name not in AXES or len(axis) > 2:
+            raise ValueError(f"up axis must be x, y, z, -x, -y or -z, got {axis!r}")
+        return AXES.index(name)
     if axis not in (0, 1, 2):
         raise ValueError(f"up axis must be 0, 1 or 2, got {axis!r}")
     return int(axis)
 
 
 def up_axis(motion: Motion, override: str | int | None = None) -> int:
-    """The up axis (0 = x, 1 = y, 2 = z): ``override`` (``"x"``, ``"y"``, ``"z"`` or 0-2),
-    else the one the clip declares (:attr:`Motion.up`), else the one found from its motion.
+    """The up axis (0 = x, 1 = y, 2 = z) of :func:`up_direction`."""
+    return up_direction(motion, override)[0]
+
+
+def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int, float]:
+    """The up axis (0 = x, 1 = y, 2 = z) and its sign (+1.0: the head toward the axis; -1.0:
+    toward its negative side, as a camera's y-down coordinates have it): ``override``
+    (``"x"`` ... ``"-z"`` or 0-2), else what the clip declares (:attr:`Motion.up`), else
+    found from its motion.
 
     Found from the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the
     rest pose alone (a T-pose's arm span equals its height): where the skeleton has a trunk
     (:func:`trunk_split`: an upper body above the legs), the axis the vector from the legs'
-    centroid to the upper body's points along on average (the feet are below the head);
-    otherwise the axis of the largest median extent of a frame's points. Both are the same
-    answer on a turned copy of the clip (a Z-up export of a Y-up one).
+    centroid to the upper body's points along on average (the feet are below the head),
+    and which way; otherwise the axis of the largest median extent of a frame's points
+    (sign +1: nothing tells which end is up). Both are the same answer on a turned copy of
+    the clip (a Z-up export of a Y-up one).
     """
     if override is None:
         override = motion.up
     if override is not None:
-        return axis_index(override)
+        negative = isinstance(override, str) and override.startswith("-")
+        return axis_index(override), -1.0 if negative else 1.0
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None
@@ -464,8 +478,28 @@ def up_axis(motion: Motion, override: str | int | None = None) -> int:
         length = np.linalg.norm(along, axis=-1, keepdims=True)
         mean = (along / np.where(length > 0.0, length, 1.0)).mean(axis=0)
         if np.abs(mean).max() > 0.0:
-            return int(np.argmax(np.abs(mean)))
-    return int(np.argmax(_median_extent(poses, known)))
+            axis = int(np.argmax(np.abs(mean)))
+            return axis, -1.0 if mean[axis] < 0.0 else 1.0
+    return int(np.argmax(_median_extent(poses, known))), 1.0
+
+
+def up_name(motion: Motion, override: str | int | None = None) -> str:
+    """:func:`up_direction` as text: ``"y"``, or ``"-y"`` for a figure standing head down."""
+    axis, sign = up_direction(motion, override)
+    return ("-" if sign < 0.0 else "") + AXES[axis]
+
+
+def upright(positions: np.ndarray, axis: int, sign: float) -> np.ndarray:
+    """World positions ``(..., 3)`` as a figure standing toward ``+axis`` sees them: for a
+    figure head down (``sign`` -1) turned by half a turn about the next axis (a rotation,
+    not a mirror: every distance, speed and side kept), else ``positions`` themselves.
+    Feet, floors and heights are measured on these; :func:`upright` again turns back."""
+    if sign > 0.0:
+        return positions
+    turned = -positions
+    across = (axis + 1) % 3
+    turned[..., across] = positions[..., across]
+    return turned
 
 
 def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:

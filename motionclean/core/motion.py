@@ -23,8 +23,9 @@ from .errors import InvalidMotion, MotionError
 from .eulerjoin import rejoin
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 
-#: The axes a clip may declare as up (:attr:`Motion.up`).
-UP_AXES = ("x", "y", "z")
+#: The axes a clip may declare as up (:attr:`Motion.up`): the figure's head toward the
+#: axis, or toward its negative side (a camera's y-down coordinates).
+UP_AXES = ("x", "y", "z", "-x", "-y", "-z")
 
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
@@ -296,7 +297,7 @@ class Motion:
             )
         self._check_missing(frames, n)
         if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):
-            raise InvalidMotion(f"up: expected one of x, y, z or None, got {self.up!r}")
+            raise InvalidMotion(f"up: expected one of x, y, z, -x, -y, -z or None, got {self.up!r}")
         if checks.all_unit(self.rotations):
             return
         with np.errstate(over="ignore"):  # a huge quaternion has norm inf: refused too

@@ -56,13 +56,16 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """What the page draws: world points of joints and end sites (subsampled frames), the
     bones as point pairs, the up axis and the body height, and where points are unknown
     (tracker dropouts); ``after`` None for one clip."""
-    up = kinematics.up_axis(before)
+    up, sign = kinematics.up_direction(before)
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
     lead, trail = rest_frames(before)
     parents = kinematics.point_parents(before)
-    points_b = kinematics.world_positions(before.at_frames(frames))
-    points_a = None if after is None else kinematics.world_positions(after.at_frames(frames))
+    # (a figure head down is drawn standing: turned upright, not mirrored)
+    points_b = kinematics.upright(kinematics.world_positions(before.at_frames(frames)), up, sign)
+    points_a = None
+    if after is not None:
+        points_a = kinematics.upright(kinematics.world_positions(after.at_frames(frames)), up, sign)
     index, names = kinematics.end_effectors(before)
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)

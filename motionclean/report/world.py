@@ -45,8 +45,12 @@ def figure_points(motion: Motion) -> np.ndarray:
 
 def figure_positions(motion: Motion, used: np.ndarray | None = None) -> np.ndarray:
     """``(F, len(used), 3)`` world positions of the points ``used`` (default: the
-    :func:`figure_points` of ``motion``)."""
-    return kinematics.world_positions(motion, only=figure_points(motion) if used is None else used)
+    :func:`figure_points` of ``motion``), turned
+    :func:`~motionclean.core.kinematics.upright` where the figure stands head down."""
+    only = figure_points(motion) if used is None else used
+    return kinematics.upright(
+        kinematics.world_positions(motion, only=only), *kinematics.up_direction(motion)
+    )
 
 
 def _positions(motion: Motion, given: np.ndarray | None, used: np.ndarray) -> np.ndarray:
@@ -133,7 +137,7 @@ def world_figures(
             "max_percent": float(dev_max[n] * scale),
         }
     return {
-        "up_axis": kinematics.AXES[up],
+        "up_axis": kinematics.up_name(before),
         "up_axis_source": "found" if before.up is None else "given",
         "body_height": height,
         "effectors": effectors,
@@ -190,7 +194,7 @@ def contact_figures(
     runs = found.contact_runs(contacts)
     floor, soles = found.find_floor(positions, feet, up, height, dt)
     section: dict[str, Any] = {
-        "up_axis": kinematics.AXES[up],
+        "up_axis": kinematics.up_name(before),
         "ground": ground if grounded else None,
         "floor": None
         if floor is None

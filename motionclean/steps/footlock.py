@@ -33,11 +33,12 @@ def contact_params(params: dict) -> found.ContactParams:
 
 def find_contacts(motion: Motion, params: dict):
     """Feet, contacts ``(F, n_feet)``, world positions and rotations of joints and end
-    sites, up axis, body height and ground height of ``motion`` under the step's
-    parameters."""
-    up = None if params["up"] == "auto" else params["up"]
-    feet, up, height = found.skeleton_feet(motion, params["feet"], up)
+    sites (positions turned :func:`~motionclean.core.kinematics.upright`), up axis, body
+    height and ground height of ``motion`` under the step's parameters."""
+    given = None if params["up"] == "auto" else params["up"]
+    feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions, world = kinematics.forward(motion, end_sites=True)
+    positions = kinematics.upright(positions, *kinematics.up_direction(motion, given))
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
@@ -47,13 +48,17 @@ def find_contacts(motion: Motion, params: dict):
 def _leg_contacts(motion: Motion, params: dict):
     """:func:`find_contacts` with the world positions of the points the step reads alone:
     each foot's points and the joints from the root down to its knee. Returns the feet,
-    contacts, those positions ``(F, n, 3)``, the feet and the point -> column map
+    contacts, those positions ``(F, n, 3)`` (turned
+    :func:`~motionclean.core.kinematics.upright`), the feet and the point -> column map
     ``(P,)`` (-1: not kept) for them, up axis, body height and ground height."""
-    up = None if params["up"] == "auto" else params["up"]
-    feet, up, height = found.skeleton_feet(motion, params["feet"], up)
+    given = None if params["up"] == "auto" else params["up"]
+    feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
     used_points = np.array(used, dtype=np.intp)
-    positions = kinematics.world_positions(motion, end_sites=True, only=used_points)
+    positions = kinematics.upright(
+        kinematics.world_positions(motion, end_sites=True, only=used_points),
+        *kinematics.up_direction(motion, given),
+    )
     column = np.full(motion.n_joints + len(motion.end_sites), -1, dtype=np.intp)
     column[used_points] = np.arange(used_points.size)
     on_columns = [
@@ -70,6 +75,11 @@ def _leg_contacts(motion: Motion, params: dict):
         positions, on_columns, up, height, motion.frame_time, contact_params(params)
     )
     return feet, contacts, positions, on_columns, column, up, height, ground
+
+
+def _sign(motion: Motion, params: dict) -> float:
+    """+1.0, or -1.0 where the figure stands head down along its up axis."""
+    return kinematics.up_direction(motion, None if params["up"] == "auto" else params["up"])[1]
 
 
 def _chain(parents: np.ndarray, joint: int) -> list[int]:
@@ -206,6 +216,8 @@ def _run(data: StepData, params: dict) -> StepData:
     # it while it stands, none is lifted that stood below it as captured
     floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
     floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
+    # the floor as the clip's own coordinates have it (the positions were turned upright)
+    normal = kinematics.upright(floor.normal, up, _sign(motion, params))
     rotations, root_translation = plant(
         motion.rotations,
         kinematics.local_translations(motion),
@@ -215,7 +227,7 @@ def _run(data: StepData, params: dict) -> StepData:
         contacts[:, kept],
         prior,
         up,
-        (floor.normal, floor.offset),
+        (normal, floor.offset),
         params["tolerance"] * height,
         params["blend_seconds"] / motion.frame_time,
         hold_frames=params["hold_seconds"] / motion.frame_time,
@@ -278,7 +290,13 @@ STEP = StepSpec(
             "ankle joints to lock, fnmatch patterns (default: found from the skeleton's "
             "bones and the clip's poses: the leg chains above the lowest leaves)",
         ),
-        Param("up", "str", "auto", "up axis", choices=("auto", "x", "y", "z")),
+        Param(
+            "up",
+            "str",
+            "auto",
+            "up axis (-y: the figure stands head down along y)",
+            choices=("auto", "x", "y", "z", "-x", "-y", "-z"),
+        ),
         Param(
             "height",
             "float",

@@ -21,11 +21,14 @@ from .base import Param, StepData, StepSpec
 
 def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None, np.ndarray]:
     """The floor of ``motion`` (None without ground contacts) and the centroid ``(3,)`` of
-    the contacts' soles, with the contact thresholds of the report."""
+    the contacts' soles, with the contact thresholds of the report; both as the figure
+    turned :func:`~motionclean.core.kinematics.upright` has them."""
     feet, axis, height = found.skeleton_feet(motion, None, up)
     if not feet:
         return None, np.zeros(3)
-    positions = kinematics.world_positions(motion)
+    positions = kinematics.upright(
+        kinematics.world_positions(motion), *kinematics.up_direction(motion, up)
+    )
     floor, soles = found.find_floor(positions, feet, axis, height, motion.frame_time)
     return floor, soles.mean(axis=0) if soles.size else np.zeros(3)
 
@@ -46,7 +49,8 @@ def _leveller(floor: found.Floor, centre: np.ndarray) -> tuple[np.ndarray, np.nd
 def _run(data: StepData, params: dict) -> StepData:
     motion = data.motion
     assert motion is not None
-    floor, centre = floor_of(motion, None if params["up"] == "auto" else params["up"])
+    given = None if params["up"] == "auto" else params["up"]
+    floor, centre = floor_of(motion, given)
     if floor is None:
         return data
     note = {
@@ -58,6 +62,11 @@ def _run(data: StepData, params: dict) -> StepData:
     if not params["level"]:
         floor = found.Floor.level(floor.height_at(centre), floor.up)
     turn, shift = _leveller(floor, centre)
+    axis, sign = kinematics.up_direction(motion, given)
+    if sign < 0.0:  # found on the figure turned upright: the same move in its own frame
+        half = quat.from_axis_angle(np.eye(3)[(axis + 1) % 3], np.pi)
+        turn = quat.multiply(half, quat.multiply(turn, quat.conjugate(half)))
+        shift = kinematics.upright(shift, axis, sign)
     roots = np.flatnonzero(motion.parents < 0)
     rotated = {int(j): c for c, j in enumerate(data.rotation_joints)}
     moved = {int(j): c for c, j in enumerate(data.translation_joints)}
@@ -100,7 +109,13 @@ STEP = StepSpec(
     summary="put the floor the feet stand on at height 0 and level it, moving the root only",
     paper="the plane through the ground contacts' soles (least squares, slope prior)",
     params=(
-        Param("up", "str", "auto", "up axis", choices=("auto", "x", "y", "z")),
+        Param(
+            "up",
+            "str",
+            "auto",
+            "up axis (-y: the figure stands head down along y)",
+            choices=("auto", "x", "y", "z", "-x", "-y", "-z"),
+        ),
         Param(
             "level",
             "bool",

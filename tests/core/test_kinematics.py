@@ -165,7 +165,7 @@ def test_up_axis_and_body_height_follow_the_rest_pose():
         kinematics.forward(z_up)[0], quat.rotate(turn, kinematics.forward(motion)[0]), atol=1e-9
     )
     assert kinematics.up_axis(motion, "z") == 2
-    with pytest.raises(ValueError, match="x, y or z"):
+    with pytest.raises(ValueError, match="x, y, z, -x, -y or -z"):
         kinematics.up_axis(motion, "w")
 
 

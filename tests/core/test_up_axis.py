@@ -113,8 +113,14 @@ def test_a_declared_up_axis_wins_and_a_bad_one_is_refused():
     assert kinematics.up_axis(motion.replace(up="z"), "x") == 0
     with pytest.raises(InvalidMotion, match="up: expected one of x, y, z"):
         motion.replace(up="w")
-    with pytest.raises(ValueError, match="x, y or z"):
+    with pytest.raises(ValueError, match="x, y, z, -x, -y or -z"):
         kinematics.up_axis(motion, "w")
+    assert kinematics.up_direction(motion.replace(up="-y")) == (1, -1.0)
+    assert kinematics.up_direction(motion, "-Z") == (2, -1.0)
+    assert kinematics.up_direction(motion) == (1, 1.0)
+    for bad in ("--y", "-w", "y-"):
+        with pytest.raises(ValueError, match="x, y, z, -x, -y or -z"):
+            kinematics.up_axis(motion, bad)
 
 
 def test_up_on_the_commands_is_used_and_recorded(tmp_path, capsys):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import NOISY, SAMPLE, corpus_clip, plant, z_up_copy
+from helpers import NOISY, SAMPLE, corpus_clip, plant, turned_copy, z_up_copy
 
 import motionclean as mc
 from motionclean.core import contacts as found
@@ -165,3 +165,24 @@ def test_the_step_reads_the_positions_of_the_legs_alone_and_finds_the_same_conta
     assert [f.points for f in on_columns] == [
         tuple(point_column[list(f.points)].tolist()) for f in feet
     ]
+
+
+def test_the_same_motion_on_a_head_down_copy(planted):
+    """A camera's y-down coordinates (Azure Kinect, OpenCV-based estimators): the whole clip
+    turned half a turn about x stands head down along y. Its up is found as -y, its feet
+    and contacts are the same, and the default plants them as it does the clip upright."""
+    motion, (with_lock, _), _ = planted
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
+    head_down = turned_copy(motion, turn)
+    assert kinematics.up_name(head_down) == "-y"
+    feet, contacts, *_ = footlock.find_contacts(motion, PARAMS)
+    feet_down, contacts_down, *_ = footlock.find_contacts(head_down, PARAMS)
+    assert [f.name for f in feet_down] == [f.name for f in feet]
+    np.testing.assert_array_equal(contacts_down, contacts)
+    turned, _ = Pipeline.default().run(head_down)
+    expected = quat.rotate(turn, kinematics.forward(with_lock, end_sites=True)[0])
+    np.testing.assert_allclose(
+        kinematics.forward(turned, end_sites=True)[0],
+        expected,
+        atol=1e-6 * kinematics.body_height(motion),
+    )

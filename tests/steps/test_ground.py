@@ -76,6 +76,24 @@ def test_ground_commutes_with_a_turn_of_the_whole_clip(walk):
     np.testing.assert_allclose(pb[..., 2], pa[..., 1], atol=1e-6 * kinematics.body_height(walk))
 
 
+def test_ground_on_a_head_down_copy_is_the_same_move_turned(walk):
+    """A clip head down along y (a half turn about x, as y-down camera coordinates have it):
+    its floor is found through the same contacts, and ground levels it and puts it at y = 0
+    as it does the clip upright, turned the same way; the report's up axis says -y."""
+    half = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
+    tilted = _tilted(walk, 3.0)
+    a, _ = Pipeline.from_inline(["ground"]).run(tilted)
+    b, _ = Pipeline.from_inline(["ground"]).run(turned_copy(tilted, half))
+    pa = kinematics.forward(a, end_sites=True)[0]
+    pb = kinematics.forward(b, end_sites=True)[0]
+    np.testing.assert_allclose(pb, quat.rotate(half, pa), atol=1e-6 * kinematics.body_height(walk))
+    up, down = contact_figures(tilted)[0], contact_figures(turned_copy(tilted, half))[0]
+    assert (up["up_axis"], down["up_axis"]) == ("y", "-y")
+    assert down["feet"].keys() == up["feet"].keys()
+    for name, foot in up["feet"].items():
+        assert down["feet"][name]["contacts"] == foot["contacts"]
+
+
 def test_ground_without_contacts_or_without_level_moves_only_up_and_down(walk):
     height = kinematics.body_height(walk)
     translations = walk.translations.copy()
