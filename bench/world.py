@@ -51,31 +51,42 @@ def turned(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
 
 
 def up_axes() -> None:
-    """The up axis on every real clip and its copies turned to each other axis."""
-    print("| clip | up | before: the rest pose's tallest axis, turned to x, y, z | now |")
+    """The up direction on every real clip and its copies turned to each other axis, head
+    up and head down (a half turn more about the next axis, as y-down camera coordinates
+    have it)."""
+    print(
+        "| clip | up | before: the rest pose's tallest axis, turned to x, y, z "
+        "| now: x, y, z, -x, -y, -z |"
+    )
     print("| --- | --- | --- | --- |")
     right = old_right = total = 0
     for path in [*corpus_clips(), *sorted(EXPORTERS.glob("*.bvh"))]:
         motion = mc.load(path)
         up = UP.get(path.name, 1)
         found, old = [], []
-        for target in range(3):
-            if target == up:
-                clip = motion
-            else:
-                axis = np.cross(np.eye(3)[up], np.eye(3)[target])
-                clip = turned(motion, quat.from_axis_angle(axis, np.pi / 2))
-            found.append(kinematics.up_axis(clip))
-            old.append(int(np.argmax(np.ptp(kinematics.rest_positions(clip), axis=0))))
-            right += found[-1] == target
-            old_right += old[-1] == target
-            total += 1
+        for sign in (1.0, -1.0):
+            for target in range(3):
+                if target == up:
+                    clip = motion
+                else:
+                    axis = np.cross(np.eye(3)[up], np.eye(3)[target])
+                    clip = turned(motion, quat.from_axis_angle(axis, np.pi / 2))
+                if sign < 0.0:
+                    clip = turned(clip, quat.from_axis_angle(np.eye(3)[(target + 1) % 3], np.pi))
+                found.append(kinematics.up_name(clip))
+                right += found[-1] == ("-" if sign < 0.0 else "") + kinematics.AXES[target]
+                total += 1
+                if sign > 0.0:
+                    old.append(int(np.argmax(np.ptp(kinematics.rest_positions(clip), axis=0))))
+                    old_right += old[-1] == target
         axes = kinematics.AXES
         print(
-            f"| {path.name} | {axes[up]} | {', '.join(axes[a] for a in old)} "
-            f"| {', '.join(axes[a] for a in found)} |"
+            f"| {path.name} | {axes[up]} | {', '.join(axes[a] for a in old)} | {', '.join(found)} |"
         )
-    print(f"\nright: {right} of {total} (the rest pose's tallest axis: {old_right} of {total})\n")
+    print(
+        f"\nright: {right} of {total} directions (the rest pose's tallest axis, head up "
+        f"alone: {old_right} of {total // 2})\n"
+    )
 
 
 def main() -> None:
