@@ -90,7 +90,9 @@ def find_feet(
     the rest pose). Without ``patterns``, a foot is the chain above a leaf near the lowest
     point: walking up from the leaf, the ankle is the first point hanging from a long bone
     (the shin) whose parent hangs from one too (the thigh: a long toe end site is not a
-    shin), the knee its parent and the hip the knee's parent. Whatever the joint names, and
+    shin), or that point's parent where its two bones are longer and it is as low (a long
+    foot bone and the shin are not the shin and the thigh), the knee its parent and the
+    hip the knee's parent. Whatever the joint names, and
     none on a skeleton with no legs. ``patterns`` (fnmatch on joint names, e.g.
     ``["*Foot"]``) name the ankles instead.
     """
@@ -112,10 +114,20 @@ def find_feet(
         low = elevation < FOOT_ZONE * height
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
+
+        def two_long(j: int) -> bool:  # hangs from two long bones (shin and thigh)
+            return bool(long_bone[j] and parents[j] >= 0 and long_bone[parents[j]])
+
         for leaf in leaves:
-            j = leaf  # up to the first point hanging from two long bones (shin, thigh)
-            while j >= 0 and not (long_bone[j] and parents[j] >= 0 and long_bone[parents[j]]):
+            j = leaf  # up to the first point hanging from two long bones ...
+            while j >= 0 and not two_long(j):
                 j = parents[j]
+            # ... or its parent, where that one's two are longer (a long foot bone and the
+            # shin above it are not the shin and the thigh)
+            if j >= 0 and two_long(parents[j]) and low[parents[j]]:  # (an ankle is low)
+                knee = parents[j]
+                if bone[knee] + bone[parents[knee]] > bone[j] + bone[knee]:
+                    j = knee
             if j >= 0 and j < n_joints and j not in ankles:
                 ankles.append(j)
     feet = []

@@ -231,3 +231,19 @@ def test_long_toe_end_sites_are_not_taken_for_shins():
     assert kinematics.body_height(stretched) == height  # (the toes lie along the floor)
     again, _, _ = found.skeleton_feet(stretched)
     assert [f.name for f in again] == [f.name for f in feet] == ["LeftAnkle", "RightAnkle"]
+
+
+def test_a_long_foot_bone_is_not_taken_for_a_shin():
+    """Azure Kinect's skeleton ends each leg at a FOOT joint an eighth of the body ahead of
+    the ankle, with no end site: the foot bone is long, and so is the shin above it, but
+    the shin and the thigh above the ankle are longer: the ankle is the ankle."""
+    clip = mc.load(NOISY)
+    feet, _, height = found.skeleton_feet(clip)
+    toes = [clip.names.index("LeftToe"), clip.names.index("RightToe")]
+    offsets = clip.offsets.copy()
+    for j in toes:
+        offsets[j] *= 0.13 * height / np.linalg.norm(offsets[j])
+    sites = {j: v for j, v in clip.end_sites.items() if j not in toes}
+    long_feet = clip.replace(offsets=offsets, end_sites=sites)
+    again, _, _ = found.skeleton_feet(long_feet)
+    assert [f.name for f in again] == [f.name for f in feet] == ["LeftAnkle", "RightAnkle"]
