@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import UsageError
-from ..core.motion import Motion
+from ..core.motion import UP_AXES, Motion
 
 
 @dataclass(frozen=True)
@@ -107,6 +107,21 @@ def _as_float(value: int | float) -> float:
 
 def is_number(value: Any) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+#: The ``up`` parameter of the steps that work in world space.
+UP_PARAM = Param(
+    "up",
+    "str",
+    "auto",
+    "up axis (-y: the figure stands head down along y; auto: found from the motion)",
+    choices=("auto", *UP_AXES),
+)
+
+
+def given_up(params: dict) -> str | None:
+    """The up axis a step's :data:`UP_PARAM` gives, None for ``auto``."""
+    return None if params["up"] == "auto" else params["up"]
 
 
 @dataclass

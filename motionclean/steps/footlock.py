@@ -23,7 +23,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..filters.auto import estimate_noise, estimate_position_noise
 from ..filters.footlock import Leg, Prior, hinge_axis, plant
-from .base import Param, StepData, StepSpec, crop_runs, plural, shift_runs
+from .base import UP_PARAM, Param, StepData, StepSpec, crop_runs, given_up, plural, shift_runs
 
 
 def contact_params(params: dict) -> found.ContactParams:
@@ -35,7 +35,7 @@ def find_contacts(motion: Motion, params: dict):
     """Feet, contacts ``(F, n_feet)``, world positions and rotations of joints and end
     sites (positions turned :func:`~motionclean.core.kinematics.upright`), up axis, body
     height and ground height of ``motion`` under the step's parameters."""
-    given = None if params["up"] == "auto" else params["up"]
+    given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions, world = kinematics.forward(motion, end_sites=True)
     positions = kinematics.upright(positions, *kinematics.up_direction(motion, given))
@@ -51,7 +51,7 @@ def _leg_contacts(motion: Motion, params: dict):
     contacts, those positions ``(F, n, 3)`` (turned
     :func:`~motionclean.core.kinematics.upright`), the feet and the point -> column map
     ``(P,)`` (-1: not kept) for them, up axis, body height and ground height."""
-    given = None if params["up"] == "auto" else params["up"]
+    given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
     used_points = np.array(used, dtype=np.intp)
@@ -79,7 +79,7 @@ def _leg_contacts(motion: Motion, params: dict):
 
 def _sign(motion: Motion, params: dict) -> float:
     """+1.0, or -1.0 where the figure stands head down along its up axis."""
-    return kinematics.up_direction(motion, None if params["up"] == "auto" else params["up"])[1]
+    return kinematics.up_direction(motion, given_up(params))[1]
 
 
 def _chain(parents: np.ndarray, joint: int) -> list[int]:
@@ -290,13 +290,7 @@ STEP = StepSpec(
             "ankle joints to lock, fnmatch patterns (default: found from the skeleton's "
             "bones and the clip's poses: the leg chains above the lowest leaves)",
         ),
-        Param(
-            "up",
-            "str",
-            "auto",
-            "up axis (-y: the figure stands head down along y)",
-            choices=("auto", "x", "y", "z", "-x", "-y", "-z"),
-        ),
+        UP_PARAM,
         Param(
             "height",
             "float",

@@ -16,7 +16,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics, quat
 from ..core.motion import Motion
-from .base import Param, StepData, StepSpec
+from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
 
 def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None, np.ndarray]:
@@ -49,7 +49,7 @@ def _leveller(floor: found.Floor, centre: np.ndarray) -> tuple[np.ndarray, np.nd
 def _run(data: StepData, params: dict) -> StepData:
     motion = data.motion
     assert motion is not None
-    given = None if params["up"] == "auto" else params["up"]
+    given = given_up(params)
     floor, centre = floor_of(motion, given)
     if floor is None:
         return data
@@ -109,13 +109,7 @@ STEP = StepSpec(
     summary="put the floor the feet stand on at height 0 and level it, moving the root only",
     paper="the plane through the ground contacts' soles (least squares, slope prior)",
     params=(
-        Param(
-            "up",
-            "str",
-            "auto",
-            "up axis (-y: the figure stands head down along y)",
-            choices=("auto", "x", "y", "z", "-x", "-y", "-z"),
-        ),
+        UP_PARAM,
         Param(
             "level",
             "bool",
