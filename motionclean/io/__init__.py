@@ -1,7 +1,8 @@
 """File formats: load and save a :class:`~motionclean.core.motion.Motion` by file extension.
 
 ``.bvh``, ``.csv`` (channel, rigid-body or OptiTrack Motive), ``.npz`` and ``.pkl`` (SMPL
-parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf`` and ``.glb``, and
+parameters), ``.mot`` and ``.sto`` (OpenSim coordinates), ``.gltf``, ``.glb`` (and ``.vrma``,
+VRM animations, which are GLB files), and
 ``.fbx`` through Blender's ``bpy`` module (the ``[blender]`` extra, :mod:`.fbx`).
 """
 
@@ -47,6 +48,7 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".sto": opensim.opensim_pieces,
     ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
     ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
+    ".vrma": lambda motion: gltf.gltf_pieces(motion, glb=True),  # a VRM animation: a GLB
     ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.
@@ -95,7 +97,7 @@ def load(
             motion = parse(data, path, skeleton=skeleton, body_model=model)
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
-        elif suffix in (".gltf", ".glb"):
+        elif suffix in (".gltf", ".glb", ".vrma"):
             motion = gltf.parse_gltf(data, path)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)

@@ -213,6 +213,13 @@ def _classify(fields: list[str], path, line: int):
     special = {"frame": -1, "time": -1}
     entries: list[tuple[str, str, int]] = []
     kinds = set()
+    if len(fields) == 1 and ("\t" in fields[0] or ";" in fields[0]):
+        separator = "tab" if "\t" in fields[0] else "semicolon"
+        _fail(
+            f"bad header: the columns are {separator}-separated; CSV is read comma-separated",
+            path,
+            line,
+        )
     for k, field in enumerate(fields):
         if not field:
             _fail(f"bad header: column {k + 1} has no name", path, line)
@@ -337,8 +344,11 @@ def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: flo
     back = np.flatnonzero(~(steps > 0))
     if back.size:
         i = back[0] + 1
+        again = (
+            " (the same time twice: delete the repeated row)" if times[i] == times[i - 1] else ""
+        )
         _fail(
-            f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s)",
+            f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s){again}",
             path,
             int(lines[i]),
         )

@@ -194,6 +194,12 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``""``), each as
     ``(line, fields)`` padded to the axis row's width, and the labels in file order."""
     axis_line, axis = lines[-1]
+    if len(axis) == 2 and axis[1].startswith("Time"):
+        _fail(
+            "no rigid body or marker columns: the export holds frames and times only",
+            path,
+            axis_line,
+        )
     if len(axis) < 3 or not axis[1].startswith("Time"):
         _fail("the axis row must start with 'Frame,Time (Seconds),'", path, axis_line)
     rows: dict[str, tuple[int, list[str]]] = {}

@@ -139,9 +139,36 @@ def is_translational(label: str) -> int:
     return "xyz".index(tail[1]) if sep and head and tail.lower() in TRANSLATIONAL else -1
 
 
+#: Column names of external loads (ground reaction forces, their points of application
+#: and torques, as OpenSim names them): not coordinates, carried as text.
+LOADS = ("*force*", "*torque*", "*moment*", "*_p[xyz]")
+#: Rotational coordinates of a file that says radians hold degrees (OpenSim's CMC writes
+#: its ``*_q.sto`` with ``inDegrees=no``) where the median column reaches beyond this many
+#: radians (half a turn: no joint angle does, most stay within a quarter) ...
+DEGREES_IN_RADIANS = math.pi
+#: ... or moves faster than this (radians per second, the 99th percentile of its steps:
+#: a kick's knee reaches about 30).
+DEGREES_IN_RADIANS_PER_S = 60.0
+
+
+def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
+    """OpenSim 4 tables of vectors or rotations (``DataType=Vec3``, ``Quaternion``, ...)
+    hold no coordinates."""
+    kind, line = pairs.get("datatype", ("double", 0))
+    if kind.lower() not in ("double", "float"):
+        _fail(
+            f"DataType={kind[:20]}: a table of {kind[:20]} values per column (markers, "
+            "forces or IMU orientations), not coordinates; only motions of coordinates "
+            "(.mot, states .sto) are read",
+            path,
+            line,
+        )
+
+
 def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module)."""
     body, header_lines, pairs, eol = _header(data, path)
+    _refuse_data_type(pairs, path)
     in_degrees, note = _in_degrees(pairs, path)
     buf = np.frombuffer(data, dtype=np.uint8)
     newlines = line_ends(buf, body)
@@ -189,6 +216,22 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
     if not kept:
         _fail("no coordinate columns (all excluded)", path, number_of(label_line))
+    loads = [c for c in kept if any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)]
+    kept = [c for c in kept if c not in loads]
+    notes = [] if note is None else [note]
+    if loads and not kept:
+        _fail(
+            "no coordinate columns: forces, torques and points of application (an external "
+            "loads file) are no motion to clean",
+            path,
+            number_of(label_line),
+        )
+    if loads:
+        shown = ", ".join(labels[c] for c in loads[:3]) + (" ..." if len(loads) > 3 else "")
+        notes.append(
+            f"{len(loads)} columns of forces, torques or points of application carried as "
+            f"they are ({shown})"
+        )
     parsed = np.array([0, *kept], dtype=np.intp)
     nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])
     if nan[:, 0].any():
@@ -216,6 +259,13 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     missing = np.isnan(coords)
     names = [labels[c] for c in kept]
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)
+    if not in_degrees and _holds_degrees(coords[:, axes < 0], frame_time):
+        in_degrees = True
+        notes.append(
+            "angles read as degrees: the header says radians (inDegrees=no), but most "
+            "rotational coordinates reach beyond half a turn or move faster than 60 rad/s "
+            "read so (OpenSim's CMC writes its *_q.sto that way)"
+        )
     text = OpenSimText(
         data,
         int(line_start[label_line]),
@@ -228,9 +278,25 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         np.array(kept, dtype=np.intp),
         axes,
         eol,
-        (note,) if note else (),
+        tuple(notes),
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
+
+
+def _holds_degrees(angles: np.ndarray, frame_time: float) -> bool:
+    """Whether rotational coordinates ``(F, C)`` said to be radians hold degrees: the median
+    column's largest magnitude beyond :data:`DEGREES_IN_RADIANS`, or its fast steps beyond
+    :data:`DEGREES_IN_RADIANS_PER_S`."""
+    known = ~np.isnan(angles)
+    seen = known.all(axis=0)  # (columns with dropouts left out)
+    if not seen.any() or angles.shape[0] < 2:
+        return False
+    columns = angles[:, seen]
+    largest = np.abs(columns).max(axis=0)
+    speed = np.percentile(np.abs(np.diff(columns, axis=0)), 99, axis=0) / frame_time
+    return bool(
+        np.median(largest) > DEGREES_IN_RADIANS or np.median(speed) > DEGREES_IN_RADIANS_PER_S
+    )
 
 
 def _nan_cells(buf: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:

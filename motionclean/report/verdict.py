@@ -232,7 +232,9 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         lead = "not smoothed"
     elif clean:
         parts = done + grounded
-        parts.append("otherwise left as it was" if parts else "left as it was")
+        # (below CLEAN_CHANGE_DEG RMS, its largest change may still be a few tenths)
+        left = "left as it was" if change < CLEAN_CHANGE_DEG else "left nearly as it was"
+        parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
     else:
         parts = [removed] + done + grounded

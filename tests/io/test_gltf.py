@@ -66,6 +66,19 @@ def test_untouched_file_is_written_byte_for_byte(tmp_path, path):
     assert (tmp_path / path.name).read_bytes() == path.read_bytes()
 
 
+def test_a_vrm_animation_is_read_and_written_as_the_glb_it_is(tmp_path, capsys):
+    """A ``.vrma`` (VRM animation) is a GLB: the same clip as under ``.glb``, an untouched
+    one written back byte for byte, a cleaned one a GLB again."""
+    vrma = tmp_path / "dance.vrma"
+    vrma.write_bytes(BLENDER_GLB.read_bytes())
+    clip, glb = mc.load(vrma), mc.load(BLENDER_GLB)
+    assert clip.names == glb.names and np.array_equal(clip.rotations, glb.rotations)
+    mc.save(clip, tmp_path / "same.vrma")
+    assert (tmp_path / "same.vrma").read_bytes() == BLENDER_GLB.read_bytes()
+    code, _, _ = run_cli(capsys, "clean", vrma, "-o", tmp_path / "clean.vrma", "-q")
+    assert code == 0 and (tmp_path / "clean.vrma").read_bytes()[:4] == b"glTF"
+
+
 def test_cleaning_the_glb_equals_cleaning_the_bvh(bvh_96, tmp_path, capsys):
     code, _, err = run_cli(capsys, "clean", BLENDER_GLB, "-o", tmp_path / "c.glb", "-q")
     assert code == 0, err

@@ -82,17 +82,58 @@ def test_a_changed_coordinate_keeps_header_other_columns_and_its_branch(tmp_path
         assert float(new[1]) == pytest.approx(value, abs=1e-9)
 
 
+def _in_radians(text: str) -> str:
+    """``text`` (the IK fixture) with its rotational columns in radians, inDegrees=no."""
+    head, _, body = text.partition("endheader\n")
+    labels, *rows = body.splitlines()
+    out = []
+    for row in rows:
+        cells = row.split("\t")
+        for k in (1, 4):  # pelvis_rotation, knee_angle_r
+            cells[k] = f"{math.radians(float(cells[k])):16.8f}"
+        out.append("\t".join(cells))
+    return (
+        head.replace("inDegrees=yes", "inDegrees=no")
+        + "endheader\n"
+        + labels
+        + "\n"
+        + ("\n".join(out) + "\n")
+    )
+
+
 def test_radians_and_a_missing_inDegrees_line(tmp_path):
-    radians = IK.replace("inDegrees=yes", "inDegrees=no")
+    radians = _in_radians(IK)
     motion = mc.load(write(tmp_path, radians, "r.mot"), exclude=["*_force"])
-    angle = np.array([-5.0, -6.5, -8.0, -9.5, -11.0, -12.5])  # the knee, now in radians
+    assert not kinematics.source_notes(motion)
+    angle = np.array([float(r.split("\t")[4]) for r in radians.splitlines()[11:]])
     z = 2 * np.arctan2(motion.rotations[:, 3, 3], motion.rotations[:, 3, 0])
     assert np.abs(np.angle(np.exp(1j * (z - angle)))).max() < 1e-12
     mc.save(motion, tmp_path / "same.mot")
     assert (tmp_path / "same.mot").read_text() == radians
-    bare = mc.load(write(tmp_path, IK.replace("inDegrees=yes\n", ""), "b.sto"), exclude=["*_force"])
+    bare_text = radians.replace("inDegrees=no\n", "")
+    bare = mc.load(write(tmp_path, bare_text, "b.sto"), exclude=["*_force"])
     assert any("read as radians" in note for note in kinematics.source_notes(bare))
     assert np.array_equal(bare.rotations, motion.rotations)
+
+
+def test_degrees_under_a_radians_header_are_read_as_degrees_and_said(tmp_path):
+    """OpenSim's CMC writes its *_q.sto with inDegrees=no over values in degrees (a knee at
+    -69, hips at 20): read as radians they turn whole turns between frames and every
+    smooth curve looks like spikes. Most coordinates past half a turn, or faster than 60
+    rad/s: read as degrees, a note says why, and the file is written back as it was (its
+    header too), a changed value in degrees."""
+    text = IK.replace("inDegrees=yes", "inDegrees=no")
+    motion = mc.load(write(tmp_path, text, "q.sto"), exclude=["*_force"])
+    assert any("read as degrees" in note for note in kinematics.source_notes(motion))
+    same = mc.load(write(tmp_path, IK, "d.mot"), exclude=["*_force"])
+    assert np.array_equal(motion.rotations, same.rotations)
+    mc.save(motion, tmp_path / "back.sto")
+    assert (tmp_path / "back.sto").read_text() == text
+    q = motion.rotations.copy()
+    q[2, 3] = quat.multiply(q[2, 3], quat.exp(np.array([0.0, 0.0, np.deg2rad(1.0) / 2])))
+    mc.save(motion.replace(rotations=q), tmp_path / "moved.sto")
+    row = (tmp_path / "moved.sto").read_text().splitlines()[13].split("\t")
+    assert float(row[4]) == pytest.approx(-7.0, abs=1e-9)  # -8 degrees turned by 1
 
 
 def test_nan_cells_are_missing_samples_and_stay_so(tmp_path):
@@ -150,8 +191,33 @@ def test_bad_files_are_one_line(tmp_path, capsys, text, message, line):
 
 
 def test_an_unparsed_column_is_an_error_unless_excluded(tmp_path, capsys):
-    code, _, err = run_cli(capsys, "info", write(tmp_path, IK))
-    assert code == 1 and "knee_angle_r_force': not a finite number: 'n/a'" in err
+    other = IK.replace("knee_angle_r_force", "knee_angle_r_state")
+    code, _, err = run_cli(capsys, "info", write(tmp_path, other))
+    assert code == 1 and "knee_angle_r_state': not a finite number: 'n/a'" in err
+
+
+def test_force_torque_and_point_columns_are_carried_and_a_loads_file_refused(tmp_path, capsys):
+    """A motion's force column (and ground reaction forces, torques, centres of pressure:
+    OpenSim's names) is no coordinate: carried as text with a note, without --exclude. A
+    file of nothing else (an external loads .mot) is refused in one line."""
+    motion = mc.load(write(tmp_path, IK))
+    assert motion.names == ["pelvis_rotation", "pelvis_tx", "pelvis_ty", "knee_angle_r"]
+    assert any("forces, torques or points" in n for n in kinematics.source_notes(motion))
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_text() == IK
+    loads = "\n".join(
+        ["version=1", "nRows=3", "nColumns=4", "endheader",
+         "time\tground_force_vx\tground_force_px\tground_torque_y",
+         "0.0\t1.0\t0.1\t2.0", "0.01\t171.1\t0.2\t3.0", "0.02\t525.0\t0.3\t4.0", ""]
+    )  # fmt: skip
+    code, _, err = run_cli(capsys, "info", write(tmp_path, loads, "grf.mot"))
+    assert code == 1 and "external loads file" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_quaternion_table_is_refused_in_one_line(tmp_path, capsys):
+    text = "DataType=Quaternion\nversion=3\nendheader\ntime\ttorso_imu\n0\t1,0,0,0\n0.01\t1,0,0,0\n"
+    code, _, err = run_cli(capsys, "info", write(tmp_path, text, "imu.sto"))
+    assert code == 1 and "DataType=Quaternion" in err and "not coordinates" in err
 
 
 @pytest.fixture(scope="module")
