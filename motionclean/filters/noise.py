@@ -563,6 +563,11 @@ class MotionSlope(NamedTuple):
     columns: int
 
 
+#: Mean periodogram power (squared radians of displacement per frame) below which a column
+#: does not move: a rotation held still varies by its float64 rounding alone (1e-15 rad).
+STILL_POWER = 1e-20
+
+
 def motion_slope(
     model: NoiseModel, frame_time: float, band_limited: BandLimited | None = None
 ) -> MotionSlope:
@@ -573,7 +578,9 @@ def motion_slope(
     logs over the bins of ``SLOPE_BAND_HZ`` where ``P > SLOPE_OVER N``; a column has a slope
     when at least ``SLOPE_MIN_BINS`` such bins reach up to ``SLOPE_REACH_HZ`` (else the
     noise hides its motion there). The clip's slope is the median over the columns that
-    move (any power in the band), those without a slope counted as steep: flatter than a
+    move (power in the band above :data:`STILL_POWER`: a joint held still, as an AMASS
+    clip's SMPL-H fingers, has only rounding there, as flat as noise), those without a
+    slope counted as steep: flatter than a
     value only when more than half of them are. With fewer than ``SLOPE_MIN_COLUMNS``
     slopes it is nan (the clip cannot tell).
 
@@ -611,10 +618,10 @@ def motion_slope(
     sxx = np.sum(seen * (x - x_mean) ** 2, axis=0)
     sxy = np.sum(seen * (x - x_mean) * (y - y_mean), axis=0)
     reach = np.max(np.where(seen, hz[band][:, None], 0.0), axis=0)
-    has = (count >= SLOPE_MIN_BINS) & (sxx > 0) & (reach >= SLOPE_REACH_HZ)
+    moving = np.any(mean > STILL_POWER, axis=0)
+    has = moving & (count >= SLOPE_MIN_BINS) & (sxx > 0) & (reach >= SLOPE_REACH_HZ)
     slopes = np.where(has, sxy / np.where(has, sxx, 1.0), np.nan)
     columns = int(has.sum())
-    moving = np.any(mean > 0.0, axis=0)
     if columns < SLOPE_MIN_COLUMNS:
         return MotionSlope(math.nan, slopes, columns)
     votes = np.where(has, slopes, -np.inf)[moving]

@@ -221,6 +221,22 @@ def test_clean_motion_falls_across_the_band_at_any_frame_rate(step):
         assert -2.5 < found.slope < -1.4
 
 
+@needs_corpus
+def test_joints_held_still_have_no_say_in_the_slope():
+    """An AMASS clip's SMPL-H fingers hold one pose to the last bit but for float64
+    rounding: 40 such joints beside a capture's 31 leave its slope as it was (their
+    rounding alone read flat and outvoted the moving joints: a still-standing optical
+    take was taken for markerless)."""
+    motion = mc.load(corpus_clip("131_02.bvh"))
+    alone = slope_of(motion.rotations, motion.frame_time)
+    rng = np.random.default_rng(5)
+    still = quat.exp(np.full((motion.n_frames, 40, 3), 0.3) + rng.normal(0, 1e-15, (1, 40, 3)))
+    still = quat.multiply(still, quat.exp(rng.normal(0.0, 1e-16, (motion.n_frames, 40, 3))))
+    both = slope_of(np.concatenate([motion.rotations, still], axis=1), motion.frame_time)
+    assert both.slope == pytest.approx(alone.slope, abs=1e-9)
+    assert both.columns == alone.columns
+
+
 def test_a_wander_over_the_band_reads_flat_and_planted_white_noise_never_does():
     truth = smooth_synthetic(frames=1200, joints=8, seed=21)
     wander = wander_noise(1200, 8, 10.0, 2.0, seed=21, rho=0.5)  # flat up to a 10 Hz cliff
