@@ -184,10 +184,8 @@ def info(
     if skipped is not None:
         click.echo(f"  world: skipped ({skipped})")
     else:
-        axis, sign = kinematics.up_direction(motion)
-        source = "given" if up else "found from the motion"
-        if sign < 0.0:
-            source += ": the figure stands head down along it"
+        axis = kinematics.up_axis(motion)
+        source = "given" if up else "given by the file" if motion.up else "found from the motion"
         click.echo(
             f"  up axis: {kinematics.up_name(motion)} ({source})"
             f"   body height: {kinematics.body_height(motion, axis):.4g} units"

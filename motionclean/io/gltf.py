@@ -533,6 +533,8 @@ def parse_gltf(data: bytes, path) -> Motion:
     if not joints:
         _fail("no skin and no animated node: no skeleton to read", path)
     order, parents = _order(joints, nodes, parent)
+    up, note = _scene_up(order[0], nodes, parent, path)
+    notes.extend([note] if note else [])
     rest = [_rest(nodes[n], n, path) for n in order]
     keys: dict[tuple[int, str], _Keys] = {}
     for (n, kind), c in targets.items():
@@ -610,6 +612,44 @@ def parse_gltf(data: bytes, path) -> Motion:
         source=source,
         path=None if path is None else str(path),
         end_sites=_end_sites(order, nodes, joints, path),
+        up=up,
+    )
+
+
+def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | None, str | None]:
+    """The up axis of the skeleton's own coordinates, from the nodes above its first root
+    joint (the scene's up is +Y in glTF, 3.4): ``"y"`` where they do not turn it, the axis
+    they turn +Y onto (``"z"``, ``"-y"`` ...), None where that is no axis; and a note where
+    they turn or scale the skeleton (as an exporter's armature node does: FBX2glTF's
+    scale 100 and quarter turn), whose transform positions and heights leave out."""
+    turn = np.array([1.0, 0.0, 0.0, 0.0])
+    scale = 1.0
+    names = []
+    n = int(parent[root])
+    while n >= 0:
+        node = nodes[n]
+        _, rotation = _rest(node, n, path)
+        turn = quat.multiply(rotation, turn)
+        if "matrix" in node:
+            m = np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
+            factors = np.linalg.norm(m[:3, :3], axis=0)
+        else:
+            factors = np.asarray(node.get("scale", [1.0, 1.0, 1.0]), dtype=np.float64)
+        scale *= float(np.prod(np.abs(factors))) ** (1.0 / 3.0) if factors.size == 3 else 1.0
+        if not (np.allclose(rotation, [1.0, 0.0, 0.0, 0.0]) and np.allclose(factors, 1.0)):
+            names.append(_name(node, n))  # (one that turns or scales)
+        n = int(parent[n])
+    local_up = quat.rotate(quat.conjugate(turn), np.array([0.0, 1.0, 0.0]))
+    axis = int(np.argmax(np.abs(local_up)))
+    up = None
+    if abs(local_up[axis]) >= 0.9:
+        up = ("-" if local_up[axis] < 0.0 else "") + "xyz"[axis]
+    if not names or (up == "y" and math.isclose(scale, 1.0, rel_tol=1e-6)):
+        return up, None
+    return up, (
+        f"the skeleton hangs under node {names[0][:40]!r} (scale {scale:.4g}, its up the "
+        f"skeleton's {up or 'no axis'}): positions and heights are in the skeleton's own "
+        "units and axes"
     )
 
 

@@ -66,6 +66,33 @@ def test_untouched_file_is_written_byte_for_byte(tmp_path, path):
     assert (tmp_path / path.name).read_bytes() == path.read_bytes()
 
 
+def test_an_armature_node_s_turn_gives_the_up_axis_and_its_scale_a_note(tmp_path):
+    """glTF's scene is +Y up (3.4): the up of the skeleton's own coordinates is what the
+    nodes above it turn +Y onto. Blender's export has none turning it: up y. Under an
+    armature turned a quarter turn about x and scaled by 100 (as FBX2glTF writes), the
+    skeleton's up is -z, said with a note, and the clip reads the same otherwise."""
+    import json
+    import shutil
+
+    plain = mc.load(BLENDER_GLTF)
+    assert plain.up == "y" and not kinematics.source_notes(plain)
+    document = json.loads(BLENDER_GLTF.read_text())
+    top = document["scenes"][0]["nodes"][0]
+    half = np.sqrt(0.5)
+    document["nodes"].append(
+        {"name": "Armature", "rotation": [half, 0.0, 0.0, half], "scale": [100.0] * 3,
+         "children": [top]}
+    )  # fmt: skip
+    document["scenes"][0]["nodes"] = [len(document["nodes"]) - 1]
+    shutil.copy(BLENDER_GLTF.with_suffix(".bin"), tmp_path / BLENDER_GLTF.with_suffix(".bin").name)
+    turned = tmp_path / "turned.gltf"
+    turned.write_text(json.dumps(document))
+    clip = mc.load(turned)
+    assert clip.up == "-z" and kinematics.up_name(clip) == "-z"
+    assert any("hangs under node 'Armature' (scale 100" in n for n in kinematics.source_notes(clip))
+    assert np.array_equal(clip.rotations, plain.rotations)
+
+
 def test_a_vrm_animation_is_read_and_written_as_the_glb_it_is(tmp_path, capsys):
     """A ``.vrma`` (VRM animation) is a GLB: the same clip as under ``.glb``, an untouched
     one written back byte for byte, a cleaned one a GLB again."""
