@@ -233,7 +233,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     elif clean:
         parts = done + grounded
         # (below CLEAN_CHANGE_DEG RMS, its largest change may still be a few tenths)
-        left = "left as it was" if change < CLEAN_CHANGE_DEG else "left nearly as it was"
+        left = "left as it was" if change < CLEAN_CHANGE_DEG else "barely moved"
         parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
     else:

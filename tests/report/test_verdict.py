@@ -106,14 +106,14 @@ def test_terminal_prints_the_same_verdict(tmp_path, capsys):
 
 
 def test_a_clean_capture_is_called_clean(tmp_path):
-    """The sample as captured: clean, and 'left nearly as it was' where its largest change
-    is a few tenths of a degree ('left as it was' only where nothing moved that much)."""
+    """The sample as captured: clean, and 'barely moved' where its largest change is a few
+    tenths of a degree ('left as it was' only where nothing moved that much)."""
     result = clean_clip(SAMPLE, None, Pipeline.default())
     verdict = result.report["verdict"]
     assert verdict["change_deg_rms"] < CLEAN_CHANGE_DEG
     assert verdict["status"] in ("clean", "repaired")
     assert verdict["text"].startswith("clean capture")
-    left = "left as it was" if verdict["change_deg_max"] < CLEAN_CHANGE_DEG else "nearly as"
+    left = "left as it was" if verdict["change_deg_max"] < CLEAN_CHANGE_DEG else "barely moved"
     assert left in verdict["text"], verdict["text"]
 
 
