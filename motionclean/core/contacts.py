@@ -93,8 +93,10 @@ def find_feet(
     shin), or that point's parent where its two bones are longer and it is as low (a long
     foot bone and the shin are not the shin and the thigh), the knee its parent and the
     hip the knee's parent. Whatever the joint names, and
-    none on a skeleton with no legs. ``patterns`` (fnmatch on joint names, e.g.
-    ``["*Foot"]``) name the ankles instead.
+    none on a skeleton with no legs; on a body (a trunk above legs,
+    :func:`~motionclean.core.kinematics.trunk_split`) never in its upper body, whose hands
+    may hang lowest. ``patterns`` (fnmatch on joint names, e.g. ``["*Foot"]``) name the
+    ankles instead.
     """
     parents = np.asarray(parents)
     n_joints = len(names)
@@ -112,6 +114,9 @@ def find_feet(
         if elevation is None:
             elevation = rest[:, up] - rest[:, up].min()
         low = elevation < FOOT_ZONE * height
+        split = kinematics.trunk_split(parents)
+        if split is not None:  # a body: feet hang from the legs, never from the upper body
+            low[split[0]] = False
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
 

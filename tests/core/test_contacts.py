@@ -247,3 +247,30 @@ def test_a_long_foot_bone_is_not_taken_for_a_shin():
     long_feet = clip.replace(offsets=offsets, end_sites=sites)
     again, _, _ = found.skeleton_feet(long_feet)
     assert [f.name for f in again] == [f.name for f in feet] == ["LeftAnkle", "RightAnkle"]
+
+
+def test_hands_hanging_lowest_are_no_feet_on_a_body():
+    """A dancing robot's long arms reach lower than its legs (three.js's IK rig): on a
+    body, with a trunk above legs, no foot is looked for in the upper body, so its arms,
+    as long as legs and hanging lowest, are never taken for legs."""
+    # pelvis; spine, chest, neck, head; two arms of 0.3 + 0.3 + a hand; two legs
+    points = [("pelvis", -1, (0, 0, 0))]
+    for name, up in (("spine", 0.12), ("chest", 0.12), ("neck", 0.1), ("head", 0.1)):
+        points.append((name, len(points) - 1, (0, up, 0)))
+    for side in (-1, 1):
+        at = len(points)
+        points += [("upperarm", 2, (side * 0.15, 0, 0)), ("forearm", at, (0, -0.3, 0))]
+        points += [("hand", at + 1, (0, -0.3, 0)), ("fingers", at + 2, (0, -0.06, 0))]
+    for side in (-1, 1):
+        at = len(points)
+        points += [("thigh", 0, (side * 0.1, 0, 0)), ("knee", at, (0, -0.25, 0))]
+        points += [("ankle", at + 1, (0, -0.25, 0)), ("toe", at + 2, (0, -0.04, 0.1))]
+    parents = np.array([p for _, p, _ in points])
+    rest = np.zeros((len(points), 3))
+    for k, (_, p, offset) in enumerate(points):
+        rest[k] = (rest[p] if p >= 0 else 0.0) + np.array(offset, dtype=float)
+    names = [f"{n}{k}" for k, (n, _, _) in enumerate(points)]
+    elevation = rest[:, 1] - rest[:, 1].min()
+    elevation[[8, 12]] = 0.0  # the fingers: lowest of all
+    feet = found.find_feet(parents, rest, 1, 1.0, names, elevation=elevation)
+    assert [f.name for f in feet] == ["ankle15", "ankle19"]
