@@ -468,6 +468,11 @@ def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int
     if override is not None:
         negative = isinstance(override, str) and override.startswith("-")
         return axis_index(override), -1.0 if negative else 1.0
+    return motion.derived("up_direction", _found_up)  # (asked by every world-space stage)
+
+
+def _found_up(motion: Motion) -> tuple[int, float]:
+    """:func:`up_direction` found from the motion."""
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None

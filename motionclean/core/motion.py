@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -381,6 +382,24 @@ class Motion:
     def duration(self) -> float:
         """Seconds the clip covers: frames x frame time (as DCC tools count frames / fps)."""
         return self.n_frames * self.frame_time
+
+    def derived(self, name: str, compute: Callable[[Motion], Any]) -> Any:
+        """``compute(self)``, kept with the clip for its current arrays: what several
+        stages derive from them and ask for again (its rest-pose frames, its found up
+        direction). Recomputed when an array is replaced; the pipeline makes new arrays
+        and never edits a clip's in place (one that does asks again in vain)."""
+        key = (
+            id(self.rotations),
+            id(self.translations),
+            id(self.offsets),
+            id(self.end_sites),
+            id(self.missing),
+            self.n_frames,
+        )
+        kept = self.__dict__.setdefault("_derived", {})
+        if name not in kept or kept[name][0] != key:
+            kept[name] = (key, compute(self))
+        return kept[name][1]
 
     def replace(self, **changes) -> Motion:
         """A copy with some fields replaced (``rotations=``, ``translations=``, ...); the

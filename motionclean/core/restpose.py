@@ -101,15 +101,7 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     counts in any case: a held pose. A clip with missing samples (tracker dropouts,
     held placeholders) has none: trackers do not record a rest pose.
     """
-    # the answer is kept with the clip for its arrays (up axis, body height and the report
-    # ask for it a dozen times a clean; the pipeline makes new arrays, never edits them)
-    key = (id(motion.rotations), id(motion.translations), id(motion.missing), motion.n_frames)
-    cached = motion.__dict__.get("_rest_frames")
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    found = _rest_frames(motion)
-    motion.__dict__["_rest_frames"] = (key, found)
-    return found
+    return motion.derived("rest_frames", _rest_frames)  # (asked a dozen times a clean)
 
 
 def _rest_frames(motion: Motion) -> tuple[int, int]:

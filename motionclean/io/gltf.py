@@ -336,14 +336,28 @@ def _order(joints: set[int], nodes: list, parent: np.ndarray) -> tuple[list[int]
     return order, above
 
 
+def _matrix(node: dict, n: int, path) -> np.ndarray:
+    """A node's ``matrix`` as a ``(4, 4)`` array (glTF stores it column-major)."""
+    if not _numbers(node["matrix"], 16):
+        _fail(f"nodes[{n}].matrix is not 16 numbers", path)
+    return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
+
+
+def _scale(node: dict, n: int, path) -> np.ndarray:
+    """A node's scale factors ``(3,)`` (from its matrix's columns, or its ``scale``)."""
+    if "matrix" in node:
+        return np.linalg.norm(_matrix(node, n, path)[:3, :3], axis=0)
+    factors = node.get("scale", [1.0, 1.0, 1.0])
+    if not _numbers(factors, 3):
+        _fail(f"nodes[{n}].scale is not 3 numbers", path)
+    return np.asarray(factors, dtype=np.float64)
+
+
 def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
     """A node's rest translation ``(3,)`` and rotation ``(4,)`` (w, x, y, z)."""
     if "matrix" in node:
-        m = np.asarray(node["matrix"], dtype=np.float64) if _numbers(node["matrix"], 16) else None
-        if m is None:
-            _fail(f"nodes[{n}].matrix is not 16 numbers", path)
-        m = m.reshape(4, 4).T  # column-major
-        scale = np.linalg.norm(m[:3, :3], axis=0)
+        m = _matrix(node, n, path)
+        scale = _scale(node, n, path)
         if np.any(scale <= 0.0):
             _fail(f"nodes[{n}].matrix has a zero scale", path)
         return m[:3, 3].copy(), matrix_to_quaternion(m[:3, :3] / scale)
@@ -630,12 +644,8 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
         node = nodes[n]
         _, rotation = _rest(node, n, path)
         turn = quat.multiply(rotation, turn)
-        if "matrix" in node:
-            m = np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
-            factors = np.linalg.norm(m[:3, :3], axis=0)
-        else:
-            factors = np.asarray(node.get("scale", [1.0, 1.0, 1.0]), dtype=np.float64)
-        scale *= float(np.prod(np.abs(factors))) ** (1.0 / 3.0) if factors.size == 3 else 1.0
+        factors = _scale(node, n, path)
+        scale *= float(np.prod(np.abs(factors))) ** (1.0 / 3.0)
         if not (np.allclose(rotation, [1.0, 0.0, 0.0, 0.0]) and np.allclose(factors, 1.0)):
             names.append(_name(node, n))  # (one that turns or scales)
         n = int(parent[n])
