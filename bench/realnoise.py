@@ -100,6 +100,8 @@ def load_take(estimate: Path, truth: Path):
     times, x = values[:, 0], np.degrees(values[:, 1:])
     keep = [j for j in range(x.shape[1]) if np.mean(~np.isnan(x[:, j])) > 0.5]
     names = [header[1 + j] for j in keep]
+    # the values as the channel CSV gives them to the tool (6 decimals): scored the same
+    x = np.array([[float(f"{v:.6f}") for v in row] for row in x])
     truth_header, truth_values = read_csv(truth)
     truth_times = truth_values[:, 0]
     columns = [truth_values[:, truth_header.index(n)] for n in names]
@@ -351,7 +353,7 @@ def main(argv=None) -> int:
     worse = [(take, raw, out) for take, raw, out in rmse_rows if out > raw]
     print(
         "RMSE above the raw input's: "
-        + (", ".join(f"{t} ({r:.2f} -> {o:.2f})" for t, r, o in worse) if worse else "none")
+        + (", ".join(f"{t} ({r:.4f} -> {o:.4f})" for t, r, o in worse) if worse else "none")
         + "."
     )
     if smooth_rows:
