@@ -370,7 +370,7 @@ def _headline(report: dict) -> list[str]:
             _num(verdict["change_deg_max"], 2) + "\u00b0",
             "largest change"
             + (" outside repairs" if repairs else "")
-            + f" ({_e(verdict['change_joint'])})",
+            + (f" ({_e(verdict['change_joint'])})" if verdict["change_joint"] else ""),
         ),
     ]
     if repairs:

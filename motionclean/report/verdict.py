@@ -44,6 +44,9 @@ __all__ = [
 #: left it as it was: a clean capture (the default moves clean 120 fps captures by about
 #: 0.01 degrees RMS, noisy ones by tenths of a degree and more).
 CLEAN_CHANGE_DEG = 0.05
+#: A largest change below this many degrees is the rounding of the conversions: nothing
+#: moved, and no joint is named for it.
+UNCHANGED_DEG = 1e-6
 #: A clip the ``ground`` step moved and whose jitter fell by less than this fraction was
 #: only put on the floor: its root's levelling turn is not smoothing.
 GROUNDED_JITTER = 0.01
@@ -250,7 +253,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
         tail = f"largest change {change:.2g} degrees{where}"
-    if change < 1e-6:  # (rounding of the conversions: nothing moved)
+    if change < UNCHANGED_DEG:
         tail = f"no rotation changed{where}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
@@ -269,7 +272,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         "noise_removed": smoothing["noise_removed"],
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
-        "change_joint": joint,
+        "change_joint": joint if change >= UNCHANGED_DEG else None,
         "repairs": repairs,
         "feet": feet,
     }

@@ -16,6 +16,7 @@ from motionclean.report.html import render_html
 from motionclean.report.verdict import (
     CLEAN_CHANGE_DEG,
     LOOK_CHANGE_DEG,
+    UNCHANGED_DEG,
     build_verdict,
     repaired_frames,
 )
@@ -115,6 +116,24 @@ def test_a_clean_capture_is_called_clean(tmp_path):
     assert verdict["text"].startswith("clean capture")
     left = "left as it was" if verdict["change_deg_max"] < CLEAN_CHANGE_DEG else "barely moved"
     assert left in verdict["text"], verdict["text"]
+
+
+def test_where_nothing_changed_outside_repairs_no_joint_is_named():
+    """131_02 cut as captured: every rotation outside the RThumb repairs comes back as it
+    was (to the conversions' rounding), so the verdict, the JSON and the page name no joint
+    for the largest change (the page's card read '0.00 degrees (LThumb)')."""
+    result = clean_clip(SAMPLE, None, Pipeline.default())
+    verdict = result.report["verdict"]
+    frames = repaired_frames(result.report["joints"], result.before.n_frames)
+    angles = np.degrees(quat.angle_between(result.before.rotations, result.after.rotations))
+    for name, mask in frames.items():
+        angles[mask, list(result.before.names).index(name)] = 0.0
+    assert angles.max() < UNCHANGED_DEG
+    assert verdict["change_deg_max"] < UNCHANGED_DEG
+    assert "no rotation changed outside repairs" in verdict["text"]
+    assert verdict["change_joint"] is None
+    card = re.search(r"largest change outside repairs[^<]*<", render_html(result.report))
+    assert card is not None and "(" not in card.group(0), card
 
 
 @pytest.mark.parametrize(
