@@ -386,8 +386,8 @@ class Motion:
     def derived(self, name: str, compute: Callable[[Motion], Any]) -> Any:
         """``compute(self)``, kept with the clip for its current arrays: what several
         stages derive from them and ask for again (its rest-pose frames, its found up
-        direction). Recomputed when an array is replaced; the pipeline makes new arrays
-        and never edits a clip's in place (one that does asks again in vain)."""
+        direction). Recomputed when an array is replaced; a caller that writes into the
+        clip's arrays in place says so with :meth:`edited`."""
         key = (
             id(self.rotations),
             id(self.translations),
@@ -400,6 +400,17 @@ class Motion:
         if name not in kept or kept[name][0] != key:
             kept[name] = (key, compute(self))
         return kept[name][1]
+
+    def edited(self) -> None:
+        """Say the clip's arrays were written in place: what :meth:`derived` kept goes."""
+        self.__dict__.pop("_derived", None)
+
+    def __copy__(self) -> Motion:
+        """A shallow copy (the same arrays) with a cache of its own: :meth:`derived` keys
+        its entries by the arrays of the clip that made them."""
+        new = self.__class__.__new__(self.__class__)
+        new.__dict__.update({k: v for k, v in self.__dict__.items() if k != "_derived"})
+        return new
 
     def replace(self, **changes) -> Motion:
         """A copy with some fields replaced (``rotations=``, ``translations=``, ...); the

@@ -40,3 +40,29 @@ def test_consecutive_indices_become_a_slice_that_selects_the_same_items():
         consecutive = bool((np.diff(index.ravel()) == 1).all())
         assert isinstance(chosen, slice) == consecutive
         np.testing.assert_array_equal(table[:, chosen], table[:, index.ravel()])
+
+
+def test_what_a_clip_derives_is_its_own_and_follows_edits_in_place():
+    """Motion.derived: a shallow copy given other arrays keeps its own value without
+    evicting the original's (they shared one cache: each asked again in turn), and a clip
+    written into in place (as the pipeline's partial steps do) and marked edited is asked
+    again, not answered with the value of its old contents."""
+    import copy
+
+    motion = mc.load(SAMPLE)
+    calls = []
+
+    def first_w(clip):
+        calls.append(1)
+        return float(clip.rotations[0, 0, 0])
+
+    assert motion.derived("w", first_w) == motion.rotations[0, 0, 0]
+    other = copy.copy(motion)
+    other.rotations = -motion.rotations
+    assert other.derived("w", first_w) == -motion.rotations[0, 0, 0]
+    assert motion.derived("w", first_w) == motion.rotations[0, 0, 0]
+    assert len(calls) == 2
+    other.rotations[0, 0] = [0.0, 1.0, 0.0, 0.0]
+    other.edited()
+    assert other.derived("w", first_w) == 0.0
+    assert len(calls) == 3
