@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from ..core.errors import MotionError, UsageError
+from ..core.motion import UP_AXES
 from ..filters.auto import SOURCES
 from ..io import FORMATS, ReadOptions
 from ..steps.pipeline import Pipeline
@@ -180,7 +181,7 @@ SOURCE_OPTION = click.option(
 
 UP_OPTION = click.option(
     "--up",
-    type=click.Choice(["x", "y", "z", "-x", "-y", "-z"], case_sensitive=False),
+    type=click.Choice(UP_AXES, case_sensitive=False),
     callback=lambda ctx, param, value: None if value is None else value.lower(),
     help="The clips' up axis, -y for a figure standing head down along y as a camera's "
     "y-down coordinates have it (default: found from the motion: the feet are below the "

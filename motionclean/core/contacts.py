@@ -450,11 +450,12 @@ def skate(
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def penetration(positions: np.ndarray, feet: list[Foot], up: int, ground: float) -> np.ndarray:
-    """``(n_feet,)`` deepest point of each foot below the ground (length units, >= 0)."""
-    if positions.shape[0] == 0:
-        return np.zeros(len(feet))
-    return np.maximum(ground - lowest_points(positions, feet, up).min(axis=0), 0.0)
+def penetration(lowest: np.ndarray, ground: float) -> np.ndarray:
+    """``(n_feet,)`` deepest point of each foot below the ground (length units, >= 0), from
+    the feet's lowest points ``(F, n_feet)`` (:func:`lowest_points`)."""
+    if lowest.shape[0] == 0:
+        return np.zeros(lowest.shape[1])
+    return np.maximum(ground - lowest.min(axis=0), 0.0)
 
 
 def sliding_contacts(

@@ -149,9 +149,11 @@ class _Run:
     def largest_overshoot(self, angles: np.ndarray) -> float:
         """The largest overshoot of ``angles`` written over the run (from ``before`` to
         ``after``)."""
-        rows = [r for r in (self.before, *angles, self.after) if r is not None]
+        first = [] if self.before is None else [self.before[None]]
+        last = [] if self.after is None else [self.after[None]]
+        rows = np.concatenate([*first, angles, *last])
         used = self.limits[(0 if self.before is not None else 1) :][: len(rows) - 1]
-        return float(max((np.abs(np.diff(np.asarray(rows), axis=0)) - used).max(initial=0.0), 0.0))
+        return float(max((np.abs(np.diff(rows, axis=0)) - used).max(initial=0.0), 0.0))
 
 
 def _steps(channels: np.ndarray, bound: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
@@ -289,20 +291,23 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     n = values.shape[0]
     for row, column in hits.tolist():
         cols = rotation_columns[rotating[column // 3]]
-        written, read = values[:, cols], source[:, cols]
-        kept = np.all(written == read, axis=1)
-        # the run of changed samples around the step, at most MAX_RUN // 2 frames each side
+        # the run of changed samples around the step, at most MAX_RUN // 2 frames each side,
+        # read from a window with its neighbours (a clip-long copy per jump would cost more
+        # than the solve)
         low, high = max(row - MAX_RUN // 2, 0), min(row + MAX_RUN // 2, n)
-        kept_before = np.flatnonzero(kept[low:row])
-        kept_after = np.flatnonzero(kept[row + 1 : high])
+        lo, hi = max(low - 1, 0), min(high + 1, n)
+        written, read = values[lo:hi, cols], source[lo:hi, cols]
+        kept = np.all(written == read, axis=1)
+        kept_before = np.flatnonzero(kept[low - lo : row - lo])
+        kept_after = np.flatnonzero(kept[row + 1 - lo : high - lo])
         first = low + int(kept_before[-1]) + 1 if kept_before.size else low
         stop = row + 1 + int(kept_after[0]) if kept_after.size else high
-        if kept[first] and first == row:
+        if kept[first - lo] and first == row:
             first += 1  # the step leaves a kept sample: the run starts after it
         if (int(cols[0]), first) in done or first >= stop:
             continue
         done.add((int(cols[0]), first))
-        run = _Run.of(written, read, first, stop)
+        run = _Run.of(written, read, first - lo, stop - lo)
         largest = run.largest_overshoot(run.angles)
         floor, alone = _step_floor(run)
         if largest <= floor:

@@ -147,19 +147,21 @@ def _forward_planes(
     n_frames, n_all = rotations.shape[:2]
     tips = tips or {}
     all_tips = sorted(tips)
+    tips = {j: tips[j] for j in all_tips}  # (in joint order from here on)
     depth = depths(parents)
     computed = np.arange(n_all)
     if only is not None and not keep_rotations:
         computed = _hung_on(parents, all_tips, np.asarray(only, dtype=np.intp))
-        tips = {j: tips[j] for j in all_tips if j in set(computed.tolist())}
+        kept = set(computed.tolist())
+        tips = {j: tips[j] for j in all_tips if j in kept}
     n_joints = computed.size
     order = computed[np.argsort(depth[computed], kind="stable")]  # depth levels, in turn
     rank = np.full(n_all, -1, dtype=np.intp)
     rank[order] = np.arange(n_joints)
     sorted_parents = np.where(parents[order] >= 0, rank[parents[order]], -1)
     sizes = np.bincount(depth[order], minlength=1).tolist()
-    tip_rows = rank[np.array(sorted(tips), dtype=np.intp)]
-    tip_offsets = np.array([tips[j] for j in sorted(tips)], dtype=np.float64).reshape(-1, 3).T
+    tip_rows = rank[np.array(list(tips), dtype=np.intp)]
+    tip_offsets = np.array(list(tips.values()), dtype=np.float64).reshape(-1, 3).T
     if channel_axes is not None and offsets is not None:
         sorted_axes, sorted_offsets = (
             channel_axes[order].T[:, :, None],
@@ -174,7 +176,7 @@ def _forward_planes(
     stored = np.arange(n_points) if only is None else np.asarray(only, dtype=np.intp)
     world_p = np.empty((3, stored.size, n_frames))
     # p's rows of the points: joints by rank, then the end sites computed (in joint order)
-    tip_row = {j: n_joints + k for k, j in enumerate(sorted(tips))}
+    tip_row = {j: n_joints + k for k, j in enumerate(tips)}
     point_rows = np.concatenate([rank, [tip_row.get(j, -1) for j in all_tips]]).astype(np.intp)
     sorted_rows = point_rows[stored]
     block = max(BLOCK_ELEMENTS // max(n_points, 1), 256)
@@ -505,6 +507,20 @@ def upright(positions: np.ndarray, axis: int, sign: float) -> np.ndarray:
     across = (axis + 1) % 3
     turned[..., across] = positions[..., across]
     return turned
+
+
+def upright_turn(axis: int) -> np.ndarray:
+    """The rotation ``(4,)`` (w, x, y, z) :func:`upright` applies to a figure standing head
+    down along ``axis``: half a turn about the next axis."""
+    return quat.from_axis_angle(np.eye(3)[(axis + 1) % 3], np.pi)
+
+
+def upright_positions(
+    motion: Motion, up: str | int | None = None, end_sites: bool = True, only=None
+) -> np.ndarray:
+    """:func:`world_positions` of ``motion`` turned :func:`upright` by its
+    :func:`up_direction` (``up``: the override, e.g. ``"-y"``)."""
+    return upright(world_positions(motion, end_sites, only), *up_direction(motion, up))
 
 
 def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:

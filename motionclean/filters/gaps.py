@@ -221,8 +221,44 @@ def _edge_velocity(x, edge, room, direction, log_of) -> tuple[np.ndarray, np.nda
         for k, weight in enumerate(weights, 1):
             slope += weight * log_of(base, x[edge[at] + direction * k])
         out[at] = direction * slope
-        gain[at] = np.sum(weights**2) + np.sum(weights) ** 2  # the edge sample is noisy too
+        gain[at] = _edge_gain(weights)
     return out, gain
+
+
+def _edge_gain(weights: np.ndarray) -> float:
+    """The factor that turns the per-sample noise variance into that of a velocity fitted
+    with ``weights`` (:func:`_edge_weights`; the edge sample is noisy too)."""
+    return float(np.sum(weights**2) + np.sum(weights) ** 2)
+
+
+def _sampled_edges(n_frames: int, span: int, beyond: int) -> np.ndarray:
+    """Frames taken as a gap's first edge for gaps of ``span`` - 1 frames: room for
+    :data:`EDGE_FRAMES` before and ``beyond`` after the far edge, up to about
+    :data:`KEEP_SAMPLES` of them spread over the clip."""
+    edges = np.arange(EDGE_FRAMES, n_frames - span - beyond)
+    return edges[:: max(edges.size // KEEP_SAMPLES, 1)]
+
+
+def _slope_sum(x, base, rows, js, direction: int, log_of, weights) -> np.ndarray:
+    """``sum_k weights[k-1] log_of(base, x[rows + direction k][:, js])``: ``direction``
+    times the velocity at ``rows`` fitted on that side of them."""
+    slope = np.zeros(base.shape[:-1] + (3,))
+    for k, weight in enumerate(weights, 1):
+        slope += weight * log_of(base, x[rows + direction * k][:, js])
+    return slope
+
+
+def _all_known(seen: np.ndarray, first: np.ndarray, stop: np.ndarray, js) -> np.ndarray:
+    """Whether joints ``js`` miss no sample in the rows ``first .. stop - 1``, from the
+    running count of missing samples ``seen`` ``(F + 1, J)``."""
+    return seen[stop][:, js] == seen[first][:, js]
+
+
+def _missing_count(missing: np.ndarray) -> np.ndarray:
+    """``(F + 1, J)``: missing samples before each frame, per joint (row 0: none)."""
+    return np.concatenate(
+        [np.zeros((1, missing.shape[1]), np.intp), np.cumsum(missing, axis=0, dtype=np.intp)]
+    )
 
 
 def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
@@ -234,24 +270,19 @@ def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.
     velocities are mostly noise keeps little of them, whatever one edge shows."""
     log_of = _rotation_log if rotations else _position_log
     out = np.ones(joint.size)
-    n_frames = x.shape[0]
     weights = _edge_weights(EDGE_FRAMES)
-    gain = np.sum(weights**2) + np.sum(weights) ** 2
+    gain = _edge_gain(weights)
+    seen = _missing_count(missing)
     for span in np.unique(length + 1):
         pairs = np.flatnonzero(length + 1 == span)
-        edges = np.arange(EDGE_FRAMES, n_frames - span)
+        edges = _sampled_edges(x.shape[0], span, 0)
         if not edges.size:
             continue
-        edges = edges[:: max(edges.size // KEEP_SAMPLES, 1)]
         js = joint[pairs]
         base = x[edges][:, js]
-        slope = np.zeros(base.shape[:-1] + (3,))
-        for k, weight in enumerate(weights, 1):
-            slope -= weight * log_of(base, x[edges - k][:, js])
+        slope = -_slope_sum(x, base, edges, js, -1, log_of, weights)
         chord = log_of(base, x[edges + span][:, js]) / span
-        known = ~missing[edges + span][:, js]
-        for k in range(EDGE_FRAMES + 1):
-            known &= ~missing[edges - k][:, js]
+        known = ~missing[edges + span][:, js] & _all_known(seen, edges - EDGE_FRAMES, edges + 1, js)
         apart = np.where(known, np.sum((slope - chord) ** 2, axis=-1), 0.0)
         count = known.sum(axis=0)
         spread = 3.0 * noise_var[js] * (gain + 2.0 / span**2)
@@ -272,19 +303,17 @@ def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.nda
     log_of = _rotation_log if rotations else _position_log
     out = np.ones(joint.size)
     weights = _edge_weights(EDGE_FRAMES)
-    gain = np.sum(weights**2) + np.sum(weights) ** 2
+    gain = _edge_gain(weights)
+    seen = _missing_count(missing)
     for span in np.unique(length + 1):
         pairs = np.flatnonzero(length + 1 == span)
-        edges = np.arange(EDGE_FRAMES, x.shape[0] - span - EDGE_FRAMES)
+        edges = _sampled_edges(x.shape[0], span, EDGE_FRAMES)
         if not edges.size:
             continue
-        edges = edges[:: max(edges.size // KEEP_SAMPLES, 1)]
         js = joint[pairs]
         start, end = x[edges][:, js], x[edges + span][:, js]
-        slope_a, slope_b = np.zeros(start.shape[:-1] + (3,)), np.zeros(start.shape[:-1] + (3,))
-        for k, weight in enumerate(weights, 1):
-            slope_a -= weight * log_of(start, x[edges - k][:, js])
-            slope_b += weight * log_of(end, x[edges + span + k][:, js])
+        slope_a = -_slope_sum(x, start, edges, js, -1, log_of, weights)
+        slope_b = _slope_sum(x, end, edges + span, js, 1, log_of, weights)
         step = log_of(start, end)
         chord = step / span
         flat = (-1, 3)
@@ -295,9 +324,7 @@ def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.nda
             * span
             for v in (slope_a, slope_b)
         )
-        known = np.ones(chord.shape[:-1], bool)
-        for k in range(-EDGE_FRAMES, span + EDGE_FRAMES + 1):
-            known &= ~missing[edges + k][:, js]
+        known = _all_known(seen, edges - EDGE_FRAMES, edges + span + EDGE_FRAMES + 1, js)
         along = np.zeros(chord.shape[:-1])
         squares = np.zeros(chord.shape[:-1])
         for i in np.unique(np.linspace(1, span - 1, min(span - 1, 8)).round().astype(int)):
@@ -719,7 +746,8 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
             tried &= donor[0] >= 0
         for i in (i for i, option in enumerate(options) if option[0] == use):
             _, w, smooth = options[i]
-            bridged = windows.bridged((np.full(of.size, w), np.full(of.size, smooth)))
+            option = (np.full(of.size, w), np.full(of.size, smooth))
+            bridged = windows.bridged((option, option))
             squares = (
                 quat.angle_between(bridged[0], truth[0]) ** 2,
                 np.sum((bridged[1] - truth[1]) ** 2, axis=-1),
@@ -740,11 +768,14 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
     second[weight_of != 0] /= 1.0 - LINE_MARGIN
     chosen = np.stack([best, np.argmin(second, axis=0)])
     columns = np.arange(n_gaps)
-    alone = int(np.flatnonzero(spline)[0])  # the spline without a donor; with it: next row
-    curve = np.where(use_of[best] == -1, alone, alone + len(kinds) + 1)
+    row = {option: i for i, option in enumerate(options)}
+    # each option's twin from smoothed edges, and the spline with its donor
+    twin_of = np.array([row.get((use, w, True), i) for i, (use, w, _) in enumerate(options)])
+    spline_of = np.array([row[(use, SPLINE, False)] for use, _, _ in options])
+    curve = spline_of[best]
     for k in range(2):
-        # 2. the same bridge from smoothed edges (the next option), where it does better
-        twin = chosen[k] + 1
+        # 2. the same bridge from smoothed edges, where it does better
+        twin = twin_of[chosen[k]]
         better = _better(error[k, twin, columns], error[k, chosen[k], columns], gaps, 0.0)
         chosen[k] = np.where(better, twin, chosen[k])
         # 3. the smoothing spline with the same donor, where it is clearly better
@@ -838,11 +869,10 @@ class _Windows:
         where = (flat_a, flat_b, room_a, room_b, rows, gap_of)
         return cls(rel_q, rel_p, where, tuple(stats), edges)
 
-    def bridged(self, option) -> tuple[np.ndarray, np.ndarray]:
-        """Relative poses across the gaps, gap frames in gap order; ``option``: the
-        :func:`_bridge` options ``(weight, smooth)`` (arrays (G,)) of both rotations and
-        positions, or a pair of them (the rotations', the positions')."""
-        options = option if isinstance(option[0], tuple) else (option, option)
+    def bridged(self, options) -> tuple[np.ndarray, np.ndarray]:
+        """Relative poses across the gaps, gap frames in gap order; ``options``: the
+        :func:`_bridge` options ``(weight, smooth)`` (arrays (G,)) of the rotations and of
+        the positions."""
         return (
             _bridge(self.rel_q, self.where, True, self.stats[0], self.edges[0], options[0]),
             _bridge(self.rel_p, self.where, False, self.stats[1], self.edges[1], options[1]),

@@ -81,6 +81,7 @@ __all__ = [
     "MotionSlope",
     "NoiseModel",
     "bump_statistic",
+    "correlation_fitted",
     "fit_band_limited",
     "fit_coloured",
     "WINDOW_SECONDS",
@@ -109,6 +110,7 @@ CHI_QUARTILE = {1: 1.1503493803760083, 2: 1.6651092223153954, 3: 2.0269052606454
 #: frame rates where it lies above MAX_SHAPE_EDGE cycles per frame the noise is taken as white.
 SHAPE_BAND_HZ = 20.0
 MAX_SHAPE_EDGE = 0.35
+
 #: Shortest window, in frames: below it a clip is one window (or too short to estimate).
 MIN_WINDOW = 8
 #: Slopes ``s`` of the motion's displacement spectrum ``f^-s`` over the noise band that
@@ -143,6 +145,13 @@ FINE_GRID = 4096
 MOTION_FROM_HZ = 1.5
 FIT_TO_HZ = 20.0
 MOTION_SLOPES = np.arange(0.0, 8.01, 0.5)
+
+
+def correlation_fitted(frame_time: float) -> bool:
+    """Whether the noise's AR(1) correlation is fitted at ``frame_time`` seconds per frame
+    (the band above :data:`SHAPE_BAND_HZ` lies below :data:`MAX_SHAPE_EDGE` cycles per
+    frame: about 57 fps and up); below, the noise is taken as white."""
+    return SHAPE_BAND_HZ * frame_time <= MAX_SHAPE_EDGE
 
 
 class NoiseModel(NamedTuple):
@@ -299,7 +308,7 @@ def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -
     # the lower band can only look like more correlation, so the first may exceed the
     # second by at most RHO_MARGIN.
     # Below about 57 fps even the upper band holds motion: the noise is taken as white.
-    if SHAPE_BAND_HZ * frame_time > MAX_SHAPE_EDGE:
+    if not correlation_fitted(frame_time):
         rho = np.zeros(n_cols)
     else:
         upper = freqs >= SHAPE_BAND_HZ * frame_time

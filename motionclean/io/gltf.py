@@ -357,7 +357,7 @@ def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
     """A node's rest translation ``(3,)`` and rotation ``(4,)`` (w, x, y, z)."""
     if "matrix" in node:
         m = _matrix(node, n, path)
-        scale = _scale(node, n, path)
+        scale = np.linalg.norm(m[:3, :3], axis=0)
         if np.any(scale <= 0.0):
             _fail(f"nodes[{n}].matrix has a zero scale", path)
         return m[:3, 3].copy(), matrix_to_quaternion(m[:3, :3] / scale)

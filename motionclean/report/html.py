@@ -575,7 +575,7 @@ def noise_correlation(joints: dict, frame_time: float) -> tuple[str | None, set[
     not fitted): no joint shows it. Otherwise the clip's median (rotations and positions
     each) is shown once, and a joint's rho where it differs from it by :data:`RHO_APART` or
     more."""
-    fitted = noise.SHAPE_BAND_HZ * frame_time <= noise.MAX_SHAPE_EDGE
+    fitted = noise.correlation_fitted(frame_time)
     said, apart = [], set()
     for key, what in (("auto", "rotations"), ("position_auto", "positions")):
         notes = {n: e.get(key) or {} for n, e in joints.items()}

@@ -62,10 +62,12 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     lead, trail = rest_frames(before)
     parents = kinematics.point_parents(before)
     # (a figure head down is drawn standing: turned upright, not mirrored)
-    points_b = kinematics.upright(kinematics.world_positions(before.at_frames(frames)), up, sign)
-    points_a = None
-    if after is not None:
-        points_a = kinematics.upright(kinematics.world_positions(after.at_frames(frames)), up, sign)
+    points_b, points_a = (
+        None
+        if clip is None
+        else kinematics.upright(kinematics.world_positions(clip.at_frames(frames)), up, sign)
+        for clip in (before, after)
+    )
     index, names = kinematics.end_effectors(before)
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)

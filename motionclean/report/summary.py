@@ -65,11 +65,12 @@ def build_series(
     skipped = kinematics.world_note(before)
     # (no joint positions: no contact or world figure means anything)
     used = None if skipped is not None else figure_points(before)
+    up = None if used is None else kinematics.up_name(before)  # the input's, for both clips
     points = (
         [None, None]
         if used is None
         else run_parts(
-            lambda clip: None if clip is None else figure_positions(clip, used),
+            lambda clip: None if clip is None else figure_positions(clip, used, up),
             clips,
             before.rotations.size,
         )

@@ -216,8 +216,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
             reasons.append(f"{name} repaired on {counts['frames'] / frames:.0%} of its frames")
     if skate is not None and skate > LOOK_SKATE:
-        locked = any(step.get("filter") == "footlock" for step in report.get("pipeline") or [])
-        hint = "" if locked else " (footlock holds them)"
+        hint = "" if "footlock" in filters else " (footlock holds them)"
         reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
     done = _repair_words(repairs)
     grounded = _ground_words(joints)

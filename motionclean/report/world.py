@@ -43,14 +43,15 @@ def figure_points(motion: Motion) -> np.ndarray:
     return np.union1d(index, feet_points).astype(np.intp)  # (an int array also when empty)
 
 
-def figure_positions(motion: Motion, used: np.ndarray | None = None) -> np.ndarray:
+def figure_positions(
+    motion: Motion, used: np.ndarray | None = None, up: str | None = None
+) -> np.ndarray:
     """``(F, len(used), 3)`` world positions of the points ``used`` (default: the
     :func:`figure_points` of ``motion``), turned
-    :func:`~motionclean.core.kinematics.upright` where the figure stands head down."""
+    :func:`~motionclean.core.kinematics.upright` where the figure stands head down (along
+    ``up``, e.g. ``"-y"``; default: found on ``motion``)."""
     only = figure_points(motion) if used is None else used
-    return kinematics.upright(
-        kinematics.world_positions(motion, only=only), *kinematics.up_direction(motion)
-    )
+    return kinematics.upright_positions(motion, up, only=only)
 
 
 def _positions(motion: Motion, given: np.ndarray | None, used: np.ndarray) -> np.ndarray:
@@ -189,7 +190,7 @@ def contact_figures(
         if len(clips) > 1:
             moved = lowest[1][contacts] - lowest[0][contacts]
             grounds.append(ground + float(np.median(moved)) if moved.size else ground)
-        depth = [found.penetration(p, feet, up, g) for p, g in zip(clips, grounds, strict=True)]
+        depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
         low = [points - g for points, g in zip(lowest, grounds, strict=True)]
     runs = found.contact_runs(contacts)
     floor, soles = found.find_floor(positions, feet, up, height, dt)

@@ -33,23 +33,16 @@ def _resolve_despike(params: dict, where: str) -> None:
 POSITION_FLOOR_HEIGHTS_PER_S = 0.5
 
 
-def _position_floor(data: StepData) -> float:
-    """The slowest position step that may be a jump, in file units per second."""
-    if data.motion is None:
-        return 0.0
-    return POSITION_FLOOR_HEIGHTS_PER_S * kinematics.body_height(data.motion)
-
-
 #: Position steps faster than this many body heights per second are always repaired on a
 #: skeleton with a trunk and legs (garbage frames: a decoder wrote a root 820 body heights
 #: away for five frames); nothing a body does, nor a golf club's head (about 30), comes near.
 POSITION_CAP_HEIGHTS_PER_S = 100.0
 
 
-def _position_cap(data: StepData, given: float) -> float:
+def _position_cap(data: StepData, given: float, height: float) -> float:
     """The fastest position step left alone, in file units per second: ``given`` when set,
-    else :data:`POSITION_CAP_HEIGHTS_PER_S` body heights per second where the skeleton is a
-    body (independent tracked bodies have no height to scale by: no cap)."""
+    else :data:`POSITION_CAP_HEIGHTS_PER_S` body heights (``height``) per second where the
+    skeleton is a body (independent tracked bodies have no height to scale by: no cap)."""
     motion = data.motion
     if math.isfinite(given) or motion is None:
         return given
@@ -57,7 +50,6 @@ def _position_cap(data: StepData, given: float) -> float:
         return given
     if kinematics.trunk_split(kinematics.point_parents(motion)) is None:
         return given
-    height = kinematics.body_height(motion)
     return POSITION_CAP_HEIGHTS_PER_S * height if height > 0.0 else given
 
 
@@ -84,12 +76,14 @@ def _run_despike(data: StepData, params: dict) -> StepData:
     for column in np.flatnonzero(report.counts()):
         data.rotation_notes[int(column)] = {"despike": report.summary(column)}
     if data.translations is not None:
+        height = 0.0 if data.motion is None else kinematics.body_height(data.motion)
         data.translations, report = despike_positions_with_report(
             data.translations,
             data.frame_time,
             method="linear" if params["method"] == "slerp" else "cubic",
-            min_units_per_s=max(params["min_units_per_s"], _position_floor(data)),
-            max_units_per_s=_position_cap(data, params["max_units_per_s"]),
+            # the slowest position step that may be a jump, and the fastest left alone
+            min_units_per_s=max(params["min_units_per_s"], POSITION_FLOOR_HEIGHTS_PER_S * height),
+            max_units_per_s=_position_cap(data, params["max_units_per_s"], height),
             missing=_missing(data, data.translation_joints),
             **shared,
         )

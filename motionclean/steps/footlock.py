@@ -55,10 +55,7 @@ def _leg_contacts(motion: Motion, params: dict):
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
     used_points = np.array(used, dtype=np.intp)
-    positions = kinematics.upright(
-        kinematics.world_positions(motion, end_sites=True, only=used_points),
-        *kinematics.up_direction(motion, given),
-    )
+    positions = kinematics.upright_positions(motion, given, only=used_points)
     column = np.full(motion.n_joints + len(motion.end_sites), -1, dtype=np.intp)
     column[used_points] = np.arange(used_points.size)
     on_columns = [

@@ -26,9 +26,7 @@ def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None,
     feet, axis, height = found.skeleton_feet(motion, None, up)
     if not feet:
         return None, np.zeros(3)
-    positions = kinematics.upright(
-        kinematics.world_positions(motion), *kinematics.up_direction(motion, up)
-    )
+    positions = kinematics.upright_positions(motion, up)
     floor, soles = found.find_floor(positions, feet, axis, height, motion.frame_time)
     return floor, soles.mean(axis=0) if soles.size else np.zeros(3)
 
@@ -64,7 +62,7 @@ def _run(data: StepData, params: dict) -> StepData:
     turn, shift = _leveller(floor, centre)
     axis, sign = kinematics.up_direction(motion, given)
     if sign < 0.0:  # found on the figure turned upright: the same move in its own frame
-        half = quat.from_axis_angle(np.eye(3)[(axis + 1) % 3], np.pi)
+        half = kinematics.upright_turn(axis)
         turn = quat.multiply(half, quat.multiply(turn, quat.conjugate(half)))
         shift = kinematics.upright(shift, axis, sign)
     roots = np.flatnonzero(motion.parents < 0)

@@ -149,18 +149,24 @@ def test_a_constant_angular_velocity_is_filled_exactly():
     np.testing.assert_allclose(filled.translations, p, atol=1e-12)
 
 
-def test_fill_is_coordinate_invariant(bodies):
-    """A fixed rotation of the world, and of each body's own frame, commutes with the fill
-    (donors chosen the same way)."""
-    q, p = (x[:400, :8] for x in bodies)
-    missing = planted(400, 8, 25, seed=3)
-    rng = np.random.default_rng(5)
+def _filled_and_turned(q, p, missing, seed):
+    """The fill of ``q``, ``p`` and the fill of the same bodies with the world turned by a
+    random rotation and each body's own frame by another: ``(base, turned, world, own)``."""
+    rng = np.random.default_rng(seed)
     world = quat.normalize(rng.normal(size=4))
-    own = quat.normalize(rng.normal(size=(8, 4)))
+    own = quat.normalize(rng.normal(size=(q.shape[1], 4)))
     base = fill_gaps(q, p, missing, max_gap=30)
     turned = fill_gaps(
         quat.multiply(quat.multiply(world, q), own), quat.rotate(world, p), missing, max_gap=30
     )
+    return base, turned, world, own
+
+
+def test_fill_is_coordinate_invariant(bodies):
+    """A fixed rotation of the world, and of each body's own frame, commutes with the fill
+    (donors chosen the same way)."""
+    q, p = (x[:400, :8] for x in bodies)
+    base, turned, world, own = _filled_and_turned(q, p, planted(400, 8, 25, seed=3), seed=5)
     np.testing.assert_array_equal(turned.donor, base.donor)
     expected = quat.multiply(quat.multiply(world, base.rotations), own)
     assert max_degrees(turned.rotations, expected) < 1e-9
@@ -175,14 +181,7 @@ def test_fill_under_noise_is_coordinate_invariant(bodies, length):
     fill some gaps; they too commute with a fixed rotation of the world and of each body's
     own frame."""
     q, p = with_tracker_noise(*(x[:400, :8] for x in bodies), 2.0, seed=9)
-    missing = planted(400, 8, length, seed=4)
-    rng = np.random.default_rng(6)
-    world = quat.normalize(rng.normal(size=4))
-    own = quat.normalize(rng.normal(size=(8, 4)))
-    base = fill_gaps(q, p, missing, max_gap=30)
-    turned = fill_gaps(
-        quat.multiply(quat.multiply(world, q), own), quat.rotate(world, p), missing, max_gap=30
-    )
+    base, turned, world, own = _filled_and_turned(q, p, planted(400, 8, length, seed=4), seed=6)
     expected = quat.multiply(quat.multiply(world, base.rotations), own)
     assert max_degrees(turned.rotations, expected) < 1e-8
     np.testing.assert_allclose(
