@@ -116,7 +116,7 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
     print("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
     for path in corpus_clips():
         truth = mc.load(path)
-        feet, contacts, truth_pos, _, up, height, _ = footlock.find_contacts(truth, PARAMS)
+        feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
         legs = sorted(
             {
                 j

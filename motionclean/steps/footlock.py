@@ -32,17 +32,16 @@ def contact_params(params: dict) -> found.ContactParams:
 
 
 def find_contacts(motion: Motion, params: dict):
-    """Feet, contacts ``(F, n_feet)``, world positions and rotations of joints and end
-    sites (positions turned :func:`~motionclean.core.kinematics.upright`), up axis, body
-    height and ground height of ``motion`` under the step's parameters."""
+    """Feet, contacts ``(F, n_feet)``, world positions of joints and end sites (turned
+    :func:`~motionclean.core.kinematics.upright`), up axis, body height and ground height
+    of ``motion`` under the step's parameters."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
-    positions, world = kinematics.forward(motion, end_sites=True)
-    positions = kinematics.upright(positions, *kinematics.up_direction(motion, given))
+    positions = kinematics.upright_positions(motion, given)
     contacts, ground = found.detect(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
-    return feet, contacts, positions, world, up, height, ground
+    return feet, contacts, positions, up, height, ground
 
 
 def _leg_contacts(motion: Motion, params: dict):

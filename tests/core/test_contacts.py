@@ -42,7 +42,7 @@ def test_a_toe_is_planted_within_its_foots_contact_but_not_while_the_heel_pivots
     never while it swings; and on frames where the ankle stands still but the toe moves
     fast (the foot turning about the heel) it is not planted."""
     motion = mc.load(corpus_clip("131_02.bvh"))
-    feet, contacts, positions, _, up, height, ground = footlock.find_contacts(motion, DEFAULTS)
+    feet, contacts, positions, up, height, ground = footlock.find_contacts(motion, DEFAULTS)
     for k, foot in enumerate(feet):
         toes = list(foot.points[1:])
         own = found.point_contacts(
