@@ -231,12 +231,17 @@ def _edge_gain(weights: np.ndarray) -> float:
     return float(np.sum(weights**2) + np.sum(weights) ** 2)
 
 
-def _sampled_edges(n_frames: int, span: int, beyond: int) -> np.ndarray:
-    """Frames taken as a gap's first edge for gaps of ``span`` - 1 frames: room for
-    :data:`EDGE_FRAMES` before and ``beyond`` after the far edge, up to about
-    :data:`KEEP_SAMPLES` of them spread over the clip."""
-    edges = np.arange(EDGE_FRAMES, n_frames - span - beyond)
-    return edges[:: max(edges.size // KEEP_SAMPLES, 1)]
+def _trial_spans(n_frames: int, joint: np.ndarray, length: np.ndarray, beyond: int):
+    """Per distinct gap length of the ``(joint, length)`` pairs: ``span`` (the length + 1),
+    the pairs' indices, the frames taken as a trial gap's first edge (room for
+    :data:`EDGE_FRAMES` before it and ``beyond`` after the far edge, up to about
+    :data:`KEEP_SAMPLES` of them spread over the clip) and the pairs' joints; lengths
+    without room are left out."""
+    for span in np.unique(length + 1):
+        pairs = np.flatnonzero(length + 1 == span)
+        edges = np.arange(EDGE_FRAMES, n_frames - span - beyond)
+        if edges.size:
+            yield span, pairs, edges[:: max(edges.size // KEEP_SAMPLES, 1)], joint[pairs]
 
 
 def _slope_sum(x, base, rows, js, direction: int, log_of, weights) -> np.ndarray:
@@ -273,12 +278,7 @@ def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.
     weights = _edge_weights(EDGE_FRAMES)
     gain = _edge_gain(weights)
     seen = _missing_count(missing)
-    for span in np.unique(length + 1):
-        pairs = np.flatnonzero(length + 1 == span)
-        edges = _sampled_edges(x.shape[0], span, 0)
-        if not edges.size:
-            continue
-        js = joint[pairs]
+    for span, pairs, edges, js in _trial_spans(x.shape[0], joint, length, 0):
         base = x[edges][:, js]
         slope = -_slope_sum(x, base, edges, js, -1, log_of, weights)
         chord = log_of(base, x[edges + span][:, js]) / span
@@ -305,12 +305,7 @@ def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.nda
     weights = _edge_weights(EDGE_FRAMES)
     gain = _edge_gain(weights)
     seen = _missing_count(missing)
-    for span in np.unique(length + 1):
-        pairs = np.flatnonzero(length + 1 == span)
-        edges = _sampled_edges(x.shape[0], span, EDGE_FRAMES)
-        if not edges.size:
-            continue
-        js = joint[pairs]
+    for span, pairs, edges, js in _trial_spans(x.shape[0], joint, length, EDGE_FRAMES):
         start, end = x[edges][:, js], x[edges + span][:, js]
         slope_a = -_slope_sum(x, start, edges, js, -1, log_of, weights)
         slope_b = _slope_sum(x, end, edges + span, js, 1, log_of, weights)
