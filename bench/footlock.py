@@ -3,8 +3,8 @@ without it, on real walks with planted noise.
 
 Run: ``python bench/footlock.py`` (needs scipy, the ``bench`` extra, for the shared noise
 of ``quality.py``). For each corpus clip, 3 degrees RMS of white rotation noise on every
-joint (seeded, as ``quality.py`` plants it); contacts found on the clean capture (the truth)
-with the step's thresholds. Printed, per clip:
+joint (three seeds, as ``quality.py`` plants it); contacts found on the clean capture (the
+truth) with the step's thresholds. Printed, per clip and seed:
 
 * skate (mean horizontal speed during the truth's contacts) of the ankle and of every
   point below it (toe joint, toe end site), as a ratio to the capture's own skate, for
@@ -41,6 +41,7 @@ from motionclean.steps import footlock
 from motionclean.steps.pipeline import DEFAULT_STEPS, Pipeline
 
 NOISE = 3.0
+SEEDS = (1, 2, 3)
 PARAMS = {p.name: p.default for p in footlock.STEP.params}
 WITH = Pipeline.from_tables(DEFAULT_STEPS, "default")
 WITHOUT = Pipeline.from_tables([s for s in DEFAULT_STEPS if s["filter"] != "footlock"], "without")
@@ -109,12 +110,13 @@ def figures(clip, truth, feet, contacts, up, height, legs, knees, truth_pos):
 def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
     print(f"## Real walks, {NOISE:g} degrees of white noise on every joint: {label}\n")
     print(
-        "| clip | skate / capture's: ankles | toes and toe ends | mean of foot points | leg "
-        "RMSE with / without | knee flexion error | largest knee step | cost (default runs) "
-        "| clean capture's legs changed (RMS, max deg) | smoothed clip changed (RMS deg) |"
+        "| clip | seed | skate / capture's: ankles | toes and toe ends | mean of foot points "
+        "| leg RMSE with / without | knee flexion error | largest knee step | cost (default "
+        "runs) | clean capture's legs changed (RMS, max deg) | smoothed clip changed (RMS "
+        "deg) |"
     )
-    print("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
-    for path in corpus_clips():
+    print("| --- | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
+    for path, seed in ((p, s) for p in corpus_clips() for s in SEEDS):
         truth = mc.load(path)
         feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
         legs = sorted(
@@ -128,7 +130,7 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
             - {0}
         )
         knees = [f.knee for f in feet]
-        planted = noisy(truth, NOISE, 1)
+        planted = noisy(truth, NOISE, seed)
         args = (truth, feet, contacts, up, height, legs, knees, truth_pos)
         own = figures(truth, *args)
         without = figures(WITHOUT.run(planted)[0], *args)
@@ -151,7 +153,7 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
         smooth_a, smooth_b = with_.run(smooth)[0], WITHOUT.run(smooth)[0]
         smoothed = np.degrees(quat.angle_between(smooth_a.rotations, smooth_b.rotations))
         print(
-            f"| {path.stem} | {', '.join(f'{r:.2f}' for r in ratio[ankles])} "
+            f"| {path.stem} | {seed} | {', '.join(f'{r:.2f}' for r in ratio[ankles])} "
             f"| {', '.join(f'{r:.2f}' for r in ratio[toes])} "
             f"| {locked['skate'].mean() / own['skate'].mean():.2f} "
             f"| {locked['rmse'] / without['rmse']:.4f} "
@@ -210,12 +212,12 @@ def untouched() -> None:
 
 
 def main() -> None:
-    walks(WITH, LOCK, "the default (ankles held)")
-    toes = [*DEFAULT_STEPS[:-1], {"filter": "footlock", "toes": True}]
+    walks(WITH, LOCK, "the default (ankles and toes held)")
+    ankles = [*DEFAULT_STEPS[:-1], {"filter": "footlock", "toes": False}]
     walks(
-        Pipeline.from_tables(toes, "toes"),
-        Pipeline.from_inline(["footlock:toes=true"]),
-        "footlock:toes=true (toes held by the foot too)",
+        Pipeline.from_tables(ankles, "ankles"),
+        Pipeline.from_inline(["footlock:toes=false"]),
+        "footlock:toes=false (the ankles alone)",
     )
     quality()
     untouched()

@@ -68,6 +68,8 @@ class ContactParams:
         )
 
 
+#: Relative rounding of a frame time as files write it (7 decimals of 1/120 s: 4e-5).
+FRAME_TIME_ROUNDING = 1e-4
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
 SPEED_HYSTERESIS = 5.0 / 3.0
@@ -357,6 +359,27 @@ def estimate_ground(lowest: np.ndarray) -> float:
     return float(np.percentile(lowest, 5.0))
 
 
+def _close_gaps(loose: np.ndarray, low: np.ndarray, shortest: int) -> np.ndarray:
+    """``loose`` ``(F,)`` with each gap between two of its runs filled where the gap is
+    shorter than ``shortest`` frames and the foot stays ``low`` throughout it: a foot that
+    stays on the ground through a blip of speed of a few frames (noise, or the jitter a
+    filter leaves) stands on; a step takes longer than a contact's minimum."""
+    starts, ends = _runs(loose)
+    if starts.size < 2:
+        return loose
+    gap_from, gap_to = ends[:-1], starts[1:]  # each gap: frames gap_from .. gap_to - 1
+    low_sum = np.concatenate(([0], np.cumsum(low)))
+    closed = (gap_to - gap_from < shortest) & (
+        low_sum[gap_to] - low_sum[gap_from] == gap_to - gap_from
+    )
+    if not closed.any():
+        return loose
+    delta = np.zeros(loose.size + 1, dtype=np.int64)
+    delta[gap_from[closed]] += 1
+    delta[gap_to[closed]] -= 1
+    return loose | (np.cumsum(delta[:-1]) > 0)
+
+
 def detect(
     positions: np.ndarray,
     feet: list[Foot],
@@ -371,7 +394,8 @@ def detect(
 
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
     the ground and the ankle moves slower than ``params.speed`` body heights per second; it
-    lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis); contacts shorter
+    lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
+    speed blip shorter than ``min_duration`` while the foot stays that low; contacts shorter
     than ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
     with a ``floor`` (a plane, tilted or not) heights are taken above it instead.
     """
@@ -390,13 +414,15 @@ def detect(
         )
         above /= height
     speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
+    low = above < params.height_off
     strict = (above < params.height) & (speed < params.speed)
-    loose = (above < params.height_off) & (speed < params.speed_off)
-    # a contact lasts at most the clip: a longer minimum (up to inf) keeps none
-    shortest = params.min_duration / frame_time
+    loose = low & (speed < params.speed_off)
+    # a contact lasts at most the clip: a longer minimum (up to inf) keeps none; a file's
+    # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005
+    shortest = params.min_duration / frame_time * (1.0 - FRAME_TIME_ROUNDING)
     min_frames = max(int(np.ceil(shortest)), 1) if shortest <= n_frames else n_frames + 1
     for k in range(len(feet)):  # a handful of feet; each column is vectorised
-        starts, ends = _runs(loose[:, k])
+        starts, ends = _runs(_close_gaps(loose[:, k], low[:, k], min_frames))
         strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
         keep = (strict_sum[ends] > strict_sum[starts]) & (ends - starts >= min_frames)
         delta = np.zeros(n_frames + 1, dtype=np.int64)

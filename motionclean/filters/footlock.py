@@ -8,12 +8,12 @@ Per frame, :func:`plant` finds the smallest change of the joints from the root d
 the knee (the root's translation, every rotation on the way, the knee as a hinge), each
 weighted by the error expected in it, that puts the ankle on its target within a
 tolerance: its horizontal position on a straight line through the contact, the height left
-free, but not below the floor during a contact. Then, where the foot has toes, the
-smallest change of the ankle's own rotation (and of the toe joints) that holds each toe
-point on its own line while that point is planted: the ankle stays where the first solve
-put it, so the hip and knee keep their change. Each is a Gauss-Newton solve of
+free, but not below the floor during a contact. Where the foot has toes, a second solve
+holds them too, from the same start: every toe point on its own path while it is planted
+(the path of the toe once the ankles stand, smoothed), the ankle on its line, by the same
+joints and the ankle's own rotation and the toe joints. Each is a Gauss-Newton solve of
 
-    min  sum_v |d_v|^2 / s_v^2  +  sum_r w_r (J_r d - e_r)^2 / tol^2
+    min  sum_v |d_v|^2 / s_v^2  +  sum_r w_r (J_r d - e_r)^2 / tol_r^2
 
 (``d_v`` the change of variable ``v`` as a rotation vector in world axes, radians, or a
 translation; ``s_v`` its expected RMS error per component; ``e_r`` the residual of row
@@ -30,11 +30,12 @@ import numpy as np
 from ..core import quat
 from ..core.kinematics import depths, forward_arrays
 
-#: Gauss-Newton iterations (the change is small: the second one leaves millimetres).
-ITERATIONS = 3
-#: ... and of the toes' solve (its levers are short and its start close: one more finds a
-#: toe the first put below the floor).
-TOE_ITERATIONS = 2
+#: Gauss-Newton iterations (the change is small: a third one moves no point of a noisy
+#: walk by more than 0.005 mm on a body 1.7 m tall).
+ITERATIONS = 2
+#: ... and of the toes' solve, which starts where the ankles' left the legs (a second
+#: iteration changes no skate or rotation error figure of bench/footlock.py).
+TOE_ITERATIONS = 1
 #: Frames solved at a time (bounds the per-frame systems' memory).
 BLOCK_FRAMES = 4096
 #: A point this far below the floor (fraction of the tolerance) is on it: a sole that
@@ -43,6 +44,18 @@ FLOOR_SLACK = 1e-6
 #: The toes keep above the floor within this fraction of the ankle's tolerance: the foot's
 #: short levers would otherwise trade a toe under the floor against its rotation's change.
 FLOOR_FIRMNESS = 0.01
+#: The toes follow their paths this many times more loosely than the ankle its line (the
+#: default of ``plant``'s ``toe_tolerance``): on walks with 3 degrees of noise on every
+#: joint, tighter holds turn the legs further from the truth than the default without a
+#: foot lock (bench/footlock.py).
+TOE_TOLERANCE = 1.7
+#: A toe's path is its motion smoothed by a kernel of this standard deviation, as a
+#: fraction of the hold window (``hold_frames``).
+TOE_SMOOTHING = 0.5
+#: The Levi-Civita symbol: ``(a x b)_j = eps[j, i, k] a_i b_k``.
+_LEVI_CIVITA = np.zeros((3, 3, 3))
+_LEVI_CIVITA[[0, 1, 2], [1, 2, 0], [2, 0, 1]] = 1.0
+_LEVI_CIVITA[[0, 1, 2], [2, 0, 1], [1, 2, 0]] = -1.0
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
@@ -95,6 +108,17 @@ def _window_sums(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return total[hi] - total[lo]
 
 
+def _run_bounds(contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame ``(F,)``: the first and last frame of its contact (itself outside one)."""
+    n = len(contacts)
+    index = np.arange(n)
+    starts = contacts & ~np.r_[False, contacts[:-1]]
+    ends = contacts & ~np.r_[contacts[1:], False]
+    first = np.maximum.accumulate(np.where(starts, index, 0))
+    last = np.minimum.accumulate(np.where(ends, index, n)[::-1])[::-1]
+    return np.where(contacts, first, index), np.where(contacts, last, index)
+
+
 def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> np.ndarray:
     """``(F, ..., 3)``: on contact frames, the least-squares straight line of ``points``
     through a window of ``hold_frames`` frames centred on the frame and cut to its contact,
@@ -104,18 +128,15 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     """
     n = len(points)
     index = np.arange(n)
-    starts = contacts & ~np.r_[False, contacts[:-1]]
-    ends = contacts & ~np.r_[contacts[1:], False]
-    first = np.maximum.accumulate(np.where(starts, index, 0))
-    last = np.minimum.accumulate(np.where(ends, index, n)[::-1])[::-1]
+    first, last = _run_bounds(contacts)
     shape = (-1,) + (1,) * (points.ndim - 1)
     if not np.isfinite(hold_frames):  # held still: the contact's mean position
-        lo, hi = np.where(contacts, first, 0), np.where(contacts, last + 1, 1)
+        lo, hi = first, last + 1
         mean = _window_sums(points, lo, hi) / (hi - lo).reshape(shape)
         return np.where(contacts.reshape(shape), mean, points)
     half = int(min(hold_frames, 2 * n) // 2)
-    lo = np.where(contacts, np.maximum(first, index - half), 0)
-    hi = np.where(contacts, np.minimum(last, index + half) + 1, 1)
+    lo = np.maximum(first, index - half)
+    hi = np.minimum(last, index + half) + 1
     t = (index - index[0]).astype(np.float64)
     count = (hi - lo).astype(np.float64)
     t_mean = _window_sums(t, lo, hi) / count
@@ -127,6 +148,40 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     slope = np.where(steady, cov / np.maximum(t_var, 1e-9).reshape(shape), 0.0)
     line = p_mean + slope * (t - t_mean).reshape(shape)
     return np.where(contacts.reshape(shape), line, points)
+
+
+def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
+    """``(F, ..., 3)``: on contact frames, the straight line fitted to ``points`` around
+    the frame by least squares weighted with a smooth kernel of standard deviation
+    ``sigma_frames`` frames (three box averages of ``2 h + 1`` frames, ``h (h + 1) =
+    sigma^2``), cut to its contact, evaluated at the frame; elsewhere the points.
+
+    A local linear smoother: jitter goes, a toe's slow roll stays, and the contact's ends
+    are not pulled toward its middle. Each box is a running sum: cost per frame is flat.
+    """
+    half = int(round((np.sqrt(1.0 + 4.0 * min(sigma_frames, len(points)) ** 2) - 1.0) / 2.0))
+    if half == 0 or not contacts.any():
+        return points.copy()
+    first, last = _run_bounds(contacts)
+    index = np.arange(len(points))
+    lo = np.maximum(first, index - half)
+    hi = np.minimum(last, index + half) + 1
+    shape = (-1,) + (1,) * (points.ndim - 1)
+    count = (hi - lo).astype(np.float64)
+
+    def smooth(x: np.ndarray) -> np.ndarray:  # three cut box averages: a kernel's weights
+        for _ in range(3):
+            x = _window_sums(x, lo, hi) / count.reshape((-1,) + (1,) * (x.ndim - 1))
+        return x
+
+    t = (index - first).astype(np.float64)  # time within the contact: small sums
+    t_mean, p_mean = smooth(t), smooth(points)
+    t_var = smooth(t * t) - t_mean**2
+    cov = smooth(t.reshape(shape) * points) - t_mean.reshape(shape) * p_mean
+    steady = (t_var > 1e-9).reshape(shape)
+    slope = np.where(steady, cov / np.maximum(t_var, 1e-9).reshape(shape), 0.0)
+    path = p_mean + slope * (t - t_mean).reshape(shape)
+    return np.where(contacts.reshape(shape), path, points)
 
 
 def _eases(
@@ -158,12 +213,18 @@ def lock_weights(contacts: np.ndarray, blend_frames: float) -> np.ndarray:
 
 
 def lock_targets(
-    points: np.ndarray, contacts: np.ndarray, blend_frames: float, hold_frames: float = np.inf
+    points: np.ndarray,
+    contacts: np.ndarray,
+    blend_frames: float,
+    hold_frames: float = np.inf,
+    path: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Where one foot's points ``(F, k, 3)`` should be on each frame, and how strongly:
     ``(F, k, 3)`` and ``(F,)``.
 
-    During a contact the target is :func:`held_lines` with weight 1. Within
+    During a contact the target is :func:`held_lines` with weight 1 (with ``path``,
+    :func:`held_paths` with a kernel of :data:`TOE_SMOOTHING` times ``hold_frames``, or
+    the contact's mean where that is infinite). Within
     ``blend_frames`` frames before a contact starts or after it ends, the weight eases from
     0 to 1 (smoothstep) and the target moves from the points toward the contact's first or
     last target; where the ramps of two contacts overlap, the target is their weighted
@@ -172,7 +233,10 @@ def lock_targets(
     n = len(points)
     if not contacts.any():
         return points.copy(), np.zeros(n)
-    held = held_lines(points, contacts, hold_frames)
+    if path and np.isfinite(hold_frames):
+        held = held_paths(points, contacts, TOE_SMOOTHING * hold_frames)
+    else:
+        held = held_lines(points, contacts, hold_frames)
     last_in, next_in, w_prev, w_next = _eases(contacts, blend_frames)
     total = w_prev + w_next
     shape = (-1,) + (1,) * (points.ndim - 1)
@@ -295,7 +359,8 @@ def _problem(
     ``(Jc,)`` (radians), and moving the part's first root along the axes where ``root``
     ``(3,)`` (its expected error per axis, length units) is not 0."""
     depth = depths(part.parents)
-    used = sorted(turns, key=lambda j: (depth[j], j))
+    # columns: the root's axes, then the free joints' (3 each), then the hinges' (1 each)
+    used = sorted(turns, key=lambda j: (j in hinges, depth[j], j))
     hinge = np.array([j in hinges for j in used], dtype=bool)
     axes = np.flatnonzero(root > 0.0)
     widths = np.where(hinge, 1, 3)
@@ -334,16 +399,16 @@ def _problem(
 class _Rows:
     """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
     position on ``targets`` ``(F, K, 3)`` where ``horizontal``, within ``tolerance``
-    (length units); not below the floor ``(normal, offset)`` where ``grounded``, within
-    ``floor_tolerance``. ``up`` is the up axis; a target further from a point than
-    ``robust`` times the error the prior predicts for it is followed less (Huber
-    weights)."""
+    ``(K,)`` (length units); not below the floor ``(normal, offset)`` where ``grounded``,
+    within ``floor_tolerance`` ``(K,)``. ``up`` is the up axis; a target further from a
+    point than ``robust`` times the error the prior predicts for it is followed less
+    (Huber weights)."""
 
     targets: np.ndarray
     horizontal: np.ndarray
     grounded: np.ndarray
-    tolerance: float
-    floor_tolerance: float
+    tolerance: np.ndarray
+    floor_tolerance: np.ndarray
     floor: tuple[np.ndarray, float]
     up: int
     robust: float
@@ -372,7 +437,7 @@ def plant(
     blend_frames: float,
     hold_frames: float = np.inf,
     toe_contacts: np.ndarray | None = None,
-    toe_tolerance: float = 2.0,
+    toe_tolerance: float = TOE_TOLERANCE,
     robust: float = 3.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations ``(F, J, 4)`` and root translations ``(F, 3)`` with every leg planted
@@ -418,30 +483,38 @@ def plant(
         targets[:, k], weights[:, k] = lock_targets(
             start[:, k], contacts[:, k], blend_frames, hold_frames
         )
-    rows = _Rows(targets, weights > 0.0, contacts, tolerance, tolerance, floor, up, robust)
+    rows = _Rows(
+        targets,
+        weights > 0.0,
+        contacts,
+        np.full(len(legs), tolerance),
+        np.full(len(legs), tolerance),
+        floor,
+        up,
+        robust,
+    )
     frames = np.flatnonzero(rows.horizontal.any(axis=1))
-    q, t = _solve_frames(q[frames], t[frames], part, problem, rows.take(frames))
+    q, t, total = _solve_frames(q[frames], t[frames], part, problem, rows.take(frames))
     out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
     out_t[frames] = t[:, 0]
-    held = [k for k, leg in enumerate(legs) if leg.foot and len(leg.points) > 1]
-    if held:
-        feet = [legs[k] for k in held]
-        moved = translations.copy()
-        moved[:, root] = out_t
-        columns = [k for k in held for _ in legs[k].points[1:]]
-        toes = contacts[:, columns] if toe_contacts is None else toe_contacts
-        rows = _Rows(
-            np.empty((0, 0, 3)),
-            np.empty((0, 0), dtype=bool),
-            toes | contacts[:, columns],
+    if any(leg.foot and len(leg.points) > 1 for leg in legs):
+        toes = _Toes(
+            contacts[:, [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]]
+            if toe_contacts is None
+            else toe_contacts,
             tolerance * toe_tolerance,
-            tolerance * FLOOR_FIRMNESS,
-            floor,
-            up,
-            robust,
         )
-        out_q = _hold_toes(
-            out_q, moved, parents, tips, feet, toes, prior, rows, blend_frames, hold_frames
+        out_q, out_t = _hold_toes(
+            (rotations, translations),
+            _Planted(out_q, out_t, frames, total, _column_keys(part, problem)),
+            parents,
+            tips,
+            legs,
+            rows,
+            toes,
+            prior,
+            blend_frames,
+            hold_frames,
         )
     return out_q, out_t
 
@@ -451,69 +524,120 @@ def _same_sign(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.where(np.sum(q * reference, axis=-1, keepdims=True) >= 0.0, q, -q)
 
 
+def _column_keys(part: _Part, problem: _Problem) -> list[tuple[int, int]]:
+    """Each column's variable, the same in any part: ``(-1, axis)`` for the root's
+    translation, ``(joint, component)`` for a joint's change (``joint`` of the skeleton)."""
+    keys = [(-1, int(a)) for a in problem.axes] + [(-1, -1)] * (
+        problem.n_columns - problem.axes.size
+    )
+    for v, joint in enumerate(part.index[problem.joints].tolist()):
+        for c in range(1 if problem.hinge[v] else 3):
+            keys[problem.columns[v] + c] = (joint, c)
+    return keys
+
+
+@dataclass(frozen=True)
+class _Planted:
+    """The ankles' solve: rotations ``(F, J, 4)`` and root translations ``(F, 3)``, the
+    frames it changed, its change on them ``(n, C)`` and each column's variable
+    (:func:`_column_keys`)."""
+
+    rotations: np.ndarray
+    root: np.ndarray
+    frames: np.ndarray
+    total: np.ndarray
+    keys: list[tuple[int, int]]
+
+
+@dataclass(frozen=True)
+class _Toes:
+    """The toe points' contacts ``(F, n_toes)`` and how closely they follow their paths
+    (length units)."""
+
+    contacts: np.ndarray
+    tolerance: float
+
+
 def _hold_toes(
-    rotations: np.ndarray,
-    translations: np.ndarray,
+    given: tuple[np.ndarray, np.ndarray],
+    planted: _Planted,
     parents: np.ndarray,
     tips: dict[int, np.ndarray],
-    feet: list[Leg],
-    toes: np.ndarray,
+    legs: list[Leg],
+    ankle_rows: _Rows,
+    toes: _Toes,
     prior: Prior,
-    rows: _Rows,
     blend_frames: float,
     hold_frames: float,
-) -> np.ndarray:
-    """``rotations`` with the toe points of ``feet`` held on their lines during ``toes``
-    ``(F, n_toes)`` by the least weighted change of each foot's joints: the ankle's own
-    rotation and the toe joints, the ankles left in place. ``rows.grounded`` ``(F, n_toes)``
-    are the frames where each toe point must stay above the floor."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rotations and root translations of ``planted`` (the ankles' solve of ``given``,
+    its local rotations and translations ``(F, J, ...)``) with the toes held too: the
+    ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of the legs with
+    a ``foot``, its own path while it is planted (its track once the ankles stand,
+    :func:`held_paths`), by the legs' joints and their ``foot`` joints; the prior stays
+    centred on ``given``, the solve starts where the ankles' left it. Frames that hold no
+    toe and find none below the floor keep ``planted``."""
+    rotations, translations = given
     n_joints = len(parents)
     tip_joints = sorted(tips)
-    weights = np.stack(
-        [lock_weights(toes[:, k], blend_frames) for k in range(toes.shape[1])], axis=1
-    )
-    frames = np.flatnonzero(((weights > 0.0) | rows.grounded).any(axis=1))
-    if frames.size == 0:
-        return rotations
-    ankles = [leg.points[0] for leg in feet]
-    above = _Part.of(parents, tips, set(ankles), set())
-    q, t = above.arrays(rotations[frames], translations[frames])
-    positions, world = forward_arrays(above.parents, q, t)
-    at = np.searchsorted(above.index, ankles)
-    mounts = (world[:, above.parents[at]], positions[:, at])
-    toe_points = [p for leg in feet for p in leg.points[1:]]
+    root = legs[0].knee
+    while parents[root] >= 0:
+        root = int(parents[root])
+    ankles = [leg.points[0] for leg in legs]
+    toe_points = [p for leg in legs if leg.foot for p in leg.points[1:]]
     hangs_on = [p if p < n_joints else tip_joints[p - n_joints] for p in toe_points]
-    part = _Part.of(parents, tips, set(hangs_on), set(ankles))
+    part = _Part.of(parents, tips, {*ankles, *hangs_on}, set())
+    rank = {int(j): c for c, j in enumerate(part.index)}
     problem = _problem(
         part,
-        {int(np.searchsorted(part.index, j)) for leg in feet for j in leg.foot},
-        {},
-        [part.point(p, n_joints, tip_joints) for p in toe_points],
+        {rank[j] for leg in legs for j in (*leg.joints, *leg.foot)},
+        {rank[leg.knee]: leg.hinge for leg in legs},
+        [part.point(p, n_joints, tip_joints) for p in (*ankles, *toe_points)],
         prior.sigma[part.index],
-        np.zeros(3),
+        prior.root,
     )
-    q, t = part.arrays(rotations[frames], translations[frames], mounts)
-    start = np.zeros((len(rotations), len(toe_points), 3))  # only contact frames are read
-    start[frames] = _points(*forward_arrays(part.parents, q, t), problem, part.tip_offsets)
-    targets = np.empty_like(start)
+    moved = translations.copy()
+    moved[:, root] = planted.root
+    q, t = part.arrays(planted.rotations, moved)
+    track = _points(*forward_arrays(part.parents, q, t), problem, part.tip_offsets)
+    track = track[:, len(ankles) :]
+    targets = np.empty_like(track)
+    weights = np.zeros(toes.contacts.shape)
     for k in range(len(toe_points)):  # a point at a time, vectorised over frames
-        targets[:, k] = lock_targets(start[:, k], toes[:, k], blend_frames, hold_frames)[0]
-    # solved: the frames that hold a toe, or find one below the floor where it must not be
-    normal, level = rows.floor
-    below = (start[frames] @ normal - level < 0.0) & rows.grounded[frames]
-    asked = (weights[frames] > 0.0).any(axis=1) | below.any(axis=1)
-    frames, q, t = frames[asked], q[asked], t[asked]
-    mounts = (mounts[0][asked], mounts[1][asked])
-    rows = replace(rows, targets=targets, horizontal=weights > 0.0).take(frames)
-    solved, _ = _solve_frames(q, t, part, problem, rows, TOE_ITERATIONS)
-    changed = np.any(solved != q, axis=(1, 2))  # the others are left bit for bit
-    frames, solved = frames[changed], solved[changed]
-    mounts = (mounts[0][changed], mounts[1][changed])
-    out = rotations.copy()
-    out[frames[:, None], part.index] = _same_sign(
-        part.local(solved, mounts), rotations[frames][:, part.index]
-    )
-    return out
+        targets[:, k], weights[:, k] = lock_targets(
+            track[:, k], toes.contacts[:, k], blend_frames, hold_frames, path=True
+        )
+    # the toes keep above the floor while their leg or they themselves stand
+    columns = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
+    grounded = toes.contacts | ankle_rows.grounded[:, columns]
+    normal, level = ankle_rows.floor
+    below = (track @ normal - level < 0.0) & grounded
+    frames = np.flatnonzero(((weights > 0.0) | below).any(axis=1))
+    if frames.size == 0:
+        return planted.rotations, planted.root
+    tolerance = ankle_rows.tolerance[0]
+    n_ankles, n_toes = len(ankles), len(toe_points)
+    rows = _Rows(
+        np.concatenate([ankle_rows.targets, targets], axis=1),
+        np.concatenate([ankle_rows.horizontal, weights > 0.0], axis=1),
+        np.concatenate([ankle_rows.grounded, grounded], axis=1),
+        np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toes.tolerance)],
+        np.r_[np.full(n_ankles, tolerance), np.full(n_toes, tolerance * FLOOR_FIRMNESS)],
+        ankle_rows.floor,
+        ankle_rows.up,
+        ankle_rows.robust,
+    ).take(frames)
+    # warm start: the ankles' change, placed in this solve's columns
+    column = {key: c for c, key in enumerate(_column_keys(part, problem))}
+    at = np.searchsorted(planted.frames, frames).clip(0, max(planted.frames.size - 1, 0))
+    solved = planted.frames.size > 0 and planted.frames[at] == frames
+    total = np.zeros((frames.size, problem.n_columns))
+    total[np.ix_(solved, [column[key] for key in planted.keys])] = planted.total[at[solved]]
+    q, t, _ = _solve_frames(q[frames], t[frames], part, problem, rows, TOE_ITERATIONS, total)
+    out_q, out_t = planted.rotations.copy(), planted.root.copy()
+    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
+    out_t[frames] = t[:, 0]
+    return out_q, out_t
 
 
 def _points(
@@ -537,17 +661,19 @@ def _solve_frames(
     problem: _Problem,
     rows: _Rows,
     iterations: int = ITERATIONS,
-) -> tuple[np.ndarray, np.ndarray]:
+    total: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_solve` over blocks of :data:`BLOCK_FRAMES` frames (bounds the per-frame
     systems' memory)."""
     q, t = q.copy(), t.copy()
+    total = np.zeros((len(q), problem.n_columns)) if total is None else total.copy()
     for at in range(0, len(q), BLOCK_FRAMES):
         block = slice(at, at + BLOCK_FRAMES)
         frames = np.arange(at, min(at + BLOCK_FRAMES, len(q)))
-        q[block], t[block] = _solve(
-            q[block], t[block], part, problem, rows.take(frames), iterations
+        q[block], t[block], total[block] = _solve(
+            q[block], t[block], part, problem, rows.take(frames), iterations, total[block]
         )
-    return q, t
+    return q, t, total
 
 
 def _solve(
@@ -557,17 +683,21 @@ def _solve(
     problem: _Problem,
     rows: _Rows,
     iterations: int = ITERATIONS,
-) -> tuple[np.ndarray, np.ndarray]:
+    total: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The Gauss-Newton solve of :func:`plant` on a block of frames of a part: local
-    rotations and translations ``(F, Jc, ...)`` in, the same out."""
+    rotations and translations ``(F, Jc, ...)`` in, the same out, and the change made
+    ``(F, C)`` (each variable's column). ``total``: the change the rotations and
+    translations given already hold (a warm start; the prior stays centred where they
+    were before it)."""
     q, t = rotations.copy(), translations.copy()
     parents = part.parents
     normal, level = rows.floor
     directions = np.stack([np.eye(3)[a] for a in range(3) if a != rows.up] + [normal])
     n_frames, n_points = rows.targets.shape[:2]
-    scale = np.array([1.0, 1.0, (rows.tolerance / rows.floor_tolerance) ** 2] * n_points)
-    scale /= rows.tolerance**2
-    total = np.zeros((n_frames, problem.n_columns))
+    scale = np.stack([rows.tolerance, rows.tolerance, rows.floor_tolerance], axis=-1)
+    scale = 1.0 / scale.ravel() ** 2  # per row: two along the ground, one off the floor
+    total = np.zeros((n_frames, problem.n_columns)) if total is None else total.copy()
     huber = None
     below = np.zeros((n_frames, n_points), dtype=bool)
     free = ~problem.hinge
@@ -587,11 +717,13 @@ def _solve(
         ).astype(np.float64)
         jac = jac.reshape(n_frames, n_points * 3, problem.n_columns)
         residual = residual.reshape(n_frames, -1)
+        # the residual seen from the prior's centre (the input), linearised here
+        from_input = residual + (jac @ total[..., None])[..., 0]
         if huber is None:  # from the input: a target far beyond the noise is motion
             predicted = np.sqrt((jac * jac) @ spread)
             # per point, along the ground (a sum over both horizontal rows: invariant)
             spread_h = np.sqrt(np.sum(predicted.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
-            off = np.sqrt(np.sum(residual.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
+            off = np.sqrt(np.sum(from_input.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
             weight = np.ones((n_frames, n_points, 3))  # the floor rows keep 1: no guess
             weight[..., :2] = np.minimum(1.0, rows.robust * spread_h / np.maximum(off, 1e-300))[
                 ..., None
@@ -604,7 +736,7 @@ def _solve(
         spread_rows = a * spread
         gram = spread_rows @ a.transpose(0, 2, 1)
         gram[:, np.arange(gram.shape[1]), np.arange(gram.shape[1])] += 1.0
-        target = root_precision * (residual + (jac @ total[..., None])[..., 0])
+        target = root_precision * from_input
         mixed = np.linalg.solve(gram, target[..., None])
         step = (spread_rows.transpose(0, 2, 1) @ mixed)[..., 0] - total
         total += step
@@ -624,7 +756,7 @@ def _solve(
         turned = quat.normalize(quat.multiply(quat.exp(0.5 * change), q[:, problem.joints]))
         moved = np.any(step != 0.0, axis=1)[:, None, None]  # a frame nothing asks of: as it was
         q[:, problem.joints] = np.where(moved, turned, q[:, problem.joints])
-    return q, t
+    return q, t, total
 
 
 def _jacobian(
@@ -639,21 +771,24 @@ def _jacobian(
 
     A rotation ``w`` (world axes) of joint ``v`` moves a point below it by ``w x (p -
     p_v)``: along ``u`` by ``w . ((p - p_v) x u)``; a hinge's column is that along its
-    world axis; a root translation column moves every point by its axis."""
+    world axis ``h``, ``(p - p_v) . (u x h)``; a root translation column moves every point
+    by its axis."""
     n_frames, n_points = points.shape[:2]
-    jac = np.zeros((n_frames, n_points, 3, problem.n_columns))
-    jac[..., : problem.axes.size] = directions[:, problem.axes][None, None]
+    n_axes = problem.axes.size
+    jac = np.empty((n_frames, n_points, 3, problem.n_columns))
+    jac[..., :n_axes] = directions[:, problem.axes][None, None]
     arm = points[:, :, None, :] - positions[:, None, problem.joints, :]  # (F, K, V, 3)
     arm *= problem.moves[None, :, :, None]
-    lever = np.cross(arm[:, :, None], directions[None, None, :, None, :])  # (F, K, 3, V, 3)
-    free = np.flatnonzero(~problem.hinge)
-    columns = problem.columns[free, None] + np.arange(3)
-    jac[..., columns.ravel()] = lever[:, :, :, free].reshape(n_frames, n_points, 3, -1)
-    hinged = np.flatnonzero(problem.hinge)
-    if hinged.size:
-        parent = parents[problem.joints[hinged]]
-        axis = quat.rotate(world[:, parent], problem.hinges[hinged])  # (F, H, 3)
-        jac[..., problem.columns[hinged]] = np.einsum(
-            "fkdhc,fhc->fkdh", lever[:, :, :, hinged], axis
+    n_free = int(np.count_nonzero(~problem.hinge))  # the first joints; their columns next
+    free_arm = arm[:, :, :n_free].reshape(n_frames, -1, 3)
+    crosses = np.einsum("jik,dk->dij", _LEVI_CIVITA, directions)  # a @ crosses[d] = a x u_d
+    for d in range(3):  # two rows along the ground, one off the floor
+        jac[:, :, d, n_axes : n_axes + 3 * n_free] = (free_arm @ crosses[d]).reshape(
+            n_frames, n_points, -1
         )
+    if n_free < problem.joints.size:
+        hinged = problem.joints[n_free:]
+        axis = quat.rotate(world[:, parents[hinged]], problem.hinges[n_free:])  # (F, H, 3)
+        across = np.cross(directions[None, None], axis[:, :, None])  # (F, H, 3, 3): u x h
+        jac[..., n_axes + 3 * n_free :] = np.einsum("fkhc,fhdc->fkdh", arm[:, :, n_free:], across)
     return jac

@@ -2,8 +2,8 @@
 
 Contacts are found in world space (:mod:`motionclean.core.contacts`). During each contact
 whose ankle slides, the legs are planted by the least weighted change of the joints from
-the root down to the knee, then (with ``toes``) the toes by the least change of the
-ankle's own rotation and the toe joints while each toe point is planted itself
+the root down to the knee, and the toes too (``toes``, on by default) by the same joints
+and the ankle's own rotation and the toe joints while each toe point is planted itself
 (:func:`motionclean.filters.footlock.plant`): each joint is weighted by the error the
 ``auto`` step before it expects in it (its notes' ``expected_error``; without ``auto``, by
 the noise estimated on the clip), so a joint ``auto`` found clean barely moves and a clip
@@ -22,7 +22,7 @@ from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
 from ..filters.auto import estimate_noise, estimate_position_noise
-from ..filters.footlock import Leg, Prior, hinge_axis, plant
+from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, hinge_axis, plant
 from .base import UP_PARAM, Param, StepData, StepSpec, crop_runs, given_up, plural, shift_runs
 
 
@@ -318,18 +318,18 @@ STEP = StepSpec(
         Param(
             "toes",
             "bool",
-            False,
+            True,
             "also hold each toe point (the joints and end sites below the ankle) while it is "
-            "planted itself, by the least change of the ankle's own rotation and the toe "
-            "joints (the ankle stays where it is held; hip and knee are not touched): the toes "
-            "slide less, the ankle's rotation moves a little; false keeps it",
+            "planted itself, on its own smoothed path, by the leg's joints and the ankle's "
+            "own rotation and the toe joints; false holds the ankle alone and keeps the "
+            "foot's rotations",
         ),
         Param(
             "toe_tolerance",
             "float",
-            2.0,
-            "the toes follow their lines this many times more loosely than the ankle (lower: "
-            "less toe slide, the ankle's rotation further from the capture)",
+            TOE_TOLERANCE,
+            "the toes follow their paths this many times more loosely than the ankle its "
+            "line (lower: less toe slide, the leg's rotations further from the capture)",
             minimum=0.1,
             maximum=1000.0,
         ),
@@ -355,9 +355,9 @@ STEP = StepSpec(
             "hold_seconds",
             "float",
             0.5,
-            "the ankle (and toes) follow their least-squares straight line over this "
-            "window, cut to the contact: jitter and sliding go, a steady drift (pivot) "
-            "stays; inf holds every contact still at its mean position",
+            "the ankle follows its least-squares straight line over this window, the toes "
+            "their path smoothed over half of it, cut to the contact: jitter and sliding go, "
+            "a steady drift (pivot) stays; inf holds every contact still at its mean position",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,

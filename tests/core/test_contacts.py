@@ -274,3 +274,32 @@ def test_hands_hanging_lowest_are_no_feet_on_a_body():
     elevation[[8, 12]] = 0.0  # the fingers: lowest of all
     feet = found.find_feet(parents, rest, 1, 1.0, names, elevation=elevation)
     assert [f.name for f in feet] == ["ankle15", "ankle19"]
+
+
+def test_a_contact_stands_through_a_short_speed_blip_while_the_foot_stays_low():
+    """Runs of the loose criteria split by fewer frames than a contact's minimum, with the
+    foot low throughout, are one contact (a blip of speed is noise, a step takes longer);
+    a gap where the foot rises, or one as long as the minimum, splits them."""
+    from motionclean.core.contacts import _close_gaps
+
+    loose = np.ones(60, dtype=bool)
+    loose[20:23] = False  # a three-frame blip
+    loose[40:52] = False  # twelve frames: a step
+    low = np.ones(60, dtype=bool)
+    closed = _close_gaps(loose, low, 12)
+    assert closed[:40].all() and not closed[40:52].any() and closed[52:].all()
+    low[21] = False  # the foot lifted during the blip
+    assert np.array_equal(_close_gaps(loose, low, 12), loose)
+
+
+def test_a_contact_exactly_the_minimum_long_is_kept():
+    """0.1 s at 120 fps is 12 frames, though 0.1 / 0.0083333 (a BVH's frame time) is
+    12.00005."""
+    frame_time = 0.0083333
+    positions = np.zeros((80, 1, 3))
+    positions[:, 0, 1] = 1.0  # the foot in the air ...
+    positions[30:42, 0, 1] = 0.0  # ... on the ground for 12 frames
+    foot = found.Foot("foot", -1, -1, 0, (0,))
+    params = found.ContactParams(min_duration=0.1)
+    contacts, _ = found.detect(positions, [foot], 1, 10.0, frame_time, params, ground=0.0)
+    assert np.array_equal(np.flatnonzero(contacts[:, 0]), np.arange(30, 42))
