@@ -629,10 +629,12 @@ def _hold_toes(
     ).take(frames)
     # warm start: the ankles' change, placed in this solve's columns
     column = {key: c for c, key in enumerate(_column_keys(part, problem))}
-    at = np.searchsorted(planted.frames, frames).clip(0, max(planted.frames.size - 1, 0))
-    solved = planted.frames.size > 0 and planted.frames[at] == frames
+    at = np.searchsorted(planted.frames, frames)
+    solved = at < planted.frames.size
+    solved[solved] = planted.frames[at[solved]] == frames[solved]
+    into = np.array([column[key] for key in planted.keys], dtype=np.intp)
     total = np.zeros((frames.size, problem.n_columns))
-    total[np.ix_(solved, [column[key] for key in planted.keys])] = planted.total[at[solved]]
+    total[np.ix_(solved, into)] = planted.total[at[solved]]
     q, t, _ = _solve_frames(q[frames], t[frames], part, problem, rows, TOE_ITERATIONS, total)
     out_q, out_t = planted.rotations.copy(), planted.root.copy()
     out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
