@@ -494,8 +494,9 @@ def plant(
         robust,
     )
     frames = np.flatnonzero(rows.horizontal.any(axis=1))
-    q, t, total = _solve_frames(q[frames], t[frames], part, problem, rows.take(frames))
-    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
+    q, t = q[frames], t[frames]
+    total = _solve_frames(q, t, part, problem, rows.take(frames))
+    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames[:, None], part.index])
     out_t[frames] = t[:, 0]
     if any(leg.foot and len(leg.points) > 1 for leg in legs):
         toes = _Toes(
@@ -571,7 +572,8 @@ def _hold_toes(
     hold_frames: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The rotations and root translations of ``planted`` (the ankles' solve of ``given``,
-    its local rotations and translations ``(F, J, ...)``) with the toes held too: the
+    its local rotations and translations ``(F, J, ...)``; written in place) with the toes
+    held too: the
     ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of the legs with
     a ``foot``, its own path while it is planted (its track once the ankles stand,
     :func:`held_paths`), by the legs' joints and their ``foot`` joints; the prior stays
@@ -596,9 +598,8 @@ def _hold_toes(
         prior.sigma[part.index],
         prior.root,
     )
-    moved = translations.copy()
-    moved[:, root] = planted.root
-    q, t = part.arrays(planted.rotations, moved)
+    q, t = part.arrays(planted.rotations, translations)
+    t[:, rank[root]] = planted.root
     track = _points(*forward_arrays(part.parents, q, t), problem, part.tip_offsets)
     track = track[:, len(ankles) :]
     targets = np.empty_like(track)
@@ -635,9 +636,10 @@ def _hold_toes(
     into = np.array([column[key] for key in planted.keys], dtype=np.intp)
     total = np.zeros((frames.size, problem.n_columns))
     total[np.ix_(solved, into)] = planted.total[at[solved]]
-    q, t, _ = _solve_frames(q[frames], t[frames], part, problem, rows, TOE_ITERATIONS, total)
-    out_q, out_t = planted.rotations.copy(), planted.root.copy()
-    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames][:, part.index])
+    q, t = q[frames], t[frames]
+    _solve_frames(q, t, part, problem, rows, TOE_ITERATIONS, total)
+    out_q, out_t = planted.rotations, planted.root  # plant's own arrays: written in place
+    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames[:, None], part.index])
     out_t[frames] = t[:, 0]
     return out_q, out_t
 
@@ -664,42 +666,37 @@ def _solve_frames(
     rows: _Rows,
     iterations: int = ITERATIONS,
     total: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> np.ndarray:
     """:func:`_solve` over blocks of :data:`BLOCK_FRAMES` frames (bounds the per-frame
-    systems' memory)."""
-    q, t = q.copy(), t.copy()
-    total = np.zeros((len(q), problem.n_columns)) if total is None else total.copy()
+    systems' memory): ``q`` and ``t`` are solved in place; returns the change made ``(F,
+    C)`` (``total``, if given, updated in place)."""
+    total = np.zeros((len(q), problem.n_columns)) if total is None else total
     for at in range(0, len(q), BLOCK_FRAMES):
         block = slice(at, at + BLOCK_FRAMES)
         frames = np.arange(at, min(at + BLOCK_FRAMES, len(q)))
-        q[block], t[block], total[block] = _solve(
-            q[block], t[block], part, problem, rows.take(frames), iterations, total[block]
-        )
-    return q, t, total
+        _solve(q[block], t[block], part, problem, rows.take(frames), iterations, total[block])
+    return total
 
 
 def _solve(
-    rotations: np.ndarray,
-    translations: np.ndarray,
+    q: np.ndarray,
+    t: np.ndarray,
     part: _Part,
     problem: _Problem,
     rows: _Rows,
-    iterations: int = ITERATIONS,
-    total: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The Gauss-Newton solve of :func:`plant` on a block of frames of a part: local
-    rotations and translations ``(F, Jc, ...)`` in, the same out, and the change made
-    ``(F, C)`` (each variable's column). ``total``: the change the rotations and
-    translations given already hold (a warm start; the prior stays centred where they
+    iterations: int,
+    total: np.ndarray,
+) -> None:
+    """The Gauss-Newton solve of :func:`plant` on a block of frames of a part, in place:
+    local rotations and translations ``(F, Jc, ...)`` and the change they hold ``(F, C)``
+    (each variable's column; zero, or a warm start: the prior stays centred where they
     were before it)."""
-    q, t = rotations.copy(), translations.copy()
     parents = part.parents
     normal, level = rows.floor
     directions = np.stack([np.eye(3)[a] for a in range(3) if a != rows.up] + [normal])
     n_frames, n_points = rows.targets.shape[:2]
     scale = np.stack([rows.tolerance, rows.tolerance, rows.floor_tolerance], axis=-1)
     scale = 1.0 / scale.ravel() ** 2  # per row: two along the ground, one off the floor
-    total = np.zeros((n_frames, problem.n_columns)) if total is None else total.copy()
     huber = None
     below = np.zeros((n_frames, n_points), dtype=bool)
     free = ~problem.hinge
@@ -733,12 +730,15 @@ def _solve(
             huber = weight.reshape(n_frames, -1)
         root_precision = np.sqrt(active.reshape(n_frames, -1) * huber * scale)
         # the solve in the rows' space (at most 3 per held point, fewer than the columns):
-        # z = P^-1 A^T (I + A P^-1 A^T)^-1 b with A = sqrt(M) J, b = sqrt(M) (e + J total)
-        a = jac * root_precision[..., None]
+        # z = P^-1 A^T (I + A P^-1 A^T)^-1 b with A = sqrt(M) J, b = sqrt(M) (e + J total);
+        # rows no frame of the block asks for (a floor no point went below) are left out
+        asked = np.flatnonzero(root_precision.any(axis=0))
+        root_precision = root_precision[:, asked]
+        a = jac[:, asked] * root_precision[..., None]
         spread_rows = a * spread
         gram = spread_rows @ a.transpose(0, 2, 1)
         gram[:, np.arange(gram.shape[1]), np.arange(gram.shape[1])] += 1.0
-        target = root_precision * from_input
+        target = root_precision * from_input[:, asked]
         mixed = np.linalg.solve(gram, target[..., None])
         step = (spread_rows.transpose(0, 2, 1) @ mixed)[..., 0] - total
         total += step
@@ -758,7 +758,6 @@ def _solve(
         turned = quat.normalize(quat.multiply(quat.exp(0.5 * change), q[:, problem.joints]))
         moved = np.any(step != 0.0, axis=1)[:, None, None]  # a frame nothing asks of: as it was
         q[:, problem.joints] = np.where(moved, turned, q[:, problem.joints])
-    return q, t, total
 
 
 def _jacobian(
