@@ -356,8 +356,9 @@ STEP = StepSpec(
             "float",
             0.5,
             "the ankle follows its least-squares straight line over this window, the toes "
-            "their path smoothed over half of it, cut to the contact: jitter and sliding go, "
-            "a steady drift (pivot) stays; inf holds every contact still at its mean position",
+            "their path smoothed by a kernel whose standard deviation is half of it, both cut "
+            "to the contact: jitter and sliding go, a steady drift (pivot) stays; inf holds "
+            "every contact still at its mean position",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,
