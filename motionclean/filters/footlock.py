@@ -56,6 +56,9 @@ TOE_SMOOTHING = 0.5
 _LEVI_CIVITA = np.zeros((3, 3, 3))
 _LEVI_CIVITA[[0, 1, 2], [1, 2, 0], [2, 0, 1]] = 1.0
 _LEVI_CIVITA[[0, 1, 2], [2, 0, 1], [1, 2, 0]] = -1.0
+#: A held line keeps its slope (a foot's drift) where it stands this many standard errors
+#: clear of the scatter about it (:func:`held_lines`).
+DRIFT_SIGNIFICANCE = 8.0
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
@@ -123,8 +126,12 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     """``(F, ..., 3)``: on contact frames, the least-squares straight line of ``points``
     through a window of ``hold_frames`` frames centred on the frame and cut to its contact,
     evaluated at the frame (``inf``: the contact's mean); elsewhere the points themselves.
+    The line's slope is shrunk toward 0 by ``s^2 / (s^2 + (k e)^2)``, ``s`` its length, ``e``
+    its standard error from the points' scatter about it, ``k`` :data:`DRIFT_SIGNIFICANCE`
+    (both summed over the axes: the shrinkage turns with the clip).
 
-    Jitter and the sliding it causes go; a slow, steady drift (a pivot) stays.
+    Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
+    short window; a steady drift (a pivot) that stands clear of the jitter stays.
     """
     n = len(points)
     index = np.arange(n)
@@ -145,7 +152,13 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     cov = _window_sums(t.reshape(shape) * points, lo, hi) / count.reshape(shape)
     cov -= t_mean.reshape(shape) * p_mean
     steady = (t_var > 1e-9).reshape(shape)
-    slope = np.where(steady, cov / np.maximum(t_var, 1e-9).reshape(shape), 0.0)
+    spread = np.maximum(t_var, 1e-9).reshape(shape)
+    slope = np.where(steady, cov / spread, 0.0)
+    p_var = _window_sums(points * points, lo, hi) / count.reshape(shape) - p_mean**2
+    scatter = np.sum(np.maximum(p_var - slope * cov, 0.0), axis=-1, keepdims=True)
+    error2 = scatter / (np.maximum(count - 2.0, 1.0).reshape(shape) * spread)
+    length2 = np.sum(slope * slope, axis=-1, keepdims=True)
+    slope *= length2 / np.maximum(length2 + DRIFT_SIGNIFICANCE**2 * error2, 1e-300)
     line = p_mean + slope * (t - t_mean).reshape(shape)
     return np.where(contacts.reshape(shape), line, points)
 

@@ -9,7 +9,15 @@ import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
 
 from motionclean.core import kinematics, quat
-from motionclean.filters.footlock import Leg, Prior, held_paths, hinge_axis, lock_targets, plant
+from motionclean.filters.footlock import (
+    Leg,
+    Prior,
+    held_lines,
+    held_paths,
+    hinge_axis,
+    lock_targets,
+    plant,
+)
 
 #: A leg: root (with a position channel) -> hip -> knee -> ankle -> toe, and its toe's end.
 PARENTS = np.array([-1, 0, 1, 2, 3])
@@ -181,6 +189,46 @@ def test_targets_hold_contacts_and_ease_in_and_out(blend):
     np.testing.assert_array_equal(target[weight == 0.0], ankle[weight == 0.0])
     ramp_in = weight[30 - width : 30]
     assert np.all(np.diff(ramp_in) > 0.0) and np.all((ramp_in > 0.0) & (ramp_in < 1.0))
+
+
+def _plain_lines(points, first, last, half):
+    """Least-squares lines through windows of ``2 half + 1`` frames cut to ``first..last``,
+    each evaluated at its frame, one window at a time."""
+    out = points.copy()
+    for i in range(first, last + 1):
+        lo, hi = max(first, i - half), min(last, i + half) + 1
+        slope, offset = np.polyfit(np.arange(lo, hi), points[lo:hi], 1)
+        out[i] = slope * i + offset
+    return out
+
+
+def test_a_held_line_keeps_a_drift_and_drops_the_slope_jitter_fits():
+    """:func:`held_lines` over 0.5 s windows: a foot drifting steadily (a pivot) through
+    small jitter keeps its drift, as a plain least-squares line does; jitter alone (white
+    noise smoothed over 15 frames, as a filter leaves it) slides less: the slope plain
+    lines fit to it is shrunk by its standard error. The same turned about any axis."""
+    rng = np.random.default_rng(3)
+    n = 120
+    contacts = np.zeros(n, dtype=bool)
+    contacts[10:110] = True
+    white = rng.normal(scale=0.01, size=(n + 14, 3))
+    jitter = np.stack([np.convolve(white[:, a], np.ones(15) / 15, "valid") for a in range(3)], 1)
+    drift = np.arange(n)[:, None] * np.array([0.02, 0.0, 0.01]) + jitter
+    held = held_lines(drift, contacts, 60)
+    whole = slice(40, 80)  # frames whose windows lie inside the contact
+    np.testing.assert_allclose(held[whole], _plain_lines(drift, 10, 109, 30)[whole], atol=1e-3)
+    np.testing.assert_allclose(np.diff(held[11:110], axis=0).mean(0), [0.02, 0, 0.01], atol=1e-3)
+
+    def moved(p):
+        return np.linalg.norm(np.diff(p[10:110], axis=0), axis=-1).mean()
+
+    still, plain = held_lines(jitter, contacts, 60), _plain_lines(jitter, 10, 109, 30)
+    assert moved(still) < 0.85 * moved(plain)
+    axis = np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2])
+    turn = quat.from_axis_angle(axis, 1.1)
+    np.testing.assert_allclose(
+        held_lines(quat.rotate(turn, drift), contacts, 60), quat.rotate(turn, held), atol=1e-9
+    )
 
 
 def test_a_toes_path_keeps_lines_smooths_jitter_and_keeps_to_its_contact():
