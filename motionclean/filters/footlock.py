@@ -595,9 +595,6 @@ def _hold_toes(
     rotations, translations = given
     n_joints = len(parents)
     tip_joints = sorted(tips)
-    root = legs[0].knee
-    while parents[root] >= 0:
-        root = int(parents[root])
     ankles = [leg.points[0] for leg in legs]
     toe_points = [p for leg in legs if leg.foot for p in leg.points[1:]]
     hangs_on = [p if p < n_joints else tip_joints[p - n_joints] for p in toe_points]
@@ -612,7 +609,7 @@ def _hold_toes(
         prior.root,
     )
     q, t = part.arrays(planted.rotations, translations)
-    t[:, rank[root]] = planted.root
+    t[:, 0] = planted.root  # the part's first joint is the legs' root
     track = _points(*forward_arrays(part.parents, q, t), problem, part.tip_offsets)
     track = track[:, len(ankles) :]
     targets = np.empty_like(track)
