@@ -586,12 +586,11 @@ def _hold_toes(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The rotations and root translations of ``planted`` (the ankles' solve of ``given``,
     its local rotations and translations ``(F, J, ...)``; written in place) with the toes
-    held too: the
-    ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of the legs with
-    a ``foot``, its own path while it is planted (its track once the ankles stand,
-    :func:`held_paths`), by the legs' joints and their ``foot`` joints; the prior stays
-    centred on ``given``, the solve starts where the ankles' left it. Frames that hold no
-    toe and find none below the floor keep ``planted``."""
+    held too: the ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of
+    the legs with a ``foot``, its own path while it is planted (its track once the ankles
+    stand, :func:`held_paths`), by the legs' joints and their ``foot`` joints; the prior
+    stays centred on ``given``, the solve starts where the ankles' left it. Frames that hold
+    no toe and find none below the floor keep ``planted``."""
     rotations, translations = given
     n_joints = len(parents)
     tip_joints = sorted(tips)
@@ -619,8 +618,8 @@ def _hold_toes(
             track[:, k], toes.contacts[:, k], blend_frames, hold_frames, path=True
         )
     # the toes keep above the floor while their leg or they themselves stand
-    columns = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
-    grounded = toes.contacts | ankle_rows.grounded[:, columns]
+    toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
+    grounded = toes.contacts | ankle_rows.grounded[:, toe_legs]
     normal, level = ankle_rows.floor
     below = (track @ normal - level < 0.0) & grounded
     frames = np.flatnonzero(((weights > 0.0) | below).any(axis=1))
