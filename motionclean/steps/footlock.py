@@ -274,10 +274,10 @@ def _crop_note(note: dict, first: int, last: int) -> dict | None:
 
 STEP = StepSpec(
     name="footlock",
-    summary="plant each foot that slides during a ground contact, by the least change of "
-    "the leg joints weighted by the error auto expects in each",
+    summary="plant each foot that slides during a ground contact, ankle and toes, by the "
+    "least change of the leg joints weighted by the error auto expects in each",
     paper="contacts in world space; weighted least-change solve (Gauss-Newton, knee as a "
-    "hinge), smoothstep blends",
+    "hinge), lines whose slope is shrunk by its standard error, smoothstep blends",
     params=(
         Param(
             "feet",
