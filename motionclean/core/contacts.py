@@ -70,6 +70,10 @@ class ContactParams:
 
 #: Relative rounding of a frame time as files write it (7 decimals of 1/120 s: 4e-5).
 FRAME_TIME_ROUNDING = 1e-4
+#: A contact this close to the clip's first or last frame (seconds) reaches it where the
+#: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
+EDGE_SECONDS = 0.25
+EDGE_SPEED = 2.0
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
 SPEED_HYSTERESIS = 5.0 / 3.0
@@ -380,6 +384,25 @@ def _close_gaps(loose: np.ndarray, low: np.ndarray, shortest: int) -> np.ndarray
     return loose | (np.cumsum(delta[:-1]) > 0)
 
 
+def _to_the_edges(loose: np.ndarray, steady: np.ndarray, edge: int) -> np.ndarray:
+    """``loose`` ``(F,)`` with its first run reaching back to the clip's first frame, and its
+    last run on to the last, where the run begins (ends) within ``edge`` frames of it and
+    the foot is ``steady`` (low, and not much faster than a contact allows) on every frame
+    in between: a filter's edge transient and the speed window cut at the clip's ends make
+    the first and last frames look faster than the foot is."""
+    n = loose.size
+    if not loose.any():
+        return loose
+    out = loose.copy()
+    first = int(np.argmax(loose))
+    if 0 < first <= edge and steady[:first].all():
+        out[:first] = True
+    last = n - 1 - int(np.argmax(loose[::-1]))
+    if 0 < n - 1 - last <= edge and steady[last + 1 :].all():
+        out[last + 1 :] = True
+    return out
+
+
 def detect(
     positions: np.ndarray,
     feet: list[Foot],
@@ -421,8 +444,11 @@ def detect(
     # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005
     shortest = params.min_duration / frame_time * (1.0 - FRAME_TIME_ROUNDING)
     min_frames = max(int(np.ceil(shortest)), 1) if shortest <= n_frames else n_frames + 1
+    edge = int(round(EDGE_SECONDS / frame_time))
+    steady = low & (speed < EDGE_SPEED * params.speed_off)
     for k in range(len(feet)):  # a handful of feet; each column is vectorised
-        starts, ends = _runs(_close_gaps(loose[:, k], low[:, k], min_frames))
+        kept = _to_the_edges(_close_gaps(loose[:, k], low[:, k], min_frames), steady[:, k], edge)
+        starts, ends = _runs(kept)
         strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
         keep = (strict_sum[ends] > strict_sum[starts]) & (ends - starts >= min_frames)
         delta = np.zeros(n_frames + 1, dtype=np.int64)

@@ -303,3 +303,21 @@ def test_a_contact_exactly_the_minimum_long_is_kept():
     params = found.ContactParams(min_duration=0.1)
     contacts, _ = found.detect(positions, [foot], 1, 10.0, frame_time, params, ground=0.0)
     assert np.array_equal(np.flatnonzero(contacts[:, 0]), np.arange(30, 42))
+
+
+def test_a_contact_near_the_clips_ends_reaches_them_while_the_foot_stays_steady():
+    """A filter's edge transient makes a standing foot's first and last frames look fast:
+    a contact that begins (ends) within the edge window reaches the clip's first (last)
+    frame where the foot is steady all the way; not through a frame where it moves, nor
+    from further away."""
+    from motionclean.core.contacts import _to_the_edges
+
+    loose = np.zeros(40, dtype=bool)
+    loose[5:20] = True
+    loose[25:36] = True  # the last contact ends 4 frames before the clip does
+    steady = np.ones(40, dtype=bool)
+    reached = _to_the_edges(loose, steady, 6)
+    assert reached[:20].all() and reached[25:].all() and not reached[20:25].any()
+    steady[2] = False  # the foot moves before the first contact: it was not standing
+    assert np.array_equal(_to_the_edges(loose, steady, 6)[:5], np.zeros(5, dtype=bool))
+    assert np.array_equal(_to_the_edges(loose, np.ones(40, dtype=bool), 3), loose)  # too far
