@@ -68,7 +68,8 @@ class ContactParams:
         )
 
 
-#: Relative rounding of a frame time as files write it (7 decimals of 1/120 s: 4e-5).
+#: Relative rounding of a frame time as files write it (1/120 s to 7 decimals: 4e-6; to 6
+#: decimals: 4e-5).
 FRAME_TIME_ROUNDING = 1e-4
 #: A contact this close to the clip's first or last frame (seconds) reaches it where the
 #: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
@@ -418,8 +419,10 @@ def detect(
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
     the ground and the ankle moves slower than ``params.speed`` body heights per second; it
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
-    speed blip shorter than ``min_duration`` while the foot stays that low; contacts shorter
-    than ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
+    speed blip shorter than ``min_duration`` while the foot stays that low; one within
+    :data:`EDGE_SECONDS` of the clip's first or last frame reaches it where the foot stays
+    low and slower than :data:`EDGE_SPEED` times ``speed_off``; contacts shorter than
+    ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
     with a ``floor`` (a plane, tilted or not) heights are taken above it instead.
     """
     n_frames = positions.shape[0]

@@ -56,8 +56,9 @@ TOE_SMOOTHING = 0.5
 _LEVI_CIVITA = np.zeros((3, 3, 3))
 _LEVI_CIVITA[[0, 1, 2], [1, 2, 0], [2, 0, 1]] = 1.0
 _LEVI_CIVITA[[0, 1, 2], [2, 0, 1], [1, 2, 0]] = -1.0
-#: A held line keeps its slope (a foot's drift) where it stands this many standard errors
-#: clear of the scatter about it (:func:`held_lines`).
+#: A held line's slope (a foot's drift) is halved where it stands this many standard
+#: errors clear of the scatter about it, kept nearly whole well beyond, dropped well within
+#: (:func:`held_lines`).
 DRIFT_SIGNIFICANCE = 8.0
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
@@ -68,7 +69,8 @@ MIN_SIGMA = 1e-6
 class Leg:
     """One leg to plant.
 
-    ``joints`` may turn to hold the ankle (from the root down to the knee, root first);
+    ``joints`` may turn to hold the ankle and the toes (from the root down to the knee,
+    root first);
     ``knee`` turns only about ``hinge`` (unit, in the knee's parent frame); ``points`` are
     the ankle, then the toe points (joints or end sites below it); ``foot`` may turn to
     hold the toes (the ankle and joints below it; none: the toes are not held and the
@@ -137,21 +139,25 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     index = np.arange(n)
     first, last = _run_bounds(contacts)
     shape = (-1,) + (1,) * (points.ndim - 1)
+    # time and place from each contact's first frame: the running sums stay small
+    origin = points[first]
+    points = points - origin
     if not np.isfinite(hold_frames):  # held still: the contact's mean position
         lo, hi = first, last + 1
         mean = _window_sums(points, lo, hi) / (hi - lo).reshape(shape)
-        return np.where(contacts.reshape(shape), mean, points)
+        return origin + np.where(contacts.reshape(shape), mean, points)
     half = int(min(hold_frames, 2 * n) // 2)
     lo = np.maximum(first, index - half)
     hi = np.minimum(last, index + half) + 1
-    t = (index - index[0]).astype(np.float64)
+    t = (index - first).astype(np.float64)
     count = (hi - lo).astype(np.float64)
     t_mean = _window_sums(t, lo, hi) / count
     p_mean = _window_sums(points, lo, hi) / count.reshape(shape)
     t_var = _window_sums(t * t, lo, hi) / count - t_mean**2
     cov = _window_sums(t.reshape(shape) * points, lo, hi) / count.reshape(shape)
     cov -= t_mean.reshape(shape) * p_mean
-    steady = (t_var > 1e-9).reshape(shape)
+    # a slope needs a third point to be told from the scatter: two alone keep their mean
+    steady = ((t_var > 1e-9) & (count > 2.0)).reshape(shape)
     spread = np.maximum(t_var, 1e-9).reshape(shape)
     slope = np.where(steady, cov / spread, 0.0)
     p_var = _window_sums(points * points, lo, hi) / count.reshape(shape) - p_mean**2
@@ -160,7 +166,7 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     length2 = np.sum(slope * slope, axis=-1, keepdims=True)
     slope *= length2 / np.maximum(length2 + DRIFT_SIGNIFICANCE**2 * error2, 1e-300)
     line = p_mean + slope * (t - t_mean).reshape(shape)
-    return np.where(contacts.reshape(shape), line, points)
+    return origin + np.where(contacts.reshape(shape), line, points)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -187,14 +193,17 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
             x = _window_sums(x, lo, hi) / count.reshape((-1,) + (1,) * (x.ndim - 1))
         return x
 
-    t = (index - first).astype(np.float64)  # time within the contact: small sums
+    # time and place from each contact's first frame: the running sums stay small
+    origin = points[first]
+    points = points - origin
+    t = (index - first).astype(np.float64)
     t_mean, p_mean = smooth(t), smooth(points)
     t_var = smooth(t * t) - t_mean**2
     cov = smooth(t.reshape(shape) * points) - t_mean.reshape(shape) * p_mean
     steady = (t_var > 1e-9).reshape(shape)
     slope = np.where(steady, cov / np.maximum(t_var, 1e-9).reshape(shape), 0.0)
     path = p_mean + slope * (t - t_mean).reshape(shape)
-    return np.where(contacts.reshape(shape), path, points)
+    return origin + np.where(contacts.reshape(shape), path, points)
 
 
 def _eases(
@@ -540,13 +549,12 @@ def _same_sign(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
 
 def _column_keys(part: _Part, problem: _Problem) -> list[tuple[int, int]]:
     """Each column's variable, the same in any part: ``(-1, axis)`` for the root's
-    translation, ``(joint, component)`` for a joint's change (``joint`` of the skeleton)."""
-    keys = [(-1, int(a)) for a in problem.axes] + [(-1, -1)] * (
-        problem.n_columns - problem.axes.size
-    )
+    translation, ``(joint, component)`` for a free joint's change (``joint`` of the
+    skeleton), ``(joint, -1)`` for a hinge's angle."""
+    keys: list[tuple[int, int]] = [(-1, int(a)) for a in problem.axes]
     for v, joint in enumerate(part.index[problem.joints].tolist()):
-        for c in range(1 if problem.hinge[v] else 3):
-            keys[problem.columns[v] + c] = (joint, c)
+        assert problem.columns[v] == len(keys)  # columns in the order of the joints
+        keys += [(joint, -1)] if problem.hinge[v] else [(joint, c) for c in range(3)]
     return keys
 
 
@@ -588,9 +596,11 @@ def _hold_toes(
     its local rotations and translations ``(F, J, ...)``; written in place) with the toes
     held too: the ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of
     the legs with a ``foot``, its own path while it is planted (its track once the ankles
-    stand, :func:`held_paths`), by the legs' joints and their ``foot`` joints; the prior
-    stays centred on ``given``, the solve starts where the ankles' left it. Frames that hold
-    no toe and find none below the floor keep ``planted``."""
+    stand, :func:`held_paths`; the contact's mean with an infinite ``hold_frames``), by the
+    legs' joints and their ``foot`` joints; the prior
+    stays centred on ``given``, the solve starts where the ankles' left it, on every frame
+    the ankles' solve changed and every frame that holds a toe or finds one below the floor;
+    the others keep ``planted``."""
     rotations, translations = given
     n_joints = len(parents)
     tip_joints = sorted(tips)
@@ -621,10 +631,15 @@ def _hold_toes(
     toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
     grounded = toes.contacts | ankle_rows.grounded[:, toe_legs]
     normal, level = ankle_rows.floor
-    below = (track @ normal - level < 0.0) & grounded
-    frames = np.flatnonzero(((weights > 0.0) | below).any(axis=1))
-    if frames.size == 0:
+    toe_floor = ankle_rows.tolerance[0] * FLOOR_FIRMNESS
+    below = (track @ normal - level < -FLOOR_SLACK * toe_floor) & grounded  # as _solve finds
+    # every frame the ankles' solve changed too: each gets the same iterations (no step
+    # where the toes' hold begins)
+    asked = ((weights > 0.0) | below).any(axis=1)
+    if not asked.any():
         return planted.rotations, planted.root
+    asked[planted.frames] = True
+    frames = np.flatnonzero(asked)
     tolerance = ankle_rows.tolerance[0]
     n_ankles, n_toes = len(ankles), len(toe_points)
     rows = _Rows(
@@ -632,7 +647,7 @@ def _hold_toes(
         np.concatenate([ankle_rows.horizontal, weights > 0.0], axis=1),
         np.concatenate([ankle_rows.grounded, grounded], axis=1),
         np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toes.tolerance)],
-        np.r_[np.full(n_ankles, tolerance), np.full(n_toes, tolerance * FLOOR_FIRMNESS)],
+        np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toe_floor)],
         ankle_rows.floor,
         ankle_rows.up,
         ankle_rows.robust,
