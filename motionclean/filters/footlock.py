@@ -135,38 +135,15 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
     """
-    n = len(points)
-    index = np.arange(n)
-    first, last = _run_bounds(contacts)
+    if np.isfinite(hold_frames):
+        half = int(min(hold_frames, 2 * len(points)) // 2)
+        return _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
+    first, last = _run_bounds(contacts)  # held still: the contact's mean position
     shape = (-1,) + (1,) * (points.ndim - 1)
-    # time and place from each contact's first frame: the running sums stay small
-    origin = points[first]
+    origin = points[first]  # place from each contact's first frame: the sums stay small
     points = points - origin
-    if not np.isfinite(hold_frames):  # held still: the contact's mean position
-        lo, hi = first, last + 1
-        mean = _window_sums(points, lo, hi) / (hi - lo).reshape(shape)
-        return origin + np.where(contacts.reshape(shape), mean, points)
-    half = int(min(hold_frames, 2 * n) // 2)
-    lo = np.maximum(first, index - half)
-    hi = np.minimum(last, index + half) + 1
-    t = (index - first).astype(np.float64)
-    count = (hi - lo).astype(np.float64)
-    t_mean = _window_sums(t, lo, hi) / count
-    p_mean = _window_sums(points, lo, hi) / count.reshape(shape)
-    t_var = _window_sums(t * t, lo, hi) / count - t_mean**2
-    cov = _window_sums(t.reshape(shape) * points, lo, hi) / count.reshape(shape)
-    cov -= t_mean.reshape(shape) * p_mean
-    # a slope needs a third point to be told from the scatter: two alone keep their mean
-    steady = ((t_var > 1e-9) & (count > 2.0)).reshape(shape)
-    spread = np.maximum(t_var, 1e-9).reshape(shape)
-    slope = np.where(steady, cov / spread, 0.0)
-    p_var = _window_sums(points * points, lo, hi) / count.reshape(shape) - p_mean**2
-    scatter = np.sum(np.maximum(p_var - slope * cov, 0.0), axis=-1, keepdims=True)
-    error2 = scatter / (np.maximum(count - 2.0, 1.0).reshape(shape) * spread)
-    length2 = np.sum(slope * slope, axis=-1, keepdims=True)
-    slope *= length2 / np.maximum(length2 + DRIFT_SIGNIFICANCE**2 * error2, 1e-300)
-    line = p_mean + slope * (t - t_mean).reshape(shape)
-    return origin + np.where(contacts.reshape(shape), line, points)
+    mean = _window_sums(points, first, last + 1) / (last + 1 - first).reshape(shape)
+    return origin + np.where(contacts.reshape(shape), mean, points)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -181,29 +158,52 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
     half = int(round((np.sqrt(1.0 + 4.0 * min(sigma_frames, len(points)) ** 2) - 1.0) / 2.0))
     if half == 0 or not contacts.any():
         return points.copy()
-    first, last = _run_bounds(contacts)
+    return _local_lines(points, contacts, half, 3)
+
+
+def _local_lines(
+    points: np.ndarray,
+    contacts: np.ndarray,
+    half: int,
+    passes: int,
+    significance: float | None = None,
+) -> np.ndarray:
+    """:func:`held_lines` and :func:`held_paths`: on contact frames, the least-squares line
+    through ``points`` weighted by ``passes`` averages over ``2 half + 1`` frames cut to the
+    contact, evaluated at the frame; with ``significance``, its slope shrunk by its standard
+    error (and none through fewer than three points); elsewhere the points. Time and place
+    are taken from each contact's first frame: the running sums stay small."""
     index = np.arange(len(points))
+    first, last = _run_bounds(contacts)
     lo = np.maximum(first, index - half)
     hi = np.minimum(last, index + half) + 1
     shape = (-1,) + (1,) * (points.ndim - 1)
     count = (hi - lo).astype(np.float64)
 
-    def smooth(x: np.ndarray) -> np.ndarray:  # three cut box averages: a kernel's weights
-        for _ in range(3):
+    def average(x: np.ndarray) -> np.ndarray:  # cut box averages: a kernel's weights
+        for _ in range(passes):
             x = _window_sums(x, lo, hi) / count.reshape((-1,) + (1,) * (x.ndim - 1))
         return x
 
-    # time and place from each contact's first frame: the running sums stay small
     origin = points[first]
     points = points - origin
     t = (index - first).astype(np.float64)
-    t_mean, p_mean = smooth(t), smooth(points)
-    t_var = smooth(t * t) - t_mean**2
-    cov = smooth(t.reshape(shape) * points) - t_mean.reshape(shape) * p_mean
-    steady = (t_var > 1e-9).reshape(shape)
-    slope = np.where(steady, cov / np.maximum(t_var, 1e-9).reshape(shape), 0.0)
-    path = p_mean + slope * (t - t_mean).reshape(shape)
-    return origin + np.where(contacts.reshape(shape), path, points)
+    t_mean, p_mean = average(t), average(points)
+    t_var = average(t * t) - t_mean**2
+    cov = average(t.reshape(shape) * points) - t_mean.reshape(shape) * p_mean
+    steady = t_var > 1e-9
+    if significance is not None:  # a slope needs a third point to be told from the scatter
+        steady &= count > 2.0
+    spread = np.maximum(t_var, 1e-9).reshape(shape)
+    slope = np.where(steady.reshape(shape), cov / spread, 0.0)
+    if significance is not None:
+        p_var = average(points * points) - p_mean**2
+        scatter = np.sum(np.maximum(p_var - slope * cov, 0.0), axis=-1, keepdims=True)
+        error2 = scatter / (np.maximum(count - 2.0, 1.0).reshape(shape) * spread)
+        length2 = np.sum(slope * slope, axis=-1, keepdims=True)
+        slope *= length2 / np.maximum(length2 + significance**2 * error2, 1e-300)
+    line = p_mean + slope * (t - t_mean).reshape(shape)
+    return origin + np.where(contacts.reshape(shape), line, points)
 
 
 def _eases(
@@ -520,12 +520,12 @@ def plant(
     total = _solve_frames(q, t, part, problem, rows.take(frames))
     out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames[:, None], part.index])
     out_t[frames] = t[:, 0]
-    if any(leg.foot and len(leg.points) > 1 for leg in legs):
+    toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
+    if toe_legs:
         toes = _Toes(
-            contacts[:, [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]]
-            if toe_contacts is None
-            else toe_contacts,
+            contacts[:, toe_legs] if toe_contacts is None else toe_contacts,
             tolerance * toe_tolerance,
+            toe_legs,
         )
         out_q, out_t = _hold_toes(
             (rotations, translations),
@@ -573,11 +573,12 @@ class _Planted:
 
 @dataclass(frozen=True)
 class _Toes:
-    """The toe points' contacts ``(F, n_toes)`` and how closely they follow their paths
-    (length units)."""
+    """The toe points' contacts ``(F, n_toes)``, how closely they follow their paths
+    (length units) and each toe point's leg (its index in the legs planted)."""
 
     contacts: np.ndarray
     tolerance: float
+    legs: list[int]
 
 
 def _hold_toes(
@@ -628,8 +629,7 @@ def _hold_toes(
             track[:, k], toes.contacts[:, k], blend_frames, hold_frames, path=True
         )
     # the toes keep above the floor while their leg or they themselves stand
-    toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
-    grounded = toes.contacts | ankle_rows.grounded[:, toe_legs]
+    grounded = toes.contacts | ankle_rows.grounded[:, toes.legs]
     normal, level = ankle_rows.floor
     toe_floor = ankle_rows.tolerance[0] * FLOOR_FIRMNESS
     below = (track @ normal - level < -FLOOR_SLACK * toe_floor) & grounded  # as _solve finds
