@@ -223,8 +223,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     multiple=True,
     metavar="PATTERN",
     help="Which files are clips, matched on the path relative to IN_DIR, "
-    "case-insensitive; repeatable (default: every suffix motionclean reads, *.bvh *.csv "
-    "*.npz *.pkl *.mot *.sto *.gltf *.glb).",
+    f"case-insensitive; repeatable (default: every suffix motionclean reads, "
+    f"{' '.join(DEFAULT_GLOBS)}).",
 )
 @click.option(
     "--report-dir",

@@ -153,7 +153,7 @@ class _Run:
         last = [] if self.after is None else [self.after[None]]
         rows = np.concatenate([*first, angles, *last])
         used = self.limits[(0 if self.before is not None else 1) :][: len(rows) - 1]
-        return float(max((np.abs(np.diff(rows, axis=0)) - used).max(initial=0.0), 0.0))
+        return float((np.abs(np.diff(rows, axis=0)) - used).max(initial=0.0))
 
 
 def _steps(channels: np.ndarray, bound: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:

@@ -492,7 +492,11 @@ def _found_up(motion: Motion) -> tuple[int, float]:
 
 def up_name(motion: Motion, override: str | int | None = None) -> str:
     """:func:`up_direction` as text: ``"y"``, or ``"-y"`` for a figure standing head down."""
-    axis, sign = up_direction(motion, override)
+    return axis_name(*up_direction(motion, override))
+
+
+def axis_name(axis: int, sign: float = 1.0) -> str:
+    """An axis (0, 1, 2) and its sign as text: ``"y"``, ``"-z"``."""
     return ("-" if sign < 0.0 else "") + AXES[axis]
 
 

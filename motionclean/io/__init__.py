@@ -47,8 +47,7 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".mot": opensim.opensim_pieces,
     ".sto": opensim.opensim_pieces,
     ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
-    ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
-    ".vrma": lambda motion: gltf.gltf_pieces(motion, glb=True),  # a VRM animation: a GLB
+    **{suffix: lambda motion: gltf.gltf_pieces(motion, glb=True) for suffix in gltf.GLB_SUFFIXES},
     ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.
@@ -97,7 +96,7 @@ def load(
             motion = parse(data, path, skeleton=skeleton, body_model=model)
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
-        elif suffix in (".gltf", ".glb", ".vrma"):
+        elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
             motion = gltf.parse_gltf(data, path)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)

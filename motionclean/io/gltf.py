@@ -45,12 +45,14 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.kinematics import rest_positions
+from ..core.kinematics import axis_name, rest_positions
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
 
 GLB_MAGIC = b"glTF"
+#: Suffixes of binary glTF files (a VRM animation, ``.vrma``, is one).
+GLB_SUFFIXES = (".glb", ".vrma")
 JSON_CHUNK = 0x4E4F534A
 BIN_CHUNK = 0x004E4942
 #: Rotation channels a joint gets (its Euler order when written as BVH or CSV).
@@ -509,7 +511,7 @@ def _as_wxyz(values: np.ndarray) -> np.ndarray:
 
 def parse_gltf(data: bytes, path) -> Motion:
     """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module)."""
-    glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(".glb")
+    glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(GLB_SUFFIXES)
     document, binary = _chunks(data, path) if glb else (_json(data, path), None)
     buffers = _Buffers(document, binary, path)
     nodes = _items(document, "nodes", path)
@@ -636,9 +638,9 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
     they turn +Y onto (``"z"``, ``"-y"`` ...), None where that is no axis; and a note where
     they turn or scale the skeleton (as an exporter's armature node does: FBX2glTF's
     scale 100 and quarter turn), whose transform positions and heights leave out."""
-    turn = np.array([1.0, 0.0, 0.0, 0.0])
+    turn = quat.identity()
     scale = 1.0
-    names = []
+    hanger = None  # the lowest node that turns or scales
     n = int(parent[root])
     while n >= 0:
         node = nodes[n]
@@ -646,18 +648,18 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
         turn = quat.multiply(rotation, turn)
         factors = _scale(node, n, path)
         scale *= float(np.prod(np.abs(factors))) ** (1.0 / 3.0)
-        if not (np.allclose(rotation, [1.0, 0.0, 0.0, 0.0]) and np.allclose(factors, 1.0)):
-            names.append(_name(node, n))  # (one that turns or scales)
+        if hanger is None and not (
+            np.allclose(rotation, quat.identity()) and np.allclose(factors, 1.0)
+        ):
+            hanger = _name(node, n)
         n = int(parent[n])
     local_up = quat.rotate(quat.conjugate(turn), np.array([0.0, 1.0, 0.0]))
     axis = int(np.argmax(np.abs(local_up)))
-    up = None
-    if abs(local_up[axis]) >= 0.9:
-        up = ("-" if local_up[axis] < 0.0 else "") + "xyz"[axis]
-    if not names or (up == "y" and math.isclose(scale, 1.0, rel_tol=1e-6)):
+    up = axis_name(axis, local_up[axis]) if abs(local_up[axis]) >= 0.9 else None
+    if hanger is None or (up == "y" and math.isclose(scale, 1.0, rel_tol=1e-6)):
         return up, None
     return up, (
-        f"the skeleton hangs under node {names[0][:40]!r} (scale {scale:.4g}, its up the "
+        f"the skeleton hangs under node {hanger[:40]!r} (scale {scale:.4g}, its up the "
         f"skeleton's {up or 'no axis'}): positions and heights are in the skeleton's own "
         "units and axes"
     )

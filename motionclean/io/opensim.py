@@ -263,8 +263,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         in_degrees = True
         notes.append(
             "angles read as degrees: the header says radians (inDegrees=no), but most "
-            "rotational coordinates reach beyond half a turn or move faster than 60 rad/s "
-            "read so (OpenSim's CMC writes its *_q.sto that way)"
+            "rotational coordinates reach beyond half a turn or move faster than "
+            f"{DEGREES_IN_RADIANS_PER_S:g} rad/s read so (OpenSim's CMC writes its *_q.sto "
+            "that way)"
         )
     text = OpenSimText(
         data,
@@ -289,7 +290,7 @@ def _holds_degrees(angles: np.ndarray, frame_time: float) -> bool:
     :data:`DEGREES_IN_RADIANS_PER_S`."""
     known = ~np.isnan(angles)
     seen = known.all(axis=0)  # (columns with dropouts left out)
-    if not seen.any() or angles.shape[0] < 2:
+    if not seen.any():  # (the reader has two rows at least)
         return False
     columns = angles[:, seen]
     largest = np.abs(columns).max(axis=0)
