@@ -214,6 +214,10 @@ class ChannelLayout:
         return {order: np.array(idx, dtype=np.intp) for order, idx in groups.items()}
 
 
+#: The fields of a :class:`Motion` that what :meth:`Motion.derived` keeps is derived from.
+DERIVED_FROM = frozenset({"rotations", "translations", "offsets", "end_sites", "missing"})
+
+
 @dataclass(eq=False)
 class Motion:
     """A motion clip: skeleton, channel layout and ``(F, J, ...)`` float64 motion arrays.
@@ -386,28 +390,25 @@ class Motion:
     def derived(self, name: str, compute: Callable[[Motion], Any]) -> Any:
         """``compute(self)``, kept with the clip for its current arrays: what several
         stages derive from them and ask for again (its rest-pose frames, its found up
-        direction). Recomputed when an array is replaced; a caller that writes into the
-        clip's arrays in place says so with :meth:`edited`."""
-        key = (
-            id(self.rotations),
-            id(self.translations),
-            id(self.offsets),
-            id(self.end_sites),
-            id(self.missing),
-            self.n_frames,
-        )
+        direction). Dropped when an array is replaced (:data:`DERIVED_FROM`); a caller that
+        writes into the clip's arrays in place says so with :meth:`edited`."""
         kept = self.__dict__.setdefault("_derived", {})
-        if name not in kept or kept[name][0] != key:
-            kept[name] = (key, compute(self))
-        return kept[name][1]
+        if name not in kept:
+            kept[name] = compute(self)
+        return kept[name]
 
     def edited(self) -> None:
         """Say the clip's arrays were written in place: what :meth:`derived` kept goes."""
         self.__dict__.pop("_derived", None)
 
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in DERIVED_FROM:  # a new array: what was derived from the old one goes
+            self.__dict__.pop("_derived", None)
+        object.__setattr__(self, name, value)
+
     def __copy__(self) -> Motion:
-        """A shallow copy (the same arrays) with a cache of its own: :meth:`derived` keys
-        its entries by the arrays of the clip that made them."""
+        """A shallow copy (the same arrays) with a cache of its own: each clip's entries
+        go when its own arrays are replaced."""
         new = self.__class__.__new__(self.__class__)
         new.__dict__.update({k: v for k, v in self.__dict__.items() if k != "_derived"})
         return new

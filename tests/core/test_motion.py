@@ -66,3 +66,22 @@ def test_what_a_clip_derives_is_its_own_and_follows_edits_in_place():
     other.edited()
     assert other.derived("w", first_w) == 0.0
     assert len(calls) == 3
+
+
+def test_a_clip_whose_array_is_replaced_derives_again_however_often():
+    """What Motion.derived keeps goes when an array is replaced: arrays replaced twice
+    between two questions (the second may take the freed id of the first's predecessor,
+    so a key of ids could match a stale value) are derived again every time."""
+    motion = mc.load(SAMPLE)
+    calls = []
+
+    def count(clip):
+        calls.append(1)
+        return len(calls)
+
+    motion.rotations = motion.rotations.copy()
+    for _ in range(50):
+        before = motion.derived("n", count)
+        for _ in range(2):
+            motion.rotations = motion.rotations.copy()
+        assert motion.derived("n", count) == before + 1
