@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from ..steps import REGISTRY
+
 __all__ = [
     "CLEAN_CHANGE_DEG",
     "LOOK_CHANGE_DEG",
@@ -60,8 +62,8 @@ PLANTED_SKATE = 0.1
 #: Feet sliding faster than this after cleaning need a look (``footlock`` holds them).
 LOOK_SKATE = 0.5
 #: Steps that repair, plant, put on the floor or resample a clip without smoothing it: a
-#: pipeline of these alone gets no noise judgement.
-NOT_SMOOTHING = frozenset({"despike", "fill-gaps", "footlock", "ground", "resample"})
+#: pipeline of these alone gets no noise judgement (``StepSpec.smooths``).
+NOT_SMOOTHING = frozenset(name for name, spec in REGISTRY.items() if not spec.smooths)
 
 
 def _runs(note: dict, key: str) -> list[list[int]]:

@@ -164,7 +164,8 @@ class StepSpec:
     is how one joint's note reads in the HTML report and JSON-less views (None: shown as
     JSON); ``format_brief(note, positions)``, if given, is its shorter terminal form (long
     frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
-    repairs;
+    repairs; ``smooths`` False: the step repairs, plants, moves or resamples a clip without
+    smoothing it (a pipeline of such steps alone gets no noise judgement);
     ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
     steps without a clip's rest-pose frames and numbers frames as the file does);
     ``crop_note(note, first, last)`` keeps what a note says about frames ``first..last``
@@ -183,6 +184,7 @@ class StepSpec:
     format_note: Callable[[dict, bool], str] | None = None
     format_brief: Callable[[dict, bool], str] | None = None
     lists_repairs: bool = False
+    smooths: bool = True
     shift_note: Callable[[dict, int], dict] | None = None
     crop_note: Callable[[dict, int, int], dict | None] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.

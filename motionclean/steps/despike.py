@@ -132,6 +132,7 @@ def _format_brief(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="despike",
+    smooths=False,
     summary="repair half-turn flips (un-flip) and spikes (interpolate) before smoothing",
     paper="robust jump detection; interpolation by 003 Eq. 15-17",
     params=(

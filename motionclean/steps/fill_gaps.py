@@ -79,6 +79,7 @@ def _shift(note: dict, frames: int) -> dict:
 
 STEP = StepSpec(
     name="fill-gaps",
+    smooths=False,
     summary="tracker dropouts bridged by a C1 cubic in displacements, following the "
     "smoothest other body (pattern fill), each bridge checked on gaps planted beside it "
     "(the straight line, smoothed edges or a smoothing spline where they do better)",

@@ -104,6 +104,7 @@ def _format_note(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="ground",
+    smooths=False,
     summary="put the floor the feet stand on at height 0 and level it, moving the root only",
     paper="the plane through the ground contacts' soles (least squares, slope prior)",
     params=(

@@ -48,6 +48,7 @@ def _format_note(note: dict, positions: bool) -> str:
 
 STEP = StepSpec(
     name="resample",
+    smooths=False,
     summary="the clip at a new frame rate: C2 spline on the sphere through the samples, "
     "anti-aliased when the rate goes down",
     paper="cumulative B-spline of Kim, Kim and Shin 1995 solved to interpolate; "
