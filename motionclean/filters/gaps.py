@@ -215,11 +215,8 @@ def _edge_velocity(x, edge, room, direction, log_of) -> tuple[np.ndarray, np.nda
     count = np.minimum(room, EDGE_FRAMES)
     for n in np.unique(count[count > 0]):  # a few distinct counts
         at = np.flatnonzero(count == n)
-        base = x[edge[at]]
-        slope = np.zeros((at.size, 3))
         weights = _edge_weights(int(n))
-        for k, weight in enumerate(weights, 1):
-            slope += weight * log_of(base, x[edge[at] + direction * k])
+        slope = _slope_sum(x, x[edge[at]], edge[at], slice(None), direction, log_of, weights)
         out[at] = direction * slope
         gain[at] = _edge_gain(weights)
     return out, gain
@@ -556,7 +553,7 @@ def _choose_donors(q, p, missing, gaps: Gaps) -> np.ndarray:
     n_frames, n_joints = missing.shape
     lo = np.maximum(gaps.first - 1 - DONOR_FRAMES, 0)
     hi = np.minimum(gaps.stop + DONOR_FRAMES, n_frames - 1)
-    seen = np.concatenate([np.zeros((1, n_joints), int), np.cumsum(missing, axis=0)])
+    seen = _missing_count(missing)
     donor = np.full((2, gaps.joint.size), -1)
     offsets = np.arange(-DONOR_FRAMES, 1)
     for at in range(0, gaps.joint.size, GAP_BLOCK):
@@ -690,7 +687,7 @@ def _trials(missing, gaps: Gaps, donor: np.ndarray):
     stop = first + lengths[of]
     lo, hi = first - 1 - EDGE_FRAMES, stop + EDGE_FRAMES  # the frames read, inclusive
     ok = (lo >= 0) & (hi < n_frames)
-    seen = np.concatenate([np.zeros((1, missing.shape[1]), int), np.cumsum(missing, axis=0)])
+    seen = _missing_count(missing)
     lo_c, hi_c = np.clip(lo, 0, n_frames - 1), np.clip(hi, 0, n_frames - 1)
     joint = gaps.joint[of]
     ok &= seen[hi_c + 1, joint] == seen[lo_c, joint]
