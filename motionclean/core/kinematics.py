@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import checks, quat
-from .motion import Motion
+from .motion import UP_AXES, Motion
 from .restpose import rest_frames
 
 __all__ = [
@@ -437,10 +437,9 @@ def axis_index(axis: str | int) -> int:
     """``"x"``, ``"y"``, ``"z"`` (any case, a leading ``-`` allowed) or 0-2 as an axis
     index; ValueError otherwise."""
     if isinstance(axis, str):
-        name = axis.lower().removeprefix("-")
-        if name not in AXES or len(axis) > 2:
+        if axis.lower() not in UP_AXES:
             raise ValueError(f"up axis must be x, y, z, -x, -y or -z, got {axis!r}")
-        return AXES.index(name)
+        return AXES.index(axis.lower()[-1])
     if axis not in (0, 1, 2):
         raise ValueError(f"up axis must be 0, 1 or 2, got {axis!r}")
     return int(axis)
@@ -532,7 +531,13 @@ def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
     :data:`POSE_SAMPLES` evenly spaced frames between the clip's rest-pose frames
     (:func:`~motionclean.core.restpose.rest_frames`, left out of every figure; all frames
     where nothing else is left), and ``(S, P)`` True where a point is known (None when
-    every point is: no tracker dropouts)."""
+    every point is: no tracker dropouts). Kept with the clip (the up direction, the body
+    height and the feet ask for them), read-only."""
+    return motion.derived("sample_poses", _sample_poses)
+
+
+def _sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`sample_poses`, computed."""
     lead, trail = rest_frames(motion)
     first, last = lead, motion.n_frames - 1 - trail
     if last < first:
@@ -541,8 +546,13 @@ def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
     frames = np.unique(np.linspace(first, last, count))
     frames = frames.round().astype(np.intp)
     poses = world_positions(motion.at_frames(frames))
+    poses.flags.writeable = False
     unknown = missing_points(motion)
-    return poses, None if unknown is None else ~unknown[frames]
+    if unknown is None:
+        return poses, None
+    known = ~unknown[frames]
+    known.flags.writeable = False
+    return poses, known
 
 
 def _median_extent(poses: np.ndarray, known: np.ndarray | None) -> np.ndarray:

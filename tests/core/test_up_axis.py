@@ -148,3 +148,12 @@ def test_up_on_the_commands_is_used_and_recorded(tmp_path, capsys):
 def test_z_up_sample_keeps_its_feet_and_height():
     motion = mc.load(SAMPLE)
     assert _world(z_up_copy(motion))[1:] == ("z", pytest.approx(_world(motion)[2]))
+
+
+@pytest.mark.parametrize("name", ["xy", "yz", "", "-", "--y", "w"])
+def test_an_up_axis_that_is_no_axis_is_refused(name):
+    """Only x, y, z and their negatives name an up axis (a substring test had let "xy",
+    "" and "-" through as x)."""
+    with pytest.raises(ValueError, match="up axis must be"):
+        kinematics.axis_index(name)
+    assert [kinematics.axis_index(n) for n in ("x", "-Y", "z", "-z")] == [0, 1, 2, 2]
