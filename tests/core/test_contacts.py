@@ -277,17 +277,19 @@ def test_hands_hanging_lowest_are_no_feet_on_a_body():
 
 
 def test_a_contact_stands_through_a_short_speed_blip_while_the_foot_stays_low():
-    """Runs of the loose criteria split by fewer frames than a contact's minimum, with the
-    foot low throughout, are one contact (a blip of speed is noise, a step takes longer);
-    a gap where the foot rises, or one as long as the minimum, splits them."""
+    """Runs of the loose criteria split by no more frames than a contact's minimum, with
+    the foot low throughout, are one contact (a blip of speed is noise, a step takes
+    longer); a gap where the foot rises, or one longer than the minimum, splits them."""
     from motionclean.core.contacts import _close_gaps
 
     loose = np.ones(60, dtype=bool)
     loose[20:23] = False  # a three-frame blip
-    loose[40:52] = False  # twelve frames: a step
+    loose[40:53] = False  # thirteen frames: a step
     low = np.ones(60, dtype=bool)
     closed = _close_gaps(loose, low, 12)
-    assert closed[:40].all() and not closed[40:52].any() and closed[52:].all()
+    assert closed[:40].all() and not closed[40:53].any() and closed[53:].all()
+    assert _close_gaps(loose, low, 13).all()  # as long as the minimum: closed
+    assert np.array_equal(_close_gaps(loose, low, 2)[20:23], np.zeros(3, dtype=bool))
     low[21] = False  # the foot lifted during the blip
     assert np.array_equal(_close_gaps(loose, low, 12), loose)
 
