@@ -169,11 +169,18 @@ def near(out: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 
 def scores(x, out, y) -> dict:
-    """AccErr (deg/frame^2), bias-removed RMSE (deg) and the filled samples' errors."""
+    """AccErr (deg/frame^2), bias-removed RMSE (deg) and the filled samples' errors.
+
+    As the take's ``score.py`` does: AccErr on the output unwrapped along time (whole turns
+    between frames taken out; a blank output cell read as 0 first), the differences to the
+    truth wrapped to within half a turn for the RMSE. (Moving each sample to within half a
+    turn of the truth before differencing would add whole-turn steps wherever an estimate
+    sits half a turn off its truth.)"""
     known = ~np.isnan(x)
-    out = near(out, y)
-    seen = np.where(known, out, np.nan)
+    seen = np.unwrap(np.where(np.isnan(out), 0.0, out), period=360.0, axis=0)
+    seen[~known] = np.nan
     acc = np.abs(np.diff(seen, 2, axis=0) - np.diff(y, 2, axis=0))
+    out = near(out, y)
     diff = np.where(known, out - y, np.nan)
     bias = np.nanmean(diff, axis=0)
     filled = ~known & ~np.isnan(out)
