@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
+from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
 from ..core.version import __version__
 from ..filters.auto import capture_source, estimate_noise
@@ -99,6 +100,7 @@ def main(argv: list[str] | None = None) -> None:
     debug = "--debug" in args
     one_malloc_arena()
     no_huge_page_advice()
+    keep_reserve()
     if not args:  # a bare `motionclean` shows the help
         args = ["--help"]
     try:
@@ -120,6 +122,7 @@ def main(argv: list[str] | None = None) -> None:
     except (KeyboardInterrupt, _Interrupted):
         _interrupted()
     except MemoryError as error:  # no bug: more than this machine (or its limit) holds
+        let_go(error)
         if debug:
             traceback.print_exc()
         _echo_error(f"out of memory ({error or 'an allocation failed'})")

@@ -8,7 +8,8 @@ the whole would: a result is bit for bit the same with one thread or many.
 ``MOTIONCLEAN_THREADS`` sets the number of threads (default: the CPUs this process may
 use, at most :data:`MAX_THREADS`); the worker processes of a local batch, which already
 run one clip per core, set it to 1. A part that itself asks for parts runs them in its
-own thread.
+own thread. Where the system refuses a thread (an address-space limit with no room left
+for one more thread's stack), the parts run on the calling thread from then on.
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ MIN_SHARED_SIZE = 1 << 18
 _pool: ThreadPoolExecutor | None = None
 _pool_lock = threading.Lock()
 _inside = threading.local()
+#: Set once the system refused a thread: parts run on the calling thread from then on.
+_no_threads = threading.Event()
 
 
 def thread_count() -> int:
@@ -52,8 +55,20 @@ def _executor(workers: int) -> ThreadPoolExecutor:
         if _pool is None or _pool._max_workers != workers:
             if _pool is not None:
                 _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(workers, thread_name_prefix="motionclean")
+            _pool = _Pool(workers, thread_name_prefix="motionclean")
         return _pool
+
+
+class _Pool(ThreadPoolExecutor):
+    """A thread pool that notes when the system refuses it a thread (an address-space
+    limit that leaves no room for one more thread's stack: ``can't start new thread``)."""
+
+    def _adjust_thread_count(self) -> None:
+        try:
+            super()._adjust_thread_count()
+        except RuntimeError:
+            _no_threads.set()
+            raise
 
 
 def _forget_pool() -> None:
@@ -81,9 +96,26 @@ def run_parts(function: Callable[[T], R], items: Iterable[T], size: int | None =
     items = list(items)
     workers = min(thread_count(), len(items))
     small = size is not None and size < MIN_SHARED_SIZE
-    if workers <= 1 or small or getattr(_inside, "active", False):
+    if workers <= 1 or small or getattr(_inside, "active", False) or _no_threads.is_set():
         return [function(item) for item in items]
-    return list(_executor(workers).map(lambda item: _part(function, item), items))
+    pool = _executor(workers)
+    try:
+        return list(pool.map(lambda item: _part(function, item), items))
+    except RuntimeError:
+        if not _no_threads.is_set():
+            raise  # the function's own error
+    # the system refused a thread: the parts queued so far finish on the threads there,
+    # then this thread does the work, as every later call will (the result is the same)
+    _close(pool)
+    return [function(item) for item in items]
+
+
+def _close(pool: ThreadPoolExecutor) -> None:
+    global _pool
+    with _pool_lock:
+        if _pool is pool:
+            _pool = None
+    pool.shutdown(wait=True)
 
 
 def in_parts(stop: int, part: int, start: int = 0) -> Sequence[slice]:

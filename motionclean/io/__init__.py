@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..core.errors import InvalidMotion, MotionError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.reserve import let_go
 from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
 
@@ -105,7 +106,8 @@ def load(
         if motion.missing is not None and motion.missing.size and motion.missing.all():
             # every body blank on every row: no sample any step, figure or writer can use
             raise MotionError("no value in any cell: every sample is blank, nothing to clean", path)
-    except BaseException:
+    except BaseException as error:
+        let_go(error)  # out of memory: room to travel up
         if on_disk is not None:
             on_disk.close()  # now, not when the traceback is let go of
         raise

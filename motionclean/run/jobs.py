@@ -22,6 +22,7 @@ import numpy as np
 from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
+from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
 from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
@@ -124,7 +125,11 @@ def clean_clip(
     before = (read or ReadOptions()).load(source)
     if up is not None:
         before = before.replace(up=up)
-    result = clean_motion(before, pipeline, os.fspath(source))
+    try:
+        result = clean_motion(before, pipeline, os.fspath(source))
+    except MemoryError as error:
+        let_go(error)  # room to travel up
+        raise
     if target is not None:
         Path(target).parent.mkdir(parents=True, exist_ok=True)
         save(result.after, target)
@@ -264,6 +269,7 @@ def clean_file(
     with the reason instead of raising.
     """
     start = time.perf_counter()
+    keep_reserve()  # (again, after a clip that ran out of memory)
     job = Job(
         os.fspath(source),
         None if target is None else os.fspath(target),
@@ -283,6 +289,7 @@ def clean_file(
         del result  # the input's arrays and the plot series go before the clip is written
         write_outputs(after, job.target, pages)
     except Exception as error:
+        let_go(error)
         return _failure(job.source, job.target, error, start)
     return replace(done, seconds=time.perf_counter() - start)
 

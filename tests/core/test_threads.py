@@ -63,6 +63,48 @@ def test_parts_within_parts_run_in_their_own_thread(monkeypatch):
     assert threads.run_parts(inner, range(4)) == [[x, x + 1, x + 2] for x in range(4)]
 
 
+def test_a_refused_thread_leaves_the_work_to_the_calling_thread(monkeypatch):
+    """Under an address-space limit the system may refuse one more thread's stack: the
+    parts then run on the calling thread, now and from then on, with the same results
+    (was 'internal error: RuntimeError: can't start new thread'). A part's own
+    RuntimeError is not taken for that."""
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "5")  # a pool of its own
+    monkeypatch.setattr(threads, "_pool", None)
+    monkeypatch.setattr(threads, "_no_threads", threading.Event())
+    start = threading.Thread.start
+    started = []
+
+    def start_one(thread):  # the first of the pool's threads starts, no other
+        if thread.name.startswith("motionclean") and started:
+            raise RuntimeError("can't start new thread")
+        started.append(thread.name)
+        start(thread)
+
+    def own_error(x: int) -> int:
+        if x == 3:
+            raise RuntimeError("the part's own")
+        return x
+
+    with pytest.raises(RuntimeError, match="the part's own"):
+        threads.run_parts(own_error, range(10))
+    assert not threads._no_threads.is_set()
+    threads._pool.shutdown()
+    monkeypatch.setattr(threads, "_pool", None)  # a new pool, whose threads are refused
+    monkeypatch.setattr(threading.Thread, "start", start_one)
+    here = threading.current_thread().name
+    names = []
+
+    def square(x: int) -> int:
+        names.append(threading.current_thread().name)
+        return x * x
+
+    assert threads.run_parts(square, range(50)) == [x * x for x in range(50)]
+    assert names[-50:] == [here] * 50  # the calling thread did all of them at the end
+    names.clear()
+    assert threads.run_parts(square, range(50)) == [x * x for x in range(50)]
+    assert names == [here] * 50 and len(started) == 1  # no thread asked for again
+
+
 @pytest.mark.parametrize("value", ["", "0", "-2", "two"])
 def test_an_unusable_thread_setting_falls_back_to_the_cpus(monkeypatch, value):
     monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
