@@ -44,6 +44,6 @@ def let_go(error: BaseException) -> None:
     tb = error.__traceback__
     below = None if tb is None else tb.tb_next  # the first is the handler's own frame
     while below is not None:
-        with contextlib.suppress(RuntimeError):  # a generator's frame left suspended
+        with contextlib.suppress(RuntimeError):  # a frame still running (another thread's)
             below.tb_frame.clear()
         below = below.tb_next

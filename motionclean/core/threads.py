@@ -20,6 +20,8 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
+from .reserve import let_go
+
 __all__ = ["MAX_THREADS", "in_parts", "run_parts", "thread_count"]
 
 T = TypeVar("T")
@@ -61,20 +63,25 @@ def _executor(workers: int) -> ThreadPoolExecutor:
 
 class _Pool(ThreadPoolExecutor):
     """A thread pool that notes when the system refuses it a thread (an address-space
-    limit that leaves no room for one more thread's stack: ``can't start new thread``)."""
+    limit that leaves no room for one more thread's stack: ``can't start new thread``).
+    With threads already running, the part just queued is theirs to do (it is not lost,
+    nor run twice); with none, the refusal is raised and nothing queued ever runs."""
 
     def _adjust_thread_count(self) -> None:
         try:
             super()._adjust_thread_count()
         except RuntimeError:
             _no_threads.set()
-            raise
+            if not self._threads:
+                raise
 
 
 def _forget_pool() -> None:
-    """A forked child has none of its parent's threads: it starts its own pool."""
-    global _pool
+    """A forked child has none of its parent's threads (nor its lock's holder): it starts
+    its own pool. A refused thread stays refused: the child has its parent's limits."""
+    global _pool, _pool_lock
     _pool = None
+    _pool_lock = threading.Lock()
 
 
 os.register_at_fork(after_in_child=_forget_pool)
@@ -84,6 +91,9 @@ def _part(function: Callable[[T], R], item: T) -> R:
     _inside.active = True
     try:
         return function(item)
+    except MemoryError as error:
+        let_go(error)  # room to travel up from this thread too
+        raise
     finally:
         _inside.active = False
 
@@ -104,8 +114,8 @@ def run_parts(function: Callable[[T], R], items: Iterable[T], size: int | None =
     except RuntimeError:
         if not _no_threads.is_set():
             raise  # the function's own error
-    # the system refused a thread: the parts queued so far finish on the threads there,
-    # then this thread does the work, as every later call will (the result is the same)
+    # the system refused the pool its first thread: no part ran; this thread does them,
+    # as every later call will
     _close(pool)
     return [function(item) for item in items]
 
@@ -115,7 +125,7 @@ def _close(pool: ThreadPoolExecutor) -> None:
     with _pool_lock:
         if _pool is pool:
             _pool = None
-    pool.shutdown(wait=True)
+    pool.shutdown(wait=False)
 
 
 def in_parts(stop: int, part: int, start: int = 0) -> Sequence[slice]:

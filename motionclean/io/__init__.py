@@ -266,7 +266,8 @@ def _stage(shown: Path, target: Path, data: bytes | Iterable[bytes | memoryview]
     except OSError as error:  # disk full, permissions: still one clear line
         Path(tmp).unlink(missing_ok=True)
         raise MotionError(f"cannot write: {error.strerror or error}", shown) from None
-    except BaseException:
+    except BaseException as error:
+        let_go(error)  # out of memory: room to travel up
         Path(tmp).unlink(missing_ok=True)
         raise
     return tmp

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import MotionError
+from ..core.reserve import let_go
 
 #: A compressed pickle may expand to at most this many times its size (plus 1 MiB).
 MAX_EXPANSION = 100
@@ -231,7 +232,8 @@ def loads(data: bytes, path) -> object:
         ) from None
     except RecursionError:
         raise MotionError("a pickle nested too deeply", path) from None
-    except MemoryError:
+    except MemoryError as error:
+        let_go(error)  # its frames go with it: the MotionError does not keep them
         raise MotionError("a pickle too large to read", path) from None
     except Exception as error:  # any malformed stream: one line, never a traceback
         raise MotionError(

@@ -127,12 +127,12 @@ def clean_clip(
         before = before.replace(up=up)
     try:
         result = clean_motion(before, pipeline, os.fspath(source))
+        if target is not None:
+            Path(target).parent.mkdir(parents=True, exist_ok=True)
+            save(result.after, target)
     except MemoryError as error:
         let_go(error)  # room to travel up
         raise
-    if target is not None:
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        save(result.after, target)
     return result
 
 

@@ -55,12 +55,14 @@ def test_other_errors_keep_their_frames():
 @pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="no /proc: not Linux")
 def test_the_reserve_is_address_space_given_back_on_running_out(monkeypatch):
     monkeypatch.setattr(reserve, "_reserve", [])
+    slack = 1 << 20  # an object arena the interpreter may map or unmap meanwhile
     before = _vm_size()
     reserve.keep_reserve()
     reserve.keep_reserve()  # once is enough
-    assert _vm_size() - before == reserve.RESERVE_BYTES
+    kept = _vm_size()
+    assert abs(kept - before - reserve.RESERVE_BYTES) <= slack
     try:
         raise MemoryError
     except MemoryError as error:
         reserve.let_go(error)
-    assert _vm_size() == before
+    assert abs(kept - _vm_size() - reserve.RESERVE_BYTES) <= slack

@@ -63,19 +63,22 @@ def test_parts_within_parts_run_in_their_own_thread(monkeypatch):
     assert threads.run_parts(inner, range(4)) == [[x, x + 1, x + 2] for x in range(4)]
 
 
-def test_a_refused_thread_leaves_the_work_to_the_calling_thread(monkeypatch):
-    """Under an address-space limit the system may refuse one more thread's stack: the
-    parts then run on the calling thread, now and from then on, with the same results
-    (was 'internal error: RuntimeError: can't start new thread'). A part's own
-    RuntimeError is not taken for that."""
+@pytest.mark.parametrize("allowed", [0, 1, 2])
+def test_a_refused_thread_leaves_the_work_to_the_calling_thread(monkeypatch, allowed):
+    """Under an address-space limit the system may refuse one more thread's stack (was
+    'internal error: RuntimeError: can't start new thread'): the threads already there
+    do the parts queued to them, the calling thread does all of them if there are none,
+    every later call runs on the calling thread; each part runs once (some write in
+    place: a part run twice would undo itself) and the results are the same. A part's
+    own RuntimeError is not taken for a refusal."""
     monkeypatch.setenv("MOTIONCLEAN_THREADS", "5")  # a pool of its own
     monkeypatch.setattr(threads, "_pool", None)
     monkeypatch.setattr(threads, "_no_threads", threading.Event())
     start = threading.Thread.start
     started = []
 
-    def start_one(thread):  # the first of the pool's threads starts, no other
-        if thread.name.startswith("motionclean") and started:
+    def start_some(thread):  # the pool's first `allowed` threads start, no other
+        if thread.name.startswith("motionclean") and len(started) >= allowed:
             raise RuntimeError("can't start new thread")
         started.append(thread.name)
         start(thread)
@@ -90,19 +93,22 @@ def test_a_refused_thread_leaves_the_work_to_the_calling_thread(monkeypatch):
     assert not threads._no_threads.is_set()
     threads._pool.shutdown()
     monkeypatch.setattr(threads, "_pool", None)  # a new pool, whose threads are refused
-    monkeypatch.setattr(threading.Thread, "start", start_one)
+    monkeypatch.setattr(threading.Thread, "start", start_some)
     here = threading.current_thread().name
-    names = []
+    runs: dict[int, list[str]] = {}
 
     def square(x: int) -> int:
-        names.append(threading.current_thread().name)
+        runs.setdefault(x, []).append(threading.current_thread().name)
         return x * x
 
     assert threads.run_parts(square, range(50)) == [x * x for x in range(50)]
-    assert names[-50:] == [here] * 50  # the calling thread did all of them at the end
-    names.clear()
+    assert all(len(runs[x]) == 1 for x in range(50))  # each part once
+    if not allowed:
+        assert all(runs[x] == [here] for x in range(50))
+    runs.clear()
     assert threads.run_parts(square, range(50)) == [x * x for x in range(50)]
-    assert names == [here] * 50 and len(started) == 1  # no thread asked for again
+    assert all(runs[x] == [here] for x in range(50))  # from then on, this thread
+    assert len(started) == allowed  # no thread asked for again
 
 
 @pytest.mark.parametrize("value", ["", "0", "-2", "two"])

@@ -233,9 +233,10 @@ def load_take(name: str):
 
 
 def scores(x, out, y) -> tuple[float, float]:
-    """AccErr (deg/frame^2) and bias-removed RMSE (deg) on the known frames, as the takes'
-    ``score.py``: second differences of the output unwrapped along time (a blank cell read
-    as 0 first), differences to the truth wrapped to within half a turn."""
+    """AccErr (deg/frame^2) and bias-removed RMSE (deg) on the known frames. AccErr as the
+    takes' ``score.py``: second differences of the output unwrapped along time (a blank
+    cell read as 0 first); the RMSE on differences to the truth wrapped to within half a
+    turn, each coordinate's mean difference removed (its README)."""
     known = ~np.isnan(x)
     unwrapped = np.unwrap(np.where(np.isnan(out), 0.0, out), period=360.0, axis=0)
     seen = np.where(known, unwrapped, np.nan)
