@@ -30,6 +30,7 @@ __all__ = [
     "end_site_names",
     "forward",
     "forward_arrays",
+    "hung_on",
     "local_translations",
     "point_parents",
     "rest_positions",
@@ -151,7 +152,7 @@ def _forward_planes(
     depth = depths(parents)
     computed = np.arange(n_all)
     if only is not None and not keep_rotations:
-        computed = _hung_on(parents, all_tips, np.asarray(only, dtype=np.intp))
+        computed = hung_on(parents, all_tips, np.asarray(only, dtype=np.intp))
         kept = set(computed.tolist())
         tips = {j: tips[j] for j in all_tips if j in kept}
     n_joints = computed.size
@@ -220,7 +221,7 @@ def _forward_planes(
     return world_p, world_q
 
 
-def _hung_on(parents: np.ndarray, tip_joints: list[int], points: np.ndarray) -> np.ndarray:
+def hung_on(parents: np.ndarray, tip_joints: list[int], points: np.ndarray) -> np.ndarray:
     """The joints (ascending) that ``points`` (joints, then the end sites of
     ``tip_joints``, ascending) hang on, and every joint above them."""
     n_joints = parents.size

@@ -28,7 +28,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core import quat
-from ..core.kinematics import depths, forward_arrays
+from ..core.kinematics import depths, forward_arrays, hung_on
 
 #: Gauss-Newton iterations (the change is small: a third one moves no point of a noisy
 #: walk by more than 0.005 mm on a body 1.7 m tall).
@@ -227,13 +227,6 @@ def _eases(
     return last_in, next_in, w_prev, w_next
 
 
-def lock_weights(contacts: np.ndarray, blend_frames: float) -> np.ndarray:
-    """``(F,)``: the weight :func:`lock_targets` gives each frame (1 in a contact, easing
-    to 0 over ``blend_frames`` frames either side of it)."""
-    _, _, w_prev, w_next = _eases(contacts, blend_frames)
-    return np.where(contacts, 1.0, np.minimum(w_prev + w_next, 1.0))
-
-
 def lock_targets(
     points: np.ndarray,
     contacts: np.ndarray,
@@ -279,41 +272,27 @@ class _Part:
     """The joints of a skeleton that a solve needs, as a skeleton of their own.
 
     ``index`` ``(Jc,)`` the joints (ascending, so parents come first), ``parents`` theirs
-    within the part (-1 for a root of the part), ``mounted`` the part roots that hang on
-    a joint outside the part (they are placed by their world transform), ``tips`` the
-    part joints with an end site (ascending) and ``tip_offsets`` their offsets. The part's
-    points are its joints, then those end sites.
+    within the part (-1 for its root), ``tips`` the part joints with an end site
+    (ascending) and ``tip_offsets`` their offsets. The part's points are its joints, then
+    those end sites.
     """
 
     index: np.ndarray
     parents: np.ndarray
-    mounted: np.ndarray
     tips: np.ndarray
     tip_offsets: np.ndarray
 
     @classmethod
-    def of(
-        cls, parents: np.ndarray, tips: dict[int, np.ndarray], joints: set[int], cut: set[int]
-    ) -> _Part:
-        """``joints`` and every joint above them, up to a root or to a joint of ``cut``
-        (which becomes a mounted root)."""
-        keep: set[int] = set()
-        for joint in joints:
-            j = joint
-            while j >= 0 and j not in keep:
-                keep.add(j)
-                j = -1 if j in cut else int(parents[j])
-        index = np.array(sorted(keep), dtype=np.intp)
+    def of(cls, parents: np.ndarray, tips: dict[int, np.ndarray], points: list[int]) -> _Part:
+        """The joints ``points`` (joints, then the end sites of ``tips``' joints, ascending)
+        hang on, and every joint above them."""
+        index = hung_on(parents, sorted(tips), np.asarray(points, dtype=np.intp))
         rank = {j: c for c, j in enumerate(index.tolist())}
-        local = np.array(
-            [-1 if j in cut else rank.get(int(parents[j]), -1) for j in index.tolist()],
-            dtype=np.intp,
-        )
+        local = np.array([rank.get(int(parents[j]), -1) for j in index.tolist()], dtype=np.intp)
         tip_joints = [j for j in sorted(tips) if j in rank]
         return cls(
             index=index,
             parents=local,
-            mounted=np.flatnonzero((local < 0) & (parents[index] >= 0)),
             tips=np.array([rank[j] for j in tip_joints], dtype=np.intp),
             tip_offsets=np.array([tips[j] for j in tip_joints], dtype=np.float64).reshape(-1, 3),
         )
@@ -327,29 +306,25 @@ class _Part:
         return self.index.size + int(np.searchsorted(self.tips, joint))
 
     def arrays(
-        self,
-        rotations: np.ndarray,
-        translations: np.ndarray,
-        mounts: tuple[np.ndarray, np.ndarray] | None = None,
+        self, rotations: np.ndarray, translations: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """The part's local rotations and translations ``(F, Jc, ...)`` taken from the
-        whole skeleton's ``(F, J, ...)``; ``mounts``: the world rotations ``(F, M, 4)`` of
-        the mounted roots' parents and the roots' world positions ``(F, M, 3)``."""
-        q, t = rotations[:, self.index], translations[:, self.index]
-        if self.mounted.size:
-            assert mounts is not None
-            q[:, self.mounted] = quat.multiply(mounts[0], q[:, self.mounted])
-            t[:, self.mounted] = mounts[1]
-        return q, t
+        whole skeleton's ``(F, J, ...)``."""
+        return rotations[:, self.index], translations[:, self.index]
 
-    def local(self, q: np.ndarray, mounts: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
-        """The whole skeleton's local rotations of the part's joints from the part's own
-        ``(F, Jc, 4)`` (undoing :meth:`arrays`' mounting)."""
-        if self.mounted.size:
-            assert mounts is not None
-            q = q.copy()
-            q[:, self.mounted] = quat.multiply(quat.conjugate(mounts[0]), q[:, self.mounted])
-        return q
+    def write_back(
+        self,
+        into: tuple[np.ndarray, np.ndarray],
+        frames: np.ndarray,
+        solved: tuple[np.ndarray, np.ndarray],
+        reference: np.ndarray,
+    ) -> None:
+        """Put the part's solved rotations and root translation ``solved`` of ``frames``
+        into the whole skeleton's rotations ``(F, J, 4)`` and root translations ``(F, 3)``
+        ``into``, each rotation on the sign of ``reference`` ``(F, J, 4)``."""
+        q, t = solved
+        into[0][frames[:, None], self.index] = _same_sign(q, reference[frames[:, None], self.index])
+        into[1][frames] = t[:, 0]
 
 
 @dataclass(frozen=True)
@@ -487,7 +462,7 @@ def plant(
     if not legs:
         return out_q, out_t
     ankles = [leg.points[0] for leg in legs]
-    part = _Part.of(parents, tips, set(ankles), set())
+    part = _Part.of(parents, tips, ankles)
     rank = {int(j): c for c, j in enumerate(part.index)}
     problem = _problem(
         part,
@@ -518,8 +493,7 @@ def plant(
     frames = np.flatnonzero(rows.horizontal.any(axis=1))
     q, t = q[frames], t[frames]
     total = _solve_frames(q, t, part, problem, rows.take(frames))
-    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames[:, None], part.index])
-    out_t[frames] = t[:, 0]
+    part.write_back((out_q, out_t), frames, (q, t), rotations)
     toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
     if toe_legs:
         toes = _Toes(
@@ -607,8 +581,7 @@ def _hold_toes(
     tip_joints = sorted(tips)
     ankles = [leg.points[0] for leg in legs]
     toe_points = [p for leg in legs if leg.foot for p in leg.points[1:]]
-    hangs_on = [p if p < n_joints else tip_joints[p - n_joints] for p in toe_points]
-    part = _Part.of(parents, tips, {*ankles, *hangs_on}, set())
+    part = _Part.of(parents, tips, [*ankles, *toe_points])
     rank = {int(j): c for c, j in enumerate(part.index)}
     problem = _problem(
         part,
@@ -631,7 +604,8 @@ def _hold_toes(
     # the toes keep above the floor while their leg or they themselves stand
     grounded = toes.contacts | ankle_rows.grounded[:, toes.legs]
     normal, level = ankle_rows.floor
-    toe_floor = ankle_rows.tolerance[0] * FLOOR_FIRMNESS
+    tolerance = ankle_rows.tolerance[0]
+    toe_floor = tolerance * FLOOR_FIRMNESS
     below = (track @ normal - level < -FLOOR_SLACK * toe_floor) & grounded  # as _solve finds
     # every frame the ankles' solve changed too: each gets the same iterations (no step
     # where the toes' hold begins)
@@ -640,7 +614,6 @@ def _hold_toes(
         return planted.rotations, planted.root
     asked[planted.frames] = True
     frames = np.flatnonzero(asked)
-    tolerance = ankle_rows.tolerance[0]
     n_ankles, n_toes = len(ankles), len(toe_points)
     rows = _Rows(
         np.concatenate([ankle_rows.targets, targets], axis=1),
@@ -654,18 +627,14 @@ def _hold_toes(
     ).take(frames)
     # warm start: the ankles' change, placed in this solve's columns
     column = {key: c for c, key in enumerate(_column_keys(part, problem))}
-    at = np.searchsorted(planted.frames, frames)
-    solved = at < planted.frames.size
-    solved[solved] = planted.frames[at[solved]] == frames[solved]
     into = np.array([column[key] for key in planted.keys], dtype=np.intp)
     total = np.zeros((frames.size, problem.n_columns))
-    total[np.ix_(solved, into)] = planted.total[at[solved]]
+    total[np.ix_(np.searchsorted(frames, planted.frames), into)] = planted.total  # (a subset)
     q, t = q[frames], t[frames]
     _solve_frames(q, t, part, problem, rows, TOE_ITERATIONS, total)
-    out_q, out_t = planted.rotations, planted.root  # plant's own arrays: written in place
-    out_q[frames[:, None], part.index] = _same_sign(q, rotations[frames[:, None], part.index])
-    out_t[frames] = t[:, 0]
-    return out_q, out_t
+    # plant's own arrays, written in place
+    part.write_back((planted.rotations, planted.root), frames, (q, t), rotations)
+    return planted.rotations, planted.root
 
 
 def _points(
