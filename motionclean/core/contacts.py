@@ -197,6 +197,14 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
+def _filled(n: int, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool, True on the runs ``starts[i] .. ends[i] - 1`` (:func:`_runs`' form)."""
+    delta = np.zeros(n + 1, dtype=np.int64)
+    delta[starts] += 1
+    delta[ends] -= 1
+    return np.cumsum(delta[:-1]) > 0
+
+
 def _moving_average(x: np.ndarray, half: int) -> np.ndarray:
     """Centred moving average over ``2 half + 1`` frames along axis 0, window shrunk at ends
     (``half < len(x)``). Differences of running sums, taken from views of them: no
@@ -381,10 +389,7 @@ def _close_gaps(loose: np.ndarray, low: np.ndarray, shortest: int) -> np.ndarray
     )
     if not closed.any():
         return loose
-    delta = np.zeros(loose.size + 1, dtype=np.int64)
-    delta[gap_from[closed]] += 1
-    delta[gap_to[closed]] -= 1
-    return loose | (np.cumsum(delta[:-1]) > 0)
+    return loose | _filled(loose.size, gap_from[closed], gap_to[closed])
 
 
 def _to_the_edges(loose: np.ndarray, steady: np.ndarray, edge: int) -> np.ndarray:
@@ -456,10 +461,7 @@ def detect(
         starts, ends = _runs(kept)
         strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
         keep = (strict_sum[ends] > strict_sum[starts]) & (ends - starts >= min_frames)
-        delta = np.zeros(n_frames + 1, dtype=np.int64)
-        delta[starts[keep]] += 1
-        delta[ends[keep]] -= 1
-        contacts[:, k] = np.cumsum(delta[:-1]) > 0
+        contacts[:, k] = _filled(n_frames, starts[keep], ends[keep])
     return contacts, ground
 
 

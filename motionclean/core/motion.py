@@ -540,6 +540,15 @@ class Motion:
             values[block, cols] = angles.reshape(q.shape[0], -1)
 
 
+def missing_before(missing: np.ndarray) -> np.ndarray:
+    """``(F + 1, J)``: the running count of missing samples (``missing`` ``(F, J)`` bool)
+    before each frame, per joint (row 0: none): rows ``a .. b - 1`` of joint ``j`` are all
+    known where ``count[b, j] == count[a, j]``."""
+    return np.concatenate(
+        [np.zeros((1, missing.shape[1]), np.intp), np.cumsum(missing, axis=0, dtype=np.intp)]
+    )
+
+
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
     """``values`` ``(F, J, ...)`` with each missing sample (``missing`` ``(F, J)`` bool)
     replaced by the joint's last known sample before it, or the first known one after it

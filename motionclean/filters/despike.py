@@ -91,7 +91,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import checks, quat
-from ..core.motion import hold_missing
+from ..core.motion import hold_missing, missing_before
 
 __all__ = [
     "DespikeReport",
@@ -862,9 +862,7 @@ def _clear_of(missing, first, length, col):
     """The spike runs (first frame, length, column) whose frames and the two good frames
     on each side, which the cubic reads, are all known."""
     n_frames = missing.shape[0]
-    gappy = np.concatenate(
-        [np.zeros((1, missing.shape[1]), int), np.cumsum(missing, axis=0, dtype=int)]
-    )
+    gappy = missing_before(missing)
     lo = np.clip(first - 2, 0, n_frames)
     hi = np.clip(first + length + 2, 0, n_frames)
     keep = gappy[hi, col] == gappy[lo, col]

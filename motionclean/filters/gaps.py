@@ -64,6 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import quat
+from ..core.motion import missing_before
 from .interpolate import end_tangent, hermite_positions, hermite_rotations
 
 #: Known frames beside an edge that its velocity is fitted to ...
@@ -152,12 +153,15 @@ class _Stats:
     keep: np.ndarray
 
     @classmethod
-    def of(cls, x: np.ndarray, missing: np.ndarray, rotations: bool, gaps: Gaps) -> _Stats:
+    def of(
+        cls, x: np.ndarray, missing: np.ndarray, seen: np.ndarray, rotations: bool, gaps: Gaps
+    ) -> _Stats:
+        """``seen``: :func:`~motionclean.core.motion.missing_before` of ``missing``."""
         noise, motion = noise_and_motion_variance(x, missing, rotations)
         key = np.unique(gaps.joint * KEY + _length_class(gaps.lengths))
         keep = np.ones(key.size)
         if rotations:
-            pairs = (x, missing, rotations, noise, key // KEY, key % KEY)
+            pairs = (x, missing, seen, rotations, noise, key // KEY, key % KEY)
             keep = np.maximum(_velocity_keep(*pairs), _fill_share(*pairs))
         return cls(noise, motion, key, keep)
 
@@ -256,14 +260,7 @@ def _all_known(seen: np.ndarray, first: np.ndarray, stop: np.ndarray, js) -> np.
     return seen[stop][:, js] == seen[first][:, js]
 
 
-def _missing_count(missing: np.ndarray) -> np.ndarray:
-    """``(F + 1, J)``: missing samples before each frame, per joint (row 0: none)."""
-    return np.concatenate(
-        [np.zeros((1, missing.shape[1]), np.intp), np.cumsum(missing, axis=0, dtype=np.intp)]
-    )
-
-
-def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
+def _velocity_keep(x, missing, seen, rotations: bool, noise_var, joint, length) -> np.ndarray:
     """Per ``(joint, length)`` pair, the Wiener weight ``S / (S + N)`` of the fitted edge
     velocity's departure from the chord across a gap of that length: ``S + N`` the mean of
     ``|v - chord|^2`` over the joint's known frames taken as edges (up to
@@ -274,7 +271,6 @@ def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.
     out = np.ones(joint.size)
     weights = _edge_weights(EDGE_FRAMES)
     gain = _edge_gain(weights)
-    seen = _missing_count(missing)
     for span, pairs, edges, js in _trial_spans(x.shape[0], joint, length, 0):
         base = x[edges][:, js]
         slope = -_slope_sum(x, base, edges, js, -1, log_of, weights)
@@ -289,7 +285,7 @@ def _velocity_keep(x, missing, rotations: bool, noise_var, joint, length) -> np.
     return out
 
 
-def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.ndarray:
+def _fill_share(x, missing, seen, rotations: bool, noise_var, joint, length) -> np.ndarray:
     """Per ``(joint, length)`` pair, the weight ``w`` of the (shrunk) edge velocities'
     departure from the chord that fills gaps of that length best on the joint's own data,
     in [0, 1]: at up to :data:`KEEP_SAMPLES` places in its known frames taken as gaps, the
@@ -301,7 +297,6 @@ def _fill_share(x, missing, rotations: bool, noise_var, joint, length) -> np.nda
     out = np.ones(joint.size)
     weights = _edge_weights(EDGE_FRAMES)
     gain = _edge_gain(weights)
-    seen = _missing_count(missing)
     for span, pairs, edges, js in _trial_spans(x.shape[0], joint, length, EDGE_FRAMES):
         start, end = x[edges][:, js], x[edges + span][:, js]
         slope_a = -_slope_sum(x, start, edges, js, -1, log_of, weights)
@@ -546,14 +541,14 @@ def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
     return np.sum(np.diff(steps, axis=1) ** 2, axis=(1, 3))
 
 
-def _choose_donors(q, p, missing, gaps: Gaps) -> np.ndarray:
+def _choose_donors(q, p, seen, gaps: Gaps) -> np.ndarray:
     """Per gap, ``(2, G)``: the donors (or -1) whose relative rotation, and relative
     position, are smoothest beside the gap among the joints known from
-    :data:`DONOR_FRAMES` frames before it to as many after it."""
-    n_frames, n_joints = missing.shape
+    :data:`DONOR_FRAMES` frames before it to as many after it (``seen``: the running
+    count of missing samples, :func:`~motionclean.core.motion.missing_before`)."""
+    n_frames, n_joints = seen.shape[0] - 1, seen.shape[1]
     lo = np.maximum(gaps.first - 1 - DONOR_FRAMES, 0)
     hi = np.minimum(gaps.stop + DONOR_FRAMES, n_frames - 1)
-    seen = _missing_count(missing)
     donor = np.full((2, gaps.joint.size), -1)
     offsets = np.arange(-DONOR_FRAMES, 1)
     for at in range(0, gaps.joint.size, GAP_BLOCK):
@@ -626,9 +621,10 @@ def fill_gaps(
     todo = gaps.select(fillable)
     q, p = rotations.copy(), translations.copy()
     still = missing.copy()
+    seen = missing_before(missing)
     donor = np.full((2, todo.joint.size), -1)
     if donors:
-        donor = _choose_donors(rotations, translations, missing, todo)
+        donor = _choose_donors(rotations, translations, seen, todo)
         # A gap no longer than the stretch donors are judged on is bridged better by the
         # body's own rotation (its edge velocities say enough): donors for longer ones.
         donor[0, todo.lengths <= DONOR_FRAMES] = -1
@@ -648,11 +644,11 @@ def fill_gaps(
     if inner.any():
         two_sided = todo.select(inner)
         noise = tuple(
-            _Stats.of(x, missing, rotations, two_sided)
+            _Stats.of(x, missing, seen, rotations, two_sided)
             for x, rotations in ((rotations, True), (translations, False))
         )
         chosen, option_q, option_p = _validated(
-            rotations, translations, missing, two_sided, donor[:, inner], noise
+            rotations, translations, missing, seen, two_sided, donor[:, inner], noise
         )
         donor[0, inner] = chosen
         rel_q, rel_p = _relative(rotations, translations, joint, donor[:, gap_of], frame)
@@ -670,13 +666,14 @@ def fill_gaps(
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
 
 
-def _trials(missing, gaps: Gaps, donor: np.ndarray):
+def _trials(seen, gaps: Gaps, donor: np.ndarray):
     """Gaps of the same length as each of ``gaps`` planted in known frames beside it, for
     :func:`_validated`: ``(trial gaps, index of the real gap of each)``. Up to
     :data:`TRIALS_PER_SIDE` on each side, spaced by their length plus one; a trial is kept
     when its frames, the :data:`EDGE_FRAMES` known frames around it and its edges lie in the
-    clip, are all known for the joint and, where ``donor`` (G,) is a joint, for it too."""
-    n_frames = missing.shape[0]
+    clip, are all known for the joint and, where ``donor`` (G,) is a joint, for it too
+    (``seen``: the running count of missing samples)."""
+    n_frames = seen.shape[0] - 1
     lengths = gaps.lengths
     k = np.arange(TRIALS_PER_SIDE)
     step = lengths[:, None] + 1
@@ -687,7 +684,6 @@ def _trials(missing, gaps: Gaps, donor: np.ndarray):
     stop = first + lengths[of]
     lo, hi = first - 1 - EDGE_FRAMES, stop + EDGE_FRAMES  # the frames read, inclusive
     ok = (lo >= 0) & (hi < n_frames)
-    seen = _missing_count(missing)
     lo_c, hi_c = np.clip(lo, 0, n_frames - 1), np.clip(hi, 0, n_frames - 1)
     joint = gaps.joint[of]
     ok &= seen[hi_c + 1, joint] == seen[lo_c, joint]
@@ -697,7 +693,7 @@ def _trials(missing, gaps: Gaps, donor: np.ndarray):
     return Gaps(joint[ok], first[ok], stop[ok]), of[ok]
 
 
-def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, noise):
+def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.ndarray, noise):
     """Per two-sided gap, the rotation donor (the chosen ``donor[0]`` or the world, -1) and
     the bridge options ``(weight, smooth)`` (:func:`_bridge`) of its rotation and of its
     position that fill best the gaps of the same length planted beside it in the joint's
@@ -718,7 +714,7 @@ def _validated(rotations, translations, missing, gaps: Gaps, donor: np.ndarray, 
     error = np.full((2, len(options), n_gaps), np.inf)  # rotations, positions
     for use in uses:
         helper = donor[0] if use == 0 else np.full(n_gaps, -1)
-        trials, of = _trials(missing, gaps, np.where(helper >= 0, helper, donor[1]))
+        trials, of = _trials(seen, gaps, np.where(helper >= 0, helper, donor[1]))
         if not of.size:
             continue
         both = np.stack([helper[of], donor[1, of]])
