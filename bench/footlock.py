@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -113,26 +114,41 @@ def figures(clip, truth, feet, contacts, up, height, legs, knees, truth_pos):
     }
 
 
-def walk_figures(truth: mc.Motion, seed: int, with_: Pipeline):
-    """The noisy clip of ``truth`` (``seed``), the legs, and the figures of the capture,
-    the default without footlock and ``with_``; the skate ratios' ankle and toe columns."""
-    feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
-    legs = sorted(
-        {j for f in feet for p in f.points if p < truth.n_joints for j in chain(truth.parents, p)}
-        - {0}
-    )
-    knees = [f.knee for f in feet]
-    planted = noisy(truth, NOISE, seed)
-    args = (truth, feet, contacts, up, height, legs, knees, truth_pos)
-    own = figures(truth, *args)
-    without = figures(WITHOUT.run(planted)[0], *args)
-    locked = figures(with_.run(planted)[0], *args)
-    ratio = locked["skate"] / own["skate"]
-    points = [(k, p) for k, f in enumerate(feet) for p in f.points]
-    ankles = [i for i, (k, p) in enumerate(points) if p == feet[k].ankle]
-    toes = [i for i in range(ratio.size) if i not in ankles]
-    locked["foot_mean"] = locked["skate"].mean() / own["skate"].mean()
-    return planted, legs, locked, without, ratio[ankles], ratio[toes]
+@dataclass(frozen=True)
+class Walk:
+    """A clean walk as scored: the capture, its feet, contacts, up axis, body height, leg
+    joints, knees and world positions (``args`` of :func:`figures`), the capture's own
+    figures and which foot points are ankles."""
+
+    truth: mc.Motion
+    args: tuple
+    legs: list[int]
+    own: dict
+    ankles: list[int]
+    toes: list[int]
+
+    @classmethod
+    def of(cls, truth: mc.Motion) -> Walk:
+        feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
+        above = (chain(truth.parents, p) for f in feet for p in f.points if p < truth.n_joints)
+        legs = sorted({j for joints in above for j in joints} - {0})
+        knees = [f.knee for f in feet]
+        args = (truth, feet, contacts, up, height, legs, knees, truth_pos)
+        points = [(k, p) for k, f in enumerate(feet) for p in f.points]
+        ankles = [i for i, (k, p) in enumerate(points) if p == feet[k].ankle]
+        toes = [i for i in range(len(points)) if i not in ankles]
+        return cls(truth, args, legs, figures(truth, *args), ankles, toes)
+
+    def with_noise(self, seed: int, with_: Pipeline):
+        """The noisy clip (``seed``), the default without footlock's clip, and the figures
+        without and with ``with_``; the skate ratios' ankle and toe columns."""
+        planted = noisy(self.truth, NOISE, seed)
+        cleaned = WITHOUT.run(planted)[0]
+        without = figures(cleaned, *self.args)
+        locked = figures(with_.run(planted)[0], *self.args)
+        ratio = locked["skate"] / self.own["skate"]
+        locked["foot_mean"] = locked["skate"].mean() / self.own["skate"].mean()
+        return planted, cleaned, locked, without, ratio[self.ankles], ratio[self.toes]
 
 
 def figure_cells(locked: dict, without: dict, ankles: np.ndarray, toes: np.ndarray) -> str:
@@ -154,12 +170,9 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
         "deg) |"
     )
     print("| --- | ---: | --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |")
-    for path, seed in ((p, s) for p in corpus_clips() for s in SEEDS):
-        truth = mc.load(path)
-        planted, legs, locked, without, ankles, toes = walk_figures(truth, seed, with_)
-        cleaned = WITHOUT.run(planted)[0]
-        t_without = best_cpu(lambda c=planted: WITHOUT.run(c), 7)
-        t_lock = best_cpu(lambda c=cleaned: lock.run(c), 7)
+    for path in corpus_clips():
+        walk = Walk.of(mc.load(path))
+        truth, legs = walk.truth, walk.legs
         clean_a, clean_b = with_.run(truth)[0], WITHOUT.run(truth)[0]
         moved = np.degrees(
             quat.angle_between(clean_a.rotations[:, legs], clean_b.rotations[:, legs])
@@ -167,12 +180,16 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
         smooth = truth.replace(rotations=lee_shin(truth.rotations, binomial(3), iterations=20))
         smooth_a, smooth_b = with_.run(smooth)[0], WITHOUT.run(smooth)[0]
         smoothed = np.degrees(quat.angle_between(smooth_a.rotations, smooth_b.rotations))
-        print(
-            f"| {path.stem} | {seed} {figure_cells(locked, without, ankles, toes)}"
-            f"| {t_lock / t_without:.2f} "
-            f"| {math.sqrt(np.mean(moved**2)):.4f}, {moved.max():.3f} "
-            f"| {math.sqrt(np.mean(smoothed**2)):.5f} |"
-        )
+        for seed in SEEDS:
+            planted, cleaned, locked, without, ankles, toes = walk.with_noise(seed, with_)
+            t_without = best_cpu(lambda c=planted: WITHOUT.run(c), 7)
+            t_lock = best_cpu(lambda c=cleaned: lock.run(c), 7)
+            print(
+                f"| {path.stem} | {seed} {figure_cells(locked, without, ankles, toes)}"
+                f"| {t_lock / t_without:.2f} "
+                f"| {math.sqrt(np.mean(moved**2)):.4f}, {moved.max():.3f} "
+                f"| {math.sqrt(np.mean(smoothed**2)):.5f} |"
+            )
     print()
 
 
@@ -187,10 +204,11 @@ def other_walks() -> None:
     print("| --- | ---: | ---: | --- | --- | ---: | ---: | ---: | ---: |")
     clips = [(p.stem, clean_base(mc.load(p), 4)) for p in corpus_clips()]
     clips += [(name, mc.load(EXPORTERS / f"{name}.bvh")) for name in EXPORTER_WALKS]
-    for (name, truth), seed in ((c, s) for c in clips for s in SEEDS):
-        _, _, locked, without, ankles, toes = walk_figures(truth, seed, WITH)
-        fps = round(1.0 / truth.frame_time)
-        print(f"| {name} | {fps} | {seed} {figure_cells(locked, without, ankles, toes)}|")
+    for name, truth in clips:
+        walk, fps = Walk.of(truth), round(1.0 / truth.frame_time)
+        for seed in SEEDS:
+            _, _, locked, without, ankles, toes = walk.with_noise(seed, WITH)
+            print(f"| {name} | {fps} | {seed} {figure_cells(locked, without, ankles, toes)}|")
     print()
 
 

@@ -92,6 +92,10 @@ def takes(wanted: list[str] | None) -> list[tuple[str, str, Path, Path]]:
     return found
 
 
+#: A coordinate as the channel CSV writes it (degrees, 6 decimals).
+_cell = "{:.6f}".format
+
+
 def load_take(estimate: Path, truth: Path):
     """Times (s), estimate (F, C) in degrees with NaN for dropouts, the truth at the same
     times (F, C) and the coordinates' names, the ones with under half missing (as
@@ -101,12 +105,12 @@ def load_take(estimate: Path, truth: Path):
     keep = [j for j in range(x.shape[1]) if np.mean(~np.isnan(x[:, j])) > 0.5]
     names = [header[1 + j] for j in keep]
     # the values as the channel CSV gives them to the tool (6 decimals): scored the same
-    x = np.array([[float(f"{v:.6f}") for v in row] for row in x])
+    x = np.array([[float(_cell(v)) for v in row] for row in x[:, keep]]).reshape(-1, len(keep))
     truth_header, truth_values = read_csv(truth)
     truth_times = truth_values[:, 0]
     columns = [truth_values[:, truth_header.index(n)] for n in names]
     y = np.stack([np.interp(times, truth_times, column) for column in columns], axis=1)
-    return times, x[:, keep], np.degrees(y), names
+    return times, x, np.degrees(y), names
 
 
 def write_channel_csv(path: Path, times, x, names) -> None:
@@ -116,7 +120,7 @@ def write_channel_csv(path: Path, times, x, names) -> None:
     for t, row in zip(times, x, strict=True):
         cells = [f"{t:.9f}"]
         for v in row:
-            cells += ["", "", ""] if np.isnan(v) else [f"{v:.6f}", "0", "0"]
+            cells += ["", "", ""] if np.isnan(v) else [_cell(v), "0", "0"]
         lines.append(",".join(cells))
     path.write_text("\n".join(lines) + "\n")
 

@@ -630,6 +630,12 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
     tracked bodies.
     """
+    if up is None:  # (asked by despike, footlock and the report's stages of one clean)
+        return motion.derived("body_height", _body_height)
+    return _body_height(motion, up)
+
+
+def _body_height(motion: Motion, up: int | None = None) -> float:
     rest = rest_positions(motion)
     split = trunk_split(point_parents(motion))
     if split is not None:

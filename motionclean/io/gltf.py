@@ -345,10 +345,15 @@ def _matrix(node: dict, n: int, path) -> np.ndarray:
     return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
 
 
+def _matrix_scale(m: np.ndarray) -> np.ndarray:
+    """The scale factors ``(3,)`` of a 4x4 node matrix: the norms of its columns."""
+    return np.linalg.norm(m[:3, :3], axis=0)
+
+
 def _scale(node: dict, n: int, path) -> np.ndarray:
     """A node's scale factors ``(3,)`` (from its matrix's columns, or its ``scale``)."""
     if "matrix" in node:
-        return np.linalg.norm(_matrix(node, n, path)[:3, :3], axis=0)
+        return _matrix_scale(_matrix(node, n, path))
     factors = node.get("scale", [1.0, 1.0, 1.0])
     if not _numbers(factors, 3):
         _fail(f"nodes[{n}].scale is not 3 numbers", path)
@@ -359,7 +364,7 @@ def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
     """A node's rest translation ``(3,)`` and rotation ``(4,)`` (w, x, y, z)."""
     if "matrix" in node:
         m = _matrix(node, n, path)
-        scale = np.linalg.norm(m[:3, :3], axis=0)
+        scale = _matrix_scale(m)
         if np.any(scale <= 0.0):
             _fail(f"nodes[{n}].matrix has a zero scale", path)
         return m[:3, 3].copy(), matrix_to_quaternion(m[:3, :3] / scale)

@@ -387,7 +387,6 @@ def _run_step(
         motion.translations = made.placed(
             "translations", motion.translations, pos_idx, new_translations
         )
-    motion.edited()  # (placed may have written into its arrays)
     notes: dict[str, dict] = {}
     for column, note in data.rotation_notes.items():
         notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
