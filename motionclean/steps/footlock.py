@@ -112,6 +112,7 @@ def _legs(
 
 def _toe_contacts(
     positions: np.ndarray,
+    point_column: np.ndarray,
     legs: list[Leg],
     contacts: np.ndarray,
     up: int,
@@ -122,10 +123,12 @@ def _toe_contacts(
 ) -> np.ndarray:
     """``(F, n_toes)``: for each toe point of the legs whose toes are held, the frames of
     its leg's ``contacts`` where the point is planted itself (its own height and speed,
-    :func:`motionclean.core.contacts.point_contacts`)."""
+    :func:`motionclean.core.contacts.point_contacts`); ``point_column`` maps a point to
+    its column of ``positions``."""
     held = [(k, p) for k, leg in enumerate(legs) if leg.foot for p in leg.points[1:]]
+    columns = [int(point_column[p]) for _, p in held]
     own = found.point_contacts(
-        positions, [p for _, p in held], up, height, frame_time, contact_params(params), ground
+        positions, columns, up, height, frame_time, contact_params(params), ground
     )
     return own & contacts[:, [k for k, _ in held]]
 
@@ -229,7 +232,8 @@ def _run(data: StepData, params: dict) -> StepData:
         hold_frames=params["hold_seconds"] / motion.frame_time,
         toe_contacts=_toe_contacts(
             positions,
-            [replace(leg, points=tuple(int(point_column[p]) for p in leg.points)) for leg in legs],
+            point_column,
+            legs,
             contacts[:, kept],
             up,
             height,
