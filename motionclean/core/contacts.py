@@ -347,12 +347,15 @@ def find_floor(
     height: float,
     frame_time: float,
     params: ContactParams = ContactParams(),
+    contacts: np.ndarray | None = None,
 ) -> tuple[Floor | None, np.ndarray]:
     """The floor (:func:`fit_floor`) and the soles ``(n, 3)`` it rests on: contacts found
-    above a level ground, a plane fitted through their soles, then contacts found again
-    above that plane (on a tilted floor the first pass misses the feet on its high side)
-    and the plane fitted again, up to :data:`FLOOR_PASSES` times."""
-    contacts, _ = detect(positions, feet, up, height, frame_time, params)
+    above a level ground (``contacts``, when the caller has found them so with the same
+    ``params``), a plane fitted through their soles, then contacts found again above that
+    plane (on a tilted floor the first pass misses the feet on its high side) and the
+    plane fitted again, up to :data:`FLOOR_PASSES` times."""
+    if contacts is None:
+        contacts, _ = detect(positions, feet, up, height, frame_time, params)
     soles = contact_soles(positions, feet, contacts, up)
     floor = fit_floor(soles, up, height)
     for _ in range(FLOOR_PASSES):

@@ -193,7 +193,7 @@ def contact_figures(
         depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
         low = [points - g for points, g in zip(lowest, grounds, strict=True)]
     runs = found.contact_runs(contacts)
-    floor, soles = found.find_floor(positions, feet, up, height, dt)
+    floor, soles = found.find_floor(positions, feet, up, height, dt, contacts=contacts)
     section: dict[str, Any] = {
         "up_axis": kinematics.up_name(before),
         "ground": ground if grounded else None,
