@@ -19,6 +19,7 @@ import numpy as np
 
 from . import kinematics
 from .motion import Motion
+from .rates import frames_ceil
 
 #: Bones at least this long (fraction of the body height) are thigh and shin.
 LONG_BONE = 0.12
@@ -68,9 +69,6 @@ class ContactParams:
         )
 
 
-#: Relative rounding of a frame time as files write it (1/120 s to 7 decimals: 4e-6; to 6
-#: decimals: 4e-5).
-FRAME_TIME_ROUNDING = 1e-4
 #: A contact this close to the clip's first or last frame (seconds) reaches it where the
 #: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
 EDGE_SECONDS = 0.25
@@ -454,9 +452,9 @@ def detect(
     strict = (above < params.height) & (speed < params.speed)
     loose = low & (speed < params.speed_off)
     # a contact lasts at most the clip: a longer minimum (up to inf) keeps none; a file's
-    # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005
-    shortest = params.min_duration / frame_time * (1.0 - FRAME_TIME_ROUNDING)
-    min_frames = max(int(np.ceil(shortest)), 1) if shortest <= n_frames else n_frames + 1
+    # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.0005
+    shortest = params.min_duration / frame_time
+    min_frames = max(frames_ceil(shortest), 1) if shortest <= n_frames else n_frames + 1
     edge = int(round(EDGE_SECONDS / frame_time))
     steady = low & (speed < EDGE_SPEED * params.speed_off)
     for k in range(len(feet)):  # a handful of feet; each column is vectorised

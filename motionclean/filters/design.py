@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from ..core.rates import frames_ceil
 from .masks import MAX_HALF_WIDTH, MaskError, validate_mask
 
 __all__ = ["default_lowpass_half_width", "lowpass", "savgol"]
@@ -64,7 +65,7 @@ def default_lowpass_half_width(
     """``ceil(2 frame_rate / cutoff_hz)`` frames: two periods of the cutoff on each side,
     and no more than ``most`` (default :data:`~.masks.MAX_HALF_WIDTH`): the mask of a cutoff
     near 0 Hz would otherwise be as long as its period, whatever the clip's length."""
-    return math.ceil(min(LOWPASS_PERIODS * frame_rate / cutoff_hz - 1e-9, most))
+    return frames_ceil(min(LOWPASS_PERIODS * frame_rate / cutoff_hz, most))
 
 
 def lowpass(cutoff_hz: float, frame_rate: float, half_width: int | None = None) -> np.ndarray:

@@ -92,6 +92,7 @@ import numpy as np
 
 from ..core import checks, quat
 from ..core.motion import hold_missing, missing_before
+from ..core.rates import frames_floor
 
 __all__ = [
     "DespikeReport",
@@ -631,8 +632,8 @@ def _check(
         raise ValueError(f"trend_ratio must be a number >= 0, got {trend_ratio}")
     if method not in methods:
         raise ValueError(f"method must be one of {', '.join(methods)}, got {method!r}")
-    # The small tolerance keeps 8/120 s at 8 frames despite rounding.
-    frames = max(1, math.floor(max_spike_s / frame_time * (1.0 + 1e-9)))
+    # 8/120 s is 8 frames at 0.0083333 s as at 1/120 s (the frame time's rounding aside)
+    frames = max(1, frames_floor(max_spike_s / frame_time))
     return frames if max_run is None else min(frames, int(max_run))
 
 

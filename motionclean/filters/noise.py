@@ -66,6 +66,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..core.rates import frames_floor, in_band
 from ..core.threads import in_parts, run_parts
 from .linear import Rows, mirror_indices, row_span, take_rows
 
@@ -211,10 +212,13 @@ def ar1_spectrum(freqs: np.ndarray, rho: np.ndarray) -> np.ndarray:
 
 
 def window_frames(n_frames: int, frame_time: float, window_seconds: float) -> int:
-    """Frames per window: ``window_seconds`` of frames (no more than the clip's length),
-    rounded up to an even FFT-friendly length (:func:`fast_length`)."""
+    """Frames per window: the fewest whole frames that last longer than ``window_seconds``
+    (the frame time's rounding aside, :func:`motionclean.core.rates.frames_floor`: 240
+    frames + 1 at 0.0083333 s as at 1/120 s), no more than the clip's frames + 1, rounded
+    up to an even FFT-friendly length (:func:`fast_length`)."""
     wanted = window_seconds / frame_time if frame_time > 0 else math.inf
-    length = fast_length(math.ceil(min(wanted, n_frames + 1, 1e9)))
+    longer = frames_floor(wanted) + 1 if wanted < 1e9 else 1e9
+    length = fast_length(math.ceil(min(longer, n_frames + 1)))
     return max(MIN_WINDOW, length + length % 2)
 
 
@@ -311,15 +315,15 @@ def fit(disp: Rows, frame_time: float, window_seconds: float = WINDOW_SECONDS) -
     if not correlation_fitted(frame_time):
         rho = np.zeros(n_cols)
     else:
-        upper = freqs >= SHAPE_BAND_HZ * frame_time
+        upper = in_band(freqs, SHAPE_BAND_HZ * frame_time)
         pool = np.einsum("f,wfc->c", weights[upper], power[:, upper])
         rho = np.minimum(
-            _whittle_rho(power, weights, shapes, freqs >= BAND_HZ * frame_time),
+            _whittle_rho(power, weights, shapes, in_band(freqs, BAND_HZ * frame_time)),
             _whittle_rho(power, weights, shapes, upper, pool) + RHO_MARGIN,
         ).round(3)
     # level of each window: median ratio of its periodogram to the shape over the band
     # (robust to the few bins where motion leaks in), chi-square median corrected
-    band = freqs >= min(BAND_HZ * frame_time, MAX_BAND_EDGE)
+    band = in_band(freqs, min(BAND_HZ * frame_time, MAX_BAND_EDGE))
     shape = gain[band, None] * ar1_spectrum(freqs[band], rho)  # (B, C)
     sigma2 = _band_medians(power, band, shape) / (CHI2_MEDIAN[dim] * dim)
     # ... over the clip no more than the noise fitted beside a motion that falls across the
@@ -461,10 +465,10 @@ def bump_statistic(power: np.ndarray, freqs_hz: np.ndarray) -> np.ndarray:
     smooth[1:-1] = (power[:-2] + power[1:-1] + power[2:]) / 3.0
     logs = np.log(np.maximum(smooth, np.finfo(np.float64).tiny))
     best = np.zeros(power.shape[1])
-    for i in np.flatnonzero((freqs_hz >= BUMP_PEAK_HZ[0]) & (freqs_hz <= BUMP_PEAK_HZ[1])):
+    for i in np.flatnonzero(in_band(freqs_hz, *BUMP_PEAK_HZ, closed=True)):
         peak = freqs_hz[i]
-        below = (freqs_hz >= peak / 3.0) & (freqs_hz <= 0.8 * peak)
-        above = (freqs_hz >= 1.75 * peak) & (freqs_hz <= 2.25 * peak)
+        below = in_band(freqs_hz, peak / 3.0, 0.8 * peak, closed=True)
+        above = in_band(freqs_hz, 1.75 * peak, 2.25 * peak, closed=True)
         if below.any() and above.any():
             rise = logs[i] - logs[below].min(axis=0)
             fall = logs[i] - logs[above].max(axis=0)
@@ -511,7 +515,7 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
     fine = np.fft.rfftfreq(FINE_GRID)
     fine_gain = 4.0 * np.sin(np.pi * fine) ** 2
     # one band for every candidate: from MOTION_FROM_HZ to FIT_TO_HZ (and 0.45 cycles/frame)
-    band = (hz >= MOTION_FROM_HZ) & (hz <= min(FIT_TO_HZ, 0.45 / frame_time))
+    band = in_band(hz, MOTION_FROM_HZ, min(FIT_TO_HZ, 0.45 / frame_time))
     unit = np.maximum(mean[band].max(axis=0, initial=0.0), tiny)  # (C,) scale of each column
     y = left[band] / unit  # (B, C)
     w = 1.0 / np.maximum(mean[band] / unit, 1e-12) ** 2  # relative errors: a log fit
@@ -520,7 +524,7 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
     best = None
     for order in SHELF_ORDERS:
         for edge in SHELF_EDGES_HZ.tolist():
-            if edge >= 0.4 / frame_time:
+            if in_band(edge, 0.4 / frame_time):  # at or above 0.4 cycles per frame
                 continue
             spectrum = (1.0 + (fine / (edge * frame_time)) ** (2 * order)) ** -2.0
             autocov = np.fft.irfft(spectrum * fine_gain, FINE_GRID)[: model.window]
@@ -609,7 +613,7 @@ def motion_slope(
     if frame_time <= 0 or model.power.shape[0] == 0:
         return none
     hz = model.freqs / frame_time
-    band = (hz >= SLOPE_BAND_HZ[0]) & (hz <= min(SLOPE_BAND_HZ[1], 0.4 / frame_time))
+    band = in_band(hz, SLOPE_BAND_HZ[0], min(SLOPE_BAND_HZ[1], 0.4 / frame_time))
     if np.count_nonzero(band) < SLOPE_MIN_BINS:
         return none
     mean = model.power.mean(axis=0)[band]  # (B, C)
@@ -628,7 +632,7 @@ def motion_slope(
     sxy = np.sum(seen * (x - x_mean) * (y - y_mean), axis=0)
     reach = np.max(np.where(seen, hz[band][:, None], 0.0), axis=0)
     moving = np.any(mean > STILL_POWER, axis=0)
-    has = moving & (count >= SLOPE_MIN_BINS) & (sxx > 0) & (reach >= SLOPE_REACH_HZ)
+    has = moving & (count >= SLOPE_MIN_BINS) & (sxx > 0) & in_band(reach, SLOPE_REACH_HZ)
     slopes = np.where(has, sxy / np.where(has, sxx, 1.0), np.nan)
     columns = int(has.sum())
     if columns < SLOPE_MIN_COLUMNS:
@@ -732,7 +736,7 @@ def fit_coloured(model: NoiseModel, frame_time: float) -> Coloured | None:
         return None
     hz = model.freqs / frame_time
     low, high = COLOURED_BAND_HZ
-    band = (hz >= low) & (hz <= min(high, 0.45 / frame_time))
+    band = in_band(hz, low, min(high, 0.45 / frame_time))
     if np.count_nonzero(band) < 4:
         return None
     mean = model.power.mean(axis=0)  # (F, C)

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..core.motion import Motion
+from ..core.rates import frames_floor
 from ..filters.gaps import fill_gaps
 from .base import Param, StepSpec, brief_runs, format_runs, shift_runs
 
@@ -22,7 +21,7 @@ def _runs(first: np.ndarray, stop: np.ndarray) -> list[list[int]]:
 def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     if motion.missing is None:
         return motion, {}
-    max_frames = min(math.floor(params["max_gap"] / motion.frame_time + 1e-9), motion.n_frames)
+    max_frames = min(frames_floor(params["max_gap"] / motion.frame_time), motion.n_frames)
     result = fill_gaps(
         motion.rotations,
         motion.translations,

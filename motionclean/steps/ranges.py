@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import UsageError
+from ..core.rates import frames_ceil, frames_floor
 
 #: Default blend width, frames.
 DEFAULT_BLEND = 5
@@ -64,8 +65,8 @@ class FrameRange:
                     f"{where}: the range ends at {t1:g} s, but the clip's last frame is at "
                     f"{end:g} s ({n_frames} frames of {frame_time:g} s)"
                 )
-            first = int(math.ceil(t0 / frame_time - 1e-9))
-            last = int(math.floor(t1 / frame_time + 1e-9))
+            first = frames_ceil(t0 / frame_time)
+            last = frames_floor(t1 / frame_time)
             if first > last:
                 raise UsageError(f"{where}: seconds [{t0:g}, {t1:g}] hold no frame")
         if self.blend >= n_frames:

@@ -121,10 +121,12 @@ def band_limited(noisy, frame_time=1 / 120):
     return fit_band_limited(fit(quat.displacements(noisy), frame_time), frame_time)
 
 
-@pytest.mark.parametrize(("edge", "seed"), [(6.0, 61), (8.0, 83)])
-def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed):
-    truth = smooth_synthetic(frames=1440, joints=12, seed=seed)
-    e = low_passed_noise(1440, 12, edge, 3.0, seed)
+@pytest.mark.parametrize(("edge", "seed", "frames"), [(6.0, 61, 2880), (8.0, 83, 1440)])
+def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed, frames):
+    """A lower edge needs a longer clip: noise of 3 degrees low-passed at 6 Hz is found on
+    9 of 15 seeds at 12 s, 14 of 15 at 24 s (at 8 Hz: 15 of 15 at 12 s)."""
+    truth = smooth_synthetic(frames=frames, joints=12, seed=seed)
+    e = low_passed_noise(frames, 12, edge, 3.0, seed)
     found = band_limited(quat.multiply(truth, quat.exp(e)))
     assert found is not None
     assert abs(found.edge_hz - edge) <= 0.5
