@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros
+from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
 from ..filters.resample import (
     resample_continuous,
@@ -26,9 +27,6 @@ from ..filters.resample import (
 )
 from .base import fps_text
 
-#: Rates within this relative difference are the same rate (a Frame Time of 0.008333 s is
-#: 120 fps): the clip is left as it is.
-SAME_RATE = 1e-3
 #: Bytes the resampled arrays and their text take per new frame and channel value, about.
 BYTES_PER_VALUE = 96
 #: Most new frames made per frame read (120 -> 120,000 fps): more interpolates nothing a
@@ -38,8 +36,10 @@ MAX_UPSAMPLING = 1000
 
 
 def same_rate(frame_time: float, new_frame_time: float) -> bool:
-    """True when two frame times (seconds) are within :data:`SAME_RATE` of each other."""
-    return abs(new_frame_time - frame_time) <= SAME_RATE * frame_time
+    """True when two frame times (seconds) are within
+    :data:`~motionclean.core.rates.FRAME_TIME_ROUNDING` of each other (a Frame Time of
+    0.008333 s is 120 fps): the clip is left as it is."""
+    return abs(new_frame_time - frame_time) <= FRAME_TIME_ROUNDING * frame_time
 
 
 def _memory_bytes() -> int:
