@@ -21,6 +21,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
+from ..core.rates import whole_frames
 from ..filters.auto import estimate_noise, estimate_position_noise
 from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, hinge_axis, plant
 from .base import UP_PARAM, Param, StepData, StepSpec, crop_runs, given_up, plural, shift_runs
@@ -228,8 +229,8 @@ def _run(data: StepData, params: dict) -> StepData:
         up,
         (normal, floor.offset),
         params["tolerance"] * height,
-        params["blend_seconds"] / motion.frame_time,
-        hold_frames=params["hold_seconds"] / motion.frame_time,
+        whole_frames(params["blend_seconds"] / motion.frame_time),
+        hold_frames=whole_frames(params["hold_seconds"] / motion.frame_time),
         toe_contacts=_toe_contacts(
             positions,
             point_column,
