@@ -395,7 +395,9 @@ def _problem(
 @dataclass(frozen=True)
 class _Rows:
     """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
-    position on ``targets`` ``(F, K, 3)`` where ``horizontal``, within ``tolerance``
+    position on ``targets`` ``(F, K, 3)`` with weight ``horizontal`` ``(F, K)`` (0-1, the
+    blend of :func:`lock_targets`: the rows' precision grows with it, so a point eases into
+    its hold instead of being pinned from the ramp's first frame), within ``tolerance``
     ``(K,)`` (length units); not below the floor ``(normal, offset)`` where ``grounded``,
     within ``floor_tolerance`` ``(K,)``. ``up`` is the up axis; a target further from a
     point than ``robust`` times the error the prior predicts for it is followed less
@@ -482,7 +484,7 @@ def plant(
         )
     rows = _Rows(
         targets,
-        weights > 0.0,
+        weights,
         contacts,
         np.full(len(legs), tolerance),
         np.full(len(legs), tolerance),
@@ -617,7 +619,7 @@ def _hold_toes(
     n_ankles, n_toes = len(ankles), len(toe_points)
     rows = _Rows(
         np.concatenate([ankle_rows.targets, targets], axis=1),
-        np.concatenate([ankle_rows.horizontal, weights > 0.0], axis=1),
+        np.concatenate([ankle_rows.horizontal, weights], axis=1),
         np.concatenate([ankle_rows.grounded, grounded], axis=1),
         np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toes.tolerance)],
         np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toe_floor)],
