@@ -13,13 +13,14 @@ point's parent point (-1 for a root) and ``positions`` are ``(F, P, 3)``.
 from __future__ import annotations
 
 import fnmatch
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import kinematics
 from .motion import Motion
-from .rates import frames_ceil
+from .rates import whole_frames
 
 #: Bones at least this long (fraction of the body height) are thigh and shin.
 LONG_BONE = 0.12
@@ -452,9 +453,9 @@ def detect(
     strict = (above < params.height) & (speed < params.speed)
     loose = low & (speed < params.speed_off)
     # a contact lasts at most the clip: a longer minimum (up to inf) keeps none; a file's
-    # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.0005
-    shortest = params.min_duration / frame_time
-    min_frames = max(frames_ceil(shortest), 1) if shortest <= n_frames else n_frames + 1
+    # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005
+    shortest = whole_frames(params.min_duration / frame_time)
+    min_frames = max(math.ceil(shortest), 1) if shortest <= n_frames else n_frames + 1
     edge = int(round(EDGE_SECONDS / frame_time))
     steady = low & (speed < EDGE_SPEED * params.speed_off)
     for k in range(len(feet)):  # a handful of feet; each column is vectorised

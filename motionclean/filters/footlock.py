@@ -17,7 +17,8 @@ joints and the ankle's own rotation and the toe joints. Each is a Gauss-Newton s
 
 (``d_v`` the change of variable ``v`` as a rotation vector in world axes, radians, or a
 translation; ``s_v`` its expected RMS error per component; ``e_r`` the residual of row
-``r``), all frames at once. The rows are vectors of world space and the prior is isotropic
+``r``; ``w_r`` its weight: the Huber weight times the hold's weight, which eases from 0 to 1
+into a contact), all frames at once. The rows are vectors of world space and the prior is isotropic
 per joint, so the result turns with the clip: it is coordinate invariant.
 """
 
@@ -395,7 +396,7 @@ def _problem(
 @dataclass(frozen=True)
 class _Rows:
     """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
-    position on ``targets`` ``(F, K, 3)`` with weight ``horizontal`` ``(F, K)`` (0-1, the
+    position on ``targets`` ``(F, K, 3)`` with weight ``hold_weight`` ``(F, K)`` (0-1, the
     blend of :func:`lock_targets`: the rows' precision grows with it, so a point eases into
     its hold instead of being pinned from the ramp's first frame), within ``tolerance``
     ``(K,)`` (length units); not below the floor ``(normal, offset)`` where ``grounded``,
@@ -404,7 +405,7 @@ class _Rows:
     (Huber weights)."""
 
     targets: np.ndarray
-    horizontal: np.ndarray
+    hold_weight: np.ndarray
     grounded: np.ndarray
     tolerance: np.ndarray
     floor_tolerance: np.ndarray
@@ -417,7 +418,7 @@ class _Rows:
         return replace(
             self,
             targets=self.targets[frames],
-            horizontal=self.horizontal[frames],
+            hold_weight=self.hold_weight[frames],
             grounded=self.grounded[frames],
         )
 
@@ -492,7 +493,7 @@ def plant(
         up,
         robust,
     )
-    frames = np.flatnonzero(rows.horizontal.any(axis=1))
+    frames = np.flatnonzero(rows.hold_weight.any(axis=1))
     q, t = q[frames], t[frames]
     total = _solve_frames(q, t, part, problem, rows.take(frames))
     part.write_back((out_q, out_t), frames, (q, t), rotations)
@@ -619,7 +620,7 @@ def _hold_toes(
     n_ankles, n_toes = len(ankles), len(toe_points)
     rows = _Rows(
         np.concatenate([ankle_rows.targets, targets], axis=1),
-        np.concatenate([ankle_rows.horizontal, weights], axis=1),
+        np.concatenate([ankle_rows.hold_weight, weights], axis=1),
         np.concatenate([ankle_rows.grounded, grounded], axis=1),
         np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toes.tolerance)],
         np.r_[np.full(n_ankles, tolerance), np.full(n_toes, toe_floor)],
@@ -707,8 +708,8 @@ def _solve(
         below = below | ((height < -FLOOR_SLACK * rows.floor_tolerance) & rows.grounded)
         residual[..., 2] = np.where(below, -height, 0.0)
         active = np.concatenate(
-            [np.repeat(rows.horizontal[..., None], 2, axis=-1), below[..., None]], axis=-1
-        ).astype(np.float64)
+            [np.repeat(rows.hold_weight[..., None], 2, axis=-1), below[..., None]], axis=-1
+        )
         jac = jac.reshape(n_frames, n_points * 3, problem.n_columns)
         residual = residual.reshape(n_frames, -1)
         # the residual seen from the prior's centre (the input), linearised here

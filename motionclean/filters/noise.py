@@ -217,8 +217,8 @@ def window_frames(n_frames: int, frame_time: float, window_seconds: float) -> in
     frames + 1 at 0.0083333 s as at 1/120 s), no more than the clip's frames + 1, rounded
     up to an even FFT-friendly length (:func:`fast_length`)."""
     wanted = window_seconds / frame_time if frame_time > 0 else math.inf
-    longer = frames_floor(wanted) + 1 if wanted < 1e9 else 1e9
-    length = fast_length(math.ceil(min(longer, n_frames + 1)))
+    longer = frames_floor(wanted) + 1 if wanted < 1e9 else 10**9
+    length = fast_length(min(longer, n_frames + 1))
     return max(MIN_WINDOW, length + length % 2)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import UsageError
-from ..core.rates import frames_ceil, frames_floor
+from ..core.rates import frames_ceil, frames_floor, whole_frames
 
 #: Default blend width, frames.
 DEFAULT_BLEND = 5
@@ -60,7 +60,7 @@ class FrameRange:
             assert self.seconds is not None
             t0, t1 = self.seconds
             end = (n_frames - 1) * frame_time
-            if t1 / frame_time >= n_frames:
+            if whole_frames(t1 / frame_time) >= n_frames:
                 raise UsageError(
                     f"{where}: the range ends at {t1:g} s, but the clip's last frame is at "
                     f"{end:g} s ({n_frames} frames of {frame_time:g} s)"

@@ -305,6 +305,11 @@ def test_a_contact_exactly_the_minimum_long_is_kept():
     params = found.ContactParams(min_duration=0.1)
     contacts, _ = found.detect(positions, [foot], 1, 10.0, frame_time, params, ground=0.0)
     assert np.array_equal(np.flatnonzero(contacts[:, 0]), np.arange(30, 42))
+    # a clip exactly the minimum long, standing throughout, is one contact at either writing
+    for written in (frame_time, 1 / 120):
+        standing = np.zeros((12, 1, 3))
+        contacts, _ = found.detect(standing, [foot], 1, 10.0, written, params, ground=0.0)
+        assert contacts.all()
 
 
 def test_a_contact_near_the_clips_ends_reaches_them_while_the_foot_stays_steady():

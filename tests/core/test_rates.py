@@ -11,6 +11,7 @@ from helpers import NOISY, plant, smooth_synthetic
 
 import motionclean as mc
 from motionclean.core import quat
+from motionclean.core.errors import UsageError
 from motionclean.core.rates import frames_ceil, frames_floor, in_band, whole_frames
 from motionclean.filters.auto import auto
 from motionclean.filters.noise import window_frames
@@ -78,3 +79,12 @@ def test_the_default_cleans_a_file_the_same_whatever_digits_its_frame_time_has()
     a = Pipeline.default().run(written)[0].rotations
     b = Pipeline.default().run(exact)[0].rotations
     assert np.degrees(quat.angle_between(a, b)).max() < 1e-3
+
+
+def test_a_range_past_the_clip_says_so_in_seconds_at_any_writing():
+    """2 s of a 240-frame clip (0-1.9917 s) is past its end whether the frame time reads
+    0.008334 or 1/120: the seconds are what the error names (before, at 0.008334 the check
+    let 239.98 frames through and the frames check then refused frame 240)."""
+    for written in (1 / 120, 0.008334):
+        with pytest.raises(UsageError, match="the range ends at 2 s"):
+            FrameRange.from_params(None, [0.0, 2.0], 0, "t").frame_span(240, written, "t")

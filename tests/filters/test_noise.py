@@ -124,7 +124,7 @@ def band_limited(noisy, frame_time=1 / 120):
 @pytest.mark.parametrize(("edge", "seed", "frames"), [(6.0, 61, 2880), (8.0, 83, 1440)])
 def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed, frames):
     """A lower edge needs a longer clip: noise of 3 degrees low-passed at 6 Hz is found on
-    9 of 15 seeds at 12 s, 14 of 15 at 24 s (at 8 Hz: 15 of 15 at 12 s)."""
+    9 of seeds 1-15 at 12 s, 14 of them at 24 s (at 8 Hz: all 15 at 12 s)."""
     truth = smooth_synthetic(frames=frames, joints=12, seed=seed)
     e = low_passed_noise(frames, 12, edge, 3.0, seed)
     found = band_limited(quat.multiply(truth, quat.exp(e)))
