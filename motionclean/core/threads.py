@@ -61,19 +61,23 @@ def _executor(workers: int) -> ThreadPoolExecutor:
         return _pool
 
 
+class _Refused(RuntimeError):
+    """The system refused the pool its first thread: no part ran."""
+
+
 class _Pool(ThreadPoolExecutor):
     """A thread pool that notes when the system refuses it a thread (an address-space
     limit that leaves no room for one more thread's stack: ``can't start new thread``).
     With threads already running, the part just queued is theirs to do (it is not lost,
-    nor run twice); with none, the refusal is raised and nothing queued ever runs."""
+    nor run twice); with none, :class:`_Refused` is raised and nothing queued ever runs."""
 
     def _adjust_thread_count(self) -> None:
         try:
             super()._adjust_thread_count()
-        except RuntimeError:
+        except RuntimeError as error:
             _no_threads.set()
             if not self._threads:
-                raise
+                raise _Refused(*error.args) from error
 
 
 def _forget_pool() -> None:
@@ -111,9 +115,8 @@ def run_parts(function: Callable[[T], R], items: Iterable[T], size: int | None =
     pool = _executor(workers)
     try:
         return list(pool.map(lambda item: _part(function, item), items))
-    except RuntimeError:
-        if not _no_threads.is_set():
-            raise  # the function's own error
+    except _Refused:  # not a part's own RuntimeError, raised as it was
+        pass
     # the system refused the pool its first thread: no part ran; this thread does them,
     # as every later call will
     _close(pool)

@@ -111,6 +111,42 @@ def test_a_refused_thread_leaves_the_work_to_the_calling_thread(monkeypatch, all
     assert len(started) == allowed  # no thread asked for again
 
 
+def test_a_parts_own_error_after_a_refused_thread_is_raised_and_nothing_runs_twice(
+    monkeypatch,
+):
+    """One thread started, the next refused, then a part raises a RuntimeError of its own:
+    that error is raised as it was, not taken for the refusal (which ran every part again
+    on the calling thread while the pool's thread still ran them)."""
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "5")
+    monkeypatch.setattr(threads, "_pool", None)
+    monkeypatch.setattr(threads, "_no_threads", threading.Event())
+    start = threading.Thread.start
+    started = []
+
+    def start_one(thread):
+        if thread.name.startswith("motionclean") and started:
+            raise RuntimeError("can't start new thread")
+        started.append(thread.name)
+        start(thread)
+
+    monkeypatch.setattr(threading.Thread, "start", start_one)
+    runs: dict[int, int] = {}
+    lock = threading.Lock()
+
+    def own_error(x: int) -> int:
+        with lock:
+            runs[x] = runs.get(x, 0) + 1
+        if x == 3:
+            raise RuntimeError("the part's own")
+        return x
+
+    with pytest.raises(RuntimeError, match="the part's own"):
+        threads.run_parts(own_error, range(10))
+    threads._pool.shutdown()  # every part queued has run
+    assert threads._no_threads.is_set()
+    assert all(count == 1 for count in runs.values())
+
+
 @pytest.mark.parametrize("value", ["", "0", "-2", "two"])
 def test_an_unusable_thread_setting_falls_back_to_the_cpus(monkeypatch, value):
     monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
