@@ -223,7 +223,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     multiple=True,
     metavar="PATTERN",
     help="Which files are clips, matched on the path relative to IN_DIR, "
-    f"case-insensitive; repeatable (default: every suffix motionclean reads, "
+    "case-insensitive; repeatable (default: every suffix motionclean reads, "
     f"{' '.join(DEFAULT_GLOBS)}).",
 )
 @click.option(

@@ -428,7 +428,7 @@ def detect(
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
     the ground and the ankle moves slower than ``params.speed`` body heights per second; it
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
-    speed blip shorter than ``min_duration`` while the foot stays that low; one within
+    speed blip no longer than ``min_duration`` while the foot stays that low; one within
     :data:`EDGE_SECONDS` of the clip's first or last frame reaches it where the foot stays
     low and slower than :data:`EDGE_SPEED` times ``speed_off``; contacts shorter than
     ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;

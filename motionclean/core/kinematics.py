@@ -630,9 +630,8 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
     tracked bodies.
     """
-    if up is None:  # (asked by despike, footlock and the report's stages of one clean)
-        return motion.derived("body_height", _body_height)
-    return _body_height(motion, up)
+    # asked by despike, footlock and the report's stages of one clean, with or without up
+    return motion.derived(f"body_height {up}", lambda clip: _body_height(clip, up))
 
 
 def _body_height(motion: Motion, up: int | None = None) -> float:

@@ -215,7 +215,7 @@ class ChannelLayout:
 
 
 #: The fields of a :class:`Motion` that what :meth:`Motion.derived` keeps is derived from.
-DERIVED_FROM = frozenset({"rotations", "translations", "offsets", "end_sites", "missing"})
+DERIVED_FROM = frozenset({"rotations", "translations", "offsets", "end_sites", "missing", "up"})
 
 
 @dataclass(eq=False)

@@ -63,8 +63,8 @@ def in_band(
     :data:`FRAME_TIME_ROUNDING` of an edge is on it."""
     freqs = np.asarray(freqs)
     above = freqs >= low - FRAME_TIME_ROUNDING * abs(low)
-    if not math.isfinite(high):
-        return above & (freqs <= high)
+    if high == math.inf:
+        return above
     if closed:
         return above & (freqs <= high + FRAME_TIME_ROUNDING * abs(high))
     return above & (freqs < high - FRAME_TIME_ROUNDING * abs(high))

@@ -68,8 +68,14 @@ main()
 """
 
 
+@pytest.fixture(scope="module")
+def wide_csv(tmp_path_factory) -> Path:
+    return rigid_csv(tmp_path_factory.mktemp("wide") / "wide.csv", 7000, 5)
+
+
 @pytest.mark.slow
-def test_running_out_of_memory_is_one_line(tmp_path):
+@pytest.mark.parametrize("room", [4 << 20, 8 << 20, 12 << 20, 16 << 20, 24 << 20, 40 << 20])
+def test_running_out_of_memory_is_one_line(tmp_path, wide_csv, room):
     """The command imported, then held to a few more MB of address space (running out
     while it reads the header, the rows, or cleans): one line saying so, exit 1, no
     traceback and no output (was 'internal error' or a traceback), and no hang: with the
@@ -78,17 +84,15 @@ def test_running_out_of_memory_is_one_line(tmp_path):
     8 MB); the reserve given back and the frames let go of leave it room
     (:mod:`motionclean.core.reserve`). The threads as the command sets them: one it is
     refused is not an 'internal error'."""
-    wide = rigid_csv(tmp_path / "wide.csv", 7000, 5)
     out = tmp_path / "w.csv"
-    for room in (4 << 20, 8 << 20, 12 << 20, 16 << 20, 24 << 20, 40 << 20):
-        done = subprocess.run(
-            [sys.executable, "-c", LIMITED, str(room), "clean", str(wide), "-o", str(out), "-q"],
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
-        assert done.returncode == 1, (room, done.stderr)
-        lines = done.stderr.splitlines()
-        assert len(lines) == 1, (room, lines)
-        assert lines[0].startswith("motionclean: error: out of memory ("), (room, lines)
-        assert not out.exists()
+    done = subprocess.run(
+        [sys.executable, "-c", LIMITED, str(room), "clean", str(wide_csv), "-o", str(out), "-q"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("motionclean: error: out of memory ("), lines
+    assert not out.exists()
