@@ -120,24 +120,30 @@ class Walk:
     joints, knees and world positions (``args`` of :func:`figures`), the capture's own
     figures and which foot points are ankles."""
 
-    truth: mc.Motion
     args: tuple
-    legs: list[int]
     own: dict
     ankles: list[int]
     toes: list[int]
 
+    @property
+    def truth(self) -> mc.Motion:
+        return self.args[0]
+
+    @property
+    def legs(self) -> list[int]:
+        return self.args[5]
+
     @classmethod
     def of(cls, truth: mc.Motion) -> Walk:
         feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
-        above = (chain(truth.parents, p) for f in feet for p in f.points if p < truth.n_joints)
-        legs = sorted({j for joints in above for j in joints} - {0})
+        joints = np.array([p for f in feet for p in f.points if p < truth.n_joints])
+        legs = [int(j) for j in kinematics.hung_on(truth.parents, [], joints) if j != 0]
         knees = [f.knee for f in feet]
         args = (truth, feet, contacts, up, height, legs, knees, truth_pos)
         points = [(k, p) for k, f in enumerate(feet) for p in f.points]
         ankles = [i for i, (k, p) in enumerate(points) if p == feet[k].ankle]
         toes = [i for i in range(len(points)) if i not in ankles]
-        return cls(truth, args, legs, figures(truth, *args), ankles, toes)
+        return cls(args, figures(truth, *args), ankles, toes)
 
     def with_noise(self, seed: int, with_: Pipeline):
         """The noisy clip (``seed``), the default without footlock's clip, and the figures

@@ -105,7 +105,7 @@ def load_take(estimate: Path, truth: Path):
     keep = [j for j in range(x.shape[1]) if np.mean(~np.isnan(x[:, j])) > 0.5]
     names = [header[1 + j] for j in keep]
     # the values as the channel CSV gives them to the tool (6 decimals): scored the same
-    x = np.array([[float(_cell(v)) for v in row] for row in x[:, keep]]).reshape(-1, len(keep))
+    x = np.char.mod("%.6f", x[:, keep]).astype(np.float64)
     truth_header, truth_values = read_csv(truth)
     truth_times = truth_values[:, 0]
     columns = [truth_values[:, truth_header.index(n)] for n in names]

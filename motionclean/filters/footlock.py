@@ -9,17 +9,18 @@ the knee (the root's translation, every rotation on the way, the knee as a hinge
 weighted by the error expected in it, that puts the ankle on its target within a
 tolerance: its horizontal position on a straight line through the contact, the height left
 free, but not below the floor during a contact. Where the foot has toes, a second solve
-holds them too, from the same start: every toe point on its own path while it is planted
-(the path of the toe once the ankles stand, smoothed), the ankle on its line, by the same
-joints and the ankle's own rotation and the toe joints. Each is a Gauss-Newton solve of
+holds them too, resuming where the first left every frame it changed: every toe point on
+its own path while it is planted (the path of the toe once the ankles stand, smoothed),
+the ankle on its line, by the same joints and the ankle's own rotation and the toe
+joints. Each is a Gauss-Newton solve of
 
     min  sum_v |d_v|^2 / s_v^2  +  sum_r w_r (J_r d - e_r)^2 / tol_r^2
 
 (``d_v`` the change of variable ``v`` as a rotation vector in world axes, radians, or a
 translation; ``s_v`` its expected RMS error per component; ``e_r`` the residual of row
-``r``; ``w_r`` its weight: the Huber weight times the hold's weight, which eases from 0 to 1
-into a contact), all frames at once. The rows are vectors of world space and the prior is isotropic
-per joint, so the result turns with the clip: it is coordinate invariant.
+``r``; ``w_r`` its weight: the Huber weight times the hold's weight, which eases from 0 to
+1 into a contact), all frames at once. The rows are vectors of world space and the prior
+is isotropic per joint, so the result turns with the clip: it is coordinate invariant.
 """
 
 from __future__ import annotations
@@ -71,11 +72,10 @@ class Leg:
     """One leg to plant.
 
     ``joints`` may turn to hold the ankle and the toes (from the root down to the knee,
-    root first);
-    ``knee`` turns only about ``hinge`` (unit, in the knee's parent frame); ``points`` are
-    the ankle, then the toe points (joints or end sites below it); ``foot`` may turn to
-    hold the toes (the ankle and joints below it; none: the toes are not held and the
-    ankle keeps its own rotation).
+    root first); ``knee`` turns only about ``hinge`` (unit, in the knee's parent frame);
+    ``points`` are the ankle, then the toe points (joints or end sites below it); ``foot``
+    may turn to hold the toes (the ankle and joints below it; none: the toes are not held
+    and the ankle keeps its own rotation).
     """
 
     joints: tuple[int, ...]
@@ -83,6 +83,12 @@ class Leg:
     hinge: np.ndarray
     points: tuple[int, ...]
     foot: tuple[int, ...] = ()
+
+
+def held_toes(legs: list[Leg]) -> list[tuple[int, int]]:
+    """``(leg, point)`` of every toe point held: the toe points of the legs with a ``foot``,
+    in order (the columns of :func:`plant`'s ``toe_contacts``)."""
+    return [(k, p) for k, leg in enumerate(legs) if leg.foot for p in leg.points[1:]]
 
 
 @dataclass(frozen=True)
@@ -298,12 +304,16 @@ class _Part:
             tip_offsets=np.array([tips[j] for j in tip_joints], dtype=np.float64).reshape(-1, 3),
         )
 
+    def joint(self, joint: int) -> int:
+        """The part's number of a joint of the whole skeleton (one of :attr:`index`)."""
+        return int(np.searchsorted(self.index, joint))
+
     def point(self, point: int, n_joints: int, tip_joints: list[int]) -> int:
         """The part's number of a point of the whole skeleton (``n_joints`` joints, then
         end sites on ``tip_joints``, ascending)."""
         if point < n_joints:
-            return int(np.searchsorted(self.index, point))
-        joint = int(np.searchsorted(self.index, tip_joints[point - n_joints]))
+            return self.joint(point)
+        joint = self.joint(tip_joints[point - n_joints])
         return self.index.size + int(np.searchsorted(self.tips, joint))
 
     def arrays(
@@ -458,20 +468,16 @@ def plant(
     the legs) moves only along ``prior.root``'s non-zero axes.
     """
     out_q = rotations.copy()
-    root = legs[0].knee if legs else 0
-    while parents[root] >= 0:
-        root = int(parents[root])
-    out_t = translations[:, root].copy()
     if not legs:
-        return out_q, out_t
+        return out_q, translations[:, 0].copy()
     ankles = [leg.points[0] for leg in legs]
     part = _Part.of(parents, tips, ankles)
-    rank = {int(j): c for c, j in enumerate(part.index)}
+    out_t = translations[:, part.index[0]].copy()  # the part's first joint: the legs' root
     problem = _problem(
         part,
-        {rank[j] for leg in legs for j in leg.joints},
-        {rank[leg.knee]: leg.hinge for leg in legs},
-        [rank[a] for a in ankles],
+        {part.joint(j) for leg in legs for j in leg.joints},
+        {part.joint(leg.knee): leg.hinge for leg in legs},
+        [part.joint(a) for a in ankles],
         prior.sigma[part.index],
         prior.root,
     )
@@ -497,7 +503,7 @@ def plant(
     q, t = q[frames], t[frames]
     total = _solve_frames(q, t, part, problem, rows.take(frames))
     part.write_back((out_q, out_t), frames, (q, t), rotations)
-    toe_legs = [k for k, leg in enumerate(legs) if leg.foot for _ in leg.points[1:]]
+    toe_legs = [k for k, _ in held_toes(legs)]
     if toe_legs:
         toes = _Toes(
             contacts[:, toe_legs] if toe_contacts is None else toe_contacts,
@@ -575,21 +581,19 @@ def _hold_toes(
     held too: the ankles' rows of :func:`plant` (``ankle_rows``) and, for each toe point of
     the legs with a ``foot``, its own path while it is planted (its track once the ankles
     stand, :func:`held_paths`; the contact's mean with an infinite ``hold_frames``), by the
-    legs' joints and their ``foot`` joints; the prior
-    stays centred on ``given``, the solve starts where the ankles' left it, on every frame
-    the ankles' solve changed and every frame that holds a toe or finds one below the floor;
-    the others keep ``planted``."""
+    legs' joints and their ``foot`` joints; the prior stays centred on ``given``, the solve
+    starts where the ankles' left it, on every frame the ankles' solve changed and every
+    frame that holds a toe or finds one below the floor; the others keep ``planted``."""
     rotations, translations = given
     n_joints = len(parents)
     tip_joints = sorted(tips)
     ankles = [leg.points[0] for leg in legs]
-    toe_points = [p for leg in legs if leg.foot for p in leg.points[1:]]
+    toe_points = [p for _, p in held_toes(legs)]
     part = _Part.of(parents, tips, [*ankles, *toe_points])
-    rank = {int(j): c for c, j in enumerate(part.index)}
     problem = _problem(
         part,
-        {rank[j] for leg in legs for j in (*leg.joints, *leg.foot)},
-        {rank[leg.knee]: leg.hinge for leg in legs},
+        {part.joint(j) for leg in legs for j in (*leg.joints, *leg.foot)},
+        {part.joint(leg.knee): leg.hinge for leg in legs},
         [part.point(p, n_joints, tip_joints) for p in (*ankles, *toe_points)],
         prior.sigma[part.index],
         prior.root,
@@ -609,7 +613,7 @@ def _hold_toes(
     normal, level = ankle_rows.floor
     tolerance = ankle_rows.tolerance[0]
     toe_floor = tolerance * FLOOR_FIRMNESS
-    below = (track @ normal - level < -FLOOR_SLACK * toe_floor) & grounded  # as _solve finds
+    below = _below_floor(track @ normal - level, toe_floor, grounded)
     # every frame the ankles' solve changed too: each gets the same iterations (no step
     # where the toes' hold begins)
     asked = ((weights > 0.0) | below).any(axis=1)
@@ -705,7 +709,7 @@ def _solve(
         height = points @ normal - level
         # a point found below the floor is held on it from then on (the active set only
         # grows: it cannot flip back and forth between iterations)
-        below = below | ((height < -FLOOR_SLACK * rows.floor_tolerance) & rows.grounded)
+        below = below | _below_floor(height, rows.floor_tolerance, rows.grounded)
         residual[..., 2] = np.where(below, -height, 0.0)
         active = np.concatenate(
             [np.repeat(rows.hold_weight[..., None], 2, axis=-1), below[..., None]], axis=-1
@@ -789,3 +793,9 @@ def _jacobian(
         across = np.cross(directions[None, None], axis[:, :, None])  # (F, H, 3, 3): u x h
         jac[..., n_axes + 3 * n_free :] = np.einsum("fkhc,fhdc->fkdh", arm[:, :, n_free:], across)
     return jac
+
+
+def _below_floor(height: np.ndarray, floor_tolerance: np.ndarray, grounded: np.ndarray):
+    """Points ``(F, K)`` held on the floor: under it (``height``, length units) by more
+    than :data:`FLOOR_SLACK` times their ``floor_tolerance`` ``(K,)`` while ``grounded``."""
+    return (height < -FLOOR_SLACK * floor_tolerance) & grounded

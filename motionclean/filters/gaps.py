@@ -161,8 +161,11 @@ class _Stats:
         key = np.unique(gaps.joint * KEY + _length_class(gaps.lengths))
         keep = np.ones(key.size)
         if rotations:
-            pairs = (x, missing, seen, rotations, noise, key // KEY, key % KEY)
-            keep = np.maximum(_velocity_keep(*pairs), _fill_share(*pairs))
+            joint, length = key // KEY, key % KEY
+            keep = np.maximum(
+                _velocity_keep(x, missing, seen, rotations, noise, joint, length),
+                _fill_share(x, seen, rotations, noise, joint, length),
+            )
         return cls(noise, motion, key, keep)
 
     def keep_of(self, joint: np.ndarray, length: np.ndarray) -> np.ndarray:
@@ -285,7 +288,7 @@ def _velocity_keep(x, missing, seen, rotations: bool, noise_var, joint, length) 
     return out
 
 
-def _fill_share(x, missing, seen, rotations: bool, noise_var, joint, length) -> np.ndarray:
+def _fill_share(x, seen, rotations: bool, noise_var, joint, length) -> np.ndarray:
     """Per ``(joint, length)`` pair, the weight ``w`` of the (shrunk) edge velocities'
     departure from the chord that fills gaps of that length best on the joint's own data,
     in [0, 1]: at up to :data:`KEEP_SAMPLES` places in its known frames taken as gaps, the

@@ -23,7 +23,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..core.rates import whole_frames
 from ..filters.auto import estimate_noise, estimate_position_noise
-from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, hinge_axis, plant
+from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, held_toes, hinge_axis, plant
 from .base import UP_PARAM, Param, StepData, StepSpec, crop_runs, given_up, plural, shift_runs
 
 
@@ -126,7 +126,7 @@ def _toe_contacts(
     its leg's ``contacts`` where the point is planted itself (its own height and speed,
     :func:`motionclean.core.contacts.point_contacts`); ``point_column`` maps a point to
     its column of ``positions``."""
-    held = [(k, p) for k, leg in enumerate(legs) if leg.foot for p in leg.points[1:]]
+    held = held_toes(legs)
     columns = [int(point_column[p]) for _, p in held]
     own = found.point_contacts(
         positions, columns, up, height, frame_time, contact_params(params), ground
