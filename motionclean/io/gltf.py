@@ -49,6 +49,7 @@ from ..core.kinematics import axis_name, rest_positions
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
+from .text import MAX_MAGNITUDE
 
 GLB_MAGIC = b"glTF"
 #: Suffixes of binary glTF files (a VRM animation, ``.vrma``, is one).
@@ -338,10 +339,14 @@ def _order(joints: set[int], nodes: list, parent: np.ndarray) -> tuple[list[int]
     return order, above
 
 
+#: What a node's or key's numbers must be besides finite (larger is no capture).
+_IN_RANGE = f" of at most {MAX_MAGNITUDE:g} in size"
+
+
 def _matrix(node: dict, n: int, path) -> np.ndarray:
     """A node's ``matrix`` as a ``(4, 4)`` array (glTF stores it column-major)."""
     if not _numbers(node["matrix"], 16):
-        _fail(f"nodes[{n}].matrix is not 16 numbers", path)
+        _fail(f"nodes[{n}].matrix is not 16 numbers{_IN_RANGE}", path)
     return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
 
 
@@ -356,7 +361,7 @@ def _scale(node: dict, n: int, path) -> np.ndarray:
         return _matrix_scale(_matrix(node, n, path))
     factors = node.get("scale", [1.0, 1.0, 1.0])
     if not _numbers(factors, 3):
-        _fail(f"nodes[{n}].scale is not 3 numbers", path)
+        _fail(f"nodes[{n}].scale is not 3 numbers{_IN_RANGE}", path)
     return np.asarray(factors, dtype=np.float64)
 
 
@@ -371,7 +376,7 @@ def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
     t = node.get("translation", [0.0, 0.0, 0.0])
     r = node.get("rotation", [0.0, 0.0, 0.0, 1.0])
     if not _numbers(t, 3) or not _numbers(r, 4):
-        _fail(f"nodes[{n}]: translation or rotation is not 3 or 4 numbers", path)
+        _fail(f"nodes[{n}]: translation or rotation is not 3 or 4 numbers{_IN_RANGE}", path)
     q = np.array([r[3], r[0], r[1], r[2]], dtype=np.float64)
     norm = np.linalg.norm(q)
     if not norm > 1e-6:
@@ -380,11 +385,12 @@ def _rest(node: dict, n: int, path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _numbers(value, n: int) -> bool:
+    """Whether ``value`` is a list of ``n`` numbers, none beyond :data:`MAX_MAGNITUDE`."""
     return (
         isinstance(value, list)
         and len(value) == n
         and all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= MAX_MAGNITUDE
             for v in value
         )
     )
@@ -428,8 +434,11 @@ def _keys(
         _fail(
             f"animations[{a}].samplers[{s}]: {values.shape[0]} outputs for {times.size} keys", path
         )
-    if not (np.isfinite(times).all() and np.isfinite(values).all()):
-        _fail(f"animations[{a}].samplers[{s}]: a key time or value is not finite", path)
+    if not (np.isfinite(times).all() and (np.abs(values) <= MAX_MAGNITUDE).all()):
+        _fail(
+            f"animations[{a}].samplers[{s}]: a key time or value is not a finite number{_IN_RANGE}",
+            path,
+        )
     if np.any(np.diff(times) <= 0.0):
         _fail(f"animations[{a}].samplers[{s}]: key times do not increase", path)
     if per_key == 3:

@@ -44,6 +44,7 @@ from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_
 from . import npz, smpl_model
 from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
+from .text import MAX_MAGNITUDE
 
 #: Rotation channels each joint gets (its Euler order when written as BVH or CSV).
 ROTATION = ("Zrotation", "Yrotation", "Xrotation")
@@ -291,11 +292,17 @@ def _rotations(record: dict, f: PoseField) -> np.ndarray:
 
 
 def _check_finite(record: dict, keys, path) -> None:
+    """Refuse NaN, inf or a value beyond :data:`MAX_MAGNITUDE` in the arrays ``keys``."""
     for key in keys:
         array = record[key]
-        if not np.isfinite(array).all():
-            frame = int(np.argwhere(~np.isfinite(array.reshape(array.shape[0], -1)))[0][0])
-            raise MotionError(f"{key}: a value that is not a finite number at frame {frame}", path)
+        bad = ~(np.abs(array) <= MAX_MAGNITUDE)  # NaN too
+        if bad.any():
+            frame = int(np.argwhere(bad.reshape(array.shape[0], -1))[0][0])
+            raise MotionError(
+                f"{key}: a value that is not a finite number of at most {MAX_MAGNITUDE:g} in "
+                f"size at frame {frame}",
+                path,
+            )
 
 
 def smpl_motion(

@@ -23,6 +23,7 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import Motion
+from .text import MAX_MAGNITUDE
 
 #: The 22 joints every model has, with their parents.
 BODY = (
@@ -208,8 +209,12 @@ def model_offsets(arrays: dict[str, np.ndarray], tree: Tree, betas, path) -> np.
         n = min(dirs.shape[2], betas.size)
         shaped = template + dirs[:, :, :n] @ betas[:n]
     joints = regressor[: tree.n_joints] @ shaped
-    if not np.isfinite(joints).all():
-        raise MotionError("body model: joint positions are not finite", path)
+    if not (np.abs(joints) <= MAX_MAGNITUDE).all():  # NaN too
+        raise MotionError(
+            f"body model: joint positions are not finite numbers of at most {MAX_MAGNITUDE:g} "
+            "in size",
+            path,
+        )
     return offsets_from_positions(joints, tree.parents)
 
 

@@ -341,6 +341,14 @@ def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
         (lambda d: d["asset"].update(version="1.0"), "only glTF 2.0 is read"),
         (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "not a file beside the glTF"),
         (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
+        (  # would overflow the body height (a fuzzed file printed "body height inf")
+            lambda d: d["nodes"][1].update(translation=[0.0, -1e308, 0.0]),
+            "nodes[1]: translation or rotation is not 3 or 4 numbers of at most 1e+12 in size",
+        ),
+        (  # would overflow the quaternion's norm (numpy's warning had leaked to stderr)
+            lambda d: d["nodes"][1].update(rotation=[1e300, 0.0, 0.0, 1e300]),
+            "is not 3 or 4 numbers of at most 1e+12 in size",
+        ),
     ],
 )
 def test_bad_gltf_is_one_line(tmp_path, capsys, edit, message):

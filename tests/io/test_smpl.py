@@ -360,7 +360,12 @@ def bad_npz(tmp_path, name: str, **arrays) -> str:
     [
         ({"poses": np.zeros((4, 70))}, "holds no axis-angle vectors"),
         ({"poses": np.zeros((4, 30))}, "10 joints per frame; SMPL has 24"),
-        ({"poses": np.full((4, 72), np.nan)}, "not a finite number at frame 0"),
+        ({"poses": np.full((4, 72), np.nan)}, "not a finite number of at most 1e+12 in size"),
+        ({"poses": np.full((4, 72), 1e200)}, "poses: a value that is not a finite number"),
+        (
+            {"poses": np.zeros((4, 72)), "trans": np.eye(4, 3) * 1e13},
+            "trans: a value that is not a finite number of at most 1e+12 in size at frame 0",
+        ),
         ({"poses": np.zeros((4, 72)), "trans": np.zeros((5, 3))}, "different frame counts"),
         ({"betas": np.zeros(10)}, "no SMPL pose"),
         ({"poses": np.zeros((4, 72)), "mocap_framerate": np.array(0.0)}, "frame rate"),
