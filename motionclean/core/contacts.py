@@ -287,18 +287,27 @@ FLOOR_SLOPE_PRIOR = 0.1
 FLOOR_SPREAD = 0.03
 
 
+#: A foot's lowest point more than this (body heights) below its height on both
+#: neighbouring frames is a glitch (a one-frame drop of the root or of a marker), not where
+#: the sole meets the floor.
+SOLE_GLITCH = 0.02
+
+
 def contact_soles(
-    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int
+    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int, height: float
 ) -> np.ndarray:
     """``(n, 3)``: for each contact (of every foot), the foot's lowest point on the frame
-    where it is lowest: where the sole meets the floor."""
+    where it is lowest, a one-frame glitch (:data:`SOLE_GLITCH`) passed over: where the
+    sole meets the floor."""
     soles = []
     for k, foot in enumerate(feet):  # a handful of feet; one contact's frames at once
         points = np.array(foot.points, dtype=np.intp)
         lowest = points[positions[:, points, up].argmin(axis=1)]  # (heights alone gathered)
         sole = positions[np.arange(len(positions)), lowest]
+        level = sole[:, up].copy()
+        level[1:-1][level[1:-1] < np.minimum(level[:-2], level[2:]) - SOLE_GLITCH * height] = np.inf
         for first, last in contact_runs(contacts[:, [k]])[0]:
-            soles.append(sole[first + int(sole[first : last + 1, up].argmin())])
+            soles.append(sole[first + int(level[first : last + 1].argmin())])
     return np.array(soles, dtype=np.float64).reshape(-1, 3)
 
 
@@ -352,10 +361,11 @@ def find_floor(
     above a level ground (``contacts``, when the caller has found them so with the same
     ``params``), a plane fitted through their soles, then contacts found again above that
     plane (on a tilted floor the first pass misses the feet on its high side) and the
-    plane fitted again, up to :data:`FLOOR_PASSES` times."""
+    plane fitted again, up to :data:`FLOOR_PASSES` times; a pass that finds no contact
+    keeps the last floor and its soles."""
     if contacts is None:
         contacts, _ = detect(positions, feet, up, height, frame_time, params)
-    soles = contact_soles(positions, feet, contacts, up)
+    soles = contact_soles(positions, feet, contacts, up, height)
     floor = fit_floor(soles, up, height)
     for _ in range(FLOOR_PASSES):
         if floor is None:
@@ -363,9 +373,10 @@ def find_floor(
         found, _ = detect(positions, feet, up, height, frame_time, params, floor=floor)
         if np.array_equal(found, contacts):
             break
-        contacts = found
-        soles = contact_soles(positions, feet, contacts, up)
-        floor = fit_floor(soles, up, height) or floor
+        refit = contact_soles(positions, feet, found, up, height)
+        if refit.shape[0] == 0:  # no contact above this floor: it stays, with its soles
+            break
+        contacts, soles, floor = found, refit, fit_floor(refit, up, height)
     return floor, soles
 
 

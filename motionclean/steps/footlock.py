@@ -211,7 +211,9 @@ def _run(data: StepData, params: dict) -> StepData:
     if not chosen:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
-    soles = found.contact_soles(positions, [on_columns[k] for k in kept], contacts[:, kept], up)
+    soles = found.contact_soles(
+        positions, [on_columns[k] for k in kept], contacts[:, kept], up, height
+    )
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
     # it while it stands, none is lifted that stood below it as captured
     floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)

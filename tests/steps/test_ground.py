@@ -8,6 +8,7 @@ import pytest
 from helpers import corpus_clip, turned_copy
 
 import motionclean as mc
+from motionclean.core import contacts as found
 from motionclean.core import kinematics, quat
 from motionclean.report.world import contact_figures
 from motionclean.steps.ground import floor_of
@@ -119,3 +120,33 @@ def test_the_report_measures_feet_below_each_clips_own_ground(walk):
     for foot in section["feet"].values():
         depth = foot["penetration"]
         assert depth["after"] == pytest.approx(depth["before"], abs=0.01)
+
+
+def _standing_with_a_drop(walk: mc.Motion, frames: list[int]) -> mc.Motion:
+    """One double-support pose of ``walk`` held for 60 frames, the whole body dropped by a
+    third of its height on ``frames`` (a root marker's glitch, as a tracker gives)."""
+    feet, up, height = found.skeleton_feet(walk)
+    contacts, _ = found.detect(
+        kinematics.forward(walk, end_sites=True)[0], feet, up, height, walk.frame_time
+    )
+    pose = int(np.flatnonzero(contacts.all(axis=1))[0])
+    translations = np.repeat(walk.translations[pose : pose + 1], 60, axis=0)
+    translations[frames, 0, up] -= height / 3.0
+    rotations = np.repeat(walk.rotations[pose : pose + 1], 60, axis=0)
+    return walk.replace(rotations=rotations, translations=translations, source_values=None)
+
+
+@pytest.mark.parametrize("frames", [[30], [30, 31]])
+def test_a_glitch_of_the_root_does_not_take_the_floor_down(walk, frames):
+    """Both feet stand through a drop of the whole body: a one-frame drop is passed over
+    (the floor is where the feet stand), a two-frame one is not told from a step down, and
+    neither leaves the floor without soles (its height had been the mean of no sole,
+    NaN, with numpy's warning)."""
+    steady = _standing_with_a_drop(walk, [])
+    glitched = _standing_with_a_drop(walk, frames)
+    height = kinematics.body_height(steady)
+    level = contact_figures(steady)[0]["floor"]["height"]
+    floor = contact_figures(glitched)[0]["floor"]
+    assert np.isfinite(floor["height"]) and floor["contacts"] >= 2
+    if len(frames) == 1:
+        assert floor["height"] == pytest.approx(level, abs=1e-9 * height)
