@@ -291,10 +291,13 @@ def _rotations(record: dict, f: PoseField) -> np.ndarray:
     return smpl_model.axis_angle_to_quaternion(array.reshape(array.shape[0], f.count, 3))
 
 
-def _check_finite(record: dict, keys, path) -> None:
-    """Refuse NaN, inf or a value beyond :data:`MAX_MAGNITUDE` in the arrays ``keys``."""
+def _check_numbers(record: dict, keys, path) -> None:
+    """Refuse arrays ``keys`` of anything but real numbers (integer or float), or with NaN,
+    inf or a value beyond :data:`MAX_MAGNITUDE`."""
     for key in keys:
         array = record[key]
+        if array.dtype.kind not in "fiu":
+            raise MotionError(f"{key}: not an array of real numbers ({array.dtype})", path)
         bad = ~(np.abs(array) <= MAX_MAGNITUDE)  # NaN too
         if bad.any():
             frame = int(np.argwhere(bad.reshape(array.shape[0], -1))[0][0])
@@ -329,7 +332,7 @@ def smpl_motion(
     n_rows = frames.pop()
     if rows is not None and rows.size != n_rows:
         raise MotionError(f"frame_ids has {rows.size} entries for {n_rows} frames of poses", path)
-    _check_finite(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
+    _check_numbers(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
     frame_time, rate_note = frame_time_of(record, path)
     notes = notes + ((rate_note,) if rate_note else ())
     model = np.empty((n_rows, tree.n_joints, 4))

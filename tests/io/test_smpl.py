@@ -366,6 +366,8 @@ def bad_npz(tmp_path, name: str, **arrays) -> str:
             {"poses": np.zeros((4, 72)), "trans": np.eye(4, 3) * 1e13},
             "trans: a value that is not a finite number of at most 1e+12 in size at frame 0",
         ),
+        ({"poses": np.zeros((4, 72)), "trans": np.zeros((4, 3), complex)}, "(complex128)"),
+        ({"poses": np.zeros((4, 72)), "trans": np.zeros((4, 3), "U3")}, "not an array of real"),
         ({"poses": np.zeros((4, 72)), "trans": np.zeros((5, 3))}, "different frame counts"),
         ({"betas": np.zeros(10)}, "no SMPL pose"),
         ({"poses": np.zeros((4, 72)), "mocap_framerate": np.array(0.0)}, "frame rate"),
