@@ -51,7 +51,14 @@ from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
 from .csv import format_repr, uniform_frame_time
 from .files import pieces
-from .text import line_ends, parse_values, scan_tokens, splice_cells, table_pieces
+from .text import (
+    bad_number_message,
+    line_ends,
+    parse_values,
+    scan_tokens,
+    splice_cells,
+    table_pieces,
+)
 
 #: Channels of a rotational coordinate (a rotation about Z) and of a translational one.
 ROTATIONAL = ("Zrotation", "Xrotation", "Yrotation")
@@ -243,11 +250,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     )
     if bad_at >= 0:
         f, c = divmod(int(flat[bad_at]), parsed.size)
-        token = bytes(buf[cell_starts[f, parsed[c]] : cell_ends[f, parsed[c]]]).decode(
-            "utf-8", "replace"
-        )[:40]
+        token = bytes(buf[cell_starts[f, parsed[c]] : cell_ends[f, parsed[c]]])
         _fail(
-            f"column {labels[parsed[c]][:60]!r}: not a finite number: {token!r}",
+            bad_number_message(f"column {labels[parsed[c]][:60]!r}", token),
             path,
             number_of(rows[f]),
         )

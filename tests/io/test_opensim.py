@@ -172,7 +172,12 @@ def test_convert_to_csv_and_back(tmp_path, capsys):
         (IK.replace("\t1.5\n", "\n"), "5 values on this row, expected 6", 14),
         (
             IK.replace("-6.50000000", "x6.5"),
-            "column 'knee_angle_r': not a finite number: 'x6.5'",
+            "column 'knee_angle_r' is not a number: 'x6.5'",
+            13,
+        ),
+        (
+            IK.replace("-6.50000000", "-1e13"),
+            "column 'knee_angle_r' is out of range (more than 1e+12 in size): '-1e13'",
             13,
         ),
         (IK.replace("      0.02000000", "      0.05000000"), "time does not increase", 15),
@@ -193,7 +198,7 @@ def test_bad_files_are_one_line(tmp_path, capsys, text, message, line):
 def test_an_unparsed_column_is_an_error_unless_excluded(tmp_path, capsys):
     other = IK.replace("knee_angle_r_force", "knee_angle_r_state")
     code, _, err = run_cli(capsys, "info", write(tmp_path, other))
-    assert code == 1 and "knee_angle_r_state': not a finite number: 'n/a'" in err
+    assert code == 1 and "knee_angle_r_state' is not a number: 'n/a'" in err
 
 
 def test_force_torque_and_point_columns_are_carried_and_a_loads_file_refused(tmp_path, capsys):
