@@ -763,17 +763,18 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
     if not isinstance(src, GltfSource) or motion.n_joints != len(src.nodes):
         return [fresh_gltf(motion, glb)]
     same_frames = motion.n_frames == src.n_frames and motion.frame_time == src.frame_time
-    assert motion.source_rotations is not None
-    if same_frames and motion.source_rotations.shape == motion.rotations.shape:
-        kept = _same(motion.rotations, motion.source_rotations)
+    read = motion.source_rotations  # None once the frames changed (resampled, stitched)
+    if same_frames and read is not None and read.shape == motion.rotations.shape:
+        kept = _same(motion.rotations, read)
     else:
         kept = np.zeros((motion.n_frames, motion.n_joints), dtype=bool)
     positions = motion.layout.position_columns[:, 0] >= 0
     if same_frames:
         moved = np.abs(motion.translations - src.translations).max(axis=-1) > UNCHANGED_TOLERANCE
-    else:
-        moved = np.ones((motion.n_frames, motion.n_joints), dtype=bool)
-    moved &= positions[None, :]
+        moved &= positions[None, :]
+    else:  # new frames: every joint's track keyed on them (old keys would set the clip's span)
+        keyed = np.array([track.channel >= 0 for track in src.translation])
+        moved = np.repeat((positions | keyed)[None, :], motion.n_frames, axis=0)
     if kept.all() and not moved.any() and glb == src.glb:
         return pieces(src.raw)
     document = copy.deepcopy(src.document)
@@ -816,13 +817,14 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
             )
         if moved[:, j].any():
             track = src.translation[j]
+            held = np.broadcast_to(motion.offsets[j], (motion.n_frames, 3))  # a still track
             _point(
                 animation,
                 track,
                 node,
                 "translation",
                 times_for(track),
-                appender.accessor(motion.translations[:, j], "VEC3"),
+                appender.accessor(motion.translations[:, j] if positions[j] else held, "VEC3"),
             )
     new = appender.data()
     binary = src.binary

@@ -372,3 +372,22 @@ def test_a_blender_glb_has_the_body_height_and_feet_of_its_bvh():
     assert kinematics.body_height(glb) == pytest.approx(kinematics.body_height(bvh), rel=0.05)
     feet = [foot.name for foot in contacts.skeleton_feet(glb)[0]]
     assert sorted(feet) == sorted(foot.name for foot in contacts.skeleton_feet(bvh)[0])
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_a_glb_resampled_or_stitched_is_written_at_its_new_frames(tmp_path, capsys, suffix):
+    """New frames are written as new keys into the file's own document (an assertion that
+    the read rotations were still there had made both an internal error)."""
+    source = mc.load(BLENDER_GLB)
+    resampled, _ = mc.Pipeline.from_inline(["resample:fps=60"]).run(source)
+    code, _, err = run_cli(capsys, "resample", BLENDER_GLB, tmp_path / f"r{suffix}", "--fps", "60")
+    assert code == 0, err
+    back = mc.load(tmp_path / f"r{suffix}")
+    assert back.n_frames == resampled.n_frames and back.frame_time == pytest.approx(1 / 60)
+    assert degrees(back.rotations, resampled.rotations) < 1e-4
+    p_back, p_expected = kinematics.forward(back)[0], kinematics.forward(resampled)[0]
+    assert np.abs(p_back - p_expected).max() < 1e-5 * kinematics.body_height(source)
+    stitched = tmp_path / f"s{suffix}"
+    code, _, err = run_cli(capsys, "stitch", BLENDER_GLB, BLENDER_GLB, "-o", stitched)
+    assert code == 0, err
+    assert mc.load(stitched).n_frames > source.n_frames
