@@ -495,15 +495,22 @@ class Motion:
         component, rounding) keep their original values bit for bit, and changed ones
         continue the curve from the last unchanged frame (:func:`continuous_euler`), on the
         representations that rejoin the unchanged frames after them without a jump the
-        input lacks (:func:`motionclean.core.eulerjoin.rejoin`). Otherwise angles are
-        unwrapped along time. Groups of joints run on threads.
+        input lacks (:func:`motionclean.core.eulerjoin.rejoin`). Otherwise (new frames:
+        resampled, stitched, another format's rotations) the first frame takes the
+        principal angles and each frame after it the Euler solution and whole turns nearest
+        the frame before, as a changed run does: a middle angle that passes +-90 degrees
+        goes on past it instead of the other two angles jumping by half a turn. Groups of
+        joints run on threads.
         """
         layout = self.layout
         if not self.has_source_frames():
             values = np.zeros((self.n_frames, layout.n_channels))
             for order, joints in layout.groups:
-                angles = quat.to_euler(self.rotations[:, joints], order)
-                values[:, layout.rotation_columns[joints]] = np.unwrap(angles, period=360.0, axis=0)
+                q = self.rotations[:, joints]
+                angles = quat.to_euler(q, order)  # the first frame's; then each continues
+                new = np.zeros(angles.shape[:2], dtype=bool)
+                angles = continuous_euler(q, order, angles, new)
+                values[:, layout.rotation_columns[joints]] = angles
         else:
             assert self.source_values is not None
             values = np.empty_like(self.source_values)  # every column is written below
@@ -732,6 +739,7 @@ def _solutions(q, order, last, principal=None):
     was written on: the solution in use is the anchor's, switched at every such frame."""
     if principal is None:
         principal = quat.to_euler(q, order)
+    principal = _split_locked(q, order, principal, last)
     other = principal + [180.0, 0.0, 180.0]
     np.subtract(180.0, principal[..., 1], out=other[..., 1])
     switch = np.empty(principal.shape[:-1], dtype=bool)
@@ -742,6 +750,37 @@ def _solutions(q, order, last, principal=None):
         _turn_distance(other[1:], before), _turn_distance(principal[1:], before), out=switch[1:]
     )
     return principal, other, switch
+
+
+#: A frame whose middle angle is this close to +-90 degrees (degrees) is split as at
+#: gimbal lock (:func:`_split_locked`): re-splitting its outer angles moves its rotation by
+#: at most ``pi`` times this angle in radians, 1e-4 degrees, where the principal split
+#: swings by tens of degrees between neighbouring frames.
+LOCKED_MIDDLE_DEG = 1e-4 / np.pi
+
+
+def _split_locked(q, order, principal, last):
+    """``principal`` ``(F, J, 3)`` with each frame at or near gimbal lock split as the last
+    frame before it that is not (``last``, the frame before the block, when none in it)
+    (:func:`quat.keep_first_at_lock`): only the sum or difference of the outer angles is
+    determined there, and the principal split is arbitrary (a slerp between frames on
+    either side of a middle angle of 90 degrees wrote 83 and -87 degrees between 2 and -5).
+    A copy where a frame is locked, else ``principal`` itself."""
+    locked = np.abs(principal[..., 1]) >= 90.0 - LOCKED_MIDDLE_DEG
+    if not locked.any():
+        return principal
+    frame = np.arange(q.shape[0])[:, None]
+    before = np.maximum.accumulate(np.where(locked, -1, frame), axis=0)  # last unlocked frame
+    first = principal[np.maximum(before, 0), np.arange(q.shape[1])[None, :], 0]
+    known = before >= 0
+    if last is not None:
+        first = np.where(known, first, last[None, :, 0])
+        known[:] = True
+    pick = locked & known
+    out = principal.copy()
+    out[pick] = quat.keep_first_at_lock(principal[pick], order, first[pick])
+    out[pick, 2] = (out[pick, 2] + 180.0) % 360.0 - 180.0
+    return out
 
 
 def _turn_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:

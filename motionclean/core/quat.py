@@ -35,6 +35,7 @@ __all__ = [
     "exp_planes",
     "from_axis_angle",
     "from_euler",
+    "keep_first_at_lock",
     "identity",
     "inverse",
     "log",
@@ -594,6 +595,23 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
             [ra_l, b1[locked], _nearest_turn(s_lock * (theta - ra_l), rc[locked])], axis=-1
         )
     return np.rad2deg(out, out=out)
+
+
+def keep_first_at_lock(angles: np.ndarray, order: str, first: np.ndarray) -> np.ndarray:
+    """Euler ``angles`` ``(..., 3)`` (degrees, ``order``) at or near gimbal lock, split
+    again with ``first`` ``(...)`` as their first angle: the combination of the outer angles
+    that the lock determines, ``a + s c`` (``s`` the order's parity times the sign of the
+    middle angle's sine), is kept and the last angle takes the rest. At lock the rotation
+    is the same; a middle angle ``delta`` (radians) short of +-90 degrees moves it by at
+    most ``|change of a| delta`` radians. A new array."""
+    i, j, _ = _order_axes(order)
+    parity = 1.0 if (j - i) % 3 == 1 else -1.0
+    out = np.array(angles, dtype=np.float64)
+    s = parity * np.where(np.sin(np.deg2rad(out[..., 1])) >= 0.0, 1.0, -1.0)
+    locked_sum = out[..., 0] + s * out[..., 2]
+    out[..., 0] = first
+    out[..., 2] = s * (locked_sum - first)
+    return out
 
 
 def _locked_sum(q: np.ndarray, i: int, j: int, k: int, parity: float) -> np.ndarray:

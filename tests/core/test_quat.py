@@ -293,6 +293,24 @@ def test_to_euler_at_gimbal_lock_reproduces_rotation(order):
 
 
 @pytest.mark.parametrize("order", ORDERS)
+def test_keep_first_at_lock_keeps_the_rotation_within_its_bound(order):
+    """At lock the re-split rotation is the same; a middle angle delta short of it moves
+    the rotation by at most |change of the first angle| * delta (radians), for either sign
+    of the middle angle and every order."""
+    rng = np.random.default_rng(5)
+    for short_deg in (0.0, 1e-5, 1e-3):
+        middle = np.where(rng.random(40) < 0.5, 90.0, -90.0)
+        middle -= np.sign(middle) * short_deg
+        angles = np.column_stack([rng.uniform(-170, 170, 40), middle, rng.uniform(-170, 170, 40)])
+        first = rng.uniform(-170, 170, 40)
+        split = quat.keep_first_at_lock(angles, order, first)
+        np.testing.assert_array_equal(split[:, 0], first)
+        moved = quat.angle_between(quat.from_euler(split, order), quat.from_euler(angles, order))
+        bound = np.radians(np.abs(first - angles[:, 0])) * np.radians(short_deg)
+        assert np.all(moved <= bound + 1e-12)
+
+
+@pytest.mark.parametrize("order", ORDERS)
 def test_euler_middle_sine_is_the_same_for_every_triple_of_a_rotation(order):
     rng = np.random.default_rng(14)
     angles = rng.uniform(-180, 180, size=(300, 3))
