@@ -45,7 +45,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.kinematics import axis_name, rest_positions
+from ..core.kinematics import axis_name, rest_positions, up_direction
 from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
@@ -894,13 +894,31 @@ def _glb(text: bytes, binary: bytes | None) -> bytes:
 # ----------------------------------------------------------------------------- a new file
 
 
+#: The node a fresh glTF hangs a skeleton under when its up axis is not +Y (glTF's up).
+UP_NODE = "motionclean_up"
+
+
+def _upright_turn(axis: int, sign: float) -> np.ndarray | None:
+    """The quaternion turning the skeleton's up (``axis``, ``sign``) onto +Y by the least
+    angle (a half turn about X for -Y), None when it is +Y."""
+    up = np.zeros(3)
+    up[axis] = sign
+    if axis == 1:
+        return None if sign > 0 else quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
+    y = np.array([0.0, 1.0, 0.0])
+    return quat.normalize(np.concatenate([[1.0], np.cross(up, y)]))
+
+
 def fresh_gltf(motion: Motion, glb: bool) -> bytes:
     """A glTF of a clip read from another format: a node per joint (its offset as rest
     translation, no rest rotation) and per end site (``<joint>_end``, a child node outside
     the skin), a skin of the joints (inverse bind matrices of the rest pose, so importers
     make an armature), one animation
     on the clip's frames (LINEAR rotations, and translations where a joint has position
-    channels), data in the GLB binary chunk or a data URI."""
+    channels), data in the GLB binary chunk or a data URI. A skeleton whose up axis (given
+    or found, :func:`~motionclean.core.kinematics.up_direction`) is not +Y keeps its own
+    coordinates under a node (:data:`UP_NODE`) that turns its up onto +Y, glTF's: viewers
+    stand it upright and the reader finds its up from that node."""
     note = getattr(motion.source, "no_world", None)
     if note is not None:
         _fail(f"glTF needs joint positions: {note}", motion.path)
@@ -935,17 +953,24 @@ def fresh_gltf(motion: Motion, glb: bool) -> bytes:
         if parent >= 0:
             nodes[parent].setdefault("children", []).append(j)
     roots = [j for j in range(n) if motion.parents[j] < 0]
+    turn = _upright_turn(*up_direction(motion))
+    if turn is not None:  # the skeleton's own coordinates kept, hung under a turn to +Y up
+        nodes.append(
+            {"name": UP_NODE, "rotation": [float(v) for v in turn[[1, 2, 3, 0]]], "children": roots}
+        )
     document: dict[str, Any] = {
         "asset": {"version": "2.0", "generator": "motionclean"},
         "scene": 0,
-        "scenes": [{"nodes": roots}],
+        "scenes": [{"nodes": roots if turn is None else [len(nodes) - 1]}],
         "nodes": nodes,
         "animations": [{"channels": [], "samplers": []}],
     }
     appender = _Appender(document, 0, 0)
     rest = rest_positions(motion)  # joints, then end sites: their rest world translations
-    inverse_bind = np.zeros((n, 4, 4))
+    inverse_bind = np.zeros((n, 4, 4))  # each the inverse of (turn, rest translation)
     inverse_bind[:] = np.eye(4)
+    if turn is not None:  # column-major: the rotation's transpose holds the matrix itself
+        inverse_bind[:, :3, :3] = quat.as_matrix(turn)
     inverse_bind[:, 3, :3] = -rest[:n]  # column-major: the translation is the last column
     skin_matrices = appender.accessor(inverse_bind.reshape(n, 16), "MAT4")
     document["skins"] = [{"joints": list(range(n)), "inverseBindMatrices": skin_matrices}]

@@ -9,7 +9,7 @@ import struct
 
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, cut_bvh, run_cli
+from helpers import ROOT, SAMPLE, cut_bvh, run_cli, turned_copy
 
 import motionclean as mc
 from motionclean.core import contacts, kinematics, quat
@@ -391,3 +391,32 @@ def test_a_glb_resampled_or_stitched_is_written_at_its_new_frames(tmp_path, caps
     code, _, err = run_cli(capsys, "stitch", BLENDER_GLB, BLENDER_GLB, "-o", stitched)
     assert code == 0, err
     assert mc.load(stitched).n_frames > source.n_frames
+
+
+@pytest.mark.parametrize("up", ["z", "-y", "x"])
+def test_a_skeleton_not_y_up_is_written_under_a_turn_that_stands_it_up(tmp_path, up):
+    """glTF's up is +Y: a Z-up (or y-down, or X-up) clip keeps its own coordinates under a
+    node turning its up onto +Y, so a viewer stands it upright (Blender's importer puts its
+    head 135 units above its feet where it had lain on its side) and the reader finds the
+    same up, body height and world positions (its own coordinates) again."""
+    source = mc.load(ROOT / "tests" / "data" / "exporters" / "video2bvh_zup.bvh")
+    target = {"z": [0.0, 0.0, 1.0], "-y": [0.0, -1.0, 0.0], "x": [1.0, 0.0, 0.0]}[up]
+    turn = quat.normalize(np.concatenate([[1.0], np.cross([0.0, 0.0, 1.0], target)]))
+    clip = turned_copy(source, turn)
+    assert kinematics.up_name(clip) == up
+    mc.save(clip, tmp_path / "c.gltf")
+    document = json.loads((tmp_path / "c.gltf").read_text())
+    (hanger,) = document["scenes"][0]["nodes"]
+    x, y, z, w = document["nodes"][hanger]["rotation"]
+    axis, sign = kinematics.up_direction(clip)
+    head_up = np.zeros(3)
+    head_up[axis] = sign
+    np.testing.assert_allclose(quat.rotate(np.array([w, x, y, z]), head_up), [0, 1, 0], atol=1e-12)
+    back = mc.load(tmp_path / "c.gltf")
+    assert kinematics.up_name(back) == up and back.up == up  # given by the file
+    assert kinematics.body_height(back) == pytest.approx(kinematics.body_height(clip), rel=1e-6)
+    p_back, p_clip = kinematics.forward(back)[0], kinematics.forward(clip)[0]
+    assert np.abs(p_back - p_clip).max() < 1e-4 * kinematics.body_height(clip)
+    y_up = mc.load(SAMPLE)
+    mc.save(y_up, tmp_path / "y.gltf")  # a Y-up clip: no extra node
+    assert json.loads((tmp_path / "y.gltf").read_text())["scenes"][0]["nodes"] == [0]
