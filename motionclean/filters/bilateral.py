@@ -86,6 +86,13 @@ def window_radius(sigma_t: float, radius: int | None = None) -> int:
     return checks.whole(radius, "radius", 0, MAX_RADIUS)
 
 
+#: A range width (sigma_g, log units; sigma_p, length units) below this weighs as this one
+#: does: only identical samples count, every other weight is exp(-huge) = 0 (its square
+#: would underflow to 0 and divide by zero; a finite factor keeps a distance of 0 at weight
+#: 1, where inf would make 0 * inf).
+SMALLEST_RANGE_WIDTH = 1e-150
+
+
 def _check_sigma(name: str, value: float) -> float:
     value = checks.number(value, name)
     if not value > 0:  # also rejects nan; inf means "no range weighting"
@@ -193,7 +200,7 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     """
     n_frames = src.shape[0]
     n = n_frames - 1  # displacements
-    inv_g = 0.5 / sigma_g**2
+    inv_g = 0.5 / max(sigma_g, SMALLEST_RANGE_WIDTH) ** 2
     # Work planes: 0-3 samples, 4 w of q_i^-1 q_{i+1}, 5-7 displacements, 8-10 scratch,
     # 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i),
     # 15-16 the running coefficient sums, 17.. the weights of the offsets 1 .. k.
@@ -238,7 +245,7 @@ def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) 
     """
     n_frames, n_sig = src.shape[:2]
     n = n_frames - 1
-    inv_p = 0.5 / sigma_p**2
+    inv_p = 0.5 / max(sigma_p, SMALLEST_RANGE_WIDTH) ** 2
     # Work planes: 0-2 samples, 3-5 displacements, 6-8 scratch, 9-11 sums, 12-13 the
     # running coefficient sums, 14.. the weights of the offsets 1 .. k.
     blocks, planes = work_area(n_frames, n_sig, k, 14 + k)

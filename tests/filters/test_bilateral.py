@@ -333,3 +333,13 @@ def test_corpus_rthumb_flips_are_not_smeared(rthumb, iterations):
     assert dev_gauss > 15.0
     assert dev_bil < 1.5
     assert dev_bil < 0.05 * dev_gauss
+
+
+def test_a_range_width_too_small_to_square_keeps_every_sample(noisy):
+    """sigma_g or sigma_p below 1e-162 squares to 0 (it had divided by zero: an internal
+    error from the command line): it weighs as the narrowest width does, only identical
+    samples count, so the signal comes back as it was."""
+    out = bilateral(noisy, sigma_t=2.0, sigma_g=1e-170)
+    assert np.degrees(quat.angle_between(out, noisy)).max() < 1e-9
+    p = np.cumsum(np.random.default_rng(3).normal(size=(60, 2, 3)), axis=0)
+    np.testing.assert_allclose(bilateral_positions(p, sigma_t=2.0, sigma_p=1e-170), p, atol=1e-12)
