@@ -93,6 +93,13 @@ def window_radius(sigma_t: float, radius: int | None = None) -> int:
 SMALLEST_RANGE_WIDTH = 1e-150
 
 
+def _half_inverse_square(width: float) -> float:
+    """``1 / (2 width^2)`` of a range width: 0 where the square would overflow (no range
+    weighting, as ``inf``), that of :data:`SMALLEST_RANGE_WIDTH` below it."""
+    width = max(width, SMALLEST_RANGE_WIDTH)
+    return 0.5 / width / width
+
+
 def _check_sigma(name: str, value: float) -> float:
     value = checks.number(value, name)
     if not value > 0:  # also rejects nan; inf means "no range weighting"
@@ -200,7 +207,7 @@ def _bilateral_pass(src, dst, k: int, sigma_t: float, sigma_g: float) -> None:
     """
     n_frames = src.shape[0]
     n = n_frames - 1  # displacements
-    inv_g = 0.5 / max(sigma_g, SMALLEST_RANGE_WIDTH) ** 2
+    inv_g = _half_inverse_square(sigma_g)
     # Work planes: 0-3 samples, 4 w of q_i^-1 q_{i+1}, 5-7 displacements, 8-10 scratch,
     # 11-13 the sums s_i (then the vector part of exp(s_i)), 14 the w of exp(s_i),
     # 15-16 the running coefficient sums, 17.. the weights of the offsets 1 .. k.
@@ -245,7 +252,7 @@ def _bilateral_positions_pass(src, dst, k: int, sigma_t: float, sigma_p: float) 
     """
     n_frames, n_sig = src.shape[:2]
     n = n_frames - 1
-    inv_p = 0.5 / max(sigma_p, SMALLEST_RANGE_WIDTH) ** 2
+    inv_p = _half_inverse_square(sigma_p)
     # Work planes: 0-2 samples, 3-5 displacements, 6-8 scratch, 9-11 sums, 12-13 the
     # running coefficient sums, 14.. the weights of the offsets 1 .. k.
     blocks, planes = work_area(n_frames, n_sig, k, 14 + k)

@@ -347,8 +347,7 @@ STEP = StepSpec(
             0.002,
             "how closely the ankle follows its target, body heights; the change of each "
             "joint is weighed against it",
-            minimum=0.0,
-            exclusive_minimum=True,
+            minimum=1e-9,  # (the solve weighs by its inverse square: finite down to here)
             maximum=1.0,
         ),
         Param(

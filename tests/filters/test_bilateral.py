@@ -335,11 +335,21 @@ def test_corpus_rthumb_flips_are_not_smeared(rthumb, iterations):
     assert dev_bil < 0.05 * dev_gauss
 
 
-def test_a_range_width_too_small_to_square_keeps_every_sample(noisy):
+def test_range_widths_too_small_or_large_to_square_are_the_limits(noisy):
     """sigma_g or sigma_p below 1e-162 squares to 0 (it had divided by zero: an internal
     error from the command line): it weighs as the narrowest width does, only identical
-    samples count, so the signal comes back as it was."""
+    samples count, so the signal comes back as it was; above 1e154 the square overflowed
+    (an OverflowError): such a width weighs as inf does, the Gaussian Lee-Shin filter."""
     out = bilateral(noisy, sigma_t=2.0, sigma_g=1e-170)
     assert np.degrees(quat.angle_between(out, noisy)).max() < 1e-9
     p = np.cumsum(np.random.default_rng(3).normal(size=(60, 2, 3)), axis=0)
     np.testing.assert_allclose(bilateral_positions(p, sigma_t=2.0, sigma_p=1e-170), p, atol=1e-12)
+    for huge in (1e300, np.inf):
+        assert np.array_equal(
+            bilateral(noisy, sigma_t=2.0, sigma_g=huge),
+            bilateral(noisy, sigma_t=2.0, sigma_g=np.inf),
+        )
+        assert np.array_equal(
+            bilateral_positions(p, sigma_t=2.0, sigma_p=huge),
+            bilateral_positions(p, sigma_t=2.0, sigma_p=np.inf),
+        )

@@ -200,6 +200,8 @@ def test_a_pipeline_file_python_cannot_parse_is_one_line(tmp_path, capsys, conte
         ("lee-shin:k=" + "9" * 400, "k must be an integer >= 0 and <= 5000, got 9999"),
         ("bilateral:sigma_t=" + "9" * 400, "sigma_t must be a number > 0 and <= 50, got 99"),
         ("footlock:min_seconds=-" + "9" * 400, "min_seconds must be a number >= 0 and <= inf"),
+        # a tolerance whose inverse square overflows had failed inside the solve
+        ("footlock:tolerance=1e-300", "tolerance must be a number >= 1e-09 and <= 1"),
     ],
 )
 def test_inline_numbers_beyond_any_range_are_one_short_line(tmp_path, capsys, step, message):
