@@ -111,6 +111,10 @@ BAND_LIMITED_SLOPE = -1.7
 #: too small to see (0.05 degrees moves the end of a 1 m limb by 0.9 mm), whose removal
 #: would only change the clip's accelerations.
 NEGLIGIBLE_DEG = 0.05
+#: Translation columns whose noise over the clip is below this many length units are left
+#: as they are: beneath any capture's noise in any unit (a micrometre in metres), and above
+#: the rounding of six-decimal text (2.9e-7 RMS), which a clean file's only noise may be.
+NEGLIGIBLE_LENGTH = 1e-6
 #: A column is filtered only where the filters chosen for it are expected to take off at
 #: least this fraction of its RMS error over the clip (its ``expected_error`` at most 0.9
 #: of the noise level): a smaller gain is within the risk estimate's own uncertainty.
@@ -532,6 +536,8 @@ def _select(
         if coloured is not None:
             total = total + coloured.level / 3.0
         choice[:, to_level(total) < NEGLIGIBLE_DEG] = 0
+    elif not rotations and given is None:
+        choice[:, to_level(model.clip_sigma2()) < NEGLIGIBLE_LENGTH] = 0
     if coloured is None:
         # a column whose choices, over the clip, are expected to take off less than
         # WORTHWHILE_GAIN of its error is left as it is (noise that wanders into the
