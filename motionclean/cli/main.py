@@ -27,7 +27,7 @@ from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
-from ..report.summary import build_report, build_series, format_rest, format_table
+from ..report.summary import build_report, build_series, format_rest, format_table, gap_notes
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
     blend_clips,
@@ -422,9 +422,10 @@ def report(
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
-        check_compatible(before, after)
+        check_compatible(before, after, gaps_ok=True)
     series = build_series(before, after)
-    result = build_report(before, after, file=source, series=series)
+    notes = None if after is None else gap_notes(before, after)  # what a fill left, or did
+    result = build_report(before, after, notes=notes, file=source, series=series)
     result["capture_source"] = found_source(before, capture)
     # every page is rendered before anything is written: a failure leaves no file behind
     pages = {}

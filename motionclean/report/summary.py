@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
@@ -296,6 +297,32 @@ def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
         summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
         summary["deviation_deg_max"] = figures["deviation"].total_max
     return summary
+
+
+def gap_notes(before: Motion, after: Motion) -> dict[str, dict]:
+    """Per joint with samples missing in ``before``, the ``fill-gaps`` note a cleaning
+    would have written, read from the two clips: its gaps, the runs missing in ``before``
+    and known in ``after`` (``filled``) and those still missing in ``after`` (``missing``),
+    ``[start, stop)`` frames. For two clips compared without the steps that made one."""
+    if before.missing is None:
+        return {}
+    still = after.missing if after.missing is not None else np.zeros_like(before.missing)
+    notes = {}
+    for j in np.flatnonzero(before.missing.any(axis=0)):
+        gaps, filled, left = (
+            [[int(a), int(b) + 1] for a, b in found.contact_runs(mask[:, [j]])[0]]
+            for mask in (before.missing, before.missing & ~still, still)
+        )
+        notes[before.names[j]] = {
+            "fill-gaps": {
+                "gaps": len(gaps),
+                "longest": max(b - a for a, b in gaps),
+                "filled": filled,
+                "missing": left,
+                "donors": [],  # (not known from the two clips)
+            }
+        }
+    return notes
 
 
 def build_report(

@@ -302,11 +302,12 @@ def run_job(job: Job) -> FileResult:
 # ----------------------------------------------------------------------------- two clips
 
 
-def check_compatible(a: Motion, b: Motion, same_length: bool = True) -> None:
+def check_compatible(a: Motion, b: Motion, same_length: bool = True, gaps_ok: bool = False) -> None:
     """Raise :class:`MotionError` unless ``a`` and ``b`` share the skeleton, channels, frame
-    rate and (optionally) length, and neither has missing samples."""
+    rate and (optionally) length, and (unless ``gaps_ok``: two clips compared, not joined)
+    neither has missing samples."""
     for clip in (a, b):
-        if clip.has_gaps:
+        if clip.has_gaps and not gaps_ok:
             raise MotionError(
                 "has missing samples (tracker dropouts): fill them first "
                 "(motionclean clean CLIP -o FILLED -f fill-gaps)",

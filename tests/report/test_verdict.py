@@ -8,7 +8,7 @@ import re
 
 import numpy as np
 import pytest
-from helpers import NOISY, SAMPLE, Page, run_cli
+from helpers import NOISY, ROOT, SAMPLE, Page, run_cli
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -256,6 +256,23 @@ def test_two_clips_compared_as_given_do_not_claim_to_know_the_repairs(tmp_path, 
     assert "outside repairs" not in verdict["text"] and "not told apart" in verdict["text"]
     assert verdict["status"] == "needs a look"  # 180 degrees on RThumb, for all it knows
     assert f"verdict: {verdict['text']}" in out
+
+
+def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_path, capsys):
+    """A tracker CSV with a dropout and its cleaned copy (which `report IN OUT` had refused:
+    "fill them first"): the gaps are read from the two files, filled or still missing."""
+    dropouts = ROOT / "sample_data" / "131_02_motive.csv"
+    cleaned = tmp_path / "c.csv"
+    code, _, err = run_cli(capsys, "clean", dropouts, "-o", cleaned, "-q")
+    assert code == 0, err
+    code, out, err = run_cli(capsys, "report", dropouts, cleaned, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    verdict = json.loads((tmp_path / "r.json").read_text())["verdict"]
+    assert verdict["status"] == "repaired" and "1 gap filled on hand_l" in verdict["text"]
+    assert "repaired hand_l: 1 gap, longest 8 frames; filled 40-47" in out
+    code, out, err = run_cli(capsys, "report", dropouts, dropouts, "--json", tmp_path / "s.json")
+    verdict = json.loads((tmp_path / "s.json").read_text())["verdict"]
+    assert code == 0 and "hand_l missing on frames 40-47" in verdict["text"]
 
 
 def test_a_clip_only_put_on_the_floor_is_not_judged_and_says_what_moved_it():
