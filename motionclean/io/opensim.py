@@ -266,8 +266,10 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)
     if not in_degrees and _holds_degrees(coords[:, axes < 0], frame_time):
         in_degrees = True
+        said = "the header says radians (inDegrees=no)" if note is None else "no inDegrees line"
+        notes = [n for n in notes if n != note]  # (no "read as radians" left beside it)
         notes.append(
-            "angles read as degrees: the header says radians (inDegrees=no), but most "
+            f"angles read as degrees: {said}, but most "
             "rotational coordinates reach beyond half a turn or move faster than "
             f"{DEGREES_IN_RADIANS_PER_S:g} rad/s read so (OpenSim's CMC writes its *_q.sto "
             "that way)"

@@ -134,6 +134,11 @@ def test_degrees_under_a_radians_header_are_read_as_degrees_and_said(tmp_path):
     mc.save(motion.replace(rotations=q), tmp_path / "moved.sto")
     row = (tmp_path / "moved.sto").read_text().splitlines()[13].split("\t")
     assert float(row[4]) == pytest.approx(-7.0, abs=1e-9)  # -8 degrees turned by 1
+    # without an inDegrees line the one note says so (it had said "read as radians" and
+    # "the header says radians (inDegrees=no)", a line the file does not have)
+    bare = mc.load(write(tmp_path, IK.replace("inDegrees=yes\n", ""), "b.mot"), exclude=["*_force"])
+    (said,) = kinematics.source_notes(bare)
+    assert said.startswith("angles read as degrees: no inDegrees line, but most")
 
 
 def test_nan_cells_are_missing_samples_and_stay_so(tmp_path):
