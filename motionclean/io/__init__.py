@@ -160,7 +160,7 @@ def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | 
         motion.check()
         if not MIN_FRAME_TIME <= motion.frame_time < MAX_FRAME_TIME:  # NaN too
             raise InvalidMotion(
-                f"frame_time must be from {MIN_FRAME_TIME:g} to {MAX_FRAME_TIME:g} s, got "
+                f"frame_time must be from {MIN_FRAME_TIME:g} s to under {MAX_FRAME_TIME:g} s, got "
                 f"{motion.frame_time!r} (no reader takes it)"
             )
         if write in (bvh.bvh_pieces, _csv_pieces):  # text headers: names as text

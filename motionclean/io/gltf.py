@@ -46,7 +46,14 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.kinematics import axis_name, rest_positions, up_direction
-from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
+from ..core.motion import (
+    MAX_FRAME_TIME,
+    MIN_FRAME_TIME,
+    POSITION_CHANNELS,
+    UNCHANGED_TOLERANCE,
+    Motion,
+    joint_major_zeros,
+)
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
 from .text import MAX_MAGNITUDE
@@ -462,6 +469,12 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
         whole = 1.0 / round(rate)
         grid = start + whole * np.round((times - start) / whole)
         dt = whole if _on_grid(times, grid, whole) else dt
+    if not MIN_FRAME_TIME <= dt < MAX_FRAME_TIME:  # as every reader refuses such a rate
+        _fail(
+            f"keys {dt:.6g} s apart: no usable frame rate (expected between "
+            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            path,
+        )
     frames = int(round((end - start) / dt)) + 1
     total_keys = sum(k.times.size for k in keys)
     if frames > MAX_FRAMES_PER_KEY * total_keys:

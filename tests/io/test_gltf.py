@@ -420,3 +420,17 @@ def test_a_skeleton_not_y_up_is_written_under_a_turn_that_stands_it_up(tmp_path,
     y_up = mc.load(SAMPLE)
     mc.save(y_up, tmp_path / "y.gltf")  # a Y-up clip: no extra node
     assert json.loads((tmp_path / "y.gltf").read_text())["scenes"][0]["nodes"] == [0]
+
+
+@pytest.mark.parametrize("step", [3.3e-9, 7200.0])
+def test_keys_at_no_usable_rate_are_refused_when_read(tmp_path, capsys, step):
+    """Keys 3.3e-9 s apart had been read and cleaned, then refused by the writer naming the
+    output file; keys two hours apart the same: refused on reading, as a BVH's Frame Time."""
+    made = chain()
+    grid = np.arange(0, 11) * step
+    made.channel(0, "rotation", grid, z_turn(np.arange(0, 11) / 10.0))
+    made.gltf(tmp_path / "odd.gltf")
+    code, out, err = run_cli(capsys, "clean", tmp_path / "odd.gltf", "-o", tmp_path / "o.gltf")
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert err.startswith(f"motionclean: error: {tmp_path / 'odd.gltf'}: keys ")
+    assert "no usable frame rate" in err and not (tmp_path / "o.gltf").exists()
