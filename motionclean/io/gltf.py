@@ -439,7 +439,9 @@ def _keys(
     per_key = 3 if interpolation == "CUBICSPLINE" else 1
     if values.shape[0] != per_key * times.size or times.size == 0:
         _fail(
-            f"animations[{a}].samplers[{s}]: {values.shape[0]} outputs for {times.size} keys", path
+            f"animations[{a}].samplers[{s}]: {values.shape[0]} outputs for {times.size} keys "
+            f"({interpolation}: expected {per_key * times.size})",
+            path,
         )
     if not (np.isfinite(times).all() and (np.abs(values) <= MAX_MAGNITUDE).all()):
         _fail(

@@ -338,6 +338,10 @@ def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
         (lambda d: d["nodes"][2].update(children=[0]), "the node tree has a cycle"),
         (lambda d: d["nodes"][0].update(children=[1, 1]), "node 1 has two parents"),
         (lambda d: d["animations"][0]["samplers"][0].update(interpolation="BEZIER"), "is unknown"),
+        (
+            lambda d: d["animations"][0]["samplers"][0].update(interpolation="CUBICSPLINE"),
+            "11 outputs for 11 keys (CUBICSPLINE: expected 33)",
+        ),
         (lambda d: d["asset"].update(version="1.0"), "only glTF 2.0 is read"),
         (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "not a file beside the glTF"),
         (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
