@@ -89,6 +89,8 @@ def load(
         return fbx.load_fbx(path)
     data, on_disk = read_regular_file(path, keep_large=True)
     try:
+        if suffix in TEXT_SUFFIXES:
+            _check_line_ends(data[:LINE_END_PROBE], path)
         if suffix == ".bvh":
             motion = bvh.parse_bvh(data, path)
         elif suffix in (".npz", ".pkl"):
@@ -133,6 +135,23 @@ class ReadOptions:
         """:func:`load` of ``path`` with these options."""
         template = load(self.skeleton) if self.skeleton else None
         return load(path, skeleton=template, body_model=self.body_model, exclude=self.exclude)
+
+
+#: Suffixes of the text formats, and how many of their first bytes tell their line ends.
+TEXT_SUFFIXES = (".bvh", ".csv", ".mot", ".sto")
+LINE_END_PROBE = 1 << 16
+
+
+def _check_line_ends(head: bytes, path: Path) -> None:
+    """Refuse a text file whose lines end in carriage returns alone (classic Mac OS): read
+    as one line, it would be refused for what is not wrong with it. LF and CRLF, mixed
+    too, are read."""
+    cr = head.find(b"\r")
+    if 0 <= cr < len(head) - 1 and b"\n" not in head:  # (a CR last may have its LF next)
+        raise MotionError(
+            "lines end in carriage returns alone (classic Mac OS): convert them to LF or CRLF",
+            path,
+        )
 
 
 def save(motion: Motion, path: str | os.PathLike) -> None:

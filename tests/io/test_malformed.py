@@ -44,6 +44,7 @@ CASES = {
     "frame_count_text.bvh": (17, "frame count is not a non-negative integer"),
     "offset_nan.bvh": (8, "OFFSET value is not finite"),
     "duplicate_joint_name.bvh": (15, "joint name 'Arm' used twice (first at line 6)"),
+    "mac_line_ends.bvh": (None, "lines end in carriage returns alone (classic Mac OS)"),
     "empty.csv": (None, "empty file"),
     "binary.csv": (None, "not a text file"),
     "header_only.csv": (1, "no data rows"),
