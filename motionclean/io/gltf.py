@@ -623,7 +623,11 @@ def parse_gltf(data: bytes, path) -> Motion:
         translation_tracks.append(tracks[1])
         if tracks[0].channel < 0:
             rotations[:, j] = rest[j][1]
-        moving = tracks[1].channel >= 0 and bool(np.any(translations[:, j] != translations[:1, j]))
+        # a root keyed in place keeps its position channels (a SMPL clip's fixed trans is
+        # its placement); another joint's still track is its offset
+        moving = tracks[1].channel >= 0 and (
+            parents[j] < 0 or bool(np.any(translations[:, j] != translations[:1, j]))
+        )
         if tracks[1].channel >= 0 and not moving:
             offsets[j] = translations[0, j]
             translations[:, j] = 0.0

@@ -552,3 +552,21 @@ def test_smpl_to_bvh_and_back(tmp_path, capsys):
         capsys, "convert", ROOT / "sample_data" / "131_02_cut.bvh", tmp_path / "x.npz"
     )
     assert code == 1 and "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X" in err
+
+
+@pytest.mark.parametrize("placement", [(0.5, 0.2, 1.0), (0.0, 0.0, 0.0)])
+def test_a_fixed_placement_survives_a_trip_through_gltf(tmp_path, placement):
+    """A clip whose trans never changes (a body placed once) comes back from glTF with its
+    trans: the root's constant translation track is its position channels (it had become
+    the root's offset, and the .npz written from it had no trans: the body at the origin)."""
+    path = amass_h(tmp_path / "a.npz", frames=30)
+    record = dict(np.load(path))
+    record["trans"] = np.tile(placement, (30, 1))
+    np.savez(path, **record)
+    np.savez(tmp_path / "model.npz", **fake_body_model(SMPLH))
+    clip = mc.load(path, body_model=tmp_path / "model.npz")
+    mc.save(clip, tmp_path / "a.glb")
+    mc.save(mc.load(tmp_path / "a.glb"), tmp_path / "back.npz")
+    back = np.load(tmp_path / "back.npz")
+    assert "trans" in back.files
+    np.testing.assert_allclose(back["trans"], record["trans"], atol=1e-6)
