@@ -83,6 +83,8 @@ from ..core.motion import (
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
     ROTATION_CHANNELS,
+    SAME_ROTATION,
+    UNCHANGED_TOLERANCE,
     Motion,
     hold_missing,
 )
@@ -824,9 +826,8 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
     )
     if isinstance(src, CsvText) and src.layout == "channel" and src.matches(motion) and same:
         mask = np.zeros(src.starts.shape, dtype=bool)
-        mask[:, src.columns] = _cells_to_write(
-            values != motion.source_values, missing, _source_blank(src)[:, src.columns]
-        )
+        moved = np.abs(values - motion.source_values) > UNCHANGED_TOLERANCE  # (NaN: blank)
+        mask[:, src.columns] = _cells_to_write(moved, missing, _source_blank(src)[:, src.columns])
         return _rewrite(src, motion, mask, values, missing)
 
     keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
@@ -884,9 +885,11 @@ def rewrite_rigid(src: CsvText, motion: Motion) -> Iterable[bytes | memoryview]:
     assert motion.source_rotations is not None
     q, t = motion.rotations, motion.translations
     read = src.values[:, src.columns]  # (F, B, 7) as in the file, NaN where blank
-    read_q = motion.source_rotations  # q and -q are the same rotation
-    q_changed = np.any(q != read_q, axis=-1) & np.any(q != -read_q, axis=-1)
-    t_changed = t != read[..., :3]
+    read_q = motion.source_rotations  # q and -q are the same rotation; rounding is no change
+    q_changed = np.any(np.abs(q - read_q) > SAME_ROTATION, axis=-1) & np.any(
+        np.abs(q + read_q) > SAME_ROTATION, axis=-1
+    )
+    t_changed = np.abs(t - read[..., :3]) > UNCHANGED_TOLERANCE  # (NaN: blank)
     sign = np.where(np.sum(q * read[..., 3:], axis=-1) < 0.0, -1.0, 1.0)
     new = np.concatenate([t, q * sign[..., None]], axis=-1)
     missing = motion.missing_mask()[..., None]

@@ -434,3 +434,24 @@ def test_a_clean_rigid_body_comes_back_byte_for_byte(tmp_path, capsys):
     )
     code, _, _ = run_cli(capsys, "clean", source, "-o", tmp_path / "out.csv", "-q")
     assert code == 0 and (tmp_path / "out.csv").read_bytes() != source.read_bytes()
+
+
+def test_a_pipeline_that_changes_nothing_writes_every_csv_back_byte_for_byte(tmp_path, capsys):
+    """multires with every gain 1 moves quaternions by rounding (1e-16): a channel, rigid-body
+    or Motive CSV keeps every cell's text, as BVH does (the CSV writers compared exactly and
+    rewrote every quaternion cell of the Motive sample)."""
+    channel = tmp_path / "channel.csv"
+    assert run_cli(capsys, "convert", SAMPLE, channel)[0] == 0
+    t = np.arange(100) / 100.0
+    rigid = tmp_path / "rigid.csv"
+    rigid.write_text(
+        "time,b.px,b.py,b.pz,b.qw,b.qx,b.qy,b.qz\n"
+        + "".join(f"{s:.6f},{np.sin(s):.6f},1.6,0,{np.cos(s):.6f},0,{np.sin(s):.6f},0\n" for s in t)
+    )
+    for source in (channel, rigid, ROOT / "sample_data" / "131_02_motive.csv"):
+        out = tmp_path / "out.csv"
+        code, _, err = run_cli(
+            capsys, "clean", source, "-o", out, "-q", "-f", "multires:levels=4,gains=[1,1,1,1]"
+        )
+        assert code == 0, err
+        assert out.read_bytes() == source.read_bytes(), source.name
