@@ -19,6 +19,7 @@ baseline's folder.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -82,7 +83,48 @@ def read_baseline(path: Path) -> dict[str, Any]:
         raise MotionError(f"not a readable baseline: {error}", path) from None
     if not (isinstance(document, dict) and isinstance(document.get("clips"), dict)):
         raise MotionError('not a motionclean baseline (no "clips" table)', path)
+    for key, entry in document["clips"].items():
+        problem = _entry_problem(entry)
+        if problem:
+            raise MotionError(f"not a motionclean baseline: clip {key[:80]!r}: {problem}", path)
     return document
+
+
+def _figure(value: Any) -> bool:
+    """Whether ``value`` is a recorded figure: a finite number, not negative, or null."""
+    if value is None:
+        return True
+    return (
+        isinstance(value, int | float)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and value >= 0
+    )
+
+
+def _entry_problem(entry: Any) -> str | None:
+    """What is wrong with a baseline's clip entry (None: nothing), as ``--update`` writes
+    them: a table of figures, each a number of at least 0 or null, ``frames`` a whole
+    number, ``joints`` a table of such tables."""
+    if not isinstance(entry, dict):
+        return "not a table of figures"
+    frames = entry.get("frames")
+    if not (isinstance(frames, int) and not isinstance(frames, bool) and frames >= 0):
+        return f"frames {str(frames)[:20]!r} is not a whole number"
+    joints = entry.get("joints", {})
+    if not isinstance(joints, dict):
+        return "joints is not a table"
+    tables = [("", entry, [key for key, _, _ in FIGURES])]
+    tables += [
+        (f"joint {j[:40]!r}: ", f, [key for key, _ in JOINT_FIGURES]) for j, f in joints.items()
+    ]
+    for where, table, keys in tables:
+        if not isinstance(table, dict):
+            return f"{where}not a table of figures"
+        for key in keys:
+            if not _figure(table.get(key)):
+                return f"{where}{key} {str(table.get(key))[:20]!r} is not a number of at least 0"
+    return None
 
 
 def _figures(result: FileResult) -> dict[str, Any]:
@@ -143,7 +185,7 @@ def _fmt(value: float | None) -> str:
 
 
 def _change(ref: float | None, value: float | None) -> str:
-    if ref is None or value is None or ref == 0:
+    if ref is None or value is None or abs(ref) <= ABSOLUTE:  # (no ratio to a rounding)
         return "-"
     return f"{value / ref - 1:+.1%}"
 
@@ -240,7 +282,10 @@ def check_command(
         raise UsageError("--replace goes with --update")
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
-    keys = [clip_key(c, baseline_path) for c in clips]
+    named: dict[str, str] = {}  # a clip named twice is checked once
+    for clip in clips:
+        named.setdefault(clip_key(clip, baseline_path), clip)
+    keys, clips = list(named), tuple(named.values())
     tables = tuple(pipeline.describe())
     jobs = [Job(os.fspath(c), None, tables, up=up) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
@@ -264,8 +309,8 @@ def check_command(
         click.echo(format_check(recorded, recorded=True))
         others = len(kept) - len(set(keys))
         click.echo(
-            f"baseline written: {baseline_path} ({len(keys)} clips recorded"
-            + (f", {others} others kept)" if others else ")")
+            f"baseline written: {baseline_path} ({len(keys)} clip{'' if len(keys) == 1 else 's'}"
+            " recorded" + (f", {others} others kept)" if others else ")")
         )
         return
 
@@ -292,10 +337,10 @@ def check_command(
         joints = compare_joints(now, base, tolerance)
         if joints:
             shown = ", ".join(
-                f"{joint} {label.split(',')[0]} {_change(ref, value)}"
+                f"{joint} {label.split(',')[0]} {_fmt(ref)} -> {_fmt(value)}"
                 for joint, label, ref, value in joints[:3]
             )
-            more = f" and {len(joints) - 3} more" if len(joints) > 3 else ""
+            more = f" and {len(joints) - 3} more figures" if len(joints) > 3 else ""
             problems.append(
                 f"{key}: {len({j for j, *_ in joints})} joints got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"

@@ -106,6 +106,39 @@ def test_missing_baseline_is_a_clear_error(clips, capsys):
     assert not Path("none.json").exists()
 
 
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda e: e.update(frames="x"), "frames 'x' is not a whole number"),
+        (lambda e: e.update(noise_after=-5), "noise_after '-5' is not a number of at least 0"),
+        (lambda e: e.update(joints=[]), "joints is not a table"),
+        (lambda e: e["joints"].update(Hips=3), "joint 'Hips': not a table of figures"),
+        (lambda e: e.clear(), "frames 'None' is not a whole number"),
+    ],
+)
+def test_a_baseline_edited_by_hand_is_refused_naming_the_clip(clips, capsys, edit, message):
+    """Figures that are no figures had ended in internal errors (a text where a number
+    was formatted, a list taken for a table) or printed -100228.5 %."""
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+    document = json.loads(Path("b.json").read_text())
+    edit(document["clips"][clips[0]])
+    Path("b.json").write_text(json.dumps(document))
+    code, stdout, stderr = run_cli(capsys, "check", clips[0], "--baseline", "b.json")
+    assert code == 1 and stdout == "" and stderr.count("\n") == 1
+    assert stderr.startswith(
+        f"motionclean: error: b.json: not a motionclean baseline: clip {clips[0]!r}: "
+    )
+    assert message in stderr
+
+
+def test_a_clip_named_twice_is_checked_and_recorded_once(clips, capsys):
+    code, stdout, _ = run_cli(
+        capsys, "check", clips[0], clips[0], "--baseline", "b.json", "--update"
+    )
+    assert code == 0 and "(1 clip recorded)" in stdout
+    assert list(json.loads(Path("b.json").read_text())["clips"]) == [clips[0]]
+
+
 def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
     Path("clips/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
     code, _, stderr = run_cli(
