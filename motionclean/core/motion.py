@@ -301,6 +301,7 @@ class Motion:
                 f"{name}: joint {self.names[joint]!r} has a non-finite value at frame {frame}"
             )
         self._check_missing(frames, n)
+        self._check_skeleton(n)
         if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):
             raise InvalidMotion(f"up: expected one of x, y, z, -x, -y, -z or None, got {self.up!r}")
         if checks.all_unit(self.rotations):
@@ -316,6 +317,40 @@ class Motion:
                 f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
                 f"quaternion (norm {norm:.6g}); normalise with motionclean.core.quat.normalize"
             )
+
+    def _check_skeleton(self, n_joints: int) -> None:
+        """Refuse parents that are no tree of the joints (a shape other than ``(J,)``, an
+        index out of range, a joint its own ancestor) and offsets or end sites that are no
+        finite 3-vectors of the joints: no file written from them reads back."""
+        parents = np.asarray(self.parents)
+        if parents.shape != (n_joints,) or parents.dtype.kind not in "iu":
+            raise InvalidMotion(
+                f"parents: expected {n_joints} integers, got {parents.dtype} {parents.shape}"
+            )
+        if parents.size and not (parents.min() >= -1 and parents.max() < n_joints):
+            raise InvalidMotion(
+                f"parents: each must be -1 (a root) or a joint from 0 to {n_joints - 1}"
+            )
+        above = parents.astype(np.intp)  # each joint's ancestor 1, 2, 4 ... levels up
+        for _ in range(max(n_joints, 1).bit_length()):
+            above = np.where(above >= 0, above[np.maximum(above, 0)], -1)
+        if np.any(above >= 0):
+            joint = int(np.flatnonzero(above >= 0)[0])
+            raise InvalidMotion(
+                f"parents: joint {self.names[joint]!r} is its own ancestor (a cycle)"
+            )
+        offsets = np.asarray(self.offsets)
+        if offsets.shape != (n_joints, 3) or not np.isfinite(offsets).all():
+            raise InvalidMotion(
+                f"offsets: expected finite values of shape ({n_joints}, 3), got {offsets.shape}"
+            )
+        for joint, site in self.end_sites.items():
+            if not (isinstance(joint, int | np.integer) and 0 <= joint < n_joints):
+                raise InvalidMotion(f"end_sites: {joint!r} is not a joint from 0 to {n_joints - 1}")
+            if np.shape(site) != (3,) or not np.isfinite(site).all():
+                raise InvalidMotion(
+                    f"end_sites: joint {self.names[joint]!r}'s is not a finite 3-vector"
+                )
 
     def _check_missing(self, frames: int, n_joints: int) -> None:
         if self.missing is None:

@@ -14,6 +14,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
+
 from ..core.errors import InvalidMotion, MotionError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.reserve import let_go
@@ -184,11 +186,28 @@ def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | 
             )
         if write in (bvh.bvh_pieces, _csv_pieces):  # text headers: names as text
             _check_names(motion.names, write is bvh.bvh_pieces)
+        _check_unwritten_translations(motion)
         return write(motion)
     except MotionError as error:
         if error.path is not None:
             raise
         raise type(error)(error.message, path) from None
+
+
+def _check_unwritten_translations(motion: Motion) -> None:
+    """Refuse translations on joints without position channels (InvalidMotion): every
+    format writes a joint's position from its channels, so they would be dropped."""
+    without = ~motion.layout.has_position
+    if not without.any() or motion.n_frames == 0:
+        return
+    t = motion.translations  # (reductions: no copy of a long clip's positions)
+    moved = without & ((t.max(axis=0) != 0.0) | (t.min(axis=0) != 0.0)).any(axis=-1)
+    if moved.any():
+        joint = motion.names[int(np.argmax(moved))]
+        raise InvalidMotion(
+            f"translations: joint {joint!r} has no position channels, so its translation "
+            "would not be written; give it position channels (channels) or leave it 0"
+        )
 
 
 def _check_names(names: list[str], bvh_file: bool) -> None:

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from helpers import SAMPLE
 
 import motionclean as mc
-from motionclean.core.errors import MotionError
+from motionclean.core.errors import InvalidMotion, MotionError
 
 
 def test_equal_to_a_deep_copy_and_not_to_a_changed_one():
@@ -85,3 +87,33 @@ def test_a_clip_whose_array_is_replaced_derives_again_however_often():
         for _ in range(2):
             motion.rotations = motion.rotations.copy()
         assert motion.derived("n", count) == before + 1
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda m: {"parents": np.r_[1, 0, m.parents[2:]]}, "is its own ancestor (a cycle)"),
+        (lambda m: {"parents": np.arange(m.n_joints)}, "'Hips' is its own ancestor"),
+        (lambda m: {"parents": np.r_[-1, [m.n_joints + 5] * (m.n_joints - 1)]}, "from 0 to 30"),
+        (lambda m: {"parents": m.parents.astype(float)}, "expected 31 integers, got float64"),
+        (lambda m: {"offsets": m.offsets[:3]}, "offsets: expected finite values of shape (31, 3)"),
+        (lambda m: {"end_sites": {99: np.zeros(3)}}, "end_sites: 99 is not a joint"),
+    ],
+)
+def test_a_skeleton_that_is_no_tree_of_the_joints_is_refused(change, message):
+    """Such a clip had been accepted and saved as a BVH that does not read back ("no joints
+    before MOTION"), or failed inside a writer (IndexError)."""
+    motion = mc.load(SAMPLE)
+    with pytest.raises(InvalidMotion, match=re.escape(message)):
+        motion.replace(**change(motion))
+
+
+def test_a_translation_no_channel_holds_is_refused_on_save(tmp_path):
+    """A joint without position channels has no place in any file for its translation: it
+    had been dropped without a word."""
+    motion = mc.load(SAMPLE)
+    translations = motion.translations.copy()
+    translations[:, 5] += 1.0
+    with pytest.raises(InvalidMotion, match="joint 'LeftToe' has no position channels"):
+        mc.save(motion.replace(translations=translations), tmp_path / "x.bvh")
+    assert not (tmp_path / "x.bvh").exists()
