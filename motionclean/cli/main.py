@@ -292,11 +292,11 @@ def resample_command(
     body_model: str | None,
     exclude: tuple[str, ...],
 ) -> None:
-    """Write SOURCE at a new frame rate to TARGET (BVH or CSV by extension).
+    """Write SOURCE at a new frame rate to TARGET (any format, by extension).
 
-    Rotations follow a C1 cubic in angular displacements, positions the matching cubic;
-    a lower rate is low-passed first so nothing aliases. The same as `clean SOURCE -o
-    TARGET -f resample:fps=N`.
+    Rotations follow a C2 spline on the sphere through the samples, positions the matching
+    cubic spline; a lower rate is low-passed first so nothing aliases. The same as `clean
+    SOURCE -o TARGET -f resample:fps=N`.
     """
     rates = {"fps": fps, "frame_time": frame_time}
     step: dict[str, object] = {"filter": "resample"}

@@ -283,14 +283,14 @@ class Pipeline:
                     # the step keeps the rest frames itself: it gets them, and says how many
                     # frames they take in its result
                     whole = splice(outer, current, lead, trail)
-                    outer, log = _run_step(step, whole, 0, None, motion.path, made, earlier)
+                    outer, log = _run_step(step, number, whole, 0, None, motion.path, made, earlier)
                     if outer.n_frames != whole.n_frames:
                         ratio = outer.frame_time / whole.frame_time
                         lead, trail = rest_rows(whole.n_frames, lead, trail, ratio, outer.n_frames)
                     current = copy.copy(trim(outer, lead, trail))
                 else:
                     current, log = _run_step(
-                        step, current, lead, spans.get(number), motion.path, made, earlier
+                        step, number, current, lead, spans.get(number), motion.path, made, earlier
                     )
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
@@ -314,18 +314,24 @@ def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tupl
         if step.spec.run_motion is not None:
             break
         if step.span is not None:
-            spans[number] = _frame_span(step, motion.n_frames, motion.frame_time, motion.path)
+            spans[number] = _frame_span(
+                step, number, motion.n_frames, motion.frame_time, motion.path
+            )
     return spans
 
 
-def _frame_span(step: Step, n_frames: int, frame_time: float, path: str | None) -> tuple[int, int]:
-    where = f"{path}: step ({step.spec.name})" if path else f"step ({step.spec.name})"
+def _frame_span(
+    step: Step, number: int, n_frames: int, frame_time: float, path: str | None
+) -> tuple[int, int]:
+    named = f"step {number} ({step.spec.name})"  # (a step listed twice: which one)
+    where = f"{path}: {named}" if path else named
     assert step.span is not None
     return step.span.frame_span(n_frames, frame_time, where)
 
 
 def _run_step(
     step: Step,
+    number: int,
     motion: Motion,
     offset: int,
     span: tuple[int, int] | None,
@@ -336,7 +342,8 @@ def _run_step(
     """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
     and written into only where ``made`` copied them).
 
-    ``motion`` starts at frame ``offset`` of the file (rest-pose frames left out); a step's
+    ``number`` counts the step from 1 (for messages). ``motion`` starts at frame ``offset``
+    of the file (rest-pose frames left out); a step's
     frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
     notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
     """
@@ -362,7 +369,7 @@ def _run_step(
         earlier=earlier or {},
     )
     if step.span is not None and span is None:
-        span = _frame_span(step, motion.n_frames + offset, motion.frame_time, path)
+        span = _frame_span(step, number, motion.n_frames + offset, motion.frame_time, path)
     if motion.missing is None or step.spec.sees_missing:
         data = step.spec.run(data, step.params)
     else:

@@ -64,7 +64,7 @@ def new_length(motion: Motion, frame_time: float) -> int:
     n_new = resampled_length(motion.n_frames, frame_time / motion.frame_time)
     if n_new < 2:
         raise MotionError(
-            f"resampling {motion.n_frames} frames of {motion.duration:.6g} s to {fps} leaves "
+            f"resampling {motion.n_frames} frames ({motion.duration:.6g} s) to {fps} leaves "
             "1 frame; at least two are needed",
             motion.path,
         )

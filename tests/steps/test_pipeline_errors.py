@@ -242,3 +242,20 @@ def test_a_lowpass_cutoff_at_half_the_rounded_frame_rate_is_refused(tmp_path, ca
         f"{SAMPLE}: step 1 (lee-shin) failed: cutoff_hz must be below the Nyquist frequency "
         f"60 Hz (half the frame rate of 120 fps), got {float(cutoff):g}"
     )
+
+
+def test_a_range_error_names_the_step_by_its_number(tmp_path, capsys):
+    """The same filter listed twice: the message says which (it said "step (lee-shin)")."""
+    code, _, err = run_cli(
+        capsys,
+        "clean",
+        SAMPLE,
+        "-o",
+        tmp_path / "o.bvh",
+        "-f",
+        "lee-shin",
+        "-f",
+        "lee-shin:frames=[0,5000]",
+    )
+    assert code == 1 and ": step 2 (lee-shin): the range ends at frame 5000" in err
+    assert not (tmp_path / "o.bvh").exists()
