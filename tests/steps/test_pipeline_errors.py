@@ -257,5 +257,5 @@ def test_a_range_error_names_the_step_by_its_number(tmp_path, capsys):
         "-f",
         "lee-shin:frames=[0,5000]",
     )
-    assert code == 1 and ": step 2 (lee-shin): the range ends at frame 5000" in err
+    assert code == 2 and ": step 2 (lee-shin): the range ends at frame 5000" in err
     assert not (tmp_path / "o.bvh").exists()
