@@ -25,10 +25,12 @@ _ONES = np.ones(4)
 
 
 def as_float_array(x, name: str) -> np.ndarray:
-    """``x`` as a float64 array, or TypeError naming ``name``."""
+    """``x`` as a float64 array, or TypeError naming ``name`` (complex values too)."""
     if isinstance(x, np.ndarray) and x.dtype == np.float64:
         return x
     refused = x is None or isinstance(x, str | bytes | dict | set)
+    if np.iscomplexobj(x):  # (numpy would drop the imaginary part, with a warning)
+        raise TypeError(f"{name}: expected real numbers, got complex values")
     try:
         array = np.asarray(x, dtype=np.float64) if not refused else None
     except (TypeError, ValueError, OverflowError):

@@ -302,6 +302,12 @@ class Motion:
             )
         self._check_missing(frames, n)
         self._check_skeleton(n)
+        if isinstance(self.frame_time, bool) or not isinstance(
+            self.frame_time, int | float | np.integer | np.floating
+        ):
+            raise InvalidMotion(
+                f"frame_time: expected seconds as a number, got {type(self.frame_time).__name__}"
+            )
         if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):
             raise InvalidMotion(f"up: expected one of x, y, z, -x, -y, -z or None, got {self.up!r}")
         if checks.all_unit(self.rotations):

@@ -107,7 +107,7 @@ def normalize(q: np.ndarray) -> np.ndarray:
 
     Safe for any finite magnitude: each is first divided by its largest component, so
     ``(1e200, 1e200, 0, 0)`` gives ``(0.7071, 0.7071, 0, 0)`` (no overflow). A zero one has
-    no direction: ValueError.
+    no direction, a NaN or infinite one none either: ValueError.
     """
     q = as_float_array(q, "q")
     with np.errstate(over="ignore", under="ignore"):
@@ -115,6 +115,8 @@ def normalize(q: np.ndarray) -> np.ndarray:
     if np.all((norm > 1e-150) & (norm < 1e150)):  # the usual case: plain division
         return q / norm
     largest = np.max(np.abs(q), axis=-1, keepdims=True)
+    if not np.all(largest < np.inf):  # NaN too
+        raise ValueError("q: a vector or quaternion with a NaN or infinite component")
     if not np.all(largest > 0.0):
         raise ValueError("q: a zero vector or quaternion cannot be normalised")
     scaled = q / largest

@@ -72,17 +72,27 @@ def binomial(k: int) -> np.ndarray:
     return coeffs / coeffs.sum()
 
 
+def _finite(value, name: str) -> float:
+    """``value`` as a finite float, or MaskError naming ``name``."""
+    value = checks.number(value, name)
+    if not math.isfinite(value):
+        raise MaskError(f"{name} must be a finite number, got {value}")
+    return value
+
+
 def smoothing(lam: float) -> np.ndarray:
     """Smoothing mask ``(-lam, 4 lam, 24 - 6 lam, 4 lam, -lam) / 24`` (000 Eq. 21-22).
 
     One step of the fourth-order fairing update with damping ``lam``; values in (0, 1]
     smooth, larger ones over-shoot (the pipeline accepts up to 10 for experiments).
     """
+    lam = _finite(lam, "lam")
     return np.array([-lam, 4 * lam, 24 - 6 * lam, 4 * lam, -lam], dtype=np.float64) / 24.0
 
 
 def high_boost(lam: float) -> np.ndarray:
     """High-frequency boost ``original + lam (original - B^5 original)`` (000 Sec. V-C, Eq. 25)."""
+    lam = _finite(lam, "lam")
     return np.array([-lam, -4 * lam, 16 + 10 * lam, -4 * lam, -lam], dtype=np.float64) / 16.0
 
 
@@ -101,9 +111,15 @@ def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
 
     ``sigma_t`` is in frames; ``radius`` defaults to ``ceil(3 sigma_t)``.
     """
-    if sigma_t <= 0:
-        raise MaskError(f"sigma_t must be positive, got {sigma_t}")
+    sigma_t = checks.number(sigma_t, "sigma_t")
+    if not 0 < sigma_t < math.inf:  # NaN too
+        raise MaskError(f"sigma_t must be a positive number of frames, got {sigma_t}")
     radius = math.ceil(3 * sigma_t) if radius is None else int(radius)
+    if radius > MAX_HALF_WIDTH:
+        raise MaskError(
+            f"a Gaussian mask of radius {radius} frames: at most {MAX_HALF_WIDTH} "
+            "(sigma_t up to a third of it)"
+        )
     r = np.arange(-radius, radius + 1, dtype=np.float64)
     if sigma_t < NARROWEST:  # exp(-1 / 2 sigma_t^2) underflows to 0: the identity mask
         return (r == 0).astype(np.float64)

@@ -947,6 +947,8 @@ def fresh_gltf(motion: Motion, glb: bool) -> bytes:
             "without one; give --skeleton TEMPLATE.bvh)",
             motion.path,
         )
+    if motion.n_frames == 0:
+        _fail("glTF needs at least one frame: this clip has none", motion.path)
     if motion.missing is not None:
         frames = np.flatnonzero(motion.missing.any(axis=1))
         _fail(

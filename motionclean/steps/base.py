@@ -54,6 +54,8 @@ class Param:
         if len(shown) > 60:  # a number of thousands of digits, a deep list: its two ends
             shown = f"{shown[:30]}...{shown[-15:]} ({len(shown)} characters)"
         bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {shown}")
+        if isinstance(value, np.generic):  # numpy's scalars, from Python callers: as Python's
+            value = value.item()
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise bad

@@ -266,8 +266,10 @@ class Pipeline:
         ``motion`` is not changed. Rest-pose frames at either end (:mod:`motionclean.core.restpose`)
         are left out of every step and come back bit for bit. A whole-clip step
         (``run_motion``) replaces the clip between them, so the steps after it see its frame
-        count and rate.
+        count and rate. TypeError for anything but a :class:`Motion`.
         """
+        if not isinstance(motion, Motion):
+            raise TypeError(f"run takes a Motion, got {type(motion).__name__}")
         lead, trail = rest_frames(motion)
         # A shallow copy: steps replace its arrays, never write into the input's.
         current = copy.copy(trim(motion, lead, trail))

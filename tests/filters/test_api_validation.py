@@ -179,3 +179,43 @@ def test_masks_of_the_wrong_type_and_uninvertible_quaternions():
         quat.inverse(np.array([1e200, 0, 0, 0]))
     q = np.array([0.6, -0.4, 1.8, 0.2])  # not unit: the inverse still undoes it
     np.testing.assert_allclose(quat.multiply(q, quat.inverse(q)), [1, 0, 0, 0], atol=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: quat.normalize(np.array([np.inf, 0, 0, 0])), ValueError, "NaN or infinite"),
+        (lambda: quat.normalize(np.array([np.nan, 0, 0, 0])), ValueError, "NaN or infinite"),
+        (lambda: quat.normalize(np.array([1j, 0, 0, 0])), TypeError, "got complex values"),
+        (lambda: lee_shin(np.ones((5, 1, 4)) + 0j, [1.0]), TypeError, "got complex values"),
+        (lambda: mc.filters.masks.gaussian(np.nan), ValueError, "sigma_t must be a positive"),
+        (lambda: mc.filters.masks.gaussian(1e9), ValueError, "at most 5000"),
+        (lambda: mc.filters.masks.smoothing(np.nan), ValueError, "lam must be a finite"),
+        (lambda: mc.Pipeline.default().run("abc"), TypeError, "run takes a Motion, got str"),
+        (
+            lambda: mc.load(SAMPLE).replace(frame_time="0.01"),
+            InvalidMotion,
+            "frame_time: expected seconds as a number, got str",
+        ),
+    ],
+)
+def test_more_of_what_no_clip_is_gets_a_clear_error(call, error, message):
+    """Each had given numpy's warning and a wrong value (complex parts dropped, NaN), an
+    allocation of 45 GiB, or an AttributeError or TypeError that named nothing."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(error, match=message):
+            call()
+
+
+def test_numpy_scalars_are_parameters_like_pythons_and_a_clip_without_frames_no_gltf(tmp_path):
+    as_numpy = [{"filter": "lee-shin", "k": np.int64(2), "positions": np.bool_(True)}]
+    as_python = [{"filter": "lee-shin", "k": 2, "positions": True}]
+    assert (
+        mc.Pipeline.from_tables(as_numpy, "x").describe()
+        == mc.Pipeline.from_tables(as_python, "x").describe()
+    )
+    clip = mc.load(SAMPLE)
+    empty = clip.replace(rotations=clip.rotations[:0], translations=clip.translations[:0])
+    with pytest.raises(MotionError, match="glTF needs at least one frame"):
+        mc.save(empty.replace(source_values=None), tmp_path / "e.glb")
