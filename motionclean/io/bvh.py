@@ -602,8 +602,10 @@ def _format_hierarchy(motion: Motion) -> bytes:
         out.append(f"{pad}{'ROOT' if motion.parents[j] < 0 else 'JOINT'} {motion.names[j]}")
         out.append(f"{pad}{{")
         out.append(f"{pad}\tOFFSET {offset(motion.offsets[j])}")
-        if motion.channels[j]:
-            out.append(f"{pad}\tCHANNELS {len(motion.channels[j])} {' '.join(motion.channels[j])}")
+        # (a joint without channels says so: Blender's importer and bvhio need the line)
+        out.append(
+            f"{pad}\tCHANNELS {' '.join([str(len(motion.channels[j])), *motion.channels[j]])}"
+        )
         stack.append((~j, depth))
         stack.extend((child, depth + 1) for child in reversed(children.get(j, [])))
     return ("\n".join(out) + "\n").encode("utf-8")

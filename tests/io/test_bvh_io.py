@@ -479,3 +479,22 @@ def test_a_clip_written_afresh_row_block_by_row_block_is_the_same_bytes(monkeypa
     assert format_bvh(fresh) == whole
     again = parse_bvh(whole, "x.bvh")
     np.testing.assert_allclose(again.source_values, fresh.channel_values(), atol=5e-7)
+
+
+def test_a_joint_without_channels_is_written_with_channels_0(tmp_path):
+    """A joint of no channels (an FBX's or glTF's fixed bone) gets `CHANNELS 0`: without the
+    line Blender's BVH importer (IndexError) and bvhio (SyntaxError) refused the file."""
+    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+    channels += [(), ("Zrotation", "Xrotation", "Yrotation")]
+    values = np.random.default_rng(0).normal(size=(5, 9))
+    offsets = np.array([[0.0, 0, 0], [0, 1, 0], [0, 1, 0]])
+    motion = mc.Motion.from_channel_values(
+        ["root", "mid", "tip"], [-1, 0, 1], offsets, channels, 1 / 30, values
+    )
+    mc.save(motion, tmp_path / "c.bvh")
+    text = (tmp_path / "c.bvh").read_text()
+    assert "JOINT mid\n\t{\n\t\tOFFSET 0.000000 1.000000 0.000000\n\t\tCHANNELS 0\n" in text
+    assert mc.load(tmp_path / "c.bvh").channels == channels
+    bvhio = pytest.importorskip("bvhio")
+    hierarchy = bvhio.readAsHierarchy(str(tmp_path / "c.bvh"))
+    assert [joint.Name for joint, *_ in hierarchy.layout()] == ["root", "mid", "tip"]
