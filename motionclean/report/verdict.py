@@ -227,11 +227,13 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         grounded and smoothing["noise_removed"] < GROUNDED_JITTER
     )
     removed = _removed_words(smoothing["noise_removed"])
+    looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
+    shown_feet = None if looking else feet
     if not smoothed:
         parts = done + grounded
         if not feet and "footlock" in filters:
             parts.append("no foot in contact found, nothing planted")
-        if not parts and not feet:
+        if not parts and not shown_feet:
             parts.append("nothing repaired")
         lead = "not smoothed"
     elif clean:
@@ -243,8 +245,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     else:
         parts = [removed] + done + grounded
         lead = "noisy capture, cleaned"
-    if feet and not (skate is not None and skate > LOOK_SKATE):
-        parts.append(feet)
+    if shown_feet:
+        parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired
     where = (
         " outside repairs"

@@ -275,6 +275,15 @@ def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_p
     assert code == 0 and "hand_l missing on frames 40-47" in verdict["text"]
 
 
+def test_sliding_feet_to_look_at_leave_no_empty_clause(tmp_path, capsys):
+    """fill-gaps alone on the noisy sample: nothing repaired, the feet slide (a reason to
+    look, said first), and the rest says nothing was repaired (it read "Not smoothed: ;")."""
+    code, out, _ = run_cli(capsys, "clean", NOISY, "-o", tmp_path / "x.bvh", "-f", "fill-gaps")
+    line = next(line for line in out.splitlines() if line.startswith("verdict: "))
+    assert code == 0 and line.startswith("verdict: needs a look: feet slide")
+    assert "Not smoothed: nothing repaired; no rotation changed" in line and ": ;" not in line
+
+
 def test_a_clip_only_put_on_the_floor_is_not_judged_and_says_what_moved_it():
     """ground moves and levels the root, smoothing nothing: the verdict makes no noise
     judgement ('not smoothed') and says what moved the clip."""
