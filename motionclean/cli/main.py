@@ -422,7 +422,7 @@ def report(
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
-        check_compatible(before, after, gaps_ok=True)
+        check_compatible(before, after, compared=True)
     series = build_series(before, after)
     notes = None if after is None else gap_notes(before, after)  # what a fill left, or did
     result = build_report(before, after, notes=notes, file=source, series=series)

@@ -319,3 +319,19 @@ def test_info_cuts_very_long_joint_names_so_every_line_stays_short(tmp_path, cap
     assert max(map(len, out.splitlines())) < 200
     shown = "L" * 37 + "..."
     assert sum(line.count(shown) for line in out.splitlines()) == 2  # its row, its child's
+
+
+def test_report_compares_clips_whose_offsets_moved_by_a_round_trip(tmp_path, capsys):
+    """A clip through Blender's FBX comes back with a finger's offset 1.3e-4 off (of a 24
+    unit figure): report compares it with its source (it refused: "another OFFSET"); blend,
+    which joins the two skeletons' motion, still refuses."""
+    text = SAMPLE.read_text()
+    moved = text.replace("OFFSET 0 -0.657810 0.000000", "OFFSET 0.000126 -0.657814 -0.000003", 1)
+    assert moved != text
+    (tmp_path / "moved.bvh").write_text(moved)
+    code, _, err = run_cli(capsys, "report", SAMPLE, tmp_path / "moved.bvh")
+    assert code == 0, err
+    code, _, err = run_cli(
+        capsys, "blend", SAMPLE, tmp_path / "moved.bvh", "-o", tmp_path / "b.bvh"
+    )
+    assert code == 1 and "has another OFFSET" in err
