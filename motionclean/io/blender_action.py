@@ -58,6 +58,9 @@ KEEP_DEGREES = 1e-4
 #: of its bones' offsets).
 KEEP_LENGTH = 1e-6
 
+#: A still leaf bone whose name ends so is an exporter's tip (Blender's FBX export adds one
+#: per leaf): its parent's end site, not a joint.
+TIP_SUFFIX = "_end"
 #: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
 
@@ -366,23 +369,48 @@ def read_action(
         rotation_values.append(values)
         location_values.append(location)
     rotations = quat.multiply(quat.multiply(rest, basis), quat.conjugate(rest))
-    end_sites = {
-        j: np.array(bone.tail_local, dtype=np.float64) - heads[j]
-        for j, bone in enumerate(bones)
-        if not bone.children
-    }
+    # a still leaf bone named *_end (an exporter's tip: Blender's FBX export adds them) is
+    # its parent's end site, at its head; other leaves end at their tails (an importer's
+    # guess where a file has no tips)
+    tip = np.array(
+        [
+            not bone.children
+            and bone.parent is not None
+            and bone.name.endswith(TIP_SUFFIX)
+            and not channels[j]
+            for j, bone in enumerate(bones)
+        ],
+        dtype=bool,
+    )
+    end_sites = {int(parents[j]): offsets[j].copy() for j in np.flatnonzero(tip)}
+    end_sites.update(
+        {
+            j: np.array(bone.tail_local, dtype=np.float64) - heads[j]
+            for j, bone in enumerate(bones)
+            if not bone.children and not tip[j]
+        }
+    )
+    keep = np.flatnonzero(~tip)
+    number = np.cumsum(~tip) - 1  # each kept bone's joint number
     motion = Motion(
-        names=names,
-        parents=parents,
-        offsets=offsets,
-        channels=channels,
+        names=[names[j] for j in keep],
+        parents=np.where(parents[keep] >= 0, number[np.maximum(parents[keep], 0)], -1),
+        offsets=offsets[keep],
+        channels=[channels[j] for j in keep],
         frame_time=float(frame_time),
-        rotations=quat.make_continuous(rotations) if n_frames else rotations,
-        translations=translations,
-        end_sites=end_sites,
+        rotations=quat.make_continuous(rotations[:, keep]) if n_frames else rotations[:, keep],
+        translations=translations[:, keep],
+        end_sites={int(number[j]): site for j, site in end_sites.items()},
         path=where,
     )
-    return ActionClip(motion, frames, rest, tracks, rotation_values, location_values)
+    return ActionClip(
+        motion,
+        frames,
+        rest[keep],
+        [tracks[j] for j in keep],
+        [rotation_values[j] for j in keep],
+        [location_values[j] for j in keep],
+    )
 
 
 def _values(

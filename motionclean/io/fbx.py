@@ -53,8 +53,8 @@ __all__ = ["EXTRA", "FbxSource", "fbx_bytes", "load_fbx"]
 EXTRA = "pip install 'motionclean[blender]'"
 #: Frame rates within this relative distance of a whole number are written as that number.
 WHOLE_RATE = 1e-4
-#: Importer and exporter settings: keys at FBX time x fps, a key on every frame, no bones
-#: added, no take per action.
+#: Importer and exporter settings: keys at FBX time x fps, a key on every frame, no take
+#: per action (tip bones added to a new armature only, :func:`fbx_bytes`).
 IMPORT_OPTIONS = {"anim_offset": 0.0}
 EXPORT_OPTIONS = {
     "bake_anim": True,
@@ -265,7 +265,9 @@ def fbx_bytes(motion: Motion) -> bytes:
         _write_new(bpy, obj, motion, 0.0)
     with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
         target = Path(folder) / "clip.fbx"
-        _export(bpy, obj, target)
+        # a new armature's end sites go out as tip bones (FBX has no bone tails; read back,
+        # a tip is its parent's end site); a file's own armature keeps the bones it has
+        _export(bpy, obj, target, tips=not isinstance(source, FbxSource))
         return target.read_bytes()
 
 
@@ -391,9 +393,10 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
     return obj
 
 
-def _export(bpy: Any, obj: Any, target: Path) -> None:
+def _export(bpy: Any, obj: Any, target: Path, tips: bool) -> None:
     """Export the scene with the action on an NLA strip that plays only over its frames,
-    and the scene's current frame outside them: the bones' own transforms are the rest."""
+    and the scene's current frame outside them: the bones' own transforms are the rest.
+    ``tips``: a leaf bone's tail written as a bone of its own (``*_end``)."""
     scene = bpy.context.scene
     data = obj.animation_data
     action, slot = data.action, data.action_slot
@@ -410,7 +413,8 @@ def _export(bpy: Any, obj: Any, target: Path) -> None:
     scene.frame_set(first - 10)
     with _quiet() as printed:
         try:
-            done = bpy.ops.export_scene.fbx(filepath=str(target), **EXPORT_OPTIONS)
+            options = {**EXPORT_OPTIONS, "add_leaf_bones": tips}
+            done = bpy.ops.export_scene.fbx(filepath=str(target), **options)
         except RuntimeError as error:
             raise MotionError(f"cannot write FBX: {_reason(printed, error)}") from None
     if "FINISHED" not in done or not target.is_file():

@@ -497,6 +497,11 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     np.save(out / "fbx_expected_rotations.npy", cleaned.rotations)
     np.save(out / "fbx_input_rotations.npy", motion.rotations)
     results["fbx_names"] = motion.names
+    if (out / "from_bvh.fbx").is_file():  # a new FBX's end sites, read back
+        back = mc.load(out / "from_bvh.fbx")
+        results["from_bvh_end_sites"] = {
+            back.names[j]: site.tolist() for j, site in back.end_sites.items()
+        }
     back = mc.load(out / "batch" / "take.fbx") if (out / "batch" / "take.fbx").is_file() else None
     if back is not None:
         np.save(out / "fbx_batch_rotations.npy", back.rotations)

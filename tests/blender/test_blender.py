@@ -214,7 +214,8 @@ def test_fbx_commands_run_through_blender(blender):
         assert run["code"] == 0, (name, run["stderr"])
         assert run["stderr"] == ""  # nothing Blender prints reaches the terminal
     info = blender.results["fbx_runs"]["info"]["stdout"]
-    assert f"frames: {FRAMES}" in info and "joints: 38" in info and "rate: 120 fps" in info
+    # 38 bones: the 31 joints and Blender's seven *_end tips, read as their end sites
+    assert f"frames: {FRAMES}" in info and "joints: 31" in info and "rate: 120 fps" in info
     report = json.loads((blender.out / "report.json").read_text())  # take.fbx vs identity.fbx
     assert report["frames"] == FRAMES and {"Hips", "RThumb", "LeftKnee"} <= report["joints"].keys()
     # (the rest orientation of CMU's 0.01-long wrist bones comes back from the file's
@@ -264,8 +265,10 @@ def test_fbx_default_clean_is_the_pipelines_result(blender):
     # angles: 1e-4 degrees, but near gimbal lock float32 angles are coarser (CMU's
     # zero-length wrists and RThumb sit there in the file's bone axes: up to 0.017 degrees
     # on their frames; Blender's own export and import of new values, not the writer's).
+    # (the file's seven *_end tips are end sites, no longer joints whose zero errors
+    # counted: the 90th percentile is 1.03e-4 of the 31 joints')
     assert np.median(errors) < 1e-5
-    assert np.percentile(errors, 90) < KEEP_DEGREES and errors.max() < 0.05
+    assert np.percentile(errors, 90) < 2 * KEEP_DEGREES and errors.max() < 0.05
     assert (blender.out / "reports").is_dir()
 
 
@@ -283,5 +286,14 @@ def test_fbx_converts_to_bvh_and_back(blender):
     bvh = mc.load(blender.out / "take.bvh")
     assert bvh.names == names and bvh.n_frames == FRAMES
     again = blender.results["fbx_loaded"]["from_bvh.fbx"]
-    assert again["bones"] == names and again["fps"] == [120, 1.0]
+    # a new FBX writes each end site as a tip bone (FBX has no bone tails): read back, the
+    # joints and end sites of the BVH
+    tips = [bone for bone in again["bones"] if bone.endswith("_end")]
+    assert [bone for bone in again["bones"] if bone not in tips] == names
+    assert sorted(tips) == sorted(f"{bvh.names[j]}_end" for j in bvh.end_sites)
+    sites = blender.results["from_bvh_end_sites"]
+    assert sorted(sites) == sorted(bvh.names[j] for j in bvh.end_sites)
+    for j, site in bvh.end_sites.items():  # (the importer's guessed tails had doubled them)
+        assert np.abs(np.array(sites[bvh.names[j]]) - site).max() < 1e-4
+    assert again["fps"] == [120, 1.0]
     assert again["frames"] == [1, FRAMES]  # BVH frame 0 at time 0: Blender's frame 1
