@@ -235,6 +235,8 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
 def load_fbx(path: str | os.PathLike) -> Motion:
     """Read the animation of the one armature in an FBX file (see the module notes)."""
     data, _ = read_regular_file(Path(path))
+    if not data:  # (Blender's importer calls an empty file ASCII FBX)
+        raise MotionError("empty file", path)
     bpy = _bpy("reading", path)
     obj, clip = _read(bpy, data, path)
     motion = clip.motion

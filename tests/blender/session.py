@@ -460,6 +460,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
         ],
         "info": ["info", "takes/take.fbx"],
         "not_binary": ["info", "ascii.fbx"],
+        "empty": ["info", "empty.fbx"],
         "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
         "report": ["report", "takes/take.fbx", "identity.fbx", "--json", "report.json"],
         "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],
@@ -467,7 +468,8 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     }
     ran = {}
     (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
-    first = ["identity", "batch", "info", "to_bvh", "not_binary"]
+    (out / "empty.fbx").write_bytes(b"")
+    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty"]
     for group in (
         first,
         ["from_bvh", "report", "resample"],

@@ -210,6 +210,8 @@ def test_fbx_commands_run_through_blender(blender):
     assert refused["stderr"] == (
         "motionclean: error: ascii.fbx: cannot read FBX: ASCII FBX files are not supported\n"
     )
+    empty = runs.pop("empty")  # (Blender's importer had called it an ASCII FBX)
+    assert empty["code"] == 1 and empty["stderr"] == "motionclean: error: empty.fbx: empty file\n"
     for name, run in runs.items():
         assert run["code"] == 0, (name, run["stderr"])
         assert run["stderr"] == ""  # nothing Blender prints reaches the terminal
