@@ -21,7 +21,8 @@ def _runs(first: np.ndarray, stop: np.ndarray) -> list[list[int]]:
 def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     if motion.missing is None:
         return motion, {}
-    max_frames = min(frames_floor(params["max_gap"] / motion.frame_time), motion.n_frames)
+    longest = params["max_gap"] / motion.frame_time  # (inf: every gap)
+    max_frames = motion.n_frames if longest >= motion.n_frames else frames_floor(longest)
     result = fill_gaps(
         motion.rotations,
         motion.translations,

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import SAMPLE, run_cli
+from helpers import ROOT, SAMPLE, run_cli
 
 import motionclean as mc
 from motionclean.core import quat
@@ -335,3 +335,14 @@ def test_report_compares_clips_whose_offsets_moved_by_a_round_trip(tmp_path, cap
         capsys, "blend", SAMPLE, tmp_path / "moved.bvh", "-o", tmp_path / "b.bvh"
     )
     assert code == 1 and "has another OFFSET" in err
+
+
+def test_fill_gaps_with_no_longest_gap_fills_every_gap(tmp_path, capsys):
+    """max_gap=inf, which the catalogue allows, had ended in an internal error on a clip with
+    a gap (an infinity turned into a frame count)."""
+    dropouts = ROOT / "sample_data" / "131_02_motive.csv"
+    code, _, err = run_cli(
+        capsys, "clean", dropouts, "-o", tmp_path / "f.csv", "-q", "-f", "fill-gaps:max_gap=inf"
+    )
+    assert code == 0, err
+    assert mc.load(tmp_path / "f.csv").missing is None
