@@ -98,6 +98,8 @@ def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in args
+    if debug:  # taken wherever it is given (the group's option, moved before the command)
+        args = ["--debug", *(a for a in args if a != "--debug")]
     one_malloc_arena()
     no_huge_page_advice()
     keep_reserve()

@@ -346,3 +346,10 @@ def test_fill_gaps_with_no_longest_gap_fills_every_gap(tmp_path, capsys):
     )
     assert code == 0, err
     assert mc.load(tmp_path / "f.csv").missing is None
+
+
+def test_debug_is_taken_after_the_command_too(tmp_path, capsys):
+    """`clean ... --debug` had been click's "No such option" with a traceback of its own:
+    the option is the group's, and is now taken wherever it is given."""
+    code, out, err = run_cli(capsys, "info", SAMPLE, "--debug")
+    assert code == 0 and "frames: 300" in out and err == ""
