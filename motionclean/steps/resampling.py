@@ -15,10 +15,12 @@ import os
 
 import numpy as np
 
+from ..core import quat
 from ..core.errors import MotionError
-from ..core.motion import Motion, joint_major_zeros
+from ..core.motion import Motion, hold_missing, joint_major_zeros
 from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
+from ..filters.gaps import fill_gaps
 from ..filters.resample import (
     resample_continuous,
     resample_positions,
@@ -172,8 +174,40 @@ def resample_motion(motion: Motion, frame_time: float) -> Motion:
     n_new = new_length(motion, frame_time)
     ratio = frame_time / motion.frame_time
     lead, trail = rest_frames(motion)
-    if lead or trail:
-        return _with_rest(motion, frame_time, n_new, lead, trail)
+    out = (
+        _with_rest(_bridged(motion), frame_time, n_new, lead, trail)
+        if lead or trail
+        else _plain(_bridged(motion), frame_time, n_new, ratio)
+    )
+    if out.missing is None:
+        return out
+    # placeholders again, as every clip holds them (the nearest known sample)
+    return out.replace(
+        rotations=quat.make_continuous(hold_missing(out.rotations, out.missing), axis=0),
+        translations=hold_missing(out.translations, out.missing),
+    )
+
+
+def _bridged(motion: Motion) -> Motion:
+    """``motion`` with its dropouts bridged as ``fill-gaps`` bridges them, on each joint's
+    own and whatever their length (still marked missing): the spline and the anti-alias
+    low-pass run across a smooth bridge, not across the held placeholder and the step at
+    its end, which they had spread into the known frames beside a gap (8 degrees)."""
+    if motion.missing is None:
+        return motion
+    filled = fill_gaps(
+        motion.rotations,
+        motion.translations,
+        motion.missing,
+        motion.n_frames,
+        motion.layout.has_position,
+        donors=False,
+    )
+    return motion.replace(rotations=filled.rotations, translations=filled.translations)
+
+
+def _plain(motion: Motion, frame_time: float, n_new: int, ratio: float) -> Motion:
+    """``motion`` (no rest frames) resampled to ``n_new`` frames ``frame_time`` apart."""
     rotations, translations = _resampled(motion, ratio, n_new, antialias=True)
     missing = None
     if motion.missing is not None:
