@@ -320,6 +320,7 @@ def gap_notes(before: Motion, after: Motion) -> dict[str, dict]:
                 "filled": filled,
                 "missing": left,
                 "donors": [],  # (not known from the two clips)
+                "why": "not filled",  # (no max_gap is known either)
             }
         }
     return notes

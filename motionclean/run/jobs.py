@@ -26,7 +26,7 @@ from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
 from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
-from ..report.summary import build_report, build_series, to_json
+from ..report.summary import build_report, build_series, gap_notes, to_json
 from ..report.verdict import repaired_frames
 from ..steps.pipeline import Pipeline, StepLog
 from ..steps.resampling import on_input_frames
@@ -146,6 +146,8 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
     notes = notes_by_joint(logs)
+    for joint, note in gap_notes(before, compared).items():  # dropouts no step filled
+        notes.setdefault(joint, {}).setdefault("fill-gaps", note["fill-gaps"])
     repairs = _repaired_input_frames(logs, before)
     series = build_series(before, compared, repairs)
     return_free_memory()  # the series' per-frame tables

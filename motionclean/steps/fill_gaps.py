@@ -65,7 +65,7 @@ def _format_note(note: dict, positions: bool, runs=format_runs) -> str:
     if note["donors"]:
         parts.append("following " + ", ".join(note["donors"]))
     if missing:
-        parts.append(f"left missing {runs(missing)} (longer than max_gap)")
+        parts.append(f"left missing {runs(missing)} ({note.get('why', 'longer than max_gap')})")
     return "; ".join(parts)
 
 

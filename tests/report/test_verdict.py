@@ -275,6 +275,19 @@ def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_p
     assert code == 0 and "hand_l missing on frames 40-47" in verdict["text"]
 
 
+def test_a_dropout_no_step_filled_is_a_reason_to_look(tmp_path, capsys):
+    """A pipeline without fill-gaps leaves the tracker CSV's dropout missing: the verdict
+    says so, as the README's table has it (it said "cleaned" and listed no gap), and the
+    reason given is that it was not filled, not a max_gap no step had."""
+    dropouts = ROOT / "sample_data" / "131_02_motive.csv"
+    out_csv = tmp_path / "o.csv"
+    code, out, _ = run_cli(capsys, "clean", dropouts, "-o", out_csv, "-f", "lee-shin:k=2")
+    assert code == 0 and "verdict: needs a look: hand_l missing on frames 40-47" in out
+    assert "left missing 40-47 (not filled)" in out and "max_gap" not in out
+    code, out, _ = run_cli(capsys, "report", dropouts, out_csv)
+    assert code == 0 and "left missing 40-47 (not filled)" in out
+
+
 def test_sliding_feet_to_look_at_leave_no_empty_clause(tmp_path, capsys):
     """fill-gaps alone on the noisy sample: nothing repaired, the feet slide (a reason to
     look, said first), and the rest says nothing was repaired (it read "Not smoothed: ;")."""
