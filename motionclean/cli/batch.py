@@ -341,6 +341,9 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
+    for _, result in rows:
+        for line in result.warnings:
+            click.echo(line, err=True)
     failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
     raise_failures(failures + ([lost] if lost else []))
 

@@ -289,6 +289,9 @@ def check_command(
     tables = tuple(pipeline.describe())
     jobs = [Job(os.fspath(c), None, tables, up=up) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
+    for result in results.values():
+        for line in result.warnings:
+            click.echo(line, err=True)
     failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]
 
     if update:

@@ -33,6 +33,7 @@ from ..run.jobs import (
     blend_clips,
     check_compatible,
     clean_clip,
+    pattern_warnings,
     render_report,
     stitch_clips,
     write_outputs,
@@ -366,13 +367,8 @@ def clean(
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
     write_outputs(after, output, reports)
-    for number, log in enumerate(logs, 1):
-        for pattern in log.unmatched:
-            click.echo(
-                f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
-                f"joints pattern {pattern!r} matches no joint",
-                err=True,
-            )
+    for line in pattern_warnings(source, logs):
+        click.echo(line, err=True)
     if not quiet:
         click.echo(format_table(report))
 

@@ -38,6 +38,7 @@ __all__ = [
     "Job",
     "blend_clips",
     "check_compatible",
+    "pattern_warnings",
     "clean_clip",
     "clean_file",
     "clean_motion",
@@ -190,6 +191,18 @@ class FileResult:
     jitter_after: float | None = None
     jitter_removed: float | None = None
     change_max: float | None = None
+    warnings: tuple[str, ...] = ()  # one line each: motionclean: warning: FILE: ...
+
+
+def pattern_warnings(source: str, logs: Sequence[StepLog]) -> tuple[str, ...]:
+    """The warning lines of a cleaning: each step's ``joints`` pattern that matched no joint
+    of the clip (a likely typo), ``motionclean: warning: FILE: step N (name): ...``."""
+    return tuple(
+        f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
+        f"joints pattern {pattern!r} matches no joint"
+        for number, log in enumerate(logs, 1)
+        for pattern in log.unmatched
+    )
 
 
 @dataclass(frozen=True)
@@ -243,6 +256,7 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
         deviation_max=summary["deviation_deg_max"],
         deviation_rms=deviation_rms,
         report=job.report,
+        warnings=pattern_warnings(job.source, result.logs),
         joints={
             name: {
                 "noise_after": entry["angular_accel_rms"]["after"],

@@ -353,3 +353,20 @@ def test_debug_is_taken_after_the_command_too(tmp_path, capsys):
     the option is the group's, and is now taken wherever it is given."""
     code, out, err = run_cli(capsys, "info", SAMPLE, "--debug")
     assert code == 0 and "frames: 300" in out and err == ""
+
+
+def test_batch_and_check_warn_of_a_joints_pattern_that_matches_nothing(tmp_path, capsys):
+    """As clean does (a likely typo): batch and check had said nothing."""
+    (tmp_path / "in").mkdir()
+    clip = tmp_path / "in" / "a.bvh"
+    clip.write_bytes(SAMPLE.read_bytes())
+    warning = (
+        f"motionclean: warning: {clip}: step 1 (lee-shin): joints pattern 'Nope' matches no joint\n"
+    )
+    step = ["-f", "lee-shin:joints=[Nope]"]
+    code, _, err = run_cli(capsys, "batch", tmp_path / "in", "-o", tmp_path / "out", "-q", *step)
+    assert code == 0 and err == warning
+    code, _, err = run_cli(
+        capsys, "check", clip, "--baseline", tmp_path / "b.json", "--update", *step
+    )
+    assert code == 0 and err == warning
