@@ -341,3 +341,11 @@ def test_jitter_words_never_say_minus_zero(fraction, words):
     from motionclean.report.verdict import _removed_words
 
     assert _removed_words(fraction) == words
+
+
+def test_a_resampled_clip_does_not_claim_its_dropouts_filled():
+    """A pipeline that changes the frame rate is compared on the input's frames without
+    their gaps: no fill is read from that comparison (it had said "1 gap filled")."""
+    clip = mc.load(ROOT / "sample_data" / "131_02_motive.csv")
+    report = clean_motion(clip, Pipeline.from_inline(["resample:fps=60"]), "m.csv").report
+    assert "gap filled" not in report["verdict"]["text"]
