@@ -33,6 +33,7 @@ from ..io import atomic_write
 from ..report.summary import json_safe, to_json
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
+from ..steps.base import plural
 from .options import (
     FILE_PATH,
     PIPE_OPTION,
@@ -312,8 +313,8 @@ def check_command(
         click.echo(format_check(recorded, recorded=True))
         others = len(kept) - len(set(keys))
         click.echo(
-            f"baseline written: {baseline_path} ({len(keys)} clip{'' if len(keys) == 1 else 's'}"
-            " recorded" + (f", {others} others kept)" if others else ")")
+            f"baseline written: {baseline_path} ({plural(len(keys), 'clip')} recorded"
+            + (f", {others} others kept)" if others else ")")
         )
         return
 

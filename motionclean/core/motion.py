@@ -547,11 +547,16 @@ class Motion:
         if not self.has_source_frames():
             values = np.zeros((self.n_frames, layout.n_channels))
             for order, joints in layout.groups:
-                q = self.rotations[:, joints]
-                angles = quat.to_euler(q, order)  # the first frame's; then each continues
-                new = np.zeros(angles.shape[:2], dtype=bool)
-                angles = continuous_euler(q, order, angles, new)
-                values[:, layout.rotation_columns[joints]] = angles
+                cols = layout.rotation_columns[joints]
+                carry = None
+                for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # blocks stay small
+                    block = slice(at, at + FILTER_BLOCK_FRAMES)
+                    q = np.ascontiguousarray(self.rotations[block, joints])
+                    principal = quat.to_euler(q, order)  # the first frame's; then each continues
+                    new = np.zeros(principal.shape[:2], dtype=bool)
+                    values[block, cols], carry = _continue_block(
+                        q, order, principal, new, carry, principal
+                    )
         else:
             assert self.source_values is not None
             values = np.empty_like(self.source_values)  # every column is written below
@@ -780,7 +785,7 @@ def _solutions(q, order, last, principal=None):
     was written on: the solution in use is the anchor's, switched at every such frame."""
     if principal is None:
         principal = quat.to_euler(q, order)
-    principal = _split_locked(q, order, principal, last)
+    principal = _split_locked(principal, order, last)
     other = principal + [180.0, 0.0, 180.0]
     np.subtract(180.0, principal[..., 1], out=other[..., 1])
     switch = np.empty(principal.shape[:-1], dtype=bool)
@@ -800,7 +805,7 @@ def _solutions(q, order, last, principal=None):
 LOCKED_MIDDLE_DEG = 1e-4 / np.pi
 
 
-def _split_locked(q, order, principal, last):
+def _split_locked(principal, order, last):
     """``principal`` ``(F, J, 3)`` with each frame at or near gimbal lock split as the last
     frame before it that is not (``last``, the frame before the block, when none in it)
     (:func:`quat.keep_first_at_lock`): only the sum or difference of the outer angles is
@@ -810,9 +815,9 @@ def _split_locked(q, order, principal, last):
     locked = np.abs(principal[..., 1]) >= 90.0 - LOCKED_MIDDLE_DEG
     if not locked.any():
         return principal
-    frame = np.arange(q.shape[0])[:, None]
+    frame = np.arange(principal.shape[0])[:, None]
     before = np.maximum.accumulate(np.where(locked, -1, frame), axis=0)  # last unlocked frame
-    first = principal[np.maximum(before, 0), np.arange(q.shape[1])[None, :], 0]
+    first = principal[np.maximum(before, 0), np.arange(principal.shape[1])[None, :], 0]
     known = before >= 0
     if last is not None:
         first = np.where(known, first, last[None, :, 0])

@@ -306,13 +306,13 @@ def gap_notes(before: Motion, after: Motion) -> dict[str, dict]:
     ``[start, stop)`` frames. For two clips compared without the steps that made one."""
     if before.missing is None:
         return {}
-    still = after.missing if after.missing is not None else np.zeros_like(before.missing)
+    joints = np.flatnonzero(before.missing.any(axis=0))
+    was = before.missing[:, joints]
+    still = np.zeros_like(was) if after.missing is None else after.missing[:, joints]
+    runs = [found.contact_runs(mask) for mask in (was, was & ~still, still)]
     notes = {}
-    for j in np.flatnonzero(before.missing.any(axis=0)):
-        gaps, filled, left = (
-            [[int(a), int(b) + 1] for a, b in found.contact_runs(mask[:, [j]])[0]]
-            for mask in (before.missing, before.missing & ~still, still)
-        )
+    for k, j in enumerate(joints):
+        gaps, filled, left = ([[int(a), int(b) + 1] for a, b in each[k]] for each in runs)
         notes[before.names[j]] = {
             "fill-gaps": {
                 "gaps": len(gaps),

@@ -174,10 +174,11 @@ def resample_motion(motion: Motion, frame_time: float) -> Motion:
     n_new = new_length(motion, frame_time)
     ratio = frame_time / motion.frame_time
     lead, trail = rest_frames(motion)
+    bridged = _bridged(motion)
     out = (
-        _with_rest(_bridged(motion), frame_time, n_new, lead, trail)
+        _with_rest(bridged, frame_time, n_new, lead, trail)
         if lead or trail
-        else _plain(_bridged(motion), frame_time, n_new, ratio)
+        else _plain(bridged, frame_time, n_new, ratio)
     )
     if out.missing is None:
         return out
