@@ -31,6 +31,7 @@ from .options import (
     SOURCE_OPTION,
     STEP_OPTION,
     UP_OPTION,
+    echo_warnings,
     pipeline_from_options,
     raise_failures,
     read_options,
@@ -341,9 +342,7 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
-    for _, result in rows:
-        for line in result.warnings:
-            click.echo(line, err=True)
+    echo_warnings(line for _, result in rows for line in result.warnings)
     failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
     raise_failures(failures + ([lost] if lost else []))
 

@@ -41,6 +41,7 @@ from .options import (
     STEP_OPTION,
     UP_OPTION,
     FiniteRange,
+    echo_warnings,
     pipeline_from_options,
     raise_failures,
 )
@@ -290,9 +291,7 @@ def check_command(
     tables = tuple(pipeline.describe())
     jobs = [Job(os.fspath(c), None, tables, up=up) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
-    for result in results.values():
-        for line in result.warnings:
-            click.echo(line, err=True)
+    echo_warnings(line for result in results.values() for line in result.warnings)
     failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]
 
     if update:

@@ -55,6 +55,7 @@ from .options import (
     check_clip_output,
     check_output,
     check_report_output,
+    echo_warnings,
     pipeline_from_options,
     read_options,
     reading,
@@ -367,8 +368,7 @@ def clean(
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
     write_outputs(after, output, reports)
-    for line in pattern_warnings(source, logs):
-        click.echo(line, err=True)
+    echo_warnings(pattern_warnings(source, logs))
     if not quiet:
         click.echo(format_table(report))
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import click
@@ -25,6 +25,12 @@ REPORT_SUFFIXES = (".json", ".html", ".htm")
 PATH = click.Path(readable=False)
 FILE_PATH = click.Path(dir_okay=False, readable=False)
 FOLDER_PATH = click.Path(file_okay=False, readable=False)
+
+
+def echo_warnings(lines: Iterable[str]) -> None:
+    """Print a run's warning lines (``motionclean: warning: ...``) on stderr."""
+    for line in lines:
+        click.echo(line, err=True)
 
 
 def read_options(command):

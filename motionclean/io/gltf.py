@@ -56,7 +56,7 @@ from ..core.motion import (
 )
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
-from .text import MAX_MAGNITUDE
+from .text import MAX_MAGNITUDE, within_magnitude
 
 GLB_MAGIC = b"glTF"
 #: Suffixes of binary glTF files (a VRM animation, ``.vrma``, is one).
@@ -443,7 +443,7 @@ def _keys(
             f"({interpolation}: expected {per_key * times.size})",
             path,
         )
-    if not (np.isfinite(times).all() and (np.abs(values) <= MAX_MAGNITUDE).all()):
+    if not (np.isfinite(times).all() and within_magnitude(values)):
         _fail(
             f"animations[{a}].samplers[{s}]: a key time or value is not a finite number{_IN_RANGE}",
             path,
@@ -920,10 +920,10 @@ UP_NODE = "motionclean_up"
 def _upright_turn(axis: int, sign: float) -> np.ndarray | None:
     """The quaternion turning the skeleton's up (``axis``, ``sign``) onto +Y by the least
     angle (a half turn about X for -Y), None when it is +Y."""
-    up = np.zeros(3)
-    up[axis] = sign
     if axis == 1:
         return None if sign > 0 else quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
+    up = np.zeros(3)
+    up[axis] = sign
     y = np.array([0.0, 1.0, 0.0])
     return quat.normalize(np.concatenate([[1.0], np.cross(up, y)]))
 

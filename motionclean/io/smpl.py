@@ -44,7 +44,7 @@ from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_
 from . import npz, smpl_model
 from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
-from .text import MAX_MAGNITUDE
+from .text import MAX_MAGNITUDE, within_magnitude
 
 #: Rotation channels each joint gets (its Euler order when written as BVH or CSV).
 ROTATION = ("Zrotation", "Yrotation", "Xrotation")
@@ -298,8 +298,8 @@ def _check_numbers(record: dict, keys, path) -> None:
         array = record[key]
         if array.dtype.kind not in "fiu":
             raise MotionError(f"{key}: not an array of real numbers ({array.dtype})", path)
-        bad = ~(np.abs(array) <= MAX_MAGNITUDE)  # NaN too
-        if bad.any():
+        if not within_magnitude(array):
+            bad = ~(np.abs(array) <= MAX_MAGNITUDE)  # NaN too
             frame = int(np.argwhere(bad.reshape(array.shape[0], -1))[0][0])
             raise MotionError(
                 f"{key}: a value that is not a finite number of at most {MAX_MAGNITUDE:g} in "

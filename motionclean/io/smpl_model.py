@@ -23,7 +23,7 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from .text import MAX_MAGNITUDE
+from .text import MAX_MAGNITUDE, within_magnitude
 
 #: The 22 joints every model has, with their parents.
 BODY = (
@@ -209,7 +209,7 @@ def model_offsets(arrays: dict[str, np.ndarray], tree: Tree, betas, path) -> np.
         n = min(dirs.shape[2], betas.size)
         shaped = template + dirs[:, :, :n] @ betas[:n]
     joints = regressor[: tree.n_joints] @ shaped
-    if not (np.abs(joints) <= MAX_MAGNITUDE).all():  # NaN too
+    if not within_magnitude(joints):  # NaN too
         raise MotionError(
             f"body model: joint positions are not finite numbers of at most {MAX_MAGNITUDE:g} "
             "in size",

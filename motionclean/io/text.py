@@ -192,6 +192,14 @@ def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
 MAX_MAGNITUDE = 1e12
 
 
+def within_magnitude(values: np.ndarray) -> bool:
+    """Whether every value of ``values`` is a number of at most :data:`MAX_MAGNITUDE` in
+    size (False for NaN), by two reductions: no array-sized temporary."""
+    return values.size == 0 or bool(
+        values.max() <= MAX_MAGNITUDE and values.min() >= -MAX_MAGNITUDE
+    )
+
+
 def parse_numbers(
     buf: np.ndarray, starts: np.ndarray, ends: np.ndarray, index=None, limit: float = math.inf
 ):
