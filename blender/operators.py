@@ -26,7 +26,7 @@ from .motionclean.core.errors import MotionError, UsageError
 from .motionclean.io import atomic_write
 from .motionclean.io.blender_action import ActionClip, key_range, read_action, write_action
 from .motionclean.report.summary import format_table
-from .motionclean.run.jobs import CleanedClip, clean_motion, render_report
+from .motionclean.run.jobs import CleanedClip, clean_motion, pattern_warnings, render_report
 from .motionclean.steps.pipeline import Pipeline
 from .motionclean.steps.ranges import FrameRange
 
@@ -83,14 +83,14 @@ def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, i
         first, last = scene.frame_preview_start, scene.frame_preview_end
     else:
         first, last = keys
-    first, last = max(first, keys[0]), min(last, keys[1])
-    if last <= first:
+    within = max(first, keys[0]), min(last, keys[1])
+    if within[1] <= within[0]:
         raise MotionError(
             f"frames {first}-{last}: fewer than 2 frames of the action's keys "
             f"({keys[0]}-{keys[1]}) in the range",
             action.name,
         )
-    return first, last, np.arange(keys[0], keys[1] + 1, dtype=np.float64)
+    return *within, np.arange(keys[0], keys[1] + 1, dtype=np.float64)
 
 
 @dataclass
@@ -177,6 +177,8 @@ class MOTIONCLEAN_OT_clean(Operator):
         settings.results.clear()
         for plan in plans:
             self._write(plan, settings)
+            for warning in pattern_warnings(plan.action.name, plan.result.logs):
+                self.report({"WARNING"}, warning)
         self.report({"INFO"}, f"motionclean: cleaned {len(plans)} action(s)")
         return {"FINISHED"}
 

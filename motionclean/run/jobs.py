@@ -198,13 +198,14 @@ class FileResult:
 
 
 def pattern_warnings(source: str, logs: Sequence[StepLog]) -> tuple[str, ...]:
-    """The warning lines of a cleaning: each step's ``joints`` pattern that matched no joint
-    of the clip (a likely typo), ``motionclean: warning: FILE: step N (name): ...``."""
+    """The warning lines of a cleaning: each step's ``joints`` (or ``feet``) pattern that
+    matched no joint of the clip (a likely typo),
+    ``motionclean: warning: FILE: step N (name): ...``."""
     return tuple(
         f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
-        f"joints pattern {pattern!r} matches no joint"
+        f"{param} pattern {pattern!r} matches no joint"
         for number, log in enumerate(logs, 1)
-        for pattern in log.unmatched
+        for param, pattern in log.unmatched
     )
 
 

@@ -197,6 +197,9 @@ class StepSpec:
     # itself (``StepData.motion.missing``, placeholders held); False: each known stretch of
     # a column with gaps is run on its own.
     sees_missing: bool = False
+    # Parameters besides ``joints`` that name joints by fnmatch patterns (footlock's
+    # ``feet``): an include pattern that matches no joint of a clip is warned of.
+    name_patterns: tuple[str, ...] = ()
 
 
 COMMON_PARAMS = (

@@ -282,6 +282,7 @@ def _crop_note(note: dict, first: int, last: int) -> dict | None:
 STEP = StepSpec(
     name="footlock",
     smooths=False,
+    name_patterns=("feet",),
     summary="plant each foot that slides during a ground contact, ankle and toes, by the "
     "least change of the leg joints weighted by the error auto expects in each",
     paper="contacts in world space; weighted least-change solve (Gauss-Newton, knee as a "

@@ -197,7 +197,8 @@ class StepLog:
     rotation_joints: list[str]
     translation_joints: list[str]
     notes: dict[str, dict]
-    unmatched: list[str]  # include patterns that matched no joint of this clip
+    # (parameter, pattern): the include patterns that matched no joint of this clip
+    unmatched: list[tuple[str, str]]
     touched: tuple[int, int] | None = None  # frames a ranged step changed, blends included
     # the clip after the step, rest frames included: the frames its notes number
     n_frames: int = 0
@@ -349,7 +350,14 @@ def _run_step(
     frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
     notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
     """
-    unmatched = unmatched_patterns(motion.names, step.joints)
+    unmatched = [
+        (name, pattern)
+        for name, patterns in (
+            ("joints", step.joints),
+            *((n, tuple(step.params[n] or ())) for n in step.spec.name_patterns),
+        )
+        for pattern in unmatched_patterns(motion.names, patterns)
+    ]
     if step.spec.run_motion is not None:
         result, whole_notes = step.spec.run_motion(motion, step.params)
         return result, StepLog(step, list(motion.names), [], whole_notes, unmatched)

@@ -181,6 +181,11 @@ def test_keyed_curves_take_keys_per_frame_only_where_the_motion_moved(blender):
     keyed = blender.results["keyed"]
     assert keyed["done"] == [["FINISHED"], ["FINISHED"]]
     assert keyed["untouched_knee"] and keyed["other_changed"]  # a step on the other knee
+    # ... whose pattern that matches no joint is warned of, as on the command line
+    assert (
+        "Warning: motionclean: warning: 131_01: step 1 (lee-shin): joints pattern "
+        "'Nope' matches no joint" in keyed["said"]
+    )
     assert keyed["frames_moved"] > 30  # the ranged step moved frames 195-265 ...
     new = np.array(keyed["new_key_frames"])  # ... keyed every 10 frames from frame 1:
     assert new.size and new.min() > 181 and new.max() < 281  # keys between 191 and 271

@@ -370,3 +370,17 @@ def test_batch_and_check_warn_of_a_joints_pattern_that_matches_nothing(tmp_path,
         capsys, "check", clip, "--baseline", tmp_path / "b.json", "--update", *step
     )
     assert code == 0 and err == warning
+
+
+def test_a_feet_pattern_that_matches_nothing_is_warned_of(tmp_path, capsys):
+    """footlock's ``feet`` names joints as ``joints`` does: a typo had locked no foot and
+    said nothing. A pattern that matches keeps quiet."""
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", out, "-q", "-f", "footlock:feet=[LeftAnkle,LeftFoot]"
+    )
+    assert code == 0
+    assert err == (
+        f"motionclean: warning: {SAMPLE}: step 1 (footlock): feet pattern 'LeftFoot' "
+        "matches no joint\n"
+    )
