@@ -3,12 +3,50 @@
 >>> import motionclean as mc
 >>> m = mc.load("clip.bvh")          # Motion: skeleton + (F, J, 4) quaternions
 >>> mc.save(m, "copy.bvh")           # identity round trip reproduces the file
+>>> q = mc.lee_shin(m.rotations, mc.filters.masks.binomial(2))  # filters: arrays to arrays
+>>> positions, rotations = mc.kinematics.forward(m)  # world space
 """
 
+from .core import kinematics
 from .core.errors import MotionError, UsageError
 from .core.motion import Motion
 from .core.version import __version__
+from .filters import (
+    auto,
+    auto_positions,
+    bilateral,
+    bilateral_positions,
+    despike,
+    despike_positions,
+    fairing,
+    fairing_positions,
+    lee_shin,
+    lee_shin_positions,
+    sse_fairing,
+    sse_fairing_positions,
+)
 from .io import load, save
 from .steps.pipeline import Pipeline
 
-__all__ = ["Motion", "MotionError", "Pipeline", "UsageError", "__version__", "load", "save"]
+__all__ = [
+    "Motion",
+    "MotionError",
+    "Pipeline",
+    "UsageError",
+    "__version__",
+    "auto",
+    "auto_positions",
+    "bilateral",
+    "bilateral_positions",
+    "despike",
+    "despike_positions",
+    "fairing",
+    "fairing_positions",
+    "kinematics",
+    "lee_shin",
+    "lee_shin_positions",
+    "load",
+    "save",
+    "sse_fairing",
+    "sse_fairing_positions",
+]

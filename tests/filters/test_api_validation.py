@@ -219,3 +219,17 @@ def test_numpy_scalars_are_parameters_like_pythons_and_a_clip_without_frames_no_
     empty = clip.replace(rotations=clip.rotations[:0], translations=clip.translations[:0])
     with pytest.raises(MotionError, match="glTF needs at least one frame"):
         mc.save(empty.replace(source_values=None), tmp_path / "e.glb")
+
+
+def test_the_package_exposes_the_filters_and_world_space_as_design_says():
+    """DESIGN's public API: load, save, Motion, Pipeline and the filter functions at the
+    top level, and ``motionclean.kinematics.forward``."""
+    import motionclean as mc
+    from motionclean import filters
+
+    for name in filters.__all__:
+        assert getattr(mc, name) is getattr(filters, name)
+    motion = mc.load(SAMPLE)
+    positions, rotations = mc.kinematics.forward(motion)
+    assert positions.shape == (motion.n_frames, motion.n_joints, 3)
+    assert rotations.shape == (motion.n_frames, motion.n_joints, 4)
