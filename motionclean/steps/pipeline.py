@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import copy
 import fnmatch
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -205,6 +206,24 @@ class StepLog:
     frame_time: float = 0.0
 
 
+#: A ``[[step]]`` table's header line in a pipeline file.
+STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]\s*(#.*)?$")
+#: Where tomllib says a syntax error is: ``... (at line L, column C)``.
+TOML_PLACE = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$", re.DOTALL)
+
+
+def _toml_error(path: Path, message: str, text: str) -> str:
+    """A TOML syntax error of file ``text`` as ``FILE:LINE: invalid TOML: what``."""
+    place = TOML_PLACE.match(message)
+    if place is not None:
+        what, line, column = place.groups()
+        return f"{path}:{line}: invalid TOML: {what} (column {column})"
+    if message.endswith(" (at end of document)"):
+        what = message.removesuffix(" (at end of document)")
+        return f"{path}:{len(text.splitlines()) or 1}: invalid TOML: {what} (at the end)"
+    return f"{path}: invalid TOML: {message}"
+
+
 @dataclass
 class Pipeline:
     """An ordered list of validated steps."""
@@ -213,23 +232,33 @@ class Pipeline:
     origin: str = "pipeline"
 
     @classmethod
-    def from_tables(cls, tables: list, origin: str) -> Pipeline:
+    def from_tables(cls, tables: list, origin: str, lines: list[int] | None = None) -> Pipeline:
+        """Steps from tables (dicts); a table's errors name ``origin`` and its number, and
+        its line in the file when ``lines`` gives each table's first line."""
         if not tables:
             raise UsageError(f"{origin}: the pipeline has no steps")
-        return cls([make_step(t, f"{origin}: step {i}") for i, t in enumerate(tables, 1)], origin)
+        places = [f"{origin}:{line}" for line in lines] if lines else [origin] * len(tables)
+        return cls(
+            [
+                make_step(t, f"{place}: step {i}")
+                for i, (t, place) in enumerate(zip(tables, places, strict=True), 1)
+            ],
+            origin,
+        )
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Pipeline:
         """Read ``[[step]]`` tables from a TOML file."""
         path = Path(path)
         try:
-            document = tomllib.loads(path.read_text(encoding="utf-8"))
+            text = path.read_text(encoding="utf-8")
+            document = tomllib.loads(text)
         except FileNotFoundError:
             raise UsageError(f"{path}: no such pipeline file") from None
         except (OSError, UnicodeDecodeError) as error:
             raise UsageError(f"{path}: cannot read pipeline: {error}") from None
         except tomllib.TOMLDecodeError as error:
-            raise UsageError(f"{path}: invalid TOML: {error}") from None
+            raise UsageError(_toml_error(path, str(error), text)) from None
         except RecursionError:
             raise UsageError(f"{path}: invalid TOML: arrays or tables nested too deeply") from None
         except ValueError:  # an integer of more digits than Python converts
@@ -242,7 +271,8 @@ class Pipeline:
         steps = document.get("step", [])
         if not isinstance(steps, list):
             raise UsageError(f"{path}: 'step' must be an array of tables ([[step]])")
-        return cls.from_tables(steps, str(path))
+        lines = [i for i, text in enumerate(text.splitlines(), 1) if STEP_HEADER.match(text)]
+        return cls.from_tables(steps, str(path), lines if len(lines) == len(steps) else None)
 
     @classmethod
     def from_inline(cls, texts: list[str]) -> Pipeline:

@@ -86,7 +86,19 @@ def test_invalid_steps_name_the_step_and_the_key(step, message):
 def test_toml_errors_name_the_file(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[[step]]\nfilter = lee-shin\n")
-    with pytest.raises(UsageError, match="bad.toml: invalid TOML"):
+    with pytest.raises(UsageError, match="bad.toml:2: invalid TOML: .* \\(column 10\\)$"):
+        Pipeline.from_toml(bad)
+    bad.write_text("[[step]]\nfilter = 'lee-shin'\nk = [1,\n")
+    with pytest.raises(UsageError, match="bad.toml:3: invalid TOML: .* \\(at the end\\)$"):
+        Pipeline.from_toml(bad)
+    # a table's own errors name the line its [[step]] header starts on
+    bad.write_text(
+        "# two steps\n[[step]]\nfilter = 'lee-shin'\n\n"
+        "[[ step ]] # b\nfilter = 'lee-shin'\nkk = 3\n"
+    )
+    with pytest.raises(
+        UsageError, match="bad.toml:5: step 2 \\(lee-shin\\): unknown parameter 'kk'"
+    ):
         Pipeline.from_toml(bad)
     empty = tmp_path / "empty.toml"
     empty.write_text("")
