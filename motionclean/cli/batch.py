@@ -36,6 +36,7 @@ from .options import (
     raise_failures,
     read_options,
     reading,
+    refuse_overwrite,
 )
 
 #: Clips ``batch`` takes when no ``--glob`` is given: every suffix motionclean reads.
@@ -281,6 +282,15 @@ def batch_command(
     if not clips:
         raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
     resolved_in = source_root.resolve()
+
+    def refuse_input(written: Path) -> None:
+        """Refuse an output that lands in IN_DIR (through a link too) or is a file read."""
+        if _inside(written.resolve(), resolved_in):
+            raise UsageError(f"{written}: would be written inside the input folder {in_dir}")
+        refuse_overwrite(written, (skeleton, body_model, pipe))
+
+    if pages is not None:
+        refuse_input(pages / "index.html")
     tables = tuple(pipeline.describe())
     read = reading(skeleton, body_model, exclude)
     work: list[Job] = []
@@ -288,9 +298,10 @@ def batch_command(
     results: dict[str, FileResult] = {}
     for rel in clips:
         source, target = source_root / rel, out_root / rel
-        if _inside(target.resolve(), resolved_in):
-            raise UsageError(f"{target}: would be written inside the input folder {in_dir}")
         page = None if pages is None else pages / f"{rel}.html"
+        for written in (target, page):
+            if written is not None:
+                refuse_input(written)
         if skip_existing and target.exists() and (page is None or page.exists()):
             results[str(rel)] = FileResult(
                 str(source), str(target), "skipped", report=None if page is None else str(page)

@@ -41,6 +41,7 @@ from .options import (
     STEP_OPTION,
     UP_OPTION,
     FiniteRange,
+    check_target,
     echo_warnings,
     pipeline_from_options,
     raise_failures,
@@ -282,6 +283,8 @@ def check_command(
     baseline_path = Path(baseline)
     if replace and not update:
         raise UsageError("--replace goes with --update")
+    if update:
+        check_target(baseline_path, (*clips, pipe))
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
     named: dict[str, str] = {}  # a clip named twice is checked once

@@ -264,20 +264,17 @@ def convert(
 ) -> None:
     """Convert SOURCE to TARGET by file extension (BVH, CSV, SMPL .npz/.pkl, OpenSim
     .mot/.sto, glTF .gltf/.glb), where the target format can hold the clip."""
-    refuse_overwrite(Path(source), Path(target), in_place=False)
-    for extra in (skeleton, body_model):
-        if extra:
-            refuse_overwrite(Path(extra), Path(target), in_place=False)
+    inputs = (source, skeleton, body_model)
     read = reading(skeleton, body_model, exclude)
     if world:
-        check_output(target, (".csv",), "a world-position CSV")
+        check_output(target, (".csv",), "a world-position CSV", inputs)
         motion = read.load(source)
         skipped = kinematics.world_note(motion)
         if skipped is not None:
             raise MotionError(f"no world positions: {skipped}", source)
         atomic_write(target, world_csv_pieces(motion))
         return
-    check_clip_output(target)
+    check_clip_output(target, inputs)
     save(read.load(source), target)
 
 
@@ -306,8 +303,7 @@ def resample_command(
     step: dict[str, object] = {"filter": "resample"}
     step.update({key: value for key, value in rates.items() if value is not None})
     pipeline = Pipeline.from_tables([step], "resample")
-    refuse_overwrite(Path(source), Path(target), in_place=False)
-    check_clip_output(target)
+    check_clip_output(target, (source, skeleton, body_model))
     before = reading(skeleton, body_model, exclude).load(source)
     after, _ = pipeline.run(before)
     save(after, target)
@@ -357,10 +353,12 @@ def clean(
         if not in_place:
             raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
         output = source
-    refuse_overwrite(Path(source), Path(output), in_place)
-    check_clip_output(output)
+    read_too = (skeleton, body_model, pipe)  # files read besides the clip
+    if not in_place:
+        refuse_overwrite(output, [source], "pass --in-place to do so")
+    check_clip_output(output, read_too)
     for report_path in report_paths:
-        check_report_output(report_path)
+        check_report_output(report_path, (source, *read_too))
     if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
         raise UsageError("--report names the same file twice")
     result = clean_clip(source, None, pipeline, up, reading(skeleton, body_model, exclude))
@@ -413,7 +411,7 @@ def report(
     capture system `clean` would assume for SOURCE (--source) and why."""
     for path in (json_path, html_path):
         if path:
-            check_report_output(path)
+            check_report_output(path, (source, cleaned, skeleton, body_model))
     if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
         raise UsageError(f"{json_path}: --json and --html name the same file")
     read = reading(skeleton, body_model, exclude)
@@ -497,9 +495,7 @@ def blend(
 ) -> None:
     """Blend two time-aligned clips level by level (003 Eq. 20)."""
     weights = _detail_weights(detail_weights) if detail_weights else None
-    for given in (first, second):
-        refuse_overwrite(Path(given), Path(output), in_place=False)
-    check_clip_output(output)
+    check_clip_output(output, (first, second))
     a, b = load(first), load(second)
     try:
         blended = blend_clips(a, b, levels, weight, weights)
@@ -529,9 +525,7 @@ def stitch(
     and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
     - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
     """
-    for given in (first, second):
-        refuse_overwrite(Path(given), Path(output), in_place=False)
-    check_clip_output(output)
+    check_clip_output(output, (first, second))
     a, b = with_up(load(first), up), with_up(load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
 

@@ -114,32 +114,57 @@ def with_source(pipeline: Pipeline, source: str) -> Pipeline:
     return dataclasses.replace(pipeline, steps=steps)
 
 
-def refuse_overwrite(source: Path, target: Path, in_place: bool) -> None:
-    """Raise unless ``target`` is a different file from ``source`` or ``in_place`` is set."""
-    same = target.exists() and source.exists() and target.resolve() == source.resolve()
-    if same and not in_place:
-        raise UsageError(f"{target}: refusing to overwrite the input; pass --in-place to do so")
+#: Files a command reads, which none of its outputs may be (None: an option not given).
+Inputs = Iterable[str | Path | None]
 
 
-def check_output(path: str | Path, suffixes: tuple[str, ...], what: str) -> Path:
-    """Refuse, before any work is done, an output with another suffix or in no folder (for
-    a symbolic link, the folder of the file it leads to: a dangling link is refused like a
-    missing folder, never made)."""
+def refuse_overwrite(
+    target: str | Path, inputs: Inputs, hint: str = "write to another file"
+) -> None:
+    """Refuse ``target`` when it is one of ``inputs``: the same file through symbolic links
+    or another hard link (:func:`os.path.samefile`)."""
+    for given in inputs:
+        if given is not None and _same_file(given, target):
+            raise UsageError(f"{target}: refusing to overwrite the input {given}; {hint}")
+
+
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (or cannot be looked at)
+        return False
+
+
+def check_target(path: str | Path, inputs: Inputs = ()) -> Path:
+    """Refuse, before any work is done, an output that is one of ``inputs``
+    (:func:`refuse_overwrite`), a folder, or in no folder (for a symbolic link, the folder
+    of the file it leads to: a dangling link is refused like a missing folder, never made)."""
     path = Path(path)
-    if path.suffix.lower() not in suffixes:
-        raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
+    refuse_overwrite(path, inputs)
     lands = Path(os.path.realpath(path)) if path.is_symlink() else path
+    if lands.is_dir():
+        raise UsageError(f"{path}: is a directory")
     if not lands.parent.is_dir():
         raise UsageError(f"{path}: no folder {str(lands.parent)!r} to write into")
     return path
 
 
-def check_clip_output(path: str | Path) -> Path:
-    return check_output(path, FORMATS, "a clip")
+def check_output(
+    path: str | Path, suffixes: tuple[str, ...], what: str, inputs: Inputs = ()
+) -> Path:
+    """:func:`check_target`, and refuse an output with another suffix."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
+    return check_target(path, inputs)
 
 
-def check_report_output(path: str | Path) -> Path:
-    return check_output(path, REPORT_SUFFIXES, "a report")
+def check_clip_output(path: str | Path, inputs: Inputs = ()) -> Path:
+    return check_output(path, FORMATS, "a clip", inputs)
+
+
+def check_report_output(path: str | Path, inputs: Inputs = ()) -> Path:
+    return check_output(path, REPORT_SUFFIXES, "a report", inputs)
 
 
 def raise_failures(lines: Sequence[str]) -> None:

@@ -124,6 +124,20 @@ def test_refuses_to_write_inside_the_input(tree, tmp_path, capsys, where):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("page", ["top.bvh.html", "index.html"])
+def test_refuses_a_report_page_that_leads_into_the_input(tree, tmp_path, capsys, page):
+    pages = tmp_path / "pages"
+    pages.mkdir()
+    (pages / page).symlink_to(tree / "top.bvh")
+    before = snapshot(tree)
+    code, _, stderr = run_cli(capsys, "batch", tree, "-o", tmp_path / "out", "--report-dir", pages)
+    assert code == 2
+    assert stderr == (
+        f"motionclean: error: {pages / page}: would be written inside the input folder {tree}\n"
+    )
+    assert snapshot(tree) == before
+
+
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
     code, stdout, stderr = run_cli(
         capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"

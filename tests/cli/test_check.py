@@ -148,6 +148,16 @@ def test_update_with_a_broken_clip_writes_nothing(clips, capsys):
     assert not Path("b.json").exists()
 
 
+def test_update_into_a_missing_folder_is_refused_before_any_clip(clips, capsys):
+    Path(clips[0]).write_text("not a clip: never read")
+    code, stdout, stderr = run_cli(
+        capsys, "check", *clips, "--baseline", "nodir/b.json", "--update"
+    )
+    assert (code, stdout) == (2, "")
+    assert stderr == "motionclean: error: nodir/b.json: no folder 'nodir' to write into\n"
+    assert not Path("nodir").exists()
+
+
 def test_clip_missing_from_the_baseline_fails(clips, capsys):
     assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
     code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json")

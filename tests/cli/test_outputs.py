@@ -25,6 +25,8 @@ def output_commands(tmp_path, out):
         "blend": ["blend", clip, clip, "-o", out],
         "stitch": ["stitch", clip, clip, "-o", out],
         "report --json": ["report", clip, "--json", out],
+        "report --html": ["report", clip, clip, "--html", out],
+        "check --update": ["check", clip, "--baseline", out, "--update"],
     }
 
 
@@ -58,6 +60,57 @@ def test_an_output_through_a_link_is_written_where_it_leads(tmp_path, capsys, co
     code, _, err = run_cli(capsys, *output_commands(tmp_path, link)[command])
     assert (code, err) == (0, "")
     assert link.is_symlink() and (tmp_path / "real" / f"o{suffix}").is_file()
+
+
+@pytest.mark.parametrize("link", ["symbolic", "hard"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        "clean",
+        "clean --report",
+        "convert",
+        "resample",
+        "blend",
+        "stitch",
+        "report --json",
+        "report --html",
+        "check --update",
+    ],
+)
+def test_an_output_that_is_the_input_is_refused_up_front(tmp_path, capsys, command, link):
+    """A link to the input is the input, whatever the output's suffix: refused before any
+    work, exit 2, with what to do (a report through a link had replaced the clip)."""
+    reports = {"clean --report", "report --json", "check --update"}
+    suffix = ".html" if command == "report --html" else ".json" if command in reports else ".bvh"
+    out = tmp_path / f"out{suffix}"
+    args = output_commands(tmp_path, out)[command]
+    clip = tmp_path / "in.bvh"
+    if link == "symbolic":
+        out.symlink_to(clip.name)
+    else:
+        out.hardlink_to(clip)
+    before = contents(tmp_path)
+    code, stdout, err = run_cli(capsys, *args)
+    assert code == 2 and stdout == ""
+    hint = "pass --in-place to do so" if command == "clean" else "write to another file"
+    assert one_error_line(err) == (
+        f"motionclean: error: {out}: refusing to overwrite the input {clip}; {hint}"
+    )
+    assert contents(tmp_path) == before
+
+
+@pytest.mark.parametrize("command", ["clean", "convert", "resample", "blend", "stitch"])
+def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, command):
+    """As a report that is a folder: exit 2 before any clip is read (it was 1, after the
+    work)."""
+    out = tmp_path / "out.bvh"
+    out.mkdir()
+    args = output_commands(tmp_path, out)[command]
+    (tmp_path / "in.bvh").write_text("not a clip: never read")
+    code, _, err = run_cli(capsys, *args)
+    assert code == 2
+    assert one_error_line(err) == f"motionclean: error: {out}: is a directory"
+    assert list(out.iterdir()) == []
 
 
 def contents(folder: Path) -> dict[str, bytes]:
