@@ -361,6 +361,8 @@ def clean(
         check_report_output(report_path, (source, *read_too))
     if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
         raise UsageError("--report names the same file twice")
+    if os.path.isdir(source):
+        raise MotionError("is a directory, not a clip; `motionclean batch` cleans a folder", source)
     result = clean_clip(source, None, pipeline, up, reading(skeleton, body_model, exclude))
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report

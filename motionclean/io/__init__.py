@@ -60,6 +60,8 @@ FORMATS = tuple(_WRITERS)
 def _suffix(path: Path, table: Iterable[str]) -> str:
     suffix = path.suffix.lower()
     if suffix not in table:
+        if path.is_dir():  # (one with a clip's suffix is refused when read)
+            raise MotionError("is a directory, not a clip", path)
         raise MotionError(
             f"unknown file type {suffix or '(none)'!r}; expected one of {', '.join(table)}",
             path,

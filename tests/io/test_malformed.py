@@ -127,12 +127,17 @@ def test_missing_path(tmp_path, capsys):
 
 
 def test_directory(tmp_path, capsys):
-    for name in ("clips.bvh", "clips.csv"):
+    for name in ("clips.bvh", "clips.csv", "clips"):  # without a suffix too
         folder = tmp_path / name
         folder.mkdir()
         code, _, err = run_cli(capsys, *["info", str(folder)])
         assert code == 1
-        assert_one_error(err, str(folder), None, "is a directory")
+        assert_one_error(err, str(folder), None, "is a directory, not a clip")
+        with pytest.raises(MotionError, match="is a directory, not a clip"):
+            load(folder)
+        code, _, err = run_cli(capsys, *["clean", str(folder), "-o", str(tmp_path / "o.bvh")])
+        assert code == 1
+        assert_one_error(err, str(folder), None, "not a clip; `motionclean batch` cleans a folder")
 
 
 def test_directory_as_target(tmp_path, capsys):
