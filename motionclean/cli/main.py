@@ -21,6 +21,7 @@ from ..core import kinematics
 from ..core.errors import MotionError, UsageError
 from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
+from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import capture_source, estimate_noise
 from ..filters.gaps import Gaps
@@ -144,6 +145,7 @@ def main(argv: list[str] | None = None) -> None:
 @click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
 def cli(debug: bool) -> None:
     """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
+    thread_count()  # a bad MOTIONCLEAN_THREADS is refused before any work
 
 
 cli.add_command(batch_command)

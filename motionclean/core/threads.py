@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
+from .errors import UsageError
 from .reserve import let_go
 
 __all__ = ["MAX_THREADS", "in_parts", "run_parts", "thread_count"]
@@ -39,10 +40,15 @@ _no_threads = threading.Event()
 
 
 def thread_count() -> int:
-    """Threads for one clip's parts: ``MOTIONCLEAN_THREADS`` if set to a positive whole
-    number, else the CPUs this process may use (at most :data:`MAX_THREADS`)."""
+    """Threads for one clip's parts: ``MOTIONCLEAN_THREADS`` if set (a whole number from 1,
+    else :class:`UsageError`), else the CPUs this process may use; at most
+    :data:`MAX_THREADS`."""
     text = os.environ.get("MOTIONCLEAN_THREADS", "").strip()
-    if text.isdigit() and int(text) > 0:
+    if text:
+        if not (text.isdecimal() and int(text) > 0):
+            raise UsageError(
+                f"MOTIONCLEAN_THREADS={text!r}: expected a whole number of threads, 1 or more"
+            )
         return min(int(text), MAX_THREADS)
     try:
         cpus = len(os.sched_getaffinity(0))

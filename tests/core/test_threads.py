@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import NOISY, edited
+from helpers import NOISY, edited, run_cli
 
 import motionclean as mc
 from motionclean.core import motion as motion_module
 from motionclean.core import threads
+from motionclean.core.errors import UsageError
 from motionclean.io import text as text_module
 from motionclean.run.jobs import clean_clip
 from motionclean.steps.pipeline import Pipeline
@@ -147,11 +148,26 @@ def test_a_parts_own_error_after_a_refused_thread_is_raised_and_nothing_runs_twi
     assert all(count == 1 for count in runs.values())
 
 
-@pytest.mark.parametrize("value", ["", "0", "-2", "two"])
-def test_an_unusable_thread_setting_falls_back_to_the_cpus(monkeypatch, value):
-    monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
+def test_an_empty_thread_setting_leaves_the_cpus(monkeypatch):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", " ")
     cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     assert threads.thread_count() == max(1, min(cpus or 1, threads.MAX_THREADS))
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "two", "1.5", "²"])
+def test_an_unusable_thread_setting_is_a_usage_error_before_any_work(
+    monkeypatch, capsys, tmp_path, value
+):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
+    with pytest.raises(UsageError, match="MOTIONCLEAN_THREADS"):
+        threads.thread_count()
+    code, stdout, stderr = run_cli(capsys, "convert", NOISY, tmp_path / "o.csv")
+    assert (code, stdout) == (2, "")
+    assert stderr == (
+        f"motionclean: error: MOTIONCLEAN_THREADS={value!r}: expected a whole number of "
+        "threads, 1 or more\n"
+    )
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_in_parts_covers_the_range_once():
