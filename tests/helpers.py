@@ -41,6 +41,10 @@ EXPORTER_NAMES = (
     "Bip01 L Thigh",
 )
 NOISY = ROOT / "sample_data" / "131_02_noisy.bvh"
+#: Cuts of CMU 01_01 as fairmotion ships it (tests/data/fairmotion/README.md): its first 200
+#: frames, from the reference frame 0, and frames 1040-1199, where the left hand jitters.
+CMU_01_01_START = ROOT / "tests" / "data" / "fairmotion" / "01_01_start.bvh"
+CMU_01_01_JITTER = ROOT / "tests" / "data" / "fairmotion" / "01_01_hand_jitter.bvh"
 CORPUS = ROOT.parent / "shared" / "corpus" / "cmu"
 CORPUS_NAMES = ("131_01.bvh", "131_02.bvh", "131_03.bvh")
 CORPUS_CLIPS = sorted(CORPUS.glob("*.bvh")) if CORPUS.is_dir() else []

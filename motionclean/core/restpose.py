@@ -14,11 +14,14 @@ from . import quat
 from .motion import Motion, sparse_concatenate
 from .threads import in_parts
 
-#: A transition is a jump on a joint when its rotation step exceeds both of these.
-JUMP_DEG = 15.0
+#: A transition is a jump on a joint when its rotation step exceeds this many times the
+#: joint's typical step ...
 JUMP_TIMES_MEDIAN = 8.0
-#: ... and a rest frame when that happens on at least this share of the rotating joints.
+#: ... and a rest frame when that happens on at least this share of the rotating joints, one
+#: of them by more than this many degrees (no noise, however small its typical steps, turns a
+#: joint that far between two frames while most others jump with it).
 MOST_JOINTS = 0.5
+JUMP_DEG = 15.0
 #: A frame whose every rotation is within this of the skeleton's rest (zero channels,
 #: degrees) is a reference pose when the step out of it is a jump on most of the joints it
 #: leaves, whatever their size once one is over :data:`JUMP_DEG` (Second Life's frame 0
@@ -51,23 +54,38 @@ def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
     return n_frames
 
 
-def _typical_steps(q: np.ndarray) -> np.ndarray:
-    """Each joint's median rotation step (degrees) over the clip, or over
-    :data:`TYPICAL_SAMPLES` evenly spaced steps of a longer clip."""
+def _typical_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each joint's median rotation step (degrees), and its median step while it moves
+    (of its steps between rotations that differ: a hand-keyed joint holds still between
+    keys; 0 for a joint that never moves), over the clip or :data:`TYPICAL_SAMPLES` evenly
+    spaced steps of a longer clip."""
     n_steps = q.shape[0] - 1
     at = np.arange(n_steps)
     if n_steps > TYPICAL_SAMPLES:
         at = np.unique(np.linspace(0, n_steps - 1, TYPICAL_SAMPLES).round().astype(np.intp))
     steps = np.empty((at.size, *q.shape[1:-1]))
+    held = np.empty(steps.shape, dtype=bool)
     for part in in_parts(at.size, STEP_BLOCK):  # small temporaries
         rows = at[part]
         steps[part] = np.degrees(quat.angle_between(q[rows], q[rows + 1]))
-    return np.median(steps, axis=0)
+        held[part] = np.all(q[rows] == q[rows + 1], axis=-1)
+    median = np.median(steps, axis=0)
+    steps[held] = np.nan
+    moves = ~np.isnan(steps).all(axis=0)
+    while_moving = np.zeros(steps.shape[1:])
+    while_moving[moves] = np.nanmedian(steps[:, moves], axis=0)
+    return median, while_moving
 
 
-def _leading(q: np.ndarray, translations: np.ndarray, typical: np.ndarray, moving: np.ndarray):
+def _leading(
+    q: np.ndarray,
+    translations: np.ndarray,
+    typical: tuple[np.ndarray, np.ndarray],
+    moving: np.ndarray,
+) -> int:
     """Leading rest frames: the run of frames equal to the first, when it is a held pose or
-    the step out of it is a jump on most joints at once."""
+    the step out of it is a jump on most joints at once. ``typical``: the joints' median
+    steps and median steps while they move (:func:`_typical_steps`)."""
     run = _identical_run(q, translations)
     if run >= len(q) - 2:
         return 0
@@ -76,14 +94,15 @@ def _leading(q: np.ndarray, translations: np.ndarray, typical: np.ndarray, movin
     if not moving.any():
         return 0
     out = np.degrees(quat.angle_between(q[run - 1], q[run]))[moving]
-    jump = (out > JUMP_DEG) & (out > JUMP_TIMES_MEDIAN * typical[moving])
-    if jump.mean() >= MOST_JOINTS:
+    median, while_moving = (steps[moving] for steps in typical)
+    jump = out > JUMP_TIMES_MEDIAN * while_moving
+    if jump.mean() >= MOST_JOINTS and out[jump].max() > JUMP_DEG:
         return run
     # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
     if np.degrees(quat.angle(q[run - 1, moving])).max() > ZERO_POSE_DEG or out.max() <= JUMP_DEG:
         return 0
     posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
-    leaves = out[posed] > JUMP_TIMES_MEDIAN * typical[moving][posed]
+    leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
     return run if posed.any() and leaves.mean() >= MOST_JOINTS else 0
 
 
@@ -92,14 +111,16 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
 
     A rest frame (or a run of identical frames) at either end counts when the step from it
     into the motion is a jump on at least half of the joints that move at all (a joint whose
-    rotation never changes says nothing) at once: larger than 15 degrees and than 8 times
-    the joint's median step. No noise makes most joints jump on the same frame; a pose held
-    before the capture does. A frame in the skeleton's rest pose (every rotation within
-    :data:`ZERO_POSE_DEG` of zero) counts when the joints that leave it jump (more than 8
-    times their median step) and one by more than 15 degrees: a reference frame before a
-    hand-keyed clip. A run of at least 3 identical frames (every channel, positions too)
-    counts in any case: a held pose. A clip with missing samples (tracker dropouts,
-    held placeholders) has none: trackers do not record a rest pose.
+    rotation never changes says nothing) at once: larger than 8 times the joint's median
+    step while it moves, one of them by more than 15 degrees. No noise makes most joints jump
+    on the same frame; a pose held before the capture does, however small its turn on some
+    joints (the reference frame of CMU conversions turns many by less than 15 degrees). A
+    frame in the skeleton's rest pose (every rotation within :data:`ZERO_POSE_DEG` of zero)
+    counts when the joints that leave it jump (more than 8 times their median step) and one
+    by more than 15 degrees: a reference frame before a hand-keyed clip. A run of at least 3
+    identical frames (every channel, positions too) counts in any case: a held pose. A clip
+    with missing samples (tracker dropouts, held placeholders) has none: trackers do not
+    record a rest pose.
     """
     return motion.derived("rest_frames", _rest_frames)  # (asked a dozen times a clean)
 

@@ -7,10 +7,18 @@ import json
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, NOISY, corpus_clip, degrees_between, run_cli, with_t_pose
+from helpers import (
+    CMU_01_01_START,
+    CORPUS_NAMES,
+    NOISY,
+    corpus_clip,
+    degrees_between,
+    run_cli,
+    with_t_pose,
+)
 
 import motionclean as mc
-from motionclean.core.restpose import rest_frames
+from motionclean.core.restpose import rest_frames, trim
 
 
 @pytest.mark.parametrize(("frames", "at_end"), [(1, False), (3, False), (1, True)])
@@ -126,3 +134,19 @@ def test_a_zero_pose_before_a_hand_keyed_clip_is_its_reference_frame():
     smooth = quat.exp(ramp * quat.log(clip.rotations[150:151]))  # leaves zero slowly
     rising = clip.replace(rotations=smooth, translations=t[:200], source_values=None, source=None)
     assert rest_frames(rising) == (0, 0)
+
+
+def test_the_reference_frame_of_a_cmu_conversion_is_a_rest_frame(tmp_path, capsys):
+    """Frame 0 of CMU 01_01 as fairmotion ships it: every rotation 0 but the thighs at +-17
+    degrees and the arms at +-5. Its step into the motion is a jump (over 8 times the median
+    step) on 25 of the 27 moving joints, but only 13 turn by more than 15 degrees; the
+    motion after it has no rest frame."""
+    clip = mc.load(CMU_01_01_START)
+    assert rest_frames(clip) == (1, 0)
+    assert rest_frames(trim(clip, 1, 0)) == (0, 0)
+    out = tmp_path / "out.bvh"
+    code, text, _ = run_cli(capsys, "clean", CMU_01_01_START, "-o", out)
+    assert code == 0 and "rest pose: frame 0 kept" in text
+    rows_in, rows_out = CMU_01_01_START.read_text().splitlines(), out.read_text().splitlines()
+    start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
+    assert rows_out[start] == rows_in[start]
