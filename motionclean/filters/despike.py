@@ -53,7 +53,10 @@ one over its whole support. Two defects, two repairs:
    and every gap whose interpolated steps still exceed the cap widens by one frame per
    side and pass (at most as many passes as the longest spike has frames). A spike
    touching the first or last frame has no good frame on one side and is only caught by
-   the cap. ``T`` comes from the steps as read, before un-flipping (the median and MAD
+   the cap: where no more frames than the longest spike lie between a step above the cap
+   and a clip end, those frames alone are repaired (held at the frame past the step),
+   never that frame, which is the motion's own (a reference pose at frame 0 does not
+   take frame 1 with it). ``T`` comes from the steps as read, before un-flipping (the median and MAD
    are not moved by a few dozen flips); all limits are in degrees per second, so they
    keep their meaning at any frame rate.
 
@@ -729,6 +732,23 @@ class _Limits:
     flip_rad: float | None
 
 
+def _cap_frames(over: np.ndarray, max_len: int) -> np.ndarray:
+    """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` repair.
+
+    Both frames of a step, except where the frames between it and a clip end are at most
+    ``max_len``: then those frames alone (the shorter side), which disagree with the rest of
+    the clip (a reference pose before the capture), and the frame past the step, the
+    motion's own, is kept."""
+    n_frames = over.shape[0] + 1
+    step, col = _nonzero(over)
+    head, tail = step + 1, n_frames - 1 - step  # frames before and after the step
+    to_start = (head <= max_len) & (head <= tail)
+    to_end = (tail <= max_len) & ~to_start
+    first = np.where(to_start, 0, np.where(to_end, step + 1, step))
+    length = np.where(to_start, head, np.where(to_end, tail, 2))
+    return _mark(first, length, col, (n_frames, over.shape[1]))
+
+
 #: Largest share of a column's frames that spike and cap repairs may cover (un-flipping is
 #: not limited: a joint may be flipped for much of a clip).
 MAX_SPIKE_SHARE = 0.25
@@ -806,8 +826,7 @@ def _repair(
     over = seen > cap
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
-        mask[:-1] |= over
-        mask[1:] |= over
+        mask |= _cap_frames(over, limits.max_len)
         col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
     # A column whose "spikes" cover much of it has none: its steps do not fit the limits
     # (a wrong frame time, or another unit); it is left as it is rather than rebuilt.

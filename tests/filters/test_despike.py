@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import CORPUS_CLIPS, SAMPLE, degrees_between, needs_corpus
+from helpers import CMU_01_01_START, CORPUS_CLIPS, SAMPLE, degrees_between, needs_corpus
 
 import motionclean as mc
 from motionclean.core import quat
@@ -213,6 +213,35 @@ def test_steps_above_the_cap_are_spread_until_under_it():
     changed = np.flatnonzero(degrees_between(out, q)[:, 0] > 0)
     assert report.runs(0) == [(changed[0], changed[-1] + 1)]
     assert not report.unflipped.any()
+
+
+def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
+    """CMU 01_01's reference frame 0 steps by 41-136 degrees into frame 1 on five joints,
+    above the cap (30 degrees a frame at 120 fps): frame 0 is held at frame 1, which is
+    real motion (its step to frame 2 is 0.08-0.45 degrees) and stays as read; the same
+    at the clip's last frames, reversed, and for a two-frame piece."""
+    clip = mc.load(CMU_01_01_START)
+    q = clip.rotations
+    out, report = despike_with_report(q, clip.frame_time)
+    repaired = np.flatnonzero(report.counts())
+    assert [clip.names[j] for j in repaired] == [
+        "LeftArm",
+        "LeftForeArm",
+        "LeftFingerBase",
+        "RightArm",
+        "RThumb",
+    ]
+    assert all(report.runs(j) == [(0, 1)] for j in repaired)
+    np.testing.assert_array_equal(out[1:], q[1:])
+    np.testing.assert_array_equal(out[0, repaired], q[1, repaired])
+    last = len(q) - 1
+    back, report = despike_with_report(q[::-1], clip.frame_time)
+    assert all(report.runs(j) == [(last, last + 1)] for j in repaired)
+    np.testing.assert_array_equal(back[:-1], q[::-1][:-1])
+    twice = np.concatenate([q[:1], q])  # the reference pose held two frames
+    out, report = despike_with_report(twice, clip.frame_time)
+    assert all(report.runs(j) == [(0, 2)] for j in repaired)
+    np.testing.assert_array_equal(out[2:], q[1:])
 
 
 def test_constant_angular_velocity_is_rebuilt_exactly_across_a_spike():
