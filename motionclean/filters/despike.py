@@ -29,9 +29,12 @@ one over its whole support. Two defects, two repairs:
    *spike* when all of these hold:
 
    * it is brief: ``L dt <= max_spike_s`` (whole frames, at least one; also ``L <=
-     max_run`` when given). A defect is brief; the same excursion lasting longer may be
-     genuine (a toe flexing out and back within 100 ms spans 12 frames at 120 fps but 3
-     at 30 fps, where its steps are four times larger);
+     max_run`` when given), and so is the stretch it forms with the spikes it overlaps
+     or touches (without a good frame between them, each spike's test read the other's
+     frames as good: jitter of a hand over 16 frames at 120 fps chains into spikes of 7,
+     3 and 6). A defect is brief; the same excursion lasting longer may be genuine (a toe
+     flexing out and back within 100 ms spans 12 frames at 120 fps but 3 at 30 fps,
+     where its steps are four times larger);
    * the steps into and out of the run are jumps, and abrupt: each differs by more than
      ``T`` from the step on its outer side, as a vector ``2 log(q_i^-1 q_{i+1})`` (a
      smooth reversal of direction is not abrupt);
@@ -413,6 +416,26 @@ def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
     ).reshape(4, n)
     error = np.maximum(np.where(predict_a, off[2], 0.0), np.where(predict_b, off[3], 0.0))
     return np.minimum(off[0], off[1]) > trend_ratio * error
+
+
+def _brief(first, length, col, n_frames: int, max_len: int):
+    """The spike runs (first frame, length, column) whose stretch, with the runs of their
+    column they overlap or touch, is at most ``max_len`` frames. Runs that chain on have
+    no good frame between them (each one's cubic read the other's frames as good): a
+    stretch that keeps leaving the trend for longer than a spike lasts is jitter or motion,
+    not a brief defect."""
+    if not first.size:
+        return first, length, col
+    order = np.lexsort((first, col))
+    first, length, col = first[order], length[order], col[order]
+    start = col * (n_frames + 1) + first  # frames as keys that sort by column, then frame
+    stop = np.maximum.accumulate(start + length)  # the furthest stop of the runs so far
+    new = np.ones(first.size, dtype=bool)
+    new[1:] = start[1:] > stop[:-1]
+    group = np.cumsum(new) - 1
+    ends = np.append(np.flatnonzero(new)[1:] - 1, first.size - 1)  # each stretch's last run
+    keep = (stop[ends] - start[new] <= max_len)[group]
+    return first[keep], length[keep], col[keep]
 
 
 def _mark(first, length, col, shape) -> np.ndarray:
@@ -822,6 +845,7 @@ def _repair(
     )
     if blind is not None:  # a spike's cubic never reads a missing sample
         first, length, col = _clear_of(missing, first, length, col)
+    first, length, col = _brief(first, length, col, n_frames, limits.max_len)
     mask = _mark(first, length, col, flipped.shape)
     over = seen > cap
     if over.any():

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import CMU_01_01_START, CORPUS_CLIPS, SAMPLE, degrees_between, needs_corpus
+from helpers import (
+    CMU_01_01_JITTER,
+    CMU_01_01_START,
+    CORPUS_CLIPS,
+    SAMPLE,
+    degrees_between,
+    needs_corpus,
+)
 
 import motionclean as mc
 from motionclean.core import quat
@@ -242,6 +249,19 @@ def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
     out, report = despike_with_report(twice, clip.frame_time)
     assert all(report.runs(j) == [(0, 2)] for j in repaired)
     np.testing.assert_array_equal(out[2:], q[1:])
+
+
+def test_spikes_that_chain_on_beyond_the_longest_spike_are_jitter():
+    """CMU 01_01's left hand jitters by +-5 degrees about its X axis (steps of 5-14 degrees)
+    over frames 62-91 of this cut. Frames 62-68, 69-71 and 72-77 each pass as a spike, each
+    read against neighbours that the next one replaces: together 16 frames, longer than a
+    spike (8 at 120 fps), and left as read (they were rebuilt as a ramp from -7 to +8
+    degrees). The 4-frame spike at 82-85, between good frames, is still repaired."""
+    clip = mc.load(CMU_01_01_JITTER)
+    hand = clip.names.index("LeftHand")
+    out, report = despike_with_report(clip.rotations, clip.frame_time)
+    assert report.runs(hand) == [(82, 86)]
+    np.testing.assert_array_equal(out[:82, hand], clip.rotations[:82, hand])
 
 
 def test_constant_angular_velocity_is_rebuilt_exactly_across_a_spike():
