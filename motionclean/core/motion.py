@@ -21,7 +21,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
-from .eulerjoin import rejoin
+from .eulerjoin import JUMP_MARGIN, rejoin
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 
 #: The axes a clip may declare as up (:attr:`Motion.up`): the figure's head toward the
@@ -680,10 +680,12 @@ def continuous_euler(
     return out
 
 
-def _continue_block(q, order, reference, kept, carry, principal=None):
+def _continue_block(q, order, reference, kept, carry, principal=None, backward=True):
     """:func:`continuous_euler` of a block of frames, continuing from ``carry`` (None for
     the clip's first block); returns the block's angles and the carry for the next one.
-    ``principal``: ``quat.to_euler(q, order)`` when the caller has it."""
+    ``principal``: ``quat.to_euler(q, order)`` when the caller has it. ``backward``: the
+    first block's changed runs from frame 0 may be written back from the kept sample
+    after them (:func:`_start_backward`)."""
     frame = np.arange(q.shape[0])[:, None]
     columns = np.arange(q.shape[1])[None, :]
     # The chain restarts where the rotation itself turns by more than a quarter turn in one
@@ -744,7 +746,54 @@ def _continue_block(q, order, reference, kept, carry, principal=None):
     # (an anchor's own turns since itself are 0: its start, the anchor's angles, as they are)
     angles = start - 360.0 * since
     last = (q[-1], principal[-1], start[-1], last_anchor, switches_since[-1], since[-1])
+    if carry is None and backward:
+        _start_backward(q, order, reference, kept, angles)
     return angles, last
+
+
+def _start_backward(q, order, reference, kept, angles) -> None:
+    """Rewrite in ``angles`` ``(F, J, 3)`` (degrees), in place, the runs of changed samples
+    from frame 0 that arrive at the first kept sample after them on another Euler solution
+    (a step that differs from the input's own there, whole turns aside, by more than
+    :data:`~motionclean.core.eulerjoin.JUMP_MARGIN` on a channel): continued backward
+    from that kept sample instead, as every other run continues forward from the kept
+    sample before it. (A run that arrives whole turns off is
+    :func:`~motionclean.core.eulerjoin.rejoin`'s, which follows the input's own wraps.)
+
+    Such a run has no kept sample before it and starts at frame 0's angles nearest its
+    original ones, which say nothing where frame 0 changed far (a reference pose repaired
+    to the motion's first frame was written on the other Euler solution, its channels
+    stepping 180, 106 and 180 degrees into the next frame where the input turned 0.06).
+    ``reference`` and ``kept`` as in :func:`continuous_euler`; a run is looked at within
+    this block of frames only."""
+    first_kept = kept.argmax(axis=0)
+    joints = np.flatnonzero(~kept[0] & (first_kept > 0))
+    if not joints.size:
+        return
+    k = first_kept[joints]
+    off = (
+        angles[k, joints]
+        - angles[k - 1, joints]
+        - (reference[k, joints] - reference[k - 1, joints])
+    )
+    off -= 360.0 * np.round(off / 360.0)
+    jumps = np.any(np.abs(off) > JUMP_MARGIN, axis=-1)
+    joints, k = joints[jumps], k[jumps]
+    if not joints.size:
+        return
+    rows = slice(int(k.max()), None, -1)  # frames k.max() .. 0, backward
+    back = _continue_block(
+        np.ascontiguousarray(q[rows][:, joints]),
+        order,
+        reference[rows][:, joints],
+        kept[rows][:, joints],
+        None,
+        backward=False,
+    )[0][::-1]
+    before = np.arange(back.shape[0])[:, None] < k  # each joint's frames before its kept one
+    angles[: back.shape[0], joints] = np.where(
+        before[..., None], back, angles[: back.shape[0], joints]
+    )
 
 
 def _continue_run(q, order, carry, principal=None):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import NOISY, SAMPLE, max_degrees
+from helpers import CMU_01_01_START, NOISY, SAMPLE, max_degrees
 
 import motionclean as mc
 from motionclean.core.eulerjoin import JUMP_DEG, JUMP_MARGIN
@@ -49,6 +49,27 @@ def test_a_ranged_smoothing_over_flips_rejoins_the_input_without_a_new_jump(sour
     head = lines_in.index(next(line for line in lines_in if line.startswith("Frame Time")))
     for frame in (*range(0, max(first - blend, 0)), *range(last + blend + 1, clip.n_frames)):
         assert lines_out[head + 1 + frame] == lines_in[head + 1 + frame]
+
+
+@pytest.mark.parametrize("frames", [1, 2, 3])
+def test_a_run_changed_from_frame_0_joins_the_kept_frame_after_it(frames, tmp_path):
+    """CMU 01_01's reference frame 0 (and frames after it) repaired to frame ``frames``'s
+    rotation, as a repair at the clip's start leaves it: the changed run has no kept
+    frame before it and is written back from the kept one after it. Started from frame
+    0's original angles, LeftForeArm's run was written on the other Euler solution,
+    (-25.65, -143.14, 68.68), and stepped by 180, 106 and 180 degrees into frame
+    ``frames`` (154.35, -36.86, -111.32) where the input turned by 0.06-0.08."""
+    clip = mc.load(CMU_01_01_START)
+    q = clip.rotations.copy()
+    q[:frames] = q[frames]
+    target = tmp_path / "out.bvh"
+    mc.save(clip.replace(rotations=q), target)
+    read, written = rows(CMU_01_01_START), rows(target)
+    excess = np.abs(np.diff(written, axis=0)) - np.abs(np.diff(read, axis=0))
+    assert excess.max() < 1e-9
+    fore = clip.layout.rotation_columns[clip.names.index("LeftForeArm")]
+    np.testing.assert_array_equal(written[:frames, fore], read[[frames] * frames][:, fore])
+    assert max_degrees(mc.load(target).rotations, q) < 1e-4
 
 
 def test_an_identity_write_stays_byte_for_byte(tmp_path):
