@@ -4,7 +4,8 @@ Angular acceleration follows 000 Sec. VI-B: with ``w_i = log(q_i^-1 q_{i+1})`` t
 at frame ``i`` is ``|w_i - w_{i-1}| / dt^2``; it is reported in degrees of rotation per s^2,
 i.e. twice the log norm converted to degrees. Linear acceleration is the second difference of
 the position channels in length units per s^2. All functions take time-major arrays and work
-on every joint at once.
+on every joint at once. A figure that involves a missing sample (a tracker dropout's
+placeholder, which is no motion) is NaN: left out of the RMS and max, drawn as a gap.
 """
 
 from __future__ import annotations
@@ -19,10 +20,11 @@ __all__ = [
     "deviation_deg",
     "distance",
     "largest_steps",
+    "left_out",
     "linear_acceleration",
     "rms",
+    "rms_and_max",
     "step_deg",
-    "zero_missing",
 ]
 
 
@@ -45,8 +47,8 @@ def angular_acceleration(
 
     ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B), with
     ``w_i`` the shorter-arc displacement ``log(+-q_i^-1 q_{i+1})`` (the signs of ``q`` do not
-    matter), computed block by block; 0 where the three frames include a ``missing``
-    ``(F, ...)`` sample (a tracker dropout's placeholder is no motion).
+    matter), computed block by block; NaN where the three frames include a ``missing``
+    ``(F, ...)`` sample.
     """
     q = np.asarray(q, dtype=np.float64)
     n = q.shape[0]
@@ -63,14 +65,14 @@ def angular_acceleration(
         np.degrees(here, out=here)
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
-    return zero_missing(out, missing)
+    return left_out(out, missing)
 
 
 def linear_acceleration(
     p: np.ndarray, frame_time: float, missing: np.ndarray | None = None
 ) -> np.ndarray:
     """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2);
-    0 where the three frames include a ``missing`` ``(F, ...)`` sample."""
+    NaN where the three frames include a ``missing`` ``(F, ...)`` sample."""
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 3:
         return np.zeros((0, *p.shape[1:-1]))
@@ -82,38 +84,44 @@ def linear_acceleration(
         out[rows] /= frame_time**2
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), p.size)
-    return zero_missing(out, missing)
+    return left_out(out, missing)
 
 
-def _pairwise(measure, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _pairwise(measure, a: np.ndarray, b: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
     """``(F, ...)`` ``measure(a[rows], b[rows])`` of matching samples ``(F, ..., n)``, block
-    by block on threads (no clip-sized temporaries)."""
+    by block on threads (no clip-sized temporaries); NaN where a sample is ``missing``."""
     out = np.empty(np.shape(a)[:-1])
 
     def block(rows: slice) -> None:
         out[rows] = measure(a[rows], b[rows])
 
     run_parts(block, in_parts(len(out), BLOCK_FRAMES), out.size)
+    if missing is not None:
+        out[missing] = np.nan
     return out
 
 
-def distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(F, ...)`` distances between matching points ``(F, ..., 3)``."""
-    return _pairwise(lambda p, q: np.linalg.norm(q - p, axis=-1), a, b)
+def distance(a: np.ndarray, b: np.ndarray, missing: np.ndarray | None = None) -> np.ndarray:
+    """``(F, ...)`` distances between matching points ``(F, ..., 3)``; NaN where a point
+    is ``missing`` ``(F, ...)`` (in either clip)."""
+    return _pairwise(lambda p, q: np.linalg.norm(q - p, axis=-1), a, b, missing)
 
 
-def zero_missing(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
-    """``accel`` ``(F-2, ...)`` with 0 (in place) where its three frames include a
+def left_out(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
+    """``accel`` ``(F-2, ...)`` with NaN (in place) where its three frames include a
     ``missing`` ``(F, ...)`` sample."""
     if missing is not None and accel.shape[0]:
-        accel[missing[:-2] | missing[1:-1] | missing[2:]] = 0.0
+        accel[missing[:-2] | missing[1:-1] | missing[2:]] = np.nan
     return accel
 
 
-def deviation_deg(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``(F, ...)`` rotation angle between matching samples, in degrees."""
+def deviation_deg(
+    before: np.ndarray, after: np.ndarray, missing: np.ndarray | None = None
+) -> np.ndarray:
+    """``(F, ...)`` rotation angle between matching samples, in degrees; NaN where a sample
+    is ``missing`` ``(F, ...)`` (in either clip)."""
     before, after = np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64)
-    return _pairwise(lambda p, q: np.degrees(quat.angle_between(p, q)), before, after)
+    return _pairwise(lambda p, q: np.degrees(quat.angle_between(p, q)), before, after, missing)
 
 
 def step_deg(q: np.ndarray) -> np.ndarray:
@@ -150,8 +158,9 @@ def pair(before: float, after: float | None) -> dict:
 
 
 def rms_and_max(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """RMS and max over axis 0 of ``(N, ...)`` figures (zeros when N = 0)."""
-    if values.shape[0] == 0:
-        zeros = np.zeros(values.shape[1:])
-        return zeros, zeros
-    return rms(values), np.max(values, axis=0)
+    """RMS and max over axis 0 of ``(N, ...)`` figures (magnitudes, >= 0), NaN values left
+    out (0 where none is left)."""
+    known = np.where(np.isnan(values), 0.0, values)
+    counts = np.count_nonzero(~np.isnan(values), axis=0)
+    squares = np.square(known).sum(axis=0)
+    return np.sqrt(squares / np.maximum(counts, 1)), known.max(axis=0, initial=0.0)

@@ -99,21 +99,13 @@ def build_series(
     }
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
-
-    # rows that involve a missing sample of either clip are left out of both, as gaps
-    missing = None
-    if before.missing is not None or (after is not None and after.missing is not None):
-        missing = before.missing_mask()[:, cols]
-        if after is not None:
-            missing = missing | after.missing_mask()[:, cols]
+    missing = _missing(before, after, cols)
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
             outside[key] = None
             return None
-        table = metrics.angular_acceleration(clip.rotations[:, cols], dt)
-        if missing is not None and table.shape[0]:
-            table[missing[:-2] | missing[1:-1] | missing[2:]] = np.nan
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
         outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
@@ -123,9 +115,7 @@ def build_series(
     dev = None
     outside["deviation"] = None
     if after is not None:
-        table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
-        if missing is not None:
-            table[missing] = np.nan
+        table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
         dev = _reduced(table, lead, trail)
         del table
@@ -151,6 +141,16 @@ def build_series(
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
+
+
+def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
+    """``(F, C)``: the samples of the joints ``cols`` missing in either clip (None when
+    neither misses any). The figures of both clips leave out every row that involves one,
+    rotations and positions alike."""
+    if before.missing is None and (after is None or after.missing is None):
+        return None
+    missing = before.missing_mask()[:, cols]
+    return missing if after is None else missing | after.missing_mask()[:, cols]
 
 
 class _Reduced(NamedTuple):
@@ -262,12 +262,20 @@ def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
 
 def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) -> dict:
     """Per joint with position channels: linear acceleration RMS/max (length units/s^2)
-    before and after, and the deviation from the input (length units) when cleaned."""
+    before and after, and the deviation from the input (length units) when cleaned; rows
+    that involve a missing sample of either clip are left out of both, as for rotations."""
     dt = before.frame_time
-    lrms_b, lmax_b = rms_and_max(metrics.linear_acceleration(before.translations[:, joints], dt))
+    missing = _missing(before, after, joints)
+    lrms_b, lmax_b = rms_and_max(
+        metrics.linear_acceleration(before.translations[:, joints], dt, missing)
+    )
     if after is not None:
-        lrms_a, lmax_a = rms_and_max(metrics.linear_acceleration(after.translations[:, joints], dt))
-        moved = metrics.distance(before.translations[:, joints], after.translations[:, joints])
+        lrms_a, lmax_a = rms_and_max(
+            metrics.linear_acceleration(after.translations[:, joints], dt, missing)
+        )
+        moved = metrics.distance(
+            before.translations[:, joints], after.translations[:, joints], missing
+        )
         ldev_rms, ldev_max = rms_and_max(moved)
     figures = {}
     for n, j in enumerate(joints):

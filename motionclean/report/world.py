@@ -77,10 +77,10 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
 
 
 def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
-    """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, 0 where
-    the three frames include an ``unknown`` ``(F, len(columns))`` position."""
+    """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, leaving
+    out the rows whose three frames include an ``unknown`` ``(F, len(columns))`` position."""
     accel = accel.take(columns, axis=1)  # C order, as the sums below expect
-    return rms_and_max(metrics.zero_missing(accel, unknown))
+    return rms_and_max(metrics.left_out(accel, unknown))
 
 
 def world_figures(
@@ -104,15 +104,17 @@ def world_figures(
     dt = before.frame_time
     points = points or [None, None]
     # every figure point's figures, then the effectors' columns: no copy of their positions
+    # rows that involve a point unknown in either clip are left out of both
+    unknown = _unknown(before, index)
+    if after is not None:
+        unknown |= _unknown(after, index)
     points_b = _positions(before, points[0], used)
-    unknown_b = _unknown(before, index)
-    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown_b)
+    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown)
     if after is not None:
         points_a = _positions(after, points[1], used)
-        unknown_a = _unknown(after, index)
-        rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown_a)
+        rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown)
         moved = metrics.distance(points_b, points_a).take(columns, axis=1)
-        moved[unknown_b | unknown_a] = 0.0
+        moved[unknown] = np.nan
         dev_rms, dev_max = rms_and_max(moved)
     scale = 100.0 / height if height > 0 else math.nan
     effectors: dict[str, dict] = {}

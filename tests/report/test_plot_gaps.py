@@ -4,12 +4,14 @@ where it says something about that joint."""
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
-from helpers import NOISY, SAMPLE, with_t_pose
+from helpers import NOISY, ROOT, SAMPLE, run_cli, with_t_pose
 
 import motionclean as mc
+from motionclean.core import kinematics
 from motionclean.report.html import render_html
 from motionclean.report.metrics import angular_acceleration
 from motionclean.run.jobs import clean_clip
@@ -134,3 +136,34 @@ def test_the_trajectories_leave_the_rest_pose_out(tmp_path):
     assert tracks
     for _, points in tracks:
         assert len(points.split()) == result.before.n_frames - 1  # frames 1 .. 300
+
+
+def test_position_figures_leave_out_the_rows_next_to_a_dropout(capsys, tmp_path):
+    """Position figures follow the rotations' rule: rows that involve a missing sample of
+    either clip are left out of both (the placeholder is no motion, and clean filled it),
+    in the joint's figures and its world end-effector figures, and `report IN` gives the
+    same figures of the input as `clean --report`."""
+    source = ROOT / "sample_data" / "131_02_motive.csv"
+    clip = mc.load(source)
+    j = clip.names.index("hand_l")
+    gone = clip.missing[:, j]
+    rows = ~(gone[:-2] | gone[1:-1] | gone[2:])
+    result = clean_clip(source, None, Pipeline.default())
+    assert gone.any() and result.after.missing is None  # filled: no gap of its own after
+    joint = result.report["joints"]["hand_l"]
+    effector = result.report["world"]["effectors"]["hand_l"]
+    for key, motion in (("before", clip), ("after", result.after)):
+        for figures, points in (
+            (joint, motion.translations[:, j]),
+            (effector, kinematics.forward(motion)[0][:, j]),
+        ):
+            accel = np.linalg.norm(np.diff(points, n=2, axis=0), axis=-1)[rows]
+            accel /= clip.frame_time**2
+            rms = np.sqrt(np.mean(accel**2))
+            np.testing.assert_allclose(figures["linear_accel_rms"][key], rms, rtol=1e-9)
+            np.testing.assert_allclose(figures["linear_accel_max"][key], accel.max(), rtol=1e-9)
+    moved = np.linalg.norm(result.after.translations[:, j] - clip.translations[:, j], axis=-1)
+    assert joint["deviation_length"]["max"] == moved[~gone].max()
+    code, _, _ = run_cli(capsys, "report", str(source), "--json", str(tmp_path / "r.json"))
+    alone = json.loads((tmp_path / "r.json").read_text())["joints"]["hand_l"]
+    assert code == 0 and alone["linear_accel_rms"]["before"] == joint["linear_accel_rms"]["before"]
