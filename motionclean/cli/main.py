@@ -28,7 +28,14 @@ from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
-from ..report.summary import build_report, build_series, format_rest, format_table, gap_notes
+from ..report.summary import (
+    build_report,
+    build_series,
+    format_rest,
+    format_table,
+    gap_notes,
+    noise_figures,
+)
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
     blend_clips,
@@ -207,8 +214,10 @@ def info(
     for line in _dropout_lines(motion):
         click.echo(line)
     steps, at = metrics.largest_steps(motion.rotations, motion.missing)
-    acc = metrics.angular_acceleration(motion.rotations, motion.frame_time, motion.missing)
-    acc_rms = metrics.rms(acc) if acc.shape[0] else np.zeros(motion.n_joints)
+    rotating = layout.has_rotation  # computed once: a property of the whole layout
+    acc = noise_figures(motion)  # the report's figures (rest frames and dropouts left out)
+    acc_rms = np.zeros(motion.n_joints)
+    acc_rms[rotating] = acc.rms
     noise = estimate_noise(motion.rotations, motion.frame_time)
     longest = min(max(len(n) for n in motion.names), INFO_NAME_WIDTH)
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
@@ -216,7 +225,6 @@ def info(
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
         f"{'at frame':>9}{'accel rms':>12}{'noise est':>10}"
     )
-    rotating = layout.has_rotation  # computed once: a property of the whole layout
     rows = []
     for j, name in enumerate(motion.names):
         parent = _shortened(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
@@ -236,7 +244,7 @@ def info(
     if rotating.any():
         click.echo(
             f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
-            f"RMS angular acceleration {metrics.rms(acc[:, rotating].ravel()):,.0f} "
+            f"RMS angular acceleration {acc.total_rms:,.0f} "
             "deg/s^2 over all joints"
         )
     click.echo(

@@ -37,7 +37,7 @@ from .world import (
     world_figures,
 )
 
-__all__ = ["build_report", "build_series", "format_table", "to_json"]
+__all__ = ["build_report", "build_series", "format_table", "noise_figures", "to_json"]
 
 
 def build_series(
@@ -151,6 +151,17 @@ def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
         return None
     missing = before.missing_mask()[:, cols]
     return missing if after is None else missing | after.missing_mask()[:, cols]
+
+
+def noise_figures(motion: Motion) -> _Reduced:
+    """The angular acceleration figures (deg/s^2) ``report`` gives of ``motion`` alone, per
+    joint with rotation channels and over all of them (:func:`build_series`' rules: rest
+    frames and rows next to a missing sample left out)."""
+    cols = np.flatnonzero(motion.layout.has_rotation)
+    table = metrics.angular_acceleration(
+        motion.rotations[:, cols], motion.frame_time, _missing(motion, None, cols)
+    )
+    return _reduced(table, *rest_frames(motion))
 
 
 class _Reduced(NamedTuple):

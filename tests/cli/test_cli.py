@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, run_cli
+from helpers import ROOT, SAMPLE, run_cli, with_t_pose
 
 import motionclean as mc
 from motionclean.core import quat
@@ -120,6 +120,27 @@ def test_info_finds_the_rthumb_flip(sample_path, capsys):
     line = next(row for row in out.splitlines() if row.strip().startswith("RThumb "))
     assert f"{steps[:, thumb].max():.2f}" in line
     assert str(int(np.argmax(steps[:, thumb])) + 1) in line.split()
+
+
+@pytest.mark.parametrize("clip", ["dropout", "t-pose"])
+def test_info_gives_the_reports_acceleration_figures(clip, tmp_path, capsys):
+    """info's accel rms, per joint and over all, is the report's: the rows next to a
+    dropout (131_02_motive.csv: hand_l, frames 40-47) and a rest pose are left out, not
+    counted as zeros."""
+    if clip == "dropout":
+        source = ROOT / "sample_data" / "131_02_motive.csv"
+    else:
+        source = with_t_pose(SAMPLE, tmp_path / "t.bvh")
+    code, out, _ = run(["info", source], capsys)
+    assert code == 0
+    code, _, _ = run(["report", source, "--json", tmp_path / "r.json"], capsys)
+    report = json.loads((tmp_path / "r.json").read_text())
+    rows = {cells[0]: cells for cells in map(str.split, out.splitlines()) if cells}
+    for name, entry in report["joints"].items():
+        if "angular_accel_rms" in entry:
+            assert rows[name][-2] == f"{entry['angular_accel_rms']['before']:,.0f}", name
+    total = report["summary"]["angular_accel_rms"]["before"]
+    assert f"RMS angular acceleration {total:,.0f} deg/s^2" in out
 
 
 def test_filters_catalogue_lists_every_filter_with_parameters(capsys):
