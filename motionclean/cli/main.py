@@ -20,10 +20,10 @@ import numpy as np
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
 from ..core.reserve import keep_reserve, let_go
-from ..core.restpose import rest_frames
+from ..core.restpose import rest_frames, trim
 from ..core.threads import thread_count
 from ..core.version import __version__
-from ..filters.auto import capture_source, estimate_noise
+from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
 from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
@@ -48,6 +48,7 @@ from ..run.jobs import (
 )
 from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
+from ..steps.auto import measured_source
 from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline
 from .batch import batch_command
@@ -447,11 +448,18 @@ def report(
 
 
 def found_source(motion, source: str) -> dict:
-    """The capture system ``clean`` would assume for ``motion`` given ``--source``, as an
-    auto note says it (``model``, ``source``, ``motion_slope``, ``source_measured``)."""
-    rotations = motion.rotations[:, motion.layout.has_rotation]
-    model, slope = capture_source(rotations, motion.frame_time, source)
+    """The capture system the default ``clean`` would assume for ``motion`` given
+    ``--source``, as its auto note says it (``model``, ``source``, ``motion_slope``,
+    ``source_measured``): measured as its ``auto`` step does, on the clip the steps before
+    it leave (despike, fill-gaps), rest-pose frames left out."""
     measured = source == "auto"
+    if measured:
+        lead, trail = rest_frames(motion)
+        before_auto = DEFAULT_STEPS[: [s["filter"] for s in DEFAULT_STEPS].index("auto")]
+        motion = trim(
+            Pipeline.from_tables(before_auto, "default pipeline").run(motion)[0], lead, trail
+        )
+    model, slope = measured_source(motion, source)
     return {
         "model": model,
         "source": source,

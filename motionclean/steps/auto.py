@@ -7,8 +7,8 @@ import math
 import numpy as np
 
 from ..core import quat
-from ..core.motion import hold_missing
-from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions
+from ..core.motion import Motion, hold_missing
+from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions, capture_source
 from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
@@ -56,6 +56,16 @@ def _bridged(values, data: StepData, joints, rotations: bool):
         return fill_gaps(values, other, missing, n_frames, donors=False).rotations, missing
     other = np.broadcast_to(quat.identity(values.shape[1:-1]), values.shape[:-1] + (4,))
     return fill_gaps(other, values, missing, n_frames, donors=False).translations, missing
+
+
+def measured_source(motion: Motion, source: str) -> tuple[str, float]:
+    """:func:`~motionclean.filters.auto.capture_source` of every joint with rotation
+    channels of ``motion`` as this step sees them (dropouts bridged): the noise model it
+    would use for ``source`` and the motion slope it would measure."""
+    joints = np.flatnonzero(motion.layout.has_rotation)
+    data = StepData(motion.rotations[:, joints], None, motion.frame_time, motion, joints)
+    rotations, _ = _bridged(data.rotations, data, joints, True)
+    return capture_source(rotations, motion.frame_time, source)
 
 
 def _run_auto(data: StepData, params: dict) -> StepData:
