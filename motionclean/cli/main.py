@@ -29,12 +29,14 @@ from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
 from ..report.summary import (
+    NAME_WIDTH,
     build_report,
     build_series,
     format_rest,
     format_table,
     gap_notes,
     noise_figures,
+    short_name,
 )
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
@@ -163,14 +165,6 @@ cli.add_command(check_command)
 # ----------------------------------------------------------------------------- commands
 
 
-#: Widest joint name ``info`` prints in full; a longer one is cut to this and ends "...".
-INFO_NAME_WIDTH = 40
-
-
-def _shortened(name: str) -> str:
-    return name if len(name) <= INFO_NAME_WIDTH else name[: INFO_NAME_WIDTH - 3] + "..."
-
-
 @cli.command(short_help="Skeleton, channels, rate and largest rotation steps of a clip.")
 @click.argument("clip", type=PATH)
 @UP_OPTION
@@ -220,7 +214,7 @@ def info(
     acc_rms = np.zeros(motion.n_joints)
     acc_rms[rotating] = acc.rms
     noise = estimate_noise(motion.rotations, motion.frame_time)
-    longest = min(max(len(n) for n in motion.names), INFO_NAME_WIDTH)
+    longest = min(max(len(n) for n in motion.names), NAME_WIDTH)
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
@@ -228,8 +222,8 @@ def info(
     )
     rows = []
     for j, name in enumerate(motion.names):
-        parent = _shortened(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
-        name = _shortened(name)
+        parent = short_name(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
+        name = short_name(name)
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
         if rotating[j]:

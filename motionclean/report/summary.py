@@ -427,11 +427,27 @@ def resampled_to(report: dict) -> str:
     )
 
 
+#: Widest joint name the terminal table prints in full (characters); the column is as wide
+#: as the longest name it lists, at least 21 characters.
+NAME_WIDTH = 40
+
+
+def short_name(name: str, width: int = NAME_WIDTH) -> str:
+    """``name`` in at most ``width`` characters: a longer one keeps its start and its end,
+    where names of one rig differ (``...LeftHandIndex1``, ``...Index2``), "..." between."""
+    if len(name) <= width:
+        return name
+    end = (width - 3) // 2
+    return f"{name[: width - 3 - end]}...{name[-end:]}"
+
+
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
     cleaned = report["summary"].get("noise_reduction") is not None
     estimated = any("auto" in entry for entry in report["joints"].values())
-    head = f"{'joint':<22}{'accel rms':>14}"
+    names = noisiest(report)
+    width = min(max([21, *map(len, names[:limit])]), NAME_WIDTH) + 1
+    head = f"{'joint':<{width}}{'accel rms':>14}"
     if cleaned:
         head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
     if estimated:
@@ -445,7 +461,7 @@ def format_table(report: dict, limit: int = 10) -> str:
     ]
 
     def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
-        text = f"{name[:21]:<22}{acc['before']:>14,.0f}"
+        text = f"{short_name(name):<{width}}{acc['before']:>14,.0f}"
         if cleaned:
             removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
             text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
@@ -453,7 +469,6 @@ def format_table(report: dict, limit: int = 10) -> str:
             text += f"{auto['noise']:>10.2f}  {format_params(auto['filter'])}"
         return text
 
-    names = noisiest(report)
     for name in names[:limit]:
         entry = report["joints"][name]
         dev = entry.get("deviation_deg", {}).get("max")

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from helpers import NOISY, run_cli
 
-from motionclean.report.summary import LINE_LIMIT, format_repairs, note_text
+import motionclean as mc
+from motionclean.report.summary import (
+    LINE_LIMIT,
+    build_report,
+    format_repairs,
+    format_table,
+    note_text,
+)
 
 
 def despike_note(runs: list[list[int]]) -> dict:
@@ -46,3 +53,30 @@ def test_clean_prints_short_lines(tmp_path, capsys):
     assert len(lines) < 50 and max(map(len, lines)) < 200
     repaired = [line.split(":")[0] for line in lines if line.startswith("repaired ")]
     assert len(repaired) == len(set(repaired))
+
+
+def test_joint_names_stay_whole_or_keep_their_distinguishing_end(tmp_path):
+    """Mixamo-style names that differ only at the end print apart: in full when short
+    enough (the column as wide as the longest), longer ones with their start and end kept
+    around "...", every figure still in its column."""
+    text = NOISY.read_text()
+    renames = {"LFingers": "mixamorig:LeftHandIndex1", "LThumb": "mixamorig:LeftHandIndex2"}
+    for side in ("Left", "Right"):
+        for n, joint in enumerate((f"{side}Knee", f"{side}Ankle"), 1):
+            renames[joint] = f"Armature|Character1_Ctrl:mixamorig:{side}LegSegment{n}"
+    for old, new in renames.items():
+        text = text.replace(f"JOINT {old}\n", f"JOINT {new}\n", 1)
+    clip = tmp_path / "mixamo.bvh"
+    clip.write_text(text)
+    motion = mc.load(clip)
+    lines = format_table(build_report(motion), limit=motion.n_joints).splitlines()
+    head, rule = lines[1:3]
+    table = lines[3 : lines.index(rule, 3)]
+    shown = [line[: head.index("accel rms") - 5].rstrip() for line in table]
+    assert len(set(shown)) == len(shown) == motion.n_joints
+    assert {len(line) for line in table} == {len(head)}
+    assert "mixamorig:LeftHandIndex1" in shown and "mixamorig:LeftHandIndex2" in shown
+    for name in renames.values():
+        (label,) = [s for s in shown if s.endswith(name[-len("LeftLegSegment1") :])]
+        assert label == name or (label[:10] == name[:10] and "..." in label)
+    assert max(map(len, lines)) < 200
