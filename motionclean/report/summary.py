@@ -380,6 +380,8 @@ def build_report(
         "summary": _summary(series, cleaned),
         "world": series["world_figures"],
         "contacts": series["contacts"],
+        # per body with dropouts, its fill-gaps note (the same object as under joints)
+        "gaps": {n: entry["fill-gaps"] for n, entry in joints.items() if "fill-gaps" in entry},
         "rest_frames": {"leading": lead, "trailing": trail},
     }
     said = kinematics.source_notes(before)  # what the reader assumed: only when it did

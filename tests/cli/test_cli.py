@@ -50,6 +50,7 @@ def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
         "summary",
         "world",
         "contacts",
+        "gaps",
         "rest_frames",
         "verdict",
     }

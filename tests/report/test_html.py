@@ -152,6 +152,7 @@ def test_json_report_is_unchanged_by_series(cleaned):
         "summary",
         "world",
         "contacts",
+        "gaps",
         "rest_frames",
         "verdict",
     }

@@ -275,6 +275,28 @@ def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_p
     assert code == 0 and "hand_l missing on frames 40-47" in verdict["text"]
 
 
+def test_the_report_lists_the_gaps_per_body(tmp_path, capsys):
+    """The contract's top-level `gaps`: per body with samples missing in the input, the gaps
+    found and filled (its fill-gaps note), from `clean --report` and `report IN CLEANED`
+    alike; empty for a clip without dropouts."""
+    dropouts = ROOT / "sample_data" / "131_02_motive.csv"
+    clip = mc.load(dropouts)
+    gapped = {clip.names[j]: clip.missing[:, j] for j in np.flatnonzero(clip.missing.any(axis=0))}
+    cleaned, made, compared = tmp_path / "c.csv", tmp_path / "m.json", tmp_path / "r.json"
+    code, _, _ = run_cli(capsys, "clean", dropouts, "-o", cleaned, "-q", "--report", made)
+    assert code == 0
+    code, _, _ = run_cli(capsys, "report", dropouts, cleaned, "--json", compared)
+    assert code == 0
+    for report in (json.loads(made.read_text()), json.loads(compared.read_text())):
+        assert set(report["gaps"]) == set(gapped)
+        for name, note in report["gaps"].items():
+            assert note == report["joints"][name]["fill-gaps"]
+            frames = np.flatnonzero(gapped[name])
+            assert note["filled"] == [[int(frames[0]), int(frames[-1]) + 1]]
+    code, _, _ = run_cli(capsys, "report", NOISY, "--json", made)
+    assert code == 0 and json.loads(made.read_text())["gaps"] == {}
+
+
 def test_a_dropout_no_step_filled_is_a_reason_to_look(tmp_path, capsys):
     """A pipeline without fill-gaps leaves the tracker CSV's dropout missing: the verdict
     says so, as the README's table has it (it said "cleaned" and listed no gap), and the
