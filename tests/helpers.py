@@ -24,7 +24,7 @@ import pytest
 
 import motionclean as mc
 from motionclean.cli.main import main
-from motionclean.core import quat
+from motionclean.core import kinematics, quat
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"
@@ -425,22 +425,27 @@ def arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def restposed(motion: mc.Motion, pose: str = "T", naming: str | None = None) -> mc.Motion:
     """The sample's motion on a skeleton with another rest pose, as other exporters write
-    it: ``"T"`` (arms straight out sideways, legs straight down) or ``"A"`` (arms 45 degrees
-    down), joints renamed as ``naming`` (a key of :data:`NAMINGS`) names them. Every world
+    it: ``"T"`` (arms straight out sideways, legs straight down), ``"A"`` (arms 45 degrees
+    down) or ``"line"`` (every bone along x as Bandai Namco's rest lays them, the trunk
+    and the left side's toward +x, the right side's toward -x: no standing pose), joints
+    renamed as ``naming`` (a key of :data:`NAMINGS`) names them. Every world
     position is unchanged: joint ``j`` gets a constant rest turn ``B_j``, its children's
     offsets become ``B_j o`` and its rotations ``B_parent q_j B_j^-1``."""
     arm = {f"{side}{part}" for side in ("Left", "Right") for part in ("Shoulder", "Elbow", "Wrist")}
     leg = {"LeftHip", "LeftKnee", "RightHip", "RightKnee"}
     turns = quat.identity((motion.n_joints,))
+    right = kinematics.rest_positions(motion)[:, 0] < -1e-6  # (the sample faces +z)
     for j, name in enumerate(motion.names):
         children = np.flatnonzero(motion.parents == j)
-        if name not in arm | leg or children.size == 0:
+        if (pose != "line" and name not in arm | leg) or children.size == 0:
             continue
         child = children[np.argmax(np.linalg.norm(motion.offsets[children], axis=1))]
         if not np.linalg.norm(motion.offsets[child]) > 0.0:
             continue
         side = 1.0 if name.startswith("Left") else -1.0
-        if name in leg:
+        if pose == "line":
+            want = np.array([-1.0 if right[j] else 1.0, 0.0, 0.0])
+        elif name in leg:
             want = np.array([0.0, -1.0, 0.0])
         elif pose == "T":
             want = np.array([side, 0.0, 0.0])

@@ -624,7 +624,7 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     the body).
 
     Where the rest pose stands upright (its trunk, :func:`trunk_split`, within
-    :data:`UPRIGHT_COSINE` of an axis and the legs hanging below it: a T- or A-pose,
+    :data:`UPRIGHT_COSINE` of an axis and every leg hanging below it: a T- or A-pose,
     whichever way the clip turns it), its extent along that axis; otherwise the median
     over frames of the extent of a frame's points along the up axis (``up``, default
     :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
@@ -646,8 +646,11 @@ def _body_height(motion: Motion, up: int | None = None) -> float:
             heights = rest[:, axis] * np.sign(trunk[axis])
             extent = float(np.ptp(heights))
             # standing, the legs hang below the trunk (a rest that stacks every bone along
-            # one axis, as the glTF of a Blender rig does, points them up: no height)
-            if heights[lower].min() <= heights[upper].min() - LEGS_BELOW * extent:
+            # one axis, as the glTF of a Blender rig does, points them up: no height), all
+            # of them (Bandai Namco's rest lays every bone along x, one leg up the trunk's
+            # way, the other down: its 184 units along x are no height of a body of 137)
+            legs_below = heights[lower].min() <= heights[upper].min() - LEGS_BELOW * extent
+            if legs_below and heights[lower].max() < heights[upper].mean():
                 return extent
     axis = up_axis(motion) if up is None else up
     poses, known = sample_poses(motion)

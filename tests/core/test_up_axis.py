@@ -97,6 +97,21 @@ def test_retargeted_rests_and_names_give_the_same_world(pose, naming):
     np.testing.assert_array_equal(contacts[0], contacts[1])
 
 
+def test_a_rest_that_lays_every_bone_along_another_axis_gives_no_height():
+    """Bandai Namco's rest lays every bone along x and its clips stand along y: the
+    rest's x extent (a body and a half) had been taken for the height."""
+    motion = mc.load(SAMPLE)
+    line = restposed(motion, "line")
+    rest = kinematics.rest_positions(line)
+    assert np.argmax(np.ptp(rest, axis=0)) == 0
+    standing = kinematics.body_height(motion)
+    assert np.ptp(rest[:, 0]) > 1.3 * standing  # what had been taken
+    feet, up, height = _world(line)
+    assert up == "y" and len(feet) == 2
+    assert height == pytest.approx(standing, rel=0.1)
+    assert _world(turned_copy(line, TO_Z)) == (feet, "z", pytest.approx(height))
+
+
 def test_a_hand_or_legs_alone_have_no_trunk_and_stand_by_their_extent():
     motion = mc.load(SAMPLE)
     assert kinematics.trunk_split(kinematics.point_parents(motion)) is not None
