@@ -7,24 +7,12 @@
 >>> positions, rotations = mc.kinematics.forward(m)  # world space
 """
 
+from . import filters
 from .core import kinematics
 from .core.errors import MotionError, UsageError
 from .core.motion import Motion
 from .core.version import __version__
-from .filters import (
-    auto,
-    auto_positions,
-    bilateral,
-    bilateral_positions,
-    despike,
-    despike_positions,
-    fairing,
-    fairing_positions,
-    lee_shin,
-    lee_shin_positions,
-    sse_fairing,
-    sse_fairing_positions,
-)
+from .filters import *  # noqa: F403 (the filter functions, filters.__all__)
 from .io import load, save
 from .steps.pipeline import Pipeline
 
@@ -34,19 +22,8 @@ __all__ = [
     "Pipeline",
     "UsageError",
     "__version__",
-    "auto",
-    "auto_positions",
-    "bilateral",
-    "bilateral_positions",
-    "despike",
-    "despike_positions",
-    "fairing",
-    "fairing_positions",
     "kinematics",
-    "lee_shin",
-    "lee_shin_positions",
     "load",
     "save",
-    "sse_fairing",
-    "sse_fairing_positions",
+    *filters.__all__,
 ]
