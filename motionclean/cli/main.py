@@ -427,7 +427,7 @@ def report(
     if after is not None:
         check_compatible(before, after, compared=True)
     series = build_series(before, after)
-    notes = None if after is None else gap_notes(before, after)  # what a fill left, or did
+    notes = gap_notes(before, after)  # the dropouts, and what a fill left or did
     result = build_report(before, after, notes=notes, file=source, series=series)
     result["capture_source"] = found_source(before, capture)
     # every page is rendered before anything is written: a failure leaves no file behind

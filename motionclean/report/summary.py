@@ -318,11 +318,13 @@ def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
     return summary
 
 
-def gap_notes(before: Motion, after: Motion) -> dict[str, dict]:
+def gap_notes(before: Motion, after: Motion | None = None) -> dict[str, dict]:
     """Per joint with samples missing in ``before``, the ``fill-gaps`` note a cleaning
     would have written, read from the two clips: its gaps, the runs missing in ``before``
-    and known in ``after`` (``filled``) and those still missing in ``after`` (``missing``),
-    ``[start, stop)`` frames. For two clips compared without the steps that made one."""
+    and known in ``after`` (``filled``) and those still missing in ``after`` (``missing``,
+    with ``why``), ``[start, stop)`` frames. For two clips compared without the steps that
+    made one, or ``before`` alone (no ``after``: nothing filled)."""
+    after = before if after is None else after
     if before.missing is None:
         return {}
     joints = np.flatnonzero(before.missing.any(axis=0))
@@ -332,16 +334,16 @@ def gap_notes(before: Motion, after: Motion) -> dict[str, dict]:
     notes = {}
     for k, j in enumerate(joints):
         gaps, filled, left = ([[int(a), int(b) + 1] for a, b in each[k]] for each in runs)
-        notes[before.names[j]] = {
-            "fill-gaps": {
-                "gaps": len(gaps),
-                "longest": max(b - a for a, b in gaps),
-                "filled": filled,
-                "missing": left,
-                "donors": [],  # (not known from the two clips)
-                "why": "not filled",  # (no max_gap is known either)
-            }
+        note = {
+            "gaps": len(gaps),
+            "longest": max(b - a for a, b in gaps),
+            "filled": filled,
+            "missing": left,
+            "donors": [],  # (not known from the two clips)
         }
+        if left:
+            note["why"] = "not filled"  # (no max_gap is known either)
+        notes[before.names[j]] = {"fill-gaps": note}
     return notes
 
 

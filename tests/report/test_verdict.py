@@ -293,6 +293,16 @@ def test_the_report_lists_the_gaps_per_body(tmp_path, capsys):
             assert note == report["joints"][name]["fill-gaps"]
             frames = np.flatnonzero(gapped[name])
             assert note["filled"] == [[int(frames[0]), int(frames[-1]) + 1]]
+            assert note["missing"] == [] and "why" not in note  # all filled: no reason
+    # the input alone: its gaps, none filled (had been {})
+    code, _, _ = run_cli(capsys, "report", dropouts, "--json", compared)
+    assert code == 0
+    alone = json.loads(compared.read_text())["gaps"]
+    assert set(alone) == set(gapped)
+    for name, note in alone.items():
+        frames = np.flatnonzero(gapped[name])
+        assert note["filled"] == [] and note["why"] == "not filled"
+        assert note["missing"] == [[int(frames[0]), int(frames[-1]) + 1]]
     code, _, _ = run_cli(capsys, "report", NOISY, "--json", made)
     assert code == 0 and json.loads(made.read_text())["gaps"] == {}
 
