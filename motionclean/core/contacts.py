@@ -315,8 +315,8 @@ def contact_soles(
         sole = positions[np.arange(len(positions)), lowest]
         level = sole[:, up].copy()
         level[1:-1][level[1:-1] < np.minimum(level[:-2], level[2:]) - SOLE_GLITCH * height] = np.inf
-        for first, last in contact_runs(contacts[:, [k]])[0]:
-            soles.append(sole[first + int(level[first : last + 1].argmin())])
+        for first, stop in contact_runs(contacts[:, [k]])[0]:
+            soles.append(sole[first + int(level[first:stop].argmin())])
     return np.array(soles, dtype=np.float64).reshape(-1, 3)
 
 
@@ -510,11 +510,12 @@ def point_contacts(
 
 
 def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:
-    """Per foot, the contacts as inclusive ``(first, last)`` frame pairs."""
+    """Per foot (column), its runs of True as ``(first, stop)`` frames: ``first`` in the
+    run, ``stop`` after its last (a contact on the last of ``F`` frames stops at ``F``)."""
     runs = []
     for k in range(contacts.shape[1]):
         starts, ends = _runs(contacts[:, k])
-        runs.append([(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)])
+        runs.append([(int(a), int(b)) for a, b in zip(starts, ends, strict=True)])
     return runs
 
 

@@ -671,11 +671,11 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     if data["height_after"] is not None:
         series.append((trace(data["height_after"]), AFTER, "height after"))
     x_scale = COLUMNS / max(frames - 1, 1)
-    shades = [
+    shades = [  # from a contact's first frame to its last (``stop - 1``)
         f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '
-        f'width="{max((last - first) * x_scale, 1.0):.1f}" height="{ACCEL_HEIGHT}" '
+        f'width="{max((stop - 1 - first) * x_scale, 1.0):.1f}" height="{ACCEL_HEIGHT}" '
         f'fill="{CONTACT}"/>'
-        for first, last in data["contacts"]
+        for first, stop in data["contacts"]
     ]
     height = ACCEL_TOP + ACCEL_HEIGHT + 30
     parts = shades + _panel(

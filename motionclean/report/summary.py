@@ -333,7 +333,7 @@ def gap_notes(before: Motion, after: Motion | None = None) -> dict[str, dict]:
     runs = [found.contact_runs(mask) for mask in (was, was & ~still, still)]
     notes = {}
     for k, j in enumerate(joints):
-        gaps, filled, left = ([[int(a), int(b) + 1] for a, b in each[k]] for each in runs)
+        gaps, filled, left = ([list(run) for run in each[k]] for each in runs)
         note = {
             "gaps": len(gaps),
             "longest": max(b - a for a, b in gaps),

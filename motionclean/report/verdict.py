@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..steps import REGISTRY
+from ..steps.base import format_runs
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
@@ -180,7 +181,7 @@ def _missing_words(joints: dict[str, dict]) -> list[str]:
     for name, entry in joints.items():
         runs = _runs(entry.get("fill-gaps") or {}, "missing")
         if runs:
-            spans = ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs[:3])
+            spans = format_runs(runs[:3])
             more = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
             words.append(f"{name} missing on frames {spans}{more}")
     return words

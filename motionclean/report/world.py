@@ -157,7 +157,7 @@ def contact_figures(
     """The report's ``contacts`` section and the per-foot plot series.
 
     Contacts are found on ``before`` with the footlock step's default thresholds; per foot
-    (keyed by ankle joint name): the contact frames (inclusive pairs), skate (mean
+    (keyed by ankle joint name): the contacts (``[first, stop)`` frame runs), skate (mean
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below each clip's own ground, units) before and after.
     ``None`` and no series for a clip without feet. The series hold each foot's lowest
@@ -218,7 +218,7 @@ def contact_figures(
             else dict(absent)
         )
         section["feet"][foot.name] = {
-            "contacts": [[first, last] for first, last in runs[k]],
+            "contacts": [list(run) for run in runs[k]],
             "frames": int(contacts[:, k].sum()),
             "skate": skated,
             "skate_body_heights": {

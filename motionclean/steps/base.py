@@ -170,9 +170,10 @@ class StepSpec:
     smoothing it (a pipeline of such steps alone gets no noise judgement);
     ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
     steps without a clip's rest-pose frames and numbers frames as the file does);
-    ``crop_note(note, first, last)`` keeps what a note says about frames ``first..last``
-    (inclusive) or gives None (nothing there): a step run on a frame range reports only
-    what it changed.
+    ``crop_note(note, start, stop)`` keeps what a note says about frames ``[start, stop)``
+    or gives None (nothing there): a step run on a frame range reports only what it
+    changed. Frame runs in notes are ``[first, stop)``: ``stop`` is the frame after the
+    run's last.
     """
 
     name: str
@@ -225,18 +226,15 @@ COMMON_PARAMS = (
 
 
 def shift_runs(runs: list[list[int]], frames: int) -> list[list[int]]:
-    """Frame ranges ``[[a, b], ...]`` moved by ``frames``."""
+    """Frame runs ``[[first, stop], ...]`` moved by ``frames``."""
     return [[a + frames, b + frames] for a, b in runs]
 
 
-def crop_runs(
-    runs: list[list[int]], first: int, last: int, stop_exclusive: bool
-) -> list[list[int]]:
-    """Frame ranges ``[[a, b], ...]`` cut to frames ``first..last`` (inclusive); ``b`` is
-    exclusive when ``stop_exclusive``. Ranges outside are dropped."""
-    end = last + 1 if stop_exclusive else last
-    cut = [[max(a, first), min(b, end)] for a, b in runs]
-    return [[a, b] for a, b in cut if (a < b if stop_exclusive else a <= b)]
+def crop_runs(runs: list[list[int]], start: int, stop: int) -> list[list[int]]:
+    """Frame runs ``[[first, stop], ...]`` (``stop`` exclusive) cut to frames
+    ``[start, stop)``; runs outside are dropped."""
+    cut = [[max(a, start), min(b, stop)] for a, b in runs]
+    return [[a, b] for a, b in cut if a < b]
 
 
 def format_params(params: dict) -> str:

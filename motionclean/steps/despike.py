@@ -107,16 +107,16 @@ def _format_note(note: dict, positions: bool, ranges=format_runs) -> str:
     return "; ".join(parts)
 
 
-def _crop_note(note: dict, first: int, last: int) -> dict | None:
-    """The repairs within frames ``first..last``; the whole-clip largest steps are left out
-    (outside the range the clip keeps its input)."""
-    unflipped = crop_runs(note["unflipped"], first, last, stop_exclusive=True)
-    interpolated = crop_runs(note["interpolated"], first, last, stop_exclusive=True)
+def _crop_note(note: dict, start: int, stop: int) -> dict | None:
+    """The repairs within frames ``[start, stop)``; the whole-clip largest steps are left
+    out (outside the range the clip keeps its input)."""
+    unflipped = crop_runs(note["unflipped"], start, stop)
+    interpolated = crop_runs(note["interpolated"], start, stop)
     if not unflipped and not interpolated:
         return None
-    repaired = np.zeros(last - first + 1, dtype=bool)
+    repaired = np.zeros(stop - start, dtype=bool)
     for a, b in unflipped + interpolated:
-        repaired[a - first : b - first] = True
+        repaired[a - start : b - start] = True
     kept = {key: value for key, value in note.items() if key != "max_step"}
     return kept | {
         "frames_repaired": int(repaired.sum()),

@@ -24,7 +24,17 @@ from ..core.motion import Motion
 from ..core.rates import whole_frames
 from ..filters.auto import estimate_noise, estimate_position_noise
 from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, held_toes, hinge_axis, plant
-from .base import UP_PARAM, Param, StepData, StepSpec, crop_runs, given_up, plural, shift_runs
+from .base import (
+    UP_PARAM,
+    Param,
+    StepData,
+    StepSpec,
+    crop_runs,
+    format_runs,
+    given_up,
+    plural,
+    shift_runs,
+)
 
 
 def contact_params(params: dict) -> found.ContactParams:
@@ -258,25 +268,26 @@ def _run(data: StepData, params: dict) -> StepData:
         foot = feet[k]
         runs = found.contact_runs(contacts[:, [k]])[0]
         data.rotation_notes.setdefault(column[foot.ankle], {})["footlock"] = {
-            "contacts": [[a, b] for a, b in runs],
+            "contacts": [list(run) for run in runs],
             "frames": int(contacts[:, k].sum()),
         }
     return data
 
 
 def _format_note(note: dict, positions: bool) -> str:
-    shown = ", ".join(f"{a}-{b}" for a, b in note["contacts"][:6])
+    """The contacts held (``[first, stop)`` frame runs), shown as frames ``first-last``."""
+    shown = format_runs(note["contacts"][:6])
     more = len(note["contacts"]) - 6
     held = f"held {plural(len(note['contacts']), 'contact')} ({plural(note['frames'], 'frame')})"
     return f"{held}: {shown}" + (f" and {more} more" if more > 0 else "")
 
 
-def _crop_note(note: dict, first: int, last: int) -> dict | None:
-    """The contacts held within frames ``first..last``."""
-    contacts = crop_runs(note["contacts"], first, last, stop_exclusive=False)
+def _crop_note(note: dict, start: int, stop: int) -> dict | None:
+    """The contacts held within frames ``[start, stop)``."""
+    contacts = crop_runs(note["contacts"], start, stop)
     if not contacts:
         return None
-    return {**note, "contacts": contacts, "frames": sum(b - a + 1 for a, b in contacts)}
+    return {**note, "contacts": contacts, "frames": sum(b - a for a, b in contacts)}
 
 
 STEP = StepSpec(

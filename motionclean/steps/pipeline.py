@@ -200,7 +200,8 @@ class StepLog:
     notes: dict[str, dict]
     # (parameter, pattern): the include patterns that matched no joint of this clip
     unmatched: list[tuple[str, str]]
-    touched: tuple[int, int] | None = None  # frames a ranged step changed, blends included
+    # frames a ranged step changed, blends included: (first, stop), file frames
+    touched: tuple[int, int] | None = None
     # the clip after the step, rest frames included: the frames its notes number
     n_frames: int = 0
     frame_time: float = 0.0
@@ -425,7 +426,7 @@ def _run_step(
                 motion.translations[:, pos_idx], data.translations, share
             )
         moved = np.flatnonzero(share > 0.0)
-        inside = (int(moved[0]), int(moved[-1])) if moved.size else None
+        inside = (int(moved[0]), int(moved[-1]) + 1) if moved.size else None
         _crop_notes(step.spec, data.rotation_notes, inside)
         _crop_notes(step.spec, data.translation_notes, inside)
         touched = (inside[0] + offset, inside[1] + offset) if inside else None
@@ -583,7 +584,8 @@ def _merged(parts: list[tuple[dict, int]]) -> dict:
 
 
 def _crop_notes(spec: StepSpec, notes: dict[int, dict], inside: tuple[int, int] | None) -> None:
-    """Keep, in place, what ``notes`` say about frames ``inside`` (inclusive; None: none)."""
+    """Keep, in place, what ``notes`` say about frames ``inside`` (``(start, stop)``; None:
+    none)."""
     if spec.crop_note is None:
         return
     for column in list(notes):

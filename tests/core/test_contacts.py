@@ -33,7 +33,7 @@ def test_contacts_on_a_real_walk_are_where_a_person_marks_them():
     assert left[[24, 200, 300]].all() and not left[[60, 256]].any()
     assert right[[40, 300]].all() and not right[112]
     runs = found.contact_runs(contacts)
-    assert all(last - first + 1 >= 0.1 / motion.frame_time for foot in runs for first, last in foot)
+    assert all(stop - first >= 0.1 / motion.frame_time for foot in runs for first, stop in foot)
 
 
 def test_a_toe_is_planted_within_its_foots_contact_but_not_while_the_heel_pivots():
@@ -146,8 +146,8 @@ def test_frames_away_from_contacts_are_bit_for_bit_the_input(locked):
     blend = int(np.ceil(0.05 / motion.frame_time)) + 1
     near = np.zeros(motion.n_frames, dtype=bool)
     for k in range(len(feet)):
-        for first, last in found.contact_runs(contacts[:, [k]])[0]:
-            near[max(first - blend, 0) : last + blend + 1] = True
+        for first, stop in found.contact_runs(contacts[:, [k]])[0]:
+            near[max(first - blend, 0) : stop + blend] = True
     np.testing.assert_array_equal(out.rotations[~near], motion.rotations[~near])
     np.testing.assert_array_equal(out.translations[~near], motion.translations[~near])
     legs = {j for f in feet for p in f.points for j in _above(motion, p)}

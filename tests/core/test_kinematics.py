@@ -244,6 +244,10 @@ def test_report_figures_from_the_figure_points_equal_those_from_every_point():
     for k, foot in enumerate(feet):
         entry = report["contacts"]["feet"][foot.name]
         assert entry["contacts"] == [list(run) for run in found.contact_runs(contacts)[k]]
+        held = np.zeros(motion.n_frames, dtype=bool)
+        for first, stop in entry["contacts"]:
+            held[first:stop] = True
+        np.testing.assert_array_equal(held, contacts[:, k])
         assert entry["skate"]["after"] == skate[k]
     lead, trail = rest_frames(motion)
     core = slice(lead, motion.n_frames - trail)

@@ -17,12 +17,12 @@ from motionclean.steps.base import fps_text
 def test_one_of_a_thing_is_singular():
     despike = {"frames_repaired": 1, "unflipped": [[7, 8]], "interpolated": []}
     assert note_text("despike", despike).startswith("1 frame repaired;")
-    footlock = {"contacts": [[10, 10]], "frames": 1}
+    footlock = {"contacts": [[10, 11]], "frames": 1}
     assert note_text("footlock", footlock).startswith("held 1 contact (1 frame)")
     feet = {
         "feet": {
             "LeftAnkle": {
-                "contacts": [[3, 3]],
+                "contacts": [[3, 4]],
                 "frames": 1,
                 "skate_body_heights": {"before": 0.1, "after": None},
                 "penetration": {"before": None, "after": None},

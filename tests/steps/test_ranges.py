@@ -100,7 +100,7 @@ def test_seconds_pick_the_same_frames_and_the_report_says_which(tmp_path, capsys
         f"lee-shin:frames=[{FIRST},{LAST}],blend=3",
     )
     entry = json.loads(report.read_text())["pipeline"][0]
-    assert entry["frames"] == [FIRST, LAST] and entry["touched"] == [FIRST - 3, LAST + 3]
+    assert entry["frames"] == [FIRST, LAST] and entry["touched"] == [FIRST - 3, LAST + 4]
 
 
 def changed_frames(before: np.ndarray, after: np.ndarray, column: int) -> set[int]:
@@ -117,15 +117,15 @@ def test_a_ranged_despike_reports_only_the_repairs_it_made():
     assert len(full_runs) > 1
     (a, b) = full_runs[0]
     out, logs = Pipeline.from_inline([f"despike:frames=[{a - 5},{b + 2}],blend=2"]).run(clip)
-    first, last = logs[0].touched
-    assert (first, last) == (a - 7, b + 4)
+    first, stop = logs[0].touched
+    assert (first, stop) == (a - 7, b + 5)
     note = logs[0].notes[joint]["despike"]
     listed = {f for x, y in note["unflipped"] + note["interpolated"] for f in range(x, y)}
-    assert listed and all(first <= f <= last for f in listed)
+    assert listed and all(first <= f < stop for f in listed)
     assert note["frames_repaired"] == len(listed) and "max_step" not in note
     column = clip.names.index(joint)
     assert listed <= changed_frames(clip.rotations, out.rotations, column)
-    assert changed_frames(clip.rotations, out.rotations, column) <= set(range(first, last + 1))
+    assert changed_frames(clip.rotations, out.rotations, column) <= set(range(first, stop))
 
     quiet = Pipeline.from_inline([f"despike:frames=[{b + 1},{b + 1}],blend=0"])
     _, logs = quiet.run(clip)
@@ -135,26 +135,25 @@ def test_a_ranged_despike_reports_only_the_repairs_it_made():
 def test_a_ranged_footlock_reports_only_the_contacts_it_held():
     clip = mc.load(NOISY)
     _, logs = Pipeline.from_inline([f"footlock:min_skate=0,frames=[{FIRST},{LAST}]"]).run(clip)
-    first, last = logs[0].touched
+    first, stop = logs[0].touched
     notes = [n["footlock"] for n in logs[0].notes.values() if "footlock" in n]
     assert notes
     for note in notes:
-        assert all(first <= a <= b <= last for a, b in note["contacts"])
-        assert note["frames"] == sum(b - a + 1 for a, b in note["contacts"])
+        assert all(first <= a < b <= stop for a, b in note["contacts"])
+        assert note["frames"] == sum(b - a for a, b in note["contacts"])
 
 
 @pytest.mark.parametrize(
-    ("runs", "exclusive", "expected"),
+    ("runs", "expected"),
     [
-        ([[0, 5], [8, 12], [20, 30]], True, [[3, 5], [8, 11]]),
-        ([[0, 5], [8, 12], [20, 30]], False, [[3, 5], [8, 10]]),
-        ([[0, 3]], True, []),
-        ([[0, 3]], False, [[3, 3]]),
-        ([[11, 14]], True, []),
+        ([[0, 5], [8, 12], [20, 30]], [[3, 5], [8, 11]]),
+        ([[0, 3]], []),
+        ([[0, 4]], [[3, 4]]),
+        ([[11, 14]], []),
     ],
 )
-def test_crop_runs(runs, exclusive, expected):
-    assert crop_runs(runs, 3, 10, stop_exclusive=exclusive) == expected
+def test_crop_runs(runs, expected):
+    assert crop_runs(runs, 3, 11) == expected
 
 
 def test_a_range_after_a_whole_clip_step_counts_that_steps_frames(monkeypatch):
@@ -181,7 +180,7 @@ def test_a_range_after_a_whole_clip_step_counts_that_steps_frames(monkeypatch):
         Pipeline.from_tables(late, "t").run(clip)
     late[1]["frames"] = [10, 140]
     out, logs = Pipeline.from_tables(late, "t").run(clip)
-    assert out.n_frames == 150 and logs[1].touched == (5, 145)
+    assert out.n_frames == 150 and logs[1].touched == (5, 146)
 
 
 def test_ranges_are_checked_before_any_step_runs(monkeypatch):

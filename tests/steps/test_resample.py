@@ -168,7 +168,7 @@ def test_steps_after_resample_see_the_new_rate_and_frames():
     pipeline = Pipeline.from_inline(["resample:fps=60", "lee-shin:frames=[10,40],blend=0"])
     out, logs = pipeline.run(clip)
     assert out.n_frames == 150 and abs(out.frame_rate - 60.0) < 1e-9
-    assert logs[1].touched == (10, 40)
+    assert logs[1].touched == (10, 41)
     alone = resample_motion(clip, 1 / 60)
     assert max_degrees(out.rotations[41:], alone.rotations[41:]) < 1e-9
     assert max_degrees(out.rotations[10:41], alone.rotations[10:41]) > 0.0
