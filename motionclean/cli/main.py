@@ -50,7 +50,7 @@ from ..run.jobs import (
 )
 from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
-from ..steps.auto import measured_source
+from ..steps.auto import measured_source, seen_rotations
 from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline
 from .batch import batch_command
@@ -213,7 +213,8 @@ def info(
     acc = noise_figures(motion)  # the report's figures (rest frames and dropouts left out)
     acc_rms = np.zeros(motion.n_joints)
     acc_rms[rotating] = acc.rms
-    noise = estimate_noise(motion.rotations, motion.frame_time)
+    noise = np.zeros(motion.n_joints)  # as auto sees the clip: rest frames out, dropouts bridged
+    noise[rotating] = estimate_noise(seen_rotations(trim(motion, lead, trail)), motion.frame_time)
     longest = min(max(len(n) for n in motion.names), NAME_WIDTH)
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(

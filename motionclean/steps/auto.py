@@ -58,14 +58,18 @@ def _bridged(values, data: StepData, joints, rotations: bool):
     return fill_gaps(other, values, missing, n_frames, donors=False).translations, missing
 
 
-def measured_source(motion: Motion, source: str) -> tuple[str, float]:
-    """:func:`~motionclean.filters.auto.capture_source` of every joint with rotation
-    channels of ``motion`` as this step sees them (dropouts bridged): the noise model it
-    would use for ``source`` and the motion slope it would measure."""
+def seen_rotations(motion: Motion) -> np.ndarray:
+    """The rotations of every joint with rotation channels of ``motion`` as this step sees
+    them: ``(F, Jr, 4)``, dropouts bridged."""
     joints = np.flatnonzero(motion.layout.has_rotation)
     data = StepData(motion.rotations[:, joints], None, motion.frame_time, motion, joints)
-    rotations, _ = _bridged(data.rotations, data, joints, True)
-    return capture_source(rotations, motion.frame_time, source)
+    return _bridged(data.rotations, data, joints, True)[0]
+
+
+def measured_source(motion: Motion, source: str) -> tuple[str, float]:
+    """:func:`~motionclean.filters.auto.capture_source` of :func:`seen_rotations`: the
+    noise model this step would use for ``source`` and the motion slope it would measure."""
+    return capture_source(seen_rotations(motion), motion.frame_time, source)
 
 
 def _run_auto(data: StepData, params: dict) -> StepData:

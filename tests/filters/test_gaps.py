@@ -455,6 +455,18 @@ def test_info_lists_dropouts_and_leaves_their_placeholders_out_of_the_figures(tm
     assert int(row.split()[-3]) not in (150, 250)  # the largest step is no placeholder jump
 
 
+def test_info_estimates_noise_across_a_dropout_as_auto_does(tmp_path, capsys):
+    source, report = ROOT / "sample_data" / "131_02_motive.csv", tmp_path / "r.json"
+    code, stdout, err = run_cli(capsys, "info", source)
+    assert code == 0, err
+    row = next(line for line in stdout.splitlines() if line.strip().startswith("hand_l"))
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "auto", "--report", report)
+    assert code == 0, err
+    noise = json.loads(report.read_text())["joints"]["hand_l"]["auto"]["noise"]
+    assert float(row.split()[-1]) == pytest.approx(noise, abs=0.005)  # info rounds to 0.01
+
+
 def test_world_csv_leaves_a_missing_body_blank(tmp_path, capsys):
     source, world = tmp_path / "t.csv", tmp_path / "world.csv"
     rigid_csv(source, mc.load(SAMPLE), {"LeftWrist": slice(10, 20)})
