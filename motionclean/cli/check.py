@@ -284,7 +284,7 @@ def check_command(
     if replace and not update:
         raise UsageError("--replace goes with --update")
     if update:
-        check_target(baseline_path, (*clips, pipe))
+        check_target(baseline, (*clips, pipe))
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
     named: dict[str, str] = {}  # a clip named twice is checked once

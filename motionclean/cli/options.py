@@ -18,6 +18,8 @@ from ..io import FORMATS, ReadOptions
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
+#: What a path naming a folder ends in.
+SEPARATORS = tuple(sep for sep in (os.sep, os.altsep) if sep)
 
 #: Path arguments and options. The readers and writers check the paths themselves: an
 #: input that cannot be read is a data error (exit 1, ``FILE: permission denied``), which
@@ -137,8 +139,11 @@ def _same_file(a: str | Path, b: str | Path) -> bool:
 
 def check_target(path: str | Path, inputs: Inputs = ()) -> Path:
     """Refuse, before any work is done, an output that is one of ``inputs``
-    (:func:`refuse_overwrite`), a folder, or in no folder (for a symbolic link, the folder
-    of the file it leads to: a dangling link is refused like a missing folder, never made)."""
+    (:func:`refuse_overwrite`), a folder or named as one (ending in a separator), or in no
+    folder (for a symbolic link, the folder of the file it leads to: a dangling link is
+    refused like a missing folder, never made)."""
+    if os.fspath(path).endswith(SEPARATORS):
+        raise UsageError(f"{os.fspath(path)}: names a folder, not a file")
     path = Path(path)
     refuse_overwrite(path, inputs)
     lands = Path(os.path.realpath(path)) if path.is_symlink() else path
@@ -153,10 +158,9 @@ def check_output(
     path: str | Path, suffixes: tuple[str, ...], what: str, inputs: Inputs = ()
 ) -> Path:
     """:func:`check_target`, and refuse an output with another suffix."""
-    path = Path(path)
-    if path.suffix.lower() not in suffixes:
-        raise UsageError(f"{path}: {what} must end in {' or '.join(suffixes)}")
-    return check_target(path, inputs)
+    if Path(path).suffix.lower() not in suffixes:
+        raise UsageError(f"{Path(path)}: {what} must end in {' or '.join(suffixes)}")
+    return check_target(path, inputs)  # as given: Path() drops a trailing separator
 
 
 def check_clip_output(path: str | Path, inputs: Inputs = ()) -> Path:

@@ -30,6 +30,27 @@ def output_commands(tmp_path, out):
     }
 
 
+#: Every command and option that writes a file, as :func:`output_commands` names them.
+OUTPUT_COMMANDS = (
+    "clean",
+    "clean --report",
+    "convert",
+    "resample",
+    "blend",
+    "stitch",
+    "report --json",
+    "report --html",
+    "check --update",
+)
+
+
+def output_suffix(command: str) -> str:
+    """The suffix of what ``command`` writes."""
+    if command == "report --html":
+        return ".html"
+    return ".json" if command in ("clean --report", "report --json", "check --update") else ".bvh"
+
+
 @pytest.mark.parametrize(
     "command",
     ["clean", "clean --report", "convert", "resample", "blend", "stitch", "report --json"],
@@ -111,6 +132,19 @@ def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, comman
     assert code == 2
     assert one_error_line(err) == f"motionclean: error: {out}: is a directory"
     assert list(out.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", OUTPUT_COMMANDS)
+def test_an_output_ending_in_a_separator_names_a_folder(tmp_path, capsys, command):
+    """`-o new.bvh/` names a folder: refused up front, exit 2 (a file new.bvh had been
+    written)."""
+    out = f"{tmp_path / 'new'}{output_suffix(command)}/"
+    args = output_commands(tmp_path, out)[command]
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code, stdout, err = run_cli(capsys, *args)
+    assert (code, stdout) == (2, "")
+    assert one_error_line(err) == f"motionclean: error: {out}: names a folder, not a file"
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
 
 
 def contents(folder: Path) -> dict[str, bytes]:
