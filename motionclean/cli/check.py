@@ -36,6 +36,7 @@ from ..run.pool import default_workers, run_jobs
 from ..steps.base import plural
 from .options import (
     FILE_PATH,
+    PATH,
     PIPE_OPTION,
     SOURCE_OPTION,
     STEP_OPTION,
@@ -80,6 +81,8 @@ def read_baseline(path: Path) -> dict[str, Any]:
     """Load a baseline file written by ``--update``."""
     if not path.exists():
         raise UsageError(f"{path}: no such baseline; create it with --update")
+    if path.is_dir():
+        raise UsageError(f"{path}: is a directory, not a baseline")
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
@@ -238,7 +241,7 @@ def _why(
 @click.option(
     "--baseline",
     required=True,
-    type=FILE_PATH,
+    type=PATH,
     help="Baseline JSON file with the expected figures per clip.",
 )
 @click.option(

@@ -56,7 +56,6 @@ from ..steps.pipeline import DEFAULT_STEPS, Pipeline
 from .batch import batch_command
 from .check import check_command
 from .options import (
-    FILE_PATH,
     PATH,
     PIPE_OPTION,
     SOURCE_OPTION,
@@ -328,7 +327,7 @@ def resample_command(
     "--report",
     "report_paths",
     multiple=True,
-    type=FILE_PATH,
+    type=PATH,
     help="Also write a report, FILE.json or FILE.html; repeatable (e.g. one of each).",
 )
 @click.option("--in-place", is_flag=True, help="Allow OUTPUT to be the input file itself.")
@@ -399,8 +398,8 @@ def _dropout_lines(motion) -> list[str]:
 @cli.command(short_help="Noise figures of a clip, or before/after for a cleaned pair.")
 @click.argument("source", type=PATH)
 @click.argument("cleaned", type=PATH, required=False)
-@click.option("--json", "json_path", type=FILE_PATH, help="Write JSON here.")
-@click.option("--html", "html_path", type=FILE_PATH, help="Write HTML here.")
+@click.option("--json", "json_path", type=PATH, help="Write JSON here.")
+@click.option("--html", "html_path", type=PATH, help="Write HTML here.")
 @SOURCE_OPTION
 @UP_OPTION
 @read_options

@@ -23,7 +23,8 @@ SEPARATORS = tuple(sep for sep in (os.sep, os.altsep) if sep)
 
 #: Path arguments and options. The readers and writers check the paths themselves: an
 #: input that cannot be read is a data error (exit 1, ``FILE: permission denied``), which
-#: click's own readability check would turn into a usage error in its own words.
+#: click's own readability check would turn into a usage error in its own words. Outputs
+#: are PATH: :func:`check_target` refuses a folder in the project's words.
 PATH = click.Path(readable=False)
 FILE_PATH = click.Path(dir_okay=False, readable=False)
 FOLDER_PATH = click.Path(file_okay=False, readable=False)

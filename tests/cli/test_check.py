@@ -104,6 +104,10 @@ def test_missing_baseline_is_a_clear_error(clips, capsys):
         "motionclean: error: none.json: no such baseline; create it with --update"
     )
     assert not Path("none.json").exists()
+    Path("d.json").mkdir()
+    code, stdout, stderr = run_cli(capsys, "check", *clips, "--baseline", "d.json")
+    assert (code, stdout) == (2, "")
+    assert stderr == "motionclean: error: d.json: is a directory, not a baseline\n"
 
 
 @pytest.mark.parametrize(

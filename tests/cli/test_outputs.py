@@ -120,11 +120,11 @@ def test_an_output_that_is_the_input_is_refused_up_front(tmp_path, capsys, comma
     assert contents(tmp_path) == before
 
 
-@pytest.mark.parametrize("command", ["clean", "convert", "resample", "blend", "stitch"])
+@pytest.mark.parametrize("command", OUTPUT_COMMANDS)
 def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, command):
-    """As a report that is a folder: exit 2 before any clip is read (it was 1, after the
-    work)."""
-    out = tmp_path / "out.bvh"
+    """Exit 2 before any clip is read (a clip's had been 1, after the work), in the same
+    words for every output (a report's and a baseline's had been click's)."""
+    out = tmp_path / f"out{output_suffix(command)}"
     out.mkdir()
     args = output_commands(tmp_path, out)[command]
     (tmp_path / "in.bvh").write_text("not a clip: never read")
