@@ -31,12 +31,12 @@ from .options import (
     SOURCE_OPTION,
     STEP_OPTION,
     UP_OPTION,
+    check_target,
     echo_warnings,
     pipeline_from_options,
     raise_failures,
     read_options,
     reading,
-    refuse_overwrite,
 )
 
 #: Clips ``batch`` takes when no ``--glob`` is given: every suffix motionclean reads.
@@ -99,7 +99,7 @@ def _inside(path: Path, folder: Path) -> bool:
 
 
 def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None:
-    """Refuse any layout that could write inside IN_DIR (usage errors)."""
+    """Refuse any layout that could write inside IN_DIR (usage errors); nothing is made."""
     if not in_dir.exists():
         raise UsageError(f"{in_dir}: no such folder")
     if not in_dir.is_dir():
@@ -121,6 +121,10 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
                 f"{folder}: {option} is inside the input folder {in_dir}; "
                 "batch never writes there, choose a folder outside it"
             )
+
+
+def _make_folders(out_dir: Path, report_dir: Path | None) -> None:
+    """Make OUT_DIR and the ``--report-dir``, once all is checked."""
     for option, folder in (("-o", out_dir), ("--report-dir", report_dir)):
         if folder is None:
             continue
@@ -283,14 +287,17 @@ def batch_command(
         raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
     resolved_in = source_root.resolve()
 
-    def refuse_input(written: Path) -> None:
-        """Refuse an output that lands in IN_DIR (through a link too) or is a file read."""
+    def check_written(written: Path) -> None:
+        """Refuse an output that lands in IN_DIR (through a link too) and, where its folder
+        exists (one of the mirrored tree still to be made holds nothing), what
+        :func:`check_target` refuses: a folder or a file read."""
         if _inside(written.resolve(), resolved_in):
             raise UsageError(f"{written}: would be written inside the input folder {in_dir}")
-        refuse_overwrite(written, (skeleton, body_model, pipe))
+        if written.parent.exists():
+            check_target(written, (skeleton, body_model, pipe))
 
     if pages is not None:
-        refuse_input(pages / "index.html")
+        check_written(pages / "index.html")
     tables = tuple(pipeline.describe())
     read = reading(skeleton, body_model, exclude)
     work: list[Job] = []
@@ -301,7 +308,7 @@ def batch_command(
         page = None if pages is None else pages / f"{rel}.html"
         for written in (target, page):
             if written is not None:
-                refuse_input(written)
+                check_written(written)
         if skip_existing and target.exists() and (page is None or page.exists()):
             results[str(rel)] = FileResult(
                 str(source), str(target), "skipped", report=None if page is None else str(page)
@@ -315,6 +322,7 @@ def batch_command(
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
+    _make_folders(out_root, pages)
     start = time.perf_counter()
     note = lost = None
     try:

@@ -138,6 +138,25 @@ def test_refuses_a_report_page_that_leads_into_the_input(tree, tmp_path, capsys,
     assert snapshot(tree) == before
 
 
+def listing(folder: Path) -> list[str]:
+    return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize("skip", [[], ["--skip-existing"]])
+@pytest.mark.parametrize("folder", ["out/walk/a.bvh", "pages/walk/a.bvh.html", "pages/index.html"])
+def test_an_output_that_is_a_folder_is_refused_up_front(tree, tmp_path, capsys, folder, skip):
+    """As clean's: exit 2, one line, nothing written (the other clips, pages and index had
+    been, then exit 1); with --skip-existing too, a folder being no existing output."""
+    (tmp_path / folder).mkdir(parents=True)
+    before = listing(tmp_path)
+    code, stdout, stderr = run_cli(
+        capsys, "batch", tree, "-o", tmp_path / "out", "--report-dir", tmp_path / "pages", *skip
+    )
+    assert (code, stdout) == (2, "")
+    assert stderr == f"motionclean: error: {tmp_path / folder}: is a directory\n"
+    assert listing(tmp_path) == before
+
+
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
     code, stdout, stderr = run_cli(
         capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"
