@@ -287,14 +287,14 @@ def batch_command(
         raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
     resolved_in = source_root.resolve()
 
-    def check_written(written: Path) -> None:
+    def check_written(written: Path, source: Path | None = None) -> None:
         """Refuse an output that lands in IN_DIR (through a link too) and, where its folder
         exists (one of the mirrored tree still to be made holds nothing), what
-        :func:`check_target` refuses: a folder or a file read."""
+        :func:`check_target` refuses: a folder, the clip ``source`` or a file read."""
         if _inside(written.resolve(), resolved_in):
             raise UsageError(f"{written}: would be written inside the input folder {in_dir}")
         if written.parent.exists():
-            check_target(written, (skeleton, body_model, pipe))
+            check_target(written, (source, skeleton, body_model, pipe))
 
     if pages is not None:
         check_written(pages / "index.html")
@@ -308,7 +308,7 @@ def batch_command(
         page = None if pages is None else pages / f"{rel}.html"
         for written in (target, page):
             if written is not None:
-                check_written(written)
+                check_written(written, source)
         if skip_existing and target.exists() and (page is None or page.exists()):
             results[str(rel)] = FileResult(
                 str(source), str(target), "skipped", report=None if page is None else str(page)

@@ -157,6 +157,25 @@ def test_an_output_that_is_a_folder_is_refused_up_front(tree, tmp_path, capsys, 
     assert listing(tmp_path) == before
 
 
+@pytest.mark.parametrize("skip", [[], ["--skip-existing"]])
+def test_an_output_that_is_a_hard_link_of_its_clip_is_refused_up_front(
+    tree, tmp_path, capsys, skip
+):
+    """As clean's: the link had been replaced (with --skip-existing, kept as the clip's
+    cleaned copy)."""
+    clip, out = tree / "walk" / "a.bvh", tmp_path / "out"
+    (out / "walk").mkdir(parents=True)
+    (out / "walk" / "a.bvh").hardlink_to(clip)
+    before = listing(tmp_path)
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out, *skip)
+    assert (code, stdout) == (2, "")
+    assert stderr == (
+        f"motionclean: error: {out / 'walk' / 'a.bvh'}: refusing to overwrite the input "
+        f"{clip}; write to another file\n"
+    )
+    assert listing(tmp_path) == before and (out / "walk" / "a.bvh").samefile(clip)
+
+
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
     code, stdout, stderr = run_cli(
         capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"
