@@ -249,10 +249,10 @@ class Pipeline:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Pipeline:
-        """Read ``[[step]]`` tables from a TOML file."""
+        """Read ``[[step]]`` tables from a TOML file (UTF-8, a byte-order mark allowed)."""
         path = Path(path)
         try:
-            text = path.read_text(encoding="utf-8")
+            text = path.read_text(encoding="utf-8-sig")
             document = tomllib.loads(text)
         except FileNotFoundError:
             raise UsageError(f"{path}: no such pipeline file") from None

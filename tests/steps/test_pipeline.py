@@ -58,6 +58,17 @@ def test_toml_and_inline_give_the_same_steps(tmp_path):
     ]
 
 
+def test_a_toml_file_with_a_byte_order_mark_is_read(tmp_path):
+    """As the CSV reader reads one (Windows editors write it); errors keep their lines."""
+    plain, toml = tmp_path / "plain.toml", tmp_path / "pipe.toml"
+    plain.write_text('[[step]]\nfilter = "lee-shin"\nk = 2\n')
+    toml.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert Pipeline.from_toml(toml).describe() == Pipeline.from_toml(plain).describe()
+    toml.write_bytes(b"\xef\xbb\xbf[[step]]\nfilter = lee-shin\n")
+    with pytest.raises(UsageError, match="pipe.toml:2: invalid TOML: .* \\(column 10\\)$"):
+        Pipeline.from_toml(toml)
+
+
 @pytest.mark.parametrize(
     ("step", "message"),
     [
