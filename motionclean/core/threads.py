@@ -40,12 +40,12 @@ _no_threads = threading.Event()
 
 
 def thread_count() -> int:
-    """Threads for one clip's parts: ``MOTIONCLEAN_THREADS`` if set (a whole number from 1,
-    else :class:`UsageError`), else the CPUs this process may use; at most
-    :data:`MAX_THREADS`."""
+    """Threads for one clip's parts: ``MOTIONCLEAN_THREADS`` if set (a whole number from 1 in
+    ASCII digits, whitespace around it allowed, else :class:`UsageError`), else the CPUs
+    this process may use; at most :data:`MAX_THREADS`."""
     text = os.environ.get("MOTIONCLEAN_THREADS", "").strip()
     if text:
-        if not (text.isdecimal() and int(text) > 0):
+        if not (text.isascii() and text.isdecimal() and int(text) > 0):
             raise UsageError(
                 f"MOTIONCLEAN_THREADS={text!r}: expected a whole number of threads, 1 or more"
             )

@@ -154,7 +154,13 @@ def test_an_empty_thread_setting_leaves_the_cpus(monkeypatch):
     assert threads.thread_count() == max(1, min(cpus or 1, threads.MAX_THREADS))
 
 
-@pytest.mark.parametrize("value", ["0", "-2", "two", "1.5", "²"])
+@pytest.mark.parametrize(("value", "count"), [(" 2", 2), ("3\n", 3), ("\t1 ", 1)])
+def test_a_thread_setting_may_have_whitespace_around_it(monkeypatch, value, count):
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", value)
+    assert threads.thread_count() == count
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "two", "1.5", "²", "+3", "٣", "0x2"])
 def test_an_unusable_thread_setting_is_a_usage_error_before_any_work(
     monkeypatch, capsys, tmp_path, value
 ):
