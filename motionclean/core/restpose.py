@@ -30,6 +30,9 @@ ZERO_POSE_DEG = 2.0
 #: A run of at least this many identical frames is a held pose whether or not a jump follows
 #: (no capture repeats every channel exactly; padding does).
 HELD_FRAMES = 3
+#: Different rest poses at most at either end (a T-pose, then a reference frame: each one
+#: steps into the next as a rest frame steps into the motion).
+REST_POSES = 4
 
 
 #: Steps sampled per joint for its typical (median) step on long clips (evenly spaced), so
@@ -77,19 +80,20 @@ def _typical_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return median, while_moving
 
 
-def _leading(
+def _rest_run(
     q: np.ndarray,
     translations: np.ndarray,
     typical: tuple[np.ndarray, np.ndarray],
     moving: np.ndarray,
+    held: bool,
 ) -> int:
-    """Leading rest frames: the run of frames equal to the first, when it is a held pose or
-    the step out of it is a jump on most joints at once. ``typical``: the joints' median
-    steps and median steps while they move (:func:`_typical_steps`)."""
+    """The run of frames equal to the first, when it is a rest pose: a held pose (when
+    ``held``), or the step out of it a jump on most joints at once; else 0. ``typical``:
+    the joints' median steps and median steps while they move (:func:`_typical_steps`)."""
     run = _identical_run(q, translations)
     if run >= len(q) - 2:
         return 0
-    if run >= HELD_FRAMES:
+    if held and run >= HELD_FRAMES:
         return run
     if not moving.any():
         return 0
@@ -99,11 +103,42 @@ def _leading(
     if jump.mean() >= MOST_JOINTS and out[jump].max() > JUMP_DEG:
         return run
     # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
-    if np.degrees(quat.angle(q[run - 1, moving])).max() > ZERO_POSE_DEG or out.max() <= JUMP_DEG:
+    if not _zero_pose(q[run - 1], moving) or out.max() <= JUMP_DEG:
         return 0
     posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
     leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
     return run if posed.any() and leaves.mean() >= MOST_JOINTS else 0
+
+
+def _zero_pose(frame: np.ndarray, moving: np.ndarray) -> bool:
+    """Whether every moving joint of ``frame`` ``(J, 4)`` is within :data:`ZERO_POSE_DEG`
+    of the skeleton's rest (the identity rotation)."""
+    return bool(np.degrees(quat.angle(frame[moving])).max(initial=0.0) <= ZERO_POSE_DEG)
+
+
+def _leading(
+    q: np.ndarray,
+    translations: np.ndarray,
+    typical: tuple[np.ndarray, np.ndarray],
+    moving: np.ndarray,
+) -> int:
+    """Leading rest frames: up to :data:`REST_POSES` runs of identical frames from the
+    first frame inward while each is a rest pose (:func:`_rest_run`; a held pose only at
+    the first frame: after a rest frame, a run of identical frames is the motion's own, as
+    a hand-keyed clip's first key). A run in the zero pose counts too when a rest pose
+    follows it (a T-pose before a reference frame steps only on the joints that pose
+    sets)."""
+    lead = zero = 0  # rest frames found, and zero-pose frames after them awaiting a rest pose
+    for _ in range(REST_POSES):
+        at = lead + zero
+        run = _rest_run(q[at:], translations[at:], typical, moving, held=at == 0)
+        if run:
+            lead, zero = at + run, 0
+        elif zero or not _zero_pose(q[at], moving):
+            break
+        else:
+            zero = _identical_run(q[at:], translations[at:])
+    return lead
 
 
 def rest_frames(motion: Motion) -> tuple[int, int]:
@@ -118,9 +153,12 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     frame in the skeleton's rest pose (every rotation within :data:`ZERO_POSE_DEG` of zero)
     counts when the joints that leave it jump (more than 8 times their median step) and one
     by more than 15 degrees: a reference frame before a hand-keyed clip. A run of at least 3
-    identical frames (every channel, positions too) counts in any case: a held pose. A clip
-    with missing samples (tracker dropouts, held placeholders) has none: trackers do not
-    record a rest pose.
+    identical frames (every channel, positions too) counts in any case: a held pose. Up to
+    :data:`REST_POSES` such frames or runs of different poses count from either end inward,
+    each stepping into the next as a rest frame steps into the motion (a T-pose, then CMU's
+    reference frame), or a zero pose before a rest frame; a held pose only at the clip's
+    very end. A clip with missing samples (tracker dropouts, held placeholders) has none:
+    trackers do not record a rest pose.
     """
     return motion.derived("rest_frames", _rest_frames)  # (asked a dozen times a clean)
 

@@ -150,3 +150,63 @@ def test_the_reference_frame_of_a_cmu_conversion_is_a_rest_frame(tmp_path, capsy
     rows_in, rows_out = CMU_01_01_START.read_text().splitlines(), out.read_text().splitlines()
     start = next(i for i, line in enumerate(rows_in) if line.startswith("Frame Time")) + 1
     assert rows_out[start] == rows_in[start]
+
+
+def _reversed(source, target):
+    """``source`` with its frames in reverse order (rows copied as text)."""
+    lines = source.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+    target.write_text("".join(lines[:at] + lines[at:][::-1]))
+    return target
+
+
+def _motion_rows(path, lead: int, trail: int) -> list[str]:
+    lines = path.read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1 + lead
+    return lines[start : len(lines) - trail]
+
+
+@pytest.mark.parametrize("at_end", [False, True])
+def test_a_t_pose_before_a_reference_frame_is_kept_with_it(tmp_path, capsys, at_end):
+    """CMU 01_01's reference frame with a T-pose before it (or, the clip reversed, after
+    it): two rest frames of different poses, each jumping into the next. Both are kept
+    byte for byte and left out of the figures, and the motion cleans to the same bytes as
+    without the T-pose. Only the T-pose was found: the reference frame, taken for motion,
+    was repaired to the next frame's rotation (LeftForeArm written on the other Euler
+    solution, stepping 180/106/180 degrees where the input turned by under a degree)."""
+    plain = _reversed(CMU_01_01_START, tmp_path / "r.bvh") if at_end else CMU_01_01_START
+    posed = with_t_pose(plain, tmp_path / "t.bvh", at_end=at_end)
+    found = rest_frames(mc.load(posed))
+    assert found == ((0, 2) if at_end else (2, 0))
+    outs = []
+    for name, clip in (("plain", plain), ("posed", posed)):
+        out, report = tmp_path / f"{name}.bvh", tmp_path / f"{name}.json"
+        assert run_cli(capsys, "clean", clip, "-o", out, "--report", report)[0] == 0
+        outs.append((out, json.loads(report.read_text())))
+    (plain_out, plain_report), (posed_out, posed_report) = outs
+    assert (
+        _motion_rows(posed_out, 0, 0)[:: -1 if at_end else 1][:2]
+        == _motion_rows(posed, 0, 0)[:: -1 if at_end else 1][:2]
+    )
+    extra = (0, 1) if at_end else (1, 0)
+    assert _motion_rows(posed_out, *extra) == _motion_rows(plain_out, 0, 0)
+    assert posed_report["rest_frames"] == {"leading": found[0], "trailing": found[1]}
+    assert posed_report["summary"] == plain_report["summary"]
+
+
+def test_a_zero_pose_counts_before_a_reference_frame_found_after_it():
+    """A zero-pose frame before a reference frame that turns no joint by 15 degrees from
+    it (01_01's reference frame with its thighs zeroed: the arms at +-5) is no rest frame on
+    its own; the reference frame's jump into the motion makes both rest frames. Without
+    the reference frame, the zero pose's jump into the motion makes it one alone."""
+    clip = mc.load(CMU_01_01_START)
+    q = clip.rotations.copy()
+    q[0, [clip.names.index(name) for name in ("LeftUpLeg", "RightUpLeg")]] = [1, 0, 0, 0]
+    zero = np.zeros_like(q[:1])
+    zero[..., 0] = 1.0
+    rows = np.concatenate([zero, q])
+    t = np.repeat(clip.translations[:1], rows.shape[0], axis=0)
+    posed = clip.replace(rotations=rows, translations=t, source_values=None, source=None)
+    assert rest_frames(posed) == (2, 0)
+    alone = posed.replace(rotations=np.delete(rows, 1, axis=0), translations=t[1:])
+    assert rest_frames(alone) == (1, 0)
