@@ -683,9 +683,8 @@ def continuous_euler(
 def _continue_block(q, order, reference, kept, carry, principal=None, backward=True):
     """:func:`continuous_euler` of a block of frames, continuing from ``carry`` (None for
     the clip's first block); returns the block's angles and the carry for the next one.
-    ``principal``: ``quat.to_euler(q, order)`` when the caller has it. ``backward``: the
-    first block's changed runs from frame 0 may be written back from the kept sample
-    after them (:func:`_start_backward`)."""
+    ``principal``: ``quat.to_euler(q, order)`` when the caller has it. ``backward``: changed
+    runs may be written back from the kept sample after them (:func:`_continue_backward`)."""
     frame = np.arange(q.shape[0])[:, None]
     columns = np.arange(q.shape[1])[None, :]
     # The chain restarts where the rotation itself turns by more than a quarter turn in one
@@ -746,42 +745,52 @@ def _continue_block(q, order, reference, kept, carry, principal=None, backward=T
     # (an anchor's own turns since itself are 0: its start, the anchor's angles, as they are)
     angles = start - 360.0 * since
     last = (q[-1], principal[-1], start[-1], last_anchor, switches_since[-1], since[-1])
-    if carry is None and backward:
-        _start_backward(q, order, reference, kept, angles)
+    if backward:
+        _continue_backward(q, order, reference, kept, angles, carry is None)
     return angles, last
 
 
-def _start_backward(q, order, reference, kept, angles) -> None:
+def _continue_backward(q, order, reference, kept, angles, first_block) -> None:
     """Rewrite in ``angles`` ``(F, J, 3)`` (degrees), in place, the runs of changed samples
-    from frame 0 that arrive at the first kept sample after them on another Euler solution
-    (a step that differs from the input's own there, whole turns aside, by more than
-    :data:`~motionclean.core.eulerjoin.JUMP_MARGIN` on a channel): continued backward
-    from that kept sample instead, as every other run continues forward from the kept
-    sample before it. (A run that arrives whole turns off is
-    :func:`~motionclean.core.eulerjoin.rejoin`'s, which follows the input's own wraps.)
+    that arrive at the kept sample after them on another Euler solution (a step that
+    differs from the input's own there, whole turns aside, by more than
+    :data:`~motionclean.core.eulerjoin.JUMP_MARGIN` on a channel) and start at the clip's
+    first frame, or after a kept sample from which the rotation turns more into the run
+    than it turns out of it into the kept sample after: continued backward from that kept
+    sample instead, as every other run continues forward from the kept sample before it.
+    (A run that arrives whole turns off is :func:`~motionclean.core.eulerjoin.rejoin`'s,
+    which follows the input's own wraps.)
 
-    Such a run has no kept sample before it and starts at frame 0's angles nearest its
-    original ones, which say nothing where frame 0 changed far (a reference pose repaired
-    to the motion's first frame was written on the other Euler solution, its channels
-    stepping 180, 106 and 180 degrees into the next frame where the input turned 0.06).
-    ``reference`` and ``kept`` as in :func:`continuous_euler`; a run is looked at within
-    this block of frames only."""
-    first_kept = kept.argmax(axis=0)
-    joints = np.flatnonzero(~kept[0] & (first_kept > 0))
-    if not joints.size:
-        return
-    k = first_kept[joints]
-    off = (
-        angles[k, joints]
-        - angles[k - 1, joints]
-        - (reference[k, joints] - reference[k - 1, joints])
-    )
+    Such a run starts at frame 0's angles nearest its original ones, which say nothing
+    where frame 0 changed far, or at the kept sample's, far from it: a reference pose
+    repaired to the motion's first frame was written on the other Euler solution, its
+    channels stepping 180, 106 and 180 degrees into the next frame where the input turned
+    0.06. The Euler solution switches where the rotation itself turns most. ``reference``
+    and ``kept`` as in :func:`continuous_euler`; ``first_block``: whether frame 0 is the
+    clip's; a run is looked at within this block of frames only."""
+    end, joint = np.nonzero(kept[1:] & ~kept[:-1])  # the kept samples after runs, less 1
+    end += 1
+    off = angles[end, joint] - angles[end - 1, joint]
+    off -= reference[end, joint] - reference[end - 1, joint]
     off -= 360.0 * np.round(off / 360.0)
-    jumps = np.any(np.abs(off) > JUMP_MARGIN, axis=-1)
-    joints, k = joints[jumps], k[jumps]
-    if not joints.size:
+    far = np.any(np.abs(off) > JUMP_MARGIN, axis=-1)
+    if not far.any():
         return
-    rows = slice(int(k.max()), None, -1)  # frames k.max() .. 0, backward
+    end, joint = end[far], joint[far]
+    frame = np.arange(kept.shape[0])[:, None]
+    start = np.maximum.accumulate(np.where(kept, frame, -1), axis=0)[end - 1, joint] + 1
+    backward = np.full(end.shape, first_block)  # a run from frame 0: the clip's first frame
+    later = start > 0
+    into = quat.angle_between(q[start[later] - 1, joint[later]], q[start[later], joint[later]])
+    backward[later] = into > quat.angle_between(
+        q[end[later] - 1, joint[later]], q[end[later], joint[later]]
+    )
+    start, end, joint = start[backward], end[backward], joint[backward]
+    if not joint.size:
+        return
+    joints, column = np.unique(joint, return_inverse=True)
+    low, high = int(start.min()), int(end.max())
+    rows = slice(high, low - 1 if low else None, -1)  # frames high .. low, backward
     back = _continue_block(
         np.ascontiguousarray(q[rows][:, joints]),
         order,
@@ -790,10 +799,12 @@ def _start_backward(q, order, reference, kept, angles) -> None:
         None,
         backward=False,
     )[0][::-1]
-    before = np.arange(back.shape[0])[:, None] < k  # each joint's frames before its kept one
-    angles[: back.shape[0], joints] = np.where(
-        before[..., None], back, angles[: back.shape[0], joints]
-    )
+    bounds = np.zeros((high - low + 2, joints.size), dtype=np.intp)  # +1 at starts, -1 at ends
+    np.add.at(bounds, (start - low, column), 1)
+    np.add.at(bounds, (end - low, column), -1)
+    runs = np.cumsum(bounds, axis=0)[:-1] > 0
+    span = slice(low, high + 1)
+    angles[span, joints] = np.where(runs[..., None], back, angles[span, joints])
 
 
 def _continue_run(q, order, carry, principal=None):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import CMU_01_01_START, NOISY, SAMPLE, max_degrees
+from helpers import CMU_01_01_START, NOISY, SAMPLE, max_degrees, with_t_pose
 
 import motionclean as mc
 from motionclean.core.eulerjoin import JUMP_DEG, JUMP_MARGIN
@@ -69,6 +69,43 @@ def test_a_run_changed_from_frame_0_joins_the_kept_frame_after_it(frames, tmp_pa
     assert excess.max() < 1e-9
     fore = clip.layout.rotation_columns[clip.names.index("LeftForeArm")]
     np.testing.assert_array_equal(written[:frames, fore], read[[frames] * frames][:, fore])
+    assert max_degrees(mc.load(target).rotations, q) < 1e-4
+
+
+@pytest.mark.parametrize("frames", [1, 2])
+@pytest.mark.parametrize("reverse", [False, True])
+def test_a_run_after_a_kept_frame_far_from_it_joins_the_kept_frame_after_it(
+    frames, reverse, tmp_path
+):
+    """CMU 01_01's cut with a T-pose before its reference frame, the reference frame (and
+    ``frames - 1`` frames after it) repaired to the next frame's rotation: the changed run
+    lies between the kept T-pose, 136 degrees from it on LeftForeArm, and the kept frame
+    it was repaired to. It is written on that frame's Euler solution, the step into the
+    T-pose the only one the input lacks (the rotation turns there). Continued from the
+    T-pose, LeftForeArm's run was written (-25.59, -143.20, 68.64) and stepped 180, 106
+    and 180 degrees into (154.41, -36.80, -111.36) where the input turned by under a
+    degree. Reversed (the T-pose after the run), the run continues from the kept frame
+    before it, as it did."""
+    source = with_t_pose(CMU_01_01_START, tmp_path / "t.bvh")
+    if reverse:
+        lines = source.read_text().splitlines(keepends=True)
+        head = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+        source.write_text("".join(lines[:head] + lines[head:][::-1]))
+    clip = mc.load(source)
+    q = clip.rotations[::-1].copy() if reverse else clip.rotations.copy()
+    q[1 : 1 + frames] = q[1 + frames]
+    q = q[::-1] if reverse else q
+    target = tmp_path / "out.bvh"
+    mc.save(clip.replace(rotations=q), target)
+    read, written = rows(source), rows(target)
+    if reverse:
+        read, written = read[::-1], written[::-1]
+    excess = np.abs(np.diff(written, axis=0)) - np.abs(np.diff(read, axis=0))
+    assert excess[1:].max() < 1e-9  # every step but the one from the T-pose
+    fore = clip.layout.rotation_columns[clip.names.index("LeftForeArm")]
+    np.testing.assert_array_equal(
+        written[1 : 1 + frames, fore], read[[1 + frames] * frames][:, fore]
+    )
     assert max_degrees(mc.load(target).rotations, q) < 1e-4
 
 
