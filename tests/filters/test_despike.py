@@ -251,6 +251,23 @@ def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
     np.testing.assert_array_equal(out[2:], q[1:])
 
 
+def test_a_glitch_that_starts_a_few_frames_into_the_clip_is_not_copied_onto_them():
+    """A joint turned 90 degrees on frames 3-39 (a marker swap): the jump at frame 3 lies
+    within a spike's length of the clip's start, but the motion comes back to frames 0-2
+    at frame 40, so they agree with the clip and are not held at the glitch (they had been
+    turned 90 degrees with it); the step is repaired as elsewhere, by a gap that widens
+    until its steps fit under the cap."""
+    clip = mc.load(SAMPLE)
+    joint = clip.names.index("LeftElbow")
+    q = clip.rotations.copy()
+    turn = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi / 2)
+    q[3:40, joint] = quat.multiply(q[3:40, joint], turn)
+    out, _ = despike_with_report(q, clip.frame_time)
+    np.testing.assert_array_equal(out[0, joint], q[0, joint])
+    moved = np.degrees(quat.angle_between(out[:3, joint], clip.rotations[:3, joint]))
+    assert moved.max() < 45.0
+
+
 def test_spikes_that_chain_on_beyond_the_longest_spike_are_jitter():
     """CMU 01_01's left hand jitters by +-5 degrees about its X axis (steps of 5-14 degrees)
     over frames 62-91 of this cut. Frames 62-68, 69-71 and 72-77 each pass as a spike, each
