@@ -74,15 +74,6 @@ class ContactParams:
 #: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
 EDGE_SECONDS = 0.25
 EDGE_SPEED = 2.0
-#: A contact's speed thresholds rise to SPEED_FLOOR_FACTOR times the feet's speed floor
-#: (this percentile of their smoothed ankle speeds over the clip), at most SPEED_FLOOR_CAP
-#: times: a capture's standing ankle reads 0.002-0.025 body heights per second there, so
-#: clean clips keep their thresholds, while 3 degrees of noise left at 30 fps reads 0.08-0.10
-#: (Bandai Namco's walks, after auto: their ankles 3.8 -> 3.5 times the capture's skate,
-#: the corpus at 30 and 120 fps and PyMO's walk as before, bench/footlock.py).
-SPEED_FLOOR_PERCENTILE = 10.0
-SPEED_FLOOR_FACTOR = 2.0
-SPEED_FLOOR_CAP = 2.0
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
 SPEED_HYSTERESIS = 5.0 / 3.0
@@ -446,8 +437,7 @@ def detect(
     """Frames where each foot is on the ground: ``(F, n_feet)`` bool, and the ground height.
 
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
-    the ground and the ankle moves slower than ``params.speed`` body heights per second
-    (raised where the clip's feet never move slower, :data:`SPEED_FLOOR_FACTOR`); it
+    the ground and the ankle moves slower than ``params.speed`` body heights per second; it
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
     speed blip no longer than ``min_duration`` while the foot stays that low; one within
     :data:`EDGE_SECONDS` of the clip's first or last frame reaches it where the foot stays
@@ -470,19 +460,15 @@ def detect(
         )
         above /= height
     speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
-    # noise left in a capture (3 degrees at 30 fps) keeps a standing ankle moving: the
-    # speed thresholds rise with the clip's own floor of foot speeds
-    speed_floor = float(np.percentile(speed, SPEED_FLOOR_PERCENTILE))
-    rise = min(SPEED_FLOOR_CAP, max(1.0, SPEED_FLOOR_FACTOR * speed_floor / params.speed))
     low = above < params.height_off
-    strict = (above < params.height) & (speed < rise * params.speed)
-    loose = low & (speed < rise * params.speed_off)
+    strict = (above < params.height) & (speed < params.speed)
+    loose = low & (speed < params.speed_off)
     # a contact lasts at most the clip: a longer minimum (up to inf) keeps none; a file's
     # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005
     shortest = whole_frames(params.min_duration / frame_time)
     min_frames = max(math.ceil(shortest), 1) if shortest <= n_frames else n_frames + 1
     edge = int(round(EDGE_SECONDS / frame_time))
-    steady = low & (speed < EDGE_SPEED * rise * params.speed_off)
+    steady = low & (speed < EDGE_SPEED * params.speed_off)
     for k in range(len(feet)):  # a handful of feet; each column is vectorised
         kept = _to_the_edges(_close_gaps(loose[:, k], low[:, k], min_frames), steady[:, k], edge)
         starts, ends = _runs(kept)
