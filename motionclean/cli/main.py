@@ -12,7 +12,6 @@ import os
 import sys
 import textwrap
 import traceback
-from pathlib import Path
 
 import click
 import numpy as np
@@ -70,6 +69,7 @@ from .options import (
     read_options,
     reading,
     refuse_overwrite,
+    refuse_shared,
     with_up,
 )
 
@@ -364,8 +364,7 @@ def clean(
     check_clip_output(output, read_too)
     for report_path in report_paths:
         check_report_output(report_path, (source, *read_too))
-    if len({Path(r).resolve() for r in report_paths}) < len(report_paths):
-        raise UsageError("--report names the same file twice")
+    refuse_shared([output, *report_paths])
     if os.path.isdir(source):
         raise MotionError("is a directory, not a clip; `motionclean batch` cleans a folder", source)
     result = clean_clip(source, None, pipeline, up, reading(skeleton, body_model, exclude))
@@ -419,8 +418,8 @@ def report(
     for path in (json_path, html_path):
         if path:
             check_report_output(path, (source, cleaned, skeleton, body_model))
-    if json_path and html_path and Path(json_path).resolve() == Path(html_path).resolve():
-        raise UsageError(f"{json_path}: --json and --html name the same file")
+    if json_path and html_path:
+        refuse_shared([json_path, html_path])
     read = reading(skeleton, body_model, exclude)
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None

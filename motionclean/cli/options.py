@@ -131,6 +131,15 @@ def refuse_overwrite(
             raise UsageError(f"{target}: refusing to overwrite the input {given}; {hint}")
 
 
+def refuse_shared(outputs: Sequence[str | Path]) -> None:
+    """Refuse outputs of one command that are one file, by the same path or through a
+    symbolic or hard link: the last written would replace the others."""
+    for i, later in enumerate(outputs):
+        for earlier in outputs[:i]:
+            if Path(later).resolve() == Path(earlier).resolve() or _same_file(later, earlier):
+                raise UsageError(f"{later}: the same file as {earlier}; give each output its own")
+
+
 def _same_file(a: str | Path, b: str | Path) -> bool:
     try:
         return os.path.samefile(a, b)

@@ -84,26 +84,11 @@ def test_an_output_through_a_link_is_written_where_it_leads(tmp_path, capsys, co
 
 
 @pytest.mark.parametrize("link", ["symbolic", "hard"])
-@pytest.mark.parametrize(
-    "command",
-    [
-        "clean",
-        "clean --report",
-        "convert",
-        "resample",
-        "blend",
-        "stitch",
-        "report --json",
-        "report --html",
-        "check --update",
-    ],
-)
+@pytest.mark.parametrize("command", OUTPUT_COMMANDS)
 def test_an_output_that_is_the_input_is_refused_up_front(tmp_path, capsys, command, link):
     """A link to the input is the input, whatever the output's suffix: refused before any
     work, exit 2, with what to do (a report through a link had replaced the clip)."""
-    reports = {"clean --report", "report --json", "check --update"}
-    suffix = ".html" if command == "report --html" else ".json" if command in reports else ".bvh"
-    out = tmp_path / f"out{suffix}"
+    out = tmp_path / f"out{output_suffix(command)}"
     args = output_commands(tmp_path, out)[command]
     clip = tmp_path / "in.bvh"
     if link == "symbolic":
@@ -210,3 +195,26 @@ def test_batch_into_a_dangling_link_is_refused_and_makes_nothing(tmp_path, capsy
     code, _, err = run_cli(capsys, "batch", tmp_path / "in", "-o", link, "-q")
     assert code == 2 and "-o is a symbolic link to" in one_error_line(err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "out"]
+
+
+@pytest.mark.parametrize("link", ["symbolic", "hard"])
+def test_outputs_of_one_command_that_are_one_file_are_refused(tmp_path, capsys, link):
+    """A report written through a link to the cleaned clip had replaced the clip (exit 0),
+    and --json and --html through links to one file wrote one over the other: refused up
+    front, nothing written, the file as it was."""
+    clip = cut_bvh(SAMPLE, tmp_path / "in.bvh", 30)
+    target = tmp_path / "out.bvh"
+    target.write_text("kept")
+    report = tmp_path / "r.json"
+    if link == "symbolic":
+        report.symlink_to(target)
+    else:
+        report.hardlink_to(target)
+    code, _, err = run_cli(capsys, "clean", clip, "-o", target, "--report", report, "-q")
+    assert code == 2 and "the same file as" in one_error_line(err)
+    assert target.read_text() == "kept"
+    page = tmp_path / "r.html"
+    page.symlink_to(report) if link == "symbolic" else page.hardlink_to(report)
+    code, _, err = run_cli(capsys, "report", clip, "--json", report, "--html", page)
+    assert code == 2 and "the same file as" in one_error_line(err)
+    assert target.read_text() == "kept"
