@@ -19,7 +19,7 @@ import numpy as np
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
 from ..core.reserve import keep_reserve, let_go
-from ..core.restpose import rest_frames, trim
+from ..core.restpose import rest_frames
 from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
@@ -51,7 +51,7 @@ from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
 from ..steps.auto import measured_source, seen_rotations
 from ..steps.base import brief_runs, fps_text
-from ..steps.pipeline import DEFAULT_STEPS, Pipeline
+from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees
 from .batch import batch_command
 from .check import check_command
 from .options import (
@@ -212,8 +212,10 @@ def info(
     acc = noise_figures(motion)  # the report's figures (rest frames and dropouts left out)
     acc_rms = np.zeros(motion.n_joints)
     acc_rms[rotating] = acc.rms
-    noise = np.zeros(motion.n_joints)  # as auto sees the clip: rest frames out, dropouts bridged
-    noise[rotating] = estimate_noise(seen_rotations(trim(motion, lead, trail)), motion.frame_time)
+    noise = np.zeros(motion.n_joints)  # as the default's auto sees the clip
+    noise[rotating] = estimate_noise(
+        seen_rotations(as_default_auto_sees(motion)), motion.frame_time
+    )
     longest = min(max(len(n) for n in motion.names), NAME_WIDTH)
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
@@ -447,11 +449,7 @@ def found_source(motion, source: str) -> dict:
     it leave (despike, fill-gaps), rest-pose frames left out."""
     measured = source == "auto"
     if measured:
-        lead, trail = rest_frames(motion)
-        before_auto = DEFAULT_STEPS[: [s["filter"] for s in DEFAULT_STEPS].index("auto")]
-        motion = trim(
-            Pipeline.from_tables(before_auto, "default pipeline").run(motion)[0], lead, trail
-        )
+        motion = as_default_auto_sees(motion)
     model, slope = measured_source(motion, source)
     return {
         "model": model,

@@ -608,3 +608,12 @@ DEFAULT_STEPS: list[dict] = [
     {"filter": "auto"},
     {"filter": "footlock"},
 ]
+
+
+def as_default_auto_sees(motion: Motion) -> Motion:
+    """``motion`` as the default pipeline's ``auto`` step is given it: cleaned by the steps
+    before it (despike, fill-gaps), its rest-pose frames left out."""
+    names = [step["filter"] for step in DEFAULT_STEPS]
+    before = Pipeline.from_tables(DEFAULT_STEPS[: names.index("auto")], "default pipeline")
+    lead, trail = rest_frames(motion)
+    return trim(before.run(motion)[0], lead, trail)
