@@ -757,7 +757,8 @@ def _continue_backward(q, order, reference, kept, angles, first_block) -> None:
     :data:`~motionclean.core.eulerjoin.JUMP_MARGIN` on a channel) and start at the clip's
     first frame, or after a kept sample from which the rotation turns more into the run
     than it turns out of it into the kept sample after: continued backward from that kept
-    sample instead, as every other run continues forward from the kept sample before it.
+    sample instead, as every other run continues forward from the kept sample before it;
+    a run from frame 0 only where frame 0 moved further than that last turn.
     (A run that arrives whole turns off is :func:`~motionclean.core.eulerjoin.rejoin`'s,
     which follows the input's own wraps.)
 
@@ -779,12 +780,15 @@ def _continue_backward(q, order, reference, kept, angles, first_block) -> None:
     end, joint = end[far], joint[far]
     frame = np.arange(kept.shape[0])[:, None]
     start = np.maximum.accumulate(np.where(kept, frame, -1), axis=0)[end - 1, joint] + 1
-    backward = np.full(end.shape, first_block)  # a run from frame 0: the clip's first frame
+    out_of = quat.angle_between(q[end - 1, joint], q[end, joint])  # into the kept sample
     later = start > 0
     into = quat.angle_between(q[start[later] - 1, joint[later]], q[start[later], joint[later]])
-    backward[later] = into > quat.angle_between(
-        q[end[later] - 1, joint[later]], q[end[later], joint[later]]
-    )
+    # a run from the clip's first frame: where frame 0 moved further than the rotation turns
+    # out of the run (a repaired reference pose), not where the kept sample after is far
+    # (a rest pose after a noisy joint every frame of which changed)
+    moved = quat.angle_between(quat.from_euler(reference[0, joint], order), q[0, joint])
+    backward = np.where(later, False, first_block & (moved > out_of))
+    backward[later] = into > out_of[later]
     start, end, joint = start[backward], end[backward], joint[backward]
     if not joint.size:
         return

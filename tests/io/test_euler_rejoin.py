@@ -193,3 +193,46 @@ def test_the_inputs_own_half_turn_flips_are_written_as_flips_not_solved(tmp_path
     assert (step_in > JUMP_DEG).any()  # the sample flips: the case is exercised
     assert np.array_equal(step_out > 30.0, step_in > 30.0)
     assert (step_out[step_in > 30.0] <= step_in[step_in > 30.0] + eulerjoin.JUMP_MARGIN).all()
+
+
+def test_a_noisy_joint_changed_on_every_frame_keeps_its_branch_before_a_far_rest_pose(
+    tmp_path,
+):
+    """The noisy sample with four poses after it (arms out, a tilt, CMU's reference pose,
+    all zeros; the last kept as a rest frame, the others repaired): every frame of
+    RightElbow changed, and the run from frame 0 had been written backward from the rest
+    frame, 132 degrees away, on the other Euler solution (its channels 180 degrees off the
+    input's on all 300 frames). A run from frame 0 joins the kept frame after it only where
+    frame 0 itself moved further than the rotation turns into that frame."""
+    clip = mc.load(NOISY)
+    columns = {}
+    for joint, channels in zip(clip.names, clip.channels, strict=True):
+        for channel in channels:
+            columns[(joint, channel)] = len(columns)
+    lines = NOISY.read_text().splitlines(keepends=True)
+    at = next(i for i, line in enumerate(lines) if line.startswith("Frames:"))
+    body = lines[at + 2 :]
+    last = body[-1].split()
+    poses = []
+    for turns in (
+        {("LeftShoulder", "Zrotation"): -60, ("RightShoulder", "Zrotation"): 60},
+        {("Hips", "Xrotation"): 30},
+        {("LeftHip", "Zrotation"): -17, ("RightHip", "Zrotation"): 17},
+        {},
+    ):
+        values = last[:3] + ["0"] * (len(last) - 3)
+        for key, degrees in turns.items():
+            values[columns[key]] = str(degrees)
+        poses.append(" ".join(values) + "\n")
+    rows_ = body + poses
+    source = tmp_path / "posed.bvh"
+    source.write_text(
+        "".join(lines[:at]) + f"Frames: {len(rows_)}\n" + lines[at + 1] + "".join(rows_)
+    )
+    target = tmp_path / "out.bvh"
+    mc.save(Pipeline.default().run(mc.load(source))[0], target)
+    elbow = [columns[("RightElbow", c)] for c in clip.channels[clip.names.index("RightElbow")]]
+    before, after = rows(source)[:300, elbow], rows(target)[:300, elbow]
+    off = np.abs(after - before)
+    off = np.minimum(off % 360.0, 360.0 - off % 360.0)
+    assert off.max() < 30.0
