@@ -37,6 +37,7 @@ from .options import (
     raise_failures,
     read_options,
     reading,
+    refuse_shared,
 )
 
 #: Clips ``batch`` takes when no ``--glob`` is given: every suffix motionclean reads.
@@ -296,8 +297,10 @@ def batch_command(
         if written.parent.exists():
             check_target(written, (source, skeleton, body_model, pipe))
 
+    written_all: list[Path] = []  # every file the batch writes: none may be another
     if pages is not None:
         check_written(pages / "index.html")
+        written_all.append(pages / "index.html")
     tables = tuple(pipeline.describe())
     read = reading(skeleton, body_model, exclude)
     work: list[Job] = []
@@ -309,6 +312,7 @@ def batch_command(
         for written in (target, page):
             if written is not None:
                 check_written(written, source)
+                written_all.append(written)
         if skip_existing and target.exists() and (page is None or page.exists()):
             results[str(rel)] = FileResult(
                 str(source), str(target), "skipped", report=None if page is None else str(page)
@@ -318,6 +322,7 @@ def batch_command(
         work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
+    refuse_shared(written_all)
     if scheduler is not None and jobs is not None:
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:

@@ -133,11 +133,21 @@ def refuse_overwrite(
 
 def refuse_shared(outputs: Sequence[str | Path]) -> None:
     """Refuse outputs of one command that are one file, by the same path or through a
-    symbolic or hard link: the last written would replace the others."""
-    for i, later in enumerate(outputs):
-        for earlier in outputs[:i]:
-            if Path(later).resolve() == Path(earlier).resolve() or _same_file(later, earlier):
-                raise UsageError(f"{later}: the same file as {earlier}; give each output its own")
+    symbolic or hard link: the last written would replace the others. One pass, keyed by
+    each output's real path and, where it exists, its device and inode."""
+    seen: dict[tuple, str | Path] = {}
+    for path in outputs:
+        keys: list[tuple] = [("path", os.path.realpath(path))]
+        try:
+            status = os.stat(path)
+        except OSError:  # not there yet (or cannot be looked at): its path alone
+            pass
+        else:
+            keys.append(("inode", status.st_dev, status.st_ino))
+        for key in keys:
+            if key in seen:
+                raise UsageError(f"{path}: the same file as {seen[key]}; give each output its own")
+        seen.update(dict.fromkeys(keys, path))
 
 
 def _same_file(a: str | Path, b: str | Path) -> bool:

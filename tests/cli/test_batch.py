@@ -176,6 +176,26 @@ def test_an_output_that_is_a_hard_link_of_its_clip_is_refused_up_front(
     assert listing(tmp_path) == before and (out / "walk" / "a.bvh").samefile(clip)
 
 
+@pytest.mark.parametrize("link", ["clip", "page"])
+def test_outputs_that_are_one_file_through_a_link_are_refused_up_front(
+    tree, tmp_path, capsys, link
+):
+    """An output clip (or page) linked to another output had the last written replace the
+    other (a cleaned clip lost, exit 0): refused before any work, nothing written."""
+    out, pages = tmp_path / "out", tmp_path / "pages"
+    (out / "walk").mkdir(parents=True)
+    pages.mkdir()
+    if link == "clip":
+        (out / "top.bvh").symlink_to(out / "walk" / "a.bvh")
+    else:
+        (pages / "index.html").symlink_to(out / "walk" / "a.bvh")
+    before = listing(tmp_path)
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out, "--report-dir", pages)
+    assert (code, stdout) == (2, "")
+    assert "the same file as" in stderr and stderr.count("\n") == 1
+    assert listing(tmp_path) == before
+
+
 def test_pipeline_is_validated_before_any_clip(tree, tmp_path, capsys):
     code, stdout, stderr = run_cli(
         capsys, "batch", tree, "-o", tmp_path / "out", "-f", "lee-shin:k=-3"
