@@ -213,7 +213,12 @@ def capture_source(q: np.ndarray, frame_time: float, source: str = "auto") -> tu
     cols = quat.continuous(_columns(q, 4, "rotations"))
     model = _fit(quat.Displacements(cols), _check_time(frame_time))
     slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
-    return noise_source(source, slope), slope
+    found = noise_source(source, slope)
+    if found == "markerless" and (
+        model is None or noise_model.fit_coloured(model, frame_time) is None
+    ):
+        found = "optical"  # as auto does where no wandering noise fits the clip
+    return found, slope
 
 
 def describe_source(model: str, source: str, slope: float | None) -> str:
@@ -228,6 +233,12 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
         return (
             f"{model}: the clip cannot tell (too few joints move above the noise over "
             f"{band}); give the source for a markerless or video capture"
+        )
+    if model == "optical" and slope > MARKERLESS_SLOPE:
+        return (
+            f"optical: its joints' spectrum is flat over {band} (slope {slope:.2f}, flatter "
+            f"than {MARKERLESS_SLOPE:g}), but the clip is too short (under about 3 s) or its "
+            "rate too low to fit a pose estimator's wandering noise, so the optical model"
         )
     if model == "markerless":
         return (

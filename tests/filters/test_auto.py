@@ -467,3 +467,19 @@ def test_the_markerless_model_is_coordinate_invariant(wandering):
 def test_the_markerless_model_leaves_smooth_motion_alone():
     truth = smooth_synthetic(frames=1200, joints=6, seed=12)
     assert rms_deg(auto(truth, 1 / 60, source="markerless").values, truth) < 0.05
+
+
+def test_the_source_found_and_said_is_the_one_auto_uses_on_a_short_clip():
+    """Two seconds of a markerless-like wander read flat (slope above the limit), but are
+    too short to fit the wandering noise: auto keeps the optical model, and capture_source
+    (what `report IN` prints) had said markerless; both now say optical, and why."""
+    import importlib
+
+    found = importlib.import_module("motionclean.filters.auto")
+    truth = smooth_synthetic(frames=120, joints=6, seed=11)
+    noisy = quat.multiply(truth, quat.exp(wander_noise(120, 6, 10.0, 4.0, seed=11, rho=0.5)))
+    result = auto(noisy, 1 / 60)
+    model, slope = found.capture_source(noisy, 1 / 60)
+    assert slope > found.MARKERLESS_SLOPE  # the premise: flat
+    assert model == result.choices[0].model == "optical"
+    assert "too short" in found.describe_source(model, "auto", slope)
