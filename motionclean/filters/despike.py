@@ -755,36 +755,42 @@ class _Limits:
     flip_rad: float | None
 
 
-def _cap_frames(over: np.ndarray, max_len: int, x: np.ndarray, dist: Callable) -> np.ndarray:
-    """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` of the
-    signal ``x`` ``(F, C, ...)`` repair.
+def _cap_frames(over: np.ndarray, max_len: int) -> np.ndarray:
+    """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` repair.
 
     Both frames of a step, except where the frames between it and a clip end are at most
     ``max_len`` and disagree with the rest of the clip (a reference pose before the
     capture): then those frames alone (the shorter side), and the frame past the step, the
-    motion's own, is kept. They agree with it where the column's next step above the cap
-    (its previous one, for the clip's end) brings the motion back nearer to them than the
-    step took it away (a glitch that starts a few frames into the clip)."""
-    n_frames = over.shape[0] + 1
+    motion's own, is kept. A column's steps above the cap cut it into stretches that take
+    turns (a glitch and the motion, the motion and a glitch ...): the end frames disagree
+    with the clip where the stretches of their turn hold fewer frames than the others (a
+    glitch a few frames into the clip that lasts longer than the clip's start, or that
+    comes back, does not make the start a glitch)."""
+    n_frames, n_cols = over.shape[0] + 1, over.shape[1]
     step, col = _nonzero(over)
+    if not step.size:
+        return np.zeros((n_frames, n_cols), dtype=bool)
     head, tail = step + 1, n_frames - 1 - step  # frames before and after the step
-    to_start = (head <= max_len) & (head <= tail)
-    to_end = (tail <= max_len) & ~to_start
     order = np.lexsort((step, col))  # each column's steps in time order
     s, c = step[order], col[order]
-    later = np.append(c[1:] == c[:-1], False)  # the column has another step after this one
-    earlier = np.insert(c[1:] == c[:-1], 0, False)
-    after = np.append(s[1:], 0) + 1  # the frame past the next step ...
-    before = np.insert(s[:-1], 0, 0)  # ... the frame before the previous one
-    away = dist(x[s, c], x[s + 1, c])
-    back_start, back_end = np.zeros((2, step.size), dtype=bool)
-    back_start[order] = later & (dist(x[s, c], x[after, c]) < away)
-    back_end[order] = earlier & (dist(x[s + 1, c], x[before, c]) < away)
-    to_start &= ~back_start
-    to_end &= ~back_end
+    opens = np.insert(c[1:] != c[:-1], 0, True)  # a column's first step
+    closes = np.append(c[1:] != c[:-1], True)  # ... and its last
+    index = np.arange(s.size)
+    turn = (index - np.maximum.accumulate(np.where(opens, index, 0))) % 2  # 0: the start's
+    stretch = s - np.where(opens, -1, np.insert(s[:-1], 0, -1))  # frames up to each step
+    frames = np.zeros((2, n_cols))  # per column, the frames of each turn
+    np.add.at(frames, (turn, c), stretch)
+    np.add.at(frames, ((turn[closes] + 1) % 2, c[closes]), (n_frames - 1 - s)[closes])
+    last_turn = np.zeros(n_cols, dtype=np.intp)
+    last_turn[c[closes]] = (turn[closes] + 1) % 2  # the turn of a column's last stretch
+    columns = np.arange(n_cols)
+    start_odd = frames[0] < frames[1]
+    end_odd = frames[last_turn, columns] < frames[1 - last_turn, columns]
+    to_start = (head <= max_len) & (head <= tail) & start_odd[col]
+    to_end = (tail <= max_len) & ~to_start & end_odd[col]
     first = np.where(to_start, 0, np.where(to_end, step + 1, step))
     length = np.where(to_start, head, np.where(to_end, tail, 2))
-    return _mark(first, length, col, (n_frames, over.shape[1]))
+    return _mark(first, length, col, (n_frames, n_cols))
 
 
 #: Largest share of a column's frames that spike and cap repairs may cover (un-flipping is
@@ -865,7 +871,7 @@ def _repair(
     over = seen > cap
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
-        mask |= _cap_frames(over, limits.max_len, out, metric.dist)
+        mask |= _cap_frames(over, limits.max_len)
         col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
     # A column whose "spikes" cover much of it has none: its steps do not fit the limits
     # (a wrong frame time, or another unit); it is left as it is rather than rebuilt.

@@ -253,10 +253,10 @@ def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
 
 def test_a_glitch_that_starts_a_few_frames_into_the_clip_is_not_copied_onto_them():
     """A joint turned 90 degrees on frames 3-39 (a marker swap): the jump at frame 3 lies
-    within a spike's length of the clip's start, but the motion comes back to frames 0-2
-    at frame 40, so they agree with the clip and are not held at the glitch (they had been
-    turned 90 degrees with it); the step is repaired as elsewhere, by a gap that widens
-    until its steps fit under the cap."""
+    within a spike's length of the clip's start, but the clip spends more frames on the
+    start's side of its jumps, so frames 0-2 are the motion's own and are not held at the
+    glitch (they had been turned 90 degrees with it); the step is repaired as elsewhere, by
+    a gap that widens until its steps fit under the cap."""
     clip = mc.load(SAMPLE)
     joint = clip.names.index("LeftElbow")
     q = clip.rotations.copy()
@@ -266,6 +266,13 @@ def test_a_glitch_that_starts_a_few_frames_into_the_clip_is_not_copied_onto_them
     np.testing.assert_array_equal(out[0, joint], q[0, joint])
     moved = np.degrees(quat.angle_between(out[:3, joint], clip.rotations[:3, joint]))
     assert moved.max() < 45.0
+    # a glitch on frames 0-2 is one still, though the same turn comes back on frames 50-60
+    q = clip.rotations.copy()
+    q[:3, joint] = quat.multiply(q[:3, joint], turn)
+    q[50:61, joint] = quat.multiply(q[50:61, joint], turn)
+    out, _ = despike_with_report(q, clip.frame_time)
+    off = np.degrees(quat.angle_between(out[:3, joint], clip.rotations[:3, joint]))
+    assert off.max() < 5.0  # (the return had made the first frames the motion's own)
 
 
 def test_spikes_that_chain_on_beyond_the_longest_spike_are_jitter():
