@@ -18,8 +18,9 @@ from ..io import FORMATS, ReadOptions
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
-#: What a path naming a folder ends in.
-SEPARATORS = tuple(sep for sep in (os.sep, os.altsep) if sep)
+#: What a path naming a folder ends in: a separator, or the folder itself or its parent
+#: after one ("out.bvh/." names the folder out.bvh).
+SEPARATORS = tuple(sep + tail for sep in (os.sep, os.altsep) if sep for tail in ("", ".", ".."))
 
 #: Path arguments and options. The readers and writers check the paths themselves: an
 #: input that cannot be read is a data error (exit 1, ``FILE: permission denied``), which

@@ -119,11 +119,12 @@ def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, comman
     assert list(out.iterdir()) == []
 
 
+@pytest.mark.parametrize("ending", ["/", "/."])
 @pytest.mark.parametrize("command", OUTPUT_COMMANDS)
-def test_an_output_ending_in_a_separator_names_a_folder(tmp_path, capsys, command):
-    """`-o new.bvh/` names a folder: refused up front, exit 2 (a file new.bvh had been
-    written)."""
-    out = f"{tmp_path / 'new'}{output_suffix(command)}/"
+def test_an_output_ending_in_a_separator_names_a_folder(tmp_path, capsys, command, ending):
+    """`-o new.bvh/` and `-o new.bvh/.` name a folder: refused up front, exit 2 (a file
+    new.bvh had been written)."""
+    out = f"{tmp_path / 'new'}{output_suffix(command)}{ending}"
     args = output_commands(tmp_path, out)[command]
     before = sorted(p.name for p in tmp_path.iterdir())
     code, stdout, err = run_cli(capsys, *args)
