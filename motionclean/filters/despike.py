@@ -57,11 +57,13 @@ one over its whole support. Two defects, two repairs:
    side and pass (at most as many passes as the longest spike has frames). A spike
    touching the first or last frame has no good frame on one side and is only caught by
    the cap: where no more frames than the longest spike lie between a step above the cap
-   and a clip end, those frames alone are repaired (held at the frame past the step),
-   never that frame, which is the motion's own (a reference pose at frame 0 does not
-   take frame 1 with it). ``T`` comes from the steps as read, before un-flipping (the median and MAD
-   are not moved by a few dozen flips); all limits are in degrees per second, so they
-   keep their meaning at any frame rate.
+   and a clip end, and the stretches of their turn between the column's steps above the
+   cap hold fewer frames than the others (a glitch, not the motion), those frames alone
+   are repaired (held at the frame past the step), never that frame, which is the
+   motion's own (a reference pose at frame 0 does not take frame 1 with it). ``T`` comes
+   from the steps as read, before un-flipping (the median and MAD are not moved by a few
+   dozen flips); all limits are in degrees per second, so they keep their meaning at any
+   frame rate.
 
 The interpolant is the cubic of the four-point subdivision scheme (Eq. 15-17 of 003)
 through the two good frames on each side of a gap, on their actual (non-uniform) knots,
