@@ -306,10 +306,12 @@ def resample_command(
     cubic spline; a lower rate is low-passed first so nothing aliases. The same as `clean
     SOURCE -o TARGET -f resample:fps=N`.
     """
+    if (fps is None) == (frame_time is None):
+        raise UsageError("give the new rate as either --fps or --frame-time, e.g. --fps 60")
     rates = {"fps": fps, "frame_time": frame_time}
     step: dict[str, object] = {"filter": "resample"}
     step.update({key: value for key, value in rates.items() if value is not None})
-    pipeline = Pipeline.from_tables([step], "resample")
+    pipeline = Pipeline.from_tables([step], "--fps/--frame-time")
     check_clip_output(target, (source, skeleton, body_model))
     before = reading(skeleton, body_model, exclude).load(source)
     after, _ = pipeline.run(before)
@@ -506,6 +508,11 @@ def blend(
 ) -> None:
     """Blend two time-aligned clips level by level (003 Eq. 20)."""
     weights = _detail_weights(detail_weights) if detail_weights else None
+    if weights is not None and len(weights) > levels:
+        raise UsageError(
+            f"--detail-weights: {len(weights)} weights for --levels {levels}: give at most "
+            "one per level"
+        )
     check_clip_output(output, (first, second))
     a, b = load(first), load(second)
     try:

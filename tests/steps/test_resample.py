@@ -298,8 +298,8 @@ def test_missing_samples_stay_missing_after_resampling():
         (["--fps", "nan"], "fps must be a number", 2),
         (["--fps", "-30"], "fps must be a number", 2),
         (["--fps", "inf"], "fps must be a number", 2),
-        ([], "give the new rate as either fps or frame_time", 2),
-        (["--fps", "30", "--frame-time", "0.1"], "either fps or frame_time", 2),
+        ([], "error: give the new rate as either --fps or --frame-time", 2),
+        (["--fps", "30", "--frame-time", "0.1"], "either --fps or --frame-time", 2),
         (["--frame-time", "2"], "leaves 1 frame; at least two are needed", 1),
     ],
 )
