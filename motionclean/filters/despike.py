@@ -57,10 +57,10 @@ one over its whole support. Two defects, two repairs:
    side and pass (at most as many passes as the longest spike has frames). A spike
    touching the first or last frame has no good frame on one side and is only caught by
    the cap: where no more frames than the longest spike lie between a step above the cap
-   and a clip end, and the stretches of their turn between the column's steps above the
-   cap hold fewer frames than the others (a glitch, not the motion), those frames alone
-   are repaired (held at the frame past the step), never that frame, which is the
-   motion's own (a reference pose at frame 0 does not take frame 1 with it). ``T`` comes
+   and a clip end and they hold one pose (a reference pose, which does not move with the
+   motion), those frames alone are repaired (held at the frame past the step), never that
+   frame, which is the motion's own (a reference pose at frame 0 does not take frame 1
+   with it). ``T`` comes
    from the steps as read, before un-flipping (the median and MAD are not moved by a few
    dozen flips); all limits are in degrees per second, so they keep their meaning at any
    frame rate.
@@ -757,42 +757,34 @@ class _Limits:
     flip_rad: float | None
 
 
-def _cap_frames(over: np.ndarray, max_len: int) -> np.ndarray:
-    """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` repair.
+def _cap_frames(over: np.ndarray, max_len: int, steps: np.ndarray) -> np.ndarray:
+    """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` repair
+    (``steps`` ``(F-1, C)``: the distances between consecutive frames).
 
     Both frames of a step, except where the frames between it and a clip end are at most
-    ``max_len`` and disagree with the rest of the clip (a reference pose before the
-    capture): then those frames alone (the shorter side), and the frame past the step, the
-    motion's own, is kept. A column's steps above the cap cut it into stretches that take
-    turns (a glitch and the motion, the motion and a glitch ...): the end frames disagree
-    with the clip where the stretches of their turn hold fewer frames than the others (a
-    glitch a few frames into the clip that lasts longer than the clip's start, or that
-    comes back, does not make the start a glitch)."""
+    ``max_len`` and hold one pose (a reference pose written before or after the capture,
+    which does not move with the motion): then those frames alone (the shorter side), and
+    the frame past the step, the motion's own, is kept. End frames that move (a glitch
+    that follows the motion, or the motion itself before a glitch) are repaired as
+    elsewhere."""
     n_frames, n_cols = over.shape[0] + 1, over.shape[1]
     step, col = _nonzero(over)
-    if not step.size:
-        return np.zeros((n_frames, n_cols), dtype=bool)
     head, tail = step + 1, n_frames - 1 - step  # frames before and after the step
-    order = np.lexsort((step, col))  # each column's steps in time order
-    s, c = step[order], col[order]
-    opens = np.insert(c[1:] != c[:-1], 0, True)  # a column's first step
-    closes = np.append(c[1:] != c[:-1], True)  # ... and its last
-    index = np.arange(s.size)
-    turn = (index - np.maximum.accumulate(np.where(opens, index, 0))) % 2  # 0: the start's
-    stretch = s - np.where(opens, -1, np.insert(s[:-1], 0, -1))  # frames up to each step
-    frames = np.zeros((2, n_cols))  # per column, the frames of each turn
-    np.add.at(frames, (turn, c), stretch)
-    np.add.at(frames, ((turn[closes] + 1) % 2, c[closes]), (n_frames - 1 - s)[closes])
-    last_turn = np.zeros(n_cols, dtype=np.intp)
-    last_turn[c[closes]] = (turn[closes] + 1) % 2  # the turn of a column's last stretch
-    columns = np.arange(n_cols)
-    start_odd = frames[0] < frames[1]
-    end_odd = frames[last_turn, columns] < frames[1 - last_turn, columns]
-    to_start = (head <= max_len) & (head <= tail) & start_odd[col]
-    to_end = (tail <= max_len) & ~to_start & end_odd[col]
+    still = steps <= HELD_POSE
+    moves = ~still.all(axis=0)
+    lead = np.where(moves, np.argmin(still, axis=0), n_frames - 1)  # still steps from the start
+    trail = np.where(moves, np.argmin(still[::-1], axis=0), n_frames - 1)  # ... to the end
+    to_start = (head <= max_len) & (head <= tail) & (lead[col] >= step)
+    to_end = (tail <= max_len) & ~to_start & (trail[col] >= tail - 1)
     first = np.where(to_start, 0, np.where(to_end, step + 1, step))
     length = np.where(to_start, head, np.where(to_end, tail, 2))
     return _mark(first, length, col, (n_frames, n_cols))
+
+
+#: Largest distance (radians, or length units) between the end frames before a step above
+#: the cap for them to hold one pose: a pose written out repeats its text exactly, and the
+#: distance of two equal rotations reads about 1e-8 rad.
+HELD_POSE = 1e-6
 
 
 #: Largest share of a column's frames that spike and cap repairs may cover (un-flipping is
@@ -873,7 +865,7 @@ def _repair(
     over = seen > cap
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
-        mask |= _cap_frames(over, limits.max_len)
+        mask |= _cap_frames(over, limits.max_len, seen)
         col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
     # A column whose "spikes" cover much of it has none: its steps do not fit the limits
     # (a wrong frame time, or another unit); it is left as it is rather than rebuilt.

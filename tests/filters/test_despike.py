@@ -253,10 +253,11 @@ def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
 
 def test_a_glitch_that_starts_a_few_frames_into_the_clip_is_not_copied_onto_them():
     """A joint turned 90 degrees on frames 3-39 (a marker swap): the jump at frame 3 lies
-    within a spike's length of the clip's start, but the clip spends more frames on the
-    start's side of its jumps, so frames 0-2 are the motion's own and are not held at the
-    glitch (they had been turned 90 degrees with it); the step is repaired as elsewhere, by
-    a gap that widens until its steps fit under the cap."""
+    within a spike's length of the clip's start, but frames 0-2 move with the motion (no
+    reference pose), so they are not held at the glitch (they had been turned 90 degrees
+    with it); the step is repaired as elsewhere, by a gap that widens until its steps fit
+    under the cap. A pose held on frames 0-2 is held at frame 3 whatever else the column
+    does later (the same turn on frames 50-60, an offset from frame 150 on)."""
     clip = mc.load(SAMPLE)
     joint = clip.names.index("LeftElbow")
     q = clip.rotations.copy()
@@ -266,13 +267,14 @@ def test_a_glitch_that_starts_a_few_frames_into_the_clip_is_not_copied_onto_them
     np.testing.assert_array_equal(out[0, joint], q[0, joint])
     moved = np.degrees(quat.angle_between(out[:3, joint], clip.rotations[:3, joint]))
     assert moved.max() < 45.0
-    # a glitch on frames 0-2 is one still, though the same turn comes back on frames 50-60
-    q = clip.rotations.copy()
-    q[:3, joint] = quat.multiply(q[:3, joint], turn)
-    q[50:61, joint] = quat.multiply(q[50:61, joint], turn)
-    out, _ = despike_with_report(q, clip.frame_time)
-    off = np.degrees(quat.angle_between(out[:3, joint], clip.rotations[:3, joint]))
-    assert off.max() < 5.0  # (the return had made the first frames the motion's own)
+    offset = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 3)
+    for later in ((50, 61), (150, None)):
+        q = clip.rotations.copy()
+        q[:3, joint] = quat.multiply(q[0, joint], turn)  # a reference pose, held
+        q[later[0] : later[1], joint] = quat.multiply(q[later[0] : later[1], joint], offset)
+        out, report = despike_with_report(q, clip.frame_time)
+        np.testing.assert_array_equal(out[:3, joint], np.repeat(q[3:4, joint], 3, axis=0))
+        np.testing.assert_array_equal(out[3, joint], q[3, joint])
 
 
 def test_spikes_that_chain_on_beyond_the_longest_spike_are_jitter():
