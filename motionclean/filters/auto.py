@@ -226,6 +226,11 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     in :class:`AutoChoice`, ``slope`` its ``motion_slope``; None or nan: not measured)."""
     band = f"{noise_model.SLOPE_BAND_HZ[0]:g}-{noise_model.SLOPE_BAND_HZ[1]:g} Hz"
     if source != "auto":
+        if model != noise_source(source):
+            return (
+                f"{model}: source={source} was given, but the clip is too short (under about "
+                "3 s) or its rate too low to fit a pose estimator's wandering noise"
+            )
         return f"{model}, as given (source={source})"
     if slope is None:
         return f"{model} (the noise level was given)"

@@ -483,3 +483,6 @@ def test_the_source_found_and_said_is_the_one_auto_uses_on_a_short_clip():
     assert slope > found.MARKERLESS_SLOPE  # the premise: flat
     assert model == result.choices[0].model == "optical"
     assert "too short" in found.describe_source(model, "auto", slope)
+    given = auto(noisy, 1 / 60, source="video").choices[0].model
+    said = found.describe_source(given, "video", slope)
+    assert given == "optical" and "source=video was given, but the clip is too short" in said
