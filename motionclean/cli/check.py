@@ -35,7 +35,6 @@ from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
 from ..steps.base import plural
 from .options import (
-    FILE_PATH,
     PATH,
     PIPE_OPTION,
     SOURCE_OPTION,
@@ -235,7 +234,7 @@ def _why(
 
 
 @click.command("check")
-@click.argument("clips", nargs=-1, required=True, type=FILE_PATH)
+@click.argument("clips", nargs=-1, required=True, type=PATH)
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(

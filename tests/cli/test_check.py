@@ -240,3 +240,12 @@ def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(
     code, _, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
     assert code == 1 and "RightKnee noise after" in err
     assert "deviation max got worse" not in err  # the clip maximum (RThumb) is unchanged
+
+
+def test_a_folder_given_as_a_clip_says_so_as_the_other_commands_do(tmp_path, capsys):
+    """click had refused it in its own words (exit 2); the reader's line, exit 1, as for
+    clean and report."""
+    folder = tmp_path / "captures"
+    folder.mkdir()
+    code, _, err = run_cli(capsys, "check", folder, "--baseline", tmp_path / "b.json", "--update")
+    assert code == 1 and err == f"motionclean: error: {folder}: is a directory, not a clip\n"
