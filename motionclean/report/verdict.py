@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
-from ..steps.base import format_runs
+from ..steps.base import format_runs, plural
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
@@ -210,7 +211,10 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     reasons = _missing_words(joints)
     change, joint = smoothing["change_deg_max"], smoothing["change_joint"]
     filters = [step.get("filter") for step in report.get("pipeline") or []]
-    smoothed = not filters or any(name not in NOT_SMOOTHING for name in filters)
+    rest = report.get("rest_frames") or {}
+    motion_frames = int(report["frames"]) - rest.get("leading", 0) - rest.get("trailing", 0)
+    too_short = motion_frames < MIN_FRAMES  # no step can tell noise in so few frames
+    smoothed = not too_short and (not filters or any(n not in NOT_SMOOTHING for n in filters))
     if change > LOOK_CHANGE_DEG:
         what = "smoothing moved" if filters and smoothed else "the cleaning moved"
         reasons.append(f"{what} {joint} by {change:.1f} degrees")
@@ -232,6 +236,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     shown_feet = None if looking else feet
     if not smoothed:
         parts = done + grounded
+        if too_short:
+            parts.insert(0, f"too short to judge ({plural(motion_frames, 'frame')})")
         if not feet and "footlock" in filters:
             parts.append("no foot in contact found, nothing planted")
         if not parts and not shown_feet:

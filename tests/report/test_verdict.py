@@ -381,3 +381,24 @@ def test_a_resampled_clip_does_not_claim_its_dropouts_filled():
     clip = mc.load(ROOT / "sample_data" / "131_02_motive.csv")
     report = clean_motion(clip, Pipeline.from_inline(["resample:fps=60"]), "m.csv").report
     assert "gap filled" not in report["verdict"]["text"]
+
+
+def test_a_clip_too_short_to_judge_says_so(tmp_path, capsys):
+    """One to three frames of motion hold no noise any step can tell: the verdict had said
+    "clean capture: left as it was"; it is not smoothed and says why. Four frames are
+    judged as any clip."""
+    clip = mc.load(NOISY)
+    for frames, status in ((3, "not smoothed"), (4, "cleaned")):
+        short = tmp_path / f"short{frames}.bvh"
+        cut = clip.replace(
+            rotations=clip.rotations[:frames],
+            translations=clip.translations[:frames],
+            source_values=None,
+            source_rotations=None,
+        )
+        mc.save(cut, short)
+        page = tmp_path / f"short{frames}.json"
+        code, out, _ = run_cli(capsys, "clean", short, "-o", tmp_path / "o.bvh", "--report", page)
+        verdict = json.loads(page.read_text())["verdict"]
+        assert code == 0 and verdict["status"] == status
+        assert ("too short to judge (3 frames)" in verdict["text"]) == (frames == 3)
