@@ -33,7 +33,7 @@ from ..io import atomic_write
 from ..report.summary import json_safe, to_json
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
-from ..steps.base import plural
+from ..steps.base import is_number, plural
 from .options import (
     PATH,
     PIPE_OPTION,
@@ -99,12 +99,7 @@ def _figure(value: Any) -> bool:
     """Whether ``value`` is a recorded figure: a finite number, not negative, or null."""
     if value is None:
         return True
-    return (
-        isinstance(value, int | float)
-        and not isinstance(value, bool)
-        and math.isfinite(value)
-        and value >= 0
-    )
+    return is_number(value) and math.isfinite(value) and value >= 0
 
 
 def _entry_problem(entry: Any) -> str | None:
@@ -114,7 +109,7 @@ def _entry_problem(entry: Any) -> str | None:
     if not isinstance(entry, dict):
         return "not a table of figures"
     frames = entry.get("frames")
-    if not (isinstance(frames, int) and not isinstance(frames, bool) and frames >= 0):
+    if not (is_number(frames) and isinstance(frames, int) and frames >= 0):
         return f"frames {str(frames)[:20]!r} is not a whole number"
     joints = entry.get("joints", {})
     if not isinstance(joints, dict):

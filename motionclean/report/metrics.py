@@ -160,7 +160,8 @@ def pair(before: float, after: float | None) -> dict:
 def rms_and_max(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """RMS and max over axis 0 of ``(N, ...)`` figures (magnitudes, >= 0), NaN values left
     out (0 where none is left)."""
-    known = np.where(np.isnan(values), 0.0, values)
-    counts = np.count_nonzero(~np.isnan(values), axis=0)
+    nan = np.isnan(values)
+    known = np.where(nan, 0.0, values)
+    counts = values.shape[0] - np.count_nonzero(nan, axis=0)
     squares = np.square(known).sum(axis=0)
     return np.sqrt(squares / np.maximum(counts, 1)), known.max(axis=0, initial=0.0)

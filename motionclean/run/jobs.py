@@ -147,9 +147,7 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return_free_memory()  # the pipeline's freed blocks: the report's work starts afresh
     compared = on_input_frames(before, after)
     notes = notes_by_joint(logs)
-    gapped = () if before.missing is None else np.flatnonzero(before.missing.any(axis=0)).tolist()
-    unnoted = any("fill-gaps" not in notes.get(before.names[j], {}) for j in gapped)
-    if unnoted and compared is after:  # dropouts no step filled (on the input's frames only)
+    if compared is after:  # dropouts no step filled (on the input's frames only)
         for joint, note in gap_notes(before, after).items():
             notes.setdefault(joint, {}).setdefault("fill-gaps", note["fill-gaps"])
     repairs = _repaired_input_frames(logs, before)

@@ -38,13 +38,12 @@ def _auto_note(result, column: int, unit: str) -> dict:
     return note
 
 
-def _bridged(values, data: StepData, joints, rotations: bool):
+def _bridged(values, motion: Motion | None, joints, rotations: bool):
     """``values`` with the clip's dropouts in ``joints`` bridged as ``fill-gaps`` would
     bridge them, whatever their length and on each joint's own (checked against a straight
     line on gaps planted beside them), so the filter runs across them; and their mask (None
     without dropouts). The bridges are a neutral support, not a fill: the samples are
     missing again afterwards."""
-    motion = data.motion
     if values is None or motion is None or motion.missing is None:
         return values, None
     missing = motion.missing[:, joints]
@@ -62,8 +61,7 @@ def seen_rotations(motion: Motion) -> np.ndarray:
     """The rotations of every joint with rotation channels of ``motion`` as this step sees
     them: ``(F, Jr, 4)``, dropouts bridged."""
     joints = np.flatnonzero(motion.layout.has_rotation)
-    data = StepData(motion.rotations[:, joints], None, motion.frame_time, motion, joints)
-    return _bridged(data.rotations, data, joints, True)[0]
+    return _bridged(motion.rotations[:, joints], motion, joints, True)[0]
 
 
 def measured_source(motion: Motion, source: str) -> tuple[str, float]:
@@ -79,8 +77,10 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "max_seconds": params["max_seconds"],
         "families": families,
     }
-    rotations, missing_r = _bridged(data.rotations, data, data.rotation_joints, True)
-    translations, missing_p = _bridged(data.translations, data, data.translation_joints, False)
+    rotations, missing_r = _bridged(data.rotations, data.motion, data.rotation_joints, True)
+    translations, missing_p = _bridged(
+        data.translations, data.motion, data.translation_joints, False
+    )
     shared["overwrite"] = data.owned or missing_r is not None
     result = auto(
         rotations,

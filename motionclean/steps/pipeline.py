@@ -613,7 +613,8 @@ DEFAULT_STEPS: list[dict] = [
 def as_default_auto_sees(motion: Motion) -> Motion:
     """``motion`` as the default pipeline's ``auto`` step is given it: cleaned by the steps
     before it (despike, fill-gaps), its rest-pose frames left out."""
-    names = [step["filter"] for step in DEFAULT_STEPS]
-    before = Pipeline.from_tables(DEFAULT_STEPS[: names.index("auto")], "default pipeline")
+    default = Pipeline.default()
+    names = [step.spec.name for step in default.steps]
+    before = Pipeline(default.steps[: names.index("auto")], default.origin)
     lead, trail = rest_frames(motion)
     return trim(before.run(motion)[0], lead, trail)
