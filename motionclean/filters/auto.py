@@ -213,12 +213,24 @@ def capture_source(q: np.ndarray, frame_time: float, source: str = "auto") -> tu
     cols = quat.continuous(_columns(q, 4, "rotations"))
     model = _fit(quat.Displacements(cols), _check_time(frame_time))
     slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
-    found = noise_source(source, slope)
-    if found == "markerless" and (
-        model is None or noise_model.fit_coloured(model, frame_time) is None
-    ):
-        found = "optical"  # as auto does where no wandering noise fits the clip
-    return found, slope
+    wander = None if model is None else _coloured_fit(model, frame_time, source, slope)
+    return ("optical" if wander is None else "markerless"), slope
+
+
+def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: float):
+    """The markerless model's wandering noise (:func:`noise_model.fit_coloured`) where
+    ``source`` is, or is found (:func:`noise_source`), markerless and the clip can fit it;
+    None where the optical model applies."""
+    if noise_source(source, slope) != "markerless":
+        return None
+    return noise_model.fit_coloured(model, frame_time)
+
+
+#: Why the markerless model could not be used on a clip (:func:`_coloured_fit` found none).
+UNFIT_WANDER = (
+    "the clip is too short (under about 3 s) or its rate too low to fit a pose estimator's "
+    "wandering noise"
+)
 
 
 def describe_source(model: str, source: str, slope: float | None) -> str:
@@ -227,10 +239,7 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     band = f"{noise_model.SLOPE_BAND_HZ[0]:g}-{noise_model.SLOPE_BAND_HZ[1]:g} Hz"
     if source != "auto":
         if model != noise_source(source):
-            return (
-                f"{model}: source={source} was given, but the clip is too short (under about "
-                "3 s) or its rate too low to fit a pose estimator's wandering noise"
-            )
+            return f"{model}: source={source} was given, but {UNFIT_WANDER}"
         return f"{model}, as given (source={source})"
     if slope is None:
         return f"{model} (the noise level was given)"
@@ -242,8 +251,7 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     if model == "optical" and slope > MARKERLESS_SLOPE:
         return (
             f"optical: its joints' spectrum is flat over {band} (slope {slope:.2f}, flatter "
-            f"than {MARKERLESS_SLOPE:g}), but the clip is too short (under about 3 s) or its "
-            "rate too low to fit a pose estimator's wandering noise, so the optical model"
+            f"than {MARKERLESS_SLOPE:g}), but {UNFIT_WANDER}, so the optical model"
         )
     if model == "markerless":
         return (
@@ -527,8 +535,7 @@ def _select(
         slope = noise_model.motion_slope(model, frame_time).slope
         if not slope > BAND_LIMITED_SLOPE:
             band = None  # a bump in a spectrum as steep as clean motion's is motion's
-        if noise_source(source, slope) == "markerless":
-            coloured = noise_model.fit_coloured(model, frame_time)
+        coloured = _coloured_fit(model, frame_time, source, slope)
         if coloured is not None:
             # the white part of the coloured fit replaces the AR(1) model, its level
             # following the windows' own levels along the clip

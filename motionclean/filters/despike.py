@@ -757,9 +757,10 @@ class _Limits:
     flip_rad: float | None
 
 
-def _cap_frames(over: np.ndarray, max_len: int, steps: np.ndarray) -> np.ndarray:
+def _cap_frames(over: np.ndarray, where, max_len: int, steps: np.ndarray) -> np.ndarray:
     """``(F, C)``: the frames that the steps above the cap ``over`` ``(F-1, C)`` repair
-    (``steps`` ``(F-1, C)``: the distances between consecutive frames).
+    (``where``: ``_nonzero(over)``; ``steps`` ``(F-1, C)``: the distances between
+    consecutive frames).
 
     Both frames of a step, except where the frames between it and a clip end are at most
     ``max_len`` and hold one pose (a reference pose written before or after the capture,
@@ -768,7 +769,7 @@ def _cap_frames(over: np.ndarray, max_len: int, steps: np.ndarray) -> np.ndarray
     that follows the motion, or the motion itself before a glitch) are repaired as
     elsewhere."""
     n_frames, n_cols = over.shape[0] + 1, over.shape[1]
-    step, col = _nonzero(over)
+    step, col = where
     head, tail = step + 1, n_frames - 1 - step  # frames before and after the step
     still = steps <= HELD_POSE
     moves = ~still.all(axis=0)
@@ -865,8 +866,9 @@ def _repair(
     over = seen > cap
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
-        mask |= _cap_frames(over, limits.max_len, seen)
-        col = np.concatenate([col, over.reshape(-1).nonzero()[0] % n_cols])
+        where = _nonzero(over)
+        mask |= _cap_frames(over, where, limits.max_len, seen)
+        col = np.concatenate([col, where[1]])
     # A column whose "spikes" cover much of it has none: its steps do not fit the limits
     # (a wrong frame time, or another unit); it is left as it is rather than rebuilt.
     unfit = mask.mean(axis=0) > MAX_SPIKE_SHARE
