@@ -29,12 +29,14 @@ def as_float_array(x, name: str) -> np.ndarray:
     if isinstance(x, np.ndarray) and x.dtype == np.float64:
         return x
     refused = x is None or isinstance(x, str | bytes | dict | set)
-    if np.iscomplexobj(x):  # (numpy would drop the imaginary part, with a warning)
-        raise TypeError(f"{name}: expected real numbers, got complex values")
-    try:
-        array = np.asarray(x, dtype=np.float64) if not refused else None
+    try:  # converted once: a ragged list is refused here too
+        raw = None if refused else np.asarray(x)
+        complex_ = raw is not None and raw.dtype.kind == "c"
+        array = None if raw is None or complex_ else np.asarray(raw, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):
-        array = None
+        complex_, array = False, None
+    if complex_:  # (float64 would drop the imaginary part, with a warning)
+        raise TypeError(f"{name}: expected real numbers, got complex values")
     if array is None:
         raise TypeError(f"{name}: expected an array of numbers, got {type(x).__name__}")
     return array

@@ -105,3 +105,18 @@ def test_unit_check_in_blocks_finds_a_bad_quaternion_in_any_block(monkeypatch, b
         with pytest.raises(ValueError, match=what):
             checks.unit_quaternions(bad)
     assert checks.all_unit(np.zeros((0, 3, 4)))
+
+
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        ([[1.0, 0.0], [0.0]], "q: expected an array of numbers, got list"),  # ragged
+        ([1.0 + 2.0j], "q: expected real numbers, got complex values"),
+        (np.array([[1j, 0, 0, 0]]), "q: expected real numbers, got complex values"),
+    ],
+)
+def test_arrays_that_are_not_real_numbers_are_refused_naming_them(given, message):
+    """A ragged list had escaped as numpy's own ValueError (inhomogeneous shape) once the
+    complex check converted it outside the refusal."""
+    with pytest.raises(TypeError, match=f"^{message}$"):
+        checks.as_float_array(given, "q")
