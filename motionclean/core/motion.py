@@ -544,29 +544,17 @@ class Motion:
         joints run on threads.
         """
         layout = self.layout
-        if not self.has_source_frames():
-            values = np.zeros((self.n_frames, layout.n_channels))
-            for order, joints in layout.groups:
-                cols = layout.rotation_columns[joints]
-                carry = None
-                for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # blocks stay small
-                    block = slice(at, at + FILTER_BLOCK_FRAMES)
-                    q = np.ascontiguousarray(self.rotations[block, joints])
-                    principal = quat.to_euler(q, order)  # the first frame's; then each continues
-                    new = np.zeros(principal.shape[:2], dtype=bool)
-                    values[block, cols], carry = _continue_block(
-                        q, order, principal, new, carry, principal
-                    )
-        else:
+        fresh = not self.has_source_frames()
+        values = np.empty((self.n_frames, layout.n_channels))  # every column is written below
+        shared = values.size >= MIN_SHARED_SIZE  # else one part per group: less overhead
+        parts = [
+            (order, group[span])
+            for order, group in layout.groups
+            for span in in_parts(group.size, PART_JOINTS if shared else group.size)
+        ]
+        run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
+        if not fresh:
             assert self.source_values is not None
-            values = np.empty_like(self.source_values)  # every column is written below
-            shared = values.size >= MIN_SHARED_SIZE  # else one part per group: less overhead
-            parts = [
-                (order, group[span])
-                for order, group in layout.groups
-                for span in in_parts(group.size, PART_JOINTS if shared else group.size)
-            ]
-            run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
             rejoin(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
@@ -574,22 +562,29 @@ class Motion:
 
     def _write_euler(self, values: np.ndarray, order: str, joints: np.ndarray) -> None:
         """Write the Euler angles of ``joints`` (all of rotation order ``order``) into their
-        columns of ``values``, block by block, continuing the source values."""
-        assert self.source_values is not None
+        columns of ``values``, block by block, continuing the source values (new frames,
+        without them: the first frame's principal angles, then each frame continuing)."""
+        fresh = not self.has_source_frames()
         cols = _as_slice(self.layout.rotation_columns[joints])  # (3 n) columns
         chosen = _as_slice(joints)
         carry = None
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
             q = np.ascontiguousarray(self.rotations[block, chosen])  # (faster to read)
-            read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
             # the principal angles and the middle angle's sine, made once for both uses
             principal, sine = quat.euler_and_middle_sine(q, order)
-            if self.source_rotations is not None:
-                kept = _same_rotations(q, self.source_rotations[block, chosen])
+            if fresh:  # nothing kept: every frame continues the one before
+                read, kept = principal, np.zeros(principal.shape[:2], dtype=bool)
             else:
-                kept = _same_as_angles(q, order, read, sine)
-            angles, carry = _continue_block(q, order, read, kept, carry, principal)
+                assert self.source_values is not None
+                read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
+                if self.source_rotations is not None:
+                    kept = _same_rotations(q, self.source_rotations[block, chosen])
+                else:
+                    kept = _same_as_angles(q, order, read, sine)
+            angles, carry = _continue_block(
+                q, order, read, kept, carry, principal, backward=not fresh
+            )
             values[block, cols] = angles.reshape(q.shape[0], -1)
 
 
