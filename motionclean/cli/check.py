@@ -99,7 +99,12 @@ def _figure(value: Any) -> bool:
     """Whether ``value`` is a recorded figure: a finite number, not negative, or null."""
     if value is None:
         return True
-    return is_number(value) and math.isfinite(value) and value >= 0
+    if not is_number(value):
+        return False
+    try:
+        return math.isfinite(value) and value >= 0
+    except OverflowError:  # an integer beyond any float
+        return False
 
 
 def _entry_problem(entry: Any) -> str | None:

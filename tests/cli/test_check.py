@@ -115,6 +115,7 @@ def test_missing_baseline_is_a_clear_error(clips, capsys):
     [
         (lambda e: e.update(frames="x"), "frames 'x' is not a whole number"),
         (lambda e: e.update(noise_after=-5), "noise_after '-5' is not a number of at least 0"),
+        (lambda e: e.update(noise_after=10**400), "noise_after '10000000000000000000' is not a"),
         (lambda e: e.update(joints=[]), "joints is not a table"),
         (lambda e: e["joints"].update(Hips=3), "joint 'Hips': not a table of figures"),
         (lambda e: e.clear(), "frames 'None' is not a whole number"),
