@@ -31,6 +31,7 @@ from ..report.summary import (
     NAME_WIDTH,
     build_report,
     build_series,
+    figure_text,
     format_rest,
     format_table,
     gap_notes,
@@ -216,6 +217,7 @@ def info(
     noise[rotating] = estimate_noise(
         seen_rotations(as_default_auto_sees(motion)), motion.frame_time
     )
+    measured = np.ones(motion.n_joints, bool) if motion.missing is None else ~motion.missing.all(0)
     longest = min(max(len(n) for n in motion.names), NAME_WIDTH)
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
@@ -228,8 +230,11 @@ def info(
         name = short_name(name)
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
-        if rotating[j]:
-            figures = f"{steps[j]:>14.2f}{at[j]:>9d}{acc_rms[j]:>12,.0f}{noise[j]:>10.2f}"
+        if rotating[j] and measured[j]:
+            figures = f"{steps[j]:>14.2f}{at[j]:>9d}" + figure_text(acc_rms[j], 12, ",.0f")
+            figures += figure_text(noise[j], 10, ".2f")
+        elif rotating[j]:  # every sample missing
+            figures = f"{'-':>14}{'-':>9}{'-':>12}{'-':>10}"
         else:
             figures = f"{'-':>14}"
         rows.append(
@@ -238,10 +243,10 @@ def info(
         )
     if rows:  # one write for the table, not one per joint
         click.echo("\n".join(rows))
-    if rotating.any():
+    if (rotating & measured).any():
         click.echo(
-            f"  noise: median estimate {np.median(noise[rotating]):.2f} deg, "
-            f"RMS angular acceleration {acc.total_rms:,.0f} "
+            f"  noise: median estimate {np.median(noise[rotating & measured]):.2f} deg, "
+            f"RMS angular acceleration {figure_text(acc.total_rms, 0, ',.0f')} "
             "deg/s^2 over all joints"
         )
     click.echo(

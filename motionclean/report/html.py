@@ -26,7 +26,14 @@ from ..core.version import __version__
 from ..filters import noise
 from ..steps.base import fps_text, plural
 from .html_world import world_section
-from .summary import format_noise_model, format_rest, noisiest, note_text, resampled_to
+from .summary import (
+    format_noise_model,
+    format_rest,
+    noisiest,
+    note_text,
+    resampled_to,
+    was_cleaned,
+)
 from .traces import COLUMNS, Trace, trace
 
 __all__ = ["render_html", "render_index"]
@@ -119,8 +126,8 @@ def _short(value: float) -> str:
     return f"{value:.3g}"
 
 
-def _percent(before: float, after: float | None) -> str:
-    if after is None or before <= 0:
+def _percent(before: float | None, after: float | None) -> str:
+    if after is None or before is None or before <= 0:
         return "-"
     return f"{1.0 - after / before:.0%}"
 
@@ -427,8 +434,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
     Without ``series`` (see :func:`build_series`) the page has the tables but no plots.
     Joints whose acceleration is zero before and after get no plot; they are listed.
     """
-    summary = report["summary"]
-    cleaned = summary.get("noise_reduction") is not None
+    cleaned = was_cleaned(report)
     frames = int(report["frames"])
     dt = float(report["frame_time"])
     body = [
@@ -455,7 +461,7 @@ def render_html(report: dict, series: dict | None = None) -> str:
         if series is not None
         and n in series["joints"]
         and (
-            joints[n]["angular_accel_rms"]["before"] > 0
+            (joints[n]["angular_accel_rms"]["before"] or 0) > 0
             or (joints[n]["angular_accel_rms"]["after"] or 0) > 0
         )
     ]
@@ -581,7 +587,9 @@ def noise_correlation(joints: dict, frame_time: float) -> tuple[str | None, set[
         notes = {n: e.get(key) or {} for n, e in joints.items()}
         # the markerless model has no AR(1) correlation: its wander is said on its own line
         rhos = {
-            n: v["rho"] for n, v in notes.items() if "rho" in v and v.get("model") != "markerless"
+            n: v["rho"]
+            for n, v in notes.items()
+            if v.get("rho") is not None and v.get("model") != "markerless"
         }
         if not rhos:
             continue

@@ -19,6 +19,7 @@ __all__ = [
     "angular_acceleration",
     "deviation_deg",
     "distance",
+    "known",
     "largest_steps",
     "left_out",
     "linear_acceleration",
@@ -152,16 +153,23 @@ def largest_steps(
     return largest, at
 
 
+def known(value: float | None) -> float | None:
+    """``value`` as a float, None where nothing was measured (None or NaN)."""
+    return None if value is None or np.isnan(value) else float(value)
+
+
 def pair(before: float, after: float | None) -> dict:
-    """A report figure before and after cleaning (``after`` None for a single clip)."""
-    return {"before": float(before), "after": None if after is None else float(after)}
+    """A report figure before and after cleaning (``after`` None for a single clip); each
+    None where nothing was measured (NaN: every row involves a missing sample)."""
+    return {"before": known(before), "after": known(after)}
 
 
 def rms_and_max(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """RMS and max over axis 0 of ``(N, ...)`` figures (magnitudes, >= 0), NaN values left
-    out (0 where none is left)."""
+    out (NaN where none is left: nothing was measured)."""
     nan = np.isnan(values)
-    known = np.where(nan, 0.0, values)
+    measured = np.where(nan, 0.0, values)
     counts = values.shape[0] - np.count_nonzero(nan, axis=0)
-    squares = np.square(known).sum(axis=0)
-    return np.sqrt(squares / np.maximum(counts, 1)), known.max(axis=0, initial=0.0)
+    none = counts == 0
+    rms = np.sqrt(np.square(measured).sum(axis=0) / np.maximum(counts, 1))
+    return np.where(none, np.nan, rms), np.where(none, np.nan, measured.max(axis=0, initial=0.0))

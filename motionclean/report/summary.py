@@ -25,7 +25,7 @@ from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
-from .metrics import pair, rms_and_max
+from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
 from .verdict import build_verdict
 from .world import (
@@ -189,15 +189,17 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     core = table[lead:stop]
     known = ~np.isnan(core)
     counts = known.sum(axis=0)
-    if not counts.any():
-        zeros = np.zeros(table.shape[1])
-        return _Reduced(drawn, zeros, zeros, 0.0, 0.0, counts)
+    none = counts == 0  # every row of the column involves a missing sample
+    if none.all():
+        unknown = np.full(table.shape[1], np.nan)
+        return _Reduced(drawn, unknown, unknown, math.nan, math.nan, counts)
     largest = np.array([trace.peak for trace in drawn])  # the rest rows are NaN: left out
-    total_max = float(largest.max())
+    largest[none] = np.nan
+    total_max = float(np.nanmax(largest))
     squares = np.square(core, out=core)
     squares[~known] = 0.0
     sums = squares.sum(axis=0)
-    rms = np.sqrt(sums / np.maximum(counts, 1))
+    rms = np.where(none, np.nan, np.sqrt(sums / np.maximum(counts, 1)))
     total = float(np.sqrt(sums.sum() / counts.sum()))
     return _Reduced(drawn, rms, largest, total, total_max, counts)
 
@@ -231,8 +233,8 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     def per_joint(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         reduced = figures[key]
         counts = np.array(reduced.counts, dtype=np.float64)
-        squares = np.square(reduced.rms) * counts
-        largest = np.array(reduced.max, dtype=np.float64)
+        squares = np.nan_to_num(np.square(reduced.rms)) * counts  # (NaN: no row measured)
+        largest = np.nan_to_num(np.array(reduced.max, dtype=np.float64))
         for n, (square, count, peak) in (outside.get(key) or {}).items():
             squares[n], counts[n], largest[n] = square, count, peak
         return squares, counts, largest
@@ -267,7 +269,7 @@ def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
             "angular_accel_max": pair(before.max[n], after.max[n] if cleaned else None),
         }
         if cleaned:
-            entry["deviation_deg"] = {"rms": float(dev.rms[n]), "max": float(dev.max[n])}
+            entry["deviation_deg"] = {"rms": known(dev.rms[n]), "max": known(dev.max[n])}
     return figures
 
 
@@ -296,7 +298,7 @@ def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) 
             "linear_accel_max": pair(lmax_b[n], lmax_a[n] if a else None),
         }
         if a:
-            entry["deviation_length"] = {"rms": float(ldev_rms[n]), "max": float(ldev_max[n])}
+            entry["deviation_length"] = {"rms": known(ldev_rms[n]), "max": known(ldev_max[n])}
     return figures
 
 
@@ -312,9 +314,10 @@ def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
     }
     if cleaned:
         total_a = figures["accel_after"].total_rms
-        summary["angular_accel_rms"]["after"] = total_a
-        summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
-        summary["deviation_deg_max"] = figures["deviation"].total_max
+        summary["angular_accel_rms"]["after"] = known(total_a)
+        # (no figure where every row involves a missing sample: NaN totals)
+        summary["noise_reduction"] = known(1.0 - total_a / total_b if total_b > 0 else total_b)
+        summary["deviation_deg_max"] = known(figures["deviation"].total_max)
     return summary
 
 
@@ -410,13 +413,28 @@ def to_json(report: dict) -> bytes:
 
 
 def noisiest(report: dict) -> list[str]:
-    """Joint names with angular figures, noisiest (largest RMS acceleration before) first."""
+    """Joint names with angular figures, noisiest (largest RMS acceleration before) first,
+    those with nothing measured (every sample missing) last."""
     rows = [
         (v["angular_accel_rms"]["before"], k)
         for k, v in report["joints"].items()
         if "angular_accel_rms" in v
     ]
-    return [name for _, name in sorted(rows, key=lambda r: -r[0])]
+    return [name for _, name in sorted(rows, key=lambda r: -math.inf if r[0] is None else -r[0])]
+
+
+def was_cleaned(report: dict) -> bool:
+    """Whether ``report`` compares a clip with its cleaned output (not one clip alone)."""
+    return any("deviation_deg" in entry for entry in report["joints"].values()) or (
+        report["summary"].get("noise_reduction") is not None
+    )
+
+
+def figure_text(value: float | None, width: int, spec: str) -> str:
+    """``value`` formatted by ``spec`` ("-" where nothing was measured: None or NaN),
+    right-aligned in ``width`` characters."""
+    unknown = value is None or math.isnan(value)
+    return f"{'-' if unknown else format(value, spec):>{width}}"
 
 
 def resampled_to(report: dict) -> str:
@@ -447,7 +465,7 @@ def short_name(name: str, width: int = NAME_WIDTH) -> str:
 
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
-    cleaned = report["summary"].get("noise_reduction") is not None
+    cleaned = was_cleaned(report)
     estimated = any("auto" in entry for entry in report["joints"].values())
     names = noisiest(report)
     width = min(max([21, *map(len, names[:limit])]), NAME_WIDTH) + 1
@@ -465,12 +483,16 @@ def format_table(report: dict, limit: int = 10) -> str:
     ]
 
     def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
-        text = f"{short_name(name):<{width}}{acc['before']:>14,.0f}"
+        before, after = acc["before"], acc["after"]
+        text = f"{short_name(name):<{width}}{figure_text(before, 14, ',.0f')}"
         if cleaned:
-            removed = 1.0 - acc["after"] / acc["before"] if acc["before"] > 0 else 0.0
-            text += f"{acc['after']:>14,.0f}{removed:>9.0%}{dev:>9.2f}"
+            removed = None
+            if before is not None and after is not None:
+                removed = 1.0 - after / before if before > 0 else 0.0
+            text += figure_text(after, 14, ",.0f") + figure_text(removed, 9, ".0%")
+            text += figure_text(dev, 9, ".2f")
         if auto:
-            text += f"{auto['noise']:>10.2f}  {format_params(auto['filter'])}"
+            text += f"{figure_text(auto['noise'], 10, '.2f')}  {format_params(auto['filter'])}"
         return text
 
     for name in names[:limit]:

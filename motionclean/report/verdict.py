@@ -178,13 +178,20 @@ def _removed_words(fraction: float) -> str:
 
 
 def _missing_words(joints: dict[str, dict]) -> list[str]:
-    words = []
+    """ "NAME missing on frames ..." per set of runs left missing, the joints that share
+    one named together (three at most, then how many more)."""
+    by_runs: dict[str, list[str]] = {}
     for name, entry in joints.items():
         runs = _runs(entry.get("fill-gaps") or {}, "missing")
         if runs:
-            spans = format_runs(runs[:3])
             more = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
-            words.append(f"{name} missing on frames {spans}{more}")
+            by_runs.setdefault(f"{format_runs(runs[:3])}{more}", []).append(name)
+    words = []
+    for spans, names in by_runs.items():
+        who = ", ".join(names[:3])
+        if len(names) > 3:
+            who += f" and {len(names) - 3} more joints"
+        words.append(f"{who} missing on frames {spans}")
     return words
 
 
@@ -201,11 +208,12 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     joints = report["joints"]
     if smoothing is None:
         noise = report["summary"]["angular_accel_rms"]["before"]
-        return {
-            "status": "input only",
-            "text": f"input only, not cleaned: noise {noise:,.0f} deg/s\u00b2 RMS angular "
-            "acceleration",
-        }
+        measured = (
+            "no noise measured (no three frames in a row known)"
+            if noise is None
+            else f"noise {noise:,.0f} deg/s\u00b2 RMS angular acceleration"
+        )
+        return {"status": "input only", "text": f"input only, not cleaned: {measured}"}
     repairs = _repairs(joints)
     feet, skate = _feet(report.get("contacts"))
     reasons = _missing_words(joints)

@@ -15,7 +15,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..steps.base import plural
 from . import metrics
-from .metrics import pair, rms_and_max
+from .metrics import known, pair, rms_and_max
 
 
 def format_world(world: dict) -> str:
@@ -126,14 +126,14 @@ def world_figures(
         }
         if a:
             entry["deviation"] = {
-                "rms": float(dev_rms[n]),
-                "max": float(dev_max[n]),
-                "rms_percent": float(dev_rms[n] * scale),
-                "max_percent": float(dev_max[n] * scale),
+                "rms": known(dev_rms[n]),
+                "max": known(dev_max[n]),
+                "rms_percent": known(dev_rms[n] * scale),
+                "max_percent": known(dev_max[n] * scale),
             }
     worst = None
-    if after is not None and names:
-        n = int(np.argmax(dev_max))
+    if after is not None and names and not np.isnan(dev_max).all():
+        n = int(np.nanargmax(dev_max))
         worst = {
             "effector": names[n],
             "max": float(dev_max[n]),

@@ -235,7 +235,9 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
     """The figures of a cleaned clip (its ``seconds`` are set once it is written)."""
     summary = result.report["summary"]
     deviations = [
-        j["deviation_deg"]["rms"] for j in result.report["joints"].values() if "deviation_deg" in j
+        j["deviation_deg"]["rms"]
+        for j in result.report["joints"].values()
+        if j.get("deviation_deg", {}).get("rms") is not None  # (None: every sample missing)
     ]
     # every joint has the same frame count: the RMS over all is the RMS of the RMSs
     deviation_rms = (

@@ -12,8 +12,13 @@ from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions, capture_sour
 from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
+#: What a note says of a column whose every sample is missing.
+UNMEASURED = "every sample missing: nothing to measure"
 
-def _auto_note(result, column: int, unit: str) -> dict:
+
+def _auto_note(result, column: int, unit: str, unmeasured: bool = False) -> dict:
+    """The report note of ``column``: the noise found and the filter chosen for it; with
+    ``unmeasured`` (every sample missing) no figures (None), no filter and why."""
     choice = result.choices[column]
     note = {
         "noise": float(result.noise.reshape(-1)[column]),
@@ -35,6 +40,11 @@ def _auto_note(result, column: int, unit: str) -> dict:
     if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
         note["wander"] = choice.wander
         note["wander_edge_hz"] = choice.wander_edge_hz
+    if unmeasured:
+        note.pop("band_hz", None)
+        unknown = ("noise", "rho", "share", "expected_error", "wander", "wander_edge_hz")
+        note.update({key: None for key in unknown if key in note}, loud=[], why=UNMEASURED)
+        note["filter"] = {"mask": "none"}
     return note
 
 
@@ -92,8 +102,10 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     data.rotations = result.values
     if missing_r is not None:  # the bridges go: placeholders held again
         data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
+    unseen = np.zeros(data.rotations.shape[1], bool) if missing_r is None else missing_r.all(0)
     for column in range(data.rotations.shape[1]):
-        data.rotation_notes[column] = {"auto": _auto_note(result, column, "deg")}
+        note = _auto_note(result, column, "deg", unseen[column])
+        data.rotation_notes[column] = {"auto": note}
     if translations is not None:
         shared["overwrite"] = data.owned or missing_p is not None
         result = auto_positions(
@@ -102,8 +114,10 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         data.translations = result.values
         if missing_p is not None:
             data.translations = hold_missing(result.values, missing_p)
+        unseen = np.zeros(translations.shape[1], bool) if missing_p is None else missing_p.all(0)
         for column in range(data.translations.shape[1]):
-            data.translation_notes[column] = {"auto": _auto_note(result, column, "length")}
+            note = _auto_note(result, column, "length", unseen[column])
+            data.translation_notes[column] = {"auto": note}
     return data
 
 
@@ -117,6 +131,8 @@ def _how(note: dict) -> str:
 def _format_note(note: dict, positions: bool) -> str:
     """What auto found for one joint: the noise (level, correlation, loud stretches), the
     choice and its expected error."""
+    if note["noise"] is None:
+        return UNMEASURED
     unit = "deg" if note["unit"] == "deg" else "units"
     error = note["expected_error"]
     error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero

@@ -173,8 +173,8 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     sigma = np.zeros(motion.n_joints)
     joints = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
     noted = [j for j in joints if "auto" in data.earlier.get(names[j], {})]
-    for j in noted:
-        sigma[j] = math.radians(data.earlier[names[j]]["auto"]["expected_error"])
+    for j in noted:  # (None: every sample missing, nothing to move: held, 0)
+        sigma[j] = math.radians(data.earlier[names[j]]["auto"]["expected_error"] or 0.0)
     guessed = [j for j in joints if j not in noted]
     if guessed:
         sigma[guessed] = np.radians(estimate_noise(motion.rotations[:, guessed], motion.frame_time))
@@ -183,7 +183,7 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     if position.any() and root in set(data.translation_joints.tolist()):
         note = data.earlier.get(names[root], {}).get("position_auto")
         if note is not None:
-            level = float(note["expected_error"])
+            level = float(note["expected_error"] or 0.0)  # (None: every sample missing)
         else:
             level = float(
                 estimate_position_noise(motion.translations[:, [root]], motion.frame_time)[0]

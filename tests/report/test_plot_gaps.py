@@ -167,3 +167,45 @@ def test_position_figures_leave_out_the_rows_next_to_a_dropout(capsys, tmp_path)
     code, _, _ = run_cli(capsys, "report", str(source), "--json", str(tmp_path / "r.json"))
     alone = json.loads((tmp_path / "r.json").read_text())["joints"]["hand_l"]
     assert code == 0 and alone["linear_accel_rms"]["before"] == joint["linear_accel_rms"]["before"]
+
+
+def test_a_body_missing_on_every_frame_has_no_figures_not_zeros(tmp_path, capsys):
+    """Nothing measured is said as such: null in the JSON (figures, auto's noise), "-" in
+    the terminal, the page and info, and the verdict names the joint once."""
+    source = tmp_path / "t.csv"
+    rigid_csv(source, mc.load(SAMPLE), slice(None))
+    report = tmp_path / "r.json"
+    code, out, err = run_cli(
+        capsys, "clean", str(source), "-o", str(tmp_path / "o.csv"), "--report", str(report)
+    )
+    assert code == 0 and err == ""
+    text = report.read_text()
+    json.loads(text)  # strict JSON: no NaN token
+    entry = json.loads(text)["joints"]["RightWrist"]
+    for key in ("angular_accel_rms", "angular_accel_max"):
+        assert entry[key] == {"before": None, "after": None}
+    assert entry["deviation_deg"] == {"rms": None, "max": None}
+    assert entry["auto"]["noise"] is None and entry["auto"]["filter"] == {"mask": "none"}
+    assert "nothing to measure" in entry["auto"]["why"]
+    head = json.loads(text)["joints"]["Head"]  # measured joints keep their figures
+    assert head["angular_accel_rms"]["before"] > 0 and head["auto"]["noise"] > 0
+    row = next(line for line in out.splitlines() if line.startswith("RightWrist"))
+    assert row.split()[1:6] == ["-"] * 5, row
+    assert "RightWrist missing on frames 0-" in out
+    page = render_html(json.loads(text), None)
+    cells = re.search(r"<tr><td>RightWrist</td>(.*?)</tr>", page).group(1)
+    assert set(re.findall(r"<td>([^<]*)</td>", cells)) == {"-"}
+    code, out, _ = run_cli(capsys, "info", str(source))
+    row = next(line for line in out.splitlines() if line.strip().startswith("RightWrist"))
+    assert code == 0 and row.split()[-4:] == ["-"] * 4, row
+
+
+def test_joints_missing_on_the_same_frames_are_named_together():
+    from motionclean.report.verdict import _missing_words
+
+    gone = {"fill-gaps": {"missing": [[0, 300]]}}
+    joints = {f"J{k}": gone for k in range(5)} | {"Other": {"fill-gaps": {"missing": [[4, 9]]}}}
+    assert _missing_words(joints) == [
+        "J0, J1, J2 and 2 more joints missing on frames 0-299",
+        "Other missing on frames 4-8",
+    ]
