@@ -28,7 +28,6 @@ from ..io import atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
 from ..report.summary import (
-    NAME_WIDTH,
     build_report,
     build_series,
     figure_text,
@@ -36,7 +35,7 @@ from ..report.summary import (
     format_table,
     gap_notes,
     noise_figures,
-    short_name,
+    short_names,
 )
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
@@ -218,7 +217,8 @@ def info(
         seen_rotations(as_default_auto_sees(motion)), motion.frame_time
     )
     measured = np.ones(motion.n_joints, bool) if motion.missing is None else ~motion.missing.all(0)
-    longest = min(max(len(n) for n in motion.names), NAME_WIDTH)
+    shown = short_names(motion.names)
+    longest = max(len(n) for n in shown.values())
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
@@ -226,8 +226,8 @@ def info(
     )
     rows = []
     for j, name in enumerate(motion.names):
-        parent = short_name(motion.names[motion.parents[j]]) if motion.parents[j] >= 0 else "-"
-        name = short_name(name)
+        parent = shown[motion.names[motion.parents[j]]] if motion.parents[j] >= 0 else "-"
+        name = shown[name]
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
         if rotating[j] and measured[j]:

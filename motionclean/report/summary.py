@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -463,12 +464,21 @@ def short_name(name: str, width: int = NAME_WIDTH) -> str:
     return f"{name[: width - 3 - end]}...{name[-end:]}"
 
 
+def short_names(names: list[str], width: int = NAME_WIDTH) -> dict[str, str]:
+    """Each of ``names`` as a table prints it: :func:`short_name`, or whole where another
+    of them would print alike (names that differ only in the middle)."""
+    shown = {name: short_name(name, width) for name in names}
+    counts = Counter(shown.values())
+    return {name: name if counts[short] > 1 else short for name, short in shown.items()}
+
+
 def format_table(report: dict, limit: int = 10) -> str:
     """A readable table: the ``limit`` noisiest joints, then the totals."""
     cleaned = was_cleaned(report)
     estimated = any("auto" in entry for entry in report["joints"].values())
     names = noisiest(report)
-    width = min(max([21, *map(len, names[:limit])]), NAME_WIDTH) + 1
+    shown = short_names(names[:limit])
+    width = max([21, *map(len, shown.values())]) + 1
     head = f"{'joint':<{width}}{'accel rms':>14}"
     if cleaned:
         head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
@@ -484,7 +494,7 @@ def format_table(report: dict, limit: int = 10) -> str:
 
     def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
         before, after = acc["before"], acc["after"]
-        text = f"{short_name(name):<{width}}{figure_text(before, 14, ',.0f')}"
+        text = f"{shown.get(name, name):<{width}}{figure_text(before, 14, ',.0f')}"
         if cleaned:
             removed = None
             if before is not None and after is not None:

@@ -42,6 +42,30 @@ def test_info_shows_whole_names_and_the_same_duration_as_the_page(tmp_path, caps
     assert f"({duration} s)" in page and "numbered from 0" in page and "numbered from 0" in out
 
 
+def test_long_names_that_differ_only_in_the_middle_print_apart(tmp_path, capsys):
+    """Names over 40 characters print shortened, start and end kept; two that would
+    print alike (they differ only in the middle) print whole, in info and in the table."""
+    text = SAMPLE.read_text()
+    middle = {"LeftToe": "Left", "RightToe": "Right"}  # both end in "..._Toe"
+    for name, side in middle.items():
+        long = f"Character1_Reference_{side}_Leg_Chain_Lower_Segment_Toe"
+        text = re.sub(rf"JOINT {name}\b", f"JOINT {long}", text)
+    path = tmp_path / "long.bvh"
+    path.write_text(text)
+    names = [n for n in mc.load(path).names if n.endswith("_Toe")]
+    assert len(names) == 2 and all(len(n) > 40 for n in names)
+    code, out, _ = run_cli(capsys, "info", path)
+    assert code == 0
+    for name in names:
+        assert re.search(rf"^  {re.escape(name)}\s", out, re.M), name
+    code, out, _ = run_cli(capsys, "clean", path, "-o", tmp_path / "o.bvh")
+    lines = out.splitlines()
+    rows = lines[3:13]
+    assert set(names) <= {row.split()[0] for row in rows}  # the toes are among the noisiest
+    end = lines[1].index("accel rms") + len("accel rms")  # every figure under its heading
+    assert all(row[:end].endswith(row.split()[1]) for row in rows), rows
+
+
 def test_the_terminal_report_header_says_frames_are_numbered_from_0(tmp_path, capsys):
     code, out, _ = run_cli(capsys, "clean", SAMPLE, "-o", tmp_path / "o.bvh")
     assert code == 0 and "numbered from 0" in out.splitlines()[0]
