@@ -7,6 +7,8 @@
 >>> positions, rotations = mc.kinematics.forward(m)  # world space
 """
 
+import sys
+
 from . import filters
 from .core import kinematics
 from .core.errors import MotionError, UsageError
@@ -15,6 +17,10 @@ from .core.version import __version__
 from .filters import *  # noqa: F403 (the filter functions, filters.__all__)
 from .io import load, save
 from .steps.pipeline import Pipeline
+
+# `motionclean.kinematics` is the public name of the world-space module (DESIGN's API):
+# `import motionclean.kinematics` and `from motionclean.kinematics import forward` work too
+sys.modules[f"{__name__}.kinematics"] = kinematics
 
 __all__ = [
     "Motion",

@@ -290,3 +290,12 @@ def test_poses_sampled_for_the_up_axis_and_height_leave_the_rest_frames_out(tmp_
     motion = kinematics.world_positions(clip.at_frames(np.arange(clip.n_frames - trail)))
     assert poses.shape[0] == min(kinematics.POSE_SAMPLES, clip.n_frames - trail)
     assert np.allclose(poses[0], motion[0]) and np.allclose(poses[-1], motion[-1])
+
+
+def test_kinematics_is_importable_by_its_public_name():
+    import importlib
+
+    module = importlib.import_module("motionclean.kinematics")
+    from motionclean.kinematics import forward
+
+    assert module is mc.kinematics and forward is mc.kinematics.forward
