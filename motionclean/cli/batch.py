@@ -322,7 +322,7 @@ def batch_command(
         work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
-    refuse_shared(written_all)
+    refuse_shared(written_all, [source_root / rel for rel in clips])
     if scheduler is not None and jobs is not None:
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:

@@ -132,23 +132,36 @@ def refuse_overwrite(
             raise UsageError(f"{target}: refusing to overwrite the input {given}; {hint}")
 
 
-def refuse_shared(outputs: Sequence[str | Path]) -> None:
+def refuse_shared(outputs: Sequence[str | Path], inputs: Sequence[str | Path] = ()) -> None:
     """Refuse outputs of one command that are one file, by the same path or through a
-    symbolic or hard link: the last written would replace the others. One pass, keyed by
-    each output's real path and, where it exists, its device and inode."""
+    symbolic or hard link: the last written would replace the others; and outputs that are
+    one of ``inputs`` (e.g. a batch's clips, any of which an output may be a hard link
+    of). One pass over each, keyed by real path and, where the file exists, its device
+    and inode."""
+    read = {key: path for path in inputs for key in _file_keys(path)}
     seen: dict[tuple, str | Path] = {}
     for path in outputs:
-        keys: list[tuple] = [("path", os.path.realpath(path))]
-        try:
-            status = os.stat(path)
-        except OSError:  # not there yet (or cannot be looked at): its path alone
-            pass
-        else:
-            keys.append(("inode", status.st_dev, status.st_ino))
+        keys = _file_keys(path)
         for key in keys:
+            if key in read:
+                raise UsageError(
+                    f"{path}: refusing to overwrite the input {read[key]}; write to another file"
+                )
             if key in seen:
                 raise UsageError(f"{path}: the same file as {seen[key]}; give each output its own")
         seen.update(dict.fromkeys(keys, path))
+
+
+def _file_keys(path: str | Path) -> list[tuple]:
+    """What tells ``path``'s file: its real path and, where it exists, device and inode."""
+    keys: list[tuple] = [("path", os.path.realpath(path))]
+    try:
+        status = os.stat(path)
+    except OSError:  # not there yet (or cannot be looked at): its path alone
+        pass
+    else:
+        keys.append(("inode", status.st_dev, status.st_ino))
+    return keys
 
 
 def _same_file(a: str | Path, b: str | Path) -> bool:

@@ -176,6 +176,22 @@ def test_an_output_that_is_a_hard_link_of_its_clip_is_refused_up_front(
     assert listing(tmp_path) == before and (out / "walk" / "a.bvh").samefile(clip)
 
 
+def test_an_output_that_is_a_hard_link_of_another_clip_is_refused_up_front(tree, tmp_path, capsys):
+    """walk/a.bvh's output linked to top.bvh had the batch write a.bvh's cleaned copy over
+    the input top.bvh (after reading it or not, by the order of the work)."""
+    clip, out = tree / "top.bvh", tmp_path / "out"
+    (out / "walk").mkdir(parents=True)
+    (out / "walk" / "a.bvh").hardlink_to(clip)
+    before = listing(tmp_path)
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out)
+    assert (code, stdout) == (2, "")
+    assert stderr == (
+        f"motionclean: error: {out / 'walk' / 'a.bvh'}: refusing to overwrite the input "
+        f"{clip}; write to another file\n"
+    )
+    assert listing(tmp_path) == before
+
+
 @pytest.mark.parametrize("link", ["clip", "page"])
 def test_outputs_that_are_one_file_through_a_link_are_refused_up_front(
     tree, tmp_path, capsys, link
