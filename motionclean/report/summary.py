@@ -162,13 +162,13 @@ def noise_figures(motion: Motion) -> _Reduced:
     table = metrics.angular_acceleration(
         motion.rotations[:, cols], motion.frame_time, _missing(motion, None, cols)
     )
-    return _reduced(table, *rest_frames(motion))
+    return _reduced(table, *rest_frames(motion), drawn=False)
 
 
 class _Reduced(NamedTuple):
-    """A ``(N, R)`` table of one figure reduced: each joint's :class:`Trace`, and over the
-    rows without the rest-pose frames, each joint's RMS and max and the RMS and max of
-    all."""
+    """A ``(N, R)`` table of one figure reduced: each joint's :class:`Trace` (none where
+    not drawn), and over the rows without the rest-pose frames, each joint's RMS and max
+    and the RMS and max of all."""
 
     traces: list[Trace]
     rms: np.ndarray
@@ -178,23 +178,23 @@ class _Reduced(NamedTuple):
     counts: np.ndarray | None = None
 
 
-def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
+def _reduced(table: np.ndarray, lead: int, trail: int, drawn: bool = True) -> _Reduced:
     """:class:`_Reduced` of ``table``, whose values it overwrites (with their squares, for
     the RMS: no temporary as large as the table). The rows that involve a rest-pose frame
     and the NaN rows (missing samples) are left out of the figures and drawn as gaps, the
-    same in every clip."""
+    same in every clip; ``drawn`` False: no traces (figures only)."""
     stop = table.shape[0] - trail
     table[:lead] = np.nan
     table[max(stop, lead) :] = np.nan
-    drawn = traces(table)
+    shown = traces(table) if drawn else []
     core = table[lead:stop]
     known = ~np.isnan(core)
     counts = known.sum(axis=0)
     none = counts == 0  # every row of the column involves a missing sample
     if none.all():
         unknown = np.full(table.shape[1], np.nan)
-        return _Reduced(drawn, unknown, unknown, math.nan, math.nan, counts)
-    largest = np.array([trace.peak for trace in drawn])  # the rest rows are NaN: left out
+        return _Reduced(shown, unknown, unknown, math.nan, math.nan, counts)
+    largest = np.fmax.reduce(core, axis=0)  # NaN (missing) left out: the traces' peaks
     largest[none] = np.nan
     total_max = float(np.nanmax(largest))
     squares = np.square(core, out=core)
@@ -202,7 +202,7 @@ def _reduced(table: np.ndarray, lead: int, trail: int) -> _Reduced:
     sums = squares.sum(axis=0)
     rms = np.where(none, np.nan, np.sqrt(sums / np.maximum(counts, 1)))
     total = float(np.sqrt(sums.sum() / counts.sum()))
-    return _Reduced(drawn, rms, largest, total, total_max, counts)
+    return _Reduced(shown, rms, largest, total, total_max, counts)
 
 
 def _outside(
