@@ -35,6 +35,8 @@ KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
 #: Frame times outside these (seconds) give rates no capture has: refused.
 MIN_FRAME_TIME = 1e-6
 MAX_FRAME_TIME = 3600.0
+#: How readers' messages state that range.
+RATES_ACCEPTED = f"expected between {1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps"
 
 #: Channel values closer than this to the value read (degrees or length units) are
 #: written back with the input's own text.

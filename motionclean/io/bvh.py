@@ -30,6 +30,7 @@ from ..core.motion import (
     KNOWN_CHANNELS,
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
+    RATES_ACCEPTED,
     ROTATION_CHANNELS,
     UNCHANGED_TOLERANCE,
     Motion,
@@ -363,8 +364,7 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
         _fail(f"Frame Time must be positive, got {tokens[2][:40]}", path, number)
     if not (math.isfinite(1.0 / frame_time) and frame_time < MAX_FRAME_TIME):
         _fail(
-            f"Frame Time {tokens[2][:40]} s gives no usable frame rate "
-            f"(expected between {1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            f"Frame Time {tokens[2][:40]} s gives no usable frame rate ({RATES_ACCEPTED})",
             path,
             number,
         )

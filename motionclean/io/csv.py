@@ -82,6 +82,7 @@ from ..core.motion import (
     KNOWN_CHANNELS,
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
+    RATES_ACCEPTED,
     ROTATION_CHANNELS,
     SAME_ROTATION,
     UNCHANGED_TOLERANCE,
@@ -363,8 +364,7 @@ def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: flo
         mean = (times[-1] - times[0]) / (n - 1)
     if not (MIN_FRAME_TIME <= mean < MAX_FRAME_TIME):
         _fail(
-            f"a time step of {mean:.6g} s gives no usable frame rate (expected between "
-            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            f"a time step of {mean:.6g} s gives no usable frame rate ({RATES_ACCEPTED})",
             path,
             int(lines[1]),
         )

@@ -50,6 +50,7 @@ from ..core.motion import (
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
     POSITION_CHANNELS,
+    RATES_ACCEPTED,
     UNCHANGED_TOLERANCE,
     Motion,
     joint_major_zeros,
@@ -473,8 +474,7 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
         dt = whole if _on_grid(times, grid, whole) else dt
     if not MIN_FRAME_TIME <= dt < MAX_FRAME_TIME:  # as every reader refuses such a rate
         _fail(
-            f"keys {dt:.6g} s apart: no usable frame rate (expected between "
-            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            f"keys {dt:.6g} s apart: no usable frame rate ({RATES_ACCEPTED})",
             path,
         )
     frames = int(round((end - start) / dt)) + 1

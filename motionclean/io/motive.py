@@ -51,7 +51,7 @@ from typing import NoReturn
 import numpy as np
 
 from ..core.errors import MotionError
-from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, RATES_ACCEPTED, Motion
 from .bvh import BOM
 from .csv import (
     RIGID_CHANNELS,
@@ -182,8 +182,7 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
         _fail(f"Export Frame Rate is not a number: {text[:40]!r}", path, 1)
     if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME < rate <= 1.0 / MIN_FRAME_TIME):
         _fail(
-            f"Export Frame Rate {text[:40]} is no usable frame rate (expected between "
-            f"{1.0 / MAX_FRAME_TIME:g} and {1.0 / MIN_FRAME_TIME:g} fps)",
+            f"Export Frame Rate {text[:40]} is no usable frame rate ({RATES_ACCEPTED})",
             path,
             1,
         )
