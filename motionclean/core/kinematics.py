@@ -18,6 +18,7 @@ import numpy as np
 from . import checks, quat
 from .motion import UP_AXES, Motion
 from .restpose import rest_frames
+from .tree import ancestor_jumps
 
 __all__ = [
     "AXES",
@@ -54,24 +55,6 @@ def source_notes(motion: Motion) -> tuple[str, ...]:
     return tuple(getattr(motion.source, "notes", ()))
 
 
-def _ancestor_jumps(parents: np.ndarray):
-    """Pointer jumping over the tree: yields ``(rows, above)`` steps in which each joint
-    ``rows[i]`` takes over the ancestor ``above[i]`` (whose own pointer it then follows),
-    until every pointer has reached a root. ``log2(depth) + 1`` steps, each whole-array:
-    ``O(J log depth)`` however deep the tree (no loop over its levels). Raises ValueError
-    for a cycle."""
-    up = parents.copy()
-    for _ in range(max(int(parents.size).bit_length(), 1) + 1):
-        rows = np.flatnonzero(up >= 0)
-        if rows.size == 0:
-            return
-        above = up[rows]
-        yield rows, above
-        up[rows] = up[above]  # the gather is a copy: every pointer jumps at once
-    if (up >= 0).any():
-        raise ValueError("parents contain a cycle")
-
-
 def depths(parents: np.ndarray) -> np.ndarray:
     """Depth of every joint in the tree (0 for a root), by pointer jumping.
 
@@ -82,7 +65,7 @@ def depths(parents: np.ndarray) -> np.ndarray:
     if np.any((parents < -1) | (parents >= n)):
         raise ValueError(f"parents must lie in [-1, {n - 1}]")
     depth = (parents >= 0).astype(np.intp)
-    for rows, above in _ancestor_jumps(parents):
+    for rows, above in ancestor_jumps(parents):
         depth[rows] += depth[above]  # the right side is gathered before it is added
     return depth
 
@@ -293,7 +276,7 @@ def _forward_jumps(
     p[:, first:n_joints] = t[:, first:n_joints]  # relative to the parent, for now
     up = parents[top:n_joints] - top
     up[: first - top] = -1  # the top level is already world
-    for rows, above in _ancestor_jumps(up):
+    for rows, above in ancestor_jumps(up):
         rows, above = rows + top, above + top
         # frames at a time: scratch of at most 27 x 16 values per joint, not per frame
         width = max(16, BLOCK_ELEMENTS // rows.size)
@@ -387,7 +370,7 @@ def missing_points(motion: Motion) -> np.ndarray | None:
     if motion.missing is None:
         return None
     joints = motion.missing.copy()
-    for rows, above in _ancestor_jumps(motion.parents):  # log2(depth) steps
+    for rows, above in ancestor_jumps(motion.parents):  # log2(depth) steps
         joints[:, rows] |= joints[:, above]  # the right side is gathered first
     tips = np.array(sorted(motion.end_sites), dtype=np.intp)
     return np.concatenate([joints, joints[:, tips]], axis=1)

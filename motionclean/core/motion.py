@@ -23,6 +23,7 @@ from . import checks, quat
 from .errors import InvalidMotion, MotionError
 from .eulerjoin import JUMP_MARGIN, rejoin
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
+from .tree import Cycle, ancestor_jumps
 
 #: The axes a clip may declare as up (:attr:`Motion.up`): the figure's head toward the
 #: axis, or toward its negative side (a camera's y-down coordinates).
@@ -339,14 +340,13 @@ class Motion:
             raise InvalidMotion(
                 f"parents: each must be -1 (a root) or a joint from 0 to {n_joints - 1}"
             )
-        above = parents.astype(np.intp)  # each joint's ancestor 1, 2, 4 ... levels up
-        for _ in range(max(n_joints, 1).bit_length()):
-            above = np.where(above >= 0, above[np.maximum(above, 0)], -1)
-        if np.any(above >= 0):
-            joint = int(np.flatnonzero(above >= 0)[0])
+        try:
+            for _ in ancestor_jumps(parents):
+                pass
+        except Cycle as cycle:
             raise InvalidMotion(
-                f"parents: joint {self.names[joint]!r} is its own ancestor (a cycle)"
-            )
+                f"parents: joint {self.names[cycle.joint]!r} is its own ancestor (a cycle)"
+            ) from None
         offsets = np.asarray(self.offsets)
         if offsets.shape != (n_joints, 3) or not np.isfinite(offsets).all():
             raise InvalidMotion(
