@@ -581,7 +581,7 @@ class Motion:
                 assert self.source_values is not None
                 read = self.source_values[block, cols].reshape(q.shape[0], -1, 3)
                 if self.source_rotations is not None:
-                    kept = _same_rotations(q, self.source_rotations[block, chosen])
+                    kept = same_rotations(q, self.source_rotations[block, chosen])
                 else:
                     kept = _same_as_angles(q, order, read, sine)
             angles, carry = _continue_block(
@@ -612,7 +612,7 @@ def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
     return np.take_along_axis(values, source.reshape(source.shape + (1,) * (values.ndim - 2)), 0)
 
 
-def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
+def same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
     """``(F, J)``: samples of ``q`` within :data:`SAME_ROTATION` per component of ``read``
     or of ``-read`` (the same rotation). Only samples whose dot product is within 1e-12 of
     +-1 can be (a component off by 1e-12 moves it by far less), so the others are not
@@ -634,7 +634,7 @@ def _same_rotations(q: np.ndarray, read: np.ndarray) -> np.ndarray:
 def _same_as_angles(
     q: np.ndarray, order: str, angles: np.ndarray, sine: np.ndarray | None = None
 ) -> np.ndarray:
-    """:func:`_same_rotations` of ``q`` ``(F, J, 4)`` and the rotations of Euler ``angles``
+    """:func:`same_rotations` of ``q`` ``(F, J, 4)`` and the rotations of Euler ``angles``
     ``(F, J, 3)`` (degrees, in ``order``), converted only where the middle angle's sine
     allows the same rotation: a sample within :data:`SAME_ROTATION` per component moves
     it by at most ``4 SAME_ROTATION`` (:func:`quat.euler_middle_sine`, or ``sine`` when
@@ -647,7 +647,7 @@ def _same_as_angles(
     np.subtract(sine, maybe, out=maybe)
     maybe = np.abs(maybe, out=maybe) <= MIDDLE_SINE_SLACK
     if maybe.any():
-        kept[maybe] = _same_rotations(q[maybe], quat.from_euler(angles[maybe], order))
+        kept[maybe] = same_rotations(q[maybe], quat.from_euler(angles[maybe], order))
     return kept
 
 

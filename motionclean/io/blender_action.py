@@ -30,7 +30,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.motion import SAME_ROTATION, Motion, continuous_euler
+from ..core.motion import Motion, continuous_euler, same_rotations
 
 __all__ = [
     "ActionClip",
@@ -262,7 +262,7 @@ def _property_values(q: np.ndarray, mode: str, before: np.ndarray) -> np.ndarray
     Euler triple that continues their curve (samples whose rotation did not change keep
     their values bit for bit), the axis direction nearest theirs."""
     was = _basis_quaternions(before, mode)
-    kept = np.minimum(np.abs(q - was).max(-1), np.abs(q + was).max(-1)) < SAME_ROTATION
+    kept = same_rotations(q, was)
     if mode == "QUATERNION":
         out = q * np.where(np.einsum("fi,fi->f", q, before) < 0.0, -1.0, 1.0)[:, None]
     elif mode == "AXIS_ANGLE":

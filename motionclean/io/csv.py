@@ -84,10 +84,10 @@ from ..core.motion import (
     MIN_FRAME_TIME,
     RATES_ACCEPTED,
     ROTATION_CHANNELS,
-    SAME_ROTATION,
     UNCHANGED_TOLERANCE,
     Motion,
     hold_missing,
+    same_rotations,
 )
 from .bvh import BOM, BvhText
 from .files import FileBytes, pieces
@@ -886,9 +886,7 @@ def rewrite_rigid(src: CsvText, motion: Motion) -> Iterable[bytes | memoryview]:
     q, t = motion.rotations, motion.translations
     read = src.values[:, src.columns]  # (F, B, 7) as in the file, NaN where blank
     read_q = motion.source_rotations  # q and -q are the same rotation; rounding is no change
-    q_changed = np.any(np.abs(q - read_q) > SAME_ROTATION, axis=-1) & np.any(
-        np.abs(q + read_q) > SAME_ROTATION, axis=-1
-    )
+    q_changed = ~same_rotations(q, read_q)
     t_changed = np.abs(t - read[..., :3]) > UNCHANGED_TOLERANCE  # (NaN: blank)
     sign = np.where(np.sum(q * read[..., 3:], axis=-1) < 0.0, -1.0, 1.0)
     new = np.concatenate([t, q * sign[..., None]], axis=-1)

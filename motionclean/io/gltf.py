@@ -54,6 +54,7 @@ from ..core.motion import (
     UNCHANGED_TOLERANCE,
     Motion,
     joint_major_zeros,
+    same_rotations,
 )
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
@@ -79,8 +80,6 @@ WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 #: Largest grid, in frames per keyframe of the whole animation: more means keys too far
 #: apart for the frame time found (memory must follow the file, not its times).
 MAX_FRAMES_PER_KEY = 1000
-#: Quaternion components closer than this to the ones read count as unchanged.
-SAME_ROTATION = 1e-12
 #: A channel whose keys lie within this fraction of a frame of the grid (plus two float32
 #: rounding steps of the time itself: key times are float32) is read as it is.
 ON_GRID = 1e-3
@@ -731,12 +730,6 @@ def _unique(names: list[str]) -> list[str]:
 # ----------------------------------------------------------------------------- writing
 
 
-def _same(q: np.ndarray, read: np.ndarray) -> np.ndarray:
-    return (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
-        np.abs(q + read).max(axis=-1) < SAME_ROTATION
-    )
-
-
 class _Appender:
     """New binary data for a buffer, with bufferViews and accessors added to ``document``."""
 
@@ -784,7 +777,7 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
     same_frames = motion.n_frames == src.n_frames and motion.frame_time == src.frame_time
     read = motion.source_rotations  # None once the frames changed (resampled, stitched)
     if same_frames and read is not None and read.shape == motion.rotations.shape:
-        kept = _same(motion.rotations, read)
+        kept = same_rotations(motion.rotations, read)
     else:
         kept = np.zeros((motion.n_frames, motion.n_joints), dtype=bool)
     positions = motion.layout.position_columns[:, 0] >= 0

@@ -40,7 +40,13 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.motion import POSITION_CHANNELS, UNCHANGED_TOLERANCE, Motion, joint_major_zeros
+from ..core.motion import (
+    POSITION_CHANNELS,
+    UNCHANGED_TOLERANCE,
+    Motion,
+    joint_major_zeros,
+    same_rotations,
+)
 from . import npz, smpl_model
 from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
@@ -64,8 +70,6 @@ EYE_KEYS = ("pose_eye",)
 EYE_PAIR = ("leye_pose", "reye_pose")
 HAND_KEYS = ("pose_hand",)
 HAND_PAIR = ("left_hand_pose", "right_hand_pose")
-#: Largest |component| of the unit quaternion a sample may move by and count as unchanged.
-SAME_ROTATION = 1e-12
 
 
 @dataclass(frozen=True)
@@ -406,13 +410,6 @@ def _read_translation(src: SmplParams) -> np.ndarray:
     return np.asarray(src.record[src.trans_key], dtype=np.float64) + src.root_offset
 
 
-def _same(q: np.ndarray, read: np.ndarray) -> np.ndarray:
-    """``(F, J)``: samples within :data:`SAME_ROTATION` per component of ``read`` (up to sign)."""
-    return (np.abs(q - read).max(axis=-1) < SAME_ROTATION) | (
-        np.abs(q + read).max(axis=-1) < SAME_ROTATION
-    )
-
-
 def same_frames(motion: Motion) -> bool:
     """True when ``motion`` (read from a SMPL record) still has the record's frames."""
     src = motion.source
@@ -429,7 +426,7 @@ def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
     assert isinstance(src, SmplParams)
     assert motion.source_rotations is not None
     at = slice(None) if src.rows is None else src.rows  # the frames the rows hold
-    kept = _same(motion.rotations[at], motion.source_rotations[at])
+    kept = same_rotations(motion.rotations[at], motion.source_rotations[at])
     model = motion.rotations[at]
     out: dict[str, np.ndarray] = {}
     for f in src.fields:

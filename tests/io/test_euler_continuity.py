@@ -95,7 +95,7 @@ def test_unchanged_samples_are_found_as_the_full_comparison_finds_them():
     samples the comparison of every sample's quaternion finds, at gimbal lock, on the
     other Euler solution, a whole turn away, and a rounding's width either side of
     :data:`motionclean.core.motion.SAME_ROTATION`."""
-    from motionclean.core.motion import SAME_ROTATION, _same_as_angles, _same_rotations
+    from motionclean.core.motion import SAME_ROTATION, _same_as_angles, same_rotations
 
     rng = np.random.default_rng(5)
     for order in ("XYZ", "ZXY", "YZX", "ZYX"):
@@ -110,7 +110,7 @@ def test_unchanged_samples_are_found_as_the_full_comparison_finds_them():
         scale = rng.choice([0.0, 0.5, 0.99, 1.01, 2.0, 1e3, 1e9], size=(400, 5, 1))
         q = q + scale * SAME_ROTATION * rng.choice([-1.0, 1.0], size=q.shape)
         q[::7] = quat.multiply(q[::7], quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), 1e-3))
-        expected = _same_rotations(q, quat.from_euler(angles, order))
+        expected = same_rotations(q, quat.from_euler(angles, order))
         assert expected.any() and not expected.all()
         np.testing.assert_array_equal(_same_as_angles(q, order, angles), expected)
 
