@@ -288,14 +288,15 @@ def batch_command(
         raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
     resolved_in = source_root.resolve()
 
-    def check_written(written: Path, source: Path | None = None) -> None:
+    def check_written(written: Path) -> None:
         """Refuse an output that lands in IN_DIR (through a link too) and, where its folder
         exists (one of the mirrored tree still to be made holds nothing), what
-        :func:`check_target` refuses: a folder, the clip ``source`` or a file read."""
+        :func:`check_target` refuses of it alone: a folder (the files read are checked
+        against every output at once, below)."""
         if _inside(written.resolve(), resolved_in):
             raise UsageError(f"{written}: would be written inside the input folder {in_dir}")
         if written.parent.exists():
-            check_target(written, (source, skeleton, body_model, pipe))
+            check_target(written)
 
     written_all: list[Path] = []  # every file the batch writes: none may be another
     if pages is not None:
@@ -311,7 +312,7 @@ def batch_command(
         page = None if pages is None else pages / f"{rel}.html"
         for written in (target, page):
             if written is not None:
-                check_written(written, source)
+                check_written(written)
                 written_all.append(written)
         if skip_existing and target.exists() and (page is None or page.exists()):
             results[str(rel)] = FileResult(
@@ -322,7 +323,8 @@ def batch_command(
         work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
-    refuse_shared(written_all, [source_root / rel for rel in clips])
+    read_too = [path for path in (skeleton, body_model, pipe) if path is not None]
+    refuse_shared(written_all, [*(source_root / rel for rel in clips), *read_too])
     if scheduler is not None and jobs is not None:
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:

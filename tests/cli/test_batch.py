@@ -192,6 +192,23 @@ def test_an_output_that_is_a_hard_link_of_another_clip_is_refused_up_front(tree,
     assert listing(tmp_path) == before
 
 
+def test_an_output_that_is_a_hard_link_of_the_pipeline_file_is_refused_up_front(
+    tree, tmp_path, capsys
+):
+    pipe, out = tmp_path / "p.toml", tmp_path / "out"
+    pipe.write_text('[[step]]\nfilter = "despike"\n')
+    (out / "walk").mkdir(parents=True)
+    (out / "walk" / "a.bvh").hardlink_to(pipe)
+    before = listing(tmp_path)
+    code, stdout, stderr = run_cli(capsys, "batch", tree, "-o", out, "-p", pipe)
+    assert (code, stdout) == (2, "")
+    assert stderr == (
+        f"motionclean: error: {out / 'walk' / 'a.bvh'}: refusing to overwrite the input "
+        f"{pipe}; write to another file\n"
+    )
+    assert listing(tmp_path) == before
+
+
 @pytest.mark.parametrize("link", ["clip", "page"])
 def test_outputs_that_are_one_file_through_a_link_are_refused_up_front(
     tree, tmp_path, capsys, link
