@@ -316,8 +316,10 @@ def _summary(series: dict, cleaned: bool) -> dict[str, Any]:
     if cleaned:
         total_a = figures["accel_after"].total_rms
         summary["angular_accel_rms"]["after"] = known(total_a)
-        # (no figure where every row involves a missing sample: NaN totals)
-        summary["noise_reduction"] = known(1.0 - total_a / total_b if total_b > 0 else total_b)
+        if math.isnan(total_b):  # no row without a missing sample: nothing measured
+            summary["noise_reduction"] = None
+        else:
+            summary["noise_reduction"] = 1.0 - total_a / total_b if total_b > 0 else 0.0
         summary["deviation_deg_max"] = known(figures["deviation"].total_max)
     return summary
 
