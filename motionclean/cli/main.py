@@ -216,6 +216,7 @@ def info(
     noise[rotating] = estimate_noise(
         seen_rotations(as_default_auto_sees(motion)), motion.frame_time
     )
+    noise[np.isnan(acc_rms)] = np.nan  # no three frames in a row known: nothing estimated
     measured = np.ones(motion.n_joints, bool) if motion.missing is None else ~motion.missing.all(0)
     shown = short_names(motion.names)
     longest = max(len(n) for n in shown.values())
@@ -231,7 +232,8 @@ def info(
         channels = " ".join(c[0] + ("r" if "rotation" in c else "p") for c in motion.channels[j])
         order = layout.rotation_orders[j] or ""
         if rotating[j] and measured[j]:
-            figures = f"{steps[j]:>14.2f}{at[j]:>9d}" + figure_text(acc_rms[j], 12, ",.0f")
+            step = f"{steps[j]:>14.2f}{at[j]:>9d}" if motion.n_frames > 1 else f"{'-':>14}{'-':>9}"
+            figures = step + figure_text(acc_rms[j], 12, ",.0f")
             figures += figure_text(noise[j], 10, ".2f")
         elif rotating[j]:  # every sample missing
             figures = f"{'-':>14}{'-':>9}{'-':>12}{'-':>10}"
@@ -243,12 +245,15 @@ def info(
         )
     if rows:  # one write for the table, not one per joint
         click.echo("\n".join(rows))
-    if (rotating & measured).any():
+    estimated = rotating & measured & ~np.isnan(noise)
+    if estimated.any():
         click.echo(
-            f"  noise: median estimate {np.median(noise[rotating & measured]):.2f} deg, "
+            f"  noise: median estimate {np.median(noise[estimated]):.2f} deg, "
             f"RMS angular acceleration {figure_text(acc.total_rms, 0, ',.0f')} "
             "deg/s^2 over all joints"
         )
+    elif rotating.any():
+        click.echo("  noise: not measured (no three frames in a row known)")
     click.echo(
         "  (largest step: rotation between consecutive frames, degrees; accel rms: "
         "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "

@@ -314,6 +314,11 @@ def test_reports_of_clips_too_short_for_some_figures(tmp_path, capsys, frames):
             assert "nan" not in text.lower()
         assert "ground not found (needs at least 2 frames)" in out
         assert "ground not found (needs at least 2 frames)" in info
+    if frames < 3:  # no acceleration, no noise estimate: said so, not 0
+        assert "noise: not measured (no three frames in a row known)" in info
+        assert "no noise measured" in out
+        row = next(line for line in info.splitlines() if line.startswith("  Hips "))
+        assert row.split()[-2:] == ["-", "-"], row
     cleaned = tmp_path / "c.bvh"
     code, _, err = run_cli(
         capsys, "clean", clip, "-o", cleaned, "--report", tmp_path / "c.html", "-q"
