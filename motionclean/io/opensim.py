@@ -23,8 +23,10 @@ coordinate (named ``*_tx``, ``*_ty``, ``*_tz``, as OpenSim names them) is a posi
 that axis (``Xposition`` ...; metres); any other is a rotation by its angle about a fixed
 axis, the joint's Z axis (``Zrotation Xrotation Yrotation``, the two others zero): filters
 on that quaternion signal act on the angle itself, and it stays a rotation about Z.
-Columns the user excludes (``exclude``: fnmatch patterns, e.g. muscle forces in a
-``.sto``) are carried as text and never parsed. ``NaN`` cells (any case) are missing
+In a states file only the coordinates' values are read (:func:`coordinate_name`); speeds,
+muscle states and controls (:func:`is_other_state`), and columns of forces (:data:`LOADS`)
+are carried as text, as are those the user excludes (``exclude``: fnmatch patterns), never
+parsed. ``NaN`` cells (any case) are missing
 samples (``Motion.missing``).
 
 Writing a clip read from such a file keeps the header and every cell that did not change
@@ -140,10 +142,29 @@ def _in_degrees(pairs: dict[str, tuple[str, int]], path) -> tuple[bool, str | No
     _fail(f"inDegrees={value[:20]!r}: expected yes or no", path, line)
 
 
+def coordinate_name(label: str) -> str:
+    """The coordinate a column label names: ``pelvis_tx`` of an OpenSim 4 state path
+    ``/jointset/ground_pelvis/pelvis_tx/value``, else the label itself."""
+    parts = label.split("/")
+    return parts[-2] if len(parts) > 2 and parts[-1] == "value" else label
+
+
 def is_translational(label: str) -> int:
-    """The axis (0-2) of a translational coordinate's name (``*_tx`` ...), else -1."""
-    head, sep, tail = label.rpartition("_")
+    """The axis (0-2) of a translational coordinate's column (``*_tx`` ..., also as a state
+    path ``.../pelvis_tx/value``), else -1."""
+    head, sep, tail = coordinate_name(label).rpartition("_")
     return "xyz".index(tail[1]) if sep and head and tail.lower() in TRANSLATIONAL else -1
+
+
+def is_other_state(label: str, labels: set[str]) -> bool:
+    """Whether a states file's column is a state other than a coordinate's value: a speed
+    or a muscle's state (activation, fiber length ...), named as OpenSim 4 names state
+    paths (``.../pelvis_tilt/speed``, ``/forceset/soleus/activation``: any path not ending
+    in ``/value``) or as earlier versions did (``pelvis_tilt_u`` beside ``pelvis_tilt``,
+    ``soleus.activation``)."""
+    if "/" in label:
+        return label.rsplit("/", 1)[-1] != "value"
+    return "." in label or (label.endswith("_u") and label[:-2] in labels)
 
 
 #: Column names of external loads (ground reaction forces, their points of application
@@ -223,22 +244,30 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
     if not kept:
         _fail("no coordinate columns (all excluded)", path, number_of(label_line))
-    loads = [c for c in kept if any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)]
-    kept = [c for c in kept if c not in loads]
+    every = set(labels)
+    states = [c for c in kept if is_other_state(labels[c], every)]
+    loads = [
+        c
+        for c in kept
+        if c not in states and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)
+    ]
+    kept = [c for c in kept if c not in loads and c not in states]
     notes = [] if note is None else [note]
-    if loads and not kept:
-        _fail(
-            "no coordinate columns: forces, torques and points of application (an external "
-            "loads file) are no motion to clean",
-            path,
-            number_of(label_line),
+    if (loads or states) and not kept:
+        what = (
+            "forces, torques and points of application (an external loads file)"
+            if loads
+            else "speeds and muscle states"
         )
-    if loads:
-        shown = ", ".join(labels[c] for c in loads[:3]) + (" ..." if len(loads) > 3 else "")
-        notes.append(
-            f"{len(loads)} columns of forces, torques or points of application carried as "
-            f"they are ({shown})"
-        )
+        _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
+    for carried, what in (
+        (loads, "forces, torques or points of application"),
+        (states, "states or controls other than coordinate values (speeds, muscles)"),
+    ):
+        if carried:
+            shown = ", ".join(labels[c] for c in carried[:3])
+            more = " ..." if len(carried) > 3 else ""
+            notes.append(f"{len(carried)} columns of {what} carried as they are ({shown}{more})")
     parsed = np.array([0, *kept], dtype=np.intp)
     nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])
     if nan[:, 0].any():

@@ -224,6 +224,61 @@ def test_force_torque_and_point_columns_are_carried_and_a_loads_file_refused(tmp
     assert code == 1 and "external loads file" in err and len(err.strip().splitlines()) == 1
 
 
+def states_file(naming: str, frames: int = 120) -> str:
+    """A states .sto (radians) of a knee swinging with a one-frame spike, its speed (the
+    derivative, smooth through zero), the pelvis's forward position and a muscle's
+    activation, named as OpenSim 4 (state paths) or earlier versions name states."""
+    t = np.arange(frames) * 0.01
+    knee = 0.6 * np.sin(2 * np.pi * t)
+    knee[60] += 0.3
+    columns = {
+        "knee": knee,
+        "knee_u": 0.6 * 2 * np.pi * np.cos(2 * np.pi * t),
+        "tx": 1.2 * t,
+        "act": 0.2 + 0.1 * np.sin(6 * t),
+    }
+    labels = {
+        "4": {
+            "knee": "/jointset/knee_r/knee_angle_r/value",
+            "knee_u": "/jointset/knee_r/knee_angle_r/speed",
+            "tx": "/jointset/ground_pelvis/pelvis_tx/value",
+            "act": "/forceset/soleus_r/activation",
+        },
+        "3": {
+            "knee": "knee_angle_r",
+            "knee_u": "knee_angle_r_u",
+            "tx": "pelvis_tx",
+            "act": "soleus_r.activation",
+        },
+    }[naming]
+    rows = ["inDegrees=no", "endheader", "\t".join(["time", *labels.values()])]
+    rows += ["\t".join(f"{v:.10f}" for v in row) for row in zip(t, *columns.values(), strict=True)]
+    return "\n".join(rows) + "\n"
+
+
+@pytest.mark.parametrize("naming", ["4", "3"])
+def test_a_states_file_cleans_its_coordinates_and_carries_speeds_and_muscles(
+    tmp_path, capsys, naming
+):
+    """Speeds and muscle states are no coordinates: carried byte for byte (the default's
+    despike had rewritten a speed running smoothly through zero), with a note; a
+    translational coordinate named as a state path (``.../pelvis_tx/value``) is a position
+    (it had been read as an angle in radians)."""
+    source = write(tmp_path, states_file(naming), "states.sto")
+    motion = mc.load(source)
+    tx = next(j for j, name in enumerate(motion.names) if "tx" in name)
+    assert motion.n_joints == 2 and motion.channels[tx] == ("Xposition",)
+    assert any("speeds, muscles" in n for n in kinematics.source_notes(motion))
+    out = tmp_path / "clean.sto"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-q")
+    assert (code, err) == (0, "")
+    before = [line.split("\t") for line in source.read_text().splitlines()[3:]]
+    after = [line.split("\t") for line in out.read_text().splitlines()[3:]]
+    assert [r[2] for r in before] == [r[2] for r in after]  # the speed
+    assert [r[4] for r in before] == [r[4] for r in after]  # the activation
+    assert before[60][1] != after[60][1]  # the knee's spike was repaired
+
+
 def test_a_quaternion_table_is_refused_in_one_line(tmp_path, capsys):
     text = "DataType=Quaternion\nversion=3\nendheader\ntime\ttorso_imu\n0\t1,0,0,0\n0.01\t1,0,0,0\n"
     code, _, err = run_cli(capsys, "info", write(tmp_path, text, "imu.sto"))
