@@ -141,6 +141,9 @@ SHELF_EDGES_HZ = np.round(np.arange(2.5, 10.01, 0.25), 2)
 SHELF_ORDERS = (2, 4)
 #: Points of the fine frequency grid on which the band-limited noise's autocovariance is taken.
 FINE_GRID = 4096
+#: The motion and noise shapes are one (a collinear fit: each level fitted alone) where
+#: their Gram determinant is below this fraction of the product of their norms (1 - cos^2).
+COLLINEAR = 1e-12
 #: The fit's band (Hz, at most 0.45 cycles per frame), where motion is taken as a power law
 #: ``(f / MOTION_FROM_HZ)^-slope`` in the displacements' spectrum, a slope of this grid.
 MOTION_FROM_HZ = 1.5
@@ -530,10 +533,13 @@ def fit_band_limited(model: NoiseModel, frame_time: float) -> BandLimited | None
             autocov = np.fft.irfft(spectrum * fine_gain, FINE_GRID)[: model.window]
             n = kernel[band] @ autocov / np.fft.irfft(spectrum, FINE_GRID)[0]  # (B,) per unit
             s_nn, r_n, s_mn = n**2 @ w, n @ (w * y), (motion * n) @ w  # (C,), (C,), (K, C)
-            det = np.maximum(s_mm * s_nn - s_mn**2, tiny)
+            det = s_mm * s_nn - s_mn**2
+            # a design whose two columns are (nearly) one: each level fitted alone
+            collinear = ~(det > COLLINEAR * s_mm * s_nn)
+            det = np.where(collinear, 1.0, det)
             a = (s_nn * r_m - s_mn * r_n) / det  # (K, C) motion, noise (3 sigma_b^2) levels
             b = (s_mm * r_n - s_mn * r_m) / det
-            alone = (a < 0) | (b < 0) | ~(det > 0)
+            alone = (a < 0) | (b < 0) | collinear
             a_only = np.maximum(r_m / np.maximum(s_mm, tiny), 0.0)
             b_only = np.maximum(r_n / np.maximum(s_nn, tiny), 0.0)
             use_a = a_only * r_m >= b_only * r_n  # the larger drop of the deviance alone

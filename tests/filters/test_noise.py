@@ -134,6 +134,26 @@ def test_band_limited_noise_is_found_with_its_edge_and_level(edge, seed, frames)
     np.testing.assert_allclose(level, 3.0, rtol=0.35)
 
 
+def test_joints_held_still_beside_band_limited_noise_fit_without_overflow():
+    """A joint that never moves has no power to fit, or only rounding at 0 Hz: its motion
+    and noise shapes fit as one (the determinant of its fit had been clamped to the
+    smallest float and the levels overflowed, a RuntimeWarning on stderr of a glTF with
+    such a joint); its level is 0 and the others' fit is as without it."""
+    frames, seed, fps = 1309, 83, 50.0
+    truth = smooth_synthetic(frames=frames, joints=12, seed=seed)
+    e = wander_noise(frames, 12, 5.0, 3.0, seed, fps=fps, rho=0.5)
+    noisy = quat.multiply(truth, quat.exp(e))
+    still = np.broadcast_to(quat.identity((frames, 4)), (frames, 4, 4)).copy()
+    # held at a float32 glTF's rotation: its displacements are 2.5e-30 rad of rounding on
+    # every frame, all their power at 0 Hz
+    still[:, 2:] = [-1.0, 1.86264504e-09, -3.72530007e-09, -2.98022993e-08]
+    found = band_limited(np.concatenate([noisy, still], axis=1), 1 / fps)  # (warnings: errors)
+    alone = band_limited(noisy, 1 / fps)
+    assert found is not None and alone is not None and found.edge_hz == alone.edge_hz
+    assert np.array_equal(found.sigma2[12:], np.zeros(4))
+    np.testing.assert_allclose(found.sigma2[:12], alone.sigma2, rtol=0.05)
+
+
 def test_band_limited_gate_stays_off_for_other_noise():
     truth = smooth_synthetic(frames=1440, joints=12, seed=5)
     white = ar1_noise(1440, 12, 0.0, 3.0, seed=50)
