@@ -520,6 +520,32 @@ def fresh_record(motion: Motion) -> dict[str, np.ndarray]:
     return record
 
 
+def amass_record(motion: Motion) -> dict[str, np.ndarray]:
+    """The AMASS record of a clip read from a pickle (WHAM, VIBE, 4D-Humans, AIST++ keys):
+    ``poses`` (frames, 3 x joints; model order, axis-angle radians), ``trans``,
+    ``mocap_framerate`` and the record's ``betas`` (per-frame shapes averaged: AMASS has
+    one per sequence) and ``gender`` where it has them."""
+    src = motion.source
+    assert isinstance(src, SmplParams)
+    if motion.missing is not None:
+        frames = int(motion.missing.any(axis=1).sum())
+        raise MotionError(
+            f"an AMASS .npz has no missing frames, and {frames} of this clip are (the person "
+            "not seen); clean it first (fill-gaps bridges them) or write .pkl",
+            motion.path,
+        )
+    record = fresh_record(motion)
+    if src.trans_key is not None:
+        record["trans"] = motion.translations[:, 0] - src.root_offset
+    betas = _betas(src.record)
+    if betas is not None:
+        record["betas"] = betas
+    gender = src.record.get("gender")
+    if isinstance(gender, np.ndarray) and gender.dtype.kind in "US":
+        record["gender"] = gender
+    return record
+
+
 # ----------------------------------------------------------------------------- .npz files
 
 
@@ -549,9 +575,12 @@ def read_body_model(path) -> tuple[dict[str, np.ndarray], str]:
 
 def npz_pieces(motion: Motion) -> Iterable[bytes]:
     """``motion`` as an ``.npz``: its own archive with the changed arrays replaced (the
-    input bytes when nothing changed), or a fresh ``poses``/``trans`` archive."""
+    input bytes when nothing changed), or a fresh AMASS archive (``poses``, ``trans``,
+    ``mocap_framerate``) of a clip from a pickle or another format."""
     src = motion.source
-    if isinstance(src, SmplParams) and not same_frames(motion):
+    if isinstance(src, SmplParams) and not isinstance(src.container, list):  # a pickle's
+        record = amass_record(motion)
+    elif isinstance(src, SmplParams) and not same_frames(motion):
         record = resampled_record(motion)
     elif isinstance(src, SmplParams):
         changed = changed_arrays(motion)

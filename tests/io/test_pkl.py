@@ -155,8 +155,12 @@ def test_clean_and_convert(tmp_path, capsys):
     assert code == 0 and "note: 2 people in the file" in out
     code, _, _ = run_cli(capsys, "convert", WHAM, tmp_path / "w.npz")
     assert code == 0
+    amass = np.load(tmp_path / "w.npz")  # AMASS's keys, not the pickle's
+    assert set(amass.files) == {"poses", "trans", "mocap_framerate", "betas"}
+    assert amass["poses"].shape == (24, 72) and amass["mocap_framerate"] == 30.0
     npz = mc.load(tmp_path / "w.npz")
-    assert np.array_equal(npz.rotations, mc.load(WHAM).rotations)
+    assert "fps assumed" not in " ".join(kinematics.source_notes(npz))
+    np.testing.assert_allclose(npz.rotations, mc.load(WHAM).rotations, atol=1e-15)
     code, _, _ = run_cli(capsys, "convert", WHAM, tmp_path / "w.csv")
     assert code == 0 and mc.load(tmp_path / "w.csv").n_joints == 24
 
@@ -194,3 +198,13 @@ def test_4d_humans_tracks_read_the_longest_track_with_its_gaps(tmp_path):
             assert np.array_equal(new["body_pose"], params["body_pose"]) == same
         assert out[key]["mask"] == frame["mask"] and out[key]["tid"] == frame["tid"]
     assert np.abs(mc.load(tmp_path / "edited.pkl").rotations[6, 5] - q[6, 5]).max() < 1e-6
+
+
+def test_a_track_with_gaps_is_not_written_as_an_amass_npz(tmp_path, capsys):
+    """AMASS has no missing frames: refused in one line saying what to do, nothing written
+    (the pickle's own keys, frame_ids included, had been written as the .npz)."""
+    code, _, err = run_cli(capsys, "convert", PHALP, tmp_path / "p.npz")
+    assert code == 1 and err.count("\n") == 1
+    assert "an AMASS .npz has no missing frames, and 2 of this clip are" in err
+    assert "clean it first (fill-gaps bridges them)" in err
+    assert not (tmp_path / "p.npz").exists()
