@@ -20,7 +20,7 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..io import FORMATS, atomic_write, remove_temporaries
+from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import render_index
 from ..run import cluster
 from ..run.jobs import FileResult, Job
@@ -36,7 +36,6 @@ from .options import (
     pipeline_from_options,
     raise_failures,
     read_options,
-    reading,
     refuse_shared,
 )
 
@@ -269,9 +268,7 @@ def batch_command(
     capture: str,
     up: str | None,
     quiet: bool,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
 ) -> None:
     """Clean every clip under IN_DIR into OUT_DIR, in parallel.
 
@@ -303,7 +300,6 @@ def batch_command(
         check_written(pages / "index.html")
         written_all.append(pages / "index.html")
     tables = tuple(pipeline.describe())
-    read = reading(skeleton, body_model, exclude)
     work: list[Job] = []
     work_names: list[str] = []
     results: dict[str, FileResult] = {}
@@ -323,7 +319,7 @@ def batch_command(
         work.append(Job(str(source), str(target), tables, report_page, up, read))
         work_names.append(str(rel))
 
-    read_too = [path for path in (skeleton, body_model, pipe) if path is not None]
+    read_too = [*read.files, *([pipe] if pipe is not None else [])]
     refuse_shared(written_all, [*(source_root / rel for rel in clips), *read_too])
     if scheduler is not None and jobs is not None:
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")

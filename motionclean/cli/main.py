@@ -24,7 +24,7 @@ from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
-from ..io import atomic_write, load, save
+from ..io import ReadOptions, atomic_write, load, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
 from ..report.summary import (
@@ -67,7 +67,6 @@ from .options import (
     echo_warnings,
     pipeline_from_options,
     read_options,
-    reading,
     refuse_overwrite,
     refuse_shared,
     with_up,
@@ -171,12 +170,10 @@ cli.add_command(check_command)
 def info(
     clip: str,
     up: str | None,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
 ) -> None:
     """Skeleton, channels, frames, rate and per-joint largest rotation step of CLIP."""
-    motion = with_up(reading(skeleton, body_model, exclude).load(clip), up)
+    motion = with_up(read.load(clip), up)
     layout = motion.layout
     click.echo(f"{clip}")
     click.echo(
@@ -274,15 +271,12 @@ def info(
 def convert(
     source: str,
     target: str,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
     world: bool,
 ) -> None:
     """Convert SOURCE to TARGET by file extension (BVH, CSV, SMPL .npz/.pkl, OpenSim
     .mot/.sto, glTF .gltf/.glb), where the target format can hold the clip."""
-    inputs = (source, skeleton, body_model)
-    read = reading(skeleton, body_model, exclude)
+    inputs = (source, *read.files)
     if world:
         check_output(target, (".csv",), "a world-position CSV", inputs)
         motion = read.load(source)
@@ -306,9 +300,7 @@ def resample_command(
     target: str,
     fps: float | None,
     frame_time: float | None,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
 ) -> None:
     """Write SOURCE at a new frame rate to TARGET (any format, by extension).
 
@@ -322,8 +314,8 @@ def resample_command(
     step: dict[str, object] = {"filter": "resample"}
     step.update({key: value for key, value in rates.items() if value is not None})
     pipeline = Pipeline.from_tables([step], "--fps/--frame-time")
-    check_clip_output(target, (source, skeleton, body_model))
-    before = reading(skeleton, body_model, exclude).load(source)
+    check_clip_output(target, (source, *read.files))
+    before = read.load(source)
     after, _ = pipeline.run(before)
     save(after, target)
     click.echo(
@@ -359,9 +351,7 @@ def clean(
     quiet: bool,
     capture: str,
     up: str | None,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
 ) -> None:
     """Clean SOURCE with a pipeline and write it to OUTPUT.
 
@@ -372,7 +362,7 @@ def clean(
         if not in_place:
             raise UsageError("missing -o OUTPUT (or --in-place to overwrite the input)")
         output = source
-    read_too = (skeleton, body_model, pipe)  # files read besides the clip
+    read_too = (*read.files, pipe)  # files read besides the clip
     if not in_place:
         refuse_overwrite(output, [source], "pass --in-place to do so")
     check_clip_output(output, read_too)
@@ -381,7 +371,7 @@ def clean(
     refuse_shared([output, *report_paths])
     if os.path.isdir(source):
         raise MotionError("is a directory, not a clip; `motionclean batch` cleans a folder", source)
-    result = clean_clip(source, None, pipeline, up, reading(skeleton, body_model, exclude))
+    result = clean_clip(source, None, pipeline, up, read)
     reports = {r: render_report(result.report, r, result.series) for r in report_paths}
     after, logs, report = result.after, result.logs, result.report
     del result  # the input's arrays and the plot series go before the clip is written
@@ -423,18 +413,15 @@ def report(
     html_path: str | None,
     capture: str,
     up: str | None,
-    skeleton: str | None,
-    body_model: str | None,
-    exclude: tuple[str, ...],
+    read: ReadOptions,
 ) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version, and the
     capture system `clean` would assume for SOURCE (--source) and why."""
     for path in (json_path, html_path):
         if path:
-            check_report_output(path, (source, cleaned, skeleton, body_model))
+            check_report_output(path, (source, cleaned, *read.files))
     if json_path and html_path:
         refuse_shared([json_path, html_path])
-    read = reading(skeleton, body_model, exclude)
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:

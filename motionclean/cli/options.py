@@ -4,6 +4,7 @@ lines. The work itself is in :mod:`motionclean.run.jobs`."""
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from collections.abc import Iterable, Sequence
@@ -38,33 +39,46 @@ def echo_warnings(lines: Iterable[str]) -> None:
 
 
 def read_options(command):
-    """The options that tell how to read files needing more than themselves: ``--skeleton``,
-    ``--body-model`` and ``--exclude`` (the command takes ``skeleton``, ``body_model`` and
-    ``exclude``; :func:`reading` makes them a :class:`~motionclean.io.ReadOptions`)."""
-    command = click.option(
-        "--exclude",
-        multiple=True,
-        metavar="PATTERN",
-        help="OpenSim .mot/.sto columns to leave untouched (fnmatch pattern, e.g. '*_force'); "
-        "repeatable.",
-    )(command)
-    command = click.option(
-        "--body-model",
-        type=FILE_PATH,
-        help="SMPL-family body model .npz (J_regressor, v_template, shapedirs) giving the joint "
-        "positions of .npz/.pkl SMPL clips.",
-    )(command)
-    return click.option(
-        "--skeleton",
-        type=FILE_PATH,
-        help="BVH skeleton: the template a channel CSV is read into, or the rig (matched by "
-        "joint name or order) giving the joint positions of .npz/.pkl SMPL clips.",
-    )(command)
+    """The options that tell how to read files needing more than themselves:
+    ``--skeleton``, ``--body-model``, ``--exclude`` and ``--input-fps``, given to the
+    command as one ``read`` (a :class:`~motionclean.io.ReadOptions`)."""
 
+    @functools.wraps(command)
+    def reading(*args, skeleton, body_model, exclude, input_fps, **kwargs):
+        read = ReadOptions(skeleton, body_model, tuple(exclude), input_fps)
+        return command(*args, read=read, **kwargs)
 
-def reading(skeleton: str | None, body_model: str | None, exclude: tuple[str, ...]) -> ReadOptions:
-    """The :class:`~motionclean.io.ReadOptions` of :func:`read_options`' values."""
-    return ReadOptions(skeleton, body_model, tuple(exclude))
+    options = (
+        click.option(
+            "--input-fps",
+            type=FiniteRange(min=0.1, max=100000.0),
+            metavar="RATE",
+            help="Frame rate of .npz/.pkl SMPL clips whose files state none (video pose "
+            "estimators' pickles: 30 assumed without it); a rate the file states is taken.",
+        ),
+        click.option(
+            "--exclude",
+            multiple=True,
+            metavar="PATTERN",
+            help="OpenSim .mot/.sto columns to leave untouched (fnmatch pattern, e.g. "
+            "'*_force'); repeatable.",
+        ),
+        click.option(
+            "--body-model",
+            type=FILE_PATH,
+            help="SMPL-family body model .npz (J_regressor, v_template, shapedirs) giving the "
+            "joint positions of .npz/.pkl SMPL clips.",
+        ),
+        click.option(
+            "--skeleton",
+            type=FILE_PATH,
+            help="BVH skeleton: the template a channel CSV is read into, or the rig (matched "
+            "by joint name or order) giving the joint positions of .npz/.pkl SMPL clips.",
+        ),
+    )
+    for option in options:
+        reading = option(reading)
+    return reading
 
 
 class FiniteRange(click.FloatRange):

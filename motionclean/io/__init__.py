@@ -74,6 +74,7 @@ def load(
     skeleton: Motion | None = None,
     body_model: str | os.PathLike | None = None,
     exclude: Iterable[str] = (),
+    frame_rate: float | None = None,
 ) -> Motion:
     """Read a clip; the format follows the extension (see the module).
 
@@ -81,7 +82,8 @@ def load(
     (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
     the BVH template a channel CSV is read into, or the rig whose offsets SMPL joints take
     (``io.smpl``), as they take them from a ``body_model`` file (``.npz``); ``exclude``
-    names (fnmatch patterns) OpenSim columns carried untouched (``io.opensim``).
+    names (fnmatch patterns) OpenSim columns carried untouched (``io.opensim``);
+    ``frame_rate`` (frames per second) is that of a SMPL clip whose file states none.
 
     A file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
     memory: the clip keeps it open (one file descriptor while the clip is in use) and its
@@ -100,7 +102,7 @@ def load(
         elif suffix in (".npz", ".pkl"):
             model = None if body_model is None else smpl.read_body_model(body_model)
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
-            motion = parse(data, path, skeleton=skeleton, body_model=model)
+            motion = parse(data, path, skeleton=skeleton, body_model=model, frame_rate=frame_rate)
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
         elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
@@ -129,16 +131,29 @@ def load(
 class ReadOptions:
     """What some files need besides themselves, given once for every clip a command reads
     (picklable: batch workers get it): a BVH ``skeleton`` (a channel CSV's template, a SMPL
-    clip's rig), a SMPL ``body_model`` file and OpenSim columns to ``exclude``."""
+    clip's rig), a SMPL ``body_model`` file, OpenSim columns to ``exclude`` and the
+    ``frame_rate`` of SMPL clips whose files state none."""
 
     skeleton: str | None = None
     body_model: str | None = None
     exclude: tuple[str, ...] = ()
+    frame_rate: float | None = None
+
+    @property
+    def files(self) -> tuple[str, ...]:
+        """The files read besides the clips (no output may be one of them)."""
+        return tuple(path for path in (self.skeleton, self.body_model) if path is not None)
 
     def load(self, path: str | os.PathLike) -> Motion:
         """:func:`load` of ``path`` with these options."""
         template = load(self.skeleton) if self.skeleton else None
-        return load(path, skeleton=template, body_model=self.body_model, exclude=self.exclude)
+        return load(
+            path,
+            skeleton=template,
+            body_model=self.body_model,
+            exclude=self.exclude,
+            frame_rate=self.frame_rate,
+        )
 
 
 #: Suffixes of the text formats, and how many of their first bytes tell their line ends.

@@ -156,8 +156,15 @@ def _hashable(value: Any) -> Any:
     return value.item() if isinstance(value, np.generic) else value
 
 
-def parse_pickle(data: bytes, path, skeleton: Motion | None = None, body_model=None) -> Motion:
-    """A clip of a pickle's SMPL record (see the module)."""
+def parse_pickle(
+    data: bytes,
+    path,
+    skeleton: Motion | None = None,
+    body_model=None,
+    frame_rate: float | None = None,
+) -> Motion:
+    """A clip of a pickle's SMPL record (see the module); ``frame_rate``: the rate (frames
+    per second) taken when the record states none."""
     tree: Any = safepickle.loads(data, path)
     container: Any
     note: str | None
@@ -178,6 +185,7 @@ def parse_pickle(data: bytes, path, skeleton: Motion | None = None, body_model=N
         body_model_path=model_path,
         notes=(note,) if note else (),
         rows=_frame_rows(arrays, path),
+        frame_rate=frame_rate,
     )
 
 

@@ -268,11 +268,17 @@ def _split_tree(fields: list[PoseField]) -> Tree:
     return SMPLX
 
 
-def frame_time_of(record: dict, path) -> tuple[float, str | None]:
-    """Seconds per frame from the record's frame rate, and a note when it had none."""
+def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float, str | None]:
+    """Seconds per frame from the record's frame rate, or the rate ``given`` (frames per
+    second) where it states none, else :data:`DEFAULT_RATE`; and a note of the rate taken
+    when it was not the record's, or of ``given`` not taken."""
     key = _first(record, RATE_KEYS)
+    if key is None and given is not None:
+        return 1.0 / given, f"no frame rate in the file; {given:g} fps as given"
     if key is None:
-        return 1.0 / DEFAULT_RATE, f"no frame rate in the file; {DEFAULT_RATE:g} fps assumed"
+        return 1.0 / DEFAULT_RATE, (
+            f"no frame rate in the file; {DEFAULT_RATE:g} fps assumed (--input-fps gives it)"
+        )
     value = np.asarray(record[key])
     try:
         rate = float(value.reshape(-1)[0]) if value.size == 1 else float("nan")
@@ -284,6 +290,8 @@ def frame_time_of(record: dict, path) -> tuple[float, str | None]:
             "second from 0.1 to 100000",
             path,
         )
+    if given is not None and given != rate:
+        return 1.0 / rate, f"the file's {rate:g} fps taken, not {given:g} as given"
     return 1.0 / rate, None
 
 
@@ -323,8 +331,10 @@ def smpl_motion(
     body_model_path=None,
     notes: tuple[str, ...] = (),
     rows: np.ndarray | None = None,
+    frame_rate: float | None = None,
 ) -> Motion:
-    """A clip of the SMPL record ``record`` (see the module)."""
+    """A clip of the SMPL record ``record`` (see the module); ``frame_rate``: the rate
+    taken where the record states none (frames per second)."""
     tree, fields, trans_key = find_layout(record, path)
     frames = {_frames_of(record[f.key], f.key, record[f.key].shape[1:], path) for f in fields}
     if trans_key is not None:
@@ -337,7 +347,7 @@ def smpl_motion(
     if rows is not None and rows.size != n_rows:
         raise MotionError(f"frame_ids has {rows.size} entries for {n_rows} frames of poses", path)
     _check_numbers(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
-    frame_time, rate_note = frame_time_of(record, path)
+    frame_time, rate_note = frame_time_of(record, path, frame_rate)
     notes = notes + ((rate_note,) if rate_note else ())
     model = np.empty((n_rows, tree.n_joints, 4))
     whole = [f for f in fields if f.first == 0 and f.count == tree.n_joints]
@@ -549,9 +559,16 @@ def amass_record(motion: Motion) -> dict[str, np.ndarray]:
 # ----------------------------------------------------------------------------- .npz files
 
 
-def parse_smpl_npz(data: bytes, path, skeleton: Motion | None = None, body_model=None) -> Motion:
+def parse_smpl_npz(
+    data: bytes,
+    path,
+    skeleton: Motion | None = None,
+    body_model=None,
+    frame_rate: float | None = None,
+) -> Motion:
     """A clip of an AMASS-style ``.npz`` (see the module); ``body_model`` is the arrays of
-    a body model file (:func:`read_body_model`)."""
+    a body model file (:func:`read_body_model`), ``frame_rate`` the rate taken where the
+    file states none."""
     members = npz.read_npz(data, path)
     record = {m.key: m.array for m in members if m.array is not None}
     model, model_path = body_model if body_model is not None else (None, None)
@@ -563,6 +580,7 @@ def parse_smpl_npz(data: bytes, path, skeleton: Motion | None = None, body_model
         skeleton=skeleton,
         body_model=model,
         body_model_path=model_path,
+        frame_rate=frame_rate,
     )
 
 

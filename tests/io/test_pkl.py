@@ -37,6 +37,29 @@ def test_wham_output_reads_the_world_motion_of_the_longest_track():
     assert np.array_equal(compressed.rotations, motion.rotations)
 
 
+def test_the_rate_of_a_pickle_without_one_is_given_by_input_fps(tmp_path, capsys):
+    """A video's 60 fps given to a WHAM pickle (which states no rate: 30 assumed, and the
+    filters' cutoffs in Hz and the world speeds a factor of two off): taken, said, written
+    into the AMASS .npz; a file's own rate is taken over the option, in every command that
+    reads (batch's workers too)."""
+    clip = mc.load(WHAM, frame_rate=60.0)
+    assert clip.frame_time == 1 / 60
+    assert "no frame rate in the file; 60 fps as given" in kinematics.source_notes(clip)
+    code, out, err = run_cli(capsys, "convert", WHAM, tmp_path / "w.npz", "--input-fps", "60")
+    assert (code, err) == (0, "") and float(np.load(tmp_path / "w.npz")["mocap_framerate"]) == 60
+    code, out, _ = run_cli(capsys, "info", tmp_path / "w.npz", "--input-fps", "25")
+    assert code == 0 and "rate: 60 fps" in out and "60 fps taken, not 25 as given" in out
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "w.pkl").write_bytes(WHAM.read_bytes())
+    code, _, _ = run_cli(
+        capsys, "batch", tmp_path / "in", "-o", tmp_path / "out", "--input-fps", "60",
+        "--report-dir", tmp_path / "pages",
+    )  # fmt: skip
+    assert code == 0 and mc.load(tmp_path / "out" / "w.pkl", frame_rate=60.0).n_frames == 24
+    page = (tmp_path / "pages" / "w.pkl.html").read_text()
+    assert "at 60 fps" in page and "at 30 fps" not in page
+
+
 def test_round_trips_byte_and_value_exact(tmp_path):
     motion = mc.load(WHAM)
     mc.save(motion, tmp_path / "same.pkl")
