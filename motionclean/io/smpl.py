@@ -10,7 +10,8 @@ A record is a flat set of named arrays, one row per frame:
   (``jaw_pose``, 3) and ``pose_eye`` (6; or ``leye_pose`` + ``reye_pose``). Rows of
   ``(J, 3)`` vectors or ``(J, 3, 3)`` rotation matrices are read too. When both forms are
   present (AMASS SMPL-X), ``poses`` is read and every form is written back;
-- ``trans`` (or ``transl``): the root translation (metres), optional;
+- ``trans`` (or ``transl``): the root translation (metres), optional; AIST++'s
+  ``smpl_trans`` is in units of ``smpl_scaling`` metres, and read divided by it;
 - ``mocap_framerate`` / ``mocap_frame_rate`` / ``fps``: frames per second (30 assumed,
   with a note, when absent); ``betas``, ``gender`` and anything else are carried as read.
 
@@ -102,6 +103,7 @@ class SmplParams:
     notes: tuple[str, ...] = field(default=())
     rows: np.ndarray | None = None  # the clip frame of each row (None: row k is frame k)
     frame_time: float = 0.0  # as read
+    trans_scale: float = 1.0  # metres per unit of the record's translation
 
     @property
     def needs_skeleton(self) -> bool:
@@ -268,6 +270,25 @@ def _split_tree(fields: list[PoseField]) -> Tree:
     return SMPLX
 
 
+#: AIST++'s key of the scale its ``smpl_trans`` is stored in (the body scaled to it).
+SCALE_KEY = "smpl_scaling"
+
+
+def translation_scale(record: dict, path) -> tuple[float, str | None]:
+    """Metres per unit of the record's translation: ``1 / smpl_scaling`` where the record
+    has it (AIST++: SMPL's ``transl`` is ``smpl_trans / smpl_scaling``), else 1; and a note
+    of the division."""
+    if SCALE_KEY not in record:
+        return 1.0, None
+    value = np.asarray(record[SCALE_KEY])
+    scale = float(value.reshape(-1)[0]) if value.size == 1 and value.dtype.kind in "fiu" else 0.0
+    if not (np.isfinite(scale) and scale > 0.0):
+        raise MotionError(
+            f"{SCALE_KEY}: expected one positive number, got {value.ravel()[:3]}", path
+        )
+    return 1.0 / scale, f"translation divided by {SCALE_KEY} {scale:.6g} (AIST++): metres"
+
+
 def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float, str | None]:
     """Seconds per frame from the record's frame rate, or the rate ``given`` (frames per
     second) where it states none, else :data:`DEFAULT_RATE`; and a note of the rate taken
@@ -349,6 +370,8 @@ def smpl_motion(
     _check_numbers(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
     frame_time, rate_note = frame_time_of(record, path, frame_rate)
     notes = notes + ((rate_note,) if rate_note else ())
+    trans_scale, scale_note = translation_scale(record, path) if trans_key else (1.0, None)
+    notes = notes + ((scale_note,) if scale_note else ())
     model = np.empty((n_rows, tree.n_joints, 4))
     whole = [f for f in fields if f.first == 0 and f.count == tree.n_joints]
     for f in whole or fields:  # the whole pose when there is one, else the split arrays
@@ -363,7 +386,7 @@ def smpl_motion(
     channels: list[tuple[str, ...]] = [ROTATION] * tree.n_joints
     trans = None
     if trans_key is not None:
-        trans = np.asarray(record[trans_key], dtype=np.float64) + root_offset
+        trans = np.asarray(record[trans_key], dtype=np.float64) * trans_scale + root_offset
         channels[0] = POSITION_CHANNELS + ROTATION
     n_frames = n_rows if rows is None else int(rows[-1]) + 1
     missing = None
@@ -391,6 +414,7 @@ def smpl_motion(
         notes,
         rows,
         frame_time,
+        trans_scale,
     )
     return Motion(
         names=list(tree.names),
@@ -417,7 +441,8 @@ def _betas(record: dict) -> np.ndarray | None:
 
 def _read_translation(src: SmplParams) -> np.ndarray:
     assert src.trans_key is not None
-    return np.asarray(src.record[src.trans_key], dtype=np.float64) + src.root_offset
+    trans = np.asarray(src.record[src.trans_key], dtype=np.float64)
+    return trans * src.trans_scale + src.root_offset
 
 
 def same_frames(motion: Motion) -> bool:
@@ -461,7 +486,7 @@ def changed_arrays(motion: Motion) -> dict[str, np.ndarray]:
         moved = np.abs(now - _read_translation(src)).max(axis=-1) > UNCHANGED_TOLERANCE
         if moved.any():
             new = old.copy()
-            new[moved] = (now[moved] - src.root_offset).astype(old.dtype)
+            new[moved] = ((now[moved] - src.root_offset) / src.trans_scale).astype(old.dtype)
             out[src.trans_key] = new
     return out
 
@@ -487,7 +512,8 @@ def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
         new[f.key] = values.reshape((motion.n_frames, *old.shape[1:])).astype(old.dtype)
     if src.trans_key is not None:
         old = src.record[src.trans_key]
-        new[src.trans_key] = (motion.translations[:, 0] - src.root_offset).astype(old.dtype)
+        trans = (motion.translations[:, 0] - src.root_offset) / src.trans_scale
+        new[src.trans_key] = trans.astype(old.dtype)
     rate_key = _first(src.record, RATE_KEYS) or "mocap_framerate"
     new[rate_key] = np.asarray(motion.frame_rate)
     out = {}

@@ -231,3 +231,33 @@ def test_a_track_with_gaps_is_not_written_as_an_amass_npz(tmp_path, capsys):
     assert "an AMASS .npz has no missing frames, and 2 of this clip are" in err
     assert "clean it first (fill-gaps bridges them)" in err
     assert not (tmp_path / "p.npz").exists()
+
+
+def test_aist_translation_is_read_in_metres_and_written_in_its_scale(tmp_path, capsys):
+    """AIST++ stores ``smpl_trans`` in units of ``smpl_scaling`` metres (its SMPL call
+    divides by it): read in metres (it had been read 98 times too far, the body flying
+    across a stage of 170 m), written back in the file's own scale."""
+    frames = 90
+    t = np.arange(frames) / 60
+    trans = np.stack([50 * t, 90 + 0 * t, 10 * np.sin(t)], axis=-1).astype(np.float32)
+    record = {
+        "smpl_poses": (0.1 * np.sin(t)[:, None] * np.ones(72)).astype(np.float32),
+        "smpl_trans": trans,
+        "smpl_scaling": np.array([98.0], dtype=np.float32),
+        "smpl_loss": 0.5,
+    }
+    source = tmp_path / "aist.pkl"
+    source.write_bytes(pickle.dumps(record, protocol=4))
+    clip = mc.load(source, frame_rate=60.0)
+    np.testing.assert_allclose(clip.translations[:, 0], trans / 98.0, rtol=1e-7)
+    assert any("smpl_scaling 98" in note for note in kinematics.source_notes(clip))
+    mc.save(clip, tmp_path / "same.pkl")
+    assert (tmp_path / "same.pkl").read_bytes() == source.read_bytes()
+    moved = clip.translations.copy()
+    moved[:, 0, 0] += 0.01  # 1 cm forward on every frame
+    mc.save(clip.replace(translations=moved), tmp_path / "moved.pkl")
+    written = pickle.loads((tmp_path / "moved.pkl").read_bytes())
+    np.testing.assert_allclose(written["smpl_trans"][:, 0], trans[:, 0] + 0.98, rtol=1e-6)
+    code, _, _ = run_cli(capsys, "convert", source, tmp_path / "a.npz", "--input-fps", "60")
+    amass = np.load(tmp_path / "a.npz")
+    assert code == 0 and np.allclose(amass["trans"], trans / 98.0, rtol=1e-7)
