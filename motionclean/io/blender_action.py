@@ -58,8 +58,8 @@ KEEP_DEGREES = 1e-4
 #: of its bones' offsets).
 KEEP_LENGTH = 1e-6
 
-#: A still leaf bone whose name ends so is an exporter's tip (Blender's FBX export adds one
-#: per leaf): its parent's end site, not a joint.
+#: A still leaf bone whose name ends so, in any case, is an exporter's tip (Blender's FBX
+#: export adds one per leaf, Mixamo's ``HeadTop_End``): its parent's end site, not a joint.
 TIP_SUFFIX = "_end"
 #: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
@@ -376,7 +376,7 @@ def read_action(
         [
             not bone.children
             and bone.parent is not None
-            and bone.name.endswith(TIP_SUFFIX)
+            and bone.name.lower().endswith(TIP_SUFFIX)
             and not channels[j]
             for j, bone in enumerate(bones)
         ],

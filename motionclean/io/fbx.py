@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -47,10 +48,14 @@ from .blender_action import (
 )
 from .files import read_regular_file
 
-__all__ = ["EXTRA", "FbxSource", "fbx_bytes", "load_fbx"]
+__all__ = ["EXTRA", "FbxSource", "fbx_bytes", "load_fbx", "mend_importer"]
 
 #: How to get ``bpy``: named in the error when it is missing.
 EXTRA = "pip install 'motionclean[blender]'"
+#: Longest object name looked for before an FBX class name (bytes).
+MAX_NAME_BYTES = 1024
+#: A line of a Python traceback naming the exception raised (``AttributeError: ...``).
+PYTHON_ERROR = re.compile(r"^\s*[A-Za-z_][\w.]*(Error|Exception): ")
 #: Frame rates within this relative distance of a whole number are written as that number.
 WHOLE_RATE = 1e-4
 #: Importer and exporter settings: keys at FBX time x fps, a key on every frame, no take
@@ -119,11 +124,27 @@ def _quiet() -> Iterator[list[str]]:
 
 
 def _reason(printed: list[str], error: BaseException | None = None) -> str:
-    """The last error Blender printed (or raised), on one line."""
+    """The last error Blender printed (or raised), on one line: of a Python traceback in
+    it (an add-on's failure), its last line, the exception."""
     lines = [line.strip() for line in printed if "error" in line.lower()]
     text = str(error) if error is not None else (lines[-1] if lines else "")
-    text = " ".join(text.replace("Error:", "").split())
-    return text or "Blender's importer gave up"
+    raised = [line.strip() for line in text.splitlines() if PYTHON_ERROR.match(line)]
+    if "Traceback (most recent call last)" in text and raised:
+        text = f"Blender's add-on failed: {raised[-1]}"
+    return " ".join(text.strip().removeprefix("Error:").split()) or "Blender's importer gave up"
+
+
+def mend_importer(bpy: Any) -> None:
+    """Blender 5.0's FBX importer sets ``cycles.cast_shadow`` on each light it reads, a
+    property Cycles no longer has: every file with a light failed. Given back as a plain
+    property (nothing reads it) where it is missing, until the next factory reset."""
+    light = bpy.data.lights.new("motionclean-probe", "POINT")
+    try:
+        settings = type(getattr(light, "cycles", None))
+        if hasattr(settings, "bl_rna") and "cast_shadow" not in settings.bl_rna.properties:
+            settings.cast_shadow = bpy.props.BoolProperty(default=True)
+    finally:
+        bpy.data.lights.remove(light)
 
 
 def _empty_scene(bpy: Any) -> None:
@@ -135,6 +156,7 @@ def _import(bpy: Any, file: Path, path: str | os.PathLike | None) -> Any:
     """Import FBX ``file`` into an empty scene; its one armature object (errors name
     ``path``)."""
     _empty_scene(bpy)
+    mend_importer(bpy)
     with _quiet() as printed:
         failure: BaseException | None = None
         try:
@@ -143,7 +165,7 @@ def _import(bpy: Any, file: Path, path: str | os.PathLike | None) -> Any:
             done, failure = None, error
     if failure is not None or "FINISHED" not in done:
         reason = _reason(printed, failure).replace(f"'{file}'", "").replace(str(file), "")
-        raise MotionError(f"cannot read FBX: {reason.strip()}", path)
+        raise MotionError(f"cannot read FBX: {' '.join(reason.split())}", path)
     armatures = [obj for obj in bpy.context.scene.objects if obj.type == "ARMATURE"]
     if not armatures:
         raise MotionError("no armature (skeleton) in the FBX file", path)
@@ -251,6 +273,7 @@ def fbx_bytes(motion: Motion) -> bytes:
     source = motion.source
     if isinstance(source, FbxSource):
         obj, clip = _read(bpy, source.data, motion.path)
+        take = _take_name(source.data, obj)
         if clip.motion.names != motion.names:
             raise MotionError(f"the clip's joints are not the bones of {motion.path}")
         if clip.motion.n_frames == motion.n_frames and np.isclose(
@@ -265,12 +288,41 @@ def fbx_bytes(motion: Motion) -> bytes:
         _empty_scene(bpy)
         obj = _build_armature(bpy, motion)
         _write_new(bpy, obj, motion, 0.0)
+        take = obj.name
+    bpy.context.scene.name = take  # the exporter names the take (AnimStack) after the scene
     with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
         target = Path(folder) / "clip.fbx"
         # a new armature's end sites go out as tip bones (FBX has no bone tails; read back,
         # a tip is its parent's end site); a file's own armature keeps the bones it has
         _export(bpy, obj, target, tips=not isinstance(source, FbxSource))
         return target.read_bytes()
+
+
+def _take_name(data: bytes, obj: Any) -> str:
+    """The take (FBX AnimStack: Unity's ``Take 001``, Mixamo's ``mixamo.com``) the armature
+    ``obj`` imported from ``data`` plays: of the stacks the file names, the one Blender's
+    importer named its action after (``OBJECT|STACK`` or ``OBJECT|STACK|LAYER``; the
+    longest, as names may hold ``|``); the object's name where none is."""
+    action = obj.animation_data.action.name
+    played = [
+        stack
+        for stack in _anim_stacks(data)
+        if action == f"{obj.name}|{stack}" or action.startswith(f"{obj.name}|{stack}|")
+    ]
+    return max(played, key=len) if played else obj.name
+
+
+def _anim_stacks(data: bytes) -> list[str]:
+    """The names of a binary FBX file's AnimStack objects: each is a string property
+    ``S``, its length (uint32, little-endian) and ``NAME\\x00\\x01AnimStack``."""
+    names = []
+    for found in re.finditer(rb"\x00\x01AnimStack", data):
+        for start in range(found.start(), max(found.start() - MAX_NAME_BYTES, 5) - 1, -1):
+            size = int.from_bytes(data[start - 4 : start], "little")
+            if data[start - 5 : start - 4] == b"S" and size == found.end() - start:
+                names.append(data[start : found.start()].decode("utf-8", "replace"))
+                break
+    return names
 
 
 def _set_rate(scene: Any, frame_time: float) -> None:

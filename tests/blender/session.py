@@ -32,6 +32,7 @@ import numpy as np
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
+from motionclean.io.fbx import mend_importer
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -458,9 +459,12 @@ def unregister_checks(results: dict) -> None:
 
 
 def fbx_checks(clip: Path, out: Path, results: dict) -> None:
-    """An FBX written by Blender's exporter (its defaults) through the command line."""
+    """An FBX written by Blender's exporter (its defaults) through the command line, with a
+    light in its scene (Blender 5.0's importer failed on lights)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_anim.bvh(filepath=str(clip), update_scene_fps=True, update_scene_duration=True)
+    light = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+    bpy.context.scene.collection.objects.link(light)
     takes = out / "takes"
     takes.mkdir()
     bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"))
@@ -542,6 +546,7 @@ def load_back(path: Path) -> dict:
     """What Blender's FBX importer (default settings) makes of a file: bones, rest, rate,
     frame range and every bone curve at each frame."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    mend_importer(bpy)  # (Blender 5.0's importer fails on lights without it)
     bpy.ops.import_scene.fbx(filepath=str(path))
     obj = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
     data = obj.animation_data
@@ -564,6 +569,7 @@ def load_back(path: Path) -> dict:
         "fps": [scene.render.fps, scene.render.fps_base],
         "frames": [first, last],
         "curves": curves,
+        "action": data.action.name,  # OBJECT|TAKE|LAYER
     }
 
 

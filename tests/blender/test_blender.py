@@ -257,6 +257,8 @@ def test_fbx_identity_keeps_the_curves(blender):
     for key, values in source["curves"].items():
         if ".location[" in key:
             assert np.abs(np.subtract(values, written["curves"][key])).max() < 1e-4
+    # the take keeps its name (it had become "Scene": engines find clips by take name)
+    assert written["action"] == source["action"] and "Scene" not in source["action"]
 
 
 @needs_fbx
