@@ -140,7 +140,7 @@ def mend_importer(bpy: Any) -> None:
     property (nothing reads it) where it is missing, until the next factory reset."""
     light = bpy.data.lights.new("motionclean-probe", "POINT")
     try:
-        settings = type(getattr(light, "cycles", None))
+        settings: Any = type(getattr(light, "cycles", None))
         if hasattr(settings, "bl_rna") and "cast_shadow" not in settings.bl_rna.properties:
             settings.cast_shadow = bpy.props.BoolProperty(default=True)
     finally:
