@@ -94,13 +94,14 @@ import dataclasses
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core import checks, quat
 from ..core.motion import hold_missing, missing_before
 from ..core.rates import frames_floor
+from ..core.threads import in_parts
 
 __all__ = [
     "DespikeReport",
@@ -117,6 +118,13 @@ MAD_TO_SIGMA = 1.4826
 #: Share of the scatter of the flip-step axes that the half-turn axis must explain (1 when
 #: all flip steps turn about the same axis) for a joint to be un-flipped.
 FLIP_AXIS_SHARE = 0.9
+#: A step is a cut (takes joined end to end, as in a game engine's FBX of several clips)
+#: where at least this share of the moving columns jump at once, and at least
+#: :data:`CUT_MIN_COLUMNS` of them: no flip or spike makes most joints jump on one frame.
+CUT_SHARE = 0.5
+CUT_MIN_COLUMNS = 4
+#: Columns compared with their thresholds at a time when looking for cuts.
+CUT_BLOCK = 64
 
 
 @dataclass(frozen=True)
@@ -127,7 +135,9 @@ class DespikeReport:
     both: un-flipped, then interpolated). ``threshold`` is the jump threshold ``T`` per
     column (degrees for rotations, length units for positions; per frame, not per
     second). ``max_step_before`` / ``max_step_after`` are each column's largest
-    frame-to-frame step before and after repair, in the same units.
+    frame-to-frame step before and after repair, in the same units. ``cuts`` are the
+    frames that start a new take (most moving columns jump into them at once): no flip or
+    spike is repaired across them.
     """
 
     unflipped: np.ndarray
@@ -135,6 +145,7 @@ class DespikeReport:
     threshold: np.ndarray
     max_step_before: np.ndarray
     max_step_after: np.ndarray
+    cuts: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     @property
     def repaired(self) -> np.ndarray:
@@ -805,7 +816,8 @@ def _repair(
     Spikes are at most ``limits.max_len`` frames long; the cap widens a gap at most that
     many times. Returns the repaired array (columns without repairs are ``x``'s own), the
     un-flipped and interpolated masks (F, C), the jump threshold and the largest step
-    before and after (C,), all in radians or length units per frame. Beyond the steps and their
+    before and after (C,), all in radians or length units per frame, and the cuts (F-1,)
+    (:func:`_cuts`: no toggle, spike or cap breach is taken there). Beyond the steps and their
     statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
 
     ``missing`` (F, C) marks samples that are not data (tracker dropouts): they are held at
@@ -822,7 +834,7 @@ def _repair(
     flipped = np.zeros((n_frames, n_cols), dtype=bool)
     if n_frames < 2:
         zeros = np.zeros(n_cols)
-        return x.copy(), flipped, flipped.copy(), zeros, zeros, zeros
+        return x.copy(), flipped, flipped.copy(), zeros, zeros, zeros, np.zeros(0, dtype=bool)
     blind = None  # steps touching a missing sample
     if missing is not None and missing.any():
         x = hold_missing(x, missing)
@@ -841,13 +853,25 @@ def _repair(
         jump[moving] = _robust_threshold_known(
             seen.T[moving], ~blind.T[moving], limits.threshold, limits.low * frame_time, cap
         )
+    cuts = _cuts(seen, jump, moving, limits.max_len)
     out = x.copy()
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
     if limits.flip_rad is not None:
         known = None if missing is None else ~missing
         slack = None if blind is None else _slack(missing, seen, blind)
         turned = _unflip(
-            out, steps, seen, jump, flipped, metric, limits, limits.flip_rad, known, blind, slack
+            out,
+            steps,
+            seen,
+            jump,
+            flipped,
+            metric,
+            limits,
+            limits.flip_rad,
+            known,
+            blind,
+            slack,
+            cuts,
         )
     first, length, col = _spike_runs(
         out,
@@ -862,8 +886,15 @@ def _repair(
     if blind is not None:  # a spike's cubic never reads a missing sample
         first, length, col = _clear_of(missing, first, length, col)
     first, length, col = _brief(first, length, col, n_frames, limits.max_len)
+    if cuts.any():  # no spike's run is entered or left through a cut
+        counted = np.concatenate([[0], np.cumsum(cuts)])  # cuts among the steps before each
+        keep = (
+            counted[np.minimum(first + length, n_frames - 1)] == counted[np.maximum(first - 1, 0)]
+        )
+        first, length, col = first[keep], length[keep], col[keep]
     mask = _mark(first, length, col, flipped.shape)
     over = seen > cap
+    over[cuts] = False
     if over.any():
         over &= ~mask[:-1] & ~mask[1:]  # a step above the cap outside any spike
         where = _nonzero(over)
@@ -884,7 +915,28 @@ def _repair(
     if missing is not None:
         flipped &= ~missing
         mask &= ~missing
-    return out, flipped, mask, jump, before, after
+    return out, flipped, mask, jump, before, after, cuts
+
+
+def _cuts(seen: np.ndarray, jump: np.ndarray, moving: np.ndarray, max_len: int) -> np.ndarray:
+    """``(F-1,)`` steps where at least :data:`CUT_SHARE` of the ``moving`` columns (and at
+    least :data:`CUT_MIN_COLUMNS`) step beyond their ``jump`` threshold at once, with takes
+    longer than the longest spike (``max_len`` frames) on both sides: a cut between takes
+    (one joint's flip or spike leaves the others where they were; a whole-body glitch
+    comes back within a spike's length, and a frame at a clip's end is a reference pose,
+    the end rules' to judge)."""
+    cuts = np.zeros(seen.shape[0], dtype=bool)
+    if moving.size < CUT_MIN_COLUMNS:
+        return cuts
+    jumping = np.zeros(seen.shape[0], dtype=np.intp)
+    for part in in_parts(moving.size, CUT_BLOCK):  # (F-1, block) temporaries
+        cols = moving[part]
+        jumping += np.count_nonzero(seen[:, cols] > jump[cols], axis=1)
+    found = np.flatnonzero(jumping >= max(CUT_MIN_COLUMNS, CUT_SHARE * moving.size))
+    if found.size:
+        edges = np.concatenate([[-1], found, [seen.shape[0]]])  # takes between the steps
+        cuts[found[(np.diff(edges)[:-1] > max_len) & (np.diff(edges)[1:] > max_len)]] = True
+    return cuts
 
 
 #: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.
@@ -953,14 +1005,18 @@ def _unflip(
     known=None,
     blind=None,
     slack=None,
+    cuts=None,
 ) -> np.ndarray:
     """Undo half-turn flips (steps of at least ``flip_rad``) in ``out`` (F, C, 4) in place;
     mark them in ``flipped`` and update ``steps`` (and ``seen``, the steps with those
     touching a missing sample, ``blind``, at zero) of the columns turned back, which are
-    returned. The flipped state is the one fewer ``known`` frames hold (all by default)."""
+    returned. The flipped state is the one fewer ``known`` frames hold (all by default);
+    no step of ``cuts`` (F-1,) toggles it (a take that starts turned is no flip)."""
     n_frames, n_cols = out.shape[:2]
     flat = out.reshape(n_frames * n_cols, out.shape[-1])  # frame a of column c at row a C + c
     cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad, slack)
+    if cuts is not None and cuts.any():
+        toggles[cuts] = False
     if not toggles.any():
         return np.zeros(0, dtype=np.intp)
     # Toggles on the steps of a spike that is not itself a clean flip (half-turn
@@ -1034,7 +1090,7 @@ def _missing_columns(missing, shape) -> np.ndarray | None:
     return missing.reshape(shape[0], -1) if missing.any() else None
 
 
-def _report(shape, flipped, interpolated, jump, before, after, scale) -> DespikeReport:
+def _report(shape, flipped, interpolated, jump, before, after, cuts, scale) -> DespikeReport:
     trailing = shape[1:-1]
     return DespikeReport(
         unflipped=flipped.reshape(shape[0], *trailing),
@@ -1042,6 +1098,7 @@ def _report(shape, flipped, interpolated, jump, before, after, scale) -> Despike
         threshold=scale(jump).reshape(trailing),
         max_step_before=scale(before).reshape(trailing),
         max_step_after=scale(after).reshape(trailing),
+        cuts=np.flatnonzero(cuts) + 1,
     )
 
 
@@ -1127,10 +1184,10 @@ def despike_with_report(
         method,
         np.deg2rad(flip_deg) if unflip else None,
     )
-    out, flipped, interpolated, jump, before, after = _repair(
+    out, flipped, interpolated, jump, before, after, cuts = _repair(
         _columns(q), frame_time, _ROTATIONS, limits, _missing_columns(missing, q.shape)
     )
-    report = _report(q.shape, flipped, interpolated, jump, before, after, np.rad2deg)
+    report = _report(q.shape, flipped, interpolated, jump, before, after, cuts, np.rad2deg)
     return out.reshape(q.shape), report
 
 
@@ -1179,10 +1236,10 @@ def despike_positions_with_report(
     limits = _Limits(
         threshold, min_units_per_s, max_units_per_s, max_len, trend_ratio, method, None
     )
-    out, flipped, interpolated, jump, before, after = _repair(
+    out, flipped, interpolated, jump, before, after, cuts = _repair(
         _columns(p), frame_time, _POSITIONS, limits, _missing_columns(missing, p.shape)
     )
-    report = _report(p.shape, flipped, interpolated, jump, before, after, np.asarray)
+    report = _report(p.shape, flipped, interpolated, jump, before, after, cuts, np.asarray)
     return out.reshape(p.shape), report
 
 

@@ -404,6 +404,27 @@ def test_sample_thumb_flips_are_unflipped(clip):
     np.testing.assert_array_equal(out[:, others], clip.rotations[:, others])
 
 
+def test_a_cut_between_takes_is_no_flip(clip):
+    """Two takes joined end to end (a game engine's FBX of several clips): the second
+    starts with the root turned 170 degrees and most joints elsewhere. No single joint's
+    half-turn there is a flip (the root's had been \"un-flipped\" to the end of the clip);
+    the cut is reported, and the thumb's real flips in either take are still undone."""
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(170.0))
+    second = clip.rotations[225:].copy()
+    second[:, 0] = quat.multiply(turn, second[:, 0])
+    joined = np.concatenate([clip.rotations[:150], second])
+    out, report = despike_with_report(joined, clip.frame_time)
+    assert report.cuts.tolist() == [150]
+    assert not report.repaired[:, 0].any()
+    np.testing.assert_array_equal(out[:, 0], joined[:, 0])
+    thumb = clip.names.index("RThumb")
+    alone, first = despike_with_report(clip.rotations[:150], clip.frame_time)
+    assert report.runs(thumb, "unflipped")[:2] == first.runs(thumb, "unflipped")
+    assert len(report.runs(thumb, "unflipped")) > 2  # and those of the second take
+    one = despike_with_report(joined[:, [0]], clip.frame_time)[1]  # a joint alone: no cut
+    assert one.cuts.size == 0
+
+
 def test_planted_position_jumps_are_repaired(clip):
     p = clip.translations.copy()  # root moves, other joints have no position channels
     truth = p.copy()
