@@ -75,8 +75,10 @@ end or another gap) it falls back to slerp; a gap touching a clip end holds the 
 good frame.
 
 Arrays are time-major, ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ..., 3)``
-vectors; every trailing index (joint column) is treated independently and at once.
-Columns without defects are returned bit for bit. Angles given to or reported by this
+vectors; every trailing index (joint column) is treated independently and at once, but
+for cuts between takes (:mod:`motionclean.core.takes`: a step where most columns jump at
+once is no column's flip or spike, and nothing is repaired across it). Columns without
+defects are returned bit for bit. Angles given to or reported by this
 module are in degrees of rotation.
 
 Implementation: the whole array is read for the steps (one dot product and ``acos`` per
@@ -101,7 +103,7 @@ import numpy as np
 from ..core import checks, quat
 from ..core.motion import hold_missing, missing_before
 from ..core.rates import frames_floor
-from ..core.threads import in_parts
+from ..core.takes import MAD_TO_SIGMA, cut_steps, robust_thresholds
 
 __all__ = [
     "DespikeReport",
@@ -111,20 +113,10 @@ __all__ = [
     "despike_with_report",
 ]
 
-#: Consistency constant turning a median absolute deviation into a standard deviation.
-MAD_TO_SIGMA = 1.4826
-
 
 #: Share of the scatter of the flip-step axes that the half-turn axis must explain (1 when
 #: all flip steps turn about the same axis) for a joint to be un-flipped.
 FLIP_AXIS_SHARE = 0.9
-#: A step is a cut (takes joined end to end, as in a game engine's FBX of several clips)
-#: where at least this share of the moving columns jump at once, and at least
-#: :data:`CUT_MIN_COLUMNS` of them: no flip or spike makes most joints jump on one frame.
-CUT_SHARE = 0.5
-CUT_MIN_COLUMNS = 4
-#: Columns compared with their thresholds at a time when looking for cuts.
-CUT_BLOCK = 64
 
 
 @dataclass(frozen=True)
@@ -189,26 +181,6 @@ class DespikeReport:
         if kind not in ("repaired", "unflipped", "interpolated"):
             raise ValueError(f"kind must be repaired, unflipped or interpolated, got {kind!r}")
         return getattr(self, kind)
-
-
-def _median_rows(a: np.ndarray) -> np.ndarray:
-    """``np.median(a, axis=1)`` of ``a`` (C, n), ``n >= 1``, by one partial selection that
-    reorders ``a`` in place (NaN where a row holds one, as numpy's)."""
-    n = a.shape[1]
-    half = n // 2
-    a.partition((half, n - 1) if n % 2 else (half - 1, half, n - 1), axis=1)
-    med = a[:, half].copy() if n % 2 else (a[:, half - 1] + a[:, half]) / 2.0
-    med[np.isnan(a[:, -1])] = np.nan
-    return med
-
-
-def _robust_threshold(steps: np.ndarray, threshold: float, low: float, high: float):
-    """``clip(median + threshold * 1.4826 MAD, low, high)`` per row of ``steps`` (C, F-1),
-    which is overwritten."""
-    med = _median_rows(steps)
-    deviation = np.subtract(steps, med[:, None], out=steps)
-    mad = _median_rows(np.abs(deviation, out=deviation))
-    return np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high)
 
 
 def _flip_axes(x, i, stride, col, cols):
@@ -817,8 +789,9 @@ def _repair(
     many times. Returns the repaired array (columns without repairs are ``x``'s own), the
     un-flipped and interpolated masks (F, C), the jump threshold and the largest step
     before and after (C,), all in radians or length units per frame, and the cuts (F-1,)
-    (:func:`_cuts`: no toggle, spike or cap breach is taken there). Beyond the steps and their
-    statistics, only the sparse jumps, the flipped joints and the gaps are worked on.
+    (:func:`~motionclean.core.takes.cut_steps`: no toggle, spike or cap breach is taken
+    there). Beyond the steps and their statistics, only the sparse jumps, the flipped
+    joints and the gaps are worked on.
 
     ``missing`` (F, C) marks samples that are not data (tracker dropouts): they are held at
     the last known sample, so the step into the first known frame after a dropout carries
@@ -846,14 +819,14 @@ def _repair(
     jump = np.full(n_cols, limits.low * frame_time)  # the floor: no jump where no step exceeds it
     moving = np.flatnonzero(before > jump)
     if blind is None:
-        jump[moving] = _robust_threshold(
+        jump[moving] = robust_thresholds(
             seen.T[moving], limits.threshold, limits.low * frame_time, cap
         )
     else:
         jump[moving] = _robust_threshold_known(
             seen.T[moving], ~blind.T[moving], limits.threshold, limits.low * frame_time, cap
         )
-    cuts = _cuts(seen, jump, moving, limits.max_len)
+    cuts = cut_steps(seen, jump, np.flatnonzero(before > 0.0), limits.max_len)
     out = x.copy()
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
     if limits.flip_rad is not None:
@@ -918,27 +891,6 @@ def _repair(
     return out, flipped, mask, jump, before, after, cuts
 
 
-def _cuts(seen: np.ndarray, jump: np.ndarray, moving: np.ndarray, max_len: int) -> np.ndarray:
-    """``(F-1,)`` steps where at least :data:`CUT_SHARE` of the ``moving`` columns (and at
-    least :data:`CUT_MIN_COLUMNS`) step beyond their ``jump`` threshold at once, with takes
-    longer than the longest spike (``max_len`` frames) on both sides: a cut between takes
-    (one joint's flip or spike leaves the others where they were; a whole-body glitch
-    comes back within a spike's length, and a frame at a clip's end is a reference pose,
-    the end rules' to judge)."""
-    cuts = np.zeros(seen.shape[0], dtype=bool)
-    if moving.size < CUT_MIN_COLUMNS:
-        return cuts
-    jumping = np.zeros(seen.shape[0], dtype=np.intp)
-    for part in in_parts(moving.size, CUT_BLOCK):  # (F-1, block) temporaries
-        cols = moving[part]
-        jumping += np.count_nonzero(seen[:, cols] > jump[cols], axis=1)
-    found = np.flatnonzero(jumping >= max(CUT_MIN_COLUMNS, CUT_SHARE * moving.size))
-    if found.size:
-        edges = np.concatenate([[-1], found, [seen.shape[0]]])  # takes between the steps
-        cuts[found[(np.diff(edges)[:-1] > max_len) & (np.diff(edges)[1:] > max_len)]] = True
-    return cuts
-
-
 #: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.
 DROPOUT_STEP_QUANTILE = 0.9
 #: Most a joint is taken to turn across a dropout when judging a half-turn there (radians).
@@ -962,7 +914,8 @@ def _slack(missing, seen, blind) -> np.ndarray:
 
 
 def _robust_threshold_known(steps, known, threshold: float, low: float, high: float):
-    """:func:`_robust_threshold` of the ``known`` steps of each row only (C, F-1)."""
+    """:func:`~motionclean.core.takes.robust_thresholds` of the ``known`` steps of each row
+    only (C, F-1)."""
     values = np.where(known, steps, np.nan)
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a row without known steps

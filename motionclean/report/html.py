@@ -29,6 +29,7 @@ from .html_world import world_section
 from .summary import (
     format_noise_model,
     format_rest,
+    format_takes,
     noisiest,
     note_text,
     resampled_to,
@@ -451,6 +452,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
+    if report.get("take_starts"):
+        body.append(f'<p class="note">{_e(format_takes(report["take_starts"]))}.</p>')
     body += ["<h2>Pipeline</h2>", _pipeline(report.get("pipeline") or [], cleaned)]
 
     names = noisiest(report)

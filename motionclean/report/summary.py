@@ -20,6 +20,7 @@ from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
+from ..core.takes import take_starts
 from ..core.threads import run_parts
 from ..filters.auto import describe_source
 from ..steps import REGISTRY
@@ -101,12 +102,14 @@ def build_series(
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
     missing = _missing(before, after, cols)
+    across = rows_across_cuts(take_starts(before), before.n_frames)
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
             outside[key] = None
             return None
         table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
+        table[across] = np.nan  # rows across a cut between takes: left out, drawn as gaps
         outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
@@ -162,7 +165,16 @@ def noise_figures(motion: Motion) -> _Reduced:
     table = metrics.angular_acceleration(
         motion.rotations[:, cols], motion.frame_time, _missing(motion, None, cols)
     )
+    table[rows_across_cuts(take_starts(motion), motion.n_frames)] = np.nan
     return _reduced(table, *rest_frames(motion), drawn=False)
+
+
+def rows_across_cuts(starts: np.ndarray, n_frames: int) -> np.ndarray:
+    """The rows of an angular acceleration table (row ``r``: frames ``r .. r+2``) whose
+    frames lie on both sides of a cut between takes (``starts``: each new take's first
+    frame)."""
+    rows = np.concatenate([starts - 2, starts - 1])
+    return np.unique(rows[(rows >= 0) & (rows < n_frames - 2)])
 
 
 class _Reduced(NamedTuple):
@@ -391,6 +403,7 @@ def build_report(
         # per body with dropouts, its fill-gaps note (the same object as under joints)
         "gaps": {n: entry["fill-gaps"] for n, entry in joints.items() if "fill-gaps" in entry},
         "rest_frames": {"leading": lead, "trailing": trail},
+        "take_starts": take_starts(before).tolist(),
     }
     said = kinematics.source_notes(before)  # what the reader assumed: only when it did
     if said:
@@ -522,6 +535,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     rest = report.get("rest_frames") or {}
     if rest.get("leading") or rest.get("trailing"):
         lines.append(format_rest(rest, report["frames"]))
+    if report.get("take_starts"):
+        lines.append(format_takes(report["take_starts"]))
     lines.extend(f"note: {note}" for note in report.get("notes", ()))
     if "world" in report:
         lines.append(format_world(report["world"]))
@@ -558,6 +573,16 @@ def format_noise_model(report: dict) -> str:
         f"{line}. The noise wanders{below}, down where the motion is (median joint "
         f"{level:.3g} deg); each joint gets the one filter of least expected error over the "
         f"clip.{hint}"
+    )
+
+
+def format_takes(starts: list[int]) -> str:
+    """The takes joined end to end in the clip, each cleaned on its own."""
+    at = ", ".join(map(str, starts[:-1])) + (" and " if len(starts) > 1 else "") + str(starts[-1])
+    return (
+        f"takes: {len(starts) + 1} joined end to end, new ones at frames {at} (most joints "
+        "jump at once): each cleaned on its own, the steps across the cuts left out of the "
+        "figures"
     )
 
 

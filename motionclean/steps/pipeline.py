@@ -25,6 +25,7 @@ import numpy as np
 from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion, sparse_copy
 from ..core.restpose import rest_frames, splice, trim
+from ..core.takes import take_starts
 from ..filters.gaps import Gaps
 from . import COMMON_PARAMS, REGISTRY, StepData, StepSpec
 from .ranges import FrameRange, blend_positions, blend_rotations, weights
@@ -296,7 +297,8 @@ class Pipeline:
         """Run every step on ``motion``; return the cleaned copy and what each step did.
 
         ``motion`` is not changed. Rest-pose frames at either end (:mod:`motionclean.core.restpose`)
-        are left out of every step and come back bit for bit. A whole-clip step
+        are left out of every step and come back bit for bit; takes joined end to end
+        (:mod:`motionclean.core.takes`) are cleaned each on its own. A whole-clip step
         (``run_motion``) replaces the clip between them, so the steps after it see its frame
         count and rate. TypeError for anything but a :class:`Motion`.
         """
@@ -305,6 +307,9 @@ class Pipeline:
         lead, trail = rest_frames(motion)
         # A shallow copy: steps replace its arrays, never write into the input's.
         current = copy.copy(trim(motion, lead, trail))
+        starts = take_starts(motion) - lead  # (frames of ``current``)
+        # what the steps so far noted on each take, by joint (a take's own, not the merge)
+        by_take: list[dict[str, dict]] = [{} for _ in range(starts.size + 1)]
         spans = _frame_spans(self.steps, motion, lead)
         made = _Made(motion)
         logs: list[StepLog] = []
@@ -318,14 +323,28 @@ class Pipeline:
                     # frames they take in its result
                     whole = splice(outer, current, lead, trail)
                     outer, log = _run_step(step, number, whole, 0, None, motion.path, made, earlier)
+                    frame_time = current.frame_time
                     if outer.n_frames != whole.n_frames:
                         ratio = outer.frame_time / whole.frame_time
                         lead, trail = rest_rows(whole.n_frames, lead, trail, ratio, outer.n_frames)
                     current = copy.copy(trim(outer, lead, trail))
                 else:
+                    frame_time = current.frame_time
                     current, log = _run_step(
-                        step, number, current, lead, spans.get(number), motion.path, made, earlier
+                        step,
+                        number,
+                        current,
+                        lead,
+                        spans.get(number),
+                        motion.path,
+                        made,
+                        earlier,
+                        starts,
+                        by_take,
                     )
+                if current.frame_time != frame_time:  # the same times in the new frames
+                    moved = np.round(starts * (frame_time / current.frame_time)).astype(np.intp)
+                    starts = moved[(moved > 0) & (moved < current.n_frames)]
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -372,13 +391,18 @@ def _run_step(
     path: str | None,
     made: _Made,
     earlier: dict[str, dict] | None = None,
+    starts: np.ndarray | None = None,
+    by_take: list[dict[str, dict]] | None = None,
 ) -> tuple[Motion, StepLog]:
     """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
     and written into only where ``made`` copied them).
 
     ``number`` counts the step from 1 (for messages). ``motion`` starts at frame ``offset``
     of the file (rest-pose frames left out); a step's
-    frame range ``span`` counts the file's frames (None: not checked yet). A ranged step's
+    frame range ``span`` counts the file's frames (None: not checked yet). A clip of several
+    takes (``starts``: the frames where each after the first begins) has the step run on
+    each take (:func:`_run_by_takes`), which sees what earlier steps noted on that take
+    (``by_take``, updated). A ranged step's
     notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
     """
     unmatched = [
@@ -411,7 +435,9 @@ def _run_step(
     )
     if step.span is not None and span is None:
         span = _frame_span(step, number, motion.n_frames + offset, motion.frame_time, path)
-    if motion.missing is None or step.spec.sees_missing:
+    if starts is not None and starts.size:  # (a clip with dropouts has no takes)
+        data = _run_by_takes(step, data, motion, starts, by_take)
+    elif motion.missing is None or step.spec.sees_missing:
         data = step.spec.run(data, step.params)
     else:
         data = _run_on_known(step, data, motion)
@@ -511,6 +537,37 @@ def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
     return out.finish()
 
 
+def _run_by_takes(
+    step: Step,
+    data: StepData,
+    motion: Motion,
+    starts: np.ndarray,
+    by_take: list[dict[str, dict]] | None = None,
+) -> StepData:
+    """``step`` on each take of a clip of several (``starts``: where each after the first
+    begins), the clip cut to it as context and what earlier steps noted on it
+    (``by_take[k]``, which takes this step's notes): nothing is smoothed, repaired or held
+    across a cut. A take of one frame is left as it is; notes are merged for the log
+    (:func:`_merged`)."""
+    out = _Outputs(data)
+    rot = np.arange(data.rotations.shape[1])
+    pos = np.arange(0 if data.translations is None else data.translations.shape[1])
+    bounds = [0, *starts.tolist(), motion.n_frames]
+    for k, (first, stop) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+        if stop - first < 2:
+            continue
+        own = None if by_take is None else by_take[k]
+        noted = out.run(step, motion, rot, pos, slice(first, stop), own)
+        if own is None:
+            continue
+        for column, note in noted.rotation_notes.items():
+            own.setdefault(motion.names[data.rotation_joints[column]], {}).update(note)
+        for column, note in noted.translation_notes.items():
+            joint = motion.names[data.translation_joints[column]]
+            own.setdefault(joint, {}).update({f"position_{key}": v for key, v in note.items()})
+    return out.finish()
+
+
 class _Outputs:
     """Step results gathered column by column and stretch by stretch."""
 
@@ -520,7 +577,9 @@ class _Outputs:
         self.translations = None if data.translations is None else data.translations.copy()
         self.notes: tuple[dict, dict] = ({}, {})  # column -> [(note, frames), ...]
 
-    def run(self, step, motion, rot, pos, rows: slice = slice(None)) -> None:
+    def run(self, step, motion, rot, pos, rows: slice = slice(None), earlier=None) -> StepData:
+        """``step`` on the columns ``rot`` and ``pos`` of the frames ``rows``, with what
+        earlier steps noted (``earlier``: the run's own, default the step's); its result."""
         data = self.data
         whole = rows == slice(None)
         # One known stretch: the clip cut to it, with nothing missing, is its context.
@@ -533,7 +592,7 @@ class _Outputs:
                 motion=context,
                 rotation_joints=data.rotation_joints[rot],
                 translation_joints=data.translation_joints[pos],
-                earlier=data.earlier,
+                earlier=data.earlier if earlier is None else earlier,
             ),
             step.params,
         )
@@ -548,6 +607,7 @@ class _Outputs:
             for c, note in found.items():
                 shifted = _shifted(step.spec, note, start)
                 book.setdefault(int(columns[c]), []).append((shifted, context.n_frames))
+        return result
 
     def finish(self) -> StepData:
         data = self.data

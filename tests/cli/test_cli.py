@@ -52,6 +52,7 @@ def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
         "contacts",
         "gaps",
         "rest_frames",
+        "take_starts",
         "verdict",
     }
     assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5

@@ -9,10 +9,10 @@ from helpers import SAMPLE
 
 import motionclean as mc
 from motionclean.core import quat
+from motionclean.core.takes import median_rows
 from motionclean.filters.despike import (
     _TABLE_SIZE,
     _lagrange,
-    _median_rows,
     _weights,
     despike_positions_with_report,
     despike_with_report,
@@ -72,7 +72,7 @@ def test_median_rows_is_the_numpy_median(n):
     a[2, n // 2] = np.nan
     a[3] = 0.25  # ties
     expected = np.median(a, axis=1)
-    np.testing.assert_array_equal(_median_rows(a.copy()), expected)
+    np.testing.assert_array_equal(median_rows(a.copy()), expected)
 
 
 def test_tabulated_weights_are_the_closed_form():

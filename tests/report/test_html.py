@@ -154,6 +154,7 @@ def test_json_report_is_unchanged_by_series(cleaned):
         "contacts",
         "gaps",
         "rest_frames",
+        "take_starts",
         "verdict",
     }
 

@@ -10,6 +10,7 @@ filters report.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -553,3 +554,43 @@ def test_auto_notes_say_where_noise_was_low_passed():
         assert AUTO.format_note is not None
         line = AUTO.format_note(notes[0], False)
         assert f"low-passed below {notes[0]['band_hz']:g} Hz" in line
+
+
+def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
+    """Two takes of the noisy sample joined (the second starting with the root turned 170
+    degrees and most joints elsewhere, as in a game engine's FBX of several clips): the
+    default cleans the joined clip exactly as it cleans each take alone (it had smoothed
+    across the cut, and despike turned the second take's root half a turn); the report
+    names the cut and leaves its steps out of the figures."""
+    from helpers import run_cli
+
+    from motionclean.core.takes import take_starts
+
+    clip = mc.load(NOISY)
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(170.0))
+    first, second = clip.at_frames(slice(0, 150)), clip.at_frames(slice(225, 300))
+    rotations, moved = second.rotations.copy(), second.translations.copy()
+    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+    moved[:, 0, 0] += 50.0  # the root elsewhere
+    joined = clip.replace(
+        rotations=np.concatenate([first.rotations, rotations]),
+        translations=np.concatenate([first.translations, moved]),
+        source_values=None,
+        source_rotations=None,
+    )
+    assert take_starts(joined).tolist() == [150]
+    whole, _ = Pipeline.default().run(joined)
+    takes = (first, first.replace(rotations=rotations, translations=moved))
+    alone = [Pipeline.default().run(take)[0] for take in takes]
+    np.testing.assert_array_equal(whole.rotations[:150], alone[0].rotations)
+    np.testing.assert_array_equal(whole.rotations[150:], alone[1].rotations)
+    np.testing.assert_array_equal(whole.translations[150:, 0], alone[1].translations[:, 0])
+    mc.save(joined, tmp_path / "joined.bvh")
+    code, out, _ = run_cli(
+        capsys, "clean", tmp_path / "joined.bvh", "-o", tmp_path / "c.bvh",
+        "--report", tmp_path / "r.json",
+    )  # fmt: skip
+    assert code == 0 and "takes: 2 joined end to end, new ones at frames 150" in out
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["take_starts"] == [150]
+    assert not report["joints"]["Hips"].get("despike", {}).get("unflipped")
