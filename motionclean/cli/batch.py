@@ -22,6 +22,7 @@ import click
 from ..core.errors import UsageError
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import render_index
+from ..report.summary import figure_text
 from ..run import cluster
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, input_size, run_jobs
@@ -175,15 +176,17 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     for name, r in rows:
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
         if r.status == "ok":
-            removed = 1.0 - (r.noise_after or 0.0) / r.noise_before if r.noise_before else 0.0
             before, after = r.noise_before, r.noise_after
+            removed = None  # (None: nothing measured, no three frames in a row known)
+            if before is not None and after is not None:
+                removed = 1.0 - after / before if before else 0.0
             if r.jitter_removed is not None:  # the verdict's figures, outside repairs
                 before, after, removed = r.jitter_before, r.jitter_after, r.jitter_removed
             change = r.deviation_max if r.change_max is None else r.change_max
             lines.append(
-                f"{shown:<{width}}{r.frames:>8}{before:>14,.0f}"
-                f"{after:>12,.0f}{removed:>9.0%}{change:>9.2f}  "
-                f"{r.verdict_status or '-':<14}ok"
+                f"{shown:<{width}}{r.frames:>8}{figure_text(before, 14, ',.0f')}"
+                f"{figure_text(after, 12, ',.0f')}{figure_text(removed, 9, '.0%')}"
+                f"{figure_text(change, 9, '.2f')}  {r.verdict_status or '-':<14}ok"
             )
         else:
             blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}  {'-':<14}"

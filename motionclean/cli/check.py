@@ -171,6 +171,9 @@ def compare(
         rows.append(("frames", base.get("frames"), now.get("frames"), "CHANGED"))
     for key, label, rise_only in FIGURES:
         value, ref = now.get(key), base.get(key)
+        if ref is None and value is None:  # nothing measured, then or now (no 3 frames known)
+            rows.append((label, None, None, "ok"))
+            continue
         if not isinstance(ref, int | float) or value is None:
             rows.append((label, None, value, "CHANGED"))
             continue

@@ -364,7 +364,11 @@ def _headline(report: dict) -> list[str]:
     summary = report["summary"]
     acc = summary["angular_accel_rms"]
     verdict = report.get("verdict") or {}
-    if summary.get("noise_reduction") is None or "change_deg_max" not in verdict:
+    if (
+        summary.get("noise_reduction") is None
+        or verdict.get("noise_removed") is None
+        or "change_deg_max" not in verdict
+    ):
         return [_stat(_num(acc["before"]), "noise: RMS angular acceleration, deg/s\u00b2")]
     repairs = {n: r for n, r in (verdict.get("repairs") or {}).items() if r["frames"]}
     stats = [
@@ -453,7 +457,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
     if rest.get("leading") or rest.get("trailing"):
         body.append(f'<p class="note">{_e(format_rest(rest, frames))}.</p>')
     if report.get("take_starts"):
-        body.append(f'<p class="note">{_e(format_takes(report["take_starts"]))}.</p>')
+        text = format_takes(report["take_starts"], cleaned)
+        body.append(f'<p class="note">{_e(text)}.</p>')
     body += ["<h2>Pipeline</h2>", _pipeline(report.get("pipeline") or [], cleaned)]
 
     names = noisiest(report)
@@ -520,12 +525,15 @@ def render_html(report: dict, series: dict | None = None) -> str:
             )
         body.append("</div>")
     still = [n for n in names if n not in drawn and series is not None]
-    if still:
-        body.append(
-            '<p class="note">Not plotted (no angular acceleration): '
-            + ", ".join(_e(n) for n in still)
-            + "</p>"
-        )
+    unmeasured = [n for n in still if joints[n]["angular_accel_rms"]["before"] is None]
+    for listed, why in (
+        ([n for n in still if n not in unmeasured], "no angular acceleration"),
+        (unmeasured, "nothing measured: no three frames in a row known"),
+    ):
+        if listed:
+            body.append(
+                f'<p class="note">Not plotted ({why}): ' + ", ".join(_e(n) for n in listed) + "</p>"
+            )
     return _page(f"motionclean report: {report['file']}", body)
 
 
@@ -782,7 +790,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
             _num(e.get("frames")),
             _num(e.get("noise_before") if e.get("jitter_before") is None else e["jitter_before"]),
             _num(e.get("noise_after") if e.get("jitter_after") is None else e["jitter_after"]),
-            _percent(e.get("noise_before") or 0.0, e.get("noise_after"))
+            _percent(e.get("noise_before"), e.get("noise_after"))
             if e.get("jitter_removed") is None
             else f"{e['jitter_removed']:.0%}",
             _num(e.get("deviation_max") if e.get("change_max") is None else e["change_max"], 2),

@@ -258,11 +258,11 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     total_before = float(before.sum())
     removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
     worst = int(np.argmax(largest)) if largest.size else 0
-    known = max(float(rows.sum()), 1.0)
+    known = float(rows.sum())  # (0: no three frames in a row known: no noise measured)
     return {
-        "noise_before": math.sqrt(total_before / known),
-        "noise_after": math.sqrt(float(after.sum()) / known),
-        "noise_removed": removed,
+        "noise_before": math.sqrt(total_before / known) if known else None,
+        "noise_after": math.sqrt(float(after.sum()) / known) if known else None,
+        "noise_removed": removed if known else None,
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
@@ -436,7 +436,7 @@ def noisiest(report: dict) -> list[str]:
         for k, v in report["joints"].items()
         if "angular_accel_rms" in v
     ]
-    return [name for _, name in sorted(rows, key=lambda r: -math.inf if r[0] is None else -r[0])]
+    return [name for _, name in sorted(rows, key=lambda r: math.inf if r[0] is None else -r[0])]
 
 
 def was_cleaned(report: dict) -> bool:
@@ -536,7 +536,7 @@ def format_table(report: dict, limit: int = 10) -> str:
     if rest.get("leading") or rest.get("trailing"):
         lines.append(format_rest(rest, report["frames"]))
     if report.get("take_starts"):
-        lines.append(format_takes(report["take_starts"]))
+        lines.append(format_takes(report["take_starts"], cleaned))
     lines.extend(f"note: {note}" for note in report.get("notes", ()))
     if "world" in report:
         lines.append(format_world(report["world"]))
@@ -576,13 +576,13 @@ def format_noise_model(report: dict) -> str:
     )
 
 
-def format_takes(starts: list[int]) -> str:
-    """The takes joined end to end in the clip, each cleaned on its own."""
+def format_takes(starts: list[int], cleaned: bool = True) -> str:
+    """The takes joined end to end in the clip (``cleaned``: each on its own)."""
     at = ", ".join(map(str, starts[:-1])) + (" and " if len(starts) > 1 else "") + str(starts[-1])
+    own = "each cleaned on its own, " if cleaned else ""
     return (
         f"takes: {len(starts) + 1} joined end to end, new ones at frames {at} (most joints "
-        "jump at once): each cleaned on its own, the steps across the cuts left out of the "
-        "figures"
+        f"jump at once): {own}the steps across the cuts left out of the figures"
     )
 
 

@@ -190,7 +190,7 @@ def _missing_words(joints: dict[str, dict]) -> list[str]:
     for spans, names in by_runs.items():
         who = ", ".join(names[:3])
         if len(names) > 3:
-            who += f" and {len(names) - 3} more joints"
+            who += f" and {plural(len(names) - 3, 'more joint')}"
         words.append(f"{who} missing on frames {spans}")
     return words
 
@@ -222,7 +222,12 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     rest = report.get("rest_frames") or {}
     motion_frames = int(report["frames"]) - rest.get("leading", 0) - rest.get("trailing", 0)
     too_short = motion_frames < MIN_FRAMES  # no step can tell noise in so few frames
-    smoothed = not too_short and (not filters or any(n not in NOT_SMOOTHING for n in filters))
+    unmeasured = smoothing["noise_removed"] is None  # no three frames in a row known
+    smoothed = (
+        not too_short
+        and not unmeasured
+        and (not filters or any(n not in NOT_SMOOTHING for n in filters))
+    )
     if change > LOOK_CHANGE_DEG:
         what = "smoothing moved" if filters and smoothed else "the cleaning moved"
         reasons.append(f"{what} {joint} by {change:.1f} degrees")
@@ -237,15 +242,17 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     grounded = _ground_words(joints)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
     clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
-        grounded and smoothing["noise_removed"] < GROUNDED_JITTER
+        grounded and not unmeasured and smoothing["noise_removed"] < GROUNDED_JITTER
     )
-    removed = _removed_words(smoothing["noise_removed"])
+    removed = "" if unmeasured else _removed_words(smoothing["noise_removed"])
     looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
     shown_feet = None if looking else feet
     if not smoothed:
         parts = done + grounded
         if too_short:
             parts.insert(0, f"too short to judge ({plural(motion_frames, 'frame')})")
+        elif unmeasured:
+            parts.insert(0, "no noise to judge (no three frames in a row known)")
         if not feet and "footlock" in filters:
             parts.append("no foot in contact found, nothing planted")
         if not parts and not shown_feet:

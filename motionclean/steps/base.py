@@ -172,8 +172,11 @@ class StepSpec:
     steps without a clip's rest-pose frames and numbers frames as the file does);
     ``crop_note(note, start, stop)`` keeps what a note says about frames ``[start, stop)``
     or gives None (nothing there): a step run on a frame range reports only what it
-    changed. Frame runs in notes are ``[first, stop)``: ``stop`` is the frame after the
-    run's last.
+    changed; ``merge_note(parts)`` makes one note of a joint's notes from parts of the clip
+    run on their own (``(note, frames)`` of takes or known stretches, in frame order,
+    numbered as the clip: counts add up, maxima over all; without it, frame lists are
+    joined and every other value is the longest part's). Frame runs in notes are
+    ``[first, stop)``: ``stop`` is the frame after the run's last.
     """
 
     name: str
@@ -190,6 +193,7 @@ class StepSpec:
     smooths: bool = True
     shift_note: Callable[[dict, int], dict] | None = None
     crop_note: Callable[[dict, int, int], dict | None] | None = None
+    merge_note: Callable[[list[tuple[dict, int]]], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.
     resolve: Callable[[dict, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).

@@ -125,6 +125,22 @@ def _crop_note(note: dict, start: int, stop: int) -> dict | None:
     }
 
 
+def _merge_note(parts: list[tuple[dict, int]]) -> dict:
+    """One note of a joint's notes from parts of the clip (``(note, frames)``, frame
+    order): runs joined, frames repaired added, the largest steps the largest of all, the
+    rest the longest part's."""
+    notes = [note for note, _ in parts]
+    merged = max(parts, key=lambda part: part[1])[0] | {
+        "frames_repaired": sum(note["frames_repaired"] for note in notes),
+        "unflipped": [run for note in notes for run in note["unflipped"]],
+        "interpolated": [run for note in notes for run in note["interpolated"]],
+    }
+    steps = [note["max_step"] for note in notes if "max_step" in note]
+    if steps:
+        merged["max_step"] = {when: max(s[when] for s in steps) for when in ("before", "after")}
+    return merged
+
+
 def _format_brief(note: dict, positions: bool) -> str:
     """:func:`_format_note` with long frame lists summarised (the terminal form)."""
     return _format_note(note, positions, brief_runs)
@@ -230,6 +246,7 @@ STEP = StepSpec(
     format_brief=_format_brief,
     lists_repairs=True,
     crop_note=_crop_note,
+    merge_note=_merge_note,
     shift_note=lambda note, frames: {
         **note,
         "unflipped": shift_runs(note["unflipped"], frames),

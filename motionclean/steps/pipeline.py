@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import MotionError, UsageError
-from ..core.motion import Motion, sparse_copy
+from ..core.motion import Motion, sparse_concatenate, sparse_copy
 from ..core.restpose import rest_frames, splice, trim
 from ..core.takes import take_starts
 from ..filters.gaps import Gaps
@@ -317,19 +317,21 @@ class Pipeline:
         earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
             try:
-                whole_clip = step.spec.keeps_rest and bool(lead or trail)
-                if whole_clip:
+                whole_clip = step.spec.keeps_rest and bool(lead or trail) and not starts.size
+                if step.spec.keeps_rest and starts.size:
+                    # a step that remakes the frames (a new rate): each take on its own,
+                    # joined; rest frames, if any, come back one for one around them
+                    current, log, starts = _remade_by_takes(step, current, starts)
+                elif whole_clip:
                     # the step keeps the rest frames itself: it gets them, and says how many
                     # frames they take in its result
                     whole = splice(outer, current, lead, trail)
                     outer, log = _run_step(step, number, whole, 0, None, motion.path, made, earlier)
-                    frame_time = current.frame_time
                     if outer.n_frames != whole.n_frames:
                         ratio = outer.frame_time / whole.frame_time
                         lead, trail = rest_rows(whole.n_frames, lead, trail, ratio, outer.n_frames)
                     current = copy.copy(trim(outer, lead, trail))
                 else:
-                    frame_time = current.frame_time
                     current, log = _run_step(
                         step,
                         number,
@@ -342,9 +344,6 @@ class Pipeline:
                         starts,
                         by_take,
                     )
-                if current.frame_time != frame_time:  # the same times in the new frames
-                    moved = np.round(starts * (frame_time / current.frame_time)).astype(np.intp)
-                    starts = moved[(moved > 0) & (moved < current.n_frames)]
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -405,14 +404,7 @@ def _run_step(
     (``by_take``, updated). A ranged step's
     notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
     """
-    unmatched = [
-        (name, pattern)
-        for name, patterns in (
-            ("joints", step.joints),
-            *((n, tuple(step.params[n] or ())) for n in step.spec.name_patterns),
-        )
-        for pattern in unmatched_patterns(motion.names, patterns)
-    ]
+    unmatched = _unmatched(step, motion.names)
     if step.spec.run_motion is not None:
         result, whole_notes = step.spec.run_motion(motion, step.params)
         return result, StepLog(step, list(motion.names), [], whole_notes, unmatched)
@@ -473,6 +465,18 @@ def _run_step(
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
 
 
+def _unmatched(step: Step, names: list[str]) -> list[tuple[str, str]]:
+    """``(parameter, pattern)``: the step's include patterns that match no joint."""
+    return [
+        (name, pattern)
+        for name, patterns in (
+            ("joints", step.joints),
+            *((n, tuple(step.params[n] or ())) for n in step.spec.name_patterns),
+        )
+        for pattern in unmatched_patterns(names, patterns)
+    ]
+
+
 class _Made:
     """The clip arrays the pipeline copied during a run (never the input's own, nor a step's
     result): the only ones it writes into. Steps may write into any array the input clip
@@ -518,7 +522,7 @@ def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
     gaps_p: np.ndarray = np.zeros(0, dtype=bool)
     if has_positions:
         gaps_p = np.any(missing[:, data.translation_joints], axis=0)
-    out = _Outputs(data)
+    out = _Outputs(data, step.spec)
     out.run(step, motion, np.flatnonzero(~gaps_r), np.flatnonzero(~gaps_p))
     for positions, joints, gappy in (
         (False, data.rotation_joints, gaps_r),
@@ -537,6 +541,33 @@ def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
     return out.finish()
 
 
+def _remade_by_takes(
+    step: Step, motion: Motion, starts: np.ndarray
+) -> tuple[Motion, StepLog, np.ndarray]:
+    """A whole-clip step that remakes the frames (``keeps_rest``: a new frame rate) on each
+    take of ``motion`` (``starts``: where each after the first begins), the results joined:
+    no new frame blends two takes. The clip, the log (notes: the longest take's) and where
+    each take after the first now begins."""
+    assert step.spec.run_motion is not None
+    bounds = [0, *starts.tolist(), motion.n_frames]
+    parts, notes, longest = [], {}, 0
+    for first, stop in zip(bounds[:-1], bounds[1:], strict=True):
+        part, part_notes = step.spec.run_motion(motion.at_frames(slice(first, stop)), step.params)
+        parts.append(part)
+        if stop - first > longest:
+            notes, longest = part_notes, stop - first
+    joined = parts[0].replace(
+        rotations=np.concatenate([part.rotations for part in parts]),
+        translations=sparse_concatenate([part.translations for part in parts]),
+        missing=None,
+        source_values=None,
+        source_rotations=None,
+    )
+    lengths = np.cumsum([part.n_frames for part in parts])
+    log = StepLog(step, list(motion.names), [], notes, _unmatched(step, motion.names))
+    return joined, log, lengths[:-1].astype(np.intp)
+
+
 def _run_by_takes(
     step: Step,
     data: StepData,
@@ -549,7 +580,7 @@ def _run_by_takes(
     (``by_take[k]``, which takes this step's notes): nothing is smoothed, repaired or held
     across a cut. A take of one frame is left as it is; notes are merged for the log
     (:func:`_merged`)."""
-    out = _Outputs(data)
+    out = _Outputs(data, step.spec)
     rot = np.arange(data.rotations.shape[1])
     pos = np.arange(0 if data.translations is None else data.translations.shape[1])
     bounds = [0, *starts.tolist(), motion.n_frames]
@@ -571,8 +602,8 @@ def _run_by_takes(
 class _Outputs:
     """Step results gathered column by column and stretch by stretch."""
 
-    def __init__(self, data: StepData):
-        self.data = data
+    def __init__(self, data: StepData, spec: StepSpec):
+        self.data, self.spec = data, spec
         self.rotations = data.rotations.copy()
         self.translations = None if data.translations is None else data.translations.copy()
         self.notes: tuple[dict, dict] = ({}, {})  # column -> [(note, frames), ...]
@@ -612,8 +643,8 @@ class _Outputs:
     def finish(self) -> StepData:
         data = self.data
         data.rotations, data.translations = self.rotations, self.translations
-        data.rotation_notes = {c: _merged(n) for c, n in self.notes[0].items()}
-        data.translation_notes = {c: _merged(n) for c, n in self.notes[1].items()}
+        data.rotation_notes = {c: _merged(self.spec, n) for c, n in self.notes[0].items()}
+        data.translation_notes = {c: _merged(self.spec, n) for c, n in self.notes[1].items()}
         return data
 
 
@@ -625,9 +656,10 @@ def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
     return {k: spec.shift_note(v, frames) if k.endswith(spec.name) else v for k, v in note.items()}
 
 
-def _merged(parts: list[tuple[dict, int]]) -> dict:
-    """One column's notes from its known stretches ``(note, frames)`` as one: frame lists
-    joined in order, every other value from the longest stretch."""
+def _merged(spec: StepSpec, parts: list[tuple[dict, int]]) -> dict:
+    """One column's notes from its parts (takes or known stretches) ``(note, frames)`` as
+    one: the step's ``merge_note`` of each of its notes, else frame lists joined in order
+    and every other value from the longest part."""
     if len(parts) == 1:
         return parts[0][0]
     longest = max(parts, key=lambda part: part[1])[0]
@@ -636,8 +668,12 @@ def _merged(parts: list[tuple[dict, int]]) -> dict:
         if not isinstance(value, dict):
             merged[key] = value
             continue
+        own = [(note[key], frames) for note, frames in parts if key in note]
+        if spec.merge_note is not None:
+            merged[key] = spec.merge_note(own)
+            continue
         merged[key] = {
-            k: sum((p[0].get(key, {}).get(k, []) for p in parts), []) if isinstance(v, list) else v
+            k: sum((note.get(k, []) for note, _ in own), []) if isinstance(v, list) else v
             for k, v in value.items()
         }
     return merged

@@ -322,3 +322,17 @@ def test_a_small_batch_runs_in_one_process_unless_told(tree, tmp_path, capsys):
     assert "on 1 worker " in out
     code, out, _ = run_cli(capsys, "batch", tree, "-o", tmp_path / "b", "-j", "2")
     assert "on 2 workers" in out
+
+
+def test_a_clip_with_nothing_measured_shows_dashes_not_zeros(tmp_path, capsys):
+    """Two frames: no noise before or after (it had crashed the table, a TypeError on
+    None, and the index said 0 before and after)."""
+    cut_bvh(SAMPLE, tmp_path / "in" / "two.bvh", 2)
+    code, out, err = run_cli(
+        capsys, "batch", tmp_path / "in", "-o", tmp_path / "out", "--report-dir", tmp_path / "r"
+    )
+    assert (code, err) == (0, "")
+    row = next(line for line in out.splitlines() if line.startswith("two.bvh"))
+    assert row.split()[2:5] == ["-", "-", "-"], row
+    index = (tmp_path / "r" / "index.html").read_text()
+    assert "<td>2</td><td>-</td><td>-</td><td>-</td>" in index

@@ -594,3 +594,19 @@ def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["take_starts"] == [150]
     assert not report["joints"]["Hips"].get("despike", {}).get("unflipped")
+    thumb = report["joints"]["RThumb"]["despike"]  # both takes' repairs, counted once each
+    runs = thumb["unflipped"] + thumb["interpolated"]
+    assert len(thumb["unflipped"]) > 2 and thumb["frames_repaired"] == len(
+        {f for a, b in runs for f in range(a, b)}
+    )
+    # a new frame rate is made take by take: no new frame blends the two (it had: the
+    # root's x went 3.8 -> 16.5 -> 49.4 -> 58.4 -> 53.9 across the cut)
+    remade = Pipeline.from_inline(["resample:fps=30", "lee-shin"])
+    whole, _ = remade.run(joined)
+    alone = [remade.run(take)[0] for take in takes]
+    np.testing.assert_array_equal(
+        whole.rotations, np.concatenate([part.rotations for part in alone])
+    )
+    np.testing.assert_array_equal(
+        whole.translations[:, 0], np.concatenate([part.translations[:, 0] for part in alone])
+    )
