@@ -13,12 +13,12 @@ from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
 #: What a note says of a column whose every sample is missing.
-UNMEASURED = "every sample missing: nothing to measure"
+UNMEASURED = "nothing to measure: no three frames in a row known"
 
 
 def _auto_note(result, column: int, unit: str, unmeasured: bool = False) -> dict:
     """The report note of ``column``: the noise found and the filter chosen for it; with
-    ``unmeasured`` (every sample missing) no figures (None), no filter and why."""
+    ``unmeasured`` (:func:`_unmeasured`) no figures (None), no filter and why."""
     choice = result.choices[column]
     note = {
         "noise": float(result.noise.reshape(-1)[column]),
@@ -80,6 +80,15 @@ def measured_source(motion: Motion, source: str) -> tuple[str, float]:
     return capture_source(seen_rotations(motion), motion.frame_time, source)
 
 
+def _unmeasured(shape: tuple[int, ...], missing: np.ndarray | None) -> np.ndarray:
+    """``(C,)``: the columns of ``(F, C, ...)`` values (``missing`` ``(F, C)`` or None)
+    without three frames in a row known, where no noise can be measured."""
+    if missing is None:
+        return np.full(shape[1], shape[0] < 3)
+    known = ~missing
+    return ~np.any(known[:-2] & known[1:-1] & known[2:], axis=0)
+
+
 def _run_auto(data: StepData, params: dict) -> StepData:
     families = FAMILIES if params["mask"] == "any" else (params["mask"],)
     shared = {
@@ -102,7 +111,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     data.rotations = result.values
     if missing_r is not None:  # the bridges go: placeholders held again
         data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
-    unseen = np.zeros(data.rotations.shape[1], bool) if missing_r is None else missing_r.all(0)
+    unseen = _unmeasured(data.rotations.shape, missing_r)
     for column in range(data.rotations.shape[1]):
         note = _auto_note(result, column, "deg", unseen[column])
         data.rotation_notes[column] = {"auto": note}
@@ -114,7 +123,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         data.translations = result.values
         if missing_p is not None:
             data.translations = hold_missing(result.values, missing_p)
-        unseen = np.zeros(translations.shape[1], bool) if missing_p is None else missing_p.all(0)
+        unseen = _unmeasured(translations.shape, missing_p)
         for column in range(data.translations.shape[1]):
             note = _auto_note(result, column, "length", unseen[column])
             data.translation_notes[column] = {"auto": note}

@@ -3,6 +3,7 @@ wrong value; one line `motionclean: error: FILE: what is wrong`."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -321,9 +322,13 @@ def test_reports_of_clips_too_short_for_some_figures(tmp_path, capsys, frames):
         assert row.split()[-2:] == ["-", "-"], row
     cleaned = tmp_path / "c.bvh"
     code, _, err = run_cli(
-        capsys, "clean", clip, "-o", cleaned, "--report", tmp_path / "c.html", "-q"
-    )
+        capsys, "clean", clip, "-o", cleaned, "--report", tmp_path / "c.html",
+        "--report", tmp_path / "c.json", "-q",
+    )  # fmt: skip
     assert (code, err) == (0, "")
+    if frames < 3:  # auto measured nothing either: its note says so, not a noise of 0
+        notes = json.loads((tmp_path / "c.json").read_text())["joints"]["Hips"]["auto"]
+        assert notes["noise"] is None and "no three frames in a row" in notes["why"]
     assert run_cli(capsys, "report", clip, cleaned, "--html", tmp_path / "p.html")[0] == 0
 
 
