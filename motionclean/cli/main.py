@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
+from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
 from ..core.threads import thread_count
@@ -284,9 +285,18 @@ def convert(
         if skipped is not None:
             raise MotionError(f"no world positions: {skipped}", source)
         atomic_write(target, world_csv_pieces(motion))
-        return
-    check_clip_output(target, inputs)
-    save(read.load(source), target)
+    else:
+        check_clip_output(target, inputs)
+        motion = read.load(source)
+        save(motion, target)
+    _echo_notes(motion)
+
+
+def _echo_notes(motion: Motion) -> None:
+    """What the reader had to assume (a frame rate, one person of several ...), one
+    ``note:`` line each."""
+    for note in kinematics.source_notes(motion):
+        click.echo(f"note: {note}")
 
 
 @cli.command(name="resample", short_help="Write a clip at a new frame rate (any ratio).")
@@ -322,6 +332,7 @@ def resample_command(
         f"{source}: {before.n_frames} frames at {fps_text(before.frame_time)} fps -> "
         f"{target}: {after.n_frames} frames at {fps_text(after.frame_time)} fps"
     )
+    _echo_notes(before)
 
 
 @cli.command()

@@ -571,8 +571,11 @@ def amass_record(motion: Motion) -> dict[str, np.ndarray]:
             motion.path,
         )
     record = fresh_record(motion)
-    if src.trans_key is not None:
-        record["trans"] = motion.translations[:, 0] - src.root_offset
+    record["trans"] = (  # (a record without one, 4D-Humans' tracks: the root stays put)
+        motion.translations[:, 0] - src.root_offset
+        if src.trans_key is not None
+        else np.zeros((motion.n_frames, 3))
+    )
     betas = _betas(src.record)
     if betas is not None:
         record["betas"] = betas

@@ -25,6 +25,7 @@ __all__ = [
     "linear_acceleration",
     "rms",
     "rms_and_max",
+    "rows_across_cuts",
     "step_deg",
 ]
 
@@ -173,3 +174,11 @@ def rms_and_max(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     none = counts == 0
     rms = np.sqrt(np.square(measured).sum(axis=0) / np.maximum(counts, 1))
     return np.where(none, np.nan, rms), np.where(none, np.nan, measured.max(axis=0, initial=0.0))
+
+
+def rows_across_cuts(starts: np.ndarray, n_frames: int) -> np.ndarray:
+    """The rows of an acceleration table (row ``r``: frames ``r .. r+2``) whose
+    frames lie on both sides of a cut between takes (``starts``: each new take's first
+    frame)."""
+    rows = np.concatenate([starts - 2, starts - 1])
+    return np.unique(rows[(rows >= 0) & (rows < n_frames - 2)])

@@ -27,7 +27,7 @@ from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
-from .metrics import known, pair, rms_and_max
+from .metrics import known, pair, rms_and_max, rows_across_cuts
 from .traces import Trace, traces
 from .verdict import build_verdict
 from .world import (
@@ -90,6 +90,7 @@ def build_series(
             None if after is None else trim(after, lead, trail),
             [None if p is None else p[core] for p in points],
             used,
+            take_starts(before) - lead,
         )
     del points
     rotating = before.layout.has_rotation
@@ -167,14 +168,6 @@ def noise_figures(motion: Motion) -> _Reduced:
     )
     table[rows_across_cuts(take_starts(motion), motion.n_frames)] = np.nan
     return _reduced(table, *rest_frames(motion), drawn=False)
-
-
-def rows_across_cuts(starts: np.ndarray, n_frames: int) -> np.ndarray:
-    """The rows of an angular acceleration table (row ``r``: frames ``r .. r+2``) whose
-    frames lie on both sides of a cut between takes (``starts``: each new take's first
-    frame)."""
-    rows = np.concatenate([starts - 2, starts - 1])
-    return np.unique(rows[(rows >= 0) & (rows < n_frames - 2)])
 
 
 class _Reduced(NamedTuple):
@@ -579,10 +572,11 @@ def format_noise_model(report: dict) -> str:
 def format_takes(starts: list[int], cleaned: bool = True) -> str:
     """The takes joined end to end in the clip (``cleaned``: each on its own)."""
     at = ", ".join(map(str, starts[:-1])) + (" and " if len(starts) > 1 else "") + str(starts[-1])
+    new = f"new ones at frames {at}" if len(starts) > 1 else f"the second at frame {at}"
     own = "each cleaned on its own, " if cleaned else ""
     return (
-        f"takes: {len(starts) + 1} joined end to end, new ones at frames {at} (most joints "
-        f"jump at once): {own}the steps across the cuts left out of the figures"
+        f"takes: {len(starts) + 1} joined end to end, {new} (most joints jump at once): "
+        f"{own}the steps across the cuts left out of the figures"
     )
 
 

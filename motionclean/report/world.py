@@ -76,10 +76,12 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
     return points[:, index]
 
 
-def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray):
+def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray, across: np.ndarray):
     """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, leaving
-    out the rows whose three frames include an ``unknown`` ``(F, len(columns))`` position."""
+    out the rows whose three frames include an ``unknown`` ``(F, len(columns))`` position
+    and the rows ``across`` a cut between takes."""
     accel = accel.take(columns, axis=1)  # C order, as the sums below expect
+    accel[across] = np.nan
     return rms_and_max(metrics.left_out(accel, unknown))
 
 
@@ -88,6 +90,7 @@ def world_figures(
     after: Motion | None = None,
     points: list | None = None,
     used: np.ndarray | None = None,
+    starts: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The report's ``world`` section: up axis (and whether it was ``"given"`` with the clip,
     :attr:`Motion.up`, or ``"found"`` from its motion), body height (file units) and, per end
@@ -95,7 +98,8 @@ def world_figures(
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
     holds both clips' :func:`figure_positions` of the points ``used`` (default: the
-    :func:`figure_points` of ``before``) when the caller has them."""
+    :func:`figure_points` of ``before``) when the caller has them; the accelerations across
+    a cut between takes (``starts``: each new take's first frame) are left out."""
     up = kinematics.up_axis(before)
     height = kinematics.body_height(before, up)
     index, names = kinematics.end_effectors(before)
@@ -108,11 +112,16 @@ def world_figures(
     unknown = _unknown(before, index)
     if after is not None:
         unknown |= _unknown(after, index)
+    across = metrics.rows_across_cuts(
+        np.zeros(0, np.intp) if starts is None else starts, before.n_frames
+    )
     points_b = _positions(before, points[0], used)
-    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown)
+    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown, across)
     if after is not None:
         points_a = _positions(after, points[1], used)
-        rms_a, max_a = _effectors(metrics.linear_acceleration(points_a, dt), columns, unknown)
+        rms_a, max_a = _effectors(
+            metrics.linear_acceleration(points_a, dt), columns, unknown, across
+        )
         moved = metrics.distance(points_b, points_a).take(columns, axis=1)
         moved[unknown] = np.nan
         dev_rms, dev_max = rms_and_max(moved)

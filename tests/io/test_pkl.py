@@ -47,6 +47,7 @@ def test_the_rate_of_a_pickle_without_one_is_given_by_input_fps(tmp_path, capsys
     assert "no frame rate in the file; 60 fps as given" in kinematics.source_notes(clip)
     code, out, err = run_cli(capsys, "convert", WHAM, tmp_path / "w.npz", "--input-fps", "60")
     assert (code, err) == (0, "") and float(np.load(tmp_path / "w.npz")["mocap_framerate"]) == 60
+    assert "note: no frame rate in the file; 60 fps as given" in out  # convert says it too
     code, out, _ = run_cli(capsys, "info", tmp_path / "w.npz", "--input-fps", "25")
     assert code == 0 and "rate: 60 fps" in out and "60 fps taken, not 25 as given" in out
     (tmp_path / "in").mkdir()
@@ -231,6 +232,9 @@ def test_a_track_with_gaps_is_not_written_as_an_amass_npz(tmp_path, capsys):
     assert "an AMASS .npz has no missing frames, and 2 of this clip are" in err
     assert "clean it first (fill-gaps bridges them)" in err
     assert not (tmp_path / "p.npz").exists()
+    code, _, _ = run_cli(capsys, "clean", PHALP, "-o", tmp_path / "p.npz", "-q")  # filled
+    amass = np.load(tmp_path / "p.npz")  # a track without a translation: the root stays put
+    assert code == 0 and np.array_equal(amass["trans"], np.zeros((12, 3)))
 
 
 def test_aist_translation_is_read_in_metres_and_written_in_its_scale(tmp_path, capsys):
