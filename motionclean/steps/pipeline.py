@@ -354,7 +354,10 @@ class Pipeline:
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             log.n_frames, log.frame_time = current.n_frames + lead + trail, current.frame_time
             logs.append(log)
-        return splice(outer, current, lead, trail), logs
+        result = splice(outer, current, lead, trail)
+        if starts.size:  # the takes as cleaned (a new rate moved them), for the report
+            result.derived("take_starts", lambda _: starts + lead)
+        return result, logs
 
 
 def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:

@@ -17,9 +17,10 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.motion import Motion, hold_missing, joint_major_zeros
+from ..core.motion import Motion, hold_missing, joint_major_zeros, sparse_concatenate
 from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
+from ..core.takes import take_starts
 from ..filters.gaps import fill_gaps
 from ..filters.resample import (
     resample_continuous,
@@ -228,9 +229,30 @@ def on_input_frames(before: Motion, after: Motion) -> Motion:
     frames with the same interpolant and no low-pass, so the two compare frame by frame;
     ``after`` itself when it already has ``before``'s frames. Rest-pose frames of
     ``before`` are matched with the rest frames of ``after`` (:func:`rest_rows`), the
-    motion at its own times."""
+    motion at its own times; a clip of several takes, take by take
+    (:func:`~motionclean.core.takes.take_starts` of both: the pipeline's output knows
+    where it put them)."""
     if after.n_frames == before.n_frames and after.frame_time == before.frame_time:
         return after
+    starts, remade = take_starts(before), take_starts(after)
+    if starts.size and remade.size == starts.size:  # take by take, as they were made
+        parts = [
+            on_input_frames(before.at_frames(slice(a, b)), after.at_frames(slice(c, d)))
+            for a, b, c, d in zip(
+                [0, *starts],
+                [*starts, before.n_frames],
+                [0, *remade],
+                [*remade, after.n_frames],
+                strict=True,
+            )
+        ]
+        return before.replace(
+            rotations=np.concatenate([part.rotations for part in parts]),
+            translations=sparse_concatenate([part.translations for part in parts]),
+            source_values=None,
+            source_rotations=None,
+            missing=None,
+        )
     lead, trail = rest_frames(before)
     ratio = after.frame_time / before.frame_time
     new_lead, new_trail = rest_rows(before.n_frames, lead, trail, ratio, after.n_frames)

@@ -620,3 +620,11 @@ def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
     np.testing.assert_array_equal(
         whole.translations[:, 0], np.concatenate([part.translations[:, 0] for part in alone])
     )
+    # and compared with the input take by take (it had been across the cut: "needs a
+    # look: the cleaning moved Hips by 79.4 degrees")
+    code, _, _ = run_cli(
+        capsys, "clean", tmp_path / "joined.bvh", "-o", tmp_path / "r60.bvh",
+        "-f", "despike", "-f", "resample:fps=60", "--report", tmp_path / "r60.json",
+    )  # fmt: skip
+    verdict = json.loads((tmp_path / "r60.json").read_text())["verdict"]
+    assert code == 0 and verdict["change_deg_max"] < 5.0, verdict["text"]
