@@ -604,6 +604,8 @@ def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
     for when in ("before", "after"):
         assert joined_peak[when] == pytest.approx(max(p[when] for p in peaks), rel=1e-9)
     assert not report["joints"]["Hips"].get("despike", {}).get("unflipped")
+    held = report["joints"]["LeftAnkle"]["footlock"]  # both takes' contacts, counted
+    assert held["frames"] == sum(b - a for a, b in held["contacts"])
     thumb = report["joints"]["RThumb"]["despike"]  # both takes' repairs, counted once each
     runs = thumb["unflipped"] + thumb["interpolated"]
     assert len(thumb["unflipped"]) > 2 and thumb["frames_repaired"] == len(
