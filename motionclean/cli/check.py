@@ -29,7 +29,7 @@ import click
 
 from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
-from ..io import atomic_write
+from ..io import ReadOptions, atomic_write
 from ..report.summary import json_safe, to_json
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
@@ -45,6 +45,7 @@ from .options import (
     echo_warnings,
     pipeline_from_options,
     raise_failures,
+    read_options,
 )
 
 __all__ = ["DEFAULT_TOLERANCE", "FIGURES", "check_command", "compare", "read_baseline"]
@@ -267,6 +268,7 @@ def _why(
 )
 @SOURCE_OPTION
 @UP_OPTION
+@read_options
 def check_command(
     clips: tuple[str, ...],
     pipe: str | None,
@@ -277,6 +279,7 @@ def check_command(
     tolerance: float,
     capture: str,
     up: str | None,
+    read: ReadOptions,
 ) -> None:
     """Clean CLIPs and compare their figures with a baseline, for CI.
 
@@ -289,7 +292,7 @@ def check_command(
     if replace and not update:
         raise UsageError("--replace goes with --update")
     if update:
-        check_target(baseline, (*clips, pipe))
+        check_target(baseline, (*clips, pipe, *read.files))
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
     named: dict[str, str] = {}  # a clip named twice is checked once
@@ -297,7 +300,7 @@ def check_command(
         named.setdefault(clip_key(clip, baseline_path), clip)
     keys, clips = list(named), tuple(named.values())
     tables = tuple(pipeline.describe())
-    jobs = [Job(os.fspath(c), None, tables, up=up) for c in clips]
+    jobs = [Job(os.fspath(c), None, tables, up=up, read=read) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
     echo_warnings(line for result in results.values() for line in result.warnings)
     failures = [str(results[i].error) for i in range(len(jobs)) if results[i].status == "failed"]

@@ -261,3 +261,18 @@ def test_a_clip_too_short_to_measure_passes_its_own_baseline(tmp_path, capsys, m
     assert code == 0
     code, out, err = run_cli(capsys, "check", clip, "--baseline", "b.json")
     assert (code, err) == (0, "") and "check passed" in out
+
+
+def test_check_reads_clips_as_clean_does(tmp_path, capsys, monkeypatch):
+    """The read options reach check: a channel CSV checked with its skeleton (as it is
+    cleaned) records and passes; the skeleton is never the baseline written."""
+    monkeypatch.chdir(tmp_path)
+    rig = cut_bvh(SAMPLE, Path("rig.bvh"), 60)
+    assert run_cli(capsys, "convert", rig, "clip.csv")[0] == 0
+    args = ("check", "clip.csv", "--skeleton", rig, "--input-fps", "60")
+    code, _, err = run_cli(capsys, *args, "--baseline", "b.json", "--update")
+    assert (code, err) == (0, "")
+    code, out, _ = run_cli(capsys, *args, "--baseline", "b.json")
+    assert code == 0 and "check passed" in out
+    code, _, err = run_cli(capsys, *args, "--baseline", rig, "--update")
+    assert code == 2 and "refusing to overwrite the input" in err
