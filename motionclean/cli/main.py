@@ -276,7 +276,8 @@ def convert(
     world: bool,
 ) -> None:
     """Convert SOURCE to TARGET by file extension (BVH, CSV, SMPL .npz/.pkl, OpenSim
-    .mot/.sto, glTF .gltf/.glb), where the target format can hold the clip."""
+    .mot/.sto, glTF .gltf/.glb, FBX through Blender's bpy), where the target format can
+    hold the clip."""
     inputs = (source, *read.files)
     if world:
         check_output(target, (".csv",), "a world-position CSV", inputs)
