@@ -21,6 +21,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
+from ..core.takes import take_starts
 from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
@@ -34,6 +35,7 @@ from ..report.summary import (
     figure_text,
     format_rest,
     format_table,
+    format_takes,
     gap_notes,
     noise_figures,
     short_names,
@@ -186,6 +188,9 @@ def info(
     lead, trail = rest_frames(motion)
     if lead or trail:
         click.echo(f"  {format_rest({'leading': lead, 'trailing': trail}, motion.n_frames)}")
+    starts = take_starts(motion)
+    if starts.size:
+        click.echo(f"  {format_takes(starts.tolist(), cleaned=False)}")
     for note in kinematics.source_notes(motion):
         click.echo(f"  note: {note}")
     skipped = kinematics.world_note(motion)
