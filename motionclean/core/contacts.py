@@ -506,10 +506,16 @@ def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:
 
 
 def skate(
-    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int, frame_time: float
+    positions: np.ndarray,
+    feet: list[Foot],
+    contacts: np.ndarray,
+    up: int,
+    frame_time: float,
+    cuts: np.ndarray | None = None,
 ) -> np.ndarray:
     """``(n_feet,)`` mean horizontal ankle speed during contacts (length units / s; NaN for a
-    foot without contacts). Speeds are taken between consecutive contact frames."""
+    foot without contacts). Speeds are taken between consecutive contact frames, but for
+    the steps into the frames ``cuts`` (a new take's first: no motion between them)."""
     speed = np.empty((max(positions.shape[0] - 1, 0), len(feet)))
     for k, foot in enumerate(feet):  # a foot at a time: temporaries of one ankle's track
         step = np.diff(positions[:, foot.ankle], axis=0)
@@ -517,6 +523,8 @@ def skate(
         speed[:, k] = np.linalg.norm(step, axis=-1)
     speed /= frame_time
     both = contacts[1:] & contacts[:-1]
+    if cuts is not None and cuts.size:
+        both[cuts - 1] = False
     count = both.sum(axis=0)
     total = np.where(both, speed, 0.0).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -13,6 +13,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
+from ..core.takes import take_starts
 from ..steps.base import plural
 from . import metrics
 from .metrics import known, pair, rms_and_max
@@ -185,13 +186,24 @@ def contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     contacts, ground = found.detect(positions, feet, up, height, dt, found.ContactParams())
+    # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
+    # no contact ending there), on the clip's ground
+    starts = take_starts(before)
+    bounds = list(zip([0, *starts.tolist()], [*starts.tolist(), before.n_frames], strict=True))
+    if starts.size and not math.isnan(ground):
+        contacts = np.concatenate(
+            [
+                found.detect(positions[a:b], feet, up, height, dt, found.ContactParams(), ground)[0]
+                for a, b in bounds
+            ]
+        )
     after_positions = None if after is None else _positions(after, points[1], used)
     # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the
     # ground and the heights above it absent (None), not NaN
     grounded = not math.isnan(ground)
     absent = {"before": None, "after": None}
     clips = [positions] if after_positions is None else [positions, after_positions]
-    skate = [found.skate(p, feet, contacts, up, dt) for p in clips]
+    skate = [found.skate(p, feet, contacts, up, dt, starts) for p in clips]
     if grounded:
         # each clip against its own ground: the cleaned clip's is the input's moved by how
         # far its feet moved during contacts (the median: a step that moves the whole clip,
@@ -203,7 +215,15 @@ def contact_figures(
             grounds.append(ground + float(np.median(moved)) if moved.size else ground)
         depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
         low = [points - g for points, g in zip(lowest, grounds, strict=True)]
-    runs = found.contact_runs(contacts)
+    per_take = [found.contact_runs(contacts[a:b]) for a, b in bounds]  # none across a cut
+    runs = [
+        [
+            (a + first, a + stop)
+            for (a, _), take in zip(bounds, per_take, strict=True)
+            for first, stop in take[k]
+        ]
+        for k in range(len(feet))
+    ]
     floor, soles = found.find_floor(positions, feet, up, height, dt, contacts=contacts)
     section: dict[str, Any] = {
         "up_axis": kinematics.up_name(before),
