@@ -711,9 +711,17 @@ DEFAULT_STEPS: list[dict] = [
 
 def as_default_auto_sees(motion: Motion) -> Motion:
     """``motion`` as the default pipeline's ``auto`` step is given it: cleaned by the steps
-    before it (despike, fill-gaps), its rest-pose frames left out."""
+    before it (despike, fill-gaps), its rest-pose frames left out; of a clip of several
+    takes, the longest (whose note a joint's merged notes show)."""
     default = Pipeline.default()
     names = [step.spec.name for step in default.steps]
     before = Pipeline(default.steps[: names.index("auto")], default.origin)
     lead, trail = rest_frames(motion)
-    return trim(before.run(motion)[0], lead, trail)
+    seen = trim(before.run(motion)[0], lead, trail)
+    starts = (take_starts(motion) - lead).tolist()
+    if not starts:
+        return seen
+    first, stop = max(
+        zip([0, *starts], [*starts, seen.n_frames], strict=True), key=lambda t: t[1] - t[0]
+    )
+    return seen.at_frames(slice(first, stop))

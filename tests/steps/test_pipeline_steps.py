@@ -591,6 +591,9 @@ def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
         "--report", tmp_path / "r.json",
     )  # fmt: skip
     assert code == 0 and "takes: 2 joined end to end, the second at frame 150" in out
+    said = [line for line in out.splitlines() if line.startswith("capture source")]
+    code, out, _ = run_cli(capsys, "report", tmp_path / "joined.bvh")  # the input alone
+    assert said == [line for line in out.splitlines() if line.startswith("capture source")]
     code, out, _ = run_cli(capsys, "info", tmp_path / "joined.bvh")  # said before cleaning
     assert code == 0 and "takes: 2 joined end to end, the second at frame 150" in out
     report = json.loads((tmp_path / "r.json").read_text())
