@@ -174,15 +174,13 @@ def parse_pickle(
         route, record, note = _locate(tree, path)
         container = (tree, route)
     arrays = _arrays(record)
-    model, model_path = body_model if body_model is not None else (None, None)
     return smpl.smpl_motion(
         arrays,
         path,
         container=container,
         raw=data,
         skeleton=skeleton,
-        body_model=model,
-        body_model_path=model_path,
+        body_model=body_model,
         notes=(note,) if note else (),
         rows=_frame_rows(arrays, path),
         frame_rate=frame_rate,

@@ -348,14 +348,14 @@ def smpl_motion(
     container: Any,
     raw: bytes,
     skeleton: Motion | None = None,
-    body_model: dict[str, np.ndarray] | None = None,
-    body_model_path=None,
+    body_model: tuple[dict[str, np.ndarray], str] | None = None,
     notes: tuple[str, ...] = (),
     rows: np.ndarray | None = None,
     frame_rate: float | None = None,
 ) -> Motion:
-    """A clip of the SMPL record ``record`` (see the module); ``frame_rate``: the rate
-    taken where the record states none (frames per second)."""
+    """A clip of the SMPL record ``record`` (see the module); ``body_model``: a body model
+    file's arrays and path (:func:`read_body_model`); ``frame_rate``: the rate taken where
+    the record states none (frames per second)."""
     tree, fields, trans_key = find_layout(record, path)
     frames = {_frames_of(record[f.key], f.key, record[f.key].shape[1:], path) for f in fields}
     if trans_key is not None:
@@ -379,7 +379,8 @@ def smpl_motion(
     has_skeleton = skeleton is not None or body_model is not None
     offsets = np.zeros((tree.n_joints, 3))
     if body_model is not None:
-        offsets = smpl_model.model_offsets(body_model, tree, _betas(record), body_model_path)
+        arrays, model_path = body_model
+        offsets = smpl_model.model_offsets(arrays, tree, _betas(record), model_path)
     elif skeleton is not None:
         offsets = smpl_model.skeleton_offsets(skeleton, tree, path)
     root_offset = offsets[0].copy()
@@ -600,15 +601,13 @@ def parse_smpl_npz(
     file states none."""
     members = npz.read_npz(data, path)
     record = {m.key: m.array for m in members if m.array is not None}
-    model, model_path = body_model if body_model is not None else (None, None)
     return smpl_motion(
         record,
         path,
         container=members,
         raw=data,
         skeleton=skeleton,
-        body_model=model,
-        body_model_path=model_path,
+        body_model=body_model,
         frame_rate=frame_rate,
     )
 
