@@ -502,6 +502,19 @@ class Motion:
             missing=None if self.missing is None else self.missing[frames],
         )
 
+    @staticmethod
+    def joined_frames(parts: list[Motion]) -> Motion:
+        """The clips ``parts`` (one skeleton and frame time) one after the other: the
+        first's skeleton, every part's rotations and translations; nothing missing, and no
+        source values (they describe none of the parts' frames as joined)."""
+        return parts[0].replace(
+            rotations=np.concatenate([part.rotations for part in parts]),
+            translations=sparse_concatenate([part.translations for part in parts]),
+            missing=None,
+            source_values=None,
+            source_rotations=None,
+        )
+
     def joint_index(self, name: str) -> int:
         try:
             return self.names.index(name)

@@ -25,7 +25,7 @@ from .rates import frames_floor
 from .restpose import rest_frames
 from .threads import in_parts
 
-__all__ = ["cut_steps", "median_rows", "robust_thresholds", "take_starts"]
+__all__ = ["cut_steps", "median_rows", "robust_thresholds", "take_spans", "take_starts"]
 
 #: Consistency constant turning a median absolute deviation into a standard deviation.
 MAD_TO_SIGMA = 1.4826
@@ -85,6 +85,13 @@ def cut_steps(seen: np.ndarray, jump: np.ndarray, moving: np.ndarray, max_len: i
         takes = np.diff(np.concatenate([[-1], found, [seen.shape[0]]]))  # frames between
         cuts[found[(takes[:-1] > max_len) & (takes[1:] > max_len)]] = True
     return cuts
+
+
+def take_spans(starts: np.ndarray, n_frames: int) -> list[slice]:
+    """The frames of each take of a clip of ``n_frames`` whose takes after the first start
+    at ``starts``."""
+    bounds = [0, *np.asarray(starts).tolist(), n_frames]
+    return [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
 
 
 def take_starts(motion: Motion) -> np.ndarray:

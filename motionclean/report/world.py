@@ -13,7 +13,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
-from ..core.takes import take_starts
+from ..core.takes import take_spans, take_starts
 from ..steps.base import plural
 from . import metrics
 from .metrics import known, pair, rms_and_max
@@ -189,12 +189,13 @@ def contact_figures(
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
     # no contact ending there), on the clip's ground
     starts = take_starts(before)
-    bounds = list(zip([0, *starts.tolist()], [*starts.tolist(), before.n_frames], strict=True))
+    takes = take_spans(starts, before.n_frames)
     if starts.size and not math.isnan(ground):
+        params = found.ContactParams()
         contacts = np.concatenate(
             [
-                found.detect(positions[a:b], feet, up, height, dt, found.ContactParams(), ground)[0]
-                for a, b in bounds
+                found.detect(positions[take], feet, up, height, dt, params, ground)[0]
+                for take in takes
             ]
         )
     after_positions = None if after is None else _positions(after, points[1], used)
@@ -215,12 +216,12 @@ def contact_figures(
             grounds.append(ground + float(np.median(moved)) if moved.size else ground)
         depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
         low = [points - g for points, g in zip(lowest, grounds, strict=True)]
-    per_take = [found.contact_runs(contacts[a:b]) for a, b in bounds]  # none across a cut
+    per_take = [found.contact_runs(contacts[take]) for take in takes]  # none across a cut
     runs = [
         [
-            (a + first, a + stop)
-            for (a, _), take in zip(bounds, per_take, strict=True)
-            for first, stop in take[k]
+            (take.start + first, take.start + stop)
+            for take, found_runs in zip(takes, per_take, strict=True)
+            for first, stop in found_runs[k]
         ]
         for k in range(len(feet))
     ]

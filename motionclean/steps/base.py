@@ -172,10 +172,10 @@ class StepSpec:
     steps without a clip's rest-pose frames and numbers frames as the file does);
     ``crop_note(note, start, stop)`` keeps what a note says about frames ``[start, stop)``
     or gives None (nothing there): a step run on a frame range reports only what it
-    changed; ``merge_note(parts)`` makes one note of a joint's notes from parts of the clip
-    run on their own (``(note, frames)`` of takes or known stretches, in frame order,
-    numbered as the clip: counts add up, maxima over all; without it, frame lists are
-    joined and every other value is the longest part's). Frame runs in notes are
+    changed; a joint's notes from parts of the clip run on their own (takes or known
+    stretches) are merged with their frame lists joined and every other value the longest
+    part's, then ``merge_note(parts)`` gives the values it sums or takes the maximum of
+    (``(note, frames)`` per part, in frame order, numbered as the clip). Frame runs in notes are
     ``[first, stop)``: ``stop`` is the frame after the run's last.
     """
 

@@ -126,16 +126,10 @@ def _crop_note(note: dict, start: int, stop: int) -> dict | None:
 
 
 def _merge_note(parts: list[tuple[dict, int]]) -> dict:
-    """One note of a joint's notes from parts of the clip (``(note, frames)``, frame
-    order): runs joined, frames repaired added, the largest steps the largest of all, the
-    rest the longest part's."""
-    notes = [note for note, _ in parts]
-    merged = max(parts, key=lambda part: part[1])[0] | {
-        "frames_repaired": sum(note["frames_repaired"] for note in notes),
-        "unflipped": [run for note in notes for run in note["unflipped"]],
-        "interpolated": [run for note in notes for run in note["interpolated"]],
-    }
-    steps = [note["max_step"] for note in notes if "max_step" in note]
+    """What parts of the clip add up to (``(note, frames)``): frames repaired summed, the
+    largest steps the largest of all."""
+    merged = {"frames_repaired": sum(note["frames_repaired"] for note, _ in parts)}
+    steps = [note["max_step"] for note, _ in parts if "max_step" in note]
     if steps:
         merged["max_step"] = {when: max(s[when] for s in steps) for when in ("before", "after")}
     return merged

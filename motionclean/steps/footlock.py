@@ -394,10 +394,6 @@ STEP = StepSpec(
     run=_run,
     format_note=_format_note,
     crop_note=_crop_note,
-    merge_note=lambda parts: {
-        **max(parts, key=lambda part: part[1])[0],
-        "contacts": [run for note, _ in parts for run in note["contacts"]],
-        "frames": sum(note["frames"] for note, _ in parts),
-    },
+    merge_note=lambda parts: {"frames": sum(note["frames"] for note, _ in parts)},
     shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},
 )

@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import MotionError, UsageError
-from ..core.motion import Motion, sparse_concatenate, sparse_copy
+from ..core.motion import Motion, sparse_copy
 from ..core.restpose import rest_frames, splice, trim
-from ..core.takes import take_starts
+from ..core.takes import take_spans, take_starts
 from ..filters.gaps import Gaps
 from . import COMMON_PARAMS, REGISTRY, StepData, StepSpec
 from .ranges import FrameRange, blend_positions, blend_rotations, weights
@@ -431,6 +431,7 @@ def _run_step(
     if step.span is not None and span is None:
         span = _frame_span(step, number, motion.n_frames + offset, motion.frame_time, path)
     if starts is not None and starts.size:  # (a clip with dropouts has no takes)
+        assert by_take is not None
         data = _run_by_takes(step, data, motion, starts, by_take)
     elif motion.missing is None or step.spec.sees_missing:
         data = step.spec.run(data, step.params)
@@ -456,13 +457,7 @@ def _run_step(
         motion.translations = made.placed(
             "translations", motion.translations, pos_idx, new_translations
         )
-    notes: dict[str, dict] = {}
-    for column, note in data.rotation_notes.items():
-        notes.setdefault(motion.names[rot_idx[column]], {}).update(note)
-    for column, note in data.translation_notes.items():
-        notes.setdefault(motion.names[pos_idx[column]], {}).update(
-            {f"position_{k}": v for k, v in note.items()}
-        )
+    notes = _named_notes(data, motion.names)
     rotated = [motion.names[i] for i in rot_idx]
     moved_joints = [motion.names[i] for i in pos_idx]
     return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
@@ -552,20 +547,13 @@ def _remade_by_takes(
     no new frame blends two takes. The clip, the log (notes: the longest take's) and where
     each take after the first now begins."""
     assert step.spec.run_motion is not None
-    bounds = [0, *starts.tolist(), motion.n_frames]
     parts, notes, longest = [], {}, 0
-    for first, stop in zip(bounds[:-1], bounds[1:], strict=True):
-        part, part_notes = step.spec.run_motion(motion.at_frames(slice(first, stop)), step.params)
+    for take in take_spans(starts, motion.n_frames):
+        part, part_notes = step.spec.run_motion(motion.at_frames(take), step.params)
         parts.append(part)
-        if stop - first > longest:
-            notes, longest = part_notes, stop - first
-    joined = parts[0].replace(
-        rotations=np.concatenate([part.rotations for part in parts]),
-        translations=sparse_concatenate([part.translations for part in parts]),
-        missing=None,
-        source_values=None,
-        source_rotations=None,
-    )
+        if take.stop - take.start > longest:
+            notes, longest = part_notes, take.stop - take.start
+    joined = Motion.joined_frames(parts)
     lengths = np.cumsum([part.n_frames for part in parts])
     log = StepLog(step, list(motion.names), [], notes, _unmatched(step, motion.names))
     return joined, log, lengths[:-1].astype(np.intp)
@@ -576,7 +564,7 @@ def _run_by_takes(
     data: StepData,
     motion: Motion,
     starts: np.ndarray,
-    by_take: list[dict[str, dict]] | None = None,
+    by_take: list[dict[str, dict]],
 ) -> StepData:
     """``step`` on each take of a clip of several (``starts``: where each after the first
     begins), the clip cut to it as context and what earlier steps noted on it
@@ -586,20 +574,24 @@ def _run_by_takes(
     out = _Outputs(data, step.spec)
     rot = np.arange(data.rotations.shape[1])
     pos = np.arange(0 if data.translations is None else data.translations.shape[1])
-    bounds = [0, *starts.tolist(), motion.n_frames]
-    for k, (first, stop) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
-        if stop - first < 2:
-            continue
-        own = None if by_take is None else by_take[k]
-        noted = out.run(step, motion, rot, pos, slice(first, stop), own)
-        if own is None:
-            continue
-        for column, note in noted.rotation_notes.items():
-            own.setdefault(motion.names[data.rotation_joints[column]], {}).update(note)
-        for column, note in noted.translation_notes.items():
-            joint = motion.names[data.translation_joints[column]]
-            own.setdefault(joint, {}).update({f"position_{key}": v for key, v in note.items()})
+    for take, own in zip(take_spans(starts, motion.n_frames), by_take, strict=True):
+        if take.stop - take.start >= 2:
+            noted = out.run(step, motion, rot, pos, take, own)
+            for joint, note in _named_notes(noted, motion.names).items():
+                own.setdefault(joint, {}).update(note)
     return out.finish()
+
+
+def _named_notes(data: StepData, names: list[str]) -> dict[str, dict]:
+    """A step's notes by joint name (position notes' keys prefixed ``position_``)."""
+    notes: dict[str, dict] = {}
+    for column, note in data.rotation_notes.items():
+        notes.setdefault(names[data.rotation_joints[column]], {}).update(note)
+    for column, note in data.translation_notes.items():
+        notes.setdefault(names[data.translation_joints[column]], {}).update(
+            {f"position_{k}": v for k, v in note.items()}
+        )
+    return notes
 
 
 class _Outputs:
@@ -661,8 +653,8 @@ def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
 
 def _merged(spec: StepSpec, parts: list[tuple[dict, int]]) -> dict:
     """One column's notes from its parts (takes or known stretches) ``(note, frames)`` as
-    one: the step's ``merge_note`` of each of its notes, else frame lists joined in order
-    and every other value from the longest part."""
+    one: frame lists joined in order, every other value from the longest part, then what
+    the step's ``merge_note`` says of the parts (counts added up, maxima over all)."""
     if len(parts) == 1:
         return parts[0][0]
     longest = max(parts, key=lambda part: part[1])[0]
@@ -672,13 +664,12 @@ def _merged(spec: StepSpec, parts: list[tuple[dict, int]]) -> dict:
             merged[key] = value
             continue
         own = [(note[key], frames) for note, frames in parts if key in note]
-        if spec.merge_note is not None:
-            merged[key] = spec.merge_note(own)
-            continue
         merged[key] = {
             k: sum((note.get(k, []) for note, _ in own), []) if isinstance(v, list) else v
             for k, v in value.items()
         }
+        if spec.merge_note is not None:
+            merged[key].update(spec.merge_note(own))
     return merged
 
 
@@ -718,10 +709,7 @@ def as_default_auto_sees(motion: Motion) -> Motion:
     before = Pipeline(default.steps[: names.index("auto")], default.origin)
     lead, trail = rest_frames(motion)
     seen = trim(before.run(motion)[0], lead, trail)
-    starts = (take_starts(motion) - lead).tolist()
-    if not starts:
+    starts = take_starts(motion) - lead
+    if not starts.size:
         return seen
-    first, stop = max(
-        zip([0, *starts], [*starts, seen.n_frames], strict=True), key=lambda t: t[1] - t[0]
-    )
-    return seen.at_frames(slice(first, stop))
+    return seen.at_frames(max(take_spans(starts, seen.n_frames), key=lambda t: t.stop - t.start))

@@ -17,10 +17,10 @@ import numpy as np
 
 from ..core import quat
 from ..core.errors import MotionError
-from ..core.motion import Motion, hold_missing, joint_major_zeros, sparse_concatenate
+from ..core.motion import Motion, hold_missing, joint_major_zeros
 from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
-from ..core.takes import take_starts
+from ..core.takes import take_spans, take_starts
 from ..filters.gaps import fill_gaps
 from ..filters.resample import (
     resample_continuous,
@@ -236,23 +236,21 @@ def on_input_frames(before: Motion, after: Motion) -> Motion:
         return after
     starts, remade = take_starts(before), take_starts(after)
     if starts.size and remade.size == starts.size:  # take by take, as they were made
-        parts = [
-            on_input_frames(before.at_frames(slice(a, b)), after.at_frames(slice(c, d)))
-            for a, b, c, d in zip(
-                [0, *starts],
-                [*starts, before.n_frames],
-                [0, *remade],
-                [*remade, after.n_frames],
-                strict=True,
-            )
-        ]
-        return before.replace(
-            rotations=np.concatenate([part.rotations for part in parts]),
-            translations=sparse_concatenate([part.translations for part in parts]),
-            source_values=None,
-            source_rotations=None,
-            missing=None,
+        return Motion.joined_frames(
+            [
+                _on_input_frames(before.at_frames(old), after.at_frames(new))
+                for old, new in zip(
+                    take_spans(starts, before.n_frames),
+                    take_spans(remade, after.n_frames),
+                    strict=True,
+                )
+            ]
         )
+    return _on_input_frames(before, after)
+
+
+def _on_input_frames(before: Motion, after: Motion) -> Motion:
+    """:func:`on_input_frames` of one take."""
     lead, trail = rest_frames(before)
     ratio = after.frame_time / before.frame_time
     new_lead, new_trail = rest_rows(before.n_frames, lead, trail, ratio, after.n_frames)
