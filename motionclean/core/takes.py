@@ -17,6 +17,8 @@ back within a spike's length, and a pose at a clip's end is a rest pose
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from . import quat
@@ -25,7 +27,14 @@ from .rates import frames_floor
 from .restpose import rest_frames
 from .threads import in_parts
 
-__all__ = ["cut_steps", "median_rows", "robust_thresholds", "take_spans", "take_starts"]
+__all__ = [
+    "cut_steps",
+    "jump_thresholds",
+    "median_rows",
+    "robust_thresholds",
+    "take_spans",
+    "take_starts",
+]
 
 #: Consistency constant turning a median absolute deviation into a standard deviation.
 MAD_TO_SIGMA = 1.4826
@@ -66,6 +75,32 @@ def robust_thresholds(steps: np.ndarray, threshold: float, low: float, high: flo
     deviation = np.subtract(steps, med[:, None], out=steps)
     mad = median_rows(np.abs(deviation, out=deviation))
     return np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high)
+
+
+def jump_thresholds(
+    seen: np.ndarray, threshold: float, low: float, high: float, known: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each column's jump threshold over its steps ``seen`` (F-1, C) (:func:`robust_thresholds`
+    of the columns with a step above ``low``, ``low`` for the others; of the ``known``
+    (F-1, C) steps only where given) and its largest step (C,)."""
+    largest = seen.max(axis=0)
+    jump = np.full(seen.shape[1], low)  # the floor: no jump where no step exceeds it
+    fast = np.flatnonzero(largest > low)
+    if known is None:
+        jump[fast] = robust_thresholds(seen.T[fast], threshold, low, high)
+    else:
+        jump[fast] = _robust_thresholds_known(seen.T[fast], known.T[fast], threshold, low, high)
+    return jump, largest
+
+
+def _robust_thresholds_known(steps, known, threshold: float, low: float, high: float):
+    """:func:`robust_thresholds` of the ``known`` steps of each row only (C, F-1)."""
+    values = np.where(known, steps, np.nan)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a row without known steps
+        med = np.nanmedian(values, axis=1)
+        mad = np.nanmedian(np.abs(values - med[:, None]), axis=1)
+    return np.nan_to_num(np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high), nan=high)
 
 
 def cut_steps(seen: np.ndarray, jump: np.ndarray, moving: np.ndarray, max_len: int) -> np.ndarray:
@@ -114,10 +149,7 @@ def _take_starts(motion: Motion) -> np.ndarray:
         steps[part] = quat.angle_between(q[part], q[part.start + 1 : part.stop + 1])
     dt = motion.frame_time
     low, high = np.radians(MIN_DEG_PER_S) * dt, np.radians(MAX_DEG_PER_S) * dt
-    largest = steps.max(axis=0)
-    fast = np.flatnonzero(largest > low)  # (the others' thresholds are the floor)
-    jump = np.full(steps.shape[1], low)
-    jump[fast] = robust_thresholds(steps.T[fast], JUMP_THRESHOLD, low, high)
+    jump, largest = jump_thresholds(steps, JUMP_THRESHOLD, low, high)
     moving = np.flatnonzero(largest > 0.0)  # every joint that moves has a say
     longest = max(1, min(frames_floor(LONGEST_SPIKE_S / dt), q.shape[0] - 2))
     return np.flatnonzero(cut_steps(steps, jump, moving, longest)) + 1 + lead

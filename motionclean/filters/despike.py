@@ -103,7 +103,14 @@ import numpy as np
 from ..core import checks, quat
 from ..core.motion import hold_missing, missing_before
 from ..core.rates import frames_floor
-from ..core.takes import MAD_TO_SIGMA, cut_steps, robust_thresholds
+from ..core.takes import (
+    JUMP_THRESHOLD,
+    LONGEST_SPIKE_S,
+    MAX_DEG_PER_S,
+    MIN_DEG_PER_S,
+    cut_steps,
+    jump_thresholds,
+)
 
 __all__ = [
     "DespikeReport",
@@ -814,18 +821,10 @@ def _repair(
         blind = missing[:-1] | missing[1:]
     steps = metric.dist(x[:-1], x[1:])
     seen = steps if blind is None else np.where(blind, 0.0, steps)
-    before = seen.max(axis=0)
     cap = limits.high * frame_time
-    jump = np.full(n_cols, limits.low * frame_time)  # the floor: no jump where no step exceeds it
-    moving = np.flatnonzero(before > jump)
-    if blind is None:
-        jump[moving] = robust_thresholds(
-            seen.T[moving], limits.threshold, limits.low * frame_time, cap
-        )
-    else:
-        jump[moving] = _robust_threshold_known(
-            seen.T[moving], ~blind.T[moving], limits.threshold, limits.low * frame_time, cap
-        )
+    jump, before = jump_thresholds(
+        seen, limits.threshold, limits.low * frame_time, cap, None if blind is None else ~blind
+    )
     cuts = cut_steps(seen, jump, np.flatnonzero(before > 0.0), limits.max_len)
     out = x.copy()
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
@@ -911,17 +910,6 @@ def _slack(missing, seen, blind) -> np.ndarray:
         typical = np.nanquantile(np.where(blind, np.nan, seen), DROPOUT_STEP_QUANTILE, axis=0)
     turn = np.minimum(np.nan_to_num(typical) * span, DROPOUT_TURN_MAX)
     return np.where(across & (last[:-1] >= 0), turn, 0.0)
-
-
-def _robust_threshold_known(steps, known, threshold: float, low: float, high: float):
-    """:func:`~motionclean.core.takes.robust_thresholds` of the ``known`` steps of each row
-    only (C, F-1)."""
-    values = np.where(known, steps, np.nan)
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # a row without known steps
-        med = np.nanmedian(values, axis=1)
-        mad = np.nanmedian(np.abs(values - med[:, None]), axis=1)
-    return np.nan_to_num(np.clip(med + threshold * MAD_TO_SIGMA * mad, low, high), nan=high)
 
 
 def _clear_of(missing, first, length, col):
@@ -1059,10 +1047,10 @@ def despike_with_report(
     q: np.ndarray,
     frame_time: float,
     *,
-    threshold: float = 8.0,
-    min_deg_per_s: float = 600.0,
-    max_deg_per_s: float = 3600.0,
-    max_spike_s: float = 0.07,
+    threshold: float = JUMP_THRESHOLD,
+    min_deg_per_s: float = MIN_DEG_PER_S,
+    max_deg_per_s: float = MAX_DEG_PER_S,
+    max_spike_s: float = LONGEST_SPIKE_S,
     trend_ratio: float = 3.0,
     max_run: int | None = None,
     flip_deg: float = 150.0,
@@ -1153,10 +1141,10 @@ def despike_positions_with_report(
     p: np.ndarray,
     frame_time: float,
     *,
-    threshold: float = 8.0,
+    threshold: float = JUMP_THRESHOLD,
     min_units_per_s: float = 0.0,
     max_units_per_s: float = np.inf,
-    max_spike_s: float = 0.07,
+    max_spike_s: float = LONGEST_SPIKE_S,
     trend_ratio: float = 3.0,
     max_run: int | None = None,
     method: str = "cubic",
