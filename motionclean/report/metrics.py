@@ -43,14 +43,17 @@ BLOCK_FRAMES = 1024
 
 
 def angular_acceleration(
-    q: np.ndarray, frame_time: float, missing: np.ndarray | None = None
+    q: np.ndarray,
+    frame_time: float,
+    missing: np.ndarray | None = None,
+    starts: np.ndarray | None = None,
 ) -> np.ndarray:
     """``(F-2, ...)`` angular acceleration magnitudes in degrees of rotation per s^2.
 
     ``2 |w_i - w_{i-1}| / dt^2`` for interior frames ``i = 1 .. F-2`` (000 Sec. VI-B), with
     ``w_i`` the shorter-arc displacement ``log(+-q_i^-1 q_{i+1})`` (the signs of ``q`` do not
     matter), computed block by block; NaN where the three frames include a ``missing``
-    ``(F, ...)`` sample.
+    ``(F, ...)`` sample or lie on both sides of a cut (:func:`left_out`).
     """
     q = np.asarray(q, dtype=np.float64)
     n = q.shape[0]
@@ -67,14 +70,18 @@ def angular_acceleration(
         np.degrees(here, out=here)
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
-    return left_out(out, missing)
+    return left_out(out, missing, starts)
 
 
 def linear_acceleration(
-    p: np.ndarray, frame_time: float, missing: np.ndarray | None = None
+    p: np.ndarray,
+    frame_time: float,
+    missing: np.ndarray | None = None,
+    starts: np.ndarray | None = None,
 ) -> np.ndarray:
     """``(F-2, ...)`` magnitudes of ``(p_{i+1} - 2 p_i + p_{i-1}) / dt^2`` (length units/s^2);
-    NaN where the three frames include a ``missing`` ``(F, ...)`` sample."""
+    NaN where the three frames include a ``missing`` ``(F, ...)`` sample or lie on both
+    sides of a cut (:func:`left_out`)."""
     p = np.asarray(p, dtype=np.float64)
     if p.shape[0] < 3:
         return np.zeros((0, *p.shape[1:-1]))
@@ -86,7 +93,7 @@ def linear_acceleration(
         out[rows] /= frame_time**2
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), p.size)
-    return left_out(out, missing)
+    return left_out(out, missing, starts)
 
 
 def _pairwise(measure, a: np.ndarray, b: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
@@ -109,11 +116,16 @@ def distance(a: np.ndarray, b: np.ndarray, missing: np.ndarray | None = None) ->
     return _pairwise(lambda p, q: np.linalg.norm(q - p, axis=-1), a, b, missing)
 
 
-def left_out(accel: np.ndarray, missing: np.ndarray | None) -> np.ndarray:
+def left_out(
+    accel: np.ndarray, missing: np.ndarray | None, starts: np.ndarray | None = None
+) -> np.ndarray:
     """``accel`` ``(F-2, ...)`` with NaN (in place) where its three frames include a
-    ``missing`` ``(F, ...)`` sample."""
+    ``missing`` ``(F, ...)`` sample or lie on both sides of a cut between takes (``starts``:
+    each new take's first frame)."""
     if missing is not None and accel.shape[0]:
         accel[missing[:-2] | missing[1:-1] | missing[2:]] = np.nan
+    if starts is not None and starts.size:
+        accel[rows_across_cuts(starts, accel.shape[0] + 2)] = np.nan
     return accel
 
 

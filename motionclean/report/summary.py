@@ -27,7 +27,7 @@ from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
-from .metrics import known, pair, rms_and_max, rows_across_cuts
+from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
 from .verdict import build_verdict
 from .world import (
@@ -103,14 +103,14 @@ def build_series(
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
     missing = _missing(before, after, cols)
-    across = rows_across_cuts(take_starts(before), before.n_frames)
+    starts = take_starts(before)
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
             outside[key] = None
             return None
-        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing)
-        table[across] = np.nan  # rows across a cut between takes: left out, drawn as gaps
+        # (rows across a cut between takes: left out, drawn as gaps)
+        table = metrics.angular_acceleration(clip.rotations[:, cols], dt, missing, starts)
         outside[key] = _outside(table, lead, trail, accel_rows)
         return _reduced(table, lead, trail)
 
@@ -164,9 +164,11 @@ def noise_figures(motion: Motion) -> _Reduced:
     frames and rows next to a missing sample left out)."""
     cols = np.flatnonzero(motion.layout.has_rotation)
     table = metrics.angular_acceleration(
-        motion.rotations[:, cols], motion.frame_time, _missing(motion, None, cols)
+        motion.rotations[:, cols],
+        motion.frame_time,
+        _missing(motion, None, cols),
+        take_starts(motion),
     )
-    table[rows_across_cuts(take_starts(motion), motion.n_frames)] = np.nan
     return _reduced(table, *rest_frames(motion), drawn=False)
 
 
@@ -279,18 +281,21 @@ def _rotation_figures(series: dict, names: list[str], cleaned: bool) -> dict:
     return figures
 
 
-def _position_figures(before: Motion, after: Motion | None, joints: np.ndarray) -> dict:
+def _position_figures(
+    before: Motion, after: Motion | None, joints: np.ndarray, starts: np.ndarray
+) -> dict:
     """Per joint with position channels: linear acceleration RMS/max (length units/s^2)
     before and after, and the deviation from the input (length units) when cleaned; rows
-    that involve a missing sample of either clip are left out of both, as for rotations."""
+    that involve a missing sample of either clip, or lie across a cut between takes
+    (``starts``), are left out of both, as for rotations."""
     dt = before.frame_time
     missing = _missing(before, after, joints)
     lrms_b, lmax_b = rms_and_max(
-        metrics.linear_acceleration(before.translations[:, joints], dt, missing)
+        metrics.linear_acceleration(before.translations[:, joints], dt, missing, starts)
     )
     if after is not None:
         lrms_a, lmax_a = rms_and_max(
-            metrics.linear_acceleration(after.translations[:, joints], dt, missing)
+            metrics.linear_acceleration(after.translations[:, joints], dt, missing, starts)
         )
         moved = metrics.distance(
             before.translations[:, joints], after.translations[:, joints], missing
@@ -378,7 +383,10 @@ def build_report(
     core_after = None if after is None else trim(after, lead, trail)
     joints = _rotation_figures(series, list(series["joints"]), cleaned)
     positions = _position_figures(
-        core_before, core_after, np.flatnonzero(before.layout.has_position)
+        core_before,
+        core_after,
+        np.flatnonzero(before.layout.has_position),
+        take_starts(before) - lead,
     )
     for name, entry in positions.items():
         joints.setdefault(name, {}).update(entry)

@@ -77,13 +77,14 @@ def _unknown(motion: Motion, index: np.ndarray) -> np.ndarray:
     return points[:, index]
 
 
-def _effectors(accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray, across: np.ndarray):
+def _effectors(
+    accel: np.ndarray, columns: np.ndarray, unknown: np.ndarray, starts: np.ndarray | None
+):
     """RMS and max over frames of the ``columns`` of ``(F-2, P)`` accelerations, leaving
     out the rows whose three frames include an ``unknown`` ``(F, len(columns))`` position
-    and the rows ``across`` a cut between takes."""
+    or lie across a cut between takes (``starts``, :func:`metrics.left_out`)."""
     accel = accel.take(columns, axis=1)  # C order, as the sums below expect
-    accel[across] = np.nan
-    return rms_and_max(metrics.left_out(accel, unknown))
+    return rms_and_max(metrics.left_out(accel, unknown, starts))
 
 
 def world_figures(
@@ -113,15 +114,12 @@ def world_figures(
     unknown = _unknown(before, index)
     if after is not None:
         unknown |= _unknown(after, index)
-    across = metrics.rows_across_cuts(
-        np.zeros(0, np.intp) if starts is None else starts, before.n_frames
-    )
     points_b = _positions(before, points[0], used)
-    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown, across)
+    rms_b, max_b = _effectors(metrics.linear_acceleration(points_b, dt), columns, unknown, starts)
     if after is not None:
         points_a = _positions(after, points[1], used)
         rms_a, max_a = _effectors(
-            metrics.linear_acceleration(points_a, dt), columns, unknown, across
+            metrics.linear_acceleration(points_a, dt), columns, unknown, starts
         )
         moved = metrics.distance(points_b, points_a).take(columns, axis=1)
         moved[unknown] = np.nan

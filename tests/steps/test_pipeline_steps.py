@@ -598,19 +598,22 @@ def test_takes_joined_end_to_end_are_cleaned_each_on_its_own(tmp_path, capsys):
     assert code == 0 and "takes: 2 joined end to end, the second at frame 150" in out
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["take_starts"] == [150]
-    peaks, runs = [], []  # each take's, not the cut's jump; contacts found take by take
+    peaks, roots, runs = [], [], []  # each take's, not the cut's jump; contacts take by take
     for k, take in enumerate(takes):
         mc.save(take, tmp_path / f"take{k}.bvh")
         run_cli(capsys, "clean", tmp_path / f"take{k}.bvh", "-o", tmp_path / f"c{k}.bvh",
                 "--report", tmp_path / f"r{k}.json", "-q")  # fmt: skip
         alone_report = json.loads((tmp_path / f"r{k}.json").read_text())
         peaks.append(alone_report["world"]["effectors"]["LeftToe_end"]["linear_accel_max"])
+        roots.append(alone_report["joints"]["Hips"]["linear_accel_max"])
         contacts = alone_report["contacts"]["feet"]["LeftAnkle"]["contacts"]
         runs += [[a + 150 * k, b + 150 * k] for a, b in contacts]
     assert report["contacts"]["feet"]["LeftAnkle"]["contacts"] == runs
     joined_peak = report["world"]["effectors"]["LeftToe_end"]["linear_accel_max"]
+    joined_root = report["joints"]["Hips"]["linear_accel_max"]  # the root's channels too
     for when in ("before", "after"):
         assert joined_peak[when] == pytest.approx(max(p[when] for p in peaks), rel=1e-9)
+        assert joined_root[when] == pytest.approx(max(p[when] for p in roots), rel=1e-9)
     assert not report["joints"]["Hips"].get("despike", {}).get("unflipped")
     held = report["joints"]["LeftAnkle"]["footlock"]  # both takes' contacts, counted
     assert held["frames"] == sum(b - a for a, b in held["contacts"])
