@@ -15,7 +15,7 @@ import click
 from ..core.errors import MotionError, UsageError
 from ..core.motion import UP_AXES
 from ..filters.auto import SOURCES
-from ..io import FORMATS, ReadOptions
+from ..io import FORMATS, ReadOptions, smpl
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
@@ -51,7 +51,7 @@ def read_options(command):
     options = (
         click.option(
             "--input-fps",
-            type=FiniteRange(min=0.1, max=100000.0),
+            type=FiniteRange(min=smpl.MIN_RATE, max=smpl.MAX_RATE),
             metavar="RATE",
             help="Frame rate of .npz/.pkl SMPL clips whose files state none (video pose "
             "estimators' pickles: 30 assumed without it); a rate the file states is taken.",

@@ -57,8 +57,10 @@ from .text import MAX_MAGNITUDE, within_magnitude
 ROTATION = ("Zrotation", "Yrotation", "Xrotation")
 #: Keys of the frame rate, in the order they are looked for.
 RATE_KEYS = ("mocap_framerate", "mocap_frame_rate", "fps", "frame_rate", "framerate")
-#: Frame rate taken when the record has none (video pose estimators run at 30 fps).
+#: Frame rate taken when the record has none (video pose estimators run at 30 fps), and
+#: the rates a record may state or be given (frames per second).
 DEFAULT_RATE = 30.0
+MIN_RATE, MAX_RATE = 0.1, 100000.0
 #: Keys of the whole pose, and of the root translation, in the order they are looked for
 #: (WHAM's world-grounded ``pose_world`` / ``trans_world`` before its camera-frame ones).
 POSE_KEYS = ("pose_world", "poses", "pose", "smpl_poses", "fullpose")
@@ -294,6 +296,8 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
     second) where it states none, else :data:`DEFAULT_RATE`; and a note of the rate taken
     when it was not the record's, or of ``given`` not taken."""
     key = _first(record, RATE_KEYS)
+    if given is not None and not (MIN_RATE <= given <= MAX_RATE):  # (the library's callers)
+        raise ValueError(f"frame_rate must be from {MIN_RATE:g} to {MAX_RATE:g}, got {given}")
     if key is None and given is not None:
         return 1.0 / given, f"no frame rate in the file; {given:g} fps as given"
     if key is None:
@@ -305,10 +309,10 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
         rate = float(value.reshape(-1)[0]) if value.size == 1 else float("nan")
     except (TypeError, ValueError):
         rate = float("nan")
-    if not (0.1 <= rate <= 100000.0):
+    if not (MIN_RATE <= rate <= MAX_RATE):
         raise MotionError(
             f"{key}: frame rate {value.ravel()[:3].tolist()} is not a number of frames per "
-            "second from 0.1 to 100000",
+            f"second from {MIN_RATE:g} to {MAX_RATE:g}",
             path,
         )
     if given is not None and given != rate:
