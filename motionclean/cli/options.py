@@ -140,27 +140,27 @@ def refuse_overwrite(
     target: str | Path, inputs: Inputs, hint: str = "write to another file"
 ) -> None:
     """Refuse ``target`` when it is one of ``inputs``: the same file through symbolic links
-    or another hard link (:func:`os.path.samefile`)."""
-    for given in inputs:
-        if given is not None and _same_file(given, target):
-            raise UsageError(f"{target}: refusing to overwrite the input {given}; {hint}")
+    or another hard link (:func:`refuse_shared`'s keys), saying ``hint``."""
+    refuse_shared([target], [given for given in inputs if given is not None], hint)
 
 
-def refuse_shared(outputs: Sequence[str | Path], inputs: Sequence[str | Path] = ()) -> None:
+def refuse_shared(
+    outputs: Sequence[str | Path],
+    inputs: Sequence[str | Path] = (),
+    hint: str = "write to another file",
+) -> None:
     """Refuse outputs of one command that are one file, by the same path or through a
     symbolic or hard link: the last written would replace the others; and outputs that are
     one of ``inputs`` (e.g. a batch's clips, any of which an output may be a hard link
-    of). One pass over each, keyed by real path and, where the file exists, its device
-    and inode."""
+    of; ``hint`` says what to do). One pass over each, keyed by real path and, where the
+    file exists, its device and inode."""
     read = {key: path for path in inputs for key in _file_keys(path)}
     seen: dict[tuple, str | Path] = {}
     for path in outputs:
         keys = _file_keys(path)
         for key in keys:
             if key in read:
-                raise UsageError(
-                    f"{path}: refusing to overwrite the input {read[key]}; write to another file"
-                )
+                raise UsageError(f"{path}: refusing to overwrite the input {read[key]}; {hint}")
             if key in seen:
                 raise UsageError(f"{path}: the same file as {seen[key]}; give each output its own")
         seen.update(dict.fromkeys(keys, path))
@@ -176,13 +176,6 @@ def _file_keys(path: str | Path) -> list[tuple]:
     else:
         keys.append(("inode", status.st_dev, status.st_ino))
     return keys
-
-
-def _same_file(a: str | Path, b: str | Path) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:  # one of them does not exist (or cannot be looked at)
-        return False
 
 
 def check_target(path: str | Path, inputs: Inputs = ()) -> Path:
