@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -21,6 +23,20 @@ def run(args, capsys):
 def test_version(capsys):
     code, out, _ = run(["--version"], capsys)
     assert code == 0 and mc.__version__ in out
+
+
+def test_python_dash_m_runs_the_command_line():
+    """``python -m motionclean`` is the same program, named ``motionclean`` in its messages."""
+    done = subprocess.run(
+        [sys.executable, "-m", "motionclean", "info", "missing.bvh"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        check=False,
+    )
+    assert done.returncode == 1 and done.stdout == ""
+    assert done.stderr.startswith("motionclean: error: missing.bvh")
+    assert done.stderr.count("\n") == 1
 
 
 def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
