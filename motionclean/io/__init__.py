@@ -8,7 +8,9 @@ VRM animations, which are GLB files), and
 
 from __future__ import annotations
 
+import functools
 import os
+import stat
 import tempfile
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
@@ -100,7 +102,7 @@ def load(
         if suffix == ".bvh":
             motion = bvh.parse_bvh(data, path)
         elif suffix in (".npz", ".pkl"):
-            model = None if body_model is None else smpl.read_body_model(body_model)
+            model = None if body_model is None else read_once(smpl.read_body_model, body_model)
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
             motion = parse(data, path, skeleton=skeleton, body_model=model, frame_rate=frame_rate)
         elif suffix in (".mot", ".sto"):
@@ -145,8 +147,9 @@ class ReadOptions:
         return tuple(path for path in (self.skeleton, self.body_model) if path is not None)
 
     def load(self, path: str | os.PathLike) -> Motion:
-        """:func:`load` of ``path`` with these options."""
-        template = load(self.skeleton) if self.skeleton else None
+        """:func:`load` of ``path`` with these options (the skeleton and body model read
+        once for every clip while their files stay the same, :func:`read_once`)."""
+        template = read_once(load, self.skeleton) if self.skeleton else None
         return load(
             path,
             skeleton=template,
@@ -154,6 +157,27 @@ class ReadOptions:
             exclude=self.exclude,
             frame_rate=self.frame_rate,
         )
+
+
+def read_once(read: Callable[[str], object], path: str | os.PathLike):
+    """``read(path)``, kept for the next call while the file stays the same regular file
+    (device, inode, size, modification and change times) and is named the same way: a
+    batch worker reads the skeleton or body model it cleans every clip with once. Use the
+    result read-only."""
+    try:
+        info = os.stat(path)
+    except OSError:  # read as usual: that read says what is wrong
+        return read(str(path))
+    if not stat.S_ISREG(info.st_mode):
+        return read(str(path))
+    identity = (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns, info.st_ctime_ns)
+    return _read_cached(read, str(path), identity)
+
+
+@functools.lru_cache(maxsize=4)
+def _read_cached(read: Callable[[str], object], path: str, identity: tuple):
+    del identity  # (part of the key only)
+    return read(path)
 
 
 #: Suffixes of the text formats, and how many of their first bytes tell their line ends.

@@ -196,6 +196,22 @@ def test_clean_command_on_a_channel_csv(tmp_path):
     assert not np.array_equal(before[1], after[1])
 
 
+def test_a_skeleton_read_once_is_read_again_when_its_file_changes(tmp_path):
+    """ReadOptions keeps the skeleton between clips, but never a copy its file no longer
+    holds: a rig edited (even to the same size) gives the next clip its new offsets."""
+    shutil.copy(SAMPLE, tmp_path / "rig.bvh")
+    mc.save(mc.load(SAMPLE), tmp_path / "clip.csv")
+    read = mc.io.ReadOptions(skeleton=str(tmp_path / "rig.bvh"))
+    first, again = read.load(tmp_path / "clip.csv"), read.load(tmp_path / "clip.csv")
+    np.testing.assert_array_equal(first.offsets, again.offsets)
+    text = (tmp_path / "rig.bvh").read_text()
+    assert "OFFSET 1.24777 " in text
+    (tmp_path / "rig.bvh").write_text(text.replace("OFFSET 1.24777 ", "OFFSET 9.99999 ", 1))
+    edited = read.load(tmp_path / "clip.csv")
+    assert not np.array_equal(edited.offsets, first.offsets)
+    np.testing.assert_array_equal(edited.offsets, mc.load(tmp_path / "rig.bvh").offsets)
+
+
 def test_frame_time_change_rewrites_the_time_column(tmp_path):
     mc.save(mc.load(SAMPLE), tmp_path / "clip.csv")
     flat = mc.load(tmp_path / "clip.csv")
