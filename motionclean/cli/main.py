@@ -26,7 +26,7 @@ from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
-from ..io import ReadOptions, atomic_write, load, save
+from ..io import ReadOptions, atomic_write, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
 from ..report.summary import (
@@ -517,8 +517,15 @@ def _detail_weights(text: str) -> list[float]:
     help="Weight of SECOND per detail level (0 to 1, as --weight), finest first, e.g. '0,0.5'.",
 )
 @LEVELS_OPTION
+@read_options
 def blend(
-    first: str, second: str, output: str, weight: float, detail_weights: str | None, levels: int
+    first: str,
+    second: str,
+    output: str,
+    weight: float,
+    detail_weights: str | None,
+    levels: int,
+    read: ReadOptions,
 ) -> None:
     """Blend two time-aligned clips level by level (003 Eq. 20)."""
     weights = _detail_weights(detail_weights) if detail_weights else None
@@ -527,8 +534,8 @@ def blend(
             f"--detail-weights: {len(weights)} weights for --levels {levels}: give at most "
             "one per level"
         )
-    check_clip_output(output, (first, second))
-    a, b = load(first), load(second)
+    check_clip_output(output, (first, second, *read.files))
+    a, b = read.load(first), read.load(second)
     try:
         blended = blend_clips(a, b, levels, weight, weights)
     except ValueError as error:
@@ -548,8 +555,15 @@ def blend(
     "(horizontal position and heading).",
 )
 @UP_OPTION
+@read_options
 def stitch(
-    first: str, second: str, output: str, levels: int, no_align: bool, up: str | None
+    first: str,
+    second: str,
+    output: str,
+    levels: int,
+    no_align: bool,
+    up: str | None,
+    read: ReadOptions,
 ) -> None:
     """Join the end of FIRST to the start of SECOND, each band over its own width (003 Eq. 21).
 
@@ -557,8 +571,8 @@ def stitch(
     and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
     - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
     """
-    check_clip_output(output, (first, second))
-    a, b = with_up(load(first), up), with_up(load(second), up)
+    check_clip_output(output, (first, second, *read.files))
+    a, b = with_up(read.load(first), up), with_up(read.load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
 
 

@@ -75,6 +75,9 @@ class BvhText:
     lengths: np.ndarray  # (F, C) unsigned
     frame_time: float  # the Frame Time value as read
     eol: bytes  # line ending of the MOTION header, used for regenerated headers
+    #: (F, C) bool: cells whose text is not the value the clip read (a channel CSV read
+    #: into this file as its template), written afresh; None: every text is the value read.
+    other_text: np.ndarray | None = None
 
     @property
     def n_frames(self) -> int:
@@ -729,7 +732,13 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         and src.n_channels == motion.layout.n_channels
     )
     same_head = same_hierarchy and same_frame_time  # the file's text up to the rows
-    if src is not None and same_frames and same_head and _unchanged(motion):
+    if (
+        src is not None
+        and same_frames
+        and same_head
+        and src.other_text is None
+        and _unchanged(motion)
+    ):
         return pieces(src.raw)
     values = motion.channel_values()
     check_finite(motion, values)
@@ -755,6 +764,8 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         return [hierarchy, motion_header]
     if src is not None and same_frames and motion.source_values is not None:
         changed = _changed(values, motion.source_values)
+        if src.other_text is not None:
+            changed |= src.other_text
         if not changed.any() and same_head:
             return pieces(src.raw)
         if keep_header and same_hierarchy:  # the file up to the rows is unchanged

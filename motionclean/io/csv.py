@@ -28,7 +28,8 @@ rotation columns (all three or none) give its Euler order, as in BVH ``CHANNELS`
   columns must follow the template's order). The clip takes the template's hierarchy. It is
   an edit of the template: values equal to the template's keep its text, so an unchanged
   CSV gives back the template file byte for byte, and changed values are written like any
-  edited BVH value (six decimals).
+  edited BVH value (six decimals). The values read are the CSV's: a written angle
+  continues the CSV's own Euler curve, never the template's (another take of the rig).
 - Without a template, the skeleton is flat: each joint becomes a root with a zero offset
   and the channels of its columns. ``info``, ``clean`` and ``report`` work and CSV output
   keeps the columns, but writing BVH needs ``--skeleton`` (a clear error says so): the
@@ -71,7 +72,7 @@ import csv as _csv
 import io as _io
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple, NoReturn
 
 import numpy as np
@@ -587,9 +588,13 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             and template.n_frames == motion.n_frames
             and frame_time == template.frame_time
         ):
-            motion.source = template
-            motion.source_values = skeleton.source_values
-            motion.source_rotations = skeleton.source_rotations
+            other_text = values != skeleton.source_values  # (an edit, or another clip)
+            if other_text.any():  # the values read stay the clip's: its Euler branches
+                motion.source = replace(template, other_text=other_text)
+            else:
+                motion.source = template
+                motion.source_values = skeleton.source_values
+                motion.source_rotations = skeleton.source_rotations
         else:
             motion.source = BvhText.hierarchy_only(template)
     return motion

@@ -273,3 +273,21 @@ def test_blending_clips_without_frames_is_a_data_error_naming_the_file(tmp_path,
         f"motionclean: error: {empty}: cannot blend a clip without frames"
     ]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["blend", "stitch"])
+def test_blend_and_stitch_read_channel_csvs_with_their_skeleton(clips, tmp_path, capsys, command):
+    """Channel CSVs hold no skeleton: `--skeleton` gives them one, as for clean; without it
+    a BVH output is refused in one line and nothing is written."""
+    csvs = []
+    for clip in clips:
+        csvs.append(tmp_path / f"{clip.stem}.csv")
+        mc.save(mc.load(clip), csvs[-1])
+    out = tmp_path / "out.bvh"
+    code, _, err = run_cli(capsys, command, *csvs, "-o", out)
+    assert code == 1 and "--skeleton" in err and err.count("\n") == 1 and not out.exists()
+    code, _, err = run_cli(capsys, command, *csvs, "-o", out, "--skeleton", clips[0])
+    assert code == 0, err
+    with_rig = run_cli(capsys, command, *clips, "-o", tmp_path / "direct.bvh")
+    assert with_rig[0] == 0
+    assert out.read_bytes() == (tmp_path / "direct.bvh").read_bytes()
