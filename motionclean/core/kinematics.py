@@ -443,10 +443,10 @@ def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int
     Found from the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the
     rest pose alone (a T-pose's arm span equals its height): where the skeleton has a trunk
     (:func:`trunk_split`: an upper body above the legs), the axis the vector from the legs'
-    centroid to the upper body's points along on average (the feet are below the head),
-    and which way; otherwise the axis of the largest median extent of a frame's points
-    (sign +1: nothing tells which end is up). Both are the same answer on a turned copy of
-    the clip (a Z-up export of a Y-up one).
+    centroid to the spine and head (:func:`spine`: no arm or finger) is along on average
+    (the feet are below the head), and which way; otherwise the axis of the largest median
+    extent of a frame's points (sign +1: nothing tells which end is up). Both are the same
+    answer on a turned copy of the clip (a Z-up export of a Y-up one).
     """
     if override is None:
         override = motion.up
@@ -461,10 +461,11 @@ def _found_up(motion: Motion) -> tuple[int, float]:
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None
-    split = trunk_split(point_parents(motion))
+    parents = point_parents(motion)
+    split = trunk_split(parents)
     if split is not None and known is None:
         upper, lower = split
-        along = poses[:, upper].mean(axis=1) - poses[:, lower].mean(axis=1)
+        along = poses[:, spine(parents, upper)].mean(axis=1) - poses[:, lower].mean(axis=1)
         length = np.linalg.norm(along, axis=-1, keepdims=True)
         mean = (along / np.where(length > 0.0, length, 1.0)).mean(axis=0)
         if np.abs(mean).max() > 0.0:
@@ -581,6 +582,25 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     lower = [p for k, t in enumerate(subtrees) if k != top for p in t]
     return np.array(subtrees[top], dtype=np.intp), np.array(lower, dtype=np.intp)
+
+
+def spine(parents: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The spine and head of an upper body (:func:`trunk_split`), whose places no arm or
+    finger moves: its points from the one below the pelvis down the single-child chain to
+    the first with several children (the chest, where the neck and arms part), and the
+    smallest of the chest's branches when one is smaller than every other (the neck and
+    head: an arm holds at least a shoulder, elbow and wrist). Point indices."""
+    children = child_lists(parents)
+    inside = set(upper.tolist())
+    point = next(p for p in upper.tolist() if parents[p] not in inside)
+    chain = [point]
+    while len(children[point]) == 1:
+        point = children[point][0]
+        chain.append(point)
+    branches = sorted((subtree(children, c) for c in children[point]), key=len)
+    if len(branches) >= 2 and len(branches[0]) < len(branches[1]):
+        chain += branches[0]
+    return np.array(chain, dtype=np.intp)
 
 
 def child_lists(parents: np.ndarray) -> list[list[int]]:

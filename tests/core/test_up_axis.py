@@ -112,6 +112,32 @@ def test_a_rest_that_lays_every_bone_along_another_axis_gives_no_height():
     assert _world(turned_copy(line, TO_Z)) == (feet, "z", pytest.approx(height))
 
 
+@pytest.mark.parametrize("bow", [60.0, 90.0])
+def test_a_kneeling_bow_with_the_hands_forward_still_stands_up(bow):
+    """Fingers are most of a Mixamo upper body's points: reaching forward in a kneeling bow
+    (OpenCollar's display pose), their centroid is ahead of the legs, not above them; the
+    spine and head are still above (the up axis had come out x). Also on a Z-up copy."""
+    motion = mc.load(EXPORTERS / "mixamo_tpose.bvh")
+    q = motion.rotations.copy()
+
+    def turn(joint: str, axis: int, degrees: float) -> None:
+        j = motion.names.index(f"mixamorig:{joint}")
+        q[:, j] = quat.multiply(q[:, j], quat.from_axis_angle(np.eye(3)[axis], np.radians(degrees)))
+
+    turn("Spine", 0, bow)
+    turn("LeftArm", 1, -90.0)
+    turn("RightArm", 1, 90.0)
+    for side in ("Left", "Right"):
+        turn(f"{side}UpLeg", 0, -20.0)
+        turn(f"{side}Leg", 0, 110.0)
+    kneeling = motion.replace(rotations=q, source_values=None, source_rotations=None)
+    world = kinematics.world_positions(kneeling)[0]
+    reach = world[motion.names.index("mixamorig:LeftHand")] - world[0]
+    assert np.hypot(reach[0], reach[2]) > 20.0  # the hands well ahead of the hips
+    assert kinematics.up_name(kneeling) == "y"
+    assert kinematics.up_name(z_up_copy(kneeling)) == "z"
+
+
 def test_a_hand_or_legs_alone_have_no_trunk_and_stand_by_their_extent():
     motion = mc.load(SAMPLE)
     assert kinematics.trunk_split(kinematics.point_parents(motion)) is not None
