@@ -210,7 +210,11 @@ def info(
             click.echo(f"  {line}")
     for line in _dropout_lines(motion):
         click.echo(line)
-    steps, at = metrics.largest_steps(motion.rotations, motion.missing)
+    core = slice(lead, motion.n_frames - trail)  # (rest frames: out of every figure)
+    steps, at = metrics.largest_steps(
+        motion.rotations[core], None if motion.missing is None else motion.missing[core]
+    )
+    at += lead
     rotating = layout.has_rotation  # computed once: a property of the whole layout
     acc = noise_figures(motion)  # the report's figures (rest frames and dropouts left out)
     acc_rms = np.zeros(motion.n_joints)

@@ -13,6 +13,7 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
+from ..core.restpose import rest_frames, trim
 from ..core.takes import take_spans, take_starts
 from ..steps.base import plural
 from . import metrics
@@ -174,7 +175,42 @@ def contact_figures(
     along the up axis at their centre, its tilt from level (degrees) and normal, and how
     many contacts it rests on (None without contacts). ``points`` and ``used`` as in
     :func:`world_figures`.
+
+    Rest-pose frames at the clip's ends (:func:`~motionclean.core.restpose.rest_frames`)
+    are left out, as from every figure: no contact, depth or ground is found on them, and
+    the height series hold NaN there (a T-pose header frame can stand far off the floor).
     """
+    lead, trail = rest_frames(before)
+    if not lead and not trail:
+        return _contact_figures(before, after, points, used)
+    core = slice(lead, before.n_frames - trail)
+    section, series = _contact_figures(
+        trim(before, lead, trail),
+        None if after is None else trim(after, lead, trail),
+        [None if p is None else p[core] for p in (points or [None, None])],
+        used,
+    )
+    if section is None:
+        return section, series
+    for foot in section["feet"].values():
+        foot["contacts"] = [[first + lead, stop + lead] for first, stop in foot["contacts"]]
+    for data in series.values():
+        data["contacts"] = [(first + lead, stop + lead) for first, stop in data["contacts"]]
+        for key in ("height_before", "height_after"):
+            if data[key] is not None:
+                padded = np.full(before.n_frames, np.nan)
+                padded[core] = data[key]
+                data[key] = padded
+    return section, series
+
+
+def _contact_figures(
+    before: Motion,
+    after: Motion | None,
+    points: list | None,
+    used: np.ndarray | None,
+) -> tuple[dict | None, dict]:
+    """:func:`contact_figures` of a clip without rest-pose frames."""
     skeleton_feet, up, height = found.skeleton_feet(before)
     if not skeleton_feet:
         return None, {}

@@ -48,8 +48,15 @@ def test_info_names_the_rest_frames(tmp_path, capsys):
     code, out, _ = run_cli(capsys, "info", with_t_pose(SAMPLE, tmp_path / "t.bvh"))
     assert code == 0
     assert "rest pose: frame 0 kept as it is" in out
-    code, out, _ = run_cli(capsys, "info", SAMPLE)
-    assert "rest pose:" not in out
+    code, plain, _ = run_cli(capsys, "info", SAMPLE)
+    assert "rest pose:" not in plain
+
+    def steps(text: str) -> dict[str, tuple[str, int]]:  # joint: (largest step, at frame)
+        rows = text[text.index("largest step") :].splitlines()[1:-2]
+        return {row.split()[0]: (row.split()[-4], int(row.split()[-3])) for row in rows}
+
+    # the step out of the T-pose is no step of the motion: the same steps, a frame later
+    assert steps(out) == {name: (step, at + 1) for name, (step, at) in steps(plain).items()}
 
 
 @pytest.mark.parametrize("n_frames", [1190, 1247, 10_000, 100_000])
