@@ -220,7 +220,10 @@ def _panel(
     x_scale = COLUMNS / span
     peak = max((t.peak for t, _, _ in series if t.size), default=0.0)
     robust = max((t.robust for t, _, _ in series if t.size), default=0.0)
-    deepest = min((float(t.low.min()) for t, _, _ in series if t.size), default=0.0)
+    deepest = min(  # (NaN: samples left out, such as a foot's on rest-pose frames)
+        (float(np.nanmin(t.low)) for t, _, _ in series if np.isfinite(t.low).any()),
+        default=0.0,
+    )
     depth = max(-deepest, 0.0) if signed else 0.0
     # A few samples far above the rest (a glitch) would flatten the plot: clip them.
     limit = max(1.2 * robust if peak > SPIKE * robust > 0 else peak, floor)
