@@ -672,9 +672,10 @@ def continuous_euler(
 
     ``reference`` holds the original angles and ``kept`` ``(F, J)`` marks the samples that
     did not change; those keep their original angles bit for bit. A run of changed samples
-    continues from the sample before it (its anchor: a kept sample, the first frame, or a
-    frame that turns more than 90 degrees from the one before; a changed anchor is written
-    as the equivalent triple nearest to its original angles): each frame on the Euler
+    continues from the sample before it (its anchor: a kept sample, the first frame, a
+    frame that turns more than 90 degrees from the one before, or one the input writes on
+    the other Euler solution than the frame before, :func:`_switches`; a changed anchor is
+    written as the equivalent triple nearest to its original angles): each frame on the Euler
     solution nearest the frame before (so a middle angle that passes +-90 degrees goes on
     past it), each angle unwrapped by whole turns toward the previous frame's.
     """
@@ -687,6 +688,34 @@ def continuous_euler(
     for at in range(0, n_frames, BLOCK_FRAMES):
         block = slice(at, at + BLOCK_FRAMES)
         out[block], carry = _continue_block(q[block], order, reference[block], kept[block], carry)
+    return out
+
+
+#: Degrees a read channel steps, whole turns aside, where the input switches Euler solution
+#: (half a turn on two channels at once, as through gimbal lock) rather than moving.
+SWITCH_DEG = 90.0
+
+
+def _switches(reference: np.ndarray, order: str) -> np.ndarray:
+    """``(F, J)`` bool: the frames into which the read angles ``reference`` ``(F, J, 3)``
+    (rotation order ``order``) step by more than :data:`SWITCH_DEG` on a channel, whole
+    turns aside, while the rotation read turns by less than that: the input writes that
+    frame on the other Euler solution. A changed run anchored there (written as the triple
+    nearest the frame's own angles) switches where the input does: continued through, a
+    run crossing gimbal lock arrived at the kept frames after it on the other solution,
+    and the switch moved to the run's start (a hip stepping 167 degrees where the input
+    stepped 13). Frame 0 of the block: no step known, False."""
+    out = np.zeros(reference.shape[:2], dtype=bool)
+    if reference.shape[0] > 1:
+        step = np.diff(reference, axis=0)
+        step -= 360.0 * np.round(step / 360.0)
+        frame, joint = np.nonzero(np.abs(step).max(axis=-1) > SWITCH_DEG)  # (few)
+        turn = quat.angle_between(
+            quat.from_euler(reference[frame, joint], order),
+            quat.from_euler(reference[frame + 1, joint], order),
+        )
+        small = turn < math.radians(SWITCH_DEG)
+        out[frame[small] + 1, joint[small]] = True
     return out
 
 
@@ -705,6 +734,8 @@ def _continue_block(q, order, reference, kept, carry, principal=None, backward=T
     dots[1:] = np.einsum("fji,fji->fj", q[:-1], q[1:])
     leap = np.abs(dots, out=dots) < math.sqrt(0.5)
     is_anchor = kept | leap
+    if backward:  # (angles read: where the input switches solution, the curve does too)
+        is_anchor |= _switches(reference, order)
     if carry is None:
         is_anchor[0] = True  # the clip's first frame
     elif not is_anchor.any():
