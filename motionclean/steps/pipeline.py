@@ -310,12 +310,14 @@ class Pipeline:
         starts = take_starts(motion) - lead  # (frames of ``current``)
         # what the steps so far noted on each take, by joint (a take's own, not the merge)
         by_take: list[dict[str, dict]] = [{} for _ in range(starts.size + 1)]
-        spans = _frame_spans(self.steps, motion, lead)
+        spans, checked = _checked_up_front(self.steps, motion)
         made = _Made(motion)
         logs: list[StepLog] = []
         outer = motion  # the clip whose rest frames surround ``current``
         earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
+            if number > checked:  # after a whole-clip step: the rate it made
+                _check_rate(step, number, current.frame_time, motion.path)
             try:
                 whole_clip = step.spec.keeps_rest and bool(lead or trail) and not starts.size
                 if step.spec.keeps_rest and starts.size:
@@ -360,28 +362,41 @@ class Pipeline:
         return result, logs
 
 
-def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:
-    """Each ranged step's ``(first, last)`` frames (by step number from 1), checked against
-    the clip up front; a range after a whole-clip step is checked against that step's
-    result when it runs."""
+def _checked_up_front(steps: list[Step], motion: Motion) -> tuple[dict[int, tuple[int, int]], int]:
+    """The steps checked against the clip before any runs: each ranged step's ``(first,
+    last)`` frames (by step number from 1) and the parameters that depend on the clip's
+    frame rate (``StepSpec.check_rate``), UsageError naming the step; and the number of
+    the last step checked. Steps after a whole-clip step are checked against that step's
+    result when they run (a new rate, a new frame count)."""
     spans: dict[int, tuple[int, int]] = {}
     for number, step in enumerate(steps, 1):
+        _check_rate(step, number, motion.frame_time, motion.path)
         if step.spec.run_motion is not None:
-            break
+            return spans, number
         if step.span is not None:
             spans[number] = _frame_span(
                 step, number, motion.n_frames, motion.frame_time, motion.path
             )
-    return spans
+    return spans, len(steps)
+
+
+def _where(step: Step, number: int, path: str | None) -> str:
+    """``FILE: step N (name)``: a step in a message (a step listed twice: which one)."""
+    named = f"step {number} ({step.spec.name})"
+    return f"{path}: {named}" if path else named
+
+
+def _check_rate(step: Step, number: int, frame_time: float, path: str | None) -> None:
+    """The step's parameters against a clip of ``frame_time`` seconds per frame."""
+    if step.spec.check_rate is not None:
+        step.spec.check_rate(step.params, frame_time, _where(step, number, path))
 
 
 def _frame_span(
     step: Step, number: int, n_frames: int, frame_time: float, path: str | None
 ) -> tuple[int, int]:
-    named = f"step {number} ({step.spec.name})"  # (a step listed twice: which one)
-    where = f"{path}: {named}" if path else named
     assert step.span is not None
-    return step.span.frame_span(n_frames, frame_time, where)
+    return step.span.frame_span(n_frames, frame_time, _where(step, number, path))
 
 
 def _run_step(
