@@ -214,16 +214,75 @@ STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]\s*(#.*)?$")
 TOML_PLACE = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$", re.DOTALL)
 
 
+#: A ``key = value`` line of a step table: its key, bare or quoted (not dotted).
+TOML_KEY = re.compile(r"""\s*([A-Za-z0-9_-]+|"[^"\\]*"|'[^']*')\s*=""")
+#: What tomllib says of a key given twice in one table.
+TOML_TWICE = "Cannot overwrite a value"
+
+
 def _toml_error(path: Path, message: str, text: str) -> str:
-    """A TOML syntax error of file ``text`` as ``FILE:LINE: invalid TOML: what``."""
+    """A TOML syntax error of file ``text`` as ``FILE:LINE: invalid TOML: what``; a key
+    given twice in a ``[[step]]`` table as ``FILE:LINE: step N (filter): 'key' is given
+    twice ...``, as an inline step's is."""
     place = TOML_PLACE.match(message)
     if place is not None:
         what, line, column = place.groups()
+        if what == TOML_TWICE:
+            twice = _key_given_twice(text.splitlines(), int(line))
+            if twice is not None:
+                return f"{path}:{twice}"
         return f"{path}:{line}: invalid TOML: {what} (column {column})"
     if message.endswith(" (at end of document)"):
         what = message.removesuffix(" (at end of document)")
         return f"{path}:{len(text.splitlines()) or 1}: invalid TOML: {what} (at the end)"
     return f"{path}: invalid TOML: {message}"
+
+
+def _key_given_twice(lines: list[str], line: int) -> str | None:
+    """``LINE: step N (filter): 'key' is given twice ...`` for the key tomllib refused to
+    overwrite at ``line`` (1-based; the end of the value, which may span lines), found as
+    the last ``key =`` line up to it whose key an earlier line of the same ``[[step]]``
+    table gave; None when the line is in no step table or no such key is found (a dotted
+    key, a table given twice: tomllib's own message is said)."""
+    headers = [i for i, text in enumerate(lines[:line]) if STEP_HEADER.match(text)]
+    if not headers:
+        return None
+    table = lines[headers[-1] + 1 : line]
+    keys = [(i, _toml_key(text)) for i, text in enumerate(table)]
+    given = [(i, key) for i, key in keys if key is not None]
+    if not given:
+        return None
+    last, key = given[-1]
+    first = next((i for i, k in given[:-1] if k == key), None)
+    if first is None:
+        return None
+    start = headers[-1] + 2  # the table's first line after its header, 1-based
+    name = next(
+        (_toml_string(text) for i, text in enumerate(table) if keys[i][1] == "filter"), None
+    )
+    step = f"step {len(headers)}" + (f" ({name})" if name else "")
+    return (
+        f"{start + last}: {step}: {key!r} is given twice (first on line {start + first}); "
+        "each key once"
+    )
+
+
+def _toml_key(text: str) -> str | None:
+    """The key of a ``key = value`` line (quotes taken off), None for any other line."""
+    found = TOML_KEY.match(text)
+    if found is None:
+        return None
+    key = found.group(1)
+    return key[1:-1] if key[0] in "\"'" else key
+
+
+def _toml_string(text: str) -> str | None:
+    """The string value of a ``key = "value"`` line, None when it is not one."""
+    try:
+        value = tomllib.loads(text).popitem()[1]
+    except (tomllib.TOMLDecodeError, KeyError):
+        return None
+    return value if isinstance(value, str) else None
 
 
 @dataclass
