@@ -203,6 +203,8 @@ class StepLog:
     unmatched: list[tuple[str, str]]
     # frames a ranged step changed, blends included: (first, stop), file frames
     touched: tuple[int, int] | None = None
+    # a ranged step's range as file frames: (first, last), inclusive (seconds made frames)
+    frames: tuple[int, int] | None = None
     # the clip after the step, rest frames included: the frames its notes number
     n_frames: int = 0
     frame_time: float = 0.0
@@ -534,7 +536,8 @@ def _run_step(
     notes = _named_notes(data, motion.names)
     rotated = [motion.names[i] for i in rot_idx]
     moved_joints = [motion.names[i] for i in pos_idx]
-    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
+    frames = (int(span[0]), int(span[1])) if step.span is not None and span else None
+    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched, frames)
 
 
 def _unmatched(step: Step, names: list[str]) -> list[tuple[str, str]]:
