@@ -156,7 +156,12 @@ def main(argv: list[str] | None = None) -> None:
 @click.version_option(__version__, "--version", prog_name="motionclean")
 @click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
 def cli(debug: bool) -> None:
-    """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
+    """Clean motion-capture clips with coordinate-invariant quaternion filters.
+
+    Reads and writes BVH (.bvh), CSV (.csv: channel, rigid-body or OptiTrack Motive), SMPL
+    parameters (.npz, .pkl), OpenSim motions (.mot, .sto), glTF (.gltf, .glb, .vrma) and FBX
+    (.fbx, through Blender's bpy: the [blender] extra), each written back in its own format.
+    """
     thread_count()  # a bad MOTIONCLEAN_THREADS is refused before any work
 
 

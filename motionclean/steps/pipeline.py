@@ -289,7 +289,25 @@ def _toml_string(text: str) -> str | None:
 
 @dataclass
 class Pipeline:
-    """An ordered list of validated steps."""
+    """An ordered list of validated steps that cleans a :class:`Motion`.
+
+    Build one with :meth:`default` (what ``clean`` runs without ``-p``/``-f``),
+    :meth:`from_toml` (a file of ``[[step]]`` tables), :meth:`from_inline` (``-f`` texts
+    such as ``"lee-shin:k=3,iterations=2"``) or :meth:`from_tables` (dicts). Every step is
+    validated when the pipeline is built (unknown filters and parameters, types, ranges,
+    keys given twice: :class:`UsageError` naming the step and the key); what depends on a
+    clip (a frame range, a cutoff against its Nyquist frequency) is checked by :meth:`run`
+    before any step runs. :meth:`run` returns the cleaned copy and a :class:`StepLog` per
+    step; :meth:`describe` the steps as plain dicts.
+
+    Attributes
+    ----------
+    steps : list of Step
+        The validated steps, in the order they run.
+    origin : str
+        Where they came from (a file's path, ``"-f"``, ``"default pipeline"``), for
+        messages.
+    """
 
     steps: list[Step]
     origin: str = "pipeline"
@@ -352,6 +370,12 @@ class Pipeline:
         return cls.from_tables(DEFAULT_STEPS, "default pipeline")
 
     def describe(self) -> list[dict]:
+        """The steps as plain dicts, one per step in order (the report's ``pipeline`` and
+        the TOML form): ``filter``, the parameters that matter for it with defaults filled
+        in (units as ``motionclean filters`` gives them), ``joints`` and ``positions``
+        (but for whole-clip steps), and for a ranged step ``frames`` or ``seconds`` as
+        given and ``blend`` (frames). ``Pipeline.from_tables(p.describe(), ...)`` builds
+        the same pipeline."""
         return [step.describe() for step in self.steps]
 
     def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:
