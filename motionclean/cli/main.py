@@ -37,6 +37,7 @@ from ..report.summary import (
     format_table,
     format_takes,
     gap_notes,
+    median_joint,
     noise_figures,
     short_names,
 )
@@ -155,7 +156,12 @@ def main(argv: list[str] | None = None) -> None:
 @click.version_option(__version__, "--version", prog_name="motionclean")
 @click.option("--debug", is_flag=True, help="Show the full traceback on errors.")
 def cli(debug: bool) -> None:
-    """Clean motion-capture clips (BVH, CSV) with coordinate-invariant quaternion filters."""
+    """Clean motion-capture clips with coordinate-invariant quaternion filters.
+
+    Reads and writes BVH (.bvh), CSV (.csv: channel, rigid-body or OptiTrack Motive), SMPL
+    parameters (.npz, .pkl), OpenSim motions (.mot, .sto), glTF (.gltf, .glb, .vrma) and FBX
+    (.fbx, through Blender's bpy: the [blender] extra), each written back in its own format.
+    """
     thread_count()  # a bad MOTIONCLEAN_THREADS is refused before any work
 
 
@@ -464,19 +470,23 @@ def report(
 
 def found_source(motion, source: str) -> dict:
     """The capture system the default ``clean`` would assume for ``motion`` given
-    ``--source``, as its auto note says it (``model``, ``source``, ``motion_slope``,
-    ``source_measured``): measured as its ``auto`` step does, on the clip the steps before
-    it leave (despike, fill-gaps), rest-pose frames left out."""
+    ``--source``, as its auto notes say it (``model``, ``source``, ``motion_slope``,
+    ``source_measured``; with the markerless model ``wander``, the median joint's, degrees,
+    and ``wander_edge_hz``): measured as its ``auto`` step does, on the clip the steps
+    before it leave (despike, fill-gaps), rest-pose frames left out."""
     measured = source == "auto"
-    if measured:
-        motion = as_default_auto_sees(motion)
-    model, slope = measured_source(motion, source)
-    return {
-        "model": model,
+    found = measured_source(as_default_auto_sees(motion), source)
+    slope = found.motion_slope
+    result = {
+        "model": found.model,
         "source": source,
         "motion_slope": slope if measured and math.isfinite(slope) else None,
         "source_measured": measured,
     }
+    if found.model == "markerless":
+        result["wander"] = median_joint(found.wander.tolist())
+        result["wander_edge_hz"] = found.wander_edge_hz
+    return result
 
 
 LEVELS_OPTION = click.option(

@@ -10,6 +10,8 @@ NaN/inf, or quaternions that are not unit length. Scalar parameters go through
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -73,6 +75,32 @@ def frame_time(x, name: str = "frame_time") -> float:
             f"{name} must be a positive number of seconds in [{low:g}, {high:g}], got {value:g}"
         )
     return value
+
+
+def path(x, name: str = "path") -> str | os.PathLike:
+    """``x`` when it is a file path (``str`` or ``os.PathLike``, as :class:`pathlib.Path`),
+    else TypeError naming ``name`` (bytes, numbers, open files are refused)."""
+    if isinstance(x, str | os.PathLike) and not isinstance(os.fspath(x), bytes):
+        return x
+    raise TypeError(f"{name}: expected a file path (str or os.PathLike), got {type(x).__name__}")
+
+
+def patterns(x, name: str) -> tuple[str, ...]:
+    """``x`` as a tuple of strings (fnmatch patterns): a list, tuple or other iterable of
+    str. A single ``str`` is refused (TypeError naming ``name``), as iterating it would
+    give its characters as patterns; so is anything else that is not strings."""
+    if isinstance(x, str | bytes):
+        raise TypeError(
+            f"{name}: expected a list of patterns, got a single {type(x).__name__} "
+            f"({x!r}); write [{x!r}]"
+        )
+    if not isinstance(x, Iterable) or isinstance(x, dict):
+        raise TypeError(f"{name}: expected a list of patterns (str), got {type(x).__name__}")
+    items = tuple(x)
+    odd = [item for item in items if not isinstance(item, str)]
+    if odd:
+        raise TypeError(f"{name}: expected patterns as str, got {type(odd[0]).__name__}")
+    return items
 
 
 def shaped(x, width: int, name: str, signal: bool = False, min_frames: int = 0) -> np.ndarray:

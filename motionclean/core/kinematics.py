@@ -430,15 +430,19 @@ def axis_index(axis: str | int) -> int:
 
 
 def up_axis(motion: Motion, override: str | int | None = None) -> int:
-    """The up axis (0 = x, 1 = y, 2 = z) of :func:`up_direction`."""
+    """The up axis of :func:`up_direction` without its sign: 0 = x, 1 = y, 2 = z (``"-y"``
+    and ``"y"`` both give 1). ``override`` as :func:`up_direction` takes it; use
+    :func:`up_direction` for which way along the axis the head points (``--up -y``)."""
     return up_direction(motion, override)[0]
 
 
 def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int, float]:
-    """The up axis (0 = x, 1 = y, 2 = z) and its sign (+1.0: the head toward the axis; -1.0:
-    toward its negative side, as a camera's y-down coordinates have it): ``override``
-    (``"x"`` ... ``"-z"`` or 0-2), else what the clip declares (:attr:`Motion.up`), else
-    found from its motion.
+    """The up direction as ``(axis, sign)``: the axis (0 = x, 1 = y, 2 = z) and its sign
+    (+1.0: the head toward the axis; -1.0: toward its negative side, as a camera's y-down
+    coordinates have it), e.g. ``(1, -1.0)`` for ``"-y"``; the Python counterpart of
+    ``--up x|y|z|-x|-y|-z``. ``override`` (``"x"`` ... ``"-z"`` or 0-2, an index meaning
+    the positive side) gives it, else what the clip declares (:attr:`Motion.up`), else it
+    is found from its motion.
 
     Found from the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the
     rest pose alone (a T-pose's arm span equals its height): where the skeleton has a trunk

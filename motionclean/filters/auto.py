@@ -75,6 +75,7 @@ __all__ = [
     "describe_source",
     "estimate_noise",
     "estimate_position_noise",
+    "found_source",
     "noise_source",
 ]
 
@@ -203,18 +204,50 @@ def noise_source(source: str, slope: float = math.nan) -> str:
     return {"video": "markerless", "inertial": "optical"}.get(source, source)
 
 
+class SourceFound(NamedTuple):
+    """What :func:`found_source` finds of a clip's capture system, as :func:`auto` finds it.
+
+    ``model``: the noise model, ``"optical"`` or ``"markerless"``; ``motion_slope``: the
+    clip's motion slope (:func:`motionclean.filters.noise.motion_slope`; nan when the clip
+    cannot tell); ``wander``: per column ``(...)``, the part of the noise reaching down into
+    the motion's band, RMS rotation angle in degrees (:attr:`AutoChoice.wander`; zeros
+    under the optical model); ``wander_edge_hz``: the edge (Hz) above which it is gone
+    (None: none, or the optical model).
+    """
+
+    model: str
+    motion_slope: float
+    wander: np.ndarray
+    wander_edge_hz: float | None
+
+
+def found_source(q: np.ndarray, frame_time: float, source: str = "auto") -> SourceFound:
+    """The noise model :func:`auto` uses on rotations ``q`` ``(F, ..., 4)`` (unit
+    quaternions, w x y z) at ``frame_time`` seconds per frame for a capture ``source``
+    (:data:`SOURCES`), with the evidence and, under the markerless model, the wander it
+    finds in each column (:class:`SourceFound`). What ``auto`` finds, without cleaning."""
+    source = _checked_source(source)
+    shape = np.shape(q)[1:-1]
+    cols = quat.continuous(_columns(q, 4, "rotations"))
+    model = _fit(quat.Displacements(cols), _check_time(frame_time))
+    slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
+    coloured = None if model is None else _coloured_fit(model, frame_time, source, slope)
+    if model is None or coloured is None:
+        return SourceFound("optical", slope, np.zeros(shape), None)
+    level = coloured.level * _seen_share(coloured, model) / 3.0  # as auto's notes have it
+    wander = np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(shape)
+    edge = coloured.edge_hz if math.isfinite(coloured.edge_hz) else None
+    return SourceFound("markerless", slope, wander, edge)
+
+
 def capture_source(q: np.ndarray, frame_time: float, source: str = "auto") -> tuple[str, float]:
     """The noise model :func:`auto` uses on rotations ``q`` ``(F, ..., 4)`` at
     ``frame_time`` seconds per frame for a capture ``source`` (:data:`SOURCES`), and the
     clip's motion slope (:func:`motionclean.filters.noise.motion_slope`; nan when the clip
     cannot tell): ``("markerless" or "optical", slope)``. What ``auto`` finds, without
-    cleaning."""
-    source = _checked_source(source)
-    cols = quat.continuous(_columns(q, 4, "rotations"))
-    model = _fit(quat.Displacements(cols), _check_time(frame_time))
-    slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
-    wander = None if model is None else _coloured_fit(model, frame_time, source, slope)
-    return ("optical" if wander is None else "markerless"), slope
+    cleaning (:func:`found_source` with the wander too)."""
+    found = found_source(q, frame_time, source)
+    return found.model, found.motion_slope
 
 
 def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: float):

@@ -1058,48 +1058,12 @@ def despike_with_report(
     method: str = "cubic",
     missing: np.ndarray | None = None,
 ) -> tuple[np.ndarray, DespikeReport]:
-    """Repair half-turn flips and spikes in unit-quaternion signals (see module docstring).
+    """:func:`despike` with a :class:`DespikeReport` of what it repaired.
 
-    Parameters
-    ----------
-    q : (F, ..., 4) array
-        Unit quaternions ``(w, x, y, z)``, time along axis 0.
-    frame_time : float
-        Seconds per frame; turns the per-second limits into per-frame angles.
-    threshold : float
-        Robust deviations (1.4826 MAD) above the median step for a step to be a jump.
-    min_deg_per_s, max_deg_per_s : float
-        The jump threshold is clipped to ``[min, max] * frame_time`` degrees. Steps faster
-        than ``max_deg_per_s`` (default 3600: 30 degrees per frame at 120 fps) are always
-        repaired; steps slower than ``min_deg_per_s`` (default 600: 5 degrees per frame at
-        120 fps) never count as jumps.
-    max_spike_s : float
-        Longest spike in seconds (whole frames, at least one: 8 frames at 120 fps, 2 at
-        30 fps); also the most frames by which the cap widens a gap on each side.
-    trend_ratio : float
-        A spike's first and last frames must be further from the cubic trend through its
-        good neighbours than ``trend_ratio`` times that trend's error at the neighbours
-        (``0`` skips the test).
-    max_run : int or None
-        Optional bound on the spike length in frames, on top of ``max_spike_s``.
-    flip_deg : float
-        Smallest single-frame step taken as a half-turn flip, degrees in (90, 180].
-    unflip : bool
-        Undo half-turn flips before interpolating.
-    method : str
-        ``"cubic"`` (003 Eq. 16-17) or ``"slerp"``.
-    missing : (F, ...) bool array, optional
-        Samples that are not data (tracker dropouts), whatever their values: never part of
-        a jump, spike or statistic; the change across a dropout may toggle a flip like any
-        step (so the run on the wrong side of a half-turn is the one repaired, also when a
-        dropout hides its start or end); they come back held at the repaired known samples
-        (the last one before each, the first one after for a dropout at the start).
-
-    Returns
-    -------
-    (F, ..., 4) array and :class:`DespikeReport`
-        Repaired columns are sign-continuous; columns without defects are returned as given,
-        bit for bit. Report angles are in degrees per frame.
+    Parameters are :func:`despike`'s (the same names, units and defaults). Returns the
+    repaired ``(F, ..., 4)`` rotations, as :func:`despike` returns them, and the report:
+    the frames un-flipped and interpolated per column, the jump threshold and the largest
+    step before and after, in degrees per frame.
     """
     max_len = _check(
         frame_time,
@@ -1132,9 +1096,93 @@ def despike_with_report(
     return out.reshape(q.shape), report
 
 
-def despike(q: np.ndarray, frame_time: float, **params) -> np.ndarray:
-    """Repaired rotations of :func:`despike_with_report` (same parameters), no report."""
-    return despike_with_report(q, frame_time, **params)[0]
+def despike(
+    q: np.ndarray,
+    frame_time: float,
+    *,
+    threshold: float = JUMP_THRESHOLD,
+    min_deg_per_s: float = MIN_DEG_PER_S,
+    max_deg_per_s: float = MAX_DEG_PER_S,
+    max_spike_s: float = LONGEST_SPIKE_S,
+    trend_ratio: float = 3.0,
+    max_run: int | None = None,
+    flip_deg: float = 150.0,
+    unflip: bool = True,
+    method: str = "cubic",
+    missing: np.ndarray | None = None,
+) -> np.ndarray:
+    """Repair half-turn flips and spikes in unit-quaternion signals (see the module
+    docstring: the jump test, the spike tests and the repairs).
+
+    Parameters
+    ----------
+    q : (F, ..., 4) array
+        Unit quaternions ``(w, x, y, z)``, time along axis 0; every trailing index (joint
+        column) is repaired on its own.
+    frame_time : float
+        Seconds per frame; turns the per-second limits into per-frame angles.
+    threshold : float
+        Robust deviations (1.4826 MAD) above the median step for a step to be a jump
+        (default 8).
+    min_deg_per_s, max_deg_per_s : float
+        The jump threshold is clipped to ``[min, max] * frame_time`` degrees of rotation.
+        Steps faster than ``max_deg_per_s`` (default 3600: 30 degrees per frame at 120 fps)
+        are always repaired; steps slower than ``min_deg_per_s`` (default 600: 5 degrees
+        per frame at 120 fps) never count as jumps.
+    max_spike_s : float
+        Longest spike in seconds (whole frames, at least one: 8 frames at 120 fps, 2 at
+        30 fps; default 0.07); also the most frames by which the cap widens a gap on each
+        side.
+    trend_ratio : float
+        A spike's first and last frames must be further from the cubic trend through its
+        good neighbours than ``trend_ratio`` times that trend's error at the neighbours
+        (default 3; ``0`` skips the test).
+    max_run : int or None
+        Optional bound on the spike length in frames, on top of ``max_spike_s``.
+    flip_deg : float
+        Smallest single-frame step taken as a half-turn flip, degrees in (90, 180]
+        (default 150).
+    unflip : bool
+        Undo half-turn flips before interpolating (default True; False interpolates short
+        flips like spikes).
+    method : str
+        Interpolant for spikes: ``"cubic"`` (default: the four-point cubic of 003 Eq. 15,
+        in its orientation form Eq. 16, on non-uniform knots as Eq. 17; "Eq. 15-17") or
+        ``"slerp"``.
+    missing : (F, ...) bool array, optional
+        Samples that are not data (tracker dropouts), whatever their values: never part of
+        a jump, spike or statistic; the change across a dropout may toggle a flip like any
+        step (so the run on the wrong side of a half-turn is the one repaired, also when a
+        dropout hides its start or end); they come back held at the repaired known samples
+        (the last one before each, the first one after for a dropout at the start).
+
+    Returns
+    -------
+    (F, ..., 4) array
+        A new array of unit quaternions: repaired columns are sign-continuous, columns
+        without defects are returned as given, bit for bit.
+        :func:`despike_with_report` also says what was repaired.
+
+    Raises
+    ------
+    TypeError, ValueError
+        ``q`` not unit quaternions of that shape, or a parameter of the wrong type or out
+        of range (naming it).
+    """
+    return despike_with_report(
+        q,
+        frame_time,
+        threshold=threshold,
+        min_deg_per_s=min_deg_per_s,
+        max_deg_per_s=max_deg_per_s,
+        max_spike_s=max_spike_s,
+        trend_ratio=trend_ratio,
+        max_run=max_run,
+        flip_deg=flip_deg,
+        unflip=unflip,
+        method=method,
+        missing=missing,
+    )[0]
 
 
 def despike_positions_with_report(
@@ -1150,16 +1198,11 @@ def despike_positions_with_report(
     method: str = "cubic",
     missing: np.ndarray | None = None,
 ) -> tuple[np.ndarray, DespikeReport]:
-    """Vector counterpart of :func:`despike_with_report` for ``(F, ..., 3)`` translations.
+    """:func:`despike_positions` with a :class:`DespikeReport` of what it repaired.
 
-    Steps are Euclidean distances between consecutive frames in the file's length unit
-    (marker swaps make the root jump). The jump threshold is ``clip(median + threshold *
-    1.4826 MAD, min_units_per_s dt, max_units_per_s dt)``; spikes (at most ``max_spike_s``
-    long, off the local cubic trend by ``trend_ratio`` times its error at the neighbours)
-    are interpolated with the cubic of 003 Eq. 15/17 (or ``"linear"``) and steps above
-    ``max_units_per_s`` are spread by widening the gap. There is no flip repair and, as
-    units differ between files, no absolute cap unless ``max_units_per_s`` is given.
-    ``unflipped`` is all false; ``missing`` works as in :func:`despike_with_report`.
+    Parameters are :func:`despike_positions`'s (the same names, units and defaults).
+    Returns the repaired ``(F, ..., 3)`` translations and the report (``unflipped`` all
+    false; thresholds and steps in the file's length units per frame).
     """
     max_len = _check(
         frame_time,
@@ -1184,6 +1227,70 @@ def despike_positions_with_report(
     return out.reshape(p.shape), report
 
 
-def despike_positions(p: np.ndarray, frame_time: float, **params) -> np.ndarray:
-    """Repaired translations of :func:`despike_positions_with_report`, no report."""
-    return despike_positions_with_report(p, frame_time, **params)[0]
+def despike_positions(
+    p: np.ndarray,
+    frame_time: float,
+    *,
+    threshold: float = JUMP_THRESHOLD,
+    min_units_per_s: float = 0.0,
+    max_units_per_s: float = np.inf,
+    max_spike_s: float = LONGEST_SPIKE_S,
+    trend_ratio: float = 3.0,
+    max_run: int | None = None,
+    method: str = "cubic",
+    missing: np.ndarray | None = None,
+) -> np.ndarray:
+    """Vector counterpart of :func:`despike` for ``(F, ..., 3)`` translations: spikes
+    repaired (marker swaps make the root jump), no flip repair.
+
+    Steps are Euclidean distances between consecutive frames in the file's length unit.
+    The jump threshold is ``clip(median + threshold * 1.4826 MAD, min_units_per_s dt,
+    max_units_per_s dt)``; spikes (at most ``max_spike_s`` long, off the local cubic trend
+    by ``trend_ratio`` times its error at the neighbours) are interpolated, and steps above
+    ``max_units_per_s`` are spread by widening the gap. As units differ between files,
+    there is no absolute cap unless ``max_units_per_s`` is given.
+
+    Parameters
+    ----------
+    p : (F, ..., 3) array
+        Positions in the file's length unit, time along axis 0; finite, no component
+        beyond 1e150.
+    frame_time : float
+        Seconds per frame.
+    threshold : float
+        Robust deviations (1.4826 MAD) above the median step for a step to be a jump
+        (default 8).
+    min_units_per_s, max_units_per_s : float
+        The jump threshold is clipped to ``[min, max] * frame_time`` length units; steps
+        faster than ``max_units_per_s`` are always repaired (default inf: no cap), steps
+        slower than ``min_units_per_s`` never count as jumps (default 0).
+    max_spike_s : float
+        Longest spike in seconds (whole frames, at least one; default 0.07).
+    trend_ratio : float
+        As :func:`despike`'s (default 3; 0 skips the test).
+    max_run : int or None
+        Optional bound on the spike length in frames.
+    method : str
+        ``"cubic"`` (default: the four-point cubic of 003 Eq. 15 on non-uniform knots,
+        Eq. 17) or ``"linear"``.
+    missing : (F, ...) bool array, optional
+        Dropouts, as in :func:`despike`.
+
+    Returns
+    -------
+    (F, ..., 3) array
+        A new array; columns without defects are returned as given, bit for bit.
+        :func:`despike_positions_with_report` also says what was repaired.
+    """
+    return despike_positions_with_report(
+        p,
+        frame_time,
+        threshold=threshold,
+        min_units_per_s=min_units_per_s,
+        max_units_per_s=max_units_per_s,
+        max_spike_s=max_spike_s,
+        trend_ratio=trend_ratio,
+        max_run=max_run,
+        method=method,
+        missing=missing,
+    )[0]

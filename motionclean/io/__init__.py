@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import checks
 from ..core.errors import InvalidMotion, MotionError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.reserve import let_go
@@ -73,25 +74,72 @@ def _suffix(path: Path, table: Iterable[str]) -> str:
 
 def load(
     path: str | os.PathLike,
-    skeleton: Motion | None = None,
+    skeleton: Motion | str | os.PathLike | None = None,
     body_model: str | os.PathLike | None = None,
     exclude: Iterable[str] = (),
     frame_rate: float | None = None,
 ) -> Motion:
     """Read a clip; the format follows the extension (see the module).
 
-    A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack Motive export
-    (``io.motive``), any other is a channel or rigid-body CSV (``io.csv``). ``skeleton`` is
-    the BVH template a channel CSV is read into, or the rig whose offsets SMPL joints take
-    (``io.smpl``), as they take them from a ``body_model`` file (``.npz``); ``exclude``
-    names (fnmatch patterns) OpenSim columns carried untouched (``io.opensim``);
-    ``frame_rate`` (frames per second) is that of a SMPL clip whose file states none.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The clip. A ``.csv`` file that starts with ``Format Version,`` is an OptiTrack
+        Motive export (``io.motive``), any other is a channel or rigid-body CSV
+        (``io.csv``).
+    skeleton : Motion, str or os.PathLike, optional
+        A clip (``mc.load("rig.bvh")``) or the path of one, read as :func:`load` reads it:
+        the BVH template a channel CSV is read into, or the rig whose offsets SMPL joints
+        take (``io.smpl``). Other formats do not use it.
+    body_model : str or os.PathLike, optional
+        A SMPL body model file (``.npz``) whose joint offsets SMPL clips take.
+    exclude : iterable of str, optional
+        fnmatch patterns of OpenSim columns carried untouched as text (``io.opensim``), e.g.
+        ``["*_residual"]``. A single ``str`` is refused (TypeError), not read as patterns of
+        one character each: give ``[pattern]``.
+    frame_rate : float, optional
+        Frames per second of a SMPL clip whose file states none, from
+        :data:`~motionclean.io.smpl.MIN_RATE` to ``MAX_RATE``.
+
+    Returns
+    -------
+    Motion
+        The clip: rotations ``(F, J, 4)`` unit quaternions (w, x, y, z), translations
+        ``(F, J, 3)`` in the file's length units, ``frame_time`` in seconds.
+
+    Raises
+    ------
+    TypeError
+        An argument of the wrong type, naming it (``skeleton: expected a Motion or a file
+        path, got int``).
+    ValueError
+        ``frame_rate`` out of range.
+    MotionError
+        The file cannot be read as a clip (exit code 1 on the command line).
 
     A file of :data:`~motionclean.io.files.KEEP_ON_DISK_BYTES` or more is not held in
     memory: the clip keeps it open (one file descriptor while the clip is in use) and its
     writer reads the unchanged values' text again (:class:`~motionclean.io.files.FileBytes`).
     """
-    path = Path(path)
+    path = Path(checks.path(path, "path"))
+    template: Motion | None
+    if skeleton is None or isinstance(skeleton, Motion):
+        template = skeleton
+    elif isinstance(skeleton, str | os.PathLike):
+        template = read_once(load, checks.path(skeleton, "skeleton"))
+    else:
+        raise TypeError(
+            f"skeleton: expected a Motion or a file path, got {type(skeleton).__name__}"
+        )
+    if body_model is not None:
+        checks.path(body_model, "body_model")
+    exclude = checks.patterns(exclude, "exclude")
+    if frame_rate is not None:
+        frame_rate = checks.number(frame_rate, "frame_rate")
+        if not smpl.MIN_RATE <= frame_rate <= smpl.MAX_RATE:  # NaN too
+            raise ValueError(  # (as io.smpl says it)
+                f"frame_rate must be from {smpl.MIN_RATE:g} to {smpl.MAX_RATE:g}, got {frame_rate}"
+            )
     suffix = _suffix(path, FORMATS)
     if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
         return fbx.load_fbx(path)
@@ -104,7 +152,7 @@ def load(
         elif suffix in (".npz", ".pkl"):
             model = None if body_model is None else read_once(smpl.read_body_model, body_model)
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
-            motion = parse(data, path, skeleton=skeleton, body_model=model, frame_rate=frame_rate)
+            motion = parse(data, path, skeleton=template, body_model=model, frame_rate=frame_rate)
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
         elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
@@ -112,7 +160,7 @@ def load(
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)
         else:
-            motion = csv.parse_csv(data, path, skeleton=skeleton)
+            motion = csv.parse_csv(data, path, skeleton=template)
         if motion.missing is not None and motion.missing.size and motion.missing.all():
             # every body blank on every row: no sample any step, figure or writer can use
             raise MotionError("no value in any cell: every sample is blank, nothing to clean", path)
@@ -200,13 +248,15 @@ def _check_line_ends(head: bytes, path: Path) -> None:
 def save(motion: Motion, path: str | os.PathLike) -> None:
     """Write a clip atomically; the format follows the extension (see the module).
 
-    Rotations must be finite unit quaternions and translations finite (:meth:`Motion.check`:
-    InvalidMotion, a ValueError, naming the first bad sample and ``path``): a zero or scaled
-    quaternion has no Euler angles. A frame time the readers refuse (outside
-    :data:`~motionclean.core.motion.MIN_FRAME_TIME` to ``MAX_FRAME_TIME``, NaN) and joint
-    names the BVH and CSV readers would refuse or change (:func:`_check_names`) are refused
-    too: every file written reads back. An edited skeleton is written, never dropped for
-    the text read.
+    ``motion`` is a :class:`Motion` (TypeError naming ``motion`` otherwise), ``path`` a
+    ``str`` or ``os.PathLike`` (TypeError naming ``path``) whose suffix names the format
+    (MotionError for an unknown one). Rotations must be finite unit quaternions and
+    translations finite (:meth:`Motion.check`: InvalidMotion, a ValueError, naming the
+    first bad sample and ``path``): a zero or scaled quaternion has no Euler angles. A
+    frame time the readers refuse (outside :data:`~motionclean.core.motion.MIN_FRAME_TIME`
+    to ``MAX_FRAME_TIME`` seconds, NaN) and joint names the BVH and CSV readers would
+    refuse or change (:func:`_check_names`) are refused too: every file written reads
+    back. An edited skeleton is written, never dropped for the text read.
     """
     atomic_write(path, encode(motion, path))
 
@@ -214,10 +264,10 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
 def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | memoryview]:
     """The content :func:`save` writes for ``motion`` at ``path``, checked as it checks
     (pieces may be made as they are written): for :func:`write_together`."""
-    path = Path(path)
-    write = _WRITERS[_suffix(path, _WRITERS)]
     if not isinstance(motion, Motion):
-        raise TypeError(f"save takes a Motion, got {type(motion).__name__}")
+        raise TypeError(f"motion: save takes a Motion, got {type(motion).__name__}")
+    path = Path(checks.path(path, "path"))
+    write = _WRITERS[_suffix(path, _WRITERS)]
     try:
         motion.check()
         if not MIN_FRAME_TIME <= motion.frame_time < MAX_FRAME_TIME:  # NaN too

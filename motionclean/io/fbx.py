@@ -255,11 +255,15 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
 
 
 def load_fbx(path: str | os.PathLike) -> Motion:
-    """Read the animation of the one armature in an FBX file (see the module notes)."""
+    """Read the animation of the one armature in an FBX file (see the module notes).
+
+    A path that names no regular file is said first (MotionError: no extra would read
+    it); then, before anything is said of the file's content (an empty file too), a
+    missing ``bpy`` (UsageError naming the ``[blender]`` extra: exit code 2)."""
     data, _ = read_regular_file(Path(path))
+    bpy = _bpy("reading", path)
     if not data:  # (Blender's importer calls an empty file ASCII FBX)
         raise MotionError("empty file", path)
-    bpy = _bpy("reading", path)
     obj, clip = _read(bpy, data, path)
     motion = clip.motion
     motion.path = os.fspath(path)

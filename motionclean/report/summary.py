@@ -549,10 +549,16 @@ def format_table(report: dict, limit: int = 10) -> str:
     return "\n".join(lines)
 
 
+def median_joint(values: list[float]) -> float:
+    """The median joint's value (of an even count, the upper of the middle two)."""
+    return sorted(values)[len(values) // 2]
+
+
 def format_noise_model(report: dict) -> str:
     """Which capture system auto assumed and why (found from the clip, or given), and with
     the markerless model how much of the noise it found below the motion's top frequencies;
-    without auto's notes, the report's ``capture_source`` (the ``report`` command's); ""
+    without auto's notes, the report's ``capture_source`` (the ``report`` command's, whose
+    ``wander`` is already the median joint's), read the same way into the same line; ""
     when there is neither."""
     notes = [e["auto"] for e in report["joints"].values() if "source" in e.get("auto", {})]
     if not notes and "capture_source" not in report:
@@ -562,13 +568,17 @@ def format_noise_model(report: dict) -> str:
     if slope is None and first.get("source_measured"):
         slope = math.nan
     line = f"capture source: {describe_source(first['model'], first['source'], slope)}"
-    wander = [n for n in notes if n.get("model") == "markerless"]
+    wander = [
+        n
+        for n in (notes or [first])
+        if n.get("model") == "markerless" and n.get("wander") is not None
+    ]
     if not wander:
         return line
     edges = {n.get("wander_edge_hz") for n in wander}
     edge = edges.pop() if len(edges) == 1 else None
     below = "" if edge is None else f" below {edge:g} Hz"
-    level = sorted(n["wander"] for n in wander)[len(wander) // 2]
+    level = median_joint([n["wander"] for n in wander])
     hint = " For an optical capture: --source optical." if first["source"] == "auto" else ""
     return (
         f"{line}. The noise wanders{below}, down where the motion is (median joint "

@@ -155,6 +155,8 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return_free_memory()  # the series' per-frame tables
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
+        if log.frames is not None:  # the range as frames (seconds=[1, 2]: [120, 240])
+            entry["frames"] = list(log.frames)
         if log.touched is not None:
             entry["touched"] = list(log.touched)
     report = build_report(before, compared, described, notes, file, series=series)

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..core import quat
 from ..core.motion import Motion, hold_missing
-from ..filters.auto import FAMILIES, SOURCES, auto, auto_positions, capture_source
+from ..filters.auto import FAMILIES, SOURCES, SourceFound, auto, auto_positions, found_source
 from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
 
@@ -74,10 +74,11 @@ def seen_rotations(motion: Motion) -> np.ndarray:
     return _bridged(motion.rotations[:, joints], motion, joints, True)[0]
 
 
-def measured_source(motion: Motion, source: str) -> tuple[str, float]:
-    """:func:`~motionclean.filters.auto.capture_source` of :func:`seen_rotations`: the
-    noise model this step would use for ``source`` and the motion slope it would measure."""
-    return capture_source(seen_rotations(motion), motion.frame_time, source)
+def measured_source(motion: Motion, source: str) -> SourceFound:
+    """:func:`~motionclean.filters.auto.found_source` of :func:`seen_rotations`: the noise
+    model this step would use for ``source``, the motion slope it would measure and the
+    wander it would find in each joint with rotation channels."""
+    return found_source(seen_rotations(motion), motion.frame_time, source)
 
 
 def _unmeasured(shape: tuple[int, ...], missing: np.ndarray | None) -> np.ndarray:

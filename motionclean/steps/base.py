@@ -196,6 +196,11 @@ class StepSpec:
     merge_note: Callable[[list[tuple[dict, int]]], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.
     resolve: Callable[[dict, str], None] | None = None
+    # Checks that need the clip's frame time (s): ``check_rate(params, frame_time, where)``
+    # raises UsageError (a cutoff above the Nyquist frequency). The pipeline calls it with
+    # the clip's rate before any step runs (a step after a whole-clip step: with the rate
+    # that step made, before it runs), as it checks frame ranges.
+    check_rate: Callable[[dict, float, str], None] | None = None
     # Names of the parameters that matter for these values (default: all of them).
     relevant: Callable[[dict], tuple[str, ...]] | None = None
     # True: the step runs on whole columns of a clip with missing samples and reads the mask

@@ -76,7 +76,8 @@ STEP = StepSpec(
             "tol",
             "float",
             1e-7,
-            "stop when no sample moves this much in one iteration",
+            "stop when no sample moves this much in one iteration: log units (half the "
+            "rotation angle, rad) for orientations, file length unit for positions",
             minimum=0.0,
         ),
         Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=MAX_ITERATIONS),

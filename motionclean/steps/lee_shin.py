@@ -36,15 +36,33 @@ def _rate(fps: float | None) -> float:
 NYQUIST_ROUNDING = 1e-4
 
 
+def _above_nyquist(cutoff_hz: float, fps: float) -> str | None:
+    """What is wrong with a cutoff (Hz) for a clip of ``fps`` frames per second, or None:
+    it must lie below half the rate, a cutoff at half the rounded rate included."""
+    nyquist = fps / 2.0
+    if cutoff_hz < nyquist * (1.0 - NYQUIST_ROUNDING):
+        return None
+    return (
+        f"cutoff_hz must be below the Nyquist frequency {nyquist:.5g} Hz (half the "
+        f"frame rate of {fps:.5g} fps), got {cutoff_hz:g}"
+    )
+
+
 def _lowpass(cutoff_hz: float, fps: float, half_width: int | None) -> np.ndarray:
     """``design.lowpass`` for a clip: a cutoff at half its rounded rate is refused too."""
-    nyquist = fps / 2.0
-    if cutoff_hz >= nyquist * (1.0 - NYQUIST_ROUNDING):
-        raise ValueError(
-            f"cutoff_hz must be below the Nyquist frequency {nyquist:.5g} Hz (half the "
-            f"frame rate of {fps:.5g} fps), got {cutoff_hz:g}"
-        )
+    problem = _above_nyquist(cutoff_hz, fps)
+    if problem is not None:
+        raise ValueError(problem)
     return design.lowpass(cutoff_hz, fps, half_width)
+
+
+def _check_rate(params: dict, frame_time: float, where: str) -> None:
+    """The pipeline's check of a step against the clip's frame time (s), before any step
+    runs: a low-pass cutoff at or above the Nyquist frequency is a usage error."""
+    if params["mask"] == "lowpass":
+        problem = _above_nyquist(params["cutoff_hz"], 1.0 / frame_time)
+        if problem is not None:
+            raise UsageError(f"{where}: {problem}")
 
 
 MASK_KINDS = {
@@ -85,7 +103,7 @@ def _resolve_lee_shin(params: dict, where: str) -> None:
     if params["mask"] == "lowpass":
         if params["cutoff_hz"] is None:
             raise UsageError(f"{where}: mask=lowpass needs cutoff_hz, e.g. cutoff_hz=8")
-        return  # the Nyquist check needs the clip's frame rate: done when the step runs
+        return  # the Nyquist check needs the clip's frame rate: _check_rate, on the clip
     if params["mask"] == "savgol" and params["half_width"] is None:
         params["half_width"] = SAVGOL_HALF_WIDTH
     try:
@@ -177,5 +195,6 @@ STEP = StepSpec(
     ),
     run=_run_lee_shin,
     resolve=_resolve_lee_shin,
+    check_rate=_check_rate,
     relevant=_lee_shin_relevant,
 )

@@ -203,6 +203,8 @@ class StepLog:
     unmatched: list[tuple[str, str]]
     # frames a ranged step changed, blends included: (first, stop), file frames
     touched: tuple[int, int] | None = None
+    # a ranged step's range as file frames: (first, last), inclusive (seconds made frames)
+    frames: tuple[int, int] | None = None
     # the clip after the step, rest frames included: the frames its notes number
     n_frames: int = 0
     frame_time: float = 0.0
@@ -214,11 +216,23 @@ STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]\s*(#.*)?$")
 TOML_PLACE = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$", re.DOTALL)
 
 
+#: A ``key = value`` line of a step table: its key, bare or quoted (not dotted).
+TOML_KEY = re.compile(r"""\s*([A-Za-z0-9_-]+|"[^"\\]*"|'[^']*')\s*=""")
+#: What tomllib says of a key given twice in one table.
+TOML_TWICE = "Cannot overwrite a value"
+
+
 def _toml_error(path: Path, message: str, text: str) -> str:
-    """A TOML syntax error of file ``text`` as ``FILE:LINE: invalid TOML: what``."""
+    """A TOML syntax error of file ``text`` as ``FILE:LINE: invalid TOML: what``; a key
+    given twice in a ``[[step]]`` table as ``FILE:LINE: step N (filter): 'key' is given
+    twice ...``, as an inline step's is."""
     place = TOML_PLACE.match(message)
     if place is not None:
         what, line, column = place.groups()
+        if what == TOML_TWICE:
+            twice = _key_given_twice(text.splitlines(), int(line))
+            if twice is not None:
+                return f"{path}:{twice}"
         return f"{path}:{line}: invalid TOML: {what} (column {column})"
     if message.endswith(" (at end of document)"):
         what = message.removesuffix(" (at end of document)")
@@ -226,9 +240,74 @@ def _toml_error(path: Path, message: str, text: str) -> str:
     return f"{path}: invalid TOML: {message}"
 
 
+def _key_given_twice(lines: list[str], line: int) -> str | None:
+    """``LINE: step N (filter): 'key' is given twice ...`` for the key tomllib refused to
+    overwrite at ``line`` (1-based; the end of the value, which may span lines), found as
+    the last ``key =`` line up to it whose key an earlier line of the same ``[[step]]``
+    table gave; None when the line is in no step table or no such key is found (a dotted
+    key, a table given twice: tomllib's own message is said)."""
+    headers = [i for i, text in enumerate(lines[:line]) if STEP_HEADER.match(text)]
+    if not headers:
+        return None
+    table = lines[headers[-1] + 1 : line]
+    keys = [(i, _toml_key(text)) for i, text in enumerate(table)]
+    given = [(i, key) for i, key in keys if key is not None]
+    if not given:
+        return None
+    last, key = given[-1]
+    first = next((i for i, k in given[:-1] if k == key), None)
+    if first is None:
+        return None
+    start = headers[-1] + 2  # the table's first line after its header, 1-based
+    name = next(
+        (_toml_string(text) for i, text in enumerate(table) if keys[i][1] == "filter"), None
+    )
+    step = f"step {len(headers)}" + (f" ({name})" if name else "")
+    return (
+        f"{start + last}: {step}: {key!r} is given twice (first on line {start + first}); "
+        "each key once"
+    )
+
+
+def _toml_key(text: str) -> str | None:
+    """The key of a ``key = value`` line (quotes taken off), None for any other line."""
+    found = TOML_KEY.match(text)
+    if found is None:
+        return None
+    key = found.group(1)
+    return key[1:-1] if key[0] in "\"'" else key
+
+
+def _toml_string(text: str) -> str | None:
+    """The string value of a ``key = "value"`` line, None when it is not one."""
+    try:
+        value = tomllib.loads(text).popitem()[1]
+    except (tomllib.TOMLDecodeError, KeyError):
+        return None
+    return value if isinstance(value, str) else None
+
+
 @dataclass
 class Pipeline:
-    """An ordered list of validated steps."""
+    """An ordered list of validated steps that cleans a :class:`Motion`.
+
+    Build one with :meth:`default` (what ``clean`` runs without ``-p``/``-f``),
+    :meth:`from_toml` (a file of ``[[step]]`` tables), :meth:`from_inline` (``-f`` texts
+    such as ``"lee-shin:k=3,iterations=2"``) or :meth:`from_tables` (dicts). Every step is
+    validated when the pipeline is built (unknown filters and parameters, types, ranges,
+    keys given twice: :class:`UsageError` naming the step and the key); what depends on a
+    clip (a frame range, a cutoff against its Nyquist frequency) is checked by :meth:`run`
+    before any step runs. :meth:`run` returns the cleaned copy and a :class:`StepLog` per
+    step; :meth:`describe` the steps as plain dicts.
+
+    Attributes
+    ----------
+    steps : list of Step
+        The validated steps, in the order they run.
+    origin : str
+        Where they came from (a file's path, ``"-f"``, ``"default pipeline"``), for
+        messages.
+    """
 
     steps: list[Step]
     origin: str = "pipeline"
@@ -291,6 +370,12 @@ class Pipeline:
         return cls.from_tables(DEFAULT_STEPS, "default pipeline")
 
     def describe(self) -> list[dict]:
+        """The steps as plain dicts, one per step in order (the report's ``pipeline`` and
+        the TOML form): ``filter``, the parameters that matter for it with defaults filled
+        in (units as ``motionclean filters`` gives them), ``joints`` and ``positions``
+        (but for whole-clip steps), and for a ranged step ``frames`` or ``seconds`` as
+        given and ``blend`` (frames). ``Pipeline.from_tables(p.describe(), ...)`` builds
+        the same pipeline."""
         return [step.describe() for step in self.steps]
 
     def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:
@@ -310,12 +395,14 @@ class Pipeline:
         starts = take_starts(motion) - lead  # (frames of ``current``)
         # what the steps so far noted on each take, by joint (a take's own, not the merge)
         by_take: list[dict[str, dict]] = [{} for _ in range(starts.size + 1)]
-        spans = _frame_spans(self.steps, motion, lead)
+        spans, checked = _checked_up_front(self.steps, motion)
         made = _Made(motion)
         logs: list[StepLog] = []
         outer = motion  # the clip whose rest frames surround ``current``
         earlier: dict[str, dict] = {}  # what the steps so far noted, by joint
         for number, step in enumerate(self.steps, 1):
+            if number > checked:  # after a whole-clip step: the rate it made
+                _check_rate(step, number, current.frame_time, motion.path)
             try:
                 whole_clip = step.spec.keeps_rest and bool(lead or trail) and not starts.size
                 if step.spec.keeps_rest and starts.size:
@@ -360,28 +447,41 @@ class Pipeline:
         return result, logs
 
 
-def _frame_spans(steps: list[Step], motion: Motion, lead: int) -> dict[int, tuple[int, int]]:
-    """Each ranged step's ``(first, last)`` frames (by step number from 1), checked against
-    the clip up front; a range after a whole-clip step is checked against that step's
-    result when it runs."""
+def _checked_up_front(steps: list[Step], motion: Motion) -> tuple[dict[int, tuple[int, int]], int]:
+    """The steps checked against the clip before any runs: each ranged step's ``(first,
+    last)`` frames (by step number from 1) and the parameters that depend on the clip's
+    frame rate (``StepSpec.check_rate``), UsageError naming the step; and the number of
+    the last step checked. Steps after a whole-clip step are checked against that step's
+    result when they run (a new rate, a new frame count)."""
     spans: dict[int, tuple[int, int]] = {}
     for number, step in enumerate(steps, 1):
+        _check_rate(step, number, motion.frame_time, motion.path)
         if step.spec.run_motion is not None:
-            break
+            return spans, number
         if step.span is not None:
             spans[number] = _frame_span(
                 step, number, motion.n_frames, motion.frame_time, motion.path
             )
-    return spans
+    return spans, len(steps)
+
+
+def _where(step: Step, number: int, path: str | None) -> str:
+    """``FILE: step N (name)``: a step in a message (a step listed twice: which one)."""
+    named = f"step {number} ({step.spec.name})"
+    return f"{path}: {named}" if path else named
+
+
+def _check_rate(step: Step, number: int, frame_time: float, path: str | None) -> None:
+    """The step's parameters against a clip of ``frame_time`` seconds per frame."""
+    if step.spec.check_rate is not None:
+        step.spec.check_rate(step.params, frame_time, _where(step, number, path))
 
 
 def _frame_span(
     step: Step, number: int, n_frames: int, frame_time: float, path: str | None
 ) -> tuple[int, int]:
-    named = f"step {number} ({step.spec.name})"  # (a step listed twice: which one)
-    where = f"{path}: {named}" if path else named
     assert step.span is not None
-    return step.span.frame_span(n_frames, frame_time, where)
+    return step.span.frame_span(n_frames, frame_time, _where(step, number, path))
 
 
 def _run_step(
@@ -460,7 +560,8 @@ def _run_step(
     notes = _named_notes(data, motion.names)
     rotated = [motion.names[i] for i in rot_idx]
     moved_joints = [motion.names[i] for i in pos_idx]
-    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched)
+    frames = (int(span[0]), int(span[1])) if step.span is not None and span else None
+    return motion, StepLog(step, rotated, moved_joints, notes, unmatched, touched, frames)
 
 
 def _unmatched(step: Step, names: list[str]) -> list[tuple[str, str]]:

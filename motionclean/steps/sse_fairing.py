@@ -38,7 +38,14 @@ STEP = StepSpec(
             minimum=0.0,
             maximum=1e6,
         ),
-        Param("epsilon", "float", 1e-6, "stop when the gradient norm is below this", minimum=0.0),
+        Param(
+            "epsilon",
+            "float",
+            1e-6,
+            "stop when the gradient norm (over all frames) is below this: log units (half "
+            "the rotation angle, rad) for orientations, file length unit for positions",
+            minimum=0.0,
+        ),
         Param(
             "max_iterations",
             "int",

@@ -159,6 +159,9 @@ def test_a_declared_up_axis_wins_and_a_bad_one_is_refused():
     assert kinematics.up_direction(motion.replace(up="-y")) == (1, -1.0)
     assert kinematics.up_direction(motion, "-Z") == (2, -1.0)
     assert kinematics.up_direction(motion) == (1, 1.0)
+    # as README's "World space" says: --up's counterpart is up_direction; up_axis drops the sign
+    assert kinematics.up_direction(motion, "-y") == (1, -1.0)
+    assert kinematics.up_axis(motion, "-y") == kinematics.up_axis(motion, "y") == 1
     for bad in ("--y", "-w", "y-"):
         with pytest.raises(ValueError, match="x, y, z, -x, -y or -z"):
             kinematics.up_axis(motion, bad)

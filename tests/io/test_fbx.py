@@ -42,6 +42,17 @@ def test_a_missing_fbx_is_named_before_the_extra(capsys, tmp_path):
     assert code == 1 and err.endswith("none.fbx: no such file\n")
 
 
+@pytest.mark.parametrize("content", [b"", b"; FBX 7.4.0 project file\n"])
+def test_the_extra_is_named_before_the_content_is_judged(capsys, tmp_path, content):
+    """An empty take.fbx had said 'empty file' (exit 1) where README says an .fbx without
+    bpy stops with the extra named (exit 2): what the file holds is Blender's to read."""
+    take = tmp_path / "take.fbx"
+    take.write_bytes(content)
+    code, out, err = run_cli(capsys, "info", take)
+    assert (code, out) == (2, "")
+    assert err == f"motionclean: error: {take}: reading FBX needs Blender's bpy module: {EXTRA}\n"
+
+
 def test_an_add_on_failure_is_said_in_one_line_by_its_exception():
     """Blender raises an add-on's failure as its whole traceback in one RuntimeError; the
     error line gives its last line (it had squeezed every frame of the traceback in)."""

@@ -176,6 +176,46 @@ def test_a_key_given_twice_inline_is_refused():
         Pipeline.from_inline(["lee-shin:k=2,k=3"])
 
 
+@pytest.mark.parametrize(
+    ("table", "line"),
+    [
+        ("k = 2\nk = 3\n", "bad.toml:6: step 2 (lee-shin): 'k' is given twice (first on line 5)"),
+        (
+            '"k" = 2 # quoted\n\nk = 3\n',
+            "bad.toml:7: step 2 (lee-shin): 'k' is given twice (first on line 5)",
+        ),
+        (
+            "joints = ['*']\njoints = ['a',\n  'b']\n",
+            "bad.toml:6: step 2 (lee-shin): 'joints' is given twice (first on line 5)",
+        ),
+    ],
+)
+def test_a_key_given_twice_in_a_toml_table_names_the_step_and_the_key(tmp_path, table, line):
+    """As inline (-f lee-shin:k=2,k=3) does; it had said 'invalid TOML: Cannot overwrite a
+    value (column 6)'."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f"[[step]]\nfilter = 'despike'\n[[step]]\nfilter = \"lee-shin\"\n{table}")
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_toml(bad)
+    assert str(caught.value) == f"{tmp_path}/{line}; each key once"
+
+
+def test_a_filter_given_twice_names_the_first(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[[step]]\nfilter = 'despike'\nfilter = 'auto'\n")
+    with pytest.raises(UsageError, match=r"bad.toml:3: step 1 \(despike\): 'filter' is given"):
+        Pipeline.from_toml(bad)
+
+
+@pytest.mark.parametrize("text", ["k = 1\nk = 2\n", "[[step]]\nfilter = 'x'\nk.a = 1\nk = 2\n"])
+def test_other_values_given_twice_keep_tomls_message(tmp_path, text):
+    """Outside a step table, or a dotted key: tomllib's own words, with the line."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    with pytest.raises(UsageError, match=r"bad.toml:\d: invalid TOML: Cannot overwrite a value"):
+        Pipeline.from_toml(bad)
+
+
 def test_multires_takes_gains_or_level_not_both():
     with pytest.raises(UsageError, match="either gains or level"):
         Pipeline.from_inline(["multires:levels=4,gains=[0],level=2.5"])

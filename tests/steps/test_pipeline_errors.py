@@ -1,9 +1,10 @@
 """Cross-parameter rules and the command-line errors around them: refused up front with the
-step and the key named, or (the Nyquist limit, which needs the clip's rate) as a one-line
-data error that writes nothing."""
+step and the key named, or (the Nyquist limit, which needs the clip's rate) once the clip is
+read, before any step runs, as a one-line usage error that writes nothing."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -82,9 +83,9 @@ def test_a_cutoff_above_nyquist_fails_on_the_clip_with_one_line(tmp_path, capsys
         "-f",
         f"lee-shin:mask=lowpass,cutoff_hz={cutoff}",
     )
-    assert code == 1
+    assert code == 2
     assert err.count("\n") == 1 and err.startswith(f"motionclean: error: {SAMPLE}: ")
-    assert "step 2 (lee-shin) failed" in err and "Nyquist" in err and cutoff in err
+    assert "step 2 (lee-shin): cutoff_hz must be below the Nyquist" in err and cutoff in err
     assert stdout == ""
     assert not out.exists() and not report.exists()
     assert not list(tmp_path.iterdir())
@@ -237,11 +238,48 @@ def test_max_iterations_has_one_limit_in_catalogue_validation_and_filter(tmp_pat
 def test_a_lowpass_cutoff_at_half_the_rounded_frame_rate_is_refused(tmp_path, capsys, cutoff):
     """131_02's frame time .0083333 is 120.0005 fps: 60 Hz is its Nyquist frequency."""
     code, line = _clean_refused(tmp_path, capsys, f"lee-shin:mask=lowpass,cutoff_hz={cutoff}")
-    assert code == 1
+    assert code == 2  # a usage error, as a range beyond the clip is
     assert line == (
-        f"{SAMPLE}: step 1 (lee-shin) failed: cutoff_hz must be below the Nyquist frequency "
+        f"{SAMPLE}: step 1 (lee-shin): cutoff_hz must be below the Nyquist frequency "
         f"60 Hz (half the frame rate of 120 fps), got {float(cutoff):g}"
     )
+
+
+def test_a_cutoff_is_checked_before_any_step_runs(monkeypatch):
+    """The Nyquist limit is checked with the ranges, before the first step: a slow step
+    before it does not run first (it had run, then the step failed with exit 1)."""
+    import motionclean as mc
+    from motionclean.steps import REGISTRY
+
+    ran = []
+    spec = REGISTRY["despike"]
+    monkeypatch.setitem(
+        REGISTRY, "despike", dataclasses.replace(spec, run=lambda d, p: ran.append(1) or d)
+    )
+    pipeline = Pipeline.from_inline(["despike", "lee-shin:mask=lowpass,cutoff_hz=70"])
+    with pytest.raises(UsageError, match=r"step 2 \(lee-shin\): cutoff_hz must be below"):
+        pipeline.run(mc.load(SAMPLE))
+    assert ran == []
+
+
+def test_a_cutoff_after_a_resample_is_checked_against_the_new_rate(tmp_path, capsys):
+    """120 -> 30 fps: 20 Hz is above the new Nyquist frequency (15 Hz), refused before the
+    step runs; below it, it runs."""
+    clip = tmp_path / "o.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", clip, "-f", "resample:fps=30",
+        "-f", "lee-shin:mask=lowpass,cutoff_hz=20",
+    )  # fmt: skip
+    assert code == 2 and not clip.exists()
+    assert _one_line(err) == (
+        f"{SAMPLE}: step 2 (lee-shin): cutoff_hz must be below the Nyquist frequency "
+        "15 Hz (half the frame rate of 30 fps), got 20"
+    )
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", clip, "-q", "-f", "resample:fps=30",
+        "-f", "lee-shin:mask=lowpass,cutoff_hz=10",
+    )  # fmt: skip
+    assert code == 0, err
 
 
 def test_a_range_error_names_the_step_by_its_number(tmp_path, capsys):

@@ -103,6 +103,22 @@ def test_seconds_pick_the_same_frames_and_the_report_says_which(tmp_path, capsys
     assert entry["frames"] == [FIRST, LAST] and entry["touched"] == [FIRST - 3, LAST + 4]
 
 
+def test_a_range_in_seconds_is_reported_as_its_frames_too(tmp_path, capsys):
+    """seconds=[1,2] at 120 fps is frames 120-240: the report's pipeline entry lists them
+    beside the seconds given (it had only seconds and touched)."""
+    report = tmp_path / "r.json"
+    code, _, err = run_cli(
+        capsys, "clean", NOISY, "-o", tmp_path / "o.bvh", "-q", "--report", report,
+        "-f", "lee-shin:seconds=[1,2],blend=0",
+    )  # fmt: skip
+    assert code == 0, err
+    entry = json.loads(report.read_text())["pipeline"][0]
+    assert entry["seconds"] == [1.0, 2.0] and entry["blend"] == 0
+    assert entry["frames"] == [120, 240] and entry["touched"] == [120, 241]
+    _, logs = Pipeline.from_inline(["lee-shin:seconds=[1,2],blend=0"]).run(mc.load(NOISY))
+    assert logs[0].frames == (120, 240) and logs[0].touched == (120, 241)
+
+
 def changed_frames(before: np.ndarray, after: np.ndarray, column: int) -> set[int]:
     return set(np.flatnonzero(degrees_between(before[:, column], after[:, column]) > 1e-9))
 

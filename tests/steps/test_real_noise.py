@@ -137,6 +137,31 @@ def test_a_wander_is_found_from_the_clip_modelled_and_said(tmp_path, capsys):
     assert json.loads(report.read_text())["capture_source"]["model"] == "markerless"
 
 
+@pytest.mark.parametrize("given", [(), ("--source", "video")])
+def test_report_prints_the_capture_source_line_clean_prints(tmp_path, capsys, given):
+    """`report IN` had stopped after "...wandering noise leaves it", without the wander's
+    edge, level and the hint: now the same line, from a capture_source with the same keys
+    as auto's notes (the median joint's wander)."""
+    truth = smooth_coordinates(1200, seed=3)
+    e = np.degrees(2.0 * wander_noise(1200, len(NAMES), 10.0, 2.0, seed=3, rho=0.5)[:, :, 2])
+    source = tmp_path / "take.csv"
+    write_channel_csv(source, truth + e)
+    found, measured = tmp_path / "clean.json", tmp_path / "report.json"
+    code, out, err = run_cli(
+        capsys, "clean", source, "-o", tmp_path / "c.csv", "--report", found, *given
+    )
+    assert code == 0, err
+    line = [row for row in out.splitlines() if row.startswith("capture source:")]
+    assert len(line) == 1 and "The noise wanders below" in line[0]
+    code, out, err = run_cli(capsys, "report", source, "--json", measured, *given)
+    assert code == 0, err
+    assert [row for row in out.splitlines() if row.startswith("capture source:")] == line
+    capture = json.loads(measured.read_text())["capture_source"]
+    notes = [j["auto"] for j in json.loads(found.read_text())["joints"].values()]
+    assert capture["wander_edge_hz"] == notes[0]["wander_edge_hz"]
+    assert capture["wander"] == sorted(n["wander"] for n in notes)[len(notes) // 2]
+
+
 @pytest.mark.parametrize("command", ["clean", "batch", "check"])
 def test_source_without_an_auto_step_or_against_its_own_is_a_usage_error(tmp_path, capsys, command):
     source = tmp_path / "in" / "take.csv"
