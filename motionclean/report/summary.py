@@ -43,7 +43,10 @@ __all__ = ["build_report", "build_series", "format_table", "noise_figures", "to_
 
 
 def build_series(
-    before: Motion, after: Motion | None = None, repairs: dict[str, np.ndarray] | None = None
+    before: Motion,
+    after: Motion | None = None,
+    repairs: dict[str, np.ndarray] | None = None,
+    position_repairs: dict[str, np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Per-frame figures behind the report, per joint with rotation channels, reduced to
     what the HTML report plots and the figures the report reads.
@@ -59,6 +62,13 @@ def build_series(
     mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
     rows that involve a repaired frame. No per-frame table of the joints is kept: each is
     reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
+
+    ``figures["positions"]`` (None for a single clip or a clip without position channels)
+    holds the same of the joints with position channels, outside the frames
+    ``position_repairs`` marks (:func:`.verdict.repaired_positions`): their linear
+    acceleration (length units/s^2) and the distance each moved (length units), per
+    position joint ``(sum of squares, count, max)``, their ``names`` and ``travel``, the
+    largest extent of any of their paths along an axis (length units).
     """
     dt = before.frame_time
     clips = (before, after)
@@ -124,6 +134,11 @@ def build_series(
         outside["deviation"] = _outside(table, lead, trail, repaired)
         dev = _reduced(table, lead, trail)
         del table
+    positions = (
+        None
+        if after is None
+        else _position_series(before, after, position_repairs or {}, (lead, trail), starts)
+    )
     joints = {}
     for n, j in enumerate(rot):
         joints[before.names[j]] = {
@@ -139,6 +154,7 @@ def build_series(
             "accel_after": acc_a,
             "deviation": dev,
             "outside_repairs": outside,
+            "positions": positions,
         },
         "contacts": contacts,
         "feet": feet,
@@ -146,6 +162,43 @@ def build_series(
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
+
+
+def _position_series(
+    before: Motion,
+    after: Motion,
+    repairs: dict[str, np.ndarray],
+    rest: tuple[int, int],
+    starts: np.ndarray,
+) -> dict[str, Any] | None:
+    """:func:`build_series`' ``figures["positions"]``: per joint with position channels,
+    ``(sum of squares, count, max)`` of its linear acceleration in either clip and of the
+    distance it moved, over the rows outside the rest frames, the missing samples and the
+    frames in ``repairs`` (joint name: ``(F,)`` mask); None without position channels."""
+    joints = np.flatnonzero(before.layout.has_position)
+    if joints.size == 0:
+        return None
+    lead, trail = rest
+    dt = before.frame_time
+    missing = _missing(before, after, joints)
+    none = np.zeros(before.n_frames, dtype=bool)
+    masks = {n: repairs.get(before.names[j], none) for n, j in enumerate(joints)}
+    rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in masks.items()}
+    figures: dict[str, Any] = {"names": [before.names[j] for j in joints]}
+    for key, clip in (("accel_before", before), ("accel_after", after)):
+        table = metrics.linear_acceleration(clip.translations[:, joints], dt, missing, starts)
+        figures[key] = _outside(table, lead, trail, rows)
+    moved = metrics.distance(before.translations[:, joints], after.translations[:, joints], missing)
+    figures["deviation"] = _outside(moved, lead, trail, masks)
+    path = before.translations[lead : before.n_frames - trail, joints]
+    if missing is not None:
+        path = np.where(missing[lead : before.n_frames - trail, :, None], np.nan, path)
+    seen = ~np.isnan(path).all(axis=(0, 2))  # (a joint missing throughout: no path)
+    path = path[:, seen]
+    figures["travel"] = (
+        float(np.max(np.nanmax(path, axis=0) - np.nanmin(path, axis=0))) if path.size else math.nan
+    )
+    return figures
 
 
 def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
@@ -261,6 +314,51 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
+    } | _position_smoothing(figures.get("positions"))
+
+
+def _position_smoothing(positions: dict | None) -> dict[str, Any]:
+    """:func:`_smoothing`'s figures of the position channels: the RMS linear acceleration
+    before and after (length units/s^2) and the fraction of it removed, the largest and RMS
+    distance a joint moved (length units, and the joint of the largest), the joints that
+    moved at all (``position_moved``: by more than nothing, largest first) and the
+    ``travel`` of the positions (:func:`_position_series`); None each without position
+    channels."""
+    if positions is None:
+        return dict.fromkeys(
+            (
+                "position_noise_before",
+                "position_noise_after",
+                "position_noise_removed",
+                "change_length_max",
+                "change_length_rms",
+                "change_length_joint",
+                "position_moved",
+                "travel",
+            )
+        )
+    names = positions["names"]
+
+    def total(key: str) -> tuple[float, float]:
+        found = positions[key]
+        return sum(found[n][0] for n in found), sum(found[n][1] for n in found)
+
+    before, rows = total("accel_before")
+    after, _ = total("accel_after")
+    squares, counts = total("deviation")
+    peaks = [positions["deviation"][n][2] for n in range(len(names))]
+    worst = int(np.argmax(peaks))
+    moved = sorted((n for n, peak in enumerate(peaks) if peak > 0.0), key=lambda n: -peaks[n])
+    removed = 1.0 - math.sqrt(after / before) if before > 0 else 0.0
+    return {
+        "position_noise_before": math.sqrt(before / rows) if rows else None,
+        "position_noise_after": math.sqrt(after / rows) if rows else None,
+        "position_noise_removed": removed if rows else None,
+        "change_length_max": float(peaks[worst]),
+        "change_length_rms": math.sqrt(squares / max(counts, 1.0)),
+        "change_length_joint": names[worst],
+        "position_moved": [(names[n], peaks[n]) for n in moved],
+        "travel": positions["travel"],
     }
 
 

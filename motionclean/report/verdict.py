@@ -16,6 +16,14 @@ Statuses, first that applies (thresholds below, documented in the README):
   flipped one?), or feet sliding faster than :data:`LOOK_SKATE` body heights per second.
 - ``clean``: smoothing changed the clip by less than :data:`CLEAN_CHANGE_DEG` RMS and
   nothing was repaired; ``repaired``: the same, with repairs.
+
+Position channels (a BVH root's position, a tracker's positions, SMPL's ``trans``) are
+judged the same way in length units against the clip's scale (its body height, or where it
+has none the range its positions travel): :data:`CLEAN_CHANGE_HEIGHTS` and
+:data:`LOOK_CHANGE_HEIGHTS` of it. A clip is clean only where both are; "left as it was"
+is said only where no position moved by more than :data:`UNCHANGED_LENGTH`. Positions are
+told in the line where they change what the rotations alone would say (see
+:func:`build_verdict`).
 - ``cleaned``: a noisy capture, smoothed (and repaired, if it says so).
 - ``not smoothed``: the pipeline has no smoothing step (only steps of
   :data:`NOT_SMOOTHING`) and repaired nothing: what it planted or moved is told, the noise
@@ -29,19 +37,24 @@ from typing import Any
 
 import numpy as np
 
+from ..core.motion import UNCHANGED_TOLERANCE
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs, plural
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
+    "CLEAN_CHANGE_HEIGHTS",
     "LOOK_CHANGE_DEG",
+    "LOOK_CHANGE_HEIGHTS",
     "LOOK_REPAIRED_SHARE",
     "LOOK_SKATE",
     "NOT_SMOOTHING",
     "PLANTED_SKATE",
+    "UNCHANGED_LENGTH",
     "build_verdict",
     "repaired_frames",
+    "repaired_positions",
 ]
 
 #: Smoothing that changes a clip by less than this RMS angle (degrees, outside repairs)
@@ -56,6 +69,16 @@ UNCHANGED_DEG = 1e-6
 GROUNDED_JITTER = 0.01
 #: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a look.
 LOOK_CHANGE_DEG = 10.0
+#: The position counterparts of :data:`CLEAN_CHANGE_DEG` and :data:`LOOK_CHANGE_DEG`, in
+#: body heights (or, without one, of the range the clip's positions travel): the end of a
+#: limb 0.57 body heights long (1 m of 1.75 m) turned by 0.05 degrees moves by 0.0005 body
+#: heights (0.9 mm), turned by 10 degrees by 0.1.
+CLEAN_CHANGE_HEIGHTS = 0.0005
+LOOK_CHANGE_HEIGHTS = 0.1
+#: A position that moved by no more than this (length units) is as the writers give it back:
+#: closer values are written with the input's own text
+#: (:data:`motionclean.core.motion.UNCHANGED_TOLERANCE`).
+UNCHANGED_LENGTH = UNCHANGED_TOLERANCE
 #: A joint repaired on more than this share of its frames needs a look.
 LOOK_REPAIRED_SHARE = 0.5
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
@@ -90,21 +113,49 @@ def repaired_frames(joints: dict[str, dict], n_frames: int) -> dict[str, np.ndar
     return masks
 
 
+def repaired_positions(joints: dict[str, dict], n_frames: int) -> dict[str, np.ndarray]:
+    """:func:`repaired_frames` of the position channels: ``despike``'s interpolated runs of a
+    joint's positions (its ``position_despike`` note) and ``fill-gaps``' filled gaps."""
+    masks = {}
+    for name, entry in joints.items():
+        runs = _runs(entry.get("position_despike") or {}, "interpolated")
+        runs += _runs(entry.get("fill-gaps") or {}, "filled")
+        if not runs:
+            continue
+        mask = np.zeros(n_frames, dtype=bool)
+        for start, stop in runs:
+            mask[max(start, 0) : max(stop, 0)] = True
+        masks[name] = mask
+    return masks
+
+
 def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
-    """Per joint with a repair: flips, spikes, gaps filled and left, frames repaired."""
+    """Per joint with a repair: flips, spikes (of its rotations and positions), gaps filled
+    and left, frames repaired."""
     found = {}
     for name, entry in joints.items():
         despike = entry.get("despike") or {}
+        moved = _runs(entry.get("position_despike") or {}, "interpolated")
         gaps = entry.get("fill-gaps") or {}
         counts = {
             "flips": len(_runs(despike, "unflipped")),
-            "spikes": len(_runs(despike, "interpolated")),
+            "spikes": len(_runs(despike, "interpolated")) + len(moved),
             "gaps_filled": len(_runs(gaps, "filled")),
             "gaps_left": len(_runs(gaps, "missing")),
         }
         if any(counts.values()):
             frames = int(despike.get("frames_repaired", 0))
             frames += sum(b - a for a, b in _runs(gaps, "filled"))
+            if moved:  # the position repairs' frames the rotations' left out
+                told = _runs(despike, "unflipped") + _runs(despike, "interpolated")
+                told += _runs(gaps, "filled")
+                stop = max(b for _, b in moved + told)
+                mask = np.zeros(max(stop, 0), dtype=bool)
+                for a, b in moved:
+                    mask[max(a, 0) : max(b, 0)] = True
+                for a, b in told:
+                    mask[max(a, 0) : max(b, 0)] = False
+                frames += int(mask.sum())
             found[name] = counts | {"frames": frames}
     return found
 
@@ -167,14 +218,37 @@ def _ground_words(joints: dict[str, dict]) -> list[str]:
     return words
 
 
-def _removed_words(fraction: float) -> str:
+def _removed_words(fraction: float, what: str = "jitter") -> str:
     """ "86 % of the jitter removed", "no jitter removed" (under half a percent either way) or
-    "jitter up 3 %"."""
+    "jitter up 3 %" (``what``: "position jitter", of the position channels)."""
     if fraction >= 0.005:
-        return f"{fraction:.0%} of the jitter removed".replace("%", " %")
+        return f"{fraction:.0%} of the {what} removed".replace("%", " %")
     if fraction > -0.005:
-        return "no jitter removed"
-    return f"jitter up {-fraction:.0%}".replace("%", " %")
+        return f"no {what} removed"
+    return f"{what} up {-fraction:.0%}".replace("%", " %")
+
+
+def _length(value: float) -> str:
+    """A length in two significant figures, without an exponent: "0.078", "0.000087"."""
+    return str(np.format_float_positional(float(f"{value:.2g}"), trim="-"))
+
+
+def _under(value: float) -> str:
+    """The power of ten above ``value`` (> 0), without an exponent: "0.0001" for 8.7e-05."""
+    return str(np.format_float_positional(10.0 ** (math.floor(math.log10(value)) + 1), trim="-"))
+
+
+def _scale(report: dict, smoothing: dict) -> tuple[float, str]:
+    """The length the position thresholds are shares of, and what it is: the body height
+    where the clip has one, else the range its positions travel (a tracked body on its
+    own); 0 where neither is known."""
+    height = (report.get("world") or {}).get("body_height")
+    if isinstance(height, float | int) and math.isfinite(height) and height > 0:
+        return float(height), "body height"
+    travel = smoothing.get("travel")
+    if travel is not None and math.isfinite(travel) and travel > 0:
+        return float(travel), "the positions' range of travel"
+    return 0.0, ""
 
 
 def _missing_words(joints: dict[str, dict]) -> list[str]:
@@ -203,7 +277,17 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     ``noise_before`` and ``noise_after`` (RMS angular acceleration, deg/s^2),
     ``noise_removed`` (the fraction of it removed), ``change_deg_max`` and
     ``change_deg_rms`` (rotation angle between input and output, degrees) and
-    ``change_joint`` (where the largest change is).
+    ``change_joint`` (where the largest change is); of the position channels (None each
+    without any) ``position_noise_before``, ``position_noise_after`` (RMS linear
+    acceleration, length units/s^2), ``position_noise_removed``, ``change_length_max``,
+    ``change_length_rms`` (length units), ``change_length_joint``, ``position_moved``
+    (``(name, largest distance)`` of the joints that moved, largest first) and ``travel``.
+
+    Positions are told in the line where they say what the rotations alone do not: where
+    the rotations were left (nearly) as they were (below :data:`CLEAN_CHANGE_DEG` RMS) and a
+    position moved by more than :data:`UNCHANGED_LENGTH` (not by ``ground`` alone), or a
+    position moved by more than :data:`LOOK_CHANGE_HEIGHTS` of the clip's scale. Where the
+    rotations were smoothed the line is theirs, positions told only where their jitter rose.
     """
     joints = report["joints"]
     if smoothing is None:
@@ -222,15 +306,39 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     rest = report.get("rest_frames") or {}
     motion_frames = int(report["frames"]) - rest.get("leading", 0) - rest.get("trailing", 0)
     too_short = motion_frames < MIN_FRAMES  # no step can tell noise in so few frames
-    unmeasured = smoothing["noise_removed"] is None  # no three frames in a row known
+    rotations_unmeasured = smoothing["noise_removed"] is None
+    position_removed = smoothing.get("position_noise_removed")
+    # no three frames in a row known, of rotations or positions
+    unmeasured = rotations_unmeasured and position_removed is None
     smoothed = (
         not too_short
         and not unmeasured
         and (not filters or any(n not in NOT_SMOOTHING for n in filters))
     )
+    what = "smoothing moved" if filters and smoothed else "the cleaning moved"
     if change > LOOK_CHANGE_DEG:
-        what = "smoothing moved" if filters and smoothed else "the cleaning moved"
         reasons.append(f"{what} {joint} by {change:.1f} degrees")
+    grounded = _ground_words(joints)
+    # positions: moved beyond the writers' rounding, and not by the ground step alone
+    # (which moves and levels the whole clip without smoothing it)
+    moved = [n for n, peak in smoothing.get("position_moved") or [] if peak > UNCHANGED_LENGTH]
+    length = smoothing.get("change_length_max") or 0.0
+    position_joint = smoothing.get("change_length_joint")
+    scale, per = _scale(report, smoothing)
+    told = bool(moved) and not (
+        grounded and (position_removed is None or position_removed < GROUNDED_JITTER)
+    )
+    if grounded:  # (the distances hold the ground's move: only the jitter tells smoothing)
+        positions_clean = not told
+    else:
+        positions_clean = not told or (
+            scale > 0 and smoothing["change_length_rms"] < CLEAN_CHANGE_HEIGHTS * scale
+        )
+        if told and scale > 0 and length > LOOK_CHANGE_HEIGHTS * scale:
+            share = f"{length / scale:.0%}".replace("%", " %")
+            reasons.append(
+                f"{what} {position_joint}'s position by {_length(length)} units ({share} of {per})"
+            )
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
         if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
@@ -239,12 +347,14 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         hint = "" if "footlock" in filters else " (footlock holds them)"
         reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
     done = _repair_words(repairs)
-    grounded = _ground_words(joints)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
-    clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
-        grounded and not unmeasured and smoothing["noise_removed"] < GROUNDED_JITTER
+    rotations_clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
+        grounded and not rotations_unmeasured and smoothing["noise_removed"] < GROUNDED_JITTER
     )
-    removed = "" if unmeasured else _removed_words(smoothing["noise_removed"])
+    clean = rotations_clean and positions_clean
+    # the positions say what the rotations do not: the clip changed where they left it
+    positions_lead = told and rotations_clean
+    removed = "" if rotations_unmeasured else _removed_words(smoothing["noise_removed"])
     looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
     shown_feet = None if looking else feet
     if not smoothed:
@@ -262,10 +372,19 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         parts = done + grounded
         # (below CLEAN_CHANGE_DEG RMS, its largest change may still be a few tenths)
         left = "left as it was" if change < CLEAN_CHANGE_DEG else "barely moved"
+        if positions_lead:  # "left as it was" only where no value moved
+            who = f"{moved[0]} position" if len(moved) == 1 else f"positions of {_names(moved)}"
+            little = f"{who} moved by under {_under(length)} units"
+            left = little if change < CLEAN_CHANGE_DEG else f"{left}, {little}"
         parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
     else:
         parts = [removed] + done + grounded
+        if positions_lead and position_removed is not None:
+            parts[0] = _removed_words(position_removed, "position jitter")
+        elif told and position_removed is not None and position_removed <= -0.005:
+            parts.insert(1, _removed_words(position_removed, "position jitter"))
+        parts = [part for part in parts if part]
         lead = "noisy capture, cleaned"
     if shown_feet:
         parts.append(shown_feet)
@@ -280,6 +399,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         tail = f"largest change {change:.2g} degrees{where}"
     if change < UNCHANGED_DEG:
         tail = f"no rotation changed{where}"
+    if positions_lead and not grounded and not clean:
+        tail = f"largest position change {_length(length)} units on {position_joint}, {tail}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
     if not smoothed:
@@ -298,6 +419,14 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
         "change_joint": joint if change >= UNCHANGED_DEG else None,
+        "position_noise_before": smoothing.get("position_noise_before"),
+        "position_noise_after": smoothing.get("position_noise_after"),
+        "position_noise_removed": position_removed,
+        "change_length_max": smoothing.get("change_length_max"),
+        "change_length_rms": smoothing.get("change_length_rms"),
+        "change_length_joint": position_joint if moved else None,
+        "length_scale": scale if scale > 0 else None,
+        "length_scale_of": per or None,
         "repairs": repairs,
         "feet": feet,
     }

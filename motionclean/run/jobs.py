@@ -27,7 +27,7 @@ from ..filters import multires
 from ..io import ReadOptions, encode, save, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, gap_notes, to_json
-from ..report.verdict import repaired_frames
+from ..report.verdict import repaired_frames, repaired_positions
 from ..steps.pipeline import Pipeline, StepLog
 from ..steps.resampling import on_input_frames
 from .memory import return_free_memory
@@ -93,14 +93,19 @@ def notes_by_joint(logs: Sequence[StepLog]) -> dict[str, dict]:
     return merged
 
 
-def _repaired_input_frames(logs: Sequence[StepLog], before: Motion) -> dict[str, np.ndarray]:
+def _repaired_input_frames(
+    logs: Sequence[StepLog], before: Motion, positions: bool = False
+) -> dict[str, np.ndarray]:
     """Per joint, the ``(F,)`` mask of the input's frames a repairing step changed
-    (:func:`~motionclean.report.verdict.repaired_frames`), so the report tells repairs apart
-    from smoothing. A step after a change of frame rate numbers the frames of its clip: an
-    input frame counts as repaired where either of the step's frames around its time was."""
+    (:func:`~motionclean.report.verdict.repaired_frames`; ``positions``: of its position
+    channels, :func:`~motionclean.report.verdict.repaired_positions`), so the report tells
+    repairs apart from smoothing. A step after a change of frame rate numbers the frames of
+    its clip: an input frame counts as repaired where either of the step's frames around its
+    time was."""
     masks: dict[str, np.ndarray] = {}
+    read = repaired_positions if positions else repaired_frames
     for log in logs:
-        found = repaired_frames(log.notes, log.n_frames)
+        found = read(log.notes, log.n_frames)
         if found and (log.n_frames, log.frame_time) != (before.n_frames, before.frame_time):
             at = np.arange(before.n_frames) * (before.frame_time / log.frame_time)
             below = np.minimum(np.floor(at).astype(np.intp), log.n_frames - 1)
@@ -151,7 +156,8 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
         for joint, note in gap_notes(before, after).items():
             notes.setdefault(joint, {}).setdefault("fill-gaps", note["fill-gaps"])
     repairs = _repaired_input_frames(logs, before)
-    series = build_series(before, compared, repairs)
+    position_repairs = _repaired_input_frames(logs, before, positions=True)
+    series = build_series(before, compared, repairs, position_repairs)
     return_free_memory()  # the series' per-frame tables
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):

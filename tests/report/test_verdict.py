@@ -4,6 +4,7 @@ the JSON report and the batch index; headline figures keep repairs apart from sm
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import numpy as np
@@ -402,3 +403,163 @@ def test_a_clip_too_short_to_judge_says_so(tmp_path, capsys):
         verdict = json.loads(page.read_text())["verdict"]
         assert code == 0 and verdict["status"] == status
         assert ("too short to judge (3 frames)" in verdict["text"]) == (frames == 3)
+
+
+# Positions (a BVH root's position, a tracker's positions, SMPL's trans) are judged as
+# rotations are: a clip whose positions smoothing moved is not "left as it was".
+
+
+def with_root_noise(clip: mc.Motion, amplitude: float, seed: int = 0) -> mc.Motion:
+    """``clip`` with uniform noise of +-``amplitude`` units on its root position only."""
+    translations = clip.translations.copy()
+    rng = np.random.default_rng(seed)
+    translations[:, 0] += rng.uniform(-amplitude, amplitude, translations[:, 0].shape)
+    return clip.replace(translations=translations, source_values=None, source_rotations=None)
+
+
+def position_share(report: dict) -> float:
+    """1 - after / before of the RMS linear acceleration over the report's position joints
+    (their own figures; every joint's rows counted alike)."""
+    rows = [v["linear_accel_rms"] for v in report["joints"].values() if "linear_accel_rms" in v]
+    before = math.fsum(r["before"] ** 2 for r in rows)
+    return 1.0 - math.sqrt(math.fsum(r["after"] ** 2 for r in rows) / before)
+
+
+def test_noise_on_the_root_position_alone_is_cleaned_and_told(tmp_path):
+    """131_02 cut with +-0.05 units of noise on the root position only, despike and auto:
+    the rotations are left as they were, the root's position is smoothed (it read "clean
+    capture, repaired: ... otherwise left as it was")."""
+    noisy = tmp_path / "root_noise.bvh"
+    mc.save(with_root_noise(mc.load(SAMPLE), 0.05), noisy)
+    report = clean_clip(noisy, None, Pipeline.from_inline(["despike", "auto"])).report
+    verdict, text = report["verdict"], report["verdict"]["text"]
+    assert verdict["status"] == "cleaned", text
+    assert "left as it was" not in text
+    moved = report["joints"]["Hips"]["deviation_length"]["max"]
+    assert 0.05 < moved == pytest.approx(verdict["change_length_max"], rel=1e-12)
+    assert verdict["change_length_joint"] == "Hips"
+    assert verdict["position_noise_removed"] == pytest.approx(position_share(report), rel=1e-9)
+    share = f"{verdict['position_noise_removed']:.0%}".replace("%", " %")
+    assert text.startswith(f"noisy capture, cleaned: {share} of the position jitter removed, ")
+    assert "5 flips repaired on RThumb" in text
+    assert f"largest position change {moved:.2g} units on Hips, no rotation changed" in text
+    assert verdict["length_scale_of"] == "body height"
+
+
+def tracker_csv(path, clip: mc.Motion, body: str, noise: float, seed: int = 0) -> None:
+    """One body of ``clip`` as a rigid-body tracker writes it, with white noise of ``noise``
+    units (standard deviation per axis) on its position."""
+    positions, rotations = kinematics.forward(clip)
+    j = clip.names.index(body)
+    moved = positions[:, j] + np.random.default_rng(seed).normal(0, noise, positions[:, j].shape)
+    rows = ["time," + ",".join(f"{body}.{s}" for s in ["px", "py", "pz", "qw", "qx", "qy", "qz"])]
+    for f in range(clip.n_frames):
+        values = np.concatenate([moved[f], rotations[f, j]])
+        rows.append(f"{f * clip.frame_time:.6f}," + ",".join(f"{v:.6f}" for v in values))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_a_trackers_position_noise_is_counted(tmp_path):
+    """A rigid body tracked on its own (no body height: its positions' range of travel is
+    the scale) with position noise: the jitter removed is the positions' (it read "clean
+    capture: left as it was" over a linear acceleration cut 25-fold)."""
+    source = tmp_path / "tracker.csv"
+    tracker_csv(source, mc.load(SAMPLE), "Head", 0.03)
+    report = clean_clip(source, None, Pipeline.default()).report
+    verdict, text = report["verdict"], report["verdict"]["text"]
+    assert verdict["status"] == "cleaned", text
+    assert "left as it was" not in text and verdict["length_scale_of"] != "body height"
+    assert verdict["position_noise_removed"] == pytest.approx(position_share(report), rel=1e-9)
+    assert verdict["position_noise_removed"] > 0.5
+    assert " of the position jitter removed" in text
+    assert "largest position change" in text and "on Head" in text
+
+
+def test_an_smpl_trans_smoothing_moved_is_told(tmp_path):
+    """An AMASS .npz whose trans (the pelvis's position) is white noise of 0.1 units about a
+    standing place: smoothing moves it by tenths of a unit, most of its travel, a reason to
+    look (it read "clean capture: left as it was")."""
+    frames = 120
+    rng = np.random.default_rng(3)
+    t = np.arange(frames)[:, None] / 120.0
+    poses = 0.4 * np.sin(rng.uniform(0.5, 2, (1, 156)) * t + rng.uniform(0, 6, (1, 156)))
+    poses[:, :3] += [np.pi / 2, 0, 0]
+    source = tmp_path / "amass.npz"
+    np.savez(
+        source,
+        trans=rng.normal(0, 0.1, (frames, 3)) + [0, 0, 0.9],
+        gender=np.array("female"),
+        mocap_framerate=np.array(120.0),
+        betas=np.zeros(16),
+        poses=poses,
+    )
+    result = clean_clip(source, None, Pipeline.default())
+    verdict, text = result.report["verdict"], result.report["verdict"]["text"]
+    moved = float(np.abs(result.after.translations - result.before.translations).max())
+    assert moved > 0.1
+    assert "left as it was" not in text
+    assert verdict["status"] == "needs a look", text
+    joint = verdict["change_length_joint"]
+    assert text.startswith(f"needs a look: smoothing moved {joint}'s position by ")
+    assert "of the positions' range of travel" in text
+
+
+def test_a_position_moved_below_any_visible_change_is_said_by_how_little(tmp_path):
+    """Root position noise of a thousandth of a unit (of a body 24 units tall), smoothed: still
+    a clean capture, but the line says what moved and by how little instead of "left as it
+    was" (the written clip is not the one read)."""
+    noisy = tmp_path / "faint.bvh"
+    mc.save(with_root_noise(mc.load(SAMPLE), 1e-3), noisy)
+    result = clean_clip(noisy, None, Pipeline.from_inline(["auto"]))
+    verdict, text = result.report["verdict"], result.report["verdict"]["text"]
+    shift = result.after.translations - result.before.translations
+    moved = float(np.linalg.norm(shift, axis=-1).max())
+    assert 0.001 < moved < 0.01
+    assert verdict["status"] == "clean", text
+    assert text.startswith("clean capture: Hips position moved by under 0.01 units, "), text
+    assert text.endswith("; no rotation changed outside repairs") and "as it was" not in text
+
+
+def rotation_only(source, target) -> None:
+    """``source`` with its root's position channels taken out: a clip of rotations only."""
+    out, motion = [], False
+    for line in source.read_text().splitlines():
+        if not motion and "CHANNELS 6 Xposition Yposition Zposition" in line:
+            line = line.replace("CHANNELS 6 Xposition Yposition Zposition", "CHANNELS 3")
+        elif motion and line.strip():
+            line = " ".join(line.split()[3:])
+        motion = motion or line.startswith("Frame Time")
+        out.append(line)
+    target.write_text("\n".join(out) + "\n")
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        (
+            NOISY,
+            "noisy capture, cleaned: 86 % of the jitter removed, 5 flips repaired on RThumb, "
+            "feet planted; largest change 3.6 degrees outside repairs",
+        ),
+        (
+            SAMPLE,
+            "clean capture, repaired: 5 flips repaired on RThumb, otherwise left as it was, "
+            "feet slide 0.11 body heights/s; no rotation changed outside repairs",
+        ),
+    ],
+)
+def test_rotation_only_clips_keep_their_verdicts(tmp_path, source, expected):
+    clip = tmp_path / "rotations.bvh"
+    rotation_only(source, clip)
+    assert not mc.load(clip).layout.has_position.any()
+    verdict = clean_clip(clip, None, Pipeline.default()).report["verdict"]
+    assert verdict["text"] == expected
+    assert verdict["change_length_max"] is None and verdict["position_noise_removed"] is None
+
+
+def test_the_demo_verdict_is_the_readmes():
+    """The demo's root position is smoothed too (its rotations lead the line: they were
+    smoothed, so the positions add nothing to it); the README quotes the line."""
+    readme = (ROOT / "README.md").read_text()
+    quoted = re.search(r"```\nverdict: (.*)\n```", readme).group(1)
+    assert clean_clip(NOISY, None, Pipeline.default()).report["verdict"]["text"] == quoted
