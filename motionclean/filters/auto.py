@@ -577,6 +577,10 @@ def _select(
             band = None
     masks = [mask for _, _, mask in cands]
     risk = _risks(model, masks, strength, band, coloured)
+    # whether a column is worth filtering is judged at the noise found, whatever the
+    # strength: a strength below 1 asks for gentler filters, not for none (at 0.65 the
+    # sample's every joint had fallen under WORTHWHILE_GAIN and been left as it was)
+    worth = risk if strength == 1 or coloured is not None else _risks(model, masks, 1.0, band)
     model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     coverage = model.coverage()
@@ -598,8 +602,9 @@ def _select(
         # a column whose choices, over the clip, are expected to take off less than
         # WORTHWHILE_GAIN of its error is left as it is (noise that wanders into the
         # motion's band is there by the markerless model's premise: its gains count)
-        kept = np.take_along_axis(risk, choice[None], axis=0)[0]
-        choice[:, coverage @ kept > (1.0 - WORTHWHILE_GAIN) ** 2 * (coverage @ risk[0])] = 0
+        judged = choice if worth is risk else np.argmin(worth, axis=0)
+        kept = np.take_along_axis(worth, judged[None], axis=0)[0]
+        choice[:, coverage @ kept > (1.0 - WORTHWHILE_GAIN) ** 2 * (coverage @ worth[0])] = 0
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         _apply(disp, model, choice, masks, lambda rows, s: move(x[rows], s, out[rows]))

@@ -185,8 +185,10 @@ STEP = StepSpec(
             "strength",
             "float",
             1.0,
-            "multiplies the noise used for the choice: 0 leaves "
-            "the clip unchanged, 2 smooths as if the noise were twice the estimate",
+            "multiplies the noise used for the choice: 0 leaves the clip unchanged, 0.5 "
+            "smooths as if the noise were half the estimate (gently, or not at all where "
+            "motion outweighs that), 2 as if it were twice; whether a joint is worth "
+            "smoothing at all is judged at the estimate itself",
             minimum=0.0,
             maximum=10.0,
         ),
