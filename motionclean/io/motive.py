@@ -16,8 +16,9 @@ A Motive export starts with ``Format Version,`` (after an optional UTF-8 byte-or
 Line 1 holds ``key,value`` pairs; ``Rotation Type`` must be ``Quaternion`` (an Euler
 export is refused) and ``Export Frame Rate`` gives the frame rate, which the ``Time``
 column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`).
-Then come the ``,Type``, ``,Name`` and optional ``,ID`` rows, the property row (its first
-two cells empty) and the axis row ``Frame,Time (Seconds),...``. The header rows may
+Then come the ``,Type``, ``,Name`` and optional ``,ID`` and ``,Parent`` rows (Motive 3,
+format 1.25, writes the latter), the property row (its first two cells empty) and the axis
+row ``Frame,Time (Seconds),...``. The header rows may
 appear in any order; a header row shorter than the axis row counts as ending in empty cells.
 
 Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset) whose
@@ -88,8 +89,9 @@ BODY_CELLS = (
 #: Motive's own column order of a rigid body: Rotation X Y Z W, Position X Y Z (indices
 #: into :data:`BODY_CELLS`).
 WRITE_ORDER = (4, 5, 6, 3, 0, 1, 2)
-#: Labels of the header rows above the axis row (``""``: the property row).
-HEADER_ROWS = ("Type", "Name", "ID", "")
+#: Labels of the header rows above the axis row (``""``: the property row; ``Parent``:
+#: Motive 3's, format 1.25, empty for rigid bodies).
+HEADER_ROWS = ("Type", "Name", "ID", "Parent", "")
 #: Header lines read at most before the axis row must have appeared.
 MAX_HEADER_LINES = 64
 
@@ -105,11 +107,13 @@ class MotiveText(CsvText):
     ``columns`` ``(B, 7)`` in the order of
     :data:`~motionclean.io.csv.RIGID_SUFFIXES`) plus what a fresh write needs:
     the metadata fields of line 1 (``key, value, key, value, ...``), the header rows' labels
-    in file order and each body's ID."""
+    in file order, the cells of each header row and of the axis row over each body's seven
+    columns in Motive's order (by body name) and the axis row's first two cells."""
 
     metadata: tuple[str, ...] = ()
     row_labels: tuple[str, ...] = ()
-    ids: tuple[str, ...] = ()
+    body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
+    axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:
@@ -202,13 +206,13 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     if len(axis) < 3 or not axis[1].startswith("Time"):
         _fail("the axis row must start with 'Frame,Time (Seconds),'", path, axis_line)
     rows: dict[str, tuple[int, list[str]]] = {}
-    order = []
+    order: list[str] = []
     for number, fields in lines[1:-1]:
         label = fields[1] if len(fields) > 1 else ""
         if label not in HEADER_ROWS or (label == "" and len(fields) < 3):
             _fail(
                 f"unexpected header row {','.join(fields)[:60]!r} (expected ',Type,...', "
-                "',Name,...', ',ID,...' or the property row ',,Rotation,...')",
+                "',Name,...', ',ID,...', ',Parent,...' or the property row ',,Rotation,...')",
                 path,
                 number,
             )
@@ -230,7 +234,7 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
 
 
 def _bodies(rows, axis: list[str], path):
-    """Body names, IDs and their ``(B, 7)`` columns in :data:`BODY_CELLS` order."""
+    """Body names and their ``(B, 7)`` columns in :data:`BODY_CELLS` order."""
     types, names = rows["Type"][1], rows["Name"][1]
     ids = rows["ID"][1] if "ID" in rows else [""] * len(axis)
     properties = rows[""][1]
@@ -271,7 +275,7 @@ def _bodies(rows, axis: list[str], path):
                 rows[""][0],
             )
         columns[b] = found
-    return list(cells), [body_ids[n] for n in cells], columns
+    return list(cells), columns
 
 
 def parse_motive(data: bytes, path=None) -> Motion:
@@ -286,7 +290,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
     frame_time = _frame_rate(metadata, path)
     rows, order = _header_rows(lines, path)
     axis_line, axis = lines[-1]
-    bodies, ids, columns = _bodies(rows, axis, path)
+    bodies, columns = _bodies(rows, axis, path)
     cells = parse_body(
         data, body_start, len(axis), axis_line + 1, path, parsed=[0, 1, *columns.ravel()]
     )
@@ -306,6 +310,11 @@ def parse_motive(data: bytes, path=None) -> Motion:
     labels = [f"{rows[''][1][k]} {axis[k]} (column {k + 1})".strip() for k in range(len(axis))]
     rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, labels, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
+    in_order = columns[:, list(WRITE_ORDER)]  # (B, 7) columns in Motive's order
+    body_cells = tuple(
+        {name: tuple(fields[k] for k in own) for name, own in zip(bodies, in_order, strict=True)}
+        for fields in [rows[label][1] for label in order] + [axis]
+    )
     text = MotiveText(
         "motive",
         data,
@@ -320,7 +329,8 @@ def parse_motive(data: bytes, path=None) -> Motion:
         blank=cells.blank,
         metadata=tuple(first),
         row_labels=order,
-        ids=tuple(ids),
+        body_cells=body_cells,
+        axis_head=tuple(axis[:2]),
     )
     return tracked_bodies(
         bodies, channels, frame_time, rotations, translations, text, path, missing
@@ -348,19 +358,20 @@ def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     metadata = list(src.metadata)
     for at in range(0, len(metadata) - 1, 2):  # a few metadata fields
         metadata[at + 1] = changed.get(metadata[at].strip(), metadata[at + 1])
-    ids = dict(zip(src.skeleton[0], src.ids, strict=True))
-    per_body = {
-        "Type": ["Rigid Body"] * len(BODY_CELLS),
-        "": [BODY_CELLS[i][0] for i in WRITE_ORDER],
+    # Each header row over a body's columns as read (a body the file did not hold: its
+    # type, name, properties and axes, the rest empty).
+    fallback = {
+        "Type": lambda name: ["Rigid Body"] * len(BODY_CELLS),
+        "Name": lambda name: [name] * len(BODY_CELLS),
+        "": lambda name: [BODY_CELLS[i][0] for i in WRITE_ORDER],
+        "axis": lambda name: [BODY_CELLS[i][1] for i in WRITE_ORDER],
     }
     header = [format_header(metadata, src.eol), src.eol]
-    for label in src.row_labels:
-        fields = ["", label]
+    for label, read in zip([*src.row_labels, "axis"], src.body_cells, strict=True):
+        fields = ["", label] if label != "axis" else list(src.axis_head)
         for name in motion.names:
-            fields += per_body.get(label) or [ids.get(name, "") if label == "ID" else name] * 7
+            fields += read.get(name) or fallback.get(label, lambda name: [""] * 7)(name)
         header.append(format_header(fields, src.eol))
-    axes = ["Frame", "Time (Seconds)"] + [BODY_CELLS[i][1] for i in WRITE_ORDER] * n_bodies
-    header.append(format_header(axes, src.eol))
 
     ordered = values[:, :, list(WRITE_ORDER)].reshape(n_frames, -1)
     blank = np.repeat(motion.missing_mask(), len(BODY_CELLS), axis=1)

@@ -297,3 +297,50 @@ def test_the_header_must_have_its_rows(tmp_path, capsys):
     check_error(tmp_path, capsys, no_name, 6, "no ',Name,...' row above the axis row")
     blank_time = replace_line(text, 10, "2,0.016667,", "2,,")
     check_error(tmp_path, capsys, blank_time, 10, "the Time column is blank")
+
+
+def with_parent_row(text: str) -> str:
+    """``text`` as Motive 3 (format 1.25) writes it: a ``,Parent,...`` row after the ID row
+    (empty over rigid bodies, the body's name over its markers)."""
+    lines = text.split("\r\n")
+    types, names = lines[2].split(",")[2:], lines[3].split(",")[2:]
+    parents = [
+        n.split(":")[0] if t == "Rigid Body Marker" else ""
+        for t, n in zip(types, names, strict=True)
+    ]
+    lines.insert(5, ",Parent," + ",".join(parents))
+    lines[0] = lines[0].replace("Format Version,1.23", "Format Version,1.25")
+    return "\r\n".join(lines)
+
+
+def test_a_motive_3_export_with_a_parent_row_is_read_and_written_back(tmp_path, capsys):
+    text, rotations, _ = export(n_frames=40, gaps={(6, 1): BLANK})
+    source = write(tmp_path, with_parent_row(text))
+    clip = mc.load(source)
+    assert clip.names == ["Wand", "Head Band"]
+    np.testing.assert_array_equal(clip.rotations, mc.load(write(tmp_path, text, "x.csv")).rotations)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    out = tmp_path / "clean.csv"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin", "-q")
+    assert code == 0, err
+    head = source.read_bytes().split(b"\r\nFrame,")[0]
+    assert out.read_bytes().startswith(head + b"\r\nFrame,")  # the Parent row byte for byte
+    assert out.read_bytes() != source.read_bytes()
+
+
+def test_a_resampled_motive_3_export_keeps_its_rows_over_each_body(tmp_path):
+    text, _, _ = export(n_frames=20)
+    clip = mc.load(write(tmp_path, with_parent_row(text)))
+    half = clip.replace(
+        rotations=clip.rotations[::2],
+        translations=clip.translations[::2],
+        frame_time=clip.frame_time * 2,
+    )
+    mc.save(half, tmp_path / "half.csv")
+    rows = cells_of(tmp_path / "half.csv")
+    assert rows[4] == ["", "ID"] + ["1"] * 7 + ["2"] * 7
+    assert rows[5] == ["", "Parent"] + [""] * 14  # (a rigid body has no parent)
+    assert rows[6] == ["", ""] + (["Rotation"] * 4 + ["Position"] * 3) * 2
+    assert rows[7] == ["Frame", "Time (Seconds)"] + ["X", "Y", "Z", "W", "X", "Y", "Z"] * 2
+    assert mc.load(tmp_path / "half.csv").frame_time == 1 / 60
