@@ -20,6 +20,9 @@ Then come the ``,Type``, ``,Name`` and optional ``,ID`` and ``,Parent`` rows (Mo
 format 1.25, writes the latter), the property row (its first two cells empty) and the axis
 row ``Frame,Time (Seconds),...``. The header rows may
 appear in any order; a header row shorter than the axis row counts as ending in empty cells.
+Motive 1.21 may leave out the labels (``,,Rigid Body,...``): four unlabelled rows are read
+by their places as Type, Name, ID and property (:func:`_by_position`). A row of commas
+alone is blank (Excel and LibreOffice save a blank line so).
 
 Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset) whose
 rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
@@ -92,6 +95,9 @@ WRITE_ORDER = (4, 5, 6, 3, 0, 1, 2)
 #: Labels of the header rows above the axis row (``""``: the property row; ``Parent``:
 #: Motive 3's, format 1.25, empty for rigid bodies).
 HEADER_ROWS = ("Type", "Name", "ID", "Parent", "")
+#: The header rows of a Motive 1.21 export that labels none of them (``,,Rigid Body,...``),
+#: by position.
+UNLABELLED_ROWS = ("Type", "Name", "ID", "")
 #: Header lines read at most before the axis row must have appeared.
 MAX_HEADER_LINES = 64
 
@@ -112,6 +118,7 @@ class MotiveText(CsvText):
 
     metadata: tuple[str, ...] = ()
     row_labels: tuple[str, ...] = ()
+    unlabelled: bool = False  # (header rows without their labels: Motive 1.21)
     body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
     axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
 
@@ -144,7 +151,7 @@ def _header_lines(data: bytes, path) -> tuple[list[tuple[int, list[str]]], int, 
         end = data.find(b"\n", pos)
         end = len(data) if end < 0 else end + 1
         line, pos = data[pos:end], end
-        if line.strip():
+        if line.translate(None, b", \t\r\n"):  # (a row of commas: blank, as Excel saves it)
             fields = _fields(line, number, path)
             lines.append((number, fields))
             if number > 1 and fields[:1] == ["Frame"]:
@@ -193,9 +200,42 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
     return 1.0 / rate
 
 
+def _by_position(header: list[tuple[int, list[str]]], path) -> list[tuple[int, list[str]]]:
+    """The header rows with the labels of their places when more than one has no label in
+    its second cell (``,,Rigid Body,...``, as Motive 1.21 may write them): the four rows of
+    :data:`UNLABELLED_ROWS`, the first holding no property and the last some; else refused."""
+    bare = [number for number, fields in header if fields[1:2] in ([], [""])]
+    if len(bare) < 2:
+        return header
+    if len(bare) < len(header):
+        _fail(
+            f"a second header row without a label (first at line {bare[0]}): only the "
+            "property row (',,Rotation,...') goes without one; label the others ',Type', "
+            "',Name', ',ID' or ',Parent'",
+            path,
+            bare[1],
+        )
+    words = ({"Rotation", "Position"} & {c.strip() for c in fields} for _, fields in header)
+    said = [bool(w) for w in words]
+    if len(header) != len(UNLABELLED_ROWS) or said[0] or not said[-1]:
+        _fail(
+            f"{len(header)} header rows without a label (',,...'): the rows of a Motive 1.21 "
+            "export without labels are read by their places only as the four rows Type, "
+            "Name, ID and property (',,Rotation,...'), in that order; label the rows "
+            "(',Type,...', ',Name,...', ',ID,...')",
+            path,
+            bare[0],
+        )
+    return [
+        (number, ["", label, *fields[2:]])
+        for (number, fields), label in zip(header, UNLABELLED_ROWS, strict=True)
+    ]
+
+
 def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[str, ...]]:
-    """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``""``), each as
-    ``(line, fields)`` padded to the axis row's width, and the labels in file order."""
+    """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``Parent``, ``""``;
+    unlabelled rows by their places, :func:`_by_position`), each as ``(line, fields)``
+    padded to the axis row's width, and the labels in file order."""
     axis_line, axis = lines[-1]
     if len(axis) == 2 and axis[1].startswith("Time"):
         _fail(
@@ -207,7 +247,7 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
         _fail("the axis row must start with 'Frame,Time (Seconds),'", path, axis_line)
     rows: dict[str, tuple[int, list[str]]] = {}
     order: list[str] = []
-    for number, fields in lines[1:-1]:
+    for number, fields in _by_position(lines[1:-1], path):
         label = fields[1] if len(fields) > 1 else ""
         if label not in HEADER_ROWS or (label == "" and len(fields) < 3):
             _fail(
@@ -329,6 +369,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
         blank=cells.blank,
         metadata=tuple(first),
         row_labels=order,
+        unlabelled=sum(fields[1:2] in ([], [""]) for _, fields in lines[1:-1]) > 1,
         body_cells=body_cells,
         axis_head=tuple(axis[:2]),
     )
@@ -368,7 +409,8 @@ def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     }
     header = [format_header(metadata, src.eol), src.eol]
     for label, read in zip([*src.row_labels, "axis"], src.body_cells, strict=True):
-        fields = ["", label] if label != "axis" else list(src.axis_head)
+        written = "" if src.unlabelled else label
+        fields = ["", written] if label != "axis" else list(src.axis_head)
         for name in motion.names:
             fields += read.get(name) or fallback.get(label, lambda name: [""] * 7)(name)
         header.append(format_header(fields, src.eol))

@@ -344,3 +344,70 @@ def test_a_resampled_motive_3_export_keeps_its_rows_over_each_body(tmp_path):
     assert rows[6] == ["", ""] + (["Rotation"] * 4 + ["Position"] * 3) * 2
     assert rows[7] == ["Frame", "Time (Seconds)"] + ["X", "Y", "Z", "W", "X", "Y", "Z"] * 2
     assert mc.load(tmp_path / "half.csv").frame_time == 1 / 60
+
+
+MOTIVE_1_21 = ROOT / "tests" / "data" / "motive" / "hmv_sample_take_1.21.csv"
+
+
+def labelled(text: str) -> str:
+    """``text`` (header rows without labels) with ``Type``, ``Name``, ``ID`` put in."""
+    lines = text.split("\r\n")
+    for number, label in ((3, "Type"), (4, "Name"), (5, "ID")):
+        assert lines[number - 1].startswith(",,")
+        lines[number - 1] = f",{label}," + lines[number - 1][2:]
+    return "\r\n".join(lines)
+
+
+def test_a_real_1_21_export_without_row_labels_is_read_by_the_rows_places(tmp_path, capsys):
+    source = tmp_path / "take.csv"
+    source.write_bytes(MOTIVE_1_21.read_bytes())
+    clip = mc.load(source)
+    said = mc.load(write(tmp_path, labelled(MOTIVE_1_21.read_bytes().decode()), "said.csv"))
+    assert clip.names == said.names == ["Rigid Body 1"] and clip.n_frames == 250
+    np.testing.assert_array_equal(clip.rotations, said.rotations)
+    np.testing.assert_array_equal(clip.translations, said.translations)
+    assert clip.frame_time == 1 / 120
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    half = clip.replace(
+        rotations=clip.rotations[::2], translations=clip.translations[::2], frame_time=1 / 60
+    )
+    mc.save(half, tmp_path / "half.csv")  # written afresh: the rows stay without labels
+    rows = cells_of(tmp_path / "half.csv")
+    assert [r[:3] for r in rows[2:7]] == [
+        ["", "", "Rigid Body"],
+        ["", "", "Rigid Body 1"],
+        ["", "", "CF5107FCB3ED11E565670A50E6808782"],  # (quotes only where needed)
+        ["", "", "Rotation"],
+        ["Frame", "Time", "X"],
+    ]
+    assert mc.load(tmp_path / "half.csv").n_frames == 125
+
+
+def test_a_row_of_commas_is_a_blank_row(tmp_path):
+    """Excel and LibreOffice save the blank line 2 as ``,,,,...`` (every row as wide as the
+    widest)."""
+    text, _, _ = export()
+    lines = text.split("\r\n")
+    assert lines[1] == ""
+    lines[1] = "," * (len(lines[2].split(",")) - 1)
+    padded = write(tmp_path, "\r\n".join(lines), "padded.csv")
+    clip = mc.load(padded)
+    np.testing.assert_array_equal(clip.rotations, mc.load(write(tmp_path, text)).rotations)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == padded.read_bytes()
+
+
+def test_header_rows_without_labels_that_cannot_be_placed_are_refused(tmp_path, capsys):
+    text = MOTIVE_1_21.read_bytes().decode()
+    no_id = "\r\n".join(line for k, line in enumerate(text.split("\r\n")) if k != 4)
+    check_error(tmp_path, capsys, no_id, 3, "3 header rows without a label (',,...')")
+    lines = labelled(text).split("\r\n")
+    lines[3] = ",," + lines[3].removeprefix(",Name,")  # Type and ID said, Name not
+    check_error(
+        tmp_path,
+        capsys,
+        "\r\n".join(lines),
+        6,
+        "a second header row without a label (first at line 4): only the property row",
+    )
