@@ -15,7 +15,9 @@ A Motive export starts with ``Format Version,`` (after an optional UTF-8 byte-or
 (eight ``Rigid Body`` cells per body: Rotation X Y Z W, Position X Y Z, Mean Marker Error).
 Line 1 holds ``key,value`` pairs; ``Rotation Type`` must be ``Quaternion`` (an Euler
 export is refused) and ``Export Frame Rate`` gives the frame rate, which the ``Time``
-column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`).
+column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`; a
+column written in coarser steps, whole milliseconds at 240 fps, to within its steps over
+consecutive frames: :func:`_coarse_times`).
 Then come the ``,Type``, ``,Name`` and optional ``,ID`` and ``,Parent`` rows (Motive 3,
 format 1.25, writes the latter), the property row (its first two cells empty) and the axis
 row ``Frame,Time (Seconds),...``. The header rows may
@@ -119,6 +121,7 @@ class MotiveText(CsvText):
     metadata: tuple[str, ...] = ()
     row_labels: tuple[str, ...] = ()
     unlabelled: bool = False  # (header rows without their labels: Motive 1.21)
+    notes: tuple[str, ...] = ()  # what the reader assumed (``core.kinematics.source_notes``)
     body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
     axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
 
@@ -318,6 +321,34 @@ def _bodies(rows, axis: list[str], path):
     return list(cells), columns
 
 
+def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> tuple[float, int]:
+    """The step of a Time column written coarser than a tenth of a frame (whole milliseconds
+    at 240 fps: Motive 1.23 writes 0.004, 0.008, 0.012, 0.016, ... for 1/240 s steps), and
+    -1 when its times are those of the frames at ``frame_time`` to within that step, rounded
+    or cut (the times less ``(frame - first frame) * frame_time`` spread by one step at
+    most, the frames consecutive), else the first row whose frame does not follow the one
+    before or the row furthest off; ``(0, -1)`` for any other time column (checked as in a
+    CSV)."""
+    if times.size < 2:
+        return 0.0, -1
+    for digits in range(7):  # seconds to microseconds
+        scaled = times * 10.0**digits
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-6):
+            break
+    else:
+        return 0.0, -1
+    step = 10.0**-digits
+    if not TIME_TOLERANCE * frame_time < step < frame_time:
+        return 0.0, -1
+    skips = np.flatnonzero(np.diff(frames) != 1)
+    if skips.size:
+        return step, int(skips[0]) + 1
+    off = times - (frames - frames[0]) * frame_time
+    if float(off.max() - off.min()) <= step + 1e-9 * max(1.0, float(np.abs(times).max())):
+        return step, -1
+    return step, int(np.argmax(np.abs(off - np.median(off))))
+
+
 def parse_motive(data: bytes, path=None) -> Motion:
     """Parse a Motive CSV export (see the module docstring); errors name ``path`` and the
     line."""
@@ -337,7 +368,35 @@ def parse_motive(data: bytes, path=None) -> Motion:
     check_filled(cells, 0, "Frame", path)
     check_filled(cells, 1, "Time", path)
     times = cells.values[:, 1]
-    if uniform_frame_time(times, cells.lines, path, frame_time) != frame_time:
+    notes: list[str] = []
+    on_grid = np.abs(times - times[0] - np.arange(times.size) * frame_time)
+    coarse, worst = 0.0, -1
+    if not np.all(on_grid <= TIME_TOLERANCE * frame_time):
+        coarse, worst = _coarse_times(times, cells.values[:, 0], frame_time)
+    if worst > 0 and cells.values[worst, 0] != cells.values[worst - 1, 0] + 1:
+        _fail(
+            f"frame {cells.values[worst, 0]:.0f} follows frame {cells.values[worst - 1, 0]:.0f}:"
+            f" the rows are not one frame each (with a Time column in steps of {coarse:g} s, "
+            "coarser than a tenth of a frame, the frames are timed by their numbers)",
+            path,
+            cells.lines[worst],
+        )
+    if worst >= 0:
+        _fail(
+            f"the Time column does not follow Export Frame Rate {metadata['Export Frame Rate']}"
+            f" and the Frame column: time {times[worst]:.6g} s is off its frame's time by more "
+            f"than the column's steps of {coarse:g} s (the frames' times differ by more than "
+            "their rounding: not uniformly sampled; resample the clip first)",
+            path,
+            cells.lines[worst],
+        )
+    if coarse:
+        notes.append(
+            f"the Time column is in steps of {coarse:g} s, coarser than a tenth of a frame: "
+            f"the frames are timed by Export Frame Rate {metadata['Export Frame Rate']} and "
+            "the Frame column (the times agree with them to their last digit)"
+        )
+    elif uniform_frame_time(times, cells.lines, path, frame_time) != frame_time:
         grid = times[0] + np.arange(times.size) * frame_time
         off = int(np.argmax(np.abs(times - grid) > TIME_TOLERANCE * frame_time))
         _fail(
@@ -372,6 +431,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
         unlabelled=sum(fields[1:2] in ([], [""]) for _, fields in lines[1:-1]) > 1,
         body_cells=body_cells,
         axis_head=tuple(axis[:2]),
+        notes=tuple(notes),
     )
     return tracked_bodies(
         bodies, channels, frame_time, rotations, translations, text, path, missing

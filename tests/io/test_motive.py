@@ -411,3 +411,55 @@ def test_header_rows_without_labels_that_cannot_be_placed_are_refused(tmp_path, 
         6,
         "a second header row without a label (first at line 4): only the property row",
     )
+
+
+def with_times(text: str, times) -> str:
+    """``text`` with the Time cell of data row ``f`` replaced by ``times[f]``."""
+    lines = text.split("\r\n")
+    for f, time in enumerate(times):
+        cells = lines[7 + f].split(",")
+        cells[1] = time
+        lines[7 + f] = ",".join(cells)
+    return "\r\n".join(lines)
+
+
+@pytest.mark.parametrize(("rate", "cut"), [(240.0, np.floor), (360.0, np.floor), (240.0, np.round)])
+def test_times_in_whole_milliseconds_are_timed_by_the_export_frame_rate(
+    tmp_path, capsys, rate, cut
+):
+    """Motive 1.23 (the Rofunc take) writes times cut to milliseconds: 0.008, 0.016, 0.025 at
+    120 fps, 0.004, 0.008, 0.012 at 240 (refused before as not uniformly sampled)."""
+    n = 60
+    text, _, _ = export(n_frames=n, rate=rate)
+    ms = [f"{cut(f / rate * 1000) / 1000:.6f}" for f in range(n)]
+    source = write(tmp_path, with_times(text, ms))
+    clip = mc.load(source)
+    assert clip.frame_time == 1 / rate and clip.n_frames == n
+    assert any("steps of 0.001 s" in note for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    out = tmp_path / "clean.csv"
+    code, said, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin")
+    assert code == 0 and err == ""
+    assert "note: the Time column is in steps of 0.001 s" in said
+    assert [r[1] for r in cells_of(out)[7:]] == ms  # the time text as it was
+    assert out.read_bytes() != source.read_bytes()
+
+
+def test_times_in_milliseconds_that_do_not_follow_the_frames_are_refused(tmp_path, capsys):
+    rate, n = 240.0, 30
+    text, _, _ = export(n_frames=n, rate=rate)
+    ms = [np.floor(f / rate * 1000) / 1000 for f in range(n)]
+    ms[9] += 0.002  # a sample 2 ms late: really off the grid, not rounding
+    check_error(
+        tmp_path,
+        capsys,
+        with_times(text, [f"{t:.6f}" for t in ms]),
+        17,
+        "the Time column does not follow Export Frame Rate 240.000000 and the Frame column: "
+        "time 0.039 s is off its frame's time by more than the column's steps of 0.001 s",
+    )
+    ms = [np.floor(f / rate * 1000) / 1000 for f in range(n)]
+    lines = with_times(text, [f"{t:.6f}" for t in ms]).split("\r\n")
+    lines[7 + 5] = "6" + lines[7 + 5][1:]  # frame 5 numbered 6: the frames skip
+    check_error(tmp_path, capsys, "\r\n".join(lines), 13, "frame 6 follows frame 4: the rows are")
