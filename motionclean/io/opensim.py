@@ -34,7 +34,8 @@ byte for byte (excluded columns included; a value that moved by at most 1e-9 of 
 counts as unchanged, as for BVH); a changed value is written in shortest
 round-trip form, in the file's unit and on the branch (whole turns) nearest the value
 read. When the frame count changed (resampled), the rows are written afresh and ``nRows``
-is updated.
+is updated. ``nRows`` is never trusted: the rows present are read, a count that differs is
+said in a note and written as the true one (in an otherwise untouched file too).
 """
 
 from __future__ import annotations
@@ -88,6 +89,7 @@ class OpenSimText:
     translational: np.ndarray  # (J,) axis index 0-2, or -1 for a rotational coordinate
     eol: bytes
     notes: tuple[str, ...] = ()
+    stated_rows: str | None = None  # the header's nRows as written (None: no such line)
 
     @property
     def n_frames(self) -> int:
@@ -238,6 +240,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         )
     if rows.size < 2:
         _fail("fewer than two rows of data", path)
+    stated = pairs.get("nrows", (None, 0))[0]
     cell = (first_token[rows][:, None] + np.arange(k)).astype(np.intp)  # (F, K) token index
     cell_starts, cell_ends = starts[cell], ends[cell]
     patterns = list(exclude)
@@ -260,6 +263,13 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
             else "speeds and muscle states"
         )
         _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
+    if stated is not None and stated != str(rows.size):
+        short = stated.isdigit() and int(stated) > rows.size
+        notes.append(
+            f"nRows={stated[:20]} but the file holds {rows.size} rows"
+            f"{' (cut short?)' if short else ''}: the {rows.size} are read, and any output "
+            f"says nRows={rows.size}"
+        )
     for carried, what in (
         (loads, "forces, torques or points of application"),
         (states, "states or controls other than coordinate values (speeds, muscles)"),
@@ -316,6 +326,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         axes,
         eol,
         tuple(notes),
+        stated,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
 
@@ -435,7 +446,8 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
     was_missing = np.isnan(reference)
     changed = (moved & ~missing) | (was_missing != missing)
-    if not changed.any():
+    stale = src.stated_rows is not None and src.stated_rows != str(motion.n_frames)
+    if not changed.any() and not stale:
         return pieces(src.raw)
     mask = np.zeros(src.starts.shape, dtype=bool)
     mask[:, src.columns] = changed
@@ -450,8 +462,28 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         return chunk
 
     return splice_cells(
-        src.raw, src.row_starts, lambda rows: (src.starts[rows], src.ends[rows]), mask, texts
+        src.raw,
+        src.row_starts,
+        lambda rows: (src.starts[rows], src.ends[rows]),
+        mask,
+        texts,
+        start=src.body if stale else 0,
+        prefix=_counted(src.raw[: src.body], {b"nrows": motion.n_frames}) if stale else b"",
     )
+
+
+def _counted(head: bytes, counts: dict[bytes, int]) -> bytes:
+    """The header ``head`` with the ``key=value`` lines of ``counts`` (lower-case keys) saying
+    those counts, every other byte kept."""
+
+    def counted(line: bytes) -> bytes:
+        key, eq, _ = line.partition(b"=")
+        if not eq or key.strip().lower() not in counts:
+            return line
+        end = b"\r" if line.endswith(b"\r") else b""
+        return key + b"=" + str(counts[key.strip().lower()]).encode() + end
+
+    return b"\n".join(counted(line) for line in head.split(b"\n"))
 
 
 def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
@@ -476,15 +508,7 @@ def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
         ).encode()
     else:
         counts = {b"nrows": motion.n_frames, b"ncolumns": motion.n_joints + 1}
-
-        def counted(line: bytes) -> bytes:
-            key, eq, _ = line.partition(b"=")
-            if not eq or key.strip().lower() not in counts:
-                return line
-            end = b"\r" if line.endswith(b"\r") else b""
-            return key + b"=" + str(counts[key.strip().lower()]).encode() + end
-
-        head = b"\n".join(counted(line) for line in src.raw[: src.body].split(b"\n"))
+        head = _counted(src.raw[: src.body], counts)
     labels = "\t".join(["time", *motion.names]).encode("utf-8") + eol
     table = np.concatenate([times[:, None], values], axis=1)
 

@@ -341,3 +341,35 @@ def test_coordinates_make_no_bvh_or_gltf(tmp_path, capsys):
     ):
         code, _, err = run_cli(capsys, "convert", path, tmp_path / target, "--exclude", "*_f*")
         assert code == 1 and message in err and not (tmp_path / target).exists()
+
+
+@pytest.mark.parametrize(("stated", "short"), [("100", True), ("1000000000", True), ("3", False)])
+def test_rows_not_as_many_as_nrows_are_read_and_written_with_their_count(
+    tmp_path, capsys, stated, short
+):
+    """OpenSim reads the rows a file holds whatever its nRows says (files cut or edited by
+    hand keep a stale one): so does motionclean, saying so, and no output keeps the stale
+    count, not even an untouched one."""
+    source = write(tmp_path, IK.replace("nRows=6", f"nRows={stated}"))
+    clip = mc.load(source, exclude=["*_force"])
+    assert clip.n_frames == 6
+    said = f"nRows={stated} but the file holds 6 rows{' (cut short?)' if short else ''}"
+    assert any(note.startswith(said) for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == write(tmp_path, IK, "true.mot").read_bytes()
+    code, out, err = run_cli(
+        capsys, "clean", source, "-o", tmp_path / "clean.mot", "--exclude", "*_force"
+    )
+    assert code == 0 and err == "" and said in out
+    cleaned = (tmp_path / "clean.mot").read_text()
+    assert "nRows=6\n" in cleaned and f"nRows={stated}" not in cleaned
+    half = clip.replace(
+        rotations=clip.rotations[::2], translations=clip.translations[::2], frame_time=0.02
+    )
+    mc.save(half, tmp_path / "half.mot")
+    assert "nRows=3\n" in (tmp_path / "half.mot").read_text()
+
+
+def test_a_file_whose_nrows_is_right_says_nothing_of_it(tmp_path):
+    clip = mc.load(write(tmp_path, IK), exclude=["*_force"])
+    assert not any("nRows" in note for note in clip.source.notes)
