@@ -35,7 +35,8 @@ X, Y, Z; a property row that says otherwise is refused naming its line. Every ot
 (markers, rigid-body markers, Mean Marker Error, Marker Quality, unknown types) is carried
 through as text and never parsed. Blank cells are occlusions: a rigid body whose seven
 cells are blank (or NaN) on a row is missing on that frame (``Motion.missing``); a partly
-blank one is an error. The Frame and Time cells are never blank.
+blank one is an error. The Frame and Time cells are never blank. The rows must be as many
+as ``Total Exported Frames`` says (a file cut at a line end is refused, as BVH is).
 
 Writing a clip read from a Motive export (``save(motion, "out.csv")``): with the same
 frames, bodies and frame rate, the input text is reused (header rows byte for byte,
@@ -321,6 +322,25 @@ def _bodies(rows, axis: list[str], path):
     return list(cells), columns
 
 
+def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
+    """Refuse rows not as many as ``Total Exported Frames`` says (a file cut at a line end,
+    or rows added), as a BVH whose ``Frames:`` is not its rows is refused."""
+    if stated is None:
+        return
+    if not stated.strip().isdigit():
+        _fail(f"Total Exported Frames is not a whole number: {stated[:40]!r}", path, 1)
+    count = int(stated.strip())
+    if lines.size < count:
+        _fail(
+            f"the file ends after {lines.size} frame rows but Total Exported Frames says "
+            f"{count} (the file is cut short)",
+            path,
+            int(lines[-1]),
+        )
+    if lines.size > count:
+        _fail(f"more frame rows than Total Exported Frames {count}", path, int(lines[count]))
+
+
 def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> tuple[float, int]:
     """The step of a Time column written coarser than a tenth of a frame (whole milliseconds
     at 240 fps: Motive 1.23 writes 0.004, 0.008, 0.012, 0.016, ... for 1/240 s steps), and
@@ -365,6 +385,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
     cells = parse_body(
         data, body_start, len(axis), axis_line + 1, path, parsed=[0, 1, *columns.ravel()]
     )
+    _check_count(metadata.get("Total Exported Frames"), cells.lines, path)
     check_filled(cells, 0, "Frame", path)
     check_filled(cells, 1, "Time", path)
     times = cells.values[:, 1]

@@ -463,3 +463,25 @@ def test_times_in_milliseconds_that_do_not_follow_the_frames_are_refused(tmp_pat
     lines = with_times(text, [f"{t:.6f}" for t in ms]).split("\r\n")
     lines[7 + 5] = "6" + lines[7 + 5][1:]  # frame 5 numbered 6: the frames skip
     check_error(tmp_path, capsys, "\r\n".join(lines), 13, "frame 6 follows frame 4: the rows are")
+
+
+def test_rows_not_as_many_as_total_exported_frames_are_refused(tmp_path, capsys):
+    """A file cut at a line end (or with rows added) is refused, as BVH is: its header's
+    count would be stale in every output."""
+    text, _, _ = export(n_frames=12)
+    lines = text.split("\r\n")
+    cut = "\r\n".join(lines[: 7 + 9]) + "\r\n"
+    check_error(
+        tmp_path,
+        capsys,
+        cut,
+        16,
+        "the file ends after 9 frame rows but Total Exported Frames says 12 (the file is cut "
+        "short)",
+    )
+    huge = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,1000000000")
+    check_error(tmp_path, capsys, huge, 19, "the file ends after 12 frame rows")
+    fewer = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,10")
+    check_error(tmp_path, capsys, fewer, 18, "more frame rows than Total Exported Frames 10")
+    word = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,all")
+    check_error(tmp_path, capsys, word, 1, "Total Exported Frames is not a whole number: 'all'")
