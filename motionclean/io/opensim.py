@@ -25,9 +25,9 @@ axis, the joint's Z axis (``Zrotation Xrotation Yrotation``, the two others zero
 on that quaternion signal act on the angle itself, and it stays a rotation about Z.
 In a states file only the coordinates' values are read (:func:`coordinate_name`); speeds,
 muscle states and controls (:func:`is_other_state`), and columns of forces (:data:`LOADS`)
-are carried as text, as are those the user excludes (``exclude``: fnmatch patterns), never
-parsed. ``NaN`` cells (any case) are missing
-samples (``Motion.missing``).
+and errors (:data:`ERRORS`) are carried as text (a file of nothing else is refused), as
+are those the user excludes (``exclude``: fnmatch patterns), never parsed. ``NaN`` cells
+(any case) are missing samples (``Motion.missing``).
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
@@ -172,6 +172,9 @@ def is_other_state(label: str, labels: set[str]) -> bool:
 #: Column names of external loads (ground reaction forces, their points of application
 #: and torques, as OpenSim names them): not coordinates, carried as text.
 LOADS = ("*force*", "*torque*", "*moment*", "*_p[xyz]")
+#: Column names of errors (inverse kinematics' ``_ik_marker_errors.sto``:
+#: ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max``): not coordinates.
+ERRORS = ("*error*",)
 #: Rotational coordinates of a file that says radians hold degrees (OpenSim's CMC writes
 #: its ``*_q.sto`` with ``inDegrees=no``) where the median column reaches beyond this many
 #: radians (half a turn: no joint angle does, most stay within a quarter) ...
@@ -254,13 +257,23 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         for c in kept
         if c not in states and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)
     ]
-    kept = [c for c in kept if c not in loads and c not in states]
+    errors = [
+        c
+        for c in kept
+        if c not in states
+        and c not in loads
+        and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in ERRORS)
+    ]
+    kept = [c for c in kept if c not in loads and c not in states and c not in errors]
     notes = [] if note is None else [note]
-    if (loads or states) and not kept:
+    if (loads or states or errors) and not kept:
         what = (
             "forces, torques and points of application (an external loads file)"
             if loads
             else "speeds and muscle states"
+            if states
+            else f"errors ({', '.join(labels[c][:40] for c in errors[:3])}: inverse "
+            "kinematics' marker errors, not angles)"
         )
         _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
     if stated is not None and stated != str(rows.size):
@@ -273,6 +286,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     for carried, what in (
         (loads, "forces, torques or points of application"),
         (states, "states or controls other than coordinate values (speeds, muscles)"),
+        (errors, "errors (not coordinates)"),
     ):
         if carried:
             shown = ", ".join(labels[c] for c in carried[:3])

@@ -373,3 +373,39 @@ def test_rows_not_as_many_as_nrows_are_read_and_written_with_their_count(
 def test_a_file_whose_nrows_is_right_says_nothing_of_it(tmp_path):
     clip = mc.load(write(tmp_path, IK), exclude=["*_force"])
     assert not any("nRows" in note for note in clip.source.notes)
+
+
+MARKER_ERRORS = """Model Marker Errors from IK
+version=1
+nRows=4
+nColumns=4
+inDegrees=no
+endheader
+time\ttotal_squared_error\tmarker_error_RMS\tmarker_error_max
+      0.01666667\t      0.02626894\t      0.03536809\t      0.09606109
+      0.03333333\t      0.02601337\t      0.03519567\t      0.09541120
+      0.05000000\t      0.02713012\t      0.03594307\t      0.09801543
+      0.06666667\t      0.02590021\t      0.03511902\t      0.09499871
+"""
+
+
+def test_a_marker_errors_file_of_inverse_kinematics_is_refused(tmp_path, capsys):
+    """OpenSim's _ik_marker_errors.sto (as Pose2Sim's demo holds it) has no coordinate: its
+    errors had been cleaned as angles in radians ('71 % of the jitter removed')."""
+    source = write(tmp_path, MARKER_ERRORS, "_ik_marker_errors.sto")
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "out.sto")
+    assert code == 1 and out == "" and not (tmp_path / "out.sto").exists()
+    assert err.splitlines() == [
+        f"motionclean: error: {source}:7: no coordinate columns: errors (total_squared_error, "
+        "marker_error_RMS, marker_error_max: inverse kinematics' marker errors, not angles) "
+        "are no motion to clean"
+    ]
+
+
+def test_an_error_column_beside_coordinates_is_carried(tmp_path):
+    text = IK.replace("knee_angle_r_force", "marker_error_RMS").replace("n/a", "0.01")
+    motion = mc.load(write(tmp_path, text))
+    assert motion.names == ["pelvis_rotation", "pelvis_tx", "pelvis_ty", "knee_angle_r"]
+    assert any("1 columns of errors" in n for n in kinematics.source_notes(motion))
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_text() == text
