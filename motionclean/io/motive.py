@@ -32,11 +32,13 @@ rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
 ``Position`` columns in the export's ``Length Units``; as BVH it gets the channels of a
 rigid-body CSV body. A rigid body needs exactly Rotation over X, Y, Z, W and Position over
 X, Y, Z; a property row that says otherwise is refused naming its line. Every other column
-(markers, rigid-body markers, Mean Marker Error, Marker Quality, unknown types) is carried
-through as text and never parsed. Blank cells are occlusions: a rigid body whose seven
-cells are blank (or NaN) on a row is missing on that frame (``Motion.missing``); a partly
-blank one is an error. The Frame and Time cells are never blank. The rows must be as many
-as ``Total Exported Frames`` says (a file cut at a line end is refused, as BVH is).
+(markers, rigid-body markers, Mean Marker Error, Marker Quality, skeleton ``Bone`` columns,
+unknown types) is carried through as text and never parsed; the bones are named in a note
+(an export of bones alone is refused saying they are not read). Blank cells are
+occlusions: a rigid body whose seven cells are blank (or NaN) on a row is missing on that
+frame (``Motion.missing``); a partly blank one is an error. The Frame and Time cells are
+never blank. The rows must be as many as ``Total Exported Frames`` says (a file cut at a
+line end is refused, as BVH is).
 
 Writing a clip read from a Motive export (``save(motion, "out.csv")``): with the same
 frames, bodies and frame rate, the input text is reused (header rows byte for byte,
@@ -277,14 +279,23 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     return rows, tuple(order)
 
 
+def _shown(names: list[str]) -> str:
+    """The first three of ``names`` for a message."""
+    return ", ".join(name[:40] for name in names[:3]) + (" ..." if len(names) > 3 else "")
+
+
 def _bodies(rows, axis: list[str], path):
-    """Body names and their ``(B, 7)`` columns in :data:`BODY_CELLS` order."""
+    """Body names, their ``(B, 7)`` columns in :data:`BODY_CELLS` order and the names of
+    the skeleton bones (``Bone`` columns: not read)."""
     types, names = rows["Type"][1], rows["Name"][1]
     ids = rows["ID"][1] if "ID" in rows else [""] * len(axis)
     properties = rows[""][1]
     cells: dict[str, dict[tuple[str, str], int]] = {}
     body_ids: dict[str, str] = {}
+    bones: dict[str, None] = {}  # (skeleton bones, in order: carried, not read)
     for k in range(2, len(axis)):
+        if types[k].strip() == "Bone":
+            bones[names[k]] = None
         if types[k].strip() != "Rigid Body":
             continue
         name = names[k]
@@ -300,6 +311,13 @@ def _bodies(rows, axis: list[str], path):
         key = (properties[k].strip(), axis[k].strip())
         own = cells.setdefault(name, {})
         own[key] = -1 if key in own else k  # -1: a cell named twice
+    if not cells and bones:
+        _fail(
+            "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type "
+            f"row has {len(bones)} bones, {_shown(list(bones))}, and no 'Rigid Body' column)",
+            path,
+            rows["Type"][0],
+        )
     if not cells:
         _fail("no rigid bodies (no 'Rigid Body' column in the Type row)", path, rows["Type"][0])
     columns = np.empty((len(cells), len(BODY_CELLS)), dtype=np.intp)
@@ -319,7 +337,7 @@ def _bodies(rows, axis: list[str], path):
                 rows[""][0],
             )
         columns[b] = found
-    return list(cells), columns
+    return list(cells), columns, list(bones)
 
 
 def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
@@ -381,7 +399,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
     frame_time = _frame_rate(metadata, path)
     rows, order = _header_rows(lines, path)
     axis_line, axis = lines[-1]
-    bodies, columns = _bodies(rows, axis, path)
+    bodies, columns, bones = _bodies(rows, axis, path)
     cells = parse_body(
         data, body_start, len(axis), axis_line + 1, path, parsed=[0, 1, *columns.ravel()]
     )
@@ -390,6 +408,11 @@ def parse_motive(data: bytes, path=None) -> Motion:
     check_filled(cells, 1, "Time", path)
     times = cells.values[:, 1]
     notes: list[str] = []
+    if bones:
+        notes.append(
+            f"{len(bones)} skeleton bones ({_shown(bones)}: Bone columns) carried as they are, "
+            "not read: only rigid bodies are"
+        )
     on_grid = np.abs(times - times[0] - np.arange(times.size) * frame_time)
     coarse, worst = 0.0, -1
     if not np.all(on_grid <= TIME_TOLERANCE * frame_time):

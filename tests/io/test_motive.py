@@ -485,3 +485,40 @@ def test_rows_not_as_many_as_total_exported_frames_are_refused(tmp_path, capsys)
     check_error(tmp_path, capsys, fewer, 18, "more frame rows than Total Exported Frames 10")
     word = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,all")
     check_error(tmp_path, capsys, word, 1, "Total Exported Frames is not a whole number: 'all'")
+
+
+def as_bones(text: str, bodies: tuple[str, ...]) -> str:
+    """``text`` with the columns of ``bodies`` typed ``Bone`` (a skeleton's, as Motive
+    exports them) instead of ``Rigid Body``."""
+    lines = text.split("\r\n")
+    types, names = lines[2].split(","), lines[3].split(",")
+    for k, name in enumerate(names):
+        if name in bodies and types[k] == "Rigid Body":
+            types[k] = "Bone"
+    lines[2] = ",".join(types)
+    return "\r\n".join(lines)
+
+
+def test_skeleton_bones_are_carried_and_said_so(tmp_path, capsys):
+    text, _, _ = export(n_frames=40)
+    source = write(tmp_path, as_bones(text, ("Head Band",)))
+    clip = mc.load(source)
+    assert clip.names == ["Wand"]
+    said = "1 skeleton bones (Head Band: Bone columns) carried as they are, not read"
+    assert any(note.startswith(said) for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "clean.csv")
+    assert code == 0 and err == "" and f"note: {said}" in out
+
+
+def test_a_skeleton_only_export_is_refused_saying_bones_are_not_read(tmp_path, capsys):
+    text, _, _ = export()
+    check_error(
+        tmp_path,
+        capsys,
+        as_bones(text, ("Wand", "Head Band")),
+        3,
+        "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type row "
+        "has 2 bones, Wand, Head Band, and no 'Rigid Body' column)",
+    )
