@@ -684,10 +684,11 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
 
 
 def tracked_bodies(
-    bodies, channels, frame_time, rotations, translations, text, path, missing
+    bodies, channels, frame_time, rotations, translations, text, path, missing, up=None
 ) -> Motion:
     """A clip of independent tracked bodies (rigid-body CSV, Motive): each a root joint
-    without offset, its rotation and translation as read, ``text`` for the writer."""
+    without offset, its rotation and translation as read, ``text`` for the writer, ``up``
+    the up axis the format declares (None: found from the motion)."""
     n = len(bodies)
     return Motion(
         names=bodies,
@@ -701,6 +702,7 @@ def tracked_bodies(
         source=text,
         path=None if path is None else str(path),
         missing=missing,
+        up=up,
     )
 
 

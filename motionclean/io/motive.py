@@ -30,7 +30,8 @@ Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset)
 rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
 ``(w, x, y, z)`` (renormalised, sign-continuous in time), and whose translation is its
 ``Position`` columns in the export's ``Length Units``; as BVH it gets the channels of a
-rigid-body CSV body. A rigid body needs exactly Rotation over X, Y, Z, W and Position over
+rigid-body CSV body. The clip is Y up (:data:`UP`: Motive's default, which its header does
+not state). A rigid body needs exactly Rotation over X, Y, Z, W and Position over
 X, Y, Z; a property row that says otherwise is refused naming its line. Every other column
 (markers, rigid-body markers, Mean Marker Error, Marker Quality, skeleton ``Bone`` columns,
 unknown types) is carried through as text and never parsed; the bones are named in a note
@@ -103,6 +104,9 @@ HEADER_ROWS = ("Type", "Name", "ID", "Parent", "")
 #: The header rows of a Motive 1.21 export that labels none of them (``,,Rigid Body,...``),
 #: by position.
 UNLABELLED_ROWS = ("Type", "Name", "ID", "")
+#: Motive's world is Y up (its default; an export's header does not say): the clip's
+#: declared up axis (``Motion.up``, ``--up`` overrides it).
+UP = "y"
 #: Header lines read at most before the axis row must have appeared.
 MAX_HEADER_LINES = 64
 
@@ -125,6 +129,8 @@ class MotiveText(CsvText):
     row_labels: tuple[str, ...] = ()
     unlabelled: bool = False  # (header rows without their labels: Motive 1.21)
     notes: tuple[str, ...] = ()  # what the reader assumed (``core.kinematics.source_notes``)
+    #: Where the declared up axis comes from (``info`` says it).
+    up_source = "Motive's default; the export does not say: --up gives another"
     body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
     axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
 
@@ -478,7 +484,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
         notes=tuple(notes),
     )
     return tracked_bodies(
-        bodies, channels, frame_time, rotations, translations, text, path, missing
+        bodies, channels, frame_time, rotations, translations, text, path, missing, up=UP
     )
 
 

@@ -522,3 +522,19 @@ def test_a_skeleton_only_export_is_refused_saying_bones_are_not_read(tmp_path, c
         "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type row "
         "has 2 bones, Wand, Head Band, and no 'Rigid Body' column)",
     )
+
+
+def test_a_motive_take_is_y_up_as_motive_exports_are(tmp_path, capsys):
+    """Motive's world is Y up and its header does not say: the take declares y (the real
+    1.21 take, a small body on a table, was found x up and turned 90 degrees in glTF)."""
+    source = tmp_path / "take.csv"
+    source.write_bytes(MOTIVE_1_21.read_bytes())
+    assert mc.load(source).up == "y"
+    code, out, _ = run_cli(capsys, "info", source)
+    assert code == 0 and "up axis: y (Motive's default; the export does not say" in out
+    code, out, _ = run_cli(capsys, "info", source, "--up", "z")
+    assert code == 0 and "up axis: z (given)" in out
+    code, _, err = run_cli(capsys, "convert", source, tmp_path / "take.glb")
+    assert code == 0, err
+    assert b"motionclean_up" not in (tmp_path / "take.glb").read_bytes()  # no node turning it
+    assert mc.load(tmp_path / "take.glb").up == "y"
