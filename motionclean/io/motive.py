@@ -316,7 +316,15 @@ def _bodies(rows, axis: list[str], path):
             )
         key = (properties[k].strip(), axis[k].strip())
         own = cells.setdefault(name, {})
-        own[key] = -1 if key in own else k  # -1: a cell named twice
+        if key in own and key[0] in ("Rotation", "Position"):
+            _fail(
+                f"rigid body {name[:60]!r} has its columns twice ({' '.join(key)} in columns "
+                f"{own[key] + 1} and {k + 1}): two rigid bodies with the same name and ID? "
+                "Rename one in Motive",
+                path,
+                rows["Name"][0],
+            )
+        own[key] = k
     if not cells and bones:
         _fail(
             "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type "

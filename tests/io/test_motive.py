@@ -538,3 +538,18 @@ def test_a_motive_take_is_y_up_as_motive_exports_are(tmp_path, capsys):
     assert code == 0, err
     assert b"motionclean_up" not in (tmp_path / "take.glb").read_bytes()  # no node turning it
     assert mc.load(tmp_path / "take.glb").up == "y"
+
+
+def test_a_body_named_twice_with_one_id_is_said_to_be_duplicated(tmp_path, capsys):
+    """Two bodies of one name and ID had 'Rotation over X,Y,Z,W and Position over X,Y,Z (a
+    rigid body needs Rotation over X, Y, Z, W and Position over X, Y, Z)'."""
+    text, _, _ = export()
+    twice = replace_line(text.replace("Head Band", "Wand"), 5, ",2,2,2,2,2,2,2,2,", ",1" * 8 + ",")
+    check_error(
+        tmp_path,
+        capsys,
+        twice,
+        4,
+        "rigid body 'Wand' has its columns twice (Rotation X in columns 3 and 15): two rigid "
+        "bodies with the same name and ID? Rename one in Motive",
+    )
