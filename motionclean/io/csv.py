@@ -281,7 +281,15 @@ def parse_body(
     if bad.size:
         row = rows[bad[0]]
         line = first_line + row
-        _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}", path, line)
+        first = int(line_starts[row])
+        row_bytes = buf[int(starts[first]) : int(ends[first + cells_per_line[row] - 1])]
+        why = (
+            " (a carriage return (CR) alone inside this line, where the file's lines end in LF:"
+            " two rows ran together; save the file with one kind of line end)"
+            if np.any(row_bytes == 13)
+            else ""
+        )
+        _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}{why}", path, line)
     shape = (rows.size, n_columns)
     if rows[-1] == rows.size - 1:  # no blank line but at the end: the first cells
         keep: slice | np.ndarray = slice(0, rows.size * n_columns)
