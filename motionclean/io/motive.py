@@ -285,6 +285,11 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     return rows, tuple(order)
 
 
+def _count(n: int, what: str) -> str:
+    """``n`` and ``what``, plural but for one."""
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
 def _shown(names: list[str]) -> str:
     """The first three of ``names`` for a message."""
     return ", ".join(name[:40] for name in names[:3]) + (" ..." if len(names) > 3 else "")
@@ -328,7 +333,8 @@ def _bodies(rows, axis: list[str], path):
     if not cells and bones:
         _fail(
             "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type "
-            f"row has {len(bones)} bones, {_shown(list(bones))}, and no 'Rigid Body' column)",
+            f"row has {_count(len(bones), 'bone')}, {_shown(list(bones))}, and no 'Rigid Body' "
+            "column)",
             path,
             rows["Type"][0],
         )
@@ -424,8 +430,8 @@ def parse_motive(data: bytes, path=None) -> Motion:
     notes: list[str] = []
     if bones:
         notes.append(
-            f"{len(bones)} skeleton bones ({_shown(bones)}: Bone columns) carried as they are, "
-            "not read: only rigid bodies are"
+            f"{_count(len(bones), 'skeleton bone')} ({_shown(bones)}: Bone columns) carried as "
+            "they are, not read: only rigid bodies are"
         )
     on_grid = np.abs(times - times[0] - np.arange(times.size) * frame_time)
     coarse, worst = 0.0, -1

@@ -504,7 +504,7 @@ def test_skeleton_bones_are_carried_and_said_so(tmp_path, capsys):
     source = write(tmp_path, as_bones(text, ("Head Band",)))
     clip = mc.load(source)
     assert clip.names == ["Wand"]
-    said = "1 skeleton bones (Head Band: Bone columns) carried as they are, not read"
+    said = "1 skeleton bone (Head Band: Bone columns) carried as they are, not read"
     assert any(note.startswith(said) for note in clip.source.notes)
     mc.save(clip, tmp_path / "same.csv")
     assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
