@@ -204,7 +204,8 @@ def info(
         click.echo(f"  world: skipped ({skipped})")
     else:
         axis = kinematics.up_axis(motion)
-        source = "given" if up else "given by the file" if motion.up else "found from the motion"
+        said = getattr(motion.source, "up_source", None) or "given by the file"
+        source = "given" if up else said if motion.up else "found from the motion"
         click.echo(
             f"  up axis: {kinematics.up_name(motion)} ({source})"
             f"   body height: {kinematics.body_height(motion, axis):.4g} units"

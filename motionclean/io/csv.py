@@ -281,7 +281,15 @@ def parse_body(
     if bad.size:
         row = rows[bad[0]]
         line = first_line + row
-        _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}", path, line)
+        first = int(line_starts[row])
+        row_bytes = buf[int(starts[first]) : int(ends[first + cells_per_line[row] - 1])]
+        why = (
+            " (a carriage return (CR) alone inside this line, where the file's lines end in LF:"
+            " two rows ran together; save the file with one kind of line end)"
+            if np.any(row_bytes == 13)
+            else ""
+        )
+        _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}{why}", path, line)
     shape = (rows.size, n_columns)
     if rows[-1] == rows.size - 1:  # no blank line but at the end: the first cells
         keep: slice | np.ndarray = slice(0, rows.size * n_columns)
@@ -684,10 +692,11 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
 
 
 def tracked_bodies(
-    bodies, channels, frame_time, rotations, translations, text, path, missing
+    bodies, channels, frame_time, rotations, translations, text, path, missing, up=None
 ) -> Motion:
     """A clip of independent tracked bodies (rigid-body CSV, Motive): each a root joint
-    without offset, its rotation and translation as read, ``text`` for the writer."""
+    without offset, its rotation and translation as read, ``text`` for the writer, ``up``
+    the up axis the format declares (None: found from the motion)."""
     n = len(bodies)
     return Motion(
         names=bodies,
@@ -701,6 +710,7 @@ def tracked_bodies(
         source=text,
         path=None if path is None else str(path),
         missing=missing,
+        up=up,
     )
 
 

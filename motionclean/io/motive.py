@@ -15,21 +15,31 @@ A Motive export starts with ``Format Version,`` (after an optional UTF-8 byte-or
 (eight ``Rigid Body`` cells per body: Rotation X Y Z W, Position X Y Z, Mean Marker Error).
 Line 1 holds ``key,value`` pairs; ``Rotation Type`` must be ``Quaternion`` (an Euler
 export is refused) and ``Export Frame Rate`` gives the frame rate, which the ``Time``
-column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`).
-Then come the ``,Type``, ``,Name`` and optional ``,ID`` rows, the property row (its first
-two cells empty) and the axis row ``Frame,Time (Seconds),...``. The header rows may
+column must follow (uniform within 10 % of a frame, as in :mod:`motionclean.io.csv`; a
+column written in coarser steps, whole milliseconds at 240 fps, to within its steps over
+consecutive frames: :func:`_coarse_times`).
+Then come the ``,Type``, ``,Name`` and optional ``,ID`` and ``,Parent`` rows (Motive 3,
+format 1.25, writes the latter), the property row (its first two cells empty) and the axis
+row ``Frame,Time (Seconds),...``. The header rows may
 appear in any order; a header row shorter than the axis row counts as ending in empty cells.
+Motive 1.21 may leave out the labels (``,,Rigid Body,...``): four unlabelled rows are read
+by their places as Type, Name, ID and property (:func:`_by_position`). A row of commas
+alone is blank (Excel and LibreOffice save a blank line so).
 
 Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset) whose
 rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
 ``(w, x, y, z)`` (renormalised, sign-continuous in time), and whose translation is its
 ``Position`` columns in the export's ``Length Units``; as BVH it gets the channels of a
-rigid-body CSV body. A rigid body needs exactly Rotation over X, Y, Z, W and Position over
+rigid-body CSV body. The clip is Y up (:data:`UP`: Motive's default, which its header does
+not state). A rigid body needs exactly Rotation over X, Y, Z, W and Position over
 X, Y, Z; a property row that says otherwise is refused naming its line. Every other column
-(markers, rigid-body markers, Mean Marker Error, Marker Quality, unknown types) is carried
-through as text and never parsed. Blank cells are occlusions: a rigid body whose seven
-cells are blank (or NaN) on a row is missing on that frame (``Motion.missing``); a partly
-blank one is an error. The Frame and Time cells are never blank.
+(markers, rigid-body markers, Mean Marker Error, Marker Quality, skeleton ``Bone`` columns,
+unknown types) is carried through as text and never parsed; the bones are named in a note
+(an export of bones alone is refused saying they are not read). Blank cells are
+occlusions: a rigid body whose seven cells are blank (or NaN) on a row is missing on that
+frame (``Motion.missing``); a partly blank one is an error. The Frame and Time cells are
+never blank. The rows must be as many as ``Total Exported Frames`` says (a file cut at a
+line end is refused, as BVH is).
 
 Writing a clip read from a Motive export (``save(motion, "out.csv")``): with the same
 frames, bodies and frame rate, the input text is reused (header rows byte for byte,
@@ -88,8 +98,15 @@ BODY_CELLS = (
 #: Motive's own column order of a rigid body: Rotation X Y Z W, Position X Y Z (indices
 #: into :data:`BODY_CELLS`).
 WRITE_ORDER = (4, 5, 6, 3, 0, 1, 2)
-#: Labels of the header rows above the axis row (``""``: the property row).
-HEADER_ROWS = ("Type", "Name", "ID", "")
+#: Labels of the header rows above the axis row (``""``: the property row; ``Parent``:
+#: Motive 3's, format 1.25, empty for rigid bodies).
+HEADER_ROWS = ("Type", "Name", "ID", "Parent", "")
+#: The header rows of a Motive 1.21 export that labels none of them (``,,Rigid Body,...``),
+#: by position.
+UNLABELLED_ROWS = ("Type", "Name", "ID", "")
+#: Motive's world is Y up (its default; an export's header does not say): the clip's
+#: declared up axis (``Motion.up``, ``--up`` overrides it).
+UP = "y"
 #: Header lines read at most before the axis row must have appeared.
 MAX_HEADER_LINES = 64
 
@@ -105,11 +122,17 @@ class MotiveText(CsvText):
     ``columns`` ``(B, 7)`` in the order of
     :data:`~motionclean.io.csv.RIGID_SUFFIXES`) plus what a fresh write needs:
     the metadata fields of line 1 (``key, value, key, value, ...``), the header rows' labels
-    in file order and each body's ID."""
+    in file order, the cells of each header row and of the axis row over each body's seven
+    columns in Motive's order (by body name) and the axis row's first two cells."""
 
     metadata: tuple[str, ...] = ()
     row_labels: tuple[str, ...] = ()
-    ids: tuple[str, ...] = ()
+    unlabelled: bool = False  # (header rows without their labels: Motive 1.21)
+    notes: tuple[str, ...] = ()  # what the reader assumed (``core.kinematics.source_notes``)
+    #: Where the declared up axis comes from (``info`` says it).
+    up_source = "Motive's default; the export does not say: --up gives another"
+    body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
+    axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:
@@ -140,7 +163,7 @@ def _header_lines(data: bytes, path) -> tuple[list[tuple[int, list[str]]], int, 
         end = data.find(b"\n", pos)
         end = len(data) if end < 0 else end + 1
         line, pos = data[pos:end], end
-        if line.strip():
+        if line.translate(None, b", \t\r\n"):  # (a row of commas: blank, as Excel saves it)
             fields = _fields(line, number, path)
             lines.append((number, fields))
             if number > 1 and fields[:1] == ["Frame"]:
@@ -189,9 +212,42 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
     return 1.0 / rate
 
 
+def _by_position(header: list[tuple[int, list[str]]], path) -> list[tuple[int, list[str]]]:
+    """The header rows with the labels of their places when more than one has no label in
+    its second cell (``,,Rigid Body,...``, as Motive 1.21 may write them): the four rows of
+    :data:`UNLABELLED_ROWS`, the first holding no property and the last some; else refused."""
+    bare = [number for number, fields in header if fields[1:2] in ([], [""])]
+    if len(bare) < 2:
+        return header
+    if len(bare) < len(header):
+        _fail(
+            f"a second header row without a label (first at line {bare[0]}): only the "
+            "property row (',,Rotation,...') goes without one; label the others ',Type', "
+            "',Name', ',ID' or ',Parent'",
+            path,
+            bare[1],
+        )
+    words = ({"Rotation", "Position"} & {c.strip() for c in fields} for _, fields in header)
+    said = [bool(w) for w in words]
+    if len(header) != len(UNLABELLED_ROWS) or said[0] or not said[-1]:
+        _fail(
+            f"{len(header)} header rows without a label (',,...'): the rows of a Motive 1.21 "
+            "export without labels are read by their places only as the four rows Type, "
+            "Name, ID and property (',,Rotation,...'), in that order; label the rows "
+            "(',Type,...', ',Name,...', ',ID,...')",
+            path,
+            bare[0],
+        )
+    return [
+        (number, ["", label, *fields[2:]])
+        for (number, fields), label in zip(header, UNLABELLED_ROWS, strict=True)
+    ]
+
+
 def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[str, ...]]:
-    """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``""``), each as
-    ``(line, fields)`` padded to the axis row's width, and the labels in file order."""
+    """The rows above the axis row by label (``Type``, ``Name``, ``ID``, ``Parent``, ``""``;
+    unlabelled rows by their places, :func:`_by_position`), each as ``(line, fields)``
+    padded to the axis row's width, and the labels in file order."""
     axis_line, axis = lines[-1]
     if len(axis) == 2 and axis[1].startswith("Time"):
         _fail(
@@ -202,13 +258,13 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     if len(axis) < 3 or not axis[1].startswith("Time"):
         _fail("the axis row must start with 'Frame,Time (Seconds),'", path, axis_line)
     rows: dict[str, tuple[int, list[str]]] = {}
-    order = []
-    for number, fields in lines[1:-1]:
+    order: list[str] = []
+    for number, fields in _by_position(lines[1:-1], path):
         label = fields[1] if len(fields) > 1 else ""
         if label not in HEADER_ROWS or (label == "" and len(fields) < 3):
             _fail(
                 f"unexpected header row {','.join(fields)[:60]!r} (expected ',Type,...', "
-                "',Name,...', ',ID,...' or the property row ',,Rotation,...')",
+                "',Name,...', ',ID,...', ',Parent,...' or the property row ',,Rotation,...')",
                 path,
                 number,
             )
@@ -229,14 +285,28 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     return rows, tuple(order)
 
 
+def _count(n: int, what: str) -> str:
+    """``n`` and ``what``, plural but for one."""
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def _shown(names: list[str]) -> str:
+    """The first three of ``names`` for a message."""
+    return ", ".join(name[:40] for name in names[:3]) + (" ..." if len(names) > 3 else "")
+
+
 def _bodies(rows, axis: list[str], path):
-    """Body names, IDs and their ``(B, 7)`` columns in :data:`BODY_CELLS` order."""
+    """Body names, their ``(B, 7)`` columns in :data:`BODY_CELLS` order and the names of
+    the skeleton bones (``Bone`` columns: not read)."""
     types, names = rows["Type"][1], rows["Name"][1]
     ids = rows["ID"][1] if "ID" in rows else [""] * len(axis)
     properties = rows[""][1]
     cells: dict[str, dict[tuple[str, str], int]] = {}
     body_ids: dict[str, str] = {}
+    bones: dict[str, None] = {}  # (skeleton bones, in order: carried, not read)
     for k in range(2, len(axis)):
+        if types[k].strip() == "Bone":
+            bones[names[k]] = None
         if types[k].strip() != "Rigid Body":
             continue
         name = names[k]
@@ -251,7 +321,23 @@ def _bodies(rows, axis: list[str], path):
             )
         key = (properties[k].strip(), axis[k].strip())
         own = cells.setdefault(name, {})
-        own[key] = -1 if key in own else k  # -1: a cell named twice
+        if key in own and key[0] in ("Rotation", "Position"):
+            _fail(
+                f"rigid body {name[:60]!r} has its columns twice ({' '.join(key)} in columns "
+                f"{own[key] + 1} and {k + 1}): two rigid bodies with the same name and ID? "
+                "Rename one in Motive",
+                path,
+                rows["Name"][0],
+            )
+        own[key] = k
+    if not cells and bones:
+        _fail(
+            "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type "
+            f"row has {_count(len(bones), 'bone')}, {_shown(list(bones))}, and no 'Rigid Body' "
+            "column)",
+            path,
+            rows["Type"][0],
+        )
     if not cells:
         _fail("no rigid bodies (no 'Rigid Body' column in the Type row)", path, rows["Type"][0])
     columns = np.empty((len(cells), len(BODY_CELLS)), dtype=np.intp)
@@ -271,7 +357,54 @@ def _bodies(rows, axis: list[str], path):
                 rows[""][0],
             )
         columns[b] = found
-    return list(cells), [body_ids[n] for n in cells], columns
+    return list(cells), columns, list(bones)
+
+
+def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
+    """Refuse rows not as many as ``Total Exported Frames`` says (a file cut at a line end,
+    or rows added), as a BVH whose ``Frames:`` is not its rows is refused."""
+    if stated is None:
+        return
+    if not stated.strip().isdigit():
+        _fail(f"Total Exported Frames is not a whole number: {stated[:40]!r}", path, 1)
+    count = int(stated.strip())
+    if lines.size < count:
+        _fail(
+            f"the file ends after {lines.size} frame rows but Total Exported Frames says "
+            f"{count} (the file is cut short)",
+            path,
+            int(lines[-1]),
+        )
+    if lines.size > count:
+        _fail(f"more frame rows than Total Exported Frames {count}", path, int(lines[count]))
+
+
+def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> tuple[float, int]:
+    """The step of a Time column written coarser than a tenth of a frame (whole milliseconds
+    at 240 fps: Motive 1.23 writes 0.004, 0.008, 0.012, 0.016, ... for 1/240 s steps), and
+    -1 when its times are those of the frames at ``frame_time`` to within that step, rounded
+    or cut (the times less ``(frame - first frame) * frame_time`` spread by one step at
+    most, the frames consecutive), else the first row whose frame does not follow the one
+    before or the row furthest off; ``(0, -1)`` for any other time column (checked as in a
+    CSV)."""
+    if times.size < 2:
+        return 0.0, -1
+    for digits in range(7):  # seconds to microseconds
+        scaled = times * 10.0**digits
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-6):
+            break
+    else:
+        return 0.0, -1
+    step = 10.0**-digits
+    if not TIME_TOLERANCE * frame_time < step < frame_time:
+        return 0.0, -1
+    skips = np.flatnonzero(np.diff(frames) != 1)
+    if skips.size:
+        return step, int(skips[0]) + 1
+    off = times - (frames - frames[0]) * frame_time
+    if float(off.max() - off.min()) <= step + 1e-9 * max(1.0, float(np.abs(times).max())):
+        return step, -1
+    return step, int(np.argmax(np.abs(off - np.median(off))))
 
 
 def parse_motive(data: bytes, path=None) -> Motion:
@@ -286,14 +419,48 @@ def parse_motive(data: bytes, path=None) -> Motion:
     frame_time = _frame_rate(metadata, path)
     rows, order = _header_rows(lines, path)
     axis_line, axis = lines[-1]
-    bodies, ids, columns = _bodies(rows, axis, path)
+    bodies, columns, bones = _bodies(rows, axis, path)
     cells = parse_body(
         data, body_start, len(axis), axis_line + 1, path, parsed=[0, 1, *columns.ravel()]
     )
+    _check_count(metadata.get("Total Exported Frames"), cells.lines, path)
     check_filled(cells, 0, "Frame", path)
     check_filled(cells, 1, "Time", path)
     times = cells.values[:, 1]
-    if uniform_frame_time(times, cells.lines, path, frame_time) != frame_time:
+    notes: list[str] = []
+    if bones:
+        notes.append(
+            f"{_count(len(bones), 'skeleton bone')} ({_shown(bones)}: Bone columns) carried as "
+            "they are, not read: only rigid bodies are"
+        )
+    on_grid = np.abs(times - times[0] - np.arange(times.size) * frame_time)
+    coarse, worst = 0.0, -1
+    if not np.all(on_grid <= TIME_TOLERANCE * frame_time):
+        coarse, worst = _coarse_times(times, cells.values[:, 0], frame_time)
+    if worst > 0 and cells.values[worst, 0] != cells.values[worst - 1, 0] + 1:
+        _fail(
+            f"frame {cells.values[worst, 0]:.0f} follows frame {cells.values[worst - 1, 0]:.0f}:"
+            f" the rows are not one frame each (with a Time column in steps of {coarse:g} s, "
+            "coarser than a tenth of a frame, the frames are timed by their numbers)",
+            path,
+            cells.lines[worst],
+        )
+    if worst >= 0:
+        _fail(
+            f"the Time column does not follow Export Frame Rate {metadata['Export Frame Rate']}"
+            f" and the Frame column: time {times[worst]:.6g} s is off its frame's time by more "
+            f"than the column's steps of {coarse:g} s (the frames' times differ by more than "
+            "their rounding: not uniformly sampled; resample the clip first)",
+            path,
+            cells.lines[worst],
+        )
+    if coarse:
+        notes.append(
+            f"the Time column is in steps of {coarse:g} s, coarser than a tenth of a frame: "
+            f"the frames are timed by Export Frame Rate {metadata['Export Frame Rate']} and "
+            "the Frame column (the times agree with them to their last digit)"
+        )
+    elif uniform_frame_time(times, cells.lines, path, frame_time) != frame_time:
         grid = times[0] + np.arange(times.size) * frame_time
         off = int(np.argmax(np.abs(times - grid) > TIME_TOLERANCE * frame_time))
         _fail(
@@ -306,6 +473,11 @@ def parse_motive(data: bytes, path=None) -> Motion:
     labels = [f"{rows[''][1][k]} {axis[k]} (column {k + 1})".strip() for k in range(len(axis))]
     rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, labels, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
+    in_order = columns[:, list(WRITE_ORDER)]  # (B, 7) columns in Motive's order
+    body_cells = tuple(
+        {name: tuple(fields[k] for k in own) for name, own in zip(bodies, in_order, strict=True)}
+        for fields in [rows[label][1] for label in order] + [axis]
+    )
     text = MotiveText(
         "motive",
         data,
@@ -320,10 +492,13 @@ def parse_motive(data: bytes, path=None) -> Motion:
         blank=cells.blank,
         metadata=tuple(first),
         row_labels=order,
-        ids=tuple(ids),
+        unlabelled=sum(fields[1:2] in ([], [""]) for _, fields in lines[1:-1]) > 1,
+        body_cells=body_cells,
+        axis_head=tuple(axis[:2]),
+        notes=tuple(notes),
     )
     return tracked_bodies(
-        bodies, channels, frame_time, rotations, translations, text, path, missing
+        bodies, channels, frame_time, rotations, translations, text, path, missing, up=UP
     )
 
 
@@ -348,19 +523,21 @@ def motive_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     metadata = list(src.metadata)
     for at in range(0, len(metadata) - 1, 2):  # a few metadata fields
         metadata[at + 1] = changed.get(metadata[at].strip(), metadata[at + 1])
-    ids = dict(zip(src.skeleton[0], src.ids, strict=True))
-    per_body = {
-        "Type": ["Rigid Body"] * len(BODY_CELLS),
-        "": [BODY_CELLS[i][0] for i in WRITE_ORDER],
+    # Each header row over a body's columns as read (a body the file did not hold: its
+    # type, name, properties and axes, the rest empty).
+    fallback = {
+        "Type": lambda name: ["Rigid Body"] * len(BODY_CELLS),
+        "Name": lambda name: [name] * len(BODY_CELLS),
+        "": lambda name: [BODY_CELLS[i][0] for i in WRITE_ORDER],
+        "axis": lambda name: [BODY_CELLS[i][1] for i in WRITE_ORDER],
     }
     header = [format_header(metadata, src.eol), src.eol]
-    for label in src.row_labels:
-        fields = ["", label]
+    for label, read in zip([*src.row_labels, "axis"], src.body_cells, strict=True):
+        written = "" if src.unlabelled else label
+        fields = ["", written] if label != "axis" else list(src.axis_head)
         for name in motion.names:
-            fields += per_body.get(label) or [ids.get(name, "") if label == "ID" else name] * 7
+            fields += read.get(name) or fallback.get(label, lambda name: [""] * 7)(name)
         header.append(format_header(fields, src.eol))
-    axes = ["Frame", "Time (Seconds)"] + [BODY_CELLS[i][1] for i in WRITE_ORDER] * n_bodies
-    header.append(format_header(axes, src.eol))
 
     ordered = values[:, :, list(WRITE_ORDER)].reshape(n_frames, -1)
     blank = np.repeat(motion.missing_mask(), len(BODY_CELLS), axis=1)

@@ -25,16 +25,17 @@ axis, the joint's Z axis (``Zrotation Xrotation Yrotation``, the two others zero
 on that quaternion signal act on the angle itself, and it stays a rotation about Z.
 In a states file only the coordinates' values are read (:func:`coordinate_name`); speeds,
 muscle states and controls (:func:`is_other_state`), and columns of forces (:data:`LOADS`)
-are carried as text, as are those the user excludes (``exclude``: fnmatch patterns), never
-parsed. ``NaN`` cells (any case) are missing
-samples (``Motion.missing``).
+and errors (:data:`ERRORS`) are carried as text (a file of nothing else is refused), as
+are those the user excludes (``exclude``: fnmatch patterns), never parsed. ``NaN`` cells
+(any case) are missing samples (``Motion.missing``).
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
 counts as unchanged, as for BVH); a changed value is written in shortest
 round-trip form, in the file's unit and on the branch (whole turns) nearest the value
 read. When the frame count changed (resampled), the rows are written afresh and ``nRows``
-is updated.
+is updated. ``nRows`` is never trusted: the rows present are read, a count that differs is
+said in a note and written as the true one (in an otherwise untouched file too).
 """
 
 from __future__ import annotations
@@ -88,6 +89,7 @@ class OpenSimText:
     translational: np.ndarray  # (J,) axis index 0-2, or -1 for a rotational coordinate
     eol: bytes
     notes: tuple[str, ...] = ()
+    stated_rows: str | None = None  # the header's nRows as written (None: no such line)
 
     @property
     def n_frames(self) -> int:
@@ -170,6 +172,9 @@ def is_other_state(label: str, labels: set[str]) -> bool:
 #: Column names of external loads (ground reaction forces, their points of application
 #: and torques, as OpenSim names them): not coordinates, carried as text.
 LOADS = ("*force*", "*torque*", "*moment*", "*_p[xyz]")
+#: Column names of errors (inverse kinematics' ``_ik_marker_errors.sto``:
+#: ``total_squared_error``, ``marker_error_RMS``, ``marker_error_max``): not coordinates.
+ERRORS = ("*error*",)
 #: Rotational coordinates of a file that says radians hold degrees (OpenSim's CMC writes
 #: its ``*_q.sto`` with ``inDegrees=no``) where the median column reaches beyond this many
 #: radians (half a turn: no joint angle does, most stay within a quarter) ...
@@ -238,6 +243,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         )
     if rows.size < 2:
         _fail("fewer than two rows of data", path)
+    stated = pairs.get("nrows", (None, 0))[0]
     cell = (first_token[rows][:, None] + np.arange(k)).astype(np.intp)  # (F, K) token index
     cell_starts, cell_ends = starts[cell], ends[cell]
     patterns = list(exclude)
@@ -251,18 +257,36 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         for c in kept
         if c not in states and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)
     ]
-    kept = [c for c in kept if c not in loads and c not in states]
+    errors = [
+        c
+        for c in kept
+        if c not in states
+        and c not in loads
+        and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in ERRORS)
+    ]
+    kept = [c for c in kept if c not in loads and c not in states and c not in errors]
     notes = [] if note is None else [note]
-    if (loads or states) and not kept:
+    if (loads or states or errors) and not kept:
         what = (
             "forces, torques and points of application (an external loads file)"
             if loads
             else "speeds and muscle states"
+            if states
+            else f"errors ({', '.join(labels[c][:40] for c in errors[:3])}: inverse "
+            "kinematics' marker errors, not angles)"
         )
         _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
+    if stated is not None and stated != str(rows.size):
+        short = stated.isdigit() and int(stated) > rows.size
+        notes.append(
+            f"nRows={stated[:20]} but the file holds {rows.size} rows"
+            f"{' (cut short?)' if short else ''}: the {rows.size} are read, and any output "
+            f"says nRows={rows.size}"
+        )
     for carried, what in (
         (loads, "forces, torques or points of application"),
         (states, "states or controls other than coordinate values (speeds, muscles)"),
+        (errors, "errors (not coordinates)"),
     ):
         if carried:
             shown = ", ".join(labels[c] for c in carried[:3])
@@ -316,6 +340,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         axes,
         eol,
         tuple(notes),
+        stated,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
 
@@ -435,7 +460,8 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
     was_missing = np.isnan(reference)
     changed = (moved & ~missing) | (was_missing != missing)
-    if not changed.any():
+    stale = src.stated_rows is not None and src.stated_rows != str(motion.n_frames)
+    if not changed.any() and not stale:
         return pieces(src.raw)
     mask = np.zeros(src.starts.shape, dtype=bool)
     mask[:, src.columns] = changed
@@ -450,8 +476,28 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         return chunk
 
     return splice_cells(
-        src.raw, src.row_starts, lambda rows: (src.starts[rows], src.ends[rows]), mask, texts
+        src.raw,
+        src.row_starts,
+        lambda rows: (src.starts[rows], src.ends[rows]),
+        mask,
+        texts,
+        start=src.body if stale else 0,
+        prefix=_counted(src.raw[: src.body], {b"nrows": motion.n_frames}) if stale else b"",
     )
+
+
+def _counted(head: bytes, counts: dict[bytes, int]) -> bytes:
+    """The header ``head`` with the ``key=value`` lines of ``counts`` (lower-case keys) saying
+    those counts, every other byte kept."""
+
+    def counted(line: bytes) -> bytes:
+        key, eq, _ = line.partition(b"=")
+        if not eq or key.strip().lower() not in counts:
+            return line
+        end = b"\r" if line.endswith(b"\r") else b""
+        return key + b"=" + str(counts[key.strip().lower()]).encode() + end
+
+    return b"\n".join(counted(line) for line in head.split(b"\n"))
 
 
 def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
@@ -476,15 +522,7 @@ def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
         ).encode()
     else:
         counts = {b"nrows": motion.n_frames, b"ncolumns": motion.n_joints + 1}
-
-        def counted(line: bytes) -> bytes:
-            key, eq, _ = line.partition(b"=")
-            if not eq or key.strip().lower() not in counts:
-                return line
-            end = b"\r" if line.endswith(b"\r") else b""
-            return key + b"=" + str(counts[key.strip().lower()]).encode() + end
-
-        head = b"\n".join(counted(line) for line in src.raw[: src.body].split(b"\n"))
+        head = _counted(src.raw[: src.body], counts)
     labels = "\t".join(["time", *motion.names]).encode("utf-8") + eol
     table = np.concatenate([times[:, None], values], axis=1)
 

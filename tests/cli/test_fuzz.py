@@ -78,6 +78,7 @@ def seeds(tmp_path_factory):
     clip = cut_bvh(SAMPLE, folder / "seed.bvh", 12).read_bytes()
     mc.save(mc.load(folder / "seed.bvh"), folder / "seed.csv")
     motive = (ROOT / "sample_data" / "131_02_motive.csv").read_bytes().splitlines(True)
+    motive[0] = motive[0].replace(b"Total Exported Frames,120,", b"Total Exported Frames,50,")
     rigid = [b"time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz,b.px,b.py,b.pz,b.qw,b.qx,b.qy,b.qz\n"]
     for f in range(14):  # body b lost on frames 5-7
         b = b",,,,,,," if 5 <= f <= 7 else b"%.4f,1,0,0.9950,0.0998,0,0" % (f * 0.01)
@@ -85,7 +86,7 @@ def seeds(tmp_path_factory):
     return [
         (".bvh", clip),
         (".csv", (folder / "seed.csv").read_bytes()),
-        (".csv", b"".join(motive[: 7 + 50])),  # an OptiTrack Motive export with a dropout
+        (".csv", b"".join(motive[: 7 + 50])),  # a Motive export of 50 frames with a dropout
         (".csv", b"".join(rigid)),  # a rigid-body CSV with a dropout
     ]
 

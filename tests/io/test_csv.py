@@ -475,3 +475,24 @@ def test_a_pipeline_that_changes_nothing_writes_every_csv_back_byte_for_byte(tmp
         )
         assert code == 0, err
         assert out.read_bytes() == source.read_bytes(), source.name
+
+
+def test_a_lone_carriage_return_is_named_as_the_cause_of_a_long_row(tmp_path, capsys):
+    """A CR alone in a file of LF lines runs two rows together: the column count alone
+    ('row has 15 columns, the header has 8') did not say why."""
+    rows = ["time,a.px,a.py,a.pz,a.qw,a.qx,a.qy,a.qz"]
+    rows += [f"{f / 120:.6f},{f * 0.01:.2f},1,0,1,0,0,0" for f in range(6)]
+    text = "\n".join(rows[:3]) + "\r" + "\n".join(rows[3:]) + "\n"
+    path = tmp_path / "one_cr.csv"
+    path.write_bytes(text.encode())
+    code, _, err = run_cli(capsys, "info", path)
+    assert code == 1
+    assert err.splitlines() == [
+        f"motionclean: error: {path}:3: row has 15 columns, the header has 8 (a carriage "
+        "return (CR) alone inside this line, where the file's lines end in LF: two rows ran "
+        "together; save the file with one kind of line end)"
+    ]
+    short = tmp_path / "short.csv"
+    short.write_bytes(("\n".join(rows[:3]) + "\n1,2\n").encode())
+    code, _, err = run_cli(capsys, "info", short)
+    assert code == 1 and err.strip().endswith("row has 2 columns, the header has 8")

@@ -297,3 +297,259 @@ def test_the_header_must_have_its_rows(tmp_path, capsys):
     check_error(tmp_path, capsys, no_name, 6, "no ',Name,...' row above the axis row")
     blank_time = replace_line(text, 10, "2,0.016667,", "2,,")
     check_error(tmp_path, capsys, blank_time, 10, "the Time column is blank")
+
+
+def with_parent_row(text: str) -> str:
+    """``text`` as Motive 3 (format 1.25) writes it: a ``,Parent,...`` row after the ID row
+    (empty over rigid bodies, the body's name over its markers)."""
+    lines = text.split("\r\n")
+    types, names = lines[2].split(",")[2:], lines[3].split(",")[2:]
+    parents = [
+        n.split(":")[0] if t == "Rigid Body Marker" else ""
+        for t, n in zip(types, names, strict=True)
+    ]
+    lines.insert(5, ",Parent," + ",".join(parents))
+    lines[0] = lines[0].replace("Format Version,1.23", "Format Version,1.25")
+    return "\r\n".join(lines)
+
+
+def test_a_motive_3_export_with_a_parent_row_is_read_and_written_back(tmp_path, capsys):
+    text, rotations, _ = export(n_frames=40, gaps={(6, 1): BLANK})
+    source = write(tmp_path, with_parent_row(text))
+    clip = mc.load(source)
+    assert clip.names == ["Wand", "Head Band"]
+    np.testing.assert_array_equal(clip.rotations, mc.load(write(tmp_path, text, "x.csv")).rotations)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    out = tmp_path / "clean.csv"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin", "-q")
+    assert code == 0, err
+    head = source.read_bytes().split(b"\r\nFrame,")[0]
+    assert out.read_bytes().startswith(head + b"\r\nFrame,")  # the Parent row byte for byte
+    assert out.read_bytes() != source.read_bytes()
+
+
+def test_a_resampled_motive_3_export_keeps_its_rows_over_each_body(tmp_path):
+    text, _, _ = export(n_frames=20)
+    clip = mc.load(write(tmp_path, with_parent_row(text)))
+    half = clip.replace(
+        rotations=clip.rotations[::2],
+        translations=clip.translations[::2],
+        frame_time=clip.frame_time * 2,
+    )
+    mc.save(half, tmp_path / "half.csv")
+    rows = cells_of(tmp_path / "half.csv")
+    assert rows[4] == ["", "ID"] + ["1"] * 7 + ["2"] * 7
+    assert rows[5] == ["", "Parent"] + [""] * 14  # (a rigid body has no parent)
+    assert rows[6] == ["", ""] + (["Rotation"] * 4 + ["Position"] * 3) * 2
+    assert rows[7] == ["Frame", "Time (Seconds)"] + ["X", "Y", "Z", "W", "X", "Y", "Z"] * 2
+    assert mc.load(tmp_path / "half.csv").frame_time == 1 / 60
+
+
+MOTIVE_1_21 = ROOT / "tests" / "data" / "motive" / "hmv_sample_take_1.21.csv"
+
+
+def labelled(text: str) -> str:
+    """``text`` (header rows without labels) with ``Type``, ``Name``, ``ID`` put in."""
+    lines = text.split("\r\n")
+    for number, label in ((3, "Type"), (4, "Name"), (5, "ID")):
+        assert lines[number - 1].startswith(",,")
+        lines[number - 1] = f",{label}," + lines[number - 1][2:]
+    return "\r\n".join(lines)
+
+
+def test_a_real_1_21_export_without_row_labels_is_read_by_the_rows_places(tmp_path, capsys):
+    source = tmp_path / "take.csv"
+    source.write_bytes(MOTIVE_1_21.read_bytes())
+    clip = mc.load(source)
+    said = mc.load(write(tmp_path, labelled(MOTIVE_1_21.read_bytes().decode()), "said.csv"))
+    assert clip.names == said.names == ["Rigid Body 1"] and clip.n_frames == 250
+    np.testing.assert_array_equal(clip.rotations, said.rotations)
+    np.testing.assert_array_equal(clip.translations, said.translations)
+    assert clip.frame_time == 1 / 120
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    half = clip.replace(
+        rotations=clip.rotations[::2], translations=clip.translations[::2], frame_time=1 / 60
+    )
+    mc.save(half, tmp_path / "half.csv")  # written afresh: the rows stay without labels
+    rows = cells_of(tmp_path / "half.csv")
+    assert [r[:3] for r in rows[2:7]] == [
+        ["", "", "Rigid Body"],
+        ["", "", "Rigid Body 1"],
+        ["", "", "CF5107FCB3ED11E565670A50E6808782"],  # (quotes only where needed)
+        ["", "", "Rotation"],
+        ["Frame", "Time", "X"],
+    ]
+    assert mc.load(tmp_path / "half.csv").n_frames == 125
+
+
+def test_a_row_of_commas_is_a_blank_row(tmp_path):
+    """Excel and LibreOffice save the blank line 2 as ``,,,,...`` (every row as wide as the
+    widest)."""
+    text, _, _ = export()
+    lines = text.split("\r\n")
+    assert lines[1] == ""
+    lines[1] = "," * (len(lines[2].split(",")) - 1)
+    padded = write(tmp_path, "\r\n".join(lines), "padded.csv")
+    clip = mc.load(padded)
+    np.testing.assert_array_equal(clip.rotations, mc.load(write(tmp_path, text)).rotations)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == padded.read_bytes()
+
+
+def test_header_rows_without_labels_that_cannot_be_placed_are_refused(tmp_path, capsys):
+    text = MOTIVE_1_21.read_bytes().decode()
+    no_id = "\r\n".join(line for k, line in enumerate(text.split("\r\n")) if k != 4)
+    check_error(tmp_path, capsys, no_id, 3, "3 header rows without a label (',,...')")
+    lines = labelled(text).split("\r\n")
+    lines[3] = ",," + lines[3].removeprefix(",Name,")  # Type and ID said, Name not
+    check_error(
+        tmp_path,
+        capsys,
+        "\r\n".join(lines),
+        6,
+        "a second header row without a label (first at line 4): only the property row",
+    )
+
+
+def with_times(text: str, times) -> str:
+    """``text`` with the Time cell of data row ``f`` replaced by ``times[f]``."""
+    lines = text.split("\r\n")
+    for f, time in enumerate(times):
+        cells = lines[7 + f].split(",")
+        cells[1] = time
+        lines[7 + f] = ",".join(cells)
+    return "\r\n".join(lines)
+
+
+@pytest.mark.parametrize(("rate", "cut"), [(240.0, np.floor), (360.0, np.floor), (240.0, np.round)])
+def test_times_in_whole_milliseconds_are_timed_by_the_export_frame_rate(
+    tmp_path, capsys, rate, cut
+):
+    """Motive 1.23 (the Rofunc take) writes times cut to milliseconds: 0.008, 0.016, 0.025 at
+    120 fps, 0.004, 0.008, 0.012 at 240 (refused before as not uniformly sampled)."""
+    n = 60
+    text, _, _ = export(n_frames=n, rate=rate)
+    ms = [f"{cut(f / rate * 1000) / 1000:.6f}" for f in range(n)]
+    source = write(tmp_path, with_times(text, ms))
+    clip = mc.load(source)
+    assert clip.frame_time == 1 / rate and clip.n_frames == n
+    assert any("steps of 0.001 s" in note for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    out = tmp_path / "clean.csv"
+    code, said, err = run_cli(capsys, "clean", source, "-o", out, "-f", "lee-shin")
+    assert code == 0 and err == ""
+    assert "note: the Time column is in steps of 0.001 s" in said
+    assert [r[1] for r in cells_of(out)[7:]] == ms  # the time text as it was
+    assert out.read_bytes() != source.read_bytes()
+
+
+def test_times_in_milliseconds_that_do_not_follow_the_frames_are_refused(tmp_path, capsys):
+    rate, n = 240.0, 30
+    text, _, _ = export(n_frames=n, rate=rate)
+    ms = [np.floor(f / rate * 1000) / 1000 for f in range(n)]
+    ms[9] += 0.002  # a sample 2 ms late: really off the grid, not rounding
+    check_error(
+        tmp_path,
+        capsys,
+        with_times(text, [f"{t:.6f}" for t in ms]),
+        17,
+        "the Time column does not follow Export Frame Rate 240.000000 and the Frame column: "
+        "time 0.039 s is off its frame's time by more than the column's steps of 0.001 s",
+    )
+    ms = [np.floor(f / rate * 1000) / 1000 for f in range(n)]
+    lines = with_times(text, [f"{t:.6f}" for t in ms]).split("\r\n")
+    lines[7 + 5] = "6" + lines[7 + 5][1:]  # frame 5 numbered 6: the frames skip
+    check_error(tmp_path, capsys, "\r\n".join(lines), 13, "frame 6 follows frame 4: the rows are")
+
+
+def test_rows_not_as_many_as_total_exported_frames_are_refused(tmp_path, capsys):
+    """A file cut at a line end (or with rows added) is refused, as BVH is: its header's
+    count would be stale in every output."""
+    text, _, _ = export(n_frames=12)
+    lines = text.split("\r\n")
+    cut = "\r\n".join(lines[: 7 + 9]) + "\r\n"
+    check_error(
+        tmp_path,
+        capsys,
+        cut,
+        16,
+        "the file ends after 9 frame rows but Total Exported Frames says 12 (the file is cut "
+        "short)",
+    )
+    huge = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,1000000000")
+    check_error(tmp_path, capsys, huge, 19, "the file ends after 12 frame rows")
+    fewer = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,10")
+    check_error(tmp_path, capsys, fewer, 18, "more frame rows than Total Exported Frames 10")
+    word = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,all")
+    check_error(tmp_path, capsys, word, 1, "Total Exported Frames is not a whole number: 'all'")
+
+
+def as_bones(text: str, bodies: tuple[str, ...]) -> str:
+    """``text`` with the columns of ``bodies`` typed ``Bone`` (a skeleton's, as Motive
+    exports them) instead of ``Rigid Body``."""
+    lines = text.split("\r\n")
+    types, names = lines[2].split(","), lines[3].split(",")
+    for k, name in enumerate(names):
+        if name in bodies and types[k] == "Rigid Body":
+            types[k] = "Bone"
+    lines[2] = ",".join(types)
+    return "\r\n".join(lines)
+
+
+def test_skeleton_bones_are_carried_and_said_so(tmp_path, capsys):
+    text, _, _ = export(n_frames=40)
+    source = write(tmp_path, as_bones(text, ("Head Band",)))
+    clip = mc.load(source)
+    assert clip.names == ["Wand"]
+    said = "1 skeleton bone (Head Band: Bone columns) carried as they are, not read"
+    assert any(note.startswith(said) for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.csv")
+    assert (tmp_path / "same.csv").read_bytes() == source.read_bytes()
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "clean.csv")
+    assert code == 0 and err == "" and f"note: {said}" in out
+
+
+def test_a_skeleton_only_export_is_refused_saying_bones_are_not_read(tmp_path, capsys):
+    text, _, _ = export()
+    check_error(
+        tmp_path,
+        capsys,
+        as_bones(text, ("Wand", "Head Band")),
+        3,
+        "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type row "
+        "has 2 bones, Wand, Head Band, and no 'Rigid Body' column)",
+    )
+
+
+def test_a_motive_take_is_y_up_as_motive_exports_are(tmp_path, capsys):
+    """Motive's world is Y up and its header does not say: the take declares y (the real
+    1.21 take, a small body on a table, was found x up and turned 90 degrees in glTF)."""
+    source = tmp_path / "take.csv"
+    source.write_bytes(MOTIVE_1_21.read_bytes())
+    assert mc.load(source).up == "y"
+    code, out, _ = run_cli(capsys, "info", source)
+    assert code == 0 and "up axis: y (Motive's default; the export does not say" in out
+    code, out, _ = run_cli(capsys, "info", source, "--up", "z")
+    assert code == 0 and "up axis: z (given)" in out
+    code, _, err = run_cli(capsys, "convert", source, tmp_path / "take.glb")
+    assert code == 0, err
+    assert b"motionclean_up" not in (tmp_path / "take.glb").read_bytes()  # no node turning it
+    assert mc.load(tmp_path / "take.glb").up == "y"
+
+
+def test_a_body_named_twice_with_one_id_is_said_to_be_duplicated(tmp_path, capsys):
+    """Two bodies of one name and ID had 'Rotation over X,Y,Z,W and Position over X,Y,Z (a
+    rigid body needs Rotation over X, Y, Z, W and Position over X, Y, Z)'."""
+    text, _, _ = export()
+    twice = replace_line(text.replace("Head Band", "Wand"), 5, ",2,2,2,2,2,2,2,2,", ",1" * 8 + ",")
+    check_error(
+        tmp_path,
+        capsys,
+        twice,
+        4,
+        "rigid body 'Wand' has its columns twice (Rotation X in columns 3 and 15): two rigid "
+        "bodies with the same name and ID? Rename one in Motive",
+    )

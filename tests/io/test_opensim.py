@@ -341,3 +341,71 @@ def test_coordinates_make_no_bvh_or_gltf(tmp_path, capsys):
     ):
         code, _, err = run_cli(capsys, "convert", path, tmp_path / target, "--exclude", "*_f*")
         assert code == 1 and message in err and not (tmp_path / target).exists()
+
+
+@pytest.mark.parametrize(("stated", "short"), [("100", True), ("1000000000", True), ("3", False)])
+def test_rows_not_as_many_as_nrows_are_read_and_written_with_their_count(
+    tmp_path, capsys, stated, short
+):
+    """OpenSim reads the rows a file holds whatever its nRows says (files cut or edited by
+    hand keep a stale one): so does motionclean, saying so, and no output keeps the stale
+    count, not even an untouched one."""
+    source = write(tmp_path, IK.replace("nRows=6", f"nRows={stated}"))
+    clip = mc.load(source, exclude=["*_force"])
+    assert clip.n_frames == 6
+    said = f"nRows={stated} but the file holds 6 rows{' (cut short?)' if short else ''}"
+    assert any(note.startswith(said) for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == write(tmp_path, IK, "true.mot").read_bytes()
+    code, out, err = run_cli(
+        capsys, "clean", source, "-o", tmp_path / "clean.mot", "--exclude", "*_force"
+    )
+    assert code == 0 and err == "" and said in out
+    cleaned = (tmp_path / "clean.mot").read_text()
+    assert "nRows=6\n" in cleaned and f"nRows={stated}" not in cleaned
+    half = clip.replace(
+        rotations=clip.rotations[::2], translations=clip.translations[::2], frame_time=0.02
+    )
+    mc.save(half, tmp_path / "half.mot")
+    assert "nRows=3\n" in (tmp_path / "half.mot").read_text()
+
+
+def test_a_file_whose_nrows_is_right_says_nothing_of_it(tmp_path):
+    clip = mc.load(write(tmp_path, IK), exclude=["*_force"])
+    assert not any("nRows" in note for note in clip.source.notes)
+
+
+MARKER_ERRORS = """Model Marker Errors from IK
+version=1
+nRows=4
+nColumns=4
+inDegrees=no
+endheader
+time\ttotal_squared_error\tmarker_error_RMS\tmarker_error_max
+      0.01666667\t      0.02626894\t      0.03536809\t      0.09606109
+      0.03333333\t      0.02601337\t      0.03519567\t      0.09541120
+      0.05000000\t      0.02713012\t      0.03594307\t      0.09801543
+      0.06666667\t      0.02590021\t      0.03511902\t      0.09499871
+"""
+
+
+def test_a_marker_errors_file_of_inverse_kinematics_is_refused(tmp_path, capsys):
+    """OpenSim's _ik_marker_errors.sto (as Pose2Sim's demo holds it) has no coordinate: its
+    errors had been cleaned as angles in radians ('71 % of the jitter removed')."""
+    source = write(tmp_path, MARKER_ERRORS, "_ik_marker_errors.sto")
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "out.sto")
+    assert code == 1 and out == "" and not (tmp_path / "out.sto").exists()
+    assert err.splitlines() == [
+        f"motionclean: error: {source}:7: no coordinate columns: errors (total_squared_error, "
+        "marker_error_RMS, marker_error_max: inverse kinematics' marker errors, not angles) "
+        "are no motion to clean"
+    ]
+
+
+def test_an_error_column_beside_coordinates_is_carried(tmp_path):
+    text = IK.replace("knee_angle_r_force", "marker_error_RMS").replace("n/a", "0.01")
+    motion = mc.load(write(tmp_path, text))
+    assert motion.names == ["pelvis_rotation", "pelvis_tx", "pelvis_ty", "knee_angle_r"]
+    assert any("1 columns of errors" in n for n in kinematics.source_notes(motion))
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_text() == text
