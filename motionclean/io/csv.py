@@ -856,6 +856,8 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
         if keep_text:  # unchanged values keep the BVH's text
             assert motion.source_values is not None
             kept = (block == motion.source_values[rows]) & fresh
+            if src.other_text is not None:  # (a CSV read into another take: its own values)
+                kept &= ~src.other_text[rows]
             fresh &= ~kept
             if kept.any():
                 read_starts, read_ends = src.cells(rows)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip, run_cli
+from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip, max_degrees, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -194,6 +194,22 @@ def test_clean_command_on_a_channel_csv(tmp_path):
     assert before[0] == after[0]
     np.testing.assert_array_equal(before[1][:, :2], after[1][:, :2])
     assert not np.array_equal(before[1], after[1])
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".bvh"])
+def test_a_csv_of_another_take_read_into_a_template_keeps_its_own_values(tmp_path, suffix):
+    """A channel CSV read with a skeleton template of the same length but other values (the
+    rig's own take) is written with the CSV's values, in either format: only cells equal
+    to the template's keep its text (a CSV written back had taken the template's values)."""
+    clip = mc.load(SAMPLE)
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(5.0))
+    take = clip.replace(rotations=quat.multiply(clip.rotations, turn), source_values=None)
+    mc.save(take, tmp_path / "take.csv")
+    read = mc.load(tmp_path / "take.csv", skeleton=clip)
+    mc.save(read, tmp_path / f"out{suffix}")
+    back = mc.load(tmp_path / f"out{suffix}", skeleton=clip)
+    assert max_degrees(back.rotations, take.rotations) < 1e-4
+    np.testing.assert_allclose(back.translations, take.translations, atol=1e-6)
 
 
 def test_a_skeleton_read_once_is_read_again_when_its_file_changes(tmp_path):
