@@ -126,20 +126,38 @@ def load(
     if skeleton is None or isinstance(skeleton, Motion):
         template = skeleton
     elif isinstance(skeleton, str | os.PathLike):
-        template = read_once(load, checks.path(skeleton, "skeleton"))
+        template = load(checks.path(skeleton, "skeleton"))
     else:
         raise TypeError(
             f"skeleton: expected a Motion or a file path, got {type(skeleton).__name__}"
         )
+    model = None
     if body_model is not None:
-        checks.path(body_model, "body_model")
-    exclude = checks.patterns(exclude, "exclude")
-    if frame_rate is not None:
-        frame_rate = checks.number(frame_rate, "frame_rate")
-        if not smpl.MIN_RATE <= frame_rate <= smpl.MAX_RATE:  # NaN too
-            raise ValueError(  # (as io.smpl says it)
-                f"frame_rate must be from {smpl.MIN_RATE:g} to {smpl.MAX_RATE:g}, got {frame_rate}"
-            )
+        model = functools.partial(smpl.read_body_model, checks.path(body_model, "body_model"))
+    return _read(path, template, model, checks.patterns(exclude, "exclude"), _rate(frame_rate))
+
+
+def _rate(frame_rate) -> float | None:
+    """``frame_rate`` checked: None, or frames per second within the SMPL readers' range."""
+    if frame_rate is None:
+        return None
+    frame_rate = checks.number(frame_rate, "frame_rate")
+    if not smpl.MIN_RATE <= frame_rate <= smpl.MAX_RATE:  # NaN too
+        raise ValueError(  # (as io.smpl says it)
+            f"frame_rate must be from {smpl.MIN_RATE:g} to {smpl.MAX_RATE:g}, got {frame_rate}"
+        )
+    return frame_rate
+
+
+def _read(
+    path: Path,
+    template: Motion | None,
+    body_model: Callable[[], tuple[dict[str, np.ndarray], str]] | None,
+    exclude: tuple[str, ...],
+    frame_rate: float | None,
+) -> Motion:
+    """:func:`load` of its checked arguments; ``body_model`` reads the model, called only
+    for a SMPL clip."""
     suffix = _suffix(path, FORMATS)
     if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
         return fbx.load_fbx(path)
@@ -150,7 +168,7 @@ def load(
         if suffix == ".bvh":
             motion = bvh.parse_bvh(data, path)
         elif suffix in (".npz", ".pkl"):
-            model = None if body_model is None else read_once(smpl.read_body_model, body_model)
+            model = None if body_model is None else body_model()
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
             motion = parse(data, path, skeleton=template, body_model=model, frame_rate=frame_rate)
         elif suffix in (".mot", ".sto"):
@@ -198,20 +216,20 @@ class ReadOptions:
         """:func:`load` of ``path`` with these options (the skeleton and body model read
         once for every clip while their files stay the same, :func:`read_once`)."""
         template = read_once(load, self.skeleton) if self.skeleton else None
-        return load(
-            path,
-            skeleton=template,
-            body_model=self.body_model,
-            exclude=self.exclude,
-            frame_rate=self.frame_rate,
-        )
+        model = None
+        if self.body_model is not None:
+            model = functools.partial(read_once, smpl.read_body_model, self.body_model)
+        path = Path(checks.path(path, "path"))
+        exclude = checks.patterns(self.exclude, "exclude")
+        return _read(path, template, model, exclude, _rate(self.frame_rate))
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):
     """``read(path)``, kept for the next call while the file stays the same regular file
     (device, inode, size, modification and change times) and is named the same way: a
-    batch worker reads the skeleton or body model it cleans every clip with once. Use the
-    result read-only."""
+    batch worker reads the skeleton or body model it cleans every clip with once. For
+    :class:`ReadOptions` (the commands' reads) only, whose clips never write into what they
+    share with it; :func:`load` reads afresh."""
     try:
         info = os.stat(path)
     except OSError:  # read as usual: that read says what is wrong

@@ -578,14 +578,14 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     values, missing = _held_channel_values(
         cells, data, columns, skeleton.names, skeleton.channels, fields, path
     )
-    motion = Motion.from_channel_values(
-        skeleton.names,
-        skeleton.parents,
-        skeleton.offsets,
-        skeleton.channels,
+    motion = Motion.from_channel_values(  # (copies: the clip shares nothing with its template)
+        list(skeleton.names),
+        skeleton.parents.copy(),
+        skeleton.offsets.copy(),
+        list(skeleton.channels),
         frame_time,
         values,
-        end_sites=dict(skeleton.end_sites),
+        end_sites={j: offset.copy() for j, offset in skeleton.end_sites.items()},
         path=path_text,
         missing=missing,
     )

@@ -210,6 +210,10 @@ def test_a_csv_of_another_take_read_into_a_template_keeps_its_own_values(tmp_pat
     back = mc.load(tmp_path / f"out{suffix}", skeleton=clip)
     assert max_degrees(back.rotations, take.rotations) < 1e-4
     np.testing.assert_allclose(back.translations, take.translations, atol=1e-6)
+    read.offsets[1] += 100.0  # the clip's skeleton is its own: the template keeps its own
+    np.testing.assert_array_equal(clip.offsets, mc.load(SAMPLE).offsets)
+    again = mc.load(tmp_path / "take.csv", skeleton=str(SAMPLE))
+    np.testing.assert_array_equal(again.offsets, mc.load(SAMPLE).offsets)
 
 
 def test_a_skeleton_read_once_is_read_again_when_its_file_changes(tmp_path):
