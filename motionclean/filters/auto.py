@@ -577,10 +577,10 @@ def _select(
             band = None
     masks = [mask for _, _, mask in cands]
     risk = _risks(model, masks, strength, band, coloured)
-    # whether a column is worth filtering is judged at the noise found, whatever the
-    # strength: a strength below 1 asks for gentler filters, not for none (at 0.65 the
-    # sample's every joint had fallen under WORTHWHILE_GAIN and been left as it was)
-    worth = risk if strength == 1 or coloured is not None else _risks(model, masks, 1.0, band)
+    # whether a column is worth filtering is judged at the noise found or above: a
+    # strength below 1 asks for gentler filters, not for none (at 0.65 the sample's every
+    # joint had fallen under WORTHWHILE_GAIN and been left as it was); one above 1 for more
+    worth = risk if strength >= 1 or coloured is not None else _risks(model, masks, 1.0, band)
     model = model._replace(power=np.zeros((0, 0, 0)))  # the periodograms are not read again
     choice = np.argmin(risk, axis=0)  # (W, C), 0 = identity
     coverage = model.coverage()

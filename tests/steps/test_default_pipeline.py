@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import SAMPLE, run_cli
+from helpers import ROOT, SAMPLE, run_cli
 
 import motionclean as mc
 from motionclean.core import quat
@@ -132,18 +132,33 @@ def test_auto_at_strength_zero_adds_nothing_to_despike(planted, tmp_path, capsys
 
 def test_a_lower_strength_smooths_less_not_suddenly_nothing(planted):
     """``auto:strength`` scales the noise the filters are chosen for: on the noisy sample,
-    lower strengths change the clip less and less, and 0.65 still smooths (every joint had
+    higher strengths change the clip more, lower ones less and less, and 0.65 still smooths (every joint had
     fallen under the worthwhile gain there and been left as it was, from 73 % of the
     jitter removed at 0.75)."""
     motion = mc.load(planted[1])
     despiked, _ = mc.Pipeline.from_inline(["despike"]).run(motion)
     changes = []
-    for strength in (1.0, 0.75, 0.65, 0.5):
+    for strength in (4.0, 2.0, 1.0, 0.75, 0.65, 0.5):
         out, _ = mc.Pipeline.from_inline(["despike", f"auto:strength={strength}"]).run(motion)
         angle = quat.angle_between(out.rotations, despiked.rotations)
         changes.append(float(np.sqrt(np.mean(angle**2))))
     assert all(a >= b for a, b in zip(changes, changes[1:], strict=False))
-    assert changes[2] > 0.2 * changes[0] and changes[3] > 0.0
+    assert changes[4] > 0.2 * changes[2] and changes[5] > 0.0
+
+
+def test_a_higher_strength_smooths_noise_too_faint_for_the_default():
+    """Noise of 0.05 degrees is not worth smoothing at the noise found, but strength 2 asks
+    for smoothing as if it were twice as loud: joints the default leaves are smoothed."""
+    motion = mc.load(ROOT / "sample_data" / "131_02_cut.bvh")  # a clean capture
+    rng = np.random.default_rng(5)
+    turn = rng.normal(scale=np.radians(0.05) / np.sqrt(3.0), size=(*motion.rotations.shape[:2], 3))
+    noisy = motion.replace(rotations=quat.multiply(motion.rotations, quat.exp(turn / 2.0)))
+    moved = []
+    for strength in (1.0, 2.0):
+        out, _ = mc.Pipeline.from_inline(["despike", f"auto:strength={strength}"]).run(noisy)
+        base, _ = mc.Pipeline.from_inline(["despike"]).run(noisy)
+        moved.append(int((quat.angle_between(out.rotations, base.rotations).max(0) > 1e-9).sum()))
+    assert moved[1] > moved[0] + 3
 
 
 def test_garbage_root_frames_far_beyond_any_body_speed_are_repaired():
