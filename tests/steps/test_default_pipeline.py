@@ -132,9 +132,9 @@ def test_auto_at_strength_zero_adds_nothing_to_despike(planted, tmp_path, capsys
 
 def test_a_lower_strength_smooths_less_not_suddenly_nothing(planted):
     """``auto:strength`` scales the noise the filters are chosen for: on the noisy sample,
-    higher strengths change the clip more, lower ones less and less, and 0.65 still smooths (every joint had
-    fallen under the worthwhile gain there and been left as it was, from 73 % of the
-    jitter removed at 0.75)."""
+    higher strengths change the clip more, lower ones less and less, and 0.65 still
+    smooths (every joint had fallen under the worthwhile gain there and been left as it
+    was, from 73 % of the jitter removed at 0.75)."""
     motion = mc.load(planted[1])
     despiked, _ = mc.Pipeline.from_inline(["despike"]).run(motion)
     changes = []
