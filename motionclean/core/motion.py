@@ -696,7 +696,7 @@ def continuous_euler(
 SWITCH_DEG = 90.0
 
 
-def _switches(reference: np.ndarray, order: str) -> np.ndarray:
+def _switches(reference: np.ndarray, order: str, before: np.ndarray | None) -> np.ndarray:
     """``(F, J)`` bool: the frames into which the read angles ``reference`` ``(F, J, 3)``
     (rotation order ``order``) step by more than :data:`SWITCH_DEG` on a channel, whole
     turns aside, while the rotation read turns by less than that: the input writes that
@@ -704,18 +704,20 @@ def _switches(reference: np.ndarray, order: str) -> np.ndarray:
     nearest the frame's own angles) switches where the input does: continued through, a
     run crossing gimbal lock arrived at the kept frames after it on the other solution,
     and the switch moved to the run's start (a hip stepping 167 degrees where the input
-    stepped 13). Frame 0 of the block: no step known, False."""
+    stepped 13). ``before`` ``(J, 3)``: the read angles of the frame before the block
+    (None at the clip's first frame, which steps from nothing)."""
+    rows = reference if before is None else np.concatenate([before[None], reference])
     out = np.zeros(reference.shape[:2], dtype=bool)
-    if reference.shape[0] > 1:
-        step = np.diff(reference, axis=0)
+    if rows.shape[0] > 1:
+        step = np.diff(rows, axis=0)
         step -= 360.0 * np.round(step / 360.0)
         frame, joint = np.nonzero(np.abs(step).max(axis=-1) > SWITCH_DEG)  # (few)
         turn = quat.angle_between(
-            quat.from_euler(reference[frame, joint], order),
-            quat.from_euler(reference[frame + 1, joint], order),
+            quat.from_euler(rows[frame, joint], order),
+            quat.from_euler(rows[frame + 1, joint], order),
         )
         small = turn < math.radians(SWITCH_DEG)
-        out[frame[small] + 1, joint[small]] = True
+        out[frame[small] + (1 if before is None else 0), joint[small]] = True
     return out
 
 
@@ -735,11 +737,12 @@ def _continue_block(q, order, reference, kept, carry, principal=None, backward=T
     leap = np.abs(dots, out=dots) < math.sqrt(0.5)
     is_anchor = kept | leap
     if backward:  # (angles read: where the input switches solution, the curve does too)
-        is_anchor |= _switches(reference, order)
+        is_anchor |= _switches(reference, order, None if carry is None else carry[6])
     if carry is None:
         is_anchor[0] = True  # the clip's first frame
     elif not is_anchor.any():
-        return _continue_run(q, order, carry, principal)
+        angles, last = _continue_run(q, order, carry, principal)
+        return angles, (*last, reference[-1])
     # A changed anchor is written as the triple nearest its original angles (computed for
     # those samples only: the others never read it).
     anchor_values = reference
@@ -785,7 +788,15 @@ def _continue_block(q, order, reference, kept, carry, principal=None, backward=T
         since = np.where(local[..., None], since, total + carry[5][None])
     # (an anchor's own turns since itself are 0: its start, the anchor's angles, as they are)
     angles = start - 360.0 * since
-    last = (q[-1], principal[-1], start[-1], last_anchor, switches_since[-1], since[-1])
+    last = (
+        q[-1],
+        principal[-1],
+        start[-1],
+        last_anchor,
+        switches_since[-1],
+        since[-1],
+        reference[-1],
+    )
     if backward:
         _continue_backward(q, order, reference, kept, angles, carry is None)
     return angles, last

@@ -14,6 +14,7 @@ from helpers import CMU_01_01_START, NOISY, SAMPLE, max_degrees, with_t_pose
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.core.eulerjoin import JUMP_DEG, JUMP_MARGIN
+from motionclean.core.motion import FILTER_BLOCK_FRAMES
 from motionclean.steps.pipeline import Pipeline
 
 
@@ -239,16 +240,19 @@ def test_a_noisy_joint_changed_on_every_frame_keeps_its_branch_before_a_far_rest
     assert off.max() < 30.0
 
 
-def test_a_changed_run_switches_solution_where_the_input_does(tmp_path):
+@pytest.mark.parametrize("at", [25, FILTER_BLOCK_FRAMES, FILTER_BLOCK_FRAMES + 1])
+def test_a_changed_run_switches_solution_where_the_input_does(tmp_path, at):
     """A file may switch Euler solution mid-curve, (a, b, c) to (a + 180, 180 - b, c + 180),
     the same rotation (exporters do near gimbal lock: assimp's Boxing_Toes hip, b near
     -90). A run changed by a tenth of a degree across that switch is written switching
-    where the input does; continued through from the kept frame before, it had arrived at
-    the kept frames after on the other solution and switched at the run's start instead,
-    stepping 167 degrees where the input stepped 13."""
-    t = np.linspace(0.0, 1.0, 60)[:, None]
+    where the input does, also on the first frame of a block the write-back works in;
+    continued through from the kept frame before, it had arrived at the kept frames after
+    on the other solution and switched at the run's start instead, stepping 167 degrees
+    where the input stepped 13."""
+    n = at + 35
+    t = np.linspace(0.0, 1.0, n)[:, None]
     read = np.hstack([-20.0 - 100.0 * t, -70.0 + 20.0 * t, -30.0 - 90.0 * t])
-    read[25:] = read[25:] * [1.0, -1.0, 1.0] + [180.0, 180.0, 180.0]  # the other solution
+    read[at:] = read[at:] * [1.0, -1.0, 1.0] + [180.0, 180.0, 180.0]  # the other solution
     read = (read + 180.0) % 360.0 - 180.0  # each angle within half a turn, as files hold
     rows = "\n".join(" ".join(f"{v:.6f}" for v in (0.0, 0.0, 0.0, *angles)) for angles in read)
     path = tmp_path / "hip.bvh"
@@ -256,16 +260,15 @@ def test_a_changed_run_switches_solution_where_the_input_does(tmp_path):
         "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n"
         " CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
         " End Site\n {\n  OFFSET 0 10 0\n }\n}\n"
-        f"MOTION\nFrames: {len(read)}\nFrame Time: 0.01\n{rows}\n"
+        f"MOTION\nFrames: {n}\nFrame Time: 0.01\n{rows}\n"
     )
     clip = mc.load(path)
     nudge = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(0.1))
     q = clip.rotations.copy()
-    q[5:50, 0] = quat.multiply(q[5:50, 0], nudge)  # kept: frames 0-4 and 50-59
-    changed = clip.replace(rotations=q)
-    values = changed.channel_values()[:, 3:]
+    q[at - 20 : at + 25, 0] = quat.multiply(q[at - 20 : at + 25, 0], nudge)  # the rest kept
+    values = clip.replace(rotations=q).channel_values()[:, 3:]
     step_in = np.abs(np.diff(clip.source_values[:, 3:], axis=0))
     step_out = np.abs(np.diff(values, axis=0))
-    assert step_in[24].max() > 90.0  # the input switches at frame 25 ...
+    assert step_in[at - 1].max() > 90.0  # the input switches at frame ``at`` ...
     assert not ((step_out > 90.0) & (step_out > step_in + JUMP_MARGIN)).any()  # ... and so do we
     assert max_degrees(quat.from_euler(values, "ZXY")[:, None], q) < 1e-9
