@@ -39,6 +39,7 @@ from ..core.threads import in_parts, run_parts
 from .files import FileBytes, pieces
 from .text import (
     MAX_MAGNITUDE,
+    ascii_digits,
     bad_number_message,
     check_finite,
     fixed6_rows,
@@ -161,11 +162,6 @@ def _number(token: str, what: str, path, line: int) -> float:
     return value
 
 
-def _ascii_digits(token: str) -> bool:
-    """A non-negative integer in ASCII digits (``str.isdigit`` also takes '²' and '٣')."""
-    return token.isascii() and token.isdigit()
-
-
 class _Lines:
     """Iterates the lines of a byte string with 1-based numbers and byte offsets."""
 
@@ -286,7 +282,7 @@ class _Hierarchy:
     def channel_list(self, tokens: list[str], text: str, number: int) -> None:
         if not self._in_joint():
             _fail("CHANNELS outside a joint", self.path, number)
-        if len(tokens) < 2 or not _ascii_digits(tokens[1]):
+        if len(tokens) < 2 or not ascii_digits(tokens[1]):
             _fail("CHANNELS needs a count followed by channel names", self.path, number)
         joint = self.stack[-1][1]
         if self.channels[joint]:
@@ -355,7 +351,7 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
     if item is None or item[2][0] != "Frames:" or len(item[2]) != 2:
         _fail("expected 'Frames: N' after MOTION", path, lines.number)
     number, _, tokens, _ = item
-    if not _ascii_digits(tokens[1]):
+    if not ascii_digits(tokens[1]):
         _fail(f"frame count is not a non-negative integer: {tokens[1][:40]!r}", path, number)
     n_frames = int(tokens[1])
     item = lines.next_tokens()

@@ -79,7 +79,7 @@ from .csv import (
     uniform_frame_time,
     value_cells,
 )
-from .text import ascii_float, table_pieces
+from .text import ascii_float, stated_count, table_pieces
 
 #: What every Motive export starts with (after an optional byte-order mark).
 SIGNATURE = b"Format Version,"
@@ -365,9 +365,9 @@ def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
     or rows added), as a BVH whose ``Frames:`` is not its rows is refused."""
     if stated is None:
         return
-    if not stated.strip().isdigit():
+    count = stated_count(stated)
+    if count is None:
         _fail(f"Total Exported Frames is not a whole number: {stated[:40]!r}", path, 1)
-    count = int(stated.strip())
     if lines.size < count:
         _fail(
             f"the file ends after {lines.size} frame rows but Total Exported Frames says "

@@ -60,6 +60,7 @@ from .text import (
     parse_values,
     scan_tokens,
     splice_cells,
+    stated_count,
     table_pieces,
 )
 
@@ -276,8 +277,8 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
             "kinematics' marker errors, not angles)"
         )
         _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
-    if stated is not None and stated != str(rows.size):
-        short = stated.isdigit() and int(stated) > rows.size
+    if stated is not None and stated_count(stated) != rows.size:
+        short = (stated_count(stated) or 0) > rows.size
         notes.append(
             f"nRows={stated[:20]} but the file holds {rows.size} rows"
             f"{' (cut short?)' if short else ''}: the {rows.size} are read, and any output "
@@ -460,7 +461,7 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
     was_missing = np.isnan(reference)
     changed = (moved & ~missing) | (was_missing != missing)
-    stale = src.stated_rows is not None and src.stated_rows != str(motion.n_frames)
+    stale = src.stated_rows is not None and stated_count(src.stated_rows) != motion.n_frames
     if not changed.any() and not stale:
         return pieces(src.raw)
     mask = np.zeros(src.starts.shape, dtype=bool)

@@ -298,6 +298,19 @@ ASCII_NUMBER = re.compile(
 )
 
 
+def ascii_digits(token: str) -> bool:
+    """A non-negative integer in ASCII digits (``str.isdigit`` also takes '²' and '٣',
+    which ``int`` refuses)."""
+    return token.isascii() and token.isdigit()
+
+
+def stated_count(text: str | None) -> int | None:
+    """A header's count (``Frames:``, ``nRows``, ``Total Exported Frames``) as a number:
+    ASCII digits, spaces around them allowed; None for anything else or no text."""
+    token = "" if text is None else text.strip()
+    return int(token) if ascii_digits(token) else None
+
+
 def ascii_float(text: str) -> float:
     """``float(text)`` for a text that is all :data:`ASCII_NUMBER`; ValueError otherwise."""
     if not ASCII_NUMBER.fullmatch(text):

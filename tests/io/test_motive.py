@@ -485,6 +485,8 @@ def test_rows_not_as_many_as_total_exported_frames_are_refused(tmp_path, capsys)
     check_error(tmp_path, capsys, fewer, 18, "more frame rows than Total Exported Frames 10")
     word = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,all")
     check_error(tmp_path, capsys, word, 1, "Total Exported Frames is not a whole number: 'all'")
+    sup = replace_line(text, 1, "Total Exported Frames,12", "Total Exported Frames,\u00b2")
+    check_error(tmp_path, capsys, sup, 1, "Total Exported Frames is not a whole number")
 
 
 def as_bones(text: str, bodies: tuple[str, ...]) -> str:
