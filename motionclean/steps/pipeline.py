@@ -212,6 +212,8 @@ class StepLog:
 
 #: A ``[[step]]`` table's header line in a pipeline file.
 STEP_HEADER = re.compile(r"\s*\[\[\s*step\s*\]\]\s*(#.*)?$")
+#: Any table header line (``[name]``, ``[[name]]``).
+TABLE_HEADER = re.compile(r"\s*\[")
 #: Where tomllib says a syntax error is: ``... (at line L, column C)``.
 TOML_PLACE = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$", re.DOTALL)
 
@@ -250,6 +252,8 @@ def _key_given_twice(lines: list[str], line: int) -> str | None:
     if not headers:
         return None
     table = lines[headers[-1] + 1 : line]
+    if any(TABLE_HEADER.match(text) for text in table):
+        return None  # in another table after the step's
     keys = [(i, _toml_key(text)) for i, text in enumerate(table)]
     given = [(i, key) for i, key in keys if key is not None]
     if not given:

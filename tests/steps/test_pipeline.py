@@ -207,7 +207,14 @@ def test_a_filter_given_twice_names_the_first(tmp_path):
         Pipeline.from_toml(bad)
 
 
-@pytest.mark.parametrize("text", ["k = 1\nk = 2\n", "[[step]]\nfilter = 'x'\nk.a = 1\nk = 2\n"])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "k = 1\nk = 2\n",
+        "[[step]]\nfilter = 'x'\nk.a = 1\nk = 2\n",
+        "[[step]]\nfilter = 'despike'\n\n[meta]\nk = 1\nk = 2\n",  # another table after
+    ],
+)
 def test_other_values_given_twice_keep_tomls_message(tmp_path, text):
     """Outside a step table, or a dotted key: tomllib's own words, with the line."""
     bad = tmp_path / "bad.toml"
