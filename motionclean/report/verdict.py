@@ -95,38 +95,40 @@ def _runs(note: dict, key: str) -> list[list[int]]:
     return [list(r) for r in note.get(key) or []]
 
 
+#: The notes that say which frames a repairing step changed: (step, key) of its runs.
+_ROTATION_REPAIRS = (("despike", "unflipped"), ("despike", "interpolated"), ("fill-gaps", "filled"))
+_POSITION_REPAIRS = (("position_despike", "interpolated"), ("fill-gaps", "filled"))
+
+
+def _mask(runs: list[list[int]], n_frames: int) -> np.ndarray:
+    """``(n_frames,)`` bool: the frames of ``[start, stop)`` runs."""
+    mask = np.zeros(n_frames, dtype=bool)
+    for start, stop in runs:
+        mask[max(start, 0) : max(stop, 0)] = True
+    return mask
+
+
+def _repaired(joints: dict[str, dict], n_frames: int, notes) -> dict[str, np.ndarray]:
+    """Per joint with any of the runs ``notes`` names, the mask of their frames."""
+    masks = {}
+    for name, entry in joints.items():
+        runs = [run for step, key in notes for run in _runs(entry.get(step) or {}, key)]
+        if runs:
+            masks[name] = _mask(runs, n_frames)
+    return masks
+
+
 def repaired_frames(joints: dict[str, dict], n_frames: int) -> dict[str, np.ndarray]:
     """Per joint whose rotations a repairing step changed, the ``(n_frames,)`` mask of the
     frames it repaired: ``despike``'s un-flipped and interpolated runs and ``fill-gaps``'
     filled gaps (``[start, stop)`` file frames, from the joints' report notes)."""
-    masks = {}
-    for name, entry in joints.items():
-        runs = _runs(entry.get("despike") or {}, "unflipped")
-        runs += _runs(entry.get("despike") or {}, "interpolated")
-        runs += _runs(entry.get("fill-gaps") or {}, "filled")
-        if not runs:
-            continue
-        mask = np.zeros(n_frames, dtype=bool)
-        for start, stop in runs:
-            mask[max(start, 0) : max(stop, 0)] = True
-        masks[name] = mask
-    return masks
+    return _repaired(joints, n_frames, _ROTATION_REPAIRS)
 
 
 def repaired_positions(joints: dict[str, dict], n_frames: int) -> dict[str, np.ndarray]:
     """:func:`repaired_frames` of the position channels: ``despike``'s interpolated runs of a
     joint's positions (its ``position_despike`` note) and ``fill-gaps``' filled gaps."""
-    masks = {}
-    for name, entry in joints.items():
-        runs = _runs(entry.get("position_despike") or {}, "interpolated")
-        runs += _runs(entry.get("fill-gaps") or {}, "filled")
-        if not runs:
-            continue
-        mask = np.zeros(n_frames, dtype=bool)
-        for start, stop in runs:
-            mask[max(start, 0) : max(stop, 0)] = True
-        masks[name] = mask
-    return masks
+    return _repaired(joints, n_frames, _POSITION_REPAIRS)
 
 
 def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
@@ -147,15 +149,13 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
             frames = int(despike.get("frames_repaired", 0))
             frames += sum(b - a for a, b in _runs(gaps, "filled"))
             if moved:  # the position repairs' frames the rotations' left out
-                told = _runs(despike, "unflipped") + _runs(despike, "interpolated")
-                told += _runs(gaps, "filled")
-                stop = max(b for _, b in moved + told)
-                mask = np.zeros(max(stop, 0), dtype=bool)
-                for a, b in moved:
-                    mask[max(a, 0) : max(b, 0)] = True
-                for a, b in told:
-                    mask[max(a, 0) : max(b, 0)] = False
-                frames += int(mask.sum())
+                told = [
+                    run
+                    for step, key in _ROTATION_REPAIRS
+                    for run in _runs(entry.get(step) or {}, key)
+                ]
+                stop = max(max(b for _, b in moved + told), 0)
+                frames += int((_mask(moved, stop) & ~_mask(told, stop)).sum())
             found[name] = counts | {"frames": frames}
     return found
 
