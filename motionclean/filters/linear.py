@@ -21,6 +21,7 @@ mirrored (copied).
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
@@ -226,8 +227,12 @@ def run_passes(one_pass, x: np.ndarray, iterations: int) -> np.ndarray:
     return cur.reshape(x.shape)
 
 
-def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
-    """One pass of Eq. 19 from ``src`` to ``dst``, both ``(F, M, 4)`` with ``F >= 2``.
+def _lee_shin_pass(
+    src: np.ndarray, dst: np.ndarray, b: np.ndarray, cut_above: float | None = None
+) -> None:
+    """One pass of Eq. 19 from ``src`` to ``dst``, both ``(F, M, 4)`` with ``F >= 2``;
+    with ``cut_above`` (radians), a step larger than that (a half-turn flip, a glitch) is
+    taken as no motion: its displacement counts 0, so no frame is moved across it.
 
     Each block of output frames ``f0 .. f1-1`` needs the displacements at positions
     ``f0-k .. f1+k-2``: those inside ``0 .. F-2`` are computed from the block's samples,
@@ -256,6 +261,8 @@ def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
         # w_i = log(+-q_i^-1 q_{i+1}), written straight into the block's displacement window.
         quat.multiply_planes([rel_w, *inside], qc[:, :-1], qc[:, 1:], scratch, True)
         quat.log_planes(inside, [rel_w, *inside], scratch, shortest=True)
+        if cut_above is not None:  # |w| = cos(step / 2) of the shorter arc
+            inside[:, np.abs(rel_w) < math.cos(cut_above / 2.0)] = 0.0
         fill_mirrored_ends(ext, start, lo, hi, n)
         # Steps f0 -> f0+1, ..., (f1-1) -> f1 (one fewer in the last block).
         signs, sigma = continuity_signs(rel_w[f0 - lo : f1 - lo], length, sigma)
@@ -300,11 +307,13 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
     return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
 
 
-def lee_shin_unchecked(q: np.ndarray, mask) -> np.ndarray:
+def lee_shin_unchecked(q: np.ndarray, mask, cut_above: float | None = None) -> np.ndarray:
     """One pass of :func:`lee_shin` without validating ``q`` (``(F, ..., 4)``, ``F >= 2``):
-    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations."""
+    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations.
+    ``cut_above`` (radians): steps larger than that move no frame (a flip is not smeared
+    into its neighbours)."""
     b = displacement_coefficients(mask)
-    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, 1)
+    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b, cut_above), q, 1)
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:

@@ -263,6 +263,21 @@ def test_a_flip_repaired_by_despike_is_not_smeared_by_resampling():
     assert degrees_between(repaired.rotations[:, thumb], smeared.rotations[:, thumb]).max() > 40
 
 
+@pytest.mark.parametrize("fps", [60.0, 30.0])
+def test_a_flip_left_in_the_clip_stays_a_flip_at_a_lower_rate(fps):
+    """RThumb's half-turn flips, not repaired: the anti-alias low-pass is cut at them as the
+    spline is, so each new frame is the input's rotation at its time (it had smeared a flip
+    into rotations of neither side: 71 and 108 degrees from the frames beside it)."""
+    clip = mc.load(SAMPLE)
+    thumb = clip.names.index("RThumb")
+    steps = degrees_between(clip.rotations[1:, thumb], clip.rotations[:-1, thumb])
+    assert (steps > 150.0).sum() >= 4  # the flips are there
+    out = resample_motion(clip, 1.0 / fps)
+    every = round(1.0 / (fps * clip.frame_time))
+    hit = clip.rotations[::every][: out.n_frames]
+    assert degrees_between(out.rotations[:, thumb], hit[:, thumb]).max() < 5.0
+
+
 def test_beats_per_channel_euler_cubic_where_channels_wrap():
     """4x subsampled and restored: on a clip turned to face backwards (its root's Z and X
     channels wrap at +-180 degrees as a DCC tool writes them) the per-channel Euler cubic
