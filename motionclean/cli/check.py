@@ -54,6 +54,10 @@ __all__ = ["DEFAULT_TOLERANCE", "FIGURES", "check_command", "compare", "read_bas
 DEFAULT_TOLERANCE = 0.01
 #: Absolute slack added to every limit (units of the figure).
 ABSOLUTE = 1e-9
+#: Relative slack of the figures of the clip itself (the noise before cleaning): rounding
+#: between machines only, so any edit of the clip shows as CHANGED (the tolerance for
+#: the cleaning's figures had let a half-degree edit of one frame pass).
+SAME_CLIP = 1e-7
 #: Figures compared: key, label, and whether only a rise fails (else any change does).
 FIGURES = (
     ("noise_before", "noise before, deg/s^2", False),
@@ -178,7 +182,7 @@ def compare(
         if not isinstance(ref, int | float) or value is None:
             rows.append((label, None, value, "CHANGED"))
             continue
-        slack = abs(ref) * tolerance + ABSOLUTE
+        slack = abs(ref) * (tolerance if rise_only else SAME_CLIP) + ABSOLUTE
         if value > ref + slack:
             verdict = "WORSE" if rise_only else "CHANGED"
         elif value < ref - slack:
@@ -348,7 +352,10 @@ def check_command(
             for label, ref, value, verdict in rows
             if verdict in ("WORSE", "CHANGED")
         ]
+        if any(verdict == "CHANGED" for *_, verdict in rows):
+            continue  # another clip: its joints' figures say nothing of the cleaning
         joints = compare_joints(now, base, tolerance)
+        rows += [(f"{joint}: {label}", ref, value, "WORSE") for joint, label, ref, value in joints]
         if joints:
             shown = ", ".join(
                 f"{joint} {label.split(',')[0]} {_fmt(ref)} -> {_fmt(value)}"

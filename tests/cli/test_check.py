@@ -238,9 +238,26 @@ def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(
         "lee-shin:k=3,iterations=3,joints=['*','!LeftKnee','!RightKnee']",
     ]
     assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update", *base)[0] == 0
-    code, _, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
+    code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
     assert code == 1 and "RightKnee noise after" in err
     assert "deviation max got worse" not in err  # the clip maximum (RThumb) is unchanged
+    worse = [line.split() for line in out.splitlines() if line.rstrip().endswith("WORSE")]
+    assert ["RightKnee:", "noise", "after,"] in [row[:3] for row in worse]  # in the table too
+
+
+def test_a_clip_edited_by_half_a_degree_on_one_frame_is_another_clip(clips, capsys):
+    """The clip's own figure (the noise before cleaning) is compared to rounding, not to the
+    tolerance: a half-degree edit of one value had passed as 'ok'."""
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
+    lines = Path(clips[1]).read_text().splitlines()
+    row = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 41
+    values = lines[row].split()
+    values[5] = f"{float(values[5]) + 0.5:.6f}"
+    lines[row] = " ".join(values)
+    Path(clips[1]).write_text("\n".join(lines) + "\n")
+    code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
+    assert code == 1 and "noise before changed" in err and "not the one of the baseline" in err
+    assert "joints got worse" not in err  # another clip: its joints are not judged
 
 
 def test_a_folder_given_as_a_clip_says_so_as_the_other_commands_do(tmp_path, capsys):
