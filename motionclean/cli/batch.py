@@ -9,6 +9,7 @@ fails, and exits 1 naming each failure.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import sys
@@ -21,7 +22,7 @@ import click
 
 from ..core.errors import UsageError
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
-from ..report.html import render_index
+from ..report.html import index_entries, render_index
 from ..report.summary import figure_text
 from ..run import cluster
 from ..run.jobs import FileResult, Job
@@ -360,6 +361,8 @@ def batch_command(
         remove_temporaries(path for job in work for path in (job.target, job.report) if path)
     seconds = time.perf_counter() - start
 
+    if pages is not None and skip_existing:
+        _keep_figures(results, pages / "index.html", tables)
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -375,6 +378,46 @@ def batch_command(
 def sizes(work: Sequence[Job]) -> list[int]:
     """Input sizes of the clips to clean, bytes."""
     return [input_size(job.source) for job in work]
+
+
+#: The figures a skipped clip takes from the index of the run that cleaned it, and of
+#: what type each must be there (anything else is not taken).
+_KEPT_FIGURES = {
+    "frames": int,
+    "noise_before": float,
+    "noise_after": float,
+    "deviation_max": float,
+    "jitter_before": float,
+    "jitter_after": float,
+    "jitter_removed": float,
+    "change_max": float,
+    "verdict": str,
+    "verdict_status": str,
+}
+
+
+def _kept(value, kind: type):
+    """``value`` read from an index page if it is of ``kind`` (a whole number is a float
+    too; a bool is no number), else None."""
+    if isinstance(value, bool) or value is None:
+        return None
+    if kind is float and isinstance(value, int):
+        return float(value)
+    return value if isinstance(value, kind) else None
+
+
+def _keep_figures(results: dict[str, FileResult], index: Path, tables: Sequence[dict]) -> None:
+    """Give each skipped clip, in place, the figures the index page of the run that
+    cleaned it holds (same pipeline), so a resumed run's index and table stay whole."""
+    try:
+        earlier = index_entries(index.read_text(encoding="utf-8"), tables)
+    except (OSError, UnicodeDecodeError):
+        return
+    for name, result in results.items():
+        entry = earlier.get(name)
+        if result.status == "skipped" and entry and entry.get("status") != "failed":
+            kept = {key: _kept(entry.get(key), kind) for key, kind in _KEPT_FIGURES.items()}
+            results[name] = dataclasses.replace(result, **kept)
 
 
 def _write_index(

@@ -15,6 +15,7 @@ the memory behind it grows with the clip length.
 from __future__ import annotations
 
 import html
+import json
 import math
 import urllib.parse
 from collections.abc import Sequence
@@ -30,6 +31,7 @@ from .summary import (
     format_noise_model,
     format_rest,
     format_takes,
+    json_safe,
     noisiest,
     note_text,
     resampled_to,
@@ -797,7 +799,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
             if e.get("jitter_removed") is None
             else f"{e['jitter_removed']:.0%}",
             _num(e.get("deviation_max") if e.get("change_max") is None else e["change_max"], 2),
-            _e(e.get("verdict_status") or e["status"]),
+            _e(e.get("verdict_status") or e["status"])
+            + (" (an earlier run)" if e["status"] == "skipped" and e.get("verdict_status") else ""),
         ]
         look = ' class="look"' if e.get("verdict_status") == "needs a look" else ""
         rows.append(f"<tr{look}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
@@ -807,4 +810,29 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         "deg/s\u00b2; noise, jitter removed and largest change are measured outside the "
         "frames that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
     )
+    carried = json.dumps(json_safe({"pipeline": list(pipeline), "clips": list(entries)}))
+    body.append(  # (read back by a resumed batch: the clips it skips keep their figures)
+        f'<script type="application/json" id="{INDEX_DATA}">'
+        + carried.replace("</", "<\\/")
+        + "</script>"
+    )
     return _page(title, body)
+
+
+#: The id of the index page's block of clip figures (:func:`index_entries`).
+INDEX_DATA = "mc-batch"
+
+
+def index_entries(page: str, pipeline: Sequence[dict]) -> dict[str, dict]:
+    """The clip entries (by ``file``) of an index page :func:`render_index` wrote for the
+    same ``pipeline``; none from another pipeline's page or any other text."""
+    start = page.find(f'<script type="application/json" id="{INDEX_DATA}">')
+    stop = page.find("</script>", start)
+    if start < 0 or stop < 0:
+        return {}
+    try:
+        data = json.loads(page[page.index(">", start) + 1 : stop])
+        same = data["pipeline"] == json_safe(list(pipeline))
+        return {e["file"]: e for e in data["clips"] if isinstance(e, dict)} if same else {}
+    except (ValueError, KeyError, TypeError):
+        return {}

@@ -15,6 +15,7 @@ from helpers import NOISY, cut_bvh, run_cli
 
 import motionclean as mc
 from motionclean.cli.batch import find_clips
+from motionclean.report.html import index_entries
 from motionclean.run.jobs import FileResult, clean_file
 from motionclean.steps.pipeline import Pipeline
 
@@ -249,6 +250,31 @@ def test_skip_existing_resumes(tree, tmp_path, capsys):
     assert mc.load(out / "top.bvh").n_frames == 40
     assert re.search(r"walk/a\.bvh .* SKIPPED", stdout)
     assert re.search(r"top\.bvh .* ok", stdout)
+
+
+def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_path, capsys):
+    """The index of a run resumed with --skip-existing holds every clip's figures: the
+    skipped ones' from the index of the run that cleaned them (they had become '-', and
+    the clips needing a look had dropped out of its list)."""
+    (tree / "run" / "broken.bvh").unlink()
+    out, pages = tmp_path / "out", tmp_path / "pages"
+    args = ["batch", tree, "-o", out, "-j", "1", "--report-dir", pages]
+    assert run_cli(capsys, *args)[0] == 0
+    tables = Pipeline.default().describe()
+    first = index_entries((pages / "index.html").read_text(), tables)
+    assert first["walk/a.bvh"]["verdict"] and first["walk/a.bvh"]["frames"] == 60
+    (out / "top.bvh").unlink()
+    code, stdout, _ = run_cli(capsys, *args, "--skip-existing")
+    assert code == 0 and re.search(r"walk/a\.bvh .* SKIPPED", stdout)
+    again = index_entries((pages / "index.html").read_text(), tables)
+    assert again["walk/a.bvh"]["status"] == "skipped"
+    for key in ("frames", "verdict", "verdict_status", "jitter_removed", "change_max"):
+        assert again["walk/a.bvh"][key] == first["walk/a.bvh"][key]
+    assert again["top.bvh"]["status"] == "ok"
+    other = index_entries(
+        (pages / "index.html").read_text(), Pipeline.from_inline(["despike"]).describe()
+    )
+    assert other == {}  # another pipeline's figures are never taken
 
 
 def test_glob_selects_clips_case_insensitively(tree):
