@@ -38,6 +38,7 @@ from .summary import (
     was_cleaned,
 )
 from .traces import COLUMNS, Trace, trace
+from .world import format_floor
 
 __all__ = ["render_html", "render_index"]
 
@@ -737,6 +738,7 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
         f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
         "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        *_ground_lines(contacts),
         '<div class="grid">',
         *(
             _foot_card(name, contacts["feet"][name], series["feet"][name], frames)
@@ -744,6 +746,21 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         ),
         "</div>",
     ]
+
+
+def _ground_lines(contacts: dict) -> list[str]:
+    """The floor (as the terminal says it) and what the plots' 0 is."""
+    lines = []
+    floor = format_floor(contacts)
+    if floor is not None:
+        lines.append(f'<p class="meta">{_e(floor[0].upper() + floor[1:])}.</p>')
+    if contacts.get("ground") is not None:
+        lines.append(
+            f'<p class="meta">The plots\' 0 is the ground the contacts are found on, at '
+            f"{contacts['ground']:.4g} units along the up axis ({_e(contacts['up_axis'])}): "
+            "where the feet's lowest points rest in contact.</p>"
+        )
+    return lines
 
 
 # ----------------------------------------------------------------------------- batch index

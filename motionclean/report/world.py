@@ -300,16 +300,23 @@ def _contact_figures(
     return section, series
 
 
+def format_floor(section: dict) -> str | None:
+    """The floor's line of a contacts section (None without a floor): its height along the
+    up axis, tilt and the contacts it rests on."""
+    floor = section.get("floor")
+    if not floor:
+        return None
+    return (
+        f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
+        f"(through the soles of {floor['contacts']} contacts)"
+    )
+
+
 def format_contacts(section: dict) -> list[str]:
     """One terminal line for the floor, then one per foot: contacts, skate before/after,
     penetration."""
-    lines = []
-    floor = section.get("floor")
-    if floor:
-        lines.append(
-            f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
-            f"(through the soles of {floor['contacts']} contacts)"
-        )
+    floor = format_floor(section)
+    lines = [] if floor is None else [floor]
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
         text = (

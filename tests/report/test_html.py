@@ -331,3 +331,13 @@ def test_the_foot_plot_shows_a_foot_below_the_ground():
     assert min(ticks) <= -1.0  # the axis reaches below 0, where the sunk foot is drawn
     lowest = series["feet"][next(iter(series["feet"]))]["height_after"].min()
     assert lowest < -1.0
+
+
+def test_the_page_says_the_floor_and_what_the_foot_plots_zero_is(cleaned):
+    """As the terminal and info do: the floor's height, tilt and contacts, and the ground
+    the foot plots measure from (the page had neither)."""
+    motion, after, report = cleaned
+    page = render_html(report, build_series(motion, after))
+    floor, contacts = report["contacts"]["floor"], report["contacts"]
+    assert f"Floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg" in page
+    assert f"ground the contacts are found on, at {contacts['ground']:.4g} units" in page
