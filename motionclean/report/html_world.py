@@ -127,10 +127,23 @@ def _unknown_at(unknown: np.ndarray | None, point: int) -> np.ndarray | None:
     return None if unknown is None else unknown[:, point]
 
 
-def _trajectory_card(name: str, point: int, series: dict) -> str:
-    axes_of = _views(series["up"])
-    views = []
-    for title, axes in (("from above", axes_of["top"]), ("from the side", axes_of["front"])):
+def _upright_view(series: dict) -> tuple[str, tuple[int, int]]:
+    """The player's view (``"side"`` or ``"front"``, its title and screen axes) that looks
+    across the clip's travel: the one whose horizontal axis its points span most (a walk
+    along z is seen from the side, its strides shown, not from the front)."""
+    views = _views(series["up"])
+    points = series["before"].reshape(-1, 3)
+    known = points[np.isfinite(points).all(axis=1)]
+    spans = np.ptp(known, axis=0) if known.size else np.zeros(3)
+    across = "side" if spans[views["side"][0]] > spans[views["front"][0]] else "front"
+    return f"from the {across}", views[across]
+
+
+def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
+    """An end effector's track from above and from ``upright`` (:func:`_upright_view`),
+    input and cleaned overlaid, each view with its width in file units."""
+    views, titles = [], ("from above", upright[0])
+    for title, axes in zip(titles, (_views(series["up"])["top"], upright[1]), strict=True):
         tracks = [series["before"][:, point][:, axes]]
         unknown = [_unknown_at(series["unknown_before"], point)]
         if series["after"] is not None:
@@ -153,12 +166,16 @@ def _trajectory_card(name: str, point: int, series: dict) -> str:
                 tracks, unknown, (BEFORE, AFTER), ("before", "after"), strict=False
             )
         ]
+        width = f"{span / 0.9:.3g} units across"
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
             f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
-            f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>' + "".join(lines) + "</svg>"
+            f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>'
+            + "".join(lines)
+            + f'<text class="width" x="{VIEW - 4}" y="{VIEW - 4}" text-anchor="end">{width}</text>'
+            + "</svg>"
         )
-    labels = "".join(f"<span>{t}</span>" for t in ("from above", "from the side"))
+    labels = "".join(f"<span>{t}</span>" for t in titles)
     return (
         f'<section class="card"><h3>{html.escape(name)}</h3><div class="views">'
         + "".join(views)
@@ -334,6 +351,7 @@ CSS = (
     ".views{display:grid;grid-template-columns:1fr 1fr;gap:8px}"
     ".viewlabels{display:grid;grid-template-columns:1fr 1fr;color:#5a6272;font-size:12px}"
     "svg.view{width:100%;height:auto;border:1px solid #e3e6ea}"
+    "svg.view text.width{font-size:9px;fill:#5a6272}"
     ".player{max-width:560px}.controls{display:flex;gap:8px;align-items:center;margin:6px 0}"
     "#mc-slider{flex:1}"
 )
@@ -360,7 +378,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         else f"{frames:,} of {report['frames']:,} frames: every {_stride(world['frames'])} "
         "frame and the last"
     )
-    cards = [_trajectory_card(name, p, world) for name, p in world["effectors"].items()]
+    upright = _upright_view(world)
+    cards = [_trajectory_card(name, p, world, upright) for name, p in world["effectors"].items()]
     figures = report.get("world") or {}
     axes = ""
     if figures:

@@ -13,9 +13,9 @@ import pytest
 from helpers import NOISY, ROOT, corpus_clip
 
 import motionclean as mc
-from motionclean.core import kinematics
+from motionclean.core import kinematics, quat
 from motionclean.report.html import render_html
-from motionclean.report.html_world import PLAYER_FRAMES
+from motionclean.report.html_world import PLAYER_FRAMES, _upright_view
 from motionclean.report.summary import build_report, build_series
 from motionclean.steps.pipeline import Pipeline
 
@@ -119,3 +119,22 @@ def test_the_player_opens_the_frame_named_in_the_address(tmp_path):
     assert re.search(r'id="mc-frame">frame 150<', later)
     a, b = bone_lines(first, "before"), bone_lines(later, "before")
     assert a.shape == b.shape and a.size > 0 and not np.allclose(a, b)
+
+
+def test_the_upright_trajectory_view_looks_across_the_walk():
+    """131_03 walks along z: its tracks are seen from the side (z to the right), where the
+    strides show; turned a quarter about the up axis (walking along x), from the front.
+    (The view had always been the front one, looking down the walk, labelled the side.)"""
+    clip = mc.load(corpus_clip("131_03.bvh"))
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.pi / 2)
+    root = 0  # (the root: turning it turns the whole figure)
+    q = clip.rotations.copy()
+    q[:, root] = quat.multiply(turn, q[:, root])
+    p = clip.translations.copy()
+    p[:, root] = quat.rotate(turn, p[:, root])
+    turned = clip.replace(rotations=q, translations=p, source_values=None, source_rotations=None)
+    for motion, title, axis in ((clip, "from the side", 2), (turned, "from the front", 0)):
+        world = build_series(motion, None)["world"]
+        assert _upright_view(world) == (title, (axis, 1))
+        page = render_html(build_report(motion, None), build_series(motion, None))
+        assert f"<span>{title}</span>" in page and "units across</text>" in page
