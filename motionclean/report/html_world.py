@@ -72,18 +72,28 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)
     ]
+    assert points_b is not None  # (before is a clip)
     return {
         "unknown_before": None if unknown[0] is None else unknown[0][frames],
         "unknown_after": None if unknown[1] is None else unknown[1][frames],
         "rest": (frames < lead) | (frames >= before.n_frames - trail),
         "up": up,
-        "height": height,
+        "height": height if height > 0 else _travel(points_b),
         "frames": frames,
         "bones": [(int(p), int(c)) for c, p in enumerate(parents) if p >= 0],
         "before": points_b,
         "after": points_a,
         "effectors": dict(zip(names, index.tolist(), strict=True)),
     }
+
+
+def _travel(points: np.ndarray) -> float:
+    """The scale the page draws a figure without a body height at (a lone tracked body):
+    the largest range its points cover along an axis, 1 where they never move."""
+    known = points.reshape(-1, 3)
+    known = known[np.isfinite(known).all(axis=1)]
+    travel = float(np.ptp(known, axis=0).max()) if known.size else 0.0
+    return travel if travel > 0 else 1.0
 
 
 def _axes(up: int) -> tuple[int, int]:

@@ -146,7 +146,7 @@ def world_figures(
         worst = {
             "effector": names[n],
             "max": float(dev_max[n]),
-            "max_percent": float(dev_max[n] * scale),
+            "max_percent": known(dev_max[n] * scale),
         }
     return {
         "up_axis": kinematics.up_name(before),

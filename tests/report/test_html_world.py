@@ -138,3 +138,21 @@ def test_the_upright_trajectory_view_looks_across_the_walk():
         assert _upright_view(world) == (title, (axis, 1))
         page = render_html(build_report(motion, None), build_series(motion, None))
         assert f"<span>{title}</span>" in page and "units across</text>" in page
+
+
+def test_a_lone_tracked_body_is_drawn_at_the_scale_of_its_travel(tmp_path):
+    """One rigid body has no body height (0): the page draws it at the scale of its travel
+    (its coordinates had been packed in thousandths of 1e-12, about 6e13), and its
+    deviation's share of body height is null, not the text 'nan'."""
+    source = ROOT / "tests" / "data" / "motive" / "hmv_sample_take_1.21.csv"
+    clip = mc.load(source)
+    assert kinematics.body_height(clip) == 0.0
+    cleaned, _ = Pipeline.default().run(clip)
+    series = build_series(clip, cleaned)
+    travel = np.ptp(series["world"]["before"].reshape(-1, 3), axis=0).max()
+    assert series["world"]["height"] == travel > 0
+    page = render_html(build_report(clip, cleaned), series)
+    coordinates = re.search(r'"before":\[\[(-?\d+),', page)
+    assert coordinates is not None and abs(int(coordinates.group(1))) < 1e7
+    report = build_report(clip, cleaned)
+    assert report["world"]["worst_deviation"]["max_percent"] is None
