@@ -30,7 +30,7 @@ def format_world(world: dict) -> str:
     worst = world.get("worst_deviation")
     if worst is not None:
         text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
-        if math.isfinite(worst["max_percent"]):
+        if worst["max_percent"] is not None:  # (null: no body height)
             text += f" ({worst['max_percent']:.2g} % of body height)"
     return text
 
