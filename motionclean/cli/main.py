@@ -457,7 +457,7 @@ def report(
     series = build_series(before, after)
     notes = gap_notes(before, after)  # the dropouts, and what a fill left or did
     result = build_report(before, after, notes=notes, file=source, series=series)
-    result["capture_source"] = found_source(before, capture)
+    result["capture_source"] = capture_source_note(before, capture)
     # every page is rendered before anything is written: a failure leaves no file behind
     pages = {}
     if json_path:
@@ -469,7 +469,7 @@ def report(
     click.echo(text)
 
 
-def found_source(motion, source: str) -> dict:
+def capture_source_note(motion, source: str) -> dict:
     """The capture system the default ``clean`` would assume for ``motion`` given
     ``--source``, as its auto notes say it (``model``, ``source``, ``motion_slope``,
     ``source_measured``; with the markerless model ``wander``, the median joint's, degrees,

@@ -71,7 +71,6 @@ __all__ = [
     "auto",
     "auto_positions",
     "candidates",
-    "capture_source",
     "describe_source",
     "estimate_noise",
     "estimate_position_noise",
@@ -234,20 +233,9 @@ def found_source(q: np.ndarray, frame_time: float, source: str = "auto") -> Sour
     coloured = None if model is None else _coloured_fit(model, frame_time, source, slope)
     if model is None or coloured is None:
         return SourceFound("optical", slope, np.zeros(shape), None)
-    level = coloured.level * _seen_share(coloured, model) / 3.0  # as auto's notes have it
-    wander = np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(shape)
+    wander = _rotation_degrees(_wander_sigma2(coloured, model)).reshape(shape)
     edge = coloured.edge_hz if math.isfinite(coloured.edge_hz) else None
     return SourceFound("markerless", slope, wander, edge)
-
-
-def capture_source(q: np.ndarray, frame_time: float, source: str = "auto") -> tuple[str, float]:
-    """The noise model :func:`auto` uses on rotations ``q`` ``(F, ..., 4)`` at
-    ``frame_time`` seconds per frame for a capture ``source`` (:data:`SOURCES`), and the
-    clip's motion slope (:func:`motionclean.filters.noise.motion_slope`; nan when the clip
-    cannot tell): ``("markerless" or "optical", slope)``. What ``auto`` finds, without
-    cleaning (:func:`found_source` with the wander too)."""
-    found = found_source(q, frame_time, source)
-    return found.model, found.motion_slope
 
 
 def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: float):
@@ -318,7 +306,7 @@ def estimate_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
     cols = quat.continuous(_columns(q, 4, "rotations"))  # no copy of a continuous clip
     model = _fit(quat.Displacements(cols), _check_time(frame_time))
     level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
-    return np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(q)[1:-1])
+    return _rotation_degrees(level).reshape(np.shape(q)[1:-1])
 
 
 def estimate_position_noise(p: np.ndarray, frame_time: float) -> np.ndarray:
@@ -622,7 +610,7 @@ def _select(
     loud = _loud(local, model, frame_time)
     wander = np.zeros(n_cols)
     if coloured is not None:
-        wander = to_level(coloured.level * _seen_share(coloured, model) / 3.0)
+        wander = to_level(_wander_sigma2(coloured, model))
     edge = None
     if coloured is not None and math.isfinite(coloured.edge_hz):
         edge = coloured.edge_hz
@@ -647,8 +635,20 @@ def _select(
         )
     clip_sigma2 = model.clip_sigma2() + (0.0 if band is None else band.sigma2)
     if coloured is not None:
-        clip_sigma2 = clip_sigma2 + coloured.level * _seen_share(coloured, model) / 3.0
+        clip_sigma2 = clip_sigma2 + _wander_sigma2(coloured, model)
     return out, to_level(clip_sigma2), choices
+
+
+def _rotation_degrees(sigma2) -> np.ndarray:
+    """Per-component variance of a rotation's noise (log units) as the RMS rotation angle
+    of the noise, degrees (the three components' angle: 2 sqrt(3 sigma^2))."""
+    return np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(sigma2))
+
+
+def _wander_sigma2(coloured: noise_model.Coloured, model: NoiseModel) -> np.ndarray:
+    """The wandering noise's per-component variance within its fit's band, as auto's notes
+    give it (the part held below the band left out)."""
+    return coloured.level * _seen_share(coloured, model) / 3.0
 
 
 def _seen_share(coloured: noise_model.Coloured, model: NoiseModel) -> float:
@@ -765,7 +765,7 @@ def auto(
         strength,
         given,
         candidates(frame_time, max_seconds, families, cols.shape[0]),
-        lambda s2: np.degrees(2.0 * math.sqrt(3.0) * np.sqrt(s2)),
+        _rotation_degrees,
         lambda mse: np.degrees(2.0 * np.sqrt(mse)),
         _move_rotations,
         _writable(cols, q, overwrite),

@@ -121,6 +121,11 @@ __all__ = [
 ]
 
 
+#: A spike must leave the cubic trend of its good neighbours by this many times that
+#: trend's own error there (``trend_ratio``; 0: no test).
+TREND_RATIO = 3.0
+#: The smallest one-frame step (degrees) taken as a half-turn flip (``flip_deg``).
+FLIP_DEG = 150.0
 #: Share of the scatter of the flip-step axes that the half-turn axis must explain (1 when
 #: all flip steps turn about the same axis) for a joint to be un-flipped.
 FLIP_AXIS_SHARE = 0.9
@@ -1051,9 +1056,9 @@ def despike_with_report(
     min_deg_per_s: float = MIN_DEG_PER_S,
     max_deg_per_s: float = MAX_DEG_PER_S,
     max_spike_s: float = LONGEST_SPIKE_S,
-    trend_ratio: float = 3.0,
+    trend_ratio: float = TREND_RATIO,
     max_run: int | None = None,
-    flip_deg: float = 150.0,
+    flip_deg: float = FLIP_DEG,
     unflip: bool = True,
     method: str = "cubic",
     missing: np.ndarray | None = None,
@@ -1104,9 +1109,9 @@ def despike(
     min_deg_per_s: float = MIN_DEG_PER_S,
     max_deg_per_s: float = MAX_DEG_PER_S,
     max_spike_s: float = LONGEST_SPIKE_S,
-    trend_ratio: float = 3.0,
+    trend_ratio: float = TREND_RATIO,
     max_run: int | None = None,
-    flip_deg: float = 150.0,
+    flip_deg: float = FLIP_DEG,
     unflip: bool = True,
     method: str = "cubic",
     missing: np.ndarray | None = None,
@@ -1193,7 +1198,7 @@ def despike_positions_with_report(
     min_units_per_s: float = 0.0,
     max_units_per_s: float = np.inf,
     max_spike_s: float = LONGEST_SPIKE_S,
-    trend_ratio: float = 3.0,
+    trend_ratio: float = TREND_RATIO,
     max_run: int | None = None,
     method: str = "cubic",
     missing: np.ndarray | None = None,
@@ -1235,7 +1240,7 @@ def despike_positions(
     min_units_per_s: float = 0.0,
     max_units_per_s: float = np.inf,
     max_spike_s: float = LONGEST_SPIKE_S,
-    trend_ratio: float = 3.0,
+    trend_ratio: float = TREND_RATIO,
     max_run: int | None = None,
     method: str = "cubic",
     missing: np.ndarray | None = None,

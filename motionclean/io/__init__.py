@@ -134,19 +134,8 @@ def load(
     model = None
     if body_model is not None:
         model = functools.partial(smpl.read_body_model, checks.path(body_model, "body_model"))
-    return _read(path, template, model, checks.patterns(exclude, "exclude"), _rate(frame_rate))
-
-
-def _rate(frame_rate) -> float | None:
-    """``frame_rate`` checked: None, or frames per second within the SMPL readers' range."""
-    if frame_rate is None:
-        return None
-    frame_rate = checks.number(frame_rate, "frame_rate")
-    if not smpl.MIN_RATE <= frame_rate <= smpl.MAX_RATE:  # NaN too
-        raise ValueError(  # (as io.smpl says it)
-            f"frame_rate must be from {smpl.MIN_RATE:g} to {smpl.MAX_RATE:g}, got {frame_rate}"
-        )
-    return frame_rate
+    exclude = checks.patterns(exclude, "exclude")
+    return _read(path, template, model, exclude, smpl.checked_rate(frame_rate))
 
 
 def _read(
@@ -221,7 +210,7 @@ class ReadOptions:
             model = functools.partial(read_once, smpl.read_body_model, self.body_model)
         path = Path(checks.path(path, "path"))
         exclude = checks.patterns(self.exclude, "exclude")
-        return _read(path, template, model, exclude, _rate(self.frame_rate))
+        return _read(path, template, model, exclude, smpl.checked_rate(self.frame_rate))
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):

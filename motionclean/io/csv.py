@@ -284,7 +284,7 @@ def parse_body(
         first = int(line_starts[row])
         row_bytes = buf[int(starts[first]) : int(ends[first + cells_per_line[row] - 1])]
         why = (
-            " (a carriage return (CR) alone inside this line, where the file's lines end in LF:"
+            " (a carriage return (CR) alone inside this line, not followed by a line feed:"
             " two rows ran together; save the file with one kind of line end)"
             if np.any(row_bytes == 13)
             else ""

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core import quat
+from ..core import checks, quat
 from ..core.errors import MotionError
 from ..core.motion import (
     POSITION_CHANNELS,
@@ -291,13 +291,24 @@ def translation_scale(record: dict, path) -> tuple[float, str | None]:
     return 1.0 / scale, f"translation divided by {SCALE_KEY} {scale:.6g} (AIST++): metres"
 
 
+def checked_rate(frame_rate) -> float | None:
+    """A ``frame_rate`` argument (frames per second; None: not given) as a float from
+    :data:`MIN_RATE` to :data:`MAX_RATE`: TypeError for anything but a number, ValueError
+    out of that range (NaN too)."""
+    if frame_rate is None:
+        return None
+    frame_rate = checks.number(frame_rate, "frame_rate")
+    if not MIN_RATE <= frame_rate <= MAX_RATE:
+        raise ValueError(f"frame_rate must be from {MIN_RATE:g} to {MAX_RATE:g}, got {frame_rate}")
+    return frame_rate
+
+
 def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float, str | None]:
     """Seconds per frame from the record's frame rate, or the rate ``given`` (frames per
     second) where it states none, else :data:`DEFAULT_RATE`; and a note of the rate taken
     when it was not the record's, or of ``given`` not taken."""
     key = _first(record, RATE_KEYS)
-    if given is not None and not (MIN_RATE <= given <= MAX_RATE):  # (the library's callers)
-        raise ValueError(f"frame_rate must be from {MIN_RATE:g} to {MAX_RATE:g}, got {given}")
+    given = checked_rate(given)  # (the library's callers)
     if key is None and given is not None:
         return 1.0 / given, f"no frame rate in the file; {given:g} fps as given"
     if key is None:

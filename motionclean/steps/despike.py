@@ -8,7 +8,12 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import UsageError
-from ..filters.despike import despike_positions_with_report, despike_with_report
+from ..filters.despike import (
+    FLIP_DEG,
+    TREND_RATIO,
+    despike_positions_with_report,
+    despike_with_report,
+)
 from .base import (
     Param,
     StepData,
@@ -184,7 +189,7 @@ STEP = StepSpec(
         Param(
             "trend_ratio",
             "float",
-            3.0,
+            TREND_RATIO,
             "a spike must leave the cubic trend of its good "
             "neighbours by this many times that trend's own error there (0: no test)",
             minimum=0.0,
@@ -201,7 +206,7 @@ STEP = StepSpec(
         Param(
             "flip_deg",
             "float",
-            150.0,
+            FLIP_DEG,
             "smallest one-frame step taken as a half-turn flip, degrees",
             minimum=90.0,
             exclusive_minimum=True,

@@ -471,7 +471,7 @@ def test_the_markerless_model_leaves_smooth_motion_alone():
 
 def test_the_source_found_and_said_is_the_one_auto_uses_on_a_short_clip():
     """Two seconds of a markerless-like wander read flat (slope above the limit), but are
-    too short to fit the wandering noise: auto keeps the optical model, and capture_source
+    too short to fit the wandering noise: auto keeps the optical model, and found_source
     (what `report IN` prints) had said markerless; both now say optical, and why."""
     import importlib
 
@@ -479,7 +479,7 @@ def test_the_source_found_and_said_is_the_one_auto_uses_on_a_short_clip():
     truth = smooth_synthetic(frames=120, joints=6, seed=11)
     noisy = quat.multiply(truth, quat.exp(wander_noise(120, 6, 10.0, 4.0, seed=11, rho=0.5)))
     result = auto(noisy, 1 / 60)
-    model, slope = found.capture_source(noisy, 1 / 60)
+    model, slope = found.found_source(noisy, 1 / 60)[:2]
     assert slope > found.MARKERLESS_SLOPE  # the premise: flat
     assert model == result.choices[0].model == "optical"
     assert "too short" in found.describe_source(model, "auto", slope)

@@ -509,7 +509,7 @@ def test_a_lone_carriage_return_is_named_as_the_cause_of_a_long_row(tmp_path, ca
     assert code == 1
     assert err.splitlines() == [
         f"motionclean: error: {path}:3: row has 15 columns, the header has 8 (a carriage "
-        "return (CR) alone inside this line, where the file's lines end in LF: two rows ran "
+        "return (CR) alone inside this line, not followed by a line feed: two rows ran "
         "together; save the file with one kind of line end)"
     ]
     short = tmp_path / "short.csv"
