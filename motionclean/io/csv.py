@@ -136,6 +136,7 @@ class CsvText:
     eol: bytes
     needs_skeleton: bool = False
     blank: np.ndarray | None = None  # (F, K) bool: empty or NaN cells
+    frame_column: bool = True  # a "frame" column (channel layout: rows written afresh keep it)
 
     @property
     def n_frames(self) -> int:
@@ -554,6 +555,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             eol,
             needs_skeleton=True,
             blank=cells.blank,
+            frame_column="frame" in fields,
         )
         values, missing = _held_channel_values(cells, data, columns, names, channels, fields, path)
         n = len(names)
@@ -870,9 +872,11 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
         (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(
             motion, cells, rows
         )
-        return cells.buffer(), starts, lengths
+        return cells.buffer(), starts[:, first:], lengths[:, first:]
 
-    fields = ["frame", "time"] + [
+    # a CSV read without a frame column is written without one (it had gained one)
+    first = 1 if isinstance(src, CsvText) and not src.frame_column else 0
+    fields = ["frame", "time"][first:] + [
         f"{motion.names[j]}.{channel}"
         for j in range(motion.n_joints)
         for channel in motion.channels[j]

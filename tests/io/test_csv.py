@@ -516,3 +516,26 @@ def test_a_lone_carriage_return_is_named_as_the_cause_of_a_long_row(tmp_path, ca
     short.write_bytes(("\n".join(rows[:3]) + "\n1,2\n").encode())
     code, _, err = run_cli(capsys, "info", short)
     assert code == 1 and err.strip().endswith("row has 2 columns, the header has 8")
+
+
+@pytest.mark.parametrize("frame", [True, False])
+def test_a_channel_csv_written_afresh_keeps_its_columns(tmp_path, frame):
+    """Resampled (its rows written afresh), a channel CSV keeps the columns it was read
+    with: one without a frame column had gained one."""
+    clip = mc.load(SAMPLE)
+    mc.save(clip, tmp_path / "clip.csv")
+    header, table = read_table(tmp_path / "clip.csv")
+    assert header[:2] == ["frame", "time"]
+    if not frame:
+        lines = (tmp_path / "clip.csv").read_text().splitlines()
+        text = "\n".join(line.split(",", 1)[1] for line in lines) + "\n"
+        (tmp_path / "clip.csv").write_text(text)
+    read = mc.load(tmp_path / "clip.csv")
+    half = read.replace(
+        rotations=read.rotations[::2],
+        translations=read.translations[::2],
+        frame_time=2 * read.frame_time,
+    )
+    mc.save(half, tmp_path / "half.csv")
+    written, _ = read_table(tmp_path / "half.csv")
+    assert written == (header if frame else header[1:])
