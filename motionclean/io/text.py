@@ -571,11 +571,12 @@ def _fixed6_block(values, sep: int, eol: bytes, kept, last_eol: bool) -> bytes |
         place = row * field.shape[1] + col * lanes
         word = (first % _LANE) * (words.size // _LANE) + first // _LANE
         ends_row = col == n_cols - 1
+        after = _lanes([b"\0\0\0" + bytes([sep])])[0]  # the separator's lane (uint32)
         for lane in range(lanes):
             text = words.take(word + lane)
             text &= _FIRST_BYTES.take(np.clip(length - _LANE * lane, 0, _LANE))
-            if lane == lanes - 1:
-                text |= np.where(ends_row, 0, _lanes([b"\0\0\0" + bytes([sep])])[0])
+            if lane == lanes - 1:  # (uint32 on both sides: numpy 1 widens a bare 0)
+                text |= np.where(ends_row, np.uint32(0), after)
             field.put(place + lane, text)
     return field.tobytes().translate(None, b"\0")
 
