@@ -24,7 +24,7 @@ from bpy.types import Operator
 
 from .motionclean.core.errors import MotionError, UsageError
 from .motionclean.io import atomic_write
-from .motionclean.io.blender_action import ActionClip, key_range, read_action, write_action
+from .motionclean.io.blender_action import ActionClip, key_frames, read_action, write_action
 from .motionclean.report.summary import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, pattern_warnings, render_report
 from .motionclean.steps.pipeline import Pipeline
@@ -69,11 +69,15 @@ def ranged(pipeline: Pipeline, first: int, last: int) -> Pipeline:
     return Pipeline(steps, pipeline.origin)
 
 
-def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, int, np.ndarray]:
-    """The range to clean (first and last frame, within the action's keys) and the frames
-    read: every frame from the action's first key to its last."""
-    keys = key_range(action, slot)
-    if keys is None:
+def frames_of(
+    scene: Any, settings: Any, action: Any, slot: Any
+) -> tuple[np.ndarray, float, int, int]:
+    """The frames read (:func:`~motionclean.io.blender_action.key_frames`: the action's
+    whole frames from its first key to its last, or the times of its keys where an importer
+    baked them between frames), their spacing, and the first and last of them to clean
+    (clip frame numbers): those in the chosen range."""
+    frames, step = key_frames(action, slot)
+    if not frames.size:
         raise MotionError("no bone keys to clean", action.name)
     if settings.frames == "SCENE":
         first, last = scene.frame_start, scene.frame_end
@@ -82,15 +86,15 @@ def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, i
             raise UsageError("the preview range is off: turn it on, or clean another range")
         first, last = scene.frame_preview_start, scene.frame_preview_end
     else:
-        first, last = keys
-    within = max(first, keys[0]), min(last, keys[1])
-    if within[1] <= within[0]:
+        first, last = frames[0], frames[-1]
+    inside = np.flatnonzero((frames >= first - 1e-6) & (frames <= last + 1e-6))
+    if inside.size < 2:
         raise MotionError(
-            f"frames {first}-{last}: fewer than 2 frames of the action's keys "
-            f"({keys[0]}-{keys[1]}) in the range",
+            f"frames {_frame_text(first)}-{_frame_text(last)}: fewer than 2 frames of the "
+            f"action's keys ({_frame_text(frames[0])}-{_frame_text(frames[-1])}) in the range",
             action.name,
         )
-    return *within, np.arange(keys[0], keys[1] + 1, dtype=np.float64)
+    return frames, step, int(inside[0]), int(inside[-1])
 
 
 @dataclass
@@ -102,7 +106,7 @@ class Plan:
     slot: Any
     clip: ActionClip | None = None
     result: CleanedClip | None = None
-    span: tuple[int, int] = (0, 0)  # the range cleaned, scene frames
+    span: str = ""  # the range cleaned, scene frames
 
 
 def plans_of(context: Any) -> list[Plan]:
@@ -135,6 +139,11 @@ def _same_slot(action: Any, slot: Any) -> Any:
     return None
 
 
+def _frame_text(frame: float) -> str:
+    """A scene frame as the panel shows it: 150, or 2.001 for a key between frames."""
+    return str(np.format_float_positional(round(float(frame), 3), trim="-"))
+
+
 def _file_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "action"
 
@@ -158,12 +167,13 @@ class MOTIONCLEAN_OT_clean(Operator):
             pipeline = pipeline_of(settings)
             plans = plans_of(context)
             for plan in plans:  # everything is cleaned before anything is written
-                first, last, frames = frames_of(scene, settings, plan.action, plan.slot)
-                plan.span = (first, last)
-                plan.clip = read_action(plan.objects[0], plan.action, plan.slot, frames, frame_time)
-                whole = (first, last) == (frames[0], frames[-1])
-                start = int(frames[0])
-                steps = pipeline if whole else ranged(pipeline, first - start, last - start)
+                frames, step, first, last = frames_of(scene, settings, plan.action, plan.slot)
+                plan.span = f"{_frame_text(frames[first])}-{_frame_text(frames[last])}"
+                plan.clip = read_action(
+                    plan.objects[0], plan.action, plan.slot, frames, step * frame_time
+                )
+                whole = (first, last) == (0, len(frames) - 1)
+                steps = pipeline if whole else ranged(pipeline, first, last)
                 plan.result = clean_motion(plan.clip.motion, steps, plan.action.name)
                 if plan.result.after.n_frames != plan.clip.motion.n_frames:
                     raise UsageError(
@@ -204,7 +214,7 @@ class MOTIONCLEAN_OT_clean(Operator):
         entry = settings.results.add()
         entry.objects = ", ".join(obj.name for obj in plan.objects)
         entry.source, entry.result = plan.action.name, target.name
-        entry.frames = f"{plan.span[0]}-{plan.span[1]}"
+        entry.frames = plan.span
         entry.noise_removed = report["summary"].get("noise_reduction") or 0.0
         entry.deviation_max = report["summary"].get("deviation_deg_max") or 0.0
         entry.keys = f"Keys: {written.keys_set:,} changed, {written.keys_added:,} added" + (

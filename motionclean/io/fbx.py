@@ -41,6 +41,7 @@ from .blender_action import (
     BoneTrack,
     action_fcurves,
     all_fcurves,
+    key_frames,
     key_range,
     read_action,
     rest_quaternions,
@@ -208,31 +209,6 @@ def _whole_frames(bpy: Any) -> None:
             curve.update()
 
 
-def _key_frames(obj: Any) -> np.ndarray:
-    """The frames to read: the key times every bone curve shares (an FBX export keys all
-    curves at the same times), else each whole frame from the first key to the last."""
-    data = obj.animation_data
-    shared: np.ndarray | None = None
-    same = True
-    first, last = np.inf, -np.inf
-    for curve in action_fcurves(data.action, data.action_slot) or ():
-        if not curve.data_path.startswith("pose.bones["):
-            continue
-        co = np.empty(2 * len(curve.keyframe_points), dtype=np.float32)
-        curve.keyframe_points.foreach_get("co", co)
-        frames = co[::2].astype(np.float64)
-        if frames.size:
-            first, last = min(first, frames[0]), max(last, frames[-1])
-        if shared is None:
-            shared = frames
-        same = same and np.array_equal(shared, frames)
-    if same and shared is not None and shared.size:
-        return shared
-    if first > last:
-        return np.zeros(0)
-    return np.arange(np.ceil(first - 1e-6), np.floor(last + 1e-6) + 1.0)
-
-
 def _frame_time(scene: Any) -> float:
     return float(scene.render.fps_base) / float(scene.render.fps)
 
@@ -244,12 +220,19 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
         copy = Path(folder) / "clip.fbx"
         copy.write_bytes(data)
         obj = _import(bpy, copy, path)
-    frames = _key_frames(obj)
+    animation = obj.animation_data
+    try:
+        frames, step = key_frames(animation.action, animation.action_slot)
+    except MotionError as error:
+        raise MotionError(error.message, path) from None
     if not frames.size:
         raise MotionError(f"armature {obj.name!r} has no keys", path)
-    animation = obj.animation_data
     clip = read_action(
-        obj, animation.action, animation.action_slot, frames, _frame_time(bpy.context.scene)
+        obj,
+        animation.action,
+        animation.action_slot,
+        frames,
+        step * _frame_time(bpy.context.scene),
     )
     return obj, clip
 

@@ -324,6 +324,36 @@ def range_checks(clip: Path, out: Path, results: dict) -> None:
     scene.use_preview_range = False
 
 
+def subframe_checks(clip: Path, out: Path, results: dict) -> None:
+    """Keys between whole frames: the clip (120 fps) imported with Scale FPS into a 24 fps
+    scene, a key every 0.2 frames (as a 29.97 fps FBX file imported by Blender's importer
+    has a key every 1.001 frames)."""
+    clear_scene()
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    bpy.ops.import_anim.bvh(
+        filepath=str(clip), update_scene_fps=False, use_fps_scale=True, rotate_mode="QUATERNION"
+    )
+    obj = bpy.context.view_layer.objects.active
+    data = obj.animation_data
+    before = key_state(data.action, data.action_slot)
+    done = clean(frames="ACTION")
+    data = obj.animation_data
+    after = key_state(data.action, data.action_slot)
+    times = key_co(before, next(iter(before)))[:, 0].astype(np.float64)
+    step = (times[-1] - times[0]) / (len(times) - 1)
+    motion = read_action(obj, data.action, data.action_slot, times, step * frame_time()).motion
+    save_motion(out, "subframe_out", motion)
+    results["subframe"] = {
+        "done": sorted(done),
+        "whole_keys": int(np.count_nonzero(times == np.round(times))),
+        "keys": int(times.size),
+        "same_times": before.keys() == after.keys()
+        and all(np.array_equal(key_co(before, k)[:, 0], key_co(after, k)[:, 0]) for k in before),
+        "panel_keys": bpy.context.scene.motionclean.results[0].keys,
+    }
+
+
 def error_checks(clip: Path, results: dict) -> None:
     """A press that cannot clean says why in one line and changes nothing."""
     obj = import_rig(clip, "QUATERNION")
@@ -592,6 +622,7 @@ def main() -> None:
     range_checks(clip, out, results)
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
+    subframe_checks(clip, out, results)
     error_checks(clip, results)
     unregister_checks(results)
     timed("range, keyed, unregister")

@@ -162,6 +162,20 @@ def test_preview_range_in_place(blender, capsys, tmp_path):
     assert moved[first : last + 1].max() > 1e-3
 
 
+def test_keys_between_frames_are_cleaned_where_they_are(blender):
+    """An action keyed every 0.2 frames (a 120 fps BVH imported with Scale FPS into a 24
+    fps scene) is read and written at its keys: no key added or moved, and the rotations
+    are those of the same motion keyed on whole frames (the quaternion rig), cleaned.
+    (Read on whole frames, it had gained a key per frame beside the old ones.)"""
+    result = blender.results["subframe"]
+    assert result["done"] == ["FINISHED"] and result["keys"] == FRAMES
+    assert result["whole_keys"] < 5 and result["same_times"]
+    assert re.fullmatch(r"Keys: [\d,]+ changed, 0 added", result["panel_keys"])
+    rotations = np.load(blender.out / "subframe_out_rotations.npy")
+    expected = np.load(blender.out / "quaternion_out_rotations.npy")
+    assert degrees_between(rotations, expected).max() < FLOAT32_DEGREES
+
+
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
     errors = blender.results["errors"]
     assert errors["untouched"] and errors["actions"] == ["131_01"]
