@@ -117,6 +117,13 @@ def plans_of(context: Any) -> list[Plan]:
     plans: dict[tuple[str, str], Plan] = {}
     for obj in chosen:
         data = obj.animation_data
+        if data is not None and data.use_tweak_mode:
+            # (the action plays through its strip's frame mapping, and Blender lets no
+            # other action be assigned until tweak mode is left)
+            raise UsageError(
+                "in NLA tweak mode: leave it (Tab in the NLA editor) to clean the action",
+                obj.name,
+            )
         if data is None or data.action is None:
             continue
         slot = getattr(data, "action_slot", None)

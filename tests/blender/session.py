@@ -354,29 +354,49 @@ def subframe_checks(clip: Path, out: Path, results: dict) -> None:
     }
 
 
+def refused(**settings: Any) -> dict:
+    """Press Clean Actions; what it returned and the error it reported."""
+    try:
+        done = sorted(clean(**settings))
+    except RuntimeError as error:  # what an error report raises in a headless Blender
+        return {"done": ["CANCELLED"], "message": str(error).strip()}
+    return {"done": done, "message": ""}
+
+
 def error_checks(clip: Path, results: dict) -> None:
     """A press that cannot clean says why in one line and changes nothing."""
     obj = import_rig(clip, "QUATERNION")
     data = obj.animation_data
-    before = key_state(data.action, data.action_slot)
-    errors = {}
-    for name, settings in {
-        "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
-        "no_steps": {"pipeline": "STEPS", "steps": ""},
-        "preview_off": {"frames": "PREVIEW"},
-        "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
-    }.items():
-        try:
-            done = sorted(clean(**settings))
-        except RuntimeError as error:  # what an error report raises in a headless Blender
-            done, message = ["CANCELLED"], str(error).strip()
-        else:
-            message = ""
-        errors[name] = {"done": done, "message": message}
+    action, slot = data.action, data.action_slot
+    before = key_state(action, slot)
+    shown = len(bpy.context.scene.motionclean.results)  # (the last checks' figures)
+    errors = {
+        name: refused(**settings)
+        for name, settings in {
+            "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
+            "no_steps": {"pipeline": "STEPS", "steps": ""},
+            "preview_off": {"frames": "PREVIEW"},
+            "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
+        }.items()
+    }
+    # the action on an NLA strip from frame 101, edited in tweak mode
+    track = data.nla_tracks.new()
+    track.strips.new("strip", 101, action)
+    data.action = None
+    data.use_tweak_mode = True
+    errors["tweak"] = refused()
+    errors["tweak_in_place"] = refused(in_place=True)
+    data.use_tweak_mode = False
+    data.nla_tracks.remove(track)
+    data.action = action
+    if slot is not None:
+        data.action_slot = slot
     results["errors"] = {
         "runs": errors,
         "actions": sorted(a.name for a in bpy.data.actions),
-        "untouched": same_state(before, key_state(data.action, data.action_slot)),
+        "fake_users": sorted(a.name for a in bpy.data.actions if a.use_fake_user),
+        "results_kept": shown > 0 and len(bpy.context.scene.motionclean.results) == shown,
+        "untouched": same_state(before, key_state(action, slot)),
     }
 
 

@@ -179,11 +179,15 @@ def test_keys_between_frames_are_cleaned_where_they_are(blender):
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
     errors = blender.results["errors"]
     assert errors["untouched"] and errors["actions"] == ["131_01"]
+    assert errors["fake_users"] == [] and errors["results_kept"]
     expected = {
         "unknown_step": "unknown filter 'lee-shim'",
         "no_steps": "type the steps in",
         "preview_off": "the preview range is off",
         "resample": "the pipeline changes the frame count",
+        # (it had raised a traceback after making a copy and setting a fake user)
+        "tweak": "in NLA tweak mode: leave it",
+        "tweak_in_place": "in NLA tweak mode: leave it",
     }
     for name, words in expected.items():
         run = errors["runs"][name]
