@@ -137,6 +137,23 @@ def plans_of(context: Any) -> list[Plan]:
     return list(plans.values())
 
 
+def check_editable(plans: list[Plan], in_place: bool) -> None:
+    """UsageError for a change that saving would lose: a linked (library) action changed
+    in place, a linked armature given the cleaned copy."""
+    for plan in plans:
+        if in_place and (plan.action.library is not None or not plan.action.is_editable):
+            raise UsageError(
+                "linked action: turn In Place off or make it local", plan.action.name_full
+            )
+        for obj in plan.objects:
+            if not in_place and (obj.library is not None or not obj.is_editable):
+                raise UsageError(
+                    "linked armature: make it local (or a library override), or clean its "
+                    "action's library file",
+                    obj.name_full,
+                )
+
+
 def _same_slot(action: Any, slot: Any) -> Any:
     if slot is None or not hasattr(action, "slots"):
         return None
@@ -173,6 +190,7 @@ class MOTIONCLEAN_OT_clean(Operator):
         try:
             pipeline = pipeline_of(settings)
             plans = plans_of(context)
+            check_editable(plans, settings.in_place)
             for plan in plans:  # everything is cleaned before anything is written
                 frames, step, first, last = frames_of(scene, settings, plan.action, plan.slot)
                 plan.span = f"{_frame_text(frames[first])}-{_frame_text(frames[last])}"

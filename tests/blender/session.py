@@ -363,7 +363,7 @@ def refused(**settings: Any) -> dict:
     return {"done": done, "message": ""}
 
 
-def error_checks(clip: Path, results: dict) -> None:
+def error_checks(clip: Path, out: Path, results: dict) -> None:
     """A press that cannot clean says why in one line and changes nothing."""
     obj = import_rig(clip, "QUATERNION")
     data = obj.animation_data
@@ -379,6 +379,20 @@ def error_checks(clip: Path, results: dict) -> None:
             "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
         }.items()
     }
+    # a linked action (from a library file), in place
+    library = out / "library.blend"
+    bpy.data.libraries.write(str(library), {action}, fake_user=True)
+    with bpy.data.libraries.load(str(library), link=True) as (_, linked):
+        linked.actions = [action.name]
+    data.action = linked.actions[0]
+    if slot is not None:
+        data.action_slot = linked.actions[0].slots[0]
+    linked_before = key_state(data.action, data.action_slot)
+    errors["linked_in_place"] = refused(in_place=True)
+    linked_untouched = same_state(linked_before, key_state(data.action, data.action_slot))
+    data.action = action
+    if slot is not None:
+        data.action_slot = slot
     # the action on an NLA strip from frame 101, edited in tweak mode
     track = data.nla_tracks.new()
     track.strips.new("strip", 101, action)
@@ -393,10 +407,10 @@ def error_checks(clip: Path, results: dict) -> None:
         data.action_slot = slot
     results["errors"] = {
         "runs": errors,
-        "actions": sorted(a.name for a in bpy.data.actions),
-        "fake_users": sorted(a.name for a in bpy.data.actions if a.use_fake_user),
+        "actions": sorted(a.name_full for a in bpy.data.actions),
+        "fake_users": sorted(a.name for a in bpy.data.actions if a.use_fake_user and not a.library),
         "results_kept": shown > 0 and len(bpy.context.scene.motionclean.results) == shown,
-        "untouched": same_state(before, key_state(action, slot)),
+        "untouched": same_state(before, key_state(action, slot)) and linked_untouched,
     }
 
 
@@ -643,7 +657,7 @@ def main() -> None:
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
     subframe_checks(clip, out, results)
-    error_checks(clip, results)
+    error_checks(clip, out, results)
     unregister_checks(results)
     timed("range, keyed, unregister")
     if not operator_only:
