@@ -114,7 +114,7 @@ def plans_of(context: Any) -> list[Plan]:
     chosen = [obj for obj in context.selected_objects if obj.type == "ARMATURE"]
     if not chosen and context.active_object and context.active_object.type == "ARMATURE":
         chosen = [context.active_object]
-    plans: dict[tuple[str, str], Plan] = {}
+    plans: dict[tuple[int, str], Plan] = {}  # (a local and a linked action may share a name)
     for obj in chosen:
         data = obj.animation_data
         if data is not None and data.use_tweak_mode:
@@ -127,7 +127,7 @@ def plans_of(context: Any) -> list[Plan]:
         if data is None or data.action is None:
             continue
         slot = getattr(data, "action_slot", None)
-        key = (data.action.name, getattr(slot, "identifier", ""))
+        key = (data.action.as_pointer(), getattr(slot, "identifier", ""))
         if key in plans:
             plans[key].objects.append(obj)
         else:
@@ -238,7 +238,7 @@ class MOTIONCLEAN_OT_clean(Operator):
         atomic_write(page, render_report(report, page, plan.result.series))
         entry = settings.results.add()
         entry.objects = ", ".join(obj.name for obj in plan.objects)
-        entry.source, entry.result = plan.action.name, target.name
+        entry.source, entry.result = plan.action.name_full, target.name
         entry.frames = plan.span
         entry.noise_removed = report["summary"].get("noise_reduction") or 0.0
         entry.deviation_max = report["summary"].get("deviation_deg_max") or 0.0

@@ -414,6 +414,29 @@ def error_checks(clip: Path, out: Path, results: dict) -> None:
     }
 
 
+def same_name_checks(clip: Path, out: Path, results: dict) -> None:
+    """Two armatures playing two actions of one name: the rig's own and one linked from
+    the library file :func:`error_checks` wrote."""
+    obj = import_rig(clip, "QUATERNION")
+    other = bpy.data.objects.new("Linked", obj.data)
+    bpy.context.scene.collection.objects.link(other)
+    with bpy.data.libraries.load(str(out / "library.blend"), link=True) as (_, linked):
+        linked.actions = [obj.animation_data.action.name]
+    other.animation_data_create().action = linked.actions[0]
+    if obj.animation_data.action_slot is not None:
+        other.animation_data.action_slot = linked.actions[0].slots[0]
+    for each in (obj, other):
+        each.select_set(True)
+    done = clean(pipeline="STEPS", steps="-f lee-shin:k=2,iterations=1")
+    results["same_name"] = {
+        "done": sorted(done),
+        "plays": [each.animation_data.action.name_full for each in (obj, other)],
+        "results": sorted(
+            (entry.objects, entry.source) for entry in bpy.context.scene.motionclean.results
+        ),
+    }
+
+
 def keyed_checks(clip: Path, results: dict) -> None:
     """A keyed (not baked) bone: keys stay where nothing moved, per frame where it did."""
     obj = import_rig(clip, "QUATERNION")
@@ -658,6 +681,7 @@ def main() -> None:
     keyed_checks(clip, results)
     subframe_checks(clip, out, results)
     error_checks(clip, out, results)
+    same_name_checks(clip, out, results)
     unregister_checks(results)
     timed("range, keyed, unregister")
     if not operator_only:

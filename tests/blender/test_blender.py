@@ -197,6 +197,15 @@ def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
         assert words in run["message"] and "\n" not in run["message"]
 
 
+def test_two_actions_of_one_name_are_two_actions(blender):
+    """A local and a linked action both named 131_01 are cleaned each into its own copy
+    (they had been planned as one, by name: the second armature got the first's copy)."""
+    result = blender.results["same_name"]
+    assert result["done"] == ["FINISHED"]
+    assert result["plays"] == ["131_01.clean", "131_01.clean.001"]
+    assert result["results"] == [["131_01", "131_01"], ["Linked", "131_01 [library.blend]"]]
+
+
 def test_keyed_curves_take_keys_per_frame_only_where_the_motion_moved(blender):
     keyed = blender.results["keyed"]
     assert keyed["done"] == [["FINISHED"], ["FINISHED"]]
