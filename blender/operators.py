@@ -23,7 +23,7 @@ from bpy.props import StringProperty
 from bpy.types import Operator
 
 from .motionclean.core.errors import MotionError, UsageError
-from .motionclean.io import atomic_write
+from .motionclean.io import write_together
 from .motionclean.io.blender_action import ActionClip, key_frames, read_action, write_action
 from .motionclean.report.summary import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, pattern_warnings, render_report
@@ -107,6 +107,7 @@ class Plan:
     clip: ActionClip | None = None
     result: CleanedClip | None = None
     span: str = ""  # the range cleaned, scene frames
+    page: Path | None = None  # its HTML report
 
 
 def plans_of(context: Any) -> list[Plan]:
@@ -152,6 +153,29 @@ def check_editable(plans: list[Plan], in_place: bool) -> None:
                     "action's library file",
                     obj.name_full,
                 )
+
+
+def write_pages(plans: list[Plan], in_place: bool) -> None:
+    """Write every plan's HTML report into :data:`REPORTS`, all or none, before anything
+    in Blender changes; MotionError (one line) when the folder cannot be made or written
+    (a file of that name, another user's folder)."""
+    pages: dict[Path, bytes] = {}
+    for plan in plans:
+        assert plan.result is not None
+        result = plan.action.name if in_place else f"{plan.action.name}.clean"
+        name = f"{_file_name(plan.objects[0].name)}-{_file_name(result)}"
+        page = REPORTS / f"{name}.html"
+        for number in range(2, len(plans) + 2):  # (two actions of one name)
+            if page not in pages:
+                break
+            page = REPORTS / f"{name}-{number}.html"
+        pages[page] = render_report(plan.result.report, page, plan.result.series)
+        plan.page = page
+    try:
+        REPORTS.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise MotionError(f"cannot make the reports folder: {error.strerror}", REPORTS) from None
+    write_together(pages)
 
 
 def _same_slot(action: Any, slot: Any) -> Any:
@@ -206,6 +230,7 @@ class MOTIONCLEAN_OT_clean(Operator):
                         "its frames; change the scene's frame rate instead",
                         plan.action.name,
                     )
+            write_pages(plans, settings.in_place)
         except MotionError as error:
             self.report({"ERROR"}, f"motionclean: {error}")
             return {"CANCELLED"}
@@ -233,9 +258,6 @@ class MOTIONCLEAN_OT_clean(Operator):
                 if slot is not None:
                     obj.animation_data.action_slot = slot
         report = plan.result.report
-        REPORTS.mkdir(parents=True, exist_ok=True)
-        page = REPORTS / f"{_file_name(plan.objects[0].name)}-{_file_name(target.name)}.html"
-        atomic_write(page, render_report(report, page, plan.result.series))
         entry = settings.results.add()
         entry.objects = ", ".join(obj.name for obj in plan.objects)
         entry.source, entry.result = plan.action.name_full, target.name
@@ -246,7 +268,7 @@ class MOTIONCLEAN_OT_clean(Operator):
             f", {written.curves_created} curves made" if written.curves_created else ""
         )
         entry.lines = "\n".join(_figure_lines(report))
-        entry.report = str(page)
+        entry.report = str(plan.page)
 
 
 def _figure_lines(report: dict) -> list[str]:

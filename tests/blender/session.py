@@ -379,6 +379,13 @@ def error_checks(clip: Path, out: Path, results: dict) -> None:
             "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
         }.items()
     }
+    # the reports folder cannot be made (a file has its name)
+    operators = sys.modules[f"{EXTENSION}.operators"]
+    reports = operators.REPORTS
+    operators.REPORTS = out / "reports-file"
+    operators.REPORTS.write_text("")
+    errors["reports_folder"] = refused()
+    operators.REPORTS = reports
     # a linked action (from a library file), in place
     library = out / "library.blend"
     bpy.data.libraries.write(str(library), {action}, fake_user=True)
