@@ -16,7 +16,8 @@ built from its skeleton, turned so its up axis is Blender's, with a quaternion c
 rotating joint and location curves where it has position channels. The exporter writes the
 rest pose as the bones' own transforms (the action plays from an NLA strip, which is off at
 the frame exported as the rest) and a key on every frame; a frame time within 1e-4 of a
-whole frame rate (BVH's ``0.0083333``) is written as that rate.
+whole frame rate (BVH's ``0.0083333``) is written as that rate. Custom properties are
+written; a file whose armature has several takes is refused (naming them).
 """
 
 from __future__ import annotations
@@ -70,6 +71,7 @@ EXPORT_OPTIONS = {
     "bake_anim_force_startend_keying": True,
     "bake_anim_simplify_factor": 0.0,
     "add_leaf_bones": False,
+    "use_custom_props": True,  # (the exporter's default drops them: Unity's attributes too)
 }
 
 
@@ -220,6 +222,14 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
         copy = Path(folder) / "clip.fbx"
         copy.write_bytes(data)
         obj = _import(bpy, copy, path)
+    takes = _takes(data, obj, bpy.data.actions)
+    if len(takes) > 1:  # (the armature plays one; the others would not be written again)
+        names = ", ".join(repr(take) for take in takes[:4]) + (", ..." if len(takes) > 4 else "")
+        raise MotionError(
+            f"{len(takes)} takes (AnimStacks: {names}); FBX files with one take are read: "
+            "export each take to a file of its own",
+            path,
+        )
     animation = obj.animation_data
     try:
         frames, step = key_frames(animation.action, animation.action_slot)
@@ -290,13 +300,22 @@ def _take_name(data: bytes, obj: Any) -> str:
     ``obj`` imported from ``data`` plays: of the stacks the file names, the one Blender's
     importer named its action after (``OBJECT|STACK`` or ``OBJECT|STACK|LAYER``; the
     longest, as names may hold ``|``); the object's name where none is."""
-    action = obj.animation_data.action.name
-    played = [
-        stack
-        for stack in _anim_stacks(data)
-        if action == f"{obj.name}|{stack}" or action.startswith(f"{obj.name}|{stack}|")
-    ]
+    played = _takes(data, obj, [obj.animation_data.action])
     return max(played, key=len) if played else obj.name
+
+
+def _takes(data: bytes, obj: Any, actions: Any) -> list[str]:
+    """The takes of FBX file ``data`` that animate the armature ``obj`` imported from it:
+    those the importer named one of ``actions`` after (``OBJECT|STACK[|LAYER]``)."""
+    names = [action.name for action in actions]
+    return [
+        stack
+        for stack in dict.fromkeys(_anim_stacks(data))
+        if any(
+            name == f"{obj.name}|{stack}" or name.startswith(f"{obj.name}|{stack}|")
+            for name in names
+        )
+    ]
 
 
 def _anim_stacks(data: bytes) -> list[str]:

@@ -557,11 +557,19 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     light in its scene (Blender 5.0's importer failed on lights)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_anim.bvh(filepath=str(clip), update_scene_fps=True, update_scene_duration=True)
+    rig = bpy.context.view_layer.objects.active
+    rig["rig_version"] = 3  # custom properties (Unity reads its attributes so)
+    rig.data.bones["Hips"]["bone_note"] = "root"
     light = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
     bpy.context.scene.collection.objects.link(light)
     takes = out / "takes"
     takes.mkdir()
-    bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"))
+    bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"), use_custom_props=True)
+    # a second take: an action per take
+    walk = rig.animation_data.action
+    walk.use_fake_user = True
+    walk.copy().name = "Run"
+    bpy.ops.export_scene.fbx(filepath=str(out / "two_takes.fbx"), bake_anim_use_all_actions=True)
     command = str(Path(sys.executable).with_name("motionclean"))
     runs = {
         "identity": [
@@ -586,6 +594,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
             "reports",
         ],
         "info": ["info", "takes/take.fbx"],
+        "two_takes": ["info", "two_takes.fbx"],
         "not_binary": ["info", "ascii.fbx"],
         "empty": ["info", "empty.fbx"],
         "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
@@ -596,7 +605,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     ran = {}
     (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
     (out / "empty.fbx").write_bytes(b"")
-    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty"]
+    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty", "two_takes"]
     for group in (
         first,
         ["from_bvh", "report", "resample"],
@@ -664,6 +673,7 @@ def load_back(path: Path) -> dict:
         "frames": [first, last],
         "curves": curves,
         "action": data.action.name,  # OBJECT|TAKE|LAYER
+        "properties": [obj.get("rig_version"), obj.data.bones["Hips"].get("bone_note")],
     }
 
 

@@ -246,6 +246,10 @@ def test_fbx_commands_run_through_blender(blender):
     assert refused["stderr"] == (
         "motionclean: error: ascii.fbx: cannot read FBX: ASCII FBX files are not supported\n"
     )
+    two = runs.pop("two_takes")  # (the take the armature did not play had been dropped)
+    assert two["code"] == 1 and two["stderr"].count("\n") == 1
+    assert two["stderr"].startswith("motionclean: error: two_takes.fbx: 2 takes (AnimStacks: ")
+    assert "FBX files with one take are read" in two["stderr"]
     empty = runs.pop("empty")  # (Blender's importer had called it an ASCII FBX)
     assert empty["code"] == 1 and empty["stderr"] == "motionclean: error: empty.fbx: empty file\n"
     for name, run in runs.items():
@@ -274,6 +278,8 @@ def test_fbx_written_loads_back_with_the_inputs_bones_rest_and_rate(blender, out
     again = np.load(blender.out / output.replace(".fbx", ".rest.npy"))
     assert np.abs(rest - again).max() < 1e-5 * np.abs(rest).max()  # float32 rest
     assert set(source["curves"]) <= set(written["curves"])
+    # the object's and the bone's custom properties (the exporter's default dropped them)
+    assert source["properties"] == written["properties"] == [3, "root"]
 
 
 @needs_fbx
