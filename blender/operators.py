@@ -292,4 +292,5 @@ class MOTIONCLEAN_OT_open_report(Operator):
             self.report({"ERROR"}, f"motionclean: {page}: no such report (clean again)")
             return {"CANCELLED"}
         bpy.ops.wm.url_open(url=page.as_uri())
+        self.report({"INFO"}, f"motionclean: opened {page}")
         return {"FINISHED"}

@@ -80,6 +80,7 @@ def test_panels_draw_in_both_sidebars(blender, state):
         assert any(re.search(r"Noise removed \d+%", line) for line in labels)
         assert any(line.startswith("label:foot ") for line in labels)
         assert "operator:motionclean.open_report" in draw["drawn"][0]
+        assert any(re.fullmatch(r"label:Report: /.*\.html", line) for line in labels)
 
 
 @pytest.mark.parametrize("rig", RIGS)
