@@ -23,8 +23,8 @@ from bpy.props import StringProperty
 from bpy.types import Operator
 
 from .motionclean.core.errors import MotionError, UsageError
-from .motionclean.io import atomic_write
-from .motionclean.io.blender_action import ActionClip, key_range, read_action, write_action
+from .motionclean.io import write_together
+from .motionclean.io.blender_action import ActionClip, key_frames, read_action, write_action
 from .motionclean.report.summary import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, pattern_warnings, render_report
 from .motionclean.steps.pipeline import Pipeline
@@ -69,11 +69,15 @@ def ranged(pipeline: Pipeline, first: int, last: int) -> Pipeline:
     return Pipeline(steps, pipeline.origin)
 
 
-def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, int, np.ndarray]:
-    """The range to clean (first and last frame, within the action's keys) and the frames
-    read: every frame from the action's first key to its last."""
-    keys = key_range(action, slot)
-    if keys is None:
+def frames_of(
+    scene: Any, settings: Any, action: Any, slot: Any
+) -> tuple[np.ndarray, float, int, int]:
+    """The frames read (:func:`~motionclean.io.blender_action.key_frames`: the action's
+    whole frames from its first key to its last, or the times of its keys where an importer
+    baked them between frames), their spacing, and the first and last of them to clean
+    (clip frame numbers): those in the chosen range."""
+    frames, step = key_frames(action, slot)
+    if not frames.size:
         raise MotionError("no bone keys to clean", action.name)
     if settings.frames == "SCENE":
         first, last = scene.frame_start, scene.frame_end
@@ -82,15 +86,15 @@ def frames_of(scene: Any, settings: Any, action: Any, slot: Any) -> tuple[int, i
             raise UsageError("the preview range is off: turn it on, or clean another range")
         first, last = scene.frame_preview_start, scene.frame_preview_end
     else:
-        first, last = keys
-    within = max(first, keys[0]), min(last, keys[1])
-    if within[1] <= within[0]:
+        first, last = frames[0], frames[-1]
+    inside = np.flatnonzero((frames >= first - 1e-6) & (frames <= last + 1e-6))
+    if inside.size < 2:
         raise MotionError(
-            f"frames {first}-{last}: fewer than 2 frames of the action's keys "
-            f"({keys[0]}-{keys[1]}) in the range",
+            f"frames {_frame_text(first)}-{_frame_text(last)}: fewer than 2 frames of the "
+            f"action's keys ({_frame_text(frames[0])}-{_frame_text(frames[-1])}) in the range",
             action.name,
         )
-    return *within, np.arange(keys[0], keys[1] + 1, dtype=np.float64)
+    return frames, step, int(inside[0]), int(inside[-1])
 
 
 @dataclass
@@ -102,7 +106,8 @@ class Plan:
     slot: Any
     clip: ActionClip | None = None
     result: CleanedClip | None = None
-    span: tuple[int, int] = (0, 0)  # the range cleaned, scene frames
+    span: str = ""  # the range cleaned, scene frames
+    page: Path | None = None  # its HTML report
 
 
 def plans_of(context: Any) -> list[Plan]:
@@ -110,13 +115,20 @@ def plans_of(context: Any) -> list[Plan]:
     chosen = [obj for obj in context.selected_objects if obj.type == "ARMATURE"]
     if not chosen and context.active_object and context.active_object.type == "ARMATURE":
         chosen = [context.active_object]
-    plans: dict[tuple[str, str], Plan] = {}
+    plans: dict[tuple[int, str], Plan] = {}  # (a local and a linked action may share a name)
     for obj in chosen:
         data = obj.animation_data
+        if data is not None and data.use_tweak_mode:
+            # (the action plays through its strip's frame mapping, and Blender lets no
+            # other action be assigned until tweak mode is left)
+            raise UsageError(
+                "in NLA tweak mode: leave it (Tab in the NLA editor) to clean the action",
+                obj.name,
+            )
         if data is None or data.action is None:
             continue
         slot = getattr(data, "action_slot", None)
-        key = (data.action.name, getattr(slot, "identifier", ""))
+        key = (data.action.as_pointer(), getattr(slot, "identifier", ""))
         if key in plans:
             plans[key].objects.append(obj)
         else:
@@ -126,6 +138,46 @@ def plans_of(context: Any) -> list[Plan]:
     return list(plans.values())
 
 
+def check_editable(plans: list[Plan], in_place: bool) -> None:
+    """UsageError for a change that saving would lose: a linked (library) action changed
+    in place, a linked armature given the cleaned copy."""
+    for plan in plans:
+        if in_place and (plan.action.library is not None or not plan.action.is_editable):
+            raise UsageError(
+                "linked action: turn In Place off or make it local", plan.action.name_full
+            )
+        for obj in plan.objects:
+            if not in_place and (obj.library is not None or not obj.is_editable):
+                raise UsageError(
+                    "linked armature: make it local (or a library override), or clean its "
+                    "action's library file",
+                    obj.name_full,
+                )
+
+
+def write_pages(plans: list[Plan], in_place: bool) -> None:
+    """Write every plan's HTML report into :data:`REPORTS`, all or none, before anything
+    in Blender changes; MotionError (one line) when the folder cannot be made or written
+    (a file of that name, another user's folder)."""
+    pages: dict[Path, bytes] = {}
+    for plan in plans:
+        assert plan.result is not None
+        result = plan.action.name if in_place else f"{plan.action.name}.clean"
+        name = f"{_file_name(plan.objects[0].name)}-{_file_name(result)}"
+        page = REPORTS / f"{name}.html"
+        for number in range(2, len(plans) + 2):  # (two actions of one name)
+            if page not in pages:
+                break
+            page = REPORTS / f"{name}-{number}.html"
+        pages[page] = render_report(plan.result.report, page, plan.result.series)
+        plan.page = page
+    try:
+        REPORTS.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise MotionError(f"cannot make the reports folder: {error.strerror}", REPORTS) from None
+    write_together(pages)
+
+
 def _same_slot(action: Any, slot: Any) -> Any:
     if slot is None or not hasattr(action, "slots"):
         return None
@@ -133,6 +185,11 @@ def _same_slot(action: Any, slot: Any) -> Any:
         if candidate.identifier == slot.identifier:
             return candidate
     return None
+
+
+def _frame_text(frame: float) -> str:
+    """A scene frame as the panel shows it: 150, or 2.001 for a key between frames."""
+    return str(np.format_float_positional(round(float(frame), 3), trim="-"))
 
 
 def _file_name(text: str) -> str:
@@ -157,13 +214,15 @@ class MOTIONCLEAN_OT_clean(Operator):
         try:
             pipeline = pipeline_of(settings)
             plans = plans_of(context)
+            check_editable(plans, settings.in_place)
             for plan in plans:  # everything is cleaned before anything is written
-                first, last, frames = frames_of(scene, settings, plan.action, plan.slot)
-                plan.span = (first, last)
-                plan.clip = read_action(plan.objects[0], plan.action, plan.slot, frames, frame_time)
-                whole = (first, last) == (frames[0], frames[-1])
-                start = int(frames[0])
-                steps = pipeline if whole else ranged(pipeline, first - start, last - start)
+                frames, step, first, last = frames_of(scene, settings, plan.action, plan.slot)
+                plan.span = f"{_frame_text(frames[first])}-{_frame_text(frames[last])}"
+                plan.clip = read_action(
+                    plan.objects[0], plan.action, plan.slot, frames, step * frame_time
+                )
+                whole = (first, last) == (0, len(frames) - 1)
+                steps = pipeline if whole else ranged(pipeline, first, last)
                 plan.result = clean_motion(plan.clip.motion, steps, plan.action.name)
                 if plan.result.after.n_frames != plan.clip.motion.n_frames:
                     raise UsageError(
@@ -171,6 +230,7 @@ class MOTIONCLEAN_OT_clean(Operator):
                         "its frames; change the scene's frame rate instead",
                         plan.action.name,
                     )
+            write_pages(plans, settings.in_place)
         except MotionError as error:
             self.report({"ERROR"}, f"motionclean: {error}")
             return {"CANCELLED"}
@@ -198,20 +258,17 @@ class MOTIONCLEAN_OT_clean(Operator):
                 if slot is not None:
                     obj.animation_data.action_slot = slot
         report = plan.result.report
-        REPORTS.mkdir(parents=True, exist_ok=True)
-        page = REPORTS / f"{_file_name(plan.objects[0].name)}-{_file_name(target.name)}.html"
-        atomic_write(page, render_report(report, page, plan.result.series))
         entry = settings.results.add()
         entry.objects = ", ".join(obj.name for obj in plan.objects)
-        entry.source, entry.result = plan.action.name, target.name
-        entry.frames = f"{plan.span[0]}-{plan.span[1]}"
+        entry.source, entry.result = plan.action.name_full, target.name
+        entry.frames = plan.span
         entry.noise_removed = report["summary"].get("noise_reduction") or 0.0
         entry.deviation_max = report["summary"].get("deviation_deg_max") or 0.0
         entry.keys = f"Keys: {written.keys_set:,} changed, {written.keys_added:,} added" + (
             f", {written.curves_created} curves made" if written.curves_created else ""
         )
         entry.lines = "\n".join(_figure_lines(report))
-        entry.report = str(page)
+        entry.report = str(plan.page)
 
 
 def _figure_lines(report: dict) -> list[str]:
@@ -235,4 +292,5 @@ class MOTIONCLEAN_OT_open_report(Operator):
             self.report({"ERROR"}, f"motionclean: {page}: no such report (clean again)")
             return {"CANCELLED"}
         bpy.ops.wm.url_open(url=page.as_uri())
+        self.report({"INFO"}, f"motionclean: opened {page}")
         return {"FINISHED"}

@@ -37,6 +37,7 @@ class _MotioncleanPanel:
             for line in result.lines.splitlines():
                 lines.label(text=line)
             box.operator("motionclean.open_report", icon="URL").path = result.report
+            box.label(text=f"Report: {result.report}")  # (where the page is)
 
 
 class MOTIONCLEAN_PT_graph(_MotioncleanPanel, Panel):

@@ -53,7 +53,9 @@ class MOTIONCLEAN_PG_settings(PropertyGroup):
     steps: StringProperty(
         name="Steps",
         description="Steps as after `motionclean clean` (-f is optional): "
-        "-f lee-shin:k=2,iterations=5 -f bilateral:sigma_t=1,sigma_g=0.1",
+        "-f lee-shin:k=2,iterations=5 -f bilateral:sigma_t=1,sigma_g=0.1. A step's "
+        "frames=[A,B] counts the action's frames from its first key (0), not Blender's "
+        "frame numbers",
     )
     frames: EnumProperty(
         name="Frames",

@@ -38,6 +38,7 @@ __all__ = [
     "WriteSummary",
     "action_fcurves",
     "all_fcurves",
+    "key_frames",
     "key_range",
     "new_fcurve",
     "read_action",
@@ -63,6 +64,10 @@ KEEP_LENGTH = 1e-6
 TIP_SUFFIX = "_end"
 #: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
+
+#: Shared key times within this fraction of their spacing of an even grid are one (float32
+#: times: 3e-5 frames at frame 300 against a spacing of 0.2 or more).
+GRID_TOLERANCE = 1e-3
 
 _BONE_PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.(\w+)$')
 
@@ -177,6 +182,42 @@ def key_range(action: Any, slot: Any) -> tuple[int, int] | None:
     if first > last:
         return None
     return int(np.ceil(first - 1e-6)), int(np.floor(last + 1e-6))
+
+
+def key_frames(action: Any, slot: Any) -> tuple[np.ndarray, float]:
+    """The frames to read and write the bone curves of ``action`` for ``slot`` at, and
+    their spacing (scene frames): each whole frame from the first key to the last when
+    every key is on a whole frame; else the key times all bone curves share when they are
+    evenly spaced (an importer's bake at another rate than the scene's: a 29.97 fps FBX
+    file, a BVH file imported with Scale FPS), so that keys are written where they are.
+    MotionError otherwise (keys between frames that no one grid holds: read on whole
+    frames, cleaning would add keys beside them and leave them as they were); an empty
+    array without bone keys."""
+    times = [
+        _keys(curve)[:, 0]
+        for props in _bone_curves(action_fcurves(action, slot)).values()
+        for curves in props.values()
+        for curve in curves.values()
+    ]
+    times = [t for t in times if len(t)]
+    if not times:
+        return np.zeros(0), 1.0
+    first = min(float(t[0]) for t in times)
+    last = max(float(t[-1]) for t in times)
+    if all(np.array_equal(t, np.round(t)) for t in times):
+        return np.arange(first, last + 1.0), 1.0
+    shared = times[0]
+    if len(shared) > 1 and all(np.array_equal(t, shared) for t in times):
+        step = (last - first) / (len(shared) - 1)
+        grid = first + step * np.arange(len(shared))
+        if np.abs(shared - grid).max() <= GRID_TOLERANCE * step:
+            return shared, step
+    off = next(float(t[t != np.round(t)][0]) for t in times if not np.array_equal(t, np.round(t)))
+    raise MotionError(
+        f"keys between frames (at {off:g}) that the bone curves do not share evenly "
+        "spaced: bake the action on whole frames (Pose > Animation > Bake Action) first",
+        getattr(action, "name", None),
+    )
 
 
 def _keys(curve: Any) -> np.ndarray:

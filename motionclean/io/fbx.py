@@ -16,7 +16,8 @@ built from its skeleton, turned so its up axis is Blender's, with a quaternion c
 rotating joint and location curves where it has position channels. The exporter writes the
 rest pose as the bones' own transforms (the action plays from an NLA strip, which is off at
 the frame exported as the rest) and a key on every frame; a frame time within 1e-4 of a
-whole frame rate (BVH's ``0.0083333``) is written as that rate.
+whole frame rate (BVH's ``0.0083333``) is written as that rate. Custom properties are
+written; a file whose armature has several takes is refused (naming them).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from .blender_action import (
     BoneTrack,
     action_fcurves,
     all_fcurves,
+    key_frames,
     key_range,
     read_action,
     rest_quaternions,
@@ -69,6 +71,7 @@ EXPORT_OPTIONS = {
     "bake_anim_force_startend_keying": True,
     "bake_anim_simplify_factor": 0.0,
     "add_leaf_bones": False,
+    "use_custom_props": True,  # (the exporter's default drops them: Unity's attributes too)
 }
 
 
@@ -208,31 +211,6 @@ def _whole_frames(bpy: Any) -> None:
             curve.update()
 
 
-def _key_frames(obj: Any) -> np.ndarray:
-    """The frames to read: the key times every bone curve shares (an FBX export keys all
-    curves at the same times), else each whole frame from the first key to the last."""
-    data = obj.animation_data
-    shared: np.ndarray | None = None
-    same = True
-    first, last = np.inf, -np.inf
-    for curve in action_fcurves(data.action, data.action_slot) or ():
-        if not curve.data_path.startswith("pose.bones["):
-            continue
-        co = np.empty(2 * len(curve.keyframe_points), dtype=np.float32)
-        curve.keyframe_points.foreach_get("co", co)
-        frames = co[::2].astype(np.float64)
-        if frames.size:
-            first, last = min(first, frames[0]), max(last, frames[-1])
-        if shared is None:
-            shared = frames
-        same = same and np.array_equal(shared, frames)
-    if same and shared is not None and shared.size:
-        return shared
-    if first > last:
-        return np.zeros(0)
-    return np.arange(np.ceil(first - 1e-6), np.floor(last + 1e-6) + 1.0)
-
-
 def _frame_time(scene: Any) -> float:
     return float(scene.render.fps_base) / float(scene.render.fps)
 
@@ -244,12 +222,27 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
         copy = Path(folder) / "clip.fbx"
         copy.write_bytes(data)
         obj = _import(bpy, copy, path)
-    frames = _key_frames(obj)
+    takes = _takes(data, obj, bpy.data.actions)
+    if len(takes) > 1:  # (the armature plays one; the others would not be written again)
+        names = ", ".join(repr(take) for take in takes[:4]) + (", ..." if len(takes) > 4 else "")
+        raise MotionError(
+            f"{len(takes)} takes (AnimStacks: {names}); FBX files with one take are read: "
+            "export each take to a file of its own",
+            path,
+        )
+    animation = obj.animation_data
+    try:
+        frames, step = key_frames(animation.action, animation.action_slot)
+    except MotionError as error:
+        raise MotionError(error.message, path) from None
     if not frames.size:
         raise MotionError(f"armature {obj.name!r} has no keys", path)
-    animation = obj.animation_data
     clip = read_action(
-        obj, animation.action, animation.action_slot, frames, _frame_time(bpy.context.scene)
+        obj,
+        animation.action,
+        animation.action_slot,
+        frames,
+        step * _frame_time(bpy.context.scene),
     )
     return obj, clip
 
@@ -307,13 +300,22 @@ def _take_name(data: bytes, obj: Any) -> str:
     ``obj`` imported from ``data`` plays: of the stacks the file names, the one Blender's
     importer named its action after (``OBJECT|STACK`` or ``OBJECT|STACK|LAYER``; the
     longest, as names may hold ``|``); the object's name where none is."""
-    action = obj.animation_data.action.name
-    played = [
-        stack
-        for stack in _anim_stacks(data)
-        if action == f"{obj.name}|{stack}" or action.startswith(f"{obj.name}|{stack}|")
-    ]
+    played = _takes(data, obj, [obj.animation_data.action])
     return max(played, key=len) if played else obj.name
+
+
+def _takes(data: bytes, obj: Any, actions: Any) -> list[str]:
+    """The takes of FBX file ``data`` that animate the armature ``obj`` imported from it:
+    those the importer named one of ``actions`` after (``OBJECT|STACK[|LAYER]``)."""
+    names = [action.name for action in actions]
+    return [
+        stack
+        for stack in dict.fromkeys(_anim_stacks(data))
+        if any(
+            name == f"{obj.name}|{stack}" or name.startswith(f"{obj.name}|{stack}|")
+            for name in names
+        )
+    ]
 
 
 def _anim_stacks(data: bytes) -> list[str]:

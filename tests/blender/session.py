@@ -324,29 +324,123 @@ def range_checks(clip: Path, out: Path, results: dict) -> None:
     scene.use_preview_range = False
 
 
-def error_checks(clip: Path, results: dict) -> None:
+def subframe_checks(clip: Path, out: Path, results: dict) -> None:
+    """Keys between whole frames: the clip (120 fps) imported with Scale FPS into a 24 fps
+    scene, a key every 0.2 frames (as a 29.97 fps FBX file imported by Blender's importer
+    has a key every 1.001 frames)."""
+    clear_scene()
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 24, 1.0
+    bpy.ops.import_anim.bvh(
+        filepath=str(clip), update_scene_fps=False, use_fps_scale=True, rotate_mode="QUATERNION"
+    )
+    obj = bpy.context.view_layer.objects.active
+    data = obj.animation_data
+    before = key_state(data.action, data.action_slot)
+    done = clean(frames="ACTION")
+    data = obj.animation_data
+    after = key_state(data.action, data.action_slot)
+    times = key_co(before, next(iter(before)))[:, 0].astype(np.float64)
+    step = (times[-1] - times[0]) / (len(times) - 1)
+    motion = read_action(obj, data.action, data.action_slot, times, step * frame_time()).motion
+    save_motion(out, "subframe_out", motion)
+    results["subframe"] = {
+        "done": sorted(done),
+        "whole_keys": int(np.count_nonzero(times == np.round(times))),
+        "keys": int(times.size),
+        "same_times": before.keys() == after.keys()
+        and all(np.array_equal(key_co(before, k)[:, 0], key_co(after, k)[:, 0]) for k in before),
+        "panel_keys": bpy.context.scene.motionclean.results[0].keys,
+    }
+
+
+def refused(**settings: Any) -> dict:
+    """Press Clean Actions; what it returned and the error it reported."""
+    try:
+        done = sorted(clean(**settings))
+    except RuntimeError as error:  # what an error report raises in a headless Blender
+        return {"done": ["CANCELLED"], "message": str(error).strip()}
+    return {"done": done, "message": ""}
+
+
+def error_checks(clip: Path, out: Path, results: dict) -> None:
     """A press that cannot clean says why in one line and changes nothing."""
     obj = import_rig(clip, "QUATERNION")
     data = obj.animation_data
-    before = key_state(data.action, data.action_slot)
-    errors = {}
-    for name, settings in {
-        "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
-        "no_steps": {"pipeline": "STEPS", "steps": ""},
-        "preview_off": {"frames": "PREVIEW"},
-        "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
-    }.items():
-        try:
-            done = sorted(clean(**settings))
-        except RuntimeError as error:  # what an error report raises in a headless Blender
-            done, message = ["CANCELLED"], str(error).strip()
-        else:
-            message = ""
-        errors[name] = {"done": done, "message": message}
+    action, slot = data.action, data.action_slot
+    before = key_state(action, slot)
+    shown = len(bpy.context.scene.motionclean.results)  # (the last checks' figures)
+    errors = {
+        name: refused(**settings)
+        for name, settings in {
+            "unknown_step": {"pipeline": "STEPS", "steps": "-f lee-shim:k=2"},
+            "no_steps": {"pipeline": "STEPS", "steps": ""},
+            "preview_off": {"frames": "PREVIEW"},
+            "resample": {"pipeline": "STEPS", "steps": "-f resample:fps=60"},
+        }.items()
+    }
+    # the reports folder cannot be made (a file has its name)
+    operators = sys.modules[f"{EXTENSION}.operators"]
+    reports = operators.REPORTS
+    operators.REPORTS = out / "reports-file"
+    operators.REPORTS.write_text("")
+    errors["reports_folder"] = refused()
+    operators.REPORTS = reports
+    # a linked action (from a library file), in place
+    library = out / "library.blend"
+    bpy.data.libraries.write(str(library), {action}, fake_user=True)
+    with bpy.data.libraries.load(str(library), link=True) as (_, linked):
+        linked.actions = [action.name]
+    data.action = linked.actions[0]
+    if slot is not None:
+        data.action_slot = linked.actions[0].slots[0]
+    linked_before = key_state(data.action, data.action_slot)
+    errors["linked_in_place"] = refused(in_place=True)
+    linked_untouched = same_state(linked_before, key_state(data.action, data.action_slot))
+    data.action = action
+    if slot is not None:
+        data.action_slot = slot
+    # the action on an NLA strip from frame 101, edited in tweak mode
+    track = data.nla_tracks.new()
+    track.strips.new("strip", 101, action)
+    data.action = None
+    data.use_tweak_mode = True
+    errors["tweak"] = refused()
+    errors["tweak_in_place"] = refused(in_place=True)
+    data.use_tweak_mode = False
+    data.nla_tracks.remove(track)
+    data.action = action
+    if slot is not None:
+        data.action_slot = slot
     results["errors"] = {
         "runs": errors,
-        "actions": sorted(a.name for a in bpy.data.actions),
-        "untouched": same_state(before, key_state(data.action, data.action_slot)),
+        "actions": sorted(a.name_full for a in bpy.data.actions),
+        "fake_users": sorted(a.name for a in bpy.data.actions if a.use_fake_user and not a.library),
+        "results_kept": shown > 0 and len(bpy.context.scene.motionclean.results) == shown,
+        "untouched": same_state(before, key_state(action, slot)) and linked_untouched,
+    }
+
+
+def same_name_checks(clip: Path, out: Path, results: dict) -> None:
+    """Two armatures playing two actions of one name: the rig's own and one linked from
+    the library file :func:`error_checks` wrote."""
+    obj = import_rig(clip, "QUATERNION")
+    other = bpy.data.objects.new("Linked", obj.data)
+    bpy.context.scene.collection.objects.link(other)
+    with bpy.data.libraries.load(str(out / "library.blend"), link=True) as (_, linked):
+        linked.actions = [obj.animation_data.action.name]
+    other.animation_data_create().action = linked.actions[0]
+    if obj.animation_data.action_slot is not None:
+        other.animation_data.action_slot = linked.actions[0].slots[0]
+    for each in (obj, other):
+        each.select_set(True)
+    done = clean(pipeline="STEPS", steps="-f lee-shin:k=2,iterations=1")
+    results["same_name"] = {
+        "done": sorted(done),
+        "plays": [each.animation_data.action.name_full for each in (obj, other)],
+        "results": sorted(
+            (entry.objects, entry.source) for entry in bpy.context.scene.motionclean.results
+        ),
     }
 
 
@@ -463,11 +557,19 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     light in its scene (Blender 5.0's importer failed on lights)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.import_anim.bvh(filepath=str(clip), update_scene_fps=True, update_scene_duration=True)
+    rig = bpy.context.view_layer.objects.active
+    rig["rig_version"] = 3  # custom properties (Unity reads its attributes so)
+    rig.data.bones["Hips"]["bone_note"] = "root"
     light = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
     bpy.context.scene.collection.objects.link(light)
     takes = out / "takes"
     takes.mkdir()
-    bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"))
+    bpy.ops.export_scene.fbx(filepath=str(takes / "take.fbx"), use_custom_props=True)
+    # a second take: an action per take
+    walk = rig.animation_data.action
+    walk.use_fake_user = True
+    walk.copy().name = "Run"
+    bpy.ops.export_scene.fbx(filepath=str(out / "two_takes.fbx"), bake_anim_use_all_actions=True)
     command = str(Path(sys.executable).with_name("motionclean"))
     runs = {
         "identity": [
@@ -492,6 +594,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
             "reports",
         ],
         "info": ["info", "takes/take.fbx"],
+        "two_takes": ["info", "two_takes.fbx"],
         "not_binary": ["info", "ascii.fbx"],
         "empty": ["info", "empty.fbx"],
         "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
@@ -502,7 +605,7 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     ran = {}
     (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
     (out / "empty.fbx").write_bytes(b"")
-    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty"]
+    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty", "two_takes"]
     for group in (
         first,
         ["from_bvh", "report", "resample"],
@@ -570,6 +673,7 @@ def load_back(path: Path) -> dict:
         "frames": [first, last],
         "curves": curves,
         "action": data.action.name,  # OBJECT|TAKE|LAYER
+        "properties": [obj.get("rig_version"), obj.data.bones["Hips"].get("bone_note")],
     }
 
 
@@ -592,7 +696,9 @@ def main() -> None:
     range_checks(clip, out, results)
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
-    error_checks(clip, results)
+    subframe_checks(clip, out, results)
+    error_checks(clip, out, results)
+    same_name_checks(clip, out, results)
     unregister_checks(results)
     timed("range, keyed, unregister")
     if not operator_only:

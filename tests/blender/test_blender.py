@@ -80,6 +80,7 @@ def test_panels_draw_in_both_sidebars(blender, state):
         assert any(re.search(r"Noise removed \d+%", line) for line in labels)
         assert any(line.startswith("label:foot ") for line in labels)
         assert "operator:motionclean.open_report" in draw["drawn"][0]
+        assert any(re.fullmatch(r"label:Report: /.*\.html", line) for line in labels)
 
 
 @pytest.mark.parametrize("rig", RIGS)
@@ -162,19 +163,50 @@ def test_preview_range_in_place(blender, capsys, tmp_path):
     assert moved[first : last + 1].max() > 1e-3
 
 
+def test_keys_between_frames_are_cleaned_where_they_are(blender):
+    """An action keyed every 0.2 frames (a 120 fps BVH imported with Scale FPS into a 24
+    fps scene) is read and written at its keys: no key added or moved, and the rotations
+    are those of the same motion keyed on whole frames (the quaternion rig), cleaned.
+    (Read on whole frames, it had gained a key per frame beside the old ones.)"""
+    result = blender.results["subframe"]
+    assert result["done"] == ["FINISHED"] and result["keys"] == FRAMES
+    assert result["whole_keys"] < 5 and result["same_times"]
+    assert re.fullmatch(r"Keys: [\d,]+ changed, 0 added", result["panel_keys"])
+    rotations = np.load(blender.out / "subframe_out_rotations.npy")
+    expected = np.load(blender.out / "quaternion_out_rotations.npy")
+    assert degrees_between(rotations, expected).max() < FLOAT32_DEGREES
+
+
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
     errors = blender.results["errors"]
-    assert errors["untouched"] and errors["actions"] == ["131_01"]
+    assert errors["untouched"] and errors["actions"] == ["131_01", "131_01 [library.blend]"]
+    assert errors["fake_users"] == [] and errors["results_kept"]
     expected = {
         "unknown_step": "unknown filter 'lee-shim'",
         "no_steps": "type the steps in",
         "preview_off": "the preview range is off",
         "resample": "the pipeline changes the frame count",
+        # (it had raised a traceback after making a copy and setting a fake user)
+        "tweak": "in NLA tweak mode: leave it",
+        "tweak_in_place": "in NLA tweak mode: leave it",
+        # (it had reported keys changed that saving the file lost)
+        "linked_in_place": "linked action: turn In Place off or make it local",
+        # (a traceback after the action had been copied and assigned)
+        "reports_folder": "reports-file: cannot make the reports folder: File exists",
     }
     for name, words in expected.items():
         run = errors["runs"][name]
         assert run["done"] == ["CANCELLED"] and run["message"].startswith("Error: motionclean: ")
         assert words in run["message"] and "\n" not in run["message"]
+
+
+def test_two_actions_of_one_name_are_two_actions(blender):
+    """A local and a linked action both named 131_01 are cleaned each into its own copy
+    (they had been planned as one, by name: the second armature got the first's copy)."""
+    result = blender.results["same_name"]
+    assert result["done"] == ["FINISHED"]
+    assert result["plays"] == ["131_01.clean", "131_01.clean.001"]
+    assert result["results"] == [["131_01", "131_01"], ["Linked", "131_01 [library.blend]"]]
 
 
 def test_keyed_curves_take_keys_per_frame_only_where_the_motion_moved(blender):
@@ -215,6 +247,10 @@ def test_fbx_commands_run_through_blender(blender):
     assert refused["stderr"] == (
         "motionclean: error: ascii.fbx: cannot read FBX: ASCII FBX files are not supported\n"
     )
+    two = runs.pop("two_takes")  # (the take the armature did not play had been dropped)
+    assert two["code"] == 1 and two["stderr"].count("\n") == 1
+    assert two["stderr"].startswith("motionclean: error: two_takes.fbx: 2 takes (AnimStacks: ")
+    assert "FBX files with one take are read" in two["stderr"]
     empty = runs.pop("empty")  # (Blender's importer had called it an ASCII FBX)
     assert empty["code"] == 1 and empty["stderr"] == "motionclean: error: empty.fbx: empty file\n"
     for name, run in runs.items():
@@ -243,6 +279,8 @@ def test_fbx_written_loads_back_with_the_inputs_bones_rest_and_rate(blender, out
     again = np.load(blender.out / output.replace(".fbx", ".rest.npy"))
     assert np.abs(rest - again).max() < 1e-5 * np.abs(rest).max()  # float32 rest
     assert set(source["curves"]) <= set(written["curves"])
+    # the object's and the bone's custom properties (the exporter's default dropped them)
+    assert source["properties"] == written["properties"] == [3, "root"]
 
 
 @needs_fbx
