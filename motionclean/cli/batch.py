@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -134,20 +133,6 @@ def _make_folders(out_dir: Path, report_dir: Path | None) -> None:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise UsageError(f"{folder}: cannot create {option}: {error.strerror}") from None
-
-
-@contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """SIGTERM (``kill``) stops the run as Ctrl-C does: no new clips, workers shut down."""
-
-    def interrupt(signum, frame) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
@@ -333,7 +318,7 @@ def batch_command(
     start = time.perf_counter()
     note = lost = None
     try:
-        with _progress(len(work)) as advance, _sigterm_as_interrupt():
+        with _progress(len(work)) as advance:
             if scheduler is None or not work:  # nothing to send: no cluster to start
                 workers = min(
                     jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1)

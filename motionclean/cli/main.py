@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import sys
 import textwrap
 import traceback
@@ -109,6 +110,11 @@ def _interrupted() -> None:
     os._exit(130)
 
 
+def _terminate(signum, frame) -> None:
+    """SIGTERM's handler: raise KeyboardInterrupt where the command is."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
@@ -120,6 +126,9 @@ def main(argv: list[str] | None = None) -> None:
     keep_reserve()
     if not args:  # a bare `motionclean` shows the help
         args = ["--help"]
+    # SIGTERM (kill, timeout, a scheduler) stops a command as Ctrl-C does: its temporary
+    # files removed, one line, exit 130 (it had died by the signal, a partial file left)
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         code = cli.main(args=args, prog_name="motionclean", standalone_mode=False)
     except MotionError as error:

@@ -195,6 +195,32 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
     assert children and not alive
 
 
+def test_sigterm_stops_a_clean_as_ctrl_c_does(tmp_path):
+    """kill, timeout(1) and schedulers send SIGTERM: one line, exit 130, nothing left (the
+    command had died by the signal, silent, a hidden temporary file left mid-write)."""
+    process = subprocess.Popen(
+        [
+            str(Path(sys.executable).parent / "motionclean"),
+            "clean",
+            str(SAMPLE),
+            "-o",
+            str(tmp_path / "o.bvh"),
+            "-f",
+            "fairing:max_iterations=3000,tol=0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    time.sleep(1.0)
+    process.send_signal(signal.SIGTERM)
+    try:
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 130 and err == b"motionclean: error: interrupted\n"
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("name", ["a\rb", "line\nbreak", 'q"uote,comma', "x" * 3_000_000])
 def test_any_joint_name_survives_a_csv_round_trip(name, tmp_path):
     clip = mc.load(SAMPLE)
