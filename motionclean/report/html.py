@@ -674,6 +674,21 @@ def _shown(key: str, note: Any, own_rho: set[str] | None) -> Any:
 CONTACT = "#d8e8d0"
 
 
+def _shaded(runs, x_scale: float) -> list[tuple[float, float]]:
+    """The plot's x spans of ``[first, stop)`` frame runs, each at least a unit wide,
+    those that touch within a unit merged: as many as the plot can show, however many
+    contacts a long clip has (one per contact had grown the page with its length)."""
+    spans: list[tuple[float, float]] = []
+    for first, stop in runs:
+        x0 = LEFT + first * x_scale
+        x1 = x0 + max((stop - 1 - first) * x_scale, 1.0)
+        if spans and x0 <= spans[-1][1] + 1.0:
+            spans[-1] = (spans[-1][0], max(spans[-1][1], x1))
+        else:
+            spans.append((x0, x1))
+    return spans
+
+
 def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
     """A foot: its contacts and skate, and its lowest point above the ground over frames
     with the contacts shaded."""
@@ -697,10 +712,9 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
         series.append((trace(data["height_after"]), AFTER, "height after"))
     x_scale = COLUMNS / max(frames - 1, 1)
     shades = [  # from a contact's first frame to its last (``stop - 1``)
-        f'<rect class="contact" x="{LEFT + first * x_scale:.1f}" y="{ACCEL_TOP}" '
-        f'width="{max((stop - 1 - first) * x_scale, 1.0):.1f}" height="{ACCEL_HEIGHT}" '
-        f'fill="{CONTACT}"/>'
-        for first, stop in data["contacts"]
+        f'<rect class="contact" x="{x0:.1f}" y="{ACCEL_TOP}" width="{x1 - x0:.1f}" '
+        f'height="{ACCEL_HEIGHT}" fill="{CONTACT}"/>'
+        for x0, x1 in _shaded(data["contacts"], x_scale)
     ]
     height = ACCEL_TOP + ACCEL_HEIGHT + 30
     parts = shades + _panel(

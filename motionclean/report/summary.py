@@ -685,9 +685,18 @@ def format_noise_model(report: dict) -> str:
     )
 
 
+#: Cuts between takes a line names at most (the JSON's ``take_starts`` holds them all).
+TAKES_NAMED = 8
+
+
 def format_takes(starts: list[int], cleaned: bool = True) -> str:
-    """The takes joined end to end in the clip (``cleaned``: each on its own)."""
-    at = ", ".join(map(str, starts[:-1])) + (" and " if len(starts) > 1 else "") + str(starts[-1])
+    """The takes joined end to end in the clip (``cleaned``: each on its own); the first
+    :data:`TAKES_NAMED` cuts named, so the line stays short on a clip of thousands."""
+    if len(starts) > TAKES_NAMED:
+        at = ", ".join(map(str, starts[: TAKES_NAMED - 1])) + f", ... {starts[-1]}"
+    else:
+        at = ", ".join(map(str, starts[:-1])) + (" and " if len(starts) > 1 else "")
+        at += str(starts[-1])
     new = f"new ones at frames {at}" if len(starts) > 1 else f"the second at frame {at}"
     own = "each cleaned on its own, " if cleaned else ""
     return (

@@ -341,3 +341,19 @@ def test_the_page_says_the_floor_and_what_the_foot_plots_zero_is(cleaned):
     floor, contacts = report["contacts"]["floor"], report["contacts"]
     assert f"Floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg" in page
     assert f"ground the contacts are found on, at {contacts['ground']:.4g} units" in page
+
+
+def test_contact_shades_and_the_takes_line_stay_bounded_on_a_long_clip():
+    """A million frames of a clip joined to itself 802 times: its foot plots shade at most
+    a span per plot column (a rect per contact had grown the page to 2.4 MB) and the takes
+    line names a few cuts (it had listed all 802: 6,400 characters)."""
+    from motionclean.report.html import _shaded
+    from motionclean.report.summary import format_takes
+
+    frames = 1_000_000
+    runs = [(first, first + 40) for first in range(0, frames, 55)]  # 18,182 contacts
+    spans = _shaded(runs, COLUMNS / (frames - 1))
+    assert len(spans) <= COLUMNS and spans[0][0] >= 0
+    assert all(b[0] > a[1] + 1.0 for a, b in zip(spans, spans[1:], strict=False))
+    line = format_takes(list(range(1247, 1247 * 803, 1247)))
+    assert len(line) < 300 and "takes: 803 joined" in line and "1000094" in line
