@@ -11,6 +11,7 @@ import os
 import signal
 import threading
 import time
+from collections import deque
 from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -64,36 +65,61 @@ def run_jobs(jobs: Sequence[Job], workers: int) -> Iterator[tuple[int, FileResul
     """Run ``jobs`` on ``workers`` local processes; yield ``(index, result)`` as each ends.
 
     One worker runs in this process. Several run in worker processes, handed the largest
-    inputs first so that the run does not end waiting on one long clip. A worker that dies
-    (killed, out of memory) fails the clips it had instead of stopping the run.
+    inputs first so that the run does not end waiting on one long clip, at most one clip
+    per worker at a time. A worker that dies (killed, out of memory) breaks its pool: the
+    clips not yet handed out go on in a new one, and those that were running when it
+    broke run again one at a time after them, so only a clip that kills its worker alone
+    fails ("the worker process died"); the others are cleaned.
     """
     if workers <= 1 or len(jobs) <= 1:
         for index, job in enumerate(jobs):
             yield index, run_job(job)
         return
-    order = sorted(range(len(jobs)), key=lambda i: -input_size(jobs[i].source))
+    waiting = deque(sorted(range(len(jobs)), key=lambda i: -input_size(jobs[i].source)))
+    suspects: deque[int] = deque()  # running when a worker died: one at a time, last
+    while waiting or suspects:
+        alone = not waiting
+        source, limit = (suspects, 1) if alone else (waiting, min(workers, len(waiting)))
+        yield from _run_pool(jobs, source, limit, suspects, alone)
+
+
+def _run_pool(
+    jobs: Sequence[Job], source: deque, limit: int, suspects: deque, alone: bool
+) -> Iterator[tuple[int, FileResult]]:
+    """The clips of ``source`` on a pool of ``limit`` workers, one each at a time, until
+    they are done or a worker dies: then the clips running are added to ``suspects``, or,
+    ``alone`` (one clip running), failed."""
     executor = ProcessPoolExecutor(
-        max_workers=min(workers, len(jobs)),
+        max_workers=limit,
         mp_context=_context(),
         initializer=_worker_setup,
         initargs=(os.getpid(),),
     )
-    pending = {executor.submit(run_job, jobs[i]): i for i in order}
+    running: dict = {}
+    broken = False
     try:
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        while (source or running) and not broken:
+            while source and len(running) < limit:
+                index = source.popleft()
+                running[executor.submit(run_job, jobs[index])] = index
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
             for future in done:
-                index = pending.pop(future)
+                index = running.pop(future)
                 try:
                     yield index, future.result()
                 except BrokenProcessPool:
-                    job = jobs[index]
-                    died = f"{job.source}: the worker process died"
-                    yield index, FileResult(job.source, job.target, "failed", error=died)
+                    broken = True
+                    if alone:
+                        job = jobs[index]
+                        died = f"{job.source}: the worker process died"
+                        yield index, FileResult(job.source, job.target, "failed", error=died)
+                    else:
+                        suspects.append(index)
+        suspects.extend(running.values())  # (a broken pool's other clips: run again)
     except BaseException:  # Ctrl-C, SIGTERM, the caller gone: do not wait for running clips
-        running = list((getattr(executor, "_processes", None) or {}).values())
+        processes = list((getattr(executor, "_processes", None) or {}).values())
         executor.shutdown(wait=False, cancel_futures=True)
-        for process in running:
+        for process in processes:
             process.terminate()
         raise
-    executor.shutdown(wait=True)
+    executor.shutdown(wait=not broken)

@@ -422,3 +422,38 @@ def test_a_time_sigma_narrower_than_a_frame_leaves_the_clip_as_it_is(tmp_path, c
     assert (code, err) == (0, "")
     assert out.read_bytes() == SAMPLE.read_bytes()
     assert mc.filters.masks.gaussian(1e-300).tolist() == [0.0, 1.0, 0.0]
+
+
+def test_a_worker_killed_mid_batch_fails_no_clip_it_did_not_hold(tmp_path):
+    """SIGKILL to every worker of a running pool (the kernel's out-of-memory killer does
+    it): the clips waiting go on in a new pool, the ones running run again on their own,
+    and every clip is cleaned (a broken pool had failed all 37 clips still waiting)."""
+    from motionclean.run.jobs import Job
+    from motionclean.run.pool import run_jobs
+    from motionclean.steps.pipeline import Pipeline
+
+    slow = Pipeline.from_inline(["fairing:max_iterations=1500,tol=0"]).describe()
+    fast = Pipeline.from_inline(["lee-shin"]).describe()
+    jobs = []
+    for k in range(8):
+        source = cut_bvh(SAMPLE, tmp_path / f"c{k}.bvh", 120 if k else 300)
+        jobs.append(Job(str(source), str(tmp_path / f"o{k}.bvh"), tuple(slow if k < 2 else fast)))
+
+    def children() -> set[str]:
+        found = subprocess.run(
+            ["pgrep", "-P", str(os.getpid())], capture_output=True, text=True, check=False
+        )
+        return set(found.stdout.split())
+
+    others = children()  # (processes of other tests: never these)
+    results = {}
+    killed = False
+    for index, result in run_jobs(jobs, 2):
+        results[index] = result
+        if not killed:  # the pool's workers, the slow clips on them: kill them all
+            workers = children() - others
+            for pid in workers:
+                os.kill(int(pid), signal.SIGKILL)
+            killed = bool(workers)
+    assert killed and sorted(results) == list(range(8))
+    assert all(r.status == "ok" for r in results.values()), [r.error for r in results.values()]
