@@ -185,6 +185,13 @@ class StepSpec:
     params: tuple[Param, ...]
     run: Callable[[StepData, dict], StepData] | None = None
     run_motion: Callable[[Motion, dict], tuple[Motion, dict[str, dict]]] | None = None
+    # A clip of several takes joined end to end: ``run_takes(motion, params, starts)``
+    # gives the new clip, notes and where each take after the first now begins, when the
+    # step remakes the takes together (a new rate keeps them on one grid); else
+    # ``run_motion`` runs on each take.
+    run_takes: (
+        Callable[[Motion, dict, np.ndarray], tuple[Motion, dict[str, dict], np.ndarray]] | None
+    ) = None
     keeps_rest: bool = False
     positions_default: bool = True
     format_note: Callable[[dict, bool], str] | None = None

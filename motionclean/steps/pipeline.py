@@ -652,6 +652,10 @@ def _remade_by_takes(
     no new frame blends two takes. The clip, the log (notes: the longest take's) and where
     each take after the first now begins."""
     assert step.spec.run_motion is not None
+    if step.spec.run_takes is not None:
+        joined, notes, new_starts = step.spec.run_takes(motion, step.params, starts)
+        log = StepLog(step, list(motion.names), [], notes, _unmatched(step, motion.names))
+        return joined, log, new_starts
     parts, notes, longest = [], {}, 0
     for take in take_spans(starts, motion.n_frames):
         part, part_notes = step.spec.run_motion(motion.at_frames(take), step.params)

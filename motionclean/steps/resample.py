@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.errors import UsageError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..filters.resample import ANTIALIAS_CUTOFF
 from .base import Param, StepSpec, fps_text
-from .resampling import new_length, resample_motion, same_rate
+from .resampling import new_length, resample_motion, resample_takes, same_rate
 
 
 def _resolve(params: dict, where: str) -> None:
@@ -22,9 +24,24 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     frame_time = _frame_time(params)
     if same_rate(motion.frame_time, frame_time):
         return motion, {}
-    frames = motion.n_frames
     new_length(motion, frame_time)  # refuses too few or too many frames before any work
-    resampled = resample_motion(motion, frame_time)
+    return _noted(motion, resample_motion(motion, frame_time), frame_time)
+
+
+def _run_takes(
+    motion: Motion, params: dict, starts: np.ndarray
+) -> tuple[Motion, dict[str, dict], np.ndarray]:
+    """A clip of several takes at the new rate, the takes on the clip's one grid."""
+    frame_time = _frame_time(params)
+    if same_rate(motion.frame_time, frame_time):
+        return motion, {}, starts
+    resampled, new_starts = resample_takes(motion, frame_time, starts)
+    return (*_noted(motion, resampled, frame_time), new_starts)
+
+
+def _noted(motion: Motion, resampled: Motion, frame_time: float) -> tuple[Motion, dict[str, dict]]:
+    """The resampled clip and its note (on the first joint)."""
+    frames = motion.n_frames
     note = {
         "from_fps": motion.frame_rate,
         "to_fps": resampled.frame_rate,
@@ -72,6 +89,7 @@ STEP = StepSpec(
         ),
     ),
     run_motion=_run,
+    run_takes=_run_takes,
     keeps_rest=True,
     resolve=_resolve,
     format_note=_format_note,

@@ -224,6 +224,48 @@ def _plain(motion: Motion, frame_time: float, n_new: int, ratio: float) -> Motio
     )
 
 
+def resample_takes(
+    motion: Motion, frame_time: float, starts: np.ndarray
+) -> tuple[Motion, np.ndarray]:
+    """``motion`` (no rest frames) of several takes joined end to end (``starts``: where
+    each after the first begins) at ``frame_time`` seconds per frame, each take on its
+    own, all on the clip's one grid: new frame ``j`` at old time ``j x ratio`` belongs to
+    the take it falls in, so the clip keeps its duration to within half a new frame and no
+    take drifts (each rounded on its own, 802 takes of 1,247 frames to 60 fps had made 40
+    frames too many). Also where each take after the first now begins."""
+    n_new = new_length(motion, frame_time)
+    ratio = frame_time / motion.frame_time
+    index, u = sample_positions(n_new, ratio)
+    firsts = np.searchsorted(index + u, starts, side="left")  # first new frame in each take
+    bounds = np.concatenate([[0], firsts, [n_new]]).astype(np.intp)
+    parts = []
+    for take, first, stop in zip(
+        take_spans(starts, motion.n_frames), bounds[:-1], bounds[1:], strict=True
+    ):
+        if stop <= first:
+            continue  # a take shorter than a new frame: no new frame falls in it
+        part = _bridged(motion.at_frames(take))
+        n_part = int(stop - first)
+        rotations, translations = _resampled(part, ratio, n_part, True, int(first), take.start)
+        missing = None
+        if part.missing is not None:
+            missing = _resampled_missing(part.missing, ratio, n_part, int(first), take.start)
+            rotations = quat.make_continuous(hold_missing(rotations, missing), axis=0)
+            translations = hold_missing(translations, missing)
+        parts.append(
+            part.replace(
+                rotations=rotations,
+                translations=translations,
+                frame_time=float(frame_time),
+                source_values=None,
+                source_rotations=None,
+                missing=missing,
+            )
+        )
+    new_starts = np.unique(bounds[1:-1])
+    return Motion.joined_frames(parts), new_starts[(new_starts > 0) & (new_starts < n_new)]
+
+
 def on_input_frames(before: Motion, after: Motion) -> Motion:
     """``after`` (``before`` resampled, possibly cleaned too) brought back onto ``before``'s
     frames with the same interpolant and no low-pass, so the two compare frame by frame;
