@@ -227,7 +227,7 @@ def found_source(q: np.ndarray, frame_time: float, source: str = "auto") -> Sour
     finds in each column (:class:`SourceFound`). What ``auto`` finds, without cleaning."""
     source = _checked_source(source)
     shape = np.shape(q)[1:-1]
-    cols = quat.continuous(_columns(q, 4, "rotations"))
+    cols = quat.continuous(_columns(q, 4, "q"))
     model = _fit(quat.Displacements(cols), _check_time(frame_time))
     slope = math.nan if model is None else noise_model.motion_slope(model, frame_time).slope
     coloured = None if model is None else _coloured_fit(model, frame_time, source, slope)
@@ -303,7 +303,7 @@ def estimate_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
     ``q`` is ``(F, ..., 4)``, ``frame_time`` in seconds; returns shape ``(...)``, from the
     noise model of :mod:`motionclean.filters.noise` (clips under 4 frames give 0).
     """
-    cols = quat.continuous(_columns(q, 4, "rotations"))  # no copy of a continuous clip
+    cols = quat.continuous(_columns(q, 4, "q"))  # no copy of a continuous clip
     model = _fit(quat.Displacements(cols), _check_time(frame_time))
     level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
     return _rotation_degrees(level).reshape(np.shape(q)[1:-1])
@@ -315,7 +315,7 @@ def estimate_position_noise(p: np.ndarray, frame_time: float) -> np.ndarray:
     ``p`` is ``(F, ..., 3)`` in the file's length unit, ``frame_time`` in seconds; returns
     shape ``(...)`` (clips under 4 frames give 0).
     """
-    cols = _columns(p, 3, "positions")
+    cols = _columns(p, 3, "p")
     model = _fit(np.diff(cols, axis=0), _check_time(frame_time))
     level = np.zeros(cols.shape[1]) if model is None else model.clip_sigma2()
     return (math.sqrt(3.0) * np.sqrt(level)).reshape(np.shape(p)[1:-1])
@@ -755,7 +755,7 @@ def auto(
     shape = np.shape(q)[1:-1]
     given = _check(strength, noise, shape)
     frame_time = _check_time(frame_time)
-    cols = quat.continuous(_columns(q, 4, "rotations"))
+    cols = quat.continuous(_columns(q, 4, "q"))
     if given is not None:
         given = (np.radians(_capped(given)) / (2.0 * math.sqrt(3.0))) ** 2
     values, level, choices = _select(
@@ -794,7 +794,7 @@ def auto_positions(
     shape = np.shape(p)[1:-1]
     given = _check(strength, noise, shape)
     frame_time = _check_time(frame_time)
-    cols = _columns(p, 3, "positions")
+    cols = _columns(p, 3, "p")
     if given is not None:
         given = _capped(given) ** 2 / 3.0
     values, level, choices = _select(

@@ -233,3 +233,14 @@ def test_the_package_exposes_the_filters_and_world_space_as_design_says():
     positions, rotations = mc.kinematics.forward(motion)
     assert positions.shape == (motion.n_frames, motion.n_joints, 3)
     assert rotations.shape == (motion.n_frames, motion.n_joints, 4)
+
+
+def test_auto_names_its_arguments_as_its_signature_does():
+    """auto(q, ...) and auto_positions(p, ...) name q and p in their errors (they had said
+    'rotations' and 'positions', no parameter of theirs)."""
+    import motionclean as mc
+
+    with pytest.raises(ValueError, match=r"^q: expected shape"):
+        mc.auto(np.zeros((10, 3)), 0.01)
+    with pytest.raises(ValueError, match=r"^p: expected shape"):
+        mc.auto_positions(np.zeros((10, 4)), 0.01)
