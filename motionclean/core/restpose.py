@@ -204,6 +204,32 @@ def trim(motion: Motion, lead: int, trail: int) -> Motion:
     )
 
 
+def held_end_follows(original: Motion, cleaned: Motion, trail: int) -> Motion:
+    """``cleaned`` (``original`` cleaned, its ``trail`` trailing rest frames kept) with a held
+    pose at the end turned, joint by joint, as its motion's last frame was turned by more
+    than a quarter turn (a half-turn run repaired up to the padding), where the input
+    stepped into the padding by less than an eighth: the padding repeats the motion's last
+    pose, and kept as it was it had made a new half-turn step into itself (a MediaPipe
+    estimate's forearm: 6 -> 179.5 degrees). Any other rest frames, and a held pose whose
+    joints were not so turned, come back bit for bit."""
+    end = original.n_frames - trail
+    if not trail or end < 1 or cleaned.n_frames != original.n_frames:
+        return cleaned
+    held = original.rotations[end:]
+    if not np.array_equal(held, np.broadcast_to(held[:1], held.shape)):
+        return cleaned  # (a T-pose or reference frames: kept whatever happens before them)
+    last_in, last_out = original.rotations[end - 1], cleaned.rotations[end - 1]
+    into = quat.angle_between(last_in, held[0])
+    turned = quat.angle_between(last_in, last_out)
+    follow = (into < np.pi / 4.0) & (turned > np.pi / 2.0)
+    if not follow.any():
+        return cleaned
+    turn = quat.multiply(quat.conjugate(last_in[follow]), last_out[follow])  # (local)
+    rotations = cleaned.rotations.copy()
+    rotations[end:, follow] = quat.multiply(held[:, follow], turn)
+    return cleaned.replace(rotations=rotations)
+
+
 def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:
     """``original`` with its frames between the rest frames replaced by ``middle``'s, which
     may have another frame count and frame time (a resampled clip: the rest frames are

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion, sparse_copy
-from ..core.restpose import rest_frames, splice, trim
+from ..core.restpose import held_end_follows, rest_frames, splice, trim
 from ..core.takes import take_spans, take_starts
 from ..filters.gaps import Gaps
 from . import COMMON_PARAMS, REGISTRY, StepData, StepSpec
@@ -445,7 +445,7 @@ class Pipeline:
                 log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
             log.n_frames, log.frame_time = current.n_frames + lead + trail, current.frame_time
             logs.append(log)
-        result = splice(outer, current, lead, trail)
+        result = held_end_follows(outer, splice(outer, current, lead, trail), trail)
         if starts.size:  # the takes as cleaned (a new rate moved them), for the report
             result.derived("take_starts", lambda _: starts + lead)
         return result, logs

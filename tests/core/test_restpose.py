@@ -11,6 +11,7 @@ from helpers import (
     CMU_01_01_START,
     CORPUS_NAMES,
     NOISY,
+    SAMPLE,
     corpus_clip,
     degrees_between,
     run_cli,
@@ -210,3 +211,26 @@ def test_a_zero_pose_counts_before_a_reference_frame_found_after_it():
     assert rest_frames(posed) == (2, 0)
     alone = posed.replace(rotations=np.delete(rows, 1, axis=0), translations=t[1:])
     assert rest_frames(alone) == (1, 0)
+
+
+def test_a_held_end_follows_a_half_turn_repaired_up_to_it():
+    """A forearm half a turn off for its last 59 frames, its last pose held 12 frames more
+    (padding): despike un-flips the run, and the held frames turn with it (kept as they
+    were, they had made a new 180-degree step into themselves, as on a MediaPipe estimate);
+    every other joint's held frames come back bit for bit."""
+    from motionclean.core import quat
+    from motionclean.steps.pipeline import Pipeline
+
+    clip = mc.load(SAMPLE)
+    elbow = clip.names.index("LeftElbow")
+    q, t = clip.rotations.copy(), clip.translations.copy()
+    q[240:, elbow] = quat.multiply(q[240:, elbow], quat.from_axis_angle(np.eye(3)[2], np.pi))
+    q = np.concatenate([q, np.repeat(q[-1:], 12, axis=0)])
+    t = np.concatenate([t, np.repeat(t[-1:], 12, axis=0)])
+    padded = clip.replace(rotations=q, translations=t, source_values=None, source_rotations=None)
+    assert rest_frames(padded) == (0, 13)
+    out, _ = Pipeline.default().run(padded)
+    steps = np.degrees(quat.angle_between(out.rotations[1:, elbow], out.rotations[:-1, elbow]))
+    assert steps.max() < 20.0  # the input's one flip repaired, and no new one
+    others = [j for j in range(clip.n_joints) if j != elbow]
+    np.testing.assert_array_equal(out.rotations[299:, others], q[299:, others])
