@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core import checks
 from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion, sparse_copy
 from ..core.restpose import held_end_follows, rest_frames, splice, trim
@@ -333,12 +334,20 @@ class Pipeline:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> Pipeline:
-        """Read ``[[step]]`` tables from a TOML file (UTF-8, a byte-order mark allowed)."""
-        path = Path(path)
+        """Read ``[[step]]`` tables from a TOML file (UTF-8, a byte-order mark allowed);
+        ``path`` is the file's path (TOML text itself: ``from_tables(tomllib.loads(text)
+        ["step"])``). TypeError for anything but a path, UsageError for a file that is no
+        pipeline."""
+        path = Path(checks.path(path, "path"))
         try:
             text = path.read_text(encoding="utf-8-sig")
             document = tomllib.loads(text)
         except FileNotFoundError:
+            if "\n" in str(path):  # (TOML text given for a path: one line says so)
+                raise UsageError(
+                    "from_toml takes a pipeline file's path, not TOML text (read the text "
+                    "with tomllib.loads and give its 'step' tables to Pipeline.from_tables)"
+                ) from None
             raise UsageError(f"{path}: no such pipeline file") from None
         except (OSError, UnicodeDecodeError) as error:
             raise UsageError(f"{path}: cannot read pipeline: {error}") from None

@@ -301,3 +301,13 @@ def test_steps_that_overwrite_their_input_never_touch_the_clip(steps):
     assert np.array_equal(clip.translations, translations)
     again, _ = mc.Pipeline.from_inline(steps).run(clip.replace(rotations=rotations.copy()))
     assert np.array_equal(after.rotations, again.rotations)
+
+
+def test_from_toml_says_what_it_takes_in_one_line():
+    """TOML text given for a path is said in one line (the message had held the text), and
+    a path of the wrong type names the argument."""
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_toml("[[step]]\nfilter = 'lee-shin'\n")
+    assert "\n" not in str(caught.value) and "not TOML text" in str(caught.value)
+    with pytest.raises(TypeError, match="^path: expected a file path"):
+        Pipeline.from_toml(5)
