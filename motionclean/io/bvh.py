@@ -712,6 +712,8 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         )
     _refuse_gaps(motion)
     src = motion.source if isinstance(motion.source, BvhText) else None
+    if src is None:  # (a channel CSV read into a BVH template: that template's hierarchy)
+        src = getattr(motion.source, "bvh_template", None)
     if src is None:
         motion = _depth_first(motion)
         hierarchy, eol = _format_hierarchy(motion), b"\n"

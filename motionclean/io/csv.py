@@ -29,7 +29,9 @@ rotation columns (all three or none) give its Euler order, as in BVH ``CHANNELS`
   an edit of the template: values equal to the template's keep its text, so an unchanged
   CSV gives back the template file byte for byte, and changed values are written like any
   edited BVH value (six decimals). The values read are the CSV's: a written angle
-  continues the CSV's own Euler curve, never the template's (another take of the rig).
+  continues the CSV's own Euler curve, never the template's (another take of the rig). A
+  template of other frames (another take's length or rate) gives the hierarchy only: the
+  CSV's own text is the clip's source, written back byte for byte where nothing changed.
 - Without a template, the skeleton is flat: each joint becomes a root with a zero offset
   and the channels of its columns. ``info``, ``clean`` and ``report`` work and CSV output
   keeps the columns, but writing BVH needs ``--skeleton`` (a clear error says so): the
@@ -137,6 +139,9 @@ class CsvText:
     needs_skeleton: bool = False
     blank: np.ndarray | None = None  # (F, K) bool: empty or NaN cells
     frame_column: bool = True  # a "frame" column (channel layout: rows written afresh keep it)
+    #: The BVH template's hierarchy (no frames) a channel CSV was read into when the
+    #: template's frames are not the CSV's: what a BVH written from the clip keeps.
+    bvh_template: BvhText | None = None
 
     @property
     def n_frames(self) -> int:
@@ -592,21 +597,37 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         missing=missing,
     )
     template = skeleton.source
-    if isinstance(template, BvhText):
-        if (
-            skeleton.has_source_frames()
-            and template.n_frames == motion.n_frames
-            and frame_time == template.frame_time
-        ):
-            other_text = values != skeleton.source_values  # (an edit, or another clip)
-            if other_text.any():  # the values read stay the clip's: its Euler branches
-                motion.source = replace(template, other_text=other_text)
-            else:
-                motion.source = template
-                motion.source_values = skeleton.source_values
-                motion.source_rotations = skeleton.source_rotations
+    if isinstance(template, BvhText) and (
+        skeleton.has_source_frames()
+        and template.n_frames == motion.n_frames
+        and frame_time == template.frame_time
+    ):
+        other_text = values != skeleton.source_values  # (an edit, or another clip)
+        if other_text.any():  # the values read stay the clip's: its Euler branches
+            motion.source = replace(template, other_text=other_text)
         else:
-            motion.source = BvhText.hierarchy_only(template)
+            motion.source = template
+            motion.source_values = skeleton.source_values
+            motion.source_rotations = skeleton.source_rotations
+        return motion
+    # the template's frames are not the CSV's (another take of the rig): the CSV's own text
+    # is the clip's source (written back as CSV byte for byte where nothing changed), with
+    # the template's hierarchy for BVH
+    motion.source = CsvText(
+        "channel",
+        data,
+        cells.starts,
+        cells.ends,
+        cells.values,
+        columns,
+        time_column,
+        (tuple(skeleton.names), tuple(skeleton.channels)),
+        frame_time,
+        eol,
+        blank=cells.blank,
+        frame_column="frame" in fields,
+        bvh_template=BvhText.hierarchy_only(template) if isinstance(template, BvhText) else None,
+    )
     return motion
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip, max_degrees, run_cli
+from helpers import CORPUS_NAMES, NOISY, ROOT, SAMPLE, corpus_clip, cut_bvh, max_degrees, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -539,3 +539,21 @@ def test_a_channel_csv_written_afresh_keeps_its_columns(tmp_path, frame):
     mc.save(half, tmp_path / "half.csv")
     written, _ = read_table(tmp_path / "half.csv")
     assert written == (header if frame else header[1:])
+
+
+def test_a_take_of_another_length_read_into_a_rig_keeps_its_own_text(tmp_path, capsys):
+    """One rig, many takes: a channel CSV of 120 frames read with a 300-frame rig comes back
+    byte for byte through a pipeline that changes nothing (its values had been written
+    afresh: '0.0000' as '0.0'), and written as BVH it keeps the rig's hierarchy text."""
+    take = tmp_path / "take.csv"
+    convert(cut_bvh(SAMPLE, tmp_path / "take.bvh", 120), take)
+    take.write_text(take.read_text().replace(".000000", ".0000"))  # its own formatting
+    out = tmp_path / "same.csv"
+    code, _, err = run_cli(
+        capsys, "clean", take, "-o", out, "--skeleton", SAMPLE, "-f", "lee-shin:joints=['None']"
+    )
+    assert code == 0, err
+    assert out.read_bytes() == take.read_bytes()
+    mc.save(mc.load(take, skeleton=mc.load(SAMPLE)), tmp_path / "take_out.bvh")
+    head = SAMPLE.read_text().split("MOTION")[0]
+    assert (tmp_path / "take_out.bvh").read_text().startswith(head)
