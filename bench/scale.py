@@ -1,9 +1,10 @@
 """Long clips: read + write, clean and memory from 1k to 100k frames, against peers.
 
 Run ``python bench/scale.py [--frames 1000 10000 100000] [--rounds 5]``. The clips are the
-corpus clip 131_02 (31 joints, 1,247 frames) cut or repeated to each length, every value's
-text kept. For each length it measures, in this process, in interleaved rounds (ours, then
-the peer, then ours again in the next round: load on a shared machine falls on both alike):
+corpus clip 131_02 (31 joints, 1,247 frames) cut or played back and forth to each length,
+every value's text kept. For each length it measures, in this process, in interleaved
+rounds (ours, then the peer, then ours again in the next round: load on a shared machine
+falls on both alike):
 
 - read + write with every rotation changed (motionclean ``load`` + ``save``; the change
   itself, one quaternion product, is not timed: pybvh changes nothing) against pybvh
@@ -59,13 +60,16 @@ ROUND_SECONDS = 0.3
 
 
 def build_clip(source: Path, frames: int, target: Path) -> Path:
-    """``source`` cut or repeated to ``frames`` frames (rows copied as text)."""
+    """``source`` cut or played back and forth to ``frames`` frames (rows copied as text):
+    one continuous clip (repeated end to end, each repeat would start with a jump, a clip
+    of takes joined end to end, cleaned take by take)."""
     raw = source.read_bytes()
     head, _, rest = raw.partition(b"MOTION")
     lines = rest.splitlines()
     at = next(i for i, line in enumerate(lines) if line.strip().startswith(b"Frame Time"))
     rows = [line for line in lines[at + 1 :] if line.strip()]
-    body = [rows[i % len(rows)] for i in range(frames)]
+    period = max(2 * (len(rows) - 1), 1)
+    body = [rows[min(i % period, period - i % period)] for i in range(frames)]
     eol = b"\r\n" if b"\r\n" in raw[:4096] else b"\n"
     text = eol.join([b"MOTION", b"Frames: %d" % frames, lines[at].strip(), *body]) + eol
     target.write_bytes(head + text)
@@ -183,7 +187,7 @@ def main() -> None:
             times = interleaved(pairs, rounds)
             peak = peak_memory(clip, out)
             rows.append((frames, clip.stat().st_size, times, peak, list(lines)))
-    print(f"Long clips: 131_02 (31 joints) cut or repeated; {rounds} interleaved rounds")
+    print(f"Long clips: 131_02 (31 joints) cut or played back and forth; {rounds} interleaved rounds")
     print(f"load average before {load_before}, after {load_average()}\n")
     print(
         "| frames | file MB | read + write ms | pybvh ms | pybvh / ours | clean + HTML s "
