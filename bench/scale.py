@@ -187,7 +187,7 @@ def main() -> None:
             times = interleaved(pairs, rounds)
             peak = peak_memory(clip, out)
             rows.append((frames, clip.stat().st_size, times, peak, list(lines)))
-    print(f"Long clips: 131_02 (31 joints) cut or played back and forth; {rounds} interleaved rounds")
+    print(f"Long clips: 131_02 (31 joints) cut or played back and forth; {rounds} rounds")
     print(f"load average before {load_before}, after {load_average()}\n")
     print(
         "| frames | file MB | read + write ms | pybvh ms | pybvh / ours | clean + HTML s "
