@@ -523,6 +523,31 @@ def _held_channel_values(
     return values, missing
 
 
+def _channel_text(
+    data, cells, columns, time_column, mapped, frame_time, eol, fields, template=None
+) -> CsvText:
+    """A channel CSV's own text as a clip's source: its cells mapped to ``mapped``
+    ``(names, channels)``; ``template``, the skeleton clip it was read into (None: read
+    without one, so writing BVH needs a skeleton), whose BVH hierarchy a BVH written keeps."""
+    source = None if template is None else template.source
+    return CsvText(
+        "channel",
+        data,
+        cells.starts,
+        cells.ends,
+        cells.values,
+        columns,
+        time_column,
+        (tuple(mapped[0]), tuple(mapped[1])),
+        frame_time,
+        eol,
+        needs_skeleton=template is None,
+        blank=cells.blank,
+        frame_column="frame" in fields,
+        bvh_template=BvhText.hierarchy_only(source) if isinstance(source, BvhText) else None,
+    )
+
+
 def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     """Parse a channel or rigid-body CSV (see the module docstring).
 
@@ -547,20 +572,8 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     if skeleton is None:
         names, channels, columns = _channel_skeleton(entries, path, header_line)
         frame_time = uniform_frame_time(times, cells.lines, path, None)
-        text = CsvText(
-            "channel",
-            data,
-            cells.starts,
-            cells.ends,
-            cells.values,
-            columns,
-            time_column,
-            (tuple(names), tuple(channels)),
-            frame_time,
-            eol,
-            needs_skeleton=True,
-            blank=cells.blank,
-            frame_column="frame" in fields,
+        text = _channel_text(
+            data, cells, columns, time_column, (names, channels), frame_time, eol, fields
         )
         values, missing = _held_channel_values(cells, data, columns, names, channels, fields, path)
         n = len(names)
@@ -613,20 +626,16 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     # the template's frames are not the CSV's (another take of the rig): the CSV's own text
     # is the clip's source (written back as CSV byte for byte where nothing changed), with
     # the template's hierarchy for BVH
-    motion.source = CsvText(
-        "channel",
+    motion.source = _channel_text(
         data,
-        cells.starts,
-        cells.ends,
-        cells.values,
+        cells,
         columns,
         time_column,
-        (tuple(skeleton.names), tuple(skeleton.channels)),
+        (skeleton.names, skeleton.channels),
         frame_time,
         eol,
-        blank=cells.blank,
-        frame_column="frame" in fields,
-        bvh_template=BvhText.hierarchy_only(template) if isinstance(template, BvhText) else None,
+        fields,
+        skeleton,
     )
     return motion
 
