@@ -181,9 +181,14 @@ def resample_motion(motion: Motion, frame_time: float) -> Motion:
         if lead or trail
         else _plain(bridged, frame_time, n_new, ratio)
     )
+    return _placeholders(out)
+
+
+def _placeholders(out: Motion) -> Motion:
+    """``out`` with its missing samples given placeholders again, as every clip holds them
+    (the nearest known sample)."""
     if out.missing is None:
         return out
-    # placeholders again, as every clip holds them (the nearest known sample)
     return out.replace(
         rotations=quat.make_continuous(hold_missing(out.rotations, out.missing), axis=0),
         translations=hold_missing(out.translations, out.missing),
@@ -208,12 +213,16 @@ def _bridged(motion: Motion) -> Motion:
     return motion.replace(rotations=filled.rotations, translations=filled.translations)
 
 
-def _plain(motion: Motion, frame_time: float, n_new: int, ratio: float) -> Motion:
-    """``motion`` (no rest frames) resampled to ``n_new`` frames ``frame_time`` apart."""
-    rotations, translations = _resampled(motion, ratio, n_new, antialias=True)
+def _plain(
+    motion: Motion, frame_time: float, n_new: int, ratio: float, first: int = 0, shift: int = 0
+) -> Motion:
+    """``motion`` (no rest frames) resampled to ``n_new`` frames ``frame_time`` apart: the
+    new frames ``first ..`` of a clip it starts ``shift`` old frames into
+    (:func:`~motionclean.filters.resample.sample_positions`)."""
+    rotations, translations = _resampled(motion, ratio, n_new, True, first, shift)
     missing = None
     if motion.missing is not None:
-        missing = _resampled_missing(motion.missing, ratio, n_new)
+        missing = _resampled_missing(motion.missing, ratio, n_new, first, shift)
     return motion.replace(
         rotations=rotations,
         translations=translations,
@@ -245,21 +254,9 @@ def resample_takes(
         if stop <= first:
             continue  # a take shorter than a new frame: no new frame falls in it
         part = _bridged(motion.at_frames(take))
-        n_part = int(stop - first)
-        rotations, translations = _resampled(part, ratio, n_part, True, int(first), take.start)
-        missing = None
-        if part.missing is not None:
-            missing = _resampled_missing(part.missing, ratio, n_part, int(first), take.start)
-            rotations = quat.make_continuous(hold_missing(rotations, missing), axis=0)
-            translations = hold_missing(translations, missing)
         parts.append(
-            part.replace(
-                rotations=rotations,
-                translations=translations,
-                frame_time=float(frame_time),
-                source_values=None,
-                source_rotations=None,
-                missing=missing,
+            _placeholders(
+                _plain(part, frame_time, int(stop - first), ratio, int(first), take.start)
             )
         )
     new_starts = np.unique(bounds[1:-1])
