@@ -159,27 +159,19 @@ def running(pid: str) -> bool:
     return state not in ("Z", "X")
 
 
+def slow_command(*args, **popen) -> subprocess.Popen:
+    """``motionclean ARGS -f fairing:...`` started, seconds of work a clip (to be stopped)."""
+    command = [str(Path(sys.executable).parent / "motionclean"), *map(str, args)]
+    command += ["-f", "fairing:max_iterations=3000,tol=0"]
+    return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
+
+
 @pytest.mark.slow
 def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
     source = tmp_path / "in"
     for k in range(12):
         cut_bvh(SAMPLE, source / f"c{k}.bvh", 300)
-    process = subprocess.Popen(
-        [
-            str(Path(sys.executable).parent / "motionclean"),
-            "batch",
-            str(source),
-            "-o",
-            str(tmp_path / "o"),
-            "-j",
-            "2",
-            "-f",
-            "fairing:max_iterations=3000,tol=0",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
+    process = slow_command("batch", source, "-o", tmp_path / "o", "-j", "2", start_new_session=True)
     time.sleep(3.0)
     children = subprocess.run(
         ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
@@ -198,19 +190,7 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
 def test_sigterm_stops_a_clean_as_ctrl_c_does(tmp_path):
     """kill, timeout(1) and schedulers send SIGTERM: one line, exit 130, nothing left (the
     command had died by the signal, silent, a hidden temporary file left mid-write)."""
-    process = subprocess.Popen(
-        [
-            str(Path(sys.executable).parent / "motionclean"),
-            "clean",
-            str(SAMPLE),
-            "-o",
-            str(tmp_path / "o.bvh"),
-            "-f",
-            "fairing:max_iterations=3000,tol=0",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-    )
+    process = slow_command("clean", SAMPLE, "-o", tmp_path / "o.bvh")
     time.sleep(1.0)
     process.send_signal(signal.SIGTERM)
     try:
