@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from ..core import checks, quat
+from ..core import checks, quat, threads
 from .linear import MAX_ITERATIONS
 
 __all__ = [
@@ -55,6 +55,10 @@ MAX_BACKTRACKS = 40
 #: fraction has stalled at the precision of its evaluation or at a kink of the objective
 #: (the shortest-arc logs are not differentiable at half turns).
 STALL = 1e-12
+#: Samples (frames x signals) solved together at most: the iterations hold about a dozen
+#: copies of their signals, so long clips are solved a few signals at a time (the signals
+#: are independent: the result is the same) and memory stays a few times the clip's.
+GROUP_SAMPLES = 1 << 18
 
 
 # --------------------------------------------------------------------------- layout
@@ -146,16 +150,23 @@ def _solve(
     """Shared ending of the fairing functions, on the planes ``x0`` ``(width, F, N)``.
 
     ``solve(x0) -> (planes, iterations per signal)`` runs when the signals have at least
-    ``min_frames`` frames; shorter ones have no energy term and come back unchanged, after
-    no iterations. With ``rotations`` the signals that moved lose the rounding drift of
-    their norms (:func:`_renormalize`); with ``continuous`` the result is made
-    sign-continuous. Returns the ``(F, ..., width)`` result, and with
-    ``return_iterations`` also the iterations, shape ``trailing``.
+    ``min_frames`` frames, on :data:`GROUP_SAMPLES` samples' worth of signals at a time
+    (on the threads of :mod:`motionclean.core.threads`); shorter ones have no energy term
+    and come back unchanged, after no iterations. With ``rotations`` the signals that
+    moved lose the rounding drift of their norms (:func:`_renormalize`); with
+    ``continuous`` the result is made sign-continuous. Returns the ``(F, ..., width)``
+    result, and with ``return_iterations`` also the iterations, shape ``trailing``.
     """
     if x0.shape[1] < min_frames:
         out, iterations = x0, np.zeros(x0.shape[-1], dtype=np.int64)
     else:
-        out, iterations = solve(x0)
+        out, iterations = np.empty_like(x0), np.empty(x0.shape[-1], dtype=np.int64)
+        group = max(GROUP_SAMPLES // x0.shape[1], 1)
+
+        def solve_group(signals: slice) -> None:
+            out[..., signals], iterations[signals] = solve(np.ascontiguousarray(x0[..., signals]))
+
+        threads.run_parts(solve_group, threads.in_parts(x0.shape[-1], group), x0.size)
         if rotations:
             out = _renormalize(out, iterations)
     out = _from_planes(out, trailing)

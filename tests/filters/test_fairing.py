@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import math
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -208,6 +210,27 @@ def test_fairing_joints_are_independent():
     together_p = fairing_positions(p, 3, 0.5, 0.2)
     for j in range(5):
         np.testing.assert_allclose(together_p[:, j], fairing_positions(p[:, j], 3, 0.5, 0.2))
+
+
+@pytest.mark.parametrize("solver", [fairing, sse_fairing])
+def test_a_long_clip_is_solved_a_few_signals_at_a_time(solver, monkeypatch):
+    """Memory stays a few times the clip's: the iterations' dozen copies are made of a
+    group of signals at a time (here one: the groups shrunk to fit a short test clip), on
+    one thread, and the result is each signal's own."""
+    module = importlib.import_module("motionclean.filters.fairing")  # not the function
+    rng = np.random.default_rng(5)
+    q = noisy_rotations(rng, 4000, (8,), noise=0.004)
+    whole = solver(q, max_iterations=5)
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "1")
+    monkeypatch.setattr(module, "GROUP_SAMPLES", 4000)
+    tracemalloc.start()
+    try:
+        grouped = solver(q, max_iterations=5)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 6 * q.nbytes
+    np.testing.assert_allclose(grouped, whole, rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------ invariance
