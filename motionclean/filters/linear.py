@@ -279,7 +279,9 @@ def _lee_shin_pass(
         quat.multiply_planes([dst[f0:f1, :, c] for c in range(4)], body, e, scratch[:2])
 
 
-def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
+def lee_shin(
+    q: np.ndarray, mask, iterations: int = 1, cut_above: float | None = None
+) -> np.ndarray:
     """Apply the orientation filter of ``mask`` ``iterations`` times (000 Eq. 19-20, 26).
 
     Parameters
@@ -291,20 +293,28 @@ def lee_shin(q: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
         Odd-length mask summing to one, e.g. :func:`masks.binomial` ``(2)``.
     iterations : int
         Number of passes (a non-negative whole number).
+    cut_above : float, optional
+        Radians of rotation: a step between two frames larger than this (a half-turn flip,
+        a glitch) is taken as no motion in every pass, so no frame is moved across it and a
+        flip stays a flip instead of becoming a fast turn. None: 000's filter as printed.
 
     Returns
     -------
     (F, ..., 4) array
         Filtered unit quaternions, signs following the sign-continuous input. Coordinate
         invariant on both sides (Prop. 1), time invariant (Prop. 2) and symmetric for
-        symmetric masks (Prop. 3).
+        symmetric masks (Prop. 3), with or without a cut (a step's angle is invariant).
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)
     q = checks.unit_quaternions(q)
+    if cut_above is not None:
+        cut_above = checks.number(cut_above, "cut_above")
+        if not cut_above > 0:
+            raise ValueError(f"cut_above must be a positive angle in radians, got {cut_above}")
     if q.shape[0] < 2 or b.size == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
-    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
+    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b, cut_above), q, iterations)
 
 
 def lee_shin_unchecked(q: np.ndarray, mask, cut_above: float | None = None) -> np.ndarray:

@@ -16,7 +16,9 @@ from ..core import quat
 from ..core.threads import in_parts, run_parts
 
 __all__ = [
+    "DEFECT_STEP_DEG",
     "angular_acceleration",
+    "defect_rows",
     "deviation_deg",
     "distance",
     "known",
@@ -71,6 +73,29 @@ def angular_acceleration(
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
     return left_out(out, missing, starts)
+
+
+#: A step between two frames larger than this (degrees of rotation) is a capture defect (a
+#: half-turn flip, a glitch), not motion and not jitter.
+DEFECT_STEP_DEG = 90.0
+
+
+def defect_rows(q: np.ndarray) -> np.ndarray:
+    """``(F-2, ...)`` bool: the rows of :func:`angular_acceleration` of ``q`` ``(F, ...,
+    4)`` whose two steps include one over :data:`DEFECT_STEP_DEG` (computed block by block,
+    on the shorter arc: the signs of ``q`` do not matter)."""
+    q = np.asarray(q, dtype=np.float64)
+    n = q.shape[0]
+    out = np.empty((max(n - 2, 0), *q.shape[1:-1]), dtype=bool)
+    floor = np.cos(np.radians(DEFECT_STEP_DEG) / 2.0)  # |q_i . q_i+1| of that step
+
+    def block(rows: slice) -> None:
+        part = q[rows.start : rows.stop + 2]
+        big = np.abs(np.einsum("...i,...i->...", part[:-1], part[1:])) < floor
+        np.logical_or(big[:-1], big[1:], out=out[rows])
+
+    run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
+    return out
 
 
 def linear_acceleration(

@@ -60,7 +60,10 @@ def build_series(
     joints, without the rows that involve the clip's rest-pose frames, and ``figures
     ["outside_repairs"]`` the same figures of the joints in ``repairs`` (joint name: ``(F,)``
     mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
-    rows that involve a repaired frame. No per-frame table of the joints is kept: each is
+    rows that involve a repaired frame, and the accelerations of every joint without the rows
+    that involve a step of the input over :data:`.metrics.DEFECT_STEP_DEG` (a flip or glitch
+    left in place is no jitter; the deviation keeps those frames, where a smoothing that
+    crossed the flip moved the joint). No per-frame table of the joints is kept: each is
     reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
 
     ``figures["positions"]`` (None for a single clip or a clip without position channels)
@@ -111,6 +114,11 @@ def build_series(
         n: repairs[before.names[j]] for n, j in enumerate(rot) if before.names[j] in repairs
     }
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
+    # a flip or glitch the input makes and no step repaired is no jitter either
+    defects = metrics.defect_rows(before.rotations[:, cols])
+    for n in np.flatnonzero(defects.any(axis=0)).tolist():
+        accel_rows[n] = accel_rows[n] | defects[:, n] if n in accel_rows else defects[:, n]
+    del defects
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
     missing = _missing(before, after, cols)
     starts = take_starts(before)

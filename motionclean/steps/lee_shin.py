@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -113,7 +114,7 @@ def _resolve_lee_shin(params: dict, where: str) -> None:
 
 
 def _lee_shin_relevant(params: dict) -> tuple[str, ...]:
-    return ("mask", *MASK_KINDS[params["mask"]].params, "iterations")
+    return ("mask", *MASK_KINDS[params["mask"]].params, "iterations", "cut_deg")
 
 
 def _run_lee_shin(data: StepData, params: dict) -> StepData:
@@ -126,7 +127,9 @@ def _run_lee_shin(data: StepData, params: dict) -> StepData:
         )
         params = {**params, "half_width": most}
     mask = _mask_from(params, data.frame_time)
-    data.rotations = lee_shin(data.rotations, mask, params["iterations"])
+    cut = params["cut_deg"]
+    cut_above = None if math.isinf(cut) else math.radians(cut)
+    data.rotations = lee_shin(data.rotations, mask, params["iterations"], cut_above)
     if data.translations is not None:
         data.translations = lee_shin_positions(data.translations, mask, params["iterations"])
     return data
@@ -192,6 +195,17 @@ STEP = StepSpec(
         ),
         Param("coefficients", "floats", None, "mask=custom: odd-length list summing to 1"),
         Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
+        Param(
+            "cut_deg",
+            "float",
+            90.0,
+            "a step between two frames larger than this (degrees of rotation) is a flip or "
+            "a glitch, not motion: no frame is moved across it, so a flip stays a flip "
+            "(despike repairs it) instead of becoming a fast turn; inf smooths across it",
+            minimum=0.0,
+            exclusive_minimum=True,
+            infinite_ok=True,
+        ),
     ),
     run=_run_lee_shin,
     resolve=_resolve_lee_shin,

@@ -73,7 +73,11 @@ def test_a_weaker_pipeline_fails_and_a_looser_tolerance_does_not(clips, capsys):
     code, _, stderr = run_cli(
         capsys, "check", *clips, "--baseline", "b.json", "-f", "lee-shin:k=2,iterations=2"
     )
-    assert code == 1 and stderr.count("noise after got worse") == 2
+    # (each clip's joints got noisier; the clip's own figure is its RThumb's flips, which
+    # lee-shin leaves as they are)
+    lines = stderr.strip().splitlines()
+    assert code == 1 and len(lines) == 2 and all("joints got worse" in line for line in lines)
+    assert all("noise after" in line for line in lines)
     code, _, _ = run_cli(
         capsys,
         "check",

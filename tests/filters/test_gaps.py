@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 import numpy as np
@@ -321,13 +322,13 @@ def test_other_steps_filter_each_known_stretch_on_its_own():
     wrist = clip.names.index("RightWrist")
     gappy = with_gap(clip, wrist, slice(100, 190))
     out, _ = Pipeline.from_inline(["lee-shin:k=3"]).run(gappy)
-    mask = masks.binomial(3)
+    mask, cut = masks.binomial(3), math.radians(90.0)  # (the step's default cut_deg)
     for rows in (slice(0, 100), slice(190, None)):
-        expected = lee_shin(clip.rotations[rows, wrist], mask)
+        expected = lee_shin(clip.rotations[rows, wrist], mask, 1, cut)
         assert max_degrees(out.rotations[rows, wrist], expected) < 1e-12
     np.testing.assert_array_equal(out.rotations[100:190, wrist], gappy.rotations[100:190, wrist])
     others = [j for j in range(clip.n_joints) if j != wrist]
-    whole = lee_shin(clip.rotations[:, others], mask)
+    whole = lee_shin(clip.rotations[:, others], mask, 1, cut)
     assert max_degrees(out.rotations[:, others], whole) < 1e-12
 
 

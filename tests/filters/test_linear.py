@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -314,7 +315,10 @@ def motion_section(path: Path) -> bytes:
 
 
 @pytest.mark.parametrize("name", CORPUS_NAMES)
-def test_cli_clean_matches_lee_shin_on_corpus(name, tmp_path):
+@pytest.mark.parametrize("cut_deg", [90.0, math.inf])
+def test_cli_clean_matches_lee_shin_on_corpus(name, cut_deg, tmp_path):
+    """The step is the library's filter, cut at the step's cut_deg (inf: 000's as printed;
+    the corpus's RThumb flips by half turns, which a cut of 90 degrees leaves as flips)."""
     clip = corpus_clip(name)
     out_path = tmp_path / "clean.bvh"
     run_cli(
@@ -324,11 +328,12 @@ def test_cli_clean_matches_lee_shin_on_corpus(name, tmp_path):
         str(out_path),
         "-q",
         "-f",
-        "lee-shin:mask=binomial,k=2,iterations=5",
+        f"lee-shin:mask=binomial,k=2,iterations=5,cut_deg={cut_deg}",
     )
     source, cleaned = mc.load(clip), mc.load(out_path)
     has_rot = source.layout.has_rotation
-    expected = lee_shin(source.rotations, binomial(2), 5)
+    cut = None if math.isinf(cut_deg) else math.radians(cut_deg)
+    expected = lee_shin(source.rotations, binomial(2), 5, cut)
     error_deg = np.degrees(quat.angle_between(cleaned.rotations, expected))[:, has_rot]
     assert error_deg.max() < 1e-4  # only the file's 6 printed decimals
     assert np.degrees(max_angle(cleaned.rotations, source.rotations)) > 1.0  # it did filter

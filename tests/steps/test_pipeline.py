@@ -52,6 +52,7 @@ def test_toml_and_inline_give_the_same_steps(tmp_path):
             "mask": "binomial",
             "k": 2,
             "iterations": 5,
+            "cut_deg": 90.0,
             "joints": ["*", "!RThumb"],
             "positions": False,
         }
