@@ -18,7 +18,7 @@ from ..core.threads import in_parts, run_parts
 __all__ = [
     "DEFECT_STEP_DEG",
     "angular_acceleration",
-    "defect_rows",
+    "defect_steps",
     "deviation_deg",
     "distance",
     "known",
@@ -80,19 +80,18 @@ def angular_acceleration(
 DEFECT_STEP_DEG = 90.0
 
 
-def defect_rows(q: np.ndarray) -> np.ndarray:
-    """``(F-2, ...)`` bool: the rows of :func:`angular_acceleration` of ``q`` ``(F, ...,
-    4)`` whose two steps include one over :data:`DEFECT_STEP_DEG` (computed block by block,
-    on the shorter arc: the signs of ``q`` do not matter)."""
+def defect_steps(q: np.ndarray) -> np.ndarray:
+    """``(F-1, ...)`` bool: the steps between consecutive frames of ``q`` ``(F, ..., 4)``
+    over :data:`DEFECT_STEP_DEG` (computed block by block, on the shorter arc: the signs of
+    ``q`` do not matter). The rows of :func:`angular_acceleration` they touch are
+    ``steps[:-1] | steps[1:]``."""
     q = np.asarray(q, dtype=np.float64)
-    n = q.shape[0]
-    out = np.empty((max(n - 2, 0), *q.shape[1:-1]), dtype=bool)
+    out = np.empty((max(q.shape[0] - 1, 0), *q.shape[1:-1]), dtype=bool)
     floor = np.cos(np.radians(DEFECT_STEP_DEG) / 2.0)  # |q_i . q_i+1| of that step
 
     def block(rows: slice) -> None:
-        part = q[rows.start : rows.stop + 2]
-        big = np.abs(np.einsum("...i,...i->...", part[:-1], part[1:])) < floor
-        np.logical_or(big[:-1], big[1:], out=out[rows])
+        part = q[rows.start : rows.stop + 1]
+        np.less(np.abs(np.einsum("...i,...i->...", part[:-1], part[1:])), floor, out=out[rows])
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
     return out

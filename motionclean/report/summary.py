@@ -63,7 +63,8 @@ def build_series(
     rows that involve a repaired frame, and the accelerations of every joint without the rows
     that involve a step of the input over :data:`.metrics.DEFECT_STEP_DEG` (a flip or glitch
     left in place is no jitter; the deviation keeps those frames, where a smoothing that
-    crossed the flip moved the joint). No per-frame table of the joints is kept: each is
+    crossed the flip moved the joint). ``defect_steps``: per joint name, how many such
+    steps between frames no step repaired. No per-frame table of the joints is kept: each is
     reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
 
     ``figures["positions"]`` (None for a single clip or a clip without position channels)
@@ -115,9 +116,16 @@ def build_series(
     }
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
     # a flip or glitch the input makes and no step repaired is no jitter either
-    defects = metrics.defect_rows(before.rotations[:, cols])
+    defects = metrics.defect_steps(before.rotations[:, cols])
+    left_in_place = {}  # joint name: steps over 90 degrees no step repaired
     for n in np.flatnonzero(defects.any(axis=0)).tolist():
-        accel_rows[n] = accel_rows[n] | defects[:, n] if n in accel_rows else defects[:, n]
+        steps = defects[:, n]
+        if n in repaired:
+            steps = steps & ~repaired[n][:-1] & ~repaired[n][1:]
+        rows = steps[:-1] | steps[1:]
+        accel_rows[n] = accel_rows[n] | rows if n in accel_rows else rows
+        if steps.any():
+            left_in_place[before.names[rot[n]]] = int(steps.sum())
     del defects
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
     missing = _missing(before, after, cols)
@@ -167,6 +175,7 @@ def build_series(
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
+        "defect_steps": left_in_place,
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
@@ -322,6 +331,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
+        "defect_steps": series.get("defect_steps", {}),
     } | _position_smoothing(figures.get("positions"))
 
 

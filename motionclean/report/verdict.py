@@ -41,6 +41,7 @@ from ..core.motion import UNCHANGED_TOLERANCE
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs, plural
+from .metrics import DEFECT_STEP_DEG
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
@@ -269,6 +270,19 @@ def _missing_words(joints: dict[str, dict]) -> list[str]:
     return words
 
 
+def _across_defects(smoothing: dict, joint: str, filters: list) -> str:
+    """Why smoothing moved ``joint`` far, where its input steps by more than
+    :data:`.metrics.DEFECT_STEP_DEG` and nothing repaired those steps ("" elsewhere)."""
+    count = (smoothing.get("defect_steps") or {}).get(joint, 0)
+    if not count:
+        return ""
+    what = "despike left them" if "despike" in filters else "despike repairs them first"
+    return (
+        f" across {plural(count, 'step')} of over {DEFECT_STEP_DEG:g} degrees in the input "
+        f"(flips or glitches: {what})"
+    )
+
+
 def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     """The verdict of a report (:func:`motionclean.report.summary.build_report`'s dict, before
     its ``verdict`` key): ``status``, ``text`` and the figures behind them.
@@ -317,7 +331,9 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     )
     what = "smoothing moved" if filters and smoothed else "the cleaning moved"
     if change > LOOK_CHANGE_DEG:
-        reasons.append(f"{what} {joint} by {change:.1f} degrees")
+        reasons.append(
+            f"{what} {joint} by {change:.1f} degrees{_across_defects(smoothing, joint, filters)}"
+        )
     grounded = _ground_words(joints)
     # positions: moved beyond the writers' rounding, and not by the ground step alone
     # (which moves and levels the whole clip without smoothing it)

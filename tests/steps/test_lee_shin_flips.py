@@ -71,3 +71,7 @@ def test_the_step_leaves_unrepaired_flips_and_the_verdict_counts_the_jitter_else
     )
     assert degrees_between(spun.after.rotations[:, thumb], clip.rotations[:, thumb]).max() > 30
     assert "smoothing moved RThumb" in spun.report["verdict"]["text"]
+    assert "across 10 steps of over 90 degrees in the input" in spun.report["verdict"]["text"]
+    assert "despike repairs them first" in spun.report["verdict"]["text"]
+    kept = clean_motion(clip, Pipeline.from_inline(["despike", "multires:level=2"]), "n.bvh")
+    assert "steps of over 90 degrees" not in kept.report["verdict"]["text"]  # repaired first
