@@ -28,7 +28,8 @@ import math
 
 import numpy as np
 
-from ..core import checks, quat, threads
+from ..core import checks, quat
+from ..core.threads import in_parts
 from .linear import MAX_ITERATIONS
 
 __all__ = [
@@ -56,8 +57,11 @@ MAX_BACKTRACKS = 40
 #: (the shortest-arc logs are not differentiable at half turns).
 STALL = 1e-12
 #: Samples (frames x signals) solved together at most: the iterations hold about a dozen
-#: copies of their signals, so long clips are solved a few signals at a time (the signals
-#: are independent: the result is the same) and memory stays a few times the clip's.
+#: copies of their signals, so a long clip is solved a few signals at a time, one group
+#: after the other (each signal stops on its own: the result is each signal's, within
+#: rounding for ``sse-fairing``, whose sums then run in another order), and memory stays a
+#: few times the clip's. (Groups on threads would hold a dozen copies each at once, and
+#: iterations on signals this long are bound by memory, not by the processor.)
 GROUP_SAMPLES = 1 << 18
 
 
@@ -151,7 +155,7 @@ def _solve(
 
     ``solve(x0) -> (planes, iterations per signal)`` runs when the signals have at least
     ``min_frames`` frames, on :data:`GROUP_SAMPLES` samples' worth of signals at a time
-    (on the threads of :mod:`motionclean.core.threads`); shorter ones have no energy term
+    (one signal at least); shorter ones have no energy term
     and come back unchanged, after no iterations. With ``rotations`` the signals that
     moved lose the rounding drift of their norms (:func:`_renormalize`); with
     ``continuous`` the result is made sign-continuous. Returns the ``(F, ..., width)``
@@ -163,10 +167,8 @@ def _solve(
         out, iterations = np.empty_like(x0), np.empty(x0.shape[-1], dtype=np.int64)
         group = max(GROUP_SAMPLES // x0.shape[1], 1)
 
-        def solve_group(signals: slice) -> None:
+        for signals in in_parts(x0.shape[-1], group):
             out[..., signals], iterations[signals] = solve(np.ascontiguousarray(x0[..., signals]))
-
-        threads.run_parts(solve_group, threads.in_parts(x0.shape[-1], group), x0.size)
         if rotations:
             out = _renormalize(out, iterations)
     out = _from_planes(out, trailing)

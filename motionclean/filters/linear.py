@@ -27,6 +27,7 @@ from typing import Protocol
 import numpy as np
 
 from ..core import checks, quat
+from ..core.jumps import jump_steps
 from .masks import validate_mask
 
 __all__ = [
@@ -227,12 +228,8 @@ def run_passes(one_pass, x: np.ndarray, iterations: int) -> np.ndarray:
     return cur.reshape(x.shape)
 
 
-def _lee_shin_pass(
-    src: np.ndarray, dst: np.ndarray, b: np.ndarray, cut_above: float | None = None
-) -> None:
-    """One pass of Eq. 19 from ``src`` to ``dst``, both ``(F, M, 4)`` with ``F >= 2``;
-    with ``cut_above`` (radians), a step larger than that (a half-turn flip, a glitch) is
-    taken as no motion: its displacement counts 0, so no frame is moved across it.
+def _lee_shin_pass(src: np.ndarray, dst: np.ndarray, b: np.ndarray) -> None:
+    """One pass of Eq. 19 from ``src`` to ``dst``, both ``(F, M, 4)`` with ``F >= 2``.
 
     Each block of output frames ``f0 .. f1-1`` needs the displacements at positions
     ``f0-k .. f1+k-2``: those inside ``0 .. F-2`` are computed from the block's samples,
@@ -261,8 +258,6 @@ def _lee_shin_pass(
         # w_i = log(+-q_i^-1 q_{i+1}), written straight into the block's displacement window.
         quat.multiply_planes([rel_w, *inside], qc[:, :-1], qc[:, 1:], scratch, True)
         quat.log_planes(inside, [rel_w, *inside], scratch, shortest=True)
-        if cut_above is not None:  # |w| = cos(step / 2) of the shorter arc
-            inside[:, np.abs(rel_w) < math.cos(cut_above / 2.0)] = 0.0
         fill_mirrored_ends(ext, start, lo, hi, n)
         # Steps f0 -> f0+1, ..., (f1-1) -> f1 (one fewer in the last block).
         signs, sigma = continuity_signs(rel_w[f0 - lo : f1 - lo], length, sigma)
@@ -294,16 +289,18 @@ def lee_shin(
     iterations : int
         Number of passes (a non-negative whole number).
     cut_above : float, optional
-        Radians of rotation: a step between two frames larger than this (a half-turn flip,
-        a glitch) is taken as no motion in every pass, so no frame is moved across it and a
-        flip stays a flip instead of becoming a fast turn. None: 000's filter as printed.
+        Radians of rotation: a signal is cut at every step between two frames that turns
+        by more than this (a half-turn flip, a glitch: no motion), and each stretch between
+        cuts is filtered as a signal of its own, its ends mirrored by Eq. 26 (a stretch of
+        one frame is kept), so a flip stays a flip instead of becoming a fast turn. None,
+        or pi and above (no step turns further): 000's filter as printed.
 
     Returns
     -------
     (F, ..., 4) array
         Filtered unit quaternions, signs following the sign-continuous input. Coordinate
         invariant on both sides (Prop. 1), time invariant (Prop. 2) and symmetric for
-        symmetric masks (Prop. 3), with or without a cut (a step's angle is invariant).
+        symmetric masks (Prop. 3), with or without cuts (a step's angle is invariant).
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)
@@ -311,19 +308,44 @@ def lee_shin(
     if cut_above is not None:
         cut_above = checks.number(cut_above, "cut_above")
         if not cut_above > 0:
-            raise ValueError(f"cut_above must be a positive angle in radians, got {cut_above}")
+            raise ValueError(f"cut_above must be an angle in radians above 0, got {cut_above}")
     if q.shape[0] < 2 or b.size == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
-    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b, cut_above), q, iterations)
+
+    def filtered(x: np.ndarray) -> np.ndarray:
+        return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), x, iterations)
+
+    if cut_above is None or cut_above >= math.pi:
+        return filtered(q)
+    q = quat.make_continuous(q, axis=0)
+    return in_stretches(filtered, q, jump_steps(q, math.degrees(cut_above)))
 
 
-def lee_shin_unchecked(q: np.ndarray, mask, cut_above: float | None = None) -> np.ndarray:
+def in_stretches(filtered, q: np.ndarray, cuts: np.ndarray) -> np.ndarray:
+    """``filtered`` (a function of ``(F, M, 4)`` signals) of each stretch of ``q`` ``(F,
+    ..., 4)`` between the steps ``cuts`` ``(F-1, ...)``, as a signal of its own: the columns
+    without a cut in one call, then each stretch of the others (a loop over the cuts, which
+    are defects, not over frames); stretches of one frame are kept."""
+    flat = q.reshape(q.shape[0], -1, 4)
+    cuts = cuts.reshape(cuts.shape[0], -1)
+    out = flat.copy()
+    cut = cuts.any(axis=0)
+    whole = np.flatnonzero(~cut)
+    if whole.size:
+        out[:, whole] = filtered(flat[:, whole])
+    for column in np.flatnonzero(cut).tolist():
+        edges = [0, *(np.flatnonzero(cuts[:, column]) + 1).tolist(), q.shape[0]]
+        for first, stop in zip(edges[:-1], edges[1:], strict=True):
+            if stop - first >= 2:
+                out[first:stop, column] = filtered(flat[first:stop, column, None])[:, 0]
+    return out.reshape(q.shape)
+
+
+def lee_shin_unchecked(q: np.ndarray, mask) -> np.ndarray:
     """One pass of :func:`lee_shin` without validating ``q`` (``(F, ..., 4)``, ``F >= 2``):
-    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations.
-    ``cut_above`` (radians): steps larger than that move no frame (a flip is not smeared
-    into its neighbours)."""
+    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations."""
     b = displacement_coefficients(mask)
-    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b, cut_above), q, 1)
+    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, 1)
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:

@@ -17,8 +17,9 @@ zero-phase low-pass at :data:`ANTIALIAS_CUTOFF` times the new Nyquist frequency
 (:func:`.design.lowpass`, a mask of :data:`ANTIALIAS_PERIODS` periods of the cutoff on each
 side: gain below 1e-2 from the new Nyquist frequency up, about 1 below 0.4 of it), run as
 000's orientation filter (Eq. 19-20) and its vector counterpart, so the result does not
-alias; on rotations it is cut where the spline is (a step over :data:`.spline.JUMP_DEG`, a
-half-turn flip: no frame is moved across it, so a flip left in the clip stays a flip).
+alias; on rotations it is cut where the spline is (a step over
+:data:`motionclean.core.jumps.JUMP_DEG`, a half-turn flip): each stretch between such steps is
+filtered on its own (:func:`.linear.in_stretches`), so a flip left in the clip stays a flip.
 """
 
 from __future__ import annotations
@@ -29,9 +30,10 @@ from fractions import Fraction
 import numpy as np
 
 from ..core import checks, quat
+from ..core.jumps import jump_steps
 from .design import lowpass
-from .linear import lee_shin_positions, lee_shin_unchecked
-from .spline import JUMP_DEG, evaluate, evaluate_positions, position_spline, rotation_spline
+from .linear import in_stretches, lee_shin_positions, lee_shin_unchecked
+from .spline import evaluate, evaluate_positions, position_spline, rotation_spline
 
 #: The anti-aliasing low-pass cuts (-6 dB) at this share of the new Nyquist frequency ...
 ANTIALIAS_CUTOFF = 0.7
@@ -148,7 +150,7 @@ def resample_continuous(
     (:func:`sample_positions`)."""
     mask = antialias_mask(ratio) if antialias else None
     if mask is not None:  # cut where the spline is: a flip is not smeared into a turn
-        q = lee_shin_unchecked(q, mask, cut_above=math.radians(JUMP_DEG))
+        q = in_stretches(lambda x: lee_shin_unchecked(x, mask), q, jump_steps(q))
     n_new = resampled_length(q.shape[0], ratio) if n_new is None else n_new
     return _at_times(q, True, ratio, n_new, first, shift)
 

@@ -42,6 +42,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core import quat
+from ..core.jumps import JUMP_DEG, jump_steps
 
 __all__ = [
     "JUMP_DEG",
@@ -64,8 +65,6 @@ TOLERANCE = 1e-9
 #: Parallel cyclic reduction stops once every coupling left is below this (relative to the
 #: diagonal, about 1): four levels. The passes correct what it leaves.
 COUPLING = 1e-9
-#: A step between samples of more than this rotation (degrees) cuts the spline.
-JUMP_DEG = 90.0
 
 
 def solve_tridiagonal(free: np.ndarray, e: np.ndarray, coupling: float = 1e-18) -> np.ndarray:
@@ -123,12 +122,6 @@ class RotationSpline(NamedTuple):
     jump: np.ndarray
     samples: np.ndarray
     shape: tuple[int, ...] = ()
-
-
-def _jumps(q: np.ndarray) -> np.ndarray:
-    """``(F-1, ...)``: steps between samples larger than :data:`JUMP_DEG`."""
-    w = np.abs(np.einsum("...i,...i->...", q[:-1], q[1:]))
-    return w < np.cos(np.radians(JUMP_DEG) / 2.0)
 
 
 def _pieces(c: np.ndarray, jump: np.ndarray) -> RotationSpline:
@@ -213,7 +206,7 @@ def rotation_spline(q: np.ndarray) -> RotationSpline:
     ``F >= 2`` (module docstring), ready for :func:`evaluate`."""
     shape = np.shape(q)
     q = np.asarray(q, dtype=np.float64).reshape(shape[0], -1, 4)
-    jump = _jumps(q)
+    jump = jump_steps(q)
     # knots whose both neighbouring steps are no jump are solved for; the others are fixed
     free = np.zeros(q.shape[:-1], dtype=bool)
     free[1:-1] = ~jump[:-1] & ~jump[1:]

@@ -16,9 +16,7 @@ from ..core import quat
 from ..core.threads import in_parts, run_parts
 
 __all__ = [
-    "DEFECT_STEP_DEG",
     "angular_acceleration",
-    "defect_steps",
     "deviation_deg",
     "distance",
     "known",
@@ -73,28 +71,6 @@ def angular_acceleration(
 
     run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
     return left_out(out, missing, starts)
-
-
-#: A step between two frames larger than this (degrees of rotation) is a capture defect (a
-#: half-turn flip, a glitch), not motion and not jitter.
-DEFECT_STEP_DEG = 90.0
-
-
-def defect_steps(q: np.ndarray) -> np.ndarray:
-    """``(F-1, ...)`` bool: the steps between consecutive frames of ``q`` ``(F, ..., 4)``
-    over :data:`DEFECT_STEP_DEG` (computed block by block, on the shorter arc: the signs of
-    ``q`` do not matter). The rows of :func:`angular_acceleration` they touch are
-    ``steps[:-1] | steps[1:]``."""
-    q = np.asarray(q, dtype=np.float64)
-    out = np.empty((max(q.shape[0] - 1, 0), *q.shape[1:-1]), dtype=bool)
-    floor = np.cos(np.radians(DEFECT_STEP_DEG) / 2.0)  # |q_i . q_i+1| of that step
-
-    def block(rows: slice) -> None:
-        part = q[rows.start : rows.stop + 1]
-        np.less(np.abs(np.einsum("...i,...i->...", part[:-1], part[1:])), floor, out=out[rows])
-
-    run_parts(block, in_parts(out.shape[0], BLOCK_FRAMES), q.size)
-    return out
 
 
 def linear_acceleration(

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core import contacts as found
 from ..core import kinematics
+from ..core.jumps import jump_steps
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
@@ -61,11 +62,12 @@ def build_series(
     ["outside_repairs"]`` the same figures of the joints in ``repairs`` (joint name: ``(F,)``
     mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
     rows that involve a repaired frame, and the accelerations of every joint without the rows
-    that involve a step of the input over :data:`.metrics.DEFECT_STEP_DEG` (a flip or glitch
-    left in place is no jitter; the deviation keeps those frames, where a smoothing that
-    crossed the flip moved the joint). ``defect_steps``: per joint name, how many such
-    steps between frames no step repaired. No per-frame table of the joints is kept: each is
-    reduced as soon as it is made (the feet's heights, ``(F,)`` per foot, are).
+    that involve a step of the input over :data:`~motionclean.core.jumps.JUMP_DEG` that no
+    step repaired (:func:`_unrepaired_jumps`: a flip or glitch left in place is no jitter;
+    the deviation keeps those frames, where a smoothing that crossed the flip moved the
+    joint). ``unrepaired_jumps``: per joint name, how many such steps. No per-frame table
+    of the joints is kept: each is reduced as soon as it is made (the feet's heights,
+    ``(F,)`` per foot, are).
 
     ``figures["positions"]`` (None for a single clip or a clip without position channels)
     holds the same of the joints with position channels, outside the frames
@@ -115,21 +117,17 @@ def build_series(
         n: repairs[before.names[j]] for n, j in enumerate(rot) if before.names[j] in repairs
     }
     accel_rows = {n: mask[:-2] | mask[1:-1] | mask[2:] for n, mask in repaired.items()}
-    # a flip or glitch the input makes and no step repaired is no jitter either
-    defects = metrics.defect_steps(before.rotations[:, cols])
-    left_in_place = {}  # joint name: steps over 90 degrees no step repaired
-    for n in np.flatnonzero(defects.any(axis=0)).tolist():
-        steps = defects[:, n]
-        if n in repaired:
-            steps = steps & ~repaired[n][:-1] & ~repaired[n][1:]
-        rows = steps[:-1] | steps[1:]
-        accel_rows[n] = accel_rows[n] | rows if n in accel_rows else rows
-        if steps.any():
-            left_in_place[before.names[rot[n]]] = int(steps.sum())
-    del defects
     outside: dict[str, dict[int, tuple[float, int, float]] | None] = {}
     missing = _missing(before, after, cols)
     starts = take_starts(before)
+    # a flip or glitch the input makes and no step repaired is no jitter either
+    jumps = _unrepaired_jumps(before.rotations[:, cols], repaired, missing, starts, lead, trail)
+    unrepaired = {}  # joint name: how many
+    for n in np.flatnonzero(jumps.any(axis=0)).tolist():
+        rows = jumps[:-1, n] | jumps[1:, n]
+        accel_rows[n] = accel_rows[n] | rows if n in accel_rows else rows
+        unrepaired[before.names[rot[n]]] = int(jumps[:, n].sum())
+    del jumps
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
         if clip is None:
@@ -175,7 +173,7 @@ def build_series(
         "contacts": contacts,
         "feet": feet,
         "rest_frames": (lead, trail),
-        "defect_steps": left_in_place,
+        "unrepaired_jumps": unrepaired,
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
@@ -216,6 +214,31 @@ def _position_series(
         float(np.max(np.nanmax(path, axis=0) - np.nanmin(path, axis=0))) if path.size else math.nan
     )
     return figures
+
+
+def _unrepaired_jumps(
+    q: np.ndarray,
+    repaired: dict[int, np.ndarray],
+    missing: np.ndarray | None,
+    starts: np.ndarray,
+    lead: int,
+    trail: int,
+) -> np.ndarray:
+    """``(F-1, C)`` bool: the steps between frames of the input's rotations ``q`` ``(F, C,
+    4)`` over :data:`~motionclean.core.jumps.JUMP_DEG` that no step repaired (``repaired``:
+    column -> ``(F,)`` frames a repairing step changed), within the motion: not into a rest
+    frame (``lead`` / ``trail`` at the ends), a ``missing`` sample ``(F, C)``, or across a
+    cut between takes (``starts``: each new take's first frame)."""
+    jumps = jump_steps(q)
+    n = jumps.shape[0]
+    jumps[:lead] = False
+    jumps[max(n - trail, 0) :] = False
+    jumps[starts[(starts >= 1) & (starts <= n)] - 1] = False
+    if missing is not None:
+        jumps &= ~(missing[:-1] | missing[1:])
+    for column, frames in repaired.items():
+        jumps[:, column] &= ~(frames[:-1] | frames[1:])
+    return jumps
 
 
 def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
@@ -331,7 +354,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
-        "defect_steps": series.get("defect_steps", {}),
+        "unrepaired_jumps": series.get("unrepaired_jumps", {}),
     } | _position_smoothing(figures.get("positions"))
 
 

@@ -37,11 +37,11 @@ from typing import Any
 
 import numpy as np
 
+from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs, plural
-from .metrics import DEFECT_STEP_DEG
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
@@ -272,13 +272,13 @@ def _missing_words(joints: dict[str, dict]) -> list[str]:
 
 def _across_defects(smoothing: dict, joint: str, filters: list) -> str:
     """Why smoothing moved ``joint`` far, where its input steps by more than
-    :data:`.metrics.DEFECT_STEP_DEG` and nothing repaired those steps ("" elsewhere)."""
-    count = (smoothing.get("defect_steps") or {}).get(joint, 0)
+    :data:`~motionclean.core.jumps.JUMP_DEG` and nothing repaired those steps ("" elsewhere)."""
+    count = (smoothing.get("unrepaired_jumps") or {}).get(joint, 0)
     if not count:
         return ""
     what = "despike left them" if "despike" in filters else "despike repairs them first"
     return (
-        f" across {plural(count, 'step')} of over {DEFECT_STEP_DEG:g} degrees in the input "
+        f" across {plural(count, 'step')} of over {JUMP_DEG:g} degrees in the input "
         f"(flips or glitches: {what})"
     )
 

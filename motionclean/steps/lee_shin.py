@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UsageError
+from ..core.jumps import JUMP_DEG
 from ..filters import design, masks
 from ..filters.linear import lee_shin, lee_shin_positions
 from .base import Param, StepData, StepSpec
@@ -127,8 +128,7 @@ def _run_lee_shin(data: StepData, params: dict) -> StepData:
         )
         params = {**params, "half_width": most}
     mask = _mask_from(params, data.frame_time)
-    cut = params["cut_deg"]
-    cut_above = None if math.isinf(cut) else math.radians(cut)
+    cut_above = math.radians(params["cut_deg"])
     data.rotations = lee_shin(data.rotations, mask, params["iterations"], cut_above)
     if data.translations is not None:
         data.translations = lee_shin_positions(data.translations, mask, params["iterations"])
@@ -198,13 +198,14 @@ STEP = StepSpec(
         Param(
             "cut_deg",
             "float",
-            90.0,
-            "a step between two frames larger than this (degrees of rotation) is a flip or "
-            "a glitch, not motion: no frame is moved across it, so a flip stays a flip "
-            "(despike repairs it) instead of becoming a fast turn; inf smooths across it",
+            JUMP_DEG,
+            "a step between two frames that turns by more than this (degrees) is a flip or "
+            "a glitch, not motion: each stretch between such steps is filtered on its own, "
+            "so a flip stays a flip (despike repairs it) instead of becoming a fast turn; "
+            "180 smooths across every step (000's filter as printed)",
             minimum=0.0,
             exclusive_minimum=True,
-            infinite_ok=True,
+            maximum=180.0,
         ),
     ),
     run=_run_lee_shin,

@@ -7,12 +7,15 @@ import math
 
 import numpy as np
 import pytest
-from helpers import NOISY, degrees_between
+from helpers import NOISY, degrees_between, with_t_pose
 
 import motionclean as mc
 from motionclean.core import quat
+from motionclean.core.errors import UsageError
+from motionclean.core.takes import take_starts
 from motionclean.filters.linear import lee_shin
 from motionclean.filters.masks import binomial
+from motionclean.report.summary import build_series
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -26,17 +29,26 @@ def flipped_signal(frames: int = 200, at: int = 100) -> np.ndarray:
     return q
 
 
-def test_a_cut_filter_leaves_the_flip_and_smooths_each_side_as_the_filter_does():
+def test_a_cut_filter_leaves_the_flip_and_filters_each_side_as_a_signal_of_its_own():
     q = flipped_signal()
     plain = lee_shin(q, binomial(2), 5)
     cut = lee_shin(q, binomial(2), 5, math.radians(90.0))
     steps = np.degrees(quat.angle_between(cut[:-1], cut[1:]))
     assert steps[99] > 179.0 and np.delete(steps, 99).max() < 1.0  # still one flip
-    # a constant turn is a fixed point away from the flip; beside it the cut step counts as
-    # no motion, which moves a frame by at most about one frame's turn (0.29 degrees here)
-    moved = degrees_between(cut, q)
-    assert moved[:90].max() < 1e-9 and moved[110:].max() < 1e-9 and moved.max() < 0.5
+    for side in (slice(0, 100), slice(100, None)):  # each side's ends mirrored (Eq. 26)
+        alone = lee_shin(q[side], binomial(2), 5)
+        assert degrees_between(cut[side], alone).max() < 1e-9
+    assert degrees_between(cut, q).max() < 1e-9  # a constant turn: a fixed point each side
     assert degrees_between(plain, q).max() > 30.0  # the plain filter spins into the flip
+    wide = lee_shin(q, binomial(40), 10, math.radians(90.0))  # a mask wider than a side
+    assert degrees_between(wide, q).max() < 1e-9
+
+
+def test_a_cut_at_half_a_turn_or_more_is_the_plain_filter():
+    q = flipped_signal()
+    plain = lee_shin(q, binomial(2), 3)
+    for cut in (math.pi, 10.0, math.inf):
+        assert np.array_equal(lee_shin(q, binomial(2), 3, cut), plain)
 
 
 def test_a_cut_filter_is_coordinate_invariant():
@@ -45,14 +57,23 @@ def test_a_cut_filter_is_coordinate_invariant():
     a, b = quat.normalize(rng.normal(size=4)), quat.normalize(rng.normal(size=4))
     cut = math.radians(90.0)
     turned = lee_shin(quat.multiply(quat.multiply(a, q), b), binomial(2), 3, cut)
-    expected = quat.multiply(quat.multiply(a, lee_shin(q, binomial(2), 3, cut)), b)
+    filtered = lee_shin(q, binomial(2), 3, cut)
+    expected = quat.multiply(quat.multiply(a, filtered), b)
     assert degrees_between(turned, expected).max() < 1e-9
+    steps = np.degrees(quat.angle_between(filtered[:-1], filtered[1:]))
+    assert steps.max() > 170.0  # the flip is kept (the plain filter spreads it)
 
 
 @pytest.mark.parametrize("cut", [0.0, -1.0, math.nan])
 def test_a_cut_that_is_no_angle_is_refused(cut):
     with pytest.raises(ValueError, match="cut_above"):
         lee_shin(flipped_signal(), binomial(2), 1, cut)
+
+
+@pytest.mark.parametrize("cut_deg", ["0", "700", "inf", "nan"])
+def test_the_step_refuses_a_cut_outside_a_half_turn(cut_deg):
+    with pytest.raises(UsageError, match="cut_deg must be a number > 0 and <= 180"):
+        Pipeline.from_inline([f"lee-shin:cut_deg={cut_deg}"])
 
 
 def test_the_step_leaves_unrepaired_flips_and_the_verdict_counts_the_jitter_elsewhere():
@@ -67,7 +88,7 @@ def test_the_step_leaves_unrepaired_flips_and_the_verdict_counts_the_jitter_else
     verdict = result.report["verdict"]
     assert verdict["noise_removed"] > 0.5, verdict["text"]  # (3 % with the flips counted)
     spun = clean_motion(
-        clip, Pipeline.from_inline(["lee-shin:k=2,iterations=3,cut_deg=inf"]), "n.bvh"
+        clip, Pipeline.from_inline(["lee-shin:k=2,iterations=3,cut_deg=180"]), "n.bvh"
     )
     assert degrees_between(spun.after.rotations[:, thumb], clip.rotations[:, thumb]).max() > 30
     assert "smoothing moved RThumb" in spun.report["verdict"]["text"]
@@ -75,3 +96,32 @@ def test_the_step_leaves_unrepaired_flips_and_the_verdict_counts_the_jitter_else
     assert "despike repairs them first" in spun.report["verdict"]["text"]
     kept = clean_motion(clip, Pipeline.from_inline(["despike", "multires:level=2"]), "n.bvh")
     assert "steps of over 90 degrees" not in kept.report["verdict"]["text"]  # repaired first
+
+
+def test_the_report_counts_no_cut_dropout_or_rest_frame_as_an_unrepaired_jump(tmp_path):
+    """Steps over 90 degrees the report tells as flips left in place are the motion's own:
+    not the cut between two takes joined end to end, a dropout held across, nor the step
+    out of a rest pose at the start (each had counted one)."""
+    clip = mc.load(NOISY)  # its only jumps: RThumb's ten half-turn steps
+    assert build_series(clip, clip)["unrepaired_jumps"] == {"RThumb": 10}
+    turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), math.radians(170.0))
+    second = clip.rotations[225:].copy()
+    second[:, 0] = quat.multiply(turn, second[:, 0])  # a cut: the root turned away at once
+    moved = clip.translations[225:].copy()
+    moved[:, 0, 0] += 50.0
+    joined = clip.replace(
+        rotations=np.concatenate([clip.rotations[:150], second]),
+        translations=np.concatenate([clip.translations[:150], moved]),
+        source_values=None,
+        source_rotations=None,
+    )
+    assert take_starts(joined).tolist() == [150]
+    assert build_series(joined, joined)["unrepaired_jumps"] == {"RThumb": 10}
+    shoulder = clip.names.index("RightShoulder")
+    rotations, missing = clip.rotations.copy(), np.zeros((300, clip.n_joints), dtype=bool)
+    rotations[1:45, shoulder] = rotations[45, shoulder]  # a dropout held: one step of 111 deg
+    missing[1:45, shoulder] = True
+    gappy = clip.replace(rotations=rotations, missing=missing)
+    assert build_series(gappy, gappy)["unrepaired_jumps"] == {"RThumb": 10}
+    posed = mc.load(with_t_pose(NOISY, tmp_path / "posed.bvh"))
+    assert build_series(posed, posed)["unrepaired_jumps"] == {"RThumb": 10}
