@@ -32,7 +32,11 @@ interpolates between coarse frames and extrapolates at most one frame at each en
 the first kept frame when ``phase = 1``, after the last when ``L - phase`` is even) with the
 same cubic through the four nearest coarse frames, as an Eq. 5 mask centred on the end
 frame. ``decompose`` uses ``phase = 0`` (frame 0 survives to the base) unless
-``align="end"`` (the last frame survives; used by :func:`stitch`). Every detail map has
+``align="end"`` (the last frame survives; used by :func:`stitch`); :func:`edit` and its
+counterparts first continue the clip past its last frame by reflection to ``2^N + 1``
+frames, so that both ends survive and no frame of the clip is extrapolated (an
+extrapolated end frame carries most of its level's detail, and dropping that detail had
+moved a clip's last frames far). Every detail map has
 exactly as many samples as its level has frames, and reconstruction adds them back to the
 same expansion, so it returns the input to floating-point precision for every length.
 Quaternion signs are reproduced too: each level is made sign-continuous and anchored on the
@@ -484,6 +488,35 @@ def _clamped_gains(gains, levels: int, n_available: int) -> np.ndarray:
     return _per_level(gains, _levels(levels), "gains")[:n_available]
 
 
+def _end_pad(n_frames: int, levels: int) -> tuple[int, int]:
+    """The levels a clip of ``n_frames`` frames is edited on (``levels`` clamped to
+    :func:`max_levels`) and the frames that continue it to ``2^N + 1`` frames, ``2^N`` the
+    least power of two from ``n_frames - 1`` on: a length whose every level down to three
+    frames keeps both end frames, whatever the levels edited (so the levels kept at gain 1
+    are rebuilt exactly); fewer than the clip's frames."""
+    span = max(n_frames - 2, 0).bit_length()  # the least N with 2^N >= n_frames - 1
+    return min(_levels(levels), max_levels(n_frames)), -(n_frames - 1) % (1 << span)
+
+
+def _reflected(q, p, pad: int):
+    """The frames continued ``pad`` frames past the last, ``e``, by the reflection about
+    it: ``q_{e+j} = q_e q_{e-j}^-1 q_e`` and ``p_{e+j} = 2 p_e - p_{e-j}`` (``pad`` < the
+    clip's frames). A constant angular and linear velocity goes on exactly; the reflection
+    commutes with rotating the clip from either side and with rigid motions of the
+    positions."""
+    if not pad:
+        return q, p
+    back = slice(-2, -2 - pad, -1)  # frames e-1 .. e-pad
+    if q is not None:
+        end = q[-1]
+        q = quat.continuous(
+            np.concatenate([q, quat.multiply(quat.multiply(end, quat.conjugate(q[back])), end)])
+        )
+    if p is not None:
+        p = np.concatenate([p, 2.0 * p[-1] - p[back]])
+    return q, p
+
+
 def edit(q, levels: int, gains: Sequence[float]) -> np.ndarray:
     """Per-level scaling of the orientation details (003 Sec. 5.1).
 
@@ -503,14 +536,20 @@ def edit(q, levels: int, gains: Sequence[float]) -> np.ndarray:
     (F, ..., 4) array
         Sign-continuous unit quaternions on the input's hemisphere at frame 0. Unit gains
         reproduce the input to floating-point precision; ``edit(r q) = r edit(q)``.
+
+    The clip is continued past its last frame by reflection (:func:`_reflected`) to
+    ``2^N + 1`` frames (:func:`_end_pad`), so both end frames survive every reduction and neither is
+    extrapolated by the expansion (dropping fine levels had moved a clip's last frames by up
+    to 35 degrees on a still foot); the first frames are as they were.
     """
     if np.shape(q)[0] == 0:  # an empty clip has nothing to edit
         return np.array(q, dtype=np.float64)
     q = _rotations(q)
-    pyramid = decompose(q, levels)
+    n, pad = _end_pad(q.shape[0], levels)
+    pyramid = decompose(_reflected(q, None, pad)[0], n)
     g = _clamped_gains(gains, levels, pyramid.n_levels)
     out, _ = reconstruct(scale(pyramid, g))
-    return _anchor_signs(out, 0, q[0])
+    return _anchor_signs(out[: q.shape[0]], 0, q[0])
 
 
 def edit_frames(q, positions, levels: int, gains: Sequence[float]):
@@ -522,19 +561,24 @@ def edit_frames(q, positions, levels: int, gains: Sequence[float]):
     """
     q = _rotations(q)
     p = _positions(positions, q.shape[:-1])
-    pyramid = decompose(q, levels, p)
+    n, pad = _end_pad(q.shape[0], levels)
+    q_long, p_long = _reflected(q, p, pad)
+    pyramid = decompose(q_long, n, p_long)
     g = _clamped_gains(gains, levels, pyramid.n_levels)
     q_out, p_out = reconstruct(scale(pyramid, g))
-    return _anchor_signs(q_out, 0, q[0]), p_out
+    f = q.shape[0]
+    return _anchor_signs(q_out[:f], 0, q[0]), p_out[:f]
 
 
 def edit_positions(p, levels: int, gains: Sequence[float]) -> np.ndarray:
     """:func:`edit` for ``(F, ..., 3)`` positions alone (plain vector details)."""
     if np.shape(p)[0] == 0:
         return np.array(p, dtype=np.float64)
-    pyramid = decompose_positions(p, levels)
+    p = _positions(p, None)
+    n, pad = _end_pad(p.shape[0], levels)
+    pyramid = decompose_positions(_reflected(None, p, pad)[1], n)
     g = _clamped_gains(gains, levels, pyramid.n_levels)
-    return reconstruct(scale(pyramid, g))[1]
+    return reconstruct(scale(pyramid, g))[1][: p.shape[0]]
 
 
 # ---------------------------------------------------- blending and stitching (Eq. 20-21)
