@@ -312,40 +312,74 @@ def lee_shin(
     if q.shape[0] < 2 or b.size == 0 or iterations == 0 or q.size == 0:
         return quat.make_continuous(q, axis=0)
 
-    def filtered(x: np.ndarray) -> np.ndarray:
-        return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), x, iterations)
-
     if cut_above is None or cut_above >= math.pi:
-        return filtered(q)
+        return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
     q = quat.make_continuous(q, axis=0)
-    return in_stretches(filtered, q, jump_steps(q, math.degrees(cut_above)))
+    return lee_shin_between(q, b, jump_steps(q, math.degrees(cut_above)), iterations)
 
 
-def in_stretches(filtered, q: np.ndarray, cuts: np.ndarray) -> np.ndarray:
-    """``filtered`` (a function of ``(F, M, 4)`` signals) of each stretch of ``q`` ``(F,
-    ..., 4)`` between the steps ``cuts`` ``(F-1, ...)``, as a signal of its own: the columns
-    without a cut in one call, then each stretch of the others (a loop over the cuts, which
-    are defects, not over frames); stretches of one frame are kept."""
-    flat = q.reshape(q.shape[0], -1, 4)
-    cuts = cuts.reshape(cuts.shape[0], -1)
-    out = flat.copy()
-    cut = cuts.any(axis=0)
-    whole = np.flatnonzero(~cut)
-    if whole.size:
-        out[:, whole] = filtered(flat[:, whole])
-    for column in np.flatnonzero(cut).tolist():
-        edges = [0, *(np.flatnonzero(cuts[:, column]) + 1).tolist(), q.shape[0]]
-        for first, stop in zip(edges[:-1], edges[1:], strict=True):
-            if stop - first >= 2:
-                out[first:stop, column] = filtered(flat[first:stop, column, None])[:, 0]
-    return out.reshape(q.shape)
+#: Frames whose mirrored windows are gathered at a time in :func:`lee_shin_between`.
+_STRETCH_BLOCK = 4096
 
 
-def lee_shin_unchecked(q: np.ndarray, mask) -> np.ndarray:
-    """One pass of :func:`lee_shin` without validating ``q`` (``(F, ..., 4)``, ``F >= 2``):
-    for arrays known to be unit quaternions, such as a :class:`Motion`'s rotations."""
-    b = displacement_coefficients(mask)
-    return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, 1)
+def lee_shin_between(q: np.ndarray, b: np.ndarray, cuts: np.ndarray, iterations: int = 1):
+    """:func:`lee_shin` (displacement coefficients ``b``, :func:`displacement_coefficients`)
+    of each stretch of the sign-continuous ``q`` ``(F, ..., 4)`` between the steps ``cuts``
+    ``(F-1, ...)`` as a signal of its own: a frame's window reads only its stretch's
+    displacements, mirrored at the stretch's ends by Eq. 26 (a stretch of one frame is
+    kept). Every column runs the plain pass (no copy of the columns without a cut, most of
+    them); the others' results are then made by gathering each frame's mirrored window,
+    every stretch and column at once, a block of frames at a time."""
+    shape = q.shape
+    out = run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
+    flat, out_flat = q.reshape(shape[0], -1, 4), out.reshape(shape[0], -1, 4)
+    cuts = cuts.reshape(max(shape[0] - 1, 0), -1)
+    columns = np.flatnonzero(cuts.any(axis=0))
+    if columns.size and b.size:
+        x = np.ascontiguousarray(flat[:, columns])
+        first, count = _stretches(cuts[:, columns])
+        for _ in range(iterations):
+            x = _stretch_pass(x, b, first, count)
+        out_flat[:, columns] = x
+    return out
+
+
+def _stretches(cuts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame and column of a signal cut at ``cuts`` ``(F-1, C)``: the first frame of
+    its stretch and the stretch's displacements (its frames less one), ``(F, C)`` each."""
+    n_frames = cuts.shape[0] + 1
+    frames = np.arange(n_frames)[:, None]
+    starts = np.zeros((n_frames, cuts.shape[1]), dtype=bool)
+    starts[0] = True
+    starts[1:] = cuts
+    first = np.maximum.accumulate(np.where(starts, frames, 0), axis=0)
+    ends = np.zeros_like(starts)
+    ends[-1] = True
+    ends[:-1] = cuts
+    last = np.minimum.accumulate(np.where(ends, frames, n_frames)[::-1], axis=0)[::-1]
+    return first, last - first
+
+
+def _stretch_pass(x: np.ndarray, b: np.ndarray, first: np.ndarray, count: np.ndarray):
+    """One pass of Eq. 19 over ``x`` ``(F, C, 4)`` with each frame's displacement window
+    mirrored at its own stretch's ends (``first`` frame, ``count`` displacements)."""
+    w = quat.displacements(x)  # the steps across cuts are never read
+    k = b.size // 2
+    offsets = np.arange(-k, k)
+    column = np.arange(x.shape[1])
+    out = np.empty_like(x)
+    for f0 in range(0, x.shape[0], _STRETCH_BLOCK):
+        rows = slice(f0, min(f0 + _STRETCH_BLOCK, x.shape[0]))
+        a, n = first[rows, :, None], count[rows, :, None]
+        local = np.arange(rows.start, rows.stop)[:, None, None] + offsets - a
+        period = np.maximum(2 * (n - 1), 1)
+        j = np.mod(local, period)
+        at = a + np.where(n > 1, np.where(j > n - 1, period - j, j), 0)
+        window = w[np.minimum(at, max(w.shape[0] - 1, 0)), column[:, None]]  # (L, C, 2k, 3)
+        s = np.einsum("lcmv,m->lcv", window, b)
+        s[count[rows] == 0] = 0.0  # a stretch of one frame stays
+        out[rows] = apply_displacement_sums(x[rows], s)
+    return out
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:

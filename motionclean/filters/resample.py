@@ -19,7 +19,7 @@ side: gain below 1e-2 from the new Nyquist frequency up, about 1 below 0.4 of it
 000's orientation filter (Eq. 19-20) and its vector counterpart, so the result does not
 alias; on rotations it is cut where the spline is (a step over
 :data:`motionclean.core.jumps.JUMP_DEG`, a half-turn flip): each stretch between such steps is
-filtered on its own (:func:`.linear.in_stretches`), so a flip left in the clip stays a flip.
+filtered on its own (:func:`.linear.lee_shin_between`), so a flip left in the clip stays a flip.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 from ..core import checks, quat
 from ..core.jumps import jump_steps
 from .design import lowpass
-from .linear import in_stretches, lee_shin_positions, lee_shin_unchecked
+from .linear import displacement_coefficients, lee_shin_between, lee_shin_positions
 from .spline import evaluate, evaluate_positions, position_spline, rotation_spline
 
 #: The anti-aliasing low-pass cuts (-6 dB) at this share of the new Nyquist frequency ...
@@ -150,7 +150,7 @@ def resample_continuous(
     (:func:`sample_positions`)."""
     mask = antialias_mask(ratio) if antialias else None
     if mask is not None:  # cut where the spline is: a flip is not smeared into a turn
-        q = in_stretches(lambda x: lee_shin_unchecked(x, mask), q, jump_steps(q))
+        q = lee_shin_between(q, displacement_coefficients(mask), jump_steps(q))
     n_new = resampled_length(q.shape[0], ratio) if n_new is None else n_new
     return _at_times(q, True, ratio, n_new, first, shift)
 

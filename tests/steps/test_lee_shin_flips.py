@@ -44,6 +44,27 @@ def test_a_cut_filter_leaves_the_flip_and_filters_each_side_as_a_signal_of_its_o
     assert degrees_between(wide, q).max() < 1e-9
 
 
+def test_each_stretch_between_cuts_is_filtered_as_a_signal_of_its_own():
+    """Many flips, stretches of one to forty frames, three columns (one never flips) and
+    three passes: every stretch as lee_shin gives it alone (one frame: kept)."""
+    rng = np.random.default_rng(8)
+    q = quat.multiply(
+        quat.exp(np.cumsum(rng.normal(scale=0.03, size=(160, 3, 3)), axis=0)),
+        quat.exp(rng.normal(scale=0.01, size=(160, 3, 3))),
+    )
+    flip = np.array([0.0, 0.0, 1.0, 0.0])
+    for column, starts in ((0, [10, 11, 12, 50, 90, 130]), (2, [1, 80, 159])):
+        for at in starts:  # a half turn from each start on: a cut at every start
+            q[at:, column] = quat.multiply(q[at:, column], flip)
+    out = lee_shin(q, binomial(3), 3, math.radians(90.0))
+    for column, starts in ((0, [10, 11, 12, 50, 90, 130]), (1, []), (2, [1, 80, 159])):
+        edges = [0, *starts, 160]
+        for first, stop in zip(edges[:-1], edges[1:], strict=True):
+            part = q[first:stop, column]
+            alone = lee_shin(part, binomial(3), 3) if stop - first > 1 else part
+            assert degrees_between(out[first:stop, column], alone).max() < 1e-9
+
+
 def test_a_cut_at_half_a_turn_or_more_is_the_plain_filter():
     q = flipped_signal()
     plain = lee_shin(q, binomial(2), 3)
