@@ -17,7 +17,9 @@ half a turn, the cleaned curve flips with it, a few degrees more or less) and re
 run they are in, between its fixed neighbours. Each frame may take either Euler solution
 ``(a, b, c)`` / ``(a + 180, 180 - b, c + 180)``, each angle within a whole turn of the
 input's own (a curve the filter carried turns away comes back); a bottleneck shortest path
-over the run's frames picks the representations whose largest such jump is least, and
+over the run's frames picks the representations whose largest step beyond the larger of
+:data:`SEEN_DEG` and the input's step plus :data:`JUMP_MARGIN` is least (every step over a
+quarter turn the input lacks counts, not only those over half a turn), and
 among those the ones that follow the input: least sum of squared steps beyond the input's
 own, so the written curve wraps where the input wraps instead of switching solution twice
 (steps of 175-178 degrees where the input stepped 5). Every rotation stays the same;
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "rejoin"]
+__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "rejoin"]
 
 #: A written step larger than this (degrees) where the input's is smaller by more than
 #: :data:`JUMP_MARGIN` is a jump to undo.
@@ -42,6 +44,14 @@ JUMP_DEG = 180.0
 #: degrees further by the cleaned rotations), not a new turn: another representation of a
 #: rotation lies a whole turn away on a channel, or half a turn on two.
 JUMP_MARGIN = 45.0
+#: A written step is judged in the rewrite by how far it goes beyond the larger of this
+#: (degrees) and the input's own step plus :data:`JUMP_MARGIN`: any step over a quarter turn
+#: that the input does not make spins a tool that interpolates the channels, whether it
+#: passes half a turn or not, so the rewrite does not trade one step over 180 degrees for
+#: two of 179 (a MediaPipe estimate's forearm had been switched to the other Euler solution
+#: and back, 180-degree sweeps where the rotation turned 3 degrees, to arrive a turn off at
+#: the run's end and make a 155-degree step there the shorter way).
+SEEN_DEG = 90.0
 #: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
 MAX_RUN = 4096
 #: Whole turns a candidate may add to each channel of a representation ...
@@ -108,9 +118,9 @@ class _Run:
 
     A written step's *excess* is how far it goes beyond the input's step between the same
     frames, on the channel where that is most (0 if none); its *overshoot*, how far beyond
-    the larger of :data:`JUMP_DEG` and the input's step plus :data:`JUMP_MARGIN` (a step a
-    tool would spin through the other way that the input does not make): what
-    :func:`rejoin` finds as a jump."""
+    the larger of :data:`SEEN_DEG` and the input's step plus :data:`JUMP_MARGIN` (a step a
+    tool would spin through that the input does not make; :func:`rejoin` rewrites the runs
+    where one goes over :data:`JUMP_DEG`)."""
 
     angles: np.ndarray
     read: np.ndarray
@@ -144,7 +154,7 @@ class _Run:
     @property
     def limits(self) -> np.ndarray:
         """``(n + 1, 3)``: the steps beyond which a written step overshoots."""
-        return np.maximum(self.steps + JUMP_MARGIN, JUMP_DEG)
+        return np.maximum(self.steps + JUMP_MARGIN, SEEN_DEG)
 
     def largest_overshoot(self, angles: np.ndarray) -> float:
         """The largest overshoot of ``angles`` written over the run (from ``before`` to

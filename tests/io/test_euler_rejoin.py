@@ -118,7 +118,7 @@ def test_an_identity_write_stays_byte_for_byte(tmp_path):
 
 
 def test_the_step_floor_is_the_least_overshoot_between_representations_bit_for_bit():
-    """A run whose own largest overshoot (its steps beyond the larger of 180 degrees and
+    """A run whose own largest overshoot (its steps beyond the larger of 90 degrees and
     the input's plus 45) is no larger than the floor is left without a solve: the floor is, at its
     worst step, the least overshoot any two representations take there (the same bits as
     the (54, 54) comparison), so no solve can do better than it; with no overshoot just
@@ -137,7 +137,7 @@ def test_the_step_floor_is_the_least_overshoot_between_representations_bit_for_b
         run = eulerjoin._Run(angles, read, before, after, steps)
         cand = eulerjoin._candidates(run.centred)
 
-        limits = np.maximum(steps + 45.0, 180.0)
+        limits = np.maximum(steps + eulerjoin.JUMP_MARGIN, eulerjoin.SEEN_DEG)
 
         def overshoot(a, b, limit):
             return np.maximum((np.abs(a - b) - limit).max(axis=-1), 0.0)
@@ -177,6 +177,32 @@ def test_a_curve_carried_whole_turns_away_rejoins_where_the_input_wraps():
     step_out = np.abs(np.diff(values, axis=0))
     step_in = np.abs(np.diff(source, axis=0))
     assert (step_out <= step_in + 1.0).all(), np.argwhere(step_out > step_in + 1.0)
+    assert np.allclose(np.mod(values - written + 180.0, 360.0) - 180.0, 0.0)  # same angles
+
+
+def test_a_run_ending_in_a_large_real_step_is_not_switched_solution_elsewhere():
+    """A MediaPipe forearm: held still, then smoothing moved the last changed frame so far
+    from the glitchy input that the step into the unchanged frame after the run turns 155
+    degrees (written 204.7 on its third channel). A whole turn there would be carried in
+    by switching Euler solution and back while the joint stands still (steps of 179.5
+    degrees, each under half a turn, where the input stepped 0), as the rewrite did when
+    only steps over 180 counted. Now no step over 90 degrees is written where the input
+    stepped less by 45, but that real step into the unchanged frame."""
+    from motionclean.core import eulerjoin
+
+    read = np.tile([30.4, -48.4, -33.4], (40, 1))
+    read[30:39] = np.linspace([30.4, -48.4, -33.4], [89.4, -6.8, -85.0], 9)
+    read[39] = [101.1, -1.6, -172.1]
+    written = read.copy()
+    written[:39] += np.random.default_rng(1).normal(0.0, 0.5, (39, 3))  # changed, smoothed
+    written[30:39, 2] = np.linspace(-33.4, 32.6, 9)  # the glitch smoothed away
+    written[0] = read[0]  # the run begins after an unchanged frame
+    values, source = written.copy(), read.copy()
+    eulerjoin.rejoin(values, source, np.array([[0, 1, 2]]))
+    step_out = np.abs(np.diff(values, axis=0))
+    step_in = np.abs(np.diff(source, axis=0))
+    seen = np.argwhere((step_out > 90.0) & (step_out > step_in + 45.0))
+    assert seen.tolist() == [[38, 2]], seen
     assert np.allclose(np.mod(values - written + 180.0, 360.0) - 180.0, 0.0)  # same angles
 
 
