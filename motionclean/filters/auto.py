@@ -280,10 +280,11 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
             f"{slope:.2f}, flatter than {MARKERLESS_SLOPE:g}; clean captures measured fall at "
             f"{CLEAN_FLATTEST:g} or steeper), as a pose estimator's wandering noise leaves it"
         )
+    # (a pose estimator's output whose motion falls as steeply reads so too: say what to do)
     return (
         f"optical, found from the clip: its joints' motion spectrum falls over {band} like "
-        f"clean captures' (slope {slope:.2f}; markerless noise leaves it flatter than "
-        f"{MARKERLESS_SLOPE:g})"
+        f"clean captures' (slope {slope:.2f}, steeper than {MARKERLESS_SLOPE:g}); for a video "
+        "or markerless capture give --source video"
     )
 
 
