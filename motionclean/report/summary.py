@@ -25,7 +25,7 @@ from ..core.takes import take_starts
 from ..core.threads import run_parts
 from ..filters.auto import describe_source
 from ..steps import REGISTRY
-from ..steps.base import format_params, fps_text
+from ..steps.base import format_params, fps_text, plural
 from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
@@ -545,11 +545,25 @@ def build_report(
         "rest_frames": {"leading": lead, "trailing": trail},
         "take_starts": take_starts(before).tolist(),
     }
-    said = kinematics.source_notes(before)  # what the reader assumed: only when it did
+    said = [*kinematics.source_notes(before), *_step_notes(joints)]  # only when there is any
     if said:
-        report["notes"] = list(said)
+        report["notes"] = said
     report["verdict"] = build_verdict(report, _smoothing(series, list(series["joints"])))
     return report
+
+
+def _step_notes(joints: dict[str, dict]) -> list[str]:
+    """What the steps' notes say a user should know: the joints ``fairing`` left before its
+    first iteration (its first step would have moved a sample past ``epsilon_r``)."""
+    stopped = [n for n, entry in joints.items() if entry.get("fairing", {}).get("iterations") == 0]
+    if not stopped:
+        return []
+    shown = ", ".join(stopped[:3]) + (f" and {len(stopped) - 3} more" if len(stopped) > 3 else "")
+    left = f"{plural(len(stopped), 'joint')} as {'it was' if len(stopped) == 1 else 'they were'}"
+    return [
+        f"fairing left {left} ({shown}): its first step would move a sample beyond "
+        "epsilon_r; a larger epsilon_r lets it smooth them"
+    ]
 
 
 def json_safe(value: Any) -> Any:

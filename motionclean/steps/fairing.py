@@ -12,9 +12,15 @@ def _run_fairing(data: StepData, params: dict) -> StepData:
         "tol": params["tol"],
         "max_iterations": params["max_iterations"],
     }
-    data.rotations = fairing(
-        data.rotations, lam_r=params["lam_r"], epsilon_r=params["epsilon_r"], **shared
+    data.rotations, iterations = fairing(
+        data.rotations,
+        lam_r=params["lam_r"],
+        epsilon_r=params["epsilon_r"],
+        return_iterations=True,
+        **shared,
     )
+    for column, count in enumerate(iterations.tolist()):  # what the report says of it
+        data.rotation_notes[column] = {"fairing": {"iterations": count}}
     if data.translations is not None:
         data.translations = fairing_positions(
             data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared

@@ -1,5 +1,6 @@
-"""lee-shin over half-turn flips nothing repaired: a flip stays a flip, not a fast turn; the
-report counts no flip as jitter."""
+"""Steps over half-turn flips nothing repaired: lee-shin keeps a flip a flip, not a fast turn;
+the report counts no flip as jitter, names them where smoothing crossed them, and says which
+joints fairing's bound left as they were."""
 
 from __future__ import annotations
 
@@ -146,3 +147,20 @@ def test_the_report_counts_no_cut_dropout_or_rest_frame_as_an_unrepaired_jump(tm
     assert build_series(gappy, gappy)["unrepaired_jumps"] == {"RThumb": 10}
     posed = mc.load(with_t_pose(NOISY, tmp_path / "posed.bvh"))
     assert build_series(posed, posed)["unrepaired_jumps"] == {"RThumb": 10}
+
+
+def test_fairing_says_which_joints_its_bound_left_as_they_were():
+    """Fairing keeps the last iterate within epsilon_r; where the first would leave it
+    (RThumb's half-turn flips here, a video estimate's noise), the joint stays as it was,
+    and the report says so and what to change (the verdict had only "no rotation changed")."""
+    clip = mc.load(NOISY)
+    result = clean_motion(clip, Pipeline.from_inline(["fairing"]), "n.bvh")
+    assert result.report["joints"]["RThumb"]["fairing"] == {"iterations": 0}
+    assert result.report["joints"]["Head"]["fairing"]["iterations"] > 0
+    notes = [n for n in result.report["notes"] if n.startswith("fairing left")]
+    assert notes == [
+        "fairing left 1 joint as it was (RThumb): its first step would move a sample beyond "
+        "epsilon_r; a larger epsilon_r lets it smooth them"
+    ]
+    free = clean_motion(clip, Pipeline.from_inline(["fairing:epsilon_r=inf"]), "n.bvh")
+    assert not any(n.startswith("fairing left") for n in free.report.get("notes", []))
