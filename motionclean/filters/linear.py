@@ -16,7 +16,9 @@ fused with the two quaternion products. It runs over blocks of frames on compone
 (:func:`motionclean.core.quat.log_planes`, ...) in one reused work area of about 15 x
 ``quat.BLOCK_SAMPLES`` doubles, so memory is the result (plus a second buffer when
 iterating) and the work stays in cache; only displacements beyond the two ends are
-mirrored (copied).
+mirrored (copied). Cut at steps too large for motion (:func:`lee_shin_between`), the
+frames beside a cut are summed again over their mirrored windows: one displacement per
+sample of the columns with cuts more.
 """
 
 from __future__ import annotations
@@ -65,12 +67,11 @@ def displacement_coefficients(mask) -> np.ndarray:
     return b
 
 
-def mirror_position(positions, n: int):
+def mirror_position(positions, n):
     """Index in ``0 .. n-1`` of the displacement that 000 Eq. 26 puts at each position
-    (an int or an int array) of a signal of ``n`` displacements."""
-    if n == 1:
-        return np.zeros_like(positions)
-    period = 2 * (n - 1)
+    (an int or an int array) of a signal of ``n`` displacements (an int, or an int array
+    broadcasting with ``positions``: each position's own signal; ``n >= 1``)."""
+    period = np.maximum(2 * (np.asarray(n) - 1), 1)
     j = np.mod(positions, period)
     return np.where(j > n - 1, period - j, j)
 
@@ -314,12 +315,12 @@ def lee_shin(
 
     if cut_above is None or cut_above >= math.pi:
         return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
-    q = quat.make_continuous(q, axis=0)
+    q = quat.continuous(q)  # (no copy when it is)
     return lee_shin_between(q, b, jump_steps(q, math.degrees(cut_above)), iterations)
 
 
-#: Frames whose mirrored windows are gathered at a time in :func:`lee_shin_between`.
-_STRETCH_BLOCK = 4096
+#: Frames whose samples beside a cut are summed again at a time (with a halo of ``2k``).
+_STRETCH_FRAMES = 4096
 
 
 def lee_shin_between(q: np.ndarray, b: np.ndarray, cuts: np.ndarray, iterations: int = 1):
@@ -327,20 +328,32 @@ def lee_shin_between(q: np.ndarray, b: np.ndarray, cuts: np.ndarray, iterations:
     of each stretch of the sign-continuous ``q`` ``(F, ..., 4)`` between the steps ``cuts``
     ``(F-1, ...)`` as a signal of its own: a frame's window reads only its stretch's
     displacements, mirrored at the stretch's ends by Eq. 26 (a stretch of one frame is
-    kept). Every column runs the plain pass (no copy of the columns without a cut, most of
-    them); the others' results are then made by gathering each frame's mirrored window,
-    every stretch and column at once, a block of frames at a time."""
+    kept). Each pass is the plain pass, then the samples whose window reaches past their
+    stretch's ends (within ``k`` frames of a cut) are summed again over their mirrored
+    window, tap by tap, a block of frames at a time: memory is about two copies of the
+    columns with cuts beyond the plain filter's. Signs follow ``q``'s."""
     shape = q.shape
-    out = run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), q, iterations)
-    flat, out_flat = q.reshape(shape[0], -1, 4), out.reshape(shape[0], -1, 4)
+    flat = q.reshape(shape[0], -1, 4)
     cuts = cuts.reshape(max(shape[0] - 1, 0), -1)
-    columns = np.flatnonzero(cuts.any(axis=0))
-    if columns.size and b.size:
-        x = np.ascontiguousarray(flat[:, columns])
-        first, count = _stretches(cuts[:, columns])
-        for _ in range(iterations):
-            x = _stretch_pass(x, b, first, count)
-        out_flat[:, columns] = x
+    cut = cuts.any(axis=0)
+
+    def plain(x: np.ndarray, passes: int) -> np.ndarray:
+        return run_passes(lambda src, dst: _lee_shin_pass(src, dst, b), x, passes)
+
+    if not cut.any() or not b.size:
+        return plain(q, iterations)
+    every = bool(cut.all())
+    columns = np.flatnonzero(cut)
+    out = None if every else plain(q, iterations)
+    source = flat if every else np.ascontiguousarray(flat[:, columns])
+    first, count = _stretches(cuts if every else cuts[:, columns])
+    x = source
+    for _ in range(iterations):
+        x = _mend_stretch_ends(plain(x, 1), x, b, first, count)
+    x *= np.where(np.einsum("fcj,fcj->fc", x, source) < 0.0, -1.0, 1.0)[..., None]
+    if out is None:
+        return x.reshape(shape)
+    out.reshape(shape[0], -1, 4)[:, columns] = x
     return out
 
 
@@ -348,38 +361,51 @@ def _stretches(cuts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per frame and column of a signal cut at ``cuts`` ``(F-1, C)``: the first frame of
     its stretch and the stretch's displacements (its frames less one), ``(F, C)`` each."""
     n_frames = cuts.shape[0] + 1
-    frames = np.arange(n_frames)[:, None]
-    starts = np.zeros((n_frames, cuts.shape[1]), dtype=bool)
-    starts[0] = True
-    starts[1:] = cuts
-    first = np.maximum.accumulate(np.where(starts, frames, 0), axis=0)
-    ends = np.zeros_like(starts)
-    ends[-1] = True
-    ends[:-1] = cuts
-    last = np.minimum.accumulate(np.where(ends, frames, n_frames)[::-1], axis=0)[::-1]
+    frames = np.arange(n_frames, dtype=np.int32)[:, None]
+    first = np.maximum.accumulate(np.where(_padded(cuts, before=True), frames, 0), axis=0)
+    last = np.minimum.accumulate(
+        np.where(_padded(cuts, before=False), frames, n_frames)[::-1], axis=0
+    )[::-1]
     return first, last - first
 
 
-def _stretch_pass(x: np.ndarray, b: np.ndarray, first: np.ndarray, count: np.ndarray):
-    """One pass of Eq. 19 over ``x`` ``(F, C, 4)`` with each frame's displacement window
-    mirrored at its own stretch's ends (``first`` frame, ``count`` displacements)."""
-    w = quat.displacements(x)  # the steps across cuts are never read
-    k = b.size // 2
-    offsets = np.arange(-k, k)
-    column = np.arange(x.shape[1])
-    out = np.empty_like(x)
-    for f0 in range(0, x.shape[0], _STRETCH_BLOCK):
-        rows = slice(f0, min(f0 + _STRETCH_BLOCK, x.shape[0]))
-        a, n = first[rows, :, None], count[rows, :, None]
-        local = np.arange(rows.start, rows.stop)[:, None, None] + offsets - a
-        period = np.maximum(2 * (n - 1), 1)
-        j = np.mod(local, period)
-        at = a + np.where(n > 1, np.where(j > n - 1, period - j, j), 0)
-        window = w[np.minimum(at, max(w.shape[0] - 1, 0)), column[:, None]]  # (L, C, 2k, 3)
-        s = np.einsum("lcmv,m->lcv", window, b)
-        s[count[rows] == 0] = 0.0  # a stretch of one frame stays
-        out[rows] = apply_displacement_sums(x[rows], s)
-    return out
+def _padded(cuts: np.ndarray, before: bool) -> np.ndarray:
+    """``(F, C)``: the frames that start a stretch (``before``: 0 and the frame after each
+    cut) or end one (the frame before each cut and the last)."""
+    marks = np.ones((cuts.shape[0] + 1, cuts.shape[1]), dtype=bool)
+    if before:
+        marks[1:] = cuts
+    else:
+        marks[:-1] = cuts
+    return marks
+
+
+def _mend_stretch_ends(filtered, x, b, first, count) -> np.ndarray:
+    """``filtered`` (the plain pass of ``x`` ``(F, C, 4)``), with the samples whose window
+    reaches past their stretch's ends (``first`` frame and ``count`` displacements of each
+    sample's stretch, ``(F, C)``) summed over their window mirrored there (Eq. 26), a
+    block of frames at a time; a stretch of one frame is kept."""
+    n_frames, k = x.shape[0], b.size // 2
+    for f0 in range(0, n_frames, _STRETCH_FRAMES):
+        f1 = min(f0 + _STRETCH_FRAMES, n_frames)
+        a, n = first[f0:f1], count[f0:f1]
+        place = np.arange(f0, f1, dtype=np.int32)[:, None] - a
+        rows, cols = np.nonzero((place < k) | (place > n - k))
+        if not rows.size:
+            continue
+        a, n = a[rows, cols], n[rows, cols]
+        frames = rows + f0
+        alone = n == 0  # reads nothing (the gather reads row 0 of the halo): kept
+        lo, hi = max(f0 - 2 * k, 0), min(f1 + 2 * k, n_frames)  # every window's reach
+        w = quat.log_shortest(quat.relative(x[lo : hi - 1], x[lo + 1 : hi]))
+        start, span = np.where(alone, lo, a), np.maximum(n, 1)
+        s = np.zeros((rows.size, 3))
+        for m, weight in enumerate(b.tolist()):  # tap by tap, as the plain pass sums
+            s += weight * w[start - lo + mirror_position(frames + (m - k) - start, span), cols]
+        moved = apply_displacement_sums(x[frames, cols], s)
+        moved[alone] = x[frames[alone], cols[alone]]
+        filtered[frames, cols] = moved
+    return filtered
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:

@@ -33,7 +33,7 @@ the first kept frame when ``phase = 1``, after the last when ``L - phase`` is ev
 same cubic through the four nearest coarse frames, as an Eq. 5 mask centred on the end
 frame. ``decompose`` uses ``phase = 0`` (frame 0 survives to the base) unless
 ``align="end"`` (the last frame survives; used by :func:`stitch`); :func:`edit` and its
-counterparts first continue the clip past its last frame by reflection to ``2^N + 1``
+counterparts first continue the clip past its last frame by reflection to ``2^N k + 1``
 frames, so that both ends survive and no frame of the clip is extrapolated (an
 extrapolated end frame carries most of its level's detail, and dropping that detail had
 moved a clip's last frames far). Every detail map has
@@ -489,13 +489,12 @@ def _clamped_gains(gains, levels: int, n_available: int) -> np.ndarray:
 
 
 def _end_pad(n_frames: int, levels: int) -> tuple[int, int]:
-    """The levels a clip of ``n_frames`` frames is edited on (``levels`` clamped to
-    :func:`max_levels`) and the frames that continue it to ``2^N + 1`` frames, ``2^N`` the
-    least power of two from ``n_frames - 1`` on: a length whose every level down to three
-    frames keeps both end frames, whatever the levels edited (so the levels kept at gain 1
-    are rebuilt exactly); fewer than the clip's frames."""
-    span = max(n_frames - 2, 0).bit_length()  # the least N with 2^N >= n_frames - 1
-    return min(_levels(levels), max_levels(n_frames)), -(n_frames - 1) % (1 << span)
+    """The levels ``N`` a clip of ``n_frames`` frames is edited on (``levels`` clamped to
+    :func:`max_levels`) and the frames that continue it to ``2^N k + 1``, a length whose
+    every level keeps both end frames: fewer than ``2^N`` (and than the clip's frames), so
+    the cost follows the levels edited (the last frames then depend a little on ``N``)."""
+    n = min(_levels(levels), max_levels(n_frames))
+    return n, -(n_frames - 1) % (1 << n)
 
 
 def _reflected(q, p, pad: int):
@@ -538,9 +537,9 @@ def edit(q, levels: int, gains: Sequence[float]) -> np.ndarray:
         reproduce the input to floating-point precision; ``edit(r q) = r edit(q)``.
 
     The clip is continued past its last frame by reflection (:func:`_reflected`) to
-    ``2^N + 1`` frames (:func:`_end_pad`), so both end frames survive every reduction and neither is
-    extrapolated by the expansion (dropping fine levels had moved a clip's last frames by up
-    to 35 degrees on a still foot); the first frames are as they were.
+    ``2^N k + 1`` frames (:func:`_end_pad`), so both end frames survive every reduction
+    and neither is extrapolated by the expansion (dropping fine levels had moved a clip's
+    last frames by up to 35 degrees on a still foot); the first frames are as they were.
     """
     if np.shape(q)[0] == 0:  # an empty clip has nothing to edit
         return np.array(q, dtype=np.float64)

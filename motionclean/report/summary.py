@@ -555,7 +555,7 @@ def build_report(
 def _step_notes(joints: dict[str, dict]) -> list[str]:
     """What the steps' notes say a user should know: the joints ``fairing`` left before its
     first iteration (its first step would have moved a sample past ``epsilon_r``)."""
-    stopped = [n for n, entry in joints.items() if entry.get("fairing", {}).get("iterations") == 0]
+    stopped = [n for n, entry in joints.items() if entry.get("fairing", {}).get("held_by_bound")]
     if not stopped:
         return []
     shown = ", ".join(stopped[:3]) + (f" and {len(stopped) - 3} more" if len(stopped) > 3 else "")

@@ -19,8 +19,11 @@ def _run_fairing(data: StepData, params: dict) -> StepData:
         return_iterations=True,
         **shared,
     )
+    # a joint that took no iteration where one could run: its first step left the bound
+    could = params["max_iterations"] > 0 and data.rotations.shape[0] > params["order"]
     for column, count in enumerate(iterations.tolist()):  # what the report says of it
-        data.rotation_notes[column] = {"fairing": {"iterations": count}}
+        note = {"iterations": count, "held_by_bound": could and count == 0}
+        data.rotation_notes[column] = {"fairing": note}
     if data.translations is not None:
         data.translations = fairing_positions(
             data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared

@@ -215,13 +215,15 @@ def test_fairing_joints_are_independent():
 @pytest.mark.parametrize("solver", [fairing, sse_fairing])
 def test_a_long_clip_is_solved_a_few_signals_at_a_time(solver, monkeypatch):
     """Memory stays a few times the clip's: the iterations' dozen copies are made of a
-    group of signals at a time, one group after the other (here one signal: the groups
-    shrunk to fit a short test clip), and the result is each signal's own."""
+    group of signals at a time, one group after the other even with threads to spare (here
+    one signal: the groups shrunk to fit a short test clip), and the result is each
+    signal's own."""
     module = importlib.import_module("motionclean.filters.fairing")  # not the function
     rng = np.random.default_rng(5)
-    q = noisy_rotations(rng, 4000, (8,), noise=0.004)
+    q = noisy_rotations(rng, 8200, (8,), noise=0.004)  # enough to be shared on threads
     whole = solver(q, max_iterations=5)
-    monkeypatch.setattr(module, "GROUP_SAMPLES", 4000)
+    monkeypatch.setenv("MOTIONCLEAN_THREADS", "4")  # groups one after the other all the same
+    monkeypatch.setattr(module, "GROUP_SAMPLES", 8200)
     tracemalloc.start()
     try:
         grouped = solver(q, max_iterations=5)

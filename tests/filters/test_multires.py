@@ -257,17 +257,23 @@ def test_corpus_removing_levels_lowers_acceleration_monotonically():
 @pytest.mark.parametrize("frames", [64, 65, 100])
 def test_gain_zero_on_finest_level_is_expanded_reduction(frames):
     # gains[0] is the finest level; levels with gain 1 are rebuilt exactly, so removing the
-    # finest level of any deeper pyramid gives the same, whatever the number of levels: E(R m)
-    # of the clip continued to 2^N + 1 frames (65 frames: the clip itself).
+    # finest level of any deeper pyramid gives E(R m) of the clip edit works on: the clip
+    # continued past its last frame by the reflection q_e q_(e-j)^-1 q_e to 2^N k + 1 frames
+    # (built here from quaternion products, not by the module).
     q = add_noise(smooth_rotations(frames, (3,), seed=50), 0.02, seed=51)
-    expected = mr.edit(q, 1, [0.0])
-    if frames == 65:
-        one = mr.decompose(q, 1)
-        plain, _ = mr.reconstruct(mr.Pyramid(one.rotations, None, (zero_detail(65, (3,), 0),)))
-        assert quat.angle_between(expected, plain).max() < 1e-12
-    for levels in (3, 6):
-        assert quat.angle_between(mr.edit(q, levels, [0.0]), expected).max() < 1e-12
-    assert quat.angle_between(mr.edit(q, 6, [1.0, 0.0]), expected).max() > 1e-3
+    for levels in (1, 3, 6):
+        pad = -(frames - 1) % 2**levels
+        end = q[-1]
+        back = q[-2 : -2 - pad : -1] if pad else q[:0]
+        longer = quat.make_continuous(
+            np.concatenate([q, quat.multiply(quat.multiply(end, quat.conjugate(back)), end)])
+        )
+        one = mr.decompose(longer, 1)
+        zero = zero_detail(longer.shape[0], (3,), 0)
+        expected, _ = mr.reconstruct(mr.Pyramid(one.rotations, None, (zero,)))
+        got = mr.edit(q, levels, [0.0])
+        assert quat.angle_between(got, expected[:frames]).max() < 1e-12
+    assert quat.angle_between(mr.edit(q, 6, [1.0, 0.0]), got).max() > 1e-3
 
 
 @pytest.mark.parametrize("frames", [64, 100, 196, 1064])

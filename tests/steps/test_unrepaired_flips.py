@@ -155,12 +155,13 @@ def test_fairing_says_which_joints_its_bound_left_as_they_were():
     and the report says so and what to change (the verdict had only "no rotation changed")."""
     clip = mc.load(NOISY)
     result = clean_motion(clip, Pipeline.from_inline(["fairing"]), "n.bvh")
-    assert result.report["joints"]["RThumb"]["fairing"] == {"iterations": 0}
+    assert result.report["joints"]["RThumb"]["fairing"] == {"iterations": 0, "held_by_bound": True}
     assert result.report["joints"]["Head"]["fairing"]["iterations"] > 0
     notes = [n for n in result.report["notes"] if n.startswith("fairing left")]
     assert notes == [
         "fairing left 1 joint as it was (RThumb): its first step would move a sample beyond "
         "epsilon_r; a larger epsilon_r lets it smooth them"
     ]
-    free = clean_motion(clip, Pipeline.from_inline(["fairing:epsilon_r=inf"]), "n.bvh")
-    assert not any(n.startswith("fairing left") for n in free.report.get("notes", []))
+    for step in ("fairing:epsilon_r=inf", "fairing:max_iterations=0"):  # no bound held them
+        free = clean_motion(clip, Pipeline.from_inline([step]), "n.bvh")
+        assert not any(n.startswith("fairing left") for n in free.report.get("notes", []))
