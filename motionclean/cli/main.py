@@ -27,6 +27,7 @@ from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
+from ..filters.multires import stitch_levels
 from ..io import ReadOptions, atomic_write, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
@@ -55,7 +56,7 @@ from ..run.jobs import (
 from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
 from ..steps.auto import measured_source, seen_rotations
-from ..steps.base import brief_runs, fps_text
+from ..steps.base import brief_runs, fps_text, plural
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees
 from .batch import batch_command
 from .check import check_command
@@ -593,11 +594,20 @@ def stitch(
 
     SECOND is first moved so its root starts where FIRST's ends (same horizontal position
     and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
-    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
+    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move, and
+    fewer levels are used (and said) where that reach would not end inside the shorter clip.
     """
     check_clip_output(output, (first, second, *read.files))
     a, b = with_up(read.load(first), up), with_up(read.load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
+    used = stitch_levels(a.n_frames, b.n_frames, levels)  # (both have frames: stitched)
+    if used < levels:
+        shorter = min(a.n_frames, b.n_frames)
+        click.echo(
+            f"stitched on {plural(used, 'level')}, not {levels}: the transition and its "
+            f"coarsest level's reach, 6 x 2^levels frames, must fit in the shorter clip "
+            f"({plural(shorter, 'frame')})"
+        )
 
 
 def _shown(value) -> str:

@@ -77,6 +77,7 @@ __all__ = [
     "reconstruct",
     "scale",
     "stitch",
+    "stitch_levels",
     "transfer",
 ]
 
@@ -702,6 +703,18 @@ def _join(a: np.ndarray, b: np.ndarray, seam: np.ndarray) -> np.ndarray:
     return np.concatenate([a[:-1], seam[None], b[1:]], axis=0)
 
 
+def stitch_levels(n_a: int, n_b: int, levels: int) -> int:
+    """The detail levels :func:`stitch` uses for clips of ``n_a`` and ``n_b`` frames:
+    ``levels``, at most as deep as the shorter clip allows, and no deeper than keeps the
+    transition, ``3 (2^N - 1)`` frames each side of the seam, and the reach of the coarsest
+    level's cubic beyond it (``3 2^N`` frames more) inside the shorter clip: ``6 2^N <= F +
+    1`` (a deeper one reached the clip's far end, which no level keeps: a joint 999 frames
+    from the seam of a take cut in two had turned by 176 degrees, and with 8 levels of
+    1,000 frames by 12)."""
+    fits = max(((min(n_a, n_b) + 1) // 6).bit_length() - 1, 0)  # largest N: 6 2^N <= F + 1
+    return min(_levels(levels), max_levels(n_a), max_levels(n_b), fits)
+
+
 def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
     """Join clip A's end to clip B's start level by level (003 Eq. 21).
 
@@ -719,7 +732,8 @@ def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
     q_a, q_b : (F_A, ..., 4), (F_B, ..., 4) arrays
         Rotations of the two clips; trailing shapes (joints) must match, lengths may differ.
     levels : int
-        Detail levels ``N``, clamped to the shorter clip's :func:`max_levels`.
+        Detail levels ``N``, clamped by :func:`stitch_levels` so the transition lies within
+        the shorter clip.
     p_a, p_b : (F_A, ..., 3), (F_B, ..., 3) arrays, optional
         Positions of the same frames (e.g. all translation channels), stitched with them.
 
@@ -740,7 +754,7 @@ def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
             f"stitch needs clips with the same joints, got trailing shapes {q_a.shape[1:-1]} "
             f"and {q_b.shape[1:-1]}"
         )
-    n = min(_levels(levels), max_levels(q_a.shape[0]), max_levels(q_b.shape[0]))
+    n = stitch_levels(q_a.shape[0], q_b.shape[0], levels)
     pa = decompose(q_a, n, p_a, align="end")
     pb = decompose(q_b, n, p_b, align="start")
     assert pa.rotations is not None and pb.rotations is not None

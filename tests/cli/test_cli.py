@@ -12,6 +12,7 @@ from helpers import ROOT, SAMPLE, run_cli, with_t_pose
 
 import motionclean as mc
 from motionclean.core import quat
+from motionclean.filters import multires
 from motionclean.steps.pipeline import REGISTRY
 
 
@@ -279,6 +280,29 @@ def test_default_clean_repairs_flips_and_reports_where(sample_path, tmp_path, ca
     cleaned = mc.load(tmp_path / "c.bvh")
     steps = np.degrees(quat.angle_between(cleaned.rotations[:-1], cleaned.rotations[1:]))
     assert steps.max() < 30.0
+
+
+def test_stitch_says_when_the_clips_are_too_short_for_the_levels_asked(
+    sample_path, tmp_path, capsys
+):
+    """A take cut in two and stitched back with --levels 9: the transition would have
+    reached both clips' far ends (a joint 999 frames from the seam had turned 176 degrees);
+    the levels that fit are used, and said, and the far ends are the clips' own."""
+    clip = mc.load(sample_path)
+    half = clip.n_frames // 2
+    first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    mc.save(clip.at_frames(slice(0, half + 1)), first)
+    mc.save(clip.at_frames(slice(half, None)), second)
+    out = tmp_path / "s.bvh"
+    code, stdout, err = run(["stitch", first, second, "-o", out, "--levels", "9"], capsys)
+    assert code == 0 and not err
+    used = multires.stitch_levels(half + 1, clip.n_frames - half, 9)
+    assert used < 9
+    assert stdout.startswith(f"stitched on {used} levels, not 9: ")
+    stitched = mc.load(out)
+    width = 3 * (2**used - 1)
+    kept = stitched.source_values[: half - width]
+    assert np.array_equal(kept, clip.source_values[: half - width])
 
 
 def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, capsys):
