@@ -28,7 +28,7 @@ from ..filters.resample import (
     resampled_length,
     sample_positions,
 )
-from .base import fps_text
+from .base import fps_text, plural
 
 #: Bytes the resampled arrays and their text take per new frame and channel value, about.
 BYTES_PER_VALUE = 96
@@ -61,7 +61,8 @@ def new_length(motion: Motion, frame_time: float) -> int:
     fps = f"{fps_text(frame_time)} fps"
     if motion.n_frames < 2:
         raise MotionError(
-            f"a clip of {motion.n_frames} frame cannot be resampled; at least two are needed",
+            f"a clip of {plural(motion.n_frames, 'frame')} cannot be resampled; at least two "
+            "are needed",
             motion.path,
         )
     n_new = resampled_length(motion.n_frames, frame_time / motion.frame_time)

@@ -366,6 +366,10 @@ def test_a_single_frame_clip_cannot_be_resampled(tmp_path, capsys):
     cut_bvh(SAMPLE, one, 1)
     code, _, err = run_cli(capsys, "resample", one, tmp_path / "out.bvh", "--fps", "240")
     assert code == 1 and "a clip of 1 frame cannot be resampled" in err
+    none = tmp_path / "none.bvh"
+    cut_bvh(SAMPLE, none, 0)
+    code, _, err = run_cli(capsys, "resample", none, tmp_path / "out.bvh", "--fps", "240")
+    assert code == 1 and "a clip of 0 frames cannot be resampled" in err  # ("0 frame")
 
 
 def rigid_csv(path, frames: int, bodies: int = 2):
