@@ -594,8 +594,9 @@ def stitch(
 
     SECOND is first moved so its root starts where FIRST's ends (same horizontal position
     and heading about the up axis, its own height). The result has len(FIRST) + len(SECOND)
-    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move, and
-    fewer levels are used (and said) where that reach would not end inside the shorter clip.
+    - 1 frames; only frames within 3 (2^levels - 1) of the seam change beyond that move.
+    The shorter clip needs 4 x 2^levels + 1 frames (65 for 4 levels): fewer levels are used
+    (and said) where it has fewer.
     """
     check_clip_output(output, (first, second, *read.files))
     a, b = with_up(read.load(first), up), with_up(read.load(second), up)
@@ -604,9 +605,9 @@ def stitch(
     if used < levels:
         shorter = min(a.n_frames, b.n_frames)
         click.echo(
-            f"stitched on {plural(used, 'level')}, not {levels}: the transition and its "
-            f"coarsest level's reach, 6 x 2^levels frames, must fit in the shorter clip "
-            f"({plural(shorter, 'frame')})"
+            f"stitched on {plural(used, 'level')}, not {levels}: the shorter clip "
+            f"({plural(shorter, 'frame')}) needs 4 x 2^levels + 1 frames for the frames "
+            "beyond the transition to stay its own"
         )
 
 

@@ -705,13 +705,14 @@ def _join(a: np.ndarray, b: np.ndarray, seam: np.ndarray) -> np.ndarray:
 
 def stitch_levels(n_a: int, n_b: int, levels: int) -> int:
     """The detail levels :func:`stitch` uses for clips of ``n_a`` and ``n_b`` frames:
-    ``levels``, at most as deep as the shorter clip allows, and no deeper than keeps the
-    transition, ``3 (2^N - 1)`` frames each side of the seam, and the reach of the coarsest
-    level's cubic beyond it (``3 2^N`` frames more) inside the shorter clip: ``6 2^N <= F +
-    1`` (a deeper one reached the clip's far end, which no level keeps: a joint 999 frames
-    from the seam of a take cut in two had turned by 176 degrees, and with 8 levels of
-    1,000 frames by 12)."""
-    fits = max(((min(n_a, n_b) + 1) // 6).bit_length() - 1, 0)  # largest N: 6 2^N <= F + 1
+    ``levels``, at most as deep as the shorter clip allows, and no deeper than leaves each
+    clip's coarsest level at least five samples, ``4 x 2^N + 1 <= F`` (65 frames for 4
+    levels): the cubic of the far end's four nearest coarse samples then does not include
+    the seam's, and every frame beyond ``3 (2^N - 1)`` of the seam comes back exactly (a
+    deeper one moved the far end: a joint 999 frames from the seam of a take cut in two,
+    stitched with 9 levels, had turned by 176 degrees; two 64-frame clips with 4 levels by
+    51)."""
+    fits = max(((min(n_a, n_b) - 1) // 4).bit_length() - 1, 0)  # largest N: 4 2^N <= F - 1
     return min(_levels(levels), max_levels(n_a), max_levels(n_b), fits)
 
 

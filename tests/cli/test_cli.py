@@ -297,12 +297,14 @@ def test_stitch_says_when_the_clips_are_too_short_for_the_levels_asked(
     code, stdout, err = run(["stitch", first, second, "-o", out, "--levels", "9"], capsys)
     assert code == 0 and not err
     used = multires.stitch_levels(half + 1, clip.n_frames - half, 9)
-    assert used < 9
-    assert stdout.startswith(f"stitched on {used} levels, not 9: ")
-    stitched = mc.load(out)
-    width = 3 * (2**used - 1)
-    kept = stitched.source_values[: half - width]
-    assert np.array_equal(kept, clip.source_values[: half - width])
+    assert used == 5  # 150 and 151 frames: 4 x 2^5 + 1 = 129 fit, 4 x 2^6 + 1 do not
+    assert stdout.startswith("stitched on 5 levels, not 9: ")
+    stitched, width = mc.load(out), 3 * (2**used - 1)
+    assert np.array_equal(
+        stitched.source_values[: half - width], clip.source_values[: half - width]
+    )
+    tail = clip.source_values[half + width + 1 :, 6:]  # (the root moved: aligned)
+    assert np.array_equal(stitched.source_values[half + width + 1 :, 6:], tail)
 
 
 def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, capsys):

@@ -165,3 +165,30 @@ def test_fairing_says_which_joints_its_bound_left_as_they_were():
     for step in ("fairing:epsilon_r=inf", "fairing:max_iterations=0"):  # no bound held them
         free = clean_motion(clip, Pipeline.from_inline([step]), "n.bvh")
         assert not any(n.startswith("fairing left") for n in free.report.get("notes", []))
+
+
+def test_stretches_across_block_edges_match_each_alone_in_bounded_memory():
+    """A wide mask (201 taps), two passes, cuts beside the 4,096-frame blocks the samples
+    near a cut are summed in: each stretch as lee_shin gives it alone, and memory a few
+    times the clip's (every frame's whole window gathered at once had taken some 75)."""
+    import tracemalloc
+
+    rng = np.random.default_rng(4)
+    q = quat.exp(np.cumsum(rng.normal(scale=0.02, size=(8200, 4, 3)), axis=0))
+    starts = [40, 4095, 4096, 4097, 8191, 8192, 8193]
+    for at in starts:  # on two of the four columns
+        q[at:, :2] = quat.multiply(q[at:, :2], np.array([0.0, 0.0, 1.0, 0.0]))
+    tracemalloc.start()
+    try:
+        out = lee_shin(q, binomial(100), 2, math.radians(90.0))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 * q.nbytes
+    edges = [0, *starts, 8200]
+    for column in range(4):
+        cuts = edges if column < 2 else [0, 8200]
+        for first, stop in zip(cuts[:-1], cuts[1:], strict=True):
+            part = q[first:stop, column]
+            alone = lee_shin(part, binomial(100), 2) if stop - first > 1 else part
+            assert degrees_between(out[first:stop, column], alone).max() < 1e-9
