@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
+from ..core.jumps import JUMP_DEG, jump_steps
 from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
@@ -43,6 +44,7 @@ from ..report.summary import (
     noise_figures,
     short_names,
 )
+from ..report.verdict import listed
 from ..report.world import contact_figures, format_contacts
 from ..run.jobs import (
     blend_clips,
@@ -566,6 +568,27 @@ def blend(
     except ValueError as error:
         raise UsageError(str(error)) from None
     save(blended, output)
+    for path, clip in ((first, a), (second, b)):
+        flipping = _jumping_joints(clip)
+        if flipping:
+            verb = "steps" if len(flipping) == 1 else "step"
+            click.echo(
+                f"note: {path}: {listed(flipping, 3)} {verb} by more than {JUMP_DEG:g} degrees "
+                "between frames (flips or glitches): the blend crosses them; despike the "
+                "clip first (clean -f despike)"
+            )
+
+
+def _jumping_joints(clip: Motion) -> list[str]:
+    """The joints of ``clip`` whose rotation steps by more than :data:`JUMP_DEG` between
+    two frames of its motion (a half-turn flip nothing repaired, a glitch; not into a
+    rest-pose frame at an end nor across a cut between takes)."""
+    lead, trail = rest_frames(clip)
+    rotating = np.flatnonzero(clip.layout.has_rotation)
+    jumps = jump_steps(clip.rotations[lead : clip.n_frames - trail, rotating])
+    cuts = take_starts(clip) - lead - 1  # the step into each new take
+    jumps[cuts[(cuts >= 0) & (cuts < jumps.shape[0])]] = False
+    return [clip.names[j] for j in rotating[jumps.any(axis=0)]]
 
 
 @cli.command(short_help="Join two clips with a seamless transition.")

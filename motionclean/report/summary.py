@@ -30,7 +30,7 @@ from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
-from .verdict import build_verdict
+from .verdict import build_verdict, listed
 from .world import (
     contact_figures,
     figure_points,
@@ -558,10 +558,9 @@ def _step_notes(joints: dict[str, dict]) -> list[str]:
     stopped = [n for n, entry in joints.items() if entry.get("fairing", {}).get("held_by_bound")]
     if not stopped:
         return []
-    shown = ", ".join(stopped[:3]) + (f" and {len(stopped) - 3} more" if len(stopped) > 3 else "")
     left = f"{plural(len(stopped), 'joint')} as {'it was' if len(stopped) == 1 else 'they were'}"
     return [
-        f"fairing left {left} ({shown}): its first step would move a sample beyond "
+        f"fairing left {left} ({listed(stopped, 3)}): its first step would move a sample beyond "
         "epsilon_r; a larger epsilon_r lets it smooth them"
     ]
 

@@ -165,7 +165,8 @@ def _plural(count: int, noun: str) -> str:
     return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
-def _names(names: list[str], limit: int = 2) -> str:
+def listed(names: list[str], limit: int = 2) -> str:
+    """``"A, B and 3 more"``: the first ``limit`` of ``names``, and how many others."""
     shown = ", ".join(names[:limit])
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
@@ -181,7 +182,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         where = [name for name, counts in repairs.items() if counts[key]]
         if where:
             total = sum(repairs[name][key] for name in where)
-            words.append(f"{_plural(total, noun)} {verb} on {_names(where)}")
+            words.append(f"{_plural(total, noun)} {verb} on {listed(where)}")
     return words
 
 
@@ -389,7 +390,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
         # (below CLEAN_CHANGE_DEG RMS, its largest change may still be a few tenths)
         left = "left as it was" if change < CLEAN_CHANGE_DEG else "barely moved"
         if positions_lead:  # "left as it was" only where no value moved
-            who = f"{moved[0]} position" if len(moved) == 1 else f"positions of {_names(moved)}"
+            who = f"{moved[0]} position" if len(moved) == 1 else f"positions of {listed(moved)}"
             little = f"{who} moved by under {_under(length)} units"
             left = little if change < CLEAN_CHANGE_DEG else f"{left}, {little}"
         parts.append(f"otherwise {left}" if parts else left)

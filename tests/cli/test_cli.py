@@ -238,6 +238,21 @@ def test_stitch_and_blend_commands(sample_path, tmp_path, capsys):
     assert np.degrees(quat.angle_between(blended.rotations, a.rotations)).max() < 1e-5
 
 
+def test_blend_says_which_joints_flip_across_the_blend(tmp_path, capsys):
+    """A joint that flips by half turns nothing repaired is blended across its flips (a
+    tester's RThumb swung 169 degrees from both inputs): the command names it and what to
+    do; a clip without such a step gets no note."""
+    noisy = ROOT / "sample_data" / "131_02_noisy.bvh"
+    code, out, err = run(["blend", noisy, noisy, "-o", tmp_path / "b.bvh"], capsys)
+    assert code == 0 and not err
+    notes = [line for line in out.splitlines() if line.startswith("note: ")]
+    assert len(notes) == 2 and all("RThumb steps by more than 90 degrees" in n for n in notes)
+    assert all(n.endswith("despike the clip first (clean -f despike)") for n in notes)
+    calm = ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh"
+    code, out, err = run(["blend", calm, calm, "-o", tmp_path / "c.bvh"], capsys)
+    assert code == 0 and not err and "note:" not in out
+
+
 def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
     other = tmp_path / "other.bvh"
     other.write_bytes(sample_path.read_bytes().replace(b"LeftKnee", b"LeftKnee2"))
