@@ -143,6 +143,25 @@ class CsvText:
     #: template's frames are not the CSV's: what a BVH written from the clip keeps.
     bvh_template: BvhText | None = None
 
+    @classmethod
+    def of(cls, layout, raw, cells, columns, time_column, skeleton, frame_time, eol, **rest):
+        """The text of a file read into ``cells`` (:class:`BodyCells`: offsets, numbers and
+        blank cells), the other fields as the class's (``rest``: its optional ones)."""
+        return cls(
+            layout,
+            raw,
+            cells.starts,
+            cells.ends,
+            cells.values,
+            columns,
+            time_column,
+            skeleton,
+            frame_time,
+            eol,
+            blank=cells.blank,
+            **rest,
+        )
+
     @property
     def n_frames(self) -> int:
         return int(self.values.shape[0])
@@ -530,19 +549,16 @@ def _channel_text(
     ``(names, channels)``; ``template``, the skeleton clip it was read into (None: read
     without one, so writing BVH needs a skeleton), whose BVH hierarchy a BVH written keeps."""
     source = None if template is None else template.source
-    return CsvText(
+    return CsvText.of(
         "channel",
         data,
-        cells.starts,
-        cells.ends,
-        cells.values,
+        cells,
         columns,
         time_column,
         (tuple(mapped[0]), tuple(mapped[1])),
         frame_time,
         eol,
         needs_skeleton=template is None,
-        blank=cells.blank,
         frame_column="frame" in fields,
         bvh_template=BvhText.hierarchy_only(source) if isinstance(source, BvhText) else None,
     )
@@ -705,18 +721,15 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
     frame_time = uniform_frame_time(cells.values[:, time_column], cells.lines, path, None)
     rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, fields, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
-    text = CsvText(
+    text = CsvText.of(
         "rigid",
         data,
-        cells.starts,
-        cells.ends,
-        cells.values,
+        cells,
         columns,
         time_column,
         (tuple(bodies), tuple(channels)),
         frame_time,
         eol,
-        blank=cells.blank,
     )
     return tracked_bodies(
         bodies, channels, frame_time, rotations, translations, text, path, missing
