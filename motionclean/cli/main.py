@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import MotionError, UsageError
-from ..core.jumps import JUMP_DEG, jump_steps
+from ..core.jumps import JUMP_DEG
 from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go
 from ..core.restpose import rest_frames
@@ -43,6 +43,7 @@ from ..report.summary import (
     median_joint,
     noise_figures,
     short_names,
+    unrepaired_jumps,
 )
 from ..report.verdict import listed
 from ..report.world import contact_figures, format_contacts
@@ -582,12 +583,13 @@ def blend(
 def _jumping_joints(clip: Motion) -> list[str]:
     """The joints of ``clip`` whose rotation steps by more than :data:`JUMP_DEG` between
     two frames of its motion (a half-turn flip nothing repaired, a glitch; not into a
-    rest-pose frame at an end nor across a cut between takes)."""
-    lead, trail = rest_frames(clip)
+    rest-pose frame at an end, a dropout, nor across a cut between takes), as the report
+    counts them."""
     rotating = np.flatnonzero(clip.layout.has_rotation)
-    jumps = jump_steps(clip.rotations[lead : clip.n_frames - trail, rotating])
-    cuts = take_starts(clip) - lead - 1  # the step into each new take
-    jumps[cuts[(cuts >= 0) & (cuts < jumps.shape[0])]] = False
+    missing = None if clip.missing is None else clip.missing_mask()[:, rotating]
+    jumps = unrepaired_jumps(
+        clip.rotations[:, rotating], {}, missing, take_starts(clip), *rest_frames(clip)
+    )
     return [clip.names[j] for j in rotating[jumps.any(axis=0)]]
 
 

@@ -63,7 +63,7 @@ def build_series(
     mask of the frames a repairing step changed, :func:`.verdict.repaired_frames`) without the
     rows that involve a repaired frame, and the accelerations of every joint without the rows
     that involve a step of the input over :data:`~motionclean.core.jumps.JUMP_DEG` that no
-    step repaired (:func:`_unrepaired_jumps`: a flip or glitch left in place is no jitter;
+    step repaired (:func:`unrepaired_jumps`: a flip or glitch left in place is no jitter;
     the deviation keeps those frames, where a smoothing that crossed the flip moved the
     joint). ``unrepaired_jumps``: per joint name, how many such steps. No per-frame table
     of the joints is kept: each is reduced as soon as it is made (the feet's heights,
@@ -121,7 +121,7 @@ def build_series(
     missing = _missing(before, after, cols)
     starts = take_starts(before)
     # a flip or glitch the input makes and no step repaired is no jitter either
-    jumps = _unrepaired_jumps(before.rotations[:, cols], repaired, missing, starts, lead, trail)
+    jumps = unrepaired_jumps(before.rotations[:, cols], repaired, missing, starts, lead, trail)
     unrepaired = {}  # joint name: how many
     for n in np.flatnonzero(jumps.any(axis=0)).tolist():
         rows = jumps[:-1, n] | jumps[1:, n]
@@ -216,7 +216,7 @@ def _position_series(
     return figures
 
 
-def _unrepaired_jumps(
+def unrepaired_jumps(
     q: np.ndarray,
     repaired: dict[int, np.ndarray],
     missing: np.ndarray | None,
