@@ -43,6 +43,10 @@ run, on the segments that chose them, as FFT convolutions over fast lengths; no 
 joints or frames. ``strength`` scales ``sigma`` in the choice (2 chooses as if the noise
 were twice the estimate). :func:`auto_positions` does the same for translations.
 
+**Ends.** Beyond the clip's first and last frames the masks read the clip continued by its
+reflection about a fitted end pose (:mod:`.ends`), not Eq. 26's mirror, which leaves the
+end frames with most of their noise; a constant angular velocity stays a fixed point.
+
 Arrays are time-major: ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ..., 3)``
 vectors; every trailing index (column) is estimated and filtered on its own.
 """
@@ -57,9 +61,10 @@ import numpy as np
 
 from ..core import checks, quat
 from ..core.threads import in_parts, run_parts
+from . import ends
 from . import noise as noise_model
 from .design import lowpass, savgol
-from .linear import Rows, displacement_coefficients, mirror_indices, row_span
+from .linear import Rows, displacement_coefficients, row_span
 from .masks import MAX_HALF_WIDTH, binomial
 from .noise import NoiseModel, fast_length
 
@@ -414,7 +419,26 @@ def _risks(
     return out
 
 
-def _apply(disp: Rows, model: NoiseModel, choice: np.ndarray, masks, finish) -> None:
+def _end_rows(x, model: NoiseModel, choice: np.ndarray, masks, rotations: bool):
+    """``(before, after)``: the displacements beyond each end of ``x`` ``(F, C, D)`` that
+    the chosen masks read, continued by reflection about the fitted end pose
+    (:func:`.ends.reflected_displacements`), each column fitted under the widest mask
+    chosen in the windows that cover its end frame."""
+    half = np.array([0] + [m.size // 2 for m in masks])
+    kernels = [ends.fit_kernel(m, model.n_frames) for m in masks]
+    starts, end = model.starts, model.n_frames - 1
+    rows = []
+    for frame in (0, end):
+        chosen = choice[(starts <= frame) & (starts + model.window > frame)]  # (windows, C)
+        widest = np.argmax(half[chosen], axis=0)
+        rows.append(np.take_along_axis(chosen, widest[None], axis=0)[0] - 1)
+    count = int(half[choice].max(initial=0))
+    before = ends.reflected_displacements(x, kernels, rows[0], count, rotations)
+    after = ends.reflected_displacements(x[::-1], kernels, rows[1], count, rotations)
+    return before, -after[::-1]
+
+
+def _apply(disp: ends.Padded, model: NoiseModel, choice: np.ndarray, masks, finish) -> None:
     """Tangent moves ``s_i`` (000 Eq. 19-20), handed to ``finish(rows, s)`` block after block
     of frames (``rows`` a slice, ``s`` ``(len, C, 3)``): in window ``w`` of column ``c`` the
     mask ``masks[choice[w, c] - 1]`` (0: none), blended by the windows' Hann tapers, which
@@ -433,7 +457,10 @@ def _apply(disp: Rows, model: NoiseModel, choice: np.ndarray, masks, finish) -> 
     used = np.unique(choice[choice > 0]).tolist()
     k_max = max((masks[m - 1].size // 2 for m in used), default=0)
     pad = window + k_max
-    index = mirror_indices(disp.shape[0], pad, pad + window)
+    # rows of the padded displacements at positions -pad .. ; those past the rows beyond
+    # the ends (k_max of them) reach only moves of frames outside the clip
+    index = np.arange(-pad, disp.inside.shape[0] + pad + window) + disp.lead
+    np.clip(index, 0, disp.shape[0] - 1, out=index)
     kernels = {}
     for m in used:
         b = displacement_coefficients(masks[m - 1])
@@ -446,7 +473,7 @@ def _apply(disp: Rows, model: NoiseModel, choice: np.ndarray, masks, finish) -> 
     for group in groups:
         read = index[starts[group, None] + np.arange(-k_max, window + k_max) + pad]
         spans.append(row_span(read))
-    lows = [*(low for low, _ in spans[1:]), n_frames]
+    lows = [*(low - disp.lead for low, _ in spans[1:]), n_frames]  # as frames
     read_later = np.minimum.accumulate(lows[::-1])[::-1]
 
     def filtered(task) -> tuple[np.ndarray, np.ndarray]:
@@ -596,7 +623,14 @@ def _select(
         choice[:, coverage @ kept > (1.0 - WORTHWHILE_GAIN) ** 2 * (coverage @ worth[0])] = 0
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
-        _apply(disp, model, choice, masks, lambda rows, s: move(x[rows], s, out[rows]))
+        before, after = _end_rows(x, model, choice, masks, rotations)
+        _apply(
+            ends.Padded(disp, before, after),
+            model,
+            choice,
+            masks,
+            lambda rows, s: move(x[rows], s, out[rows]),
+        )
     elif out is not x:
         out[:] = x
     share = np.zeros((len(masks) + 1, n_cols))

@@ -171,11 +171,12 @@ def test_clean_replaces_an_existing_output_only_when_its_report_is_ready(
     if not in_place:
         out.write_text("an older cleaned clip")
     report = tmp_path / "work" / "r.html"
-    args = ["clean", clip, "--report", report, "-q", "-f", "lee-shin:k=2"]
+    steps = ["-q", "-f", "lee-shin:k=2"]
+    args = ["clean", clip, "--report", report, *steps]
     args += ["--in-place"] if in_place else ["-o", out]
     full = tmp_path / "full"
-    full.mkdir()
-    run_cli(capsys, "clean", clip, "-o", full / "o.bvh", "--report", full / "r.html", "-q")
+    full.mkdir()  # the same run's sizes
+    run_cli(capsys, "clean", clip, "-o", full / "o.bvh", "--report", full / "r.html", *steps)
     clip_size, page_size = ((full / n).stat().st_size for n in ("o.bvh", "r.html"))
     assert clip_size < page_size
     before = contents(tmp_path / "work")
