@@ -103,6 +103,7 @@ from .text import (
     scan_tokens,
     sliceable,
     splice_cells,
+    start_time,
     table_pieces,
 )
 
@@ -142,6 +143,11 @@ class CsvText:
     #: The BVH template's hierarchy (no frames) a channel CSV was read into when the
     #: template's frames are not the CSV's: what a BVH written from the clip keeps.
     bvh_template: BvhText | None = None
+
+    @property
+    def start_time(self) -> float:
+        """Seconds at the first row (:func:`.text.start_time`); 0 without rows."""
+        return float(self.values[0, self.time_column]) if self.values.shape[0] else 0.0
 
     @classmethod
     def of(cls, layout, raw, cells, columns, time_column, skeleton, frame_time, eol, **rest):
@@ -854,9 +860,7 @@ def _fresh(fields: list[str], eol: bytes, n_frames: int, cells) -> Iterable[byte
 
 def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
     """The frame-number and time cells of frames ``rows``, added to ``cells``."""
-    first = 0.0
-    if isinstance(motion.source, CsvText) and motion.source.n_frames:
-        first = float(motion.source.values[0, motion.source.time_column])
+    first = start_time(motion)
     frames = np.arange(rows.start, rows.stop)
     numbers = cells.add(*format_fields(b"%d", frames.tolist()))
     times = cells.add(*format_fields(b"%.12g", (first + frames * motion.frame_time).tolist()))

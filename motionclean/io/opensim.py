@@ -60,6 +60,7 @@ from .text import (
     parse_values,
     scan_tokens,
     splice_cells,
+    start_time,
     stated_count,
     table_pieces,
 )
@@ -95,6 +96,11 @@ class OpenSimText:
     @property
     def n_frames(self) -> int:
         return int(self.starts.shape[0])
+
+    @property
+    def start_time(self) -> float:
+        """Seconds at the first row (:func:`.text.start_time`); 0 without rows."""
+        return float(self.values[0, 0]) if self.values.shape[0] else 0.0
 
     #: Why world-space figures are skipped (``core.kinematics.world_note``).
     no_world = "OpenSim coordinates are joint angles without the model's bodies"
@@ -508,8 +514,7 @@ def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
     in_degrees = True if src is None else src.in_degrees
     values = coordinate_values(motion, in_degrees, None)
     values[motion.missing_mask()] = np.nan
-    start = 0.0 if src is None else float(src.values[0, 0])
-    times = start + np.arange(motion.n_frames) * motion.frame_time
+    times = start_time(motion) + np.arange(motion.n_frames) * motion.frame_time
     if times.size:  # 12 significant digits, as the CSV writer gives them
         largest = max(float(np.abs(times).max()), motion.frame_time)
         times = np.round(times, 12 - math.ceil(math.log10(largest)))

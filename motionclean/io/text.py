@@ -20,6 +20,13 @@ from ..core.motion import Motion
 from ..core.threads import in_parts, run_parts, thread_count
 
 
+def start_time(motion: Motion) -> float:
+    """Seconds at the clip's first frame as its file stated them (the first time of a
+    CSV's or OpenSim file's time column: a trial cut from 0.4 s on starts there), 0 for
+    a source without times. Writers of timed formats count their times from it."""
+    return float(getattr(motion.source, "start_time", 0.0))
+
+
 def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
     """Refuse to write NaN or inf: name the first joint and frame that has one.
 

@@ -155,12 +155,26 @@ def test_nan_cells_are_missing_samples_and_stay_so(tmp_path):
     assert np.abs(knee - [-5.0, -6.5, -8.0, -9.5, -11.0, -12.5]).max() < 1e-9
 
 
-def test_convert_to_csv_and_back(tmp_path, capsys):
-    path = write(tmp_path, IK)
+def shifted(text: str, seconds: float) -> str:
+    """``text`` (IK's layout) with every time ``seconds`` later."""
+    head, body = text.split("endheader\n")
+    lines = body.splitlines()
+    rows = [
+        f"{float(r.split(chr(9))[0]) + seconds:16.8f}\t" + r.split("\t", 1)[1] for r in lines[1:]
+    ]
+    return head + "endheader\n" + "\n".join([lines[0], *rows]) + "\n"
+
+
+@pytest.mark.parametrize("start", [0.0, 0.4])
+def test_convert_to_csv_and_back(tmp_path, capsys, start):
+    """A trial cut from 0.4 s on stays there through CSV (it lines up with its forces)."""
+    path = write(tmp_path, shifted(IK, start))
     code, _, _ = run_cli(capsys, "convert", path, tmp_path / "c.csv", "--exclude", "*_force")
     assert code == 0
     code, _, _ = run_cli(capsys, "convert", tmp_path / "c.csv", tmp_path / "back.mot")
     assert code == 0
+    with open(tmp_path / "c.csv") as fh:
+        assert float(list(csv.DictReader(fh))[0]["time"]) == start
     back = np.genfromtxt(tmp_path / "back.mot", skip_header=7)
     original = np.genfromtxt(path, skip_header=11, usecols=range(5))
     assert np.abs(back - original).max() < 1e-9
