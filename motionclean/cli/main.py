@@ -298,26 +298,29 @@ def info(
     help="Write world positions of every joint and end site (file units) as CSV: "
     "time,<joint>.x,<joint>.y,<joint>.z,...",
 )
+@UP_OPTION
 def convert(
     source: str,
     target: str,
     read: ReadOptions,
     world: bool,
+    up: str | None,
 ) -> None:
     """Convert SOURCE to TARGET by file extension (BVH, CSV, SMPL .npz/.pkl, OpenSim
     .mot/.sto, glTF .gltf/.glb, FBX through Blender's bpy), where the target format can
-    hold the clip."""
+    hold the clip. A glTF written from a clip whose up axis (--up, or found) is not +Y
+    hangs it under a node that stands it up."""
     inputs = (source, *read.files)
     if world:
         check_output(target, (".csv",), "a world-position CSV", inputs)
-        motion = read.load(source)
+        motion = with_up(read.load(source), up)
         skipped = kinematics.world_note(motion)
         if skipped is not None:
             raise MotionError(f"no world positions: {skipped}", source)
         atomic_write(target, world_csv_pieces(motion))
     else:
         check_clip_output(target, inputs)
-        motion = read.load(source)
+        motion = with_up(read.load(source), up)
         save(motion, target)
     _echo_notes(motion)
 

@@ -397,6 +397,24 @@ def test_a_glb_resampled_or_stitched_is_written_at_its_new_frames(tmp_path, caps
     assert mc.load(stitched).n_frames > source.n_frames
 
 
+def test_convert_takes_the_up_axis_it_is_told(tmp_path, capsys):
+    """A figure whose up the motion misreads (a rig with IK bones near the ground read as
+    legs) is written standing as the user says (``--up``), not on its side."""
+    zup = ROOT / "tests" / "data" / "exporters" / "video2bvh_zup.bvh"
+    hangers = {}
+    for up in (None, "y"):
+        target = tmp_path / f"{up}.gltf"
+        code, _, err = run_cli(
+            capsys, "convert", zup, target, *([] if up is None else ["--up", up])
+        )
+        assert code == 0, err
+        document = json.loads(target.read_text())
+        (top,) = document["scenes"][0]["nodes"]
+        hangers[up] = document["nodes"][top]["name"]
+        assert kinematics.up_name(mc.load(target)) == (up or "z")
+    assert hangers == {None: "motionclean_up", "y": mc.load(zup).names[0]}
+
+
 @pytest.mark.parametrize("up", ["z", "-y", "x"])
 def test_a_skeleton_not_y_up_is_written_under_a_turn_that_stands_it_up(tmp_path, up):
     """glTF's up is +Y: a Z-up (or y-down, or X-up) clip keeps its own coordinates under a
