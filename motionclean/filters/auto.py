@@ -120,6 +120,10 @@ NEGLIGIBLE_DEG = 0.05
 #: as they are: beneath any capture's noise in any unit (a micrometre in metres), and above
 #: the rounding of six-decimal text (2.9e-7 RMS), which a clean file's only noise may be.
 NEGLIGIBLE_LENGTH = 1e-6
+#: Translation columns that vary by less than this fraction of their size over the clip
+#: are a fixed offset written with a float's rounding (a glTF's float32 bone translations
+#: of 7-45 units varying by 2e-5), not a signal: left as they are.
+STATIC_SPAN = 1e-5
 #: A column is filtered only where the filters chosen for it are expected to take off at
 #: least this fraction of its RMS error over the clip (its ``expected_error`` at most 0.9
 #: of the noise level): a smaller gain is within the risk estimate's own uncertainty.
@@ -614,6 +618,7 @@ def _select(
         choice[:, to_level(total) < NEGLIGIBLE_DEG] = 0
     elif not rotations and given is None:
         choice[:, to_level(model.clip_sigma2()) < NEGLIGIBLE_LENGTH] = 0
+        choice[:, _static(x)] = 0
     if coloured is None:
         # a column whose choices, over the clip, are expected to take off less than
         # WORTHWHILE_GAIN of its error is left as it is (noise that wanders into the
@@ -672,6 +677,13 @@ def _select(
     if coloured is not None:
         clip_sigma2 = clip_sigma2 + _wander_sigma2(coloured, model)
     return out, to_level(clip_sigma2), choices
+
+
+def _static(p: np.ndarray) -> np.ndarray:
+    """``(C,)``: which columns of ``p`` ``(F, C, 3)`` vary along every axis by less than
+    :data:`STATIC_SPAN` of their largest coordinate."""
+    span = np.max(p.max(axis=0) - p.min(axis=0), axis=-1)
+    return span < STATIC_SPAN * np.max(np.abs(p), axis=(0, 2))
 
 
 def _rotation_degrees(sigma2) -> np.ndarray:
