@@ -40,15 +40,21 @@ def echo_warnings(lines: Iterable[str]) -> None:
 
 def read_options(command):
     """The options that tell how to read files needing more than themselves:
-    ``--skeleton``, ``--body-model``, ``--exclude`` and ``--input-fps``, given to the
-    command as one ``read`` (a :class:`~motionclean.io.ReadOptions`)."""
+    ``--skeleton``, ``--body-model``, ``--exclude``, ``--input-fps`` and ``--animation``,
+    given to the command as one ``read`` (a :class:`~motionclean.io.ReadOptions`)."""
 
     @functools.wraps(command)
-    def reading(*args, skeleton, body_model, exclude, input_fps, **kwargs):
-        read = ReadOptions(skeleton, body_model, tuple(exclude), input_fps)
+    def reading(*args, skeleton, body_model, exclude, input_fps, animation, **kwargs):
+        read = ReadOptions(skeleton, body_model, tuple(exclude), input_fps, animation)
         return command(*args, read=read, **kwargs)
 
     options = (
+        click.option(
+            "--animation",
+            metavar="NAME",
+            help="The animation of a .gltf/.glb file to read and clean, by name (or index); "
+            "default the first. `info` lists them.",
+        ),
         click.option(
             "--input-fps",
             type=FiniteRange(min=smpl.MIN_RATE, max=smpl.MAX_RATE),

@@ -78,6 +78,7 @@ def load(
     body_model: str | os.PathLike | None = None,
     exclude: Iterable[str] = (),
     frame_rate: float | None = None,
+    animation: str | None = None,
 ) -> Motion:
     """Read a clip; the format follows the extension (see the module).
 
@@ -100,6 +101,9 @@ def load(
     frame_rate : float, optional
         Frames per second of a SMPL clip whose file states none, from
         :data:`~motionclean.io.smpl.MIN_RATE` to ``MAX_RATE``.
+    animation : str, optional
+        The glTF animation to read, by name (or its index as digits); default the first.
+        Other formats do not use it.
 
     Returns
     -------
@@ -135,7 +139,17 @@ def load(
     if body_model is not None:
         model = functools.partial(smpl.read_body_model, checks.path(body_model, "body_model"))
     exclude = checks.patterns(exclude, "exclude")
-    return _read(path, template, model, exclude, smpl.checked_rate(frame_rate))
+    animation = _checked_animation(animation)
+    return _read(path, template, model, exclude, smpl.checked_rate(frame_rate), animation)
+
+
+def _checked_animation(animation) -> str | None:
+    """``animation`` (a glTF animation's name or index) as a str, or None."""
+    if animation is None or isinstance(animation, str):
+        return animation
+    if isinstance(animation, int) and not isinstance(animation, bool):
+        return str(animation)
+    raise TypeError(f"animation: expected a name or an index, got {type(animation).__name__}")
 
 
 def _read(
@@ -144,6 +158,7 @@ def _read(
     body_model: Callable[[], tuple[dict[str, np.ndarray], str]] | None,
     exclude: tuple[str, ...],
     frame_rate: float | None,
+    animation: str | None = None,
 ) -> Motion:
     """:func:`load` of its checked arguments; ``body_model`` reads the model, called only
     for a SMPL clip."""
@@ -163,7 +178,7 @@ def _read(
         elif suffix in (".mot", ".sto"):
             motion = opensim.parse_opensim(data, path, exclude=exclude)
         elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
-            motion = gltf.parse_gltf(data, path)
+            motion = gltf.parse_gltf(data, path, animation)
         elif motive.is_motive(data):
             motion = motive.parse_motive(data, path)
         else:
@@ -189,12 +204,13 @@ class ReadOptions:
     """What some files need besides themselves, given once for every clip a command reads
     (picklable: batch workers get it): a BVH ``skeleton`` (a channel CSV's template, a SMPL
     clip's rig), a SMPL ``body_model`` file, OpenSim columns to ``exclude`` and the
-    ``frame_rate`` of SMPL clips whose files state none."""
+    ``frame_rate`` of SMPL clips whose files state none, the glTF ``animation`` to read."""
 
     skeleton: str | None = None
     body_model: str | None = None
     exclude: tuple[str, ...] = ()
     frame_rate: float | None = None
+    animation: str | None = None
 
     @property
     def files(self) -> tuple[str, ...]:
@@ -210,7 +226,8 @@ class ReadOptions:
             model = functools.partial(read_once, smpl.read_body_model, self.body_model)
         path = Path(checks.path(path, "path"))
         exclude = checks.patterns(self.exclude, "exclude")
-        return _read(path, template, model, exclude, smpl.checked_rate(self.frame_rate))
+        rate = smpl.checked_rate(self.frame_rate)
+        return _read(path, template, model, exclude, rate, _checked_animation(self.animation))
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):

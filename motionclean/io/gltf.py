@@ -537,8 +537,37 @@ def _as_wxyz(values: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------- reading
 
 
-def parse_gltf(data: bytes, path) -> Motion:
-    """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module)."""
+def _animation_names(animations: list[dict]) -> list[str]:
+    """Each animation's name, or its index where it has none."""
+    return [str(a.get("name") or i) for i, a in enumerate(animations)]
+
+
+def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple[int, str | None]:
+    """The index of the animation to read (``wanted``: its name, or its index as digits;
+    None: the first; -1 when the file has none) and the note that says which of several."""
+    names = _animation_names(animations)
+    listed = ", ".join(repr(n[:40]) for n in names[:12]) + (", ..." if len(names) > 12 else "")
+    if wanted is None:
+        if len(animations) > 1:
+            return 0, (
+                f"{len(animations)} animations: the first ({names[0][:40]!r}) is read "
+                f"(--animation NAME reads another: {listed})"
+            )
+        return (0 if animations else -1), None
+    if wanted in names:
+        a = names.index(wanted)
+    elif wanted.isdigit() and int(wanted) < len(animations):
+        a = int(wanted)
+    else:
+        _fail(f"no animation {wanted[:40]!r}: the file has {listed or 'none'}", path)
+    return a, (
+        f"animation {names[a][:40]!r} of {len(animations)} is read" if len(names) > 1 else None
+    )
+
+
+def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
+    """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module): the animation named
+    ``animation`` (or of that index, as digits; default the first)."""
     glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(GLB_SUFFIXES)
     document, binary = _chunks(data, path) if glb else (_json(data, path), None)
     buffers = _Buffers(document, binary, path)
@@ -546,21 +575,20 @@ def parse_gltf(data: bytes, path) -> Motion:
     parent = _tree(nodes, path)
     animations = _items(document, "animations", path)
     notes: list[str] = []
-    if len(animations) > 1:
-        name = animations[0].get("name", "")
-        notes.append(f"{len(animations)} animations: the first ({str(name)[:40]!r}) is read")
-    animation = animations[0] if animations else {}
-    channels = animation.get("channels", [])
+    a, note = _chosen_animation(animations, animation, path)
+    notes.extend([note] if note else [])
+    chosen = animations[a] if a >= 0 else {}
+    channels = chosen.get("channels", [])
     if not isinstance(channels, list) or not all(isinstance(c, dict) for c in channels):
-        _fail("animations[0].channels is not a list of objects", path)
+        _fail(f"animations[{a}].channels is not a list of objects", path)
     targets: dict[tuple[int, str], int] = {}
     for c, channel in enumerate(channels):
         target = channel.get("target")
         if not isinstance(target, dict):
-            _fail(f"animations[0].channels[{c}] has no target", path)
+            _fail(f"animations[{a}].channels[{c}] has no target", path)
         if "node" not in target:
             continue
-        n = _index(target["node"], len(nodes), f"animations[0].channels[{c}].target.node", path)
+        n = _index(target["node"], len(nodes), f"animations[{a}].channels[{c}].target.node", path)
         kind = target.get("path")
         if kind in ("rotation", "translation"):
             targets[(n, kind)] = c
@@ -584,7 +612,7 @@ def parse_gltf(data: bytes, path) -> Motion:
     for (n, kind), c in targets.items():
         if n in joints:
             keys[(n, kind)] = _keys(
-                document, buffers, animation, channels[c], 0, 4 if kind == "rotation" else 3, path
+                document, buffers, chosen, channels[c], a, 4 if kind == "rotation" else 3, path
             )
     if keys:
         start, frame_time, n_frames = _grid(list(keys.values()), path)
@@ -638,7 +666,7 @@ def parse_gltf(data: bytes, path) -> Motion:
         binary,
         glb,
         tuple(order),
-        0 if animations else -1,
+        a,
         tuple(rotation_tracks),
         tuple(translation_tracks),
         start,

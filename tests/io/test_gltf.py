@@ -397,6 +397,30 @@ def test_a_glb_resampled_or_stitched_is_written_at_its_new_frames(tmp_path, caps
     assert mc.load(stitched).n_frames > source.n_frames
 
 
+def test_the_animation_named_is_read_cleaned_and_written_alone(tmp_path, capsys):
+    """A file of several animations (a character's Idle, Walk, Run): ``--animation`` reads
+    the one named, and cleaning it leaves every other animation as it was."""
+    document = json.loads(BLENDER_GLTF.read_text())
+    (tmp_path / "131_02_cut.bin").write_bytes((BLENDER_GLTF.parent / "131_02_cut.bin").read_bytes())
+    walk = dict(document["animations"][0], name="Walk")
+    document["animations"] = [dict(document["animations"][0], name="Idle"), walk]
+    source = tmp_path / "two.gltf"
+    source.write_text(json.dumps(document))
+    assert np.array_equal(mc.load(source, animation="Walk").rotations, mc.load(source).rotations)
+    target = tmp_path / "clean.gltf"
+    args = ["clean", source, "-o", target, "-q", "-f", "lee-shin:k=3", "--animation", "Walk"]
+    code, _, err = run_cli(capsys, *args)
+    assert code == 0, err
+    after = json.loads(target.read_text())
+    assert after["animations"][0] == document["animations"][0]  # Idle untouched
+    assert after["animations"][1]["channels"] != walk["channels"]
+    idle, cleaned = mc.load(target), mc.load(target, animation="1")
+    assert np.array_equal(idle.rotations, mc.load(source).rotations)
+    assert not np.allclose(cleaned.rotations, idle.rotations)
+    code, _, err = run_cli(capsys, "info", source, "--animation", "Jog")
+    assert code == 1 and err.strip().endswith("no animation 'Jog': the file has 'Idle', 'Walk'")
+
+
 def test_convert_takes_the_up_axis_it_is_told(tmp_path, capsys):
     """A figure whose up the motion misreads (a rig with IK bones near the ground read as
     legs) is written standing as the user says (``--up``), not on its side."""
