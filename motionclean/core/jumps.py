@@ -2,8 +2,9 @@
 
 No joint turns by more than :data:`JUMP_DEG` between two frames of a capture at any rate a
 clip is taken at (a quarter turn in 1/24 s is 2,160 degrees per second); a step that large is
-a defect. The spline of ``resample`` is cut there, ``lee-shin`` filters each side on its
-own, and the report counts no such step as jitter.
+a defect. The spline of ``resample`` is cut there, the smoothing steps (``lee-shin``,
+``bilateral``, ``fairing``, ``sse-fairing``, ``multires``: their ``cut_deg``) smooth each
+side on its own, and the report counts no such step as jitter.
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import UsageError
+from ..core.jumps import JUMP_DEG
 from ..core.motion import UP_AXES, Motion
 
 
@@ -121,6 +122,26 @@ UP_PARAM = Param(
 )
 
 
+def cut_param(printed: str) -> Param:
+    """The ``cut_deg`` parameter of a step that smooths each stretch between flips on its
+    own (``StepSpec.cuts_at_flips``, lee-shin's filter): degrees, default
+    :data:`~motionclean.core.jumps.JUMP_DEG`; 180 is the method as its paper prints it
+    (``printed`` names it)."""
+    return Param(
+        "cut_deg",
+        "float",
+        JUMP_DEG,
+        "a step between two frames that turns by more than this (degrees) is a flip or "
+        "a glitch, not motion: each stretch between such steps is smoothed on its own "
+        "(rotations; positions are not cut), so a flip stays a flip (despike repairs it) "
+        "instead of becoming a fast turn; "
+        f"180 smooths across every step ({printed})",
+        minimum=0.0,
+        exclusive_minimum=True,
+        maximum=180.0,
+    )
+
+
 def given_up(params: dict) -> str | None:
     """The up axis a step's :data:`UP_PARAM` gives, None for ``auto``."""
     return None if params["up"] == "auto" else params["up"]
@@ -217,6 +238,12 @@ class StepSpec:
     # Parameters besides ``joints`` that name joints by fnmatch patterns (footlock's
     # ``feet``): an include pattern that matches no joint of a clip is warned of.
     name_patterns: tuple[str, ...] = ()
+    # True: the step has a ``cut_deg`` parameter (:func:`cut_param`) and the pipeline runs
+    # it on each stretch of a rotation column between steps that turn by more than that
+    # (translations uncut), so a flip nothing repaired stays a flip. ``run`` must treat
+    # every column as a signal of its own: the stretches come as columns of one array, with
+    # ``motion`` None (no clip frames match them).
+    cuts_at_flips: bool = False
 
 
 COMMON_PARAMS = (

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from ..filters.bilateral import bilateral, bilateral_positions
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, cut_param
 
 
 def _run_bilateral(data: StepData, params: dict) -> StepData:
@@ -71,6 +71,8 @@ STEP = StepSpec(
             exclusive_minimum=True,
             infinite_ok=True,
         ),
+        cut_param("002's filter as printed"),
     ),
     run=_run_bilateral,
+    cuts_at_flips=True,
 )

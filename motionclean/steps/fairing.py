@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..filters.fairing import MAX_ITERATIONS, fairing, fairing_positions
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, cut_param
 
 
 def _run_fairing(data: StepData, params: dict) -> StepData:
@@ -29,6 +29,15 @@ def _run_fairing(data: StepData, params: dict) -> StepData:
             data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared
         )
     return data
+
+
+def _merge_note(parts: list[tuple[dict, int]]) -> dict:
+    """A joint's note from parts run on their own (takes, known stretches, stretches
+    between flips): the most iterations any took; held by the bound where none took one
+    and the bound held some (a part too short to fair takes none either)."""
+    iterations = max(note["iterations"] for note, _ in parts)
+    held = any(note["held_by_bound"] for note, _ in parts)
+    return {"iterations": iterations, "held_by_bound": held and iterations == 0}
 
 
 STEP = StepSpec(
@@ -90,6 +99,9 @@ STEP = StepSpec(
             minimum=0.0,
         ),
         Param("max_iterations", "int", 100, "iteration cap", minimum=0, maximum=MAX_ITERATIONS),
+        cut_param("001's fairing as printed"),
     ),
     run=_run_fairing,
+    merge_note=_merge_note,
+    cuts_at_flips=True,
 )

@@ -9,10 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import UsageError
-from ..core.jumps import JUMP_DEG
 from ..filters import design, masks
 from ..filters.linear import lee_shin, lee_shin_positions
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, cut_param
 
 SAVGOL_HALF_WIDTH = 3  # frames, when a savgol mask gives none
 
@@ -195,18 +194,7 @@ STEP = StepSpec(
         ),
         Param("coefficients", "floats", None, "mask=custom: odd-length list summing to 1"),
         Param("iterations", "int", 1, "number of passes", minimum=1, maximum=1000),
-        Param(
-            "cut_deg",
-            "float",
-            JUMP_DEG,
-            "a step between two frames that turns by more than this (degrees) is a flip or "
-            "a glitch, not motion: each stretch between such steps is filtered on its own, "
-            "so a flip stays a flip (despike repairs it) instead of becoming a fast turn; "
-            "180 smooths across every step (000's filter as printed)",
-            minimum=0.0,
-            exclusive_minimum=True,
-            maximum=180.0,
-        ),
+        cut_param("000's filter as printed"),
     ),
     run=_run_lee_shin,
     resolve=_resolve_lee_shin,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..core.errors import UsageError
 from ..filters import multires
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, cut_param
 
 MULTIRES_GAINS = (0.0,)  # without gains or level: remove the finest band
 
@@ -66,7 +66,9 @@ STEP = StepSpec(
             minimum=0.0,
             maximum=30.0,
         ),
+        cut_param("003's pyramid as printed"),
     ),
     run=_run_multires,
+    cuts_at_flips=True,
     resolve=_resolve_multires,
 )

@@ -16,7 +16,7 @@ import copy
 import fnmatch
 import re
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from ..core import checks
 from ..core.errors import MotionError, UsageError
+from ..core.jumps import jump_steps
 from ..core.motion import Motion, sparse_copy
 from ..core.restpose import held_end_follows, rest_frames, splice, trim
 from ..core.takes import take_spans, take_starts
@@ -547,7 +548,7 @@ def _run_step(
         assert by_take is not None
         data = _run_by_takes(step, data, motion, starts, by_take)
     elif motion.missing is None or step.spec.sees_missing:
-        data = step.spec.run(data, step.params)
+        data = _call(step, data)
     else:
         data = _run_on_known(step, data, motion)
     touched = None
@@ -653,6 +654,109 @@ def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
     return out.finish()
 
 
+def _call(step: Step, data: StepData) -> StepData:
+    """``step`` run on ``data``: in one call, or for a step that cuts at flips
+    (``StepSpec.cuts_at_flips``, ``cut_deg`` below 180) stretch by stretch
+    (:func:`_run_between_flips`)."""
+    assert step.spec.run is not None
+    if step.spec.cuts_at_flips and step.params["cut_deg"] < 180.0:
+        return _run_between_flips(step, data)
+    return step.spec.run(data, step.params)
+
+
+def _run_between_flips(step: Step, data: StepData) -> StepData:
+    """``step`` on ``data`` with each rotation column cut at the steps between two frames
+    that turn by more than ``cut_deg`` degrees (:func:`~motionclean.core.jumps.jump_steps`):
+    the columns without such a step and the translations in one call, as uncut; the
+    stretches between cuts each on its own (:func:`_run_stretches`)."""
+    assert step.spec.run is not None
+    cuts = jump_steps(data.rotations, step.params["cut_deg"])  # (F-1, C)
+    flipped = cuts.any(axis=0)
+    if not flipped.any():
+        return step.spec.run(data, step.params)
+    plain = np.flatnonzero(~flipped)
+    whole = step.spec.run(
+        replace(
+            data,
+            rotations=data.rotations[:, plain],
+            rotation_joints=data.rotation_joints[plain],
+            rotation_notes={},
+            translation_notes={},
+        ),
+        step.params,
+    )
+    rotations = data.rotations if data.owned else data.rotations.copy()  # (written into)
+    rotations[:, plain] = whole.rotations
+    notes = {int(plain[c]): note for c, note in whole.rotation_notes.items()}
+    notes.update(_run_stretches(step, data, cuts, rotations))
+    return replace(
+        data,
+        rotations=rotations,
+        translations=whole.translations,
+        rotation_notes=notes,
+        translation_notes=whole.translation_notes,
+    )
+
+
+def _run_stretches(
+    step: Step, data: StepData, cuts: np.ndarray, out: np.ndarray
+) -> dict[int, dict]:
+    """``step`` on each stretch of 2 frames or more of ``data``'s rotation columns between
+    ``cuts`` ``(F-1, C)``, as a column of its own (the stretches of one length in one call:
+    a loop over lengths, not over stretches or frames), written into ``out`` (which may be
+    ``data.rotations``: no two stretches share a sample); a frame alone is left as it is.
+    Returns each cut column's notes, its stretches' merged (:func:`_merged`)."""
+    assert step.spec.run is not None
+    parts: dict[int, list[tuple[int, dict, int]]] = {}  # column -> (first, note, frames)
+    column, first, length = _stretches(cuts)
+    for group in _by_length(length):
+        frames = first[group] + np.arange(length[group[0]])[:, None]  # (L, n)
+        columns = column[group]
+        result = step.spec.run(
+            StepData(
+                data.rotations[frames, columns],
+                None,
+                data.frame_time,
+                rotation_joints=data.rotation_joints[columns],
+                owned=True,
+                earlier=data.earlier,
+            ),
+            step.params,
+        )
+        out[frames, columns] = result.rotations
+        for c, note in result.rotation_notes.items():
+            at, n = int(first[group[c]]), int(length[group[c]])
+            parts.setdefault(int(columns[c]), []).append((at, _shifted(step.spec, note, at), n))
+    return {
+        c: _merged(step.spec, [(note, n) for _, note, n in sorted(found, key=lambda p: p[0])])
+        for c, found in parts.items()
+    }
+
+
+def _stretches(cuts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stretches of 2 frames or more between ``cuts`` ``(F-1, C)`` (True: a cut
+    between frames ``i`` and ``i+1``) of the columns with any: ``(column, first, length)``,
+    ``(S,)`` each."""
+    n_frames = cuts.shape[0] + 1
+    columns = np.flatnonzero(cuts.any(axis=0))
+    cut_column, cut_at = np.nonzero(cuts.T)  # by column, then frame
+    owner = np.concatenate([columns, cut_column])
+    first = np.concatenate([np.zeros(columns.size, np.intp), cut_at + 1])
+    stop = np.concatenate([cut_at + 1, np.full(columns.size, n_frames)])
+    by_first = np.lexsort((first, owner))
+    by_stop = np.lexsort((stop, np.concatenate([cut_column, columns])))
+    owner, first = owner[by_first], first[by_first]
+    length = stop[by_stop] - first
+    kept = length >= 2
+    return owner[kept], first[kept], length[kept]
+
+
+def _by_length(length: np.ndarray) -> list[np.ndarray]:
+    """Indices of ``length`` grouped by value, each group in index order."""
+    order = np.argsort(length, kind="stable")
+    return np.split(order, np.flatnonzero(np.diff(length[order])) + 1) if order.size else []
+
+
 def _remade_by_takes(
     step: Step, motion: Motion, starts: np.ndarray
 ) -> tuple[Motion, StepLog, np.ndarray]:
@@ -728,7 +832,8 @@ class _Outputs:
         whole = rows == slice(None)
         # One known stretch: the clip cut to it, with nothing missing, is its context.
         context = motion if whole else motion.at_frames(rows).replace(missing=None)
-        result = step.spec.run(
+        result = _call(
+            step,
             StepData(
                 data.rotations[rows][:, rot],
                 None if data.translations is None else data.translations[rows][:, pos],
@@ -738,7 +843,6 @@ class _Outputs:
                 translation_joints=data.translation_joints[pos],
                 earlier=data.earlier if earlier is None else earlier,
             ),
-            step.params,
         )
         self.rotations[rows, rot] = result.rotations
         if self.translations is not None and result.translations is not None:

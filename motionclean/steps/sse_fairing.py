@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..filters.fairing import MAX_ITERATIONS, sse_fairing, sse_fairing_positions
-from .base import Param, StepData, StepSpec
+from .base import Param, StepData, StepSpec, cut_param
 
 
 def _run_sse_fairing(data: StepData, params: dict) -> StepData:
@@ -54,6 +54,8 @@ STEP = StepSpec(
             minimum=0,
             maximum=MAX_ITERATIONS,
         ),
+        cut_param("004's descent as printed"),
     ),
     run=_run_sse_fairing,
+    cuts_at_flips=True,
 )

@@ -354,7 +354,8 @@ def test_step_equals_the_filter_called_directly(
 
 
 def test_positions_false_leaves_translations_and_filters_rotations(clip):
-    cleaned, logs = Pipeline.from_inline(["multires:levels=3,positions=false"]).run(clip)
+    step = "multires:levels=3,positions=false,cut_deg=180"  # (180: the pyramid, uncut)
+    cleaned, logs = Pipeline.from_inline([step]).run(clip)
     np.testing.assert_array_equal(cleaned.translations, clip.translations)
     assert logs[0].translation_joints == []
     np.testing.assert_allclose(
@@ -363,7 +364,7 @@ def test_positions_false_leaves_translations_and_filters_rotations(clip):
 
 
 def test_steps_run_in_order_each_on_the_previous_output(clip):
-    steps = ["lee-shin:k=1,joints=['*','!RThumb']", "bilateral:sigma_t=2,sigma_g=0.05"]
+    steps = ["lee-shin:k=1,joints=['*','!RThumb']", "bilateral:sigma_t=2,sigma_g=0.05,cut_deg=180"]
     cleaned, _ = Pipeline.from_inline(steps).run(clip)
     assert clip.names[-1] == "RThumb"
     first = lee_shin(clip.rotations[:, :-1], binomial(1))

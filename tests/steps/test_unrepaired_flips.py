@@ -151,10 +151,11 @@ def test_the_report_counts_no_cut_dropout_or_rest_frame_as_an_unrepaired_jump(tm
 
 def test_fairing_says_which_joints_its_bound_left_as_they_were():
     """Fairing keeps the last iterate within epsilon_r; where the first would leave it
-    (RThumb's half-turn flips here, a video estimate's noise), the joint stays as it was,
-    and the report says so and what to change (the verdict had only "no rotation changed")."""
+    (RThumb's half-turn flips fairing smooths across with cut_deg=180, a video estimate's
+    noise), the joint stays as it was, and the report says so and what to change (the
+    verdict had only "no rotation changed"). Cut at its flips, RThumb is smoothed."""
     clip = mc.load(NOISY)
-    result = clean_motion(clip, Pipeline.from_inline(["fairing"]), "n.bvh")
+    result = clean_motion(clip, Pipeline.from_inline(["fairing:cut_deg=180"]), "n.bvh")
     assert result.report["joints"]["RThumb"]["fairing"] == {"iterations": 0, "held_by_bound": True}
     assert result.report["joints"]["Head"]["fairing"]["iterations"] > 0
     notes = [n for n in result.report["notes"] if n.startswith("fairing left")]
@@ -162,9 +163,11 @@ def test_fairing_says_which_joints_its_bound_left_as_they_were():
         "fairing left 1 joint as it was (RThumb): its first step would move a sample beyond "
         "epsilon_r; a larger epsilon_r lets it smooth them"
     ]
-    for step in ("fairing:epsilon_r=inf", "fairing:max_iterations=0"):  # no bound held them
+    for step in ("fairing", "fairing:cut_deg=180,epsilon_r=inf", "fairing:max_iterations=0"):
         free = clean_motion(clip, Pipeline.from_inline([step]), "n.bvh")
         assert not any(n.startswith("fairing left") for n in free.report.get("notes", []))
+    cut = clean_motion(clip, Pipeline.from_inline(["fairing"]), "n.bvh").report["joints"]
+    assert cut["RThumb"]["fairing"] == {"iterations": 100, "held_by_bound": False}
 
 
 def test_stretches_across_block_edges_match_each_alone_in_bounded_memory():
