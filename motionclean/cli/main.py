@@ -655,8 +655,17 @@ def filters_command() -> None:
     default = " ".join(f"-f {step['filter']}" for step in DEFAULT_STEPS)
     click.echo(f"default pipeline (clean without -p or -f): {default}\n")
     for spec in REGISTRY.values():
-        click.echo(f"{spec.name}: {spec.summary}")
-        click.echo(f"    implements {spec.paper}")
+        click.echo(
+            textwrap.fill(f"{spec.name}: {spec.summary}", width=96, subsequent_indent="    ")
+        )
+        click.echo(
+            textwrap.fill(
+                f"implements {spec.paper}",
+                width=96,
+                initial_indent="    ",
+                subsequent_indent="    ",
+            )
+        )
         # a step that changes the whole clip takes no joints, positions or frame range
         common = COMMON_PARAMS if spec.run_motion is None else ()
         if spec.run_motion is not None:
