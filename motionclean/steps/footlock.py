@@ -36,6 +36,12 @@ from .base import (
     shift_runs,
 )
 
+#: A contact starts below this many times the ankle's expected position error, per second
+#: (:func:`noise_aware`), when that is above the step's ``speed`` ...
+NOISE_SPEED = 6.0
+#: ... but never above this many times ``speed``.
+NOISE_SPEED_CAP = 2.0
+
 
 def contact_params(params: dict) -> found.ContactParams:
     """The step's parameters as contact thresholds (body heights, seconds)."""
@@ -55,12 +61,11 @@ def find_contacts(motion: Motion, params: dict):
     return feet, contacts, positions, up, height, ground
 
 
-def _leg_contacts(motion: Motion, params: dict):
-    """:func:`find_contacts` with the world positions of the points the step reads alone:
-    each foot's points and the joints from the root down to its knee. Returns the feet,
-    contacts, those positions ``(F, n, 3)`` (turned
-    :func:`~motionclean.core.kinematics.upright`), the feet and the point -> column map
-    ``(P,)`` (-1: not kept) for them, up axis, body height and ground height."""
+def _leg_points(motion: Motion, params: dict):
+    """The feet and the world positions of the points the step reads alone: each foot's
+    points and the joints from the root down to its knee. Returns the feet, those positions
+    ``(F, n, 3)`` (turned :func:`~motionclean.core.kinematics.upright`), the feet and the
+    point -> column map ``(P,)`` (-1: not kept) for them, up axis and body height."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
@@ -78,10 +83,23 @@ def _leg_contacts(motion: Motion, params: dict):
         )
         for f in feet
     ]
-    contacts, ground = found.detect(
-        positions, on_columns, up, height, motion.frame_time, contact_params(params)
-    )
-    return feet, contacts, positions, on_columns, column, up, height, ground
+    return feet, positions, on_columns, column, up, height
+
+
+def noise_aware(params: dict, positions, legs, prior: Prior, column, height: float):
+    """The contact thresholds for a clip whose legs ``prior`` expects wrong: a contact
+    starts below the step's ``speed`` or, when it is higher, the speed at which the
+    ankles' expected position error alone (:func:`_expected_error` over the clip, the
+    worst leg's) makes a standing foot seem to move (:data:`NOISE_SPEED` times it, at most
+    :data:`NOISE_SPEED_CAP` times ``speed``): 3 degrees of noise at 30 fps leave a standing
+    ankle moving at 0.15-0.2 body heights/s after ``auto``, and most of its contact was
+    missed."""
+    every = np.ones(positions.shape[0], dtype=bool)
+    worst = max((_expected_error(positions, every, leg, prior, column) for leg in legs), default=0)
+    speed = min(NOISE_SPEED * worst / height, NOISE_SPEED_CAP * params["speed"])
+    if speed <= params["speed"]:
+        return contact_params(params)
+    return found.ContactParams.starting_at(params["height"], speed, params["min_seconds"])
 
 
 def _sign(motion: Motion, params: dict) -> float:
@@ -130,17 +148,16 @@ def _toe_contacts(
     height: float,
     ground: float,
     frame_time: float,
-    params: dict,
+    thresholds: found.ContactParams,
 ) -> np.ndarray:
     """``(F, n_toes)``: for each toe point of the legs whose toes are held, the frames of
-    its leg's ``contacts`` where the point is planted itself (its own height and speed,
-    :func:`motionclean.core.contacts.point_contacts`); ``point_column`` maps a point to
-    its column of ``positions``."""
+    its leg's ``contacts`` where the point is planted itself (its own height and speed
+    under ``thresholds``: the step's own, not raised for noise, which cost the knees more
+    than it took off the toes; :func:`motionclean.core.contacts.point_contacts`);
+    ``point_column`` maps a point to its column of ``positions``."""
     held = held_toes(legs)
     columns = [int(point_column[p]) for _, p in held]
-    own = found.point_contacts(
-        positions, columns, up, height, frame_time, contact_params(params), ground
-    )
+    own = found.point_contacts(positions, columns, up, height, frame_time, thresholds, ground)
     return own & contacts[:, [k for k, _ in held]]
 
 
@@ -197,19 +214,26 @@ def _run(data: StepData, params: dict) -> StepData:
     assert motion is not None
     if motion.n_frames < 2:  # no contact without a ground, none without two frames
         return data
-    feet, contacts, positions, on_columns, point_column, up, height, ground = _leg_contacts(
-        motion, params
+    feet, positions, on_columns, point_column, up, height = _leg_points(motion, params)
+    column = {int(j): c for c, j in enumerate(data.rotation_joints)}
+    every_leg = _legs(motion, feet, set(column), params["toes"])
+    if not every_leg:
+        return data
+    root = _chain(motion.parents, every_leg[0][1].knee)[0]
+    prior = _prior(data, [leg for _, leg in every_leg], root)
+    thresholds = noise_aware(
+        params, positions, [leg for _, leg in every_leg], prior, point_column, height
+    )
+    contacts, ground = found.detect(
+        positions, on_columns, up, height, motion.frame_time, thresholds
     )
     contacts = found.sliding_contacts(
         positions, on_columns, contacts, up, motion.frame_time, params["min_skate"] * height
     )
-    column = {int(j): c for c, j in enumerate(data.rotation_joints)}
     held: np.ndarray = np.asarray(contacts.any(axis=0))
-    chosen = [(k, leg) for k, leg in _legs(motion, feet, set(column), params["toes"]) if held[k]]
+    chosen = [(k, leg) for k, leg in every_leg if held[k]]
     if not chosen:
         return data
-    root = _chain(motion.parents, chosen[0][1].knee)[0]
-    prior = _prior(data, [leg for _, leg in chosen], root)
     # a leg whose ankle auto expects within the tolerance of the truth is left as it is
     # (a clip auto found clean: nothing there to correct)
     limit = params["tolerance"] * height
@@ -252,7 +276,7 @@ def _run(data: StepData, params: dict) -> StepData:
             height,
             ground,
             motion.frame_time,
-            params,
+            contact_params(params),
         ),
         toe_tolerance=params["toe_tolerance"],
     )

@@ -12,6 +12,7 @@ import motionclean as mc
 from motionclean.core import contacts as found
 from motionclean.core import kinematics, quat
 from motionclean.filters import lee_shin
+from motionclean.filters.footlock import Prior
 from motionclean.filters.masks import binomial
 from motionclean.steps import footlock
 from motionclean.steps.base import StepData
@@ -145,9 +146,9 @@ def test_the_step_reads_the_positions_of_the_legs_alone_and_finds_the_same_conta
     its contacts are those of every point's positions, and its positions their columns."""
     motion = mc.load(NOISY)
     feet, contacts, positions, *_ = footlock.find_contacts(motion, PARAMS)
-    mine, my_contacts, columns, on_columns, point_column, *_ = footlock._leg_contacts(
-        motion, PARAMS
-    )
+    mine, columns, on_columns, point_column, up, height = footlock._leg_points(motion, PARAMS)
+    params = footlock.contact_params(PARAMS)
+    my_contacts, _ = found.detect(columns, on_columns, up, height, motion.frame_time, params)
     assert mine == feet and np.array_equal(my_contacts, contacts)
     used = np.flatnonzero(point_column >= 0)
     assert used.size < positions.shape[1] // 2
@@ -190,3 +191,55 @@ def test_the_lock_eases_in_continuously_with_its_blend():
     a = Pipeline.from_tables(steps, "test").run(motion)[0].rotations
     b = Pipeline.from_tables(longer, "test").run(motion)[0].rotations
     assert np.degrees(quat.angle_between(a, b)).max() < 0.005
+
+
+def _every_fourth(motion: mc.Motion) -> mc.Motion:
+    """``motion`` at a quarter of its rate (120 -> 30 fps), as a capture at that rate."""
+    return motion.replace(
+        rotations=quat.make_continuous(motion.rotations[::4], axis=0),
+        translations=motion.translations[::4],
+        frame_time=motion.frame_time * 4,
+        source_values=None,
+        source_rotations=None,
+    )
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_contacts_start_above_the_speed_noise_alone_gives_a_standing_foot(monkeypatch, seed):
+    """4 degrees of noise at 30 fps leave a standing ankle moving at 0.15-0.2 body heights/s
+    after auto: at the step's own 0.15 a sixth of the walk's contact frames were missed and
+    slid unheld. Raised to what the ankle's expected error gives, they are held."""
+    truth = _every_fourth(mc.load(corpus_clip("131_02.bvh")))
+    feet, contacts, _, up, height, _ = footlock.find_contacts(truth, PARAMS)
+    noisy = truth.replace(rotations=plant(truth.rotations, 4.0, seed))
+
+    def held_and_skate():
+        out, logs = Pipeline.default().run(noisy)
+        held = np.zeros(contacts.shape, dtype=bool)
+        for k, foot in enumerate(feet):
+            for a, b in logs[-1].notes[foot.name]["footlock"]["contacts"]:
+                held[a:b, k] = True
+        positions = kinematics.forward(out, end_sites=True)[0]
+        skate = found.skate(positions, feet, contacts, up, truth.frame_time) / height
+        return (held & contacts).sum() / contacts.sum(), skate
+
+    cover, skate = held_and_skate()
+    monkeypatch.setattr(footlock, "NOISE_SPEED", 0.0)
+    cover_before, skate_before = held_and_skate()
+    assert cover >= 0.95 > 0.9 >= cover_before
+    assert np.all(skate < 0.9 * skate_before)
+
+
+def test_noise_aware_thresholds_rise_only_with_the_expected_error():
+    motion = mc.load(SAMPLE)
+    feet, positions, on_columns, column, up, height = footlock._leg_points(motion, PARAMS)
+    legs = [leg for _, leg in footlock._legs(motion, feet, set(range(motion.n_joints)), True)]
+    clean = Prior(np.zeros(motion.n_joints), np.zeros(3))
+    loud = Prior(np.full(motion.n_joints, np.radians(10.0)), np.zeros(3))
+    args = (positions, legs)
+    assert footlock.noise_aware(PARAMS, *args, clean, column, height) == footlock.contact_params(
+        PARAMS
+    )
+    capped = footlock.noise_aware(PARAMS, *args, loud, column, height)
+    assert capped.speed == footlock.NOISE_SPEED_CAP * PARAMS["speed"]
+    assert capped.speed_off > capped.speed and capped.height == PARAMS["height"]
