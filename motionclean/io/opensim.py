@@ -23,11 +23,12 @@ coordinate (named ``*_tx``, ``*_ty``, ``*_tz``, as OpenSim names them) is a posi
 that axis (``Xposition`` ...; metres); any other is a rotation by its angle about a fixed
 axis, the joint's Z axis (``Zrotation Xrotation Yrotation``, the two others zero): filters
 on that quaternion signal act on the angle itself, and it stays a rotation about Z.
-In a states file only the coordinates' values are read (:func:`coordinate_name`); speeds,
-muscle states and controls (:func:`is_other_state`), and columns of forces (:data:`LOADS`)
-and errors (:data:`ERRORS`) are carried as text (a file of nothing else is refused), as
-are those the user excludes (``exclude``: fnmatch patterns), never parsed. ``NaN`` cells
-(any case) are missing samples (``Motion.missing``).
+In a states file only the coordinates' values are read (:func:`coordinate_name`); marker
+positions (:func:`is_marker`), speeds, muscle states and controls (:func:`is_other_state`),
+and columns of forces (:data:`LOADS`) and errors (:data:`ERRORS`) are carried as text (a
+file of nothing else is refused), as are those the user excludes (``exclude``: fnmatch
+patterns), never parsed: carried columns may share a name (two force plates' columns),
+coordinates may not. ``NaN`` cells (any case) are missing samples (``Motion.missing``).
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
@@ -176,6 +177,12 @@ def is_other_state(label: str, labels: set[str]) -> bool:
     return "." in label or (label.endswith("_u") and label[:-2] in labels)
 
 
+def is_marker(label: str) -> bool:
+    """Whether a column is a marker's position along an axis, as SIMM motion files name
+    markers (``R.ASIS_tx``: a dotted name ending ``_tx``, ``_ty`` or ``_tz``)."""
+    return "/" not in label and "." in label and is_translational(label) >= 0
+
+
 #: Column names of external loads (ground reaction forces, their points of application
 #: and torques, as OpenSim names them): not coordinates, carried as text.
 LOADS = ("*force*", "*torque*", "*moment*", "*_p[xyz]")
@@ -189,6 +196,63 @@ DEGREES_IN_RADIANS = math.pi
 #: ... or moves faster than this (radians per second, the 99th percentile of its steps:
 #: a kick's knee reaches about 30).
 DEGREES_IN_RADIANS_PER_S = 60.0
+
+
+#: The kinds of columns carried as text, never parsed, in the order they are told apart:
+#: what a note calls them, and what a file of nothing else is said to hold (None: errors,
+#: which the message names).
+CARRIED: dict[str, str | None] = {
+    "marker positions": "marker positions",
+    "states or controls other than coordinate values (speeds, muscles)": (
+        "speeds and muscle states"
+    ),
+    "forces, torques or points of application": (
+        "forces, torques and points of application (an external loads file)"
+    ),
+    "errors (not coordinates)": None,
+}
+
+
+def _sorted_columns(
+    labels: list[str], columns: list[int]
+) -> tuple[list[int], dict[str, list[int]]]:
+    """The coordinates among ``columns`` and the others, by kind (:data:`CARRIED`)."""
+    every = set(labels)
+    tests = (  # (in the order of CARRIED)
+        is_marker,
+        lambda label: is_other_state(label, every),
+        lambda label: any(fnmatch.fnmatchcase(label.lower(), p) for p in LOADS),
+        lambda label: any(fnmatch.fnmatchcase(label.lower(), p) for p in ERRORS),
+    )
+    carried: dict[str, list[int]] = {kind: [] for kind in CARRIED}
+    kept: list[int] = []
+    for c in columns:
+        kind = next((k for k, test in zip(CARRIED, tests, strict=True) if test(labels[c])), None)
+        (kept if kind is None else carried[kind]).append(c)
+    return kept, carried
+
+
+def _check_coordinates(
+    labels: list[str], kept: list[int], carried: dict[str, list[int]], path, line: int
+) -> None:
+    """Refuse a file without coordinates (saying what it holds instead) and a coordinate
+    named twice; carried columns may share a name (two force plates' ``ground_force_vx``)."""
+    if not kept:
+        kind = next(kind for kind, columns in carried.items() if columns)
+        what = CARRIED[kind] or (
+            f"errors ({', '.join(labels[c][:40] for c in carried[kind][:3])}: inverse "
+            "kinematics' marker errors, not angles)"
+        )
+        _fail(f"no coordinate columns: {what} are no motion to clean", path, line)
+    names = [labels[c] for c in [0, *kept]]
+    if len(set(names)) != len(names):
+        twice = next(name for name in names if names.count(name) > 1)
+        _fail(
+            f"coordinate column {twice[:60]!r} appears twice: rename one, or carry both as "
+            "text (--exclude)",
+            path,
+            line,
+        )
 
 
 def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
@@ -236,9 +300,6 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         _fail(
             f"the first column is {labels[0][:40]!r}, expected 'time'", path, number_of(label_line)
         )
-    if len(set(labels)) != len(labels):
-        twice = next(label for label in labels if labels.count(label) > 1)
-        _fail(f"column {twice[:60]!r} appears twice", path, number_of(label_line))
     rows = used[1:]
     bad = rows[counts[rows] != k]
     if bad.size:
@@ -257,32 +318,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
     kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
     if not kept:
         _fail("no coordinate columns (all excluded)", path, number_of(label_line))
-    every = set(labels)
-    states = [c for c in kept if is_other_state(labels[c], every)]
-    loads = [
-        c
-        for c in kept
-        if c not in states and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in LOADS)
-    ]
-    errors = [
-        c
-        for c in kept
-        if c not in states
-        and c not in loads
-        and any(fnmatch.fnmatchcase(labels[c].lower(), p) for p in ERRORS)
-    ]
-    kept = [c for c in kept if c not in loads and c not in states and c not in errors]
+    kept, carried = _sorted_columns(labels, kept)
+    _check_coordinates(labels, kept, carried, path, number_of(label_line))
     notes = [] if note is None else [note]
-    if (loads or states or errors) and not kept:
-        what = (
-            "forces, torques and points of application (an external loads file)"
-            if loads
-            else "speeds and muscle states"
-            if states
-            else f"errors ({', '.join(labels[c][:40] for c in errors[:3])}: inverse "
-            "kinematics' marker errors, not angles)"
-        )
-        _fail(f"no coordinate columns: {what} are no motion to clean", path, number_of(label_line))
     if stated is not None and stated_count(stated) != rows.size:
         short = (stated_count(stated) or 0) > rows.size
         notes.append(
@@ -290,15 +328,11 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
             f"{' (cut short?)' if short else ''}: the {rows.size} are read, and any output "
             f"says nRows={rows.size}"
         )
-    for carried, what in (
-        (loads, "forces, torques or points of application"),
-        (states, "states or controls other than coordinate values (speeds, muscles)"),
-        (errors, "errors (not coordinates)"),
-    ):
-        if carried:
-            shown = ", ".join(labels[c] for c in carried[:3])
-            more = " ..." if len(carried) > 3 else ""
-            notes.append(f"{len(carried)} columns of {what} carried as they are ({shown}{more})")
+    for what, columns in carried.items():
+        if columns:
+            shown = ", ".join(labels[c] for c in columns[:3])
+            more = " ..." if len(columns) > 3 else ""
+            notes.append(f"{len(columns)} columns of {what} carried as they are ({shown}{more})")
     parsed = np.array([0, *kept], dtype=np.intp)
     nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])
     if nan[:, 0].any():

@@ -238,6 +238,42 @@ def test_force_torque_and_point_columns_are_carried_and_a_loads_file_refused(tmp
     assert code == 1 and "external loads file" in err and len(err.strip().splitlines()) == 1
 
 
+def test_carried_columns_may_share_a_name_and_markers_are_said_to_be_markers(tmp_path, capsys):
+    """opensim-models' Gait2392 subject01_walk1_ik.mot holds two force plates' columns under
+    the same names (ground_force_vx ... twice) and markers as SIMM names them (R.ASIS_tx):
+    the file had been refused ('appears twice'), and the markers called speeds and muscle
+    states. Carried columns are text: duplicates are read and written back byte for byte;
+    a coordinate named twice is still refused."""
+    rows = [
+        f"{0.01 * f:.8f}\t{5 + f:.8f}\t{0.1 * f:.8f}\t{1.5 + f:.8f}\t{2.5 + f:.8f}"
+        f"\t{3.5 - f:.8f}\t{0.2 * f:.8f}\t{0.3 * f:.8f}"
+        for f in range(8)
+    ]
+    text = "\n".join(
+        ["first trial", "nRows=8", "nColumns=8", "inDegrees=yes", "endheader",
+         "time\tknee_angle_r\tR.ASIS_tx\tground_force_vx\tground_force_py\tground_force_vx"
+         "\tground_force_py\tpelvis_tx", *rows, ""]
+    )  # fmt: skip
+    path = write(tmp_path, text, "two_plates.mot")
+    motion = mc.load(path)
+    assert motion.names == ["knee_angle_r", "pelvis_tx"]
+    notes = kinematics.source_notes(motion)
+    assert "1 columns of marker positions carried as they are (R.ASIS_tx)" in notes
+    assert not any("muscles" in note for note in notes)
+    mc.save(motion, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == path.read_bytes()
+    q = motion.rotations.copy()
+    q[3, 0] = quat.multiply(q[3, 0], quat.exp(np.array([0.0, 0.0, np.deg2rad(0.5) / 2])))
+    mc.save(motion.replace(rotations=q), tmp_path / "moved.mot")
+    before = [line.split("\t") for line in text.splitlines()[6:]]
+    after = [line.split("\t") for line in (tmp_path / "moved.mot").read_text().splitlines()[6:]]
+    assert [row[2:7] for row in after] == [row[2:7] for row in before]
+    twice = text.replace("pelvis_tx", "knee_angle_r")
+    code, _, err = run_cli(capsys, "info", write(tmp_path, twice, "twice.mot"))
+    assert code == 1 and err.count("\n") == 1
+    assert "coordinate column 'knee_angle_r' appears twice: rename one" in err
+
+
 def states_file(naming: str, frames: int = 120) -> str:
     """A states .sto (radians) of a knee swinging with a one-frame spike, its speed (the
     derivative, smooth through zero), the pelvis's forward position and a muscle's
