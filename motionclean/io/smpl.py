@@ -12,8 +12,9 @@ A record is a flat set of named arrays, one row per frame:
   present (AMASS SMPL-X), ``poses`` is read and every form is written back;
 - ``trans`` (or ``transl``): the root translation (metres), optional; AIST++'s
   ``smpl_trans`` is in units of ``smpl_scaling`` metres, and read divided by it;
-- ``mocap_framerate`` / ``mocap_frame_rate`` / ``fps``: frames per second (30 assumed,
-  with a note, when absent); ``betas``, ``gender`` and anything else are carried as read.
+- ``mocap_framerate`` / ``mocap_frame_rate`` / ``fps``: frames per second (when absent,
+  with a note: 60 for an AIST++ record, which has ``smpl_scaling``, else 30); ``betas``,
+  ``gender`` and anything else are carried as read.
 
 Each joint becomes a joint of the clip (the model's names and tree), its rotation the
 quaternion of its axis-angle vector. Joint positions are not in the file: with a body
@@ -60,6 +61,8 @@ RATE_KEYS = ("mocap_framerate", "mocap_frame_rate", "fps", "frame_rate", "framer
 #: Frame rate taken when the record has none (video pose estimators run at 30 fps), and
 #: the rates a record may state or be given (frames per second).
 DEFAULT_RATE = 30.0
+#: AIST++'s rate (its motions are 60 fps, which its files do not say).
+AIST_RATE = 60.0
 MIN_RATE, MAX_RATE = 0.1, 100000.0
 #: Keys of the whole pose, and of the root translation, in the order they are looked for
 #: (WHAM's world-grounded ``pose_world`` / ``trans_world`` before its camera-frame ones).
@@ -305,12 +308,18 @@ def checked_rate(frame_rate) -> float | None:
 
 def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float, str | None]:
     """Seconds per frame from the record's frame rate, or the rate ``given`` (frames per
-    second) where it states none, else :data:`DEFAULT_RATE`; and a note of the rate taken
+    second) where it states none, else :data:`AIST_RATE` for an AIST++ record (one with
+    :data:`SCALE_KEY`) and :data:`DEFAULT_RATE` for any other; and a note of the rate taken
     when it was not the record's, or of ``given`` not taken."""
     key = _first(record, RATE_KEYS)
     given = checked_rate(given)  # (the library's callers)
     if key is None and given is not None:
         return 1.0 / given, f"no frame rate in the file; {given:g} fps as given"
+    if key is None and SCALE_KEY in record:
+        return 1.0 / AIST_RATE, (
+            f"no frame rate in the file; {AIST_RATE:g} fps, AIST++'s rate (--input-fps gives "
+            "another)"
+        )
     if key is None:
         return 1.0 / DEFAULT_RATE, (
             f"no frame rate in the file; {DEFAULT_RATE:g} fps assumed (--input-fps gives it)"

@@ -254,7 +254,7 @@ def test_aist_translation_is_read_in_metres_and_written_in_its_scale(tmp_path, c
     }
     source = tmp_path / "aist.pkl"
     source.write_bytes(pickle.dumps(record, protocol=4))
-    clip = mc.load(source, frame_rate=60.0)
+    clip = mc.load(source)
     np.testing.assert_allclose(clip.translations[:, 0], trans / 98.0, rtol=1e-7)
     assert any("smpl_scaling 98" in note for note in kinematics.source_notes(clip))
     mc.save(clip, tmp_path / "same.pkl")
@@ -267,3 +267,25 @@ def test_aist_translation_is_read_in_metres_and_written_in_its_scale(tmp_path, c
     code, _, _ = run_cli(capsys, "convert", source, tmp_path / "a.npz", "--input-fps", "60")
     amass = np.load(tmp_path / "a.npz")
     assert code == 0 and np.allclose(amass["trans"], trans / 98.0, rtol=1e-7)
+
+
+def test_aist_is_read_at_its_60_fps_unless_given_another_rate(tmp_path):
+    """AIST++'s motions are 60 fps and its pickles do not say: a record recognised as
+    AIST++'s (smpl_scaling) had been read at the 30 fps video estimators run at, its
+    motion twice as slow."""
+    record = {
+        "smpl_poses": np.zeros((10, 72), dtype=np.float32),
+        "smpl_trans": np.zeros((10, 3), dtype=np.float32),
+        "smpl_scaling": np.array([98.0], dtype=np.float32),
+    }
+    source = tmp_path / "aist.pkl"
+    source.write_bytes(pickle.dumps(record, protocol=4))
+    clip = mc.load(source)
+    assert clip.frame_time == 1 / 60
+    assert "no frame rate in the file; 60 fps, AIST++'s rate (--input-fps gives another)" in (
+        kinematics.source_notes(clip)
+    )
+    assert mc.load(source, frame_rate=50).frame_time == 1 / 50
+    del record["smpl_scaling"]
+    source.write_bytes(pickle.dumps(record, protocol=4))
+    assert mc.load(source).frame_time == 1 / 30  # (not recognised: the default)
