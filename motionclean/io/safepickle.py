@@ -12,7 +12,10 @@ too, and every array's size is checked against the bytes left in the file, so me
 follows the file's size.
 
 Files compressed by ``joblib.dump(..., compress=...)`` (zlib, gzip, bz2, xz/lzma) are
-decompressed first, to at most :data:`MAX_EXPANSION` times their size.
+decompressed first, to at most :data:`MAX_EXPANSION` times their size. Pickles written by
+Python 2 are read too: their ``str`` (text and arrays' bytes alike) as latin-1, as numpy
+asks. A file that does not read as a pickle is refused in words, not Python's exception:
+an empty file, one that ends before its pickle does, one that is no pickle.
 """
 
 from __future__ import annotations
@@ -129,7 +132,7 @@ class _Unpickler(_PythonUnpickler):
     dispatch = dict(_PythonUnpickler.dispatch)
 
     def __init__(self, stream: _io.BytesIO, size: int):
-        super().__init__(stream)
+        super().__init__(stream, encoding="latin1")  # (Python 2's str: see the module)
         self.stream = stream
         self.size = size
         self.sizes = _Sizes(size)
@@ -197,19 +200,23 @@ def _decompressed(data: bytes, path) -> bytes:
     limit = MAX_EXPANSION * len(data) + (1 << 20)
     engine: Any
     if data[:1] == b"\x78":
-        engine = zlib.decompressobj()
+        kind, engine = "zlib", zlib.decompressobj()
     elif data[:2] == b"\x1f\x8b":
-        engine = zlib.decompressobj(16 + zlib.MAX_WBITS)
+        kind, engine = "gzip", zlib.decompressobj(16 + zlib.MAX_WBITS)
     elif data[:3] == b"BZh":
-        engine = bz2.BZ2Decompressor()
+        kind, engine = "bz2", bz2.BZ2Decompressor()
     elif data[:6] == b"\xfd7zXZ\x00" or data[:3] == b"]\x00\x00":
-        engine = lzma.LZMADecompressor()
+        kind, engine = "xz", lzma.LZMADecompressor()
     else:
         return data
     try:
         out = engine.decompress(data, limit + 1)
-    except (zlib.error, OSError, EOFError, lzma.LZMAError, ValueError) as error:
-        raise MotionError(f"a compressed pickle that does not decompress ({error})", path) from None
+    except (zlib.error, OSError, EOFError, lzma.LZMAError, ValueError):
+        raise MotionError(
+            f"starts as {kind}-compressed data but does not decompress: damaged or truncated, "
+            "or not a pickle",
+            path,
+        ) from None
     if len(out) > limit:
         raise MotionError(
             f"decompresses to more than {MAX_EXPANSION} times its size; refused", path
@@ -220,6 +227,8 @@ def _decompressed(data: bytes, path) -> bytes:
 def loads(data: bytes, path) -> object:
     """The object a pickle's bytes hold, admitting only arrays and containers (see the
     module); anything else is a one-line :class:`MotionError`."""
+    if not data:
+        raise MotionError("empty file", path)
     data = _decompressed(data, path)
     stream = _io.BytesIO(data)
     try:
@@ -236,6 +245,12 @@ def loads(data: bytes, path) -> object:
         let_go(error)  # its frames go with it: the MotionError does not keep them
         raise MotionError("a pickle too large to read", path) from None
     except Exception as error:  # any malformed stream: one line, never a traceback
-        raise MotionError(
-            f"not a readable pickle ({type(error).__name__}: {str(error)[:100]})", path
-        ) from None
+        raise MotionError(_unreadable(error), path) from None
+
+
+def _unreadable(error: Exception) -> str:
+    """What a file that does not unpickle is, in words (``error``: what the unpickler
+    raised)."""
+    if isinstance(error, EOFError) or any(w in str(error) for w in ("truncated", "exhausted")):
+        return "the file ends before its pickle does: truncated, or not a pickle"
+    return "not a pickle, or a damaged one: its bytes do not read as one"

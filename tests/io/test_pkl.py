@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import pickle
+import struct
 import subprocess
 import sys
 
@@ -168,6 +169,74 @@ def test_a_cut_joblib_file_is_one_line(tmp_path, capsys, cut):
     (tmp_path / "cut.pkl").write_bytes(WHAM.read_bytes()[:cut])
     code, _, err = run_cli(capsys, "info", tmp_path / "cut.pkl")
     assert code == 1 and err.count("\n") == 1 and err.startswith("motionclean: error: ")
+
+
+def _py2_str(text: bytes) -> bytes:
+    """A Python 2 ``str`` as its pickles hold it (SHORT_BINSTRING, or BINSTRING)."""
+    if len(text) < 256:
+        return b"U" + bytes([len(text)]) + text
+    return b"T" + struct.pack("<i", len(text)) + text
+
+
+def _py2_array(a: np.ndarray) -> bytes:
+    """A float64 array as Python 2's numpy pickles it (protocol 2: its bytes a ``str``)."""
+    shape = b"".join(b"K" + bytes([n]) for n in a.shape) + {1: b"\x85", 2: b"\x86"}[a.ndim]
+    return (
+        b"cnumpy.core.multiarray\n_reconstruct\ncnumpy\nndarray\nK\x00\x85"
+        + _py2_str(b"b")
+        + b"\x87R(K\x01"
+        + shape
+        + b"cnumpy\ndtype\n"
+        + _py2_str(b"f8")
+        + b"K\x00K\x01\x87R(K\x03"
+        + _py2_str(b"<")
+        + b"NNNJ\xff\xff\xff\xffJ\xff\xff\xff\xffK\x00tb\x89"
+        + _py2_str(a.astype("<f8").tobytes())
+        + b"tb"
+    )
+
+
+def test_a_python_2_pickle_is_read(tmp_path):
+    """Python 2's pickles hold arrays' bytes as ``str``, which Python 3 reads as ASCII by
+    default: a real one (MANO's model) had failed with "UnicodeDecodeError: 'ascii' codec
+    can't decode byte 0xd5". Read as latin-1, as numpy asks, the arrays are the ones
+    written."""
+    poses = np.linspace(-1.0, 1.0, 3 * 72).reshape(3, 72)
+    record = b"}(" + _py2_str(b"poses") + _py2_array(poses)
+    record += _py2_str(b"gender") + _py2_str(b"neutral") + b"u."
+    source = tmp_path / "py2.pkl"
+    source.write_bytes(b"\x80\x02" + record)
+    with pytest.raises(UnicodeDecodeError):
+        pickle.loads(source.read_bytes())  # (Python's default)
+    clip = mc.load(source)
+    expected = quat.exp(0.5 * poses.reshape(3, 24, 3))
+    assert np.abs(np.abs(np.einsum("fji,fji->fj", clip.rotations, expected)) - 1).max() < 1e-12
+
+
+#: The head of an OpenSim .mot, named .pkl.
+OPENSIM_HEAD = (
+    b"Coordinates\nversion=1\nnRows=73\nnColumns=24\ninDegrees=yes\n\nUnits are S.I. units "
+    b"(second, meters, Newtons, ...)\nAngles are in degrees.\n\nendheader\ntime\tpelvis_tilt\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"", "empty file"),
+        (pickle.dumps({"pose": np.zeros((4, 72))}, protocol=4)[:-40], "the file ends before"),
+        (OPENSIM_HEAD, "not a pickle, or a damaged one"),
+        (b"x\x9c not zlib at all", "starts as zlib-compressed data but does not decompress"),
+    ],
+)
+def test_an_unreadable_pickle_is_said_in_words(tmp_path, capsys, content, message):
+    """Python's exceptions had been the message ("(EOFError: )", "(IndexError: pop from
+    empty list)" for an OpenSim file named .pkl)."""
+    (tmp_path / "x.pkl").write_bytes(content)
+    code, out, err = run_cli(capsys, "info", tmp_path / "x.pkl")
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert err.startswith(f"motionclean: error: {tmp_path / 'x.pkl'}: {message}")
+    assert "Error" not in err
 
 
 def test_a_pickle_without_smpl_is_one_line(tmp_path, capsys):
