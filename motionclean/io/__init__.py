@@ -53,7 +53,8 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
     ".mot": opensim.opensim_pieces,
     ".sto": opensim.opensim_pieces,
     ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
-    **{suffix: lambda motion: gltf.gltf_pieces(motion, glb=True) for suffix in gltf.GLB_SUFFIXES},
+    ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
+    ".vrma": gltf.vrma_pieces,
     ".fbx": fbx.fbx_bytes,
 }
 #: File suffixes that can be read and written.

@@ -24,7 +24,8 @@ time accessor and the values of its unchanged frames), whose data is appended to
 binary chunk, or for ``.gltf`` to a new buffer embedded as a data URI; a changed ``.gltf``
 is written self-contained (its ``.bin`` files' bytes embedded as data URIs, so it can be
 written to any folder; the ``.bin`` files themselves are never touched). Sparse accessors
-and compressed animation data are refused.
+and compressed animation data are refused. A VRM animation (``.vrma``) is a GLB, written
+only into the one it was read from (:func:`vrma_pieces`).
 """
 
 from __future__ import annotations
@@ -63,6 +64,8 @@ from .text import MAX_MAGNITUDE, within_magnitude
 GLB_MAGIC = b"glTF"
 #: Suffixes of binary glTF files (a VRM animation, ``.vrma``, is one).
 GLB_SUFFIXES = (".glb", ".vrma")
+#: The extension that makes a GLB a VRM animation: it maps nodes to humanoid bones.
+VRM_ANIMATION = "VRMC_vrm_animation"
 JSON_CHUNK = 0x4E4F534A
 BIN_CHUNK = 0x004E4942
 #: Rotation channels a joint gets (its Euler order when written as BVH or CSV).
@@ -795,12 +798,34 @@ class _Appender:
         return b"".join(self.parts)
 
 
+def _own_document(motion: Motion) -> GltfSource | None:
+    """The glTF ``motion`` is written into: the one it was read from, while it has that
+    file's joints; None for a new one."""
+    src = motion.source
+    return src if isinstance(src, GltfSource) and motion.n_joints == len(src.nodes) else None
+
+
+def vrma_pieces(motion: Motion) -> Iterable[bytes]:
+    """``motion`` as a VRM animation (``.vrma``): only into the VRM animation it was read
+    from, whose :data:`VRM_ANIMATION` extension maps its nodes to humanoid bones (a new
+    GLB, or another file's, has no such map: no VRM tool would load it)."""
+    src = _own_document(motion)
+    extensions = src.document.get("extensions") if src is not None else None
+    if not (isinstance(extensions, dict) and VRM_ANIMATION in extensions):
+        _fail(
+            f"a .vrma is a VRM animation ({VRM_ANIMATION}: nodes mapped to humanoid bones); "
+            "this clip is not read from one: write .glb",
+            motion.path,
+        )
+    return gltf_pieces(motion, glb=True)
+
+
 def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
     """``motion`` written into the glTF it was read from (see the module), as a GLB or a
     ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI): the input's
     bytes when nothing changed."""
-    src = motion.source
-    if not isinstance(src, GltfSource) or motion.n_joints != len(src.nodes):
+    src = _own_document(motion)
+    if src is None:
         return [fresh_gltf(motion, glb)]
     same_frames = motion.n_frames == src.n_frames and motion.frame_time == src.frame_time
     read = motion.source_rotations  # None once the frames changed (resampled, stitched)

@@ -19,6 +19,8 @@ from motionclean.core import contacts, kinematics, quat
 #: defaults; 96 frames as GLB, 24 as .gltf + .bin.
 BLENDER_GLB = ROOT / "tests" / "data" / "blender" / "131_02_cut.glb"
 BLENDER_GLTF = ROOT / "tests" / "data" / "blender" / "131_02_cut.gltf"
+#: pixiv/three-vrm's example VRM animation (MIT; tests/data/vrm/README.md).
+VRMA = ROOT / "tests" / "data" / "vrm" / "test.vrma"
 
 
 def glb_parts(path) -> tuple[dict, bytes]:
@@ -94,16 +96,42 @@ def test_an_armature_node_s_turn_gives_the_up_axis_and_its_scale_a_note(tmp_path
 
 
 def test_a_vrm_animation_is_read_and_written_as_the_glb_it_is(tmp_path, capsys):
-    """A ``.vrma`` (VRM animation) is a GLB: the same clip as under ``.glb``, an untouched
-    one written back byte for byte, a cleaned one a GLB again."""
-    vrma = tmp_path / "dance.vrma"
-    vrma.write_bytes(BLENDER_GLB.read_bytes())
-    clip, glb = mc.load(vrma), mc.load(BLENDER_GLB)
-    assert clip.names == glb.names and np.array_equal(clip.rotations, glb.rotations)
+    """A ``.vrma`` (VRM animation) is a GLB whose VRMC_vrm_animation extension maps its
+    nodes to humanoid bones (three-vrm's example): read as a GLB, an untouched one written
+    back byte for byte, a changed one keeps its extension (and the rest of its JSON)."""
+    clip = mc.load(VRMA)
+    assert clip.names == ["rightUpperArm", "happy", "lookAt"] and clip.n_frames == 7
     mc.save(clip, tmp_path / "same.vrma")
-    assert (tmp_path / "same.vrma").read_bytes() == BLENDER_GLB.read_bytes()
-    code, _, _ = run_cli(capsys, "clean", vrma, "-o", tmp_path / "clean.vrma", "-q")
-    assert code == 0 and (tmp_path / "clean.vrma").read_bytes()[:4] == b"glTF"
+    assert (tmp_path / "same.vrma").read_bytes() == VRMA.read_bytes()
+    q = clip.rotations.copy()
+    q[3, 0] = quat.multiply(q[3, 0], quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), 0.1))
+    mc.save(clip.replace(rotations=q), tmp_path / "moved.vrma")
+    document, _ = glb_parts(tmp_path / "moved.vrma")
+    original, _ = glb_parts(VRMA)
+    assert document["extensions"] == original["extensions"]
+    assert document["extensionsUsed"] == ["VRMC_vrm_animation"]
+    assert degrees(mc.load(tmp_path / "moved.vrma").rotations, q) < 1e-4
+    code, _, err = run_cli(capsys, "convert", VRMA, tmp_path / "back.glb")
+    assert code == 0, err
+
+
+def test_vrma_output_needs_a_vrm_animation(tmp_path, capsys):
+    """A GLB of another clip written as .vrma had been a byte copy of the GLB under the
+    name (no humanoid bone map: no VRM tool loads it), silently. Refused in one line, as
+    any output the clip cannot make; a GLB renamed .vrma still reads."""
+    for source in (BLENDER_GLB, SAMPLE):
+        target = tmp_path / f"{source.stem}.vrma"
+        code, out, err = run_cli(capsys, "convert", source, target)
+        assert code == 1 and out == "" and not target.exists()
+        assert err == (
+            f"motionclean: error: {source}: a .vrma is a VRM animation (VRMC_vrm_animation: "
+            "nodes mapped to humanoid bones); this clip is not read from one: write .glb\n"
+        )
+    renamed = tmp_path / "renamed.vrma"
+    renamed.write_bytes(BLENDER_GLB.read_bytes())
+    assert np.array_equal(mc.load(renamed).rotations, mc.load(BLENDER_GLB).rotations)
+    code, _, err = run_cli(capsys, "clean", renamed, "-o", tmp_path / "clean.vrma", "-q")
+    assert code == 1 and "this clip is not read from one" in err
 
 
 def test_cleaning_the_glb_equals_cleaning_the_bvh(bvh_96, tmp_path, capsys):
