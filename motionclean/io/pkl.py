@@ -189,6 +189,7 @@ def parse_pickle(
 
 def pickle_pieces(motion: Motion):
     """``motion`` as a pickle (see the module)."""
+    smpl.refuse_no_frames(motion)
     src = motion.source
     if isinstance(src, smpl.SmplParams) and not smpl.same_frames(motion):
         if isinstance(src.container, Tracks):

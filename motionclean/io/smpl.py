@@ -389,6 +389,10 @@ def smpl_motion(
             f"pose and translation arrays have different frame counts ({sorted(frames)})", path
         )
     n_rows = frames.pop()
+    if n_rows == 0:
+        raise MotionError(
+            f"no frames: {fields[0].key!r} has 0 rows; a SMPL clip needs at least one frame", path
+        )
     if rows is not None and rows.size != n_rows:
         raise MotionError(f"frame_ids has {rows.size} entries for {n_rows} frames of poses", path)
     _check_numbers(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
@@ -468,6 +472,14 @@ def _read_translation(src: SmplParams) -> np.ndarray:
     assert src.trans_key is not None
     trans = np.asarray(src.record[src.trans_key], dtype=np.float64)
     return trans * src.trans_scale + src.root_offset
+
+
+def refuse_no_frames(motion: Motion) -> None:
+    """SMPL output of a clip without frames is refused (its reader refuses such a file)."""
+    if motion.n_frames == 0:
+        raise MotionError(
+            "SMPL parameters need at least one frame: this clip has none", motion.path
+        )
 
 
 def same_frames(motion: Motion) -> bool:
@@ -647,6 +659,7 @@ def npz_pieces(motion: Motion) -> Iterable[bytes]:
     """``motion`` as an ``.npz``: its own archive with the changed arrays replaced (the
     input bytes when nothing changed), or a fresh AMASS archive (``poses``, ``trans``,
     ``mocap_framerate``) of a clip from a pickle or another format."""
+    refuse_no_frames(motion)
     src = motion.source
     if isinstance(src, SmplParams) and not isinstance(src.container, list):  # a pickle's
         record = amass_record(motion)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import pickle
 import zipfile
 
 import numpy as np
@@ -552,6 +553,32 @@ def test_smpl_to_bvh_and_back(tmp_path, capsys):
         capsys, "convert", ROOT / "sample_data" / "131_02_cut.bvh", tmp_path / "x.npz"
     )
     assert code == 1 and "SMPL output needs the joints of SMPL, SMPL-H or SMPL-X" in err
+
+
+def test_a_clip_without_frames_is_refused_and_one_frame_is_read(tmp_path, capsys):
+    """A SMPL record of 0 rows had been read as a clip of 0 frames and written again
+    (clean exit 0, a BVH of 'Frames: 0'); glTF, CSV and OpenSim refuse a clip they cannot
+    time or play. Refused in one line, .npz and .pkl, and never written; one frame is a
+    clip (its rate is the file's)."""
+    empty = {"poses": np.zeros((0, 156)), "trans": np.zeros((0, 3)), "mocap_framerate": 120.0}
+    np.savez(tmp_path / "zero.npz", **empty)
+    (tmp_path / "zero.pkl").write_bytes(pickle.dumps(empty, protocol=4))
+    for name in ("zero.npz", "zero.pkl"):
+        code, out, err = run_cli(capsys, "clean", tmp_path / name, "-o", tmp_path / f"c_{name}")
+        assert code == 1 and out == "" and not (tmp_path / f"c_{name}").exists()
+        assert err == (
+            f"motionclean: error: {tmp_path / name}: no frames: 'poses' has 0 rows; a SMPL "
+            "clip needs at least one frame\n"
+        )
+    one = amass_h(tmp_path / "one.npz", frames=1)
+    clip = mc.load(one)
+    assert clip.n_frames == 1 and clip.frame_time == 1 / 120
+    code, _, err = run_cli(capsys, "clean", one, "-o", tmp_path / "c1.npz", "-q")
+    assert code == 0 and err == "" and (tmp_path / "c1.npz").read_bytes() == one.read_bytes()
+    none = clip.replace(rotations=clip.rotations[:0], translations=clip.translations[:0])
+    for name in ("none.npz", "none.pkl"):
+        with pytest.raises(mc.MotionError, match="SMPL parameters need at least one frame"):
+            mc.save(none, tmp_path / name)
 
 
 @pytest.mark.parametrize("placement", [(0.5, 0.2, 1.0), (0.0, 0.0, 0.0)])
