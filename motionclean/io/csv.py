@@ -98,6 +98,7 @@ from .text import (
     MAX_MAGNITUDE,
     ascii_float,
     check_finite,
+    format_decimals,
     parse_values,
     scan_cells,
     scan_tokens,
@@ -776,6 +777,14 @@ def format_repr(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return buf, starts, ends - starts
 
 
+def format_values(
+    values: np.ndarray, decimals: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Texts of values as ``(buffer, starts, lengths)``: with ``decimals`` digits after the
+    point (:func:`~.text.format_decimals`), or in shortest round-trip form where None."""
+    return format_repr(values) if decimals is None else format_decimals(values, decimals)
+
+
 def format_header(fields: list[str], eol: bytes) -> bytes:
     """The header line: fields quoted where they hold a comma, a quote, CR or LF."""
     out = _io.StringIO()
@@ -895,6 +904,7 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
         return _rewrite(src, motion, mask, values, missing)
 
     keep_text = isinstance(src, BvhText) and same and src.n_frames == n_frames
+    decimals = getattr(src, "decimals", None)  # an OpenSim file's (its values' layout)
 
     def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cells = Cells()
@@ -915,7 +925,9 @@ def _format_channel(motion: Motion) -> Iterable[bytes | memoryview]:
                 starts[:, 2:][kept], lengths[:, 2:][kept] = cells.add(
                     region, read_starts[kept] - low, (read_ends - read_starts)[kept]
                 )
-        starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(*format_repr(block[fresh]))
+        starts[:, 2:][fresh], lengths[:, 2:][fresh] = cells.add(
+            *format_values(block[fresh], decimals)
+        )
         (starts[:, 0], lengths[:, 0]), (starts[:, 1], lengths[:, 1]) = _frame_and_time(
             motion, cells, rows
         )

@@ -32,16 +32,20 @@ coordinates may not. ``NaN`` cells (any case) are missing samples (``Motion.miss
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
-counts as unchanged, as for BVH); a changed value is written in shortest
-round-trip form, in the file's unit and on the branch (whole turns) nearest the value
-read. When the frame count changed (resampled), the rows are written afresh and ``nRows``
-is updated. ``nRows`` is never trusted: the rows present are read, a count that differs is
-said in a note and written as the true one (in an otherwise untouched file too).
+counts as unchanged, as for BVH); a changed value is written with the decimals the file's
+coordinates use (the most any cell has; shortest round-trip form for a file that writes
+exponents), in the file's unit and on the branch (whole turns) nearest the value read.
+A file written afresh gives its values the decimals of the ``.mot``, ``.sto`` or channel
+CSV the clip was read from. When the frame count changed (resampled), the rows are written
+afresh and ``nRows`` is updated. ``nRows`` is never trusted: the rows present are read, a
+count that differs is said in a note and written as the true one (in an otherwise
+untouched file too).
 """
 
 from __future__ import annotations
 
 import fnmatch
+import functools
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -53,10 +57,11 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
-from .csv import format_repr, uniform_frame_time
+from .csv import Cells, CsvText, format_repr, format_values, uniform_frame_time
 from .files import pieces
 from .text import (
     bad_number_message,
+    decimals_of,
     line_ends,
     parse_values,
     scan_tokens,
@@ -102,6 +107,12 @@ class OpenSimText:
     def start_time(self) -> float:
         """Seconds at the first row (:func:`.text.start_time`); 0 without rows."""
         return float(self.values[0, 0]) if self.values.shape[0] else 0.0
+
+    @functools.cached_property
+    def decimals(self) -> int | None:
+        """The most digits after the point among the coordinates' cells: the decimals every
+        writer gives the clip's values (None: written in shortest round-trip form)."""
+        return decimals_of(self.raw, self.starts[:, self.columns], self.ends[:, self.columns])
 
     #: Why world-space figures are skipped (``core.kinematics.world_note``).
     no_world = "OpenSim coordinates are joint angles without the model's bodies"
@@ -512,7 +523,7 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         chosen = new_text[rows][changed[rows]]
 
         def chunk(a: int, b: int):
-            return format_repr(chosen[a:b])
+            return format_values(chosen[a:b], src.decimals)
 
         return chunk
 
@@ -564,10 +575,27 @@ def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
         counts = {b"nrows": motion.n_frames, b"ncolumns": motion.n_joints + 1}
         head = _counted(src.raw[: src.body], counts)
     labels = "\t".join(["time", *motion.names]).encode("utf-8") + eol
-    table = np.concatenate([times[:, None], values], axis=1)
+    decimals = _decimals(motion.source)
 
     def cells(rows: slice):
-        buf, starts, lengths = format_repr(table[rows])
-        return buf, starts.reshape(-1, table.shape[1]), lengths.reshape(-1, table.shape[1])
+        block = values[rows]
+        out = Cells()
+        starts = np.empty((block.shape[0], block.shape[1] + 1), dtype=np.int64)
+        lengths = np.empty_like(starts)
+        starts[:, 0], lengths[:, 0] = out.add(*format_repr(times[rows]))
+        first, sizes = out.add(*format_values(block, decimals))
+        starts[:, 1:], lengths[:, 1:] = first.reshape(block.shape), sizes.reshape(block.shape)
+        return out.buffer(), starts, lengths
 
     return table_pieces(motion.n_frames, cells, b"\t", eol, head + labels)
+
+
+def _decimals(source) -> int | None:
+    """The decimals of the text a clip was read from, which a new file keeps: a ``.mot``
+    or ``.sto``'s, or a channel CSV's values' (None: shortest round-trip form)."""
+    if isinstance(source, OpenSimText):
+        return source.decimals
+    if isinstance(source, CsvText) and source.layout == "channel":
+        columns = source.columns
+        return decimals_of(source.raw, source.starts[:, columns], source.ends[:, columns])
+    return None

@@ -636,6 +636,74 @@ def sliceable(raw: Bytes) -> Bytes | memoryview:
     return memoryview(raw) if isinstance(raw, bytes) else raw
 
 
+def decimals_of(raw: Bytes, starts: np.ndarray, ends: np.ndarray) -> int | None:
+    """The most digits after a decimal point among the numbers at ``starts`` to ``ends``
+    ``(F, K)`` of ``raw``, read a block of rows at a time; None when none has a point or one
+    has an exponent (no fixed-point layout to follow)."""
+    whole = sliceable(raw)
+    most = 0
+    for rows in in_parts(starts.shape[0], ROW_BLOCK):
+        first, last = starts[rows].ravel(), ends[rows].ravel()
+        if not first.size:
+            continue
+        low = int(first.min())
+        region = np.frombuffer(whole[low : int(last.max())], dtype=np.uint8)
+        first, last = first - low, last - low
+        if _inside(np.flatnonzero((region | 32) == ord("e")), first, last).any():
+            return None
+        dots = np.flatnonzero(region == ord("."))
+        inside = _inside(dots, first, last)
+        if inside.any():
+            dot = dots[np.searchsorted(dots, first[inside])]
+            most = max(most, int((last[inside] - dot - 1).max()))
+    return most or None
+
+
+def _inside(marks: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Per span ``first[i]:last[i]``, whether one of the sorted offsets ``marks`` is in it."""
+    if not marks.size:
+        return np.zeros(first.shape, dtype=bool)
+    at = np.searchsorted(marks, first)
+    return (at < marks.size) & (marks[np.minimum(at, marks.size - 1)] < last)
+
+
+#: Significant digits a double holds without noise: more decimals than this are padding.
+_PLAIN_DIGITS = 15
+
+
+def format_decimals(values: np.ndarray, decimals: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each value in fixed point with ``decimals`` digits after the point, as ``(buffer,
+    starts, lengths)`` (see :func:`gather`): ``%.*f`` (one C-level call), or, where so many
+    digits pass a double's precision (:data:`_PLAIN_DIGITS`), its shortest round-trip
+    digits padded with zeros (no float noise); a value that prints as zero has no sign,
+    NaN is ``nan``."""
+    v = np.asarray(values, dtype=np.float64).ravel()
+    finite = np.abs(v[np.isfinite(v)])
+    largest = float(finite.max()) if finite.size else 0.0
+    whole_digits = max(math.floor(math.log10(largest)) + 1, 1) if largest else 1
+    if decimals + whole_digits <= _PLAIN_DIGITS:
+        pairs = [decimals, 0.0] * v.size
+        pairs[1::2] = v.tolist()
+        text = b" ".join([b"%.*f"] * v.size) % tuple(pairs)
+    else:
+        text = " ".join(_padded(d, decimals) for d in v.tolist()).encode()
+    buf = np.frombuffer(text, dtype=np.uint8)
+    starts, ends = scan_tokens(buf)
+    digits = np.flatnonzero((buf >= ord("1")) & (buf <= ord("9")))
+    signed_zero = (buf[starts] == ord("-")) & ~_inside(digits, starts, ends)
+    return buf, starts + signed_zero, ends - starts - signed_zero
+
+
+def _padded(value: float, decimals: int) -> str:
+    """``value``'s shortest round-trip digits rounded to ``decimals`` places, in fixed point,
+    padded with zeros to that many."""
+    text = np.format_float_positional(value, precision=decimals, unique=True, trim="k")
+    point = text.find(".")
+    if point < 0:  # (nan)
+        return text
+    return text + "0" * (decimals - (len(text) - point - 1)) if decimals else text[:point]
+
+
 def splice_cells(
     raw: Bytes,
     row_starts: np.ndarray,

@@ -7,7 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from motionclean.io.text import fixed6_rows, format_fixed6, gather
+from motionclean.io.text import (
+    decimals_of,
+    fixed6_rows,
+    format_decimals,
+    format_fixed6,
+    gather,
+    scan_tokens,
+)
 
 
 def _printf(values: np.ndarray) -> list[bytes]:
@@ -155,3 +162,30 @@ def test_rows_made_afresh_are_the_spliced_rows(tmp_path, monkeypatch, variant):
     assert fast == bvh.format_bvh(clip)
     # three parts of rows: made afresh unless a row has tabs (that part) or trailing spaces
     assert len(made) == {"a row with tabs": 2, "trailing spaces": 0}.get(variant, 3)
+
+
+def _texts(values, decimals: int) -> list[str]:
+    buf, starts, lengths = format_decimals(np.array(values, dtype=np.float64), decimals)
+    return [gather(buf, starts[k : k + 1], lengths[k : k + 1]).decode() for k in range(len(starts))]
+
+
+def test_values_with_a_files_decimals():
+    """Fixed point with the decimals asked for: rounded, no negative zero, NaN kept; past
+    a double's precision a value's own digits padded with zeros, never its binary noise
+    (``%.20f`` of 0.5897903832585103 prints ...029835)."""
+    assert _texts([-1.8867664799999997, -1e-12, -0.0, np.nan, 190.5], 8) == [
+        "-1.88676648", "0.00000000", "0.00000000", "nan", "190.50000000",
+    ]  # fmt: skip
+    assert _texts([0.5897903832585103, 1.2e-05], 20) == [
+        "0.58979038325851030000", "0.00001200000000000000",
+    ]  # fmt: skip
+    assert _texts([2.4, -0.3, 7.5], 0) == ["2", "0", "8"]
+
+
+def test_the_decimals_a_text_uses():
+    text = b"  0.50000\t-1.25\tnan\t3\n  2.0\t1.5e-3\t7\t8\n"
+    starts, ends = scan_tokens(np.frombuffer(text, dtype=np.uint8))
+    starts, ends = starts.reshape(2, 4), ends.reshape(2, 4)
+    assert decimals_of(text, starts[:1], ends[:1]) == 5
+    assert decimals_of(text, starts, ends) is None  # an exponent: no fixed layout
+    assert decimals_of(text, starts[:, 2:], ends[:, 2:]) is None  # no point anywhere

@@ -82,6 +82,49 @@ def test_a_changed_coordinate_keeps_header_other_columns_and_its_branch(tmp_path
         assert float(new[1]) == pytest.approx(value, abs=1e-9)
 
 
+def test_a_changed_value_is_written_with_the_files_decimals(tmp_path):
+    """A changed value had been written in shortest round-trip form, 16-17 digits where
+    the file writes 8 decimals (Gait2354's IK grew from 30 to 38 KB): written with the
+    decimals the file's coordinates use; a file of 20 decimals (Gait2392's) gets the
+    value's own digits padded, no float noise past them; a file that writes exponents
+    keeps the shortest round-trip form."""
+    path = write(tmp_path, IK)
+    motion = mc.load(path, exclude=["*_force"])
+    q = motion.rotations.copy()
+    turn = quat.exp(np.array([0.0, 0.0, np.deg2rad(1 / 3) / 2]))
+    q[2:4, 3] = quat.multiply(q[2:4, 3], turn)
+    mc.save(motion.replace(rotations=q), tmp_path / "out.mot")
+    rows = (tmp_path / "out.mot").read_text().splitlines()[11:]
+    assert [row.split("\t")[4].strip() for row in rows[2:4]] == ["-7.66666667", "-9.16666667"]
+    assert len((tmp_path / "out.mot").read_bytes()) == len(path.read_bytes())
+    long = IK.replace("    170.00000000", "170.12345678901234560000")
+    motion = mc.load(write(tmp_path, long, "long.mot"), exclude=["*_force"])
+    mc.save(motion.replace(rotations=q), tmp_path / "long_out.mot")
+    knee = (tmp_path / "long_out.mot").read_text().splitlines()[13].split("\t")[4].strip()
+    assert knee == "-7.66666666666666700000"  # (repr: -7.666666666666667)
+    sci = IK.replace("    170.00000000", "1.7e2")
+    motion = mc.load(write(tmp_path, sci, "sci.mot"), exclude=["*_force"])
+    mc.save(motion.replace(rotations=q), tmp_path / "sci_out.mot")
+    knee = float((tmp_path / "sci_out.mot").read_text().splitlines()[13].split("\t")[4])
+    assert knee == float(repr(knee)) and abs(knee + 23 / 3) < 1e-12
+
+
+def test_a_trip_through_csv_keeps_the_files_numbers(tmp_path, capsys):
+    """.mot -> CSV -> .mot had come back with float noise (-1.8867664799999997 for
+    -1.88676648): the CSV of an OpenSim clip gets the file's decimals, and a .mot made
+    from a channel CSV gets the CSV's."""
+    path = write(tmp_path, IK)
+    code, _, _ = run_cli(capsys, "convert", path, tmp_path / "c.csv", "--exclude", "*_force")
+    assert code == 0
+    first = (tmp_path / "c.csv").read_text().splitlines()[1].split(",")
+    assert first[2:6] == ["170.00000000", "0.00000000", "0.00000000", "0.10000000"]
+    code, _, _ = run_cli(capsys, "convert", tmp_path / "c.csv", tmp_path / "back.mot")
+    assert code == 0
+    back = [row.split("\t")[1:] for row in (tmp_path / "back.mot").read_text().splitlines()[7:]]
+    original = [row.split("\t")[1:5] for row in IK.splitlines()[11:]]
+    assert back == [[cell.strip() for cell in row] for row in original]
+
+
 def _in_radians(text: str) -> str:
     """``text`` (the IK fixture) with its rotational columns in radians, inDegrees=no."""
     head, _, body = text.partition("endheader\n")
@@ -375,7 +418,10 @@ def test_realnoise_cleans_as_through_the_channel_csv(realnoise_take, tmp_path, c
     cleaned_rad = np.rad2deg(np.genfromtxt(tmp_path / "r.sto", skip_header=7)[:, 1:])
     assert cleaned_csv.shape == cleaned_deg.shape == (1200, len(names))
     assert np.isfinite(cleaned_deg).all()  # the dropouts were filled, as in the CSV
-    assert np.abs(cleaned_deg - cleaned_csv).max() < 1e-9  # the same angles: same numbers
+    # the same angles, written with the file's six decimals
+    assert np.abs(cleaned_deg - cleaned_csv).max() <= 5e-7 + 1e-12
+    first_row = (tmp_path / "d.mot").read_text().splitlines()[7].split("\t")
+    assert all(len(cell.split(".")[1]) == 6 for cell in first_row[1:])
     # radians (9 significant digits) against degrees with six decimals: the same within
     # the rounding of the inputs
     assert np.abs(cleaned_rad - cleaned_csv).max() < 1e-4
