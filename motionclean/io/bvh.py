@@ -43,6 +43,7 @@ from .text import (
     bad_number_message,
     check_finite,
     fixed6_rows,
+    format_decimals,
     format_fixed6,
     join_rows,
     line_ends,
@@ -577,9 +578,12 @@ def _format_hierarchy(motion: Motion) -> bytes:
     for j, parent in enumerate(motion.parents):
         children.setdefault(int(parent), []).append(j)
     out: list[str] = ["HIERARCHY"]
+    offsets = np.vstack([motion.offsets, *motion.end_sites.values()])
+    decimals = _offset_decimals(offsets, getattr(motion.source, "float_digits", None))
 
-    def offset(values) -> str:  # six decimals, or all a value needs to read back the same
-        return " ".join(_offset_text(v) for v in values.tolist())
+    def offset(values) -> str:
+        buf, starts, lengths = format_decimals(values, decimals)
+        return join_rows(buf, starts[None], lengths[None], b" ", b"").decode()
 
     def close(j: int, pad: str) -> None:
         if j in motion.end_sites or j not in children:
@@ -610,9 +614,32 @@ def _format_hierarchy(motion: Motion) -> bytes:
     return ("\n".join(out) + "\n").encode("utf-8")
 
 
-def _offset_text(value: float) -> str:
-    text = f"{value:.6f}"
-    return text if float(text) == value else repr(value)
+#: Significant digits of a skeleton's size (its largest offset) a new hierarchy's OFFSETs
+#: keep: a float32's for offsets that are float32 values (glTF's nodes), else twelve (past
+#: any rig's precision, short of the noise of offsets computed in doubles).
+FLOAT32_DIGITS, FLOAT64_DIGITS = 7, 12
+#: The most decimals an OFFSET gets (a skeleton of offsets under 1e-12 stops there).
+MAX_DECIMALS = 24
+
+
+def _offset_decimals(offsets: np.ndarray, digits: int | None = None) -> int:
+    """The decimals every OFFSET of a new hierarchy is written with: the fewest, six at
+    least (BVH's usual), that keep each of ``offsets`` (any shape) to the source's
+    precision: ``digits`` significant digits of the skeleton's size where the source says
+    (a glTF's: float32), else :data:`FLOAT32_DIGITS` for float32 values and
+    :data:`FLOAT64_DIGITS` for others."""
+    size = float(np.abs(offsets).max()) if offsets.size else 0.0
+    if digits is None:
+        single = size < 1e38 and np.array_equal(offsets, offsets.astype(np.float32))
+        digits = FLOAT32_DIGITS if single else FLOAT64_DIGITS
+    tolerance = size * 10.0**-digits
+    decimals = 6
+    while (
+        decimals < MAX_DECIMALS
+        and np.abs(np.round(offsets, decimals) - offsets).max(initial=0) > tolerance
+    ):
+        decimals += 1
+    return decimals
 
 
 def _describes(text: BvhText, motion: Motion) -> bool:

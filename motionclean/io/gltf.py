@@ -125,6 +125,10 @@ class GltfSource:
     translations: np.ndarray  # (F, J, 3) as read
     notes: tuple[str, ...] = field(default=())
 
+    #: Significant digits the file's numbers hold: float32 accessors, and JSON numbers
+    #: exporters print from float32 values (a new BVH's OFFSETs keep as many).
+    float_digits = 7
+
 
 # ----------------------------------------------------------------------------- the container
 

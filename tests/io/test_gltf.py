@@ -134,6 +134,37 @@ def test_vrma_output_needs_a_vrm_animation(tmp_path, capsys):
     assert code == 1 and "this clip is not read from one" in err
 
 
+def _offset_numbers(path) -> list[str]:
+    lines = [line.split() for line in path.read_text().splitlines()]
+    return [number for words in lines if words[:1] == ["OFFSET"] for number in words[1:]]
+
+
+def test_a_bvh_of_a_glb_writes_offsets_in_one_fixed_point_format(tmp_path, capsys):
+    """Offsets from a glTF (float32 values) had been written as six decimals where that
+    was exact and repr elsewhere: 3.2861585168575402e-06 beside 2.183881998062134. One
+    fixed-point format, float32's precision of the skeleton's size, no exponent; a
+    skeleton given in doubles keeps up to twelve significant digits, without their noise."""
+    code, _, err = run_cli(capsys, "convert", BLENDER_GLB, tmp_path / "b.bvh")
+    assert code == 0, err
+    numbers = _offset_numbers(tmp_path / "b.bvh")
+    assert {len(n.split(".")[1]) for n in numbers} == {6} and not any("e" in n for n in numbers)
+    assert numbers[3:6] == ["0.000003", "0.000002", "0.000001"]
+    read, back = mc.load(BLENDER_GLB), mc.load(tmp_path / "b.bvh")
+    assert np.abs(back.offsets - read.offsets).max() <= 5e-7
+    bvh = mc.load(SAMPLE)  # an edited skeleton of doubles: a new hierarchy
+    offsets = bvh.offsets.copy()
+    offsets[1] = [0.1 + 0.2, -1.5785620936767598e-27, -0.0846 - 1e-17]  # (no -0.000000)
+    mc.save(bvh.replace(offsets=offsets), tmp_path / "m.bvh")
+    numbers = _offset_numbers(tmp_path / "m.bvh")
+    assert numbers[3:6] == ["0.300000", "0.000000", "-0.084600"]
+    assert {len(n.split(".")[1]) for n in numbers} == {6}
+    offsets[2] = [1.23456789, 0.0, 0.0]
+    mc.save(bvh.replace(offsets=offsets), tmp_path / "m.bvh")
+    numbers = _offset_numbers(tmp_path / "m.bvh")
+    assert numbers[6] == "1.23456789" and {len(n.split(".")[1]) for n in numbers} == {8}
+    assert np.array_equal(mc.load(tmp_path / "m.bvh").offsets[2], offsets[2])
+
+
 def test_cleaning_the_glb_equals_cleaning_the_bvh(bvh_96, tmp_path, capsys):
     code, _, err = run_cli(capsys, "clean", BLENDER_GLB, "-o", tmp_path / "c.glb", "-q")
     assert code == 0, err
