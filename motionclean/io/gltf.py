@@ -11,11 +11,13 @@ channels replace an OFFSET). Scale is not read (and never changed).
 
 Keyframes become frames on a uniform grid: the frame time is the smallest key step of the
 channels (a uniform channel's span over its steps, else its median step; snapped to a
-whole frame rate within 0.01 %, the error of exporters' float32 times), from the earliest
-key to the latest. A channel keyed on every frame of the grid is read as it is; any other is
-sampled: ``STEP`` holds the previous key, ``LINEAR`` interpolates (slerp for rotations,
-as glTF specifies), ``CUBICSPLINE`` evaluates its Hermite spline (rotations renormalised),
-each holding its first and last key outside its range.
+whole frame rate within 0.01 %, the error of exporters' float32 times, while the keys stay
+on its grid; else made exact: a whole or NTSC rate's within the float32 rounding of the
+times, or the shortest decimal within it), from the earliest key to the latest. A channel
+keyed on every frame of the grid is read as it is; any other is sampled: ``STEP`` holds
+the previous key, ``LINEAR`` interpolates (slerp for rotations, as glTF specifies),
+``CUBICSPLINE`` evaluates its Hermite spline (rotations renormalised), each holding its
+first and last key outside its range.
 
 Writing back keeps the file: with nothing changed its bytes exactly; otherwise every
 object of the JSON and every byte of the buffers stays, the channels of joints that
@@ -464,20 +466,12 @@ def _keys(
 
 def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
     """Start time, frame time and frame count of the grid all channels are sampled on."""
-    steps = [_step(k.times) for k in keys if k.times.size >= 2]
+    timed = [k.times for k in keys if k.times.size >= 2]
     start = min(float(k.times[0]) for k in keys)
     end = max(float(k.times[-1]) for k in keys)
-    if not steps:
+    if not timed:
         return start, 1.0 / 30.0, 1
-    finest = min(range(len(steps)), key=steps.__getitem__)
-    dt = steps[finest]
-    rate = 1.0 / dt
-    if abs(rate - round(rate)) <= SNAP * rate and round(rate) > 0:
-        # the whole rate, unless the finest channel's keys then drift off the grid
-        times = [k.times for k in keys if k.times.size >= 2][finest]
-        whole = 1.0 / round(rate)
-        grid = start + whole * np.round((times - start) / whole)
-        dt = whole if _on_grid(times, grid, whole) else dt
+    dt = _frame_time(min(timed, key=_step), start)
     if not MIN_FRAME_TIME <= dt < MAX_FRAME_TIME:  # as every reader refuses such a rate
         _fail(
             f"keys {dt:.6g} s apart: no usable frame rate ({RATES_ACCEPTED})",
@@ -492,6 +486,33 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
             path,
         )
     return start, dt, frames
+
+
+def _frame_time(times: np.ndarray, start: float) -> float:
+    """The frame time of the finest channel's key ``times`` (the grid starting at
+    ``start``): a whole rate's within :data:`SNAP` while the keys stay on its grid, else
+    the step the float32 times measure, made exact (:func:`_exact`)."""
+    dt = _step(times)
+    rate = round(1.0 / dt)
+    if rate > 0 and abs(1.0 / dt - rate) <= SNAP / dt:
+        whole = 1.0 / rate
+        grid = start + whole * np.round((times - start) / whole)
+        if _on_grid(times, grid, whole):
+            return whole
+    return _exact(dt, FLOAT32_TIME * float(np.abs(times).max()) / (times.size - 1))
+
+
+def _exact(dt: float, error: float) -> float:
+    """The frame time that key times measure as ``dt``, give or take their float32 rounding
+    ``error``: a whole or NTSC rate's (n * 1000/1001: 30000/1001 is 29.97 fps) exactly where
+    one lies within it, else the shortest decimal that does (``0.0083333``, not
+    ``0.00833330026837097``)."""
+    whole, ntsc = round(1.0 / dt), round(1001.0 / (1000.0 * dt))
+    for exact in (1.0 / max(whole, 1), 1001.0 / (1000 * max(ntsc, 1))):
+        if abs(exact - dt) <= error:
+            return exact
+    decimals = (float(f"{dt:.{digits}g}") for digits in range(1, 18))
+    return next(value for value in decimals if abs(value - dt) <= error)
 
 
 def _on_grid(times: np.ndarray, grid: np.ndarray, frame_time: float) -> bool:

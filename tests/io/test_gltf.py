@@ -165,6 +165,27 @@ def test_a_bvh_of_a_glb_writes_offsets_in_one_fixed_point_format(tmp_path, capsy
     assert np.array_equal(mc.load(tmp_path / "m.bvh").offsets[2], offsets[2])
 
 
+def test_the_frame_time_of_float32_keys_is_made_exact(tmp_path, capsys):
+    """A BVH of Frame Time .0083333 through a GLB had come back saying 0.00833330026837097
+    (the float32 keys' step; 300 frames drift too far off 1/120's grid to snap): the step
+    is the shortest decimal within the keys' float32 rounding, and an NTSC rate's exact."""
+    code, _, err = run_cli(capsys, "convert", SAMPLE, tmp_path / "s.glb")
+    assert code == 0, err
+    code, _, err = run_cli(capsys, "convert", tmp_path / "s.glb", tmp_path / "back.bvh")
+    assert code == 0, err
+    assert "Frame Time: 0.0083333\n" in (tmp_path / "back.bvh").read_text()
+    clip = mc.load(SAMPLE)
+    for written, read in (
+        (1001 / 30000, 1001 / 30000),  # NTSC's 29.97 fps, exactly
+        (1 / 29.97, 0.0333667),
+        (1 / 37.5, 0.02666667),
+        (0.013, 0.013),
+        (1 / 60, 1 / 60),
+    ):
+        mc.save(clip.replace(frame_time=written), tmp_path / "r.glb")
+        assert mc.load(tmp_path / "r.glb").frame_time == read
+
+
 def test_cleaning_the_glb_equals_cleaning_the_bvh(bvh_96, tmp_path, capsys):
     code, _, err = run_cli(capsys, "clean", BLENDER_GLB, "-o", tmp_path / "c.glb", "-q")
     assert code == 0, err
