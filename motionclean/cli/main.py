@@ -13,6 +13,7 @@ import signal
 import sys
 import textwrap
 import traceback
+from dataclasses import replace
 
 import click
 import numpy as np
@@ -358,7 +359,7 @@ def resample_command(
     step.update({key: value for key, value in rates.items() if value is not None})
     pipeline = Pipeline.from_tables([step], "--fps/--frame-time")
     check_clip_output(target, (source, *read.files))
-    before = read.load(source)
+    before = replace(read, regrid=True).load(source)  # (a simulation's uneven steps too)
     after, _ = pipeline.run(before)
     save(after, target)
     click.echo(

@@ -80,6 +80,7 @@ def load(
     exclude: Iterable[str] = (),
     frame_rate: float | None = None,
     animation: str | None = None,
+    regrid: bool = False,
 ) -> Motion:
     """Read a clip; the format follows the extension (see the module).
 
@@ -105,6 +106,9 @@ def load(
     animation : str, optional
         The glTF animation to read, by name (or its index as digits); default the first.
         Other formats do not use it.
+    regrid : bool, optional
+        Put an OpenSim file whose rows are not a fixed time apart (a simulation's states)
+        on a uniform grid of its median step instead of refusing it (``resample`` does).
 
     Returns
     -------
@@ -141,7 +145,8 @@ def load(
         model = functools.partial(smpl.read_body_model, checks.path(body_model, "body_model"))
     exclude = checks.patterns(exclude, "exclude")
     animation = _checked_animation(animation)
-    return _read(path, template, model, exclude, smpl.checked_rate(frame_rate), animation)
+    rate = smpl.checked_rate(frame_rate)
+    return _read(path, template, model, exclude, rate, animation, bool(regrid))
 
 
 def _checked_animation(animation) -> str | None:
@@ -160,6 +165,7 @@ def _read(
     exclude: tuple[str, ...],
     frame_rate: float | None,
     animation: str | None = None,
+    regrid: bool = False,
 ) -> Motion:
     """:func:`load` of its checked arguments; ``body_model`` reads the model, called only
     for a SMPL clip."""
@@ -177,7 +183,7 @@ def _read(
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
             motion = parse(data, path, skeleton=template, body_model=model, frame_rate=frame_rate)
         elif suffix in (".mot", ".sto"):
-            motion = opensim.parse_opensim(data, path, exclude=exclude)
+            motion = opensim.parse_opensim(data, path, exclude=exclude, regrid=regrid)
         elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
             motion = gltf.parse_gltf(data, path, animation)
         elif motive.is_motive(data):
@@ -212,6 +218,7 @@ class ReadOptions:
     exclude: tuple[str, ...] = ()
     frame_rate: float | None = None
     animation: str | None = None
+    regrid: bool = False  # uneven OpenSim rows put on a grid (``resample``), not refused
 
     @property
     def files(self) -> tuple[str, ...]:
@@ -228,7 +235,8 @@ class ReadOptions:
         path = Path(checks.path(path, "path"))
         exclude = checks.patterns(self.exclude, "exclude")
         rate = smpl.checked_rate(self.frame_rate)
-        return _read(path, template, model, exclude, rate, _checked_animation(self.animation))
+        animation = _checked_animation(self.animation)
+        return _read(path, template, model, exclude, rate, animation, self.regrid)
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):

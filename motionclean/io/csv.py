@@ -54,9 +54,9 @@ Zposition Yrotation Xrotation Zrotation``.
 
 Time: the rows must be uniformly sampled. Times must increase, each step must be within
 10% of the mean step and each time within 10% of a frame of the uniform grid; otherwise the
-error names the row (resample the clip first). The frame time is the mean step rounded to
-12 significant digits, or the template's frame time when the time column fits it. A clip
-without a template needs at least two rows.
+error names the row (and says to export the clip at a fixed rate). The frame time is the
+mean step rounded to 12 significant digits, or the template's frame time when the time
+column fits it. A clip without a template needs at least two rows.
 
 Writing (``save(motion, "out.csv")``): a clip read from a rigid-body CSV is written as a
 rigid-body CSV, every other clip as a channel CSV (``format_csv(motion, layout=...)``
@@ -372,8 +372,30 @@ def parse_body(
     return BodyCells(values, all_blank, starts.astype(offsets), ends.astype(offsets), lines)
 
 
-def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: float | None) -> float:
-    """The frame time of a uniformly sampled time column (see the module docstring)."""
+#: What a file whose rows are not a fixed time apart is told to do.
+UNEVEN_ADVICE = "export it at a fixed rate"
+
+
+def off_grid(times: np.ndarray) -> bool:
+    """Whether increasing ``times`` (seconds) stray from a uniform grid: a step, or a
+    time from the first, more than :data:`TIME_TOLERANCE` of the mean step off it."""
+    grid = np.arange(times.size)
+    mean = (times[-1] - times[0]) / (times.size - 1)
+    steps_off = np.abs(np.diff(times) - mean) > TIME_TOLERANCE * mean
+    return bool(
+        steps_off.any() or np.any(np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean)
+    )
+
+
+def uniform_frame_time(
+    times: np.ndarray,
+    lines: np.ndarray,
+    path,
+    template: float | None,
+    advice: str = UNEVEN_ADVICE,
+) -> float:
+    """The frame time of a uniformly sampled time column (see the module docstring);
+    ``advice`` ends the error of one that is not."""
     n = times.size
     if n < 2:
         if template is not None:
@@ -414,8 +436,7 @@ def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: flo
         i = np.flatnonzero(off)[0] + 1
         _fail(
             f"not uniformly sampled: a time step of {steps[i - 1]:.6g} s against a mean "
-            f"step of {mean:.6g} s (more than {TIME_TOLERANCE:.0%} apart); resample the "
-            "clip first",
+            f"step of {mean:.6g} s (more than {TIME_TOLERANCE:.0%} apart): {advice}",
             path,
             int(lines[i]),
         )
@@ -424,8 +445,8 @@ def uniform_frame_time(times: np.ndarray, lines: np.ndarray, path, template: flo
         i = np.flatnonzero(drift)[0]
         _fail(
             f"not uniformly sampled: time {times[i]:.6g} s is more than "
-            f"{TIME_TOLERANCE:.0%} of a frame off the uniform grid of {mean:.6g} s steps; "
-            "resample the clip first",
+            f"{TIME_TOLERANCE:.0%} of a frame off the uniform grid of {mean:.6g} s steps: "
+            f"{advice}",
             path,
             int(lines[i]),
         )

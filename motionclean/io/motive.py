@@ -450,7 +450,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
             f"the Time column does not follow Export Frame Rate {metadata['Export Frame Rate']}"
             f" and the Frame column: time {times[worst]:.6g} s is off its frame's time by more "
             f"than the column's steps of {coarse:g} s (the frames' times differ by more than "
-            "their rounding: not uniformly sampled; resample the clip first)",
+            "their rounding: not uniformly sampled: export the take again)",
             path,
             cells.lines[worst],
         )

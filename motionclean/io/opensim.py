@@ -57,7 +57,8 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
-from .csv import Cells, CsvText, format_repr, format_values, uniform_frame_time
+from ..core.regrid import regridded
+from .csv import Cells, CsvText, format_repr, format_values, off_grid, uniform_frame_time
 from .files import pieces
 from .text import (
     bad_number_message,
@@ -98,6 +99,7 @@ class OpenSimText:
     eol: bytes
     notes: tuple[str, ...] = ()
     stated_rows: str | None = None  # the header's nRows as written (None: no such line)
+    regridded: bool = False  # rows put on a uniform grid: the file's cells are not the clip's
 
     @property
     def n_frames(self) -> int:
@@ -280,8 +282,9 @@ def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
         )
 
 
-def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
-    """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module)."""
+def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool = False) -> Motion:
+    """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module). ``regrid``:
+    rows at uneven times (a simulation's) are put on a uniform grid, not refused."""
     body, header_lines, pairs, eol = _header(data, path)
     _refuse_data_type(pairs, path)
     in_degrees, note = _in_degrees(pairs, path)
@@ -362,10 +365,18 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
             number_of(rows[f]),
         )
     values.ravel()[flat] = found
-    frame_time = uniform_frame_time(
-        values[:, 0], np.array([number_of(r) for r in rows]), path, None
-    )
-    coords = values[:, 1:]
+    times, coords = values[:, 0], values[:, 1:]
+    on_grid = regrid and bool(np.all(np.diff(times) > 0)) and off_grid(times)
+    if on_grid:
+        frame_time, coords = _on_grid(times, coords, path)
+        notes.append(
+            f"time steps of {np.diff(times).min():.3g}-{np.diff(times).max():.3g} s (a "
+            f"simulation's integrator steps): put on a grid of the median step, "
+            f"{frame_time:.6g} s, by a cubic through the samples"
+        )
+    else:
+        lines = np.array([number_of(r) for r in rows])
+        frame_time = uniform_frame_time(times, lines, path, None, UNEVEN_ADVICE)
     missing = np.isnan(coords)
     names = [labels[c] for c in kept]
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)
@@ -393,8 +404,24 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = ()) -> Motion:
         eol,
         tuple(notes),
         stated,
+        on_grid,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
+
+
+#: What an unevenly sampled OpenSim file is told to do (it is read so by ``resample``).
+UNEVEN_ADVICE = (
+    "`motionclean resample FILE OUT --fps N` puts it on a uniform grid (a simulation's "
+    "states, written at its integrator's steps)"
+)
+
+
+def _on_grid(times: np.ndarray, coords: np.ndarray, path) -> tuple[float, np.ndarray]:
+    """The frame time and ``coords`` ``(F, C)`` sampled at uneven ``times`` put on a
+    uniform grid (:func:`motionclean.core.regrid.regridded`); refused with a missing cell."""
+    if np.isnan(coords).any():
+        _fail("time steps are uneven and some cells are missing: nothing to put on a grid", path)
+    return regridded(times, coords)
 
 
 def _holds_degrees(angles: np.ndarray, frame_time: float) -> bool:
@@ -501,6 +528,7 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     src = motion.source
     if (
         not isinstance(src, OpenSimText)
+        or src.regridded
         or src.n_frames != motion.n_frames
         or src.columns.size != motion.n_joints
     ):

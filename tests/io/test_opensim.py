@@ -517,3 +517,37 @@ def test_an_error_column_beside_coordinates_is_carried(tmp_path):
     assert any("1 columns of errors" in n for n in kinematics.source_notes(motion))
     mc.save(motion, tmp_path / "same.mot")
     assert (tmp_path / "same.mot").read_text() == text
+
+
+def uneven_states(tmp_path) -> tuple:
+    """A states file at an integrator's uneven steps: a knee angle on a parabola in time
+    and a pelvis height on a line (degrees, metres), 0.83-1.19 s."""
+    rng = np.random.default_rng(4)
+    times = np.sort(np.r_[0.83, rng.uniform(0.83, 1.19, 50), 1.19])
+    knee = lambda t: -30.0 + 200.0 * (t - 1.0) ** 2  # noqa: E731
+    height = lambda t: 0.9 + 0.1 * t  # noqa: E731
+    rows = "".join(f"{t:.20f}\t{knee(t):.20f}\t{height(t):.20f}\n" for t in times)
+    text = (
+        f"states\nversion=1\nnRows={times.size}\nnColumns=3\ninDegrees=yes\nendheader\n"
+        f"time\tknee_angle_r\tpelvis_ty\n{rows}"
+    )
+    return write(tmp_path, text, "cmc_states.sto"), knee, height
+
+
+def test_a_simulations_uneven_steps_are_resampled_not_cleaned(tmp_path, capsys):
+    """CMC and forward simulations write their states at the integrator's steps (1-11 ms
+    apart): `clean` refuses them saying what does take them, and `resample` puts them on a
+    uniform grid by a cubic that keeps a parabola, from their first time."""
+    path, knee, height = uneven_states(tmp_path)
+    code, _, err = run_cli(capsys, "clean", path, "-o", tmp_path / "c.sto")
+    assert code == 1 and "not uniformly sampled" in err and "motionclean resample" in err
+    target = tmp_path / "r.sto"
+    code, out, err = run_cli(capsys, "resample", path, target, "--fps", "100")
+    assert code == 0 and err == "" and "put on a grid of the median step" in out
+    back = np.genfromtxt(target, skip_header=7)
+    np.testing.assert_allclose(np.diff(back[:, 0]), 0.01, atol=1e-9)
+    assert back[0, 0] == pytest.approx(0.83) and back[-1, 0] <= 1.19
+    np.testing.assert_allclose(back[:, 1], knee(back[:, 0]), atol=0.05)  # (100 fps: low-passed)
+    np.testing.assert_allclose(back[:, 2], height(back[:, 0]), atol=1e-9)
+    clip = mc.load(path, regrid=True)
+    assert clip.frame_rate > 100 and any("integrator steps" in n for n in clip.source.notes)

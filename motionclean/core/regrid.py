@@ -1,0 +1,58 @@
+"""Scalar samples at uneven times, put on a uniform grid.
+
+A simulation's output (OpenSim's CMC and forward tools write their states at the
+integrator's own steps, 3-12 ms apart) is not a clip: every filter here reads frames a
+fixed time apart. :func:`regridded` puts such columns on a grid of their median step,
+from their first time, by a C1 cubic through the samples that reproduces a parabola
+exactly (so smooth kinematics keep their shape and a grid time that meets a sample
+gives it back).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["at_times", "regridded"]
+
+
+def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``(F, C)`` change per second at each sample: that of the parabola through it and
+    its neighbours (at an end, the next two); the secant with two samples."""
+    steps = np.diff(times)[:, None]
+    secants = np.diff(values, axis=0) / steps
+    slopes = np.empty_like(values)
+    slopes[0], slopes[-1] = secants[0], secants[-1]
+    if times.size > 2:
+        before, after = steps[:-1], steps[1:]
+        slopes[1:-1] = (after * secants[:-1] + before * secants[1:]) / (before + after)
+        for end, near, far in ((0, 0, 1), (-1, -1, -2)):
+            h0, h1 = steps[near], steps[far]
+            slopes[end] = ((2 * h0 + h1) * secants[near] - h0 * secants[far]) / (h0 + h1)
+    return slopes
+
+
+def at_times(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """``values`` ``(F, C)`` sampled at increasing ``times`` ``(F,)`` (seconds, ``F >= 2``),
+    evaluated at ``at`` ``(N,)`` within ``[times[0], times[-1]]`` by the cubic Hermite
+    through the samples with :func:`_slopes`. ``(N, C)``."""
+    slopes = _slopes(times, values)
+    piece = np.clip(np.searchsorted(times, at, side="right") - 1, 0, times.size - 2)
+    span = (times[piece + 1] - times[piece])[:, None]
+    u = (at[:, None] - times[piece][:, None]) / span
+    u2, u3 = u * u, u * u * u
+    rise = values[piece + 1] - values[piece]
+    return (
+        values[piece]
+        + (3 * u2 - 2 * u3) * rise
+        + (u3 - 2 * u2 + u) * slopes[piece] * span
+        + (u3 - u2) * slopes[piece + 1] * span
+    )
+
+
+def regridded(times: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray]:
+    """The frame time (the median step, to 12 significant digits) and ``values`` ``(F, C)``
+    at ``times[0] + k`` frame times up to ``times[-1]``: :func:`at_times`."""
+    frame_time = float(f"{np.median(np.diff(times)):.12g}")
+    count = int(np.floor((times[-1] - times[0]) / frame_time * (1 + 1e-12))) + 1
+    grid = times[0] + frame_time * np.arange(count)
+    return frame_time, at_times(times, values, np.minimum(grid, times[-1]))

@@ -1,0 +1,27 @@
+"""Scalar samples at uneven times on a uniform grid: a parabola kept, samples hit exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from motionclean.core.regrid import at_times, regridded
+
+
+def test_a_parabola_and_the_samples_themselves_come_back():
+    rng = np.random.default_rng(3)
+    times = np.sort(np.r_[0.0, rng.uniform(0.0, 1.0, 30), 1.0])
+    values = np.stack([3 * times**2 - 2 * times + 1, 0.5 * times], axis=1)
+    at = np.linspace(0.0, 1.0, 257)
+    expected = np.stack([3 * at**2 - 2 * at + 1, 0.5 * at], axis=1)
+    np.testing.assert_allclose(at_times(times, values, at), expected, atol=1e-12)
+    np.testing.assert_array_equal(at_times(times, values, times), values)
+    two = at_times(times[:2], values[:2], np.linspace(0.0, times[1], 5))
+    np.testing.assert_allclose(two[:, 1], 0.5 * np.linspace(0.0, times[1], 5), atol=1e-15)
+
+
+def test_the_grid_is_the_median_step_from_the_first_time():
+    times = np.array([0.4, 0.401, 0.403, 0.41, 0.42, 0.425, 0.43])
+    frame_time, values = regridded(times, np.sin(times)[:, None])
+    assert frame_time == float(f"{np.median(np.diff(times)):.12g}")  # (0.005, not 0.0049999)
+    assert values.shape == (int((0.43 - 0.4) / frame_time + 1e-9) + 1, 1)
+    assert values[0, 0] == np.sin(0.4)
