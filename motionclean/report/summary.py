@@ -123,10 +123,14 @@ def build_series(
     # a flip or glitch the input makes and no step repaired is no jitter either
     jumps = unrepaired_jumps(before.rotations[:, cols], repaired, missing, starts, lead, trail)
     unrepaired = {}  # joint name: how many
+    near_jumps = {}  # column: its frames within NEAR_JUMP_S of such a step
+    reach = max(int(round(NEAR_JUMP_S / dt)), 1)
     for n in np.flatnonzero(jumps.any(axis=0)).tolist():
         rows = jumps[:-1, n] | jumps[1:, n]
         accel_rows[n] = accel_rows[n] | rows if n in accel_rows else rows
         unrepaired[before.names[rot[n]]] = int(jumps[:, n].sum())
+        touched = np.r_[jumps[:, n], False] | np.r_[False, jumps[:, n]]
+        near_jumps[n] = _within(touched, reach)
     del jumps
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:
@@ -143,9 +147,16 @@ def build_series(
     assert acc_b is not None
     dev = None
     outside["deviation"] = None
+    changed_near: dict[str, float] = {}  # joint name: its largest change near such a step
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
+        changed_near = {
+            before.names[rot[n]]: _largest(
+                table[:, n], near & ~repaired[n] if n in repaired else near
+            )
+            for n, near in near_jumps.items()
+        }
         dev = _reduced(table, lead, trail)
         del table
     positions = (
@@ -174,6 +185,7 @@ def build_series(
         "feet": feet,
         "rest_frames": (lead, trail),
         "unrepaired_jumps": unrepaired,
+        "changed_near_jumps": changed_near,
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
@@ -214,6 +226,27 @@ def _position_series(
         float(np.max(np.nanmax(path, axis=0) - np.nanmin(path, axis=0))) if path.size else math.nan
     )
     return figures
+
+
+#: Frames within this many seconds of a step the input makes over
+#: :data:`~motionclean.core.jumps.JUMP_DEG` are near it: what smoothing moves there it moved
+#: across the step.
+NEAR_JUMP_S = 0.5
+
+
+def _within(mask: np.ndarray, reach: int) -> np.ndarray:
+    """``mask`` ``(F,)`` widened by ``reach`` rows on each side."""
+    total = np.concatenate([[0], np.cumsum(mask)])
+    index = np.arange(mask.size)
+    low, high = np.maximum(index - reach, 0), np.minimum(index + reach + 1, mask.size)
+    return total[high] > total[low]
+
+
+def _largest(values: np.ndarray, rows: np.ndarray) -> float:
+    """The largest of ``values`` at ``rows`` (a mask), NaN left out; 0 without any."""
+    picked = values[rows]
+    picked = picked[~np.isnan(picked)]
+    return float(picked.max()) if picked.size else 0.0
 
 
 def unrepaired_jumps(
@@ -355,6 +388,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
+        "changed_near_jumps": series.get("changed_near_jumps", {}),
     } | _position_smoothing(figures.get("positions"))
 
 
@@ -694,7 +728,7 @@ def format_table(report: dict, limit: int = 10) -> str:
     if "world" in report:
         lines.append(format_world(report["world"]))
     if report.get("contacts"):
-        lines.extend(format_contacts(report["contacts"]))
+        lines.extend(format_contacts(report["contacts"], report["joints"]))
     lines.extend(format_repairs(report))
     if report.get("verdict"):
         lines.append(f"verdict: {report['verdict']['text']}")

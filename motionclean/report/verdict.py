@@ -85,6 +85,10 @@ LOOK_REPAIRED_SHARE = 0.5
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
 #: after cleaning) are planted; ``footlock``'s own threshold.
 PLANTED_SKATE = 0.1
+#: A foot whose skate after cleaning is above this many times its skate before ...
+SLID_MORE = 1.25
+#: ... and above it by more than this (body heights per second) slides more than it did.
+SLID_MORE_BY = 0.01
 #: Feet sliding faster than this after cleaning need a look (``footlock`` holds them).
 LOOK_SKATE = 0.5
 #: Steps that repair, plant, put on the floor or resample a clip without smoothing it: a
@@ -187,18 +191,28 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
 
 
 def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
-    """ "feet planted" or "feet slide 0.20 body heights/s" after cleaning, and the fastest
-    foot's skate (body heights per second); None without feet in contact."""
+    """ "feet planted", "feet slide 0.20 body heights/s" or, where cleaning made a foot slide
+    more than it did (:data:`SLID_MORE`), "feet slide more than before: 0.043 -> 0.065
+    body heights/s" after cleaning, and the fastest foot's skate (body heights per
+    second); None without feet in contact."""
     feet = (contacts or {}).get("feet") or {}
-    skates = [
-        foot["skate_body_heights"]["after"]
+    pairs = [
+        (foot["skate_body_heights"].get("before"), foot["skate_body_heights"]["after"])
         for foot in feet.values()
         if foot.get("contacts") and foot["skate_body_heights"].get("after") is not None
     ]
-    skates = [s for s in skates if math.isfinite(s)]
-    if not skates:
+    pairs = [(b, a) for b, a in pairs if math.isfinite(a)]
+    if not pairs:
         return None, None
-    fastest = max(skates)
+    fastest = max(a for _, a in pairs)
+    more = [
+        (b, a)
+        for b, a in pairs
+        if b is not None and math.isfinite(b) and a > SLID_MORE * b and a - b > SLID_MORE_BY
+    ]
+    if more:
+        b, a = max(more, key=lambda pair: pair[1] - pair[0])
+        return f"feet slide more than before: {b:.3f} -> {a:.3f} body heights/s", fastest
     if fastest <= PLANTED_SKATE:
         return "feet planted", fastest
     return f"feet slide {fastest:.2f} body heights/s", fastest
@@ -271,11 +285,14 @@ def _missing_words(joints: dict[str, dict]) -> list[str]:
     return words
 
 
-def _across_defects(smoothing: dict, joint: str, filters: list) -> str:
-    """Why smoothing moved ``joint`` far, where its input steps by more than
-    :data:`~motionclean.core.jumps.JUMP_DEG` and nothing repaired those steps ("" elsewhere)."""
+def _across_defects(smoothing: dict, joint: str, change: float, filters: list) -> str:
+    """Why smoothing moved ``joint`` by ``change`` degrees, where that largest change lies
+    near (:data:`~motionclean.report.summary.NEAR_JUMP_S`) a step of its input over
+    :data:`~motionclean.core.jumps.JUMP_DEG` that nothing repaired ("" elsewhere: a flip
+    kept as a flip 260 frames away had been blamed)."""
     count = (smoothing.get("unrepaired_jumps") or {}).get(joint, 0)
-    if not count:
+    near = (smoothing.get("changed_near_jumps") or {}).get(joint, 0.0)
+    if not count or near < change:
         return ""
     what = "despike left them" if "despike" in filters else "despike repairs them first"
     return (
@@ -333,7 +350,8 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     what = "smoothing moved" if filters and smoothed else "the cleaning moved"
     if change > LOOK_CHANGE_DEG:
         reasons.append(
-            f"{what} {joint} by {change:.1f} degrees{_across_defects(smoothing, joint, filters)}"
+            f"{what} {joint} by {change:.1f} degrees"
+            + _across_defects(smoothing, joint, change, filters)
         )
     grounded = _ground_words(joints)
     # positions: moved beyond the writers' rounding, and not by the ground step alone

@@ -312,9 +312,10 @@ def format_floor(section: dict) -> str | None:
     )
 
 
-def format_contacts(section: dict) -> list[str]:
+def format_contacts(section: dict, joints: dict | None = None) -> list[str]:
     """One terminal line for the floor, then one per foot: contacts, skate before/after,
-    penetration."""
+    penetration, and whether ``footlock`` left its sliding contacts (``joints``: the
+    report's, whose ankle notes say so)."""
     floor = format_floor(section)
     lines = [] if floor is None else [floor]
     for name, foot in section["feet"].items():
@@ -335,5 +336,8 @@ def format_contacts(section: dict) -> list[str]:
         text += f", below ground {pen['before']:.3g}"
         if pen["after"] is not None:
             text += f" -> {pen['after']:.3g}"
-        lines.append(text + " units")
+        text += " units"
+        if "left" in ((joints or {}).get(name) or {}).get("footlock", {}):
+            text += "; footlock left it (the error it expects at the ankle is under its tolerance)"
+        lines.append(text)
     return lines

@@ -237,11 +237,19 @@ def _run(data: StepData, params: dict) -> StepData:
     # a leg whose ankle auto expects within the tolerance of the truth is left as it is
     # (a clip auto found clean: nothing there to correct)
     limit = params["tolerance"] * height
-    chosen = [
-        (k, leg)
-        for k, leg in chosen
-        if _expected_error(positions, contacts[:, k], leg, prior, point_column) >= limit
-    ]
+    expected = {
+        k: _expected_error(positions, contacts[:, k], leg, prior, point_column) for k, leg in chosen
+    }
+    for k in (k for k, _ in chosen if expected[k] < limit):  # said in the joint's note
+        data.rotation_notes.setdefault(column[feet[k].ankle], {})["footlock"] = {
+            "contacts": [],
+            "frames": 0,
+            "left": f"its sliding contacts left as they are: the ankle's expected error "
+            f"(auto's, else the noise estimated on the clip) is {expected[k] / height:.2g} "
+            f"body heights, under the tolerance {params['tolerance']:g} (a lower one holds "
+            "them)",
+        }
+    chosen = [(k, leg) for k, leg in chosen if expected[k] >= limit]
     if not chosen:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
@@ -299,7 +307,10 @@ def _run(data: StepData, params: dict) -> StepData:
 
 
 def _format_note(note: dict, positions: bool) -> str:
-    """The contacts held (``[first, stop)`` frame runs), shown as frames ``first-last``."""
+    """The contacts held (``[first, stop)`` frame runs), shown as frames ``first-last``, or
+    why the foot's were left."""
+    if "left" in note:
+        return note["left"]
     shown = format_runs(note["contacts"][:6])
     more = len(note["contacts"]) - 6
     held = f"held {plural(len(note['contacts']), 'contact')} ({plural(note['frames'], 'frame')})"

@@ -195,3 +195,24 @@ def test_stretches_across_block_edges_match_each_alone_in_bounded_memory():
             part = q[first:stop, column]
             alone = lee_shin(part, binomial(100), 2) if stop - first > 1 else part
             assert degrees_between(out[first:stop, column], alone).max() < 1e-9
+
+
+def test_the_verdict_blames_a_flip_only_for_a_change_beside_it():
+    """A forearm flipped for ten frames (kept as a flip by lee-shin's cut) and, 150 frames
+    on, a 60-degree one-frame glitch it smooths: the largest change is the glitch's, and
+    the verdict had said it was moved "across 2 steps of over 90 degrees" (the flip's)."""
+    clip = mc.load(NOISY)
+    arm = clip.names.index("LeftElbow")
+    q = clip.rotations.copy()
+    q[100:110, arm] = quat.multiply(q[100:110, arm], np.array([0.0, 0.0, 1.0, 0.0]))
+    q[260, arm] = quat.multiply(q[260, arm], quat.exp(np.array([0.0, math.radians(30), 0.0])))
+    planted = clip.replace(rotations=q)
+    kept = clean_motion(
+        planted, Pipeline.from_inline(["lee-shin:k=3,joints=[LeftElbow]"]), "p.bvh"
+    ).report
+    text = kept["verdict"]["text"]
+    assert "smoothing moved LeftElbow" in text and "steps of over 90 degrees" not in text, text
+    spun_step = "lee-shin:k=3,joints=[LeftElbow],cut_deg=180"
+    spun = clean_motion(planted, Pipeline.from_inline([spun_step]), "p.bvh")
+    assert "moved LeftElbow by" in spun.report["verdict"]["text"]
+    assert "across 2 steps of over 90 degrees" in spun.report["verdict"]["text"]
