@@ -284,8 +284,7 @@ def info(
         click.echo("  noise: not measured (no three frames in a row known)")
     click.echo(
         "  (largest step: rotation between consecutive frames, degrees; accel rms: "
-        "deg/s^2; noise est: per-sample rotation noise estimated as by the auto step, "
-        "degrees)"
+        "deg/s^2; noise est: per-sample rotation noise, degrees, by auto's optical model)"
     )
 
 

@@ -23,7 +23,7 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
-from ..filters.auto import describe_source
+from ..filters.auto import NEGLIGIBLE_DEG, describe_source
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text, plural
 from . import metrics
@@ -766,11 +766,13 @@ def format_noise_model(report: dict) -> str:
     below = "" if edge is None else f" below {edge:g} Hz"
     level = median_joint([n["wander"] for n in wander])
     hint = " For an optical capture: --source optical." if first["source"] == "auto" else ""
-    return (
-        f"{line}. The noise wanders{below}, down where the motion is (median joint "
-        f"{level:.3g} deg); each joint gets the one filter of least expected error over the "
-        f"clip.{hint}"
+    found = (
+        f"The noise wanders{below}, down where the motion is (median joint {level:.3g} deg)"
+        if level >= NEGLIGIBLE_DEG
+        else "No noise wandering among the motion's frequencies was found in the median joint"
     )
+    each = "each joint gets the one filter of least expected error over the clip"
+    return f"{line}. {found}; {each}.{hint}"
 
 
 #: Cuts between takes a line names at most (the JSON's ``take_starts`` holds them all).
