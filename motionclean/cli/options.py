@@ -53,7 +53,7 @@ def read_options(command):
             "--animation",
             metavar="NAME",
             help="The animation of a .gltf/.glb file to read and clean, by name (or index); "
-            "default the first. `info` lists them.",
+            "default the first; other formats ignore it. `info` lists them.",
         ),
         click.option(
             "--input-fps",

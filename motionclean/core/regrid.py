@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .motion import MAX_FRAME_TIME, MIN_FRAME_TIME
+
 __all__ = ["at_times", "regridded"]
 
 
@@ -49,10 +51,27 @@ def at_times(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarra
     )
 
 
+#: A grid holds at most this many frames per sample read: steps so uneven that the median
+#: one would make more (a few rows 0.1 us apart and the rest seconds apart) are refused,
+#: so time and memory follow the data, not its smallest step.
+MOST_FRAMES_PER_ROW = 8
+
+
 def regridded(times: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray]:
     """The frame time (the median step, to 12 significant digits) and ``values`` ``(F, C)``
-    at ``times[0] + k`` frame times up to ``times[-1]``: :func:`at_times`."""
+    at ``times[0] + k`` frame times up to ``times[-1]``: :func:`at_times`. ValueError for
+    a frame time no clip may have or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames
+    per row."""
     frame_time = float(f"{np.median(np.diff(times)):.12g}")
-    count = int(np.floor((times[-1] - times[0]) / frame_time * (1 + 1e-12))) + 1
+    if not MIN_FRAME_TIME <= frame_time < MAX_FRAME_TIME:
+        raise ValueError(f"a median time step of {frame_time:.6g} s gives no usable frame rate")
+    span = (times[-1] - times[0]) / frame_time
+    if span > MOST_FRAMES_PER_ROW * times.size:
+        raise ValueError(
+            f"time steps too uneven to put on a grid: the median step, {frame_time:.6g} s, "
+            f"over {times[-1] - times[0]:.6g} s would make {span:,.0f} frames of "
+            f"{times.size} rows"
+        )
+    count = int(np.floor(span * (1 + 1e-12))) + 1
     grid = times[0] + frame_time * np.arange(count)
     return frame_time, at_times(times, values, np.minimum(grid, times[-1]))

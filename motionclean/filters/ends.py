@@ -27,19 +27,18 @@ import numpy as np
 from ..core import quat
 from .linear import mirror_position
 
-#: Degree of the polynomial fitted to the samples near an end.
+#: Degree of the polynomial fitted to the samples near an end (a line: a quadratic, or a
+#: fit over a low-pass mask's side lobes, was measured worse at the clip's ends).
 FIT_DEGREE = 1
-#: The fit's kernel is the mask's half stretched by this factor.
-FIT_STRETCH = 1.5
 
 
-def end_weights(kernel: np.ndarray, degree: int | None = None) -> np.ndarray:
+def end_weights(kernel: np.ndarray) -> np.ndarray:
     """``(n,)`` weights ``h`` whose sum ``sum_i h_i x_i`` over samples ``i = 0 .. n-1``
-    is the weighted least-squares polynomial of ``degree`` (less when fewer samples ask
-    for it), sample ``i`` weighted by ``kernel[i] >= 0``, evaluated at ``i = 0``; they
-    sum to one and reproduce polynomials of that degree exactly."""
+    is the weighted least-squares polynomial of :data:`FIT_DEGREE` (less when fewer
+    samples ask for it), sample ``i`` weighted by ``kernel[i] >= 0``, evaluated at
+    ``i = 0``; they sum to one and reproduce polynomials of that degree exactly."""
     n = kernel.size
-    degree = min(FIT_DEGREE if degree is None else degree, n - 1)
+    degree = min(FIT_DEGREE, n - 1)
     t = np.arange(n, dtype=np.float64) / max(n - 1, 1)
     basis = np.vander(t, degree + 1, increasing=True) * np.sqrt(kernel)[:, None]
     return np.linalg.pinv(basis)[0] * np.sqrt(kernel)

@@ -127,6 +127,11 @@ class GltfSource:
     translations: np.ndarray  # (F, J, 3) as read
     notes: tuple[str, ...] = field(default=())
 
+    @property
+    def start_time(self) -> float:
+        """Seconds at the first frame, the earliest key (:func:`.text.start_time`)."""
+        return self.start
+
     #: Significant digits the file's numbers hold: float32 accessors, and JSON numbers
     #: exporters print from float32 values (a new BVH's OFFSETs keep as many).
     float_digits = 7

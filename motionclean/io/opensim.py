@@ -366,8 +366,8 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         )
     values.ravel()[flat] = found
     times, coords = values[:, 0], values[:, 1:]
-    on_grid = regrid and bool(np.all(np.diff(times) > 0)) and off_grid(times)
-    if on_grid:
+    regrid_rows = regrid and bool(np.all(np.diff(times) > 0)) and off_grid(times)
+    if regrid_rows:
         frame_time, coords = _on_grid(times, coords, path)
         notes.append(
             f"time steps of {np.diff(times).min():.3g}-{np.diff(times).max():.3g} s (a "
@@ -376,7 +376,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         )
     else:
         lines = np.array([number_of(r) for r in rows])
-        frame_time = uniform_frame_time(times, lines, path, None, UNEVEN_ADVICE)
+        frame_time = uniform_frame_time(times, lines, path, None, SIMULATION_ADVICE)
     missing = np.isnan(coords)
     names = [labels[c] for c in kept]
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)
@@ -404,13 +404,13 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         eol,
         tuple(notes),
         stated,
-        on_grid,
+        regrid_rows,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
 
 
 #: What an unevenly sampled OpenSim file is told to do (it is read so by ``resample``).
-UNEVEN_ADVICE = (
+SIMULATION_ADVICE = (
     "`motionclean resample FILE OUT --fps N` puts it on a uniform grid (a simulation's "
     "states, written at its integrator's steps)"
 )
@@ -421,7 +421,10 @@ def _on_grid(times: np.ndarray, coords: np.ndarray, path) -> tuple[float, np.nda
     uniform grid (:func:`motionclean.core.regrid.regridded`); refused with a missing cell."""
     if np.isnan(coords).any():
         _fail("time steps are uneven and some cells are missing: nothing to put on a grid", path)
-    return regridded(times, coords)
+    try:
+        return regridded(times, coords)
+    except ValueError as error:
+        _fail(str(error), path)
 
 
 def _holds_degrees(angles: np.ndarray, frame_time: float) -> bool:

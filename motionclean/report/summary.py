@@ -131,6 +131,8 @@ def build_series(
         unrepaired[before.names[rot[n]]] = int(jumps[:, n].sum())
         touched = np.r_[jumps[:, n], False] | np.r_[False, jumps[:, n]]
         near_jumps[n] = _within(touched, reach)
+        near_jumps[n][:lead] = False  # (rest frames: as the largest change leaves them out)
+        near_jumps[n][near_jumps[n].size - trail :] = False
     del jumps
 
     def acceleration(clip: Motion | None, key: str) -> _Reduced | None:

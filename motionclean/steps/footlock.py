@@ -317,6 +317,14 @@ def _format_note(note: dict, positions: bool) -> str:
     return f"{held}: {shown}" + (f" and {more} more" if more > 0 else "")
 
 
+def _merge_note(parts: list[tuple[dict, int]]) -> dict:
+    """A foot's note from parts run on their own (takes, known stretches): frames held
+    summed; left for the tolerance only where no part held a contact (None drops it)."""
+    held = any(note["contacts"] for note, _ in parts)
+    left = next((note["left"] for note, _ in parts if "left" in note), None)
+    return {"frames": sum(note["frames"] for note, _ in parts), "left": None if held else left}
+
+
 def _crop_note(note: dict, start: int, stop: int) -> dict | None:
     """The contacts held within frames ``[start, stop)``."""
     contacts = crop_runs(note["contacts"], start, stop)
@@ -429,6 +437,6 @@ STEP = StepSpec(
     run=_run,
     format_note=_format_note,
     crop_note=_crop_note,
-    merge_note=lambda parts: {"frames": sum(note["frames"] for note, _ in parts)},
+    merge_note=_merge_note,
     shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},
 )

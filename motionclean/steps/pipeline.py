@@ -890,8 +890,12 @@ def _merged(spec: StepSpec, parts: list[tuple[dict, int]]) -> dict:
             k: sum((note.get(k, []) for note, _ in own), []) if isinstance(v, list) else v
             for k, v in value.items()
         }
-        if spec.merge_note is not None:
-            merged[key].update(spec.merge_note(own))
+        if spec.merge_note is not None:  # (a value None drops its key)
+            for name, value in spec.merge_note(own).items():
+                if value is None:
+                    merged[key].pop(name, None)
+                else:
+                    merged[key][name] = value
     return merged
 
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from motionclean.core.regrid import at_times, regridded
+from motionclean.core.regrid import MOST_FRAMES_PER_ROW, at_times, regridded
 
 
 def test_a_parabola_and_the_samples_themselves_come_back():
@@ -25,3 +26,16 @@ def test_the_grid_is_the_median_step_from_the_first_time():
     assert frame_time == float(f"{np.median(np.diff(times)):.12g}")  # (0.005, not 0.0049999)
     assert values.shape == (int((0.43 - 0.4) / frame_time + 1e-9) + 1, 1)
     assert values[0, 0] == np.sin(0.4)
+
+
+def test_a_grid_follows_the_rows_not_their_smallest_step():
+    """A few rows 0.1 us apart and the rest seconds apart: the median step would make a
+    grid of ten million frames; refused, as is a frame time no clip may have."""
+    tiny = np.r_[np.arange(31) * 1e-7, 0.5, 1.0]
+    with pytest.raises(ValueError, match="no usable frame rate"):
+        regridded(tiny, np.zeros((tiny.size, 1)))
+    sparse = np.r_[np.arange(30) * 1e-5, 4.0, 9.0]
+    with pytest.raises(ValueError, match="too uneven"):
+        regridded(sparse, np.zeros((sparse.size, 1)))
+    fine = np.r_[np.arange(10) * 0.01, 0.1 + 0.01 * MOST_FRAMES_PER_ROW]
+    assert regridded(fine, np.zeros((fine.size, 1)))[1].shape[0] <= MOST_FRAMES_PER_ROW * 11

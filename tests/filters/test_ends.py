@@ -80,7 +80,6 @@ def test_auto_pulls_a_clips_end_frames_towards_the_motion():
     pairs cancel about the end sample); reflected about a fitted end pose, under 0.6."""
     frames, columns, deg = 240, 400, 3.0
     truth, _ = constant_turn(frames, columns, seed=4)
-    truth = quat.multiply(truth, quat.exp(np.zeros((frames, columns, 3))))
     rng = np.random.default_rng(5)
     sigma = np.radians(deg) / (2.0 * np.sqrt(3.0))
     noisy = quat.multiply(truth, quat.exp(rng.normal(0.0, sigma, (frames, columns, 3))))

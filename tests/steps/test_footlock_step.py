@@ -265,3 +265,17 @@ def test_legs_left_for_the_tolerance_are_said_so(tmp_path, capsys):
         capsys, "clean", SAMPLE, "-o", tmp_path / "p.bvh", "-f", "footlock:tolerance=1e-6"
     )
     assert code == 0 and "footlock left it" not in out
+
+
+def test_a_foot_held_in_one_take_is_not_said_left_in_another():
+    """Takes run on their own: a foot whose longest take left it for the tolerance and
+    whose other take held a contact is a held foot (the merged note had kept both)."""
+    from motionclean.steps import REGISTRY
+    from motionclean.steps.pipeline import _merged
+
+    spec = REGISTRY["footlock"]
+    left = {"footlock": {"contacts": [], "frames": 0, "left": "left as they are"}}
+    held = {"footlock": {"contacts": [[10, 40]], "frames": 30}}
+    for parts in ([(left, 300), (held, 100)], [(held, 100), (left, 300)]):
+        assert _merged(spec, parts)["footlock"] == {"contacts": [[10, 40]], "frames": 30}
+    assert "left" in _merged(spec, [(left, 300), (left, 100)])["footlock"]
