@@ -70,6 +70,8 @@ class ContactParams:
         )
 
 
+#: Seconds over which a contact's ankle speed is averaged to tell whether it slides.
+SLIDE_WINDOW = 0.3
 #: A contact this close to the clip's first or last frame (seconds) reaches it where the
 #: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
 EDGE_SECONDS = 0.25
@@ -546,22 +548,38 @@ def sliding_contacts(
     up: int,
     frame_time: float,
     speed: float,
+    window: float = SLIDE_WINDOW,
 ) -> np.ndarray:
-    """The contacts whose mean horizontal ankle speed exceeds ``speed`` (length units/s):
-    ``(F, n_feet)`` bool, the other contacts cleared. A capture's own feet slide a little
-    (CMU walks: 0.02-0.08 body heights/s); contacts within that are left as they are."""
+    """The contacts whose horizontal ankle speed, averaged over some ``window`` seconds of
+    them (over what there is of them where the clip or the contact is shorter), exceeds
+    ``speed`` (length units/s): ``(F, n_feet)`` bool, the other contacts cleared. A
+    capture's own feet slide a little (CMU walks: 0.02-0.08 body heights/s); contacts
+    within that are left as they are. A long stance that stands still but for a slide at
+    its end (a VR take's legs smoothed while its root moved) slides: its mean over the
+    whole stance had hidden it."""
     ankles = positions[:, [f.ankle for f in feet]]
     step = np.diff(ankles, axis=0)
     step[..., up] = 0.0
     speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
+    moving = np.vstack([np.zeros((1, len(feet)), bool), contacts[1:] & contacts[:-1]])
+    width = min(max(int(round(window / frame_time)), 1), speeds.shape[0])
+    # each window's mean speed over its steps within a contact, set at its last frame
+    # (the first windows cut at the clip's start)
+    total, count = (
+        np.cumsum(np.vstack([np.zeros((1, len(feet))), x]), axis=0)
+        for x in (np.where(moving, speeds, 0.0), moving.astype(np.float64))
+    )
+    windowed = np.empty_like(speeds)
+    windowed[: width - 1] = total[1:width] / np.maximum(count[1:width], 1.0)
+    windowed[width - 1 :] = (total[width:] - total[:-width]) / np.maximum(
+        count[width:] - count[:-width], 1.0
+    )
     kept = contacts.copy()
     for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
         label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
         if not label.any():
             continue
-        moving = np.r_[False, contacts[1:, k] & contacts[:-1, k]]  # speed within the contact
-        total = np.bincount(label, weights=np.where(moving, speeds[:, k], 0.0))
-        count = np.bincount(label, weights=moving.astype(np.float64))
-        mean = total / np.maximum(count, 1.0)
-        kept[:, k] &= mean[label] > speed
+        fastest = np.zeros(int(label.max()) + 1)
+        np.maximum.at(fastest, label, np.where(contacts[:, k], windowed[:, k], 0.0))
+        kept[:, k] &= fastest[label] > speed
     return kept

@@ -409,8 +409,9 @@ STEP = StepSpec(
             "min_skate",
             "float",
             0.1,
-            "only contacts whose ankle slides faster than this are fixed, body heights per "
-            "second (a capture's own feet slide 0.02-0.08); 0 fixes every contact",
+            "only contacts whose ankle slides faster than this over some 0.3 s of them are "
+            "fixed, body heights per second (a capture's own feet slide 0.02-0.08); 0 fixes "
+            "every contact",
             minimum=0.0,
         ),
         Param(

@@ -328,3 +328,28 @@ def test_a_contact_near_the_clips_ends_reaches_them_while_the_foot_stays_steady(
     steady[2] = False  # the foot moves before the first contact: it was not standing
     assert np.array_equal(_to_the_edges(loose, steady, 6)[:5], np.zeros(5, dtype=bool))
     assert np.array_equal(_to_the_edges(loose, np.ones(40, dtype=bool), 3), loose)  # too far
+
+
+def test_a_contact_slides_where_any_part_of_it_does():
+    """An ankle standing 2 s and sliding its last 0.3 s at 0.3 body heights/s (a VR take's
+    legs smoothed while its root moved): its mean over the stance, 0.04, was under the 0.1
+    that makes a contact worth planting, and footlock left it. Judged over 0.3 s windows
+    it slides; one that creeps evenly at 0.05 does not; one cut by the clip's start,
+    shorter than a window, is judged on what there is of it."""
+    rate, height = 120.0, 1.0
+    feet = [found.Foot("foot", -1, -1, 0, (0,))]
+    still = np.zeros(240)
+    late = np.r_[still, np.arange(1, 37) * 0.3 / rate]  # the last 0.3 s slides
+    creep = np.arange(276) * 0.05 / rate
+    early = np.r_[np.arange(20) * 0.2 / rate, np.full(256, 0.2 * 19 / rate)]
+    for x, slides, contact in (
+        (late, True, slice(None)),
+        (creep, False, slice(None)),
+        (early, True, slice(0, 20)),
+    ):
+        positions = np.zeros((x.size, 1, 3))
+        positions[:, 0, 0] = x
+        contacts = np.zeros((x.size, 1), dtype=bool)
+        contacts[contact] = True
+        kept = found.sliding_contacts(positions, feet, contacts, 1, 1 / rate, 0.1 * height)
+        assert kept[contact].all() == slides and not kept[~contacts].any()
