@@ -160,7 +160,22 @@ def find_feet(
                 tuple(kinematics.subtree(children, ankle)),
             )
         )
-    return feet
+    return _one_per_knee(feet, rest)
+
+
+def _one_per_knee(feet: list[Foot], rest: np.ndarray) -> list[Foot]:
+    """``feet`` with one foot per knee: of two chains below one shin (Rigify's heel beside
+    its foot: foot.L -> toe.L and heel.L -> heel.02.L), the one whose points reach farthest
+    from its ankle in the rest pose ``(P, 3)`` (the toes, not the heel)."""
+
+    def reach(foot: Foot) -> float:
+        return float(np.linalg.norm(rest[list(foot.points)] - rest[foot.ankle], axis=1).max())
+
+    best: dict[int, Foot] = {}
+    for foot in feet:
+        if foot.knee not in best or reach(foot) > reach(best[foot.knee]):
+            best[foot.knee] = foot
+    return [foot for foot in feet if best[foot.knee] is foot]
 
 
 def skeleton_feet(

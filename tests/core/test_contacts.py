@@ -353,3 +353,23 @@ def test_a_contact_slides_where_any_part_of_it_does():
         contacts[contact] = True
         kept = found.sliding_contacts(positions, feet, contacts, 1, 1 / rate, 0.1 * height)
         assert kept[contact].all() == slides and not kept[~contacts].any()
+
+
+def test_a_heel_beside_the_foot_is_no_second_foot():
+    """Rigify's legs hang two chains from the shin: foot -> toe and heel -> heel.02 (a
+    video estimate's BVH): both read as feet, four for a body with two legs. One per
+    knee: the chain reaching farthest from its ankle, the toes."""
+    points = [("pelvis", -1, (0, 0, 0)), ("spine", 0, (0, 0.3, 0)), ("head", 1, (0, 0.4, 0))]
+    for side in (-1, 1):
+        at = len(points)
+        points += [("thigh", 0, (side * 0.1, -0.05, 0)), ("shin", at, (0, -0.42, 0))]
+        points += [("foot", at + 1, (0, -0.42, 0)), ("toe", at + 2, (0, -0.06, 0.14))]
+        points += [("toe_end", at + 3, (0, 0, 0.05))]
+        points += [("heel", at + 1, (0, -0.44, -0.03)), ("heel_end", at + 5, (0, 0, -0.04))]
+    parents = np.array([p for _, p, _ in points])
+    rest = np.zeros((len(points), 3))
+    for k, (_, p, offset) in enumerate(points):
+        rest[k] = (rest[p] if p >= 0 else 0.0) + np.array(offset, dtype=float)
+    names = [f"{n}{k}" for k, (n, _, _) in enumerate(points)]
+    feet = found.find_feet(parents, rest, 1, 1.4, names)
+    assert [f.name for f in feet] == ["foot5", "foot12"]
