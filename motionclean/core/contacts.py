@@ -577,18 +577,11 @@ def sliding_contacts(
     step[..., up] = 0.0
     speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
     moving = np.vstack([np.zeros((1, len(feet)), bool), contacts[1:] & contacts[:-1]])
-    width = min(max(int(round(window / frame_time)), 1), speeds.shape[0])
-    # each window's mean speed over its steps within a contact, set at its last frame
-    # (the first windows cut at the clip's start)
-    total, count = (
-        np.cumsum(np.vstack([np.zeros((1, len(feet))), x]), axis=0)
-        for x in (np.where(moving, speeds, 0.0), moving.astype(np.float64))
-    )
-    windowed = np.empty_like(speeds)
-    windowed[: width - 1] = total[1:width] / np.maximum(count[1:width], 1.0)
-    windowed[width - 1 :] = (total[width:] - total[:-width]) / np.maximum(
-        count[width:] - count[:-width], 1.0
-    )
+    # each window's mean speed over its steps within a contact (windows cut at the clip's ends)
+    half = min(int(round(window / frame_time / 2)), speeds.shape[0] - 1)
+    total = _moving_average(np.where(moving, speeds, 0.0), half)
+    count = _moving_average(moving.astype(np.float64), half)
+    windowed = total / np.maximum(count, 1e-12)
     kept = contacts.copy()
     for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
         label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]

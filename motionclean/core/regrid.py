@@ -14,7 +14,7 @@ import numpy as np
 
 from .motion import MAX_FRAME_TIME, MIN_FRAME_TIME
 
-__all__ = ["at_times", "regridded"]
+__all__ = ["at_times", "hermite", "regridded"]
 
 
 def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -40,15 +40,18 @@ def at_times(times: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.ndarra
     slopes = _slopes(times, values)
     piece = np.clip(np.searchsorted(times, at, side="right") - 1, 0, times.size - 2)
     span = (times[piece + 1] - times[piece])[:, None]
-    u = (at[:, None] - times[piece][:, None]) / span
-    u2, u3 = u * u, u * u * u
+    u = (at - times[piece]) / span[:, 0]
     rise = values[piece + 1] - values[piece]
-    return (
-        values[piece]
-        + (3 * u2 - 2 * u3) * rise
-        + (u3 - 2 * u2 + u) * slopes[piece] * span
-        + (u3 - u2) * slopes[piece + 1] * span
-    )
+    return values[piece] + hermite(rise, slopes[piece] * span, slopes[piece + 1] * span, u)
+
+
+def hermite(p1: np.ndarray, m0: np.ndarray, m1: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The cubic from 0 (rate ``m0``) at ``u = 0`` to ``p1`` (rate ``m1``) at ``u = 1``, at
+    ``u`` ``(...)``; ``p1``, ``m0``, ``m1`` ``(..., D)``."""
+    u = u[..., None]
+    u2 = u * u
+    u3 = u2 * u
+    return (3.0 * u2 - 2.0 * u3) * p1 + (u3 - 2.0 * u2 + u) * m0 + (u3 - u2) * m1
 
 
 #: A grid holds at most this many frames per sample read: steps so uneven that the median

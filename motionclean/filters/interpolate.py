@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import quat
+from ..core.regrid import hermite
 
 
 def catmull_rom_tangents(steps: np.ndarray) -> np.ndarray:
@@ -63,14 +64,6 @@ def end_tangent(step: np.ndarray, v1: np.ndarray) -> np.ndarray:
     return out
 
 
-def _hermite(p1: np.ndarray, m0: np.ndarray, m1: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """The cubic from 0 (rate ``m0``) at ``u = 0`` to ``p1`` (rate ``m1``) at ``u = 1``."""
-    u = u[..., None]
-    u2 = u * u
-    u3 = u2 * u
-    return (3.0 * u2 - 2.0 * u3) * p1 + (u3 - 2.0 * u2 + u) * m0 + (u3 - u2) * m1
-
-
 def hermite_rotations(
     q0: np.ndarray, step: np.ndarray, v0: np.ndarray, m1: np.ndarray, u: np.ndarray
 ) -> np.ndarray:
@@ -80,7 +73,7 @@ def hermite_rotations(
     and ``m1`` :func:`end_tangent` ``(step, v1)``; ``u`` ``(...)`` in [0, 1] (outside it
     extrapolates). Returns ``(..., 4)`` unit quaternions ``(w, x, y, z)``.
     """
-    return quat.multiply(q0, quat.exp(_hermite(step, v0, m1, u)))
+    return quat.multiply(q0, quat.exp(hermite(step, v0, m1, u)))
 
 
 def hermite_positions(
@@ -89,4 +82,4 @@ def hermite_positions(
     """Cubic Hermite between points ``p0``, ``p1`` ``(..., D)`` with tangents ``v0``, ``v1``
     (change per unit ``u``) at parameter ``u`` ``(...)``; the vector counterpart of
     :func:`hermite_rotations`. ``u = 0`` gives ``p0`` exactly."""
-    return p0 + _hermite(p1 - p0, v0, v1, u)
+    return p0 + hermite(p1 - p0, v0, v1, u)

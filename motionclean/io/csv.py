@@ -376,15 +376,22 @@ def parse_body(
 UNEVEN_ADVICE = "export it at a fixed rate"
 
 
+def _off_grid(times: np.ndarray, mean: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(steps, times)`` masks of increasing ``times`` (seconds): the steps more than
+    :data:`TIME_TOLERANCE` of ``mean`` away from it, the times that far off the grid of
+    ``mean`` steps from the first."""
+    grid = np.arange(times.size)
+    return (
+        np.abs(np.diff(times) - mean) > TIME_TOLERANCE * mean,
+        np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean,
+    )
+
+
 def off_grid(times: np.ndarray) -> bool:
     """Whether increasing ``times`` (seconds) stray from a uniform grid: a step, or a
     time from the first, more than :data:`TIME_TOLERANCE` of the mean step off it."""
-    grid = np.arange(times.size)
-    mean = (times[-1] - times[0]) / (times.size - 1)
-    steps_off = np.abs(np.diff(times) - mean) > TIME_TOLERANCE * mean
-    return bool(
-        steps_off.any() or np.any(np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean)
-    )
+    steps, drift = _off_grid(times, (times[-1] - times[0]) / (times.size - 1))
+    return bool(steps.any() or drift.any())
 
 
 def uniform_frame_time(
@@ -431,7 +438,7 @@ def uniform_frame_time(
             path,
             int(lines[1]),
         )
-    off = np.abs(steps - mean) > TIME_TOLERANCE * mean
+    off, drift = _off_grid(times, mean)
     if off.any():
         i = np.flatnonzero(off)[0] + 1
         _fail(
@@ -440,7 +447,6 @@ def uniform_frame_time(
             path,
             int(lines[i]),
         )
-    drift = np.abs(times - times[0] - grid * mean) > TIME_TOLERANCE * mean
     if drift.any():
         i = np.flatnonzero(drift)[0]
         _fail(
