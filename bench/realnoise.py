@@ -58,7 +58,7 @@ from scipy.signal import butter, filtfilt, savgol_filter
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.run.jobs import clean_file
-from motionclean.steps.pipeline import Pipeline
+from motionclean.steps.pipeline import DEFAULT_STEPS, Pipeline
 
 #: The shared real-noise takes beside the project.
 DATA = ROOT.parent / "shared" / "realnoise"
@@ -302,6 +302,22 @@ def clean_rows() -> list[tuple]:
 # ----------------------------------------------------------------------------- main
 
 
+#: The default pipeline with the capture source given as video (``auto``'s ``source``).
+VIDEO_STEPS = [
+    dict(step, source="video") if step["filter"] == "auto" else step for step in DEFAULT_STEPS
+]
+
+
+def print_rmse_above(label: str, rows: list[tuple[str, float, float]]) -> None:
+    """The takes whose bias-removed RMSE went up, ``(take, raw, out)`` rows."""
+    worse = [(take, raw, out) for take, raw, out in rows if out > raw]
+    print(
+        f"{label}: "
+        + (", ".join(f"{t} ({r:.4f} -> {o:.4f})" for t, r, o in worse) if worse else "none")
+        + "."
+    )
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--takes", nargs="+", help="pipeline/task names, e.g. theia3d/gait")
@@ -321,10 +337,12 @@ def main(argv=None) -> int:
     )
     print(
         "| take | DOF | missing | source found (slope) | raw | best Butterworth (Hz) | 6 Hz | "
-        "One Euro | Savitzky-Golay | **default** | default / best | RMSE raw | RMSE default |"
+        "One Euro | Savitzky-Golay | **default** | default / best | RMSE raw | RMSE default | "
+        "`--source video` / best | its RMSE |"
     )
-    print("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    ratios, by_pipeline, rmse_rows, smooth_rows = [], {}, [], []
+    print("|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    ratios, video_ratios, by_pipeline, rmse_rows, smooth_rows = [], [], {}, [], []
+    video_rmse_rows = []
     fill_default, fill_line = [], []
     for pipeline, task, estimate, truth in takes(args.takes):
         times, x, y, names = load_take(estimate, truth)
@@ -333,8 +351,11 @@ def main(argv=None) -> int:
         out, source = run_default(times, x, names)
         mine = scores(x, out, y)
         line = scores(x, line_fill(x), y)
+        video = scores(x, run_default(times, x, names, VIDEO_STEPS)[0], y)
         ratio = mine["acc"] / base["bw"]
         ratios.append(ratio)
+        video_ratios.append(video["acc"] / base["bw"])
+        video_rmse_rows.append((f"{pipeline}/{task}", base["raw"]["rmse"], video["rmse"]))
         by_pipeline.setdefault(pipeline, []).append(ratio)
         rmse_rows.append((f"{pipeline}/{task}", base["raw"]["rmse"], mine["rmse"]))
         if pipeline == "theia-biorbd":
@@ -350,7 +371,7 @@ def main(argv=None) -> int:
             f"{base['raw']['acc']:.3f} | {base['bw']:.3f} ({base['cutoff']:g}) | "
             f"{base['bw6']:.3f} | {base['euro']:.3f} | {base['savgol']:.3f} | "
             f"**{mine['acc']:.3f}** | {ratio:.2f} | {base['raw']['rmse']:.2f} | "
-            f"{mine['rmse']:.2f} |",
+            f"{mine['rmse']:.2f} | {video_ratios[-1]:.2f} | {video['rmse']:.2f} |",
             flush=True,
         )
         del line
@@ -361,12 +382,13 @@ def main(argv=None) -> int:
     )
     for pipeline, values in by_pipeline.items():
         print(f"  {pipeline}: median {np.median(values):.2f}, worst {max(values):.2f}")
-    worse = [(take, raw, out) for take, raw, out in rmse_rows if out > raw]
+    print_rmse_above("RMSE above the raw input's", rmse_rows)
+    video_ratios = np.array(video_ratios)
     print(
-        "RMSE above the raw input's: "
-        + (", ".join(f"{t} ({r:.4f} -> {o:.4f})" for t, r, o in worse) if worse else "none")
-        + "."
+        f"\nWith the capture source given (`--source video`, the default's steps otherwise): "
+        f"median {np.median(video_ratios):.2f}, worst {video_ratios.max():.2f}."
     )
+    print_rmse_above("Its RMSE above the raw input's", video_rmse_rows)
     if smooth_rows:
         print("\nAlready smooth (theia-biorbd), default / input (target: within 2 %):\n")
         print("| task | AccErr | RMSE |\n|---|---:|---:|")
