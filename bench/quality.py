@@ -64,6 +64,7 @@ from motionclean.filters.masks import binomial, gaussian
 from motionclean.steps.pipeline import Pipeline
 
 CLIPS = ("131_01", "131_02", "131_03")
+OUTLIERS = "1 % outliers"
 NOISE_DEG = (1.0, 3.0, 6.0)
 POSITION_NOISE = (0.05, 0.15, 0.3)
 SUBSAMPLE = (1, 4)
@@ -334,7 +335,8 @@ def realtime_baselines(truth, noisy, cols, euler, fps):
 
 
 def noise_kind_rows(clip, n_clip, motion, base, cols, euler):
-    """One row per noise kind at the clip's own rate: errors of every method."""
+    """One row per noise kind at the clip's own rate: errors of every method (for the
+    outliers also ``oracle``: the best tuned filter once an oracle has taken them out)."""
     fps = 1.0 / motion.frame_time
     truth = base.rotations
     rows = []
@@ -345,6 +347,11 @@ def noise_kind_rows(clip, n_clip, motion, base, cols, euler):
         methods = {"best Euler smoother": euler_smoothers(truth, noisy, cols, euler, fps)}
         methods.update(realtime_baselines(truth, noisy, cols, euler, fps))
         d = rmse_deg(truth, run_default(base.replace(rotations=noisy)), cols)
+        if kind == OUTLIERS:  # the same white noise without its outliers (same seed)
+            white = plant(
+                truth, "white", np.random.default_rng([n_clip, n_kind, 18]), fps, motion.names
+            )
+            methods["oracle"] = min(tuned_methods(truth, white, cols, euler, fps).values())
         rows.append((clip, kind, rmse_deg(truth, noisy, cols), methods, d))
         print(
             f"  {clip} {kind}: default {d:.3f}, "
@@ -357,6 +364,7 @@ def noise_kind_rows(clip, n_clip, motion, base, cols, euler):
 
 def print_noise_kinds(rows) -> None:
     methods = list(rows[0][3])
+    oracle = [r for r in rows if "oracle" in r[3]]
     print("\n## Noise kinds (120 fps, 3 degrees RMS unless stated), RMSE in degrees\n")
     print("| clip | noise | noisy | " + " | ".join(methods) + " | default |")
     print("|" + " --- |" * (len(methods) + 4))
@@ -382,6 +390,18 @@ def print_noise_kinds(rows) -> None:
         f"\nTarget 'default / every tuned baseline <= 1.0 for every kind, white <= 0.87': "
         f"{'met' if met else 'NOT met'}."
     )
+    if oracle:
+        print(
+            f"\n{OUTLIERS}, the outliers taken out by an oracle that knows them (the same white "
+            "noise left), then the best of every hindsight-tuned filter of the white-noise "
+            "table: "
+            + ", ".join(f"{r[0]} {r[3]['oracle'][0]:.3f} ({r[3]['oracle'][1]})" for r in oracle)
+            + "; over the best Euler smoother with the outliers: "
+            + ", ".join(f"{r[3]['oracle'][0] / r[3]['best Euler smoother'][0]:.3f}" for r in oracle)
+            + " (the default: "
+            + ", ".join(f"{r[4] / r[3]['best Euler smoother'][0]:.3f}" for r in oracle)
+            + ")."
+        )
 
 
 def clean_base(motion, sub):
