@@ -243,7 +243,7 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
 @SOURCE_OPTION
 @UP_OPTION
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary table.")
-@read_options
+@read_options(each_file=True)
 def batch_command(
     in_dir: str,
     out_dir: str,

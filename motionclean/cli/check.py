@@ -272,7 +272,7 @@ def _why(
 )
 @SOURCE_OPTION
 @UP_OPTION
-@read_options
+@read_options(each_file=True)
 def check_command(
     clips: tuple[str, ...],
     pipe: str | None,

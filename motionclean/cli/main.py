@@ -22,7 +22,7 @@ from ..core import kinematics
 from ..core.errors import MotionError, UsageError
 from ..core.jumps import JUMP_DEG
 from ..core.motion import Motion
-from ..core.reserve import keep_reserve, let_go
+from ..core.reserve import keep_reserve, let_go, warm_blas
 from ..core.restpose import rest_frames
 from ..core.takes import take_starts
 from ..core.threads import thread_count
@@ -81,6 +81,10 @@ from .options import (
     refuse_shared,
     with_up,
 )
+
+# OpenBLAS's work buffers, set up as the command line is imported: before a clip fills the
+# memory (or a limit set after the import leaves too little for them), see warm_blas.
+warm_blas()
 
 
 def _echo_error(message: str) -> None:
@@ -466,6 +470,7 @@ def report(
             check_report_output(path, (source, cleaned, *read.files))
     if json_path and html_path:
         refuse_shared([json_path, html_path])
+    read = read.for_clips(source, cleaned)
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
@@ -566,6 +571,7 @@ def blend(
             "one per level"
         )
     check_clip_output(output, (first, second, *read.files))
+    read = read.for_clips(first, second)
     a, b = read.load(first), read.load(second)
     try:
         blended = blend_clips(a, b, levels, weight, weights)
@@ -627,6 +633,7 @@ def stitch(
     (and said) where it has fewer.
     """
     check_clip_output(output, (first, second, *read.files))
+    read = read.for_clips(first, second)
     a, b = with_up(read.load(first), up), with_up(read.load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
     used = stitch_levels(a.n_frames, b.n_frames, levels)  # (both have frames: stitched)

@@ -38,14 +38,21 @@ def echo_warnings(lines: Iterable[str]) -> None:
         click.echo(line, err=True)
 
 
-def read_options(command):
+def read_options(command=None, *, each_file: bool = False):
     """The options that tell how to read files needing more than themselves:
     ``--skeleton``, ``--body-model``, ``--exclude``, ``--input-fps`` and ``--animation``,
-    given to the command as one ``read`` (a :class:`~motionclean.io.ReadOptions`)."""
+    given to the command as one ``read`` (a :class:`~motionclean.io.ReadOptions`).
+
+    An option given for a clip whose format does not use it (``--animation`` with a BVH
+    file) is a usage error; with ``each_file`` (``@read_options(each_file=True)``: commands
+    that read folders of mixed formats) each file takes the options that apply to it."""
+    if command is None:
+        return functools.partial(read_options, each_file=each_file)
 
     @functools.wraps(command)
     def reading(*args, skeleton, body_model, exclude, input_fps, animation, **kwargs):
-        read = ReadOptions(skeleton, body_model, tuple(exclude), input_fps, animation)
+        given = (skeleton, body_model, tuple(exclude), input_fps, animation)
+        read = ReadOptions(*given, strict=not each_file)
         return command(*args, read=read, **kwargs)
 
     options = (
@@ -53,7 +60,7 @@ def read_options(command):
             "--animation",
             metavar="NAME",
             help="The animation of a .gltf/.glb file to read and clean, by name (or index); "
-            "default the first; other formats ignore it. `info` lists them.",
+            "default the first. `info` lists them.",
         ),
         click.option(
             "--input-fps",

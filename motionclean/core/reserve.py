@@ -16,7 +16,9 @@ from __future__ import annotations
 import contextlib
 import mmap
 
-__all__ = ["RESERVE_BYTES", "keep_reserve", "let_go"]
+import numpy as np
+
+__all__ = ["RESERVE_BYTES", "keep_reserve", "let_go", "warm_blas"]
 
 #: Address space set aside (bytes): several of the interpreter's 1 MiB object arenas.
 RESERVE_BYTES = 4 << 20
@@ -31,6 +33,15 @@ def keep_reserve() -> None:
         return
     with contextlib.suppress(OSError, MemoryError):
         _reserve.append(mmap.mmap(-1, RESERVE_BYTES))
+
+
+def warm_blas() -> None:
+    """Have numpy's BLAS and LAPACK (OpenBLAS) set up their work buffers now. OpenBLAS
+    allocates them on its first matrix product and its first LAPACK call and, when it
+    cannot, prints its own message and ends the process: set up at start, before the clip
+    fills the memory, they leave a later shortage to the ``out of memory`` line."""
+    with contextlib.suppress(MemoryError):
+        np.linalg.inv(np.eye(2) @ np.eye(2))
 
 
 def let_go(error: BaseException) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core import checks
-from ..core.errors import InvalidMotion, MotionError
+from ..core.errors import InvalidMotion, MotionError, UsageError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
 from ..core.reserve import let_go
 from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
@@ -219,11 +219,35 @@ class ReadOptions:
     frame_rate: float | None = None
     animation: str | None = None
     regrid: bool = False  # uneven OpenSim rows put on a grid (``resample``), not refused
+    #: Refuse an option the clip's format does not use (:func:`unused_options`), as the
+    #: commands that read the clips a user names do; ``batch`` and ``check`` read folders of
+    #: mixed formats and let each file take what applies to it.
+    strict: bool = False
 
     @property
     def files(self) -> tuple[str, ...]:
         """The files read besides the clips (no output may be one of them)."""
         return tuple(path for path in (self.skeleton, self.body_model) if path is not None)
+
+    def refuse_unused(self, *paths: str | os.PathLike) -> None:
+        """UsageError naming the first option given that none of the clips at ``paths``
+        uses (:func:`unused_options`): ``--animation applies to glTF .gltf/.glb/.vrma files
+        only, not to a .bvh file``."""
+        for option, formats in unused_options(paths[0], self):
+            if all((option, formats) in unused_options(path, self) for path in paths[1:]):
+                kinds = " or ".join(sorted({Path(path).suffix.lower() for path in paths}))
+                raise UsageError(
+                    f"{option} applies to {formats} only, not to a {kinds} file", paths[0]
+                )
+
+    def for_clips(self, *paths: str | os.PathLike | None) -> ReadOptions:
+        """These options for reading the clips at ``paths`` together (None: no clip): an
+        option none of them uses is refused (:meth:`refuse_unused`, when ``strict``), then
+        each clip takes the options that apply to it."""
+        given = [path for path in paths if path is not None]
+        if self.strict:
+            self.refuse_unused(*given)
+        return replace(self, strict=False)
 
     def load(self, path: str | os.PathLike) -> Motion:
         """:func:`load` of ``path`` with these options (the skeleton and body model read
@@ -233,10 +257,35 @@ class ReadOptions:
         if self.body_model is not None:
             model = functools.partial(read_once, smpl.read_body_model, self.body_model)
         path = Path(checks.path(path, "path"))
+        if self.strict:
+            self.refuse_unused(path)
         exclude = checks.patterns(self.exclude, "exclude")
         rate = smpl.checked_rate(self.frame_rate)
         animation = _checked_animation(self.animation)
         return _read(path, template, model, exclude, rate, animation, self.regrid)
+
+
+#: The read options each format uses (the ``--`` options of the command line), and the
+#: files they are for, as error messages name them.
+_OPTION_FORMATS = (
+    ("skeleton", "--skeleton", (".csv", ".npz", ".pkl"), "CSV and SMPL .npz/.pkl files"),
+    ("body_model", "--body-model", (".npz", ".pkl"), "SMPL .npz/.pkl files"),
+    ("exclude", "--exclude", (".mot", ".sto"), "OpenSim .mot/.sto files"),
+    ("frame_rate", "--input-fps", (".npz", ".pkl"), "SMPL .npz/.pkl files"),
+    ("animation", "--animation", (".gltf", ".glb", ".vrma"), "glTF .gltf/.glb/.vrma files"),
+)
+
+
+def unused_options(path: str | os.PathLike, options: ReadOptions) -> list[tuple[str, str]]:
+    """The options given in ``options`` that a clip at ``path`` does not use, by its
+    suffix: ``(option, the files it applies to)`` pairs, e.g. ``("--animation", "glTF
+    .gltf/.glb/.vrma files")`` for a BVH file given an animation."""
+    suffix = Path(path).suffix.lower()
+    return [
+        (option, formats)
+        for field, option, suffixes, formats in _OPTION_FORMATS
+        if getattr(options, field) not in (None, ()) and suffix not in suffixes
+    ]
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):

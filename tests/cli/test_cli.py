@@ -124,6 +124,42 @@ def test_bad_clip_is_one_line_with_exit_1_and_no_output(tmp_path, capsys):
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+@pytest.mark.parametrize(
+    "option",
+    [
+        ("--animation", "Walk", "glTF"),
+        ("--input-fps", "30", "SMPL"),
+        ("--exclude", "*_force", "OpenSim"),
+        ("--skeleton", SAMPLE, "CSV and SMPL"),
+    ],
+    ids=lambda option: option[0],
+)
+def test_a_read_option_the_clips_format_does_not_use_is_refused(option, tmp_path, capsys):
+    """``clean walk.bvh --input-fps 30`` would otherwise run at the file's own rate, the
+    option silently dropped: a usage error naming the option and what it is for, nothing
+    written. A command reading two clips takes it when one of them uses it; ``batch``
+    (folders of mixed formats) lets each file take what applies to it."""
+    flag, value, kind = option
+    out = tmp_path / "out.bvh"
+    code, _, err = run(["clean", SAMPLE, "-o", out, flag, value], capsys)
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"motionclean: error: {SAMPLE}: {flag} applies to {kind}")
+    assert err.rstrip().endswith("not to a .bvh file") and not out.exists()
+    code, _, err = run(["info", SAMPLE, flag, value], capsys)
+    assert code == 2 and flag in err
+    if flag == "--skeleton":  # a channel CSV beside the BVH: it reads the CSV
+        channels = tmp_path / "clip.csv"
+        mc.save(mc.load(SAMPLE), channels)
+        code, _, err = run(["report", SAMPLE, channels, flag, value], capsys)
+        assert code == 0, err
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "a.bvh").write_bytes(SAMPLE.read_bytes())
+    code, _, err = run(["batch", folder, "-o", tmp_path / "cleaned", "-q", flag, value], capsys)
+    assert code == 0, err
+    assert (tmp_path / "cleaned" / "a.bvh").is_file()
+
+
 def test_unknown_command_is_a_one_line_usage_error(capsys):
     code, _, err = run(["frobnicate"], capsys)
     assert code == 2 and err.count("\n") == 1 and err.startswith("motionclean: error:")
