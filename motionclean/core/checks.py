@@ -152,6 +152,13 @@ def all_unit(q: np.ndarray) -> bool:
     return True
 
 
+def norm_text(norm: float) -> str:
+    """A quaternion's norm for an error message: 6 significant digits, or as many as show
+    how it differs from 1 (``1.000002``, not ``1``)."""
+    text = f"{norm:.6g}"
+    return f"{norm:.12g}" if text == "1" else text
+
+
 def unit_quaternions(q, name: str = "q", signal: bool = True, min_frames: int = 0) -> np.ndarray:
     """``q`` checked to be finite unit quaternions ``(F, ..., 4)`` (``(..., 4)`` when not
     ``signal``): what every orientation filter takes."""
@@ -164,7 +171,7 @@ def unit_quaternions(q, name: str = "q", signal: bool = True, min_frames: int = 
     at = _first_bad(error > 2.0 * UNIT_TOLERANCE)
     norm = float(np.linalg.norm(q[at]))
     raise ValueError(
-        f"{name}: not a unit quaternion at index {at} (norm {norm:.6g}); "
+        f"{name}: not a unit quaternion at index {at} (norm {norm_text(norm)}); "
         "normalise with quat.normalize first"
     )
 

@@ -295,7 +295,10 @@ class Motion:
             ("translations", self.translations, 3),
         ):
             if values.shape != (frames, n, width):
-                raise InvalidMotion(f"{name}: expected shape (F, {n}, {width}), got {values.shape}")
+                raise InvalidMotion(
+                    f"{name}: expected shape (F, {n}, {width}) with F = {frames} frames (the "
+                    f"rotations') and {n} joints (the names'), got {values.shape}"
+                )
             with np.errstate(over="ignore", invalid="ignore"):
                 if np.isfinite(np.sum(values)):
                     continue
@@ -311,6 +314,11 @@ class Motion:
             raise InvalidMotion(
                 f"frame_time: expected seconds as a number, got {type(self.frame_time).__name__}"
             )
+        if not MIN_FRAME_TIME <= self.frame_time < MAX_FRAME_TIME:  # (False for NaN too)
+            raise InvalidMotion(
+                f"frame_time must be from {MIN_FRAME_TIME:g} s to under {MAX_FRAME_TIME:g} s, "
+                f"got {self.frame_time!r} (no reader takes it)"
+            )
         if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):
             raise InvalidMotion(f"up: expected one of x, y, z, -x, -y, -z or None, got {self.up!r}")
         if checks.all_unit(self.rotations):
@@ -324,7 +332,8 @@ class Motion:
             norm = largest * float(np.linalg.norm(q / largest)) if largest > 0 else 0.0
             raise InvalidMotion(
                 f"rotations: joint {self.names[joint]!r} at frame {frame} is not a unit "
-                f"quaternion (norm {norm:.6g}); normalise with motionclean.core.quat.normalize"
+                f"quaternion (norm {checks.norm_text(norm)}); normalise with "
+                "motionclean.core.quat.normalize"
             )
 
     def _check_skeleton(self, n_joints: int) -> None:

@@ -6,7 +6,12 @@ Each filter takes the rotation array first and returns a new array; position cou
 
 from .auto import auto, auto_positions
 from .bilateral import bilateral, bilateral_positions
-from .despike import despike, despike_positions
+from .despike import (
+    despike,
+    despike_positions,
+    despike_positions_with_report,
+    despike_with_report,
+)
 from .fairing import fairing, fairing_positions, sse_fairing, sse_fairing_positions
 from .linear import lee_shin, lee_shin_positions
 
@@ -17,6 +22,8 @@ __all__ = [
     "bilateral_positions",
     "despike",
     "despike_positions",
+    "despike_positions_with_report",
+    "despike_with_report",
     "fairing",
     "fairing_positions",
     "lee_shin",

@@ -745,7 +745,12 @@ def _check(strength: float, noise, shape) -> np.ndarray | None:
         raise ValueError(f"strength must be a non-negative number, got {strength}")
     if noise is None:
         return None
-    noise = np.broadcast_to(np.asarray(noise, dtype=np.float64), shape)
+    try:
+        noise = np.broadcast_to(np.asarray(noise, dtype=np.float64), shape)
+    except ValueError:
+        raise ValueError(
+            f"noise: shape {np.shape(noise)} does not broadcast to the columns' {tuple(shape)}"
+        ) from None
     if not np.all(np.isfinite(noise) & (noise >= 0)):
         raise ValueError("noise must be non-negative and finite")
     return noise

@@ -25,7 +25,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import quat
-from .linear import mirror_position
 
 #: Degree of the polynomial fitted to the samples near an end (a line: a quadratic, or a
 #: fit over a low-pass mask's side lobes, was measured worse at the clip's ends).
@@ -53,10 +52,21 @@ def fit_kernel(mask: np.ndarray, n_frames: int) -> np.ndarray:
     return half[: max(min(lobe, n_frames), 1)]
 
 
-def _from_end(x: np.ndarray, count: int) -> np.ndarray:
-    """Samples ``0 .. count-1`` counted from the end at row 0 of ``x``, reflected back
-    into the signal by Eq. 26's rule when ``count`` exceeds its length."""
-    return x[mirror_position(np.arange(count), x.shape[0])]
+def _from_end(x: np.ndarray, count: int, rotations: bool) -> np.ndarray:
+    """Samples ``0 .. count-1`` counted from the end at row 0 of ``x``; where ``count``
+    exceeds its length, the signal is continued past its far end by its point reflection
+    about its last sample, as often as needed (a mask wider than the clip: a constant
+    angular or linear velocity goes on exactly, where Eq. 26's mirror turned it back)."""
+    while x.shape[0] < count:
+        last, back = x[-1], x[-2::-1]
+        if rotations:
+            beyond = quat.multiply(quat.multiply(last, quat.conjugate(back)), last)
+            x = quat.make_continuous(np.concatenate([x, beyond]), axis=0)
+        else:
+            x = np.concatenate([x, 2.0 * last - back])
+        if back.shape[0] == 0:  # one sample: it holds
+            return np.repeat(x[:1], count, axis=0)
+    return x[:count]
 
 
 def _pivots(x: np.ndarray, kernels: list[np.ndarray], which: np.ndarray, rotations: bool):
@@ -90,7 +100,7 @@ def reflected_displacements(
     if count == 0:
         return np.zeros((0, *x.shape[1:-1], 3 if rotations else x.shape[-1]))
     pivot = _pivots(x, kernels, which, rotations)
-    beyond = _from_end(x, count + 1)[1:][::-1]  # samples count .. 1
+    beyond = _from_end(x, count + 1, rotations)[1:][::-1]  # samples count .. 1
     if rotations:
         virtual = quat.multiply(quat.multiply(pivot, quat.conjugate(beyond)), pivot)
         chain = quat.make_continuous(np.concatenate([virtual, x[:1]]), axis=0)

@@ -509,9 +509,10 @@ def _reflected(q, p, pad: int):
     back = slice(-2, -2 - pad, -1)  # frames e-1 .. e-pad
     if q is not None:
         end = q[-1]
-        q = quat.continuous(
-            np.concatenate([q, quat.multiply(quat.multiply(end, quat.conjugate(q[back])), end)])
-        )
+        # (normalised: a product of three quaternions a hair off unit length, as checks
+        # accept them, would be three hairs off, beyond what the next check accepts)
+        beyond = quat.normalize(quat.multiply(quat.multiply(end, quat.conjugate(q[back])), end))
+        q = quat.continuous(np.concatenate([q, beyond]))
     if p is not None:
         p = np.concatenate([p, 2.0 * p[-1] - p[back]])
     return q, p

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..core import checks
 from ..core.errors import InvalidMotion, MotionError, UsageError
-from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.motion import Motion
 from ..core.reserve import let_go
 from . import bvh, csv, fbx, gltf, motive, opensim, pkl, smpl
 from .files import read_regular_file
@@ -351,15 +351,11 @@ def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | 
     path = Path(checks.path(path, "path"))
     write = _WRITERS[_suffix(path, _WRITERS)]
     try:
-        motion.check()
-        if not MIN_FRAME_TIME <= motion.frame_time < MAX_FRAME_TIME:  # NaN too
-            raise InvalidMotion(
-                f"frame_time must be from {MIN_FRAME_TIME:g} s to under {MAX_FRAME_TIME:g} s, got "
-                f"{motion.frame_time!r} (no reader takes it)"
-            )
+        motion.check()  # (the frame time too: set after construction, it may be any)
         if write in (bvh.bvh_pieces, _csv_pieces):  # text headers: names as text
             _check_names(motion.names, write is bvh.bvh_pieces)
         _check_unwritten_translations(motion)
+        _check_unwritten_rotations(motion)
         return write(motion)
     except MotionError as error:
         if error.path is not None:
@@ -380,6 +376,28 @@ def _check_unwritten_translations(motion: Motion) -> None:
         raise InvalidMotion(
             f"translations: joint {joint!r} has no position channels, so its translation "
             "would not be written; give it position channels (channels) or leave it 0"
+        )
+
+
+#: A joint without rotation channels may hold a rotation this far (radians) from none:
+#: the rounding of a rotation composed and undone, never a turn a file should keep.
+UNWRITTEN_TURN = 1e-9
+
+
+def _check_unwritten_rotations(motion: Motion) -> None:
+    """Refuse a rotation on a joint without rotation channels (InvalidMotion): every
+    format writes a joint's rotation from its channels, so it would be dropped."""
+    without = ~motion.layout.has_rotation
+    if not without.any() or motion.n_frames == 0:
+        return
+    vector = motion.rotations[:, without, 1:]  # |v| = sin of half the turn
+    largest = np.sqrt(np.max(np.sum(vector**2, axis=-1), axis=0))
+    turned = np.flatnonzero(largest > UNWRITTEN_TURN / 2)
+    if turned.size:
+        joint = motion.names[int(np.flatnonzero(without)[turned[0]])]
+        raise InvalidMotion(
+            f"rotations: joint {joint!r} has no rotation channels, so its rotation would "
+            "not be written; give it rotation channels (channels) or leave it unturned"
         )
 
 

@@ -391,6 +391,8 @@ def read_action(
         # (a bone that stays at its rest, keyed or not, as an FBX import keys leaf bones,
         # has no rotation channels)
         rotates = bool(np.rad2deg(quat.angle(basis[:, j])).max(initial=0.0) >= KEEP_DEGREES)
+        if not rotates:  # at the rest: unturned, as a joint without rotation channels is
+            basis[:, j] = (1.0, 0.0, 0.0, 0.0)
         # (location curves that stay at the rest, as an FBX import keys on every bone,
         # make no channels)
         moves = (

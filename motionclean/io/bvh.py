@@ -733,7 +733,7 @@ def bvh_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
                 "no_skeleton_message",
                 "this clip has no skeleton (a channel CSV read without one); to write BVH, "
                 "read it with a skeleton template (motionclean convert CLIP.csv OUT.bvh "
-                "--skeleton TEMPLATE.bvh)",
+                "--skeleton TEMPLATE.bvh; in Python mc.load(CLIP, skeleton=TEMPLATE))",
             ),
             motion.path,
         )

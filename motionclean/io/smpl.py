@@ -125,7 +125,8 @@ class SmplParams:
     #: What a BVH writer says when the clip has no skeleton.
     no_skeleton_message = (
         "SMPL parameters hold no joint positions; to write BVH give a skeleton "
-        "(--skeleton rig.bvh) or a body model (--body-model model.npz)"
+        "(--skeleton rig.bvh) or a body model (--body-model model.npz); in Python "
+        "mc.load(CLIP, skeleton=RIG) or mc.load(CLIP, body_model=MODEL)"
     )
 
 

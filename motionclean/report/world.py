@@ -238,7 +238,7 @@ def _contact_figures(
     grounded = not math.isnan(ground)
     absent = {"before": None, "after": None}
     clips = [positions] if after_positions is None else [positions, after_positions]
-    skate = [found.skate(p, feet, contacts, up, dt, starts) for p in clips]
+    skate = [found.skate(p, feet, contacts, up, dt, starts, found.DRIFT_SECONDS) for p in clips]
     if grounded:
         # each clip against its own ground: the cleaned clip's is the input's moved by how
         # far its feet moved during contacts (the median: a step that moves the whole clip,

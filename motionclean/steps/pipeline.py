@@ -61,8 +61,10 @@ class Step:
         return out
 
 
-def make_step(table: dict, where: str) -> Step:
-    """Validate one step table (``{"filter": ..., params...}``) into a :class:`Step`."""
+def make_step(table: dict, where: str, key_places: dict[str, str] | None = None) -> Step:
+    """Validate one step table (``{"filter": ..., params...}``) into a :class:`Step`.
+    ``where`` starts its errors; ``key_places`` gives a key's own (its line in a file),
+    used for an error about that key."""
     if not isinstance(table, dict):
         raise UsageError(f"{where}: a step must be a table of key = value pairs")
     table = dict(table)
@@ -72,6 +74,7 @@ def make_step(table: dict, where: str) -> Step:
     spec = REGISTRY.get(name)
     if spec is None:
         raise UsageError(f"{where}: unknown filter {name!r}; one of {', '.join(REGISTRY)}")
+    places = {key: f"{place} ({name})" for key, place in (key_places or {}).items()}
     where = f"{where} ({name})"
     allowed = spec.params + COMMON_PARAMS
     params: dict[str, Any] = {}
@@ -79,10 +82,10 @@ def make_step(table: dict, where: str) -> Step:
         param = next((p for p in allowed if p.name == key), None)
         if param is None:
             raise UsageError(
-                f"{where}: unknown parameter {key!r}; allowed: "
+                f"{places.get(key, where)}: unknown parameter {key!r}; allowed: "
                 + ", ".join(p.name for p in allowed)
             )
-        params[key] = param.coerce(value, where)
+        params[key] = param.coerce(value, places.get(key, where))
     for param in spec.params:
         params.setdefault(param.name, param.default)
     joints = tuple(params.pop("joints", ["*"]))
@@ -275,6 +278,22 @@ def _key_given_twice(lines: list[str], line: int) -> str | None:
     )
 
 
+def _key_lines(rows: list[str], headers: list[int]) -> list[dict[str, int]]:
+    """Each ``[[step]]`` table's ``key = value`` lines (1-based), by key: the rows after
+    its header line (``headers``, 1-based) up to the next table header."""
+    out = []
+    for header in headers:
+        keys: dict[str, int] = {}
+        for line in range(header + 1, len(rows) + 1):
+            if TABLE_HEADER.match(rows[line - 1]):
+                break
+            key = _toml_key(rows[line - 1])
+            if key is not None:
+                keys.setdefault(key, line)
+        out.append(keys)
+    return out
+
+
 def _toml_key(text: str) -> str | None:
     """The key of a ``key = value`` line (quotes taken off), None for any other line."""
     found = TOML_KEY.match(text)
@@ -319,16 +338,28 @@ class Pipeline:
     origin: str = "pipeline"
 
     @classmethod
-    def from_tables(cls, tables: list, origin: str, lines: list[int] | None = None) -> Pipeline:
+    def from_tables(
+        cls,
+        tables: list,
+        origin: str,
+        lines: list[int] | None = None,
+        key_lines: list[dict[str, int]] | None = None,
+    ) -> Pipeline:
         """Steps from tables (dicts); a table's errors name ``origin`` and its number, and
-        its line in the file when ``lines`` gives each table's first line."""
+        its line in the file when ``lines`` gives each table's first line (``key_lines``:
+        each key's line, for an error about that key)."""
         if not tables:
             raise UsageError(f"{origin}: the pipeline has no steps")
         places = [f"{origin}:{line}" for line in lines] if lines else [origin] * len(tables)
+        keys = key_lines or [{} for _ in tables]
         return cls(
             [
-                make_step(t, f"{place}: step {i}")
-                for i, (t, place) in enumerate(zip(tables, places, strict=True), 1)
+                make_step(
+                    t,
+                    f"{place}: step {i}",
+                    {key: f"{origin}:{line}: step {i}" for key, line in by_key.items()},
+                )
+                for i, (t, place, by_key) in enumerate(zip(tables, places, keys, strict=True), 1)
             ],
             origin,
         )
@@ -366,8 +397,11 @@ class Pipeline:
         steps = document.get("step", [])
         if not isinstance(steps, list):
             raise UsageError(f"{path}: 'step' must be an array of tables ([[step]])")
-        lines = [i for i, text in enumerate(text.splitlines(), 1) if STEP_HEADER.match(text)]
-        return cls.from_tables(steps, str(path), lines if len(lines) == len(steps) else None)
+        rows = text.splitlines()
+        lines = [i for i, row in enumerate(rows, 1) if STEP_HEADER.match(row)]
+        if len(lines) != len(steps):  # (steps written otherwise: step = [{...}])
+            return cls.from_tables(steps, str(path))
+        return cls.from_tables(steps, str(path), lines, _key_lines(rows, lines))
 
     @classmethod
     def from_inline(cls, texts: list[str]) -> Pipeline:

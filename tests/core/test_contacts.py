@@ -373,3 +373,37 @@ def test_a_heel_beside_the_foot_is_no_second_foot():
     names = [f"{n}{k}" for k, (n, _, _) in enumerate(points)]
     feet = found.find_feet(parents, rest, 1, 1.4, names)
     assert [f.name for f in feet] == ["foot5", "foot12"]
+
+
+def test_the_reports_skate_is_a_drift_the_same_at_every_frame_rate():
+    """Between consecutive frames a noisy foot's speed is its jitter times the frame rate
+    (the sample's read about 4 times faster at 120 fps than every 4th frame at 30 fps);
+    over 0.1 s it is the foot's drift, alike at both rates. A steady slide reads as
+    itself either way, and a cut between takes is not crossed."""
+    motion = mc.load(NOISY)
+    feet, contacts, positions, up, *_ = footlock.find_contacts(motion, DEFAULTS)
+    rates = []
+    for over in (0.0, found.DRIFT_SECONDS):
+        fast = found.skate(positions, feet, contacts, up, motion.frame_time, None, over)
+        slow = found.skate(
+            positions[::4], feet, contacts[::4], up, 4 * motion.frame_time, None, over
+        )
+        rates.append(fast / slow)
+    assert np.all(rates[0] > 2.5) and np.all(np.abs(np.log(rates[1])) < np.log(1.3)), rates
+    slide = positions.copy()  # every point moving 30 units/s sideways
+    slide[..., 1 - up if up else 1] += (
+        30.0 * motion.frame_time * np.arange(motion.n_frames)[:, None]
+    )
+    still = found.skate(slide, feet, contacts, up, motion.frame_time, None, found.DRIFT_SECONDS)
+    jitter = found.skate(
+        positions, feet, contacts, up, motion.frame_time, None, found.DRIFT_SECONDS
+    )
+    assert np.all(np.abs(still - 30.0) < jitter + 1e-9)
+    cut = np.array([150])
+    crossed = positions.copy()
+    crossed[150:] += 1e3  # a new take far away: its first frame's step is not a skate
+    at_cut = found.skate(crossed, feet, contacts, up, motion.frame_time, cut, found.DRIFT_SECONDS)
+    assert np.allclose(
+        at_cut,
+        found.skate(positions, feet, contacts, up, motion.frame_time, cut, found.DRIFT_SECONDS),
+    )

@@ -24,6 +24,7 @@ from motionclean.filters import (
     lee_shin_positions,
 )
 from motionclean.filters.masks import binomial
+from motionclean.steps.pipeline import Pipeline
 
 
 @pytest.fixture(autouse=True)
@@ -80,6 +81,47 @@ def test_rotations_slightly_off_unit_are_accepted_and_written():
     clip = mc.load(SAMPLE)
     nearly = clip.rotations * (1.0 + 5e-7)  # within checks.UNIT_TOLERANCE
     assert clip.replace(rotations=nearly).n_frames == clip.n_frames
+
+
+@pytest.mark.parametrize("off", [5e-7, 9e-7])
+def test_every_step_takes_rotations_a_hair_off_unit_as_the_checks_do(off):
+    """``multires`` continues the clip past its end by a product of three quaternions,
+    which tripled the hair: it refused what every other filter takes, naming frame 200
+    of 0-199 and 'norm 1'. Now it runs, and agrees with the unit input."""
+    clip = mc.load(SAMPLE)
+    nearly = clip.replace(rotations=clip.rotations * (1.0 + off))
+    pipeline = Pipeline.from_inline(["multires:levels=3,gains=[0.5]"])
+    out, exact = pipeline.run(nearly)[0], pipeline.run(clip)[0]
+    assert np.degrees(quat.angle_between(out.rotations, exact.rotations)).max() < 1e-4
+    with pytest.raises(ValueError, match=r"\(norm 1\.000002\)"):  # its digits, not "1"
+        mc.lee_shin(clip.rotations[:, 0] * 1.000002, binomial(1))
+
+
+def test_a_rotation_on_a_joint_without_rotation_channels_is_refused_not_dropped(tmp_path):
+    """As a translation on a joint without position channels is: the writer writes a
+    joint's rotation from its channels, so it would have been lost without a word."""
+    clip = mc.load(SAMPLE)
+    joint = 1
+    channels = list(clip.channels)
+    channels[joint] = ("Xposition", "Yposition", "Zposition")
+    turned = clip.rotations.copy()
+    turned[:, joint] = [np.cos(0.3), np.sin(0.3), 0.0, 0.0]  # 34 degrees about x
+    offsets = clip.translations.copy()
+    offsets[:, joint] = clip.offsets[joint]
+    no_turn = clip.replace(channels=channels, translations=offsets, rotations=clip.rotations.copy())
+    no_turn.rotations[:, joint] = [1.0, 0.0, 0.0, 0.0]
+    mc.save(no_turn, tmp_path / "ok.bvh")  # unturned: written
+    with pytest.raises(ValueError, match=rf"joint {clip.names[joint]!r} has no rotation channels"):
+        mc.save(no_turn.replace(rotations=turned), tmp_path / "lost.bvh")
+    assert not (tmp_path / "lost.bvh").exists()
+
+
+def test_shape_errors_say_how_many_frames_and_joints_were_expected():
+    clip = mc.load(SAMPLE)
+    with pytest.raises(ValueError, match=r"translations: expected shape \(F, 31, 3\) with F = 10 "):
+        clip.replace(rotations=clip.rotations[:10])
+    with pytest.raises(ValueError, match=r"noise: shape \(7,\) does not broadcast"):
+        mc.filters.auto(clip.rotations, clip.frame_time, noise=np.ones(7))
 
 
 @pytest.mark.parametrize(

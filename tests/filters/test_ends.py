@@ -61,6 +61,21 @@ def test_a_constant_velocity_is_continued_exactly(which):
     assert np.abs(d - [0.3, -0.1, 0.05]).max() < 1e-12
 
 
+@pytest.mark.parametrize("frames", [5, 30, 60])
+def test_a_mask_wider_than_the_clip_keeps_a_constant_velocity(frames):
+    """A short clip gets the widest masks: a Savitzky-Golay mask of half-width 60 on 60
+    frames reads 60 samples past each end, more than the clip holds; beyond its far end
+    Eq. 26's mirror had turned the motion back (a constant turn's end frames moved 0.1-2
+    degrees). Continued by point reflections, the turn and the line stay fixed points."""
+    q, _ = constant_turn(frames, 3, seed=2)
+    out = auto(q, 1 / 120, noise=3.0, families=("savgol",))
+    assert all(c.mask == "savgol" and c.value >= frames - 1 for c in out.choices)
+    assert np.degrees(quat.angle_between(out.values, q)).max() < 1e-9
+    p = 2.0 + np.arange(frames)[:, None, None] * np.array([[0.3, -0.1, 0.05]] * 3)
+    moved = auto_positions(p, 1 / 120, noise=0.5, families=("savgol",)).values - p
+    assert np.abs(moved).max() < 1e-9
+
+
 def test_the_reflection_is_coordinate_invariant():
     rng = np.random.default_rng(2)
     q, _ = constant_turn(30, 3, seed=3)

@@ -16,8 +16,15 @@ import motionclean as mc
 @pytest.mark.parametrize("suffix", [".bvh", ".csv"])
 @pytest.mark.parametrize("frame_time", [math.nan, 0.0, -1.0, math.inf, 1e-9, 1e5])
 def test_save_refuses_a_frame_time_load_would_refuse(tmp_path, suffix, frame_time):
-    clip = mc.load(SAMPLE).replace(frame_time=frame_time)
-    with pytest.raises(ValueError, match=r"frame_time must be from 1e-06 s to under 3600 s, got"):
+    """A frame time no reader takes is refused where the clip is made (a pipeline had
+    then failed on it with ZeroDivisionError or a NaN conversion), and by ``save`` when
+    it was set on the clip afterwards."""
+    message = r"frame_time must be from 1e-06 s to under 3600 s, got"
+    with pytest.raises(ValueError, match=message):  # (InvalidMotion)
+        mc.load(SAMPLE).replace(frame_time=frame_time)
+    clip = mc.load(SAMPLE)
+    clip.frame_time = frame_time
+    with pytest.raises(ValueError, match=message):
         mc.save(clip, tmp_path / f"o{suffix}")
     assert list(tmp_path.iterdir()) == []
 

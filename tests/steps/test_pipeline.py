@@ -103,14 +103,17 @@ def test_toml_errors_name_the_file(tmp_path):
     bad.write_text("[[step]]\nfilter = 'lee-shin'\nk = [1,\n")
     with pytest.raises(UsageError, match="bad.toml:3: invalid TOML: .* \\(at the end\\)$"):
         Pipeline.from_toml(bad)
-    # a table's own errors name the line its [[step]] header starts on
+    # a table's own errors name the line of the key they are about, else its header's
     bad.write_text(
         "# two steps\n[[step]]\nfilter = 'lee-shin'\n\n"
         "[[ step ]] # b\nfilter = 'lee-shin'\nkk = 3\n"
     )
     with pytest.raises(
-        UsageError, match="bad.toml:5: step 2 \\(lee-shin\\): unknown parameter 'kk'"
+        UsageError, match="bad.toml:7: step 2 \\(lee-shin\\): unknown parameter 'kk'"
     ):
+        Pipeline.from_toml(bad)
+    bad.write_text("[[step]]\nfilter = 'auto'\n[[step]]\n\nk = 3\n")
+    with pytest.raises(UsageError, match="bad.toml:3: step 2: missing 'filter'"):
         Pipeline.from_toml(bad)
     empty = tmp_path / "empty.toml"
     empty.write_text("")
@@ -199,6 +202,19 @@ def test_a_key_given_twice_in_a_toml_table_names_the_step_and_the_key(tmp_path, 
     with pytest.raises(UsageError) as caught:
         Pipeline.from_toml(bad)
     assert str(caught.value) == f"{tmp_path}/{line}; each key once"
+
+
+def test_a_bad_key_in_a_toml_table_is_named_on_its_own_line(tmp_path):
+    """Not the step's first line (a long step sent the user to its header)."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        "[[step]]\nfilter = 'lee-shin'\n\n[[step]]\nfilter = 'bilateral'\nsigma_t = 2\nsigma = 2\n"
+    )
+    with pytest.raises(UsageError, match=r"bad.toml:7: step 2 \(bilateral\): unknown parameter"):
+        Pipeline.from_toml(bad)
+    bad.write_text("[[step]]\nfilter = 'lee-shin'\n# a comment\nk = 'two'\n")
+    with pytest.raises(UsageError, match=r"bad.toml:4: step 1 \(lee-shin\): k"):
+        Pipeline.from_toml(bad)
 
 
 def test_a_filter_given_twice_names_the_first(tmp_path):
