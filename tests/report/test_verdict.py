@@ -198,6 +198,35 @@ def test_an_input_alone_says_so():
     assert report["verdict"]["text"].startswith("input only, not cleaned")
 
 
+def test_an_inputs_noise_leaves_out_its_flips_as_the_clean_verdict_does():
+    """The noisy sample's five RThumb flips had been most of its headline noise: the line
+    and the page's first figure now leave out the acceleration rows that touch a step
+    over 90 degrees, measured here from the rotations alone, and say how many."""
+    from motionclean.report.metrics import angular_acceleration
+    from motionclean.report.summary import build_report, build_series
+
+    clip = mc.load(NOISY)
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    q = clip.rotations
+    steps = np.degrees(quat.angle_between(q[:-1], q[1:])) > 90.0  # (F-1, J)
+    rows = steps[:-1] | steps[1:]  # acceleration rows i..i+2 touching such a step
+    acc = angular_acceleration(q, clip.frame_time)
+    expected = math.sqrt(np.mean(acc[~rows] ** 2))
+    verdict = report["verdict"]
+    assert verdict["noise_before"] == pytest.approx(expected, rel=1e-9)
+    assert verdict["unrepaired_jumps"] == int(steps.sum()) >= 5
+    assert expected < 0.5 * report["summary"]["angular_accel_rms"]["before"]
+    left = f"without {int(steps.sum())} steps over 90 degrees (flips or glitches)"
+    assert verdict["text"] == (
+        f"input only, not cleaned: noise {expected:,.0f} deg/s\u00b2 RMS angular "
+        f"acceleration, {left}"
+    )
+    page = render_html(report, series)
+    value, label = re.findall(r'<div class="stat"><b>(.*?)</b><span>(.*?)</span>', page)[0]
+    assert value == f"{expected:,.0f}" and left in label
+
+
 def test_verdict_words_follow_the_counts():
     joints = {
         "RThumb": {"despike": {"unflipped": [[4, 9]], "interpolated": [], "frames_repaired": 5}},
