@@ -3,6 +3,7 @@ headless Chromium, a static frame without scripts, trajectories of every end eff
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -10,7 +11,7 @@ import tempfile
 
 import numpy as np
 import pytest
-from helpers import NOISY, ROOT, corpus_clip
+from helpers import NOISY, ROOT, corpus_clip, turned_copy
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -156,3 +157,88 @@ def test_a_lone_tracked_body_is_drawn_at_the_scale_of_its_travel(tmp_path):
     assert coordinates is not None and abs(int(coordinates.group(1))) < 1e7
     report = build_report(clip, cleaned)
     assert report["world"]["worst_deviation"]["max_percent"] is None
+
+
+def player_data(page: str) -> dict:
+    return json.loads(re.search(r'id="mc-world">(.*?)</script>', page).group(1))
+
+
+def circles(text: str, clip: str = "before") -> np.ndarray:
+    """``(points, 2)`` centres of the player's joints of one clip (page or browser order)."""
+    rows = []
+    for tag in re.findall(r"<circle\b[^>]*>", text):
+        attrs = dict(re.findall(r'([\w-]+)="([^"]*)"', tag))
+        if attrs.get("data-clip") == clip and attrs.get("visibility") != "hidden":
+            rows.append([float(attrs["cx"]), float(attrs["cy"])])
+    return np.array(rows)
+
+
+def floor_y(text: str) -> float:
+    tag = re.search(r'<line\b[^>]*id="mc-floor"[^>]*>', text).group(0)
+    return float(re.search(r'\by1="([^"]+)"', tag).group(1))
+
+
+@pytest.mark.browser
+def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
+    """131_03 hops at frame 810 (feet about 14 % of the body height off the floor): the
+    player draws each frame's lowest point as high above the floor line as it stands above
+    the report's floor. (Each frame had been centred on its own bounding box, no floor
+    drawn: the hop looked like standing.)"""
+    clip = mc.load(corpus_clip("131_03.bvh"))
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    floor = report["contacts"]["floor"]["height"]
+    page = tmp_path / "report.html"
+    page.write_text(render_html(report, series), encoding="utf-8")
+    world = series["world"]
+    scale = 360 * 0.9 / (player_data(page.read_text())["span"] / 1000 * world["height"])
+    lines, lifted = [], []
+    for frame in (700, 810):
+        dom = chromium_dom(page, f"#frame={frame}")
+        lines.append(floor_y(dom))
+        index = list(world["frames"]).index(frame)
+        above = world["before"][index, :, world["up"]].min() - floor  # file units
+        drawn = lines[-1] - circles(dom)[:, 1].max()  # view units, y down
+        assert drawn == pytest.approx(above * scale, abs=1.0)
+        lifted.append(above / world["height"])
+    assert lines[0] == lines[1]
+    assert lifted[0] < 0.03 and lifted[1] > 0.1
+
+
+def y_down_copy(motion: mc.Motion) -> mc.Motion:
+    return turned_copy(motion, quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi))
+
+
+@pytest.mark.parametrize(
+    ("name", "turn"),
+    [
+        ("mixamo_tpose.bvh", None),  # Y-up, T-pose rest
+        ("video2bvh_zup.bvh", None),  # Z-up
+        ("pymo_walk_tpose.bvh", None),  # T-pose rest frame first
+        ("video_estimate_cmu_names.bvh", y_down_copy),  # head toward -y
+        ("tpose_rest_only.bvh", None),  # nothing but a rest pose: no floor
+    ],
+)
+def test_the_player_frames_every_frame_upright_above_its_floor(name, turn):
+    """Exporters' clips stand upright in the page without scripts (the highest point drawn
+    topmost), every carried frame fits the fixed height window, and the floor line is drawn
+    where the report found a floor, at its height, and not otherwise."""
+    clip = mc.load(ROOT / "tests" / "data" / "exporters" / name)
+    clip = clip if turn is None else turn(clip)
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    page = render_html(report, series)
+    data, world = player_data(page), series["world"]
+    points = np.array(data["before"], dtype=float).reshape(len(data["frames"]), -1, 3)
+    heights = points[~world["rest"], :, world["up"]] if not world["rest"].all() else points
+    assert heights.min() >= data["low"] - 0.5 and heights.max() <= data["low"] + data["span"] + 0.5
+    shown = circles(page)
+    assert np.argmin(shown[:, 1]) == np.argmax(points[0, :, world["up"]])
+    floor = (report.get("contacts") or {}).get("floor")
+    if floor is None:
+        assert 'id="mc-floor"' not in page and data["floor"] is None
+        return
+    scale = 1000 / world["height"]
+    assert data["floor"] == pytest.approx(floor["height"] * scale, abs=0.1)
+    drawn = 360 - ((floor["height"] * scale - data["low"]) / data["span"] * 0.9 + 0.05) * 360
+    assert floor_y(page) == pytest.approx(drawn, abs=0.1)
