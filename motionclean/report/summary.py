@@ -847,7 +847,7 @@ LINE_LIMIT = 199
 
 def format_repairs(report: dict, limit: int = 10) -> list[str]:
     """One line per joint a repairing step (despike) changed, at most ``limit`` joints: how,
-    where (long frame lists summarised; the full lists are in the JSON and HTML reports),
+    where (long frame lists summarised; the JSON report keeps them whole, the page names more),
     largest step. Lines are cut at :data:`LINE_LIMIT` characters."""
     keys = [
         prefix + name
