@@ -34,6 +34,7 @@ from .summary import (
     json_safe,
     noisiest,
     note_text,
+    repaired_joints,
     resampled_to,
     was_cleaned,
 )
@@ -387,7 +388,7 @@ def _headline(report: dict) -> list[str]:
         or "change_deg_max" not in verdict
     ):
         return [_noise_stat(acc["before"], verdict)]
-    repairs = {n: r for n, r in (verdict.get("repairs") or {}).items() if r["frames"]}
+    repairs = repaired_joints(report)
     stats = [
         _stat(
             f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),

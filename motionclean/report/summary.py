@@ -733,6 +733,11 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    if cleaned and repaired_joints(report):
+        lines.append(
+            "(figures with repairs included; the verdict's jitter and largest change leave "
+            "them out)"
+        )
     model = format_noise_model(report)
     if model:
         lines.append(model)
@@ -750,6 +755,13 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("verdict"):
         lines.append(f"verdict: {report['verdict']['text']}")
     return "\n".join(lines)
+
+
+def repaired_joints(report: dict) -> dict[str, dict[str, int]]:
+    """The verdict's repairs of the joints a step repaired frames of (none without step
+    notes): where the table's and the page's totals include repairs."""
+    repairs = (report.get("verdict") or {}).get("repairs") or {}
+    return {name: counts for name, counts in repairs.items() if counts["frames"]}
 
 
 def median_joint(values: list[float]) -> float:

@@ -176,18 +176,34 @@ def listed(names: list[str], limit: int = 2) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
+#: Joints a repair phrase names with their counts; the others are counted together.
+REPAIRS_NAMED = 3
+
+
 def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
-    """ "2 flips repaired on RThumb", "3 gaps filled on LeftWrist, Head": one phrase per kind."""
+    """ "2 flips repaired on RThumb", "14 flips repaired (RThumb 13, LeftElbow 1)": one
+    phrase per kind, several joints each with its count, most first (the first
+    :data:`REPAIRS_NAMED`, then how many more joints)."""
     words = []
     for key, noun, verb in (
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
         ("gaps_filled", "gap", "filled"),
     ):
-        where = [name for name, counts in repairs.items() if counts[key]]
-        if where:
-            total = sum(repairs[name][key] for name in where)
-            words.append(f"{_plural(total, noun)} {verb} on {listed(where)}")
+        counts = sorted(
+            ((counts[key], name) for name, counts in repairs.items() if counts[key]),
+            key=lambda pair: -pair[0],
+        )
+        if not counts:
+            continue
+        total = f"{_plural(sum(n for n, _ in counts), noun)} {verb}"
+        if len(counts) == 1:
+            words.append(f"{total} on {counts[0][1]}")
+            continue
+        each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
+        if len(counts) > REPAIRS_NAMED:
+            each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
+        words.append(f"{total} ({', '.join(each)})")
     return words
 
 

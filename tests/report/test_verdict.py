@@ -249,6 +249,42 @@ def test_verdict_words_follow_the_counts():
     assert "flips" not in text.replace("1 flip ", "")
 
 
+def test_repairs_on_several_joints_are_counted_per_joint():
+    """ "14 flips repaired on LeftElbow, RThumb" had not said which had how many."""
+
+    def flips(count: int) -> dict:
+        runs = [[10 * k, 10 * k + 2] for k in range(count)]
+        return {"despike": {"unflipped": runs, "interpolated": [], "frames_repaired": 2 * count}}
+
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 0.02,
+        "change_deg_rms": 0.01,
+        "change_joint": "Head",
+    }
+    counts = {"LeftElbow": 1, "RThumb": 13, "Head": 2, "Neck": 2, "Hips": 1}
+    joints = {name: flips(n) for name, n in counts.items()}
+    report = {"frames": 200, "joints": joints, "summary": {}, "contacts": None}
+    two = {n: joints[n] for n in ("LeftElbow", "RThumb")}
+    text = build_verdict(report | {"joints": two}, smoothing)["text"]
+    assert "14 flips repaired (RThumb 13, LeftElbow 1)" in text
+    text = build_verdict(report, smoothing)["text"]
+    assert "19 flips repaired (RThumb 13, Head 2, Neck 2 and 2 more joints)" in text
+
+
+def test_the_terminal_table_says_its_totals_include_repairs(demo, tmp_path, capsys):
+    """The page's total says "repairs included"; the table's all-joints row, the same
+    figures, says so below it where a step repaired frames, and not otherwise."""
+    from motionclean.report.summary import format_table
+
+    lines = format_table(demo.report).splitlines()
+    row = next(k for k, line in enumerate(lines) if line.startswith("all joints"))
+    assert lines[row + 1].startswith("(figures with repairs included;")
+    assert "repairs included" in render_html(demo.report, demo.series)
+    clean = clean_clip(SAMPLE, None, Pipeline.from_inline(["lee-shin"])).report
+    assert "repairs included" not in format_table(clean)
+
+
 def test_batch_index_and_table_carry_each_clips_verdict(tmp_path, capsys):
     from helpers import cut_bvh
 
