@@ -140,15 +140,31 @@ def _unknown_at(unknown: np.ndarray | None, point: int) -> np.ndarray | None:
 
 
 def _upright_view(series: dict) -> tuple[str, tuple[int, int]]:
-    """The player's view (``"side"`` or ``"front"``, its title and screen axes) that looks
-    across the clip's travel: the one whose horizontal axis its points span most (a walk
-    along z is seen from the side, its strides shown, not from the front)."""
+    """The upright view (``"side"`` or ``"front"``, its title and screen axes) that looks
+    across the clip's travel: the one whose horizontal axis the figure's centre (the mean
+    of its known points per frame, rest-pose frames left out) ranges over most (a walk
+    along z is seen from the side, its strides shown, not from the front). The points'
+    own spread had chosen instead: a short walk's arm span outweighed its travel."""
     views = _views(series["up"])
-    points = series["before"].reshape(-1, 3)
-    known = points[np.isfinite(points).all(axis=1)]
-    spans = np.ptp(known, axis=0) if known.size else np.zeros(3)
-    across = "side" if spans[views["side"][0]] > spans[views["front"][0]] else "front"
+    centres = _centres(series)
+    travel = np.ptp(centres, axis=0) if centres.size else np.zeros(3)
+    across = "side" if travel[views["side"][0]] > travel[views["front"][0]] else "front"
     return f"from the {across}", views[across]
+
+
+def _centres(series: dict) -> np.ndarray:
+    """``(N, 3)``: the mean of the input's known points in each frame that has any,
+    rest-pose frames left out (all of them where every frame is one)."""
+    points = series["before"]
+    known = np.isfinite(points).all(axis=2)
+    if series["unknown_before"] is not None:
+        known &= ~series["unknown_before"]
+    rest = series["rest"]
+    if rest.any() and not rest.all():
+        points, known = points[~rest], known[~rest]
+    counts = known.sum(axis=1)
+    sums = np.where(known[..., None], points, 0.0).sum(axis=1)
+    return sums[counts > 0] / counts[counts > 0, None]
 
 
 def _trajectory_card(name: str, point: int, series: dict, upright) -> str:

@@ -11,7 +11,7 @@ import tempfile
 
 import numpy as np
 import pytest
-from helpers import NOISY, ROOT, corpus_clip, turned_copy
+from helpers import NOISY, ROOT, corpus_clip, turned_copy, z_up_copy
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -122,22 +122,25 @@ def test_the_player_opens_the_frame_named_in_the_address(tmp_path):
     assert a.shape == b.shape and a.size > 0 and not np.allclose(a, b)
 
 
-def test_the_upright_trajectory_view_looks_across_the_walk():
-    """131_03 walks along z: its tracks are seen from the side (z to the right), where the
-    strides show; turned a quarter about the up axis (walking along x), from the front.
-    (The view had always been the front one, looking down the walk, labelled the side.)"""
-    clip = mc.load(corpus_clip("131_03.bvh"))
+@pytest.mark.parametrize("name", ["131_03.bvh", "demo"])
+def test_the_upright_trajectory_view_looks_across_the_walk(name):
+    """131_03 and the demo (131_02's frames 150-449) walk along z: their tracks are seen
+    from the side (z to the right), where the strides show; turned a quarter about the up
+    axis (walking along x), from the front; stood on z (walking along y), from the side
+    again. (The view had always been the front one, looking down the walk, labelled the
+    side; then the points' spread chose it, and the demo's arm span along x outweighed its
+    4.3 units of travel along z.)"""
+    clip = mc.load(NOISY if name == "demo" else corpus_clip(name))
     turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.pi / 2)
-    root = 0  # (the root: turning it turns the whole figure)
-    q = clip.rotations.copy()
-    q[:, root] = quat.multiply(turn, q[:, root])
-    p = clip.translations.copy()
-    p[:, root] = quat.rotate(turn, p[:, root])
-    turned = clip.replace(rotations=q, translations=p, source_values=None, source_rotations=None)
-    for motion, title, axis in ((clip, "from the side", 2), (turned, "from the front", 0)):
-        world = build_series(motion, None)["world"]
-        assert _upright_view(world) == (title, (axis, 1))
-        page = render_html(build_report(motion, None), build_series(motion, None))
+    turned = turned_copy(clip, turn)
+    for motion, title, axes in (
+        (clip, "from the side", (2, 1)),
+        (turned, "from the front", (0, 1)),
+        (z_up_copy(clip), "from the side", (1, 2)),
+    ):
+        series = build_series(motion, None)
+        assert _upright_view(series["world"]) == (title, axes)
+        page = render_html(build_report(motion, None, series=series), series)
         assert f"<span>{title}</span>" in page and "units across</text>" in page
 
 
