@@ -762,8 +762,12 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on the input)'
         "</span>"
         f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
-        f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
-        "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        + (
+            f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
+            if was_cleaned(report)
+            else ""
+        )
+        + "<span>skate: mean horizontal ankle speed during contacts</span></div>",
         *_ground_lines(contacts),
         '<div class="grid">',
         *(

@@ -272,7 +272,8 @@ PLAYER_SCRIPT = """
   var label = document.getElementById('mc-frame');
   var button = document.getElementById('mc-play');
   var view = document.getElementById('mc-view');
-  var n = data.frames.length, current = 0, timer = null, NS = 'http://www.w3.org/2000/svg';
+  var n = data.frames.length, current = 0, NS = 'http://www.w3.org/2000/svg';
+  var playing = false, start = 0, from = 0;
   var asked = null;
   var clips = data.after ? [['before', data.before, data.colours[0]],
                             ['after', data.after, data.colours[1]]]
@@ -347,13 +348,26 @@ PLAYER_SCRIPT = """
     asked = m ? parseInt(m[1], 10) : null;
     draw(m ? nearest(asked) : current);
   }
+  // playing: the clip's frame is the one its own time reaches since play (or a slider
+  // move), whatever the screen's refresh; it loops after the last frame
+  function restart() { from = data.frames[current]; start = performance.now(); }
+  function tick(now) {
+    if (!playing) return;
+    var frame = (from + (now - start) / data.frame_ms) % (data.frames[n - 1] + 1), i = 0;
+    while (i + 1 < n && data.frames[i + 1] <= frame) i++;
+    if (i !== current) draw(i);
+    requestAnimationFrame(tick);
+  }
   slider.max = n - 1;
-  slider.addEventListener('input', function () { draw(parseInt(slider.value, 10)); });
+  slider.addEventListener('input', function () {
+    draw(parseInt(slider.value, 10));
+    if (playing) restart();
+  });
   view.addEventListener('change', function () { draw(current); });
   button.addEventListener('click', function () {
-    if (timer) { clearInterval(timer); timer = null; button.textContent = 'play'; return; }
-    button.textContent = 'pause';
-    timer = setInterval(function () { draw(current + 1 < n ? current + 1 : 0); }, data.step_ms);
+    playing = !playing;
+    button.textContent = playing ? 'pause' : 'play';
+    if (playing) { restart(); requestAnimationFrame(tick); }
   });
   window.addEventListener('hashchange', fromHash);
   fromHash();
@@ -373,7 +387,8 @@ def _floor_line(height: float | None, low: float, span: float) -> str:
 
 
 def _player(series: dict, frame_time: float, floor: float | None) -> str:
-    """The skeleton player; ``floor``: the floor's height along the up axis (file units, the
+    """The skeleton player, playing at the clip's own rate (``frame_time`` seconds per frame,
+    by elapsed time); ``floor``: the floor's height along the up axis (file units, the
     report's ``contacts.floor``), drawn as a line, or None."""
     views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
@@ -385,7 +400,6 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         return np.round(points * scale).astype(int).reshape(len(points), -1).tolist()
 
     frames = series["frames"]
-    step = float(np.median(np.diff(frames))) if len(frames) > 1 else 1.0
 
     def hidden(unknown: np.ndarray | None) -> list | None:
         """Per shown frame, the points to hide (unknown: a tracker dropout)."""
@@ -406,7 +420,7 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         "span": round(span * scale, 1),
         "floor": None if floor is None else round(floor * scale, 1),
         "colours": [BEFORE, AFTER],
-        "step_ms": max(int(round(1000.0 * frame_time * step)), 10),
+        "frame_ms": 1000.0 * frame_time,
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
     static = _static_frame(series, 0, views["front"], (low, span))
@@ -472,7 +486,11 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         "<h2>The motion</h2>",
         '<div class="legend">'
         f'<span><i class="key" style="background:{BEFORE}"></i>input</span>'
-        f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
+        + (
+            f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
+            if world["after"] is not None
+            else ""
+        )
         + (
             f'<span><i class="key" style="background:{FLOOR}"></i>floor (the input\'s)</span>'
             if floor is not None

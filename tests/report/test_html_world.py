@@ -245,3 +245,56 @@ def test_the_player_frames_every_frame_upright_above_its_floor(name, turn):
     assert data["floor"] == pytest.approx(floor["height"] * scale, abs=0.1)
     drawn = 360 - ((floor["height"] * scale - data["low"]) / data["span"] * 0.9 + 0.05) * 360
     assert floor_y(page) == pytest.approx(drawn, abs=0.1)
+
+
+#: Put before the player's script: the page's clock and frame callbacks under the test's
+#: hand (``advance(ms)`` moves the clock and runs the callbacks waiting for a frame).
+FAKE_CLOCK = """<script>
+var mcNow = 0, mcWaiting = [];
+performance.now = function () { return mcNow; };
+window.requestAnimationFrame = function (f) { mcWaiting.push(f); return mcWaiting.length; };
+function advance(ms) {
+  mcNow += ms;
+  var due = mcWaiting; mcWaiting = [];
+  due.forEach(function (f) { f(mcNow); });
+}
+</script>"""
+
+#: Run after it: play, read the frame label at clock times, pause, read it again.
+PLAY_STEPS = """<script>
+var play = document.getElementById('mc-play'), seen = [];
+function label() { return document.getElementById('mc-frame').textContent; }
+play.click();
+[0, 1004, 1600].forEach(function (ms) { advance(ms); seen.push(label()); });
+play.click();
+advance(500); seen.push(label());
+document.body.setAttribute('data-seen', seen.join('|'));
+</script>"""
+
+
+@pytest.mark.browser
+def test_the_player_plays_at_the_clips_own_rate(tmp_path):
+    """A 120 fps clip plays 120 frames a second of the page's clock, whatever the screen's
+    refresh (a fixed 10 ms step had played it at 0.83x), loops after its last frame and
+    stands still when paused. The clock is the test's, not a wall clock."""
+    clip = mc.load(NOISY)
+    assert round(1.0 / clip.frame_time) == 120 and clip.n_frames == 300
+    page = render_html(build_report(clip), build_series(clip))
+    page = page.replace("</head>", FAKE_CLOCK + "</head>", 1)
+    page = page.replace("</body>", PLAY_STEPS + "</body>", 1)
+    path = tmp_path / "report.html"
+    path.write_text(page, encoding="utf-8")
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, "#frame=0")).group(1)
+    # 1004 ms: frame 120.5; 2604 ms: 312.5 frames, the 300-frame clip looped to 12.5
+    assert seen.split("|") == ["frame 0", "frame 120", "frame 12", "frame 12"]
+
+
+def test_a_page_of_the_input_alone_shows_no_cleaned_key():
+    """Nothing was cleaned: the motion's legend has no 'cleaned' swatch, the feet's no
+    'after' one; a cleaned clip's page has both."""
+    clip = mc.load(NOISY)
+    alone = render_html(build_report(clip), build_series(clip))
+    cleaned = page_of(NOISY)
+    for key in ("cleaned", "after"):
+        swatch = f"></i>{key}</span>"
+        assert swatch not in alone and swatch in cleaned
