@@ -34,10 +34,12 @@ from .summary import (
     json_safe,
     noisiest,
     note_text,
+    repaired_joints,
     resampled_to,
     was_cleaned,
 )
 from .traces import COLUMNS, Trace, trace
+from .verdict import jumps_left_out
 from .world import format_floor
 
 __all__ = ["render_html", "render_index"]
@@ -364,6 +366,16 @@ def _stat(value: str, label: str) -> str:
     return f'<div class="stat"><b>{value}</b><span>{label}</span></div>'
 
 
+def _noise_stat(total: float | None, verdict: dict) -> str:
+    """The headline of a clip not compared with a cleaning: its noise, without the steps
+    over 90 degrees where the verdict left them out (a clip reported alone), as its line."""
+    label = "noise: RMS angular acceleration, deg/s\u00b2"
+    if verdict.get("status") != "input only":
+        return _stat(_num(total), label)
+    left = jumps_left_out(verdict.get("unrepaired_jumps") or 0)
+    return _stat(_num(verdict.get("noise_before")), _e(label + left))
+
+
 def _headline(report: dict) -> list[str]:
     """The page's headline figures: smoothing first (jitter removed and the largest change,
     both outside the repaired frames), then the repairs, then the totals with repairs."""
@@ -375,8 +387,8 @@ def _headline(report: dict) -> list[str]:
         or verdict.get("noise_removed") is None
         or "change_deg_max" not in verdict
     ):
-        return [_stat(_num(acc["before"]), "noise: RMS angular acceleration, deg/s\u00b2")]
-    repairs = {n: r for n, r in (verdict.get("repairs") or {}).items() if r["frames"]}
+        return [_noise_stat(acc["before"], verdict)]
+    repairs = repaired_joints(report)
     stats = [
         _stat(
             f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
@@ -750,8 +762,12 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on the input)'
         "</span>"
         f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
-        f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
-        "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        + (
+            f'<span><i class="key" style="background:{AFTER}"></i>after</span>'
+            if was_cleaned(report)
+            else ""
+        )
+        + "<span>skate: mean horizontal ankle speed during contacts</span></div>",
         *_ground_lines(contacts),
         '<div class="grid">',
         *(

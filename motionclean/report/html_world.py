@@ -24,8 +24,10 @@ PLAYER_FRAMES = 400
 #: Coordinates are stored as integers in thousandths of the body height.
 QUANTUM = 1000.0
 BEFORE, AFTER = "#e0892b", "#1f57b8"
+FLOOR = "#9aa2b1"
 VIEW = 360  # SVG user units of a player or trajectory view
-#: The player frames this many body heights around the figure, which it follows.
+#: The player's view spans at least this many body heights: it follows the figure across,
+#: and frames the clip's range of heights (:func:`_window`).
 FIGURE_SPAN = 1.3
 
 
@@ -138,15 +140,31 @@ def _unknown_at(unknown: np.ndarray | None, point: int) -> np.ndarray | None:
 
 
 def _upright_view(series: dict) -> tuple[str, tuple[int, int]]:
-    """The player's view (``"side"`` or ``"front"``, its title and screen axes) that looks
-    across the clip's travel: the one whose horizontal axis its points span most (a walk
-    along z is seen from the side, its strides shown, not from the front)."""
+    """The upright view (``"side"`` or ``"front"``, its title and screen axes) that looks
+    across the clip's travel: the one whose horizontal axis the figure's centre (the mean
+    of its known points per frame, rest-pose frames left out) ranges over most (a walk
+    along z is seen from the side, its strides shown, not from the front). The points'
+    own spread had chosen instead: a short walk's arm span outweighed its travel."""
     views = _views(series["up"])
-    points = series["before"].reshape(-1, 3)
-    known = points[np.isfinite(points).all(axis=1)]
-    spans = np.ptp(known, axis=0) if known.size else np.zeros(3)
-    across = "side" if spans[views["side"][0]] > spans[views["front"][0]] else "front"
+    centres = _centres(series)
+    travel = np.ptp(centres, axis=0) if centres.size else np.zeros(3)
+    across = "side" if travel[views["side"][0]] > travel[views["front"][0]] else "front"
     return f"from the {across}", views[across]
+
+
+def _centres(series: dict) -> np.ndarray:
+    """``(N, 3)``: the mean of the input's known points in each frame that has any,
+    rest-pose frames left out (all of them where every frame is one)."""
+    points = series["before"]
+    known = np.isfinite(points).all(axis=2)
+    if series["unknown_before"] is not None:
+        known &= ~series["unknown_before"]
+    rest = series["rest"]
+    if rest.any() and not rest.all():
+        points, known = points[~rest], known[~rest]
+    counts = known.sum(axis=1)
+    sums = np.where(known[..., None], points, 0.0).sum(axis=1)
+    return sums[counts > 0] / counts[counts > 0, None]
 
 
 def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
@@ -193,15 +211,41 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
     )
 
 
-def _static_frame(series: dict, frame: int, axes: tuple[int, int]) -> str:
-    """One frame of the player as plain SVG lines (what a page without scripts shows)."""
+def _window(series: dict, floor: float | None) -> tuple[float, float]:
+    """The player's height window, fixed over the clip: the lowest up coordinate it shows
+    and the span of its view (file units), the same on both screen axes. The span is
+    :data:`FIGURE_SPAN` body heights, or the range the clip's known points and the
+    ``floor`` cover along the up axis where that is larger; the range is centred in it.
+    Rest-pose frames are left out, as of every figure."""
+    up = series["up"]
+    moving = ~series["rest"] if not series["rest"].all() else np.ones_like(series["rest"])
+    heights = [np.array([] if floor is None else [floor])]
+    for key in ("before", "after"):
+        if series[key] is not None:
+            values = series[key][moving][..., up]
+            gone = series[f"unknown_{key}"]
+            heights.append(values[~gone[moving]] if gone is not None else values.ravel())
+    known = np.concatenate(heights)
+    known = known[np.isfinite(known)]
+    low, high = (float(known.min()), float(known.max())) if known.size else (0.0, 0.0)
+    span = max(FIGURE_SPAN * series["height"], high - low, 1e-9)
+    return (low + high) / 2 - span / 2, span
+
+
+def _static_frame(
+    series: dict, frame: int, axes: tuple[int, int], window: tuple[float, float]
+) -> str:
+    """One frame of the player as plain SVG lines (what a page without scripts shows):
+    centred on the figure across, its height framed by ``window`` (:func:`_window`)."""
     parts = []
     clips = [("before", series["before"], BEFORE, series["unknown_before"])]
     if series["after"] is not None:
         clips.append(("after", series["after"], AFTER, series["unknown_after"]))
-    span = max(FIGURE_SPAN * series["height"], 1e-9)
-    here = series["before"][frame][:, axes]
-    low = (here.min(axis=0) + here.max(axis=0)) / 2 - span / 2
+    bottom, span = window
+    here = series["before"][frame][:, axes[0]]
+    here = here[np.isfinite(here)]
+    across = (here.min() + here.max()) / 2 - span / 2 if here.size else 0.0
+    low = np.array([across, bottom])
     for label, points, colour, unknown in clips:
         xy = _to_view(points[frame][:, axes], low, span)
         shown = np.ones(len(xy), bool) if unknown is None else ~unknown[frame]
@@ -228,12 +272,13 @@ PLAYER_SCRIPT = """
   var label = document.getElementById('mc-frame');
   var button = document.getElementById('mc-play');
   var view = document.getElementById('mc-view');
-  var n = data.frames.length, current = 0, timer = null, NS = 'http://www.w3.org/2000/svg';
+  var n = data.frames.length, current = 0, NS = 'http://www.w3.org/2000/svg';
+  var playing = false, start = 0, from = 0;
   var asked = null;
   var clips = data.after ? [['before', data.before, data.colours[0]],
                             ['after', data.after, data.colours[1]]]
                          : [['before', data.before, data.colours[0]]];
-  var axes = data.views;
+  var axes = data.views, floor = document.getElementById('mc-floor');
   var lines = [], dots = [];
   svg.querySelectorAll('line.bone, circle.joint').forEach(function (l) { l.remove(); });
   clips.forEach(function (c) {
@@ -253,13 +298,19 @@ PLAYER_SCRIPT = """
   function draw(i) {
     current = Math.max(0, Math.min(n - 1, i));
     var a = axes[view.value], k = 0, S = data.size, span = data.span;
-    var f0 = clips[0][1][current], lo = [0, 0];
+    var f0 = clips[0][1][current], lo = [0, 0], upright = a[1] === data.up;
     for (var d = 0; d < 2; d++) {
       var mn = 1e30, mx = -1e30;
       for (var p0 = 0; p0 < f0.length; p0 += 3) {
         mn = Math.min(mn, f0[p0 + a[d]]); mx = Math.max(mx, f0[p0 + a[d]]);
       }
       lo[d] = (mn + mx) / 2 - span / 2;
+    }
+    if (upright) lo[1] = data.low;
+    if (floor) {
+      var y = S - ((data.floor - lo[1]) / span * 0.9 + 0.05) * S;
+      floor.setAttribute('visibility', upright ? 'visible' : 'hidden');
+      floor.setAttribute('y1', y); floor.setAttribute('y2', y);
     }
     var m = 0;
     clips.forEach(function (c, ci) {
@@ -297,13 +348,26 @@ PLAYER_SCRIPT = """
     asked = m ? parseInt(m[1], 10) : null;
     draw(m ? nearest(asked) : current);
   }
+  // playing: the clip's frame is the one its own time reaches since play (or a slider
+  // move), whatever the screen's refresh; it loops after the last frame
+  function restart() { from = data.frames[current]; start = performance.now(); }
+  function tick(now) {
+    if (!playing) return;
+    var frame = (from + (now - start) / data.frame_ms) % (data.frames[n - 1] + 1), i = 0;
+    while (i + 1 < n && data.frames[i + 1] <= frame) i++;
+    if (i !== current) draw(i);
+    requestAnimationFrame(tick);
+  }
   slider.max = n - 1;
-  slider.addEventListener('input', function () { draw(parseInt(slider.value, 10)); });
+  slider.addEventListener('input', function () {
+    draw(parseInt(slider.value, 10));
+    if (playing) restart();
+  });
   view.addEventListener('change', function () { draw(current); });
   button.addEventListener('click', function () {
-    if (timer) { clearInterval(timer); timer = null; button.textContent = 'play'; return; }
-    button.textContent = 'pause';
-    timer = setInterval(function () { draw(current + 1 < n ? current + 1 : 0); }, data.step_ms);
+    playing = !playing;
+    button.textContent = playing ? 'pause' : 'play';
+    if (playing) { restart(); requestAnimationFrame(tick); }
   });
   window.addEventListener('hashchange', fromHash);
   fromHash();
@@ -311,9 +375,24 @@ PLAYER_SCRIPT = """
 """
 
 
-def _player(series: dict, frame_time: float) -> str:
+def _floor_line(height: float | None, low: float, span: float) -> str:
+    """The floor as a level line across the upright view (none where none was found)."""
+    if height is None:
+        return ""
+    y = VIEW - ((height - low) / span * 0.9 + 0.05) * VIEW
+    return (
+        f'<line id="mc-floor" x1="0" x2="{VIEW}" y1="{y:.1f}" y2="{y:.1f}" stroke="{FLOOR}" '
+        'stroke-width="1.5"/>'
+    )
+
+
+def _player(series: dict, frame_time: float, floor: float | None) -> str:
+    """The skeleton player, playing at the clip's own rate (``frame_time`` seconds per frame,
+    by elapsed time); ``floor``: the floor's height along the up axis (file units, the
+    report's ``contacts.floor``), drawn as a line, or None."""
     views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
+    low, span = _window(series, floor)
 
     def packed(points: np.ndarray | None) -> list | None:
         if points is None:
@@ -321,7 +400,6 @@ def _player(series: dict, frame_time: float) -> str:
         return np.round(points * scale).astype(int).reshape(len(points), -1).tolist()
 
     frames = series["frames"]
-    step = float(np.median(np.diff(frames))) if len(frames) > 1 else 1.0
 
     def hidden(unknown: np.ndarray | None) -> list | None:
         """Per shown frame, the points to hide (unknown: a tracker dropout)."""
@@ -337,16 +415,20 @@ def _player(series: dict, frame_time: float) -> str:
         "after": packed(series["after"]),
         "views": views,
         "size": VIEW,
-        "span": FIGURE_SPAN * QUANTUM,
+        "up": series["up"],
+        "low": round(low * scale, 1),
+        "span": round(span * scale, 1),
+        "floor": None if floor is None else round(floor * scale, 1),
         "colours": [BEFORE, AFTER],
-        "step_ms": max(int(round(1000.0 * frame_time * step)), 10),
+        "frame_ms": 1000.0 * frame_time,
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
-    static = _static_frame(series, 0, views["front"])
+    static = _static_frame(series, 0, views["front"], (low, span))
     return (
         '<div class="player"><svg id="mc-player" class="view" '
         f'viewBox="0 0 {VIEW} {VIEW}" role="img" aria-label="the clip as a stick figure">'
-        f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>{static}</svg>'
+        f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>'
+        f"{_floor_line(floor, low, span)}{static}</svg>"
         '<div class="controls"><button id="mc-play" type="button">play</button>'
         f'<input id="mc-slider" type="range" min="0" max="{len(frames) - 1}" value="0">'
         '<span id="mc-frame">frame 0</span> <select id="mc-view">'
@@ -391,6 +473,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     upright = _upright_view(world)
     cards = [_trajectory_card(name, p, world, upright) for name, p in world["effectors"].items()]
     figures = report.get("world") or {}
+    floor = ((report.get("contacts") or {}).get("floor") or {}).get("height")
     axes = ""
     if figures:
         how = "given" if figures.get("up_axis_source") == "given" else "found from the motion"
@@ -403,9 +486,18 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         "<h2>The motion</h2>",
         '<div class="legend">'
         f'<span><i class="key" style="background:{BEFORE}"></i>input</span>'
-        f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
-        f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
-        _player(world, float(report["frame_time"])),
+        + (
+            f'<span><i class="key" style="background:{AFTER}"></i>cleaned</span>'
+            if world["after"] is not None
+            else ""
+        )
+        + (
+            f'<span><i class="key" style="background:{FLOOR}"></i>floor (the input\'s)</span>'
+            if floor is not None
+            else ""
+        )
+        + f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
+        _player(world, float(report["frame_time"]), floor),
         "<h2>Where the hands, feet and head go</h2>",
         '<div class="grid">',
         *cards,

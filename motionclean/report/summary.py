@@ -355,6 +355,31 @@ def _outside(
     return found
 
 
+def _per_joint(figures: dict, key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per joint, the sum of squares, count and max of the figure ``key`` of
+    :func:`build_series`' ``figures``, outside the rows its ``outside_repairs`` leave out."""
+    reduced = figures[key]
+    counts = np.array(reduced.counts, dtype=np.float64)
+    squares = np.nan_to_num(np.square(reduced.rms)) * counts  # (NaN: no row measured)
+    largest = np.nan_to_num(np.array(reduced.max, dtype=np.float64))
+    for n, (square, count, peak) in (figures["outside_repairs"].get(key) or {}).items():
+        squares[n], counts[n], largest[n] = square, count, peak
+    return squares, counts, largest
+
+
+def _input_noise(series: dict) -> dict[str, Any]:
+    """The noise of a clip reported alone: its RMS angular acceleration (deg/s^2, None where
+    no three frames in a row are known) without the rows that involve a step of the input
+    over :data:`~motionclean.core.jumps.JUMP_DEG` (a flip or glitch is no jitter, as in a
+    cleaned clip's verdict), and how many such steps each joint makes."""
+    squares, rows, _ = _per_joint(series["figures"], "accel_before")
+    known = float(rows.sum())
+    return {
+        "noise_before": math.sqrt(float(squares.sum()) / known) if known else None,
+        "unrepaired_jumps": series.get("unrepaired_jumps", {}),
+    }
+
+
 def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     """The figures of smoothing alone (None for a single clip): the RMS angular acceleration
     before and after (deg/s^2) and the fraction of it removed, and the largest and RMS
@@ -364,20 +389,9 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     figures = series["figures"]
     if figures["accel_after"] is None or figures["deviation"] is None:
         return None
-    outside = figures["outside_repairs"]
-
-    def per_joint(key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        reduced = figures[key]
-        counts = np.array(reduced.counts, dtype=np.float64)
-        squares = np.nan_to_num(np.square(reduced.rms)) * counts  # (NaN: no row measured)
-        largest = np.nan_to_num(np.array(reduced.max, dtype=np.float64))
-        for n, (square, count, peak) in (outside.get(key) or {}).items():
-            squares[n], counts[n], largest[n] = square, count, peak
-        return squares, counts, largest
-
-    before, rows, _ = per_joint("accel_before")
-    after, _, _ = per_joint("accel_after")
-    squares, counts, largest = per_joint("deviation")
+    before, rows, _ = _per_joint(figures, "accel_before")
+    after, _, _ = _per_joint(figures, "accel_after")
+    squares, counts, largest = _per_joint(figures, "deviation")
     total_before = float(before.sum())
     removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
     worst = int(np.argmax(largest)) if largest.size else 0
@@ -584,7 +598,8 @@ def build_report(
     said = [*kinematics.source_notes(before), *_step_notes(joints)]  # only when there is any
     if said:
         report["notes"] = said
-    report["verdict"] = build_verdict(report, _smoothing(series, list(series["joints"])))
+    smoothing = _smoothing(series, list(series["joints"]))
+    report["verdict"] = build_verdict(report, smoothing, _input_noise(series))
     return report
 
 
@@ -718,6 +733,11 @@ def format_table(report: dict, limit: int = 10) -> str:
     lines.append("-" * len(head))
     summary = report["summary"]
     lines.append(row("all joints", summary["angular_accel_rms"], summary.get("deviation_deg_max")))
+    if cleaned and repaired_joints(report):
+        lines.append(
+            "(figures with repairs included; the verdict's jitter and largest change leave "
+            "them out)"
+        )
     model = format_noise_model(report)
     if model:
         lines.append(model)
@@ -735,6 +755,13 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("verdict"):
         lines.append(f"verdict: {report['verdict']['text']}")
     return "\n".join(lines)
+
+
+def repaired_joints(report: dict) -> dict[str, dict[str, int]]:
+    """The verdict's repairs of the joints a step repaired frames of (none without step
+    notes): where the table's and the page's totals include repairs."""
+    repairs = (report.get("verdict") or {}).get("repairs") or {}
+    return {name: counts for name, counts in repairs.items() if counts["frames"]}
 
 
 def median_joint(values: list[float]) -> float:
@@ -832,7 +859,7 @@ LINE_LIMIT = 199
 
 def format_repairs(report: dict, limit: int = 10) -> list[str]:
     """One line per joint a repairing step (despike) changed, at most ``limit`` joints: how,
-    where (long frame lists summarised; the full lists are in the JSON and HTML reports),
+    where (long frame lists summarised; the JSON report keeps them whole, the page names more),
     largest step. Lines are cut at :data:`LINE_LIMIT` characters."""
     keys = [
         prefix + name

@@ -9,7 +9,8 @@ HTML page and fills the batch index's verdict column; the JSON report carries it
 
 Statuses, first that applies (thresholds below, documented in the README):
 
-- ``input only``: a clip reported on its own, nothing cleaned.
+- ``input only``: a clip reported on its own, nothing cleaned: its noise without the steps
+  over :data:`~motionclean.core.jumps.JUMP_DEG` it makes (a flip is no jitter).
 - ``needs a look``: a gap left missing (longer than ``max_gap``), smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
@@ -175,18 +176,34 @@ def listed(names: list[str], limit: int = 2) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
+#: Joints a repair phrase names with their counts; the others are counted together.
+REPAIRS_NAMED = 3
+
+
 def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
-    """ "2 flips repaired on RThumb", "3 gaps filled on LeftWrist, Head": one phrase per kind."""
+    """ "2 flips repaired on RThumb", "14 flips repaired (RThumb 13, LeftElbow 1)": one
+    phrase per kind, several joints each with its count, most first (the first
+    :data:`REPAIRS_NAMED`, then how many more joints)."""
     words = []
     for key, noun, verb in (
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
         ("gaps_filled", "gap", "filled"),
     ):
-        where = [name for name, counts in repairs.items() if counts[key]]
-        if where:
-            total = sum(repairs[name][key] for name in where)
-            words.append(f"{_plural(total, noun)} {verb} on {listed(where)}")
+        counts = sorted(
+            ((counts[key], name) for name, counts in repairs.items() if counts[key]),
+            key=lambda pair: -pair[0],
+        )
+        if not counts:
+            continue
+        total = f"{_plural(sum(n for n, _ in counts), noun)} {verb}"
+        if len(counts) == 1:
+            words.append(f"{total} on {counts[0][1]}")
+            continue
+        each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
+        if len(counts) > REPAIRS_NAMED:
+            each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
+        words.append(f"{total} ({', '.join(each)})")
     return words
 
 
@@ -301,7 +318,39 @@ def _across_defects(smoothing: dict, joint: str, change: float, filters: list) -
     )
 
 
-def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
+def jumps_left_out(count: int) -> str:
+    """ ", without 10 steps over 90 degrees (flips or glitches)": what a noise figure leaves
+    out (``count`` steps of the input over :data:`~motionclean.core.jumps.JUMP_DEG`); ""
+    without any."""
+    if not count:
+        return ""
+    return f", without {plural(count, 'step')} over {JUMP_DEG:g} degrees (flips or glitches)"
+
+
+def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
+    """The verdict of a clip reported on its own: its noise, without the steps over
+    :data:`~motionclean.core.jumps.JUMP_DEG` where ``alone`` (:func:`build_verdict`) counts
+    them."""
+    if alone is None:  # (figures without the series: the summary's total)
+        alone = {"noise_before": report["summary"]["angular_accel_rms"]["before"]}
+    noise = alone["noise_before"]
+    jumps = sum((alone.get("unrepaired_jumps") or {}).values())
+    measured = (
+        "no noise measured (no three frames in a row known)"
+        if noise is None
+        else f"noise {noise:,.0f} deg/s\u00b2 RMS angular acceleration{jumps_left_out(jumps)}"
+    )
+    return {
+        "status": "input only",
+        "text": f"input only, not cleaned: {measured}",
+        "noise_before": noise,
+        "unrepaired_jumps": jumps,
+    }
+
+
+def build_verdict(
+    report: dict, smoothing: dict | None, alone: dict | None = None
+) -> dict[str, Any]:
     """The verdict of a report (:func:`motionclean.report.summary.build_report`'s dict, before
     its ``verdict`` key): ``status``, ``text`` and the figures behind them.
 
@@ -314,6 +363,9 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     acceleration, length units/s^2), ``position_noise_removed``, ``change_length_max``,
     ``change_length_rms`` (length units), ``change_length_joint``, ``position_moved``
     (``(name, largest distance)`` of the joints that moved, largest first) and ``travel``.
+    ``alone`` holds the figures of a clip reported on its own: ``noise_before`` (deg/s^2,
+    without the steps over :data:`~motionclean.core.jumps.JUMP_DEG`) and ``unrepaired_jumps``
+    (per joint, how many such steps); without it the line gives the summary's total.
 
     Positions are told in the line where they say what the rotations alone do not: where
     the rotations were left (nearly) as they were (below :data:`CLEAN_CHANGE_DEG` RMS) and a
@@ -323,13 +375,7 @@ def build_verdict(report: dict, smoothing: dict | None) -> dict[str, Any]:
     """
     joints = report["joints"]
     if smoothing is None:
-        noise = report["summary"]["angular_accel_rms"]["before"]
-        measured = (
-            "no noise measured (no three frames in a row known)"
-            if noise is None
-            else f"noise {noise:,.0f} deg/s\u00b2 RMS angular acceleration"
-        )
-        return {"status": "input only", "text": f"input only, not cleaned: {measured}"}
+        return _input_only(report, alone)
     repairs = _repairs(joints)
     feet, skate = _feet(report.get("contacts"))
     reasons = _missing_words(joints)

@@ -184,11 +184,13 @@ class StepSpec:
     returning the new clip and notes keyed by joint name; with ``keeps_rest`` it is given
     the clip with its rest-pose frames and keeps them itself (a new frame rate changes how
     many frames they take). ``format_note(note, positions)``
-    is how one joint's note reads in the HTML report and JSON-less views (None: shown as
-    JSON); ``format_brief(note, positions)``, if given, is its shorter terminal form (long
-    frame lists summarised); ``lists_repairs`` puts its notes under the terminal table as
-    repairs; ``smooths`` False: the step repairs, plants, moves or resamples a clip without
-    smoothing it (a pipeline of such steps alone gets no noise judgement);
+    is how one joint's note reads in the HTML report (None: shown as JSON; long frame lists
+    capped at :data:`PAGE_RUNS` runs, the JSON keeps them whole);
+    ``format_brief(note, positions)``, if given, is its shorter terminal form (long frame
+    lists summarised to their first run); ``lists_repairs`` puts its notes under the
+    terminal table as repairs; ``smooths`` False: the step repairs, plants, moves or
+    resamples a clip without smoothing it (a pipeline of such steps alone gets no noise
+    judgement);
     ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
     steps without a clip's rest-pose frames and numbers frames as the file does);
     ``crop_note(note, start, stop)`` keeps what a note says about frames ``[start, stop)``
@@ -307,13 +309,24 @@ def format_runs(runs: list[list[int]]) -> str:
     return ", ".join(f"{a}-{b - 1}" if b - a > 1 else f"{a}" for a, b in runs)
 
 
-#: Runs listed in full in the terminal; longer lists are summarised.
+#: Runs listed in full in the terminal; longer lists are summarised, the first run named.
 BRIEF_RUNS = 3
+#: Runs the HTML page names of a longer list (the JSON report keeps every run).
+PAGE_RUNS = 8
 
 
-def brief_runs(runs: list[list[int]]) -> str:
-    """At most :data:`BRIEF_RUNS` runs in full, else ``"281 frames in 38 runs, first 198-201"``."""
-    if len(runs) <= BRIEF_RUNS:
+def brief_runs(runs: list[list[int]], first: int = 1) -> str:
+    """At most ``max(BRIEF_RUNS, first)`` runs in full, else the total and the ``first``
+    runs: ``"281 frames in 38 runs, first 198-201 and 37 more"``."""
+    if len(runs) <= max(BRIEF_RUNS, first):
         return format_runs(runs)
     frames = sum(b - a for a, b in runs)
-    return f"{frames} frames in {len(runs)} runs, first {format_runs(runs[:1])}"
+    return (
+        f"{plural(frames, 'frame')} in {len(runs):,} runs, first {format_runs(runs[:first])} "
+        f"and {len(runs) - first:,} more"
+    )
+
+
+def page_runs(runs: list[list[int]]) -> str:
+    """:func:`brief_runs` as the HTML page lists runs: the first :data:`PAGE_RUNS` named."""
+    return brief_runs(runs, PAGE_RUNS)

@@ -20,7 +20,7 @@ from .base import (
     StepSpec,
     brief_runs,
     crop_runs,
-    format_runs,
+    page_runs,
     plural,
     shift_runs,
 )
@@ -97,8 +97,9 @@ def _run_despike(data: StepData, params: dict) -> StepData:
     return data
 
 
-def _format_note(note: dict, positions: bool, ranges=format_runs) -> str:
-    """What despike did to one joint: frames repaired, where, and the largest step."""
+def _format_note(note: dict, positions: bool, ranges=page_runs) -> str:
+    """What despike did to one joint: frames repaired, where (the page's first
+    :data:`~.base.PAGE_RUNS` runs of a long list), and the largest step."""
     unit = "units" if positions else "deg"
     parts = [f"{plural(note['frames_repaired'], 'frame')} repaired"]
     if note.get("unflipped"):

@@ -7,7 +7,7 @@ import numpy as np
 from ..core.motion import Motion
 from ..core.rates import frames_floor
 from ..filters.gaps import fill_gaps
-from .base import Param, StepSpec, brief_runs, format_runs, shift_runs
+from .base import Param, StepSpec, brief_runs, page_runs, shift_runs
 
 #: Default longest gap filled, seconds: about what an occluded marker set is lost for when
 #: an arm passes in front of the body; longer gaps are left to the user.
@@ -51,8 +51,9 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     ), notes
 
 
-def _format_note(note: dict, positions: bool, runs=format_runs) -> str:
-    """Gaps found, filled (where, from which donors) and left missing."""
+def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
+    """Gaps found, filled (where, from which donors) and left missing (the page's first
+    :data:`~.base.PAGE_RUNS` runs of a long list)."""
     filled, missing = note["filled"], note["missing"]
     count = note["gaps"]
     longest = note["longest"]

@@ -3,6 +3,7 @@ headless Chromium, a static frame without scripts, trajectories of every end eff
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -10,7 +11,7 @@ import tempfile
 
 import numpy as np
 import pytest
-from helpers import NOISY, ROOT, corpus_clip
+from helpers import NOISY, ROOT, corpus_clip, turned_copy, z_up_copy
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -121,22 +122,25 @@ def test_the_player_opens_the_frame_named_in_the_address(tmp_path):
     assert a.shape == b.shape and a.size > 0 and not np.allclose(a, b)
 
 
-def test_the_upright_trajectory_view_looks_across_the_walk():
-    """131_03 walks along z: its tracks are seen from the side (z to the right), where the
-    strides show; turned a quarter about the up axis (walking along x), from the front.
-    (The view had always been the front one, looking down the walk, labelled the side.)"""
-    clip = mc.load(corpus_clip("131_03.bvh"))
+@pytest.mark.parametrize("name", ["131_03.bvh", "demo"])
+def test_the_upright_trajectory_view_looks_across_the_walk(name):
+    """131_03 and the demo (131_02's frames 150-449) walk along z: their tracks are seen
+    from the side (z to the right), where the strides show; turned a quarter about the up
+    axis (walking along x), from the front; stood on z (walking along y), from the side
+    again. (The view had always been the front one, looking down the walk, labelled the
+    side; then the points' spread chose it, and the demo's arm span along x outweighed its
+    4.3 units of travel along z.)"""
+    clip = mc.load(NOISY if name == "demo" else corpus_clip(name))
     turn = quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), np.pi / 2)
-    root = 0  # (the root: turning it turns the whole figure)
-    q = clip.rotations.copy()
-    q[:, root] = quat.multiply(turn, q[:, root])
-    p = clip.translations.copy()
-    p[:, root] = quat.rotate(turn, p[:, root])
-    turned = clip.replace(rotations=q, translations=p, source_values=None, source_rotations=None)
-    for motion, title, axis in ((clip, "from the side", 2), (turned, "from the front", 0)):
-        world = build_series(motion, None)["world"]
-        assert _upright_view(world) == (title, (axis, 1))
-        page = render_html(build_report(motion, None), build_series(motion, None))
+    turned = turned_copy(clip, turn)
+    for motion, title, axes in (
+        (clip, "from the side", (2, 1)),
+        (turned, "from the front", (0, 1)),
+        (z_up_copy(clip), "from the side", (1, 2)),
+    ):
+        series = build_series(motion, None)
+        assert _upright_view(series["world"]) == (title, axes)
+        page = render_html(build_report(motion, None, series=series), series)
         assert f"<span>{title}</span>" in page and "units across</text>" in page
 
 
@@ -156,3 +160,141 @@ def test_a_lone_tracked_body_is_drawn_at_the_scale_of_its_travel(tmp_path):
     assert coordinates is not None and abs(int(coordinates.group(1))) < 1e7
     report = build_report(clip, cleaned)
     assert report["world"]["worst_deviation"]["max_percent"] is None
+
+
+def player_data(page: str) -> dict:
+    return json.loads(re.search(r'id="mc-world">(.*?)</script>', page).group(1))
+
+
+def circles(text: str, clip: str = "before") -> np.ndarray:
+    """``(points, 2)`` centres of the player's joints of one clip (page or browser order)."""
+    rows = []
+    for tag in re.findall(r"<circle\b[^>]*>", text):
+        attrs = dict(re.findall(r'([\w-]+)="([^"]*)"', tag))
+        if attrs.get("data-clip") == clip and attrs.get("visibility") != "hidden":
+            rows.append([float(attrs["cx"]), float(attrs["cy"])])
+    return np.array(rows)
+
+
+def floor_y(text: str) -> float:
+    tag = re.search(r'<line\b[^>]*id="mc-floor"[^>]*>', text).group(0)
+    return float(re.search(r'\by1="([^"]+)"', tag).group(1))
+
+
+@pytest.mark.browser
+def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
+    """131_03 hops at frame 810 (feet about 14 % of the body height off the floor): the
+    player draws each frame's lowest point as high above the floor line as it stands above
+    the report's floor. (Each frame had been centred on its own bounding box, no floor
+    drawn: the hop looked like standing.)"""
+    clip = mc.load(corpus_clip("131_03.bvh"))
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    floor = report["contacts"]["floor"]["height"]
+    page = tmp_path / "report.html"
+    page.write_text(render_html(report, series), encoding="utf-8")
+    world = series["world"]
+    scale = 360 * 0.9 / (player_data(page.read_text())["span"] / 1000 * world["height"])
+    lines, lifted = [], []
+    for frame in (700, 810):
+        dom = chromium_dom(page, f"#frame={frame}")
+        lines.append(floor_y(dom))
+        index = list(world["frames"]).index(frame)
+        above = world["before"][index, :, world["up"]].min() - floor  # file units
+        drawn = lines[-1] - circles(dom)[:, 1].max()  # view units, y down
+        assert drawn == pytest.approx(above * scale, abs=1.0)
+        lifted.append(above / world["height"])
+    assert lines[0] == lines[1]
+    assert lifted[0] < 0.03 and lifted[1] > 0.1
+
+
+def y_down_copy(motion: mc.Motion) -> mc.Motion:
+    return turned_copy(motion, quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi))
+
+
+@pytest.mark.parametrize(
+    ("name", "turn"),
+    [
+        ("mixamo_tpose.bvh", None),  # Y-up, T-pose rest
+        ("video2bvh_zup.bvh", None),  # Z-up
+        ("pymo_walk_tpose.bvh", None),  # T-pose rest frame first
+        ("video_estimate_cmu_names.bvh", y_down_copy),  # head toward -y
+        ("tpose_rest_only.bvh", None),  # nothing but a rest pose: no floor
+    ],
+)
+def test_the_player_frames_every_frame_upright_above_its_floor(name, turn):
+    """Exporters' clips stand upright in the page without scripts (the highest point drawn
+    topmost), every carried frame fits the fixed height window, and the floor line is drawn
+    where the report found a floor, at its height, and not otherwise."""
+    clip = mc.load(ROOT / "tests" / "data" / "exporters" / name)
+    clip = clip if turn is None else turn(clip)
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    page = render_html(report, series)
+    data, world = player_data(page), series["world"]
+    points = np.array(data["before"], dtype=float).reshape(len(data["frames"]), -1, 3)
+    heights = points[~world["rest"], :, world["up"]] if not world["rest"].all() else points
+    assert heights.min() >= data["low"] - 0.5 and heights.max() <= data["low"] + data["span"] + 0.5
+    shown = circles(page)
+    assert np.argmin(shown[:, 1]) == np.argmax(points[0, :, world["up"]])
+    floor = (report.get("contacts") or {}).get("floor")
+    if floor is None:
+        assert 'id="mc-floor"' not in page and data["floor"] is None
+        return
+    scale = 1000 / world["height"]
+    assert data["floor"] == pytest.approx(floor["height"] * scale, abs=0.1)
+    drawn = 360 - ((floor["height"] * scale - data["low"]) / data["span"] * 0.9 + 0.05) * 360
+    assert floor_y(page) == pytest.approx(drawn, abs=0.1)
+
+
+#: Put before the player's script: the page's clock and frame callbacks under the test's
+#: hand (``advance(ms)`` moves the clock and runs the callbacks waiting for a frame).
+FAKE_CLOCK = """<script>
+var mcNow = 0, mcWaiting = [];
+performance.now = function () { return mcNow; };
+window.requestAnimationFrame = function (f) { mcWaiting.push(f); return mcWaiting.length; };
+function advance(ms) {
+  mcNow += ms;
+  var due = mcWaiting; mcWaiting = [];
+  due.forEach(function (f) { f(mcNow); });
+}
+</script>"""
+
+#: Run after it: play, read the frame label at clock times, pause, read it again.
+PLAY_STEPS = """<script>
+var play = document.getElementById('mc-play'), seen = [];
+function label() { return document.getElementById('mc-frame').textContent; }
+play.click();
+[0, 1004, 1600].forEach(function (ms) { advance(ms); seen.push(label()); });
+play.click();
+advance(500); seen.push(label());
+document.body.setAttribute('data-seen', seen.join('|'));
+</script>"""
+
+
+@pytest.mark.browser
+def test_the_player_plays_at_the_clips_own_rate(tmp_path):
+    """A 120 fps clip plays 120 frames a second of the page's clock, whatever the screen's
+    refresh (a fixed 10 ms step had played it at 0.83x), loops after its last frame and
+    stands still when paused. The clock is the test's, not a wall clock."""
+    clip = mc.load(NOISY)
+    assert round(1.0 / clip.frame_time) == 120 and clip.n_frames == 300
+    page = render_html(build_report(clip), build_series(clip))
+    page = page.replace("</head>", FAKE_CLOCK + "</head>", 1)
+    page = page.replace("</body>", PLAY_STEPS + "</body>", 1)
+    path = tmp_path / "report.html"
+    path.write_text(page, encoding="utf-8")
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, "#frame=0")).group(1)
+    # 1004 ms: frame 120.5; 2604 ms: 312.5 frames, the 300-frame clip looped to 12.5
+    assert seen.split("|") == ["frame 0", "frame 120", "frame 12", "frame 12"]
+
+
+def test_a_page_of_the_input_alone_shows_no_cleaned_key():
+    """Nothing was cleaned: the motion's legend has no 'cleaned' swatch, the feet's no
+    'after' one; a cleaned clip's page has both."""
+    clip = mc.load(NOISY)
+    alone = render_html(build_report(clip), build_series(clip))
+    cleaned = page_of(NOISY)
+    for key in ("cleaned", "after"):
+        swatch = f"></i>{key}</span>"
+        assert swatch not in alone and swatch in cleaned

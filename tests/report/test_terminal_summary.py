@@ -12,6 +12,7 @@ from motionclean.report.summary import (
     format_table,
     note_text,
 )
+from motionclean.steps.base import PAGE_RUNS
 
 
 def despike_note(runs: list[list[int]]) -> dict:
@@ -23,12 +24,21 @@ def despike_note(runs: list[list[int]]) -> dict:
     }
 
 
-def test_long_frame_lists_are_summarised_in_the_terminal_only():
+def test_long_frame_lists_are_summarised_in_the_terminal_and_capped_on_the_page():
+    """The terminal names a long list's first run, the page its first PAGE_RUNS (it had
+    listed all 533 runs of a 51,127-frame clip, about 95 lines), both with the count."""
     runs = [[198 + 10 * i, 202 + 10 * i] for i in range(38)]
     report = {"joints": {"Hips": {"despike": despike_note(runs)}}}
     (line,) = format_repairs(report)
-    assert "152 frames in 38 runs, first 198-201" in line
-    assert "568-571" in note_text("despike", despike_note(runs))  # the full list elsewhere
+    assert "152 frames in 38 runs, first 198-201 and 37 more;" in line
+    page = note_text("despike", despike_note(runs))
+    named = ", ".join(f"{a}-{b - 1}" for a, b in runs[:PAGE_RUNS])
+    assert f"152 frames in 38 runs, first {named} and {38 - PAGE_RUNS} more;" in page
+    assert f"{runs[PAGE_RUNS][0]}-" not in page
+    short = runs[:PAGE_RUNS]
+    assert f"interpolated {', '.join(f'{a}-{b - 1}' for a, b in short)};" in note_text(
+        "despike", despike_note(short)
+    )
 
 
 def test_short_frame_lists_are_listed_in_full():

@@ -199,6 +199,35 @@ def test_an_input_alone_says_so():
     assert report["verdict"]["text"].startswith("input only, not cleaned")
 
 
+def test_an_inputs_noise_leaves_out_its_flips_as_the_clean_verdict_does():
+    """The noisy sample's five RThumb flips had been most of its headline noise: the line
+    and the page's first figure now leave out the acceleration rows that touch a step
+    over 90 degrees, measured here from the rotations alone, and say how many."""
+    from motionclean.report.metrics import angular_acceleration
+    from motionclean.report.summary import build_report, build_series
+
+    clip = mc.load(NOISY)
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    q = clip.rotations
+    steps = np.degrees(quat.angle_between(q[:-1], q[1:])) > 90.0  # (F-1, J)
+    rows = steps[:-1] | steps[1:]  # acceleration rows i..i+2 touching such a step
+    acc = angular_acceleration(q, clip.frame_time)
+    expected = math.sqrt(np.mean(acc[~rows] ** 2))
+    verdict = report["verdict"]
+    assert verdict["noise_before"] == pytest.approx(expected, rel=1e-9)
+    assert verdict["unrepaired_jumps"] == int(steps.sum()) >= 5
+    assert expected < 0.5 * report["summary"]["angular_accel_rms"]["before"]
+    left = f"without {int(steps.sum())} steps over 90 degrees (flips or glitches)"
+    assert verdict["text"] == (
+        f"input only, not cleaned: noise {expected:,.0f} deg/s\u00b2 RMS angular "
+        f"acceleration, {left}"
+    )
+    page = render_html(report, series)
+    value, label = re.findall(r'<div class="stat"><b>(.*?)</b><span>(.*?)</span>', page)[0]
+    assert value == f"{expected:,.0f}" and left in label
+
+
 def test_verdict_words_follow_the_counts():
     joints = {
         "RThumb": {"despike": {"unflipped": [[4, 9]], "interpolated": [], "frames_repaired": 5}},
@@ -219,6 +248,42 @@ def test_verdict_words_follow_the_counts():
     text = build_verdict(report, smoothing)["text"]
     assert "1 flip repaired on RThumb" in text and "2 spikes repaired on Head" in text
     assert "flips" not in text.replace("1 flip ", "")
+
+
+def test_repairs_on_several_joints_are_counted_per_joint():
+    """ "14 flips repaired on LeftElbow, RThumb" had not said which had how many."""
+
+    def flips(count: int) -> dict:
+        runs = [[10 * k, 10 * k + 2] for k in range(count)]
+        return {"despike": {"unflipped": runs, "interpolated": [], "frames_repaired": 2 * count}}
+
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 0.02,
+        "change_deg_rms": 0.01,
+        "change_joint": "Head",
+    }
+    counts = {"LeftElbow": 1, "RThumb": 13, "Head": 2, "Neck": 2, "Hips": 1}
+    joints = {name: flips(n) for name, n in counts.items()}
+    report = {"frames": 200, "joints": joints, "summary": {}, "contacts": None}
+    two = {n: joints[n] for n in ("LeftElbow", "RThumb")}
+    text = build_verdict(report | {"joints": two}, smoothing)["text"]
+    assert "14 flips repaired (RThumb 13, LeftElbow 1)" in text
+    text = build_verdict(report, smoothing)["text"]
+    assert "19 flips repaired (RThumb 13, Head 2, Neck 2 and 2 more joints)" in text
+
+
+def test_the_terminal_table_says_its_totals_include_repairs(demo, tmp_path, capsys):
+    """The page's total says "repairs included"; the table's all-joints row, the same
+    figures, says so below it where a step repaired frames, and not otherwise."""
+    from motionclean.report.summary import format_table
+
+    lines = format_table(demo.report).splitlines()
+    row = next(k for k, line in enumerate(lines) if line.startswith("all joints"))
+    assert lines[row + 1].startswith("(figures with repairs included;")
+    assert "repairs included" in render_html(demo.report, demo.series)
+    clean = clean_clip(SAMPLE, None, Pipeline.from_inline(["lee-shin"])).report
+    assert "repairs included" not in format_table(clean)
 
 
 def test_batch_index_and_table_carry_each_clips_verdict(tmp_path, capsys):
