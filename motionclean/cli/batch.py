@@ -305,7 +305,8 @@ def batch_command(
             )
             continue
         report_page = None if page is None else str(page)
-        work.append(Job(str(source), str(target), tables, report_page, up, read))
+        # (absolute: a Dask worker runs in a folder of its own)
+        work.append(Job(str(source), str(target), tables, report_page, up, read).absolute())
         work_names.append(str(rel))
 
     read_too = [*read.files, *([pipe] if pipe is not None else [])]

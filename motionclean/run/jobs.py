@@ -226,6 +226,23 @@ class Job:
     up: str | None = None  # the clips' up axis, when the user gives it
     read: ReadOptions = ReadOptions()
 
+    def absolute(self) -> Job:
+        """This job with every path (clip, output, report, skeleton, body model) made
+        absolute from this process's working folder, links kept as they are: a worker
+        started in another folder (a Dask worker) reads and writes the files meant here."""
+
+        def whole(path: str | None) -> str | None:
+            return None if path is None else os.fspath(Path(path).absolute())
+
+        read = self.read
+        return replace(
+            self,
+            source=os.fspath(Path(self.source).absolute()),
+            target=whole(self.target),
+            report=whole(self.report),
+            read=replace(read, skeleton=whole(read.skeleton), body_model=whole(read.body_model)),
+        )
+
 
 def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
     if isinstance(error, MotionError):
