@@ -34,6 +34,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
 from ..io import ReadOptions, atomic_write
 from ..report.summary import json_safe, to_json
+from ..report.verdict import listed
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
 from ..steps.base import is_number, plural
@@ -254,6 +255,17 @@ def _why(key: str, label: str, ref: Any, value: Any, verdict: str, tolerance: fl
     )
 
 
+def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
+    """The failure line for the baseline's clips not checked (deleted, or left out of the
+    command): a regression check passes only on every clip it recorded."""
+    them = "it" if len(keys) == 1 else "them"
+    return (
+        f"{baseline}: {plural(len(keys), 'recorded clip')} not checked: {listed(list(keys), 3)}; "
+        f"check {them} too, or record the baseline without {them} (--update --replace with "
+        "the clips to keep)"
+    )
+
+
 @click.command("check")
 @click.argument("clips", nargs=-1, required=True, type=PATH)
 @PIPE_OPTION
@@ -301,8 +313,8 @@ def check_command(
     """Clean CLIPs and compare their figures with a baseline, for CI.
 
     Exit 0 when every clip's noise after cleaning and deviation are within the tolerance
-    of the baseline, 1 naming each clip and figure that got worse. Nothing is written
-    except the baseline with --update.
+    of the baseline, 1 naming each clip and figure that got worse, and the baseline's clips
+    not checked. Nothing is written except the baseline with --update.
     """
     pipeline = pipeline_from_options(pipe, steps, capture)
     baseline_path = Path(baseline)
@@ -379,6 +391,9 @@ def check_command(
                 f"{key}: {len({j for j, *_ in joints})} joints got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"
             )
+    unchecked = sorted(set(document["clips"]) - set(keys))
+    if unchecked:
+        problems.append(unchecked_line(baseline_path, unchecked))
     if table:
         click.echo(format_check(table))
     if document.get("pipeline") != json_safe(list(tables)):

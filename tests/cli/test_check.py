@@ -174,6 +174,23 @@ def test_clip_missing_from_the_baseline_fails(clips, capsys):
     assert code == 1 and f"{clips[1]}: not in the baseline" in stderr
 
 
+def test_a_recorded_clip_that_is_not_checked_fails_until_the_baseline_drops_it(clips, capsys):
+    """A clip deleted from the test set had passed silently ('check passed: 1 clip'): the
+    check now fails naming it, until a baseline is recorded without it."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    Path(clips[1]).unlink()
+    code, out, err = run_cli(capsys, "check", clips[0], "--baseline", "b.json")
+    assert code == 1 and "check passed" not in out and f"{clips[0]} " in out
+    assert err == (
+        f"motionclean: error: b.json: 1 recorded clip not checked: {clips[1]}; check it too, "
+        "or record the baseline without it (--update --replace with the clips to keep)\n"
+    )
+    args = ("check", clips[0], "--baseline", "b.json")
+    assert run_cli(capsys, *args, "--update", "--replace")[0] == 0
+    code, out, err = run_cli(capsys, *args)
+    assert (code, err) == (0, "") and "check passed: 1 clip " in out
+
+
 def test_compare_limits():
     base = {
         "frames": 10,
