@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from fnmatch import fnmatchcase
 from pathlib import Path, PurePosixPath
 
 import click
@@ -73,14 +74,10 @@ def cluster_note(started: float, results: Sequence[FileResult], workers: int) ->
 
 
 def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
-    """Clip paths under ``root``, relative to it, sorted.
-
-    A file is taken when its relative path matches one of ``patterns`` from the right
-    (``PurePath.match``: ``*.bvh`` matches at any depth, ``walk/*.bvh`` in any folder named
-    walk), case-insensitively. Hidden files and folders (name starting with ".") are left
-    out; symbolic links to folders are not followed.
-    """
-    patterns = [p.lower() for p in patterns]
+    """Clip paths under ``root``, relative to it, sorted: those whose relative path matches
+    one of ``patterns`` (:func:`glob_match`). Hidden files and folders (name starting with
+    ".") are left out; symbolic links to folders are not followed."""
+    split = [glob_parts(p) for p in patterns]
     found = []
     for folder, dirs, files in os.walk(root):
         dirs[:] = sorted(d for d in dirs if not d.startswith("."))
@@ -89,10 +86,33 @@ def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
             if name.startswith("."):
                 continue
             rel = base / name
-            lowered = PurePosixPath(rel.as_posix().lower())
-            if any(lowered.match(p) for p in patterns):
+            lowered = tuple(part.lower() for part in rel.parts)
+            if any(glob_match(lowered, p) for p in split):
                 found.append(rel)
     return sorted(found)
+
+
+def glob_parts(pattern: str) -> tuple[str, ...]:
+    """A ``--glob`` pattern as the path components it matches, lower case: one without "/"
+    is the file name at any depth (``*.bvh`` is ``**/*.bvh``)."""
+    pattern = pattern.lower()
+    if "/" not in pattern:
+        return ("**", pattern)
+    return PurePosixPath(pattern).parts
+
+
+def glob_match(parts: tuple[str, ...], pattern: tuple[str, ...]) -> bool:
+    """Whether a relative path's components ``parts`` (lower case) match ``pattern``'s
+    (:func:`glob_parts`) whole: ``*``, ``?`` and ``[...]`` within one component (fnmatch), a
+    ``**`` component any number of folders, none included (last: everything below it)."""
+    if not pattern:
+        return not parts
+    head, rest = pattern[0], pattern[1:]
+    if head == "**":
+        return bool(parts) and (
+            not rest or any(glob_match(parts[k:], rest) for k in range(len(parts)))
+        )
+    return bool(parts) and fnmatchcase(parts[0], head) and glob_match(parts[1:], rest)
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -217,9 +237,10 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     "patterns",
     multiple=True,
     metavar="PATTERN",
-    help="Which files are clips, matched on the path relative to IN_DIR, "
-    "case-insensitive; repeatable (default: every suffix motionclean reads, "
-    f"{' '.join(DEFAULT_GLOBS)}).",
+    help="Which files are clips, matched on the whole path relative to IN_DIR, "
+    "case-insensitive: * and ? within a folder or file name, ** any number of folders "
+    "(walk/**/*.bvh); a pattern without / matches the file name at any depth; repeatable "
+    f"(default: every suffix motionclean reads, {' '.join(DEFAULT_GLOBS)}).",
 )
 @click.option(
     "--report-dir",
@@ -271,7 +292,10 @@ def batch_command(
     _check_folders(source_root, out_root, pages)
     clips = find_clips(source_root, patterns or DEFAULT_GLOBS)
     if not clips:
-        raise UsageError(f"{in_dir}: no clips matching {', '.join(patterns or DEFAULT_GLOBS)}")
+        shown = ", ".join(patterns or DEFAULT_GLOBS)
+        if any("/" in p for p in patterns):
+            shown += " (the whole path below it: * within one name, ** any number of folders)"
+        raise UsageError(f"{in_dir}: no clips matching {shown}")
     resolved_in = source_root.resolve()
 
     def check_written(written: Path) -> None:
@@ -305,7 +329,8 @@ def batch_command(
             )
             continue
         report_page = None if page is None else str(page)
-        work.append(Job(str(source), str(target), tables, report_page, up, read))
+        # (absolute: a Dask worker runs in a folder of its own)
+        work.append(Job(str(source), str(target), tables, report_page, up, read).absolute())
         work_names.append(str(rel))
 
     read_too = [*read.files, *([pipe] if pipe is not None else [])]

@@ -5,7 +5,9 @@ written) and compares, per clip, the figures of :class:`~motionclean.cli.batch.F
 
 - ``noise_after``: RMS angular acceleration after cleaning, all joints (deg/s^2);
 - ``deviation_max`` / ``deviation_rms``: rotation angle between input and output (degrees);
-- ``frames`` and ``noise_before`` guard the input: when they differ the clip itself changed.
+- ``frames``, ``noise_before`` and ``content`` (a digest of the clip's values as read,
+  :func:`~motionclean.run.jobs.content_digest`) guard the input: when they differ the clip
+  itself changed. A baseline recorded before ``content`` existed is checked without it.
 
 A figure is worse when ``now > baseline * (1 + T) + ABSOLUTE`` (relative tolerance ``T``,
 default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from failing on
@@ -21,6 +23,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -31,6 +34,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
 from ..io import ReadOptions, atomic_write
 from ..report.summary import json_safe, to_json
+from ..report.verdict import listed
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
 from ..steps.base import is_number, plural
@@ -70,7 +74,9 @@ JOINT_FIGURES = (
     ("noise_after", "noise after, deg/s^2"),
     ("deviation_max", "deviation max, deg"),
 )
-FORMAT = 2
+#: What the baseline's ``content`` of a clip holds: a SHA-256 digest in hex.
+DIGEST = re.compile(r"[0-9a-f]{64}")
+FORMAT = 3
 
 
 def clip_key(path: str, baseline: Path) -> str:
@@ -121,6 +127,9 @@ def _entry_problem(entry: Any) -> str | None:
     frames = entry.get("frames")
     if not (is_number(frames) and isinstance(frames, int) and frames >= 0):
         return f"frames {str(frames)[:20]!r} is not a whole number"
+    content = entry.get("content")
+    if content is not None and not (isinstance(content, str) and DIGEST.fullmatch(content)):
+        return f"content {str(content)[:20]!r} is not a SHA-256 digest"
     joints = entry.get("joints", {})
     if not isinstance(joints, dict):
         return "joints is not a table"
@@ -141,6 +150,7 @@ def _figures(result: FileResult) -> dict[str, Any]:
     out: dict[str, Any] = {"frames": result.frames}
     out.update({key: getattr(result, key) for key, _, _ in FIGURES})
     out["joints"] = result.joints
+    out["content"] = result.content
     return out
 
 
@@ -169,11 +179,14 @@ def compare_joints(
 
 def compare(
     now: dict[str, Any], base: dict[str, Any], tolerance: float
-) -> list[tuple[str, float | None, float | None, str]]:
-    """Rows ``(label, baseline, now, verdict)``; verdict is ok, better, WORSE or CHANGED."""
-    rows = []
+) -> list[tuple[str, Any, Any, str]]:
+    """Rows ``(label, baseline, now, verdict)``; verdict is ok, better, WORSE or CHANGED.
+    A baseline without ``content`` (recorded before it was) is compared on the figures."""
+    rows: list[tuple[str, Any, Any, str]] = []
     if now.get("frames") != base.get("frames"):
         rows.append(("frames", base.get("frames"), now.get("frames"), "CHANGED"))
+    if base.get("content") is not None and now.get("content") != base["content"]:
+        rows.append(("content digest", base["content"], now.get("content"), "CHANGED"))
     for key, label, rise_only in FIGURES:
         value, ref = now.get(key), base.get(key)
         if ref is None and value is None:  # nothing measured, then or now (no 3 frames known)
@@ -193,12 +206,15 @@ def compare(
     return rows
 
 
-def _fmt(value: float | None) -> str:
+def _fmt(value: float | str | None) -> str:
+    """A figure as the table shows it; a digest by its first 12 characters."""
+    if isinstance(value, str):
+        return value[:12]
     return "-" if value is None else f"{value:,.6g}"
 
 
-def _change(ref: float | None, value: float | None) -> str:
-    if ref is None or value is None or abs(ref) <= ABSOLUTE:  # (no ratio to a rounding)
+def _change(ref: Any, value: Any) -> str:
+    if not (is_number(ref) and is_number(value)) or abs(ref) <= ABSOLUTE:  # (no ratio)
         return "-"
     return f"{value / ref - 1:+.1%}"
 
@@ -227,9 +243,7 @@ def _percent(tolerance: float) -> str:
     return f"{tolerance * 100:g}%"
 
 
-def _why(
-    key: str, label: str, ref: float | None, value: float | None, verdict: str, tolerance: float
-) -> str:
+def _why(key: str, label: str, ref: Any, value: Any, verdict: str, tolerance: float) -> str:
     if verdict == "WORSE":
         return (
             f"{key}: {label.split(',')[0]} got worse: {_fmt(ref)} -> {_fmt(value)} "
@@ -238,6 +252,17 @@ def _why(
     return (
         f"{key}: {label.split(',')[0]} changed from {_fmt(ref)} to {_fmt(value)}: the "
         "clip is not the one of the baseline; rerun with --update if that is intended"
+    )
+
+
+def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
+    """The failure line for the baseline's clips not checked (deleted, or left out of the
+    command): a regression check passes only on every clip it recorded."""
+    them = "it" if len(keys) == 1 else "them"
+    return (
+        f"{baseline}: {plural(len(keys), 'recorded clip')} not checked: {listed(list(keys), 3)}; "
+        f"check {them} too, or record the baseline without {them} (--update --replace with "
+        "the clips to keep)"
     )
 
 
@@ -288,8 +313,8 @@ def check_command(
     """Clean CLIPs and compare their figures with a baseline, for CI.
 
     Exit 0 when every clip's noise after cleaning and deviation are within the tolerance
-    of the baseline, 1 naming each clip and figure that got worse. Nothing is written
-    except the baseline with --update.
+    of the baseline, 1 naming each clip and figure that got worse, and the baseline's clips
+    not checked. Nothing is written except the baseline with --update.
     """
     pipeline = pipeline_from_options(pipe, steps, capture)
     baseline_path = Path(baseline)
@@ -366,6 +391,9 @@ def check_command(
                 f"{key}: {len({j for j, *_ in joints})} joints got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"
             )
+    unchecked = sorted(set(document["clips"]) - set(keys))
+    if unchecked:
+        problems.append(unchecked_line(baseline_path, unchecked))
     if table:
         click.echo(format_check(table))
     if document.get("pipeline") != json_safe(list(tables)):

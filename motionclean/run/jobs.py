@@ -10,6 +10,8 @@ This is what ``clean``, ``batch`` and ``check`` call, and what Python users call
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import os
 import time
@@ -42,6 +44,7 @@ __all__ = [
     "clean_clip",
     "clean_file",
     "clean_motion",
+    "content_digest",
     "notes_by_joint",
     "run_job",
     "stitch_clips",
@@ -201,6 +204,22 @@ class FileResult:
     jitter_removed: float | None = None
     change_max: float | None = None
     warnings: tuple[str, ...] = ()  # one line each: motionclean: warning: FILE: ...
+    content: str | None = None  # the input's content_digest
+
+
+def content_digest(motion: Motion) -> str:
+    """SHA-256 (hex) of what a clip holds as read: joints, tree, channels, offsets and end
+    sites, frame time, every frame's rotations and translations and its dropouts. Numbers
+    enter as float32, so the last bits of one machine's maths against another's do not
+    count while any edit of a value does (``check`` tells an edited clip by it)."""
+    tree = {"names": motion.names, "channels": motion.channels, "parents": motion.parents}
+    digest = hashlib.sha256(json.dumps(tree, default=np.ndarray.tolist).encode())
+    ends = [motion.end_sites[j] for j in sorted(motion.end_sites)]
+    numbers = [motion.offsets, *ends, [motion.frame_time], motion.rotations, motion.translations]
+    for values in numbers:
+        digest.update(np.asarray(values, dtype="<f4").tobytes())
+    digest.update(np.packbits(motion.missing_mask()).tobytes())
+    return digest.hexdigest()
 
 
 def pattern_warnings(source: str, logs: Sequence[StepLog]) -> tuple[str, ...]:
@@ -225,6 +244,23 @@ class Job:
     report: str | None = None
     up: str | None = None  # the clips' up axis, when the user gives it
     read: ReadOptions = ReadOptions()
+
+    def absolute(self) -> Job:
+        """This job with every path (clip, output, report, skeleton, body model) made
+        absolute from this process's working folder, links kept as they are: a worker
+        started in another folder (a Dask worker) reads and writes the files meant here."""
+
+        def whole(path: str | None) -> str | None:
+            return None if path is None else os.fspath(Path(path).absolute())
+
+        read = self.read
+        return replace(
+            self,
+            source=os.fspath(Path(self.source).absolute()),
+            target=whole(self.target),
+            report=whole(self.report),
+            read=replace(read, skeleton=whole(read.skeleton), body_model=whole(read.body_model)),
+        )
 
 
 def _failure(source: str, target: str | None, error: BaseException, start: float) -> FileResult:
@@ -269,6 +305,7 @@ def _success(result: CleanedClip, job: Job) -> FileResult:
         deviation_rms=deviation_rms,
         report=job.report,
         warnings=pattern_warnings(job.source, result.logs),
+        content=content_digest(result.before),
         joints={
             name: {
                 "noise_after": entry["angular_accel_rms"]["after"],

@@ -32,10 +32,14 @@ def default_workers() -> int:
 
 def _worker_setup(parent: int) -> None:
     """Worker initializer: Ctrl-C is handled by the parent, which stops handing out clips;
-    a worker whose parent is gone (killed, even with SIGKILL) exits within a second instead
-    of holding the caller's pipes open. Each worker cleans its clip on one thread: the
-    workers already use the cores."""
+    SIGTERM (the parent's, or one sent to the whole process group by ``kill``, ``timeout``
+    or a scheduler) ends the worker at once and silently, by the signal's default action,
+    instead of the parent's handler it was forked with (a traceback per worker); the parent
+    removes what it leaves and says the one line. A worker whose parent is gone (killed,
+    even with SIGKILL) exits within a second instead of holding the caller's pipes open.
+    Each worker cleans its clip on one thread: the workers already use the cores."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     os.environ["MOTIONCLEAN_THREADS"] = "1"
 
     def watch() -> None:
@@ -121,5 +125,7 @@ def _run_pool(
         executor.shutdown(wait=False, cancel_futures=True)
         for process in processes:
             process.terminate()
+        for process in processes:  # (ended by the signal at once: none writes after this)
+            process.join()
         raise
     executor.shutdown(wait=not broken)

@@ -277,19 +277,38 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
     assert other == {}  # another pipeline's figures are never taken
 
 
-def test_glob_selects_clips_case_insensitively(tree):
+@pytest.mark.parametrize(
+    ("pattern", "selected"),
+    [
+        ("*.BVH", ["run/broken.bvh", "run/deep/b.BVH", "top.bvh", "walk/a.bvh", "walk/runs.bvh"]),
+        ("run*", ["walk/runs.bvh"]),  # no / : a file name at any depth, not the folder run
+        ("run/*", ["run/broken.bvh", "run/notes.txt"]),  # * does not cross /
+        ("run/**", ["run/broken.bvh", "run/deep/b.BVH", "run/notes.txt"]),
+        ("run/**/*.bvh", ["run/broken.bvh", "run/deep/b.BVH"]),  # ** takes no folder too
+        ("**/deep/*", ["run/deep/b.BVH"]),
+        ("RUN/Deep/*.bvh", ["run/deep/b.BVH"]),
+        ("deep/*", []),  # the whole path: matched from the right, it had taken run/deep/b.BVH
+        ("walk/*.bvh", ["walk/a.bvh", "walk/runs.bvh"]),
+        ("w?lk/[ab].bvh", ["walk/a.bvh"]),
+    ],
+)
+def test_glob_matches_the_whole_relative_path(tree, pattern, selected):
+    """'exporters/**', 'exporters/**/*.bvh' and 'realnoise*' (a file of that name) had
+    selected nothing: each pattern was matched from the right, a component at a time, so
+    ** never crossed folders. Hidden files and folders stay out."""
     (tree / ".hidden").mkdir()
     cut_bvh(SAMPLE, tree / ".hidden" / "x.bvh", 5)
-    assert [p.as_posix() for p in find_clips(tree, ["*.BVH"])] == [
-        "run/broken.bvh",
-        "run/deep/b.BVH",
-        "top.bvh",
-        "walk/a.bvh",
-    ]
-    assert [p.as_posix() for p in find_clips(tree, ["walk/*.bvh", "*.TXT"])] == [
-        "run/notes.txt",
-        "walk/a.bvh",
-    ]
+    (tree / "walk" / "runs.bvh").write_text("not read")
+    assert [p.as_posix() for p in find_clips(tree, [pattern])] == selected
+
+
+def test_a_glob_that_selects_nothing_says_how_patterns_match(tree, tmp_path, capsys):
+    code, out, err = run_cli(capsys, "batch", tree, "-o", tmp_path / "o", "--glob", "run/*.csv")
+    assert (code, out) == (2, "") and not (tmp_path / "o").exists()
+    assert err == (
+        f"motionclean: error: {tree}: no clips matching run/*.csv (the whole path below it: * "
+        "within one name, ** any number of folders)\n"
+    )
 
 
 def test_job_returns_a_picklable_result_and_reports_failures(tree, tmp_path):

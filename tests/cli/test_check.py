@@ -123,6 +123,7 @@ def test_missing_baseline_is_a_clear_error(clips, capsys):
         (lambda e: e.update(joints=[]), "joints is not a table"),
         (lambda e: e["joints"].update(Hips=3), "joint 'Hips': not a table of figures"),
         (lambda e: e.clear(), "frames 'None' is not a whole number"),
+        (lambda e: e.update(content="abc"), "content 'abc' is not a SHA-256 digest"),
     ],
 )
 def test_a_baseline_edited_by_hand_is_refused_naming_the_clip(clips, capsys, edit, message):
@@ -171,6 +172,23 @@ def test_clip_missing_from_the_baseline_fails(clips, capsys):
     assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
     code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.json")
     assert code == 1 and f"{clips[1]}: not in the baseline" in stderr
+
+
+def test_a_recorded_clip_that_is_not_checked_fails_until_the_baseline_drops_it(clips, capsys):
+    """A clip deleted from the test set had passed silently ('check passed: 1 clip'): the
+    check now fails naming it, until a baseline is recorded without it."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    Path(clips[1]).unlink()
+    code, out, err = run_cli(capsys, "check", clips[0], "--baseline", "b.json")
+    assert code == 1 and "check passed" not in out and f"{clips[0]} " in out
+    assert err == (
+        f"motionclean: error: b.json: 1 recorded clip not checked: {clips[1]}; check it too, "
+        "or record the baseline without it (--update --replace with the clips to keep)\n"
+    )
+    args = ("check", clips[0], "--baseline", "b.json")
+    assert run_cli(capsys, *args, "--update", "--replace")[0] == 0
+    code, out, err = run_cli(capsys, *args)
+    assert (code, err) == (0, "") and "check passed: 1 clip " in out
 
 
 def test_compare_limits():
@@ -249,19 +267,57 @@ def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(
     assert ["RightKnee:", "noise", "after,"] in [row[:3] for row in worse]  # in the table too
 
 
+def edit_value(path: str, frame: int, column: int, change: float) -> None:
+    """Add ``change`` to one value of a BVH clip's motion block."""
+    lines = Path(path).read_text().splitlines()
+    row = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1 + frame
+    values = lines[row].split()
+    values[column] = f"{float(values[column]) + change:.6f}"
+    lines[row] = " ".join(values)
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
 def test_a_clip_edited_by_half_a_degree_on_one_frame_is_another_clip(clips, capsys):
     """The clip's own figure (the noise before cleaning) is compared to rounding, not to the
     tolerance: a half-degree edit of one value had passed as 'ok'."""
     assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
-    lines = Path(clips[1]).read_text().splitlines()
-    row = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 41
-    values = lines[row].split()
-    values[5] = f"{float(values[5]) + 0.5:.6f}"
-    lines[row] = " ".join(values)
-    Path(clips[1]).write_text("\n".join(lines) + "\n")
+    edit_value(clips[1], frame=40, column=5, change=0.5)
     code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
     assert code == 1 and "noise before changed" in err and "not the one of the baseline" in err
     assert "joints got worse" not in err  # another clip: its joints are not judged
+
+
+def test_a_clip_whose_root_moved_on_one_frame_is_another_clip(clips, capsys):
+    """+5 units on the root's Xposition of one frame had passed ('check passed ... +0.0%
+    ok'): only rotation figures were compared. The baseline records a digest of the
+    clip's values as read, positions too."""
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
+    recorded = json.loads(Path("b.json").read_text())
+    assert recorded["format"] == 3 and len(recorded["clips"][clips[1]]["content"]) == 64
+    edit_value(clips[1], frame=40, column=0, change=5.0)
+    code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
+    assert code == 1 and "check passed" not in out
+    assert f"motionclean: error: {clips[1]}: content digest changed from " in err
+    assert "the clip is not the one of the baseline" in err
+    assert [line.split()[-1] for line in out.splitlines() if "content digest" in line] == [
+        "CHANGED"
+    ]
+
+
+def test_a_baseline_recorded_without_a_digest_is_checked_on_its_figures(clips, capsys):
+    """Baselines written before the digest (format 2) are read as they were: the clip
+    passes on its figures, and a noisier clip still fails."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    document = json.loads(Path("b.json").read_text())
+    document["format"] = 2
+    for entry in document["clips"].values():
+        del entry["content"]
+    Path("b.json").write_text(json.dumps(document))
+    code, out, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert (code, err) == (0, "") and "check passed" in out and "content" not in out
+    make_noisier(clips[1])
+    code, _, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert code == 1 and f"{clips[1]}: noise before changed" in err
 
 
 def test_a_folder_given_as_a_clip_says_so_as_the_other_commands_do(tmp_path, capsys):

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from helpers import NOISY, SAMPLE, cut_bvh, run_cli
 
+import motionclean as mc
 from motionclean.run import cluster
 from motionclean.run.jobs import Job, run_job
 from motionclean.steps.pipeline import Pipeline
@@ -181,3 +182,52 @@ def test_a_local_cluster_has_no_more_workers_than_clips(tmp_path, capsys):
         capsys, "batch", tmp_path / "in", "-o", tmp_path / "out", "--scheduler", "local:99999"
     )
     assert code == 0 and "on 1 worker " in out and (tmp_path / "out" / "one.bvh").exists()
+
+
+def test_relative_paths_reach_a_worker_in_another_folder_as_the_clients(
+    tmp_path, capsys, monkeypatch, dask_scheduler
+):
+    """Relative paths were resolved in the worker's folder: a worker started elsewhere read
+    the clip of the same relative name there and wrote the outputs there (exit 0, the
+    client's -o left empty). Every path a task carries is now absolute, from the client's
+    folder; here the process, whose worker runs the tasks, moves to another folder holding
+    clips of the same names once the jobs are made."""
+    client, elsewhere = tmp_path / "client", tmp_path / "worker"
+    for folder, frames in ((client, 40), (elsewhere, 20)):
+        rig = cut_bvh(SAMPLE, folder / "rig.bvh", frames)
+        cut_bvh(SAMPLE, folder / "in" / "a.bvh", frames)
+        assert run_cli(capsys, "convert", rig, folder / "in" / "c.csv")[0] == 0
+    sent = []
+    real = cluster.run_jobs_on
+
+    def run_jobs_on(client_, jobs):
+        sent.extend(jobs)
+        os.chdir(elsewhere)  # the worker's folder from now on
+        try:
+            yield from real(client_, jobs)
+        finally:
+            os.chdir(client)
+
+    monkeypatch.setattr(cluster, "run_jobs_on", run_jobs_on)
+    monkeypatch.chdir(client)
+    code, out, err = run_cli(
+        capsys,
+        "batch",
+        "in",
+        "-o",
+        "out",
+        "--report-dir",
+        "pages",
+        "--skeleton",
+        "rig.bvh",
+        "--scheduler",
+        dask_scheduler,
+        "-q",
+    )
+    assert (code, out, err) == (0, "", "")
+    for name in ("a.bvh", "c.csv"):
+        assert mc.load(client / "out" / name, skeleton=client / "rig.bvh").n_frames == 40
+        assert (client / "pages" / f"{name}.html").is_file()
+    assert sorted(p.name for p in elsewhere.iterdir()) == ["in", "rig.bvh"]
+    paths = [(j.source, j.target, j.report, j.read.skeleton) for j in sent]
+    assert len(paths) == 2 and all(Path(p).is_absolute() for row in paths for p in row)

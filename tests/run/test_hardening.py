@@ -167,24 +167,38 @@ def slow_command(*args, **popen) -> subprocess.Popen:
 
 
 @pytest.mark.slow
-def test_sigterm_stops_a_batch_and_its_workers(tmp_path):
-    source = tmp_path / "in"
+@pytest.mark.parametrize("group", [False, True], ids=["parent", "process-group"])
+def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
+    """SIGTERM to the batch alone (kill PID), or to its whole process group (timeout(1),
+    a job control's kill %1): one line, exit 130, no temporary file, the workers gone. Sent
+    to the group, each forked worker had raised the parent's KeyboardInterrupt in its clip
+    and printed a traceback (62-125 lines on stderr)."""
+    source, out = tmp_path / "in", tmp_path / "o"
     for k in range(12):
         cut_bvh(SAMPLE, source / f"c{k}.bvh", 300)
-    process = slow_command("batch", source, "-o", tmp_path / "o", "-j", "2", start_new_session=True)
-    time.sleep(3.0)
+    process = slow_command("batch", source, "-o", out, "-j", "2", start_new_session=True)
+    deadline = time.monotonic() + 60
+    while not list(out.glob("c*.bvh")) and time.monotonic() < deadline:
+        time.sleep(0.05)  # the workers are cleaning: one clip is written, others under way
     children = subprocess.run(
         ["pgrep", "-P", str(process.pid)], capture_output=True, text=True, check=False
     ).stdout.split()
-    process.send_signal(signal.SIGTERM)
+    if group:
+        os.killpg(process.pid, signal.SIGTERM)
+    else:
+        process.send_signal(signal.SIGTERM)
     try:
         _, err = process.communicate(timeout=30)
     finally:
         process.kill()
-    assert process.returncode == 130 and b"interrupted" in err
-    time.sleep(1.5)
-    alive = [pid for pid in children if running(pid)]
-    assert children and not alive
+    assert process.returncode == 130 and err == b"motionclean: error: interrupted\n"
+    deadline = time.monotonic() + 5
+    while any(running(pid) for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert len(children) >= 2 and not [pid for pid in children if running(pid)]
+    written = sorted(p.name for p in out.iterdir())
+    assert written and all(name.endswith(".bvh") for name in written)  # no .tmp left
+    assert len(written) < 12 and all(mc.load(out / name).n_frames == 300 for name in written)
 
 
 def test_sigterm_stops_a_clean_as_ctrl_c_does(tmp_path):
