@@ -240,7 +240,7 @@ def test_report_figures_from_the_figure_points_equal_those_from_every_point():
     feet, up, height = found.skeleton_feet(motion)
     params = found.ContactParams()
     contacts, _ = found.detect(full_b, feet, up, height, motion.frame_time, params)
-    skate = found.skate(full_a, feet, contacts, up, motion.frame_time)
+    skate = found.skate(full_a, feet, contacts, up, motion.frame_time, None, found.DRIFT_SECONDS)
     for k, foot in enumerate(feet):
         entry = report["contacts"]["feet"][foot.name]
         assert entry["contacts"] == [list(run) for run in found.contact_runs(contacts)[k]]
