@@ -23,7 +23,7 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
-from ..filters.auto import NEGLIGIBLE_DEG, describe_source
+from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text, plural
 from . import metrics
@@ -599,8 +599,34 @@ def build_report(
     if said:
         report["notes"] = said
     smoothing = _smoothing(series, list(series["joints"]))
+    if smoothing is not None:
+        smoothing["noise_level"] = _noise_level(core_before, joints)
     report["verdict"] = build_verdict(report, smoothing, _input_noise(series))
     return report
+
+
+def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
+    """RMS over the rotating joints of the input's per-sample rotation noise (degrees):
+    the ``auto`` step's estimate where it noted one (the markerless model's wander
+    included), else the optical model's on the input (:func:`estimate_noise`); None
+    without a rotating joint or a frame to tell it from."""
+    rotating = np.flatnonzero(before.layout.has_rotation)
+    if not rotating.size or before.n_frames == 0:
+        return None
+    noted = {
+        j: note["noise"]
+        for j in rotating.tolist()
+        if (note := joints.get(before.names[j], {}).get("auto", {})).get("unit") == "deg"
+        and note.get("noise") is not None
+    }
+    levels = np.zeros(rotating.size)
+    guessed = [j for j in rotating.tolist() if j not in noted]
+    if guessed:
+        levels[np.isin(rotating, guessed)] = estimate_noise(
+            before.rotations[:, guessed], before.frame_time
+        )
+    levels[np.isin(rotating, list(noted))] = [noted[j] for j in rotating.tolist() if j in noted]
+    return float(np.sqrt(np.mean(levels**2)))
 
 
 def _step_notes(joints: dict[str, dict]) -> list[str]:

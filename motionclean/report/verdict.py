@@ -71,6 +71,12 @@ UNCHANGED_DEG = 1e-6
 GROUNDED_JITTER = 0.01
 #: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a look.
 LOOK_CHANGE_DEG = 10.0
+#: ... and so does smoothing that changes the clip by more than this many times its
+#: estimated noise (RMS over joints and frames against the RMS of the joints' per-sample
+#: noise): it took motion away. The default changes a clip by 0.3-0.9 times its noise
+#: (the noisy sample 0.92, markerless takes 0.43-0.92); a Lee-Shin filter of k=2 run 3
+#: times changed a clean capture whose noise is 0.01 degrees by 0.36 degrees RMS.
+LOOK_CHANGE_NOISE = 3.0
 #: The position counterparts of :data:`CLEAN_CHANGE_DEG` and :data:`LOOK_CHANGE_DEG`, in
 #: body heights (or, without one, of the range the clip's positions travel): the end of a
 #: limb 0.57 body heights long (1 m of 1.75 m) turned by 0.05 degrees moves by 0.0005 body
@@ -399,6 +405,19 @@ def build_verdict(
             f"{what} {joint} by {change:.1f} degrees"
             + _across_defects(smoothing, joint, change, filters)
         )
+    noise = smoothing.get("noise_level")
+    over_noise = (
+        smoothed
+        and noise is not None
+        and smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
+        and smoothing["change_deg_rms"] > LOOK_CHANGE_NOISE * noise
+    )
+    if over_noise:
+        rms = smoothing["change_deg_rms"]
+        reasons.append(
+            f"smoothing changed it by {rms:.2f} degrees RMS, more than {LOOK_CHANGE_NOISE:g} "
+            f"times its noise ({noise:.2g} degrees): motion taken for noise"
+        )
     grounded = _ground_words(joints)
     # positions: moved beyond the writers' rounding, and not by the ground step alone
     # (which moves and levels the whole clip without smoothing it)
@@ -466,7 +485,12 @@ def build_verdict(
         elif told and position_removed is not None and position_removed <= -0.005:
             parts.insert(1, _removed_words(position_removed, "position jitter"))
         parts = [part for part in parts if part]
-        lead = "noisy capture, cleaned"
+        # (a capture whose noise the smoothing should not have been able to move it by)
+        lead = (
+            "clean capture, smoothed"
+            if over_noise and noise < CLEAN_CHANGE_DEG
+            else ("noisy capture, cleaned")
+        )
     if shown_feet:
         parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired
