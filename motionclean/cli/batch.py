@@ -339,12 +339,12 @@ def batch_command(
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
-    _make_folders(out_root, pages)
     start = time.perf_counter()
     note = lost = None
     try:
         with _progress(len(work)) as advance:
             if scheduler is None or not work:  # nothing to send: no cluster to start
+                _make_folders(out_root, pages)
                 workers = min(
                     jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1)
                 )
@@ -353,6 +353,7 @@ def batch_command(
                     advance(work_names[index])
             else:
                 with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                    _make_folders(out_root, pages)  # (once the scheduler answered)
                     started = time.perf_counter() - start
                     if not quiet:
                         click.echo(f"Dask dashboard: {client.dashboard_link}")
