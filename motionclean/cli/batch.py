@@ -22,10 +22,10 @@ import click
 
 from ..core.errors import UsageError
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
-from ..report.html import index_entries, render_index
+from ..report.html import index_entries, page_figures, render_index
 from ..report.summary import figure_text
 from ..run import cluster
-from ..run.jobs import FileResult, Job
+from ..run.jobs import INDEX_FIGURES, FileResult, Job
 from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
@@ -339,12 +339,12 @@ def batch_command(
         raise UsageError("use either --jobs N (local processes) or --scheduler, not both")
     if scheduler is not None:
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
-    _make_folders(out_root, pages)
     start = time.perf_counter()
     note = lost = None
     try:
         with _progress(len(work)) as advance:
             if scheduler is None or not work:  # nothing to send: no cluster to start
+                _make_folders(out_root, pages)
                 workers = min(
                     jobs or default_jobs(sizes(work), default_workers()), max(len(work), 1)
                 )
@@ -353,6 +353,7 @@ def batch_command(
                     advance(work_names[index])
             else:
                 with cluster.connect(scheduler, default_workers(), len(work)) as (client, workers):
+                    _make_folders(out_root, pages)  # (once the scheduler answered)
                     started = time.perf_counter() - start
                     if not quiet:
                         click.echo(f"Dask dashboard: {client.dashboard_link}")
@@ -372,7 +373,7 @@ def batch_command(
     seconds = time.perf_counter() - start
 
     if pages is not None and skip_existing:
-        _keep_figures(results, pages / "index.html", tables)
+        _keep_figures(results, pages, tables)
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -390,25 +391,9 @@ def sizes(work: Sequence[Job]) -> list[int]:
     return [input_size(job.source) for job in work]
 
 
-#: The figures a skipped clip takes from the index of the run that cleaned it, and of
-#: what type each must be there (anything else is not taken).
-_KEPT_FIGURES = {
-    "frames": int,
-    "noise_before": float,
-    "noise_after": float,
-    "deviation_max": float,
-    "jitter_before": float,
-    "jitter_after": float,
-    "jitter_removed": float,
-    "change_max": float,
-    "verdict": str,
-    "verdict_status": str,
-}
-
-
 def _kept(value, kind: type):
-    """``value`` read from an index page if it is of ``kind`` (a whole number is a float
-    too; a bool is no number), else None."""
+    """``value`` read from an index page or a clip's page if it is of ``kind`` (a whole
+    number is a float too; a bool is no number), else None."""
     if isinstance(value, bool) or value is None:
         return None
     if kind is float and isinstance(value, int):
@@ -416,17 +401,23 @@ def _kept(value, kind: type):
     return value if isinstance(value, kind) else None
 
 
-def _keep_figures(results: dict[str, FileResult], index: Path, tables: Sequence[dict]) -> None:
-    """Give each skipped clip, in place, the figures the index page of the run that
-    cleaned it holds (same pipeline), so a resumed run's index and table stay whole."""
+def _keep_figures(results: dict[str, FileResult], pages: Path, tables: Sequence[dict]) -> None:
+    """Give each skipped clip, in place, the figures the run that cleaned it left (same
+    pipeline): its entry in the index page, or, where that run wrote no index (it was
+    interrupted) or the index lacks them, its own page's; so a resumed run's index and
+    table stay whole. A clip neither holds keeps none (the index says so)."""
     try:
-        earlier = index_entries(index.read_text(encoding="utf-8"), tables)
+        earlier = index_entries((pages / "index.html").read_text(encoding="utf-8"), tables)
     except (OSError, UnicodeDecodeError):
-        return
+        earlier = {}
     for name, result in results.items():
+        if result.status != "skipped":
+            continue
         entry = earlier.get(name)
-        if result.status == "skipped" and entry and entry.get("status") != "failed":
-            kept = {key: _kept(entry.get(key), kind) for key, kind in _KEPT_FIGURES.items()}
+        if not entry or entry.get("status") == "failed" or entry.get("frames") is None:
+            entry = page_figures(pages / f"{name}.html", tables)
+        if entry:
+            kept = {key: _kept(entry.get(key), kind) for key, kind in INDEX_FIGURES.items()}
             results[name] = dataclasses.replace(result, **kept)
 
 
@@ -438,22 +429,7 @@ def _write_index(
         page = pages / f"{name}.html"
         href = f"{name}.html" if r.status != "failed" and page.exists() else None
         entries.append(
-            {
-                "file": name,
-                "href": href,
-                "frames": r.frames,
-                "noise_before": r.noise_before,
-                "noise_after": r.noise_after,
-                "deviation_max": r.deviation_max,
-                "jitter_before": r.jitter_before,
-                "jitter_after": r.jitter_after,
-                "jitter_removed": r.jitter_removed,
-                "change_max": r.change_max,
-                "verdict": r.verdict,
-                "verdict_status": r.verdict_status,
-                "status": r.status,
-                "error": r.error,
-            }
+            {"file": name, "href": href, **r.index_figures(), "status": r.status, "error": r.error}
         )
     pages.mkdir(parents=True, exist_ok=True)
     index = render_index(entries, list(tables), f"motionclean batch: {in_dir}")

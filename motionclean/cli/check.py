@@ -213,30 +213,53 @@ def _fmt(value: float | str | None) -> str:
     return "-" if value is None else f"{value:,.6g}"
 
 
+def _pair(ref: Any, value: Any) -> tuple[str, str]:
+    """A baseline figure and the one now as shown: 6 significant digits, more (up to the
+    17 that tell any two floats apart) where 6 would print two different figures alike."""
+    if not (is_number(ref) and is_number(value)):
+        return _fmt(ref), _fmt(value)
+    digits = next(
+        (d for d in range(6, 18) if ref == value or f"{ref:.{d}g}" != f"{value:.{d}g}"), 17
+    )
+    kind = "#," if digits > 6 else ","  # (#: 147,966.0 beside 147,965.5, not 147,966)
+    return f"{ref:{kind}.{digits}g}", f"{value:{kind}.{digits}g}"
+
+
 def _change(ref: Any, value: Any) -> str:
+    """The relative change in percent; one that 0.1 % would show as 0 in two digits."""
     if not (is_number(ref) and is_number(value)) or abs(ref) <= ABSOLUTE:  # (no ratio)
         return "-"
-    return f"{value / ref - 1:+.1%}"
+    ratio = value / ref - 1
+    shown = f"{ratio:+.1%}"
+    return f"{ratio * 100:+.1e}%" if ratio and shown in ("+0.0%", "-0.0%") else shown
+
+
+#: The widest a clip's key is shown in the table (longer ones: "..." and their end).
+KEY_WIDTH = 58
 
 
 def format_check(table: Sequence[tuple[str, list[tuple]]], recorded: bool = False) -> str:
     """The comparison table: one line per clip and figure (``recorded``: values only)."""
-    width = min(max((len(k) for k, _ in table), default=4) + 2, 60)
-    head = f"{'clip':<{width}}{'figure':<24}"
-    head += (
-        f"{'recorded':>13}" if recorded else (f"{'baseline':>13}{'now':>13}{'change':>9}  result")
-    )
-    lines = [head, "-" * len(head)]
-    for key, rows in table:
-        shown = key if len(key) < width - 1 else "..." + key[-(width - 5) :]
-        for n, (label, ref, value, verdict) in enumerate(rows):
-            line = f"{shown if n == 0 else '':<{width}}{label:<24}"
-            if recorded:
-                line += f"{_fmt(value):>13}"
-            else:
-                line += f"{_fmt(ref):>13}{_fmt(value):>13}{_change(ref, value):>9}  {verdict}"
-            lines.append(line)
-    return "\n".join(lines)
+    heads = ("recorded",) if recorded else ("baseline", "now", "change", "result")
+    rows: list[tuple[str, ...]] = [("clip", "figure", *heads)]
+    for key, entries in table:
+        shown = key if len(key) <= KEY_WIDTH else "..." + key[3 - KEY_WIDTH :]
+        for n, (label, ref, value, verdict) in enumerate(entries):
+            base, now = _pair(ref, value)
+            cells = (now,) if recorded else (base, now, _change(ref, value), verdict)
+            rows.append((shown if n == 0 else "", label, *cells))
+    lines = _columns(rows, "<<>" if recorded else "<<>>><")
+    return "\n".join([lines[0], "-" * max(map(len, lines)), *lines[1:]])
+
+
+def _columns(rows: Sequence[Sequence[str]], align: str) -> list[str]:
+    """``rows`` of cells as lines of columns two spaces apart, each as wide as its longest
+    cell, aligned as ``align`` says ("<" left, ">" right: one per column)."""
+    widths = [max(len(row[c]) for row in rows) for c in range(len(align))]
+    return [
+        "  ".join(f"{cell:{a}{w}}" for cell, a, w in zip(row, align, widths, strict=True)).rstrip()
+        for row in rows
+    ]
 
 
 def _percent(tolerance: float) -> str:
@@ -244,13 +267,14 @@ def _percent(tolerance: float) -> str:
 
 
 def _why(key: str, label: str, ref: Any, value: Any, verdict: str, tolerance: float) -> str:
+    base, now = _pair(ref, value)
     if verdict == "WORSE":
         return (
-            f"{key}: {label.split(',')[0]} got worse: {_fmt(ref)} -> {_fmt(value)} "
+            f"{key}: {label.split(',')[0]} got worse: {base} -> {now} "
             f"({_change(ref, value)}, tolerance {_percent(tolerance)})"
         )
     return (
-        f"{key}: {label.split(',')[0]} changed from {_fmt(ref)} to {_fmt(value)}: the "
+        f"{key}: {label.split(',')[0]} changed from {base} to {now}: the "
         "clip is not the one of the baseline; rerun with --update if that is intended"
     )
 
@@ -383,12 +407,12 @@ def check_command(
         rows += [(f"{joint}: {label}", ref, value, "WORSE") for joint, label, ref, value in joints]
         if joints:
             shown = ", ".join(
-                f"{joint} {label.split(',')[0]} {_fmt(ref)} -> {_fmt(value)}"
+                f"{joint} {label.split(',')[0]} {' -> '.join(_pair(ref, value))}"
                 for joint, label, ref, value in joints[:3]
             )
             more = f" and {len(joints) - 3} more figures" if len(joints) > 3 else ""
             problems.append(
-                f"{key}: {len({j for j, *_ in joints})} joints got worse "
+                f"{key}: {plural(len({j for j, *_ in joints}), 'joint')} got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"
             )
     unchecked = sorted(set(document["clips"]) - set(keys))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import os
 import urllib.parse
 from collections.abc import Sequence
 from typing import Any
@@ -42,7 +43,7 @@ from .traces import COLUMNS, Trace, trace
 from .verdict import jumps_left_out
 from .world import format_floor
 
-__all__ = ["render_html", "render_index"]
+__all__ = ["index_entries", "page_figures", "render_html", "render_index"]
 
 #: Plot geometry in SVG user units (the SVG scales to the card width); the plot area is
 #: one unit per plot column (:data:`motionclean.report.traces.COLUMNS`).
@@ -311,11 +312,12 @@ def _joint_svg(name: str, data: dict, frames: int) -> str:
 # ----------------------------------------------------------------------------- page parts
 
 
-def _page(title: str, body: list[str]) -> str:
+def _page(title: str, body: list[str], head: str = "") -> str:
+    """A whole page: ``body``'s elements, and ``head`` (a data block) in its head."""
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
         '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>{_e(title)}</title><style>{CSS}</style></head><body><main>\n"
+        f"<title>{_e(title)}</title>{head}<style>{CSS}</style></head><body><main>\n"
         + "\n".join(body)
         + f'\n<p class="note">motionclean {_e(__version__)}. Angular acceleration is '
         "2|w<sub>i</sub> &minus; w<sub>i&minus;1</sub>|/&Delta;t&sup2; with "
@@ -451,11 +453,13 @@ STANDARD_KEYS = {
 }
 
 
-def render_html(report: dict, series: dict | None = None) -> str:
+def render_html(report: dict, series: dict | None = None, carried: dict | None = None) -> str:
     """The report page of one clip, from a :func:`build_report` dict and optional series.
 
     Without ``series`` (see :func:`build_series`) the page has the tables but no plots.
     Joints whose acceleration is zero before and after get no plot; they are listed.
+    ``carried`` (a batch's ``pipeline`` and the clip's index ``figures``) goes in the
+    page's head as JSON, for :func:`page_figures` to read back.
     """
     cleaned = was_cleaned(report)
     frames = int(report["frames"])
@@ -552,7 +556,8 @@ def render_html(report: dict, series: dict | None = None) -> str:
             body.append(
                 f'<p class="note">Not plotted ({why}): ' + ", ".join(_e(n) for n in listed) + "</p>"
             )
-    return _page(f"motionclean report: {report['file']}", body)
+    head = "" if carried is None else _data_block(CLIP_DATA, carried)
+    return _page(f"motionclean report: {report['file']}", body, head)
 
 
 def _joint_table(joints: dict, names: list[str], plotted: set[str], cleaned: bool) -> str:
@@ -796,6 +801,13 @@ def _ground_lines(contacts: dict) -> list[str]:
 # ----------------------------------------------------------------------------- batch index
 
 
+#: The verdict cell of a clip skipped as done whose figures no earlier index or page holds.
+UNKNOWN_FIGURES = (
+    "figures not known: cleaned by an earlier run that left none (no index of it, a page "
+    "without them, or another pipeline)"
+)
+
+
 def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) -> str:
     """The index page of a batch run.
 
@@ -836,9 +848,10 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
                 f'<td class="error" colspan="7">failed: {_e(e["error"])}</td></tr>'
             )
             continue
+        unknown = e["status"] == "skipped" and e.get("frames") is None
         cells = [
             link,
-            _e(e.get("verdict") or "-"),
+            _e(e.get("verdict") or (UNKNOWN_FIGURES if unknown else "-")),
             _num(e.get("frames")),
             _num(e.get("noise_before") if e.get("jitter_before") is None else e["jitter_before"]),
             _num(e.get("noise_after") if e.get("jitter_after") is None else e["jitter_after"]),
@@ -857,29 +870,58 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         "deg/s\u00b2; noise, jitter removed and largest change are measured outside the "
         "frames that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
     )
-    carried = json.dumps(json_safe({"pipeline": list(pipeline), "clips": list(entries)}))
-    body.append(  # (read back by a resumed batch: the clips it skips keep their figures)
-        f'<script type="application/json" id="{INDEX_DATA}">'
-        + carried.replace("</", "<\\/")
-        + "</script>"
-    )
+    # (read back by a resumed batch: the clips it skips keep their figures)
+    body.append(_data_block(INDEX_DATA, {"pipeline": list(pipeline), "clips": list(entries)}))
     return _page(title, body)
 
 
 #: The id of the index page's block of clip figures (:func:`index_entries`).
 INDEX_DATA = "mc-batch"
+#: The id of a clip page's block of its batch figures (:func:`page_figures`).
+CLIP_DATA = "mc-clip"
+
+
+def _data_block(name: str, data: dict) -> str:
+    """``data`` as a JSON block of a page, ``<script type="application/json" id=name>``."""
+    text = json.dumps(json_safe(data)).replace("</", "<\\/")
+    return f'<script type="application/json" id="{name}">{text}</script>'
+
+
+def _read_block(page: str, name: str, pipeline: Sequence[dict]) -> dict | None:
+    """The JSON block ``name`` of a page (:func:`_data_block`) when it was written for the
+    same ``pipeline``; None without one, for another pipeline, or for any other text."""
+    start = page.find(f'<script type="application/json" id="{name}">')
+    stop = page.find("</script>", start)
+    if start < 0 or stop < 0:
+        return None
+    try:
+        data = json.loads(page[page.index(">", start) + 1 : stop])
+        return data if data["pipeline"] == json_safe(list(pipeline)) else None
+    except (ValueError, KeyError, TypeError):
+        return None
 
 
 def index_entries(page: str, pipeline: Sequence[dict]) -> dict[str, dict]:
     """The clip entries (by ``file``) of an index page :func:`render_index` wrote for the
     same ``pipeline``; none from another pipeline's page or any other text."""
-    start = page.find(f'<script type="application/json" id="{INDEX_DATA}">')
-    stop = page.find("</script>", start)
-    if start < 0 or stop < 0:
-        return {}
+    data = _read_block(page, INDEX_DATA, pipeline)
     try:
-        data = json.loads(page[page.index(">", start) + 1 : stop])
-        same = data["pipeline"] == json_safe(list(pipeline))
-        return {e["file"]: e for e in data["clips"] if isinstance(e, dict)} if same else {}
-    except (ValueError, KeyError, TypeError):
+        return {e["file"]: e for e in data["clips"] if isinstance(e, dict)} if data else {}
+    except (KeyError, TypeError):
         return {}
+
+
+def page_figures(path: str | os.PathLike, pipeline: Sequence[dict]) -> dict | None:
+    """The index figures a clip page carries (:func:`render_html`'s ``carried``) when it was
+    written for the same ``pipeline``; None otherwise (a page without them, another
+    pipeline's, one that cannot be read). Only the page's head is read."""
+    head = bytearray()
+    try:
+        with open(path, "rb") as page:
+            while b"</head>" not in head and (chunk := page.read(1 << 16)):
+                head += chunk
+        data = _read_block(head.decode("utf-8", "replace"), CLIP_DATA, pipeline)
+    except OSError:
+        return None
+    figures = None if data is None else data.get("figures")
+    return figures if isinstance(figures, dict) else None

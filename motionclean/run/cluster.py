@@ -26,8 +26,10 @@ from ..core.errors import MotionError, UsageError
 from .jobs import FileResult, Job, run_job
 from .pool import input_size
 
-#: Seconds a scheduler has to take a connection; it has 1.5 times as long to also answer.
+#: Seconds a scheduler has to take a connection; it has :data:`ANSWER_SHARE` times as long
+#: to also send its handshake.
 CONNECT_TIMEOUT_S = 5
+ANSWER_SHARE = 1.5
 #: Seconds a local cluster may be without any worker before the run fails the clips not
 #: done (Dask restarts a lost worker within seconds; one killed while starting stays gone).
 WORKERLESS_S = 10.0
@@ -101,8 +103,8 @@ def _ipv6(text: str | None) -> bool:
 
 
 def _handshake(distributed, address: str) -> None:
-    """Connect to ``address`` once and read the scheduler's handshake, all within
-    :data:`CONNECT_TIMEOUT_S` (1.5 times it for both); a :class:`UsageError` naming the
+    """Connect to ``address`` within :data:`CONNECT_TIMEOUT_S` and read the scheduler's
+    handshake, all within :data:`ANSWER_SHARE` times it; a :class:`UsageError` naming the
     address says what went wrong.
 
     Dask's own timeout covers the TCP connect only: a port that accepts and never answers (a
@@ -113,10 +115,11 @@ def _handshake(distributed, address: str) -> None:
     from distributed.comm import connect as comm_connect
 
     options = distributed.Security().get_connection_args("client")
+    answer_s = ANSWER_SHARE * CONNECT_TIMEOUT_S
 
     async def once() -> None:
         comm = await asyncio.wait_for(
-            comm_connect(address, timeout=CONNECT_TIMEOUT_S, **options), 1.5 * CONNECT_TIMEOUT_S
+            comm_connect(address, timeout=CONNECT_TIMEOUT_S, **options), answer_s
         )
         await comm.close()
 
@@ -125,7 +128,7 @@ def _handshake(distributed, address: str) -> None:
     except TimeoutError:  # (an OSError too: first) the connection was taken, then silence
         raise UsageError(
             f"--scheduler {address}: accepted the connection but sent no Dask handshake within "
-            f"{CONNECT_TIMEOUT_S:g} s (a firewall, a hung service, or another service's "
+            f"{answer_s:g} s (a firewall, a hung service, or another service's "
             "port: a scheduler listens on 8786, its dashboard on 8787)"
         ) from None
     except OSError as error:  # refused, unreachable, no such host, closed on us

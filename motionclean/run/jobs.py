@@ -18,6 +18,7 @@ import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,6 +38,7 @@ from .memory import return_free_memory
 __all__ = [
     "CleanedClip",
     "FileResult",
+    "INDEX_FIGURES",
     "Job",
     "blend_clips",
     "check_compatible",
@@ -51,12 +53,17 @@ __all__ = [
 ]
 
 
-def render_report(report: dict, path: str | os.PathLike, series: dict | None = None) -> bytes:
+def render_report(
+    report: dict,
+    path: str | os.PathLike,
+    series: dict | None = None,
+    carried: dict | None = None,
+) -> bytes:
     """A report's file content: JSON for ``.json``, else the HTML page (``series`` feeds its
-    plots)."""
+    plots, ``carried`` goes in its head: :func:`~motionclean.report.html.render_html`)."""
     if Path(path).suffix.lower() == ".json":
         return to_json(report)
-    return render_html(report, series).encode("utf-8")
+    return render_html(report, series, carried).encode("utf-8")
 
 
 def write_outputs(
@@ -174,6 +181,22 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return CleanedClip(before, after, logs, report, series)
 
 
+#: The figures of a cleaned clip a batch index shows, and the type of each: what the clip's
+#: page carries (:func:`clean_file`) for a resumed batch, which takes values of that type.
+INDEX_FIGURES: dict[str, type] = {
+    "frames": int,
+    "noise_before": float,
+    "noise_after": float,
+    "deviation_max": float,
+    "jitter_before": float,
+    "jitter_after": float,
+    "jitter_removed": float,
+    "change_max": float,
+    "verdict": str,
+    "verdict_status": str,
+}
+
+
 @dataclass(frozen=True)
 class FileResult:
     """What happened to one clip. Figures are ``None`` unless the clip was cleaned.
@@ -205,6 +228,10 @@ class FileResult:
     change_max: float | None = None
     warnings: tuple[str, ...] = ()  # one line each: motionclean: warning: FILE: ...
     content: str | None = None  # the input's content_digest
+
+    def index_figures(self) -> dict[str, Any]:
+        """The :data:`INDEX_FIGURES` of this clip."""
+        return {key: getattr(self, key) for key in INDEX_FIGURES}
 
 
 def content_digest(motion: Motion) -> str:
@@ -328,7 +355,9 @@ def clean_file(
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
     ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
-    computes the figures without writing; ``report`` also writes the clip's HTML page.
+    computes the figures without writing; ``report`` also writes the clip's HTML page,
+    which carries the tables and the clip's :meth:`FileResult.index_figures` for a batch
+    resumed without an index (:func:`~motionclean.report.html.page_figures`).
     Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
     axis (as in :func:`clean_clip`). A bad clip or failed step gives ``status="failed"``
     with the reason instead of raising.
@@ -344,13 +373,17 @@ def clean_file(
         read or ReadOptions(),
     )
     try:
-        if not isinstance(pipeline, Pipeline):
-            pipeline = Pipeline.from_tables([dict(t) for t in pipeline], "pipeline")
+        if isinstance(pipeline, Pipeline):
+            tables = pipeline.describe()
+        else:
+            tables = list(pipeline)
+            pipeline = Pipeline.from_tables([dict(t) for t in tables], "pipeline")
         result = clean_clip(job.source, None, pipeline, job.up, job.read)
+        after, done = result.after, _success(result, job)
         pages = {}
         if job.report is not None:
-            pages[job.report] = render_report(result.report, job.report, result.series)
-        after, done = result.after, _success(result, job)
+            carried = {"pipeline": tables, "figures": done.index_figures()}
+            pages[job.report] = render_report(result.report, job.report, result.series, carried)
         del result  # the input's arrays and the plot series go before the clip is written
         write_outputs(after, job.target, pages)
     except Exception as error:

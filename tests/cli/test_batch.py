@@ -15,8 +15,8 @@ from helpers import NOISY, cut_bvh, run_cli
 
 import motionclean as mc
 from motionclean.cli.batch import find_clips
-from motionclean.report.html import index_entries
-from motionclean.run.jobs import FileResult, clean_file
+from motionclean.report.html import UNKNOWN_FIGURES, index_entries
+from motionclean.run.jobs import INDEX_FIGURES, FileResult, clean_file
 from motionclean.steps.pipeline import Pipeline
 
 SAMPLE = NOISY
@@ -275,6 +275,38 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
         (pages / "index.html").read_text(), Pipeline.from_inline(["despike"]).describe()
     )
     assert other == {}  # another pipeline's figures are never taken
+
+
+def test_a_batch_resumed_after_an_interrupted_run_takes_the_figures_from_the_pages(
+    tree, tmp_path, capsys
+):
+    """An interrupted run leaves its clips and their pages but no index: the resumed run
+    listed the clips it skipped with '-' for every figure. Each page carries its clip's
+    figures, read back; a page without them (written before pages carried any) gets a row
+    saying its figures are not known."""
+    (tree / "run" / "broken.bvh").unlink()
+    out, pages = tmp_path / "out", tmp_path / "pages"
+    args = ["batch", tree, "-o", out, "-j", "1", "--report-dir", pages]
+    assert run_cli(capsys, *args)[0] == 0
+    tables = Pipeline.default().describe()
+    first = index_entries((pages / "index.html").read_text(), tables)
+    (pages / "index.html").unlink()  # as an interrupted run leaves it
+    (out / "top.bvh").unlink()  # a clip it had not reached
+    older = pages / "walk" / "a.bvh.html"
+    block = r'<script type="application/json" id="mc-clip">.*?</script>'
+    older.write_text(re.sub(block, "", older.read_text(), count=1))
+    code, _, _ = run_cli(capsys, *args, "--skip-existing")
+    text = (pages / "index.html").read_text()
+    again = index_entries(text, tables)
+    assert code == 0 and again["top.bvh"]["status"] == "ok"
+    for name in ("run/deep/b.BVH", "csv/c.csv"):
+        assert again[name]["status"] == "skipped" and again[name]["verdict"]
+        assert {key: again[name][key] for key in INDEX_FIGURES} == {
+            key: first[name][key] for key in INDEX_FIGURES
+        }
+    assert again["walk/a.bvh"]["status"] == "skipped" and again["walk/a.bvh"]["frames"] is None
+    row = next(r for r in text.split("<tr") if ">walk/a.bvh</a>" in r)
+    assert UNKNOWN_FIGURES in row
 
 
 @pytest.mark.parametrize(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -261,10 +262,23 @@ def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(
     ]
     assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update", *base)[0] == 0
     code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json", *weak)
-    assert code == 1 and "RightKnee noise after" in err
+    assert code == 1 and "1 joint got worse" in err and "RightKnee noise after" in err
     assert "deviation max got worse" not in err  # the clip maximum (RThumb) is unchanged
     worse = [line.split() for line in out.splitlines() if line.rstrip().endswith("WORSE")]
     assert ["RightKnee:", "noise", "after,"] in [row[:3] for row in worse]  # in the table too
+    assert_columns_line_up(out)
+
+
+def assert_columns_line_up(table: str) -> None:
+    """Every row's figure and result start under their heads (a joint's label had run into
+    the baseline column: 'LeftHip: deviation max, deg')."""
+    head, _, *rows = table.splitlines()
+    rows = [row for row in rows if not row.startswith(("note:", "check passed"))]
+    figure, result = head.index("figure"), head.index("result")
+    for row in rows:
+        assert row[figure - 2 : figure] == "  " and row[figure] != " ", row
+        assert row[result - 2 : result] == "  ", row
+        assert row[result:] in ("ok", "better", "WORSE", "CHANGED"), row
 
 
 def edit_value(path: str, frame: int, column: int, change: float) -> None:
@@ -283,8 +297,13 @@ def test_a_clip_edited_by_half_a_degree_on_one_frame_is_another_clip(clips, caps
     assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
     edit_value(clips[1], frame=40, column=5, change=0.5)
     code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
-    assert code == 1 and "noise before changed" in err and "not the one of the baseline" in err
-    assert "joints got worse" not in err  # another clip: its joints are not judged
+    assert code == 1 and "not the one of the baseline" in err
+    assert "got worse" not in err  # another clip: its joints are not judged
+    # (a change of 3e-6 of the figure: six digits had printed "147,966 to 147,966")
+    base, now = re.search(r"noise before changed from (\S+) to (\S+):", err).groups()
+    assert base != now and float(base.replace(",", "")) < float(now.replace(",", ""))
+    row = next(line.split() for line in out.splitlines() if "noise before" in line)
+    assert row[-1] == "CHANGED" and row[-2] not in ("+0.0%", "-0.0%") and row[-4] != row[-3]
 
 
 def test_a_clip_whose_root_moved_on_one_frame_is_another_clip(clips, capsys):

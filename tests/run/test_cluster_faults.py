@@ -47,10 +47,21 @@ def http_port():
 
 
 def batch_on(capsys, clips, scheduler: str) -> tuple[int, str]:
+    """A batch on ``scheduler`` that fails: nothing printed, no folder made (OUT_DIR and
+    the report folder had been, left empty, whatever the scheduler said)."""
     code, out, err = run_cli(
-        capsys, "batch", clips / "in", "-o", clips / "out", "--scheduler", scheduler, "-q"
+        capsys,
+        "batch",
+        clips / "in",
+        "-o",
+        clips / "out",
+        "--report-dir",
+        clips / "pages",
+        "--scheduler",
+        scheduler,
+        "-q",
     )
-    assert out == "" and not list((clips / "out").rglob("*.bvh"))
+    assert out == "" and sorted(p.name for p in clips.iterdir()) == ["in"]
     return code, err
 
 
@@ -69,7 +80,7 @@ def test_an_address_that_accepts_and_never_answers_is_named_within_the_timeout(
     assert code == 2 and seconds < 10  # (1.5 x 0.5 s, and never forever)
     line = one_error_line(err)
     assert f"--scheduler tcp://127.0.0.1:{silent_port}: accepted the connection but sent " in line
-    assert "no Dask handshake within 0.5 s" in line
+    assert "no Dask handshake within 0.75 s" in line  # (1.5 times the connect timeout)
 
 
 def test_an_http_answer_is_no_scheduler_and_no_memory_error(
