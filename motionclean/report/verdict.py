@@ -485,12 +485,9 @@ def build_verdict(
         elif told and position_removed is not None and position_removed <= -0.005:
             parts.insert(1, _removed_words(position_removed, "position jitter"))
         parts = [part for part in parts if part]
-        # (a capture whose noise the smoothing should not have been able to move it by)
-        lead = (
-            "clean capture, smoothed"
-            if over_noise and noise < CLEAN_CHANGE_DEG
-            else ("noisy capture, cleaned")
-        )
+        # (a capture whose noise is too small for the smoothing to tell: it was clean)
+        quiet = over_noise and noise is not None and noise < CLEAN_CHANGE_DEG
+        lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
     if shown_feet:
         parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired

@@ -644,3 +644,18 @@ def test_feet_made_to_slide_are_not_called_planted(tmp_path, capsys):
     assert code == 0 and found is not None, line
     before, after = map(float, found.groups())
     assert after > 1.25 * before and "planted" not in line
+
+
+def test_smoothing_far_beyond_a_clips_noise_is_told_as_motion_taken_away(tmp_path, capsys):
+    """A user's heavy smoothing of a clean capture (noise 0.01-0.03 degrees) had read "noisy
+    capture, cleaned: 25 % of the jitter removed": the line now says it changed the clip by
+    more than 3 times its noise, and the capture is called clean. The default, which changes
+    a clip by less than its noise, is not told so."""
+    steps = ["-f", "despike", "-f", "lee-shin:k=2,iterations=3"]
+    code, out, _ = run_cli(capsys, "clean", SAMPLE, "-o", tmp_path / "x.bvh", *steps)
+    line = next(line for line in out.splitlines() if line.startswith("verdict: "))
+    assert code == 0 and line.startswith("verdict: needs a look: smoothing changed it by "), line
+    assert "times its noise" in line and "Clean capture, smoothed: " in line
+    for clip in (SAMPLE, NOISY):
+        report = clean_clip(clip, None, Pipeline.default()).report
+        assert "times its noise" not in report["verdict"]["text"]
