@@ -296,6 +296,7 @@ def batch_command(
         if any("/" in p for p in patterns):
             shown += " (the whole path below it: * within one name, ** any number of folders)"
         raise UsageError(f"{in_dir}: no clips matching {shown}")
+    read.refuse_unused(*clips)  # (an option that none of them uses)
     resolved_in = source_root.resolve()
 
     def check_written(written: Path) -> None:

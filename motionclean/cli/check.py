@@ -218,6 +218,8 @@ def _pair(ref: Any, value: Any) -> tuple[str, str]:
     17 that tell any two floats apart) where 6 would print two different figures alike."""
     if not (is_number(ref) and is_number(value)):
         return _fmt(ref), _fmt(value)
+    if float(ref).is_integer() and float(value).is_integer() and max(abs(ref), abs(value)) < 1e15:
+        return f"{int(ref):,}", f"{int(value):,}"  # (frames: 2,000,001, not 2,000,001.)
     digits = next(
         (d for d in range(6, 18) if ref == value or f"{ref:.{d}g}" != f"{value:.{d}g}"), 17
     )
@@ -346,6 +348,7 @@ def check_command(
         raise UsageError("--replace goes with --update")
     if update:
         check_target(baseline, (*clips, pipe, *read.files))
+    read.refuse_unused(*clips)  # (an option that none of them uses)
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
     named: dict[str, str] = {}  # a clip named twice is checked once

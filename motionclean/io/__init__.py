@@ -232,7 +232,7 @@ class ReadOptions:
     def refuse_unused(self, *paths: str | os.PathLike) -> None:
         """UsageError naming the first option given that none of the clips at ``paths``
         uses (:func:`unused_options`): ``--animation applies to glTF .gltf/.glb/.vrma files
-        only, not to a .bvh file``."""
+        only, not to a .bvh file`` (``batch`` and ``check`` ask it of all their clips)."""
         for option, formats in unused_options(paths[0], self):
             if all((option, formats) in unused_options(path, self) for path in paths[1:]):
                 kinds = " or ".join(sorted({Path(path).suffix.lower() for path in paths}))

@@ -772,7 +772,7 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
             if was_cleaned(report)
             else ""
         )
-        + "<span>skate: mean horizontal ankle speed during contacts</span></div>",
+        + "<span>skate: mean horizontal ankle speed during contacts, over 0.1 s</span></div>",
         *_ground_lines(contacts),
         '<div class="grid">',
         *(

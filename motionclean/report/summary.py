@@ -30,7 +30,7 @@ from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
-from .verdict import build_verdict, listed
+from .verdict import CLEAN_CHANGE_DEG, build_verdict, listed
 from .world import (
     contact_figures,
     figure_points,
@@ -599,8 +599,9 @@ def build_report(
     if said:
         report["notes"] = said
     smoothing = _smoothing(series, list(series["joints"]))
-    if smoothing is not None:
-        smoothing["noise_level"] = _noise_level(core_before, joints)
+    if smoothing is not None:  # (estimated only where the verdict may need it)
+        changed = smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
+        smoothing["noise_level"] = _noise_level(core_before, joints) if changed else None
     report["verdict"] = build_verdict(report, smoothing, _input_noise(series))
     return report
 
@@ -621,10 +622,12 @@ def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
     }
     levels = np.zeros(rotating.size)
     guessed = [j for j in rotating.tolist() if j not in noted]
-    if guessed:
-        levels[np.isin(rotating, guessed)] = estimate_noise(
-            before.rotations[:, guessed], before.frame_time
-        )
+    if guessed:  # (every joint: the clip's own array, no copy of it)
+        every = len(guessed) == before.n_joints
+        q = before.rotations if every else before.rotations[:, guessed]
+        levels[np.isin(rotating, guessed)] = estimate_noise(q, before.frame_time)[
+            slice(None) if not every else rotating
+        ]
     levels[np.isin(rotating, list(noted))] = [noted[j] for j in rotating.tolist() if j in noted]
     return float(np.sqrt(np.mean(levels**2)))
 

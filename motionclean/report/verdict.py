@@ -14,7 +14,10 @@ Statuses, first that applies (thresholds below, documented in the README):
 - ``needs a look``: a gap left missing (longer than ``max_gap``), smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
-  flipped one?), or feet sliding faster than :data:`LOOK_SKATE` body heights per second.
+  flipped one?), feet sliding faster than :data:`LOOK_SKATE` body heights per second, or
+  smoothing that changed the clip by more than :data:`LOOK_CHANGE_NOISE` times its noise
+  (motion taken for noise; a capture whose noise is under :data:`CLEAN_NOISE_DEG` is then
+  called clean, "clean capture, smoothed").
 - ``clean``: smoothing changed the clip by less than :data:`CLEAN_CHANGE_DEG` RMS and
   nothing was repaired; ``repaired``: the same, with repairs.
 
@@ -47,8 +50,10 @@ from ..steps.base import format_runs, plural
 __all__ = [
     "CLEAN_CHANGE_DEG",
     "CLEAN_CHANGE_HEIGHTS",
+    "CLEAN_NOISE_DEG",
     "LOOK_CHANGE_DEG",
     "LOOK_CHANGE_HEIGHTS",
+    "LOOK_CHANGE_NOISE",
     "LOOK_REPAIRED_SHARE",
     "LOOK_SKATE",
     "NOT_SMOOTHING",
@@ -77,6 +82,9 @@ LOOK_CHANGE_DEG = 10.0
 #: (the noisy sample 0.92, markerless takes 0.43-0.92); a Lee-Shin filter of k=2 run 3
 #: times changed a clean capture whose noise is 0.01 degrees by 0.36 degrees RMS.
 LOOK_CHANGE_NOISE = 3.0
+#: A capture whose noise is under this many degrees (RMS over its joints) is clean, however
+#: much a pipeline smoothed it (a clean optical capture: 0.01-0.05).
+CLEAN_NOISE_DEG = 0.05
 #: The position counterparts of :data:`CLEAN_CHANGE_DEG` and :data:`LOOK_CHANGE_DEG`, in
 #: body heights (or, without one, of the range the clip's positions travel): the end of a
 #: limb 0.57 body heights long (1 m of 1.75 m) turned by 0.05 degrees moves by 0.0005 body
@@ -90,7 +98,7 @@ UNCHANGED_LENGTH = UNCHANGED_TOLERANCE
 #: A joint repaired on more than this share of its frames needs a look.
 LOOK_REPAIRED_SHARE = 0.5
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
-#: after cleaning) are planted; ``footlock``'s own threshold.
+#: over 0.1 s, after cleaning) are planted; the value of ``footlock``'s ``min_skate``.
 PLANTED_SKATE = 0.1
 #: A foot whose skate after cleaning is above this many times its skate before ...
 SLID_MORE = 1.25
@@ -363,8 +371,10 @@ def build_verdict(
     ``smoothing`` holds the figures outside repairs (None for a clip reported on its own):
     ``noise_before`` and ``noise_after`` (RMS angular acceleration, deg/s^2),
     ``noise_removed`` (the fraction of it removed), ``change_deg_max`` and
-    ``change_deg_rms`` (rotation angle between input and output, degrees) and
-    ``change_joint`` (where the largest change is); of the position channels (None each
+    ``change_deg_rms`` (rotation angle between input and output, degrees),
+    ``change_joint`` (where the largest change is) and ``noise_level`` (the input's
+    per-sample rotation noise, RMS over joints, degrees; None where the change is under
+    :data:`CLEAN_CHANGE_DEG`: not needed); of the position channels (None each
     without any) ``position_noise_before``, ``position_noise_after`` (RMS linear
     acceleration, length units/s^2), ``position_noise_removed``, ``change_length_max``,
     ``change_length_rms`` (length units), ``change_length_joint``, ``position_moved``
@@ -486,7 +496,7 @@ def build_verdict(
             parts.insert(1, _removed_words(position_removed, "position jitter"))
         parts = [part for part in parts if part]
         # (a capture whose noise is too small for the smoothing to tell: it was clean)
-        quiet = over_noise and noise is not None and noise < CLEAN_CHANGE_DEG
+        quiet = noise is not None and noise < CLEAN_NOISE_DEG
         lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
     if shown_feet:
         parts.append(shown_feet)
@@ -521,6 +531,7 @@ def build_verdict(
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
         "change_joint": joint if change >= UNCHANGED_DEG else None,
+        "noise_level_deg": smoothing.get("noise_level"),
         "position_noise_before": smoothing.get("position_noise_before"),
         "position_noise_after": smoothing.get("position_noise_after"),
         "position_noise_removed": position_removed,

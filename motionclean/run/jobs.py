@@ -236,19 +236,45 @@ class FileResult:
 
 def content_digest(motion: Motion) -> str:
     """SHA-256 (hex) of what a clip holds as read: joints, tree, channels, offsets and end
-    sites, frame time, every frame's rotations and translations and its dropouts. Numbers
-    enter as float32, so the last bits of one machine's maths against another's do not
-    count while any edit of a value does (``check`` tells an edited clip by it)."""
-    tree = {"names": motion.names, "channels": motion.channels, "parents": motion.parents}
+    sites (with their joints), frame time, every frame's values and its dropouts. The
+    values are the file's channel values as parsed where the reader keeps them (text
+    formats: the same on every machine), else the rotations (sign made canonical, w >= 0)
+    and translations; numbers enter as float32, so the last bits of one machine's maths
+    against another's do not count while any edit of a value does (``check`` tells an
+    edited clip by it)."""
+    tree = {
+        "names": motion.names,
+        "channels": motion.channels,
+        "parents": motion.parents,
+        "ends": sorted(motion.end_sites),
+        "frames": motion.n_frames,
+    }
     digest = hashlib.sha256(json.dumps(tree, default=np.ndarray.tolist).encode())
     ends = [motion.end_sites[j] for j in sorted(motion.end_sites)]
-    numbers = [motion.offsets, *ends, [motion.frame_time], motion.rotations, motion.translations]
-    for values in numbers:
-        values = np.asarray(values)
+    frames: list = [motion.source_values]
+    if motion.source_values is None:
+        frames = [_canonical(motion.rotations), motion.translations]
+    for values in [np.asarray(v) for v in (motion.offsets, *ends, [motion.frame_time])] + frames:
         for first in range(0, max(len(values), 1), DIGEST_ROWS):  # blocks: no clip-sized copy
-            digest.update(values[first : first + DIGEST_ROWS].astype("<f4").tobytes())
+            block = values[first : first + DIGEST_ROWS]
+            digest.update(np.asarray(block, "<f4").tobytes())
     digest.update(np.packbits(motion.missing_mask()).tobytes())
     return digest.hexdigest()
+
+
+class _canonical:
+    """Rows of unit quaternions ``(F, J, 4)`` with the sign that makes ``w >= 0``, made
+    when sliced (no clip-sized copy)."""
+
+    def __init__(self, q: np.ndarray):
+        self.q = q
+
+    def __len__(self) -> int:
+        return len(self.q)
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        block = self.q[rows]
+        return np.where(block[..., :1] < 0.0, -block, block)
 
 
 #: Frames hashed at a time by :func:`content_digest` (a block of a 31-joint clip's
@@ -278,11 +304,14 @@ class Job:
     report: str | None = None
     up: str | None = None  # the clips' up axis, when the user gives it
     read: ReadOptions = ReadOptions()
+    shown: str | None = None  # the clip's name on its page (default: ``source``)
 
     def absolute(self) -> Job:
         """This job with every path (clip, output, report, skeleton, body model) made
         absolute from this process's working folder, links kept as they are: a worker
-        started in another folder (a Dask worker) reads and writes the files meant here."""
+        started in another folder (a Dask worker) reads and writes the files meant here.
+        The clip's page keeps naming it as given (no machine's folders on a published
+        page)."""
 
         def whole(path: str | None) -> str | None:
             return None if path is None else os.fspath(Path(path).absolute())
@@ -290,6 +319,7 @@ class Job:
         read = self.read
         return replace(
             self,
+            shown=self.shown or self.source,
             source=os.fspath(Path(self.source).absolute()),
             target=whole(self.target),
             report=whole(self.report),
@@ -358,6 +388,7 @@ def clean_file(
     report: str | os.PathLike | None = None,
     up: str | None = None,
     read: ReadOptions | None = None,
+    shown: str | None = None,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
@@ -366,8 +397,9 @@ def clean_file(
     which carries the tables and the clip's :meth:`FileResult.index_figures` for a batch
     resumed without an index (:func:`~motionclean.report.html.page_figures`).
     Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
-    axis (as in :func:`clean_clip`). A bad clip or failed step gives ``status="failed"``
-    with the reason instead of raising.
+    axis (as in :func:`clean_clip`); ``shown`` names the clip on its page (default
+    ``source``). A bad clip or failed step gives ``status="failed"`` with the reason
+    instead of raising.
     """
     start = time.perf_counter()
     keep_reserve()  # (again, after a clip that ran out of memory)
@@ -389,6 +421,8 @@ def clean_file(
         after, done = result.after, _success(result, job)
         pages = {}
         if job.report is not None:
+            if shown is not None:
+                result.report["file"] = shown
             carried = {"pipeline": tables, "figures": done.index_figures()}
             pages[job.report] = render_report(result.report, job.report, result.series, carried)
         del result  # the input's arrays and the plot series go before the clip is written
@@ -401,7 +435,7 @@ def clean_file(
 
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
-    return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read)
+    return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read, job.shown)
 
 
 # ----------------------------------------------------------------------------- two clips

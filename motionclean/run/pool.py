@@ -22,6 +22,10 @@ from .jobs import FileResult, Job, run_job
 PARENT_POLL_S = 0.5
 
 
+#: How long a worker told to stop may take to end before it is killed (seconds).
+STOP_SECONDS = 5.0
+
+
 def default_workers() -> int:
     """The number of cores this process may run on."""
     try:
@@ -126,6 +130,9 @@ def _run_pool(
         for process in processes:
             process.terminate()
         for process in processes:  # (ended by the signal at once: none writes after this)
-            process.join()
+            process.join(timeout=STOP_SECONDS)
+            if process.is_alive():  # stopped (SIGSTOP) or stuck: ended for sure
+                process.kill()
+                process.join()
         raise
     executor.shutdown(wait=not broken)

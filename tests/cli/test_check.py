@@ -365,10 +365,12 @@ def test_check_reads_clips_as_clean_does(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     rig = cut_bvh(SAMPLE, Path("rig.bvh"), 60)
     assert run_cli(capsys, "convert", rig, "clip.csv")[0] == 0
-    args = ("check", "clip.csv", "--skeleton", rig, "--input-fps", "60")
+    args = ("check", "clip.csv", "--skeleton", rig)
     code, _, err = run_cli(capsys, *args, "--baseline", "b.json", "--update")
     assert (code, err) == (0, "")
     code, out, _ = run_cli(capsys, *args, "--baseline", "b.json")
     assert code == 0 and "check passed" in out
+    code, _, err = run_cli(capsys, *args, "--input-fps", "60", "--baseline", "b.json")
+    assert code == 2 and "--input-fps applies to SMPL" in err  # (no clip here uses it)
     code, _, err = run_cli(capsys, *args, "--baseline", rig, "--update")
     assert code == 2 and "refusing to overwrite the input" in err

@@ -138,7 +138,8 @@ def test_a_read_option_the_clips_format_does_not_use_is_refused(option, tmp_path
     """``clean walk.bvh --input-fps 30`` would otherwise run at the file's own rate, the
     option silently dropped: a usage error naming the option and what it is for, nothing
     written. A command reading two clips takes it when one of them uses it; ``batch``
-    (folders of mixed formats) lets each file take what applies to it."""
+    (folders of mixed formats) lets each file take what applies to it, and refuses an
+    option none of its clips uses."""
     flag, value, kind = option
     out = tmp_path / "out.bvh"
     code, _, err = run(["clean", SAMPLE, "-o", out, flag, value], capsys)
@@ -156,8 +157,13 @@ def test_a_read_option_the_clips_format_does_not_use_is_refused(option, tmp_path
     folder.mkdir()
     (folder / "a.bvh").write_bytes(SAMPLE.read_bytes())
     code, _, err = run(["batch", folder, "-o", tmp_path / "cleaned", "-q", flag, value], capsys)
-    assert code == 0, err
-    assert (tmp_path / "cleaned" / "a.bvh").is_file()
+    assert code == 2 and f"{flag} applies to" in err and not (tmp_path / "cleaned").exists()
+    if flag == "--skeleton":  # a folder of both: each file takes what applies to it
+        mc.save(mc.load(SAMPLE), folder / "b.csv")
+        code, _, err = run(["batch", folder, "-o", tmp_path / "cleaned", "-q", flag, value], capsys)
+        assert code == 0, err
+        assert (tmp_path / "cleaned" / "a.bvh").is_file()
+        assert (tmp_path / "cleaned" / "b.csv").is_file()
 
 
 def test_unknown_command_is_a_one_line_usage_error(capsys):

@@ -84,7 +84,7 @@ def test_rotations_slightly_off_unit_are_accepted_and_written():
 
 
 @pytest.mark.parametrize("off", [5e-7, 9e-7])
-def test_every_step_takes_rotations_a_hair_off_unit_as_the_checks_do(off):
+def test_multires_takes_rotations_a_hair_off_unit_as_the_checks_do(off):
     """``multires`` continues the clip past its end by a product of three quaternions,
     which tripled the hair: it refused what every other filter takes, naming frame 200
     of 0-199 and 'norm 1'. Now it runs, and agrees with the unit input."""
