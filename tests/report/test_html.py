@@ -88,30 +88,34 @@ def test_spikes_are_clipped_and_labelled(cleaned):
     assert "clipped at" in text and "peak" in text
 
 
-def test_page_size_does_not_grow_with_clip_length(cleaned):
-    motion, _, _ = cleaned
+def tiled(motion: mc.Motion, repeats: int) -> tuple[mc.Motion, mc.Motion]:
+    """The clip repeated ``repeats`` times, and the default's cleaning of it."""
+    long = motion.replace(
+        rotations=np.tile(motion.rotations, (repeats, 1, 1)),
+        translations=np.tile(motion.translations, (repeats, 1, 1)),
+    )
+    return long, Pipeline.default().run(long)[0]
+
+
+@pytest.fixture(scope="module")
+def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion]:
+    """The noisy sample repeated to 12,000 frames, and its cleaning (one run per module)."""
+    return tiled(cleaned[0], 40)
+
+
+def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
     sizes = []
-    for repeats in (8, 40):  # 2,400 and 12,000 frames
-        long = motion.replace(
-            rotations=np.tile(motion.rotations, (repeats, 1, 1)),
-            translations=np.tile(motion.translations, (repeats, 1, 1)),
-        )
-        smooth, _ = Pipeline.default().run(long)
+    for long, smooth in (tiled(cleaned[0], 8), long_cleaned):  # 2,400 and 12,000 frames
         report = build_report(long, smooth, [], None, "long.bvh")
         sizes.append(len(render_html(report, build_series(long, smooth))))
     assert sizes[1] < 1.1 * sizes[0]
     assert sizes[1] < 1_500_000  # with the skeleton player and trajectories
 
 
-def test_joint_series_are_reduced_to_plot_columns(cleaned):
+def test_joint_series_are_reduced_to_plot_columns(long_cleaned):
     """A 12,000-frame clip's plot series hold at most COLUMNS values per joint: no array
     the length of the clip stays behind the page."""
-    motion, _, _ = cleaned
-    long = motion.replace(
-        rotations=np.tile(motion.rotations, (40, 1, 1)),
-        translations=np.tile(motion.translations, (40, 1, 1)),
-    )
-    smooth, _ = Pipeline.default().run(long)
+    long, smooth = long_cleaned
     series = build_series(long, smooth)
     for data in series["joints"].values():
         for drawn in data.values():

@@ -175,7 +175,7 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
     and printed a traceback (62-125 lines on stderr)."""
     source, out = tmp_path / "in", tmp_path / "o"
     for k in range(12):
-        cut_bvh(SAMPLE, source / f"c{k}.bvh", 300)
+        cut_bvh(SAMPLE, source / f"c{k}.bvh", 120)
     process = slow_command("batch", source, "-o", out, "-j", "2", start_new_session=True)
     deadline = time.monotonic() + 60
     while not list(out.glob("c*.bvh")) and time.monotonic() < deadline:
@@ -198,7 +198,7 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
     assert len(children) >= 2 and not [pid for pid in children if running(pid)]
     written = sorted(p.name for p in out.iterdir())
     assert written and all(name.endswith(".bvh") for name in written)  # no .tmp left
-    assert len(written) < 12 and all(mc.load(out / name).n_frames == 300 for name in written)
+    assert len(written) < 12 and all(mc.load(out / name).n_frames == 120 for name in written)
 
 
 def test_sigterm_stops_a_clean_as_ctrl_c_does(tmp_path):
@@ -426,7 +426,7 @@ def test_a_worker_killed_mid_batch_fails_no_clip_it_did_not_hold(tmp_path):
     from motionclean.run.pool import run_jobs
     from motionclean.steps.pipeline import Pipeline
 
-    slow = Pipeline.from_inline(["fairing:max_iterations=1500,tol=0"]).describe()
+    slow = Pipeline.from_inline(["fairing:max_iterations=600,tol=0"]).describe()
     fast = Pipeline.from_inline(["lee-shin"]).describe()
     jobs = []
     for k in range(8):
