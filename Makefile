@@ -45,8 +45,9 @@ demo: $(STAMP)
 		--report $(OUT)/131_02_report.html --report $(OUT)/131_02_report.json
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
+# One test process per core, each taking whole files (their shared fixtures made once).
 test: lint $(BLENDER_STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # The extension's operator checks in Blender 4.5 LTS (bpy 4.5) instead of 5.0.
 test-blender45: $(STAMP) $(BLENDER45_STAMP)
