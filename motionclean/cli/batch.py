@@ -136,12 +136,28 @@ def _check_folders(in_dir: Path, out_dir: Path, report_dir: Path | None) -> None
                 f"{folder}: {option} is a symbolic link to {os.readlink(folder)!r}, which "
                 "does not exist"
             )
+        _check_makeable(folder, option)
 
         if _inside(folder.resolve(), source):
             raise UsageError(
                 f"{folder}: {option} is inside the input folder {in_dir}; "
                 "batch never writes there, choose a folder outside it"
             )
+
+
+def _check_makeable(folder: Path, option: str) -> None:
+    """Refuse a folder that cannot be made (UsageError, as :func:`_make_folders` would say
+    it), without making it: a file where a parent folder should be, or a parent that cannot
+    be written. Checked up front, before a scheduler is asked for workers."""
+    parent = folder
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if parent == folder:
+        return  # (there: checked as a folder already)
+    if not parent.is_dir():
+        raise UsageError(f"{folder}: cannot create {option}: Not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{folder}: cannot create {option}: Permission denied")
 
 
 def _make_folders(out_dir: Path, report_dir: Path | None) -> None:
@@ -181,7 +197,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
     lines = [head, "-" * len(head)]
     for name, r in rows:
         shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
-        if r.status == "ok":
+        # (a skipped clip shows the figures its earlier run left, where they were found)
+        if r.status == "ok" or (r.status == "skipped" and r.frames is not None):
             before, after = r.noise_before, r.noise_after
             removed = None  # (None: nothing measured, no three frames in a row known)
             if before is not None and after is not None:
@@ -192,7 +209,8 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
             lines.append(
                 f"{shown:<{width}}{r.frames:>8}{figure_text(before, 14, ',.0f')}"
                 f"{figure_text(after, 12, ',.0f')}{figure_text(removed, 9, '.0%')}"
-                f"{figure_text(change, 9, '.2f')}  {r.verdict_status or '-':<14}ok"
+                f"{figure_text(change, 9, '.2f')}  {r.verdict_status or '-':<14}"
+                + ("ok" if r.status == "ok" else r.status.upper())
             )
         else:
             blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}  {'-':<14}"

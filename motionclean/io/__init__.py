@@ -166,9 +166,11 @@ def _read(
     frame_rate: float | None,
     animation: str | None = None,
     regrid: bool = False,
+    strict: bool = False,
 ) -> Motion:
     """:func:`load` of its checked arguments; ``body_model`` reads the model, called only
-    for a SMPL clip."""
+    for a SMPL clip; ``strict``: a skeleton given for a Motive export is refused (UsageError:
+    its suffix is a CSV's, its rigid bodies carry their own poses)."""
     suffix = _suffix(path, FORMATS)
     if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
         return fbx.load_fbx(path)
@@ -187,6 +189,12 @@ def _read(
         elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
             motion = gltf.parse_gltf(data, path, animation)
         elif motive.is_motive(data):
+            if strict and template is not None:
+                raise UsageError(
+                    "--skeleton applies to channel CSVs, not to an OptiTrack Motive export "
+                    "(its rigid bodies carry their own poses)",
+                    path,
+                )
             motion = motive.parse_motive(data, path)
         else:
             motion = csv.parse_csv(data, path, skeleton=template)
@@ -262,7 +270,7 @@ class ReadOptions:
         exclude = checks.patterns(self.exclude, "exclude")
         rate = smpl.checked_rate(self.frame_rate)
         animation = _checked_animation(self.animation)
-        return _read(path, template, model, exclude, rate, animation, self.regrid)
+        return _read(path, template, model, exclude, rate, animation, self.regrid, self.strict)
 
 
 #: The read options each format uses (the ``--`` options of the command line), and the

@@ -265,7 +265,7 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
     assert first["walk/a.bvh"]["verdict"] and first["walk/a.bvh"]["frames"] == 60
     (out / "top.bvh").unlink()
     code, stdout, _ = run_cli(capsys, *args, "--skip-existing")
-    assert code == 0 and re.search(r"walk/a\.bvh .* SKIPPED", stdout)
+    assert code == 0 and re.search(r"walk/a\.bvh +60 .* SKIPPED", stdout)  # with its figures
     again = index_entries((pages / "index.html").read_text(), tables)
     assert again["walk/a.bvh"]["status"] == "skipped"
     for key in ("frames", "verdict", "verdict_status", "jitter_removed", "change_max"):

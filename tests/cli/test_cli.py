@@ -153,6 +153,9 @@ def test_a_read_option_the_clips_format_does_not_use_is_refused(option, tmp_path
         mc.save(mc.load(SAMPLE), channels)
         code, _, err = run(["report", SAMPLE, channels, flag, value], capsys)
         assert code == 0, err
+        motive = ROOT / "sample_data" / "131_02_motive.csv"  # a CSV by suffix, not by kind
+        code, _, err = run(["info", motive, flag, value], capsys)
+        assert code == 2 and "not to an OptiTrack Motive export" in err
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / "a.bvh").write_bytes(SAMPLE.read_bytes())

@@ -148,6 +148,12 @@ def test_an_output_folder_that_cannot_be_made_is_refused_once_up_front(tmp_path,
     code, _, err = run_cli(capsys, "batch", source, "-o", tmp_path / "file" / "out")
     assert code == 2
     one_error_line(err, "cannot create -o")
+    # on a cluster too, before one is started (it had said so after a local cluster's
+    # seconds of start-up): nothing printed but the line
+    args = ("batch", source, "-o", tmp_path / "file" / "out", "--scheduler", "local:2")
+    code, out, err = run_cli(capsys, *args)
+    assert code == 2 and out == ""
+    one_error_line(err, "cannot create -o: Not a directory")
 
 
 def running(pid: str) -> bool:
