@@ -543,43 +543,36 @@ def skate(
     ``over_seconds``, between frames that many seconds apart in one contact, whole frames,
     at least one: a contact shorter than that by its net move over its length), but for
     the steps into the frames ``cuts`` (a new take's first: no motion between them)."""
-    n_frames = positions.shape[0]
     gap = max(1, round(over_seconds / frame_time)) if over_seconds > 0 else 1
-    cut = np.zeros(n_frames, dtype=bool)
+    cut = np.zeros(positions.shape[0], dtype=bool)
     if cuts is not None and cuts.size:
         cut[cuts] = True
     out = np.full(len(feet), np.nan)
     for k, foot in enumerate(feet):  # a foot at a time: temporaries of one ankle's track
         track = positions[:, foot.ankle].copy()
         track[:, up] = 0.0
-        on = contacts[:, k]
-        starts = on & ~np.concatenate(([False], on[:-1])) | (on & cut)
-        run = np.cumsum(starts)  # each contact frame's run (a cut starts a new one)
-        first = np.flatnonzero(on[: max(n_frames - gap, 0)])
-        first = first[on[first + gap] & (run[first + gap] == run[first])]
-        speeds = [np.linalg.norm(track[first + gap] - track[first], axis=-1) / (gap * frame_time)]
-        weights = [np.ones(first.size)]
-        if gap > 1:  # contacts too short for the gap: their net move over their length
-            begin, end = _runs_cut(on, cut)
-            short = (end - begin >= 2) & (end - begin <= gap)
-            begin, end = begin[short], end[short]
-            length = (end - 1 - begin) * frame_time
-            speeds.append(np.linalg.norm(track[end - 1] - track[begin], axis=-1) / length)
-            weights.append((end - 1 - begin) / gap)
-        total, count = (
-            sum(w @ v for w, v in zip(weights, speeds, strict=True)),
-            sum(w.sum() for w in weights),
-        )
-        if count > 0:
-            out[k] = total / count
+        begin, end = _runs_cut(contacts[:, k], cut)
+        steps = end - 1 - begin  # frame steps inside each contact
+        # every frame with one ``gap`` frames later in its contact; a contact of no more
+        # steps than that, once, by its net move, counted as its share of a gap
+        first = np.flatnonzero(contacts[:, k])  # (in the order of the runs, which are sorted)
+        first = first[first + gap < np.repeat(end, end - begin)]
+        short = (steps >= 1) & (steps < gap)
+        a, b = begin[short], end[short] - 1
+        to, since = np.concatenate([first + gap, b]), np.concatenate([first, a])
+        moved = np.linalg.norm(track[to] - track[since], axis=-1)
+        time = (to - since) * frame_time
+        weight = np.concatenate([np.ones(first.size), (b - a) / gap])
+        if weight.sum() > 0:
+            out[k] = float(weight @ (moved / time) / weight.sum())
     return out
 
 
 def _runs_cut(mask: np.ndarray, cut: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_runs` of ``mask`` with a run also broken before every frame of ``cut``."""
-    starts, ends = _runs(mask)
-    inside = np.flatnonzero(cut & mask & ~np.isin(np.arange(mask.size), starts))
-    return np.sort(np.concatenate([starts, inside])), np.sort(np.concatenate([ends, inside]))
+    starts = mask & (~np.concatenate(([False], mask[:-1])) | cut)
+    ends = mask & ~np.concatenate((mask[1:] & ~starts[1:], [False]))
+    return np.flatnonzero(starts), np.flatnonzero(ends) + 1
 
 
 def penetration(lowest: np.ndarray, ground: float) -> np.ndarray:

@@ -60,6 +60,11 @@ _WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = 
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
 
+#: The suffixes of each reader that several formats' rules name.
+SMPL_SUFFIXES = (".npz", ".pkl")
+OPENSIM_SUFFIXES = (".mot", ".sto")
+GLTF_SUFFIXES = (".gltf", *gltf.GLB_SUFFIXES)
+
 
 def _suffix(path: Path, table: Iterable[str]) -> str:
     suffix = path.suffix.lower()
@@ -180,13 +185,13 @@ def _read(
             _check_line_ends(data[:LINE_END_PROBE], path)
         if suffix == ".bvh":
             motion = bvh.parse_bvh(data, path)
-        elif suffix in (".npz", ".pkl"):
+        elif suffix in SMPL_SUFFIXES:
             model = None if body_model is None else body_model()
             parse = smpl.parse_smpl_npz if suffix == ".npz" else pkl.parse_pickle
             motion = parse(data, path, skeleton=template, body_model=model, frame_rate=frame_rate)
-        elif suffix in (".mot", ".sto"):
+        elif suffix in OPENSIM_SUFFIXES:
             motion = opensim.parse_opensim(data, path, exclude=exclude, regrid=regrid)
-        elif suffix == ".gltf" or suffix in gltf.GLB_SUFFIXES:
+        elif suffix in GLTF_SUFFIXES:
             motion = gltf.parse_gltf(data, path, animation)
         elif motive.is_motive(data):
             if strict and template is not None:
@@ -276,11 +281,11 @@ class ReadOptions:
 #: The read options each format uses (the ``--`` options of the command line), and the
 #: files they are for, as error messages name them.
 _OPTION_FORMATS = (
-    ("skeleton", "--skeleton", (".csv", ".npz", ".pkl"), "CSV and SMPL .npz/.pkl files"),
-    ("body_model", "--body-model", (".npz", ".pkl"), "SMPL .npz/.pkl files"),
-    ("exclude", "--exclude", (".mot", ".sto"), "OpenSim .mot/.sto files"),
-    ("frame_rate", "--input-fps", (".npz", ".pkl"), "SMPL .npz/.pkl files"),
-    ("animation", "--animation", (".gltf", ".glb", ".vrma"), "glTF .gltf/.glb/.vrma files"),
+    ("skeleton", "--skeleton", (".csv", *SMPL_SUFFIXES), "CSV and SMPL .npz/.pkl files"),
+    ("body_model", "--body-model", SMPL_SUFFIXES, "SMPL .npz/.pkl files"),
+    ("exclude", "--exclude", OPENSIM_SUFFIXES, "OpenSim .mot/.sto files"),
+    ("frame_rate", "--input-fps", SMPL_SUFFIXES, "SMPL .npz/.pkl files"),
+    ("animation", "--animation", GLTF_SUFFIXES, "glTF .gltf/.glb/.vrma files"),
 )
 
 

@@ -623,11 +623,8 @@ def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
     levels = np.zeros(rotating.size)
     guessed = [j for j in rotating.tolist() if j not in noted]
     if guessed:  # (every joint: the clip's own array, no copy of it)
-        every = len(guessed) == before.n_joints
-        q = before.rotations if every else before.rotations[:, guessed]
-        levels[np.isin(rotating, guessed)] = estimate_noise(q, before.frame_time)[
-            slice(None) if not every else rotating
-        ]
+        q = before.rotations if len(guessed) == before.n_joints else before.rotations[:, guessed]
+        levels[np.isin(rotating, guessed)] = estimate_noise(q, before.frame_time)
     levels[np.isin(rotating, list(noted))] = [noted[j] for j in rotating.tolist() if j in noted]
     return float(np.sqrt(np.mean(levels**2)))
 

@@ -252,16 +252,22 @@ def test_skip_existing_resumes(tree, tmp_path, capsys):
     assert re.search(r"top\.bvh .* ok", stdout)
 
 
-def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_path, capsys):
-    """The index of a run resumed with --skip-existing holds every clip's figures: the
-    skipped ones' from the index of the run that cleaned them (they had become '-', and
-    the clips needing a look had dropped out of its list)."""
+def cleaned_once(tree, tmp_path, capsys):
+    """The tree (its broken clip taken out) cleaned with pages: the output and page
+    folders, the command's arguments, the default's tables and the index's entries."""
     (tree / "run" / "broken.bvh").unlink()
     out, pages = tmp_path / "out", tmp_path / "pages"
     args = ["batch", tree, "-o", out, "-j", "1", "--report-dir", pages]
     assert run_cli(capsys, *args)[0] == 0
     tables = Pipeline.default().describe()
-    first = index_entries((pages / "index.html").read_text(), tables)
+    return out, pages, args, tables, index_entries((pages / "index.html").read_text(), tables)
+
+
+def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_path, capsys):
+    """The index of a run resumed with --skip-existing holds every clip's figures: the
+    skipped ones' from the index of the run that cleaned them (they had become '-', and
+    the clips needing a look had dropped out of its list)."""
+    out, pages, args, tables, first = cleaned_once(tree, tmp_path, capsys)
     assert first["walk/a.bvh"]["verdict"] and first["walk/a.bvh"]["frames"] == 60
     (out / "top.bvh").unlink()
     code, stdout, _ = run_cli(capsys, *args, "--skip-existing")
@@ -284,12 +290,7 @@ def test_a_batch_resumed_after_an_interrupted_run_takes_the_figures_from_the_pag
     listed the clips it skipped with '-' for every figure. Each page carries its clip's
     figures, read back; a page without them (written before pages carried any) gets a row
     saying its figures are not known."""
-    (tree / "run" / "broken.bvh").unlink()
-    out, pages = tmp_path / "out", tmp_path / "pages"
-    args = ["batch", tree, "-o", out, "-j", "1", "--report-dir", pages]
-    assert run_cli(capsys, *args)[0] == 0
-    tables = Pipeline.default().describe()
-    first = index_entries((pages / "index.html").read_text(), tables)
+    out, pages, args, tables, first = cleaned_once(tree, tmp_path, capsys)
     (pages / "index.html").unlink()  # as an interrupted run leaves it
     (out / "top.bvh").unlink()  # a clip it had not reached
     older = pages / "walk" / "a.bvh.html"
