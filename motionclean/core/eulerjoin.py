@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "rejoin"]
+__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "follow_wraps", "rejoin"]
 
 #: A written step larger than this (degrees) where the input's is smaller by more than
 #: :data:`JUMP_MARGIN` is a jump to undo.
@@ -62,6 +62,8 @@ _TURNS = np.array(list(itertools.product(_WHOLE_TURNS, repeat=3)))  # (27, 3)
 ALLOWANCE = 1e-6
 #: Rows scanned for jumps at a time (temporaries stay small on long clips).
 _SCAN_ROWS = 8192
+#: Columns :func:`follow_wraps` reads at a time (temporaries stay small on long clips).
+_WRAP_COLUMNS = 8
 
 
 def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -325,3 +327,46 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
         better = _least_overshoot(run, floor if alone else None)
         if run.largest_overshoot(better) < largest:
             values[first:stop, cols] = better
+
+
+def follow_wraps(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
+    """Move, in place, the changed samples of ``values`` ``(F, C)`` (written channel values,
+    degrees) that a continued curve carried whole turns from ``source`` (the values read)
+    back onto the turn of the input's own, on every rotation column where that makes the
+    written curve wrap where the input wraps and nowhere else.
+
+    A changed run continues the curve from the sample before it; where the input wraps
+    from +180 to -180 inside the run and the run ends at the clip's end (nothing kept after
+    it to rejoin), the written curve went on past 180 and stayed a turn off the input's
+    values to the end (a hip written 181 to 540 degrees on 184 of 212 frames where the
+    rotation changed by 0.14). Each sample is moved by the whole turns ``k`` nearest its
+    difference from the read value; a column is moved only if every frame where ``k``
+    changes is one where the moved step follows the input's own step more closely than
+    the written one did (an input wrap): a curve half a turn from the input (the other
+    Euler solution, a repaired flip), whose ``k`` would change where the input does not
+    wrap, is left as it is. Every rotation stays the same; kept samples (``k = 0``) are
+    not touched. ``rotation_columns`` ``(J, 3)``: each joint's rotation columns, -1 for
+    joints without rotation channels."""
+    columns = rotation_columns[rotation_columns[:, 0] >= 0].ravel()
+    if values.shape[0] < 2:
+        return
+    for at in range(0, columns.size, _WRAP_COLUMNS):
+        chosen = columns[at : at + _WRAP_COLUMNS]
+        written, read = values[:, chosen], source[:, chosen]
+        with np.errstate(invalid="ignore"):
+            turns = np.round((written - read) / 360.0)
+        np.copyto(turns, 0.0, where=~np.isfinite(turns))
+        moved = turns.any(axis=0)
+        if not moved.any():
+            continue
+        change = np.diff(turns, axis=0)
+        row, col = np.nonzero(change)  # few: where the input wraps inside a changed run
+        step_in = read[row + 1, col] - read[row, col]
+        step_out = written[row + 1, col] - written[row, col]
+        with np.errstate(invalid="ignore"):
+            follows = np.abs(step_out - 360.0 * change[row, col] - step_in) < np.abs(
+                step_out - step_in
+            )
+        moved[col[~follows]] = False
+        if moved.any():
+            values[:, chosen[moved]] = written[:, moved] - 360.0 * turns[:, moved]

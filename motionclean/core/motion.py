@@ -21,7 +21,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
-from .eulerjoin import JUMP_MARGIN, rejoin
+from .eulerjoin import JUMP_MARGIN, follow_wraps, rejoin
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 from .tree import Cycle, ancestor_jumps
 
@@ -560,7 +560,9 @@ class Motion:
         component, rounding) keep their original values bit for bit, and changed ones
         continue the curve from the last unchanged frame (:func:`continuous_euler`), on the
         representations that rejoin the unchanged frames after them without a jump the
-        input lacks (:func:`motionclean.core.eulerjoin.rejoin`). Otherwise (new frames:
+        input lacks (:func:`motionclean.core.eulerjoin.rejoin`) and on the input's own
+        whole turns, wrapping where it wraps (:func:`~motionclean.core.eulerjoin.follow_wraps`:
+        a run to the clip's end has no unchanged frame to rejoin). Otherwise (new frames:
         resampled, stitched, another format's rotations) the first frame takes the
         principal angles and each frame after it the Euler solution and whole turns nearest
         the frame before, as a changed run does: a middle angle that passes +-90 degrees
@@ -580,6 +582,7 @@ class Motion:
         if not fresh:
             assert self.source_values is not None
             rejoin(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
+            follow_wraps(values, self.source_values, layout.rotation_columns)
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values

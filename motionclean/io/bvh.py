@@ -190,6 +190,11 @@ class _Lines:
         return None
 
 
+#: Channel names as BVH spells them, by their lower-case spelling: exporters also write
+#: ``ZPosition`` or ``XROTATION`` (read as the same channel; the header is kept as written).
+_CHANNEL_SPELLING = {name.lower(): name for name in KNOWN_CHANNELS}
+
+
 def _check_channels(listed: list[str], path, number: int) -> None:
     for name in listed:
         if name not in KNOWN_CHANNELS:
@@ -291,6 +296,7 @@ class _Hierarchy:
         count, listed = int(tokens[1]), tokens[2:]
         if count != len(listed):
             _fail(f"CHANNELS says {count} but names {len(listed)}", self.path, number)
+        listed = [_CHANNEL_SPELLING.get(name.lower(), name) for name in listed]
         _check_channels(listed, self.path, number)
         self.channels[joint] = tuple(listed)
 

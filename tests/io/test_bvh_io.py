@@ -498,3 +498,23 @@ def test_a_joint_without_channels_is_written_with_channels_0(tmp_path):
     bvhio = pytest.importorskip("bvhio")
     hierarchy = bvhio.readAsHierarchy(str(tmp_path / "c.bvh"))
     assert [joint.Name for joint, *_ in hierarchy.layout()] == ["root", "mid", "tip"]
+
+
+def test_channel_names_in_another_case_are_read_as_bvh_spells_them(tmp_path):
+    """``ZPosition`` and ``XROTATION`` (headers some exporters write) are the channels BVH
+    spells ``Zposition`` and ``Xrotation``: read as such, and the header written back as it
+    was read."""
+    text = SAMPLE.read_text()
+    odd = text.replace("Zposition", "ZPosition", 1).replace("Xrotation", "XROTATION", 1)
+    assert odd != text
+    source = tmp_path / "odd.bvh"
+    source.write_text(odd)
+    clip, plain = mc.load(source), mc.load(SAMPLE)
+    assert clip.channels == plain.channels
+    assert np.array_equal(clip.rotations, plain.rotations)
+    assert np.array_equal(clip.translations, plain.translations)
+    edited = clip.replace(rotations=quat.normalize(clip.rotations + 0.01))
+    target = tmp_path / "out.bvh"
+    mc.save(edited, target)
+    written = target.read_text()
+    assert written.split("MOTION")[0] == odd.split("MOTION")[0]

@@ -298,3 +298,44 @@ def test_a_changed_run_switches_solution_where_the_input_does(tmp_path, at):
     assert step_in[at - 1].max() > 90.0  # the input switches at frame ``at`` ...
     assert not ((step_out > 90.0) & (step_out > step_in + JUMP_MARGIN)).any()  # ... and so do we
     assert max_degrees(quat.from_euler(values, "ZXY")[:, None], q) < 1e-9
+
+
+def test_a_changed_curve_wraps_where_the_input_wraps_to_the_clips_end(tmp_path):
+    """The hips' yaw turns past 180 degrees and the file wraps it to -180, as exporters
+    write it; smoothing changes every frame after the wrap, so no kept sample follows to
+    rejoin. The written yaw stays on the input's own turn (it had gone on past 180 and
+    stayed a turn off, 181-540, on 184 of a Bandai Namco walk's 212 frames)."""
+    lines = SAMPLE.read_text().splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+    frames = [line.split() for line in lines[head:] if line.strip()]
+    yaw = 150.0 + 80.0 * np.arange(len(frames)) / len(frames)  # Yrotation, the 5th channel
+    for row, value in zip(frames, yaw, strict=True):
+        row[4] = f"{(value + 180.0) % 360.0 - 180.0:.5f}"
+    source = tmp_path / "wrapped.bvh"
+    source.write_text("\n".join(lines[:head] + [" ".join(r) for r in frames]) + "\n")
+    clip = mc.load(source)
+    out, _ = Pipeline.from_inline(["lee-shin:k=2,iterations=5"]).run(clip)
+    target = tmp_path / "out.bvh"
+    mc.save(out, target)
+    read, written = rows(source), rows(target)
+    assert np.abs(read[:, 4]).max() <= 180.0 and (np.diff(read[:, 4]) < -300.0).sum() == 1
+    assert np.abs(written[:, 4] - read[:, 4]).max() < 5.0  # the same turn as the input's
+    changed = written[:, 4] != read[:, 4]
+    assert changed[len(frames) // 2 :].all()  # changed to the clip's end: nothing to rejoin
+    assert max_degrees(mc.load(target).rotations, out.rotations) < 1e-4
+
+
+def test_a_curve_half_a_turn_from_the_input_is_not_moved_by_whole_turns():
+    """A written channel 170-190 degrees from the read one (a repaired flip, the other Euler
+    solution) would move by a whole turn wherever its difference crosses 180, stepping 360
+    where the input does not: it is left as written."""
+    from motionclean.core import eulerjoin
+
+    rng = np.random.default_rng(3)
+    read = np.zeros((60, 3))
+    read[:, 0] = np.linspace(-20.0, 20.0, 60)
+    written = read.copy()
+    written[:, 0] += 180.0 + rng.uniform(-10.0, 10.0, 60)
+    values = written.copy()
+    eulerjoin.follow_wraps(values, read, np.array([[0, 1, 2]]))
+    assert np.array_equal(values, written)
