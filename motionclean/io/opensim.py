@@ -220,7 +220,8 @@ CARRIED: dict[str, str | None] = {
         "speeds and muscle states"
     ),
     "forces, torques or points of application": (
-        "forces, torques and points of application (an external loads file)"
+        "forces, torques and points of application (an external loads file, or inverse "
+        "dynamics' generalized forces)"
     ),
     "errors (not coordinates)": None,
 }
@@ -282,6 +283,38 @@ def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
         )
 
 
+#: What OpenSim's BodyKinematics analysis names each body's columns: its centre of mass's
+#: position and its body-fixed X-Y-Z Euler angles in the ground frame.
+BODY_KINEMATICS = ("_X", "_Y", "_Z", "_Ox", "_Oy", "_Oz")
+
+
+def _refuse_body_kinematics(labels: list[str], path, line: int) -> None:
+    """A BodyKinematics table (every column after ``time`` one of a body's six,
+    :data:`BODY_KINEMATICS`, some body with all six; the whole body's ``center_of_mass``
+    has its position alone) holds bodies' poses in the ground frame, not coordinates:
+    refused, naming the file to clean instead."""
+    columns = set(labels[1:])
+    bodies = {c[: -len(end)] for c in columns for end in BODY_KINEMATICS if c.endswith(end)}
+    whole = any(all(body + end in columns for end in BODY_KINEMATICS) for body in bodies)
+    if whole and all(c.endswith(BODY_KINEMATICS) for c in columns):
+        _fail(
+            "body kinematics (each body's position _X/_Y/_Z and orientation _Ox/_Oy/_Oz in "
+            "the ground frame, OpenSim's BodyKinematics output), not coordinates: clean the "
+            "inverse kinematics' .mot of the trial instead",
+            path,
+            line,
+        )
+
+
+def _empty_cell(data: bytes, line_start: np.ndarray, line: int) -> int | None:
+    """The column (0-based) of the first empty tab-separated cell of the body's ``line``
+    (two tabs in a row, or a tab that starts or ends it), or None."""
+    end = int(line_start[line + 1]) if line + 1 < line_start.size else len(data)
+    cells = data[int(line_start[line]) : end].rstrip(b"\r\n").split(b"\t")
+    empty = [i for i, cell in enumerate(cells) if not cell.strip()]
+    return empty[0] if empty else None
+
+
 def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool = False) -> Motion:
     """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module). ``regrid``:
     rows at uneven times (a simulation's) are put on a uniform grid, not refused."""
@@ -314,10 +347,22 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         _fail(
             f"the first column is {labels[0][:40]!r}, expected 'time'", path, number_of(label_line)
         )
+    _refuse_body_kinematics(labels, path, number_of(label_line))
+    empty = _empty_cell(data, line_start, label_line)
+    if empty is not None:
+        _fail(f"column {empty + 1} has no name (two tabs in a row)", path, number_of(label_line))
     rows = used[1:]
     bad = rows[counts[rows] != k]
     if bad.size:
         line = int(bad[0])
+        empty = _empty_cell(data, line_start, line)
+        if empty is not None and empty < k:
+            _fail(
+                f"an empty cell in column {labels[empty][:60]!r} (two tabs in a row): write a "
+                "number, or NaN for a missing sample",
+                path,
+                number_of(line),
+            )
         _fail(
             f"{int(counts[line])} values on this row, expected {k} (one per column)",
             path,

@@ -567,7 +567,9 @@ def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
 def fresh_record(motion: Motion) -> dict[str, np.ndarray]:
     """A SMPL record (``poses`` in model order, ``trans``, ``mocap_framerate``) of a clip read
     from another format whose joints and tree are a SMPL model's (by name, in any order: a
-    BVH lists them depth first) and whose rest pose is the model's (zero rotations a T-pose);
+    BVH lists them depth first; a clip without a tree, every joint a root as a channel CSV
+    read without a skeleton has them, takes the model's by the names) and whose rest pose
+    is the model's (zero rotations a T-pose);
     ``trans`` is the pelvis's position less its rest offset, as SMPL adds it back."""
     names = {name: j for j, name in enumerate(motion.names)}
     tree = next((t for t in TREES.values() if set(t.names) == names.keys()), None)
@@ -579,7 +581,8 @@ def fresh_record(motion: Motion) -> dict[str, np.ndarray]:
         )
     order = np.array([names[name] for name in tree.names], dtype=np.intp)
     parents = [tree.names.index(motion.names[p]) if p >= 0 else -1 for p in motion.parents[order]]
-    if parents != list(tree.parents):
+    treeless = not any(p >= 0 for p in parents)  # (a channel CSV read without a skeleton)
+    if parents != list(tree.parents) and not treeless:
         raise MotionError(f"the joints are {tree.model}'s but not its tree", motion.path)
     if motion.missing is not None:
         raise MotionError("SMPL parameters have no missing samples; fill them first", motion.path)

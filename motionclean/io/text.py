@@ -202,9 +202,10 @@ MAX_MAGNITUDE = 1e12
 def within_magnitude(values: np.ndarray) -> bool:
     """Whether every value of ``values`` is a number of at most :data:`MAX_MAGNITUDE` in
     size (False for NaN), by two reductions: no array-sized temporary."""
-    return values.size == 0 or bool(
-        values.max() <= MAX_MAGNITUDE and values.min() >= -MAX_MAGNITUDE
-    )
+    if values.size == 0:
+        return True
+    # (the extremes compared as float64: a float16 array would cast the bound to inf)
+    return bool(float(values.max()) <= MAX_MAGNITUDE and float(values.min()) >= -MAX_MAGNITUDE)
 
 
 def parse_numbers(

@@ -247,6 +247,12 @@ def test_convert_to_csv_and_back(tmp_path, capsys, start):
         (IK.replace("time\t", "frame\t"), "the first column is 'frame'", 11),
         (IK.replace("inDegrees=yes", "inDegrees=maybe"), "inDegrees='maybe'", 5),
         (IK.split("endheader")[0] + "endheader\n", "no column labels", 11),
+        (
+            IK.replace("\t     -6.50000000", "\t"),
+            "an empty cell in column 'knee_angle_r' (two tabs in a row)",
+            13,
+        ),
+        (IK.replace("\tpelvis_ty", "\t"), "column 4 has no name (two tabs in a row)", 11),
     ],
 )
 def test_bad_files_are_one_line(tmp_path, capsys, text, message, line):
@@ -370,6 +376,23 @@ def test_a_states_file_cleans_its_coordinates_and_carries_speeds_and_muscles(
     assert [r[2] for r in before] == [r[2] for r in after]  # the speed
     assert [r[4] for r in before] == [r[4] for r in after]  # the activation
     assert before[60][1] != after[60][1]  # the knee's spike was repaired
+
+
+def test_a_body_kinematics_table_is_refused_in_one_line(tmp_path, capsys):
+    """OpenSim's BodyKinematics output (each body's position and body-fixed Euler angles
+    in the ground frame, the whole body's centre of mass by position alone, at a
+    simulation's uneven steps) had been sent to `resample` and then read as coordinates."""
+    bodies = [
+        f"{b}_{end}" for b in ("pelvis", "femur_r") for end in ("X", "Y", "Z", "Ox", "Oy", "Oz")
+    ]
+    labels = ["time", *bodies, "center_of_mass_X", "center_of_mass_Y", "center_of_mass_Z"]
+    rows = [[t, *np.linspace(0.1, 1.0, len(labels) - 1)] for t in (0.83, 0.8365, 0.843, 0.85)]
+    text = "Positions\nversion=1\ninDegrees=no\nendheader\n" + "\t".join(labels) + "\n"
+    text += "".join("\t".join(f"{v:.6f}" for v in row) + "\n" for row in rows)
+    path = write(tmp_path, text, "walk_BodyKinematics_pos_global.sto")
+    code, out, err = run_cli(capsys, "info", path)
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert err.startswith(f"motionclean: error: {path}:5: body kinematics")
 
 
 def test_a_quaternion_table_is_refused_in_one_line(tmp_path, capsys):

@@ -172,6 +172,14 @@ def test_untouched_clip_is_written_byte_for_byte(tmp_path):
     assert (tmp_path / "b.npz").read_bytes() == path.read_bytes()
 
 
+def test_half_precision_poses_read_without_a_warning(tmp_path):
+    """float16 poses (the bound on magnitudes had been cast to float16: inf, and a numpy
+    overflow warning on stderr, an error under this suite's warning filter)."""
+    half = mc.load(amass_h(tmp_path / "a.npz", dtype=np.float16))
+    single = mc.load(amass_h(tmp_path / "b.npz", dtype=np.float32))
+    assert np.abs(half.rotations - single.rotations).max() < 5e-3
+
+
 def test_changed_joints_only_are_rewritten_keys_and_dtypes_kept(tmp_path):
     path = amass_h(tmp_path / "a.npz", dtype=np.float32)
     motion = mc.load(path)
@@ -597,3 +605,17 @@ def test_a_fixed_placement_survives_a_trip_through_gltf(tmp_path, placement):
     back = np.load(tmp_path / "back.npz")
     assert "trans" in back.files
     np.testing.assert_allclose(back["trans"], record["trans"], atol=1e-6)
+
+
+def test_a_channel_csv_of_smpl_joints_goes_back_to_npz(tmp_path):
+    """SMPL -> channel CSV (to edit in a spreadsheet) -> .npz: the CSV read without a
+    skeleton has every joint a root, and the model's tree is known from its names (it had
+    been refused: "the joints are SMPL-H's but not its tree")."""
+    clip = mc.load(amass_h(tmp_path / "a.npz"))
+    mc.save(clip, tmp_path / "a.csv")
+    mc.save(mc.load(tmp_path / "a.csv"), tmp_path / "b.npz")
+    back = mc.load(tmp_path / "b.npz")
+    assert back.names == clip.names and np.array_equal(back.parents, clip.parents)
+    assert np.degrees(quat.angle_between(back.rotations, clip.rotations)).max() < 1e-6
+    before, after = np.load(tmp_path / "a.npz"), np.load(tmp_path / "b.npz")
+    assert np.abs(after["trans"] - before["trans"]).max() < 1e-6
