@@ -100,6 +100,16 @@ class OpenSimText:
     notes: tuple[str, ...] = ()
     stated_rows: str | None = None  # the header's nRows as written (None: no such line)
     regridded: bool = False  # rows put on a uniform grid: the file's cells are not the clip's
+    stated_columns: str | None = None  # the header's nColumns as written (None: no such line)
+
+    @property
+    def stale_counts(self) -> bool:
+        """Whether the header's nRows or nColumns miss what the file holds (any output
+        then says the counts it writes)."""
+        rows, columns = self.stated_rows, self.stated_columns
+        return (rows is not None and stated_count(rows) != self.n_frames) or (
+            columns is not None and stated_count(columns) != len(self.labels)
+        )
 
     @property
     def n_frames(self) -> int:
@@ -380,6 +390,12 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
     kept, carried = _sorted_columns(labels, kept)
     _check_coordinates(labels, kept, carried, path, number_of(label_line))
     notes = [] if note is None else [note]
+    stated_columns = pairs.get("ncolumns", (None, 0))[0]
+    if stated_columns is not None and stated_count(stated_columns) != k:
+        notes.append(
+            f"nColumns={stated_columns[:20]} but the file holds {k} columns: any output says "
+            f"nColumns={k}"
+        )
     if stated is not None and stated_count(stated) != rows.size:
         short = (stated_count(stated) or 0) > rows.size
         notes.append(
@@ -450,6 +466,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         tuple(notes),
         stated,
         regrid_rows,
+        stated_columns,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
 
@@ -588,7 +605,7 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     moved = np.abs(values - np.nan_to_num(reference)) > UNCHANGED_TOLERANCE
     was_missing = np.isnan(reference)
     changed = (moved & ~missing) | (was_missing != missing)
-    stale = src.stated_rows is not None and stated_count(src.stated_rows) != motion.n_frames
+    stale = src.stale_counts
     if not changed.any() and not stale:
         return pieces(src.raw)
     mask = np.zeros(src.starts.shape, dtype=bool)
@@ -610,7 +627,11 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         mask,
         texts,
         start=src.body if stale else 0,
-        prefix=_counted(src.raw[: src.body], {b"nrows": motion.n_frames}) if stale else b"",
+        prefix=_counted(
+            src.raw[: src.body], {b"nrows": motion.n_frames, b"ncolumns": len(src.labels)}
+        )
+        if stale
+        else b"",
     )
 
 

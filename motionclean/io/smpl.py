@@ -341,11 +341,29 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
     return 1.0 / rate, None
 
 
-def _rotations(record: dict, f: PoseField) -> np.ndarray:
-    """``(F, count, 4)`` quaternions of a field."""
+#: A pose matrix whose ``R^T R`` differs from the identity by more than this (largest
+#: entry), or whose determinant is negative, is no rotation (float32 files: about 1e-6).
+ORTHONORMAL_TOLERANCE = 1e-3
+
+
+def _rotations(record: dict, f: PoseField, path) -> np.ndarray:
+    """``(F, count, 4)`` quaternions of a field; matrices that are no rotation (a scale, a
+    shear, a mirror) refused, as writing a changed joint back would drop what they hold."""
     array = np.asarray(record[f.key], dtype=np.float64)
     if f.matrix:
-        return smpl_model.matrix_to_quaternion(array.reshape(array.shape[0], f.count, 3, 3))
+        m = array.reshape(array.shape[0], f.count, 3, 3)
+        gram = np.einsum("...ji,...jk->...ik", m, m) - np.eye(3)
+        off = np.abs(gram).max(axis=(-2, -1))
+        bad = (off > ORTHONORMAL_TOLERANCE) | (np.linalg.det(m) < 0.0)
+        if bad.any():
+            frame, joint = (int(i) for i in np.argwhere(bad)[0])
+            raise MotionError(
+                f"{f.key}: frame {frame}, matrix {joint} is no rotation (R^T R differs from "
+                f"the identity by {off[frame, joint]:.3g}, determinant "
+                f"{np.linalg.det(m[frame, joint]):.3g})",
+                path,
+            )
+        return smpl_model.matrix_to_quaternion(m)
     return smpl_model.axis_angle_to_quaternion(array.reshape(array.shape[0], f.count, 3))
 
 
@@ -404,7 +422,7 @@ def smpl_motion(
     model = np.empty((n_rows, tree.n_joints, 4))
     whole = [f for f in fields if f.first == 0 and f.count == tree.n_joints]
     for f in whole or fields:  # the whole pose when there is one, else the split arrays
-        model[:, f.first : f.first + f.count] = _rotations(record, f)
+        model[:, f.first : f.first + f.count] = _rotations(record, f, path)
     has_skeleton = skeleton is not None or body_model is not None
     offsets = np.zeros((tree.n_joints, 3))
     if body_model is not None:

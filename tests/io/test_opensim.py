@@ -489,6 +489,17 @@ def test_rows_not_as_many_as_nrows_are_read_and_written_with_their_count(
     assert "nRows=3\n" in (tmp_path / "half.mot").read_text()
 
 
+def test_a_stale_ncolumns_is_said_and_no_output_keeps_it(tmp_path):
+    """nColumns is told and corrected as nRows is (it had been kept silently)."""
+    source = write(tmp_path, IK.replace("nColumns=6", "nColumns=4"))
+    clip = mc.load(source, exclude=["*_force"])
+    said = "nColumns=4 but the file holds 6 columns: any output says nColumns=6"
+    assert said in clip.source.notes
+    mc.save(clip, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == write(tmp_path, IK, "true.mot").read_bytes()
+    assert not mc.load(write(tmp_path, IK, "right.mot"), exclude=["*_force"]).source.notes
+
+
 @pytest.mark.parametrize("stated", ["6", "06"])
 def test_a_file_whose_nrows_is_right_says_nothing_of_it(tmp_path, stated):
     source = write(tmp_path, IK.replace("nRows=6", f"nRows={stated}"))
