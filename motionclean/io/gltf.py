@@ -7,7 +7,11 @@ ancestor among them. Its rest offset is the node's translation; its local rotati
 node's ``rotation`` (glTF's ``(x, y, z, w)`` becomes our ``(w, x, y, z)``), animated by
 the first animation's ``rotation`` channel, and a joint whose ``translation`` channel
 varies gets position channels (glTF replaces the node's translation, as BVH position
-channels replace an OFFSET). Scale is not read (and never changed).
+channels replace an OFFSET). Scale is not read (and never changed). A VRM animation (the
+``VRMC_vrm_animation`` extension) is read by its humanoid bone map: the joints are the
+bones' nodes (and any node between two of them), hips at the root; its expression nodes
+(whose translation's x is a weight) and its look-at node are not joints, their channels
+kept as they are, and a note names them.
 
 Keyframes become frames on a uniform grid: the frame time is the smallest key step of the
 channels (a uniform channel's span over its steps, else its median step; snapped to a
@@ -417,6 +421,82 @@ def _numbers(value, n: int) -> bool:
     )
 
 
+# ----------------------------------------------------------------------------- VRM animation
+
+
+def _vrm_nodes(document: dict, size: int, path) -> tuple[set[int], dict[int, str]]:
+    """A VRM animation's humanoid bone nodes, and its expression and look-at nodes with
+    what each one is (``expression 'happy'``, ``lookAt``); both empty for a glTF without
+    the :data:`VRM_ANIMATION` extension."""
+    extensions = document.get("extensions")
+    vrm = extensions.get(VRM_ANIMATION) if isinstance(extensions, dict) else None
+    if not isinstance(vrm, dict):
+        return set(), {}
+    where = f"extensions.{VRM_ANIMATION}"
+    humanoid = _object(vrm, "humanoid", where, path)
+    bones = _mapped(humanoid, "humanBones", f"{where}.humanoid", size, path)
+    expressions = _object(vrm, "expressions", where, path)
+    carried = {
+        n: f"expression {name[:40]!r}"
+        for kind in ("preset", "custom")
+        for name, n in _mapped(expressions, kind, f"{where}.expressions", size, path).items()
+    }
+    if "lookAt" in vrm:
+        carried[_node_of(vrm["lookAt"], f"{where}.lookAt", size, path)] = "lookAt"
+    return set(bones.values()), carried
+
+
+def _object(parent: dict, key: str, where: str, path) -> dict:
+    """``parent[key]``, an object (empty where it is absent)."""
+    value = parent.get(key, {})
+    if not isinstance(value, dict):
+        _fail(f"{where}.{key} is not an object", path)
+    return value
+
+
+def _mapped(parent: dict, key: str, where: str, size: int, path) -> dict[str, int]:
+    """The node of each name in the object ``parent[key]`` (``{"hips": {"node": 0}}``)."""
+    named = _object(parent, key, where, path)
+    return {
+        name: _node_of(spec, f"{where}.{key}.{name}", size, path) for name, spec in named.items()
+    }
+
+
+def _node_of(spec, where: str, size: int, path) -> int:
+    """The node index of ``{"node": i}``."""
+    if not isinstance(spec, dict):
+        _fail(f"{where} is not an object", path)
+    return _index(spec.get("node"), size, f"{where}.node", path)
+
+
+def _humanoid(bones: set[int], parent: np.ndarray) -> set[int]:
+    """The humanoid bones' nodes and every node between two of them (whose rest transform
+    is part of the skeleton's)."""
+    joints = set(bones)
+    for n in bones:
+        between = []
+        above = int(parent[n])
+        while above >= 0 and above not in bones:
+            between.append(above)
+            above = int(parent[above])
+        if above >= 0:
+            joints.update(between)
+    return joints
+
+
+def _carried_note(carried: dict[int, str], animated: set[int]) -> list[str]:
+    """The note naming the VRM expression and look-at nodes the animation moves: carried
+    as they are, never joints (an expression's weight is no position to clean)."""
+    moved = [what for n, what in carried.items() if n in animated]
+    if not moved:
+        return []
+    more = " ..." if len(moved) > 4 else ""
+    return [
+        f"{len(moved)} VRM animation node{'s' if len(moved) > 1 else ''}, not joints, "
+        f"kept as they are when written back to glTF: {', '.join(moved[:4])}{more}"
+    ]
+
+
 # ----------------------------------------------------------------------------- sampling
 
 
@@ -625,8 +705,11 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         kind = target.get("path")
         if kind in ("rotation", "translation"):
             targets[(n, kind)] = c
+    bones, carried = _vrm_nodes(document, len(nodes), path)
     skins = _items(document, "skins", path)
-    if skins:
+    if bones:
+        joints = _humanoid(bones, parent)
+    elif skins:
         listed = skins[0].get("joints")
         if not isinstance(listed, list) or not listed:
             _fail("skins[0].joints is not a list of nodes", path)
@@ -635,6 +718,8 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             notes.append(f"{len(skins)} skins: the joints of the first are read")
     else:
         joints = {n for n, _ in targets}
+    joints -= carried.keys()
+    notes.extend(_carried_note(carried, {n for n, _ in targets}))
     if not joints:
         _fail("no skin and no animated node: no skeleton to read", path)
     order, parents = _order(joints, nodes, parent)
@@ -720,7 +805,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         source_rotations=rotations.copy(),
         source=source,
         path=None if path is None else str(path),
-        end_sites=_end_sites(order, nodes, joints, path),
+        end_sites=_end_sites(order, nodes, joints, set(carried), path),
         up=up,
     )
 
@@ -758,15 +843,20 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
     )
 
 
-def _end_sites(order: list[int], nodes: list, joints: set[int], path) -> dict[int, np.ndarray]:
+def _end_sites(
+    order: list[int], nodes: list, joints: set[int], carried: set[int], path
+) -> dict[int, np.ndarray]:
     """Per joint (index into ``order``) with no joint among its children, the translation of
-    its first child that is a bare leaf node (no children, mesh or camera): a bone's tip."""
+    its first child that is a bare leaf node (no children, mesh or camera, and not a
+    ``carried`` node, a VRM expression or look-at target): a bone's tip."""
     sites = {}
     for j, n in enumerate(order):
         children = nodes[n].get("children", [])
         if any(c in joints for c in children):
             continue
         for c in children:
+            if c in carried:
+                continue
             node = nodes[c]
             if not (node.get("children") or "mesh" in node or "camera" in node or "matrix" in node):
                 sites[j] = _rest(node, c, path)[0]

@@ -100,7 +100,7 @@ def test_a_vrm_animation_is_read_and_written_as_the_glb_it_is(tmp_path, capsys):
     nodes to humanoid bones (three-vrm's example): read as a GLB, an untouched one written
     back byte for byte, a changed one keeps its extension (and the rest of its JSON)."""
     clip = mc.load(VRMA)
-    assert clip.names == ["rightUpperArm", "happy", "lookAt"] and clip.n_frames == 7
+    assert clip.names[0] == "hips" and clip.n_frames == 7  # the humanoid: tests/io/test_vrma.py
     mc.save(clip, tmp_path / "same.vrma")
     assert (tmp_path / "same.vrma").read_bytes() == VRMA.read_bytes()
     q = clip.rotations.copy()
