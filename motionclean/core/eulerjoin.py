@@ -348,8 +348,9 @@ def follow_wraps(values: np.ndarray, source: np.ndarray, rotation_columns: np.nd
     not touched. ``rotation_columns`` ``(J, 3)``: each joint's rotation columns, -1 for
     joints without rotation channels."""
     columns = rotation_columns[rotation_columns[:, 0] >= 0].ravel()
-    if values.shape[0] < 2:
+    if values.shape[0] < 2 or not columns.size:
         return
+    columns = columns[_turned(values, source)[columns]]  # (most clips: none)
     for at in range(0, columns.size, _WRAP_COLUMNS):
         chosen = columns[at : at + _WRAP_COLUMNS]
         written, read = values[:, chosen], source[:, chosen]
@@ -370,3 +371,14 @@ def follow_wraps(values: np.ndarray, source: np.ndarray, rotation_columns: np.nd
         moved[col[~follows]] = False
         if moved.any():
             values[:, chosen[moved]] = written[:, moved] - 360.0 * turns[:, moved]
+
+
+def _turned(values: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """``(C,)``: the columns where some sample of ``values`` lies more than half a turn from
+    ``source``'s (read a block of rows at a time: contiguous, small temporaries)."""
+    turned = np.zeros(values.shape[1], dtype=bool)
+    for at in range(0, values.shape[0], _SCAN_ROWS):
+        rows = slice(at, at + _SCAN_ROWS)
+        with np.errstate(invalid="ignore"):
+            turned |= (np.abs(values[rows] - source[rows]) > 180.0).any(axis=0)
+    return turned
