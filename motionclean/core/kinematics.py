@@ -595,16 +595,38 @@ def spine(parents: np.ndarray, upper: np.ndarray) -> np.ndarray:
     smallest of the chest's branches when one is smaller than every other (the neck and
     head: an arm holds at least a shoulder, elbow and wrist). Point indices."""
     children = child_lists(parents)
+    chain = _trunk_chain(parents, upper, children)
+    branches = sorted((subtree(children, c) for c in children[chain[-1]]), key=len)
+    if len(branches) >= 2 and len(branches[0]) < len(branches[1]):
+        chain += branches[0]
+    return np.array(chain, dtype=np.intp)
+
+
+def _trunk_chain(parents: np.ndarray, upper: np.ndarray, children: list[list[int]]) -> list[int]:
+    """The upper body's points from the one below the pelvis down the single-child chain to
+    the chest, the first with several children (or none)."""
     inside = set(upper.tolist())
     point = next(p for p in upper.tolist() if parents[p] not in inside)
     chain = [point]
     while len(children[point]) == 1:
         point = children[point][0]
         chain.append(point)
-    branches = sorted((subtree(children, c) for c in children[point]), key=len)
-    if len(branches) >= 2 and len(branches[0]) < len(branches[1]):
-        chain += branches[0]
-    return np.array(chain, dtype=np.intp)
+    return chain
+
+
+def limbs(parents: np.ndarray) -> list[list[int]]:
+    """The limbs of a skeleton with a trunk (:func:`trunk_split`), any names: the subtrees
+    that part at the chest (the neck and head, the arms) and the legs, the pelvis's other
+    subtrees. Point indices (ascending) per limb; none without a trunk."""
+    parents = np.asarray(parents, dtype=np.intp)
+    split = trunk_split(parents)
+    if split is None:
+        return []
+    children = child_lists(parents)
+    chain = _trunk_chain(parents, split[0], children)
+    pelvis = int(parents[chain[0]])
+    starts = children[chain[-1]] + [c for c in children[pelvis] if c != chain[0]]
+    return [subtree(children, start) for start in starts]
 
 
 def child_lists(parents: np.ndarray) -> list[list[int]]:

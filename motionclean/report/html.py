@@ -32,6 +32,7 @@ from .summary import (
     format_noise_model,
     format_rest,
     format_takes,
+    joint_count,
     json_safe,
     noisiest,
     note_text,
@@ -467,7 +468,7 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     body = [
         f"<h1>{_e(report['file'])}</h1>",
         f'<div class="meta">{frames:,} frames at {fps_text(dt)} fps '
-        f"({frames * dt:.3f} s){_e(resampled_to(report))}, {len(report['joints'])} joints; "
+        f"({frames * dt:.3f} s){_e(resampled_to(report))}, {joint_count(report)}; "
         "frames are numbered from 0</div>",
     ]
     verdict = report.get("verdict")
@@ -501,7 +502,7 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     if positions:
         tables += _position_table(joints, positions, cleaned)
     body.append(
-        f"<details><summary>Figures of all {len(names)} joints, noisiest first"
+        f"<details><summary>Figures of all {joint_count(report)}, noisiest first"
         f"</summary>{tables}</details>"
     )
     body += world_section(report, series)

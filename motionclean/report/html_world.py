@@ -29,6 +29,10 @@ VIEW = 360  # SVG user units of a player or trajectory view
 #: The player's view spans at least this many body heights: it follows the figure across,
 #: and frames the clip's range of heights (:func:`_window`).
 FIGURE_SPAN = 1.3
+#: An end effector whose track spans less than this share of the body height stays still
+#: (one step of the player's stored coordinates, :data:`QUANTUM`): it gets no card, only a
+#: count; a view of a card across less says "still".
+STILL_SHARE = 1.0 / QUANTUM
 
 
 def _frames(n_frames: int) -> np.ndarray:
@@ -56,8 +60,9 @@ def _stride(frames) -> str:
 
 def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
     """What the page draws: world points of joints and end sites (subsampled frames), the
-    bones as point pairs, the up axis and the body height, and where points are unknown
-    (tracker dropouts); ``after`` None for one clip."""
+    bones as point pairs, the up axis and the body height, where points are unknown
+    (tracker dropouts) and the end effectors (:func:`_limb_ends_first`); ``after`` None for
+    one clip."""
     up, sign = kinematics.up_direction(before)
     height = kinematics.body_height(before, up)
     frames = _frames(before.n_frames)
@@ -70,7 +75,6 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         else kinematics.upright(kinematics.world_positions(clip.at_frames(frames)), up, sign)
         for clip in (before, after)
     )
-    index, names = kinematics.end_effectors(before)
     unknown = [
         kinematics.missing_points(clip) if clip is not None else None for clip in (before, after)
     ]
@@ -85,8 +89,26 @@ def world_series(before: Motion, after: Motion | None = None) -> dict[str, Any]:
         "bones": [(int(p), int(c)) for c, p in enumerate(parents) if p >= 0],
         "before": points_b,
         "after": points_a,
-        "effectors": dict(zip(names, index.tolist(), strict=True)),
+        "effectors": dict(_limb_ends_first(before)),
     }
+
+
+def _limb_ends_first(motion: Motion) -> list[tuple[str, int]]:
+    """The end effectors as ``(name, point)``, the hands, feet and head first: per limb
+    (:func:`~motionclean.core.kinematics.limbs`) the one farthest in the rest pose from
+    where the limb leaves the trunk, then the others (fingers, toes, a face's points), each
+    group in file order."""
+    index, names = kinematics.end_effectors(motion)
+    parents = kinematics.point_parents(motion)
+    rest = kinematics.rest_positions(motion)
+    lead = set()
+    for limb in kinematics.limbs(parents):
+        ends = np.intersect1d(index, limb)
+        if ends.size:
+            base = next(p for p in limb if parents[p] not in limb)
+            lead.add(int(ends[np.argmax(np.linalg.norm(rest[ends] - rest[base], axis=1))]))
+    pairs = list(zip(names, index.tolist(), strict=True))
+    return sorted(pairs, key=lambda pair: pair[1] not in lead)
 
 
 def _travel(points: np.ndarray) -> float:
@@ -167,9 +189,27 @@ def _centres(series: dict) -> np.ndarray:
     return sums[counts > 0] / counts[counts > 0, None]
 
 
+def _extent(series: dict, point: int) -> float:
+    """How far an end effector's track (input and cleaned) spans along any axis, in file
+    units, rest-pose frames and unknown samples left out."""
+    rest = series["rest"]
+    shown = ~rest if rest.any() and not rest.all() else np.ones_like(rest)
+    tracks = []
+    for key in ("before", "after"):
+        if series[key] is not None:
+            track = series[key][:, point]
+            known = shown & np.isfinite(track).all(axis=1)
+            if series[f"unknown_{key}"] is not None:
+                known &= ~series[f"unknown_{key}"][:, point]
+            tracks.append(track[known])
+    points = np.concatenate(tracks)
+    return float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+
+
 def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
     """An end effector's track from above and from ``upright`` (:func:`_upright_view`),
-    input and cleaned overlaid, each view with its width in file units."""
+    input and cleaned overlaid, each view with its width in file units ("still" across
+    less than :data:`STILL_SHARE` of the body height)."""
     views, titles = [], ("from above", upright[0])
     for title, axes in zip(titles, (_views(series["up"])["top"], upright[1]), strict=True):
         tracks = [series["before"][:, point][:, axes]]
@@ -186,7 +226,8 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
             tracks_shown = tracks
         low = np.min([t.min(axis=0) for t in tracks_shown], axis=0)
         high = np.max([t.max(axis=0) for t in tracks_shown], axis=0)
-        span = max(float((high - low).max()), 1e-9)
+        extent = float((high - low).max())
+        span = max(extent, 1e-9)
         low = (low + high) / 2 - span / 2  # centred, the same scale on both axes
         lines = [
             _polyline(_to_view(t, low, span), colour, label, gone)
@@ -194,7 +235,8 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
                 tracks, unknown, (BEFORE, AFTER), ("before", "after"), strict=False
             )
         ]
-        width = f"{span / 0.9:.3g} units across"
+        still = extent < STILL_SHARE * series["height"]
+        width = "still" if still else f"{span / 0.9:.3g} units across"
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
             f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
@@ -446,12 +488,26 @@ CSS = (
     "svg.view text.width{font-size:9px;fill:#5a6272}"
     ".player{max-width:560px}.controls{display:flex;gap:8px;align-items:center;margin:6px 0}"
     "#mc-slider{flex:1}"
+    "details.still{margin:8px 0 0}details.still summary{font-weight:400;font-size:12.5px}"
 )
 
 
+def _still_line(names: list[str], per: str) -> list[str]:
+    """One line counting the end effectors that stay still, their names folded under it."""
+    if not names:
+        return []
+    count = f"{len(names)} end effector{' that stays' if len(names) == 1 else 's that stay'}"
+    share = f"{STILL_SHARE:.1%}".replace("%", " %")
+    return [
+        f'<details class="note still"><summary>Not drawn: {count} still (a track within '
+        f"{share} of {per})</summary>{html.escape(', '.join(names))}</details>"
+    ]
+
+
 def world_section(report: dict, series: dict | None) -> list[str]:
-    """HTML blocks: the skeleton player, then every end effector's trajectory seen from
-    above and from the side (input and cleaned overlaid); or why there are none."""
+    """HTML blocks: the skeleton player, then the trajectory of every end effector that
+    moves, seen from above and from the side (input and cleaned overlaid; hands, feet and
+    head first), and a line counting those that stay still; or why there are none."""
     skipped = (report.get("world") or {}).get("skipped")
     if skipped:
         return [
@@ -471,8 +527,14 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         "frame and the last"
     )
     upright = _upright_view(world)
-    cards = [_trajectory_card(name, p, world, upright) for name, p in world["effectors"].items()]
+    least = STILL_SHARE * world["height"]
+    moving = {n: p for n, p in world["effectors"].items() if _extent(world, p) >= least}
+    cards = [_trajectory_card(name, p, world, upright) for name, p in moving.items()]
+    still = [
+        n for n, p in sorted(world["effectors"].items(), key=lambda e: e[1]) if n not in moving
+    ]
     figures = report.get("world") or {}
+    per = "the body height" if figures.get("body_height") else "the range the points travel"
     floor = ((report.get("contacts") or {}).get("floor") or {}).get("height")
     axes = ""
     if figures:
@@ -499,7 +561,6 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         + f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
         _player(world, float(report["frame_time"]), floor),
         "<h2>Where the hands, feet and head go</h2>",
-        '<div class="grid">',
-        *cards,
-        "</div>",
+        *([f'<div class="grid">{"".join(cards)}</div>'] if cards else []),
+        *_still_line(still, per),
     ]

@@ -669,6 +669,20 @@ def noisiest(report: dict) -> list[str]:
     return [name for _, name in sorted(rows, key=lambda r: math.inf if r[0] is None else -r[0])]
 
 
+def translations(report: dict) -> int:
+    """How many entries have position channels alone (OpenSim's ``pelvis_tx`` ...): no
+    joint row of the tables shows them."""
+    return sum("angular_accel_rms" not in entry for entry in report["joints"].values())
+
+
+def joint_count(report: dict) -> str:
+    """ "31 joints", "34 joints and 3 translations": the joints with angular figures, and
+    the :func:`translations`."""
+    moving = translations(report)
+    rotating = plural(len(report["joints"]) - moving, "joint")
+    return rotating + (f" and {plural(moving, 'translation')}" if moving else "")
+
+
 def was_cleaned(report: dict) -> bool:
     """Whether ``report`` compares a clip with its cleaned output (not one clip alone)."""
     return any("deviation_deg" in entry for entry in report["joints"].values()) or (
@@ -722,6 +736,8 @@ def format_table(report: dict, limit: int = 10) -> str:
     cleaned = was_cleaned(report)
     estimated = any("auto" in entry for entry in report["joints"].values())
     names = noisiest(report)
+    # (the rows count joints: the count is told where translations are not among them)
+    counted = f", {joint_count(report)}" if translations(report) else ""
     shown = short_names(names[:limit])
     width = max([21, *map(len, shown.values())]) + 1
     head = f"{'joint':<{width}}{'accel rms':>14}"
@@ -731,7 +747,7 @@ def format_table(report: dict, limit: int = 10) -> str:
         head += f"{'noise est':>10}  filter chosen"
     lines = [
         f"{report['file']}: {report['frames']} frames at "
-        f"{fps_text(report['frame_time'])} fps{resampled_to(report)}, numbered from 0 "
+        f"{fps_text(report['frame_time'])} fps{resampled_to(report)}{counted}, numbered from 0 "
         "(angular acceleration in deg/s^2; deviation and estimated noise in deg)",
         head,
         "-" * len(head),

@@ -298,3 +298,107 @@ def test_a_page_of_the_input_alone_shows_no_cleaned_key():
     for key in ("cleaned", "after"):
         swatch = f"></i>{key}</span>"
         assert swatch not in alone and swatch in cleaned
+
+
+#: A rig with a face, as MakeHuman's (MocapNET's) lists it: the head's end sites first in
+#: the file, two fingers per hand. (joint, parent, offset, end site or None)
+FACED_RIG = [
+    ("Hips", None, (0, 100, 0), None),
+    ("Spine", "Hips", (0, 10, 0), None),
+    ("Chest", "Spine", (0, 20, 0), None),
+    ("Neck", "Chest", (0, 20, 0), None),
+    ("Head", "Neck", (0, 10, 0), None),
+    ("Jaw", "Head", (0, 2, 3), (0, -2, 2)),
+    ("EyeL", "Head", (3, 5, 4), (0, 0, 1)),
+    ("EyeR", "Head", (-3, 5, 4), (0, 0, 1)),
+    ("Crown", "Head", (0, 10, 0), (0, 5, 0)),
+    ("LShoulder", "Chest", (15, 15, 0), None),
+    ("LElbow", "LShoulder", (25, 0, 0), None),
+    ("LHand", "LElbow", (25, 0, 0), None),
+    ("LIndex", "LHand", (8, 0, 1), (4, 0, 0)),
+    ("LThumb", "LHand", (4, 0, 4), (3, 0, 0)),
+    ("RShoulder", "Chest", (-15, 15, 0), None),
+    ("RElbow", "RShoulder", (-25, 0, 0), None),
+    ("RHand", "RElbow", (-25, 0, 0), None),
+    ("RIndex", "RHand", (-8, 0, 1), (-4, 0, 0)),
+    ("RThumb", "RHand", (-4, 0, 4), (-3, 0, 0)),
+    ("LHip", "Hips", (10, 0, 0), None),
+    ("LKnee", "LHip", (0, -45, 0), None),
+    ("LAnkle", "LKnee", (0, -45, 0), None),
+    ("LToe", "LAnkle", (0, -8, 10), (0, 0, 5)),
+    ("RHip", "Hips", (-10, 0, 0), None),
+    ("RKnee", "RHip", (0, -45, 0), None),
+    ("RAnkle", "RKnee", (0, -45, 0), None),
+    ("RToe", "RAnkle", (0, -8, 10), (0, 0, 5)),
+]
+
+
+def rig_text(name: str = "Hips", depth: int = 0) -> list[str]:
+    """The HIERARCHY lines of :data:`FACED_RIG` from ``name`` down."""
+    _, parent, offset, end = next(row for row in FACED_RIG if row[0] == name)
+    pad = "  " * depth
+    channels = "6 Xposition Yposition Zposition" if parent is None else "3"
+    lines = [
+        f"{pad}{'ROOT' if parent is None else 'JOINT'} {name}",
+        f"{pad}{{",
+        f"{pad}  OFFSET {' '.join(map(str, offset))}",
+        f"{pad}  CHANNELS {channels} Zrotation Xrotation Yrotation",
+    ]
+    if end is not None:
+        lines += [f"{pad}  End Site", f"{pad}  {{", f"{pad}    OFFSET {' '.join(map(str, end))}"]
+        lines.append(f"{pad}  }}")
+    for child, *_ in (row for row in FACED_RIG if row[1] == name):
+        lines += rig_text(child, depth + 1)
+    return [*lines, f"{pad}}}"]
+
+
+def faced_bvh(path, wave: bool, frames: int = 40):
+    """:data:`FACED_RIG` over ``frames`` frames at 30 fps: the left arm waving (``wave``),
+    everything else still, or the whole body bobbing straight up and down."""
+    t = np.arange(frames) / 30.0
+    values = np.zeros((frames, 3 + 3 * len(FACED_RIG)))
+    values[:, 1] = 100.0 + (0.0 if wave else 5.0 * np.sin(2 * np.pi * t + 1.0))
+    if wave:
+        shoulder = 3 + 3 * [row[0] for row in FACED_RIG].index("LShoulder")
+        values[:, shoulder] = 40.0 + 30.0 * np.sin(2 * np.pi * t)
+    rows = "\n".join(" ".join(f"{v:.4f}" for v in row) for row in values)
+    hierarchy = "\n".join(rig_text())
+    path.write_text(
+        f"HIERARCHY\n{hierarchy}\nMOTION\nFrames: {frames}\nFrame Time: 0.0333333\n{rows}\n"
+    )
+    return path
+
+
+def cards(page: str) -> list[str]:
+    """The end effectors the page draws a card of, in its order."""
+    section = page.split("Where the hands, feet and head go")[1].split("<h2>")[0]
+    return re.findall(r'<section class="card"><h3>([^<]+)</h3>', section)
+
+
+def test_a_waving_hand_leads_and_still_end_effectors_are_counted_not_drawn(tmp_path):
+    """A rig with a face listed first (as MakeHuman's): its page had drawn every end site in
+    file order, the face's still points first, each labelled "1.11e-09 units across". Only
+    the waving hand's fingers are drawn, its farthest first; the 8 still end effectors are
+    one line that counts them."""
+    page = page_of(faced_bvh(tmp_path / "wave.bvh", wave=True))
+    assert cards(page) == ["LIndex_end", "LThumb_end"]
+    still = re.search(r'<details class="note still"><summary>([^<]+)</summary>([^<]+)<', page)
+    assert still.group(1) == (
+        "Not drawn: 8 end effectors that stay still (a track within 0.1 % of the body height)"
+    )
+    assert still.group(2).startswith("Jaw_end, EyeL_end, EyeR_end, Crown_end, RIndex_end")
+    assert "e-" not in "".join(re.findall(r'class="width"[^>]*>([^<]+)<', page))
+
+
+def test_the_head_hands_and_feet_lead_and_a_view_across_no_motion_says_still(tmp_path):
+    """The whole body bobbing straight up and down: every end effector is drawn, the
+    farthest of each limb first (head, hands, feet), then the face's, the thumbs; seen from
+    above each track is a point, labelled "still"."""
+    page = page_of(faced_bvh(tmp_path / "bob.bvh", wave=False))
+    leads = ["Crown_end", "LIndex_end", "RIndex_end", "LToe_end", "RToe_end"]
+    others = ["Jaw_end", "EyeL_end", "EyeR_end", "LThumb_end", "RThumb_end"]
+    assert cards(page) == leads + others
+    widths = re.findall(r'class="width"[^>]*>([^<]+)<', page)
+    assert widths[0::2] == ["still"] * 10
+    assert all(w.endswith(" units across") for w in widths[1::2])
+    assert "stay still" not in page
