@@ -19,7 +19,7 @@ import click
 import numpy as np
 
 from ..core import kinematics
-from ..core.errors import MotionError, UsageError
+from ..core.errors import MotionError, UsageError, silence_numeric_warnings
 from ..core.jumps import JUMP_DEG
 from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go, warm_blas
@@ -181,6 +181,7 @@ def cli(debug: bool) -> None:
     (.fbx, through Blender's bpy: the [blender] extra), each written back in its own format.
     """
     thread_count()  # a bad MOTIONCLEAN_THREADS is refused before any work
+    silence_numeric_warnings()
 
 
 cli.add_command(batch_command)

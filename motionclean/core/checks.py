@@ -191,3 +191,17 @@ def vectors(p, name: str = "p", signal: bool = True, min_frames: int = 0) -> np.
     """``p`` checked to be finite ``(F, ..., 3)`` vectors (``(..., 3)`` when not ``signal``),
     no component beyond :data:`LARGEST_VALUE`."""
     return bounded(shaped(p, 3, name, signal, min_frames), name)
+
+
+#: Largest accepted magnitude of a value in a clip (degrees or length units): anything
+#: larger is no capture and would overflow the arithmetic downstream.
+MAX_MAGNITUDE = 1e12
+
+
+def within_magnitude(values: np.ndarray) -> bool:
+    """Whether every value of ``values`` is a number of at most :data:`MAX_MAGNITUDE` in
+    size (False for NaN), by two reductions: no array-sized temporary."""
+    if values.size == 0:
+        return True
+    # (the extremes compared as float64: a float16 array would cast the bound to inf)
+    return bool(float(values.max()) <= MAX_MAGNITUDE and float(values.min()) >= -MAX_MAGNITUDE)

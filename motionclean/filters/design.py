@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from ..core.rates import frames_ceil
-from .masks import MAX_HALF_WIDTH, MaskError, validate_mask
+from .masks import MAX_HALF_WIDTH, MaskError, checked_half_width, validate_mask
 
 __all__ = ["default_lowpass_half_width", "lowpass", "savgol"]
 
@@ -47,7 +47,7 @@ def savgol(half_width: int, degree: int = 2) -> np.ndarray:
 
     Raises :class:`MaskError` unless ``half_width >= 0`` and ``0 <= degree <= 2 half_width``.
     """
-    h = _whole("savgol half_width", half_width, 0)
+    h = checked_half_width("a Savitzky-Golay mask", _whole("savgol half_width", half_width, 0))
     d = _whole("savgol degree", degree, 0)
     if d > 2 * h:
         raise MaskError(
@@ -103,7 +103,7 @@ def lowpass(cutoff_hz: float, frame_rate: float, half_width: int | None = None) 
     if half_width is None:
         h = default_lowpass_half_width(cutoff_hz, frame_rate)
     else:
-        h = _whole("lowpass half_width", half_width, 0)
+        h = checked_half_width("a low-pass mask", _whole("lowpass half_width", half_width, 0))
     fc = cutoff_hz / frame_rate
     m = np.arange(-h, h + 1, dtype=np.float64)
     phase = np.pi * m / (h + 1)

@@ -36,15 +36,25 @@ class MaskError(ValueError):
     """A mask that cannot define an orientation filter (even length, wrong sum, ...)."""
 
 
+def checked_half_width(name: str, half_width: int) -> int:
+    """``half_width`` (frames) of the mask ``name``, at most :data:`MAX_HALF_WIDTH`
+    (MaskError otherwise: a wider mask's coefficients alone would fill the memory)."""
+    if half_width > MAX_HALF_WIDTH:
+        raise MaskError(f"{name} of half-width {half_width} frames: at most {MAX_HALF_WIDTH}")
+    return half_width
+
+
 def validate_mask(mask) -> np.ndarray:
     """Return ``mask`` as a 1-D float64 array, or raise :class:`MaskError`.
 
-    A mask must be one-dimensional, finite, of odd length (centred on the sample) and sum
-    to 1 within 1e-9, so that the vector filter is affine invariant (000 Eq. 15).
+    A mask must be one-dimensional, finite, of odd length (centred on the sample), no wider
+    than :data:`MAX_HALF_WIDTH` each side, and sum to 1 within 1e-9, so that the vector
+    filter is affine invariant (000 Eq. 15).
     """
     a = checks.as_float_array(mask, "mask")
     if a.ndim != 1 or a.size == 0:
         raise MaskError(f"a mask must be a non-empty list of numbers, got shape {a.shape}")
+    checked_half_width("a mask", a.size // 2)
     if not np.all(np.isfinite(a)):
         raise MaskError("a mask must contain finite numbers only")
     if a.size % 2 == 0:
@@ -60,7 +70,7 @@ def binomial(k: int) -> np.ndarray:
     """Binomial mask ``B^{2k+1}`` of half-width ``k`` (000 Eq. 23); ``binomial(2)`` is B^5."""
     if int(k) != k or k < 0:
         raise MaskError(f"binomial half-width k must be a non-negative integer, got {k}")
-    k = int(k)
+    k = checked_half_width("a binomial mask", int(k))
     if k <= EXACT_BINOMIAL_K:  # exact integers, correctly rounded quotients
         scale = 4**k
         return np.array([math.comb(2 * k, k + i) / scale for i in range(-k, k + 1)])

@@ -369,11 +369,36 @@ def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | 
             _check_names(motion.names, write is bvh.bvh_pieces)
         _check_unwritten_translations(motion)
         _check_unwritten_rotations(motion)
+        _check_magnitudes(motion)
         return write(motion)
     except MotionError as error:
         if error.path is not None:
             raise
         raise type(error)(error.message, path) from None
+
+
+def _check_magnitudes(motion: Motion) -> None:
+    """Refuse positions, offsets and end sites beyond
+    :data:`~motionclean.core.checks.MAX_MAGNITUDE` (InvalidMotion, naming the first joint):
+    every reader refuses such a value, so the file would not read back."""
+    site_joints = list(motion.end_sites)
+    sites = np.array([motion.end_sites[j] for j in site_joints]).reshape(-1, 3)
+    for what, values in (
+        ("translations", motion.translations),
+        ("offsets", motion.offsets),
+        ("end sites", sites),
+    ):
+        if checks.within_magnitude(values):
+            continue
+        at = np.argwhere(np.abs(values) > checks.MAX_MAGNITUDE)[0]
+        if what == "translations":
+            joint, where = int(at[1]), f" at frame {at[0]}"
+        else:
+            joint, where = int(at[0] if what == "offsets" else site_joints[at[0]]), ""
+        raise InvalidMotion(
+            f"{what}: joint {motion.names[joint]!r} has a value beyond "
+            f"{checks.MAX_MAGNITUDE:g}{where} (no reader takes it back)"
+        )
 
 
 def _check_unwritten_translations(motion: Motion) -> None:

@@ -51,6 +51,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..core import quat
+from ..core.checks import MAX_MAGNITUDE, within_magnitude
 from ..core.errors import MotionError
 from ..core.kinematics import axis_name, rest_positions, up_direction
 from ..core.motion import (
@@ -65,7 +66,6 @@ from ..core.motion import (
 )
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
-from .text import MAX_MAGNITUDE, within_magnitude
 
 GLB_MAGIC = b"glTF"
 #: Suffixes of binary glTF files (a VRM animation, ``.vrma``, is one).
@@ -86,9 +86,12 @@ COMPONENTS = {
     5126: (np.float32, None),
 }
 WIDTHS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
-#: Largest grid, in frames per keyframe of the whole animation: more means keys too far
-#: apart for the frame time found (memory must follow the file, not its times).
-MAX_FRAMES_PER_KEY = 1000
+#: Largest grid, in joint samples (frames x joints) per keyframe of the whole animation:
+#: more means keys too far apart for the frame time found (memory must follow the file, not
+#: its times). A baked export holds about one key per joint sample, a hand-keyed one with a
+#: key every half second on every joint at 60 fps 30; one sampler's keys moved 5,000 s away
+#: had made 600,024 frames of 23 joints from 652 keys (3.3 GB read from 42 KB).
+MAX_SAMPLES_PER_KEY = 250
 #: A channel whose keys lie within this fraction of a frame of the grid (plus two float32
 #: rounding steps of the time itself: key times are float32) is read as it is.
 ON_GRID = 1e-3
@@ -549,8 +552,9 @@ def _keys(
     return _Keys(times, values, interpolation, sampler["input"])
 
 
-def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
-    """Start time, frame time and frame count of the grid all channels are sampled on."""
+def _grid(keys: list[_Keys], n_joints: int, path) -> tuple[float, float, int]:
+    """Start time, frame time and frame count of the grid all channels of a skeleton of
+    ``n_joints`` are sampled on (refused past :data:`MAX_SAMPLES_PER_KEY`)."""
     timed = [k.times for k in keys if k.times.size >= 2]
     start = min(float(k.times[0]) for k in keys)
     end = max(float(k.times[-1]) for k in keys)
@@ -564,10 +568,11 @@ def _grid(keys: list[_Keys], path) -> tuple[float, float, int]:
         )
     frames = int(round((end - start) / dt)) + 1
     total_keys = sum(k.times.size for k in keys)
-    if frames > MAX_FRAMES_PER_KEY * total_keys:
+    if frames * n_joints > MAX_SAMPLES_PER_KEY * total_keys:
         _fail(
-            f"keys {end - start:.6g} s apart at {dt:.6g} s per frame: {frames} frames for "
-            f"{total_keys} keys; refused",
+            f"keys {end - start:.6g} s apart at {dt:.6g} s per frame: {frames} frames of "
+            f"{n_joints} joints for {total_keys} keys (at most {MAX_SAMPLES_PER_KEY} joint "
+            "samples per key); refused",
             path,
         )
     return start, dt, frames
@@ -733,7 +738,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
                 document, buffers, chosen, channels[c], a, 4 if kind == "rotation" else 3, path
             )
     if keys:
-        start, frame_time, n_frames = _grid(list(keys.values()), path)
+        start, frame_time, n_frames = _grid(list(keys.values()), len(order), path)
     else:
         start, frame_time, n_frames = 0.0, 1.0 / 30.0, 1
         notes.append("no animation: the rest pose as one frame at 30 fps")

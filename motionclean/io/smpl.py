@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ..core import checks, quat
+from ..core.checks import MAX_MAGNITUDE, within_magnitude
 from ..core.errors import MotionError
 from ..core.motion import (
     POSITION_CHANNELS,
@@ -52,7 +53,6 @@ from ..core.motion import (
 from . import npz, smpl_model
 from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
-from .text import MAX_MAGNITUDE, within_magnitude
 
 #: Rotation channels each joint gets (its Euler order when written as BVH or CSV).
 ROTATION = ("Zrotation", "Yrotation", "Xrotation")
@@ -435,6 +435,12 @@ def smpl_motion(
     trans = None
     if trans_key is not None:
         trans = np.asarray(record[trans_key], dtype=np.float64) * trans_scale + root_offset
+        if not within_magnitude(trans):  # (a tiny smpl_scaling)
+            raise MotionError(
+                f"{trans_key}: beyond {MAX_MAGNITUDE:g} once divided by {SCALE_KEY} "
+                f"{1.0 / trans_scale:.6g}",
+                path,
+            )
         channels[0] = POSITION_CHANNELS + ROTATION
     n_frames = n_rows if rows is None else int(rows[-1]) + 1
     missing = None

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import quat
+from ..core.checks import MAX_MAGNITUDE, within_magnitude
 from ..core.errors import MotionError
 from ..core.motion import Motion
-from .text import MAX_MAGNITUDE, within_magnitude
 
 #: The 22 joints every model has, with their parents.
 BODY = (

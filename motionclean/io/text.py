@@ -15,6 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..core.checks import MAX_MAGNITUDE
 from ..core.errors import MotionError
 from ..core.motion import Motion
 from ..core.threads import in_parts, run_parts, thread_count
@@ -192,20 +193,6 @@ def scan_cells(buf: np.ndarray, start: int = 0, separator: int = 44) -> tuple:
     starts[filled] = token_starts[first[filled]]
     ends[filled] = token_ends[first[filled] + tokens[filled] - 1]
     return starts, ends, tokens, line_starts
-
-
-#: Largest accepted magnitude of a value in a clip (degrees or length units): anything
-#: larger is no capture and would overflow the arithmetic downstream.
-MAX_MAGNITUDE = 1e12
-
-
-def within_magnitude(values: np.ndarray) -> bool:
-    """Whether every value of ``values`` is a number of at most :data:`MAX_MAGNITUDE` in
-    size (False for NaN), by two reductions: no array-sized temporary."""
-    if values.size == 0:
-        return True
-    # (the extremes compared as float64: a float16 array would cast the bound to inf)
-    return bool(float(values.max()) <= MAX_MAGNITUDE and float(values.min()) >= -MAX_MAGNITUDE)
 
 
 def parse_numbers(

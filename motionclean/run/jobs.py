@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..core import kinematics, quat
-from ..core.errors import MotionError
+from ..core.errors import MotionError, silence_numeric_warnings
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
@@ -434,7 +434,9 @@ def clean_file(
 
 
 def run_job(job: Job) -> FileResult:
-    """Run one :class:`Job` (what a batch worker process or Dask task calls)."""
+    """Run one :class:`Job` (what a batch worker process or Dask task calls), numpy's
+    warnings kept off the worker's stderr as the command keeps them off its own."""
+    silence_numeric_warnings()
     return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read, job.shown)
 
 

@@ -483,6 +483,7 @@ class Pipeline:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
                 ) from None
+            _check_result(current, step, number, motion.path)
             for joint, note in log.notes.items():
                 earlier.setdefault(joint, {}).update(note)
             if lead and not whole_clip:  # numbered as the file's frames
@@ -493,6 +494,21 @@ class Pipeline:
         if starts.size:  # the takes as cleaned (a new rate moved them), for the report
             result.derived("take_starts", lambda _: starts + lead)
         return result, logs
+
+
+def _check_result(motion: Motion, step: Step, number: int, path: str | None) -> None:
+    """Refuse a step's result that no file holds: a rotation or position that is not a
+    finite number, or a position beyond :data:`~motionclean.core.checks.MAX_MAGNITUDE` (a
+    filter that diverged: many passes of a sharpening mask, gains far above 1). Two
+    reductions per array: no array-sized temporary."""
+    for what, values in (("rotations", motion.rotations), ("positions", motion.translations)):
+        if not checks.within_magnitude(values):
+            raise MotionError(
+                f"step {number} ({step.spec.name}) made {what} that are not finite numbers "
+                f"of at most {checks.MAX_MAGNITUDE:g} (the filter diverged: fewer passes, a "
+                "gentler mask or gains nearer 1)",
+                path,
+            )
 
 
 def _checked_up_front(steps: list[Step], motion: Motion) -> tuple[dict[int, tuple[int, int]], int]:

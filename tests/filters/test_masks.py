@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from motionclean.filters import lee_shin
+from motionclean.filters.design import lowpass, savgol
 from motionclean.filters.masks import (
     EXACT_BINOMIAL_K,
     MAX_HALF_WIDTH,
@@ -125,3 +126,20 @@ def test_wide_binomial_masks_do_not_overflow():
     # the two constructions agree where they meet: B^{2k+3} = B^{2k+1} * (1/4, 1/2, 1/4)
     stepped = np.convolve(exact, [0.25, 0.5, 0.25])
     np.testing.assert_allclose(binomial(EXACT_BINOMIAL_K + 1), stepped, rtol=1e-10, atol=1e-300)
+
+
+@pytest.mark.parametrize(
+    ("make", "what"),
+    [
+        (lambda: binomial(10**9), "a binomial mask of half-width 1000000000 frames"),
+        (lambda: savgol(10**9), "a Savitzky-Golay mask of half-width 1000000000 frames"),
+        (lambda: lowpass(5.0, 30.0, 10**9), "a low-pass mask of half-width 1000000000 frames"),
+        (lambda: custom([0.0] * 5001 + [1.0] + [0.0] * 5001), "a mask of half-width 5001"),
+    ],
+)
+def test_a_mask_wider_than_the_widest_is_refused_before_it_is_made(make, what):
+    """binomial(10**9) had filled 24 GB before the kernel ended it; a pipeline's custom
+    coefficients had no bound (a million taps ran in 1.2 GB)."""
+    with pytest.raises(MaskError, match=f"^{what}.*: at most {MAX_HALF_WIDTH}$"):
+        make()
+    assert custom([0.0] * 5000 + [1.0] + [0.0] * 5000).size == 2 * MAX_HALF_WIDTH + 1

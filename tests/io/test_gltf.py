@@ -564,3 +564,19 @@ def test_keys_at_no_usable_rate_are_refused_when_read(tmp_path, capsys, step):
     assert code == 1 and out == "" and err.count("\n") == 1
     assert err.startswith(f"motionclean: error: {tmp_path / 'odd.gltf'}: keys ")
     assert "no usable frame rate" in err and not (tmp_path / "o.gltf").exists()
+
+
+def test_a_grid_far_larger_than_the_keys_is_refused_before_it_is_made(tmp_path, capsys):
+    """One sampler's two keys 500 s apart beside keys 0.1 s apart make a grid of 5,001
+    frames of 3 joints from 13 keys: refused on reading (one sampler's keys moved 5,000 s
+    had made a 42 KB file take 3.3 GB); the same keys 1 s apart are read."""
+    for span, name in ((500.0, "far.gltf"), (1.0, "near.gltf")):
+        made = chain()
+        grid = np.arange(0, 11) / 10.0
+        made.channel(0, "rotation", grid, z_turn(grid))
+        made.channel(1, "rotation", np.array([0.0, span]), z_turn(np.array([0.0, 0.5])))
+        made.gltf(tmp_path / name)
+    code, out, err = run_cli(capsys, "info", tmp_path / "far.gltf")
+    assert code == 1 and out == "" and err.count("\n") == 1
+    assert "5001 frames of 3 joints for 13 keys (at most 250 joint samples per key)" in err
+    assert mc.load(tmp_path / "near.gltf").n_frames == 11

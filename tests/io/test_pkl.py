@@ -308,6 +308,21 @@ def test_a_track_with_gaps_is_not_written_as_an_amass_npz(tmp_path, capsys):
     assert code == 0 and np.array_equal(amass["trans"], np.zeros((12, 3)))
 
 
+def test_an_aist_scaling_that_puts_the_body_beyond_every_reader_is_refused(tmp_path, capsys):
+    """smpl_scaling 1e-300 had made translations of 6.5e297, refused by no reader until
+    despike failed on them, or written to a CSV no reader would take back."""
+    record = {"smpl_poses": np.zeros((4, 72)), "smpl_trans": np.ones((4, 3)) * 0.65}
+    record["smpl_scaling"] = np.array([1e-300])
+    source = tmp_path / "aist.pkl"
+    source.write_bytes(pickle.dumps(record, protocol=4))
+    code, out, err = run_cli(capsys, "convert", source, tmp_path / "a.csv")
+    assert code == 1 and out == "" and not (tmp_path / "a.csv").exists()
+    assert err == (
+        f"motionclean: error: {source}: smpl_trans: beyond 1e+12 once divided by "
+        "smpl_scaling 1e-300\n"
+    )
+
+
 def test_aist_translation_is_read_in_metres_and_written_in_its_scale(tmp_path, capsys):
     """AIST++ stores ``smpl_trans`` in units of ``smpl_scaling`` metres (its SMPL call
     divides by it): read in metres (it had been read 98 times too far, the body flying

@@ -6,11 +6,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import subprocess
+import sys
+import warnings
 
 import pytest
 from helpers import SAMPLE, Page, run_cli
 
-from motionclean.core.errors import UsageError
+import motionclean as mc
+from motionclean.core.errors import MotionError, UsageError
 from motionclean.steps.lee_shin import MASK_KINDS
 from motionclean.steps.pipeline import Pipeline
 
@@ -296,4 +300,39 @@ def test_a_range_error_names_the_step_by_its_number(tmp_path, capsys):
         "lee-shin:frames=[0,5000]",
     )
     assert code == 2 and ": step 2 (lee-shin): the range ends at frame 5000" in err
+    assert not (tmp_path / "o.bvh").exists()
+
+
+#: Parameters within their documented ranges whose passes diverge on a clip.
+DIVERGING = (
+    "lee-shin:mask=high-boost,lam=10,iterations=1000",
+    "lee-shin:mask=smoothing,lam=10,iterations=1000",
+)
+
+
+@pytest.mark.parametrize("step", DIVERGING)
+def test_a_step_that_diverges_is_refused_naming_the_step(step):
+    """A step whose result is no clip (NaN, or positions beyond what any reader takes) had
+    been handed on: Pipeline.run returned NaN, and the command failed at the writer without
+    a file or a step named, after a dozen numpy warnings."""
+    clip = mc.load(SAMPLE)
+    made = r"made (rotations|positions) that are not finite numbers of at most 1e\+12"
+    with warnings.catch_warnings():  # (numpy's overflow warnings: the library shows them)
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(MotionError, match=rf"step 1 \(lee-shin\) {made}"):
+            Pipeline.from_inline([step]).run(clip)
+
+
+def test_a_diverging_step_on_the_command_line_is_one_line_without_warnings(tmp_path):
+    """As the command runs (a process of its own: numpy's warnings reach its stderr)."""
+    done = subprocess.run(
+        [sys.executable, "-m", "motionclean", "clean", str(SAMPLE), "-o", str(tmp_path / "o.bvh")]
+        + ["-f", DIVERGING[0]],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 1 and done.stdout == ""
+    assert done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith(f"motionclean: error: {SAMPLE}: step 1 (lee-shin) made ")
     assert not (tmp_path / "o.bvh").exists()
