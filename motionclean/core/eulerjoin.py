@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "follow_wraps", "rejoin"]
+__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "follow_wraps", "rejoin", "settle"]
 
 #: A written step larger than this (degrees) where the input's is smaller by more than
 #: :data:`JUMP_MARGIN` is a jump to undo.
@@ -382,3 +382,11 @@ def _turned(values: np.ndarray, source: np.ndarray) -> np.ndarray:
         with np.errstate(invalid="ignore"):
             turned |= (np.abs(values[rows] - source[rows]) > 180.0).any(axis=0)
     return turned
+
+
+def settle(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
+    """:func:`rejoin` then :func:`follow_wraps`, in place: the changed samples of ``values``
+    ``(F, C)`` written on the representations that make no step the read ``source`` lacks
+    and wrap where it wraps (every writer of Euler curves: files, Blender's actions)."""
+    rejoin(values, source, rotation_columns)
+    follow_wraps(values, source, rotation_columns)

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
-from .eulerjoin import JUMP_MARGIN, follow_wraps, rejoin
+from .eulerjoin import JUMP_MARGIN, settle
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 from .tree import Cycle, ancestor_jumps
 
@@ -581,8 +581,7 @@ class Motion:
         run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
         if not fresh:
             assert self.source_values is not None
-            rejoin(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
-            follow_wraps(values, self.source_values, layout.rotation_columns)
+            settle(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
         has = layout.position_columns >= 0
         values[:, layout.position_columns[has]] = self.translations[:, has]
         return values

@@ -68,6 +68,9 @@ REST_LOCATION = 1e-6
 #: Shared key times within this fraction of their spacing of an even grid are one (float32
 #: times: 3e-5 frames at frame 300 against a spacing of 0.2 or more).
 GRID_TOLERANCE = 1e-3
+#: A key this close to a whole frame (frames) is on it: Blender's FBX importer keys frame 32
+#: at 31.999998, its float32 rounding.
+ON_FRAME = 1e-3
 
 _BONE_PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.(\w+)$')
 
@@ -204,20 +207,25 @@ def key_frames(action: Any, slot: Any) -> tuple[np.ndarray, float]:
         return np.zeros(0), 1.0
     first = min(float(t[0]) for t in times)
     last = max(float(t[-1]) for t in times)
-    if all(np.array_equal(t, np.round(t)) for t in times):
-        return np.arange(first, last + 1.0), 1.0
+    if all(_on_frames(t) for t in times):
+        return np.arange(round(first), round(last) + 1.0), 1.0
     shared = times[0]
     if len(shared) > 1 and all(np.array_equal(t, shared) for t in times):
         step = (last - first) / (len(shared) - 1)
         grid = first + step * np.arange(len(shared))
         if np.abs(shared - grid).max() <= GRID_TOLERANCE * step:
             return shared, step
-    off = next(float(t[t != np.round(t)][0]) for t in times if not np.array_equal(t, np.round(t)))
+    off = next(float(t[np.abs(t - np.round(t)) > ON_FRAME][0]) for t in times if not _on_frames(t))
     raise MotionError(
-        f"keys between frames (at {off:g}) that the bone curves do not share evenly "
+        f"keys between frames (at {off:.9g}) that the bone curves do not share evenly "
         "spaced: bake the action on whole frames (Pose > Animation > Bake Action) first",
         getattr(action, "name", None),
     )
+
+
+def _on_frames(times: np.ndarray) -> bool:
+    """Whether every key time of ``times`` is on a whole frame (within :data:`ON_FRAME`)."""
+    return bool(np.all(np.abs(times - np.round(times)) <= ON_FRAME))
 
 
 def _keys(curve: Any) -> np.ndarray:
@@ -232,8 +240,8 @@ def _baked_at(keys: np.ndarray, frames: np.ndarray) -> np.ndarray | None:
     """Indices of the keys at ``frames`` when there is a key at every one of them."""
     if not len(keys):
         return None
-    at = np.minimum(np.searchsorted(keys[:, 0], frames), len(keys) - 1)
-    return at if np.array_equal(keys[at, 0], frames) else None
+    at = np.minimum(np.searchsorted(keys[:, 0], frames - ON_FRAME), len(keys) - 1)
+    return at if np.all(np.abs(keys[at, 0] - frames) <= ON_FRAME) else None
 
 
 def _sample(curve: Any, frames: np.ndarray, where: str) -> np.ndarray:
@@ -297,6 +305,22 @@ def _basis_quaternions(values: np.ndarray, mode: str) -> np.ndarray:
     return quat.from_euler(np.rad2deg(values[:, at]), order)
 
 
+def _continued_signs(q: np.ndarray, before: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """Quaternion property values for ``q`` ``(F, 4)``: kept samples (``kept`` ``(F,)``) as
+    read in ``before``; each run of changed ones sign-continuous, on the sign that meets the
+    kept sample before it (else the one after it; a clip changed throughout, the first
+    value read). Chosen per frame against the value read, the sign had been a coin toss
+    where a repair turned a frame far from it (a thumb's curve: 13 sign changes read, 127
+    written)."""
+    c = quat.continuous(q)
+    frame = np.arange(len(q))
+    last = np.maximum.accumulate(np.where(kept, frame, -1))
+    after = np.minimum.accumulate(np.where(kept, frame, len(q))[::-1])[::-1]
+    ref = np.where(last >= 0, last, np.where(after < len(q), after, 0))
+    sign = np.where(np.einsum("fi,fi->f", c[ref], before[ref]) < 0.0, -1.0, 1.0)
+    return c * sign[:, None]
+
+
 def _property_values(q: np.ndarray, mode: str, before: np.ndarray) -> np.ndarray:
     """A pose bone's rotation property values ``(F, n)`` for quaternions ``q`` ``(F, 4)``,
     continuing the values ``before`` ``(F, n)`` read: the quaternion sign nearest them, the
@@ -305,7 +329,7 @@ def _property_values(q: np.ndarray, mode: str, before: np.ndarray) -> np.ndarray
     was = _basis_quaternions(before, mode)
     kept = same_rotations(q, was)
     if mode == "QUATERNION":
-        out = q * np.where(np.einsum("fi,fi->f", q, before) < 0.0, -1.0, 1.0)[:, None]
+        out = _continued_signs(q, before, kept)
     elif mode == "AXIS_ANGLE":
         q = q * np.where(np.einsum("fi,fi->f", q, was) < 0.0, -1.0, 1.0)[:, None]
         sine = np.linalg.norm(q[:, 1:], axis=-1)
@@ -322,8 +346,16 @@ def _property_values(q: np.ndarray, mode: str, before: np.ndarray) -> np.ndarray
         order, at = _euler_order(mode)
         reference = np.rad2deg(before[:, at])
         angles = continuous_euler(q[:, None], order, reference[:, None], kept[:, None])[:, 0]
+        # a curve, not a file's text: each sample on the whole turns nearest the one before
+        # (a run that winds once more than the curve read, through a repaired flip near
+        # gimbal lock, moves the kept samples after it by a turn, not the pose)
+        angles = np.unwrap(angles, period=360.0, axis=0)
         out = np.empty_like(angles)
         out[:, at] = np.deg2rad(angles)
+        turns = np.zeros_like(out)
+        turns[:, at] = np.round((angles - reference) / 360.0)
+        out[kept] = before[kept] + 2.0 * np.pi * turns[kept]  # (bit for bit where 0 turns)
+        return out
     out[kept] = before[kept]
     return out
 
@@ -548,8 +580,8 @@ def _write_keys(
     # its ends moved. Elsewhere the keys and their handles stay as they were, so the curve
     # plays what it played (within the keep tolerance of the cleaned motion).
     key_frames = keys[:, 0]
-    slot = np.searchsorted(key_frames, frames, side="right")  # keys at or before each frame
-    on_key = (slot > 0) & (key_frames[np.maximum(slot - 1, 0)] == frames)
+    slot = np.searchsorted(key_frames, frames + ON_FRAME, side="right")  # keys at or before
+    on_key = (slot > 0) & (np.abs(key_frames[np.maximum(slot - 1, 0)] - frames) <= ON_FRAME)
     update = on_key & changed
     moved_key = np.zeros(len(keys), dtype=bool)
     moved_key[slot[update] - 1] = True
@@ -564,8 +596,9 @@ def _write_keys(
     _set_values(curve, keys, new)
     summary.keys_set += int(np.count_nonzero(np.float32(new) != np.float32(keys[:, 1])))
     if fill.any():
-        points = curve.keyframe_points
-        _add_keys(curve, frames[fill], values[fill], points[0].interpolation)
+        # each added key plays as the key that starts its stretch (the first key before it)
+        kinds = [point.interpolation for point in curve.keyframe_points]
+        _add_keys(curve, frames[fill], values[fill], [kinds[max(k - 1, 0)] for k in slot[fill]])
         summary.keys_added += int(np.count_nonzero(fill))
         curve.update()
         _keep_handles(curve, key_frames[~moved_key], [h[~moved_key] for h in handles])
@@ -597,8 +630,9 @@ def _keep_handles(curve: Any, frames: np.ndarray, handles: list[np.ndarray]) -> 
             setattr(point, side, old.tolist())
 
 
-def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation: str) -> None:
-    """Add keys at ``frames`` with ``values`` (automatic clamped handles)."""
+def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation) -> None:
+    """Add keys at ``frames`` with ``values`` (automatic clamped handles) and
+    ``interpolation``, one for all or one per key."""
     points = curve.keyframe_points
     start = len(points)
     points.add(len(frames))
@@ -607,8 +641,9 @@ def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation:
     co[2 * start :: 2] = frames
     co[2 * start + 1 :: 2] = values
     points.foreach_set("co", co)
-    for point in list(points)[start:]:
-        point.interpolation = interpolation
+    kinds = [interpolation] * len(frames) if isinstance(interpolation, str) else interpolation
+    for point, kind in zip(list(points)[start:], kinds, strict=True):
+        point.interpolation = kind
         point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
 
 

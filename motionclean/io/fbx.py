@@ -72,6 +72,8 @@ EXPORT_OPTIONS = {
     "bake_anim_simplify_factor": 0.0,
     "add_leaf_bones": False,
     "use_custom_props": True,  # (the exporter's default drops them: Unity's attributes too)
+    "path_mode": "COPY",  # images embedded in the file (a Mixamo character's skin) ...
+    "embed_textures": True,  # ... stay embedded (the default wrote a path to nothing)
 }
 
 

@@ -13,6 +13,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,8 +62,6 @@ def blender(tmp_path_factory: pytest.TempPathFactory) -> BlenderSession:
     out.mkdir()
     env = {**os.environ, "BLENDER_USER_RESOURCES": str(work / "user")}
     args = [BLENDER_PYTHON, SESSION, extension, clip, out] + (["operator"] if OPERATOR_ONLY else [])
-    import time
-
     start = time.perf_counter()
     done = subprocess.run(
         [os.fspath(a) for a in args], env=env, capture_output=True, text=True, timeout=900

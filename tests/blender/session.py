@@ -354,6 +354,30 @@ def subframe_checks(clip: Path, out: Path, results: dict) -> None:
     }
 
 
+def near_frame_checks(clip: Path, results: dict) -> None:
+    """A baked action one of whose keys sits a float32 rounding off its frame (Blender's FBX
+    importer keys frame 32 at 31.999998): cleaned on whole frames, the key kept where it is,
+    none added beside it (it had been refused as "keys between frames (at 32)")."""
+    obj = import_rig(clip, "QUATERNION")
+    data = obj.animation_data
+    curve = action_fcurves(data.action, data.action_slot)[0]
+    point = curve.keyframe_points[31]
+    point.co = (point.co[0] - 2e-6, point.co[1])
+    curve.update()
+    before = key_state(data.action, data.action_slot)
+    done = sorted(clean(in_place=True))
+    after = key_state(data.action, data.action_slot)
+    results["near_frame"] = {
+        "done": done,
+        "off_frame": float(key_co(before, next(iter(before)))[31, 0]),
+        "same_times": before.keys() == after.keys()
+        and all(np.array_equal(key_co(before, k)[:, 0], key_co(after, k)[:, 0]) for k in before),
+        "values_changed": any(
+            not np.array_equal(key_co(before, k)[:, 1], key_co(after, k)[:, 1]) for k in before
+        ),
+    }
+
+
 def refused(**settings: Any) -> dict:
     """Press Clean Actions; what it returned and the error it reported."""
     try:
@@ -459,6 +483,7 @@ def keyed_checks(clip: Path, results: dict) -> None:
         for point in points:
             point.interpolation = "BEZIER"
             point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
+        points[0].interpolation = "CONSTANT"  # a hold at the start (the others Bezier)
         curve.update()
     first, last = rig_keys(obj)
     knee = f'pose.bones["{KNEES[0]}"]'
@@ -504,6 +529,13 @@ def keyed_checks(clip: Path, results: dict) -> None:
         "keys_before": int(old_frames.size),
         "keys_after": [int(f.size) for f in key_frames],
         "new_key_frames": sorted(set(key_frames[0].tolist()) - set(old_frames.tolist())),
+        "new_key_interpolations": sorted(
+            {
+                point.interpolation
+                for point in fcurves.find(sparse, index=0).keyframe_points
+                if float(point.co[0]) not in set(old_frames.tolist())
+            }
+        ),
         "far_keys_kept": all(old.values()),
         "error_deg_max": float(error.max()),
         "moved_deg_max": float(moved.max()),
@@ -699,6 +731,7 @@ def main() -> None:
     range_checks(clip, out, results)
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
+    near_frame_checks(clip, results)
     subframe_checks(clip, out, results)
     error_checks(clip, out, results)
     same_name_checks(clip, out, results)

@@ -177,6 +177,12 @@ def test_keys_between_frames_are_cleaned_where_they_are(blender):
     assert degrees_between(rotations, expected).max() < FLOAT32_DEGREES
 
 
+def test_a_key_a_float32_rounding_off_its_frame_is_on_it(blender):
+    near = blender.results["near_frame"]
+    assert near["done"] == ["FINISHED"] and 31.99 < near["off_frame"] < 32.0
+    assert near["same_times"] and near["values_changed"]
+
+
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
     errors = blender.results["errors"]
     assert errors["untouched"] and errors["actions"] == ["131_01", "131_01 [library.blend]"]
@@ -223,6 +229,9 @@ def test_keyed_curves_take_keys_per_frame_only_where_the_motion_moved(blender):
     assert new.size and new.min() > 181 and new.max() < 281  # keys between 191 and 271
 
     assert keyed["far_keys_kept"] and keyed["keys_after"][0] == keyed["keys_before"] + new.size
+    # added keys play as the key that starts their stretch (they had all taken the first
+    # key's interpolation, a CONSTANT hold: the Bezier stretches played stepped)
+    assert keyed["new_key_interpolations"] == ["BEZIER"]
     # the curve plays the cleaned motion: within the keep tolerance plus float32
     assert keyed["error_deg_max"] < KEEP_DEGREES + FLOAT32_DEGREES
 
