@@ -385,7 +385,8 @@ class Pipeline:
         pipeline."""
         path = Path(checks.path(path, "path"))
         try:
-            text = path.read_text(encoding="utf-8-sig")
+            data = path.read_bytes()
+            text = data.decode("utf-8-sig")
             document = tomllib.loads(text)
         except FileNotFoundError:
             if "\n" in str(path):  # (TOML text given for a path: one line says so)
@@ -394,8 +395,11 @@ class Pipeline:
                     "with tomllib.loads and give its 'step' tables to Pipeline.from_tables)"
                 ) from None
             raise UsageError(f"{path}: no such pipeline file") from None
-        except (OSError, UnicodeDecodeError) as error:
+        except OSError as error:
             raise UsageError(f"{path}: cannot read pipeline: {error}") from None
+        except UnicodeDecodeError as error:
+            line = data.count(b"\n", 0, error.start) + 1
+            raise UsageError(f"{path}:{line}: not UTF-8 text (a TOML file must be UTF-8)") from None
         except tomllib.TOMLDecodeError as error:
             raise UsageError(_toml_error(path, str(error), text)) from None
         except RecursionError:
