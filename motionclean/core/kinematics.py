@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import checks, quat
-from .motion import UP_AXES, Motion
+from .motion import UP_AXES, Motion, as_motion
 from .restpose import rest_frames
 from .tree import ancestor_jumps
 
@@ -324,18 +324,21 @@ def _rotate_into(p: np.ndarray, q: np.ndarray, v: np.ndarray, scratch: _Scratch)
 
 def local_translations(motion: Motion) -> np.ndarray:
     """``(F, J, 3)`` local translations: OFFSET with channel axes replaced by their values."""
+    as_motion(motion)
     has_axis = motion.layout.position_columns >= 0  # (J, 3)
     return np.where(has_axis, motion.translations, motion.offsets)
 
 
 def end_site_names(motion: Motion) -> list[str]:
     """Names of the end sites, ``<joint>_end``, in joint order."""
+    as_motion(motion)
     return [f"{motion.names[j]}_end" for j in sorted(motion.end_sites)]
 
 
 def point_parents(motion: Motion) -> np.ndarray:
     """Parent of every point of ``forward(motion, end_sites=True)``: joints, then end sites
     (each end site's parent is its joint)."""
+    as_motion(motion)
     return np.concatenate([motion.parents, np.array(sorted(motion.end_sites), dtype=np.intp)])
 
 
@@ -345,6 +348,7 @@ def forward(motion: Motion, end_sites: bool = False) -> tuple[np.ndarray, np.nda
     ``P = J`` joints, or with ``end_sites`` the joints followed by the end sites in the
     order of :func:`end_site_names` (an end site has its joint's world rotation).
     """
+    as_motion(motion)
     world_p, world_q = _motion_planes(motion, end_sites, keep_rotations=True)
     assert world_q is not None
     return world_p.transpose(2, 1, 0), world_q.transpose(2, 1, 0)
@@ -388,6 +392,7 @@ def end_effectors(motion: Motion) -> tuple[np.ndarray, list[str]]:
     """The points that end a chain (hands, feet, head, fingers): every end site and every
     leaf joint without one. Returns their indices into ``forward(motion, end_sites=True)``
     positions and their names (``<joint>_end`` for an end site)."""
+    as_motion(motion)
     has_child = np.zeros(motion.n_joints, dtype=bool)
     has_child[motion.parents[motion.parents >= 0]] = True
     bare_leaves = [j for j in np.flatnonzero(~has_child) if j not in motion.end_sites]
@@ -399,6 +404,7 @@ def end_effectors(motion: Motion) -> tuple[np.ndarray, list[str]]:
 
 def rest_positions(motion: Motion) -> np.ndarray:
     """``(P, 3)`` rest-pose positions of joints and end sites: offsets only, no rotation."""
+    as_motion(motion)
     positions, _ = forward_arrays(
         motion.parents, quat.identity((1, motion.n_joints)), motion.offsets[None]
     )
@@ -452,6 +458,7 @@ def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int
     extent of a frame's points (sign +1: nothing tells which end is up). Both are the same
     answer on a turned copy of the clip (a Z-up export of a Y-up one).
     """
+    as_motion(motion)
     if override is None:
         override = motion.up
     if override is not None:
@@ -522,6 +529,7 @@ def sample_poses(motion: Motion) -> tuple[np.ndarray, np.ndarray | None]:
     where nothing else is left), and ``(S, P)`` True where a point is known (None when
     every point is: no tracker dropouts). Kept with the clip (the up direction, the body
     height and the feet ask for them), read-only."""
+    as_motion(motion)
     return motion.derived("sample_poses", _sample_poses)
 
 
@@ -659,6 +667,7 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
     tracked bodies.
     """
+    as_motion(motion)
     # asked by despike, footlock and the report's stages of one clean, with or without up
     return motion.derived(f"body_height {up}", lambda clip: _body_height(clip, up))
 

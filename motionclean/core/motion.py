@@ -283,10 +283,12 @@ class Motion:
 
     def check(self) -> None:
         """Refuse motion arrays that describe no clip: :class:`InvalidMotion` (a ValueError)
-        for a wrong shape, NaN/inf, or a rotation whose norm is not 1 within
+        for no joints, a wrong shape, NaN/inf, or a rotation whose norm is not 1 within
         :data:`checks.UNIT_TOLERANCE` (zero included); TypeError for non-numbers. Run at
         construction and again by ``save`` (the arrays may be changed in place)."""
         n = len(self.names)
+        if n == 0:  # (every writer indexes a joint; no reader makes such a clip)
+            raise InvalidMotion("names: a clip needs at least one joint, got none")
         self.rotations = checks.as_float_array(self.rotations, "rotations")
         self.translations = checks.as_float_array(self.translations, "translations")
         frames = self.rotations.shape[0] if self.rotations.ndim else 0
@@ -612,6 +614,13 @@ class Motion:
                 q, order, read, kept, carry, principal, backward=not fresh
             )
             values[block, cols] = angles.reshape(q.shape[0], -1)
+
+
+def as_motion(value: Any, name: str = "motion") -> Motion:
+    """``value`` when it is a :class:`Motion`, else TypeError naming the argument ``name``."""
+    if not isinstance(value, Motion):
+        raise TypeError(f"{name}: expected a Motion, got {type(value).__name__}")
+    return value
 
 
 def missing_before(missing: np.ndarray) -> np.ndarray:

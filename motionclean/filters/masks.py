@@ -68,6 +68,7 @@ def validate_mask(mask) -> np.ndarray:
 
 def binomial(k: int) -> np.ndarray:
     """Binomial mask ``B^{2k+1}`` of half-width ``k`` (000 Eq. 23); ``binomial(2)`` is B^5."""
+    checks.number(k, "k")  # TypeError for a str or None ('2' had been "got 2", as a number)
     if int(k) != k or k < 0:
         raise MaskError(f"binomial half-width k must be a non-negative integer, got {k}")
     k = checked_half_width("a binomial mask", int(k))

@@ -36,7 +36,7 @@ from ..core.motion import (
     Motion,
 )
 from ..core.threads import in_parts, run_parts
-from .files import FileBytes, pieces
+from .files import FileBytes, pieces, refuse_binary
 from .text import (
     MAX_MAGNITUDE,
     ascii_digits,
@@ -513,8 +513,7 @@ def parse_bvh(data: bytes, path=None) -> Motion:
     """Parse BVH bytes into a :class:`Motion`; errors name ``path`` and the line."""
     if not data or data.isspace():  # (no copy of the file, unlike strip)
         _fail("empty file", path)
-    if b"\x00" in data[:4096]:
-        _fail("not a text file (binary data)", path)
+    refuse_binary(data, path)
     lines = _Lines(data, path)
     lines.pos = len(BOM) if data.startswith(BOM) else 0
     names, parents, offsets, channels, end_sites, motion_start = _parse_hierarchy(lines, path)

@@ -93,7 +93,7 @@ from ..core.motion import (
     same_rotations,
 )
 from .bvh import BOM, BvhText
-from .files import FileBytes, pieces
+from .files import FileBytes, pieces, refuse_binary
 from .text import (
     MAX_MAGNITUDE,
     ascii_float,
@@ -394,6 +394,26 @@ def off_grid(times: np.ndarray) -> bool:
     return bool(steps.any() or drift.any())
 
 
+def _out_of_order(times: np.ndarray, lines: np.ndarray, i: int, path) -> NoReturn:
+    """Refuse the row that breaks the order of ``times`` first seen at row ``i`` (not after
+    row ``i - 1``): row ``i - 1`` when it alone is out of line with both its neighbours (rows
+    ``i - 2``, ``i``, ``i + 1`` in order, it not between them: a 5 s among tenths), else
+    row ``i``."""
+    if 2 <= i < times.size - 1 and times[i - 2] < times[i] < times[i + 1] <= times[i - 1]:
+        _fail(
+            f"time {times[i - 1]:.9g} s is out of order (the row before has "
+            f"{times[i - 2]:.9g} s, the next {times[i]:.9g} s)",
+            path,
+            int(lines[i - 1]),
+        )
+    again = " (the same time twice: delete the repeated row)" if times[i] == times[i - 1] else ""
+    _fail(
+        f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s){again}",
+        path,
+        int(lines[i]),
+    )
+
+
 def uniform_frame_time(
     times: np.ndarray,
     lines: np.ndarray,
@@ -416,15 +436,7 @@ def uniform_frame_time(
         steps = np.diff(times)
     back = np.flatnonzero(~(steps > 0))
     if back.size:
-        i = back[0] + 1
-        again = (
-            " (the same time twice: delete the repeated row)" if times[i] == times[i - 1] else ""
-        )
-        _fail(
-            f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s){again}",
-            path,
-            int(lines[i]),
-        )
+        _out_of_order(times, lines, back[0] + 1, path)
     grid = np.arange(n)
     if template is not None and np.all(
         np.abs(times - times[0] - grid * template) <= TIME_TOLERANCE * template
@@ -519,10 +531,14 @@ def check_filled(cells: BodyCells, column: int, what: str, path) -> None:
     """Refuse a blank cell (empty or NaN) in ``column`` (the time or frame column)."""
     blank = np.flatnonzero(cells.blank[:, column])
     if blank.size:
+        row = blank[0]
+        nan = cells.ends[row, column] > cells.starts[row, column]  # (an empty cell: no text)
         _fail(
-            f"the {what} column is blank (it must hold a value on every row)",
+            f"the {what} column holds NaN, not a number (it must hold a number on every row)"
+            if nan
+            else f"the {what} column is blank (it must hold a value on every row)",
             path,
-            cells.lines[blank[0]],
+            cells.lines[row],
         )
 
 
@@ -606,8 +622,7 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     """
     if not data or data.isspace():  # (no copy of the file, unlike strip)
         _fail("empty file", path)
-    if b"\x00" in data[:4096]:
-        _fail("not a text file (binary data)", path)
+    refuse_binary(data, path)
     fields, header_line, body_start = _split_header(data, path)
     layout, entries, time_column = _classify(fields, path, header_line)
     cells = parse_body(data, body_start, len(fields), header_line + 1, path)

@@ -25,6 +25,7 @@ __all__ = [
     "FileBytes",
     "pieces",
     "read_regular_file",
+    "refuse_binary",
 ]
 
 #: Files of at least this many bytes (about 22,000 frames of a 31-joint BVH clip) are read
@@ -36,6 +37,9 @@ CHECK_BYTES = 1 << 16
 
 #: Bytes per piece when a whole file kept on disk is copied out.
 PIECE_BYTES = 1 << 22
+
+#: Leading bytes of a text format's file searched for a NUL, which no text holds.
+TEXT_PROBE_BYTES = 4096
 
 
 class FileBytes:
@@ -104,6 +108,13 @@ def pieces(raw: bytes | FileBytes) -> Iterable[bytes]:
     if isinstance(raw, FileBytes):
         return (raw[at : at + PIECE_BYTES] for at in range(0, len(raw), PIECE_BYTES))
     return [raw]
+
+
+def refuse_binary(data: bytes, path) -> None:
+    """MotionError "not a text file (binary data)" for ``data`` (a text format's bytes) with a
+    NUL in its first :data:`TEXT_PROBE_BYTES`: UTF-16 text, a compressed or image file."""
+    if b"\x00" in data[:TEXT_PROBE_BYTES]:
+        raise MotionError("not a text file (binary data)", path)
 
 
 def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, FileBytes | None]:

@@ -201,15 +201,21 @@ def _items(document: dict, key: str, path) -> list:
     return value
 
 
+def _json_text(value) -> str:
+    """``value`` as its JSON writes it, cut to 20 characters (``"24"``: the string)."""
+    text = json.dumps(value)[:20]
+    return f"the string {text}" if isinstance(value, str) else text
+
+
 def _index(value, size: int, what: str, path) -> int:
     if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value < size:
-        _fail(f"{what}: {str(value)[:20]} is not an index below {size}", path)
+        _fail(f"{what}: {_json_text(value)} is not an index below {size}", path)
     return value
 
 
 def _count(value, what: str, path) -> int:
     if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-        _fail(f"{what}: {str(value)[:20]} is not a count", path)
+        _fail(f"{what}: {_json_text(value)} is not a count", path)
     return value
 
 

@@ -79,6 +79,7 @@ from .csv import (
     uniform_frame_time,
     value_cells,
 )
+from .files import refuse_binary
 from .text import ascii_float, stated_count, table_pieces
 
 #: What every Motive export starts with (after an optional byte-order mark).
@@ -410,8 +411,7 @@ def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> t
 def parse_motive(data: bytes, path=None) -> Motion:
     """Parse a Motive CSV export (see the module docstring); errors name ``path`` and the
     line."""
-    if b"\x00" in data[:4096]:
-        _fail("not a text file (binary data)", path)
+    refuse_binary(data, path)
     lines, body_start, eol = _header_lines(data, path)
     first = lines[0][1]
     pairs = zip(first[0::2], first[1::2], strict=False)

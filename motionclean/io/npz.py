@@ -70,6 +70,10 @@ def _npy_array(data: bytes | memoryview, name: str, path) -> np.ndarray:
             "can run code",
             path,
         )
+    if any(n < 0 for n in shape):
+        raise MotionError(
+            f"member {name!r}: {shape} is not an array shape (a negative dimension)", path
+        )
     count = 1
     for n in shape:
         count *= int(n)

@@ -59,7 +59,7 @@ from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
 from ..core.regrid import regridded
 from .csv import Cells, CsvText, format_repr, format_values, off_grid, uniform_frame_time
-from .files import pieces
+from .files import pieces, refuse_binary
 from .text import (
     bad_number_message,
     decimals_of,
@@ -328,6 +328,7 @@ def _empty_cell(data: bytes, line_start: np.ndarray, line: int) -> int | None:
 def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool = False) -> Motion:
     """A clip of an OpenSim ``.mot``/``.sto`` file's bytes (see the module). ``regrid``:
     rows at uneven times (a simulation's) are put on a uniform grid, not refused."""
+    refuse_binary(data, path)
     body, header_lines, pairs, eol = _header(data, path)
     _refuse_data_type(pairs, path)
     in_degrees, note = _in_degrees(pairs, path)

@@ -88,7 +88,7 @@ def _locate(tree: Any, path) -> tuple[tuple, dict, str | None]:
 
 
 def _frame_rows(arrays: dict, path) -> np.ndarray | None:
-    """The frame of each row (from ``frame_ids``), None when the rows are every frame."""
+    """The frame of each row (from ``frame_ids``, first frame 0), None without them."""
     ids = arrays.get("frame_ids")
     if ids is None or ids.dtype.kind not in "iu" or ids.ndim != 1:
         return None
@@ -97,7 +97,7 @@ def _frame_rows(arrays: dict, path) -> np.ndarray | None:
     rows = (ids - ids[0]).astype(np.intp) if ids.size else ids.astype(np.intp)
     if rows.size and rows[-1] >= 100 * rows.size + 1000:
         raise MotionError(f"frame_ids span {rows[-1] + 1} frames for {rows.size} rows", path)
-    return None if rows.size == 0 or rows[-1] == rows.size - 1 else rows
+    return rows
 
 
 @dataclass(frozen=True, eq=False)

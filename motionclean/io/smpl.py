@@ -397,8 +397,9 @@ def smpl_motion(
     frame_rate: float | None = None,
 ) -> Motion:
     """A clip of the SMPL record ``record`` (see the module); ``body_model``: a body model
-    file's arrays and path (:func:`read_body_model`); ``frame_rate``: the rate taken where
-    the record states none (frames per second)."""
+    file's arrays and path (:func:`read_body_model`); ``rows``: the frame of each pose row
+    (from ``frame_ids``, one per row); ``frame_rate``: the rate taken where the record states
+    none (frames per second)."""
     tree, fields, trans_key = find_layout(record, path)
     frames = {_frames_of(record[f.key], f.key, record[f.key].shape[1:], path) for f in fields}
     if trans_key is not None:
@@ -414,6 +415,8 @@ def smpl_motion(
         )
     if rows is not None and rows.size != n_rows:
         raise MotionError(f"frame_ids has {rows.size} entries for {n_rows} frames of poses", path)
+    if rows is not None and rows[-1] == n_rows - 1:  # every frame
+        rows = None
     _check_numbers(record, [f.key for f in fields] + ([trans_key] if trans_key else []), path)
     frame_time, rate_note = frame_time_of(record, path, frame_rate)
     notes = notes + ((rate_note,) if rate_note else ())

@@ -337,6 +337,19 @@ class Pipeline:
     steps: list[Step]
     origin: str = "pipeline"
 
+    def __post_init__(self) -> None:
+        """TypeError for ``steps`` that are not a list of :class:`Step` (made by
+        :func:`make_step`, or by the class methods from tables, TOML or ``-f`` texts)."""
+        if not isinstance(self.steps, list | tuple):
+            raise TypeError(f"steps: expected a list of Step, got {type(self.steps).__name__}")
+        odd = [type(step).__name__ for step in self.steps if not isinstance(step, Step)]
+        if odd:
+            raise TypeError(
+                f"steps: expected a list of Step (Pipeline.from_tables, from_toml and "
+                f"from_inline make them), got a {type(self.steps).__name__} holding {odd[0]}"
+            )
+        self.steps = list(self.steps)
+
     @classmethod
     def from_tables(
         cls,
@@ -372,7 +385,8 @@ class Pipeline:
         pipeline."""
         path = Path(checks.path(path, "path"))
         try:
-            text = path.read_text(encoding="utf-8-sig")
+            data = path.read_bytes()
+            text = data.decode("utf-8-sig")
             document = tomllib.loads(text)
         except FileNotFoundError:
             if "\n" in str(path):  # (TOML text given for a path: one line says so)
@@ -381,8 +395,11 @@ class Pipeline:
                     "with tomllib.loads and give its 'step' tables to Pipeline.from_tables)"
                 ) from None
             raise UsageError(f"{path}: no such pipeline file") from None
-        except (OSError, UnicodeDecodeError) as error:
+        except OSError as error:
             raise UsageError(f"{path}: cannot read pipeline: {error}") from None
+        except UnicodeDecodeError as error:
+            line = data.count(b"\n", 0, error.start) + 1
+            raise UsageError(f"{path}:{line}: not UTF-8 text (a TOML file must be UTF-8)") from None
         except tomllib.TOMLDecodeError as error:
             raise UsageError(_toml_error(path, str(error), text)) from None
         except RecursionError:
@@ -406,7 +423,7 @@ class Pipeline:
     @classmethod
     def from_inline(cls, texts: list[str]) -> Pipeline:
         """Steps given as ``-f NAME:key=value,...`` options, in order (a list of str)."""
-        if isinstance(texts, str) or not all(isinstance(t, str) for t in texts):
+        if not isinstance(texts, list | tuple) or not all(isinstance(t, str) for t in texts):
             raise TypeError(
                 f"from_inline takes a list of step strings, e.g. ['lee-shin:k=3'], got {texts!r}"
             )

@@ -20,6 +20,9 @@ from ..core.rates import frames_ceil, frames_floor, whole_frames
 
 #: Default blend width, frames.
 DEFAULT_BLEND = 5
+#: Largest frame number a range's end is said by: ``frames`` are read as floats, exact up to
+#: 2^53 (``9223372036854775807`` had been said as ...808, ``1e308`` with 309 digits).
+EXACT_FRAMES = 2**53
 
 
 @dataclass(frozen=True)
@@ -74,10 +77,12 @@ class FrameRange:
                 f"{where}: blend={self.blend} frames does not fit a clip of {n_frames} frames"
             )
         if last >= n_frames:
-            raise UsageError(
-                f"{where}: the range ends at frame {last}, but the clip has {n_frames} frames "
-                f"(0-{n_frames - 1})"
+            ends = (
+                f"at frame {last}, but the clip has"
+                if last <= EXACT_FRAMES
+                else "beyond the clip's"
             )
+            raise UsageError(f"{where}: the range ends {ends} {n_frames} frames (0-{n_frames - 1})")
         return first, last
 
     def describe(self) -> dict:

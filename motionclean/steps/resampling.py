@@ -15,9 +15,9 @@ import os
 
 import numpy as np
 
-from ..core import quat
+from ..core import checks, quat
 from ..core.errors import MotionError
-from ..core.motion import Motion, hold_missing, joint_major_zeros
+from ..core.motion import Motion, as_motion, hold_missing, joint_major_zeros
 from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
 from ..core.takes import take_spans, take_starts
@@ -169,8 +169,12 @@ def resample_motion(motion: Motion, frame_time: float) -> Motion:
     position is resampled (module docstring) and the first frame keeps its time; rest-pose
     frames at either end keep theirs (:func:`rest_rows`); the skeleton and channels stay,
     the writer keeps the hierarchy text and writes the frames anew. :func:`new_length` says
-    how many frames and refuses too few or too many.
+    how many frames and refuses too few or too many. TypeError for a ``motion`` that is no
+    :class:`Motion` or a ``frame_time`` that is no number, ValueError for one outside
+    :data:`~motionclean.core.checks.FRAME_TIME_RANGE` (zero, negative, NaN).
     """
+    motion = as_motion(motion)
+    frame_time = checks.frame_time(frame_time)
     if same_rate(motion.frame_time, frame_time):
         return motion
     n_new = new_length(motion, frame_time)

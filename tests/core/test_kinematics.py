@@ -299,3 +299,29 @@ def test_kinematics_is_importable_by_its_public_name():
     from motionclean.kinematics import forward
 
     assert module is mc.kinematics and forward is mc.kinematics.forward
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        kinematics.forward,
+        kinematics.rest_positions,
+        kinematics.end_effectors,
+        kinematics.end_site_names,
+        kinematics.point_parents,
+        kinematics.local_translations,
+        kinematics.sample_poses,
+        kinematics.body_height,
+        kinematics.up_axis,
+        kinematics.up_direction,
+        kinematics.up_name,
+    ],
+)
+def test_the_public_functions_name_an_argument_that_is_no_motion(call):
+    """``forward(None)`` had raised AttributeError ('NoneType' object has no attribute
+    'parents')."""
+    for value in (None, "clip.bvh"):
+        with pytest.raises(
+            TypeError, match=rf"^motion: expected a Motion, got {type(value).__name__}$"
+        ):
+            call(value)

@@ -117,3 +117,18 @@ def test_a_translation_no_channel_holds_is_refused_on_save(tmp_path):
     with pytest.raises(InvalidMotion, match="joint 'LeftToe' has no position channels"):
         mc.save(motion.replace(translations=translations), tmp_path / "x.bvh")
     assert not (tmp_path / "x.bvh").exists()
+
+
+@pytest.mark.parametrize("suffix", ["bvh", "glb"])
+def test_a_clip_without_joints_is_refused_when_built_and_when_saved(tmp_path, suffix):
+    """It had been built, and save failed inside the writers (BVH: IndexError; glTF: numpy's
+    "zero-size array to reduction operation")."""
+    none = {"names": [], "parents": np.zeros(0, int), "offsets": np.zeros((0, 3))}
+    arrays = {"rotations": np.zeros((5, 0, 4)), "translations": np.zeros((5, 0, 3))}
+    with pytest.raises(InvalidMotion, match="^names: a clip needs at least one joint, got none"):
+        mc.Motion(**none, **arrays, channels=[], frame_time=0.01)
+    motion = mc.load(SAMPLE)
+    motion.names = []  # (changed in place: save checks again)
+    with pytest.raises(InvalidMotion, match="a clip needs at least one joint"):
+        mc.save(motion, tmp_path / f"x.{suffix}")
+    assert not (tmp_path / f"x.{suffix}").exists()

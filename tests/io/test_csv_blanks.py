@@ -63,7 +63,7 @@ def test_a_gap_at_the_start_holds_the_first_known_sample_and_a_body_never_seen_i
         (f"0.1,,2,,1,0,0,0,{BODY_B}", "body 'a' is partly blank: empty value in a.px, a.pz"),
         (f"0.1,1,2,3,NaN,0,0,0,{BODY_B}", "body 'a' is partly blank: value 'NaN' is not finite"),
         (f",1,2,3,1,0,0,0,{BODY_B}", "the time column is blank"),
-        (f"nan,1,2,3,1,0,0,0,{BODY_B}", "the time column is blank"),
+        (f"nan,1,2,3,1,0,0,0,{BODY_B}", "the time column holds NaN, not a number"),
         (f"0.1,1 2,2,3,1,0,0,0,{BODY_B}", "two values in one column (column 2)"),
     ],
 )

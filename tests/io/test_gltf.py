@@ -425,6 +425,10 @@ def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
         (lambda d: d["asset"].update(version="1.0"), "only glTF 2.0 is read"),
         (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "not a file beside the glTF"),
         (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
+        (  # had read "24 is not a count", as if a count
+            lambda d: d["accessors"][0].update(count="24"),
+            'accessors[0].count: the string "24" is not a count',
+        ),
         (  # would overflow the body height (a fuzzed file printed "body height inf")
             lambda d: d["nodes"][1].update(translation=[0.0, -1e308, 0.0]),
             "nodes[1]: translation or rotation is not 3 or 4 numbers of at most 1e+12 in size",

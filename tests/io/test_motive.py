@@ -299,6 +299,23 @@ def test_the_header_must_have_its_rows(tmp_path, capsys):
     check_error(tmp_path, capsys, blank_time, 10, "the Time column is blank")
 
 
+@pytest.mark.parametrize(
+    ("time", "message"),
+    [
+        ("nan", "the Time column holds NaN, not a number"),
+        ("5.0", "time 5 s is out of order (the row before has 0.008333 s, the next 0.025 s)"),
+        ("0.0", "time does not increase (0 s after 0.008333 s)"),
+    ],
+)
+def test_a_time_that_is_no_number_or_out_of_order_is_said_on_its_row(
+    tmp_path, capsys, time, message
+):
+    """A NaN time had been "blank", and a time above both its neighbours' had been named on
+    the row after it ("0.025 s after 5 s")."""
+    text, _, _ = export()
+    check_error(tmp_path, capsys, replace_line(text, 10, "2,0.016667,", f"2,{time},"), 10, message)
+
+
 def with_parent_row(text: str) -> str:
     """``text`` as Motive 3 (format 1.25) writes it: a ``,Parent,...`` row after the ID row
     (empty over rigid bodies, the body's name over its markers)."""

@@ -242,7 +242,12 @@ def test_convert_to_csv_and_back(tmp_path, capsys, start):
             "column 'knee_angle_r' is out of range (more than 1e+12 in size): '-1e13'",
             13,
         ),
-        (IK.replace("      0.02000000", "      0.05000000"), "time does not increase", 15),
+        (  # (the row out of line with both neighbours, not the one after it)
+            IK.replace("      0.02000000", "      0.05000000"),
+            "time 0.05 s is out of order (the row before has 0.01 s, the next 0.03 s)",
+            14,
+        ),
+        (IK.replace("      0.02000000", "      0.01000000"), "time does not increase", 14),
         (IK.replace("pelvis_ty", "pelvis_tx"), "column 'pelvis_tx' appears twice", 11),
         (IK.replace("time\t", "frame\t"), "the first column is 'frame'", 11),
         (IK.replace("inDegrees=yes", "inDegrees=maybe"), "inDegrees='maybe'", 5),
@@ -585,3 +590,12 @@ def test_a_simulations_uneven_steps_are_resampled_not_cleaned(tmp_path, capsys):
     np.testing.assert_allclose(back[:, 2], height(back[:, 0]), atol=1e-9)
     clip = mc.load(path, regrid=True)
     assert clip.frame_rate > 100 and any("integrator steps" in n for n in clip.source.notes)
+
+
+def test_a_utf16_file_is_not_text_as_bvh_and_csv_say(tmp_path, capsys):
+    """It had been "no 'endheader' line: not an OpenSim .mot/.sto"."""
+    path = tmp_path / "ik.mot"
+    path.write_bytes(IK.encode("utf-16"))
+    code, out, err = run_cli(capsys, "info", path)
+    assert (code, out) == (1, "")
+    assert err == f"motionclean: error: {path}: not a text file (binary data)\n"

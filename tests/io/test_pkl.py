@@ -114,6 +114,21 @@ def test_frames_a_person_was_not_seen_in_are_missing(tmp_path):
     assert np.flatnonzero((out["pose"] != record["pose"]).any(axis=1)).tolist() == [4]
 
 
+@pytest.mark.parametrize("ids", [np.arange(5), np.arange(100), np.arange(0, 10, 2)])
+def test_frame_ids_not_one_per_row_of_poses_are_refused(tmp_path, ids):
+    """Ids without gaps (0-4, 0-99 for 60 rows) had been accepted and ignored; only gapped
+    ones were refused."""
+    record = {"pose": np.zeros((60, 72)), "trans": np.zeros((60, 3)), "fps": 30}
+    with open(tmp_path / "ids.pkl", "wb") as f:
+        pickle.dump({**record, "frame_ids": ids}, f)
+    with pytest.raises(mc.MotionError, match=f"frame_ids has {ids.size} entries for 60 frames"):
+        mc.load(tmp_path / "ids.pkl")
+    with open(tmp_path / "every.pkl", "wb") as f:
+        pickle.dump({**record, "frame_ids": np.arange(60) + 7}, f)
+    every = mc.load(tmp_path / "every.pkl")
+    assert every.n_frames == 60 and every.missing is None
+
+
 class _RunsCode:
     def __init__(self, command: str):
         self.command = command

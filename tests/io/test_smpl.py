@@ -441,6 +441,25 @@ def test_hostile_archives_are_refused(tmp_path, capsys):
     assert code == 1 and "needs 576000000000 bytes" in err
 
 
+def test_a_negative_dimension_is_said_to_be_no_shape(tmp_path, capsys):
+    """It had been "shape (-1, 156) of float64 needs -1248 bytes, the member has 0"."""
+    made = io.BytesIO()
+    with zipfile.ZipFile(made, "w") as archive:
+        header = io.BytesIO()
+        np.lib.format.write_array_header_1_0(
+            header, {"descr": "<f8", "fortran_order": False, "shape": (-1, 156)}
+        )
+        archive.writestr("poses.npy", header.getvalue())
+    path = tmp_path / "negative.npz"
+    path.write_bytes(made.getvalue())
+    code, _, err = run_cli(capsys, "info", path)
+    assert code == 1
+    assert err == (
+        f"motionclean: error: {path}: member 'poses.npy': (-1, 156) is not an array shape "
+        "(a negative dimension)\n"
+    )
+
+
 def test_axis_angle_conversions_are_inverse():
     r = RNG.normal(0, 1.5, (500, 3))
     q = smpl_model.axis_angle_to_quaternion(r)

@@ -123,6 +123,24 @@ def test_toml_errors_name_the_file(tmp_path):
         Pipeline.from_toml(tmp_path / "missing.toml")
 
 
+@pytest.mark.parametrize(
+    ("content", "line"),
+    [
+        ("[[step]]\nfilter = 'lee-shin' # caf\u00e9\n".encode("latin-1"), 2),
+        ("[[step]]\nfilter = 'lee-shin'\n".encode("utf-16"), 1),
+    ],
+    ids=["latin-1", "utf-16"],
+)
+def test_a_toml_file_that_is_not_utf8_is_said_so_with_its_line(tmp_path, content, line):
+    """Latin-1 and UTF-16 files had given the codec's text ("'utf-8' codec can't decode byte
+    0xff in position 27: invalid start byte")."""
+    pipe = tmp_path / "p.toml"
+    pipe.write_bytes(content)
+    with pytest.raises(UsageError) as caught:
+        Pipeline.from_toml(pipe)
+    assert str(caught.value) == f"{pipe}:{line}: not UTF-8 text (a TOML file must be UTF-8)"
+
+
 def test_joint_selection_patterns_and_exclusions():
     names = ["Hips", "LeftHip", "LeftKnee", "RightHip", "mixamorig:Spine"]
     assert select_joints(names, ("*",)).all()

@@ -163,6 +163,25 @@ def test_from_inline_wants_a_list_of_strings():
     with pytest.raises(TypeError, match=r"list of step strings.*'lee-shin:k=3'"):
         Pipeline.from_inline("lee-shin:k=3")
     assert Pipeline.from_inline(["lee-shin:k=3"]).describe()[0]["k"] == 3
+    with pytest.raises(TypeError, match=r"list of step strings.*got None$"):
+        Pipeline.from_inline(None)  # ('NoneType' object is not iterable)
+
+
+@pytest.mark.parametrize(
+    ("steps", "message"),
+    [
+        (None, "^steps: expected a list of Step, got NoneType$"),
+        ("abc", "^steps: expected a list of Step, got str$"),
+        ([1], r"^steps: expected a list of Step \(.*\), got a list holding int$"),
+    ],
+)
+def test_a_pipeline_is_built_of_steps(steps, message):
+    """``Pipeline([1])`` had been built, and its run raised AttributeError ('int' object has
+    no attribute 'spec')."""
+    with pytest.raises(TypeError, match=message):
+        Pipeline(steps)
+    default = Pipeline.default()
+    assert Pipeline(tuple(default.steps)).steps == default.steps
 
 
 def _one_line(err: str) -> str:

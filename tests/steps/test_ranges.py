@@ -66,6 +66,8 @@ def test_a_step_on_a_range(step, tmp_path, capsys):
     [
         ("frames=[50,20]", "reversed"),
         ("frames=[10,400]", "the clip has 300 frames (0-299)"),
+        ("frames=[1e308,1e308]", "the range ends beyond the clip's 300 frames (0-299)"),
+        ("frames=[0,9223372036854775807]", "the range ends beyond the clip's 300 frames"),
         ("frames=[10,20],seconds=[0,1]", "either frames or seconds"),
         ("frames=[10,20],blend=400", "does not fit a clip of 300 frames"),
         ("seconds=[0.01,0.015]", "hold no frame"),

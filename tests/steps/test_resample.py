@@ -461,3 +461,22 @@ def test_a_dropout_left_missing_does_not_spread_into_the_frames_beside_it(fps, l
     )
     assert moved.max() < largest
     assert out.missing[(times > 45 * clip.frame_time) & (times < 95 * clip.frame_time), hand].all()
+
+
+@pytest.mark.parametrize(
+    ("frame_time", "error", "message"),
+    [
+        (0, ValueError, "frame_time must be a positive number of seconds .* got 0$"),
+        (-1, ValueError, "frame_time must be a positive number of seconds .* got -1$"),
+        (float("nan"), ValueError, "frame_time must be a positive number of seconds .* got nan$"),
+        ("0.1", TypeError, "^frame_time: expected a number, got str$"),
+    ],
+)
+def test_resample_motion_checks_the_frame_time_it_is_given(frame_time, error, message):
+    """They had raised ZeroDivisionError, "cannot convert float NaN to integer", a
+    MotionError about "-1 fps", and a TypeError from arithmetic on a str."""
+    clip = mc.load(SAMPLE)
+    with pytest.raises(error, match=message):
+        resample_motion(clip, frame_time)
+    with pytest.raises(TypeError, match="^motion: expected a Motion, got NoneType$"):
+        resample_motion(None, 1 / 60)
