@@ -43,7 +43,9 @@ from ..report.summary import (
     gap_notes,
     median_joint,
     noise_figures,
+    pair_repairs,
     short_names,
+    turned_notes,
     unrepaired_jumps,
 )
 from ..report.verdict import listed
@@ -476,8 +478,12 @@ def report(
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
         check_compatible(before, after, compared=True)
-    series = build_series(before, after)
+    # (a pair has no step's notes: a joint turned over a quarter turn was repaired)
+    repairs = {} if after is None else pair_repairs(before, after)
+    series = build_series(before, after, repairs)
     notes = gap_notes(before, after)  # the dropouts, and what a fill left or did
+    for name, note in turned_notes(repairs).items():
+        notes.setdefault(name, {}).update(note)
     result = build_report(before, after, notes=notes, file=source, series=series)
     result["capture_source"] = capture_source_note(before, capture)
     # every page is rendered before anything is written: a failure leaves no file behind

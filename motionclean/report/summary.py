@@ -43,6 +43,40 @@ from .world import (
 __all__ = ["build_report", "build_series", "format_table", "noise_figures", "to_json"]
 
 
+#: In a pair of clips (``report IN OUT``: no step's notes say what was repaired), a sample
+#: whose rotation changed by more than this many degrees was repaired, not smoothed: no
+#: smoothing turns a joint a quarter turn, and un-flipping turns it half a turn.
+PAIR_REPAIR_DEG = 90.0
+
+
+def pair_repairs(before: Motion, after: Motion) -> dict[str, np.ndarray]:
+    """Per joint whose rotation changed by more than :data:`PAIR_REPAIR_DEG` somewhere, the
+    ``(F,)`` mask of those frames: the repairs of a cleaned pair, read from the clips (a
+    joint block at a time: no clip-long table of every joint)."""
+    rotating = np.flatnonzero(before.layout.has_rotation)
+    found = {}
+    for at in range(0, rotating.size, 8):
+        cols = rotating[at : at + 8]
+        turned = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
+        with np.errstate(invalid="ignore"):  # (NaN: a sample missing in either clip)
+            far = turned > PAIR_REPAIR_DEG
+        for k in np.flatnonzero(far.any(axis=0)).tolist():
+            found[before.names[cols[k]]] = far[:, k]
+    return found
+
+
+def turned_notes(repairs: dict[str, np.ndarray]) -> dict[str, dict]:
+    """Per joint of :func:`pair_repairs`, its ``turned`` note: the ``[start, stop)`` runs of
+    frames it turned by more than :data:`PAIR_REPAIR_DEG` (the verdict counts them as
+    repairs, and its figures leave them out)."""
+    if not repairs:
+        return {}
+    runs = found.contact_runs(np.stack(list(repairs.values()), axis=1))
+    return {
+        name: {"turned": {"runs": [list(run) for run in runs[k]]}} for k, name in enumerate(repairs)
+    }
+
+
 def build_series(
     before: Motion,
     after: Motion | None = None,

@@ -123,7 +123,12 @@ def _runs(note: dict, key: str) -> list[list[int]]:
 
 
 #: The notes that say which frames a repairing step changed: (step, key) of its runs.
-_ROTATION_REPAIRS = (("despike", "unflipped"), ("despike", "interpolated"), ("fill-gaps", "filled"))
+_ROTATION_REPAIRS = (
+    ("despike", "unflipped"),
+    ("despike", "interpolated"),
+    ("fill-gaps", "filled"),
+    ("turned", "runs"),  # (two clips compared: the frames turned over 90 degrees)
+)
 _POSITION_REPAIRS = (("position_despike", "interpolated"), ("fill-gaps", "filled"))
 
 
@@ -166,15 +171,18 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
         despike = entry.get("despike") or {}
         moved = _runs(entry.get("position_despike") or {}, "interpolated")
         gaps = entry.get("fill-gaps") or {}
+        turned = _runs(entry.get("turned") or {}, "runs")
         counts = {
             "flips": len(_runs(despike, "unflipped")),
             "spikes": len(_runs(despike, "interpolated")) + len(moved),
             "gaps_filled": len(_runs(gaps, "filled")),
             "gaps_left": len(_runs(gaps, "missing")),
         }
+        if turned:  # (two clips compared)
+            counts = {"turned": len(turned)} | counts
         if any(counts.values()):
             frames = int(despike.get("frames_repaired", 0))
-            frames += sum(b - a for a, b in _runs(gaps, "filled"))
+            frames += sum(b - a for a, b in _runs(gaps, "filled") + turned)
             if moved:  # the position repairs' frames the rotations' left out
                 told = [
                     run
@@ -207,12 +215,13 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
     :data:`REPAIRS_NAMED`, then how many more joints)."""
     words = []
     for key, noun, verb in (
+        ("turned", "repair", "(a turn over 90 degrees)"),
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
         ("gaps_filled", "gap", "filled"),
     ):
         counts = sorted(
-            ((counts[key], name) for name, counts in repairs.items() if counts[key]),
+            ((counts[key], name) for name, counts in repairs.items() if counts.get(key)),
             key=lambda pair: -pair[0],
         )
         if not counts:
@@ -516,11 +525,11 @@ def build_verdict(
     if shown_feet:
         parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired
-    where = (
-        " outside repairs"
-        if report.get("pipeline")
-        else " (steps not recorded: repairs not told apart)"
-    )
+    where = " (steps not recorded: repairs not told apart)"
+    if report.get("pipeline"):
+        where = " outside repairs"
+    elif repairs:  # (two clips compared: the repairs are the turns over 90 degrees)
+        where = " outside repairs (turns over 90 degrees: steps not recorded)"
     tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
         tail = f"largest change {change:.2g} degrees{where}"
