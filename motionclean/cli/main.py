@@ -585,28 +585,35 @@ def blend(
     except ValueError as error:
         raise UsageError(str(error)) from None
     save(blended, output)
-    for path, clip in ((first, a), (second, b)):
-        flipping = _jumping_joints(clip)
+    _flip_notes({first: a, second: b}, "the blend", {first: slice(None), second: slice(None)})
+
+
+def _flip_notes(clips: dict[str, Motion], what: str, steps: dict[str, slice]) -> None:
+    """Say, once per file, the joints of each clip that step by more than :data:`JUMP_DEG`
+    between two of the frames ``steps`` (a slice of its steps between frames) holds:
+    ``what`` (the blend, the transition) crosses them."""
+    for path, clip in clips.items():
+        flipping = _jumping_joints(clip, steps[path])
         if flipping:
             verb = "steps" if len(flipping) == 1 else "step"
             click.echo(
                 f"note: {path}: {listed(flipping, 3)} {verb} by more than {JUMP_DEG:g} degrees "
-                "between frames (flips or glitches): the blend crosses them; despike the "
+                f"between frames (flips or glitches): {what} crosses them; despike the "
                 "clip first (clean -f despike)"
             )
 
 
-def _jumping_joints(clip: Motion) -> list[str]:
+def _jumping_joints(clip: Motion, steps: slice = slice(None)) -> list[str]:
     """The joints of ``clip`` whose rotation steps by more than :data:`JUMP_DEG` between
     two frames of its motion (a half-turn flip nothing repaired, a glitch; not into a
     rest-pose frame at an end, a dropout, nor across a cut between takes), as the report
-    counts them."""
+    counts them; only the steps ``steps`` (a slice of the ``F - 1`` steps) counted."""
     rotating = np.flatnonzero(clip.layout.has_rotation)
     missing = None if clip.missing is None else clip.missing_mask()[:, rotating]
     jumps = unrepaired_jumps(
         clip.rotations[:, rotating], {}, missing, take_starts(clip), *rest_frames(clip)
     )
-    return [clip.names[j] for j in rotating[jumps.any(axis=0)]]
+    return [clip.names[j] for j in rotating[jumps[steps].any(axis=0)]]
 
 
 @cli.command(short_help="Join two clips with a seamless transition.")
@@ -644,6 +651,9 @@ def stitch(
     a, b = with_up(read.load(first), up), with_up(read.load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
     used = stitch_levels(a.n_frames, b.n_frames, levels)  # (both have frames: stitched)
+    width = 3 * (2**used - 1)  # the frames each side of the seam that change
+    near = {first: slice(max(a.n_frames - 1 - width, 0), None), second: slice(0, width)}
+    _flip_notes({first: a, second: b}, "the transition", near)
     if used < levels:
         shorter = min(a.n_frames, b.n_frames)
         click.echo(

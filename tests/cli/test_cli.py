@@ -293,11 +293,33 @@ def test_blend_says_which_joints_flip_across_the_blend(tmp_path, capsys):
     code, out, err = run(["blend", noisy, noisy, "-o", tmp_path / "b.bvh"], capsys)
     assert code == 0 and not err
     notes = [line for line in out.splitlines() if line.startswith("note: ")]
-    assert len(notes) == 2 and all("RThumb steps by more than 90 degrees" in n for n in notes)
-    assert all(n.endswith("despike the clip first (clean -f despike)") for n in notes)
+    # (one note per file: the same file given twice had been told twice)
+    assert len(notes) == 1 and "RThumb steps by more than 90 degrees" in notes[0]
+    assert notes[0].endswith("the blend crosses them; despike the clip first (clean -f despike)")
     calm = ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh"
     code, out, err = run(["blend", calm, calm, "-o", tmp_path / "c.bvh"], capsys)
     assert code == 0 and not err and "note:" not in out
+
+
+@pytest.mark.parametrize(("seam", "noted"), [(100, True), (150, False)])
+def test_stitch_says_which_joints_flip_within_the_transition(tmp_path, capsys, seam, noted):
+    """The noisy sample cut at a seam and stitched back: RThumb's flips (frames 48-70,
+    233-255) within the 45 frames either side of a seam at 100 are blended across, and said
+    (stitch had said nothing where blend notes it); a seam at 150 leaves them outside."""
+    noisy = mc.load(ROOT / "sample_data" / "131_02_noisy.bvh")
+    first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    mc.save(noisy.at_frames(slice(0, seam + 1)), first)
+    mc.save(noisy.at_frames(slice(seam, None)), second)
+    code, out, err = run(["stitch", first, second, "-o", tmp_path / "s.bvh"], capsys)
+    assert code == 0 and not err
+    notes = [line for line in out.splitlines() if line.startswith("note: ")]
+    if noted:
+        assert notes == [
+            f"note: {first}: RThumb steps by more than 90 degrees between frames (flips or "
+            "glitches): the transition crosses them; despike the clip first (clean -f despike)"
+        ]
+    else:
+        assert notes == []
 
 
 def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):
