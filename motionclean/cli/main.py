@@ -651,9 +651,6 @@ def stitch(
     a, b = with_up(read.load(first), up), with_up(read.load(second), up)
     save(stitch_clips(a, b, levels, align=not no_align), output)
     used = stitch_levels(a.n_frames, b.n_frames, levels)  # (both have frames: stitched)
-    width = 3 * (2**used - 1)  # the frames each side of the seam that change
-    near = {first: slice(max(a.n_frames - 1 - width, 0), None), second: slice(0, width)}
-    _flip_notes({first: a, second: b}, "the transition", near)
     if used < levels:
         shorter = min(a.n_frames, b.n_frames)
         click.echo(
@@ -661,6 +658,9 @@ def stitch(
             f"({plural(shorter, 'frame')}) needs 4 x 2^levels + 1 frames for the frames "
             "beyond the transition to stay its own"
         )
+    width = 3 * (2**used - 1)  # the frames each side of the seam that change
+    near = {first: slice(max(a.n_frames - 1 - width, 0), None), second: slice(0, width)}
+    _flip_notes({first: a, second: b}, "the transition", near)
 
 
 def _shown(value) -> str:
