@@ -217,7 +217,10 @@ class MOTIONCLEAN_OT_clean(Operator):
             check_editable(plans, settings.in_place)
             for plan in plans:  # everything is cleaned before anything is written
                 frames, step, first, last = frames_of(scene, settings, plan.action, plan.slot)
-                plan.span = f"{_frame_text(frames[first])}-{_frame_text(frames[last])}"
+                plan.span = f"{_frame_text(frames[first])}-{_frame_text(frames[last])}" + (
+                    # (the lines below and the report number the action's keys from 0)
+                    f" (0 below: frame {_frame_text(frames[0])})" if frames[0] else ""
+                )
                 plan.clip = read_action(
                     plan.objects[0], plan.action, plan.slot, frames, step * frame_time
                 )

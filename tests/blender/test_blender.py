@@ -140,7 +140,9 @@ def test_preview_range_in_place(blender, capsys, tmp_path):
     its first and last 5 frames (`frames`/`blend` on the command line), nothing outside."""
     result = blender.results["range"]
     assert result["done"] == ["FINISHED"] and result["action"] == "131_01"  # in place
-    assert result["panel_frames"] == "150-250"
+    # (the repair lines below it count the action's keys from 0: where that frame is)
+    key0 = 150 - result["clip_range"][0]  # the action's first key (Blender's BVH import: 1)
+    assert result["panel_frames"] == f"150-250 (0 below: frame {key0})" and key0 == 1
     assert result["outside_untouched"] and result["inside_changed"] > 0
     first, last = result["clip_range"]
     steps = []
