@@ -13,13 +13,14 @@ import signal
 import sys
 import textwrap
 import traceback
+import warnings
 from dataclasses import replace
 
 import click
 import numpy as np
 
 from ..core import kinematics
-from ..core.errors import MotionError, UsageError, silence_numeric_warnings
+from ..core.errors import MotionError, UsageError
 from ..core.jumps import JUMP_DEG
 from ..core.motion import Motion
 from ..core.reserve import keep_reserve, let_go, warm_blas
@@ -29,7 +30,7 @@ from ..core.threads import thread_count
 from ..core.version import __version__
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
-from ..filters.multires import stitch_levels
+from ..filters.multires import stitch_levels, stitch_width
 from ..io import ReadOptions, atomic_write, save
 from ..io.world_csv import world_csv_pieces
 from ..report import metrics
@@ -183,7 +184,9 @@ def cli(debug: bool) -> None:
     (.fbx, through Blender's bpy: the [blender] extra), each written back in its own format.
     """
     thread_count()  # a bad MOTIONCLEAN_THREADS is refused before any work
-    silence_numeric_warnings()
+    # numpy's RuntimeWarnings stay off stderr: what they warn of is checked and said in one
+    # line (a step whose result is not finite, or beyond what a file holds, is refused)
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
 
 
 cli.add_command(batch_command)
@@ -585,15 +588,18 @@ def blend(
     except ValueError as error:
         raise UsageError(str(error)) from None
     save(blended, output)
-    _flip_notes({first: a, second: b}, "the blend", {first: slice(None), second: slice(None)})
+    _flip_notes([(first, a, slice(None)), (second, b, slice(None))], "the blend")
 
 
-def _flip_notes(clips: dict[str, Motion], what: str, steps: dict[str, slice]) -> None:
-    """Say, once per file, the joints of each clip that step by more than :data:`JUMP_DEG`
-    between two of the frames ``steps`` (a slice of its steps between frames) holds:
-    ``what`` (the blend, the transition) crosses them."""
-    for path, clip in clips.items():
-        flipping = _jumping_joints(clip, steps[path])
+def _flip_notes(clips: list[tuple[str, Motion, slice]], what: str) -> None:
+    """Say, one line per file, the joints of each ``(path, clip, steps)`` that step by more
+    than :data:`JUMP_DEG` between two of the frames ``steps`` (a slice of its steps between
+    frames) holds: ``what`` (the blend, the transition) crosses them."""
+    named: dict[str, list[str]] = {}
+    for path, clip, steps in clips:
+        said = named.setdefault(path, [])
+        said += [name for name in _jumping_joints(clip, steps) if name not in said]
+    for path, flipping in named.items():
         if flipping:
             verb = "steps" if len(flipping) == 1 else "step"
             click.echo(
@@ -658,9 +664,9 @@ def stitch(
             f"({plural(shorter, 'frame')}) needs 4 x 2^levels + 1 frames for the frames "
             "beyond the transition to stay its own"
         )
-    width = 3 * (2**used - 1)  # the frames each side of the seam that change
-    near = {first: slice(max(a.n_frames - 1 - width, 0), None), second: slice(0, width)}
-    _flip_notes({first: a, second: b}, "the transition", near)
+    width = stitch_width(used)  # the frames either side of the seam that change
+    near = [(first, a, slice(max(a.n_frames - 1 - width, 0), None)), (second, b, slice(0, width))]
+    _flip_notes(near, "the transition")
 
 
 def _shown(value) -> str:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import warnings
 
 
 class MotionError(Exception):
@@ -38,10 +37,3 @@ class UsageError(MotionError):
     """An invalid request: bad pipeline, unknown parameter, refused overwrite. Exit code 2."""
 
     exit_code = 2
-
-
-def silence_numeric_warnings() -> None:
-    """Keep numpy's RuntimeWarnings (overflow, invalid values) off a command's stderr, and
-    its workers': what they warn of is checked and said in one line (a pipeline step whose
-    result is not finite, or beyond what a file holds, is refused naming the step)."""
-    warnings.filterwarnings("ignore", category=RuntimeWarning)

@@ -611,8 +611,9 @@ def spine(parents: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 
 def _trunk_chain(parents: np.ndarray, upper: np.ndarray, children: list[list[int]]) -> list[int]:
-    """The upper body's points from the one below the pelvis down the single-child chain to
-    the chest, the first with several children (or none)."""
+    """The upper body's points from the pelvis's child in ``upper`` (the trunk's first
+    point) up the single-child chain to the chest, the first with several children (or
+    none)."""
     inside = set(upper.tolist())
     point = next(p for p in upper.tolist() if parents[p] not in inside)
     chain = [point]

@@ -717,6 +717,12 @@ def stitch_levels(n_a: int, n_b: int, levels: int) -> int:
     return min(_levels(levels), max_levels(n_a), max_levels(n_b), fits)
 
 
+def stitch_width(levels: int) -> int:
+    """The frames either side of the seam :func:`stitch` changes on ``levels`` detail levels
+    (:func:`stitch_levels`): ``3 (2^N - 1)``."""
+    return 3 * (2**levels - 1)
+
+
 def stitch(q_a, q_b, levels: int, p_a=None, p_b=None):
     """Join clip A's end to clip B's start level by level (003 Eq. 21).
 

@@ -381,22 +381,23 @@ def _check_magnitudes(motion: Motion) -> None:
     """Refuse positions, offsets and end sites beyond
     :data:`~motionclean.core.checks.MAX_MAGNITUDE` (InvalidMotion, naming the first joint):
     every reader refuses such a value, so the file would not read back."""
-    site_joints = list(motion.end_sites)
-    sites = np.array([motion.end_sites[j] for j in site_joints]).reshape(-1, 3)
-    for what, values in (
-        ("translations", motion.translations),
-        ("offsets", motion.offsets),
-        ("end sites", sites),
+    sites = list(motion.end_sites)
+    for what, values, joint_of, frame_of in (
+        ("translations", motion.translations, lambda at: at[1], lambda at: at[0]),
+        ("offsets", motion.offsets, lambda at: at[0], None),
+        (
+            "end sites",
+            np.array([motion.end_sites[j] for j in sites]).reshape(-1, 3),
+            lambda at: sites[at[0]],
+            None,
+        ),
     ):
         if checks.within_magnitude(values):
             continue
         at = np.argwhere(np.abs(values) > checks.MAX_MAGNITUDE)[0]
-        if what == "translations":
-            joint, where = int(at[1]), f" at frame {at[0]}"
-        else:
-            joint, where = int(at[0] if what == "offsets" else site_joints[at[0]]), ""
+        where = "" if frame_of is None else f" at frame {frame_of(at)}"
         raise InvalidMotion(
-            f"{what}: joint {motion.names[joint]!r} has a value beyond "
+            f"{what}: joint {motion.names[int(joint_of(at))]!r} has a value beyond "
             f"{checks.MAX_MAGNITUDE:g}{where} (no reader takes it back)"
         )
 

@@ -346,10 +346,13 @@ def _property_values(q: np.ndarray, mode: str, before: np.ndarray) -> np.ndarray
         order, at = _euler_order(mode)
         reference = np.rad2deg(before[:, at])
         angles = continuous_euler(q[:, None], order, reference[:, None], kept[:, None])[:, 0]
-        # a curve, not a file's text: each sample on the whole turns nearest the one before
-        # (a run that winds once more than the curve read, through a repaired flip near
-        # gimbal lock, moves the kept samples after it by a turn, not the pose)
-        angles = np.unwrap(angles, period=360.0, axis=0)
+        # a curve, not a file's text: a step into or out of a changed sample takes the whole
+        # turns that keep it within half a turn, a step between kept ones stays the curve
+        # read's (a run that winds once more than it, through a repaired flip near gimbal
+        # lock, moves the kept samples after it by a turn, never the pose)
+        touched = (~kept[:-1] | ~kept[1:])[:, None]
+        turns = np.where(touched, np.round(np.diff(angles, axis=0) / 360.0), 0.0)
+        angles[1:] -= 360.0 * np.cumsum(turns, axis=0)
         out = np.empty_like(angles)
         out[:, at] = np.deg2rad(angles)
         turns = np.zeros_like(out)
@@ -527,7 +530,11 @@ def write_action(clip: ActionClip, cleaned: Motion, action: Any, slot: Any) -> W
         if track.rotation:
             prop, _ = _rotation_property(track.mode)
             values = _property_values(basis[:, j], track.mode, clip.rotation_values[j])
-            jobs.append((prop, values, clip.rotation_values[j], moved[:, j] >= KEEP_DEGREES))
+            # (a key moved by whole turns is written too: its pose is the same, its value not)
+            turned = np.any(np.abs(values - clip.rotation_values[j]) > np.pi, axis=1)
+            jobs.append(
+                (prop, values, clip.rotation_values[j], (moved[:, j] >= KEEP_DEGREES) | turned)
+            )
         if track.location:
             location = quat.rotate(
                 quat.conjugate(clip.rest[j]), cleaned.translations[:, j] - motion.offsets[j]
@@ -571,7 +578,7 @@ def _write_keys(
         summary.keys_set += int(np.count_nonzero(np.float32(new) != np.float32(keys[:, 1])))
         return
     if not len(keys):  # a new curve: a key on every frame
-        _add_keys(curve, frames, values, "LINEAR")
+        _add_keys(curve, frames, values, ["LINEAR"] * len(frames))
         summary.keys_added += len(frames)
         curve.update()
         return
@@ -630,9 +637,11 @@ def _keep_handles(curve: Any, frames: np.ndarray, handles: list[np.ndarray]) -> 
             setattr(point, side, old.tolist())
 
 
-def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation) -> None:
-    """Add keys at ``frames`` with ``values`` (automatic clamped handles) and
-    ``interpolation``, one for all or one per key."""
+def _add_keys(
+    curve: Any, frames: np.ndarray, values: np.ndarray, interpolations: list[str]
+) -> None:
+    """Add keys at ``frames`` with ``values`` and ``interpolations`` (one per key; automatic
+    clamped handles)."""
     points = curve.keyframe_points
     start = len(points)
     points.add(len(frames))
@@ -641,8 +650,7 @@ def _add_keys(curve: Any, frames: np.ndarray, values: np.ndarray, interpolation)
     co[2 * start :: 2] = frames
     co[2 * start + 1 :: 2] = values
     points.foreach_set("co", co)
-    kinds = [interpolation] * len(frames) if isinstance(interpolation, str) else interpolation
-    for point, kind in zip(list(points)[start:], kinds, strict=True):
+    for point, kind in zip(list(points)[start:], interpolations, strict=True):
         point.interpolation = kind
         point.handle_left_type = point.handle_right_type = "AUTO_CLAMPED"
 

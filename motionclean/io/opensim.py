@@ -318,9 +318,10 @@ def _refuse_body_kinematics(labels: list[str], path, line: int) -> None:
 
 def _empty_cell(data: bytes, line_start: np.ndarray, line: int) -> int | None:
     """The column (0-based) of the first empty tab-separated cell of the body's ``line``
-    (two tabs in a row, or a tab that starts or ends it), or None."""
+    (two tabs in a row, or a tab that starts it; tabs that end a line end no cell), or
+    None."""
     end = int(line_start[line + 1]) if line + 1 < line_start.size else len(data)
-    cells = data[int(line_start[line]) : end].rstrip(b"\r\n").split(b"\t")
+    cells = data[int(line_start[line]) : end].rstrip(b"\r\n\t ").split(b"\t")
     empty = [i for i, cell in enumerate(cells) if not cell.strip()]
     return empty[0] if empty else None
 

@@ -30,7 +30,7 @@ from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
-from .verdict import CLEAN_CHANGE_DEG, build_verdict, listed
+from .verdict import CLEAN_CHANGE_DEG, PAIR_REPAIR_DEG, build_verdict, listed
 from .world import (
     contact_figures,
     figure_points,
@@ -43,31 +43,29 @@ from .world import (
 __all__ = ["build_report", "build_series", "format_table", "noise_figures", "to_json"]
 
 
-#: In a pair of clips (``report IN OUT``: no step's notes say what was repaired), a sample
-#: whose rotation changed by more than this many degrees was repaired, not smoothed: no
-#: smoothing turns a joint a quarter turn, and un-flipping turns it half a turn.
-PAIR_REPAIR_DEG = 90.0
+#: Joints :func:`pair_repairs` reads at a time (the deviation table of that many joints).
+_PAIR_BLOCK = 8
 
 
 def pair_repairs(before: Motion, after: Motion) -> dict[str, np.ndarray]:
-    """Per joint whose rotation changed by more than :data:`PAIR_REPAIR_DEG` somewhere, the
-    ``(F,)`` mask of those frames: the repairs of a cleaned pair, read from the clips (a
-    joint block at a time: no clip-long table of every joint)."""
+    """Per joint whose rotation changed by more than
+    :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` somewhere, the ``(F,)`` mask of
+    those frames: the repairs of a cleaned pair, read from the clips."""
     rotating = np.flatnonzero(before.layout.has_rotation)
-    found = {}
-    for at in range(0, rotating.size, 8):
-        cols = rotating[at : at + 8]
-        turned = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
-        with np.errstate(invalid="ignore"):  # (NaN: a sample missing in either clip)
-            far = turned > PAIR_REPAIR_DEG
+    masks = {}
+    for at in range(0, rotating.size, _PAIR_BLOCK):
+        cols = rotating[at : at + _PAIR_BLOCK]
+        far = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
+        far = far > PAIR_REPAIR_DEG
         for k in np.flatnonzero(far.any(axis=0)).tolist():
-            found[before.names[cols[k]]] = far[:, k]
-    return found
+            masks[before.names[cols[k]]] = far[:, k]
+    return masks
 
 
 def turned_notes(repairs: dict[str, np.ndarray]) -> dict[str, dict]:
     """Per joint of :func:`pair_repairs`, its ``turned`` note: the ``[start, stop)`` runs of
-    frames it turned by more than :data:`PAIR_REPAIR_DEG` (the verdict counts them as
+    frames it turned by more than
+    :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (the verdict counts them as
     repairs, and its figures leave them out)."""
     if not repairs:
         return {}

@@ -122,12 +122,17 @@ def _runs(note: dict, key: str) -> list[list[int]]:
     return [list(r) for r in note.get(key) or []]
 
 
+#: In a pair of clips (``report IN OUT``: no step's notes say what was repaired), a sample
+#: whose rotation changed by more than this many degrees was repaired: un-flipping turns a
+#: joint about half a turn (165-180 degrees on the noisy sample's RThumb), where smoothing
+#: across the same flips (``multires:level=2,cut_deg=180``) leaves 60-150.
+PAIR_REPAIR_DEG = 150.0
 #: The notes that say which frames a repairing step changed: (step, key) of its runs.
 _ROTATION_REPAIRS = (
     ("despike", "unflipped"),
     ("despike", "interpolated"),
     ("fill-gaps", "filled"),
-    ("turned", "runs"),  # (two clips compared: the frames turned over 90 degrees)
+    ("turned", "runs"),  # (two clips compared: the frames turned over PAIR_REPAIR_DEG)
 )
 _POSITION_REPAIRS = (("position_despike", "interpolated"), ("fill-gaps", "filled"))
 
@@ -215,7 +220,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
     :data:`REPAIRS_NAMED`, then how many more joints)."""
     words = []
     for key, noun, verb in (
-        ("turned", "repair", "(a turn over 90 degrees)"),
+        ("turned", "repair", f"(a turn over {PAIR_REPAIR_DEG:g} degrees)"),
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
         ("gaps_filled", "gap", "filled"),
@@ -519,7 +524,7 @@ def build_verdict(
             else smoothing["noise_removed"]
         )
         quiet = (noise is not None and noise < CLEAN_NOISE_DEG) or (
-            shown_removed is not None and shown_removed < NEGLIGIBLE_JITTER
+            shown_removed is not None and abs(shown_removed) < NEGLIGIBLE_JITTER
         )
         lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
     if shown_feet:
@@ -528,8 +533,8 @@ def build_verdict(
     where = " (steps not recorded: repairs not told apart)"
     if report.get("pipeline"):
         where = " outside repairs"
-    elif repairs:  # (two clips compared: the repairs are the turns over 90 degrees)
-        where = " outside repairs (turns over 90 degrees: steps not recorded)"
+    elif any(counts.get("turned") for counts in repairs.values()):  # (two clips compared)
+        where = f" outside repairs (turns over {PAIR_REPAIR_DEG:g} degrees: steps not recorded)"
     tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
         tail = f"largest change {change:.2g} degrees{where}"

@@ -15,6 +15,7 @@ import json
 import math
 import os
 import time
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -23,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..core import kinematics, quat
-from ..core.errors import MotionError, silence_numeric_warnings
+from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
@@ -435,9 +436,13 @@ def clean_file(
 
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls), numpy's
-    warnings kept off the worker's stderr as the command keeps them off its own."""
-    silence_numeric_warnings()
-    return clean_file(job.source, job.target, job.steps, job.report, job.up, job.read, job.shown)
+    RuntimeWarnings kept off the worker's stderr while it runs, as the command keeps them
+    off its own (what they warn of is checked and said in one line)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return clean_file(
+            job.source, job.target, job.steps, job.report, job.up, job.read, job.shown
+        )
 
 
 # ----------------------------------------------------------------------------- two clips

@@ -518,14 +518,17 @@ def _check_result(motion: Motion, step: Step, number: int, path: str | None) -> 
     finite number, or a position beyond :data:`~motionclean.core.checks.MAX_MAGNITUDE` (a
     filter that diverged: many passes of a sharpening mask, gains far above 1). Two
     reductions per array: no array-sized temporary."""
-    for what, values in (("rotations", motion.rotations), ("positions", motion.translations)):
-        if not checks.within_magnitude(values):
-            raise MotionError(
-                f"step {number} ({step.spec.name}) made {what} that are not finite numbers "
-                f"of at most {checks.MAX_MAGNITUDE:g} (the filter diverged: fewer passes, a "
-                "gentler mask or gains nearer 1)",
-                path,
-            )
+    bad = None
+    if not checks.within_magnitude(motion.rotations):  # (unit quaternions: NaN or inf)
+        bad = "rotations that are not finite"
+    elif not checks.within_magnitude(motion.translations):
+        bad = f"positions that are not finite numbers of at most {checks.MAX_MAGNITUDE:g}"
+    if bad is not None:
+        raise MotionError(
+            f"step {number} ({step.spec.name}) made {bad} (the filter diverged: fewer passes, "
+            "a gentler mask or gains nearer 1)",
+            path,
+        )
 
 
 def _checked_up_front(steps: list[Step], motion: Motion) -> tuple[dict[int, tuple[int, int]], int]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -301,25 +302,45 @@ def test_blend_says_which_joints_flip_across_the_blend(tmp_path, capsys):
     assert code == 0 and not err and "note:" not in out
 
 
-@pytest.mark.parametrize(("seam", "noted"), [(100, True), (150, False)])
-def test_stitch_says_which_joints_flip_within_the_transition(tmp_path, capsys, seam, noted):
-    """The noisy sample cut at a seam and stitched back: RThumb's flips (frames 48-70,
-    233-255) within the 45 frames either side of a seam at 100 are blended across, and said
-    (stitch had said nothing where blend notes it); a seam at 150 leaves them outside."""
+def stitched_notes(tmp_path, capsys, seam: int) -> tuple[Path, list[str]]:
+    """The noisy sample cut at ``seam`` (the halves share that frame) and stitched back:
+    the first half's path and the command's notes."""
     noisy = mc.load(ROOT / "sample_data" / "131_02_noisy.bvh")
     first, second = tmp_path / "a.bvh", tmp_path / "b.bvh"
     mc.save(noisy.at_frames(slice(0, seam + 1)), first)
     mc.save(noisy.at_frames(slice(seam, None)), second)
     code, out, err = run(["stitch", first, second, "-o", tmp_path / "s.bvh"], capsys)
     assert code == 0 and not err
-    notes = [line for line in out.splitlines() if line.startswith("note: ")]
-    if noted:
-        assert notes == [
-            f"note: {first}: RThumb steps by more than 90 degrees between frames (flips or "
-            "glitches): the transition crosses them; despike the clip first (clean -f despike)"
-        ]
-    else:
-        assert notes == []
+    return first, [line for line in out.splitlines() if line.startswith("note: ")]
+
+
+def test_stitch_says_which_joints_flip_within_the_transition(tmp_path, capsys):
+    """RThumb's flips (frames 48-70, 233-255 of the noisy sample) within the 45 frames
+    either side of a seam at 100 are blended across, and said (stitch had said nothing
+    where blend notes it)."""
+    first, notes = stitched_notes(tmp_path, capsys, 100)
+    assert notes == [
+        f"note: {first}: RThumb steps by more than 90 degrees between frames (flips or "
+        "glitches): the transition crosses them; despike the clip first (clean -f despike)"
+    ]
+
+
+def test_stitch_says_nothing_of_flips_outside_the_transition(tmp_path, capsys):
+    assert stitched_notes(tmp_path, capsys, 150)[1] == []
+
+
+def test_stitch_of_a_clip_with_itself_notes_flips_at_either_end(tmp_path, capsys):
+    """The same file as both clips: its end (the first clip's side) and its start (the
+    second's) are each looked at (keyed by path, the start's look had replaced the end's)."""
+    noisy = mc.load(ROOT / "sample_data" / "131_02_noisy.bvh")
+    loop = tmp_path / "loop.bvh"
+    mc.save(noisy.at_frames(slice(0, 76)), loop)  # flips at 48-51, 64-70: near its end
+    code, out, err = run(["stitch", loop, loop, "-o", tmp_path / "s.bvh", "--levels", "3"], capsys)
+    assert code == 0 and not err
+    assert [line for line in out.splitlines() if line.startswith("note: ")] == [
+        f"note: {loop}: RThumb steps by more than 90 degrees between frames (flips or "
+        "glitches): the transition crosses them; despike the clip first (clean -f despike)"
+    ]
 
 
 def test_stitch_refuses_different_skeletons(sample_path, tmp_path, capsys):

@@ -60,3 +60,20 @@ def test_quaternion_curves_gain_no_sign_change(thumb):
 
     assert sign_changes(written) <= sign_changes(read)
     assert np.degrees(quat.angle_between(written, q)).max() < 1e-9
+
+
+def test_a_small_edit_moves_no_other_key_of_a_curve_that_wraps():
+    """A curve read with a whole-turn step of its own between two keys, and a 1-degree edit
+    of one other key: only that key changes (unwrapping every step had moved each key after
+    the curve's own wrap by a turn, a 365-degree step between an edited keyed curve's keys)."""
+    frames = 30
+    read = np.zeros((frames, 3))
+    read[:, 2] = np.linspace(150.0, 200.0, frames)  # Z, continuous through 180 ...
+    read[20:, 2] -= 360.0  # ... then written a turn down, as the curve's own step
+    curve = np.deg2rad(read)
+    q = _basis_quaternions(curve, "XYZ")
+    q[8] = quat.multiply(q[8], quat.exp(np.array([np.radians(0.5), 0.0, 0.0])))  # 1 degree
+    written = _property_values(q, "XYZ", curve)
+    others = np.arange(frames) != 8
+    assert np.array_equal(written[others], curve[others])
+    assert np.degrees(np.abs(written[8] - curve[8])).max() < 1.5

@@ -494,6 +494,19 @@ def test_rows_not_as_many_as_nrows_are_read_and_written_with_their_count(
     assert "nRows=3\n" in (tmp_path / "half.mot").read_text()
 
 
+def test_tabs_that_end_a_line_end_no_cell(tmp_path):
+    """A label line (and rows) ending in a tab, as some tools write them: read as without
+    it (the empty-cell check had refused the labels: "column 7 has no name")."""
+    lines = IK.split("\n")
+    at = lines.index(next(line for line in lines if line.startswith("time")))
+    text = "\n".join(line + "\t" if i >= at and line else line for i, line in enumerate(lines))
+    clip, plain = (
+        mc.load(write(tmp_path, text), exclude=["*_force"]),
+        mc.load(write(tmp_path, IK, "plain.mot"), exclude=["*_force"]),
+    )
+    assert clip.names == plain.names and np.array_equal(clip.rotations, plain.rotations)
+
+
 def test_a_stale_ncolumns_is_said_and_no_output_keeps_it(tmp_path):
     """nColumns is told and corrected as nRows is (it had been kept silently)."""
     source = write(tmp_path, IK.replace("nColumns=6", "nColumns=4"))

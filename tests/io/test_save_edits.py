@@ -63,22 +63,31 @@ def test_an_edited_skeleton_with_edited_frames_is_written_too(tmp_path):
     assert np.degrees(mc.core.quat.angle_between(back.rotations, rotations)).max() < 1e-4
 
 
-@pytest.mark.parametrize("where", ["translations", "offsets", "end sites"])
-def test_a_value_no_reader_takes_back_is_not_written(tmp_path, where):
+def _far_translation(clip):
+    far = clip.translations.copy()
+    far[7, 0, 0] = 1e13
+    return clip.replace(translations=far)
+
+
+def _far_offset(clip):
+    offsets = clip.offsets.copy()
+    offsets[3, 1] = -1e13
+    return clip.replace(offsets=offsets)
+
+
+def _far_end_site(clip):
+    joint = sorted(clip.end_sites)[0]
+    return clip.replace(end_sites={**clip.end_sites, joint: np.array([0.0, 2e13, 0.0])})
+
+
+@pytest.mark.parametrize(
+    ("where", "edit"),
+    [("translations", _far_translation), ("offsets", _far_offset), ("end sites", _far_end_site)],
+)
+def test_a_value_no_reader_takes_back_is_not_written(tmp_path, where, edit):
     """A position, offset or end site beyond 1e12 units had been written (exit 0) to a file
     that every reader, motionclean's too, refuses."""
-    clip = mc.load(SAMPLE)
-    if where == "translations":
-        far = clip.translations.copy()
-        far[7, 0, 0] = 1e13
-        clip = clip.replace(translations=far)
-    elif where == "offsets":
-        offsets = clip.offsets.copy()
-        offsets[3, 1] = -1e13
-        clip = clip.replace(offsets=offsets)
-    else:
-        joint = sorted(clip.end_sites)[0]
-        clip = clip.replace(end_sites={**clip.end_sites, joint: np.array([0.0, 2e13, 0.0])})
+    clip = edit(mc.load(SAMPLE))
     for suffix in (".bvh", ".csv", ".glb"):
         with pytest.raises(InvalidMotion, match=f"far{suffix}: {where}: joint .* beyond 1e\\+12"):
             mc.save(clip, tmp_path / f"far{suffix}")

@@ -381,6 +381,14 @@ def bad_npz(tmp_path, name: str, **arrays) -> str:
         ({"betas": np.zeros(10)}, "no SMPL pose"),
         ({"poses": np.zeros((4, 72)), "mocap_framerate": np.array(0.0)}, "frame rate"),
         ({"root_orient": np.zeros((4, 3))}, "without a body pose"),
+        (
+            {
+                "root_orient": np.zeros((4, 3)),
+                "pose_body": np.zeros((4, 63)),
+                "pose_hand": np.zeros((4, 12)),
+            },
+            "PCA components",
+        ),
     ],
 )
 def test_bad_layouts_are_one_line(tmp_path, capsys, arrays, message):
@@ -390,10 +398,19 @@ def test_bad_layouts_are_one_line(tmp_path, capsys, arrays, message):
     assert err.startswith(f"motionclean: error: {path}: ")
 
 
+def matrix_pose(tmp_path, orient: np.ndarray) -> str:
+    """A .npz whose global_orient is ``orient`` on each of 4 frames, as (J, 3, 3) matrices."""
+    return bad_npz(
+        tmp_path,
+        "mats.npz",
+        global_orient=np.tile(orient, (4, 1, 1)),
+        body_pose=np.zeros((4, 23, 3)),
+    )
+
+
 @pytest.mark.parametrize(
     ("orient", "message"),
     [
-        (np.eye(3), None),
         (2.0 * np.eye(3), "differs from the identity by 3, determinant 8)"),
         (np.diag([1.0, 1.0, -1.0]), "differs from the identity by 0, determinant -1)"),
     ],
@@ -401,15 +418,16 @@ def test_bad_layouts_are_one_line(tmp_path, capsys, arrays, message):
 def test_pose_matrices_that_are_no_rotation_are_refused(tmp_path, capsys, orient, message):
     """(J, 3, 3) pose matrices: a scale or a mirror had been read as the nearest rotation,
     and a changed joint written back without it."""
-    poses = {"global_orient": np.tile(orient, (4, 1, 1)), "body_pose": np.zeros((4, 23, 3))}
-    path = bad_npz(tmp_path, "mats.npz", **poses)
+    path = matrix_pose(tmp_path, orient)
     code, _, err = run_cli(capsys, "info", path)
-    if message is None:
-        assert code == 0 and err == ""
-    else:
-        assert code == 1 and err.count("\n") == 1
-        assert err.startswith(f"motionclean: error: {path}: global_orient: frame 0, matrix 0 ")
-        assert err.rstrip().endswith(message)
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(f"motionclean: error: {path}: global_orient: frame 0, matrix 0 ")
+    assert err.rstrip().endswith(message)
+
+
+def test_pose_matrices_that_are_rotations_are_read(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "info", matrix_pose(tmp_path, np.eye(3)))
+    assert code == 0 and err == ""
 
 
 def test_hostile_archives_are_refused(tmp_path, capsys):
