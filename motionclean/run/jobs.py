@@ -10,6 +10,7 @@ This is what ``clean``, ``batch`` and ``check`` call, and what Python users call
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import math
@@ -471,7 +472,11 @@ def check_compatible(
             f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
         )
     if same_length and a.n_frames != b.n_frames:
-        raise MotionError(f"{b.n_frames} frames, {a.path} has {a.n_frames}", b.path)
+        raise MotionError(
+            f"{b.n_frames} frames, {a.path} has {a.n_frames}: the clips must be as long (cut "
+            "them to the frames they share, or join them with stitch)",
+            b.path,
+        )
     scale = (1e-3 if compared else 1e-6) * max(float(np.abs(a.offsets).max(initial=0.0)), 1.0)
     if a.offsets.shape != b.offsets.shape or not np.allclose(a.offsets, b.offsets, atol=scale):
         worst = int(np.argmax(np.abs(a.offsets - b.offsets).max(axis=1)))
@@ -496,6 +501,9 @@ def blend_clips(
     check_compatible(a, b)
     if a.n_frames == 0:
         raise MotionError("cannot blend a clip without frames", a.path)
+    shares = {float(weight), *(float(w) for w in detail_weights or ())}
+    if shares == {1.0}:  # all of B: B itself, its file's text kept where written back
+        return copy.copy(b)
     q, p = _with_positions(
         lambda q_a, q_b, p_a=None, p_b=None: multires.blend(
             q_a, q_b, levels, weight, detail_weights, p_a, p_b

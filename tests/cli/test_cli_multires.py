@@ -291,3 +291,24 @@ def test_blend_and_stitch_read_channel_csvs_with_their_skeleton(clips, tmp_path,
     with_rig = run_cli(capsys, command, *clips, "-o", tmp_path / "direct.bvh")
     assert with_rig[0] == 0
     assert out.read_bytes() == (tmp_path / "direct.bvh").read_bytes()
+
+
+def test_blending_clips_of_other_lengths_says_they_must_be_as_long(tmp_path, capsys):
+    from helpers import cut_bvh
+
+    short = cut_bvh(SAMPLE, tmp_path / "short.bvh", 100)
+    code, _, err = run_cli(capsys, "blend", SAMPLE, short, "-o", tmp_path / "bl.bvh")
+    assert code == 1 and err == (
+        f"motionclean: error: {short}: 100 frames, {SAMPLE} has 300: the clips must be as "
+        "long (cut them to the frames they share, or join them with stitch)\n"
+    )
+
+
+def test_blend_at_weight_1_is_the_second_clip_byte_for_byte(tmp_path, capsys):
+    """As weight 0 gives the first (its text kept); weight 1 had rewritten every value of
+    the second clip's motion in the first's text."""
+    out = tmp_path / "bl.bvh"
+    code, _, err = run_cli(capsys, "blend", SAMPLE, NOISY, "-o", out, "--weight", "1")
+    assert code == 0 and err == "" and out.read_bytes() == NOISY.read_bytes()
+    code, _, err = run_cli(capsys, "blend", SAMPLE, NOISY, "-o", out, "--weight", "0")
+    assert code == 0 and err == "" and out.read_bytes() == SAMPLE.read_bytes()
