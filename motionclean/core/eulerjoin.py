@@ -34,7 +34,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["JUMP_DEG", "JUMP_MARGIN", "MAX_RUN", "SEEN_DEG", "follow_wraps", "rejoin", "settle"]
+__all__ = [
+    "JUMP_DEG",
+    "JUMP_MARGIN",
+    "MAX_RUN",
+    "SEEN_DEG",
+    "follow_wraps",
+    "rejoin",
+    "settle",
+    "unwrap_turns",
+]
 
 #: A written step larger than this (degrees) where the input's is smaller by more than
 #: :data:`JUMP_MARGIN` is a jump to undo.
@@ -391,3 +400,23 @@ def settle(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     curves, whose unchanged keys may move by whole turns, take their own way)."""
     rejoin(values, source, rotation_columns)
     follow_wraps(values, source, rotation_columns)
+
+
+def unwrap_turns(values: np.ndarray, rotation_columns: np.ndarray) -> None:
+    """Move, in place, each rotation channel of ``values`` ``(F, C)`` (degrees) by the whole
+    turns that keep every step within half a turn (:func:`numpy.unwrap`, a block of rows at
+    a time): for frames written afresh (resampled, another format's rotations), whose chain
+    restarts on the principal angles where the rotation itself leaps (a flip nothing
+    repaired, a cut), which had stepped a channel 331 degrees where 29 would do."""
+    columns = rotation_columns[rotation_columns[:, 0] >= 0].ravel()
+    if values.shape[0] < 2 or not columns.size:
+        return
+    last_read = values[0, columns].copy()  # the value read of the row before a block
+    offset = np.zeros(columns.size)  # the whole turns that row was moved by
+    for at in range(1, values.shape[0], _SCAN_ROWS):
+        rows = slice(at, at + _SCAN_ROWS)
+        block = values[rows, columns]
+        steps = np.diff(np.concatenate([last_read[None], block]), axis=0)
+        moved = offset - 360.0 * np.cumsum(np.round(steps / 360.0), axis=0)
+        last_read, offset = block[-1].copy(), moved[-1]
+        values[rows, columns] = block + moved

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import checks, quat
 from .errors import InvalidMotion, MotionError
-from .eulerjoin import JUMP_MARGIN, settle
+from .eulerjoin import JUMP_MARGIN, settle, unwrap_turns
 from .threads import MIN_SHARED_SIZE, in_parts, run_parts
 from .tree import Cycle, ancestor_jumps
 
@@ -581,7 +581,9 @@ class Motion:
             for span in in_parts(group.size, PART_JOINTS if shared else group.size)
         ]
         run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
-        if not fresh:
+        if fresh:  # (nothing read to follow: no channel steps half a turn or more)
+            unwrap_turns(values, layout.rotation_columns)
+        else:
             assert self.source_values is not None
             settle(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
         has = layout.position_columns >= 0

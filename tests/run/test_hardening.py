@@ -165,6 +165,26 @@ def running(pid: str) -> bool:
     return state not in ("Z", "X")
 
 
+def catching(process: subprocess.Popen, signum: int, timeout: float = 60.0) -> None:
+    """Wait until ``process`` has a handler for ``signum`` (its ``SigCgt`` mask in
+    /proc): a signal sent before the command is set up would end it by the default action
+    (a fixed sleep had been too short on a loaded machine)."""
+    status = Path(f"/proc/{process.pid}/status")
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and process.poll() is None:
+        caught = next(
+            (
+                int(line.split()[1], 16)
+                for line in status.read_text().splitlines()
+                if line.startswith("SigCgt:")
+            ),
+            0,
+        )
+        if caught >> (signum - 1) & 1:
+            return
+        time.sleep(0.02)
+
+
 def slow_command(*args, **popen) -> subprocess.Popen:
     """``motionclean ARGS -f fairing:...`` started, seconds of work a clip (to be stopped)."""
     command = [str(Path(sys.executable).parent / "motionclean"), *map(str, args)]
@@ -211,7 +231,7 @@ def test_sigterm_stops_a_clean_as_ctrl_c_does(tmp_path):
     """kill, timeout(1) and schedulers send SIGTERM: one line, exit 130, nothing left (the
     command had died by the signal, silent, a hidden temporary file left mid-write)."""
     process = slow_command("clean", SAMPLE, "-o", tmp_path / "o.bvh")
-    time.sleep(1.0)
+    catching(process, signal.SIGTERM)
     process.send_signal(signal.SIGTERM)
     try:
         _, err = process.communicate(timeout=30)

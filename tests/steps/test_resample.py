@@ -480,3 +480,22 @@ def test_resample_motion_checks_the_frame_time_it_is_given(frame_time, error, me
         resample_motion(clip, frame_time)
     with pytest.raises(TypeError, match="^motion: expected a Motion, got NoneType$"):
         resample_motion(None, 1 / 60)
+
+
+@pytest.mark.parametrize("fps", [25.0, 47.0])
+def test_resampled_channels_step_less_than_half_a_turn_across_unrepaired_flips(tmp_path, fps):
+    """New frames restart on the principal angles where the rotation leaps (RThumb's flips,
+    not repaired): a channel had then stepped up to 331 degrees where 29 would do; each
+    channel now stays on the whole turns nearest the frame before, the rotations the same."""
+    target = tmp_path / "r.bvh"
+    resampled = resample_motion(mc.load(NOISY), 1.0 / fps)
+    mc.save(resampled, target)
+    text = target.read_text().split("Frame Time:")[1].splitlines()[1:]
+    values = np.array([row.split() for row in text if row.strip()], dtype=float)
+    clip = mc.load(target)
+    rotation = clip.layout.rotation_columns[clip.layout.rotation_columns[:, 0] >= 0].ravel()
+    assert np.abs(np.diff(values[:, rotation], axis=0)).max() < 180.0
+    assert max_degrees(clip.rotations, resampled.rotations) < 1e-4
+    thumb = clip.names.index("RThumb")
+    steps = quat.angle_between(clip.rotations[1:, thumb], clip.rotations[:-1, thumb])
+    assert np.degrees(steps).max() > 90.0  # (the flips are there, turned in one frame)
