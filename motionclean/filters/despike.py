@@ -97,6 +97,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -228,7 +229,7 @@ def _half_turn(x, i, slot, axis, left):
     return quat.multiply(np.where(on_left, f, q), np.where(on_left, q, f))
 
 
-def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, slack=None):
+def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, across=None):
     """Where the half-turn parity toggles, and the half-turn of each flipping column.
 
     ``x`` (F C, 4) are the samples, frame ``a`` of column ``c`` at row ``a C + c``, and
@@ -236,9 +237,10 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, slack=None)
     with a step of at least ``flip_rad`` whose flip steps agree on a half-turn axis),
     their ``(F-1, cols)`` toggles, axes and sides (see :func:`_half_turn`). A step toggles
     when it exceeds 90 degrees and undoing the half-turn leaves a step under both the
-    step itself and ``pi - flip_rad`` (30 degrees by default). ``slack`` (F-1, C), where
-    positive, marks a step across a dropout and what the joint may turn meanwhile
-    (radians): its half-turn residual may reach that much, but never half the step.
+    step itself and ``pi - flip_rad`` (30 degrees by default). ``across``
+    (:class:`_Across`) marks the steps across dropouts: a half-turn residual may reach the
+    ``slack`` the joint may turn meanwhile, but never half the step, and a step within the
+    ``reach`` of its fastest turning over the frames spanned is motion, no toggle.
     """
     n_cols = steps.shape[1]
     i = (steps >= flip_rad).reshape(-1).nonzero()[0]  # also the row of the step's frame
@@ -260,11 +262,24 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, slack=None)
         )
         step = big.reshape(-1).take(k)
         limit = np.full(k.size, np.pi - flip_rad)
-        if slack is not None:  # steps across dropouts: what the joint may turn meanwhile
-            across = slack.take(cols, axis=1).reshape(-1).take(k)
-            limit = np.where(across > 0, np.maximum(limit, np.minimum(across, 0.5 * step)), limit)
+        if across is not None:  # steps across dropouts: what the joint may turn meanwhile
+            slack = across.slack.take(cols, axis=1).reshape(-1).take(k)
+            limit = np.where(slack > 0, np.maximum(limit, np.minimum(slack, 0.5 * step)), limit)
         toggles.reshape(-1)[k] = (residual < step) & (residual <= limit)
+        if across is not None:
+            _motion_across(toggles, big, across.reach.take(cols, axis=1))
     return cols, toggles, axis, left
+
+
+def _motion_across(toggles: np.ndarray, steps: np.ndarray, reach: np.ndarray) -> None:
+    """Clear, in place, the ``toggles`` (F-1, C) on steps across dropouts that the joint
+    could have turned at its fastest (``steps`` within ``reach``, both (F-1, C)) in the
+    columns where no other step toggles (in view, or across a dropout too short to turn
+    it): a turn while occluded, with no flip to pair with. A half-turn run with such a
+    step at one end keeps it as that end, its other end being a flip no motion explains."""
+    plausible = (reach > 0) & (steps <= reach)
+    firm = (toggles & ~plausible).any(axis=0)
+    toggles &= ~(plausible & ~firm)
 
 
 def _parity(toggles: np.ndarray, known: np.ndarray | None = None) -> np.ndarray:
@@ -835,7 +850,7 @@ def _repair(
     turned = np.zeros(0, dtype=np.intp)  # the un-flipped columns
     if limits.flip_rad is not None:
         known = None if missing is None else ~missing
-        slack = None if blind is None else _slack(missing, seen, blind)
+        across = None if blind is None else _across(missing, seen, blind, limits.low * frame_time)
         turned = _unflip(
             out,
             steps,
@@ -847,7 +862,7 @@ def _repair(
             limits.flip_rad,
             known,
             blind,
-            slack,
+            across,
             cuts,
         )
     first, length, col = _spike_runs(
@@ -899,22 +914,46 @@ def _repair(
 DROPOUT_STEP_QUANTILE = 0.9
 #: Most a joint is taken to turn across a dropout when judging a half-turn there (radians).
 DROPOUT_TURN_MAX = np.pi / 3.0
+#: Quantile of a joint's known steps taken as the fastest it turns (per frame). A step
+#: across a dropout that the joint could have turned in the frames it spans at that speed,
+#: or at the speed under which despike takes no step for a jump (``min_deg_per_s``), may be
+#: motion: a foot turning 157 degrees while occluded for 40 frames at 120 fps (471 degrees
+#: per second) had been taken for a flip, and 207 known frames after it turned half a turn.
+DROPOUT_REACH_QUANTILE = 0.99
 
 
-def _slack(missing, seen, blind) -> np.ndarray:
-    """(F-1, C): on each step into the first known frame after a dropout, how far the joint
-    may turn across it (its :data:`DROPOUT_STEP_QUANTILE` step per frame times the frames
-    spanned, at most :data:`DROPOUT_TURN_MAX`); zero elsewhere."""
+class _Across(NamedTuple):
+    """Steps into the first known frame after a dropout, ``(F-1, C)`` each, zero elsewhere
+    (radians): ``slack``, how far the joint may turn across it when its step is judged a
+    half-turn (its :data:`DROPOUT_STEP_QUANTILE` step per frame times the frames spanned,
+    at most :data:`DROPOUT_TURN_MAX`); ``reach``, how far it may turn in those frames
+    (:data:`DROPOUT_REACH_QUANTILE`): a step within it may be motion."""
+
+    slack: np.ndarray
+    reach: np.ndarray
+
+
+def _across(missing, seen, blind, never_jump: float) -> _Across:
+    """:class:`_Across` of the dropouts ``missing`` (F, C), from the known steps ``seen``
+    (F-1, C; those touching a missing sample, ``blind``, not counted); ``never_jump``: the
+    step per frame (radians) under which no step is a jump."""
     n_frames = missing.shape[0]
     frames = np.arange(n_frames)[:, None]
     last = np.maximum.accumulate(np.where(~missing, frames, -1), axis=0)  # last known so far
-    across = missing[:-1] & ~missing[1:]
+    across = missing[:-1] & ~missing[1:] & (last[:-1] >= 0)
     span = frames[1:] - last[:-1]  # frames from the last known one before the step's end
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a column without known steps
-        typical = np.nanquantile(np.where(blind, np.nan, seen), DROPOUT_STEP_QUANTILE, axis=0)
-    turn = np.minimum(np.nan_to_num(typical) * span, DROPOUT_TURN_MAX)
-    return np.where(across & (last[:-1] >= 0), turn, 0.0)
+        typical, fastest = np.nan_to_num(
+            np.nanquantile(
+                np.where(blind, np.nan, seen),
+                [DROPOUT_STEP_QUANTILE, DROPOUT_REACH_QUANTILE],
+                axis=0,
+            )
+        )
+    slack = np.minimum(typical * span, DROPOUT_TURN_MAX)
+    reach = np.maximum(fastest, never_jump) * span
+    return _Across(np.where(across, slack, 0.0), np.where(across, reach, 0.0))
 
 
 def _clear_of(missing, first, length, col):
@@ -950,7 +989,7 @@ def _unflip(
     flip_rad: float,
     known=None,
     blind=None,
-    slack=None,
+    across: _Across | None = None,
     cuts=None,
 ) -> np.ndarray:
     """Undo half-turn flips (steps of at least ``flip_rad``) in ``out`` (F, C, 4) in place;
@@ -960,7 +999,7 @@ def _unflip(
     no step of ``cuts`` (F-1,) toggles it (a take that starts turned is no flip)."""
     n_frames, n_cols = out.shape[:2]
     flat = out.reshape(n_frames * n_cols, out.shape[-1])  # frame a of column c at row a C + c
-    cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad, slack)
+    cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad, across)
     if cuts is not None and cuts.any():
         toggles[cuts] = False
     if not toggles.any():

@@ -92,9 +92,9 @@ min-width:320px}
 tr.look td{background:#fdf5e3}
 a{color:#1f57b8;text-decoration:none}
 a:hover{text-decoration:underline}
-.legend{display:flex;gap:18px;color:#5a6272;font-size:13px;margin-bottom:8px}
+.legend{display:flex;flex-wrap:wrap;gap:4px 18px;color:#5a6272;font-size:13px;margin-bottom:8px}
 .key{display:inline-block;width:22px;height:4px;vertical-align:middle;margin-right:6px}
-.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(560px,1fr));gap:14px}
+.grid{display:grid;grid-template-columns:repeat(auto-fill,minmax(min(560px,100%),1fr));gap:14px}
 .card{background:#fff;border:1px solid #dde1e8;border-radius:8px;padding:8px 10px 4px}
 .card h3{font-size:15px;margin:0;display:flex;justify-content:space-between;gap:10px}
 .card h3 small{font-weight:400;color:#5a6272;font-size:12.5px}
@@ -106,7 +106,7 @@ svg .axis{stroke:#9aa2b1;stroke-width:1}
 svg .gridline{stroke:#e6e9ef;stroke-width:1}
 svg .series{fill:none;stroke-width:1;stroke-linejoin:round}
 .note{color:#5a6272;font-size:12.5px}
-details{margin:22px 0 0}
+details{margin:22px 0 0;overflow-x:auto}
 summary{cursor:pointer;font-weight:600;font-size:15px;margin-bottom:10px}
 details table{margin-bottom:12px}
 """
@@ -407,13 +407,12 @@ def _headline(report: dict) -> list[str]:
         ),
     ]
     if repairs:
-        counts = {
-            k: sum(r[k] for r in repairs.values()) for k in ("flips", "spikes", "gaps_filled")
-        }
+        kinds = {"turned": "repair", "flips": "flip", "spikes": "spike", "gaps_filled": "gap"}
+        counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
         done = (
             ", ".join(
                 f"{n} {word}{'' if n == 1 else 's'}"
-                for n, word in zip(counts.values(), ("flip", "spike", "gap"), strict=True)
+                for n, word in zip(counts.values(), kinds.values(), strict=True)
                 if n
             )
             or "none"
@@ -467,7 +466,7 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     dt = float(report["frame_time"])
     body = [
         f"<h1>{_e(report['file'])}</h1>",
-        f'<div class="meta">{frames:,} frames at {fps_text(dt)} fps '
+        f'<div class="meta">{plural(frames, "frame")} at {fps_text(dt)} fps '
         f"({frames * dt:.3f} s){_e(resampled_to(report))}, {joint_count(report)}; "
         "frames are numbered from 0</div>",
     ]
