@@ -239,6 +239,10 @@ def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
     _fail("empty file", path)
 
 
+#: Channel and body suffixes as the readers spell them, by their lower-case spelling.
+_SUFFIX_SPELLING = {name.lower(): name for name in (*KNOWN_CHANNELS, *RIGID_SUFFIXES)}
+
+
 def _classify(fields: list[str], path, line: int):
     """Split the header into frame/time columns and ``(name, suffix, column)`` entries."""
     expected = (
@@ -264,10 +268,11 @@ def _classify(fields: list[str], path, line: int):
         if field in seen:
             _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
         seen.add(field)
-        if field in special:
-            special[field] = k
+        if field.lower() in special:  # (Time, FRAME: as trackers write them)
+            special[field.lower()] = k
             continue
         name, dot, suffix = field.rpartition(".")
+        suffix = _SUFFIX_SPELLING.get(suffix.lower(), suffix)  # (XROTATION, QW)
         if not dot or not name:
             _fail(
                 f"bad header: column {field[:60]!r} is not <joint>.<channel> or "

@@ -557,3 +557,20 @@ def test_a_take_of_another_length_read_into_a_rig_keeps_its_own_text(tmp_path, c
     mc.save(mc.load(take, skeleton=mc.load(SAMPLE)), tmp_path / "take_out.bvh")
     head = SAMPLE.read_text().split("MOTION")[0]
     assert (tmp_path / "take_out.bvh").read_text().startswith(head)
+
+
+def test_column_names_in_another_case_are_read(tmp_path):
+    """`Time`, `FRAME` and `XROTATION` (trackers' and Vicon-like headers) are the columns
+    `time`, `frame` and `Xrotation`: read as such, the header written back as it was (a
+    `Time` column had been refused as "not <joint>.<channel>")."""
+    rows = "".join(f"{i},{i / 100:.2f},{i * 0.5:.1f},{i * 0.25:.2f},0\n" for i in range(30))
+    plain = tmp_path / "plain.csv"
+    plain.write_text("frame,time,hip.Zrotation,hip.Xrotation,hip.Yrotation\n" + rows)
+    odd = tmp_path / "odd.csv"
+    header = "FRAME,Time,hip.zrotation,hip.XROTATION,hip.Yrotation\n"
+    odd.write_text(header + rows)
+    a, b = mc.load(plain), mc.load(odd)
+    assert a.channels == b.channels and np.array_equal(a.rotations, b.rotations)
+    edited = b.replace(rotations=quat.normalize(b.rotations + 0.01))
+    mc.save(edited, tmp_path / "out.csv")
+    assert (tmp_path / "out.csv").read_text().splitlines()[0] == header.strip()
