@@ -942,15 +942,18 @@ def format_repairs(report: dict, limit: int = 10) -> list[str]:
         for prefix in ("", "position_")
     ]
     lines = []
+    # (a clip reported alone was not cleaned: its notes are the dropouts found, none filled)
+    alone = (report.get("verdict") or {}).get("status") == "input only"
+    word = "dropouts" if alone else "repaired"
     for name, entry in report["joints"].items():
         texts = {key: note_text(key, entry[key], brief=True) for key in keys if entry.get(key)}
         if not texts:
             continue
         if len(texts) == 1:
             key, text = next(iter(texts.items()))
-            line = f"repaired {name}{' (positions)' if key.startswith('position_') else ''}: {text}"
+            line = f"{word} {name}{' (positions)' if key.startswith('position_') else ''}: {text}"
         else:
-            line = f"repaired {name}: " + " | ".join(
+            line = f"{word} {name}: " + " | ".join(
                 ("positions: " if key.startswith("position_") else "") + text
                 for key, text in texts.items()
             )
