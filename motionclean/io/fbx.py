@@ -84,6 +84,7 @@ class FbxSource:
 
     data: bytes
     armature: str
+    notes: tuple[str, ...] = ()
 
 
 def _bpy(doing: str, path: str | os.PathLike | None) -> Any:
@@ -217,9 +218,11 @@ def _frame_time(scene: Any) -> float:
     return float(scene.render.fps_base) / float(scene.render.fps)
 
 
-def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, ActionClip]:
-    """Import FBX ``data`` (the file at ``path``, named in errors); the armature and its
-    action read over the key frames."""
+def _read(
+    bpy: Any, data: bytes, path: str | os.PathLike | None
+) -> tuple[Any, ActionClip, tuple[str, ...]]:
+    """Import FBX ``data`` (the file at ``path``, named in errors); the armature, its
+    action read over the key frames (:func:`fbx_frames`) and what the reading notes."""
     with tempfile.TemporaryDirectory(prefix="motionclean-fbx-") as folder:
         copy = Path(folder) / "clip.fbx"
         copy.write_bytes(data)
@@ -233,10 +236,7 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
             path,
         )
     animation = obj.animation_data
-    try:
-        frames, step = key_frames(animation.action, animation.action_slot)
-    except MotionError as error:
-        raise MotionError(error.message, path) from None
+    frames, step, notes = fbx_frames(animation.action, animation.action_slot)
     if not frames.size:
         raise MotionError(f"armature {obj.name!r} has no keys", path)
     clip = read_action(
@@ -246,7 +246,28 @@ def _read(bpy: Any, data: bytes, path: str | os.PathLike | None) -> tuple[Any, A
         frames,
         step * _frame_time(bpy.context.scene),
     )
-    return obj, clip
+    return obj, clip, notes
+
+
+def fbx_frames(action: Any, slot: Any) -> tuple[np.ndarray, float, tuple[str, ...]]:
+    """The frames an FBX file's action is read at and their spacing (scene frames), as the
+    panel reads an action (:func:`~.blender_action.key_frames`), and a note where that
+    cannot be: keys between frames that the bone curves do not share evenly spaced (a
+    Mixamo export's 0.1-frame keys on some curves) are read on the whole frames from the
+    first key to the last, as Blender plays them; the file is written back baked on whole
+    frames, as every FBX written is."""
+    try:
+        frames, step = key_frames(action, slot)
+    except MotionError:
+        span = key_range(action, slot)
+        if span is None:
+            raise
+        note = (
+            "keys between frames that the bone curves do not share evenly spaced: read on "
+            "whole frames, as Blender plays them (written back baked on them)"
+        )
+        return np.arange(span[0], span[1] + 1.0), 1.0, (note,)
+    return frames, step, ()
 
 
 def load_fbx(path: str | os.PathLike) -> Motion:
@@ -259,10 +280,10 @@ def load_fbx(path: str | os.PathLike) -> Motion:
     bpy = _bpy("reading", path)
     if not data:  # (Blender's importer calls an empty file ASCII FBX)
         raise MotionError("empty file", path)
-    obj, clip = _read(bpy, data, path)
+    obj, clip, notes = _read(bpy, data, path)
     motion = clip.motion
     motion.path = os.fspath(path)
-    motion.source = FbxSource(data, obj.name)
+    motion.source = FbxSource(data, obj.name, notes)
     return motion
 
 
@@ -271,7 +292,7 @@ def fbx_bytes(motion: Motion) -> bytes:
     bpy = _bpy("writing", None)
     source = motion.source
     if isinstance(source, FbxSource):
-        obj, clip = _read(bpy, source.data, motion.path)
+        obj, clip, _ = _read(bpy, source.data, motion.path)
         take = _take_name(source.data, obj)
         if clip.motion.names != motion.names:
             raise MotionError(f"the clip's joints are not the bones of {motion.path}")

@@ -32,7 +32,7 @@ import numpy as np
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
-from motionclean.io.fbx import mend_importer
+from motionclean.io.fbx import fbx_frames, mend_importer
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -375,6 +375,24 @@ def near_frame_checks(clip: Path, results: dict) -> None:
         "values_changed": any(
             not np.array_equal(key_co(before, k)[:, 1], key_co(after, k)[:, 1]) for k in before
         ),
+    }
+
+
+def off_grid_checks(clip: Path, results: dict) -> None:
+    """An action with a key at frame 31.5 on one curve (as a Mixamo FBX file's 0.1-frame
+    keys on some curves): the panel refuses it (it writes keys where they are), an FBX file
+    is read on its whole frames with a note (it is written back baked on them)."""
+    obj = import_rig(clip, "QUATERNION")
+    data = obj.animation_data
+    curve = action_fcurves(data.action, data.action_slot)[0]
+    curve.keyframe_points.insert(31.5, curve.evaluate(31.5))
+    frames, step, notes = fbx_frames(data.action, data.action_slot)
+    results["off_grid"] = {
+        "frames": [float(frames[0]), float(frames[-1]), int(frames.size)],
+        "range": list(key_range(data.action, data.action_slot) or ()),
+        "step": step,
+        "notes": list(notes),
+        "panel": refused(in_place=True),
     }
 
 
@@ -732,6 +750,7 @@ def main() -> None:
     results["draw_results"] = draw_panels()  # with the figures of a run
     keyed_checks(clip, results)
     near_frame_checks(clip, results)
+    off_grid_checks(clip, results)
     subframe_checks(clip, out, results)
     error_checks(clip, out, results)
     same_name_checks(clip, out, results)

@@ -185,6 +185,20 @@ def test_a_key_a_float32_rounding_off_its_frame_is_on_it(blender):
     assert near["same_times"] and near["values_changed"]
 
 
+def test_keys_off_the_grid_are_refused_by_the_panel_and_sampled_from_fbx(blender):
+    """(2 of 4 Mixamo FBX files had been refused on the command line, where no one can
+    bake the action first.)"""
+    off = blender.results["off_grid"]
+    first, last = off["range"]
+    assert off["frames"] == [first, last, last - first + 1] and off["step"] == 1.0
+    assert off["notes"] == [
+        "keys between frames that the bone curves do not share evenly spaced: read on "
+        "whole frames, as Blender plays them (written back baked on them)"
+    ]
+    assert off["panel"]["done"] == ["CANCELLED"]
+    assert "keys between frames (at 31.5)" in off["panel"]["message"]
+
+
 def test_a_press_that_cannot_clean_says_why_and_changes_nothing(blender):
     errors = blender.results["errors"]
     assert errors["untouched"] and errors["actions"] == ["131_01", "131_01 [library.blend]"]
