@@ -52,20 +52,27 @@ def fit_kernel(mask: np.ndarray, n_frames: int) -> np.ndarray:
     return half[: max(min(lobe, n_frames), 1)]
 
 
+def reflect(about: np.ndarray, x: np.ndarray, rotations: bool) -> np.ndarray:
+    """The point reflection of samples ``x`` about ``about``: ``a x^-1 a`` for unit
+    quaternions, ``2 a - x`` for positions (a constant angular or linear velocity through
+    ``about`` goes on exactly; it commutes with rotating the signal from either side and
+    with rigid motions of positions)."""
+    if rotations:
+        return quat.multiply(quat.multiply(about, quat.conjugate(x)), about)
+    return 2.0 * about - x
+
+
 def _from_end(x: np.ndarray, count: int, rotations: bool) -> np.ndarray:
     """Samples ``0 .. count-1`` counted from the end at row 0 of ``x``; where ``count``
     exceeds its length, the signal is continued past its far end by its point reflection
     about its last sample, as often as needed (a mask wider than the clip: a constant
     angular or linear velocity goes on exactly, where Eq. 26's mirror turned it back)."""
+    if x.shape[0] == 1:  # one sample: it holds
+        return np.repeat(x, count, axis=0)
     while x.shape[0] < count:
-        last, back = x[-1], x[-2::-1]
+        x = np.concatenate([x, reflect(x[-1], x[-2::-1], rotations)])
         if rotations:
-            beyond = quat.multiply(quat.multiply(last, quat.conjugate(back)), last)
-            x = quat.make_continuous(np.concatenate([x, beyond]), axis=0)
-        else:
-            x = np.concatenate([x, 2.0 * last - back])
-        if back.shape[0] == 0:  # one sample: it holds
-            return np.repeat(x[:1], count, axis=0)
+            x = quat.make_continuous(x, axis=0)
     return x[:count]
 
 
@@ -101,11 +108,11 @@ def reflected_displacements(
         return np.zeros((0, *x.shape[1:-1], 3 if rotations else x.shape[-1]))
     pivot = _pivots(x, kernels, which, rotations)
     beyond = _from_end(x, count + 1, rotations)[1:][::-1]  # samples count .. 1
+    virtual = reflect(pivot, beyond, rotations)
     if rotations:
-        virtual = quat.multiply(quat.multiply(pivot, quat.conjugate(beyond)), pivot)
         chain = quat.make_continuous(np.concatenate([virtual, x[:1]]), axis=0)
         return quat.displacements(chain)
-    return np.diff(np.concatenate([2.0 * pivot - beyond, x[:1]]), axis=0)
+    return np.diff(np.concatenate([virtual, x[:1]]), axis=0)
 
 
 class Padded:

@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import checks, quat
+from . import ends
 from .linear import apply_displacement_sums, displacement_coefficients, mirrored_displacements
 from .masks import reduction
 
@@ -508,13 +509,12 @@ def _reflected(q, p, pad: int):
         return q, p
     back = slice(-2, -2 - pad, -1)  # frames e-1 .. e-pad
     if q is not None:
-        end = q[-1]
         # (normalised: a product of three quaternions a hair off unit length, as checks
         # accept them, would be three hairs off, beyond what the next check accepts)
-        beyond = quat.normalize(quat.multiply(quat.multiply(end, quat.conjugate(q[back])), end))
+        beyond = quat.normalize(ends.reflect(q[-1], q[back], rotations=True))
         q = quat.continuous(np.concatenate([q, beyond]))
     if p is not None:
-        p = np.concatenate([p, 2.0 * p[-1] - p[back]])
+        p = np.concatenate([p, ends.reflect(p[-1], p[back], rotations=False)])
     return q, p
 
 
