@@ -174,6 +174,13 @@ def _upright_view(series: dict) -> tuple[str, tuple[int, int]]:
     return f"from the {across}", views[across]
 
 
+def _moving(series: dict) -> np.ndarray | None:
+    """``(F,)``: the frames a figure shows, rest-pose frames left out; None where that
+    leaves all of them (no rest frame, or nothing but rest frames)."""
+    rest = series["rest"]
+    return ~rest if rest.any() and not rest.all() else None
+
+
 def _centres(series: dict) -> np.ndarray:
     """``(N, 3)``: the mean of the input's known points in each frame that has any,
     rest-pose frames left out (all of them where every frame is one)."""
@@ -181,9 +188,9 @@ def _centres(series: dict) -> np.ndarray:
     known = np.isfinite(points).all(axis=2)
     if series["unknown_before"] is not None:
         known &= ~series["unknown_before"]
-    rest = series["rest"]
-    if rest.any() and not rest.all():
-        points, known = points[~rest], known[~rest]
+    moving = _moving(series)
+    if moving is not None:
+        points, known = points[moving], known[moving]
     counts = known.sum(axis=1)
     sums = np.where(known[..., None], points, 0.0).sum(axis=1)
     return sums[counts > 0] / counts[counts > 0, None]
@@ -192,8 +199,8 @@ def _centres(series: dict) -> np.ndarray:
 def _extent(series: dict, point: int) -> float:
     """How far an end effector's track (input and cleaned) spans along any axis, in file
     units, rest-pose frames and unknown samples left out."""
-    rest = series["rest"]
-    shown = ~rest if rest.any() and not rest.all() else np.ones_like(rest)
+    moving = _moving(series)
+    shown = np.ones_like(series["rest"]) if moving is None else moving
     tracks = []
     for key in ("before", "after"):
         if series[key] is not None:
@@ -218,10 +225,10 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
             tracks.append(series["after"][:, point][:, axes])
             unknown.append(_unknown_at(series["unknown_after"], point))
         # rest-pose frames are no part of the track (nor of its bounds), as in every figure
-        rest = series.get("rest")
-        if rest is not None and rest.any() and not rest.all():
-            unknown = [rest if u is None else u | rest for u in unknown]
-            tracks_shown = [t[~rest] for t in tracks]
+        moving = _moving(series)
+        if moving is not None:
+            unknown = [~moving if u is None else u | ~moving for u in unknown]
+            tracks_shown = [t[moving] for t in tracks]
         else:
             tracks_shown = tracks
         low = np.min([t.min(axis=0) for t in tracks_shown], axis=0)
