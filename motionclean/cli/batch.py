@@ -10,6 +10,7 @@ fails, and exits 1 naming each failure.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import os
 import sys
 import time
@@ -155,9 +156,9 @@ def _check_makeable(folder: Path, option: str) -> None:
     if parent == folder:
         return  # (there: checked as a folder already)
     if not parent.is_dir():
-        raise UsageError(f"{folder}: cannot create {option}: Not a directory")
+        raise UsageError(f"{folder}: cannot create {option}: {os.strerror(errno.ENOTDIR)}")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise UsageError(f"{folder}: cannot create {option}: Permission denied")
+        raise UsageError(f"{folder}: cannot create {option}: {os.strerror(errno.EACCES)}")
 
 
 def _make_folders(out_dir: Path, report_dir: Path | None) -> None:

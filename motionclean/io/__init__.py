@@ -246,11 +246,12 @@ class ReadOptions:
         """UsageError naming the first option given that none of the clips at ``paths``
         uses (:func:`unused_options`): ``--animation applies to glTF .gltf/.glb/.vrma files
         only, not to a .bvh file`` (``batch`` and ``check`` ask it of all their clips)."""
-        for option, formats in unused_options(paths[0], self):
-            if all((option, formats) in unused_options(path, self) for path in paths[1:]):
-                kinds = " or ".join(sorted({Path(path).suffix.lower() for path in paths}))
+        kinds = {Path(path).suffix.lower() for path in paths}  # (what the rule reads)
+        for field, option, suffixes, formats in _OPTION_FORMATS:
+            if getattr(self, field) not in (None, ()) and not kinds & set(suffixes):
+                shown = " or ".join(sorted(kinds))
                 raise UsageError(
-                    f"{option} applies to {formats} only, not to a {kinds} file", paths[0]
+                    f"{option} applies to {formats} only, not to a {shown} file", paths[0]
                 )
 
     def for_clips(self, *paths: str | os.PathLike | None) -> ReadOptions:

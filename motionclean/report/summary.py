@@ -634,7 +634,8 @@ def build_report(
     if smoothing is not None:  # (estimated only where the verdict may need it)
         changed = smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
         smoothing["noise_level"] = _noise_level(core_before, joints) if changed else None
-    report["verdict"] = build_verdict(report, smoothing, _input_noise(series))
+    alone = _input_noise(series) if smoothing is None else None  # (a clip reported alone)
+    report["verdict"] = build_verdict(report, smoothing, alone)
     return report
 
 
@@ -646,18 +647,18 @@ def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
     rotating = np.flatnonzero(before.layout.has_rotation)
     if not rotating.size or before.n_frames == 0:
         return None
-    noted = {
-        j: note["noise"]
-        for j in rotating.tolist()
-        if (note := joints.get(before.names[j], {}).get("auto", {})).get("unit") == "deg"
-        and note.get("noise") is not None
-    }
-    levels = np.zeros(rotating.size)
-    guessed = [j for j in rotating.tolist() if j not in noted]
-    if guessed:  # (every joint: the clip's own array, no copy of it)
-        q = before.rotations if len(guessed) == before.n_joints else before.rotations[:, guessed]
-        levels[np.isin(rotating, guessed)] = estimate_noise(q, before.frame_time)
-    levels[np.isin(rotating, list(noted))] = [noted[j] for j in rotating.tolist() if j in noted]
+    notes = [joints.get(before.names[j], {}).get("auto", {}) for j in rotating.tolist()]
+    levels = np.array(
+        [
+            n["noise"] if n.get("unit") == "deg" and n.get("noise") is not None else np.nan
+            for n in notes
+        ]
+    )  # (NaN: no auto note, estimated below)
+    guessed = np.isnan(levels)
+    if guessed.any():  # (every joint: the clip's own array, no copy of it)
+        cols = rotating[guessed]
+        q = before.rotations if cols.size == before.n_joints else before.rotations[:, cols]
+        levels[guessed] = estimate_noise(q, before.frame_time)
     return float(np.sqrt(np.mean(levels**2)))
 
 

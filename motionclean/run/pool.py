@@ -129,8 +129,9 @@ def _run_pool(
         executor.shutdown(wait=False, cancel_futures=True)
         for process in processes:
             process.terminate()
+        deadline = time.monotonic() + STOP_SECONDS  # (one wait for all of them)
         for process in processes:  # (ended by the signal at once: none writes after this)
-            process.join(timeout=STOP_SECONDS)
+            process.join(timeout=max(deadline - time.monotonic(), 0.0))
             if process.is_alive():  # stopped (SIGSTOP) or stuck: ended for sure
                 process.kill()
                 process.join()
