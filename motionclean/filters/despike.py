@@ -274,12 +274,13 @@ def _flip_toggles(x: np.ndarray, steps: np.ndarray, flip_rad: float, across=None
 def _motion_across(toggles: np.ndarray, steps: np.ndarray, reach: np.ndarray) -> None:
     """Clear, in place, the ``toggles`` (F-1, C) on steps across dropouts that the joint
     could have turned at its fastest (``steps`` within ``reach``, both (F-1, C)) in the
-    columns where no other step toggles (in view, or across a dropout too short to turn
-    it): a turn while occluded, with no flip to pair with. A half-turn run with such a
-    step at one end keeps it as that end, its other end being a flip no motion explains."""
+    columns whose other toggles (in view, or across a dropout too short to turn it) pair
+    among themselves: a turn while occluded, with no flip to pair with. A half-turn run
+    with such a step at one end keeps it as that end, its other end being an unpaired flip
+    no motion explains."""
     plausible = (reach > 0) & (steps <= reach)
-    firm = (toggles & ~plausible).any(axis=0)
-    toggles &= ~(plausible & ~firm)
+    unpaired = (toggles & ~plausible).sum(axis=0) % 2 == 1
+    toggles &= ~(plausible & ~unpaired)
 
 
 def _parity(toggles: np.ndarray, known: np.ndarray | None = None) -> np.ndarray:

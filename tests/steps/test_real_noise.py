@@ -310,20 +310,27 @@ def test_real_takes_lose_acceleration_error_and_no_accuracy(tmp_path, capsys, ta
     assert rmse <= raw_rmse + 1e-6  # an unchanged take reads back within the CSV's digits
 
 
-@pytest.mark.parametrize("gap", [(200, 245), (200, 249)])
-def test_a_turn_while_occluded_is_no_flip(tmp_path, capsys, gap):
+@pytest.mark.parametrize(
+    ("gap", "flip"), [((200, 245), None), ((200, 249), None), ((200, 245), (60, 80))]
+)
+def test_a_turn_while_occluded_is_no_flip(tmp_path, capsys, gap, flip):
     """A joint turning 3.5 degrees a frame (210 degrees per second) through a dropout steps
     157 degrees (171.5 across the longer one, near a half-turn) into the first
     frame after it: motion the joint could make in that time, no half-turn to undo (the
-    known frames after the gap had been turned half a turn: 207 on a tester's foot)."""
+    known frames after the gap had been turned half a turn: 207 on a tester's foot); also
+    where the joint flips half a turn and back elsewhere (that pair repaired alone)."""
     truth = smooth_coordinates(460)
     truth[150:350, 1] += np.clip(np.arange(200) - 40, 0, 120)[:, None][:, 0] * 3.5
     truth[350:, 1] += 420.0
     x = truth.copy()
     x[gap[0] : gap[1], 1] = np.nan
+    if flip is not None:
+        x[flip[0] : flip[1], 1] += 180.0
     source, target = tmp_path / "take.csv", tmp_path / "clean.csv"
     write_channel_csv(source, x)
     code, out, err = run_cli(capsys, "clean", source, "-o", target, "-f", "despike")
-    assert code == 0 and err == "" and "un-flipped" not in out
+    told = "" if flip is None else f"un-flipped {flip[0]}-{flip[1] - 1}"
+    assert code == 0 and err == "" and out.count("un-flipped") == (flip is not None)
+    assert told in out
     known = ~np.isnan(x[:, 1])
     assert np.abs(wrapped(read_z(target)[known, 1] - truth[known, 1])).max() < 1e-3
