@@ -10,7 +10,6 @@ This is what ``clean``, ``batch`` and ``check`` call, and what Python users call
 
 from __future__ import annotations
 
-import copy
 import hashlib
 import json
 import math
@@ -501,9 +500,6 @@ def blend_clips(
     check_compatible(a, b)
     if a.n_frames == 0:
         raise MotionError("cannot blend a clip without frames", a.path)
-    shares = {float(weight), *(float(w) for w in detail_weights or ())}
-    if shares == {1.0}:  # all of B: B itself, its file's text kept where written back
-        return copy.copy(b)
     q, p = _with_positions(
         lambda q_a, q_b, p_a=None, p_b=None: multires.blend(
             q_a, q_b, levels, weight, detail_weights, p_a, p_b
@@ -511,7 +507,9 @@ def blend_clips(
         a,
         b,
     )
-    return a.replace(rotations=q, translations=p)
+    # all of B at every level: written back with B's text, as all of A is with A's
+    shares = {float(weight), *(float(w) for w in detail_weights or ())}
+    return (b if shares == {1.0} else a).replace(rotations=q, translations=p)
 
 
 def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:

@@ -312,3 +312,9 @@ def test_blend_at_weight_1_is_the_second_clip_byte_for_byte(tmp_path, capsys):
     assert code == 0 and err == "" and out.read_bytes() == NOISY.read_bytes()
     code, _, err = run_cli(capsys, "blend", SAMPLE, NOISY, "-o", out, "--weight", "0")
     assert code == 0 and err == "" and out.read_bytes() == SAMPLE.read_bytes()
+    from motionclean.run.jobs import blend_clips
+
+    a, b = mc.load(SAMPLE), mc.load(NOISY)
+    with pytest.raises(ValueError, match="levels"):  # (checked at weight 1 as at any)
+        blend_clips(a, b, levels=-3, weight=1.0)
+    assert blend_clips(a, b, weight=1.0).rotations is not b.rotations  # (a clip of its own)
