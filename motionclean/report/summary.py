@@ -943,13 +943,12 @@ def format_repairs(report: dict, limit: int = 10) -> list[str]:
         for prefix in ("", "position_")
     ]
     lines = []
-    # (a clip reported alone was not cleaned: its notes are the dropouts found, none filled)
-    alone = (report.get("verdict") or {}).get("status") == "input only"
-    word = "dropouts" if alone else "repaired"
+    repaired = repaired_joints(report)  # (the others' notes are dropouts found, none filled)
     for name, entry in report["joints"].items():
         texts = {key: note_text(key, entry[key], brief=True) for key in keys if entry.get(key)}
         if not texts:
             continue
+        word = "repaired" if name in repaired else "dropouts"
         if len(texts) == 1:
             key, text = next(iter(texts.items()))
             line = f"{word} {name}{' (positions)' if key.startswith('position_') else ''}: {text}"
@@ -960,5 +959,5 @@ def format_repairs(report: dict, limit: int = 10) -> list[str]:
             )
         lines.append(line if len(line) <= LINE_LIMIT else line[: LINE_LIMIT - 3] + "...")
     if len(lines) > limit:
-        lines[limit:] = [f"... {len(lines) - limit} more joints repaired (full list in the report)"]
+        lines[limit:] = [f"... {len(lines) - limit} more joints (full list in the report)"]
     return lines

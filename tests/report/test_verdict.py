@@ -354,6 +354,7 @@ def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_p
     code, out, err = run_cli(capsys, "report", dropouts, dropouts, "--json", tmp_path / "s.json")
     verdict = json.loads((tmp_path / "s.json").read_text())["verdict"]
     assert code == 0 and "hand_l missing on frames 40-47" in verdict["text"]
+    assert "dropouts hand_l: 1 gap, longest 8 frames; left missing 40-47 (not filled)" in out
     # reported alone, the clip was not cleaned: its gaps are dropouts, not repairs
     code, out, err = run_cli(capsys, "report", dropouts)
     assert code == 0 and "repaired" not in out
