@@ -265,14 +265,16 @@ def _classify(fields: list[str], path, line: int):
             _fail(f"bad header: column {k + 1} has no name", path, line)
         if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
             _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, line)
-        if field in seen:
-            _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
-        seen.add(field)
-        if field.lower() in special:  # (Time, FRAME: as trackers write them)
-            special[field.lower()] = k
-            continue
         name, dot, suffix = field.rpartition(".")
         suffix = _SUFFIX_SPELLING.get(suffix.lower(), suffix)  # (XROTATION, QW)
+        special_name = field.lower() if field.lower() in special else None  # (Time, FRAME)
+        column = special_name or f"{name}{dot}{suffix}"  # (the column it names, any case)
+        if column in seen:
+            _fail(f"bad header: column {field[:60]!r} appears twice", path, line)
+        seen.add(column)
+        if special_name is not None:
+            special[special_name] = k
+            continue
         if not dot or not name:
             _fail(
                 f"bad header: column {field[:60]!r} is not <joint>.<channel> or "

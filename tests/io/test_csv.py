@@ -574,3 +574,8 @@ def test_column_names_in_another_case_are_read(tmp_path):
     edited = b.replace(rotations=quat.normalize(b.rotations + 0.01))
     mc.save(edited, tmp_path / "out.csv")
     assert (tmp_path / "out.csv").read_text().splitlines()[0] == header.strip()
+    # the same column twice in two cases is a column twice (the later had won in silence)
+    for twice, shown in (("time,Time", "'Time'"), ("hip.Zrotation,hip.ZROTATION", "'hip.ZR")):
+        (tmp_path / "twice.csv").write_text(f"frame,{twice},x\n")
+        with pytest.raises(MotionError, match=f"column {shown}.* appears twice"):
+            mc.load(tmp_path / "twice.csv")
