@@ -32,6 +32,9 @@ UP_AXES = ("x", "y", "z", "-x", "-y", "-z")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
+#: Channel names as BVH spells them, by their lower-case spelling: exporters also write
+#: ``ZPosition`` or ``XROTATION`` (read as the same channel; a file keeps its own text).
+CHANNEL_SPELLING = {name.lower(): name for name in KNOWN_CHANNELS}
 
 #: Frame times outside these (seconds) give rates no capture has: refused.
 MIN_FRAME_TIME = 1e-6

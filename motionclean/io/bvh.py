@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.errors import MotionError
 from ..core.motion import (
+    CHANNEL_SPELLING,
     KNOWN_CHANNELS,
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
@@ -190,11 +191,6 @@ class _Lines:
         return None
 
 
-#: Channel names as BVH spells them, by their lower-case spelling: exporters also write
-#: ``ZPosition`` or ``XROTATION`` (read as the same channel; the header is kept as written).
-_CHANNEL_SPELLING = {name.lower(): name for name in KNOWN_CHANNELS}
-
-
 def _check_channels(listed: list[str], path, number: int) -> None:
     for name in listed:
         if name not in KNOWN_CHANNELS:
@@ -296,7 +292,7 @@ class _Hierarchy:
         count, listed = int(tokens[1]), tokens[2:]
         if count != len(listed):
             _fail(f"CHANNELS says {count} but names {len(listed)}", self.path, number)
-        listed = [_CHANNEL_SPELLING.get(name.lower(), name) for name in listed]
+        listed = [CHANNEL_SPELLING.get(name.lower(), name) for name in listed]
         _check_channels(listed, self.path, number)
         self.channels[joint] = tuple(listed)
 

@@ -82,6 +82,7 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import (
+    CHANNEL_SPELLING,
     KNOWN_CHANNELS,
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
@@ -240,7 +241,7 @@ def _split_header(data: bytes, path) -> tuple[list[str], int, int]:
 
 
 #: Channel and body suffixes as the readers spell them, by their lower-case spelling.
-_SUFFIX_SPELLING = {name.lower(): name for name in (*KNOWN_CHANNELS, *RIGID_SUFFIXES)}
+_SUFFIX_SPELLING = CHANNEL_SPELLING | {name.lower(): name for name in RIGID_SUFFIXES}
 
 
 def _classify(fields: list[str], path, line: int):
