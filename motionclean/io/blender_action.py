@@ -189,13 +189,26 @@ def key_range(action: Any, slot: Any) -> tuple[int, int] | None:
 
 def key_frames(action: Any, slot: Any) -> tuple[np.ndarray, float]:
     """The frames to read and write the bone curves of ``action`` for ``slot`` at, and
-    their spacing (scene frames): each whole frame from the first key to the last when
-    every key is on a whole frame; else the key times all bone curves share when they are
-    evenly spaced (an importer's bake at another rate than the scene's: a 29.97 fps FBX
-    file, a BVH file imported with Scale FPS), so that keys are written where they are.
-    MotionError otherwise (keys between frames that no one grid holds: read on whole
-    frames, cleaning would add keys beside them and leave them as they were); an empty
-    array without bone keys."""
+    their spacing (scene frames), :func:`key_grid`'s; MotionError where no one grid holds
+    the keys (read on whole frames, cleaning would add keys beside them and leave them as
+    they were); an empty array without bone keys."""
+    grid = key_grid(action, slot)
+    if isinstance(grid, float):
+        raise MotionError(
+            f"keys between frames (at {grid:.9g}) that the bone curves do not share evenly "
+            "spaced: bake the action on whole frames (Pose > Animation > Bake Action) first",
+            getattr(action, "name", None),
+        )
+    return grid
+
+
+def key_grid(action: Any, slot: Any) -> tuple[np.ndarray, float] | float:
+    """The frames the bone curves of ``action`` for ``slot`` are keyed on, and their spacing
+    (scene frames): each whole frame from the first key to the last when every key is on a
+    whole frame; else the key times all bone curves share when they are evenly spaced (an
+    importer's bake at another rate than the scene's: a 29.97 fps FBX file, a BVH file
+    imported with Scale FPS). Otherwise the time of a key off every such grid (a float);
+    an empty array without bone keys."""
     times = [
         _keys(curve)[:, 0]
         for props in _bone_curves(action_fcurves(action, slot)).values()
@@ -215,12 +228,7 @@ def key_frames(action: Any, slot: Any) -> tuple[np.ndarray, float]:
         grid = first + step * np.arange(len(shared))
         if np.abs(shared - grid).max() <= GRID_TOLERANCE * step:
             return shared, step
-    off = next(float(t[np.abs(t - np.round(t)) > ON_FRAME][0]) for t in times if not _on_frames(t))
-    raise MotionError(
-        f"keys between frames (at {off:.9g}) that the bone curves do not share evenly "
-        "spaced: bake the action on whole frames (Pose > Animation > Bake Action) first",
-        getattr(action, "name", None),
-    )
+    return next(float(t[np.abs(t - np.round(t)) > ON_FRAME][0]) for t in times if not _on_frames(t))
 
 
 def _on_frames(times: np.ndarray) -> bool:

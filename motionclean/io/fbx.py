@@ -42,7 +42,7 @@ from .blender_action import (
     BoneTrack,
     action_fcurves,
     all_fcurves,
-    key_frames,
+    key_grid,
     key_range,
     read_action,
     rest_quaternions,
@@ -256,18 +256,16 @@ def fbx_frames(action: Any, slot: Any) -> tuple[np.ndarray, float, tuple[str, ..
     Mixamo export's 0.1-frame keys on some curves) are read on the whole frames from the
     first key to the last, as Blender plays them; the file is written back baked on whole
     frames, as every FBX written is."""
-    try:
-        frames, step = key_frames(action, slot)
-    except MotionError:
-        span = key_range(action, slot)
-        if span is None:
-            raise
-        note = (
-            "keys between frames that the bone curves do not share evenly spaced: read on "
-            "whole frames, as Blender plays them (written back baked on them)"
-        )
-        return np.arange(span[0], span[1] + 1.0), 1.0, (note,)
-    return frames, step, ()
+    grid = key_grid(action, slot)
+    if not isinstance(grid, float):
+        return (*grid, ())
+    span = key_range(action, slot)
+    assert span is not None  # (a key off the grid: there are keys)
+    note = (
+        "keys between frames that the bone curves do not share evenly spaced: read on "
+        "whole frames, as Blender plays them (written back baked on them)"
+    )
+    return np.arange(span[0], span[1] + 1.0), 1.0, (note,)
 
 
 def load_fbx(path: str | os.PathLike) -> Motion:

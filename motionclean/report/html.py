@@ -411,7 +411,7 @@ def _headline(report: dict) -> list[str]:
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
         done = (
             ", ".join(
-                f"{n} {word}{'' if n == 1 else 's'}"
+                plural(n, word)
                 for n, word in zip(counts.values(), kinds.values(), strict=True)
                 if n
             )

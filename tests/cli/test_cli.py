@@ -408,8 +408,10 @@ def test_stitch_says_when_the_clips_are_too_short_for_the_levels_asked(
     # (the halves are written afresh: their text is theirs, the rotations the clip's)
     far = np.r_[0 : half - width, half + width + 1 : clip.n_frames]
     assert degrees_between(stitched.rotations[far], clip.rotations[far]).max() < 1e-4
-    a_text = mc.load(first).source_values
+    a_text, b_text = mc.load(first).source_values, mc.load(second).source_values
     assert np.array_equal(stitched.source_values[: half - width], a_text[: half - width])
+    tail = b_text[width + 1 :, 6:]  # (the root moved: aligned)
+    assert np.array_equal(stitched.source_values[half + width + 1 :, 6:], tail)
 
 
 def test_stitch_keeps_every_frame_outside_the_transition(sample_path, tmp_path, capsys):
