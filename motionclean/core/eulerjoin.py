@@ -402,21 +402,17 @@ def settle(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     follow_wraps(values, source, rotation_columns)
 
 
-def unwrap_turns(values: np.ndarray, rotation_columns: np.ndarray) -> None:
-    """Move, in place, each rotation channel of ``values`` ``(F, C)`` (degrees) by the whole
-    turns that keep every step within half a turn (:func:`numpy.unwrap`, a block of rows at
-    a time): for frames written afresh (resampled, another format's rotations), whose chain
-    restarts on the principal angles where the rotation itself leaps (a flip nothing
-    repaired, a cut), which had stepped a channel 331 degrees where 29 would do."""
-    columns = rotation_columns[rotation_columns[:, 0] >= 0].ravel()
-    if values.shape[0] < 2 or not columns.size:
-        return
-    last_read = values[0, columns].copy()  # the value read of the row before a block
-    offset = np.zeros(columns.size)  # the whole turns that row was moved by
-    for at in range(1, values.shape[0], _SCAN_ROWS):
-        rows = slice(at, at + _SCAN_ROWS)
-        block = values[rows, columns]
-        steps = np.diff(np.concatenate([last_read[None], block]), axis=0)
-        moved = offset - 360.0 * np.cumsum(np.round(steps / 360.0), axis=0)
-        last_read, offset = block[-1].copy(), moved[-1]
-        values[rows, columns] = block + moved
+def unwrap_turns(angles: np.ndarray, carry: tuple | None) -> tuple:
+    """Move, in place, each channel of a block of written angles ``angles`` ``(F, ...)``
+    (degrees) by the whole turns that keep every step within half a turn, continuing the
+    block before it (``carry``: what this returns for it; None at the clip's first frame):
+    :func:`numpy.unwrap` a block at a time. For frames written afresh (resampled, another
+    format's rotations), whose chain restarts on the principal angles where the rotation
+    itself leaps (a flip nothing repaired, a cut), which had stepped a channel 331 degrees
+    where 29 would do. Returns the carry for the next block."""
+    last, offset = (angles[0], np.zeros(angles.shape[1:])) if carry is None else carry
+    steps = np.diff(np.concatenate([last[None], angles]), axis=0)
+    moved = offset - 360.0 * np.cumsum(np.round(steps / 360.0), axis=0)
+    carry = (angles[-1].copy(), moved[-1])
+    angles += moved
+    return carry

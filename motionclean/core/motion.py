@@ -584,9 +584,7 @@ class Motion:
             for span in in_parts(group.size, PART_JOINTS if shared else group.size)
         ]
         run_parts(lambda part: self._write_euler(values, *part), parts, values.size)
-        if fresh:  # (nothing read to follow: no channel steps half a turn or more)
-            unwrap_turns(values, layout.rotation_columns)
-        else:
+        if not fresh:
             assert self.source_values is not None
             settle(values, self.source_values, layout.rotation_columns)  # no jump the input lacks
         has = layout.position_columns >= 0
@@ -600,7 +598,7 @@ class Motion:
         fresh = not self.has_source_frames()
         cols = _as_slice(self.layout.rotation_columns[joints])  # (3 n) columns
         chosen = _as_slice(joints)
-        carry = None
+        carry = turns = None
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
             q = np.ascontiguousarray(self.rotations[block, chosen])  # (faster to read)
@@ -618,6 +616,8 @@ class Motion:
             angles, carry = _continue_block(
                 q, order, read, kept, carry, principal, backward=not fresh
             )
+            if fresh:  # (nothing read to follow: no channel steps half a turn or more)
+                turns = unwrap_turns(angles, turns)
             values[block, cols] = angles.reshape(q.shape[0], -1)
 
 
