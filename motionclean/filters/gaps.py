@@ -40,16 +40,17 @@ size of the noise.
 Which bridge fills a gap, and whether the donor helps at all, is checked on the joint's
 own data (:func:`_validated`): gaps of the same length are planted in the known frames
 beside each gap (up to :data:`TRIALS_PER_SIDE` on each side) and bridged every way, with
-the donor and without, with the edge velocities' departure from the chord weighted by each
-of :data:`VELOCITY_WEIGHTS` (0: the straight line, geodesic at constant angular velocity).
+the donors and without (the rotation and the position each choose), with the edge
+velocities' departure from the chord weighted by each of :data:`VELOCITY_WEIGHTS` (0: the
+straight line, geodesic at constant angular velocity).
 The one of least error there fills the gap, the straight line unless another (or the
 donor) beats it by :data:`LINE_MARGIN`; then its smoothed-edge twin, and the smoothing
 spline, where they do better on the gap's trials and on those of the joint's other gaps
 of similar length. A clean optical capture keeps its velocities and its edge samples
 (they predict its gaps well); a markerless estimate, whose edge velocities are mostly its
 noise, gets the straight line; a tracker with white noise gets smoothed bridges; a joint
-that does not move with its would-be donor (a hip and an elbow, say) is bridged on its
-own.
+that does not move with its would-be donor (a hip and an elbow, a hand and the head) is
+bridged on its own.
 
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
@@ -653,7 +654,7 @@ def fill_gaps(
         chosen, option_q, option_p = _validated(
             rotations, translations, missing, seen, two_sided, donor[:, inner], noise
         )
-        donor[0, inner] = chosen
+        donor[:, inner] = chosen
         rel_q, rel_p = _relative(rotations, translations, joint, donor[:, gap_of], frame)
         if held.any():
             edge_q, edge_p = _relative(rotations, translations, joint, donor[:, gap_of], a[gap_of])
@@ -669,13 +670,14 @@ def fill_gaps(
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
 
 
-def _trials(seen, gaps: Gaps, donor: np.ndarray):
+def _trials(seen, gaps: Gaps, donors: np.ndarray):
     """Gaps of the same length as each of ``gaps`` planted in known frames beside it, for
     :func:`_validated`: ``(trial gaps, index of the real gap of each)``. Up to
     :data:`TRIALS_PER_SIDE` on each side, spaced by their length plus one; a trial is kept
     when its frames, the :data:`EDGE_FRAMES` known frames around it and its edges lie in the
-    clip, are all known for the joint and, where ``donor`` (G,) is a joint, for it too
-    (``seen``: the running count of missing samples)."""
+    clip, are all known for the joint and, where ``donors`` (2, G) (of the rotation and of
+    the position) are joints, for them too (``seen``: the running count of missing
+    samples)."""
     n_frames = seen.shape[0] - 1
     lengths = gaps.lengths
     k = np.arange(TRIALS_PER_SIDE)
@@ -690,51 +692,44 @@ def _trials(seen, gaps: Gaps, donor: np.ndarray):
     lo_c, hi_c = np.clip(lo, 0, n_frames - 1), np.clip(hi, 0, n_frames - 1)
     joint = gaps.joint[of]
     ok &= seen[hi_c + 1, joint] == seen[lo_c, joint]
-    helper = donor[of]
-    tracked = seen[hi_c + 1, np.maximum(helper, 0)] == seen[lo_c, np.maximum(helper, 0)]
-    ok &= (helper < 0) | tracked
+    for helper in donors[:, of]:
+        tracked = seen[hi_c + 1, np.maximum(helper, 0)] == seen[lo_c, np.maximum(helper, 0)]
+        ok &= (helper < 0) | tracked
     return Gaps(joint[ok], first[ok], stop[ok]), of[ok]
 
 
 def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.ndarray, noise):
-    """Per two-sided gap, the rotation donor (the chosen ``donor[0]`` or the world, -1) and
-    the bridge options ``(weight, smooth)`` (:func:`_bridge`) of its rotation and of its
-    position that fill best the gaps of the same length planted beside it in the joint's
-    own known frames (least summed squared error there; :func:`_trials`), in three steps
-    on the same trials: the donor and the edge velocities' weight
-    (:data:`VELOCITY_WEIGHTS`; the straight line, weight 0, taken unless another is
-    :data:`LINE_MARGIN` better); the edges where a local fit puts them if that does better
-    there; the smoothing spline if it is :data:`LINE_MARGIN` better still. Whatever a
-    joint's motion and noise, its bridges are then no worse there than the straight line,
-    and a donor that does not move with the joint is dropped. A gap without room for a
-    trial keeps its donor and the full edge velocities from its edge samples. Returns
-    ``(donor, (weight, smooth) of the rotation, (weight, smooth) of the position)``, each
-    array (G,)."""
+    """Per two-sided gap, the donors (the chosen ``donor`` (2, G) of the rotation and of
+    the position, or the world, -1) and the bridge options ``(weight, smooth)``
+    (:func:`_bridge`) of its rotation and of its position that fill best the gaps of the
+    same length planted beside it in the joint's own known frames (least summed squared
+    error there; :func:`_trials`), in three steps on the same trials, for the rotation and
+    the position each: the donor and the edge velocities' weight
+    (:data:`VELOCITY_WEIGHTS`; the straight line in the world frame, weight 0, taken unless
+    another is :data:`LINE_MARGIN` better); the edges where a local fit puts them if that
+    does better there; the smoothing spline if it is :data:`LINE_MARGIN` better still.
+    Whatever a joint's motion and noise, its bridges are then no worse there than the
+    straight line, and a donor that does not move with the joint (a hand with the head) is
+    dropped. A gap without room for a trial keeps its donors and the full edge velocities
+    from its edge samples. Returns ``(donors (2, G), (weight, smooth) of the rotation,
+    (weight, smooth) of the position)``, each array (G,)."""
     n_gaps = gaps.joint.size
-    uses = (-1, 0) if (donor[0] >= 0).any() else (-1,)  # 0: the chosen donor
+    uses = (-1, 0) if (donor >= 0).any() else (-1,)  # 0: the chosen donors
     kinds = [(w, smooth) for w in VELOCITY_WEIGHTS for smooth in (False, True)]
     options = [(use, w, smooth) for use in uses for w, smooth in (*kinds, (SPLINE, False))]
     error = np.full((2, len(options), n_gaps), np.inf)  # rotations, positions
-    for use in uses:
-        helper = donor[0] if use == 0 else np.full(n_gaps, -1)
-        trials, of = _trials(seen, gaps, np.where(helper >= 0, helper, donor[1]))
-        if not of.size:
-            continue
-        both = np.stack([helper[of], donor[1, of]])
-        windows = _Windows.of(rotations, translations, missing, trials, both, noise)
+    trials, of = _trials(seen, gaps, donor)  # the same trials with the donors and without
+    for use in uses if of.size else ():
+        helpers = donor if use == 0 else np.full_like(donor, -1)
+        windows = _Windows.of(rotations, translations, missing, trials, helpers[:, of], noise)
         lengths = trials.lengths
         owner = np.repeat(of, lengths)
         frames = np.repeat(trials.first, lengths) + _ranks(lengths)
         truth = _relative(
-            rotations,
-            translations,
-            np.repeat(trials.joint, lengths),
-            np.stack([helper[owner], donor[1, owner]]),
-            frames,
+            rotations, translations, np.repeat(trials.joint, lengths), helpers[:, owner], frames
         )
         tried = np.bincount(of, minlength=n_gaps) > 0
-        if use == 0:
-            tried &= donor[0] >= 0
+        tried = np.stack([tried & (helpers[k] >= 0) if use == 0 else tried for k in range(2)])
         for i in (i for i, option in enumerate(options) if option[0] == use):
             _, w, smooth = options[i]
             option = (np.full(of.size, w), np.full(of.size, smooth))
@@ -743,42 +738,40 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
                 quat.angle_between(bridged[0], truth[0]) ** 2,
                 np.sum((bridged[1] - truth[1]) ** 2, axis=-1),
             )
-            ok = tried & (gaps.lengths <= SPLINE_MAX_GAP) if w == SPLINE else tried
             for k in range(2):
+                ok = tried[k] & (gaps.lengths <= SPLINE_MAX_GAP) if w == SPLINE else tried[k]
                 total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
                 error[k, i] = np.where(ok, total, np.inf)
     use_of, weight_of, smooth_of = (np.array(column) for column in zip(*options, strict=True))
     spline = weight_of == SPLINE
     plain = ~smooth_of & ~spline
-    # 1. donor and weight, from the edge samples: the straight line wins near-ties
-    first = np.where(plain[:, None], error[0], np.inf)
+    # 1. donor and weight, from the edge samples: the straight line in the world wins
+    # near-ties
+    first = np.where(plain[:, None, None], error.transpose(1, 0, 2), np.inf)  # (O, 2, G)
     first[(weight_of != 0) | (use_of == 0)] /= 1.0 - LINE_MARGIN
-    best = np.argmin(first, axis=0)
-    same = use_of[:, None] == use_of[best][None]  # positions: the rotation's donor
-    second = np.where(plain[:, None] & same, error[1], np.inf)
-    second[weight_of != 0] /= 1.0 - LINE_MARGIN
-    chosen = np.stack([best, np.argmin(second, axis=0)])
+    chosen = np.argmin(first, axis=0)  # (2, G)
+    best = chosen.copy()
     columns = np.arange(n_gaps)
     row = {option: i for i, option in enumerate(options)}
     # each option's twin from smoothed edges, and the spline with its donor
     twin_of = np.array([row.get((use, w, True), i) for i, (use, w, _) in enumerate(options)])
     spline_of = np.array([row[(use, SPLINE, False)] for use, _, _ in options])
-    curve = spline_of[best]
     for k in range(2):
         # 2. the same bridge from smoothed edges, where it does better
         twin = twin_of[chosen[k]]
         better = _better(error[k, twin, columns], error[k, chosen[k], columns], gaps, 0.0)
         chosen[k] = np.where(better, twin, chosen[k])
         # 3. the smoothing spline with the same donor, where it is clearly better
+        curve = spline_of[best[k]]
         better = _better(
             error[k, curve, columns], error[k, chosen[k], columns], gaps, SPLINE_MARGIN
         )
         chosen[k] = np.where(better, curve, chosen[k])
-    untried = ~np.isfinite(error[0].min(axis=0))
+    untried = ~np.isfinite(error.min(axis=1))  # (2, G)
     weights = np.where(untried, 1.0, weight_of[chosen])
     smoothed = np.where(untried, False, smooth_of[chosen])
     return (
-        np.where(untried | (use_of[best] == 0), donor[0], -1),
+        np.where(untried | (use_of[best] == 0), donor, -1),
         (weights[0], smoothed[0]),
         (weights[1], smoothed[1]),
     )

@@ -380,14 +380,30 @@ def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
         _fail(f"more frame rows than Total Exported Frames {count}", path, int(lines[count]))
 
 
+def _check_frame_numbers(frames: np.ndarray, lines: np.ndarray, path) -> None:
+    """Refuse a Frame column that does not count the rows one by one from its first
+    number (Motive numbers every exported frame: a row lost, repeated or edited)."""
+    if frames.size and not float(frames[0]).is_integer():
+        _fail(f"frame number {frames[0]:g} is not a whole number", path, int(lines[0]))
+    wrong = np.flatnonzero(np.diff(frames) != 1.0)
+    if wrong.size:
+        at = int(wrong[0]) + 1
+        _fail(
+            f"frame {frames[at]:.10g} follows frame {frames[at - 1]:.10g}: the Frame column "
+            "must count the rows one by one (a row lost, repeated or edited: export the take "
+            "again)",
+            path,
+            int(lines[at]),
+        )
+
+
 def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> tuple[float, int]:
     """The step of a Time column written coarser than a tenth of a frame (whole milliseconds
     at 240 fps: Motive 1.23 writes 0.004, 0.008, 0.012, 0.016, ... for 1/240 s steps), and
     -1 when its times are those of the frames at ``frame_time`` to within that step, rounded
     or cut (the times less ``(frame - first frame) * frame_time`` spread by one step at
-    most, the frames consecutive), else the first row whose frame does not follow the one
-    before or the row furthest off; ``(0, -1)`` for any other time column (checked as in a
-    CSV)."""
+    most; the frames are consecutive, :func:`_check_frame_numbers`), else the row furthest
+    off; ``(0, -1)`` for any other time column (checked as in a CSV)."""
     if times.size < 2:
         return 0.0, -1
     for digits in range(7):  # seconds to microseconds
@@ -399,9 +415,6 @@ def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> t
     step = 10.0**-digits
     if not TIME_TOLERANCE * frame_time < step < frame_time:
         return 0.0, -1
-    skips = np.flatnonzero(np.diff(frames) != 1)
-    if skips.size:
-        return step, int(skips[0]) + 1
     off = times - (frames - frames[0]) * frame_time
     if float(off.max() - off.min()) <= step + 1e-9 * max(1.0, float(np.abs(times).max())):
         return step, -1
@@ -426,6 +439,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
     _check_count(metadata.get("Total Exported Frames"), cells.lines, path)
     check_filled(cells, 0, "Frame", path)
     check_filled(cells, 1, "Time", path)
+    _check_frame_numbers(cells.values[:, 0], cells.lines, path)
     times = cells.values[:, 1]
     notes: list[str] = []
     if bones:
@@ -437,14 +451,6 @@ def parse_motive(data: bytes, path=None) -> Motion:
     coarse, worst = 0.0, -1
     if not np.all(on_grid <= TIME_TOLERANCE * frame_time):
         coarse, worst = _coarse_times(times, cells.values[:, 0], frame_time)
-    if worst > 0 and cells.values[worst, 0] != cells.values[worst - 1, 0] + 1:
-        _fail(
-            f"frame {cells.values[worst, 0]:.0f} follows frame {cells.values[worst - 1, 0]:.0f}:"
-            f" the rows are not one frame each (with a Time column in steps of {coarse:g} s, "
-            "coarser than a tenth of a frame, the frames are timed by their numbers)",
-            path,
-            cells.lines[worst],
-        )
     if worst >= 0:
         _fail(
             f"the Time column does not follow Export Frame Rate {metadata['Export Frame Rate']}"

@@ -251,6 +251,30 @@ def test_a_body_that_moves_with_the_gapped_one_only_beside_the_gap_is_no_donor()
     assert max_degrees(filled.rotations[180:220, 0], q[180:220, 0]) < 10.0  # 69 following it
 
 
+def test_a_body_whose_position_does_not_follow_another_is_filled_on_its_own():
+    """The position's donor is checked on planted gaps as the rotation's is: body 1 sits at
+    a fixed offset from body 0 for 12 frames on each side of body 1's gap (its relative
+    position is the smoothest there), but inside the gap body 0 swerves and body 1 does
+    not. Following body 0 would swerve with it; bridged on its own, body 1 stays close."""
+    n = 400
+    t = np.arange(n) / 120.0
+    q = quat.make_continuous(smooth_synthetic(frames=n, joints=2, seed=5))
+    q[:, 0] = [1.0, 0.0, 0.0, 0.0]  # body 0 translates only: offsets stay put in its frame
+    p = np.zeros((n, 2, 3))
+    p[:, 0] = np.stack([np.sin(2.1 * t), 0.3 * np.cos(1.3 * t), 0.2 * t], axis=1)
+    p[:, 1] = np.stack([0.5 * np.cos(0.9 * t), np.sin(1.7 * t + 1.0), -0.1 * t], axis=1)
+    near, inside = slice(168, 232), slice(180, 220)
+    p[near, 1] = p[near, 0] + np.array([0.2, 0.1, 0.0])  # with body 0 around the gap ...
+    swerve = np.sin(np.linspace(0.0, np.pi, 40))[:, None] * np.array([0.0, 0.0, 0.3])
+    p[inside, 0] += swerve  # ... but not inside it
+    missing = np.zeros((n, 2), dtype=bool)
+    missing[inside, 1] = True
+    filled = fill_gaps(q, p, missing, max_gap=60)
+    assert filled.donor[1].tolist() == [-1]
+    error = np.linalg.norm(filled.translations[inside, 1] - p[inside, 1], axis=-1).max()
+    assert error < 0.1 * np.abs(swerve).max()
+
+
 @needs_realnoise
 @pytest.mark.parametrize("task", ["dance", "exotic"])
 def test_real_coordinates_that_do_not_move_together_are_no_donors(tmp_path, task):

@@ -479,7 +479,21 @@ def test_times_in_milliseconds_that_do_not_follow_the_frames_are_refused(tmp_pat
     ms = [np.floor(f / rate * 1000) / 1000 for f in range(n)]
     lines = with_times(text, [f"{t:.6f}" for t in ms]).split("\r\n")
     lines[7 + 5] = "6" + lines[7 + 5][1:]  # frame 5 numbered 6: the frames skip
-    check_error(tmp_path, capsys, "\r\n".join(lines), 13, "frame 6 follows frame 4: the rows are")
+    check_error(tmp_path, capsys, "\r\n".join(lines), 13, "frame 6 follows frame 4: the Frame")
+
+
+@pytest.mark.parametrize(("row", "number"), [(5, "9999"), (5, "4"), (0, "0.5"), (9, "10")])
+def test_a_frame_column_that_does_not_count_the_rows_is_refused(tmp_path, capsys, row, number):
+    """Times at full precision do not stand for the Frame column: a frame number edited,
+    repeated or skipped is a corrupt export, refused on its own row (exit 1)."""
+    text, _, _ = export(n_frames=12)
+    lines = text.split("\r\n")
+    lines[7 + row] = number + lines[7 + row][lines[7 + row].index(",") :]
+    source = write(tmp_path, "\r\n".join(lines))
+    code, _, err = run_cli(capsys, "info", source)
+    what = "is not a whole number" if row == 0 else "follows frame"
+    assert code == 1 and err.startswith(f"motionclean: error: {source}:{8 + row}: ")
+    assert what in err and err.count("\n") == 1
 
 
 def test_rows_not_as_many_as_total_exported_frames_are_refused(tmp_path, capsys):
