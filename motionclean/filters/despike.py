@@ -49,7 +49,9 @@ one over its whole support. Two defects, two repairs:
      motion over a gap of ``L+1`` frames, so the test scales with the frame rate and
      with the motion's own smoothness: fast genuine motion that is sampled too coarsely
      to follow leaves the neighbours off the cubic too, a spike on a smooth signal does
-     not (a neighbour at a clip end is not predicted).
+     not. A run with a neighbour that cannot be predicted (within two frames of a clip
+     end) has no trend on that side to be judged by: a clip cut inside a fast twist
+     would lose the twist's tail. Only the cap below repairs it.
 
    Finally no step may exceed the absolute cap ``max_deg_per_s dt`` (no human joint
    turns that fast): the two frames of a step above the cap join the interpolated set,
@@ -415,8 +417,9 @@ def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
     b+1`` (``b = a+L+1``; 003 Eq. 17, the repair's own interpolant). The run's first and
     last frames must both be further from ``P`` than ``trend_ratio`` times the error ``e``
     of the same cubic at the neighbours: ``x_a`` predicted across the gap from ``a-2,
-    a-1`` to ``b, b+1`` and ``x_b`` from ``a-1, a`` to ``b+1, b+2`` (a neighbour at a clip
-    end is not predicted; with neither, ``e = 0``). See the module docstring.
+    a-1`` to ``b, b+1`` and ``x_b`` from ``a-1, a`` to ``b+1, b+2``; a run with a
+    neighbour that cannot be predicted (too near a clip end) never leaves it. See the
+    module docstring.
     """
     n = first.size
     after = last + stride  # frame b
@@ -428,7 +431,7 @@ def _off_trend(x, stride, first, last, trend_ratio, dist, interpolate):
         x.take(at, axis=0), interpolate(x, _Knots.around(at, lo, hi, stride, x.shape[0]), "cubic")
     ).reshape(4, n)
     error = np.maximum(np.where(predict_a, off[2], 0.0), np.where(predict_b, off[3], 0.0))
-    return np.minimum(off[0], off[1]) > trend_ratio * error
+    return (np.minimum(off[0], off[1]) > trend_ratio * error) & predict_a & predict_b
 
 
 def _brief(first, length, col, n_frames: int, max_len: int):
