@@ -699,15 +699,25 @@ def _refuse_gaps(motion: Motion) -> None:
     """BVH has no blank values: a clip with missing samples cannot be written as BVH."""
     if motion.missing is None:
         return
-    joint = int(np.argmax(motion.missing.any(axis=0)))
+    gapped = np.flatnonzero(motion.missing.any(axis=0))
+    joint = int(gapped[0])
     frames = np.flatnonzero(motion.missing[:, joint])
     breaks = np.flatnonzero(np.diff(frames) > 1)
     runs = np.split(frames, breaks + 1)
     shown = ", ".join(f"{r[0]}-{r[-1]}" if r.size > 1 else f"{r[0]}" for r in runs[:3])
     more = f" and {len(runs) - 3} more gaps" if len(runs) > 3 else ""
+    others = [motion.names[j] for j in gapped[1:]]
+    also = (
+        ""
+        if not others
+        else f"; {', '.join(others[:4])}"
+        + (f" and {len(others) - 4} more" if len(others) > 4 else "")
+        + (" has gaps too" if len(others) == 1 else " have gaps too")
+    )
     raise MotionError(
-        f"{motion.names[joint]!r} is missing on frames {shown}{more} (frames from 0) and BVH "
-        "has no blank values; fill the gaps (fill-gaps with a larger max_gap) or write CSV",
+        f"{motion.names[joint]!r} is missing on frames {shown}{more} (frames from 0){also}, "
+        "and BVH has no blank values; fill the gaps (fill-gaps with a larger max_gap) or "
+        "write CSV",
         motion.path,
     )
 

@@ -787,6 +787,7 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
         (tuple(bodies), tuple(channels)),
         frame_time,
         eol,
+        frame_column="frame" in fields,
     )
     return tracked_bodies(
         bodies, channels, frame_time, rotations, translations, text, path, missing
@@ -1069,13 +1070,20 @@ def _format_rigid(motion: Motion) -> Iterable[bytes | memoryview]:
     values = values.reshape(n_frames, 7 * n_bodies)
     blank = np.repeat(motion.missing_mask(), len(RIGID_SUFFIXES), axis=1)
 
+    # a rigid-body CSV read with a frame column keeps one (renumbered from 0)
+    lead = 2 if isinstance(src, CsvText) and src.layout == "rigid" and src.frame_column else 1
+
     def fill(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cells = Cells()
-        starts, lengths = value_cells(cells, values[rows], blank[rows], 1)
-        _, (starts[:, 0], lengths[:, 0]) = _frame_and_time(motion, cells, rows)
+        starts, lengths = value_cells(cells, values[rows], blank[rows], lead)
+        numbers, times = _frame_and_time(motion, cells, rows)
+        starts[:, lead - 1], lengths[:, lead - 1] = times
+        if lead == 2:
+            starts[:, 0], lengths[:, 0] = numbers
         return cells.buffer(), starts, lengths
 
-    fields = ["time"] + [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
+    fields = ["frame", "time"][2 - lead :]
+    fields += [f"{name}.{s}" for name in motion.names for s in RIGID_SUFFIXES]
     return _fresh(fields, _eol(src), n_frames, fill)
 
 

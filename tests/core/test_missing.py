@@ -1,5 +1,7 @@
 """Missing samples (tracker dropouts) in the data model: the mask, placeholders, BVH refusal."""
 
+import re
+
 import numpy as np
 import pytest
 from helpers import SAMPLE
@@ -47,3 +49,24 @@ def test_bvh_output_refuses_missing_samples_naming_the_joint_and_frames(tmp_path
     with pytest.raises(MotionError, match=rf"'{clip.names[5]}' is missing on frames 10-13, 40"):
         mc.save(clip.replace(missing=missing), out)
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("joints", "also"),
+    [
+        ([7], "; J7 has gaps too,"),
+        ([7, 8, 9, 10, 11, 12], "; J7, J8, J9, J10 and 2 more have gaps too,"),
+    ],
+)
+def test_bvh_output_refusal_names_every_joint_with_gaps(tmp_path, joints, also):
+    """All the joints with gaps are named at once: a user fixing one would otherwise meet
+    the next on every run."""
+    clip = mc.load(SAMPLE)
+    clip = clip.replace(names=tuple(f"J{j}" for j in range(clip.n_joints)))
+    missing = np.zeros((clip.n_frames, clip.n_joints), dtype=bool)
+    missing[10:14, 5] = True
+    missing[60:62, joints] = True
+    with pytest.raises(
+        MotionError, match=re.escape(f"'J5' is missing on frames 10-13 (frames from 0){also}")
+    ):
+        mc.save(clip.replace(missing=missing), tmp_path / "out.bvh")

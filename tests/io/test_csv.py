@@ -541,6 +541,27 @@ def test_a_channel_csv_written_afresh_keeps_its_columns(tmp_path, frame):
     assert written == (header if frame else header[1:])
 
 
+@pytest.mark.parametrize("frame", [True, False])
+def test_a_rigid_csv_resampled_keeps_its_columns(tmp_path, capsys, frame):
+    """A tracker CSV resampled (rows written afresh) keeps its frame column, numbered
+    from 0, or stays without one; the bodies' values are the resampled clip's."""
+    times, p, q = rigid_table(60, 2, seed=4)
+    write_rigid(tmp_path / "tracks.csv", times, p, q)
+    if frame:
+        lines = (tmp_path / "tracks.csv").read_text().splitlines()
+        rows = [f"{'frame' if k == 0 else k + 100}," + line for k, line in enumerate(lines)]
+        (tmp_path / "tracks.csv").write_text("\n".join(rows) + "\n")
+    out = tmp_path / "half.csv"
+    code, _, err = run_cli(capsys, "resample", tmp_path / "tracks.csv", out, "--fps", "45")
+    assert code == 0, err
+    header, table = read_table(out)
+    assert header[:2] == (["frame", "time"] if frame else ["time", "tracker_0.px"])
+    if frame:
+        np.testing.assert_array_equal(table[:, 0], np.arange(len(table)))
+    back = mc.load(out)
+    assert back.frame_time == pytest.approx(1.0 / 45.0) and back.n_frames == len(table)
+
+
 def test_a_take_of_another_length_read_into_a_rig_keeps_its_own_text(tmp_path, capsys):
     """One rig, many takes: a channel CSV of 120 frames read with a 300-frame rig comes back
     byte for byte through a pipeline that changes nothing (its values had been written
