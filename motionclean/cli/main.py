@@ -99,7 +99,14 @@ class _Interrupted(BaseException):
 
 
 class _Commands(click.Group):
-    """The command group; an interrupt inside a command leaves it as :class:`_Interrupted`."""
+    """The command group; an interrupt while the command line is parsed or a command runs
+    leaves it as :class:`_Interrupted`."""
+
+    def make_context(self, *args, **kwargs) -> click.Context:
+        try:
+            return super().make_context(*args, **kwargs)
+        except KeyboardInterrupt:
+            raise _Interrupted from None
 
     def invoke(self, ctx: click.Context):
         try:

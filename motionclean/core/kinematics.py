@@ -34,6 +34,7 @@ __all__ = [
     "hung_on",
     "local_translations",
     "point_parents",
+    "reaches",
     "rest_positions",
     "sample_poses",
     "trunk_split",
@@ -413,6 +414,24 @@ def rest_positions(motion: Motion) -> np.ndarray:
         tips = positions[0, joints] + np.stack([motion.end_sites[j] for j in joints])
         return np.concatenate([positions[0], tips])
     return positions[0]
+
+
+def reaches(motion: Motion) -> np.ndarray:
+    """``(J,)``: how far each joint's rotation reaches, the largest rest-pose distance
+    (file units) from the joint to a point below it (joints and end sites of its subtree);
+    0 for a joint with nothing below it (a tracked body, a leaf without an end site). A
+    rotation's jitter of ``a`` (angular acceleration) moves those points by up to ``a``
+    times it."""
+    rest = rest_positions(motion)
+    reach = np.zeros(motion.n_joints)
+    points = np.arange(rest.shape[0])
+    above = point_parents(motion)
+    while points.size:  # one pass per level of the deepest chain
+        has = above >= 0
+        points, above = points[has], above[has]
+        np.maximum.at(reach, above, np.linalg.norm(rest[points] - rest[above], axis=-1))
+        above = motion.parents[above]
+    return reach
 
 
 #: Frames (evenly spaced) of a clip whose poses give its up axis and body height.

@@ -54,7 +54,10 @@ bridged on its own.
 
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
-half a second could spin it anywhere).
+half a second could spin it anywhere). Its donors are checked as a bridge's are, on gaps of
+the same length planted beside it and held from the same side (:func:`_held_donors`): a
+donor is kept only where it holds them :data:`LINE_MARGIN` better than the edge sample
+(under tracker noise a donor adds its own noise to every held frame).
 """
 
 from __future__ import annotations
@@ -632,13 +635,16 @@ def fill_gaps(
         # A gap no longer than the stretch donors are judged on is bridged better by the
         # body's own rotation (its edge velocities say enough): donors for longer ones.
         donor[0, todo.lengths <= DONOR_FRAMES] = -1
+    inner = (todo.first > 0) & (todo.stop < n_frames)
+    if donors and not inner.all():
+        ends = todo.select(~inner)
+        donor[:, ~inner] = _held_donors(rotations, translations, seen, ends, donor[:, ~inner])
     lengths = todo.lengths
     gap_of = np.repeat(np.arange(lengths.size), lengths)
     frame = todo.first[gap_of] + _ranks(lengths)
     joint = todo.joint[gap_of]
     still[frame, joint] = False
     # Bridge the relative poses; the edges, and the known rows beside them, come along.
-    inner = (todo.first > 0) & (todo.stop < n_frames)
     a = np.where(todo.first > 0, todo.first - 1, todo.stop)  # one-sided: the edge
     rel_q, rel_p = _relative(rotations, translations, joint, donor[:, gap_of], frame)
     held = ~inner[gap_of]
@@ -696,6 +702,38 @@ def _trials(seen, gaps: Gaps, donors: np.ndarray):
         tracked = seen[hi_c + 1, np.maximum(helper, 0)] == seen[lo_c, np.maximum(helper, 0)]
         ok &= (helper < 0) | tracked
     return Gaps(joint[ok], first[ok], stop[ok]), of[ok]
+
+
+def _held_donors(rotations, translations, seen, gaps: Gaps, donor: np.ndarray) -> np.ndarray:
+    """Per gap at a clip end (held, one edge), the donors ``(2, G)`` kept: each of the
+    rotation's and the position's where holding the pose relative to it fills the gaps of
+    the same length planted beside the gap (:func:`_trials`, held from the same side) by
+    :data:`LINE_MARGIN` better than holding the edge sample in the world; else the world
+    (-1). Under tracker noise a donor adds its own noise to a held pose. A gap without room
+    for a trial keeps its donors."""
+    trials, of = _trials(seen, gaps, donor)
+    if not of.size:
+        return donor
+    lengths = trials.lengths
+    owner = np.repeat(of, lengths)
+    frames = np.repeat(trials.first, lengths) + _ranks(lengths)
+    joint = np.repeat(trials.joint, lengths)
+    at_end = gaps.first[owner] > 0  # held from the frame before the gap, else after it
+    edge = np.where(at_end, np.repeat(trials.first - 1, lengths), np.repeat(trials.stop, lengths))
+    error = np.zeros((2, 2, gaps.joint.size))  # (world, donor), (rotation, position)
+    for use, helpers in enumerate((np.full_like(donor, -1), donor)):
+        held = _relative(rotations, translations, joint, helpers[:, owner], edge)
+        d, _ = _frame_of(rotations, translations, helpers[0, owner], frames)
+        e, c = _frame_of(rotations, translations, helpers[1, owner], frames)
+        squares = (
+            quat.angle_between(quat.multiply(d, held[0]), rotations[frames, joint]) ** 2,
+            np.sum((c + quat.rotate(e, held[1]) - translations[frames, joint]) ** 2, axis=-1),
+        )
+        for k in range(2):
+            error[use, k] = np.bincount(owner, weights=squares[k], minlength=gaps.joint.size)
+    tried = np.bincount(of, minlength=gaps.joint.size) > 0
+    better = error[1] < (1.0 - LINE_MARGIN) * error[0]
+    return np.where(~tried | better, donor, -1)
 
 
 def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.ndarray, noise):

@@ -376,7 +376,7 @@ def _noise_stat(total: float | None, verdict: dict) -> str:
     if verdict.get("status") != "input only":
         return _stat(_num(total), label)
     left = jumps_left_out(verdict.get("unrepaired_jumps") or 0)
-    return _stat(_num(verdict.get("noise_before")), _e(label + left))
+    return _stat(_num(verdict.get("noise_before")), _e(label + ", weighted by reach" + left))
 
 
 def _headline(report: dict) -> list[str]:
@@ -397,7 +397,7 @@ def _headline(report: dict) -> list[str]:
             f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
             "jitter removed"
             + (" outside repairs" if repairs else "")
-            + " (RMS angular acceleration)",
+            + " (RMS angular acceleration, each joint weighted by its reach)",
         ),
         _stat(
             _num(verdict["change_deg_max"], 2) + "\u00b0",

@@ -97,7 +97,8 @@ def build_series(
     that involve a step of the input over :data:`~motionclean.core.jumps.JUMP_DEG` that no
     step repaired (:func:`unrepaired_jumps`: a flip or glitch left in place is no jitter;
     the deviation keeps those frames, where a smoothing that crossed the flip moved the
-    joint). ``unrepaired_jumps``: per joint name, how many such steps. No per-frame table
+    joint). ``unrepaired_jumps``: per joint name, how many such steps. ``reaches``: per
+    joint with rotation channels, :func:`~motionclean.core.kinematics.reaches`. No per-frame table
     of the joints is kept: each is reduced as soon as it is made (the feet's heights,
     ``(F,)`` per foot, are).
 
@@ -220,6 +221,7 @@ def build_series(
         "rest_frames": (lead, trail),
         "unrepaired_jumps": unrepaired,
         "changed_near_jumps": changed_near,
+        "reaches": kinematics.reaches(before)[rot],
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
     }
@@ -400,21 +402,38 @@ def _per_joint(figures: dict, key: str) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def _input_noise(series: dict) -> dict[str, Any]:
-    """The noise of a clip reported alone: its RMS angular acceleration (deg/s^2, None where
-    no three frames in a row are known) without the rows that involve a step of the input
-    over :data:`~motionclean.core.jumps.JUMP_DEG` (a flip or glitch is no jitter, as in a
+    """The noise of a clip reported alone: its RMS angular acceleration (deg/s^2, each
+    joint weighted by its reach, :func:`_reach_weights`; None where no three frames in a
+    row are known) without the rows that involve a step of the input over
+    :data:`~motionclean.core.jumps.JUMP_DEG` (a flip or glitch is no jitter, as in a
     cleaned clip's verdict), and how many such steps each joint makes."""
     squares, rows, _ = _per_joint(series["figures"], "accel_before")
+    weights = _reach_weights(series.get("reaches"), squares, rows)
     known = float(rows.sum())
     return {
-        "noise_before": math.sqrt(float(squares.sum()) / known) if known else None,
+        "noise_before": math.sqrt(float(weights @ squares) / known) if known else None,
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
     }
 
 
+def _reach_weights(reaches: np.ndarray | None, squares: np.ndarray, rows: np.ndarray):
+    """Per rotation joint, the weight of its squared angular acceleration in the verdict's
+    noise and jitter removed: its reach squared (:func:`~motionclean.core.kinematics.reaches`,
+    how far its jitter moves the body: a shoulder's an arm, a fingertip's a centimetre)
+    over their mean over the joints' ``rows`` (acceleration rows measured), so the
+    weighted RMS stays in deg/s^2 and equals the plain one where every joint reaches as
+    far; all ones where no joint with jitter (``squares`` > 0) has a reach (tracked
+    bodies)."""
+    if reaches is None or not np.any(reaches[squares > 0] > 0):
+        return np.ones_like(squares)
+    weights = np.square(reaches)
+    return weights * (rows.sum() / max(float(weights @ rows), np.finfo(float).tiny))
+
+
 def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     """The figures of smoothing alone (None for a single clip): the RMS angular acceleration
-    before and after (deg/s^2) and the fraction of it removed, and the largest and RMS
+    before and after (deg/s^2, each joint's squared acceleration weighted by its reach,
+    :func:`_reach_weights`) and the fraction of it removed, and the largest and RMS
     rotation change (degrees, and the joint of the largest) over every joint and frame,
     leaving out the rows that involve a frame a repairing step changed
     (:func:`build_series`' ``outside_repairs``)."""
@@ -424,13 +443,14 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     before, rows, _ = _per_joint(figures, "accel_before")
     after, _, _ = _per_joint(figures, "accel_after")
     squares, counts, largest = _per_joint(figures, "deviation")
-    total_before = float(before.sum())
-    removed = 1.0 - math.sqrt(float(after.sum()) / total_before) if total_before > 0 else 0.0
+    weights = _reach_weights(series.get("reaches"), before, rows)
+    total_before, total_after = float(weights @ before), float(weights @ after)
+    removed = 1.0 - math.sqrt(total_after / total_before) if total_before > 0 else 0.0
     worst = int(np.argmax(largest)) if largest.size else 0
     known = float(rows.sum())  # (0: no three frames in a row known: no noise measured)
     return {
         "noise_before": math.sqrt(total_before / known) if known else None,
-        "noise_after": math.sqrt(float(after.sum()) / known) if known else None,
+        "noise_after": math.sqrt(total_after / known) if known else None,
         "noise_removed": removed if known else None,
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),

@@ -391,7 +391,8 @@ def build_verdict(
 
     ``smoothing`` holds the figures outside repairs (None for a clip reported on its own):
     ``noise_before`` and ``noise_after`` (RMS angular acceleration, deg/s^2),
-    ``noise_removed`` (the fraction of it removed), ``change_deg_max`` and
+    ``noise_removed`` (the fraction of it removed, each joint's weighted by its reach
+    squared: :func:`~motionclean.report.summary.build_series`' ``reaches``), ``change_deg_max`` and
     ``change_deg_rms`` (rotation angle between input and output, degrees),
     ``change_joint`` (where the largest change is) and ``noise_level`` (the input's
     per-sample rotation noise, RMS over joints, degrees; None where the change is under

@@ -212,9 +212,10 @@ def test_all_bodies_missing_on_the_same_frames_are_filled_without_donors(bodies)
     assert np.sqrt(np.mean(degrees_between(filled.rotations[100:108], q[100:108]) ** 2)) < 1.0
 
 
-def test_a_follower_body_is_filled_from_its_donor():
+@pytest.mark.parametrize("gap", [slice(80, 130), slice(150, 200)], ids=["inside", "at_end"])
+def test_a_follower_body_is_filled_from_its_donor(gap):
     """A body rigidly attached to another (a marker cluster on the forearm) is filled
-    exactly by following it, however the two move."""
+    exactly by following it, however the two move, a gap at the clip's end too."""
     rng = np.random.default_rng(8)
     steps = quat.exp(rng.normal(size=(200, 3)) * 0.03)
     carrier = np.cumprod(np.ones(200))[:, None] * 0  # placeholder shape helper
@@ -227,7 +228,7 @@ def test_a_follower_body_is_filled_from_its_donor():
     q = np.stack([carrier_q, quat.multiply(carrier_q, offset_q)], axis=1)
     p = np.stack([carrier_p, carrier_p + quat.rotate(carrier_q, offset_p)], axis=1)
     missing = np.zeros((200, 2), dtype=bool)
-    missing[80:130, 1] = True
+    missing[gap, 1] = True
     filled = fill_gaps(q, p, missing, max_gap=60)
     assert filled.donor.tolist() == [[0], [0]]
     assert max_degrees(filled.rotations, quat.make_continuous(q)) < 1e-9
@@ -273,6 +274,31 @@ def test_a_body_whose_position_does_not_follow_another_is_filled_on_its_own():
     assert filled.donor[1].tolist() == [-1]
     error = np.linalg.norm(filled.translations[inside, 1] - p[inside, 1], axis=-1).max()
     assert error < 0.1 * np.abs(swerve).max()
+
+
+@pytest.mark.parametrize("at_end", [True, False])
+def test_a_gap_at_a_clip_end_follows_a_donor_only_where_that_holds_better(at_end):
+    """A gap at a clip end is held, relative to a donor only where that holds the gaps
+    planted beside it better than the edge sample: body 0 turns exactly with body 1 for
+    the 20 frames beside body 1's gap (their relative rotation is the smoothest there),
+    and swings away from it elsewhere, inside the gap too. Body 1 is held still, as it
+    is; following body 0 would swing it by up to 40 degrees."""
+    n, length = 400, 40
+    t = np.arange(n) / 120.0
+    own = quat.exp(0.002 * np.sin(37.0 * t)[:, None] * np.array([1.0, 0.0, 0.0]))
+    swing = np.radians(20.0) * (1.0 - np.cos(2 * np.pi * 0.8 * t))  # 0 to 40 degrees
+    edge = slice(n - length - 20, n - length) if at_end else slice(length, length + 20)
+    swing[edge] = 0.0
+    swing = np.convolve(np.pad(swing, 6, mode="edge"), np.ones(13) / 13, mode="valid")
+    swing[edge] = 0.0
+    body0 = quat.multiply(own, quat.exp(swing[:, None] / 2 * np.array([0.0, 0.0, 1.0])))
+    q = quat.make_continuous(np.stack([body0, own], axis=1))
+    missing = np.zeros((n, 2), dtype=bool)
+    gap = slice(n - length, n) if at_end else slice(0, length)
+    missing[gap, 1] = True
+    filled = fill_gaps(q, np.zeros((n, 2, 3)), missing, max_gap=60)
+    assert filled.donor[0].tolist() == [-1]
+    assert max_degrees(filled.rotations[gap, 1], q[gap, 1]) < 1.0
 
 
 @needs_realnoise
