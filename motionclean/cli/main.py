@@ -15,6 +15,7 @@ import textwrap
 import traceback
 import warnings
 from dataclasses import replace
+from pathlib import Path
 
 import click
 import numpy as np
@@ -237,10 +238,9 @@ def info(
         axis = kinematics.up_axis(motion)
         said = getattr(motion.source, "up_source", None) or "given by the file"
         source = "given" if up else said if motion.up else "found from the motion"
-        click.echo(
-            f"  up axis: {kinematics.up_name(motion)} ({source})"
-            f"   body height: {kinematics.body_height(motion, axis):.4g} units"
-        )
+        height = kinematics.body_height(motion, axis)
+        tall = f"{height:.4g} units" if height > 0 else "none (no skeleton)"
+        click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   body height: {tall}")
         contacts, _ = contact_figures(motion)
         for line in (
             format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
@@ -478,9 +478,12 @@ def report(
 ) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version, and the
     capture system `clean` would assume for SOURCE (--source) and why."""
-    for path in (json_path, html_path):
+    for option, path, html in (("--json", json_path, False), ("--html", html_path, True)):
         if path:
             check_report_output(path, (source, cleaned, *read.files))
+            if (Path(path).suffix.lower() != ".json") != html:
+                name = "end in .html or .htm" if html else "end in .json"
+                raise click.UsageError(f"{option} {path}: the file name must {name}")
     if json_path and html_path:
         refuse_shared([json_path, html_path])
     read = read.for_clips(source, cleaned)

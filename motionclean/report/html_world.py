@@ -545,11 +545,12 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     floor = ((report.get("contacts") or {}).get("floor") or {}).get("height")
     axes = ""
     if figures:
-        how = "given" if figures.get("up_axis_source") == "given" else "found from the motion"
-        axes = (
-            f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), body height "
-            f"{figures['body_height']:.4g} units</span>"
+        how = {"given": "given", "assumed": "assumed: the format's default"}.get(
+            str(figures.get("up_axis_source")), "found from the motion"
         )
+        height = figures.get("body_height")
+        tall = "no body height" if height is None else f"body height {height:.4g} units"
+        axes = f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), {tall}</span>"
     return [
         f"<style>{CSS}</style>",
         "<h2>The motion</h2>",

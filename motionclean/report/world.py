@@ -25,8 +25,12 @@ def format_world(world: dict) -> str:
     clip has no world figures)."""
     if "skipped" in world:
         return f"world: skipped ({world['skipped']})"
-    given = " (given)" if world.get("up_axis_source") == "given" else ""
-    text = f"world: up axis {world['up_axis']}{given}, body height {world['body_height']:.4g} units"
+    given = {"given": " (given)", "assumed": " (assumed: the format's default)"}.get(
+        str(world.get("up_axis_source")), ""
+    )
+    height = world["body_height"]
+    tall = "no body height (no skeleton)" if height is None else f"body height {height:.4g} units"
+    text = f"world: up axis {world['up_axis']}{given}, {tall}"
     worst = world.get("worst_deviation")
     if worst is not None:
         text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
@@ -150,11 +154,21 @@ def world_figures(
         }
     return {
         "up_axis": kinematics.up_name(before),
-        "up_axis_source": "found" if before.up is None else "given",
-        "body_height": height,
+        "up_axis_source": _up_source(before),
+        "body_height": height if height > 0 else None,
         "effectors": effectors,
         "worst_deviation": worst,
     }
+
+
+def _up_source(motion: Motion) -> str:
+    """Where the clip's up axis comes from: ``"found"`` from the motion, ``"given"`` (by
+    ``--up`` or a file that declares it, as glTF's y) or ``"assumed"``: a format's default
+    its file does not state (a Motive export's y, its text's ``assumed_up``)."""
+    if motion.up is None:
+        return "found"
+    assumed = getattr(motion.source, "assumed_up", None)
+    return "assumed" if assumed is not None and motion.up == assumed else "given"
 
 
 def contact_figures(

@@ -457,6 +457,26 @@ def test_bad_report_path_is_refused_before_anything_is_written(
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("option", "name", "message"),
+    [
+        ("--json", "r.html", "--json {}: the file name must end in .json"),
+        ("--html", "r.json", "--html {}: the file name must end in .html or .htm"),
+    ],
+)
+def test_report_options_write_their_own_format_or_refuse(
+    sample_path, tmp_path, capsys, option, name, message
+):
+    """`report --json r.html` had written the page (the suffix decided, the option was
+    ignored): a name of the other format is a usage error, before any work."""
+    target = tmp_path / name
+    code, _, err = run(["report", sample_path, option, target], capsys)
+    assert code == 2 and message.format(target) in err and err.count("\n") == 1
+    assert not target.exists()
+    code, _, err = run(["report", sample_path, "--html", tmp_path / "r.htm"], capsys)
+    assert code == 0 and (tmp_path / "r.htm").read_text().startswith("<!DOCTYPE html>")
+
+
 def test_clip_output_must_have_a_known_suffix(sample_path, tmp_path, capsys):
     code, _, err = run(["clean", sample_path, "-o", tmp_path / "c.json"], capsys)
     assert code == 2 and "a clip must end in .bvh or .csv" in err

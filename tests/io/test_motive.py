@@ -4,6 +4,7 @@ byte, blank cells as missing samples, and one clear error line for what is not r
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -565,8 +566,19 @@ def test_a_motive_take_is_y_up_as_motive_exports_are(tmp_path, capsys):
     assert mc.load(source).up == "y"
     code, out, _ = run_cli(capsys, "info", source)
     assert code == 0 and "up axis: y (Motive's default; the export does not say" in out
+    assert "body height: none (no skeleton)" in out  # (had read "0 units")
     code, out, _ = run_cli(capsys, "info", source, "--up", "z")
     assert code == 0 and "up axis: z (given)" in out
+    # clean and its report say the same: assumed, not given (the user gave nothing)
+    for up, said in ((None, "assumed"), ("z", "given")):
+        report = tmp_path / f"{up}.json"
+        extra = () if up is None else ("--up", up)
+        code, out, _ = run_cli(
+            capsys, "clean", source, "-o", tmp_path / "c.csv", "--report", report, *extra
+        )
+        world = json.loads(report.read_text())["world"]
+        assert code == 0 and world["up_axis_source"] == said and world["body_height"] is None
+        assert f"({said}" in out and "no body height (no skeleton)" in out
     code, _, err = run_cli(capsys, "convert", source, tmp_path / "take.glb")
     assert code == 0, err
     assert b"motionclean_up" not in (tmp_path / "take.glb").read_bytes()  # no node turning it
