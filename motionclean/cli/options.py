@@ -15,7 +15,7 @@ import click
 from ..core.errors import MotionError, UsageError
 from ..core.motion import UP_AXES
 from ..filters.auto import SOURCES
-from ..io import FORMATS, ReadOptions, smpl
+from ..io import FORMATS, NOT_A_FILE, ReadOptions, smpl
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
@@ -203,6 +203,8 @@ def check_target(path: str | Path, inputs: Inputs = ()) -> Path:
     lands = Path(os.path.realpath(path)) if path.is_symlink() else path
     if lands.is_dir():
         raise UsageError(f"{path}: is a directory")
+    if lands.exists() and not lands.is_file():
+        raise UsageError(f"{path}: {NOT_A_FILE}")
     if not lands.parent.is_dir():
         raise UsageError(f"{path}: no folder {str(lands.parent)!r} to write into")
     return path

@@ -27,6 +27,7 @@ from .files import read_regular_file
 
 __all__ = [
     "FORMATS",
+    "NOT_A_FILE",
     "ReadOptions",
     "atomic_write",
     "encode",
@@ -471,6 +472,13 @@ def atomic_write(path: str | os.PathLike, data: bytes | Iterable[bytes | memoryv
     write_together({path: data})
 
 
+#: Why an output that exists as a device or a pipe (or a link to one) is refused.
+NOT_A_FILE = (
+    "not a regular file (a device or pipe): outputs are written whole and renamed into "
+    "place, which would replace it"
+)
+
+
 def write_together(files: Mapping[str | os.PathLike, bytes | Iterable[bytes | memoryview]]) -> None:
     """Write several files as one: each to a temporary file beside it (in turn, as
     :func:`atomic_write`), and only when every one is complete are they all renamed into
@@ -481,6 +489,8 @@ def write_together(files: Mapping[str | os.PathLike, bytes | Iterable[bytes | me
     for shown, target in targets:  # before any byte is written
         if target.is_dir():
             raise MotionError("is a directory", shown)
+        if target.exists() and not target.is_file():
+            raise MotionError(NOT_A_FILE, shown)
     staged: list[tuple[str, Path, Path]] = []
     try:
         for (shown, target), data in zip(targets, files.values(), strict=True):

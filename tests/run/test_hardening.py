@@ -40,6 +40,30 @@ def test_a_fifo_or_device_is_refused_without_blocking(tmp_path, capsys):
     one_error_line(err, "not a regular file")
 
 
+@pytest.mark.parametrize("option", ["-o", "--report"])
+def test_an_output_that_is_a_device_or_a_pipe_is_refused_and_left_as_it_is(
+    tmp_path, capsys, option
+):
+    """Outputs are written whole and renamed into place: a pipe, or a link to /dev/null,
+    named as an output had been replaced by a regular file (the device itself, through
+    the link). Refused up front (exit 2), and by the writer itself for any caller."""
+    fifo = tmp_path / ("x.bvh" if option == "-o" else "x.json")
+    os.mkfifo(fifo)
+    null = tmp_path / ("null.bvh" if option == "-o" else "null.json")
+    null.symlink_to("/dev/null")
+    for target in (fifo, null):
+        args = ["-o", target] if option == "-o" else ["-o", tmp_path / "c.bvh", option, target]
+        code, _, err = run_cli(capsys, "clean", SAMPLE, *args)
+        assert code == 2
+        one_error_line(err, f"{target}: not a regular file (a device or pipe)")
+    assert fifo.is_fifo() and Path("/dev/null").is_char_device() and null.is_symlink()
+    assert not (tmp_path / "c.bvh").exists()
+    (tmp_path / "link.bvh").symlink_to("/dev/null")
+    with pytest.raises(MotionError, match="not a regular file"):
+        mc.save(mc.load(SAMPLE), tmp_path / "link.bvh")
+    assert Path("/dev/null").is_char_device()
+
+
 def test_a_fifo_inside_a_batch_folder_fails_that_clip_only(tmp_path, capsys):
     source = tmp_path / "in"
     cut_bvh(SAMPLE, source / "good.bvh", 40)
