@@ -200,10 +200,6 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
     return found
 
 
-def _plural(count: int, noun: str) -> str:
-    return f"{count} {noun}{'' if count == 1 else 's'}"
-
-
 def listed(names: list[str], limit: int = 2) -> str:
     """``"A, B and 3 more"``: the first ``limit`` of ``names``, and how many others."""
     shown = ", ".join(names[:limit])
@@ -231,7 +227,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         )
         if not counts:
             continue
-        total = f"{_plural(sum(n for n, _ in counts), noun)} {verb}"
+        total = f"{plural(sum(n for n, _ in counts), noun)} {verb}"
         if len(counts) == 1:
             words.append(f"{total} on {counts[0][1]}")
             continue
