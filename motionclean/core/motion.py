@@ -36,7 +36,7 @@ KNOWN_CHANNELS = frozenset(ROTATION_CHANNELS + POSITION_CHANNELS)
 #: ``ZPosition`` or ``XROTATION`` (read as the same channel; a file keeps its own text).
 CHANNEL_SPELLING = {name.lower(): name for name in KNOWN_CHANNELS}
 
-#: Frame times outside these (seconds) give rates no capture has: refused.
+#: Frame times outside these (seconds, both taken) give rates no capture has: refused.
 MIN_FRAME_TIME = 1e-6
 MAX_FRAME_TIME = 3600.0
 #: How readers' messages state that range.
@@ -319,9 +319,9 @@ class Motion:
             raise InvalidMotion(
                 f"frame_time: expected seconds as a number, got {type(self.frame_time).__name__}"
             )
-        if not MIN_FRAME_TIME <= self.frame_time < MAX_FRAME_TIME:  # (False for NaN too)
+        if not MIN_FRAME_TIME <= self.frame_time <= MAX_FRAME_TIME:  # (False for NaN too)
             raise InvalidMotion(
-                f"frame_time must be from {MIN_FRAME_TIME:g} s to under {MAX_FRAME_TIME:g} s, "
+                f"frame_time must be from {MIN_FRAME_TIME:g} s to {MAX_FRAME_TIME:g} s, "
                 f"got {self.frame_time!r} (no reader takes it)"
             )
         if self.up is not None and (not isinstance(self.up, str) or self.up not in UP_AXES):

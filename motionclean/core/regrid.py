@@ -66,7 +66,7 @@ def regridded(times: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray]
     a frame time no clip may have or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames
     per row."""
     frame_time = float(f"{np.median(np.diff(times)):.12g}")
-    if not MIN_FRAME_TIME <= frame_time < MAX_FRAME_TIME:
+    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
         raise ValueError(f"a median time step of {frame_time:.6g} s gives no usable frame rate")
     span = (times[-1] - times[0]) / frame_time
     if span > MOST_FRAMES_PER_ROW * times.size:

@@ -364,7 +364,7 @@ def _parse_motion_header(lines: _Lines, path) -> tuple[int, float]:
     frame_time = _number(tokens[2], "Frame Time", path, number)
     if frame_time <= 0:
         _fail(f"Frame Time must be positive, got {tokens[2][:40]}", path, number)
-    if not (math.isfinite(1.0 / frame_time) and frame_time < MAX_FRAME_TIME):
+    if not (math.isfinite(1.0 / frame_time) and frame_time <= MAX_FRAME_TIME):
         _fail(
             f"Frame Time {tokens[2][:40]} s gives no usable frame rate ({RATES_ACCEPTED})",
             path,

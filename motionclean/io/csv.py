@@ -452,7 +452,7 @@ def uniform_frame_time(
         return template
     with np.errstate(over="ignore", invalid="ignore"):
         mean = (times[-1] - times[0]) / (n - 1)
-    if not (MIN_FRAME_TIME <= mean < MAX_FRAME_TIME):
+    if not (MIN_FRAME_TIME <= mean <= MAX_FRAME_TIME):
         _fail(
             f"a time step of {mean:.6g} s gives no usable frame rate ({RATES_ACCEPTED})",
             path,

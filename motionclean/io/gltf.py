@@ -567,7 +567,7 @@ def _grid(keys: list[_Keys], n_joints: int, path) -> tuple[float, float, int]:
     if not timed:
         return start, 1.0 / 30.0, 1
     dt = _frame_time(min(timed, key=_step), start)
-    if not MIN_FRAME_TIME <= dt < MAX_FRAME_TIME:  # as every reader refuses such a rate
+    if not MIN_FRAME_TIME <= dt <= MAX_FRAME_TIME:  # as every reader refuses such a rate
         _fail(
             f"keys {dt:.6g} s apart: no usable frame rate ({RATES_ACCEPTED})",
             path,

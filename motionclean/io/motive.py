@@ -205,7 +205,7 @@ def _frame_rate(metadata: dict[str, str], path) -> float:
         rate = ascii_float(text.strip(" "))
     except ValueError:
         _fail(f"Export Frame Rate is not a number: {text[:40]!r}", path, 1)
-    if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME < rate <= 1.0 / MIN_FRAME_TIME):
+    if not (math.isfinite(rate) and 1.0 / MAX_FRAME_TIME <= rate <= 1.0 / MIN_FRAME_TIME):
         _fail(
             f"Export Frame Rate {text[:40]} is no usable frame rate ({RATES_ACCEPTED})",
             path,

@@ -8,19 +8,19 @@ import math
 
 import numpy as np
 import pytest
-from helpers import SAMPLE
+from helpers import SAMPLE, run_cli
 
 import motionclean as mc
 from motionclean.core.errors import InvalidMotion
 
 
 @pytest.mark.parametrize("suffix", [".bvh", ".csv"])
-@pytest.mark.parametrize("frame_time", [math.nan, 0.0, -1.0, math.inf, 1e-9, 1e5])
+@pytest.mark.parametrize("frame_time", [math.nan, 0.0, -1.0, math.inf, 1e-9, 3600.5, 1e5])
 def test_save_refuses_a_frame_time_load_would_refuse(tmp_path, suffix, frame_time):
     """A frame time no reader takes is refused where the clip is made (a pipeline had
     then failed on it with ZeroDivisionError or a NaN conversion), and by ``save`` when
     it was set on the clip afterwards."""
-    message = r"frame_time must be from 1e-06 s to under 3600 s, got"
+    message = r"frame_time must be from 1e-06 s to 3600 s, got"
     with pytest.raises(ValueError, match=message):  # (InvalidMotion)
         mc.load(SAMPLE).replace(frame_time=frame_time)
     clip = mc.load(SAMPLE)
@@ -28,6 +28,24 @@ def test_save_refuses_a_frame_time_load_would_refuse(tmp_path, suffix, frame_tim
     with pytest.raises(ValueError, match=message):
         mc.save(clip, tmp_path / f"o{suffix}")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", [".bvh", ".csv"])
+def test_the_rate_limits_are_taken_alike_everywhere(tmp_path, capsys, suffix):
+    """An hour a frame (the slowest rate `resample` takes, 1/3600 fps) is a clip every
+    reader takes too: `resample --frame-time 3600` had passed the option check, then failed
+    as the clip was made ("under 3600 s"), and a file with that frame time was refused by a
+    message whose own range held it."""
+    clip = mc.load(SAMPLE)
+    three = clip.replace(
+        rotations=clip.rotations[:3], translations=clip.translations[:3], frame_time=1800.0
+    )
+    source = tmp_path / f"c{suffix}"
+    mc.save(three.replace(source_values=None, source_rotations=None), source)
+    out = tmp_path / f"slow{suffix}"
+    code, _, err = run_cli(capsys, "resample", source, out, "--frame-time", "3600")
+    assert code == 0, err
+    assert mc.load(out).frame_time == 3600.0 and mc.load(out).n_frames == 2
 
 
 def test_an_edited_skeleton_is_written_and_the_frames_keep_their_text(tmp_path):
