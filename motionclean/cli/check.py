@@ -389,10 +389,11 @@ def check_command(
     for i, key in enumerate(keys):
         if results[i].status != "ok":
             continue
+        given = os.fspath(named[key])  # (errors name the clip as given, the table its key)
         base = document["clips"].get(key)
         if base is None:
             problems.append(
-                f"{key}: not in the baseline {baseline_path}; record it with --update "
+                f"{given}: not in the baseline {baseline_path}; record it with --update "
                 "(the other clips in it are kept)"
             )
             continue
@@ -400,7 +401,7 @@ def check_command(
         rows = compare(now, base, tolerance)
         table.append((key, rows))
         problems += [
-            _why(key, label, ref, value, verdict, tolerance)
+            _why(given, label, ref, value, verdict, tolerance)
             for label, ref, value, verdict in rows
             if verdict in ("WORSE", "CHANGED")
         ]
@@ -415,7 +416,7 @@ def check_command(
             )
             more = f" and {len(joints) - 3} more figures" if len(joints) > 3 else ""
             problems.append(
-                f"{key}: {plural(len({j for j, *_ in joints}), 'joint')} got worse "
+                f"{given}: {plural(len({j for j, *_ in joints}), 'joint')} got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"
             )
     unchecked = sorted(set(document["clips"]) - set(keys))

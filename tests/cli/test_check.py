@@ -250,6 +250,17 @@ def test_keys_are_relative_to_the_baseline_folder_and_links_are_not_followed(
     assert run_cli(capsys, "check", "../clips/linked.bvh", "--baseline", "b.json")[0] == 0
 
 
+def test_errors_name_a_clip_as_given_when_the_baseline_is_in_another_folder(clips, capsys):
+    """The baseline's keys are relative to its folder (``../clips/busy.bvh``), a path that
+    does not exist from where the command runs: the error lines name the clip as given."""
+    Path("ci").mkdir()
+    assert run_cli(capsys, "check", *clips, "--baseline", "ci/b.json", "--update")[0] == 0
+    make_noisier(clips[1])
+    code, _, err = run_cli(capsys, "check", *clips, "--baseline", "ci/b.json")
+    assert code == 1 and err.startswith(f"motionclean: error: {clips[1]}: ")
+    assert "../clips" not in err and Path(clips[1]).exists()
+
+
 def test_a_regression_on_one_joint_fails_although_the_clip_maximum_is_unchanged(clips, capsys):
     """The clip's largest deviation is RThumb's repaired flip; a weaker smoothing of the
     other joints leaves it alone but is caught joint by joint."""
