@@ -32,12 +32,13 @@ import click
 
 from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
+from ..core.words import plural
 from ..io import ReadOptions, atomic_write
 from ..report.summary import json_safe, to_json
 from ..report.verdict import listed
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
-from ..steps.base import is_number, plural
+from ..steps.base import is_number
 from .options import (
     PATH,
     PIPE_OPTION,

@@ -29,6 +29,7 @@ from ..core.restpose import rest_frames
 from ..core.takes import take_starts
 from ..core.threads import thread_count
 from ..core.version import __version__
+from ..core.words import plural
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
 from ..filters.multires import stitch_levels, stitch_width
@@ -64,7 +65,7 @@ from ..run.jobs import (
 from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
 from ..steps.auto import measured_source, seen_rotations
-from ..steps.base import brief_runs, fps_text, plural
+from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees
 from .batch import batch_command
 from .check import check_command
@@ -478,14 +479,16 @@ def report(
 ) -> None:
     """Noise figures of SOURCE, or before/after figures against its CLEANED version, and the
     capture system `clean` would assume for SOURCE (--source) and why."""
-    for option, path, html in (("--json", json_path, False), ("--html", html_path, True)):
+    named = (("--json", json_path, False), ("--html", html_path, True))
+    for _, path, _ in named:
         if path:
             check_report_output(path, (source, cleaned, *read.files))
-            if (Path(path).suffix.lower() != ".json") != html:
-                name = "end in .html or .htm" if html else "end in .json"
-                raise click.UsageError(f"{option} {path}: the file name must {name}")
     if json_path and html_path:
         refuse_shared([json_path, html_path])
+    for option, path, html in named:
+        if path and (Path(path).suffix.lower() != ".json") != html:
+            name = "end in .html or .htm" if html else "end in .json"
+            raise click.UsageError(f"{option} {path}: the file name must {name}")
     read = read.for_clips(source, cleaned)
     before = with_up(read.load(source), up)
     after = with_up(read.load(cleaned), up) if cleaned else None

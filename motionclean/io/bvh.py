@@ -37,6 +37,7 @@ from ..core.motion import (
     Motion,
 )
 from ..core.threads import in_parts, run_parts
+from ..core.words import plural
 from .files import FileBytes, pieces, refuse_binary
 from .text import (
     MAX_MAGNITUDE,
@@ -497,7 +498,8 @@ def _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path) -
         )
     if row_lines.size < n_frames:
         _fail(
-            f"the file ends after {row_lines.size} frame rows but Frames: says {n_frames}",
+            f"the file ends after {plural(int(row_lines.size), 'frame row')} but Frames: says "
+            f"{n_frames}",
             path,
             first_line + (row_lines[-1] if row_lines.size else -1),
         )

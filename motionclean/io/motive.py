@@ -62,6 +62,7 @@ import numpy as np
 
 from ..core.errors import MotionError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, RATES_ACCEPTED, Motion
+from ..core.words import plural
 from .bvh import BOM
 from .csv import (
     RIGID_CHANNELS,
@@ -287,11 +288,6 @@ def _header_rows(lines, path) -> tuple[dict[str, tuple[int, list[str]]], tuple[s
     return rows, tuple(order)
 
 
-def _count(n: int, what: str) -> str:
-    """``n`` and ``what``, plural but for one."""
-    return f"{n} {what}{'' if n == 1 else 's'}"
-
-
 def _shown(names: list[str]) -> str:
     """The first three of ``names`` for a message."""
     return ", ".join(name[:40] for name in names[:3]) + (" ..." if len(names) > 3 else "")
@@ -335,7 +331,7 @@ def _bodies(rows, axis: list[str], path):
     if not cells and bones:
         _fail(
             "no rigid bodies: skeleton (Bone) data is not read, only rigid bodies (the Type "
-            f"row has {_count(len(bones), 'bone')}, {_shown(list(bones))}, and no 'Rigid Body' "
+            f"row has {plural(len(bones), 'bone')}, {_shown(list(bones))}, and no 'Rigid Body' "
             "column)",
             path,
             rows["Type"][0],
@@ -372,7 +368,8 @@ def _check_count(stated: str | None, lines: np.ndarray, path) -> None:
         _fail(f"Total Exported Frames is not a whole number: {stated[:40]!r}", path, 1)
     if lines.size < count:
         _fail(
-            f"the file ends after {lines.size} frame rows but Total Exported Frames says "
+            f"the file ends after {plural(int(lines.size), 'frame row')} but Total Exported "
+            "Frames says "
             f"{count} (the file is cut short)",
             path,
             int(lines[-1]),
@@ -445,7 +442,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
     notes: list[str] = []
     if bones:
         notes.append(
-            f"{_count(len(bones), 'skeleton bone')} ({_shown(bones)}: Bone columns) carried as "
+            f"{plural(len(bones), 'skeleton bone')} ({_shown(bones)}: Bone columns) carried as "
             "they are, not read: only rigid bodies are"
         )
     on_grid = np.abs(times - times[0] - np.arange(times.size) * frame_time)

@@ -25,8 +25,9 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
+from ..core.words import plural
 from ..filters import noise
-from ..steps.base import fps_text, plural
+from ..steps.base import fps_text
 from .html_world import world_section
 from .summary import (
     format_noise_model,

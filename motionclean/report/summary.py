@@ -23,9 +23,10 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
+from ..core.words import plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
 from ..steps import REGISTRY
-from ..steps.base import format_params, fps_text, plural
+from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max

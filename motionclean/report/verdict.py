@@ -45,9 +45,10 @@ import numpy as np
 
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
+from ..core.words import plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
-from ..steps.base import format_runs, plural
+from ..steps.base import format_runs
 
 __all__ = [
     "CLEAN_CHANGE_DEG",

@@ -15,7 +15,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_spans, take_starts
-from ..steps.base import plural
+from ..core.words import plural
 from . import metrics
 from .metrics import known, pair, rms_and_max
 

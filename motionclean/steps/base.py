@@ -13,6 +13,7 @@ import numpy as np
 from ..core.errors import UsageError
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UP_AXES, Motion
+from ..core.words import plural
 
 
 @dataclass(frozen=True)
@@ -287,11 +288,6 @@ def format_params(params: dict) -> str:
     return ", ".join(
         f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items()
     )
-
-
-def plural(count: int, noun: str) -> str:
-    """``"1 frame"``, ``"2 frames"``: a count with its noun."""
-    return f"{count:,} {noun}{'' if count == 1 else 's'}"
 
 
 def fps_text(frame_time: float) -> str:

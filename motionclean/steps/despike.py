@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import UsageError
+from ..core.words import plural
 from ..filters.despike import (
     FLIP_DEG,
     TREND_RATIO,
@@ -21,7 +22,6 @@ from .base import (
     brief_runs,
     crop_runs,
     page_runs,
-    plural,
     shift_runs,
 )
 

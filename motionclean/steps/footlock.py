@@ -22,6 +22,7 @@ from ..core import contacts as found
 from ..core import kinematics
 from ..core.motion import Motion
 from ..core.rates import whole_frames
+from ..core.words import plural
 from ..filters.auto import estimate_noise, estimate_position_noise
 from ..filters.footlock import TOE_TOLERANCE, Leg, Prior, held_toes, hinge_axis, plant
 from .base import (
@@ -32,7 +33,6 @@ from .base import (
     crop_runs,
     format_runs,
     given_up,
-    plural,
     shift_runs,
 )
 

@@ -21,6 +21,7 @@ from ..core.motion import Motion, as_motion, hold_missing, joint_major_zeros
 from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.restpose import rest_frames, splice, trim
 from ..core.takes import take_spans, take_starts
+from ..core.words import plural
 from ..filters.gaps import fill_gaps
 from ..filters.resample import (
     resample_continuous,
@@ -28,7 +29,7 @@ from ..filters.resample import (
     resampled_length,
     sample_positions,
 )
-from .base import fps_text, plural
+from .base import fps_text
 
 #: Bytes the resampled arrays and their text take per new frame and channel value, about.
 BYTES_PER_VALUE = 96
