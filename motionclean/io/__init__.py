@@ -108,7 +108,8 @@ def load(
         one character each: give ``[pattern]``.
     frame_rate : float, optional
         Frames per second of a SMPL clip whose file states none, from
-        :data:`~motionclean.io.smpl.MIN_RATE` to ``MAX_RATE``.
+        :data:`~motionclean.io.smpl.MIN_RATE` to ``MAX_RATE``. Other formats do not use it
+        (the command line refuses ``--input-fps`` for them: one file there, many here).
     animation : str, optional
         The glTF animation to read, by name (or its index as digits); default the first.
         Other formats do not use it.
