@@ -109,7 +109,7 @@ def load(
     frame_rate : float, optional
         Frames per second of a SMPL clip whose file states none, from
         :data:`~motionclean.io.smpl.MIN_RATE` to ``MAX_RATE``. Other formats do not use it
-        (the command line refuses ``--input-fps`` for them: one file there, many here).
+        (the command line refuses ``--input-fps`` with them, as a likely mistake).
     animation : str, optional
         The glTF animation to read, by name (or its index as digits); default the first.
         Other formats do not use it.
