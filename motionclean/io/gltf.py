@@ -670,7 +670,10 @@ def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple
     """The index of the animation to read (``wanted``: its name, or its index as digits;
     None: the first; -1 when the file has none) and the note that says which of several."""
     names = _animation_names(animations)
-    listed = ", ".join(repr(n[:40]) for n in names[:40]) + (", ..." if len(names) > 40 else "")
+    listed = ", ".join(
+        repr(n[:40]) if animations[i].get("name") else f"{i} (unnamed)"
+        for i, n in enumerate(names[:40])
+    ) + (", ..." if len(names) > 40 else "")
     if wanted is None:
         if len(animations) > 1:
             return 0, (
