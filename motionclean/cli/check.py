@@ -46,7 +46,7 @@ from .options import (
     STEP_OPTION,
     UP_OPTION,
     FiniteRange,
-    check_target,
+    check_output,
     echo_warnings,
     pipeline_from_options,
     raise_failures,
@@ -348,7 +348,7 @@ def check_command(
     if replace and not update:
         raise UsageError("--replace goes with --update")
     if update:
-        check_target(baseline, (*clips, pipe, *read.files))
+        check_output(baseline, (".json",), "a baseline", (*clips, pipe, *read.files))
     read.refuse_unused(*clips)  # (an option that none of them uses)
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first

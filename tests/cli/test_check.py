@@ -167,6 +167,9 @@ def test_update_into_a_missing_folder_is_refused_before_any_clip(clips, capsys):
     assert (code, stdout) == (2, "")
     assert stderr == "motionclean: error: nodir/b.json: no folder 'nodir' to write into\n"
     assert not Path("nodir").exists()
+    code, _, stderr = run_cli(capsys, "check", *clips, "--baseline", "b.txt", "--update")
+    assert code == 2 and stderr == "motionclean: error: b.txt: a baseline must end in .json\n"
+    assert not Path("b.txt").exists()
 
 
 def test_clip_missing_from_the_baseline_fails(clips, capsys):
