@@ -387,4 +387,4 @@ def test_check_reads_clips_as_clean_does(tmp_path, capsys, monkeypatch):
     code, _, err = run_cli(capsys, *args, "--input-fps", "60", "--baseline", "b.json")
     assert code == 2 and "--input-fps applies to SMPL" in err  # (no clip here uses it)
     code, _, err = run_cli(capsys, *args, "--baseline", rig, "--update")
-    assert code == 2 and "refusing to overwrite the input" in err
+    assert code == 2 and "a baseline must end in .json" in err  # (never an input's name)
