@@ -402,8 +402,21 @@ def batch_command(
         if note:
             click.echo(note)
     echo_warnings(line for _, result in rows for line in result.warnings)
-    failures = [str(r.error) for _, r in rows if r.status == "failed" and r.error]
+    failures = [
+        _as_given(str(r.error), Path(in_dir) / name)
+        for name, r in rows
+        if r.status == "failed" and r.error
+    ]
     raise_failures(failures + ([lost] if lost else []))
+
+
+def _as_given(error: str, clip: Path) -> str:
+    """A clip's error line naming it as the command line gave its folder, not by the
+    absolute path its job was given (a Dask worker runs in a folder of its own)."""
+    absolute = os.fspath(clip.absolute())
+    if error.startswith(absolute + ":"):
+        return os.fspath(clip) + error[len(absolute) :]
+    return error
 
 
 def sizes(work: Sequence[Job]) -> list[int]:

@@ -54,6 +54,11 @@ def test_tree_with_a_broken_file(tree, tmp_path, capsys):
     assert len(errors) == 1
     assert re.fullmatch(r"motionclean: error: .*run/broken\.bvh:\d+: .+", errors[0])
     assert snapshot(tree) == before  # byte-identical, and nothing added inside IN_DIR
+    # named as given (relative here), not by the absolute path of the clip's job
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(tmp_path)
+        code, _, stderr = run_cli(capsys, "batch", "in", "-o", "out2", "-j", "1", "-q")
+    assert code == 1 and stderr.startswith("motionclean: error: in/run/broken.bvh:")
     written = sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file())
     assert written == ["csv/c.csv", "run/deep/b.BVH", "top.bvh", "walk/a.bvh"]
     for rel, frames in (
