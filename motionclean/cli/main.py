@@ -519,14 +519,13 @@ def capture_source_note(motion, source: str) -> dict:
     ``source_measured``; with the markerless model ``wander``, the median joint's, degrees,
     and ``wander_edge_hz``): measured as its ``auto`` step does, on the clip the steps
     before it leave (despike, fill-gaps), rest-pose frames left out."""
-    measured = source == "auto"
     found = measured_source(as_default_auto_sees(motion), source)
     slope = found.motion_slope
-    result = {
+    result = {  # (the slope is measured whatever the source, as auto's notes have it)
         "model": found.model,
         "source": source,
-        "motion_slope": slope if measured and math.isfinite(slope) else None,
-        "source_measured": measured,
+        "motion_slope": slope if math.isfinite(slope) else None,
+        "source_measured": True,
     }
     if found.model == "markerless":
         result["wander"] = median_joint(found.wander.tolist())

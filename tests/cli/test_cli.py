@@ -208,20 +208,23 @@ def test_info_gives_the_reports_acceleration_figures(clip, tmp_path, capsys):
     assert f"RMS angular acceleration {total:,.0f} deg/s^2" in out
 
 
+@pytest.mark.parametrize("given", [(), ("--source", "video")], ids=["auto", "video"])
 @pytest.mark.parametrize("name", ["131_02_noisy.bvh", "131_02_motive.csv"])
-def test_report_finds_the_capture_source_as_clean_does(name, tmp_path, capsys):
+def test_report_finds_the_capture_source_as_clean_does(name, given, tmp_path, capsys):
     """`report IN` measures the clip's motion slope where the default clean's auto step
     does, after despike (the noisy sample's flips) and fill-gaps (the tracker CSV's
-    dropout): the same line, the same slope."""
+    dropout): the same line, the same slope, a source given or not (the slope had been
+    null in `report`'s JSON where a source was given)."""
     source = ROOT / "sample_data" / name
     cleaned, found = tmp_path / f"c{source.suffix}", tmp_path / "c.json"
-    code, out, _ = run(["clean", source, "-o", cleaned, "--report", found], capsys)
+    code, out, _ = run(["clean", source, "-o", cleaned, "--report", found, *given], capsys)
     line = next(row for row in out.splitlines() if row.startswith("capture source:"))
-    code, text, _ = run(["report", source, "--json", tmp_path / "r.json"], capsys)
+    code, text, _ = run(["report", source, "--json", tmp_path / "r.json", *given], capsys)
     assert code == 0 and line in text.splitlines()
-    slopes = {j["auto"]["motion_slope"] for j in json.loads(found.read_text())["joints"].values()}
-    measured = json.loads((tmp_path / "r.json").read_text())["capture_source"]["motion_slope"]
-    assert slopes == {measured}
+    joints = json.loads(found.read_text())["joints"].values()
+    notes = {(j["auto"]["motion_slope"], j["auto"]["source_measured"]) for j in joints}
+    said = json.loads((tmp_path / "r.json").read_text())["capture_source"]
+    assert notes == {(said["motion_slope"], said["source_measured"])}
 
 
 def test_filters_catalogue_lists_every_filter_with_parameters(capsys):
