@@ -292,6 +292,17 @@ class Motion:
         n = len(self.names)
         if n == 0:  # (every writer indexes a joint; no reader makes such a clip)
             raise InvalidMotion("names: a clip needs at least one joint, got none")
+        odd = next((name for name in self.names if not isinstance(name, str)), None)
+        if odd is not None:
+            raise InvalidMotion(f"names: expected strings, got {type(odd).__name__} {odd!r}")
+        if len(self.channels) != n:
+            raise InvalidMotion(
+                f"channels: expected {n} tuples of channel names (one per joint), got "
+                f"{len(self.channels)}"
+            )
+        for name, own in zip(self.names, self.channels, strict=True):
+            if not isinstance(own, tuple | list) or not all(isinstance(c, str) for c in own):
+                raise InvalidMotion(f"channels: {name!r}'s are not a tuple of channel names")
         self.rotations = checks.as_float_array(self.rotations, "rotations")
         self.translations = checks.as_float_array(self.translations, "translations")
         frames = self.rotations.shape[0] if self.rotations.ndim else 0

@@ -482,7 +482,7 @@ def from_euler(angles_deg: np.ndarray, order: str) -> np.ndarray:
     ``w = ca cb cc - p sa sb sc``, ``v_i = sa cb cc + p ca sb sc``,
     ``v_j = ca sb cc - p sa cb sc``, ``v_k = p sa sb cc + ca cb sc``.
     """
-    angles = np.asarray(angles_deg, dtype=np.float64)
+    angles = shaped(angles_deg, 3, "angles_deg")
     i, j, k = _order_axes(order)
     p = 1.0 if (j - i) % 3 == 1 else -1.0
     half = np.deg2rad(angles) * 0.5
@@ -540,7 +540,7 @@ def _principal(q: np.ndarray, order: str):
     ``to_euler``'s other triples, ``(a, b, c, sin_b, cos_b)`` in radians."""
     i, j, k = _order_axes(order)
     parity = 1.0 if (j - i) % 3 == 1 else -1.0
-    q = np.asarray(q, dtype=np.float64)
+    q = shaped(q, 4, "q")
     m_ii, m_ij = _matrix_element(q, i, i), _matrix_element(q, i, j)
     sine = parity * _matrix_element(q, i, k)
     sin_b = np.clip(sine, -1.0, 1.0)
@@ -575,7 +575,7 @@ def to_euler(q: np.ndarray, order: str, reference: np.ndarray | None = None) -> 
     q = np.asarray(q, dtype=np.float64)
     locked = cos_b < GIMBAL_EPS
     out = principal
-    ref = np.deg2rad(np.broadcast_to(np.asarray(reference, dtype=np.float64), out.shape))
+    ref = np.deg2rad(np.broadcast_to(shaped(reference, 3, "reference"), out.shape))
     ra, rb, rc = ref[..., 0], ref[..., 1], ref[..., 2]
     a1, b1, c1 = _nearest_turn(a, ra), _nearest_turn(b, rb), _nearest_turn(c, rc)
     a2 = _nearest_turn(a + np.pi, ra)

@@ -67,7 +67,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core import quat
+from ..core import checks, quat
 from ..core.motion import missing_before
 from .interpolate import end_tangent, hermite_positions, hermite_rotations
 
@@ -619,7 +619,23 @@ def fill_gaps(
     ``use_positions`` ``(J,)`` marks the joints whose translations are data (default all);
     ``donors`` False bridges every joint in the world frame. Longer gaps stay missing and
     untouched, and so does a joint never seen at all.
+
+    Raises TypeError or ValueError naming the argument: rotations that are not finite
+    unit quaternions ``(F, J, 4)``, translations not finite ``(F, J, 3)``, ``missing`` not
+    a bool array ``(F, J)``, ``max_gap`` not a whole number of frames >= 0,
+    ``use_positions`` not a bool array ``(J,)``.
     """
+    rotations = checks.unit_quaternions(rotations, "rotations")
+    translations = checks.vectors(translations, "translations")
+    if rotations.ndim != 3 or translations.shape != rotations.shape[:2] + (3,):
+        raise ValueError(
+            f"rotations and translations: expected shapes (F, J, 4) and (F, J, 3), got "
+            f"{rotations.shape} and {translations.shape}"
+        )
+    missing = _mask(missing, "missing", rotations.shape[:2])
+    max_gap = checks.whole(max_gap, "max_gap")
+    if use_positions is not None:
+        use_positions = _mask(use_positions, "use_positions", rotations.shape[1:2])
     n_frames, n_joints = missing.shape
     use_positions = np.ones(n_joints, bool) if use_positions is None else use_positions
     gaps = Gaps.of(missing)
@@ -674,6 +690,17 @@ def fill_gaps(
     p[frame[moved], joint[moved]] = (c + quat.rotate(e, rel_p))[moved]
     q = quat.make_continuous(q, axis=0)
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
+
+
+def _mask(x, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` as a bool array of ``shape``, or ValueError naming it."""
+    mask = np.asarray(x)
+    if mask.dtype != bool or mask.shape != tuple(shape):
+        raise ValueError(
+            f"{name}: expected a bool array of shape {tuple(shape)}, got {mask.dtype} "
+            f"{mask.shape}"
+        )
+    return mask
 
 
 def _trials(seen, gaps: Gaps, donors: np.ndarray):

@@ -61,6 +61,29 @@ class Step:
         return out
 
 
+def _table_of(step: Step) -> dict:
+    """A step as the table :func:`make_step` validates: its filter, the parameters given
+    (None: the default), joints, positions and frame range."""
+    table: dict[str, Any] = {"filter": step.spec.name}
+    params = step.params if isinstance(step.params, dict) else {}
+    defaults = {param.name: param.default for param in step.spec.params}
+    full = defaults | params
+    names = step.spec.relevant(full) if step.spec.relevant else tuple(full)
+    table.update(  # (a default another setting makes irrelevant, as a validated step has)
+        {
+            k: v
+            for k, v in params.items()
+            if v is not None and (k in names or k not in defaults or v != defaults[k])
+        }
+    )
+    if step.spec.run_motion is None:
+        table["joints"] = step.joints if isinstance(step.joints, str) else list(step.joints)
+        table["positions"] = step.positions
+    if step.span is not None:
+        table.update(step.span.describe())
+    return table
+
+
 def make_step(table: dict, where: str, key_places: dict[str, str] | None = None) -> Step:
     """Validate one step table (``{"filter": ..., params...}``) into a :class:`Step`.
     ``where`` starts its errors; ``key_places`` gives a key's own (its line in a file),
@@ -348,7 +371,11 @@ class Pipeline:
                 f"steps: expected a list of Step (Pipeline.from_tables, from_toml and "
                 f"from_inline make them), got a {type(self.steps).__name__} holding {odd[0]}"
             )
-        self.steps = list(self.steps)
+        # a Step made by hand is validated (and its defaults filled) as a table would be
+        self.steps = [
+            make_step(_table_of(step), f"{self.origin}: step {number}")
+            for number, step in enumerate(self.steps, 1)
+        ]
 
     @classmethod
     def from_tables(

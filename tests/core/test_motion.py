@@ -132,3 +132,27 @@ def test_a_clip_without_joints_is_refused_when_built_and_when_saved(tmp_path, su
     with pytest.raises(InvalidMotion, match="a clip needs at least one joint"):
         mc.save(motion, tmp_path / f"x.{suffix}")
     assert not (tmp_path / f"x.{suffix}").exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"channels": [("Zrotation", "Yrotation", "Xrotation")]}, "channels: expected 3 tuples"),
+        ({"channels": [("Zrotation",), ("Zrotation",), 5]}, "channels: 'c''s are not a tuple"),
+        ({"names": [1, 2, 3]}, "names: expected strings, got int 1"),
+    ],
+)
+def test_a_clip_made_by_hand_is_checked_where_it_is_made(change, message):
+    """Channels of the wrong count and names that are no strings had been accepted, then
+    failed in `save` with IndexError or AttributeError."""
+    fields = {
+        "names": ["a", "b", "c"],
+        "parents": np.array([-1, 0, 1]),
+        "offsets": np.zeros((3, 3)),
+        "channels": [("Zrotation", "Yrotation", "Xrotation")] * 3,
+        "frame_time": 1 / 30,
+        "rotations": np.tile([1.0, 0.0, 0.0, 0.0], (10, 3, 1)),
+        "translations": np.zeros((10, 3, 3)),
+    }
+    with pytest.raises(InvalidMotion, match=re.escape(message)):
+        mc.Motion(**(fields | change))

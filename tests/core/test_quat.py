@@ -362,3 +362,18 @@ def test_euler_and_middle_sine_are_to_euler_and_euler_middle_sine(order):
     angles, sine = quat.euler_and_middle_sine(q, order)
     np.testing.assert_array_equal(angles, quat.to_euler(q, order))
     np.testing.assert_array_equal(sine, quat.euler_middle_sine(q, order))
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: quat.from_euler(np.array([10.0, 20, 30, 40]), "ZYX"), r"angles_deg: .*\(4,\)"),
+        (lambda: quat.from_euler(np.zeros(2), "ZYX"), r"angles_deg: expected shape \(\.\.\., 3\)"),
+        (lambda: quat.to_euler(np.array([0.5, 0.5, 0.5, 0.5, 7.0]), "ZYX"), r"q: .*\(5,\)"),
+        (lambda: quat.to_euler(quat.identity(()), "ZYX", np.zeros(2)), r"reference: "),
+    ],
+)
+def test_euler_conversions_refuse_a_wrong_width_naming_the_argument(call, message):
+    """A fourth angle had been dropped silently and a fifth component ignored."""
+    with pytest.raises(ValueError, match=message):
+        call()

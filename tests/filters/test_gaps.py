@@ -276,6 +276,30 @@ def test_a_body_whose_position_does_not_follow_another_is_filled_on_its_own():
     assert error < 0.1 * np.abs(swerve).max()
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda q, p, m: (2.0 * q, p, m, 30), "rotations: not a unit quaternion"),
+        (lambda q, p, m: (q, p[..., :2], m, 30), "translations: expected shape"),
+        (
+            lambda q, p, m: (q, p, m[:, :1], 30),
+            r"missing: expected a bool array of shape \(80, 2\)",
+        ),
+        (lambda q, p, m: (q, p, m.astype(int), 30), "missing: expected a bool array"),
+        (lambda q, p, m: (q, p, m, -1), "max_gap: expected a whole number >= 0"),
+        (lambda q, p, m: (q, p, m, "x"), "max_gap: expected a number"),
+    ],
+)
+def test_fill_gaps_refuses_bad_arguments_naming_them(change, message):
+    """As every other filter does: quaternions of norm 2 had come out of norm 2, a mask of
+    the wrong shape had failed deep in numpy, a negative max_gap filled nothing."""
+    q = quat.make_continuous(smooth_synthetic(frames=80, joints=2, seed=2))
+    missing = np.zeros((80, 2), dtype=bool)
+    missing[30:40, 0] = True
+    with pytest.raises((TypeError, ValueError), match=message):
+        fill_gaps(*change(q, np.zeros((80, 2, 3)), missing))
+
+
 @pytest.mark.parametrize("at_end", [True, False])
 def test_a_gap_at_a_clip_end_follows_a_donor_only_where_that_holds_better(at_end):
     """A gap at a clip end is held, relative to a donor only where that holds the gaps

@@ -355,3 +355,19 @@ def test_a_diverging_step_on_the_command_line_is_one_line_without_warnings(tmp_p
     assert done.stderr.count("\n") == 1, done.stderr
     assert done.stderr.startswith(f"motionclean: error: {SAMPLE}: step 1 (lee-shin) made ")
     assert not (tmp_path / "o.bvh").exists()
+
+
+def test_a_step_made_by_hand_is_validated_as_a_table_is():
+    """A Step built in Python had run unvalidated: KeyError 'mask' for lee-shin without
+    it, a bad value found only when running. Now its defaults are filled and its values
+    checked where the pipeline is made."""
+    from motionclean.steps import REGISTRY
+    from motionclean.steps.pipeline import Step
+
+    made = Pipeline([Step(REGISTRY["lee-shin"], {"k": 3}, ("*",), True)])
+    assert made.steps[0].params["mask"] == "binomial"
+    assert made.describe() == Pipeline.from_inline(["lee-shin:k=3"]).describe()
+    with pytest.raises(UsageError, match=r"step 1 \(lee-shin\): k must be an integer >= 0"):
+        Pipeline([Step(REGISTRY["lee-shin"], {"k": -1}, ("*",), True)])
+    with pytest.raises(UsageError, match="'lam' is not used with mask=binomial"):
+        Pipeline([Step(REGISTRY["lee-shin"], {"lam": 0.3}, ("*",), True)])
