@@ -697,8 +697,7 @@ def _mask(x, name: str, shape: tuple[int, ...]) -> np.ndarray:
     mask = np.asarray(x)
     if mask.dtype != bool or mask.shape != tuple(shape):
         raise ValueError(
-            f"{name}: expected a bool array of shape {tuple(shape)}, got {mask.dtype} "
-            f"{mask.shape}"
+            f"{name}: expected a bool array of shape {tuple(shape)}, got {mask.dtype} {mask.shape}"
         )
     return mask
 

@@ -108,6 +108,7 @@ svg .gridline{stroke:#e6e9ef;stroke-width:1}
 svg .series{fill:none;stroke-width:1;stroke-linejoin:round}
 .note{color:#5a6272;font-size:12.5px}
 details{margin:22px 0 0;overflow-x:auto}
+.wide{overflow-x:auto}
 summary{cursor:pointer;font-weight:600;font-size:15px;margin-bottom:10px}
 details table{margin-bottom:12px}
 """
@@ -151,7 +152,10 @@ def _nice_step(span: float, count: int) -> float:
 
 
 def _anchor(name: str) -> str:
-    return "j-" + "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+    """A joint's card id: its letters, digits and hyphens, every other character as its
+    code point between underscores (``Hip<L`` ``j-Hip_3c_L``), so two names never share
+    one (``Hip<L`` and ``Hip>L`` had both been ``j-Hip_L``)."""
+    return "j-" + "".join(c if c.isalnum() or c == "-" else f"_{ord(c):x}_" for c in name)
 
 
 # ----------------------------------------------------------------------------- plots
@@ -334,7 +338,7 @@ def _pipeline(steps: Sequence[dict], cleaned: bool = True) -> str:
         return (
             '<p class="note">Not recorded: the two clips were compared as given.</p>'
             if cleaned
-            else '<p class="note">None: figures of the input only.</p>'
+            else '<p class="note">No pipeline: figures of the input only.</p>'
         )
     items = []
     for step in steps:
@@ -398,7 +402,9 @@ def _headline(report: dict) -> list[str]:
             f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
             "jitter removed"
             + (" outside repairs" if repairs else "")
-            + " (RMS angular acceleration, each joint weighted by its reach)",
+            + " (RMS angular acceleration, each joint weighted by its reach: "
+            + f"{_num(verdict['noise_before'])} \u2192 {_num(verdict['noise_after'])} "
+            + "deg/s\u00b2)",
         ),
         _stat(
             _num(verdict["change_deg_max"], 2) + "\u00b0",
@@ -408,7 +414,7 @@ def _headline(report: dict) -> list[str]:
         ),
     ]
     if repairs:
-        kinds = {"turned": "repair", "flips": "flip", "spikes": "spike", "gaps_filled": "gap"}
+        kinds = {"turned": "turn", "flips": "flip", "spikes": "spike", "gaps_filled": "gap"}
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
         done = (
             ", ".join(
@@ -422,8 +428,7 @@ def _headline(report: dict) -> list[str]:
         stats.append(
             _stat(
                 _e(done),
-                f"repaired on {frames:,} frame{'' if frames == 1 else 's'} of "
-                f"{_e(', '.join(repairs))}",
+                f"repaired on {plural(frames, 'frame')} of {_e(', '.join(repairs))}",
             )
         )
     stats.append(
@@ -865,11 +870,13 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
         ]
         look = ' class="look"' if e.get("verdict_status") == "needs a look" else ""
         rows.append(f"<tr{look}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    body.append('<table class="index">' + "".join(rows) + "</table>")
+    body.append('<div class="wide"><table class="index">' + "".join(rows) + "</table></div>")
     body.append(
-        '<p class="note">Noise: RMS angular acceleration over all joints and frames, '
-        "deg/s\u00b2; noise, jitter removed and largest change are measured outside the "
-        "frames that were repaired (flips, spikes, gaps), as in each clip's verdict.</p>"
+        '<p class="note">Noise: RMS angular acceleration over all joints and frames, each '
+        "joint weighted by its reach (how far its rotation moves the body), deg/s\u00b2; "
+        "noise, jitter removed and largest change are measured outside the frames that "
+        "were repaired (flips, spikes, gaps), as in each clip's verdict and its page's "
+        "first figure.</p>"
     )
     # (read back by a resumed batch: the clips it skips keep their figures)
     body.append(_data_block(INDEX_DATA, {"pipeline": list(pipeline), "clips": list(entries)}))

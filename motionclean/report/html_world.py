@@ -21,6 +21,10 @@ __all__ = ["world_section", "world_series"]
 
 #: Most frames the player and the trajectories carry (evenly spaced, first and last kept).
 PLAYER_FRAMES = 400
+#: A long clip, carried every k-th frame, plays at least this many of them per second
+#: (faster than its own rate, and says how much): in real time every 200th frame of a
+#: 51,000-frame clip had shown a new pose every 1.7 s, a pass taking 7 minutes.
+PLAYER_STEPS_PER_S = 15.0
 #: Coordinates are stored as integers in thousandths of the body height.
 QUANTUM = 1000.0
 BEFORE, AFTER = "#e0892b", "#1f57b8"
@@ -383,6 +387,7 @@ PLAYER_SCRIPT = """
     slider.value = current;
     label.textContent = 'frame ' + data.frames[current] + (asked === null ||
       asked === data.frames[current] ? '' : ' (nearest carried to frame ' + asked + ')');
+    slider.setAttribute('aria-valuetext', 'frame ' + data.frames[current]);
     asked = null;
   }
   function nearest(frame) {
@@ -437,8 +442,10 @@ def _floor_line(height: float | None, low: float, span: float) -> str:
 
 def _player(series: dict, frame_time: float, floor: float | None) -> str:
     """The skeleton player, playing at the clip's own rate (``frame_time`` seconds per frame,
-    by elapsed time); ``floor``: the floor's height along the up axis (file units, the
-    report's ``contacts.floor``), drawn as a line, or None."""
+    by elapsed time; a clip carried every k-th frame at least :data:`PLAYER_STEPS_PER_S`
+    carried frames per second, the speed said beside the frame number); ``floor``: the
+    floor's height along the up axis (file units, the report's ``contacts.floor``), drawn
+    as a line, or None."""
     views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
     low, span = _window(series, floor)
@@ -449,6 +456,14 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         return np.round(points * scale).astype(int).reshape(len(points), -1).tolist()
 
     frames = series["frames"]
+    stride = int(frames[1] - frames[0]) if len(frames) > 1 else 1
+    real_ms = 1000.0 * frame_time
+    frame_ms = real_ms if stride == 1 else min(real_ms, 1000.0 / (PLAYER_STEPS_PER_S * stride))
+    speed = (
+        ""
+        if frame_ms == real_ms
+        else f' <span class="speed">played {real_ms / frame_ms:.3g}x its speed</span>'
+    )
 
     def hidden(unknown: np.ndarray | None) -> list | None:
         """Per shown frame, the points to hide (unknown: a tracker dropout)."""
@@ -469,7 +484,7 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         "span": round(span * scale, 1),
         "floor": None if floor is None else round(floor * scale, 1),
         "colours": [BEFORE, AFTER],
-        "frame_ms": 1000.0 * frame_time,
+        "frame_ms": frame_ms,
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
     static = _static_frame(series, 0, views["front"], (low, span))
@@ -479,8 +494,9 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>'
         f"{_floor_line(floor, low, span)}{static}</svg>"
         '<div class="controls"><button id="mc-play" type="button">play</button>'
-        f'<input id="mc-slider" type="range" min="0" max="{len(frames) - 1}" value="0">'
-        '<span id="mc-frame">frame 0</span> <select id="mc-view">'
+        f'<input id="mc-slider" type="range" min="0" max="{len(frames) - 1}" value="0" '
+        'aria-label="frame" aria-valuetext="frame 0">'
+        f'<span id="mc-frame">frame 0</span>{speed} <select id="mc-view" aria-label="view">'
         '<option value="front">front</option><option value="side">side</option>'
         '<option value="top">top</option></select></div></div>'
         f'<script type="application/json" id="mc-world">{text}</script>'
@@ -494,7 +510,7 @@ CSS = (
     "svg.view{width:100%;height:auto;border:1px solid #e3e6ea}"
     "svg.view text.width{font-size:9px;fill:#5a6272}"
     ".player{max-width:560px}.controls{display:flex;gap:8px;align-items:center;margin:6px 0}"
-    "#mc-slider{flex:1}"
+    "#mc-slider{flex:1}.speed{color:#5a6272;font-size:12px}"
     "details.still{margin:8px 0 0}details.still summary{font-weight:400;font-size:12.5px}"
 )
 

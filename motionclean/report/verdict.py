@@ -554,7 +554,8 @@ def build_verdict(
         "text": text,
         "noise_before": smoothing.get("noise_before"),
         "noise_after": smoothing.get("noise_after"),
-        "noise_removed": smoothing["noise_removed"],
+        # (a clip too short to judge has no jitter removed to show, as one unmeasured)
+        "noise_removed": None if too_short else smoothing["noise_removed"],
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
         "change_joint": joint if change >= UNCHANGED_DEG else None,

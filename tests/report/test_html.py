@@ -142,6 +142,23 @@ def test_names_are_escaped(cleaned):
     assert '<script>alert("x")' not in text and "&lt;script&gt;alert" in text
 
 
+def test_joint_names_that_differ_in_other_characters_get_their_own_cards(cleaned):
+    """Every joint's link leads to its own card: ``Hip<L`` and ``Hip>L`` had shared one id
+    (every character but letters and digits was an underscore)."""
+    motion, _, _ = cleaned
+    names = list(motion.names)
+    names[2], names[7] = "Hip<L", "Hip>L"
+    renamed = motion.replace(names=names)
+    after, _ = Pipeline.from_inline(["lee-shin:k=2"]).run(renamed)
+    report = build_report(renamed, after, [], None, "x.bvh")
+    page = render_html(report, build_series(renamed, after))
+    ids = re.findall(r'<section class="card" id="([^"]+)"', page)
+    assert len(ids) == len(set(ids)) and len(ids) >= 2
+    links = dict(re.findall(r'<a href="#([^"]+)">([^<]+)</a>', page))
+    assert links and all(i in ids for i in links)
+    assert {links[i] for i in links} >= {"Hip&lt;L", "Hip&gt;L"}
+
+
 def test_json_report_is_unchanged_by_series(cleaned):
     motion, after, report = cleaned
     before = to_json(report)

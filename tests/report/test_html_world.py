@@ -79,6 +79,32 @@ def test_a_long_clip_is_subsampled_and_the_page_stays_small():
     # every 5th frame and the last: round frame numbers (#frame=150 is carried)
     assert len(frames) <= PLAYER_FRAMES and frames[0] == "0" and frames[-1] == "1246"
     assert frames[1] == "5" and "150" in frames
+    # every 5th frame at 120 fps: 24 carried frames a second in real time, as it plays
+    assert "its speed" not in text
+    assert json.loads(re.search(r'"frame_ms":([\d.e-]+)', text).group(1)) == pytest.approx(
+        1000 / 120,
+        rel=1e-4,  # (the file's frame time, 0.0083333 s)
+    )
+
+
+def test_a_clip_carried_sparsely_plays_faster_and_says_so(tmp_path):
+    """Every 20th frame of a 5,000-frame clip at 120 fps in real time would show a new
+    pose 6 times a second: it plays 15 carried frames a second, 2.5x, and says so."""
+    clip = mc.load(NOISY)
+    back = np.concatenate([np.arange(clip.n_frames), np.arange(clip.n_frames - 2, 0, -1)])
+    rows = np.resize(back, 5000)
+    long = clip.replace(
+        rotations=clip.rotations[rows],
+        translations=clip.translations[rows],
+        source_values=None,
+        source_rotations=None,
+    )
+    mc.save(long, tmp_path / "long.bvh")
+    text = page_of(tmp_path / "long.bvh")
+    frames = json.loads(re.search(r'"frames":(\[[\d,]+\])', text).group(1))
+    frame_ms = float(re.search(r'"frame_ms":([\d.e-]+)', text).group(1))
+    assert frames[1] == 20 and frame_ms * 20 == pytest.approx(1000 / 15)
+    assert "played 2.5x its speed" in text
 
 
 def chromium_dom(page, fragment: str) -> str:

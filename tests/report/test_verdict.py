@@ -354,7 +354,7 @@ def test_two_clips_compared_take_turns_over_a_quarter_turn_for_repairs(tmp_path,
     # the page's repair card counts them too (it had said "none" beside "repaired on 48")
     code, _, err = run_cli(capsys, "report", NOISY, cleaned, "--html", tmp_path / "r.html")
     page = (tmp_path / "r.html").read_text()
-    assert code == 0 and ">5 repairs<" in page and "repaired on 48 frames of RThumb" in page
+    assert code == 0 and ">5 turns<" in page and "repaired on 48 frames of RThumb" in page
 
 
 def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_path, capsys):
