@@ -725,7 +725,10 @@ def _move_positions(p: np.ndarray, s: np.ndarray, out: np.ndarray) -> None:
 
 
 def _writable(cols: np.ndarray, given, overwrite: bool) -> bool:
-    """Whether the result may go into ``cols``, the columns of the caller's ``given``."""
+    """Whether the result may go into ``cols``, the columns of the caller's ``given``
+    (never read-only ones: the result goes into a new array, as for a float32 ``q``)."""
+    if not cols.flags.writeable:
+        return False
     return overwrite or not (isinstance(given, np.ndarray) and np.may_share_memory(cols, given))
 
 
@@ -787,7 +790,8 @@ def auto(
         columns: white noise of that level everywhere instead of the fitted model.
     overwrite : bool
         Write the result into ``q`` (a float64 array the caller no longer needs) instead of
-        a new array: one clip's worth of memory less. Default False.
+        a new array: one clip's worth of memory less. Default False. A ``q`` that is
+        read-only, or not float64, is never written: the result is a new array.
     source : str
         The capture system, which says which frequencies may hold noise (:data:`SOURCES`):
         ``"markerless"`` or ``"video"`` (pose estimators, whose noise reaches down into

@@ -409,10 +409,15 @@ def _mend_stretch_ends(filtered, x, b, first, count) -> np.ndarray:
 
 
 def lee_shin_positions(p: np.ndarray, mask, iterations: int = 1) -> np.ndarray:
-    """Vector counterpart of :func:`lee_shin` on ``(F, ..., 3)`` positions.
+    """Vector counterpart of :func:`lee_shin` on ``(F, ..., D)`` vectors, time along axis
+    0 (positions: ``D = 3``, in their own length unit; any width is filtered alike, each
+    component on its own: quaternions given here by mistake are filtered as 4-vectors,
+    not as rotations).
 
     ``p_i + sum_m b_m d_{i+m}`` with ``d_i = p_{i+1} - p_i`` mirrored by Eq. 26: plain
     convolution with the mask in the interior, the same boundary rule as orientations.
+    Returns a new float64 array of the same shape; TypeError or ValueError for values
+    that are no finite numbers, a bad mask or iterations.
     """
     b = displacement_coefficients(mask)
     iterations = check_iterations(iterations)

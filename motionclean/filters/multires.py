@@ -173,6 +173,8 @@ def _levels(levels) -> int:
 
 def _per_level(values, levels: int, name: str) -> np.ndarray:
     """A finest-first list of per-level factors as a float array (at most ``levels`` long)."""
+    if isinstance(values, str | bytes):  # ("0" had been read as a list of one gain)
+        raise TypeError(f"{name} must be a list of numbers, got {type(values).__name__}")
     arr = np.atleast_1d(np.asarray(values, dtype=np.float64))
     if arr.ndim != 1 or not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be a list of finite numbers, got {values!r}")
@@ -543,9 +545,10 @@ def edit(q, levels: int, gains: Sequence[float]) -> np.ndarray:
     and neither is extrapolated by the expansion (dropping fine levels had moved a clip's
     last frames by up to 35 degrees on a still foot); the first frames are as they were.
     """
-    if np.shape(q)[0] == 0:  # an empty clip has nothing to edit
-        return np.array(q, dtype=np.float64)
-    q = _rotations(q)
+    q = checks.shaped(q, 4, "q", signal=True)
+    if q.shape[0] == 0:  # an empty clip has nothing to edit
+        return q.copy()
+    q = _rotations(q, "q")
     n, pad = _end_pad(q.shape[0], levels)
     pyramid = decompose(_reflected(q, None, pad)[0], n)
     g = _clamped_gains(gains, levels, pyramid.n_levels)

@@ -355,6 +355,12 @@ def test_overwrite_writes_into_the_input_and_otherwise_leaves_it():
     assert np.array_equal(p, given)
     assert np.array_equal(auto_positions(p, 1 / 120, overwrite=True).values, moved.values)
     assert np.array_equal(p, moved.values)
+    # a read-only array is never written, overwrite or not (numpy's 'assignment
+    # destination is read-only' had come out of the filter's depths)
+    frozen = kept.copy()
+    frozen.setflags(write=False)
+    result = auto(frozen, 1 / 120, overwrite=True)
+    assert np.array_equal(result.values, fresh.values) and np.array_equal(frozen, kept)
 
 
 def test_auto_cleans_band_limited_noise_it_would_leave_without_the_band_limited_model(

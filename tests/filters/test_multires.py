@@ -473,3 +473,19 @@ def test_oplus_undoes_ominus_for_rotations_and_positions():
     np.testing.assert_allclose(v2, v, atol=1e-12)
     with pytest.raises(ValueError, match="both frames or for neither"):
         mr.ominus(q_to, q_from, p_to, None)
+
+
+@pytest.mark.parametrize(
+    ("q", "gains", "error", "message"),
+    [
+        (None, [0.0], TypeError, "q: expected an array of numbers, got NoneType"),
+        ("abc", [0.0], TypeError, "q: expected an array of numbers, got str"),
+        (np.zeros((0, 3)), [0.0], ValueError, r"q: expected shape \(F, \.\.\., 4\)"),
+        (quat.identity((40, 2)), "0", TypeError, "gains must be a list of numbers, got str"),
+    ],
+)
+def test_edit_refuses_bad_arguments_naming_them(q, gains, error, message):
+    """The empty-clip shortcut had run before the check (IndexError for None), and a
+    string of gains had been read as a list of one."""
+    with pytest.raises(error, match=message):
+        mr.edit(q, 3, gains)
