@@ -354,7 +354,10 @@ def save(motion: Motion, path: str | os.PathLike) -> None:
     frame time the readers refuse (outside :data:`~motionclean.core.motion.MIN_FRAME_TIME`
     to ``MAX_FRAME_TIME`` seconds, NaN) and joint names the BVH and CSV readers would
     refuse or change (:func:`_check_names`) are refused too: every file written reads
-    back. An edited skeleton is written, never dropped for the text read.
+    back. An edited skeleton is written, never dropped for the text read. A BVH nests each
+    joint inside its parent, depth first: a clip made by hand whose joints are in another
+    order (a child listed before its parent, or after a sibling's children) reads back in
+    that depth-first order, each joint with its own name, offsets and motion.
     """
     atomic_write(path, encode(motion, path))
 
