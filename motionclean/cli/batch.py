@@ -350,7 +350,9 @@ def batch_command(
             continue
         report_page = None if page is None else str(page)
         # (absolute: a Dask worker runs in a folder of its own)
-        work.append(Job(str(source), str(target), tables, report_page, up, read).absolute())
+        back = "../" * (len(Path(rel).parts) - 1) + "index.html"  # from the clip's page
+        job = Job(str(source), str(target), tables, report_page, up, read, index=back)
+        work.append(job.absolute())
         work_names.append(str(rel))
 
     read_too = [*read.files, *([pipe] if pipe is not None else [])]

@@ -465,12 +465,19 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     Without ``series`` (see :func:`build_series`) the page has the tables but no plots.
     Joints whose acceleration is zero before and after get no plot; they are listed.
     ``carried`` (a batch's ``pipeline`` and the clip's index ``figures``) goes in the
-    page's head as JSON, for :func:`page_figures` to read back.
+    page's head as JSON, for :func:`page_figures` to read back; its ``index``, the batch's
+    index page relative to this one, is linked above the title.
     """
     cleaned = was_cleaned(report)
     frames = int(report["frames"])
     dt = float(report["frame_time"])
+    index = (carried or {}).get("index")
     body = [
+        *(
+            [f'<p class="note"><a href="{_e(index)}">all clips of the batch</a></p>']
+            if index
+            else []
+        ),
         f"<h1>{_e(report['file'])}</h1>",
         f'<div class="meta">{plural(frames, "frame")} at {fps_text(dt)} fps '
         f"({frames * dt:.3f} s){_e(resampled_to(report))}, {joint_count(report)}; "

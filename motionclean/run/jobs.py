@@ -306,6 +306,7 @@ class Job:
     up: str | None = None  # the clips' up axis, when the user gives it
     read: ReadOptions = ReadOptions()
     shown: str | None = None  # the clip's name on its page (default: ``source``)
+    index: str | None = None  # a batch's index page, as a link from the clip's page
 
     def absolute(self) -> Job:
         """This job with every path (clip, output, report, skeleton, body model) made
@@ -390,6 +391,7 @@ def clean_file(
     up: str | None = None,
     read: ReadOptions | None = None,
     shown: str | None = None,
+    index: str | None = None,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
@@ -399,7 +401,8 @@ def clean_file(
     resumed without an index (:func:`~motionclean.report.html.page_figures`).
     Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
     axis (as in :func:`clean_clip`); ``shown`` names the clip on its page (default
-    ``source``). A bad clip or failed step gives ``status="failed"`` with the reason
+    ``source``) and ``index`` links its page to a batch's index page (a path relative to
+    the page). A bad clip or failed step gives ``status="failed"`` with the reason
     instead of raising.
     """
     start = time.perf_counter()
@@ -411,6 +414,7 @@ def clean_file(
         None if report is None else os.fspath(report),
         up,
         read or ReadOptions(),
+        index=index,
     )
     try:
         if isinstance(pipeline, Pipeline):
@@ -425,6 +429,8 @@ def clean_file(
             if shown is not None:
                 result.report["file"] = shown
             carried = {"pipeline": tables, "figures": done.index_figures()}
+            if job.index is not None:
+                carried["index"] = job.index
             pages[job.report] = render_report(result.report, job.report, result.series, carried)
         del result  # the input's arrays and the plot series go before the clip is written
         write_outputs(after, job.target, pages)
@@ -441,7 +447,7 @@ def run_job(job: Job) -> FileResult:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return clean_file(
-            job.source, job.target, job.steps, job.report, job.up, job.read, job.shown
+            job.source, job.target, job.steps, job.report, job.up, job.read, job.shown, job.index
         )
 
 

@@ -116,6 +116,9 @@ def test_two_jobs_write_the_same_files_as_one(tree, tmp_path, capsys):
         "csv/c.csv.html",
     }
     assert b'href="walk/a.bvh.html"' in pages["index.html"]
+    # and each page links back to the index, from its own depth
+    for page, back in (("top.bvh.html", "index.html"), ("run/deep/b.BVH.html", "../../index.html")):
+        assert f'<a href="{back}">all clips of the batch</a>'.encode() in pages[page]
 
 
 @pytest.mark.parametrize("where", ["same", "inside", "report"])
