@@ -804,9 +804,9 @@ def _ground_lines(contacts: dict) -> list[str]:
         lines.append(f'<p class="meta">{_e(floor[0].upper() + floor[1:])}.</p>')
     if contacts.get("ground") is not None:
         lines.append(
-            f'<p class="meta">The plots\' 0 is the ground the contacts are found on, at '
-            f"{contacts['ground']:.4g} units along the up axis ({_e(contacts['up_axis'])}): "
-            "where the feet's lowest points rest in contact.</p>"
+            f'<p class="meta">The plots\' 0 is the ground, at {contacts["ground"]:.4g} units '
+            f"along the up axis ({_e(contacts['up_axis'])}): the 5th percentile of the feet's "
+            "lowest points over the clip, above which contacts are found.</p>"
         )
     return lines
 

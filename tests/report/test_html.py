@@ -361,7 +361,7 @@ def test_the_page_says_the_floor_and_what_the_foot_plots_zero_is(cleaned):
     page = render_html(report, build_series(motion, after))
     floor, contacts = report["contacts"]["floor"], report["contacts"]
     assert f"Floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg" in page
-    assert f"ground the contacts are found on, at {contacts['ground']:.4g} units" in page
+    assert f"The plots' 0 is the ground, at {contacts['ground']:.4g} units" in page
 
 
 def test_contact_shades_and_the_takes_line_stay_bounded_on_a_long_clip():
