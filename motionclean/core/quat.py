@@ -61,7 +61,9 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
 
 
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product ``p q`` (apply ``q`` first, then ``p``), broadcasting."""
+    """Hamilton product ``p q`` (apply ``q`` first, then ``p``) of ``(..., 4)`` quaternions
+    ``(w, x, y, z)``, broadcasting over the leading axes; a new float64 array. ValueError
+    for a last axis other than 4 (naming ``p`` or ``q``) or shapes that do not broadcast."""
     p = shaped(p, 4, "p")
     q = shaped(q, 4, "q")
     if _is_small(p, q):
@@ -329,7 +331,9 @@ def angle(q: np.ndarray) -> np.ndarray:
 
 
 def angle_between(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Geodesic distance in SO(3) between ``p`` and ``q``: rotation angle of ``p^-1 q``, rad."""
+    """Geodesic distance in SO(3) between unit quaternions ``p`` and ``q`` ``(..., 4)``
+    ``(w, x, y, z)``, broadcasting: the rotation angle of ``p^-1 q`` in radians, in
+    ``[0, pi]`` (``q`` and ``-q`` are the same rotation), shape ``(...)``."""
     return angle(relative(p, q))
 
 
@@ -429,7 +433,9 @@ def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
 
 
 def from_axis_angle(axis: np.ndarray, angle_rad) -> np.ndarray:
-    """Rotation by ``angle_rad`` (radians) about the unit vector ``axis`` ``(..., 3)``."""
+    """Unit quaternions ``(..., 4)`` ``(w, x, y, z)`` of the rotation by ``angle_rad``
+    (radians, right-handed) about the unit vector ``axis`` ``(..., 3)``, broadcasting the
+    two. ValueError for an axis whose last axis is not 3."""
     axis = shaped(axis, 3, "axis")
     half = 0.5 * np.asarray(angle_rad, dtype=np.float64)
     out = np.empty(np.broadcast_shapes(axis.shape[:-1], half.shape) + (4,))
@@ -439,14 +445,16 @@ def from_axis_angle(axis: np.ndarray, angle_rad) -> np.ndarray:
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rotate vectors ``v`` ``(..., 3)`` by ``q``: ``q v q^-1``."""
+    """Rotate vectors ``v`` ``(..., 3)`` by unit quaternions ``q`` ``(..., 4)`` ``(w, x, y,
+    z)``: ``q v q^-1`` (column vectors, as :func:`as_matrix` ``@ v``), broadcasting."""
     v = shaped(v, 3, "v")
     pure = np.concatenate([np.zeros((*v.shape[:-1], 1)), v], axis=-1)
     return multiply(multiply(q, pure), conjugate(q))[..., 1:]
 
 
 def as_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions (column-vector convention)."""
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)`` ``(w, x, y, z)``,
+    for column vectors (``R @ v`` equals :func:`rotate` ``(q, v)``)."""
     q = shaped(q, 4, "q")
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     m = np.empty((*q.shape[:-1], 3, 3))
