@@ -60,12 +60,22 @@ def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
     return q
 
 
+def _pair(p, q) -> tuple[np.ndarray, np.ndarray]:
+    """``p`` and ``q`` as ``(..., 4)`` float64 arrays whose leading shapes broadcast, or
+    ValueError naming both shapes."""
+    p, q = shaped(p, 4, "p"), shaped(q, 4, "q")
+    try:
+        np.broadcast_shapes(p.shape, q.shape)
+    except ValueError:
+        raise ValueError(f"p {p.shape} and q {q.shape}: shapes that do not broadcast") from None
+    return p, q
+
+
 def multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p q`` (apply ``q`` first, then ``p``) of ``(..., 4)`` quaternions
     ``(w, x, y, z)``, broadcasting over the leading axes; a new float64 array. ValueError
     for a last axis other than 4 (naming ``p`` or ``q``) or shapes that do not broadcast."""
-    p = shaped(p, 4, "p")
-    q = shaped(q, 4, "q")
+    p, q = _pair(p, q)
     if _is_small(p, q):
         return _sum_left_to_right(p[..., _PRODUCT_P] * _PRODUCT_SIGN * q[..., _PRODUCT_Q])
     return _blockwise(multiply_planes, (p, q), 4, 2)
@@ -75,8 +85,7 @@ def relative(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``p^-1 q`` for unit ``p`` (``conj(p) q``: the rotation from ``p`` to ``q`` in ``p``'s
     own frame), broadcasting; bit for bit ``multiply(conjugate(p), q)`` without the copy of
     ``p``."""
-    p = shaped(p, 4, "p")
-    q = shaped(q, 4, "q")
+    p, q = _pair(p, q)
     if _is_small(p, q):
         return _sum_left_to_right(p[..., _PRODUCT_P] * _RELATIVE_SIGN * q[..., _PRODUCT_Q])
     return _blockwise(_relative_planes, (p, q), 4, 2)
@@ -343,9 +352,15 @@ def slerp(p: np.ndarray, q: np.ndarray, t) -> np.ndarray:
     ``t`` broadcasts against the leading shape; ``t = 0`` gives ``p``, ``t = 1`` gives ``q``
     (up to sign).
     """
-    p = shaped(p, 4, "p")
-    t = np.asarray(t, dtype=np.float64)[..., None]
-    return multiply(p, exp(t * log_shortest(relative(p, q))))
+    p, q = _pair(p, q)
+    t = np.asarray(t, dtype=np.float64)
+    try:
+        np.broadcast_shapes(t.shape, p.shape[:-1], q.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            f"t {t.shape}: does not broadcast against the quaternions' {p.shape[:-1]}"
+        ) from None
+    return multiply(p, exp(t[..., None] * log_shortest(relative(p, q))))
 
 
 def log_shortest(q: np.ndarray) -> np.ndarray:
@@ -358,8 +373,7 @@ def log_shortest(q: np.ndarray) -> np.ndarray:
 def log_relative(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``log_shortest(relative(p, q))`` bit for bit, in one pass of planes (no product
     array, no sign-flipped copy): the shorter-arc displacement from ``p`` to ``q``."""
-    p = shaped(p, 4, "p")
-    q = shaped(q, 4, "q")
+    p, q = _pair(p, q)
     return _blockwise(_log_relative_planes, (p, q), 3, 6)
 
 

@@ -377,3 +377,17 @@ def test_euler_conversions_refuse_a_wrong_width_naming_the_argument(call, messag
     """A fourth angle had been dropped silently and a fifth component ignored."""
     with pytest.raises(ValueError, match=message):
         call()
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda q: quat.multiply(q, q[:, :2]), r"p \(30, 5, 4\) and q \(30, 2, 4\): shapes"),
+        (lambda q: quat.relative(q, q[:3]), r"p \(30, 5, 4\) and q \(3, 5, 4\): shapes"),
+        (lambda q: quat.slerp(q, q, np.ones(7)), r"t \(7,\): does not broadcast"),
+    ],
+)
+def test_shapes_that_do_not_broadcast_are_named(call, message):
+    """numpy's own message had named neither argument ('objects cannot be broadcast')."""
+    with pytest.raises(ValueError, match=message):
+        call(quat.identity((30, 5)))
