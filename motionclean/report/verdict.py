@@ -293,6 +293,37 @@ def _removed_words(fraction: float, what: str = "jitter") -> str:
     return f"{what} up {-fraction:.0%}".replace("%", " %")
 
 
+#: The line adds what the end effectors' world acceleration says where it is under this
+#: share of the jitter removed (and that is at least :data:`NEGLIGIBLE_JITTER`): a video
+#: estimate's joint angles, fitted to keypoints, jitter against each other (a hip's noise
+#: undone by the knee's), so smoothing them took a third of their jitter while its hands,
+#: feet and head, what the eye sees, lost 2 % of their acceleration.
+WORLD_SHARE = 0.5
+
+
+def _world_removed(report: dict) -> float | None:
+    """The fraction of the end effectors' RMS world acceleration the cleaning removed,
+    pooled over the effectors (the report's ``world.effectors``); None without them."""
+    effectors = ((report.get("world") or {}).get("effectors") or {}).values()
+    pairs = [
+        (e["linear_accel_rms"]["before"], e["linear_accel_rms"]["after"])
+        for e in effectors
+        if e.get("linear_accel_rms")
+        and e["linear_accel_rms"].get("before")
+        and e["linear_accel_rms"].get("after") is not None
+    ]
+    before = sum(b * b for b, _ in pairs)
+    if not before:
+        return None
+    return 1.0 - math.sqrt(sum(a * a for _, a in pairs) / before)
+
+
+def _unseen(removed: float, world: float) -> bool:
+    """Whether the end effectors' world acceleration fell by much less than the joints'
+    jitter (:data:`WORLD_SHARE`): the line then says so."""
+    return removed >= NEGLIGIBLE_JITTER and world < WORLD_SHARE * removed
+
+
 def _length(value: float) -> str:
     """A length in two significant figures, without an exponent: "0.078", "0.000087"."""
     return str(np.format_float_positional(float(f"{value:.2g}"), trim="-"))
@@ -484,6 +515,9 @@ def build_verdict(
     # the positions say what the rotations do not: the clip changed where they left it
     positions_lead = told and rotations_clean
     removed = "" if rotations_unmeasured else _removed_words(smoothing["noise_removed"])
+    world = _world_removed(report)
+    if removed and world is not None and _unseen(smoothing["noise_removed"], world):
+        removed += " (" + _removed_words(world, "end effectors' world acceleration") + ")"
     looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
     shown_feet = None if looking else feet
     if not smoothed:
@@ -556,6 +590,7 @@ def build_verdict(
         "noise_after": smoothing.get("noise_after"),
         # (a clip too short to judge has no jitter removed to show, as one unmeasured)
         "noise_removed": None if too_short else smoothing["noise_removed"],
+        "world_removed": None if too_short else world,
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
         "change_joint": joint if change >= UNCHANGED_DEG else None,
