@@ -384,6 +384,11 @@ def _noise_stat(total: float | None, verdict: dict) -> str:
     return _stat(_num(verdict.get("noise_before")), _e(label + ", weighted by reach" + left))
 
 
+def _share(share: float) -> str:
+    """``0.93`` as ``93 %`` (a thin space before the sign)."""
+    return f"{share:.0%}".replace("%", "\u2009%")
+
+
 def _headline(report: dict) -> list[str]:
     """The page's headline figures: smoothing first (jitter removed and the largest change,
     both outside the repaired frames), then the repairs, then the totals with repairs."""
@@ -397,14 +402,18 @@ def _headline(report: dict) -> list[str]:
     ):
         return [_noise_stat(acc["before"], verdict)]
     repairs = repaired_joints(report)
+    world = verdict.get("world_removed")
+    seen = (
+        "" if world is None else f"; the end effectors' world acceleration {_share(world)} removed"
+    )
     stats = [
         _stat(
-            f"{verdict['noise_removed']:.0%}".replace("%", "\u2009%"),
+            _share(verdict["noise_removed"]),
             "jitter removed"
             + (" outside repairs" if repairs else "")
             + " (RMS angular acceleration, each joint weighted by its reach: "
             + f"{_num(verdict['noise_before'])} \u2192 {_num(verdict['noise_after'])} "
-            + "deg/s\u00b2)",
+            + f"deg/s\u00b2{seen})",
         ),
         _stat(
             _num(verdict["change_deg_max"], 2) + "\u00b0",

@@ -760,8 +760,12 @@ def test_the_line_says_when_the_end_effectors_lost_far_less_than_the_joints(tmp_
     it says nothing more. The figure is the report's own end effectors', pooled."""
     estimate = ROOT / "tests" / "data" / "exporters" / "video_estimate_cmu_names.bvh"
     for source, told in ((estimate, True), (NOISY, False)):
-        verdict = clean_clip(source, None, Pipeline.default()).report["verdict"]
+        result = clean_clip(source, None, Pipeline.default())
+        verdict = result.report["verdict"]
         world = verdict["world_removed"]
         said = f"({world:.0%} of the end effectors' world acceleration removed)"
         assert (said.replace("%", " %") in verdict["text"]) is told
         assert (world < verdict_rules.WORLD_SHARE * verdict["noise_removed"]) is told
+        # the page's jitter card gives it always, beside the weighted before -> after
+        card = f"the end effectors' world acceleration {world:.0%} removed"
+        assert card.replace("%", "\u2009%") in render_html(result.report, result.series)
