@@ -303,7 +303,8 @@ WORLD_SHARE = 0.5
 
 def _world_removed(report: dict) -> float | None:
     """The fraction of the end effectors' RMS world acceleration the cleaning removed,
-    pooled over the effectors (the report's ``world.effectors``); None without them."""
+    pooled over the effectors (the report's ``world.effectors``, every frame: the verdict
+    takes it only where nothing was repaired); None without them."""
     effectors = ((report.get("world") or {}).get("effectors") or {}).values()
     pairs = [
         (e["linear_accel_rms"]["before"], e["linear_accel_rms"]["after"])
@@ -515,7 +516,8 @@ def build_verdict(
     # the positions say what the rotations do not: the clip changed where they left it
     positions_lead = told and rotations_clean
     removed = "" if rotations_unmeasured else _removed_words(smoothing["noise_removed"])
-    world = _world_removed(report)
+    # (the effectors' figures hold every frame: with repairs they would count them)
+    world = None if repairs else _world_removed(report)
     if removed and world is not None and _unseen(smoothing["noise_removed"], world):
         removed += " (" + _removed_words(world, "end effectors' world acceleration") + ")"
     looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)

@@ -283,6 +283,12 @@ def connect(scheduler: str, default_workers: int, clips: int) -> Iterator[tuple[
             f"--scheduler {address}: no Dask scheduler answers there within "
             f"{CONNECT_TIMEOUT_S:g} s ({_first_cause(error)})"
         ) from None
+    except Exception as error:  # a Dask worker's address: it answers, but no scheduler
+        held.release()
+        raise UsageError(
+            f"--scheduler {address}: what answers there is no Dask scheduler (a worker's "
+            f"address? {_first_cause(error)})"
+        ) from None
     with client:
         held.release()
         workers = len(client.scheduler_info().get("workers", {})) or 1

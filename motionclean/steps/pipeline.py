@@ -65,7 +65,9 @@ def _table_of(step: Step) -> dict:
     """A step as the table :func:`make_step` validates: its filter, the parameters given
     (None: the default), joints, positions and frame range."""
     table: dict[str, Any] = {"filter": step.spec.name}
-    params = step.params if isinstance(step.params, dict) else {}
+    if not isinstance(step.params, dict):
+        raise TypeError(f"params: expected a dict, got {type(step.params).__name__}")
+    params = step.params
     defaults = {param.name: param.default for param in step.spec.params}
     full = defaults | params
     names = step.spec.relevant(full) if step.spec.relevant else tuple(full)
@@ -77,7 +79,10 @@ def _table_of(step: Step) -> dict:
         }
     )
     if step.spec.run_motion is None:
-        table["joints"] = step.joints if isinstance(step.joints, str) else list(step.joints)
+        joints = step.joints
+        if not isinstance(joints, str | list | tuple):
+            raise TypeError(f"joints: expected names or patterns, got {type(joints).__name__}")
+        table["joints"] = joints if isinstance(joints, str) else list(joints)
         table["positions"] = step.positions
     if step.span is not None:
         table.update(step.span.describe())

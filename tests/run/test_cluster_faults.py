@@ -299,3 +299,16 @@ def test_a_real_scheduler_passes_the_handshake_and_cleans_as_one_process(
     for k in range(2):
         name = f"c{k}.bvh"
         assert (tmp_path / "dask" / name).read_bytes() == (tmp_path / "one" / name).read_bytes()
+
+
+def test_a_dask_workers_address_is_no_scheduler(clips, capsys, dask_scheduler):
+    """A worker speaks Dask's protocol but is no scheduler: the client's first call had
+    escaped as an internal error (TypeError: Worker.identity() got an unexpected keyword
+    argument); it is one line naming the address, exit 2."""
+    from distributed import Client
+
+    with Client(dask_scheduler, timeout=10) as client:
+        worker = next(iter(client.scheduler_info()["workers"]))
+    code, err = batch_on(capsys, clips, worker)
+    line = one_error_line(err)
+    assert code == 2 and f"--scheduler {worker}: what answers there is no Dask scheduler" in line

@@ -371,3 +371,7 @@ def test_a_step_made_by_hand_is_validated_as_a_table_is():
         Pipeline([Step(REGISTRY["lee-shin"], {"k": -1}, ("*",), True)])
     with pytest.raises(UsageError, match="'lam' is not used with mask=binomial"):
         Pipeline([Step(REGISTRY["lee-shin"], {"lam": 0.3}, ("*",), True)])
+    with pytest.raises(TypeError, match="params: expected a dict, got str"):
+        Pipeline([Step(REGISTRY["lee-shin"], "k=99", ("*",), True)])
+    with pytest.raises(TypeError, match="joints: expected names or patterns, got NoneType"):
+        Pipeline([Step(REGISTRY["lee-shin"], {}, None, True)])
