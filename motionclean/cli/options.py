@@ -15,7 +15,7 @@ import click
 from ..core.errors import MotionError, UsageError
 from ..core.motion import UP_AXES
 from ..filters.auto import SOURCES
-from ..io import FORMATS, NOT_A_FILE, ReadOptions, smpl
+from ..io import FORMATS, NOT_A_FILE, ReadOptions, declare_up, smpl
 from ..steps.pipeline import Pipeline
 
 REPORT_SUFFIXES = (".json", ".html", ".htm")
@@ -283,4 +283,4 @@ UP_OPTION = click.option(
 
 def with_up(motion, up: str | None):
     """``motion`` declared to have the up axis ``up`` (``--up``), or as it is."""
-    return motion if up is None else motion.replace(up=up)
+    return declare_up(motion, up)

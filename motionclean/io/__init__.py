@@ -8,6 +8,7 @@ VRM animations, which are GLB files), and
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 import stat
@@ -28,6 +29,7 @@ from .files import read_regular_file
 __all__ = [
     "FORMATS",
     "NOT_A_FILE",
+    "declare_up",
     "ReadOptions",
     "atomic_write",
     "encode",
@@ -341,6 +343,18 @@ def _check_line_ends(head: bytes, path: Path) -> None:
             "lines end in carriage returns alone (classic Mac OS): convert them to LF or CRLF",
             path,
         )
+
+
+def declare_up(motion: Motion, up: str | None) -> Motion:
+    """``motion`` with the up axis ``up`` given by the user (``--up``), or as it is (None):
+    a format's default its reader assumed (a Motive export's y) is then no longer said to
+    be assumed, whatever axis is given."""
+    if up is None:
+        return motion
+    source = motion.source
+    if isinstance(source, motive.MotiveText) and source.assumed_up is not None:
+        source = dataclasses.replace(source, assumed_up=None)
+    return motion.replace(up=up, source=source)
 
 
 def save(motion: Motion, path: str | os.PathLike) -> None:

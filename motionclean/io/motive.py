@@ -131,8 +131,9 @@ class MotiveText(CsvText):
     row_labels: tuple[str, ...] = ()
     unlabelled: bool = False  # (header rows without their labels: Motive 1.21)
     notes: tuple[str, ...] = ()  # what the reader assumed (``core.kinematics.source_notes``)
-    #: The up axis the clip declares (:data:`UP`) and where it comes from (``info`` says it).
-    assumed_up = UP
+    #: The up axis the clip declares (:data:`UP`, None once the user gives one:
+    #: :func:`motionclean.io.declare_up`) and where it comes from (``info`` says it).
+    assumed_up: str | None = UP
     up_source = "Motive's default; the export does not say: --up gives another"
     body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
     axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")

@@ -28,7 +28,7 @@ from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
-from ..io import ReadOptions, encode, save, write_together
+from ..io import ReadOptions, declare_up, encode, save, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, gap_notes, to_json
 from ..report.verdict import repaired_frames, repaired_positions
@@ -140,8 +140,7 @@ def clean_clip(
     (:attr:`Motion.up`; default: found from the motion); ``read`` says how to read files
     that need more than themselves (a skeleton, a body model, excluded columns)."""
     before = (read or ReadOptions()).load(source)
-    if up is not None:
-        before = before.replace(up=up)
+    before = declare_up(before, up)
     try:
         result = clean_motion(before, pipeline, os.fspath(source))
         if target is not None:

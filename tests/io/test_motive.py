@@ -570,7 +570,7 @@ def test_a_motive_take_is_y_up_as_motive_exports_are(tmp_path, capsys):
     code, out, _ = run_cli(capsys, "info", source, "--up", "z")
     assert code == 0 and "up axis: z (given)" in out
     # clean and its report say the same: assumed, not given (the user gave nothing)
-    for up, said in ((None, "assumed"), ("z", "given")):
+    for up, said in ((None, "assumed"), ("z", "given"), ("y", "given")):
         report = tmp_path / f"{up}.json"
         extra = () if up is None else ("--up", up)
         code, out, _ = run_cli(
