@@ -103,6 +103,17 @@ def patterns(x, name: str) -> tuple[str, ...]:
     return items
 
 
+def bool_mask(x, name: str, shape: tuple[int, ...], error: type[ValueError] = ValueError):
+    """``x`` as a bool array of ``shape`` (a mask of samples: missing, kept), or ``error``
+    (a ValueError) naming ``name``, its dtype and shape."""
+    mask = np.asarray(x)
+    if mask.dtype != bool or mask.shape != tuple(shape):
+        raise error(
+            f"{name}: expected a bool array of shape {tuple(shape)}, got {mask.dtype} {mask.shape}"
+        )
+    return mask
+
+
 def shaped(x, width: int, name: str, signal: bool = False, min_frames: int = 0) -> np.ndarray:
     """``x`` as float64 with last axis ``width``; ``signal``: time-major ``(F, ..., width)``
     with at least ``min_frames`` frames. Shape only: O(1), for every public ``quat``

@@ -388,12 +388,7 @@ class Motion:
     def _check_missing(self, frames: int, n_joints: int) -> None:
         if self.missing is None:
             return
-        missing = np.asarray(self.missing)
-        if missing.dtype != bool or missing.shape != (frames, n_joints):
-            raise InvalidMotion(
-                f"missing: expected a bool array of shape ({frames}, {n_joints}), "
-                f"got {missing.dtype} {missing.shape}"
-            )
+        missing = checks.bool_mask(self.missing, "missing", (frames, n_joints), InvalidMotion)
         self.missing = missing if missing.any() else None
 
     @property

@@ -1070,12 +1070,7 @@ def _missing_columns(missing, shape) -> np.ndarray | None:
     """The ``missing`` mask (``shape[:-1]``, bool) as ``(F, C)``, or None when nothing is."""
     if missing is None:
         return None
-    missing = np.asarray(missing)
-    if missing.dtype != bool or missing.shape != tuple(shape[:-1]):
-        raise ValueError(
-            f"missing: expected a bool array of shape {tuple(shape[:-1])}, "
-            f"got {missing.dtype} {missing.shape}"
-        )
+    missing = checks.bool_mask(missing, "missing", tuple(shape[:-1]))
     return missing.reshape(shape[0], -1) if missing.any() else None
 
 

@@ -632,10 +632,10 @@ def fill_gaps(
             f"rotations and translations: expected shapes (F, J, 4) and (F, J, 3), got "
             f"{rotations.shape} and {translations.shape}"
         )
-    missing = _mask(missing, "missing", rotations.shape[:2])
+    missing = checks.bool_mask(missing, "missing", rotations.shape[:2])
     max_gap = checks.whole(max_gap, "max_gap")
     if use_positions is not None:
-        use_positions = _mask(use_positions, "use_positions", rotations.shape[1:2])
+        use_positions = checks.bool_mask(use_positions, "use_positions", rotations.shape[1:2])
     n_frames, n_joints = missing.shape
     use_positions = np.ones(n_joints, bool) if use_positions is None else use_positions
     gaps = Gaps.of(missing)
@@ -690,16 +690,6 @@ def fill_gaps(
     p[frame[moved], joint[moved]] = (c + quat.rotate(e, rel_p))[moved]
     q = quat.make_continuous(q, axis=0)
     return Filled(q, p, still, gaps, fillable, _spread(donor, fillable))
-
-
-def _mask(x, name: str, shape: tuple[int, ...]) -> np.ndarray:
-    """``x`` as a bool array of ``shape``, or ValueError naming it."""
-    mask = np.asarray(x)
-    if mask.dtype != bool or mask.shape != tuple(shape):
-        raise ValueError(
-            f"{name}: expected a bool array of shape {tuple(shape)}, got {mask.dtype} {mask.shape}"
-        )
-    return mask
 
 
 def _trials(seen, gaps: Gaps, donors: np.ndarray):
