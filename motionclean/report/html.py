@@ -381,7 +381,16 @@ def _noise_stat(total: float | None, verdict: dict) -> str:
     if verdict.get("status") != "input only":
         return _stat(_num(total), label)
     left = jumps_left_out(verdict.get("unrepaired_jumps") or 0)
-    return _stat(_num(verdict.get("noise_before")), _e(label + ", weighted by reach" + left))
+    return _stat(
+        _num(verdict.get("noise_before")),
+        _e(label + _weighted(verdict, ", weighted by reach") + left),
+    )
+
+
+def _weighted(verdict: dict, words: str) -> str:
+    """``words`` where the verdict's noise weights each joint by its reach, else nothing
+    (tracked bodies, pooled equally)."""
+    return words if verdict.get("noise_weighting") == "reach" else ""
 
 
 def _share(share: float) -> str:
@@ -411,7 +420,9 @@ def _headline(report: dict) -> list[str]:
             _share(verdict["noise_removed"]),
             "jitter removed"
             + (" outside repairs" if repairs else "")
-            + " (RMS angular acceleration, each joint weighted by its reach: "
+            + " (RMS angular acceleration"
+            + _weighted(verdict, ", each joint weighted by its reach")
+            + ": "
             + f"{_num(verdict['noise_before'])} \u2192 {_num(verdict['noise_after'])} "
             + f"deg/s\u00b2{seen})",
         ),
@@ -889,7 +900,8 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
     body.append('<div class="wide"><table class="index">' + "".join(rows) + "</table></div>")
     body.append(
         '<p class="note">Noise: RMS angular acceleration over all joints and frames, each '
-        "joint weighted by its reach (how far its rotation moves the body), deg/s\u00b2; "
+        "joint weighted by its reach (how far its rotation moves the body; tracked bodies "
+        "equally), deg/s\u00b2; "
         "noise, jitter removed and largest change are measured outside the frames that "
         "were repaired (flips, spikes, gaps), as in each clip's verdict and its page's "
         "first figure.</p>"

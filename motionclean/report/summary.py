@@ -409,26 +409,29 @@ def _input_noise(series: dict) -> dict[str, Any]:
     :data:`~motionclean.core.jumps.JUMP_DEG` (a flip or glitch is no jitter, as in a
     cleaned clip's verdict), and how many such steps each joint makes."""
     squares, rows, _ = _per_joint(series["figures"], "accel_before")
-    weights = _reach_weights(series.get("reaches"), squares, rows)
+    weights, weighting = _reach_weights(series.get("reaches"), squares, rows)
     known = float(rows.sum())
     return {
         "noise_before": math.sqrt(float(weights @ squares) / known) if known else None,
+        "noise_weighting": weighting,
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
     }
 
 
-def _reach_weights(reaches: np.ndarray | None, squares: np.ndarray, rows: np.ndarray):
+def _reach_weights(
+    reaches: np.ndarray | None, squares: np.ndarray, rows: np.ndarray
+) -> tuple[np.ndarray, str]:
     """Per rotation joint, the weight of its squared angular acceleration in the verdict's
-    noise and jitter removed: its reach squared (:func:`~motionclean.core.kinematics.reaches`,
-    how far its jitter moves the body: a shoulder's an arm, a fingertip's a centimetre)
-    over their mean over the joints' ``rows`` (acceleration rows measured), so the
-    weighted RMS stays in deg/s^2 and equals the plain one where every joint reaches as
-    far; all ones where no joint with jitter (``squares`` > 0) has a reach (tracked
-    bodies)."""
+    noise and jitter removed, and which weighting it is (``"reach"`` or ``"equal"``): its
+    reach squared (:func:`~motionclean.core.kinematics.reaches`, how far its jitter moves
+    the body: a shoulder's an arm, a fingertip's a centimetre) over their mean over the
+    joints' ``rows`` (acceleration rows measured), so the weighted RMS stays in deg/s^2
+    and equals the plain one where every joint reaches as far; all ones (``"equal"``)
+    where no joint with jitter (``squares`` > 0) has a reach (tracked bodies)."""
     if reaches is None or not np.any(reaches[squares > 0] > 0):
-        return np.ones_like(squares)
+        return np.ones_like(squares), "equal"
     weights = np.square(reaches)
-    return weights * (rows.sum() / max(float(weights @ rows), np.finfo(float).tiny))
+    return weights * (rows.sum() / max(float(weights @ rows), np.finfo(float).tiny)), "reach"
 
 
 def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
@@ -444,7 +447,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     before, rows, _ = _per_joint(figures, "accel_before")
     after, _, _ = _per_joint(figures, "accel_after")
     squares, counts, largest = _per_joint(figures, "deviation")
-    weights = _reach_weights(series.get("reaches"), before, rows)
+    weights, weighting = _reach_weights(series.get("reaches"), before, rows)
     total_before, total_after = float(weights @ before), float(weights @ after)
     removed = 1.0 - math.sqrt(total_after / total_before) if total_before > 0 else 0.0
     worst = int(np.argmax(largest)) if largest.size else 0
@@ -453,6 +456,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "noise_before": math.sqrt(total_before / known) if known else None,
         "noise_after": math.sqrt(total_after / known) if known else None,
         "noise_removed": removed if known else None,
+        "noise_weighting": weighting,
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,

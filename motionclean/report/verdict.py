@@ -408,6 +408,7 @@ def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
         "status": "input only",
         "text": f"input only, not cleaned: {measured}",
         "noise_before": noise,
+        "noise_weighting": alone.get("noise_weighting", "equal"),
         "unrepaired_jumps": jumps,
     }
 
@@ -592,6 +593,7 @@ def build_verdict(
         "noise_after": smoothing.get("noise_after"),
         # (a clip too short to judge has no jitter removed to show, as one unmeasured)
         "noise_removed": None if too_short else smoothing["noise_removed"],
+        "noise_weighting": smoothing.get("noise_weighting", "equal"),
         "world_removed": None if too_short else world,
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],

@@ -775,3 +775,25 @@ def test_the_line_says_when_the_end_effectors_lost_far_less_than_the_joints(tmp_
         # the page's jitter card gives it wherever it is measured, beside before -> after
         card = f"the end effectors' world acceleration {world:.0%} removed"
         assert card.replace("%", "\u2009%") in render_html(result.report, result.series)
+
+
+def test_tracked_bodies_pool_their_jitter_equally_and_the_page_says_no_reach():
+    """Tracked rigid bodies reach no point: their jitter is pooled equally, the JSON says
+    ``noise_weighting: equal`` and the page's headline does not claim a weighting by
+    reach; a skeleton's says ``reach`` and its page does, cleaned or reported alone."""
+    from motionclean.report.summary import build_report, build_series
+
+    for source, weighting in (
+        (ROOT / "sample_data" / "131_02_motive.csv", "equal"),
+        (NOISY, "reach"),
+    ):
+        cleaned = clean_clip(source, None, Pipeline.default())
+        clip = mc.load(source)
+        alone = build_series(clip)
+        for report, series in (
+            (cleaned.report, cleaned.series),
+            (build_report(clip, series=alone), alone),
+        ):
+            assert report["verdict"]["noise_weighting"] == weighting
+            headline = re.findall(r'<div class="stat">.*?</div>', render_html(report, series))[0]
+            assert ("weighted by" in headline) is (weighting == "reach")
