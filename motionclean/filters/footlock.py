@@ -136,8 +136,9 @@ def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> 
     through a window of ``hold_frames`` frames centred on the frame and cut to its contact,
     evaluated at the frame (``inf``: the contact's mean); elsewhere the points themselves.
     The line's slope is shrunk toward 0 by ``s^2 / (s^2 + (k e)^2)``, ``s`` its length, ``e``
-    its standard error from the points' scatter about it, ``k`` :data:`DRIFT_SIGNIFICANCE`
-    (both summed over the axes: the shrinkage turns with the clip).
+    its standard error from the points' scatter about it (as many points as scatter
+    independently, :func:`_independent_share`), ``k`` :data:`DRIFT_SIGNIFICANCE` (both
+    summed over the axes: the shrinkage turns with the clip).
 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
@@ -208,9 +209,32 @@ def _local_lines(
         scatter = np.sum(np.maximum(p_var - slope * cov, 0.0), axis=-1, keepdims=True)
         error2 = scatter / (np.maximum(count - 2.0, 1.0).reshape(shape) * spread)
         length2 = np.sum(slope * slope, axis=-1, keepdims=True)
+        error2 /= _independent_share(points, lo, hi, scatter, length2, count.reshape(shape))
         slope *= length2 / np.maximum(length2 + significance**2 * error2, 1e-300)
     line = p_mean + slope * (t - t_mean).reshape(shape)
     return origin + np.where(contacts.reshape(shape), line, points)
+
+
+def _independent_share(
+    points: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    scatter: np.ndarray,
+    length2: np.ndarray,
+    count: np.ndarray,
+) -> np.ndarray:
+    """The share of a window's ``count`` points that scatter independently about its line:
+    the variance of the residuals' frame-to-frame steps over twice their variance
+    (``scatter``; ``length2`` the slope's squared length, per frame^2), between ``1 /
+    count`` and 1. White scatter gives 1; scatter a filter smoothed (a wander) gives the
+    few independent points it holds, for which a slope's standard error is as wide as
+    that many points make it: the wander's slope is not taken for a drift."""
+    step = np.diff(points, axis=0, append=points[-1:])
+    steps2 = np.sum(step * step, axis=-1, keepdims=True)
+    pairs = np.maximum(hi - lo - 1, 1).astype(np.float64).reshape(count.shape)
+    residual2 = np.maximum(_window_sums(steps2, lo, np.maximum(hi - 1, lo)) / pairs - length2, 0.0)
+    share = residual2 / np.maximum(2.0 * scatter, np.finfo(float).tiny)
+    return np.clip(share, 1.0 / np.maximum(count, 1.0), 1.0)
 
 
 def _eases(

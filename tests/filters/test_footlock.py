@@ -12,6 +12,7 @@ from motionclean.core import kinematics, quat
 from motionclean.filters.footlock import (
     Leg,
     Prior,
+    _independent_share,
     held_lines,
     held_paths,
     hinge_axis,
@@ -247,6 +248,33 @@ def test_a_held_line_keeps_a_drift_and_drops_the_slope_jitter_fits():
     np.testing.assert_allclose(
         held_lines(quat.rotate(turn, drift), contacts, 60), quat.rotate(turn, held), atol=1e-9
     )
+
+
+def test_a_lines_standard_error_counts_only_the_points_that_scatter_independently():
+    """The share of a window's points that scatter independently about its line (the
+    variance of the residuals' steps over twice theirs): about 1 for white scatter, about
+    1/w for white noise averaged over w frames (a filter's wander: its steps are 1/w of
+    the noise's), whatever steady drift is added, and the same turned about any axis. A
+    wander's slope is then judged by the few points it holds, not taken for a drift."""
+    rng = np.random.default_rng(5)
+    n, width = 4000, 15
+    lo, hi = np.maximum(np.arange(n) - 30, 0), np.minimum(np.arange(n) + 31, n)
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    wander = np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+    drift = np.arange(n)[:, None] * np.array([0.02, 0.0, 0.01])
+    turn = quat.from_axis_angle(np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2]), 1.1)
+    for noise, expected in ((white[:n], 1.0), (wander, 1.0 / width)):
+        shares = []
+        for points in (noise, noise + drift, quat.rotate(turn, noise + drift)):
+            slope = np.array([0.02, 0.0, 0.01]) if points is not noise else np.zeros(3)
+            scatter = np.full((n, 1), 3 * noise.var())
+            length2 = np.full((n, 1), slope @ slope)
+            count = (hi - lo).astype(float)[:, None]
+            share = _independent_share(points, lo, hi, scatter, length2, count)
+            shares.append(np.median(share[100:-100]))
+        np.testing.assert_allclose(shares, expected, rtol=0.15)
 
 
 @pytest.mark.parametrize("hold", [held_lines, held_paths])
