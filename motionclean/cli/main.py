@@ -136,6 +136,18 @@ def _terminate(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def _output_hint(error: click.ClickException) -> str:
+    """Where a command that writes to ``-o`` was given its output as one more argument
+    (as ``convert`` and ``resample`` take theirs), how to give it."""
+    ctx = getattr(error, "ctx", None)
+    command = ctx.command.name if ctx is not None and ctx.command is not None else None
+    if command in ("clean", "batch", "blend", "stitch") and "unexpected extra argument" in (
+        error.format_message()
+    ):
+        return f"; `{command}` writes to -o OUTPUT"
+    return ""
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console entry point: run the click group and turn every error into one line."""
     args = sys.argv[1:] if argv is None else list(argv)
@@ -164,7 +176,7 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as error:
         if debug:
             traceback.print_exc()
-        _echo_error(error.format_message().replace("\n", " "))
+        _echo_error(error.format_message().replace("\n", " ") + _output_hint(error))
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
     except (KeyboardInterrupt, _Interrupted):
         _interrupted()
@@ -388,7 +400,7 @@ def resample_command(
 
 @cli.command()
 @click.argument("source", type=PATH)
-@click.option("-o", "--output", type=PATH, help="Cleaned clip to write.")
+@click.option("-o", "--output", type=PATH, metavar="OUTPUT", help="Cleaned clip to write.")
 @PIPE_OPTION
 @STEP_OPTION
 @click.option(
@@ -415,7 +427,7 @@ def clean(
     up: str | None,
     read: ReadOptions,
 ) -> None:
-    """Clean SOURCE with a pipeline and write it to OUTPUT.
+    """Clean SOURCE with a pipeline and write it to -o OUTPUT.
 
     Without -p or -f the default pipeline runs (see `motionclean filters` and the README).
     """

@@ -103,6 +103,19 @@ def test_clean_needs_an_output_or_in_place(tmp_path, capsys):
     assert stdout == "" and SAMPLE.read_bytes() == before
 
 
+def test_an_output_given_as_an_argument_is_told_to_go_after_dash_o(tmp_path, capsys):
+    """`clean IN OUT` (as `convert IN OUT` reads): one line that says where OUTPUT goes;
+    nothing written."""
+    for command, source, extra in (
+        ("clean", SAMPLE, ()),
+        ("batch", SAMPLE.parent, ("-o", str(tmp_path / "all"))),
+    ):
+        code, stdout, err = run_cli(capsys, command, source, tmp_path / "out.bvh", *extra)
+        assert code == 2 and stdout == "" and err.count("\n") == 1
+        assert "unexpected extra argument" in err and f"`{command}` writes to -o OUTPUT" in err
+    assert not list(tmp_path.iterdir())
+
+
 def test_report_writes_html(tmp_path, capsys):
     page = tmp_path / "r.html"
     code, stdout, err = run_cli(capsys, "report", SAMPLE, "--html", page)
