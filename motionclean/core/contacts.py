@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -260,9 +260,14 @@ def ankle_speed(
     return speed
 
 
-def lowest_points(positions: np.ndarray, feet: list[Foot], up: int) -> np.ndarray:
-    """``(F, n_feet)`` height of each foot's lowest point along the up axis."""
-    return np.stack([positions[:, list(f.points), up].min(axis=1) for f in feet], axis=1)
+def lowest_points(
+    positions: np.ndarray, feet: list[Foot], up: int, floor: Floor | None = None
+) -> np.ndarray:
+    """``(F, n_feet)`` height of each foot's lowest point along the up axis, or with a
+    ``floor`` above that plane (length units)."""
+    if floor is None:
+        return np.stack([positions[:, list(f.points), up].min(axis=1) for f in feet], axis=1)
+    return np.stack([floor.above(positions[:, list(f.points)]).min(axis=1) for f in feet], axis=1)
 
 
 @dataclass(frozen=True)
@@ -291,8 +296,17 @@ class Floor:
 
     def height_at(self, point: np.ndarray) -> float:
         """The floor's height along the up axis below ``point`` ``(3,)``."""
-        horizontal = point @ self.normal - point[self.up] * self.normal[self.up]
-        return float((self.offset - horizontal) / self.normal[self.up])
+        return float(self.heights_at(point))
+
+    def heights_at(self, points: np.ndarray) -> np.ndarray:
+        """The floor's heights along the up axis below ``points`` ``(..., 3)``."""
+        horizontal = points @ self.normal - points[..., self.up] * self.normal[self.up]
+        return (self.offset - horizontal) / self.normal[self.up]
+
+    def rise(self, points: np.ndarray) -> float:
+        """How far the floor's height changes below ``points`` ``(n, 3)`` (length units; 0
+        for a level floor or fewer than two points)."""
+        return float(np.ptp(self.heights_at(points))) if len(points) > 1 else 0.0
 
 
 #: Floors are fitted with this prior spread of the slope (rise per unit run, about 6
@@ -365,6 +379,16 @@ def fit_floor(soles: np.ndarray, up: int, height: float, quantile: float = 0.5) 
 FLOOR_PASSES = 4
 
 
+#: Contacts are found above the floor, not above a level ground, where the floor's height
+#: changes across the soles it rests on by more than this share of the contact height
+#: (``ContactParams.height``): there a level ground misses the contacts on its high side
+#: (a walk up a floor tilted 5 degrees, 0.13-0.15 body heights of rise, had 2 of its 5
+#: contacts found; at 2 degrees, 0.046-0.060, one contact was missed); a capture's own
+#: floor keeps the level ground's contacts (the corpus walks' floors, fitted through the
+#: soles of noisy copies, rise by at most 0.037 body heights).
+FLOOR_RISE = 0.75
+
+
 def find_floor(
     positions: np.ndarray,
     feet: list[Foot],
@@ -373,13 +397,14 @@ def find_floor(
     frame_time: float,
     params: ContactParams = ContactParams(),
     contacts: np.ndarray | None = None,
-) -> tuple[Floor | None, np.ndarray]:
-    """The floor (:func:`fit_floor`) and the soles ``(n, 3)`` it rests on: contacts found
-    above a level ground (``contacts``, when the caller has found them so with the same
-    ``params``), a plane fitted through their soles, then contacts found again above that
-    plane (on a tilted floor the first pass misses the feet on its high side) and the
-    plane fitted again, up to :data:`FLOOR_PASSES` times; a pass that finds no contact
-    keeps the last floor and its soles."""
+) -> tuple[Floor | None, np.ndarray, np.ndarray]:
+    """The floor (:func:`fit_floor`), the soles ``(n, 3)`` it rests on and the contacts
+    ``(F, n_feet)`` found above it: contacts found above a level ground (``contacts``,
+    when the caller has found them so with the same ``params``), a plane fitted through
+    their soles, then contacts found again above that plane (on a tilted floor the first
+    pass misses the feet on its high side) and the plane fitted again, up to
+    :data:`FLOOR_PASSES` times; a pass that finds no contact keeps the last floor, its
+    soles and contacts."""
     if contacts is None:
         contacts, _ = detect(positions, feet, up, height, frame_time, params)
     soles = contact_soles(positions, feet, contacts, up, height)
@@ -394,7 +419,79 @@ def find_floor(
         if refit.shape[0] == 0:  # no contact above this floor: it stays, with its soles
             break
         contacts, soles, floor = found, refit, fit_floor(refit, up, height)
-    return floor, soles
+    return floor, soles, contacts
+
+
+@dataclass(frozen=True)
+class Ground:
+    """Where a clip's feet stand: ``contacts`` ``(F, n_feet)``, the ``floor`` found from
+    them and its ``soles`` ``(n, 3)`` (:func:`find_floor`), whether the contacts were
+    found above that floor (``tilted``: it rises across its soles by more than
+    :data:`FLOOR_RISE` of the contact height) or above a level ground, and ``level`` the
+    ground's height (:func:`estimate_ground`) along the up axis, or above the tilted
+    floor (NaN without two frames)."""
+
+    contacts: np.ndarray
+    floor: Floor | None
+    soles: np.ndarray
+    level: float
+    tilted: bool
+
+
+def find_ground(
+    positions: np.ndarray,
+    feet: list[Foot],
+    up: int,
+    height: float,
+    frame_time: float,
+    params: ContactParams = ContactParams(),
+) -> Ground:
+    """:func:`detect`'s contacts above a level ground and :func:`find_floor`'s floor; where
+    the floor rises across its soles by more than :data:`FLOOR_RISE` of ``params.height``
+    body heights, the contacts found above it and heights taken above it instead."""
+    contacts, level = detect(positions, feet, up, height, frame_time, params)
+    if math.isnan(level):
+        return Ground(contacts, None, np.zeros((0, 3)), level, False)
+    floor, soles, on_floor = find_floor(
+        positions, feet, up, height, frame_time, params, contacts=contacts
+    )
+    rise = FLOOR_RISE * params.height * height
+    if floor is None or floor.rise(soles) <= rise:
+        uphill = _floor_under_still_feet(positions, feet, up, height, frame_time, params, rise)
+        if uphill is None:
+            return Ground(contacts, floor, soles, level, False)
+        floor, soles, on_floor = uphill
+    above = estimate_ground(lowest_points(positions, feet, up, floor))
+    return Ground(on_floor, floor, soles, above, True)
+
+
+def _floor_under_still_feet(
+    positions: np.ndarray,
+    feet: list[Foot],
+    up: int,
+    height: float,
+    frame_time: float,
+    params: ContactParams,
+    rise: float,
+) -> tuple[Floor, np.ndarray, np.ndarray] | None:
+    """:func:`find_floor` started from the contacts above the plane through the soles of
+    the feet wherever they stand still (no height limit), for a floor whose high side lies
+    wholly beyond a level ground's reach (a short walk up a slope); None where neither
+    that plane nor the floor found from it rises by more than ``rise`` (length units)
+    across its soles."""
+    anywhere = replace(params, height=np.inf, height_off=np.inf)
+    still, _ = detect(positions, feet, up, height, frame_time, anywhere)
+    soles = contact_soles(positions, feet, still, up, height)
+    under = fit_floor(soles, up, height)
+    if under is None or under.rise(soles) <= rise:
+        return None
+    seed, _ = detect(positions, feet, up, height, frame_time, params, floor=under)
+    floor, soles, contacts = find_floor(
+        positions, feet, up, height, frame_time, params, contacts=seed
+    )
+    if floor is None or floor.rise(soles) <= rise:
+        return None
+    return floor, soles, contacts
 
 
 def estimate_ground(lowest: np.ndarray) -> float:
@@ -503,13 +600,14 @@ def point_contacts(
     frame_time: float,
     params: ContactParams,
     ground: float,
+    floor: Floor | None = None,
 ) -> np.ndarray:
     """``(F, n_points)``: frames where each point is itself planted, by :func:`detect`'s
-    rules applied to the point alone (its own height above ``ground`` and its own speed):
-    a toe is planted from the foot flat through the heel rising, not while the foot rolls
-    onto it or pivots about the heel."""
+    rules applied to the point alone (its own height above ``ground``, or above a tilted
+    ``floor``, and its own speed): a toe is planted from the foot flat through the heel
+    rising, not while the foot rolls onto it or pivots about the heel."""
     alone = [Foot(str(p), -1, -1, p, (p,)) for p in points]
-    return detect(positions, alone, up, height, frame_time, params, ground=ground)[0]
+    return detect(positions, alone, up, height, frame_time, params, ground, floor)[0]
 
 
 def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:

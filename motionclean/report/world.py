@@ -233,16 +233,18 @@ def _contact_figures(
     points = points or [None, None]
     positions = _positions(before, points[0], used)
     dt = before.frame_time
-    contacts, ground = found.detect(positions, feet, up, height, dt, found.ContactParams())
+    params = found.ContactParams()
+    standing = found.find_ground(positions, feet, up, height, dt, params)
+    contacts, ground = standing.contacts, standing.level
+    tilted = standing.floor if standing.tilted else None  # heights above it, else along up
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
     # no contact ending there), on the clip's ground
     starts = take_starts(before)
     takes = take_spans(starts, before.n_frames)
     if starts.size and not math.isnan(ground):
-        params = found.ContactParams()
         contacts = np.concatenate(
             [
-                found.detect(positions[take], feet, up, height, dt, params, ground)[0]
+                found.detect(positions[take], feet, up, height, dt, params, ground, tilted)[0]
                 for take in takes
             ]
         )
@@ -256,8 +258,14 @@ def _contact_figures(
     if grounded:
         # each clip against its own ground: the cleaned clip's is the input's moved by how
         # far its feet moved during contacts (the median: a step that moves the whole clip,
-        # as ground does, moves its ground; one that sinks a few frames does not)
-        lowest = [found.lowest_points(p, feet, up) for p in clips]
+        # as ground does, moves its ground; one that sinks a few frames does not); heights
+        # above a tilted floor where contacts were found so, the cleaned clip's above its
+        # own (the floor through its soles: levelled by ground, it is level)
+        planes = [tilted, tilted]
+        if tilted is not None and after_positions is not None:
+            after_soles = found.contact_soles(after_positions, feet, contacts, up, height)
+            planes[1] = found.fit_floor(after_soles, up, height) or tilted
+        lowest = [found.lowest_points(p, feet, up, q) for p, q in zip(clips, planes, strict=False)]
         grounds = [ground]
         if len(clips) > 1:
             moved = lowest[1][contacts] - lowest[0][contacts]
@@ -273,7 +281,7 @@ def _contact_figures(
         ]
         for k in range(len(feet))
     ]
-    floor, soles = found.find_floor(positions, feet, up, height, dt, contacts=contacts)
+    floor, soles = standing.floor, standing.soles
     section: dict[str, Any] = {
         "up_axis": kinematics.up_name(before),
         "ground": ground if grounded else None,
@@ -284,6 +292,7 @@ def _contact_figures(
             "tilt_deg": floor.tilt_deg,
             "normal": [float(v) for v in floor.normal],
             "contacts": int(soles.shape[0]),
+            "contacts_found_above_it": standing.tilted,
         },
         "feet": {},
     }

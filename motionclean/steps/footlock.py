@@ -55,10 +55,10 @@ def find_contacts(motion: Motion, params: dict):
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions = kinematics.upright_positions(motion, given)
-    contacts, ground = found.detect(
+    standing = found.find_ground(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
-    return feet, contacts, positions, up, height, ground
+    return feet, standing.contacts, positions, up, height, standing.level
 
 
 def _leg_points(motion: Motion, params: dict):
@@ -146,18 +146,22 @@ def _toe_contacts(
     contacts: np.ndarray,
     up: int,
     height: float,
-    ground: float,
+    standing: found.Ground,
     frame_time: float,
     thresholds: found.ContactParams,
 ) -> np.ndarray:
     """``(F, n_toes)``: for each toe point of the legs whose toes are held, the frames of
-    its leg's ``contacts`` where the point is planted itself (its own height and speed
-    under ``thresholds``: the step's own, not raised for noise, which cost the knees more
-    than it took off the toes; :func:`motionclean.core.contacts.point_contacts`);
-    ``point_column`` maps a point to its column of ``positions``."""
+    its leg's ``contacts`` where the point is planted itself (its own height above the
+    ground ``standing`` gives, and speed under ``thresholds``: the step's own, not raised
+    for noise, which cost the knees more than it took off the toes;
+    :func:`motionclean.core.contacts.point_contacts`); ``point_column`` maps a point to
+    its column of ``positions``."""
     held = held_toes(legs)
     columns = [int(point_column[p]) for _, p in held]
-    own = found.point_contacts(positions, columns, up, height, frame_time, thresholds, ground)
+    floor = standing.floor if standing.tilted else None
+    own = found.point_contacts(
+        positions, columns, up, height, frame_time, thresholds, standing.level, floor
+    )
     return own & contacts[:, [k for k, _ in held]]
 
 
@@ -224,11 +228,10 @@ def _run(data: StepData, params: dict) -> StepData:
     thresholds = noise_aware(
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
-    contacts, ground = found.detect(
-        positions, on_columns, up, height, motion.frame_time, thresholds
-    )
+    standing = found.find_ground(positions, on_columns, up, height, motion.frame_time, thresholds)
+    slide = params["min_skate"] * height
     contacts = found.sliding_contacts(
-        positions, on_columns, contacts, up, motion.frame_time, params["min_skate"] * height
+        positions, on_columns, standing.contacts, up, motion.frame_time, slide
     )
     held: np.ndarray = np.asarray(contacts.any(axis=0))
     chosen = [(k, leg) for k, leg in every_leg if held[k]]
@@ -282,7 +285,7 @@ def _run(data: StepData, params: dict) -> StepData:
             contacts[:, kept],
             up,
             height,
-            ground,
+            standing,
             motion.frame_time,
             contact_params(params),
         ),

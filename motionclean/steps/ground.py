@@ -27,7 +27,7 @@ def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None,
     if not feet:
         return None, np.zeros(3)
     positions = kinematics.upright_positions(motion, up)
-    floor, soles = found.find_floor(positions, feet, axis, height, motion.frame_time)
+    floor, soles, _ = found.find_floor(positions, feet, axis, height, motion.frame_time)
     return floor, soles.mean(axis=0) if soles.size else np.zeros(3)
 
 
