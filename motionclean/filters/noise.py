@@ -585,6 +585,12 @@ class MotionSlope(NamedTuple):
 #: Mean periodogram power (squared radians of displacement per frame) below which a column
 #: does not move: a rotation held still varies by its float64 rounding alone (1e-15 rad).
 STILL_POWER = 1e-20
+#: ... nor one whose mean power over the slope's band is below this share of the 90th
+#: percentile of the columns': a joint that varies by its file's text rounding alone (a
+#: Mixamo clip's 22 finger columns, 1e-11 to 7e-10 of it; the slowest moving joint of the
+#: clean captures measured, 3e-3), whose rounding, resampled to a higher rate, is as flat
+#: as a pose estimator's noise and had made the clip read markerless.
+STILL_SHARE = 1e-6
 
 
 def motion_slope(
@@ -597,9 +603,10 @@ def motion_slope(
     logs over the bins of ``SLOPE_BAND_HZ`` where ``P > SLOPE_OVER N``; a column has a slope
     when at least ``SLOPE_MIN_BINS`` such bins reach up to ``SLOPE_REACH_HZ`` (else the
     noise hides its motion there). The clip's slope is the median over the columns that
-    move (power in the band above :data:`STILL_POWER`: a joint held still, as an AMASS
-    clip's SMPL-H fingers, has only rounding there, as flat as noise), those without a
-    slope counted as steep: flatter than a
+    move (power in the band above :data:`STILL_POWER` and above :data:`STILL_SHARE` of the
+    columns' 90th percentile: a joint held still, as an AMASS clip's SMPL-H fingers or a
+    Mixamo clip's, has only rounding there, as flat as noise), those without a slope
+    counted as steep: flatter than a
     value only when more than half of them are. With fewer than ``SLOPE_MIN_COLUMNS``
     slopes it is nan (the clip cannot tell).
 
@@ -637,7 +644,8 @@ def motion_slope(
     sxx = np.sum(seen * (x - x_mean) ** 2, axis=0)
     sxy = np.sum(seen * (x - x_mean) * (y - y_mean), axis=0)
     reach = np.max(np.where(seen, hz[band][:, None], 0.0), axis=0)
-    moving = np.any(mean > STILL_POWER, axis=0)
+    power = mean.mean(axis=0)
+    moving = np.any(mean > STILL_POWER, axis=0) & (power > STILL_SHARE * np.quantile(power, 0.9))
     has = moving & (count >= SLOPE_MIN_BINS) & (sxx > 0) & in_band(reach, SLOPE_REACH_HZ)
     slopes = np.where(has, sxy / np.where(has, sxx, 1.0), np.nan)
     columns = int(has.sum())
