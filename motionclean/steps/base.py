@@ -29,6 +29,7 @@ class Param:
     exclusive_minimum: bool = False
     choices: tuple[str, ...] | None = None
     infinite_ok: bool = False
+    nonempty: bool = False  # a list must hold at least one item
 
     def allowed(self) -> str:
         """What values are allowed, for error messages and the catalogue."""
@@ -42,6 +43,8 @@ class Param:
             "floats": "a list of numbers",
             "strs": "a list of strings",
         }[self.type]
+        if self.nonempty:
+            kind = kind.replace("a list", "a non-empty list")
         bounds = []
         if self.minimum is not None:
             bounds.append(f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}")
@@ -67,6 +70,8 @@ class Param:
                 value = [value]
             items = value if self.type == "strs" else [value]
             if not isinstance(items, list) or not all(isinstance(v, str) for v in items):
+                raise bad
+            if self.nonempty and not items:
                 raise bad
             if self.choices and value not in self.choices:
                 raise bad
@@ -250,7 +255,13 @@ class StepSpec:
 
 
 COMMON_PARAMS = (
-    Param("joints", "strs", ["*"], "fnmatch patterns on joint names; a leading '!' excludes"),
+    Param(
+        "joints",
+        "strs",
+        ["*"],
+        "fnmatch patterns on joint names; a leading '!' excludes",
+        nonempty=True,
+    ),
     Param("positions", "bool", True, "also filter translation channels (vector counterpart)"),
     Param(
         "frames",

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..core import contacts as found
 from ..core import kinematics, quat
+from ..core.errors import UsageError
 from ..core.motion import Motion
 from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
@@ -73,10 +74,15 @@ def _run(data: StepData, params: dict) -> StepData:
     for root in roots.tolist():
         where = motion.names[root]
         if tilted and root not in rotated:
-            raise ValueError(f"ground: the root {where!r} has no rotation channels to level")
+            _refuse(
+                where,
+                "rotation",
+                "to level",
+                bool(np.all(motion.layout.rotation_columns[root] >= 0)),
+            )
         needed = np.ones(3, dtype=bool) if tilted else np.eye(3, dtype=bool)[floor.up]
         if root not in moved or not has_axis[root][needed].all():
-            raise ValueError(f"ground: the root {where!r} has no position channels to move")
+            _refuse(where, "position", "to move", bool(has_axis[root][needed].all()))
     data.rotations = data.rotations.copy()
     assert data.translations is not None  # every root has position channels
     data.translations = data.translations.copy()
@@ -120,3 +126,14 @@ STEP = StepSpec(
     run=_run,
     format_note=_format_note,
 )
+
+
+def _refuse(root: str, kind: str, purpose: str, in_file: bool) -> None:
+    """Why ``ground`` cannot move the root: its ``kind`` channels are not selected (a
+    usage error: ``joints`` or ``positions=false`` left them out), or the file has none."""
+    if in_file:
+        raise UsageError(
+            f"the root {root!r} is not selected ({kind} channels {purpose}): its joints "
+            "must include the root, and positions must be true"
+        )
+    raise ValueError(f"ground: the root {root!r} has no {kind} channels {purpose}")

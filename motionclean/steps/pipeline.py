@@ -528,6 +528,12 @@ class Pipeline:
                         starts,
                         by_take,
                     )
+            except UsageError as error:  # what the step was asked cannot be done on a clip
+                if error.path is not None:
+                    raise
+                raise UsageError(
+                    f"step {number} ({step.spec.name}): {error}", motion.path
+                ) from None
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path

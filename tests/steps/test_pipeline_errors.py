@@ -11,7 +11,7 @@ import sys
 import warnings
 
 import pytest
-from helpers import SAMPLE, Page, run_cli
+from helpers import ROOT, SAMPLE, Page, run_cli
 
 import motionclean as mc
 from motionclean.core.errors import MotionError, UsageError
@@ -388,3 +388,31 @@ def test_a_step_made_by_hand_is_validated_as_a_table_is():
         Pipeline([Step(REGISTRY["lee-shin"], "k=99", ("*",), True)])
     with pytest.raises(TypeError, match="joints: expected names or patterns, got NoneType"):
         Pipeline([Step(REGISTRY["lee-shin"], {}, None, True)])
+
+
+def test_an_empty_joint_list_is_refused_not_taken_for_every_joint(tmp_path, capsys):
+    """`joints=[]` had selected every joint (all() of no pattern is true): a step asked to
+    touch nothing smoothed 17 of 19 joints. Refused, one line, exit 2, in TOML too."""
+    out = tmp_path / "out.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-f", "lee-shin:joints=[]")
+    assert code == 2 and err.count("\n") == 1
+    assert "joints must be a non-empty list of strings, got []" in err
+    pipe = tmp_path / "p.toml"
+    pipe.write_text('[[step]]\nfilter = "bilateral"\njoints = []\n')
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-p", pipe)
+    assert code == 2 and "joints must be a non-empty list" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("step", ['ground:joints=["LeftArm"]', "ground:positions=false"])
+def test_ground_asked_without_its_root_is_a_usage_error_that_says_so(tmp_path, capsys, step):
+    """The root has all six channels but the step was not given them: a usage error (exit
+    2) that says to select the root, not a data error claiming the file has none."""
+    out = tmp_path / "out.bvh"
+    walk = ROOT / "tests" / "data" / "exporters" / "pymo_walk_tpose.bvh"
+    code, _, err = run_cli(capsys, "clean", walk, "-o", out, "-f", step)
+    assert code == 2 and err.count("\n") == 1
+    assert err.startswith(
+        f"motionclean: error: {walk}: step 1 (ground): the root 'Hips' is not selected"
+    )
+    assert "has no" not in err and not out.exists()
