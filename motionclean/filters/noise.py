@@ -644,8 +644,9 @@ def motion_slope(
     sxx = np.sum(seen * (x - x_mean) ** 2, axis=0)
     sxy = np.sum(seen * (x - x_mean) * (y - y_mean), axis=0)
     reach = np.max(np.where(seen, hz[band][:, None], 0.0), axis=0)
-    power = mean.mean(axis=0)
-    moving = np.any(mean > STILL_POWER, axis=0) & (power > STILL_SHARE * np.quantile(power, 0.9))
+    power = mean.mean(axis=0)  # (C,); no column: none moves
+    loud = np.quantile(power, 0.9) if power.size else np.inf
+    moving = np.any(mean > STILL_POWER, axis=0) & (power > STILL_SHARE * loud)
     has = moving & (count >= SLOPE_MIN_BINS) & (sxx > 0) & in_band(reach, SLOPE_REACH_HZ)
     slopes = np.where(has, sxy / np.where(has, sxx, 1.0), np.nan)
     columns = int(has.sum())
