@@ -8,6 +8,8 @@ out of its figures.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from . import quat
@@ -33,6 +35,14 @@ HELD_FRAMES = 3
 #: Different rest poses at most at either end (a T-pose, then a reference frame: each one
 #: steps into the next as a rest frame steps into the motion).
 REST_POSES = 4
+#: Noise raises every joint's typical step past the jump rules above (3 degrees of it on a
+#: 30 fps walk: a median step of 7 degrees), but it never makes a whole-body step (RMS
+#: over the moving joints) this many times the clip's 99th percentile of them, as the
+#: step out of a rest frame into the motion is (25 degrees against 9.6 there) ...
+BODY_JUMP = 1.5
+#: ... from a frame near the skeleton's rest: every moving joint within this many times
+#: the joints' median step of it (or :data:`ZERO_POSE_DEG`), as noise leaves it.
+NOISY_ZERO_STEPS = 1.5
 
 
 #: Steps sampled per joint for its typical (median) step on long clips (evenly spaced), so
@@ -57,11 +67,21 @@ def _identical_run(rotations: np.ndarray, translations: np.ndarray) -> int:
     return n_frames
 
 
-def _typical_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each joint's median rotation step (degrees), and its median step while it moves
-    (of its steps between rotations that differ: a hand-keyed joint holds still between
-    keys; 0 for a joint that never moves), over the clip or :data:`TYPICAL_SAMPLES` evenly
-    spaced steps of a longer clip."""
+class Typical(NamedTuple):
+    """A clip's typical rotation steps (degrees): each joint's median step, its median
+    step while it moves (of its steps between rotations that differ: a hand-keyed joint
+    holds still between keys; 0 for a joint that never moves), and the 99th percentile of
+    the whole-body step (RMS over the moving joints)."""
+
+    median: np.ndarray
+    while_moving: np.ndarray
+    body: float
+
+
+def _typical_steps(q: np.ndarray, moving: np.ndarray) -> Typical:
+    """:class:`Typical` of rotations ``q`` ``(F, J, 4)`` whose joints ``moving`` ``(J,)``
+    ever change, over the clip or :data:`TYPICAL_SAMPLES` evenly spaced steps of a longer
+    clip."""
     n_steps = q.shape[0] - 1
     at = np.arange(n_steps)
     if n_steps > TYPICAL_SAMPLES:
@@ -73,23 +93,26 @@ def _typical_steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         steps[part] = np.degrees(quat.angle_between(q[rows], q[rows + 1]))
         held[part] = np.all(q[rows] == q[rows + 1], axis=-1)
     median = np.median(steps, axis=0)
+    # the whole-body step: RMS over the moving joints (none: 0)
+    body = np.sqrt(np.mean(np.square(steps[:, moving]), axis=1)) if moving.any() else [0.0]
     steps[held] = np.nan
     moves = ~np.isnan(steps).all(axis=0)
     while_moving = np.zeros(steps.shape[1:])
     while_moving[moves] = np.nanmedian(steps[:, moves], axis=0)
-    return median, while_moving
+    return Typical(median, while_moving, float(np.percentile(body, 99.0)))
 
 
 def _rest_run(
     q: np.ndarray,
     translations: np.ndarray,
-    typical: tuple[np.ndarray, np.ndarray],
+    typical: Typical,
     moving: np.ndarray,
     held: bool,
 ) -> int:
     """The run of frames equal to the first, when it is a rest pose: a held pose (when
-    ``held``), or the step out of it a jump on most joints at once; else 0. ``typical``:
-    the joints' median steps and median steps while they move (:func:`_typical_steps`)."""
+    ``held``), or the step out of it a jump on most joints at once, or out of the
+    skeleton's rest pose, or (noise raising every joint's typical step) a whole-body jump
+    out of a pose near it; else 0. ``typical``: :func:`_typical_steps`."""
     run = _identical_run(q, translations)
     if run >= len(q) - 2:
         return 0
@@ -98,28 +121,36 @@ def _rest_run(
     if not moving.any():
         return 0
     out = np.degrees(quat.angle_between(q[run - 1], q[run]))[moving]
-    median, while_moving = (steps[moving] for steps in typical)
+    median, while_moving = typical.median[moving], typical.while_moving[moving]
     jump = out > JUMP_TIMES_MEDIAN * while_moving
     if jump.mean() >= MOST_JOINTS and out[jump].max() > JUMP_DEG:
         return run
-    # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
-    if not _zero_pose(q[run - 1], moving) or out.max() <= JUMP_DEG:
+    if out.max() <= JUMP_DEG:
         return 0
-    posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
-    leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
-    return run if posed.any() and leaves.mean() >= MOST_JOINTS else 0
+    # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
+    if _zero_pose(q[run - 1], moving):
+        posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
+        leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
+        if posed.any() and leaves.mean() >= MOST_JOINTS:
+            return run
+    # ... or, in a noisy capture, a pose near it out of which the whole body jumps
+    near = max(ZERO_POSE_DEG, NOISY_ZERO_STEPS * float(np.median(median)))
+    body_out = float(np.sqrt(np.mean(np.square(out))))
+    if _zero_pose(q[run - 1], moving, near) and body_out > BODY_JUMP * typical.body:
+        return run
+    return 0
 
 
-def _zero_pose(frame: np.ndarray, moving: np.ndarray) -> bool:
-    """Whether every moving joint of ``frame`` ``(J, 4)`` is within :data:`ZERO_POSE_DEG`
-    of the skeleton's rest (the identity rotation)."""
-    return bool(np.degrees(quat.angle(frame[moving])).max(initial=0.0) <= ZERO_POSE_DEG)
+def _zero_pose(frame: np.ndarray, moving: np.ndarray, within: float = ZERO_POSE_DEG) -> bool:
+    """Whether every moving joint of ``frame`` ``(J, 4)`` is within ``within`` degrees of
+    the skeleton's rest (the identity rotation)."""
+    return bool(np.degrees(quat.angle(frame[moving])).max(initial=0.0) <= within)
 
 
 def _leading(
     q: np.ndarray,
     translations: np.ndarray,
-    typical: tuple[np.ndarray, np.ndarray],
+    typical: Typical,
     moving: np.ndarray,
 ) -> int:
     """Leading rest frames: up to :data:`REST_POSES` runs of identical frames from the
@@ -175,7 +206,7 @@ def _rest_frames(motion: Motion) -> tuple[int, int]:
         if not still.size:
             break
         moving[still] = np.any(q[at : at + 4096, still] != q[:1, still], axis=(0, 2))
-    typical = _typical_steps(q)
+    typical = _typical_steps(q, moving)
     lead = _leading(q, p, typical, moving)
     trail = _leading(q[::-1], p[::-1], typical, moving)
     if lead + trail >= motion.n_frames - 4:

@@ -11,6 +11,7 @@ from helpers import (
     CMU_01_01_START,
     CORPUS_NAMES,
     NOISY,
+    ROOT,
     SAMPLE,
     corpus_clip,
     degrees_between,
@@ -234,3 +235,34 @@ def test_a_held_end_follows_a_half_turn_repaired_up_to_it():
     assert steps.max() < 20.0  # the input's one flip repaired, and no new one
     others = [j for j in range(clip.n_joints) if j != elbow]
     np.testing.assert_array_equal(out.rotations[299:, others], q[299:, others])
+
+
+@pytest.mark.parametrize("step", [1, 4])
+@pytest.mark.parametrize("noise_deg", [1.0, 3.0])
+def test_a_t_pose_before_a_noisy_capture_is_found(step, noise_deg):
+    """A video estimate's noise raises every joint's typical step past the jump rules: a
+    T-pose frame before a noisy walk (PyMO's T-pose skeleton, at 120 and 30 fps, 1 and 3
+    degrees of noise on every joint, the T-pose frame exact or noisy too) had been taken
+    for motion and smoothed into it. No noise makes the whole body step as far as out of
+    a pose near the rest into the walk: it is found, and on the noisy walk alone none."""
+    from motionclean.core import quat
+
+    walk = mc.load(ROOT / "tests" / "data" / "exporters" / "pymo_walk_tpose.bvh")
+    walk = walk.replace(
+        rotations=walk.rotations[::step],
+        translations=walk.translations[::step],
+        frame_time=walk.frame_time * step,
+        source_values=None,
+    )
+    rotations = np.concatenate([quat.identity((1, walk.n_joints)), walk.rotations])
+    translations = np.concatenate([walk.translations[:1], walk.translations])
+    rng = np.random.default_rng(7)
+    noise = quat.exp(rng.normal(scale=np.radians(noise_deg) / 2, size=(*rotations.shape[:-1], 3)))
+    for posed in (rotations, quat.multiply(rotations, noise)):
+        noisy = quat.multiply(rotations, noise)
+        noisy[0] = posed[0]
+        clip = walk.replace(rotations=noisy, translations=translations, source_values=None)
+        assert rest_frames(clip) == (1, 0)
+        assert rest_frames(
+            clip.replace(rotations=noisy[1:], translations=translations[1:], source_values=None)
+        ) == (0, 0)
