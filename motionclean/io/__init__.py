@@ -47,18 +47,27 @@ def _csv_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     return csv.csv_pieces(motion)
 
 
-#: Writers give the file's bytes, or its pieces to write in turn.
-_WRITERS: dict[str, Callable[[Motion], bytes | Iterable[bytes | memoryview]]] = {
-    ".bvh": bvh.bvh_pieces,
-    ".csv": _csv_pieces,
-    ".npz": smpl.npz_pieces,
-    ".pkl": pkl.pickle_pieces,
-    ".mot": opensim.opensim_pieces,
-    ".sto": opensim.opensim_pieces,
-    ".gltf": lambda motion: gltf.gltf_pieces(motion, glb=False),
-    ".glb": lambda motion: gltf.gltf_pieces(motion, glb=True),
+_Content = bytes | Iterable[bytes | memoryview]
+
+
+def _anywhere(write: Callable[[Motion], _Content]) -> Callable[[Motion, Path], _Content]:
+    """``write``, whose content does not depend on where the file goes, as a writer."""
+    return lambda motion, _: write(motion)
+
+
+#: Writers give the file's bytes for a clip and the path it is written to (a glTF file
+#: refers to files beside it), or its pieces to write in turn.
+_WRITERS: dict[str, Callable[[Motion, Path], _Content]] = {
+    ".bvh": _anywhere(bvh.bvh_pieces),
+    ".csv": _anywhere(_csv_pieces),
+    ".npz": _anywhere(smpl.npz_pieces),
+    ".pkl": _anywhere(pkl.pickle_pieces),
+    ".mot": _anywhere(opensim.opensim_pieces),
+    ".sto": _anywhere(opensim.opensim_pieces),
+    ".gltf": lambda motion, path: gltf.gltf_pieces(motion, path, glb=False),
+    ".glb": lambda motion, path: gltf.gltf_pieces(motion, path, glb=True),
     ".vrma": gltf.vrma_pieces,
-    ".fbx": fbx.fbx_bytes,
+    ".fbx": _anywhere(fbx.fbx_bytes),
 }
 #: File suffixes that can be read and written.
 FORMATS = tuple(_WRITERS)
@@ -382,15 +391,15 @@ def encode(motion: Motion, path: str | os.PathLike) -> bytes | Iterable[bytes | 
     if not isinstance(motion, Motion):
         raise TypeError(f"motion: save takes a Motion, got {type(motion).__name__}")
     path = Path(checks.path(path, "path"))
-    write = _WRITERS[_suffix(path, _WRITERS)]
+    suffix = _suffix(path, _WRITERS)
     try:
         motion.check()  # (the frame time too: set after construction, it may be any)
-        if write in (bvh.bvh_pieces, _csv_pieces):  # text headers: names as text
-            _check_names(motion.names, write is bvh.bvh_pieces)
+        if suffix in (".bvh", ".csv"):  # text headers: names as text
+            _check_names(motion.names, suffix == ".bvh")
         _check_unwritten_translations(motion)
         _check_unwritten_rotations(motion)
         _check_magnitudes(motion)
-        return write(motion)
+        return _WRITERS[suffix](motion, path)
     except MotionError as error:
         if error.path is not None:
             raise

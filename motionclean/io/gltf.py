@@ -23,15 +23,17 @@ the previous key, ``LINEAR`` interpolates (slerp for rotations, as glTF specifie
 ``CUBICSPLINE`` evaluates its Hermite spline (rotations renormalised), each holding its
 first and last key outside its range.
 
-Writing back keeps the file: with nothing changed its bytes exactly; otherwise every
-object of the JSON and every byte of the buffers stays, the channels of joints that
-changed point to new samplers (``LINEAR`` on the grid; a channel read as it was keeps its
-time accessor and the values of its unchanged frames), whose data is appended to the GLB
-binary chunk, or for ``.gltf`` to a new buffer embedded as a data URI; a changed ``.gltf``
-is written self-contained (its ``.bin`` files' bytes embedded as data URIs, so it can be
-written to any folder; the ``.bin`` files themselves are never touched). Sparse accessors
-and compressed animation data are refused. A VRM animation (``.vrma``) is a GLB, written
-only into the one it was read from (:func:`vrma_pieces`).
+Writing back keeps the file: with nothing changed its bytes exactly, where they find the
+buffer files they refer to (none, or written into the folder they were read from);
+otherwise every object of the JSON and every byte of the buffers stays, the channels of
+joints that changed point to new samplers (``LINEAR`` on the grid; a channel read as it
+was keeps its time accessor and the values of its unchanged frames), whose data is
+appended to the GLB binary chunk, or for ``.gltf`` to a new buffer embedded as a data URI;
+a changed ``.gltf``, or an unchanged one written to another folder, is written
+self-contained (its ``.bin`` files' bytes embedded as data URIs, so it can be written to
+any folder; the ``.bin`` files themselves are never touched; images keep their URIs).
+Sparse accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
+a GLB, written only into the one it was read from (:func:`vrma_pieces`).
 """
 
 from __future__ import annotations
@@ -939,7 +941,7 @@ def _own_document(motion: Motion) -> GltfSource | None:
     return src if isinstance(src, GltfSource) and motion.n_joints == len(src.nodes) else None
 
 
-def vrma_pieces(motion: Motion) -> Iterable[bytes]:
+def vrma_pieces(motion: Motion, target: Path) -> Iterable[bytes]:
     """``motion`` as a VRM animation (``.vrma``): only into the VRM animation it was read
     from, whose :data:`VRM_ANIMATION` extension maps its nodes to humanoid bones (a new
     GLB, or another file's, has no such map: no VRM tool would load it)."""
@@ -951,13 +953,14 @@ def vrma_pieces(motion: Motion) -> Iterable[bytes]:
             "this clip is not read from one: write .glb",
             motion.path,
         )
-    return gltf_pieces(motion, glb=True)
+    return gltf_pieces(motion, target, glb=True)
 
 
-def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
+def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
     """``motion`` written into the glTF it was read from (see the module), as a GLB or a
-    ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI): the input's
-    bytes when nothing changed."""
+    ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI) to be saved at
+    ``target``: the input's bytes when nothing changed and they find their buffer files
+    from there, else buffer files are embedded as data URIs."""
     src = _own_document(motion)
     if src is None:
         return [fresh_gltf(motion, glb)]
@@ -974,7 +977,7 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
     else:  # new frames: every joint's track keyed on them (old keys would set the clip's span)
         keyed = np.array([track.channel >= 0 for track in src.translation])
         moved = np.repeat((positions | keyed)[None, :], motion.n_frames, axis=0)
-    if kept.all() and not moved.any() and glb == src.glb:
+    if kept.all() and not moved.any() and glb == src.glb and _buffers_found(src, target):
         return pieces(src.raw)
     document = copy.deepcopy(src.document)
     glb_binary = src.glb and src.binary is not None and _first_buffer_is_binary(document)
@@ -1033,10 +1036,8 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
         document["buffers"][0]["byteLength"] = len(binary)
     elif new:
         document.setdefault("buffers", []).append({"byteLength": len(new), "uri": _data_uri(new)})
-    for index, buffer in enumerate(src.document.get("buffers", [])):
-        uri = buffer.get("uri")  # .bin files embedded: the file can go to any folder
-        if isinstance(uri, str) and not uri.startswith("data:"):
-            document["buffers"][index]["uri"] = _data_uri(src.buffers[index])
+    for index in _file_buffers(src.document):  # embedded: the file can go to any folder
+        document["buffers"][index]["uri"] = _data_uri(src.buffers[index])
     if not glb:  # one self-contained file: the binary chunk embedded too
         if glb_binary or (src.glb and binary is not None and _first_buffer_is_binary(document)):
             assert binary is not None
@@ -1044,6 +1045,26 @@ def gltf_pieces(motion: Motion, glb: bool) -> Iterable[bytes]:
         return [json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")]
     text = json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
     return [_glb(text, binary if src.glb else None)]
+
+
+def _file_buffers(document: dict) -> list[int]:
+    """The indices of the buffers whose URI names a file (relative to the glTF's folder)."""
+    buffers = document.get("buffers", [])
+    return [
+        index
+        for index, buffer in enumerate(buffers)
+        if isinstance(buffer.get("uri"), str) and not buffer["uri"].startswith("data:")
+    ]
+
+
+def _buffers_found(src: GltfSource, target: Path) -> bool:
+    """Whether ``src``'s bytes saved at ``target`` find the buffer files they name: none,
+    or ``target`` (by its name and, through a symbolic link, where it lands) is in the
+    folder they were read from."""
+    if not _file_buffers(src.document):
+        return True
+    folder = os.path.realpath(Path(src.buffers.path).parent)
+    return os.path.realpath(target.parent) == folder == os.path.dirname(os.path.realpath(target))
 
 
 def _data_uri(data: bytes) -> str:

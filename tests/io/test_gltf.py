@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import json
+import shutil
 import struct
 
 import numpy as np
@@ -62,10 +63,40 @@ def test_blender_export_reads_as_the_bvh_it_came_from(bvh_96):
     assert np.abs(separate.rotations - glb.rotations[:24]).max() < 1e-6  # separate exports
 
 
-@pytest.mark.parametrize("path", [BLENDER_GLB, BLENDER_GLTF])
-def test_untouched_file_is_written_byte_for_byte(tmp_path, path):
-    mc.save(mc.load(path), tmp_path / path.name)
-    assert (tmp_path / path.name).read_bytes() == path.read_bytes()
+def test_untouched_file_is_written_byte_for_byte(tmp_path):
+    mc.save(mc.load(BLENDER_GLB), tmp_path / BLENDER_GLB.name)  # any folder: self-contained
+    assert (tmp_path / BLENDER_GLB.name).read_bytes() == BLENDER_GLB.read_bytes()
+
+
+def test_an_untouched_gltf_with_a_bin_file_reads_back_from_any_folder(tmp_path, capsys):
+    """A .gltf whose buffer is a .bin file beside it: written byte for byte into the folder
+    it was read from (by name or through a link), and self-contained into another (clean,
+    convert, batch), where its bytes had referred to a .bin not there."""
+    folder = tmp_path / "src"
+    folder.mkdir()
+    for name in (BLENDER_GLTF.name, "131_02_cut.bin"):
+        shutil.copy(BLENDER_GLTF.parent / name, folder / name)
+    source = folder / BLENDER_GLTF.name
+    read = mc.load(source)
+    out = tmp_path / "out"
+    out.mkdir()
+    for args, written in (
+        (["clean", source, "-o", out / "c.gltf", "-q"], out / "c.gltf"),
+        (["convert", source, out / "v.gltf"], out / "v.gltf"),
+        (["batch", folder, "-o", out / "b", "-q", "-j", "1"], out / "b" / BLENDER_GLTF.name),
+    ):
+        code, _, err = run_cli(capsys, *args)
+        assert code == 0, err
+        back = mc.load(written)
+        assert np.array_equal(back.rotations, read.rotations)
+        assert np.array_equal(back.translations, read.translations)
+        assert back.frame_time == read.frame_time and back.names == read.names
+        document = json.loads(written.read_text())
+        assert all(b["uri"].startswith("data:") for b in document["buffers"])
+    (tmp_path / "link").symlink_to(folder)
+    for target in (folder / "same.gltf", tmp_path / "link" / "linked.gltf"):
+        mc.save(read, target)
+        assert target.read_bytes() == source.read_bytes()
 
 
 def test_an_armature_node_s_turn_gives_the_up_axis_and_its_scale_a_note(tmp_path):
