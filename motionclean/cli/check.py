@@ -14,8 +14,9 @@ default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from
 round-off). Lower is better for all three. The same limits apply per joint to the noise
 after cleaning and the largest deviation, so a regression on one joint fails even when the
 clip's maximum is another joint's. ``--update`` records figures instead (merged into the
-baseline; ``--replace`` starts a new one). Clips are keyed by their path relative to the
-baseline's folder.
+baseline; ``--replace`` starts a new one). A baseline records one pipeline, the one of every
+clip's figures: an update under another pipeline must record every clip it holds. Clips
+are keyed by their path relative to the baseline's folder.
 """
 
 from __future__ import annotations
@@ -293,6 +294,20 @@ def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
     )
 
 
+def refuse_mixed(
+    document: dict[str, Any], tables: Sequence[dict], keys: Sequence[str], baseline: Path
+) -> None:
+    """Refuse an ``--update`` under another pipeline than the baseline's that leaves some of
+    its clips out: the baseline records one pipeline, which every clip's figures are of."""
+    kept = sorted(set(document["clips"]) - set(keys))
+    if kept and document.get("pipeline") != json_safe(list(tables)):
+        raise UsageError(
+            f"{baseline}: recorded with another pipeline, which {plural(len(kept), 'clip')} "
+            f"not given would keep ({listed(kept, 3)}); to change the pipeline, update every "
+            "clip in it, or start a new baseline (--replace, or another file)"
+        )
+
+
 @click.command("check")
 @click.argument("clips", nargs=-1, required=True, type=PATH)
 @PIPE_OPTION
@@ -306,8 +321,8 @@ def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
 @click.option(
     "--update",
     is_flag=True,
-    help="Record these clips' figures in the baseline (other clips in it are kept) "
-    "instead of checking.",
+    help="Record these clips' figures in the baseline (other clips in it are kept; "
+    "under another pipeline every clip in it must be given) instead of checking.",
 )
 @click.option(
     "--replace",
@@ -357,6 +372,8 @@ def check_command(
         named.setdefault(clip_key(clip, baseline_path), clip)
     keys, clips = list(named), tuple(named.values())
     tables = tuple(pipeline.describe())
+    if update and not fresh:
+        refuse_mixed(document, tables, keys, baseline_path)
     jobs = [Job(os.fspath(c), None, tables, up=up, read=read) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
     echo_warnings(line for result in results.values() for line in result.warnings)
