@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import pickle
 import re
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -82,6 +84,35 @@ def test_tree_with_a_broken_file(tree, tmp_path, capsys):
         "csv/c.csv": "ok",
         "run/broken.bvh": "FAILED",
     }
+
+
+def test_failure_lines_and_the_index_name_the_files_as_the_readme_says(
+    tree, tmp_path, capsys, monkeypatch
+):
+    """README, "Batch: a whole folder" (which had said every line named the clip by its
+    absolute path): a clip's failure names it as given, a failure to write names the
+    output by its job's absolute path, and the index names each clip by its path below
+    IN_DIR with its job's error."""
+    make_temporary = tempfile.mkstemp
+    full = os.strerror(errno.ENOSPC)
+
+    def full_for_top(prefix: str, suffix: str, dir: str) -> tuple[int, str]:
+        if prefix == ".top.bvh.":
+            raise OSError(errno.ENOSPC, full)
+        return make_temporary(prefix=prefix, suffix=suffix, dir=dir)
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(tempfile, "mkstemp", full_for_top)
+    args = ("batch", "in", "-o", "out", "-j", "1", "-q", "--report-dir", "pages")
+    code, _, stderr = run_cli(capsys, *args)
+    lines = stderr.splitlines()  # (in the order of the clips)
+    assert code == 1 and len(lines) == 2
+    assert lines[0].startswith("motionclean: error: in/run/broken.bvh:")
+    assert lines[1] == f"motionclean: error: {tmp_path / 'out' / 'top.bvh'}: cannot write: {full}"
+    tables = Pipeline.default().describe()
+    index = index_entries(Path("pages/index.html").read_text(), tables)
+    assert index["run/broken.bvh"]["error"].startswith(f"{tree / 'run' / 'broken.bvh'}:")
+    assert index["top.bvh"]["error"] == lines[1].removeprefix("motionclean: error: ")
 
 
 @pytest.mark.slow
