@@ -35,7 +35,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
 from ..core.words import plural
 from ..io import ReadOptions, atomic_write
-from ..report.summary import json_safe, to_json
+from ..report.summary import same_pipeline, to_json
 from ..report.verdict import listed
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
@@ -300,7 +300,7 @@ def refuse_mixed(
     """Refuse an ``--update`` under another pipeline than the baseline's that leaves some of
     its clips out: the baseline records one pipeline, which every clip's figures are of."""
     kept = sorted(set(document["clips"]) - set(keys))
-    if kept and document.get("pipeline") != json_safe(list(tables)):
+    if kept and not same_pipeline(document.get("pipeline"), tables):
         raise UsageError(
             f"{baseline}: recorded with another pipeline, which {plural(len(kept), 'clip')} "
             f"not given would keep ({listed(kept, 3)}); to change the pipeline, update every "
@@ -442,7 +442,7 @@ def check_command(
         problems.append(unchecked_line(baseline_path, unchecked))
     if table:
         click.echo(format_check(table))
-    if document.get("pipeline") != json_safe(list(tables)):
+    if not same_pipeline(document.get("pipeline"), tables):
         click.echo("note: the pipeline differs from the one the baseline was recorded with")
     if not problems:
         click.echo(

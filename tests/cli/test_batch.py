@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import json
 import os
 import pickle
 import re
@@ -320,6 +321,27 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
         (pages / "index.html").read_text(), Pipeline.from_inline(["despike"]).describe()
     )
     assert other == {}  # another pipeline's figures are never taken
+
+
+def test_an_index_written_with_inf_as_text_is_of_the_same_pipeline(tree, tmp_path, capsys):
+    """The index's pipeline holds inf (despike's default max_units_per_s) as null and reads
+    back as the pipeline; an index of an earlier version, which wrote it as the string
+    "inf", still gives a resumed run its clips' figures."""
+    out, pages, args, tables, first = cleaned_once(tree, tmp_path, capsys)
+    index = pages / "index.html"
+    block = re.search(r'id="mc-batch">(.*?)</script>', index.read_text()).group(1)
+    pipeline = json.loads(block, parse_constant=pytest.fail)["pipeline"]
+    assert pipeline[0]["max_units_per_s"] is None
+    assert Pipeline.from_tables(pipeline, "index").describe() == tables
+    index.write_text(
+        index.read_text().replace('"max_units_per_s": null', '"max_units_per_s": "inf"')
+    )
+    assert index_entries(index.read_text(), tables) == first
+    (out / "top.bvh").unlink()
+    assert run_cli(capsys, *args, "--skip-existing")[0] == 0
+    again = index_entries(index.read_text(), tables)
+    assert again["walk/a.bvh"]["status"] == "skipped"
+    assert again["walk/a.bvh"]["verdict"] == first["walk/a.bvh"]["verdict"]
 
 
 def test_a_batch_resumed_after_an_interrupted_run_takes_the_figures_from_the_pages(

@@ -257,6 +257,22 @@ def test_an_update_that_changes_the_pipeline_must_cover_every_recorded_clip(clip
     assert run_cli(capsys, *args)[0] == 0  # (a new baseline: the default pipeline's)
 
 
+def test_a_baseline_holds_inf_as_null_and_one_written_as_text_is_the_same_pipeline(clips, capsys):
+    """The default despike's max_units_per_s (inf: none given) is null in the baseline, which
+    reads back as the pipeline; a baseline that holds it as the string "inf" (as they were
+    written before) is of the same pipeline: no note, and an update of some clips is no
+    change of pipeline."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    text = Path("b.json").read_text()
+    pipeline = json.loads(text, parse_constant=pytest.fail)["pipeline"]
+    assert '"inf"' not in text and pipeline[0]["max_units_per_s"] is None
+    assert Pipeline.from_tables(pipeline, "b.json").describe() == Pipeline.default().describe()
+    Path("b.json").write_text(text.replace('"max_units_per_s": null', '"max_units_per_s": "inf"'))
+    code, out, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert (code, err) == (0, "") and "pipeline differs" not in out
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+
+
 def test_keys_are_relative_to_the_baseline_folder_and_links_are_not_followed(
     clips, tmp_path, capsys
 ):
