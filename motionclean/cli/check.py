@@ -14,8 +14,9 @@ default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from
 round-off). Lower is better for all three. The same limits apply per joint to the noise
 after cleaning and the largest deviation, so a regression on one joint fails even when the
 clip's maximum is another joint's. ``--update`` records figures instead (merged into the
-baseline; ``--replace`` starts a new one). Clips are keyed by their path relative to the
-baseline's folder.
+baseline; ``--replace`` starts a new one). A baseline records one pipeline, the one of every
+clip's figures: an update under another pipeline must record every clip it holds. Clips
+are keyed by their path relative to the baseline's folder.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.version import __version__
 from ..core.words import plural
 from ..io import ReadOptions, atomic_write
-from ..report.summary import json_safe, to_json
+from ..report.summary import same_pipeline, to_json
 from ..report.verdict import listed
 from ..run.jobs import FileResult, Job
 from ..run.pool import default_workers, run_jobs
@@ -293,6 +294,20 @@ def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
     )
 
 
+def refuse_mixed(
+    document: dict[str, Any], tables: Sequence[dict], keys: Sequence[str], baseline: Path
+) -> None:
+    """Refuse an ``--update`` under another pipeline than the baseline's that leaves some of
+    its clips out: the baseline records one pipeline, which every clip's figures are of."""
+    kept = sorted(set(document["clips"]) - set(keys))
+    if kept and not same_pipeline(document.get("pipeline"), tables):
+        raise UsageError(
+            f"{baseline}: recorded with another pipeline, which {plural(len(kept), 'clip')} "
+            f"not given would keep ({listed(kept, 3)}); to change the pipeline, update every "
+            "clip in it, or start a new baseline (--replace, or another file)"
+        )
+
+
 @click.command("check")
 @click.argument("clips", nargs=-1, required=True, type=PATH)
 @PIPE_OPTION
@@ -306,8 +321,8 @@ def unchecked_line(baseline: Path, keys: Sequence[str]) -> str:
 @click.option(
     "--update",
     is_flag=True,
-    help="Record these clips' figures in the baseline (other clips in it are kept) "
-    "instead of checking.",
+    help="Record these clips' figures in the baseline (other clips in it are kept; "
+    "under another pipeline every clip in it must be given) instead of checking.",
 )
 @click.option(
     "--replace",
@@ -357,6 +372,8 @@ def check_command(
         named.setdefault(clip_key(clip, baseline_path), clip)
     keys, clips = list(named), tuple(named.values())
     tables = tuple(pipeline.describe())
+    if update and not fresh:
+        refuse_mixed(document, tables, keys, baseline_path)
     jobs = [Job(os.fspath(c), None, tables, up=up, read=read) for c in clips]
     results: dict[int, FileResult] = dict(run_jobs(jobs, default_workers()))
     echo_warnings(line for result in results.values() for line in result.warnings)
@@ -425,7 +442,7 @@ def check_command(
         problems.append(unchecked_line(baseline_path, unchecked))
     if table:
         click.echo(format_check(table))
-    if document.get("pipeline") != json_safe(list(tables)):
+    if not same_pipeline(document.get("pipeline"), tables):
         click.echo("note: the pipeline differs from the one the baseline was recorded with")
     if not problems:
         click.echo(

@@ -39,6 +39,7 @@ from .summary import (
     note_text,
     repaired_joints,
     resampled_to,
+    same_pipeline,
     was_cleaned,
 )
 from .traces import COLUMNS, Trace, trace
@@ -932,7 +933,7 @@ def _read_block(page: str, name: str, pipeline: Sequence[dict]) -> dict | None:
         return None
     try:
         data = json.loads(page[page.index(">", start) + 1 : stop])
-        return data if data["pipeline"] == json_safe(list(pipeline)) else None
+        return data if same_pipeline(data["pipeline"], pipeline) else None
     except (ValueError, KeyError, TypeError):
         return None
 

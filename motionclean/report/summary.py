@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -701,14 +702,30 @@ def _step_notes(joints: dict[str, dict]) -> list[str]:
 
 
 def json_safe(value: Any) -> Any:
-    """Non-finite numbers as the strings ``"inf"``, ``"-inf"``, ``"nan"`` (strict JSON)."""
+    """``value`` with every non-finite number as None, JSON's null (strict JSON has none):
+    an infinite step parameter, which a pipeline reads back as inf (``Param.coerce``)."""
     if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
+        return None
     if isinstance(value, dict):
         return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
         return [json_safe(v) for v in value]
     return value
+
+
+def same_pipeline(stored: Any, tables: Sequence[dict]) -> bool:
+    """Whether ``stored``, a pipeline read back from JSON (a baseline, a batch's page), is
+    ``tables``; one written before infinite parameters were null holds them as "inf"."""
+    if isinstance(stored, list):
+        stored = [_inf_as_null(step) for step in stored]
+    return stored == json_safe(list(tables))
+
+
+def _inf_as_null(step: Any) -> Any:
+    """A step table with its parameters written as "inf" as null."""
+    if not isinstance(step, dict):
+        return step
+    return {key: None if value == "inf" else value for key, value in step.items()}
 
 
 def to_json(report: dict) -> bytes:

@@ -61,6 +61,8 @@ class Param:
         bad = UsageError(f"{where}: {self.name} must be {self.allowed()}, got {shown}")
         if isinstance(value, np.generic):  # numpy's scalars, from Python callers: as Python's
             value = value.item()
+        if value is None and self.infinite_ok:  # (JSON's null: inf, as reports write it)
+            return math.inf
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise bad

@@ -472,7 +472,7 @@ class Pipeline:
         in (units as ``motionclean filters`` gives them), ``joints`` and ``positions``
         (but for whole-clip steps), and for a ranged step ``frames`` or ``seconds`` as
         given and ``blend`` (frames). ``Pipeline.from_tables(p.describe(), ...)`` builds
-        the same pipeline."""
+        the same pipeline, as it does from the JSON form, which writes inf as null."""
         return [step.describe() for step in self.steps]
 
     def run(self, motion: Motion) -> tuple[Motion, list[StepLog]]:

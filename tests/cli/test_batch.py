@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import errno
+import json
 import os
 import pickle
 import re
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -82,6 +85,35 @@ def test_tree_with_a_broken_file(tree, tmp_path, capsys):
         "csv/c.csv": "ok",
         "run/broken.bvh": "FAILED",
     }
+
+
+def test_failure_lines_and_the_index_name_the_files_as_the_readme_says(
+    tree, tmp_path, capsys, monkeypatch
+):
+    """README, "Batch: a whole folder" (which had said every line named the clip by its
+    absolute path): a clip's failure names it as given, a failure to write names the
+    output by its job's absolute path, and the index names each clip by its path below
+    IN_DIR with its job's error."""
+    make_temporary = tempfile.mkstemp
+    full = os.strerror(errno.ENOSPC)
+
+    def full_for_top(prefix: str, suffix: str, dir: str) -> tuple[int, str]:
+        if prefix == ".top.bvh.":
+            raise OSError(errno.ENOSPC, full)
+        return make_temporary(prefix=prefix, suffix=suffix, dir=dir)
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(tempfile, "mkstemp", full_for_top)
+    args = ("batch", "in", "-o", "out", "-j", "1", "-q", "--report-dir", "pages")
+    code, _, stderr = run_cli(capsys, *args)
+    lines = stderr.splitlines()  # (in the order of the clips)
+    assert code == 1 and len(lines) == 2
+    assert lines[0].startswith("motionclean: error: in/run/broken.bvh:")
+    assert lines[1] == f"motionclean: error: {tmp_path / 'out' / 'top.bvh'}: cannot write: {full}"
+    tables = Pipeline.default().describe()
+    index = index_entries(Path("pages/index.html").read_text(), tables)
+    assert index["run/broken.bvh"]["error"].startswith(f"{tree / 'run' / 'broken.bvh'}:")
+    assert index["top.bvh"]["error"] == lines[1].removeprefix("motionclean: error: ")
 
 
 @pytest.mark.slow
@@ -289,6 +321,27 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
         (pages / "index.html").read_text(), Pipeline.from_inline(["despike"]).describe()
     )
     assert other == {}  # another pipeline's figures are never taken
+
+
+def test_an_index_written_with_inf_as_text_is_of_the_same_pipeline(tree, tmp_path, capsys):
+    """The index's pipeline holds inf (despike's default max_units_per_s) as null and reads
+    back as the pipeline; an index of an earlier version, which wrote it as the string
+    "inf", still gives a resumed run its clips' figures."""
+    out, pages, args, tables, first = cleaned_once(tree, tmp_path, capsys)
+    index = pages / "index.html"
+    block = re.search(r'id="mc-batch">(.*?)</script>', index.read_text()).group(1)
+    pipeline = json.loads(block, parse_constant=pytest.fail)["pipeline"]
+    assert pipeline[0]["max_units_per_s"] is None
+    assert Pipeline.from_tables(pipeline, "index").describe() == tables
+    index.write_text(
+        index.read_text().replace('"max_units_per_s": null', '"max_units_per_s": "inf"')
+    )
+    assert index_entries(index.read_text(), tables) == first
+    (out / "top.bvh").unlink()
+    assert run_cli(capsys, *args, "--skip-existing")[0] == 0
+    again = index_entries(index.read_text(), tables)
+    assert again["walk/a.bvh"]["status"] == "skipped"
+    assert again["walk/a.bvh"]["verdict"] == first["walk/a.bvh"]["verdict"]
 
 
 def test_a_batch_resumed_after_an_interrupted_run_takes_the_figures_from_the_pages(

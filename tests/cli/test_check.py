@@ -233,6 +233,46 @@ def test_update_of_a_subset_keeps_the_other_clips_and_replace_starts_anew(clips,
     assert code == 2 and "--replace goes with --update" in err
 
 
+def test_an_update_that_changes_the_pipeline_must_cover_every_recorded_clip(clips, capsys):
+    """An --update with another pipeline on some of the baseline's clips had overwritten
+    its one "pipeline" and kept the others' figures of the old one: a mixed baseline that
+    failed them under the new pipeline with no word of why. It is refused, nothing written;
+    updating every clip, or a new baseline, changes the pipeline."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    recorded = Path("b.json").read_bytes()
+    other = ("-f", "lee-shin:k=2,iterations=3")
+    code, out, err = run_cli(capsys, "check", clips[1], *other, "--baseline", "b.json", "--update")
+    assert (code, out) == (2, "") and Path("b.json").read_bytes() == recorded
+    assert err == (
+        "motionclean: error: b.json: recorded with another pipeline, which 1 clip not given "
+        f"would keep ({clips[0]}); to change the pipeline, update every clip in it, or start "
+        "a new baseline (--replace, or another file)\n"
+    )
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
+    code, out, _ = run_cli(capsys, "check", *clips, *other, "--baseline", "b.json", "--update")
+    assert code == 0 and "(2 clips recorded)" in out
+    code, out, err = run_cli(capsys, "check", *clips, *other, "--baseline", "b.json")
+    assert (code, err) == (0, "") and "pipeline differs" not in out
+    args = ("check", clips[0], "--baseline", "b.json", "--update", "--replace")
+    assert run_cli(capsys, *args)[0] == 0  # (a new baseline: the default pipeline's)
+
+
+def test_a_baseline_holds_inf_as_null_and_one_written_as_text_is_the_same_pipeline(clips, capsys):
+    """The default despike's max_units_per_s (inf: none given) is null in the baseline, which
+    reads back as the pipeline; a baseline that holds it as the string "inf" (as they were
+    written before) is of the same pipeline: no note, and an update of some clips is no
+    change of pipeline."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    text = Path("b.json").read_text()
+    pipeline = json.loads(text, parse_constant=pytest.fail)["pipeline"]
+    assert '"inf"' not in text and pipeline[0]["max_units_per_s"] is None
+    assert Pipeline.from_tables(pipeline, "b.json").describe() == Pipeline.default().describe()
+    Path("b.json").write_text(text.replace('"max_units_per_s": null', '"max_units_per_s": "inf"'))
+    code, out, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert (code, err) == (0, "") and "pipeline differs" not in out
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+
+
 def test_keys_are_relative_to_the_baseline_folder_and_links_are_not_followed(
     clips, tmp_path, capsys
 ):

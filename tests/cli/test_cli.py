@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ from helpers import ROOT, SAMPLE, degrees_between, run_cli, with_t_pose
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.filters import multires
-from motionclean.steps.pipeline import REGISTRY
+from motionclean.steps.pipeline import REGISTRY, Pipeline
 
 
 def run(args, capsys):
@@ -596,3 +597,30 @@ def test_a_feet_pattern_that_matches_nothing_is_warned_of(tmp_path, capsys):
         f"motionclean: warning: {SAMPLE}: step 1 (footlock): feet pattern 'LeftFoot' "
         "matches no joint\n"
     )
+
+
+def strict_json(text: str):
+    """``text`` read as strict JSON: no ``Infinity`` / ``NaN`` token, no number as text."""
+
+    def refuse(token: str):
+        raise ValueError(f"not strict JSON: {token}")
+
+    data = json.loads(text, parse_constant=refuse)
+    assert not re.search(r'"-?(inf|nan)"', text, re.IGNORECASE)  # (a number written as text)
+    return data
+
+
+def test_the_json_report_is_strict_and_its_pipeline_reads_back(noisy_path, tmp_path, capsys):
+    """despike's max_units_per_s (inf by default: none given) had been the string "inf" among
+    JSON numbers; it is null, and the pipeline reads back as the one that ran."""
+    report = tmp_path / "r.json"
+    steps = ["-f", "despike", "-f", "bilateral:sigma_g=inf,sigma_p=inf"]
+    code, _, err = run(
+        ["clean", noisy_path, "-o", tmp_path / "c.bvh", "--report", report, *steps], capsys
+    )
+    assert code == 0, err
+    pipeline = strict_json(report.read_text())["pipeline"]
+    assert pipeline[0]["max_units_per_s"] is None and pipeline[1]["sigma_g"] is None
+    ran = Pipeline.from_inline(steps[1::2])
+    tables = [{k: v for k, v in step.items() if k != "touched"} for step in pipeline]
+    assert Pipeline.from_tables(tables, "r.json").describe() == ran.describe()

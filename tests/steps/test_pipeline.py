@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ import motionclean as mc
 from motionclean.core.errors import UsageError
 from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
+from motionclean.report.summary import to_json
 from motionclean.steps import StepData, StepSpec
 from motionclean.steps.pipeline import REGISTRY, Pipeline, parse_inline, parse_value, select_joints
 
@@ -346,3 +348,21 @@ def test_from_toml_says_what_it_takes_in_one_line():
     assert "\n" not in str(caught.value) and "not TOML text" in str(caught.value)
     with pytest.raises(TypeError, match="^path: expected a file path"):
         Pipeline.from_toml(5)
+
+
+def test_a_pipeline_reads_back_from_its_json_with_inf_as_null():
+    """JSON has no infinity: an infinite parameter is written as null, which
+    from_tables reads back as inf; null is no value of a parameter that takes no inf."""
+    pipeline = Pipeline.from_inline(
+        [
+            "despike",
+            "bilateral:sigma_g=inf,sigma_p=inf",
+            "fairing:epsilon_r=inf",
+            "footlock:hold_seconds=inf",
+        ]
+    )
+    tables = json.loads(to_json({"pipeline": pipeline.describe()}))["pipeline"]
+    assert tables[0]["max_units_per_s"] is tables[1]["sigma_g"] is tables[3]["hold_seconds"] is None
+    assert Pipeline.from_tables(tables, "json").describe() == pipeline.describe()
+    with pytest.raises(UsageError, match="k must be an integer"):
+        Pipeline.from_tables([{"filter": "lee-shin", "k": None}], "json")
