@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core import contacts as found
 from ..core import kinematics
-from ..core.jumps import jump_steps
+from ..core.jumps import JUMP_DEG, jump_steps
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
@@ -32,7 +32,7 @@ from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
 from .traces import Trace, traces
-from .verdict import CLEAN_CHANGE_DEG, PAIR_REPAIR_DEG, build_verdict, listed
+from .verdict import CLEAN_CHANGE_DEG, FAST_DEG_PER_S, PAIR_REPAIR_DEG, build_verdict, listed
 from .world import (
     contact_figures,
     figure_points,
@@ -99,7 +99,9 @@ def build_series(
     that involve a step of the input over :data:`~motionclean.core.jumps.JUMP_DEG` that no
     step repaired (:func:`unrepaired_jumps`: a flip or glitch left in place is no jitter;
     the deviation keeps those frames, where a smoothing that crossed the flip moved the
-    joint). ``unrepaired_jumps``: per joint name, how many such steps. ``reaches``: per
+    joint). ``unrepaired_jumps``: per joint name, how many such steps. ``fast_steps``: per
+    joint whose rotation in ``after`` turns faster than a body can (:func:`fast_steps`),
+    how many such steps and how many steps it has within the motion. ``reaches``: per
     joint with rotation channels, :func:`~motionclean.core.kinematics.reaches`. No per-frame table
     of the joints is kept: each is reduced as soon as it is made (the feet's heights,
     ``(F,)`` per foot, are).
@@ -185,6 +187,7 @@ def build_series(
     dev = None
     outside["deviation"] = None
     changed_near: dict[str, float] = {}  # joint name: its largest change near such a step
+    fast: dict[str, tuple[int, int]] = {}  # joint name: its steps too fast for a body, of all
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
@@ -196,6 +199,11 @@ def build_series(
         }
         dev = _reduced(table, lead, trail)
         del table
+        counts, measured = fast_steps(after.rotations[:, cols], dt, missing, starts, lead, trail)
+        fast = {
+            before.names[rot[n]]: (int(counts[n]), int(measured[n]))
+            for n in np.flatnonzero(counts).tolist()
+        }
     positions = (
         None
         if after is None
@@ -223,6 +231,7 @@ def build_series(
         "rest_frames": (lead, trail),
         "unrepaired_jumps": unrepaired,
         "changed_near_jumps": changed_near,
+        "fast_steps": fast,
         "reaches": kinematics.reaches(before)[rot],
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
@@ -297,19 +306,49 @@ def unrepaired_jumps(
 ) -> np.ndarray:
     """``(F-1, C)`` bool: the steps between frames of the input's rotations ``q`` ``(F, C,
     4)`` over :data:`~motionclean.core.jumps.JUMP_DEG` that no step repaired (``repaired``:
-    column -> ``(F,)`` frames a repairing step changed), within the motion: not into a rest
-    frame (``lead`` / ``trail`` at the ends), a ``missing`` sample ``(F, C)``, or across a
-    cut between takes (``starts``: each new take's first frame)."""
+    column -> ``(F,)`` frames a repairing step changed), within the motion
+    (:func:`_in_motion`)."""
     jumps = jump_steps(q)
-    n = jumps.shape[0]
-    jumps[:lead] = False
-    jumps[max(n - trail, 0) :] = False
-    jumps[starts[(starts >= 1) & (starts <= n)] - 1] = False
-    if missing is not None:
-        jumps &= ~(missing[:-1] | missing[1:])
+    jumps &= _in_motion(jumps.shape, missing, starts, lead, trail)
     for column, frames in repaired.items():
         jumps[:, column] &= ~(frames[:-1] | frames[1:])
     return jumps
+
+
+def _in_motion(
+    shape: tuple[int, ...], missing: np.ndarray | None, starts: np.ndarray, lead: int, trail: int
+) -> np.ndarray:
+    """``shape`` ``(F-1, C)`` bool (a read-only broadcast where nothing is missing): the
+    steps between frames within the motion, not into a rest frame (``lead`` / ``trail`` at
+    the ends), a ``missing`` sample ``(F, C)``, or across a cut between takes (``starts``:
+    each new take's first frame)."""
+    n = shape[0]
+    rows = np.ones(n, dtype=bool)
+    rows[:lead] = False
+    rows[max(n - trail, 0) :] = False
+    rows[starts[(starts >= 1) & (starts <= n)] - 1] = False
+    if missing is None:
+        return np.broadcast_to(rows[:, None], shape)
+    return rows[:, None] & ~(missing[:-1] | missing[1:])
+
+
+def fast_steps(
+    q: np.ndarray,
+    dt: float,
+    missing: np.ndarray | None,
+    starts: np.ndarray,
+    lead: int,
+    trail: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per column of the rotations ``q`` ``(F, C, 4)`` (frame time ``dt`` s): how many of its
+    steps within the motion (:func:`_in_motion`) turn faster than
+    :data:`~motionclean.report.verdict.FAST_DEG_PER_S` degrees per second or by more than
+    :data:`~motionclean.core.jumps.JUMP_DEG` degrees, and how many steps it has there:
+    ``(C,)`` int each."""
+    fast = jump_steps(q, min(FAST_DEG_PER_S * dt, JUMP_DEG))
+    measured = _in_motion(fast.shape, missing, starts, lead, trail)
+    fast &= measured
+    return fast.sum(axis=0), measured.sum(axis=0)
 
 
 def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
@@ -463,6 +502,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_joint": names[worst] if names else None,
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
         "changed_near_jumps": series.get("changed_near_jumps", {}),
+        "fast_steps": series.get("fast_steps", {}),
     } | _position_smoothing(figures.get("positions"))
 
 

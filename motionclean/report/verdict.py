@@ -14,7 +14,9 @@ Statuses, first that applies (thresholds below, documented in the README):
 - ``needs a look``: a gap left missing (longer than ``max_gap``), smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
-  flipped one?), feet sliding faster than :data:`LOOK_SKATE` body heights per second, or
+  flipped one?), a joint of the cleaned clip turning faster than a body can
+  (:data:`FAST_DEG_PER_S`) on more than :data:`LOOK_FAST_SHARE` of its frames, feet sliding
+  faster than :data:`LOOK_SKATE` body heights per second, or
   smoothing that changed the clip by more than :data:`LOOK_CHANGE_NOISE` times its noise
   (motion taken for noise; a capture whose noise is under :data:`CLEAN_NOISE_DEG` is then
   called clean, "clean capture, smoothed").
@@ -45,6 +47,7 @@ import numpy as np
 
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
+from ..core.takes import MAX_DEG_PER_S
 from ..core.words import plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
@@ -54,9 +57,11 @@ __all__ = [
     "CLEAN_CHANGE_DEG",
     "CLEAN_CHANGE_HEIGHTS",
     "CLEAN_NOISE_DEG",
+    "FAST_DEG_PER_S",
     "LOOK_CHANGE_DEG",
     "LOOK_CHANGE_HEIGHTS",
     "LOOK_CHANGE_NOISE",
+    "LOOK_FAST_SHARE",
     "LOOK_REPAIRED_SHARE",
     "LOOK_SKATE",
     "NEGLIGIBLE_JITTER",
@@ -105,6 +110,25 @@ LOOK_CHANGE_HEIGHTS = 0.1
 UNCHANGED_LENGTH = UNCHANGED_TOLERANCE
 #: A joint repaired on more than this share of its frames needs a look.
 LOOK_REPAIRED_SHARE = 0.5
+#: A joint of the cleaned clip turning faster than this between two frames (degrees per
+#: second), or by more than :data:`~motionclean.core.jumps.JUMP_DEG` degrees in one (at 24
+#: and 30 fps, where this is 150 and 120 degrees a frame), turns faster than a body can:
+#: ``despike``'s cap (:data:`~motionclean.core.takes.MAX_DEG_PER_S`, 30 degrees a frame at
+#: 120 fps). Clean captures stay under it after the default pipeline at 24 to 120 fps: the
+#: fastest step of CMU 131_01-03 (at 120 fps and every 2nd, 4th and 5th frame), the sample
+#: clips, the exporters' clips and two LaFAN1 and two MANN dog captures at 30 and 60 fps is
+#: 3,483 deg/s (a dog's tail; 131_03's RightWrist 3,460 at 30 fps), and no joint takes such
+#: a step on more than 1.4 % of its frames (3 of 220, 131_03's RightWrist at 24 fps; the
+#: dog's tail 5 of 2,167 at 30 fps); marker-based captures of a dance, lifting, gait and
+#: sit-to-stand turn no joint coordinate faster than 1,314 deg/s.
+FAST_DEG_PER_S = MAX_DEG_PER_S
+#: ... and a joint doing so on more than this share of its frames (steps within the motion)
+#: needs a look: no motion keeps it up, a glitch (a twist flipping back and forth) does,
+#: and ``despike`` leaves it where it spans more than a quarter of a joint's frames. Clean
+#: captures: at most 1.4 % of a joint's frames (8.3 % of its worst second, 2 of 24, the
+#: same wrist); the joint coordinates of markerless estimates that glitch up to 21,570
+#: deg/s, as read: at most 0.75 %.
+LOOK_FAST_SHARE = 0.1
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
 #: over 0.1 s, after cleaning) are planted; the value of ``footlock``'s ``min_skate``.
 PLANTED_SKATE = 0.1
@@ -237,6 +261,43 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
             each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
         words.append(f"{total} ({', '.join(each)})")
     return words
+
+
+def _too_fast(smoothing: dict) -> dict[str, dict[str, float]]:
+    """Per joint of the cleaned clip turning faster than :data:`FAST_DEG_PER_S` (or over
+    :data:`~motionclean.core.jumps.JUMP_DEG` degrees a frame) on more than
+    :data:`LOOK_FAST_SHARE` of its frames (``smoothing["fast_steps"]``: per joint, its
+    steps within the motion doing so and all of them), most frames first: ``frames`` and
+    ``share``."""
+    found = {
+        name: {"frames": int(frames), "share": frames / steps}
+        for name, (frames, steps) in (smoothing.get("fast_steps") or {}).items()
+        if steps and frames > LOOK_FAST_SHARE * steps
+    }
+    return dict(sorted(found.items(), key=lambda item: -item[1]["frames"]))
+
+
+def _percent(share: float) -> str:
+    """ "26 %": a share in whole percent."""
+    return f"{share:.0%}".replace("%", " %")
+
+
+def _fast_words(fast: dict[str, dict[str, float]]) -> str:
+    """ "RightHand turns faster than a body can (over 3,600 deg/s, or 90 degrees in a frame)
+    on 77 frames (26 %)"; several joints each with their frames and share, most first (the
+    first :data:`REPAIRS_NAMED`, then how many more joints)."""
+    limit = f"(over {FAST_DEG_PER_S:,.0f} deg/s, or {JUMP_DEG:g} degrees in a frame)"
+    if len(fast) == 1:
+        name, found = next(iter(fast.items()))
+        where = f"{plural(int(found['frames']), 'frame')} ({_percent(found['share'])})"
+        return f"{name} turns faster than a body can {limit} on {where}"
+    each = [
+        f"{name} ({found['frames']:,}{' frames' if not k else ''}, {_percent(found['share'])})"
+        for k, (name, found) in enumerate(list(fast.items())[:REPAIRS_NAMED])
+    ]
+    if len(fast) > REPAIRS_NAMED:
+        each.append(plural(len(fast) - REPAIRS_NAMED, "more joint"))
+    return f"{', '.join(each[:-1])} and {each[-1]} turn faster than a body can {limit}"
 
 
 def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
@@ -426,7 +487,9 @@ def build_verdict(
     ``change_deg_rms`` (rotation angle between input and output, degrees),
     ``change_joint`` (where the largest change is) and ``noise_level`` (the input's
     per-sample rotation noise, RMS over joints, degrees; None where the change is under
-    :data:`CLEAN_CHANGE_DEG`: not needed); of the position channels (None each
+    :data:`CLEAN_CHANGE_DEG`: not needed), ``fast_steps`` (per joint of the cleaned clip,
+    its steps faster than :data:`FAST_DEG_PER_S` and all its steps within the motion); of
+    the position channels (None each
     without any) ``position_noise_before``, ``position_noise_after`` (RMS linear
     acceleration, length units/s^2), ``position_noise_removed``, ``change_length_max``,
     ``change_length_rms`` (length units), ``change_length_joint``, ``position_moved``
@@ -505,6 +568,9 @@ def build_verdict(
     for name, counts in repairs.items():
         if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
             reasons.append(f"{name} repaired on {counts['frames'] / frames:.0%} of its frames")
+    too_fast = _too_fast(smoothing)
+    if too_fast:
+        reasons.append(_fast_words(too_fast))
     if skate is not None and skate > LOOK_SKATE:
         hint = "" if "footlock" in filters else " (footlock holds them)"
         reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
@@ -608,5 +674,6 @@ def build_verdict(
         "length_scale": scale if scale > 0 else None,
         "length_scale_of": per or None,
         "repairs": repairs,
+        "too_fast": too_fast,
         "feet": feet,
     }
