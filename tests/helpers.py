@@ -499,3 +499,75 @@ def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
     f = np.fft.rfftfreq(frames, 1.0 / fps)
     e = np.fft.irfft(spec / (1.0 + (f / edge_hz) ** 8)[:, None, None], frames, axis=0)
     return e * (math.radians(noise_deg) / (2 * math.sqrt(3)) / e.std())
+
+
+def _dog_tree() -> tuple[list[str], np.ndarray, np.ndarray, dict[int, np.ndarray]]:
+    """Names, parents, offsets (metres) and end sites of a dog as the MANN dataset's tree has
+    it: spine, neck and head, forelegs from the chest, hind legs and a tail from the hips,
+    every rest bone along +x."""
+    tree = [
+        ("Hips", -1, (0.0, 0.0, 0.0)),
+        ("Spine", 0, (0.05, 0.0, 0.0)),
+        ("Spine1", 1, (0.19, 0.0, 0.0)),
+        ("Neck", 2, (0.22, 0.01, 0.0)),
+        ("Head", 3, (0.14, 0.0, 0.0)),
+    ]
+    for side, z in (("Left", 0.045), ("Right", -0.045)):
+        at = len(tree)
+        tree += [
+            (f"{side}Shoulder", 2, (0.2, -0.05, z)),
+            (f"{side}Arm", at, (0.08, 0.0, 0.0)),
+            (f"{side}ForeArm", at + 1, (0.15, 0.0, 0.0)),
+            (f"{side}Hand", at + 2, (0.18, 0.0, 0.0)),
+        ]
+    for side, z in (("Left", 0.05), ("Right", -0.05)):
+        at = len(tree)
+        tree += [
+            (f"{side}UpLeg", 0, (0.06, -0.08, z)),
+            (f"{side}Leg", at, (0.16, 0.0, 0.0)),
+            (f"{side}Foot", at + 1, (0.18, 0.0, 0.0)),
+        ]
+    tree += [("Tail", 0, (-0.05, 0.02, 0.0)), ("Tail1", len(tree), (0.1, 0.0, 0.0))]
+    names = [name for name, _, _ in tree]
+    tips = {"Head": 0.17, "LeftHand": 0.07, "RightHand": 0.07, "LeftFoot": 0.1}
+    tips |= {"RightFoot": 0.1, "Tail1": 0.12}
+    ends = {names.index(n): np.array([x, 0.0, 0.0]) for n, x in tips.items()}
+    parents = np.array([parent for _, parent, _ in tree])
+    return names, parents, np.array([offset for _, _, offset in tree]), ends
+
+
+def walking_dog(frames: int = 240, fps: float = 60.0, turn: float = 0.0) -> mc.Motion:
+    """A dog (:func:`_dog_tree`) trotting at 1 m/s with y up: facing -x, its legs and
+    forelegs hanging and swinging 25 degrees either way twice a second, its head raised 35
+    degrees and its tail up behind; ``turn`` (radians) turns it about y over the clip."""
+    names, parents, offsets, ends = _dog_tree()
+    phase = 4.0 * np.pi * np.arange(frames) / fps
+
+    def about(axis: int, angle) -> np.ndarray:
+        return quat.from_axis_angle(np.eye(3)[axis], np.broadcast_to(angle, (frames,)))
+
+    q = quat.identity((frames, len(names)))
+    heading = np.pi + turn * np.linspace(0.0, 1.0, frames)  # the rest's +x trunk faces -x
+    q[:, 0] = about(1, heading)
+    q[:, names.index("Neck")] = about(2, np.radians(35.0))
+    q[:, names.index("Tail")] = about(2, np.radians(160.0))
+    limbs = ("LeftShoulder", "RightShoulder", "RightUpLeg", "LeftUpLeg")  # a trot's pairs
+    for k, limb in enumerate(limbs):
+        swing = np.radians(25.0) * np.sin(phase + np.pi * (k % 2))
+        q[:, names.index(limb)] = about(2, -np.pi / 2 + swing)  # +x turned down, swinging
+        q[:, names.index(limb) + 1] = about(2, np.radians(15.0) * (1.0 + np.sin(phase + k)))
+    facing = np.stack([np.cos(heading), np.zeros(frames), -np.sin(heading)], axis=1)
+    translations = np.zeros((frames, len(names), 3))
+    translations[:, 0] = np.cumsum(facing, axis=0) / fps + [0.0, 0.52, 0.0]
+    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+    channels += [("Zrotation", "Xrotation", "Yrotation")] * (len(names) - 1)
+    return mc.Motion(
+        names=names,
+        parents=parents,
+        offsets=offsets,
+        channels=channels,
+        frame_time=1.0 / fps,
+        rotations=q,
+        translations=translations,
+        end_sites=ends,
+    )

@@ -52,7 +52,12 @@ from ..report.summary import (
     unrepaired_jumps,
 )
 from ..report.verdict import listed
-from ..report.world import contact_figures, format_contacts
+from ..report.world import (
+    contact_figures,
+    contradiction_words,
+    format_contacts,
+    up_contradicted,
+)
 from ..run.jobs import (
     blend_clips,
     check_compatible,
@@ -251,6 +256,8 @@ def info(
         axis = kinematics.up_axis(motion)
         said = getattr(motion.source, "up_source", None) or "given by the file"
         source = "given" if up else said if motion.up else "found from the motion"
+        against = contradiction_words({"up_axis_contradicted": up_contradicted(motion)})
+        source += f"; {against}" if against else ""
         height = kinematics.body_height(motion, axis)
         tall = f"{height:.4g} units" if height > 0 else "none (no skeleton)"
         click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   body height: {tall}")

@@ -276,8 +276,9 @@ UP_OPTION = click.option(
     callback=lambda ctx, param, value: None if value is None else value.lower(),
     help="The clips' up axis, -y for a figure standing head down along y as a camera's "
     "y-down coordinates have it (default: found from the motion: the feet are below the "
-    "head; a T-pose rest does not mislead it). World-space figures, feet and the player "
-    "use it.",
+    "head, a quadruped stands on its four limbs; a T-pose rest does not mislead it). "
+    "World-space figures, feet and the player use it; where the motion shows another "
+    "axis, the reports say so and the verdict asks for a look.",
 )
 
 

@@ -13,6 +13,8 @@ loop is over the depth of the tree (all joints of one depth at once).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import checks, quat
@@ -22,7 +24,14 @@ from .tree import ancestor_jumps
 
 __all__ = [
     "AXES",
+    "CONTRADICTED_SHARE",
+    "BodyParts",
+    "MotionUp",
     "axis_index",
+    "body_parts",
+    "motion_up",
+    "on_all_fours",
+    "up_contradiction",
     "up_direction",
     "up_name",
     "upright",
@@ -467,15 +476,7 @@ def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int
     coordinates have it), e.g. ``(1, -1.0)`` for ``"-y"``; the Python counterpart of
     ``--up x|y|z|-x|-y|-z``. ``override`` (``"x"`` ... ``"-z"`` or 0-2, an index meaning
     the positive side) gives it, else what the clip declares (:attr:`Motion.up`), else it
-    is found from its motion.
-
-    Found from the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the
-    rest pose alone (a T-pose's arm span equals its height): where the skeleton has a trunk
-    (:func:`trunk_split`: an upper body above the legs), the axis the vector from the legs'
-    centroid to the spine and head (:func:`spine`: no arm or finger) is along on average
-    (the feet are below the head), and which way; otherwise the axis of the largest median
-    extent of a frame's points (sign +1: nothing tells which end is up). Both are the same
-    answer on a turned copy of the clip (a Z-up export of a Y-up one).
+    is found from its motion (:func:`motion_up`).
     """
     as_motion(motion)
     if override is None:
@@ -483,25 +484,92 @@ def up_direction(motion: Motion, override: str | int | None = None) -> tuple[int
     if override is not None:
         negative = isinstance(override, str) and override.startswith("-")
         return axis_index(override), -1.0 if negative else 1.0
-    return motion.derived("up_direction", _found_up)  # (asked by every world-space stage)
+    found = motion_up(motion)
+    return found.axis, found.sign
 
 
-def _found_up(motion: Motion) -> tuple[int, float]:
-    """:func:`up_direction` found from the motion."""
+@dataclass(frozen=True)
+class MotionUp:
+    """The up direction a clip's motion shows (:func:`motion_up`), whatever it declares.
+
+    ``axis`` (0 = x, 1 = y, 2 = z) and ``sign`` as :func:`up_direction` gives them; ``by``
+    what showed it: ``"trunk"`` (a body standing on its legs), ``"limbs"`` (on all fours)
+    or ``"extent"`` (no trunk, or points unknown on some frames: the axis of the largest
+    extent, which tells nothing of the body); ``share`` the share of the sampled frames
+    (:func:`sample_poses`) on which the trunk points, or the limbs stand, along that
+    direction with the feet below the head (None by extent).
+    """
+
+    axis: int
+    sign: float
+    by: str
+    share: float | None
+
+
+def motion_up(motion: Motion) -> MotionUp:
+    """The up direction the motion of ``motion`` shows, whatever the clip declares: found from
+    the poses of up to :data:`POSE_SAMPLES` evenly spaced frames, never from the rest pose
+    alone (a T-pose's arm span equals its height).
+
+    Where the skeleton has a trunk (:func:`body_parts`: an upper body above the legs), the
+    axis the vector from the legs' centroid to the spine and head (no arm or finger) is
+    along on average (the feet are below the head), and which way; a body on all fours on
+    more than half of those frames (:func:`on_all_fours`: a quadruped, whose trunk lies
+    along the way it faces) stands on its limbs instead: up is the way its legs and
+    forelegs point from, on average. Otherwise the axis of the largest median extent of a
+    frame's points (sign +1: nothing tells which end is up). Each is the same answer on a
+    turned copy of the clip (a Z-up export of a Y-up one). Kept with the clip (every
+    world-space stage asks for it).
+    """
+    as_motion(motion)
+    return motion.derived("motion_up", _motion_up)
+
+
+def _motion_up(motion: Motion) -> MotionUp:
+    """:func:`motion_up`, computed."""
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None
-    parents = point_parents(motion)
-    split = trunk_split(parents)
-    if split is not None and known is None:
-        upper, lower = split
-        along = poses[:, spine(parents, upper)].mean(axis=1) - poses[:, lower].mean(axis=1)
-        length = np.linalg.norm(along, axis=-1, keepdims=True)
-        mean = (along / np.where(length > 0.0, length, 1.0)).mean(axis=0)
+    parts = body_parts(point_parents(motion), rest_positions(motion))
+    if parts is not None and known is None:
+        by = "limbs" if np.mean(on_all_fours(poses, parts)) > 0.5 else "trunk"
+        pointing = _limbs_up(poses, parts) if by == "limbs" else _trunk_up(poses, parts)
+        mean = pointing.mean(axis=0)
         if np.abs(mean).max() > 0.0:
             axis = int(np.argmax(np.abs(mean)))
-            return axis, -1.0 if mean[axis] < 0.0 else 1.0
-    return int(np.argmax(_median_extent(poses, known))), 1.0
+            sign = -1.0 if mean[axis] < 0.0 else 1.0
+            along = np.argmax(np.abs(pointing), axis=-1) == axis
+            along &= pointing[:, axis] * sign > 0.0
+            feet = parts.legs[1] if by == "trunk" else np.r_[parts.legs[1], parts.arms[1]]
+            height = poses[..., axis] * sign
+            along &= height[:, feet].max(axis=1) < height[:, parts.head].min(axis=1)
+            return MotionUp(axis, sign, by, float(np.mean(along)))
+    return MotionUp(int(np.argmax(_median_extent(poses, known))), 1.0, "extent", None)
+
+
+#: A declared up direction is contradicted by the motion where the motion shows another one
+#: (:func:`motion_up`) on at least this share of its sampled frames: 0.94-1.00 on every
+#: biped measured (the exporters' clips, the CMU corpus, walks, runs, turns, jumps and stairs
+#: at 24-120 fps, Y-up, Z-up and head down), 0.99-1.00 on the MANN dogs; a kneeling bow with
+#: the trunk level shows its up on none (its trunk points along no one axis).
+CONTRADICTED_SHARE = 0.9
+
+
+def up_contradiction(motion: Motion) -> MotionUp | None:
+    """The up direction the motion shows (:func:`motion_up`) where the clip declares another
+    (:attr:`Motion.up`: ``--up``, a file that states it) and the motion shows its own on at
+    least :data:`CONTRADICTED_SHARE` of the frames; None otherwise (nothing declared, the
+    same direction, or a motion that cannot tell: a hand, a figure lying and turning on the
+    floor, points unknown on some frames). The declared direction is still the one used."""
+    as_motion(motion)
+    if motion.up is None:
+        return None
+    shown = motion_up(motion)
+    if shown.share is None or shown.share < CONTRADICTED_SHARE:
+        return None
+    if (shown.axis, shown.sign) == up_direction(motion):
+        return None
+    return shown
 
 
 def up_name(motion: Motion, override: str | int | None = None) -> str:
@@ -655,6 +723,121 @@ def limbs(parents: np.ndarray) -> list[list[int]]:
     pelvis = int(parents[chain[0]])
     starts = children[chain[-1]] + [c for c in children[pelvis] if c != chain[0]]
     return [subtree(children, start) for start in starts]
+
+
+#: A leg or foreleg reaches at least this share of the farthest of its kind (the pelvis's
+#: subtrees, or the chest's branches but the head), in the rest pose: a dog's tail (0.67
+#: of its legs) or a short bone beside the hips (0.14 of a leg) is none.
+LIMB_REACH = 0.8
+#: On all fours (:func:`on_all_fours`) the forelegs point the legs' way within this cosine
+#: (60 degrees: the MANN dogs' at 20-40 on 80 % of frames, a biped's arms hanging beside
+#: its legs too) and both hang across the spine, their cosine with it under this in size
+#: (60-120 degrees: the dogs' legs at 75-115; a biped's at 135-180 on most frames, down to
+#: 107 in MocapBank's squat, on all fours on 43 % of its frames).
+ALL_FOURS_COSINE = 0.5
+
+
+@dataclass(frozen=True)
+class BodyParts:
+    """The parts of a skeleton with a trunk (:func:`body_parts`), point indices (joints,
+    then end sites): ``upper`` and ``lower`` as :func:`trunk_split`, ``spine`` as
+    :func:`spine`, ``pelvis`` and ``chest`` (the trunk's ends, where the legs part and
+    where the neck and arms part), ``head`` (the neck and head: the chest's smallest
+    branch, or the chest alone), and the roots and tips of the ``legs`` and ``arms`` (the
+    forelegs of a quadruped): each limb's first point and its point farthest from it in the
+    rest pose, limbs reaching less than :data:`LIMB_REACH` of their longest left out."""
+
+    upper: np.ndarray
+    lower: np.ndarray
+    spine: np.ndarray
+    pelvis: int
+    chest: int
+    head: np.ndarray
+    legs: tuple[np.ndarray, np.ndarray]
+    arms: tuple[np.ndarray, np.ndarray]
+
+
+def body_parts(parents: np.ndarray, rest: np.ndarray) -> BodyParts | None:
+    """The :class:`BodyParts` of a skeleton from its tree (``parents`` of its points) and
+    its rest pose ``rest`` ``(P, 3)`` (how far each limb reaches, whatever way it lies);
+    None without a trunk (:func:`trunk_split`)."""
+    split = trunk_split(parents)
+    if split is None:
+        return None
+    upper, lower = split
+    children = child_lists(parents)
+    chain = _trunk_chain(parents, upper, children)
+    pelvis, chest = int(parents[chain[0]]), chain[-1]
+    back = spine(parents, upper)
+    head = [p for p in back.tolist() if p not in chain] or [chest]
+    legs = [c for c in children[pelvis] if c != chain[0]]
+    arms = [c for c in children[chest] if c not in head]
+    return BodyParts(
+        upper,
+        lower,
+        back,
+        pelvis,
+        chest,
+        np.array(head, dtype=np.intp),
+        _limb_ends(legs, children, rest),
+        _limb_ends(arms, children, rest),
+    )
+
+
+def _limb_ends(
+    starts: list[int], children: list[list[int]], rest: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Roots and tips (point indices) of the limbs that start at ``starts``: each one's
+    point farthest from its start in the ``rest`` pose, limbs reaching less than
+    :data:`LIMB_REACH` of the farthest left out."""
+    tips, reach = [], []
+    for start in starts:
+        points = subtree(children, start)
+        far = np.linalg.norm(rest[points] - rest[start], axis=-1)
+        tips.append(points[int(np.argmax(far))])
+        reach.append(float(far.max()))
+    kept = [k for k, r in enumerate(reach) if r >= LIMB_REACH * max(reach, default=0.0)]
+    return (
+        np.array([starts[k] for k in kept], dtype=np.intp),
+        np.array([tips[k] for k in kept], dtype=np.intp),
+    )
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    """``vectors`` ``(..., 3)`` scaled to length 1 (zero ones kept zero)."""
+    length = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return vectors / np.where(length > 0.0, length, 1.0)
+
+
+def _pointing(poses: np.ndarray, ends: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(S, 3)``: the way limbs (``ends``: roots and tips) point in ``poses``
+    ``(S, P, 3)``, the mean of each one's unit direction from root to tip, made unit."""
+    roots, tips = ends
+    return _unit(_unit(poses[:, tips] - poses[:, roots]).sum(axis=1))
+
+
+def on_all_fours(poses: np.ndarray, parts: BodyParts) -> np.ndarray:
+    """``(S,)`` bool: the body of :class:`BodyParts` ``parts`` stands on all fours in
+    ``poses`` ``(S, P, 3)``: its forelegs point the way its legs do and both hang across its
+    spine (pelvis to chest), within :data:`ALL_FOURS_COSINE` (a quadruped, or a biped bent
+    level, arms hanging). False throughout for a body without forelegs or legs."""
+    if parts.arms[0].size == 0 or parts.legs[0].size == 0:
+        return np.zeros(poses.shape[0], dtype=bool)
+    legs, arms = _pointing(poses, parts.legs), _pointing(poses, parts.arms)
+    back = _unit(poses[:, parts.chest] - poses[:, parts.pelvis])
+    along = np.einsum("sk,sk->s", arms, legs) > ALL_FOURS_COSINE
+    across = np.abs(np.einsum("sk,sk->s", back, legs)) < ALL_FOURS_COSINE
+    return along & across & (np.abs(np.einsum("sk,sk->s", back, arms)) < ALL_FOURS_COSINE)
+
+
+def _trunk_up(poses: np.ndarray, parts: BodyParts) -> np.ndarray:
+    """``(S, 3)`` unit: from the legs' centroid to the spine and head's, per pose."""
+    return _unit(poses[:, parts.spine].mean(axis=1) - poses[:, parts.lower].mean(axis=1))
+
+
+def _limbs_up(poses: np.ndarray, parts: BodyParts) -> np.ndarray:
+    """``(S, 3)`` unit: the way the legs and forelegs point from, per pose."""
+    return _unit(-(_pointing(poses, parts.legs) + _pointing(poses, parts.arms)))
 
 
 def child_lists(parents: np.ndarray) -> list[list[int]]:

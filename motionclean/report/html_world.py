@@ -16,6 +16,7 @@ import numpy as np
 from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
+from .world import contradiction_words
 
 __all__ = ["world_section", "world_series"]
 
@@ -564,6 +565,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         how = {"given": "given", "assumed": "assumed: the format's default"}.get(
             str(figures.get("up_axis_source")), "found from the motion"
         )
+        shown = contradiction_words(figures)
+        how += f"; {html.escape(shown, quote=False)}" if shown else ""
         height = figures.get("body_height")
         tall = "no body height" if height is None else f"body height {height:.4g} units"
         axes = f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), {tall}</span>"

@@ -11,7 +11,9 @@ Statuses, first that applies (thresholds below, documented in the README):
 
 - ``input only``: a clip reported on its own, nothing cleaned: its noise without the steps
   over :data:`~motionclean.core.jumps.JUMP_DEG` it makes (a flip is no jitter).
-- ``needs a look``: a gap left missing (longer than ``max_gap``), smoothing that moved a
+- ``needs a look``: an up axis given that the motion contradicts (the ``world``
+  section's ``up_axis_contradicted``: a clip reported on its own says so after its
+  noise), a gap left missing (longer than ``max_gap``), smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
   flipped one?), a joint of the cleaned clip turning faster than a body can
@@ -452,6 +454,18 @@ def jumps_left_out(count: int) -> str:
     return f", without {plural(count, 'step')} over {JUMP_DEG:g} degrees (flips or glitches)"
 
 
+def _up_words(report: dict) -> list[str]:
+    """The up axis given that the motion contradicts (the ``world`` section's
+    ``up_axis_contradicted``), as a reason to look: every world figure, the feet and
+    ``footlock`` and ``ground`` used it."""
+    world = report.get("world") or {}
+    shown = world.get("up_axis_contradicted")
+    if not shown:
+        return []
+    how = "assumed" if world.get("up_axis_source") == "assumed" else "given"
+    return [f"the up axis {how} ({world['up_axis']}) contradicts the motion ({shown['up_axis']})"]
+
+
 def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
     """The verdict of a clip reported on its own: its noise, without the steps over
     :data:`~motionclean.core.jumps.JUMP_DEG` where ``alone`` (:func:`build_verdict`) counts
@@ -465,9 +479,10 @@ def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
         if noise is None
         else f"noise {noise:,.0f} deg/s\u00b2 RMS angular acceleration{jumps_left_out(jumps)}"
     )
+    look = "".join(f"; needs a look: {words}" for words in _up_words(report))
     return {
         "status": "input only",
-        "text": f"input only, not cleaned: {measured}",
+        "text": f"input only, not cleaned: {measured}{look}",
         "noise_before": noise,
         "noise_weighting": alone.get("noise_weighting", "equal"),
         "unrepaired_jumps": jumps,
@@ -509,7 +524,7 @@ def build_verdict(
         return _input_only(report, alone)
     repairs = _repairs(joints)
     feet, skate = _feet(report.get("contacts"))
-    reasons = _missing_words(joints)
+    reasons = _up_words(report) + _missing_words(joints)
     change, joint = smoothing["change_deg_max"], smoothing["change_joint"]
     filters = [step.get("filter") for step in report.get("pipeline") or []]
     rest = report.get("rest_frames") or {}

@@ -28,6 +28,9 @@ def format_world(world: dict) -> str:
     given = {"given": " (given)", "assumed": " (assumed: the format's default)"}.get(
         str(world.get("up_axis_source")), ""
     )
+    shown = contradiction_words(world)
+    if shown:
+        given = f"{given[:-1]}; {shown})"
     height = world["body_height"]
     tall = "no body height (no skeleton)" if height is None else f"body height {height:.4g} units"
     text = f"world: up axis {world['up_axis']}{given}, {tall}"
@@ -100,7 +103,8 @@ def world_figures(
     starts: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """The report's ``world`` section: up axis (and whether it was ``"given"`` with the clip,
-    :attr:`Motion.up`, or ``"found"`` from its motion), body height (file units) and, per end
+    :attr:`Motion.up`, or ``"found"`` from its motion; :func:`up_contradicted`: what the
+    motion shows against a given one), body height (file units) and, per end
     effector (end sites and bare leaf joints, keyed by name), the RMS and max linear
     acceleration before/after (units/s^2) and, when cleaned, the deviation from the input
     (RMS and max, file units and % of body height), plus the worst effector. ``points``
@@ -155,10 +159,39 @@ def world_figures(
     return {
         "up_axis": kinematics.up_name(before),
         "up_axis_source": _up_source(before),
+        "up_axis_contradicted": up_contradicted(before),
         "body_height": height if height > 0 else None,
         "effectors": effectors,
         "worst_deviation": worst,
     }
+
+
+def up_contradicted(motion: Motion) -> dict | None:
+    """The up direction the motion of ``motion`` shows against the one it declares
+    (:func:`~motionclean.core.kinematics.up_contradiction`): ``up_axis`` (``"y"``, ``"-y"``),
+    ``by`` (``"trunk"``, or ``"limbs"``: on all fours) and ``share`` (of the frames
+    sampled); None where the motion does not contradict it."""
+    shown = kinematics.up_contradiction(motion)
+    if shown is None:
+        return None
+    return {
+        "up_axis": kinematics.axis_name(shown.axis, shown.sign),
+        "by": shown.by,
+        "share": shown.share,
+    }
+
+
+def contradiction_words(world: dict) -> str:
+    """What the motion shows against the declared up axis (the ``world`` section's
+    ``up_axis_contradicted``), in words ("the motion's trunk points along +y on 97 % of
+    frames"), or ``""``."""
+    shown = world.get("up_axis_contradicted")
+    if not shown:
+        return ""
+    way = shown["up_axis"] if shown["up_axis"].startswith("-") else f"+{shown['up_axis']}"
+    share = f"{shown['share']:.0%}".replace("%", " %")
+    what = "'s trunk points" if shown["by"] == "trunk" else " stands on all fours"
+    return f"the motion{what} along {way} on {share} of frames"
 
 
 def _up_source(motion: Motion) -> str:

@@ -8,7 +8,17 @@ import json
 
 import numpy as np
 import pytest
-from helpers import NAMINGS, ROOT, SAMPLE, arc, restposed, run_cli, turned_copy, z_up_copy
+from helpers import (
+    NAMINGS,
+    ROOT,
+    SAMPLE,
+    arc,
+    restposed,
+    run_cli,
+    turned_copy,
+    walking_dog,
+    z_up_copy,
+)
 
 import motionclean as mc
 from motionclean.core import contacts as found
@@ -173,11 +183,12 @@ def test_up_on_the_commands_is_used_and_recorded(tmp_path, capsys):
     mc.save(lying, clip)
     code, out, _ = run_cli(capsys, "info", str(clip))
     assert code == 0 and "up axis: z (found from the motion)" in out
+    shown = "the motion's trunk points along +z on 100 % of frames"  # (used all the same)
     code, out, _ = run_cli(capsys, "info", str(clip), "--up", "X")
-    assert code == 0 and "up axis: x (given)" in out
+    assert code == 0 and f"up axis: x (given; {shown})" in out
     report = tmp_path / "r.json"
     code, out, _ = run_cli(capsys, "report", str(clip), "--up", "y", "--json", str(report))
-    assert code == 0 and "up axis y (given)" in out
+    assert code == 0 and f"up axis y (given; {shown})" in out
     world = json.loads(report.read_text())["world"]
     assert (world["up_axis"], world["up_axis_source"]) == ("y", "given")
     page = tmp_path / "r.html"
@@ -201,3 +212,117 @@ def test_an_up_axis_that_is_no_axis_is_refused(name):
     with pytest.raises(ValueError, match="up axis must be"):
         kinematics.axis_index(name)
     assert [kinematics.axis_index(n) for n in ("x", "-Y", "z", "-z")] == [0, 1, 2, 2]
+
+
+#: Half a turn about z: y up becomes -y (a camera's y-down coordinates).
+HEAD_DOWN = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi)
+DIRECTIONS = ("x", "y", "z", "-x", "-y", "-z")
+
+
+@pytest.mark.parametrize("turn", [0.0, 2.0 * np.pi])
+def test_a_quadruped_stands_on_its_four_limbs(turn):
+    """A dog's trunk lies along the way it faces, its legs and forelegs hang below it: the
+    trunk rule had found -x for a dog trotting along -x (as for the MANN dog D1_007, which
+    walks 9.2 m along -x). Also turning a full turn as it goes, Z-up and head down."""
+    dog = walking_dog(turn=turn)
+    world = kinematics.world_positions(dog)
+    names = dog.names + kinematics.end_site_names(dog)
+    ahead = world[:, names.index("Head_end")] - world[:, names.index("Hips")]
+    assert np.all(np.hypot(ahead[:, 0], ahead[:, 2]) > 2.0 * np.abs(ahead[:, 1]))  # level
+    assert kinematics.up_name(dog) == "y"
+    assert kinematics.up_name(z_up_copy(dog)) == "z"
+    assert kinematics.up_name(turned_copy(dog, HEAD_DOWN)) == "-y"
+    shown = kinematics.motion_up(dog)
+    assert (shown.axis, shown.sign, shown.by) == (1, 1.0, "limbs")
+    assert shown.share >= kinematics.CONTRADICTED_SHARE
+
+
+@pytest.mark.parametrize("name", sorted(REAL))
+def test_the_motion_contradicts_every_up_axis_but_its_own(name):
+    """Other exporters' bipeds (T- and A-pose rests, Z-up) show their up axis on every
+    frame sampled: an axis given is contradicted unless it is that one, sign and all."""
+    motion = mc.load(EXPORTERS / name)
+    assert motion.up is None
+    shown = kinematics.motion_up(motion)
+    assert shown.by == "trunk" and shown.share >= kinematics.CONTRADICTED_SHARE
+    contradicted = {
+        given: kinematics.up_contradiction(motion.replace(up=given)) for given in DIRECTIONS
+    }
+    own = kinematics.up_name(motion)
+    assert contradicted.pop(own) is None
+    assert set(contradicted.values()) == {shown}
+
+
+def _hand(frames: int = 60) -> mc.Motion:
+    """A wrist and three fingers of three joints, bending together (no trunk)."""
+    parents = np.array([-1, 0, 1, 2, 0, 4, 5, 0, 7, 8])
+    offsets = np.zeros((10, 3))
+    offsets[1:, 1] = 0.03
+    offsets[[1, 4, 7], 0] = [-0.02, 0.0, 0.02]
+    bend = quat.from_axis_angle(np.eye(3)[0], np.linspace(0.0, 1.2, frames))
+    rotations = np.repeat(bend[:, None], 10, axis=1)
+    rotations[:, 0] = quat.identity((frames,))
+    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+    return mc.Motion(
+        names=[f"j{j}" for j in range(10)],
+        parents=parents,
+        offsets=offsets,
+        channels=channels + [("Zrotation", "Xrotation", "Yrotation")] * 9,
+        frame_time=1.0 / 30.0,
+        rotations=rotations,
+        translations=np.zeros((frames, 10, 3)),
+    )
+
+
+def test_where_the_motion_cannot_tell_a_given_up_axis_is_not_contradicted():
+    """A hand (no trunk) and a figure lying on the floor and turning about the vertical as it
+    lies (its trunk along each horizontal way in turn) show no up axis of their own; a dog
+    shows its own, which its given up axis agrees with."""
+    hand = _hand()
+    assert kinematics.motion_up(hand).share is None
+    assert all(kinematics.up_contradiction(hand.replace(up=g)) is None for g in DIRECTIONS)
+    lying = turned_copy(mc.load(EXPORTERS / "mixamo_tpose.bvh"), TO_Z)  # the head along +z
+    spin = quat.from_axis_angle(np.eye(3)[1], np.linspace(0.0, 2.0 * np.pi, lying.n_frames))
+    q = lying.rotations.copy()
+    q[:, 0] = quat.multiply(spin, q[:, 0])
+    turning = lying.replace(rotations=q, translations=np.zeros_like(lying.translations))
+    assert kinematics.motion_up(turning).share < kinematics.CONTRADICTED_SHARE
+    assert kinematics.up_contradiction(turning.replace(up="y")) is None
+    # lying still, its head always toward +z, it is a figure standing along z to its motion
+    still = kinematics.up_contradiction(lying.replace(up="y"))
+    assert (still.axis, still.sign) == (2, 1.0)
+    dog = walking_dog()
+    assert kinematics.up_contradiction(dog.replace(up="y")) is None
+    assert kinematics.up_contradiction(dog.replace(up="x")).by == "limbs"
+
+
+def test_an_up_axis_the_motion_contradicts_is_used_and_every_report_says_so(tmp_path, capsys):
+    """``--up x`` on a Y-up walk: the axis is used (feet, contacts, figures along x), and
+    ``info``, the terminal, the JSON and the page say what the motion shows, the verdict
+    asks for a look; nothing on stderr. An axis the motion agrees with adds nothing."""
+    clip = EXPORTERS / "pymo_walk_tpose.bvh"
+    told = "the motion's trunk points along +y on 100 % of frames"
+    code, out, err = run_cli(capsys, "info", str(clip), "--up", "x")
+    assert (code, err) == (0, "") and f"up axis: x (given; {told})   body height" in out
+    data, page = tmp_path / "c.json", tmp_path / "c.html"
+    code, out, err = run_cli(
+        capsys, "clean", str(clip), "-o", str(tmp_path / "c.bvh"), "--up", "x",
+        "--report", str(data), "--report", str(page),
+    )  # fmt: skip
+    look = "needs a look: the up axis given (x) contradicts the motion (y)"
+    assert (code, err) == (0, "")
+    assert f"world: up axis x (given; {told}), body height" in out
+    assert f"verdict: {look}. " in out
+    report = json.loads(data.read_text())
+    assert (report["world"]["up_axis"], report["contacts"]["up_axis"]) == ("x", "x")
+    assert report["world"]["up_axis_contradicted"] == {"up_axis": "y", "by": "trunk", "share": 1.0}
+    assert report["verdict"]["status"] == "needs a look"
+    assert report["verdict"]["text"].startswith(look)
+    text = page.read_text()
+    assert f"up axis x (given; {told})" in text and look in text
+    code, out, err = run_cli(capsys, "report", str(clip), "--up", "-y")
+    assert (code, err) == (0, "") and "up axis -y (given; the motion's trunk points" in out
+    assert "; needs a look: the up axis given (-y) contradicts the motion (y)" in out
+    code, out, _ = run_cli(capsys, "report", str(clip), "--up", "y", "--json", str(data))
+    assert "world: up axis y (given), body height" in out and "contradicts" not in out
+    assert json.loads(data.read_text())["world"]["up_axis_contradicted"] is None
