@@ -73,9 +73,20 @@ class ContactParams:
 #: Seconds over which a contact's ankle speed is averaged to tell whether it slides.
 SLIDE_WINDOW = 0.3
 #: A contact this close to the clip's first or last frame (seconds) reaches it where the
-#: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between.
+#: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between
+#: (twice it when the speeds there were read at half; after ``auto``, a standing ankle of
+#: a corpus walk at 30 fps with 3 degrees of noise reads 3.1 times it there, a foot
+#: landing at 0.5 body heights/s 2.6 times: the speed alone cannot tell them apart) ...
 EDGE_SECONDS = 0.25
-EDGE_SPEED = 2.0
+EDGE_SPEED = 4.0
+#: ... and its ankle no more than this (body heights) above its median height in the
+#: contact: a heel that rises is lifting off, one coming down is landing. Contacts inside
+#: a clip end by their speed with the ankle 0.002 above its lowest (median; 90 % under
+#: 0.009, 6 of 218 over 0.015; clean walks: the corpus, PyMO's, game walks at 24-100
+#: fps); toe-offs at a clip's end rise 0.03-0.06. 0.01 left standing feet of noisy clips
+#: unheld at the ends (a corpus walk at 30 fps: its skate there 2.8 -> 15 times its
+#: capture's); 0.02 held a game walk's heel-strike landing from the first frame.
+EDGE_RISE = 0.015
 #: Loose thresholds that keep a contact going, relative to the ones that start it.
 HEIGHT_HYSTERESIS = 4.0 / 3.0
 SPEED_HYSTERESIS = 5.0 / 3.0
@@ -246,18 +257,58 @@ def _moving_average(x: np.ndarray, half: int) -> np.ndarray:
 def ankle_speed(
     positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
 ) -> np.ndarray:
-    """``(F, n_feet)`` speed of each ankle (length units / s) after a centred moving average
-    of ``smoothing`` seconds (capped by the clip's length). A foot at a time: temporaries
-    of one ankle's track."""
+    """``(F, n_feet)`` speed of each ankle (length units / s) of :func:`ankle_tracks`."""
+    return ankle_tracks(positions, feet, frame_time, smoothing)[1]
+
+
+def ankle_tracks(
+    positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, n_feet, 3)`` each ankle's position after a centred moving average of
+    ``smoothing`` seconds (capped by the clip's length) and ``(F, n_feet)`` its speed
+    (length units / s); within half the window of the clip's first or last frame, where
+    the clip cuts the average, the least-squares line through what there is of the window,
+    at the frame, and its slope (:func:`_edge_lines`). A foot at a time: temporaries of
+    one ankle's track."""
     n = positions.shape[0]
+    smooth = np.zeros((n, len(feet), 3))
     speed = np.zeros((n, len(feet)))
     if n < 2:
-        return speed
+        return positions[:, [f.ankle for f in feet]].astype(np.float64), speed
     half = min(int(round(0.5 * smoothing / frame_time)), max(n // 2 - 1, 0))
+    edges = np.flatnonzero((np.arange(n) <= half) | (np.arange(n) >= n - 1 - half))
+    if half == 0:  # no average: the track and its differences between frames, as they are
+        edges = edges[:0]
     for k, foot in enumerate(feet):
-        smooth = _moving_average(positions[:, foot.ankle], half)
-        speed[:, k] = np.linalg.norm(np.gradient(smooth, frame_time, axis=0), axis=-1)
-    return speed
+        track = positions[:, foot.ankle]
+        smooth[:, k] = _moving_average(track, half)
+        velocity = np.gradient(smooth[:, k], frame_time, axis=0)
+        smooth[edges, k], velocity[edges] = _edge_lines(track, edges, half)
+        velocity[edges] /= frame_time
+        speed[:, k] = np.linalg.norm(velocity, axis=-1)
+    return smooth, speed
+
+
+def _edge_lines(track: np.ndarray, frames: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares line through ``track`` ``(F, 3)`` over frames ``i - half .. i +
+    half`` cut to the clip, for each frame ``i`` of ``frames``: its value at ``i`` and its
+    slope per frame, ``(len(frames), 3)`` each. A moving average cut at the clip's end
+    lags the track and moves at half its speed (its window's centre moves half a frame
+    per frame): an ankle lifting off in a clip's last frames read as standing and was
+    held through its toe-off; the line follows the track's slope in any window."""
+    n = len(track)
+    lo = np.maximum(frames - half, 0)
+    hi = np.minimum(frames + half, n - 1)
+    at = lo[:, None] + np.arange(2 * half + 1)  # (E, W): each window's frames, padded
+    inside = at <= hi[:, None]
+    count = inside.sum(axis=1, keepdims=True)
+    t = np.where(inside, at - frames[:, None], 0).astype(np.float64)
+    t_mean = t.sum(axis=1, keepdims=True) / count
+    t = np.where(inside, t - t_mean, 0.0)
+    points = track[np.minimum(at, n - 1)] * inside[..., None]
+    mean = points.sum(axis=1) / count
+    slope = np.einsum("ew,ewc->ec", t, points) / np.maximum(np.sum(t * t, axis=1), 1e-300)[:, None]
+    return mean - slope * t_mean, slope
 
 
 def lowest_points(
@@ -519,22 +570,29 @@ def _close_gaps(loose: np.ndarray, low: np.ndarray, shortest: int) -> np.ndarray
     return loose | _filled(loose.size, gap_from[closed], gap_to[closed])
 
 
-def _to_the_edges(loose: np.ndarray, steady: np.ndarray, edge: int) -> np.ndarray:
+def _to_the_edges(
+    loose: np.ndarray, steady: np.ndarray, ankle: np.ndarray, rise: float, edge: int
+) -> np.ndarray:
     """``loose`` ``(F,)`` with its first run reaching back to the clip's first frame, and its
     last run on to the last, where the run begins (ends) within ``edge`` frames of it and
-    the foot is ``steady`` (low, and not much faster than a contact allows) on every frame
-    in between: a filter's edge transient and the speed window cut at the clip's ends make
-    the first and last frames look faster than the foot is."""
+    on every frame in between the foot is ``steady`` (low, and not much faster than a
+    contact allows) and its ankle (smoothed heights ``(F,)``) no more than ``rise`` above
+    its median height over the run: the filter's edge transient and the speed read over
+    fewer frames make a standing foot's first and last frames look fast, but a heel that
+    rises is lifting off (or coming down at the first frames), which no transient does."""
     n = loose.size
     if not loose.any():
         return loose
     out = loose.copy()
-    first = int(np.argmax(loose))
-    if 0 < first <= edge and steady[:first].all():
-        out[:first] = True
-    last = n - 1 - int(np.argmax(loose[::-1]))
-    if 0 < n - 1 - last <= edge and steady[last + 1 :].all():
-        out[last + 1 :] = True
+    starts, ends = _runs(loose)
+    first, stop = int(starts[0]), int(ends[-1])  # the first run's start, the last's end
+    for gap, run in (  # the frames up to the clip's edge, the run beside them
+        (slice(0, first), slice(first, ends[0])),
+        (slice(stop, n), slice(starts[-1], stop)),
+    ):
+        near = 0 < gap.stop - gap.start <= edge
+        if near and steady[gap].all() and ankle[gap].max() <= np.median(ankle[run]) + rise:
+            out[gap] = True
     return out
 
 
@@ -555,7 +613,8 @@ def detect(
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
     speed blip no longer than ``min_duration`` while the foot stays that low; one within
     :data:`EDGE_SECONDS` of the clip's first or last frame reaches it where the foot stays
-    low and slower than :data:`EDGE_SPEED` times ``speed_off``; contacts shorter than
+    low, slower than :data:`EDGE_SPEED` times ``speed_off`` and its ankle within
+    :data:`EDGE_RISE` of its height in the contact; contacts shorter than
     ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
     with a ``floor`` (a plane, tilted or not) heights are taken above it instead.
     """
@@ -573,7 +632,9 @@ def detect(
             [floor.above(positions[:, list(f.points)]).min(axis=1) for f in feet], axis=1
         )
         above /= height
-    speed = ankle_speed(positions, feet, frame_time, params.smoothing) / height
+    ankles, speed = ankle_tracks(positions, feet, frame_time, params.smoothing)
+    speed /= height
+    ankle = ankles[..., up] if floor is None else floor.above(ankles)  # (F, n_feet)
     low = above < params.height_off
     strict = (above < params.height) & (speed < params.speed)
     loose = low & (speed < params.speed_off)
@@ -584,7 +645,8 @@ def detect(
     edge = int(round(EDGE_SECONDS / frame_time))
     steady = low & (speed < EDGE_SPEED * params.speed_off)
     for k in range(len(feet)):  # a handful of feet; each column is vectorised
-        kept = _to_the_edges(_close_gaps(loose[:, k], low[:, k], min_frames), steady[:, k], edge)
+        closed = _close_gaps(loose[:, k], low[:, k], min_frames)
+        kept = _to_the_edges(closed, steady[:, k], ankle[:, k], EDGE_RISE * height, edge)
         starts, ends = _runs(kept)
         strict_sum = np.concatenate(([0], np.cumsum(strict[:, k])))
         keep = (strict_sum[ends] > strict_sum[starts]) & (ends - starts >= min_frames)

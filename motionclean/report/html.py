@@ -44,7 +44,7 @@ from .summary import (
 )
 from .traces import COLUMNS, Trace, trace
 from .verdict import jumps_left_out
-from .world import format_floor
+from .world import depth_text, format_floor
 
 __all__ = ["index_entries", "page_figures", "render_html", "render_index"]
 
@@ -755,9 +755,7 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
             f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
             "</section>"
         )
-    text += f"; below ground {_short(pen['before'])}"
-    text += f" \u2192 {_short(pen['after'])}" if pen["after"] is not None else ""
-    text += " units"
+    text += "; below ground " + depth_text(figures, "\u2192", _short)
     series = [(trace(data["height_before"]), BEFORE, "height before")]
     if data["height_after"] is not None:
         series.append((trace(data["height_after"]), AFTER, "height after"))

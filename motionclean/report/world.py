@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -215,7 +216,10 @@ def contact_figures(
     Contacts are found on ``before`` with the footlock step's default thresholds; per foot
     (keyed by ankle joint name): the contacts (``[first, stop)`` frame runs), skate (mean
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
-    penetration (deepest point below each clip's own ground, units) before and after.
+    penetration (deepest point below each clip's own ground, units) before and after, over
+    the whole clip (``penetration``: a landing heel's impact a frame before its contact
+    counts) and during the contacts (``penetration_during_contacts``, what ``footlock``
+    answers for; None for a foot without contacts).
     ``None`` and no series for a clip without feet. The series hold each foot's lowest
     point above its clip's ground per frame, before and after. ``floor`` is the plane
     through the contacts' soles (:func:`~motionclean.core.contacts.fit_floor`): its height
@@ -304,6 +308,10 @@ def _contact_figures(
             moved = lowest[1][contacts] - lowest[0][contacts]
             grounds.append(ground + float(np.median(moved)) if moved.size else ground)
         depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
+        held = [  # during the contacts alone
+            found.penetration(np.where(contacts, low, np.inf), g)
+            for low, g in zip(lowest, grounds, strict=True)
+        ]
         low = [points - g for points, g in zip(lowest, grounds, strict=True)]
     per_take = [found.contact_runs(contacts[take]) for take in takes]  # none across a cut
     runs = [
@@ -347,6 +355,9 @@ def _contact_figures(
             "penetration": pair(depth[0][k], depth[1][k] if a else None)
             if grounded
             else dict(absent),
+            "penetration_during_contacts": pair(held[0][k], held[1][k] if a else None)
+            if grounded and contacts[:, k].any()
+            else dict(absent),
         }
         series[foot.name] = {
             "height_before": low[0][:, k] if grounded else None,
@@ -366,6 +377,23 @@ def format_floor(section: dict) -> str | None:
         f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
         f"(through the soles of {floor['contacts']} contacts)"
     )
+
+
+def depth_text(foot: dict, arrow: str, number: Callable[[float], str]) -> str:
+    """A foot's depth below the ground, before ``arrow`` after: during its contacts (what
+    ``footlock`` answers for), then at any frame (a landing heel's impact before its
+    contact starts, a swing smoothed down); at any frame alone for a foot without
+    contacts."""
+
+    def change(depth: dict) -> str:
+        after = "" if depth["after"] is None else f" {arrow} {number(depth['after'])}"
+        return number(depth["before"]) + after
+
+    anywhere = change(foot["penetration"])
+    standing = foot.get("penetration_during_contacts")  # (absent from older reports)
+    if standing is None or standing["before"] is None:
+        return f"{anywhere} units"
+    return f"during contacts {change(standing)} units (at any frame {anywhere})"
 
 
 def format_contacts(section: dict, joints: dict | None = None) -> list[str]:
@@ -389,10 +417,7 @@ def format_contacts(section: dict, joints: dict | None = None) -> list[str]:
         if pen["before"] is None:
             lines.append(text + ", ground not found (needs at least 2 frames)")
             continue
-        text += f", below ground {pen['before']:.3g}"
-        if pen["after"] is not None:
-            text += f" -> {pen['after']:.3g}"
-        text += " units"
+        text += f", below ground {depth_text(foot, '->', lambda v: f'{v:.3g}')}"
         if "left" in ((joints or {}).get(name) or {}).get("footlock", {}):
             text += "; footlock left it (the error it expects at the ankle is under its tolerance)"
         lines.append(text)

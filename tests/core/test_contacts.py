@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import NOISY, corpus_clip, z_up_copy
+from helpers import NOISY, ROOT, corpus_clip, z_up_copy
 
 import motionclean as mc
 from motionclean.core import contacts as found
@@ -15,6 +15,7 @@ from motionclean.steps import footlock
 from motionclean.steps.pipeline import Pipeline
 
 DEFAULTS = {p.name: p.default for p in footlock.STEP.params}
+EXPORTERS = ROOT / "tests" / "data" / "exporters"
 
 
 def contacts_of(motion: mc.Motion, **changes):
@@ -315,19 +316,64 @@ def test_a_contact_exactly_the_minimum_long_is_kept():
 def test_a_contact_near_the_clips_ends_reaches_them_while_the_foot_stays_steady():
     """A filter's edge transient makes a standing foot's first and last frames look fast:
     a contact that begins (ends) within the edge window reaches the clip's first (last)
-    frame where the foot is steady all the way; not through a frame where it moves, nor
-    from further away."""
+    frame where the foot is steady all the way and its ankle stays at its height; not
+    through a frame where it moves, nor where the heel rises (a toe-off), nor from further
+    away."""
     from motionclean.core.contacts import _to_the_edges
 
     loose = np.zeros(40, dtype=bool)
     loose[5:20] = True
     loose[25:36] = True  # the last contact ends 4 frames before the clip does
     steady = np.ones(40, dtype=bool)
-    reached = _to_the_edges(loose, steady, 6)
+    ankle = np.zeros(40)
+    reached = _to_the_edges(loose, steady, ankle, 0.1, 6)
     assert reached[:20].all() and reached[25:].all() and not reached[20:25].any()
     steady[2] = False  # the foot moves before the first contact: it was not standing
-    assert np.array_equal(_to_the_edges(loose, steady, 6)[:5], np.zeros(5, dtype=bool))
-    assert np.array_equal(_to_the_edges(loose, np.ones(40, dtype=bool), 3), loose)  # too far
+    assert np.array_equal(_to_the_edges(loose, steady, ankle, 0.1, 6)[:5], np.zeros(5, bool))
+    assert np.array_equal(_to_the_edges(loose, np.ones(40, bool), ankle, 0.1, 3), loose)  # far
+    ankle[36:] = [0.05, 0.08, 0.11, 0.14]  # the heel rises after the last contact
+    assert np.array_equal(_to_the_edges(loose, np.ones(40, bool), ankle, 0.1, 6)[36:], [False] * 4)
+    assert _to_the_edges(loose, np.ones(40, bool), ankle, 0.15, 6)[36:].all()  # within reach
+
+
+def test_an_ankle_moving_steadily_reads_its_speed_to_the_clips_ends():
+    """Speeds are taken after a moving average; where the clip's ends cut its window, the
+    slope of the line through what is left: an ankle moving at 1.3 units/s reads 1.3 on
+    every frame (the cut average had read half of it at the ends, and a foot lifting off in
+    a clip's last frames had read as standing)."""
+    for fps, frames in ((120, 90), (30, 20), (24, 5)):
+        t = np.arange(frames)[:, None] / fps
+        positions = (np.array([[1.0, 0.2, -0.4]]) + t * [[1.2, 0.0, 0.5]])[:, None]
+        foot = found.Foot("foot", -1, -1, 0, (0,))
+        speed = found.ankle_speed(positions, [foot], 1.0 / fps, 0.2)[:, 0]
+        np.testing.assert_allclose(speed, 1.3, rtol=1e-9)
+
+
+def test_a_foot_lifting_off_before_the_clip_ends_has_no_contact_there():
+    """PyMO's walk cut 0.13 s after each of its contacts ends (or opened 0.13 s before one
+    starts): the contact ends (starts) where it does in the whole walk, not at the cut,
+    where the averaged speed window, cut too, had read the heel rising at half its speed;
+    cut in the middle of a stance, the contact reaches the cut."""
+    walk = mc.load(EXPORTERS / "pymo_walk_tpose.bvh")
+    _, whole = contacts_of(walk)
+    shift = round(0.13 / walk.frame_time)
+
+    def frames(first: int, stop: int) -> mc.Motion:
+        return walk.replace(
+            rotations=walk.rotations[first:stop], translations=walk.translations[first:stop]
+        )
+
+    for k, runs in enumerate(found.contact_runs(whole)):
+        for first, stop in runs:
+            if stop + shift < walk.n_frames:
+                _, cut = contacts_of(frames(0, stop + shift))
+                assert found.contact_runs(cut[:, [k]])[0][-1] == (first, stop)
+            if first - shift > 0:
+                _, cut = contacts_of(frames(first - shift, walk.n_frames))
+                assert found.contact_runs(cut[:, [k]])[0][0] == (shift, stop - first + shift)
+            middle = (first + stop) // 2
+            _, cut = contacts_of(frames(0, middle))
+            assert found.contact_runs(cut[:, [k]])[0][-1] == (first, middle)
 
 
 def test_a_contact_slides_where_any_part_of_it_does():
