@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..core import contacts as found
-from ..core import kinematics
+from ..core import kinematics, quat
 from ..core.motion import Motion
 from ..core.rates import whole_frames
 from ..core.words import plural
@@ -41,6 +41,11 @@ from .base import (
 NOISE_SPEED = 6.0
 #: ... but never above this many times ``speed``.
 NOISE_SPEED_CAP = 2.0
+#: A solved joint that turned by no more than this anywhere (radians, 6e-7 degrees; a foot
+#: planted moves its leg by thousandths of a degree at least) keeps its input rotations:
+#: the solve's round-off on a joint the noise model calls exact (video2bvh's
+#: never-rotating joints turned by 4e-8 degrees) would rewrite its full-precision text.
+NEGLIGIBLE_TURN = 1e-8
 
 
 def contact_params(params: dict) -> found.ContactParams:
@@ -292,7 +297,9 @@ def _run(data: StepData, params: dict) -> StepData:
         toe_tolerance=params["toe_tolerance"],
     )
     data.rotations = data.rotations.copy()  # the input may be the clip's own array
-    changed = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
+    solved = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
+    turned = np.max(quat.angle_between(rotations[:, solved], motion.rotations[:, solved]), axis=0)
+    changed = [j for j, angle in zip(solved, turned, strict=True) if angle > NEGLIGIBLE_TURN]
     data.rotations[:, [column[j] for j in changed]] = rotations[:, changed]
     if prior.root.any() and data.translations is not None:
         at = int(np.flatnonzero(data.translation_joints == root)[0])

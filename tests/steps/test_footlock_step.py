@@ -309,3 +309,38 @@ def test_a_foot_held_in_one_take_is_not_said_left_in_another():
     for parts in ([(left, 300), (held, 100)], [(held, 100), (left, 300)]):
         assert _merged(spec, parts)["footlock"] == {"contacts": [[10, 40]], "frames": 30}
     assert "left" in _merged(spec, [(left, 300), (left, 100)])["footlock"]
+
+
+def test_joints_the_solve_turns_by_round_off_alone_keep_their_text(tmp_path, capsys):
+    """video2bvh's estimate planted by footlock alone: its never-rotating hip joints and a
+    thigh the solve left were turned by round-off (up to 5e-7 degrees in a channel), which
+    rewrote their full-precision text at 6 decimals. A joint turned by no more than
+    footlock.NEGLIGIBLE_TURN keeps its input: every channel of those joints' columns is
+    the input's text; the joints it did turn are rewritten."""
+    source = ROOT / "tests" / "data" / "exporters" / "video2bvh_zup.bvh"
+    out = tmp_path / "out.bvh"
+    code, _, err = run_cli(capsys, "clean", source, "-o", out, "-f", "footlock", "-q")
+    assert code == 0, err
+    before, after = mc.load(source), mc.load(out)
+    turned = quat.angle_between(before.rotations, after.rotations).max(axis=0)
+    rows = [_motion_rows(path) for path in (source, out)]
+    columns = before.layout.rotation_columns
+    kept = [j for j in range(before.n_joints) if turned[j] <= footlock.NEGLIGIBLE_TURN]
+    moved = [j for j in range(before.n_joints) if turned[j] > 1e-6]
+    assert {"LeftHipJoint", "RightHipJoint", "RightUpLeg"} <= {before.names[j] for j in kept}
+    assert moved
+    for j in kept:
+        assert [r[c] for r in rows[0] for c in columns[j]] == [
+            r[c] for r in rows[1] for c in columns[j]
+        ]
+    for j in moved:
+        assert [r[c] for r in rows[0] for c in columns[j]] != [
+            r[c] for r in rows[1] for c in columns[j]
+        ]
+
+
+def _motion_rows(path) -> list[list[str]]:
+    """The channel values of a BVH file's frames, as text."""
+    lines = path.read_text().splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+    return [line.split() for line in lines[start:] if line.strip()]
