@@ -254,13 +254,6 @@ def _moving_average(x: np.ndarray, half: int) -> np.ndarray:
     return out
 
 
-def ankle_speed(
-    positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
-) -> np.ndarray:
-    """``(F, n_feet)`` speed of each ankle (length units / s) of :func:`ankle_tracks`."""
-    return ankle_tracks(positions, feet, frame_time, smoothing)[1]
-
-
 def ankle_tracks(
     positions: np.ndarray, feet: list[Foot], frame_time: float, smoothing: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -478,14 +471,14 @@ class Ground:
     """Where a clip's feet stand: ``contacts`` ``(F, n_feet)``, the ``floor`` found from
     them and its ``soles`` ``(n, 3)`` (:func:`find_floor`), whether the contacts were
     found above that floor (``tilted``: it rises across its soles by more than
-    :data:`FLOOR_RISE` of the contact height) or above a level ground, and ``level`` the
+    :data:`FLOOR_RISE` of the contact height) or above a level ground, and ``height`` the
     ground's height (:func:`estimate_ground`) along the up axis, or above the tilted
     floor (NaN without two frames)."""
 
     contacts: np.ndarray
     floor: Floor | None
     soles: np.ndarray
-    level: float
+    height: float
     tilted: bool
 
 
@@ -613,25 +606,23 @@ def detect(
     lasts while the looser ``height_off`` / ``speed_off`` hold (hysteresis), and through a
     speed blip no longer than ``min_duration`` while the foot stays that low; one within
     :data:`EDGE_SECONDS` of the clip's first or last frame reaches it where the foot stays
-    low, slower than :data:`EDGE_SPEED` times ``speed_off`` and its ankle within
-    :data:`EDGE_RISE` of its height in the contact; contacts shorter than
+    low, slower than :data:`EDGE_SPEED` times ``speed_off`` and its ankle no more than
+    :data:`EDGE_RISE` above its median height in the contact; contacts shorter than
     ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
-    with a ``floor`` (a plane, tilted or not) heights are taken above it instead.
+    with a ``floor`` (a plane, tilted or not) heights are taken above it instead, and the
+    ground returned is ``ground`` as given (NaN for None).
     """
     n_frames = positions.shape[0]
     contacts = np.zeros((n_frames, len(feet)), dtype=bool)
     if not feet or n_frames < 2:
         return contacts, float("nan") if ground is None else ground
-    lowest = lowest_points(positions, feet, up)
-    if ground is None:
-        ground = estimate_ground(lowest)
     if floor is None:
+        lowest = lowest_points(positions, feet, up)
+        ground = estimate_ground(lowest) if ground is None else ground
         above = (lowest - ground) / height
-    else:
-        above = np.stack(
-            [floor.above(positions[:, list(f.points)]).min(axis=1) for f in feet], axis=1
-        )
-        above /= height
+    else:  # (the ground is not read: heights above the floor)
+        above = lowest_points(positions, feet, up, floor) / height
+        ground = float("nan") if ground is None else ground
     ankles, speed = ankle_tracks(positions, feet, frame_time, params.smoothing)
     speed /= height
     ankle = ankles[..., up] if floor is None else floor.above(ankles)  # (F, n_feet)

@@ -183,7 +183,12 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     joints (the reference frame of CMU conversions turns many by less than 15 degrees). A
     frame in the skeleton's rest pose (every rotation within :data:`ZERO_POSE_DEG` of zero)
     counts when the joints that leave it jump (more than 8 times their median step) and one
-    by more than 15 degrees: a reference frame before a hand-keyed clip. A run of at least 3
+    by more than 15 degrees: a reference frame before a hand-keyed clip. In a noisy capture,
+    whose noise raises every joint's median step past those rules, a frame within
+    :data:`NOISY_ZERO_STEPS` times the joints' median step of the rest counts when the
+    whole body's step out of it (RMS over the moving joints) is over :data:`BODY_JUMP`
+    times the clip's 99th percentile of such steps (which holds that step too: a clip of
+    under about 100 frames needs a larger one). A run of at least 3
     identical frames (every channel, positions too) counts in any case: a held pose. Up to
     :data:`REST_POSES` such frames or runs of different poses count from either end inward,
     each stepping into the next as a rest frame steps into the motion (a T-pose, then CMU's

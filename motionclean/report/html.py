@@ -822,10 +822,16 @@ def _ground_lines(contacts: dict) -> list[str]:
     if floor is not None:
         lines.append(f'<p class="meta">{_e(floor[0].upper() + floor[1:])}.</p>')
     if contacts.get("ground") is not None:
+        where = (
+            "above the tilted floor, above which contacts are found"
+            if (contacts.get("floor") or {}).get("contacts_found_above_it")
+            else f"along the up axis ({_e(contacts['up_axis'])})"
+        )
         lines.append(
             f'<p class="meta">The plots\' 0 is the ground, at {contacts["ground"]:.4g} units '
-            f"along the up axis ({_e(contacts['up_axis'])}): the 5th percentile of the feet's "
-            "lowest points over the clip, above which contacts are found.</p>"
+            f"{where}: the 5th percentile of the feet's lowest points over the clip"
+            + ("" if "tilted" in where else ", above which contacts are found")
+            + ".</p>"
         )
     return lines
 

@@ -272,7 +272,7 @@ def _contact_figures(
     dt = before.frame_time
     params = found.ContactParams()
     standing = found.find_ground(positions, feet, up, height, dt, params)
-    contacts, ground = standing.contacts, standing.level
+    contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
     # no contact ending there), on the clip's ground

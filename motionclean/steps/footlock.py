@@ -56,14 +56,16 @@ def contact_params(params: dict) -> found.ContactParams:
 def find_contacts(motion: Motion, params: dict):
     """Feet, contacts ``(F, n_feet)``, world positions of joints and end sites (turned
     :func:`~motionclean.core.kinematics.upright`), up axis, body height and ground height
-    of ``motion`` under the step's parameters."""
+    (along the up axis, or above a tilted floor the contacts were found above:
+    :class:`~motionclean.core.contacts.Ground`) of ``motion`` under the step's
+    parameters."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions = kinematics.upright_positions(motion, given)
     standing = found.find_ground(
         positions, feet, up, height, motion.frame_time, contact_params(params)
     )
-    return feet, standing.contacts, positions, up, height, standing.level
+    return feet, standing.contacts, positions, up, height, standing.height
 
 
 def _leg_points(motion: Motion, params: dict):
@@ -165,7 +167,7 @@ def _toe_contacts(
     columns = [int(point_column[p]) for _, p in held]
     floor = standing.floor if standing.tilted else None
     own = found.point_contacts(
-        positions, columns, up, height, frame_time, thresholds, standing.level, floor
+        positions, columns, up, height, frame_time, thresholds, standing.height, floor
     )
     return own & contacts[:, [k for k, _ in held]]
 

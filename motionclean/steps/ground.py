@@ -22,14 +22,16 @@ from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
 def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None, np.ndarray]:
     """The floor of ``motion`` (None without ground contacts) and the centroid ``(3,)`` of
-    the contacts' soles, with the contact thresholds of the report; both as the figure
-    turned :func:`~motionclean.core.kinematics.upright` has them."""
+    the contacts' soles, found as the report finds them
+    (:func:`~motionclean.core.contacts.find_ground`: a short walk up a slope included);
+    both as the figure turned :func:`~motionclean.core.kinematics.upright` has them."""
     feet, axis, height = found.skeleton_feet(motion, None, up)
     if not feet:
         return None, np.zeros(3)
     positions = kinematics.upright_positions(motion, up)
-    floor, soles, _ = found.find_floor(positions, feet, axis, height, motion.frame_time)
-    return floor, soles.mean(axis=0) if soles.size else np.zeros(3)
+    standing = found.find_ground(positions, feet, axis, height, motion.frame_time)
+    soles = standing.soles
+    return standing.floor, soles.mean(axis=0) if soles.size else np.zeros(3)
 
 
 def _leveller(floor: found.Floor, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

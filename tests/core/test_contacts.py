@@ -345,7 +345,7 @@ def test_an_ankle_moving_steadily_reads_its_speed_to_the_clips_ends():
         t = np.arange(frames)[:, None] / fps
         positions = (np.array([[1.0, 0.2, -0.4]]) + t * [[1.2, 0.0, 0.5]])[:, None]
         foot = found.Foot("foot", -1, -1, 0, (0,))
-        speed = found.ankle_speed(positions, [foot], 1.0 / fps, 0.2)[:, 0]
+        speed = found.ankle_tracks(positions, [foot], 1.0 / fps, 0.2)[1][:, 0]
         np.testing.assert_allclose(speed, 1.3, rtol=1e-9)
 
 
