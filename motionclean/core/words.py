@@ -2,9 +2,26 @@
 
 from __future__ import annotations
 
-__all__ = ["plural"]
+import unicodedata
+
+__all__ = ["columns", "pad", "plural"]
 
 
 def plural(count: int, noun: str) -> str:
     """``"1 frame"``, ``"2 frames"``, ``"1,672 flips"``: a count with its noun."""
     return f"{count:,} {noun}{'' if count == 1 else 's'}"
+
+
+def columns(text: str) -> int:
+    """How many terminal columns ``text`` takes: wide and full-width characters (CJK) two,
+    combining marks none, every other character one."""
+    return sum(
+        0 if unicodedata.combining(c) else 2 if unicodedata.east_asian_width(c) in "WF" else 1
+        for c in text
+    )
+
+
+def pad(text: str, width: int) -> str:
+    """``text`` padded with spaces to ``width`` terminal columns (:func:`columns`), as
+    ``f"{text:<{width}}"`` pads one column per character."""
+    return text + " " * max(width - columns(text), 0)

@@ -24,7 +24,7 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
-from ..core.words import plural
+from ..core.words import columns, pad, plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
@@ -854,7 +854,7 @@ def format_table(report: dict, limit: int = 10) -> str:
     # (the rows count joints: the count is told where translations are not among them)
     counted = f", {joint_count(report)}" if translations(report) else ""
     shown = short_names(names[:limit])
-    width = max([21, *map(len, shown.values())]) + 1
+    width = max([21, *map(columns, shown.values())]) + 1
     head = f"{'joint':<{width}}{'accel rms':>14}"
     if cleaned:
         head += f"{'after':>14}{'removed':>9}{'dev max':>9}"
@@ -870,7 +870,7 @@ def format_table(report: dict, limit: int = 10) -> str:
 
     def row(name: str, acc: dict, dev: float | None, auto: dict | None = None) -> str:
         before, after = acc["before"], acc["after"]
-        text = f"{shown.get(name, name):<{width}}{figure_text(before, 14, ',.0f')}"
+        text = pad(shown.get(name, name), width) + figure_text(before, 14, ",.0f")
         if cleaned:
             removed = None
             if before is not None and after is not None:

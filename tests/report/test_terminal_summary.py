@@ -90,3 +90,34 @@ def test_joint_names_stay_whole_or_keep_their_distinguishing_end(tmp_path):
         (label,) = [s for s in shown if s.endswith(name[-len("LeftLegSegment1") :])]
         assert label == name or (label[:10] == name[:10] and "..." in label)
     assert max(map(len, lines)) < 200
+
+
+def test_wide_characters_in_joint_names_keep_the_table_aligned(tmp_path, capsys):
+    """A joint named in Japanese (each character two terminal columns) and one with a
+    combining mark (none): every row's figures start in the same terminal column, as the
+    header's, where padding by characters had shifted them."""
+    import unicodedata
+
+    clip = mc.load(NOISY)
+    names = list(clip.names)
+    names[names.index("RThumb")] = "右手の親指"
+    names[names.index("RightWrist")] = "Rig\u0301htWrist"
+    source = tmp_path / "wide.bvh"
+    mc.save(
+        clip.replace(names=names, source=None, source_values=None, source_rotations=None), source
+    )
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "out.bvh")
+    assert code == 0, err
+
+    def width(text: str) -> int:
+        return sum(
+            0 if unicodedata.combining(c) else 2 if unicodedata.east_asian_width(c) in "WF" else 1
+            for c in text
+        )
+
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.startswith("joint"))
+    rows = lines[head + 2 : head + 12]
+    assert any("右手の親指" in row for row in rows) and any("\u0301" in row for row in rows)
+    ends = {width(row[: row.index(row.split()[1]) + len(row.split()[1])]) for row in rows}
+    assert ends == {width(lines[head][: lines[head].index("rms") + 3])}
