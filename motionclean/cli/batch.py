@@ -22,6 +22,7 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
+from ..core.words import columns, last_columns, pad
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import index_entries, page_figures, render_index
 from ..report.summary import figure_text
@@ -190,14 +191,14 @@ def _progress(total: int) -> Iterator[Callable[[str], None]]:
 
 def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, workers: int) -> str:
     """The end-of-run table: one line per clip, then the totals."""
-    width = min(max((len(name) for name, _ in rows), default=4) + 2, 60)
+    width = min(max((columns(name) for name, _ in rows), default=4) + 2, 60)
     head = (
         f"{'file':<{width}}{'frames':>8}{'noise before':>14}{'after':>12}{'removed':>9}"
         f"{'change':>9}  {'verdict':<14}status"
     )
     lines = [head, "-" * len(head)]
     for name, r in rows:
-        shown = name if len(name) < width - 1 else "..." + name[-(width - 5) :]
+        shown = name if columns(name) < width - 1 else "..." + last_columns(name, width - 5)
         # (a skipped clip shows the figures its earlier run left, where they were found)
         if r.status == "ok" or (r.status == "skipped" and r.frames is not None):
             before, after = r.noise_before, r.noise_after
@@ -208,14 +209,14 @@ def format_summary(rows: Sequence[tuple[str, FileResult]], seconds: float, worke
                 before, after, removed = r.jitter_before, r.jitter_after, r.jitter_removed
             change = r.deviation_max if r.change_max is None else r.change_max
             lines.append(
-                f"{shown:<{width}}{r.frames:>8}{figure_text(before, 14, ',.0f')}"
+                f"{pad(shown, width)}{r.frames:>8}{figure_text(before, 14, ',.0f')}"
                 f"{figure_text(after, 12, ',.0f')}{figure_text(removed, 9, '.0%')}"
                 f"{figure_text(change, 9, '.2f')}  {r.verdict_status or '-':<14}"
                 + ("ok" if r.status == "ok" else r.status.upper())
             )
         else:
             blank = f"{'-':>8}{'-':>14}{'-':>12}{'-':>9}{'-':>9}  {'-':<14}"
-            lines.append(f"{shown:<{width}}{blank}{r.status.upper()}")
+            lines.append(f"{pad(shown, width)}{blank}{r.status.upper()}")
     counts = {s: sum(r.status == s for _, r in rows) for s in ("ok", "skipped", "failed")}
     lines.append("-" * len(head))
     lines += [f"{name}: {r.verdict}" for name, r in rows if r.verdict_status == "needs a look"]

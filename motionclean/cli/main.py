@@ -29,7 +29,7 @@ from ..core.restpose import rest_frames
 from ..core.takes import take_starts
 from ..core.threads import thread_count
 from ..core.version import __version__
-from ..core.words import plural
+from ..core.words import columns, pad, plural
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
 from ..filters.multires import stitch_levels, stitch_width
@@ -284,7 +284,7 @@ def info(
     noise[np.isnan(acc_rms)] = np.nan  # no three frames in a row known: nothing estimated
     measured = np.ones(motion.n_joints, bool) if motion.missing is None else ~motion.missing.all(0)
     shown = short_names(motion.names)
-    longest = max(len(n) for n in shown.values())
+    longest = max(columns(n) for n in shown.values())
     name_width, parent_width = max(len("joint"), longest) + 2, max(len("parent"), longest) + 2
     click.echo(
         f"  {'joint':<{name_width}}{'parent':<{parent_width}}{'channels':<28}{'largest step':>14}"
@@ -305,7 +305,7 @@ def info(
         else:
             figures = f"{'-':>14}"
         rows.append(
-            f"  {name:<{name_width}}{parent:<{parent_width}}"
+            f"  {pad(name, name_width)}{pad(parent, parent_width)}"
             f"{(channels + ' ' + order)[:27]:<28}{figures}"
         )
     if rows:  # one write for the table, not one per joint

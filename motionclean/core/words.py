@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["columns", "pad", "plural"]
+__all__ = ["columns", "last_columns", "pad", "plural"]
 
 
 def plural(count: int, noun: str) -> str:
@@ -25,3 +25,11 @@ def pad(text: str, width: int) -> str:
     """``text`` padded with spaces to ``width`` terminal columns (:func:`columns`), as
     ``f"{text:<{width}}"`` pads one column per character."""
     return text + " " * max(width - columns(text), 0)
+
+
+def last_columns(text: str, width: int) -> str:
+    """The end of ``text`` that fits in ``width`` terminal columns (:func:`columns`)."""
+    start = 0
+    while columns(text[start:]) > width:
+        start += 1
+    return text[start:]

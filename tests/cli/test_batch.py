@@ -475,3 +475,37 @@ def test_a_clip_with_nothing_measured_shows_dashes_not_zeros(tmp_path, capsys):
     assert row.split()[2:5] == ["-", "-", "-"], row
     index = (tmp_path / "r" / "index.html").read_text()
     assert "<td>2</td><td>-</td><td>-</td><td>-</td>" in index
+
+
+def test_the_batch_table_and_info_stay_aligned_with_wide_characters(tmp_path, capsys):
+    """Clip and joint names in CJK (two terminal columns a character) had shifted their
+    rows in the batch table and in `info`'s joint table: both pad by terminal columns."""
+    import shutil
+    import unicodedata
+
+    def width(text: str) -> int:
+        return sum(2 if unicodedata.east_asian_width(c) in "WF" else 1 for c in text)
+
+    source = tmp_path / "in"
+    source.mkdir()
+    shutil.copy(SAMPLE, source / "走る歩く.bvh")
+    shutil.copy(SAMPLE, source / "walk.bvh")
+    code, out, err = run_cli(capsys, "batch", source, "-o", tmp_path / "out", "--jobs", "1")
+    assert code == 0, err
+    rows = [line for line in out.splitlines() if line.endswith(" ok")]
+    assert len(rows) == 2 and any("走る歩く" in row for row in rows)
+    assert len({width(row) for row in rows}) == 1
+    clip = mc.load(SAMPLE)
+    names = ["手首" if n == "RightWrist" else n for n in clip.names]
+    wide = tmp_path / "wide.bvh"
+    mc.save(clip.replace(names=names, source=None, source_values=None, source_rotations=None), wide)
+    code, out, err = run_cli(capsys, "info", wide)
+    assert code == 0, err
+    table = [
+        line
+        for line in out.splitlines()
+        if line.startswith("  ") and ("rZ" in line or "Zr" in line)
+    ]
+    wrist = next(line for line in table if "手首" in line)
+    other = next(line for line in table if "LeftWrist" in line)
+    assert width(wrist[: wrist.index("Z")]) == width(other[: other.index("Z")])
