@@ -80,8 +80,20 @@ def write_outputs(
         files[target] = encode(clip, target)
     files.update(reports)
     for path in files:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        make_folder(Path(path).parent)
     write_together(files)
+
+
+def make_folder(folder: Path) -> None:
+    """Make ``folder`` and its missing parents; one that cannot be made raises
+    :class:`OSError` naming it and saying so (the bare error had read only
+    "FOLDER: Operation not permitted")."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OSError(
+            error.errno, f"cannot create this folder: {error.strerror}", error.filename or folder
+        ) from None
 
 
 @dataclass
@@ -144,7 +156,7 @@ def clean_clip(
     try:
         result = clean_motion(before, pipeline, os.fspath(source))
         if target is not None:
-            Path(target).parent.mkdir(parents=True, exist_ok=True)
+            make_folder(Path(target).parent)
             save(result.after, target)
     except MemoryError as error:
         let_go(error)  # room to travel up

@@ -501,3 +501,22 @@ def test_a_worker_killed_mid_batch_fails_no_clip_it_did_not_hold(tmp_path):
             killed = bool(workers)
     assert killed and sorted(results) == list(range(8))
     assert all(r.status == "ok" for r in results.values()), [r.error for r in results.values()]
+
+
+def test_a_folder_that_cannot_be_made_is_named_and_said_so(tmp_path):
+    """An output folder the system refuses (here a name longer than any file system
+    takes) raised the bare error, "FOLDER: File name too long", which the batch line
+    showed without saying what failed; it now says the folder could not be created, and
+    nothing is written."""
+    import errno
+
+    import motionclean as mc
+    from motionclean.run.jobs import write_outputs
+
+    folder = tmp_path / ("x" * 300)
+    with pytest.raises(OSError) as raised:
+        write_outputs(mc.load(SAMPLE), folder / "out.bvh", {})
+    assert raised.value.errno == errno.ENAMETOOLONG
+    assert raised.value.strerror.startswith("cannot create this folder: ")
+    assert raised.value.filename == str(folder)
+    assert list(tmp_path.iterdir()) == []
