@@ -213,10 +213,11 @@ def check_target(path: str | Path, inputs: Inputs = ()) -> Path:
 def check_output(
     path: str | Path, suffixes: tuple[str, ...], what: str, inputs: Inputs = ()
 ) -> Path:
-    """:func:`check_target`, and refuse an output with another suffix."""
-    if Path(path).suffix.lower() not in suffixes:
+    """:func:`check_target`, and refuse an output with another suffix (a path named as a
+    folder, ``p5/``, is said to be one first: Path() drops its separator)."""
+    if Path(path).suffix.lower() not in suffixes and not os.fspath(path).endswith(SEPARATORS):
         raise UsageError(f"{Path(path)}: {what} must end in {' or '.join(suffixes)}")
-    return check_target(path, inputs)  # as given: Path() drops a trailing separator
+    return check_target(path, inputs)
 
 
 def check_clip_output(path: str | Path, inputs: Inputs = ()) -> Path:

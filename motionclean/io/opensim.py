@@ -58,6 +58,7 @@ from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
 from ..core.regrid import regridded
+from ..core.words import plural
 from .csv import Cells, CsvText, format_repr, format_values, off_grid, uniform_frame_time
 from .files import pieces, refuse_binary
 from .text import (
@@ -409,7 +410,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         if columns:
             shown = ", ".join(labels[c] for c in columns[:3])
             more = " ..." if len(columns) > 3 else ""
-            notes.append(f"{len(columns)} columns of {what} carried as they are ({shown}{more})")
+            notes.append(
+                f"{plural(len(columns), 'column')} of {what} carried as they are ({shown}{more})"
+            )
     parsed = np.array([0, *kept], dtype=np.intp)
     nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])
     if nan[:, 0].any():

@@ -375,7 +375,7 @@ def format_floor(section: dict) -> str | None:
         return None
     return (
         f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
-        f"(through the soles of {floor['contacts']} contacts)"
+        f"(through the soles of {plural(floor['contacts'], 'contact')})"
     )
 
 

@@ -119,12 +119,16 @@ def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, comman
     assert list(out.iterdir()) == []
 
 
+@pytest.mark.parametrize("suffixed", [True, False])
 @pytest.mark.parametrize("ending", ["/", "/."])
 @pytest.mark.parametrize("command", OUTPUT_COMMANDS)
-def test_an_output_ending_in_a_separator_names_a_folder(tmp_path, capsys, command, ending):
+def test_an_output_ending_in_a_separator_names_a_folder(
+    tmp_path, capsys, command, ending, suffixed
+):
     """`-o new.bvh/` and `-o new.bvh/.` name a folder: refused up front, exit 2 (a file
-    new.bvh had been written)."""
-    out = f"{tmp_path / 'new'}{output_suffix(command)}{ending}"
+    new.bvh had been written); so does `-o new/`, which had been told its suffix was
+    wrong, the separator dropped from its name."""
+    out = f"{tmp_path / 'new'}{output_suffix(command) if suffixed else ''}{ending}"
     args = output_commands(tmp_path, out)[command]
     before = sorted(p.name for p in tmp_path.iterdir())
     code, stdout, err = run_cli(capsys, *args)

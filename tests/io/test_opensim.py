@@ -312,7 +312,7 @@ def test_carried_columns_may_share_a_name_and_markers_are_said_to_be_markers(tmp
     motion = mc.load(path)
     assert motion.names == ["knee_angle_r", "pelvis_tx"]
     notes = kinematics.source_notes(motion)
-    assert "1 columns of marker positions carried as they are (R.ASIS_tx)" in notes
+    assert "1 column of marker positions carried as they are (R.ASIS_tx)" in notes
     assert not any("muscles" in note for note in notes)
     mc.save(motion, tmp_path / "same.mot")
     assert (tmp_path / "same.mot").read_bytes() == path.read_bytes()
@@ -566,7 +566,7 @@ def test_an_error_column_beside_coordinates_is_carried(tmp_path):
     text = IK.replace("knee_angle_r_force", "marker_error_RMS").replace("n/a", "0.01")
     motion = mc.load(write(tmp_path, text))
     assert motion.names == ["pelvis_rotation", "pelvis_tx", "pelvis_ty", "knee_angle_r"]
-    assert any("1 columns of errors" in n for n in kinematics.source_notes(motion))
+    assert any("1 column of errors" in n for n in kinematics.source_notes(motion))
     mc.save(motion, tmp_path / "same.mot")
     assert (tmp_path / "same.mot").read_text() == text
 

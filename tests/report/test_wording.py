@@ -10,7 +10,7 @@ from helpers import SAMPLE, corpus_clip, run_cli, with_t_pose
 
 from motionclean.report.html_world import _frames
 from motionclean.report.summary import note_text
-from motionclean.report.world import format_contacts
+from motionclean.report.world import format_contacts, format_floor
 from motionclean.steps.base import fps_text
 
 
@@ -32,6 +32,22 @@ def test_one_of_a_thing_is_singular():
     assert format_contacts(feet)[0].startswith("foot LeftAnkle: 1 contact (1 frame)")
     despike["frames_repaired"] = 2
     assert note_text("despike", despike).startswith("2 frames repaired;")
+    floor = {"height": 0.0, "tilt_deg": 0.0, "normal": [0.0, 1.0, 0.0], "contacts": 1}
+    assert format_floor({"floor": floor}).endswith("(through the soles of 1 contact)")
+
+
+def test_an_opensim_file_says_one_column_it_carries(tmp_path, capsys):
+    """A .mot with one column of states carried as text: "1 column of states", not
+    "1 columns"."""
+    motion = tmp_path / "one.mot"
+    rows = "\n".join(f"{i / 100:.2f}\t{i * 0.1:.4f}\t{0.5:.4f}" for i in range(20))
+    motion.write_text(
+        "one\nversion=1\nnRows=20\nnColumns=3\ninDegrees=yes\nendheader\n"
+        f"time\tknee_angle_r\tknee_angle_r/speed\n{rows}\n"
+    )
+    code, out, err = run_cli(capsys, "info", motion)
+    assert code == 0, err
+    assert re.search(r"\b1 column of ", out + err) and "1 columns" not in out + err
 
 
 def test_info_and_resample_give_one_rate_for_one_file(tmp_path, capsys):
