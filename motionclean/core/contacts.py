@@ -500,16 +500,27 @@ def find_ground(
         positions, feet, up, height, frame_time, params, contacts=contacts
     )
     rise = FLOOR_RISE * params.height * height
-    if floor is None or floor.rise(soles) <= rise:
-        uphill = _floor_under_still_feet(positions, feet, up, height, frame_time, params, rise)
-        if uphill is None:
+    if not _rises(floor, soles, rise):
+        # the feet on a short slope's high side may all stand beyond a level ground's reach
+        seed = _contacts_under_still_feet(positions, feet, up, height, frame_time, params, rise)
+        uphill = (
+            None
+            if seed is None
+            else find_floor(positions, feet, up, height, frame_time, params, contacts=seed)
+        )
+        if uphill is None or not _rises(uphill[0], uphill[1], rise):
             return Ground(contacts, floor, soles, level, False)
         floor, soles, on_floor = uphill
     above = estimate_ground(lowest_points(positions, feet, up, floor))
     return Ground(on_floor, floor, soles, above, True)
 
 
-def _floor_under_still_feet(
+def _rises(floor: Floor | None, soles: np.ndarray, rise: float) -> bool:
+    """Whether ``floor``'s height changes by more than ``rise`` across ``soles``."""
+    return floor is not None and floor.rise(soles) > rise
+
+
+def _contacts_under_still_feet(
     positions: np.ndarray,
     feet: list[Foot],
     up: int,
@@ -517,25 +528,18 @@ def _floor_under_still_feet(
     frame_time: float,
     params: ContactParams,
     rise: float,
-) -> tuple[Floor, np.ndarray, np.ndarray] | None:
-    """:func:`find_floor` started from the contacts above the plane through the soles of
-    the feet wherever they stand still (no height limit), for a floor whose high side lies
-    wholly beyond a level ground's reach (a short walk up a slope); None where neither
-    that plane nor the floor found from it rises by more than ``rise`` (length units)
-    across its soles."""
+) -> np.ndarray | None:
+    """Contacts above the plane through the soles of the feet wherever they stand still
+    (no height limit), to start :func:`find_floor` from where a floor's high side lies
+    wholly beyond a level ground's reach; None where that plane does not rise by more than
+    ``rise`` (length units) across those soles."""
     anywhere = replace(params, height=np.inf, height_off=np.inf)
     still, _ = detect(positions, feet, up, height, frame_time, anywhere)
     soles = contact_soles(positions, feet, still, up, height)
     under = fit_floor(soles, up, height)
-    if under is None or under.rise(soles) <= rise:
+    if not _rises(under, soles, rise):
         return None
-    seed, _ = detect(positions, feet, up, height, frame_time, params, floor=under)
-    floor, soles, contacts = find_floor(
-        positions, feet, up, height, frame_time, params, contacts=seed
-    )
-    if floor is None or floor.rise(soles) <= rise:
-        return None
-    return floor, soles, contacts
+    return detect(positions, feet, up, height, frame_time, params, floor=under)[0]
 
 
 def estimate_ground(lowest: np.ndarray) -> float:
