@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["columns", "last_columns", "pad", "plural"]
+__all__ = ["columns", "last_columns", "pad", "percent", "plural"]
 
 
 def plural(count: int, noun: str) -> str:
     """``"1 frame"``, ``"2 frames"``, ``"1,672 flips"``: a count with its noun."""
     return f"{count:,} {noun}{'' if count == 1 else 's'}"
+
+
+def percent(share: float) -> str:
+    """``0.26`` as ``"26 %"``: a share in whole percent, a space before the sign."""
+    return f"{share:.0%}".replace("%", " %")
 
 
 def columns(text: str) -> int:

@@ -50,7 +50,7 @@ import numpy as np
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
 from ..core.takes import MAX_DEG_PER_S
-from ..core.words import plural
+from ..core.words import percent, plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs
@@ -279,11 +279,6 @@ def _too_fast(smoothing: dict) -> dict[str, dict[str, float]]:
     return dict(sorted(found.items(), key=lambda item: -item[1]["frames"]))
 
 
-def _percent(share: float) -> str:
-    """ "26 %": a share in whole percent."""
-    return f"{share:.0%}".replace("%", " %")
-
-
 def _fast_words(fast: dict[str, dict[str, float]]) -> str:
     """ "RightHand turns faster than a body can (over 3,600 deg/s, or 90 degrees in a frame)
     on 77 frames (26 %)"; several joints each with their frames and share, most first (the
@@ -291,10 +286,10 @@ def _fast_words(fast: dict[str, dict[str, float]]) -> str:
     limit = f"(over {FAST_DEG_PER_S:,.0f} deg/s, or {JUMP_DEG:g} degrees in a frame)"
     if len(fast) == 1:
         name, found = next(iter(fast.items()))
-        where = f"{plural(int(found['frames']), 'frame')} ({_percent(found['share'])})"
+        where = f"{plural(int(found['frames']), 'frame')} ({percent(found['share'])})"
         return f"{name} turns faster than a body can {limit} on {where}"
     each = [
-        f"{name} ({found['frames']:,}{' frames' if not k else ''}, {_percent(found['share'])})"
+        f"{name} ({found['frames']:,}{' frames' if not k else ''}, {percent(found['share'])})"
         for k, (name, found) in enumerate(list(fast.items())[:REPAIRS_NAMED])
     ]
     if len(fast) > REPAIRS_NAMED:
@@ -350,10 +345,10 @@ def _removed_words(fraction: float, what: str = "jitter") -> str:
     """ "86 % of the jitter removed", "no jitter removed" (under half a percent either way) or
     "jitter up 3 %" (``what``: "position jitter", of the position channels)."""
     if fraction >= 0.005:
-        return f"{fraction:.0%} of the {what} removed".replace("%", " %")
+        return f"{percent(fraction)} of the {what} removed"
     if fraction > -0.005:
         return f"no {what} removed"
-    return f"{what} up {-fraction:.0%}".replace("%", " %")
+    return f"{what} up {percent(-fraction)}"
 
 
 #: The line adds what the end effectors' world acceleration says where it is under this
@@ -575,7 +570,7 @@ def build_verdict(
             scale > 0 and smoothing["change_length_rms"] < CLEAN_CHANGE_HEIGHTS * scale
         )
         if told and scale > 0 and length > LOOK_CHANGE_HEIGHTS * scale:
-            share = f"{length / scale:.0%}".replace("%", " %")
+            share = percent(length / scale)
             reasons.append(
                 f"{what} {position_joint}'s position by {_length(length)} units ({share} of {per})"
             )

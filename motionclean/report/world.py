@@ -16,7 +16,7 @@ from ..core import kinematics
 from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_spans, take_starts
-from ..core.words import plural
+from ..core.words import percent, plural
 from . import metrics
 from .metrics import known, pair, rms_and_max
 
@@ -190,7 +190,7 @@ def contradiction_words(world: dict) -> str:
     if not shown:
         return ""
     way = shown["up_axis"] if shown["up_axis"].startswith("-") else f"+{shown['up_axis']}"
-    share = f"{shown['share']:.0%}".replace("%", " %")
+    share = percent(shown["share"])
     what = "'s trunk points" if shown["by"] == "trunk" else " stands on all fours"
     return f"the motion{what} along {way} on {share} of frames"
 
