@@ -542,6 +542,27 @@ def _contacts_under_still_feet(
     return detect(positions, feet, up, height, frame_time, params, floor=under)[0]
 
 
+#: A floor is the ground's own slope (stairs, a ramp, a hill), not the capture's tilt, where
+#: it tilts by more than this (degrees) from the way the body's trunk points on average
+#: (:func:`~motionclean.core.kinematics.body_up`) and the trunk points at most half as far
+#: from the up axis: a camera's tilt turns the body with the floor, a slope does not. A
+#: walk's forward lean is 1.5-9 degrees on every clip measured (the corpus, the exporters'
+#: walks, game walks and a run: 6.5); a stair climb's floor (0.17 m steps, 0.3 m apart)
+#: tilts 19-20 degrees from its trunk, which stands 2.5-2.9 off the up axis.
+TERRAIN_TILT = 12.0
+
+
+def terrain(floor: Floor, body: np.ndarray | None) -> bool:
+    """Whether ``floor`` is the ground's own slope rather than the capture's tilt
+    (:data:`TERRAIN_TILT`), given ``body`` ``(3,)``, the trunk's mean direction (unit, in
+    the floor's axes; None: not known, False)."""
+    if body is None:
+        return False
+    from_floor = math.degrees(math.acos(float(np.clip(body @ floor.normal, -1.0, 1.0))))
+    from_axis = math.degrees(math.acos(float(np.clip(body[floor.up], -1.0, 1.0))))
+    return from_floor > TERRAIN_TILT and from_axis <= 0.5 * from_floor
+
+
 def estimate_ground(lowest: np.ndarray) -> float:
     """The ground height: the 5th percentile of the feet's lowest points over the clip."""
     return float(np.percentile(lowest, 5.0))

@@ -547,6 +547,28 @@ def _motion_up(motion: Motion) -> MotionUp:
     return MotionUp(int(np.argmax(_median_extent(poses, known))), 1.0, "extent", None)
 
 
+def body_up(motion: Motion) -> np.ndarray | None:
+    """``(3,)`` unit, in the clip's own axes: the way a body's trunk points on average over
+    the sampled poses (:func:`sample_poses`), from its legs' centroid to its spine and
+    head's (a walk's forward lean included: 1.5-9 degrees off the up axis on the exporters'
+    clips and the corpus, 6.5 on a run); None without a trunk (:func:`body_parts`), points
+    unknown on some frames or no pose."""
+    poses, known = sample_poses(motion)
+    parts = body_parts(point_parents(motion), rest_positions(motion))
+    if parts is None or known is not None or poses.shape[0] == 0:
+        return None
+    mean = _trunk_up(poses, parts).mean(axis=0)
+    length = float(np.linalg.norm(mean))
+    return mean / length if length > 0.0 else None
+
+
+def upright_body_up(motion: Motion, up: str | int | None = None) -> np.ndarray | None:
+    """:func:`body_up` turned :func:`upright` by the clip's :func:`up_direction` (``up``:
+    the override), as floors and contacts are measured."""
+    body = body_up(motion)
+    return None if body is None else upright(body, *up_direction(motion, up))
+
+
 #: A declared up direction is contradicted by the motion where the motion shows another one
 #: (:func:`motion_up`) on at least this share of its sampled frames: 0.94-1.00 on every
 #: biped measured (the exporters' clips, the CMU corpus, walks, runs, turns, jumps and stairs

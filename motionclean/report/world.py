@@ -334,6 +334,7 @@ def _contact_figures(
             "normal": [float(v) for v in floor.normal],
             "contacts": int(soles.shape[0]),
             "contacts_found_above_it": standing.tilted,
+            "terrain": found.terrain(floor, kinematics.upright_body_up(before)),
         },
         "feet": {},
     }
@@ -373,8 +374,9 @@ def format_floor(section: dict) -> str | None:
     floor = section.get("floor")
     if not floor:
         return None
+    slope = " under an upright body: stairs or a slope" if floor.get("terrain") else ""
     return (
-        f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg "
+        f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg{slope} "
         f"(through the soles of {plural(floor['contacts'], 'contact')})"
     )
 

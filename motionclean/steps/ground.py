@@ -11,6 +11,8 @@ stand on ``up = 0``.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..core import contacts as found
@@ -20,18 +22,28 @@ from ..core.motion import Motion
 from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
 
-def floor_of(motion: Motion, up: str | None = None) -> tuple[found.Floor | None, np.ndarray]:
-    """The floor of ``motion`` (None without ground contacts) and the centroid ``(3,)`` of
-    the contacts' soles, found as the report finds them
-    (:func:`~motionclean.core.contacts.find_ground`: a short walk up a slope included);
-    both as the figure turned :func:`~motionclean.core.kinematics.upright` has them."""
+class FoundFloor(NamedTuple):
+    """The floor of a clip (None without ground contacts), the soles ``(n, 3)`` it rests
+    on, and whether it is the ground's own slope (:func:`~motionclean.core.contacts.terrain`:
+    stairs or a ramp under an upright body) rather than the capture's tilt."""
+
+    floor: found.Floor | None
+    soles: np.ndarray
+    terrain: bool
+
+
+def floor_of(motion: Motion, up: str | None = None) -> FoundFloor:
+    """The floor of ``motion``, found as the report finds it
+    (:func:`~motionclean.core.contacts.find_ground`: a short walk up a slope included),
+    as the figure turned :func:`~motionclean.core.kinematics.upright` has it."""
     feet, axis, height = found.skeleton_feet(motion, None, up)
     if not feet:
-        return None, np.zeros(3)
+        return FoundFloor(None, np.zeros((0, 3)), False)
     positions = kinematics.upright_positions(motion, up)
     standing = found.find_ground(positions, feet, axis, height, motion.frame_time)
-    soles = standing.soles
-    return standing.floor, soles.mean(axis=0) if soles.size else np.zeros(3)
+    floor = standing.floor
+    body = kinematics.upright_body_up(motion, up)
+    return FoundFloor(floor, standing.soles, floor is not None and found.terrain(floor, body))
 
 
 def _leveller(floor: found.Floor, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -51,16 +63,22 @@ def _run(data: StepData, params: dict) -> StepData:
     motion = data.motion
     assert motion is not None
     given = given_up(params)
-    floor, centre = floor_of(motion, given)
+    floor, soles, terrain = floor_of(motion, given)
     if floor is None:
         return data
+    centre = soles.mean(axis=0)
     note = {
         "height": floor.height_at(centre),
         "tilt_deg": floor.tilt_deg,
         "normal": [float(v) for v in floor.normal],
-        "levelled": bool(params["level"]),
+        "levelled": bool(params["level"]) and not terrain,
+        "terrain": terrain,
     }
-    if not params["level"]:
+    if terrain:  # stairs or a slope: the lowest contact's sole at height 0, nothing turned
+        lowest = float(soles[:, floor.up].min())
+        note["height"] = lowest
+        floor = found.Floor.level(lowest, floor.up)
+    elif not params["level"]:
         floor = found.Floor.level(floor.height_at(centre), floor.up)
     turn, shift = _leveller(floor, centre)
     axis, sign = kinematics.up_direction(motion, given)
@@ -103,6 +121,12 @@ def _run(data: StepData, params: dict) -> StepData:
 
 
 def _format_note(note: dict, positions: bool) -> str:
+    if note.get("terrain"):
+        return (
+            f"floor rising {note['tilt_deg']:.2f} deg under an upright body (stairs or a "
+            f"slope): its lowest contact moved from height {note['height']:.4g} units to 0, "
+            "its tilt kept"
+        )
     kept = "levelled" if note.get("levelled", True) else "its tilt kept"
     return (
         f"floor at height {note['height']:.4g} units, tilted {note['tilt_deg']:.2f} deg: "

@@ -50,7 +50,7 @@ def test_ground_levels_the_floor_and_puts_it_at_zero_moving_the_root_only(walk):
     height = kinematics.body_height(walk)
     tilted = _tilted(walk, 5.0)
     grounded, logs = Pipeline.from_inline(["ground"]).run(tilted)
-    floor, _ = floor_of(grounded)
+    floor = floor_of(grounded).floor
     assert floor is not None
     assert floor.tilt_deg < 1.0
     assert abs(floor.offset) < 0.01 * height
@@ -252,3 +252,51 @@ def test_ground_levels_a_short_walk_up_a_slope_as_the_report_finds_it():
     after, _ = contact_figures(levelled)
     assert after["floor"]["tilt_deg"] < 1.0
     assert "along the up axis" in "".join(_ground_lines(after))
+
+
+def _stairs(walk: mc.Motion) -> mc.Motion:
+    """A figure standing in ``walk``'s first double-support pose (120 fps, Y up), swaying a
+    little, hopping up three steps of a tenth of its height, 0.18 of it forward each (a
+    staircase, its body upright throughout)."""
+    feet, up, height = found.skeleton_feet(walk)
+    positions = kinematics.upright_positions(walk)
+    both = found.detect(positions, feet, up, height, walk.frame_time)[0].all(axis=1)
+    pose = int(np.flatnonzero(both)[0])
+    n = 480
+    t = np.arange(n)
+    sway = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(0.5) * np.sin(t / 40.0))
+    rotations = np.repeat(walk.rotations[pose : pose + 1], n, axis=0)
+    rotations[:, 0] = quat.multiply(sway, rotations[:, 0])
+    translations = np.repeat(walk.translations[pose : pose + 1], n, axis=0)
+    for start in (80, 200, 320):  # a hop of 40 frames onto the next step
+        u = np.clip((t - start) / 40.0, 0.0, 1.0)
+        ease = u * u * (3.0 - 2.0 * u)
+        translations[:, 0, 1] += 0.1 * height * ease + 0.03 * height * np.sin(np.pi * u)
+        translations[:, 0, 0] += 0.18 * height * ease
+    return walk.replace(rotations=rotations, translations=translations, source_values=None)
+
+
+def test_ground_keeps_the_slope_of_stairs_under_an_upright_body(walk):
+    """A staircase's floor, fitted through the soles on each step, tilts some 29 degrees,
+    and the body stands upright on it: ground had turned the whole clip by that much. It
+    now moves the clip along the up axis alone (the lowest sole to 0) and the report says
+    the floor rises under an upright body; the same clip tilted as a whole by a camera
+    (the walk on a tilted floor above) is still levelled."""
+    stairs = _stairs(walk)
+    height = kinematics.body_height(stairs)
+    found_floor = floor_of(stairs)
+    assert found_floor.floor is not None and found_floor.floor.tilt_deg > 20.0
+    assert found_floor.terrain
+    section, _ = contact_figures(stairs)
+    assert section["floor"]["terrain"] is True
+    assert "under an upright body: stairs or a slope" in format_contacts(section)[0]
+    out, logs = Pipeline.from_inline(["ground"]).run(stairs)
+    np.testing.assert_array_equal(out.rotations, stairs.rotations)
+    moved = out.translations[:, 0] - stairs.translations[:, 0]
+    np.testing.assert_array_equal(moved[:, [0, 2]], 0.0)
+    assert np.ptp(moved[:, 1]) < 1e-9
+    lowest = kinematics.world_positions(out)[..., 1].min()
+    assert abs(lowest) < 0.01 * height
+    note = logs[0].notes["Hips"]["position_ground"]
+    assert note["terrain"] is True and note["levelled"] is False
+    assert floor_of(_tilted(walk, 5.0)).terrain is False
