@@ -490,6 +490,19 @@ def turned_copy(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
     )
 
 
+def uphill(motion: mc.Motion, degrees: float) -> mc.Motion:
+    """``motion`` (Y up) walking up a floor tilted by ``degrees``: turned about the
+    horizontal axis across its direction of travel, about its first root position."""
+    travel = motion.translations[-1, 0] - motion.translations[0, 0]
+    across = np.cross(np.array([0.0, 1.0, 0.0]), travel * np.array([1.0, 0.0, 1.0]))
+    turn = quat.from_axis_angle(across / np.linalg.norm(across), -np.radians(degrees))
+    rotations, translations = motion.rotations.copy(), motion.translations.copy()
+    start = translations[0, 0].copy()
+    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+    translations[:, 0] = quat.rotate(turn, translations[:, 0] - start) + start
+    return motion.replace(rotations=rotations, translations=translations, source_values=None)
+
+
 def low_passed_noise(frames, columns, edge_hz, noise_deg, seed, fps=120.0):
     """(frames, columns, 3) white noise through a zero-phase 4th-order Butterworth of edge
     ``edge_hz`` (power response ``1 / (1 + (f / f_c)^8)^2``, applied by FFT), RMS angle

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..core import kinematics
+from ..core.contacts import Floor
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
 from .world import contradiction_words
@@ -30,6 +31,10 @@ PLAYER_STEPS_PER_S = 15.0
 QUANTUM = 1000.0
 BEFORE, AFTER = "#e0892b", "#1f57b8"
 FLOOR = "#9aa2b1"
+#: Decimals of the floor's unit normal in the page: rounding moves the floor line by at
+#: most 5e-7 of the figure's distance from the origin, 0.0013 view units (of :data:`VIEW`)
+#: 10 body heights out (the offset, rounded as the points, by at most 0.013).
+FLOOR_DIGITS = 6
 VIEW = 360  # SVG user units of a player or trajectory view
 #: The player's view spans at least this many body heights: it follows the figure across,
 #: and frames the clip's range of heights (:func:`_window`).
@@ -265,15 +270,15 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
     )
 
 
-def _window(series: dict, floor: float | None) -> tuple[float, float]:
+def _window(series: dict, floor: Floor | None) -> tuple[float, float]:
     """The player's height window, fixed over the clip: the lowest up coordinate it shows
     and the span of its view (file units), the same on both screen axes. The span is
     :data:`FIGURE_SPAN` body heights, or the range the clip's known points and the
-    ``floor`` cover along the up axis where that is larger; the range is centred in it.
-    Rest-pose frames are left out, as of every figure."""
+    ``floor`` below the figure's centres cover along the up axis where that is larger; the
+    range is centred in it. Rest-pose frames are left out, as of every figure."""
     up = series["up"]
     moving = ~series["rest"] if not series["rest"].all() else np.ones_like(series["rest"])
-    heights = [np.array([] if floor is None else [floor])]
+    heights = [np.array([]) if floor is None else floor.heights_at(_centres(series))]
     for key in ("before", "after"):
         if series[key] is not None:
             values = series[key][moving][..., up]
@@ -286,20 +291,31 @@ def _window(series: dict, floor: float | None) -> tuple[float, float]:
     return (low + high) / 2 - span / 2, span
 
 
+def _middle(points: np.ndarray, axis: int) -> float:
+    """The middle of the known ``points`` ``(P, 3)`` along ``axis`` (0 without any)."""
+    values = points[:, axis]
+    values = values[np.isfinite(values)]
+    return float(values.min() + values.max()) / 2 if values.size else 0.0
+
+
 def _static_frame(
-    series: dict, frame: int, axes: tuple[int, int], window: tuple[float, float]
+    series: dict,
+    frame: int,
+    axes: tuple[int, int],
+    window: tuple[float, float],
+    floor: Floor | None,
 ) -> str:
     """One frame of the player as plain SVG lines (what a page without scripts shows):
-    centred on the figure across, its height framed by ``window`` (:func:`_window`)."""
-    parts = []
+    centred on the figure across, its height framed by ``window`` (:func:`_window`), on the
+    ``floor`` line (:func:`_floor_line`) of an upright view (``axes``)."""
     clips = [("before", series["before"], BEFORE, series["unknown_before"])]
     if series["after"] is not None:
         clips.append(("after", series["after"], AFTER, series["unknown_after"]))
     bottom, span = window
-    here = series["before"][frame][:, axes[0]]
-    here = here[np.isfinite(here)]
-    across = (here.min() + here.max()) / 2 - span / 2 if here.size else 0.0
-    low = np.array([across, bottom])
+    here = series["before"][frame]
+    low = np.array([_middle(here, axes[0]) - span / 2, bottom])
+    depth = 3 - sum(axes)
+    parts = [_floor_line(_floor_ends(floor, axes, _middle(here, depth), low, span))]
     for label, points, colour, unknown in clips:
         xy = _to_view(points[frame][:, axes], low, span)
         shown = np.ones(len(xy), bool) if unknown is None else ~unknown[frame]
@@ -352,19 +368,25 @@ PLAYER_SCRIPT = """
   function draw(i) {
     current = Math.max(0, Math.min(n - 1, i));
     var a = axes[view.value], k = 0, S = data.size, span = data.span;
-    var f0 = clips[0][1][current], lo = [0, 0], upright = a[1] === data.up;
-    for (var d = 0; d < 2; d++) {
+    var f0 = clips[0][1][current], mid = [], upright = a[1] === data.up;
+    for (var d = 0; d < 3; d++) {  // the figure's middle along each axis
       var mn = 1e30, mx = -1e30;
       for (var p0 = 0; p0 < f0.length; p0 += 3) {
-        mn = Math.min(mn, f0[p0 + a[d]]); mx = Math.max(mx, f0[p0 + a[d]]);
+        mn = Math.min(mn, f0[p0 + d]); mx = Math.max(mx, f0[p0 + d]);
       }
-      lo[d] = (mn + mx) / 2 - span / 2;
+      mid.push((mn + mx) / 2);
     }
-    if (upright) lo[1] = data.low;
-    if (floor) {
-      var y = S - ((data.floor - lo[1]) / span * 0.9 + 0.05) * S;
-      floor.setAttribute('visibility', upright ? 'visible' : 'hidden');
-      floor.setAttribute('y1', y); floor.setAttribute('y2', y);
+    var lo = [mid[a[0]] - span / 2, upright ? data.low : mid[a[1]] - span / 2];
+    if (floor) floor.setAttribute('visibility', upright ? 'visible' : 'hidden');
+    if (floor && upright) {
+      // the floor plane where it meets the view's plane through the figure's middle in
+      // depth, at the view's left and right edges (as _floor_ends)
+      var normal = data.floor.normal, d3 = 3 - a[0] - a[1];
+      [0, 1].forEach(function (e) {
+        var x = lo[0] + (e - 0.05) / 0.9 * span;
+        var h = (data.floor.offset - normal[a[0]] * x - normal[d3] * mid[d3]) / normal[data.up];
+        floor.setAttribute('y' + (e + 1), S - ((h - lo[1]) / span * 0.9 + 0.05) * S);
+      });
     }
     var m = 0;
     clips.forEach(function (c, ci) {
@@ -430,23 +452,40 @@ PLAYER_SCRIPT = """
 """
 
 
-def _floor_line(height: float | None, low: float, span: float) -> str:
-    """The floor as a level line across the upright view (none where none was found)."""
-    if height is None:
+def _floor_ends(
+    floor: Floor | None, axes: tuple[int, int], depth: float, low: np.ndarray, span: float
+) -> np.ndarray | None:
+    """``(2, 2)``: view coordinates of the floor line's ends at the left and right edges of
+    an upright view (screen ``axes``): where the ``floor`` plane meets the view's plane
+    through ``depth`` on the third axis (the figure's middle), rising with the floor's
+    slope along the view's horizontal axis. ``low``, ``span``: the view's box, as of
+    :func:`_to_view`. None without a floor."""
+    if floor is None:
+        return None
+    ends = np.zeros((2, 3))
+    ends[:, axes[0]] = low[0] + span * (np.array([0.0, 1.0]) - 0.05) / 0.9  # x 0 and VIEW
+    ends[:, 3 - sum(axes)] = depth
+    ends[:, axes[1]] = floor.heights_at(ends)
+    return _to_view(ends[:, list(axes)], low, span)
+
+
+def _floor_line(ends: np.ndarray | None) -> str:
+    """The floor line between its ``ends`` (:func:`_floor_ends`; none without them)."""
+    if ends is None:
         return ""
-    y = VIEW - ((height - low) / span * 0.9 + 0.05) * VIEW
+    (_, y1), (_, y2) = ends.tolist()
     return (
-        f'<line id="mc-floor" x1="0" x2="{VIEW}" y1="{y:.1f}" y2="{y:.1f}" stroke="{FLOOR}" '
+        f'<line id="mc-floor" x1="0" x2="{VIEW}" y1="{y1:.1f}" y2="{y2:.1f}" stroke="{FLOOR}" '
         'stroke-width="1.5"/>'
     )
 
 
-def _player(series: dict, frame_time: float, floor: float | None) -> str:
+def _player(series: dict, frame_time: float, floor: Floor | None) -> str:
     """The skeleton player, playing at the clip's own rate (``frame_time`` seconds per frame,
     by elapsed time; a clip carried every k-th frame at least :data:`PLAYER_STEPS_PER_S`
     carried frames per second, the speed said beside the frame number); ``floor``: the
-    floor's height along the up axis (file units, the report's ``contacts.floor``), drawn
-    as a line, or None."""
+    report's ``contacts.floor`` plane (file units, the clip turned upright), drawn as a
+    line where it meets each upright view, or None."""
     views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
     low, span = _window(series, floor)
@@ -483,17 +522,23 @@ def _player(series: dict, frame_time: float, floor: float | None) -> str:
         "up": series["up"],
         "low": round(low * scale, 1),
         "span": round(span * scale, 1),
-        "floor": None if floor is None else round(floor * scale, 1),
+        # the plane alone (scaled as the points: its normal kept, its offset scaled)
+        "floor": None
+        if floor is None
+        else {
+            "normal": [round(float(v), FLOOR_DIGITS) for v in floor.normal],
+            "offset": round(floor.offset * scale, 1),
+        },
         "colours": [BEFORE, AFTER],
         "frame_ms": frame_ms,
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
-    static = _static_frame(series, 0, views["front"], (low, span))
+    static = _static_frame(series, 0, views["front"], (low, span), floor)
     return (
         '<div class="player"><svg id="mc-player" class="view" '
         f'viewBox="0 0 {VIEW} {VIEW}" role="img" aria-label="the clip as a stick figure">'
         f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>'
-        f"{_floor_line(floor, low, span)}{static}</svg>"
+        f"{static}</svg>"
         '<div class="controls"><button id="mc-play" type="button">play</button>'
         f'<input id="mc-slider" type="range" min="0" max="{len(frames) - 1}" value="0" '
         'aria-label="frame" aria-valuetext="frame 0">'
@@ -528,6 +573,12 @@ def _still_line(names: list[str], per: str) -> list[str]:
     ]
 
 
+def _floor(report: dict, up: int) -> Floor | None:
+    """The report's floor plane (``contacts.floor``), or None where none was found."""
+    found = (report.get("contacts") or {}).get("floor")
+    return None if not found else Floor(np.array(found["normal"]), found["offset"], up)
+
+
 def world_section(report: dict, series: dict | None) -> list[str]:
     """HTML blocks: the skeleton player, then the trajectory of every end effector that
     moves, seen from above and from the side (input and cleaned overlaid; hands, feet and
@@ -559,7 +610,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     ]
     figures = report.get("world") or {}
     per = "the body height" if figures.get("body_height") else "the range the points travel"
-    floor = ((report.get("contacts") or {}).get("floor") or {}).get("height")
+    floor = _floor(report, world["up"])
     axes = ""
     if figures:
         how = {"given": "given", "assumed": "assumed: the format's default"}.get(

@@ -223,8 +223,9 @@ def contact_figures(
     ``None`` and no series for a clip without feet. The series hold each foot's lowest
     point above its clip's ground per frame, before and after. ``floor`` is the plane
     through the contacts' soles (:func:`~motionclean.core.contacts.fit_floor`): its height
-    along the up axis at their centre, its tilt from level (degrees) and normal, and how
-    many contacts it rests on (None without contacts). ``points`` and ``used`` as in
+    along the up axis at their centre, its tilt from level (degrees), normal and offset (a
+    point ``p`` stands ``normal . p - offset`` above it, units; the clip turned upright),
+    and how many contacts it rests on (None without contacts). ``points`` and ``used`` as in
     :func:`world_figures`.
 
     Rest-pose frames at the clip's ends (:func:`~motionclean.core.restpose.rest_frames`)
@@ -332,6 +333,7 @@ def _contact_figures(
             "height": floor.height_at(soles.mean(axis=0)),
             "tilt_deg": floor.tilt_deg,
             "normal": [float(v) for v in floor.normal],
+            "offset": float(floor.offset),
             "contacts": int(soles.shape[0]),
             "contacts_found_above_it": standing.tilted,
             "terrain": found.terrain(floor, kinematics.upright_body_up(before)),

@@ -3,6 +3,7 @@ headless Chromium, a static frame without scripts, trajectories of every end eff
 
 from __future__ import annotations
 
+import html
 import json
 import re
 import subprocess
@@ -11,7 +12,7 @@ import tempfile
 
 import numpy as np
 import pytest
-from helpers import NOISY, ROOT, corpus_clip, turned_copy, z_up_copy
+from helpers import NOISY, ROOT, corpus_clip, turned_copy, uphill, z_up_copy
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -202,9 +203,38 @@ def circles(text: str, clip: str = "before") -> np.ndarray:
     return np.array(rows)
 
 
-def floor_y(text: str) -> float:
+def floor_ends(text: str) -> np.ndarray:
+    """``(2,)``: the floor line's y at the player's left and right edges (page or browser)."""
     tag = re.search(r'<line\b[^>]*id="mc-floor"[^>]*>', text).group(0)
-    return float(re.search(r'\by1="([^"]+)"', tag).group(1))
+    return np.array([float(re.search(rf'\b{k}="([^"]+)"', tag).group(1)) for k in ("y1", "y2")])
+
+
+def drawn_above_floor(joints: np.ndarray, ends: np.ndarray) -> float:
+    """How far the lowest of the ``joints`` drawn ``(P, 2)`` stands above the floor line
+    (``ends``: its y at x 0 and 360) at its x (view units, y down)."""
+    x, y = joints[np.argmax(joints[:, 1])]
+    return float(ends[0] + (ends[1] - ends[0]) * x / 360 - y)
+
+
+def plane_height(floor: dict, point: np.ndarray, up: int) -> float:
+    """The height along ``up`` of the report's floor plane below ``point`` (file units)."""
+    normal = np.array(floor["normal"])
+    return float(point[up] + (floor["offset"] - normal @ point) / normal[up])
+
+
+def middle(points: np.ndarray) -> np.ndarray:
+    """``(3,)``: the middle of the known ``points`` ``(P, 3)`` along each axis."""
+    return (np.nanmin(points, axis=0) + np.nanmax(points, axis=0)) / 2
+
+
+def above_floor(points: np.ndarray, floor: dict, axes, up: int) -> float:
+    """How far the lowest of a frame's ``points`` ``(P, 3)`` stands above the report's
+    floor plane where it meets the upright view (screen ``axes``) through the figure's
+    middle (file units)."""
+    low = points[np.nanargmin(points[:, up])]
+    below = middle(points)
+    below[axes[0]] = low[axes[0]]
+    return float(low[up] - plane_height(floor, below, up))
 
 
 @pytest.mark.browser
@@ -216,26 +246,105 @@ def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
     clip = mc.load(corpus_clip("131_03.bvh"))
     series = build_series(clip)
     report = build_report(clip, series=series)
-    floor = report["contacts"]["floor"]["height"]
+    floor = report["contacts"]["floor"]
     page = tmp_path / "report.html"
     page.write_text(render_html(report, series), encoding="utf-8")
     world = series["world"]
-    scale = 360 * 0.9 / (player_data(page.read_text())["span"] / 1000 * world["height"])
-    lines, lifted = [], []
+    data = player_data(page.read_text())
+    scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
+    lifted = []
     for frame in (700, 810):
         dom = chromium_dom(page, f"#frame={frame}")
-        lines.append(floor_y(dom))
-        index = list(world["frames"]).index(frame)
-        above = world["before"][index, :, world["up"]].min() - floor  # file units
-        drawn = lines[-1] - circles(dom)[:, 1].max()  # view units, y down
+        points = world["before"][list(world["frames"]).index(frame)]
+        above = above_floor(points, floor, data["views"]["front"], world["up"])  # file units
+        drawn = drawn_above_floor(circles(dom), floor_ends(dom))  # view units
         assert drawn == pytest.approx(above * scale, abs=1.0)
         lifted.append(above / world["height"])
-    assert lines[0] == lines[1]
     assert lifted[0] < 0.03 and lifted[1] > 0.1
+
+
+#: Run after the player's script: for each ``[view, carried frame index]`` of
+#: ``MC_ASKED``, draw it and keep the floor line's ends and the input's joints drawn.
+FLOOR_STEPS = """<script>
+(function () {
+  var view = document.getElementById('mc-view'), slider = document.getElementById('mc-slider');
+  var seen = [];
+  MC_ASKED.forEach(function (ask) {
+    view.value = ask[0]; view.dispatchEvent(new Event('change'));
+    slider.value = ask[1]; slider.dispatchEvent(new Event('input'));
+    var line = document.getElementById('mc-floor'), joints = [];
+    document.querySelectorAll('circle.joint[data-clip="before"]').forEach(function (c) {
+      if (c.getAttribute('visibility') !== 'hidden') {
+        joints.push([+c.getAttribute('cx'), +c.getAttribute('cy')]);
+      }
+    });
+    seen.push({ends: [+line.getAttribute('y1'), +line.getAttribute('y2')], joints: joints});
+  });
+  document.body.setAttribute('data-seen', JSON.stringify(seen));
+})();
+</script>"""
+
+#: The lowest point of a contact stands this close to the floor found (body heights): the
+#: plane fitted up PyMO's walk on a 5-degree slope (4.45 degrees, through the middle of
+#: its soles) leaves its first and last contacts' lowest points 0.002-0.027 from it in the
+#: player's views; the level line had left them 0.061 below and 0.026 above.
+ON_FLOOR = 0.04
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize(
+    ("name", "degrees"), [("pymo_walk_tpose.bvh", 5.0), ("mixamo_tpose.bvh", 0.0)]
+)
+def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, name, degrees):
+    """A walk turned up a 5-degree slope: in the front and side views the floor line
+    rises across the player (360 view units) by the floor's slope along the view's
+    horizontal axis, toward where the walk ends, and the lowest point of the first and of
+    the last contact stands on it (within :data:`ON_FLOOR`), as far above the line as above
+    the plane. A level floor (Mixamo's: its normal up to 2e-7) keeps a level line. (The
+    line had been level at the floor's height at the contacts' centre: the feet stood
+    below it at the start of the walk and above it at the end.)"""
+    clip = mc.load(ROOT / "tests" / "data" / "exporters" / name)
+    clip = uphill(clip, degrees) if degrees else clip
+    series = build_series(clip)
+    report = build_report(clip, series=series)
+    world, floor, up = series["world"], report["contacts"]["floor"], series["world"]["up"]
+    # per end of the clip, the carried frame of its contact where the figure stands lowest
+    runs = sorted(run for foot in report["contacts"]["feet"].values() for run in foot["contacts"])
+    lowest = world["before"][..., up].min(axis=1)
+    asked = []
+    for first, stop in (runs[0], runs[-1]):
+        carried = np.flatnonzero((world["frames"] >= first) & (world["frames"] < stop))
+        asked.append(int(carried[np.argmin(lowest[carried])]))
+    views = [[view, index] for view in ("front", "side") for index in asked]
+    page = render_html(report, series)
+    asking = f"<script>var MC_ASKED={json.dumps(views)};</script>{FLOOR_STEPS}</body>"
+    path = tmp_path / "report.html"
+    path.write_text(page.replace("</body>", asking, 1), encoding="utf-8")
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, ""))
+    data = player_data(page)
+    scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
+    normal = np.array(floor["normal"])
+    travel = middle(world["before"][asked[1]]) - middle(world["before"][asked[0]])
+    for (view, index), drawn in zip(views, json.loads(html.unescape(seen.group(1))), strict=True):
+        axes = data["views"][view]
+        ends, joints = np.array(drawn["ends"]), np.array(drawn["joints"])
+        rise = ends[1] - ends[0]  # view units, y down
+        assert rise == pytest.approx(360 * normal[axes[0]] / normal[up], abs=0.01)
+        if degrees:
+            assert rise * travel[axes[0]] < 0  # higher where the walk goes
+        else:
+            assert rise == 0
+        above = above_floor(world["before"][index], floor, axes, up)
+        assert drawn_above_floor(joints, ends) == pytest.approx(above * scale, abs=1.0)
+        assert abs(above) < ON_FLOOR * world["height"]
 
 
 def y_down_copy(motion: mc.Motion) -> mc.Motion:
     return turned_copy(motion, quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.pi))
+
+
+def up_a_slope(motion: mc.Motion) -> mc.Motion:
+    return uphill(motion, 5.0)
 
 
 @pytest.mark.parametrize(
@@ -246,12 +355,16 @@ def y_down_copy(motion: mc.Motion) -> mc.Motion:
         ("pymo_walk_tpose.bvh", None),  # T-pose rest frame first
         ("video_estimate_cmu_names.bvh", y_down_copy),  # head toward -y
         ("tpose_rest_only.bvh", None),  # nothing but a rest pose: no floor
+        ("pymo_walk_tpose.bvh", up_a_slope),  # a floor tilted 5 degrees
     ],
 )
 def test_the_player_frames_every_frame_upright_above_its_floor(name, turn):
     """Exporters' clips stand upright in the page without scripts (the highest point drawn
     topmost), every carried frame fits the fixed height window, and the floor line is drawn
-    where the report found a floor, at its height, and not otherwise."""
+    where the report found a floor, and not otherwise: the page carries the plane (its
+    normal, its offset in the player's units), and the line is where it meets the front
+    view through the figure's middle: below the figure's middle at the plane's height
+    there, rising across the view (360 units) by the plane's slope along x."""
     clip = mc.load(ROOT / "tests" / "data" / "exporters" / name)
     clip = clip if turn is None else turn(clip)
     series = build_series(clip)
@@ -267,10 +380,16 @@ def test_the_player_frames_every_frame_upright_above_its_floor(name, turn):
     if floor is None:
         assert 'id="mc-floor"' not in page and data["floor"] is None
         return
-    scale = 1000 / world["height"]
-    assert data["floor"] == pytest.approx(floor["height"] * scale, abs=0.1)
-    drawn = 360 - ((floor["height"] * scale - data["low"]) / data["span"] * 0.9 + 0.05) * 360
-    assert floor_y(page) == pytest.approx(drawn, abs=0.1)
+    scale, up = 1000 / world["height"], world["up"]
+    normal = np.array(floor["normal"])
+    assert data["floor"]["normal"] == pytest.approx(normal, abs=1e-6)
+    assert data["floor"]["offset"] == pytest.approx(floor["offset"] * scale, abs=0.05)
+    ends = floor_ends(page)
+    across = data["views"]["front"][0]
+    assert ends[1] - ends[0] == pytest.approx(360 * normal[across] / normal[up], abs=0.1)
+    height = plane_height(floor, middle(world["before"][0]), up) * scale
+    drawn = 360 - ((height - data["low"]) / data["span"] * 0.9 + 0.05) * 360
+    assert ends.mean() == pytest.approx(drawn, abs=0.1)
 
 
 #: Put before the player's script: the page's clock and frame callbacks under the test's

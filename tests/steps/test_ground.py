@@ -7,7 +7,7 @@ import re
 
 import numpy as np
 import pytest
-from helpers import ROOT, corpus_clip, turned_copy
+from helpers import ROOT, corpus_clip, turned_copy, uphill
 
 import motionclean as mc
 from motionclean.core import contacts as found
@@ -190,19 +190,6 @@ def test_a_glitch_of_the_root_does_not_take_the_floor_down(walk, frames):
         assert floor["height"] == pytest.approx(level, abs=1e-9 * height)
 
 
-def _uphill(motion: mc.Motion, degrees: float) -> mc.Motion:
-    """``motion`` (Y up) walking up a floor tilted by ``degrees``: turned about the
-    horizontal axis across its direction of travel, about its first root position."""
-    travel = motion.translations[-1, 0] - motion.translations[0, 0]
-    across = np.cross(np.array([0.0, 1.0, 0.0]), travel * np.array([1.0, 0.0, 1.0]))
-    turn = quat.from_axis_angle(across / np.linalg.norm(across), -np.radians(degrees))
-    rotations, translations = motion.rotations.copy(), motion.translations.copy()
-    start = translations[0, 0].copy()
-    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
-    translations[:, 0] = quat.rotate(turn, translations[:, 0] - start) + start
-    return motion.replace(rotations=rotations, translations=translations, source_values=None)
-
-
 @pytest.mark.parametrize("name", ["131_02.bvh", "pymo_walk_tpose.bvh"])
 def test_contacts_uphill_are_found_above_the_floor_as_on_the_level(walk, name):
     """A walk up a floor tilted 5 degrees rises by more than the contact height: above a
@@ -212,9 +199,9 @@ def test_contacts_uphill_are_found_above_the_floor_as_on_the_level(walk, name):
     a few frames, the same feet planted by the default; a level capture keeps the level
     ground's (the report says which)."""
     level = walk if name == "131_02.bvh" else mc.load(EXPORTERS / name)
-    uphill = _uphill(level, 5.0)
+    sloped = uphill(level, 5.0)
     flat, _ = contact_figures(level)
-    tilted, _ = contact_figures(uphill)
+    tilted, _ = contact_figures(sloped)
     assert flat["floor"]["contacts_found_above_it"] is False
     assert tilted["floor"]["contacts_found_above_it"] is True
     assert tilted["floor"]["tilt_deg"] == pytest.approx(5.0, abs=1.0)
@@ -229,7 +216,7 @@ def test_contacts_uphill_are_found_above_the_floor_as_on_the_level(walk, name):
         )
     )
     skates = []
-    for clip in (level, uphill):
+    for clip in (level, sloped):
         noisy = clip.replace(rotations=quat.multiply(clip.rotations, noise), source_values=None)
         out, _ = Pipeline.default().run(noisy)
         section, _ = contact_figures(noisy, out)
@@ -244,11 +231,11 @@ def test_ground_levels_a_short_walk_up_a_slope_as_the_report_finds_it():
     and the page says the plots' ground is measured above that tilted floor."""
     from motionclean.report.html import _ground_lines
 
-    uphill = _uphill(mc.load(EXPORTERS / "pymo_walk_tpose.bvh"), 5.0)
-    before, _ = contact_figures(uphill)
+    sloped = uphill(mc.load(EXPORTERS / "pymo_walk_tpose.bvh"), 5.0)
+    before, _ = contact_figures(sloped)
     assert before["floor"]["contacts_found_above_it"] and before["floor"]["tilt_deg"] > 4.0
     assert "above the tilted floor" in "".join(_ground_lines(before))
-    levelled, _ = Pipeline.from_inline(["ground"]).run(uphill)
+    levelled, _ = Pipeline.from_inline(["ground"]).run(sloped)
     after, _ = contact_figures(levelled)
     assert after["floor"]["tilt_deg"] < 1.0
     assert "along the up axis" in "".join(_ground_lines(after))
