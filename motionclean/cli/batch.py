@@ -27,7 +27,7 @@ from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import index_entries, page_figures, render_index
 from ..report.summary import figure_text
 from ..run import cluster
-from ..run.jobs import INDEX_FIGURES, FileResult, Job
+from ..run.jobs import INDEX_FIGURES, FileResult, Job, missing_folders, remove_empty
 from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
@@ -364,6 +364,8 @@ def batch_command(
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
     note = lost = None
+    outputs = [path for job in work for path in (job.target, job.report) if path]
+    made = missing_folders(Path(path).parent for path in outputs)  # (by the run: see finally)
     try:
         with _progress(len(work)) as advance:
             if scheduler is None or not work:  # nothing to send: no cluster to start
@@ -392,7 +394,8 @@ def batch_command(
                 work[index].source, work[index].target, "failed"
             )
     finally:  # a worker killed while writing leaves its temporary file: none stays
-        remove_temporaries(path for job in work for path in (job.target, job.report) if path)
+        remove_temporaries(outputs)
+        remove_empty(made)  # folders made for outputs not written (out/shoot_02/day 2/)
     seconds = time.perf_counter() - start
 
     if pages is not None and skip_existing:
