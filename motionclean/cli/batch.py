@@ -22,9 +22,9 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..core.words import columns, last_columns, pad
+from ..core.words import columns, last_columns, pad, plural
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
-from ..report.html import index_entries, page_figures, render_index
+from ..report.html import index_entries, of_another_pipeline, page_figures, render_index
 from ..report.summary import figure_text
 from ..run import cluster
 from ..run.jobs import INDEX_FIGURES, FileResult, Job, missing_folders, remove_empty
@@ -398,8 +398,10 @@ def batch_command(
         remove_empty(made)  # folders made for outputs not written (out/shoot_02/day 2/)
     seconds = time.perf_counter() - start
 
+    others = 0
     if pages is not None and skip_existing:
         _keep_figures(results, pages, tables)
+        others = _other_pipelines(results, pages, tables)
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -407,6 +409,12 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
+        if others:
+            click.echo(
+                f"{plural(others, 'clip')} kept from an earlier run with another pipeline "
+                f"(rerun without --skip-existing to clean {'it' if others == 1 else 'them'} "
+                "with this one)"
+            )
     echo_warnings(line for _, result in rows for line in result.warnings)
     failures = [
         _as_given(str(r.error), Path(in_dir) / name)
@@ -458,6 +466,17 @@ def _keep_figures(results: dict[str, FileResult], pages: Path, tables: Sequence[
         if entry:
             kept = {key: _kept(entry.get(key), kind) for key, kind in INDEX_FIGURES.items()}
             results[name] = dataclasses.replace(result, **kept)
+
+
+def _other_pipelines(results: dict[str, FileResult], pages: Path, tables: Sequence[dict]) -> int:
+    """How many skipped clips another pipeline made, as their pages say (a page is written
+    with its clip); one whose figures were kept was this pipeline's (:func:`_keep_figures`)."""
+    return sum(
+        result.status == "skipped"
+        and result.frames is None
+        and of_another_pipeline(pages / f"{name}.html", tables)
+        for name, result in results.items()
+    )
 
 
 def _write_index(
