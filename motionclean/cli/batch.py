@@ -22,12 +22,12 @@ from pathlib import Path, PurePosixPath
 import click
 
 from ..core.errors import UsageError
-from ..core.words import columns, last_columns, pad
+from ..core.words import columns, last_columns, pad, plural
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
-from ..report.html import index_entries, page_figures, render_index
+from ..report.html import index_entries, of_another_pipeline, page_figures, render_index
 from ..report.summary import figure_text
 from ..run import cluster
-from ..run.jobs import INDEX_FIGURES, FileResult, Job
+from ..run.jobs import INDEX_FIGURES, FileResult, Job, missing_folders, remove_empty
 from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
@@ -364,6 +364,8 @@ def batch_command(
         cluster.parse_scheduler(scheduler)  # a bad address fails before any work
     start = time.perf_counter()
     note = lost = None
+    outputs = [path for job in work for path in (job.target, job.report) if path]
+    made = missing_folders(Path(path).parent for path in outputs)  # (by the run: see finally)
     try:
         with _progress(len(work)) as advance:
             if scheduler is None or not work:  # nothing to send: no cluster to start
@@ -392,11 +394,14 @@ def batch_command(
                 work[index].source, work[index].target, "failed"
             )
     finally:  # a worker killed while writing leaves its temporary file: none stays
-        remove_temporaries(path for job in work for path in (job.target, job.report) if path)
+        remove_temporaries(outputs)
+        remove_empty(made)  # folders made for outputs not written (out/shoot_02/day 2/)
     seconds = time.perf_counter() - start
 
+    others = 0
     if pages is not None and skip_existing:
         _keep_figures(results, pages, tables)
+        others = _other_pipelines(results, pages, tables)
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -404,6 +409,12 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
+        if others:
+            click.echo(
+                f"{plural(others, 'clip')} kept from an earlier run with another pipeline "
+                f"(rerun without --skip-existing to clean {'it' if others == 1 else 'them'} "
+                "with this one)"
+            )
     echo_warnings(line for _, result in rows for line in result.warnings)
     failures = [
         _as_given(str(r.error), Path(in_dir) / name)
@@ -455,6 +466,17 @@ def _keep_figures(results: dict[str, FileResult], pages: Path, tables: Sequence[
         if entry:
             kept = {key: _kept(entry.get(key), kind) for key, kind in INDEX_FIGURES.items()}
             results[name] = dataclasses.replace(result, **kept)
+
+
+def _other_pipelines(results: dict[str, FileResult], pages: Path, tables: Sequence[dict]) -> int:
+    """How many skipped clips another pipeline made, as their pages say (a page is written
+    with its clip); one whose figures were kept was this pipeline's (:func:`_keep_figures`)."""
+    return sum(
+        result.status == "skipped"
+        and result.frames is None
+        and of_another_pipeline(pages / f"{name}.html", tables)
+        for name, result in results.items()
+    )
 
 
 def _write_index(

@@ -24,15 +24,17 @@ the previous key, ``LINEAR`` interpolates (slerp for rotations, as glTF specifie
 first and last key outside its range.
 
 Writing back keeps the file: with nothing changed its bytes exactly, where they find the
-buffer files they refer to (none, or written into the folder they were read from);
-otherwise every object of the JSON and every byte of the buffers stays, the channels of
-joints that changed point to new samplers (``LINEAR`` on the grid; a channel read as it
-was keeps its time accessor and the values of its unchanged frames), whose data is
-appended to the GLB binary chunk, or for ``.gltf`` to a new buffer embedded as a data URI;
-a changed ``.gltf``, or an unchanged one written to another folder, is written
-self-contained (its ``.bin`` files' bytes embedded as data URIs, so it can be written to
-any folder; the ``.bin`` files themselves are never touched; images keep their URIs).
-Sparse accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
+files they refer to by relative URIs (none, or written into the folder they were read
+from); otherwise every object of the JSON and every byte of the buffers stays, the
+channels of joints that changed point to new samplers (``LINEAR`` on the grid; a channel
+read as it was keeps its time accessor and the values of its unchanged frames), whose data
+is appended to the GLB binary chunk, or for ``.gltf`` to a new buffer embedded as a data
+URI; a changed ``.gltf``, or an unchanged one written to another folder, is written
+self-contained (its ``.bin`` files' bytes embedded as data URIs; the files themselves are
+never touched). Into another folder images named by relative URIs are carried too: as
+data URIs in a ``.gltf``, in a GLB as bufferViews of its binary chunk (its first buffer
+made the chunk when it had none); a URL or an absolute path stays as it is. Sparse
+accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
 a GLB, written only into the one it was read from (:func:`vrma_pieces`).
 """
 
@@ -49,6 +51,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
+from urllib.parse import unquote, urlsplit
 
 import numpy as np
 
@@ -261,8 +264,6 @@ class _Buffers:
         return data
 
     def _file(self, index: int, uri: str) -> bytes:
-        from urllib.parse import unquote
-
         name = unquote(uri)
         if "://" in name or os.path.isabs(name) or ".." in Path(name).parts:
             _fail(f"buffers[{index}]: uri {uri[:60]!r} is not a file beside the glTF", self.path)
@@ -905,8 +906,8 @@ class _Appender:
         self.parts: list[bytes] = []
         self.size = 0
 
-    def accessor(self, values: np.ndarray, kind: str, bounds: bool = False) -> int:
-        data = np.ascontiguousarray(values, dtype="<f4").tobytes()
+    def view(self, data: bytes) -> int:
+        """A new bufferView of ``data`` (at a multiple of 4 bytes), by index."""
         pad = -(self.base + self.size) % 4
         self.parts.append(b"\0" * pad)
         self.size += pad
@@ -916,8 +917,12 @@ class _Appender:
         )
         self.parts.append(data)
         self.size += len(data)
+        return len(views) - 1
+
+    def accessor(self, values: np.ndarray, kind: str, bounds: bool = False) -> int:
+        data = np.ascontiguousarray(values, dtype="<f4").tobytes()
         spec: dict[str, Any] = {
-            "bufferView": len(views) - 1,
+            "bufferView": self.view(data),
             "componentType": 5126,
             "count": len(values),
             "type": kind,
@@ -959,8 +964,9 @@ def vrma_pieces(motion: Motion, target: Path) -> Iterable[bytes]:
 def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
     """``motion`` written into the glTF it was read from (see the module), as a GLB or a
     ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI) to be saved at
-    ``target``: the input's bytes when nothing changed and they find their buffer files
-    from there, else buffer files are embedded as data URIs."""
+    ``target``: the input's bytes when nothing changed and they find the files they name
+    from there, else buffer files are embedded as data URIs, and image files too when
+    ``target`` is in another folder."""
     src = _own_document(motion)
     if src is None:
         return [fresh_gltf(motion, glb)]
@@ -977,7 +983,8 @@ def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
     else:  # new frames: every joint's track keyed on them (old keys would set the clip's span)
         keyed = np.array([track.channel >= 0 for track in src.translation])
         moved = np.repeat((positions | keyed)[None, :], motion.n_frames, axis=0)
-    if kept.all() and not moved.any() and glb == src.glb and _buffers_found(src, target):
+    beside = _beside_source(src, target)
+    if kept.all() and not moved.any() and glb == src.glb and (beside or not _names_files(src)):
         return pieces(src.raw)
     document = copy.deepcopy(src.document)
     glb_binary = src.glb and src.binary is not None and _first_buffer_is_binary(document)
@@ -1038,13 +1045,19 @@ def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
         document.setdefault("buffers", []).append({"byteLength": len(new), "uri": _data_uri(new)})
     for index in _file_buffers(src.document):  # embedded: the file can go to any folder
         document["buffers"][index]["uri"] = _data_uri(src.buffers[index])
+    images = {} if beside else _image_files(src)
     if not glb:  # one self-contained file: the binary chunk embedded too
         if glb_binary or (src.glb and binary is not None and _first_buffer_is_binary(document)):
             assert binary is not None
             document["buffers"][0]["uri"] = _data_uri(binary)
+        for index, (data, media) in images.items():
+            document["images"][index]["uri"] = _data_uri(data, media)
         return [json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")]
+    binary = binary if src.glb else None
+    if images:
+        binary = _chunk_images(document, _binary_chunk(document, src, binary, new), images)
     text = json.dumps(document, ensure_ascii=False, separators=(",", ":")).encode("utf-8")
-    return [_glb(text, binary if src.glb else None)]
+    return [_glb(text, binary)]
 
 
 def _file_buffers(document: dict) -> list[int]:
@@ -1057,18 +1070,95 @@ def _file_buffers(document: dict) -> list[int]:
     ]
 
 
-def _buffers_found(src: GltfSource, target: Path) -> bool:
-    """Whether ``src``'s bytes saved at ``target`` find the buffer files they name: none,
-    or ``target`` (by its name and, through a symbolic link, where it lands) is in the
-    folder they were read from."""
-    if not _file_buffers(src.document):
-        return True
+def _relative_file(uri: object) -> bool:
+    """Whether ``uri`` names a file by a path relative to the glTF's folder (not a data URI,
+    a URL with a scheme or host, or an absolute path: those read the same from anywhere)."""
+    if not isinstance(uri, str):
+        return False
+    parts = urlsplit(uri)
+    return not (parts.scheme or parts.netloc or os.path.isabs(unquote(parts.path)))
+
+
+def _names_files(src: GltfSource) -> bool:
+    """Whether ``src`` names files beside it: buffers or images by a relative URI."""
+    images = src.document.get("images", [])
+    return bool(_file_buffers(src.document)) or any(
+        isinstance(image, dict) and _relative_file(image.get("uri")) for image in images
+    )
+
+
+def _beside_source(src: GltfSource, target: Path) -> bool:
+    """Whether ``target`` (by its name and, through a symbolic link, where it lands) is in
+    the folder ``src`` was read from, where the relative URIs it names find their files."""
     folder = os.path.realpath(Path(src.buffers.path).parent)
     return os.path.realpath(target.parent) == folder == os.path.dirname(os.path.realpath(target))
 
 
-def _data_uri(data: bytes) -> str:
-    return "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
+#: Media types of images by file suffix, for an image whose ``mimeType`` is not given: PNG
+#: and JPEG (glTF 2.0 core), KTX2 (``KHR_texture_basisu``), WebP (``EXT_texture_webp``).
+IMAGE_TYPES = {
+    ".png": "image/png",
+    ".jpg": "image/jpeg",
+    ".jpeg": "image/jpeg",
+    ".ktx2": "image/ktx2",
+    ".webp": "image/webp",
+}
+
+
+def _image_files(src: GltfSource) -> dict[int, tuple[bytes, str]]:
+    """The bytes and media type of each image ``src`` names by a relative URI, read from
+    beside it (as buffers are: within its folder), by image index."""
+    path = src.buffers.path
+    found = {}
+    for index, image in enumerate(_items(src.document, "images", path)):
+        uri = image.get("uri")
+        if not _relative_file(uri):
+            continue
+        name = unquote(uri)
+        if ".." in Path(name).parts:
+            _fail(f"images[{index}]: uri {uri[:60]!r} is not a file beside the glTF", path)
+        where = Path(path).parent / name
+        try:
+            data, _ = read_regular_file(where)
+        except MotionError as error:
+            _fail(f"images[{index}]: {error.message} ({where})", path)
+        media = image.get("mimeType") or IMAGE_TYPES.get(Path(name).suffix.lower())
+        if not isinstance(media, str):
+            _fail(f"images[{index}]: no mimeType and {uri[:60]!r} is not a known image", path)
+        found[index] = data, media
+    return found
+
+
+def _binary_chunk(document: dict, src: GltfSource, binary: bytes | None, new: bytes) -> bytes:
+    """The GLB binary chunk ``document`` (bound for a GLB) refers to as its first buffer,
+    made so when it has none: that buffer's bytes (``src``'s, or ``new``, the buffer
+    appended for a file that had none), or an empty buffer."""
+    buffers = document.setdefault("buffers", [])
+    if not buffers:
+        buffers.append({"byteLength": 0})
+        return b""
+    if "uri" not in buffers[0]:  # (a .gltf's such buffer: the reader's error)
+        return binary if binary is not None else src.buffers[0]
+    del buffers[0]["uri"]
+    return src.buffers[0] if src.document.get("buffers") else new
+
+
+def _chunk_images(document: dict, binary: bytes, images: dict[int, tuple[bytes, str]]) -> bytes:
+    """``binary`` (``document``'s first buffer, the GLB binary chunk) with ``images``
+    appended, each image pointed to its new bufferView (as a GLB holds its images)."""
+    appender = _Appender(document, 0, len(binary))
+    for index, (data, media) in images.items():
+        image = document["images"][index]
+        del image["uri"]
+        image["bufferView"] = appender.view(data)
+        image["mimeType"] = media
+    binary += appender.data()
+    document["buffers"][0]["byteLength"] = len(binary)
+    return binary
+
+
+def _data_uri(data: bytes, media: str = "application/octet-stream") -> str:
+    return f"data:{media};base64," + base64.b64encode(data).decode("ascii")
 
 
 def _first_buffer_is_binary(document: dict) -> bool:

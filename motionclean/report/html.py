@@ -46,7 +46,7 @@ from .traces import COLUMNS, Trace, trace
 from .verdict import jumps_left_out
 from .world import depth_text, format_floor
 
-__all__ = ["index_entries", "page_figures", "render_html", "render_index"]
+__all__ = ["index_entries", "of_another_pipeline", "page_figures", "render_html", "render_index"]
 
 #: Plot geometry in SVG user units (the SVG scales to the card width); the plot area is
 #: one unit per plot column (:data:`motionclean.report.traces.COLUMNS`).
@@ -928,18 +928,25 @@ def _data_block(name: str, data: dict) -> str:
     return f'<script type="application/json" id="{name}">{text}</script>'
 
 
-def _read_block(page: str, name: str, pipeline: Sequence[dict]) -> dict | None:
-    """The JSON block ``name`` of a page (:func:`_data_block`) when it was written for the
-    same ``pipeline``; None without one, for another pipeline, or for any other text."""
+def _block(page: str, name: str) -> dict | None:
+    """The JSON block ``name`` of a page (:func:`_data_block`); None without one, or for
+    any other text."""
     start = page.find(f'<script type="application/json" id="{name}">')
     stop = page.find("</script>", start)
     if start < 0 or stop < 0:
         return None
     try:
         data = json.loads(page[page.index(">", start) + 1 : stop])
-        return data if same_pipeline(data["pipeline"], pipeline) else None
-    except (ValueError, KeyError, TypeError):
+    except ValueError:
         return None
+    return data if isinstance(data, dict) else None
+
+
+def _read_block(page: str, name: str, pipeline: Sequence[dict]) -> dict | None:
+    """The JSON block ``name`` of a page (:func:`_block`) when it was written for the same
+    ``pipeline``; None without one, for another pipeline, or for any other text."""
+    data = _block(page, name)
+    return data if data is not None and same_pipeline(data.get("pipeline"), pipeline) else None
 
 
 def index_entries(page: str, pipeline: Sequence[dict]) -> dict[str, dict]:
@@ -952,17 +959,34 @@ def index_entries(page: str, pipeline: Sequence[dict]) -> dict[str, dict]:
         return {}
 
 
-def page_figures(path: str | os.PathLike, pipeline: Sequence[dict]) -> dict | None:
-    """The index figures a clip page carries (:func:`render_html`'s ``carried``) when it was
-    written for the same ``pipeline``; None otherwise (a page without them, another
-    pipeline's, one that cannot be read). Only the page's head is read."""
+def _carried(path: str | os.PathLike) -> dict | None:
+    """What a clip page carries in its head (:func:`render_html`'s ``carried``: the batch's
+    pipeline and the clip's index figures); None for a page without it, or one that cannot
+    be read. Only the page's head is read."""
     head = bytearray()
     try:
         with open(path, "rb") as page:
             while b"</head>" not in head and (chunk := page.read(1 << 16)):
                 head += chunk
-        data = _read_block(head.decode("utf-8", "replace"), CLIP_DATA, pipeline)
     except OSError:
         return None
-    figures = None if data is None else data.get("figures")
+    return _block(head.decode("utf-8", "replace"), CLIP_DATA)
+
+
+def page_figures(path: str | os.PathLike, pipeline: Sequence[dict]) -> dict | None:
+    """The index figures a clip page carries (:func:`_carried`) when it was written for the
+    same ``pipeline``; None otherwise (a page without them, another pipeline's, one that
+    cannot be read)."""
+    data = _carried(path)
+    if data is None or not same_pipeline(data.get("pipeline"), pipeline):
+        return None
+    figures = data.get("figures")
     return figures if isinstance(figures, dict) else None
+
+
+def of_another_pipeline(path: str | os.PathLike, pipeline: Sequence[dict]) -> bool:
+    """Whether a clip page says it was written for another pipeline than ``pipeline`` (and
+    so was its clip: a batch writes them together); False for a page that does not say
+    (written before pages carried it, or not a clip page) or cannot be read."""
+    data = _carried(path)
+    return data is not None and not same_pipeline(data.get("pipeline"), pipeline)

@@ -16,7 +16,8 @@ import math
 import os
 import time
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -48,7 +49,10 @@ __all__ = [
     "clean_file",
     "clean_motion",
     "content_digest",
+    "folders_for",
+    "missing_folders",
     "notes_by_joint",
+    "remove_empty",
     "run_job",
     "stitch_clips",
 ]
@@ -68,20 +72,56 @@ def render_report(
 
 
 def write_outputs(
-    clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes]
+    clip: Motion, target: str | os.PathLike | None, reports: dict[str, bytes], tidy: bool = True
 ) -> None:
     """Write the cleaned clip and its reports together (:func:`~motionclean.io.write_together`):
     every one is rendered and written to a temporary file first, then all are renamed; when
     one cannot be written none is, and an existing output (the input itself with
-    ``--in-place``) is replaced only when all are ready. Missing folders are made."""
+    ``--in-place``) is replaced only when all are ready. Missing folders are made, and
+    removed again if they stay empty (``tidy``, :func:`folders_for`)."""
     return_free_memory()  # what the report's work freed: the clip's text starts afresh
     files: dict[str | os.PathLike, bytes | Iterable[bytes | memoryview]] = {}
     if target is not None:
         files[target] = encode(clip, target)
     files.update(reports)
-    for path in files:
-        make_folder(Path(path).parent)
-    write_together(files)
+    with folders_for(files, tidy):
+        write_together(files)
+
+
+@contextmanager
+def folders_for(paths: Iterable[str | os.PathLike], tidy: bool = True) -> Iterator[None]:
+    """Make the folders of ``paths`` (:func:`make_folder`) for the body, which writes them;
+    when making one or the body fails, those made here that are still empty are removed
+    (with ``tidy``; a batch does it once its workers are done: another worker may be about
+    to write into one), as a failed write had left them (``out/shoot_02/day 2/``)."""
+    folders = [Path(path).parent for path in paths]
+    made = missing_folders(folders) if tidy else []
+    try:
+        for folder in folders:
+            make_folder(folder)
+        yield
+    except BaseException:
+        remove_empty(made)
+        raise
+
+
+def missing_folders(folders: Iterable[str | os.PathLike]) -> list[Path]:
+    """Those of ``folders`` and their parents that are not there (making them makes them),
+    deepest first."""
+    missing = set()
+    for folder in map(Path, folders):
+        while not os.path.lexists(folder) and folder != folder.parent:
+            missing.add(folder)
+            folder = folder.parent
+    return sorted(missing, key=lambda folder: len(folder.parts), reverse=True)
+
+
+def remove_empty(folders: Iterable[Path]) -> None:
+    """Remove each of ``folders``, in turn, that is an empty folder (deepest first, a parent
+    its emptied children leave empty goes too); any other stays."""
+    for folder in folders:
+        with suppress(OSError):  # not empty, not there, not a folder: left as it is
+            folder.rmdir()
 
 
 def make_folder(folder: Path) -> None:
@@ -156,8 +196,8 @@ def clean_clip(
     try:
         result = clean_motion(before, pipeline, os.fspath(source))
         if target is not None:
-            make_folder(Path(target).parent)
-            save(result.after, target)
+            with folders_for([target]):
+                save(result.after, target)
     except MemoryError as error:
         let_go(error)  # room to travel up
         raise
@@ -403,6 +443,7 @@ def clean_file(
     read: ReadOptions | None = None,
     shown: str | None = None,
     index: str | None = None,
+    tidy: bool = True,
 ) -> FileResult:
     """Clean ``source`` into ``target`` (atomically) and return the figures; never raises.
 
@@ -410,7 +451,8 @@ def clean_file(
     computes the figures without writing; ``report`` also writes the clip's HTML page,
     which carries the tables and the clip's :meth:`FileResult.index_figures` for a batch
     resumed without an index (:func:`~motionclean.report.html.page_figures`).
-    Parent folders of ``target`` and ``report`` are created. ``up`` declares the clip's up
+    Parent folders of ``target`` and ``report`` are created, and removed again when they
+    stay empty (``tidy``: :func:`folders_for`). ``up`` declares the clip's up
     axis (as in :func:`clean_clip`); ``shown`` names the clip on its page (default
     ``source``) and ``index`` links its page to a batch's index page (a path relative to
     the page). A bad clip or failed step gives ``status="failed"`` with the reason
@@ -444,7 +486,7 @@ def clean_file(
                 carried["index"] = job.index
             pages[job.report] = render_report(result.report, job.report, result.series, carried)
         del result  # the input's arrays and the plot series go before the clip is written
-        write_outputs(after, job.target, pages)
+        write_outputs(after, job.target, pages, tidy)
     except Exception as error:
         let_go(error)
         return _failure(job.source, job.target, error, start)
@@ -454,11 +496,20 @@ def clean_file(
 def run_job(job: Job) -> FileResult:
     """Run one :class:`Job` (what a batch worker process or Dask task calls), numpy's
     RuntimeWarnings kept off the worker's stderr while it runs, as the command keeps them
-    off its own (what they warn of is checked and said in one line)."""
+    off its own (what they warn of is checked and said in one line). Folders it makes and
+    leaves empty are the batch's to remove, once every worker is done (:func:`folders_for`)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return clean_file(
-            job.source, job.target, job.steps, job.report, job.up, job.read, job.shown, job.index
+            job.source,
+            job.target,
+            job.steps,
+            job.report,
+            job.up,
+            job.read,
+            job.shown,
+            job.index,
+            tidy=False,
         )
 
 

@@ -323,6 +323,32 @@ def test_a_resumed_batch_keeps_the_skipped_clips_figures_in_its_index(tree, tmp_
     assert other == {}  # another pipeline's figures are never taken
 
 
+def test_a_resumed_batch_says_how_many_clips_another_pipeline_made(tree, tmp_path, capsys):
+    """--skip-existing with another pipeline keeps the clips an earlier run made with its
+    own and says how many, on stdout after the summary, as each clip's page tells; a clip
+    this pipeline cleaned is not counted. It had said nothing (the index showing the new
+    pipeline above rows whose figures were "not known")."""
+    out, pages, args, tables, first = cleaned_once(tree, tmp_path, capsys)  # default pipeline
+    (out / "top.bvh").unlink()  # cleaned again below, with lee-shin
+    lee_shin = [*args, "--skip-existing", "-f", "lee-shin:k=1"]
+    said = (
+        "{} kept from an earlier run with another pipeline "
+        "(rerun without --skip-existing to clean {} with this one)"
+    )
+    for rerun, line in (
+        (lee_shin, said.format("3 clips", "them")),
+        (lee_shin, said.format("3 clips", "them")),  # top.bvh now lee-shin's
+        ([*args, "--skip-existing"], said.format("1 clip", "it")),  # top.bvh
+        ([*args, "--skip-existing", "-q"], None),
+        ([*args[:-2], "--skip-existing"], None),  # no pages: no pipeline known
+    ):
+        code, stdout, err = run_cli(capsys, *rerun)
+        assert code == 0 and err == "", err
+        lines = stdout.splitlines()
+        assert [n for n in lines if "another pipeline" in n] == ([line] if line else [])
+        assert line is None or lines[-1] == line
+
+
 def test_an_index_written_with_inf_as_text_is_of_the_same_pipeline(tree, tmp_path, capsys):
     """The index's pipeline holds inf (despike's default max_units_per_s) as null and reads
     back as the pipeline; an index of an earlier version, which wrote it as the string

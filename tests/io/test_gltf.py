@@ -99,6 +99,133 @@ def test_an_untouched_gltf_with_a_bin_file_reads_back_from_any_folder(tmp_path, 
         assert target.read_bytes() == source.read_bytes()
 
 
+def tiny_png(rgb: tuple[int, int, int]) -> bytes:
+    """A 1x1 RGB PNG (PNG spec: signature, IHDR, one zlib-compressed IDAT row, IEND)."""
+    import zlib
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        crc = zlib.crc32(kind + body)
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", 1, 1, 8, 2, 0, 0, 0)  # 1x1, 8 bits, RGB
+    row = zlib.compress(bytes([0, *rgb]))  # filter byte 0, then the pixel
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", row) + chunk(b"IEND", b"")
+
+
+#: The textured copy's images: URI as written in the file, and the file it names.
+TEXTURES = (("skin.png", "skin.png"), ("maps/normal%20map.PNG", "maps/normal map.PNG"))
+FAR_IMAGE = "https://example.com/far.png"
+
+
+def textured_gltf(folder, *, glb: bool = False):
+    """Blender's .gltf + .bin export (or its GLB) in ``folder`` made a textured character:
+    a material whose base colour and normal textures are PNG files beside it (one in a
+    subfolder, its URI percent-encoded, its mimeType given) and one more image on the web."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if glb:
+        document, binary = glb_parts(BLENDER_GLB)
+    else:
+        shutil.copy(BLENDER_GLTF.with_suffix(".bin"), folder / "131_02_cut.bin")
+        document = json.loads(BLENDER_GLTF.read_text())
+    for n, (_, name) in enumerate(TEXTURES):
+        (folder / name).parent.mkdir(exist_ok=True)
+        (folder / name).write_bytes(tiny_png((200, 40 * n, 10)))
+    document["images"] = [{"uri": TEXTURES[0][0]}, {"uri": TEXTURES[1][0], "mimeType": "image/png"}]
+    document["images"].append({"uri": FAR_IMAGE})
+    document["textures"] = [{"source": 0}, {"source": 1}, {"source": 2}]
+    document["materials"] = [
+        {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "normalTexture": {"index": 1}}
+    ]
+    text = json.dumps(document).encode()
+    if not glb:
+        (folder / "char.gltf").write_bytes(text)
+        return folder / "char.gltf"
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<II", len(text), 0x4E4F534A) + text
+    body += struct.pack("<II", len(binary), 0x004E4942) + binary
+    (folder / "char.glb").write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    return folder / "char.glb"
+
+
+def written_images(path) -> list[tuple[str | None, bytes | str]]:
+    """Each image of a written glTF as (media type, bytes) when its bytes are in the file (a
+    data URI, or a bufferView of the GLB binary chunk), else (None, its URI)."""
+    if path.suffix == ".glb":
+        document, binary = glb_parts(path)
+    else:
+        document, binary = json.loads(path.read_text()), b""
+    found: list[tuple[str | None, bytes | str]] = []
+    for image in document["images"]:
+        if "bufferView" in image:
+            view = document["bufferViews"][image["bufferView"]]
+            assert view["buffer"] == 0 and "uri" not in document["buffers"][0]
+            start = view.get("byteOffset", 0)
+            found.append((image["mimeType"], binary[start : start + view["byteLength"]]))
+        elif image["uri"].startswith("data:"):
+            head, _, payload = image["uri"].partition(",")
+            assert head.endswith(";base64")
+            media = head.removeprefix("data:").removesuffix(";base64")
+            assert image.get("mimeType", media) == media
+            found.append((media, base64.b64decode(payload)))
+        else:
+            found.append((None, image["uri"]))
+    return found
+
+
+@pytest.mark.parametrize("glb", [False, True], ids=["gltf", "glb"])
+def test_a_textured_gltf_written_elsewhere_carries_its_images(tmp_path, capsys, glb):
+    """Images named by a relative URI are read from beside the source and put into a glTF
+    written to another folder: data URIs in a .gltf (their media type given or found from
+    the suffix), bufferViews of the binary chunk in a GLB; a URI on the web stays. They had
+    kept their URIs, naming files not beside the output. Into the source's own folder an
+    untouched file stays byte for byte."""
+    source = textured_gltf(tmp_path / "src", glb=glb)
+    read = mc.load(source)
+    pictures = [("image/png", (source.parent / name).read_bytes()) for _, name in TEXTURES]
+    out = tmp_path / "out"
+    out.mkdir()
+    batch = out / "b" / source.name
+    for args, written in (
+        (["clean", source, "-o", out / "c.gltf", "-q"], out / "c.gltf"),
+        (["clean", source, "-o", out / "c.glb", "-q"], out / "c.glb"),
+        (["convert", source, out / "v.gltf"], out / "v.gltf"),
+        (["convert", source, out / "v.glb"], out / "v.glb"),
+        (["batch", source.parent, "-o", out / "b", "-q", "-j", "1"], batch),
+    ):
+        code, _, err = run_cli(capsys, *args)
+        assert code == 0, err
+        back = mc.load(written)
+        assert back.names == read.names and back.n_frames == read.n_frames
+        assert written_images(written) == [*pictures, (None, FAR_IMAGE)], args
+    mc.save(read, source.parent / f"same{source.suffix}")
+    assert (source.parent / f"same{source.suffix}").read_bytes() == source.read_bytes()
+
+
+@pytest.mark.parametrize("suffix", [".gltf", ".glb"])
+@pytest.mark.parametrize(
+    ("uri", "message"),
+    [
+        ("gone.png", "images[0]: no such file ({folder}/gone.png)"),
+        ("../up.png", "images[0]: uri '../up.png' is not a file beside the glTF"),
+    ],
+)
+def test_an_image_that_cannot_be_carried_is_one_line(tmp_path, capsys, suffix, uri, message):
+    """An image to carry into another folder that is not there (or lies outside the
+    source's folder, which the buffers' reader refuses too) is one error line naming the
+    source and the image, exit code 1, and nothing is written."""
+    source = textured_gltf(tmp_path / "src")
+    (tmp_path / "up.png").write_bytes(tiny_png((1, 2, 3)))
+    document = json.loads(source.read_text())
+    document["images"][0]["uri"] = uri
+    source.write_text(json.dumps(document))
+    (tmp_path / "out").mkdir()
+    target = tmp_path / "out" / f"char{suffix}"
+    code, out, err = run_cli(capsys, "convert", source, target)
+    expected = f"motionclean: error: {source}: " + message.format(folder=source.parent)
+    assert code == 1 and err.count("\n") == 1 and err.startswith(expected), err
+    assert not target.exists()
+
+
 def test_an_armature_node_s_turn_gives_the_up_axis_and_its_scale_a_note(tmp_path):
     """glTF's scene is +Y up (3.4): the up of the skeleton's own coordinates is what the
     nodes above it turn +Y onto. Blender's export has none turning it: up y. Under an

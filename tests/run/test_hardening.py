@@ -520,3 +520,43 @@ def test_a_folder_that_cannot_be_made_is_named_and_said_so(tmp_path):
     assert raised.value.strerror.startswith("cannot create this folder: ")
     assert raised.value.filename == str(folder)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_removes_the_folders_it_made_for_outputs_not_written(tmp_path, capsys):
+    """A clip whose page cannot be written (a file stands where its page folder goes) fails,
+    and the folders the batch made for its clip are removed, as for outputs of no clip
+    written; a folder that was there before stays, as do the clips written. They had stayed
+    behind empty (a QA run's out_ro/shoot_02/day 2/). No permissions needed: runs as root."""
+    source, out, pages = tmp_path / "in", tmp_path / "out", tmp_path / "pages"
+    for clip in ("shoot_01/day 2/a.bvh", "shoot_02/day 2/b.bvh", "shoot_03/c.bvh"):
+        cut_bvh(SAMPLE, source / clip, 20)
+    (out / "shoot_02").mkdir(parents=True)  # there before the run
+    pages.mkdir()
+    for blocked in ("shoot_01", "shoot_02"):
+        (pages / blocked).write_text("a file where the pages' folder goes")
+    code, _, err = run_cli(capsys, "batch", source, "-o", out, "--report-dir", pages, "-j", "1")
+    assert code == 1 and err.count("cannot create this folder: Not a directory") == 2, err
+    left = sorted(p.relative_to(tmp_path).as_posix() for p in out.rglob("*"))
+    assert left == ["out/shoot_02", "out/shoot_03", "out/shoot_03/c.bvh"]
+    assert (pages / "shoot_03" / "c.bvh.html").is_file()
+
+
+def test_a_write_that_fails_removes_the_folders_it_made(tmp_path):
+    """write_outputs (clean, and clean_file as a library) and clean_clip remove the folders
+    they made when the output cannot be written: the clip's when its report's folder cannot
+    be made, the clip's when the clip cannot be encoded (a .vrma of a BVH clip); only those
+    made, only while empty."""
+    from motionclean.run.jobs import clean_clip
+    from motionclean.steps.pipeline import Pipeline
+
+    (tmp_path / "file").write_text("a file where a folder goes")
+    (tmp_path / "kept").mkdir()
+    with pytest.raises(OSError, match="cannot create this folder"):
+        write_outputs(
+            mc.load(SAMPLE),
+            tmp_path / "kept" / "new" / "deeper" / "out.bvh",
+            {str(tmp_path / "file" / "sub" / "page.html"): b"<html>"},
+        )
+    with pytest.raises(MotionError, match="a .vrma is a VRM animation"):
+        clean_clip(SAMPLE, tmp_path / "made" / "x.vrma", Pipeline.from_inline(["despike"]))
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["file", "kept"]
