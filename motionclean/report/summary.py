@@ -31,6 +31,7 @@ from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
+from .thrash import thrash_frames, worst_window
 from .traces import Trace, traces
 from .verdict import CLEAN_CHANGE_DEG, FAST_DEG_PER_S, PAIR_REPAIR_DEG, build_verdict, listed
 from .world import (
@@ -101,7 +102,10 @@ def build_series(
     the deviation keeps those frames, where a smoothing that crossed the flip moved the
     joint). ``unrepaired_jumps``: per joint name, how many such steps. ``fast_steps``: per
     joint whose rotation in ``after`` turns faster than a body can (:func:`fast_steps`),
-    how many such steps and how many steps it has within the motion. ``reaches``: per
+    how many such steps and how many steps it has within the motion. ``thrash``: per joint
+    whose rotation in ``after`` thrashes (:func:`~motionclean.report.thrash.thrash_frames`,
+    within the motion), on how many frames and on how many seconds of its worst
+    :data:`~motionclean.report.thrash.THRASH_WINDOW_S`. ``reaches``: per
     joint with rotation channels, :func:`~motionclean.core.kinematics.reaches`. No per-frame table
     of the joints is kept: each is reduced as soon as it is made (the feet's heights,
     ``(F,)`` per foot, are).
@@ -188,6 +192,7 @@ def build_series(
     outside["deviation"] = None
     changed_near: dict[str, float] = {}  # joint name: its largest change near such a step
     fast: dict[str, tuple[int, int]] = {}  # joint name: its steps too fast for a body, of all
+    thrash: dict[str, tuple[int, float]] = {}  # joint name: its thrash frames, worst seconds
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
@@ -204,6 +209,8 @@ def build_series(
             before.names[rot[n]]: (int(counts[n]), int(measured[n]))
             for n in np.flatnonzero(counts).tolist()
         }
+        names = [before.names[j] for j in rot]
+        thrash = _thrash(after.rotations[:, cols], dt, missing, starts, (lead, trail), names)
     positions = (
         None
         if after is None
@@ -232,6 +239,7 @@ def build_series(
         "unrepaired_jumps": unrepaired,
         "changed_near_jumps": changed_near,
         "fast_steps": fast,
+        "thrash": thrash,
         "reaches": kinematics.reaches(before)[rot],
         "world": {} if skipped is not None else world_series(before, after),
         "world_figures": figures,
@@ -349,6 +357,26 @@ def fast_steps(
     measured = _in_motion(fast.shape, missing, starts, lead, trail)
     fast &= measured
     return fast.sum(axis=0), measured.sum(axis=0)
+
+
+def _thrash(
+    q: np.ndarray,
+    dt: float,
+    missing: np.ndarray | None,
+    starts: np.ndarray,
+    rest: tuple[int, int],
+    names: list[str],
+) -> dict[str, tuple[int, float]]:
+    """Per column (of ``names``) of the rotations ``q`` ``(F, C, 4)`` that thrashes within
+    the motion (:func:`_in_motion`; ``rest``: the leading and trailing rest frames), its
+    thrash frames and their seconds in its worst
+    :data:`~motionclean.report.thrash.THRASH_WINDOW_S`."""
+    shape = (max(q.shape[0] - 1, 0), q.shape[1])
+    frames = thrash_frames(q, dt, _in_motion(shape, missing, starts, *rest))
+    counts, worst = frames.sum(axis=0), worst_window(frames, dt)
+    return {
+        names[n]: (int(counts[n]), float(worst[n] * dt)) for n in np.flatnonzero(counts).tolist()
+    }
 
 
 def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:
@@ -503,6 +531,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
         "changed_near_jumps": series.get("changed_near_jumps", {}),
         "fast_steps": series.get("fast_steps", {}),
+        "thrash": series.get("thrash", {}),
     } | _position_smoothing(figures.get("positions"))
 
 

@@ -17,8 +17,10 @@ Statuses, first that applies (thresholds below, documented in the README):
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
   flipped one?), a joint of the cleaned clip turning faster than a body can
-  (:data:`FAST_DEG_PER_S`) on more than :data:`LOOK_FAST_SHARE` of its frames, feet sliding
-  faster than :data:`LOOK_SKATE` body heights per second, or
+  (:data:`FAST_DEG_PER_S`) on more than :data:`LOOK_FAST_SHARE` of its frames, one
+  thrashing (turning fast back and forth: :mod:`~motionclean.report.thrash`) on more than
+  :data:`LOOK_THRASH_S` seconds of any half minute, feet sliding faster than
+  :data:`LOOK_SKATE` body heights per second, or
   smoothing that changed the clip by more than :data:`LOOK_CHANGE_NOISE` times its noise
   (motion taken for noise; a capture whose noise is under :data:`CLEAN_NOISE_DEG` is then
   called clean, "clean capture, smoothed").
@@ -54,6 +56,7 @@ from ..core.words import percent, plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs
+from .thrash import THRASH_DEG_PER_S
 
 __all__ = [
     "CLEAN_CHANGE_DEG",
@@ -66,6 +69,7 @@ __all__ = [
     "LOOK_FAST_SHARE",
     "LOOK_REPAIRED_SHARE",
     "LOOK_SKATE",
+    "LOOK_THRASH_S",
     "NEGLIGIBLE_JITTER",
     "NOT_SMOOTHING",
     "PLANTED_SKATE",
@@ -131,6 +135,13 @@ FAST_DEG_PER_S = MAX_DEG_PER_S
 #: same wrist); the joint coordinates of markerless estimates that glitch up to 21,570
 #: deg/s, as read: at most 0.75 %.
 LOOK_FAST_SHARE = 0.1
+#: A joint of the cleaned clip thrashing (:func:`~motionclean.report.thrash.thrash_frames`)
+#: on more than this many seconds of some
+#: :data:`~motionclean.report.thrash.THRASH_WINDOW_S` needs a look: the clean captures'
+#: default outputs thrash on at most 2.0 s of theirs (CMU 131_03's RightWrist through its
+#: hop at 24 fps; 1.5-1.8 s at 30 to 120 fps; MANN dogs' front legs 1.9 s), a markerless
+#: take's wrists on 6.1 and 10.1 s: this lies 1.7 times above the one and under the other.
+LOOK_THRASH_S = 3.5
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
 #: over 0.1 s, after cleaning) are planted; the value of ``footlock``'s ``min_skate``.
 PLANTED_SKATE = 0.1
@@ -295,6 +306,49 @@ def _fast_words(fast: dict[str, dict[str, float]]) -> str:
     if len(fast) > REPAIRS_NAMED:
         each.append(plural(len(fast) - REPAIRS_NAMED, "more joint"))
     return f"{', '.join(each[:-1])} and {each[-1]} turn faster than a body can {limit}"
+
+
+def _thrashing(smoothing: dict, fast: dict) -> dict[str, dict[str, float]]:
+    """Per joint of the cleaned clip thrashing on more than :data:`LOOK_THRASH_S` seconds of
+    some :data:`~motionclean.report.thrash.THRASH_WINDOW_S` (``smoothing["thrash"]``: per
+    joint, its thrash frames and those seconds), most frames first: ``frames`` and
+    ``window_seconds``; a joint in ``fast`` (:func:`_too_fast`) is told there."""
+    found = {
+        name: {"frames": int(frames), "window_seconds": seconds}
+        for name, (frames, seconds) in (smoothing.get("thrash") or {}).items()
+        if seconds > LOOK_THRASH_S and name not in fast
+    }
+    return dict(sorted(found.items(), key=lambda item: -item[1]["frames"]))
+
+
+def _thrash_words(thrash: dict[str, dict[str, float]], report: dict) -> str:
+    """ "LeftWrist thrashes (turns back and forth at over 700 deg/s) on 241 frames (8.0 s),
+    left as it was"; several joints each with their frames and seconds, most first (the first
+    :data:`REPAIRS_NAMED`, then how many more joints); "left as it was" / "left as they
+    were" where the cleaning changed none of them by :data:`CLEAN_CHANGE_DEG`."""
+    dt = float(report["frame_time"])
+    limit = f"back and forth at over {THRASH_DEG_PER_S:,.0f} deg/s"
+    changed = [
+        ((report["joints"].get(name) or {}).get("deviation_deg") or {}).get("max")
+        for name in thrash
+    ]
+    left = all(peak is not None and peak < CLEAN_CHANGE_DEG for peak in changed)
+    if len(thrash) == 1:
+        name, found = next(iter(thrash.items()))
+        frames = int(found["frames"])
+        tail = ", left as it was" if left else ""
+        return (
+            f"{name} thrashes (turns {limit}) on {plural(frames, 'frame')} "
+            f"({frames * dt:.1f} s){tail}"
+        )
+    each = [
+        f"{name} ({found['frames']:,}{' frames' if not k else ''}, {found['frames'] * dt:.1f} s)"
+        for k, (name, found) in enumerate(list(thrash.items())[:REPAIRS_NAMED])
+    ]
+    if len(thrash) > REPAIRS_NAMED:
+        each.append(plural(len(thrash) - REPAIRS_NAMED, "more joint"))
+    tail = ", left as they were" if left else ""
+    return f"{', '.join(each[:-1])} and {each[-1]} thrash (turn {limit}){tail}"
 
 
 def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
@@ -498,7 +552,9 @@ def build_verdict(
     ``change_joint`` (where the largest change is) and ``noise_level`` (the input's
     per-sample rotation noise, RMS over joints, degrees; None where the change is under
     :data:`CLEAN_CHANGE_DEG`: not needed), ``fast_steps`` (per joint of the cleaned clip,
-    its steps faster than :data:`FAST_DEG_PER_S` and all its steps within the motion); of
+    its steps faster than :data:`FAST_DEG_PER_S` and all its steps within the motion),
+    ``thrash`` (per joint of the cleaned clip that thrashes, its thrash frames and their
+    seconds in its worst :data:`~motionclean.report.thrash.THRASH_WINDOW_S`); of
     the position channels (None each
     without any) ``position_noise_before``, ``position_noise_after`` (RMS linear
     acceleration, length units/s^2), ``position_noise_removed``, ``change_length_max``,
@@ -581,6 +637,9 @@ def build_verdict(
     too_fast = _too_fast(smoothing)
     if too_fast:
         reasons.append(_fast_words(too_fast))
+    thrash = _thrashing(smoothing, too_fast)
+    if thrash:
+        reasons.append(_thrash_words(thrash, report))
     if skate is not None and skate > LOOK_SKATE:
         hint = "" if "footlock" in filters else " (footlock holds them)"
         reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
@@ -685,5 +744,6 @@ def build_verdict(
         "length_scale_of": per or None,
         "repairs": repairs,
         "too_fast": too_fast,
+        "thrash": thrash,
         "feet": feet,
     }
