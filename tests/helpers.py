@@ -66,6 +66,17 @@ def corpus_clip(name: str = "131_02.bvh") -> Path:
     return path
 
 
+def every(clip: mc.Motion, step: int) -> mc.Motion:
+    """Every ``step``-th frame of ``clip``: the same motion at a lower rate."""
+    return clip.replace(
+        rotations=clip.rotations[::step],
+        translations=clip.translations[::step],
+        frame_time=clip.frame_time * step,
+        source_values=None,
+        source_rotations=None,
+    )
+
+
 def degrees_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle between quaternions ``a`` and ``b`` (..., 4), degrees."""
     return np.degrees(quat.angle_between(a, b))

@@ -551,11 +551,16 @@ def body_up(motion: Motion) -> np.ndarray | None:
     """``(3,)`` unit, in the clip's own axes: the way a body's trunk points on average over
     the sampled poses (:func:`sample_poses`), from its legs' centroid to its spine and
     head's (a walk's forward lean included: 1.5-9 degrees off the up axis on the exporters'
-    clips and the corpus, 6.5 on a run); None without a trunk (:func:`body_parts`), points
-    unknown on some frames or no pose."""
+    clips and the corpus, 6.5 on a run), over the poses whose trunk and leg points are all
+    known (a tracker's dropouts); None without a trunk (:func:`body_parts`) or such a
+    pose."""
     poses, known = sample_poses(motion)
     parts = body_parts(point_parents(motion), rest_positions(motion))
-    if parts is None or known is not None or poses.shape[0] == 0:
+    if parts is None:
+        return None
+    if known is not None:
+        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
+    if poses.shape[0] == 0:
         return None
     mean = _trunk_up(poses, parts).mean(axis=0)
     length = float(np.linalg.norm(mean))

@@ -81,13 +81,14 @@ def thrash_frames(q: np.ndarray, dt: float, measured: np.ndarray) -> np.ndarray:
     out = np.zeros(q.shape[:2], dtype=bool)
     lags = _lags(dt)
     reach = 2 * int(lags[-1]) + PAUSE_FRAMES  # (frames a thrash covers, less one)
-    # unmeasured steps before each frame: spans from r to s hold none where equal at both
-    unmeasured = np.zeros(q.shape[:2], dtype=np.int32)
-    np.cumsum(~measured, axis=0, dtype=np.int32, out=unmeasured[1:])
 
     def part(rows: slice) -> None:
         low, high = max(rows.start - reach, 0), min(rows.stop + reach, frames)
-        covered = _covered(q[low:high], unmeasured[low:high], lags, dt)
+        # unmeasured steps before each frame of the part: spans from r to s hold none
+        # where the counts at both are equal
+        unmeasured = np.zeros((high - low, q.shape[1]), dtype=np.int32)
+        np.cumsum(~measured[low : high - 1], axis=0, dtype=np.int32, out=unmeasured[1:])
+        covered = _covered(q[low:high], unmeasured, lags, dt)
         out[rows] = covered[rows.start - low : rows.stop - low]
 
     run_parts(part, in_parts(frames, _BLOCK), q.size)

@@ -376,7 +376,7 @@ def format_floor(section: dict) -> str | None:
     floor = section.get("floor")
     if not floor:
         return None
-    slope = " under an upright body: stairs or a slope" if floor.get("terrain") else ""
+    slope = ", rising under an upright body: stairs or a slope" if floor.get("terrain") else ""
     return (
         f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg{slope} "
         f"(through the soles of {plural(floor['contacts'], 'contact')})"

@@ -123,9 +123,9 @@ def _run(data: StepData, params: dict) -> StepData:
 def _format_note(note: dict, positions: bool) -> str:
     if note.get("terrain"):
         return (
-            f"floor rising {note['tilt_deg']:.2f} deg under an upright body (stairs or a "
-            f"slope): its lowest contact moved from height {note['height']:.4g} units to 0, "
-            "its tilt kept"
+            f"floor tilted {note['tilt_deg']:.2f} deg, rising under an upright body: stairs "
+            f"or a slope; the lowest contact's sole moved from height {note['height']:.4g} "
+            "units to 0, the tilt kept"
         )
     kept = "levelled" if note.get("levelled", True) else "its tilt kept"
     return (

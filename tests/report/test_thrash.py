@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import ROOT, corpus_clip, run_cli
+from helpers import ROOT, corpus_clip, every, run_cli
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -22,17 +22,6 @@ from motionclean.steps.resampling import resample_motion
 EXPORTERS = ROOT / "tests" / "data" / "exporters"
 #: The planted twist: on these frames of the clip at 30 fps (8 s of its 10.4 s).
 PLANTED = slice(30, 270)
-
-
-def every(clip: mc.Motion, step: int) -> mc.Motion:
-    """Every ``step``-th frame of ``clip``: the same motion at a lower rate."""
-    return clip.replace(
-        rotations=clip.rotations[::step],
-        translations=clip.translations[::step],
-        frame_time=clip.frame_time * step,
-        source_values=None,
-        source_rotations=None,
-    )
 
 
 def bone(clip: mc.Motion, joint: int) -> np.ndarray:

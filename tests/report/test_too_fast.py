@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 import pytest
-from helpers import CMU_01_01_JITTER, NOISY, ROOT, SAMPLE, Page, corpus_clip, run_cli
+from helpers import CMU_01_01_JITTER, NOISY, ROOT, SAMPLE, Page, corpus_clip, every, run_cli
 
 import motionclean as mc
 from motionclean.core import quat
@@ -23,17 +23,6 @@ from motionclean.steps.pipeline import Pipeline
 
 EXPORTERS = ROOT / "tests" / "data" / "exporters"
 WALK = EXPORTERS / "pymo_walk_tpose.bvh"  # 120 fps, a T-pose rest frame first
-
-
-def every(clip: mc.Motion, step: int) -> mc.Motion:
-    """Every ``step``-th frame of ``clip``: the same motion at a lower rate."""
-    return clip.replace(
-        rotations=clip.rotations[::step],
-        translations=clip.translations[::step],
-        frame_time=clip.frame_time * step,
-        source_values=None,
-        source_rotations=None,
-    )
 
 
 def swinging(clip: mc.Motion, joint: str, share: float, seed: int = 0) -> mc.Motion:
