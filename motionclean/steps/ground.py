@@ -151,6 +151,7 @@ STEP = StepSpec(
     ),
     run=_run,
     format_note=_format_note,
+    sees_missing=True,  # one rigid move of the whole clip: dropouts elsewhere stay as they are
 )
 
 

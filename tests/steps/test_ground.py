@@ -296,3 +296,20 @@ def test_ground_keeps_the_slope_of_stairs_under_an_upright_body(walk):
     assert floor_of(camera).terrain is False
     levelled, _ = Pipeline.from_inline(["ground"]).run(camera)
     assert floor_of(levelled).floor.tilt_deg < 2.0
+
+
+@pytest.mark.parametrize("joint", ["LeftWrist", "Hips"])
+def test_ground_moves_a_clip_with_dropouts_as_it_moves_it_whole(walk, joint):
+    """A tracker's dropout on one joint had `ground` run on each known stretch of that
+    joint alone, without the root, and refused ("the root 'Hips' is not selected"). It
+    moves the whole clip at once: the root as without the dropout, the dropout kept."""
+    tilted = _tilted(walk, 5.0)
+    missing = np.zeros((tilted.n_frames, tilted.n_joints), dtype=bool)
+    missing[200:203, tilted.names.index(joint)] = True
+    gappy = tilted.replace(missing=missing)
+    whole, _ = Pipeline.from_inline(["ground"]).run(tilted)
+    out, _ = Pipeline.from_inline(["ground"]).run(gappy)
+    np.testing.assert_array_equal(out.missing_mask(), missing)
+    known = ~missing[:, 0]
+    np.testing.assert_allclose(out.translations[known, 0], whole.translations[known, 0], atol=1e-9)
+    np.testing.assert_allclose(out.rotations[known, 0], whole.rotations[known, 0], atol=1e-12)
