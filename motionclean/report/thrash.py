@@ -1,7 +1,7 @@
 """Thrash: a joint turning fast one way and at once fast back, over and over.
 
-A tracker or retarget that loses a joint's twist (a markerless take's hands, whose
-rotation no keypoint fixes) swings it back and forth by tens of degrees a frame for
+A tracker or retarget that loses a joint's twist (LaFAN1's `dance1_subject2`: its hands'
+solve glitches for minutes) swings it back and forth by tens of degrees a frame for
 minutes: too slow for ``despike`` (no half turn, no step over its cap), too long-lived for
 a spike, and the noise model takes it for motion. A joint thrashes where its rotation
 over a span into a frame and over a span out of it (``log(q_{i-k}^-1 q_i)`` and
@@ -39,21 +39,21 @@ __all__ = ["THRASH_DEG_PER_S", "THRASH_SPAN_S", "THRASH_WINDOW_S", "thrash_frame
 #: frame and back as fast over a span out of it. At 700 deg/s (23 degrees a frame at 30
 #: fps) the default's outputs of clean captures thrash on at most 2.0 s of any half minute
 #: (CMU 131_03's RightWrist through its hop at 24 fps; 1.5-1.8 s at 30 to 120 fps; MANN
-#: dogs' front legs 1.9 s, LaFAN1's walk 0.4 s), a markerless take's wrists (LaFAN1's
-#: skeleton at 30 fps) on 6.1 and 10.1 s of theirs: 3.0 times apart; 2.4 times at 600 deg/s
+#: dogs' front legs 1.9 s, LaFAN1's walk 0.4 s), a glitching optical take's wrists
+#: (LaFAN1's dance1_subject2 at 30 fps) on 6.1 and 10.1 s of theirs: 3.0 times apart; 2.4 times at 600 deg/s
 #: (a dog's front paw 3.0 s against 7.3), 3.1 at 800 (131_03's wrist 1.7 s against 5.2).
 THRASH_DEG_PER_S = 700.0
 #: The longest span (seconds) a turn is measured over, shorter spans measured too: one
 #: frame at 24 and 30 fps (the frame-to-frame steps), two at 50 and 60, five at 120.
 #: Measured up to two frames at 30 fps (1/15 s), a clean dog's front leg thrashes at each
-#: stride, on 3.8 s of a half minute: within 1.8 times of the markerless wrists.
+#: stride, on 3.8 s of a half minute: within 1.8 times of the glitching wrists.
 THRASH_SPAN_S = 0.04
 #: A thrash may pause this many frames at its turn: a turn that falls between two frames
 #: leaves them alike (a 45-degree swing at 5 Hz sampled at 30 fps).
 PAUSE_FRAMES = 1
 #: A joint's thrash is judged by the most of it within any this many seconds: a long take
 #: thrashing now and then (a dog wagging its tail for minutes) gathers no more of it in a
-#: half minute than a short one, a glitch kept up does (the markerless take's wrists
+#: half minute than a short one, a glitch kept up does (the glitching take's wrists
 #: thrash through most of its 131 s).
 THRASH_WINDOW_S = 30.0
 #: Frames of output a part of :func:`thrash_frames` makes (temporaries stay small).
