@@ -501,11 +501,14 @@ def turned_copy(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
     )
 
 
-def uphill(motion: mc.Motion, degrees: float) -> mc.Motion:
+def uphill(motion: mc.Motion, degrees: float, along: bool = False) -> mc.Motion:
     """``motion`` (Y up) walking up a floor tilted by ``degrees``: turned about the
-    horizontal axis across its direction of travel, about its first root position."""
+    horizontal axis across its direction of travel (``along``: about that direction, a
+    floor tilted sideways to the walk, as a camera rolled about it), about its first
+    root position."""
     travel = motion.translations[-1, 0] - motion.translations[0, 0]
-    across = np.cross(np.array([0.0, 1.0, 0.0]), travel * np.array([1.0, 0.0, 1.0]))
+    level = travel * np.array([1.0, 0.0, 1.0])
+    across = level if along else np.cross(np.array([0.0, 1.0, 0.0]), level)
     turn = quat.from_axis_angle(across / np.linalg.norm(across), -np.radians(degrees))
     rotations, translations = motion.rotations.copy(), motion.translations.copy()
     start = translations[0, 0].copy()

@@ -386,19 +386,30 @@ def contact_soles(
     return np.array(soles, dtype=np.float64).reshape(-1, 3)
 
 
-def fit_floor(soles: np.ndarray, up: int, height: float, quantile: float = 0.5) -> Floor | None:
+def fit_floor(
+    soles: np.ndarray,
+    up: int,
+    height: float,
+    quantile: float = 0.5,
+    sideways: np.ndarray | None = None,
+) -> Floor | None:
     """The plane through the contacts' soles ``(n, 3)`` (:func:`contact_soles`): height
     along the up axis as a linear function of the horizontal position, least squares with
-    a prior on the slope (:data:`FLOOR_SLOPE_PRIOR`, :data:`FLOOR_SPREAD`). Soles more
-    than 3 robust deviations (1.4826 MAD) from the median height, then from the first fit,
-    are left out (a foot on a step, a misplaced contact). The plane is then moved along
-    the up axis to the ``quantile`` of the kept soles' heights above it (0.5: through the
-    middle of them, 0: under every one). None without soles."""
+    a prior on the slope (:data:`FLOOR_SLOPE_PRIOR`, :data:`FLOOR_SPREAD`), centred on
+    level or, where the trunk leans sideways by more than :data:`SIDEWAYS_TILT`
+    (``sideways``: :func:`~motionclean.core.kinematics.trunk_sideways`), on the plane
+    tilted with it (a camera's roll, which footprints along one line cannot show). Soles
+    more than 3 robust deviations (1.4826 MAD) from the prior plane, then from the first
+    fit, are left out (a foot on a step, a misplaced contact). The plane is then moved
+    along the up axis to the ``quantile`` of the kept soles' heights above it (0.5:
+    through the middle of them, 0: under every one). None without soles."""
     if soles.shape[0] == 0:
         return None
     across = [a for a in range(3) if a != up]
     ridge = (FLOOR_SPREAD * height / FLOOR_SLOPE_PRIOR) ** 2
-    slope, level = np.zeros(2), float(np.median(soles[:, up]))
+    prior = _prior_slope(sideways, up, across)
+    slope = prior
+    level = float(np.median(soles[:, up] - soles[:, across] @ prior))
     keep = np.ones(soles.shape[0], dtype=bool)
     for _ in range(2):
         residual = soles[:, up] - level - soles[:, across] @ slope
@@ -407,7 +418,9 @@ def fit_floor(soles: np.ndarray, up: int, height: float, quantile: float = 0.5) 
         keep = np.abs(residual - centre) <= 3.0 * spread + 1e-9 * height
         x, h = soles[keep][:, across], soles[keep][:, up]
         dx = x - x.mean(axis=0)
-        slope = np.linalg.solve(dx.T @ dx + ridge * np.eye(2), dx.T @ (h - h.mean()))
+        slope = np.linalg.solve(
+            dx.T @ dx + ridge * np.eye(2), dx.T @ (h - h.mean()) + ridge * prior
+        )
         level = float(h.mean() - slope @ x.mean(axis=0))
     residual = soles[keep, up] - level - soles[keep][:, across] @ slope
     level += float(np.quantile(residual, quantile))
@@ -416,6 +429,27 @@ def fit_floor(soles: np.ndarray, up: int, height: float, quantile: float = 0.5) 
     normal[across] = -slope
     scale = float(np.linalg.norm(normal))
     return Floor(normal / scale, level / scale, up)
+
+
+#: A trunk leaning sideways (along the hips' left-right axis, averaged over the clip) by
+#: more than this (degrees) tilts the floor's prior with it: the capture is rolled about
+#: the way the body faces (a camera pitched down at a walk across its view), which a
+#: floor fitted through footprints along one line cannot show (such a walk tilted 20
+#: degrees had been levelled to 20). Clean captures lean sideways by 0-4.2 degrees (the
+#: corpus 0.4-0.8; the exporters', game, Bandai Namco, LaFAN1, Rokoko, Xsens clips), a
+#: kick on one leg 6.5: under it, the prior stays level, as a lean of the body's own.
+SIDEWAYS_TILT = 10.0
+
+
+def _prior_slope(sideways: np.ndarray | None, up: int, across: list[int]) -> np.ndarray:
+    """``(2,)`` the floor's prior slope along ``across``: level, or tilted with a trunk
+    that leans ``sideways`` ``(3,)`` past :data:`SIDEWAYS_TILT`."""
+    if sideways is None:
+        return np.zeros(2)
+    lean = float(np.linalg.norm(sideways))
+    if not math.sin(math.radians(SIDEWAYS_TILT)) < lean < 1.0:
+        return np.zeros(2)
+    return -sideways[across] / math.sqrt(1.0 - lean * lean)
 
 
 #: Passes of contacts found above the floor and the floor fitted again (a tilted floor's
@@ -441,6 +475,7 @@ def find_floor(
     frame_time: float,
     params: ContactParams = ContactParams(),
     contacts: np.ndarray | None = None,
+    sideways: np.ndarray | None = None,
 ) -> tuple[Floor | None, np.ndarray, np.ndarray]:
     """The floor (:func:`fit_floor`), the soles ``(n, 3)`` it rests on and the contacts
     ``(F, n_feet)`` found above it: contacts found above a level ground (``contacts``,
@@ -448,11 +483,11 @@ def find_floor(
     their soles, then contacts found again above that plane (on a tilted floor the first
     pass misses the feet on its high side) and the plane fitted again, up to
     :data:`FLOOR_PASSES` times; a pass that finds no contact keeps the last floor, its
-    soles and contacts."""
+    soles and contacts; ``sideways``: :func:`fit_floor`'s."""
     if contacts is None:
         contacts, _ = detect(positions, feet, up, height, frame_time, params)
     soles = contact_soles(positions, feet, contacts, up, height)
-    floor = fit_floor(soles, up, height)
+    floor = fit_floor(soles, up, height, sideways=sideways)
     for _ in range(FLOOR_PASSES):
         if floor is None:
             break
@@ -462,7 +497,7 @@ def find_floor(
         refit = contact_soles(positions, feet, found, up, height)
         if refit.shape[0] == 0:  # no contact above this floor: it stays, with its soles
             break
-        contacts, soles, floor = found, refit, fit_floor(refit, up, height)
+        contacts, soles, floor = found, refit, fit_floor(refit, up, height, sideways=sideways)
     return floor, soles, contacts
 
 
@@ -489,24 +524,28 @@ def find_ground(
     height: float,
     frame_time: float,
     params: ContactParams = ContactParams(),
+    sideways: np.ndarray | None = None,
 ) -> Ground:
     """:func:`detect`'s contacts above a level ground and :func:`find_floor`'s floor; where
     the floor rises across its soles by more than :data:`FLOOR_RISE` of ``params.height``
-    body heights, the contacts found above it and heights taken above it instead."""
+    body heights, the contacts found above it and heights taken above it instead;
+    ``sideways``: the trunk's sideways lean the floor's prior follows (:func:`fit_floor`)."""
     contacts, level = detect(positions, feet, up, height, frame_time, params)
     if math.isnan(level):
         return Ground(contacts, None, np.zeros((0, 3)), level, False)
     floor, soles, on_floor = find_floor(
-        positions, feet, up, height, frame_time, params, contacts=contacts
+        positions, feet, up, height, frame_time, params, contacts, sideways
     )
     rise = FLOOR_RISE * params.height * height
     if not _rises(floor, soles, rise):
         # the feet on a short slope's high side may all stand beyond a level ground's reach
-        seed = _contacts_under_still_feet(positions, feet, up, height, frame_time, params, rise)
+        seed = _contacts_under_still_feet(
+            positions, feet, up, height, frame_time, params, rise, sideways
+        )
         uphill = (
             None
             if seed is None
-            else find_floor(positions, feet, up, height, frame_time, params, contacts=seed)
+            else find_floor(positions, feet, up, height, frame_time, params, seed, sideways)
         )
         if uphill is None or not _rises(uphill[0], uphill[1], rise):
             return Ground(contacts, floor, soles, level, False)
@@ -528,6 +567,7 @@ def _contacts_under_still_feet(
     frame_time: float,
     params: ContactParams,
     rise: float,
+    sideways: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """Contacts above the plane through the soles of the feet wherever they stand still
     (no height limit), to start :func:`find_floor` from where a floor's high side lies
@@ -536,7 +576,7 @@ def _contacts_under_still_feet(
     anywhere = replace(params, height=np.inf, height_off=np.inf)
     still, _ = detect(positions, feet, up, height, frame_time, anywhere)
     soles = contact_soles(positions, feet, still, up, height)
-    under = fit_floor(soles, up, height)
+    under = fit_floor(soles, up, height, sideways=sideways)
     if not _rises(under, soles, rise):
         return None
     return detect(positions, feet, up, height, frame_time, params, floor=under)[0]

@@ -574,6 +574,48 @@ def upright_body_up(motion: Motion, up: str | int | None = None) -> np.ndarray |
     return None if body is None else upright(body, *up_direction(motion, up))
 
 
+def trunk_sideways(motion: Motion, up: str | int | None = None) -> np.ndarray | None:
+    """``(3,)``, in the clip turned :func:`upright` (``up``: the override): how far the
+    trunk (:func:`body_up`'s direction, per pose) leans along the hips' left-right axis
+    (horizontal), as a vector along that axis (its length the sine of the lean), averaged
+    over the sampled poses where the trunk and legs are known: a body stands upright
+    sideways (a walk's lean is forward), so a lean there is the capture's tilt (a camera
+    rolled about the way the body faces). None without a trunk on two legs or such a
+    pose."""
+    poses, known = sample_poses(motion)
+    rest = rest_positions(motion)
+    parents = point_parents(motion)
+    parts = body_parts(parents, rest)
+    if parts is None or parts.legs[0].size != 2:
+        return None
+    if known is not None:
+        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
+    if poses.shape[0] == 0:
+        return None
+    axis, sign = up_direction(motion, up)
+    poses = upright(poses, axis, sign)
+    roots, tips = parts.legs
+    hips = [_hip(parents, rest, parts.pelvis, r, t) for r, t in zip(roots, tips, strict=True)]
+    across = poses[:, hips[1]] - poses[:, hips[0]]
+    across[:, axis] = 0.0
+    across = _unit(across)
+    trunk = _trunk_up(poses, parts)
+    return np.einsum("sk,sk->s", trunk, across) @ across / poses.shape[0]
+
+
+def _hip(parents: np.ndarray, rest: np.ndarray, pelvis: int, root: int, tip: int) -> int:
+    """The hip of the leg from ``root`` to ``tip``: the first point on the way that stands
+    apart from the ``pelvis`` in the ``rest`` pose (CMU's LHipJoint sits on its Hips)."""
+    chain = [int(tip)]
+    while chain[-1] != root:
+        chain.append(int(parents[chain[-1]]))
+    scale = float(np.ptp(rest, axis=0).max()) or 1.0
+    for point in reversed(chain):
+        if np.linalg.norm(rest[point] - rest[pelvis]) > 1e-3 * scale:
+            return point
+    return int(root)
+
+
 #: A declared up direction is contradicted by the motion where the motion shows another one
 #: (:func:`motion_up`) on at least this share of its sampled frames: 0.94-1.00 on every
 #: biped measured (the exporters' clips, the CMU corpus, walks, runs, turns, jumps and stairs

@@ -40,8 +40,9 @@ __all__ = ["THRASH_DEG_PER_S", "THRASH_SPAN_S", "THRASH_WINDOW_S", "thrash_frame
 #: fps) the default's outputs of clean captures thrash on at most 2.0 s of any half minute
 #: (CMU 131_03's RightWrist through its hop at 24 fps; 1.5-1.8 s at 30 to 120 fps; MANN
 #: dogs' front legs 1.9 s, LaFAN1's walk 0.4 s), a glitching optical take's wrists
-#: (LaFAN1's dance1_subject2 at 30 fps) on 6.1 and 10.1 s of theirs: 3.0 times apart; 2.4 times at 600 deg/s
-#: (a dog's front paw 3.0 s against 7.3), 3.1 at 800 (131_03's wrist 1.7 s against 5.2).
+#: (LaFAN1's dance1_subject2 at 30 fps) on 6.1 and 10.1 s of theirs: 3.0 times apart;
+#: 2.4 times at 600 deg/s (a dog's front paw 3.0 s against 7.3), 3.1 at 800 (131_03's
+#: wrist 1.7 s against 5.2).
 THRASH_DEG_PER_S = 700.0
 #: The longest span (seconds) a turn is measured over, shorter spans measured too: one
 #: frame at 24 and 30 fps (the frame-to-frame steps), two at 50 and 60, five at 120.

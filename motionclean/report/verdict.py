@@ -140,7 +140,8 @@ LOOK_FAST_SHARE = 0.1
 #: :data:`~motionclean.report.thrash.THRASH_WINDOW_S` needs a look: the clean captures'
 #: default outputs thrash on at most 2.0 s of theirs (CMU 131_03's RightWrist through its
 #: hop at 24 fps; 1.5-1.8 s at 30 to 120 fps; MANN dogs' front legs 1.9 s), a glitching
-#: optical take's wrists (LaFAN1's dance1_subject2) on 6.1 and 10.1 s: this lies 1.7 times above the one and under the other.
+#: optical take's wrists (LaFAN1's dance1_subject2) on 6.1 and 10.1 s: this lies 1.7
+#: times above the one and under the other.
 LOOK_THRASH_S = 3.5
 #: Feet whose ankles slide no faster than this during contacts (body heights per second,
 #: over 0.1 s, after cleaning) are planted; the value of ``footlock``'s ``min_skate``.

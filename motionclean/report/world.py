@@ -272,7 +272,9 @@ def _contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     params = found.ContactParams()
-    standing = found.find_ground(positions, feet, up, height, dt, params)
+    standing = found.find_ground(
+        positions, feet, up, height, dt, params, kinematics.trunk_sideways(before)
+    )
     contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
@@ -300,9 +302,10 @@ def _contact_figures(
         # above a tilted floor where contacts were found so, the cleaned clip's above its
         # own (the floor through its soles: levelled by ground, it is level)
         planes = [tilted, tilted]
-        if tilted is not None and after_positions is not None:
+        if tilted is not None and after is not None and after_positions is not None:
             after_soles = found.contact_soles(after_positions, feet, contacts, up, height)
-            planes[1] = found.fit_floor(after_soles, up, height) or tilted
+            sideways = kinematics.trunk_sideways(after)
+            planes[1] = found.fit_floor(after_soles, up, height, sideways=sideways) or tilted
         lowest = [found.lowest_points(p, feet, up, q) for p, q in zip(clips, planes, strict=False)]
         grounds = [ground]
         if len(clips) > 1:

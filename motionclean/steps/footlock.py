@@ -62,8 +62,9 @@ def find_contacts(motion: Motion, params: dict):
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions = kinematics.upright_positions(motion, given)
+    sideways = kinematics.trunk_sideways(motion, given)
     standing = found.find_ground(
-        positions, feet, up, height, motion.frame_time, contact_params(params)
+        positions, feet, up, height, motion.frame_time, contact_params(params), sideways
     )
     return feet, standing.contacts, positions, up, height, standing.height
 
@@ -235,7 +236,10 @@ def _run(data: StepData, params: dict) -> StepData:
     thresholds = noise_aware(
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
-    standing = found.find_ground(positions, on_columns, up, height, motion.frame_time, thresholds)
+    sideways = kinematics.trunk_sideways(motion, given_up(params))
+    standing = found.find_ground(
+        positions, on_columns, up, height, motion.frame_time, thresholds, sideways
+    )
     slide = params["min_skate"] * height
     contacts = found.sliding_contacts(
         positions, on_columns, standing.contacts, up, motion.frame_time, slide
@@ -268,7 +272,7 @@ def _run(data: StepData, params: dict) -> StepData:
     )
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
     # it while it stands, none is lifted that stood below it as captured
-    floor = found.fit_floor(soles, up, height, quantile=0.0) or found.Floor.level(-np.inf, up)
+    floor = found.fit_floor(soles, up, height, 0.0, sideways) or found.Floor.level(-np.inf, up)
     floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
     # the floor as the clip's own coordinates have it (the positions were turned upright)
     normal = kinematics.upright(floor.normal, up, _sign(motion, params))

@@ -40,7 +40,10 @@ def floor_of(motion: Motion, up: str | None = None) -> FoundFloor:
     if not feet:
         return FoundFloor(None, np.zeros((0, 3)), False)
     positions = kinematics.upright_positions(motion, up)
-    standing = found.find_ground(positions, feet, axis, height, motion.frame_time)
+    sideways = kinematics.trunk_sideways(motion, up)
+    standing = found.find_ground(
+        positions, feet, axis, height, motion.frame_time, sideways=sideways
+    )
     floor = standing.floor
     body = kinematics.upright_body_up(motion, up)
     return FoundFloor(floor, standing.soles, floor is not None and found.terrain(floor, body))
