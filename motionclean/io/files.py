@@ -117,10 +117,13 @@ def refuse_binary(data: bytes, path) -> None:
         raise MotionError("not a text file (binary data)", path)
 
 
-def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, FileBytes | None]:
+def read_regular_file(
+    path: Path, kind: str = "a clip", keep_large: bool = False
+) -> tuple[bytes, FileBytes | None]:
     """The bytes of a regular file, never more than its size when opened, and, when
     ``keep_large`` and the file has at least :data:`KEEP_ON_DISK_BYTES`, a
-    :class:`FileBytes` to read them again later (else None).
+    :class:`FileBytes` to read them again later (else None). ``kind`` is what the file
+    is to be, for a folder's error ("is a directory, not a clip").
 
     FIFOs, devices and sockets are refused (reading one could block forever or never end),
     and so is a file that grows while it is read. Every failure is a one-line MotionError.
@@ -129,7 +132,7 @@ def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, File
         # Open without blocking (a FIFO would wait for a writer), then check what was opened.
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except IsADirectoryError:
-        raise MotionError("is a directory, not a clip", path) from None
+        raise MotionError(f"is a directory, not {kind}", path) from None
     except FileNotFoundError:
         what = "a broken symbolic link" if path.is_symlink() else "no such file"
         raise MotionError(what, path) from None
@@ -143,7 +146,7 @@ def read_regular_file(path: Path, keep_large: bool = False) -> tuple[bytes, File
     try:
         info = os.fstat(descriptor)
         if stat.S_ISDIR(info.st_mode):
-            raise MotionError("is a directory, not a clip", path)
+            raise MotionError(f"is a directory, not {kind}", path)
         if not stat.S_ISREG(info.st_mode):
             raise MotionError("not a regular file (a pipe, device or socket)", path)
         with os.fdopen(descriptor, "rb", closefd=False) as f:

@@ -33,8 +33,10 @@ URI; a changed ``.gltf``, or an unchanged one written to another folder, is writ
 self-contained (its ``.bin`` files' bytes embedded as data URIs; the files themselves are
 never touched). Into another folder images named by relative URIs are carried too: as
 data URIs in a ``.gltf``, in a GLB as bufferViews of its binary chunk (its first buffer
-made the chunk when it had none); a URL or an absolute path stays as it is. Sparse
-accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
+made the chunk when it had none); a URL or an absolute path stays as it is, and so does
+an image not beside the source or of no known type, which a note says when it is read.
+Relative URIs name files inside the source's folder, links resolved (:func:`_beside`).
+Sparse accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
 a GLB, written only into the one it was read from (:func:`vrma_pieces`).
 """
 
@@ -46,6 +48,7 @@ import copy
 import json
 import math
 import os
+import stat
 import struct
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -264,15 +267,41 @@ class _Buffers:
         return data
 
     def _file(self, index: int, uri: str) -> bytes:
-        name = unquote(uri)
-        if "://" in name or os.path.isabs(name) or ".." in Path(name).parts:
-            _fail(f"buffers[{index}]: uri {uri[:60]!r} is not a file beside the glTF", self.path)
-        where = Path(self.path).parent / name
-        try:
-            data, _ = read_regular_file(where)
-        except MotionError as error:
-            _fail(f"buffers[{index}]: {error.message} ({where})", self.path)
-        return data
+        what = f"buffers[{index}]"
+        return _read_file(self.path, what, _beside(self.path, what, uri), "a buffer")
+
+
+def _beside(path, what: str, uri: str) -> Path:
+    """The file a relative ``uri`` (of ``what``: ``images[0]``) names in the folder of the
+    glTF at ``path``, its symbolic links resolved; its query and fragment (``?v=2``) are no
+    part of the name. Refused (one-line MotionError) when it names no file, is a URL or an
+    absolute path, climbs out by ``..``, holds a NUL byte, or leads out of the folder
+    through a link: ``skin.png -> /etc/passwd`` would put that file into the output."""
+    name = unquote(urlsplit(uri).path)
+    said = f"{what}: uri {uri[:60]!r}"
+    if not name or name.endswith("/"):
+        _fail(f"{said} names no file", path)
+    if not _relative_file(uri):
+        _fail(f"{said} is a URL or an absolute path, not a file beside the glTF", path)
+    if ".." in Path(name).parts:
+        _fail(f"{said} climbs out of the glTF's folder ('..')", path)
+    if "\0" in name:
+        _fail(f"{said} holds a NUL byte", path)
+    folder = os.path.realpath(Path(path).parent)
+    where = os.path.realpath(os.path.join(folder, name))
+    if os.path.commonpath([folder, where]) != folder:
+        _fail(f"{said} links outside the glTF's folder", path)
+    return Path(where)
+
+
+def _read_file(path, what: str, where: Path, kind: str) -> bytes:
+    """The bytes of ``where``, a file of ``what`` beside the glTF at ``path``
+    (:func:`_beside`); errors name both (``kind`` of file: "is a directory, not an image")."""
+    try:
+        data, _ = read_regular_file(where, kind)
+    except MotionError as error:
+        _fail(f"{what}: {error.message} ({where})", path)
+    return data
 
 
 def _accessor(document: dict, buffers: _Buffers, index: object, path) -> np.ndarray:
@@ -737,6 +766,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         joints = {n for n, _ in targets}
     joints -= carried.keys()
     notes.extend(_carried_note(carried, {n for n, _ in targets}))
+    notes.extend(_image_notes(document, path))
     if not joints:
         _fail("no skin and no animated node: no skeleton to read", path)
     order, parents = _order(joints, nodes, parent)
@@ -1045,7 +1075,7 @@ def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
         document.setdefault("buffers", []).append({"byteLength": len(new), "uri": _data_uri(new)})
     for index in _file_buffers(src.document):  # embedded: the file can go to any folder
         document["buffers"][index]["uri"] = _data_uri(src.buffers[index])
-    images = {} if beside else _image_files(src)
+    images = {} if beside else _carried_images(src)
     if not glb:  # one self-contained file: the binary chunk embedded too
         if glb_binary or (src.glb and binary is not None and _first_buffer_is_binary(document)):
             assert binary is not None
@@ -1079,11 +1109,16 @@ def _relative_file(uri: object) -> bool:
     return not (parts.scheme or parts.netloc or os.path.isabs(unquote(parts.path)))
 
 
+def _images(document: dict, path) -> list:
+    """The ``images`` of ``document`` (``null`` read as none, as its absence)."""
+    return [] if document.get("images") is None else _items(document, "images", path)
+
+
 def _names_files(src: GltfSource) -> bool:
     """Whether ``src`` names files beside it: buffers or images by a relative URI."""
-    images = src.document.get("images", [])
+    images = _images(src.document, src.buffers.path)
     return bool(_file_buffers(src.document)) or any(
-        isinstance(image, dict) and _relative_file(image.get("uri")) for image in images
+        _relative_file(image.get("uri")) for image in images
     )
 
 
@@ -1105,28 +1140,62 @@ IMAGE_TYPES = {
 }
 
 
-def _image_files(src: GltfSource) -> dict[int, tuple[bytes, str]]:
-    """The bytes and media type of each image ``src`` names by a relative URI, read from
-    beside it (as buffers are: within its folder), by image index."""
-    path = src.buffers.path
-    found = {}
-    for index, image in enumerate(_items(src.document, "images", path)):
+def _image_files(document: dict, path) -> tuple[dict[int, tuple[Path, str]], list[str]]:
+    """The images of the glTF at ``path`` (its ``document``) named by a relative URI that a
+    glTF written to another folder carries, by image index: the file (:func:`_beside`,
+    whose refusals are raised) and its media type (``mimeType``, else by suffix); and a
+    note for each other such image, which keeps its URI there: no file beside the glTF
+    (uncopied textures), not a file, or neither a mimeType nor a known suffix (``.tga``)."""
+    found, kept = {}, []
+    for index, image in enumerate(_images(document, path)):
         uri = image.get("uri")
         if not _relative_file(uri):
             continue
-        name = unquote(uri)
-        if ".." in Path(name).parts:
-            _fail(f"images[{index}]: uri {uri[:60]!r} is not a file beside the glTF", path)
-        where = Path(path).parent / name
-        try:
-            data, _ = read_regular_file(where)
-        except MotionError as error:
-            _fail(f"images[{index}]: {error.message} ({where})", path)
-        media = image.get("mimeType") or IMAGE_TYPES.get(Path(name).suffix.lower())
-        if not isinstance(media, str):
-            _fail(f"images[{index}]: no mimeType and {uri[:60]!r} is not a known image", path)
-        found[index] = data, media
-    return found
+        where = _beside(path, f"images[{index}]", uri)
+        suffix = Path(unquote(urlsplit(uri).path)).suffix.lower()
+        media = image.get("mimeType") or IMAGE_TYPES.get(suffix)
+        why = _not_a_file(where)
+        if why is None and isinstance(media, str):
+            found[index] = where, media
+            continue
+        why = why or "no mimeType, and no image type by its suffix"
+        kept.append(
+            f"images[{index}] {uri[:60]!r}: {why}; a glTF written to another folder "
+            "keeps this uri, not the image"
+        )
+    return found, kept
+
+
+def _not_a_file(where: Path) -> str | None:
+    """Why ``where`` is not a regular file to read ("no such file beside the glTF"), or
+    None when it is one."""
+    try:
+        regular = stat.S_ISREG(os.stat(where).st_mode)
+    except FileNotFoundError:
+        return "no such file beside the glTF"
+    except OSError as error:  # (a name too long, a loop of links)
+        return f"cannot be read ({error.strerror or error})"
+    return None if regular else "not a file (a folder, pipe or device)"
+
+
+def _image_notes(document: dict, path) -> list[str]:
+    """What :func:`_image_files` notes, said when the glTF is read; or that a glTF written
+    from it into another folder is refused, and why (an image leading out of its folder)."""
+    try:
+        return _image_files(document, path)[1]
+    except MotionError as error:
+        return [f"{error.message}; writing it as glTF to another folder is refused"]
+
+
+def _carried_images(src: GltfSource) -> dict[int, tuple[bytes, str]]:
+    """The bytes and media type of each image of ``src`` a glTF in another folder carries
+    (:func:`_image_files`), by image index."""
+    path = src.buffers.path
+    found, _ = _image_files(src.document, path)
+    return {
+        index: (_read_file(path, f"images[{index}]", where, "an image"), media)
+        for index, (where, media) in found.items()
+    }
 
 
 def _binary_chunk(document: dict, src: GltfSource, binary: bytes | None, new: bytes) -> bytes:

@@ -29,7 +29,7 @@ from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
-from ..io import ReadOptions, declare_up, encode, save, write_together
+from ..io import ReadOptions, declare_up, encode, ensure_folder, write_together
 from ..report.html import render_html
 from ..report.summary import build_report, build_series, gap_notes, to_json
 from ..report.verdict import repaired_frames, repaired_positions
@@ -85,15 +85,16 @@ def write_outputs(
         files[target] = encode(clip, target)
     files.update(reports)
     with folders_for(files, tidy):
-        write_together(files)
+        write_together(files, make_folders=True)  # (again, when a concurrent write tidied)
 
 
 @contextmanager
 def folders_for(paths: Iterable[str | os.PathLike], tidy: bool = True) -> Iterator[None]:
     """Make the folders of ``paths`` (:func:`make_folder`) for the body, which writes them;
     when making one or the body fails, those made here that are still empty are removed
-    (with ``tidy``; a batch does it once its workers are done: another worker may be about
-    to write into one), as a failed write had left them (``out/shoot_02/day 2/``)."""
+    (with ``tidy``; a batch does it once its workers are done), as a failed write had left
+    them (``out/shoot_02/day 2/``). A concurrent writer about to write into one makes it
+    again (:func:`write_outputs`, :data:`~motionclean.io.FOLDER_TRIES`)."""
     folders = [Path(path).parent for path in paths]
     made = missing_folders(folders) if tidy else []
     try:
@@ -129,7 +130,7 @@ def make_folder(folder: Path) -> None:
     :class:`OSError` naming it and saying so (the bare error had read only
     "FOLDER: Operation not permitted")."""
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        ensure_folder(folder)  # (again, when a concurrent write removed it meanwhile)
     except OSError as error:
         raise OSError(
             error.errno, f"cannot create this folder: {error.strerror}", error.filename or folder
@@ -196,8 +197,7 @@ def clean_clip(
     try:
         result = clean_motion(before, pipeline, os.fspath(source))
         if target is not None:
-            with folders_for([target]):
-                save(result.after, target)
+            write_outputs(result.after, target, {})
     except MemoryError as error:
         let_go(error)  # room to travel up
         raise

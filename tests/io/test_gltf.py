@@ -117,10 +117,11 @@ TEXTURES = (("skin.png", "skin.png"), ("maps/normal%20map.PNG", "maps/normal map
 FAR_IMAGE = "https://example.com/far.png"
 
 
-def textured_gltf(folder, *, glb: bool = False):
+def textured_gltf(folder, *, glb: bool = False, edit=None):
     """Blender's .gltf + .bin export (or its GLB) in ``folder`` made a textured character:
     a material whose base colour and normal textures are PNG files beside it (one in a
-    subfolder, its URI percent-encoded, its mimeType given) and one more image on the web."""
+    subfolder, its URI percent-encoded, its mimeType given) and one more image on the web;
+    then ``edit(document, folder)`` when given."""
     folder.mkdir(parents=True, exist_ok=True)
     if glb:
         document, binary = glb_parts(BLENDER_GLB)
@@ -136,6 +137,8 @@ def textured_gltf(folder, *, glb: bool = False):
     document["materials"] = [
         {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "normalTexture": {"index": 1}}
     ]
+    if edit is not None:
+        edit(document, folder)
     text = json.dumps(document).encode()
     if not glb:
         (folder / "char.gltf").write_bytes(text)
@@ -201,29 +204,112 @@ def test_a_textured_gltf_written_elsewhere_carries_its_images(tmp_path, capsys, 
     assert (source.parent / f"same{source.suffix}").read_bytes() == source.read_bytes()
 
 
+def _image_uri(uri: str):
+    """An edit of a textured glTF's document: its first image's URI made ``uri``."""
+    return lambda document, folder: document["images"][0].update(uri=uri)
+
+
+def _linked_out(document: dict, folder) -> None:
+    """An edit: the first image a link in the glTF's folder to a file outside it."""
+    (folder / "link.png").symlink_to(folder.parent / "up.png")
+    document["images"][0]["uri"] = "link.png"
+
+
 @pytest.mark.parametrize("suffix", [".gltf", ".glb"])
 @pytest.mark.parametrize(
-    ("uri", "message"),
+    ("edit", "message"),
     [
-        ("gone.png", "images[0]: no such file ({folder}/gone.png)"),
-        ("../up.png", "images[0]: uri '../up.png' is not a file beside the glTF"),
+        (_image_uri("../up.png"), "images[0]: uri '../up.png' climbs out of the glTF's folder"),
+        (_linked_out, "images[0]: uri 'link.png' links outside the glTF's folder"),
+        (_image_uri(""), "images[0]: uri '' names no file"),
+        (_image_uri("skin%00.png"), "images[0]: uri 'skin%00.png' holds a NUL byte"),
+        (lambda document, folder: document.update(images=5), "'images' is not a list of"),
+        (lambda document, folder: document.update(images="skin.png"), "'images' is not a list"),
     ],
+    ids=["climbs", "link", "empty", "nul", "number", "string"],
 )
-def test_an_image_that_cannot_be_carried_is_one_line(tmp_path, capsys, suffix, uri, message):
-    """An image to carry into another folder that is not there (or lies outside the
-    source's folder, which the buffers' reader refuses too) is one error line naming the
-    source and the image, exit code 1, and nothing is written."""
-    source = textured_gltf(tmp_path / "src")
+def test_an_image_that_cannot_be_carried_is_one_line(tmp_path, capsys, suffix, edit, message):
+    """An image to carry into another folder whose URI names a file outside the source's
+    folder (by ``..`` or through a link: its bytes would be put into the output), names no
+    file or holds a NUL byte, or images that are not a list, are one error line naming the
+    source and the image, exit code 1, and nothing is written (a .gltf + .bin to a .gltf,
+    a GLB to a GLB). The link had carried the file it leads to; the NUL and, from a GLB,
+    the number had been internal errors, the string ignored."""
     (tmp_path / "up.png").write_bytes(tiny_png((1, 2, 3)))
-    document = json.loads(source.read_text())
-    document["images"][0]["uri"] = uri
-    source.write_text(json.dumps(document))
+    source = textured_gltf(tmp_path / "src", glb=suffix == ".glb", edit=edit)
     (tmp_path / "out").mkdir()
     target = tmp_path / "out" / f"char{suffix}"
     code, out, err = run_cli(capsys, "convert", source, target)
-    expected = f"motionclean: error: {source}: " + message.format(folder=source.parent)
+    expected = f"motionclean: error: {source}: {message}"
     assert code == 1 and err.count("\n") == 1 and err.startswith(expected), err
     assert not target.exists()
+    said = kinematics.source_notes(mc.load(source))  # read, and said before any cleaning
+    assert [n for n in said if n.startswith(message) and n.endswith(REFUSED)], said
+
+
+#: The end of the note of a glTF whose images cannot be carried into another folder.
+REFUSED = "writing it as glTF to another folder is refused"
+
+
+def test_an_image_not_beside_the_source_keeps_its_uri_and_a_note_says_so(tmp_path, capsys):
+    """Images that are not there (textures nobody copied), a folder, or of no known type
+    keep their URIs in a glTF written to another folder, each named in a note when the
+    clip is read; the clip is written (they had failed it, after the cleaning). An image
+    with a query is carried (the query is no part of its name: it had been "no such
+    file"), as is a link to an image inside the folder; ``"images": null`` names none."""
+    source = textured_gltf(tmp_path / "src")
+    folder = source.parent
+    (folder / "skin.tga").write_bytes(b"TGA")
+    (folder / "alias.png").symlink_to("maps/normal map.PNG")
+    document = json.loads(source.read_text())
+    kept = ["gone.png", "skin.tga", "maps"]
+    carried = ["skin.png?v=2#top", "alias.png"]
+    document["images"] = [{"uri": uri} for uri in kept + carried]
+    source.write_text(json.dumps(document))
+    pictures = [("image/png", (folder / name).read_bytes()) for _, name in TEXTURES]
+    notes = [
+        f"images[0] 'gone.png': no such file beside the glTF; {KEPT}",
+        f"images[1] 'skin.tga': no mimeType, and no image type by its suffix; {KEPT}",
+        f"images[2] 'maps': not a file (a folder, pipe or device); {KEPT}",
+    ]
+    assert kinematics.source_notes(mc.load(source)) == tuple(notes)
+    out = tmp_path / "out"
+    out.mkdir()
+    for args, written in (
+        (["convert", source, out / "v.gltf"], out / "v.gltf"),
+        (["convert", source, out / "v.glb"], out / "v.glb"),
+        (["clean", source, "-o", out / "c.gltf", "-q"], out / "c.gltf"),
+        (["batch", folder, "-o", out / "b", "-q", "-j", "1"], out / "b" / source.name),
+    ):
+        code, said, err = run_cli(capsys, *args)
+        assert code == 0 and err == "", err
+        assert written_images(written) == [(None, uri) for uri in kept] + pictures, args
+        assert args[0] != "convert" or said.splitlines() == [f"note: {n}" for n in notes]
+    (folder / "none.gltf").write_text(json.dumps(document | {"images": None}))
+    code, said, err = run_cli(capsys, "convert", folder / "none.gltf", out / "none.gltf")
+    assert code == 0 and err == "" and json.loads((out / "none.gltf").read_text())["images"] is None
+
+
+#: The end of the note of an image a glTF written to another folder does not carry.
+KEPT = "a glTF written to another folder keeps this uri, not the image"
+
+
+def test_a_buffer_linked_in_from_outside_the_folder_is_refused(tmp_path, capsys):
+    """A ``.bin`` that is a link to a file outside the glTF's folder is refused in one line
+    (its bytes would be embedded in a glTF written elsewhere: ``x.bin -> /etc/passwd``);
+    a link to a file inside the folder reads."""
+    folder = tmp_path / "src"
+    (folder / "data").mkdir(parents=True)
+    source = folder / BLENDER_GLTF.name
+    shutil.copy(BLENDER_GLTF, source)
+    (folder / "131_02_cut.bin").symlink_to(BLENDER_GLTF.with_suffix(".bin"))
+    code, out, err = run_cli(capsys, "info", source)
+    message = "buffers[0]: uri '131_02_cut.bin' links outside the glTF's folder"
+    assert code == 1 and err == f"motionclean: error: {source}: {message}\n", err
+    (folder / "131_02_cut.bin").unlink()
+    shutil.copy(BLENDER_GLTF.with_suffix(".bin"), folder / "data" / "cut.bin")
+    (folder / "131_02_cut.bin").symlink_to("data/cut.bin")
+    assert mc.load(source).n_frames == mc.load(BLENDER_GLTF).n_frames == 24
 
 
 def test_an_armature_node_s_turn_gives_the_up_axis_and_its_scale_a_note(tmp_path):
@@ -581,7 +667,14 @@ def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
             "11 outputs for 11 keys (CUBICSPLINE: expected 33)",
         ),
         (lambda d: d["asset"].update(version="1.0"), "only glTF 2.0 is read"),
-        (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "not a file beside the glTF"),
+        (lambda d: d["buffers"][0].update(uri="../../etc/passwd"), "climbs out of the glTF's"),
+        (
+            lambda d: d["buffers"][0].update(uri="x%00.bin"),
+            "buffers[0]: uri 'x%00.bin' holds a NUL",
+        ),
+        (lambda d: d["buffers"][0].update(uri=""), "buffers[0]: uri '' names no file"),
+        (lambda d: d["buffers"][0].update(uri="."), "buffers[0]: is a directory, not a buffer"),
+        (lambda d: d["buffers"][0].update(uri="/etc/passwd"), "is a URL or an absolute path"),
         (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
         (  # had read "24 is not a count", as if a count
             lambda d: d["accessors"][0].update(count="24"),
