@@ -506,15 +506,17 @@ class Ground:
     """Where a clip's feet stand: ``contacts`` ``(F, n_feet)``, the ``floor`` found from
     them and its ``soles`` ``(n, 3)`` (:func:`find_floor`), whether the contacts were
     found above that floor (``tilted``: it rises across its soles by more than
-    :data:`FLOOR_RISE` of the contact height) or above a level ground, and ``height`` the
+    :data:`FLOOR_RISE` of the contact height) or above a level ground, ``height`` the
     ground's height (:func:`estimate_ground`) along the up axis, or above the tilted
-    floor (NaN without two frames)."""
+    floor (NaN without two frames), and ``resting`` ``(F, n_feet)``: the contacts whose
+    soles the floor rests on (``contacts`` where ``tilted``)."""
 
     contacts: np.ndarray
     floor: Floor | None
     soles: np.ndarray
     height: float
     tilted: bool
+    resting: np.ndarray
 
 
 def find_ground(
@@ -532,7 +534,7 @@ def find_ground(
     ``sideways``: the trunk's sideways lean the floor's prior follows (:func:`fit_floor`)."""
     contacts, level = detect(positions, feet, up, height, frame_time, params)
     if math.isnan(level):
-        return Ground(contacts, None, np.zeros((0, 3)), level, False)
+        return Ground(contacts, None, np.zeros((0, 3)), level, False, contacts)
     floor, soles, on_floor = find_floor(
         positions, feet, up, height, frame_time, params, contacts, sideways
     )
@@ -548,10 +550,10 @@ def find_ground(
             else find_floor(positions, feet, up, height, frame_time, params, seed, sideways)
         )
         if uphill is None or not _rises(uphill[0], uphill[1], rise):
-            return Ground(contacts, floor, soles, level, False)
+            return Ground(contacts, floor, soles, level, False, on_floor)
         floor, soles, on_floor = uphill
     above = estimate_ground(lowest_points(positions, feet, up, floor))
-    return Ground(on_floor, floor, soles, above, True)
+    return Ground(on_floor, floor, soles, above, True, on_floor)
 
 
 def _rises(floor: Floor | None, soles: np.ndarray, rise: float) -> bool:

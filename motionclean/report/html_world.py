@@ -191,13 +191,14 @@ def _moving(series: dict) -> np.ndarray | None:
     return ~rest if rest.any() and not rest.all() else None
 
 
-def _centres(series: dict) -> np.ndarray:
-    """``(N, 3)``: the mean of the input's known points in each frame that has any,
-    rest-pose frames left out (all of them where every frame is one)."""
-    points = series["before"]
+def _centres(series: dict, clip: str = "before") -> np.ndarray:
+    """``(N, 3)``: the mean of the known points of ``clip`` (``"before"``: the input,
+    ``"after"``) in each frame that has any, rest-pose frames left out (all of them where
+    every frame is one)."""
+    points = series[clip]
     known = np.isfinite(points).all(axis=2)
-    if series["unknown_before"] is not None:
-        known &= ~series["unknown_before"]
+    if series[f"unknown_{clip}"] is not None:
+        known &= ~series[f"unknown_{clip}"]
     moving = _moving(series)
     if moving is not None:
         points, known = points[moving], known[moving]
@@ -270,15 +271,16 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
     )
 
 
-def _window(series: dict, floor: Floor | None) -> tuple[float, float]:
+def _window(series: dict, floors: dict[str, Floor]) -> tuple[float, float]:
     """The player's height window, fixed over the clip: the lowest up coordinate it shows
     and the span of its view (file units), the same on both screen axes. The span is
     :data:`FIGURE_SPAN` body heights, or the range the clip's known points and the
-    ``floor`` below the figure's centres cover along the up axis where that is larger; the
-    range is centred in it. Rest-pose frames are left out, as of every figure."""
+    ``floors`` (:func:`_floors`) below their figures' centres cover along the up axis
+    where that is larger; the range is centred in it. Rest-pose frames are left out, as
+    of every figure."""
     up = series["up"]
     moving = ~series["rest"] if not series["rest"].all() else np.ones_like(series["rest"])
-    heights = [np.array([]) if floor is None else floor.heights_at(_centres(series))]
+    heights = [floor.heights_at(_centres(series, clip)) for clip, floor in floors.items()]
     for key in ("before", "after"):
         if series[key] is not None:
             values = series[key][moving][..., up]
@@ -303,11 +305,11 @@ def _static_frame(
     frame: int,
     axes: tuple[int, int],
     window: tuple[float, float],
-    floor: Floor | None,
+    floors: dict[str, Floor],
 ) -> str:
     """One frame of the player as plain SVG lines (what a page without scripts shows):
     centred on the figure across, its height framed by ``window`` (:func:`_window`), on the
-    ``floor`` line (:func:`_floor_line`) of an upright view (``axes``)."""
+    ``floors`` lines (:func:`_floor_line`) of an upright view (``axes``)."""
     clips = [("before", series["before"], BEFORE, series["unknown_before"])]
     if series["after"] is not None:
         clips.append(("after", series["after"], AFTER, series["unknown_after"]))
@@ -315,7 +317,14 @@ def _static_frame(
     here = series["before"][frame]
     low = np.array([_middle(here, axes[0]) - span / 2, bottom])
     depth = 3 - sum(axes)
-    parts = [_floor_line(_floor_ends(floor, axes, _middle(here, depth), low, span))]
+    parts = [
+        _floor_line(
+            _floor_ends(floor, axes, _middle(series[clip][frame], depth), low, span),
+            clip,
+            _floor_colour(floors, clip),
+        )
+        for clip, floor in floors.items()
+    ]
     for label, points, colour, unknown in clips:
         xy = _to_view(points[frame][:, axes], low, span)
         shown = np.ones(len(xy), bool) if unknown is None else ~unknown[frame]
@@ -348,7 +357,11 @@ PLAYER_SCRIPT = """
   var clips = data.after ? [['before', data.before, data.colours[0]],
                             ['after', data.after, data.colours[1]]]
                          : [['before', data.before, data.colours[0]]];
-  var axes = data.views, floor = document.getElementById('mc-floor');
+  var axes = data.views;
+  // each floor line under its own figure: the input's, and the cleaned clip's where it
+  // lies apart from the input's
+  var floors = [[data.floor, document.getElementById('mc-floor'), 0],
+                [data.floor_after, document.getElementById('mc-floor-after'), 1]];
   var lines = [], dots = [];
   svg.querySelectorAll('line.bone, circle.joint').forEach(function (l) { l.remove(); });
   clips.forEach(function (c) {
@@ -365,29 +378,37 @@ PLAYER_SCRIPT = """
       svg.appendChild(d); dots.push(d);
     }
   });
-  function draw(i) {
-    current = Math.max(0, Math.min(n - 1, i));
-    var a = axes[view.value], k = 0, S = data.size, span = data.span;
-    var f0 = clips[0][1][current], mid = [], upright = a[1] === data.up;
-    for (var d = 0; d < 3; d++) {  // the figure's middle along each axis
+  function middle(f) {  // a figure's middle along each axis
+    var mid = [];
+    for (var d = 0; d < 3; d++) {
       var mn = 1e30, mx = -1e30;
-      for (var p0 = 0; p0 < f0.length; p0 += 3) {
-        mn = Math.min(mn, f0[p0 + d]); mx = Math.max(mx, f0[p0 + d]);
+      for (var p0 = 0; p0 < f.length; p0 += 3) {
+        mn = Math.min(mn, f[p0 + d]); mx = Math.max(mx, f[p0 + d]);
       }
       mid.push((mn + mx) / 2);
     }
+    return mid;
+  }
+  function draw(i) {
+    current = Math.max(0, Math.min(n - 1, i));
+    var a = axes[view.value], k = 0, S = data.size, span = data.span;
+    var mid = middle(clips[0][1][current]), upright = a[1] === data.up;
     var lo = [mid[a[0]] - span / 2, upright ? data.low : mid[a[1]] - span / 2];
-    if (floor) floor.setAttribute('visibility', upright ? 'visible' : 'hidden');
-    if (floor && upright) {
-      // the floor plane where it meets the view's plane through the figure's middle in
+    floors.forEach(function (fl) {
+      var plane = fl[0], line = fl[1];
+      if (!line) return;
+      line.setAttribute('visibility', upright ? 'visible' : 'hidden');
+      if (!upright) return;
+      // the floor plane where it meets the view's plane through its figure's middle in
       // depth, at the view's left and right edges (as _floor_ends)
-      var normal = data.floor.normal, d3 = 3 - a[0] - a[1];
+      var normal = plane.normal, d3 = 3 - a[0] - a[1];
+      var depth = middle(clips[fl[2]][1][current])[d3];
       [0, 1].forEach(function (e) {
         var x = lo[0] + (e - 0.05) / 0.9 * span;
-        var h = (data.floor.offset - normal[a[0]] * x - normal[d3] * mid[d3]) / normal[data.up];
-        floor.setAttribute('y' + (e + 1), S - ((h - lo[1]) / span * 0.9 + 0.05) * S);
+        var h = (plane.offset - normal[a[0]] * x - normal[d3] * depth) / normal[data.up];
+        line.setAttribute('y' + (e + 1), S - ((h - lo[1]) / span * 0.9 + 0.05) * S);
       });
-    }
+    });
     var m = 0;
     clips.forEach(function (c, ci) {
       var f = c[1][current], gone = {}, hidden = data.hidden[ci];
@@ -469,26 +490,45 @@ def _floor_ends(
     return _to_view(ends[:, list(axes)], low, span)
 
 
-def _floor_line(ends: np.ndarray | None) -> str:
-    """The floor line between its ``ends`` (:func:`_floor_ends`; none without them)."""
+def _floor_line(ends: np.ndarray | None, clip: str, colour: str) -> str:
+    """The floor line of ``clip`` (``"before"``: ``mc-floor``, ``"after"``:
+    ``mc-floor-after``) between its ``ends`` (:func:`_floor_ends`; none without them)."""
     if ends is None:
         return ""
     (_, y1), (_, y2) = ends.tolist()
+    name = "mc-floor" if clip == "before" else "mc-floor-after"
     return (
-        f'<line id="mc-floor" x1="0" x2="{VIEW}" y1="{y1:.1f}" y2="{y2:.1f}" stroke="{FLOOR}" '
+        f'<line id="{name}" x1="0" x2="{VIEW}" y1="{y1:.1f}" y2="{y2:.1f}" stroke="{colour}" '
         'stroke-width="1.5"/>'
     )
 
 
-def _player(series: dict, frame_time: float, floor: Floor | None) -> str:
+def _floor_colour(floors: dict[str, Floor], clip: str) -> str:
+    """The colour of ``clip``'s floor line: grey where it is the only one, else its
+    figure's."""
+    if len(floors) < 2:
+        return FLOOR
+    return BEFORE if clip == "before" else AFTER
+
+
+def _player(series: dict, frame_time: float, floors: dict[str, Floor]) -> str:
     """The skeleton player, playing at the clip's own rate (``frame_time`` seconds per frame,
     by elapsed time; a clip carried every k-th frame at least :data:`PLAYER_STEPS_PER_S`
-    carried frames per second, the speed said beside the frame number); ``floor``: the
-    report's ``contacts.floor`` plane (file units, the clip turned upright), drawn as a
-    line where it meets each upright view, or None."""
+    carried frames per second, the speed said beside the frame number); ``floors``
+    (:func:`_floors`, file units, the clip turned upright), each drawn as a line where it
+    meets each upright view through its figure."""
     views = _views(series["up"])
     scale = QUANTUM / max(series["height"], 1e-12)
-    low, span = _window(series, floor)
+    low, span = _window(series, floors)
+
+    def plane(floor: Floor | None) -> dict | None:
+        """The plane alone (scaled as the points: its normal kept, its offset scaled)."""
+        if floor is None:
+            return None
+        return {
+            "normal": [round(float(v), FLOOR_DIGITS) for v in floor.normal],
+            "offset": round(floor.offset * scale, 1),
+        }
 
     def packed(points: np.ndarray | None) -> list | None:
         if points is None:
@@ -522,18 +562,13 @@ def _player(series: dict, frame_time: float, floor: Floor | None) -> str:
         "up": series["up"],
         "low": round(low * scale, 1),
         "span": round(span * scale, 1),
-        # the plane alone (scaled as the points: its normal kept, its offset scaled)
-        "floor": None
-        if floor is None
-        else {
-            "normal": [round(float(v), FLOOR_DIGITS) for v in floor.normal],
-            "offset": round(floor.offset * scale, 1),
-        },
+        "floor": plane(floors.get("before")),
+        "floor_after": plane(floors.get("after")),
         "colours": [BEFORE, AFTER],
         "frame_ms": frame_ms,
     }
     text = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
-    static = _static_frame(series, 0, views["front"], (low, span), floor)
+    static = _static_frame(series, 0, views["front"], (low, span), floors)
     return (
         '<div class="player"><svg id="mc-player" class="view" '
         f'viewBox="0 0 {VIEW} {VIEW}" role="img" aria-label="the clip as a stick figure">'
@@ -573,10 +608,20 @@ def _still_line(names: list[str], per: str) -> list[str]:
     ]
 
 
-def _floor(report: dict, up: int) -> Floor | None:
-    """The report's floor plane (``contacts.floor``), or None where none was found."""
-    found = (report.get("contacts") or {}).get("floor")
-    return None if not found else Floor(np.array(found["normal"]), found["offset"], up)
+def _floors(report: dict, up: int) -> dict[str, Floor]:
+    """The floor planes the player draws: the input's (``contacts.floor``) under
+    ``"before"``, and the cleaned clip's (``contacts.floor_after``) under ``"after"`` where
+    it is not the input's (``same``: nothing moved the clip); none where no floor was
+    found."""
+    contacts = report.get("contacts") or {}
+    planes = {"before": contacts.get("floor"), "after": contacts.get("floor_after")}
+    if not planes["after"] or planes["after"]["same"]:
+        del planes["after"]
+    return {
+        clip: Floor(np.array(found["normal"]), found["offset"], up)
+        for clip, found in planes.items()
+        if found
+    }
 
 
 def world_section(report: dict, series: dict | None) -> list[str]:
@@ -610,7 +655,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     ]
     figures = report.get("world") or {}
     per = "the body height" if figures.get("body_height") else "the range the points travel"
-    floor = _floor(report, world["up"])
+    floors = _floors(report, world["up"])
     axes = ""
     if figures:
         how = {"given": "given", "assumed": "assumed: the format's default"}.get(
@@ -631,13 +676,13 @@ def world_section(report: dict, series: dict | None) -> list[str]:
             if world["after"] is not None
             else ""
         )
-        + (
-            f'<span><i class="key" style="background:{FLOOR}"></i>floor (the input\'s)</span>'
-            if floor is not None
-            else ""
+        + "".join(
+            f'<span><i class="key" style="background:{_floor_colour(floors, clip)}"></i>'
+            f"floor (the {'input' if clip == 'before' else 'cleaned clip'}'s)</span>"
+            for clip in floors
         )
         + f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
-        _player(world, float(report["frame_time"]), floor),
+        _player(world, float(report["frame_time"]), floors),
         "<h2>Where the hands, feet and head go</h2>",
         *([f'<div class="grid">{"".join(cards)}</div>'] if cards else []),
         *_still_line(still, per),

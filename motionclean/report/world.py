@@ -225,7 +225,8 @@ def contact_figures(
     through the contacts' soles (:func:`~motionclean.core.contacts.fit_floor`): its height
     along the up axis at their centre, its tilt from level (degrees), normal and offset (a
     point ``p`` stands ``normal . p - offset`` above it, units; the clip turned upright),
-    and how many contacts it rests on (None without contacts). ``points`` and ``used`` as in
+    and how many contacts it rests on (None without contacts); ``floor_after`` the cleaned
+    clip's (:func:`_floor_after`; None for one clip). ``points`` and ``used`` as in
     :func:`world_figures`.
 
     Rest-pose frames at the clip's ends (:func:`~motionclean.core.restpose.rest_frames`)
@@ -289,6 +290,12 @@ def _contact_figures(
             ]
         )
     after_positions = None if after is None else _positions(after, points[1], used)
+    upward = kinematics.up_name(before)
+    after_floor, after_soles = (  # the cleaned clip's floor, where there are both
+        (None, None)
+        if after is None or after_positions is None or standing.floor is None
+        else _floor_under(after, after_positions, feet, standing.resting, upward, height)
+    )
     # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the
     # ground and the heights above it absent (None), not NaN
     grounded = not math.isnan(ground)
@@ -300,12 +307,8 @@ def _contact_figures(
         # far its feet moved during contacts (the median: a step that moves the whole clip,
         # as ground does, moves its ground; one that sinks a few frames does not); heights
         # above a tilted floor where contacts were found so, the cleaned clip's above its
-        # own (the floor through its soles: levelled by ground, it is level)
-        planes = [tilted, tilted]
-        if tilted is not None and after is not None and after_positions is not None:
-            after_soles = found.contact_soles(after_positions, feet, contacts, up, height)
-            sideways = kinematics.trunk_sideways(after)
-            planes[1] = found.fit_floor(after_soles, up, height, sideways=sideways) or tilted
+        # own (floor_after, through its soles: levelled by ground, it is level)
+        planes = [tilted, after_floor if tilted is not None else None]
         lowest = [found.lowest_points(p, feet, up, q) for p, q in zip(clips, planes, strict=False)]
         grounds = [ground]
         if len(clips) > 1:
@@ -328,7 +331,7 @@ def _contact_figures(
     ]
     floor, soles = standing.floor, standing.soles
     section: dict[str, Any] = {
-        "up_axis": kinematics.up_name(before),
+        "up_axis": upward,
         "ground": ground if grounded else None,
         "floor": None
         if floor is None
@@ -341,6 +344,9 @@ def _contact_figures(
             "contacts_found_above_it": standing.tilted,
             "terrain": found.terrain(floor, kinematics.upright_body_up(before)),
         },
+        "floor_after": None
+        if floor is None or after_floor is None or after_soles is None
+        else _floor_after(floor, after_floor, after_soles, height),
         "feet": {},
     }
     series: dict[str, dict] = {}
@@ -373,17 +379,79 @@ def _contact_figures(
     return section, series
 
 
+def _floor_under(
+    after: Motion,
+    positions: np.ndarray,
+    feet: list[found.Foot],
+    resting: np.ndarray,
+    upward: str,
+    height: float,
+) -> tuple[found.Floor | None, np.ndarray]:
+    """The cleaned clip's floor and the soles ``(n, 3)`` it rests on: the plane through
+    ``after``'s soles (``positions``, turned upright along the input's ``upward``, e.g.
+    ``"-y"``) of the contacts the input's floor rests on (``resting``), fitted as the
+    input's, the prior following ``after``'s own trunk: the input's plane where the clip
+    is the input's, moved with it where a step (``ground``) moved it."""
+    up = kinematics.axis_index(upward)
+    soles = found.contact_soles(positions, feet, resting, up, height)
+    sideways = kinematics.trunk_sideways(after, upward)
+    return found.fit_floor(soles, up, height, sideways=sideways), soles
+
+
+#: The cleaned clip's floor is the input's (the page draws one line, the terminal names one
+#: floor) where the two planes lie at most this far apart (body heights) below every sole
+#: of the cleaned clip: closer than the feet stand to their own floor (the lowest points
+#: of contacts 0.006-0.027 off it on tilted walks, stairs and ramps). The default pipeline
+#: leaves the floor within 0.024 (footlock on noisy stairs; video estimates 0.011, clean
+#: captures 0); ``ground`` moves it by 0.32-0.42 on walks tilted 8-10 degrees, by
+#: 0.05-0.5 on level captures off height 0 (by 0.003-0.027 on those already near it).
+FLOOR_KEPT = 0.03
+
+
+def _floor_after(
+    floor: found.Floor, after: found.Floor, soles: np.ndarray, height: float
+) -> dict[str, Any]:
+    """The ``contacts.floor_after`` entry: the cleaned clip's ``after`` floor (its height
+    at the centre of its ``soles``, tilt, normal and offset, as ``contacts.floor``), how
+    far apart the two planes lie below those soles (``apart``, units) and whether that is
+    within :data:`FLOOR_KEPT` body heights (``same``: the input's floor kept)."""
+    apart = float(np.abs(after.heights_at(soles) - floor.heights_at(soles)).max())
+    return {
+        "height": after.height_at(soles.mean(axis=0)),
+        "tilt_deg": after.tilt_deg,
+        "normal": [float(v) for v in after.normal],
+        "offset": float(after.offset),
+        "apart": apart,
+        "same": apart <= FLOOR_KEPT * height,
+    }
+
+
 def format_floor(section: dict) -> str | None:
     """The floor's line of a contacts section (None without a floor): its height along the
-    up axis, tilt and the contacts it rests on."""
+    up axis, tilt and the contacts it rests on; then the cleaned clip's height and tilt
+    where its floor is not the input's (``floor_after``, :data:`FLOOR_KEPT`)."""
     floor = section.get("floor")
     if not floor:
         return None
     slope = ", rising under an upright body: stairs or a slope" if floor.get("terrain") else ""
+    moved = section.get("floor_after")  # (absent from older reports)
+    after = (
+        ""
+        if not moved or moved["same"]
+        else f" -> height {_as_precise(moved['height'], floor['height'])}, "
+        f"tilt {moved['tilt_deg']:.2f} deg after"
+    )
     return (
         f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg{slope} "
-        f"(through the soles of {plural(floor['contacts'], 'contact')})"
+        f"(through the soles of {plural(floor['contacts'], 'contact')}){after}"
     )
+
+
+def _as_precise(value: float, given: float) -> str:
+    """``value`` to the decimals that ``given`` shows at 4 significant digits: the cleaned
+    floor's height put at 0 by ``ground`` reads 0, not its fit's 1e-15."""
+    digits = max(0, 3 - math.floor(math.log10(abs(given)))) if given else 4
+    return f"{round(value, digits) + 0.0:.4g}"
 
 
 def depth_text(foot: dict, arrow: str, number: Callable[[float], str]) -> str:

@@ -264,7 +264,8 @@ def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
 
 
 #: Run after the player's script: for each ``[view, carried frame index]`` of
-#: ``MC_ASKED``, draw it and keep the floor line's ends and the input's joints drawn.
+#: ``MC_ASKED``, draw it and keep, per clip (``before``, ``after``), its floor line's ends
+#: (``mc-floor``, ``mc-floor-after``; null where none is drawn) and its joints drawn.
 FLOOR_STEPS = """<script>
 (function () {
   var view = document.getElementById('mc-view'), slider = document.getElementById('mc-slider');
@@ -272,17 +273,47 @@ FLOOR_STEPS = """<script>
   MC_ASKED.forEach(function (ask) {
     view.value = ask[0]; view.dispatchEvent(new Event('change'));
     slider.value = ask[1]; slider.dispatchEvent(new Event('input'));
-    var line = document.getElementById('mc-floor'), joints = [];
-    document.querySelectorAll('circle.joint[data-clip="before"]').forEach(function (c) {
-      if (c.getAttribute('visibility') !== 'hidden') {
-        joints.push([+c.getAttribute('cx'), +c.getAttribute('cy')]);
-      }
+    var shown = {};
+    [['before', 'mc-floor'], ['after', 'mc-floor-after']].forEach(function (clip) {
+      var line = document.getElementById(clip[1]), joints = [];
+      document.querySelectorAll('circle.joint[data-clip="' + clip[0] + '"]').forEach(
+        function (c) {
+          if (c.getAttribute('visibility') !== 'hidden') {
+            joints.push([+c.getAttribute('cx'), +c.getAttribute('cy')]);
+          }
+        });
+      shown[clip[0]] = {
+        ends: line ? [+line.getAttribute('y1'), +line.getAttribute('y2')] : null,
+        joints: joints
+      };
     });
-    seen.push({ends: [+line.getAttribute('y1'), +line.getAttribute('y2')], joints: joints});
+    seen.push(shown);
   });
   document.body.setAttribute('data-seen', JSON.stringify(seen));
 })();
 </script>"""
+
+
+def drawn_frames(path, page: str, views: list) -> list[dict]:
+    """What the browser draws at each ``[view, carried frame index]`` of ``views``
+    (:data:`FLOOR_STEPS`), the page written to ``path``."""
+    asking = f"<script>var MC_ASKED={json.dumps(views)};</script>{FLOOR_STEPS}</body>"
+    path.write_text(page.replace("</body>", asking, 1), encoding="utf-8")
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, ""))
+    return json.loads(html.unescape(seen.group(1)))
+
+
+def contact_frames(report: dict, world: dict, clip: str = "before") -> list[int]:
+    """The carried frame (index) of the first and of the last contact where ``clip``'s
+    figure stands lowest."""
+    runs = sorted(run for foot in report["contacts"]["feet"].values() for run in foot["contacts"])
+    lowest = world[clip][..., world["up"]].min(axis=1)
+    asked = []
+    for first, stop in (runs[0], runs[-1]):
+        carried = np.flatnonzero((world["frames"] >= first) & (world["frames"] < stop))
+        asked.append(int(carried[np.argmin(lowest[carried])]))
+    return asked
+
 
 #: The lowest point of a contact stands this close to the floor found (body heights): the
 #: plane fitted up PyMO's walk on a 5-degree slope (4.45 degrees, through the middle of
@@ -309,25 +340,17 @@ def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, na
     report = build_report(clip, series=series)
     world, floor, up = series["world"], report["contacts"]["floor"], series["world"]["up"]
     # per end of the clip, the carried frame of its contact where the figure stands lowest
-    runs = sorted(run for foot in report["contacts"]["feet"].values() for run in foot["contacts"])
-    lowest = world["before"][..., up].min(axis=1)
-    asked = []
-    for first, stop in (runs[0], runs[-1]):
-        carried = np.flatnonzero((world["frames"] >= first) & (world["frames"] < stop))
-        asked.append(int(carried[np.argmin(lowest[carried])]))
+    asked = contact_frames(report, world)
     views = [[view, index] for view in ("front", "side") for index in asked]
     page = render_html(report, series)
-    asking = f"<script>var MC_ASKED={json.dumps(views)};</script>{FLOOR_STEPS}</body>"
-    path = tmp_path / "report.html"
-    path.write_text(page.replace("</body>", asking, 1), encoding="utf-8")
-    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, ""))
+    seen = drawn_frames(tmp_path / "report.html", page, views)
     data = player_data(page)
     scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
     normal = np.array(floor["normal"])
     travel = middle(world["before"][asked[1]]) - middle(world["before"][asked[0]])
-    for (view, index), drawn in zip(views, json.loads(html.unescape(seen.group(1))), strict=True):
+    for (view, index), drawn in zip(views, seen, strict=True):
         axes = data["views"][view]
-        ends, joints = np.array(drawn["ends"]), np.array(drawn["joints"])
+        ends, joints = np.array(drawn["before"]["ends"]), np.array(drawn["before"]["joints"])
         rise = ends[1] - ends[0]  # view units, y down
         assert rise == pytest.approx(360 * normal[axes[0]] / normal[up], abs=0.01)
         if degrees:
@@ -337,6 +360,57 @@ def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, na
         above = above_floor(world["before"][index], floor, axes, up)
         assert drawn_above_floor(joints, ends) == pytest.approx(above * scale, abs=1.0)
         assert abs(above) < ON_FLOOR * world["height"]
+
+
+@pytest.mark.browser
+def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_path):
+    """PyMO's walk turned up a 10-degree slope and grounded (levelled, put at height 0):
+    the player draws the cleaned clip's floor (``contacts.floor_after``) as a second line
+    in the cleaned colour, keyed so. At the first and last contacts, in the front and side
+    views, the cleaned figure's lowest point stands on it (within :data:`ON_FLOOR`, as far
+    above it as above the plane), and the input's line is still the input's plane under
+    the input's feet. (With the input's line alone, the cleaned figure had stood 0.30
+    body heights below it at the last contact.)"""
+    clip = uphill(mc.load(ROOT / "tests" / "data" / "exporters" / "pymo_walk_tpose.bvh"), 10.0)
+    grounded, _ = Pipeline.from_inline(["ground"]).run(clip)
+    series = build_series(clip, grounded)
+    report = build_report(clip, grounded, series=series)
+    world, up = series["world"], series["world"]["up"]
+    floors = {"before": report["contacts"]["floor"], "after": report["contacts"]["floor_after"]}
+    assert not floors["after"]["same"]
+    page = render_html(report, series)
+    assert "floor (the input's)" in page and "floor (the cleaned clip's)" in page
+    assert re.search(r'<line id="mc-floor-after"[^>]*stroke="#1f57b8"', page)
+    asked = contact_frames(report, world, "after")
+    views = [[view, index] for view in ("front", "side") for index in asked]
+    data = player_data(page)
+    scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
+    off_input = []
+    seen = drawn_frames(tmp_path / "report.html", page, views)
+    for (view, index), drawn in zip(views, seen, strict=True):
+        axes = data["views"][view]
+        for clip_name, plane in floors.items():
+            ends = np.array(drawn[clip_name]["ends"])
+            joints = np.array(drawn[clip_name]["joints"])
+            normal = np.array(plane["normal"])
+            assert ends[1] - ends[0] == pytest.approx(360 * normal[axes[0]] / normal[up], abs=0.01)
+            above = above_floor(world[clip_name][index], plane, axes, up)
+            assert drawn_above_floor(joints, ends) == pytest.approx(above * scale, abs=1.0)
+            assert abs(above) < ON_FLOOR * world["height"]
+        after_joints = np.array(drawn["after"]["joints"])
+        off_input.append(drawn_above_floor(after_joints, np.array(drawn["before"]["ends"])))
+    assert max(np.abs(off_input)) / scale > 0.2 * world["height"]
+
+
+def test_a_clip_the_cleaning_did_not_move_keeps_one_floor_line():
+    """The default pipeline leaves a clip where it stood: its page draws the input's floor
+    alone, grey, keyed as the input's, as a page of the input alone does."""
+    page = page_of(NOISY)
+    data = player_data(page)
+    assert data["floor"] is not None and data["floor_after"] is None
+    assert 'id="mc-floor-after"' not in page and "floor (the cleaned clip's)" not in page
+    assert "floor (the input's)" in page
+    assert re.search(r'<line id="mc-floor"[^>]*stroke="#9aa2b1"', page)
 
 
 def y_down_copy(motion: mc.Motion) -> mc.Motion:

@@ -125,6 +125,38 @@ def test_the_report_measures_feet_below_each_clips_own_ground(walk):
         assert depth["after"] == pytest.approx(depth["before"], abs=0.01)
 
 
+def test_the_report_gives_the_floor_the_grounded_clip_stands_on(walk):
+    """Tilted, raised and grounded, a walk's report gives beside the input's floor the
+    cleaned clip's (``contacts.floor_after``): level, at height 0, the floor its own report
+    finds, far from the input's; the terminal's floor line says it. Compared with itself
+    or cleaned by the default pipeline, a clip keeps the input's floor (``same``) and the
+    line names one. (The report had given the input's floor alone: after ground the
+    cleaned figure stood up to 0.44 body heights off the only floor it showed.)"""
+    height = kinematics.body_height(walk)
+    tilted = _tilted(walk, 5.0)
+    grounded, _ = Pipeline.from_inline(["ground"]).run(tilted)
+    section, _ = contact_figures(tilted, grounded)
+    alone, _ = contact_figures(tilted)
+    floor, after = section["floor"], section["floor_after"]
+    assert alone["floor_after"] is None and floor == alone["floor"]
+    assert after["tilt_deg"] < 1.0 and abs(after["height"]) < 0.01 * height
+    own = floor_of(grounded).floor
+    assert own is not None
+    np.testing.assert_allclose(after["normal"], own.normal, atol=1e-3)
+    assert after["offset"] == pytest.approx(own.offset, abs=0.01 * height)
+    assert after["apart"] > 0.1 * height and not after["same"]
+    line = format_contacts(section)[0]
+    told = re.search(r"\) -> height (\S+), tilt (\S+) deg after$", line)
+    assert told is not None, line
+    assert float(told.group(1)) == pytest.approx(after["height"], abs=0.001)
+    assert told.group(2) == f"{after['tilt_deg']:.2f}"
+    for cleaned in (tilted, Pipeline.default().run(tilted)[0]):
+        kept, _ = contact_figures(tilted, cleaned)
+        assert kept["floor_after"]["same"]
+        assert kept["floor_after"]["tilt_deg"] == pytest.approx(floor["tilt_deg"], abs=0.1)
+        assert format_contacts(kept)[0] == format_contacts(alone)[0]
+
+
 def test_the_report_gives_the_depth_below_the_ground_during_contacts_and_at_any_frame():
     """A clip's feet may go below the ground between contacts (a heel's impact the frame
     before its contact starts, deepened by auto's smoothing), where footlock holds nothing:
