@@ -101,10 +101,18 @@ def _covered(q: np.ndarray, unmeasured: np.ndarray, lags: np.ndarray, dt: float)
     rows of its count of unmeasured steps)."""
     n = q.shape[0]
     edges = np.zeros((n + 1, q.shape[1]), dtype=np.int64)  # +1 where a cover starts, -1 after
+    active = np.arange(q.shape[1])  # columns that may turn fast over some span
     for k in lags[2 * lags < n].tolist():
-        turn = quat.log_relative(q[:-k], q[k:])  # turn[r]: frame r to r + k, half-angle radians
+        if active.size == 0:
+            break
+        # turn[r]: frame r to r + k, half-angle radians
+        turn = quat.log_relative(q[:-k, active], q[k:, active])
         floor = math.radians(THRASH_DEG_PER_S) * k * dt / 2.0
         fast = np.einsum("...i,...i->...", turn, turn) > floor * floor
+        if k == 1:  # a span turns no faster than its fastest frame step: the others wait
+            moving = fast.any(axis=0)
+            active, turn, fast = active[moving], turn[:, moving], fast[:, moving]
+            unmeasured = unmeasured[:, moving]
         for pause in range(min(PAUSE_FRAMES, n - 2 * k - 1) + 1):
             # into frame r + k: turn[r]; out of frame r + k + pause: turn[r + k + pause]
             count, out_of = n - 2 * k - pause, slice(k + pause, n - k)
@@ -112,8 +120,8 @@ def _covered(q: np.ndarray, unmeasured: np.ndarray, lags: np.ndarray, dt: float)
             hit = back & fast[:count] & fast[out_of]
             span = 2 * k + pause  # frames r to r + span, its steps all measured
             hit &= unmeasured[span : span + count] == unmeasured[:count]
-            edges[:count] += hit
-            edges[span + 1 : span + 1 + count] -= hit
+            edges[:count, active] += hit
+            edges[span + 1 : span + 1 + count, active] -= hit
     return np.cumsum(edges[:-1], axis=0) > 0
 
 
