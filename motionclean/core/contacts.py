@@ -396,11 +396,13 @@ def fit_floor(
     """The plane through the contacts' soles ``(n, 3)`` (:func:`contact_soles`): height
     along the up axis as a linear function of the horizontal position, least squares with
     a prior on the slope (:data:`FLOOR_SLOPE_PRIOR`, :data:`FLOOR_SPREAD`), centred on
-    level or, where the trunk leans sideways by more than :data:`SIDEWAYS_TILT`
-    (``sideways``: :func:`~motionclean.core.kinematics.trunk_sideways`), on the plane
-    tilted with it (a camera's roll, which footprints along one line cannot show). Soles
-    more than 3 robust deviations (1.4826 MAD) from the prior plane, then from the first
-    fit, are left out (a foot on a step, a misplaced contact). The plane is then moved
+    level or, where the body leans sideways past :data:`SIDEWAYS_TILT` (``sideways``:
+    :func:`~motionclean.core.kinematics.sideways_lean`), toward the plane tilted with it
+    (a camera's roll, which footprints along one line cannot show). Soles more than 3
+    robust deviations (1.4826 MAD) from the level plane or the prior's, whichever they
+    scatter less about, then from the first fit, are left out (a foot on a step, a
+    misplaced contact; a wrong prior does not leave out the soles that contradict it).
+    The plane is then moved
     along the up axis to the ``quantile`` of the kept soles' heights above it (0.5:
     through the middle of them, 0: under every one). None without soles."""
     if soles.shape[0] == 0:
@@ -408,8 +410,8 @@ def fit_floor(
     across = [a for a in range(3) if a != up]
     ridge = (FLOOR_SPREAD * height / FLOOR_SLOPE_PRIOR) ** 2
     prior = _prior_slope(sideways, up, across)
-    slope = prior
-    level = float(np.median(soles[:, up] - soles[:, across] @ prior))
+    slope = min((np.zeros(2), prior), key=lambda s: _spread(soles[:, up] - soles[:, across] @ s))
+    level = float(np.median(soles[:, up] - soles[:, across] @ slope))
     keep = np.ones(soles.shape[0], dtype=bool)
     for _ in range(2):
         residual = soles[:, up] - level - soles[:, across] @ slope
@@ -431,25 +433,34 @@ def fit_floor(
     return Floor(normal / scale, level / scale, up)
 
 
-#: A trunk leaning sideways (along the hips' left-right axis, averaged over the clip) by
-#: more than this (degrees) tilts the floor's prior with it: the capture is rolled about
-#: the way the body faces (a camera pitched down at a walk across its view), which a
-#: floor fitted through footprints along one line cannot show (such a walk tilted 20
-#: degrees had been levelled to 20). Clean captures lean sideways by 0-4.2 degrees (the
-#: corpus 0.4-0.8; the exporters', game, Bandai Namco, LaFAN1, Rokoko, Xsens clips), a
-#: kick on one leg 6.5: under it, the prior stays level, as a lean of the body's own.
-SIDEWAYS_TILT = 10.0
+def _spread(residual: np.ndarray) -> float:
+    """1.4826 MAD of ``residual``: a robust standard deviation."""
+    return float(1.4826 * np.median(np.abs(residual - np.median(residual))))
+
+
+#: A body leaning sideways (trunk and legs alike, along the hips' left-right axis,
+#: averaged over the clip) by more than the first of these (degrees) tilts the floor's
+#: prior with it, in full from the second on (a ramp between: no jump of the floor for a
+#: lean a degree apart): the capture is rolled about the way the body faces (a camera
+#: pitched down at a walk across its view), which a floor fitted through footprints along
+#: one line cannot show (such a walk rolled 20 degrees had been levelled to 20). Clean
+#: captures' trunks lean sideways by 0-4.2 degrees (the corpus 0.4-0.8; the exporters',
+#: game, Bandai Namco, LaFAN1, Rokoko, Xsens clips), a kick on one leg 6.5: under the
+#: first, the prior stays level, as a lean of the body's own.
+SIDEWAYS_TILT = (10.0, 15.0)
 
 
 def _prior_slope(sideways: np.ndarray | None, up: int, across: list[int]) -> np.ndarray:
-    """``(2,)`` the floor's prior slope along ``across``: level, or tilted with a trunk
+    """``(2,)`` the floor's prior slope along ``across``: level, or tilted toward a body
     that leans ``sideways`` ``(3,)`` past :data:`SIDEWAYS_TILT`."""
     if sideways is None:
         return np.zeros(2)
     lean = float(np.linalg.norm(sideways))
-    if not math.sin(math.radians(SIDEWAYS_TILT)) < lean < 1.0:
+    if not 0.0 < lean < 1.0:
         return np.zeros(2)
-    return -sideways[across] / math.sqrt(1.0 - lean * lean)
+    first, full = SIDEWAYS_TILT
+    share = min(max((math.degrees(math.asin(lean)) - first) / (full - first), 0.0), 1.0)
+    return -share * sideways[across] / math.sqrt(1.0 - lean * lean)
 
 
 #: Passes of contacts found above the floor and the floor fitted again (a tilted floor's
@@ -476,6 +487,7 @@ def find_floor(
     params: ContactParams = ContactParams(),
     contacts: np.ndarray | None = None,
     sideways: np.ndarray | None = None,
+    unknown: np.ndarray | None = None,
 ) -> tuple[Floor | None, np.ndarray, np.ndarray]:
     """The floor (:func:`fit_floor`), the soles ``(n, 3)`` it rests on and the contacts
     ``(F, n_feet)`` found above it: contacts found above a level ground (``contacts``,
@@ -483,15 +495,17 @@ def find_floor(
     their soles, then contacts found again above that plane (on a tilted floor the first
     pass misses the feet on its high side) and the plane fitted again, up to
     :data:`FLOOR_PASSES` times; a pass that finds no contact keeps the last floor, its
-    soles and contacts; ``sideways``: :func:`fit_floor`'s."""
+    soles and contacts; ``sideways``: :func:`fit_floor`'s, ``unknown``: :func:`detect`'s."""
     if contacts is None:
-        contacts, _ = detect(positions, feet, up, height, frame_time, params)
+        contacts, _ = detect(positions, feet, up, height, frame_time, params, unknown=unknown)
     soles = contact_soles(positions, feet, contacts, up, height)
     floor = fit_floor(soles, up, height, sideways=sideways)
     for _ in range(FLOOR_PASSES):
         if floor is None:
             break
-        found, _ = detect(positions, feet, up, height, frame_time, params, floor=floor)
+        found, _ = detect(
+            positions, feet, up, height, frame_time, params, floor=floor, unknown=unknown
+        )
         if np.array_equal(found, contacts):
             break
         refit = contact_soles(positions, feet, found, up, height)
@@ -527,32 +541,37 @@ def find_ground(
     frame_time: float,
     params: ContactParams = ContactParams(),
     sideways: np.ndarray | None = None,
+    unknown: np.ndarray | None = None,
 ) -> Ground:
     """:func:`detect`'s contacts above a level ground and :func:`find_floor`'s floor; where
     the floor rises across its soles by more than :data:`FLOOR_RISE` of ``params.height``
     body heights, the contacts found above it and heights taken above it instead;
-    ``sideways``: the trunk's sideways lean the floor's prior follows (:func:`fit_floor`)."""
-    contacts, level = detect(positions, feet, up, height, frame_time, params)
+    ``sideways``: the body's sideways lean the floor's prior follows (:func:`fit_floor`);
+    ``unknown`` ``(F, n_feet)``: frames where a foot's place is not known (:func:`detect`)."""
+    contacts, level = detect(positions, feet, up, height, frame_time, params, unknown=unknown)
     if math.isnan(level):
         return Ground(contacts, None, np.zeros((0, 3)), level, False, contacts)
     floor, soles, on_floor = find_floor(
-        positions, feet, up, height, frame_time, params, contacts, sideways
+        positions, feet, up, height, frame_time, params, contacts, sideways, unknown
     )
     rise = FLOOR_RISE * params.height * height
     if not _rises(floor, soles, rise):
         # the feet on a short slope's high side may all stand beyond a level ground's reach
         seed = _contacts_under_still_feet(
-            positions, feet, up, height, frame_time, params, rise, sideways
+            positions, feet, up, height, frame_time, params, rise, sideways, unknown
         )
         uphill = (
             None
             if seed is None
-            else find_floor(positions, feet, up, height, frame_time, params, seed, sideways)
+            else find_floor(
+                positions, feet, up, height, frame_time, params, seed, sideways, unknown
+            )
         )
         if uphill is None or not _rises(uphill[0], uphill[1], rise):
             return Ground(contacts, floor, soles, level, False, on_floor)
         floor, soles, on_floor = uphill
-    above = estimate_ground(lowest_points(positions, feet, up, floor))
+    lowest = lowest_points(positions, feet, up, floor)
+    above = estimate_ground(lowest if unknown is None else lowest[~unknown])
     return Ground(on_floor, floor, soles, above, True, on_floor)
 
 
@@ -570,18 +589,19 @@ def _contacts_under_still_feet(
     params: ContactParams,
     rise: float,
     sideways: np.ndarray | None = None,
+    unknown: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """Contacts above the plane through the soles of the feet wherever they stand still
     (no height limit), to start :func:`find_floor` from where a floor's high side lies
     wholly beyond a level ground's reach; None where that plane does not rise by more than
     ``rise`` (length units) across those soles."""
     anywhere = replace(params, height=np.inf, height_off=np.inf)
-    still, _ = detect(positions, feet, up, height, frame_time, anywhere)
+    still, _ = detect(positions, feet, up, height, frame_time, anywhere, unknown=unknown)
     soles = contact_soles(positions, feet, still, up, height)
     under = fit_floor(soles, up, height, sideways=sideways)
     if not _rises(under, soles, rise):
         return None
-    return detect(positions, feet, up, height, frame_time, params, floor=under)[0]
+    return detect(positions, feet, up, height, frame_time, params, floor=under, unknown=unknown)[0]
 
 
 #: A floor is the ground's own slope (stairs, a ramp, a hill), not the capture's tilt, where
@@ -607,8 +627,18 @@ def terrain(floor: Floor, body: np.ndarray | None) -> bool:
 
 
 def estimate_ground(lowest: np.ndarray) -> float:
-    """The ground height: the 5th percentile of the feet's lowest points over the clip."""
-    return float(np.percentile(lowest, 5.0))
+    """The ground height: the 5th percentile of the feet's lowest points over the clip (NaN
+    without any)."""
+    return float(np.percentile(lowest, 5.0)) if lowest.size else float("nan")
+
+
+def feet_unknown(unknown_points: np.ndarray | None, feet: list[Foot]) -> np.ndarray | None:
+    """``(F, n_feet)``: frames where any point of a foot is unknown, from the points'
+    ``(F, P)`` (:func:`~motionclean.core.kinematics.missing_points`, the feet's point
+    indices its columns; None: every point known, and None back)."""
+    if unknown_points is None or not feet:
+        return None
+    return np.stack([unknown_points[:, list(f.points)].any(axis=1) for f in feet], axis=1)
 
 
 def _close_gaps(loose: np.ndarray, low: np.ndarray, shortest: int) -> np.ndarray:
@@ -666,6 +696,7 @@ def detect(
     params: ContactParams = ContactParams(),
     ground: float | None = None,
     floor: Floor | None = None,
+    unknown: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """Frames where each foot is on the ground: ``(F, n_feet)`` bool, and the ground height.
 
@@ -678,7 +709,9 @@ def detect(
     :data:`EDGE_RISE` above its median height in the contact; contacts shorter than
     ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
     with a ``floor`` (a plane, tilted or not) heights are taken above it instead, and the
-    ground returned is ``ground`` as given (NaN for None).
+    ground returned is ``ground`` as given (NaN for None). ``unknown`` ``(F, n_feet)``:
+    frames where a foot's place is not known (a tracker's dropout, its samples held): no
+    contact there, and the ground found from the other frames.
     """
     n_frames = positions.shape[0]
     contacts = np.zeros((n_frames, len(feet)), dtype=bool)
@@ -686,7 +719,8 @@ def detect(
         return contacts, float("nan") if ground is None else ground
     if floor is None:
         lowest = lowest_points(positions, feet, up)
-        ground = estimate_ground(lowest) if ground is None else ground
+        if ground is None:
+            ground = estimate_ground(lowest if unknown is None else lowest[~unknown])
         above = (lowest - ground) / height
     else:  # (the ground is not read: heights above the floor)
         above = lowest_points(positions, feet, up, floor) / height
@@ -695,7 +729,9 @@ def detect(
     speed /= height
     ankle = ankles[..., up] if floor is None else floor.above(ankles)  # (F, n_feet)
     low = above < params.height_off
-    strict = (above < params.height) & (speed < params.speed)
+    if unknown is not None:
+        low &= ~unknown
+    strict = low & (above < params.height) & (speed < params.speed)
     loose = low & (speed < params.speed_off)
     # a contact lasts at most the clip: a longer minimum (up to inf) keeps none; a file's
     # frame time is rounded (0.0083333 for 120 fps): 0.1 s is 12 frames, not 12.00005

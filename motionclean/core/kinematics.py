@@ -574,14 +574,16 @@ def upright_body_up(motion: Motion, up: str | int | None = None) -> np.ndarray |
     return None if body is None else upright(body, *up_direction(motion, up))
 
 
-def trunk_sideways(motion: Motion, up: str | int | None = None) -> np.ndarray | None:
+def sideways_lean(motion: Motion, up: str | int | None = None) -> np.ndarray | None:
     """``(3,)``, in the clip turned :func:`upright` (``up``: the override): how far the
-    trunk (:func:`body_up`'s direction, per pose) leans along the hips' left-right axis
-    (horizontal), as a vector along that axis (its length the sine of the lean), averaged
-    over the sampled poses where the trunk and legs are known: a body stands upright
-    sideways (a walk's lean is forward), so a lean there is the capture's tilt (a camera
-    rolled about the way the body faces). None without a trunk on two legs or such a
-    pose."""
+    body leans along its hips' left-right axis (horizontal), as a vector along that axis
+    (its length the sine of the lean), averaged over the sampled poses where the trunk and
+    legs are known: the lesser of the trunk's lean (:func:`body_up`'s direction) and the
+    legs' (from their tips' midpoint to the hips'), where both lean the same way, else
+    none. A body stands upright sideways (a walk's lean is forward), so a lean of trunk
+    and legs alike is the capture's tilt (a camera rolled about the way the body faces);
+    a bend at the waist leans the trunk alone, a side kick the legs. None without a trunk
+    on two legs or such a pose."""
     poses, known = sample_poses(motion)
     rest = rest_positions(motion)
     parents = point_parents(motion)
@@ -599,8 +601,14 @@ def trunk_sideways(motion: Motion, up: str | int | None = None) -> np.ndarray | 
     across = poses[:, hips[1]] - poses[:, hips[0]]
     across[:, axis] = 0.0
     across = _unit(across)
-    trunk = _trunk_up(poses, parts)
-    return np.einsum("sk,sk->s", trunk, across) @ across / poses.shape[0]
+    legs = _unit(poses[:, hips].mean(axis=1) - poses[:, tips].mean(axis=1))
+    trunk, legs = (
+        np.einsum("sk,sk->s", way, across) @ across / poses.shape[0]
+        for way in (_trunk_up(poses, parts), legs)
+    )
+    if float(trunk @ legs) <= 0.0:
+        return np.zeros(3)
+    return trunk if np.linalg.norm(trunk) <= np.linalg.norm(legs) else legs
 
 
 def _hip(parents: np.ndarray, rest: np.ndarray, pelvis: int, root: int, tip: int) -> int:

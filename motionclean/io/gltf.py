@@ -277,8 +277,11 @@ def _beside(path, what: str, uri: str) -> Path:
     part of the name. Refused (one-line MotionError) when it names no file, is a URL or an
     absolute path, climbs out by ``..``, holds a NUL byte, or leads out of the folder
     through a link: ``skin.png -> /etc/passwd`` would put that file into the output."""
-    name = unquote(urlsplit(uri).path)
     said = f"{what}: uri {uri[:60]!r}"
+    parts = _split(uri)
+    if parts is None:
+        _fail(f"{said} is not a valid URI", path)
+    name = unquote(parts.path)
     if not name or name.endswith("/"):
         _fail(f"{said} names no file", path)
     if not _relative_file(uri):
@@ -289,9 +292,21 @@ def _beside(path, what: str, uri: str) -> Path:
         _fail(f"{said} holds a NUL byte", path)
     folder = os.path.realpath(Path(path).parent)
     where = os.path.realpath(os.path.join(folder, name))
-    if os.path.commonpath([folder, where]) != folder:
+    try:
+        inside = os.path.commonpath([folder, where]) == folder
+    except ValueError:  # another drive (Windows)
+        inside = False
+    if not inside:
         _fail(f"{said} links outside the glTF's folder", path)
     return Path(where)
+
+
+def _split(uri: str):
+    """``urlsplit(uri)``, or None where ``uri`` is no valid URI (``//[skin.png``)."""
+    try:
+        return urlsplit(uri)
+    except ValueError:
+        return None
 
 
 def _read_file(path, what: str, where: Path, kind: str) -> bytes:
@@ -1105,7 +1120,9 @@ def _relative_file(uri: object) -> bool:
     a URL with a scheme or host, or an absolute path: those read the same from anywhere)."""
     if not isinstance(uri, str):
         return False
-    parts = urlsplit(uri)
+    parts = _split(uri)
+    if parts is None:  # no valid URI: no file (a buffer's is refused when it is read)
+        return False
     return not (parts.scheme or parts.netloc or os.path.isabs(unquote(parts.path)))
 
 
@@ -1152,7 +1169,7 @@ def _image_files(document: dict, path) -> tuple[dict[int, tuple[Path, str]], lis
         if not _relative_file(uri):
             continue
         where = _beside(path, f"images[{index}]", uri)
-        suffix = Path(unquote(urlsplit(uri).path)).suffix.lower()
+        suffix = Path(unquote(uri.partition("?")[0].partition("#")[0])).suffix.lower()
         media = image.get("mimeType") or IMAGE_TYPES.get(suffix)
         why = _not_a_file(where)
         if why is None and isinstance(media, str):

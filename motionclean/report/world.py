@@ -273,8 +273,9 @@ def _contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     params = found.ContactParams()
+    unknown = found.feet_unknown(kinematics.missing_points(before), skeleton_feet)
     standing = found.find_ground(
-        positions, feet, up, height, dt, params, kinematics.trunk_sideways(before)
+        positions, feet, up, height, dt, params, kinematics.sideways_lean(before), unknown
     )
     contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
@@ -394,7 +395,7 @@ def _floor_under(
     is the input's, moved with it where a step (``ground``) moved it."""
     up = kinematics.axis_index(upward)
     soles = found.contact_soles(positions, feet, resting, up, height)
-    sideways = kinematics.trunk_sideways(after, upward)
+    sideways = kinematics.sideways_lean(after, upward)
     return found.fit_floor(soles, up, height, sideways=sideways), soles
 
 

@@ -62,7 +62,7 @@ def find_contacts(motion: Motion, params: dict):
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     positions = kinematics.upright_positions(motion, given)
-    sideways = kinematics.trunk_sideways(motion, given)
+    sideways = kinematics.sideways_lean(motion, given)
     standing = found.find_ground(
         positions, feet, up, height, motion.frame_time, contact_params(params), sideways
     )
@@ -236,7 +236,7 @@ def _run(data: StepData, params: dict) -> StepData:
     thresholds = noise_aware(
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
-    sideways = kinematics.trunk_sideways(motion, given_up(params))
+    sideways = kinematics.sideways_lean(motion, given_up(params))
     standing = found.find_ground(
         positions, on_columns, up, height, motion.frame_time, thresholds, sideways
     )

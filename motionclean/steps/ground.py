@@ -40,9 +40,10 @@ def floor_of(motion: Motion, up: str | None = None) -> FoundFloor:
     if not feet:
         return FoundFloor(None, np.zeros((0, 3)), False)
     positions = kinematics.upright_positions(motion, up)
-    sideways = kinematics.trunk_sideways(motion, up)
+    sideways = kinematics.sideways_lean(motion, up)
+    unknown = found.feet_unknown(kinematics.missing_points(motion), feet)
     standing = found.find_ground(
-        positions, feet, axis, height, motion.frame_time, sideways=sideways
+        positions, feet, axis, height, motion.frame_time, sideways=sideways, unknown=unknown
     )
     floor = standing.floor
     body = kinematics.upright_body_up(motion, up)

@@ -453,3 +453,18 @@ def test_the_reports_skate_is_a_drift_the_same_at_every_frame_rate():
         at_cut,
         found.skate(positions, feet, contacts, up, motion.frame_time, cut, found.DRIFT_SECONDS),
     )
+
+
+def test_a_leaning_prior_does_not_leave_out_the_soles_that_contradict_it():
+    """A level floor's soles in two clusters two body heights apart, and a body leaning 15
+    degrees sideways: the prior, tilted with the lean, had left the far cluster out as
+    outliers (0.85 units above a floor read at 14.2 degrees). Soles are judged about the
+    plane they scatter less about, so both clusters stand on the floor found."""
+    rng = np.random.default_rng(0)
+    height = 1.7
+    near = np.c_[rng.normal(0, 0.05, 14), rng.normal(0, 0.003, 14), rng.normal(0, 0.1, 14)]
+    far = near[:6] + np.array([2.0 * height, 0.0, 0.0])
+    lean = np.array([np.sin(np.radians(15.0)), 0.0, 0.0])
+    floor = found.fit_floor(np.r_[near, far], 1, height, sideways=lean)
+    assert floor is not None and floor.tilt_deg < 1.0
+    assert np.abs(floor.above(far)).max() < 0.02

@@ -675,6 +675,10 @@ def test_bad_glb_is_one_line(tmp_path, capsys, mutate, message):
         (lambda d: d["buffers"][0].update(uri=""), "buffers[0]: uri '' names no file"),
         (lambda d: d["buffers"][0].update(uri="."), "buffers[0]: is a directory, not a buffer"),
         (lambda d: d["buffers"][0].update(uri="/etc/passwd"), "is a URL or an absolute path"),
+        (  # had been an internal error (urlsplit's ValueError)
+            lambda d: d["buffers"][0].update(uri="//[x.bin"),
+            "buffers[0]: uri '//[x.bin' is not a valid URI",
+        ),
         (lambda d: d["skins"][0].update(joints=[7]), "is not an index below 3"),
         (  # had read "24 is not a count", as if a count
             lambda d: d["accessors"][0].update(count="24"),
