@@ -203,3 +203,39 @@ def test_the_line_names_the_joints_that_thrash_most():
         assert name not in verdict["text"]
     report["joints"]["Hips"] = {"deviation_deg": {"rms": 0.5, "max": 2.0}}
     assert "left as they were" not in build_verdict(report, smoothing)["text"]
+
+
+@pytest.mark.parametrize("fps", [30.0, 120.0])
+def test_thrash_frames_match_the_definition_span_by_span(fps):
+    """Every span of every joint checked one by one, as the module states the rule (the
+    turn into a frame and the turn out of it, a frame's pause allowed, both faster than
+    the limit and more than 90 degrees apart), gives the frames thrash_frames finds: the
+    joints it passes over (no frame step over the limit) cannot thrash over longer
+    spans either."""
+    from motionclean.report.thrash import PAUSE_FRAMES, _lags
+
+    rng = np.random.default_rng(3)
+    frames, dt = 80, 1.0 / fps
+    speeds = np.radians([200.0, 650.0, 900.0, 2000.0]) * dt  # per-frame turn, radians
+    steps = rng.normal(size=(frames - 1, speeds.size, 3)) * speeds[:, None] / np.sqrt(3)
+    steps[20:40] *= np.where(np.arange(20) % 2, 1.0, -1.0)[:, None, None]  # back and forth
+    q = np.zeros((frames, speeds.size, 4))
+    q[0, :, 0] = 1.0
+    for t in range(1, frames):  # each frame turned from the last by its step (half-angles)
+        q[t] = quat.multiply(q[t - 1], quat.exp(steps[t - 1] / 2))
+    found = thrash_frames(q, dt, np.ones((frames - 1, speeds.size), dtype=bool))
+    expected = np.zeros_like(found)
+    limit = np.radians(THRASH_DEG_PER_S) * dt / 2.0
+    for k in _lags(dt).tolist():
+        turn = quat.log_relative(q[:-k], q[k:])
+        for pause in range(PAUSE_FRAMES + 1):
+            for r in range(frames - 2 * k - pause):
+                into, out = turn[r], turn[r + k + pause]
+                hit = (
+                    (np.linalg.norm(into, axis=-1) > limit * k)
+                    & (np.linalg.norm(out, axis=-1) > limit * k)
+                    & (np.einsum("ci,ci->c", into, out) < 0.0)
+                )
+                expected[r : r + 2 * k + pause + 1] |= hit
+    np.testing.assert_array_equal(found, expected)
+    assert found[:, 3].any() and not found[:, 0].any()
