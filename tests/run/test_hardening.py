@@ -209,10 +209,11 @@ def catching(process: subprocess.Popen, signum: int, timeout: float = 60.0) -> N
         time.sleep(0.02)
 
 
-def slow_command(*args, **popen) -> subprocess.Popen:
-    """``motionclean ARGS -f fairing:...`` started, seconds of work a clip (to be stopped)."""
+def slow_command(*args, iterations: int = 3000, **popen) -> subprocess.Popen:
+    """``motionclean ARGS -f fairing:...`` started, seconds of work a clip (to be stopped;
+    3,000 ``iterations``: some 3.5 s of a 120-frame clip)."""
     command = [str(Path(sys.executable).parent / "motionclean"), *map(str, args)]
-    command += ["-f", "fairing:max_iterations=3000,tol=0"]
+    command += ["-f", f"fairing:max_iterations={iterations},tol=0"]
     return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **popen)
 
 
@@ -226,7 +227,10 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
     source, out = tmp_path / "in", tmp_path / "o"
     for k in range(12):
         cut_bvh(SAMPLE, source / f"c{k}.bvh", 120)
-    process = slow_command("batch", source, "-o", out, "-j", "2", start_new_session=True)
+    # a second or so a clip: the first written while the others are under way
+    process = slow_command(
+        "batch", source, "-o", out, "-j", "2", iterations=800, start_new_session=True
+    )
     deadline = time.monotonic() + 60
     while not list(out.glob("c*.bvh")) and time.monotonic() < deadline:
         time.sleep(0.05)  # the workers are cleaning: one clip is written, others under way
