@@ -209,8 +209,10 @@ def build_series(
             before.names[rot[n]]: (int(counts[n]), int(measured[n]))
             for n in np.flatnonzero(counts).tolist()
         }
-        names = [before.names[j] for j in rot]
-        thrash = _thrash(after.rotations[:, cols], dt, missing, starts, (lead, trail), names)
+    # the cleaned clip's thrash, or the input's where it is reported on its own
+    clip = before if after is None else after
+    names = [before.names[j] for j in rot]
+    thrash = _thrash(clip.rotations[:, cols], dt, missing, starts, (lead, trail), names)
     positions = (
         None
         if after is None
@@ -483,6 +485,7 @@ def _input_noise(series: dict) -> dict[str, Any]:
         "noise_before": math.sqrt(float(weights @ squares) / known) if known else None,
         "noise_weighting": weighting,
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
+        "thrash": series.get("thrash", {}),
     }
 
 

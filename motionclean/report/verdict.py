@@ -529,13 +529,16 @@ def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
         if noise is None
         else f"noise {noise:,.0f} deg/s\u00b2 RMS angular acceleration{jumps_left_out(jumps)}"
     )
-    look = "".join(f"; needs a look: {words}" for words in _up_words(report))
+    thrash = _thrashing(alone, {})
+    looks = [*_up_words(report), *([_thrash_words(thrash, report)] if thrash else [])]
+    look = "".join(f"; needs a look: {words}" for words in looks)
     return {
         "status": "input only",
         "text": f"input only, not cleaned: {measured}{look}",
         "noise_before": noise,
         "noise_weighting": alone.get("noise_weighting", "equal"),
         "unrepaired_jumps": jumps,
+        "thrash": thrash,
     }
 
 

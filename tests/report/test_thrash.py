@@ -239,3 +239,18 @@ def test_thrash_frames_match_the_definition_span_by_span(fps):
                 expected[r : r + 2 * k + pause + 1] |= hit
     np.testing.assert_array_equal(found, expected)
     assert found[:, 3].any() and not found[:, 0].any()
+
+
+def test_a_clip_reported_on_its_own_names_its_thrashing_joints(walk30, tmp_path, capsys):
+    """`report IN` alone had said only the input's noise: a clip whose wrist thrashes for
+    8 s reads "needs a look" there too, and its JSON verdict lists the joint; the clip
+    without the planted twist does not."""
+    planted = twisted(walk30, "LeftWrist", PLANTED)
+    for clip, flagged in ((planted, True), (walk30, False)):
+        path, report = tmp_path / "in.bvh", tmp_path / "r.json"
+        mc.save(clip, path)
+        code, out, _ = run_cli(capsys, "report", str(path), "--json", str(report))
+        verdict = json.loads(report.read_text())["verdict"]
+        assert code == 0 and verdict["status"] == "input only"
+        assert bool(verdict["thrash"]) is flagged
+        assert ("needs a look" in out and "thrash" in out) is flagged
