@@ -416,8 +416,7 @@ def fit_floor(
     for _ in range(2):
         residual = soles[:, up] - level - soles[:, across] @ slope
         centre = np.median(residual[keep])
-        spread = 1.4826 * np.median(np.abs(residual[keep] - centre))
-        keep = np.abs(residual - centre) <= 3.0 * spread + 1e-9 * height
+        keep = np.abs(residual - centre) <= 3.0 * _spread(residual[keep]) + 1e-9 * height
         x, h = soles[keep][:, across], soles[keep][:, up]
         dx = x - x.mean(axis=0)
         slope = np.linalg.solve(

@@ -530,7 +530,7 @@ def _motion_up(motion: Motion) -> MotionUp:
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None
-    parts = body_parts(point_parents(motion), rest_positions(motion))
+    parts = _parts_of(motion)
     if parts is not None and known is None:
         by = "limbs" if np.mean(on_all_fours(poses, parts)) > 0.5 else "trunk"
         pointing = _limbs_up(poses, parts) if by == "limbs" else _trunk_up(poses, parts)
@@ -554,14 +554,10 @@ def body_up(motion: Motion) -> np.ndarray | None:
     clips and the corpus, 6.5 on a run), over the poses whose trunk and leg points are all
     known (a tracker's dropouts); None without a trunk (:func:`body_parts`) or such a
     pose."""
-    poses, known = sample_poses(motion)
-    parts = body_parts(point_parents(motion), rest_positions(motion))
-    if parts is None:
+    standing = _standing_poses(motion)
+    if standing is None:
         return None
-    if known is not None:
-        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
-    if poses.shape[0] == 0:
-        return None
+    poses, parts = standing
     mean = _trunk_up(poses, parts).mean(axis=0)
     length = float(np.linalg.norm(mean))
     return mean / length if length > 0.0 else None
@@ -584,19 +580,14 @@ def sideways_lean(motion: Motion, up: str | int | None = None) -> np.ndarray | N
     and legs alike is the capture's tilt (a camera rolled about the way the body faces);
     a bend at the waist leans the trunk alone, a side kick the legs. None without a trunk
     on two legs or such a pose."""
-    poses, known = sample_poses(motion)
-    rest = rest_positions(motion)
-    parents = point_parents(motion)
-    parts = body_parts(parents, rest)
-    if parts is None or parts.legs[0].size != 2:
+    standing = _standing_poses(motion)
+    if standing is None or standing[1].legs[0].size != 2:
         return None
-    if known is not None:
-        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
-    if poses.shape[0] == 0:
-        return None
+    poses, parts = standing
     axis, sign = up_direction(motion, up)
     poses = upright(poses, axis, sign)
     roots, tips = parts.legs
+    parents, rest = point_parents(motion), rest_positions(motion)
     hips = [_hip(parents, rest, parts.pelvis, r, t) for r, t in zip(roots, tips, strict=True)]
     across = poses[:, hips[1]] - poses[:, hips[0]]
     across[:, axis] = 0.0
@@ -609,6 +600,25 @@ def sideways_lean(motion: Motion, up: str | int | None = None) -> np.ndarray | N
     if float(trunk @ legs) <= 0.0:
         return np.zeros(3)
     return trunk if np.linalg.norm(trunk) <= np.linalg.norm(legs) else legs
+
+
+def _parts_of(motion: Motion) -> BodyParts | None:
+    """:func:`body_parts` of ``motion``'s skeleton, kept with the clip (the up direction,
+    the trunk's direction and the sideways lean each ask for it)."""
+    return motion.derived("body_parts", lambda m: body_parts(point_parents(m), rest_positions(m)))
+
+
+def _standing_poses(motion: Motion) -> tuple[np.ndarray, BodyParts] | None:
+    """The sampled poses ``(S, P, 3)`` (:func:`sample_poses`) whose trunk and leg points
+    are all known (a tracker's dropouts), and the body's parts; None without a trunk
+    (:func:`body_parts`) or such a pose."""
+    parts = _parts_of(motion)
+    if parts is None:
+        return None
+    poses, known = sample_poses(motion)
+    if known is not None:
+        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
+    return (poses, parts) if poses.shape[0] else None
 
 
 def _hip(parents: np.ndarray, rest: np.ndarray, pelvis: int, root: int, tip: int) -> int:
