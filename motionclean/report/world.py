@@ -337,10 +337,7 @@ def _contact_figures(
         "floor": None
         if floor is None
         else {
-            "height": floor.height_at(soles.mean(axis=0)),
-            "tilt_deg": floor.tilt_deg,
-            "normal": [float(v) for v in floor.normal],
-            "offset": float(floor.offset),
+            **_plane(floor, soles),
             "contacts": int(soles.shape[0]),
             "contacts_found_above_it": standing.tilted,
             "terrain": found.terrain(floor, kinematics.upright_body_up(before)),
@@ -409,6 +406,17 @@ def _floor_under(
 FLOOR_KEPT = 0.03
 
 
+def _plane(floor: found.Floor, soles: np.ndarray) -> dict[str, Any]:
+    """A floor's entry in the report: its height along the up axis below the centre of its
+    ``soles`` ``(n, 3)``, tilt (degrees), normal and offset."""
+    return {
+        "height": floor.height_at(soles.mean(axis=0)),
+        "tilt_deg": floor.tilt_deg,
+        "normal": [float(v) for v in floor.normal],
+        "offset": float(floor.offset),
+    }
+
+
 def _floor_after(
     floor: found.Floor, after: found.Floor, soles: np.ndarray, height: float
 ) -> dict[str, Any]:
@@ -418,10 +426,7 @@ def _floor_after(
     within :data:`FLOOR_KEPT` body heights (``same``: the input's floor kept)."""
     apart = float(np.abs(after.heights_at(soles) - floor.heights_at(soles)).max())
     return {
-        "height": after.height_at(soles.mean(axis=0)),
-        "tilt_deg": after.tilt_deg,
-        "normal": [float(v) for v in after.normal],
-        "offset": float(after.offset),
+        **_plane(after, soles),
         "apart": apart,
         "same": apart <= FLOOR_KEPT * height,
     }
