@@ -661,8 +661,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         how = {"given": "given", "assumed": "assumed: the format's default"}.get(
             str(figures.get("up_axis_source")), "found from the motion"
         )
-        shown = contradiction_words(figures)
-        how += f"; {html.escape(shown, quote=False)}" if shown else ""
+        against = contradiction_words(figures)
+        how += f"; {html.escape(against, quote=False)}" if against else ""
         height = figures.get("body_height")
         tall = "no body height" if height is None else f"body height {height:.4g} units"
         axes = f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), {tall}</span>"

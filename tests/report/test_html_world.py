@@ -80,6 +80,8 @@ def test_a_long_clip_is_subsampled_and_the_page_stays_small():
     # every 5th frame and the last: round frame numbers (#frame=150 is carried)
     assert len(frames) <= PLAYER_FRAMES and frames[0] == "0" and frames[-1] == "1246"
     assert frames[1] == "5" and "150" in frames
+    # the legend says which frames it shows (a reused name had left it empty)
+    assert f"<span>{len(frames)} of 1,247 frames: every 5th frame and the last;" in text
     # every 5th frame at 120 fps: 24 carried frames a second in real time, as it plays
     assert "its speed" not in text
     assert json.loads(re.search(r'"frame_ms":([\d.e-]+)', text).group(1)) == pytest.approx(
