@@ -24,7 +24,7 @@ import click
 from ..core.errors import UsageError
 from ..core.words import columns, last_columns, pad, plural
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
-from ..report.html import index_entries, of_another_pipeline, page_figures, render_index
+from ..report.html import index_entries, page_carried, render_index
 from ..report.summary import figure_text
 from ..run import cluster
 from ..run.jobs import INDEX_FIGURES, FileResult, Job, missing_folders, remove_empty
@@ -400,8 +400,8 @@ def batch_command(
 
     others = 0
     if pages is not None and skip_existing:
-        _keep_figures(results, pages, tables)
-        others = _other_pipelines(results, pages, tables)
+        pages_read = _keep_figures(results, pages, tables)
+        others = _other_pipelines(results, pages, tables, pages_read)
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -448,33 +448,41 @@ def _kept(value, kind: type):
     return value if isinstance(value, kind) else None
 
 
-def _keep_figures(results: dict[str, FileResult], pages: Path, tables: Sequence[dict]) -> None:
+def _keep_figures(
+    results: dict[str, FileResult], pages: Path, tables: Sequence[dict]
+) -> dict[str, bool]:
     """Give each skipped clip, in place, the figures the run that cleaned it left (same
     pipeline): its entry in the index page, or, where that run wrote no index (it was
     interrupted) or the index lacks them, its own page's; so a resumed run's index and
-    table stay whole. A clip neither holds keeps none (the index says so)."""
+    table stay whole. A clip neither holds keeps none (the index says so). Returns, per
+    clip whose page was read, whether it says another pipeline made it."""
     try:
         earlier = index_entries((pages / "index.html").read_text(encoding="utf-8"), tables)
     except (OSError, UnicodeDecodeError):
         earlier = {}
+    read = {}
     for name, result in results.items():
         if result.status != "skipped":
             continue
         entry = earlier.get(name)
         if not entry or entry.get("status") == "failed" or entry.get("frames") is None:
-            entry = page_figures(pages / f"{name}.html", tables)
+            entry, read[name] = page_carried(pages / f"{name}.html", tables)
         if entry:
             kept = {key: _kept(entry.get(key), kind) for key, kind in INDEX_FIGURES.items()}
             results[name] = dataclasses.replace(result, **kept)
+    return read
 
 
-def _other_pipelines(results: dict[str, FileResult], pages: Path, tables: Sequence[dict]) -> int:
+def _other_pipelines(
+    results: dict[str, FileResult], pages: Path, tables: Sequence[dict], read: dict[str, bool]
+) -> int:
     """How many skipped clips another pipeline made, as their pages say (a page is written
-    with its clip); one whose figures were kept was this pipeline's (:func:`_keep_figures`)."""
+    with its clip; ``read``: what the pages :func:`_keep_figures` read said, not read
+    again); one whose figures were kept was this pipeline's."""
     return sum(
         result.status == "skipped"
         and result.frames is None
-        and of_another_pipeline(pages / f"{name}.html", tables)
+        and (read[name] if name in read else page_carried(pages / f"{name}.html", tables)[1])
         for name, result in results.items()
     )
 

@@ -20,10 +20,12 @@ def percent(share: float) -> str:
 def columns(text: str) -> int:
     """How many terminal columns ``text`` takes: wide and full-width characters (CJK) two,
     combining marks none, every other character one."""
-    return sum(
-        0 if unicodedata.combining(c) else 2 if unicodedata.east_asian_width(c) in "WF" else 1
-        for c in text
-    )
+    return sum(map(_columns, text))
+
+
+def _columns(c: str) -> int:
+    """The terminal columns of one character (:func:`columns`)."""
+    return 0 if unicodedata.combining(c) else 2 if unicodedata.east_asian_width(c) in "WF" else 1
 
 
 def pad(text: str, width: int) -> str:
@@ -33,8 +35,11 @@ def pad(text: str, width: int) -> str:
 
 
 def last_columns(text: str, width: int) -> str:
-    """The end of ``text`` that fits in ``width`` terminal columns (:func:`columns`)."""
-    start = 0
-    while columns(text[start:]) > width:
-        start += 1
-    return text[start:]
+    """The end of ``text`` that fits in ``width`` terminal columns (:func:`columns`): its
+    characters from the last back, up to the first that would overflow."""
+    used = 0
+    for start in range(len(text) - 1, -1, -1):
+        used += _columns(text[start])
+        if used > width:
+            return text[start + 1 :]
+    return text

@@ -46,7 +46,7 @@ from .traces import COLUMNS, Trace, trace
 from .verdict import jumps_left_out
 from .world import depth_text, format_floor
 
-__all__ = ["index_entries", "of_another_pipeline", "page_figures", "render_html", "render_index"]
+__all__ = ["index_entries", "page_carried", "render_html", "render_index"]
 
 #: Plot geometry in SVG user units (the SVG scales to the card width); the plot area is
 #: one unit per plot column (:data:`motionclean.report.traces.COLUMNS`).
@@ -486,7 +486,7 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     Without ``series`` (see :func:`build_series`) the page has the tables but no plots.
     Joints whose acceleration is zero before and after get no plot; they are listed.
     ``carried`` (a batch's ``pipeline`` and the clip's index ``figures``) goes in the
-    page's head as JSON, for :func:`page_figures` to read back; its ``index``, the batch's
+    page's head as JSON, for :func:`page_carried` to read back; its ``index``, the batch's
     index page relative to this one, is linked above the title.
     """
     cleaned = was_cleaned(report)
@@ -918,7 +918,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
 
 #: The id of the index page's block of clip figures (:func:`index_entries`).
 INDEX_DATA = "mc-batch"
-#: The id of a clip page's block of its batch figures (:func:`page_figures`).
+#: The id of a clip page's block of its batch figures (:func:`page_carried`).
 CLIP_DATA = "mc-clip"
 
 
@@ -973,20 +973,15 @@ def _carried(path: str | os.PathLike) -> dict | None:
     return _block(head.decode("utf-8", "replace"), CLIP_DATA)
 
 
-def page_figures(path: str | os.PathLike, pipeline: Sequence[dict]) -> dict | None:
-    """The index figures a clip page carries (:func:`_carried`) when it was written for the
-    same ``pipeline``; None otherwise (a page without them, another pipeline's, one that
-    cannot be read)."""
+def page_carried(path: str | os.PathLike, pipeline: Sequence[dict]) -> tuple[dict | None, bool]:
+    """What a clip page carries (:func:`_carried`), read once: its index figures where it
+    was written for the same ``pipeline`` (else None), and whether it says it was written
+    for another (and so was its clip: a batch writes them together; False for a page that
+    does not say, written before pages carried it, or one that cannot be read)."""
     data = _carried(path)
-    if data is None or not same_pipeline(data.get("pipeline"), pipeline):
-        return None
+    if data is None:
+        return None, False
+    if not same_pipeline(data.get("pipeline"), pipeline):
+        return None, True
     figures = data.get("figures")
-    return figures if isinstance(figures, dict) else None
-
-
-def of_another_pipeline(path: str | os.PathLike, pipeline: Sequence[dict]) -> bool:
-    """Whether a clip page says it was written for another pipeline than ``pipeline`` (and
-    so was its clip: a batch writes them together); False for a page that does not say
-    (written before pages carried it, or not a clip page) or cannot be read."""
-    data = _carried(path)
-    return data is not None and not same_pipeline(data.get("pipeline"), pipeline)
+    return (figures if isinstance(figures, dict) else None), False

@@ -450,7 +450,7 @@ def clean_file(
     ``pipeline`` is a :class:`Pipeline` or its ``describe()`` tables. ``target=None``
     computes the figures without writing; ``report`` also writes the clip's HTML page,
     which carries the tables and the clip's :meth:`FileResult.index_figures` for a batch
-    resumed without an index (:func:`~motionclean.report.html.page_figures`).
+    resumed without an index (:func:`~motionclean.report.html.page_carried`).
     Parent folders of ``target`` and ``report`` are created, and removed again when they
     stay empty (``tidy``: :func:`folders_for`). ``up`` declares the clip's up
     axis (as in :func:`clean_clip`); ``shown`` names the clip on its page (default
