@@ -284,21 +284,17 @@ def _beside(path, what: str, uri: str) -> Path:
     name = unquote(parts.path)
     if not name or name.endswith("/"):
         _fail(f"{said} names no file", path)
-    if not _relative_file(uri):
+    if parts.scheme or parts.netloc or os.path.isabs(name):  # (as _relative_file reads it)
         _fail(f"{said} is a URL or an absolute path, not a file beside the glTF", path)
     if ".." in Path(name).parts:
         _fail(f"{said} climbs out of the glTF's folder ('..')", path)
     if "\0" in name:
         _fail(f"{said} holds a NUL byte", path)
-    folder = os.path.realpath(Path(path).parent)
-    where = os.path.realpath(os.path.join(folder, name))
-    try:
-        inside = os.path.commonpath([folder, where]) == folder
-    except ValueError:  # another drive (Windows)
-        inside = False
-    if not inside:
+    folder = Path(os.path.realpath(Path(path).parent))
+    where = Path(os.path.realpath(folder / name))
+    if not where.is_relative_to(folder):
         _fail(f"{said} links outside the glTF's folder", path)
-    return Path(where)
+    return where
 
 
 def _split(uri: str):

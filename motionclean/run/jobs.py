@@ -95,7 +95,7 @@ def folders_for(paths: Iterable[str | os.PathLike], tidy: bool = True) -> Iterat
     (with ``tidy``; a batch does it once its workers are done), as a failed write had left
     them (``out/shoot_02/day 2/``). A concurrent writer about to write into one makes it
     again (:func:`write_outputs`, :data:`~motionclean.io.FOLDER_TRIES`)."""
-    folders = [Path(path).parent for path in paths]
+    folders = list(dict.fromkeys(Path(path).parent for path in paths))  # (a clip and its page)
     made = missing_folders(folders) if tidy else []
     try:
         for folder in folders:
@@ -109,9 +109,9 @@ def folders_for(paths: Iterable[str | os.PathLike], tidy: bool = True) -> Iterat
 def missing_folders(folders: Iterable[str | os.PathLike]) -> list[Path]:
     """Those of ``folders`` and their parents that are not there (making them makes them),
     deepest first."""
-    missing = set()
-    for folder in map(Path, folders):
-        while not os.path.lexists(folder) and folder != folder.parent:
+    missing: set[Path] = set()
+    for folder in set(map(Path, folders)):  # (a batch's thousand clips share a few)
+        while folder not in missing and folder != folder.parent and not os.path.lexists(folder):
             missing.add(folder)
             folder = folder.parent
     return sorted(missing, key=lambda folder: len(folder.parts), reverse=True)
