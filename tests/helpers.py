@@ -539,21 +539,20 @@ def _dog_tree() -> tuple[list[str], np.ndarray, np.ndarray, dict[int, np.ndarray
         ("Neck", 2, (0.22, 0.01, 0.0)),
         ("Head", 3, (0.14, 0.0, 0.0)),
     ]
-    for side, z in (("Left", 0.045), ("Right", -0.045)):
-        at = len(tree)
-        tree += [
-            (f"{side}Shoulder", 2, (0.2, -0.05, z)),
-            (f"{side}Arm", at, (0.08, 0.0, 0.0)),
-            (f"{side}ForeArm", at + 1, (0.15, 0.0, 0.0)),
-            (f"{side}Hand", at + 2, (0.18, 0.0, 0.0)),
-        ]
-    for side, z in (("Left", 0.05), ("Right", -0.05)):
-        at = len(tree)
-        tree += [
-            (f"{side}UpLeg", 0, (0.06, -0.08, z)),
-            (f"{side}Leg", at, (0.16, 0.0, 0.0)),
-            (f"{side}Foot", at + 1, (0.18, 0.0, 0.0)),
-        ]
+    limbs = (  # from the chest, then the hips: each bone's name and (x, y) offset
+        (
+            2,
+            0.045,
+            (("Shoulder", 0.2, -0.05), ("Arm", 0.08, 0), ("ForeArm", 0.15, 0), ("Hand", 0.18, 0)),
+        ),
+        (0, 0.05, (("UpLeg", 0.06, -0.08), ("Leg", 0.16, 0), ("Foot", 0.18, 0))),
+    )
+    for parent, spread, bones in limbs:
+        for side, z in (("Left", spread), ("Right", -spread)):
+            at = len(tree)
+            for k, (name, x, y) in enumerate(bones):  # the first bone set to the side
+                above = parent if k == 0 else at + k - 1
+                tree.append((f"{side}{name}", above, (x, float(y), z if k == 0 else 0.0)))
     tree += [("Tail", 0, (-0.05, 0.02, 0.0)), ("Tail1", len(tree), (0.1, 0.0, 0.0))]
     names = [name for name, _, _ in tree]
     tips = {"Head": 0.17, "LeftHand": 0.07, "RightHand": 0.07, "LeftFoot": 0.1}
