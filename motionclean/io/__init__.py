@@ -14,7 +14,6 @@ import os
 import stat
 import tempfile
 from collections.abc import Callable, Iterable, Mapping
-from contextlib import suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -522,10 +521,19 @@ def ensure_folder(folder: Path) -> None:
     when one of them goes between being made and the next made inside it: a concurrent
     writer removed it. The last try's error (a file where a folder goes) is raised."""
     for _ in range(FOLDER_TRIES - 1):
-        with suppress(FileExistsError, FileNotFoundError):  # (pathlib's: made, then gone)
-            folder.mkdir(parents=True, exist_ok=True)
+        if _made(folder):
             return
     folder.mkdir(parents=True, exist_ok=True)
+
+
+def _made(folder: Path) -> bool:
+    """Make ``folder`` and its missing parents once; False when one went between being
+    made and the next made inside it (pathlib's errors then: made, then gone)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, FileNotFoundError):
+        return False
+    return True
 
 
 def write_together(
@@ -611,12 +619,13 @@ def _stage(
 
 def _temporary(folder: Path, name: str, tries: int) -> tuple[int, str]:
     """A new temporary file in ``folder`` for the file ``name`` (descriptor, path): when the
-    folder is not there, it is made and the file tried again, ``tries`` times in all."""
+    folder is not there, it is made and the file tried again, ``tries`` times in all (one
+    try to make the folder each time: a writer removing it again costs a try)."""
     for _ in range(tries - 1):
         try:
             return tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
         except FileNotFoundError:
-            ensure_folder(folder)
+            _made(folder)
     return tempfile.mkstemp(prefix=f".{name}.", suffix=".tmp", dir=folder)
 
 
