@@ -135,7 +135,8 @@ class Walk:
 
     @classmethod
     def of(cls, truth: mc.Motion) -> Walk:
-        feet, contacts, truth_pos, up, height, _ = footlock.find_contacts(truth, PARAMS)
+        scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
+        feet, truth_pos, up, height = scene.feet, scene.positions, scene.up, scene.height
         joints = np.array([p for f in feet for p in f.points if p < truth.n_joints])
         legs = [int(j) for j in kinematics.hung_on(truth.parents, [], joints) if j != 0]
         knees = [f.knee for f in feet]

@@ -1,10 +1,11 @@
 """Foot contacts: which points are feet, when each foot is on the ground, and skate figures.
 
-Functions on world-space arrays (see :mod:`motionclean.core.kinematics`), and
-:func:`skeleton_feet`, which finds them on a clip; the footlock step and the report both use
-this module. Every threshold is relative to the body height ``H`` (file length units) and in
-seconds, never in frames or file units, so a skeleton in metres or inches, at 24 or 120 fps,
-behaves the same.
+Functions on world-space arrays (see :mod:`motionclean.core.kinematics`), those that find
+contacts and floors on a clip's :class:`FootScene` (its positions, feet, up axis, body height
+and frame time, gathered once), and :func:`skeleton_feet`, which finds the feet on a clip;
+the footlock step and the report both use this module. Every threshold is relative to the
+body height ``H`` (file length units) and in seconds, never in frames or file units, so a
+skeleton in metres or inches, at 24 or 120 fps, behaves the same.
 
 Points are the skeleton's joints followed by its end sites: ``parents`` ``(P,)`` gives each
 point's parent point (-1 for a root) and ``positions`` are ``(F, P, 3)``.
@@ -68,6 +69,33 @@ class ContactParams:
             speed_off=speed * SPEED_HYSTERESIS,
             min_duration=min_duration,
         )
+
+
+@dataclass(frozen=True)
+class FootScene:
+    """A clip's feet in world space, as contacts and floors are found on them.
+
+    ``positions`` ``(F, P, 3)``: the points' world positions (length units, turned
+    :func:`~motionclean.core.kinematics.upright`); ``feet`` the feet among them (indices
+    into ``positions``' points), ``up`` the up axis (0, 1, 2), ``height`` the body height
+    ``H`` (length units), ``frame_time`` seconds; ``unknown`` ``(F, n_feet)``: frames where
+    a foot's place is not known (:func:`feet_unknown`: a tracker's dropout, its samples
+    held; None: known throughout); ``sideways`` ``(3,)``: the body's sideways lean a
+    floor's prior follows (:func:`fit_floor`; None: a level prior).
+    """
+
+    positions: np.ndarray
+    feet: list[Foot]
+    up: int
+    height: float
+    frame_time: float
+    unknown: np.ndarray | None = None
+    sideways: np.ndarray | None = None
+
+    def of_feet(self, kept: list[int]) -> FootScene:
+        """The scene of the feet ``kept`` (indices into ``feet``) alone."""
+        unknown = None if self.unknown is None else self.unknown[:, kept]
+        return replace(self, feet=[self.feet[k] for k in kept], unknown=unknown)
 
 
 #: Seconds over which a contact's ankle speed is averaged to tell whether it slides.
@@ -368,19 +396,19 @@ FLOOR_SPREAD = 0.03
 SOLE_GLITCH = 0.02
 
 
-def contact_soles(
-    positions: np.ndarray, feet: list[Foot], contacts: np.ndarray, up: int, height: float
-) -> np.ndarray:
-    """``(n, 3)``: for each contact (of every foot), the foot's lowest point on the frame
-    where it is lowest, a one-frame glitch (:data:`SOLE_GLITCH`) passed over: where the
-    sole meets the floor."""
+def contact_soles(scene: FootScene, contacts: np.ndarray) -> np.ndarray:
+    """``(n, 3)``: for each contact (of every foot; ``contacts`` ``(F, n_feet)``), the
+    foot's lowest point on the frame where it is lowest, a one-frame glitch
+    (:data:`SOLE_GLITCH`) passed over: where the sole meets the floor."""
+    positions, up = scene.positions, scene.up
     soles = []
-    for k, foot in enumerate(feet):  # a handful of feet; one contact's frames at once
+    for k, foot in enumerate(scene.feet):  # a handful of feet; one contact's frames at once
         points = np.array(foot.points, dtype=np.intp)
         lowest = points[positions[:, points, up].argmin(axis=1)]  # (heights alone gathered)
         sole = positions[np.arange(len(positions)), lowest]
         level = sole[:, up].copy()
-        level[1:-1][level[1:-1] < np.minimum(level[:-2], level[2:]) - SOLE_GLITCH * height] = np.inf
+        glitch = np.minimum(level[:-2], level[2:]) - SOLE_GLITCH * scene.height
+        level[1:-1][level[1:-1] < glitch] = np.inf
         for first, stop in contact_runs(contacts[:, [k]])[0]:
             soles.append(sole[first + int(level[first:stop].argmin())])
     return np.array(soles, dtype=np.float64).reshape(-1, 3)
@@ -463,6 +491,16 @@ def _prior_slope(sideways: np.ndarray | None, up: int, across: list[int]) -> np.
     return -share * sideways[across] / math.sqrt(1.0 - lean * lean)
 
 
+def floor_of_contacts(
+    scene: FootScene, contacts: np.ndarray, quantile: float = 0.5
+) -> tuple[Floor | None, np.ndarray]:
+    """The floor :func:`fit_floor` fits through the soles of ``contacts`` ``(F, n_feet)``
+    (its prior following ``scene.sideways``, its height at ``quantile`` of them), and those
+    soles ``(n, 3)`` (:func:`contact_soles`)."""
+    soles = contact_soles(scene, contacts)
+    return fit_floor(soles, scene.up, scene.height, quantile, scene.sideways), soles
+
+
 #: Passes of contacts found above the floor and the floor fitted again (a tilted floor's
 #: high side joins the contacts a pass at a time).
 FLOOR_PASSES = 4
@@ -479,39 +517,28 @@ FLOOR_RISE = 0.75
 
 
 def find_floor(
-    positions: np.ndarray,
-    feet: list[Foot],
-    up: int,
-    height: float,
-    frame_time: float,
-    params: ContactParams = ContactParams(),
-    contacts: np.ndarray | None = None,
-    sideways: np.ndarray | None = None,
-    unknown: np.ndarray | None = None,
+    scene: FootScene, params: ContactParams = ContactParams(), contacts: np.ndarray | None = None
 ) -> tuple[Floor | None, np.ndarray, np.ndarray]:
-    """The floor (:func:`fit_floor`), the soles ``(n, 3)`` it rests on and the contacts
-    ``(F, n_feet)`` found above it: contacts found above a level ground (``contacts``,
-    when the caller has found them so with the same ``params``), a plane fitted through
-    their soles, then contacts found again above that plane (on a tilted floor the first
-    pass misses the feet on its high side) and the plane fitted again, up to
-    :data:`FLOOR_PASSES` times; a pass that finds no contact keeps the last floor, its
-    soles and contacts; ``sideways``: :func:`fit_floor`'s, ``unknown``: :func:`detect`'s."""
+    """The floor (:func:`floor_of_contacts`), the soles ``(n, 3)`` it rests on and the
+    contacts ``(F, n_feet)`` found above it: contacts found above a level ground
+    (``contacts``, when the caller has found them so with the same ``params``), a plane
+    fitted through their soles, then contacts found again above that plane (on a tilted
+    floor the first pass misses the feet on its high side) and the plane fitted again, up
+    to :data:`FLOOR_PASSES` times; a pass that finds no contact keeps the last floor, its
+    soles and contacts."""
     if contacts is None:
-        contacts, _ = detect(positions, feet, up, height, frame_time, params, unknown=unknown)
-    soles = contact_soles(positions, feet, contacts, up, height)
-    floor = fit_floor(soles, up, height, sideways=sideways)
+        contacts, _ = detect(scene, params)
+    floor, soles = floor_of_contacts(scene, contacts)
     for _ in range(FLOOR_PASSES):
         if floor is None:
             break
-        found, _ = detect(
-            positions, feet, up, height, frame_time, params, floor=floor, unknown=unknown
-        )
+        found, _ = detect(scene, params, floor=floor)
         if np.array_equal(found, contacts):
             break
-        refit = contact_soles(positions, feet, found, up, height)
-        if refit.shape[0] == 0:  # no contact above this floor: it stays, with its soles
+        refit, on_refit = floor_of_contacts(scene, found)
+        if on_refit.shape[0] == 0:  # no contact above this floor: it stays, with its soles
             break
-        contacts, soles, floor = found, refit, fit_floor(refit, up, height, sideways=sideways)
+        contacts, soles, floor = found, on_refit, refit
     return floor, soles, contacts
 
 
@@ -533,45 +560,24 @@ class Ground:
     resting: np.ndarray
 
 
-def find_ground(
-    positions: np.ndarray,
-    feet: list[Foot],
-    up: int,
-    height: float,
-    frame_time: float,
-    params: ContactParams = ContactParams(),
-    sideways: np.ndarray | None = None,
-    unknown: np.ndarray | None = None,
-) -> Ground:
+def find_ground(scene: FootScene, params: ContactParams = ContactParams()) -> Ground:
     """:func:`detect`'s contacts above a level ground and :func:`find_floor`'s floor; where
     the floor rises across its soles by more than :data:`FLOOR_RISE` of ``params.height``
-    body heights, the contacts found above it and heights taken above it instead;
-    ``sideways``: the body's sideways lean the floor's prior follows (:func:`fit_floor`);
-    ``unknown`` ``(F, n_feet)``: frames where a foot's place is not known (:func:`detect`)."""
-    contacts, level = detect(positions, feet, up, height, frame_time, params, unknown=unknown)
+    body heights, the contacts found above it and heights taken above it instead."""
+    contacts, level = detect(scene, params)
     if math.isnan(level):
         return Ground(contacts, None, np.zeros((0, 3)), level, False, contacts)
-    floor, soles, on_floor = find_floor(
-        positions, feet, up, height, frame_time, params, contacts, sideways, unknown
-    )
-    rise = FLOOR_RISE * params.height * height
+    floor, soles, on_floor = find_floor(scene, params, contacts)
+    rise = FLOOR_RISE * params.height * scene.height
     if not _rises(floor, soles, rise):
         # the feet on a short slope's high side may all stand beyond a level ground's reach
-        seed = _contacts_under_still_feet(
-            positions, feet, up, height, frame_time, params, rise, sideways, unknown
-        )
-        uphill = (
-            None
-            if seed is None
-            else find_floor(
-                positions, feet, up, height, frame_time, params, seed, sideways, unknown
-            )
-        )
+        seed = _contacts_under_still_feet(scene, params, rise)
+        uphill = None if seed is None else find_floor(scene, params, seed)
         if uphill is None or not _rises(uphill[0], uphill[1], rise):
             return Ground(contacts, floor, soles, level, False, on_floor)
         floor, soles, on_floor = uphill
-    lowest = lowest_points(positions, feet, up, floor)
-    above = estimate_ground(lowest if unknown is None else lowest[~unknown])
+    lowest = lowest_points(scene.positions, scene.feet, scene.up, floor)
+    above = estimate_ground(lowest if scene.unknown is None else lowest[~scene.unknown])
     return Ground(on_floor, floor, soles, above, True, on_floor)
 
 
@@ -581,27 +587,18 @@ def _rises(floor: Floor | None, soles: np.ndarray, rise: float) -> bool:
 
 
 def _contacts_under_still_feet(
-    positions: np.ndarray,
-    feet: list[Foot],
-    up: int,
-    height: float,
-    frame_time: float,
-    params: ContactParams,
-    rise: float,
-    sideways: np.ndarray | None = None,
-    unknown: np.ndarray | None = None,
+    scene: FootScene, params: ContactParams, rise: float
 ) -> np.ndarray | None:
     """Contacts above the plane through the soles of the feet wherever they stand still
     (no height limit), to start :func:`find_floor` from where a floor's high side lies
     wholly beyond a level ground's reach; None where that plane does not rise by more than
     ``rise`` (length units) across those soles."""
     anywhere = replace(params, height=np.inf, height_off=np.inf)
-    still, _ = detect(positions, feet, up, height, frame_time, anywhere, unknown=unknown)
-    soles = contact_soles(positions, feet, still, up, height)
-    under = fit_floor(soles, up, height, sideways=sideways)
+    still, _ = detect(scene, anywhere)
+    under, soles = floor_of_contacts(scene, still)
     if not _rises(under, soles, rise):
         return None
-    return detect(positions, feet, up, height, frame_time, params, floor=under, unknown=unknown)[0]
+    return detect(scene, params, floor=under)[0]
 
 
 #: A floor is the ground's own slope (stairs, a ramp, a hill), not the capture's tilt, where
@@ -688,17 +685,13 @@ def _to_the_edges(
 
 
 def detect(
-    positions: np.ndarray,
-    feet: list[Foot],
-    up: int,
-    height: float,
-    frame_time: float,
+    scene: FootScene,
     params: ContactParams = ContactParams(),
     ground: float | None = None,
     floor: Floor | None = None,
-    unknown: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
-    """Frames where each foot is on the ground: ``(F, n_feet)`` bool, and the ground height.
+    """Frames where each foot of ``scene`` is on the ground: ``(F, n_feet)`` bool, and the
+    ground height.
 
     A contact starts where the foot's lowest point is within ``params.height`` body heights of
     the ground and the ankle moves slower than ``params.speed`` body heights per second; it
@@ -709,10 +702,11 @@ def detect(
     :data:`EDGE_RISE` above its median height in the contact; contacts shorter than
     ``min_duration`` seconds are dropped. ``ground`` defaults to :func:`estimate_ground`;
     with a ``floor`` (a plane, tilted or not) heights are taken above it instead, and the
-    ground returned is ``ground`` as given (NaN for None). ``unknown`` ``(F, n_feet)``:
-    frames where a foot's place is not known (a tracker's dropout, its samples held): no
-    contact there, and the ground found from the other frames.
+    ground returned is ``ground`` as given (NaN for None). Frames where a foot's place is
+    not known (``scene.unknown``) have no contact, and the ground is found from the others.
     """
+    positions, feet, up, height = scene.positions, scene.feet, scene.up, scene.height
+    frame_time, unknown = scene.frame_time, scene.unknown
     n_frames = positions.shape[0]
     contacts = np.zeros((n_frames, len(feet)), dtype=bool)
     if not feet or n_frames < 2:
@@ -750,21 +744,19 @@ def detect(
 
 
 def point_contacts(
-    positions: np.ndarray,
+    scene: FootScene,
     points: list[int],
-    up: int,
-    height: float,
-    frame_time: float,
     params: ContactParams,
     ground: float,
     floor: Floor | None = None,
 ) -> np.ndarray:
-    """``(F, n_points)``: frames where each point is itself planted, by :func:`detect`'s
-    rules applied to the point alone (its own height above ``ground``, or above a tilted
-    ``floor``, and its own speed): a toe is planted from the foot flat through the heel
-    rising, not while the foot rolls onto it or pivots about the heel."""
+    """``(F, n_points)``: frames where each of ``points`` (indices into the scene's
+    positions) is itself planted, by :func:`detect`'s rules applied to the point alone (its
+    own height above ``ground``, or above a tilted ``floor``, and its own speed; the
+    scene's feet and unknown frames not read): a toe is planted from the foot flat through
+    the heel rising, not while the foot rolls onto it or pivots about the heel."""
     alone = [Foot(str(p), -1, -1, p, (p,)) for p in points]
-    return detect(positions, alone, up, height, frame_time, params, ground, floor)[0]
+    return detect(replace(scene, feet=alone, unknown=None), params, ground, floor)[0]
 
 
 def contact_runs(contacts: np.ndarray) -> list[list[tuple[int, int]]]:
@@ -839,22 +831,17 @@ def penetration(lowest: np.ndarray, ground: float) -> np.ndarray:
 
 
 def sliding_contacts(
-    positions: np.ndarray,
-    feet: list[Foot],
-    contacts: np.ndarray,
-    up: int,
-    frame_time: float,
-    speed: float,
-    window: float = SLIDE_WINDOW,
+    scene: FootScene, contacts: np.ndarray, speed: float, window: float = SLIDE_WINDOW
 ) -> np.ndarray:
-    """The contacts whose horizontal ankle speed, averaged over some ``window`` seconds of
-    them (over what there is of them where the clip or the contact is shorter), exceeds
-    ``speed`` (length units/s): ``(F, n_feet)`` bool, the other contacts cleared. A
-    capture's own feet slide a little (CMU walks: 0.02-0.08 body heights/s); contacts
-    within that are left as they are. A long stance that stands still but for a slide at
-    its end (a VR take's legs smoothed while its root moved) slides: its mean over the
-    whole stance had hidden it."""
-    ankles = positions[:, [f.ankle for f in feet]]
+    """The ``contacts`` ``(F, n_feet)`` whose horizontal ankle speed, averaged over some
+    ``window`` seconds of them (over what there is of them where the clip or the contact is
+    shorter), exceeds ``speed`` (length units/s): ``(F, n_feet)`` bool, the other contacts
+    cleared. A capture's own feet slide a little (CMU walks: 0.02-0.08 body heights/s);
+    contacts within that are left as they are. A long stance that stands still but for a
+    slide at its end (a VR take's legs smoothed while its root moved) slides: its mean over
+    the whole stance had hidden it."""
+    feet, up, frame_time = scene.feet, scene.up, scene.frame_time
+    ankles = scene.positions[:, [f.ankle for f in feet]]
     step = np.diff(ankles, axis=0)
     step[..., up] = 0.0
     speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])

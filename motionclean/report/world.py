@@ -273,10 +273,16 @@ def _contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     params = found.ContactParams()
-    unknown = found.feet_unknown(kinematics.missing_points(before), skeleton_feet)
-    standing = found.find_ground(
-        positions, feet, up, height, dt, params, kinematics.sideways_lean(before), unknown
+    scene = found.FootScene(
+        positions,
+        feet,
+        up,
+        height,
+        dt,
+        unknown=found.feet_unknown(kinematics.missing_points(before), skeleton_feet),
+        sideways=kinematics.sideways_lean(before),
     )
+    standing = found.find_ground(scene, params)
     contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
@@ -286,7 +292,9 @@ def _contact_figures(
     if starts.size and not math.isnan(ground):
         contacts = np.concatenate(
             [
-                found.detect(positions[take], feet, up, height, dt, params, ground, tilted)[0]
+                found.detect(
+                    found.FootScene(positions[take], feet, up, height, dt), params, ground, tilted
+                )[0]
                 for take in takes
             ]
         )
@@ -295,7 +303,7 @@ def _contact_figures(
     after_floor, after_soles = (  # the cleaned clip's floor, where there are both
         (None, None)
         if after is None or after_positions is None or standing.floor is None
-        else _floor_under(after, after_positions, feet, standing.resting, upward, height)
+        else _floor_under(after, after_positions, scene, standing.resting, upward)
     )
     # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the
     # ground and the heights above it absent (None), not NaN
@@ -380,20 +388,26 @@ def _contact_figures(
 def _floor_under(
     after: Motion,
     positions: np.ndarray,
-    feet: list[found.Foot],
+    before: found.FootScene,
     resting: np.ndarray,
     upward: str,
-    height: float,
 ) -> tuple[found.Floor | None, np.ndarray]:
     """The cleaned clip's floor and the soles ``(n, 3)`` it rests on: the plane through
     ``after``'s soles (``positions``, turned upright along the input's ``upward``, e.g.
-    ``"-y"``) of the contacts the input's floor rests on (``resting``), fitted as the
-    input's, the prior following ``after``'s own trunk: the input's plane where the clip
-    is the input's, moved with it where a step (``ground``) moved it."""
-    up = kinematics.axis_index(upward)
-    soles = found.contact_soles(positions, feet, resting, up, height)
+    ``"-y"``, of the feet of the input's scene ``before``) of the contacts the input's
+    floor rests on (``resting``), fitted as the input's, the prior following ``after``'s
+    own trunk: the input's plane where the clip is the input's, moved with it where a step
+    (``ground``) moved it."""
     sideways = kinematics.sideways_lean(after, upward)
-    return found.fit_floor(soles, up, height, sideways=sideways), soles
+    scene = found.FootScene(
+        positions,
+        before.feet,
+        kinematics.axis_index(upward),
+        before.height,
+        after.frame_time,
+        sideways=sideways,
+    )
+    return found.floor_of_contacts(scene, resting)
 
 
 #: The cleaned clip's floor is the input's (the page draws one line, the terminal names one

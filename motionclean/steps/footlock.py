@@ -53,27 +53,32 @@ def contact_params(params: dict) -> found.ContactParams:
     return found.ContactParams.starting_at(params["height"], params["speed"], params["min_seconds"])
 
 
-def find_contacts(motion: Motion, params: dict):
-    """Feet, contacts ``(F, n_feet)``, world positions of joints and end sites (turned
-    :func:`~motionclean.core.kinematics.upright`), up axis, body height and ground height
-    (along the up axis, or above a tilted floor the contacts were found above:
-    :class:`~motionclean.core.contacts.Ground`) of ``motion`` under the step's
-    parameters."""
+def find_contacts(motion: Motion, params: dict) -> tuple[found.FootScene, np.ndarray, float]:
+    """The scene of ``motion``'s feet (world positions of every joint and end site, turned
+    :func:`~motionclean.core.kinematics.upright`), their contacts ``(F, n_feet)`` under the
+    step's parameters and the ground height (along the up axis, or above a tilted floor
+    the contacts were found above: :class:`~motionclean.core.contacts.Ground`)."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
-    positions = kinematics.upright_positions(motion, given)
-    sideways = kinematics.sideways_lean(motion, given)
-    standing = found.find_ground(
-        positions, feet, up, height, motion.frame_time, contact_params(params), sideways
+    scene = found.FootScene(
+        kinematics.upright_positions(motion, given),
+        feet,
+        up,
+        height,
+        motion.frame_time,
+        sideways=kinematics.sideways_lean(motion, given),
     )
-    return feet, standing.contacts, positions, up, height, standing.height
+    standing = found.find_ground(scene, contact_params(params))
+    return scene, standing.contacts, standing.height
 
 
-def _leg_points(motion: Motion, params: dict):
-    """The feet and the world positions of the points the step reads alone: each foot's
-    points and the joints from the root down to its knee. Returns the feet, those positions
-    ``(F, n, 3)`` (turned :func:`~motionclean.core.kinematics.upright`), the feet and the
-    point -> column map ``(P,)`` (-1: not kept) for them, up axis and body height."""
+def _leg_points(
+    motion: Motion, params: dict
+) -> tuple[list[found.Foot], found.FootScene, np.ndarray]:
+    """The feet, and the scene of the points the step reads alone: each foot's points and
+    the joints from the root down to its knee, their world positions ``(F, n, 3)`` (turned
+    :func:`~motionclean.core.kinematics.upright`) and the feet on them; and the point ->
+    column map ``(P,)`` (-1: not kept)."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
     used = sorted({p for f in feet for p in (*f.points, *_chain(motion.parents, f.knee))})
@@ -91,7 +96,9 @@ def _leg_points(motion: Motion, params: dict):
         )
         for f in feet
     ]
-    return feet, positions, on_columns, column, up, height
+    sideways = kinematics.sideways_lean(motion, given)
+    scene = found.FootScene(positions, on_columns, up, height, motion.frame_time, sideways=sideways)
+    return feet, scene, column
 
 
 def noise_aware(params: dict, positions, legs, prior: Prior, column, height: float):
@@ -148,14 +155,11 @@ def _legs(
 
 
 def _toe_contacts(
-    positions: np.ndarray,
+    scene: found.FootScene,
     point_column: np.ndarray,
     legs: list[Leg],
     contacts: np.ndarray,
-    up: int,
-    height: float,
     standing: found.Ground,
-    frame_time: float,
     thresholds: found.ContactParams,
 ) -> np.ndarray:
     """``(F, n_toes)``: for each toe point of the legs whose toes are held, the frames of
@@ -163,13 +167,11 @@ def _toe_contacts(
     ground ``standing`` gives, and speed under ``thresholds``: the step's own, not raised
     for noise, which cost the knees more than it took off the toes;
     :func:`motionclean.core.contacts.point_contacts`); ``point_column`` maps a point to
-    its column of ``positions``."""
+    its column of the ``scene``'s positions."""
     held = held_toes(legs)
     columns = [int(point_column[p]) for _, p in held]
     floor = standing.floor if standing.tilted else None
-    own = found.point_contacts(
-        positions, columns, up, height, frame_time, thresholds, standing.height, floor
-    )
+    own = found.point_contacts(scene, columns, thresholds, standing.height, floor)
     return own & contacts[:, [k for k, _ in held]]
 
 
@@ -226,7 +228,8 @@ def _run(data: StepData, params: dict) -> StepData:
     assert motion is not None
     if motion.n_frames < 2:  # no contact without a ground, none without two frames
         return data
-    feet, positions, on_columns, point_column, up, height = _leg_points(motion, params)
+    feet, scene, point_column = _leg_points(motion, params)
+    positions, up, height = scene.positions, scene.up, scene.height
     column = {int(j): c for c, j in enumerate(data.rotation_joints)}
     every_leg = _legs(motion, feet, set(column), params["toes"])
     if not every_leg:
@@ -236,14 +239,8 @@ def _run(data: StepData, params: dict) -> StepData:
     thresholds = noise_aware(
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
-    sideways = kinematics.sideways_lean(motion, given_up(params))
-    standing = found.find_ground(
-        positions, on_columns, up, height, motion.frame_time, thresholds, sideways
-    )
-    slide = params["min_skate"] * height
-    contacts = found.sliding_contacts(
-        positions, on_columns, standing.contacts, up, motion.frame_time, slide
-    )
+    standing = found.find_ground(scene, thresholds)
+    contacts = found.sliding_contacts(scene, standing.contacts, params["min_skate"] * height)
     held: np.ndarray = np.asarray(contacts.any(axis=0))
     chosen = [(k, leg) for k, leg in every_leg if held[k]]
     if not chosen:
@@ -267,12 +264,10 @@ def _run(data: StepData, params: dict) -> StepData:
     if not chosen:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
-    soles = found.contact_soles(
-        positions, [on_columns[k] for k in kept], contacts[:, kept], up, height
-    )
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
     # it while it stands, none is lifted that stood below it as captured
-    floor = found.fit_floor(soles, up, height, 0.0, sideways) or found.Floor.level(-np.inf, up)
+    floor, soles = found.floor_of_contacts(scene.of_feet(kept), contacts[:, kept], 0.0)
+    floor = floor or found.Floor.level(-np.inf, up)
     floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
     # the floor as the clip's own coordinates have it (the positions were turned upright)
     normal = kinematics.upright(floor.normal, up, _sign(motion, params))
@@ -290,15 +285,7 @@ def _run(data: StepData, params: dict) -> StepData:
         whole_frames(params["blend_seconds"] / motion.frame_time),
         hold_frames=whole_frames(params["hold_seconds"] / motion.frame_time),
         toe_contacts=_toe_contacts(
-            positions,
-            point_column,
-            legs,
-            contacts[:, kept],
-            up,
-            height,
-            standing,
-            motion.frame_time,
-            contact_params(params),
+            scene, point_column, legs, contacts[:, kept], standing, contact_params(params)
         ),
         toe_tolerance=params["toe_tolerance"],
     )

@@ -19,8 +19,8 @@ EXPORTERS = ROOT / "tests" / "data" / "exporters"
 
 
 def contacts_of(motion: mc.Motion, **changes):
-    feet, contacts, *_ = footlock.find_contacts(motion, {**DEFAULTS, **changes})
-    return feet, contacts
+    scene, contacts, _ = footlock.find_contacts(motion, {**DEFAULTS, **changes})
+    return scene.feet, contacts
 
 
 def test_contacts_on_a_real_walk_are_where_a_person_marks_them():
@@ -43,18 +43,11 @@ def test_a_toe_is_planted_within_its_foots_contact_but_not_while_the_heel_pivots
     never while it swings; and on frames where the ankle stands still but the toe moves
     fast (the foot turning about the heel) it is not planted."""
     motion = mc.load(corpus_clip("131_02.bvh"))
-    feet, contacts, positions, up, height, ground = footlock.find_contacts(motion, DEFAULTS)
-    for k, foot in enumerate(feet):
+    scene, contacts, ground = footlock.find_contacts(motion, DEFAULTS)
+    positions, up, height = scene.positions, scene.up, scene.height
+    for k, foot in enumerate(scene.feet):
         toes = list(foot.points[1:])
-        own = found.point_contacts(
-            positions,
-            toes,
-            up,
-            height,
-            motion.frame_time,
-            footlock.contact_params(DEFAULTS),
-            ground,
-        )
+        own = found.point_contacts(scene, toes, footlock.contact_params(DEFAULTS), ground)
         assert own.shape == (motion.n_frames, len(toes))
         inside = (own & contacts[:, [k]]).sum(axis=0)
         assert np.all(inside >= 0.6 * contacts[:, k].sum())
@@ -304,12 +297,14 @@ def test_a_contact_exactly_the_minimum_long_is_kept():
     positions[30:42, 0, 1] = 0.0  # ... on the ground for 12 frames
     foot = found.Foot("foot", -1, -1, 0, (0,))
     params = found.ContactParams(min_duration=0.1)
-    contacts, _ = found.detect(positions, [foot], 1, 10.0, frame_time, params, ground=0.0)
+    scene = found.FootScene(positions, [foot], 1, 10.0, frame_time)
+    contacts, _ = found.detect(scene, params, ground=0.0)
     assert np.array_equal(np.flatnonzero(contacts[:, 0]), np.arange(30, 42))
     # a clip exactly the minimum long, standing throughout, is one contact at either writing
     for written in (frame_time, 1 / 120):
         standing = np.zeros((12, 1, 3))
-        contacts, _ = found.detect(standing, [foot], 1, 10.0, written, params, ground=0.0)
+        scene = found.FootScene(standing, [foot], 1, 10.0, written)
+        contacts, _ = found.detect(scene, params, ground=0.0)
         assert contacts.all()
 
 
@@ -397,7 +392,8 @@ def test_a_contact_slides_where_any_part_of_it_does():
         positions[:, 0, 0] = x
         contacts = np.zeros((x.size, 1), dtype=bool)
         contacts[contact] = True
-        kept = found.sliding_contacts(positions, feet, contacts, 1, 1 / rate, 0.1 * height)
+        scene = found.FootScene(positions, feet, 1, height, 1 / rate)
+        kept = found.sliding_contacts(scene, contacts, 0.1 * height)
         assert kept[contact].all() == slides and not kept[~contacts].any()
 
 
@@ -427,7 +423,8 @@ def test_the_reports_skate_is_a_drift_the_same_at_every_frame_rate():
     over 0.1 s it is the foot's drift, alike at both rates. A steady slide reads as
     itself either way, and a cut between takes is not crossed."""
     motion = mc.load(NOISY)
-    feet, contacts, positions, up, *_ = footlock.find_contacts(motion, DEFAULTS)
+    scene, contacts, _ = footlock.find_contacts(motion, DEFAULTS)
+    feet, positions, up = scene.feet, scene.positions, scene.up
     rates = []
     for over in (0.0, found.DRIFT_SECONDS):
         fast = found.skate(positions, feet, contacts, up, motion.frame_time, None, over)

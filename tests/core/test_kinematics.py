@@ -239,7 +239,7 @@ def test_report_figures_from_the_figure_points_equal_those_from_every_point():
     full_b, full_a = (kinematics.world_positions(clip) for clip in (motion, after))
     feet, up, height = found.skeleton_feet(motion)
     params = found.ContactParams()
-    contacts, _ = found.detect(full_b, feet, up, height, motion.frame_time, params)
+    contacts, _ = found.detect(found.FootScene(full_b, feet, up, height, motion.frame_time), params)
     skate = found.skate(full_a, feet, contacts, up, motion.frame_time, None, found.DRIFT_SECONDS)
     for k, foot in enumerate(feet):
         entry = report["contacts"]["feet"][foot.name]

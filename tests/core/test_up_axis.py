@@ -94,11 +94,13 @@ def test_retargeted_rests_and_names_give_the_same_world(pose, naming):
     params = found.ContactParams()
     contacts = [
         found.detect(
-            kinematics.forward(clip, end_sites=True)[0],
-            found.skeleton_feet(clip)[0],
-            1,
-            height,  # the same scale: the sample's own rest pose has its legs apart
-            clip.frame_time,
+            found.FootScene(
+                kinematics.forward(clip, end_sites=True)[0],
+                found.skeleton_feet(clip)[0],
+                1,
+                height,  # the same scale: the sample's own rest pose has its legs apart
+                clip.frame_time,
+            ),
             params,
         )[0]
         for clip in (motion, other)

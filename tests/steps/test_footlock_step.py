@@ -96,7 +96,8 @@ def planted():
 
 def test_the_default_plants_sliding_feet_and_keeps_the_rest(planted):
     motion, (with_lock, logs), without = planted
-    feet, contacts, *_ = footlock.find_contacts(mc.load(SAMPLE), PARAMS)
+    scene, contacts, _ = footlock.find_contacts(mc.load(SAMPLE), PARAMS)
+    feet = scene.feet
     up = kinematics.up_axis(motion)
     skates = [
         found.skate(kinematics.forward(clip, end_sites=True)[0], feet, contacts, up, 1.0)
@@ -138,7 +139,8 @@ def test_the_toes_slide_less_and_toes_false_keeps_the_foot():
     motion = truth.replace(rotations=plant(truth.rotations, 3.0, seed=1))
     toes, _ = Pipeline.default().run(motion)
     ankles, _ = ANKLES.run(motion)
-    feet, contacts, *_ = footlock.find_contacts(truth, PARAMS)
+    scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
+    feet = scene.feet
     foot = sorted({p for f in feet for p in f.points if p < motion.n_joints})  # ankles, toes
     np.testing.assert_array_equal(
         ankles.rotations[:, foot], WITHOUT.run(motion)[0].rotations[:, foot]
@@ -158,16 +160,15 @@ def test_the_step_reads_the_positions_of_the_legs_alone_and_finds_the_same_conta
     """The step computes the world positions of the feet and the chains above them only:
     its contacts are those of every point's positions, and its positions their columns."""
     motion = mc.load(NOISY)
-    feet, contacts, positions, *_ = footlock.find_contacts(motion, PARAMS)
-    mine, columns, on_columns, point_column, up, height = footlock._leg_points(motion, PARAMS)
-    params = footlock.contact_params(PARAMS)
-    my_contacts, _ = found.detect(columns, on_columns, up, height, motion.frame_time, params)
-    assert mine == feet and np.array_equal(my_contacts, contacts)
+    every, contacts, _ = footlock.find_contacts(motion, PARAMS)
+    mine, legs, point_column = footlock._leg_points(motion, PARAMS)
+    my_contacts, _ = found.detect(legs, footlock.contact_params(PARAMS))
+    assert mine == every.feet and np.array_equal(my_contacts, contacts)
     used = np.flatnonzero(point_column >= 0)
-    assert used.size < positions.shape[1] // 2
-    assert np.array_equal(columns, positions[:, used])
-    assert [f.points for f in on_columns] == [
-        tuple(point_column[list(f.points)].tolist()) for f in feet
+    assert used.size < every.positions.shape[1] // 2
+    assert np.array_equal(legs.positions, every.positions[:, used])
+    assert [f.points for f in legs.feet] == [
+        tuple(point_column[list(f.points)].tolist()) for f in every.feet
     ]
 
 
@@ -179,9 +180,9 @@ def test_the_same_motion_on_a_head_down_copy(planted):
     turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
     head_down = turned_copy(motion, turn)
     assert kinematics.up_name(head_down) == "-y"
-    feet, contacts, *_ = footlock.find_contacts(motion, PARAMS)
-    feet_down, contacts_down, *_ = footlock.find_contacts(head_down, PARAMS)
-    assert [f.name for f in feet_down] == [f.name for f in feet]
+    scene, contacts, _ = footlock.find_contacts(motion, PARAMS)
+    scene_down, contacts_down, _ = footlock.find_contacts(head_down, PARAMS)
+    assert [f.name for f in scene_down.feet] == [f.name for f in scene.feet]
     np.testing.assert_array_equal(contacts_down, contacts)
     turned, _ = Pipeline.default().run(head_down)
     expected = quat.rotate(turn, kinematics.forward(with_lock, end_sites=True)[0])
@@ -223,7 +224,8 @@ def test_contacts_start_above_the_speed_noise_alone_gives_a_standing_foot(monkey
     after auto: at the step's own 0.15 a sixth of the walk's contact frames were missed and
     slid unheld. Raised to what the ankle's expected error gives, they are held."""
     truth = _every_fourth(mc.load(corpus_clip("131_02.bvh")))
-    feet, contacts, _, up, height, _ = footlock.find_contacts(truth, PARAMS)
+    scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
+    feet, up, height = scene.feet, scene.up, scene.height
     noisy = truth.replace(rotations=plant(truth.rotations, 4.0, seed))
 
     def held_and_skate():
@@ -252,7 +254,8 @@ def test_a_foot_lifting_off_at_the_clips_end_is_not_held_there(seed):
     degrees further from the truth than the input over the last 0.1 s. Now the contact ends
     where the heel rises and the leg is left at the input's error."""
     truth = mc.load(ROOT / "tests" / "data" / "exporters" / "pymo_walk_tpose.bvh")
-    feet, contacts, *_ = footlock.find_contacts(truth, PARAMS)
+    scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
+    feet = scene.feet
     noisy = truth.replace(rotations=plant(truth.rotations, 3.0, seed))
     out = Pipeline.from_inline(["footlock"]).run(noisy)[0]
     end = slice(-round(0.1 / truth.frame_time), None)
@@ -265,11 +268,11 @@ def test_a_foot_lifting_off_at_the_clips_end_is_not_held_there(seed):
 
 def test_noise_aware_thresholds_rise_only_with_the_expected_error():
     motion = mc.load(SAMPLE)
-    feet, positions, on_columns, column, up, height = footlock._leg_points(motion, PARAMS)
+    feet, scene, column = footlock._leg_points(motion, PARAMS)
     legs = [leg for _, leg in footlock._legs(motion, feet, set(range(motion.n_joints)), True)]
     clean = Prior(np.zeros(motion.n_joints), np.zeros(3))
     loud = Prior(np.full(motion.n_joints, np.radians(10.0)), np.zeros(3))
-    args = (positions, legs)
+    args, height = (scene.positions, legs), scene.height
     assert footlock.noise_aware(PARAMS, *args, clean, column, height) == footlock.contact_params(
         PARAMS
     )

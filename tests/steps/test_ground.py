@@ -196,9 +196,8 @@ def _standing_with_a_drop(walk: mc.Motion, frames: list[int]) -> mc.Motion:
     """One double-support pose of ``walk`` held for 60 frames, the whole body dropped by a
     third of its height on ``frames`` (a root marker's glitch, as a tracker gives)."""
     feet, up, height = found.skeleton_feet(walk)
-    contacts, _ = found.detect(
-        kinematics.forward(walk, end_sites=True)[0], feet, up, height, walk.frame_time
-    )
+    positions = kinematics.forward(walk, end_sites=True)[0]
+    contacts, _ = found.detect(found.FootScene(positions, feet, up, height, walk.frame_time))
     pose = int(np.flatnonzero(contacts.all(axis=1))[0])
     translations = np.repeat(walk.translations[pose : pose + 1], 60, axis=0)
     translations[frames, 0, up] -= height / 3.0
@@ -279,7 +278,8 @@ def _stairs(walk: mc.Motion) -> mc.Motion:
     staircase, its body upright throughout)."""
     feet, up, height = found.skeleton_feet(walk)
     positions = kinematics.upright_positions(walk)
-    both = found.detect(positions, feet, up, height, walk.frame_time)[0].all(axis=1)
+    both = found.detect(found.FootScene(positions, feet, up, height, walk.frame_time))[0]
+    both = both.all(axis=1)
     pose = int(np.flatnonzero(both)[0])
     n = 480
     t = np.arange(n)
