@@ -131,27 +131,31 @@ def _run_bounds(contacts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(contacts, first, index), np.where(contacts, last, index)
 
 
-def held_lines(points: np.ndarray, contacts: np.ndarray, hold_frames: float) -> np.ndarray:
+def held_lines(
+    points: np.ndarray, contacts: np.ndarray, hold_frames: float, still_within: float = 0.0
+) -> np.ndarray:
     """``(F, ..., 3)``: on contact frames, the least-squares straight line of ``points``
     through a window of ``hold_frames`` frames centred on the frame and cut to its contact,
     evaluated at the frame (``inf``: the contact's mean); elsewhere the points themselves.
     The line's slope is shrunk toward 0 by ``s^2 / (s^2 + (k e)^2)``, ``s`` its length, ``e``
     its standard error from the points' scatter about it (as many points as scatter
     independently, :func:`_independent_share`), ``k`` :data:`DRIFT_SIGNIFICANCE` (both
-    summed over the axes: the shrinkage turns with the clip).
+    summed over the axes: the shrinkage turns with the clip). A contact that stays within
+    ``still_within`` of one line is held on it (:func:`_held_still`).
 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
     """
-    if np.isfinite(hold_frames):
-        half = int(min(hold_frames, 2 * len(points)) // 2)
-        return _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
-    first, last = _run_bounds(contacts)  # held still: the contact's mean position
-    shape = (-1,) + (1,) * (points.ndim - 1)
-    origin = points[first]  # place from each contact's first frame: the sums stay small
-    points = points - origin
-    mean = _window_sums(points, first, last + 1) / (last + 1 - first).reshape(shape)
-    return origin + np.where(contacts.reshape(shape), mean, points)
+    if not np.isfinite(hold_frames):
+        first, last = _run_bounds(contacts)  # held still: the contact's mean position
+        shape = (-1,) + (1,) * (points.ndim - 1)
+        origin = points[first]  # place from each contact's first frame: the sums stay small
+        points = points - origin
+        mean = _window_sums(points, first, last + 1) / (last + 1 - first).reshape(shape)
+        return origin + np.where(contacts.reshape(shape), mean, points)
+    half = int(min(hold_frames, 2 * len(points)) // 2)
+    held = _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
+    return _held_still(points, contacts, held, still_within)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -167,6 +171,26 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
     if half == 0 or not contacts.any():
         return points.copy()
     return _local_lines(points, contacts, half, 3)
+
+
+def _held_still(
+    points: np.ndarray, contacts: np.ndarray, held: np.ndarray, within: float
+) -> np.ndarray:
+    """``held`` ``(F, ..., 3)``, but on each contact whose ``points`` stay within ``within``
+    (length units; RMS over the contact of each frame's farthest point; 0: none) of one
+    line through the whole contact (its slope shrunk as :func:`held_lines` shrinks it),
+    that line. A window's line follows the slow wander that smoothing leaves in
+    noise, along which a foot standing for seconds would slide; a contact that moves no
+    more than the noise could make it is held as standing (the noise's reach, ``within``,
+    is what ``auto`` expects of the point: bench/footlock.py)."""
+    if within <= 0.0:
+        return held
+    whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
+    off = np.sum((points - whole) ** 2, axis=-1).reshape(len(points), -1).max(axis=1)
+    first, last = _run_bounds(contacts)
+    spread = _window_sums(off, first, last + 1) / (last + 1 - first)
+    still = contacts & (spread <= within * within)
+    return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
 
 
 def _local_lines(
@@ -264,13 +288,15 @@ def lock_targets(
     blend_frames: float,
     hold_frames: float = np.inf,
     path: bool = False,
+    still_within: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Where one foot's points ``(F, k, 3)`` should be on each frame, and how strongly:
     ``(F, k, 3)`` and ``(F,)``.
 
-    During a contact the target is :func:`held_lines` with weight 1 (with ``path``,
-    :func:`held_paths` with a kernel of :data:`TOE_SMOOTHING` times ``hold_frames``, or
-    the contact's mean where that is infinite). Within
+    During a contact the target is :func:`held_lines` with weight 1 (a still contact's
+    line within ``still_within``, length units; with ``path``, :func:`held_paths` with a
+    kernel of :data:`TOE_SMOOTHING` times ``hold_frames``, or the contact's mean where that
+    is infinite). Within
     ``blend_frames`` frames before a contact starts or after it ends, the weight eases from
     0 to 1 (smoothstep) and the target moves from the points toward the contact's first or
     last target; where the ramps of two contacts overlap, the target is their weighted
@@ -282,7 +308,7 @@ def lock_targets(
     if path and np.isfinite(hold_frames):
         held = held_paths(points, contacts, TOE_SMOOTHING * hold_frames)
     else:
-        held = held_lines(points, contacts, hold_frames)
+        held = held_lines(points, contacts, hold_frames, still_within)
     last_in, next_in, w_prev, w_next = _eases(contacts, blend_frames)
     total = w_prev + w_next
     shape = (-1,) + (1,) * (points.ndim - 1)
@@ -473,6 +499,7 @@ def plant(
     toe_contacts: np.ndarray | None = None,
     toe_tolerance: float = TOE_TOLERANCE,
     robust: float = 3.0,
+    still_within: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations ``(F, J, 4)`` and root translations ``(F, 3)`` with every leg planted
     during its ``contacts`` ``(F, n_legs)``, and the toes of each leg with a ``foot`` held
@@ -487,7 +514,9 @@ def plant(
     ``toe_tolerance`` times as loosely, and keep above the floor :data:`FLOOR_FIRMNESS`
     times as closely, while their leg or the toe itself is in contact); a target further
     from a point than ``robust`` times the error the prior predicts for it is taken as
-    motion, not noise, and followed less (Huber weights). Frames where nothing is held, and
+    motion, not noise, and followed less (Huber weights). ``still_within`` ``(n_legs,)``
+    (length units): a contact whose ankle stays that close to one line through it is held
+    on that line (:func:`held_lines`; default: none is). Frames where nothing is held, and
     every joint that does not turn, are returned bit for bit; the root (the first joint of
     the legs) moves only along ``prior.root``'s non-zero axes.
     """
@@ -509,9 +538,10 @@ def plant(
     start = forward_arrays(part.parents, q, t)[0][:, problem.points]
     targets = np.empty_like(start)
     weights = np.zeros(contacts.shape)
+    stills = np.zeros(len(legs)) if still_within is None else np.asarray(still_within, float)
     for k in range(len(legs)):  # a leg at a time, vectorised over frames
         targets[:, k], weights[:, k] = lock_targets(
-            start[:, k], contacts[:, k], blend_frames, hold_frames
+            start[:, k], contacts[:, k], blend_frames, hold_frames, still_within=stills[k]
         )
     rows = _Rows(
         targets,

@@ -288,6 +288,7 @@ def _run(data: StepData, params: dict) -> StepData:
             scene, point_column, legs, contacts[:, kept], standing, contact_params(params)
         ),
         toe_tolerance=params["toe_tolerance"],
+        still_within=np.array([expected[k] for k in kept]),  # the noise's reach
     )
     data.rotations = data.rotations.copy()  # the input may be the clip's own array
     solved = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})

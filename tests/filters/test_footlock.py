@@ -250,6 +250,43 @@ def test_a_held_line_keeps_a_drift_and_drops_the_slope_jitter_fits():
     )
 
 
+def test_a_contact_the_noise_alone_could_move_is_held_on_one_line():
+    """A foot standing for 4 s under a filter's wander (white noise averaged over 15
+    frames): with ``still_within`` the noise's reach, the whole contact is held on one
+    line and slides under a twentieth of what 0.5 s windows leave (they follow the
+    wander). A contact in the same clip where the foot moves further than that (a shuffle
+    of 8 times the reach) keeps the windows' lines bit for bit; the same turned about any
+    axis."""
+    rng = np.random.default_rng(7)
+    n, width = 1000, 15
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    points = np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+    reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))  # as auto's, a little over
+    shuffle = 8 * reach / (1.0 + np.exp(-(np.arange(n) - 800) / 6.0))
+    points[:, 0] += shuffle
+    contacts = np.zeros(n, dtype=bool)
+    contacts[50:530] = contacts[600:990] = True
+    windows = held_lines(points, contacts, 60)
+    held = held_lines(points, contacts, 60, still_within=reach)
+    standing = slice(50, 530)
+    np.testing.assert_allclose(np.diff(held[standing], 2, axis=0), 0.0, atol=1e-12)
+
+    def slide(p):
+        return np.linalg.norm(np.diff(p[standing], axis=0), axis=-1).mean()
+
+    assert slide(held) < 0.05 * slide(windows)
+    np.testing.assert_array_equal(held[530:], windows[530:])
+    np.testing.assert_array_equal(held[:50], points[:50])
+    turn = quat.from_axis_angle(np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2]), 1.1)
+    np.testing.assert_allclose(
+        held_lines(quat.rotate(turn, points), contacts, 60, still_within=reach),
+        quat.rotate(turn, held),
+        atol=1e-9,
+    )
+
+
 def test_a_lines_standard_error_counts_only_the_points_that_scatter_independently():
     """The share of a window's points that scatter independently about its line (the
     variance of the residuals' steps over twice theirs): about 1 for white scatter, about
