@@ -275,7 +275,8 @@ def test_a_foot_standing_through_the_clip_stays_where_it_stands(seed):
     one line: under twice the capture's slide, and the legs closer to the truth than
     without footlock."""
     truth = mc.load(ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh")
-    feet, contacts, truth_positions, up, height, _ = footlock.find_contacts(truth, PARAMS)
+    scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
+    feet = scene.feet
     left = [k for k, foot in enumerate(feet) if foot.name == "LeftAnkle"]
     assert contacts[:, left].all()  # standing from the first frame to the last
     noisy = truth.replace(rotations=plant(truth.rotations, 3.0, seed))
@@ -283,9 +284,9 @@ def test_a_foot_standing_through_the_clip_stays_where_it_stands(seed):
     foot = [feet[k] for k in left]
 
     def slide(clip_positions):
-        return found.skate(clip_positions, foot, contacts[:, left], up, truth.frame_time)[0]
+        return found.skate(clip_positions, foot, contacts[:, left], scene.up, truth.frame_time)[0]
 
-    assert slide(kinematics.forward(out)[0]) < 2.0 * slide(truth_positions)
+    assert slide(kinematics.upright_positions(out, None)) < 2.0 * slide(scene.positions)
     legs = [j for f in feet for j in (f.hip, f.knee, f.ankle)]
     assert degrees_between(out.rotations[:, legs], truth.rotations[:, legs]).mean() < (
         degrees_between(without.rotations[:, legs], truth.rotations[:, legs]).mean()
