@@ -62,6 +62,10 @@ KEEP_LENGTH = 1e-6
 #: A still leaf bone whose name ends so, in any case, is an exporter's tip (Blender's FBX
 #: export adds one per leaf, Mixamo's ``HeadTop_End``): its parent's end site, not a joint.
 TIP_SUFFIX = "_end"
+#: A bone property saying its end site lies on its head: a bone cannot end where it starts,
+#: so its tail (and the tip an exporter adds there) lies further on; the flag brings the
+#: end site back to where the file had it (Bandai's, MotionBuilder's and Mixamo's leaves).
+END_SITE_AT_HEAD = "motionclean_end_site_at_head"
 #: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
 
@@ -476,6 +480,7 @@ def read_action(
             if not bone.children and not tip[j]
         }
     )
+    end_sites.update({j: np.zeros(3) for j in end_sites if bones[j].get(END_SITE_AT_HEAD)})
     keep = np.flatnonzero(~tip)
     number = np.cumsum(~tip) - 1  # each kept bone's joint number
     motion = Motion(

@@ -38,6 +38,7 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion
 from .blender_action import (
+    END_SITE_AT_HEAD,
     ActionClip,
     BoneTrack,
     action_fcurves,
@@ -422,7 +423,10 @@ def _write_new(bpy: Any, obj: Any, motion: Motion, first_frame: float) -> None:
 def _build_armature(bpy: Any, motion: Motion) -> Any:
     """An armature of ``motion``'s skeleton at rest: a bone per joint from its head to its
     first child's (or its end site; a short bone along the parent's where they coincide),
-    standing on Blender's ground (the clip's up axis turned to Z by the object)."""
+    standing on Blender's ground (the clip's up axis turned to Z by the object). No tail
+    lies on the head of a child with position channels: Blender's FBX importer connects a
+    bone whose head is on its parent's tail, and a connected bone's location is ignored
+    (a run's travel on ``Hips`` under a still ``joint_Root`` had played in place)."""
     name = Path(motion.path).stem if motion.path else "motion"
     armature = bpy.data.armatures.new(name)
     obj = bpy.data.objects.new(name, armature)
@@ -434,9 +438,14 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
     lengths = np.linalg.norm(motion.offsets, axis=-1)
     short = 0.05 * (float(lengths.max()) if lengths.size and lengths.max() > 0 else 1.0)
     tails = heads.copy()
+    moving = motion.layout.has_position
     for j in range(motion.n_joints):
         children = np.flatnonzero(motion.parents == j)
-        ends = [motion.offsets[c] for c in children if np.linalg.norm(motion.offsets[c]) > 0]
+        ends = [
+            motion.offsets[c]
+            for c in children
+            if np.linalg.norm(motion.offsets[c]) > 0 and not moving[c]
+        ]
         if j in motion.end_sites and np.linalg.norm(motion.end_sites[j]) > 0:
             ends.append(motion.end_sites[j])
         if ends:
@@ -463,6 +472,9 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
         raise MotionError(
             "joint names that Blender cannot keep as bone names (too long or repeated)"
         )
+    for j, site in motion.end_sites.items():
+        if not np.any(site):
+            armature.bones[motion.names[j]][END_SITE_AT_HEAD] = True
     up = kinematics.up_axis(motion)
     turn = {
         0: quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), -np.pi / 2),
