@@ -66,6 +66,11 @@ TIP_SUFFIX = "_end"
 #: so its tail (and the tip an exporter adds there) lies further on; the flag brings the
 #: end site back to where the file had it (Bandai's, MotionBuilder's and Mixamo's leaves).
 END_SITE_AT_HEAD = "motionclean_end_site_at_head"
+#: A bone property naming the joint's channels, as a BVH lists them (``"Xposition
+#: Yposition Zposition Zrotation Xrotation Yrotation"``), which motionclean writes on the
+#: bones of a clip it writes to FBX: a joint whose channels never move keeps them (the same
+#: clip is then cleaned the same from its FBX as from its BVH), in their order.
+CHANNELS_PROPERTY = "motionclean_channels"
 #: Location curves within this fraction of the skeleton's size of zero are the rest.
 REST_LOCATION = 1e-6
 
@@ -436,24 +441,28 @@ def read_action(
         location = _values(mine.get("location", {}), pose_bone.location, 3, frames, where)
         basis[:, j] = _basis_quaternions(values, mode)
         # (a bone that stays at its rest, keyed or not, as an FBX import keys leaf bones,
-        # has no rotation channels)
+        # has no rotation channels; location curves that stay at the rest, as an FBX import
+        # keys on every bone, make no channels)
         rotates = bool(np.rad2deg(quat.angle(basis[:, j])).max(initial=0.0) >= KEEP_DEGREES)
-        if not rotates:  # at the rest: unturned, as a joint without rotation channels is
-            basis[:, j] = (1.0, 0.0, 0.0, 0.0)
-        # (location curves that stay at the rest, as an FBX import keys on every bone,
-        # make no channels)
         moves = (
             "location" in mine
             and not bone.use_connect
             and bool(np.abs(location).max() > REST_LOCATION * reach)
         )
-        names_of: list[str] = []
-        if moves:
-            translations[:, j] = offsets[j] + quat.rotate(rest[j], location)
-            names_of += ["Xposition", "Yposition", "Zposition"]
-        if rotates:
+        declared = bone.get(CHANNELS_PROPERTY)
+        if isinstance(declared, str):  # a clip motionclean wrote: the joint's own channels
+            names_of = declared.split()
+            rotates = any(name.endswith("rotation") for name in names_of)
+            moves = any(name.endswith("position") for name in names_of)
+        else:
             order = _euler_order(mode)[0] if mode in EULER_MODES else "ZYX"
-            names_of += [f"{axis}rotation" for axis in order]
+            names_of = ["Xposition", "Yposition", "Zposition"] if moves else []
+            names_of += [f"{axis}rotation" for axis in order] if rotates else []
+        if not rotates:  # at the rest: unturned, as a joint without rotation channels is
+            basis[:, j] = (1.0, 0.0, 0.0, 0.0)
+        if moves:  # (a connected bone's location is not played: at its rest)
+            turned = 0.0 if bone.use_connect else quat.rotate(rest[j], location)
+            translations[:, j] = offsets[j] + turned
         channels.append(tuple(names_of))
         tracks.append(BoneTrack(bone.name, mode, rotates, moves))
         rotation_values.append(values)

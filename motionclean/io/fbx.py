@@ -38,6 +38,7 @@ from ..core import kinematics, quat
 from ..core.errors import MotionError, UsageError
 from ..core.motion import Motion
 from .blender_action import (
+    CHANNELS_PROPERTY,
     END_SITE_AT_HEAD,
     ActionClip,
     BoneTrack,
@@ -438,7 +439,11 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
     lengths = np.linalg.norm(motion.offsets, axis=-1)
     short = 0.05 * (float(lengths.max()) if lengths.size and lengths.max() > 0 else 1.0)
     tails = heads.copy()
-    moving = motion.layout.has_position
+    reach = float(lengths.sum()) or 1.0
+    # joints whose position channels leave their offset (constant ones at it may connect:
+    # there is nothing to hide)
+    away = np.abs(kinematics.local_translations(motion) - motion.offsets)
+    moving = away.max(axis=(0, 2), initial=0.0) > 1e-9 * reach
     for j in range(motion.n_joints):
         children = np.flatnonzero(motion.parents == j)
         ends = [
@@ -475,6 +480,8 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
     for j, site in motion.end_sites.items():
         if not np.any(site):
             armature.bones[motion.names[j]][END_SITE_AT_HEAD] = True
+    for name, channels in zip(motion.names, motion.channels, strict=True):
+        armature.bones[name][CHANNELS_PROPERTY] = " ".join(channels)
     up = kinematics.up_axis(motion)
     turn = {
         0: quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), -np.pi / 2),
