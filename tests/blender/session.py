@@ -698,6 +698,43 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
         np.save(out / "fbx_batch_rotations.npy", back.rotations)
 
 
+def under_reference(bvh: str) -> str:
+    """The BVH text ``bvh`` with a still ``Reference`` joint above its root (rotation
+    channels that never move; the travel stays on the old root's position channels, as
+    Bandai Namco's and MotionBuilder's files have it) and every end site at its joint."""
+    head, motion = bvh.split("MOTION", 1)
+    head = head.replace(
+        "ROOT ",
+        "ROOT Reference\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Yrotation Xrotation\n\tJOINT ",
+        1,
+    )
+    sites = head.split("End Site")
+    head = sites[0] + "".join(
+        "End Site" + part.replace(part.split("OFFSET", 1)[1].split("\n", 1)[0], " 0 0 0", 1)
+        for part in sites[1:]
+    )
+    lines = motion.strip("\n").split("\n")
+    frames = [line for line in lines if line.strip() and not line.strip()[0].isalpha()]
+    header = [line for line in lines if line not in frames]
+    body = "\n".join(f"0 0 0 {line}" for line in frames)
+    return head.rstrip("\n") + "\n}\nMOTION\n" + "\n".join(header) + "\n" + body + "\n"
+
+
+def reference_checks(clip: Path, out: Path, results: dict) -> None:
+    """A clip whose travel is on a joint under a still root, with end sites at their joints,
+    written to FBX by motionclean: what Blender's importer plays (the moving joint not
+    connected to its parent) and what motionclean reads back."""
+    source = out / "under_reference.bvh"
+    source.write_text(under_reference(clip.read_text()))
+    mc.save(mc.load(source), out / "under_reference.fbx")
+    mc.save(mc.load(out / "under_reference.fbx"), out / "under_reference_back.bvh")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mend_importer(bpy)
+    bpy.ops.import_scene.fbx(filepath=str(out / "under_reference.fbx"))
+    obj = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
+    results["reference_connected"] = {b.name: b.use_connect for b in obj.data.bones}
+
+
 def load_back(path: Path) -> dict:
     """What Blender's FBX importer (default settings) makes of a file: bones, rest, rate,
     frame range and every bone curve at each frame."""
@@ -758,6 +795,7 @@ def main() -> None:
     timed("range, keyed, unregister")
     if not operator_only:
         fbx_checks(clip, out, results)
+        reference_checks(clip, out, results)
         timed("fbx")
     (out / "results.json").write_text(json.dumps(results, default=float))
 

@@ -23,7 +23,7 @@ import pytest
 from helpers import degrees_between, run_cli
 
 import motionclean as mc
-from motionclean.core import quat
+from motionclean.core import kinematics, quat
 from motionclean.io.blender_action import KEEP_DEGREES
 from motionclean.steps import REGISTRY
 from motionclean.steps.pipeline import DEFAULT_STEPS
@@ -369,3 +369,24 @@ def test_fbx_converts_to_bvh_and_back(blender):
         assert np.abs(np.array(sites[bvh.names[j]]) - site).max() < 1e-4
     assert again["fps"] == [120, 1.0]
     assert again["frames"] == [1, FRAMES]  # BVH frame 0 at time 0: Blender's frame 1
+
+
+def test_fbx_keeps_a_travel_under_a_still_root_and_end_sites_at_their_joints(blender):
+    """The corpus clip under a still ``Reference`` root (its travel on ``Hips``' position
+    channels, as Bandai Namco's files have it) with every end site at its joint, written to
+    FBX: Blender's importer leaves ``Hips`` unconnected, so its travel plays (a bone's tail
+    on its head had connected it and it ran in place), and the file reads back with the
+    same channels in the same order (the still root's too), end sites at zero (their
+    bones' tails had read back 5 % of the skeleton long) and the same world positions."""
+    source = mc.load(blender.out / "under_reference.bvh")
+    back = mc.load(blender.out / "under_reference_back.bvh")
+    assert not blender.results["reference_connected"]["Hips"]
+    assert back.names == source.names and back.channels == source.channels
+    assert all(not np.any(site) for site in back.end_sites.values())
+    assert sorted(back.end_sites) == sorted(source.end_sites)
+    height = kinematics.body_height(source)
+    np.testing.assert_allclose(
+        kinematics.forward(back, end_sites=True)[0],
+        kinematics.forward(source, end_sites=True)[0],
+        atol=1e-5 * height,
+    )
