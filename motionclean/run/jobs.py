@@ -631,16 +631,18 @@ def align_roots(a: Motion, b: Motion) -> Motion:
 
 
 def _heading(q: np.ndarray, up: int) -> float:
-    """Angle (rad) about the up axis of a root's facing: the horizontal axis that stays
-    most horizontal under ``q``, turned by ``q`` and projected on the ground."""
+    """Angle (rad, right-handed about the up axis ``up``) of a root's facing: the
+    horizontal axis that stays most horizontal under ``q``, turned by ``q`` and projected
+    on the ground, measured from the axis after ``up`` toward the one after that (a turn
+    by ``t`` about ``up`` adds ``t``)."""
     horizontal = [k for k in range(3) if k != up]
     axes = np.eye(3)[horizontal]
     turned = quat.rotate(q, axes)
     pick = int(np.argmin(np.abs(turned[:, up])))
     first, second = (up + 1) % 3, (up + 2) % 3
     vector, reference = turned[pick], axes[pick]
-    return math.atan2(vector[first], vector[second]) - math.atan2(
-        reference[first], reference[second]
+    return math.atan2(vector[second], vector[first]) - math.atan2(
+        reference[second], reference[first]
     )
 
 

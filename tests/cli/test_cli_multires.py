@@ -210,6 +210,45 @@ def test_stitch_aligns_the_second_roots_position_and_heading(tmp_path, capsys):
             assert near > 3.0 * own_max  # the old behaviour: a slide at the seam
 
 
+@pytest.mark.parametrize("up", ["y", "z"])
+@pytest.mark.parametrize("degrees", [90.0, -35.0])
+def test_a_take_cut_turned_and_stitched_again_walks_on_as_it_did(tmp_path, capsys, up, degrees):
+    """A walk cut in two, its second half turned about the up axis and moved across the
+    room, then stitched to its first half: aligned, the second half faces and stands where
+    the take had it again, so past the transition every joint is back where it was. (The
+    heading's sign had been reversed: the turn was doubled, and a 90-degree turn walked
+    off the other way.) The same on a Z-up copy."""
+    from helpers import corpus_clip, z_up_copy
+
+    from motionclean.core import kinematics
+
+    take = mc.load(corpus_clip("131_02.bvh"))
+    take = z_up_copy(take) if up == "z" else take
+    axis = np.eye(3)[kinematics.up_axis(take)]
+    cut = take.n_frames // 2
+    first, second = (
+        take.at_frames(np.arange(cut)),
+        take.at_frames(np.arange(cut - 1, take.n_frames)),
+    )
+    turn = quat.from_axis_angle(axis, np.radians(degrees))
+    moved = second.translations.copy()
+    moved[:, 0] = quat.rotate(turn, moved[:, 0]) + 300.0 * np.cross(axis, [1.0, 1.0, 1.0])
+    rotations = second.rotations.copy()
+    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+    paths = tmp_path / "a.bvh", tmp_path / "b.bvh", tmp_path / "ab.bvh"
+    mc.save(first, paths[0])
+    mc.save(second.replace(rotations=rotations, translations=moved), paths[1])
+    code, _, err = run_cli(capsys, "stitch", paths[0], paths[1], "-o", paths[2], "--levels", "2")
+    assert code == 0, err
+    joined, height = mc.load(paths[2]), kinematics.body_height(take)
+    after = slice(cut + 3 * (2**2 - 1) + 1, None)  # past the transition
+    np.testing.assert_allclose(
+        kinematics.forward(joined)[0][after],
+        kinematics.forward(take)[0][after],
+        atol=0.01 * height,
+    )
+
+
 def test_stitch_refuses_another_skeleton(tmp_path, capsys):
     moved = tmp_path / "moved.bvh"
     text = SAMPLE.read_text()
