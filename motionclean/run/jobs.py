@@ -27,6 +27,7 @@ import numpy as np
 from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
+from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
 from ..io import ReadOptions, declare_up, encode, ensure_folder, write_together
@@ -531,10 +532,13 @@ def check_compatible(
                 clip.path,
             )
     if a.names != b.names or not np.array_equal(a.parents, b.parents):
-        raise MotionError(f"skeleton differs from {a.path}'s (joints or hierarchy)", b.path)
+        raise MotionError(
+            f"skeleton differs from {a.path}'s ({_skeleton_difference(a, b)})", b.path
+        )
     if a.channels != b.channels:
         raise MotionError(f"channels differ from {a.path}'s", b.path)
-    if not np.isclose(a.frame_time, b.frame_time, rtol=1e-6):
+    # (one rate written to other precisions: 0.016667 and 0.0166667 s are 60 fps)
+    if abs(a.frame_time - b.frame_time) > FRAME_TIME_ROUNDING * a.frame_time:
         raise MotionError(
             f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
         )
@@ -600,6 +604,24 @@ def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
             b.translations[:, joints],
         )
     return q, p
+
+
+def _skeleton_difference(a: Motion, b: Motion) -> str:
+    """How ``b``'s skeleton differs from ``a``'s, in a few words naming a joint."""
+    if sorted(a.names) == sorted(b.names):
+        if a.names != b.names:
+            moved = next(n for n, m in zip(a.names, b.names, strict=True) if n != m)
+            return (
+                f"the same joints in another order: {moved} is joint {b.names.index(moved) + 1} "
+                f"here, {a.names.index(moved) + 1} there"
+            )
+        child = next(j for j in range(a.n_joints) if a.parents[j] != b.parents[j])
+        return f"{a.names[child]} hangs from another joint"
+    extra = [n for n in b.names if n not in set(a.names)]
+    if extra:
+        return f"{len(b.names)} joints, {extra[0]} not among its {len(a.names)}"
+    absent = next(n for n in a.names if n not in set(b.names))
+    return f"{len(b.names)} joints, without its {absent}"
 
 
 def align_roots(a: Motion, b: Motion) -> Motion:

@@ -177,6 +177,58 @@ def test_mismatched_channels_or_frame_time_exit_1_with_one_line(clips, tmp_path,
         assert not out.exists()
 
 
+def test_one_rate_written_to_other_precisions_blends_and_stitches(clips, tmp_path, capsys):
+    """A Frame Time of 0.008333 s is the 0.0083333 s of the other clip (120 fps), as
+    ``resample --fps`` writes it to other precisions: the clips blend and stitch, into the
+    first clip's rate (a relative tolerance of 1e-6 had refused them)."""
+    text = clips[1].read_text()
+    frame_time = next(line for line in text.splitlines() if line.startswith("Frame Time:"))
+    rounded = tmp_path / "rounded.bvh"
+    rounded.write_text(text.replace(frame_time, "Frame Time: 0.008333"))
+    for command in ("blend", "stitch"):
+        out = tmp_path / f"{command}.bvh"
+        code, _, err = run_cli(capsys, command, clips[0], rounded, "-o", out)
+        assert code == 0, err
+        assert mc.load(out).frame_time == mc.load(clips[0]).frame_time
+
+
+def test_a_skeleton_with_its_joints_in_another_order_is_said_so(clips, tmp_path, capsys):
+    """The same joints, their legs' subtrees swapped in the file: refused, naming a joint
+    and where each clip has it (the line had said only "joints or hierarchy")."""
+    motion = mc.load(clips[1])
+    parents = motion.parents
+
+    def subtree(root: int) -> list[int]:
+        inside = [root]
+        for j in range(root + 1, motion.n_joints):
+            if parents[j] in inside:
+                inside.append(j)
+        return inside
+
+    left, right = subtree(1), subtree(1 + len(subtree(1)))
+    order = [0, *right, *left, *range(1 + len(left) + len(right), motion.n_joints)]
+    place = np.argsort(order)
+    swapped = motion.replace(
+        names=[motion.names[j] for j in order],
+        parents=np.array([place[parents[j]] if parents[j] >= 0 else -1 for j in order]),
+        offsets=motion.offsets[order],
+        channels=[motion.channels[j] for j in order],
+        rotations=motion.rotations[:, order],
+        translations=motion.translations[:, order],
+        end_sites={int(place[j]): site for j, site in motion.end_sites.items()},
+        source_values=None,
+        source_rotations=None,
+    )
+    path = tmp_path / "swapped.bvh"
+    mc.save(swapped, path)
+    code, _, err = run_cli(capsys, "stitch", clips[0], path, "-o", tmp_path / "o.bvh")
+    moved = motion.names[1]  # the first joint the two orders place apart
+    assert code == 1 and err.count("\n") == 1
+    assert (
+        f"the same joints in another order: {moved} is joint {int(place[1]) + 1} here, 2 there"
+    ) in err
+
+
 def test_stitch_aligns_the_second_roots_position_and_heading(tmp_path, capsys):
     """Two takes joined: the second starts where the first ends (horizontal position and
     heading about the up axis), so the root does not slide across the room at the seam."""
