@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 import pytest
@@ -276,15 +275,13 @@ def test_rotation_noise_shows_in_the_plot_order():
 
 
 @pytest.mark.browser
-def test_renders_in_a_headless_browser(cleaned, tmp_path):
+def test_renders_in_a_headless_browser(cleaned, tmp_path, chromium):
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
         import screenshot_report
     finally:
         sys.path.pop(0)
-    if screenshot_report.find_browser() is None:
-        pytest.skip("no Chromium on PATH (apt-get install chromium); browser check skipped")
-    motion, after, report = cleaned
+    motion, after, report = cleaned  # (the chromium fixture skips where there is none)
     page = tmp_path / "report.html"
     page.write_text(render_html(report, build_series(motion, after)), encoding="utf-8")
     try:
@@ -296,21 +293,7 @@ def test_renders_in_a_headless_browser(cleaned, tmp_path):
     width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
     assert (width, height) == (1366, 900)
     # the DOM the browser built: one plot per moving joint, noisiest first, three series each
-    with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
-        done = subprocess.run(
-            [
-                screenshot_report.find_browser(),
-                *screenshot_report.FLAGS,
-                f"--user-data-dir={profile}",
-                "--dump-dom",
-                page.as_uri(),
-            ],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    dom = Page(done.stdout)
+    dom = Page(chromium.dom(page.as_uri()))
     plots = [a["data-joint"] for t, a in dom.tags if t == "svg" and "plot" in a.get("class", "")]
     moving = [n for n in noisiest(report) if report["joints"][n]["angular_accel_rms"]["before"] > 0]
     assert plots == moving and len(plots) > 20
