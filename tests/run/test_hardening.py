@@ -273,9 +273,9 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
     source, out = tmp_path / "in", tmp_path / "o"
     for k in range(12):
         cut_bvh(SAMPLE, source / f"c{k}.bvh", 120)
-    # a second or so a clip: the first written while the others are under way
+    # half a second or so a clip: the first written while the others are under way
     process = slow_command(
-        "batch", source, "-o", out, "-j", "2", iterations=800, start_new_session=True
+        "batch", source, "-o", out, "-j", "2", iterations=400, start_new_session=True
     )
     deadline = time.monotonic() + 60
     while not list(out.glob("c*.bvh")) and time.monotonic() < deadline:
@@ -526,7 +526,7 @@ def test_a_worker_killed_mid_batch_fails_no_clip_it_did_not_hold(tmp_path):
     from motionclean.run.pool import run_jobs
     from motionclean.steps.pipeline import Pipeline
 
-    slow = Pipeline.from_inline(["fairing:max_iterations=600,tol=0"]).describe()
+    slow = Pipeline.from_inline(["fairing:max_iterations=300,tol=0"]).describe()
     fast = Pipeline.from_inline(["lee-shin"]).describe()
     jobs = []
     for k in range(8):
