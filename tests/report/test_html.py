@@ -97,16 +97,22 @@ def tiled(motion: mc.Motion, repeats: int) -> tuple[mc.Motion, mc.Motion]:
 
 
 @pytest.fixture(scope="module")
-def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion]:
-    """The noisy sample repeated to 12,000 frames, and its cleaning (one run per module)."""
-    return tiled(cleaned[0], 40)
+def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion, dict]:
+    """The noisy sample repeated to 12,000 frames, its cleaning and their series (made once
+    a module)."""
+    long, smooth = tiled(cleaned[0], 40)
+    return long, smooth, build_series(long, smooth)
 
 
 def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
     sizes = []
-    for long, smooth in (tiled(cleaned[0], 8), long_cleaned):  # 2,400 and 12,000 frames
+    shorter = tiled(cleaned[0], 8)
+    for long, smooth, series in (
+        (*shorter, build_series(*shorter)),
+        long_cleaned,
+    ):  # 2,400 and 12,000 frames
         report = build_report(long, smooth, [], None, "long.bvh")
-        sizes.append(len(render_html(report, build_series(long, smooth))))
+        sizes.append(len(render_html(report, series)))
     assert sizes[1] < 1.1 * sizes[0]
     assert sizes[1] < 1_500_000  # with the skeleton player and trajectories
 
@@ -114,8 +120,7 @@ def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
 def test_joint_series_are_reduced_to_plot_columns(long_cleaned):
     """A 12,000-frame clip's plot series hold at most COLUMNS values per joint: no array
     the length of the clip stays behind the page."""
-    long, smooth = long_cleaned
-    series = build_series(long, smooth)
+    long, _, series = long_cleaned
     for data in series["joints"].values():
         for drawn in data.values():
             assert drawn.size >= long.n_frames - 2

@@ -25,6 +25,12 @@ def page_of(path) -> str:
     return render_html(build_report(clip, cleaned), build_series(clip, cleaned))
 
 
+@pytest.fixture(scope="module")
+def noisy_page() -> str:
+    """The page of the noisy sample cleaned by the default pipeline (made once a module)."""
+    return page_of(NOISY)
+
+
 def bone_lines(text: str, clip: str) -> np.ndarray:
     """``(bones, 4)`` end points of the player's lines of one clip, whatever the attribute
     order (the page's own or the browser's)."""
@@ -36,8 +42,8 @@ def bone_lines(text: str, clip: str) -> np.ndarray:
     return np.array(rows)
 
 
-def test_without_scripts_the_player_shows_an_upright_figure():
-    text = page_of(NOISY)
+def test_without_scripts_the_player_shows_an_upright_figure(noisy_page):
+    text = noisy_page
     motion = mc.load(NOISY)
     bones = len(kinematics.point_parents(motion)) - 1
     before, after = bone_lines(text, "before"), bone_lines(text, "after")
@@ -53,10 +59,10 @@ def test_without_scripts_the_player_shows_an_upright_figure():
     assert {"Head_end", "LeftToe_end", "RThumb_end"} <= names_in_page
 
 
-def test_the_front_view_has_x_to_the_right():
+def test_the_front_view_has_x_to_the_right(noisy_page):
     """Y-up like Z-up clips: the player opens on the view with x to the right and the up
     axis up (the subject of 131_02 faces +z at first, so its shoulders stand side by side)."""
-    text = page_of(NOISY)
+    text = noisy_page
     motion = mc.load(NOISY)
     parents = kinematics.point_parents(motion)
     pairs = [(int(p), c) for c, p in enumerate(parents) if p >= 0]
@@ -117,9 +123,9 @@ def chromium_dom(chromium, page, fragment: str) -> str:
 
 
 @pytest.mark.browser
-def test_the_player_opens_the_frame_named_in_the_address(tmp_path, chromium):
+def test_the_player_opens_the_frame_named_in_the_address(tmp_path, chromium, noisy_page):
     page = tmp_path / "report.html"
-    page.write_text(page_of(NOISY), encoding="utf-8")
+    page.write_text(noisy_page, encoding="utf-8")
     first = chromium_dom(chromium, page, "#frame=0")
     later = chromium_dom(chromium, page, "#frame=150")
     assert re.search(r'id="mc-frame">frame 0<', first)
@@ -383,10 +389,10 @@ def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_pat
     assert max(np.abs(off_input)) / scale > 0.2 * world["height"]
 
 
-def test_a_clip_the_cleaning_did_not_move_keeps_one_floor_line():
+def test_a_clip_the_cleaning_did_not_move_keeps_one_floor_line(noisy_page):
     """The default pipeline leaves a clip where it stood: its page draws the input's floor
     alone, grey, keyed as the input's, as a page of the input alone does."""
-    page = page_of(NOISY)
+    page = noisy_page
     data = player_data(page)
     assert data["floor"] is not None and data["floor_after"] is None
     assert 'id="mc-floor-after"' not in page and "floor (the cleaned clip's)" not in page
@@ -489,12 +495,12 @@ def test_the_player_plays_at_the_clips_own_rate(tmp_path, chromium):
     assert seen.split("|") == ["frame 0", "frame 120", "frame 12", "frame 12"]
 
 
-def test_a_page_of_the_input_alone_shows_no_cleaned_key():
+def test_a_page_of_the_input_alone_shows_no_cleaned_key(noisy_page):
     """Nothing was cleaned: the motion's legend has no 'cleaned' swatch, the feet's no
     'after' one; a cleaned clip's page has both."""
     clip = mc.load(NOISY)
     alone = render_html(build_report(clip), build_series(clip))
-    cleaned = page_of(NOISY)
+    cleaned = noisy_page
     for key in ("cleaned", "after"):
         swatch = f"></i>{key}</span>"
         assert swatch not in alone and swatch in cleaned
