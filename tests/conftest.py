@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from helpers import NOISY, SAMPLE
+from helpers import NOISY, ROOT, SAMPLE, Chromium
 from hypothesis import settings
 
 # The same examples on every run (CI included): a property test fails for a reason that can
@@ -34,3 +35,30 @@ def dask_scheduler() -> Iterator[str]:
         n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=":0"
     ) as local:
         yield local.scheduler_address
+
+
+#: Longest wait for the shared browser to answer (a page with a virtual-time budget:
+#: about 0.3 s), seconds.
+CHROMIUM_TIMEOUT_S = 90.0
+
+
+@pytest.fixture(scope="session")
+def chromium() -> Iterator[Chromium]:
+    """One headless Chromium for the session's browser tests (skips, saying why, when there
+    is none or it cannot run here)."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    try:
+        import screenshot_report
+    finally:
+        sys.path.pop(0)
+    browser = screenshot_report.find_browser()
+    if browser is None:
+        pytest.skip("no Chromium on PATH (apt-get install chromium); browser check skipped")
+    shared = Chromium(browser, screenshot_report.FLAGS, CHROMIUM_TIMEOUT_S)
+    try:
+        shared.send("Browser.getVersion")
+    except (OSError, RuntimeError, TimeoutError) as error:
+        shared.close()
+        pytest.skip(f"Chromium could not run here: {error}")
+    yield shared
+    shared.close()

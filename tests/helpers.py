@@ -1,5 +1,5 @@
 """Shared test helpers: sample and corpus paths, the CLI runner, clips as other exporters
-write them, planted noise, clip cutting, angles, an HTML tag collector.
+write them, planted noise, clip cutting, angles, an HTML tag collector, a headless Chromium.
 
 Corpus clips are named here (from ``../shared/corpus/README.md``) rather than globbed, so a
 test parametrised over them is collected and skipped with a reason when the corpus is absent,
@@ -8,14 +8,19 @@ instead of vanishing.
 
 from __future__ import annotations
 
+import fcntl
+import json
 import math
 import os
 import resource
+import select
 import signal
 import socket
+import subprocess
+import tempfile
 import threading
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -297,6 +302,104 @@ def exporter_bvh(
         out = out.rstrip("\r\n \t")
     data = (b"\xef\xbb\xbf" if bom else b"") + out.encode("utf-8")
     return data, (names, parents, channels, values)
+
+
+# ----------------------------------------------------------------------------- browser
+
+
+class Chromium:
+    """One headless Chromium, shared by a session's tests, driven over the DevTools protocol
+    on a pipe (``--remote-debugging-pipe``: it reads JSON messages, each ended by a NUL
+    byte, on its descriptor 3 and writes its answers on 4). Each page opens in a new tab,
+    as a new browser would show it; every wait for an answer ends after ``timeout`` s."""
+
+    def __init__(self, browser: str, flags: tuple[str, ...], timeout: float) -> None:
+        self.profile = tempfile.TemporaryDirectory(prefix="motionclean-chromium-")
+        (reads, self.commands), (self.answers, writes) = os.pipe(), os.pipe()
+        # the browser's ends moved above 4, so that its 3 and 4 can be made from them (by
+        # bash: dash's redirections take descriptors 0-9 only)
+        theirs = [fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 5) for fd in (reads, writes)]
+        self.process = subprocess.Popen(
+            ["bash", "-c", f'exec "$@" 3<&{theirs[0]} 4>&{theirs[1]}', "bash", browser, *flags]
+            + [f"--user-data-dir={self.profile.name}", "--remote-debugging-pipe", "about:blank"],
+            pass_fds=theirs,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        for fd in (reads, writes, *theirs):
+            os.close(fd)
+        self.timeout = timeout
+        self.received = b""
+        self.held: list[dict] = []  # events read while waiting for something else
+        self.sent = 0
+
+    def send(self, method: str, params: dict | None = None, session: str | None = None) -> dict:
+        """Send a command (to a tab's ``session``, else to the browser); its result."""
+        self.sent += 1
+        message = {"id": self.sent, "method": method, "params": params or {}}
+        if session is not None:
+            message["sessionId"] = session
+        os.write(self.commands, json.dumps(message).encode() + b"\0")
+        number = self.sent
+        return self.wait(lambda m: m.get("id") == number)["result"]
+
+    def wait(self, wanted) -> dict:
+        """The first message ``wanted(message)`` is true of (events read meanwhile held)."""
+        for k, message in enumerate(self.held):
+            if wanted(message):
+                return self.held.pop(k)
+        while True:
+            while b"\0" not in self.received:
+                if not select.select([self.answers], [], [], self.timeout)[0]:
+                    raise TimeoutError(f"Chromium did not answer within {self.timeout} s")
+                chunk = os.read(self.answers, 1 << 20)
+                if not chunk:
+                    raise RuntimeError("Chromium closed its DevTools pipe")
+                self.received += chunk
+            text, self.received = self.received.split(b"\0", 1)
+            message = json.loads(text)
+            if "error" in message:
+                raise RuntimeError(f"Chromium: {message['error']}")
+            if wanted(message):
+                return message
+            self.held.append(message)
+
+    def dom(self, url: str, budget_ms: int | None = None) -> str:
+        """The document's HTML once the page at ``url`` has loaded, or, with ``budget_ms``,
+        once that many virtual milliseconds have passed (as ``--virtual-time-budget``: its
+        timers fire at once, network fetches pause the clock): what ``--dump-dom`` prints
+        but its first line, the doctype. (Virtual time is paused while the tab navigates and
+        the budget set once it has, as in Chromium's own tests of it.)"""
+        tab = self.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        attached = self.send("Target.attachToTarget", {"targetId": tab, "flatten": True})
+        session = attached["sessionId"]
+        self.send("Page.enable", session=session)
+        if budget_ms is not None:
+            self.send("Emulation.setVirtualTimePolicy", {"policy": "pause"}, session)
+        self.send("Page.navigate", {"url": url}, session)
+        if budget_ms is not None:
+            policy = {"policy": "pauseIfNetworkFetchesPending", "budget": budget_ms}
+            self.send("Emulation.setVirtualTimePolicy", policy, session)
+        event = "Page.loadEventFired" if budget_ms is None else "Emulation.virtualTimeBudgetExpired"
+        self.wait(lambda m: m.get("method") == event and m.get("sessionId") == session)
+        read = {"expression": "document.documentElement.outerHTML", "returnByValue": True}
+        html = self.send("Runtime.evaluate", read, session)["result"]["value"]
+        self.send("Target.closeTarget", {"targetId": tab})
+        self.held = [m for m in self.held if m.get("sessionId") != session]
+        return html
+
+    def close(self) -> None:
+        """Close the browser (killed if it has not exited within ``timeout``)."""
+        with suppress(OSError, RuntimeError, TimeoutError):
+            self.send("Browser.close")
+        try:
+            self.process.wait(self.timeout)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        for fd in (self.commands, self.answers):
+            os.close(fd)
+        self.profile.cleanup()
 
 
 # ----------------------------------------------------------------------------- faults

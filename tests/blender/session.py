@@ -14,6 +14,7 @@ back with Blender's FBX importer. Nothing is asserted here: WORK_DIR receives
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import json
 import os
@@ -30,6 +31,7 @@ import bpy
 import numpy as np
 
 import motionclean as mc
+from motionclean.cli import main as cli_main
 from motionclean.core import quat
 from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
 from motionclean.io.fbx import fbx_frames, mend_importer
@@ -166,24 +168,30 @@ def clean(**settings: Any) -> set[str]:
     return bpy.ops.motionclean.clean("EXEC_DEFAULT", True)
 
 
-def printed(call: Any) -> tuple[Any, str]:
-    """``call()`` and what it printed on standard output: a headless Blender prints an
-    operator's warning and info reports there (its C stdio flushed around the call)."""
+def printed(call: Any) -> tuple[Any, str, str]:
+    """``call()`` and what it printed on standard output and standard error, read at file
+    descriptors 1 and 2: a headless Blender prints an operator's warning and info reports,
+    and its C code anything it says, there (C stdio flushed around the call)."""
     libc = ctypes.CDLL(None)
-    sys.stdout.flush()
-    libc.fflush(None)
-    saved = os.dup(1)
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 1)
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+        libc.fflush(None)
+        os.dup2(out.fileno(), 1)
+        os.dup2(err.fileno(), 2)
         try:
             result = call()
         finally:
-            sys.stdout.flush()
+            for stream in (sys.stdout, sys.stderr):
+                stream.flush()
             libc.fflush(None)
-            os.dup2(saved, 1)
-            os.close(saved)
-        sink.seek(0)
-        return result, sink.read().decode()
+            for fd, copy in enumerate(saved, start=1):
+                os.dup2(copy, fd)
+                os.close(copy)
+        out.seek(0)
+        err.seek(0)
+        return result, out.read().decode(), err.read().decode()
 
 
 # ----------------------------------------------------------------------------- checks
@@ -508,7 +516,7 @@ def keyed_checks(clip: Path, results: dict) -> None:
     state0 = key_state(data.action, data.action_slot)
     # 1. a step on the other knee: the keyed knee's keys do not move
     # (with a second pattern that names no joint: warned of)
-    done1, said1 = printed(
+    done1, said1, _ = printed(
         lambda: clean(
             pipeline="STEPS",
             steps=f"-f lee-shin:k=3,iterations=4,joints=[{KNEES[1]},Nope]",
@@ -602,6 +610,22 @@ def unregister_checks(results: dict) -> None:
 # ----------------------------------------------------------------------------- FBX
 
 
+def run_here(args: list[str], folder: Path) -> dict:
+    """``motionclean ARGS`` run in this session from ``folder`` through the command line's
+    entry point: its exit code and what reached standard output and error (as a process
+    of its own would show them, but for what it prints as it starts and exits)."""
+
+    def call() -> Any:
+        with contextlib.chdir(folder):
+            try:
+                cli_main(args)
+            except SystemExit as done:  # (the entry point always exits)
+                return done.code
+
+    code, stdout, stderr = printed(call)
+    return {"code": code, "stdout": stdout, "stderr": stderr}
+
+
 def fbx_checks(clip: Path, out: Path, results: dict) -> None:
     """An FBX written by Blender's exporter (its defaults) through the command line, with a
     light in its scene (Blender 5.0's importer failed on lights)."""
@@ -649,33 +673,35 @@ def fbx_checks(clip: Path, out: Path, results: dict) -> None:
         "empty": ["info", "empty.fbx"],
         "resample": ["resample", "takes/take.fbx", "r60.fbx", "--fps", "60"],
         "report": ["report", "takes/take.fbx", "identity.fbx", "--json", "report.json"],
-        "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],
+        "to_bvh": ["convert", "takes/take.fbx", "take.bvh"],  # (before the two that read it)
         "from_bvh": ["convert", "take.bvh", "from_bvh.fbx"],
         # a BVH cleaned under bpy's numpy 1 (kept cells' text spliced in: an int64 had
         # been OR-ed into a uint32 array there, an internal error under numpy < 2)
         "bvh_clean": ["clean", "take.bvh", "-o", "take_clean.bvh", "-q"],
     }
-    ran = {}
     (out / "ascii.fbx").write_text("; FBX 7.4.0 project file\n")
     (out / "empty.fbx").write_bytes(b"")
-    first = ["identity", "batch", "info", "to_bvh", "not_binary", "empty", "two_takes"]
-    for group in (
-        first,
-        ["from_bvh", "report", "resample", "bvh_clean"],
-    ):  # (these read what the first ones write)
-        started = {
-            name: subprocess.Popen(
-                [command, *runs[name]],
-                cwd=out,
-                stdout=subprocess.PIPE,
-                stderr=subprocess.PIPE,
-                text=True,
-            )
-            for name in group
-        }
-        for name, process in started.items():
-            stdout, stderr = process.communicate()
-            ran[name] = {"code": process.returncode, "stdout": stdout, "stderr": stderr}
+    # two commands that read and write FBX files run as processes of their own (nothing
+    # Blender prints as bpy is imported or as the process exits may reach the terminal
+    # either); the others meanwhile here, through the same entry point
+    started = {
+        name: subprocess.Popen(
+            [command, *runs[name]],
+            cwd=out,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for name in ("identity", "batch")
+    }
+    later = {"report"}  # (it reads what identity writes)
+    ran = {
+        name: run_here(args, out) for name, args in runs.items() if name not in {*started, *later}
+    }
+    for name, process in started.items():
+        stdout, stderr = process.communicate()
+        ran[name] = {"code": process.returncode, "stdout": stdout, "stderr": stderr}
+    ran.update((name, run_here(runs[name], out)) for name in later)
     results["fbx_runs"] = ran
     loaded = {}
     for name in ("takes/take.fbx", "identity.fbx", "batch/take.fbx", "from_bvh.fbx", "r60.fbx"):

@@ -16,7 +16,7 @@ BLENDER_GLB = ROOT / "tests" / "data" / "blender" / "131_02_cut.glb"
 FRAMES = 96
 
 pytestmark = [
-    pytest.mark.slow,  # four Blender processes, about 8 s
+    pytest.mark.slow,  # one Blender process importing four clips, about 1.5 s
     pytest.mark.skipif(
         not BLENDER_PYTHON.exists(),
         reason=f"no Blender Python at {BLENDER_PYTHON} (make test creates it: bpy 5.0.1)",
@@ -24,12 +24,12 @@ pytestmark = [
 ]
 
 
-def blender_poses(clip, first: int = 1) -> dict:
-    """Per frame (``first`` on, FRAMES of them) and bone: Blender's world rotation (w, x, y,
-    z) and head."""
-    last = first + FRAMES - 1
+def blender_poses(*clips: tuple) -> list[dict]:
+    """Per clip ``(path, first frame)``: per frame (``first`` on, FRAMES of them) and bone,
+    Blender's world rotation (w, x, y, z) and head (one Blender process for all)."""
+    args = [str(a) for clip, first in clips for a in (clip, first, first + FRAMES - 1)]
     done = subprocess.run(
-        [str(BLENDER_PYTHON), str(POSE_FRAMES), str(clip), "120", str(first), str(last)],
+        [str(BLENDER_PYTHON), str(POSE_FRAMES), "120", *args],
         capture_output=True,
         text=True,
         timeout=300,
@@ -76,22 +76,27 @@ def test_cleaned_glb_imports_in_blender_as_the_cleaned_bvh(tmp_path, capsys):
     for source, target in ((BLENDER_GLB, "clean.glb"), (bvh, "clean.bvh")):
         code, _, err = run_cli(capsys, "clean", source, "-o", tmp_path / target, "-q")
         assert code == 0, err
-    from_glb = blender_poses(tmp_path / "clean.glb")
-    from_bvh = blender_poses(tmp_path / "clean.bvh")
+    # a BVH written as a new glTF (its keys start at time 0, Blender's frame 0; the BVH
+    # importer starts at frame 1)
+    code, _, err = run_cli(capsys, "convert", tmp_path / "clean.bvh", tmp_path / "new.glb")
+    assert code == 0, err
+    from_glb, from_bvh, new, before = blender_poses(
+        (tmp_path / "clean.glb", 1),
+        (tmp_path / "clean.bvh", 1),
+        (tmp_path / "new.glb", 0),
+        (bvh, 1),
+    )
     names = sorted(from_bvh["1"])
     assert sorted(from_glb["1"]) == names and len(names) == 31
     q_glb, p_glb = arrays(from_glb, names)
     q_bvh, p_bvh = arrays(from_bvh, names)
     assert np.abs(p_glb - p_bvh).max() < 1e-3  # bone heads, Blender units (24 tall)
     assert degrees_apart(relative(q_glb), relative(q_bvh)) < 0.01
-    # a BVH written as a new glTF imports in Blender as the BVH does
-    code, _, err = run_cli(capsys, "convert", tmp_path / "clean.bvh", tmp_path / "new.glb")
-    assert code == 0, err
-    # (its keys start at time 0, Blender's frame 0; the BVH importer starts at frame 1)
-    q_new, p_new = arrays(blender_poses(tmp_path / "new.glb", first=0), names)
+    # the new glTF imports in Blender as the BVH does
+    q_new, p_new = arrays(new, names)
     assert np.abs(p_new - p_bvh).max() < 1e-3
     assert degrees_apart(relative(q_new), relative(q_bvh)) < 0.01
     # and the cleaning did something Blender sees: the thumb's half-turn flips are gone
-    q_in, _ = arrays(blender_poses(bvh), names)
+    q_in, _ = arrays(before, names)
     thumb = names.index("RThumb")
     assert degrees_apart(relative(q_in)[:, thumb], relative(q_bvh)[:, thumb]) > 90

@@ -5,7 +5,6 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
-import tempfile
 
 import numpy as np
 import pytest
@@ -98,16 +97,22 @@ def tiled(motion: mc.Motion, repeats: int) -> tuple[mc.Motion, mc.Motion]:
 
 
 @pytest.fixture(scope="module")
-def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion]:
-    """The noisy sample repeated to 12,000 frames, and its cleaning (one run per module)."""
-    return tiled(cleaned[0], 40)
+def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion, dict]:
+    """The noisy sample repeated to 12,000 frames, its cleaning and their series (made once
+    a module)."""
+    long, smooth = tiled(cleaned[0], 40)
+    return long, smooth, build_series(long, smooth)
 
 
 def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
     sizes = []
-    for long, smooth in (tiled(cleaned[0], 8), long_cleaned):  # 2,400 and 12,000 frames
+    shorter = tiled(cleaned[0], 8)
+    for long, smooth, series in (
+        (*shorter, build_series(*shorter)),
+        long_cleaned,
+    ):  # 2,400 and 12,000 frames
         report = build_report(long, smooth, [], None, "long.bvh")
-        sizes.append(len(render_html(report, build_series(long, smooth))))
+        sizes.append(len(render_html(report, series)))
     assert sizes[1] < 1.1 * sizes[0]
     assert sizes[1] < 1_500_000  # with the skeleton player and trajectories
 
@@ -115,8 +120,7 @@ def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
 def test_joint_series_are_reduced_to_plot_columns(long_cleaned):
     """A 12,000-frame clip's plot series hold at most COLUMNS values per joint: no array
     the length of the clip stays behind the page."""
-    long, smooth = long_cleaned
-    series = build_series(long, smooth)
+    long, _, series = long_cleaned
     for data in series["joints"].values():
         for drawn in data.values():
             assert drawn.size >= long.n_frames - 2
@@ -276,15 +280,13 @@ def test_rotation_noise_shows_in_the_plot_order():
 
 
 @pytest.mark.browser
-def test_renders_in_a_headless_browser(cleaned, tmp_path):
+def test_renders_in_a_headless_browser(cleaned, tmp_path, chromium):
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
         import screenshot_report
     finally:
         sys.path.pop(0)
-    if screenshot_report.find_browser() is None:
-        pytest.skip("no Chromium on PATH (apt-get install chromium); browser check skipped")
-    motion, after, report = cleaned
+    motion, after, report = cleaned  # (the chromium fixture skips where there is none)
     page = tmp_path / "report.html"
     page.write_text(render_html(report, build_series(motion, after)), encoding="utf-8")
     try:
@@ -296,21 +298,7 @@ def test_renders_in_a_headless_browser(cleaned, tmp_path):
     width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
     assert (width, height) == (1366, 900)
     # the DOM the browser built: one plot per moving joint, noisiest first, three series each
-    with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
-        done = subprocess.run(
-            [
-                screenshot_report.find_browser(),
-                *screenshot_report.FLAGS,
-                f"--user-data-dir={profile}",
-                "--dump-dom",
-                page.as_uri(),
-            ],
-            capture_output=True,
-            text=True,
-            timeout=60,
-            check=False,
-        )
-    dom = Page(done.stdout)
+    dom = Page(chromium.dom(page.as_uri()))
     plots = [a["data-joint"] for t, a in dom.tags if t == "svg" and "plot" in a.get("class", "")]
     moving = [n for n in noisiest(report) if report["joints"][n]["angular_accel_rms"]["before"] > 0]
     assert plots == moving and len(plots) > 20

@@ -6,9 +6,6 @@ from __future__ import annotations
 import html
 import json
 import re
-import subprocess
-import sys
-import tempfile
 
 import numpy as np
 import pytest
@@ -28,6 +25,12 @@ def page_of(path) -> str:
     return render_html(build_report(clip, cleaned), build_series(clip, cleaned))
 
 
+@pytest.fixture(scope="module")
+def noisy_page() -> str:
+    """The page of the noisy sample cleaned by the default pipeline (made once a module)."""
+    return page_of(NOISY)
+
+
 def bone_lines(text: str, clip: str) -> np.ndarray:
     """``(bones, 4)`` end points of the player's lines of one clip, whatever the attribute
     order (the page's own or the browser's)."""
@@ -39,8 +42,8 @@ def bone_lines(text: str, clip: str) -> np.ndarray:
     return np.array(rows)
 
 
-def test_without_scripts_the_player_shows_an_upright_figure():
-    text = page_of(NOISY)
+def test_without_scripts_the_player_shows_an_upright_figure(noisy_page):
+    text = noisy_page
     motion = mc.load(NOISY)
     bones = len(kinematics.point_parents(motion)) - 1
     before, after = bone_lines(text, "before"), bone_lines(text, "after")
@@ -56,10 +59,10 @@ def test_without_scripts_the_player_shows_an_upright_figure():
     assert {"Head_end", "LeftToe_end", "RThumb_end"} <= names_in_page
 
 
-def test_the_front_view_has_x_to_the_right():
+def test_the_front_view_has_x_to_the_right(noisy_page):
     """Y-up like Z-up clips: the player opens on the view with x to the right and the up
     axis up (the subject of 131_02 faces +z at first, so its shoulders stand side by side)."""
-    text = page_of(NOISY)
+    text = noisy_page
     motion = mc.load(NOISY)
     parents = kinematics.point_parents(motion)
     pairs = [(int(p), c) for c, p in enumerate(parents) if p >= 0]
@@ -110,41 +113,21 @@ def test_a_clip_carried_sparsely_plays_faster_and_says_so(tmp_path):
     assert "played 2.5x its speed" in text
 
 
-def chromium_dom(page, fragment: str) -> str:
-    sys.path.insert(0, str(ROOT / "scripts"))
-    try:
-        import screenshot_report
-    finally:
-        sys.path.pop(0)
-    browser = screenshot_report.find_browser()
-    if browser is None:
-        pytest.skip("no Chromium on PATH (apt-get install chromium); browser check skipped")
-    with tempfile.TemporaryDirectory(prefix="motionclean-chromium-") as profile:
-        done = subprocess.run(
-            [
-                browser,
-                *screenshot_report.FLAGS,
-                f"--user-data-dir={profile}",
-                "--virtual-time-budget=3000",
-                "--dump-dom",
-                page.as_uri() + fragment,
-            ],
-            capture_output=True,
-            text=True,
-            timeout=90,
-            check=False,
-        )
-    if not done.stdout:
-        pytest.skip(f"Chromium could not run here: {done.stderr[-300:]}")
-    return done.stdout
+#: Virtual milliseconds a page runs in the browser before its DOM is read (its timers fire).
+BROWSER_BUDGET_MS = 3000
+
+
+def chromium_dom(chromium, page, fragment: str) -> str:
+    """The DOM the shared headless Chromium builds of ``page`` opened at ``fragment``."""
+    return chromium.dom(page.as_uri() + fragment, BROWSER_BUDGET_MS)
 
 
 @pytest.mark.browser
-def test_the_player_opens_the_frame_named_in_the_address(tmp_path):
+def test_the_player_opens_the_frame_named_in_the_address(tmp_path, chromium, noisy_page):
     page = tmp_path / "report.html"
-    page.write_text(page_of(NOISY), encoding="utf-8")
-    first = chromium_dom(page, "#frame=0")
-    later = chromium_dom(page, "#frame=150")
+    page.write_text(noisy_page, encoding="utf-8")
+    first = chromium_dom(chromium, page, "#frame=0")
+    later = chromium_dom(chromium, page, "#frame=150")
     assert re.search(r'id="mc-frame">frame 0<', first)
     assert re.search(r'id="mc-frame">frame 150<', later)
     a, b = bone_lines(first, "before"), bone_lines(later, "before")
@@ -240,7 +223,7 @@ def above_floor(points: np.ndarray, floor: dict, axes, up: int) -> float:
 
 
 @pytest.mark.browser
-def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
+def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path, chromium):
     """131_03 hops at frame 810 (feet about 14 % of the body height off the floor): the
     player draws each frame's lowest point as high above the floor line as it stands above
     the report's floor. (Each frame had been centred on its own bounding box, no floor
@@ -256,7 +239,7 @@ def test_the_player_shows_a_hop_off_the_floor_it_draws(tmp_path):
     scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
     lifted = []
     for frame in (700, 810):
-        dom = chromium_dom(page, f"#frame={frame}")
+        dom = chromium_dom(chromium, page, f"#frame={frame}")
         points = world["before"][list(world["frames"]).index(frame)]
         above = above_floor(points, floor, data["views"]["front"], world["up"])  # file units
         drawn = drawn_above_floor(circles(dom), floor_ends(dom))  # view units
@@ -296,12 +279,12 @@ FLOOR_STEPS = """<script>
 </script>"""
 
 
-def drawn_frames(path, page: str, views: list) -> list[dict]:
+def drawn_frames(chromium, path, page: str, views: list) -> list[dict]:
     """What the browser draws at each ``[view, carried frame index]`` of ``views``
     (:data:`FLOOR_STEPS`), the page written to ``path``."""
     asking = f"<script>var MC_ASKED={json.dumps(views)};</script>{FLOOR_STEPS}</body>"
     path.write_text(page.replace("</body>", asking, 1), encoding="utf-8")
-    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, ""))
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(chromium, path, ""))
     return json.loads(html.unescape(seen.group(1)))
 
 
@@ -328,7 +311,9 @@ ON_FLOOR = 0.04
 @pytest.mark.parametrize(
     ("name", "degrees"), [("pymo_walk_tpose.bvh", 5.0), ("mixamo_tpose.bvh", 0.0)]
 )
-def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, name, degrees):
+def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(
+    tmp_path, chromium, name, degrees
+):
     """A walk turned up a 5-degree slope: in the front and side views the floor line
     rises across the player (360 view units) by the floor's slope along the view's
     horizontal axis, toward where the walk ends, and the lowest point of the first and of
@@ -345,7 +330,7 @@ def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, na
     asked = contact_frames(report, world)
     views = [[view, index] for view in ("front", "side") for index in asked]
     page = render_html(report, series)
-    seen = drawn_frames(tmp_path / "report.html", page, views)
+    seen = drawn_frames(chromium, tmp_path / "report.html", page, views)
     data = player_data(page)
     scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
     normal = np.array(floor["normal"])
@@ -365,7 +350,7 @@ def test_the_floor_line_follows_a_tilted_floor_and_the_feet_meet_it(tmp_path, na
 
 
 @pytest.mark.browser
-def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_path):
+def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_path, chromium):
     """PyMO's walk turned up a 10-degree slope and grounded (levelled, put at height 0):
     the player draws the cleaned clip's floor (``contacts.floor_after``) as a second line
     in the cleaned colour, keyed so. At the first and last contacts, in the front and side
@@ -388,7 +373,7 @@ def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_pat
     data = player_data(page)
     scale = 360 * 0.9 / (data["span"] / 1000 * world["height"])
     off_input = []
-    seen = drawn_frames(tmp_path / "report.html", page, views)
+    seen = drawn_frames(chromium, tmp_path / "report.html", page, views)
     for (view, index), drawn in zip(views, seen, strict=True):
         axes = data["views"][view]
         for clip_name, plane in floors.items():
@@ -404,10 +389,10 @@ def test_the_cleaned_clips_floor_is_drawn_under_it_where_ground_moved_it(tmp_pat
     assert max(np.abs(off_input)) / scale > 0.2 * world["height"]
 
 
-def test_a_clip_the_cleaning_did_not_move_keeps_one_floor_line():
+def test_a_clip_the_cleaning_did_not_move_keeps_one_floor_line(noisy_page):
     """The default pipeline leaves a clip where it stood: its page draws the input's floor
     alone, grey, keyed as the input's, as a page of the input alone does."""
-    page = page_of(NOISY)
+    page = noisy_page
     data = player_data(page)
     assert data["floor"] is not None and data["floor_after"] is None
     assert 'id="mc-floor-after"' not in page and "floor (the cleaned clip's)" not in page
@@ -494,7 +479,7 @@ document.body.setAttribute('data-seen', seen.join('|'));
 
 
 @pytest.mark.browser
-def test_the_player_plays_at_the_clips_own_rate(tmp_path):
+def test_the_player_plays_at_the_clips_own_rate(tmp_path, chromium):
     """A 120 fps clip plays 120 frames a second of the page's clock, whatever the screen's
     refresh (a fixed 10 ms step had played it at 0.83x), loops after its last frame and
     stands still when paused. The clock is the test's, not a wall clock."""
@@ -505,17 +490,17 @@ def test_the_player_plays_at_the_clips_own_rate(tmp_path):
     page = page.replace("</body>", PLAY_STEPS + "</body>", 1)
     path = tmp_path / "report.html"
     path.write_text(page, encoding="utf-8")
-    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(path, "#frame=0")).group(1)
+    seen = re.search(r'data-seen="([^"]*)"', chromium_dom(chromium, path, "#frame=0")).group(1)
     # 1004 ms: frame 120.5; 2604 ms: 312.5 frames, the 300-frame clip looped to 12.5
     assert seen.split("|") == ["frame 0", "frame 120", "frame 12", "frame 12"]
 
 
-def test_a_page_of_the_input_alone_shows_no_cleaned_key():
+def test_a_page_of_the_input_alone_shows_no_cleaned_key(noisy_page):
     """Nothing was cleaned: the motion's legend has no 'cleaned' swatch, the feet's no
     'after' one; a cleaned clip's page has both."""
     clip = mc.load(NOISY)
     alone = render_html(build_report(clip), build_series(clip))
-    cleaned = page_of(NOISY)
+    cleaned = noisy_page
     for key in ("cleaned", "after"):
         swatch = f"></i>{key}</span>"
         assert swatch not in alone and swatch in cleaned

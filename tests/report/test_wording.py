@@ -87,11 +87,11 @@ def test_a_long_clip_carries_round_frames(n_frames):
 
 
 @pytest.mark.browser
-def test_the_player_says_when_it_shows_a_nearby_frame(tmp_path):
+def test_the_player_says_when_it_shows_a_nearby_frame(tmp_path, chromium):
     from test_html_world import chromium_dom, page_of
 
     page = tmp_path / "report.html"
     page.write_text(page_of(corpus_clip("131_02.bvh")), encoding="utf-8")
-    assert re.search(r'id="mc-frame">frame 150<', chromium_dom(page, "#frame=150"))
-    later = chromium_dom(page, "#frame=152")
+    assert re.search(r'id="mc-frame">frame 150<', chromium_dom(chromium, page, "#frame=150"))
+    later = chromium_dom(chromium, page, "#frame=152")
     assert re.search(r'id="mc-frame">frame 150 \(nearest carried to frame 152\)<', later)

@@ -106,9 +106,9 @@ def test_the_clips_of_a_lost_worker_are_run_again_and_none_go_missing(tmp_path):
         done = dict(results)
     assert sorted(done) == [0, 1, 2, 3]
     assert all(result.status == "ok" for result in done.values())
+    expected = tmp_path / "serial.bvh"  # (the four clips are one clip's copies: one run)
+    run_job(Job(jobs[0].source, str(expected), steps, None))
     for job in jobs:
-        expected = tmp_path / "serial.bvh"
-        run_job(Job(job.source, str(expected), steps, None))
         assert Path(job.target).read_bytes() == expected.read_bytes()
 
 

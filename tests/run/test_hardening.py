@@ -95,33 +95,79 @@ NO_READ_OVERRIDE = [
 ]
 
 
+#: Runs each command line of the JSON list it is given in a process forked from this one
+#: once the command line is imported (what a `motionclean` process holds when it starts);
+#: prints each one's exit code and standard error, as JSON.
+EACH_FORKED = """
+import json, os, sys
+from motionclean.cli import main
+done = []
+for args in json.loads(sys.argv[1]):
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.dup2(write, 2)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+        try:
+            main(args)
+        except SystemExit as exit:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(exit.code)
+    os.close(write)
+    with os.fdopen(read) as err:
+        said = err.read()
+    done.append([os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), said])
+print(json.dumps(done))
+"""
+UNREADABLE_COMMANDS = ("info", "clean", "report", "convert", "check")
+
+
+@pytest.fixture(scope="module")
+def unreadable_runs(tmp_path_factory) -> dict[str, tuple[Path, Path, int, str]]:
+    """Per command: its folder, the clip there it may not read, its exit code and stderr
+    (the commands run in one process that cannot read every file even as root, each
+    forked from it)."""
+    runs = {}
+    for command in UNREADABLE_COMMANDS:
+        folder = tmp_path_factory.mktemp(command)
+        clip = cut_bvh(SAMPLE, folder / "c.bvh", 20)
+        clip.chmod(0)
+        args = {
+            "info": [clip],
+            "clean": [clip, "-o", folder / "o.bvh"],
+            "report": [clip],
+            "convert": [clip, folder / "o.csv"],
+            "check": [clip, "--baseline", folder / "b.json", "--update"],
+        }[command]
+        runs[command] = (folder, clip, [command, *map(str, args)])
+    prefix = NO_READ_OVERRIDE if os.geteuid() == 0 else []
+    lines = json.dumps([line for _, _, line in runs.values()])
+    done = subprocess.run(
+        [*prefix, sys.executable, "-c", EACH_FORKED, lines],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    )
+    ran = json.loads(done.stdout)
+    return {
+        command: (folder, clip, code, err)
+        for (command, (folder, clip, _)), (code, err) in zip(runs.items(), ran, strict=True)
+    }
+
+
 @pytest.mark.skipif(
     os.geteuid() == 0 and not shutil.which("setpriv"),
     reason="root reads every file and setpriv is missing: permissions cannot be denied",
 )
-@pytest.mark.parametrize("command", ["info", "clean", "report", "convert", "check"])
-def test_an_unreadable_file_is_a_data_error(tmp_path, command):
+@pytest.mark.parametrize("command", UNREADABLE_COMMANDS)
+def test_an_unreadable_file_is_a_data_error(unreadable_runs, command):
     """Exit 1 and the file named, in every command (click's own check said exit 2)."""
-    clip = cut_bvh(SAMPLE, tmp_path / "c.bvh", 20)
-    clip.chmod(0)
-    args = {
-        "info": [clip],
-        "clean": [clip, "-o", tmp_path / "o.bvh"],
-        "report": [clip],
-        "convert": [clip, tmp_path / "o.csv"],
-        "check": [clip, "--baseline", tmp_path / "b.json", "--update"],
-    }[command]
-    prefix = NO_READ_OVERRIDE if os.geteuid() == 0 else []
-    cli = "from motionclean.cli import main; main()"
-    done = subprocess.run(
-        [*prefix, sys.executable, "-c", cli, command, *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-    assert done.returncode == 1
-    assert done.stderr.splitlines() == [f"motionclean: error: {clip}: permission denied"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.bvh"]
+    folder, clip, code, err = unreadable_runs[command]
+    assert code == 1
+    assert err.splitlines() == [f"motionclean: error: {clip}: permission denied"]
+    assert sorted(p.name for p in folder.iterdir()) == ["c.bvh"]
 
 
 def test_save_refuses_rotations_that_are_not_unit_quaternions(tmp_path):
@@ -227,9 +273,9 @@ def test_sigterm_stops_a_batch_and_its_workers(tmp_path, group):
     source, out = tmp_path / "in", tmp_path / "o"
     for k in range(12):
         cut_bvh(SAMPLE, source / f"c{k}.bvh", 120)
-    # a second or so a clip: the first written while the others are under way
+    # half a second or so a clip: the first written while the others are under way
     process = slow_command(
-        "batch", source, "-o", out, "-j", "2", iterations=800, start_new_session=True
+        "batch", source, "-o", out, "-j", "2", iterations=400, start_new_session=True
     )
     deadline = time.monotonic() + 60
     while not list(out.glob("c*.bvh")) and time.monotonic() < deadline:
@@ -480,7 +526,7 @@ def test_a_worker_killed_mid_batch_fails_no_clip_it_did_not_hold(tmp_path):
     from motionclean.run.pool import run_jobs
     from motionclean.steps.pipeline import Pipeline
 
-    slow = Pipeline.from_inline(["fairing:max_iterations=600,tol=0"]).describe()
+    slow = Pipeline.from_inline(["fairing:max_iterations=300,tol=0"]).describe()
     fast = Pipeline.from_inline(["lee-shin"]).describe()
     jobs = []
     for k in range(8):
