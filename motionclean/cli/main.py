@@ -71,7 +71,7 @@ from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
 from ..steps.auto import measured_source, seen_rotations
 from ..steps.base import brief_runs, fps_text
-from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees
+from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees, make_step
 from .batch import batch_command
 from .check import check_command
 from .options import (
@@ -393,6 +393,7 @@ def resample_command(
     rates = {"fps": fps, "frame_time": frame_time}
     step: dict[str, object] = {"filter": "resample"}
     step.update({key: value for key, value in rates.items() if value is not None})
+    make_step(step, "--fps/--frame-time")  # (its errors name the options, not a step)
     pipeline = Pipeline.from_tables([step], "--fps/--frame-time")
     check_clip_output(target, (source, *read.files))
     before = replace(read, regrid=True).load(source)  # (a simulation's uneven steps too)

@@ -322,6 +322,7 @@ def test_bad_rates_get_one_line(tmp_path, capsys, args, message, code):
     out = tmp_path / "out.bvh"
     got, stdout, err = run_cli(capsys, "resample", SAMPLE, out, *args)
     assert got == code and message in err and err.count("\n") == 1 and not stdout
+    assert "step" not in err  # (the command's own options, not a pipeline's step 1)
     assert not out.exists()
 
 
