@@ -184,10 +184,13 @@ def coordinate_name(label: str) -> str:
 
 
 def is_translational(label: str) -> int:
-    """The axis (0-2) of a translational coordinate's column (``*_tx`` ..., also as a state
-    path ``.../pelvis_tx/value``), else -1."""
-    head, sep, tail = coordinate_name(label).rpartition("_")
-    return "xyz".index(tail[1]) if sep and head and tail.lower() in TRANSLATIONAL else -1
+    """The axis (0-2) of a translational coordinate's column, else -1: a name one of whose
+    words after the first (split at ``_``) is ``tx``, ``ty`` or ``tz``, as OpenSim models
+    name them (``pelvis_tx``; ``sh_tx_r``, ``tib_tx_r``, ``pat_ty_r`` with the side after
+    it), also as a state path (``.../pelvis_tx/value``); the last such word."""
+    words = [word.lower() for word in coordinate_name(label).split("_")[1:]]
+    axes = [word for word in words if word in TRANSLATIONAL]
+    return "xyz".index(axes[-1][1]) if axes else -1
 
 
 def is_other_state(label: str, labels: set[str]) -> bool:

@@ -15,6 +15,7 @@ from helpers import ROOT, run_cli
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
+from motionclean.io.opensim import is_translational
 
 REALNOISE = ROOT.parent / "shared" / "realnoise"
 NO_REALNOISE = f"real-noise data not found at {REALNOISE} (see ../shared/realnoise/README.md)"
@@ -44,6 +45,25 @@ def write(tmp_path, text: str, name: str = "ik.mot"):
     path = tmp_path / name
     path.write_bytes(text.encode())
     return path
+
+
+@pytest.mark.parametrize(
+    ("label", "axis"),
+    [
+        ("pelvis_tx", 0),
+        ("sh_ty_r", 1),  # OpenCap's shoulder translations, the side after the axis
+        ("tib_tz_l", 2),
+        ("pat_ty_r", 1),
+        ("/jointset/ground_pelvis/pelvis_tz/value", 2),
+        ("knee_angle_r", -1),
+        ("tx", -1),  # a word alone names no coordinate's axis
+        ("lumbar_extension", -1),
+    ],
+)
+def test_translational_coordinates_are_found_with_their_side_after_the_axis(label, axis):
+    """``sh_tx_r`` (OpenCap's model) is a translation along x in metres: read as a rotation
+    in degrees, the reports counted 38 joints and 3 translations where there are 32 and 9."""
+    assert is_translational(label) == axis
 
 
 def test_coordinates_become_rotations_about_z_and_positions_along_their_axis(tmp_path):
