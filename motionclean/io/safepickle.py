@@ -234,6 +234,8 @@ def loads(data: bytes, path) -> object:
     try:
         return _Unpickler(stream, len(data)).load()
     except Refused as refused:
+        if _cut(data):  # inside an array: its bytes read as opcodes, asking for a class
+            raise MotionError(_unreadable(EOFError()), path) from None
         raise MotionError(
             f"refused: the pickle asks for {str(refused)[:120]}; only numpy arrays and plain "
             "containers are read (unpickling anything else could run code)",
@@ -245,7 +247,13 @@ def loads(data: bytes, path) -> object:
         let_go(error)  # its frames go with it: the MotionError does not keep them
         raise MotionError("a pickle too large to read", path) from None
     except Exception as error:  # any malformed stream: one line, never a traceback
-        raise MotionError(_unreadable(error), path) from None
+        raise MotionError(_unreadable(EOFError() if _cut(data) else error), path) from None
+
+
+def _cut(data: bytes) -> bool:
+    """Whether ``data`` starts as a pickle (protocol 2 on) and does not end as one: a
+    pickle's last opcode is STOP."""
+    return data.startswith(pickle.PROTO) and not data.endswith(pickle.STOP)
 
 
 def _unreadable(error: Exception) -> str:

@@ -179,11 +179,14 @@ def test_object_arrays_and_huge_claims_are_refused():
         safepickle.loads(huge, "x.pkl")
 
 
-@pytest.mark.parametrize("cut", [10, 500, 5000, 27000])
+@pytest.mark.parametrize("cut", [10, 500, 1000, 5000, 27000, -1000])
 def test_a_cut_joblib_file_is_one_line(tmp_path, capsys, cut):
+    """Said to end early wherever it is cut: inside an array, the array's bytes read as
+    opcodes had asked for a class and the line had called it a security refusal."""
     (tmp_path / "cut.pkl").write_bytes(WHAM.read_bytes()[:cut])
     code, _, err = run_cli(capsys, "info", tmp_path / "cut.pkl")
     assert code == 1 and err.count("\n") == 1 and err.startswith("motionclean: error: ")
+    assert "the file ends before its pickle does" in err
 
 
 def _py2_str(text: bytes) -> bytes:
