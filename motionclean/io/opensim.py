@@ -414,7 +414,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             shown = ", ".join(labels[c] for c in columns[:3])
             more = " ..." if len(columns) > 3 else ""
             notes.append(
-                f"{plural(len(columns), 'column')} of {what} carried as they are ({shown}{more})"
+                f"{plural(len(columns), 'column')} of {what} carried as text ({shown}{more}): "
+                "written back only to an OpenSim file at the clip's own frames (not by "
+                "convert to another format, nor by resample)"
             )
     parsed = np.array([0, *kept], dtype=np.intp)
     nan = _nan_cells(buf, cell_starts[:, parsed], cell_ends[:, parsed])

@@ -332,7 +332,11 @@ def test_carried_columns_may_share_a_name_and_markers_are_said_to_be_markers(tmp
     motion = mc.load(path)
     assert motion.names == ["knee_angle_r", "pelvis_tx"]
     notes = kinematics.source_notes(motion)
-    assert "1 column of marker positions carried as they are (R.ASIS_tx)" in notes
+    assert (
+        "1 column of marker positions carried as text (R.ASIS_tx): written back only to an "
+        "OpenSim file at the clip's own frames (not by convert to another format, nor by "
+        "resample)"
+    ) in notes
     assert not any("muscles" in note for note in notes)
     mc.save(motion, tmp_path / "same.mot")
     assert (tmp_path / "same.mot").read_bytes() == path.read_bytes()
