@@ -6,7 +6,8 @@ top-level dict when it holds a pose (see :mod:`motionclean.io.smpl` for its keys
 the entry of a dict of people (``{track_id: record}``, as WHAM's ``wham_output.pkl`` and
 VIBE's output) with the most frames; a note names the one read. WHAM's records hold both
 camera-frame (``pose``, ``trans``) and world-grounded (``pose_world``, ``trans_world``)
-motion: the world one is read.
+motion: the world one is read and written, the camera frame's arrays (and ``verts``) stay
+as read, and a note says so.
 
 A record with ``frame_ids`` (the video frames a person was seen in) is laid on the frames
 from its first to its last: frames in between that it skips are missing samples
@@ -174,6 +175,13 @@ def parse_pickle(
         route, record, note = _locate(tree, path)
         container = (tree, route)
     arrays = _arrays(record)
+    notes = [note] if note else []
+    if "pose_world" in arrays and "pose" in arrays:  # WHAM: what a render over the video uses
+        left = ", ".join(key for key in ("pose", "trans", "verts") if key in arrays)
+        notes.append(
+            f"the world motion (pose_world, trans_world) is read and written; the camera "
+            f"frame's {left} stay as read (a render over the video from them shows the input)"
+        )
     return smpl.smpl_motion(
         arrays,
         path,
@@ -181,7 +189,7 @@ def parse_pickle(
         raw=data,
         skeleton=skeleton,
         body_model=body_model,
-        notes=(note,) if note else (),
+        notes=tuple(notes),
         rows=_frame_rows(arrays, path),
         frame_rate=frame_rate,
     )

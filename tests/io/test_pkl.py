@@ -29,6 +29,13 @@ def test_wham_output_reads_the_world_motion_of_the_longest_track():
     assert motion.names == list(SMPL.names) and motion.n_frames == 24
     notes = kinematics.source_notes(motion)
     assert "2 people in the file: '0' read (the most frames)" in notes
+    assert any(
+        note.startswith(
+            "the world motion (pose_world, trans_world) is read and written; the "
+            "camera frame's pose, trans"
+        )
+        for note in notes
+    )
     assert any("30 fps assumed" in note for note in notes)
     record = safepickle.loads(WHAM.read_bytes(), WHAM)[0]
     expected = quat.exp(0.5 * record["pose_world"].astype(np.float64).reshape(24, 24, 3))
