@@ -62,6 +62,11 @@ _LEVI_CIVITA[[0, 1, 2], [2, 0, 1], [1, 2, 0]] = -1.0
 #: errors clear of the scatter about it, kept nearly whole well beyond, dropped well within
 #: (:func:`held_lines`).
 DRIFT_SIGNIFICANCE = 8.0
+#: A still contact (:func:`held_lines`) strays from its line by at most this many times
+#: the noise's reach over any hold window: the wander a filter leaves reaches 1.5-2 times
+#: its RMS over half a second, and a heel rising at a long stance's end (4 reaches over its
+#: last 5 %) goes further there while hardly moving the whole contact's RMS.
+WINDOW_REACH = 2.0
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
@@ -155,7 +160,7 @@ def held_lines(
         return origin + np.where(contacts.reshape(shape), mean, points)
     half = int(min(hold_frames, 2 * len(points)) // 2)
     held = _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
-    return _held_still(points, contacts, held, still_within)
+    return _held_still(points, contacts, held, still_within, half)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -174,22 +179,34 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
 
 
 def _held_still(
-    points: np.ndarray, contacts: np.ndarray, held: np.ndarray, within: float
+    points: np.ndarray, contacts: np.ndarray, held: np.ndarray, within: float, half: int
 ) -> np.ndarray:
     """``held`` ``(F, ..., 3)``, but on each contact whose ``points`` stay within ``within``
-    (length units; RMS over the contact of each frame's farthest point; 0: none) of one
-    line through the whole contact (its slope shrunk as :func:`held_lines` shrinks it),
-    that line. A window's line follows the slow wander that smoothing leaves in
-    noise, along which a foot standing for seconds would slide; a contact that moves no
-    more than the noise could make it is held as standing (the noise's reach, ``within``,
-    is what ``auto`` expects of the point: bench/footlock.py)."""
-    if within <= 0.0:
+    (length units; 0: none) of one line through the whole contact (its slope shrunk as
+    :func:`held_lines` shrinks it), that line: within it in RMS over the contact (each
+    frame's farthest point), and within :data:`WINDOW_REACH` times it over every window of
+    ``2 half + 1`` frames, so a move at one end of a long stance (a heel rising) is not
+    averaged away. A window's line follows the
+    slow wander that smoothing leaves in noise, along which a foot standing for seconds
+    would slide; a contact that moves no more than the noise could make it is held as
+    standing (the noise's reach, ``within``, is what ``auto`` expects of the point:
+    bench/footlock.py)."""
+    starts = np.flatnonzero(contacts & ~np.r_[False, contacts[:-1]])
+    if within <= 0.0 or not starts.size:
         return held
     whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
     off = np.sum((points - whole) ** 2, axis=-1).reshape(len(points), -1).max(axis=1)
+    index = np.arange(len(points))
     first, last = _run_bounds(contacts)
-    spread = _window_sums(off, first, last + 1) / (last + 1 - first)
-    still = contacts & (spread <= within * within)
+    lo, hi = np.maximum(first, index - half), np.minimum(last, index + half) + 1
+    spread = _window_sums(off, lo, hi) / (hi - lo)
+    inside = np.flatnonzero(contacts)
+    runs = np.searchsorted(inside, starts)
+    worst = np.maximum.reduceat(spread[inside], runs)
+    mean = np.add.reduceat(off[inside], runs) / np.diff(np.r_[runs, inside.size])
+    calm = (mean <= within * within) & (worst <= (WINDOW_REACH * within) ** 2)
+    run = np.cumsum(np.isin(index, starts)) - 1  # each frame's contact (from its start)
+    still = contacts & calm[np.maximum(run, 0)]
     return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
 
 

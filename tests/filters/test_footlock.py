@@ -287,6 +287,30 @@ def test_a_contact_the_noise_alone_could_move_is_held_on_one_line():
     )
 
 
+def test_a_move_at_the_end_of_a_long_stance_keeps_the_windows_lines():
+    """A foot standing 8 s under a filter's wander whose heel rises by 4 times the noise's
+    reach over the contact's last 5 %: the whole contact's RMS hardly moves, but the
+    windows over its end see the move, so the contact keeps the windows' lines (held on
+    one line, its target had ended about 4 reaches from the foot for the blend to catch)."""
+    rng = np.random.default_rng(9)
+    n, width = 1000, 15
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    points = np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+    reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
+    contacts = np.ones(n, dtype=bool)
+    points[:, 0] += 4 * reach / (1.0 + np.exp(-(np.arange(n) - 975) / 4.0))
+    np.testing.assert_array_equal(
+        held_lines(points, contacts, 60, still_within=reach), held_lines(points, contacts, 60)
+    )
+    calm = points.copy()
+    calm[:, 0] -= 4 * reach / (1.0 + np.exp(-(np.arange(n) - 975) / 4.0))
+    assert not np.array_equal(  # the same stance without the rise: held on one line
+        held_lines(calm, contacts, 60, still_within=reach), held_lines(calm, contacts, 60)
+    )
+
+
 def test_a_lines_standard_error_counts_only_the_points_that_scatter_independently():
     """The share of a window's points that scatter independently about its line (the
     variance of the residuals' steps over twice theirs): about 1 for white scatter, about
