@@ -71,7 +71,7 @@ class ContactParams:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FootScene:
     """A clip's feet in world space, as contacts and floors are found on them.
 

@@ -404,6 +404,15 @@ def rest_quaternions(obj: Any, names: list[str]) -> np.ndarray:
     return _from_matrix(_rest_matrices(bones)[:, :3, :3])
 
 
+def _declared_channels(bone: Any) -> list[str]:
+    """The BVH channels a bone's :data:`CHANNELS_PROPERTY` names (none when it has none,
+    or names other than BVH's three positions and three rotations)."""
+    declared = bone.get(CHANNELS_PROPERTY)
+    names = declared.split() if isinstance(declared, str) else []
+    known = {f"{axis}{kind}" for axis in "XYZ" for kind in ("position", "rotation")}
+    return names if set(names) <= known and len(set(names)) == len(names) else []
+
+
 def read_action(
     obj: Any, action: Any, slot: Any, frames: np.ndarray, frame_time: float
 ) -> ActionClip:
@@ -449,15 +458,19 @@ def read_action(
             and not bone.use_connect
             and bool(np.abs(location).max() > REST_LOCATION * reach)
         )
-        declared = bone.get(CHANNELS_PROPERTY)
-        if isinstance(declared, str):  # a clip motionclean wrote: the joint's own channels
-            names_of = declared.split()
-            rotates = any(name.endswith("rotation") for name in names_of)
-            moves = any(name.endswith("position") for name in names_of)
-        else:
-            order = _euler_order(mode)[0] if mode in EULER_MODES else "ZYX"
-            names_of = ["Xposition", "Yposition", "Zposition"] if moves else []
-            names_of += [f"{axis}rotation" for axis in order] if rotates else []
+        # a clip motionclean wrote names its joint's own channels, kept where they do not
+        # move; a rotation or location keyed since is read all the same
+        declared = _declared_channels(bone)
+        rotates = rotates or any(name.endswith("rotation") for name in declared)
+        moves = moves or any(name.endswith("position") for name in declared)
+        order = _euler_order(mode)[0] if mode in EULER_MODES else "ZYX"
+        names_of = [n for n in declared if n.endswith("position")] if moves else []
+        if moves and not names_of:
+            names_of = ["Xposition", "Yposition", "Zposition"]
+        if rotates:
+            names_of += [n for n in declared if n.endswith("rotation")] or [
+                f"{axis}rotation" for axis in order
+            ]
         if not rotates:  # at the rest: unturned, as a joint without rotation channels is
             basis[:, j] = (1.0, 0.0, 0.0, 0.0)
         if moves:  # (a connected bone's location is not played: at its rest)

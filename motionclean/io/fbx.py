@@ -440,10 +440,13 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
     short = 0.05 * (float(lengths.max()) if lengths.size and lengths.max() > 0 else 1.0)
     tails = heads.copy()
     reach = float(lengths.sum()) or 1.0
-    # joints whose position channels leave their offset (constant ones at it may connect:
-    # there is nothing to hide)
-    away = np.abs(kinematics.local_translations(motion) - motion.offsets)
-    moving = away.max(axis=(0, 2), initial=0.0) > 1e-9 * reach
+    # joints whose position channels leave their offset (constant ones at it, to the text's
+    # precision, may connect: there is nothing to hide)
+    moving = np.zeros(motion.n_joints, dtype=bool)
+    placed = np.flatnonzero(motion.layout.has_position)  # (only these: few, as a rule)
+    axes = motion.layout.position_columns[placed] >= 0
+    away = np.abs(motion.translations[:, placed] - motion.offsets[placed]) * axes
+    moving[placed] = away.max(axis=(0, 2), initial=0.0) > 1e-6 * reach
     for j in range(motion.n_joints):
         children = np.flatnonzero(motion.parents == j)
         ends = [

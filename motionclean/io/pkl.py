@@ -177,10 +177,11 @@ def parse_pickle(
     arrays = _arrays(record)
     notes = [note] if note else []
     if "pose_world" in arrays and "pose" in arrays:  # WHAM: what a render over the video uses
+        world = ", ".join(key for key in ("pose_world", "trans_world") if key in arrays)
         left = ", ".join(key for key in ("pose", "trans", "verts") if key in arrays)
         notes.append(
-            f"the world motion (pose_world, trans_world) is read and written; the camera "
-            f"frame's {left} stay as read (a render over the video from them shows the input)"
+            f"the world motion ({world}) is read and written; the camera frame's {left} "
+            "stay as read (a render over the video from them shows the input)"
         )
     return smpl.smpl_motion(
         arrays,

@@ -24,6 +24,7 @@ import bz2
 import io as _io
 import lzma
 import pickle
+import re
 import zlib
 from typing import Any
 
@@ -234,7 +235,8 @@ def loads(data: bytes, path) -> object:
     try:
         return _Unpickler(stream, len(data)).load()
     except Refused as refused:
-        if _cut(data):  # inside an array: its bytes read as opcodes, asking for a class
+        if _cut(data) and not _NAME.fullmatch(str(refused)):
+            # cut inside an array: its bytes read as opcodes, asking for no class's name
             raise MotionError(_unreadable(EOFError()), path) from None
         raise MotionError(
             f"refused: the pickle asks for {str(refused)[:120]}; only numpy arrays and plain "
@@ -248,6 +250,10 @@ def loads(data: bytes, path) -> object:
         raise MotionError("a pickle too large to read", path) from None
     except Exception as error:  # any malformed stream: one line, never a traceback
         raise MotionError(_unreadable(EOFError() if _cut(data) else error), path) from None
+
+
+#: A class a pickle asks for by name (``module.name``), as against bytes read as one.
+_NAME = re.compile(r"[A-Za-z_][\w.]*\.[A-Za-z_]\w*")
 
 
 def _cut(data: bytes) -> bool:

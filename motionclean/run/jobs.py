@@ -27,7 +27,6 @@ import numpy as np
 from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
-from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
 from ..io import ReadOptions, declare_up, encode, ensure_folder, write_together
@@ -537,8 +536,7 @@ def check_compatible(
         )
     if a.channels != b.channels:
         raise MotionError(f"channels differ from {a.path}'s", b.path)
-    # (one rate written to other precisions: 0.016667 and 0.0166667 s are 60 fps)
-    if abs(a.frame_time - b.frame_time) > FRAME_TIME_ROUNDING * a.frame_time:
+    if abs(a.frame_time - b.frame_time) > SAME_RATE * a.frame_time:
         raise MotionError(
             f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
         )
@@ -606,21 +604,27 @@ def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
     return q, p
 
 
+#: Two frame times this close (relative) are one rate written to other precisions
+#: (0.016667 and 0.0166667 s are 60 fps; 4 significant digits, 0.01667, 2e-4 off); NTSC's
+#: 59.94 fps is 1e-3 from 60, another rate.
+SAME_RATE = 5e-4
+
+
 def _skeleton_difference(a: Motion, b: Motion) -> str:
     """How ``b``'s skeleton differs from ``a``'s, in a few words naming a joint."""
     if sorted(a.names) == sorted(b.names):
-        if a.names != b.names:
+        if a.names != b.names:  # (the sorted lists are equal: one name differs in place)
             moved = next(n for n, m in zip(a.names, b.names, strict=True) if n != m)
             return (
                 f"the same joints in another order: {moved} is joint {b.names.index(moved) + 1} "
                 f"here, {a.names.index(moved) + 1} there"
             )
-        child = next(j for j in range(a.n_joints) if a.parents[j] != b.parents[j])
+        child = next((j for j in range(a.n_joints) if a.parents[j] != b.parents[j]), 0)
         return f"{a.names[child]} hangs from another joint"
     extra = [n for n in b.names if n not in set(a.names)]
     if extra:
         return f"{len(b.names)} joints, {extra[0]} not among its {len(a.names)}"
-    absent = next(n for n in a.names if n not in set(b.names))
+    absent = next((n for n in a.names if n not in set(b.names)), a.names[0])
     return f"{len(b.names)} joints, without its {absent}"
 
 

@@ -33,7 +33,13 @@ import numpy as np
 import motionclean as mc
 from motionclean.cli import main as cli_main
 from motionclean.core import quat
-from motionclean.io.blender_action import action_fcurves, key_range, new_fcurve, read_action
+from motionclean.io.blender_action import (
+    CHANNELS_PROPERTY,
+    action_fcurves,
+    key_range,
+    new_fcurve,
+    read_action,
+)
 from motionclean.io.fbx import fbx_frames, mend_importer
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
@@ -759,6 +765,11 @@ def reference_checks(clip: Path, out: Path, results: dict) -> None:
     bpy.ops.import_scene.fbx(filepath=str(out / "under_reference.fbx"))
     obj = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
     results["reference_connected"] = {b.name: b.use_connect for b in obj.data.bones}
+    # a bone whose written channels have no rotation, turning in the action (keyed since)
+    obj.data.bones["Hips"][CHANNELS_PROPERTY] = "Xposition Yposition Zposition"
+    first, last = (int(round(v)) for v in obj.animation_data.action.frame_range)
+    since = read(obj, first, last)
+    results["keyed_since"] = list(since.channels[since.names.index("Hips")])
 
 
 def load_back(path: Path) -> dict:

@@ -381,6 +381,9 @@ def test_fbx_keeps_a_travel_under_a_still_root_and_end_sites_at_their_joints(ble
     source = mc.load(blender.out / "under_reference.bvh")
     back = mc.load(blender.out / "under_reference_back.bvh")
     assert not blender.results["reference_connected"]["Hips"]
+    # channels named on a bone are the least it has: a rotation keyed since is read too
+    assert blender.results["keyed_since"][:3] == ["Xposition", "Yposition", "Zposition"]
+    assert any(name.endswith("rotation") for name in blender.results["keyed_since"])
     assert back.names == source.names and back.channels == source.channels
     assert all(not np.any(site) for site in back.end_sites.values())
     assert sorted(back.end_sites) == sorted(source.end_sites)

@@ -185,11 +185,15 @@ def test_one_rate_written_to_other_precisions_blends_and_stitches(clips, tmp_pat
     frame_time = next(line for line in text.splitlines() if line.startswith("Frame Time:"))
     rounded = tmp_path / "rounded.bvh"
     rounded.write_text(text.replace(frame_time, "Frame Time: 0.008333"))
+    ntsc = tmp_path / "ntsc.bvh"  # 119.88 fps: 0.1 % slower, another rate
+    ntsc.write_text(text.replace(frame_time, "Frame Time: 0.00834168"))
     for command in ("blend", "stitch"):
         out = tmp_path / f"{command}.bvh"
         code, _, err = run_cli(capsys, command, clips[0], rounded, "-o", out)
         assert code == 0, err
         assert mc.load(out).frame_time == mc.load(clips[0]).frame_time
+        code, _, err = run_cli(capsys, command, clips[0], ntsc, "-o", out.with_suffix(".n.bvh"))
+        assert code == 1 and "frame time 0.00834168 s differs" in err
 
 
 def test_a_skeleton_with_its_joints_in_another_order_is_said_so(clips, tmp_path, capsys):

@@ -156,6 +156,10 @@ def test_a_pickle_that_would_run_code_is_refused_without_running_it(tmp_path, ca
         or "refused: the pickle asks for nt.system" in err
     )
     assert not marker.exists()
+    trailing = tmp_path / "trailing.pkl"  # a byte after its STOP: refused all the same
+    trailing.write_bytes(path.read_bytes() + b"x")
+    code, _, err = run_cli(capsys, "info", trailing)
+    assert code == 1 and "refused: the pickle asks for" in err and not marker.exists()
     # the same file through Python's own pickle does run it: the test would catch a leak
     subprocess.run(
         [sys.executable, "-c", f"import pickle; pickle.load(open({str(path)!r}, 'rb'))"], check=True
