@@ -30,7 +30,7 @@ class _MotioncleanPanel:
             lines.label(text=f"{result.objects}: {result.source} -> {result.result}")
             lines.label(text=f"Frames {result.frames}")
             lines.label(
-                text=f"Noise removed {result.noise_removed:.0%}, "
+                text=f"Noise removed {round(result.noise_removed, 2) + 0.0:.0%}, "  # (no -0%)
                 f"largest change {result.deviation_max:.2f} deg"
             )
             lines.label(text=result.keys)

@@ -822,6 +822,10 @@ def main() -> None:
     timed("operator")
     range_checks(clip, out, results)
     results["draw_results"] = draw_panels()  # with the figures of a run
+    shown = bpy.context.scene.motionclean.results[0]
+    removed, shown.noise_removed = shown.noise_removed, -0.001  # (a rounding's sign)
+    results["draw_rounded"] = draw_panels()
+    shown.noise_removed = removed
     keyed_checks(clip, results)
     near_frame_checks(clip, results)
     off_grid_checks(clip, results)

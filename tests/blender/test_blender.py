@@ -81,6 +81,8 @@ def test_panels_draw_in_both_sidebars(blender, state):
         assert any(line.startswith("label:foot ") for line in labels)
         assert "operator:motionclean.open_report" in draw["drawn"][0]
         assert any(re.fullmatch(r"label:Report: /.*\.html", line) for line in labels)
+        rounded = [line for line in blender.results["draw_rounded"]["drawn"][0] if "Noise" in line]
+        assert rounded and all("Noise removed 0%," in line for line in rounded)  # not "-0%"
 
 
 @pytest.mark.parametrize("rig", RIGS)
