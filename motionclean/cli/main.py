@@ -20,7 +20,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from ..core import kinematics
+from ..core import kinematics, quat
 from ..core.errors import MotionError, UsageError
 from ..core.jumps import JUMP_DEG
 from ..core.motion import Motion
@@ -621,6 +621,26 @@ def blend(
         raise UsageError(str(error)) from None
     save(blended, output)
     _flip_notes([(first, a, slice(None)), (second, b, slice(None))], "the blend")
+    _apart_note(first, a, second, b)
+
+
+#: Roots turned further apart than this (degrees) blend through poses neither clip has.
+APART_DEG = 90.0
+
+
+def _apart_note(first: str, a: Motion, second: str, b: Motion) -> None:
+    """Say when the two clips' roots are turned more than :data:`APART_DEG` apart on some
+    frame (facing other ways): the blend's root turns between them (fast where they differ
+    most), and its feet need not meet the floor either clip stands on."""
+    roots = np.flatnonzero(a.parents < 0)
+    apart = np.degrees(quat.angle_between(a.rotations[:, roots], b.rotations[:, roots]))
+    if apart.size and apart.max() > APART_DEG:
+        frame = int(np.argmax(apart.max(axis=1)))
+        click.echo(
+            f"note: {second}: its root is turned {apart.max():.0f} degrees from {first}'s "
+            f"(frame {frame}): the blend turns between them, through poses neither has; "
+            "turn one clip to face as the other first"
+        )
 
 
 def _flip_notes(clips: list[tuple[str, Motion, slice]], what: str) -> None:

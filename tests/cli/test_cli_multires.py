@@ -233,6 +233,25 @@ def test_a_skeleton_with_its_joints_in_another_order_is_said_so(clips, tmp_path,
     ) in err
 
 
+def test_blending_clips_that_face_other_ways_says_so(clips, tmp_path, capsys):
+    """A clip blended with itself turned half a turn about the up axis: the blend's root
+    turns between the two (13 degrees in one frame on a tester's clips, where the inputs
+    turn at most 1.3), a note says so and how to avoid it; two clips facing alike get none."""
+    from motionclean.core import kinematics
+
+    motion = mc.load(clips[1])
+    turn = quat.from_axis_angle(np.eye(3)[kinematics.up_axis(motion)], np.pi)
+    rotations = motion.rotations.copy()
+    rotations[:, 0] = quat.multiply(turn, rotations[:, 0])
+    turned = tmp_path / "turned.bvh"
+    mc.save(motion.replace(rotations=rotations, source_values=None, source_rotations=None), turned)
+    code, out, err = run_cli(capsys, "blend", clips[1], turned, "-o", tmp_path / "b.bvh")
+    assert code == 0, err
+    assert f"note: {turned}: its root is turned 180 degrees from {clips[1]}'s" in out
+    code, out, err = run_cli(capsys, "blend", clips[0], clips[1], "-o", tmp_path / "c.bvh")
+    assert code == 0 and "its root is turned" not in out + err
+
+
 def test_stitch_aligns_the_second_roots_position_and_heading(tmp_path, capsys):
     """Two takes joined: the second starts where the first ends (horizontal position and
     heading about the up axis), so the root does not slide across the room at the seam."""
