@@ -92,6 +92,31 @@ class FootScene:
     unknown: np.ndarray | None = None
     sideways: np.ndarray | None = None
 
+    @classmethod
+    def of_motion(
+        cls,
+        motion: Motion,
+        feet: list[Foot],
+        up: int,
+        height: float,
+        given: str | None = None,
+        positions: np.ndarray | None = None,
+        unknown: np.ndarray | None = None,
+    ) -> FootScene:
+        """The scene of ``motion``'s ``feet``: ``positions`` (default: every joint and end
+        site, turned :func:`~motionclean.core.kinematics.upright` by the up axis
+        ``given``, e.g. ``"-y"``, else the one found), its frame time, ``unknown`` as given
+        and the sideways lean its trunk and legs share (the floor's prior)."""
+        return cls(
+            kinematics.upright_positions(motion, given) if positions is None else positions,
+            feet,
+            up,
+            height,
+            motion.frame_time,
+            unknown=unknown,
+            sideways=kinematics.sideways_lean(motion, given),
+        )
+
     def of_feet(self, kept: list[int]) -> FootScene:
         """The scene of the feet ``kept`` (indices into ``feet``) alone."""
         unknown = None if self.unknown is None else self.unknown[:, kept]

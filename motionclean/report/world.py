@@ -273,15 +273,8 @@ def _contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     params = found.ContactParams()
-    scene = found.FootScene(
-        positions,
-        feet,
-        up,
-        height,
-        dt,
-        unknown=found.feet_unknown(kinematics.missing_points(before), skeleton_feet),
-        sideways=kinematics.sideways_lean(before),
-    )
+    unknown = found.feet_unknown(kinematics.missing_points(before), skeleton_feet)
+    scene = found.FootScene.of_motion(before, feet, up, height, None, positions, unknown)
     standing = found.find_ground(scene, params)
     contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
@@ -398,15 +391,8 @@ def _floor_under(
     floor rests on (``resting``), fitted as the input's, the prior following ``after``'s
     own trunk: the input's plane where the clip is the input's, moved with it where a step
     (``ground``) moved it."""
-    sideways = kinematics.sideways_lean(after, upward)
-    scene = found.FootScene(
-        positions,
-        before.feet,
-        kinematics.axis_index(upward),
-        before.height,
-        after.frame_time,
-        sideways=sideways,
-    )
+    up = kinematics.axis_index(upward)
+    scene = found.FootScene.of_motion(after, before.feet, up, before.height, upward, positions)
     return found.floor_of_contacts(scene, resting)
 
 

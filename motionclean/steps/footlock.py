@@ -60,14 +60,7 @@ def find_contacts(motion: Motion, params: dict) -> tuple[found.FootScene, np.nda
     the contacts were found above: :class:`~motionclean.core.contacts.Ground`)."""
     given = given_up(params)
     feet, up, height = found.skeleton_feet(motion, params["feet"], given)
-    scene = found.FootScene(
-        kinematics.upright_positions(motion, given),
-        feet,
-        up,
-        height,
-        motion.frame_time,
-        sideways=kinematics.sideways_lean(motion, given),
-    )
+    scene = found.FootScene.of_motion(motion, feet, up, height, given)
     standing = found.find_ground(scene, contact_params(params))
     return scene, standing.contacts, standing.height
 
@@ -96,8 +89,7 @@ def _leg_points(
         )
         for f in feet
     ]
-    sideways = kinematics.sideways_lean(motion, given)
-    scene = found.FootScene(positions, on_columns, up, height, motion.frame_time, sideways=sideways)
+    scene = found.FootScene.of_motion(motion, on_columns, up, height, given, positions)
     return feet, scene, column
 
 

@@ -39,15 +39,8 @@ def floor_of(motion: Motion, up: str | None = None) -> FoundFloor:
     feet, axis, height = found.skeleton_feet(motion, None, up)
     if not feet:
         return FoundFloor(None, np.zeros((0, 3)), False)
-    scene = found.FootScene(
-        kinematics.upright_positions(motion, up),
-        feet,
-        axis,
-        height,
-        motion.frame_time,
-        unknown=found.feet_unknown(kinematics.missing_points(motion), feet),
-        sideways=kinematics.sideways_lean(motion, up),
-    )
+    unknown = found.feet_unknown(kinematics.missing_points(motion), feet)
+    scene = found.FootScene.of_motion(motion, feet, axis, height, up, unknown=unknown)
     standing = found.find_ground(scene)
     floor = standing.floor
     body = kinematics.upright_body_up(motion, up)
