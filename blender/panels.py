@@ -6,6 +6,8 @@ from typing import Any
 
 from bpy.types import Panel
 
+from motionclean.core.words import whole_percent
+
 
 class _MotioncleanPanel:
     bl_region_type = "UI"
@@ -30,7 +32,7 @@ class _MotioncleanPanel:
             lines.label(text=f"{result.objects}: {result.source} -> {result.result}")
             lines.label(text=f"Frames {result.frames}")
             lines.label(
-                text=f"Noise removed {round(result.noise_removed, 2) + 0.0:.0%}, "  # (no -0%)
+                text=f"Noise removed {whole_percent(result.noise_removed)}, "
                 f"largest change {result.deviation_max:.2f} deg"
             )
             lines.label(text=result.keys)

@@ -14,7 +14,13 @@ def plural(count: int, noun: str) -> str:
 
 def percent(share: float) -> str:
     """``0.26`` as ``"26 %"``: a share in whole percent, a space before the sign."""
-    return f"{share:.0%}".replace("%", " %")
+    return whole_percent(share).replace("%", " %")
+
+
+def whole_percent(share: float) -> str:
+    """``0.26`` as ``"26%"``: a share in whole percent; one that rounds to nothing reads
+    ``"0%"``, not ``"-0%"`` (a rounding's sign)."""
+    return f"{round(share, 2) + 0.0:.0%}"
 
 
 def columns(text: str) -> int:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
-from ..core.words import plural
+from ..core.words import plural, whole_percent
 from ..filters import noise
 from ..steps.base import fps_text
 from .html_world import world_section
@@ -140,7 +140,7 @@ def _short(value: float) -> str:
 def _percent(before: float | None, after: float | None) -> str:
     if after is None or before is None or before <= 0:
         return "-"
-    return f"{1.0 - after / before:.0%}"
+    return whole_percent(1.0 - after / before)
 
 
 def _nice_step(span: float, count: int) -> float:
@@ -396,7 +396,7 @@ def _weighted(verdict: dict, words: str) -> str:
 
 def _share(share: float) -> str:
     """``0.93`` as ``93 %`` (a thin space before the sign)."""
-    return f"{share:.0%}".replace("%", "\u2009%")
+    return whole_percent(share).replace("%", "\u2009%")
 
 
 def _headline(report: dict) -> list[str]:
@@ -895,7 +895,7 @@ def render_index(entries: Sequence[dict], pipeline: Sequence[dict], title: str) 
             _num(e.get("noise_after") if e.get("jitter_after") is None else e["jitter_after"]),
             _percent(e.get("noise_before"), e.get("noise_after"))
             if e.get("jitter_removed") is None
-            else f"{e['jitter_removed']:.0%}",
+            else whole_percent(e["jitter_removed"]),
             _num(e.get("deviation_max") if e.get("change_max") is None else e["change_max"], 2),
             _e(e.get("verdict_status") or e["status"])
             + (" (an earlier run)" if e["status"] == "skipped" and e.get("verdict_status") else ""),

@@ -8,6 +8,7 @@ import re
 import pytest
 from helpers import SAMPLE, corpus_clip, run_cli, with_t_pose
 
+from motionclean.core.words import percent, whole_percent
 from motionclean.report.html_world import _frames
 from motionclean.report.summary import note_text
 from motionclean.report.world import format_contacts, format_floor
@@ -95,3 +96,11 @@ def test_the_player_says_when_it_shows_a_nearby_frame(tmp_path, chromium):
     assert re.search(r'id="mc-frame">frame 150<', chromium_dom(chromium, page, "#frame=150"))
     later = chromium_dom(chromium, page, "#frame=152")
     assert re.search(r'id="mc-frame">frame 150 \(nearest carried to frame 152\)<', later)
+
+
+@pytest.mark.parametrize("share", [-0.001, -0.004, 0.0, -0.0])
+def test_a_share_that_rounds_to_nothing_reads_0_percent(share):
+    """A removed share a rounding below zero (a second pass, a short range) had read
+    "-0%" on the page, the batch index and the Blender panel, which share this wording."""
+    assert whole_percent(share) == "0%" and percent(share) == "0 %"
+    assert whole_percent(-0.05) == "-5%" and whole_percent(0.934) == "93%"
