@@ -400,8 +400,7 @@ def batch_command(
 
     others = 0
     if pages is not None and skip_existing:
-        pages_read = _keep_figures(results, pages, tables)
-        others = _other_pipelines(results, pages, tables, pages_read)
+        others = sum(_keep_figures(results, pages, tables).values())
     rows = [(str(rel), results[str(rel)]) for rel in clips]
     if pages is not None:
         _write_index(pages, rows, tables, in_dir)
@@ -471,20 +470,6 @@ def _keep_figures(
             kept = {key: _kept(entry.get(key), kind) for key, kind in INDEX_FIGURES.items()}
             results[name] = dataclasses.replace(result, **kept)
     return read
-
-
-def _other_pipelines(
-    results: dict[str, FileResult], pages: Path, tables: Sequence[dict], read: dict[str, bool]
-) -> int:
-    """How many skipped clips another pipeline made, as their pages say (a page is written
-    with its clip; ``read``: what the pages :func:`_keep_figures` read said, not read
-    again); one whose figures were kept was this pipeline's."""
-    return sum(
-        result.status == "skipped"
-        and result.frames is None
-        and (read[name] if name in read else page_carried(pages / f"{name}.html", tables)[1])
-        for name, result in results.items()
-    )
 
 
 def _write_index(
