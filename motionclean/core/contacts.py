@@ -602,7 +602,7 @@ def find_ground(scene: FootScene, params: ContactParams = ContactParams()) -> Gr
             return Ground(contacts, floor, soles, level, False, on_floor)
         floor, soles, on_floor = uphill
     lowest = lowest_points(scene.positions, scene.feet, scene.up, floor)
-    above = estimate_ground(lowest if scene.unknown is None else lowest[~scene.unknown])
+    above = estimate_ground(lowest, scene.unknown)
     return Ground(on_floor, floor, soles, above, True, on_floor)
 
 
@@ -648,10 +648,12 @@ def terrain(floor: Floor, body: np.ndarray | None) -> bool:
     return from_floor > TERRAIN_TILT and from_axis <= 0.5 * from_floor
 
 
-def estimate_ground(lowest: np.ndarray) -> float:
-    """The ground height: the 5th percentile of the feet's lowest points over the clip (NaN
-    without any)."""
-    return float(np.percentile(lowest, 5.0)) if lowest.size else float("nan")
+def estimate_ground(lowest: np.ndarray, unknown: np.ndarray | None = None) -> float:
+    """The ground height: the 5th percentile of the feet's lowest points ``(F, n_feet)``
+    over the clip, those ``unknown`` (the same shape: a dropout's held samples) left out
+    (NaN without any)."""
+    known = lowest if unknown is None else lowest[~unknown]
+    return float(np.percentile(known, 5.0)) if known.size else float("nan")
 
 
 def feet_unknown(unknown_points: np.ndarray | None, feet: list[Foot]) -> np.ndarray | None:
@@ -739,7 +741,7 @@ def detect(
     if floor is None:
         lowest = lowest_points(positions, feet, up)
         if ground is None:
-            ground = estimate_ground(lowest if unknown is None else lowest[~unknown])
+            ground = estimate_ground(lowest, unknown)
         above = (lowest - ground) / height
     else:  # (the ground is not read: heights above the floor)
         above = lowest_points(positions, feet, up, floor) / height

@@ -103,7 +103,7 @@ def build_series(
     joint). ``unrepaired_jumps``: per joint name, how many such steps. ``fast_steps``: per
     joint whose rotation in ``after`` turns faster than a body can (:func:`fast_steps`),
     how many such steps and how many steps it has within the motion. ``thrash``: per joint
-    whose rotation in ``after`` thrashes (:func:`~motionclean.report.thrash.thrash_frames`,
+    whose rotation in ``after`` (``before`` without one) thrashes (:func:`~motionclean.report.thrash.thrash_frames`,
     within the motion), on how many frames and on how many seconds of its worst
     :data:`~motionclean.report.thrash.THRASH_WINDOW_S`. ``reaches``: per
     joint with rotation channels, :func:`~motionclean.core.kinematics.reaches`. No per-frame table
@@ -192,7 +192,6 @@ def build_series(
     outside["deviation"] = None
     changed_near: dict[str, float] = {}  # joint name: its largest change near such a step
     fast: dict[str, tuple[int, int]] = {}  # joint name: its steps too fast for a body, of all
-    thrash: dict[str, tuple[int, float]] = {}  # joint name: its thrash frames, worst seconds
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
