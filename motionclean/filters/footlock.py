@@ -199,14 +199,15 @@ def _held_still(
     index = np.arange(len(points))
     first, last = _run_bounds(contacts)
     lo, hi = np.maximum(first, index - half), np.minimum(last, index + half) + 1
-    spread = _window_sums(off, lo, hi) / (hi - lo)
+    spread = _window_sums(off, lo, hi) / (hi - lo)  # each frame's window
+    mean = _window_sums(off, first, last + 1) / (last + 1 - first)  # its whole contact
     inside = np.flatnonzero(contacts)
-    runs = np.searchsorted(inside, starts)
-    worst = np.maximum.reduceat(spread[inside], runs)
-    mean = np.add.reduceat(off[inside], runs) / np.diff(np.r_[runs, inside.size])
-    calm = (mean <= within * within) & (worst <= (WINDOW_REACH * within) ** 2)
-    run = np.cumsum(np.isin(index, starts)) - 1  # each frame's contact (from its start)
-    still = contacts & calm[np.maximum(run, 0)]
+    worst = np.maximum.reduceat(spread[inside], np.searchsorted(inside, starts))
+    contact = np.searchsorted(starts, first)  # each contact frame's contact (from its start)
+    calm = (mean <= within * within) & (worst[np.minimum(contact, starts.size - 1)] <= (
+        (WINDOW_REACH * within) ** 2
+    ))
+    still = contacts & calm
     return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
 
 

@@ -103,8 +103,9 @@ def build_series(
     joint). ``unrepaired_jumps``: per joint name, how many such steps. ``fast_steps``: per
     joint whose rotation in ``after`` turns faster than a body can (:func:`fast_steps`),
     how many such steps and how many steps it has within the motion. ``thrash``: per joint
-    whose rotation in ``after`` (``before`` without one) thrashes (:func:`~motionclean.report.thrash.thrash_frames`,
-    within the motion), on how many frames and on how many seconds of its worst
+    whose rotation in ``after`` (``before`` without one) thrashes
+    (:func:`~motionclean.report.thrash.thrash_frames`, within the motion), on how many
+    frames and on how many seconds of its worst
     :data:`~motionclean.report.thrash.THRASH_WINDOW_S`. ``reaches``: per
     joint with rotation channels, :func:`~motionclean.core.kinematics.reaches`. No per-frame table
     of the joints is kept: each is reduced as soon as it is made (the feet's heights,
