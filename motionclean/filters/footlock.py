@@ -204,9 +204,9 @@ def _held_still(
     inside = np.flatnonzero(contacts)
     worst = np.maximum.reduceat(spread[inside], np.searchsorted(inside, starts))
     contact = np.searchsorted(starts, first)  # each contact frame's contact (from its start)
-    calm = (mean <= within * within) & (worst[np.minimum(contact, starts.size - 1)] <= (
-        (WINDOW_REACH * within) ** 2
-    ))
+    calm = (mean <= within * within) & (
+        worst[np.minimum(contact, starts.size - 1)] <= ((WINDOW_REACH * within) ** 2)
+    )
     still = contacts & calm
     return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
 
