@@ -24,12 +24,17 @@ __all__ = [
     "frames_ceil",
     "frames_floor",
     "in_band",
+    "same_rate",
     "whole_frames",
 ]
 
 #: Relative rounding of a frame time as files write it (1/120 s to 7 decimals: 4e-6; to 4
 #: significant digits, 0.01667 for 1/60 s: 2e-4).
 FRAME_TIME_ROUNDING = 1e-3
+#: Two frame times this close (relative) are one rate written to other precisions (1/60 s
+#: as 0.016667 or 0.0166667 s; 0.01667, 4 significant digits, is 2e-4 off); NTSC's 59.94
+#: fps is 1e-3 from 60, another rate (:func:`same_rate`).
+SAME_RATE = 5e-4
 #: Largest distance (frames) to a whole number that a count is snapped across, whatever
 #: its length: a long span's rounding is no reason to move it by more.
 MOST_SNAPPED = 0.25
@@ -43,6 +48,13 @@ def whole_frames(count: float) -> float:
     nearest = round(count)
     near = abs(count - nearest) <= min(FRAME_TIME_ROUNDING * abs(count), MOST_SNAPPED)
     return float(nearest) if near else count
+
+
+def same_rate(frame_time: float, other: float) -> bool:
+    """True when frame time ``other`` (seconds) is ``frame_time``'s rate as another file
+    writes it: within :data:`SAME_RATE` of it, relative. ``resample`` to the same rate
+    leaves a clip as it is; clips joined (``stitch``, ``blend``) must share it."""
+    return abs(other - frame_time) <= SAME_RATE * frame_time
 
 
 def frames_ceil(count: float) -> int:

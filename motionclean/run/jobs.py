@@ -27,6 +27,7 @@ import numpy as np
 from ..core import kinematics, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, joint_major_zeros, written_joints
+from ..core.rates import same_rate
 from ..core.reserve import keep_reserve, let_go
 from ..filters import multires
 from ..io import ReadOptions, declare_up, encode, ensure_folder, write_together
@@ -536,7 +537,7 @@ def check_compatible(
         )
     if a.channels != b.channels:
         raise MotionError(f"channels differ from {a.path}'s", b.path)
-    if abs(a.frame_time - b.frame_time) > SAME_RATE * a.frame_time:
+    if not same_rate(a.frame_time, b.frame_time):
         raise MotionError(
             f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
         )
@@ -602,12 +603,6 @@ def _with_positions(run, a: Motion, b: Motion) -> tuple[np.ndarray, np.ndarray]:
             b.translations[:, joints],
         )
     return q, p
-
-
-#: Two frame times this close (relative) are one rate written to other precisions
-#: (0.016667 and 0.0166667 s are 60 fps; 4 significant digits, 0.01667, 2e-4 off); NTSC's
-#: 59.94 fps is 1e-3 from 60, another rate.
-SAME_RATE = 5e-4
 
 
 def _skeleton_difference(a: Motion, b: Motion) -> str:

@@ -6,9 +6,10 @@ import numpy as np
 
 from ..core.errors import UsageError
 from ..core.motion import MAX_FRAME_TIME, MIN_FRAME_TIME, Motion
+from ..core.rates import same_rate
 from ..filters.resample import ANTIALIAS_CUTOFF
 from .base import Param, StepSpec, fps_text
-from .resampling import new_length, resample_motion, resample_takes, same_rate
+from .resampling import new_length, resample_motion, resample_takes
 
 
 def _resolve(params: dict, where: str) -> None:

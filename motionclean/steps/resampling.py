@@ -18,7 +18,7 @@ import numpy as np
 from ..core import checks, quat
 from ..core.errors import MotionError
 from ..core.motion import Motion, as_motion, hold_missing, joint_major_zeros
-from ..core.rates import FRAME_TIME_ROUNDING
+from ..core.rates import same_rate
 from ..core.restpose import rest_frames, splice, trim
 from ..core.takes import take_spans, take_starts
 from ..core.words import plural
@@ -37,13 +37,6 @@ BYTES_PER_VALUE = 96
 #: capture holds, and costs time and disk by the option, not the data (1e6 fps of a
 #: 240-frame tracker CSV wrote a gigabyte in over a minute).
 MAX_UPSAMPLING = 1000
-
-
-def same_rate(frame_time: float, new_frame_time: float) -> bool:
-    """True when two frame times (seconds) are within
-    :data:`~motionclean.core.rates.FRAME_TIME_ROUNDING` of each other (a Frame Time of
-    0.008333 s is 120 fps): the clip is left as it is."""
-    return abs(new_frame_time - frame_time) <= FRAME_TIME_ROUNDING * frame_time
 
 
 def _memory_bytes() -> int:
@@ -166,10 +159,11 @@ def _with_rest(motion: Motion, frame_time: float, n_new: int, lead: int, trail: 
 def resample_motion(motion: Motion, frame_time: float) -> Motion:
     """``motion`` at ``frame_time`` seconds per frame (any ratio, up or down).
 
-    The same rate (:func:`same_rate`) gives ``motion`` itself. Otherwise every rotation and
-    position is resampled (module docstring) and the first frame keeps its time; rest-pose
-    frames at either end keep theirs (:func:`rest_rows`); the skeleton and channels stay,
-    the writer keeps the hierarchy text and writes the frames anew. :func:`new_length` says
+    The same rate (:func:`~motionclean.core.rates.same_rate`) gives ``motion`` itself.
+    Otherwise every rotation and position is resampled (module docstring) and the first
+    frame keeps its time; rest-pose frames at either end keep theirs (:func:`rest_rows`);
+    the skeleton and channels stay, the writer keeps the hierarchy text and writes the
+    frames anew. :func:`new_length` says
     how many frames and refuses too few or too many. TypeError for a ``motion`` that is no
     :class:`Motion` or a ``frame_time`` that is no number, ValueError for one outside
     :data:`~motionclean.core.checks.FRAME_TIME_RANGE` (zero, negative, NaN).

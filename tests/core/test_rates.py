@@ -12,7 +12,7 @@ from helpers import NOISY, plant, smooth_synthetic
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.core.errors import UsageError
-from motionclean.core.rates import frames_ceil, frames_floor, in_band, whole_frames
+from motionclean.core.rates import frames_ceil, frames_floor, in_band, same_rate, whole_frames
 from motionclean.filters.auto import auto
 from motionclean.filters.noise import window_frames
 from motionclean.steps.pipeline import Pipeline
@@ -38,6 +38,16 @@ def test_only_counts_near_a_whole_number_are_snapped():
     assert whole_frames(1_000_000.4) == 1_000_000.4
     assert whole_frames(1_000_000.2) == 1_000_000
     assert math.isinf(whole_frames(math.inf))
+
+
+def test_one_rate_written_to_other_digits_is_the_same_rate_and_ntsc_is_another():
+    # 1/60 s as files write it, to 7 decimals, 6 and 4 significant digits
+    for written in (0.0166667, 0.016667, 0.01667):
+        assert same_rate(1 / 60, written) and same_rate(written, 1 / 60)
+    assert same_rate(1 / 120, 0.008333)
+    # NTSC's 59.94 and 29.97 fps are 1e-3 from 60 and 30: other rates, either way round
+    for ntsc, rate in ((1001 / 60000, 60), (1001 / 30000, 30)):
+        assert not same_rate(1 / rate, ntsc) and not same_rate(ntsc, 1 / rate)
 
 
 def test_bands_hold_their_lower_edge_and_their_upper_one_only_when_closed():
