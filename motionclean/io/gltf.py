@@ -284,7 +284,7 @@ def _beside(path, what: str, uri: str) -> Path:
     name = unquote(parts.path)
     if not name or name.endswith("/"):
         _fail(f"{said} names no file", path)
-    if parts.scheme or parts.netloc or os.path.isabs(name):  # (as _relative_file reads it)
+    if not _relative_file(uri):
         _fail(f"{said} is a URL or an absolute path, not a file beside the glTF", path)
     if ".." in Path(name).parts:
         _fail(f"{said} climbs out of the glTF's folder ('..')", path)
