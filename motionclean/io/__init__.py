@@ -188,8 +188,8 @@ def _read(
     strict: bool = False,
 ) -> Motion:
     """:func:`load` of its checked arguments; ``body_model`` reads the model, called only
-    for a SMPL clip; ``strict``: a skeleton given for a Motive export is refused (UsageError:
-    its suffix is a CSV's, its rigid bodies carry their own poses)."""
+    for a SMPL clip; ``strict``: a skeleton given for a Motive export or a rigid-body CSV is
+    refused (UsageError: its suffix is a CSV's, its rigid bodies carry their own poses)."""
     suffix = _suffix(path, FORMATS)
     if suffix == ".fbx":  # through Blender's bpy (the [blender] extra)
         return fbx.load_fbx(path)
@@ -217,6 +217,12 @@ def _read(
             motion = motive.parse_motive(data, path)
         else:
             motion = csv.parse_csv(data, path, skeleton=template)
+            if strict and template is not None and motion.source.layout == "rigid":
+                raise UsageError(
+                    "--skeleton applies to channel CSVs, not to a rigid-body CSV (its bodies "
+                    "carry their own poses)",
+                    path,
+                )
         if motion.missing is not None and motion.missing.size and motion.missing.all():
             # every body blank on every row: no sample any step, figure or writer can use
             raise MotionError("no value in any cell: every sample is blank, nothing to clean", path)

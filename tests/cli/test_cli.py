@@ -15,6 +15,7 @@ from helpers import ROOT, SAMPLE, degrees_between, run_cli, with_t_pose
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.filters import multires
+from motionclean.io.csv import format_csv
 from motionclean.steps.pipeline import REGISTRY, Pipeline
 
 
@@ -158,6 +159,10 @@ def test_a_read_option_the_clips_format_does_not_use_is_refused(option, tmp_path
         motive = ROOT / "sample_data" / "131_02_motive.csv"  # a CSV by suffix, not by kind
         code, _, err = run(["info", motive, flag, value], capsys)
         assert code == 2 and "not to an OptiTrack Motive export" in err
+        rigid = tmp_path / "bodies.csv"  # a rigid-body CSV: its bodies carry their poses
+        rigid.write_bytes(format_csv(mc.load(motive), layout="rigid"))
+        code, _, err = run(["convert", rigid, tmp_path / "bodies.bvh", flag, value], capsys)
+        assert code == 2 and "not to a rigid-body CSV" in err, err
     folder = tmp_path / "in"
     folder.mkdir()
     (folder / "a.bvh").write_bytes(SAMPLE.read_bytes())
