@@ -718,8 +718,8 @@ def _refuse_gaps(motion: Motion) -> None:
     )
     raise MotionError(
         f"{motion.names[joint]!r} is missing on frames {shown}{more} (frames from 0){also}, "
-        "and BVH has no blank values; fill the gaps (fill-gaps with a larger max_gap) or "
-        "write CSV",
+        "and BVH has no blank values: fill them first (the fill-gaps step, in clean's "
+        "default; -f 'fill-gaps:max_gap=SECONDS' for longer gaps) or write CSV",
         motion.path,
     )
 

@@ -224,6 +224,18 @@ def test_a_clip_without_gaps_converts_to_bvh(tmp_path, capsys):
     assert np.degrees(quat.angle_between(bvh.rotations, mc.load(source).rotations)).max() < 1e-5
 
 
+def test_a_clip_with_gaps_converts_to_bvh_once_they_are_filled(tmp_path, capsys):
+    """BVH has no blank values: ``convert`` (no step runs) says how to fill the sample's
+    dropout; ``clean`` with fill-gaps writes the BVH."""
+    source, target = ROOT / "sample_data" / "131_02_motive.csv", tmp_path / "take.bvh"
+    code, _, err = run_cli(capsys, "convert", source, target)
+    assert code == 1 and err.count("\n") == 1 and not target.exists()
+    assert "'hand_l' is missing on frames 40-47" in err and "fill-gaps step" in err, err
+    code, _, err = run_cli(capsys, "clean", source, "-o", target, "-f", "fill-gaps")
+    assert code == 0, err
+    assert not np.isnan(mc.load(target).rotations).any()
+
+
 def replace_line(text: str, number: int, old: str, new: str) -> str:
     lines = text.split("\r\n")
     assert old in lines[number - 1]
