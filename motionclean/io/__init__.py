@@ -217,7 +217,7 @@ def _read(
             motion = motive.parse_motive(data, path)
         else:
             motion = csv.parse_csv(data, path, skeleton=template)
-            if strict and template is not None and motion.source.layout == "rigid":
+            if strict and template is not None and getattr(motion.source, "layout", "") == "rigid":
                 raise UsageError(
                     "--skeleton applies to channel CSVs, not to a rigid-body CSV (its bodies "
                     "carry their own poses)",

@@ -93,6 +93,7 @@ from ..core.motion import (
     hold_missing,
     same_rotations,
 )
+from ..core.words import plural
 from .bvh import BOM, BvhText
 from .files import FileBytes, pieces, refuse_binary
 from .text import (
@@ -382,6 +383,10 @@ def parse_body(
 
 #: What a file whose rows are not a fixed time apart is told to do.
 UNEVEN_ADVICE = "export it at a fixed rate"
+#: ... of one that keeps its rate but skips rows (a tracker dropping frames).
+SKIPPED_ADVICE = (
+    "give every frame its row (blank cells mark a dropout, which the fill-gaps step fills)"
+)
 
 
 def _off_grid(times: np.ndarray, mean: float) -> tuple[np.ndarray, np.ndarray]:
@@ -422,15 +427,51 @@ def _out_of_order(times: np.ndarray, lines: np.ndarray, i: int, path) -> NoRetur
     )
 
 
+def _refuse_skipped_rows(
+    times: np.ndarray, lines: np.ndarray, path, advice: str, frames: np.ndarray | None
+) -> None:
+    """Refuse increasing ``times`` (seconds) whose every step is, within
+    :data:`TIME_TOLERANCE`, a whole number of their median step, some of them two or more
+    (and the rows' ``frames`` numbers, where given, skip as far): a fixed rate with rows
+    missing, said as such (on the row after the first gap) rather than as a rate the gaps'
+    mean would give; ``advice`` ends the error."""
+    steps = np.diff(times)
+    step = float(np.median(steps))
+    if not MIN_FRAME_TIME <= step <= MAX_FRAME_TIME:
+        return
+    count = np.rint(steps / step)
+    skips = np.flatnonzero(count >= 2)
+    whole = np.abs(steps - count * step) <= TIME_TOLERANCE * step
+    if not skips.size or not whole.all():
+        return
+    if frames is not None and not np.array_equal(np.diff(frames)[skips], count[skips]):
+        return  # frames numbered on: the times are uneven, no row is missing
+    first = int(skips[0])
+    others = f" and {plural(skips.size - 1, 'other gap')}" if skips.size > 1 else ""
+    _fail(
+        f"{plural(int(np.sum(count[skips] - 1)), 'row')} missing at a fixed rate of "
+        f"{1.0 / step:.6g} fps ({step:.6g} s per row): time {times[first]:.9g} s is followed "
+        f"by {times[first + 1]:.9g} s ({plural(int(count[first]) - 1, 'frame')} skipped)"
+        f"{others}: "
+        f"{advice}",
+        path,
+        int(lines[first + 1]),
+    )
+
+
 def uniform_frame_time(
     times: np.ndarray,
     lines: np.ndarray,
     path,
     template: float | None,
     advice: str = UNEVEN_ADVICE,
+    skipped_advice: str = SKIPPED_ADVICE,
+    frames: np.ndarray | None = None,
 ) -> float:
     """The frame time of a uniformly sampled time column (see the module docstring);
-    ``advice`` ends the error of one that is not."""
+    ``advice`` ends the error of one that is not, ``skipped_advice`` that of one that
+    skips rows at a fixed rate (:func:`_refuse_skipped_rows`; ``frames``: the rows' frame
+    numbers, where the file has them)."""
     n = times.size
     if n < 2:
         if template is not None:
@@ -452,6 +493,8 @@ def uniform_frame_time(
         return template
     with np.errstate(over="ignore", invalid="ignore"):
         mean = (times[-1] - times[0]) / (n - 1)
+        if np.isfinite(mean):
+            _refuse_skipped_rows(times, lines, path, skipped_advice, frames)
     if not (MIN_FRAME_TIME <= mean <= MAX_FRAME_TIME):
         _fail(
             f"a time step of {mean:.6g} s gives no usable frame rate ({RATES_ACCEPTED})",
@@ -622,6 +665,11 @@ def _channel_text(
     )
 
 
+def _frames(cells: BodyCells, fields: list[str]) -> np.ndarray | None:
+    """The rows' numbers in a ``frame`` column, where the file has one."""
+    return cells.values[:, fields.index("frame")] if "frame" in fields else None
+
+
 def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     """Parse a channel or rigid-body CSV (see the module docstring).
 
@@ -644,7 +692,9 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
         return _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_line)
     if skeleton is None:
         names, channels, columns = _channel_skeleton(entries, path, header_line)
-        frame_time = uniform_frame_time(times, cells.lines, path, None)
+        frame_time = uniform_frame_time(
+            times, cells.lines, path, None, frames=_frames(cells, fields)
+        )
         text = _channel_text(
             data, cells, columns, time_column, (names, channels), frame_time, eol, fields
         )
@@ -667,7 +717,9 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
             skeleton.path,
         )
     columns = _template_columns(entries, skeleton, path, header_line)
-    frame_time = uniform_frame_time(times, cells.lines, path, skeleton.frame_time)
+    frame_time = uniform_frame_time(
+        times, cells.lines, path, skeleton.frame_time, frames=_frames(cells, fields)
+    )
     values, missing = _held_channel_values(
         cells, data, columns, skeleton.names, skeleton.channels, fields, path
     )
@@ -775,7 +827,9 @@ def _rigid_motion(data, cells, entries, fields, time_column, eol, path, header_l
                     header_line,
                 )
             columns[b, s] = found[name][suffix]
-    frame_time = uniform_frame_time(cells.values[:, time_column], cells.lines, path, None)
+    frame_time = uniform_frame_time(
+        cells.values[:, time_column], cells.lines, path, None, frames=_frames(cells, fields)
+    )
     rotations, translations, missing = rigid_arrays(cells, data, columns, bodies, fields, path)
     channels: list[tuple[str, ...]] = [RIGID_CHANNELS] * len(bodies)
     text = CsvText.of(

@@ -447,7 +447,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         )
     else:
         lines = np.array([number_of(r) for r in rows])
-        frame_time = uniform_frame_time(times, lines, path, None, SIMULATION_ADVICE)
+        frame_time = uniform_frame_time(
+            times, lines, path, None, SIMULATION_ADVICE, SIMULATION_ADVICE
+        )
     missing = np.isnan(coords)
     names = [labels[c] for c in kept]
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)

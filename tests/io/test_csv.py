@@ -276,12 +276,19 @@ def test_uniform_time_tolerance(tmp_path):
     with pytest.raises(MotionError, match="off the uniform grid") as error:
         mc.load(tmp_path / "drift.csv")
     assert error.value.line is not None and error.value.line > 2
-    dropped = np.delete(np.arange(200) / 90.0, 150)
+    # rows a tracker dropped at its fixed rate: said as missing rows, not as an uneven rate
+    dropped = np.delete(np.arange(200) / 90.0, [150, 160, 161, 162])
     rows = ["time,a.Xposition"] + [f"{t!r},{i}" for i, t in enumerate(dropped.tolist())]
     (tmp_path / "dropped.csv").write_text("\n".join(rows) + "\n")
-    with pytest.raises(MotionError, match="not uniformly sampled") as error:
+    with pytest.raises(MotionError, match="4 rows missing at a fixed rate of 90 fps") as error:
         mc.load(tmp_path / "dropped.csv")
-    assert error.value.line == 152  # header line 1, frame 150 (0-based) on line 152
+    assert "(1 frame skipped) and 1 other gap: give every frame its row" in error.value.message
+    assert error.value.line == 152  # header line 1, frame 151 (0-based) on line 152
+    # frames numbered on through uneven times: no row is missing, the times are uneven
+    rows = ["frame,time,a.Xposition"] + [f"{i},{t!r},{i}" for i, t in enumerate(dropped.tolist())]
+    (tmp_path / "numbered.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(MotionError, match="not uniformly sampled"):
+        mc.load(tmp_path / "numbered.csv")
 
 
 # ----------------------------------------------------------------------------- rigid bodies
