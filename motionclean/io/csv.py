@@ -5,9 +5,10 @@ byte-order mark, CRLF or LF line endings, spaces around values and blank lines a
 accepted; header fields may be quoted (RFC 4180) when a name contains a comma. Values are
 decimal numbers (exponents allowed); inf is an error. The layout is detected from the header.
 
-Blank cells (empty, or the literal NaN in any case) are tracker dropouts: a joint or body
-whose cells are all blank on a row is missing on that frame (``Motion.missing``; its arrays
-hold the nearest known sample, see :func:`motionclean.core.motion.hold_missing`). A partly blank
+Blank cells (empty, or the literal NaN in any case, signed or not: ``-nan`` as C's printf
+writes it) are tracker dropouts: a joint or body whose cells are all blank on a row is
+missing on that frame (``Motion.missing``; its arrays hold the nearest known sample, see
+:func:`motionclean.core.motion.hold_missing`). A partly blank
 joint or body is an error naming the line and its blank columns; the time and frame
 columns are never blank.
 
@@ -345,6 +346,11 @@ def parse_body(
     three = np.flatnonzero(flat_ends - flat_starts == 3)  # NaN, any case: blank
     letters = buf[flat_starts[three, None] + np.arange(3)] | np.uint8(0x20)
     blank[three[np.all(letters == np.frombuffer(b"nan", dtype=np.uint8), axis=1)]] = True
+    four = np.flatnonzero(flat_ends - flat_starts == 4)  # and signed, as C's printf writes it
+    letters = buf[flat_starts[four, None] + np.arange(4)]
+    signed = (letters[:, 0] == ord("-")) | (letters[:, 0] == ord("+"))
+    nan = np.all(letters[:, 1:] | np.uint8(0x20) == np.frombuffer(b"nan", dtype=np.uint8), axis=1)
+    blank[four[signed & nan]] = True
     # The parsed cells, as flat indices (None: all of them).
     chosen = None if every else (np.arange(0, starts.size, n_columns)[:, None] + columns).ravel()
     counts = tokens.ravel() if chosen is None else tokens.ravel().take(chosen)

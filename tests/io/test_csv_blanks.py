@@ -30,7 +30,7 @@ BODY_B = "4,5,6,0,1,0,0"
 GAPPY = rigid_rows(
     f"0,1,2,3,1,0,0,0,{BODY_B}",
     f"0.1,,,,,,,,{BODY_B}",
-    f"0.2,NaN, ,nan,,NAN,nAn,,{BODY_B}",
+    f"0.2,NaN, ,-nan,,NAN,+nAn,,{BODY_B}",  # (signed: C's printf writes -nan)
     f"0.3,1.5,2,3,0.5,0.5,0.5,0.5,{BODY_B}",
 )
 
@@ -152,7 +152,7 @@ def test_a_rewrite_blanks_new_gaps_and_fills_filled_ones():
     text = format_csv(clip.replace(missing=missing))
     assert text.decode().splitlines()[2:] == [
         f"0.1,1.0,2.0,3.0,1.0,0.0,0.0,0.0,{BODY_B}",
-        f"0.2,NaN, ,nan,,NAN,nAn,,{BODY_B}",  # still missing: the source text is kept
+        f"0.2,NaN, ,-nan,,NAN,+nAn,,{BODY_B}",  # still missing: the source text is kept
         "0.3,1.5,2,3,0.5,0.5,0.5,0.5,,,,,,,",
     ]
     back = parse_csv(text, "back.csv")
