@@ -458,8 +458,7 @@ def _refuse_skipped_rows(
         f"{plural(int(np.sum(count[skips] - 1)), 'row')} missing at a fixed rate of "
         f"{1.0 / step:.6g} fps ({step:.6g} s per row): time {times[first]:.9g} s is followed "
         f"by {times[first + 1]:.9g} s ({plural(int(count[first]) - 1, 'frame')} skipped)"
-        f"{others}: "
-        f"{advice}",
+        f"{others}: {advice}",
         path,
         int(lines[first + 1]),
     )
