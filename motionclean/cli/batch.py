@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from fnmatch import fnmatchcase
 from pathlib import Path, PurePosixPath
+from typing import NamedTuple
 
 import click
 
@@ -63,27 +64,39 @@ def cluster_note(started: float, results: Sequence[FileResult], workers: int) ->
     """A line saying so when starting a local cluster took longer than the cleaning it ran
     (``started`` seconds; the clips' own seconds spread over ``workers``), else None."""
     work = sum(r.seconds for r in results if r.status != "skipped")
-    if started <= work / max(workers, 1):
+    each = work / max(workers, 1)
+    if started <= each:
         return None
+    spent = f"{each:.1f} s each of its {workers} workers" if workers > 1 else f"{each:.1f} s it"
     return (
         f"note: starting the local Dask cluster took {started:.1f} s, longer than the "
-        f"{work:.1f} s of cleaning it ran; on one machine --jobs (the default) does the same "
-        "without it. A cluster pays off when the clips outgrow one machine's cores."
+        f"{spent} spent cleaning ({work:.1f} s of clips); on one machine --jobs (the default) "
+        "does the same without it. A cluster pays off when the clips outgrow one machine's "
+        "cores."
     )
 
 
 # ----------------------------------------------------------------------------- the command
 
 
-def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
+class Found(NamedTuple):
+    """What :func:`find_clips` found under a folder, paths relative to it, sorted."""
+
+    clips: list[PurePosixPath]
+    linked: list[PurePosixPath]  # symbolic links to folders, not followed
+
+
+def find_clips(root: Path, patterns: Sequence[str]) -> Found:
     """Clip paths under ``root``, relative to it, sorted: those whose relative path matches
     one of ``patterns`` (:func:`glob_match`). Hidden files and folders (name starting with
-    ".") are left out; symbolic links to folders are not followed."""
+    ".") are left out; symbolic links to folders are not followed (a link may loop back,
+    or lead to a folder twice): they are listed apart."""
     split = [glob_parts(p) for p in patterns]
-    found = []
+    found, linked = [], []
     for folder, dirs, files in os.walk(root):
         dirs[:] = sorted(d for d in dirs if not d.startswith("."))
         base = PurePosixPath(Path(folder).relative_to(root).as_posix())
+        linked += [base / d for d in dirs if os.path.islink(os.path.join(folder, d))]
         for name in files:
             if name.startswith("."):
                 continue
@@ -91,7 +104,19 @@ def find_clips(root: Path, patterns: Sequence[str]) -> list[PurePosixPath]:
             lowered = tuple(part.lower() for part in rel.parts)
             if any(glob_match(lowered, p) for p in split):
                 found.append(rel)
-    return sorted(found)
+    return Found(sorted(found), sorted(linked))
+
+
+def linked_note(root: str, linked: Sequence[PurePosixPath]) -> str:
+    """The folders under ``root`` (as given) that are symbolic links, not followed, in a
+    few words: ``; 1 linked folder not followed: in/ext (batch it on its own)``."""
+    shown = ", ".join(os.fspath(Path(root) / rel) for rel in linked[:3])
+    more = f" and {len(linked) - 3} more" if len(linked) > 3 else ""
+    it = "it" if len(linked) == 1 else "each"
+    return (
+        f"{plural(len(linked), 'linked folder')} not followed: {shown}{more} (a link to a "
+        f"folder may loop back; batch {it} on its own)"
+    )
 
 
 def glob_parts(pattern: str) -> tuple[str, ...]:
@@ -310,13 +335,15 @@ def batch_command(
     source_root, out_root = Path(in_dir), Path(out_dir)
     pages = Path(report_dir) if report_dir else None
     _check_folders(source_root, out_root, pages)
-    clips = find_clips(source_root, patterns or DEFAULT_GLOBS)
+    clips, linked = find_clips(source_root, patterns or DEFAULT_GLOBS)
     if not clips:
         shown = ", ".join(patterns or DEFAULT_GLOBS)
         if any("/" in p for p in patterns):
             shown += " (the whole path below it: * within one name, ** any number of folders)"
+        if linked:
+            shown += f"; {linked_note(in_dir, linked)}"
         raise UsageError(f"{in_dir}: no clips matching {shown}")
-    read.refuse_unused(*clips)  # (an option that none of them uses)
+    read.refuse_unused(*(source_root / rel for rel in clips))  # (an option none of them uses)
     resolved_in = source_root.resolve()
 
     def check_written(written: Path) -> None:
@@ -389,7 +416,8 @@ def batch_command(
                     note = cluster_note(started, [results[n] for n in work_names], workers)
     except cluster.ClusterLost as error:  # one line for the clips not done, after the others
         lost = str(error)
-        for index in error.not_done:
+        for index in error.not_done:  # named as the command line gave their folder
+            lost = lost.replace(work[index].source, os.fspath(source_root / work_names[index]))
             results[work_names[index]] = FileResult(
                 work[index].source, work[index].target, "failed"
             )
@@ -408,6 +436,8 @@ def batch_command(
         click.echo(format_summary(rows, seconds, workers))
         if note:
             click.echo(note)
+        if linked:
+            click.echo(f"note: {linked_note(in_dir, linked)}")
         if others:
             click.echo(
                 f"{plural(others, 'clip')} kept from an earlier run with another pipeline "

@@ -48,6 +48,27 @@ def tree(tmp_path: Path) -> Path:
     return root
 
 
+def test_a_folder_that_is_a_symbolic_link_is_not_followed_and_said_so(tree, tmp_path, capsys):
+    """A link to a folder may loop back: not followed, but named (a lab's archive of linked
+    sessions had lost their clips without a word); a linked file is cleaned."""
+    elsewhere = tmp_path / "session"
+    cut_bvh(SAMPLE, elsewhere / "s.bvh", 30)
+    (tree / "linked").symlink_to(elsewhere)
+    (tree / "loop").symlink_to(tree)
+    (tree / "file.bvh").symlink_to(elsewhere / "s.bvh")
+    out = tmp_path / "out"
+    code, stdout, _ = run_cli(capsys, "batch", tree / "walk", "-o", out, "-q")
+    assert code == 0  # (no link there: nothing said)
+    code, stdout, _ = run_cli(capsys, "batch", tree, "-o", out, "-j", "1", "--glob", "*.bvh")
+    assert code == 1 and (out / "file.bvh").is_file() and not (out / "linked").exists()
+    assert (
+        f"note: 2 linked folders not followed: {tree / 'linked'}, {tree / 'loop'} (a link to "
+        "a folder may loop back; batch each on its own)"
+    ) in stdout
+    code, _, err = run_cli(capsys, "batch", tree, "-o", out, "--glob", "s.bvh")
+    assert code == 2 and "no clips matching s.bvh; 2 linked folders not followed" in err
+
+
 def test_tree_with_a_broken_file(tree, tmp_path, capsys):
     before = snapshot(tree)
     out = tmp_path / "out"
@@ -419,7 +440,7 @@ def test_glob_matches_the_whole_relative_path(tree, pattern, selected):
     (tree / ".hidden").mkdir()
     cut_bvh(SAMPLE, tree / ".hidden" / "x.bvh", 5)
     (tree / "walk" / "runs.bvh").write_text("not read")
-    assert [p.as_posix() for p in find_clips(tree, [pattern])] == selected
+    assert [p.as_posix() for p in find_clips(tree, [pattern]).clips] == selected
 
 
 def test_a_glob_that_selects_nothing_says_how_patterns_match(tree, tmp_path, capsys):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -41,6 +42,10 @@ def test_a_local_cluster_writes_what_one_process_writes(tree, capsys):
     # four clips of 60-120 frames: the cluster's start-up costs more than it gains, and the
     # run says so
     assert "note: starting the local Dask cluster took" in out and "--jobs" in out
+    spent = re.search(
+        r"longer than the ([\d.]+) s each of its 2 workers spent cleaning \(([\d.]+) s", out
+    )
+    assert spent and abs(2 * float(spent[1]) - float(spent[2])) <= 0.11, out  # (not the sum)
     run_cli(capsys, "batch", tree / "in", "-o", tree / "serial", "-j", "1", "-q")
     code, out, _ = run_cli(
         capsys,
