@@ -84,6 +84,7 @@ from .options import (
     check_clip_output,
     check_output,
     check_report_output,
+    echo_error,
     echo_warnings,
     pipeline_from_options,
     read_options,
@@ -95,10 +96,6 @@ from .options import (
 # OpenBLAS's work buffers, set up as the command line is imported: before a clip fills the
 # memory (or a limit set after the import leaves too little for them), see warm_blas.
 warm_blas()
-
-
-def _echo_error(message: str) -> None:
-    click.echo(f"motionclean: error: {message}", err=True)
 
 
 class _Interrupted(BaseException):
@@ -130,7 +127,7 @@ def _interrupted() -> None:
     ends the ``^C`` the terminal echoed."""
     if sys.stderr.isatty():
         click.echo("", err=True)
-    _echo_error("interrupted")
+    echo_error("interrupted")
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(130)
@@ -172,7 +169,7 @@ def main(argv: list[str] | None = None) -> None:
     except MotionError as error:
         if debug:
             traceback.print_exc()
-        _echo_error(str(error))
+        echo_error(str(error))
         sys.exit(error.exit_code)
     except click.exceptions.Exit as done:
         sys.exit(done.exit_code)
@@ -181,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as error:
         if debug:
             traceback.print_exc()
-        _echo_error(error.format_message().replace("\n", " ") + _output_hint(error))
+        echo_error(error.format_message().replace("\n", " ") + _output_hint(error))
         sys.exit(2 if isinstance(error, click.UsageError) else error.exit_code)
     except (KeyboardInterrupt, _Interrupted):
         _interrupted()
@@ -189,12 +186,12 @@ def main(argv: list[str] | None = None) -> None:
         let_go(error)
         if debug:
             traceback.print_exc()
-        _echo_error(f"out of memory ({error or 'an allocation failed'})")
+        echo_error(f"out of memory ({error or 'an allocation failed'})")
         sys.exit(1)
     except Exception as error:  # a bug: still one line unless --debug
         if debug:
             traceback.print_exc()
-        _echo_error(f"internal error: {type(error).__name__}: {error} (rerun with --debug)")
+        echo_error(f"internal error: {type(error).__name__}: {error} (rerun with --debug)")
         sys.exit(1)
     sys.exit(code if isinstance(code, int) else 0)
 

@@ -32,6 +32,13 @@ FILE_PATH = click.Path(dir_okay=False, readable=False)
 FOLDER_PATH = click.Path(file_okay=False, readable=False)
 
 
+def echo_error(message: str) -> None:
+    """Print ``motionclean: error: MESSAGE`` on stderr as one line: a line break in it (a
+    file named with one) is shown escaped, ``\\n``."""
+    one_line = message.replace("\r", "\\r").replace("\n", "\\n")
+    click.echo(f"motionclean: error: {one_line}", err=True)
+
+
 def echo_warnings(lines: Iterable[str]) -> None:
     """Print a run's warning lines (``motionclean: warning: ...``) on stderr."""
     for line in lines:
@@ -235,7 +242,7 @@ def raise_failures(lines: Sequence[str]) -> None:
     as a :class:`MotionError`, which the CLI prints the same way before exiting with 1.
     """
     for line in lines[:-1]:
-        click.echo(f"motionclean: error: {line}", err=True)
+        echo_error(line)
     if lines:
         raise MotionError(lines[-1])
 

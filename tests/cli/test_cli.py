@@ -182,6 +182,19 @@ def test_unknown_command_is_a_one_line_usage_error(capsys):
     assert code == 2 and err.count("\n") == 1 and err.startswith("motionclean: error:")
 
 
+def test_an_error_naming_a_file_with_a_line_break_stays_one_line(tmp_path, capsys):
+    """A file named with a line break (a shell makes one easily): the error line shows it
+    escaped, so a log or CI step reading one line per error still reads one."""
+    broken = tmp_path / "in" / "take\n2.bvh"
+    broken.parent.mkdir()
+    broken.write_text("HIERARCHY\nROOT Hips\n{\n")
+    for args in (["info", broken], ["batch", broken.parent, "-o", tmp_path / "out", "-q"]):
+        code, _, err = run(args, capsys)
+        assert code == 1 and err.count("\n") == 1, err
+        shown = str(broken).replace("\n", "\\n")
+        assert err.startswith(f"motionclean: error: {shown}:"), err
+
+
 def test_info_finds_the_rthumb_flip(sample_path, capsys):
     code, out, _ = run(["info", sample_path], capsys)
     assert code == 0
