@@ -265,7 +265,10 @@ def _classify(fields: list[str], path, line: int):
         )
     for k, field in enumerate(fields):
         if not field:
-            _fail(f"bad header: column {k + 1} has no name", path, line)
+            trailing = " (a comma ends the header: remove it from every line)" * (
+                k == len(fields) - 1
+            )
+            _fail(f"bad header: column {k + 1} has no name{trailing}", path, line)
         if "\x00" in field:  # (a NUL in the first 4,096 bytes: already "binary data")
             _fail(f"bad header: column {k + 1} ({field[:40]!r}) holds a NUL byte", path, line)
         name, dot, suffix = field.rpartition(".")
