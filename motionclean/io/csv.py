@@ -328,12 +328,17 @@ def parse_body(
         line = first_line + row
         first = int(line_starts[row])
         row_bytes = buf[int(starts[first]) : int(ends[first + cells_per_line[row] - 1])]
-        why = (
-            " (a carriage return (CR) alone inside this line, not followed by a line feed:"
-            " two rows ran together; save the file with one kind of line end)"
-            if np.any(row_bytes == 13)
-            else ""
-        )
+        why = ""
+        if np.any(row_bytes == 13):
+            why = (
+                " (a carriage return (CR) alone inside this line, not followed by a line feed:"
+                " two rows ran together; save the file with one kind of line end)"
+            )
+        elif np.any(row_bytes == ord('"')):
+            why = (
+                " (quoted cells: values are plain numbers with a decimal point, not quoted and"
+                " without decimal commas)"
+            )
         _fail(f"row has {cells_per_line[row]} columns, the header has {n_columns}{why}", path, line)
     shape = (rows.size, n_columns)
     if rows[-1] == rows.size - 1:  # no blank line but at the end: the first cells

@@ -75,6 +75,7 @@ CASES = {
     "huge_value.bvh": (19, "is out of range"),
     "non_uniform_time.csv": (3, "not uniformly sampled"),
     "trailing_comma.csv": (1, "column 4 has no name (a comma ends the header: remove it"),
+    "quoted_decimal_comma.csv": (2, "row has 4 columns, the header has 3 (quoted cells"),
     "single_row.csv": (2, "at least two rows"),
     "zero_quaternion.csv": (4, "quaternion of norm 0"),
     "partly_blank_body.csv": (4, "body 'head' is partly blank: empty value in head.pz"),
