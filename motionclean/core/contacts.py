@@ -413,6 +413,13 @@ FLOOR_SLOPE_PRIOR = 0.1
 #: is believed where the soles span a few body heights (a walk across a tilted floor),
 #: not from the hand's breadth between a left and a right footprint.
 FLOOR_SPREAD = 0.03
+#: ... and the soles within one square of this side (body heights: 3.4 cm on a body 1.7 m
+#: tall) count as one place, each with its share: their errors are mostly the feet's own
+#: (a left sole lower than the right, a heel than a toe), which a footprint stepped on
+#: again repeats rather than averages away; a take walking the same 7 footprints again and
+#: again had tilted its floor with its length (1.0 degrees; walked 4 and 16 times: 3.1 and
+#: 4.4; 10 and 30 copies of the noisy sample joined end to end 3.8 and 5.0).
+FLOOR_PLACE = 0.02
 
 
 #: A foot's lowest point more than this (body heights) below its height on both
@@ -471,11 +478,14 @@ def fit_floor(
         centre = np.median(residual[keep])
         keep = np.abs(residual - centre) <= 3.0 * _spread(residual[keep]) + 1e-9 * height
         x, h = soles[keep][:, across], soles[keep][:, up]
-        dx = x - x.mean(axis=0)
+        share = _place_shares(x, FLOOR_PLACE * height)
+        centre_x, centre_h = share @ x / share.sum(), float(share @ h / share.sum())
+        dx = x - centre_x
         slope = np.linalg.solve(
-            dx.T @ dx + ridge * np.eye(2), dx.T @ (h - h.mean()) + ridge * prior
+            (dx.T * share) @ dx + ridge * np.eye(2),
+            (dx.T * share) @ (h - centre_h) + ridge * prior,
         )
-        level = float(h.mean() - slope @ x.mean(axis=0))
+        level = float(centre_h - slope @ centre_x)
     residual = soles[keep, up] - level - soles[keep][:, across] @ slope
     level += float(np.quantile(residual, quantile))
     normal = np.zeros(3)
@@ -483,6 +493,15 @@ def fit_floor(
     normal[across] = -slope
     scale = float(np.linalg.norm(normal))
     return Floor(normal / scale, level / scale, up)
+
+
+def _place_shares(x: np.ndarray, side: float) -> np.ndarray:
+    """``(n,)``: each of the horizontal positions ``x`` ``(n, 2)`` weighted by one over the
+    number of them in its square of ``side`` (length units; a grid from the origin): every
+    place counts once, however often it is stepped on."""
+    cells = np.floor(x / side).astype(np.int64)
+    _, place, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
+    return 1.0 / counts[place.ravel()]
 
 
 def _spread(residual: np.ndarray) -> float:

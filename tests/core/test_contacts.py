@@ -465,3 +465,26 @@ def test_a_leaning_prior_does_not_leave_out_the_soles_that_contradict_it():
     floor = found.fit_floor(np.r_[near, far], 1, height, sideways=lean)
     assert floor is not None and floor.tilt_deg < 1.0
     assert np.abs(floor.above(far)).max() < 0.02
+
+
+def test_footprints_stepped_on_again_do_not_tilt_the_floor_further():
+    """Seven footprints, the left soles 1 cm below the right (the feet's own difference):
+    walked again and again (a take played back and forth, copies joined end to end), the
+    floor had tilted with the take's length (1.0 degrees on 7 contacts, 4.4 on 192); each
+    place counts once, so the tilt is the same however often it is stepped on, while a walk
+    across a floor really tilted by 8 degrees is still read as tilted."""
+    rng = np.random.default_rng(5)
+    height = 1.7
+    along = np.arange(7) * 0.35
+    side = np.where(np.arange(7) % 2 == 0, -0.1, 0.1)
+    soles = np.c_[along, np.where(side < 0, -0.01, 0.0) + rng.normal(0, 0.002, 7), side]
+    once = found.fit_floor(soles, 1, height)
+    for times in (4, 30):
+        again = found.fit_floor(np.tile(soles, (times, 1)), 1, height)
+        assert once is not None and again is not None
+        assert again.tilt_deg == pytest.approx(once.tilt_deg, abs=1e-9)
+    tilted = soles.copy()
+    tilted[:, 1] += np.tan(np.radians(8.0)) * tilted[:, 0]
+    walked = np.r_[tilted, tilted + [2.45, np.tan(np.radians(8.0)) * 2.45, 0.0]]
+    slope = found.fit_floor(walked, 1, height)
+    assert slope is not None and slope.tilt_deg == pytest.approx(8.0, abs=1.0)
