@@ -82,13 +82,17 @@ def _run_despike(data: StepData, params: dict) -> StepData:
         data.rotation_notes[int(column)] = {"despike": report.summary(column)}
     if data.translations is not None:
         height = 0.0 if data.motion is None else kinematics.body_height(data.motion)
+        # the fastest position step left alone and the slowest that may be a jump: the
+        # body's bounds where not given, a value given moving the other bound past it
+        given_min = params["min_units_per_s"]
+        top = max(_position_cap(data, params["max_units_per_s"], height), given_min)
+        bottom = min(max(given_min, POSITION_FLOOR_HEIGHTS_PER_S * height), top)
         data.translations, report = despike_positions_with_report(
             data.translations,
             data.frame_time,
             method="linear" if params["method"] == "slerp" else "cubic",
-            # the slowest position step that may be a jump, and the fastest left alone
-            min_units_per_s=max(params["min_units_per_s"], POSITION_FLOOR_HEIGHTS_PER_S * height),
-            max_units_per_s=_position_cap(data, params["max_units_per_s"], height),
+            min_units_per_s=bottom,
+            max_units_per_s=top,
             missing=_missing(data, data.translation_joints),
             **shared,
         )

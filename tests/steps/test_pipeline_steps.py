@@ -18,7 +18,7 @@ import pytest
 from helpers import NOISY, corpus_clip, low_passed_noise, max_degrees, needs_corpus
 
 import motionclean as mc
-from motionclean.core import quat
+from motionclean.core import kinematics, quat
 from motionclean.filters import (
     auto,
     auto_positions,
@@ -394,6 +394,25 @@ def defective(clip):
 
 def frames_of(runs) -> set[int]:
     return {f for start, stop in runs for f in range(start, stop)}
+
+
+def test_despike_positions_take_a_bound_given_past_the_bodys_own(defective):
+    """Positions' bounds default to the body's (a jump is faster than 0.5 body heights/s,
+    every step faster than 100 is one): a ``max_units_per_s`` given below the first, or a
+    ``min_units_per_s`` above the second, had failed the run (exit 1, "need 0 <=
+    min_units_per_s <= max_units_per_s", quoting a bound nobody gave); the bound given
+    moves the other past it."""
+    height = kinematics.body_height(defective)
+    spiked = defective.translations.copy()
+    spiked[60, 0] += [0.3 * height, 0.0, 0.0]  # one frame 0.3 body heights away
+    clip = defective.replace(translations=spiked)
+    every, _ = Pipeline.from_inline([f"despike:max_units_per_s={0.2 * height}"]).run(clip)
+    expected, _ = despike_positions_with_report(
+        spiked[:, :1], clip.frame_time, min_units_per_s=0.2 * height, max_units_per_s=0.2 * height
+    )
+    np.testing.assert_array_equal(every.translations[:, :1], expected)
+    none, _ = Pipeline.from_inline([f"despike:min_units_per_s={200 * height}"]).run(clip)
+    np.testing.assert_array_equal(none.translations, spiked)
 
 
 @pytest.mark.parametrize(
