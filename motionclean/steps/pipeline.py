@@ -531,9 +531,10 @@ class Pipeline:
             except UsageError as error:  # what the step was asked cannot be done on a clip
                 if error.path is not None:
                     raise
-                raise UsageError(
-                    f"step {number} ({step.spec.name}): {error}", motion.path
-                ) from None
+                named = f"step {number} ({step.spec.name})"
+                if error.message.startswith(f"{named}: "):  # (a range's: it names its step)
+                    raise UsageError(error.message, motion.path) from None
+                raise UsageError(f"{named}: {error}", motion.path) from None
             except (ValueError, FloatingPointError, np.linalg.LinAlgError) as error:
                 raise MotionError(
                     f"step {number} ({step.spec.name}) failed: {error}", motion.path
@@ -651,7 +652,8 @@ def _run_step(
         earlier=earlier or {},
     )
     if step.span is not None and span is None:
-        span = _frame_span(step, number, motion.n_frames + offset, motion.frame_time, path)
+        # (named without the file: the pipeline's run adds it, as to the step's own errors)
+        span = _frame_span(step, number, motion.n_frames + offset, motion.frame_time, None)
     if starts is not None and starts.size:  # (a clip with dropouts has no takes)
         assert by_take is not None
         data = _run_by_takes(step, data, motion, starts, by_take)

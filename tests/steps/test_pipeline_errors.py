@@ -319,6 +319,23 @@ def test_a_cutoff_after_a_resample_is_checked_against_the_new_rate(tmp_path, cap
     assert code == 0, err
 
 
+def test_a_range_after_a_resample_is_checked_against_the_new_length_named_once(tmp_path, capsys):
+    """120 -> 60 fps halves the sample's 300 frames: a range to frame 200 is beyond it,
+    said once (the file and step had been named twice), from Python too."""
+    clip = tmp_path / "o.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", clip, "-f", "resample:fps=60",
+        "-f", "lee-shin:frames=[100,200]",
+    )  # fmt: skip
+    assert code == 2 and not clip.exists()
+    said = "step 2 (lee-shin): the range ends at frame 200, but the clip has 150 frames (0-149)"
+    assert _one_line(err) == f"{SAMPLE}: {said}"
+    pipeline = Pipeline.from_inline(["resample:fps=60", "lee-shin:frames=[100,200]"])
+    with pytest.raises(UsageError) as error:
+        pipeline.run(mc.load(SAMPLE))
+    assert str(error.value) == f"{SAMPLE}: {said}"
+
+
 def test_a_range_error_names_the_step_by_its_number(tmp_path, capsys):
     """The same filter listed twice: the message says which (it said "step (lee-shin)")."""
     code, _, err = run_cli(
