@@ -246,7 +246,7 @@ class StepSpec:
     # a column with gaps is run on its own.
     sees_missing: bool = False
     # Parameters besides ``joints`` that name joints by fnmatch patterns (footlock's
-    # ``feet``): an include pattern that matches no joint of a clip is warned of.
+    # ``feet``): a pattern that matches no joint of a clip is warned of.
     name_patterns: tuple[str, ...] = ()
     # True: the step has a ``cut_deg`` parameter (:func:`cut_param`) and the pipeline runs
     # it on each stretch of a rotation column between steps that turn by more than that

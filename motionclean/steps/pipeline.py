@@ -216,11 +216,12 @@ def select_joints(names: list[str], patterns: tuple[str, ...]) -> np.ndarray:
 
 
 def unmatched_patterns(names: list[str], patterns: tuple[str, ...]) -> list[str]:
-    """The include patterns (not ``!``) that match none of ``names``: likely typos."""
+    """The patterns that match none of ``names``, an exclusion's (``!``) too: likely typos
+    (``!Rthumb`` would leave RThumb in)."""
     return [
         p
         for p in patterns
-        if not p.startswith("!") and not any(fnmatch.fnmatchcase(n, p) for n in names)
+        if not any(fnmatch.fnmatchcase(n, p[p.startswith("!") :]) for n in names)
     ]
 
 
@@ -232,7 +233,7 @@ class StepLog:
     rotation_joints: list[str]
     translation_joints: list[str]
     notes: dict[str, dict]
-    # (parameter, pattern): the include patterns that matched no joint of this clip
+    # (parameter, pattern): the patterns that matched no joint of this clip
     unmatched: list[tuple[str, str]]
     # frames a ranged step changed, blends included: (first, stop), file frames
     touched: tuple[int, int] | None = None
@@ -689,7 +690,7 @@ def _run_step(
 
 
 def _unmatched(step: Step, names: list[str]) -> list[tuple[str, str]]:
-    """``(parameter, pattern)``: the step's include patterns that match no joint."""
+    """``(parameter, pattern)``: the step's patterns that match no joint."""
     return [
         (name, pattern)
         for name, patterns in (

@@ -604,6 +604,23 @@ def test_batch_and_check_warn_of_a_joints_pattern_that_matches_nothing(tmp_path,
     assert code == 0 and err == warning
 
 
+def test_an_exclusion_that_matches_nothing_is_warned_of(tmp_path, capsys):
+    """``!Rthumb`` (RThumb meant) excluded nothing and filtered the joint it was to keep,
+    without a word: warned of as an include pattern is; one that matches keeps quiet."""
+    out = tmp_path / "o.bvh"
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", out, "-q", "-f", "lee-shin:joints=['*','!Rthumb']"
+    )
+    assert code == 0 and err == (
+        f"motionclean: warning: {SAMPLE}: step 1 (lee-shin): joints pattern '!Rthumb' "
+        "matches no joint\n"
+    )
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", out, "-q", "-f", "lee-shin:joints=['*','!RThumb']"
+    )
+    assert code == 0 and err == ""
+
+
 def test_a_feet_pattern_that_matches_nothing_is_warned_of(tmp_path, capsys):
     """footlock's ``feet`` names joints as ``joints`` does: a typo had locked no foot and
     said nothing. A pattern that matches keeps quiet."""
