@@ -63,6 +63,8 @@ class Param:
             value = value.item()
         if value is None and self.infinite_ok:  # (JSON's null: inf, as reports write it)
             return math.inf
+        if self.type in ("strs", "floats") and isinstance(value, tuple | np.ndarray):
+            value = value.tolist() if isinstance(value, np.ndarray) else list(value)
         if self.type == "bool":
             if not isinstance(value, bool):
                 raise bad

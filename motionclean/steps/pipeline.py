@@ -486,7 +486,7 @@ class Pipeline:
         count and rate. TypeError for anything but a :class:`Motion`.
         """
         if not isinstance(motion, Motion):
-            raise TypeError(f"run takes a Motion, got {type(motion).__name__}")
+            raise TypeError(f"motion: expected a Motion, got {type(motion).__name__}")
         lead, trail = rest_frames(motion)
         # A shallow copy: steps replace its arrays, never write into the input's.
         current = copy.copy(trim(motion, lead, trail))

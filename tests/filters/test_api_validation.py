@@ -233,7 +233,7 @@ def test_masks_of_the_wrong_type_and_uninvertible_quaternions():
         (lambda: mc.filters.masks.gaussian(np.nan), ValueError, "sigma_t must be a positive"),
         (lambda: mc.filters.masks.gaussian(1e9), ValueError, "at most 5000"),
         (lambda: mc.filters.masks.smoothing(np.nan), ValueError, "lam must be a finite"),
-        (lambda: mc.Pipeline.default().run("abc"), TypeError, "run takes a Motion, got str"),
+        (lambda: mc.Pipeline.default().run("abc"), TypeError, "motion: expected a Motion, got str"),
         (lambda: mc.filters.masks.binomial("2"), TypeError, "^k: expected a number, got str$"),
         (
             lambda: mc.load(SAMPLE).replace(frame_time="0.01"),

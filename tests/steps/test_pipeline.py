@@ -27,6 +27,22 @@ def test_inline_values_are_read_as_toml():
     assert parse_value("[LeftKnee, 'Right*']") == ["LeftKnee", "Right*"]
 
 
+def test_a_table_from_python_takes_tuples_and_arrays_as_lists():
+    """``joints``, ``frames`` and ``coefficients`` given as a tuple or numpy array build the
+    same steps as lists (a tuple had been refused: "must be a list of strings")."""
+    as_lists = Pipeline.from_tables(
+        [{"filter": "lee-shin", "joints": ["Left*"], "frames": [10, 100]},
+         {"filter": "lee-shin", "mask": "custom", "coefficients": [0.25, 0.5, 0.25]}],
+        "lists",
+    )  # fmt: skip
+    as_tuples = Pipeline.from_tables(
+        [{"filter": "lee-shin", "joints": ("Left*",), "frames": np.array([10, 100])},
+         {"filter": "lee-shin", "mask": "custom", "coefficients": (0.25, 0.5, 0.25)}],
+        "tuples",
+    )  # fmt: skip
+    assert as_tuples.describe() == as_lists.describe()
+
+
 def test_inline_step_keeps_list_commas_inside_one_value():
     table = parse_inline("lee-shin:mask=custom,coefficients=[0.25,0.5,0.25],iterations=3")
     assert table == {
