@@ -684,6 +684,11 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         + f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",
         _player(world, float(report["frame_time"]), floors),
         "<h2>Where the hands, feet and head go</h2>",
+        *(
+            [f'<div class="legend">paths through the player\'s {shown}</div>']
+            if frames != report["frames"]
+            else []
+        ),
         *([f'<div class="grid">{"".join(cards)}</div>'] if cards else []),
         *_still_line(still, per),
     ]

@@ -85,6 +85,9 @@ def test_a_long_clip_is_subsampled_and_the_page_stays_small():
     assert frames[1] == "5" and "150" in frames
     # the legend says which frames it shows (a reused name had left it empty)
     assert f"<span>{len(frames)} of 1,247 frames: every 5th frame and the last;" in text
+    # and so do the paths drawn through them (they had looked like every frame's)
+    paths = "paths through the player's {} of 1,247 frames: every 5th frame and the last"
+    assert paths.format(len(frames)) in text
     # every 5th frame at 120 fps: 24 carried frames a second in real time, as it plays
     assert "its speed" not in text
     assert json.loads(re.search(r'"frame_ms":([\d.e-]+)', text).group(1)) == pytest.approx(
