@@ -148,6 +148,12 @@ def _tracks_record(tree: dict, path) -> tuple[dict, Tracks, str]:
         raise MotionError(f"track {tid!r}: frame times are not whole frame numbers", path)
     record["frame_ids"] = times.astype(np.int64)
     note = f"{len(seen)} tracks in the file: track {tid!r} read (seen on {len(rows)} frames)"
+    unseen = int(times[-1] - times[0]) + 1 - len(rows)
+    if unseen > 0:  # missing in the clip; a .pkl written back has no entry to fill for them
+        note += (
+            f"; not seen on {unseen} frames between: missing, and a .pkl written back keeps "
+            "an entry for each frame seen only (write .npz to keep them filled)"
+        )
     return record, Tracks(tree, tuple((row[1], row[2]) for row in rows)), note
 
 
