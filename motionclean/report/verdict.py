@@ -14,7 +14,9 @@ Statuses, first that applies (thresholds below, documented in the README):
 - ``needs a look``: an up axis given that the motion contradicts (the ``world``
   section's ``up_axis_contradicted``: a clip reported on its own says so after its
   noise), a gap left missing (longer than ``max_gap``), smoothing that moved a
-  joint more than :data:`LOOK_CHANGE_DEG` outside repairs (fast motion taken for noise?),
+  joint more than :data:`LOOK_CHANGE_DEG` outside repairs and more than
+  :data:`LOOK_CHANGE_SIGMAS` times the noise ``auto`` estimated in it (fast motion taken
+  for noise?),
   a joint repaired on more than :data:`LOOK_REPAIRED_SHARE` of its frames (which pose is the
   flipped one?), a joint of the cleaned clip turning faster than a body can
   (:data:`FAST_DEG_PER_S`) on more than :data:`LOOK_FAST_SHARE` of its frames, one
@@ -64,6 +66,7 @@ __all__ = [
     "CLEAN_NOISE_DEG",
     "FAST_DEG_PER_S",
     "LOOK_CHANGE_DEG",
+    "LOOK_CHANGE_SIGMAS",
     "LOOK_CHANGE_HEIGHTS",
     "LOOK_CHANGE_NOISE",
     "LOOK_FAST_SHARE",
@@ -93,8 +96,14 @@ UNCHANGED_DEG = 1e-6
 #: its noise estimate, and is not called noisy ("clean capture, smoothed": a clean 30 fps
 #: Bandai Namco walk lost 0.2 %, its estimated 0.34 degrees of noise its own fast motion).
 NEGLIGIBLE_JITTER = 0.01
-#: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a look.
+#: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a
+#: look ...
 LOOK_CHANGE_DEG = 10.0
+#: ... where that is also more than this many times the noise ``auto`` estimated in the
+#: joint (its RMS, degrees): removing noise of RMS s moves a joint by up to about 4 s
+#: (the markerless takes of ../shared/realnoise: 4.1-4.8 s, 11-68 degrees, every one of
+#: those joints closer to its truth after), so a change within it is the noise going.
+LOOK_CHANGE_SIGMAS = 6.0
 #: ... and so does smoothing that changes the clip by more than this many times its
 #: estimated noise (RMS over joints and frames against the RMS of the joints' per-sample
 #: noise): it took motion away. The default changes a clip by 0.3-0.9 times its noise
@@ -595,7 +604,8 @@ def build_verdict(
         and (not filters or any(n not in NOT_SMOOTHING for n in filters))
     )
     what = "smoothing moved" if filters and smoothed else "the cleaning moved"
-    if change > LOOK_CHANGE_DEG:
+    noise_in = ((joints.get(joint) or {}).get("auto") or {}).get("noise") or 0.0
+    if change > max(LOOK_CHANGE_DEG, LOOK_CHANGE_SIGMAS * noise_in):
         reasons.append(
             f"{what} {joint} by {change:.1f} degrees"
             + _across_defects(smoothing, joint, change, filters)
