@@ -40,9 +40,14 @@ REST_POSES = 4
 #: over the moving joints) this many times the clip's 99th percentile of them, as the
 #: step out of a rest frame into the motion is (25 degrees against 9.6 there) ...
 BODY_JUMP = 1.5
-#: ... from a frame near the skeleton's rest: every moving joint within this many times
-#: the joints' median step of it (or :data:`ZERO_POSE_DEG`), as noise leaves it.
+#: ... from a frame near the skeleton's rest: its moving joints within this many times
+#: the joints' median step of it (or :data:`ZERO_POSE_DEG`), as noise leaves it ...
 NOISY_ZERO_STEPS = 1.5
+#: ... this share of them at least: a T-pose with its arms lowered (an A-pose) or a
+#: reference pose setting a few joints (CMU's, at 30 or 24 fps, where the joints' typical
+#: steps have grown past the jump rule: 74 % of its moving joints at the rest) is the
+#: skeleton's rest but for those joints.
+MOSTLY_AT_REST = 2.0 / 3.0
 
 
 #: Steps sampled per joint for its typical (median) step on long clips (evenly spaced), so
@@ -133,10 +138,12 @@ def _rest_run(
         leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
         if posed.any() and leaves.mean() >= MOST_JOINTS:
             return run
-    # ... or, in a noisy capture, a pose near it out of which the whole body jumps
+    # ... or a pose mostly at it (an A-pose; noise or a low rate raising the joints'
+    # typical steps) out of which the whole body jumps
     near = max(ZERO_POSE_DEG, NOISY_ZERO_STEPS * float(np.median(median)))
+    at_rest = np.degrees(quat.angle(q[run - 1, moving])) <= near
     body_out = float(np.sqrt(np.mean(np.square(out))))
-    if _zero_pose(q[run - 1], moving, near) and body_out > BODY_JUMP * typical.body:
+    if at_rest.mean() >= MOSTLY_AT_REST and body_out > BODY_JUMP * typical.body:
         return run
     return 0
 
@@ -184,11 +191,12 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     frame in the skeleton's rest pose (every rotation within :data:`ZERO_POSE_DEG` of zero)
     counts when the joints that leave it jump (more than 8 times their median step) and one
     by more than 15 degrees: a reference frame before a hand-keyed clip. In a noisy capture,
-    whose noise raises every joint's median step past those rules, a frame within
-    :data:`NOISY_ZERO_STEPS` times the joints' median step of the rest counts when the
-    whole body's step out of it (RMS over the moving joints) is over :data:`BODY_JUMP`
-    times the clip's 99th percentile of such steps (which holds that step too: a clip of
-    under about 100 frames needs a larger one). A run of at least 3
+    whose noise raises every joint's median step past those rules (so does a low frame
+    rate), a frame with two thirds of its moving joints (:data:`MOSTLY_AT_REST`: an A-pose
+    lowers only the arms) within :data:`NOISY_ZERO_STEPS` times the joints' median step of
+    the rest counts when the whole body's step out of it (RMS over the moving joints) is
+    over :data:`BODY_JUMP` times the clip's 99th percentile of such steps (which holds that
+    step too: a clip of under about 100 frames needs a larger one). A run of at least 3
     identical frames (every channel, positions too) counts in any case: a held pose. Up to
     :data:`REST_POSES` such frames or runs of different poses count from either end inward,
     each stepping into the next as a rest frame steps into the motion (a T-pose, then CMU's
