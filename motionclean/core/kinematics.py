@@ -744,18 +744,21 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     pose): ``(upper, lower)`` point indices, or None when it has no trunk.
 
     ``parents`` ``(P,)`` are the points' parents (joints then end sites, -1 for the root).
-    From the single root down to the first point with several children (the pelvis; a
+    From the root down to the first point with several children (the pelvis; a
     floor-level root above it is passed), the upper body is the child subtree with the
     most points, holding at least three leaves (head and hands) and more points than any
-    other; the legs are the other subtrees. A hand, a pair of legs alone or independent
-    tracked bodies have none.
+    other; the legs are the other subtrees. Of several roots, the one with the most points
+    below it (the first of equals: a body beside a prop, or beside another body). A hand,
+    a pair of legs alone or independent tracked bodies have none.
     """
     parents = np.asarray(parents, dtype=np.intp)
     roots = np.flatnonzero(parents < 0)
-    if roots.size != 1:
+    if not roots.size:
         return None
     children = child_lists(parents)
     pelvis = int(roots[0])
+    if roots.size > 1:
+        pelvis = int(roots[np.argmax([len(subtree(children, int(r))) for r in roots])])
     while len(children[pelvis]) == 1:
         pelvis = children[pelvis][0]
     if len(children[pelvis]) < 2:

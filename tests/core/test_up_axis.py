@@ -328,3 +328,43 @@ def test_an_up_axis_the_motion_contradicts_is_used_and_every_report_says_so(tmp_
     code, out, _ = run_cli(capsys, "report", str(clip), "--up", "y", "--json", str(data))
     assert "world: up axis y (given), body height" in out and "contradicts" not in out
     assert json.loads(data.read_text())["world"]["up_axis_contradicted"] is None
+
+
+@pytest.mark.parametrize("away", [10.0, 40.0])
+def test_a_prop_or_a_second_figure_beside_the_body_leaves_its_up_axis(away):
+    """A second root (a prop moving 40 units off, or a copy of the figure 10 units off)
+    had made the skeleton treeless to the trunk test, and the widest extent had laid the
+    body on its side (up x, no feet found, footlock off): the body is the root with the
+    most points below it, and the clip reads as the body alone."""
+    body = mc.load(SAMPLE)
+    up, height = kinematics.up_axis(body), kinematics.body_height(body)
+    n = body.n_joints
+    frames = np.arange(body.n_frames) * body.frame_time
+    prop = np.stack([np.full(body.n_frames, away), 5 + np.sin(3 * frames), 0 * frames], 1)
+    with_prop = mc.Motion(
+        names=[*body.names, "Prop"],
+        parents=np.r_[body.parents, -1],
+        offsets=np.r_[body.offsets, np.zeros((1, 3))],
+        channels=[*body.channels, ("Xposition", "Yposition", "Zposition", "Zrotation",
+                                   "Xrotation", "Yrotation")],
+        frame_time=body.frame_time,
+        rotations=np.concatenate([body.rotations, quat.identity((body.n_frames, 1))], axis=1),
+        translations=np.concatenate([body.translations, prop[:, None]], axis=1),
+        end_sites={**body.end_sites, n: np.array([0.0, 1.0, 0.0])},
+    )  # fmt: skip
+    assert kinematics.up_axis(with_prop) == up
+    assert kinematics.body_height(with_prop) == pytest.approx(height, rel=1e-9)
+    twice = mc.Motion(
+        names=[*body.names, *(f"B_{name}" for name in body.names)],
+        parents=np.r_[body.parents, np.where(body.parents < 0, -1, body.parents + n)],
+        offsets=np.r_[body.offsets, body.offsets],
+        channels=[*body.channels, *body.channels],
+        frame_time=body.frame_time,
+        rotations=np.concatenate([body.rotations, body.rotations], axis=1),
+        translations=np.concatenate(
+            [body.translations, body.translations + np.array([away, 0.0, 0.0])], axis=1
+        ),
+        end_sites={**body.end_sites, **{j + n: e for j, e in body.end_sites.items()}},
+    )
+    assert kinematics.up_axis(twice) == up
+    assert kinematics.body_height(twice) == pytest.approx(height, rel=1e-9)
