@@ -40,6 +40,7 @@ from ..core.threads import in_parts, run_parts
 from ..core.words import plural
 from .files import FileBytes, pieces, refuse_binary
 from .text import (
+    ASCII_NUMBER,
     MAX_MAGNITUDE,
     ascii_digits,
     bad_number_message,
@@ -458,7 +459,7 @@ def _parse_tokens(buf, body_start, newlines, n_frames, n_channels, first_line, p
     whose values do not make ``n_frames`` rows, naming the line."""
     starts, ends = scan_tokens(buf, body_start)
     if not _one_row_per_line(starts, ends, newlines, n_frames, n_channels):
-        _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path)
+        _check_row_lines(buf, starts, ends, newlines, (n_frames, n_channels), first_line, path)
     values, bad_token = parse_values(buf, starts, ends)
     if bad_token >= 0:
         token = buf[starts[bad_token] : ends[bad_token]].tobytes()
@@ -485,9 +486,11 @@ def _one_row_per_line(starts, ends, newlines, n_frames: int, n_channels: int) ->
     return bool(np.array_equal(inside, after) and np.all(inside[1:] > after[:-1]))
 
 
-def _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path) -> None:
-    """Name the first line whose values do not make a frame row (the file's shape is wrong
-    somewhere: a row too short or too long, too few or too many rows)."""
+def _check_row_lines(buf, starts, ends, newlines, shape, first_line, path) -> None:
+    """Name the first line whose values do not make a frame row of ``shape`` ``(frames,
+    channels)`` (the file's shape is wrong somewhere: a row too short or too long, too few
+    or too many rows, text after the last)."""
+    n_frames, n_channels = shape
     counts = np.diff(np.searchsorted(starts, newlines), prepend=0, append=starts.size)
     row_lines = np.flatnonzero(counts)
     bad = np.flatnonzero(counts[row_lines] != n_channels)
@@ -504,7 +507,18 @@ def _check_row_lines(starts, newlines, n_frames, n_channels, first_line, path) -
             first_line + (row_lines[-1] if row_lines.size else -1),
         )
     if row_lines.size > n_frames:
-        _fail(f"more frame rows than Frames: {n_frames}", path, first_line + row_lines[n_frames])
+        line = row_lines[n_frames]
+        first = int(np.searchsorted(starts, newlines[line - 1] if line else 0))
+        token = buf[starts[first] : ends[first]].tobytes()
+        if ASCII_NUMBER.fullmatch(token.decode("utf-8", "replace")) is None:
+            shown = repr(token[:20].decode("utf-8", "replace"))
+            _fail(
+                f"text after the last of the Frames: {n_frames} rows ({shown}...): not a frame "
+                "row; remove it",
+                path,
+                first_line + line,
+            )
+        _fail(f"more frame rows than Frames: {n_frames}", path, first_line + line)
 
 
 def parse_bvh(data: bytes, path=None) -> Motion:
