@@ -83,6 +83,8 @@ class BvhText:
     #: (F, C) bool: cells whose text is not the value the clip read (a channel CSV read
     #: into this file as its template), written afresh; None: every text is the value read.
     other_text: np.ndarray | None = None
+    #: What the reader noticed and says beside the clip's figures (``note: ...``).
+    notes: tuple[str, ...] = ()
 
     @property
     def n_frames(self) -> int:
@@ -539,7 +541,16 @@ def parse_bvh(data: bytes, path=None) -> Motion:
         buf, body_start, n_frames, n_channels, lines.number + 1, path
     )
     text = BvhText(
-        data, data[:motion_start], header, body_start, row_starts, gaps, lengths, frame_time, eol
+        data,
+        data[:motion_start],
+        header,
+        body_start,
+        row_starts,
+        gaps,
+        lengths,
+        frame_time,
+        eol,
+        notes=_rate_notes(frame_time),
     )
     try:
         return Motion.from_channel_values(
@@ -555,6 +566,23 @@ def parse_bvh(data: bytes, path=None) -> Motion:
         )
     except MotionError as error:
         raise MotionError(error.message, path) from None
+
+
+#: A Frame Time above this (seconds) is read as written, and said: no capture records a
+#: frame a second or slower, and an exporter writing its rate there (``Frame Time: 120``)
+#: would otherwise give a clip of 0.0083 fps without a word.
+SLOW_FRAME_TIME = 1.0
+
+
+def _rate_notes(frame_time: float) -> tuple[str, ...]:
+    """The note on a ``frame_time`` (seconds) slower than :data:`SLOW_FRAME_TIME`."""
+    if frame_time <= SLOW_FRAME_TIME:
+        return ()
+    return (
+        f"Frame Time: {frame_time:g} s per frame, {1.0 / frame_time:.3g} fps: where "
+        f"{frame_time:g} is the rate, the file should say Frame Time: "
+        f"{1.0 / frame_time:.7f}",
+    )
 
 
 def _depth_first(motion: Motion) -> Motion:

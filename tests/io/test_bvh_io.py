@@ -7,12 +7,12 @@ import re
 
 import numpy as np
 import pytest
-from helpers import CORPUS_NAMES, ORDERS, ROOT, SAMPLE, corpus_clip, exporter_bvh
+from helpers import CORPUS_NAMES, ORDERS, ROOT, SAMPLE, corpus_clip, exporter_bvh, run_cli
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import motionclean as mc
-from motionclean.core import quat
+from motionclean.core import kinematics, quat
 from motionclean.core.errors import MotionError
 from motionclean.io.bvh import format_bvh, parse_bvh
 from motionclean.io.text import format_fixed6, parse_numbers, scan_tokens
@@ -518,3 +518,20 @@ def test_channel_names_in_another_case_are_read_as_bvh_spells_them(tmp_path):
     mc.save(edited, target)
     written = target.read_text()
     assert written.split("MOTION")[0] == odd.split("MOTION")[0]
+
+
+def test_a_frame_time_that_reads_as_a_rate_is_said(tmp_path, capsys):
+    """``Frame Time: 120`` (an exporter writing its rate there) is read as written, 120 s
+    a frame, but said, with the line it should have been (it had passed without a word:
+    0.0083 fps, a 1,200 s clip); the sample's own .0083333 s says nothing."""
+    text = SAMPLE.read_text()
+    slow = tmp_path / "slow.bvh"
+    slow.write_text(text.replace("Frame Time: .0083333", "Frame Time: 120", 1))
+    note = (
+        "Frame Time: 120 s per frame, 0.00833 fps: where 120 is the rate, the file should "
+        "say Frame Time: 0.0083333"
+    )
+    assert kinematics.source_notes(mc.load(slow)) == (note,)
+    assert kinematics.source_notes(mc.load(SAMPLE)) == ()
+    code, out, _ = run_cli(capsys, "info", slow)
+    assert code == 0 and f"note: {note}" in out
