@@ -413,12 +413,13 @@ FLOOR_SLOPE_PRIOR = 0.1
 #: is believed where the soles span a few body heights (a walk across a tilted floor),
 #: not from the hand's breadth between a left and a right footprint.
 FLOOR_SPREAD = 0.03
-#: ... and the soles within one square of this side (body heights: 3.4 cm on a body 1.7 m
-#: tall) count as one place, each with its share: their errors are mostly the feet's own
-#: (a left sole lower than the right, a heel than a toe), which a footprint stepped on
-#: again repeats rather than averages away; a take walking the same 7 footprints again and
-#: again had tilted its floor with its length (1.0 degrees; walked 4 and 16 times: 3.1 and
-#: 4.4; 10 and 30 copies of the noisy sample joined end to end 3.8 and 5.0).
+#: ... and each sole counts with its share of the soles within this distance of it (body
+#: heights: 3.4 cm on a body 1.7 m tall, itself included): their errors are mostly the
+#: feet's own (a left sole lower than the right, a heel than a toe), which a footprint
+#: stepped on again repeats rather than averages away; a take walking the same 7
+#: footprints again and again had tilted its floor with its length (1.0 degrees; walked 4
+#: and 16 times: 3.1 and 4.4; 10 and 30 copies of the noisy sample joined end to end 3.8
+#: and 5.0). Distances between soles do not depend on where the clip sits or how it turns.
 FLOOR_PLACE = 0.02
 
 
@@ -495,13 +496,30 @@ def fit_floor(
     return Floor(normal / scale, level / scale, up)
 
 
-def _place_shares(x: np.ndarray, side: float) -> np.ndarray:
+def _place_shares(x: np.ndarray, radius: float) -> np.ndarray:
     """``(n,)``: each of the horizontal positions ``x`` ``(n, 2)`` weighted by one over the
-    number of them in its square of ``side`` (length units; a grid from the origin): every
-    place counts once, however often it is stepped on."""
-    cells = np.floor(x / side).astype(np.int64)
-    _, place, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
-    return 1.0 / counts[place.ravel()]
+    number of them within ``radius`` (length units) of it, itself included: every place
+    counts once, however often it is stepped on. Soles are sorted along one axis and
+    compared a block at a time with those within ``radius`` along it (bounded
+    temporaries)."""
+    axis = int(np.argmax(np.ptp(x, axis=0))) if len(x) else 0
+    order = np.argsort(x[:, axis], kind="stable")
+    xs = x[order]
+    lo = np.searchsorted(xs[:, axis], xs[:, axis] - radius, side="left")
+    hi = np.searchsorted(xs[:, axis], xs[:, axis] + radius, side="right")
+    counts = np.empty(len(x))
+    for first in range(0, len(x), PLACE_BLOCK):
+        stop = min(first + PLACE_BLOCK, len(x))
+        window = xs[lo[first] : hi[stop - 1]]
+        near = np.sum((xs[first:stop, None, :] - window[None]) ** 2, axis=-1) <= radius**2
+        counts[first:stop] = np.count_nonzero(near, axis=1)
+    shares = np.empty(len(x))
+    shares[order] = 1.0 / counts
+    return shares
+
+
+#: Soles compared at a time by :func:`_place_shares`.
+PLACE_BLOCK = 256
 
 
 def _spread(residual: np.ndarray) -> float:
