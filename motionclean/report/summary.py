@@ -531,6 +531,8 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
         "change_joint": names[worst] if names else None,
+        # each joint's largest change outside repairs (degrees): the verdict's own reading
+        "joint_changes": dict(zip(names, largest.tolist(), strict=False)),
         "unrepaired_jumps": series.get("unrepaired_jumps", {}),
         "changed_near_jumps": series.get("changed_near_jumps", {}),
         "fast_steps": series.get("fast_steps", {}),

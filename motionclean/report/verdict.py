@@ -216,6 +216,25 @@ def repaired_positions(joints: dict[str, dict], n_frames: int) -> dict[str, np.n
     return _repaired(joints, n_frames, _POSITION_REPAIRS)
 
 
+def _changed_far(joints: dict, changes: dict[str, float]) -> tuple[str, float] | None:
+    """The joint changed most of those whose largest change outside repairs (``changes``,
+    degrees) is over :data:`LOOK_CHANGE_DEG` and over :data:`LOOK_CHANGE_SIGMAS` times the
+    noise ``auto`` estimated in it (``joints``' notes), with its change; None: none is."""
+
+    def noise(name: str) -> float:  # (degrees; 0 without an auto note)
+        return ((joints.get(name) or {}).get("auto") or {}).get("noise") or 0.0
+
+    far = [
+        (change, name)
+        for name, change in changes.items()
+        if change > max(LOOK_CHANGE_DEG, LOOK_CHANGE_SIGMAS * noise(name))
+    ]
+    if not far:
+        return None
+    change, name = max(far)
+    return name, change
+
+
 def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
     """Per joint with a repair: flips, spikes (of its rotations and positions), gaps filled
     and left, frames repaired."""
@@ -604,11 +623,11 @@ def build_verdict(
         and (not filters or any(n not in NOT_SMOOTHING for n in filters))
     )
     what = "smoothing moved" if filters and smoothed else "the cleaning moved"
-    noise_in = ((joints.get(joint) or {}).get("auto") or {}).get("noise") or 0.0
-    if change > max(LOOK_CHANGE_DEG, LOOK_CHANGE_SIGMAS * noise_in):
+    far = _changed_far(joints, smoothing.get("joint_changes") or {joint: change})
+    if far is not None:
         reasons.append(
-            f"{what} {joint} by {change:.1f} degrees"
-            + _across_defects(smoothing, joint, change, filters)
+            f"{what} {far[0]} by {far[1]:.1f} degrees"
+            + _across_defects(smoothing, far[0], far[1], filters)
         )
     noise = smoothing.get("noise_level")
     over_noise = (

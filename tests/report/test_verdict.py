@@ -268,6 +268,30 @@ def test_verdict_words_follow_the_counts():
     assert "flips" not in text.replace("1 flip ", "")
 
 
+def test_every_joint_moved_far_beyond_its_noise_needs_a_look_not_only_the_largest():
+    """A move over 10 degrees needs a look where it is over 6 times the joint's noise: a
+    hip moved 25 degrees with 1 degree of noise does, whatever a thumb moved 40 degrees
+    with 8 degrees of noise (within its noise) beside it; only the largest change had been
+    judged, so the thumb's had hidden the hip's."""
+    joints = {
+        "LeftHip": {"auto": {"noise": 1.0, "unit": "deg"}},
+        "RThumb": {"auto": {"noise": 8.0, "unit": "deg"}},
+    }
+    report = {"frames": 200, "joints": joints, "summary": {"noise_reduction": 0.5}}
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 40.0,
+        "change_deg_rms": 2.0,
+        "change_joint": "RThumb",
+        "joint_changes": {"LeftHip": 25.0, "RThumb": 40.0},
+    }
+    verdict = build_verdict(report, smoothing)
+    assert verdict["status"] == "needs a look"
+    assert "moved LeftHip by 25.0 degrees" in verdict["text"], verdict["text"]
+    smoothing["joint_changes"] = {"LeftHip": 5.0, "RThumb": 40.0}
+    assert " moved " not in build_verdict(report, smoothing)["text"]
+
+
 def test_repairs_on_several_joints_are_counted_per_joint():
     """ "14 flips repaired on LeftElbow, RThumb" had not said which had how many."""
 
