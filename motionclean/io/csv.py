@@ -94,6 +94,7 @@ from ..core.motion import (
     hold_missing,
     same_rotations,
 )
+from ..core.rates import whole_frames
 from ..core.words import plural
 from .bvh import BOM, BvhText
 from .files import FileBytes, pieces, refuse_binary
@@ -453,6 +454,10 @@ def _refuse_skipped_rows(
     step = float(np.median(steps))
     if not MIN_FRAME_TIME <= step <= MAX_FRAME_TIME:
         return
+    # the step the whole span holds (times rounded to milliseconds make the median's off:
+    # 0.017 s for 60 fps)
+    count = np.maximum(np.rint(steps / step), 1.0)
+    step = float((times[-1] - times[0]) / count.sum())
     count = np.rint(steps / step)
     skips = np.flatnonzero(count >= 2)
     whole = np.abs(steps - count * step) <= TIME_TOLERANCE * step
@@ -464,7 +469,8 @@ def _refuse_skipped_rows(
     others = f" and {plural(skips.size - 1, 'other gap')}" if skips.size > 1 else ""
     _fail(
         f"{plural(int(np.sum(count[skips] - 1)), 'row')} missing at a fixed rate of "
-        f"{1.0 / step:.6g} fps ({step:.6g} s per row): time {times[first]:.9g} s is followed "
+        f"{whole_frames(1.0 / step):.6g} fps ({step:.6g} s per row): time {times[first]:.9g} "
+        "s is followed "
         f"by {times[first + 1]:.9g} s ({plural(int(count[first]) - 1, 'frame')} skipped)"
         f"{others}: {advice}",
         path,

@@ -284,6 +284,12 @@ def test_uniform_time_tolerance(tmp_path):
         mc.load(tmp_path / "dropped.csv")
     assert "(1 frame skipped) and 1 other gap: give every frame its row" in error.value.message
     assert error.value.line == 152  # header line 1, frame 151 (0-based) on line 152
+    # times written to whole milliseconds (0.017 s for 60 fps): the rate the span holds
+    rounded = np.delete(np.arange(300) / 60.0, [100, 101])
+    rows = ["time,a.Xposition"] + [f"{t:.3f},{i}" for i, t in enumerate(rounded.tolist())]
+    (tmp_path / "rounded.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(MotionError, match="2 rows missing at a fixed rate of 60 fps"):
+        mc.load(tmp_path / "rounded.csv")
     # frames numbered on through uneven times: no row is missing, the times are uneven
     rows = ["frame,time,a.Xposition"] + [f"{i},{t!r},{i}" for i, t in enumerate(dropped.tolist())]
     (tmp_path / "numbered.csv").write_text("\n".join(rows) + "\n")
