@@ -469,10 +469,9 @@ def _refuse_skipped_rows(
     others = f" and {plural(skips.size - 1, 'other gap')}" if skips.size > 1 else ""
     _fail(
         f"{plural(int(np.sum(count[skips] - 1)), 'row')} missing at a fixed rate of "
-        f"{whole_frames(1.0 / step):.6g} fps ({step:.6g} s per row): time {times[first]:.9g} "
-        "s is followed "
-        f"by {times[first + 1]:.9g} s ({plural(int(count[first]) - 1, 'frame')} skipped)"
-        f"{others}: {advice}",
+        f"{whole_frames(1.0 / step):.6g} fps ({step:.6g} s per row): time "
+        f"{times[first]:.9g} s is followed by {times[first + 1]:.9g} s "
+        f"({plural(int(count[first]) - 1, 'frame')} skipped){others}: {advice}",
         path,
         int(lines[first + 1]),
     )
