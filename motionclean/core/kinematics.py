@@ -747,18 +747,25 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     From the root down to the first point with several children (the pelvis; a
     floor-level root above it is passed), the upper body is the child subtree with the
     most points, holding at least three leaves (head and hands) and more points than any
-    other; the legs are the other subtrees. Of several roots, the one with the most points
-    below it (the first of equals: a body beside a prop, or beside another body). A hand,
-    a pair of legs alone or independent tracked bodies have none.
+    other; the legs are the other subtrees. Of several roots, the first with a trunk, the
+    ones with the most points below them first (the first of equals: a body beside a prop,
+    or beside another body). A hand, a pair of legs alone or independent tracked bodies
+    have none.
     """
     parents = np.asarray(parents, dtype=np.intp)
-    roots = np.flatnonzero(parents < 0)
-    if not roots.size:
-        return None
     children = child_lists(parents)
-    pelvis = int(roots[0])
-    if roots.size > 1:
-        pelvis = int(roots[np.argmax([len(subtree(children, int(r))) for r in roots])])
+    roots = [int(r) for r in np.flatnonzero(parents < 0)]
+    roots.sort(key=lambda r: -len(subtree(children, r)))  # (stable: the first of equals)
+    for root in roots:
+        split = _trunk_below(children, root)
+        if split is not None:
+            return split
+    return None
+
+
+def _trunk_below(children: list[list[int]], root: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`trunk_split` of the tree below ``root`` (``children``: each point's)."""
+    pelvis = root
     while len(children[pelvis]) == 1:
         pelvis = children[pelvis][0]
     if len(children[pelvis]) < 2:
@@ -975,7 +982,9 @@ def _body_height(motion: Motion, up: int | None = None) -> float:
         axis = int(np.argmax(np.abs(trunk)))
         if length > 0.0 and abs(trunk[axis]) >= UPRIGHT_COSINE * length:
             heights = rest[:, axis] * np.sign(trunk[axis])
-            extent = float(np.ptp(heights))
+            # the body's points alone where other roots stand beside it (a prop, a figure)
+            beside = np.count_nonzero(motion.parents < 0) > 1
+            extent = float(np.ptp(heights[np.r_[upper, lower]] if beside else heights))
             # standing, the legs hang below the trunk (a rest that stacks every bone along
             # one axis, as the glTF of a Blender rig does, points them up: no height), all
             # of them (Bandai Namco's rest lays every bone along x, one leg up the trunk's

@@ -332,10 +332,11 @@ def test_an_up_axis_the_motion_contradicts_is_used_and_every_report_says_so(tmp_
 
 @pytest.mark.parametrize("away", [10.0, 40.0])
 def test_a_prop_or_a_second_figure_beside_the_body_leaves_its_up_axis(away):
-    """A second root (a prop moving 40 units off, or a copy of the figure 10 units off)
-    had made the skeleton treeless to the trunk test, and the widest extent had laid the
-    body on its side (up x, no feet found, footlock off): the body is the root with the
-    most points below it, and the clip reads as the body alone."""
+    """A second root (a prop moving 40 units off, its rest 30 below the body's; a copy of
+    the figure 10 units off; a chain of more points than the body) had made the skeleton
+    treeless to the trunk test, and the widest extent had laid the body on its side (up
+    x, no feet found, footlock off): the body is the first root with a trunk below it,
+    and its up axis and height are the body's alone."""
     body = mc.load(SAMPLE)
     up, height = kinematics.up_axis(body), kinematics.body_height(body)
     n = body.n_joints
@@ -344,7 +345,7 @@ def test_a_prop_or_a_second_figure_beside_the_body_leaves_its_up_axis(away):
     with_prop = mc.Motion(
         names=[*body.names, "Prop"],
         parents=np.r_[body.parents, -1],
-        offsets=np.r_[body.offsets, np.zeros((1, 3))],
+        offsets=np.r_[body.offsets, [[away, -30.0, 0.0]]],  # (its rest below the body's)
         channels=[*body.channels, ("Xposition", "Yposition", "Zposition", "Zrotation",
                                    "Xrotation", "Yrotation")],
         frame_time=body.frame_time,
@@ -368,3 +369,18 @@ def test_a_prop_or_a_second_figure_beside_the_body_leaves_its_up_axis(away):
     )
     assert kinematics.up_axis(twice) == up
     assert kinematics.body_height(twice) == pytest.approx(height, rel=1e-9)
+    links = 40  # a chain of more points than the body: no trunk below it, the body's found
+    chain = mc.Motion(
+        names=[*body.names, *(f"Link{k}" for k in range(links))],
+        parents=np.r_[body.parents, -1, n + np.arange(links - 1)],
+        offsets=np.r_[body.offsets, [[away, 0.0, 0.0]], np.tile([[0.0, 1.0, 0.0]], (links - 1, 1))],
+        channels=[*body.channels, *[("Zrotation", "Xrotation", "Yrotation")] * links],
+        frame_time=body.frame_time,
+        rotations=np.concatenate([body.rotations, quat.identity((body.n_frames, links))], 1),
+        translations=np.concatenate(
+            [body.translations, np.zeros((body.n_frames, links, 3))], axis=1
+        ),
+        end_sites=body.end_sites,
+    )
+    assert kinematics.up_axis(chain) == up
+    assert kinematics.body_height(chain) == pytest.approx(height, rel=1e-9)
