@@ -32,17 +32,21 @@ FILE_PATH = click.Path(dir_okay=False, readable=False)
 FOLDER_PATH = click.Path(file_okay=False, readable=False)
 
 
+def one_line(text: str) -> str:
+    """``text`` with its line breaks (a file named with one) shown escaped, ``\\n``."""
+    return text.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def echo_error(message: str) -> None:
-    """Print ``motionclean: error: MESSAGE`` on stderr as one line: a line break in it (a
-    file named with one) is shown escaped, ``\\n``."""
-    one_line = message.replace("\r", "\\r").replace("\n", "\\n")
-    click.echo(f"motionclean: error: {one_line}", err=True)
+    """Print ``motionclean: error: MESSAGE`` on stderr as one line (:func:`one_line`)."""
+    click.echo(f"motionclean: error: {one_line(message)}", err=True)
 
 
 def echo_warnings(lines: Iterable[str]) -> None:
-    """Print a run's warning lines (``motionclean: warning: ...``) on stderr."""
+    """Print a run's warning lines (``motionclean: warning: ...``) on stderr, one line
+    each (:func:`one_line`)."""
     for line in lines:
-        click.echo(line, err=True)
+        click.echo(one_line(line), err=True)
 
 
 def read_options(command=None, *, each_file: bool = False):

@@ -513,9 +513,11 @@ def _check_row_lines(buf, starts, ends, newlines, shape, first_line, path) -> No
         first = int(np.searchsorted(starts, newlines[line - 1] if line else 0))
         token = buf[starts[first] : ends[first]].tobytes()
         if ASCII_NUMBER.fullmatch(token.decode("utf-8", "replace")) is None:
-            shown = repr(token[:20].decode("utf-8", "replace"))
+            stop = newlines[line] if line < newlines.size else buf.size
+            text = buf[starts[first] : stop].tobytes().decode("utf-8", "replace").rstrip()
+            shown = repr(text[:30]) + ("..." if len(text) > 30 else "")
             _fail(
-                f"text after the last of the Frames: {n_frames} rows ({shown}...): not a frame "
+                f"text after the last of the Frames: {n_frames} rows ({shown}): not a frame "
                 "row; remove it",
                 path,
                 first_line + line,

@@ -5,8 +5,8 @@ byte-order mark, CRLF or LF line endings, spaces around values and blank lines a
 accepted; header fields may be quoted (RFC 4180) when a name contains a comma. Values are
 decimal numbers (exponents allowed); inf is an error. The layout is detected from the header.
 
-Blank cells (empty, or the literal NaN in any case, signed or not: ``-nan`` as C's printf
-writes it) are tracker dropouts: a joint or body whose cells are all blank on a row is
+Blank cells (empty, or the literal NaN in any case, signed or not: ``-nan`` as glibc's
+printf writes it) are tracker dropouts: a joint or body whose cells are all blank on a row is
 missing on that frame (``Motion.missing``; its arrays hold the nearest known sample, see
 :func:`motionclean.core.motion.hold_missing`). A partly blank
 joint or body is an error naming the line and its blank columns; the time and frame

@@ -13,6 +13,7 @@ import pytest
 from helpers import ROOT, SAMPLE, degrees_between, run_cli, with_t_pose
 
 import motionclean as mc
+from motionclean.cli.options import one_line
 from motionclean.core import quat
 from motionclean.filters import multires
 from motionclean.io.csv import format_csv
@@ -191,8 +192,15 @@ def test_an_error_naming_a_file_with_a_line_break_stays_one_line(tmp_path, capsy
     for args in (["info", broken], ["batch", broken.parent, "-o", tmp_path / "out", "-q"]):
         code, _, err = run(args, capsys)
         assert code == 1 and err.count("\n") == 1, err
-        shown = str(broken).replace("\n", "\\n")
-        assert err.startswith(f"motionclean: error: {shown}:"), err
+        assert err.startswith(f"motionclean: error: {one_line(str(broken))}:"), err
+        assert "\\n" in one_line(str(broken))
+    named = tmp_path / "in" / "walk\n1.bvh"  # and a warning about it
+    named.write_bytes(SAMPLE.read_bytes())
+    code, _, err = run(
+        ["clean", named, "-o", tmp_path / "o.bvh", "-q", "-f", "lee-shin:joints=[Nope]"], capsys
+    )
+    assert code == 0 and err.count("\n") == 1, err
+    assert err.startswith(f"motionclean: warning: {one_line(str(named))}: step 1"), err
 
 
 def test_info_finds_the_rthumb_flip(sample_path, capsys):

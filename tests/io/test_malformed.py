@@ -36,7 +36,7 @@ CASES = {
     "long_row.bvh": (19, "frame row has 10 values, expected 9"),
     "few_rows.bvh": (20, "ends after 2 frame rows but Frames: says 3"),
     "extra_rows.bvh": (21, "more frame rows than Frames: 2"),
-    "text_after_rows.bvh": (21, "text after the last of the Frames: 2 rows ('this'...)"),
+    "text_after_rows.bvh": (21, "Frames: 2 rows ('this file was exported by a to'...): not a"),
     "non_numeric.bvh": (20, "is not a number: 'abc'"),
     "nan.bvh": (19, "is not finite: 'nan'"),
     "inf.bvh": (20, "is not finite: '-inf'"),
