@@ -6,7 +6,7 @@ from typing import Any
 
 from bpy.types import Panel
 
-from motionclean.core.words import whole_percent
+from .motionclean.core.words import whole_percent
 
 
 class _MotioncleanPanel:
