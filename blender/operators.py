@@ -242,7 +242,11 @@ class MOTIONCLEAN_OT_clean(Operator):
             self._write(plan, settings)
             for warning in pattern_warnings(plan.action.name, plan.result.logs):
                 self.report({"WARNING"}, warning)
-        self.report({"INFO"}, f"motionclean: cleaned {len(plans)} action(s)")
+        self.report(
+            {"INFO"},
+            f"motionclean: cleaned {len(plans)} action(s) at {1.0 / frame_time:.4g} fps, the "
+            "scene's frame rate",
+        )
         return {"FINISHED"}
 
     def _write(self, plan: Plan, settings: Any) -> None:
