@@ -54,9 +54,9 @@ def add_noise(motion: mc.Motion, rng: np.random.Generator) -> mc.Motion:
     rotations = quat.multiply(motion.rotations, quat.exp(direction * radius[..., None]))
     has_rotation = motion.layout.has_rotation
     rotations = np.where(has_rotation[None, :, None], rotations, motion.rotations)
-    translations = motion.translations + rng.uniform(
-        -POSITION_NOISE, POSITION_NOISE, motion.translations.shape
-    )
+    noise = rng.uniform(-POSITION_NOISE, POSITION_NOISE, motion.translations.shape)
+    has_position = motion.layout.position_columns >= 0  # (joints, axes) with a channel
+    translations = motion.translations + np.where(has_position[None], noise, 0.0)
     return motion.replace(rotations=rotations, translations=translations)
 
 

@@ -535,3 +535,20 @@ def test_a_frame_time_that_reads_as_a_rate_is_said(tmp_path, capsys):
     assert kinematics.source_notes(mc.load(SAMPLE)) == ()
     code, out, _ = run_cli(capsys, "info", slow)
     assert code == 0 and f"note: {note}" in out
+
+
+def test_the_noisy_sample_is_what_its_script_makes_of_the_clean_one(tmp_path):
+    """sample_data/README.md: ``scripts/make_sample.py`` rebuilds the noisy sample, seeded,
+    from the clean cut. It had ended in a traceback (position noise on joints without
+    position channels, which saving refuses): it makes the bundled file byte for byte."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "make_sample", ROOT / "scripts" / "make_sample.py"
+    )
+    assert spec is not None and spec.loader is not None
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    made = tmp_path / "noisy.bvh"
+    mc.save(script.add_noise(mc.load(SAMPLE), np.random.default_rng(script.SEED)), made)
+    assert made.read_bytes() == (ROOT / "sample_data" / "131_02_noisy.bvh").read_bytes()
