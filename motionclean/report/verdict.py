@@ -623,6 +623,11 @@ def build_verdict(
         and (not filters or any(n not in NOT_SMOOTHING for n in filters))
     )
     what = "smoothing moved" if filters and smoothed else "the cleaning moved"
+    # a new rate's anti-alias low-pass takes what the new rate cannot hold: that change is
+    # the resample's, told as the cleaning's, and no sign of motion taken for noise
+    resampled = "resample" in filters
+    if resampled:
+        what = "the cleaning (its resample included) moved"
     far = _changed_far(joints, smoothing.get("joint_changes") or {joint: change})
     if far is not None:
         reasons.append(
@@ -632,6 +637,7 @@ def build_verdict(
     noise = smoothing.get("noise_level")
     over_noise = (
         smoothed
+        and not resampled
         and noise is not None
         and smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
         and smoothing["change_deg_rms"] > LOOK_CHANGE_NOISE * noise

@@ -536,6 +536,21 @@ def test_a_capture_whose_jitter_smoothing_did_not_lower_is_not_called_noisy(remo
     assert verdict["status"] == "cleaned" and verdict["noise_removed"] == removed
 
 
+def test_a_lower_rate_s_low_pass_is_told_as_the_resample_s_not_motion_taken_for_noise(
+    capsys, tmp_path
+):
+    """The README's resample pipeline (despike, resample to 30 fps, auto) on the clean cut:
+    the anti-alias low-pass takes the wrist's fast turn (10.5 degrees) and auto changes
+    nothing, but the line had blamed smoothing and called it motion taken for noise."""
+    code, out, _ = run_cli(
+        capsys, "clean", SAMPLE, "-o", tmp_path / "30.bvh",
+        "-f", "despike", "-f", "resample:fps=30", "-f", "auto",
+    )  # fmt: skip
+    verdict = next(line for line in out.splitlines() if line.startswith("verdict: "))
+    assert code == 0 and "motion taken for noise" not in verdict
+    assert "the cleaning (its resample included) moved RightWrist" in verdict, verdict
+
+
 def test_a_resampled_clip_does_not_claim_its_dropouts_filled():
     """A pipeline that changes the frame rate is compared on the input's frames without
     their gaps: no fill is read from that comparison (it had said "1 gap filled")."""
