@@ -405,7 +405,13 @@ def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
         return f"feet slide more than before: {b:.3f} -> {a:.3f} body heights/s", fastest
     if fastest <= PLANTED_SKATE:
         return "feet planted", fastest
-    return f"feet slide {fastest:.2f} body heights/s", fastest
+    return f"feet slide {_over(fastest, PLANTED_SKATE)} body heights/s", fastest
+
+
+def _over(value: float, limit: float) -> str:
+    """``value``, over ``limit``, in two decimals, or three where two would read as the
+    limit itself ("feet slide 0.10" where up to 0.1 is planted: 0.102)."""
+    return f"{value:.2f}" if round(value, 2) > limit else f"{value:.3f}"
 
 
 def _ground_words(joints: dict[str, dict]) -> list[str]:
@@ -681,7 +687,7 @@ def build_verdict(
         reasons.append(_thrash_words(thrash, report))
     if skate is not None and skate > LOOK_SKATE:
         hint = "" if "footlock" in filters else " (footlock holds them)"
-        reasons.append(f"feet slide {skate:.2f} body heights/s{hint}")
+        reasons.append(f"feet slide {_over(skate, LOOK_SKATE)} body heights/s{hint}")
     done = _repair_words(repairs)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
     rotations_clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(

@@ -551,6 +551,15 @@ def test_a_lower_rate_s_low_pass_is_told_as_the_resample_s_not_motion_taken_for_
     assert "the cleaning (its resample included) moved RightWrist" in verdict, verdict
 
 
+def test_a_slide_just_over_the_planted_limit_does_not_read_as_the_limit():
+    """Feet are planted up to 0.1 body heights/s: a slide of 0.102 had read "feet slide
+    0.10 body heights/s", the limit itself; three decimals where two would say it."""
+    from motionclean.report.verdict import _over
+
+    assert _over(0.102, 0.1) == "0.102" and _over(0.2, 0.1) == "0.20"
+    assert _over(0.504, 0.5) == "0.504" and _over(0.55, 0.5) == "0.55"
+
+
 def test_a_resampled_clip_does_not_claim_its_dropouts_filled():
     """A pipeline that changes the frame rate is compared on the input's frames without
     their gaps: no fill is read from that comparison (it had said "1 gap filled")."""
