@@ -444,7 +444,11 @@ def batch_command(
                 f"(rerun without --skip-existing to clean {'it' if others == 1 else 'them'} "
                 "with this one)"
             )
-    echo_warnings(line for _, result in rows for line in result.warnings)
+    echo_warnings(
+        WARNING + _as_given(line.removeprefix(WARNING), Path(in_dir) / name)
+        for name, result in rows
+        for line in result.warnings
+    )
     failures = [
         _as_given(str(r.error), Path(in_dir) / name)
         for name, r in rows
@@ -453,9 +457,13 @@ def batch_command(
     raise_failures(failures + ([lost] if lost else []))
 
 
+#: How a warning line begins (:func:`~motionclean.run.jobs.pattern_warnings`).
+WARNING = "motionclean: warning: "
+
+
 def _as_given(error: str, clip: Path) -> str:
-    """A clip's error line naming it as the command line gave its folder, not by the
-    absolute path its job was given (a Dask worker runs in a folder of its own)."""
+    """A clip's error (or warning) line naming it as the command line gave its folder, not
+    by the absolute path its job was given (a Dask worker runs in a folder of its own)."""
     absolute = os.fspath(clip.absolute())
     if error.startswith(absolute + ":"):
         return os.fspath(clip) + error[len(absolute) :]

@@ -556,3 +556,17 @@ def test_the_batch_table_and_info_stay_aligned_with_wide_characters(tmp_path, ca
     wrist = next(line for line in table if "手首" in line)
     other = next(line for line in table if "LeftWrist" in line)
     assert width(wrist[: wrist.index("Z")]) == width(other[: other.index("Z")])
+
+
+def test_a_warning_names_the_clip_as_the_folder_was_given(tree, tmp_path, capsys, monkeypatch):
+    """As error lines do: a warning had named the clip by the absolute path of its job."""
+    monkeypatch.chdir(tree.parent)
+    code, _, err = run_cli(
+        capsys, "batch", "in", "-o", "out", "-q", "--glob", "walk/*.bvh",
+        "-f", "lee-shin:joints=[Nope]",
+    )  # fmt: skip
+    assert code == 0
+    assert err == (
+        "motionclean: warning: in/walk/a.bvh: step 1 (lee-shin): joints pattern 'Nope' "
+        "matches no joint\n"
+    )
