@@ -7,7 +7,7 @@
 >>> positions, rotations = mc.kinematics.forward(m)  # world space
 """
 
-import sys
+import sys as _sys
 
 from . import filters
 from .core import kinematics
@@ -20,7 +20,7 @@ from .steps.pipeline import Pipeline
 
 # `motionclean.kinematics` is the public name of the world-space module (DESIGN's API):
 # `import motionclean.kinematics` and `from motionclean.kinematics import forward` work too
-sys.modules[f"{__name__}.kinematics"] = kinematics
+_sys.modules[f"{__name__}.kinematics"] = kinematics
 
 __all__ = [
     "Motion",
