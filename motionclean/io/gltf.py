@@ -72,6 +72,7 @@ from ..core.motion import (
     joint_major_zeros,
     same_rotations,
 )
+from ..core.words import plural
 from .files import pieces, read_regular_file
 from .smpl_model import matrix_to_quaternion
 
@@ -714,7 +715,7 @@ def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple
     None: the first; -1 when the file has none) and the note that says which of several."""
     names = _animation_names(animations)
     listed = ", ".join(
-        repr(n[:40]) if animations[i].get("name") else f"{i} (unnamed)"
+        repr(n[:40]) if animations[i].get("name") else f"number {i} (unnamed)"
         for i, n in enumerate(names[:40])
     ) + (", ..." if len(names) > 40 else "")
     if wanted is None:
@@ -729,7 +730,8 @@ def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple
     elif wanted.isdigit() and int(wanted) < len(animations):
         a = int(wanted)
     else:
-        _fail(f"no animation {wanted[:40]!r}: the file has {listed or 'none'}", path)
+        held = f"{plural(len(animations), 'animation')}: {listed}" if animations else "none"
+        _fail(f"no animation {wanted[:40]!r}: the file has {held}", path)
     return a, (
         f"animation {names[a][:40]!r} of {len(animations)} is read" if len(names) > 1 else None
     )

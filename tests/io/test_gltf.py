@@ -761,11 +761,14 @@ def test_the_animation_named_is_read_cleaned_and_written_alone(tmp_path, capsys)
     assert np.array_equal(idle.rotations, mc.load(source).rotations)
     assert not np.allclose(cleaned.rotations, idle.rotations)
     code, _, err = run_cli(capsys, "info", source, "--animation", "Jog")
-    assert code == 1 and err.strip().endswith("no animation 'Jog': the file has 'Idle', 'Walk'")
+    assert code == 1
+    assert err.strip().endswith("no animation 'Jog': the file has 2 animations: 'Idle', 'Walk'")
     del walk["name"]  # an unnamed one is asked for by its index, and said so
     source.write_text(json.dumps(document))
     code, _, err = run_cli(capsys, "info", source, "--animation", "Jog")
-    assert code == 1 and err.strip().endswith("the file has 'Idle', 1 (unnamed)")
+    assert code == 1 and err.strip().endswith(
+        "the file has 2 animations: 'Idle', number 1 (unnamed)"
+    )
     assert run_cli(capsys, "info", source, "--animation", "1")[0] == 0
 
 
