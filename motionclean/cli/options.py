@@ -225,8 +225,10 @@ def check_output(
     path: str | Path, suffixes: tuple[str, ...], what: str, inputs: Inputs = ()
 ) -> Path:
     """:func:`check_target`, and refuse an output with another suffix (a path named as a
-    folder, ``p5/``, is said to be one first: Path() drops its separator)."""
-    if Path(path).suffix.lower() not in suffixes and not os.fspath(path).endswith(SEPARATORS):
+    folder, ``p5/``, or an existing folder, is said to be one first: Path() drops its
+    separator)."""
+    named_folder = os.fspath(path).endswith(SEPARATORS) or Path(path).is_dir()
+    if Path(path).suffix.lower() not in suffixes and not named_folder:
         raise UsageError(f"{Path(path)}: {what} must end in {' or '.join(suffixes)}")
     return check_target(path, inputs)
 

@@ -105,11 +105,13 @@ def test_an_output_that_is_the_input_is_refused_up_front(tmp_path, capsys, comma
     assert contents(tmp_path) == before
 
 
+@pytest.mark.parametrize("suffixed", [True, False])
 @pytest.mark.parametrize("command", OUTPUT_COMMANDS)
-def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, command):
+def test_an_output_that_is_a_folder_is_refused_up_front(tmp_path, capsys, command, suffixed):
     """Exit 2 before any clip is read (a clip's had been 1, after the work), in the same
-    words for every output (a report's and a baseline's had been click's)."""
-    out = tmp_path / f"out{output_suffix(command)}"
+    words for every output (a report's and a baseline's had been click's); a folder named
+    without a suffix too (`-o captures`: it had been told its suffix was wrong)."""
+    out = tmp_path / f"out{output_suffix(command) if suffixed else ''}"
     out.mkdir()
     args = output_commands(tmp_path, out)[command]
     (tmp_path / "in.bvh").write_text("not a clip: never read")
