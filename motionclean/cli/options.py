@@ -71,7 +71,7 @@ def read_options(command=None, *, each_file: bool = False):
             "--animation",
             metavar="NAME",
             help="The animation of a .gltf/.glb file to read and clean, by name (or index); "
-            "default the first. `info` lists them.",
+            "default the first. `info` lists them where there are several.",
         ),
         click.option(
             "--input-fps",
