@@ -118,16 +118,22 @@ def make_step(table: dict, where: str, key_places: dict[str, str] | None = None)
         params.setdefault(param.name, param.default)
     joints = tuple(params.pop("joints", ["*"]))
     positions = params.pop("positions", spec.positions_default)
+    # (a range's errors name its key's line in a file: the first of frames, seconds given)
+    ranged = places.get(next((k for k in ("frames", "seconds") if k in table), ""), where)
     span = FrameRange.from_params(
-        params.pop("frames", None), params.pop("seconds", None), params.pop("blend", 5), where
+        params.pop("frames", None), params.pop("seconds", None), params.pop("blend", 5), ranged
     )
     if span is None and "blend" in table:
-        raise UsageError(f"{where}: blend is used only with frames or seconds (a range)")
-    if span is not None and spec.run_motion is not None:
-        raise UsageError(f"{where}: this step changes the whole clip; it takes no frame range")
-    if spec.run_motion is not None and ({"joints", "positions"} & set(table)):
         raise UsageError(
-            f"{where}: this step changes the whole clip; it takes no joints or positions"
+            f"{places.get('blend', where)}: blend is used only with frames or seconds (a range)"
+        )
+    if span is not None and spec.run_motion is not None:
+        raise UsageError(f"{ranged}: this step changes the whole clip; it takes no frame range")
+    given = [key for key in ("joints", "positions") if key in table]
+    if spec.run_motion is not None and given:
+        raise UsageError(
+            f"{places.get(given[0], where)}: this step changes the whole clip; it takes no "
+            "joints or positions"
         )
     if spec.resolve is not None:
         spec.resolve(params, where)

@@ -253,6 +253,24 @@ def test_a_bad_key_in_a_toml_table_is_named_on_its_own_line(tmp_path):
         Pipeline.from_toml(bad)
 
 
+@pytest.mark.parametrize(
+    "text, line, words",
+    [
+        ("[[step]]\nfilter = 'lee-shin'\n\nframes = [200, 100]\n", 4, "is reversed"),
+        ("[[step]]\nfilter = 'lee-shin'\n\nblend = 3\n", 4, "blend is used only with"),
+        ("[[step]]\nfilter = 'resample'\nfps = 60\nseconds = [1, 2]\n", 4, "no frame range"),
+        ("[[step]]\nfilter = 'resample'\nfps = 60\n\njoints = ['*']\n", 5, "no joints"),
+    ],
+)
+def test_a_range_error_names_its_keys_line(tmp_path, text, line, words):
+    """As a parameter's error does: a range reversed, a blend without one, a range or
+    joints given a whole-clip step had named the step's [[step]] line."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    with pytest.raises(UsageError, match=rf"bad.toml:{line}: step 1 \(\w+(-\w+)?\): .*{words}"):
+        Pipeline.from_toml(bad)
+
+
 def test_a_filter_given_twice_names_the_first(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[[step]]\nfilter = 'despike'\nfilter = 'auto'\n")
