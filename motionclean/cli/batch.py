@@ -28,7 +28,7 @@ from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import index_entries, page_carried, render_index
 from ..report.summary import figure_text
 from ..run import cluster
-from ..run.jobs import INDEX_FIGURES, FileResult, Job, missing_folders, remove_empty
+from ..run.jobs import INDEX_FIGURES, WARNING, FileResult, Job, missing_folders, remove_empty
 from ..run.pool import default_workers, input_size, run_jobs
 from .options import (
     FOLDER_PATH,
@@ -455,10 +455,6 @@ def batch_command(
         if r.status == "failed" and r.error
     ]
     raise_failures(failures + ([lost] if lost else []))
-
-
-#: How a warning line begins (:func:`~motionclean.run.jobs.pattern_warnings`).
-WARNING = "motionclean: warning: "
 
 
 def _as_given(error: str, clip: Path) -> str:

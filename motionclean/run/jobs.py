@@ -335,12 +335,16 @@ class _canonical:
 DIGEST_ROWS = 4096
 
 
+#: How a warning line begins (the command line prints it on stderr).
+WARNING = "motionclean: warning: "
+
+
 def pattern_warnings(source: str, logs: Sequence[StepLog]) -> tuple[str, ...]:
     """The warning lines of a cleaning: each step's ``joints`` (or ``feet``) pattern that
     matched no joint of the clip (a likely typo),
     ``motionclean: warning: FILE: step N (name): ...``."""
     return tuple(
-        f"motionclean: warning: {source}: step {number} ({log.step.spec.name}): "
+        f"{WARNING}{source}: step {number} ({log.step.spec.name}): "
         f"{param} pattern {pattern!r} matches no joint"
         for number, log in enumerate(logs, 1)
         for param, pattern in log.unmatched
