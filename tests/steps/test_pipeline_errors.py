@@ -299,23 +299,26 @@ def test_a_cutoff_is_checked_before_any_step_runs(monkeypatch):
     assert ran == []
 
 
+def _clean_after_resample(capsys, clip, fps: int, step: str) -> tuple[int, str]:
+    """``clean`` of the sample into ``clip``, resampled to ``fps``, then ``step``: the exit
+    code and stderr."""
+    code, _, err = run_cli(
+        capsys, "clean", SAMPLE, "-o", clip, "-q", "-f", f"resample:fps={fps}", "-f", step
+    )
+    return code, err
+
+
 def test_a_cutoff_after_a_resample_is_checked_against_the_new_rate(tmp_path, capsys):
     """120 -> 30 fps: 20 Hz is above the new Nyquist frequency (15 Hz), refused before the
     step runs; below it, it runs."""
     clip = tmp_path / "o.bvh"
-    code, _, err = run_cli(
-        capsys, "clean", SAMPLE, "-o", clip, "-f", "resample:fps=30",
-        "-f", "lee-shin:mask=lowpass,cutoff_hz=20",
-    )  # fmt: skip
+    code, err = _clean_after_resample(capsys, clip, 30, "lee-shin:mask=lowpass,cutoff_hz=20")
     assert code == 2 and not clip.exists()
     assert _one_line(err) == (
         f"{SAMPLE}: step 2 (lee-shin): cutoff_hz must be below the Nyquist frequency "
         "15 Hz (half the frame rate of 30 fps), got 20"
     )
-    code, _, err = run_cli(
-        capsys, "clean", SAMPLE, "-o", clip, "-q", "-f", "resample:fps=30",
-        "-f", "lee-shin:mask=lowpass,cutoff_hz=10",
-    )  # fmt: skip
+    code, err = _clean_after_resample(capsys, clip, 30, "lee-shin:mask=lowpass,cutoff_hz=10")
     assert code == 0, err
 
 
@@ -323,10 +326,7 @@ def test_a_range_after_a_resample_is_checked_against_the_new_length_named_once(t
     """120 -> 60 fps halves the sample's 300 frames: a range to frame 200 is beyond it,
     said once (the file and step had been named twice), from Python too."""
     clip = tmp_path / "o.bvh"
-    code, _, err = run_cli(
-        capsys, "clean", SAMPLE, "-o", clip, "-f", "resample:fps=60",
-        "-f", "lee-shin:frames=[100,200]",
-    )  # fmt: skip
+    code, err = _clean_after_resample(capsys, clip, 60, "lee-shin:frames=[100,200]")
     assert code == 2 and not clip.exists()
     said = "step 2 (lee-shin): the range ends at frame 200, but the clip has 150 frames (0-149)"
     assert _one_line(err) == f"{SAMPLE}: {said}"
