@@ -66,3 +66,19 @@ def test_fairing_tol_and_sse_fairing_epsilon_give_their_units(capsys):
         assert text is not None, (step, name)
         words = " ".join(text.group(1).split())
         assert "rad" in words and "length unit" in words, (step, words)
+
+
+def test_the_readme_channel_csv_rows_are_the_sample_as_converted(capsys, tmp_path):
+    """The layout's example rows come from the command printed under them (its second row
+    had matched no bundled file)."""
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("**Channel CSV.**", 1)[1].split("```")[1].strip().splitlines()
+    command = "motionclean convert sample_data/131_02_cut.bvh out/131_02_cut.csv"
+    assert f"(the first rows of `{command}`)" in readme
+    target = tmp_path / "cut.csv"
+    code, _, _ = run_cli(capsys, "convert", str(ROOT / "sample_data/131_02_cut.bvh"), str(target))
+    assert code == 0
+    written = target.read_text().splitlines()
+    for shown, row in zip(block, written, strict=False):
+        assert shown.endswith(",...") and row.startswith(shown[: -len("...")]), shown
+    assert len(block) == 3
