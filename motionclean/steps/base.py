@@ -235,7 +235,9 @@ class StepSpec:
     crop_note: Callable[[dict, int, int], dict | None] | None = None
     merge_note: Callable[[list[tuple[dict, int]]], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.
-    resolve: Callable[[dict, str], None] | None = None
+    # ``resolve(params, at)``: ``at(*keys)`` is where an error about those keys starts (the
+    # first given one's line in a pipeline file, else the step's place).
+    resolve: Callable[[dict, Callable[..., str]], None] | None = None
     # Checks that need the clip's frame time (s): ``check_rate(params, frame_time, where)``
     # raises UsageError (a cutoff above the Nyquist frequency). The pipeline calls it with
     # the clip's rate before any step runs (a step after a whole-clip step: with the rate

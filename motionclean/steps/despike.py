@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -26,11 +27,11 @@ from .base import (
 )
 
 
-def _resolve_despike(params: dict, where: str) -> None:
-    if params["min_deg_per_s"] > params["max_deg_per_s"]:
-        raise UsageError(f"{where}: min_deg_per_s must not exceed max_deg_per_s")
-    if params["min_units_per_s"] > params["max_units_per_s"]:
-        raise UsageError(f"{where}: min_units_per_s must not exceed max_units_per_s")
+def _resolve_despike(params: dict, at: Callable[..., str]) -> None:
+    for unit in ("deg", "units"):
+        low, high = f"min_{unit}_per_s", f"max_{unit}_per_s"
+        if params[low] > params[high]:
+            raise UsageError(f"{at(low, high)}: {low} must not exceed {high}")
 
 
 #: Position steps slower than this many body heights per second are never jumps, whatever

@@ -96,21 +96,21 @@ def _mask_from(params: dict, frame_time: float | None = None) -> np.ndarray:
     )
 
 
-def _resolve_lee_shin(params: dict, where: str) -> None:
+def _resolve_lee_shin(params: dict, at: Callable[..., str]) -> None:
     if params["mask"] == "custom" and params["coefficients"] is None:
         raise UsageError(
-            f"{where}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]"
+            f"{at('mask')}: mask=custom needs coefficients, e.g. coefficients=[0.25,0.5,0.25]"
         )
     if params["mask"] == "lowpass":
         if params["cutoff_hz"] is None:
-            raise UsageError(f"{where}: mask=lowpass needs cutoff_hz, e.g. cutoff_hz=8")
+            raise UsageError(f"{at('mask')}: mask=lowpass needs cutoff_hz, e.g. cutoff_hz=8")
         return  # the Nyquist check needs the clip's frame rate: _check_rate, on the clip
     if params["mask"] == "savgol" and params["half_width"] is None:
         params["half_width"] = SAVGOL_HALF_WIDTH
     try:
         _mask_from(params)
-    except masks.MaskError as error:
-        raise UsageError(f"{where}: {error}") from None
+    except masks.MaskError as error:  # (about the mask's own parameters, as given)
+        raise UsageError(f"{at(*MASK_KINDS[params['mask']].params, 'mask')}: {error}") from None
 
 
 def _lee_shin_relevant(params: dict) -> tuple[str, ...]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from ..core.errors import UsageError
 from ..filters import multires
 from .base import Param, StepData, StepSpec, cut_param
@@ -15,15 +17,19 @@ def _multires_gains(params: dict) -> list[float]:
     return params["gains"]
 
 
-def _resolve_multires(params: dict, where: str) -> None:
+def _resolve_multires(params: dict, at: Callable[..., str]) -> None:
     if params["level"] is not None and params["gains"] is not None:
-        raise UsageError(f"{where}: give either gains or level, not both")
+        raise UsageError(f"{at('level', 'gains')}: give either gains or level, not both")
     if params["level"] is None and params["gains"] is None:
         params["gains"] = list(MULTIRES_GAINS)
     if params["gains"] is not None and len(params["gains"]) > params["levels"]:
-        raise UsageError(f"{where}: {len(params['gains'])} gains for {params['levels']} levels")
+        raise UsageError(
+            f"{at('gains', 'levels')}: {len(params['gains'])} gains for {params['levels']} levels"
+        )
     if params["level"] is not None and params["level"] > params["levels"]:
-        raise UsageError(f"{where}: level must lie in [0, levels={params['levels']}]")
+        raise UsageError(
+            f"{at('level', 'levels')}: level must lie in [0, levels={params['levels']}]"
+        )
 
 
 def _run_multires(data: StepData, params: dict) -> StepData:

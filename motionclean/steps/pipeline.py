@@ -136,7 +136,7 @@ def make_step(table: dict, where: str, key_places: dict[str, str] | None = None)
             "joints or positions"
         )
     if spec.resolve is not None:
-        spec.resolve(params, where)
+        spec.resolve(params, lambda *keys: next((places[k] for k in keys if k in places), where))
     if spec.relevant is not None:
         used = spec.relevant(params)
         common = {p.name for p in COMMON_PARAMS}

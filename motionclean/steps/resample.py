@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..core.errors import UsageError
@@ -12,9 +14,11 @@ from .base import Param, StepSpec, fps_text
 from .resampling import new_length, resample_motion, resample_takes
 
 
-def _resolve(params: dict, where: str) -> None:
+def _resolve(params: dict, at: Callable[..., str]) -> None:
     if (params["fps"] is None) == (params["frame_time"] is None):
-        raise UsageError(f"{where}: give the new rate as either fps or frame_time, e.g. fps=60")
+        raise UsageError(
+            f"{at('frame_time', 'fps')}: give the new rate as either fps or frame_time, e.g. fps=60"
+        )
 
 
 def _frame_time(params: dict) -> float:

@@ -400,3 +400,22 @@ def test_a_pipeline_reads_back_from_its_json_with_inf_as_null():
     assert Pipeline.from_tables(tables, "json").describe() == pipeline.describe()
     with pytest.raises(UsageError, match="k must be an integer"):
         Pipeline.from_tables([{"filter": "lee-shin", "k": None}], "json")
+
+
+@pytest.mark.parametrize(
+    "text, line, words",
+    [
+        ("[[step]]\nfilter = 'lee-shin'\nmask = 'custom'\n\ncoefficients = [0.5, 0.5]\n", 5, ""),
+        ("[[step]]\nfilter = 'lee-shin'\n\nmask = 'custom'\n", 4, "needs coefficients"),
+        ("[[step]]\nfilter = 'despike'\nmin_deg_per_s = 1e5\n", 3, "must not exceed"),
+        ("[[step]]\nfilter = 'multires'\nlevels = 2\n\ngains = [1, 1, 1]\n", 5, "3 gains"),
+        ("[[step]]\nfilter = 'resample'\nfps = 60\nframe_time = 0.1\n", 4, "either fps or"),
+    ],
+)
+def test_a_rule_between_parameters_names_a_given_keys_line(tmp_path, text, line, words):
+    """A custom mask's coefficients, bounds the wrong way round, gains beyond the levels:
+    the key given, not the step's [[step]] line."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    with pytest.raises(UsageError, match=rf"bad.toml:{line}: step 1 \(\w+(-\w+)?\): .*{words}"):
+        Pipeline.from_toml(bad)
