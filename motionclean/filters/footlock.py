@@ -35,6 +35,10 @@ from ..core.kinematics import depths, forward_arrays, hung_on
 #: Gauss-Newton iterations (the change is small: a third one moves no point of a noisy
 #: walk by more than 0.005 mm on a body 1.7 m tall).
 ITERATIONS = 2
+#: The most a joint turns in one iteration of the solve (radians; about 6 degrees): with
+#: a tolerance near zero its prior stops bounding the linearised step, which had turned a
+#: toe by 176 degrees at ``tolerance=1e-9`` (the defaults' steps stay far below it).
+MAX_TURN = 0.1
 #: ... and of the toes' solve, which starts where the ankles' left the legs (a second
 #: iteration changes no skate or rotation error figure of bench/footlock.py).
 TOE_ITERATIONS = 1
@@ -813,6 +817,7 @@ def _solve(
         target = root_precision * from_input[:, asked]
         mixed = np.linalg.solve(gram, target[..., None])
         step = (spread_rows.transpose(0, 2, 1) @ mixed)[..., 0] - total
+        step *= _step_share(step, problem)[:, None]
         total += step
         t[:, 0, problem.axes] += step[:, : problem.axes.size]
         change = np.zeros((n_frames, problem.joints.size, 3))
@@ -830,6 +835,19 @@ def _solve(
         turned = quat.normalize(quat.multiply(quat.exp(0.5 * change), q[:, problem.joints]))
         moved = np.any(step != 0.0, axis=1)[:, None, None]  # a frame nothing asks of: as it was
         q[:, problem.joints] = np.where(moved, turned, q[:, problem.joints])
+
+
+def _step_share(step: np.ndarray, problem: _Problem) -> np.ndarray:
+    """``(F,)``: the share of each frame's Gauss-Newton ``step`` ``(F, C)`` taken, so that
+    no joint turns by more than :data:`MAX_TURN` radians in one iteration (the solve is
+    linearised: a longer step lands far from where it aimed)."""
+    starts = problem.columns
+    free = ~problem.hinge
+    turns = np.zeros((len(step), problem.joints.size))
+    turns[:, free] = np.linalg.norm(step[:, starts[free, None] + np.arange(3)], axis=-1)
+    turns[:, problem.hinge] = np.abs(step[:, starts[problem.hinge]])
+    largest = turns.max(axis=1, initial=0.0)
+    return np.minimum(1.0, MAX_TURN / np.maximum(largest, MAX_TURN))
 
 
 def _jacobian(

@@ -374,3 +374,24 @@ def _motion_rows(path) -> list[list[str]]:
     lines = path.read_text().splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
     return [line.split() for line in lines[start:] if line.strip()]
+
+
+@pytest.mark.parametrize("name", ["mixamo_tpose.bvh", "pymo_walk_tpose.bvh", "video2bvh_zup.bvh"])
+def test_the_tightest_tolerance_plants_the_feet_without_turning_a_joint_over(name):
+    """At ``tolerance=1e-9`` the prior no longer bounds the linearised step: one iteration
+    had turned a toe or an ankle by 122-179 degrees on other exporters' walks. Now each
+    iteration turns a joint by MAX_TURN at most, and the feet slide no more than at the
+    default tolerance."""
+    clip = mc.load(ROOT / "tests/data/exporters" / name)
+    runs = {
+        tolerance: Pipeline.from_inline([f"footlock:tolerance={tolerance},min_skate=0"]).run(clip)
+        for tolerance in (0.002, 1e-9)
+    }
+    assert degrees_between(runs[1e-9][0].rotations, clip.rotations).max() < 20.0
+    scene, contacts, _ = footlock.find_contacts(clip, {**PARAMS, "min_skate": 0.0})
+    up = kinematics.up_axis(clip)
+    skates = [
+        found.skate(kinematics.forward(out, end_sites=True)[0], scene.feet, contacts, up, 1.0)
+        for out, _ in (runs[1e-9], runs[0.002])
+    ]
+    assert np.all(skates[0] <= skates[1] * 1.05)
