@@ -125,6 +125,14 @@ class FootScene:
 
 #: Seconds over which a contact's ankle speed is averaged to tell whether it slides.
 SLIDE_WINDOW = 0.3
+#: A contact the cleaning before made slide (:func:`sliding_contacts` given ``before``):
+#: faster than this many times its speed as captured, over the same window ...
+SLIDE_GROWTH = 2.0
+#: ... and than this many body heights per second (a still foot's sub-millimetre jitter,
+#: doubled, is no slide): a Perception Neuron sit-to-stand whose legs the markerless model
+#: smoothed, its root left as captured, had its standing foot slide at 0.018 body heights/s
+#: where the capture's stood at 0.005, under the 0.1 a capture's own slide is judged by.
+SLIDE_ADDED = 0.01
 #: A contact this close to the clip's first or last frame (seconds) reaches it where the
 #: foot stays low and slower than :data:`EDGE_SPEED` times the staying speed in between
 #: (twice it when the speeds there were read at half; after ``auto``, a standing ankle of
@@ -895,7 +903,11 @@ def penetration(lowest: np.ndarray, ground: float) -> np.ndarray:
 
 
 def sliding_contacts(
-    scene: FootScene, contacts: np.ndarray, speed: float, window: float = SLIDE_WINDOW
+    scene: FootScene,
+    contacts: np.ndarray,
+    speed: float,
+    window: float = SLIDE_WINDOW,
+    before: np.ndarray | None = None,
 ) -> np.ndarray:
     """The ``contacts`` ``(F, n_feet)`` whose horizontal ankle speed, averaged over some
     ``window`` seconds of them (over what there is of them where the clip or the contact is
@@ -903,24 +915,47 @@ def sliding_contacts(
     cleared. A capture's own feet slide a little (CMU walks: 0.02-0.08 body heights/s);
     contacts within that are left as they are. A long stance that stands still but for a
     slide at its end (a VR take's legs smoothed while its root moved) slides: its mean over
-    the whole stance had hidden it."""
-    feet, up, frame_time = scene.feet, scene.up, scene.frame_time
-    ankles = scene.positions[:, [f.ankle for f in feet]]
-    step = np.diff(ankles, axis=0)
-    step[..., up] = 0.0
-    speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
-    moving = np.vstack([np.zeros((1, len(feet)), bool), contacts[1:] & contacts[:-1]])
-    # each window's mean speed over its steps within a contact (windows cut at the clip's ends)
-    half = min(int(round(window / frame_time / 2)), speeds.shape[0] - 1)
-    total = _moving_average(np.where(moving, speeds, 0.0), half)
-    count = _moving_average(moving.astype(np.float64), half)
-    windowed = total / np.maximum(count, 1e-12)
+    the whole stance had hidden it. With ``before`` (the scene's points as captured, ``(F,
+    P, 3)``), a contact slides too where its fastest window is :data:`SLIDE_GROWTH` times
+    the capture's fastest in it and over :data:`SLIDE_ADDED` body heights/s: cleaning made
+    it slide."""
+    feet = scene.feet
+    windowed = _windowed_speeds(scene, scene.positions, contacts, window)
+    was = None if before is None else _windowed_speeds(scene, before, contacts, window)
     kept = contacts.copy()
     for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
         label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
         if not label.any():
             continue
-        fastest = np.zeros(int(label.max()) + 1)
-        np.maximum.at(fastest, label, np.where(contacts[:, k], windowed[:, k], 0.0))
-        kept[:, k] &= fastest[label] > speed
+        fastest = _fastest(windowed[:, k], label, contacts[:, k])
+        slides = fastest > speed
+        if was is not None:
+            captured = _fastest(was[:, k], label, contacts[:, k])
+            slides |= (fastest > SLIDE_GROWTH * captured) & (fastest > SLIDE_ADDED * scene.height)
+        kept[:, k] &= slides[label]
     return kept
+
+
+def _windowed_speeds(
+    scene: FootScene, positions: np.ndarray, contacts: np.ndarray, window: float
+) -> np.ndarray:
+    """``(F, n_feet)``: each ankle's horizontal speed in ``positions`` (the scene's points)
+    averaged over ``window`` seconds of its steps within a contact, centred on each frame
+    (windows cut at the clip's ends)."""
+    feet, up, frame_time = scene.feet, scene.up, scene.frame_time
+    step = np.diff(positions[:, [f.ankle for f in feet]], axis=0)
+    step[..., up] = 0.0
+    speeds = np.vstack([np.zeros((1, len(feet))), np.linalg.norm(step, axis=-1) / frame_time])
+    moving = np.vstack([np.zeros((1, len(feet)), bool), contacts[1:] & contacts[:-1]])
+    half = min(int(round(window / frame_time / 2)), speeds.shape[0] - 1)
+    total = _moving_average(np.where(moving, speeds, 0.0), half)
+    count = _moving_average(moving.astype(np.float64), half)
+    return total / np.maximum(count, 1e-12)
+
+
+def _fastest(windowed: np.ndarray, label: np.ndarray, contact: np.ndarray) -> np.ndarray:
+    """``(n_runs + 1,)``: the fastest of ``windowed`` ``(F,)`` in each contact run
+    (``label``: its number from 1 on its frames, 0 off them)."""
+    fastest = np.zeros(int(label.max()) + 1)
+    np.maximum.at(fastest, label, np.where(contact, windowed, 0.0))
+    return fastest

@@ -170,7 +170,10 @@ class StepData:
     context: skeleton, every joint's arrays). Notes are per column. ``earlier`` holds
     what the steps before this one noted, by joint name (``{"LeftKnee": {"auto": {...},
     "position_auto": {...}}}``, later steps' notes over earlier ones): a step may read
-    them (footlock weighs each joint by the error ``auto`` expects in it).
+    them (footlock weighs each joint by the error ``auto`` expects in it). ``entered`` is
+    the clip as it entered the pipeline on the frames of ``motion`` (rest-pose frames left
+    out, cut as ``motion`` is; None where a step before remade the frames): what the steps
+    so far changed (footlock holds a contact they made slide).
     """
 
     rotations: np.ndarray
@@ -183,6 +186,7 @@ class StepData:
     translation_notes: dict[int, dict] = field(default_factory=dict)
     owned: bool = False
     earlier: dict[str, dict] = field(default_factory=dict)
+    entered: Motion | None = None
 
 
 @dataclass(frozen=True)

@@ -109,6 +109,19 @@ def noise_aware(params: dict, positions, legs, prior: Prior, column, height: flo
     return found.ContactParams.starting_at(params["height"], speed, params["min_seconds"])
 
 
+def _captured(data: StepData, params: dict) -> np.ndarray | None:
+    """The leg points of :func:`_leg_points` as the clip entered the pipeline, where the
+    steps before changed the clip (None: they did not, or remade its frames)."""
+    entered, motion = data.entered, data.motion
+    assert motion is not None
+    if entered is None or (
+        np.array_equal(entered.rotations, motion.rotations)
+        and np.array_equal(entered.translations, motion.translations)
+    ):
+        return None
+    return _leg_points(entered, params)[1].positions
+
+
 def _sign(motion: Motion, params: dict) -> float:
     """+1.0, or -1.0 where the figure stands head down along its up axis."""
     return kinematics.up_direction(motion, given_up(params))[1]
@@ -232,7 +245,9 @@ def _run(data: StepData, params: dict) -> StepData:
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
     standing = found.find_ground(scene, thresholds)
-    contacts = found.sliding_contacts(scene, standing.contacts, params["min_skate"] * height)
+    contacts = found.sliding_contacts(
+        scene, standing.contacts, params["min_skate"] * height, before=_captured(data, params)
+    )
     held: np.ndarray = np.asarray(contacts.any(axis=0))
     chosen = [(k, leg) for k, leg in every_leg if held[k]]
     if not chosen:

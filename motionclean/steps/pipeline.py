@@ -494,8 +494,9 @@ class Pipeline:
         if not isinstance(motion, Motion):
             raise TypeError(f"motion: expected a Motion, got {type(motion).__name__}")
         lead, trail = rest_frames(motion)
+        entered = trim(motion, lead, trail)  # (what footlock compares the feet with)
         # A shallow copy: steps replace its arrays, never write into the input's.
-        current = copy.copy(trim(motion, lead, trail))
+        current = copy.copy(entered)
         starts = take_starts(motion) - lead  # (frames of ``current``)
         # what the steps so far noted on each take, by joint (a take's own, not the merge)
         by_take: list[dict[str, dict]] = [{} for _ in range(starts.size + 1)]
@@ -534,6 +535,7 @@ class Pipeline:
                         earlier,
                         starts,
                         by_take,
+                        entered if entered.n_frames == current.n_frames else None,
                     )
             except UsageError as error:  # what the step was asked cannot be done on a clip
                 if error.path is not None:
@@ -625,6 +627,7 @@ def _run_step(
     earlier: dict[str, dict] | None = None,
     starts: np.ndarray | None = None,
     by_take: list[dict[str, dict]] | None = None,
+    entered: Motion | None = None,
 ) -> tuple[Motion, StepLog]:
     """One step on ``motion`` (a shallow copy the pipeline owns: its arrays are replaced,
     and written into only where ``made`` copied them).
@@ -636,6 +639,7 @@ def _run_step(
     each take (:func:`_run_by_takes`), which sees what earlier steps noted on that take
     (``by_take``, updated). A ranged step's
     notes keep only what lies within the frames it touched (``StepSpec.crop_note``).
+    ``entered``: the clip as it entered the pipeline, on ``motion``'s frames (``StepData``).
     """
     unmatched = _unmatched(step, motion.names)
     if step.spec.run_motion is not None:
@@ -657,6 +661,7 @@ def _run_step(
         # a ranged step's result is blended with the clip as it was: nothing in place
         owned=step.span is None and (not every or made.owns(motion.rotations)),
         earlier=earlier or {},
+        entered=entered,
     )
     if step.span is not None and span is None:
         # (named without the file: the pipeline's run adds it, as to the step's own errors)
@@ -949,6 +954,9 @@ class _Outputs:
         whole = rows == slice(None)
         # One known stretch: the clip cut to it, with nothing missing, is its context.
         context = motion if whole else motion.at_frames(rows).replace(missing=None)
+        entered = data.entered
+        if entered is not None and not whole:
+            entered = entered.at_frames(rows).replace(missing=None)
         result = _call(
             step,
             StepData(
@@ -959,6 +967,7 @@ class _Outputs:
                 rotation_joints=data.rotation_joints[rot],
                 translation_joints=data.translation_joints[pos],
                 earlier=data.earlier if earlier is None else earlier,
+                entered=entered,
             ),
         )
         self.rotations[rows, rot] = result.rotations

@@ -397,6 +397,30 @@ def test_a_contact_slides_where_any_part_of_it_does():
         assert kept[contact].all() == slides and not kept[~contacts].any()
 
 
+def test_a_contact_the_cleaning_made_slide_slides_under_the_speed():
+    """A foot standing 2 s that jitters by 0.02 body heights/s as captured and by 0.03
+    after earlier steps (under the 0.1 that makes a capture's own contact worth planting):
+    held when it slides more than twice as fast as captured and over 0.01 body heights/s,
+    not when it slides as captured, nor when both speeds are a still foot's sub-millimetre
+    jitter."""
+    rate, height = 120.0, 1.0
+    feet = [found.Foot("foot", -1, -1, 0, (0,))]
+    wiggle = np.where(np.arange(240) % 2, -1.0, 1.0)  # a step forward, a step back
+
+    def scene(speed):
+        positions = np.zeros((240, 1, 3))
+        positions[:, 0, 0] = np.cumsum(wiggle) * speed / rate  # back and forth at ``speed``
+        return found.FootScene(positions, feet, 1, height, 1 / rate)
+
+    contacts = np.ones((240, 1), dtype=bool)
+    for before, after, slides in ((0.02, 0.03, False), (0.01, 0.03, True), (0.002, 0.006, False)):
+        kept = found.sliding_contacts(
+            scene(after), contacts, 0.1 * height, before=scene(before).positions
+        )
+        assert kept.all() == slides, (before, after)
+        assert not found.sliding_contacts(scene(after), contacts, 0.1 * height).any()
+
+
 def test_a_heel_beside_the_foot_is_no_second_foot():
     """Rigify's legs hang two chains from the shin: foot -> toe and heel -> heel.02 (a
     video estimate's BVH): both read as feet, four for a body with two legs. One per

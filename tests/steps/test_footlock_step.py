@@ -395,3 +395,26 @@ def test_the_tightest_tolerance_plants_the_feet_without_turning_a_joint_over(nam
         for out, _ in (runs[1e-9], runs[0.002])
     ]
     assert np.all(skates[0] <= skates[1] * 1.05)
+
+
+def test_a_standing_foot_the_steps_before_made_slide_is_held():
+    """MocapBank's left foot stands all 15 s, sliding 0.006 body heights/s as captured.
+    Its hip and knee detail tripled (positions left), it slides 0.025: under the 0.1 a
+    capture's own contact is judged by (here raised to 1), so footlock had left it. The
+    clip as it entered the pipeline reaches the step: the contact slides four times as
+    captured and is held, back under twice the capture's slide."""
+    clip = mc.load(ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh")
+    scene, contacts, _ = footlock.find_contacts(clip, PARAMS)
+    left = [k for k, foot in enumerate(scene.feet) if foot.name == "LeftAnkle"]
+    detail = "multires:levels=2,gains=[3,3],positions=false,joints=['LeftHip','LeftKnee']"
+    lock = "footlock:tolerance=1e-4,min_skate=1"
+    slides = []
+    for steps in ([detail], [detail, lock]):
+        out = Pipeline.from_inline(steps).run(clip)[0]
+        positions = kinematics.upright_positions(out, None)
+        foot = [scene.feet[k] for k in left]
+        slides.append(found.skate(positions, foot, contacts[:, left], scene.up, 1.0)[0])
+    captured = found.skate(
+        scene.positions, [scene.feet[k] for k in left], contacts[:, left], scene.up, 1.0
+    )[0]
+    assert slides[0] > 3.0 * captured and slides[1] < 2.0 * captured
