@@ -29,6 +29,10 @@ and columns of forces (:data:`LOADS`) and errors (:data:`ERRORS`) are carried as
 file of nothing else is refused), as are those the user excludes (``exclude``: fnmatch
 patterns), never parsed: carried columns may share a name (two force plates' columns),
 coordinates may not. ``NaN`` cells (any case) are missing samples (``Motion.missing``).
+Tables of OpenSim's tools and analyses that hold no coordinate values are refused, saying
+what they hold: speeds, accelerations, tracking errors, actuator forces, controls ... by
+their title (:data:`NOT_COORDINATES`), a table of actuators by its residual or reserve
+actuators' columns (:data:`ACTUATORS`), bodies' kinematics by their columns.
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
@@ -283,6 +287,13 @@ def _check_coordinates(
         )
 
 
+#: What a refusal of a table that holds no coordinates says is read instead.
+READ_INSTEAD = (
+    "only coordinate values are read (an inverse kinematics .mot, a *_Kinematics_q.sto, a "
+    "states .sto)"
+)
+
+
 def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
     """OpenSim 4 tables of vectors or rotations (``DataType=Vec3``, ``Quaternion``, ...)
     hold no coordinates."""
@@ -290,8 +301,90 @@ def _refuse_data_type(pairs: dict[str, tuple[str, int]], path) -> None:
     if kind.lower() not in ("double", "float"):
         _fail(
             f"DataType={kind[:20]}: a table of {kind[:20]} values per column (markers, "
-            "forces or IMU orientations), not coordinates; only motions of coordinates "
-            "(.mot, states .sto) are read",
+            f"forces or IMU orientations), not coordinates; {READ_INSTEAD}",
+            path,
+            line,
+        )
+
+
+_MUSCLES = "muscle quantities, a column per muscle (the MuscleAnalysis' output)"
+#: Bytes of the first line read for a title.
+MAX_TITLE = 4096
+#: Titles (the header's first line) of the tables OpenSim's tools and analyses write that
+#: hold no coordinate values, though their columns may bear the coordinates' names (speeds,
+#: tracking errors) or the muscles' (forces), and what each holds. Matched with case and
+#: spaces aside (fnmatch patterns: a MuscleAnalysis moment table is titled after its
+#: coordinate); any other title is free text (IK writes ``Coordinates``, as does the
+#: Kinematics analysis for its ``*_q.sto``; states files the trial's name) and says nothing.
+NOT_COORDINATES: dict[str, str] = {
+    "Speeds": "the coordinates' speeds (the Kinematics analysis' *_Kinematics_u.sto)",
+    "Accelerations": "the coordinates' accelerations (the Kinematics analysis' *_dudt.sto)",
+    "PositionErrors": "CMC's or RRA's errors in tracking the coordinates (*_pErr.sto)",
+    "VelocityErrors": "CMC's or RRA's errors in tracking the coordinates' speeds",
+    "ActuatorForces": "actuator forces, a column per muscle or actuator (*_Actuation_force.sto)",
+    "ActuatorSpeeds": "actuator speeds, a column per muscle or actuator (*_Actuation_speed.sto)",
+    "ActuatorPowers": "actuator powers, a column per muscle or actuator (*_Actuation_power.sto)",
+    "controls": "controls, a column per muscle or actuator (CMC's *_controls.sto)",
+    "Static Optimization": "muscle activations or forces (StaticOptimization's output)",
+    "ModelForces": "the model's forces (the ForceReporter's output)",
+    "ModelProbes": "probe values, e.g. metabolic rates (the ProbeReporter's output)",
+    "Joint Reaction Loads": "joint reaction loads (the JointReaction analysis' output)",
+    "PointPosition": "a point's position in the ground frame (the PointKinematics analysis)",
+    "PointVelocity": "a point's velocity in the ground frame (the PointKinematics analysis)",
+    "PointAcceleration": "a point's acceleration (the PointKinematics analysis)",
+    "Model Marker Locations from IK": "the model's marker positions (inverse kinematics)",
+    **{
+        title: _MUSCLES
+        for title in (
+            "Length", "FiberLength", "NormalizedFiberLength", "TendonLength",
+            "FiberVelocity", "NormFiberVelocity", "PennationAngle",
+            "PennationAngularVelocity", "TendonForce", "FiberForce", "ActiveFiberForce",
+            "PassiveFiberForce", "ActiveFiberForceAlongTendon",
+            "PassiveFiberForceAlongTendon", "FiberActivePower", "FiberPassivePower",
+            "TendonPower", "MuscleActuatorPower", "MomentArm_*", "Moment_*",
+        )
+    },
+}  # fmt: skip
+#: Column names of actuators no coordinate bears, as OpenSim's CMC and RRA examples name
+#: them: the residual forces and moments on the pelvis and the reserve actuators of each
+#: coordinate (``hip_flexion_r_reserve``; ``reserve_...`` as OpenSim 4 scripts add them).
+#: A table with one holds a value per actuator and muscle (its forces, speeds, powers or
+#: controls), whatever its title.
+ACTUATORS = ("FX", "FY", "FZ", "MX", "MY", "MZ", "*_reserve", "reserve_*")
+
+
+def _plain_title(title: str) -> str:
+    """A title with case and spaces aside (``Static Optimization``: ``staticoptimization``)."""
+    return "".join(title.split()).lower()
+
+
+def _title(data: bytes) -> str:
+    """The header's first line when it is a title (not ``key=value`` nor ``endheader``),
+    else ""."""
+    line = data[:MAX_TITLE].partition(b"\n")[0].strip().decode("utf-8", "replace")
+    return "" if "=" in line or line.lower() == "endheader" else line
+
+
+def _refuse_results(title: str, labels: list[str], path, line: int) -> None:
+    """Refuse a table that holds no coordinate values: one of :data:`NOT_COORDINATES` by
+    its title (the file's line 1), or one with :data:`ACTUATORS` columns (the labels'
+    ``line``), saying what it holds."""
+    plain = _plain_title(title)
+    known = next((k for k in NOT_COORDINATES if fnmatch.fnmatchcase(plain, _plain_title(k))), None)
+    if known is not None:
+        _fail(
+            f"titled {title[:40]!r}: {NOT_COORDINATES[known]}, not coordinate values; "
+            + READ_INSTEAD,
+            path,
+            1,
+        )
+    actuators = [c for c in labels[1:] if any(fnmatch.fnmatchcase(c, p) for p in ACTUATORS)]
+    if actuators:
+        shown = ", ".join(a[:40] for a in actuators[:3]) + (" ..." if len(actuators) > 3 else "")
+        _fail(
+            f"actuator columns ({shown}): a value per muscle or actuator (forces, speeds, "
+            "powers or controls of CMC, RRA or the Actuation analysis), not coordinate values; "
+            + READ_INSTEAD,
             path,
             line,
         )
@@ -364,6 +457,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             f"the first column is {labels[0][:40]!r}, expected 'time'", path, number_of(label_line)
         )
     _refuse_body_kinematics(labels, path, number_of(label_line))
+    _refuse_results(_title(data), labels, path, number_of(label_line))
     empty = _empty_cell(data, line_start, label_line)
     if empty is not None:
         _fail(f"column {empty + 1} has no name (two tabs in a row)", path, number_of(label_line))

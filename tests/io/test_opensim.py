@@ -424,6 +424,86 @@ def test_a_body_kinematics_table_is_refused_in_one_line(tmp_path, capsys):
     assert err.startswith(f"motionclean: error: {path}:5: body kinematics")
 
 
+#: The first rows of opensim-models' Gait2392 CMC *_Kinematics_u.sto
+#: (Pipelines/Gait2392_Simbody/OutputReference/ResultsCMC/subject01_walk1_Kinematics_u.sto,
+#: three of its 23 columns), under a title put in at the top.
+CMC_SPEEDS = """{title}
+version=1
+nRows=5
+nColumns=4
+inDegrees=no
+endheader
+time\tpelvis_tx\tpelvis_tilt\tknee_angle_r
+      0.53000000\t     -0.05183383\t     -7.15426501\t    322.44147368
+      0.53100000\t     -0.05131170\t     -7.44896624\t    318.56817666
+      0.53200000\t     -0.05081387\t     -7.85939931\t    314.55773851
+      0.53300000\t     -0.05034873\t     -8.42508003\t    310.36201794
+      0.53400000\t     -0.04988360\t     -8.99076075\t    306.16629738
+"""
+#: The first rows of the same CMC's *_Actuation_force.sto (subject01_walk1_Actuation_force.sto:
+#: 2 of its 92 muscles, a residual and a reserve actuator of its 115 columns).
+CMC_FORCES = """{title}
+version=1
+nRows=4
+nColumns=5
+inDegrees=no
+endheader
+time\tvas_lat_r\tsoleus_r\tFX\tknee_angle_r_reserve
+      0.53000000\t      1.84674771\t    106.48614553\t      0.24599357\t     -0.00773272
+      0.53100000\t      1.84627672\t    106.74557087\t      0.22105876\t     -0.01206783
+      0.53200000\t      1.84594051\t    107.03402003\t      0.19612395\t     -0.01206783
+      0.53300000\t      1.84578661\t    107.36166432\t      0.17118914\t     -0.01206783
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "holds"),
+    [
+        (CMC_SPEEDS.format(title="Speeds"), "the coordinates' speeds"),
+        (CMC_SPEEDS.format(title="Accelerations"), "the coordinates' accelerations"),
+        (CMC_SPEEDS.format(title="PositionErrors"), "CMC's or RRA's errors in tracking"),
+        (CMC_FORCES.format(title="ActuatorForces"), "actuator forces, a column per muscle"),
+        (CMC_FORCES.format(title="ActuatorPowers"), "actuator powers"),
+        (CMC_FORCES.format(title="controls"), "controls, a column per muscle"),
+        (CMC_SPEEDS.format(title="Static Optimization"), "muscle activations or forces"),
+        (CMC_SPEEDS.format(title="MomentArm_knee_angle_r"), "muscle quantities"),
+    ],
+)
+def test_result_tables_of_no_coordinates_are_refused_by_their_title(tmp_path, capsys, text, holds):
+    """CMC's and the analyses' tables of speeds, accelerations, tracking errors, actuator
+    forces and controls had been read as joint angles: `clean` of an *_Actuation_force.sto
+    changed muscle forces by up to 180 N (taken as steps of a turn) and exited 0. Their
+    title (line 1) says what they hold, whatever their columns are named."""
+    path = write(tmp_path, text, "cmc.sto")
+    code, out, err = run_cli(capsys, "clean", path, "-o", tmp_path / "out.sto")
+    assert code == 1 and out == "" and not (tmp_path / "out.sto").exists()
+    title = text.splitlines()[0]
+    assert err.startswith(f"motionclean: error: {path}:1: titled {title!r}: {holds}")
+    assert err.count("\n") == 1 and "only coordinate values are read" in err
+
+
+def test_a_table_of_actuators_is_refused_whatever_its_title(tmp_path, capsys):
+    """An actuator table under a title of the user's: its residual (FX) and reserve
+    (``*_reserve``) actuators name no coordinate; its muscles' columns are no angles."""
+    path = write(tmp_path, CMC_FORCES.format(title="walk1 forces"), "forces.sto")
+    code, _, err = run_cli(capsys, "info", path)
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith(
+        f"motionclean: error: {path}:7: actuator columns (FX, knee_angle_r_reserve): a value "
+        "per muscle or actuator"
+    )
+
+
+@pytest.mark.parametrize("title", ["Coordinates", "subject01_walk1_states", "first trial"])
+def test_the_same_columns_under_a_coordinates_or_free_title_are_read(tmp_path, title):
+    """Kinematics' *_q.sto (titled Coordinates) and files titled by their trial are read:
+    a title is evidence only where it is one of OpenSim's result tables."""
+    motion = mc.load(write(tmp_path, CMC_SPEEDS.format(title=title), "q.sto"))
+    assert motion.names == ["pelvis_tx", "pelvis_tilt", "knee_angle_r"]
+    mc.save(motion, tmp_path / "same.sto")
+    assert (tmp_path / "same.sto").read_text() == CMC_SPEEDS.format(title=title)
+
+
 def test_a_quaternion_table_is_refused_in_one_line(tmp_path, capsys):
     text = "DataType=Quaternion\nversion=3\nendheader\ntime\ttorso_imu\n0\t1,0,0,0\n0.01\t1,0,0,0\n"
     code, _, err = run_cli(capsys, "info", write(tmp_path, text, "imu.sto"))
