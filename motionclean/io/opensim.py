@@ -485,6 +485,8 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
     cell_starts, cell_ends = starts[cell], ends[cell]
     patterns = list(exclude)
     kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
+    if k == 1:
+        _fail("only a time column: no coordinates to clean", path, number_of(label_line))
     if not kept:
         _fail("no coordinate columns (all excluded)", path, number_of(label_line))
     kept, carried = _sorted_columns(labels, kept)

@@ -504,6 +504,16 @@ def test_the_same_columns_under_a_coordinates_or_free_title_are_read(tmp_path, t
     assert (tmp_path / "same.sto").read_text() == CMC_SPEEDS.format(title=title)
 
 
+def test_a_file_of_times_alone_says_so(tmp_path, capsys):
+    """CMC's *_pseudo.sto holds a time column alone: it had been said to have had all its
+    columns excluded, with no --exclude given."""
+    text = "subject01_walk1_pseudo\nversion=1\nnRows=2\nnColumns=1\nendheader\ntime\n0.53\n0.54\n"
+    path = write(tmp_path, text, "pseudo.sto")
+    code, _, err = run_cli(capsys, "info", path)
+    assert code == 1
+    assert err == f"motionclean: error: {path}:6: only a time column: no coordinates to clean\n"
+
+
 def test_a_quaternion_table_is_refused_in_one_line(tmp_path, capsys):
     text = "DataType=Quaternion\nversion=3\nendheader\ntime\ttorso_imu\n0\t1,0,0,0\n0.01\t1,0,0,0\n"
     code, _, err = run_cli(capsys, "info", write(tmp_path, text, "imu.sto"))
