@@ -679,10 +679,31 @@ def parse_smpl_npz(
     )
 
 
+#: The protocols whose pickles start with the PROTO opcode (0x80, then the protocol): the
+#: official SMPL and MANO ``.pkl`` body models are protocol 2.
+PICKLE_PROTOCOLS = range(2, 6)
+
+
+def _pickled(data: bytes, path) -> bool:
+    """Whether a body model file is a pickle, not a zip: by its first bytes (PROTO, one
+    of :data:`PICKLE_PROTOCOLS`) or, not starting as a zip does, by its ``.pkl`` suffix."""
+    if data[:2] == b"PK":
+        return False
+    proto = len(data) > 1 and data[0] == 0x80 and data[1] in PICKLE_PROTOCOLS
+    return proto or Path(path).suffix.lower() in (".pkl", ".pickle")
+
+
 def read_body_model(path) -> tuple[dict[str, np.ndarray], str]:
     """The arrays of a body model ``.npz`` (SMPL-X's ``SMPLX_NEUTRAL.npz`` and the like),
-    read as safely as any clip, and its path."""
+    read as safely as any clip, and its path. A pickled model (the official ``.pkl``, of
+    chumpy objects) is refused saying how to get an ``.npz``."""
     data, _ = read_regular_file(Path(path))
+    if _pickled(data, path):
+        raise MotionError(
+            "a pickled body model: only .npz body models are read (the SMPL-X and AMASS "
+            "SMPL+H downloads have one; or save the .pkl's arrays with numpy.savez)",
+            path,
+        )
     return {m.key: m.array for m in npz.read_npz(data, path) if m.array is not None}, str(path)
 
 

@@ -530,6 +530,30 @@ def test_a_body_model_of_another_family_is_refused(tmp_path, capsys):
     assert code == 0
 
 
+#: A pickle as the official SMPL and MANO .pkl models begin (protocol 2, a dict whose
+#: arrays are chumpy objects): ``{"v_template": chumpy.ch.Ch()}``, written by hand so the
+#: test needs no chumpy; never unpickled.
+CHUMPY_PICKLE = (
+    b"\x80\x02}q\x00X\n\x00\x00\x00v_templateq\x01cchumpy.ch\nCh\nq\x02)\x81q\x03}q\x04bs."
+)
+
+
+@pytest.mark.parametrize("name", ["SMPLH_MALE.pkl", "model.npz"])
+def test_a_pickled_body_model_is_refused_saying_npz_models_are_read(tmp_path, capsys, name):
+    """The official .pkl body model had been refused as 'not a readable .npz archive (a zip
+    of .npy arrays): File is not a zip file', which tells nothing of what to give. A pickle
+    is told by its first bytes (under any name) and by a .pkl suffix."""
+    np.savez(tmp_path / "s.npz", poses=smooth_poses(5, 52), trans=np.zeros((5, 3)))
+    (tmp_path / name).write_bytes(CHUMPY_PICKLE)
+    code, out, err = run_cli(capsys, "info", tmp_path / "s.npz", "--body-model", tmp_path / name)
+    assert code == 1 and out == ""
+    assert err == (
+        f"motionclean: error: {tmp_path / name}: a pickled body model: only .npz body models "
+        "are read (the SMPL-X and AMASS SMPL+H downloads have one; or save the .pkl's arrays "
+        "with numpy.savez)\n"
+    )
+
+
 def test_a_resampled_clip_is_written_with_its_new_frames(tmp_path, capsys):
     path = amass_h(tmp_path / "a.npz", frames=121)
     code, _, err = run_cli(capsys, "resample", path, tmp_path / "b.npz", "--fps", "60")
