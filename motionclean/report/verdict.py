@@ -408,6 +408,16 @@ def _feet(contacts: dict | None) -> tuple[str | None, float | None]:
     return f"feet slide {_over(fastest, PLANTED_SKATE)} body heights/s", fastest
 
 
+def _unplanted(report: dict) -> str:
+    """Why footlock planted no foot: none was in contact, or none could be looked for, the
+    clip having no joint positions (the world figures' reason, e.g. SMPL parameters read
+    without a body model)."""
+    skipped = (report.get("world") or {}).get("skipped")
+    if skipped:
+        return f"no feet looked for, nothing planted ({skipped})"
+    return "no foot in contact found, nothing planted"
+
+
 def _over(value: float, limit: float) -> str:
     """``value``, over ``limit``, in two decimals, or three where two would read as the
     limit itself ("feet slide 0.10" where up to 0.1 is planted: 0.102)."""
@@ -710,7 +720,7 @@ def build_verdict(
         elif unmeasured:
             parts.insert(0, "no noise to judge (no three frames in a row known)")
         if not feet and "footlock" in filters:
-            parts.append("no foot in contact found, nothing planted")
+            parts.append(_unplanted(report))
         if not parts and not shown_feet:
             parts.append("nothing repaired")
         lead = "not smoothed"

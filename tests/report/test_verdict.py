@@ -490,6 +490,21 @@ def test_a_pipeline_without_a_smoothing_step_tells_what_it_did_not_the_noise():
     assert "of the jitter removed" in smoothed.report["verdict"]["text"]
 
 
+def test_footlock_on_a_clip_without_joint_positions_says_no_feet_were_looked_for(tmp_path):
+    """SMPL parameters read without a body model have no joint positions: footlock could
+    look for no feet, and the verdict had said 'no foot in contact found' as if it had. It
+    says why none was looked for, as the world line does."""
+    t = np.arange(60)[:, None] / 30.0
+    poses = 0.3 * np.sin(t * np.linspace(0.5, 2.0, 72))  # SMPL's 24 joints, moving slowly
+    np.savez(tmp_path / "walk.npz", poses=poses, trans=0.1 * t * [1.0, 0.0, 0.0])
+    result = clean_clip(tmp_path / "walk.npz", None, Pipeline.from_inline(["footlock"]))
+    skipped = result.report["world"]["skipped"]
+    assert "no joint positions" in skipped
+    assert result.report["verdict"]["text"].startswith(
+        f"not smoothed: no feet looked for, nothing planted ({skipped});"
+    )
+
+
 @pytest.mark.parametrize(
     ("fraction", "words"),
     [
