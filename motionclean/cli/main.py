@@ -29,7 +29,7 @@ from ..core.restpose import rest_frames
 from ..core.takes import take_starts
 from ..core.threads import thread_count
 from ..core.version import __version__
-from ..core.words import columns, pad, plural
+from ..core.words import columns, length_word, pad, plural
 from ..filters.auto import estimate_noise
 from ..filters.gaps import Gaps
 from ..filters.multires import stitch_levels, stitch_width
@@ -256,11 +256,14 @@ def info(
         against = contradiction_words({"up_axis_contradicted": up_contradicted(motion)})
         source += f"; {against}" if against else ""
         height = kinematics.body_height(motion, axis)
-        tall = f"{height:.4g} units" if height > 0 else "none (no skeleton)"
+        unit = length_word(kinematics.length_unit(motion))
+        tall = f"{height:.4g} {unit}" if height > 0 else "none (no skeleton)"
         click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   body height: {tall}")
         contacts, _ = contact_figures(motion)
         for line in (
-            format_contacts(contacts) if contacts else ["  feet: none found (no ground contact)"]
+            format_contacts(contacts, None, unit)
+            if contacts
+            else ["  feet: none found (no ground contact)"]
         ):
             click.echo(f"  {line}")
     for line in _dropout_lines(motion):

@@ -59,6 +59,13 @@ def world_note(motion: Motion) -> str | None:
     return getattr(motion.source, "no_world", None)
 
 
+def length_unit(motion: Motion | None) -> str | None:
+    """The unit of the clip's lengths where its format fixes one (``"m"``: OpenSim
+    coordinates, SMPL parameters; ``source.length_unit``), else None: the file's own, which
+    it does not say (BVH, CSV)."""
+    return getattr(getattr(motion, "source", None), "length_unit", None)
+
+
 def source_notes(motion: Motion) -> tuple[str, ...]:
     """What the reader had to assume or choose (``source.notes``: a frame rate taken, one
     person of several read ...), to show beside the clip's figures."""

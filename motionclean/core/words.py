@@ -4,12 +4,18 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["columns", "last_columns", "pad", "percent", "plural"]
+__all__ = ["columns", "last_columns", "length_word", "pad", "percent", "plural"]
 
 
 def plural(count: int, noun: str) -> str:
     """``"1 frame"``, ``"2 frames"``, ``"1,672 flips"``: a count with its noun."""
     return f"{count:,} {noun}{'' if count == 1 else 's'}"
+
+
+def length_word(unit: str | None) -> str:
+    """What lengths are said in: their unit where the format fixes one (``"m"``), else
+    ``"units"`` (the file's own: a BVH's centimetres or inches, unsaid)."""
+    return unit or "units"
 
 
 def percent(share: float) -> str:

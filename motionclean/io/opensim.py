@@ -133,6 +133,8 @@ class OpenSimText:
 
     #: Why world-space figures are skipped (``core.kinematics.world_note``).
     no_world = "OpenSim coordinates are joint angles without the model's bodies"
+    #: Translational coordinates are metres, OpenSim's unit (``core.kinematics.length_unit``).
+    length_unit = "m"
     #: Coordinates make no skeleton: BVH output is refused with this message.
     needs_skeleton = True
     no_skeleton_message = (

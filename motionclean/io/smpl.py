@@ -109,11 +109,18 @@ class SmplParams:
     rows: np.ndarray | None = None  # the clip frame of each row (None: row k is frame k)
     frame_time: float = 0.0  # as read
     trans_scale: float = 1.0  # metres per unit of the record's translation
+    rig: bool = False  # joint offsets from a user's rig (--skeleton), in the rig's units
 
     @property
     def needs_skeleton(self) -> bool:
         """True when the clip has no joint positions (no body model, no skeleton)."""
         return not self.has_skeleton
+
+    @property
+    def length_unit(self) -> str | None:
+        """Metres (``trans``, a body model's offsets), or None where a rig gave the offsets
+        in its own units (``core.kinematics.length_unit``)."""
+        return None if self.rig else "m"
 
     @property
     def no_world(self) -> str | None:
@@ -472,6 +479,7 @@ def smpl_motion(
         rows,
         frame_time,
         trans_scale,
+        rig=body_model is None and skeleton is not None,
     )
     return Motion(
         names=list(tree.names),

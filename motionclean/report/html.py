@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
-from ..core.words import plural, whole_percent
+from ..core.words import length_word, plural, whole_percent
 from ..filters import noise
 from ..steps.base import fps_text
 from .html_world import world_section
@@ -533,7 +533,7 @@ def render_html(report: dict, series: dict | None = None, carried: dict | None =
     tables = _joint_table(joints, names, drawn, cleaned)
     positions = [n for n in joints if "linear_accel_rms" in joints[n]]
     if positions:
-        tables += _position_table(joints, positions, cleaned)
+        tables += _position_table(joints, positions, cleaned, report.get("length_unit"))
     body.append(
         f"<details><summary>Figures of all {joint_count(report)}, noisiest first"
         f"</summary>{tables}</details>"
@@ -617,7 +617,11 @@ def _joint_table(joints: dict, names: list[str], plotted: set[str], cleaned: boo
     return "<table>" + "".join(rows) + "</table>"
 
 
-def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
+#: What the page calls lengths whose unit the format fixes (``report["length_unit"]``).
+UNIT_NAMES = {"m": "metres"}
+
+
+def _position_table(joints: dict, names: list[str], cleaned: bool, unit: str | None) -> str:
     head = ["joint", "linear accel RMS"] + (["after"] if cleaned else []) + ["max"]
     head += ["after", "deviation RMS", "max"] if cleaned else []
     rows = ["<tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
@@ -630,9 +634,10 @@ def _position_table(joints: dict, names: list[str], cleaned: bool) -> str:
             dev = entry.get("deviation_length", {})
             cells += [_num(peak["after"], 1), _num(dev.get("rms"), 3), _num(dev.get("max"), 3)]
         rows.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    name = UNIT_NAMES.get(unit or "", "length units of the file")
     return (
-        "<table>" + "".join(rows) + '</table><p class="note">Length units of the file '
-        "per s\u00b2; deviation in length units.</p>"
+        "<table>" + "".join(rows) + f'</table><p class="note">{name.capitalize()} per s\u00b2; '
+        f"deviation in {name}.</p>"
     )
 
 
@@ -740,9 +745,9 @@ def _shaded(runs, x_scale: float) -> list[tuple[float, float]]:
     return spans
 
 
-def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
+def _foot_card(name: str, figures: dict, data: dict, frames: int, unit: str) -> str:
     """A foot: its contacts and skate, and its lowest point above the ground over frames
-    with the contacts shaded."""
+    with the contacts shaded; lengths in ``unit`` (``core.words.length_word``)."""
     skate, pen = figures["skate_body_heights"], figures["penetration"]
     text = f"{plural(len(figures['contacts']), 'contact')}, {plural(figures['frames'], 'frame')}"
     if skate["before"] is not None and math.isfinite(skate["before"]):
@@ -755,7 +760,7 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
             f'<section class="card"><h3>{_e(name)}</h3><div class="figures">{_e(text)}</div>'
             "</section>"
         )
-    text += "; below ground " + depth_text(figures, "\u2192", _short)
+    text += "; below ground " + depth_text(figures, "\u2192", _short, unit)
     series = [(trace(data["height_before"]), BEFORE, "height before")]
     if data["height_after"] is not None:
         series.append((trace(data["height_after"]), AFTER, "height after"))
@@ -772,7 +777,7 @@ def _foot_card(name: str, figures: dict, data: dict, frames: int) -> str:
         frames,
         ACCEL_TOP,
         ACCEL_HEIGHT,
-        "lowest point above the ground (below it: negative), units",
+        f"lowest point above the ground (below it: negative), {unit}",
         signed=True,
     )
     parts += _frame_ticks(frames, ACCEL_TOP + ACCEL_HEIGHT + 4)
@@ -793,6 +798,7 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
     if not contacts or series is None or not series.get("feet"):
         return []
     frames = int(report["frames"])
+    unit = length_word(report.get("length_unit"))
     return [
         "<h2>Feet on the ground</h2>",
         '<div class="legend">'
@@ -805,20 +811,20 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
             else ""
         )
         + "<span>skate: mean horizontal ankle speed during contacts, over 0.1 s</span></div>",
-        *_ground_lines(contacts),
+        *_ground_lines(contacts, unit),
         '<div class="grid">',
         *(
-            _foot_card(name, contacts["feet"][name], series["feet"][name], frames)
+            _foot_card(name, contacts["feet"][name], series["feet"][name], frames, unit)
             for name in contacts["feet"]
         ),
         "</div>",
     ]
 
 
-def _ground_lines(contacts: dict) -> list[str]:
-    """The floor (as the terminal says it) and what the plots' 0 is."""
+def _ground_lines(contacts: dict, unit: str = "units") -> list[str]:
+    """The floor (as the terminal says it) and what the plots' 0 is, lengths in ``unit``."""
     lines = []
-    floor = format_floor(contacts)
+    floor = format_floor(contacts, unit)
     if floor is not None:
         lines.append(f'<p class="meta">{_e(floor[0].upper() + floor[1:])}.</p>')
     if contacts.get("ground") is not None:
@@ -828,7 +834,7 @@ def _ground_lines(contacts: dict) -> list[str]:
             else f"along the up axis ({_e(contacts['up_axis'])})"
         )
         lines.append(
-            f'<p class="meta">The plots\' 0 is the ground, at {contacts["ground"]:.4g} units '
+            f'<p class="meta">The plots\' 0 is the ground, at {contacts["ground"]:.4g} {unit} '
             f"{where}: the 5th percentile of the feet's lowest points over the clip"
             + ("" if "tilted" in where else ", above which contacts are found")
             + ".</p>"

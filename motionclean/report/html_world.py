@@ -17,6 +17,7 @@ from ..core import kinematics
 from ..core.contacts import Floor
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
+from ..core.words import length_word
 from .world import contradiction_words
 
 __all__ = ["world_section", "world_series"]
@@ -224,9 +225,9 @@ def _extent(series: dict, point: int) -> float:
     return float(np.ptp(points, axis=0).max()) if len(points) else 0.0
 
 
-def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
+def _trajectory_card(name: str, point: int, series: dict, upright, unit: str) -> str:
     """An end effector's track from above and from ``upright`` (:func:`_upright_view`),
-    input and cleaned overlaid, each view with its width in file units ("still" across
+    input and cleaned overlaid, each view with its width in ``unit`` ("still" across
     less than :data:`STILL_SHARE` of the body height)."""
     views, titles = [], ("from above", upright[0])
     for title, axes in zip(titles, (_views(series["up"])["top"], upright[1]), strict=True):
@@ -254,7 +255,7 @@ def _trajectory_card(name: str, point: int, series: dict, upright) -> str:
             )
         ]
         still = extent < STILL_SHARE * series["height"]
-        width = "still" if still else f"{span / 0.9:.3g} units across"
+        width = "still" if still else f"{span / 0.9:.3g} {unit} across"
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
             f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
@@ -649,7 +650,8 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     upright = _upright_view(world)
     least = STILL_SHARE * world["height"]
     moving = {n: p for n, p in world["effectors"].items() if _extent(world, p) >= least}
-    cards = [_trajectory_card(name, p, world, upright) for name, p in moving.items()]
+    unit = length_word(report.get("length_unit"))
+    cards = [_trajectory_card(name, p, world, upright, unit) for name, p in moving.items()]
     still = [
         n for n, p in sorted(world["effectors"].items(), key=lambda e: e[1]) if n not in moving
     ]
@@ -664,7 +666,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         against = contradiction_words(figures)
         how += f"; {html.escape(against, quote=False)}" if against else ""
         height = figures.get("body_height")
-        tall = "no body height" if height is None else f"body height {height:.4g} units"
+        tall = "no body height" if height is None else f"body height {height:.4g} {unit}"
         axes = f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), {tall}</span>"
     return [
         f"<style>{CSS}</style>",

@@ -24,7 +24,7 @@ from ..core.motion import Motion
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
-from ..core.words import columns, pad, plural
+from ..core.words import columns, length_word, pad, plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
 from ..steps import REGISTRY
 from ..steps.base import format_params, fps_text
@@ -727,6 +727,9 @@ def build_report(
         "rest_frames": {"leading": lead, "trailing": trail},
         "take_starts": take_starts(before).tolist(),
     }
+    unit = kinematics.length_unit(before)  # only where the format fixes it ("m")
+    if unit:
+        report["length_unit"] = unit
     said = [*kinematics.source_notes(before), *_step_notes(joints)]  # only when there is any
     if said:
         report["notes"] = said
@@ -938,10 +941,11 @@ def format_table(report: dict, limit: int = 10) -> str:
     if report.get("take_starts"):
         lines.append(format_takes(report["take_starts"], cleaned))
     lines.extend(f"note: {note}" for note in report.get("notes", ()))
+    unit = length_word(report.get("length_unit"))
     if "world" in report:
-        lines.append(format_world(report["world"]))
+        lines.append(format_world(report["world"], unit))
     if report.get("contacts"):
-        lines.extend(format_contacts(report["contacts"], report["joints"]))
+        lines.extend(format_contacts(report["contacts"], report["joints"], unit))
     lines.extend(format_repairs(report))
     if report.get("verdict"):
         lines.append(f"verdict: {report['verdict']['text']}")

@@ -54,7 +54,7 @@ import numpy as np
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
 from ..core.takes import MAX_DEG_PER_S
-from ..core.words import percent, plural
+from ..core.words import length_word, percent, plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import format_runs
@@ -424,16 +424,16 @@ def _over(value: float, limit: float) -> str:
     return f"{value:.2f}" if round(value, 2) > limit else f"{value:.3f}"
 
 
-def _ground_words(joints: dict[str, dict]) -> list[str]:
+def _ground_words(joints: dict[str, dict], unit: str) -> list[str]:
     """ "put on the floor: 1.06 units down, levelled from 0.67 deg": what the ``ground`` step
-    did to the whole clip (its note on the root's positions)."""
+    did to the whole clip (its note on the root's positions), lengths in ``unit``."""
     words = []
     for entry in joints.values():
         note = entry.get("position_ground")
         if note:
             height = note["height"]
             way = "down" if height > 0 else "up"
-            text = f"put on the floor: {abs(height):.3g} units {way}"
+            text = f"put on the floor: {abs(height):.3g} {unit} {way}"
             if note.get("levelled", True) and note["tilt_deg"] > 0:
                 text += f", levelled from {note['tilt_deg']:.2f} deg"
             words.append(text)
@@ -664,7 +664,8 @@ def build_verdict(
             f"smoothing changed it by {rms:.2f} degrees RMS, more than {LOOK_CHANGE_NOISE:g} "
             f"times its noise ({noise:.2g} degrees): motion taken for noise"
         )
-    grounded = _ground_words(joints)
+    unit = length_word(report.get("length_unit"))
+    grounded = _ground_words(joints, unit)
     # positions: moved beyond the writers' rounding, and not by the ground step alone
     # (which moves and levels the whole clip without smoothing it)
     moved = [n for n, peak in smoothing.get("position_moved") or [] if peak > UNCHANGED_LENGTH]
@@ -683,7 +684,7 @@ def build_verdict(
         if told and scale > 0 and length > LOOK_CHANGE_HEIGHTS * scale:
             share = percent(length / scale)
             reasons.append(
-                f"{what} {position_joint}'s position by {_length(length)} units ({share} of {per})"
+                f"{what} {position_joint}'s position by {_length(length)} {unit} ({share} of {per})"
             )
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
@@ -730,7 +731,7 @@ def build_verdict(
         left = "left as it was" if change < CLEAN_CHANGE_DEG else "barely moved"
         if positions_lead:  # "left as it was" only where no value moved
             who = f"{moved[0]} position" if len(moved) == 1 else f"positions of {listed(moved)}"
-            little = f"{who} moved by under {_under(length)} units"
+            little = f"{who} moved by under {_under(length)} {unit}"
             left = little if change < CLEAN_CHANGE_DEG else f"{left}, {little}"
         parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
@@ -766,7 +767,7 @@ def build_verdict(
     if change < UNCHANGED_DEG:
         tail = f"no rotation changed{where}"
     if positions_lead and not grounded and not clean:
-        tail = f"largest position change {_length(length)} units on {position_joint}, {tail}"
+        tail = f"largest position change {_length(length)} {unit} on {position_joint}, {tail}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
     if not smoothed:

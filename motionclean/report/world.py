@@ -1,6 +1,7 @@
 """World-space figures of a report: end effectors (``world``) and feet on the ground
 (``contacts``), with their terminal lines. Positions in file units; speeds in units/s and in
-body heights per second."""
+body heights per second. The lines say lengths in ``unit``: "units" (the file's own), or
+"m" where the format fixes metres (``core.words.length_word``)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from . import metrics
 from .metrics import known, pair, rms_and_max
 
 
-def format_world(world: dict) -> str:
+def format_world(world: dict, unit: str = "units") -> str:
     """One line: up axis, body height and the end effector that moved most (or why the
     clip has no world figures)."""
     if "skipped" in world:
@@ -33,11 +34,11 @@ def format_world(world: dict) -> str:
     if shown:
         given = f"{given[:-1]}; {shown})"
     height = world["body_height"]
-    tall = "no body height (no skeleton)" if height is None else f"body height {height:.4g} units"
+    tall = "no body height (no skeleton)" if height is None else f"body height {height:.4g} {unit}"
     text = f"world: up axis {world['up_axis']}{given}, {tall}"
     worst = world.get("worst_deviation")
     if worst is not None:
-        text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} units"
+        text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} {unit}"
         if worst["max_percent"] is not None:  # (null: no body height)
             text += f" ({worst['max_percent']:.2g} % of body height)"
     return text
@@ -432,7 +433,7 @@ def _floor_after(
     }
 
 
-def format_floor(section: dict) -> str | None:
+def format_floor(section: dict, unit: str = "units") -> str | None:
     """The floor's line of a contacts section (None without a floor): its height along the
     up axis, tilt and the contacts it rests on; then the cleaned clip's height and tilt
     where its floor is not the input's (``floor_after``, :data:`FLOOR_KEPT`)."""
@@ -448,7 +449,7 @@ def format_floor(section: dict) -> str | None:
         f"tilt {moved['tilt_deg']:.2f} deg after"
     )
     return (
-        f"floor: height {floor['height']:.4g} units, tilt {floor['tilt_deg']:.2f} deg{slope} "
+        f"floor: height {floor['height']:.4g} {unit}, tilt {floor['tilt_deg']:.2f} deg{slope} "
         f"(through the soles of {plural(floor['contacts'], 'contact')}){after}"
     )
 
@@ -460,7 +461,7 @@ def _as_precise(value: float, given: float) -> str:
     return f"{round(value, digits) + 0.0:.4g}"
 
 
-def depth_text(foot: dict, arrow: str, number: Callable[[float], str]) -> str:
+def depth_text(foot: dict, arrow: str, number: Callable[[float], str], unit: str = "units") -> str:
     """A foot's depth below the ground, before ``arrow`` after: during its contacts (what
     ``footlock`` answers for), then at any frame (a landing heel's impact before its
     contact starts, a swing smoothed down); at any frame alone for a foot without
@@ -473,15 +474,15 @@ def depth_text(foot: dict, arrow: str, number: Callable[[float], str]) -> str:
     anywhere = change(foot["penetration"])
     standing = foot.get("penetration_during_contacts")  # (absent from older reports)
     if standing is None or standing["before"] is None:
-        return f"{anywhere} units"
-    return f"during contacts {change(standing)} units (at any frame {anywhere})"
+        return f"{anywhere} {unit}"
+    return f"during contacts {change(standing)} {unit} (at any frame {anywhere})"
 
 
-def format_contacts(section: dict, joints: dict | None = None) -> list[str]:
+def format_contacts(section: dict, joints: dict | None = None, unit: str = "units") -> list[str]:
     """One terminal line for the floor, then one per foot: contacts, skate before/after,
     penetration, and whether ``footlock`` left its sliding contacts (``joints``: the
     report's, whose ankle notes say so)."""
-    floor = format_floor(section)
+    floor = format_floor(section, unit)
     lines = [] if floor is None else [floor]
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
@@ -498,7 +499,7 @@ def format_contacts(section: dict, joints: dict | None = None) -> list[str]:
         if pen["before"] is None:
             lines.append(text + ", ground not found (needs at least 2 frames)")
             continue
-        text += f", below ground {depth_text(foot, '->', lambda v: f'{v:.3g}')}"
+        text += f", below ground {depth_text(foot, '->', lambda v: f'{v:.3g}', unit)}"
         if "left" in ((joints or {}).get(name) or {}).get("footlock", {}):
             text += "; footlock left it (the error it expects at the ankle is under its tolerance)"
         lines.append(text)

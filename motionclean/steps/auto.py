@@ -6,8 +6,9 @@ import math
 
 import numpy as np
 
-from ..core import quat
+from ..core import kinematics, quat
 from ..core.motion import Motion, hold_missing
+from ..core.words import length_word
 from ..filters.auto import FAMILIES, SOURCES, SourceFound, auto, auto_positions, found_source
 from ..filters.gaps import fill_gaps
 from .base import Param, StepData, StepSpec, format_params
@@ -125,8 +126,9 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         if missing_p is not None:
             data.translations = hold_missing(result.values, missing_p)
         unseen = _unmeasured(translations.shape, missing_p)
+        unit = kinematics.length_unit(data.motion) or "length"  # ("m" where the format says)
         for column in range(data.translations.shape[1]):
-            note = _auto_note(result, column, "length", unseen[column])
+            note = _auto_note(result, column, unit, unseen[column])
             data.translation_notes[column] = {"auto": note}
     return data
 
@@ -143,7 +145,8 @@ def _format_note(note: dict, positions: bool) -> str:
     choice and its expected error."""
     if note["noise"] is None:
         return UNMEASURED
-    unit = "deg" if note["unit"] == "deg" else "units"
+    given = note["unit"]  # "deg"; for positions "m" where the format fixes it, else "length"
+    unit = given if given == "deg" else length_word(None if given == "length" else given)
     error = note["expected_error"]
     error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
     loud = note.get("loud", [])

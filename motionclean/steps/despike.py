@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import UsageError
-from ..core.words import plural
+from ..core.words import length_word, plural
 from ..filters.despike import (
     FLIP_DEG,
     TREND_RATIO,
@@ -97,15 +97,17 @@ def _run_despike(data: StepData, params: dict) -> StepData:
             missing=_missing(data, data.translation_joints),
             **shared,
         )
+        unit = kinematics.length_unit(data.motion)  # (said where the format fixes it)
         for column in np.flatnonzero(report.counts()):
-            data.translation_notes[int(column)] = {"despike": report.summary(column)}
+            note = report.summary(column) | ({"unit": unit} if unit else {})
+            data.translation_notes[int(column)] = {"despike": note}
     return data
 
 
 def _format_note(note: dict, positions: bool, ranges=page_runs) -> str:
     """What despike did to one joint: frames repaired, where (the page's first
     :data:`~.base.PAGE_RUNS` runs of a long list), and the largest step."""
-    unit = "units" if positions else "deg"
+    unit = length_word(note.get("unit")) if positions else "deg"
     parts = [f"{plural(note['frames_repaired'], 'frame')} repaired"]
     if note.get("unflipped"):
         parts.append(f"un-flipped {ranges(note['unflipped'])}")
@@ -140,6 +142,7 @@ def _merge_note(parts: list[tuple[dict, int]]) -> dict:
     """What parts of the clip add up to (``(note, frames)``): frames repaired summed, the
     largest steps the largest of all."""
     merged = {"frames_repaired": sum(note["frames_repaired"] for note, _ in parts)}
+    merged |= {"unit": parts[0][0]["unit"]} if "unit" in parts[0][0] else {}
     steps = [note["max_step"] for note, _ in parts if "max_step" in note]
     if steps:
         merged["max_step"] = {when: max(s[when] for s in steps) for when in ("before", "after")}

@@ -19,6 +19,7 @@ from ..core import contacts as found
 from ..core import kinematics, quat
 from ..core.errors import UsageError
 from ..core.motion import Motion
+from ..core.words import length_word
 from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
 
@@ -75,6 +76,8 @@ def _run(data: StepData, params: dict) -> StepData:
         "levelled": bool(params["level"]) and not terrain,
         "terrain": terrain,
     }
+    unit = kinematics.length_unit(motion)  # (said where the format fixes it)
+    note |= {"unit": unit} if unit else {}
     if terrain:  # stairs or a slope: the lowest contact's sole at height 0, nothing turned
         lowest = float(soles[:, floor.up].min())
         note["height"] = lowest
@@ -122,15 +125,16 @@ def _run(data: StepData, params: dict) -> StepData:
 
 
 def _format_note(note: dict, positions: bool) -> str:
+    unit = length_word(note.get("unit"))
     if note.get("terrain"):
         return (
             f"floor tilted {note['tilt_deg']:.2f} deg, rising under an upright body: stairs "
             f"or a slope; the lowest contact's sole moved from height {note['height']:.4g} "
-            "units to 0, the tilt kept"
+            f"{unit} to 0, the tilt kept"
         )
     kept = "levelled" if note.get("levelled", True) else "its tilt kept"
     return (
-        f"floor at height {note['height']:.4g} units, tilted {note['tilt_deg']:.2f} deg: "
+        f"floor at height {note['height']:.4g} {unit}, tilted {note['tilt_deg']:.2f} deg: "
         f"moved to height 0, {kept}"
     )
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import json
 import pickle
+import re
 import zipfile
 
 import numpy as np
@@ -357,6 +358,40 @@ def test_clean_with_a_body_model_finds_the_feet(tmp_path, capsys):
     code, out, _ = run_cli(capsys, "info", path, "--body-model", tmp_path / "model.npz")
     assert code == 0 and "up axis: z (found from the motion)" in out
     assert "foot left_ankle" in out and "foot right_ankle" in out
+
+
+def test_lengths_are_said_in_metres_unless_a_rig_gives_the_offsets(tmp_path, capsys):
+    """SMPL's trans and a body model's joints are metres: the lines said "units" ("body
+    height 1.58 units"). With a rig (--skeleton) the offsets are in the rig's own units,
+    which the clip does not know: "units" there."""
+    path = amass_h(tmp_path / "a.npz", frames=60)
+    np.savez(tmp_path / "model.npz", **fake_body_model(SMPLH))
+    report = tmp_path / "r.json"
+    code, out, _ = run_cli(
+        capsys, "clean", path, "-o", tmp_path / "c.npz", "--body-model", tmp_path / "model.npz",
+        "--report", report,
+    )  # fmt: skip
+    assert code == 0 and json.loads(report.read_text())["length_unit"] == "m"
+    world = next(line for line in out.splitlines() if line.startswith("world:"))
+    height = kinematics.body_height(mc.load(path, body_model=tmp_path / "model.npz"))
+    assert re.search(
+        rf"body height {height:.4g} m; largest end-effector deviation \S+ \S+ m ", world
+    )
+    assert "units" not in out
+    joints, parents = t_pose_joints(SMPLH), np.array(SMPLH.parents)
+    rig = mc.Motion(
+        names=list(SMPLH.names),
+        parents=parents,
+        offsets=joints - np.where(parents[:, None] >= 0, joints[parents], 0.0),
+        channels=[("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")]
+        + [("Zrotation", "Yrotation", "Xrotation")] * (SMPLH.n_joints - 1),
+        frame_time=1 / 30,
+        rotations=np.tile([1.0, 0, 0, 0], (1, SMPLH.n_joints, 1)),
+        translations=np.zeros((1, SMPLH.n_joints, 3)),
+    )
+    mc.save(rig, tmp_path / "rig.bvh")
+    code, out, _ = run_cli(capsys, "info", path, "--skeleton", tmp_path / "rig.bvh")
+    assert code == 0 and re.search(r"body height: [0-9.]+ units", out)
 
 
 def bad_npz(tmp_path, name: str, **arrays) -> str:
