@@ -152,7 +152,9 @@ def with_source(pipeline: Pipeline, source: str) -> Pipeline:
             step = dataclasses.replace(step, params={**step.params, "source": source})
         steps.append(step)
     if not found:
-        raise UsageError(f"--source {source}: the pipeline has no auto step, which it tells")
+        raise UsageError(
+            f"--source {source}: the pipeline has no auto step; --source would be ignored"
+        )
     return dataclasses.replace(pipeline, steps=steps)
 
 

@@ -270,6 +270,8 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     if source != "auto":
         if model != noise_source(source):
             return f"{model}: source={source} was given, but {UNFIT_WANDER}"
+        if source == "inertial":  # (no model of its own: say which one it gets)
+            return "inertial, as given (the optical model: noise above the motion)"
         return f"{model}, as given (source={source})"
     if slope is None:
         return f"{model} (the noise level was given)"

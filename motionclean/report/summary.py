@@ -989,7 +989,11 @@ def format_noise_model(report: dict) -> str:
     edge = edges.pop() if len(edges) == 1 else None
     below = "" if edge is None else f" below {edge:g} Hz"
     level = median_joint([n["wander"] for n in wander])
-    hint = " For an optical capture: --source optical." if first["source"] == "auto" else ""
+    hint = (
+        " For an optical or inertial capture: --source optical or --source inertial."
+        if first["source"] == "auto"
+        else ""
+    )
     found = (
         f"The noise wanders{below}, down where the motion is (median joint {level:.3g} deg)"
         if level >= NEGLIGIBLE_DEG

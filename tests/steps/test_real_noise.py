@@ -100,7 +100,7 @@ def test_a_wander_is_found_from_the_clip_modelled_and_said(tmp_path, capsys):
     code, out, err = run_cli(capsys, "clean", source, "-o", target, "--report", report)
     assert code == 0, err
     assert "capture source: markerless, found from the clip" in out
-    assert "For an optical capture: --source optical" in out
+    assert "For an optical or inertial capture: --source optical or --source inertial." in out
     notes = [j["auto"] for j in json.loads(report.read_text())["joints"].values()]
     assert all(n["model"] == "markerless" and n["wander"] > 0.5 for n in notes)
     assert all(n["source"] == "auto" and n["motion_slope"] > -1.0 for n in notes)
@@ -176,6 +176,17 @@ def test_a_clip_found_optical_says_how_to_clean_it_as_a_video_capture(tmp_path, 
     assert code == 0 and "--source video" not in out
 
 
+def test_source_inertial_is_echoed_as_inertial_with_the_model_it_gets(tmp_path, capsys):
+    """`--source inertial` had been echoed "optical, as given (source=inertial)", as if the
+    tool had overridden it: now the source given, then the model it gets."""
+    clip = corpus_clip("131_02.bvh")
+    line = "capture source: inertial, as given (the optical model: noise above the motion)"
+    for command in (("clean", clip, "-o", tmp_path / "c.bvh"), ("report", clip)):
+        code, out, err = run_cli(capsys, *command, "--source", "inertial")
+        assert code == 0, err
+        assert [row for row in out.splitlines() if row.startswith("capture source:")] == [line]
+
+
 @pytest.mark.parametrize("command", ["clean", "batch", "check"])
 def test_source_without_an_auto_step_or_against_its_own_is_a_usage_error(tmp_path, capsys, command):
     source = tmp_path / "in" / "take.csv"
@@ -188,7 +199,7 @@ def test_source_without_an_auto_step_or_against_its_own_is_a_usage_error(tmp_pat
     }[command]
     code, _, err = run_cli(capsys, command, *where, "-f", "lee-shin", "--source", "markerless")
     assert code == 2
-    assert "--source markerless: the pipeline has no auto step" in err
+    assert "--source markerless: the pipeline has no auto step; --source would be ignored" in err
     code, _, err = run_cli(
         capsys, command, *where, "-f", "auto:source=optical", "--source", "markerless"
     )
