@@ -43,7 +43,7 @@ from .summary import (
     was_cleaned,
 )
 from .traces import COLUMNS, Trace, trace
-from .verdict import jumps_left_out
+from .verdict import jumps_left_out, removed_words
 from .world import depth_text, format_floor
 
 __all__ = ["index_entries", "page_carried", "render_html", "render_index"]
@@ -413,8 +413,11 @@ def _headline(report: dict) -> list[str]:
         return [_noise_stat(acc["before"], verdict)]
     repairs = repaired_joints(report)
     world = verdict.get("world_removed")
+    # (as the terminal says it: "up 12 %" where it rose, not "-12 % removed")
     seen = (
-        "" if world is None else f"; the end effectors' world acceleration {_share(world)} removed"
+        ""
+        if world is None
+        else "; " + removed_words(world, "end effectors' world acceleration", _share)
     )
     stats = [
         _stat(

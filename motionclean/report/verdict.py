@@ -47,6 +47,7 @@ told in the line where they change what the rotations alone would say (see
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -78,6 +79,7 @@ __all__ = [
     "PLANTED_SKATE",
     "UNCHANGED_LENGTH",
     "build_verdict",
+    "removed_words",
     "repaired_frames",
     "repaired_positions",
 ]
@@ -440,14 +442,17 @@ def _ground_words(joints: dict[str, dict], unit: str) -> list[str]:
     return words
 
 
-def _removed_words(fraction: float, what: str = "jitter") -> str:
+def removed_words(
+    fraction: float, what: str = "jitter", shown: Callable[[float], str] = percent
+) -> str:
     """ "86 % of the jitter removed", "no jitter removed" (under half a percent either way) or
-    "jitter up 3 %" (``what``: "position jitter", of the position channels)."""
+    "jitter up 3 %" (``what``: "position jitter", of the position channels; ``shown``
+    writes a share, the HTML page's with a thin space)."""
     if fraction >= 0.005:
-        return f"{percent(fraction)} of the {what} removed"
+        return f"{shown(fraction)} of the {what} removed"
     if fraction > -0.005:
         return f"no {what} removed"
-    return f"{what} up {percent(-fraction)}"
+    return f"{what} up {shown(-fraction)}"
 
 
 #: The line adds what the end effectors' world acceleration says where it is under this
@@ -707,11 +712,11 @@ def build_verdict(
     clean = rotations_clean and positions_clean
     # the positions say what the rotations do not: the clip changed where they left it
     positions_lead = told and rotations_clean
-    removed = "" if rotations_unmeasured else _removed_words(smoothing["noise_removed"])
+    removed = "" if rotations_unmeasured else removed_words(smoothing["noise_removed"])
     # (the effectors' figures hold every frame: with repairs they would count them)
     world = None if repairs else _world_removed(report)
     if removed and world is not None and _unseen(smoothing["noise_removed"], world):
-        removed += " (" + _removed_words(world, "end effectors' world acceleration") + ")"
+        removed += " (" + removed_words(world, "end effectors' world acceleration") + ")"
     looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
     shown_feet = None if looking else feet
     if not smoothed:
@@ -738,9 +743,9 @@ def build_verdict(
     else:
         parts = [removed] + done + grounded
         if positions_lead and position_removed is not None:
-            parts[0] = _removed_words(position_removed, "position jitter")
+            parts[0] = removed_words(position_removed, "position jitter")
         elif told and position_removed is not None and position_removed <= -0.005:
-            parts.insert(1, _removed_words(position_removed, "position jitter"))
+            parts.insert(1, removed_words(position_removed, "position jitter"))
         parts = [part for part in parts if part]
         # (a capture whose noise is too small for the smoothing to tell, or of whose jitter
         # (the share the line gives) it took none to speak of: it was clean)

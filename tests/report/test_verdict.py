@@ -515,9 +515,9 @@ def test_footlock_on_a_clip_without_joint_positions_says_no_feet_were_looked_for
     ],
 )
 def test_jitter_words_never_say_minus_zero(fraction, words):
-    from motionclean.report.verdict import _removed_words
+    from motionclean.report.verdict import removed_words
 
-    assert _removed_words(fraction) == words
+    assert removed_words(fraction) == words
 
 
 @pytest.mark.parametrize(
@@ -836,8 +836,22 @@ def test_the_line_says_when_the_end_effectors_lost_far_less_than_the_joints(tmp_
         assert (said.replace("%", " %") in verdict["text"]) is told
         assert (world < verdict_rules.WORLD_SHARE * verdict["noise_removed"]) is told
         # the page's jitter card gives it wherever it is measured, beside before -> after
-        card = f"the end effectors' world acceleration {world:.0%} removed"
+        card = f"{world:.0%} of the end effectors' world acceleration removed"
         assert card.replace("%", "\u2009%") in render_html(result.report, result.series)
+
+
+def test_the_page_says_a_rise_of_the_end_effectors_world_acceleration_as_a_rise():
+    """The page had read "the end effectors' world acceleration -12 % removed" where the
+    terminal said "up 12 %": a sharpening (multires' finest band doubled) on a clean walk
+    raises it, and the page now says it as the line does."""
+    source = ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh"
+    result = clean_clip(source, None, Pipeline.from_inline(["multires:gains=[2]"]))
+    world = result.report["verdict"]["world_removed"]
+    assert world <= -0.005
+    page = render_html(result.report, result.series)
+    rise = f"end effectors' world acceleration up {-world:.0%}".replace("%", "\u2009%")
+    assert rise in page
+    assert "world acceleration -" not in page and "world acceleration \u2212" not in page
 
 
 def test_tracked_bodies_pool_their_jitter_equally_and_the_page_says_no_reach():
