@@ -62,7 +62,9 @@ one over its whole support. Two defects, two repairs:
    and a clip end and they hold one pose (a reference pose, which does not move with the
    motion), those frames alone are repaired (held at the frame past the step), never that
    frame, which is the motion's own (a reference pose at frame 0 does not take frame 1
-   with it). ``T`` comes
+   with it). The report tells these cap runs (those holding no spike's frame) apart as
+   ``capped``: a step over the cap need not come back (an inertial suit's toe snapping flat
+   in one direction is capped, not a spike). ``T`` comes
    from the steps as read, before un-flipping (the median and MAD are not moved by a few
    dozen flips); all limits are in degrees per second, so they keep their meaning at any
    frame rate.
@@ -139,9 +141,11 @@ class DespikeReport:
     """What :func:`despike_with_report` changed, per frame and trailing index (column).
 
     ``unflipped`` and ``interpolated`` are ``(F, ...)`` boolean masks (a frame can be
-    both: un-flipped, then interpolated). ``threshold`` is the jump threshold ``T`` per
-    column (degrees for rotations, length units for positions; per frame, not per
-    second). ``max_step_before`` / ``max_step_after`` are each column's largest
+    both: un-flipped, then interpolated); ``capped`` (None: none) marks the interpolated
+    runs that hold no spike, only a step over the cap (a turn too fast for a body, which
+    need not come back: an inertial suit's toe snapping flat). ``threshold`` is the jump
+    threshold ``T`` per column (degrees for rotations, length units for positions; per
+    frame, not per second). ``max_step_before`` / ``max_step_after`` are each column's largest
     frame-to-frame step before and after repair, in the same units. ``cuts`` are the
     frames that start a new take (most moving columns jump into them at once): no flip or
     spike is repaired across them.
@@ -153,6 +157,7 @@ class DespikeReport:
     max_step_before: np.ndarray
     max_step_after: np.ndarray
     cuts: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    capped: np.ndarray | None = None
 
     @property
     def repaired(self) -> np.ndarray:
@@ -161,7 +166,7 @@ class DespikeReport:
 
     def counts(self, kind: str = "repaired") -> np.ndarray:
         """Frames changed per column, shape ``(...)``; ``kind`` is ``"repaired"``,
-        ``"unflipped"`` or ``"interpolated"``."""
+        ``"unflipped"``, ``"interpolated"`` or ``"capped"``."""
         return self._mask(kind).sum(axis=0)
 
     def runs(self, index, kind: str = "repaired") -> list[tuple[int, int]]:
@@ -179,12 +184,13 @@ class DespikeReport:
 
     def summary(self, index) -> dict:
         """JSON-ready figures of one column: frames repaired, the un-flipped and the
-        interpolated runs (``[start, stop)`` frames), the jump threshold and the largest
-        step before and after."""
+        interpolated runs (``[start, stop)`` frames) and those of the latter that only
+        capped a step, the jump threshold and the largest step before and after."""
         return {
             "frames_repaired": int(self.counts()[index]),
             "unflipped": [list(r) for r in self.runs(index, "unflipped")],
             "interpolated": [list(r) for r in self.runs(index, "interpolated")],
+            "capped": [list(r) for r in self.runs(index, "capped")],
             "threshold": float(self.threshold[index]),
             "max_step": {
                 "before": float(self.max_step_before[index]),
@@ -193,8 +199,12 @@ class DespikeReport:
         }
 
     def _mask(self, kind: str) -> np.ndarray:
-        if kind not in ("repaired", "unflipped", "interpolated"):
-            raise ValueError(f"kind must be repaired, unflipped or interpolated, got {kind!r}")
+        if kind not in ("repaired", "unflipped", "interpolated", "capped"):
+            raise ValueError(
+                f"kind must be repaired, unflipped, interpolated or capped, got {kind!r}"
+            )
+        if kind == "capped" and self.capped is None:
+            return np.zeros_like(self.interpolated)
         return getattr(self, kind)
 
 
@@ -818,7 +828,8 @@ def _repair(
 
     Spikes are at most ``limits.max_len`` frames long; the cap widens a gap at most that
     many times. Returns the repaired array (columns without repairs are ``x``'s own), the
-    un-flipped and interpolated masks (F, C), the jump threshold and the largest step
+    un-flipped and interpolated masks (F, C), the interpolated runs that hold no spike
+    (only a step over the cap), the jump threshold and the largest step
     before and after (C,), all in radians or length units per frame, and the cuts (F-1,)
     (:func:`~motionclean.core.takes.cut_steps`: no toggle, spike or cap breach is taken
     there). Beyond the steps and their statistics, only the sparse jumps, the flipped
@@ -838,7 +849,8 @@ def _repair(
     flipped = np.zeros((n_frames, n_cols), dtype=bool)
     if n_frames < 2:
         zeros = np.zeros(n_cols)
-        return x.copy(), flipped, flipped.copy(), zeros, zeros, zeros, np.zeros(0, dtype=bool)
+        none = np.zeros(0, dtype=bool)
+        return x.copy(), flipped, flipped.copy(), flipped.copy(), zeros, zeros, zeros, none
     blind = None  # steps touching a missing sample
     if missing is not None and missing.any():
         x = hold_missing(x, missing)
@@ -889,6 +901,7 @@ def _repair(
         )
         first, length, col = first[keep], length[keep], col[keep]
     mask = _mark(first, length, col, flipped.shape)
+    spiked = mask.copy()  # (the cap's runs are told apart: they need not come back)
     over = seen > cap
     over[cuts] = False
     if over.any():
@@ -911,7 +924,20 @@ def _repair(
     if missing is not None:
         flipped &= ~missing
         mask &= ~missing
-    return out, flipped, mask, jump, before, after, cuts
+    return out, flipped, mask, _without(mask, spiked), jump, before, after, cuts
+
+
+def _without(mask: np.ndarray, marked: np.ndarray) -> np.ndarray:
+    """``(F, C)``: the runs of ``mask`` (along frames, per column) with no ``marked`` frame."""
+    n_cols = mask.shape[1]
+    # columns end to end, each closed by a False row: no run crosses into the next
+    flat = np.concatenate([mask, np.zeros((1, n_cols), dtype=bool)]).ravel(order="F")
+    hit = np.concatenate([marked, np.zeros((1, n_cols), dtype=bool)]).ravel(order="F")
+    starts = flat & ~np.concatenate([[False], flat[:-1]])
+    run = np.cumsum(starts) * flat  # (0 outside the runs)
+    touched = np.bincount(run[hit & flat], minlength=int(run.max(initial=0)) + 1) > 0
+    kept = flat & ~touched[run]
+    return kept.reshape(mask.shape[0] + 1, n_cols, order="F")[:-1]
 
 
 #: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.
@@ -1074,7 +1100,9 @@ def _missing_columns(missing, shape) -> np.ndarray | None:
     return missing.reshape(shape[0], -1) if missing.any() else None
 
 
-def _report(shape, flipped, interpolated, jump, before, after, cuts, scale) -> DespikeReport:
+def _report(
+    shape, flipped, interpolated, capped, jump, before, after, cuts, scale
+) -> DespikeReport:
     trailing = shape[1:-1]
     return DespikeReport(
         unflipped=flipped.reshape(shape[0], *trailing),
@@ -1083,6 +1111,7 @@ def _report(shape, flipped, interpolated, jump, before, after, cuts, scale) -> D
         max_step_before=scale(before).reshape(trailing),
         max_step_after=scale(after).reshape(trailing),
         cuts=np.flatnonzero(cuts) + 1,
+        capped=capped.reshape(shape[0], *trailing),
     )
 
 
@@ -1132,10 +1161,10 @@ def despike_with_report(
         method,
         np.deg2rad(flip_deg) if unflip else None,
     )
-    out, flipped, interpolated, jump, before, after, cuts = _repair(
+    out, flipped, interpolated, capped, jump, before, after, cuts = _repair(
         _columns(q), frame_time, _ROTATIONS, limits, _missing_columns(missing, q.shape)
     )
-    report = _report(q.shape, flipped, interpolated, jump, before, after, cuts, np.rad2deg)
+    report = _report(q.shape, flipped, interpolated, capped, jump, before, after, cuts, np.rad2deg)
     return out.reshape(q.shape), report
 
 
@@ -1263,10 +1292,10 @@ def despike_positions_with_report(
     limits = _Limits(
         threshold, min_units_per_s, max_units_per_s, max_len, trend_ratio, method, None
     )
-    out, flipped, interpolated, jump, before, after, cuts = _repair(
+    out, flipped, interpolated, capped, jump, before, after, cuts = _repair(
         _columns(p), frame_time, _POSITIONS, limits, _missing_columns(missing, p.shape)
     )
-    report = _report(p.shape, flipped, interpolated, jump, before, after, cuts, np.asarray)
+    report = _report(p.shape, flipped, interpolated, capped, jump, before, after, cuts, np.asarray)
     return out.reshape(p.shape), report
 
 

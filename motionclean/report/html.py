@@ -438,7 +438,13 @@ def _headline(report: dict) -> list[str]:
         ),
     ]
     if repairs:
-        kinds = {"turned": "turn", "flips": "flip", "spikes": "spike", "gaps_filled": "gap"}
+        kinds = {
+            "turned": "turn",
+            "flips": "flip",
+            "spikes": "spike",
+            "capped": "capped step",
+            "gaps_filled": "gap",
+        }
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
         done = (
             ", ".join(

@@ -238,17 +238,22 @@ def _changed_far(joints: dict, changes: dict[str, float]) -> tuple[str, float] |
 
 
 def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
-    """Per joint with a repair: flips, spikes (of its rotations and positions), gaps filled
-    and left, frames repaired."""
+    """Per joint with a repair: flips, spikes and steps capped (over ``despike``'s cap,
+    runs without a spike; of its rotations and positions), gaps filled and left, frames
+    repaired."""
     found = {}
     for name, entry in joints.items():
         despike = entry.get("despike") or {}
-        moved = _runs(entry.get("position_despike") or {}, "interpolated")
+        position = entry.get("position_despike") or {}
+        moved = _runs(position, "interpolated")
+        # (the capped runs are some of the interpolated ones)
+        capped = len(_runs(despike, "capped")) + len(_runs(position, "capped"))
         gaps = entry.get("fill-gaps") or {}
         turned = _runs(entry.get("turned") or {}, "runs")
         counts = {
             "flips": len(_runs(despike, "unflipped")),
-            "spikes": len(_runs(despike, "interpolated")) + len(moved),
+            "spikes": len(_runs(despike, "interpolated")) + len(moved) - capped,
+            "capped": capped,
             "gaps_filled": len(_runs(gaps, "filled")),
             "gaps_left": len(_runs(gaps, "missing")),
         }
@@ -288,6 +293,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         ("turned", "repair", f"(a turn over {PAIR_REPAIR_DEG:g} degrees)"),
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
+        ("capped", "step", "too fast for a body capped"),
         ("gaps_filled", "gap", "filled"),
     ):
         counts = sorted(

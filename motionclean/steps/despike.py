@@ -104,6 +104,13 @@ def _run_despike(data: StepData, params: dict) -> StepData:
     return data
 
 
+def spike_runs(note: dict) -> list[list[int]]:
+    """The interpolated runs of a despike ``note`` that repaired a spike: those not only
+    capping a step (``capped``, a subset; notes written before it have none)."""
+    capped = note.get("capped") or []
+    return [run for run in note["interpolated"] if run not in capped]
+
+
 def _format_note(note: dict, positions: bool, ranges=page_runs) -> str:
     """What despike did to one joint: frames repaired, where (the page's first
     :data:`~.base.PAGE_RUNS` runs of a long list), and the largest step."""
@@ -111,8 +118,12 @@ def _format_note(note: dict, positions: bool, ranges=page_runs) -> str:
     parts = [f"{plural(note['frames_repaired'], 'frame')} repaired"]
     if note.get("unflipped"):
         parts.append(f"un-flipped {ranges(note['unflipped'])}")
-    if note["interpolated"]:
-        parts.append(f"interpolated {ranges(note['interpolated'])}")
+    spikes = spike_runs(note)
+    if spikes:
+        parts.append(f"interpolated {ranges(spikes)}")
+    if note.get("capped"):
+        cap = "max_units_per_s" if positions else "max_deg_per_s"
+        parts.append(f"capped {ranges(note['capped'])} (a step over {cap})")
     step = note.get("max_step")
     digits = ".1f" if not positions else ".3g"
     if step is not None:
@@ -135,6 +146,7 @@ def _crop_note(note: dict, start: int, stop: int) -> dict | None:
         "frames_repaired": int(repaired.sum()),
         "unflipped": unflipped,
         "interpolated": interpolated,
+        "capped": crop_runs(note.get("capped") or [], start, stop),
     }
 
 
@@ -259,5 +271,6 @@ STEP = StepSpec(
         **note,
         "unflipped": shift_runs(note["unflipped"], frames),
         "interpolated": shift_runs(note["interpolated"], frames),
+        "capped": shift_runs(note.get("capped") or [], frames),
     },
 )

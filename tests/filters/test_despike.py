@@ -222,6 +222,28 @@ def test_steps_above_the_cap_are_spread_until_under_it():
     assert not report.unflipped.any()
 
 
+def test_a_step_over_the_cap_that_never_comes_back_is_told_capped_not_a_spike():
+    """An Xsens toe snapping flat at 240 fps (0, 3.8, 8.9, 31.4, 46.0, 53.5 degrees: one
+    step of 22.6 degrees, 5,400 deg/s) had been counted a spike: the cap interpolates it as
+    before, and the report tells its run apart as ``capped``; a spike kicked into the
+    column beside it (away for 2 frames and back) stays a spike."""
+    fps = 240
+    base, kicked_q = kicked(fps, 2, 300)  # (a slow turn, and the same with a spike)
+    snap = np.zeros(len(base))
+    snap[401:] = 53.5
+    snap[396:401] = [3.8, 8.9, 31.4, 46.0, 53.5]
+    toe = quat.multiply(base[:, 0], quat.from_axis_angle([1.0, 0.0, 0.0], np.deg2rad(snap)))
+    q = np.concatenate([toe[:, None], kicked_q], axis=1)
+    out, report = despike_with_report(q, 1 / fps)
+    np.testing.assert_array_equal(out, despike(q, 1 / fps))  # the same repair
+    (capped,) = report.runs(0, "capped")
+    assert report.runs(0) == [capped] and capped[0] <= 398 < 399 <= capped[1]
+    assert report.runs(1, "interpolated") == [(300, 302)] and not report.capped[:, 1].any()
+    assert not (report.capped & ~report.interpolated).any()
+    assert report.summary(0)["capped"] == [list(capped)] == report.summary(0)["interpolated"]
+    assert report.summary(1)["capped"] == []
+
+
 def test_a_jump_above_the_cap_at_a_clip_end_repairs_the_end_frames_alone():
     """CMU 01_01's reference frame 0 steps by 41-136 degrees into frame 1 on five joints,
     above the cap (30 degrees a frame at 120 fps): frame 0 is held at frame 1, which is

@@ -88,7 +88,8 @@ def test_demo_verdict_names_the_repairs_and_measures_smoothing_outside_them(demo
     assert plain < demo.report["summary"]["noise_reduction"]  # the flips inflated it
     assert verdict["repairs"]["RThumb"] == {
         "flips": flips,
-        "spikes": len(notes["interpolated"]),
+        "spikes": len(notes["interpolated"]) - len(notes["capped"]),
+        "capped": len(notes["capped"]),
         "gaps_filled": 0,
         "gaps_left": 0,
         "frames": notes["frames_repaired"],
@@ -266,6 +267,39 @@ def test_verdict_words_follow_the_counts():
     text = build_verdict(report, smoothing)["text"]
     assert "1 flip repaired on RThumb" in text and "2 spikes repaired on Head" in text
     assert "flips" not in text.replace("1 flip ", "")
+
+
+def test_a_capped_step_that_never_comes_back_is_told_as_such_not_as_a_spike(tmp_path, capsys):
+    """An inertial suit's toe snapping flat in one direction, one step over despike's cap
+    (an Xsens walk's "9 spikes repaired (RightToe 5, LeftToe 4)"): despike caps it as it
+    did, and the line, the JSON and the joint's note tell it as a step too fast for a body,
+    capped, apart from the spike kicked into another joint (away and back)."""
+    clip = mc.load(SAMPLE)
+    q = clip.rotations.copy()
+    toe, wrist = clip.names.index("LeftToe"), clip.names.index("RightWrist")
+    snap = np.zeros(clip.n_frames)  # degrees: a one-way turn with one 40 degree step
+    snap[150:] = 60.0
+    snap[148:150] = [10.0, 50.0]
+    q[:, toe] = quat.multiply(q[:, toe], quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(snap)))
+    kick = quat.from_axis_angle([0.0, 0.0, 1.0], np.radians(60.0))
+    q[200:202, wrist] = quat.multiply(q[200:202, wrist], kick)
+    source, report = tmp_path / "snap.bvh", tmp_path / "snap.json"
+    mc.save(clip.replace(rotations=q), source)
+    code, out, err = run_cli(
+        capsys, "clean", source, "-o", tmp_path / "c.bvh", "-f", "despike", "--report", report
+    )
+    assert code == 0, err
+    verdict = json.loads(report.read_text())["verdict"]
+    assert verdict["repairs"]["LeftToe"]["capped"] == 1
+    assert verdict["repairs"]["LeftToe"]["spikes"] == 0
+    assert verdict["repairs"]["RightWrist"]["spikes"] == 1
+    assert verdict["repairs"]["RightWrist"]["capped"] == 0
+    assert "1 spike repaired on RightWrist" in verdict["text"]
+    assert "1 step too fast for a body capped on LeftToe" in verdict["text"]
+    note = json.loads(report.read_text())["joints"]["LeftToe"]["despike"]
+    assert note["capped"] == note["interpolated"] and len(note["capped"]) == 1
+    (line,) = [row for row in out.splitlines() if row.startswith("repaired LeftToe")]
+    assert "(a step over max_deg_per_s)" in line and "interpolated" not in line
 
 
 def test_every_joint_moved_far_beyond_its_noise_needs_a_look_not_only_the_largest():
