@@ -22,7 +22,8 @@ Statuses, first that applies (thresholds below, documented in the README):
   (:data:`FAST_DEG_PER_S`) on more than :data:`LOOK_FAST_SHARE` of its frames, one
   thrashing (turning fast back and forth: :mod:`~motionclean.report.thrash`) on more than
   :data:`LOOK_THRASH_S` seconds of any half minute, feet sliding faster than
-  :data:`LOOK_SKATE` body heights per second, or
+  :data:`LOOK_SKATE` body heights per second, a foot the cleaning made clearly worse
+  (:data:`LOOK_WORSE`: sliding faster or deeper below ground during its contacts), or
   smoothing that changed the clip by more than :data:`LOOK_CHANGE_NOISE` times its noise
   (motion taken for noise; a capture whose noise is under :data:`CLEAN_NOISE_DEG` is then
   called clean, "clean capture, smoothed").
@@ -72,8 +73,10 @@ __all__ = [
     "LOOK_CHANGE_NOISE",
     "LOOK_FAST_SHARE",
     "LOOK_REPAIRED_SHARE",
+    "LOOK_SANK_BY",
     "LOOK_SKATE",
     "LOOK_THRASH_S",
+    "LOOK_WORSE",
     "NEGLIGIBLE_JITTER",
     "NOT_SMOOTHING",
     "PLANTED_SKATE",
@@ -163,6 +166,18 @@ SLID_MORE = 1.25
 SLID_MORE_BY = 0.01
 #: Feet sliding faster than this after cleaning need a look (``footlock`` holds them).
 LOOK_SKATE = 0.5
+#: A foot the cleaning made clearly worse needs a look: its skate during contacts more than
+#: this many times what it was ...
+LOOK_WORSE = 2.0
+#: ... and faster by more than :data:`SLID_MORE_BY` body heights per second, or its depth
+#: below ground during contacts more than :data:`LOOK_WORSE` times and this many body
+#: heights deeper (3.5 mm of a 1.75 m body). On the sample clips, the exporters', CMU
+#: 131_01-03 (also at every 2nd, 4th and 5th frame and with 1-3 degrees of noise planted)
+#: and Xsens takes the default raised a skate by at most 0.0002 body heights/s (1.01
+#: times) and a depth by 0.00022 body heights (both a Mixamo foot); on a Perception Neuron
+#: sit-to-stand read as markerless it made a foot slide 3.5 times as fast (0.005 -> 0.018)
+#: and put the other 0.0035 body heights deeper (0.00012 -> 0.0036).
+LOOK_SANK_BY = 0.002
 #: Steps that repair, plant, put on the floor or resample a clip without smoothing it: a
 #: pipeline of these alone gets no noise judgement (``StepSpec.smooths``).
 NOT_SMOOTHING = frozenset(name for name, spec in REGISTRY.items() if not spec.smooths)
@@ -424,6 +439,48 @@ def _unplanted(report: dict) -> str:
     if skipped:
         return f"no feet looked for, nothing planted ({skipped})"
     return "no foot in contact found, nothing planted"
+
+
+def _feet_worse(report: dict) -> dict[str, dict[str, dict[str, float]]]:
+    """Per foot in contact that the cleaning made clearly worse (:data:`LOOK_WORSE`), its
+    ``skate`` (body heights per second) and ``depth`` below ground during contacts (body
+    heights) ``before`` and ``after``, those that rose so."""
+    feet = ((report.get("contacts") or {}).get("feet")) or {}
+    height = (report.get("world") or {}).get("body_height")
+    scale = float(height) if isinstance(height, float | int) and height > 0 else math.nan
+    found = {}
+    for name, foot in feet.items():
+        if not foot.get("contacts"):
+            continue
+        pairs = {
+            "skate": (foot.get("skate_body_heights"), 1.0, SLID_MORE_BY),
+            "depth": (foot.get("penetration_during_contacts"), scale, LOOK_SANK_BY),
+        }
+        worse = {}
+        for key, (pair, per, by) in pairs.items():
+            before, after = (pair or {}).get("before"), (pair or {}).get("after")
+            if before is None or after is None:
+                continue
+            before, after = before / per, after / per
+            if after > LOOK_WORSE * before and after - before > by:  # (False for NaN)
+                worse[key] = {"before": before, "after": after}
+        if worse:
+            found[name] = worse
+    return found
+
+
+def _worse_words(worse: dict[str, dict[str, dict[str, float]]]) -> str:
+    """ "the cleaning made the feet worse during contacts: RightFoot slides 0.005 -> 0.018
+    body heights/s, LeftFoot below ground 0.00012 -> 0.0036 body heights"."""
+    each = []
+    for name, found in worse.items():
+        if "skate" in found:
+            b, a = found["skate"]["before"], found["skate"]["after"]
+            each.append(f"{name} slides {b:.3f} -> {a:.3f} body heights/s")
+        if "depth" in found:
+            b, a = found["depth"]["before"], found["depth"]["after"]
+            each.append(f"{name} below ground {_length(b)} -> {_length(a)} body heights")
+    return f"the cleaning made the feet worse during contacts: {', '.join(each)}"
 
 
 def _over(value: float, limit: float) -> str:
@@ -710,6 +767,9 @@ def build_verdict(
     if skate is not None and skate > LOOK_SKATE:
         hint = "" if "footlock" in filters else " (footlock holds them)"
         reasons.append(f"feet slide {_over(skate, LOOK_SKATE)} body heights/s{hint}")
+    worse = _feet_worse(report)
+    if worse:
+        reasons.append(_worse_words(worse))
     done = _repair_words(repairs)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
     rotations_clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
@@ -723,7 +783,9 @@ def build_verdict(
     world = None if repairs else _world_removed(report)
     if removed and world is not None and _unseen(smoothing["noise_removed"], world):
         removed += " (" + removed_words(world, "end effectors' world acceleration") + ")"
-    looking = skate is not None and skate > LOOK_SKATE  # (the feet said among the reasons)
+    # (the feet said among the reasons: too fast, or sliding clearly more than before)
+    looking = skate is not None and skate > LOOK_SKATE
+    looking = looking or any("skate" in found for found in worse.values())
     shown_feet = None if looking else feet
     if not smoothed:
         parts = done + grounded
@@ -813,4 +875,5 @@ def build_verdict(
         "too_fast": too_fast,
         "thrash": thrash,
         "feet": feet,
+        "feet_worse": worse,
     }

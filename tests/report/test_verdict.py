@@ -811,6 +811,92 @@ def test_feet_made_to_slide_are_not_called_planted(tmp_path, capsys):
     assert after > 1.25 * before and "planted" not in line
 
 
+def test_feet_the_cleaning_made_clearly_worse_need_a_look(tmp_path, capsys):
+    """A Perception Neuron sit-to-stand read as markerless: the default made a foot slide
+    3.5 times as fast (0.005 -> 0.018 body heights/s) and the other sink below ground, and
+    the line had read "noisy capture, cleaned: 72 % of the jitter removed". A pair whose
+    cleaned root sways 0.03 body heights at 2 Hz slides its feet 3 times as fast during
+    their contacts: it needs a look, each foot named with its figures (the contacts'); a
+    sway of 0.002 body heights (no clear change) does not."""
+    clip = mc.load(SAMPLE)
+    height = kinematics.body_height(clip)
+    t = np.arange(clip.n_frames) * clip.frame_time
+    for sway, flagged in ((0.03, True), (0.002, False)):
+        translations = clip.translations.copy()
+        translations[:, 0, 0] += sway * height * np.sin(2.0 * np.pi * 2.0 * t)
+        swayed, report = tmp_path / f"sway{sway}.bvh", tmp_path / f"sway{sway}.json"
+        mc.save(clip.replace(translations=translations), swayed)
+        code, _, err = run_cli(capsys, "report", SAMPLE, swayed, "--json", report)
+        assert code == 0, err
+        figures = json.loads(report.read_text())
+        verdict, feet = figures["verdict"], figures["contacts"]["feet"]
+        skates = {name: foot["skate_body_heights"] for name, foot in feet.items()}
+        slid = {
+            name: skate
+            for name, skate in skates.items()
+            if skate["after"] > verdict_rules.LOOK_WORSE * skate["before"]
+            and skate["after"] - skate["before"] > verdict_rules.SLID_MORE_BY
+        }
+        assert bool(slid) is flagged and (verdict["status"] == "needs a look") is flagged
+        assert {name: found["skate"] for name, found in verdict["feet_worse"].items()} == slid
+        for name, skate in slid.items():
+            said = f"{name} slides {skate['before']:.3f} -> {skate['after']:.3f} body heights/s"
+            assert said in verdict["text"].split(". ")[0]
+        assert verdict["text"].startswith(
+            "needs a look: the cleaning made the feet worse during contacts: "
+            if flagged
+            else "clean capture"
+        ), verdict["text"]
+
+
+@pytest.mark.parametrize(
+    ("depth", "skate", "worse"),
+    [
+        # (body heights before and after; a clear rise is over twice and over the floor)
+        ((0.0, 1.05), (0.001, 0.002), {"depth"}),  # 0.001 -> 0.002 body heights/s: no
+        ((0.5, 0.999), (0.02, 0.02), set()),  # twice as deep, but under the floor
+        ((5.0, 9.0), (0.02, 0.1), {"skate"}),  # deeper, not twice as deep
+    ],
+)
+def test_a_foot_deeper_below_ground_needs_a_look_beyond_a_floor(depth, skate, worse):
+    """The depth below ground during contacts counts too (the Neuron clip's other foot:
+    0.00012 -> 0.0036 body heights), in body heights, as twice as deep and by more than
+    LOOK_SANK_BY (depth given here as shares of it); a rise from 0.001 to 0.002 of either
+    is no clear change."""
+    height, floor = 180.0, verdict_rules.LOOK_SANK_BY
+    foot = {
+        "contacts": [[10, 90]],
+        "skate_body_heights": {"before": skate[0], "after": skate[1]},
+        "penetration_during_contacts": {
+            "before": depth[0] * floor * height,
+            "after": depth[1] * floor * height,
+        },
+    }
+    report = {
+        "frames": 100,
+        "joints": {},
+        "world": {"body_height": height},
+        "contacts": {"feet": {"LeftFoot": foot}},
+        "pipeline": [{"filter": "auto"}],
+    }
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 0.9,
+        "change_deg_rms": 0.1,
+        "change_joint": "LeftHip",
+        "noise_level": 0.3,
+    }
+    verdict = build_verdict(report, smoothing)
+    assert set(verdict["feet_worse"].get("LeftFoot", {})) == worse
+    assert (verdict["status"] == "needs a look") is bool(worse)
+    if "depth" in worse:
+        assert verdict["feet_worse"]["LeftFoot"]["depth"]["after"] == pytest.approx(
+            depth[1] * floor
+        )
+        said = f"LeftFoot below ground 0 -> {depth[1] * floor:.2g} body heights"
+        assert said in verdict["text"]
+
+
 def test_smoothing_far_beyond_a_clips_noise_is_told_as_motion_taken_away(tmp_path, capsys):
     """A user's heavy smoothing of a clean capture (noise 0.01-0.03 degrees) had read "noisy
     capture, cleaned: 25 % of the jitter removed": the line now says it changed the clip by
