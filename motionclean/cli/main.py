@@ -48,7 +48,6 @@ from ..report.summary import (
     noise_figures,
     pair_repairs,
     short_names,
-    turned_notes,
     unrepaired_jumps,
 )
 from ..report.verdict import listed
@@ -514,11 +513,12 @@ def report(
     after = with_up(read.load(cleaned), up) if cleaned else None
     if after is not None:
         check_compatible(before, after, compared=True)
-    # (a pair has no step's notes: a joint turned over a quarter turn was repaired)
-    repairs = {} if after is None else pair_repairs(before, after)
-    series = build_series(before, after, repairs)
+    # (a pair has no step's notes: the turns over 150 degrees and the brief changes it
+    # shows are taken for repairs)
+    repairs = None if after is None else pair_repairs(before, after)
+    series = build_series(before, after, None if repairs is None else repairs.masks)
     notes = gap_notes(before, after)  # the dropouts, and what a fill left or did
-    for name, note in turned_notes(repairs).items():
+    for name, note in ({} if repairs is None else repairs.notes).items():
         notes.setdefault(name, {}).update(note)
     result = build_report(before, after, notes=notes, file=source, series=series)
     result["capture_source"] = capture_source_note(before, capture)

@@ -643,6 +643,17 @@ def missing_before(missing: np.ndarray) -> np.ndarray:
     )
 
 
+def run_labels(mask: np.ndarray) -> np.ndarray:
+    """``(F, C)`` int: each run of True frames of ``mask`` ``(F, C)`` bool, per column,
+    labelled ``1, 2, ...`` (over all columns: no two runs share a label), 0 outside them."""
+    n_frames, n_cols = mask.shape
+    # columns end to end, each closed by a False row: no run crosses into the next
+    flat = np.concatenate([mask, np.zeros((1, n_cols), dtype=bool)]).ravel(order="F")
+    starts = flat & ~np.concatenate([[False], flat[:-1]])
+    labels = np.cumsum(starts) * flat
+    return labels.reshape(n_frames + 1, n_cols, order="F")[:-1]
+
+
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
     """``values`` ``(F, J, ...)`` with each missing sample (``missing`` ``(F, J)`` bool)
     replaced by the joint's last known sample before it, or the first known one after it

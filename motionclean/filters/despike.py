@@ -106,7 +106,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core import checks, quat
-from ..core.motion import hold_missing, missing_before
+from ..core.motion import hold_missing, missing_before, run_labels
 from ..core.rates import frames_floor
 from ..core.takes import (
     JUMP_THRESHOLD,
@@ -929,15 +929,9 @@ def _repair(
 
 def _without(mask: np.ndarray, marked: np.ndarray) -> np.ndarray:
     """``(F, C)``: the runs of ``mask`` (along frames, per column) with no ``marked`` frame."""
-    n_cols = mask.shape[1]
-    # columns end to end, each closed by a False row: no run crosses into the next
-    flat = np.concatenate([mask, np.zeros((1, n_cols), dtype=bool)]).ravel(order="F")
-    hit = np.concatenate([marked, np.zeros((1, n_cols), dtype=bool)]).ravel(order="F")
-    starts = flat & ~np.concatenate([[False], flat[:-1]])
-    run = np.cumsum(starts) * flat  # (0 outside the runs)
-    touched = np.bincount(run[hit & flat], minlength=int(run.max(initial=0)) + 1) > 0
-    kept = flat & ~touched[run]
-    return kept.reshape(mask.shape[0] + 1, n_cols, order="F")[:-1]
+    run = run_labels(mask)
+    touched = np.bincount(run[marked & mask], minlength=int(run.max(initial=0)) + 1) > 0
+    return mask & ~touched[run]
 
 
 #: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.

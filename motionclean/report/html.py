@@ -444,6 +444,7 @@ def _headline(report: dict) -> list[str]:
             "spikes": "spike",
             "capped": "capped step",
             "gaps_filled": "gap",
+            "brief": "brief change",
         }
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
         done = (
@@ -458,7 +459,8 @@ def _headline(report: dict) -> list[str]:
         stats.append(
             _stat(
                 _e(done),
-                f"repaired on {plural(frames, 'frame')} of {_e(', '.join(repairs))}",
+                f"{'changed' if counts['brief'] else 'repaired'} on {plural(frames, 'frame')} "
+                f"of {_e(', '.join(repairs))}",
             )
         )
     stats.append(

@@ -20,7 +20,8 @@ import numpy as np
 from ..core import contacts as found
 from ..core import kinematics
 from ..core.jumps import JUMP_DEG, jump_steps
-from ..core.motion import Motion
+from ..core.motion import Motion, run_labels
+from ..core.rates import frames_floor
 from ..core.restpose import rest_frames, trim
 from ..core.takes import take_starts
 from ..core.threads import run_parts
@@ -33,7 +34,15 @@ from .html_world import world_series
 from .metrics import known, pair, rms_and_max
 from .thrash import thrash_frames, worst_window
 from .traces import Trace, traces
-from .verdict import CLEAN_CHANGE_DEG, FAST_DEG_PER_S, PAIR_REPAIR_DEG, build_verdict, listed
+from .verdict import (
+    CLEAN_CHANGE_DEG,
+    FAST_DEG_PER_S,
+    PAIR_BRIEF_S,
+    PAIR_REPAIR_DEG,
+    UNCHANGED_DEG,
+    build_verdict,
+    listed,
+)
 from .world import (
     contact_figures,
     figure_points,
@@ -50,32 +59,61 @@ __all__ = ["build_report", "build_series", "format_table", "noise_figures", "to_
 _PAIR_BLOCK = 8
 
 
-def pair_repairs(before: Motion, after: Motion) -> dict[str, np.ndarray]:
-    """Per joint whose rotation changed by more than
-    :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` somewhere, the ``(F,)`` mask of
-    those frames: the repairs of a cleaned pair, read from the clips."""
+class PairRepairs(NamedTuple):
+    """What a pair of clips shows repaired, without a step's notes (:func:`pair_repairs`):
+    per joint, ``masks`` ``(F,)`` of the frames the figures leave out, and ``notes``: its
+    ``turned`` runs (over :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`) and its
+    ``brief_change`` runs (``runs``, ``max_deg``: changed on at most
+    :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row), ``[start, stop)`` frames."""
+
+    masks: dict[str, np.ndarray]
+    notes: dict[str, dict]
+
+
+def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
+    """The frames of each joint that ``after`` repaired, read from the two clips: those it
+    turned by more than :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`, and the runs
+    it changed on no more than :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row
+    (by more than :data:`~motionclean.report.verdict.UNCHANGED_DEG`, the frames on both sides
+    as they were; samples missing in either clip are no change), holding no such turn."""
     rotating = np.flatnonzero(before.layout.has_rotation)
-    masks = {}
+    longest = max(1, frames_floor(PAIR_BRIEF_S / before.frame_time))
+    missing = _missing(before, after, rotating)
+    masks: dict[str, np.ndarray] = {}
+    notes: dict[str, dict] = {}
     for at in range(0, rotating.size, _PAIR_BLOCK):
         cols = rotating[at : at + _PAIR_BLOCK]
-        far = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols])
-        far = far > PAIR_REPAIR_DEG
-        for k in np.flatnonzero(far.any(axis=0)).tolist():
-            masks[before.names[cols[k]]] = far[:, k]
-    return masks
+        change = metrics.deviation_deg(
+            before.rotations[:, cols],
+            after.rotations[:, cols],
+            None if missing is None else missing[:, at : at + _PAIR_BLOCK],
+        )
+        far = change > PAIR_REPAIR_DEG  # (False where NaN: missing)
+        brief = _brief(change > UNCHANGED_DEG, far, longest)
+        turned_runs = found.contact_runs(far)
+        brief_runs = found.contact_runs(brief)
+        for k in np.flatnonzero((far | brief).any(axis=0)).tolist():
+            name = before.names[cols[k]]
+            masks[name] = far[:, k] | brief[:, k]
+            notes[name] = {}
+            if turned_runs[k]:
+                notes[name]["turned"] = {"runs": [list(run) for run in turned_runs[k]]}
+            if brief_runs[k]:
+                peak = float(change[brief[:, k], k].max())
+                runs = [list(run) for run in brief_runs[k]]
+                notes[name]["brief_change"] = {"runs": runs, "max_deg": peak}
+    return PairRepairs(masks, notes)
 
 
-def turned_notes(repairs: dict[str, np.ndarray]) -> dict[str, dict]:
-    """Per joint of :func:`pair_repairs`, its ``turned`` note: the ``[start, stop)`` runs of
-    frames it turned by more than
-    :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (the verdict counts them as
-    repairs, and its figures leave them out)."""
-    if not repairs:
-        return {}
-    runs = found.contact_runs(np.stack(list(repairs.values()), axis=1))
-    return {
-        name: {"turned": {"runs": [list(run) for run in runs[k]]}} for k, name in enumerate(repairs)
-    }
+def _brief(changed: np.ndarray, far: np.ndarray, longest: int) -> np.ndarray:
+    """``(F, C)``: the runs of ``changed`` frames, per column, of at most ``longest`` frames
+    and without a ``far`` one."""
+    run = run_labels(changed)
+    size = np.bincount(run.ravel())
+    holds_far = np.bincount(run[far], minlength=size.size) > 0
+    kept = (size <= longest) & ~holds_far
+    kept[0] = False  # (label 0: outside every run)
+    return kept[run]
 
 
 def build_series(

@@ -55,11 +55,11 @@ import numpy as np
 
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
-from ..core.takes import MAX_DEG_PER_S
+from ..core.takes import LONGEST_SPIKE_S, MAX_DEG_PER_S
 from ..core.words import length_word, percent, plural
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
-from ..steps.base import format_runs
+from ..steps.base import BRIEF_RUNS, format_runs
 from .thrash import THRASH_DEG_PER_S
 
 __all__ = [
@@ -192,12 +192,20 @@ def _runs(note: dict, key: str) -> list[list[int]]:
 #: joint about half a turn (165-180 degrees on the noisy sample's RThumb), where smoothing
 #: across the same flips (``multires:level=2,cut_deg=180``) leaves 60-150.
 PAIR_REPAIR_DEG = 150.0
+#: ... and a joint changed on no more than this many seconds in a row, the frames on both
+#: sides exactly as they were, changed briefly, as a repair does (``despike``'s longest
+#: spike, 0.07 s, widened by its cap a frame per side as many times): no smoothing leaves
+#: the frames around its change untouched. Told as such, not as smoothing (an Xsens toe
+#: capped on 2 frames had read "smoothing changed it by 0.08 degrees RMS, more than 3
+#: times its noise: motion taken for noise").
+PAIR_BRIEF_S = 3 * LONGEST_SPIKE_S
 #: The notes that say which frames a repairing step changed: (step, key) of its runs.
 _ROTATION_REPAIRS = (
     ("despike", "unflipped"),
     ("despike", "interpolated"),
     ("fill-gaps", "filled"),
     ("turned", "runs"),  # (two clips compared: the frames turned over PAIR_REPAIR_DEG)
+    ("brief_change", "runs"),  # (two clips compared: joints changed briefly)
 )
 _POSITION_REPAIRS = (("position_despike", "interpolated"), ("fill-gaps", "filled"))
 
@@ -265,6 +273,7 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
         capped = len(_runs(despike, "capped")) + len(_runs(position, "capped"))
         gaps = entry.get("fill-gaps") or {}
         turned = _runs(entry.get("turned") or {}, "runs")
+        brief = _runs(entry.get("brief_change") or {}, "runs")
         counts = {
             "flips": len(_runs(despike, "unflipped")),
             "spikes": len(_runs(despike, "interpolated")) + len(moved) - capped,
@@ -274,9 +283,11 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
         }
         if turned:  # (two clips compared)
             counts = {"turned": len(turned)} | counts
+        if brief:  # (two clips compared)
+            counts = counts | {"brief": len(brief)}
         if any(counts.values()):
             frames = int(despike.get("frames_repaired", 0))
-            frames += sum(b - a for a, b in _runs(gaps, "filled") + turned)
+            frames += sum(b - a for a, b in _runs(gaps, "filled") + turned + brief)
             if moved:  # the position repairs' frames the rotations' left out
                 told = [
                     run
@@ -326,6 +337,29 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
             each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
         words.append(f"{total} ({', '.join(each)})")
     return words
+
+
+def _brief_words(joints: dict[str, dict]) -> list[str]:
+    """ "changed by up to 5.1 degrees on RightToe (frames 64-65)": the joints two clips
+    compared show changed briefly (their ``brief_change`` notes), as a repair does; several
+    counted per joint, most runs first ("changed by up to 11.1 degrees in 9 brief runs
+    (RightToe 5, LeftToe 4)")."""
+    notes = {name: e["brief_change"] for name, e in joints.items() if e.get("brief_change")}
+    if not notes:
+        return []
+    peak = f"changed by up to {max(n['max_deg'] for n in notes.values()):.1f} degrees"
+    if len(notes) == 1:
+        name, note = next(iter(notes.items()))
+        runs = note["runs"]
+        if len(runs) <= BRIEF_RUNS:
+            return [f"{peak} on {name} (frames {format_runs(runs)})"]
+        return [f"{peak} on {name} in {len(runs):,} brief runs (first {format_runs(runs[:1])})"]
+    counts = sorted(((len(n["runs"]), name) for name, n in notes.items()), key=lambda p: -p[0])
+    each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
+    if len(counts) > REPAIRS_NAMED:
+        each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
+    total = plural(sum(n for n, _ in counts), "brief run")
+    return [f"{peak} in {total} ({', '.join(each)})"]
 
 
 def _too_fast(smoothing: dict) -> dict[str, dict[str, float]]:
@@ -771,6 +805,7 @@ def build_verdict(
     if worse:
         reasons.append(_worse_words(worse))
     done = _repair_words(repairs)
+    briefly = _brief_words(joints)  # (two clips compared: no repair claimed)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
     rotations_clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
         grounded and not rotations_unmeasured and smoothing["noise_removed"] < NEGLIGIBLE_JITTER
@@ -788,7 +823,7 @@ def build_verdict(
     looking = looking or any("skate" in found for found in worse.values())
     shown_feet = None if looking else feet
     if not smoothed:
-        parts = done + grounded
+        parts = done + briefly + grounded
         if too_short:
             parts.insert(0, f"too short to judge ({plural(motion_frames, 'frame')})")
         elif unmeasured:
@@ -799,7 +834,7 @@ def build_verdict(
             parts.append("nothing repaired")
         lead = "not smoothed"
     elif clean:
-        parts = done + grounded
+        parts = done + briefly + grounded
         # (below CLEAN_CHANGE_DEG RMS, its largest change may still be a few tenths)
         left = "left as it was" if change < CLEAN_CHANGE_DEG else "barely moved"
         if positions_lead:  # "left as it was" only where no value moved
@@ -809,7 +844,7 @@ def build_verdict(
         parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
     else:
-        parts = [removed] + done + grounded
+        parts = [removed] + done + briefly + grounded
         if positions_lead and position_removed is not None:
             parts[0] = removed_words(position_removed, "position jitter")
         elif told and position_removed is not None and position_removed <= -0.005:
@@ -830,10 +865,13 @@ def build_verdict(
         parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired
     where = " (steps not recorded: repairs not told apart)"
+    turned = any(counts.get("turned") for counts in repairs.values())  # (two clips compared)
     if report.get("pipeline"):
         where = " outside repairs"
-    elif any(counts.get("turned") for counts in repairs.values()):  # (two clips compared)
-        where = f" outside repairs (turns over {PAIR_REPAIR_DEG:g} degrees: steps not recorded)"
+    elif turned or briefly:
+        left = " and ".join(w for w, on in (("repairs", turned), ("brief changes", briefly)) if on)
+        why = f"turns over {PAIR_REPAIR_DEG:g} degrees: " if turned else ""
+        where = f" outside {left} ({why}steps not recorded)"
     tail = f"largest change {change:.1f} degrees{where}"
     if change < 0.05:
         tail = f"largest change {change:.2g} degrees{where}"

@@ -415,6 +415,42 @@ def test_two_clips_compared_take_turns_over_a_quarter_turn_for_repairs(tmp_path,
     assert code == 0 and ">5 turns<" in page and "repaired on 48 frames of RThumb" in page
 
 
+@pytest.mark.parametrize("frames", [6, 60])
+def test_two_clips_compared_tell_a_brief_change_as_such_not_as_smoothing(tmp_path, capsys, frames):
+    """`report IN CLEANED` of an Xsens walk and its default clean, which only capped a toe's
+    step on 2 frames, had read "needs a look: smoothing changed it by 0.08 degrees RMS, more
+    than 3 times its noise (0.019 degrees): motion taken for noise": the pair cannot tell
+    repairs from smoothing, but a joint changed on a few frames in a row, the frames around
+    them as they were, is no smoothing. The line says what it can know; a change as large
+    held longer than PAIR_BRIEF_S (0.5 s here) is still judged as smoothing."""
+    clip = mc.load(SAMPLE)
+    toe = clip.names.index("LeftToe")
+    degrees = np.interp(np.arange(frames), [0, 1, frames - 2, frames - 1], [4, 9, 9.5, 4])
+    turn = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(degrees))
+    q = clip.rotations.copy()
+    q[150 : 150 + frames, toe] = quat.multiply(q[150 : 150 + frames, toe], turn)
+    changed = tmp_path / "changed.bvh"
+    mc.save(clip.replace(rotations=q), changed)
+    code, out, err = run_cli(capsys, "report", SAMPLE, changed, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    verdict, note = report["verdict"], report["joints"]["LeftToe"].get("brief_change")
+    peak = float(np.degrees(quat.angle_between(clip.rotations[:, toe], q[:, toe])).max())
+    brief = frames * clip.frame_time <= verdict_rules.PAIR_BRIEF_S
+    assert (note is not None) is brief
+    if brief:
+        assert note["runs"] == [[150, 150 + frames]]
+        assert note["max_deg"] == pytest.approx(peak, abs=1e-6)
+        assert verdict["status"] == "clean" and verdict["repairs"]["LeftToe"]["brief"] == 1
+        assert "smooth" not in verdict["text"] and verdict["change_deg_max"] < 1e-6
+        said = f"changed by up to {peak:.1f} degrees on LeftToe (frames 150-{149 + frames})"
+        assert verdict["text"].startswith(f"clean capture: {said}, otherwise left as it was")
+        assert verdict["text"].endswith("outside brief changes (steps not recorded)")
+    else:
+        assert verdict["change_deg_max"] == pytest.approx(peak, abs=1e-6)
+        assert "smoothing changed it by" in verdict["text"]
+
+
 def test_two_clips_with_dropouts_compared_say_which_gaps_the_second_filled(tmp_path, capsys):
     """A tracker CSV with a dropout and its cleaned copy (which `report IN OUT` had refused:
     "fill them first"): the gaps are read from the two files, filled or still missing."""
