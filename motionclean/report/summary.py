@@ -109,7 +109,7 @@ def _brief(changed: np.ndarray, far: np.ndarray, longest: int) -> np.ndarray:
     """``(F, C)``: the runs of ``changed`` frames, per column, of at most ``longest`` frames
     and without a ``far`` one."""
     run = run_labels(changed)
-    size = np.bincount(run.ravel())
+    size = np.bincount(run.ravel(), minlength=1)
     holds_far = np.bincount(run[far], minlength=size.size) > 0
     kept = (size <= longest) & ~holds_far
     kept[0] = False  # (label 0: outside every run)
