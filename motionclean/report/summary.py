@@ -62,20 +62,22 @@ _PAIR_BLOCK = 8
 class PairRepairs(NamedTuple):
     """What a pair of clips shows repaired, without a step's notes (:func:`pair_repairs`):
     per joint, ``masks`` ``(F,)`` of the frames the figures leave out, and ``notes``: its
-    ``turned`` runs (over :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`) and its
-    ``brief_change`` runs (``runs``, ``max_deg``: changed on at most
-    :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row), ``[start, stop)`` frames."""
+    ``turned`` runs (over :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`, with the
+    brief run of changed frames around) and its ``brief_change`` runs (``runs``,
+    ``max_deg``: changed on at most :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a
+    row), ``[start, stop)`` frames."""
 
     masks: dict[str, np.ndarray]
     notes: dict[str, dict]
 
 
 def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
-    """The frames of each joint that ``after`` repaired, read from the two clips: those it
-    turned by more than :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`, and the runs
+    """The frames of each joint that ``after`` repaired, read from the two clips: the runs
     it changed on no more than :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row
     (by more than :data:`~motionclean.report.verdict.UNCHANGED_DEG`, the frames on both sides
-    as they were; samples missing in either clip are no change), holding no such turn."""
+    as they were; samples missing in either clip are no change), turned where they hold a
+    frame turned by more than :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (as are
+    such frames in longer runs: un-flipped), else brief changes."""
     rotating = np.flatnonzero(before.layout.has_rotation)
     longest = max(1, frames_floor(PAIR_BRIEF_S / before.frame_time))
     missing = _missing(before, after, rotating)
@@ -88,8 +90,7 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
             after.rotations[:, cols],
             None if missing is None else missing[:, at : at + _PAIR_BLOCK],
         )
-        far = change > PAIR_REPAIR_DEG  # (False where NaN: missing)
-        brief = _brief(change > UNCHANGED_DEG, far, longest)
+        far, brief = _brief(change > UNCHANGED_DEG, change > PAIR_REPAIR_DEG, longest)
         turned_runs = found.contact_runs(far)
         brief_runs = found.contact_runs(brief)
         for k in np.flatnonzero((far | brief).any(axis=0)).tolist():
@@ -105,15 +106,15 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
     return PairRepairs(masks, notes)
 
 
-def _brief(changed: np.ndarray, far: np.ndarray, longest: int) -> np.ndarray:
-    """``(F, C)``: the runs of ``changed`` frames, per column, of at most ``longest`` frames
-    and without a ``far`` one."""
+def _brief(changed: np.ndarray, far: np.ndarray, longest: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, C)`` each: the ``far`` frames with the runs of ``changed`` frames (per column)
+    of at most ``longest`` frames that hold one, and those brief runs that hold none."""
     run = run_labels(changed)
     size = np.bincount(run.ravel(), minlength=1)
     holds_far = np.bincount(run[far], minlength=size.size) > 0
-    kept = (size <= longest) & ~holds_far
-    kept[0] = False  # (label 0: outside every run)
-    return kept[run]
+    short = size <= longest
+    short[0] = False  # (label 0: outside every run)
+    return far | (short & holds_far)[run], (short & ~holds_far)[run]
 
 
 def build_series(
