@@ -203,6 +203,7 @@ PAIR_BRIEF_S = 3 * LONGEST_SPIKE_S
 _ROTATION_REPAIRS = (
     ("despike", "unflipped"),
     ("despike", "interpolated"),
+    ("auto", "outliers"),  # (lone one-frame spikes auto took out before smoothing)
     ("fill-gaps", "filled"),
     ("turned", "runs"),  # (two clips compared: the frames turned over PAIR_REPAIR_DEG)
     ("brief_change", "runs"),  # (two clips compared: joints changed briefly)
@@ -274,9 +275,10 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
         gaps = entry.get("fill-gaps") or {}
         turned = _runs(entry.get("turned") or {}, "runs")
         brief = _runs(entry.get("brief_change") or {}, "runs")
+        lone = _runs(entry.get("auto") or {}, "outliers")
         counts = {
             "flips": len(_runs(despike, "unflipped")),
-            "spikes": len(_runs(despike, "interpolated")) + len(moved) - capped,
+            "spikes": len(_runs(despike, "interpolated")) + len(moved) + len(lone) - capped,
             "capped": capped,
             "gaps_filled": len(_runs(gaps, "filled")),
             "gaps_left": len(_runs(gaps, "missing")),
@@ -287,7 +289,7 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
             counts = counts | {"brief": len(brief)}
         if any(counts.values()):
             frames = int(despike.get("frames_repaired", 0))
-            frames += sum(b - a for a, b in _runs(gaps, "filled") + turned + brief)
+            frames += sum(b - a for a, b in _runs(gaps, "filled") + turned + brief + lone)
             if moved:  # the position repairs' frames the rotations' left out
                 told = [
                     run

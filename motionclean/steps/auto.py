@@ -8,10 +8,20 @@ import numpy as np
 
 from ..core import kinematics, quat
 from ..core.motion import Motion, hold_missing
-from ..core.words import length_word
+from ..core.words import length_word, plural
 from ..filters.auto import FAMILIES, SOURCES, SourceFound, auto, auto_positions, found_source
 from ..filters.gaps import fill_gaps
-from .base import Param, StepData, StepSpec, format_params
+from ..filters.outliers import lone_outliers, replaced
+from .base import (
+    Param,
+    StepData,
+    StepSpec,
+    brief_runs,
+    crop_runs,
+    format_params,
+    page_runs,
+    shift_runs,
+)
 
 #: What a note says of a column whose every sample is missing.
 UNMEASURED = "nothing to measure: no three frames in a row known"
@@ -102,20 +112,35 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     translations, missing_p = _bridged(
         data.translations, data.motion, data.translation_joints, False
     )
-    shared["overwrite"] = data.owned or missing_r is not None
     result = auto(
         rotations,
         data.frame_time,
         noise=params["noise_deg"],
         source=params["source"],
-        **shared,
+        **(shared | {"overwrite": False}),  # (the input is judged for lone outliers below)
     )
+    lone = _lone(rotations, result, missing_r)
+    if lone.any():  # taken out, and the clip cleaned again without them
+        result = auto(
+            replaced(quat.continuous(rotations), lone),
+            data.frame_time,
+            noise=params["noise_deg"],
+            source=params["source"],
+            **(shared | {"overwrite": True}),
+        )
+        # a joint the clean pass leaves unfiltered keeps its input, outliers and all (its
+        # noise had been those samples: a clean capture's own zigzags, 30 fps hips)
+        kept = np.array([choice.mask == "none" for choice in result.choices])
+        result.values[:, kept] = rotations[:, kept]
+        lone[:, kept] = False
     data.rotations = result.values
     if missing_r is not None:  # the bridges go: placeholders held again
         data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
     unseen = _unmeasured(data.rotations.shape, missing_r)
     for column in range(data.rotations.shape[1]):
         note = _auto_note(result, column, "deg", unseen[column])
+        if lone[:, column].any():
+            note["outliers"] = [[int(f), int(f) + 1] for f in np.flatnonzero(lone[:, column])]
         data.rotation_notes[column] = {"auto": note}
     if translations is not None:
         shared["overwrite"] = data.owned or missing_p is not None
@@ -133,6 +158,17 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     return data
 
 
+def _lone(rotations: np.ndarray, first, missing: np.ndarray | None) -> np.ndarray:
+    """``(F, C)``: the lone outliers (:func:`~motionclean.filters.outliers.lone_outliers`)
+    of the columns ``auto`` filtered in its ``first`` pass, judged against the noise it
+    found there; none where it left a joint as it was (a clean capture's own single-frame
+    glitches stay as captured) or was given the noise."""
+    filtered = np.array([choice.mask != "none" for choice in first.choices])
+    noise = np.where(filtered, first.noise.reshape(-1), 0.0)
+    known = None if missing is None else ~missing
+    return lone_outliers(quat.continuous(rotations), noise, known)
+
+
 def _how(note: dict) -> str:
     """How auto came by the capture system of a rotation ``note``: found or given."""
     if note.get("source", "auto") != "auto":
@@ -140,11 +176,40 @@ def _how(note: dict) -> str:
     return "found from the clip" if note.get("source_measured") else "the noise level given"
 
 
-def _format_note(note: dict, positions: bool) -> str:
+def _format_note(note: dict, positions: bool, ranges=page_runs) -> str:
     """What auto found for one joint: the noise (level, correlation, loud stretches), the
-    choice and its expected error."""
+    choice and its expected error; the lone outliers it took out first."""
     if note["noise"] is None:
         return UNMEASURED
+    found = note.get("outliers") or []
+    lone = (
+        f"; took out {plural(len(found), 'lone outlier')} first ({ranges(found)})" if found else ""
+    )
+    return _found_and_chosen(note) + lone
+
+
+def _format_brief(note: dict, positions: bool) -> str:
+    """:func:`_format_note` with long frame lists summarised (the terminal form)."""
+    return _format_note(note, positions, brief_runs)
+
+
+def _crop_note(note: dict, start: int, stop: int) -> dict:
+    """The note of a ranged auto: its lone outliers within frames ``[start, stop)``."""
+    if "outliers" not in note:
+        return note
+    kept = crop_runs(note["outliers"], start, stop)
+    return {k: v for k, v in note.items() if k != "outliers"} | ({"outliers": kept} if kept else {})
+
+
+def _shift_note(note: dict, frames: int) -> dict:
+    """The note with its lone outliers' frames moved by ``frames``."""
+    if "outliers" not in note:
+        return note
+    return note | {"outliers": shift_runs(note["outliers"], frames)}
+
+
+def _found_and_chosen(note: dict) -> str:
+    """The noise auto found for one joint and the filter it chose."""
     given = note["unit"]  # "deg"; for positions "m" where the format fixes it, else "length"
     unit = given if given == "deg" else length_word(None if given == "length" else given)
     error = note["expected_error"]
@@ -234,4 +299,7 @@ STEP = StepSpec(
     run=_run_auto,
     sees_missing=True,
     format_note=_format_note,
+    format_brief=_format_brief,
+    crop_note=_crop_note,
+    shift_note=_shift_note,
 )

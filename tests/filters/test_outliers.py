@@ -1,0 +1,127 @@
+"""Lone outliers: single samples leaving a joint's noise and coming straight back are found
+against the noise level, impacts and noise are not, the same on a turned or reversed clip;
+in the default pipeline auto takes them out before smoothing and says so."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from helpers import ROOT, degrees_between, plant, run_cli, smooth_synthetic
+
+import motionclean as mc
+from motionclean.core import quat
+from motionclean.filters.outliers import LONE_SIGMAS, lone_outliers, replaced
+
+NOISE_DEG = 2.0
+#: One-frame spikes on the sample's legs: under despike's jump threshold at that noise
+#: (most of them), over the lone outliers' (12.2 degrees from the chord).
+SPIKE_DEG = 18.0
+
+
+def _spiked(seed: int, spike_deg: float = 25.0):
+    """Slow motion with 2 degrees of noise and one-frame spikes of ``spike_deg`` about a
+    random axis on every joint, 40 frames apart (frames, joints)."""
+    rng = np.random.default_rng(seed)
+    truth = smooth_synthetic(600, 4, seed)
+    noisy = plant(truth, NOISE_DEG, seed)
+    frames = np.arange(20, 580, 40)
+    axis = rng.normal(size=(frames.size, 4, 3))
+    axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+    kick = quat.exp(axis * np.radians(spike_deg) / 2.0)
+    noisy[frames] = quat.multiply(noisy[frames], kick)
+    spikes = np.zeros(noisy.shape[:2], dtype=bool)
+    spikes[frames] = True
+    return truth, noisy, spikes
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_spikes_of_a_noisy_clip_are_found_and_its_noise_is_not(seed):
+    _, noisy, spikes = _spiked(seed)
+    found = lone_outliers(noisy, np.full(4, NOISE_DEG))
+    assert np.array_equal(found, spikes)
+    # spikes within the noise's reach are left to the smoothing
+    _, small, _ = _spiked(seed, spike_deg=LONE_SIGMAS * NOISE_DEG * 0.5)
+    assert not lone_outliers(small, np.full(4, NOISE_DEG)).any()
+
+
+def test_an_impact_is_no_outlier():
+    """A turn that stops dead at one frame (a foot striking) leaves its neighbours on
+    their chords: however large, no lone outlier; nor is a column without noise judged."""
+    angle = np.r_[np.linspace(0.0, 1.2, 60), np.full(60, 1.2)]  # radians, stopping at 59
+    q = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), angle)[:, None]
+    assert not lone_outliers(q, np.array([0.01])).any()
+    q[30] = quat.multiply(q[30], quat.from_axis_angle(np.array([1.0, 0, 0]), 0.5))
+    assert lone_outliers(q, np.array([0.01]))[30, 0]
+    assert not lone_outliers(q, np.array([0.0])).any()
+
+
+def test_the_same_outliers_on_a_turned_and_a_reversed_clip():
+    _, noisy, spikes = _spiked(3)
+    turn = quat.from_axis_angle(np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2]), 2.0)
+    noise = np.full(4, NOISE_DEG)
+    for copy in (quat.multiply(turn, noisy), quat.multiply(noisy, turn)):
+        assert np.array_equal(lone_outliers(copy, noise), spikes)
+    assert np.array_equal(lone_outliers(noisy[::-1], noise)[::-1], spikes)
+
+
+def test_unknown_samples_and_two_in_a_row_are_not_judged():
+    """A spike beside a dropout is not judged (the chord there is a bridge); a spike held
+    two frames is no lone sample."""
+    _, noisy, spikes = _spiked(4)
+    first = int(np.flatnonzero(spikes[:, 0])[0])
+    known = np.ones(spikes.shape, dtype=bool)
+    known[first + 2, 0] = False  # (a dropout two frames on: the chord there is a bridge)
+    found = lone_outliers(noisy, np.full(4, NOISE_DEG), known)
+    assert not found[first, 0] and found[first, 1]
+    twice = noisy.copy()
+    twice[first + 1, 1] = twice[first, 1]
+    assert not lone_outliers(twice, np.full(4, NOISE_DEG))[first : first + 2, 1].any()
+
+
+def test_a_replaced_outlier_lies_on_its_neighbours_chord():
+    _, noisy, spikes = _spiked(5)
+    out = replaced(noisy, spikes)
+    f, c = np.nonzero(spikes)
+    np.testing.assert_allclose(
+        degrees_between(out[f, c], noisy[f - 1, c]), degrees_between(out[f, c], noisy[f + 1, c])
+    )
+    np.testing.assert_array_equal(out[~spikes], noisy[~spikes])
+
+
+def test_the_default_takes_lone_outliers_out_before_smoothing(tmp_path, capsys):
+    """The sample's clean cut with 2 degrees of noise and 18-degree one-frame spikes on
+    its legs: each spike is repaired, by despike or by auto (whose notes list it), the
+    verdict counts them with the spikes, and the spike frames end within the noise of the
+    capture (smoothed in, a binomial k=1 had kept half of each)."""
+    clip = mc.load(ROOT / "sample_data" / "131_02_cut.bvh")
+    legs = [clip.names.index(n) for n in ("LeftHip", "LeftKnee", "RightHip", "RightKnee")]
+    rng = np.random.default_rng(7)
+    noisy = plant(clip.rotations, NOISE_DEG, 7)
+    frames = np.arange(30, clip.n_frames - 30, 50)
+    axis = rng.normal(size=(frames.size, len(legs), 3))
+    axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+    kick = quat.exp(axis * np.radians(SPIKE_DEG) / 2.0)
+    noisy[frames[:, None], legs] = quat.multiply(noisy[frames[:, None], legs], kick)
+    source, target, page = tmp_path / "spiked.bvh", tmp_path / "out.bvh", tmp_path / "r.json"
+    mc.save(clip.replace(rotations=noisy, source_values=None), source)
+    code, _, _ = run_cli(capsys, "clean", source, "-o", target, "--report", page)
+    assert code == 0
+    report = json.loads(page.read_text())
+    lone = 0
+    for joint in legs:
+        notes = report["joints"][clip.names[joint]]
+        runs = (notes.get("despike") or {}).get("interpolated", []) + notes["auto"].get(
+            "outliers", []
+        )
+        assert all(any(a <= f < b for a, b in runs) for f in frames), clip.names[joint]
+        lone += len(notes["auto"].get("outliers", []))
+    assert lone > 0
+    repairs = report["verdict"]["repairs"]
+    assert sum(repairs[clip.names[j]]["spikes"] for j in legs) >= frames.size * len(legs)
+    cleaned = mc.load(target)
+    error = degrees_between(
+        cleaned.rotations[frames[:, None], legs], clip.rotations[frames[:, None], legs]
+    )
+    assert error.max() < 2.5 * NOISE_DEG
