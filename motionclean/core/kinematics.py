@@ -14,6 +14,7 @@ loop is over the depth of the tree (all joints of one depth at once).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,6 +30,7 @@ __all__ = [
     "MotionUp",
     "axis_index",
     "body_parts",
+    "body_split",
     "motion_up",
     "on_all_fours",
     "up_contradiction",
@@ -756,21 +758,46 @@ def trunk_split(parents: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     most points, holding at least three leaves (head and hands) and more points than any
     other; the legs are the other subtrees. Of several roots, the first with a trunk, the
     ones with the most points below them first (the first of equals: a body beside a prop,
-    or beside another body). A hand, a pair of legs alone or independent tracked bodies
-    have none.
+    or beside another body); a point whose largest child subtree and another have trunks
+    of their own holds several bodies (a ``World`` root with two performers), read as
+    several roots are. A hand, a pair of legs alone or independent tracked bodies have
+    none.
     """
+    found = body_split(parents)
+    return None if found is None else found[1:]
+
+
+def body_split(parents: np.ndarray) -> tuple[int, np.ndarray, np.ndarray] | None:
+    """:func:`trunk_split` with the point the body hangs from: ``(top, upper, lower)``,
+    ``top`` the root, or the child of a point holding several bodies, whose subtree is the
+    body with whatever stands above its pelvis (a floor-level root)."""
     parents = np.asarray(parents, dtype=np.intp)
     children = child_lists(parents)
-    roots = [int(r) for r in np.flatnonzero(parents < 0)]
-    roots.sort(key=lambda r: -len(subtree(children, r)))  # (stable: the first of equals)
-    for root in roots:
-        split = _trunk_below(children, root)
-        if split is not None:
-            return split
+    body = _first_body(children, [int(r) for r in np.flatnonzero(parents < 0)])
+    return None if body is None else (body.top, body.upper, body.lower)
+
+
+class _Body(NamedTuple):
+    """A trunk found below ``top``: the ``pelvis``, the ``upper`` body's points and the
+    ``lower`` ones (the legs)."""
+
+    top: int
+    pelvis: int
+    upper: np.ndarray
+    lower: np.ndarray
+
+
+def _first_body(children: list[list[int]], tops: list[int]) -> _Body | None:
+    """The trunk below the first of ``tops`` that has one, those with the most points below
+    them first (the first of equals)."""
+    for top in sorted(tops, key=lambda r: -len(subtree(children, r))):  # (stable)
+        body = _trunk_below(children, top)
+        if body is not None:
+            return body
     return None
 
 
-def _trunk_below(children: list[list[int]], root: int) -> tuple[np.ndarray, np.ndarray] | None:
+def _trunk_below(children: list[list[int]], root: int) -> _Body | None:
     """:func:`trunk_split` of the tree below ``root`` (``children``: each point's)."""
     pelvis = root
     while len(children[pelvis]) == 1:
@@ -780,11 +807,42 @@ def _trunk_below(children: list[list[int]], root: int) -> tuple[np.ndarray, np.n
     subtrees = [subtree(children, c) for c in children[pelvis]]
     sizes = [len(t) for t in subtrees]
     top = int(np.argmax(sizes))
+    if _holds_bodies(children, children[pelvis], top):
+        return _first_body(children, children[pelvis])
     leaves = sum(1 for p in subtrees[top] if not children[p])
     if leaves < 3 or sizes.count(sizes[top]) > 1:
         return None
     lower = [p for k, t in enumerate(subtrees) if k != top for p in t]
-    return np.array(subtrees[top], dtype=np.intp), np.array(lower, dtype=np.intp)
+    upper = np.array(subtrees[top], dtype=np.intp)
+    return _Body(root, pelvis, upper, np.array(lower, dtype=np.intp))
+
+
+#: A leg holds at least this many points (hip, knee, ankle): a twist or helper bone beside
+#: a bone, with its end site, holds 2 (MotionBuilder's ``*_RIGMESH`` bones of the MASS
+#: clips, one on each thigh, shin and foot, give a leg a trunk of its own).
+LEG_POINTS = 3
+
+
+def _holds_bodies(children: list[list[int]], starts: list[int], largest: int) -> bool:
+    """Whether the subtrees from ``starts`` are several bodies (a ``World`` root with two
+    performers), not a pelvis's legs and upper body: the largest (index ``largest``) and
+    at least one other are :func:`_two_legged`."""
+    if not _two_legged(children, starts[largest]):
+        return False
+    return any(_two_legged(children, s) for k, s in enumerate(starts) if k != largest)
+
+
+def _two_legged(children: list[list[int]], start: int) -> bool:
+    """Whether the tree from ``start`` has a trunk whose legs include two of one size, each
+    of at least :data:`LEG_POINTS` points (a body's mirrored legs: a leg whose helper bones
+    make it a trunk has one bone beside it, a spine's upper body arms, not legs)."""
+    body = _trunk_below(children, start)
+    if body is None:
+        return False
+    legs = [len(subtree(children, c)) for c in children[body.pelvis]]
+    legs.remove(body.upper.size)
+    legs = [n for n in legs if n >= LEG_POINTS]
+    return len(legs) > len(set(legs))
 
 
 def spine(parents: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -981,17 +1039,18 @@ def body_height(motion: Motion, up: int | None = None) -> float:
 
 def _body_height(motion: Motion, up: int | None = None) -> float:
     rest = rest_positions(motion)
-    split = trunk_split(point_parents(motion))
+    parents = point_parents(motion)
+    split = body_split(parents)
     if split is not None:
-        upper, lower = split
+        top, upper, lower = split
         trunk = rest[upper].mean(axis=0) - rest[lower].mean(axis=0)
         length = float(np.linalg.norm(trunk))
         axis = int(np.argmax(np.abs(trunk)))
         if length > 0.0 and abs(trunk[axis]) >= UPRIGHT_COSINE * length:
             heights = rest[:, axis] * np.sign(trunk[axis])
-            # the body's points alone where other roots stand beside it (a prop, a figure)
-            beside = np.count_nonzero(motion.parents < 0) > 1
-            extent = float(np.ptp(heights[np.r_[upper, lower]] if beside else heights))
+            # the body's points alone where others stand beside it (a prop, a figure)
+            body = subtree(child_lists(parents), top)
+            extent = float(np.ptp(heights[body]))
             # standing, the legs hang below the trunk (a rest that stacks every bone along
             # one axis, as the glTF of a Blender rig does, points them up: no height), all
             # of them (Bandai Namco's rest lays every bone along x, one leg up the trunk's

@@ -384,3 +384,73 @@ def test_a_prop_or_a_second_figure_beside_the_body_leaves_its_up_axis(away):
     )
     assert kinematics.up_axis(chain) == up
     assert kinematics.body_height(chain) == pytest.approx(height, rel=1e-9)
+
+
+SIX = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+
+
+def _under_world(*bodies: mc.Motion) -> mc.Motion:
+    """``bodies`` (clips of one length and rate) as one clip under a still ``World`` root at
+    the origin, each a child of it, names prefixed A_, B_ ..."""
+    shift, parents, end_sites = 1, [-1], {}
+    for body in bodies:
+        parents += np.where(body.parents < 0, 0, body.parents + shift).tolist()
+        end_sites |= {j + shift: e for j, e in body.end_sites.items()}
+        shift += body.n_joints
+    first = bodies[0]
+    return mc.Motion(
+        names=["World"] + [f"{'AB'[k]}_{n}" for k, b in enumerate(bodies) for n in b.names],
+        parents=np.array(parents),
+        offsets=np.concatenate([np.zeros((1, 3)), *(b.offsets for b in bodies)]),
+        channels=[SIX, *(c for b in bodies for c in b.channels)],
+        frame_time=first.frame_time,
+        rotations=np.concatenate(
+            [quat.identity((first.n_frames, 1)), *(b.rotations for b in bodies)], axis=1
+        ),
+        translations=np.concatenate(
+            [np.zeros((first.n_frames, 1, 3)), *(b.translations for b in bodies)], axis=1
+        ),
+        end_sites=end_sites,
+    )
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+def test_two_performers_under_one_root_stand_as_two_roots_do(axis):
+    """Two performers under one ``World`` root 40 units apart (the second playing the clip
+    backwards) had been read as one body, the second person its legs: up along the line
+    between them, a body height of their distance, no feet. Each reads as the body it is,
+    as two roots do, and a lone performer under that root reads as without it."""
+    body = mc.load(SAMPLE)
+    up, height = kinematics.up_axis(body), kinematics.body_height(body)
+    feet = {f.name for f in found.skeleton_feet(body)[0]}
+    away = body.replace(
+        rotations=body.rotations[::-1].copy(),
+        translations=body.translations[::-1] + 40.0 * np.eye(3)[axis],
+        source_values=None,
+    )
+    two = _under_world(body, away)
+    two_feet, two_up, two_height = found.skeleton_feet(two)
+    assert (two_up, two_height) == (up, pytest.approx(height, rel=1e-9))
+    assert {f.name for f in two_feet} == {f"{p}_{n}" for p in "AB" for n in feet}
+    alone = _under_world(body)
+    assert kinematics.up_axis(alone) == up
+    assert kinematics.body_height(alone) == pytest.approx(height, rel=1e-9)
+    assert {f.name for f in found.skeleton_feet(alone)[0]} == {f"A_{n}" for n in feet}
+
+
+def test_helper_bones_beside_a_body_s_bones_leave_its_trunk():
+    """A bone with its end site beside every thigh, shin, foot and the spine (as
+    MotionBuilder's ``*_RIGMESH`` bones are) makes each leg a trunk of its own (the shin's
+    subtree the upper body): the pelvis is still one body's, not several bodies'."""
+    body = mc.load(SAMPLE)
+    parents = kinematics.point_parents(body)
+    upper, lower = kinematics.trunk_split(parents)
+    beside = [body.names.index(n) for n in ("LeftHip", "LeftKnee", "LeftAnkle", "RightHip",
+                                            "RightKnee", "RightAnkle", "lowerback")]  # fmt: skip
+    n, k = parents.size, len(beside)
+    helpers = np.r_[parents, beside, n + np.arange(k)]  # a joint and its end site each
+    added = np.r_[n : n + k][:, None] + [0, k]  # (k, 2): each helper and its end site
+    on_legs = np.isin(beside, lower)
+    upper_h, lower_h = kinematics.trunk_split(helpers)
+    assert set(upper_h.tolist()) == set(upper.tolist()) | set(added[~on_legs].ravel().tolist())
+    assert set(lower_h.tolist()) == set(lower.tolist()) | set(added[on_legs].ravel().tolist())
