@@ -700,3 +700,24 @@ def walking_dog(frames: int = 240, fps: float = 60.0, turn: float = 0.0) -> mc.M
         translations=translations,
         end_sites=ends,
     )
+
+
+def bending_hand(frames: int = 60) -> mc.Motion:
+    """A wrist and three fingers of three joints, bending together (no trunk)."""
+    parents = np.array([-1, 0, 1, 2, 0, 4, 5, 0, 7, 8])
+    offsets = np.zeros((10, 3))
+    offsets[1:, 1] = 0.03
+    offsets[[1, 4, 7], 0] = [-0.02, 0.0, 0.02]
+    bend = quat.from_axis_angle(np.eye(3)[0], np.linspace(0.0, 1.2, frames))
+    rotations = np.repeat(bend[:, None], 10, axis=1)
+    rotations[:, 0] = quat.identity((frames,))
+    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
+    return mc.Motion(
+        names=[f"j{j}" for j in range(10)],
+        parents=parents,
+        offsets=offsets,
+        channels=channels + [("Zrotation", "Xrotation", "Yrotation")] * 9,
+        frame_time=1.0 / 30.0,
+        rotations=rotations,
+        translations=np.zeros((frames, 10, 3)),
+    )

@@ -279,6 +279,15 @@ def skeleton_feet(
     return feet, axis, height
 
 
+def no_feet_words(motion: Motion) -> str:
+    """Why :func:`skeleton_feet` finds no feet on ``motion``: ``"no feet in this skeleton"``
+    where it has no trunk (:func:`~motionclean.core.kinematics.trunk_split`: a hand, a head,
+    a camera, tracked bodies), else ``"no leg ends near the ground"``."""
+    if kinematics.trunk_split(kinematics.point_parents(motion)) is None:
+        return "no feet in this skeleton"
+    return "no leg ends near the ground"
+
+
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Start and end (exclusive) frames of the runs of True in a 1-D bool array."""
     edges = np.diff(np.concatenate(([0], mask.view(np.int8), [0])))
@@ -528,6 +537,14 @@ def _place_shares(x: np.ndarray, radius: float) -> np.ndarray:
 
 #: Soles compared at a time by :func:`_place_shares`.
 PLACE_BLOCK = 256
+
+
+def sole_places(soles: np.ndarray, up: int, height: float) -> float:
+    """How many places the soles ``(n, 3)`` stand at: each counts once however often it is
+    stepped on (the sum of :func:`_place_shares` over :data:`FLOOR_PLACE` body heights
+    ``height``, horizontally; fractional where places overlap, 0 without soles)."""
+    across = [a for a in range(3) if a != up]
+    return float(_place_shares(soles[:, across], FLOOR_PLACE * height).sum())
 
 
 def _spread(residual: np.ndarray) -> float:

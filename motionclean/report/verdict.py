@@ -525,20 +525,38 @@ def _over(value: float, limit: float) -> str:
     return f"{value:.2f}" if round(value, 2) > limit else f"{value:.3f}"
 
 
-def _ground_words(joints: dict[str, dict], unit: str) -> list[str]:
+def _ground_words(joints: dict[str, dict], unit: str) -> tuple[list[str], list[str]]:
     """ "put on the floor: 1.06 units down, levelled from 0.67 deg": what the ``ground`` step
-    did to the whole clip (its note on the root's positions), lengths in ``unit``."""
-    words = []
+    did to the whole clip (its note on the root's positions), and what it left: "not put
+    on the floor: no foot in contact found"; lengths in ``unit``."""
+    words, left = [], []
     for entry in joints.values():
         note = entry.get("position_ground")
-        if note:
-            height = note["height"]
-            way = "down" if height > 0 else "up"
+        if not note:
+            continue
+        if "why" in note:
+            left.append(f"not put on the floor: {note['why']}")
+            continue
+        height = note["height"]
+        way = "down" if height > 0 else "up"
+        resting = note.get("resting")
+        if resting:
+            text = (
+                f"put on the floor by its lowest point: {abs(height):.3g} {unit} {way} (the "
+                f"body rests below its feet: {resting['point']} {resting['below']:.3g} {unit} "
+                "under their floor)"
+            )
+        else:
             text = f"put on the floor: {abs(height):.3g} {unit} {way}"
-            if note.get("levelled", True) and note["tilt_deg"] > 0:
-                text += f", levelled from {note['tilt_deg']:.2f} deg"
-            words.append(text)
-    return words
+        if note.get("levelled", True) and note["tilt_deg"] > 0:
+            text += f", levelled from {note['tilt_deg']:.2f} deg"
+        elif not resting and note.get("unsupported") and note["tilt_deg"] > 0:
+            text += (
+                f", not levelled (a tilt of {note['tilt_deg']:.2f} deg through soles at "
+                f"{note['places']:.2g} places)"
+            )
+        words.append(text)
+    return words, left
 
 
 def removed_words(
@@ -769,7 +787,7 @@ def build_verdict(
             f"times its noise ({noise:.2g} degrees): motion taken for noise"
         )
     unit = length_word(report.get("length_unit"))
-    grounded = _ground_words(joints, unit)
+    grounded, not_grounded = _ground_words(joints, unit)
     # positions: moved beyond the writers' rounding, and not by the ground step alone
     # (which moves and levels the whole clip without smoothing it)
     moved = [n for n, peak in smoothing.get("position_moved") or [] if peak > UNCHANGED_LENGTH]
@@ -863,6 +881,7 @@ def build_verdict(
             shown_removed is not None and abs(shown_removed) < NEGLIGIBLE_JITTER
         )
         lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
+    parts += not_grounded
     if shown_feet:
         parts.append(shown_feet)
     # without the pipeline (two clips compared as given) no step says what it repaired

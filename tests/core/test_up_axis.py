@@ -13,6 +13,7 @@ from helpers import (
     ROOT,
     SAMPLE,
     arc,
+    bending_hand,
     restposed,
     run_cli,
     turned_copy,
@@ -255,32 +256,11 @@ def test_the_motion_contradicts_every_up_axis_but_its_own(name):
     assert set(contradicted.values()) == {shown}
 
 
-def _hand(frames: int = 60) -> mc.Motion:
-    """A wrist and three fingers of three joints, bending together (no trunk)."""
-    parents = np.array([-1, 0, 1, 2, 0, 4, 5, 0, 7, 8])
-    offsets = np.zeros((10, 3))
-    offsets[1:, 1] = 0.03
-    offsets[[1, 4, 7], 0] = [-0.02, 0.0, 0.02]
-    bend = quat.from_axis_angle(np.eye(3)[0], np.linspace(0.0, 1.2, frames))
-    rotations = np.repeat(bend[:, None], 10, axis=1)
-    rotations[:, 0] = quat.identity((frames,))
-    channels = [("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")]
-    return mc.Motion(
-        names=[f"j{j}" for j in range(10)],
-        parents=parents,
-        offsets=offsets,
-        channels=channels + [("Zrotation", "Xrotation", "Yrotation")] * 9,
-        frame_time=1.0 / 30.0,
-        rotations=rotations,
-        translations=np.zeros((frames, 10, 3)),
-    )
-
-
 def test_where_the_motion_cannot_tell_a_given_up_axis_is_not_contradicted():
     """A hand (no trunk) and a figure lying on the floor and turning about the vertical as it
     lies (its trunk along each horizontal way in turn) show no up axis of their own; a dog
     shows its own, which its given up axis agrees with."""
-    hand = _hand()
+    hand = bending_hand()
     assert kinematics.motion_up(hand).share is None
     assert all(kinematics.up_contradiction(hand.replace(up=g)) is None for g in DIRECTIONS)
     lying = turned_copy(mc.load(EXPORTERS / "mixamo_tpose.bvh"), TO_Z)  # the head along +z

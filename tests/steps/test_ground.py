@@ -7,12 +7,13 @@ import re
 
 import numpy as np
 import pytest
-from helpers import ROOT, corpus_clip, turned_copy, uphill
+from helpers import ROOT, SAMPLE, bending_hand, corpus_clip, turned_copy, uphill
 
 import motionclean as mc
 from motionclean.core import contacts as found
 from motionclean.core import kinematics, quat
 from motionclean.report.world import contact_figures, format_contacts
+from motionclean.run.jobs import clean_motion
 from motionclean.steps.ground import floor_of
 from motionclean.steps.pipeline import Pipeline
 
@@ -396,3 +397,83 @@ def test_a_bend_at_the_waist_is_no_roll_of_the_capture():
     grounded, _ = Pipeline.from_inline(["ground"]).run(bent)
     np.testing.assert_array_equal(grounded.rotations[:, 1:], bent.rotations[:, 1:])
     assert quat.angle_between(grounded.rotations[:, 0], bent.rotations[:, 0]).max() < np.radians(1)
+
+
+def _held(frames: int = 240) -> mc.Motion:
+    """The sample's first frame held: a still stance, the right foot 0.05 body heights
+    above the left (its ankle 4.5 units up against 1.7)."""
+    return mc.load(SAMPLE).at_frames(np.zeros(frames, dtype=np.intp))
+
+
+def _grounded(motion: mc.Motion, step: str = "ground") -> tuple[mc.Motion, dict, str]:
+    """``motion`` through ``step``: the clip, the root's ground note, the verdict's text."""
+    result = clean_motion(motion, Pipeline.from_inline([step]), "clip.bvh")
+    note = result.report["joints"][motion.names[0]].get("position_ground")
+    return result.after, note, result.report["verdict"]["text"]
+
+
+def test_a_stance_on_two_footprints_is_put_on_its_lowest_sole_not_tilted():
+    """Through two footprints a floor's slope is the height between two soles: a still
+    stance with one foot raised read a floor tilted 3.0 degrees, and ground turned the
+    figure by that much, a toe left 0.49 units under the floor it set. A tilt needs soles
+    at three places: the stance is moved along the up axis alone, its lowest sole to 0,
+    and the note and the verdict say the tilt was not applied."""
+    still = _held()
+    height = kinematics.body_height(still)
+    assert floor_of(still).floor.tilt_deg > 2.0  # (the report's fit through two soles)
+    out, note, text = _grounded(still)
+    np.testing.assert_array_equal(out.rotations, still.rotations)
+    points = kinematics.world_positions(out)[..., 1]
+    assert points.min() == pytest.approx(0.0, abs=1e-9 * height)
+    assert note["places"] == pytest.approx(2.0) and note["unsupported"]
+    assert not note["levelled"] and note["height"] > 0.02 * height
+    assert "not levelled (a tilt of" in text and "through soles at 2 places" in text
+
+
+def _lying(frames: int = 240) -> mc.Motion:
+    """The held stance laid on its back along z, its hips 3 units above y = 0 (Y up kept)."""
+    still = _held(frames)
+    down = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), -np.pi / 2)
+    rotations, translations = still.rotations.copy(), still.translations.copy()
+    rotations[:, 0] = quat.multiply(down, rotations[:, 0])
+    translations[:, 0] = [0.0, 3.0, 0.0]
+    return still.replace(rotations=rotations, translations=translations, source_values=None)
+
+
+def test_a_body_resting_below_its_feet_is_put_on_the_floor_by_its_lowest_point():
+    """A figure lying on its back, ground asked with up y: the floor through its heels (the
+    contacts) had been levelled and set at 0, its elbows, shoulders and head left 2.1-2.4
+    units under it, the verdict "put on the floor ... feet planted". Its body rests below
+    its feet, so its lowest point goes to 0, nothing turned and nothing under the floor,
+    and the note and verdict say why."""
+    lying = _lying()
+    height = kinematics.body_height(lying)
+    out, note, text = _grounded(lying, "ground:up=y")
+    np.testing.assert_array_equal(out.rotations, lying.rotations)
+    points = kinematics.world_positions(out)[..., 1]
+    assert points.min() == pytest.approx(0.0, abs=1e-9 * height)
+    resting = note["resting"]
+    assert resting["below"] > 0.06 * height and not note["levelled"]
+    assert f"by its lowest point: {note['height']:.3g} units down" in text
+    assert f"the body rests below its feet: {resting['point']}" in text
+    assert "levelled" not in text
+
+
+@pytest.mark.parametrize(
+    ("clip", "why"),
+    [("flying", "no foot in contact found"), ("hand", "no feet in this skeleton")],
+)
+def test_ground_without_a_floor_says_why(walk, clip, why):
+    """A clip rising off the ground (no contact) or a hand (no feet) had been returned by
+    ground without a word: the note (the root's, in the JSON) and the verdict say that it
+    was not put on the floor, and why."""
+    if clip == "flying":
+        translations = walk.translations.copy()
+        translations[:, 0, 1] += 10.0 * np.arange(walk.n_frames) * walk.frame_time
+        motion = walk.replace(translations=translations, source_values=None)
+    else:
+        motion = bending_hand()
+    out, note, text = _grounded(motion)
+    np.testing.assert_array_equal(out.translations, motion.translations)
+    assert note == {"why": why}
+    assert f"not put on the floor: {why}" in text
