@@ -20,6 +20,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from ..core import contacts as found
 from ..core import kinematics, quat
 from ..core.errors import MotionError, UsageError
 from ..core.jumps import JUMP_DEG
@@ -251,18 +252,22 @@ def info(
     else:
         axis = kinematics.up_axis(motion)
         said = getattr(motion.source, "up_source", None) or "given by the file"
-        source = "given" if up else said if motion.up else "found from the motion"
+        found_from = "found from the motion" if motion.n_frames else "found from the rest pose"
+        source = "given" if up else said if motion.up else found_from
         against = contradiction_words({"up_axis_contradicted": up_contradicted(motion)})
         source += f"; {against}" if against else ""
         height = kinematics.body_height(motion, axis)
         unit = length_word(kinematics.length_unit(motion))
+        body = found.has_body(motion)
         tall = f"{height:.4g} {unit}" if height > 0 else "none (no skeleton)"
-        click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   body height: {tall}")
+        size = "body height" if body or height <= 0 else "size"
+        tall += "" if body or height <= 0 else " (no body: no trunk or legs)"
+        click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   {size}: {tall}")
         contacts, _ = contact_figures(motion)
         for line in (
             format_contacts(contacts, None, unit)
             if contacts
-            else ["  feet: none found (no ground contact)"]
+            else [f"  feet: none ({found.no_feet_words(motion)})"]
         ):
             click.echo(f"  {line}")
     for line in _dropout_lines(motion):

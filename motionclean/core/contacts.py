@@ -279,6 +279,15 @@ def skeleton_feet(
     return feet, axis, height
 
 
+def has_body(motion: Motion) -> bool:
+    """Whether ``motion``'s skeleton is a body: a trunk
+    (:func:`~motionclean.core.kinematics.trunk_split`) or feet (:func:`skeleton_feet`: legs
+    alone). A hand, a head, a camera or tracked bodies are none: their size is no body
+    height."""
+    parents = kinematics.point_parents(motion)
+    return kinematics.trunk_split(parents) is not None or bool(skeleton_feet(motion)[0])
+
+
 def no_feet_words(motion: Motion) -> str:
     """Why :func:`skeleton_feet` finds no feet on ``motion``: ``"no feet in this skeleton"``
     where it has no trunk (:func:`~motionclean.core.kinematics.trunk_split`: a hand, a head,

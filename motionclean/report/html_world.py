@@ -18,7 +18,7 @@ from ..core.contacts import Floor
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
 from ..core.words import length_word
-from .world import contradiction_words
+from .world import contradiction_words, size_words
 
 __all__ = ["world_section", "world_series"]
 
@@ -665,8 +665,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         )
         against = contradiction_words(figures)
         how += f"; {html.escape(against, quote=False)}" if against else ""
-        height = figures.get("body_height")
-        tall = "no body height" if height is None else f"body height {height:.4g} {unit}"
+        tall = size_words(figures, unit).removesuffix(" (no skeleton)")
         axes = f"<span>up axis {html.escape(str(figures['up_axis']))} ({how}), {tall}</span>"
     return [
         f"<style>{CSS}</style>",

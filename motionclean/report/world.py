@@ -33,15 +33,26 @@ def format_world(world: dict, unit: str = "units") -> str:
     shown = contradiction_words(world)
     if shown:
         given = f"{given[:-1]}; {shown})"
-    height = world["body_height"]
-    tall = "no body height (no skeleton)" if height is None else f"body height {height:.4g} {unit}"
-    text = f"world: up axis {world['up_axis']}{given}, {tall}"
+    text = f"world: up axis {world['up_axis']}{given}, {size_words(world, unit)}"
     worst = world.get("worst_deviation")
     if worst is not None:
         text += f"; largest end-effector deviation {worst['effector']} {worst['max']:.3g} {unit}"
         if worst["max_percent"] is not None:  # (null: no body height)
-            text += f" ({worst['max_percent']:.2g} % of body height)"
+            of = "body height" if world.get("has_body", True) else "size"
+            text += f" ({worst['max_percent']:.2g} % of {of})"
     return text
+
+
+def size_words(world: dict, unit: str = "units") -> str:
+    """ "body height 24.27 units", or for a skeleton that is no body (``has_body`` false: a
+    hand, a head, a camera) "size 14.63 units (no body)"; "no body height (no skeleton)"
+    for a lone tracked body (null). Lengths in ``unit``."""
+    height = world["body_height"]
+    if height is None:
+        return "no body height (no skeleton)"
+    if not world.get("has_body", True):  # (absent from older reports)
+        return f"size {height:.4g} {unit} (no body)"
+    return f"body height {height:.4g} {unit}"
 
 
 def figure_points(motion: Motion) -> np.ndarray:
@@ -163,6 +174,7 @@ def world_figures(
         "up_axis_source": _up_source(before),
         "up_axis_contradicted": up_contradicted(before),
         "body_height": height if height > 0 else None,
+        "has_body": found.has_body(before),
         "effectors": effectors,
         "worst_deviation": worst,
     }

@@ -6,8 +6,9 @@ from __future__ import annotations
 import re
 
 import pytest
-from helpers import SAMPLE, corpus_clip, run_cli, with_t_pose
+from helpers import SAMPLE, bending_hand, corpus_clip, cut_bvh, run_cli, with_t_pose
 
+import motionclean as mc
 from motionclean.core.words import percent, whole_percent
 from motionclean.report.html_world import _frames
 from motionclean.report.summary import note_text
@@ -104,3 +105,21 @@ def test_a_share_that_rounds_to_nothing_reads_0_percent(share):
     "-0%" on the page, the batch index and the Blender panel, which share this wording."""
     assert whole_percent(share) == "0%" and percent(share) == "0 %"
     assert whole_percent(-0.05) == "-5%" and whole_percent(0.934) == "93%"
+
+
+def test_info_says_what_it_has_no_motion_body_or_feet_for(tmp_path, capsys):
+    """A clip of 0 frames had its up axis "found from the motion"; a hand had a "body
+    height" and "feet: none found (no ground contact)", as if its feet were off the ground.
+    Without frames the axis is found from the rest pose; a skeleton without trunk or legs
+    has a size, no body height, and no feet; the sample reads as before."""
+    _, out, _ = run_cli(capsys, "info", cut_bvh(SAMPLE, tmp_path / "none.bvh", 0))
+    assert "up axis: y (found from the rest pose)   body height: " in out
+    hand = tmp_path / "hand.bvh"
+    mc.save(bending_hand(), hand)
+    _, out, _ = run_cli(capsys, "info", hand)
+    assert re.search(r"   size: \S+ units \(no body: no trunk or legs\)\n", out), out
+    assert "body height" not in out and "feet: none (no feet in this skeleton)" in out
+    _, out, _ = run_cli(capsys, "clean", hand, "-o", tmp_path / "out.bvh")
+    assert re.search(r"^world: up axis \S+, size \S+ units \(no body\)", out, re.M), out
+    _, out, _ = run_cli(capsys, "info", SAMPLE)
+    assert "up axis: y (found from the motion)   body height: 24.27 units" in out
