@@ -258,10 +258,12 @@ def info(
         source += f"; {against}" if against else ""
         height = kinematics.body_height(motion, axis)
         unit = length_word(kinematics.length_unit(motion))
-        body = found.has_body(motion)
-        tall = f"{height:.4g} {unit}" if height > 0 else "none (no skeleton)"
-        size = "body height" if body or height <= 0 else "size"
-        tall += "" if body or height <= 0 else " (no body: no trunk or legs)"
+        if height <= 0:
+            size, tall = "body height", "none (no skeleton)"
+        elif found.has_body(motion):
+            size, tall = "body height", f"{height:.4g} {unit}"
+        else:  # (a hand, a head, a camera: their extent is no body's height)
+            size, tall = "size", f"{height:.4g} {unit} (no body: no trunk or legs)"
         click.echo(f"  up axis: {kinematics.up_name(motion)} ({source})   {size}: {tall}")
         contacts, _ = contact_figures(motion)
         for line in (
