@@ -38,6 +38,7 @@ __all__ = [
     "JUMP_DEG",
     "JUMP_MARGIN",
     "MAX_RUN",
+    "ON_TURN_DEG",
     "SEEN_DEG",
     "follow_wraps",
     "rejoin",
@@ -61,6 +62,11 @@ JUMP_MARGIN = 45.0
 #: and back, 180-degree sweeps where the rotation turned 3 degrees, to arrive a turn off at
 #: the run's end and make a 155-degree step there the shorter way).
 SEEN_DEG = 90.0
+#: A written sample lies on a whole turn of its read value (:func:`follow_wraps`) when within
+#: this (degrees) of it: cleaning moves a sample a few degrees from the read one, a repaired
+#: flip or the other Euler solution puts it half a turn off on a channel (178.7 to 180.1
+#: degrees on a despiked flip), where noise decides which whole turn is nearest.
+ON_TURN_DEG = 90.0
 #: Frames of a run rewritten at most (around the jump; longer runs keep the rest).
 MAX_RUN = 4096
 #: Whole turns a candidate may add to each channel of a representation ...
@@ -71,8 +77,8 @@ _TURNS = np.array(list(itertools.product(_WHOLE_TURNS, repeat=3)))  # (27, 3)
 ALLOWANCE = 1e-6
 #: Rows scanned for jumps at a time (temporaries stay small on long clips).
 _SCAN_ROWS = 8192
-#: Columns :func:`follow_wraps` reads at a time (temporaries stay small on long clips).
-_WRAP_COLUMNS = 8
+#: Joints :func:`follow_wraps` reads at a time (temporaries stay small on long clips).
+_WRAP_JOINTS = 8
 
 
 def _jumps(written: np.ndarray, source: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -341,45 +347,63 @@ def rejoin(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
 def follow_wraps(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
     """Move, in place, the changed samples of ``values`` ``(F, C)`` (written channel values,
     degrees) that a continued curve carried whole turns from ``source`` (the values read)
-    back onto the turn of the input's own, on every rotation column where that makes the
-    written curve wrap where the input wraps and nowhere else.
+    back onto the turn of the input's own, on every joint where that makes the written
+    curve wrap where the input wraps and nowhere else.
 
     A changed run continues the curve from the sample before it; where the input wraps
     from +180 to -180 inside the run and the run ends at the clip's end (nothing kept after
     it to rejoin), the written curve went on past 180 and stayed a turn off the input's
     values to the end (a hip written 181 to 540 degrees on 184 of 212 frames where the
-    rotation changed by 0.14). Each sample is moved by the whole turns ``k`` nearest its
-    difference from the read value; a column is moved only if every frame where ``k``
-    changes is one where the moved step follows the input's own step more closely than
-    the written one did (an input wrap): a curve half a turn from the input (the other
-    Euler solution, a repaired flip), whose ``k`` would change where the input does not
-    wrap, is left as it is. Every rotation stays the same; kept samples (``k = 0``) are
-    not touched. ``rotation_columns`` ``(J, 3)``: each joint's rotation columns, -1 for
-    joints without rotation channels."""
-    columns = rotation_columns[rotation_columns[:, 0] >= 0].ravel()
-    if values.shape[0] < 2 or not columns.size:
+    rotation changed by 0.14). Each sample is moved by the whole turns ``k`` it lies from
+    the read value (:func:`_turns_off`: a sample half a turn off, a repaired flip or the
+    other Euler solution, takes those of the sample before); a joint's channels are moved
+    only if at every frame where ``k`` changes on one of them, each channel's moved step is
+    within :data:`JUMP_MARGIN` of the input's own (an input wrap, the written curve then
+    stepping as the input does). A despiked flip's Xrotation had been written -1.01, 0.03,
+    -358.93, -357.89, 3.15, a whole turn where the input stepped by 181 (the un-flip) and
+    one where it wrapped inside the flip; and a channel moved alone had stepped 356
+    degrees where the input stepped 322 on two channels that cancel at gimbal lock. Every
+    rotation stays the same; kept samples (``k = 0``) are not touched.
+    ``rotation_columns`` ``(J, 3)``: each joint's rotation columns, -1 for joints without
+    rotation channels."""
+    joints = rotation_columns[rotation_columns[:, 0] >= 0]
+    if values.shape[0] < 2 or not joints.size:
         return
-    columns = columns[_turned(values, source)[columns]]  # (most clips: none)
-    for at in range(0, columns.size, _WRAP_COLUMNS):
-        chosen = columns[at : at + _WRAP_COLUMNS]
+    joints = joints[_turned(values, source)[joints].any(axis=1)]  # (most clips: none)
+    for at in range(0, len(joints), _WRAP_JOINTS):
+        chosen = joints[at : at + _WRAP_JOINTS].ravel()
         written, read = values[:, chosen], source[:, chosen]
+        turns = _turns_off(written, read)
+        moved = written - 360.0 * turns
+        per_joint = (-1, chosen.size // 3, 3)  # (F, joints, 3) views
+        turns_j, moved_j, read_j = (a.reshape(per_joint) for a in (turns, moved, read))
+        # few: where the input wraps inside a changed run
+        row, joint = np.nonzero((turns_j[1:] != turns_j[:-1]).any(axis=2))
+        step_moved = moved_j[row + 1, joint] - moved_j[row, joint]
+        step_in = read_j[row + 1, joint] - read_j[row, joint]
         with np.errstate(invalid="ignore"):
-            turns = np.round((written - read) / 360.0)
-        np.copyto(turns, 0.0, where=~np.isfinite(turns))
-        moved = turns.any(axis=0)
-        if not moved.any():
-            continue
-        change = np.diff(turns, axis=0)
-        row, col = np.nonzero(change)  # few: where the input wraps inside a changed run
-        step_in = read[row + 1, col] - read[row, col]
-        step_out = written[row + 1, col] - written[row, col]
-        with np.errstate(invalid="ignore"):
-            follows = np.abs(step_out - 360.0 * change[row, col] - step_in) < np.abs(
-                step_out - step_in
-            )
-        moved[col[~follows]] = False
-        if moved.any():
-            values[:, chosen[moved]] = written[:, moved] - 360.0 * turns[:, moved]
+            follows = (np.abs(step_moved - step_in) <= JUMP_MARGIN).all(axis=1)
+        move = np.asarray(turns_j.any(axis=(0, 2)))
+        move[joint[~follows]] = False
+        if move.any():
+            columns = np.repeat(move, 3)
+            values[:, chosen[columns]] = moved[:, columns]
+
+
+def _turns_off(written: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(F, C)``: the whole turns each sample of ``written`` lies from ``read``'s where it
+    lies within :data:`ON_TURN_DEG` of them; a sample further off (half a turn: a repaired
+    flip, the other Euler solution), whose nearest whole turn noise decides, takes the turns
+    of the last sample before it that is not (the first after it at a column's start, 0
+    where none is). Samples not finite: 0."""
+    with np.errstate(invalid="ignore"):
+        off = (written - read) / 360.0
+        turns = np.round(off)
+        away = np.abs(off - turns) > ON_TURN_DEG / 360.0
+    np.copyto(turns, 0.0, where=~np.isfinite(turns) | away)
+    from .motion import hold_missing  # (motion imports this module)
+
+    return hold_missing(turns, away)
 
 
 def _turned(values: np.ndarray, source: np.ndarray) -> np.ndarray:

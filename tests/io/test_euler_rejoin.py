@@ -339,3 +339,82 @@ def test_a_curve_half_a_turn_from_the_input_is_not_moved_by_whole_turns():
     values = written.copy()
     eulerjoin.follow_wraps(values, read, np.array([[0, 1, 2]]))
     assert np.array_equal(values, written)
+
+
+def test_a_repaired_flip_is_not_moved_by_whole_turns_around_it():
+    """A yaw runs from -2 to 250 degrees, written continued to the clip's end (a turn off
+    the input's after its wrap at 180) with a 12-frame half-turn flip repaired near 0,
+    where the input reads about 180 and noise wraps it back and forth. Noise decided
+    which whole turn the repaired frames were nearest: a despiked flip's Xrotation had been
+    written -1.01, 0.03, -358.93, -357.89, 3.15 where the input stepped by 181 into the
+    last frame. Each of 60 joints: the written curve takes the input's turn outside the flip
+    and steps over SEEN_DEG only where the input wraps there."""
+    from motionclean.core import eulerjoin
+
+    joints, frames, flip = 60, 100, slice(14, 26)
+    rng = np.random.default_rng(5)
+    written = np.zeros((frames, 3 * joints))
+    written[:, ::3] = np.interp(np.arange(frames), [0, 40, frames], [-2.0, 2.0, 250.0])[:, None]
+    read = written + rng.normal(scale=0.5, size=written.shape)
+    read[flip, ::3] += 180.0
+    read = (read + 180.0) % 360.0 - 180.0  # within half a turn, as files hold
+    values = written.copy()
+    eulerjoin.follow_wraps(values, read, np.arange(3 * joints).reshape(joints, 3))
+    assert np.abs(read[flip, ::3]).min() > 170.0  # the flip half a turn off ...
+    wraps = (np.diff(np.sign(read[flip, ::3]), axis=0) != 0).sum(axis=0)
+    assert wraps.min() >= 1 and (wraps >= 2).any()  # ... wrapping inside, back and forth
+    turns = (values - written) / 360.0
+    assert np.array_equal(turns, np.round(turns))  # the same angles
+    outside = np.ones(frames, dtype=bool)
+    outside[flip] = False
+    assert np.abs(values[outside] - read[outside]).max() < 5.0  # the input's own turn
+    jumps = np.abs(np.diff(values, axis=0)) > eulerjoin.SEEN_DEG
+    wrap = (np.abs(np.diff(read, axis=0)) > 300.0) & (outside[1:] & outside[:-1])[:, None]
+    assert wrap.any(axis=0)[::3].all() and np.array_equal(jumps, wrap)  # its wraps alone
+
+
+def test_a_despiked_flip_is_written_continuing_its_neighbours(tmp_path):
+    """Joints of all six orders, middle angle about 31 degrees, 0.2 degrees of noise, each
+    flipped by half a turn about one of its axes over frames 300-302 (the flipped channel
+    near 180, wrapping inside the flip). The default pipeline un-flips them; no written
+    channel steps over SEEN_DEG around the flip, where a tool interpolating the channels
+    had spun the arm a full turn (written -1.01, 0.03, -358.93, -357.89, 3.15: ZYX, about
+    X), and the written rotations are the cleaned ones."""
+    from motionclean.core import eulerjoin
+
+    frames, orders = 600, ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
+    rng = np.random.default_rng(1)
+    t = np.arange(frames)[:, None] / 120.0
+    joints, text = [], []
+    for k in range(36):
+        order, axis = orders[k % 6], (k // 6) % 3
+        angles = np.hstack(
+            [60.0 * np.sin(1.9 * t + k), 31.0 + np.sin(3.1 * t), 50.0 * np.sin(2.5 * t + k)]
+        )
+        q = quat.multiply(
+            quat.from_euler(angles, order), quat.exp(rng.normal(scale=0.0017, size=(frames, 3)))
+        )
+        q[300:303] = quat.multiply(q[300:303], quat.from_axis_angle(np.eye(3)[axis], np.pi))
+        text.append(quat.to_euler(q, order))
+        joints.append(
+            f"JOINT J{k}\n{{\nOFFSET 0 10 0\nCHANNELS 3 "
+            + " ".join(f"{c}rotation" for c in order)
+            + "\nEnd Site\n{\nOFFSET 0 10 0\n}\n}\n"
+        )
+    read = np.hstack([np.zeros((frames, 6)), *text])
+    path = tmp_path / "flips.bvh"
+    path.write_text(
+        "HIERARCHY\nROOT Hips\n{\nOFFSET 0 0 0\n"
+        "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+        + "".join(joints)
+        + f"}}\nMOTION\nFrames: {frames}\nFrame Time: 0.0083333\n"
+        + "".join(" ".join(f"{v:.6f}" for v in row) + "\n" for row in read)
+    )
+    out, _ = Pipeline.default().run(mc.load(path))
+    target = tmp_path / "out.bvh"
+    mc.save(out, target)
+    read, written = rows(path)[:, 6:], rows(target)[:, 6:]
+    flips = np.abs(np.diff(read[297:305], axis=0)).reshape(7, -1, 3).max(axis=(0, 2))
+    assert flips.min() > 150.0  # each joint's channels step as the rotation flips
+    assert np.abs(np.diff(written[297:305], axis=0)).max() < eulerjoin.SEEN_DEG
+    assert max_degrees(mc.load(target).rotations, out.rotations) < 1e-4
