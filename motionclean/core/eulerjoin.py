@@ -20,11 +20,14 @@ input's own (a curve the filter carried turns away comes back); a bottleneck sho
 over the run's frames picks the representations whose largest step beyond the larger of
 :data:`SEEN_DEG` and the input's step plus :data:`JUMP_MARGIN` is least (every step over a
 quarter turn the input lacks counts, not only those over half a turn), and
-among those the ones that follow the input: least sum of squared steps beyond the input's
-own, so the written curve wraps where the input wraps instead of switching solution twice
-(steps of 175-178 degrees where the input stepped 5). Every rotation stays the same;
-unchanged samples are not touched; a clip without such a step is returned as it is, bit
-for bit.
+among those the ones whose steps go least beyond what the input's own allow (least sum of
+squares, :func:`_excess`: a switch of Euler solution and back, steps of 175-178 degrees
+where the input stepped 5, costs 170 degrees twice), then nearest the input's angles. The
+rewritten curve does not copy the input's representation where that costs a step: it
+goes on through gimbal lock rather than switch solution with the input's pair of half
+turns, and does not take up the input's wraps, so its values may lie whole turns or the
+other Euler solution from the input's. Every rotation stays the same; unchanged samples
+are not touched; a clip without such a step is returned as it is, bit for bit.
 """
 
 from __future__ import annotations
@@ -129,15 +132,15 @@ class _Run:
 
     ``angles`` and ``read`` ``(n, 3)``: the written and the read angles of the run's frames
     (degrees); ``before`` / ``after`` ``(3,)``: the written neighbours (None at the clip's
-    ends); ``steps`` ``(n + 1, 3)``: the input's absolute step into each frame of the run
-    and out of its last (row 0 from ``before``'s frame, row ``n`` to ``after``'s; rows
-    without a neighbour unused).
+    ends); ``steps`` ``(n + 1, 3)``: the input's step into each frame of the run and out of
+    its last (row 0 from ``before``'s frame, row ``n`` to ``after``'s; rows without a
+    neighbour unused).
 
-    A written step's *excess* is how far it goes beyond the input's step between the same
-    frames, on the channel where that is most (0 if none); its *overshoot*, how far beyond
-    the larger of :data:`SEEN_DEG` and the input's step plus :data:`JUMP_MARGIN` (a step a
-    tool would spin through that the input does not make; :func:`rejoin` rewrites the runs
-    where one goes over :data:`JUMP_DEG`)."""
+    A written step's *excess* (:func:`_excess`) is how far it goes beyond what the input's
+    step between the same frames allows, on the channel where that is most (0 if none); its
+    *overshoot*, how far beyond the larger of :data:`SEEN_DEG` and the input's step plus
+    :data:`JUMP_MARGIN` (a step a tool would spin through that the input does not make;
+    :func:`rejoin` rewrites the runs where one goes over :data:`JUMP_DEG`)."""
 
     angles: np.ndarray
     read: np.ndarray
@@ -152,7 +155,7 @@ class _Run:
         lo, hi = max(first - 1, 0), min(stop + 1, n)
         steps = np.zeros((stop - first + 1, 3))
         at = 0 if first > 0 else 1  # row 0 is the step from before's frame
-        steps[at : at + hi - lo - 1] = np.abs(np.diff(source[lo:hi], axis=0))
+        steps[at : at + hi - lo - 1] = np.diff(source[lo:hi], axis=0)
         return cls(
             written[first:stop],
             source[first:stop],
@@ -171,7 +174,7 @@ class _Run:
     @property
     def limits(self) -> np.ndarray:
         """``(n + 1, 3)``: the steps beyond which a written step overshoots."""
-        return np.maximum(self.steps + JUMP_MARGIN, SEEN_DEG)
+        return np.maximum(np.abs(self.steps) + JUMP_MARGIN, SEEN_DEG)
 
     def largest_overshoot(self, angles: np.ndarray) -> float:
         """The largest overshoot of ``angles`` written over the run (from ``before`` to
@@ -183,28 +186,65 @@ class _Run:
         return float((np.abs(np.diff(rows, axis=0)) - used).max(initial=0.0))
 
 
-def _steps(channels: np.ndarray, bound: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
-    """``(m, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), how far the step from
-    each representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns) goes
-    beyond ``bound[i - 1]`` ``(3,)`` on its worst channel (0 if nowhere); ``channels`` are
-    the representations ``(n, 3, 54)``, channels first, and ``work`` a scratch of at least
-    ``(m, 3, 54, 54)``."""
-    m = rows.stop - rows.start
-    d = work[:m]
-    np.subtract(
+def _moves(channels: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
+    """``(m, 3, 54, 54)``: for each frame ``i`` of ``rows`` (from 1), the step from each
+    representation of frame ``i - 1`` (rows) to each of frame ``i`` (columns), channels
+    first; ``channels`` are the representations ``(n, 3, 54)``, channels first, and
+    ``work`` a scratch of at least ``(m, 3, 54, 54)`` (the result is a view of it)."""
+    d = work[: rows.stop - rows.start]
+    return np.subtract(
         channels[rows][:, :, None, :], channels[rows.start - 1 : rows.stop - 1][..., None], out=d
     )
-    np.abs(d, out=d)
+
+
+def _steps(channels: np.ndarray, bound: np.ndarray, rows: slice, work: np.ndarray) -> np.ndarray:
+    """``(m, 54, 54)``: how far each step of :func:`_moves` goes beyond ``bound[i - 1]``
+    ``(3,)`` on its worst channel (0 if nowhere)."""
+    d = np.abs(_moves(channels, rows, work), out=work[: rows.stop - rows.start])
     d -= bound[rows.start - 1 : rows.stop - 1][:, :, None, None]
-    np.maximum(d[:, 0], d[:, 1], out=d[:, 0])
-    np.maximum(d[:, 0], d[:, 2], out=d[:, 0])
-    return np.maximum(d[:, 0], 0.0, out=d[:, 0])
+    return _worst_channel(d)
+
+
+def _excess(step: np.ndarray, read: np.ndarray, spare: np.ndarray) -> np.ndarray:
+    """``step`` ``(..., 3, a, b)`` (written steps, channels on axis -3), in place: how far
+    each goes beyond what the input's step ``read`` ``(..., 3)`` allows, on its worst
+    channel (0 if nowhere). Where the input steps by at most :data:`SEEN_DEG`, any step as
+    long as the input's or shorter; where it steps further (a wrap, a flip, a switch of
+    Euler solution), one within a quarter turn, or the input's own, sign included (where
+    the input switched solution at gimbal lock by two outer half turns that cancel, one had
+    been written the other way, -189 and -171 degrees where the input stepped -202 and
+    +201: a tool interpolating the channels is half a turn off between the frames).
+    ``spare``: a scratch of ``step``'s shape."""
+    big = np.abs(read) > SEEN_DEG
+    followed = None
+    if big.any():  # (most frames: none)
+        followed = np.abs(np.subtract(step, read[..., None, None], out=spare), out=spare)
+    np.abs(step, out=step)
+    step -= np.minimum(np.abs(read), SEEN_DEG)[..., None, None]  # longer than allowed
+    if followed is not None:
+        where = np.broadcast_to(big[..., None, None], step.shape)
+        np.minimum(step, followed, out=step, where=where)
+    return _worst_channel(step)
+
+
+def _worst_channel(d: np.ndarray) -> np.ndarray:
+    """The largest of ``d`` ``(..., 3, a, b)`` over its channels, 0 if less (a view)."""
+    np.maximum(d[..., 0, :, :], d[..., 1, :, :], out=d[..., 0, :, :])
+    np.maximum(d[..., 0, :, :], d[..., 2, :, :], out=d[..., 0, :, :])
+    return np.maximum(d[..., 0, :, :], 0.0, out=d[..., 0, :, :])
 
 
 def _end_steps(cand: np.ndarray, end: np.ndarray, bound: np.ndarray) -> np.ndarray:
     """``(54,)``: how far the step between each representation ``cand`` ``(54, 3)`` and the
     fixed neighbour ``end`` goes beyond ``bound`` ``(3,)`` on its worst channel."""
     return np.maximum((np.abs(cand - end) - bound).max(axis=1), 0.0)
+
+
+def _end_excess(step: np.ndarray, read: np.ndarray) -> np.ndarray:
+    """``(54,)``: the :func:`_excess` of the steps ``step`` ``(54, 3)`` between the
+    representations and a fixed neighbour, where the input stepped ``read`` ``(3,)``."""
+    step = np.ascontiguousarray(step.T[:, None, :])  # (3, 1, 54)
+    return _excess(step, read, np.empty_like(step))[0]
 
 
 def _step_floor(run: _Run) -> tuple[float, bool]:
@@ -242,8 +282,8 @@ def _step_floor(run: _Run) -> tuple[float, bool]:
 def _least_overshoot(run: _Run, floor: float | None = None) -> np.ndarray:
     """The representations of the run's angles whose largest overshoot (from ``before``,
     between the rows, to ``after``) is least, and among those the one that follows the
-    input best (least sum of squared excess, so the curve steps where the input steps,
-    then nearest the input's own angles): a bottleneck shortest path over
+    input best (least sum of squared :func:`_excess`, then nearest the input's own
+    angles): a bottleneck shortest path over
     :func:`_candidates`, then a shortest path over the steps it allows (loops over the
     run's frames, each step one ``(54, 54)`` comparison; the steps made
     :data:`_STEP_FRAMES` frames at a time).
@@ -256,15 +296,12 @@ def _least_overshoot(run: _Run, floor: float | None = None) -> np.ndarray:
     blocks = [slice(at, min(at + _STEP_FRAMES, n)) for at in range(1, n, _STEP_FRAMES)]
     channels = np.ascontiguousarray(cand.transpose(0, 2, 1))
     limits, inside = run.limits[1:-1], run.steps[1:-1]
-    work = np.empty((_STEP_FRAMES, 3, k, k))
-
-    def ends(bound: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        first = np.zeros(k) if run.before is None else _end_steps(cand[0], run.before, bound[0])
-        last = np.zeros(k) if run.after is None else _end_steps(cand[-1], run.after, bound[-1])
-        return first, last
-
-    over_first, over_last = ends(run.limits)
-    excess_first, excess_last = ends(run.steps)
+    work, spare = np.empty((2, _STEP_FRAMES, 3, k, k))
+    zeros = np.zeros(k)
+    over_first = zeros if run.before is None else _end_steps(cand[0], run.before, run.limits[0])
+    over_last = zeros if run.after is None else _end_steps(cand[-1], run.after, run.limits[-1])
+    excess_first = zeros if run.before is None else _end_excess(cand[0] - run.before, run.steps[0])
+    excess_last = zeros if run.after is None else _end_excess(run.after - cand[-1], run.steps[-1])
     near = _NEAR_INPUT * np.square(cand - run.read[:, None, :]).sum(axis=2)  # (n, 54)
 
     def smoothest(allowed: float) -> tuple[np.ndarray, bool]:
@@ -275,7 +312,10 @@ def _least_overshoot(run: _Run, floor: float | None = None) -> np.ndarray:
         for rows in blocks:
             # an overshoot beyond what is allowed costs inf (as does any path through one)
             barred = _steps(channels, limits, rows, work) > allowed
-            squares = _steps(channels, inside, rows, work)
+            m = rows.stop - rows.start
+            squares = _excess(
+                _moves(channels, rows, work), inside[rows.start - 1 : rows.stop - 1], spare[:m]
+            )
             squares *= squares
             squares[barred] = np.inf
             for i, square in enumerate(squares, rows.start):
