@@ -459,9 +459,11 @@ def _turned(values: np.ndarray, source: np.ndarray) -> np.ndarray:
 
 def settle(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray) -> None:
     """:func:`rejoin` then :func:`follow_wraps`, in place: the changed samples of ``values``
-    ``(F, C)`` written on the representations that make no step the read ``source`` lacks
-    and wrap where it wraps, the unchanged ones as read (the files' write-back; Blender's
-    curves, whose unchanged keys may move by whole turns, take their own way)."""
+    ``(F, C)`` written on the representations that make no step the read ``source`` lacks,
+    on its whole turns where they then wrap where it wraps (elsewhere they may lie whole
+    turns or the other Euler solution from its values), the unchanged ones as read (the
+    files' write-back; Blender's curves, whose unchanged keys may move by whole turns, take
+    their own way)."""
     rejoin(values, source, rotation_columns)
     follow_wraps(values, source, rotation_columns)
 

@@ -571,12 +571,14 @@ class Motion:
         component, rounding) keep their original values bit for bit, and changed ones
         continue the curve from the last unchanged frame (:func:`continuous_euler`), on the
         representations that rejoin the unchanged frames after them without a jump the
-        input lacks (:func:`motionclean.core.eulerjoin.rejoin`) and on the input's own
-        whole turns, wrapping where it wraps (:func:`~motionclean.core.eulerjoin.follow_wraps`:
-        a run to the clip's end has no unchanged frame to rejoin). Otherwise (new frames:
-        resampled, stitched, another format's rotations) the first frame takes the
-        principal angles and each frame after it the Euler solution and whole turns nearest
-        the frame before, as a changed run does: a middle angle that passes +-90 degrees
+        input lacks (:func:`motionclean.core.eulerjoin.rejoin`), moved back onto the
+        input's own whole turns where they then wrap where it wraps
+        (:func:`~motionclean.core.eulerjoin.follow_wraps`: a run to the clip's end has no
+        unchanged frame to rejoin); elsewhere a changed value may lie whole turns or the
+        other Euler solution from the input's. Otherwise (new frames: resampled, stitched,
+        another format's rotations) the first frame takes the principal angles and each
+        frame after it the Euler solution and whole turns nearest the frame before, as a
+        changed run does: a middle angle that passes +-90 degrees
         goes on past it instead of the other two angles jumping by half a turn. Groups of
         joints run on threads.
         """
