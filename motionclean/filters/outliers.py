@@ -10,7 +10,8 @@ whose deviation exceeds :data:`LONE_SIGMAS` times ``sqrt(1.5) s`` with both neig
 deviations pointing back by over :data:`PULLED_BACK` of it; :func:`replaced` puts each on the
 chord. Where ``auto`` filters a joint, a smoothing mask only spreads such a sample over its
 neighbours (a binomial k=1 keeps half of it): judged against the noise ``auto`` found, it
-is taken out first (see :mod:`motionclean.steps.auto`).
+is taken out first (see :mod:`motionclean.steps.auto`). A good sample between two outliers
+pulls its neighbours back by its whole deviation, not half of it, and is no outlier.
 """
 
 from __future__ import annotations
@@ -19,18 +20,19 @@ import numpy as np
 
 from ..core import quat
 
-__all__ = ["LONE_SIGMAS", "PULLED_BACK", "lone_outliers", "replaced"]
+__all__ = ["LONE_SIGMAS", "PULLED_BACK", "chord_deviations", "lone_outliers", "replaced"]
 
 #: A lone outlier leaves its neighbours' chord by more than this many times the deviation
 #: noise alone gives there (``sqrt(1.5)`` times the RMS noise): on 21 and 29 coordinates of
 #: two OpenSim walks and runs with 2.5 degrees of noise and three 15-30 degree one-frame
-#: spikes each, 4 flags 31 of the walk's 54 spikes left by despike and 3 samples of noise;
-#: 6 flags 25 and none. Gaussian noise of one degree of freedom passes it once in 10^6
+#: spikes each, 4 flags 32 of the walk's 54 spikes and 16 samples of noise, 5 flags 31 and
+#: 3, 6 flags 25 and 1. Gaussian noise of one degree of freedom passes 5 once in 10^6
 #: samples before the neighbours' test.
 LONE_SIGMAS = 5.0
-#: ... and each neighbour's deviation points back along it by more than this share of it
-#: (a lone outlier's pull half of it; an impact's neighbours stay on their chords).
-PULLED_BACK = 0.25
+#: ... and each neighbour's deviation points back along it by this share of it (a lone
+#: outlier's pull is half of it, its noise aside; an impact's neighbours stay on their
+#: chords, a good sample between two outliers pulls them back by all of it).
+PULLED_BACK = (0.25, 0.75)
 
 
 def _chord_deviations(q: np.ndarray) -> np.ndarray:
@@ -39,6 +41,15 @@ def _chord_deviations(q: np.ndarray) -> np.ndarray:
     ``q`` is ``(F, C, 4)``, sign-continuous."""
     mid = quat.normalize(q[:-2] + q[2:])
     return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), q[1:-1]))
+
+
+def chord_deviations(q: np.ndarray) -> np.ndarray:
+    """``(F, C)``: each sample's angle from the chord of its neighbours, degrees (0 at the
+    first and last frame). ``q`` is ``(F, C, 4)``, sign-continuous."""
+    out = np.zeros(q.shape[:2])
+    if q.shape[0] >= 3:
+        out[1:-1] = np.degrees(np.linalg.norm(_chord_deviations(q), axis=-1))
+    return out
 
 
 def lone_outliers(
@@ -57,10 +68,10 @@ def lone_outliers(
     size = np.linalg.norm(d, axis=-1)
     unit = d / np.maximum(size, np.finfo(np.float64).tiny)[..., None]
     centre = size[1:-1]
-    back = PULLED_BACK * centre
-    pulled = (np.sum(d[:-2] * unit[1:-1], axis=-1) < -back) & (
-        np.sum(d[2:] * unit[1:-1], axis=-1) < -back
-    )
+    low, high = PULLED_BACK[0] * centre, PULLED_BACK[1] * centre
+    before = -np.sum(d[:-2] * unit[1:-1], axis=-1)
+    after = -np.sum(d[2:] * unit[1:-1], axis=-1)
+    pulled = (before > low) & (before < high) & (after > low) & (after < high)
     level = np.radians(np.asarray(noise_deg, dtype=np.float64))
     limit = np.where(np.isfinite(level) & (level > 0), LONE_SIGMAS * np.sqrt(1.5) * level, np.inf)
     out[2:-2] = pulled & (centre > limit)

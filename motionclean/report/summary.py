@@ -28,6 +28,7 @@ from ..core.threads import run_parts
 from ..core.words import columns, length_word, pad, plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
 from ..steps import REGISTRY
+from ..steps.base import brief_runs as summarised_runs
 from ..steps.base import format_params, fps_text
 from . import metrics
 from .html_world import world_series
@@ -1109,6 +1110,9 @@ def format_repairs(report: dict, limit: int = 10) -> list[str]:
     repaired = repaired_joints(report)  # (the others' notes are dropouts found, none filled)
     for name, entry in report["joints"].items():
         texts = {key: note_text(key, entry[key], brief=True) for key in keys if entry.get(key)}
+        lone = (entry.get("auto") or {}).get("outliers")
+        if lone:  # (auto's repairs: its other notes are no repairs)
+            texts["auto"] = f"took out {plural(len(lone), 'lone outlier')}: {summarised_runs(lone)}"
         if not texts:
             continue
         word = "repaired" if name in repaired else "dropouts"

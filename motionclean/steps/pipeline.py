@@ -535,7 +535,7 @@ class Pipeline:
                         earlier,
                         starts,
                         by_take,
-                        entered if entered.n_frames == current.n_frames else None,
+                        entered if _same_frames(entered, current) else None,
                     )
             except UsageError as error:  # what the step was asked cannot be done on a clip
                 if error.path is not None:
@@ -614,6 +614,12 @@ def _frame_span(
 ) -> tuple[int, int]:
     assert step.span is not None
     return step.span.frame_span(n_frames, frame_time, _where(step, number, path))
+
+
+def _same_frames(a: Motion, b: Motion) -> bool:
+    """Whether two clips hold the same frames: their count and their rate (a resample to
+    119.9 fps keeps a 300-frame clip's count)."""
+    return a.n_frames == b.n_frames and a.frame_time == b.frame_time
 
 
 def _run_step(
