@@ -23,7 +23,7 @@ from ..core.jumps import JUMP_DEG, jump_steps
 from ..core.motion import Motion, run_labels
 from ..core.rates import frames_floor
 from ..core.restpose import rest_frames, trim
-from ..core.takes import take_starts
+from ..core.takes import MAX_DEG_PER_S, MIN_DEG_PER_S, take_starts
 from ..core.threads import run_parts
 from ..core.words import columns, length_word, pad, plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
@@ -66,7 +66,7 @@ class PairRepairs(NamedTuple):
     ``turned`` runs (over :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG`, with the
     brief run of changed frames around) and its ``brief_change`` runs (``runs``,
     ``max_deg``: changed on at most :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a
-    row), ``[start, stop)`` frames."""
+    row, as a repair), ``[start, stop)`` frames."""
 
     masks: dict[str, np.ndarray]
     notes: dict[str, dict]
@@ -74,11 +74,12 @@ class PairRepairs(NamedTuple):
 
 def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
     """The frames of each joint that ``after`` repaired, read from the two clips: the runs
-    it changed on no more than :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row
-    (by more than :data:`~motionclean.report.verdict.UNCHANGED_DEG`, the frames on both sides
-    as they were; samples missing in either clip are no change), turned where they hold a
-    frame turned by more than :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (as are
-    such frames in longer runs: un-flipped), else brief changes."""
+    it changed (by more than :data:`~motionclean.report.verdict.UNCHANGED_DEG`; samples
+    missing in either clip are no change) on no more than
+    :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row, a frame known and unchanged
+    on each side, turned where they hold a frame turned by more than
+    :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (as are such frames in any run:
+    un-flipped), else brief changes where the input shows a repair in them (:func:`_brief`)."""
     rotating = np.flatnonzero(before.layout.has_rotation)
     longest = max(1, frames_floor(PAIR_BRIEF_S / before.frame_time))
     missing = _missing(before, after, rotating)
@@ -91,7 +92,8 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
             after.rotations[:, cols],
             None if missing is None else missing[:, at : at + _PAIR_BLOCK],
         )
-        far, brief = _brief(change > UNCHANGED_DEG, change > PAIR_REPAIR_DEG, longest)
+        speed = metrics.step_deg(before.rotations[:, cols]) / before.frame_time
+        far, brief = _brief(change, speed, longest)
         turned_runs = found.contact_runs(far)
         brief_runs = found.contact_runs(brief)
         for k in np.flatnonzero((far | brief).any(axis=0)).tolist():
@@ -107,15 +109,46 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
     return PairRepairs(masks, notes)
 
 
-def _brief(changed: np.ndarray, far: np.ndarray, longest: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(F, C)`` each: the ``far`` frames with the runs of ``changed`` frames (per column)
-    of at most ``longest`` frames that hold one, and those brief runs that hold none."""
+def _brief(change: np.ndarray, speed: np.ndarray, longest: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, C)`` each, from ``change`` (degrees, NaN where missing) and the input's steps
+    ``speed`` ``(F-1, C)`` (degrees per second): the frames turned (over ``PAIR_REPAIR_DEG``,
+    with the short bounded run of changed frames around them) and the brief changes.
+
+    A run of changed frames is short with at most ``longest`` frames, bounded with a frame
+    known and unchanged on each side (a clip end is none), and shows a repair where the
+    input steps into and out of it faster than ``MIN_DEG_PER_S`` (a spike's jumps) or
+    inside it faster than ``MAX_DEG_PER_S`` (a capped step): :data:`.verdict.PAIR_BRIEF_S`."""
+    changed = change > UNCHANGED_DEG
+    far = change > PAIR_REPAIR_DEG
     run = run_labels(changed)
     size = np.bincount(run.ravel(), minlength=1)
+    first, last = changed.copy(), changed.copy()
+    first[1:] &= ~changed[:-1]
+    last[:-1] &= ~changed[1:]
+    kept = change <= UNCHANGED_DEG  # (False where missing: NaN)
+    # per frame, of the frame before and the step from it; of the frame after and the step
+    # to it (none at the clip's ends)
+    kept_before, kept_after = np.zeros_like(kept), np.zeros_like(kept)
+    kept_before[1:], kept_after[:-1] = kept[:-1], kept[1:]
+    jump_in, jump_out = np.zeros_like(kept), np.zeros_like(kept)
+    jump_in[1:] = jump_out[:-1] = speed > MIN_DEG_PER_S
+    bounded = _per_run(run, first, kept_before, size.size)
+    bounded &= _per_run(run, last, kept_after, size.size)
+    jumps = _per_run(run, first, jump_in, size.size) & _per_run(run, last, jump_out, size.size)
+    inner = changed[:-1] & changed[1:] & (speed > MAX_DEG_PER_S)
+    capped = np.bincount(run[:-1][inner], minlength=size.size) > 0
     holds_far = np.bincount(run[far], minlength=size.size) > 0
-    short = size <= longest
+    short = (size <= longest) & bounded
     short[0] = False  # (label 0: outside every run)
-    return far | (short & holds_far)[run], (short & ~holds_far)[run]
+    return far | (short & holds_far)[run], (short & ~holds_far & (jumps | capped))[run]
+
+
+def _per_run(run: np.ndarray, at: np.ndarray, values: np.ndarray, n_runs: int) -> np.ndarray:
+    """``(n_runs,)`` bool: per label of ``run`` ``(F, C)``, ``values`` at its frame ``at``
+    (each run's one True frame of ``at``); False for label 0 and runs without one."""
+    per_run = np.zeros(n_runs, dtype=bool)
+    per_run[run[at]] = values[at]
+    return per_run
 
 
 def build_series(

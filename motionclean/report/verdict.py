@@ -192,12 +192,17 @@ def _runs(note: dict, key: str) -> list[list[int]]:
 #: joint about half a turn (165-180 degrees on the noisy sample's RThumb), where smoothing
 #: across the same flips (``multires:level=2,cut_deg=180``) leaves 60-150.
 PAIR_REPAIR_DEG = 150.0
-#: ... and a joint changed on no more than this many seconds in a row, the frames on both
-#: sides exactly as they were, changed briefly, as a repair does (``despike``'s longest
-#: spike, 0.07 s, widened by its cap a frame per side as many times): no smoothing leaves
-#: the frames around its change untouched. Told as such, not as smoothing (an Xsens toe
-#: capped on 2 frames had read "smoothing changed it by 0.08 degrees RMS, more than 3
-#: times its noise: motion taken for noise").
+#: ... and a joint changed on no more than this many seconds in a row, a frame on each side
+#: exactly as it was (no clip end), changed briefly, as a repair does (``despike``'s longest
+#: spike, 0.07 s, widened by its cap a frame per side as many times), where its input
+#: shows a repair: steps into and out of the run over ``despike``'s floor for a jump
+#: (``MIN_DEG_PER_S``) or one inside it over its cap (``MAX_DEG_PER_S``). Told as such, not
+#: as smoothing (an Xsens toe capped on 2 frames, entered at 3,601 deg/s and left at 1,483,
+#: had read "smoothing changed it by 0.08 degrees RMS, more than 3 times its noise: motion
+#: taken for noise"). Smoothing leaves a frame as it was only where the input holds still
+#: around it, so it reaches still frames before and after a still joint's twitch: one of
+#: 0.1 s and 25 degrees (steps up to 840 deg/s) smoothed by ``lee-shin:k=3`` changes a run
+#: entered and left by input steps of 0, judged as smoothing.
 PAIR_BRIEF_S = 3 * LONGEST_SPIKE_S
 #: The notes that say which frames a repairing step changed: (step, key) of its runs.
 _ROTATION_REPAIRS = (
@@ -810,8 +815,11 @@ def build_verdict(
             )
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
-        if counts["frames"] > LOOK_REPAIRED_SHARE * frames:
-            reasons.append(f"{name} repaired on {counts['frames'] / frames:.0%} of its frames")
+        # (a brief change, two clips compared, claims no repair)
+        brief = _runs(joints[name].get("brief_change") or {}, "runs")
+        repaired = counts["frames"] - sum(b - a for a, b in brief)
+        if repaired > LOOK_REPAIRED_SHARE * frames:
+            reasons.append(f"{name} repaired on {repaired / frames:.0%} of its frames")
     too_fast = _too_fast(smoothing)
     if too_fast:
         reasons.append(_fast_words(too_fast))

@@ -415,27 +415,35 @@ def test_two_clips_compared_take_turns_over_a_quarter_turn_for_repairs(tmp_path,
     assert code == 0 and ">5 turns<" in page and "repaired on 48 frames of RThumb" in page
 
 
+def _with_excursion(clip: mc.Motion, joint: str, start: int, degrees: np.ndarray) -> mc.Motion:
+    """``clip`` with ``joint`` turned by ``degrees`` about x on the frames from ``start``."""
+    j = clip.names.index(joint)
+    turn = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(degrees))
+    q = clip.rotations.copy()
+    q[start : start + degrees.size, j] = quat.multiply(q[start : start + degrees.size, j], turn)
+    return clip.replace(rotations=q, source_values=None)
+
+
 @pytest.mark.parametrize("frames", [6, 60])
 def test_two_clips_compared_tell_a_brief_change_as_such_not_as_smoothing(tmp_path, capsys, frames):
     """`report IN CLEANED` of an Xsens walk and its default clean, which only capped a toe's
     step on 2 frames, had read "needs a look: smoothing changed it by 0.08 degrees RMS, more
     than 3 times its noise (0.019 degrees): motion taken for noise": the pair cannot tell
     repairs from smoothing, but a joint changed on a few frames in a row, the frames around
-    them as they were, is no smoothing. The line says what it can know; a change as large
-    held longer than PAIR_BRIEF_S (0.5 s here) is still judged as smoothing."""
+    them as they were, where the input jumps in and out (a spike taken out), is no smoothing.
+    The line says what it can know; a change as large held longer than PAIR_BRIEF_S (0.5 s
+    here) is still judged as smoothing."""
     clip = mc.load(SAMPLE)
     toe = clip.names.index("LeftToe")
-    degrees = np.interp(np.arange(frames), [0, 1, frames - 2, frames - 1], [4, 9, 9.5, 4])
-    turn = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(degrees))
-    q = clip.rotations.copy()
-    q[150 : 150 + frames, toe] = quat.multiply(q[150 : 150 + frames, toe], turn)
-    changed = tmp_path / "changed.bvh"
-    mc.save(clip.replace(rotations=q), changed)
-    code, out, err = run_cli(capsys, "report", SAMPLE, changed, "--json", tmp_path / "r.json")
+    degrees = np.interp(np.arange(frames), [0, 1, frames - 2, frames - 1], [8, 18, 19, 8])
+    spiky = tmp_path / "spiky.bvh"
+    mc.save(_with_excursion(clip, "LeftToe", 150, degrees), spiky)
+    code, out, err = run_cli(capsys, "report", spiky, SAMPLE, "--json", tmp_path / "r.json")
     assert code == 0, err
     report = json.loads((tmp_path / "r.json").read_text())
     verdict, note = report["verdict"], report["joints"]["LeftToe"].get("brief_change")
-    peak = float(np.degrees(quat.angle_between(clip.rotations[:, toe], q[:, toe])).max())
+    read = mc.load(spiky).rotations[:, toe]
+    peak = float(np.degrees(quat.angle_between(read, clip.rotations[:, toe])).max())
     brief = frames * clip.frame_time <= verdict_rules.PAIR_BRIEF_S
     assert (note is not None) is brief
     if brief:
@@ -449,6 +457,61 @@ def test_two_clips_compared_tell_a_brief_change_as_such_not_as_smoothing(tmp_pat
     else:
         assert verdict["change_deg_max"] == pytest.approx(peak, abs=1e-6)
         assert "smoothing changed it by" in verdict["text"]
+
+
+def test_two_clips_compared_tell_no_brief_change_without_a_repair_in_the_input(tmp_path, capsys):
+    """A thumb held still but for one 0.1 s twitch, smoothed (filtering a constant leaves it
+    as it was): its frames around the twitch change, those beyond do not, yet the input
+    enters and leaves them still (the twitch's steps, 840 deg/s at most, are under despike's
+    cap). That is smoothing, judged as such; it had read "changed by up to 2.6 degrees on
+    LThumb (frames 148-163)", left out of the figures."""
+    clip = mc.load(SAMPLE)
+    thumb = clip.names.index("LThumb")
+    still = clip.rotations.copy()
+    still[:, thumb] = still[0, thumb]
+    twitch = 25 * np.sin(np.linspace(0, np.pi, 12)) ** 2
+    source, cleaned = tmp_path / "twitch.bvh", tmp_path / "c.bvh"
+    mc.save(_with_excursion(clip.replace(rotations=still), "LThumb", 150, twitch), source)
+    code, _, err = run_cli(capsys, "clean", source, "-f", "lee-shin:k=3", "-o", cleaned, "-q")
+    assert code == 0, err
+    code, _, err = run_cli(capsys, "report", source, cleaned, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    before, after = mc.load(source).rotations[:, thumb], mc.load(cleaned).rotations[:, thumb]
+    changed = np.degrees(quat.angle_between(before, after))
+    run = np.flatnonzero(changed > UNCHANGED_DEG)  # 148-163: brief, still frames around
+    assert run[-1] - run[0] < verdict_rules.PAIR_BRIEF_S / clip.frame_time
+    assert not any("brief_change" in joint for joint in report["joints"].values())
+    assert "brief" not in report["verdict"]["text"]
+    # its figures count the change (a brief change's frames are left out of them)
+    assert report["joints"]["LThumb"]["deviation_deg"]["max"] == pytest.approx(changed.max())
+
+
+@pytest.mark.parametrize("start", [0, 2])
+def test_two_clips_compared_need_an_unchanged_frame_each_side_for_a_brief_change(
+    tmp_path, capsys, start
+):
+    """A 12-frame clip with a spike on LeftToe taken out: on frames 2-9 (an unchanged frame
+    each side) a brief change, not "repaired on 67% of its frames" (no repair is claimed);
+    from frame 0 no brief change (a clip's end is no unchanged frame: clips of at most
+    PAIR_BRIEF_S, smoothed whole, had read "needs a look: Hips repaired on 100% of its
+    frames ... in 30 brief runs")."""
+    clip = mc.load(SAMPLE).at_frames(slice(100, 112))
+    spiky, cleaned = tmp_path / "spiky.bvh", tmp_path / "c.bvh"
+    mc.save(_with_excursion(clip, "LeftToe", start, np.full(8, 20.0)), spiky)
+    mc.save(clip, cleaned)
+    code, _, err = run_cli(capsys, "report", spiky, cleaned, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    verdict, note = report["verdict"], report["joints"]["LeftToe"].get("brief_change")
+    assert "repaired on" not in verdict["text"]
+    if start:
+        assert note["runs"] == [[2, 10]] and note["max_deg"] == pytest.approx(20, abs=1e-3)
+        assert verdict["status"] == "clean" and verdict["repairs"]["LeftToe"]["frames"] == 8
+        assert verdict["text"].startswith("clean capture: changed by up to 20.0 degrees on")
+    else:
+        assert note is None and verdict["repairs"] == {}
+        assert verdict["change_deg_max"] == pytest.approx(20, abs=1e-3)
 
 
 @pytest.mark.parametrize("name", ["131_01.bvh", "131_03.bvh"])
