@@ -32,7 +32,8 @@ coordinates may not. ``NaN`` cells (any case) are missing samples (``Motion.miss
 Tables of OpenSim's tools and analyses that hold no coordinate values are refused, saying
 what they hold: speeds, accelerations, tracking errors, actuator forces, controls ... by
 their title (:data:`NOT_COORDINATES`), a table of actuators by its residual or reserve
-actuators' columns (:data:`ACTUATORS`), bodies' kinematics by their columns.
+actuators' columns (:data:`ACTUATORS`; of those not excluded), bodies' kinematics by their
+columns.
 
 Writing a clip read from such a file keeps the header and every cell that did not change
 byte for byte (excluded columns included; a value that moved by at most 1e-9 of its unit
@@ -367,10 +368,10 @@ def _title(data: bytes) -> str:
     return "" if "=" in line or line.lower() == "endheader" else line
 
 
-def _refuse_results(title: str, labels: list[str], path, line: int) -> None:
+def _refuse_results(title: str, columns: list[str], path, line: int) -> None:
     """Refuse a table that holds no coordinate values: one of :data:`NOT_COORDINATES` by
-    its title (the file's line 1), or one with :data:`ACTUATORS` columns (the labels'
-    ``line``), saying what it holds."""
+    its title (the file's line 1), or one with :data:`ACTUATORS` among the ``columns`` (those
+    read: the labels on ``line`` the user did not exclude), saying what it holds."""
     plain = _plain_title(title)
     known = next((k for k in NOT_COORDINATES if fnmatch.fnmatchcase(plain, _plain_title(k))), None)
     if known is not None:
@@ -380,13 +381,14 @@ def _refuse_results(title: str, labels: list[str], path, line: int) -> None:
             path,
             1,
         )
-    actuators = [c for c in labels[1:] if any(fnmatch.fnmatchcase(c, p) for p in ACTUATORS)]
+    actuators = [c for c in columns if any(fnmatch.fnmatchcase(c, p) for p in ACTUATORS)]
     if actuators:
         shown = ", ".join(a[:40] for a in actuators[:3]) + (" ..." if len(actuators) > 3 else "")
         _fail(
             f"actuator columns ({shown}): a value per muscle or actuator (forces, speeds, "
             "powers or controls of CMC, RRA or the Actuation analysis), not coordinate values; "
-            + READ_INSTEAD,
+            f"{READ_INSTEAD}; --exclude leaves such columns out of a table of coordinates "
+            f"(--exclude {actuators[0][:40]})",
             path,
             line,
         )
@@ -459,7 +461,9 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             f"the first column is {labels[0][:40]!r}, expected 'time'", path, number_of(label_line)
         )
     _refuse_body_kinematics(labels, path, number_of(label_line))
-    _refuse_results(_title(data), labels, path, number_of(label_line))
+    patterns = list(exclude)
+    kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
+    _refuse_results(_title(data), [labels[c] for c in kept], path, number_of(label_line))
     empty = _empty_cell(data, line_start, label_line)
     if empty is not None:
         _fail(f"column {empty + 1} has no name (two tabs in a row)", path, number_of(label_line))
@@ -485,8 +489,6 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
     stated = pairs.get("nrows", (None, 0))[0]
     cell = (first_token[rows][:, None] + np.arange(k)).astype(np.intp)  # (F, K) token index
     cell_starts, cell_ends = starts[cell], ends[cell]
-    patterns = list(exclude)
-    kept = [c for c in range(1, k) if not any(fnmatch.fnmatchcase(labels[c], p) for p in patterns)]
     if k == 1:
         _fail("only a time column: no coordinates to clean", path, number_of(label_line))
     if not kept:

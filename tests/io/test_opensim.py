@@ -516,6 +516,26 @@ def test_a_table_of_actuators_is_refused_whatever_its_title(tmp_path, capsys):
     )
 
 
+def test_an_actuator_column_the_user_excludes_does_not_refuse_the_table(tmp_path, capsys):
+    """Coordinates beside a residual force's column (FX): refused as an actuator table,
+    saying that --exclude leaves it out, and read with it excluded (an excluded column is
+    never parsed; `--exclude FX` had still been refused), FX written back as it was."""
+    head, _, table = CMC_SPEEDS.format(title="Coordinates").partition("endheader\n")
+    labels, *rows = table.splitlines()
+    forces = "".join(f"{row}\t{i * 0.25:.8f}\n" for i, row in enumerate(rows))
+    text = head.replace("nColumns=4", "nColumns=5") + f"endheader\n{labels}\tFX\n{forces}"
+    path = write(tmp_path, text, "ik_fx.sto")
+    code, _, err = run_cli(capsys, "info", path)
+    assert code == 1 and f"{path}:7: actuator columns (FX): a value per muscle" in err
+    assert err.endswith("leaves such columns out of a table of coordinates (--exclude FX)\n")
+    code, _, err = run_cli(capsys, "info", path, "--exclude", "FX")
+    assert code == 0, err
+    motion = mc.load(path, exclude=["FX"])
+    assert motion.names == ["pelvis_tx", "pelvis_tilt", "knee_angle_r"]
+    mc.save(motion, tmp_path / "out.sto")
+    assert (tmp_path / "out.sto").read_text() == text
+
+
 @pytest.mark.parametrize("title", ["Coordinates", "subject01_walk1_states", "first trial"])
 def test_the_same_columns_under_a_coordinates_or_free_title_are_read(tmp_path, title):
     """Kinematics' *_q.sto (titled Coordinates) and files titled by their trial are read:
