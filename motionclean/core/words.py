@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["columns", "last_columns", "length_word", "pad", "percent", "plural"]
+__all__ = ["UNSAID_LENGTH", "columns", "last_columns", "length_word", "pad", "percent", "plural"]
+
+#: The ``unit`` of a step note's lengths (``auto``, ``despike``, ``ground``) where the format
+#: does not say theirs: the file's own (its notes on rotations say ``"deg"``).
+UNSAID_LENGTH = "length"
 
 
 def plural(count: int, noun: str) -> str:
@@ -14,8 +18,9 @@ def plural(count: int, noun: str) -> str:
 
 def length_word(unit: str | None) -> str:
     """What lengths are said in: their unit where the format fixes one (``"m"``), else
-    ``"units"`` (the file's own: a BVH's centimetres or inches, unsaid)."""
-    return unit or "units"
+    ``"units"`` (the file's own: a BVH's centimetres or inches, unsaid; ``unit`` None or
+    :data:`UNSAID_LENGTH`)."""
+    return "units" if unit in (None, UNSAID_LENGTH) else unit
 
 
 def percent(share: float) -> str:

@@ -7,7 +7,10 @@ ancestor among them. Its rest offset is the node's translation; its local rotati
 node's ``rotation`` (glTF's ``(x, y, z, w)`` becomes our ``(w, x, y, z)``), animated by
 the first animation's ``rotation`` channel, and a joint whose ``translation`` channel
 varies gets position channels (glTF replaces the node's translation, as BVH position
-channels replace an OFFSET). Scale is not read (and never changed). A VRM animation (the
+channels replace an OFFSET). Scale is not read (and never changed): lengths are metres,
+glTF's unit, where no node of the armature is scaled, else the skeleton's own units
+(:func:`_length_unit`; a file motionclean wrote from another format keeps that format's
+lengths, a BVH's centimetres, and says no unit). A VRM animation (the
 ``VRMC_vrm_animation`` extension) is read by its humanoid bone map: the joints are the
 bones' nodes (and any node between two of them), hips at the root; its expression nodes
 (whose translation's x is a weight) and its look-at node are not joints, their channels
@@ -142,6 +145,9 @@ class GltfSource:
     buffers: Any  # the buffers' bytes, read when first asked for
     translations: np.ndarray  # (F, J, 3) as read
     notes: tuple[str, ...] = field(default=())
+    #: The unit of its lengths where it holds (:func:`_length_unit`), else None: the
+    #: skeleton's own (``core.kinematics.length_unit``).
+    length_unit: str | None = None
 
     @property
     def start_time(self) -> float:
@@ -754,6 +760,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     if not isinstance(channels, list) or not all(isinstance(c, dict) for c in channels):
         _fail(f"animations[{a}].channels is not a list of objects", path)
     targets: dict[tuple[int, str], int] = {}
+    scale_keys: dict[int, int] = {}  # the channel keying a node's scale
     for c, channel in enumerate(channels):
         target = channel.get("target")
         if not isinstance(target, dict):
@@ -764,6 +771,8 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         kind = target.get("path")
         if kind in ("rotation", "translation"):
             targets[(n, kind)] = c
+        elif kind == "scale":
+            scale_keys[n] = c
     bones, carried = _vrm_nodes(document, len(nodes), path)
     skins = _items(document, "skins", path)
     if bones:
@@ -838,6 +847,12 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             translations[:, j] = 0.0
         channels_out.append(POSITION_CHANNELS + ROTATION if moving else ROTATION)
     rotations = quat.continuous(rotations)
+    armature = _armature(order, parent)
+    scales = [_scale(nodes[n], n, path) for n in armature] + [
+        _key_values(_keys(document, buffers, chosen, channels[c], a, 3, path))
+        for n, c in scale_keys.items()
+        if n in armature
+    ]
     source = GltfSource(
         data,
         document,
@@ -853,6 +868,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         buffers,
         np.array(translations),
         tuple(notes),
+        _length_unit(document, scales),
     )
     return Motion(
         names=_unique([_name(nodes[n], n) for n in order]),
@@ -901,6 +917,37 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
         f"skeleton's {up or 'no axis'}): positions and heights are in the skeleton's own "
         "units and axes"
     )
+
+
+#: The ``asset.generator`` of the glTF files :func:`fresh_gltf` writes.
+GENERATOR = "motionclean"
+
+
+def _length_unit(document: dict, scales: list[np.ndarray]) -> str | None:
+    """``"m"``, glTF's unit of length (glTF 2.0 3.4), where the armature's ``scales`` (its
+    nodes' scale factors and the values keyed for them) are all 1: the lengths read are
+    then the scene's; else None (the skeleton's own units, as scale is not read). None too
+    for a file :func:`fresh_gltf` wrote, which keeps the lengths of the clip it was made
+    from (a BVH's centimetres)."""
+    asset = document.get("asset")
+    if isinstance(asset, dict) and asset.get("generator") == GENERATOR:
+        return None
+    return "m" if all(np.allclose(factors, 1.0) for factors in scales) else None
+
+
+def _armature(order: list[int], parent: np.ndarray) -> set[int]:
+    """The joints' nodes ``order`` and every node above them."""
+    armature: set[int] = set()
+    for n in order:
+        while n >= 0 and n not in armature:
+            armature.add(n)
+            n = int(parent[n])
+    return armature
+
+
+def _key_values(keys: _Keys) -> np.ndarray:
+    """The values keyed (a cubic spline's without its tangents)."""
+    return keys.values[:, 1] if keys.values.ndim == 3 else keys.values
 
 
 def _end_sites(
@@ -1355,7 +1402,7 @@ def fresh_gltf(motion: Motion, glb: bool) -> bytes:
             {"name": UP_NODE, "rotation": [float(v) for v in turn[[1, 2, 3, 0]]], "children": roots}
         )
     document: dict[str, Any] = {
-        "asset": {"version": "2.0", "generator": "motionclean"},
+        "asset": {"version": "2.0", "generator": GENERATOR},
         "scene": 0,
         "scenes": [{"nodes": roots if turn is None else [len(nodes) - 1]}],
         "nodes": nodes,

@@ -29,7 +29,8 @@ alone is blank (Excel and LibreOffice save a blank line so).
 Every ``Rigid Body`` becomes a joint: an independent root (parent -1, no offset) whose
 rotation is the quaternion of its ``Rotation`` columns, read as X Y Z W into our
 ``(w, x, y, z)`` (renormalised, sign-continuous in time), and whose translation is its
-``Position`` columns in the export's ``Length Units``; as BVH it gets the channels of a
+``Position`` columns in the export's ``Length Units`` (said as ``m``, ``cm`` or ``mm``
+where they are Meters, Centimeters or Millimeters); as BVH it gets the channels of a
 rigid-body CSV body. The clip is Y up (:data:`UP`: Motive's default, which its header does
 not state). A rigid body needs exactly Rotation over X, Y, Z, W and Position over
 X, Y, Z; a property row that says otherwise is refused naming its line. Every other column
@@ -109,6 +110,9 @@ UNLABELLED_ROWS = ("Type", "Name", "ID", "")
 #: Motive's world is Y up (its default; an export's header does not say): the clip's
 #: declared up axis (``Motion.up``, ``--up`` overrides it).
 UP = "y"
+#: The ``Length Units`` of Motive's exports, as lengths are said (``core.words.length_word``);
+#: another value leaves the positions in the file's units, unsaid.
+LENGTH_UNITS = {"meters": "m", "centimeters": "cm", "millimeters": "mm"}
 #: Header lines read at most before the axis row must have appeared.
 MAX_HEADER_LINES = 64
 
@@ -137,6 +141,9 @@ class MotiveText(CsvText):
     up_source = "Motive's default; the export does not say: --up gives another"
     body_cells: tuple[dict[str, tuple[str, ...]], ...] = ()
     axis_head: tuple[str, ...] = ("Frame", "Time (Seconds)")
+    #: The positions' unit as the metadata's ``Length Units`` says it (:data:`LENGTH_UNITS`),
+    #: else None (``core.kinematics.length_unit``).
+    length_unit: str | None = None
 
 
 def _fail(message: str, path, line: int | None = None) -> NoReturn:
@@ -501,6 +508,7 @@ def parse_motive(data: bytes, path=None) -> Motion:
         body_cells=body_cells,
         axis_head=tuple(axis[:2]),
         notes=tuple(notes),
+        length_unit=LENGTH_UNITS.get(metadata.get("Length Units", "").strip().lower()),
     )
     return tracked_bodies(
         bodies, channels, frame_time, rotations, translations, text, path, missing, up=UP

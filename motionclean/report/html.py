@@ -629,7 +629,7 @@ def _joint_table(joints: dict, names: list[str], plotted: set[str], cleaned: boo
 
 
 #: What the page calls lengths whose unit the format fixes (``report["length_unit"]``).
-UNIT_NAMES = {"m": "metres"}
+UNIT_NAMES = {"m": "metres", "cm": "centimetres", "mm": "millimetres"}
 
 
 def _position_table(joints: dict, names: list[str], cleaned: bool, unit: str | None) -> str:

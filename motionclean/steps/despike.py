@@ -9,7 +9,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import UsageError
-from ..core.words import length_word, plural
+from ..core.words import UNSAID_LENGTH, length_word, plural
 from ..filters.despike import (
     FLIP_DEG,
     TREND_RATIO,
@@ -80,7 +80,7 @@ def _run_despike(data: StepData, params: dict) -> StepData:
         **shared,
     )
     for column in np.flatnonzero(report.counts()):
-        data.rotation_notes[int(column)] = {"despike": report.summary(column)}
+        data.rotation_notes[int(column)] = {"despike": report.summary(column) | {"unit": "deg"}}
     if data.translations is not None:
         height = 0.0 if data.motion is None else kinematics.body_height(data.motion)
         # the fastest position step left alone and the slowest that may be a jump: the
@@ -97,9 +97,9 @@ def _run_despike(data: StepData, params: dict) -> StepData:
             missing=_missing(data, data.translation_joints),
             **shared,
         )
-        unit = kinematics.length_unit(data.motion)  # (said where the format fixes it)
+        unit = kinematics.length_unit(data.motion) or UNSAID_LENGTH
         for column in np.flatnonzero(report.counts()):
-            note = report.summary(column) | ({"unit": unit} if unit else {})
+            note = report.summary(column) | {"unit": unit}
             data.translation_notes[int(column)] = {"despike": note}
     return data
 
@@ -154,7 +154,7 @@ def _merge_note(parts: list[tuple[dict, int]]) -> dict:
     """What parts of the clip add up to (``(note, frames)``): frames repaired summed, the
     largest steps the largest of all."""
     merged = {"frames_repaired": sum(note["frames_repaired"] for note, _ in parts)}
-    merged |= {"unit": parts[0][0]["unit"]} if "unit" in parts[0][0] else {}
+    merged["unit"] = parts[0][0]["unit"]
     steps = [note["max_step"] for note, _ in parts if "max_step" in note]
     if steps:
         merged["max_step"] = {when: max(s[when] for s in steps) for when in ("before", "after")}

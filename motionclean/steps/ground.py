@@ -21,7 +21,7 @@ from ..core import contacts as found
 from ..core import kinematics, quat
 from ..core.errors import UsageError
 from ..core.motion import Motion
-from ..core.words import length_word, plural
+from ..core.words import UNSAID_LENGTH, length_word, plural
 from .base import UP_PARAM, Param, StepData, StepSpec, given_up
 
 
@@ -135,8 +135,7 @@ def _run(data: StepData, params: dict) -> StepData:
         return data
     floor, note = _target(where, motion, bool(params["level"]))
     turn, shift = _leveller(floor, where.soles.mean(axis=0))
-    unit = kinematics.length_unit(motion)  # (said where the format fixes it)
-    note |= {"unit": unit} if unit else {}
+    note["unit"] = kinematics.length_unit(motion) or UNSAID_LENGTH
     axis, sign = kinematics.up_direction(motion, given)
     if sign < 0.0:  # found on the figure turned upright: the same move in its own frame
         half = kinematics.upright_turn(axis)

@@ -525,7 +525,7 @@ class Builder:
 
     def channel(self, node: int, path: str, times, values, interpolation="LINEAR") -> None:
         animation = self.doc["animations"][0]
-        kind = {"rotation": "VEC4", "translation": "VEC3"}[path]
+        kind = {"rotation": "VEC4", "translation": "VEC3", "scale": "VEC3"}[path]
         animation["samplers"].append(
             {
                 "input": self.accessor(np.asarray(times)[:, None], "SCALAR"),
@@ -563,6 +563,50 @@ def chain() -> Builder:
     made.doc["scenes"] = [{"nodes": [0]}]
     made.doc["skins"] = [{"joints": [2, 0, 1]}]
     return made
+
+
+@pytest.mark.parametrize(
+    ("scaled", "unit"),
+    [
+        (None, "m"),
+        ("keyed 1", "m"),  # (Blender keys a scale of 1 on every bone)
+        ("joint", None),
+        ("keyed 2", None),
+        ("above", None),  # (an armature node over the skeleton)
+    ],
+)
+def test_lengths_are_metres_where_no_node_of_the_armature_is_scaled(tmp_path, capsys, scaled, unit):
+    """glTF's lengths are metres (3.4), and the reports say `m`, where no node of the
+    armature (its joints and the nodes above them) has a scale other than 1, set or keyed:
+    scale is not read, so under one the lengths are the skeleton's own units."""
+    made = chain()
+    grid = np.arange(4) / 30.0
+    made.channel(0, "translation", grid, [[0, 1 + 0.1 * k, 0] for k in range(4)])
+    if scaled == "joint":
+        made.doc["nodes"][1]["scale"] = [2.0, 2.0, 2.0]
+    elif scaled is not None and scaled.startswith("keyed"):
+        factor = float(scaled.split()[1])
+        made.channel(1, "scale", grid, [[1.0, 1.0, 1.0]] * 3 + [[factor] * 3])
+    elif scaled == "above":
+        made.doc["nodes"].append({"name": "Armature", "scale": [0.01] * 3, "children": [0]})
+        made.doc["scenes"] = [{"nodes": [3]}]
+    made.gltf(tmp_path / "c.gltf")
+    clip = mc.load(tmp_path / "c.gltf")
+    assert kinematics.length_unit(clip) == unit
+    code, _, err = run_cli(capsys, "report", tmp_path / "c.gltf", "--json", tmp_path / "r.json")
+    assert code == 0, err
+    assert json.loads((tmp_path / "r.json").read_text()).get("length_unit") == unit
+
+
+def test_a_gltf_written_from_another_format_says_no_unit(tmp_path, capsys):
+    """motionclean writes a BVH's lengths into a new glTF as they are (a CMU body 24 units
+    tall, not metres): reading it back, it says `units`, not `m`."""
+    code, _, err = run_cli(capsys, "convert", SAMPLE, tmp_path / "c.glb")
+    assert code == 0, err
+    assert kinematics.length_unit(mc.load(tmp_path / "c.glb")) is None
+    assert kinematics.length_unit(mc.load(BLENDER_GLB)) == "m"  # (Blender's export)
+    code, out, _ = run_cli(capsys, "info", tmp_path / "c.glb")
+    assert code == 0 and "body height: 24.27 units" in out
 
 
 def test_samplers_are_evaluated_as_the_specification_says(tmp_path):

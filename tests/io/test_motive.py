@@ -610,3 +610,23 @@ def test_a_body_named_twice_with_one_id_is_said_to_be_duplicated(tmp_path, capsy
         "rigid body 'Wand' has its columns twice (Rotation X in columns 3 and 15): two rigid "
         "bodies with the same name and ID? Rename one in Motive",
     )
+
+
+@pytest.mark.parametrize(
+    ("said", "unit"),
+    [("Meters", "m"), ("Centimeters", "cm"), ("Millimeters", "mm"), ("Furlongs", None)],
+)
+def test_positions_are_in_the_length_units_the_export_names(tmp_path, capsys, said, unit):
+    """The metadata's `Length Units` is the positions' unit: the report's `length_unit` and
+    the steps' notes say it (`m`, `cm`, `mm`); a value not known leaves the file's own,
+    unsaid ("units"; the notes' `"length"`)."""
+    text = export()[0].replace("Length Units,Meters", f"Length Units,{said}")
+    source = write(tmp_path, text)
+    assert mc.kinematics.length_unit(mc.load(source)) == unit
+    report = tmp_path / "r.json"
+    code, _, err = run_cli(capsys, "clean", source, "-o", tmp_path / "c.csv", "--report", report)
+    assert code == 0, err
+    read = json.loads(report.read_text())
+    assert read.get("length_unit") == unit
+    notes = [joint["position_auto"] for joint in read["joints"].values()]
+    assert notes and all(note["unit"] == (unit or "length") for note in notes)

@@ -5,6 +5,7 @@ channel CSV."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 import re
 import subprocess
@@ -421,12 +422,19 @@ def test_translations_are_said_in_metres_and_a_channel_csv_of_them_in_units(tmp_
     rows = ["walk", "inDegrees=yes", "endheader", "time\tknee_angle_r\tpelvis_tx"]
     rows += ["\t".join(f"{v:.8f}" for v in row) for row in zip(*columns, strict=True)]
     source = write(tmp_path, "\n".join(rows) + "\n", "walk.mot")
-    code, out, _ = run_cli(capsys, "clean", source, "-o", tmp_path / "out.mot")
+    report = tmp_path / "r.json"
+    code, out, _ = run_cli(capsys, "clean", source, "-o", tmp_path / "out.mot", "--report", report)
     said = r"largest step [0-9.]+ -> [0-9.]+ {0}\n.*largest position change [0-9.]+ {0} on"
     assert code == 0 and re.search(said.format("m"), out) and "units" not in out
+    notes = json.loads(report.read_text())["joints"]["pelvis_tx"]
+    assert notes["position_despike"]["unit"] == notes["position_auto"]["unit"] == "m"
     assert run_cli(capsys, "convert", source, tmp_path / "walk.csv")[0] == 0
-    code, out, _ = run_cli(capsys, "clean", tmp_path / "walk.csv", "-o", tmp_path / "out.csv")
+    code, out, _ = run_cli(
+        capsys, "clean", tmp_path / "walk.csv", "-o", tmp_path / "out.csv", "--report", report
+    )
     assert code == 0 and re.search(said.format("units"), out)
+    notes = json.loads(report.read_text())["joints"]["pelvis_tx"]
+    assert notes["position_despike"]["unit"] == notes["position_auto"]["unit"] == "length"
 
 
 def test_a_body_kinematics_table_is_refused_in_one_line(tmp_path, capsys):

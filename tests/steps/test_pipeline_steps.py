@@ -396,6 +396,21 @@ def frames_of(runs) -> set[int]:
     return {f for start, stop in runs for f in range(start, stop)}
 
 
+STEPS = ("despike", "auto", "ground")
+
+
+def test_notes_say_their_unit_one_way(defective):
+    """Every note of auto, despike and ground with figures has `unit`: "deg" for rotations,
+    for lengths the format's where it says one, else "length" (a BVH's own units). despike's
+    and ground's notes had said theirs only where the format did, auto's always."""
+    _, logs = Pipeline.from_inline(list(STEPS)).run(defective)
+    despike, auto, ground = (log.notes for log in logs)
+    assert despike["RightElbow"]["despike"]["unit"] == auto["RightElbow"]["auto"]["unit"] == "deg"
+    root = (despike["Hips"], auto["Hips"], ground["Hips"])
+    units = {note[f"position_{step}"]["unit"] for note, step in zip(root, STEPS, strict=True)}
+    assert units == {"length"}
+
+
 def test_despike_positions_take_a_bound_given_past_the_bodys_own(defective):
     """Positions' bounds default to the body's (a jump is faster than 0.5 body heights/s,
     every step faster than 100 is one): a ``max_units_per_s`` given below the first, or a
@@ -458,7 +473,7 @@ def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(
             assert changed.size == 0, name
             continue
         note = notes[name]["despike"]
-        assert note == report.summary(column)
+        assert note == report.summary(column) | {"unit": "deg"}
         listed = frames_of(note["unflipped"]) | frames_of(note["interpolated"])
         assert note["frames_repaired"] == len(listed)
         assert set(changed.tolist()) == listed, name
@@ -470,7 +485,7 @@ def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(
     else:
         assert thumb["unflipped"] == [] and frames_of(thumb["interpolated"]) >= {48, 64}
     position = notes["Hips"]["position_despike"]
-    assert position == report_p.summary(0)
+    assert position == report_p.summary(0) | {"unit": "length"}  # (a BVH's own units)
     assert frames_of(position["interpolated"]) == {30, 31}
     assert not any("despike" in notes.get(n, {}) for n in defective.names if n.startswith("L"))
 
