@@ -256,6 +256,12 @@ def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: floa
     return noise_model.fit_coloured(model, frame_time)
 
 
+#: Each noise model in a few words, as a source given is echoed ("video, as given (the
+#: markerless model: ...)").
+MODEL_WORDS = {
+    "optical": "noise above the motion",
+    "markerless": "a pose estimator's wandering noise",
+}
 #: Why the markerless model could not be used on a clip (:func:`_coloured_fit` found none).
 UNFIT_WANDER = (
     "the clip is too short (under about 3 s) or its rate too low to fit a pose estimator's "
@@ -270,9 +276,7 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     if source != "auto":
         if model != noise_source(source):
             return f"{model}: source={source} was given, but {UNFIT_WANDER}"
-        if source == "inertial":  # (no model of its own: say which one it gets)
-            return "inertial, as given (the optical model: noise above the motion)"
-        return f"{model}, as given (source={source})"
+        return f"{source}, as given (the {model} model: {MODEL_WORDS[model]})"
     if slope is None:
         return f"{model} (the noise level was given)"
     if not math.isfinite(slope):
