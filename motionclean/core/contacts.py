@@ -126,7 +126,8 @@ class FootScene:
 #: Seconds over which a contact's ankle speed is averaged to tell whether it slides.
 SLIDE_WINDOW = 0.3
 #: A contact the cleaning before made slide (:func:`sliding_contacts` given ``before``):
-#: faster than this many times its speed as captured, over the same window ...
+#: its fastest window faster than this many times the captured clip's fastest window in
+#: the same contact (the two may lie at different frames) ...
 SLIDE_GROWTH = 2.0
 #: ... and than this many body heights per second (a still foot's sub-millimetre jitter,
 #: doubled, is no slide): a Perception Neuron sit-to-stand whose legs the markerless model

@@ -847,7 +847,7 @@ def _step_share(step: np.ndarray, problem: _Problem) -> np.ndarray:
     turns[:, free] = np.linalg.norm(step[:, starts[free, None] + np.arange(3)], axis=-1)
     turns[:, problem.hinge] = np.abs(step[:, starts[problem.hinge]])
     largest = turns.max(axis=1, initial=0.0)
-    return np.minimum(1.0, MAX_TURN / np.maximum(largest, MAX_TURN))
+    return MAX_TURN / np.maximum(largest, MAX_TURN)  # (1 where no joint turns past it)
 
 
 def _jacobian(

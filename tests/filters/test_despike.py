@@ -224,7 +224,7 @@ def test_steps_above_the_cap_are_spread_until_under_it():
 
 def test_a_step_over_the_cap_that_never_comes_back_is_told_capped_not_a_spike():
     """An Xsens toe snapping flat at 240 fps (0, 3.8, 8.9, 31.4, 46.0, 53.5 degrees: one
-    step of 22.6 degrees, 5,400 deg/s) had been counted a spike: the cap interpolates it as
+    step of 22.6 degrees, 5,420 deg/s) had been counted a spike: the cap interpolates it as
     before, and the report tells its run apart as ``capped``; a spike kicked into the
     column beside it (away for 2 frames and back) stays a spike."""
     fps = 240
