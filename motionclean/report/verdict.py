@@ -326,7 +326,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         ("turned", "repair", f"(a turn over {PAIR_REPAIR_DEG:g} degrees)"),
         ("flips", "flip", "repaired"),
         ("spikes", "spike", "repaired"),
-        ("capped", "step", "capped (too fast for a body)"),
+        ("capped", "too-fast step", "capped"),
         ("gaps_filled", "gap", "filled"),
     ):
         counts = sorted(

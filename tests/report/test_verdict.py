@@ -295,7 +295,7 @@ def test_a_capped_step_that_never_comes_back_is_told_as_such_not_as_a_spike(tmp_
     assert verdict["repairs"]["RightWrist"]["spikes"] == 1
     assert verdict["repairs"]["RightWrist"]["capped"] == 0
     assert "1 spike repaired on RightWrist" in verdict["text"]
-    assert "1 step capped (too fast for a body) on LeftToe" in verdict["text"]
+    assert "1 too-fast step capped on LeftToe" in verdict["text"]
     note = json.loads(report.read_text())["joints"]["LeftToe"]["despike"]
     assert note["capped"] == note["interpolated"] and len(note["capped"]) == 1
     (line,) = [row for row in out.splitlines() if row.startswith("repaired LeftToe")]
