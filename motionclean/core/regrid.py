@@ -2,10 +2,10 @@
 
 A simulation's output (OpenSim's CMC and forward tools write their states at the
 integrator's own steps, 3-12 ms apart) is not a clip: every filter here reads frames a
-fixed time apart. :func:`regridded` puts such columns on a grid of their median step,
-from their first time, by a C1 cubic through the samples that reproduces a parabola
-exactly (so smooth kinematics keep their shape and a grid time that meets a sample
-gives it back).
+fixed time apart. :func:`regridded` puts such columns on a grid of about their median
+step from their first time to their last, by a C1 cubic through the samples that
+reproduces a parabola exactly (so smooth kinematics keep their shape and a grid time that
+meets a sample gives it back).
 """
 
 from __future__ import annotations
@@ -61,20 +61,23 @@ MOST_FRAMES_PER_ROW = 8
 
 
 def regridded(times: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray]:
-    """The frame time (the median step, to 12 significant digits) and ``values`` ``(F, C)``
-    at ``times[0] + k`` frame times up to ``times[-1]``: :func:`at_times`. ValueError for
-    a frame time no clip may have or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames
-    per row."""
-    frame_time = float(f"{np.median(np.diff(times)):.12g}")
-    if not MIN_FRAME_TIME <= frame_time <= MAX_FRAME_TIME:
-        raise ValueError(f"a median time step of {frame_time:.6g} s gives no usable frame rate")
-    span = (times[-1] - times[0]) / frame_time
+    """The frame time and ``values`` ``(F, C)`` at ``times[0] + k`` frame times up to
+    ``times[-1]`` (:func:`at_times`): the step nearest the median that divides the take's
+    span in whole frames, to 12 significant digits, so the grid ends on the last sample
+    (the median step itself had ended a forward simulation's states 0.8 ms short of it).
+    ValueError for a frame time no
+    clip may have or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames per row."""
+    median = float(np.median(np.diff(times)))
+    if not MIN_FRAME_TIME <= median <= MAX_FRAME_TIME:
+        raise ValueError(f"a median time step of {median:.6g} s gives no usable frame rate")
+    length = times[-1] - times[0]
+    span = length / median
     if span > MOST_FRAMES_PER_ROW * times.size:
         raise ValueError(
-            f"time steps too uneven to put on a grid: the median step, {frame_time:.6g} s, "
-            f"over {times[-1] - times[0]:.6g} s would make {span:,.0f} frames of "
-            f"{times.size} rows"
+            f"time steps too uneven to put on a grid: the median step, {median:.6g} s, "
+            f"over {length:.6g} s would make {span:,.0f} frames of {times.size} rows"
         )
-    count = int(np.floor(span * (1 + 1e-12))) + 1
-    grid = times[0] + frame_time * np.arange(count)
+    steps = max(1, round(span))
+    frame_time = float(f"{length / steps:.12g}")
+    grid = times[0] + frame_time * np.arange(steps + 1)
     return frame_time, at_times(times, values, np.minimum(grid, times[-1]))

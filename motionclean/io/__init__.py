@@ -127,7 +127,7 @@ def load(
         Other formats do not use it.
     regrid : bool, optional
         Put an OpenSim file whose rows are not a fixed time apart (a simulation's states)
-        on a uniform grid of its median step instead of refusing it (``resample`` does).
+        on a uniform grid of about its median step instead of refusing it (``resample`` does).
 
     Returns
     -------

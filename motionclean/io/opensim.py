@@ -542,7 +542,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         frame_time, coords = _on_grid(times, coords, path)
         notes.append(
             f"time steps of {np.diff(times).min():.3g}-{np.diff(times).max():.3g} s (a "
-            f"simulation's integrator steps): put on a grid of the median step, "
+            f"simulation's integrator steps): put on a grid of about the median step, "
             f"{frame_time:.6g} s, by a cubic through the samples"
         )
     else:

@@ -39,3 +39,20 @@ def test_a_grid_follows_the_rows_not_their_smallest_step():
         regridded(sparse, np.zeros((sparse.size, 1)))
     fine = np.r_[np.arange(10) * 0.01, 0.1 + 0.01 * MOST_FRAMES_PER_ROW]
     assert regridded(fine, np.zeros((fine.size, 1)))[1].shape[0] <= MOST_FRAMES_PER_ROW * 11
+
+
+def test_the_grid_ends_on_the_last_sample():
+    """Integrator steps 0.5-1.5 ms apart over 0.25 s (an OpenSim forward simulation's
+    states): the grid's step is within half a frame's share of the median and its last
+    frame is the last sample's time, value for value (the median step itself had ended
+    up to a step short of it)."""
+    rng = np.random.default_rng(4)
+    times = 0.83 + np.r_[0.0, np.cumsum(rng.uniform(0.5e-3, 1.5e-3, 260))]
+    times = 0.83 + (times - 0.83) * (0.25 / (times[-1] - 0.83))
+    values = np.stack([np.sin(7.0 * times), times**2], axis=1)
+    frame_time, grid = regridded(times, values)
+    frames = grid.shape[0]
+    assert abs(0.83 + (frames - 1) * frame_time - times[-1]) < 1e-9
+    np.testing.assert_allclose(grid[-1], values[-1], atol=1e-12)
+    median = np.median(np.diff(times))
+    assert abs(frame_time - median) <= 0.5 * median / (frames - 1) + 1e-12
