@@ -43,13 +43,14 @@ def _chord_deviations(q: np.ndarray) -> np.ndarray:
     return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), q[1:-1]))
 
 
-def chord_deviations(q: np.ndarray) -> np.ndarray:
-    """``(F, C)``: each sample's angle from the chord of its neighbours, degrees (0 at the
-    first and last frame). ``q`` is ``(F, C, 4)``, sign-continuous."""
-    out = np.zeros(q.shape[:2])
-    if q.shape[0] >= 3:
-        out[1:-1] = np.degrees(np.linalg.norm(_chord_deviations(q), axis=-1))
-    return out
+def chord_deviations(q: np.ndarray, frames: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``(N,)``: the angles (degrees) of the samples ``(frames, columns)`` of ``q`` ``(F, C,
+    4)``, sign-continuous, from the chords of their neighbours (inner frames only)."""
+    return np.degrees(np.linalg.norm(_deviations_at(q, frames, columns), axis=-1))
+
+
+#: Frames judged at a time (the chord deviations' temporaries stay small on long clips).
+BLOCK_FRAMES = 16384
 
 
 def lone_outliers(
@@ -57,13 +58,37 @@ def lone_outliers(
 ) -> np.ndarray:
     """``(F, C)`` bool: the lone outliers of sign-continuous unit quaternions ``q`` ``(F, C,
     4)`` under noise of RMS rotation angle ``noise_deg`` ``(C,)`` degrees (a column whose
-    noise is not finite or is 0 has none). With ``known`` ``(F, C)`` bool, a sample is judged
-    only where it and its two neighbours on each side are known. The first and last two
-    frames are never outliers (their neighbours' chords are not all measured); of two in a
-    row, the one further from its chord is."""
+    noise is not finite or is 0 has none, and is not read). With ``known`` ``(F, C)`` bool,
+    a sample is judged only where it and its two neighbours on each side are known. The
+    first and last two frames are never outliers (their neighbours' chords are not all
+    measured); of two in a row, the one further from its chord is."""
     out = np.zeros(q.shape[:2], dtype=bool)
-    if q.shape[0] < 5:
+    level = np.radians(np.asarray(noise_deg, dtype=np.float64))
+    judged = np.flatnonzero(np.isfinite(level) & (level > 0))
+    if q.shape[0] < 5 or judged.size == 0:
         return out
+    limit = LONE_SIGMAS * np.sqrt(1.5) * level[judged]
+    for start in range(2, q.shape[0] - 2, BLOCK_FRAMES):
+        stop = min(start + BLOCK_FRAMES, q.shape[0] - 2)
+        out[start:stop, judged] = _pulled_far(q[start - 2 : stop + 2, judged], limit)
+    if known is not None:
+        out[2:-2] &= known[:-4] & known[1:-3] & known[2:-2] & known[3:-1] & known[4:]
+    # an outlier pulls its neighbours' chords by half its own deviation: where one of them
+    # passes too, the larger deviation is the outlier
+    frames, columns = np.nonzero(out)
+    size = np.linalg.norm(_deviations_at(q, frames, columns), axis=-1)
+    for side in (-1, 1):
+        twin = out[frames + side, columns]
+        if twin.any():
+            other = np.linalg.norm(_deviations_at(q, frames[twin] + side, columns[twin]), axis=-1)
+            out[frames[twin][other > size[twin]], columns[twin][other > size[twin]]] = False
+    return out
+
+
+def _pulled_far(q: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """``(F - 4, C)``: the inner samples of ``q`` ``(F, C, 4)`` (all but two at each end)
+    further than ``limit`` ``(C,)`` radians from their chord, both neighbours' deviations
+    pointing back along theirs by :data:`PULLED_BACK` of it."""
     d = _chord_deviations(q)
     size = np.linalg.norm(d, axis=-1)
     unit = d / np.maximum(size, np.finfo(np.float64).tiny)[..., None]
@@ -72,19 +97,14 @@ def lone_outliers(
     before = -np.sum(d[:-2] * unit[1:-1], axis=-1)
     after = -np.sum(d[2:] * unit[1:-1], axis=-1)
     pulled = (before > low) & (before < high) & (after > low) & (after < high)
-    level = np.radians(np.asarray(noise_deg, dtype=np.float64))
-    limit = np.where(np.isfinite(level) & (level > 0), LONE_SIGMAS * np.sqrt(1.5) * level, np.inf)
-    out[2:-2] = pulled & (centre > limit)
-    if known is not None:
-        out[2:-2] &= known[:-4] & known[1:-3] & known[2:-2] & known[3:-1] & known[4:]
-    # an outlier pulls its neighbours' chords by half its own deviation: where one of them
-    # passes too, the larger deviation is the outlier
-    deviation = np.zeros(out.shape)
-    deviation[1:-1] = size
-    beaten = np.zeros(out.shape, dtype=bool)
-    beaten[1:] |= out[:-1] & (deviation[:-1] > deviation[1:])
-    beaten[:-1] |= out[1:] & (deviation[1:] > deviation[:-1])
-    return out & ~beaten
+    return pulled & (centre > limit)
+
+
+def _deviations_at(q: np.ndarray, frames: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``(N, 3)``: the chord deviations (:func:`_chord_deviations`) of the samples
+    ``(frames, columns)`` of ``q``, inner frames only."""
+    mid = quat.normalize(q[frames - 1, columns] + q[frames + 1, columns])
+    return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), q[frames, columns]))
 
 
 def replaced(q: np.ndarray, outliers: np.ndarray) -> np.ndarray:

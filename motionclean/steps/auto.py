@@ -180,7 +180,9 @@ def _put_back(rotations: np.ndarray, result, lone: np.ndarray) -> np.ndarray:
     ``rotations``: those under :data:`KEPT_BELOW_DEG` from their chord in the joints the
     pass without them leaves unfiltered."""
     back = lone & _unfiltered(result)[None, :]
-    back &= chord_deviations(quat.continuous(rotations)) < KEPT_BELOW_DEG
+    frames, columns = np.nonzero(back)
+    small = chord_deviations(quat.continuous(rotations), frames, columns) < KEPT_BELOW_DEG
+    back[frames[~small], columns[~small]] = False
     if back.any():
         was, now = rotations[back], result.values[back]
         result.values[back] = np.where(np.sum(was * now, -1, keepdims=True) < 0.0, -was, was)

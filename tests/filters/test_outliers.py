@@ -187,3 +187,16 @@ def test_the_lone_outliers_of_every_take_are_noted_and_listed(tmp_path, capsys):
         line.startswith("repaired RightKnee") and "took out 1 lone outlier: 190" in line
         for line in out.splitlines()
     )
+
+
+def test_a_long_clip_is_judged_a_block_at_a_time_as_at_once(monkeypatch):
+    """Blocks of 7 frames (their chords read across the cuts) find what one block finds;
+    columns without noise are not read."""
+    from motionclean.filters import outliers
+
+    _, noisy, spikes = _spiked(10)
+    noise = np.array([NOISE_DEG, 0.0, NOISE_DEG, NOISE_DEG])
+    whole = lone_outliers(noisy, noise)
+    monkeypatch.setattr(outliers, "BLOCK_FRAMES", 7)
+    np.testing.assert_array_equal(lone_outliers(noisy, noise), whole)
+    assert np.array_equal(whole[:, [0, 2, 3]], spikes[:, [0, 2, 3]]) and not whole[:, 1].any()
