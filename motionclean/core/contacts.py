@@ -290,9 +290,14 @@ def has_body(motion: Motion) -> bool:
 
 
 def no_feet_words(motion: Motion) -> str:
-    """Why :func:`skeleton_feet` finds no feet on ``motion``: ``"no feet in this skeleton"``
-    where it has no trunk (:func:`~motionclean.core.kinematics.trunk_split`: a hand, a head,
-    a camera, tracked bodies), else ``"no leg ends near the ground"``."""
+    """Why :func:`skeleton_feet` finds no feet on ``motion``: where it holds no joint
+    positions, why (:func:`~motionclean.core.kinematics.world_note`: OpenSim coordinates,
+    SMPL parameters without a body model); ``"no feet in this skeleton"`` where it has no
+    trunk (:func:`~motionclean.core.kinematics.trunk_split`: a hand, a head, a camera,
+    tracked bodies), else ``"no leg ends near the ground"``."""
+    unseen = kinematics.world_note(motion)
+    if unseen is not None:
+        return f"no joint positions ({unseen})"
     if kinematics.trunk_split(kinematics.point_parents(motion)) is None:
         return "no feet in this skeleton"
     return "no leg ends near the ground"

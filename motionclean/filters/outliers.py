@@ -20,7 +20,14 @@ import numpy as np
 
 from ..core import quat
 
-__all__ = ["LONE_SIGMAS", "PULLED_BACK", "chord_deviations", "lone_outliers", "replaced"]
+__all__ = [
+    "LONE_SIGMAS",
+    "PULLED_BACK",
+    "chord_deviations",
+    "chord_noise",
+    "lone_outliers",
+    "replaced",
+]
 
 #: A lone outlier leaves its neighbours' chord by more than this many times the deviation
 #: noise alone gives there (``sqrt(1.5)`` times the RMS noise): on 21 and 29 coordinates of
@@ -49,6 +56,38 @@ def chord_deviations(q: np.ndarray, frames: np.ndarray, columns: np.ndarray) -> 
     return np.degrees(np.linalg.norm(_deviations_at(q, frames, columns), axis=-1))
 
 
+#: The median chord deviation over the RMS noise angle that leaves it: 0.826 for noise of
+#: one degree of freedom (a coordinate), 1.088 for noise isotropic in three; the smaller
+#: gives the larger estimate (:func:`chord_noise`), an outlier's threshold never too low.
+MEDIAN_CHORD_PER_NOISE = 0.826
+#: Seconds of frames whose median chord deviation gives the noise there (noise that
+#: changes along the clip: 0.5 degrees for half of it, 5 for the other).
+NOISE_SECONDS = 2.0
+
+
+def chord_noise(q: np.ndarray, frame_time: float) -> np.ndarray:
+    """``(F, C)``: the RMS noise angle (degrees) that the median chord deviation of each
+    column of ``q`` ``(F, C, 4)``, sign-continuous, over stretches of :data:`NOISE_SECONDS`
+    would leave alone (motion adds to it: an upper estimate, unmoved by a few outliers,
+    which the spectral one is not: one 15 degree spike had raised a 30 fps arm's from 0.93
+    to 4.22 degrees); the first and last frames take their neighbours'."""
+    n_frames = q.shape[0]
+    out = np.zeros(q.shape[:2])
+    if n_frames < 3:
+        return out
+    size = np.linalg.norm(_chord_deviations(q), axis=-1)  # (F - 2, C)
+    span = min(max(3, int(round(NOISE_SECONDS / frame_time))), size.shape[0])
+    whole = size.shape[0] // span  # stretches of ``span``; the rest joins the last
+    medians = np.median(size[: whole * span].reshape(whole, span, -1), axis=1)
+    if whole * span < size.shape[0]:
+        medians[-1] = np.median(size[(whole - 1) * span :], axis=0)
+    out[1:-1] = np.repeat(
+        medians, np.r_[np.full(whole - 1, span), size.shape[0] - (whole - 1) * span], axis=0
+    )
+    out[0], out[-1] = out[1], out[-2]
+    return np.degrees(out) / MEDIAN_CHORD_PER_NOISE
+
+
 #: Frames judged at a time (the chord deviations' temporaries stay small on long clips).
 BLOCK_FRAMES = 16384
 
@@ -57,20 +96,21 @@ def lone_outliers(
     q: np.ndarray, noise_deg: np.ndarray, known: np.ndarray | None = None
 ) -> np.ndarray:
     """``(F, C)`` bool: the lone outliers of sign-continuous unit quaternions ``q`` ``(F, C,
-    4)`` under noise of RMS rotation angle ``noise_deg`` ``(C,)`` degrees (a column whose
-    noise is not finite or is 0 has none, and is not read). With ``known`` ``(F, C)`` bool,
-    a sample is judged only where it and its two neighbours on each side are known. The
+    4)`` under noise of RMS rotation angle ``noise_deg`` ``(C,)`` or ``(F, C)`` degrees (a
+    column whose noise is not finite or is 0 somewhere has none, and is not read). With
+    ``known`` ``(F, C)`` bool, a sample is judged only where it and its two neighbours on
+    each side are known. The
     first and last two frames are never outliers (their neighbours' chords are not all
     measured); of two in a row, the one further from its chord is."""
     out = np.zeros(q.shape[:2], dtype=bool)
-    level = np.radians(np.asarray(noise_deg, dtype=np.float64))
-    judged = np.flatnonzero(np.isfinite(level) & (level > 0))
+    level = np.radians(np.broadcast_to(np.asarray(noise_deg, dtype=np.float64), out.shape))
+    judged = np.flatnonzero(np.all(np.isfinite(level) & (level > 0), axis=0))
     if q.shape[0] < 5 or judged.size == 0:
         return out
-    limit = LONE_SIGMAS * np.sqrt(1.5) * level[judged]
+    limit = LONE_SIGMAS * np.sqrt(1.5) * level[:, judged]
     for start in range(2, q.shape[0] - 2, BLOCK_FRAMES):
         stop = min(start + BLOCK_FRAMES, q.shape[0] - 2)
-        out[start:stop, judged] = _pulled_far(q[start - 2 : stop + 2, judged], limit)
+        out[start:stop, judged] = _pulled_far(q[start - 2 : stop + 2, judged], limit[start:stop])
     if known is not None:
         out[2:-2] &= known[:-4] & known[1:-3] & known[2:-2] & known[3:-1] & known[4:]
     # an outlier pulls its neighbours' chords by half its own deviation: where one of them
@@ -87,7 +127,7 @@ def lone_outliers(
 
 def _pulled_far(q: np.ndarray, limit: np.ndarray) -> np.ndarray:
     """``(F - 4, C)``: the inner samples of ``q`` ``(F, C, 4)`` (all but two at each end)
-    further than ``limit`` ``(C,)`` radians from their chord, both neighbours' deviations
+    further than ``limit`` ``(F - 4, C)`` radians from their chord, both neighbours' deviations
     pointing back along theirs by :data:`PULLED_BACK` of it."""
     d = _chord_deviations(q)
     size = np.linalg.norm(d, axis=-1)

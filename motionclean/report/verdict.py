@@ -808,7 +808,10 @@ def build_verdict(
         positions_clean = not told or (
             scale > 0 and smoothing["change_length_rms"] < CLEAN_CHANGE_HEIGHTS * scale
         )
-        if told and scale > 0 and length > LOOK_CHANGE_HEIGHTS * scale:
+        # (as for a joint's rotation: a move the noise auto found there explains is none)
+        own = ((joints.get(position_joint) or {}).get("position_auto") or {}).get("noise")
+        reach = max(LOOK_CHANGE_HEIGHTS * scale, LOOK_CHANGE_SIGMAS * (own or 0.0))
+        if told and scale > 0 and length > reach:
             share = percent(length / scale)
             reasons.append(
                 f"{what} {position_joint}'s position by {_length(length)} {unit} ({share} of {per})"

@@ -11,7 +11,7 @@ from ..core.motion import Motion, hold_missing
 from ..core.words import length_word, plural
 from ..filters.auto import FAMILIES, SOURCES, SourceFound, auto, auto_positions, found_source
 from ..filters.gaps import fill_gaps
-from ..filters.outliers import chord_deviations, lone_outliers, replaced
+from ..filters.outliers import chord_deviations, chord_noise, lone_outliers, replaced
 from .base import (
     Param,
     StepData,
@@ -125,7 +125,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         source=params["source"],
         **(shared | {"overwrite": False}),  # (the input is judged for lone outliers below)
     )
-    lone = _lone(rotations, result, missing_r)
+    lone = _lone(rotations, result, missing_r, data.frame_time)
     if lone.any():  # taken out, and the clip cleaned again without them
         result = auto(
             replaced(quat.continuous(rotations), lone),
@@ -165,14 +165,18 @@ def _unfiltered(result) -> np.ndarray:
     return np.array([c.mask == "none" and c.share >= 1.0 for c in result.choices])
 
 
-def _lone(rotations: np.ndarray, first, missing: np.ndarray | None) -> np.ndarray:
+def _lone(
+    rotations: np.ndarray, first, missing: np.ndarray | None, frame_time: float
+) -> np.ndarray:
     """``(F, C)``: the lone outliers (:func:`~motionclean.filters.outliers.lone_outliers`)
     of the columns ``auto`` filtered somewhere in its ``first`` pass, judged against the
-    noise it found or was given there; none where it left a joint as it was (a clean
+    noise it found or was given there, or the one its chords show where that is less (the
+    outliers themselves raise the first); none where it left a joint as it was (a clean
     capture's own single-frame glitches stay as captured)."""
-    noise = np.where(_unfiltered(first), 0.0, first.noise.reshape(-1))
+    q = quat.continuous(rotations)
+    noise = np.minimum(first.noise.reshape(-1), chord_noise(q, frame_time))
     known = None if missing is None else ~missing
-    return lone_outliers(quat.continuous(rotations), noise, known)
+    return lone_outliers(q, np.where(_unfiltered(first), 0.0, noise), known)
 
 
 def _put_back(rotations: np.ndarray, result, lone: np.ndarray) -> np.ndarray:

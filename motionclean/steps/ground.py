@@ -128,10 +128,13 @@ def _run(data: StepData, params: dict) -> StepData:
     roots = np.flatnonzero(motion.parents < 0)
     moved = {int(j): c for c, j in enumerate(data.translation_joints)}
     if where.floor is None:  # said, not moved (footlock's "no foot in contact found")
-        if int(roots[0]) in moved:
-            data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = {
-                "why": where.why
-            }
+        # on the root's positions, else the first joint's with some (an OpenSim clip's
+        # coordinates are all roots, its translations pelvis_tx ...)
+        told = next(
+            (moved[int(j)] for j in roots if int(j) in moved), min(moved.values(), default=None)
+        )
+        if told is not None:
+            data.translation_notes.setdefault(told, {})["ground"] = {"why": where.why}
         return data
     floor, note = _target(where, motion, bool(params["level"]))
     turn, shift = _leveller(floor, where.soles.mean(axis=0))

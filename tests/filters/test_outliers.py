@@ -200,3 +200,25 @@ def test_a_long_clip_is_judged_a_block_at_a_time_as_at_once(monkeypatch):
     monkeypatch.setattr(outliers, "BLOCK_FRAMES", 7)
     np.testing.assert_array_equal(lone_outliers(noisy, noise), whole)
     assert np.array_equal(whole[:, [0, 2, 3]], spikes[:, [0, 2, 3]]) and not whole[:, 1].any()
+
+
+def test_the_chords_give_the_noise_that_spikes_do_not_raise():
+    """The median chord deviation over 2 s stretches gives the noise within half of it above
+    (noise of three degrees of freedom; within a quarter for one), spikes or not; where a
+    joint's spectral estimate is raised by its own spikes (here five times the noise),
+    judging against the smaller of the two finds them."""
+    from motionclean.filters.outliers import chord_noise
+
+    truth, noisy, spikes = _spiked(11)
+    level = chord_noise(noisy, 1.0 / 120.0)
+    assert np.all((level > NOISE_DEG) & (level < 1.5 * NOISE_DEG)), level
+    about_z = quat.from_axis_angle(
+        np.array([0.0, 0.0, 1.0]),
+        np.random.default_rng(1).normal(size=(600, 4)) * np.radians(NOISE_DEG),
+    )
+    assert np.all(
+        np.abs(chord_noise(quat.multiply(truth, about_z), 1.0 / 120.0) / NOISE_DEG - 1.0) < 0.25
+    )
+    raised = np.full(4, 5.0 * NOISE_DEG)
+    assert not lone_outliers(noisy, raised).any()
+    assert np.array_equal(lone_outliers(noisy, np.minimum(raised, level)), spikes)

@@ -776,3 +776,17 @@ def test_a_utf16_file_is_not_text_as_bvh_and_csv_say(tmp_path, capsys):
     code, out, err = run_cli(capsys, "info", path)
     assert (code, out) == (1, "")
     assert err == f"motionclean: error: {path}: not a text file (binary data)\n"
+
+
+def test_ground_on_coordinates_says_it_has_no_joint_positions(tmp_path, capsys):
+    """`-f ground` on an IK file (coordinates, no bodies) had changed nothing and said
+    nothing ("not smoothed: nothing repaired"): the note on its first translation and the
+    verdict say why no floor was looked for."""
+    path = write(tmp_path, IK)
+    code, out, _ = run_cli(capsys, "clean", path, "-o", tmp_path / "g.mot", "-f", "ground",
+                           "--report", tmp_path / "g.json")  # fmt: skip
+    assert code == 0 and (tmp_path / "g.mot").read_bytes() == path.read_bytes()
+    why = "no joint positions (OpenSim coordinates are joint angles without the model's bodies)"
+    assert f"not put on the floor: {why}" in out
+    joints = json.loads((tmp_path / "g.json").read_text())["joints"]
+    assert joints["pelvis_tx"]["position_ground"] == {"why": why}
