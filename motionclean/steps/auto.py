@@ -173,10 +173,15 @@ def _lone(
     noise it found or was given there, or the one its chords show where that is less (the
     outliers themselves raise the first); none where it left a joint as it was (a clean
     capture's own single-frame glitches stay as captured)."""
-    q = quat.continuous(rotations)
-    noise = np.minimum(first.noise.reshape(-1), chord_noise(q, frame_time))
-    known = None if missing is None else ~missing
-    return lone_outliers(q, np.where(_unfiltered(first), 0.0, noise), known)
+    out = np.zeros(rotations.shape[:2], dtype=bool)
+    filtered = np.flatnonzero(~_unfiltered(first))
+    if filtered.size == 0:
+        return out
+    q = quat.continuous(rotations[:, filtered])
+    noise = np.minimum(first.noise.reshape(-1)[filtered], chord_noise(q, frame_time))
+    known = None if missing is None else ~missing[:, filtered]
+    out[:, filtered] = lone_outliers(q, noise, known)
+    return out
 
 
 def _put_back(rotations: np.ndarray, result, lone: np.ndarray) -> np.ndarray:
