@@ -162,7 +162,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
 
 def _unfiltered(result) -> np.ndarray:
     """``(C,)``: the columns an ``auto`` ``result`` leaves as they are on every frame."""
-    return np.array([c.mask == "none" and c.share >= 1.0 for c in result.choices])
+    return np.array([c.mask == "none" and c.share >= 1.0 for c in result.choices], dtype=bool)
 
 
 def _lone(
