@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import kinematics
-from .motion import Motion
+from .motion import Motion, run_labels
 from .rates import whole_frames
 
 #: Bones at least this long (fraction of the body height) are thigh and shin.
@@ -951,21 +951,13 @@ def sliding_contacts(
     P, 3)``), a contact slides too where its fastest window is :data:`SLIDE_GROWTH` times
     the capture's fastest in it and over :data:`SLIDE_ADDED` body heights/s: cleaning made
     it slide."""
-    feet = scene.feet
-    windowed = _windowed_speeds(scene, scene.positions, contacts, window)
-    was = None if before is None else _windowed_speeds(scene, before, contacts, window)
-    kept = contacts.copy()
-    for k in range(len(feet)):  # a handful of feet; contacts of one foot at once
-        label = np.cumsum(contacts[:, k] & ~np.r_[False, contacts[:-1, k]]) * contacts[:, k]
-        if not label.any():
-            continue
-        fastest = _fastest(windowed[:, k], label, contacts[:, k])
-        slides = fastest > speed
-        if was is not None:
-            captured = _fastest(was[:, k], label, contacts[:, k])
-            slides |= (fastest > SLIDE_GROWTH * captured) & (fastest > SLIDE_ADDED * scene.height)
-        kept[:, k] &= slides[label]
-    return kept
+    label = run_labels(contacts)  # (every foot's contacts numbered apart)
+    fastest = _fastest(_windowed_speeds(scene, scene.positions, contacts, window), label)
+    slides = fastest > speed
+    if before is not None:
+        captured = _fastest(_windowed_speeds(scene, before, contacts, window), label)
+        slides |= (fastest > SLIDE_GROWTH * captured) & (fastest > SLIDE_ADDED * scene.height)
+    return contacts & slides[label]
 
 
 def _windowed_speeds(
@@ -985,9 +977,9 @@ def _windowed_speeds(
     return total / np.maximum(count, 1e-12)
 
 
-def _fastest(windowed: np.ndarray, label: np.ndarray, contact: np.ndarray) -> np.ndarray:
-    """``(n_runs + 1,)``: the fastest of ``windowed`` ``(F,)`` in each contact run
-    (``label``: its number from 1 on its frames, 0 off them)."""
-    fastest = np.zeros(int(label.max()) + 1)
-    np.maximum.at(fastest, label, np.where(contact, windowed, 0.0))
+def _fastest(windowed: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """``(n_runs + 1,)``: the fastest of ``windowed`` ``(F, n_feet)`` in each contact run
+    (``label``: :func:`~motionclean.core.motion.run_labels`; entry 0, off the runs, is 0)."""
+    fastest = np.zeros(int(label.max(initial=0)) + 1)
+    np.maximum.at(fastest, label, np.where(label > 0, windowed, 0.0))
     return fastest
