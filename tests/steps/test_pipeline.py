@@ -260,11 +260,18 @@ def test_a_bad_key_in_a_toml_table_is_named_on_its_own_line(tmp_path):
         ("[[step]]\nfilter = 'lee-shin'\n\nblend = 3\n", 4, "blend is used only with"),
         ("[[step]]\nfilter = 'resample'\nfps = 60\nseconds = [1, 2]\n", 4, "no frame range"),
         ("[[step]]\nfilter = 'resample'\nfps = 60\n\njoints = ['*']\n", 5, "no joints"),
+        ("[[step]]\nfilter = 'lee-shin'\nmask = 'custom'\n\ncoefficients = [0.5, 0.5]\n", 5, ""),
+        ("[[step]]\nfilter = 'lee-shin'\n\nmask = 'custom'\n", 4, "needs coefficients"),
+        ("[[step]]\nfilter = 'despike'\nmin_deg_per_s = 1e5\n", 3, "must not exceed"),
+        ("[[step]]\nfilter = 'multires'\nlevels = 2\n\ngains = [1, 1, 1]\n", 5, "3 gains"),
+        ("[[step]]\nfilter = 'resample'\nfps = 60\nframe_time = 0.1\n", 4, "either fps or"),
     ],
 )
-def test_a_range_error_names_its_keys_line(tmp_path, text, line, words):
+def test_an_error_about_given_keys_names_a_keys_line(tmp_path, text, line, words):
     """As a parameter's error does: a range reversed, a blend without one, a range or
-    joints given a whole-clip step had named the step's [[step]] line."""
+    joints given a whole-clip step, and a rule between parameters (a custom mask's
+    coefficients, bounds the wrong way round, gains beyond the levels, two rates) had
+    named the step's [[step]] line."""
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
     with pytest.raises(UsageError, match=rf"bad.toml:{line}: step 1 \(\w+(-\w+)?\): .*{words}"):
@@ -400,22 +407,3 @@ def test_a_pipeline_reads_back_from_its_json_with_inf_as_null():
     assert Pipeline.from_tables(tables, "json").describe() == pipeline.describe()
     with pytest.raises(UsageError, match="k must be an integer"):
         Pipeline.from_tables([{"filter": "lee-shin", "k": None}], "json")
-
-
-@pytest.mark.parametrize(
-    "text, line, words",
-    [
-        ("[[step]]\nfilter = 'lee-shin'\nmask = 'custom'\n\ncoefficients = [0.5, 0.5]\n", 5, ""),
-        ("[[step]]\nfilter = 'lee-shin'\n\nmask = 'custom'\n", 4, "needs coefficients"),
-        ("[[step]]\nfilter = 'despike'\nmin_deg_per_s = 1e5\n", 3, "must not exceed"),
-        ("[[step]]\nfilter = 'multires'\nlevels = 2\n\ngains = [1, 1, 1]\n", 5, "3 gains"),
-        ("[[step]]\nfilter = 'resample'\nfps = 60\nframe_time = 0.1\n", 4, "either fps or"),
-    ],
-)
-def test_a_rule_between_parameters_names_a_given_keys_line(tmp_path, text, line, words):
-    """A custom mask's coefficients, bounds the wrong way round, gains beyond the levels:
-    the key given, not the step's [[step]] line."""
-    bad = tmp_path / "bad.toml"
-    bad.write_text(text)
-    with pytest.raises(UsageError, match=rf"bad.toml:{line}: step 1 \(\w+(-\w+)?\): .*{words}"):
-        Pipeline.from_toml(bad)
