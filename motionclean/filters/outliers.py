@@ -42,12 +42,17 @@ LONE_SIGMAS = 5.0
 PULLED_BACK = (0.25, 0.75)
 
 
+def _off_chord(before: np.ndarray, sample: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """``(..., 3)``: ``sample``'s rotation from the chord of ``before`` and ``after`` (their
+    normalised sum: halfway between them), as a rotation vector in radians; unit
+    quaternions ``(..., 4)``, signs continuous."""
+    mid = quat.normalize(before + after)
+    return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), sample))
+
+
 def _chord_deviations(q: np.ndarray) -> np.ndarray:
-    """``(F - 2, C, 3)``: each inner sample's rotation from the chord of its neighbours
-    (their normalised sum: halfway between them), as a rotation vector in radians.
-    ``q`` is ``(F, C, 4)``, sign-continuous."""
-    mid = quat.normalize(q[:-2] + q[2:])
-    return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), q[1:-1]))
+    """``(F - 2, C, 3)``: :func:`_off_chord` of each inner sample of ``q`` ``(F, C, 4)``."""
+    return _off_chord(q[:-2], q[1:-1], q[2:])
 
 
 def chord_deviations(q: np.ndarray, frames: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -143,8 +148,7 @@ def _pulled_far(q: np.ndarray, limit: np.ndarray) -> np.ndarray:
 def _deviations_at(q: np.ndarray, frames: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """``(N, 3)``: the chord deviations (:func:`_chord_deviations`) of the samples
     ``(frames, columns)`` of ``q``, inner frames only."""
-    mid = quat.normalize(q[frames - 1, columns] + q[frames + 1, columns])
-    return 2.0 * quat.log(quat.multiply(quat.conjugate(mid), q[frames, columns]))
+    return _off_chord(q[frames - 1, columns], q[frames, columns], q[frames + 1, columns])
 
 
 def replaced(q: np.ndarray, outliers: np.ndarray) -> np.ndarray:

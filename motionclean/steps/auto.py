@@ -115,6 +115,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         "families": families,
     }
     rotations, missing_r = _bridged(data.rotations, data.motion, data.rotation_joints, True)
+    rotations = quat.continuous(rotations)  # (once: the outliers' judgement reads it too)
     translations, missing_p = _bridged(
         data.translations, data.motion, data.translation_joints, False
     )
@@ -128,7 +129,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     lone = _lone(rotations, result, missing_r, data.frame_time)
     if lone.any():  # taken out, and the clip cleaned again without them
         result = auto(
-            replaced(quat.continuous(rotations), lone),
+            replaced(rotations, lone),
             data.frame_time,
             noise=params["noise_deg"],
             source=params["source"],
@@ -169,15 +170,15 @@ def _lone(
     rotations: np.ndarray, first, missing: np.ndarray | None, frame_time: float
 ) -> np.ndarray:
     """``(F, C)``: the lone outliers (:func:`~motionclean.filters.outliers.lone_outliers`)
-    of the columns ``auto`` filtered somewhere in its ``first`` pass, judged against the
-    noise it found or was given there, or the one its chords show where that is less (the
-    outliers themselves raise the first); none where it left a joint as it was (a clean
-    capture's own single-frame glitches stay as captured)."""
+    of sign-continuous ``rotations`` in the columns ``auto`` filtered somewhere in its
+    ``first`` pass, judged against the noise it found or was given there, or the one their
+    chords show where that is less (the outliers themselves raise the first); none where it
+    left a joint as it was (a clean capture's own single-frame glitches stay as captured)."""
     out = np.zeros(rotations.shape[:2], dtype=bool)
     filtered = np.flatnonzero(~_unfiltered(first))
     if filtered.size == 0:
         return out
-    q = quat.continuous(rotations[:, filtered])
+    q = rotations[:, filtered]
     noise = np.minimum(first.noise.reshape(-1)[filtered], chord_noise(q, frame_time))
     known = None if missing is None else ~missing[:, filtered]
     out[:, filtered] = lone_outliers(q, noise, known)
@@ -190,7 +191,7 @@ def _put_back(rotations: np.ndarray, result, lone: np.ndarray) -> np.ndarray:
     pass without them leaves unfiltered."""
     back = lone & _unfiltered(result)[None, :]
     frames, columns = np.nonzero(back)
-    small = chord_deviations(quat.continuous(rotations), frames, columns) < KEPT_BELOW_DEG
+    small = chord_deviations(rotations, frames, columns) < KEPT_BELOW_DEG
     back[frames[~small], columns[~small]] = False
     if back.any():
         was, now = rotations[back], result.values[back]
