@@ -339,11 +339,17 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         if len(counts) == 1:
             words.append(f"{total} on {counts[0][1]}")
             continue
-        each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
-        if len(counts) > REPAIRS_NAMED:
-            each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
-        words.append(f"{total} ({', '.join(each)})")
+        words.append(f"{total} ({_per_joint(counts)})")
     return words
+
+
+def _per_joint(counts: list[tuple[int, str]]) -> str:
+    """ "RThumb 13, LeftElbow 1": ``(count, joint)`` pairs, most first, the first
+    :data:`REPAIRS_NAMED` named, then how many more joints."""
+    each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
+    if len(counts) > REPAIRS_NAMED:
+        each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
+    return ", ".join(each)
 
 
 def _brief_words(joints: dict[str, dict]) -> list[str]:
@@ -362,11 +368,8 @@ def _brief_words(joints: dict[str, dict]) -> list[str]:
             return [f"{peak} on {name} (frames {format_runs(runs)})"]
         return [f"{peak} on {name} in {len(runs):,} brief runs (first {format_runs(runs[:1])})"]
     counts = sorted(((len(n["runs"]), name) for name, n in notes.items()), key=lambda p: -p[0])
-    each = [f"{name} {n:,}" for n, name in counts[:REPAIRS_NAMED]]
-    if len(counts) > REPAIRS_NAMED:
-        each[-1] += f" and {plural(len(counts) - REPAIRS_NAMED, 'more joint')}"
     total = plural(sum(n for n, _ in counts), "brief run")
-    return [f"{peak} in {total} ({', '.join(each)})"]
+    return [f"{peak} in {total} ({_per_joint(counts)})"]
 
 
 def _too_fast(smoothing: dict) -> dict[str, dict[str, float]]:
