@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..core import contacts as found
-from ..core import kinematics
+from ..core import kinematics, quat
 from ..core.jumps import JUMP_DEG, jump_steps
 from ..core.motion import Motion, run_labels
 from ..core.rates import frames_floor
@@ -79,7 +79,9 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
     :data:`~motionclean.report.verdict.PAIR_BRIEF_S` in a row, a frame known and unchanged
     on each side, turned where they hold a frame turned by more than
     :data:`~motionclean.report.verdict.PAIR_REPAIR_DEG` (as are such frames in any run:
-    un-flipped), else brief changes where the input shows a repair in them (:func:`_brief`)."""
+    un-flipped), else brief changes where the input shows a repair in them (:func:`_brief`);
+    and brief changes that stand out of the changes around them where the input was a spike
+    (:func:`_standing_out`: a spike taken out of a joint smoothed all along)."""
     rotating = np.flatnonzero(before.layout.has_rotation)
     longest = max(1, frames_floor(PAIR_BRIEF_S / before.frame_time))
     missing = _missing(before, after, rotating)
@@ -92,8 +94,9 @@ def pair_repairs(before: Motion, after: Motion) -> PairRepairs:
             after.rotations[:, cols],
             None if missing is None else missing[:, at : at + _PAIR_BLOCK],
         )
-        speed = metrics.step_deg(before.rotations[:, cols]) / before.frame_time
-        far, brief = _brief(change, speed, longest)
+        steps = metrics.step_deg(before.rotations[:, cols])
+        far, brief = _brief(change, steps / before.frame_time, longest)
+        brief |= _standing_out(change, before.rotations[:, cols], steps, longest) & ~far
         turned_runs = found.contact_runs(far)
         brief_runs = found.contact_runs(brief)
         for k in np.flatnonzero((far | brief).any(axis=0)).tolist():
@@ -141,6 +144,55 @@ def _brief(change: np.ndarray, speed: np.ndarray, longest: int) -> tuple[np.ndar
     short = (size <= longest) & bounded
     short[0] = False  # (label 0: outside every run)
     return far | (short & holds_far)[run], (short & ~holds_far & (jumps | capped))[run]
+
+
+#: A run of frames stands out of the changes around it when every frame of it changed by
+#: more than this many times the frames just before and after it (and the joint's median
+#: change): a spike taken out (a step's repair, or a smoother's) in a joint smoothed all
+#: along, which leaves no frame unchanged beside it.
+STANDOUT = 3.0
+
+
+def _standing_out(change: np.ndarray, q: np.ndarray, steps: np.ndarray, longest: int) -> np.ndarray:
+    """``(F, C)``: the frames of spikes the cleaning took out while it changed the frames
+    around them too (a joint smoothed all along leaves no frame unchanged beside a repair:
+    20 degrees on the Head of a noisy walk, its neighbours moved by under 1), told as brief
+    changes, not as motion taken for noise. A run of at most ``longest`` frames (no clip
+    end) each changed by more than :data:`STANDOUT` times the frames just outside it and
+    the column's median change (``change`` ``(F, C)`` degrees, NaN where missing), where the
+    input ``q`` ``(F, C, 4)`` was a spike: it steps into and out of the run (``steps`` ``(F-1,
+    C)`` degrees) by at least half the run's largest change and each step at least twice
+    the turn between the frames outside the run."""
+    n_frames = change.shape[0]
+    if n_frames < 3:
+        return np.zeros(change.shape, dtype=bool)
+    known_change = np.where(np.isnan(change), 0.0, change)
+    big = known_change > STANDOUT * np.median(known_change, axis=0, keepdims=True)
+    big[[0, -1]] = False  # (a clip end is no bound)
+    run = run_labels(big)
+    n_runs = int(run.max()) + 1
+    size = np.bincount(run.ravel(), minlength=n_runs)
+    least, peak = np.full(n_runs, np.inf), np.zeros(n_runs)
+    np.minimum.at(least, run[big], known_change[big])
+    np.maximum.at(peak, run[big], known_change[big])
+    first, last = big.copy(), big.copy()
+    first[1:] &= ~big[:-1]
+    last[:-1] &= ~big[1:]
+    # (column by column, as run_labels numbers them: the k-th start and end are one run's)
+    starts, ends = np.nonzero(first.T)[::-1], np.nonzero(last.T)[::-1]
+    labels = run[starts]
+    around = np.maximum(change[starts[0] - 1, starts[1]], change[ends[0] + 1, ends[1]])
+    step_in, step_out = steps[starts[0] - 1, starts[1]], steps[ends[0], ends[1]]
+    across = np.degrees(quat.angle_between(q[starts[0] - 1, starts[1]], q[ends[0] + 1, ends[1]]))
+    jump = np.minimum(step_in, step_out)
+    stands = np.zeros(n_runs, dtype=bool)
+    stands[labels] = (
+        (size[labels] <= longest)
+        & (least[labels] > STANDOUT * np.nan_to_num(around, nan=np.inf))
+        & (jump >= 0.5 * peak[labels])
+        & (jump >= 2.0 * across)
+    )
+    return stands[run]
 
 
 def _per_run(run: np.ndarray, at: np.ndarray, values: np.ndarray, n_runs: int) -> np.ndarray:

@@ -1122,3 +1122,43 @@ def test_tracked_bodies_pool_their_jitter_equally_and_the_page_says_no_reach():
             assert report["verdict"]["noise_weighting"] == weighting
             headline = re.findall(r'<div class="stat">.*?</div>', render_html(report, series))[0]
             assert ("weighted by" in headline) is (weighting == "reach")
+
+
+def test_two_clips_compared_tell_a_spike_taken_out_of_a_smoothed_joint_as_a_brief_change(
+    tmp_path, capsys
+):
+    """The noisy walk's Head with one 20-degree spike, cleaned by the default: despike takes
+    the spike out and auto smooths the joint all along, so no frame beside the spike is
+    left as it was. The two-file report had read "needs a look: the cleaning moved Head by
+    19.4 degrees"; the spike's frame stands out of the changes around it (more than
+    STANDOUT times) where the input jumped out and back, and is told as a brief change. A
+    one-frame change of the same size where the input holds a step, not a spike, is not."""
+    clip = mc.load(SAMPLE)
+    rng = np.random.default_rng(3)
+    noise = quat.exp(rng.normal(size=(*clip.rotations.shape[:2], 3)) * np.radians(0.3))
+    noisy = clip.replace(rotations=quat.multiply(clip.rotations, noise), source_values=None)
+    head = clip.names.index("Head")
+    spiky, cleaned = tmp_path / "spiky.bvh", tmp_path / "c.bvh"
+    mc.save(_with_excursion(noisy, "Head", 100, np.array([20.0])), spiky)
+    code, _, err = run_cli(capsys, "clean", spiky, "-o", cleaned, "-q")
+    assert code == 0, err
+    code, out, err = run_cli(capsys, "report", spiky, cleaned, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    change = np.degrees(
+        quat.angle_between(mc.load(spiky).rotations[:, head], mc.load(cleaned).rotations[:, head])
+    )
+    assert change[100] > 15 and max(change[99], change[101]) > UNCHANGED_DEG  # smoothed around
+    assert report["joints"]["Head"]["brief_change"]["runs"] == [[100, 101]]
+    assert "moved Head" not in report["verdict"]["text"]
+    assert f"changed by up to {change[100]:.1f} degrees on Head (frames 100)" in out
+    # the same change at frame 100 of a clip whose Head steps there (no spike): not brief
+    stepped = np.r_[np.zeros(100), np.full(clip.n_frames - 100, 20.0)]
+    source = tmp_path / "stepped.bvh"
+    mc.save(_with_excursion(noisy, "Head", 0, stepped), source)
+    moved = _with_excursion(noisy, "Head", 0, np.r_[np.zeros(101), stepped[101:]])
+    mc.save(moved, cleaned)
+    code, _, err = run_cli(capsys, "report", source, cleaned, "--json", tmp_path / "r2.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r2.json").read_text())
+    assert "brief_change" not in report["joints"]["Head"]
