@@ -503,10 +503,11 @@ class MotionUp:
 
     ``axis`` (0 = x, 1 = y, 2 = z) and ``sign`` as :func:`up_direction` gives them; ``by``
     what showed it: ``"trunk"`` (a body standing on its legs), ``"limbs"`` (on all fours)
-    or ``"extent"`` (no trunk, or points unknown on some frames: the axis of the largest
-    extent, which tells nothing of the body); ``share`` the share of the sampled frames
-    (:func:`sample_poses`) on which the trunk points, or the limbs stand, along that
-    direction with the feet below the head (None by extent).
+    or ``"extent"`` (no trunk, or no sampled frame with the points the rules read known:
+    the axis of the largest extent, which tells nothing of the body); ``share`` the share
+    of the sampled frames (:func:`sample_poses`; those with those points known) on which
+    the trunk points, or the limbs stand, along that direction with the feet below the
+    head (None by extent).
     """
 
     axis: int
@@ -540,6 +541,14 @@ def _motion_up(motion: Motion) -> MotionUp:
     if poses.shape[0] == 0:
         poses, known = rest_positions(motion)[None], None
     parts = _parts_of(motion)
+    if parts is not None and known is not None:
+        # the poses whose points the rules read are known (a tracker's dropouts on some
+        # frames): the extent of all of them had laid a walk along z (its root at rest at
+        # the origin, below the walking hips; one hand's gap of 4 frames)
+        read = np.r_[parts.spine, parts.lower, parts.head, parts.legs[0], parts.legs[1]]
+        read = np.r_[read, parts.arms[0], parts.arms[1], parts.chest, parts.pelvis]
+        whole = known[:, read].all(axis=1)
+        poses, known = (poses[whole], None) if whole.any() else (poses, known)
     if parts is not None and known is None:
         by = "limbs" if np.mean(on_all_fours(poses, parts)) > 0.5 else "trunk"
         pointing = _limbs_up(poses, parts) if by == "limbs" else _trunk_up(poses, parts)

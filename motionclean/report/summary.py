@@ -159,7 +159,8 @@ def _standing_out(change: np.ndarray, q: np.ndarray, steps: np.ndarray, longest:
     20 degrees on the Head of a noisy walk, its neighbours moved by under 1), told as brief
     changes, not as motion taken for noise. A run of at most ``longest`` frames (no clip
     end) each changed by more than :data:`STANDOUT` times the frames just outside it and
-    the column's median change (``change`` ``(F, C)`` degrees, NaN where missing), where the
+    the column's median change, and over ``UNCHANGED_DEG`` (``change`` ``(F, C)`` degrees,
+    NaN where missing; a joint left as it was changes by rounding alone), where the
     input ``q`` ``(F, C, 4)`` was a spike: it steps into and out of the run (``steps`` ``(F-1,
     C)`` degrees) by at least half the run's largest change and each step at least twice
     the turn between the frames outside the run."""
@@ -167,7 +168,8 @@ def _standing_out(change: np.ndarray, q: np.ndarray, steps: np.ndarray, longest:
     if n_frames < 3:
         return np.zeros(change.shape, dtype=bool)
     known_change = np.where(np.isnan(change), 0.0, change)
-    big = known_change > STANDOUT * np.median(known_change, axis=0, keepdims=True)
+    floor = np.maximum(STANDOUT * np.median(known_change, axis=0, keepdims=True), UNCHANGED_DEG)
+    big = known_change > floor
     big[[0, -1]] = False  # (a clip end is no bound)
     run = run_labels(big)
     n_runs = int(run.max()) + 1

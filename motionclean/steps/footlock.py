@@ -109,9 +109,12 @@ def noise_aware(params: dict, positions, legs, prior: Prior, column, height: flo
     return found.ContactParams.starting_at(params["height"], speed, params["min_seconds"])
 
 
-def _captured(data: StepData, params: dict) -> np.ndarray | None:
-    """The leg points of :func:`_leg_points` as the clip entered the pipeline, where the
-    steps before changed the clip (None: they did not, or remade its frames)."""
+def _captured(data: StepData, params: dict, column: np.ndarray) -> np.ndarray | None:
+    """The points the step reads (``column``: point -> column of :func:`_leg_points`) as
+    the clip entered the pipeline, turned upright as the clip now is, where the steps
+    before changed the clip (None: they did not, or remade its frames). Not the entered
+    clip's own feet and up: its dropouts can show it another up axis, or no feet, than the
+    clip they were filled in (an IndexError on a tracker CSV with a gap)."""
     entered, motion = data.entered, data.motion
     assert motion is not None
     if entered is None or (
@@ -119,7 +122,10 @@ def _captured(data: StepData, params: dict) -> np.ndarray | None:
         and np.array_equal(entered.translations, motion.translations)
     ):
         return None
-    return _leg_points(entered, params)[1].positions
+    axis, sign = kinematics.up_direction(motion, given_up(params))
+    used = np.flatnonzero(column >= 0)  # (in column order: columns were given in order)
+    positions = kinematics.world_positions(entered, True, used)
+    return kinematics.upright(positions, axis, sign)
 
 
 def _sign(motion: Motion, params: dict) -> float:
@@ -246,7 +252,10 @@ def _run(data: StepData, params: dict) -> StepData:
     )
     standing = found.find_ground(scene, thresholds)
     contacts = found.sliding_contacts(
-        scene, standing.contacts, params["min_skate"] * height, before=_captured(data, params)
+        scene,
+        standing.contacts,
+        params["min_skate"] * height,
+        before=_captured(data, params, point_column),
     )
     held: np.ndarray = np.asarray(contacts.any(axis=0))
     chosen = [(k, leg) for k, leg in every_leg if held[k]]

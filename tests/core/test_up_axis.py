@@ -434,3 +434,57 @@ def test_helper_bones_beside_a_body_s_bones_leave_its_trunk():
     upper_h, lower_h = kinematics.trunk_split(helpers)
     assert set(upper_h.tolist()) == set(upper.tolist()) | set(added[~on_legs].ravel().tolist())
     assert set(lower_h.tolist()) == set(lower.tolist()) | set(added[on_legs].ravel().tolist())
+
+
+def _moved(row: str, by: float = 150.0) -> str:
+    """A motion row of the sample with its root's x position (its first value) moved."""
+    values = row.split()
+    return " ".join([f"{float(values[0]) + by:.4f}", *values[1:]])
+
+
+def _under_a_still_root(source, target) -> None:
+    """``source`` (a BVH file) under a new root that stays at the origin, as Bandai Namco's
+    `joint_Root` does below its walking hips: six channels, all 0; the old root 5 body
+    heights away along x (Bandai Namco's walks go 8 m)."""
+    text = source.read_text()
+    head, motion = text.split("MOTION")
+    body = head.replace("HIERARCHY", "", 1).replace("ROOT ", "JOINT ", 1)
+    body = "\n".join("\t" + line for line in body.strip().splitlines())
+    channels = "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"
+    lines = motion.strip().splitlines()
+    rows = [line for line in lines[2:] if line.strip()]
+    target.write_text(
+        f"HIERARCHY\nROOT joint_Root\n{{\n\tOFFSET 0 0 0\n\t{channels}\n{body}\n}}\nMOTION\n"
+        + "\n".join(lines[:2] + ["0 0 0 0 0 0 " + _moved(row) for row in rows])
+        + "\n"
+    )
+
+
+def test_a_tracker_s_gap_does_not_lay_a_walk_down_by_its_still_root(tmp_path, capsys):
+    """The sample walk under a root at rest at the origin (Bandai Namco's skeletons), as a
+    channel CSV with one hand (lhand) blank on 4 frames: the up axis had been taken from the
+    extent of every point (the trunk rule skipped wherever a point was unknown), which the
+    still root below the walking hips made z: a body height of 228 units, no feet, and the
+    default `clean` had failed with an internal IndexError (footlock read the clip as it
+    entered with its own feet: none). The trunk rule now reads the frames whose points are
+    known; the default cleans it, its feet found."""
+    rig, table, gapped = tmp_path / "rig.bvh", tmp_path / "t.csv", tmp_path / "gap.csv"
+    _under_a_still_root(SAMPLE, rig)
+    assert run_cli(capsys, "convert", rig, table)[0] == 0
+    lines = table.read_text().splitlines()
+    header = lines[0].split(",")
+    hand = [k for k, name in enumerate(header) if name.startswith("lhand.")]
+    for row in range(101, 105):
+        cells = lines[row].split(",")
+        for k in hand:
+            cells[k] = ""
+        lines[row] = ",".join(cells)
+    gapped.write_text("\n".join(lines) + "\n")
+    whole = mc.load(rig)
+    clip = mc.load(gapped, skeleton=rig)
+    assert clip.missing is not None and clip.missing.any()
+    assert kinematics.motion_up(clip) == kinematics.motion_up(whole)
+    assert _world(clip) == _world(whole) and _world(whole)[1] == "y"
+    code, out, err = run_cli(capsys, "clean", gapped, "--skeleton", rig, "-o", tmp_path / "c.csv")
+    assert code == 0, err
+    assert "1 gap filled on lhand" in out and "feet planted" in out
