@@ -422,6 +422,24 @@ def off_grid(times: np.ndarray) -> bool:
     return bool(steps.any() or drift.any())
 
 
+def _seconds(t: float) -> str:
+    """A time in seconds for a message: 9 significant digits, more for a large time
+    (Unix times, 1.7e9 s, to the hundred-thousandth of a second, not "1.7e+09")."""
+    digits = 9 if not math.isfinite(t) or abs(t) < 1e4 else int(math.log10(abs(t))) + 6
+    return f"{t:.{digits}g}"
+
+
+def time_format(first: float, frame_time: float, n_frames: int) -> bytes:
+    """The printf format of a written time column of ``n_frames`` rows from ``first`` s,
+    ``frame_time`` s apart: 12 significant digits, or as many more (up to 17, a float's
+    own) as keep each time to a millionth of a frame where the times are large beside the
+    step (Unix times: 1.7e9 s at 60 fps had been written 1700000000.02, .03, ...)."""
+    largest = max(abs(first), abs(first + n_frames * frame_time))
+    ratio = largest / frame_time if frame_time > 0 else 0.0
+    needed = math.ceil(math.log10(ratio)) + 6 if ratio > 1.0 and math.isfinite(ratio) else 0
+    return b"%%.%dg" % min(17, max(12, needed))
+
+
 def _out_of_order(times: np.ndarray, lines: np.ndarray, i: int, path) -> NoReturn:
     """Refuse the row that breaks the order of ``times`` first seen at row ``i`` (not after
     row ``i - 1``): row ``i - 1`` when it alone is out of line with both its neighbours (rows
@@ -429,14 +447,14 @@ def _out_of_order(times: np.ndarray, lines: np.ndarray, i: int, path) -> NoRetur
     row ``i``."""
     if 2 <= i < times.size - 1 and times[i - 2] < times[i] < times[i + 1] <= times[i - 1]:
         _fail(
-            f"time {times[i - 1]:.9g} s is out of order (the row before has "
-            f"{times[i - 2]:.9g} s, the next {times[i]:.9g} s)",
+            f"time {_seconds(times[i - 1])} s is out of order (the row before has "
+            f"{_seconds(times[i - 2])} s, the next {_seconds(times[i])} s)",
             path,
             int(lines[i - 1]),
         )
     again = " (the same time twice: delete the repeated row)" if times[i] == times[i - 1] else ""
     _fail(
-        f"time does not increase ({times[i]:.9g} s after {times[i - 1]:.9g} s){again}",
+        f"time does not increase ({_seconds(times[i])} s after {_seconds(times[i - 1])} s){again}",
         path,
         int(lines[i]),
     )
@@ -470,7 +488,7 @@ def _refuse_skipped_rows(
     _fail(
         f"{plural(int(np.sum(count[skips] - 1)), 'row')} missing at a fixed rate of "
         f"{whole_frames(1.0 / step):.6g} fps ({step:.6g} s per row): time "
-        f"{times[first]:.9g} s is followed by {times[first + 1]:.9g} s "
+        f"{_seconds(times[first])} s is followed by {_seconds(times[first + 1])} s "
         f"({plural(int(count[first]) - 1, 'frame')} skipped){others}: {advice}",
         path,
         int(lines[first + 1]),
@@ -940,9 +958,11 @@ def _rewrite(
     rewritten too when the frame time changed."""
     is_time = np.zeros(mask.shape, dtype=bool)
     retimed = motion.frame_time != src.frame_time
+    written = b"%.12g"
     if retimed:
         first = float(src.values[0, src.time_column])
         mask[:, src.time_column] = is_time[:, src.time_column] = True
+        written = time_format(first, motion.frame_time, motion.n_frames)
     if not mask.any():
         return pieces(src.raw)
 
@@ -961,8 +981,8 @@ def _rewrite(
         replaced, replaced_is_time = values[chosen], is_time[rows][chosen]
 
         def chunk(a: int, b: int):
-            """Texts of replacements ``a`` to ``b - 1``: times ``%.12g``, values their
-            shortest round-trip text, NaN a blank cell."""
+            """Texts of replacements ``a`` to ``b - 1``: times as :func:`time_format`,
+            values their shortest round-trip text, NaN a blank cell."""
             values, timed = replaced[a:b], replaced_is_time[a:b]
             plain = ~timed & ~np.isnan(values)
             starts = np.zeros(values.size, dtype=np.int64)
@@ -970,7 +990,7 @@ def _rewrite(
             cells = Cells()
             starts[plain], lengths[plain] = cells.add(*format_repr(values[plain]))
             if timed.any():
-                times = format_fields(b"%.12g", values[timed].tolist())
+                times = format_fields(written, values[timed].tolist())
                 starts[timed], lengths[timed] = cells.add(*times)
             return cells.buffer(), starts, lengths
 
@@ -995,7 +1015,8 @@ def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
     first = start_time(motion)
     frames = np.arange(rows.start, rows.stop)
     numbers = cells.add(*format_fields(b"%d", frames.tolist()))
-    times = cells.add(*format_fields(b"%.12g", (first + frames * motion.frame_time).tolist()))
+    written = time_format(first, motion.frame_time, motion.n_frames)
+    times = cells.add(*format_fields(written, (first + frames * motion.frame_time).tolist()))
     return numbers, times
 
 

@@ -613,3 +613,25 @@ def test_column_names_in_another_case_are_read(tmp_path):
         (tmp_path / "twice.csv").write_text(f"frame,{twice},x\n")
         with pytest.raises(MotionError, match=f"column {shown}.* appears twice"):
             mc.load(tmp_path / "twice.csv")
+
+
+@pytest.mark.parametrize("fps", ["30", "60", "120"])
+def test_a_tracker_csv_stamped_in_unix_time_resamples_to_times_it_reads_back(tmp_path, capsys, fps):
+    """A tracker CSV whose times are Unix times (1.7e9 s at 90 fps) resampled: its times had
+    been written to 12 significant digits, 1700000000.02, .03, ..., which read back as
+    "not uniformly sampled" (or repeated at 120 fps). Each written time is the first plus
+    whole frames to a millionth of a frame; a repeated time's error says which times."""
+    times, p, q = rigid_table(300, 2, seed=5)
+    write_rigid(tmp_path / "tracks.csv", 1.7e9 + times, p, q)
+    out = tmp_path / "out.csv"
+    code, _, err = run_cli(capsys, "resample", tmp_path / "tracks.csv", out, "--fps", fps)
+    assert code == 0, err
+    back = mc.load(out)
+    assert back.frame_time == pytest.approx(1.0 / float(fps), rel=1e-6)  # (float times)
+    _, table = read_table(out)
+    frames = (table[:, 0] - 1.7e9) * float(fps)
+    assert np.abs(frames - np.arange(len(table))).max() < 1e-3  # (a float's 2.4e-7 s at 1.7e9)
+    lines = (tmp_path / "tracks.csv").read_text().splitlines()
+    (tmp_path / "twice.csv").write_text("\n".join(lines[:11] + lines[10:]) + "\n")
+    code, _, err = run_cli(capsys, "info", tmp_path / "twice.csv")
+    assert code == 1 and "time does not increase (1700000000.1 s after 1700000000.1 s)" in err
