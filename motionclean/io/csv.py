@@ -96,7 +96,7 @@ from ..core.motion import (
 )
 from ..core.rates import whole_frames
 from ..core.words import plural
-from .bvh import BOM, BvhText
+from .bvh import BOM, SLOW_FRAME_TIME, BvhText
 from .files import FileBytes, pieces, refuse_binary
 from .text import (
     MAX_MAGNITUDE,
@@ -148,6 +148,8 @@ class CsvText:
     #: The BVH template's hierarchy (no frames) a channel CSV was read into when the
     #: template's frames are not the CSV's: what a BVH written from the clip keeps.
     bvh_template: BvhText | None = None
+    #: What the reader noticed and says beside the clip's figures (``note: ...``).
+    notes: tuple[str, ...] = ()
 
     @property
     def start_time(self) -> float:
@@ -170,6 +172,7 @@ class CsvText:
             frame_time,
             eol,
             blank=cells.blank,
+            notes=_slow_time_notes(frame_time),
             **rest,
         )
 
@@ -422,6 +425,55 @@ def off_grid(times: np.ndarray) -> bool:
     return bool(steps.any() or drift.any())
 
 
+def _slow_time_notes(frame_time: float) -> tuple[str, ...]:
+    """The note on a time column stepping slower than :data:`~.bvh.SLOW_FRAME_TIME` (times
+    in milliseconds read as seconds: 11.1 s per row for 90 fps)."""
+    if frame_time <= SLOW_FRAME_TIME:
+        return ()
+    return (
+        f"time steps of {frame_time:g} s per row, {1.0 / frame_time:.3g} fps: times are "
+        f"read in seconds; were they milliseconds, the clip is {1000.0 / frame_time:.4g} "
+        "fps and its time column should say so in seconds",
+    )
+
+
+def written_step(times: np.ndarray) -> float:
+    """The step the times were written in, where they are whole multiples of 1 s, 0.1 s,
+    ... or 1 microsecond (whole milliseconds: 0.001; Motive 1.23 writes 0.004, 0.008, ...
+    for 1/240 s steps), else 0."""
+    for digits in range(7):  # seconds to microseconds
+        scaled = times * 10.0**digits
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-6):
+            return 10.0**-digits
+    return 0.0
+
+
+def _coarse_grid(times: np.ndarray, mean: float, lines: np.ndarray, path, advice: str):
+    """The frame time of ``times`` written in coarser steps than :data:`TIME_TOLERANCE` of
+    a frame (:func:`written_step`: whole milliseconds at 144 or 240 fps, 4 or 5 ms apart
+    for 4.17), where they are a uniform grid to within that step, rounded or cut: the
+    grid's step by least squares (the ends' rounding, over a long take, would tilt the
+    span's mean ``mean`` by about a step); a time further off is refused at its line; None
+    for any other time column."""
+    step = written_step(times)
+    if not TIME_TOLERANCE * mean < step < mean:
+        return None
+    rows = np.arange(times.size) - (times.size - 1) / 2.0
+    slope = float(rows @ (times - times.mean()) / (rows @ rows))
+    off = times - rows * slope
+    if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step:
+        return slope
+    worst = int(np.argmax(np.abs(off - np.median(off))))
+    _fail(
+        f"not uniformly sampled: time {_seconds(times[worst])} s is "
+        f"{abs(off[worst] - np.median(off)) * 1000:.3g} ms off the uniform grid of "
+        f"{slope:.6g} s steps, more than the {step * 1000:g} ms its times are written in: "
+        f"{advice}",
+        path,
+        int(lines[worst]),
+    )
+
+
 def _seconds(t: float) -> str:
     """A time in seconds for a message: 9 significant digits, more for a large time
     (Unix times, 1.7e9 s, to the hundred-thousandth of a second, not "1.7e+09")."""
@@ -538,6 +590,9 @@ def uniform_frame_time(
             int(lines[1]),
         )
     off, drift = _off_grid(times, mean)
+    coarse = _coarse_grid(times, mean, lines, path, advice) if off.any() or drift.any() else None
+    if coarse is not None:
+        return float(f"{coarse:.12g}")
     if off.any():
         i = np.flatnonzero(off)[0] + 1
         _fail(

@@ -80,6 +80,7 @@ from .csv import (
     tracked_bodies,
     uniform_frame_time,
     value_cells,
+    written_step,
 )
 from .files import refuse_binary
 from .text import ascii_float, stated_count, table_pieces
@@ -412,13 +413,7 @@ def _coarse_times(times: np.ndarray, frames: np.ndarray, frame_time: float) -> t
     off; ``(0, -1)`` for any other time column (checked as in a CSV)."""
     if times.size < 2:
         return 0.0, -1
-    for digits in range(7):  # seconds to microseconds
-        scaled = times * 10.0**digits
-        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-6):
-            break
-    else:
-        return 0.0, -1
-    step = 10.0**-digits
+    step = written_step(times)
     if not TIME_TOLERANCE * frame_time < step < frame_time:
         return 0.0, -1
     off = times - (frames - frames[0]) * frame_time

@@ -635,3 +635,38 @@ def test_a_tracker_csv_stamped_in_unix_time_resamples_to_times_it_reads_back(tmp
     (tmp_path / "twice.csv").write_text("\n".join(lines[:11] + lines[10:]) + "\n")
     code, _, err = run_cli(capsys, "info", tmp_path / "twice.csv")
     assert code == 1 and "time does not increase (1700000000.1 s after 1700000000.1 s)" in err
+
+
+@pytest.mark.parametrize("fps", [144, 240])
+@pytest.mark.parametrize("rounding", [np.round, np.floor])
+def test_a_tracker_csv_stamped_in_whole_milliseconds_reads_at_its_rate(tmp_path, fps, rounding):
+    """Times written in whole milliseconds at 144 or 240 fps step by 4 or 5 ms for 4.17
+    (20 % off the mean step) and had been refused as not uniformly sampled, though every
+    time is its frame's to within the millisecond, rounded or cut: read at the rate. A
+    time 3 ms off its frame is still refused, with its line."""
+    times, p, q = rigid_table(5 * fps, 2, seed=6, frame_time=1.0 / fps)
+    stamped = rounding(times * 1000.0) / 1000.0
+    write_rigid(tmp_path / "ms.csv", stamped, p, q)
+    clip = mc.load(tmp_path / "ms.csv")
+    assert clip.frame_time == pytest.approx(1.0 / fps, rel=1e-5)
+    stamped[100] += 0.003
+    write_rigid(tmp_path / "off.csv", stamped, p, q)
+    with pytest.raises(mc.MotionError, match="not uniformly sampled") as error:
+        mc.load(tmp_path / "off.csv")
+    assert ":102: not uniformly sampled: time" in str(error.value) and "ms off" in str(error.value)
+
+
+def test_a_time_column_in_milliseconds_is_noted(tmp_path, capsys):
+    """A tracker CSV whose times are milliseconds (0, 11.111, ... at 90 fps) is read in
+    seconds, 0.09 fps, as a BVH's `Frame Time: 30` is read: `info` and `clean` say so
+    and what the rate would be (they had said nothing, and clean smoothed it as 0.09 fps)."""
+    times, p, q = rigid_table(120, 1, seed=7)
+    write_rigid(tmp_path / "ms.csv", times * 1000.0, p, q)
+    clip = mc.load(tmp_path / "ms.csv")
+    assert clip.frame_time == pytest.approx(1000.0 / 90.0)
+    code, out, err = run_cli(capsys, "info", tmp_path / "ms.csv")
+    assert code == 0, err
+    assert "note: time steps of 11.1111 s per row, 0.09 fps" in out and "the clip is 90 fps" in out
+    write_rigid(tmp_path / "s.csv", times, p, q)
+    code, out, _ = run_cli(capsys, "info", tmp_path / "s.csv")
+    assert code == 0 and "note:" not in out
