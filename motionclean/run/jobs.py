@@ -542,8 +542,15 @@ def check_compatible(
     if a.channels != b.channels:
         raise MotionError(f"channels differ from {a.path}'s", b.path)
     if not same_rate(a.frame_time, b.frame_time):
+        hint = (
+            " (a clip resampled by its cleaning: `clean --report` compares it on the input's "
+            "frames; or resample one to the other's rate first)"
+            if compared
+            else ""
+        )
         raise MotionError(
-            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s", b.path
+            f"frame time {b.frame_time:g} s differs from {a.path}'s {a.frame_time:g} s{hint}",
+            b.path,
         )
     if same_length and a.n_frames != b.n_frames:
         raise MotionError(

@@ -668,3 +668,14 @@ def test_the_json_report_is_strict_and_its_pipeline_reads_back(noisy_path, tmp_p
     ran = Pipeline.from_inline(steps[1::2])
     tables = [{k: v for k, v in step.items() if k != "touched"} for step in pipeline]
     assert Pipeline.from_tables(tables, "r.json").describe() == ran.describe()
+
+
+def test_report_of_a_resampled_clean_says_how_to_compare_it(tmp_path, capsys):
+    """`report IN OUT` where OUT was resampled by its cleaning: refused (the frames are
+    not the input's), the line saying what compares them (`clean --report`)."""
+    out = tmp_path / "half.bvh"
+    code, _, err = run_cli(capsys, "clean", SAMPLE, "-o", out, "-f", "resample:fps=60", "-q")
+    assert code == 0, err
+    code, _, err = run_cli(capsys, "report", SAMPLE, out)
+    assert code == 1 and err.count("\n") == 1
+    assert "frame time 0.0166667 s differs" in err and "`clean --report` compares it" in err
