@@ -37,6 +37,7 @@ from .thrash import thrash_frames, worst_window
 from .traces import Trace, traces
 from .verdict import (
     CLEAN_CHANGE_DEG,
+    FAST_BODY_HEIGHTS_PER_S,
     FAST_DEG_PER_S,
     PAIR_BRIEF_S,
     PAIR_REPAIR_DEG,
@@ -323,6 +324,10 @@ def build_series(
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
+        # (and away from the steps no step repaired: a smoother across a flip moves every
+        # frame near it, which says nothing of what it took for noise elsewhere)
+        away = {n: repaired[n] | near if n in repaired else near for n, near in near_jumps.items()}
+        outside["deviation_away"] = _outside(table, lead, trail, repaired | away)
         changed_near = {
             before.names[rot[n]]: _largest(
                 table[:, n], near & ~repaired[n] if n in repaired else near
@@ -409,7 +414,25 @@ def _position_series(
     figures["travel"] = (
         float(np.max(np.nanmax(path, axis=0) - np.nanmin(path, axis=0))) if path.size else math.nan
     )
+    scale = kinematics.body_height(before) or figures["travel"]
+    limit = FAST_BODY_HEIGHTS_PER_S * scale if scale > 0 else math.inf
+    figures["fast"] = _fast_positions(
+        after.translations[:, joints], dt, missing, starts, rest, limit
+    )
+    figures["scale"] = scale
     return figures
+
+
+def _fast_positions(p, dt: float, missing, starts: np.ndarray, rest: tuple[int, int], limit):
+    """Per column of the positions ``p`` ``(F, C, 3)`` (frame time ``dt`` s), over its steps
+    within the motion (:func:`_in_motion`): how many step faster than ``limit`` length
+    units per second, the fastest's speed and the frame it steps into, ``(C,)`` each."""
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=-1) / dt  # (F-1, C)
+    speed = np.where(_in_motion(speed.shape, missing, starts, *rest), speed, 0.0)
+    if speed.shape[0] == 0:
+        none = np.zeros(p.shape[1])
+        return none.astype(np.intp), none, none.astype(np.intp)
+    return (speed > limit).sum(axis=0), speed.max(axis=0), np.argmax(speed, axis=0) + 1
 
 
 #: Frames within this many seconds of a step the input makes over
@@ -587,14 +610,18 @@ def _outside(
     return found
 
 
-def _per_joint(figures: dict, key: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _per_joint(
+    figures: dict, key: str, outside: str | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per joint, the sum of squares, count and max of the figure ``key`` of
-    :func:`build_series`' ``figures``, outside the rows its ``outside_repairs`` leave out."""
+    :func:`build_series`' ``figures``, outside the rows its ``outside_repairs`` leave out
+    (under ``outside``, default ``key``)."""
     reduced = figures[key]
     counts = np.array(reduced.counts, dtype=np.float64)
     squares = np.nan_to_num(np.square(reduced.rms)) * counts  # (NaN: no row measured)
     largest = np.nan_to_num(np.array(reduced.max, dtype=np.float64))
-    for n, (square, count, peak) in (figures["outside_repairs"].get(key) or {}).items():
+    left = figures["outside_repairs"].get(outside or key) or {}
+    for n, (square, count, peak) in left.items():
         squares[n], counts[n], largest[n] = square, count, peak
     return squares, counts, largest
 
@@ -645,6 +672,7 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
     before, rows, _ = _per_joint(figures, "accel_before")
     after, _, _ = _per_joint(figures, "accel_after")
     squares, counts, largest = _per_joint(figures, "deviation")
+    away_squares, away_counts, _ = _per_joint(figures, "deviation", "deviation_away")
     weights, weighting = _reach_weights(series.get("reaches"), before, rows)
     total_before, total_after = float(weights @ before), float(weights @ after)
     removed = 1.0 - math.sqrt(total_after / total_before) if total_before > 0 else 0.0
@@ -657,6 +685,10 @@ def _smoothing(series: dict, names: list[str]) -> dict[str, Any] | None:
         "noise_weighting": weighting,
         "change_deg_max": float(largest[worst]) if largest.size else 0.0,
         "change_deg_rms": math.sqrt(float(squares.sum()) / max(float(counts.sum()), 1.0)),
+        # (the same, away from the input's steps that nothing repaired)
+        "change_deg_rms_away": math.sqrt(
+            float(away_squares.sum()) / max(float(away_counts.sum()), 1.0)
+        ),
         "change_joint": names[worst] if names else None,
         # each joint's largest change outside repairs (degrees): the verdict's own reading
         "joint_changes": dict(zip(names, largest.tolist(), strict=False)),
@@ -685,6 +717,7 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
                 "change_length_joint",
                 "position_moved",
                 "travel",
+                "fast_positions",
             )
         )
     names = positions["names"]
@@ -700,6 +733,8 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
     worst = int(np.argmax(peaks))
     moved = sorted((n for n, peak in enumerate(peaks) if peak > 0.0), key=lambda n: -peaks[n])
     removed = 1.0 - math.sqrt(after / before) if before > 0 else 0.0
+    steps, fastest, at = positions["fast"]
+    scale = positions["scale"]
     return {
         "position_noise_before": math.sqrt(before / rows) if rows else None,
         "position_noise_after": math.sqrt(after / rows) if rows else None,
@@ -709,6 +744,12 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
         "change_length_joint": names[worst],
         "position_moved": [(names[n], peaks[n]) for n in moved],
         "travel": positions["travel"],
+        # per joint stepping faster than FAST_BODY_HEIGHTS_PER_S: steps, fastest (in
+        # body heights, or of the positions' travel, per second), the frame of the fastest
+        "fast_positions": {
+            names[n]: (int(steps[n]), float(fastest[n] / scale), int(at[n]))
+            for n in np.flatnonzero(steps).tolist()
+        },
     }
 
 

@@ -145,6 +145,11 @@ LOOK_REPAIRED_SHARE = 0.5
 #: dog's tail 5 of 2,167 at 30 fps); marker-based captures of a dance, lifting, gait and
 #: sit-to-stand turn no joint coordinate faster than 1,314 deg/s.
 FAST_DEG_PER_S = MAX_DEG_PER_S
+#: A position stepping faster than this many body heights per second (17.5 m/s for a 1.75
+#: m body, of the positions' range of travel without one) jumped: a sprinter's hips move
+#: at about 6, a tracker's teleport or a re-zeroed root (a root moved 0.41 body heights in
+#: a frame at 120 fps, 49, and back 0.17 s later: longer than despike's spikes) far faster.
+FAST_BODY_HEIGHTS_PER_S = 10.0
 #: ... and a joint doing so on more than this share of its frames (steps within the motion)
 #: needs a look: no motion keeps it up, a glitch (a twist flipping back and forth) does,
 #: and ``despike`` leaves it where it spans more than a quarter of a joint's frames. Clean
@@ -405,6 +410,20 @@ def _fast_words(fast: dict[str, dict[str, float]]) -> str:
     if len(fast) > REPAIRS_NAMED:
         each.append(plural(len(fast) - REPAIRS_NAMED, "more joint"))
     return f"{', '.join(each[:-1])} and {each[-1]} turn faster than a body can {limit}"
+
+
+def _jump_words(jumped: dict[str, tuple[int, float, int]], per: str) -> str:
+    """ "Hips's position jumps (over 10 body heights/s: a tracker's teleport?) on 2 frames,
+    up to 49.5 body heights/s at frame 620"; several joints named, the most steps first
+    (``jumped``: joint -> steps, fastest speed in ``per`` per second, its frame)."""
+    order = sorted(jumped, key=lambda name: -jumped[name][0])
+    steps, fastest, at = jumped[order[0]]
+    unit = f"{per}s/s" if per == "body height" else f"times {per} per second"
+    who = f"{order[0]}'s position jumps" if len(order) == 1 else f"{listed(order)}'s positions jump"
+    return (
+        f"{who} (over {FAST_BODY_HEIGHTS_PER_S:g} {unit}: a tracker's teleport?) on "
+        f"{plural(steps, 'frame')}, up to {fastest:.3g} {unit} at frame {at}"
+    )
 
 
 def _thrashing(smoothing: dict, fast: dict) -> dict[str, dict[str, float]]:
@@ -784,15 +803,17 @@ def build_verdict(
             + _across_defects(smoothing, far[0], far[1], filters)
         )
     noise = smoothing.get("noise_level")
+    # (away from the input's flips and glitches no step repaired: a smoother across them
+    # moves the frames near them, told above, not motion taken for noise)
+    rms = smoothing.get("change_deg_rms_away", smoothing["change_deg_rms"])
     over_noise = (
         smoothed
         and not resampled
         and noise is not None
-        and smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
-        and smoothing["change_deg_rms"] > LOOK_CHANGE_NOISE * noise
+        and rms >= CLEAN_CHANGE_DEG
+        and rms > LOOK_CHANGE_NOISE * noise
     )
     if over_noise:
-        rms = smoothing["change_deg_rms"]
         reasons.append(
             f"smoothing changed it by {rms:.2f} degrees RMS, more than {LOOK_CHANGE_NOISE:g} "
             f"times its noise ({noise:.2g} degrees): motion taken for noise"
@@ -832,6 +853,9 @@ def build_verdict(
     too_fast = _too_fast(smoothing)
     if too_fast:
         reasons.append(_fast_words(too_fast))
+    jumped = smoothing.get("fast_positions") or {}
+    if jumped:
+        reasons.append(_jump_words(jumped, per))
     thrash = _thrashing(smoothing, too_fast)
     if thrash:
         reasons.append(_thrash_words(thrash, report))
@@ -967,6 +991,10 @@ def build_verdict(
         "length_scale_of": per or None,
         "repairs": repairs,
         "too_fast": too_fast,
+        "position_jumps": {
+            name: {"frames": steps, "fastest": fastest, "at": at}
+            for name, (steps, fastest, at) in jumped.items()
+        },
         "thrash": thrash,
         "feet": feet,
         "feet_worse": worse,

@@ -1175,3 +1175,55 @@ def test_a_clip_compared_with_itself_shows_no_change(tmp_path, capsys, name):
     report = json.loads((tmp_path / "r.json").read_text())
     assert not any("brief_change" in joint for joint in report["joints"].values())
     assert "brief" not in report["verdict"]["text"] and report["verdict"]["repairs"] == {}
+
+
+@pytest.mark.parametrize("frames", [1, 20])
+def test_a_root_that_teleports_needs_a_look(tmp_path, capsys, frames):
+    """The sample with its root moved by 0.4 body heights for 1 frame (a spike: despike
+    takes it out, nothing to say) or for 20 frames at 120 fps (0.17 s, longer than
+    despike's spikes: it had read "clean capture ... otherwise left as it was"): the
+    cleaned clip's root steps at about 48 body heights/s, and the verdict asks for a look,
+    naming the joint, its frames and the speed (JSON `position_jumps`)."""
+    clip = mc.load(SAMPLE)
+    height = kinematics.body_height(clip)
+    moved = clip.translations.copy()
+    moved[150 : 150 + frames, 0, 0] += 0.4 * height
+    source = tmp_path / "jump.bvh"
+    mc.save(clip.replace(translations=moved, source_values=None), source)
+    code, out, err = run_cli(
+        capsys, "clean", source, "-o", tmp_path / "c.bvh", "--report", tmp_path / "r.json"
+    )
+    assert code == 0, err
+    verdict = json.loads((tmp_path / "r.json").read_text())["verdict"]
+    if frames == 1:
+        assert verdict["position_jumps"] == {} and "jump" not in verdict["text"]
+        return
+    jumps = verdict["position_jumps"]["Hips"]
+    assert jumps["frames"] == 2 and jumps["at"] in (150, 150 + frames)
+    assert jumps["fastest"] == pytest.approx(0.4 / clip.frame_time, rel=0.05)
+    assert verdict["text"].startswith("needs a look: Hips's position jumps (over 10 body")
+
+
+def test_smoothing_across_unrepaired_flips_is_not_called_motion_taken_for_noise(tmp_path, capsys):
+    """multires across the noisy sample's thumb flips (cut_deg=180: no repair) moves the
+    frames near them by up to 177 degrees: told as such. Its change away from them is
+    within 3 times the noise, so no "motion taken for noise" (the RMS over every frame,
+    4.9 degrees, had said so)."""
+    out = tmp_path / "mr.bvh"
+    code, stdout, err = run_cli(
+        capsys,
+        "clean",
+        NOISY,
+        "-o",
+        out,
+        "-f",
+        "multires:level=2,cut_deg=180",
+        "--report",
+        tmp_path / "r.json",
+    )
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    verdict = report["verdict"]["text"]
+    assert "across 10 steps of over 90 degrees in the input" in verdict
+    assert "motion taken for noise" not in verdict
+    assert report["verdict"]["change_deg_rms"] > 3 * report["verdict"]["noise_level_deg"]
