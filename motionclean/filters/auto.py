@@ -106,6 +106,11 @@ SOURCES = ("auto", "optical", "inertial", "markerless", "video")
 #: (openpose-biorbd, theia3d) at -0.53 to +0.49. The limit sits halfway.
 MARKERLESS_SLOPE = -1.0
 CLEAN_FLATTEST = -1.46
+#: ... and spans at least this many seconds: a short clip's few windows read flat by chance
+#: (2 of 255 clean Bandai Namco clips at 30 fps, runs of 2.4 and 3.3 s, read -0.90 and -0.60
+#: and were smoothed by 2-3 degrees RMS, their hands' and feet's acceleration up by 24 %);
+#: the markerless takes measured span 8-20 s.
+MARKERLESS_MIN_SECONDS = 5.0
 #: Band-limited noise (:func:`motionclean.filters.noise.fit_band_limited`) is added only
 #: when the motion slope is flatter than this: a periodic move at 30 fps leaves a bump too
 #: (clean Bandai Namco clips at 30 fps: bumps of 0.6-2.2 nats at slopes of -1.89 to -2.54;
@@ -253,7 +258,15 @@ def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: floa
     None where the optical model applies."""
     if noise_source(source, slope) != "markerless":
         return None
+    if source == "auto" and _too_short_to_tell(model, frame_time):
+        return None
     return noise_model.fit_coloured(model, frame_time)
+
+
+def _too_short_to_tell(model: NoiseModel, frame_time: float) -> bool:
+    """Whether a clip is shorter than :data:`MARKERLESS_MIN_SECONDS`: too short for its
+    flat spectrum to be taken for a pose estimator's noise unasked."""
+    return model.n_frames * frame_time < MARKERLESS_MIN_SECONDS
 
 
 #: Each noise model in a few words, as a source given is echoed ("video, as given (the
@@ -287,7 +300,10 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
     if model == "optical" and slope > MARKERLESS_SLOPE:
         return (
             f"optical: its joints' spectrum is flat over {band} (slope {slope:.2f}, flatter "
-            f"than {MARKERLESS_SLOPE:g}), but {UNFIT_WANDER}, so the optical model"
+            f"than {MARKERLESS_SLOPE:g}), but the clip is too short (under "
+            f"{MARKERLESS_MIN_SECONDS:g} s) to tell that from motion, or its rate too low to "
+            "fit a pose estimator's wandering noise, so the optical model; for a video or "
+            "markerless capture give --source video"
         )
     if model == "markerless":
         return (

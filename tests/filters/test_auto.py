@@ -509,3 +509,24 @@ def test_the_source_found_and_said_is_the_one_auto_uses_on_a_short_clip():
     given = auto(noisy, 1 / 60, source="video").choices[0].model
     said = found.describe_source(given, "video", slope)
     assert given == "optical" and "source=video was given, but the clip is too short" in said
+
+
+@pytest.mark.parametrize("seconds", [4, 6])
+def test_a_flat_clip_under_five_seconds_is_not_taken_for_markerless_unasked(seconds):
+    """A wander read flat on a clip of 4 s, long enough to fit it (a clean 2.4 s run at 30
+    fps had read flat by chance and been smoothed by 2.7 degrees RMS): `source=auto` keeps
+    the optical model under MARKERLESS_MIN_SECONDS and says why; from 5 s on it takes the
+    markerless one; given, the source is used at 4 s."""
+    import importlib
+
+    found = importlib.import_module("motionclean.filters.auto")
+    frames = 60 * seconds
+    truth = smooth_synthetic(frames=frames, joints=6, seed=13)
+    noisy = quat.multiply(truth, quat.exp(wander_noise(frames, 6, 10.0, 4.0, seed=13, rho=0.5)))
+    model, slope = found.found_source(noisy, 1 / 60)[:2]
+    assert slope > found.MARKERLESS_SLOPE  # the premise: flat
+    expected = "optical" if seconds < found.MARKERLESS_MIN_SECONDS else "markerless"
+    assert model == auto(noisy, 1 / 60).choices[0].model == expected
+    if expected == "optical":
+        assert "too short (under 5 s)" in found.describe_source(model, "auto", slope)
+        assert auto(noisy, 1 / 60, source="video").choices[0].model == "markerless"
