@@ -345,7 +345,25 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
         )
     if given is not None and given != rate:
         return 1.0 / rate, f"the file's {rate:g} fps taken, not {given:g} as given"
+    others = [
+        f"{other} {float(np.asarray(record[other]).reshape(-1)[0]):g}"
+        for other in RATE_KEYS
+        if other != key
+        and other in record
+        and np.asarray(record[other]).size == 1
+        and _number(record[other]) != rate
+    ]
+    if others:
+        return 1.0 / rate, f"{key} {rate:g} fps taken; the file also says {', '.join(others)}"
     return 1.0 / rate, None
+
+
+def _number(value) -> float:
+    """A one-element array's number, nan where it is none."""
+    try:
+        return float(np.asarray(value).reshape(-1)[0])
+    except (TypeError, ValueError):
+        return float("nan")
 
 
 #: A pose matrix whose ``R^T R`` differs from the identity by more than this (largest
@@ -587,8 +605,10 @@ def resampled_record(motion: Motion) -> dict[str, np.ndarray]:
         old = src.record[src.trans_key]
         trans = (motion.translations[:, 0] - src.root_offset) / src.trans_scale
         new[src.trans_key] = trans.astype(old.dtype)
-    rate_key = _first(src.record, RATE_KEYS) or "mocap_framerate"
-    new[rate_key] = np.asarray(motion.frame_rate)
+    # (every rate key the record has says the new rate: a resample had left fps=30 beside
+    # mocap_framerate=120)
+    for rate_key in [k for k in RATE_KEYS if k in src.record] or ["mocap_framerate"]:
+        new[rate_key] = np.asarray(motion.frame_rate)
     out = {}
     for key, value in src.record.items():
         if key in new:

@@ -750,3 +750,24 @@ def test_a_channel_csv_of_smpl_joints_goes_back_to_npz(tmp_path):
     assert np.degrees(quat.angle_between(back.rotations, clip.rotations)).max() < 1e-6
     before, after = np.load(tmp_path / "a.npz"), np.load(tmp_path / "b.npz")
     assert np.abs(after["trans"] - before["trans"]).max() < 1e-6
+
+
+def test_a_record_with_two_rates_says_which_it_took_and_writes_both(tmp_path, capsys):
+    """An npz with `mocap_framerate` 60 and `fps` 30: read at 60 fps (the first rate key),
+    with a note of the other (it had been silent), and resampled to 120 fps every rate key
+    says 120 (`fps` 30 had been left beside `mocap_framerate` 120)."""
+    path = amass_h(tmp_path / "two.npz", frames=60, rate_key="mocap_framerate")
+    record = dict(np.load(path))
+    record["mocap_framerate"], record["fps"] = np.array(60.0), np.array(30.0)
+    np.savez(path, **record)
+    code, out, err = run_cli(capsys, "info", path)
+    assert code == 0, err
+    assert (
+        "rate: 60 fps" in out
+        and "note: mocap_framerate 60 fps taken; the file also says fps 30" in out
+    )
+    out_path = tmp_path / "120.npz"
+    code, _, err = run_cli(capsys, "resample", path, out_path, "--fps", "120")
+    assert code == 0, err
+    written = np.load(out_path)
+    assert float(written["mocap_framerate"]) == float(written["fps"]) == 120.0
