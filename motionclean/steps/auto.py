@@ -33,9 +33,19 @@ UNMEASURED = "nothing to measure: no three frames in a row known"
 KEPT_BELOW_DEG = 5.0
 
 
-def _auto_note(result, column: int, unit: str, unmeasured: bool = False) -> dict:
+def _still(values: np.ndarray) -> np.ndarray:
+    """``(C,)``: the columns of ``values`` ``(F, C, d)`` that hold one value throughout."""
+    if values.shape[0] == 0:
+        return np.ones(values.shape[1], dtype=bool)
+    return np.all(values == values[:1], axis=(0, 2))
+
+
+def _auto_note(
+    result, column: int, unit: str, unmeasured: bool = False, still: bool = False
+) -> dict:
     """The report note of ``column``: the noise found and the filter chosen for it; with
-    ``unmeasured`` (:func:`_unmeasured`) no figures (None), no filter and why."""
+    ``unmeasured`` (:func:`_unmeasured`) no figures (None), no filter and why; ``still``:
+    the column holds one value throughout (said so, not as a noise of 0)."""
     choice = result.choices[column]
     note = {
         "noise": float(result.noise.reshape(-1)[column]),
@@ -57,6 +67,8 @@ def _auto_note(result, column: int, unit: str, unmeasured: bool = False) -> dict
     if choice.model == "markerless":  # noise reaching into the motion's band, in "noise"
         note["wander"] = choice.wander
         note["wander_edge_hz"] = choice.wander_edge_hz
+    if still:
+        note["still"] = True
     if unmeasured:
         note.pop("band_hz", None)
         unknown = ("noise", "rho", "share", "expected_error", "wander", "wander_edge_hz")
@@ -140,8 +152,9 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     if missing_r is not None:  # the bridges go: placeholders held again
         data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
     unseen = _unmeasured(data.rotations.shape, missing_r)
+    still = _still(rotations)
     for column in range(data.rotations.shape[1]):
-        note = _auto_note(result, column, "deg", unseen[column])
+        note = _auto_note(result, column, "deg", unseen[column], still[column])
         if lone[:, column].any():
             note["outliers"] = [[int(f), int(f) + 1] for f in np.flatnonzero(lone[:, column])]
         data.rotation_notes[column] = {"auto": note}
@@ -155,8 +168,9 @@ def _run_auto(data: StepData, params: dict) -> StepData:
             data.translations = hold_missing(result.values, missing_p)
         unseen = _unmeasured(translations.shape, missing_p)
         unit = kinematics.length_unit(data.motion) or "length"  # ("m" where the format says)
+        still = _still(translations)
         for column in range(data.translations.shape[1]):
-            note = _auto_note(result, column, unit, unseen[column])
+            note = _auto_note(result, column, unit, unseen[column], still[column])
             data.translation_notes[column] = {"auto": note}
     return data
 
@@ -266,6 +280,15 @@ def _found_and_chosen(note: dict) -> str:
             f"estimated noise {note['noise']:.3g} {unit}, {note['wander']:.3g} of it a wander "
             f"{up_to}, down where the motion is (markerless model, {_how(note)})"
             f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
+        )
+    if note.get("still"):
+        return "still throughout: nothing to filter"
+    if note["noise"] == 0.0 and note["filter"].get("mask") == "none":
+        # (the motion fills the band the noise is read in: not "noise 0, error < 0.01",
+        # which a wrist with 1.5 degrees of noise at 30 fps had read)
+        return (
+            "no noise measurable beside its motion (it fills the band the noise is read in: "
+            "a fast joint, or a low frame rate); left as it was"
         )
     # a report leaves rho out where it says nothing about the joint (the clip's own is shown)
     said = f"AR(1) rho {note['rho']:.2f}{band}{where}" if "rho" in note else f"{band}{where}"[2:]
