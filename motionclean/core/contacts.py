@@ -198,6 +198,8 @@ def find_feet(
         split = kinematics.trunk_split(parents)
         if split is not None:  # a body: feet hang from the legs, never from the upper body
             low[split[0]] = False
+        else:  # a limb alone: an arm (by its names) has no foot, a leg has one
+            low &= ~_arm_points(parents, names)
         leaves = [j for j in range(len(parents)) if not children[j] and low[j]]
         ankles = []
 
@@ -234,6 +236,27 @@ def find_feet(
             )
         )
     return _one_per_knee(feet, rest)
+
+
+#: Words of arm joints' names in every exporter's naming (CMU's LeftWrist, Mixamo's
+#: LeftForeArm, SMPL's left_elbow, Bandai Namco's LowerArm_L, Rigify's hand.L ...).
+ARM_WORDS = ("arm", "hand", "wrist", "elbow", "shoulder", "finger", "thumb", "clavicle", "collar")
+
+
+def _arm_points(parents: np.ndarray, names: list[str]) -> np.ndarray:
+    """``(P,)`` bool: the points (joints, then end sites) at or below a joint named as an
+    arm's (:data:`ARM_WORDS`), where a skeleton without a trunk has no upper body to
+    leave out: an arm alone (shoulder, elbow, wrist) hangs from two long bones as a leg
+    does, and its wrist had been taken for a foot and held by footlock."""
+    parents = np.asarray(parents, dtype=np.intp)
+    named = np.zeros(len(parents), dtype=bool)
+    named[: len(names)] = [any(w in name.lower() for w in ARM_WORDS) for name in names]
+    arm, above = named.copy(), parents.copy()
+    while np.any(above >= 0):  # up the tree, every point at once (depth steps)
+        up = above >= 0
+        arm[up] |= named[above[up]]
+        above[up] = parents[above[up]]
+    return arm
 
 
 def _one_per_knee(feet: list[Foot], rest: np.ndarray) -> list[Foot]:

@@ -522,3 +522,35 @@ def test_footprints_stepped_on_again_do_not_tilt_the_floor_further():
     walked = np.r_[tilted, tilted + [2.45, np.tan(np.radians(8.0)) * 2.45, 0.0]]
     slope = found.fit_floor(walked, 1, height)
     assert slope is not None and slope.tilt_deg == pytest.approx(8.0, abs=1.0)
+
+
+def _limb_alone(clip: mc.Motion, first: str) -> mc.Motion:
+    """The chain of ``clip`` from joint ``first`` down, as a clip of its own."""
+    top = clip.names.index(first)
+    keep = kinematics.subtree(kinematics.child_lists(clip.parents), top)
+    keep = [j for j in keep if j < clip.n_joints]
+    index = {j: i for i, j in enumerate(keep)}
+    return mc.Motion(
+        names=[clip.names[j] for j in keep],
+        parents=np.array([index.get(int(clip.parents[j]), -1) for j in keep]),
+        offsets=clip.offsets[keep],
+        channels=[("Zrotation", "Xrotation", "Yrotation")] * len(keep),
+        frame_time=clip.frame_time,
+        rotations=clip.rotations[:, keep],
+        translations=np.zeros((clip.n_frames, len(keep), 3)),
+        end_sites={index[j]: v for j, v in clip.end_sites.items() if j in index},
+    )
+
+
+@pytest.mark.parametrize(("first", "feet"), [("LeftShoulder", 0), ("LeftHip", 1)])
+def test_an_arm_alone_has_no_foot_and_a_leg_alone_has_one(first, feet):
+    """The noisy sample's left arm from the shoulder down, a clip of its own, hangs from two
+    long bones as a leg does: its wrist had been taken for a foot (2 contacts) and held by
+    footlock, which changed the arm. Named as an arm, it has none and footlock changes
+    nothing; the left leg from the hip down keeps its foot."""
+    limb = _limb_alone(mc.load(NOISY), first)
+    found_feet, _, _ = found.skeleton_feet(limb)
+    assert len(found_feet) == feet
+    if not feet:
+        out, _ = Pipeline.from_inline(["footlock"]).run(limb)
+        np.testing.assert_array_equal(out.rotations, limb.rotations)
