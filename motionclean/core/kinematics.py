@@ -706,6 +706,19 @@ def upright_turn(axis: int) -> np.ndarray:
     return quat.from_axis_angle(np.eye(3)[(axis + 1) % 3], np.pi)
 
 
+def turn_up_onto(axis: int, sign: float, onto: int) -> np.ndarray | None:
+    """The rotation ``(4,)`` (w, x, y, z) turning a skeleton's up (``axis``, ``sign``: the
+    direction ``sign * e_axis``) onto ``+e_onto`` by the least angle: a quarter turn for
+    another axis, half a turn about the axis before ``onto`` for its opposite (-Y onto +Y:
+    about X); None where it is ``+e_onto`` already. glTF stands figures on +Y, Blender on
+    +Z."""
+    if axis == onto:
+        return None if sign > 0 else quat.from_axis_angle(np.eye(3)[(onto + 2) % 3], np.pi)
+    return quat.normalize(
+        np.concatenate([[1.0], np.cross(sign * np.eye(3)[axis], np.eye(3)[onto])])
+    )
+
+
 def upright_positions(
     motion: Motion, up: str | int | None = None, end_sites: bool = True, only=None
 ) -> np.ndarray:

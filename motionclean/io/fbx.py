@@ -485,11 +485,9 @@ def _build_armature(bpy: Any, motion: Motion) -> Any:
             armature.bones[motion.names[j]][END_SITE_AT_HEAD] = True
     for name, channels in zip(motion.names, motion.channels, strict=True):
         armature.bones[name][CHANNELS_PROPERTY] = " ".join(channels)
-    up = kinematics.up_axis(motion)
-    turn = {
-        0: quat.from_axis_angle(np.array([0.0, 1.0, 0.0]), -np.pi / 2),
-        1: quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2),
-    }.get(up)
+    # (its up, signed, onto Blender's +Z: a clip standing head down along -y had been
+    # written upside down, its up's sign dropped)
+    turn = kinematics.turn_up_onto(*kinematics.up_direction(motion), 2)
     if turn is not None:
         obj.rotation_mode = "QUATERNION"
         obj.rotation_quaternion = turn.tolist()

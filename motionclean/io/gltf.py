@@ -64,7 +64,7 @@ import numpy as np
 from ..core import quat
 from ..core.checks import MAX_MAGNITUDE, within_magnitude
 from ..core.errors import MotionError
-from ..core.kinematics import axis_name, rest_positions, up_direction
+from ..core.kinematics import axis_name, rest_positions, turn_up_onto, up_direction
 from ..core.motion import (
     MAX_FRAME_TIME,
     MIN_FRAME_TIME,
@@ -1339,17 +1339,6 @@ def _glb(text: bytes, binary: bytes | None) -> bytes:
 UP_NODE = "motionclean_up"
 
 
-def _upright_turn(axis: int, sign: float) -> np.ndarray | None:
-    """The quaternion turning the skeleton's up (``axis``, ``sign``) onto +Y by the least
-    angle (a half turn about X for -Y), None when it is +Y."""
-    if axis == 1:
-        return None if sign > 0 else quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
-    up = np.zeros(3)
-    up[axis] = sign
-    y = np.array([0.0, 1.0, 0.0])
-    return quat.normalize(np.concatenate([[1.0], np.cross(up, y)]))
-
-
 def fresh_gltf(motion: Motion, glb: bool) -> bytes:
     """A glTF of a clip read from another format: a node per joint (its offset as rest
     translation, no rest rotation) and per end site (``<joint>_end``, a child node outside
@@ -1396,7 +1385,7 @@ def fresh_gltf(motion: Motion, glb: bool) -> bytes:
         if parent >= 0:
             nodes[parent].setdefault("children", []).append(j)
     roots = [j for j in range(n) if motion.parents[j] < 0]
-    turn = _upright_turn(*up_direction(motion))
+    turn = turn_up_onto(*up_direction(motion), 1)
     if turn is not None:  # the skeleton's own coordinates kept, hung under a turn to +Y up
         nodes.append(
             {"name": UP_NODE, "rotation": [float(v) for v in turn[[1, 2, 3, 0]]], "children": roots}

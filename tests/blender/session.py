@@ -772,6 +772,33 @@ def reference_checks(clip: Path, out: Path, results: dict) -> None:
     results["keyed_since"] = list(since.channels[since.names.index("Hips")])
 
 
+def head_down_checks(clip: Path, out: Path, results: dict) -> None:
+    """The clip turned half a turn about X (standing head down along -y, as a camera's
+    y-down coordinates have it) written to FBX by motionclean and imported by Blender:
+    the world heights (Blender's +Z) of its head and of its lowest ankle at the middle
+    frame (its up's sign had been dropped: the figure stood on its head)."""
+    motion = mc.load(clip)
+    turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
+    down = motion.replace(
+        offsets=quat.rotate(turn, motion.offsets),
+        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
+        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
+        translations=quat.rotate(turn, motion.translations),
+        source=None,
+        source_values=None,
+        source_rotations=None,
+    )
+    mc.save(down, out / "head_down.fbx")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mend_importer(bpy)
+    bpy.ops.import_scene.fbx(filepath=str(out / "head_down.fbx"))
+    obj = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
+    first, last = (int(round(v)) for v in obj.animation_data.action.frame_range)
+    bpy.context.scene.frame_set((first + last) // 2)
+    height = {b.name: (obj.matrix_world @ b.head).z for b in obj.pose.bones}
+    results["head_down_heights"] = [height["Head"], min(height["LeftAnkle"], height["RightAnkle"])]
+
+
 def load_back(path: Path) -> dict:
     """What Blender's FBX importer (default settings) makes of a file: bones, rest, rate,
     frame range and every bone curve at each frame."""
@@ -837,6 +864,7 @@ def main() -> None:
     if not operator_only:
         fbx_checks(clip, out, results)
         reference_checks(clip, out, results)
+        head_down_checks(clip, out, results)
         timed("fbx")
     (out / "results.json").write_text(json.dumps(results, default=float))
 

@@ -398,3 +398,11 @@ def test_fbx_keeps_a_travel_under_a_still_root_and_end_sites_at_their_joints(ble
         kinematics.forward(source, end_sites=True)[0],
         atol=1e-5 * height,
     )
+
+
+def test_fbx_of_a_figure_standing_head_down_stands_up_in_blender(blender):
+    """A clip whose up is -y (a camera's coordinates) written to FBX imports into Blender
+    standing on its feet, as its glTF does: the FBX writer had turned it by its up axis
+    without the sign, the head 24 units below the ground."""
+    head, ankle = blender.results["head_down_heights"]
+    assert head > ankle + 10.0
