@@ -216,7 +216,8 @@ def key_grid(action: Any, slot: Any) -> tuple[np.ndarray, float] | float:
     (scene frames): each whole frame from the first key to the last when every key is on a
     whole frame; else the key times all bone curves share when they are evenly spaced (an
     importer's bake at another rate than the scene's: a 29.97 fps FBX file, a BVH file
-    imported with Scale FPS). Otherwise the time of a key off every such grid (a float);
+    imported with Scale FPS), the other curves' keys among them (a constant keyed at the
+    ends alone). Otherwise the time of a key off every such grid (a float);
     an empty array without bone keys."""
     times = [
         _keys(curve)[:, 0]
@@ -231,11 +232,22 @@ def key_grid(action: Any, slot: Any) -> tuple[np.ndarray, float] | float:
     last = max(float(t[-1]) for t in times)
     if all(_on_frames(t) for t in times):
         return np.arange(round(first), round(last) + 1.0), 1.0
-    shared = times[0]
-    if len(shared) > 1 and all(np.array_equal(t, shared) for t in times):
+    # the densest curve's keys, evenly spaced from the first key to the last, where every
+    # curve's keys lie on them (Blender's glTF importer keys a constant location or scale
+    # at the ends alone, beside rotations on every sample of a 30 fps file in a 24 fps
+    # scene: those had been refused)
+    shared = max(times, key=len)
+    if len(shared) > 1 and shared[0] == first and shared[-1] == last:
         step = (last - first) / (len(shared) - 1)
         grid = first + step * np.arange(len(shared))
-        if np.abs(shared - grid).max() <= GRID_TOLERANCE * step:
+        on_grid = all(
+            np.abs(
+                t - grid[np.clip(np.rint((t - first) / step).astype(int), 0, grid.size - 1)]
+            ).max()
+            <= GRID_TOLERANCE * step
+            for t in times
+        )
+        if np.abs(shared - grid).max() <= GRID_TOLERANCE * step and on_grid:
             return shared, step
     return next(float(t[np.abs(t - np.round(t)) > ON_FRAME][0]) for t in times if not _on_frames(t))
 

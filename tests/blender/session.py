@@ -350,6 +350,12 @@ def subframe_checks(clip: Path, out: Path, results: dict) -> None:
     )
     obj = bpy.context.view_layer.objects.active
     data = obj.animation_data
+    # a constant scale keyed at the ends alone, as Blender's glTF importer keys one (the
+    # action had been refused: its keys were not the rotations' every key)
+    state = key_state(data.action, data.action_slot)
+    ends = key_co(state, next(iter(state)))[[0, -1], 0].tolist()
+    for frame in ends:
+        obj.pose.bones["Head"].keyframe_insert("scale", frame=frame)
     before = key_state(data.action, data.action_slot)
     done = clean(frames="ACTION")
     data = obj.animation_data
