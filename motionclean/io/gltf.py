@@ -923,6 +923,11 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
 GENERATOR = "motionclean"
 
 
+#: Scale factors within this of 1 leave lengths metres (0.1 %: a Blender export's bones
+#: keyed at 0.99994-1.00006, its float32 rounding; a scaled armature's are 0.01, 0.0254 ...).
+UNSCALED = 1e-3
+
+
 def _length_unit(document: dict, scales: list[np.ndarray]) -> str | None:
     """``"m"``, glTF's unit of length (glTF 2.0 3.4), where the armature's ``scales`` (its
     nodes' scale factors and the values keyed for them) are all 1: the lengths read are
@@ -932,7 +937,11 @@ def _length_unit(document: dict, scales: list[np.ndarray]) -> str | None:
     asset = document.get("asset")
     if isinstance(asset, dict) and asset.get("generator") == GENERATOR:
         return None
-    return "m" if all(np.allclose(factors, 1.0) for factors in scales) else None
+    return (
+        "m"
+        if all(np.allclose(factors, 1.0, rtol=0.0, atol=UNSCALED) for factors in scales)
+        else None
+    )
 
 
 def _armature(order: list[int], parent: np.ndarray) -> set[int]:

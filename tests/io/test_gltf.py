@@ -570,6 +570,7 @@ def chain() -> Builder:
     [
         (None, "m"),
         ("keyed 1", "m"),  # (Blender keys a scale of 1 on every bone)
+        ("keyed 1.00006", "m"),  # (a three.js sample's bones, exported by Blender)
         ("joint", None),
         ("keyed 2", None),
         ("above", None),  # (an armature node over the skeleton)
@@ -578,7 +579,9 @@ def chain() -> Builder:
 def test_lengths_are_metres_where_no_node_of_the_armature_is_scaled(tmp_path, capsys, scaled, unit):
     """glTF's lengths are metres (3.4), and the reports say `m`, where no node of the
     armature (its joints and the nodes above them) has a scale other than 1, set or keyed:
-    scale is not read, so under one the lengths are the skeleton's own units."""
+    scale is not read, so under one the lengths are the skeleton's own units. A scale
+    within 1e-3 of 1 is one (a Blender export's bones keyed at 0.99994-1.00006 had read as
+    scaled: "units")."""
     made = chain()
     grid = np.arange(4) / 30.0
     made.channel(0, "translation", grid, [[0, 1 + 0.1 * k, 0] for k in range(4)])
