@@ -251,11 +251,16 @@ def _merge_note(parts: list[tuple[dict, int]]) -> dict:
     return {"outliers": runs} if runs else {}
 
 
-def _shift_note(note: dict, frames: int) -> dict:
-    """The note with its lone outliers' frames moved by ``frames``."""
+def _shift_note(note: dict, frames: int, frame_time: float) -> dict:
+    """The note with its lone outliers' frames moved by ``frames``, and its loud stretches
+    (seconds) by as many frames of ``frame_time`` (a second take's had been given in its
+    own seconds, the first take's repeated)."""
+    seconds = frames * frame_time
+    loud = [[round(a + seconds, 2), round(b + seconds, 2)] for a, b in note.get("loud") or []]
+    moved = note | ({"loud": loud} if "loud" in note else {})
     if "outliers" not in note:
-        return note
-    return note | {"outliers": shift_runs(note["outliers"], frames)}
+        return moved
+    return moved | {"outliers": shift_runs(note["outliers"], frames)}
 
 
 def _found_and_chosen(note: dict) -> str:

@@ -205,8 +205,9 @@ class StepSpec:
     terminal table as repairs; ``smooths`` False: the step repairs, plants, moves or
     resamples a clip without smoothing it (a pipeline of such steps alone gets no noise
     judgement);
-    ``shift_note(note, frames)`` moves the frame numbers a note holds (the pipeline runs
-    steps without a clip's rest-pose frames and numbers frames as the file does);
+    ``shift_note(note, frames, frame_time)`` moves the frame numbers a note holds, and its
+    times in seconds by as many frames (the pipeline runs steps without a clip's rest-pose
+    frames, and on each take of joined takes, and numbers frames as the file does);
     ``crop_note(note, start, stop)`` keeps what a note says about frames ``[start, stop)``
     or gives None (nothing there): a step run on a frame range reports only what it
     changed; a joint's notes from parts of the clip run on their own (takes or known
@@ -235,7 +236,7 @@ class StepSpec:
     format_brief: Callable[[dict, bool], str] | None = None
     lists_repairs: bool = False
     smooths: bool = True
-    shift_note: Callable[[dict, int], dict] | None = None
+    shift_note: Callable[[dict, int, float], dict] | None = None
     crop_note: Callable[[dict, int, int], dict | None] | None = None
     merge_note: Callable[[list[tuple[dict, int]]], dict] | None = None
     # Cross-parameter rules; may fill defaults that depend on other parameters.

@@ -267,7 +267,7 @@ STEP = StepSpec(
     lists_repairs=True,
     crop_note=_crop_note,
     merge_note=_merge_note,
-    shift_note=lambda note, frames: {
+    shift_note=lambda note, frames, _: {
         **note,
         "unflipped": shift_runs(note["unflipped"], frames),
         "interpolated": shift_runs(note["interpolated"], frames),

@@ -70,7 +70,7 @@ def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
     return "; ".join(parts)
 
 
-def _shift(note: dict, frames: int) -> dict:
+def _shift(note: dict, frames: int, _: float) -> dict:
     return {
         **note,
         "filled": shift_runs(note["filled"], frames),

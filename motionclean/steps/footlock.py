@@ -460,5 +460,5 @@ STEP = StepSpec(
     format_note=_format_note,
     crop_note=_crop_note,
     merge_note=_merge_note,
-    shift_note=lambda note, frames: {**note, "contacts": shift_runs(note["contacts"], frames)},
+    shift_note=lambda note, frames, _: {**note, "contacts": shift_runs(note["contacts"], frames)},
 )

@@ -552,7 +552,10 @@ class Pipeline:
             for joint, note in log.notes.items():
                 earlier.setdefault(joint, {}).update(note)
             if lead and not whole_clip:  # numbered as the file's frames
-                log.notes = {j: _shifted(step.spec, n, lead) for j, n in log.notes.items()}
+                log.notes = {
+                    j: _shifted(step.spec, n, lead, current.frame_time)
+                    for j, n in log.notes.items()
+                }
             log.n_frames, log.frame_time = current.n_frames + lead + trail, current.frame_time
             logs.append(log)
         result = held_end_follows(outer, splice(outer, current, lead, trail), trail)
@@ -854,7 +857,8 @@ def _run_stretches(
         out[frames, columns] = result.rotations
         for c, note in result.rotation_notes.items():
             at, n = int(first[group[c]]), int(length[group[c]])
-            parts.setdefault(int(columns[c]), []).append((at, _shifted(step.spec, note, at), n))
+            shifted = _shifted(step.spec, note, at, data.frame_time)
+            parts.setdefault(int(columns[c]), []).append((at, shifted, n))
     return {
         c: _merged(step.spec, [(note, n) for _, note, n in sorted(found, key=lambda p: p[0])])
         for c, found in parts.items()
@@ -985,7 +989,7 @@ class _Outputs:
             (self.notes[1], result.translation_notes, pos),
         ):
             for c, note in found.items():
-                shifted = _shifted(step.spec, note, start)
+                shifted = _shifted(step.spec, note, start, data.frame_time)
                 book.setdefault(int(columns[c]), []).append((shifted, context.n_frames))
         return result
 
@@ -997,12 +1001,15 @@ class _Outputs:
         return data
 
 
-def _shifted(spec: StepSpec, note: dict, frames: int) -> dict:
+def _shifted(spec: StepSpec, note: dict, frames: int, frame_time: float) -> dict:
     """A note (``{key: value}``, keys the step's name or ``position_`` + it) with its frame
-    numbers moved by ``frames``."""
+    numbers moved by ``frames`` (its times by as many frames of ``frame_time`` seconds)."""
     if spec.shift_note is None or not frames:
         return note
-    return {k: spec.shift_note(v, frames) if k.endswith(spec.name) else v for k, v in note.items()}
+    return {
+        k: spec.shift_note(v, frames, frame_time) if k.endswith(spec.name) else v
+        for k, v in note.items()
+    }
 
 
 def _merged(spec: StepSpec, parts: list[tuple[dict, int]]) -> dict:

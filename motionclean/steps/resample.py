@@ -98,5 +98,5 @@ STEP = StepSpec(
     keeps_rest=True,
     resolve=_resolve,
     format_note=_format_note,
-    shift_note=lambda note, frames: note,
+    shift_note=lambda note, frames, _: note,
 )

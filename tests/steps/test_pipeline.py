@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import NOISY
+from helpers import NOISY, corpus_clip
 
 import motionclean as mc
 from motionclean.core.errors import UsageError
@@ -407,3 +407,28 @@ def test_a_pipeline_reads_back_from_its_json_with_inf_as_null():
     assert Pipeline.from_tables(tables, "json").describe() == pipeline.describe()
     with pytest.raises(UsageError, match="k must be an integer"):
         Pipeline.from_tables([{"filter": "lee-shin", "k": None}], "json")
+
+
+def test_loud_stretches_of_joined_takes_are_told_in_the_clips_seconds():
+    """CMU 131_01 twice, end to end (two takes, cleaned each on its own): the second
+    take's loud stretches are its own shifted by the first take's length (they had been
+    given in its own seconds, the first take's repeated)."""
+    clip = mc.load(corpus_clip("131_01.bvh"))
+    both = clip.replace(
+        rotations=np.concatenate([clip.rotations, clip.rotations]),
+        translations=np.concatenate([clip.translations, clip.translations]),
+        source_values=None,
+        source_rotations=None,
+    )
+
+    def loud(motion: mc.Motion) -> list:
+        _, logs = mc.Pipeline.default().run(motion)
+        return next(log for log in logs if log.step.spec.name == "auto").notes["RightWrist"][
+            "auto"
+        ]["loud"]
+
+    wrist, alone = loud(both), loud(clip)
+    took = clip.n_frames * clip.frame_time
+    assert alone and len(wrist) == 2 * len(alone)
+    expected = alone + [[round(a + took, 2), round(b + took, 2)] for a, b in alone]
+    np.testing.assert_allclose(wrist, expected, atol=0.011)
