@@ -4,7 +4,18 @@ from __future__ import annotations
 
 import unicodedata
 
-__all__ = ["UNSAID_LENGTH", "columns", "last_columns", "length_word", "pad", "percent", "plural"]
+import numpy as np
+
+__all__ = [
+    "UNSAID_LENGTH",
+    "columns",
+    "last_columns",
+    "length_word",
+    "pad",
+    "percent",
+    "plural",
+    "two_figures",
+]
 
 #: The ``unit`` of a step note's lengths (``auto``, ``despike``, ``ground``) where the format
 #: does not say theirs: the file's own (its notes on rotations say ``"deg"``).
@@ -21,6 +32,11 @@ def length_word(unit: str | None) -> str:
     ``"units"`` (the file's own: a BVH's centimetres or inches, unsaid; ``unit`` None or
     :data:`UNSAID_LENGTH`)."""
     return "units" if unit in (None, UNSAID_LENGTH) else unit
+
+
+def two_figures(value: float) -> str:
+    """A number in two significant figures, without an exponent: "0.078", "0.000087"."""
+    return str(np.format_float_positional(float(f"{value:.2g}"), trim="-"))
 
 
 def percent(share: float) -> str:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
-from ..core.words import length_word, plural, whole_percent
+from ..core.words import length_word, plural, two_figures, whole_percent
 from ..filters import noise
 from ..steps.base import fps_text
 from .html_world import world_section
@@ -437,6 +437,26 @@ def _headline(report: dict) -> list[str]:
             + (f" ({_e(verdict['change_joint'])})" if verdict["change_joint"] else ""),
         ),
     ]
+    if verdict.get("positions_lead"):  # (the line's figures: the positions')
+        unit = length_word(report.get("length_unit"))
+        stats[:0] = [
+            _stat(
+                _share(verdict["position_noise_removed"]),
+                "position jitter removed"
+                + (" outside repairs" if repairs else "")
+                + f" (RMS linear acceleration: {_num(verdict['position_noise_before'])} \u2192 "
+                + f"{_num(verdict['position_noise_after'])} {_e(unit)}/s\u00b2)",
+            ),
+            _stat(
+                _e(two_figures(verdict["change_length_max"])) + f" {_e(unit)}",
+                "largest position change"
+                + (
+                    f" ({_e(verdict['change_length_joint'])})"
+                    if verdict.get("change_length_joint")
+                    else ""
+                ),
+            ),
+        ]
     if repairs:
         kinds = {
             "turned": "turn",

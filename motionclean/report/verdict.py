@@ -56,7 +56,7 @@ import numpy as np
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
 from ..core.takes import LONGEST_SPIKE_S, MAX_DEG_PER_S
-from ..core.words import length_word, percent, plural
+from ..core.words import length_word, percent, plural, two_figures
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import BRIEF_RUNS, format_runs
@@ -545,7 +545,7 @@ def _worse_words(worse: dict[str, dict[str, dict[str, float]]]) -> str:
             each.append(f"{name} slides {b:.3f} -> {a:.3f} body heights/s")
         if "depth" in found:
             b, a = found["depth"]["before"], found["depth"]["after"]
-            each.append(f"{name} below ground {_length(b)} -> {_length(a)} body heights")
+            each.append(f"{name} below ground {two_figures(b)} -> {two_figures(a)} body heights")
     return f"the cleaning made the feet worse during contacts: {', '.join(each)}"
 
 
@@ -632,11 +632,6 @@ def _unseen(removed: float, world: float) -> bool:
     """Whether the end effectors' world acceleration fell by much less than the joints'
     jitter (:data:`WORLD_SHARE`): the line then says so."""
     return removed >= NEGLIGIBLE_JITTER and world < WORLD_SHARE * removed
-
-
-def _length(value: float) -> str:
-    """A length in two significant figures, without an exponent: "0.078", "0.000087"."""
-    return str(np.format_float_positional(float(f"{value:.2g}"), trim="-"))
 
 
 def _under(value: float) -> str:
@@ -841,7 +836,8 @@ def build_verdict(
         if told and scale > 0 and length > reach:
             share = percent(length / scale)
             reasons.append(
-                f"{what} {position_joint}'s position by {_length(length)} {unit} ({share} of {per})"
+                f"{what} {position_joint}'s position by {two_figures(length)} {unit} "
+                f"({share} of {per})"
             )
     frames = max(int(report["frames"]), 1)
     for name, counts in repairs.items():
@@ -958,7 +954,7 @@ def build_verdict(
     if change < UNCHANGED_DEG:
         tail = f"no rotation changed{where}"
     if positions_lead and not grounded and not clean:
-        tail = f"largest position change {_length(length)} {unit} on {position_joint}, {tail}"
+        tail = f"largest position change {two_figures(length)} {unit} on {position_joint}, {tail}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
     if not smoothed:
@@ -984,6 +980,8 @@ def build_verdict(
         "position_noise_before": smoothing.get("position_noise_before"),
         "position_noise_after": smoothing.get("position_noise_after"),
         "position_noise_removed": position_removed,
+        # (the line gives the positions' share: they said what the rotations did not)
+        "positions_lead": bool(positions_lead and position_removed is not None),
         "change_length_max": smoothing.get("change_length_max"),
         "change_length_rms": smoothing.get("change_length_rms"),
         "change_length_joint": position_joint if moved else None,

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
-from helpers import NOISY, ROOT, Page
+from helpers import NOISY, ROOT, Page, run_cli
 
 import motionclean as mc
 from motionclean.core import quat
@@ -366,3 +367,22 @@ def test_contact_shades_and_the_takes_line_stay_bounded_on_a_long_clip():
     assert all(b[0] > a[1] + 1.0 for a, b in zip(spans, spans[1:], strict=False))
     line = format_takes(list(range(1247, 1247 * 803, 1247)))
     assert len(line) < 300 and "takes: 803 joined" in line and "1000094" in line
+
+
+def test_a_page_whose_line_gives_the_positions_leads_with_their_figures(tmp_path, capsys):
+    """A WHAM estimate (SMPL parameters, no body model): its line gives the positions'
+    jitter removed and largest change, and the page's headline starts with those figures
+    (its cards had shown the rotations' 0 % and 0.00 degrees under that line)."""
+    page, data = tmp_path / "w.html", tmp_path / "w.json"
+    source = ROOT / "tests" / "data" / "wham_output.pkl"
+    out = tmp_path / "w.npz"
+    code, _, err = run_cli(
+        capsys, "clean", source, "-o", out, "-q", "--report", page, "--report", data
+    )
+    assert code == 0, err
+    verdict = json.loads(data.read_text())["verdict"]
+    assert verdict["positions_lead"] and "of the position jitter removed" in verdict["text"]
+    stats = re.findall(r'class="stat"><b>([^<]*)</b><span>([^<]*)', page.read_text())
+    assert stats[0][1].startswith("position jitter removed")
+    assert stats[0][0] == f"{round(100 * verdict['position_noise_removed'])}\u2009%"
+    assert stats[1][1].startswith("largest position change (pelvis)")
