@@ -843,6 +843,15 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         )
         + "<span>skate: mean horizontal ankle speed during contacts, over 0.1 s</span></div>",
         *_ground_lines(contacts, unit),
+        *(
+            [
+                '<p class="meta">The contacts shaded are found on the input by the report\'s '
+                "thresholds; footlock holds its own (its joint cards), found after smoothing, "
+                "at a start speed the noise allows: they can begin earlier or end later.</p>"
+            ]
+            if any("footlock" in joint for joint in (report.get("joints") or {}).values())
+            else []
+        ),
         '<div class="grid">',
         *(
             _foot_card(name, contacts["feet"][name], series["feet"][name], frames, unit)

@@ -386,3 +386,14 @@ def test_a_page_whose_line_gives_the_positions_leads_with_their_figures(tmp_path
     assert stats[0][1].startswith("position jitter removed")
     assert stats[0][0] == f"{round(100 * verdict['position_noise_removed'])}\u2009%"
     assert stats[1][1].startswith("largest position change (pelvis)")
+
+
+def test_the_feet_section_says_whose_contacts_it_shades(tmp_path, capsys):
+    """The demo's RightAnkle card says footlock held a contact from frame 26, the feet
+    section shades it from 79: the section says the shading is the report's contacts on
+    the input and footlock's are its own (it had said nothing of the difference)."""
+    page = tmp_path / "p.html"
+    code, _, err = run_cli(capsys, "clean", NOISY, "-o", tmp_path / "c.bvh", "-q", "--report", page)
+    assert code == 0, err
+    text = page.read_text()
+    assert "footlock held" in text and "footlock holds its own (its joint cards)" in text
