@@ -396,4 +396,4 @@ def test_the_feet_section_says_whose_contacts_it_shades(tmp_path, capsys):
     code, _, err = run_cli(capsys, "clean", NOISY, "-o", tmp_path / "c.bvh", "-q", "--report", page)
     assert code == 0, err
     text = page.read_text()
-    assert "footlock held" in text and "footlock holds its own (its joint cards)" in text
+    assert "<b>footlock</b> held" in text and "footlock holds its own (its joint cards)" in text
