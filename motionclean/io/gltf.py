@@ -761,6 +761,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         _fail(f"animations[{a}].channels is not a list of objects", path)
     targets: dict[tuple[int, str], int] = {}
     scale_keys: dict[int, int] = {}  # the channel keying a node's scale
+    seen: dict[tuple[int, str], int] = {}  # (node, path) -> its channel
     for c, channel in enumerate(channels):
         target = channel.get("target")
         if not isinstance(target, dict):
@@ -769,6 +770,16 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             continue
         n = _index(target["node"], len(nodes), f"animations[{a}].channels[{c}].target.node", path)
         kind = target.get("path")
+        where = f"animations[{a}].channels[{c}].target.path"
+        if kind not in TARGET_PATHS:  # (a misspelt one had been dropped: the joint at rest)
+            _fail(f"{where} is {str(kind)[:40]!r}, not one of {', '.join(TARGET_PATHS)}", path)
+        if (n, kind) in seen:  # (glTF 2.0 5.11: the last had silently won)
+            _fail(
+                f"animations[{a}].channels[{seen[(n, kind)]}] and [{c}] both animate node {n}'s "
+                f"{kind} (glTF allows one channel per node and path)",
+                path,
+            )
+        seen[(n, kind)] = c
         if kind in ("rotation", "translation"):
             targets[(n, kind)] = c
         elif kind == "scale":
@@ -923,6 +934,9 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
 GENERATOR = "motionclean"
 
 
+#: The properties a glTF animation channel may target (glTF 2.0 5.12.2; "pointer" of
+#: KHR_animation_pointer).
+TARGET_PATHS = ("translation", "rotation", "scale", "weights", "pointer")
 #: Scale factors within this of 1 leave lengths metres (0.1 %: a Blender export's bones
 #: keyed at 0.99994-1.00006, its float32 rounding; a scaled armature's are 0.01, 0.0254 ...).
 UNSCALED = 1e-3

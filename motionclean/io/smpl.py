@@ -33,6 +33,7 @@ the axis-angle vector equivalent to the new rotation nearest to the value read.
 from __future__ import annotations
 
 import io
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -332,26 +333,23 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
         return 1.0 / DEFAULT_RATE, (
             f"no frame rate in the file; {DEFAULT_RATE:g} fps assumed (--input-fps gives it)"
         )
-    value = np.asarray(record[key])
-    try:
-        rate = float(value.reshape(-1)[0]) if value.size == 1 else float("nan")
-    except (TypeError, ValueError):
-        rate = float("nan")
+    rate = _number(record[key])
     if not (MIN_RATE <= rate <= MAX_RATE):
+        shown = str(np.asarray(record[key]).ravel()[:3].tolist())
+        shown = shown if len(shown) <= 40 else shown[:36] + " ..."
         raise MotionError(
-            f"{key}: frame rate {value.ravel()[:3].tolist()} is not a number of frames per "
-            f"second from {MIN_RATE:g} to {MAX_RATE:g}",
+            f"{key}: frame rate {shown} is not a number of frames per second from "
+            f"{MIN_RATE:g} to {MAX_RATE:g}",
             path,
         )
     if given is not None and given != rate:
         return 1.0 / rate, f"the file's {rate:g} fps taken, not {given:g} as given"
     others = [
-        f"{other} {float(np.asarray(record[other]).reshape(-1)[0]):g}"
+        f"{other} {_number(record[other]):g}"
+        if math.isfinite(_number(record[other]))
+        else f"{other} (not a number of frames per second)"
         for other in RATE_KEYS
-        if other != key
-        and other in record
-        and np.asarray(record[other]).size == 1
-        and _number(record[other]) != rate
+        if other != key and other in record and _number(record[other]) != rate
     ]
     if others:
         return 1.0 / rate, f"{key} {rate:g} fps taken; the file also says {', '.join(others)}"
@@ -359,10 +357,17 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
 
 
 def _number(value) -> float:
-    """A one-element array's number, nan where it is none."""
+    """A one-element array's real number (integers and floats, not booleans or complex
+    numbers), nan where it holds none or one too large for a float."""
+    array = np.asarray(value)
+    if array.size != 1 or array.dtype.kind not in "iuf" and array.dtype != object:
+        return float("nan")
+    item = array.reshape(-1)[0]
+    if isinstance(item, bool | np.bool_ | complex | np.complexfloating):
+        return float("nan")
     try:
-        return float(np.asarray(value).reshape(-1)[0])
-    except (TypeError, ValueError):
+        return float(item)
+    except (TypeError, ValueError, OverflowError):
         return float("nan")
 
 

@@ -894,3 +894,28 @@ def test_a_grid_far_larger_than_the_keys_is_refused_before_it_is_made(tmp_path, 
     assert code == 1 and out == "" and err.count("\n") == 1
     assert "5001 frames of 3 joints for 13 keys (at most 250 joint samples per key)" in err
     assert mc.load(tmp_path / "near.gltf").n_frames == 11
+
+
+@pytest.mark.parametrize("broken", ["misspelt", "not a string", "twice"])
+def test_a_channel_with_a_bad_or_repeated_target_is_refused(tmp_path, capsys, broken):
+    """A channel targeting "Rotation" or [0] had been dropped (its joint read at rest, no
+    word), and a second channel on the same node and path had silently won (glTF allows
+    one): each is one line naming the channel, exit 1."""
+    made = chain()
+    grid = np.arange(4) / 30.0
+    made.channel(1, "rotation", grid, z_turn(0.1 * np.arange(4)))
+    made.channel(2, "rotation", grid, z_turn(0.2 * np.arange(4)))
+    target = made.doc["animations"][0]["channels"][1]["target"]
+    if broken == "misspelt":
+        target["path"] = "Rotation"
+    elif broken == "not a string":
+        target["path"] = [0]
+    else:
+        target["node"] = 1
+    made.gltf(tmp_path / "c.gltf")
+    code, _, err = run_cli(capsys, "info", tmp_path / "c.gltf")
+    assert code == 1 and err.count("\n") == 1
+    if broken == "twice":
+        assert "channels[0] and [1] both animate node 1's rotation" in err
+    else:
+        assert "animations[0].channels[1].target.path is" in err and "not one of" in err

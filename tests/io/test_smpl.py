@@ -771,3 +771,38 @@ def test_a_record_with_two_rates_says_which_it_took_and_writes_both(tmp_path, ca
     assert code == 0, err
     written = np.load(out_path)
     assert float(written["mocap_framerate"]) == float(written["fps"]) == 120.0
+
+
+@pytest.mark.parametrize(
+    ("rate", "read"),
+    [(10**400, None), (True, None), (np.array(30.0 + 0j), None), ("abc", None), (60, 60.0)],
+)
+def test_a_rate_that_is_no_number_of_frames_per_second_is_refused_in_one_line(
+    tmp_path, capsys, rate, read
+):
+    """`mocap_framerate` too large for a float (an OverflowError had ended in "internal
+    error"), a boolean (read as 1 fps), a complex number or text: one line naming the key,
+    exit 1. A second rate key that is no number is noted as such beside the one taken (it
+    had ended in an internal error)."""
+    record = dict(np.load(amass_h(tmp_path / "a.npz", frames=30)))
+    record["mocap_framerate"] = rate
+    if isinstance(rate, int) and not isinstance(rate, bool):  # (an int no array holds)
+        source = tmp_path / "r.pkl"
+        with open(source, "wb") as out:
+            pickle.dump(record, out)
+    else:
+        source = tmp_path / "r.npz"
+        np.savez(source, **record)
+    code, out, err = run_cli(capsys, "info", source)
+    if read is None:
+        assert code == 1 and err.count("\n") == 1
+        assert (
+            "mocap_framerate: frame rate" in err and "is not a number of frames per second" in err
+        )
+        return
+    assert code == 0 and f"rate: {read:g} fps" in out
+    record["fps"] = "abc"
+    np.savez(tmp_path / "s.npz", **record)
+    code, out, err = run_cli(capsys, "info", tmp_path / "s.npz")
+    assert code == 0, err
+    assert "the file also says fps (not a number of frames per second)" in out
