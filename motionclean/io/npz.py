@@ -15,6 +15,7 @@ bytes, a changed one is written with its original dtype, shape and memory order.
 from __future__ import annotations
 
 import io as _io
+import re
 import struct
 import zipfile
 import zlib
@@ -65,7 +66,9 @@ def _npy_array(data: bytes | memoryview, name: str, path) -> np.ndarray:
         else:
             raise ValueError(f"unsupported .npy version {version[0]}.{version[1]}")
     except (ValueError, SyntaxError, TypeError, EOFError) as error:
-        raise MotionError(f"member {name!r}: not a .npy array ({str(error)[:120]})", path) from None
+        # (numpy's words, but not its parser's objects: "<ast.Call object at 0x7f...>")
+        said = re.sub(r"<[^<>]* object at 0x[0-9a-f]+>", "an expression", str(error))[:120]
+        raise MotionError(f"member {name!r}: not a .npy array ({said})", path) from None
     if dtype.hasobject:
         raise MotionError(
             f"member {name!r} holds Python objects (a pickled array); not read, as unpickling "

@@ -806,3 +806,16 @@ def test_a_rate_that_is_no_number_of_frames_per_second_is_refused_in_one_line(
     code, out, err = run_cli(capsys, "info", tmp_path / "s.npz")
     assert code == 0, err
     assert "the file also says fps (not a number of frames per second)" in out
+
+
+def test_a_npy_header_holding_an_expression_is_refused_in_plain_words(tmp_path, capsys):
+    """An .npz member whose .npy header holds a call, not a literal: refused in one line
+    without numpy's parser objects ("<ast.Call object at 0x7f...>" had been shown)."""
+    header = "{'descr': open(), 'fortran_order': False, 'shape': (3,), }"
+    header += " " * (63 - len(header) % 64) + "\n"
+    member = b"\x93NUMPY\x01\x00" + len(header).to_bytes(2, "little") + header.encode()
+    with zipfile.ZipFile(tmp_path / "h.npz", "w") as archive:
+        archive.writestr("poses.npy", member + b"\x00" * 24)
+    code, _, err = run_cli(capsys, "info", tmp_path / "h.npz")
+    assert code == 1 and err.count("\n") == 1
+    assert "member 'poses.npy': not a .npy array" in err and " object at 0x" not in err
