@@ -229,7 +229,7 @@ def _trajectory_card(name: str, point: int, series: dict, upright, unit: str) ->
     """An end effector's track from above and from ``upright`` (:func:`_upright_view`),
     input and cleaned overlaid, each view with its width in ``unit`` ("still" across
     less than :data:`STILL_SHARE` of the body height)."""
-    views, titles = [], ("from above", upright[0])
+    views, titles, widths = [], ("from above", upright[0]), []
     for title, axes in zip(titles, (_views(series["up"])["top"], upright[1]), strict=True):
         tracks = [series["before"][:, point][:, axes]]
         unknown = [_unknown_at(series["unknown_before"], point)]
@@ -255,21 +255,25 @@ def _trajectory_card(name: str, point: int, series: dict, upright, unit: str) ->
             )
         ]
         still = extent < STILL_SHARE * series["height"]
-        width = "still" if still else f"{span / 0.9:.3g} {unit} across"
+        # (said under the view, in the page's own type: inside the scaled SVG it had been
+        # 4-7 px tall, and "1.14e+03 units across")
+        widths.append("still" if still else f"{_plain(span / 0.9)} {unit} across")
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
             f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
-            f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>'
-            + "".join(lines)
-            + f'<text class="width" x="{VIEW - 4}" y="{VIEW - 4}" text-anchor="end">{width}</text>'
-            + "</svg>"
+            f'<rect width="{VIEW}" height="{VIEW}" fill="#fafbfc"/>' + "".join(lines) + "</svg>"
         )
-    labels = "".join(f"<span>{t}</span>" for t in titles)
+    labels = "".join(f"<span>{t}, {w}</span>" for t, w in zip(titles, widths, strict=True))
     return (
         f'<section class="card"><h3>{html.escape(name)}</h3><div class="views">'
         + "".join(views)
         + f'</div><div class="viewlabels">{labels}</div></section>'
     )
+
+
+def _plain(value: float) -> str:
+    """A length in three significant figures without an exponent: "1,140", "0.0312"."""
+    return f"{value:,.0f}" if value >= 1000 else f"{float(f'{value:.3g}'):g}"
 
 
 def _window(series: dict, floors: dict[str, Floor]) -> tuple[float, float]:
@@ -590,7 +594,6 @@ CSS = (
     ".views{display:grid;grid-template-columns:1fr 1fr;gap:8px}"
     ".viewlabels{display:grid;grid-template-columns:1fr 1fr;color:#5a6272;font-size:12px}"
     "svg.view{width:100%;height:auto;border:1px solid #e3e6ea}"
-    "svg.view text.width{font-size:9px;fill:#5a6272}"
     ".player{max-width:560px}.controls{display:flex;gap:8px;align-items:center;margin:6px 0}"
     "#mc-slider{flex:1}.speed{color:#5a6272;font-size:12px}"
     "details.still{margin:8px 0 0}details.still summary{font-weight:400;font-size:12.5px}"
@@ -642,7 +645,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     if not frames:
         return ["<h2>The motion</h2>", '<div class="legend">the clip has no frames</div>']
     shown = (
-        f"all {frames:,} frames"
+        (f"all {frames:,} frames" if frames > 1 else "its one frame")
         if frames == report["frames"]
         else f"{frames:,} of {report['frames']:,} frames: every {_stride(world['frames'])} "
         "frame and the last"

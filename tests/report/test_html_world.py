@@ -156,7 +156,7 @@ def test_the_upright_trajectory_view_looks_across_the_walk(name):
         series = build_series(motion, None)
         assert _upright_view(series["world"]) == (title, axes)
         page = render_html(build_report(motion, None, series=series), series)
-        assert f"<span>{title}</span>" in page and "units across</text>" in page
+        assert f"<span>{title}, " in page and " units across</span>" in page
 
 
 def test_a_lone_tracked_body_is_drawn_at_the_scale_of_its_travel(tmp_path):
@@ -596,7 +596,7 @@ def test_a_waving_hand_leads_and_still_end_effectors_are_counted_not_drawn(tmp_p
         "Not drawn: 8 end effectors that stay still (a track within 0.1 % of the body height)"
     )
     assert still.group(2).startswith("Jaw_end, EyeL_end, EyeR_end, Crown_end, RIndex_end")
-    assert "e-" not in "".join(re.findall(r'class="width"[^>]*>([^<]+)<', page))
+    assert "e-" not in "".join(re.findall(r"<span>from [^,<]+, ([^<]+)</span>", page))
 
 
 def test_the_head_hands_and_feet_lead_and_a_view_across_no_motion_says_still(tmp_path):
@@ -607,7 +607,7 @@ def test_the_head_hands_and_feet_lead_and_a_view_across_no_motion_says_still(tmp
     leads = ["Crown_end", "LIndex_end", "RIndex_end", "LToe_end", "RToe_end"]
     others = ["Jaw_end", "EyeL_end", "EyeR_end", "LThumb_end", "RThumb_end"]
     assert cards(page) == leads + others
-    widths = re.findall(r'class="width"[^>]*>([^<]+)<', page)
+    widths = re.findall(r"<span>from [^,<]+, ([^<]+)</span>", page)
     assert widths[0::2] == ["still"] * 10
     assert all(w.endswith(" units across") for w in widths[1::2])
     assert "stay still" not in page
