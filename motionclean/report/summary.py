@@ -39,6 +39,7 @@ from .verdict import (
     CLEAN_CHANGE_DEG,
     FAST_BODY_HEIGHTS_PER_S,
     FAST_DEG_PER_S,
+    JUMP_OVER_AROUND,
     PAIR_BRIEF_S,
     PAIR_REPAIR_DEG,
     UNCHANGED_DEG,
@@ -414,25 +415,53 @@ def _position_series(
     figures["travel"] = (
         float(np.max(np.nanmax(path, axis=0) - np.nanmin(path, axis=0))) if path.size else math.nan
     )
-    scale = kinematics.body_height(before) or figures["travel"]
-    limit = FAST_BODY_HEIGHTS_PER_S * scale if scale > 0 else math.inf
-    figures["fast"] = _fast_positions(
+    figures["scale"], figures["scale_of"] = _jump_scale(before, figures["travel"])
+    limit = FAST_BODY_HEIGHTS_PER_S * figures["scale"] if figures["scale"] > 0 else math.inf
+    figures["fast"] = _position_jumps(
         after.translations[:, joints], dt, missing, starts, rest, limit
     )
-    figures["scale"] = scale
     return figures
 
 
-def _fast_positions(p, dt: float, missing, starts: np.ndarray, rest: tuple[int, int], limit):
+#: A body's height where lengths are metres but the clip has no body (SMPL parameters
+#: without a body model, trackers in metres): the scale of position jumps.
+METRES_BODY = 1.75
+
+
+def _jump_scale(clip: Motion, travel: float) -> tuple[float, str]:
+    """The length position jumps are measured in, and its words: the body height; without a
+    body, :data:`METRES_BODY` where lengths are metres (a walk's range of travel, 10 m,
+    would let any teleport under 3 m at 30 fps pass), else the positions' range of travel."""
+    height = kinematics.body_height(clip)
+    if height > 0:
+        return height, "body height"
+    if kinematics.length_unit(clip) == "m":
+        return METRES_BODY, f"body height ({METRES_BODY:g} m)"
+    return (travel if math.isfinite(travel) else 0.0), "the positions' range of travel"
+
+
+#: The steps around a step its jump is judged against (:data:`.verdict.JUMP_OVER_AROUND`).
+_AROUND = np.array([-4, -3, -2, -1, 1, 2, 3, 4])
+
+
+def _position_jumps(p, dt: float, missing, starts: np.ndarray, rest: tuple[int, int], limit):
     """Per column of the positions ``p`` ``(F, C, 3)`` (frame time ``dt`` s), over its steps
-    within the motion (:func:`_in_motion`): how many step faster than ``limit`` length
-    units per second, the fastest's speed and the frame it steps into, ``(C,)`` each."""
+    within the motion (:func:`_in_motion`): how many jump (faster than ``limit`` length
+    units per second and :data:`JUMP_OVER_AROUND` times the steps around), the fastest
+    jump's speed (units/s, 0 without one) and the frame it steps into, ``(C,)`` each."""
+    n_cols = p.shape[1]
     speed = np.linalg.norm(np.diff(p, axis=0), axis=-1) / dt  # (F-1, C)
     speed = np.where(_in_motion(speed.shape, missing, starts, *rest), speed, 0.0)
-    if speed.shape[0] == 0:
-        none = np.zeros(p.shape[1])
-        return none.astype(np.intp), none, none.astype(np.intp)
-    return (speed > limit).sum(axis=0), speed.max(axis=0), np.argmax(speed, axis=0) + 1
+    steps, cols = np.nonzero(speed > limit)  # (few: judged one by one, all at once)
+    around = speed[np.clip(steps[:, None] + _AROUND, 0, max(speed.shape[0] - 1, 0)), cols[:, None]]
+    jump = speed[steps, cols] > JUMP_OVER_AROUND * np.median(around, axis=1)
+    steps, cols = steps[jump], cols[jump]
+    count = np.bincount(cols, minlength=n_cols)
+    fastest, at = np.zeros(n_cols), np.zeros(n_cols, dtype=np.intp)
+    np.maximum.at(fastest, cols, speed[steps, cols])
+    first = np.flatnonzero(speed[steps, cols] == fastest[cols])
+    at[cols[first[::-1]]] = steps[first[::-1]] + 1  # (the first such step of a column)
+    return count, fastest, at
 
 
 #: Frames within this many seconds of a step the input makes over
@@ -718,6 +747,7 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
                 "position_moved",
                 "travel",
                 "fast_positions",
+                "fast_positions_per",
             )
         )
     names = positions["names"]
@@ -733,7 +763,7 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
     worst = int(np.argmax(peaks))
     moved = sorted((n for n, peak in enumerate(peaks) if peak > 0.0), key=lambda n: -peaks[n])
     removed = 1.0 - math.sqrt(after / before) if before > 0 else 0.0
-    steps, fastest, at = positions["fast"]
+    jumps, fastest, at = positions["fast"]
     scale = positions["scale"]
     return {
         "position_noise_before": math.sqrt(before / rows) if rows else None,
@@ -747,9 +777,10 @@ def _position_smoothing(positions: dict | None) -> dict[str, Any]:
         # per joint stepping faster than FAST_BODY_HEIGHTS_PER_S: steps, fastest (in
         # body heights, or of the positions' travel, per second), the frame of the fastest
         "fast_positions": {
-            names[n]: (int(steps[n]), float(fastest[n] / scale), int(at[n]))
-            for n in np.flatnonzero(steps).tolist()
+            names[n]: (int(jumps[n]), float(fastest[n] / scale), int(at[n]))
+            for n in np.flatnonzero(jumps).tolist()
         },
+        "fast_positions_per": positions["scale_of"],
     }
 
 

@@ -150,6 +150,10 @@ FAST_DEG_PER_S = MAX_DEG_PER_S
 #: at about 6, a tracker's teleport or a re-zeroed root (a root moved 0.41 body heights in
 #: a frame at 120 fps, 49, and back 0.17 s later: longer than despike's spikes) far faster.
 FAST_BODY_HEIGHTS_PER_S = 10.0
+#: ... and it is this many times the median of the 8 steps around it: a teleport, not a
+#: fast move (a kick's or a serve's hand passes 10 body heights/s along an arc whose steps
+#: around are as fast).
+JUMP_OVER_AROUND = 3.0
 #: ... and a joint doing so on more than this share of its frames (steps within the motion)
 #: needs a look: no motion keeps it up, a glitch (a twist flipping back and forth) does,
 #: and ``despike`` leaves it where it spans more than a quarter of a joint's frames. Clean
@@ -413,16 +417,29 @@ def _fast_words(fast: dict[str, dict[str, float]]) -> str:
 
 
 def _jump_words(jumped: dict[str, tuple[int, float, int]], per: str) -> str:
-    """ "Hips's position jumps (over 10 body heights/s: a tracker's teleport?) on 2 frames,
-    up to 49.5 body heights/s at frame 620"; several joints named, the most steps first
-    (``jumped``: joint -> steps, fastest speed in ``per`` per second, its frame)."""
+    """ "Hips's position jumps (steps over 10 body heights/s, 3 times those around: a
+    tracker's teleport?) on 2 frames, up to 49.5 body heights/s at frame 620"; several
+    joints named, the most jumps first, with the fastest jump's joint (``jumped``: joint ->
+    jumps, fastest speed in ``per`` per second, its frame)."""
     order = sorted(jumped, key=lambda name: -jumped[name][0])
-    steps, fastest, at = jumped[order[0]]
-    unit = f"{per}s/s" if per == "body height" else f"times {per} per second"
-    who = f"{order[0]}'s position jumps" if len(order) == 1 else f"{listed(order)}'s positions jump"
+    if per.startswith("body height"):  # "body height" or "body height (1.75 m)"
+        unit = "body heights/s" + per[len("body height") :]
+    else:
+        unit = f"times {per} per second"
+    limit = (
+        f"(steps over {FAST_BODY_HEIGHTS_PER_S:g} {unit}, {JUMP_OVER_AROUND:g} times those "
+        "around: a tracker's teleport?)"
+    )
+    frames = sum(jumped[name][0] for name in order)
+    name, (_, fastest, at) = max(jumped.items(), key=lambda item: item[1][1])
+    if len(order) == 1:
+        return (
+            f"{name}'s position jumps {limit} on {plural(frames, 'frame')}, up to "
+            f"{fastest:.3g} {unit} at frame {at}"
+        )
     return (
-        f"{who} (over {FAST_BODY_HEIGHTS_PER_S:g} {unit}: a tracker's teleport?) on "
-        f"{plural(steps, 'frame')}, up to {fastest:.3g} {unit} at frame {at}"
+        f"the positions of {listed(order)} jump {limit} on {plural(frames, 'frame')}, "
+        f"fastest {name}'s: {fastest:.3g} {unit} at frame {at}"
     )
 
 
@@ -851,7 +868,7 @@ def build_verdict(
         reasons.append(_fast_words(too_fast))
     jumped = smoothing.get("fast_positions") or {}
     if jumped:
-        reasons.append(_jump_words(jumped, per))
+        reasons.append(_jump_words(jumped, smoothing["fast_positions_per"]))
     thrash = _thrashing(smoothing, too_fast)
     if thrash:
         reasons.append(_thrash_words(thrash, report))

@@ -33,6 +33,11 @@ UNMEASURED = "nothing to measure: no three frames in a row known"
 KEPT_BELOW_DEG = 5.0
 
 
+#: A moving joint's noise under this (degrees, or length units) reads as none measurable
+#: beside its motion: the motion fills the band the noise is read in (exactly 0 there).
+UNMEASURABLE_NOISE = 1e-9
+
+
 def _still(values: np.ndarray) -> np.ndarray:
     """``(C,)``: the columns of ``values`` ``(F, C, d)`` that hold one value throughout."""
     if values.shape[0] == 0:
@@ -267,6 +272,8 @@ def _found_and_chosen(note: dict) -> str:
     """The noise auto found for one joint and the filter it chose."""
     given = note["unit"]  # "deg"; for positions "m" where the format fixes it, else "length"
     unit = given if given == "deg" else length_word(None if given == "length" else given)
+    if note.get("still"):  # (under either model: a video estimate's fixed finger too)
+        return "still throughout: nothing to filter"
     error = note["expected_error"]
     error = f"{error:.3g}" if error >= 0.01 else "< 0.01"  # SURE is rough near zero
     loud = note.get("loud", [])
@@ -286,9 +293,7 @@ def _found_and_chosen(note: dict) -> str:
             f"{up_to}, down where the motion is (markerless model, {_how(note)})"
             f"{where}; {chose}; expected error {error} {unit} (unfiltered {note['noise']:.3g})"
         )
-    if note.get("still"):
-        return "still throughout: nothing to filter"
-    if note["noise"] == 0.0 and note["filter"].get("mask") == "none":
+    if note["noise"] < UNMEASURABLE_NOISE and note["filter"].get("mask") == "none":
         # (the motion fills the band the noise is read in: not "noise 0, error < 0.01",
         # which a wrist with 1.5 degrees of noise at 30 fps had read)
         return (

@@ -272,3 +272,20 @@ def test_a_still_joint_and_a_joint_whose_noise_hides_are_told_apart(tmp_path, ca
     text = page.read_text()
     assert code == 0 and "estimated noise 0 deg" not in text
     assert hidden and "no noise measurable beside its motion" in text
+
+
+def test_a_still_joint_is_told_as_still_under_the_markerless_model_too():
+    """A video estimate's toe held fixed, cleaned with `source=video`: its note says still
+    (it had read "estimated noise 8.11e-34 deg, 8.11e-34 of it a wander ...")."""
+    from motionclean.steps.auto import STEP
+
+    clip = mc.load(ROOT / "sample_data" / "131_02_noisy.bvh")
+    toe = clip.names.index("LeftToe")
+    q = clip.rotations.copy()
+    q[:, toe] = q[0, toe]
+    _, logs = mc.Pipeline.from_inline(["auto:source=video"]).run(
+        clip.replace(rotations=q, source_values=None)
+    )
+    note = logs[0].notes["LeftToe"]["auto"]
+    assert note["still"] and note["model"] == "markerless"
+    assert STEP.format_note(note, False) == "still throughout: nothing to filter"

@@ -1201,7 +1201,29 @@ def test_a_root_that_teleports_needs_a_look(tmp_path, capsys, frames):
     jumps = verdict["position_jumps"]["Hips"]
     assert jumps["frames"] == 2 and jumps["at"] in (150, 150 + frames)
     assert jumps["fastest"] == pytest.approx(0.4 / clip.frame_time, rel=0.05)
-    assert verdict["text"].startswith("needs a look: Hips's position jumps (over 10 body")
+    assert verdict["text"].startswith("needs a look: Hips's position jumps (steps over 10 body")
+
+
+def test_a_fast_smooth_move_of_a_position_is_no_jump(tmp_path, capsys):
+    """The sample's root swung along a smooth arc at up to 15 body heights/s (a serve's
+    hand: faster than the jump limit, but its steps around as fast): no jump; the same
+    clip with one 0.4 body-height teleport held 0.17 s is one (its two steps)."""
+    clip = mc.load(SAMPLE)
+    height = kinematics.body_height(clip)
+    t = np.arange(clip.n_frames) * clip.frame_time
+    swung = clip.translations.copy()
+    swung[:, 0, 0] += 0.6 * height * np.sin(2 * np.pi * 4.0 * t)  # peak 15 body heights/s
+    for name, moved in (("arc", swung), ("teleport", swung.copy())):
+        if name == "teleport":
+            moved[150:170, 0, 2] += 0.4 * height
+        source = tmp_path / f"{name}.bvh"
+        mc.save(clip.replace(translations=moved, source_values=None), source)
+        code, _, err = run_cli(
+            capsys, "clean", source, "-o", tmp_path / "c.bvh", "--report", tmp_path / "r.json"
+        )
+        assert code == 0, err
+        jumps = json.loads((tmp_path / "r.json").read_text())["verdict"]["position_jumps"]
+        assert (jumps == {}) is (name == "arc")
 
 
 def test_smoothing_across_unrepaired_flips_is_not_called_motion_taken_for_noise(tmp_path, capsys):
