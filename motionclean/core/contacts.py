@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -243,14 +244,23 @@ def find_feet(
 ARM_WORDS = ("arm", "hand", "wrist", "elbow", "shoulder", "finger", "thumb", "clavicle", "collar")
 
 
+def _words(name: str) -> list[str]:
+    """A joint name's words, lower case: split at case changes and non-letters
+    ("LeftForeArm": left, fore, arm; "hand.L": hand, l; "Armature": armature)."""
+    return [w.lower() for w in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])", name)]
+
+
 def _arm_points(parents: np.ndarray, names: list[str]) -> np.ndarray:
     """``(P,)`` bool: the points (joints, then end sites) at or below a joint named as an
-    arm's (:data:`ARM_WORDS`), where a skeleton without a trunk has no upper body to
+    arm's (a word of its name ending in one of :data:`ARM_WORDS`: "forearm", "lhand";
+    not "Armature", Blender's root), where a skeleton without a trunk has no upper body to
     leave out: an arm alone (shoulder, elbow, wrist) hangs from two long bones as a leg
     does, and its wrist had been taken for a foot and held by footlock."""
     parents = np.asarray(parents, dtype=np.intp)
     named = np.zeros(len(parents), dtype=bool)
-    named[: len(names)] = [any(w in name.lower() for w in ARM_WORDS) for name in names]
+    named[: len(names)] = [
+        any(token.endswith(ARM_WORDS) for token in _words(name)) for name in names
+    ]
     arm, above = named.copy(), parents.copy()
     while np.any(above >= 0):  # up the tree, every point at once (depth steps)
         up = above >= 0

@@ -460,9 +460,13 @@ def _coarse_grid(times: np.ndarray, mean: float, lines: np.ndarray, path, advice
         return None
     rows = np.arange(times.size) - (times.size - 1) / 2.0
     slope = float(rows @ (times - times.mean()) / (rows @ rows))
+    # the nearest whole rate where its grid holds the times too (50 rows of 240 fps in
+    # whole milliseconds fit 239.9 fps best)
+    for grid in (1.0 / max(round(1.0 / slope), 1), slope):
+        off = times - rows * grid
+        if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step:
+            return grid
     off = times - rows * slope
-    if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step:
-        return slope
     worst = int(np.argmax(np.abs(off - np.median(off))))
     _fail(
         f"not uniformly sampled: time {_seconds(times[worst])} s is "
@@ -484,8 +488,9 @@ def _seconds(t: float) -> str:
 def time_format(first: float, frame_time: float, n_frames: int) -> bytes:
     """The printf format of a written time column of ``n_frames`` rows from ``first`` s,
     ``frame_time`` s apart: 12 significant digits, or as many more (up to 17, a float's
-    own) as keep each time to a millionth of a frame where the times are large beside the
-    step (Unix times: 1.7e9 s at 60 fps had been written 1700000000.02, .03, ...)."""
+    own) as keep each time to a millionth of a frame, or a float's resolution, where the
+    times are large beside the step (Unix times: 1.7e9 s at 60 fps had been written
+    1700000000.02, .03, ...; now to about 1e-5 of a frame)."""
     largest = max(abs(first), abs(first + n_frames * frame_time))
     ratio = largest / frame_time if frame_time > 0 else 0.0
     needed = math.ceil(math.log10(ratio)) + 6 if ratio > 1.0 and math.isfinite(ratio) else 0

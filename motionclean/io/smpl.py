@@ -51,6 +51,7 @@ from ..core.motion import (
     joint_major_zeros,
     same_rotations,
 )
+from ..core.rates import same_rate
 from . import npz, smpl_model
 from .files import FileBytes, pieces, read_regular_file
 from .smpl_model import SMPL, SMPL_BODY, SMPLH, SMPLX, TREES, Tree
@@ -349,7 +350,9 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
         if math.isfinite(_number(record[other]))
         else f"{other} (not a number of frames per second)"
         for other in RATE_KEYS
-        if other != key and other in record and _number(record[other]) != rate
+        if other != key
+        and other in record
+        and not same_rate(1.0 / rate, 1.0 / max(_number(record[other]), MIN_RATE))
     ]
     if others:
         return 1.0 / rate, f"{key} {rate:g} fps taken; the file also says {', '.join(others)}"

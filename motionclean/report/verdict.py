@@ -992,6 +992,9 @@ def build_verdict(
         "world_removed": None if too_short else world,
         "change_deg_max": change,
         "change_deg_rms": smoothing["change_deg_rms"],
+        # (away from the input's unrepaired flips and glitches: what "motion taken for
+        # noise" is judged on)
+        "change_deg_rms_away": smoothing.get("change_deg_rms_away", smoothing["change_deg_rms"]),
         "change_joint": joint if change >= UNCHANGED_DEG else None,
         "noise_level_deg": smoothing.get("noise_level"),
         "position_noise_before": smoothing.get("position_noise_before"),

@@ -542,13 +542,19 @@ def _limb_alone(clip: mc.Motion, first: str) -> mc.Motion:
     )
 
 
-@pytest.mark.parametrize(("first", "feet"), [("LeftShoulder", 0), ("LeftHip", 1)])
-def test_an_arm_alone_has_no_foot_and_a_leg_alone_has_one(first, feet):
+@pytest.mark.parametrize(
+    ("first", "root", "feet"),
+    [("LeftShoulder", None, 0), ("LeftHip", None, 1), ("LeftHip", "Armature", 1)],
+)
+def test_an_arm_alone_has_no_foot_and_a_leg_alone_has_one(first, root, feet):
     """The noisy sample's left arm from the shoulder down, a clip of its own, hangs from two
     long bones as a leg does: its wrist had been taken for a foot (2 contacts) and held by
     footlock, which changed the arm. Named as an arm, it has none and footlock changes
-    nothing; the left leg from the hip down keeps its foot."""
+    nothing; the left leg from the hip down keeps its foot, under a root named "Armature"
+    (Blender's) too, which is no arm."""
     limb = _limb_alone(mc.load(NOISY), first)
+    if root is not None:
+        limb = limb.replace(names=[root, *limb.names[1:]])
     found_feet, _, _ = found.skeleton_feet(limb)
     assert len(found_feet) == feet
     if not feet:
