@@ -761,7 +761,8 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         _fail(f"animations[{a}].channels is not a list of objects", path)
     targets: dict[tuple[int, str], int] = {}
     scale_keys: dict[int, int] = {}  # the channel keying a node's scale
-    seen: dict[tuple[int, str], int] = {}  # (node, path) -> its channel
+    seen: dict[tuple[int, str], int] = {}  # (node, path) -> its first channel
+    wrong: list[tuple[int, int, Any]] = []  # (channel, node, path): unknown path, or again
     for c, channel in enumerate(channels):
         target = channel.get("target")
         if not isinstance(target, dict):
@@ -770,16 +771,9 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             continue
         n = _index(target["node"], len(nodes), f"animations[{a}].channels[{c}].target.node", path)
         kind = target.get("path")
-        where = f"animations[{a}].channels[{c}].target.path"
-        if kind not in TARGET_PATHS:  # (a misspelt one had been dropped: the joint at rest)
-            _fail(f"{where} is {str(kind)[:40]!r}, not one of {', '.join(TARGET_PATHS)}", path)
-        if (n, kind) in seen:  # (glTF 2.0 5.11: the last had silently won)
-            _fail(
-                f"animations[{a}].channels[{seen[(n, kind)]}] and [{c}] both animate node {n}'s "
-                f"{kind} (glTF allows one channel per node and path)",
-                path,
-            )
-        seen[(n, kind)] = c
+        if kind not in TARGET_PATHS or (n, kind) in seen:
+            wrong.append((c, n, kind))  # (judged once the skeleton's nodes are known)
+        seen.setdefault((n, kind) if isinstance(kind, str) else (n, ""), c)
         if kind in ("rotation", "translation"):
             targets[(n, kind)] = c
         elif kind == "scale":
@@ -798,6 +792,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     else:
         joints = {n for n, _ in targets}
     joints -= carried.keys()
+    _refuse_wrong_channels(wrong, seen, joints, a, path)
     notes.extend(_carried_note(carried, {n for n, _ in targets}))
     notes.extend(_image_notes(document, path))
     if not joints:
@@ -932,6 +927,27 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
 
 #: The ``asset.generator`` of the glTF files :func:`fresh_gltf` writes.
 GENERATOR = "motionclean"
+
+
+def _refuse_wrong_channels(wrong, seen, joints: set[int], a: int, path) -> None:
+    """Refuse the first channel on a joint's node whose target path is not glTF's (a
+    misspelt one had been dropped, the joint read at rest) or that animates what an
+    earlier channel does (glTF 2.0 5.11; the last had silently won); such channels on other
+    nodes (a mesh's, a camera's) are none of the clip's."""
+    for c, n, kind in wrong:
+        if n not in joints:
+            continue
+        if kind not in TARGET_PATHS:
+            _fail(
+                f"animations[{a}].channels[{c}].target.path is {str(kind)[:40]!r}, not one of "
+                f"{', '.join(TARGET_PATHS)}",
+                path,
+            )
+        _fail(
+            f"animations[{a}].channels[{seen[(n, kind)]}] and [{c}] both animate node {n}'s "
+            f"{kind} (glTF allows one channel per node and path)",
+            path,
+        )
 
 
 #: The properties a glTF animation channel may target (glTF 2.0 5.12.2; "pointer" of

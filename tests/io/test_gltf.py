@@ -896,12 +896,24 @@ def test_a_grid_far_larger_than_the_keys_is_refused_before_it_is_made(tmp_path, 
     assert mc.load(tmp_path / "near.gltf").n_frames == 11
 
 
-@pytest.mark.parametrize("broken", ["misspelt", "not a string", "twice"])
+@pytest.mark.parametrize("broken", ["misspelt", "not a string", "twice", "twice elsewhere"])
 def test_a_channel_with_a_bad_or_repeated_target_is_refused(tmp_path, capsys, broken):
     """A channel targeting "Rotation" or [0] had been dropped (its joint read at rest, no
     word), and a second channel on the same node and path had silently won (glTF allows
-    one): each is one line naming the channel, exit 1."""
+    one): each is one line naming the channel, exit 1. On a node outside the skeleton (a
+    camera's) they are none of the clip's: read."""
     made = chain()
+    if broken == "twice elsewhere":
+        made.doc["nodes"].append({"name": "camera"})
+        made.doc["scenes"][0]["nodes"].append(3)
+        grid = np.arange(4) / 30.0
+        made.channel(3, "rotation", grid, z_turn(0.1 * np.arange(4)))
+        made.channel(3, "rotation", grid, z_turn(0.3 * np.arange(4)))
+        made.channel(1, "rotation", grid, z_turn(0.1 * np.arange(4)))
+        made.gltf(tmp_path / "c.gltf")
+        code, _, err = run_cli(capsys, "info", tmp_path / "c.gltf")
+        assert code == 0, err
+        return
     grid = np.arange(4) / 30.0
     made.channel(1, "rotation", grid, z_turn(0.1 * np.arange(4)))
     made.channel(2, "rotation", grid, z_turn(0.2 * np.arange(4)))
