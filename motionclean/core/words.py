@@ -14,7 +14,7 @@ __all__ = [
     "pad",
     "percent",
     "plural",
-    "two_figures",
+    "significant",
 ]
 
 #: The ``unit`` of a step note's lengths (``auto``, ``despike``, ``ground``) where the format
@@ -34,9 +34,10 @@ def length_word(unit: str | None) -> str:
     return "units" if unit in (None, UNSAID_LENGTH) else unit
 
 
-def two_figures(value: float) -> str:
-    """A number in two significant figures, without an exponent: "0.078", "0.000087"."""
-    return str(np.format_float_positional(float(f"{value:.2g}"), trim="-"))
+def significant(value: float, digits: int = 2) -> str:
+    """A number in ``digits`` significant figures, without an exponent: "0.078",
+    "0.000087", "1140" (three)."""
+    return str(np.format_float_positional(float(f"{value:.{digits}g}"), trim="-"))
 
 
 def percent(share: float) -> str:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core.version import __version__
-from ..core.words import length_word, plural, two_figures, whole_percent
+from ..core.words import length_word, plural, significant, whole_percent
 from ..filters import noise
 from ..steps.base import fps_text
 from .html_world import world_section
@@ -448,7 +448,7 @@ def _headline(report: dict) -> list[str]:
                 + f"{_num(verdict['position_noise_after'])} {_e(unit)}/s\u00b2)",
             ),
             _stat(
-                _e(two_figures(verdict["change_length_max"])) + f" {_e(unit)}",
+                _e(significant(verdict["change_length_max"])) + f" {_e(unit)}",
                 "largest position change"
                 + (
                     f" ({_e(verdict['change_length_joint'])})"

@@ -17,7 +17,7 @@ from ..core import kinematics
 from ..core.contacts import Floor
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
-from ..core.words import length_word
+from ..core.words import length_word, significant
 from .world import contradiction_words, size_words
 
 __all__ = ["world_section", "world_series"]
@@ -257,7 +257,7 @@ def _trajectory_card(name: str, point: int, series: dict, upright, unit: str) ->
         still = extent < STILL_SHARE * series["height"]
         # (said under the view, in the page's own type: inside the scaled SVG it had been
         # 4-7 px tall, and "1.14e+03 units across")
-        widths.append("still" if still else f"{_plain(span / 0.9)} {unit} across")
+        widths.append("still" if still else f"{significant(span / 0.9, 3)} {unit} across")
         views.append(
             f'<svg class="view" viewBox="0 0 {VIEW} {VIEW}" role="img" '
             f'aria-label="{html.escape(name)} {title}"><title>{html.escape(name)} {title}</title>'
@@ -269,11 +269,6 @@ def _trajectory_card(name: str, point: int, series: dict, upright, unit: str) ->
         + "".join(views)
         + f'</div><div class="viewlabels">{labels}</div></section>'
     )
-
-
-def _plain(value: float) -> str:
-    """A length in three significant figures without an exponent: "1,140", "0.0312"."""
-    return f"{value:,.0f}" if value >= 1000 else f"{float(f'{value:.3g}'):g}"
 
 
 def _window(series: dict, floors: dict[str, Floor]) -> tuple[float, float]:

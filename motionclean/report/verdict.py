@@ -56,7 +56,7 @@ import numpy as np
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
 from ..core.takes import LONGEST_SPIKE_S, MAX_DEG_PER_S
-from ..core.words import length_word, percent, plural, two_figures
+from ..core.words import length_word, percent, plural, significant
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
 from ..steps.base import BRIEF_RUNS, format_runs
@@ -562,7 +562,7 @@ def _worse_words(worse: dict[str, dict[str, dict[str, float]]]) -> str:
             each.append(f"{name} slides {b:.3f} -> {a:.3f} body heights/s")
         if "depth" in found:
             b, a = found["depth"]["before"], found["depth"]["after"]
-            each.append(f"{name} below ground {two_figures(b)} -> {two_figures(a)} body heights")
+            each.append(f"{name} below ground {significant(b)} -> {significant(a)} body heights")
     return f"the cleaning made the feet worse during contacts: {', '.join(each)}"
 
 
@@ -853,7 +853,7 @@ def build_verdict(
         if told and scale > 0 and length > reach:
             share = percent(length / scale)
             reasons.append(
-                f"{what} {position_joint}'s position by {two_figures(length)} {unit} "
+                f"{what} {position_joint}'s position by {significant(length)} {unit} "
                 f"({share} of {per})"
             )
     frames = max(int(report["frames"]), 1)
@@ -971,7 +971,7 @@ def build_verdict(
     if change < UNCHANGED_DEG:
         tail = f"no rotation changed{where}"
     if positions_lead and not grounded and not clean:
-        tail = f"largest position change {two_figures(length)} {unit} on {position_joint}, {tail}"
+        tail = f"largest position change {significant(length)} {unit} on {position_joint}, {tail}"
     text = f"{lead}: {', '.join(parts)}; {tail}"
     status = "repaired" if clean and done else "clean" if clean else "cleaned"
     if not smoothed:
