@@ -547,8 +547,8 @@ def _motion_up(motion: Motion) -> MotionUp:
         # the origin, below the walking hips; one hand's gap of 4 frames)
         read = np.r_[parts.spine, parts.lower, parts.head, parts.legs[0], parts.legs[1]]
         read = np.r_[read, parts.arms[0], parts.arms[1], parts.chest, parts.pelvis]
-        whole = known[:, read].all(axis=1)
-        poses, known = (poses[whole], None) if whole.any() else (poses, known)
+        whole = _known_poses(poses, known, read)
+        poses, known = (whole, None) if whole.shape[0] else (poses, known)
     if parts is not None and known is None:
         by = "limbs" if np.mean(on_all_fours(poses, parts)) > 0.5 else "trunk"
         pointing = _limbs_up(poses, parts) if by == "limbs" else _trunk_up(poses, parts)
@@ -633,10 +633,14 @@ def _standing_poses(motion: Motion) -> tuple[np.ndarray, BodyParts] | None:
     parts = _parts_of(motion)
     if parts is None:
         return None
-    poses, known = sample_poses(motion)
-    if known is not None:
-        poses = poses[known[:, parts.spine].all(axis=1) & known[:, parts.lower].all(axis=1)]
+    poses = _known_poses(*sample_poses(motion), np.r_[parts.spine, parts.lower])
     return (poses, parts) if poses.shape[0] else None
+
+
+def _known_poses(poses: np.ndarray, known: np.ndarray | None, points) -> np.ndarray:
+    """The ``poses`` ``(S, P, 3)`` whose ``points`` are all known (``known`` ``(S, P)``;
+    None: every point is)."""
+    return poses if known is None else poses[known[:, points].all(axis=1)]
 
 
 def _hip(parents: np.ndarray, rest: np.ndarray, pelvis: int, root: int, tip: int) -> int:
