@@ -282,9 +282,12 @@ UNFIT_WANDER = (
 )
 
 
-def describe_source(model: str, source: str, slope: float | None) -> str:
+def describe_source(
+    model: str, source: str, slope: float | None, seconds: float | None = None
+) -> str:
     """Which capture system ``auto`` assumed and why, in words (``model`` and ``source`` as
-    in :class:`AutoChoice`, ``slope`` its ``motion_slope``; None or nan: not measured)."""
+    in :class:`AutoChoice`, ``slope`` its ``motion_slope``, None or nan: not measured;
+    ``seconds`` the clip's length, which says why a flat clip kept the optical model)."""
     band = f"{noise_model.SLOPE_BAND_HZ[0]:g}-{noise_model.SLOPE_BAND_HZ[1]:g} Hz"
     if source != "auto":
         if model != noise_source(source):
@@ -298,11 +301,16 @@ def describe_source(model: str, source: str, slope: float | None) -> str:
             f"{band}); give the source for a markerless or video capture"
         )
     if model == "optical" and slope > MARKERLESS_SLOPE:
+        if seconds is not None and seconds < MARKERLESS_MIN_SECONDS:
+            why = (
+                f"the clip is too short ({seconds:.3g} s, under {MARKERLESS_MIN_SECONDS:g} s) "
+                "to tell that from motion"
+            )
+        else:
+            why = UNFIT_WANDER
         return (
             f"optical: its joints' spectrum is flat over {band} (slope {slope:.2f}, flatter "
-            f"than {MARKERLESS_SLOPE:g}), but the clip is too short (under "
-            f"{MARKERLESS_MIN_SECONDS:g} s) to tell that from motion, or its rate too low to "
-            "fit a pose estimator's wandering noise, so the optical model; for a video or "
+            f"than {MARKERLESS_SLOPE:g}), but {why}, so the optical model; for a video or "
             "markerless capture give --source video"
         )
     if model == "markerless":

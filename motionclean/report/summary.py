@@ -1176,7 +1176,9 @@ def format_noise_model(report: dict) -> str:
     slope = first.get("motion_slope")
     if slope is None and first.get("source_measured"):
         slope = math.nan
-    line = f"capture source: {describe_source(first['model'], first['source'], slope)}"
+    seconds = report.get("frames", 0) * report.get("frame_time", 0.0)
+    said = describe_source(first["model"], first["source"], slope, seconds or None)
+    line = f"capture source: {said}"
     wander = [
         n
         for n in (notes or [first])

@@ -528,5 +528,6 @@ def test_a_flat_clip_under_five_seconds_is_not_taken_for_markerless_unasked(seco
     expected = "optical" if seconds < found.MARKERLESS_MIN_SECONDS else "markerless"
     assert model == auto(noisy, 1 / 60).choices[0].model == expected
     if expected == "optical":
-        assert "too short (under 5 s)" in found.describe_source(model, "auto", slope)
+        said = found.describe_source(model, "auto", slope, seconds)
+        assert f"too short ({seconds:.3g} s, under 5 s) to tell that from motion" in said
         assert auto(noisy, 1 / 60, source="video").choices[0].model == "markerless"
