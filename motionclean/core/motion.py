@@ -512,8 +512,11 @@ class Motion:
         return self.missing
 
     def at_frames(self, frames) -> Motion:
-        """The clip at ``frames`` only (a slice or an index array): skeleton, rotations,
-        translations and missing samples; the source values no longer describe it."""
+        """The clip at ``frames`` only (a slice, an index array, or one index: a clip of
+        that one frame): skeleton, rotations, translations and missing samples; the source
+        values no longer describe it. A slice gives views of the arrays, as numpy's do."""
+        if isinstance(frames, int | np.integer):  # (numpy's a[5] would drop the time axis)
+            frames = [int(frames)]
         return self.replace(
             rotations=self.rotations[frames],
             translations=self.translations[frames],

@@ -487,7 +487,11 @@ def as_matrix(q: np.ndarray) -> np.ndarray:
 def _order_axes(order: str) -> tuple[int, int, int]:
     if not isinstance(order, str):
         raise TypeError(f"order: expected a string such as 'ZXY', got {type(order).__name__}")
-    order = order.upper()
+    if len(order) == 3 and sorted(order) == ["x", "y", "z"]:  # (scipy's extrinsic)
+        raise ValueError(
+            f"Euler order {order!r} in lower case: scipy reads that as extrinsic; orders here "
+            f"are intrinsic, in upper case ({order.upper()!r})"
+        )
     if len(order) != 3 or sorted(order) != ["X", "Y", "Z"]:
         raise ValueError(f"Euler order must be a permutation of 'XYZ', got {order!r}")
     i, j, k = (AXES.index(c) for c in order)

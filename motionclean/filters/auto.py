@@ -48,7 +48,10 @@ reflection about a fitted end pose (:mod:`.ends`), not Eq. 26's mirror, which le
 end frames with most of their noise; a constant angular velocity stays a fixed point.
 
 Arrays are time-major: ``(F, ..., 4)`` quaternions ``(w, x, y, z)`` or ``(F, ..., 3)``
-vectors; every trailing index (column) is estimated and filtered on its own.
+vectors; every trailing index (column) is estimated and filtered on its own, but for what
+one capture system shares: the noise's AR(1) correlation is fitted on the columns pooled,
+and the capture source, the band-limited noise and the markerless wander's shape are the
+clip's, so a column's result depends on the others (a joint cleaned alone differs).
 """
 
 from __future__ import annotations

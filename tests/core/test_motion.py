@@ -156,3 +156,13 @@ def test_a_clip_made_by_hand_is_checked_where_it_is_made(change, message):
     }
     with pytest.raises(InvalidMotion, match=re.escape(message)):
         mc.Motion(**(fields | change))
+
+
+def test_at_frames_of_one_index_is_a_one_frame_clip():
+    """`clip.at_frames(5)`, as numpy users pick a frame, is the clip at frame 5 (it had
+    failed: the joint count read as the frame count)."""
+    clip = mc.load(SAMPLE)
+    one = clip.at_frames(5)
+    assert one.n_frames == 1
+    np.testing.assert_array_equal(one.rotations[0], clip.rotations[5])
+    assert clip.at_frames(np.int64(5)).n_frames == 1

@@ -391,3 +391,10 @@ def test_shapes_that_do_not_broadcast_are_named(call, message):
     """numpy's own message had named neither argument ('objects cannot be broadcast')."""
     with pytest.raises(ValueError, match=message):
         call(quat.identity((30, 5)))
+
+
+def test_a_lower_case_euler_order_is_refused_as_scipys_extrinsic():
+    """scipy reads "zxy" as extrinsic; an order here is intrinsic: lower case had been read
+    as upper case, silently another rotation for a scipy user. Refused, saying so."""
+    with pytest.raises(ValueError, match="lower case: scipy reads that as extrinsic"):
+        quat.from_euler(np.array([10.0, 20.0, 30.0]), "zxy")
