@@ -543,10 +543,12 @@ def report(
 def capture_source_note(motion, source: str) -> dict:
     """The capture system the default ``clean`` would assume for ``motion`` given
     ``--source``, as its auto notes say it (``model``, ``source``, ``motion_slope``,
-    ``source_measured``; with the markerless model ``wander``, the median joint's, degrees,
+    ``source_measured``; with the markerless model ``wander``, the median moving joint's,
+    degrees,
     and ``wander_edge_hz``): measured as its ``auto`` step does, on the clip the steps
     before it leave (despike, fill-gaps), rest-pose frames left out."""
-    found = measured_source(as_default_auto_sees(motion), source)
+    seen = as_default_auto_sees(motion)
+    found = measured_source(seen, source)
     slope = found.motion_slope
     result = {  # (the slope is measured whatever the source, as auto's notes have it)
         "model": found.model,
@@ -554,8 +556,10 @@ def capture_source_note(motion, source: str) -> dict:
         "motion_slope": slope if math.isfinite(slope) else None,
         "source_measured": True,
     }
-    if found.model == "markerless":
-        result["wander"] = median_joint(found.wander.tolist())
+    if found.model == "markerless":  # (the moving joints', as clean's line gives it)
+        q = seen.rotations[:, seen.layout.has_rotation]  # (found's columns)
+        moving = ~np.all(q == q[:1], axis=(0, 2))
+        result["wander"] = median_joint(found.wander[moving].tolist() or [0.0])
         result["wander_edge_hz"] = found.wander_edge_hz
     return result
 

@@ -1179,10 +1179,12 @@ def format_noise_model(report: dict) -> str:
     seconds = report.get("frames", 0) * report.get("frame_time", 0.0)
     said = describe_source(first["model"], first["source"], slope, seconds or None)
     line = f"capture source: {said}"
+    # (the moving joints': a video estimate's 150 still fingers and face joints had made the
+    # median joint's wander none where the moving joints' is 5-12 degrees)
     wander = [
         n
         for n in (notes or [first])
-        if n.get("model") == "markerless" and n.get("wander") is not None
+        if n.get("model") == "markerless" and n.get("wander") is not None and not n.get("still")
     ]
     if not wander:
         return line
@@ -1196,9 +1198,10 @@ def format_noise_model(report: dict) -> str:
         else ""
     )
     found = (
-        f"The noise wanders{below}, down where the motion is (median joint {level:.3g} deg)"
+        f"The noise wanders{below}, down where the motion is (median moving joint {level:.3g} deg)"
         if level >= NEGLIGIBLE_DEG
-        else "No noise wandering among the motion's frequencies was found in the median joint"
+        else "No noise wandering among the motion's frequencies was found in the median "
+        "moving joint"
     )
     each = "each joint gets the one filter of least expected error over the clip"
     return f"{line}. {found}; {each}.{hint}"

@@ -365,3 +365,34 @@ def test_a_turn_while_occluded_is_no_flip(tmp_path, capsys, gap, flip):
     assert told in out
     known = ~np.isnan(x[:, 1])
     assert np.abs(wrapped(read_z(target)[known, 1] - truth[known, 1])).max() < 1e-3
+
+
+def test_the_wander_said_is_the_median_moving_joints(tmp_path, capsys):
+    """Four joints with a wander and eight held still (a video estimate's fingers and
+    face): the line's median joint is the moving joints' median (the still ones had made
+    it "no noise wandering ... in the median joint"), in `clean` and in `report IN`."""
+    truth = smooth_coordinates(1200, seed=5)
+    e = np.degrees(2.0 * wander_noise(1200, len(NAMES), 10.0, 2.0, seed=5, rho=0.5)[:, :, 2])
+    still = np.zeros((1200, 8))
+    names = (*NAMES, *(f"Still{k}" for k in range(8)))
+    source = tmp_path / "take.csv"
+    write_channel_csv(source, np.concatenate([truth + e, still], axis=1), names)
+    code, out, err = run_cli(
+        capsys,
+        "clean",
+        source,
+        "-o",
+        tmp_path / "c.csv",
+        "--source",
+        "video",
+        "--report",
+        tmp_path / "c.json",
+    )
+    assert code == 0, err
+    notes = [j["auto"] for j in json.loads((tmp_path / "c.json").read_text())["joints"].values()]
+    moving = sorted(n["wander"] for n in notes if not n.get("still"))
+    assert len(moving) == len(NAMES) and moving[len(moving) // 2] > 0.05
+    said = f"(median moving joint {moving[len(moving) // 2]:.3g} deg)"
+    assert said in out
+    code, out, err = run_cli(capsys, "report", source, "--source", "video")
+    assert code == 0 and said in out
