@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import click
 
-from ..core.errors import UsageError
+from ..core.errors import MotionError, UsageError
 from ..core.words import columns, last_columns, pad, plural
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import index_entries, page_carried, render_index
@@ -383,6 +383,13 @@ def batch_command(
         work.append(job.absolute())
         work_names.append(str(rel))
 
+    if pages is not None:  # (a folder IN_DIR/index.html would make the index a folder)
+        under = next((w for w in written_all if pages / "index.html" in w.parents), None)
+        if under is not None:
+            raise UsageError(
+                f"{under}: would make {pages / 'index.html'}, the batch's index page, a "
+                "folder (rename the input folder index.html, or give another --report-dir)"
+            )
     read_too = [*read.files, *([pipe] if pipe is not None else [])]
     refuse_shared(written_all, [*(source_root / rel for rel in clips), *read_too])
     if scheduler is not None and jobs is not None:
@@ -430,8 +437,12 @@ def batch_command(
     if pages is not None and skip_existing:
         others = sum(_keep_figures(results, pages, tables).values())
     rows = [(str(rel), results[str(rel)]) for rel in clips]
+    unwritten = None  # (the index's own failure, told after the clips', never instead)
     if pages is not None:
-        _write_index(pages, rows, tables, in_dir)
+        try:
+            _write_index(pages, rows, tables, in_dir)
+        except (MotionError, OSError) as error:
+            unwritten = str(error) if isinstance(error, MotionError) else f"{pages}: {error}"
     if not quiet:
         click.echo(format_summary(rows, seconds, workers))
         if note:
@@ -454,7 +465,7 @@ def batch_command(
         for name, r in rows
         if r.status == "failed" and r.error
     ]
-    raise_failures(failures + ([lost] if lost else []))
+    raise_failures(failures + ([lost] if lost else []) + ([unwritten] if unwritten else []))
 
 
 def _as_given(error: str, clip: Path) -> str:

@@ -432,9 +432,10 @@ def check_command(
                 f"{joint} {label.split(',')[0]} {' -> '.join(_pair(ref, value))}"
                 for joint, label, ref, value in joints[:3]
             )
-            more = f" and {len(joints) - 3} more figures" if len(joints) > 3 else ""
+            more = f" and {plural(len(joints) - 3, 'more figure')}" if len(joints) > 3 else ""
             problems.append(
-                f"{given}: {plural(len({j for j, *_ in joints}), 'joint')} got worse "
+                f"{given}: {plural(len(joints), 'figure')} of "
+                f"{plural(len({j for j, *_ in joints}), 'joint')} got worse "
                 f"(tolerance {_percent(tolerance)}): {shown}{more}"
             )
     unchecked = sorted(set(document["clips"]) - set(keys))

@@ -200,6 +200,18 @@ def test_refuses_a_report_page_that_leads_into_the_input(tree, tmp_path, capsys,
     assert snapshot(tree) == before
 
 
+def test_refuses_an_input_folder_that_would_make_the_index_a_folder(tree, tmp_path, capsys):
+    """An input folder named index.html: its clips' pages would make the report folder's
+    index.html a folder. Refused before any clip is cleaned (it had cleaned every clip, then
+    failed writing the index and lost the table and the clips' own error lines)."""
+    cut_bvh(SAMPLE, tree / "index.html" / "x.bvh", 40)
+    pages, out = tmp_path / "pages", tmp_path / "out"
+    code, _, stderr = run_cli(capsys, "batch", tree, "-o", out, "--report-dir", pages)
+    assert code == 2 and stderr.count("\n") == 1
+    assert f"would make {pages / 'index.html'}, the batch's index page, a folder" in stderr
+    assert not out.exists() and not pages.exists()
+
+
 def listing(folder: Path) -> list[str]:
     return sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*"))
 
