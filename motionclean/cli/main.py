@@ -31,7 +31,7 @@ from ..core.takes import take_starts
 from ..core.threads import thread_count
 from ..core.version import __version__
 from ..core.words import columns, length_word, pad, plural
-from ..filters.auto import estimate_noise
+from ..filters.auto import SourceFound, estimate_noise
 from ..filters.gaps import Gaps
 from ..filters.multires import stitch_levels, stitch_width
 from ..io import ReadOptions, atomic_write, save
@@ -527,8 +527,17 @@ def report(
     notes = gap_notes(before, after)  # the dropouts, and what a fill left or did
     for name, note in ({} if repairs is None else repairs.notes).items():
         notes.setdefault(name, {}).update(note)
-    result = build_report(before, after, notes=notes, file=source, series=series)
-    result["capture_source"] = capture_source_note(before, capture)
+    seen = as_default_auto_sees(before)
+    found = measured_source(seen, capture)
+    # (a markerless source's wander counts in the noise a pair's change is judged by, as
+    # clean's auto notes count it: the line had said "markerless ... 0.891 deg" and judged
+    # the change against the optical model's 0.22)
+    wander = None
+    if found.model == "markerless":
+        rotating = [before.names[j] for j in np.flatnonzero(before.layout.has_rotation)]
+        wander = dict(zip(rotating, found.wander.tolist(), strict=True))
+    result = build_report(before, after, notes=notes, file=source, series=series, wander=wander)
+    result["capture_source"] = capture_source_note(seen, found, capture)
     # every page is rendered before anything is written: a failure leaves no file behind
     pages = {}
     if json_path:
@@ -540,15 +549,13 @@ def report(
     click.echo(text)
 
 
-def capture_source_note(motion, source: str) -> dict:
-    """The capture system the default ``clean`` would assume for ``motion`` given
-    ``--source``, as its auto notes say it (``model``, ``source``, ``motion_slope``,
+def capture_source_note(seen: Motion, found: SourceFound, source: str) -> dict:
+    """The capture system the default ``clean`` would assume for a clip given ``--source``,
+    as its auto notes say it (``model``, ``source``, ``motion_slope``,
     ``source_measured``; with the markerless model ``wander``, the median moving joint's,
-    degrees,
-    and ``wander_edge_hz``): measured as its ``auto`` step does, on the clip the steps
-    before it leave (despike, fill-gaps), rest-pose frames left out."""
-    seen = as_default_auto_sees(motion)
-    found = measured_source(seen, source)
+    degrees, and ``wander_edge_hz``): ``found`` (:func:`~motionclean.steps.auto.
+    measured_source`) on ``seen``, the clip as its ``auto`` step sees it
+    (:func:`~motionclean.steps.pipeline.as_default_auto_sees`)."""
     slope = found.motion_slope
     result = {  # (the slope is measured whatever the source, as auto's notes have it)
         "model": found.model,

@@ -890,10 +890,13 @@ def build_report(
     notes: dict[str, dict] | None = None,
     file: str | None = None,
     series: dict | None = None,
+    wander: dict[str, float] | None = None,
 ) -> dict[str, Any]:
     """Figures for ``before`` alone, or before/after a cleaning when ``after`` is given.
 
-    ``series`` is :func:`build_series` of the same clips when the caller already has it.
+    ``series`` is :func:`build_series` of the same clips when the caller already has it;
+    ``wander`` (joint -> degrees) the markerless model's wander the capture source found in
+    each joint, counted in the noise where no ``auto`` note gives one (two clips compared).
     """
     series = build_series(before, after) if series is None else series
     cleaned = after is not None
@@ -935,17 +938,20 @@ def build_report(
     smoothing = _smoothing(series, list(series["joints"]))
     if smoothing is not None:  # (estimated only where the verdict may need it)
         changed = smoothing["change_deg_rms"] >= CLEAN_CHANGE_DEG
-        smoothing["noise_level"] = _noise_level(core_before, joints) if changed else None
+        smoothing["noise_level"] = (
+            _noise_level(core_before, joints, wander or {}) if changed else None
+        )
     alone = _input_noise(series) if smoothing is None else None  # (a clip reported alone)
     report["verdict"] = build_verdict(report, smoothing, alone)
     return report
 
 
-def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
+def _noise_level(before: Motion, joints: dict[str, dict], wander: dict[str, float]) -> float | None:
     """RMS over the rotating joints of the input's per-sample rotation noise (degrees):
     the ``auto`` step's estimate where it noted one (the markerless model's wander
-    included), else the optical model's on the input (:func:`estimate_noise`); None
-    without a rotating joint or a frame to tell it from."""
+    included), else the optical model's on the input (:func:`estimate_noise`) with the
+    ``wander`` (joint -> degrees) a markerless capture source finds added in quadrature;
+    None without a rotating joint or a frame to tell it from."""
     rotating = np.flatnonzero(before.layout.has_rotation)
     if not rotating.size or before.n_frames == 0:
         return None
@@ -960,7 +966,8 @@ def _noise_level(before: Motion, joints: dict[str, dict]) -> float | None:
     if guessed.any():  # (every joint: the clip's own array, no copy of it)
         cols = rotating[guessed]
         q = before.rotations if cols.size == before.n_joints else before.rotations[:, cols]
-        levels[guessed] = estimate_noise(q, before.frame_time)
+        extra = np.array([wander.get(before.names[j], 0.0) for j in cols])
+        levels[guessed] = np.hypot(estimate_noise(q, before.frame_time), extra)
     return float(np.sqrt(np.mean(levels**2)))
 
 

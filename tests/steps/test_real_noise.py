@@ -396,3 +396,24 @@ def test_the_wander_said_is_the_median_moving_joints(tmp_path, capsys):
     assert said in out
     code, out, err = run_cli(capsys, "report", source, "--source", "video")
     assert code == 0 and said in out
+
+
+def test_a_pair_of_a_markerless_take_judges_its_change_by_the_wander_too(tmp_path, capsys):
+    """`report IN CLEANED` of a wandering take and its default clean: the line finds the
+    markerless source, and the change is judged against the noise with its wander, as
+    `clean`'s own verdict does (it had been judged against the optical model's level
+    alone: "motion taken for noise")."""
+    truth = smooth_coordinates(1200, seed=6)
+    e = np.degrees(2.0 * wander_noise(1200, len(NAMES), 10.0, 3.0, seed=6, rho=0.5)[:, :, 2])
+    source, cleaned = tmp_path / "take.csv", tmp_path / "c.csv"
+    write_channel_csv(source, truth + e)
+    code, _, err = run_cli(capsys, "clean", source, "-o", cleaned, "--report", tmp_path / "c.json")
+    assert code == 0, err
+    told = json.loads((tmp_path / "c.json").read_text())["verdict"]
+    code, out, err = run_cli(capsys, "report", source, cleaned, "--json", tmp_path / "r.json")
+    assert code == 0, err
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["capture_source"]["model"] == "markerless"
+    assert "motion taken for noise" not in told["text"]
+    assert "motion taken for noise" not in report["verdict"]["text"]
+    assert report["verdict"]["noise_level_deg"] == pytest.approx(told["noise_level_deg"], rel=0.5)
