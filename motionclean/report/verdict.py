@@ -652,8 +652,11 @@ def _unseen(removed: float, world: float) -> bool:
 
 
 def _under(value: float) -> str:
-    """The power of ten above ``value`` (> 0), without an exponent: "0.0001" for 8.7e-05."""
-    return str(np.format_float_positional(10.0 ** (math.floor(math.log10(value)) + 1), trim="-"))
+    """A bound above ``value`` (> 0) in one significant figure, rounded up, without an
+    exponent: "0.0001" for 8.7e-05, "0.2" for 0.115 (the power of ten above, "1", had
+    read "moved by under 1 units")."""
+    power = 10.0 ** math.floor(math.log10(value))
+    return str(np.format_float_positional(math.ceil(value / power * (1 - 1e-12)) * power, trim="-"))
 
 
 def _scale(report: dict, smoothing: dict) -> tuple[float, str]:

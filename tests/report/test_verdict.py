@@ -873,7 +873,9 @@ def test_a_position_moved_below_any_visible_change_is_said_by_how_little(tmp_pat
     moved = float(np.linalg.norm(shift, axis=-1).max())
     assert 0.001 < moved < 0.01
     assert verdict["status"] == "clean", text
-    assert text.startswith("clean capture: Hips position moved by under 0.01 units, "), text
+    bound = float(text.split("moved by under ")[1].split(" units")[0])
+    assert text.startswith("clean capture: Hips position moved by under "), text
+    assert moved <= bound < 2 * moved  # (one figure, rounded up: "1" had read for 0.115)
     assert text.endswith("; no rotation changed outside repairs") and "as it was" not in text
 
 
