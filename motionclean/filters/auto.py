@@ -63,6 +63,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..core import checks, quat
+from ..core.rates import FRAME_TIME_ROUNDING
 from ..core.threads import in_parts, run_parts
 from . import ends
 from . import noise as noise_model
@@ -268,8 +269,10 @@ def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: floa
 
 def _too_short_to_tell(model: NoiseModel, frame_time: float) -> bool:
     """Whether a clip is shorter than :data:`MARKERLESS_MIN_SECONDS`: too short for its
-    flat spectrum to be taken for a pose estimator's noise unasked."""
-    return model.n_frames * frame_time < MARKERLESS_MIN_SECONDS
+    flat spectrum to be taken for a pose estimator's noise unasked (within a frame time's
+    rounding: 600 frames of "Frame Time: .0083333" are 5 s)."""
+    seconds = model.n_frames * frame_time
+    return seconds < MARKERLESS_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING)
 
 
 #: Each noise model in a few words, as a source given is echoed ("video, as given (the
@@ -304,7 +307,7 @@ def describe_source(
             f"{band}); give the source for a markerless or video capture"
         )
     if model == "optical" and slope > MARKERLESS_SLOPE:
-        if seconds is not None and seconds < MARKERLESS_MIN_SECONDS:
+        if seconds is not None and seconds < MARKERLESS_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
             why = (
                 f"the clip is too short ({seconds:.3g} s, under {MARKERLESS_MIN_SECONDS:g} s) "
                 "to tell that from motion"

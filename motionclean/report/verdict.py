@@ -102,7 +102,9 @@ UNCHANGED_DEG = 1e-6
 #: Bandai Namco walk lost 0.2 %, its estimated 0.34 degrees of noise its own fast motion).
 NEGLIGIBLE_JITTER = 0.01
 #: The line gives the positions' share of jitter removed beside the rotations' where it
-#: is this much larger (a tracker CSV: 6 % of the rotations', 46 % of the positions').
+#: is this much larger (a tracker CSV: 6 % of the rotations', 46 % of the positions'), and
+#: instead of theirs where the rotations lost none and the positions at least this much (a
+#: clean 30 fps capture's root loses 1-2 %: no noise to speak of).
 POSITIONS_APART = 0.2
 #: Smoothing that moves any joint by more than this (degrees, outside repairs) needs a
 #: look ...
@@ -656,7 +658,7 @@ def _under(value: float) -> str:
     exponent: "0.0001" for 8.7e-05, "0.2" for 0.115 (the power of ten above, "1", had
     read "moved by under 1 units")."""
     power = 10.0 ** math.floor(math.log10(value))
-    return str(np.format_float_positional(math.ceil(value / power * (1 - 1e-12)) * power, trim="-"))
+    return significant(math.ceil(value / power * (1 - 1e-12)) * power, 1)
 
 
 def _scale(report: dict, smoothing: dict) -> tuple[float, str]:
@@ -895,9 +897,7 @@ def build_verdict(
     positions_lead = told and (
         rotations_clean
         or (
-            rotations_quiet
-            and position_removed is not None
-            and position_removed >= NEGLIGIBLE_JITTER
+            rotations_quiet and position_removed is not None and position_removed >= POSITIONS_APART
         )
     )
     removed = "" if rotations_unmeasured else removed_words(smoothing["noise_removed"])

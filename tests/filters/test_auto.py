@@ -531,3 +531,16 @@ def test_a_flat_clip_under_five_seconds_is_not_taken_for_markerless_unasked(seco
         said = found.describe_source(model, "auto", slope, seconds)
         assert f"too short ({seconds:.3g} s, under 5 s) to tell that from motion" in said
         assert auto(noisy, 1 / 60, source="video").choices[0].model == "markerless"
+
+
+def test_five_seconds_written_with_a_rounded_frame_time_are_five_seconds():
+    """600 frames of "Frame Time: .0083333" are 4.99998 s by the header's rounding: long
+    enough for a flat clip to be taken for markerless (it had been kept optical as "too
+    short (5 s, under 5 s)")."""
+    import importlib
+
+    found = importlib.import_module("motionclean.filters.auto")
+    truth = smooth_synthetic(frames=600, joints=6, seed=13)
+    noisy = quat.multiply(truth, quat.exp(wander_noise(600, 6, 10.0, 4.0, seed=13, rho=0.5)))
+    model, slope = found.found_source(noisy, 0.0083333)[:2]
+    assert slope > found.MARKERLESS_SLOPE and model == "markerless"
