@@ -432,29 +432,30 @@ def _jump_scale(clip: Motion, travel: float) -> tuple[float, str]:
     """The length position jumps are measured in, and its words: the body height; without a
     body, :data:`METRES_BODY` where lengths are metres (a walk's range of travel, 10 m,
     would let any teleport under 3 m at 30 fps pass), else the positions' range of travel."""
-    height = kinematics.body_height(clip)
-    if height > 0:
+    height = kinematics.body_height(clip) if found.has_body(clip) else 0.0
+    if height > 0:  # (trackers' "height" is a frame's extent: a head and two hands, 0.4 m)
         return height, "body height"
     if kinematics.length_unit(clip) == "m":
         return METRES_BODY, f"body height ({METRES_BODY:g} m)"
     return (travel if math.isfinite(travel) else 0.0), "the positions' range of travel"
 
 
-#: The steps around a step its jump is judged against (:data:`.verdict.JUMP_OVER_AROUND`).
-_AROUND = np.array([-4, -3, -2, -1, 1, 2, 3, 4])
-
-
 def _position_jumps(p, dt: float, missing, starts: np.ndarray, rest: tuple[int, int], limit):
     """Per column of the positions ``p`` ``(F, C, 3)`` (frame time ``dt`` s), over its steps
     within the motion (:func:`_in_motion`): how many jump (faster than ``limit`` length
-    units per second and :data:`JUMP_OVER_AROUND` times the steps around), the fastest
-    jump's speed (units/s, 0 without one) and the frame it steps into, ``(C,)`` each."""
+    units per second and :data:`JUMP_OVER_AROUND` times the step before and the step after
+    it: a step out of a still pose, as a teleport's; a punch's steps rise and fall), the
+    fastest jump's speed (units/s, 0 without one) and the frame it steps into, ``(C,)``
+    each."""
     n_cols = p.shape[1]
     speed = np.linalg.norm(np.diff(p, axis=0), axis=-1) / dt  # (F-1, C)
     speed = np.where(_in_motion(speed.shape, missing, starts, *rest), speed, 0.0)
     steps, cols = np.nonzero(speed > limit)  # (few: judged one by one, all at once)
-    around = speed[np.clip(steps[:, None] + _AROUND, 0, max(speed.shape[0] - 1, 0)), cols[:, None]]
-    jump = speed[steps, cols] > JUMP_OVER_AROUND * np.median(around, axis=1)
+    last = max(speed.shape[0] - 1, 0)
+    beside = np.maximum(
+        speed[np.maximum(steps - 1, 0), cols], speed[np.minimum(steps + 1, last), cols]
+    )
+    jump = speed[steps, cols] > JUMP_OVER_AROUND * beside
     steps, cols = steps[jump], cols[jump]
     count = np.bincount(cols, minlength=n_cols)
     fastest, at = np.zeros(n_cols), np.zeros(n_cols, dtype=np.intp)

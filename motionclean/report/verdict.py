@@ -152,9 +152,9 @@ FAST_DEG_PER_S = MAX_DEG_PER_S
 #: at about 6, a tracker's teleport or a re-zeroed root (a root moved 0.41 body heights in
 #: a frame at 120 fps, 49, and back 0.17 s later: longer than despike's spikes) far faster.
 FAST_BODY_HEIGHTS_PER_S = 10.0
-#: ... and it is this many times the median of the 8 steps around it: a teleport, not a
-#: fast move (a kick's or a serve's hand passes 10 body heights/s along an arc whose steps
-#: around are as fast).
+#: ... and it is this many times the step before it and the step after it: a teleport out
+#: of a still pose, not a fast move (a serve's or a punch's hand passes 10 body heights/s
+#: with steps that rise and fall around it).
 JUMP_OVER_AROUND = 3.0
 #: ... and a joint doing so on more than this share of its frames (steps within the motion)
 #: needs a look: no motion keeps it up, a glitch (a twist flipping back and forth) does,
@@ -419,7 +419,7 @@ def _fast_words(fast: dict[str, dict[str, float]]) -> str:
 
 
 def _jump_words(jumped: dict[str, tuple[int, float, int]], per: str) -> str:
-    """ "Hips's position jumps (steps over 10 body heights/s, 3 times those around: a
+    """ "Hips's position jumps (steps over 10 body heights/s, 3 times the steps beside them: a
     tracker's teleport?) on 2 frames, up to 49.5 body heights/s at frame 620"; several
     joints named, the most jumps first, with the fastest jump's joint (``jumped``: joint ->
     jumps, fastest speed in ``per`` per second, its frame)."""
@@ -429,8 +429,8 @@ def _jump_words(jumped: dict[str, tuple[int, float, int]], per: str) -> str:
     else:
         unit = f"times {per} per second"
     limit = (
-        f"(steps over {FAST_BODY_HEIGHTS_PER_S:g} {unit}, {JUMP_OVER_AROUND:g} times those "
-        "around: a tracker's teleport?)"
+        f"(steps over {FAST_BODY_HEIGHTS_PER_S:g} {unit}, {JUMP_OVER_AROUND:g} times the "
+        "steps beside them: a tracker's teleport?)"
     )
     frames = sum(jumped[name][0] for name in order)
     name, (_, fastest, at) = max(jumped.items(), key=lambda item: item[1][1])

@@ -5,6 +5,7 @@ bit for bit."""
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from pathlib import Path
 
@@ -694,3 +695,38 @@ def test_a_tracker_csv_whose_positions_lose_their_jitter_says_so(tmp_path, capsy
     assert code == 0, err
     line = [row for row in out.splitlines() if row.startswith("verdict:")][0]
     assert "of the jitter removed" in line and "of the position jitter removed" in line
+
+
+def test_a_trackers_punch_is_no_position_jump(tmp_path, capsys):
+    """A head and two hand trackers at 30 fps, the hands punching 0.3 m out in 0.15 s (3
+    m/s at most, 10 times their range of travel per second), held and drawn back: no
+    position jump (such punches had been flagged as a tracker's teleport against the 0.4 m
+    extent of the three taken for a body's height); a hand that teleports 0.5 m and back
+    0.5 s later is one."""
+    n, fps = 150, 30.0
+    t = np.arange(n) / fps
+    p = np.zeros((n, 3, 3))
+    p[:, 0] = [0.0, 1.7, 0.0]
+    p[:, 1:, 1] = 1.3
+    p[:, 1, 0], p[:, 2, 0] = -0.2, 0.2
+    out = np.clip((t - 2.0) / 0.15, 0.0, 1.0) - np.clip((t - 2.35) / 0.15, 0.0, 1.0)
+    punch = 0.3 * (1.0 - np.cos(np.pi * out)) / 2.0
+    p[:, 1:, 2] += punch[:, None]
+    p[..., 0] += 0.05 * np.sin(2 * np.pi * 0.5 * t)[:, None]  # (a sway: no still frames)
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 3, 1))
+    for name, moved in (("punch", p), ("teleport", p.copy())):
+        if name == "teleport":
+            moved[30:45, 2, 2] += 0.5  # (out and back, 0.5 s later)
+        write_rigid(tmp_path / f"{name}.csv", t, moved, q, names=["head", "hand_l", "hand_r"])
+        code, out, err = run_cli(
+            capsys,
+            "clean",
+            tmp_path / f"{name}.csv",
+            "-o",
+            tmp_path / "c.csv",
+            "--report",
+            tmp_path / "r.json",
+        )
+        assert code == 0, err
+        jumps = json.loads((tmp_path / "r.json").read_text())["verdict"]["position_jumps"]
+        assert (jumps == {}) is (name == "punch"), out
