@@ -615,7 +615,25 @@ def uniform_frame_time(
             path,
             int(lines[i]),
         )
-    return float(f"{mean:.12g}")
+    return float(f"{_whole_rate(times, mean):.12g}")
+
+
+def _whole_rate(times: np.ndarray, mean: float) -> float:
+    """``mean``, the span's step, or the nearest whole rate's step where the times are
+    written in coarse steps (over 1 % of a frame: whole milliseconds) and that rate's grid
+    holds them within a written step (50 rows of 120 fps in whole milliseconds had read
+    120.098 fps; finer times keep their span's step)."""
+    step = written_step(times)
+    if not COARSE_WRITTEN * mean < step < mean:
+        return mean
+    whole = 1.0 / max(round(1.0 / mean), 1)
+    rows = np.arange(times.size) - (times.size - 1) / 2.0
+    off = times - rows * whole
+    return whole if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step else mean
+
+
+#: Times written in steps over this share of a frame are coarse (:func:`_whole_rate`).
+COARSE_WRITTEN = 0.01
 
 
 def _channel_skeleton(entries, path, line):
