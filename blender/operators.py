@@ -23,6 +23,7 @@ from bpy.props import StringProperty
 from bpy.types import Operator
 
 from .motionclean.core.errors import MotionError, UsageError
+from .motionclean.core.rates import same_rate
 from .motionclean.io import write_together
 from .motionclean.io.blender_action import ActionClip, key_frames, read_action, write_action
 from .motionclean.report.summary import format_table
@@ -242,11 +243,14 @@ class MOTIONCLEAN_OT_clean(Operator):
             self._write(plan, settings)
             for warning in pattern_warnings(plan.action.name, plan.result.logs):
                 self.report({"WARNING"}, warning)
-        self.report(
-            {"INFO"},
-            f"motionclean: cleaned {len(plans)} action(s) at {1.0 / frame_time:.4g} fps, the "
-            "scene's frame rate",
-        )
+        # (each action at its keys' rate: a 30 fps glTF import in a 24 fps scene is 30)
+        times = [p.clip.motion.frame_time for p in plans if p.clip is not None]
+        if all(same_rate(frame_time, t) for t in times):
+            said, whose = f"{1.0 / frame_time:.4g}", "the scene's frame rate"
+        else:
+            said = ", ".join(sorted({f"{1.0 / t:.4g}" for t in times}))
+            whose = f"its keys' rate; the scene's is {1.0 / frame_time:.4g}"
+        self.report({"INFO"}, f"motionclean: cleaned {len(plans)} action(s) at {said} fps, {whose}")
         return {"FINISHED"}
 
     def _write(self, plan: Plan, settings: Any) -> None:

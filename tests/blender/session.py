@@ -357,7 +357,7 @@ def subframe_checks(clip: Path, out: Path, results: dict) -> None:
     for frame in ends:
         obj.pose.bones["Head"].keyframe_insert("scale", frame=frame)
     before = key_state(data.action, data.action_slot)
-    done = clean(frames="ACTION")
+    done, said, _ = printed(lambda: clean(frames="ACTION"))
     data = obj.animation_data
     after = key_state(data.action, data.action_slot)
     times = key_co(before, next(iter(before)))[:, 0].astype(np.float64)
@@ -371,6 +371,7 @@ def subframe_checks(clip: Path, out: Path, results: dict) -> None:
         "same_times": before.keys() == after.keys()
         and all(np.array_equal(key_co(before, k)[:, 0], key_co(after, k)[:, 0]) for k in before),
         "panel_keys": bpy.context.scene.motionclean.results[0].keys,
+        "said": said,
     }
 
 

@@ -178,6 +178,9 @@ def test_keys_between_frames_are_cleaned_where_they_are(blender):
     assert result["done"] == ["FINISHED"] and result["keys"] == FRAMES
     assert result["whole_keys"] < 5 and result["same_times"]
     assert re.fullmatch(r"Keys: [\d,]+ changed, 0 added", result["panel_keys"])
+    # (the rate the action was read at, its keys': it had named the scene's 24 fps)
+    said = "cleaned 1 action(s) at 120 fps, its keys' rate; the scene's is 24"
+    assert said in result["said"]
     rotations = np.load(blender.out / "subframe_out_rotations.npy")
     expected = np.load(blender.out / "quaternion_out_rotations.npy")
     assert degrees_between(rotations, expected).max() < FLOAT32_DEGREES
