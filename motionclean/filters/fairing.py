@@ -203,6 +203,19 @@ def _check_nonneg(name: str, value, *, finite: bool = True, rotation: bool = Fal
     return value
 
 
+#: Largest weight of the energy term of :func:`sse_fairing` (``beta``, ``alpha``): the
+#: iterations needed grow like ``1 + 16 beta``; far above it the gradient overflows (1e200
+#: had printed numpy's "invalid value" and returned the input).
+MAX_WEIGHT = 1e6
+
+
+def _check_weight(name: str, value) -> float:
+    value = _check_nonneg(name, value)
+    if value > MAX_WEIGHT:
+        raise ValueError(f"{name} must be at most {MAX_WEIGHT:g}, got {value:g}")
+    return value
+
+
 def _check_iterations(max_iterations) -> int:
     return checks.whole(max_iterations, "max_iterations", 0, MAX_ITERATIONS)
 
@@ -649,7 +662,7 @@ def sse_fairing(
     ----------
     q : (F, ..., 4) array
         Unit quaternions, time along axis 0; made sign-continuous first.
-    beta : float >= 0
+    beta : float, 0 to MAX_WEIGHT (1e6)
         Weight of the angular-acceleration energy against the squared distance, per frame
         (h = 1). 0 returns the input; larger is smoother and moves farther. The iterations
         needed grow roughly like ``1 + 16 beta`` (condition number of the problem).
@@ -664,7 +677,7 @@ def sse_fairing(
     (F, ..., 4) array, sign-continuous. Coordinate invariant: ``H(a q b) = a H(q) b``.
     Fewer than 3 frames have no energy term and are returned unchanged.
     """
-    beta = _check_nonneg("beta", beta)
+    beta = _check_weight("beta", beta)
     epsilon = _check_nonneg("epsilon", epsilon)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(quat.make_continuous(_quaternions(q), axis=0), 4, "q")
@@ -695,7 +708,7 @@ def sse_fairing_positions(
     ``alpha`` >= 0, per frame (h = 1); 0 returns the input. The iterates commute with rigid
     motions and with uniform scaling (004 Sec. 1), up to the absolute ``epsilon`` stop.
     """
-    alpha = _check_nonneg("alpha", alpha)
+    alpha = _check_weight("alpha", alpha)
     epsilon = _check_nonneg("epsilon", epsilon)
     iters_max = _check_iterations(max_iterations)
     x0, trailing = _to_planes(p, 3, "p")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..filters.fairing import MAX_ITERATIONS, sse_fairing, sse_fairing_positions
+from ..filters.fairing import MAX_ITERATIONS, MAX_WEIGHT, sse_fairing, sse_fairing_positions
 from .base import Param, StepData, StepSpec, cut_param
 
 
@@ -28,7 +28,7 @@ STEP = StepSpec(
             "weight of the angular-acceleration energy against the "
             "squared distance, per frame (h = 1); 0 leaves the input",
             minimum=0.0,
-            maximum=1e6,
+            maximum=MAX_WEIGHT,
         ),
         Param(
             "alpha",
@@ -36,7 +36,7 @@ STEP = StepSpec(
             1.0,
             "the same weight for translation channels",
             minimum=0.0,
-            maximum=1e6,
+            maximum=MAX_WEIGHT,
         ),
         Param(
             "epsilon",

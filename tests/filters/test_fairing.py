@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import re
 import tracemalloc
 
 import numpy as np
@@ -489,3 +490,15 @@ def test_parameter_validation():
         sse_fairing_positions(np.zeros((5, 3)), alpha=-1.0)
     with pytest.raises(ValueError, match=r"\(F, \.\.\., 4\)"):
         fairing(np.zeros((5, 3)))
+
+
+@pytest.mark.parametrize("beta", [1e7, 1e200])
+def test_an_energy_weight_past_its_bound_is_refused_without_a_warning(beta, recwarn):
+    """`sse_fairing(q, beta=1e200)` had printed numpy's "invalid value encountered in
+    divide" and returned the input: refused, as the step's parameter is, no warning."""
+    from motionclean.filters.fairing import MAX_WEIGHT, sse_fairing
+
+    q = quat.exp(np.random.default_rng(0).normal(size=(20, 2, 3)) * 0.1)
+    with pytest.raises(ValueError, match=re.escape(f"beta must be at most {MAX_WEIGHT:g}")):
+        sse_fairing(q, beta=beta)
+    assert not recwarn.list
