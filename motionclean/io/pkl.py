@@ -56,6 +56,9 @@ def _arrays(record: dict) -> dict[str, np.ndarray]:
             isinstance(value, (int, float))
             and not isinstance(value, bool)
             or isinstance(value, str)
+            # (a rate given as True or 60j is kept to be refused, not taken for none)
+            or key in smpl.RATE_KEYS
+            and isinstance(value, (bool, complex))
         ):
             out[key] = np.asarray(value)
     return out

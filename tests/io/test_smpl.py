@@ -819,3 +819,15 @@ def test_a_npy_header_holding_an_expression_is_refused_in_plain_words(tmp_path, 
     code, _, err = run_cli(capsys, "info", tmp_path / "h.npz")
     assert code == 1 and err.count("\n") == 1
     assert "member 'poses.npy': not a .npy array" in err and " object at 0x" not in err
+
+
+@pytest.mark.parametrize("rate", [True, 60j])
+def test_a_pickled_rate_of_true_or_a_complex_number_is_refused(tmp_path, capsys, rate):
+    """A pickle whose `mocap_framerate` is Python's True or 60j had read "no frame rate in
+    the file; 30 fps assumed" (the value dropped as no number): refused as the npz's is."""
+    record = dict(np.load(amass_h(tmp_path / "a.npz", frames=30)))
+    record["mocap_framerate"] = rate
+    with open(tmp_path / "r.pkl", "wb") as out:
+        pickle.dump(record, out)
+    code, _, err = run_cli(capsys, "info", tmp_path / "r.pkl")
+    assert code == 1 and "mocap_framerate: frame rate" in err and "is not a number" in err
