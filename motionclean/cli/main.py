@@ -69,7 +69,7 @@ from ..run.jobs import (
 )
 from ..run.memory import no_huge_page_advice, one_malloc_arena
 from ..steps import COMMON_PARAMS, REGISTRY
-from ..steps.auto import measured_source, seen_rotations
+from ..steps.auto import measured_source, seen_rotations, still_columns
 from ..steps.base import brief_runs, fps_text
 from ..steps.pipeline import DEFAULT_STEPS, Pipeline, as_default_auto_sees, make_step
 from .batch import batch_command
@@ -564,8 +564,7 @@ def capture_source_note(seen: Motion, found: SourceFound, source: str) -> dict:
         "source_measured": True,
     }
     if found.model == "markerless":  # (the moving joints', as clean's line gives it)
-        q = seen.rotations[:, seen.layout.has_rotation]  # (found's columns)
-        moving = ~np.all(q == q[:1], axis=(0, 2))
+        moving = ~still_columns(seen.rotations[:, seen.layout.has_rotation])  # (found's)
         result["wander"] = median_joint(found.wander[moving].tolist() or [0.0])
         result["wander_edge_hz"] = found.wander_edge_hz
     return result

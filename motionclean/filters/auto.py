@@ -262,16 +262,15 @@ def _coloured_fit(model: NoiseModel, frame_time: float, source: str, slope: floa
     None where the optical model applies."""
     if noise_source(source, slope) != "markerless":
         return None
-    if source == "auto" and _too_short_to_tell(model, frame_time):
+    if source == "auto" and _too_short(model.n_frames * frame_time):
         return None
     return noise_model.fit_coloured(model, frame_time)
 
 
-def _too_short_to_tell(model: NoiseModel, frame_time: float) -> bool:
-    """Whether a clip is shorter than :data:`MARKERLESS_MIN_SECONDS`: too short for its
-    flat spectrum to be taken for a pose estimator's noise unasked (within a frame time's
-    rounding: 600 frames of "Frame Time: .0083333" are 5 s)."""
-    seconds = model.n_frames * frame_time
+def _too_short(seconds: float) -> bool:
+    """Whether a clip of ``seconds`` is under :data:`MARKERLESS_MIN_SECONDS` (to within a
+    frame time's rounding: 600 frames of "Frame Time: .0083333" are 5 s): too short for
+    its flat spectrum to be taken for a pose estimator's noise unasked."""
     return seconds < MARKERLESS_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING)
 
 
@@ -307,7 +306,7 @@ def describe_source(
             f"{band}); give the source for a markerless or video capture"
         )
     if model == "optical" and slope > MARKERLESS_SLOPE:
-        if seconds is not None and seconds < MARKERLESS_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
+        if seconds is not None and _too_short(seconds):
             why = (
                 f"the clip is too short ({seconds:.3g} s, under {MARKERLESS_MIN_SECONDS:g} s) "
                 "to tell that from motion"

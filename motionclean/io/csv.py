@@ -458,14 +458,13 @@ def _coarse_grid(times: np.ndarray, mean: float, lines: np.ndarray, path, advice
     step = written_step(times)
     if not TIME_TOLERANCE * mean < step < mean:
         return None
-    rows = np.arange(times.size) - (times.size - 1) / 2.0
+    rows = _centred_rows(times.size)
     slope = float(rows @ (times - times.mean()) / (rows @ rows))
     # the nearest whole rate where its grid holds the times too (50 rows of 240 fps in
     # whole milliseconds fit 239.9 fps best)
-    for grid in (1.0 / max(round(1.0 / slope), 1), slope):
-        off = times - rows * grid
-        if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step:
-            return grid
+    held = _held_by(times, (_whole_rate_step(slope), slope), step)
+    if held is not None:
+        return held
     off = times - rows * slope
     worst = int(np.argmax(np.abs(off - np.median(off))))
     _fail(
@@ -626,10 +625,31 @@ def _whole_rate(times: np.ndarray, mean: float) -> float:
     step = written_step(times)
     if not COARSE_WRITTEN * mean < step < mean:
         return mean
-    whole = 1.0 / max(round(1.0 / mean), 1)
-    rows = np.arange(times.size) - (times.size - 1) / 2.0
-    off = times - rows * whole
-    return whole if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * step else mean
+    held = _held_by(times, (_whole_rate_step(mean),), step)
+    return mean if held is None else held
+
+
+def _centred_rows(n: int) -> np.ndarray:
+    """``(n,)`` row numbers centred on the middle row (a grid's step fitted or tried)."""
+    return np.arange(n) - (n - 1) / 2.0
+
+
+def _whole_rate_step(frame_time: float) -> float:
+    """The frame time of the whole rate nearest to ``frame_time``'s."""
+    return 1.0 / max(round(1.0 / frame_time), 1)
+
+
+def _held_by(times: np.ndarray, steps, written: float) -> float | None:
+    """The first of the frame times ``steps`` whose uniform grid holds every one of
+    ``times`` within ``written``, the step they are written in (rounded or cut: their
+    offsets from the grid spread over at most that, give or take TIME_TOLERANCE); None
+    where none does."""
+    rows = _centred_rows(times.size)
+    for step in steps:
+        off = times - rows * step
+        if float(off.max() - off.min()) <= (1.0 + TIME_TOLERANCE) * written:
+            return step
+    return None
 
 
 #: Times written in steps over this share of a frame are coarse (:func:`_whole_rate`).

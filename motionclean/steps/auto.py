@@ -38,7 +38,7 @@ KEPT_BELOW_DEG = 5.0
 UNMEASURABLE_NOISE = 1e-9
 
 
-def _still(values: np.ndarray) -> np.ndarray:
+def still_columns(values: np.ndarray) -> np.ndarray:
     """``(C,)``: the columns of ``values`` ``(F, C, d)`` that hold one value throughout."""
     if values.shape[0] == 0:
         return np.ones(values.shape[1], dtype=bool)
@@ -157,7 +157,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
     if missing_r is not None:  # the bridges go: placeholders held again
         data.rotations = quat.make_continuous(hold_missing(result.values, missing_r), axis=0)
     unseen = _unmeasured(data.rotations.shape, missing_r)
-    still = _still(rotations)
+    still = still_columns(rotations)
     for column in range(data.rotations.shape[1]):
         note = _auto_note(result, column, "deg", unseen[column], still[column])
         if lone[:, column].any():
@@ -173,7 +173,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
             data.translations = hold_missing(result.values, missing_p)
         unseen = _unmeasured(translations.shape, missing_p)
         unit = kinematics.length_unit(data.motion) or "length"  # ("m" where the format says)
-        still = _still(translations)
+        still = still_columns(translations)
         for column in range(data.translations.shape[1]):
             note = _auto_note(result, column, unit, unseen[column], still[column])
             data.translation_notes[column] = {"auto": note}
