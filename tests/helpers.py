@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from turned import turned_copy  # noqa: F401  (the tests import it from here)
 
 import motionclean as mc
 from motionclean.cli.main import main
@@ -584,20 +585,6 @@ def restposed(motion: mc.Motion, pose: str = "T", naming: str | None = None) -> 
         end_sites={j: quat.rotate(turns[j], v) for j, v in motion.end_sites.items()},
         rotations=quat.make_continuous(rotations),
         translations=translations,
-        source=None,
-        source_values=None,
-        source_rotations=None,
-    )
-
-
-def turned_copy(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
-    """The clip turned by the quaternion ``turn`` as a whole (offsets, end sites,
-    translations turned, local rotations conjugated): every world point turns the same."""
-    return motion.replace(
-        offsets=quat.rotate(turn, motion.offsets),
-        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
-        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
-        translations=quat.rotate(turn, motion.translations),
         source=None,
         source_values=None,
         source_rotations=None,

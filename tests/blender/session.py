@@ -44,6 +44,9 @@ from motionclean.io.fbx import fbx_frames, mend_importer
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # (the tests' own modules)
+from turned import turned_copy  # noqa: E402  (found through the line above)
+
 EXTENSION = "bl_ext.user_default.motionclean"
 #: Rigs: name -> the BVH importer's rotate_mode (AXIS_ANGLE: quaternion curves turned into
 #: axis-angle ones after the import).
@@ -784,17 +787,8 @@ def head_down_checks(clip: Path, out: Path, results: dict) -> None:
     y-down coordinates have it) written to FBX by motionclean and imported by Blender:
     the world heights (Blender's +Z) of its head and of its lowest ankle at the middle
     frame (its up's sign had been dropped: the figure stood on its head)."""
-    motion = mc.load(clip)
     turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
-    down = motion.replace(
-        offsets=quat.rotate(turn, motion.offsets),
-        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
-        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
-        translations=quat.rotate(turn, motion.translations),
-        source=None,
-        source_values=None,
-        source_rotations=None,
-    )
+    down = turned_copy(mc.load(clip), turn)
     mc.save(down, out / "head_down.fbx")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     mend_importer(bpy)
