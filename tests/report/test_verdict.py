@@ -1179,8 +1179,15 @@ def test_a_clip_compared_with_itself_shows_no_change(tmp_path, capsys, name):
     assert "brief" not in report["verdict"]["text"] and report["verdict"]["repairs"] == {}
 
 
+def _verdict_moved(tmp_path, clip: mc.Motion, translations: np.ndarray, name: str) -> dict:
+    """The default's verdict on ``clip`` with these ``translations``, read from a file."""
+    source = tmp_path / f"{name}.bvh"
+    mc.save(clip.replace(translations=translations, source_values=None), source)
+    return clean_clip(source, None, Pipeline.default()).report["verdict"]
+
+
 @pytest.mark.parametrize("frames", [1, 20])
-def test_a_root_that_teleports_needs_a_look(tmp_path, capsys, frames):
+def test_a_root_that_teleports_needs_a_look(tmp_path, frames):
     """The sample with its root moved by 0.4 body heights for 1 frame (a spike: despike
     takes it out, nothing to say) or for 20 frames at 120 fps (0.17 s, longer than
     despike's spikes: it had read "clean capture ... otherwise left as it was"): the
@@ -1190,13 +1197,7 @@ def test_a_root_that_teleports_needs_a_look(tmp_path, capsys, frames):
     height = kinematics.body_height(clip)
     moved = clip.translations.copy()
     moved[150 : 150 + frames, 0, 0] += 0.4 * height
-    source = tmp_path / "jump.bvh"
-    mc.save(clip.replace(translations=moved, source_values=None), source)
-    code, out, err = run_cli(
-        capsys, "clean", source, "-o", tmp_path / "c.bvh", "--report", tmp_path / "r.json"
-    )
-    assert code == 0, err
-    verdict = json.loads((tmp_path / "r.json").read_text())["verdict"]
+    verdict = _verdict_moved(tmp_path, clip, moved, "jump")
     if frames == 1:
         assert verdict["position_jumps"] == {} and "jump" not in verdict["text"]
         return
@@ -1206,7 +1207,7 @@ def test_a_root_that_teleports_needs_a_look(tmp_path, capsys, frames):
     assert verdict["text"].startswith("needs a look: Hips's position jumps (steps over 10 body")
 
 
-def test_a_fast_smooth_move_of_a_position_is_no_jump(tmp_path, capsys):
+def test_a_fast_smooth_move_of_a_position_is_no_jump(tmp_path):
     """The sample's root swung along a smooth arc at up to 15 body heights/s (a serve's
     hand: faster than the jump limit, but its steps around as fast): no jump; the same
     clip with one 0.4 body-height teleport held 0.17 s is one (its two steps)."""
@@ -1218,13 +1219,7 @@ def test_a_fast_smooth_move_of_a_position_is_no_jump(tmp_path, capsys):
     for name, moved in (("arc", swung), ("teleport", swung.copy())):
         if name == "teleport":
             moved[150:170, 0, 2] += 0.4 * height
-        source = tmp_path / f"{name}.bvh"
-        mc.save(clip.replace(translations=moved, source_values=None), source)
-        code, _, err = run_cli(
-            capsys, "clean", source, "-o", tmp_path / "c.bvh", "--report", tmp_path / "r.json"
-        )
-        assert code == 0, err
-        jumps = json.loads((tmp_path / "r.json").read_text())["verdict"]["position_jumps"]
+        jumps = _verdict_moved(tmp_path, clip, moved, name)["position_jumps"]
         assert (jumps == {}) is (name == "arc")
 
 
