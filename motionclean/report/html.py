@@ -464,6 +464,7 @@ def _headline(report: dict) -> list[str]:
             "spikes": "spike",
             "capped": "capped step",
             "gaps_filled": "gap",
+            "held": "held pose",
             "brief": "brief change",
         }
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}

@@ -299,13 +299,15 @@ def _repairs(joints: dict[str, dict]) -> dict[str, dict[str, int]]:
             "flips": len(_runs(despike, "unflipped")),
             "spikes": len(_runs(despike, "interpolated")) + len(moved) + len(lone) - capped,
             "capped": capped,
-            "gaps_filled": len(_runs(gaps, "filled")),
+            "gaps_filled": len(_runs(gaps, "filled")) - len(_runs(gaps, "held")),
             "gaps_left": len(_runs(gaps, "missing")),
         }
         if turned:  # (two clips compared)
             counts = {"turned": len(turned)} | counts
         if brief:  # (two clips compared)
             counts = counts | {"brief": len(brief)}
+        if gaps.get("held"):  # (poses the capture held, bridged: a subset of the filled)
+            counts = counts | {"held": len(gaps["held"])}
         if any(counts.values()):
             frames = int(despike.get("frames_repaired", 0))
             frames += sum(b - a for a, b in _runs(gaps, "filled") + turned + brief + lone)
@@ -342,6 +344,7 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         ("spikes", "spike", "repaired"),
         ("capped", "too-fast step", "capped"),
         ("gaps_filled", "gap", "filled"),
+        ("held", "held pose", "bridged"),
     ):
         counts = sorted(
             ((counts[key], name) for name, counts in repairs.items() if counts.get(key)),
@@ -350,6 +353,10 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         if not counts:
             continue
         total = f"{plural(sum(n for n, _ in counts), noun)} {verb}"
+        if key == "held" and len(counts) > 1:  # (one recorder's dropout holds many joints)
+            most = counts[0][0]
+            words.append(f"{plural(most, noun)} {verb} on {plural(len(counts), 'joint')}")
+            continue
         if len(counts) == 1:
             words.append(f"{total} on {counts[0][1]}")
             continue

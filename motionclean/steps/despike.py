@@ -9,6 +9,7 @@ import numpy as np
 
 from ..core import kinematics
 from ..core.errors import UsageError
+from ..core.holds import held_samples
 from ..core.words import UNSAID_LENGTH, length_word, plural
 from ..filters.despike import (
     FLIP_DEG,
@@ -60,10 +61,14 @@ def _position_cap(data: StepData, given: float, height: float) -> float:
 
 
 def _missing(data: StepData, joints) -> np.ndarray | None:
-    """The dropouts of the given joints' columns, ``(F, len(joints))``, or None."""
-    if data.motion is None or data.motion.missing is None:
+    """The dropouts of the given joints' columns, ``(F, len(joints))``, or None: missing
+    samples and poses the capture held (no step in or out of one is a spike or a jump:
+    ``fill-gaps`` bridges them)."""
+    if data.motion is None:
         return None
-    return data.motion.missing[:, joints]
+    held = held_samples(data.motion)
+    missing = held if data.motion.missing is None else data.motion.missing | held
+    return missing[:, joints] if missing.any() else None
 
 
 def _run_despike(data: StepData, params: dict) -> StepData:

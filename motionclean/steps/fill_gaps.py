@@ -1,10 +1,14 @@
-"""The ``fill-gaps`` step: tracker dropouts bridged by a smooth coordinate-invariant fill."""
+"""The ``fill-gaps`` step: tracker dropouts bridged by a smooth coordinate-invariant fill.
+
+Dropouts are the clip's missing samples (blank cells) and the poses a recorder held
+(:mod:`~motionclean.core.holds`: the last sample repeated until the data returned)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..core.motion import Motion
+from ..core.holds import held_samples
+from ..core.motion import Motion, run_labels
 from ..core.rates import frames_floor
 from ..filters.gaps import fill_gaps
 from .base import Param, StepSpec, brief_runs, page_runs, shift_runs
@@ -18,20 +22,32 @@ def _runs(first: np.ndarray, stop: np.ndarray) -> list[list[int]]:
     return [[int(a), int(b)] for a, b in zip(first, stop, strict=True)]
 
 
+def _held_runs(motion: Motion, max_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """The samples of ``motion``'s held poses that are bridged (runs of at most
+    ``max_frames``) and those left as held (longer runs), each ``(F, J)`` bool."""
+    held = held_samples(motion)
+    labels = run_labels(held)
+    long = np.bincount(labels.ravel())[labels] > max_frames
+    return held & ~long, held & long
+
+
 def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
-    if motion.missing is None:
-        return motion, {}
     longest = params["max_gap"] / motion.frame_time  # (inf: every gap)
     max_frames = motion.n_frames if longest >= motion.n_frames else frames_floor(longest)
+    held, held_left = _held_runs(motion, max_frames)
+    missing = held if motion.missing is None else motion.missing | held
+    if not missing.any() and not held_left.any():
+        return motion, {}
     result = fill_gaps(
         motion.rotations,
         motion.translations,
-        motion.missing,
+        missing,
         max_frames,
         motion.layout.has_position,
         donors=params["donors"],
     )
     gaps = result.gaps
+    from_held = held[gaps.first, gaps.joint]
     notes: dict[str, dict] = {}
     for joint in np.unique(gaps.joint):
         mine = gaps.joint == joint
@@ -46,9 +62,30 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
                 "donors": helpers,
             }
         }
+        held_here = mine & from_held & result.filled
+        if held_here.any():
+            notes[motion.names[joint]]["fill-gaps"]["held"] = _runs(
+                gaps.first[held_here], gaps.stop[held_here]
+            )
+    for joint in np.flatnonzero(held_left.any(axis=0)):
+        first, stop = _column_runs(held_left[:, joint])
+        note = notes.setdefault(motion.names[joint], {}).setdefault(
+            "fill-gaps", {"gaps": 0, "longest": 0, "filled": [], "missing": [], "donors": []}
+        )
+        note["held_left"] = _runs(first, stop)
+    # a held pose's samples are data: what the fill left of them stays as captured
+    still_missing = result.missing & ~held
+    if motion.missing is None and not still_missing.any():
+        still_missing = None
     return motion.replace(
-        rotations=result.rotations, translations=result.translations, missing=result.missing
+        rotations=result.rotations, translations=result.translations, missing=still_missing
     ), notes
+
+
+def _column_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``first`` and ``stop`` of the runs of True of a ``(F,)`` mask."""
+    edges = np.diff(np.r_[0, mask.astype(np.int8), 0])
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
 def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
@@ -57,10 +94,19 @@ def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
     filled, missing = note["filled"], note["missing"]
     count = note["gaps"]
     longest = note["longest"]
-    parts = [
-        f"{count} gap{'' if count == 1 else 's'}, longest {longest} frame"
-        + ("" if longest == 1 else "s")
-    ]
+    held = len(note.get("held", []))
+    parts = []
+    if count:
+        parts.append(
+            f"{count} gap{'' if count == 1 else 's'}, longest {longest} frame"
+            + ("" if longest == 1 else "s")
+            + _held_words(held, count)
+        )
+    if note.get("held_left"):
+        parts.append(
+            f"a pose the capture held left as captured {runs(note['held_left'])} (longer "
+            "than max_gap)"
+        )
     if filled:
         parts.append(f"filled {runs(filled)}")
     if note["donors"]:
@@ -70,12 +116,21 @@ def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
     return "; ".join(parts)
 
 
+def _held_words(held: int, count: int) -> str:
+    """ " (a pose the capture held)", " (2 of them poses the capture held)" or ""."""
+    if not held:
+        return ""
+    if held == count:
+        return " (a pose the capture held)" if held == 1 else " (poses the capture held)"
+    return f" ({held} of them {'a pose' if held == 1 else 'poses'} the capture held)"
+
+
 def _shift(note: dict, frames: int, _: float) -> dict:
     return {
         **note,
         "filled": shift_runs(note["filled"], frames),
         "missing": shift_runs(note["missing"], frames),
-    }
+    } | {key: shift_runs(note[key], frames) for key in ("held", "held_left") if key in note}
 
 
 STEP = StepSpec(

@@ -1,0 +1,129 @@
+"""Poses a capture held (the last sample repeated through a dropout): found where a moving
+joint stops dead and jumps on, bridged by the default; keyframed holds, stepped keys,
+duplicated frames and quantised values left alone."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from helpers import ROOT, corpus_clip, degrees_between
+
+import motionclean as mc
+from motionclean.core.holds import held_samples
+from motionclean.run.jobs import clean_motion
+from motionclean.steps.pipeline import Pipeline
+
+FROZEN = slice(400, 412)  # 12 frames (0.1 s at 120 fps) repeating frame 399
+
+
+@pytest.fixture(scope="module")
+def truth() -> mc.Motion:
+    return mc.load(corpus_clip("131_02.bvh"))
+
+
+def frozen(motion: mc.Motion, frames: slice, joints=slice(None)) -> mc.Motion:
+    """``motion`` with ``joints`` holding frame ``frames.start - 1`` over ``frames``."""
+    rotations, translations = motion.rotations.copy(), motion.translations.copy()
+    rotations[frames, joints] = rotations[frames.start - 1, joints]
+    translations[frames, joints] = translations[frames.start - 1, joints]
+    return motion.replace(rotations=rotations, translations=translations)
+
+
+def moving_near(motion: mc.Motion, frames: slice) -> np.ndarray:
+    """``(J,)``: joints turning or moving on every step within 4 frames of ``frames``."""
+    q, t = motion.rotations, motion.translations
+    around = np.r_[frames.start - 5 : frames.start, frames.stop : frames.stop + 5]
+    turning = degrees_between(q[around[1:]], q[around[1:] - 1]) > 0
+    moving = np.linalg.norm(t[around[1:]] - t[around[1:] - 1], axis=-1) > 0
+    return (turning | moving).all(axis=0)
+
+
+def test_a_whole_pose_held_is_found_on_the_joints_that_move(truth):
+    held = held_samples(frozen(truth, FROZEN))
+    assert np.array_equal(np.flatnonzero(held.any(axis=1)), np.arange(400, 412))
+    moving = moving_near(truth, FROZEN)
+    assert np.array_equal(held.any(axis=0), moving)  # still joints repeat anyway
+    assert moving.sum() >= 20
+    assert not held_samples(truth).any()  # the capture itself holds nothing
+
+
+def test_the_default_bridges_a_held_pose_close_to_the_capture(truth):
+    clip = frozen(truth, FROZEN)
+    result = clean_motion(clip, Pipeline.default(), "frozen.bvh")
+    moving = moving_near(truth, FROZEN)
+    smooth = moving & (np.array(truth.names) != "RThumb")  # (RThumb flips: despike's)
+    before = degrees_between(clip.rotations[FROZEN], truth.rotations[FROZEN])[:, smooth]
+    after = degrees_between(result.after.rotations[FROZEN], truth.rotations[FROZEN])[:, smooth]
+    assert before.max() > 10.0
+    assert after.max() < before.max() / 5
+    root_before = np.abs(clip.translations[FROZEN, 0] - truth.translations[FROZEN, 0]).max()
+    root_after = np.abs(result.after.translations[FROZEN, 0] - truth.translations[FROZEN, 0])
+    assert root_after.max() < root_before / 5
+    text = result.report["verdict"]["text"]
+    assert f"1 held pose bridged on {moving.sum()} joints" in text, text
+    assert not held_samples(result.after).any()  # cleaning again bridges nothing more
+
+
+def test_one_joint_held_is_bridged_alone(truth):
+    elbow = truth.names.index("LeftElbow")
+    speed = degrees_between(truth.rotations[1:, elbow], truth.rotations[:-1, elbow])
+    start = 100 + int(np.argmax(speed[100:-100]))  # where it turns fastest
+    lost_frames = slice(start, start + 6)
+    clip = frozen(truth, lost_frames, elbow)
+    held = held_samples(clip)
+    assert np.array_equal(np.argwhere(held), [[f, elbow] for f in range(start, start + 6)])
+    result = clean_motion(clip, Pipeline.default(), "elbow.bvh")
+    note = result.report["joints"]["LeftElbow"]["fill-gaps"]
+    assert note["held"] == [[start, start + 6]]
+    error = degrees_between(
+        result.after.rotations[lost_frames, elbow], truth.rotations[lost_frames, elbow]
+    )
+    lost = degrees_between(clip.rotations[lost_frames, elbow], truth.rotations[lost_frames, elbow])
+    assert error.max() < lost.max() / 3
+
+
+@pytest.mark.parametrize(
+    "kind", ["at the end", "at the start", "one repeat", "duplicated frames", "on threes"]
+)
+def test_repeats_that_are_not_dropouts_are_left(truth, kind):
+    n = truth.n_frames
+    if kind == "at the end":
+        clip = frozen(truth, slice(n - 12, n))
+    elif kind == "at the start":  # frames 0..11 all hold frame 12's pose (a rest lead-in)
+        clip = frozen(truth.at_frames(np.r_[np.full(12, 12), 12:n]), slice(1, 13))
+    elif kind == "one repeat":  # a frame doubled, as rate conversions do
+        clip = truth.at_frames(np.r_[:400, 399, 400:n])
+    elif kind == "duplicated frames":
+        clip = truth.at_frames(np.repeat(np.arange(300), 2))
+    else:  # animation "on threes": each pose held three frames, every pose
+        clip = truth.at_frames(np.repeat(np.arange(0, n, 3), 3))
+    assert not held_samples(clip).any()
+
+
+def test_stepped_keys_of_an_exporter_are_left():
+    """Mixamo's export keys a finger in steps: it holds, jumps, holds (no motion between)."""
+    clip = mc.load(ROOT / "tests" / "data" / "exporters" / "mixamo_tpose.bvh")
+    q = clip.rotations
+    repeats = np.all(q[1:] == q[:-1], axis=-1)
+    assert (repeats.sum(axis=0) >= 10).any()  # it does hold values
+    assert not held_samples(clip).any()
+
+
+def test_values_quantised_by_a_writer_are_left(tmp_path, truth):
+    """Channels written to 0.5 (degrees, units): slow joints hold and step by a quantum."""
+    text = corpus_clip("131_02.bvh").read_text()
+    head, _, frames = text.partition("Frame Time:")
+    time_line, _, rows = frames.partition("\n")
+
+    def half(match: re.Match) -> str:
+        return f"{round(float(match.group()) * 2) / 2:g}"
+
+    rows = re.sub(r"-?\d+\.\d+(e-?\d+)?", half, rows)
+    path = tmp_path / "quantised.bvh"
+    path.write_text(head + "Frame Time:" + time_line + "\n" + rows)
+    clip = mc.load(path)
+    q = clip.rotations
+    assert np.all(q[1:] == q[:-1], axis=-1).sum() > 1000  # many exact repeats
+    assert not held_samples(clip).any()
