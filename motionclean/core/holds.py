@@ -53,7 +53,7 @@ def held_samples(motion: Motion) -> np.ndarray:
     (module docstring), False elsewhere and on its missing samples (a blank cell's
     placeholder repeats the last known sample too); frames ``a+1 .. b`` of a run whose
     frames all repeat frame ``a``."""
-    repeats, rotation_steps, position_steps = _steps(motion)
+    repeats = _repeats(motion)
     first, stop, column = _runs(repeats)  # step indices: step i joins frames i and i + 1
     n_steps = repeats.shape[0]
     keep = (stop - first >= MIN_HELD_FRAMES) & (first > 0) & (stop < n_steps)
@@ -68,39 +68,50 @@ def held_samples(motion: Motion) -> np.ndarray:
     index = np.where(valid, around, 0), column[:, None]
     moving = ~(repeats[index] & valid).any(1)
     moving &= (counted[0] >= MIN_MOVING_STEPS) & (counted[1] >= MIN_MOVING_STEPS)
-    exit_step = rotation_steps[stop, column]
-    jumps = _jumps(rotation_steps, index, valid, stop, column) & (
-        (exit_step >= np.radians(MIN_JUMP_DEG)) & (exit_step <= np.radians(MAX_JUMP_DEG))
-    )
-    if position_steps is not None:
-        jumps |= _jumps(position_steps, index, valid, stop, column)
-    candidate = moving
-    jumped = candidate & jumps
+    turns = _rotation_steps(motion.rotations, index)
+    exit_turn = _rotation_steps(motion.rotations, (stop, column))
+    jumps = _jumps(turns, valid, exit_turn) & (exit_turn >= np.radians(MIN_JUMP_DEG))
+    jumps &= exit_turn <= np.radians(MAX_JUMP_DEG)
+    has_position = motion.layout.has_position[column]
+    if has_position.any():
+        moves = _position_steps(motion.translations, index)
+        exit_move = _position_steps(motion.translations, (stop, column))
+        jumps |= has_position & _jumps(moves, valid, exit_move)
+    jumped = moving & jumps
     # the same frames held by another joint that jumps out of them: one dropout
     event = first * (n_steps + 1) + stop
-    candidate &= np.isin(event, event[jumped])
+    held_run = moving & np.isin(event, event[jumped])
     edges = np.zeros((motion.n_frames + 1, motion.n_joints), dtype=np.int64)
-    np.add.at(edges, (first[candidate] + 1, column[candidate]), 1)
-    np.add.at(edges, (stop[candidate] + 1, column[candidate]), -1)
+    np.add.at(edges, (first[held_run] + 1, column[held_run]), 1)
+    np.add.at(edges, (stop[held_run] + 1, column[held_run]), -1)
     held = np.cumsum(edges[:-1], axis=0) > 0
     return held if motion.missing is None else held & ~motion.missing  # (blanks: missing)
 
 
-def _steps(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """``(F-1, J)``: which steps repeat the frame before exactly (rotation, and position
-    where the joint has one), the rotation steps (radians) and the position steps (length
-    units; None where no joint has position channels)."""
-    q = motion.rotations
-    repeats = np.all(q[1:] == q[:-1], axis=-1) | np.all(q[1:] == -q[:-1], axis=-1)
-    dots = np.abs(np.einsum("fjk,fjk->fj", q[1:], q[:-1]))
-    rotation_steps = 2.0 * np.arccos(np.minimum(dots, 1.0))
+def _repeats(motion: Motion) -> np.ndarray:
+    """``(F-1, J)``: the steps whose frame repeats the frame before exactly: its rotation
+    (sign-continuous: the same rotation read twice is the same quaternion) and, where the
+    joint has position channels, its position."""
+    q, t = motion.rotations, motion.translations
+    repeats = np.all(q[1:] == q[:-1], axis=-1)
     has_position = motion.layout.has_position
-    if not has_position.any():
-        return repeats, rotation_steps, None
-    t = motion.translations
-    repeats &= np.all(t[1:] == t[:-1], axis=-1) | ~has_position
-    position_steps = np.where(has_position, np.linalg.norm(t[1:] - t[:-1], axis=-1), 0.0)
-    return repeats, rotation_steps, position_steps
+    if has_position.any():
+        repeats[:, has_position] &= np.all(t[1:, has_position] == t[:-1, has_position], axis=-1)
+    return repeats
+
+
+def _rotation_steps(q: np.ndarray, index) -> np.ndarray:
+    """The angles (radians) of the steps ``index`` (step ``i`` joins frames ``i``, ``i + 1``;
+    a pair of arrays of step and column)."""
+    steps, columns = index
+    dots = np.abs(np.sum(q[steps + 1, columns] * q[steps, columns], axis=-1))
+    return 2.0 * np.arccos(np.minimum(dots, 1.0))
+
+
+def _position_steps(t: np.ndarray, index) -> np.ndarray:
+    """The lengths of the position steps ``index`` (as :func:`_rotation_steps`)."""
+    steps, columns = index
+    return np.linalg.norm(t[steps + 1, columns] - t[steps, columns], axis=-1)
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,11 +133,11 @@ def _window(first: np.ndarray, stop: np.ndarray, low: int, high: int) -> np.ndar
     return np.where((index >= low) & (index < high), index, -1)
 
 
-def _jumps(steps, index, valid, stop, column) -> np.ndarray:
-    """Per run: its exit step over :data:`JUMP_RATIO` times the median moving step around
-    it (False where none moves)."""
-    around = np.where(valid & (steps[index] > 0.0), steps[index], np.nan)
+def _jumps(around: np.ndarray, valid: np.ndarray, exit_step: np.ndarray) -> np.ndarray:
+    """Per run: its ``exit_step`` over :data:`JUMP_RATIO` times the median of the moving
+    steps ``around`` it (``(runs, n)``, where ``valid``); False where none moves."""
+    around = np.where(valid & (around > 0.0), around, np.nan)
     has = ~np.isnan(around).all(1)
-    typical = np.full(len(stop), np.inf)
+    typical = np.full(len(exit_step), np.inf)
     typical[has] = np.nanmedian(around[has], axis=1)
-    return steps[stop, column] > JUMP_RATIO * typical
+    return exit_step > JUMP_RATIO * typical
