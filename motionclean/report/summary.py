@@ -221,9 +221,13 @@ def build_series(
     after: Motion | None = None,
     repairs: dict[str, np.ndarray] | None = None,
     position_repairs: dict[str, np.ndarray] | None = None,
+    level_turn: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Per-frame figures behind the report, per joint with rotation channels, reduced to
-    what the HTML report plots and the figures the report reads.
+    what the HTML report plots and the figures the report reads. ``level_turn`` (a unit
+    quaternion ``(w, x, y, z)``, or None) is the turn of the world the ``ground`` step gave
+    the roots to level the floor: the roots' rotation change is measured from the input
+    turned by it (levelling is no smoothing; the report says it apart).
 
     Returns ``{"frame_time": dt, "joints": {name: {"accel_before": Trace, "accel_after":
     Trace or None, "deviation": Trace or None}}, "figures": {...}, ...}``: the
@@ -333,6 +337,8 @@ def build_series(
     fast: dict[str, tuple[int, int]] = {}  # joint name: its steps too fast for a body, of all
     if after is not None:
         table = metrics.deviation_deg(before.rotations[:, cols], after.rotations[:, cols], missing)
+        if level_turn is not None:
+            _discount_turn(table, before, after, rot, level_turn, missing)
         outside["deviation"] = _outside(table, lead, trail, repaired)
         # (and away from the steps no step repaired: a smoother across a flip moves every
         # frame near it, which says nothing of what it took for noise elsewhere)
@@ -568,6 +574,25 @@ def _thrash(
     return {
         names[n]: (int(counts[n]), float(worst[n] * dt)) for n in np.flatnonzero(counts).tolist()
     }
+
+
+def _discount_turn(
+    table: np.ndarray,
+    before: Motion,
+    after: Motion,
+    rot: np.ndarray,
+    turn: np.ndarray,
+    missing: np.ndarray | None,
+) -> None:
+    """The rotation change ``table`` ``(F, len(rot))`` (degrees) of the roots measured from
+    ``before``'s turned by ``turn`` (written in place)."""
+    roots = np.flatnonzero(before.parents[rot] < 0)
+    if not roots.size:
+        return
+    turned = quat.multiply(turn, before.rotations[:, rot[roots]])
+    table[:, roots] = metrics.deviation_deg(
+        turned, after.rotations[:, rot[roots]], None if missing is None else missing[:, roots]
+    )
 
 
 def _missing(before: Motion, after: Motion | None, cols) -> np.ndarray | None:

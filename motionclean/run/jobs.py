@@ -220,7 +220,7 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
             notes.setdefault(joint, {}).setdefault("fill-gaps", note["fill-gaps"])
     repairs = _repaired_input_frames(logs, before)
     position_repairs = _repaired_input_frames(logs, before, positions=True)
-    series = build_series(before, compared, repairs, position_repairs)
+    series = build_series(before, compared, repairs, position_repairs, _level_turn(notes))
     return_free_memory()  # the series' per-frame tables
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
@@ -232,6 +232,16 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     if compared is not after:
         report["output"] = {"frames": after.n_frames, "frame_time": after.frame_time}
     return CleanedClip(before, after, logs, report, series)
+
+
+def _level_turn(notes: dict[str, dict]) -> np.ndarray | None:
+    """The turn the ``ground`` step gave the roots to level the floor (its note's ``turn``,
+    ``(w, x, y, z)``), or None where it did not level one."""
+    for entry in notes.values():
+        turn = (entry.get("position_ground") or {}).get("turn")
+        if turn is not None:
+            return np.asarray(turn, dtype=np.float64)
+    return None
 
 
 #: The figures of a cleaned clip a batch index shows, and the type of each: what the clip's

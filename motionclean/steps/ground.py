@@ -172,6 +172,8 @@ def _run(data: StepData, params: dict) -> StepData:
         placed = quat.rotate(turn, local[:, root]) + shift
         column = moved[root]
         data.translations[:, column, has_axis[root]] = placed[:, has_axis[root]]
+    if tilted:  # (the report measures the roots' change from the input turned by it)
+        note["turn"] = [float(c) for c in turn]
     data.translation_notes.setdefault(moved[int(roots[0])], {})["ground"] = note
     return data
 

@@ -477,3 +477,30 @@ def test_ground_without_a_floor_says_why(walk, clip, why):
     np.testing.assert_array_equal(out.translations, motion.translations)
     assert note == {"why": why}
     assert f"not put on the floor: {why}" in text
+
+
+@pytest.mark.parametrize(
+    "steps", [["ground"], ["despike", "fill-gaps", "auto", "footlock", "ground"]]
+)
+def test_levelling_is_told_apart_from_smoothing(walk, steps):
+    """The levelling turn of the roots is no smoothing: a clean capture on a tilted floor,
+    levelled, reads clean (or not smoothed), its roots' change measured from the input
+    turned by the note's turn; the figures still see smoothing where there was some."""
+    tilted = _tilted(walk, 30.0)
+    result = clean_motion(tilted, Pipeline.from_inline(steps), "tilted.bvh")
+    verdict = result.report["verdict"]
+    assert "levelled from" in verdict["text"]
+    assert verdict["status"] in ("clean", "not smoothed", "repaired"), verdict["text"]
+    assert "Hips by" not in verdict["text"]
+    note = result.report["joints"]["Hips"]["position_ground"]
+    turn = np.array(note["turn"])
+    assert np.degrees(quat.angle(turn)) == pytest.approx(TILT_DEG, abs=1.0)
+    root = result.after.rotations[:, 0]
+    assert (
+        np.degrees(quat.angle_between(quat.multiply(turn, tilted.rotations[:, 0]), root)).max()
+        < 0.5
+    )
+    smoothed = clean_motion(
+        tilted, Pipeline.from_inline(["lee-shin:k=2,iterations=3", "ground"]), "tilted.bvh"
+    )
+    assert smoothed.report["verdict"]["change_deg_max"] > 0.5
