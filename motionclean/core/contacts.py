@@ -188,6 +188,7 @@ def find_feet(
     bone[has_parent] = np.linalg.norm(rest[has_parent] - rest[parents[has_parent]], axis=1)
     long_bone = bone > LONG_BONE * height
 
+    split = None
     if patterns is not None:
         ankles = [
             j for j in range(n_joints) if any(fnmatch.fnmatchcase(names[j], p) for p in patterns)
@@ -219,13 +220,16 @@ def find_feet(
                     j = knee
             if j >= 0 and j < n_joints and j not in ankles:
                 ankles.append(j)
+    leg = None if split is None else _below_trunk(parents, split[0])  # a knee lies in one
     feet = []
     for ankle in sorted(ankles):
         knee = parents[ankle]
         hip = parents[knee] if knee >= 0 else -1
         if hip < 0 or not (long_bone[ankle] and long_bone[knee]):
             continue
-        if bone[ankle] + bone[knee] < LEG_LENGTH * height:
+        if leg is not None and not leg[knee]:
+            continue
+        if _leg_length(parents, bone, ankle, leg) < LEG_LENGTH * height:
             continue
         feet.append(
             Foot(
@@ -237,6 +241,33 @@ def find_feet(
             )
         )
     return _one_per_knee(feet, rest)
+
+
+def _below_trunk(parents: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``(P,)`` bool: the points of a body outside its ``upper`` body and off the chain from
+    its pelvis up to the root (a leg's, a second figure's or a prop's). A cat whose feet
+    are IK targets hung from the root had its hip taken for an ankle, the pelvis for its
+    knee."""
+    inside = np.zeros(len(parents), dtype=bool)
+    inside[upper] = True
+    point = int(parents[next(p for p in upper.tolist() if not inside[parents[p]])])
+    while point >= 0:  # the pelvis and what stands above it
+        inside[point] = True
+        point = int(parents[point])
+    return ~inside
+
+
+def _leg_length(parents: np.ndarray, bone: np.ndarray, ankle: int, leg: np.ndarray | None) -> float:
+    """The length of the leg above ``ankle`` (``bone``: each point's bone length): its shin
+    and thigh, and on a body (``leg``: its leg points) every bone above them up to the
+    trunk. A shin split in two bones (MakeHuman's lowerleg01 and lowerleg02) makes the
+    mid-shin the knee: its shin and thigh had measured 4.08 of a 16.5 body, its leg 9.1."""
+    knee = int(parents[ankle])
+    length, point = bone[ankle] + bone[knee], int(parents[knee])
+    while leg is not None and point >= 0 and leg[point]:
+        length += bone[point]
+        point = int(parents[point])
+    return float(length)
 
 
 #: Words of arm joints' names in every exporter's naming (CMU's LeftWrist, Mixamo's
@@ -303,7 +334,7 @@ def skeleton_feet(
         elevation = np.median(heights - heights.min(axis=1, keepdims=True), 0)
     feet = find_feet(
         kinematics.point_parents(motion),
-        kinematics.rest_positions(motion),
+        kinematics.rest_pose(motion),
         axis,
         height,
         motion.names,

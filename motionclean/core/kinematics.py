@@ -46,7 +46,9 @@ __all__ = [
     "local_translations",
     "point_parents",
     "reaches",
+    "rest_pose",
     "rest_positions",
+    "rest_rotations",
     "sample_poses",
     "trunk_split",
     "up_axis",
@@ -434,6 +436,35 @@ def rest_positions(motion: Motion) -> np.ndarray:
     return positions[0]
 
 
+def rest_rotations(motion: Motion) -> np.ndarray:
+    """``(J, 4)`` local rest rotations (w, x, y, z): where the format poses its rest with
+    them (a glTF node's ``rotation``: ``source.rest_rotations``), those, else identities
+    (a BVH's or an FBX's rest is its offsets alone)."""
+    as_motion(motion)
+    held = getattr(motion.source, "rest_rotations", None)
+    if held is not None and np.shape(held) == (motion.n_joints, 4):
+        return np.asarray(held, dtype=np.float64)
+    return quat.identity((motion.n_joints,))
+
+
+def rest_pose(motion: Motion) -> np.ndarray:
+    """``(P, 3)`` world positions of joints and end sites in the skeleton's rest pose:
+    :func:`rest_positions` with each joint turned by its :func:`rest_rotations` (a glTF
+    rig whose bones all lie along their nodes' y stands folded on its offsets alone:
+    CesiumMan's 1.17 m read 0.27). The body's parts and feet are read on it."""
+    as_motion(motion)
+    rest_q = rest_rotations(motion)
+    if not np.any(rest_q[:, 1:]):
+        return rest_positions(motion)
+    rotations = np.broadcast_to(rest_q, (1, *rest_q.shape))
+    positions, world_q = forward_arrays(motion.parents, rotations, motion.offsets[None])
+    if not motion.end_sites:
+        return positions[0]
+    joints = sorted(motion.end_sites)
+    tips = quat.rotate(world_q[0, joints], np.stack([motion.end_sites[j] for j in joints]))
+    return np.concatenate([positions[0], positions[0, joints] + tips])
+
+
 def reaches(motion: Motion) -> np.ndarray:
     """``(J,)``: how far each joint's rotation reaches, the largest rest-pose distance
     (file units) from the joint to a point below it (joints and end sites of its subtree);
@@ -539,7 +570,7 @@ def _motion_up(motion: Motion) -> MotionUp:
     """:func:`motion_up`, computed."""
     poses, known = sample_poses(motion)
     if poses.shape[0] == 0:
-        poses, known = rest_positions(motion)[None], None
+        poses, known = rest_pose(motion)[None], None
     parts = _parts_of(motion)
     if parts is not None and known is not None:
         # the poses whose points the rules read are known (a tracker's dropouts on some
@@ -605,7 +636,7 @@ def sideways_lean(motion: Motion, up: str | int | None = None) -> np.ndarray | N
     axis, sign = up_direction(motion, up)
     poses = upright(poses, axis, sign)
     roots, tips = parts.legs
-    parents, rest = point_parents(motion), rest_positions(motion)
+    parents, rest = point_parents(motion), rest_pose(motion)
     hips = [_hip(parents, rest, parts.pelvis, r, t) for r, t in zip(roots, tips, strict=True)]
     across = poses[:, hips[1]] - poses[:, hips[0]]
     across[:, axis] = 0.0
@@ -623,7 +654,7 @@ def sideways_lean(motion: Motion, up: str | int | None = None) -> np.ndarray | N
 def _parts_of(motion: Motion) -> BodyParts | None:
     """:func:`body_parts` of ``motion``'s skeleton, kept with the clip (the up direction,
     the trunk's direction and the sideways lean each ask for it)."""
-    return motion.derived("body_parts", lambda m: body_parts(point_parents(m), rest_positions(m)))
+    return motion.derived("body_parts", lambda m: body_parts(point_parents(m), rest_pose(m)))
 
 
 def _standing_poses(motion: Motion) -> tuple[np.ndarray, BodyParts] | None:
@@ -676,9 +707,33 @@ def up_contradiction(motion: Motion) -> MotionUp | None:
     shown = motion_up(motion)
     if shown.share is None or shown.share < CONTRADICTED_SHARE:
         return None
-    if (shown.axis, shown.sign) == up_direction(motion):
+    declared = up_direction(motion)
+    if (shown.axis, shown.sign) == declared:
         return None
+    if shown.by == "trunk" and _limbs_share(motion, *declared) > 0.5:
+        return None  # a four-legged body's limbs stand it along the axis declared
     return shown
+
+
+def _limbs_share(motion: Motion, axis: int, sign: float) -> float:
+    """The share of the sampled poses on which the body's legs and forelegs point the same
+    way (within :data:`ALL_FOURS_COSINE`), away from the direction ``sign * e_axis``, those
+    points known; 0.0 without both. A quadruped read by its trunk (a fox's gallop, on all
+    fours on 45 % of its frames; a cat whose feet are IK targets apart from its legs, its
+    hind legs at 128 degrees from its spine) stands on its limbs along a Y up its file
+    states."""
+    parts = _parts_of(motion)
+    if parts is None or parts.arms[0].size == 0 or parts.legs[0].size == 0:
+        return 0.0
+    ends = np.r_[parts.legs[0], parts.legs[1], parts.arms[0], parts.arms[1]]
+    poses = _known_poses(*sample_poses(motion), ends)
+    if poses.shape[0] == 0:
+        return 0.0
+    legs, arms = _pointing(poses, parts.legs), _pointing(poses, parts.arms)
+    pointing = _unit(-(legs + arms))
+    along = np.argmax(np.abs(pointing), axis=-1) == axis
+    along &= np.einsum("sk,sk->s", arms, legs) > ALL_FOURS_COSINE  # (a T-pose's arms: none)
+    return float(np.mean(along & (pointing[:, axis] * sign > 0.0)))
 
 
 def up_name(motion: Motion, override: str | int | None = None) -> str:
@@ -835,6 +890,11 @@ def _trunk_below(children: list[list[int]], root: int) -> _Body | None:
     top = int(np.argmax(sizes))
     if _holds_bodies(children, children[pelvis], top):
         return _first_body(children, children[pelvis])
+    if not _paired([s for k, s in enumerate(sizes) if k != top]):
+        below = children[pelvis][top]  # legs part further down, under a tail or IK targets
+        body = _trunk_below(children, below) if _two_legged(children, below) else None
+        if body is not None:
+            return body._replace(top=root)
     leaves = sum(1 for p in subtrees[top] if not children[p])
     if leaves < 3 or sizes.count(sizes[top]) > 1:
         return None
@@ -867,7 +927,14 @@ def _two_legged(children: list[list[int]], start: int) -> bool:
         return False
     legs = [len(subtree(children, c)) for c in children[body.pelvis]]
     legs.remove(body.upper.size)
-    legs = [n for n in legs if n >= LEG_POINTS]
+    return _paired(legs)
+
+
+def _paired(sizes: list[int]) -> bool:
+    """Whether subtree ``sizes`` (points) include two of one size, each of at least
+    :data:`LEG_POINTS` points: a pair of legs (a tail, IK targets hung beside the body's
+    root, or a leg with a helper bone beside it are none)."""
+    legs = [n for n in sizes if n >= LEG_POINTS]
     return len(legs) > len(set(legs))
 
 
@@ -978,17 +1045,39 @@ def _limb_ends(
     """Roots and tips (point indices) of the limbs that start at ``starts``: each one's
     point farthest from its start in the ``rest`` pose, limbs reaching less than
     :data:`LIMB_REACH` of the farthest left out."""
-    tips, reach = [], []
+    tips, reach, sizes = [], [], []
     for start in starts:
         points = subtree(children, start)
         far = np.linalg.norm(rest[points] - rest[start], axis=-1)
         tips.append(points[int(np.argmax(far))])
         reach.append(float(far.max()))
-    kept = [k for k, r in enumerate(reach) if r >= LIMB_REACH * max(reach, default=0.0)]
+        sizes.append(len(points))
+    paired = _mirrored(np.array(sizes), np.array(reach))
+    candidates = np.flatnonzero(paired) if paired.any() else np.arange(len(starts))
+    longest = max((reach[k] for k in candidates), default=0.0)
+    kept = [k for k in candidates.tolist() if reach[k] >= LIMB_REACH * longest]
     return (
         np.array([starts[k] for k in kept], dtype=np.intp),
         np.array([tips[k] for k in kept], dtype=np.intp),
     )
+
+
+#: Two limbs of as many points whose rest reaches differ by at most this share of the
+#: longer are a left and right pair.
+PAIR_REACH = 0.1
+
+
+def _mirrored(sizes: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: the limbs (``sizes`` points, ``reach`` in the rest pose) that have a
+    left or right twin, as many points and as long within :data:`PAIR_REACH`. Where any
+    pair up, the others are no legs: a tail down the middle (a cat's reaches 2.2 times its
+    legs), the head among an elephant's forelegs."""
+    same = (sizes[:, None] == sizes[None, :]) & (
+        np.abs(reach[:, None] - reach[None, :])
+        <= PAIR_REACH * np.maximum(reach[:, None], reach[None, :])
+    )
+    np.fill_diagonal(same, False)
+    return same.any(axis=1)
 
 
 def _unit(vectors: np.ndarray) -> np.ndarray:
@@ -1055,8 +1144,9 @@ def body_height(motion: Motion, up: int | None = None) -> float:
     :data:`UPRIGHT_COSINE` of an axis and every leg hanging below it: a T- or A-pose,
     whichever way the clip turns it), its extent along that axis; otherwise the median
     over frames of the extent of a frame's points along the up axis (``up``, default
-    :func:`up_axis`): a clip whose rest pose is not a standing pose, and independent
-    tracked bodies.
+    :func:`up_axis`): a clip whose rest pose is not a standing pose (a quadruped's, its
+    legs across its trunk), a rest posed by rotations (:func:`rest_rotations`: a glTF's
+    nodes), and independent tracked bodies.
     """
     as_motion(motion)
     # asked by despike, footlock and the report's stages of one clean, with or without up
@@ -1064,15 +1154,23 @@ def body_height(motion: Motion, up: int | None = None) -> float:
 
 
 def _body_height(motion: Motion, up: int | None = None) -> float:
-    rest = rest_positions(motion)
+    rest = rest_pose(motion)
     parents = point_parents(motion)
     split = body_split(parents)
-    if split is not None:
+    parts = _parts_of(motion)
+    # a rest posed by rotations (a glTF's nodes: a bind pose the exporter chose, often
+    # without end sites) is no measure: the frames are
+    posed = bool(np.any(rest_rotations(motion)[:, 1:]))
+    if split is not None and parts is not None and not posed:
         top, upper, lower = split
         trunk = rest[upper].mean(axis=0) - rest[lower].mean(axis=0)
         length = float(np.linalg.norm(trunk))
         axis = int(np.argmax(np.abs(trunk)))
-        if length > 0.0 and abs(trunk[axis]) >= UPRIGHT_COSINE * length:
+        if (
+            _legs_hang(rest, parts, axis, trunk[axis])
+            and length > 0.0
+            and abs(trunk[axis]) >= UPRIGHT_COSINE * length
+        ):
             heights = rest[:, axis] * np.sign(trunk[axis])
             # the body's points alone where others stand beside it (a prop, a figure)
             body = subtree(child_lists(parents), top)
@@ -1089,3 +1187,11 @@ def _body_height(motion: Motion, up: int | None = None) -> float:
     if poses.shape[0] == 0:
         return float(np.ptp(rest[:, axis]))
     return float(_median_extent(poses, known)[axis])
+
+
+def _legs_hang(rest: np.ndarray, parts: BodyParts, axis: int, trunk: float) -> bool:
+    """Whether the legs of ``parts`` point down the trunk's ``axis`` in the ``rest`` pose
+    ``(P, 3)`` (``trunk`` the trunk's component along it): a four-legged rest lies along
+    the way it faces, its legs across that way and its tail below the trunk."""
+    legs = _pointing(rest[None], parts.legs)[0]
+    return int(np.argmax(np.abs(legs))) == axis and legs[axis] * trunk < 0.0

@@ -148,6 +148,9 @@ class GltfSource:
     #: The unit of its lengths where it holds (:func:`_length_unit`), else None: the
     #: skeleton's own (``core.kinematics.length_unit``).
     length_unit: str | None = None
+    #: ``(J, 4)`` the joints' rest rotations (w, x, y, z): the nodes' own ``rotation``, part
+    #: of the rest pose (``core.kinematics.rest_pose``), which offsets alone fold.
+    rest_rotations: np.ndarray | None = None
 
     @property
     def start_time(self) -> float:
@@ -875,6 +878,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         np.array(translations),
         tuple(notes),
         _length_unit(document, scales),
+        np.array([q for _, q in rest]).reshape(n_joints, 4),
     )
     return Motion(
         names=_unique([_name(nodes[n], n) for n in order]),

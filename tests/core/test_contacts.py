@@ -560,3 +560,70 @@ def test_an_arm_alone_has_no_foot_and_a_leg_alone_has_one(first, root, feet):
     if not feet:
         out, _ = Pipeline.from_inline(["footlock"]).run(limb)
         np.testing.assert_array_equal(out.rotations, limb.rotations)
+
+
+def _split_shins(motion: mc.Motion) -> mc.Motion:
+    """``motion`` with each shin split in two bones at its middle, as MakeHuman's default
+    skeleton has it (lowerleg01, lowerleg02): a joint without rotation channels halfway
+    between knee and ankle; world positions as they were."""
+    names, parents, offsets = list(motion.names), motion.parents.tolist(), motion.offsets
+    channels, ends, order = (
+        list(motion.channels),
+        dict(motion.end_sites),
+        list(range(motion.n_joints)),
+    )
+    for ankle in ("LeftAnkle", "RightAnkle"):
+        j = names.index(ankle)
+        order.insert(order.index(j), -1 - j)  # the middle joint, before the ankle
+    new = {old: k for k, old in enumerate(order)}
+    out_offsets = []
+    for old in order:
+        j = -1 - old if old < 0 else old
+        half = offsets[j] / 2.0 if names[j].endswith("Ankle") else None
+        out_offsets.append(offsets[j] if half is None else half)
+    rotations = np.stack(
+        [motion.rotations[:, o] if o >= 0 else quat.identity((motion.n_frames,)) for o in order], 1
+    )
+    translations = np.stack([motion.translations[:, max(o, 0)] * (o >= 0) for o in order], 1)
+    return mc.Motion(
+        names=[names[o] if o >= 0 else f"{names[-1 - o]}Mid" for o in order],
+        parents=np.array(
+            [
+                new[parents[o]]
+                if o >= 0 and not names[o].endswith("Ankle") and parents[o] >= 0
+                else new[-1 - o]
+                if o >= 0 and names[o].endswith("Ankle")
+                else new[parents[-1 - o]]
+                if o < 0
+                else -1
+                for o in order
+            ]
+        ),
+        offsets=np.array(out_offsets),
+        channels=[channels[o] if o >= 0 else () for o in order],
+        frame_time=motion.frame_time,
+        rotations=rotations,
+        translations=translations,
+        end_sites={new[j]: v for j, v in ends.items()},
+    )
+
+
+def test_a_shin_split_in_two_bones_keeps_its_leg():
+    """MakeHuman's shin is two bones (lowerleg01, lowerleg02): the mid-shin point was taken
+    for the knee, and the shin and thigh above it measured 0.30 of the body, under the 0.4 a
+    leg has: no feet ("no leg ends near the ground"). The leg is measured up to the trunk:
+    the split copy of a walk stands as tall and has its two feet, at the bottom of its
+    legs, held over the same frames."""
+    walk = mc.load(corpus_clip("131_02.bvh")).at_frames(np.arange(0, 240))
+    split = _split_shins(walk)
+    names = split.names + kinematics.end_site_names(split)
+    before = kinematics.world_positions(walk)
+    after = kinematics.world_positions(split)
+    kept = [names.index(n) for n in walk.names + kinematics.end_site_names(walk)]
+    assert np.abs(after[:, kept] - before).max() < 1e-9 * kinematics.body_height(walk)
+    feet, _, height = found.skeleton_feet(split)
+    assert height == pytest.approx(kinematics.body_height(walk))
+    assert len(feet) == 2
+    for foot in feet:
+        side = "Left" if names[foot.ankle].startswith("Left") else "Right"
+        assert {names[p] for p in foot.points} >= {f"{side}Ankle", f"{side}Toe_end"}

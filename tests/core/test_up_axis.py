@@ -488,3 +488,63 @@ def test_a_tracker_s_gap_does_not_lay_a_walk_down_by_its_still_root(tmp_path, ca
     code, out, err = run_cli(capsys, "clean", gapped, "--skeleton", rig, "-o", tmp_path / "c.csv")
     assert code == 0, err
     assert "1 gap filled on lhand" in out and "feet planted" in out
+
+
+def _biped_rigged(dog: mc.Motion) -> mc.Motion:
+    """``dog`` rigged as a 3ds Max Biped quadruped (a Truebones animal): its tail from a
+    ``Pelvis`` below the root, its hind legs from the spine's first joint; five IK targets
+    of one point each hung from the root beside it (a Sketchfab cat's); world positions
+    as they were."""
+    names = list(dog.names)
+    spine, tail = names.index("Spine"), names.index("Tail")
+    legs = [j for j, n in enumerate(names) if n.endswith(("UpLeg",))]
+    parents, offsets = dog.parents.copy(), dog.offsets.copy()
+    parents[legs] = spine
+    offsets[legs] -= offsets[spine]  # (the spine's rest rotation is identity)
+    parents[tail] = len(names)  # the Pelvis, added last at the root
+    parents = np.r_[parents, 0, [0] * 5]
+    offsets = np.r_[offsets, np.zeros((6, 3))]
+    frames = dog.n_frames
+    rotations = np.concatenate([dog.rotations, quat.identity((frames, 6))], axis=1)
+    translations = np.concatenate([dog.translations, np.zeros((frames, 6, 3))], axis=1)
+    return mc.Motion(
+        names=[*names, "Pelvis", *(f"IK{k}" for k in range(5))],
+        parents=parents,
+        offsets=offsets,
+        channels=[*dog.channels, *[("Zrotation", "Xrotation", "Yrotation")] * 6],
+        frame_time=dog.frame_time,
+        rotations=rotations,
+        translations=translations,
+        end_sites=dog.end_sites,
+    )
+
+
+def test_a_biped_rigged_quadruped_stands_on_its_legs_not_its_tail():
+    """A Truebones elephant (3ds Max Biped: the tail from Bip01_Pelvis, the thighs from
+    Bip01_Spine) had its tail read as its legs and its thighs in its upper body: up x (its
+    length), a body height of 2.81 (its length, 1.8 tall), no feet, and ``--up y``
+    contradicted. Below a pelvis whose other branches are no pair of legs (a tail, IK
+    targets) the body is read where its legs part: the dog so rigged stands along y on its
+    limbs with its height and hind feet, whatever way it is turned."""
+    dog = walking_dog()
+    rigged = _biped_rigged(dog)
+    assert (
+        np.abs(
+            kinematics.world_positions(rigged)[:, : dog.n_joints]
+            - kinematics.world_positions(dog)[:, : dog.n_joints]
+        ).max()
+        < 1e-12
+    )
+    names = rigged.names
+    upper, lower = kinematics.trunk_split(kinematics.point_parents(rigged))
+    assert {names[j] for j in lower if j < len(names)} == {
+        f"{s}{b}" for s in ("Left", "Right") for b in ("UpLeg", "Leg", "Foot")
+    }
+    assert "Tail" not in {names[j] for j in upper if j < len(names)}
+    shown = kinematics.motion_up(rigged)
+    assert (shown.axis, shown.sign, shown.by) == (1, 1.0, "limbs")
+    assert kinematics.up_name(z_up_copy(rigged)) == "z"
+    assert kinematics.body_height(rigged) == pytest.approx(kinematics.body_height(dog))
+    feet = {names[f.ankle] for f in found.skeleton_feet(rigged)[0]}
+    assert feet == {f.name for f in found.skeleton_feet(dog)[0]}
+    assert kinematics.up_contradiction(rigged.replace(up="y")) is None
