@@ -326,9 +326,9 @@ def describe_source(
         )
     # (a pose estimator's output whose motion falls as steeply reads so too: say what to do)
     return (
-        f"optical, found from the clip: its joints' motion spectrum falls over {band} like "
-        f"clean captures' (slope {slope:.2f}, steeper than {MARKERLESS_SLOPE:g}); for a video "
-        "or markerless capture give --source video"
+        f"optical or inertial, found from the clip: its joints' spectrum falls over {band} "
+        f"like clean captures' (slope {slope:.2f}, steeper than {MARKERLESS_SLOPE:g}); for "
+        "video or markerless, give --source video"
     )
 
 

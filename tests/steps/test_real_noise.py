@@ -174,8 +174,8 @@ def test_a_clip_found_optical_says_how_to_clean_it_as_a_video_capture(tmp_path, 
     code, out, err = run_cli(capsys, "clean", clip, "-o", tmp_path / "c.bvh")
     assert code == 0, err
     line = [row for row in out.splitlines() if row.startswith("capture source:")]
-    assert line[0].startswith("capture source: optical, found from the clip")
-    assert line[0].endswith("for a video or markerless capture give --source video")
+    assert line[0].startswith("capture source: optical or inertial, found from the clip")
+    assert line[0].endswith("for video or markerless, give --source video")
     code, out, err = run_cli(capsys, "clean", clip, "-o", tmp_path / "c.bvh", "--source", "optical")
     assert code == 0 and "--source video" not in out
 
