@@ -61,12 +61,13 @@ column fits it. A clip without a template needs at least two rows.
 
 Writing (``save(motion, "out.csv")``): a clip read from a rigid-body CSV is written as a
 rigid-body CSV, every other clip as a channel CSV (``format_csv(motion, layout=...)``
-chooses). Values equal to the ones read keep the input's text (the BVH text for a clip
-read from BVH), other values are written with Python's shortest round-trip repr and times
-with 12 significant digits, so reading the file back gives the same numbers bit for bit
-and an unchanged clip writes the input bytes exactly. Missing samples are written as empty
-cells (a sample missing in the input too keeps its text, e.g. ``NaN``), so a clip with gaps
-reads back with the same mask and the same known values.
+chooses). Values equal to the ones read keep the input's text (the BVH text for a clip read
+from BVH), other values are written with Python's shortest round-trip repr and times with
+12 significant digits (a channel CSV's or OpenSim file's own time text while the frames are
+its own: :func:`.text.read_times`), so reading the file back gives the same numbers bit for
+bit and an unchanged clip writes the input bytes exactly. Missing samples are written as
+empty cells (a sample missing in the input too keeps its text, e.g. ``NaN``), so a clip
+with gaps reads back with the same mask and the same known values.
 """
 
 from __future__ import annotations
@@ -104,6 +105,7 @@ from .text import (
     check_finite,
     format_decimals,
     parse_values,
+    read_times,
     scan_cells,
     scan_tokens,
     sliceable,
@@ -155,6 +157,14 @@ class CsvText:
     def start_time(self) -> float:
         """Seconds at the first row (:func:`.text.start_time`); 0 without rows."""
         return float(self.values[0, self.time_column]) if self.values.shape[0] else 0.0
+
+    @property
+    def time_cells(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """A channel CSV's frame time and the byte ranges of its time cells, which
+        writers keep (:func:`.text.read_times`); None for another layout."""
+        if self.layout != "channel":
+            return None
+        return self.frame_time, self.starts[:, self.time_column], self.ends[:, self.time_column]
 
     @classmethod
     def of(cls, layout, raw, cells, columns, time_column, skeleton, frame_time, eol, **rest):
@@ -1113,6 +1123,9 @@ def _frame_and_time(motion: Motion, cells: Cells, rows: slice):
     first = start_time(motion)
     frames = np.arange(rows.start, rows.stop)
     numbers = cells.add(*format_fields(b"%d", frames.tolist()))
+    read = read_times(motion)
+    if read is not None:  # the frames read: their times' text
+        return numbers, cells.add(*read(rows))
     written = time_format(first, motion.frame_time, motion.n_frames)
     times = cells.add(*format_fields(written, (first + frames * motion.frame_time).tolist()))
     return numbers, times

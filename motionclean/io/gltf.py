@@ -5,7 +5,9 @@ The clip's joints are the first skin's joints (or, in a file without skins, the 
 animation moves), in depth-first order of the node tree; a joint's parent is its nearest
 ancestor among them. Its rest offset is the node's translation; its local rotation is the
 node's ``rotation`` (glTF's ``(x, y, z, w)`` becomes our ``(w, x, y, z)``), animated by
-the first animation's ``rotation`` channel, and a joint whose ``translation`` channel
+the first animation's ``rotation`` channel (or the one asked for; where several animations
+each key other joints on one time base, as COLLADA2GLTF writes an animation per joint, all
+of them: viewers play them together), and a joint whose ``translation`` channel
 varies gets position channels (glTF replaces the node's translation, as BVH position
 channels replace an OFFSET). Scale is not read (and never changed): lengths are metres,
 glTF's unit, where no node of the armature is scaled, else the skeleton's own units
@@ -29,18 +31,19 @@ first and last key outside its range.
 Writing back keeps the file: with nothing changed its bytes exactly, where they find the
 files they refer to by relative URIs (none, or written into the folder they were read
 from); otherwise every object of the JSON and every byte of the buffers stays, the
-channels of joints that changed point to new samplers (``LINEAR`` on the grid; a channel
-read as it was keeps its time accessor and the values of its unchanged frames), whose data
-is appended to the GLB binary chunk, or for ``.gltf`` to a new buffer embedded as a data
-URI; a changed ``.gltf``, or an unchanged one written to another folder, is written
-self-contained (its ``.bin`` files' bytes embedded as data URIs; the files themselves are
-never touched). Into another folder images named by relative URIs are carried too: as
-data URIs in a ``.gltf``, in a GLB as bufferViews of its binary chunk (its first buffer
-made the chunk when it had none); a URL or an absolute path stays as it is, and so does
-an image not beside the source or of no known type, which a note says when it is read.
-Relative URIs name files inside the source's folder, links resolved (:func:`_beside`).
-Sparse accessors and compressed animation data are refused. A VRM animation (``.vrma``) is
-a GLB, written only into the one it was read from (:func:`vrma_pieces`).
+channels of joints that changed point to new samplers of the animation they are in
+(``LINEAR`` on the grid; a channel read as it was keeps its time accessor and the values
+of its unchanged frames), whose data is appended to the GLB binary chunk, or for
+``.gltf`` to a new buffer embedded as a data URI; a changed ``.gltf``, or an unchanged
+one written to another folder, is written self-contained (its ``.bin`` files' bytes
+embedded as data URIs; the files themselves are never touched). Into another folder
+images named by relative URIs are carried too: as data URIs in a ``.gltf``, in a GLB as
+bufferViews of its binary chunk (its first buffer made the chunk when it had none); a URL
+or an absolute path stays as it is, and so does an image not beside the source or of no
+known type, which a note says when it is read. Relative URIs name files inside the
+source's folder, links resolved (:func:`_beside`). Sparse accessors and compressed
+animation data are refused. A VRM animation (``.vrma``) is a GLB, written only into the
+one it was read from (:func:`vrma_pieces`).
 """
 
 from __future__ import annotations
@@ -119,12 +122,14 @@ def _fail(message: str, path) -> NoReturn:
 
 @dataclass(frozen=True, eq=False)
 class Track:
-    """A joint's animated property: the channel (index in the animation, or -1 for none),
-    whether its keys are the grid's frames (read as they are), and its input accessor."""
+    """A joint's animated property: the channel (index in its animation, or -1 for none),
+    whether its keys are the grid's frames (read as they are), its input accessor, and
+    the animation the channel is in (an index; -1 for none)."""
 
     channel: int = -1
     exact: bool = False
     times: int = -1
+    animation: int = -1
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +141,7 @@ class GltfSource:
     binary: bytes | None  # the GLB binary chunk
     glb: bool
     nodes: tuple[int, ...]  # the joints' node indices
-    animation: int  # -1: none
+    animation: int  # the first animation read, where new channels go; -1: none
     rotation: tuple[Track, ...]
     translation: tuple[Track, ...]
     start: float
@@ -570,14 +575,20 @@ class _Keys:
     input: int
 
 
-def _keys(
-    document: dict, buffers: _Buffers, animation: dict, channel: dict, a: int, width: int, path
-) -> _Keys:
+def _sampler(animation: dict, channel: dict, a: int, path) -> tuple[int, dict]:
+    """The index and object of the sampler of ``channel`` in animation ``a``."""
     samplers = animation.get("samplers", [])
     s = _index(channel.get("sampler"), len(samplers), f"animations[{a}] channel sampler", path)
     sampler = samplers[s]
     if not isinstance(sampler, dict):
         _fail(f"animations[{a}].samplers[{s}] is not an object", path)
+    return s, sampler
+
+
+def _keys(document: dict, buffers: _Buffers, a: int, c: int, width: int, path) -> _Keys:
+    """The keys of channel ``c`` of animation ``a`` (values ``width`` numbers each)."""
+    animation = document["animations"][a]
+    s, sampler = _sampler(animation, animation["channels"][c], a, path)
     interpolation = sampler.get("interpolation", "LINEAR")
     if interpolation not in ("LINEAR", "STEP", "CUBICSPLINE"):
         _fail(
@@ -719,14 +730,20 @@ def _animation_names(animations: list[dict]) -> list[str]:
     return [str(a.get("name") or i) for i, a in enumerate(animations)]
 
 
+def _listed(animations: list[dict]) -> str:
+    """The animations by name (``number 3 (unnamed)`` for one without), the first 40."""
+    names = _animation_names(animations)
+    return ", ".join(
+        repr(n[:40]) if animations[i].get("name") else f"number {i} (unnamed)"
+        for i, n in enumerate(names[:40])
+    ) + (", ..." if len(names) > 40 else "")
+
+
 def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple[int, str | None]:
     """The index of the animation to read (``wanted``: its name, or its index as digits;
     None: the first; -1 when the file has none) and the note that says which of several."""
     names = _animation_names(animations)
-    listed = ", ".join(
-        repr(n[:40]) if animations[i].get("name") else f"number {i} (unnamed)"
-        for i, n in enumerate(names[:40])
-    ) + (", ..." if len(names) > 40 else "")
+    listed = _listed(animations)
     if wanted is None:
         if len(animations) > 1:
             return 0, (
@@ -746,57 +763,168 @@ def _chosen_animation(animations: list[dict], wanted: str | None, path) -> tuple
     )
 
 
+#: Key times within this fraction of a key step of each other are the same frames: float32
+#: times of one grid (a channel keyed off the exact grid by more than :data:`ON_GRID`, as
+#: BrainStem's by 0.16 %, is written back on it and still plays with the others).
+SAME_TIMES = 0.01
+
+
+def _read_animations(
+    document: dict,
+    buffers: _Buffers,
+    wanted: str | None,
+    skeleton: set[int] | None,
+    path,
+) -> tuple[tuple[int, ...], str | None]:
+    """The animations to read (indices, none for a file without) and the note that says
+    which: the one ``wanted`` names, else the first; or, where each of several keys other
+    joints of ``skeleton`` (the first skin's or the VRM humanoid's; None without) on one
+    time base (COLLADA2GLTF writes an animation per joint), all of them as one motion, as
+    viewers play them. A note says when such animations key different times."""
+    animations = document.get("animations", [])
+    a, note = _chosen_animation(animations, wanted, path)
+    keyed = [_nodes_keyed(animation) for animation in animations]
+    if wanted is not None or len(animations) < 2 or not _apart(keyed, skeleton):
+        return ((a,) if a >= 0 else ()), note
+    every = tuple(range(len(animations)))
+    if _one_time_base(document, buffers, every, path):
+        return every, (
+            f"{len(animations)} animations, each keying other joints over the same key times, "
+            f"are read as one motion, as viewers play them (--animation NAME reads one "
+            f"alone: {_listed(animations)})"
+        )
+    first = _animation_names(animations)[0][:40]
+    return (a,), (
+        f"{len(animations)} animations each key other joints, on different key times: the "
+        f"first ({first!r}) is read, its {plural(len(keyed[0] or ()), 'joint')} moving and "
+        f"the others at rest (--animation NAME reads another: {_listed(animations)})"
+    )
+
+
+def _nodes_keyed(animation: dict) -> set[int] | None:
+    """The nodes ``animation``'s channels target, or None where a channel is no object
+    with a target node (the animation's reading says what is wrong, if it is read)."""
+    channels = animation.get("channels")
+    if not isinstance(channels, list):
+        return None
+    targets = [c.get("target") if isinstance(c, dict) else None for c in channels]
+    nodes = [t.get("node") if isinstance(t, dict) else None for t in targets]
+    ints = [n for n in nodes if isinstance(n, int)]
+    return set(ints) if len(ints) == len(nodes) else None
+
+
+def _apart(keyed: list[set[int] | None], skeleton: set[int] | None) -> bool:
+    """Whether every animation's nodes (``keyed``) are joints of ``skeleton`` and none is
+    another's."""
+    sets = [nodes for nodes in keyed if nodes]
+    if skeleton is None or len(sets) < len(keyed) or not all(n <= skeleton for n in sets):
+        return False
+    return sum(len(nodes) for nodes in sets) == len(set().union(*sets))
+
+
+def _one_time_base(document: dict, buffers: _Buffers, read: tuple[int, ...], path) -> bool:
+    """Whether the channels of animations ``read`` key one time base: those of the channel
+    with the most keys, each channel's keys among them (within :data:`SAME_TIMES` of a key
+    step) from its first to its last (Blender keys a still channel at both ends only)."""
+    animations = document["animations"]
+    size = len(_items(document, "accessors", path))
+    inputs: set[int] = set()
+    for a in read:
+        for channel in animations[a]["channels"]:
+            s, sampler = _sampler(animations[a], channel, a, path)
+            what = f"animations[{a}].samplers[{s}].input"
+            inputs.add(_index(sampler.get("input"), size, what, path))
+    times = [_accessor(document, buffers, index, path)[:, 0] for index in sorted(inputs)]
+    base = max(times, key=len)
+    tolerance = SAME_TIMES * _step(base) if base.size >= 2 else 0.0
+    return all(_among(t, base, tolerance) for t in times)
+
+
+def _among(times: np.ndarray, base: np.ndarray, tolerance: float) -> bool:
+    """Whether key ``times`` (seconds) start and end at ``base``'s first and last, and each
+    is one of the increasing ``base`` times, within ``tolerance``."""
+    if times.size == 0:
+        return False
+    after = np.clip(np.searchsorted(base, times), 0, base.size - 1)
+    before = np.maximum(after - 1, 0)
+    off = np.minimum(np.abs(times - base[before]), np.abs(times - base[after]))
+    ends = np.abs(times[[0, -1]] - base[[0, -1]])
+    return bool(np.all(off <= tolerance) and np.all(ends <= tolerance))
+
+
+def _skin_joints(skins: list, size: int, path) -> set[int] | None:
+    """The nodes of the first skin's joints (None for a file without skins)."""
+    if not skins:
+        return None
+    listed = skins[0].get("joints")
+    if not isinstance(listed, list) or not listed:
+        _fail("skins[0].joints is not a list of nodes", path)
+    return {_index(j, size, "skins[0].joints", path) for j in listed}
+
+
+@dataclass
+class _Targets:
+    """What the channels of the animations read animate, each channel as (animation,
+    channel): rotations and translations by (node, path), scales by node; the first
+    channel of each (node, path), and the channels whose path is unknown or taken by an
+    earlier one as (animation, channel, node, path)."""
+
+    moves: dict[tuple[int, str], tuple[int, int]] = field(default_factory=dict)
+    scales: dict[int, tuple[int, int]] = field(default_factory=dict)
+    seen: dict[tuple[int, str], tuple[int, int]] = field(default_factory=dict)
+    wrong: list[tuple[int, int, int, Any]] = field(default_factory=list)
+
+
+def _targets(animations: list[dict], read: tuple[int, ...], size: int, path) -> _Targets:
+    """The targets of the channels of animations ``read`` (of ``size`` nodes)."""
+    found = _Targets()
+    for a in read:
+        channels = animations[a].get("channels", [])
+        if not isinstance(channels, list) or not all(isinstance(c, dict) for c in channels):
+            _fail(f"animations[{a}].channels is not a list of objects", path)
+        for c, channel in enumerate(channels):
+            target = channel.get("target")
+            if not isinstance(target, dict):
+                _fail(f"animations[{a}].channels[{c}] has no target", path)
+            if "node" not in target:
+                continue
+            n = _index(target["node"], size, f"animations[{a}].channels[{c}].target.node", path)
+            kind = target.get("path")
+            if kind not in TARGET_PATHS or (n, kind) in found.seen:
+                found.wrong.append((a, c, n, kind))  # (judged once the joints are known)
+            found.seen.setdefault((n, kind) if isinstance(kind, str) else (n, ""), (a, c))
+            if kind in ("rotation", "translation"):
+                found.moves[(n, kind)] = (a, c)
+            elif kind == "scale":
+                found.scales[n] = (a, c)
+    return found
+
+
 def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module): the animation named
-    ``animation`` (or of that index, as digits; default the first)."""
+    ``animation`` (or of that index, as digits; default the first, or all of them where
+    each keys other joints on one time base)."""
     glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(GLB_SUFFIXES)
     document, binary = _chunks(data, path) if glb else (_json(data, path), None)
     buffers = _Buffers(document, binary, path)
     nodes = _items(document, "nodes", path)
     parent = _tree(nodes, path)
     animations = _items(document, "animations", path)
-    notes: list[str] = []
-    a, note = _chosen_animation(animations, animation, path)
-    notes.extend([note] if note else [])
-    chosen = animations[a] if a >= 0 else {}
-    channels = chosen.get("channels", [])
-    if not isinstance(channels, list) or not all(isinstance(c, dict) for c in channels):
-        _fail(f"animations[{a}].channels is not a list of objects", path)
-    targets: dict[tuple[int, str], int] = {}
-    scale_keys: dict[int, int] = {}  # the channel keying a node's scale
-    seen: dict[tuple[int, str], int] = {}  # (node, path) -> its first channel
-    wrong: list[tuple[int, int, Any]] = []  # (channel, node, path): unknown path, or again
-    for c, channel in enumerate(channels):
-        target = channel.get("target")
-        if not isinstance(target, dict):
-            _fail(f"animations[{a}].channels[{c}] has no target", path)
-        if "node" not in target:
-            continue
-        n = _index(target["node"], len(nodes), f"animations[{a}].channels[{c}].target.node", path)
-        kind = target.get("path")
-        if kind not in TARGET_PATHS or (n, kind) in seen:
-            wrong.append((c, n, kind))  # (judged once the skeleton's nodes are known)
-        seen.setdefault((n, kind) if isinstance(kind, str) else (n, ""), c)
-        if kind in ("rotation", "translation"):
-            targets[(n, kind)] = c
-        elif kind == "scale":
-            scale_keys[n] = c
     bones, carried = _vrm_nodes(document, len(nodes), path)
     skins = _items(document, "skins", path)
-    if bones:
-        joints = _humanoid(bones, parent)
-    elif skins:
-        listed = skins[0].get("joints")
-        if not isinstance(listed, list) or not listed:
-            _fail("skins[0].joints is not a list of nodes", path)
-        joints = {_index(j, len(nodes), "skins[0].joints", path) for j in listed}
-        if len(skins) > 1:
-            notes.append(f"{len(skins)} skins: the joints of the first are read")
+    skeleton = _humanoid(bones, parent) if bones else _skin_joints(skins, len(nodes), path)
+    read, note = _read_animations(document, buffers, animation, skeleton, path)
+    notes: list[str] = [note] if note else []
+    aimed = _targets(animations, read, len(nodes), path)
+    if skeleton is None:
+        joints = {n for n, _ in aimed.moves}
     else:
-        joints = {n for n, _ in targets}
+        joints = set(skeleton)
+        if not bones and len(skins) > 1:
+            notes.append(f"{len(skins)} skins: the joints of the first are read")
     joints -= carried.keys()
-    _refuse_wrong_channels(wrong, seen, joints, a, path)
-    notes.extend(_carried_note(carried, {n for n, _ in targets}))
+    _refuse_wrong_channels(aimed, joints, path)
+    notes.extend(_carried_note(carried, {n for n, _ in aimed.moves}))
     notes.extend(_image_notes(document, path))
     if not joints:
         _fail("no skin and no animated node: no skeleton to read", path)
@@ -805,11 +933,9 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     notes.extend([note] if note else [])
     rest = [_rest(nodes[n], n, path) for n in order]
     keys: dict[tuple[int, str], _Keys] = {}
-    for (n, kind), c in targets.items():
+    for (n, kind), (a, c) in aimed.moves.items():
         if n in joints:
-            keys[(n, kind)] = _keys(
-                document, buffers, chosen, channels[c], a, 4 if kind == "rotation" else 3, path
-            )
+            keys[(n, kind)] = _keys(document, buffers, a, c, 4 if kind == "rotation" else 3, path)
     if keys:
         start, frame_time, n_frames = _grid(list(keys.values()), len(order), path)
     else:
@@ -833,7 +959,8 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             exact = found.interpolation != "CUBICSPLINE" and found.times.size == n_frames
             exact = exact and _on_grid(found.times, grid, frame_time)
             values = found.values if exact else _sample(found, grid, kind == "rotation")
-            tracks.append(Track(targets[(n, kind)], exact, found.input))
+            a, c = aimed.moves[(n, kind)]
+            tracks.append(Track(c, exact, found.input, a))
             if kind == "rotation":
                 q = _as_wxyz(values)
                 norm = np.linalg.norm(q, axis=-1)
@@ -858,8 +985,8 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     rotations = quat.continuous(rotations)
     armature = _armature(order, parent)
     scales = [_scale(nodes[n], n, path) for n in armature] + [
-        _key_values(_keys(document, buffers, chosen, channels[c], a, 3, path))
-        for n, c in scale_keys.items()
+        _key_values(_keys(document, buffers, a, c, 3, path))
+        for n, (a, c) in aimed.scales.items()
         if n in armature
     ]
     source = GltfSource(
@@ -868,7 +995,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
         binary,
         glb,
         tuple(order),
-        a,
+        read[0] if read else -1,
         tuple(rotation_tracks),
         tuple(translation_tracks),
         start,
@@ -933,12 +1060,12 @@ def _scene_up(root: int, nodes: list, parent: np.ndarray, path) -> tuple[str | N
 GENERATOR = "motionclean"
 
 
-def _refuse_wrong_channels(wrong, seen, joints: set[int], a: int, path) -> None:
+def _refuse_wrong_channels(aimed: _Targets, joints: set[int], path) -> None:
     """Refuse the first channel on a joint's node whose target path is not glTF's (a
     misspelt one had been dropped, the joint read at rest) or that animates what an
     earlier channel does (glTF 2.0 5.11; the last had silently won); such channels on other
     nodes (a mesh's, a camera's) are none of the clip's."""
-    for c, n, kind in wrong:
+    for a, c, n, kind in aimed.wrong:
         if n not in joints:
             continue
         if kind not in TARGET_PATHS:
@@ -947,8 +1074,9 @@ def _refuse_wrong_channels(wrong, seen, joints: set[int], a: int, path) -> None:
                 f"{', '.join(TARGET_PATHS)}",
                 path,
             )
+        _, earlier = aimed.seen[(n, kind)]  # (in the same animation: merged ones are apart)
         _fail(
-            f"animations[{a}].channels[{seen[(n, kind)]}] and [{c}] both animate node {n}'s "
+            f"animations[{a}].channels[{earlier}] and [{c}] both animate node {n}'s "
             f"{kind} (glTF allows one channel per node and path)",
             path,
         )
@@ -1150,7 +1278,7 @@ def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
                 q[kept[:, j]] = old[kept[:, j]]
             xyzw = q[:, [1, 2, 3, 0]]
             _point(
-                animation,
+                _holder(document, track, animation),
                 track,
                 node,
                 "rotation",
@@ -1161,7 +1289,7 @@ def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
             track = src.translation[j]
             held = np.broadcast_to(motion.offsets[j], (motion.n_frames, 3))  # a still track
             _point(
-                animation,
+                _holder(document, track, animation),
                 track,
                 node,
                 "translation",
@@ -1341,16 +1469,23 @@ def _first_buffer_is_binary(document: dict) -> bool:
 
 
 def _output(src: GltfSource, track: Track) -> int:
-    animation = src.document["animations"][src.animation]
+    animation = src.document["animations"][track.animation]
     sampler = animation["samplers"][animation["channels"][track.channel]["sampler"]]
     return sampler["output"]
 
 
 def _animation(document: dict, src: GltfSource) -> dict:
+    """The animation of ``document`` new channels go into: the first read, else a new one."""
     if src.animation >= 0:
         return document["animations"][src.animation]
     document.setdefault("animations", []).append({"channels": [], "samplers": []})
     return document["animations"][-1]
+
+
+def _holder(document: dict, track: Track, new: dict) -> dict:
+    """The animation of ``document`` holding ``track``'s channel, or ``new`` (where new
+    channels go) for a track without one."""
+    return document["animations"][track.animation] if track.channel >= 0 else new
 
 
 def _point(animation: dict, track: Track, node: int, kind: str, times: int, output: int) -> None:

@@ -41,10 +41,13 @@ counts as unchanged, as for BVH); a changed value is written with the decimals t
 coordinates use (the most any cell has; shortest round-trip form for a file that writes
 exponents), in the file's unit and on the branch (whole turns) nearest the value read.
 A file written afresh gives its values the decimals of the ``.mot``, ``.sto`` or channel
-CSV the clip was read from. When the frame count changed (resampled), the rows are written
+CSV the clip was read from, and its time column's text while the frames are the file's
+(:func:`.text.read_times`). When the frame count changed (resampled), the rows are written
 afresh and ``nRows`` is updated. ``nRows`` is never trusted: the rows present are read, a
 count that differs is said in a note and written as the true one (in an otherwise
-untouched file too).
+untouched file too). A last row that repeats the one before it byte for byte (RRA's) is
+no frame: written back after the last row, repeating it as written, or left out of a file
+written afresh.
 """
 
 from __future__ import annotations
@@ -71,6 +74,7 @@ from .text import (
     decimals_of,
     line_ends,
     parse_values,
+    read_times,
     scan_tokens,
     splice_cells,
     start_time,
@@ -107,18 +111,35 @@ class OpenSimText:
     stated_rows: str | None = None  # the header's nRows as written (None: no such line)
     regridded: bool = False  # rows put on a uniform grid: the file's cells are not the clip's
     stated_columns: str | None = None  # the header's nColumns as written (None: no such line)
+    frame_time: float = math.nan  # seconds, as read
+    #: The last row repeats the one before it (RRA's): its cells are the last row of
+    #: ``row_starts``, ``starts`` and ``ends``, which hold one row more than ``values``.
+    repeated: bool = False
+
+    @property
+    def time_cells(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """The frame time and the byte ranges of the time cells, which writers keep
+        (:func:`.text.read_times`); None for rows put on a grid (not the clip's)."""
+        if self.regridded:
+            return None
+        return self.frame_time, self.starts[: self.n_frames, 0], self.ends[: self.n_frames, 0]
 
     @property
     def stale_counts(self) -> bool:
         """Whether the header's nRows or nColumns miss what the file holds (any output
         then says the counts it writes)."""
         rows, columns = self.stated_rows, self.stated_columns
-        return (rows is not None and stated_count(rows) != self.n_frames) or (
+        return (rows is not None and stated_count(rows) != self.n_rows) or (
             columns is not None and stated_count(columns) != len(self.labels)
         )
 
     @property
     def n_frames(self) -> int:
+        return int(self.values.shape[0])
+
+    @property
+    def n_rows(self) -> int:
+        """The rows of numbers the file holds: the frames, and a repeated last row."""
         return int(self.starts.shape[0])
 
     @property
@@ -503,11 +524,14 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             f"nColumns={k}"
         )
     if stated is not None and stated_count(stated) != rows.size:
-        short = (stated_count(stated) or 0) > rows.size
+        last = bytes(buf[cell_starts[-1, -1] : cell_ends[-1, -1]]).decode("utf-8", "replace")
+        notes.append(_rows_note(stated, rows.size, data.endswith(b"\n"), last, labels[-1]))
+    repeated = _repeats_last(data, line_start, rows)
+    if repeated:
         notes.append(
-            f"nRows={stated[:20]} but the file holds {rows.size} rows"
-            f"{' (cut short?)' if short else ''}: the {rows.size} are read, and any output "
-            f"says nRows={rows.size}"
+            f"the last row repeats the one before it byte for byte (as RRA ends its results): "
+            f"read as one frame, {rows.size - 1} in all; written back after the last row, "
+            "repeating it as written (a file written afresh leaves it out)"
         )
     for what, columns in carried.items():
         if columns:
@@ -536,6 +560,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             number_of(rows[f]),
         )
     values.ravel()[flat] = found
+    values = values[: rows.size - repeated]  # (the repeated row is no frame)
     times, coords = values[:, 0], values[:, 1:]
     regrid_rows = regrid and bool(np.all(np.diff(times) > 0)) and off_grid(times)
     if regrid_rows:
@@ -546,7 +571,7 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
             f"{frame_time:.6g} s, by a cubic through the samples"
         )
     else:
-        lines = np.array([number_of(r) for r in rows])
+        lines = np.array([number_of(r) for r in rows[: times.size]])
         frame_time = uniform_frame_time(
             times, lines, path, None, SIMULATION_ADVICE, SIMULATION_ADVICE
         )
@@ -579,8 +604,36 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         stated,
         regrid_rows,
         stated_columns,
+        frame_time,
+        repeated,
     )
     return coordinates_motion(names, axes, coords, frame_time, in_degrees, missing, text, path)
+
+
+def _rows_note(stated: str, n_rows: int, line_ended: bool, last: str, label: str) -> str:
+    """The note on ``nRows=stated`` over the ``n_rows`` rows a file holds; one that holds
+    fewer and ends without a line end was cut inside its last row, perhaps inside its last
+    value (``last``, of column ``label``), which the note shows."""
+    said = f"nRows={stated[:20]} but the file holds {n_rows} rows"
+    read = f"the {n_rows} are read, and any output says nRows={n_rows}"
+    if (stated_count(stated) or 0) <= n_rows:
+        return f"{said}: {read}"
+    if line_ended:
+        return f"{said} (cut short?): {read}"
+    return (
+        f"{said} and ends inside the last one, with no line end: cut short, its last value "
+        f"({label[:40]!r}: {last[:40]}) perhaps cut too; {read}"
+    )
+
+
+def _repeats_last(data: bytes, line_start: np.ndarray, rows: np.ndarray) -> bool:
+    """Whether the last of three or more ``rows`` (line indices) repeats the row before it
+    byte for byte (its line end aside), as OpenSim's RRA ends its results."""
+    if rows.size < 3:
+        return False
+    ends = np.append(line_start[1:], len(data))
+    last, before = (data[line_start[r] : ends[r]].rstrip(b"\r\n") for r in rows[-2:][::-1])
+    return last == before
 
 
 #: What an unevenly sampled OpenSim file is told to do (it is read so by ``resample``).
@@ -720,9 +773,11 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
     stale = src.stale_counts
     if not changed.any() and not stale:
         return pieces(src.raw)
+    new_text = np.where(missing, np.nan, values)
+    if src.repeated:  # the repeated last row repeats the last row as written
+        changed, new_text = (np.concatenate([a, a[-1:]]) for a in (changed, new_text))
     mask = np.zeros(src.starts.shape, dtype=bool)
     mask[:, src.columns] = changed
-    new_text = np.where(missing, np.nan, values)
 
     def texts(rows: slice):
         chosen = new_text[rows][changed[rows]]
@@ -739,9 +794,7 @@ def opensim_pieces(motion: Motion) -> Iterable[bytes | memoryview]:
         mask,
         texts,
         start=src.body if stale else 0,
-        prefix=_counted(
-            src.raw[: src.body], {b"nrows": motion.n_frames, b"ncolumns": len(src.labels)}
-        )
+        prefix=_counted(src.raw[: src.body], {b"nrows": src.n_rows, b"ncolumns": len(src.labels)})
         if stale
         else b"",
     )
@@ -785,13 +838,16 @@ def _fresh(motion: Motion, src: OpenSimText | None) -> Iterable[bytes]:
         head = _counted(src.raw[: src.body], counts)
     labels = "\t".join(["time", *motion.names]).encode("utf-8") + eol
     decimals = _decimals(motion.source)
+    read = read_times(motion)  # the frames read: their times' text, else the times printed
 
     def cells(rows: slice):
         block = values[rows]
         out = Cells()
         starts = np.empty((block.shape[0], block.shape[1] + 1), dtype=np.int64)
         lengths = np.empty_like(starts)
-        starts[:, 0], lengths[:, 0] = out.add(*format_repr(times[rows]))
+        starts[:, 0], lengths[:, 0] = out.add(
+            *(format_repr(times[rows]) if read is None else read(rows))
+        )
         first, sizes = out.add(*format_values(block, decimals))
         starts[:, 1:], lengths[:, 1:] = first.reshape(block.shape), sizes.reshape(block.shape)
         return out.buffer(), starts, lengths

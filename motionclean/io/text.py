@@ -28,6 +28,30 @@ def start_time(motion: Motion) -> float:
     return float(getattr(motion.source, "start_time", 0.0))
 
 
+#: The cells of a slice of rows as ``(buffer, starts, lengths)``, for ``Cells.add``.
+RowCells = Callable[[slice], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+def read_times(motion: Motion) -> RowCells | None:
+    """The time cells of the file the clip was read from (a channel CSV's or OpenSim
+    file's: its source's ``time_cells``, the frame time read and the ``(F,)`` byte ranges),
+    by slices of rows, where they still give its frames (as many, as far apart); else None.
+    Writers of timed formats keep them (``0.01666667``, not ``0.0166666666722``)."""
+    src = motion.source
+    cells = getattr(src, "time_cells", None)
+    if cells is None or cells[1].size != motion.n_frames or cells[0] != motion.frame_time:
+        return None
+    _, starts, ends = cells
+    raw = sliceable(src.raw)
+
+    def texts(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        first, last = starts[rows], ends[rows]
+        low, high = int(first.min()), int(last.max())
+        return np.frombuffer(raw[low:high], np.uint8), first - low, last - first
+
+    return texts
+
+
 def check_finite(motion: Motion, values: np.ndarray, widths=None) -> None:
     """Refuse to write NaN or inf: name the first joint and frame that has one.
 

@@ -819,6 +819,90 @@ def test_the_animation_named_is_read_cleaned_and_written_alone(tmp_path, capsys)
     assert run_cli(capsys, "info", source, "--animation", "1")[0] == 0
 
 
+def split_per_joint(document: dict) -> dict:
+    """``document`` with its animation split as COLLADA2GLTF writes one: an unnamed
+    animation per node, holding that node's channels and their samplers."""
+    whole = document["animations"][0]
+    by_node: dict[int, dict] = {}
+    for channel in whole["channels"]:
+        part = by_node.setdefault(channel["target"]["node"], {"channels": [], "samplers": []})
+        part["samplers"].append(whole["samplers"][channel["sampler"]])
+        part["channels"].append({"sampler": len(part["samplers"]) - 1, "target": channel["target"]})
+    return dict(document, animations=list(by_node.values()))
+
+
+def moving_nodes(motion: mc.Motion) -> set[int]:
+    """The nodes of the joints whose rotation changes over the clip."""
+    still = np.all(motion.rotations == motion.rotations[:1], axis=(0, 2))
+    return {node for node, held in zip(motion.source.nodes, still, strict=True) if not held}
+
+
+def test_an_animation_per_joint_is_read_and_written_as_one_motion(tmp_path, capsys):
+    """COLLADA2GLTF writes each joint's channels as an animation of its own, on one time
+    base, and viewers play them together: they had been read as the first one alone (only
+    the root moving, the other joints never cleaned). Read as one motion, the split file is
+    the whole one's, cleans to its rotations, and each channel is written back into the
+    animation it came from, the others untouched."""
+    (tmp_path / "131_02_cut.bin").write_bytes((BLENDER_GLTF.parent / "131_02_cut.bin").read_bytes())
+    document = json.loads(BLENDER_GLTF.read_text())
+    split = split_per_joint(document)
+    assert len(split["animations"]) == 31
+    whole_path, split_path = tmp_path / "whole.gltf", tmp_path / "split.gltf"
+    whole_path.write_text(json.dumps(document))
+    split_path.write_text(json.dumps(split))
+    whole, read = mc.load(whole_path), mc.load(split_path)
+    assert np.array_equal(read.rotations, whole.rotations)
+    assert np.array_equal(read.translations, whole.translations)
+    assert len(moving_nodes(read)) > 20
+    code, out, err = run_cli(capsys, "info", split_path)
+    assert code == 0, err
+    assert "31 animations, each keying other joints over the same key times, are read as one" in out
+    alone = mc.load(split_path, animation="0")  # one asked for: that one alone, as before
+    assert moving_nodes(alone) <= {c["target"]["node"] for c in split["animations"][0]["channels"]}
+    outputs = {}
+    for name, source in (("whole", whole_path), ("split", split_path)):
+        outputs[name] = tmp_path / f"{name}_clean.gltf"
+        args = ["clean", source, "-o", outputs[name], "-q", "-f", "lee-shin:k=3"]
+        code, _, err = run_cli(capsys, *args)
+        assert code == 0, err
+    cleaned, expected = mc.load(outputs["split"]), mc.load(outputs["whole"])
+    assert np.abs(cleaned.rotations - expected.rotations).max() < 1e-7  # float32 written
+    moved = np.any(cleaned.rotations != read.rotations, axis=(0, 2))
+    changed = {node for node, m in zip(read.source.nodes, moved, strict=True) if m}
+    assert len(changed) > 10
+    after = json.loads(outputs["split"].read_text())["animations"]
+    for before, now in zip(split["animations"], after, strict=True):
+        node = before["channels"][0]["target"]["node"]
+        assert (now == before) == (node not in changed)
+        assert now["samplers"][: len(before["samplers"])] == before["samplers"]
+        assert all(c["sampler"] < len(now["samplers"]) for c in now["channels"])
+
+
+def test_animations_per_joint_on_other_times_are_read_one_at_a_time(tmp_path, capsys):
+    """Animations keying other joints on different key times are not merged: the first is
+    read, as before, and the note says that the others animate other joints."""
+    (tmp_path / "131_02_cut.bin").write_bytes((BLENDER_GLTF.parent / "131_02_cut.bin").read_bytes())
+    split = split_per_joint(json.loads(BLENDER_GLTF.read_text()))
+    accessors = split["accessors"]
+    for sampler in split["animations"][5]["samplers"]:  # one animation a key shorter
+        for key in ("input", "output"):
+            accessors.append(
+                dict(accessors[sampler[key]], count=accessors[sampler[key]]["count"] - 1)
+            )
+            sampler[key] = len(accessors) - 1
+    source = tmp_path / "split.gltf"
+    source.write_text(json.dumps(split))
+    first = {c["target"]["node"] for c in split["animations"][0]["channels"]}
+    assert moving_nodes(mc.load(source)) <= first
+    code, out, err = run_cli(capsys, "info", source)
+    assert code == 0, err
+    assert (
+        "31 animations each key other joints, on different key times: the first ('0') is read"
+        in out
+    )
+    assert "--animation NAME reads another" in out
+
+
 def test_convert_takes_the_up_axis_it_is_told(tmp_path, capsys):
     """A figure whose up the motion misreads (a rig with IK bones near the ground read as
     legs) is written standing as the user says (``--up``), not on its side."""

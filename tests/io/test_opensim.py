@@ -147,6 +147,92 @@ def test_a_trip_through_csv_keeps_the_files_numbers(tmp_path, capsys):
     assert back == [[cell.strip() for cell in row] for row in original]
 
 
+def at_60_fps(text: str) -> str:
+    """``text`` (IK's layout) with its rows 1/60 s apart, times in eight decimals."""
+    head, body = text.split("endheader\n")
+    lines = body.splitlines()
+    rows = [f"{i / 60:16.8f}\t" + r.split("\t", 1)[1] for i, r in enumerate(lines[1:])]
+    return head + "endheader\n" + "\n".join([lines[0], *rows]) + "\n"
+
+
+def test_a_trip_through_csv_keeps_the_time_column_s_text(tmp_path, capsys):
+    """The time column had been printed from the frame time measured (0.01666667 came back
+    as 0.0166666666722 in the CSV, 0.01666666667 in the .mot): while the frames are the
+    file's, every writer keeps its times' text, and a resampled clip's are printed."""
+    path = write(tmp_path, at_60_fps(IK))
+    read = [row.split("\t")[0].strip() for row in path.read_text().splitlines()[11:]]
+    assert read[1] == "0.01666667"
+    code, _, err = run_cli(capsys, "convert", path, tmp_path / "c.csv", "--exclude", "*_force")
+    assert code == 0, err
+    with open(tmp_path / "c.csv") as fh:
+        assert [row["time"] for row in csv.DictReader(fh)] == read
+    code, _, err = run_cli(capsys, "convert", tmp_path / "c.csv", tmp_path / "back.mot")
+    assert code == 0, err
+    assert [
+        row.split("\t")[0] for row in (tmp_path / "back.mot").read_text().splitlines()[7:]
+    ] == read
+    code, _, err = run_cli(
+        capsys, "resample", tmp_path / "c.csv", tmp_path / "r.mot", "--fps", "30"
+    )
+    assert code == 0, err
+    times = [row.split("\t")[0] for row in (tmp_path / "r.mot").read_text().splitlines()[7:]]
+    assert times[1] == "0.0333333333333"
+
+
+def repeated_last_row(text: str) -> str:
+    """``text`` with its last row written twice, as OpenSim's RRA ends its results."""
+    return text + text.splitlines(keepends=True)[-1]
+
+
+def test_a_last_row_repeated_byte_for_byte_is_read_as_one_frame(tmp_path, capsys):
+    """RRA ends its *_Kinematics_q.sto and *_states.sto with the last row written twice,
+    which had been refused ("the same time twice"), by resample too: read as one frame, it
+    is written back after the last row, repeating it as written, and left out of a file
+    written afresh. A repeat that differs in a digit is still refused."""
+    path = write(tmp_path, repeated_last_row(IK.replace("nRows=6", "nRows=7")))
+    clip = mc.load(path, exclude=["*_force"])
+    assert clip.n_frames == 6 and clip.frame_time == pytest.approx(0.01)
+    assert any(note.startswith("the last row repeats the one before") for note in clip.source.notes)
+    mc.save(clip, tmp_path / "same.mot")
+    assert (tmp_path / "same.mot").read_bytes() == path.read_bytes()
+    q = clip.rotations.copy()
+    q[-1, 3] = quat.multiply(q[-1, 3], quat.exp(np.array([0.0, 0.0, np.deg2rad(0.5) / 2])))
+    mc.save(clip.replace(rotations=q), tmp_path / "changed.mot")
+    rows = (tmp_path / "changed.mot").read_text().splitlines()
+    assert "nRows=7" in rows and rows[-1] == rows[-2] != path.read_text().splitlines()[-1]
+    assert float(rows[-1].split("\t")[4]) == pytest.approx(-12.0, abs=1e-9)
+    assert mc.load(tmp_path / "changed.mot", exclude=["*_force"]).n_frames == 6
+    code, _, err = run_cli(
+        capsys, "resample", path, tmp_path / "r.mot", "--fps", "50", "--exclude", "*_force"
+    )
+    assert code == 0, err
+    resampled = (tmp_path / "r.mot").read_text()
+    times = [
+        float(row.split("\t")[0]) for row in resampled.split("endheader\n")[1].splitlines()[1:]
+    ]
+    assert times == pytest.approx([0.0, 0.02, 0.04]) and "nRows=3\n" in resampled
+    write(tmp_path, repeated_last_row(IK)[:-2] + "1\n", "near.mot")  # -12.50000001
+    code, _, err = run_cli(capsys, "info", tmp_path / "near.mot", "--exclude", "*_force")
+    assert code == 1 and "(the same time twice: delete the repeated row)" in err
+
+
+def test_a_file_cut_inside_its_last_value_says_so(tmp_path, capsys):
+    """A file cut inside its last number (no line end, nRows saying more rows) is read with
+    the rows it holds, as the BVH and CSV readers read a last row cut so; the note shows
+    the cut value, and the output says the rows it holds."""
+    text = IK.replace("nRows=6", "nRows=600")
+    path = write(tmp_path, text[: text.rindex("\t") + 3])  # 4.5 cut to 4.
+    code, out, err = run_cli(
+        capsys, "clean", path, "-o", tmp_path / "c.mot", "--exclude", "*_force"
+    )
+    assert code == 0, err
+    assert (
+        "nRows=600 but the file holds 6 rows and ends inside the last one, with no line end" in out
+    )
+    assert "its last value ('knee_angle_r_force': 4.) perhaps cut too" in out
+    assert "nRows=6\n" in (tmp_path / "c.mot").read_text()
+
+
 def _in_radians(text: str) -> str:
     """``text`` (the IK fixture) with its rotational columns in radians, inDegrees=no."""
     head, _, body = text.partition("endheader\n")
