@@ -2,8 +2,9 @@
 
 * :func:`fairing` / :func:`fairing_positions` -- Lee & Shin's fixed-point fairing (001):
   damped order-``m`` fairing operators (Eq. 16-18) iterated while every sample stays within
-  ``epsilon_r`` / ``epsilon_t`` of the input (Eq. 19-20). The result is the last iterate
-  inside the bounds, so no output sample is farther than epsilon from its input sample.
+  ``epsilon_r`` / ``epsilon_t`` of the input (Eq. 19-20) and every step lowers the fairing
+  energy (Eq. 13). The result is the last iterate inside the bounds, so no output sample is
+  farther than epsilon from its input sample, and its energy is at most the input's.
 * :func:`sse_fairing` / :func:`sse_fairing_positions` -- Hsieh et al.'s objective (004):
   minimise ``D + beta E`` (orientations, Eq. 19, 21, 23) or ``D + alpha E`` (positions,
   Eq. 16, 20, 22) by gradient descent, the gradient taken in the tangent space at each
@@ -47,6 +48,17 @@ __all__ = [
 
 #: Fairing orders implemented (001 Eq. 16 and Eq. 18).
 ORDERS = (2, 3)
+#: Largest damping accepted per order, rotations (``lam_r``) and positions (``lam_t``):
+#: just below where the iteration ``I + lam (rho_m - I)`` of Eq. 17, with the end rows of
+#: Eq. 16/18, gets an eigenvalue of modulus above 1 on a long signal (n >= 30), so that a
+#: mode grows every iteration. m = 2 (both): 8/9, from the end mode ``r^i``, r = -1/2, of
+#: eigenvalue ``1 - 9 lam / 4`` (the interior alone allows 1). m = 3 positions: 0.620 (the
+#: interior alone allows 3/4). m = 3 rotations, linearised: 0.454 (the interior operator's
+#: gain is 3/2 the position operator's, and Eq. 18's row n-2 differs). Found numerically
+#: (``tests/filters/test_fairing.py`` checks them); shorter signals have lower limits
+#: (0.845 for m = 2 at 5 frames), where the energy rule of :func:`_run_fairing` stops them.
+MAX_LAM_R = {2: 0.88, 3: 0.45}
+MAX_LAM_T = {2: 0.88, 3: 0.6}
 #: Armijo constant of the line search: accept a step when the objective falls by at least
 #: this fraction of the decrease predicted by the gradient.
 ARMIJO = 1e-4
@@ -187,10 +199,14 @@ def _check_order(order) -> int:
     return int(order)
 
 
-def _check_unit(name: str, value) -> float:
+def _check_damping(name: str, value, limit: float, order: int) -> float:
+    """A damping of 001 Eq. 17 in ``(0, limit]``, the stability limit of ``order``."""
     value = checks.number(value, name)
-    if not 0.0 < value <= 1.0:
-        raise ValueError(f"{name} must be in (0, 1] (damping of 001 Eq. 17), got {value}")
+    if not 0.0 < value <= limit:
+        raise ValueError(
+            f"{name} must be in (0, {limit:g}] for order {order} (damping of 001 Eq. 17; "
+            f"above it the iteration diverges), got {value:g}"
+        )
     return value
 
 
@@ -233,8 +249,7 @@ def fairing_energy(q: np.ndarray, order: int) -> np.ndarray:
     x, trailing = _to_planes(q, 4, "q")
     if x.shape[1] <= order:
         return np.zeros(trailing)
-    w = _rel_log(x[:, :-1], x[:, 1:])
-    return _sq(np.diff(w, n=order - 1, axis=1)).reshape(trailing)
+    return _sq(np.diff(_displacements(x), n=order - 1, axis=1)).reshape(trailing)
 
 
 def fairing_energy_positions(p: np.ndarray, order: int) -> np.ndarray:
@@ -248,8 +263,14 @@ def fairing_energy_positions(p: np.ndarray, order: int) -> np.ndarray:
 # --------------------------------------------------------------------------- 001: operators
 
 
-def _rho_r_tangent(q: np.ndarray, order: int):
-    """Undamped rotational fairing operator ``rho_m^r`` on planes ``(4, n, N)``, ``n > m``.
+def _displacements(q: np.ndarray) -> np.ndarray:
+    """``w_i = log(q_i^-1 q_{i+1})`` of planes ``(4, n, N)``, shortest arc: ``(3, n-1, N)``."""
+    return _rel_log(q[:, :-1], q[:, 1:])
+
+
+def _rho_r_tangent(q: np.ndarray, w: np.ndarray, order: int):
+    """Undamped rotational fairing operator ``rho_m^r`` on planes ``(4, n, N)``, ``n > m``,
+    given their displacements ``w`` (:func:`_displacements`).
 
     Returns ``(segments, u)``: ``rho_m^r(Q)_i = q_a exp(u_i)`` where each segment
     ``(start, stop, a0)`` gives samples ``start .. stop-1`` the anchors ``a0, a0 + 1, ..``.
@@ -266,7 +287,6 @@ def _rho_r_tangent(q: np.ndarray, order: int):
       ``q_{i+1} exp(-(w_{i+1} + w_{i-1}) / 2)`` is one-sided (samples i-1 .. i+2).
     """
     n = q.shape[1]
-    w = _rel_log(q[:, :-1], q[:, 1:])  # w_i, i = 0 .. n-2
     u = np.empty((3, *q.shape[1:]))
     if order == 2:
         u[:, 0] = -w[:, 1]
@@ -280,9 +300,10 @@ def _rho_r_tangent(q: np.ndarray, order: int):
     return ((0, 1, 1), (1, n - 2, 2), (n - 2, n - 1, n - 3), (n - 1, n, n - 2)), u
 
 
-def _fair_r(q: np.ndarray, order: int, lam: float) -> np.ndarray:
-    """One damped step ``slerp(lam_r; Q, rho_m^r(Q))`` (001 Eq. 17) on planes."""
-    segments, u = _rho_r_tangent(q, order)
+def _fair_r(q: np.ndarray, w: np.ndarray, order: int, lam: float) -> np.ndarray:
+    """One damped step ``slerp(lam_r; Q, rho_m^r(Q))`` (001 Eq. 17) on planes, given the
+    displacements ``w_i = log(q_i^-1 q_{i+1})`` (:func:`_displacements`)."""
+    segments, u = _rho_r_tangent(q, w, order)
     e = _qexp(u)
     target = np.empty_like(q)
     tmp = np.empty((2, *q.shape[1:]))
@@ -333,33 +354,41 @@ def _sq_euclidean(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _sq_each(a - b)
 
 
-def _run_fairing(x0, advance, sq_distance, sq_epsilon, sq_tol, max_iterations):
+def _run_fairing(x0, advance, parts, energy, sq_distance, sq_epsilon, sq_tol, max_iterations):
     """001 Fig. 1 on planes ``(C, F, N)``, per signal: iterate while inside the bound.
 
-    ``sq_distance`` is a monotone function of the per-sample distance (squared chord or
-    squared Euclidean), compared with the same function of epsilon and tol. A candidate
-    iterate whose largest distance to the input reaches epsilon (Eq. 20) is rejected and its
-    signal stops, keeping the previous iterate; a signal also stops when no sample moved by
-    tol or more, or after ``max_iterations``.
+    ``advance(x, parts(x))`` is one damped step; ``energy(parts(x))`` the order-m energy
+    per signal, the parts cached from one iteration to the next. ``sq_distance`` is a
+    monotone function of the per-sample distance (squared chord or squared Euclidean),
+    compared with the same function of epsilon and tol. A candidate iterate whose largest
+    distance to the input reaches epsilon (Eq. 20), or whose energy exceeds the current one
+    (a fairing operator lowers it, Eq. 13), is rejected and its signal stops, keeping the
+    previous iterate; a signal also stops when no sample moved by tol or more, or after
+    ``max_iterations``.
     """
     out = x0.copy()
     iterations = np.zeros(x0.shape[-1], dtype=np.int64)
     idx = np.arange(x0.shape[-1])  # the signals still iterating, held in ``cur``
     cur, ref = x0.copy(), x0
+    cache = parts(cur)
+    e_cur = energy(cache)
     for _ in range(max_iterations):
         if idx.size == 0:
             break
-        cand = advance(cur)
-        inside = np.max(sq_distance(ref, cand), axis=0) < sq_epsilon
-        going = inside & (np.max(sq_distance(cur, cand), axis=0) >= sq_tol)
-        iterations[idx[inside]] += 1
-        if inside.all():
-            cur = cand
+        cand = advance(cur, cache)
+        cand_cache = parts(cand)
+        e_cand = energy(cand_cache)
+        ok = (np.max(sq_distance(ref, cand), axis=0) < sq_epsilon) & (e_cand <= e_cur)
+        going = ok & (np.max(sq_distance(cur, cand), axis=0) >= sq_tol)
+        iterations[idx[ok]] += 1
+        if ok.all():
+            cur, cache, e_cur = cand, cand_cache, e_cand
         else:
-            cur[..., inside] = cand[..., inside]
+            cur[..., ok], cache[..., ok], e_cur[ok] = cand[..., ok], cand_cache[..., ok], e_cand[ok]
         if not going.all():
             out[..., idx[~going]] = cur[..., ~going]
             idx, cur, ref = idx[going], cur[..., going], ref[..., going]
+            cache, e_cur = cache[..., going], e_cur[going]
     out[..., idx] = cur
     return out, iterations
 
@@ -380,8 +409,9 @@ def fairing(
     operator (Eq. 16 for m = 2, with the interior midpoint derived from ``W^2 = 0``; Eq. 18
     for m = 3), which lowers the order-``m`` energy :func:`fairing_energy` (Eq. 11) for a
     small enough ``lam_r``. Each signal (joint) stops on its own when the next iterate would
-    put a sample ``epsilon_r`` or farther from its input (Eq. 19-20), when no sample moves by
-    ``tol`` or more, or after ``max_iterations``; the last iterate inside the bound is kept.
+    put a sample ``epsilon_r`` or farther from its input (Eq. 19-20) or raise its energy
+    (Eq. 13), when no sample moves by ``tol`` or more, or after ``max_iterations``; the last
+    iterate kept is inside the bound, and its energy never above the input's.
 
     Parameters
     ----------
@@ -391,9 +421,10 @@ def fairing(
         Order ``m`` of the energy and operator. 3 allows constant angular acceleration and
         stays closer to the data (001 Fig. 2); 2 pulls toward constant angular velocity.
         The m = 3 interior operator is one-sided, so its response is not zero-phase.
-    lam_r : float in (0, 1]
-        Damping ``lambda_r`` of Eq. 17. With m = 3 the interior operator's linearised gain
-        is 3/2 that of the position operator, so keep ``lam_r < 0.5`` (paper: 0.1 to 0.3).
+    lam_r : float in (0, MAX_LAM_R[order]]: (0, 0.88] for m = 2, (0, 0.45] for m = 3
+        Damping ``lambda_r`` of Eq. 17 (paper: 0.1 to 0.3). The limits are the linearised
+        iteration's, 8/9 and 0.454 on a long signal (:data:`MAX_LAM_R`); above them it
+        diverges (the m = 3 interior operator's gain is 3/2 the position operator's).
     epsilon_r : float >= 0
         Bound on ``dist(q_i^(0), q_i)`` of Eq. 19, the S^3 angle ``acos|q0 . q|`` in radians,
         i.e. HALF the rotation angle: 0.02 allows 2.3 degrees of rotation. ``inf`` disables.
@@ -410,7 +441,7 @@ def fairing(
     have no energy to lower and are returned unchanged.
     """
     order = _check_order(order)
-    lam = _check_unit("lam_r", lam_r)
+    lam = _check_damping("lam_r", lam_r, MAX_LAM_R[order], order)
     epsilon = _check_nonneg("epsilon_r", epsilon_r, finite=False, rotation=True)
     tol = _check_nonneg("tol", tol, rotation=True)
     iters_max = _check_iterations(max_iterations)
@@ -421,7 +452,9 @@ def fairing(
         order + 1,
         lambda x: _run_fairing(
             x,
-            lambda cur: _fair_r(cur, order, lam),
+            lambda cur, w: _fair_r(cur, w, order, lam),
+            _displacements,
+            lambda w: _sq(np.diff(w, n=order - 1, axis=1)),
             _sq_chord,
             _sq_chord_of(epsilon),
             _sq_chord_of(tol),
@@ -447,13 +480,15 @@ def fairing_positions(
     Repeats ``P <- lam_t rho_m^t(P) + (1 - lam_t) P`` (Eq. 17). Each signal stops when the
     next iterate would move a sample ``epsilon_t`` or farther (Euclidean, the data's length
     unit) from its input, when no sample moves by ``tol`` or more, or after
-    ``max_iterations``; the last iterate inside the bound is returned. ``lam_t`` in (0, 1]
-    (stable below 3/4 for m = 3; paper: 0.5). Affine operators, so the result commutes with
-    rigid motions, and with uniform scaling when the bounds scale too. ``F <= order``:
-    unchanged.
+    ``max_iterations``, or when the next iterate would raise its energy (Eq. 13); the last
+    iterate inside the bound is returned. ``lam_t`` in (0, MAX_LAM_T[order]]: (0, 0.88] for
+    m = 2, (0, 0.6] for m = 3 (paper: 0.5), below where the iteration diverges on a long
+    signal, 8/9 and 0.620 (:data:`MAX_LAM_T`; Eq. 18's end rows lower the interior's 3/4).
+    Affine operators, so the result commutes with rigid motions, and with uniform scaling
+    when the bounds scale too. ``F <= order``: unchanged.
     """
     order = _check_order(order)
-    lam = _check_unit("lam_t", lam_t)
+    lam = _check_damping("lam_t", lam_t, MAX_LAM_T[order], order)
     epsilon = _check_nonneg("epsilon_t", epsilon_t, finite=False)
     tol = _check_nonneg("tol", tol)
     iters_max = _check_iterations(max_iterations)
@@ -464,7 +499,9 @@ def fairing_positions(
         order + 1,
         lambda x: _run_fairing(
             x,
-            lambda cur: cur + lam * (_rho_t(cur, order) - cur),
+            lambda cur, _: cur + lam * (_rho_t(cur, order) - cur),
+            lambda x: np.diff(x, n=order, axis=1),
+            _sq,
             _sq_euclidean,
             epsilon * epsilon,
             tol * tol,

@@ -2,8 +2,22 @@
 
 from __future__ import annotations
 
-from ..filters.fairing import MAX_ITERATIONS, fairing, fairing_positions
+from collections.abc import Callable
+
+from ..core.errors import UsageError
+from ..filters.fairing import MAX_ITERATIONS, MAX_LAM_R, MAX_LAM_T, fairing, fairing_positions
 from .base import Param, StepData, StepSpec, cut_param
+
+
+def _resolve_fairing(params: dict, at: Callable[..., str]) -> None:
+    """Refuse a damping above its order's stability limit (the iteration diverges there)."""
+    order = params["order"]
+    for name, limits in (("lam_r", MAX_LAM_R), ("lam_t", MAX_LAM_T)):
+        if params[name] > limits[order]:
+            raise UsageError(
+                f"{at(name, 'order')}: {name} must be at most {limits[order]:g} with "
+                f"order={order} (above it the iteration diverges), got {params[name]:g}"
+            )
 
 
 def _run_fairing(data: StepData, params: dict) -> StepData:
@@ -58,20 +72,21 @@ STEP = StepSpec(
             "lam_r",
             "float",
             0.1,
-            "damping of each orientation step (slerp toward the "
-            "fairing operator, Eq. 17); keep below 0.5 for order 3",
+            "damping of each orientation step (slerp toward the fairing operator, Eq. 17); "
+            f"at most {MAX_LAM_R[3]:g} for order 3 (the iteration diverges above)",
             minimum=0.0,
             exclusive_minimum=True,
-            maximum=1.0,
+            maximum=max(MAX_LAM_R.values()),
         ),
         Param(
             "lam_t",
             "float",
             0.5,
-            "damping of each position step (Eq. 17)",
+            "damping of each position step (Eq. 17); at most "
+            f"{MAX_LAM_T[3]:g} for order 3 (the iteration diverges above)",
             minimum=0.0,
             exclusive_minimum=True,
-            maximum=1.0,
+            maximum=max(MAX_LAM_T.values()),
         ),
         Param(
             "epsilon_r",
@@ -104,4 +119,5 @@ STEP = StepSpec(
     run=_run_fairing,
     merge_note=_merge_note,
     cuts_at_flips=True,
+    resolve=_resolve_fairing,
 )

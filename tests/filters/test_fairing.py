@@ -14,6 +14,11 @@ from helpers import CORPUS_NAMES, corpus_clip
 import motionclean
 from motionclean.core import quat
 from motionclean.filters.fairing import (
+    MAX_LAM_R,
+    MAX_LAM_T,
+    _displacements,
+    _fair_r,
+    _rho_t,
     fairing,
     fairing_energy,
     fairing_energy_positions,
@@ -167,18 +172,106 @@ def test_fairing_energy_falls_with_small_damping(order):
         assert np.all(energies[-1] < 0.5 * energies[0])
 
 
+def iteration_matrix(operator: np.ndarray, lam: float) -> np.ndarray:
+    """``I + lam (R - I)``: one damped step of 001 Eq. 17 on a linear operator ``R``."""
+    return np.eye(len(operator)) + lam * (operator - np.eye(len(operator)))
+
+
+def operator_matrix(kind: str, order: int, n: int) -> np.ndarray:
+    """``rho_m`` as an ``n x n`` matrix: the position operator, or the rotational one
+    linearised about the identity (tiny rotations about z, one signal per unit vector)."""
+    if kind == "t":
+        return _rho_t(np.eye(n)[None], order)[0]
+    q = np.moveaxis(quat.exp(1e-7 * np.eye(n)[..., None] * [0.0, 0.0, 1.0]), -1, 0)
+    return _fair_r(q, _displacements(q), order, 1.0)[3] / 1e-7
+
+
+def spectral_radius(matrix: np.ndarray) -> float:
+    return float(np.abs(np.linalg.eigvals(matrix)).max())
+
+
+@pytest.mark.parametrize(
+    ("kind", "order", "limit"), [("r", 2, 8 / 9), ("r", 3, 0.454), ("t", 2, 8 / 9), ("t", 3, 0.620)]
+)
+def test_damping_limits_are_where_the_iteration_starts_to_diverge(kind, order, limit):
+    """The largest accepted damping keeps every mode of a long signal from growing, and the
+    limit the docstrings derive is where one starts to: 8/9 (m = 2), 0.620 (positions,
+    m = 3; the interior alone would allow 3/4), 0.454 (rotations, m = 3)."""
+    cap = (MAX_LAM_R if kind == "r" else MAX_LAM_T)[order]
+    operator = operator_matrix(kind, order, 60)
+    assert cap < limit  # (eigenvalue 1: the polynomials of degree < m, kept)
+    assert spectral_radius(iteration_matrix(operator, cap)) < 1.0 + 1e-9
+    assert spectral_radius(iteration_matrix(operator, limit - 0.001)) < 1.0 + 1e-9
+    assert spectral_radius(iteration_matrix(operator, limit + 0.001)) > 1.0 + 1e-4
+
+
+@pytest.mark.parametrize(("order", "lam_r", "lam_t"), [(2, 0.88, 0.88), (3, 0.45, 0.6)])
+def test_energy_never_rises_at_the_largest_damping_on_a_real_clip(order, lam_r, lam_t):
+    """001 Eq. 13 at the edges of the accepted range, no bound, every joint of 131_02
+    (RThumb's half-turn flips included, where a step had raised the energy)."""
+    m = corpus_motion()
+    q, p = m.rotations[:300], m.translations[:300, :1]
+    e_r = [fairing_energy(fairing(q, order, lam_r, math.inf, 0.0, k), order) for k in range(25)]
+    e_t = [
+        fairing_energy_positions(fairing_positions(p, order, lam_t, math.inf, 0.0, k), order)
+        for k in range(25)
+    ]
+    for energies in (np.array(e_r), np.array(e_t)):
+        assert np.all(np.diff(energies, axis=0) <= 1e-12 * energies[:-1])
+        moving = energies[0] > 0.0  # RThumb's first step would raise it: it stays
+        assert np.mean(energies[-1][moving] < 0.9 * energies[0][moving]) > 0.9
+
+
+def test_a_step_that_would_raise_the_energy_is_not_taken():
+    """Below the divergence limit a step can still raise the energy of some signals: the
+    worst one for m = 3 at lam_t = 0.6, and any 5-frame signal at m = 2, lam 0.88 (its own
+    limit is 0.845). Such a signal stops where its energy would rise, and stays bounded."""
+    n, order = 40, 3
+    d = np.diff(np.eye(n), n=order, axis=0)
+    gain = (
+        d @ iteration_matrix(operator_matrix("t", order, n), MAX_LAM_T[order]) @ np.linalg.pinv(d)
+    )
+    _, singular, right = np.linalg.svd(gain)
+    assert singular[0] > 1.0  # that signal's energy would rise in one step
+    worst = np.repeat((np.linalg.pinv(d) @ right[0])[:, None, None], 3, axis=-1)
+    out, iterations = fairing_positions(worst, order, 0.6, math.inf, return_iterations=True)
+    assert iterations == 0 and np.array_equal(out, worst)
+    short = np.random.default_rng(3).normal(size=(5, 20, 3))
+    assert spectral_radius(iteration_matrix(operator_matrix("t", 2, 5), 0.88)) > 1.0
+    out = fairing_positions(short, 2, 0.88, math.inf, 0.0, 2000)
+    assert np.all(fairing_energy_positions(out, 2) <= fairing_energy_positions(short, 2))
+    assert np.abs(out - short).max() < 10.0 * np.abs(short).max()
+    q = quat.exp(0.3 * short)
+    out_q = fairing(q, 2, 0.88, math.inf, 0.0, 2000)
+    assert np.all(fairing_energy(out_q, 2) <= fairing_energy(q, 2) * (1 + 1e-12))
+
+
+@pytest.mark.parametrize(
+    ("order", "name", "value"), [(3, "lam_r", 0.49), (2, "lam_r", 0.9), (3, "lam_t", 0.7)]
+)
+def test_a_damping_past_its_order_s_limit_is_refused(order, name, value):
+    """The dampings that had diverged on 131_02 (lam_t = 0.7 moved its root by 5.3e6
+    units; lam_r = 0.49 raised the order-3 energy of 13 joints up to 288 times)."""
+    p = corpus_motion().translations[:100, :1]
+    call = fairing_positions if name == "lam_t" else fairing
+    with pytest.raises(ValueError, match=rf"^{name} must be in \(0, 0\.\d+\] for order {order}"):
+        call(quat.exp(1e-3 * p) if name == "lam_r" else p, order, value)
+
+
 def test_order2_interior_operator_is_the_geodesic_midpoint():
-    """Undamped, one step: q_1 -> slerp_1/2(q_0, q_2), the analogue of (p_0 + p_2) / 2."""
+    """One step half-way (lam 1/2) toward q_1 -> slerp_1/2(q_0, q_2), the analogue of
+    (p_0 + p_2) / 2."""
     rng = np.random.default_rng(5)
     q = quat.make_continuous(noisy_rotations(rng, 3, (6,), noise=0.3))
-    out = fairing(q, order=2, lam_r=1.0, epsilon_r=math.inf, tol=0.0, max_iterations=1)
-    assert s3_dist(out[1], quat.slerp(q[0], q[2], 0.5)).max() < 1e-12
+    out = fairing(q, order=2, lam_r=0.5, epsilon_r=math.inf, tol=0.0, max_iterations=1)
+    mid = quat.slerp(q[0], q[2], 0.5)
+    assert s3_dist(out[1], quat.slerp(q[1], mid, 0.5)).max() < 1e-12
     # the ends extrapolate: q_0 -> q_1 q_2^-1 q_1 (001 Eq. 16)
     end = quat.multiply(quat.multiply(q[1], quat.conjugate(q[2])), q[1])
-    assert s3_dist(out[0], end).max() < 1e-12
+    assert s3_dist(out[0], quat.slerp(q[0], end, 0.5)).max() < 1e-12
     p = rng.normal(size=(3, 6, 3))
-    out_p = fairing_positions(p, order=2, lam_t=1.0, epsilon_t=math.inf, max_iterations=1)
-    np.testing.assert_allclose(out_p[1], 0.5 * (p[0] + p[2]))
+    out_p = fairing_positions(p, order=2, lam_t=0.5, epsilon_t=math.inf, max_iterations=1)
+    np.testing.assert_allclose(out_p[1], 0.5 * p[1] + 0.25 * (p[0] + p[2]))
 
 
 def test_fairing_fixed_points():

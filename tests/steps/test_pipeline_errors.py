@@ -47,6 +47,9 @@ from motionclean.steps.pipeline import Pipeline
         ("multires:levels=2,gains=[0,0,0]", "gains", "3 gains for 2 levels"),
         ("multires:levels=2,level=3", "level", "level must lie in [0, levels=2]"),
         ("multires:gains=[0],level=1", "level", "either gains or level"),
+        ("fairing:lam_r=0.49", "lam_r", "lam_r must be at most 0.45 with order=3"),
+        ("fairing:lam_t=0.7", "lam_t", "lam_t must be at most 0.6 with order=3"),
+        ("fairing:order=2,lam_r=0.9", "lam_r", "lam_r must be a number > 0 and <= 0.88"),
     ],
 )
 def test_cross_parameter_errors_name_the_step_and_the_key(step, key, message):
@@ -66,6 +69,8 @@ def test_cross_parameter_errors_name_the_step_and_the_key(step, key, message):
         "multires:levels=2,gains=[0,0]",
         "multires:levels=2,level=2",
         "despike:min_deg_per_s=100,max_deg_per_s=100",
+        "fairing:lam_r=0.45,lam_t=0.6",
+        "fairing:order=2,lam_r=0.88,lam_t=0.88",
     ],
 )
 def test_the_limits_themselves_are_allowed(step):
