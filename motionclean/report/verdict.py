@@ -135,6 +135,12 @@ LOOK_CHANGE_HEIGHTS = 0.1
 UNCHANGED_LENGTH = UNCHANGED_TOLERANCE
 #: A joint repaired on more than this share of its frames needs a look.
 LOOK_REPAIRED_SHARE = 0.5
+#: A capture with a flip or a spike repaired on at least this share of its joints (and on
+#: :data:`GLITCHY_JOINTS` or more) is no clean capture whatever its jitter: "glitchy
+#: capture, repaired" (a network's 165-joint estimate of 63 frames, 64 repairs on 50
+#: joints, had read "clean capture, smoothed").
+GLITCHY_SHARE = 0.2
+GLITCHY_JOINTS = 3
 #: A joint of the cleaned clip turning faster than this between two frames (degrees per
 #: second), or by more than :data:`~motionclean.core.jumps.JUMP_DEG` degrees in one (at 24
 #: and 30 fps, where this is 150 and 120 degrees a frame), turns faster than a body can:
@@ -891,6 +897,8 @@ def build_verdict(
     if worse:
         reasons.append(_worse_words(worse))
     done = _repair_words(repairs)
+    glitched = sum(1 for counts in repairs.values() if counts["flips"] or counts["spikes"])
+    glitchy = glitched >= max(GLITCHY_JOINTS, GLITCHY_SHARE * len(joints))
     briefly = _brief_words(joints)  # (two clips compared: no repair claimed)
     # a clip only put on the floor (levelling turns the root) removed no jitter: still clean
     rotations_clean = smoothing["change_deg_rms"] < CLEAN_CHANGE_DEG or bool(
@@ -937,6 +945,8 @@ def build_verdict(
             left = little if change < CLEAN_CHANGE_DEG else f"{left}, {little}"
         parts.append(f"otherwise {left}" if parts else left)
         lead = "clean capture, repaired" if done else "clean capture"
+        if glitchy:
+            lead = "glitchy capture, repaired"
     else:
         parts = [removed] + done + briefly + grounded
         if positions_lead and position_removed is not None:
@@ -963,6 +973,8 @@ def build_verdict(
             shown_removed is not None and abs(shown_removed) < NEGLIGIBLE_JITTER
         )
         lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
+        if quiet and glitchy:
+            lead = "glitchy capture, repaired and smoothed"
     parts += not_grounded
     if shown_feet:
         parts.append(shown_feet)

@@ -1247,3 +1247,24 @@ def test_smoothing_across_unrepaired_flips_is_not_called_motion_taken_for_noise(
     assert "motion taken for noise" not in verdict
     said = report["verdict"]
     assert said["change_deg_rms"] > 3 * said["noise_level_deg"] >= said["change_deg_rms_away"]
+
+
+@pytest.mark.parametrize("spiked", [2, 9])
+def test_a_capture_glitching_on_many_joints_is_no_clean_capture(spiked):
+    """One-frame spikes of 40 degrees on ``spiked`` joints of a clean capture: repaired
+    either way; the line calls the capture glitchy where a fifth of its joints or more
+    glitched, clean otherwise."""
+    clip = mc.load(corpus_clip("131_02.bvh"))
+    joints = [n for n, name in enumerate(clip.names) if "Thumb" not in name][1 : 1 + spiked]
+    rotations = clip.rotations.copy()
+    kick = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(40.0))
+    for k, joint in enumerate(joints):
+        frame = 200 + 60 * k
+        rotations[frame, joint] = quat.multiply(kick, rotations[frame, joint])
+    result = clean_motion(clip.replace(rotations=rotations), Pipeline.default(), "spiked.bvh")
+    verdict = result.report["verdict"]
+    spikes = sum(c["spikes"] for c in verdict["repairs"].values())
+    assert spikes >= spiked
+    glitchy = spiked >= verdict_rules.GLITCHY_SHARE * clip.n_joints
+    assert verdict["text"].startswith("glitchy capture") == glitchy, verdict["text"]
+    assert verdict["status"] in ("repaired", "cleaned")
