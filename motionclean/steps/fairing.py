@@ -103,5 +103,6 @@ STEP = StepSpec(
     ),
     run=_run_fairing,
     merge_note=_merge_note,
+    column_wise=True,
     cuts_at_flips=True,
 )
