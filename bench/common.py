@@ -1,4 +1,5 @@
-"""What the benchmark scripts share: where the corpus is, and best-of-N wall-clock timing.
+"""What the benchmark scripts share: where the corpus is, and best-of-N timing (wall clock
+or process CPU).
 
 The scripts run as ``python bench/<name>.py``, which puts this folder first on ``sys.path``,
 so they import this module as ``common``. It imports nothing from the package itself.
@@ -39,3 +40,15 @@ def best_of(fn: Callable[[], object], repeats: int, warm_up: bool = False) -> fl
     if warm_up:
         fn()
     return min((elapsed(fn) for _ in range(repeats)), default=math.inf)
+
+
+def best_cpu(fn: Callable[[], object], repeats: int) -> float:
+    """Shortest process CPU time of ``repeats`` calls ``fn()``, in seconds, after one
+    untimed call (steadier than wall-clock time on a shared machine)."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        start = time.process_time()
+        fn()
+        times.append(time.process_time() - start)
+    return min(times)

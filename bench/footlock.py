@@ -29,12 +29,11 @@ truth) with the step's thresholds. Printed, per clip and seed:
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from common import corpus_clips
+from common import best_cpu, corpus_clips
 from quality import NOISE_DEG, SUBSAMPLE, clean_base, plant_rotation_noise, rmse_deg, scored_joints
 
 import motionclean as mc
@@ -53,18 +52,6 @@ PARAMS = {p.name: p.default for p in footlock.STEP.params}
 WITH = Pipeline.from_tables(DEFAULT_STEPS, "default")
 WITHOUT = Pipeline.from_tables([s for s in DEFAULT_STEPS if s["filter"] != "footlock"], "without")
 LOCK = Pipeline.from_inline(["footlock"])
-
-
-def best_cpu(fn, repeats: int) -> float:
-    """Shortest process CPU time of ``repeats`` calls ``fn()`` after one untimed call
-    (steadier than wall-clock time on a shared machine)."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.process_time()
-        fn()
-        times.append(time.process_time() - start)
-    return min(times)
 
 
 def noisy(motion: mc.Motion, degrees: float, seed) -> mc.Motion:

@@ -8,11 +8,8 @@ in the process's CPU time (both single-threaded; CPU time is steadier on a busy 
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
-from common import ROOT, best_of, corpus_clips
+from common import ROOT, best_cpu, best_of, corpus_clips
 
 import motionclean as mc
 from motionclean.core import kinematics, quat
@@ -20,17 +17,6 @@ from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
 
 FRAMES = 100_000
-
-
-def best_cpu(fn: Callable[[], object], repeats: int) -> float:
-    """Shortest process CPU time of ``repeats`` calls ``fn()`` after one untimed call."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        start = time.process_time()
-        fn()
-        times.append(time.process_time() - start)
-    return min(times)
 
 
 #: Other exporters' clips (tests/data/exporters/README.md) and the axis each stands along.

@@ -7,7 +7,8 @@ written) and compares, per clip, the figures of :class:`~motionclean.cli.batch.F
 - ``deviation_max`` / ``deviation_rms``: rotation angle between input and output (degrees);
 - ``frames``, ``noise_before`` and ``content`` (a digest of the clip's values as read,
   :func:`~motionclean.run.jobs.content_digest`) guard the input: when they differ the clip
-  itself changed. A baseline recorded before ``content`` existed is checked without it.
+  itself changed. A baseline recorded before ``content`` existed is checked without it, as
+  is one of format 3 (:data:`ROUNDED_DIGESTS`) until ``--update`` records it anew.
 
 A figure is worse when ``now > baseline * (1 + T) + ABSOLUTE`` (relative tolerance ``T``,
 default :data:`DEFAULT_TOLERANCE` = 1 %; ``ABSOLUTE`` keeps figures at zero from failing on
@@ -61,8 +62,8 @@ DEFAULT_TOLERANCE = 0.01
 #: Absolute slack added to every limit (units of the figure).
 ABSOLUTE = 1e-9
 #: Relative slack of the figures of the clip itself (the noise before cleaning): rounding
-#: between machines only, so any edit of the clip shows as CHANGED (the tolerance for
-#: the cleaning's figures had let a half-degree edit of one frame pass).
+#: between machines only (the tolerance for the cleaning's figures had let a half-degree
+#: edit of one frame pass); an edit below it shows in the content digest.
 SAME_CLIP = 1e-7
 #: Figures compared: key, label, and whether only a rise fails (else any change does).
 FIGURES = (
@@ -78,7 +79,10 @@ JOINT_FIGURES = (
 )
 #: What the baseline's ``content`` of a clip holds: a SHA-256 digest in hex.
 DIGEST = re.compile(r"[0-9a-f]{64}")
-FORMAT = 3
+FORMAT = 4
+#: The format whose digests hashed the parsed values as float32 (an edit of 2e-6 of
+#: 117.056789 passed): not comparable with today's, so not compared.
+ROUNDED_DIGESTS = 3
 
 
 def clip_key(path: str, baseline: Path) -> str:
@@ -106,6 +110,16 @@ def read_baseline(path: Path) -> dict[str, Any]:
         if problem:
             raise MotionError(f"not a motionclean baseline: clip {key[:80]!r}: {problem}", path)
     return document
+
+
+def _drop_rounded_digests(document: dict[str, Any]) -> bool:
+    """Drop, in place, the ``content`` of the clips of a baseline of format
+    :data:`ROUNDED_DIGESTS` (its clips are checked on their figures, as one recorded
+    without digests); True when there was any."""
+    if document.get("format") != ROUNDED_DIGESTS:
+        return False
+    dropped = [entry.pop("content", None) for entry in document["clips"].values()]
+    return any(content is not None for content in dropped)
 
 
 def _figure(value: Any) -> bool:
@@ -367,6 +381,7 @@ def check_command(
     read.refuse_unused(*clips)  # (an option that none of them uses)
     fresh = update and (replace or not baseline_path.exists())
     document = {} if fresh else read_baseline(baseline_path)  # a missing one fails first
+    rounded = not fresh and _drop_rounded_digests(document)
     named: dict[str, str] = {}  # a clip named twice is checked once
     for clip in clips:
         named.setdefault(clip_key(clip, baseline_path), clip)
@@ -445,6 +460,11 @@ def check_command(
         click.echo(format_check(table))
     if not same_pipeline(document.get("pipeline"), tables):
         click.echo("note: the pipeline differs from the one the baseline was recorded with")
+    if rounded:
+        click.echo(
+            f"note: the baseline's content digests are of format {ROUNDED_DIGESTS}, not "
+            "compared (the clips are checked on their figures); --update records them anew"
+        )
     if not problems:
         click.echo(
             f"check passed: {len(keys)} clip{'s' if len(keys) != 1 else ''} within "

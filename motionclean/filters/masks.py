@@ -120,11 +120,16 @@ NARROWEST = 0.02
 def gaussian(sigma_t: float, radius: int | None = None) -> np.ndarray:
     """Gaussian ``exp(-r^2 / 2 sigma_t^2)`` truncated at ``radius`` frames and normalised.
 
-    ``sigma_t`` is in frames; ``radius`` defaults to ``ceil(3 sigma_t)``.
+    ``sigma_t`` is in frames; ``radius`` (a whole number of frames, 0 or more) defaults to
+    ``ceil(3 sigma_t)``.
     """
     sigma_t = checks.number(sigma_t, "sigma_t")
     if not 0 < sigma_t < math.inf:  # NaN too
         raise MaskError(f"sigma_t must be a positive number of frames, got {sigma_t}")
+    if radius is not None:  # ('3' had given 7 taps, 2.7 five, -1 an empty mask)
+        value = checks.number(radius, "radius")
+        if not (math.isfinite(value) and value == int(value) and value >= 0):
+            raise MaskError(f"radius must be a non-negative whole number of frames, got {radius}")
     radius = math.ceil(3 * sigma_t) if radius is None else int(radius)
     if radius > MAX_HALF_WIDTH:
         raise MaskError(

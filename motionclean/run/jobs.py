@@ -301,10 +301,11 @@ def content_digest(motion: Motion) -> str:
     """SHA-256 (hex) of what a clip holds as read: joints, tree, channels, offsets and end
     sites (with their joints), frame time, every frame's values and its dropouts. The
     values are the file's channel values as parsed where the reader keeps them (text
-    formats: the same on every machine), else the rotations (sign made canonical, w >= 0)
-    and translations; numbers enter as float32, so the last bits of one machine's maths
-    against another's do not count while any edit of a value does (``check`` tells an
-    edited clip by it)."""
+    formats: the same on every machine), hashed as float64, so any edit of one counts
+    (``check`` tells an edited clip by it); else the rotations (sign made canonical,
+    w >= 0) and translations, which the reader computes, hashed as float32 as the offsets,
+    end sites and frame time are, so the last bits of one machine's maths against
+    another's do not count (nor does an edit below float32's resolution there)."""
     tree = {
         "names": motion.names,
         "channels": motion.channels,
@@ -314,13 +315,17 @@ def content_digest(motion: Motion) -> str:
     }
     digest = hashlib.sha256(json.dumps(tree, default=np.ndarray.tolist).encode())
     ends = [motion.end_sites[j] for j in sorted(motion.end_sites)]
-    frames: list = [motion.source_values]
+    hashed: list[tuple[Any, str]] = [
+        (np.asarray(v), "<f4") for v in (motion.offsets, *ends, [motion.frame_time])
+    ]
     if motion.source_values is None:
-        frames = [_canonical(motion.rotations), motion.translations]
-    for values in [np.asarray(v) for v in (motion.offsets, *ends, [motion.frame_time])] + frames:
+        hashed += [(_canonical(motion.rotations), "<f4"), (motion.translations, "<f4")]
+    else:
+        hashed.append((motion.source_values, "<f8"))
+    for values, kind in hashed:
         for first in range(0, max(len(values), 1), DIGEST_ROWS):  # blocks: no clip-sized copy
             block = values[first : first + DIGEST_ROWS]
-            digest.update(np.asarray(block, "<f4").tobytes())
+            digest.update(np.asarray(block, kind).tobytes())
     digest.update(np.packbits(motion.missing_mask()).tobytes())
     return digest.hexdigest()
 

@@ -1,4 +1,5 @@
-"""The step registry: one line per step; each step is a module of its own."""
+"""The step registry: each step is a module of its own, imported here and listed once in
+:data:`REGISTRY`."""
 
 from __future__ import annotations
 

@@ -252,16 +252,22 @@ class StepSpec:
     relevant: Callable[[dict], tuple[str, ...]] | None = None
     # True: the step runs on whole columns of a clip with missing samples and reads the mask
     # itself (``StepData.motion.missing``, placeholders held); False: each known stretch of
-    # a column with gaps is run on its own.
+    # a column with gaps is run on its own (see ``column_wise``).
     sees_missing: bool = False
+    # True: ``run`` treats every column as a signal of its own and reads only the arrays,
+    # the frame time and the parameters (not ``motion``, ``entered`` or ``earlier``): the
+    # known stretches of a clip with dropouts come as columns of one array, those of one
+    # length together, with ``motion`` None. False: each stretch is run alone, with the
+    # clip cut to it as ``motion``.
+    column_wise: bool = False
     # Parameters besides ``joints`` that name joints by fnmatch patterns (footlock's
     # ``feet``): a pattern that matches no joint of a clip is warned of.
     name_patterns: tuple[str, ...] = ()
     # True: the step has a ``cut_deg`` parameter (:func:`cut_param`) and the pipeline runs
     # it on each stretch of a rotation column between steps that turn by more than that
-    # (translations uncut), so a flip nothing repaired stays a flip. ``run`` must treat
-    # every column as a signal of its own: the stretches come as columns of one array, with
-    # ``motion`` None (no clip frames match them).
+    # (translations uncut), so a flip nothing repaired stays a flip. The step must be
+    # ``column_wise``: the stretches come as columns of one array, with ``motion`` None (no
+    # clip frames match them).
     cuts_at_flips: bool = False
 
 

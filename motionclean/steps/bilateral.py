@@ -74,5 +74,6 @@ STEP = StepSpec(
         cut_param("002's filter as printed"),
     ),
     run=_run_bilateral,
+    column_wise=True,
     cuts_at_flips=True,
 )

@@ -118,6 +118,7 @@ STEP = StepSpec(
     ),
     run=_run_fairing,
     merge_note=_merge_note,
+    column_wise=True,
     cuts_at_flips=True,
     resolve=_resolve_fairing,
 )

@@ -197,6 +197,7 @@ STEP = StepSpec(
         cut_param("000's filter as printed"),
     ),
     run=_run_lee_shin,
+    column_wise=True,
     resolve=_resolve_lee_shin,
     check_rate=_check_rate,
     relevant=_lee_shin_relevant,

@@ -75,6 +75,7 @@ STEP = StepSpec(
         cut_param("003's pyramid as printed"),
     ),
     run=_run_multires,
+    column_wise=True,
     cuts_at_flips=True,
     resolve=_resolve_multires,
 )

@@ -756,10 +756,11 @@ class _Made:
 
 
 def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
-    """``step`` on a clip with missing samples: the columns without gaps in one call, each
-    known stretch (2 frames or more) of a column with gaps on its own (with the clip cut to
-    it as context); missing samples are left as they are. A column's notes from several
-    stretches are merged (:func:`_merged`)."""
+    """``step`` on a clip with missing samples: the columns without gaps in one call; the
+    known stretches (2 frames or more) of the columns with gaps, of a ``column_wise`` step
+    as columns of one array (:meth:`_Outputs.run_stretches`), of any other each on its own
+    (with the clip cut to it as context); missing samples are left as they are. A column's
+    notes from several stretches are merged (:func:`_merged`)."""
     missing = motion.missing_mask()
     has_positions = data.translations is not None
     gaps_r = missing[:, data.rotation_joints].any(axis=0)
@@ -774,15 +775,26 @@ def _run_on_known(step: Step, data: StepData, motion: Motion) -> StepData:
     ):
         if not gappy.any():
             continue
-        columns = np.flatnonzero(gappy)
-        known = Gaps.of(~missing[:, joints[columns]])
-        for c, first, stop in zip(columns[known.joint], known.first, known.stop, strict=True):
-            if stop - first >= 2:
-                picked = np.array([c])
-                empty = np.zeros(0, np.intp)
-                rot, pos = (empty, picked) if positions else (picked, empty)
-                out.run(step, motion, rot, pos, slice(int(first), int(stop)))
+        stretches = _known_stretches(missing[:, joints], np.flatnonzero(gappy))
+        if step.spec.column_wise:
+            out.run_stretches(step, stretches, positions)
+            continue
+        for c, first, length in zip(*stretches, strict=True):
+            picked = np.array([c])
+            empty = np.zeros(0, np.intp)
+            rot, pos = (empty, picked) if positions else (picked, empty)
+            out.run(step, motion, rot, pos, slice(int(first), int(first + length)))
     return out.finish()
+
+
+def _known_stretches(
+    missing: np.ndarray, columns: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The known stretches of 2 frames or more of ``missing``'s ``(F, C)`` ``columns``:
+    ``(column, first, length)``, ``(S,)`` each, by column, then frame."""
+    known = Gaps.of(~missing[:, columns])
+    kept = known.lengths >= 2
+    return columns[known.joint[kept]], known.first[kept], known.lengths[kept]
 
 
 def _call(step: Step, data: StepData) -> StepData:
@@ -819,7 +831,8 @@ def _run_between_flips(step: Step, data: StepData) -> StepData:
     rotations = data.rotations if data.owned else data.rotations.copy()  # (written into)
     rotations[:, plain] = whole.rotations
     notes = {int(plain[c]): note for c, note in whole.rotation_notes.items()}
-    notes.update(_run_stretches(step, data, cuts, rotations))
+    parts = _run_stretches(step, data, _stretches(cuts), rotations)
+    notes.update({c: _merged(step.spec, found) for c, found in parts.items()})
     return replace(
         data,
         rotations=rotations,
@@ -830,37 +843,48 @@ def _run_between_flips(step: Step, data: StepData) -> StepData:
 
 
 def _run_stretches(
-    step: Step, data: StepData, cuts: np.ndarray, out: np.ndarray
-) -> dict[int, dict]:
-    """``step`` on each stretch of 2 frames or more of ``data``'s rotation columns between
-    ``cuts`` ``(F-1, C)``, as a column of its own (the stretches of one length in one call:
-    a loop over lengths, not over stretches or frames), written into ``out`` (which may be
-    ``data.rotations``: no two stretches share a sample); a frame alone is left as it is.
-    Returns each cut column's notes, its stretches' merged (:func:`_merged`)."""
-    assert step.spec.run is not None
+    step: Step,
+    data: StepData,
+    stretches: tuple[np.ndarray, np.ndarray, np.ndarray],
+    out: np.ndarray,
+    positions: bool = False,
+) -> dict[int, list[tuple[dict, int]]]:
+    """``step`` (``column_wise``) on each stretch ``(column, first, length)`` (``(S,)`` each,
+    2 frames or more) of ``data``'s rotation columns (``positions``: translation columns) as
+    a column of its own, cut at its own flips (:func:`_call`; a stretch between flips has
+    none): the stretches of one length in one call, a loop over lengths, not over
+    stretches or frames. Written into ``out`` (which may be ``data``'s own array: no two
+    stretches share a sample). Returns each column's notes as parts ``(note, frames)`` in
+    frame order, numbered as the clip (for :func:`_merged`)."""
     parts: dict[int, list[tuple[int, dict, int]]] = {}  # column -> (first, note, frames)
-    column, first, length = _stretches(cuts)
+    column, first, length = stretches
+    values = data.translations if positions else data.rotations
+    assert values is not None
+    joints = data.translation_joints if positions else data.rotation_joints
+    none = np.zeros(0, np.intp)
     for group in _by_length(length):
         frames = first[group] + np.arange(length[group[0]])[:, None]  # (L, n)
         columns = column[group]
-        result = step.spec.run(
+        cut = values[frames, columns]
+        result = _call(
+            step,
             StepData(
-                data.rotations[frames, columns],
-                None,
+                np.zeros((cut.shape[0], 0, 4)) if positions else cut,
+                cut if positions else None,
                 data.frame_time,
-                rotation_joints=data.rotation_joints[columns],
+                rotation_joints=none if positions else joints[columns],
+                translation_joints=joints[columns] if positions else none,
                 owned=True,
                 earlier=data.earlier,
             ),
-            step.params,
         )
-        out[frames, columns] = result.rotations
-        for c, note in result.rotation_notes.items():
+        out[frames, columns] = result.translations if positions else result.rotations
+        for c, note in (result.translation_notes if positions else result.rotation_notes).items():
             at, n = int(first[group[c]]), int(length[group[c]])
             shifted = _shifted(step.spec, note, at, data.frame_time)
             parts.setdefault(int(columns[c]), []).append((at, shifted, n))
     return {
-        c: _merged(step.spec, [(note, n) for _, note, n in sorted(found, key=lambda p: p[0])])
+        c: [(note, n) for _, note, n in sorted(found, key=lambda p: p[0])]
         for c, found in parts.items()
     }
 
@@ -992,6 +1016,18 @@ class _Outputs:
                 shifted = _shifted(step.spec, note, start, data.frame_time)
                 book.setdefault(int(columns[c]), []).append((shifted, context.n_frames))
         return result
+
+    def run_stretches(
+        self, step: Step, stretches: tuple[np.ndarray, np.ndarray, np.ndarray], positions: bool
+    ) -> None:
+        """``step`` (``column_wise``) on stretches ``(column, first, length)`` of the
+        rotation columns (``positions``: translation columns), those of one length in one
+        call (:func:`_run_stretches`)."""
+        out = self.translations if positions else self.rotations
+        assert out is not None
+        found = _run_stretches(step, self.data, stretches, out, positions)
+        for c, parts in found.items():
+            self.notes[int(positions)].setdefault(c, []).extend(parts)
 
     def finish(self) -> StepData:
         data = self.data

@@ -57,5 +57,6 @@ STEP = StepSpec(
         cut_param("004's descent as printed"),
     ),
     run=_run_sse_fairing,
+    column_wise=True,
     cuts_at_flips=True,
 )

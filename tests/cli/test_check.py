@@ -11,7 +11,7 @@ import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.cli.check import DEFAULT_TOLERANCE, compare
+from motionclean.cli.check import DEFAULT_TOLERANCE, FORMAT, compare
 from motionclean.core import quat
 from motionclean.report.summary import json_safe
 from motionclean.steps.pipeline import Pipeline
@@ -367,7 +367,7 @@ def test_a_clip_whose_root_moved_on_one_frame_is_another_clip(clips, capsys):
     clip's values as read, positions too."""
     assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
     recorded = json.loads(Path("b.json").read_text())
-    assert recorded["format"] == 3 and len(recorded["clips"][clips[1]]["content"]) == 64
+    assert recorded["format"] == FORMAT and len(recorded["clips"][clips[1]]["content"]) == 64
     edit_value(clips[1], frame=40, column=0, change=5.0)
     code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
     assert code == 1 and "check passed" not in out
@@ -376,6 +376,51 @@ def test_a_clip_whose_root_moved_on_one_frame_is_another_clip(clips, capsys):
     assert [line.split()[-1] for line in out.splitlines() if "content digest" in line] == [
         "CHANGED"
     ]
+
+
+def set_value(path: str, frame: int, column: int, text: str) -> None:
+    """Write ``text`` as one value of a BVH clip's motion block."""
+    lines = Path(path).read_text().splitlines()
+    row = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1 + frame
+    values = lines[row].split()
+    values[column] = text
+    lines[row] = " ".join(values)
+    Path(path).write_text("\n".join(lines) + "\n")
+
+
+def test_an_edit_in_the_last_written_digit_is_another_clip(clips, capsys):
+    """The root's height on frame 0 from 117.056789 to 117.056787: one float32 both (the
+    digest had hashed the values so, and the clip passed), two values as parsed."""
+    assert np.float32(117.056789) == np.float32(117.056787)
+    set_value(clips[1], frame=0, column=1, text="117.056789")
+    assert run_cli(capsys, "check", clips[1], "--baseline", "b.json", "--update")[0] == 0
+    set_value(clips[1], frame=0, column=1, text="117.056787")
+    code, out, err = run_cli(capsys, "check", clips[1], "--baseline", "b.json")
+    assert code == 1 and "check passed" not in out
+    assert f"motionclean: error: {clips[1]}: content digest changed from " in err
+    assert [line.split()[-1] for line in out.splitlines() if "content digest" in line] == [
+        "CHANGED"
+    ]
+
+
+def test_a_baseline_of_float32_digests_is_checked_on_its_figures_until_updated(clips, capsys):
+    """Format 3's digests (values as float32) are not compared: the clips pass on their
+    figures, with a note; an update records today's digests, which catch an edit."""
+    assert run_cli(capsys, "check", *clips, "--baseline", "b.json", "--update")[0] == 0
+    document = json.loads(Path("b.json").read_text())
+    document["format"] = 3
+    for entry in document["clips"].values():
+        entry["content"] = "0" * 64
+    Path("b.json").write_text(json.dumps(document))
+    code, out, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert (code, err) == (0, "") and "check passed" in out
+    assert "note: the baseline's content digests are of format 3, not compared" in out
+    assert run_cli(capsys, "check", clips[0], "--baseline", "b.json", "--update")[0] == 0
+    updated = json.loads(Path("b.json").read_text())
+    assert updated["format"] == FORMAT and "content" not in updated["clips"][clips[1]]
+    edit_value(clips[0], frame=40, column=0, change=5.0)
+    code, out, err = run_cli(capsys, "check", *clips, "--baseline", "b.json")
+    assert code == 1 and f"{clips[0]}: content digest changed" in err and "note:" not in out
 
 
 def test_a_baseline_recorded_without_a_digest_is_checked_on_its_figures(clips, capsys):

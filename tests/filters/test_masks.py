@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -114,6 +115,25 @@ def test_gaussian_mask(sigma_t, radius):
     np.testing.assert_allclose(mask / mask[r], np.exp(-(offsets**2) / (2 * sigma_t**2)), rtol=1e-14)
     with pytest.raises(MaskError, match="positive"):
         gaussian(0.0)
+
+
+@pytest.mark.parametrize(
+    ("radius", "error", "message"),
+    [
+        ("3", TypeError, "radius: expected a number, got str"),
+        (True, TypeError, "radius: expected a number, got bool"),
+        (-1, MaskError, "radius must be a non-negative whole number of frames, got -1"),
+        (2.7, MaskError, "got 2.7"),
+        (math.nan, MaskError, "got nan"),
+        (math.inf, MaskError, "got inf"),
+    ],
+)
+def test_gaussian_refuses_a_radius_that_is_no_whole_number_of_frames(radius, error, message):
+    """As binomial's k: '3' had given 7 taps, 2.7 five and -1 an empty mask."""
+    with pytest.raises(error, match=re.escape(message)):
+        gaussian(1.0, radius)
+    assert gaussian(1.0, 2.0).size == gaussian(1.0, np.int64(2)).size == 5
+    assert np.array_equal(gaussian(1.0, 0), [1.0])
 
 
 def test_wide_binomial_masks_do_not_overflow():
