@@ -707,16 +707,54 @@ def test_a_capture_whose_jitter_smoothing_did_not_lower_is_not_called_noisy(remo
 def test_a_lower_rate_s_low_pass_is_told_as_the_resample_s_not_motion_taken_for_noise(
     capsys, tmp_path
 ):
-    """The README's resample pipeline (despike, resample to 30 fps, auto) on the clean cut:
-    the anti-alias low-pass takes the wrist's fast turn (10.5 degrees) and auto changes
-    nothing, but the line had blamed smoothing and called it motion taken for noise."""
+    """The README's resample pipeline (despike, auto, resample to 30 fps) on the clean cut:
+    the anti-alias low-pass takes the wrist's fast turn (10.5 degrees), but the line had
+    blamed smoothing and called it motion taken for noise."""
     code, out, _ = run_cli(
         capsys, "clean", SAMPLE, "-o", tmp_path / "30.bvh",
-        "-f", "despike", "-f", "resample:fps=30", "-f", "auto",
+        "-f", "despike", "-f", "auto", "-f", "resample:fps=30",
     )  # fmt: skip
     verdict = next(line for line in out.splitlines() if line.startswith("verdict: "))
     assert code == 0 and "motion taken for noise" not in verdict
     assert "the cleaning (its resample included) moved RightWrist" in verdict, verdict
+    assert "before resample" not in verdict  # (auto read the clip at its own rate)
+
+
+def test_auto_after_a_lower_rate_finds_no_noise_and_the_verdict_says_to_put_it_first():
+    """After resample to 60 fps the low-pass has taken the band auto reads noise in: on
+    the noisy sample it chose no filter for any joint (before it, most joints are
+    filtered), and the line had called the clip a clean capture."""
+    late = clean_clip(NOISY, None, Pipeline.from_inline(["resample:fps=60", "auto"])).report
+    early = clean_clip(NOISY, None, Pipeline.from_inline(["auto", "resample:fps=60"])).report
+    chosen = [
+        [note["auto"]["filter"]["mask"] for note in report["joints"].values() if "auto" in note]
+        for report in (late, early)
+    ]
+    assert set(chosen[0]) == {"none"} and chosen[1].count("none") < len(chosen[1]) / 2
+    assert late["verdict"]["status"] == "needs a look"
+    assert (
+        "auto after resample to 60 fps reads only the noise the resample's low-pass left: "
+        "put auto before resample" in late["verdict"]["text"]
+    )
+    assert "before resample" not in early["verdict"]["text"]
+
+
+@pytest.mark.parametrize(
+    ("steps", "words"),
+    [
+        (["resample:fps=30", "auto", "footlock"], "auto and footlock after resample to 30 fps "),
+        (["resample:fps=240", "auto"], "its spline left none (above 60 Hz): put auto before"),
+        (["resample:fps=30", "resample:fps=120", "auto"], "to 120 fps reads the noise where"),
+        (["resample:fps=120.01", "auto"], None),
+        (["auto", "resample:fps=30", "lee-shin"], None),
+    ],
+)
+def test_only_steps_reading_the_noise_after_a_rate_change_are_told_to_move(steps, words):
+    """auto and footlock read the noise; another smoother after a resample (its strength
+    given) or a resample to the same rate is no reason to look."""
+    report = {"frame_time": 1 / 120, "pipeline": Pipeline.from_inline(steps).describe()}
+    told = verdict_rules._order_words(report)
+    assert (words in told[0]) if words else not told, told
 
 
 def test_a_slide_just_over_the_planted_limit_does_not_read_as_the_limit():
