@@ -52,6 +52,7 @@ from .world import (
     figure_positions,
     format_contacts,
     format_world,
+    steps_up_contradicted,
     world_figures,
 )
 
@@ -957,7 +958,7 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, cleaned),
-        "world": series["world_figures"],
+        "world": _world_section(series["world_figures"], core_before, pipeline or []),
         "contacts": series["contacts"],
         # per body with dropouts, its fill-gaps note (the same object as under joints)
         "gaps": {n: entry["fill-gaps"] for n, entry in joints.items() if "fill-gaps" in entry},
@@ -1007,6 +1008,14 @@ def _noise_level(before: Motion, joints: dict[str, dict], wander: dict[str, floa
         extra = np.array([wander.get(before.names[j], 0.0) for j in cols])
         levels[guessed] = np.hypot(estimate_noise(q, before.frame_time), extra)
     return float(np.sqrt(np.mean(levels**2)))
+
+
+def _world_section(figures: dict, before: Motion, pipeline: list[dict]) -> dict:
+    """The ``world`` section: ``figures`` and, where steps were given an up axis of their
+    own that the motion contradicts, ``steps_up_contradicted``
+    (:func:`~motionclean.report.world.steps_up_contradicted`)."""
+    steps = steps_up_contradicted(before, pipeline)
+    return figures | {"steps_up_contradicted": steps} if steps else figures
 
 
 def _step_notes(joints: dict[str, dict], pipeline: Sequence[dict]) -> list[str]:

@@ -734,13 +734,22 @@ def jumps_left_out(count: int) -> str:
 def _up_words(report: dict) -> list[str]:
     """The up axis given that the motion contradicts (the ``world`` section's
     ``up_axis_contradicted``), as a reason to look: every world figure, the feet and
-    ``footlock`` and ``ground`` used it."""
+    ``footlock`` and ``ground`` used it; and each step's own ``up`` that it contradicts
+    (``steps_up_contradicted``: that step used it)."""
     world = report.get("world") or {}
     shown = world.get("up_axis_contradicted")
+    said = [
+        f"the up axis given to {step['filter']} ({step['up_axis']}) contradicts the motion "
+        f"({step['shown']['up_axis']})"
+        for step in world.get("steps_up_contradicted") or []
+    ]
     if not shown:
-        return []
+        return said
     how = "assumed" if world.get("up_axis_source") == "assumed" else "given"
-    return [f"the up axis {how} ({world['up_axis']}) contradicts the motion ({shown['up_axis']})"]
+    return [
+        f"the up axis {how} ({world['up_axis']}) contradicts the motion ({shown['up_axis']})",
+        *said,
+    ]
 
 
 def _order_words(report: dict) -> list[str]:

@@ -1285,3 +1285,34 @@ def test_smoothing_across_unrepaired_flips_is_not_called_motion_taken_for_noise(
     assert "motion taken for noise" not in verdict
     said = report["verdict"]
     assert said["change_deg_rms"] > 3 * said["noise_level_deg"] >= said["change_deg_rms_away"]
+
+
+@pytest.mark.parametrize(
+    ("step", "words"),
+    [
+        ("ground:up=z", "the up axis given to ground (z) contradicts the motion (y)"),
+        ("footlock:up=x", "the up axis given to footlock (x) contradicts the motion (y)"),
+        ("ground:up=y", None),
+    ],
+)
+def test_a_steps_own_up_axis_is_checked_against_the_motion_as_the_clips_is(step, words):
+    """`-f ground:up=z` moved a y-up clip 34 units sideways and read "put on the floor ...
+    feet planted", where `--up z -f ground` needed a look: a step's own `up` gets the same
+    check and the same words."""
+    report = clean_clip(SAMPLE, None, Pipeline.from_inline([step])).report
+    text = report["verdict"]["text"]
+    if words is None:
+        assert "contradicts" not in text and "steps_up_contradicted" not in report["world"]
+        return
+    assert report["verdict"]["status"] == "needs a look" and f"needs a look: {words}" in text
+    (entry,) = report["world"]["steps_up_contradicted"]
+    assert entry["shown"]["up_axis"] == "y" and entry["filter"] == step.split(":")[0]
+
+
+def test_a_steps_up_that_is_the_clips_own_is_said_once():
+    """`--up z -f ground:up=z`: the clip's up axis is told, not the step's again."""
+    clip = mc.load(SAMPLE)
+    clip.up = "z"
+    report = clean_motion(clip, Pipeline.from_inline(["ground:up=z"]), "c.bvh").report
+    assert report["verdict"]["text"].count("contradicts") == 1
+    assert "the up axis given (z) contradicts the motion (y)" in report["verdict"]["text"]
