@@ -468,17 +468,38 @@ def settle(values: np.ndarray, source: np.ndarray, rotation_columns: np.ndarray)
     follow_wraps(values, source, rotation_columns)
 
 
-def unwrap_turns(angles: np.ndarray, carry: tuple | None) -> tuple:
+#: A channel of frames written afresh that steps by more than this (degrees, whole turns
+#: aside) where the rotation itself leaps is written on the principal angles' own turns
+#: there (:func:`unwrap_turns`): it jumps either way, and unwrapped it had kept every
+#: turn the flips before it made (a thumb's channel within -124..84 degrees read, written
+#: down to -1002 after a resample).
+LEAP_STEP_DEG = 90.0
+
+
+def unwrap_turns(angles: np.ndarray, carry: tuple | None, leaps: np.ndarray | None = None) -> tuple:
     """Move, in place, each channel of a block of written angles ``angles`` ``(F, ...)``
     (degrees) by the whole turns that keep every step within half a turn, continuing the
     block before it (``carry``: what this returns for it; None at the clip's first frame):
     :func:`numpy.unwrap` a block at a time. For frames written afresh (resampled, another
     format's rotations), whose chain restarts on the principal angles where the rotation
     itself leaps (a flip nothing repaired, a cut), which had stepped a channel 331 degrees
-    where 29 would do. Returns the carry for the next block."""
+    where 29 would do. ``leaps`` ``(F, J)``: the frames where the rotation leaps; a channel
+    that steps there by more than :data:`LEAP_STEP_DEG` even unwrapped keeps the turns it
+    is written with (no turn carried past a jump, so flips add none). Returns the carry
+    for the next block."""
     last, offset = (angles[0], np.zeros(angles.shape[1:])) if carry is None else carry
     steps = np.diff(np.concatenate([last[None], angles]), axis=0)
-    moved = offset - 360.0 * np.cumsum(np.round(steps / 360.0), axis=0)
+    steps /= 360.0
+    turns = np.round(steps)
+    total = np.cumsum(turns, axis=0)
+    moved = offset - 360.0 * total
+    if leaps is not None:
+        reset = leaps[..., None] & (np.abs(steps - turns) > LEAP_STEP_DEG / 360.0)
+        if reset.any():  # the turns since the last reset (or the block's start, with offset)
+            frame = np.arange(angles.shape[0]).reshape((-1,) + (1,) * (angles.ndim - 1))
+            since = np.maximum.accumulate(np.where(reset, frame, -1), axis=0)
+            base = np.take_along_axis(total, np.maximum(since, 0), axis=0)
+            moved = np.where(since >= 0, -360.0 * (total - base), moved)
     carry = (angles[-1].copy(), moved[-1])
     angles += moved
     return carry

@@ -609,7 +609,7 @@ class Motion:
         fresh = not self.has_source_frames()
         cols = _as_slice(self.layout.rotation_columns[joints])  # (3 n) columns
         chosen = _as_slice(joints)
-        carry = turns = None
+        carry = turns = last = None
         for at in range(0, self.n_frames, FILTER_BLOCK_FRAMES):  # temporaries stay small
             block = slice(at, at + FILTER_BLOCK_FRAMES)
             q = np.ascontiguousarray(self.rotations[block, chosen])  # (faster to read)
@@ -628,8 +628,19 @@ class Motion:
                 q, order, read, kept, carry, principal, backward=not fresh
             )
             if fresh:  # (nothing read to follow: no channel steps half a turn or more)
-                turns = unwrap_turns(angles, turns)
+                turns = unwrap_turns(angles, turns, _leaps(q, last))
+                last = q[-1]
             values[block, cols] = angles.reshape(q.shape[0], -1)
+
+
+def _leaps(q: np.ndarray, before: np.ndarray | None) -> np.ndarray:
+    """``(F, J)``: the frames of ``q`` ``(F, J, 4)`` whose rotation turns by more than 90
+    degrees from the frame before (``before`` ``(J, 4)``, the block's; None at the clip's
+    first frame, which leaps from nothing), where a written chain restarts."""
+    dots = np.empty(q.shape[:-1])
+    dots[0] = 1.0 if before is None else np.einsum("ji,ji->j", before, q[0])
+    dots[1:] = np.einsum("fji,fji->fj", q[:-1], q[1:])
+    return np.abs(dots) < math.sqrt(0.5)
 
 
 def as_motion(value: Any, name: str = "motion") -> Motion:

@@ -52,6 +52,7 @@ from .world import (
     figure_positions,
     format_contacts,
     format_world,
+    steps_up_contradicted,
     world_figures,
 )
 
@@ -957,7 +958,7 @@ def build_report(
         "pipeline": pipeline or [],
         "joints": joints,
         "summary": _summary(series, cleaned),
-        "world": series["world_figures"],
+        "world": _world_section(series["world_figures"], core_before, pipeline or []),
         "contacts": series["contacts"],
         # per body with dropouts, its fill-gaps note (the same object as under joints)
         "gaps": {n: entry["fill-gaps"] for n, entry in joints.items() if "fill-gaps" in entry},
@@ -967,7 +968,10 @@ def build_report(
     unit = kinematics.length_unit(before)  # only where the format fixes it ("m")
     if unit:
         report["length_unit"] = unit
-    said = [*kinematics.source_notes(before), *_step_notes(joints)]  # only when there is any
+    said = [
+        *kinematics.source_notes(before),
+        *_step_notes(joints, pipeline or []),
+    ]  # only when there is any
     if said:
         report["notes"] = said
     smoothing = _smoothing(series, list(series["joints"]))
@@ -1006,16 +1010,48 @@ def _noise_level(before: Motion, joints: dict[str, dict], wander: dict[str, floa
     return float(np.sqrt(np.mean(levels**2)))
 
 
-def _step_notes(joints: dict[str, dict]) -> list[str]:
+def _world_section(figures: dict, before: Motion, pipeline: list[dict]) -> dict:
+    """The ``world`` section: ``figures`` and, where steps were given an up axis of their
+    own that the motion contradicts, ``steps_up_contradicted``
+    (:func:`~motionclean.report.world.steps_up_contradicted`)."""
+    steps = steps_up_contradicted(before, pipeline)
+    return figures | {"steps_up_contradicted": steps} if steps else figures
+
+
+def _step_notes(joints: dict[str, dict], pipeline: Sequence[dict]) -> list[str]:
     """What the steps' notes say a user should know: the joints ``fairing`` left before its
-    first iteration (its first step would have moved a sample past ``epsilon_r``)."""
+    first iteration (its first step would have moved a sample past ``epsilon_r``), those
+    ``sse-fairing`` stopped at its iteration limit before converging."""
+    said = []
     stopped = [n for n, entry in joints.items() if entry.get("fairing", {}).get("held_by_bound")]
-    if not stopped:
+    if stopped:
+        left = (
+            f"{plural(len(stopped), 'joint')} as {'it was' if len(stopped) == 1 else 'they were'}"
+        )
+        said.append(
+            f"fairing left {left} ({listed(stopped, 3)}): its first step would move a sample "
+            "beyond epsilon_r; a larger epsilon_r lets it smooth them"
+        )
+    return said + _unconverged(joints, pipeline)
+
+
+def _unconverged(joints: dict[str, dict], pipeline: Sequence[dict]) -> list[str]:
+    """``sse-fairing``'s joints (rotations) that ran to ``max_iterations`` with the
+    objective's gradient norm still above ``epsilon``: how many, and how far off."""
+    left = {
+        n: entry["sse-fairing"]["gradient"]
+        for n, entry in joints.items()
+        if (entry.get("sse-fairing") or {}).get("at_limit")
+    }
+    if not left:
         return []
-    left = f"{plural(len(stopped), 'joint')} as {'it was' if len(stopped) == 1 else 'they were'}"
+    step = next(s for s in pipeline if s.get("filter") == "sse-fairing")
+    worst = sorted(left, key=left.__getitem__, reverse=True)
     return [
-        f"fairing left {left} ({listed(stopped, 3)}): its first step would move a sample beyond "
-        "epsilon_r; a larger epsilon_r lets it smooth them"
+        f"sse-fairing stopped at its iteration limit ({step['max_iterations']}) before "
+        f"converging on {plural(len(left), 'joint')} ({listed(worst, 3)}): gradient norm up "
+        f"to {left[worst[0]]:.2g} where it stops at {step['epsilon']:g}; it smooths less than "
+        "asked there: a larger max_iterations finishes it (about 80 per unit of beta)"
     ]
 
 

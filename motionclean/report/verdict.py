@@ -13,7 +13,9 @@ Statuses, first that applies (thresholds below, documented in the README):
   over :data:`~motionclean.core.jumps.JUMP_DEG` it makes (a flip is no jitter).
 - ``needs a look``: an up axis given that the motion contradicts (the ``world``
   section's ``up_axis_contradicted``: a clip reported on its own says so after its
-  noise), a gap left missing (longer than ``max_gap``), smoothing that moved a
+  noise), ``auto`` or ``footlock`` after a ``resample`` to a lower rate (they read the
+  noise in the band its low-pass removed: :data:`READS_NOISE`), a gap left missing
+  (longer than ``max_gap``), smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs and more than
   :data:`LOOK_CHANGE_SIGMAS` times the noise ``auto`` estimated in it (fast motion taken
   for noise?),
@@ -55,11 +57,12 @@ import numpy as np
 
 from ..core.jumps import JUMP_DEG
 from ..core.motion import UNCHANGED_TOLERANCE
+from ..core.rates import same_rate
 from ..core.takes import LONGEST_SPIKE_S, MAX_DEG_PER_S
 from ..core.words import length_word, percent, plural, significant
 from ..filters.auto import MIN_FRAMES
 from ..steps import REGISTRY
-from ..steps.base import BRIEF_RUNS, format_runs
+from ..steps.base import BRIEF_RUNS, format_runs, fps_text
 from .thrash import THRASH_DEG_PER_S
 
 __all__ = [
@@ -201,6 +204,10 @@ LOOK_SANK_BY = 0.002
 #: Steps that repair, plant, put on the floor or resample a clip without smoothing it: a
 #: pipeline of these alone gets no noise judgement (``StepSpec.smooths``).
 NOT_SMOOTHING = frozenset(name for name, spec in REGISTRY.items() if not spec.smooths)
+#: Steps that read the clip's noise (``auto`` in its band above 10 Hz, ``footlock`` from
+#: ``auto``'s notes or the same estimate): after a resample to a lower rate, whose
+#: anti-alias low-pass removed that band, they read only the noise it left.
+READS_NOISE = ("auto", "footlock")
 
 
 def _runs(note: dict, key: str) -> list[list[int]]:
@@ -733,13 +740,53 @@ def jumps_left_out(count: int) -> str:
 def _up_words(report: dict) -> list[str]:
     """The up axis given that the motion contradicts (the ``world`` section's
     ``up_axis_contradicted``), as a reason to look: every world figure, the feet and
-    ``footlock`` and ``ground`` used it."""
+    ``footlock`` and ``ground`` used it; and each step's own ``up`` that it contradicts
+    (``steps_up_contradicted``: that step used it)."""
     world = report.get("world") or {}
     shown = world.get("up_axis_contradicted")
+    said = [
+        f"the up axis given to {step['filter']} ({step['up_axis']}) contradicts the motion "
+        f"({step['shown']['up_axis']})"
+        for step in world.get("steps_up_contradicted") or []
+    ]
     if not shown:
-        return []
+        return said
     how = "assumed" if world.get("up_axis_source") == "assumed" else "given"
-    return [f"the up axis {how} ({world['up_axis']}) contradicts the motion ({shown['up_axis']})"]
+    return [
+        f"the up axis {how} ({world['up_axis']}) contradicts the motion ({shown['up_axis']})",
+        *said,
+    ]
+
+
+def _order_words(report: dict) -> list[str]:
+    """The steps of :data:`READS_NOISE` placed after a ``resample`` that changed the rate,
+    as a reason to look: "auto after resample to 30 fps reads only the noise the
+    resample's low-pass left: put auto before resample" (up: where the spline left none);
+    none where each reads the clip's own rate."""
+    steps = report.get("pipeline") or []
+    if not any(step.get("filter") == "resample" for step in steps):
+        return []
+    frame_time, changed = float(report["frame_time"]), ""
+    late: list[str] = []
+    for step in steps:
+        name = step.get("filter")
+        if name == "resample":
+            new = 1.0 / step["fps"] if step.get("fps") else float(step["frame_time"])
+            if not same_rate(frame_time, new):
+                above = f"above {0.5 / frame_time:.3g} Hz"
+                changed = f"to {fps_text(new)} fps " + (
+                    "reads only the noise the resample's low-pass left"
+                    if new > frame_time
+                    else f"reads the noise where its spline left none ({above})"
+                )
+            frame_time = new
+        elif name in READS_NOISE and changed and name not in late:
+            late.append(name)
+    if not late:
+        return []
+    named = " and ".join(late)
+    reads = changed if len(late) == 1 else changed.replace(" reads ", " read ", 1)
+    return [f"{named} after resample {reads}: put {named} before resample"]
 
 
 def _input_only(report: dict, alone: dict | None) -> dict[str, Any]:
@@ -805,7 +852,7 @@ def build_verdict(
         return _input_only(report, alone)
     repairs = _repairs(joints)
     feet, skate = _feet(report.get("contacts"))
-    reasons = _up_words(report) + _missing_words(joints)
+    reasons = _up_words(report) + _order_words(report) + _missing_words(joints)
     change, joint = smoothing["change_deg_max"], smoothing["change_joint"]
     filters = [step.get("filter") for step in report.get("pipeline") or []]
     rest = report.get("rest_frames") or {}

@@ -195,6 +195,22 @@ def up_contradicted(motion: Motion) -> dict | None:
     }
 
 
+def steps_up_contradicted(motion: Motion, pipeline: list[dict]) -> list[dict]:
+    """The up axes steps were given as their own ``up`` (``ground``, ``footlock``) that the
+    motion of ``motion`` contradicts, as :func:`up_contradicted` judges ``--up``: per
+    such step ``filter``, ``up_axis`` (given) and ``shown`` (what the motion shows). An
+    ``up`` that is the clip's own (``--up``, a file's) is judged as the clip's."""
+    out = []
+    for step in pipeline:
+        given = step.get("up")
+        if given in (None, "auto") or given == motion.up:
+            continue
+        shown = up_contradicted(motion.replace(up=given))
+        if shown is not None:
+            out.append({"filter": step.get("filter"), "up_axis": given, "shown": shown})
+    return out
+
+
 def contradiction_words(world: dict) -> str:
     """What the motion shows against the declared up axis (the ``world`` section's
     ``up_axis_contradicted``), in words ("the motion's trunk points along +y on 97 % of

@@ -95,7 +95,7 @@ def make_step(table: dict, where: str, key_places: dict[str, str] | None = None)
     used for an error about that key."""
     if not isinstance(table, dict):
         raise UsageError(f"{where}: a step must be a table of key = value pairs")
-    table = dict(table)
+    table = _given(table)
     name = table.pop("filter", None)
     if name is None:
         raise UsageError(f"{where}: missing 'filter'; one of {', '.join(REGISTRY)}")
@@ -105,13 +105,15 @@ def make_step(table: dict, where: str, key_places: dict[str, str] | None = None)
     places = {key: f"{place} ({name})" for key, place in (key_places or {}).items()}
     where = f"{where} ({name})"
     allowed = spec.params + COMMON_PARAMS
+    # (a whole-clip step refuses joints and ranges in a line of its own: not listed as allowed)
+    listed = spec.params if spec.run_motion is not None else allowed
     params: dict[str, Any] = {}
     for key, value in table.items():
         param = next((p for p in allowed if p.name == key), None)
         if param is None:
             raise UsageError(
                 f"{places.get(key, where)}: unknown parameter {key!r}; allowed: "
-                + ", ".join(p.name for p in allowed)
+                + ", ".join(p.name for p in listed)
             )
         params[key] = param.coerce(value, places.get(key, where))
     for param in spec.params:
@@ -143,11 +145,23 @@ def make_step(table: dict, where: str, key_places: dict[str, str] | None = None)
         unused = [key for key in table if key not in used and key not in common]
         if unused:
             raise UsageError(
-                f"{where}: {unused[0]!r} is not used with "
+                f"{places.get(unused[0], where)}: {unused[0]!r} is not used with "
                 + ", ".join(f"{k}={params[k]}" for k in used if isinstance(params[k], str))
                 + f"; it takes {', '.join(k for k in used if not isinstance(params[k], str))}"
             )
     return Step(spec, params, joints, positions, span)
+
+
+def _given(table: dict) -> dict:
+    """A copy of a step ``table`` as given: a report's entry (its ``pipeline``, which adds
+    the frames a ranged step ``touched`` and the ``frames`` a ``seconds`` range became)
+    without what the report added, so it reads back as the same step."""
+    table = dict(table)
+    if "touched" in table:
+        del table["touched"]
+        if "seconds" in table:
+            table.pop("frames", None)
+    return table
 
 
 def parse_value(text: str) -> Any:

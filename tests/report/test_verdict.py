@@ -707,16 +707,54 @@ def test_a_capture_whose_jitter_smoothing_did_not_lower_is_not_called_noisy(remo
 def test_a_lower_rate_s_low_pass_is_told_as_the_resample_s_not_motion_taken_for_noise(
     capsys, tmp_path
 ):
-    """The README's resample pipeline (despike, resample to 30 fps, auto) on the clean cut:
-    the anti-alias low-pass takes the wrist's fast turn (10.5 degrees) and auto changes
-    nothing, but the line had blamed smoothing and called it motion taken for noise."""
+    """The README's resample pipeline (despike, auto, resample to 30 fps) on the clean cut:
+    the anti-alias low-pass takes the wrist's fast turn (10.5 degrees), but the line had
+    blamed smoothing and called it motion taken for noise."""
     code, out, _ = run_cli(
         capsys, "clean", SAMPLE, "-o", tmp_path / "30.bvh",
-        "-f", "despike", "-f", "resample:fps=30", "-f", "auto",
+        "-f", "despike", "-f", "auto", "-f", "resample:fps=30",
     )  # fmt: skip
     verdict = next(line for line in out.splitlines() if line.startswith("verdict: "))
     assert code == 0 and "motion taken for noise" not in verdict
     assert "the cleaning (its resample included) moved RightWrist" in verdict, verdict
+    assert "before resample" not in verdict  # (auto read the clip at its own rate)
+
+
+def test_auto_after_a_lower_rate_finds_no_noise_and_the_verdict_says_to_put_it_first():
+    """After resample to 60 fps the low-pass has taken the band auto reads noise in: on
+    the noisy sample it chose no filter for any joint (before it, most joints are
+    filtered), and the line had called the clip a clean capture."""
+    late = clean_clip(NOISY, None, Pipeline.from_inline(["resample:fps=60", "auto"])).report
+    early = clean_clip(NOISY, None, Pipeline.from_inline(["auto", "resample:fps=60"])).report
+    chosen = [
+        [note["auto"]["filter"]["mask"] for note in report["joints"].values() if "auto" in note]
+        for report in (late, early)
+    ]
+    assert set(chosen[0]) == {"none"} and chosen[1].count("none") < len(chosen[1]) / 2
+    assert late["verdict"]["status"] == "needs a look"
+    assert (
+        "auto after resample to 60 fps reads only the noise the resample's low-pass left: "
+        "put auto before resample" in late["verdict"]["text"]
+    )
+    assert "before resample" not in early["verdict"]["text"]
+
+
+@pytest.mark.parametrize(
+    ("steps", "words"),
+    [
+        (["resample:fps=30", "auto", "footlock"], "auto and footlock after resample to 30 fps "),
+        (["resample:fps=240", "auto"], "its spline left none (above 60 Hz): put auto before"),
+        (["resample:fps=30", "resample:fps=120", "auto"], "to 120 fps reads the noise where"),
+        (["resample:fps=120.01", "auto"], None),
+        (["auto", "resample:fps=30", "lee-shin"], None),
+    ],
+)
+def test_only_steps_reading_the_noise_after_a_rate_change_are_told_to_move(steps, words):
+    """auto and footlock read the noise; another smoother after a resample (its strength
+    given) or a resample to the same rate is no reason to look."""
+    report = {"frame_time": 1 / 120, "pipeline": Pipeline.from_inline(steps).describe()}
+    told = verdict_rules._order_words(report)
+    assert (words in told[0]) if words else not told, told
 
 
 def test_a_slide_just_over_the_planted_limit_does_not_read_as_the_limit():
@@ -1268,3 +1306,34 @@ def test_a_capture_glitching_on_many_joints_is_no_clean_capture(spiked):
     glitchy = spiked >= verdict_rules.GLITCHY_SHARE * clip.n_joints
     assert verdict["text"].startswith("glitchy capture") == glitchy, verdict["text"]
     assert verdict["status"] in ("repaired", "cleaned")
+
+
+@pytest.mark.parametrize(
+    ("step", "words"),
+    [
+        ("ground:up=z", "the up axis given to ground (z) contradicts the motion (y)"),
+        ("footlock:up=x", "the up axis given to footlock (x) contradicts the motion (y)"),
+        ("ground:up=y", None),
+    ],
+)
+def test_a_steps_own_up_axis_is_checked_against_the_motion_as_the_clips_is(step, words):
+    """`-f ground:up=z` moved a y-up clip 34 units sideways and read "put on the floor ...
+    feet planted", where `--up z -f ground` needed a look: a step's own `up` gets the same
+    check and the same words."""
+    report = clean_clip(SAMPLE, None, Pipeline.from_inline([step])).report
+    text = report["verdict"]["text"]
+    if words is None:
+        assert "contradicts" not in text and "steps_up_contradicted" not in report["world"]
+        return
+    assert report["verdict"]["status"] == "needs a look" and f"needs a look: {words}" in text
+    (entry,) = report["world"]["steps_up_contradicted"]
+    assert entry["shown"]["up_axis"] == "y" and entry["filter"] == step.split(":")[0]
+
+
+def test_a_steps_up_that_is_the_clips_own_is_said_once():
+    """`--up z -f ground:up=z`: the clip's up axis is told, not the step's again."""
+    clip = mc.load(SAMPLE)
+    clip.up = "z"
+    report = clean_motion(clip, Pipeline.from_inline(["ground:up=z"]), "c.bvh").report
+    assert report["verdict"]["text"].count("contradicts") == 1
+    assert "the up axis given (z) contradicts the motion (y)" in report["verdict"]["text"]

@@ -448,3 +448,48 @@ def test_ground_asked_without_its_root_is_a_usage_error_that_says_so(tmp_path, c
         f"motionclean: error: {walk}: step 1 (ground): the root 'Hips' is not selected"
     )
     assert "has no" not in err and not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("lines", "key"),
+    [
+        ('filter = "lee-shin"\nk = 2\nlam = 0.3\n', "lam"),
+        ('filter = "lee-shin"\nmask = "gaussian"\nsigma_t = 2.0\nk = 3\n', "k"),
+    ],
+)
+def test_a_key_the_mask_does_not_use_names_its_own_line(tmp_path, lines, key):
+    """`lam` with the binomial mask, or `k` with mask="gaussian", had named the `[[step]]`
+    line: the key's line is named, as for every other error about one key."""
+    pipe = tmp_path / "p.toml"
+    pipe.write_text("# a comment\n[[step]]\n" + lines)
+    line = 3 + lines.splitlines().index(next(r for r in lines.splitlines() if r.startswith(key)))
+    with pytest.raises(UsageError, match=rf"p\.toml:{line}: step 1 \(lee-shin\): '{key}' is not"):
+        Pipeline.from_toml(pipe)
+
+
+def test_a_whole_clip_step_lists_as_allowed_only_what_it_takes():
+    """resample's unknown key had listed joints, positions, frames, seconds and blend as
+    allowed, each of which it then refuses in a line of its own."""
+    with pytest.raises(UsageError, match=r"unknown parameter 'method'; allowed: fps, frame_time$"):
+        Pipeline.from_inline(["resample:fps=60,method=linear"])
+    with pytest.raises(UsageError, match="it takes no joints or positions"):
+        Pipeline.from_inline(["resample:fps=60,joints=[Hips]"])
+
+
+@pytest.mark.parametrize(
+    "steps",
+    [
+        ["resample:fps=60", "lee-shin:k=3,iterations=3,seconds=[0.5,1.5],blend=6"],
+        ["despike", "lee-shin:k=2,frames=[30,90]", "auto:frames=[100,200],blend=0"],
+    ],
+)
+def test_a_reports_pipeline_with_ranges_reads_back_as_the_same_pipeline(steps):
+    """A ranged step's report entry adds the frames it `touched` and, for a `seconds` range,
+    the `frames` it became: from_tables had refused it ("unknown parameter 'touched'")."""
+    from motionclean.run.jobs import clean_clip
+
+    pipeline = Pipeline.from_inline(steps)
+    report = clean_clip(ROOT / "sample_data" / "131_02_noisy.bvh", None, pipeline).report
+    stored = json.loads(json.dumps(report["pipeline"]))
+    assert all("touched" in entry for entry in stored if "blend" in entry)
+    assert Pipeline.from_tables(stored, "json").describe() == pipeline.describe()

@@ -483,20 +483,46 @@ def test_resample_motion_checks_the_frame_time_it_is_given(frame_time, error, me
         resample_motion(None, 1 / 60)
 
 
-@pytest.mark.parametrize("fps", [25.0, 47.0])
-def test_resampled_channels_step_less_than_half_a_turn_across_unrepaired_flips(tmp_path, fps):
+LEE_SHIN_RANGED = "lee-shin:k=3,iterations=3,seconds=[0.5,1.5],blend=6"
+
+
+@pytest.mark.parametrize("fps", [25.0, 30.0, 47.0, 60.0])
+def test_resampled_channels_neither_spin_nor_jump_across_unrepaired_flips(tmp_path, fps):
     """New frames restart on the principal angles where the rotation leaps (RThumb's flips,
-    not repaired): a channel had then stepped up to 331 degrees where 29 would do; each
-    channel now stays on the whole turns nearest the frame before, the rotations the same."""
+    not repaired): a channel had then stepped up to 331 degrees where 29 would do; then,
+    unwrapped across every flip, RThumb's Z spiralled to -1002.6 degrees at 30 fps (read
+    within -124..84). Away from the leaps each channel stays on the whole turns nearest the
+    frame before; at a leap that jumps either way no turn is carried past it."""
     target = tmp_path / "r.bvh"
     resampled = resample_motion(mc.load(NOISY), 1.0 / fps)
     mc.save(resampled, target)
     text = target.read_text().split("Frame Time:")[1].splitlines()[1:]
     values = np.array([row.split() for row in text if row.strip()], dtype=float)
     clip = mc.load(target)
-    rotation = clip.layout.rotation_columns[clip.layout.rotation_columns[:, 0] >= 0].ravel()
-    assert np.abs(np.diff(values[:, rotation], axis=0)).max() < 180.0
+    columns = clip.layout.rotation_columns
+    rotation = columns[columns[:, 0] >= 0].ravel()
     assert max_degrees(clip.rotations, resampled.rotations) < 1e-4
+    turned = np.degrees(quat.angle_between(clip.rotations[1:], clip.rotations[:-1]))  # (F-1, J)
+    step = np.abs(np.diff(values, axis=0))
+    joint_of = np.repeat(np.arange(clip.n_joints), 3)[columns.ravel() >= 0]
+    leap = turned[:, joint_of] > 90.0
+    assert step[:, rotation][~leap].max() < 180.0  # (no frame that turns little jumps)
     thumb = clip.names.index("RThumb")
-    steps = quat.angle_between(clip.rotations[1:, thumb], clip.rotations[:-1, thumb])
-    assert np.degrees(steps).max() > 90.0  # (the flips are there, turned in one frame)
+    assert leap[:, joint_of == thumb].any()  # (the flips are there, turned in one frame)
+    assert np.abs(values[:, rotation]).max() < 360.0  # (no turns gathered flip after flip)
+
+
+def test_a_ranged_step_after_a_resample_leaves_the_text_outside_its_range(tmp_path):
+    """After resample to 60 fps, lee-shin on 0.5-1.5 s touched frames [24, 97), but RThumb
+    was written a whole turn off from frame 97 to the clip's end (75.07 as 435.07): the
+    turns its flips carried changed with the range. Outside it every row is as before."""
+    clip = mc.load(NOISY)
+    rows = []
+    for steps in (["resample:fps=60"], ["resample:fps=60", LEE_SHIN_RANGED]):
+        target = tmp_path / f"{len(steps)}.bvh"
+        cleaned, logs = Pipeline.from_inline(steps).run(clip)
+        mc.save(cleaned, target)
+        rows.append(target.read_text().split("Frame Time:")[1].splitlines()[1:])
+    first, stop = logs[-1].touched
+    changed = [i for i, (a, b) in enumerate(zip(*rows, strict=True)) if a != b]
+    assert changed and first <= min(changed) and max(changed) < stop, (first, stop, changed)
