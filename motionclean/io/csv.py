@@ -551,6 +551,39 @@ def _refuse_skipped_rows(
     )
 
 
+def _refuse_jump(
+    times: np.ndarray,
+    steps: np.ndarray,
+    mean: float,
+    lines: np.ndarray,
+    path,
+    advice: str,
+    frames: np.ndarray | None,
+) -> None:
+    """Refuse increasing ``times`` (seconds) whose first step over twice the median step
+    ``steps`` hold drags the ``mean`` step more than :data:`TIME_TOLERANCE` beyond that
+    median (a clock jump: a check against the mean would blame the first ordinary step,
+    and say a mean step no row has), at the row after it, with the ``frames`` numbers on
+    either side where given; ``advice`` ends the error."""
+    median = float(np.median(steps))
+    if not (MIN_FRAME_TIME <= median <= MAX_FRAME_TIME and mean > (1.0 + TIME_TOLERANCE) * median):
+        return
+    jumps = np.flatnonzero(steps > 2.0 * median)
+    if not jumps.size:
+        return
+    i = int(jumps[0])
+    numbers = (
+        f" (frame {frames[i]:.0f}, then frame {frames[i + 1]:.0f})" if frames is not None else ""
+    )
+    _fail(
+        f"not uniformly sampled: time {_seconds(times[i])} s is followed by "
+        f"{_seconds(times[i + 1])} s{numbers}, a step of {steps[i]:.6g} s against a median "
+        f"step of {median:.6g} s: {advice}",
+        path,
+        int(lines[i + 1]),
+    )
+
+
 def uniform_frame_time(
     times: np.ndarray,
     lines: np.ndarray,
@@ -587,6 +620,7 @@ def uniform_frame_time(
         mean = (times[-1] - times[0]) / (n - 1)
         if np.isfinite(mean):
             _refuse_skipped_rows(times, lines, path, skipped_advice, frames)
+        _refuse_jump(times, steps, mean, lines, path, advice, frames)
     if not (MIN_FRAME_TIME <= mean <= MAX_FRAME_TIME):
         _fail(
             f"a time step of {mean:.6g} s gives no usable frame rate ({RATES_ACCEPTED})",

@@ -74,7 +74,7 @@ CASES = {
     "nul_in_name.bvh": (None, "not a text file"),
     "time_span_huge.csv": (2, "is out of range"),
     "huge_value.bvh": (19, "is out of range"),
-    "non_uniform_time.csv": (3, "not uniformly sampled"),
+    "non_uniform_time.csv": (4, "not uniformly sampled"),  # the 0.0667 s step, line 4
     "trailing_comma.csv": (1, "column 4 has no name (a comma ends the header: remove it"),
     "quoted_decimal_comma.csv": (2, "row has 4 columns, the header has 3 (quoted cells"),
     "single_row.csv": (2, "at least two rows"),
