@@ -328,6 +328,34 @@ def test_time_jump_is_named_at_its_line(tmp_path, jump):
     assert error.value.line == at + 2
 
 
+def test_unix_milliseconds_are_refused_naming_the_column_and_the_unit(tmp_path):
+    """Times written as Unix milliseconds (1.7e12) pass the 1e12 every value is held to:
+    the error names the time column and the date they read as in milliseconds (it had
+    said only "value ... is out of range"); divided by 1000, as it says, they read at the
+    clip's rate."""
+    import datetime
+
+    convert(cut_bvh(SAMPLE, tmp_path / "cut.bvh", 60), tmp_path / "clip.csv")
+    rate = mc.load(tmp_path / "clip.csv").frame_rate
+    lines = (tmp_path / "clip.csv").read_text().splitlines()
+    cells = [line.split(",") for line in lines]
+    start = 1_700_000_000.0
+    for row in cells[1:]:
+        row[1] = repr((start + float(row[1])) * 1000.0)
+    stamped = tmp_path / "stamped.csv"
+    stamped.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    with pytest.raises(MotionError) as error:
+        mc.load(stamped)
+    day = datetime.datetime.fromtimestamp(start, datetime.UTC).strftime("%Y-%m-%d")
+    said = error.value.message
+    assert error.value.line == 2 and "in column 'time'" in said
+    assert f"Unix time in milliseconds ({day}" in said and "divide the column by 1,000" in said
+    for row in cells[1:]:
+        row[1] = repr(float(row[1]) / 1000.0)
+    stamped.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    assert mc.load(stamped).frame_rate == pytest.approx(rate, rel=1e-6)
+
+
 # ----------------------------------------------------------------------------- rigid bodies
 
 
