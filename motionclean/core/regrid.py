@@ -14,7 +14,7 @@ import numpy as np
 
 from .motion import MAX_FRAME_TIME, MIN_FRAME_TIME
 
-__all__ = ["at_times", "hermite", "regridded"]
+__all__ = ["at_times", "grid_refusal", "hermite", "regridded"]
 
 
 def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -60,23 +60,35 @@ def hermite(p1: np.ndarray, m0: np.ndarray, m1: np.ndarray, u: np.ndarray) -> np
 MOST_FRAMES_PER_ROW = 8
 
 
+def grid_refusal(times: np.ndarray) -> str | None:
+    """Why :func:`regridded` refuses increasing ``times`` (seconds): a median step no clip
+    may have, or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames per row (a gap of
+    rows long beside the take); None where it puts them on a grid."""
+    median = float(np.median(np.diff(times)))
+    if not MIN_FRAME_TIME <= median <= MAX_FRAME_TIME:
+        return f"a median time step of {median:.6g} s gives no usable frame rate"
+    length = times[-1] - times[0]
+    span = length / median
+    if span > MOST_FRAMES_PER_ROW * times.size:
+        return (
+            f"time steps too uneven to put on a grid: the median step, {median:.6g} s, "
+            f"over {length:.6g} s would make {span:,.0f} frames of {times.size} rows"
+        )
+    return None
+
+
 def regridded(times: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray]:
     """The frame time and ``values`` ``(F, C)`` at ``times[0] + k`` frame times up to
     ``times[-1]`` (:func:`at_times`): the step nearest the median that divides the take's
     span in whole frames, to 12 significant digits, so the grid ends on the last sample
     (the median step itself had ended a forward simulation's states 0.8 ms short of it).
-    ValueError for a frame time no
-    clip may have or a grid of more than :data:`MOST_FRAMES_PER_ROW` frames per row."""
+    ValueError where :func:`grid_refusal` says why not."""
+    refusal = grid_refusal(times)
+    if refusal is not None:
+        raise ValueError(refusal)
     median = float(np.median(np.diff(times)))
-    if not MIN_FRAME_TIME <= median <= MAX_FRAME_TIME:
-        raise ValueError(f"a median time step of {median:.6g} s gives no usable frame rate")
     length = times[-1] - times[0]
     span = length / median
-    if span > MOST_FRAMES_PER_ROW * times.size:
-        raise ValueError(
-            f"time steps too uneven to put on a grid: the median step, {median:.6g} s, "
-            f"over {length:.6g} s would make {span:,.0f} frames of {times.size} rows"
-        )
     steps = max(1, round(span))
     frame_time = float(f"{length / steps:.12g}")
     grid = times[0] + frame_time * np.arange(steps + 1)

@@ -75,8 +75,9 @@ from __future__ import annotations
 import csv as _csv
 import io as _io
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from typing import NamedTuple, NoReturn
 
 import numpy as np
@@ -324,10 +325,19 @@ def _classify(fields: list[str], path, line: int):
 
 
 def parse_body(
-    data: bytes, body_start: int, n_columns: int, first_line: int, path, parsed=None
+    data: bytes,
+    body_start: int,
+    n_columns: int,
+    first_line: int,
+    path,
+    parsed=None,
+    fields: Sequence[str] = (),
+    time_column: int = -1,
 ) -> BodyCells:
     """Parse the data rows: values of the ``parsed`` columns (all by default), which cells
     are blank, the cells' byte offsets and each row's line number (see :class:`BodyCells`).
+    A value refused is said with its column's name, where ``fields`` names the columns
+    (in the ``time_column``, with :func:`_unix_hint`).
     """
     buf = np.frombuffer(data, dtype=np.uint8)
     starts, ends, tokens, line_starts = scan_cells(buf, body_start)
@@ -389,6 +399,8 @@ def parse_body(
     if bad_token >= 0:
         at = bad_token if number is None else int(number[bad_token])
         text = buf[flat_starts[at] : flat_ends[at]].tobytes().decode("utf-8", "replace")[:40]
+        column = at % n_columns
+        where = f" in column {fields[column][:60]!r}" if column < len(fields) else ""
         try:
             value = ascii_float(text)
             problem = (
@@ -396,9 +408,11 @@ def parse_body(
                 if not math.isfinite(value)
                 else f"is out of range (over {MAX_MAGNITUDE:g})"
             )
+            if column == time_column and math.isfinite(value):
+                problem += _unix_hint(value)
         except ValueError:
             problem = "is not a number"
-        _fail(f"value {text!r} {problem}", path, lines[at // n_columns])
+        _fail(f"value {text!r}{where} {problem}", path, lines[at // n_columns])
     if number is None:
         values = parsed_values.reshape(shape)
     else:
@@ -407,6 +421,25 @@ def parse_body(
     all_blank = blank.reshape(shape)
     offsets = np.int32 if buf.size < 2**31 else np.int64  # half the memory of a long take's
     return BodyCells(values, all_blank, starts.astype(offsets), ends.astype(offsets), lines)
+
+
+#: The units Unix times are written in besides seconds, and seconds' worth of each.
+UNIX_UNITS = (("milliseconds", 1e3), ("microseconds", 1e6), ("nanoseconds", 1e9))
+
+
+def _unix_hint(value: float) -> str:
+    """What a time beyond :data:`MAX_MAGNITUDE` seconds looks like: Unix time in one of
+    :data:`UNIX_UNITS` where it reads so as a date from 2001 to 2286 (1e9 to 1e10 s, as
+    1.7e12 ms does), said with that date and what to do; else nothing."""
+    for unit, scale in UNIX_UNITS:
+        seconds = value / scale
+        if 1e9 <= seconds < 1e10:
+            date = datetime.fromtimestamp(seconds, UTC).strftime("%Y-%m-%d %H:%M")
+            return (
+                f": it reads as Unix time in {unit} ({date} UTC); times are seconds: divide "
+                f"the column by {scale:,.0f} (Unix times in seconds are read)"
+            )
+    return ""
 
 
 #: What a file whose rows are not a fixed time apart is told to do.
@@ -561,6 +594,39 @@ def _refuse_skipped_rows(
     )
 
 
+def _refuse_jump(
+    times: np.ndarray,
+    steps: np.ndarray,
+    mean: float,
+    lines: np.ndarray,
+    path,
+    advice: str,
+    frames: np.ndarray | None,
+) -> None:
+    """Refuse increasing ``times`` (seconds) whose first step over twice the median step
+    ``steps`` hold drags the ``mean`` step more than :data:`TIME_TOLERANCE` beyond that
+    median (a clock jump: a check against the mean would blame the first ordinary step,
+    and say a mean step no row has), at the row after it, with the ``frames`` numbers on
+    either side where given; ``advice`` ends the error."""
+    median = float(np.median(steps))
+    if not (MIN_FRAME_TIME <= median <= MAX_FRAME_TIME and mean > (1.0 + TIME_TOLERANCE) * median):
+        return
+    jumps = np.flatnonzero(steps > 2.0 * median)
+    if not jumps.size:
+        return
+    i = int(jumps[0])
+    numbers = (
+        f" (frame {frames[i]:.0f}, then frame {frames[i + 1]:.0f})" if frames is not None else ""
+    )
+    _fail(
+        f"not uniformly sampled: time {_seconds(times[i])} s is followed by "
+        f"{_seconds(times[i + 1])} s{numbers}, a step of {steps[i]:.6g} s against a median "
+        f"step of {median:.6g} s: {advice}",
+        path,
+        int(lines[i + 1]),
+    )
+
+
 def uniform_frame_time(
     times: np.ndarray,
     lines: np.ndarray,
@@ -597,6 +663,7 @@ def uniform_frame_time(
         mean = (times[-1] - times[0]) / (n - 1)
         if np.isfinite(mean):
             _refuse_skipped_rows(times, lines, path, skipped_advice, frames)
+        _refuse_jump(times, steps, mean, lines, path, advice, frames)
     if not (MIN_FRAME_TIME <= mean <= MAX_FRAME_TIME):
         _fail(
             f"a time step of {mean:.6g} s gives no usable frame rate ({RATES_ACCEPTED})",
@@ -825,7 +892,9 @@ def parse_csv(data: bytes, path=None, skeleton: Motion | None = None) -> Motion:
     refuse_binary(data, path)
     fields, header_line, body_start = _split_header(data, path)
     layout, entries, time_column = _classify(fields, path, header_line)
-    cells = parse_body(data, body_start, len(fields), header_line + 1, path)
+    cells = parse_body(
+        data, body_start, len(fields), header_line + 1, path, fields=fields, time_column=time_column
+    )
     check_filled(cells, time_column, "time", path)
     if "frame" in fields:
         check_filled(cells, fields.index("frame"), "frame", path)

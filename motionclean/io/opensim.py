@@ -65,7 +65,7 @@ import numpy as np
 from ..core import quat
 from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
-from ..core.regrid import regridded
+from ..core.regrid import grid_refusal, regridded
 from ..core.words import plural
 from .csv import Cells, CsvText, format_repr, format_values, off_grid, uniform_frame_time
 from .files import pieces, refuse_binary
@@ -572,9 +572,8 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         )
     else:
         lines = np.array([number_of(r) for r in rows[: times.size]])
-        frame_time = uniform_frame_time(
-            times, lines, path, None, SIMULATION_ADVICE, SIMULATION_ADVICE
-        )
+        advice = _uneven_advice(times, coords)
+        frame_time = uniform_frame_time(times, lines, path, None, advice, advice)
     missing = np.isnan(coords)
     names = [labels[c] for c in kept]
     axes = np.array([is_translational(name) for name in names], dtype=np.intp)
@@ -641,6 +640,20 @@ SIMULATION_ADVICE = (
     "`motionclean resample FILE OUT --fps N` puts it on a uniform grid (a simulation's "
     "states, written at its integrator's steps)"
 )
+
+
+def _uneven_advice(times: np.ndarray, coords: np.ndarray) -> str:
+    """What a file whose rows are not a fixed time apart is told: :data:`SIMULATION_ADVICE`
+    where ``resample`` puts its rows on a grid, else what would (a gap of 100 s in 10 s of
+    rows had been sent to ``resample``, which refuses more than 8 frames per row)."""
+    why = grid_refusal(times) if times.size > 1 else None
+    if why is None and not np.isnan(coords).any():
+        return SIMULATION_ADVICE
+    return (
+        "give every frame its row at a fixed rate (nan cells mark a dropout, which the "
+        "fill-gaps step fills), or cut the file at a gap into takes of their own; "
+        f"`motionclean resample` would refuse it: {why or 'some cells are missing'}"
+    )
 
 
 def _on_grid(times: np.ndarray, coords: np.ndarray, path) -> tuple[float, np.ndarray]:

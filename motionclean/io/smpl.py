@@ -45,6 +45,8 @@ from ..core import checks, quat
 from ..core.checks import MAX_MAGNITUDE, within_magnitude
 from ..core.errors import MotionError
 from ..core.motion import (
+    MAX_FRAME_TIME,
+    MIN_FRAME_TIME,
     POSITION_CHANNELS,
     UNCHANGED_TOLERANCE,
     Motion,
@@ -65,7 +67,8 @@ RATE_KEYS = ("mocap_framerate", "mocap_frame_rate", "fps", "frame_rate", "framer
 DEFAULT_RATE = 30.0
 #: AIST++'s rate (its motions are 60 fps, which its files do not say).
 AIST_RATE = 60.0
-MIN_RATE, MAX_RATE = 0.1, 100000.0
+#: (The rates a clip may have in every format: 1/3600 to 1,000,000 fps.)
+MIN_RATE, MAX_RATE = 1.0 / MAX_FRAME_TIME, 1.0 / MIN_FRAME_TIME
 #: Keys of the whole pose, and of the root translation, in the order they are looked for
 #: (WHAM's world-grounded ``pose_world`` / ``trans_world`` before its camera-frame ones).
 POSE_KEYS = ("pose_world", "poses", "pose", "smpl_poses", "fullpose")
@@ -336,11 +339,9 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
         )
     rate = _number(record[key])
     if not (MIN_RATE <= rate <= MAX_RATE):
-        shown = str(np.asarray(record[key]).ravel()[:3].tolist())
-        shown = shown if len(shown) <= 40 else shown[:36] + " ..."
         raise MotionError(
-            f"{key}: frame rate {shown} is not a number of frames per second from "
-            f"{MIN_RATE:g} to {MAX_RATE:g}",
+            f"{key}: frame rate {_shown(record[key], rate)} is not a number of frames per "
+            f"second from {MIN_RATE:g} to {MAX_RATE:g}",
             path,
         )
     if given is not None and given != rate:
@@ -357,6 +358,16 @@ def frame_time_of(record: dict, path, given: float | None = None) -> tuple[float
     if others:
         return 1.0 / rate, f"{key} {rate:g} fps taken; the file also says {', '.join(others)}"
     return 1.0 / rate, None
+
+
+def _shown(value, number: float) -> str:
+    """A rate key's ``value`` for a message: its ``number`` (:func:`_number`) where it is
+    one, else its first elements (40 characters at most)."""
+    array = np.asarray(value)
+    if array.size == 1:
+        return f"{number:g}" if not math.isnan(number) else str(array.reshape(-1)[0])[:40]
+    shown = str(array.ravel()[:3].tolist())
+    return shown if len(shown) <= 40 else shown[:36] + " ..."
 
 
 def _number(value) -> float:

@@ -298,6 +298,64 @@ def test_uniform_time_tolerance(tmp_path):
         mc.load(tmp_path / "numbered.csv")
 
 
+@pytest.mark.parametrize("jump", [1e9, 1000.0])
+def test_time_jump_is_named_at_its_line(tmp_path, jump):
+    """A clock jump in a CSV `convert` wrote (a frame column numbering on) is refused at
+    the row after it, with the times on either side and the median step, not at line 3
+    against a mean step the jump drags (1e9 s over 300 rows had said "a time step of
+    3.3e+06 s gives no usable frame rate"); without the frame column, at the same line."""
+    convert(cut_bvh(SAMPLE, tmp_path / "cut.bvh", 300), tmp_path / "clip.csv")
+    lines = (tmp_path / "clip.csv").read_text().splitlines()
+    cells = [line.split(",") for line in lines]
+    at = 150  # the row the jump lands on: line 152
+    for row in cells[1 + at :]:
+        row[1] = repr(float(row[1]) + jump)
+    step = float(cells[2][1]) - float(cells[1][1])
+    numbered = tmp_path / "numbered.csv"
+    numbered.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    with pytest.raises(MotionError, match="not uniformly sampled") as error:
+        mc.load(numbered)
+    assert error.value.line == at + 2
+    said = error.value.message
+    assert f"(frame {at - 1}, then frame {at})" in said and "mean" not in said
+    assert f"median step of {step:.6g} s" in said
+    after = float(said.split(" is followed by ")[1].split(" s")[0])
+    assert abs(after - float(cells[1 + at][1])) < 1e-6 * after
+    plain = tmp_path / "plain.csv"  # the same times without the frame column
+    plain.write_text("\n".join(",".join(row[1:]) for row in cells) + "\n")
+    with pytest.raises(MotionError) as error:
+        mc.load(plain)
+    assert error.value.line == at + 2
+
+
+def test_unix_milliseconds_are_refused_naming_the_column_and_the_unit(tmp_path):
+    """Times written as Unix milliseconds (1.7e12) pass the 1e12 every value is held to:
+    the error names the time column and the date they read as in milliseconds (it had
+    said only "value ... is out of range"); divided by 1000, as it says, they read at the
+    clip's rate."""
+    import datetime
+
+    convert(cut_bvh(SAMPLE, tmp_path / "cut.bvh", 60), tmp_path / "clip.csv")
+    rate = mc.load(tmp_path / "clip.csv").frame_rate
+    lines = (tmp_path / "clip.csv").read_text().splitlines()
+    cells = [line.split(",") for line in lines]
+    start = 1_700_000_000.0
+    for row in cells[1:]:
+        row[1] = repr((start + float(row[1])) * 1000.0)
+    stamped = tmp_path / "stamped.csv"
+    stamped.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    with pytest.raises(MotionError) as error:
+        mc.load(stamped)
+    day = datetime.datetime.fromtimestamp(start, datetime.UTC).strftime("%Y-%m-%d")
+    said = error.value.message
+    assert error.value.line == 2 and "in column 'time'" in said
+    assert f"Unix time in milliseconds ({day}" in said and "divide the column by 1,000" in said
+    for row in cells[1:]:
+        row[1] = repr(float(row[1]) / 1000.0)
+    stamped.write_text("\n".join(",".join(row) for row in cells) + "\n")
+    assert mc.load(stamped).frame_rate == pytest.approx(rate, rel=1e-6)
+
+
 # ----------------------------------------------------------------------------- rigid bodies
 
 

@@ -855,6 +855,36 @@ def test_a_simulations_uneven_steps_are_resampled_not_cleaned(tmp_path, capsys):
     assert clip.frame_rate > 100 and any("integrator steps" in n for n in clip.source.notes)
 
 
+@pytest.mark.parametrize("gap", [0.03, 100.0])
+def test_rows_missing_are_sent_to_resample_only_where_it_bridges_them(tmp_path, capsys, gap):
+    """A take at 100 fps with its second half ``gap`` s later: `clean` refuses it at the
+    gap's line and advises `resample` only where resample then puts it on a grid (3 frames
+    missing); a gap of 100 s beside 2 s of rows (which resample refuses, more than 8 frames
+    per row) had been sent there too, and is now told to give the rows (nan cells) or cut
+    the file, which `clean` then takes."""
+    times = np.arange(200) / 100.0
+    times[100:] += gap
+    knee = -30.0 + 20.0 * np.sin(3.0 * times)
+    head = "ik\nversion=1\nnRows=200\nnColumns=2\ninDegrees=yes\nendheader\n"
+    head += "time\tknee_angle_r\n"
+    rows = [f"{t:.8f}\t{k:.8f}" for t, k in zip(times, knee, strict=True)]
+    path = write(tmp_path, head + "\n".join(rows) + "\n")
+    code, _, err = run_cli(capsys, "clean", path, "-o", tmp_path / "c.mot")
+    assert code == 1 and err.count("\n") == 1 and f"{path}:108:" in err
+    advised = "`motionclean resample FILE OUT --fps N` puts it on a uniform grid" in err
+    code, _, resampled = run_cli(capsys, "resample", path, tmp_path / "r.mot", "--fps", "100")
+    assert advised == (code == 0) == (gap < 1.0), (err, resampled)
+    if advised:
+        return
+    assert "give every frame its row" in err and "would refuse it" in err
+    skipped = round(gap * 100.0)  # the advice taken: the missing rows given, nan cells
+    filled = rows[:100] + [f"{1.0 + k / 100.0:.8f}\tnan" for k in range(skipped)]
+    filled += [f"{1.0 + (skipped + k) / 100.0:.8f}\t{knee[100 + k]:.8f}" for k in range(100)]
+    path = write(tmp_path, head + "\n".join(filled) + "\n", "filled.mot")
+    code, _, err = run_cli(capsys, "clean", path, "-o", tmp_path / "c.mot", "-q")
+    assert code == 0, err
+
+
 def test_a_utf16_file_is_not_text_as_bvh_and_csv_say(tmp_path, capsys):
     """It had been "no 'endheader' line: not an OpenSim .mot/.sto"."""
     path = tmp_path / "ik.mot"

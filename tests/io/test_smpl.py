@@ -808,6 +808,26 @@ def test_a_rate_that_is_no_number_of_frames_per_second_is_refused_in_one_line(
     assert "the file also says fps (not a number of frames per second)" in out
 
 
+@pytest.mark.parametrize("rate", [1e6, 1 / 3600, 2e6, 1e12, 1e-4])
+def test_a_stated_rate_is_taken_as_a_bvh_takes_its_frame_time(tmp_path, capsys, rate):
+    """SMPL rates are held to the range every format's are (1/3600 to 1e6 fps: a 1e6 fps
+    npz had been refused where a BVH of `Frame Time: 0.000001` is read), and a refused one
+    is said as a number ("frame rate 1e+12", not "[1000000000000.0]")."""
+    record = dict(np.load(amass_h(tmp_path / "a.npz", frames=30)))
+    record["mocap_framerate"] = np.array(rate)
+    np.savez(tmp_path / "r.npz", **record)
+    text = (ROOT / "sample_data" / "131_02_cut.bvh").read_text()
+    stated = next(line for line in text.splitlines() if line.startswith("Frame Time:"))
+    (tmp_path / "r.bvh").write_text(text.replace(stated, f"Frame Time: {1.0 / rate!r}"))
+    code, out, err = run_cli(capsys, "info", tmp_path / "r.npz")
+    bvh_code, _, bvh_err = run_cli(capsys, "info", tmp_path / "r.bvh")
+    assert code == bvh_code, (err, bvh_err)
+    if code == 0:
+        assert f"frame time: {1.0 / rate:g} s" in out
+    else:
+        assert f"frame rate {rate:g} is not a number" in err and "[" not in err
+
+
 def test_a_npy_header_holding_an_expression_is_refused_in_plain_words(tmp_path, capsys):
     """An .npz member whose .npy header holds a call, not a literal: refused in one line
     without numpy's parser objects ("<ast.Call object at 0x7f...>" had been shown)."""

@@ -30,7 +30,8 @@ def test_a_cell_python_would_read_as_a_number_is_no_number(tmp_path, capsys, cel
     clip.write_text(RIGID_HEAD + f"0,{cell},0,0,1,0,0,0\n0.01,1,0,0,1,0,0,0\n", encoding="utf-8")
     code, _, err = run_cli(capsys, "info", clip)
     assert code == 1
-    assert one_error_line(err) == f"motionclean: error: {clip}:2: value {cell!r} is not a number"
+    said = one_error_line(err)
+    assert said == f"motionclean: error: {clip}:2: value {cell!r} in column 'a.px' is not a number"
 
 
 @pytest.mark.parametrize(
@@ -40,7 +41,8 @@ def test_numbers_out_of_range_or_not_finite_keep_their_words(tmp_path, capsys, c
     clip = tmp_path / "r.csv"
     clip.write_text(RIGID_HEAD + f"0,{cell},0,0,1,0,0,0\n0.01,1,0,0,1,0,0,0\n")
     code, _, err = run_cli(capsys, "info", clip)
-    assert code == 1 and one_error_line(err).endswith(f":2: value {cell!r} {problem}")
+    said = one_error_line(err)
+    assert code == 1 and said.endswith(f":2: value {cell!r} in column 'a.px' {problem}")
 
 
 @pytest.mark.parametrize("rate", ["\u0661\u0662\u0660", "1_20", "120.0.0", "0x78"])

@@ -342,6 +342,34 @@ def test_a_length_beyond_memory_is_refused_saying_how_many_frames(tmp_path, caps
     assert code == 1 and f"at most {fits:,} fit in memory" in err and not out.exists()
 
 
+def test_the_memory_bound_covers_what_resampling_holds():
+    """The bound's bytes per new frame and value keep a margin over what resampling holds:
+    its peak (tracemalloc) grows by about 13 bytes per value from 10,000 to 20,000 new frames
+    of the sample clip, under half of BYTES_PER_VALUE and over a quarter of it (96 had been
+    7.6 times as much, refusing lengths that fit), and the longest length accepted, at that
+    growth, peaks within the half of the machine's memory the bound allows."""
+    import tracemalloc
+
+    from motionclean.steps.resampling import BYTES_PER_VALUE, _memory_bytes
+
+    clip = mc.load(SAMPLE)
+    values = clip.n_joints * 7 + clip.layout.n_channels
+    span = clip.frame_time * (clip.n_frames - 1)
+    peaks = []
+    for n_new in (10_000, 20_000):
+        tracemalloc.start()
+        try:
+            frames = resample_motion(clip, span / (n_new - 1)).n_frames
+            peaks.append((frames, tracemalloc.get_traced_memory()[1]))
+        finally:
+            tracemalloc.stop()
+    (n1, p1), (n2, p2) = peaks
+    growth = (p2 - p1) / (n2 - n1) / values
+    assert 2.0 * growth <= BYTES_PER_VALUE <= 4.0 * growth
+    fits = _memory_bytes() // 2 // (values * BYTES_PER_VALUE)
+    assert p1 + (fits - n1) * values * growth <= _memory_bytes() // 2
+
+
 def test_clean_report_compares_on_the_input_frames_and_says_what_was_written(tmp_path, capsys):
     out, report = tmp_path / "out.bvh", tmp_path / "r.json"
     code, stdout, err = run_cli(
