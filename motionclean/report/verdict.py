@@ -695,20 +695,30 @@ def _scale(report: dict, smoothing: dict) -> tuple[float, str]:
 
 
 def _missing_words(joints: dict[str, dict]) -> list[str]:
-    """ "NAME missing on frames ..." per set of runs left missing, the joints that share
-    one named together (three at most, then how many more)."""
-    by_runs: dict[str, list[str]] = {}
-    for name, entry in joints.items():
-        runs = _runs(entry.get("fill-gaps") or {}, "missing")
-        if runs:
-            more = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
-            by_runs.setdefault(f"{format_runs(runs[:3])}{more}", []).append(name)
+    """ "NAME missing on frames ..." per set of runs left missing, and "a pose the capture
+    held left as captured on NAME, frames ..." per set of held runs longer than
+    ``fill-gaps``' ``max_gap``; the joints that share one named together (three at most,
+    then how many more)."""
     words = []
-    for spans, names in by_runs.items():
-        who = ", ".join(names[:3])
-        if len(names) > 3:
-            who += f" and {plural(len(names) - 3, 'more joint')}"
-        words.append(f"{who} missing on frames {spans}")
+    for key, said in (
+        ("missing", "{who} missing on frames {spans}"),
+        (
+            "held_left",
+            "a pose the capture held left as captured on {who}, frames {spans} "
+            "(longer than fill-gaps' max_gap)",
+        ),
+    ):
+        by_runs: dict[str, list[str]] = {}
+        for name, entry in joints.items():
+            runs = _runs(entry.get("fill-gaps") or {}, key)
+            if runs:
+                more = f" and {len(runs) - 3} more" if len(runs) > 3 else ""
+                by_runs.setdefault(f"{format_runs(runs[:3])}{more}", []).append(name)
+        for spans, names in by_runs.items():
+            who = ", ".join(names[:3])
+            if len(names) > 3:
+                who += f" and {plural(len(names) - 3, 'more joint')}"
+            words.append(said.format(who=who, spans=spans))
     return words
 
 

@@ -127,3 +127,17 @@ def test_values_quantised_by_a_writer_are_left(tmp_path, truth):
     q = clip.rotations
     assert np.all(q[1:] == q[:-1], axis=-1).sum() > 1000  # many exact repeats
     assert not held_samples(clip).any()
+
+
+def test_a_held_pose_longer_than_max_gap_is_left_and_needs_a_look(truth):
+    """100 frames (0.83 s) held: over fill-gaps' max_gap of 0.5 s, left as captured
+    (every joint but the flipping thumb bit for bit), noted and told in the verdict."""
+    clip = frozen(truth, slice(400, 500))
+    result = clean_motion(clip, Pipeline.default(), "long.bvh")
+    kept = np.array(truth.names) != "RThumb"
+    assert np.array_equal(result.after.rotations[400:500, kept], clip.rotations[400:500, kept])
+    assert result.report["joints"]["LeftKnee"]["fill-gaps"]["held_left"] == [[400, 500]]
+    verdict = result.report["verdict"]
+    assert verdict["status"] == "needs a look"
+    assert "a pose the capture held left as captured on" in verdict["text"]
+    assert "frames 400-499 (longer than fill-gaps' max_gap)" in verdict["text"]
