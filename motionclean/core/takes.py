@@ -22,6 +22,7 @@ import warnings
 import numpy as np
 
 from . import quat
+from .holds import held_samples
 from .motion import Motion
 from .rates import frames_floor
 from .restpose import rest_frames
@@ -132,7 +133,8 @@ def take_spans(starts: np.ndarray, n_frames: int) -> list[slice]:
 def take_starts(motion: Motion) -> np.ndarray:
     """The frames of ``motion`` where a new take starts (see the module; ascending), looked
     for between its rest-pose frames (:func:`~.restpose.rest_frames`). A clip with missing
-    samples (tracker dropouts) has none: trackers record one take."""
+    samples (tracker dropouts) has none: trackers record one take; nor is the step out of a
+    pose the capture held (:func:`~.holds.held_samples`) a cut: a dropout's."""
     return motion.derived("take_starts", _take_starts)
 
 
@@ -152,4 +154,6 @@ def _take_starts(motion: Motion) -> np.ndarray:
     jump, largest = jump_thresholds(steps, JUMP_THRESHOLD, low, high)
     moving = np.flatnonzero(largest > 0.0)  # every joint that moves has a say
     longest = max(1, min(frames_floor(LONGEST_SPIKE_S / dt), q.shape[0] - 2))
-    return np.flatnonzero(cut_steps(steps, jump, moving, longest)) + 1 + lead
+    starts = np.flatnonzero(cut_steps(steps, jump, moving, longest)) + 1 + lead
+    # the step out of a pose the capture held is a dropout's (fill-gaps bridges it)
+    return starts[~held_samples(motion)[starts - 1].any(axis=1)]

@@ -43,7 +43,7 @@ from .summary import (
     was_cleaned,
 )
 from .traces import COLUMNS, Trace, trace
-from .verdict import jumps_left_out, removed_words
+from .verdict import held_poses, jumps_left_out, removed_words
 from .world import depth_text, format_floor
 
 __all__ = ["index_entries", "page_carried", "render_html", "render_index"]
@@ -468,6 +468,7 @@ def _headline(report: dict) -> list[str]:
             "brief": "brief change",
         }
         counts = {k: sum(r.get(k, 0) for r in repairs.values()) for k in kinds}
+        counts["held"] = held_poses(report["joints"])  # (distinct runs, as the line says)
         done = (
             ", ".join(
                 plural(n, word)

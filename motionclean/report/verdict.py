@@ -346,10 +346,23 @@ def listed(names: list[str], limit: int = 2) -> str:
 REPAIRS_NAMED = 3
 
 
-def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
+def held_poses(joints: dict[str, dict]) -> int:
+    """How many poses the capture held ``fill-gaps`` bridged: the distinct frame runs of
+    its notes' ``held`` over every joint (one recorder's dropout holds many joints)."""
+    return len(
+        {
+            tuple(run)
+            for entry in joints.values()
+            for run in _runs(entry.get("fill-gaps") or {}, "held")
+        }
+    )
+
+
+def _repair_words(repairs: dict[str, dict[str, int]], poses: int = 0) -> list[str]:
     """ "2 flips repaired on RThumb", "14 flips repaired (RThumb 13, LeftElbow 1)": one
     phrase per kind, several joints each with its count, most first (the first
-    :data:`REPAIRS_NAMED`, then how many more joints)."""
+    :data:`REPAIRS_NAMED`, then how many more joints); held poses as ``poses`` distinct
+    runs on how many joints ("2 held poses bridged on 23 joints")."""
     words = []
     for key, noun, verb in (
         ("turned", "repair", f"(a turn over {PAIR_REPAIR_DEG:g} degrees)"),
@@ -366,9 +379,8 @@ def _repair_words(repairs: dict[str, dict[str, int]]) -> list[str]:
         if not counts:
             continue
         total = f"{plural(sum(n for n, _ in counts), noun)} {verb}"
-        if key == "held" and len(counts) > 1:  # (one recorder's dropout holds many joints)
-            most = counts[0][0]
-            words.append(f"{plural(most, noun)} {verb} on {plural(len(counts), 'joint')}")
+        if key == "held" and len(counts) > 1:  # (``poses``: the distinct runs held)
+            words.append(f"{plural(poses, noun)} {verb} on {plural(len(counts), 'joint')}")
             continue
         if len(counts) == 1:
             words.append(f"{total} on {counts[0][1]}")
@@ -953,7 +965,7 @@ def build_verdict(
     worse = _feet_worse(report)
     if worse:
         reasons.append(_worse_words(worse))
-    done = _repair_words(repairs)
+    done = _repair_words(repairs, held_poses(joints))
     glitched = sum(1 for counts in repairs.values() if counts["flips"] or counts["spikes"])
     glitchy = glitched >= max(GLITCHY_JOINTS, GLITCHY_SHARE * len(joints))
     briefly = _brief_words(joints)  # (two clips compared: no repair claimed)

@@ -220,7 +220,7 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
             notes.setdefault(joint, {}).setdefault("fill-gaps", note["fill-gaps"])
     repairs = _repaired_input_frames(logs, before)
     position_repairs = _repaired_input_frames(logs, before, positions=True)
-    series = build_series(before, compared, repairs, position_repairs, _level_turn(notes))
+    series = build_series(before, compared, repairs, position_repairs, _level_turn(logs))
     return_free_memory()  # the series' per-frame tables
     described = pipeline.describe()
     for entry, log in zip(described, logs, strict=True):
@@ -234,14 +234,21 @@ def clean_motion(before: Motion, pipeline: Pipeline, file: str) -> CleanedClip:
     return CleanedClip(before, after, logs, report, series)
 
 
-def _level_turn(notes: dict[str, dict]) -> np.ndarray | None:
-    """The turn the ``ground`` step gave the roots to level the floor (its note's ``turn``,
-    ``(w, x, y, z)``), or None where it did not level one."""
-    for entry in notes.values():
-        turn = (entry.get("position_ground") or {}).get("turn")
-        if turn is not None:
-            return np.asarray(turn, dtype=np.float64)
-    return None
+def _level_turn(logs: Sequence[StepLog]) -> np.ndarray | None:
+    """The turn one ``ground`` step gave the roots of the whole clip to level the floor
+    (its note's ``turn``, ``(w, x, y, z)``), or None: no floor levelled, or levelled other
+    than by one turn of every frame (each take its own, a range, two ``ground`` steps),
+    whose roots' change is then told as the cleaning's."""
+    turns = [
+        (log, note["position_ground"]["turn"])
+        for log in logs
+        if log.step.spec.name == "ground"
+        for note in log.notes.values()
+        if "turn" in note.get("position_ground", {})
+    ]
+    if len(turns) != 1 or turns[0][0].frames is not None or len(turns[0][1]) != 4:
+        return None
+    return np.asarray(turns[0][1], dtype=np.float64)
 
 
 #: The figures of a cleaned clip a batch index shows, and the type of each: what the clip's

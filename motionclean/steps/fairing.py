@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+
+import numpy as np
 
 from ..core.errors import UsageError
 from ..filters.fairing import MAX_ITERATIONS, MAX_LAM_R, MAX_LAM_T, fairing, fairing_positions
@@ -26,23 +29,45 @@ def _run_fairing(data: StepData, params: dict) -> StepData:
         "tol": params["tol"],
         "max_iterations": params["max_iterations"],
     }
+    given = data.rotations
     data.rotations, iterations = fairing(
-        data.rotations,
+        given,
         lam_r=params["lam_r"],
         epsilon_r=params["epsilon_r"],
         return_iterations=True,
         **shared,
     )
-    # a joint that took no iteration where one could run: its first step left the bound
-    could = params["max_iterations"] > 0 and data.rotations.shape[0] > params["order"]
+    held = _held_by_bound(given, iterations, params)
     for column, count in enumerate(iterations.tolist()):  # what the report says of it
-        note = {"iterations": count, "held_by_bound": could and count == 0}
+        note = {"iterations": count, "held_by_bound": bool(held[column])}
         data.rotation_notes[column] = {"fairing": note}
     if data.translations is not None:
         data.translations = fairing_positions(
             data.translations, lam_t=params["lam_t"], epsilon_t=params["epsilon_t"], **shared
         )
     return data
+
+
+def _held_by_bound(given: np.ndarray, iterations: np.ndarray, params: dict) -> np.ndarray:
+    """``(C,)``: the joints that took no iteration because their first step would leave the
+    bound ``epsilon_r`` (one step without the bound: it takes one), not because it would
+    raise their energy or the clip is too short to fair."""
+    held = np.zeros(iterations.shape, dtype=bool)
+    stuck = np.flatnonzero(iterations == 0)
+    could = params["max_iterations"] > 0 and given.shape[0] > params["order"]
+    if not could or not stuck.size or not math.isfinite(params["epsilon_r"]):
+        return held
+    _, free = fairing(
+        given[:, stuck],
+        order=params["order"],
+        lam_r=params["lam_r"],
+        epsilon_r=math.inf,
+        tol=0.0,
+        max_iterations=1,
+        return_iterations=True,
+    )
+    held[stuck] = free > 0
+    return held
 
 
 def _merge_note(parts: list[tuple[dict, int]]) -> dict:

@@ -12,6 +12,9 @@ from helpers import ROOT, corpus_clip, degrees_between
 
 import motionclean as mc
 from motionclean.core.holds import held_samples
+from motionclean.core.takes import take_starts
+from motionclean.report.html import render_html
+from motionclean.report.verdict import held_poses
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
 
@@ -47,6 +50,7 @@ def test_a_whole_pose_held_is_found_on_the_joints_that_move(truth):
     assert np.array_equal(held.any(axis=0), moving)  # still joints repeat anyway
     assert moving.sum() >= 20
     assert not held_samples(truth).any()  # the capture itself holds nothing
+    assert not take_starts(frozen(truth, FROZEN)).size  # its step out is no cut of takes
 
 
 def test_the_default_bridges_a_held_pose_close_to_the_capture(truth):
@@ -141,3 +145,21 @@ def test_a_held_pose_longer_than_max_gap_is_left_and_needs_a_look(truth):
     assert verdict["status"] == "needs a look"
     assert "a pose the capture held left as captured on" in verdict["text"]
     assert "frames 400-499 (longer than fill-gaps' max_gap)" in verdict["text"]
+
+
+def test_held_poses_are_counted_as_the_distinct_runs_held(truth):
+    """Two holds at different times on two joints: two held poses, on the line and the
+    page alike; a whole pose held: one, on every joint that holds it."""
+    elbow, knee = truth.names.index("LeftElbow"), truth.names.index("RightKnee")
+    speed = degrees_between(truth.rotations[1:], truth.rotations[:-1])
+    starts = [100 + int(np.argmax(speed[100:600, j])) for j in (elbow, knee)]
+    clip = frozen(
+        frozen(truth, slice(starts[0], starts[0] + 6), elbow), slice(starts[1], starts[1] + 6), knee
+    )
+    result = clean_motion(clip, Pipeline.default(), "two.bvh")
+    text = result.report["verdict"]["text"]
+    assert "2 held poses bridged on 2 joints" in text, text
+    assert held_poses(result.report["joints"]) == 2
+    whole = clean_motion(frozen(truth, FROZEN), Pipeline.default(), "one.bvh")
+    assert held_poses(whole.report["joints"]) == 1
+    assert "1 held pose" in render_html(whole.report, whole.series)

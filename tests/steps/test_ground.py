@@ -504,3 +504,18 @@ def test_levelling_is_told_apart_from_smoothing(walk, steps):
         tilted, Pipeline.from_inline(["lee-shin:k=2,iterations=3", "ground"]), "tilted.bvh"
     )
     assert smoothed.report["verdict"]["change_deg_max"] > 0.5
+
+
+def test_ground_on_takes_joined_end_to_end_is_told_without_a_turn_of_its_own(walk):
+    """Two takes joined, each levelled on its own (two turns): the report measures the
+    roots' change as the cleaning's (one turn of every frame is what it discounts) rather
+    than failing on the notes' two turns."""
+    first = _tilted(walk, 30.0)
+    second = walk
+    joined = first.replace(
+        rotations=np.concatenate([first.rotations, second.rotations]),
+        translations=np.concatenate([first.translations, second.translations]),
+    )
+    assert clean_motion(joined, Pipeline.from_inline(["ground"]), "j.bvh").report["verdict"]
+    ranged = clean_motion(first, Pipeline.from_inline(["ground:frames=[0,600]"]), "r.bvh")
+    assert ranged.report["verdict"]["text"]

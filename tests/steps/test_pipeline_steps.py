@@ -703,3 +703,18 @@ def test_sse_fairing_says_where_it_stopped_at_its_iteration_limit_before_converg
         for r in reports
     ]
     assert moved[0] < moved[1]  # (stopped early, it smoothed less than asked)
+
+
+def test_fairing_says_the_bound_held_a_joint_only_where_it_did():
+    """A joint fairing left after no iteration is 'held by the bound' only where one step
+    without the bound would have run: RThumb's flips stop it by their energy (Eq. 13) with
+    no bound at all, and a bound of 0.0001 holds the legs."""
+    clip = mc.load(corpus_clip("131_02.bvh"))
+    free = Pipeline.from_inline(["fairing:order=2,lam_r=0.88,epsilon_r=inf,cut_deg=180"])
+    _, logs = free.run(clip)
+    notes = {name: note["fairing"] for name, note in logs[0].notes.items()}
+    assert notes["RThumb"]["iterations"] == 0
+    assert not any(note["held_by_bound"] for note in notes.values())
+    _, logs = Pipeline.from_inline(["fairing:epsilon_r=0.0001"]).run(clip)
+    held = {name for name, note in logs[0].notes.items() if note["fairing"]["held_by_bound"]}
+    assert "LeftKnee" in held
