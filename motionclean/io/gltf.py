@@ -946,6 +946,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
     rotations = np.empty((n_frames, n_joints, 4))
     translations = joint_major_zeros(n_frames, n_joints)
     offsets = np.array([t for t, _ in rest]).reshape(n_joints, 3)
+    size = float(np.abs(offsets).max(initial=0.0))  # (the rig's scale: its longest offset)
     rotation_tracks: list[Track] = []
     translation_tracks: list[Track] = []
     channels_out: list[tuple[str, ...]] = []
@@ -975,9 +976,7 @@ def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
             rotations[:, j] = rest[j][1]
         # a root keyed in place keeps its position channels (a SMPL clip's fixed trans is
         # its placement); another joint's still track is its offset
-        moving = tracks[1].channel >= 0 and (
-            parents[j] < 0 or bool(np.any(translations[:, j] != translations[:1, j]))
-        )
+        moving = tracks[1].channel >= 0 and (parents[j] < 0 or _moves(translations[:, j], size))
         if tracks[1].channel >= 0 and not moving:
             offsets[j] = translations[0, j]
             translations[:, j] = 0.0
@@ -1104,6 +1103,19 @@ def _length_unit(document: dict, scales: list[np.ndarray]) -> str | None:
         if all(np.allclose(factors, 1.0, rtol=0.0, atol=UNSCALED) for factors in scales)
         else None
     )
+
+
+#: A translation track whose keys spread by no more than this share of the rig's size
+#: (its longest offset) is still: float32 rounding (Blender 5.0.1 keys every bone's
+#: translation at both ends, up to 4.3e-6 apart on a rig whose longest offset is 7.6).
+STILL_SPREAD = 64 * float(np.finfo(np.float32).eps)
+
+
+def _moves(track: np.ndarray, size: float) -> bool:
+    """Whether a translation ``track`` ``(F, 3)`` moves beyond float32 rounding of the
+    rig's ``size`` or its own values."""
+    scale = max(size, float(np.abs(track).max()), float(np.finfo(np.float32).tiny))
+    return float(np.ptp(track, axis=0).max()) > STILL_SPREAD * scale
 
 
 def _armature(order: list[int], parent: np.ndarray) -> set[int]:

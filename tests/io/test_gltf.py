@@ -1031,3 +1031,25 @@ def test_a_glb_s_rest_pose_is_its_nodes_rotations_and_offsets():
     assert np.abs(folded - expected).max() > 0.1 * height
     poses, _ = kinematics.sample_poses(glb)
     assert kinematics.body_height(glb) == pytest.approx(np.median(np.ptp(poses[..., 1], axis=1)))
+
+
+def test_a_translation_track_still_within_float32_rounding_is_no_position_channel(tmp_path):
+    """Blender keys every bone's translation at both ends, a few float32 units apart: such
+    a bone has no position channels (it had read 186 channels of a 96-channel rig and
+    rewritten each track at every frame); a track that truly moves keeps them."""
+    times = np.arange(5) / 30.0
+    made = chain()
+    made.channel(1, "rotation", times, z_turn(np.linspace(0.0, 1.0, 5)))
+    noisy = np.array([0.0, 1.0, 0.0]) + np.array([[0, 3e-7, 0], [0, -2e-7, 1e-7]] * 2 + [[0, 0, 0]])
+    made.channel(2, "translation", times, noisy)
+    made.gltf(tmp_path / "still.gltf")
+    clip = mc.load(tmp_path / "still.gltf")
+    assert not clip.layout.has_position[clip.names.index("tip")]
+    moving = chain()
+    moving.channel(1, "rotation", times, z_turn(np.linspace(0.0, 1.0, 5)))
+    moving.channel(
+        2, "translation", times, noisy + np.array([0.0, 0.01, 0.0]) * np.arange(5)[:, None]
+    )
+    moving.gltf(tmp_path / "moving.gltf")
+    clip = mc.load(tmp_path / "moving.gltf")
+    assert clip.layout.has_position[clip.names.index("tip")]
