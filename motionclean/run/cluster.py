@@ -166,19 +166,23 @@ class _HeldInterrupts:
     threads Dask starts meanwhile inherit the mask, and so do the worker processes they
     spawn (at start and when a lost worker is restarted): a terminal sends Ctrl-C to the
     whole process group, and each worker printed its own traceback. The parent alone
-    takes it and closes them. SIGTERM is noted by a handler instead: Dask stops its
-    workers with SIGTERM, which they must not block.
+    takes it and closes them. A thread started before the hold (Dask's, on import) still
+    takes SIGINT, whose Python handler then runs in this thread: it is noted too, not
+    raised inside Dask's start-up (the half-built cluster's nanny and worker had held the
+    caller's pipes past 30 s after the one-line error). SIGTERM is noted by a handler as
+    well: Dask stops its workers with SIGTERM, which they must not block.
     """
 
     def __init__(self) -> None:
         self.noted = False
-        self.previous: Any = None
+        self.previous: dict[int, Any] = {}
         self.mask: set | None = None
 
     def hold(self) -> _HeldInterrupts:
         main = threading.current_thread() is threading.main_thread()
         if main and hasattr(signal, "pthread_sigmask"):  # (POSIX)
-            self.previous = signal.signal(signal.SIGTERM, self._note)
+            for signum in (signal.SIGTERM, signal.SIGINT):
+                self.previous[signum] = signal.signal(signum, self._note)
             self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         return self
 
@@ -188,7 +192,8 @@ class _HeldInterrupts:
     def release(self) -> None:
         """Take interrupts again; one that came meanwhile is raised now (KeyboardInterrupt)."""
         if self.mask is not None:
-            signal.signal(signal.SIGTERM, self.previous)
+            for signum, previous in self.previous.items():
+                signal.signal(signum, previous)
             signal.pthread_sigmask(signal.SIG_SETMASK, self.mask)  # a pending Ctrl-C: raised
             self.mask = None
         if self.noted:
