@@ -229,9 +229,11 @@ def running(pids: list[int]) -> list[int]:
 
 def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
     """``batch --scheduler local:1`` in a session of its own (as a shell runs a job), once
-    its worker and the resource tracker run and a second has passed."""
+    its worker and the resource tracker run and its first clip is written (the cluster
+    up: on a loaded machine a second after its processes appeared had been within its
+    start)."""
     for k in range(6):
-        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 300)
+        cut_bvh(SAMPLE, tmp_path / "in" / f"c{k}.bvh", 150)
     command = [str(Path(sys.executable).parent / "motionclean"), "batch", str(tmp_path / "in")]
     process = subprocess.Popen(
         [*command, "-o", str(tmp_path / "o"), "--scheduler", "local:1", "-q"]
@@ -240,10 +242,12 @@ def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
         stderr=subprocess.PIPE,
         start_new_session=True,
     )
-    deadline = time.monotonic() + 30
-    while len(descendants(process.pid)) < 2 and time.monotonic() < deadline:
+    deadline = time.monotonic() + 60
+    written = tmp_path / "o"
+    while time.monotonic() < deadline and not (
+        len(descendants(process.pid)) >= 2 and any(written.glob("*.bvh"))
+    ):
         time.sleep(0.1)
-    time.sleep(1.0)
     return process, descendants(process.pid)
 
 
