@@ -227,6 +227,13 @@ def running(pids: list[int]) -> list[int]:
     return alive
 
 
+def _in_the_foreground() -> None:
+    """Ctrl-C taken as a terminal's foreground job takes it: a test run started in the
+    background of a script (``make test &``) ignores SIGINT, and its children inherit
+    that (the batch had run to its end, exit 0, or past the 30 s of :func:`finish`)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
     """``batch --scheduler local:1`` in a session of its own (as a shell runs a job), once
     its worker and the resource tracker run and its first clip is written (the cluster
@@ -241,6 +248,7 @@ def batch_under_way(tmp_path) -> tuple[subprocess.Popen, list[int]]:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         start_new_session=True,
+        preexec_fn=_in_the_foreground,
     )
     deadline = time.monotonic() + 60
     written = tmp_path / "o"
