@@ -13,9 +13,10 @@ Statuses, first that applies (thresholds below, documented in the README):
   over :data:`~motionclean.core.jumps.JUMP_DEG` it makes (a flip is no jitter).
 - ``needs a look``: an up axis given that the motion contradicts (the ``world``
   section's ``up_axis_contradicted``: a clip reported on its own says so after its
-  noise), ``auto`` or ``footlock`` after a ``resample`` to a lower rate (they read the
-  noise in the band its low-pass removed: :data:`READS_NOISE`), a gap left missing
-  (longer than ``max_gap``), smoothing that moved a
+  noise), ``auto`` or ``footlock`` after a ``resample`` that changed the rate (they read
+  the noise in the band its low-pass removed, or its spline never made: :data:`READS_NOISE`),
+  a gap left missing (longer than ``max_gap``) or a pose the capture held longer than it
+  left as captured, smoothing that moved a
   joint more than :data:`LOOK_CHANGE_DEG` outside repairs and more than
   :data:`LOOK_CHANGE_SIGMAS` times the noise ``auto`` estimated in it (fast motion taken
   for noise?),
@@ -206,7 +207,8 @@ LOOK_SANK_BY = 0.002
 NOT_SMOOTHING = frozenset(name for name, spec in REGISTRY.items() if not spec.smooths)
 #: Steps that read the clip's noise (``auto`` in its band above 10 Hz, ``footlock`` from
 #: ``auto``'s notes or the same estimate): after a resample to a lower rate, whose
-#: anti-alias low-pass removed that band, they read only the noise it left.
+#: anti-alias low-pass removed that band, they read only the noise it left; after one to a
+#: higher rate, whose spline holds nothing above the old Nyquist frequency, none.
 READS_NOISE = ("auto", "footlock")
 
 
