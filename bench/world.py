@@ -24,18 +24,6 @@ EXPORTERS = ROOT / "tests" / "data" / "exporters"
 UP = {"video2bvh_zup.bvh": 2}
 
 
-def turned(motion: mc.Motion, turn: np.ndarray) -> mc.Motion:
-    """The clip turned as a whole by ``turn`` (offsets, end sites, translations, every
-    local rotation conjugated)."""
-    return motion.replace(
-        offsets=quat.rotate(turn, motion.offsets),
-        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
-        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
-        translations=quat.rotate(turn, motion.translations),
-        source_values=None,
-    )
-
-
 def up_axes() -> None:
     """The up direction on every real clip and its copies turned to each other axis, head
     up and head down (a half turn more about the next axis, as y-down camera coordinates
@@ -56,9 +44,11 @@ def up_axes() -> None:
                     clip = motion
                 else:
                     axis = np.cross(np.eye(3)[up], np.eye(3)[target])
-                    clip = turned(motion, quat.from_axis_angle(axis, np.pi / 2))
+                    clip = kinematics.turned(motion, quat.from_axis_angle(axis, np.pi / 2))
                 if sign < 0.0:
-                    clip = turned(clip, quat.from_axis_angle(np.eye(3)[(target + 1) % 3], np.pi))
+                    clip = kinematics.turned(
+                        clip, quat.from_axis_angle(np.eye(3)[(target + 1) % 3], np.pi)
+                    )
                 found.append(kinematics.up_name(clip))
                 right += found[-1] == ("-" if sign < 0.0 else "") + kinematics.AXES[target]
                 total += 1

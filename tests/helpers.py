@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from turned import turned_copy  # noqa: F401  (the tests import it from here)
 
 import motionclean as mc
 from motionclean.cli.main import main
 from motionclean.core import kinematics, quat
+from motionclean.core.kinematics import turned as turned_copy  # noqa: F401  (tests import it here)
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLE = ROOT / "sample_data" / "131_02_cut.bvh"

@@ -49,6 +49,7 @@ __all__ = [
     "rest_pose",
     "rest_positions",
     "rest_rotations",
+    "turned",
     "sample_poses",
     "trunk_split",
     "up_axis",
@@ -463,6 +464,23 @@ def rest_pose(motion: Motion) -> np.ndarray:
     joints = sorted(motion.end_sites)
     tips = quat.rotate(world_q[0, joints], np.stack([motion.end_sites[j] for j in joints]))
     return np.concatenate([positions[0], positions[0, joints] + tips])
+
+
+def turned(motion: Motion, turn: np.ndarray) -> Motion:
+    """The clip turned as a whole by the unit quaternion ``turn`` ``(w, x, y, z)``: offsets,
+    end sites and translations turned, every local rotation conjugated (``turn q turn^-1``),
+    so every world point turns the same; the file text it was read from is dropped (its
+    values no longer describe it)."""
+    as_motion(motion)
+    return motion.replace(
+        offsets=quat.rotate(turn, motion.offsets),
+        end_sites={j: quat.rotate(turn, v) for j, v in motion.end_sites.items()},
+        rotations=quat.multiply(turn, quat.multiply(motion.rotations, quat.conjugate(turn))),
+        translations=quat.rotate(turn, motion.translations),
+        source=None,
+        source_values=None,
+        source_rotations=None,
+    )
 
 
 def reaches(motion: Motion) -> np.ndarray:

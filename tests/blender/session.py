@@ -32,7 +32,7 @@ import numpy as np
 
 import motionclean as mc
 from motionclean.cli import main as cli_main
-from motionclean.core import quat
+from motionclean.core import kinematics, quat
 from motionclean.io.blender_action import (
     CHANNELS_PROPERTY,
     action_fcurves,
@@ -43,9 +43,6 @@ from motionclean.io.blender_action import (
 from motionclean.io.fbx import fbx_frames, mend_importer
 from motionclean.run.jobs import clean_motion
 from motionclean.steps.pipeline import Pipeline
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # (the tests' own modules)
-from turned import turned_copy  # noqa: E402  (found through the line above)
 
 EXTENSION = "bl_ext.user_default.motionclean"
 #: Rigs: name -> the BVH importer's rotate_mode (AXIS_ANGLE: quaternion curves turned into
@@ -788,7 +785,7 @@ def head_down_checks(clip: Path, out: Path, results: dict) -> None:
     the world heights (Blender's +Z) of its head and of its lowest ankle at the middle
     frame (its up's sign had been dropped: the figure stood on its head)."""
     turn = quat.from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi)
-    down = turned_copy(mc.load(clip), turn)
+    down = kinematics.turned(mc.load(clip), turn)
     mc.save(down, out / "head_down.fbx")
     bpy.ops.wm.read_factory_settings(use_empty=True)
     mend_importer(bpy)
