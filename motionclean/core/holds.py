@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .motion import Motion
+from .motion import Motion, mask_runs
 
 #: Fewest repeated frames in a held run (three equal samples): a single repeat is how a
 #: rate conversion duplicates frames.
@@ -65,7 +65,7 @@ def held_samples(motion: Motion) -> np.ndarray:
 
 def _held_samples(motion: Motion) -> np.ndarray:
     repeats = _repeats(motion)
-    first, stop, column = _runs(repeats)  # step indices: step i joins frames i and i + 1
+    column, first, stop = mask_runs(repeats)  # step indices: step i joins frames i, i + 1
     n_steps = repeats.shape[0]
     keep = (stop - first >= MIN_HELD_FRAMES) & (first > 0) & (stop < n_steps)
     first, stop, column = first[keep], stop[keep], column[keep]
@@ -132,18 +132,6 @@ def _position_steps(t: np.ndarray, index) -> np.ndarray:
     """The lengths of the position steps ``index`` (as :func:`_rotation_steps`)."""
     steps, columns = index
     return np.linalg.norm(t[steps + 1, columns] - t[steps, columns], axis=-1)
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``first``, ``stop`` (row indices, ``[first, stop)``) and column of every run of True
-    rows of ``mask`` ``(R, C)``."""
-    n_rows, n_cols = mask.shape
-    padded = np.zeros((n_cols, n_rows + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask.T
-    edges = np.diff(padded, axis=1)
-    start_col, start = np.nonzero(edges == 1)
-    _, stop = np.nonzero(edges == -1)
-    return start, stop, start_col
 
 
 def _window(first: np.ndarray, stop: np.ndarray, low: int, high: int) -> np.ndarray:

@@ -670,6 +670,17 @@ def run_labels(mask: np.ndarray) -> np.ndarray:
     return labels.reshape(n_frames + 1, n_cols, order="F")[:-1]
 
 
+def mask_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``column``, ``first`` and ``stop`` (rows ``first .. stop-1``) of every run of True
+    rows of ``mask`` ``(R, C)``, column by column."""
+    padded = np.zeros((mask.shape[0] + 2, mask.shape[1]), dtype=np.int8)
+    padded[1:-1] = mask
+    change = np.diff(padded, axis=0).T  # (C, R + 1): +1 where a run starts, -1 after it
+    column, first = np.nonzero(change == 1)
+    _, stop = np.nonzero(change == -1)
+    return column, first, stop
+
+
 def hold_missing(values: np.ndarray, missing: np.ndarray) -> np.ndarray:
     """``values`` ``(F, J, ...)`` with each missing sample (``missing`` ``(F, J)`` bool)
     replaced by the joint's last known sample before it, or the first known one after it

@@ -68,7 +68,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core import checks, quat
-from ..core.motion import missing_before
+from ..core.motion import mask_runs, missing_before
 from .interpolate import end_tangent, hermite_positions, hermite_rotations
 
 #: Known frames beside an edge that its velocity is fitted to ...
@@ -123,12 +123,7 @@ class Gaps:
     @classmethod
     def of(cls, missing: np.ndarray) -> Gaps:
         """The gaps of a ``(F, J)`` bool mask."""
-        padded = np.zeros((missing.shape[0] + 2, missing.shape[1]), dtype=np.int8)
-        padded[1:-1] = missing
-        change = np.diff(padded, axis=0).T  # (J, F + 1): +1 where a gap starts, -1 after
-        joint, first = np.nonzero(change == 1)
-        _, stop = np.nonzero(change == -1)
-        return cls(joint, first, stop)
+        return cls(*mask_runs(missing))
 
     @property
     def lengths(self) -> np.ndarray:

@@ -10,7 +10,7 @@ import numpy as np
 from ..core.holds import held_samples
 from ..core.motion import Motion, run_labels
 from ..core.rates import frames_floor
-from ..filters.gaps import fill_gaps
+from ..filters.gaps import Gaps, fill_gaps
 from .base import Param, StepSpec, brief_runs, page_runs, shift_runs
 
 #: Default longest gap filled, seconds: about what an occluded marker set is lost for when
@@ -67,12 +67,13 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
             notes[motion.names[joint]]["fill-gaps"]["held"] = _runs(
                 gaps.first[held_here], gaps.stop[held_here]
             )
-    for joint in np.flatnonzero(held_left.any(axis=0)):
-        first, stop = _column_runs(held_left[:, joint])
+    as_captured = Gaps.of(held_left)
+    for joint in np.unique(as_captured.joint):
         note = notes.setdefault(motion.names[joint], {}).setdefault(
             "fill-gaps", {"gaps": 0, "longest": 0, "filled": [], "missing": [], "donors": []}
         )
-        note["held_left"] = _runs(first, stop)
+        mine = as_captured.joint == joint
+        note["held_left"] = _runs(as_captured.first[mine], as_captured.stop[mine])
     # a held pose's samples are data: what the fill left of them stays as captured
     still_missing = result.missing & ~held
     if motion.missing is None and not still_missing.any():
@@ -80,12 +81,6 @@ def _run(motion: Motion, params: dict) -> tuple[Motion, dict[str, dict]]:
     return motion.replace(
         rotations=result.rotations, translations=result.translations, missing=still_missing
     ), notes
-
-
-def _column_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``first`` and ``stop`` of the runs of True of a ``(F,)`` mask."""
-    edges = np.diff(np.r_[0, mask.astype(np.int8), 0])
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
 def _format_note(note: dict, positions: bool, runs=page_runs) -> str:
