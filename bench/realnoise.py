@@ -79,16 +79,16 @@ def read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     return header, values.reshape(-1, len(header))
 
 
-def takes(wanted: list[str] | None) -> list[tuple[str, str, Path, Path]]:
-    """``(pipeline, task, estimate, truth)`` of every take (or of ``wanted``,
-    ``pipeline/task``)."""
+def takes(data: Path, wanted: list[str] | None) -> list[tuple[str, str, Path, Path]]:
+    """``(pipeline, task, estimate, truth)`` of every take in ``data`` (laid out as
+    ``../shared/realnoise``), or of ``wanted`` (``pipeline/task``)."""
     found = []
-    for folder in sorted((DATA / "estimates").iterdir()):
+    for folder in sorted((data / "estimates").iterdir()):
         for estimate in sorted(folder.glob("*.csv")):
             task = estimate.name.split("_participant")[0]
             if wanted and f"{folder.name}/{task}" not in wanted:
                 continue
-            found.append((folder.name, task, estimate, DATA / "truth" / estimate.name))
+            found.append((folder.name, task, estimate, data / "truth" / estimate.name))
     return found
 
 
@@ -99,11 +99,13 @@ _cell = "{:.6f}".format
 def load_take(estimate: Path, truth: Path):
     """Times (s), estimate (F, C) in degrees with NaN for dropouts, the truth at the same
     times (F, C) and the coordinates' names, the ones with under half missing (as
-    ``to_channel_csv.py`` keeps them)."""
+    ``to_channel_csv.py`` keeps them); None when no coordinate is kept."""
     header, values = read_csv(estimate)
     times, x = values[:, 0], np.degrees(values[:, 1:])
     keep = [j for j in range(x.shape[1]) if np.mean(~np.isnan(x[:, j])) > 0.5]
     names = [header[1 + j] for j in keep]
+    if not names:
+        return None
     # the values as the channel CSV gives them to the tool (6 decimals): scored the same
     x = np.char.mod("%.6f", x[:, keep]).astype(np.float64)
     truth_header, truth_values = read_csv(truth)
@@ -321,10 +323,17 @@ def print_rmse_above(label: str, rows: list[tuple[str, float, float]]) -> None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--takes", nargs="+", help="pipeline/task names, e.g. theia3d/gait")
+    parser.add_argument(
+        "--data",
+        type=Path,
+        default=DATA,
+        help="a folder laid out as ../shared/realnoise (estimates/PIPELINE/*.csv, truth/): "
+        "takes kept aside",
+    )
     args = parser.parse_args(argv)
-    if not (DATA / "estimates").is_dir():
+    if not (args.data / "estimates").is_dir():
         print(
-            f"real-noise takes not found: {DATA} (expected ../shared/realnoise beside the "
+            f"real-noise takes not found: {args.data} (expected ../shared/realnoise beside the "
             "project root); nothing to score",
             file=sys.stderr,
         )
@@ -344,8 +353,12 @@ def main(argv=None) -> int:
     ratios, video_ratios, by_pipeline, rmse_rows, smooth_rows = [], [], {}, [], []
     video_rmse_rows = []
     fill_default, fill_line = [], []
-    for pipeline, task, estimate, truth in takes(args.takes):
-        times, x, y, names = load_take(estimate, truth)
+    for pipeline, task, estimate, truth in takes(args.data, args.takes):
+        take = load_take(estimate, truth)
+        if take is None:
+            print(f"| {pipeline}/{task} | 0 | every coordinate half missing: not scored |")
+            continue
+        times, x, y, names = take
         fps = 1.0 / np.median(np.diff(times))
         base = baselines(x, y, fps)
         out, source = run_default(times, x, names)

@@ -1042,10 +1042,14 @@ def _unflip(
         toggles,
     )
     toggles &= ~_mark(first - 1, length + 1, slot, toggles.shape)
-    parity = _parity(toggles, None if known is None else known.take(cols, axis=1))
+    known_cols = None if known is None else known.take(cols, axis=1)
+    parity = _parity(toggles, known_cols)
     frame, slot = _nonzero(parity)
     i = frame * n_cols + cols[slot]
-    flat[i] = _half_turn(flat, i, slot, axis, left)
+    turned_back = _half_turn(flat, i, slot, axis, left)
+    agree = _agree_when_turned(out.take(cols, axis=1), parity, turned_back, frame, slot, known_cols)
+    parity &= agree
+    flat[i[agree[frame, slot]]] = turned_back[agree[frame, slot]]
     flipped[:, cols] = parity
     turned = cols[parity.any(axis=0)]
     samples = out.take(turned, axis=1)
@@ -1054,6 +1058,38 @@ def _unflip(
         steps[:, turned] if blind is None else np.where(blind[:, turned], 0.0, steps[:, turned])
     )
     return turned
+
+
+def _agree_when_turned(samples, parity, turned_back, frame, slot, known=None) -> np.ndarray:
+    """``(F, S)``: the flipped runs of ``parity`` (F, S) that turning back brings nearer the
+    rest of the clip, every frame of such a run True.
+
+    ``samples`` (F, S, 4) are the columns that flip, ``turned_back`` (N, 4) their flipped
+    frames ``(frame, slot)`` turned back by the half-turn. The rest of a column is its
+    frames outside the runs (``known`` (F, S) ones only, when given), summed up by their
+    principal quaternion ``m`` (the largest eigenvector of ``sum q q^T``, sign-free); a run
+    is turned back only when its known frames' mean angle to ``m`` falls. A toggle found
+    where a capture slides into a half-turn over several frames and snaps back in one
+    (a markerless shoulder) leaves the run after the snap in the minority: that run agrees
+    with the rest as it is, and is left as it is.
+    """
+    n_frames, n_slots = parity.shape
+    seen = np.ones_like(parity) if known is None else known
+    rest = ~parity & seen
+    scatter = np.einsum("fs,fsi,fsj->sij", rest.astype(np.float64), samples, samples)
+    m = np.linalg.eigh(scatter)[1][..., -1]  # (S, 4)
+    runs = run_labels(parity)
+    label = runs[frame, slot]
+    weight = seen[frame, slot].astype(np.float64)
+    before = _dot_angle(np.abs(np.einsum("ni,ni->n", samples[frame, slot], m[slot])))
+    after = _dot_angle(np.abs(np.einsum("ni,ni->n", turned_back, m[slot])))
+    size = int(runs.max(initial=0)) + 1
+    nearer = np.bincount(label, weight * (after - before), size) < 0.0
+    unjudged = np.bincount(label, weight, size) == 0  # no known frame: as the parity says
+    slot_of = np.zeros(size, dtype=np.intp)
+    slot_of[label] = slot
+    unjudged |= ~rest.any(axis=0)[slot_of]  # nothing else known to compare with
+    return (nearer | unjudged)[runs] & parity
 
 
 def _fill_changed(out, mask, changed, after, metric: _Metric, limits: _Limits, cap) -> None:

@@ -94,6 +94,31 @@ def test_a_half_turn_run_beside_dropouts_is_the_one_repaired(tmp_path, capsys, g
     assert error.max() < 5.0  # every known frame back on the truth (auto smooths a little)
 
 
+@pytest.mark.parametrize("slide", [6, 12])
+def test_a_run_entered_by_a_slide_and_left_by_a_snap_leaves_the_frames_after_it(
+    tmp_path, capsys, slide
+):
+    """A markerless shoulder (a kept-aside dance take) slides into half a turn off over a few
+    frames, stays there 110 frames and snaps back in one frame, 130 correct frames before the
+    clip's end: the snap is the only step a flip can be read from, and the run after it is
+    the smaller. Despike had turned those correct frames half a turn (the take's RMSE 20.5
+    -> 27.3 degrees); they agree with the rest of the clip as they are, and stay."""
+    truth = smooth_coordinates(600)
+    x = truth.copy()
+    off = np.full(600, 180.0)
+    off[:360] = 0.0
+    off[360 - slide : 360] = np.linspace(0.0, 180.0, slide + 2)[1:-1]
+    off[470:] = 0.0  # the snap back, then correct to the end
+    x[:, 2] += off
+    source, target = tmp_path / "take.csv", tmp_path / "clean.csv"
+    write_channel_csv(source, x)
+    code, _, err = run_cli(capsys, "clean", source, "-o", target, "-q")
+    assert code == 0, err
+    error = np.abs(wrapped(read_z(target)[:, 2] - truth[:, 2]))
+    assert error[480:].max() < 5.0  # the correct frames after the snap kept
+    assert error[: 360 - slide].max() < 5.0  # and those before the slide
+
+
 def test_a_wander_is_found_from_the_clip_modelled_and_said(tmp_path, capsys):
     truth = smooth_coordinates(1200, seed=3)
     # white displacements up to a 10 Hz cliff, as through a pose pipeline's own low-pass
