@@ -11,7 +11,14 @@ import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.cli.check import DEFAULT_TOLERANCE, FORMAT, compare
+from motionclean.cli.check import (
+    ABSOLUTE,
+    DEFAULT_TOLERANCE,
+    FORMAT,
+    JOINT_FIGURES,
+    compare,
+    compare_joints,
+)
 from motionclean.core import quat
 from motionclean.report.summary import json_safe
 from motionclean.steps.pipeline import Pipeline
@@ -217,6 +224,21 @@ def test_compare_limits():
     assert verdicts(frames=11)["frames"] == "CHANGED"
     zero = dict(base, deviation_max=0.0)
     assert compare(dict(zero, deviation_max=1e-12), zero, t)[2][3] == "ok"
+
+
+def test_compare_joints_flags_a_rise_just_above_the_tolerance_and_not_one_just_below():
+    """One joint's figure rising by more than the tolerance is a regression of its own,
+    whatever the other joints do; a rise within it is not."""
+    t = DEFAULT_TOLERANCE
+    key, label = JOINT_FIGURES[0]
+    base = {"joints": {"LeftHand": {key: 10.0}, "Hips": {key: 50.0}}}
+    limit = 10.0 * (1 + t) + ABSOLUTE
+
+    def rows(value):
+        return compare_joints({"joints": {"LeftHand": {key: value}, "Hips": {key: 50.0}}}, base, t)
+
+    assert rows(limit * (1 - 1e-9)) == []
+    assert rows(limit * (1 + 1e-9)) == [("LeftHand", label, 10.0, limit * (1 + 1e-9))]
 
 
 def test_update_of_a_subset_keeps_the_other_clips_and_replace_starts_anew(clips, capsys):

@@ -106,6 +106,17 @@ def test_repeats_that_are_not_dropouts_are_left(truth, kind):
     assert not held_samples(clip).any()
 
 
+def test_one_repeated_frame_is_no_held_pose_and_two_are(truth):
+    """The same step out, from frame 99's pose into frame 102's (three steps' worth), after
+    one repeat of frame 99 and after two: a held pose only from two repeated frames on (a
+    single repeat is how a rate conversion duplicates a frame)."""
+    n = truth.n_frames
+    once = held_samples(truth.at_frames(np.r_[:100, 99, 102:n]))
+    twice = held_samples(frozen(truth, slice(100, 102)))
+    assert not once.any()
+    assert np.array_equal(np.flatnonzero(twice.any(axis=1)), [100, 101])
+
+
 def test_stepped_keys_of_an_exporter_are_left():
     """Mixamo's export keys a finger in steps: it holds, jumps, holds (no motion between)."""
     clip = mc.load(ROOT / "tests" / "data" / "exporters" / "mixamo_tpose.bvh")

@@ -137,6 +137,23 @@ def test_a_5000_deep_chain_works():
     np.testing.assert_allclose(positions[:, -1], [[0.0, float(n), 0.0]] * 2)  # root offset too
 
 
+def test_a_chain_deeper_than_the_level_loop_matches_the_per_joint_loop():
+    """Past :data:`kinematics.LEVEL_LOOP_DEPTH` levels the chain is composed by pointer
+    jumping: with random rotations at every level it gives what a parent-first loop does."""
+    n = kinematics.LEVEL_LOOP_DEPTH + 36
+    rng = np.random.default_rng(5)
+    motion = mc.Motion.from_channel_values(
+        [f"j{j}" for j in range(n)],
+        np.arange(-1, n - 1),
+        rng.normal(size=(n, 3)),
+        [("Zrotation", "Xrotation", "Yrotation")] * n,
+        1 / 30,
+        rng.uniform(-40.0, 40.0, (3, 3 * n)),
+    )
+    positions, _ = kinematics.forward(motion)
+    np.testing.assert_allclose(positions, loop_forward(motion), rtol=0, atol=1e-9)
+
+
 def test_a_rigid_move_of_the_root_moves_every_point_rigidly():
     motion = mc.load(SAMPLE)
     turn = quat.from_axis_angle(np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2]), 1.1)

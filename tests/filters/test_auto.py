@@ -233,6 +233,21 @@ def test_a_fixed_offset_written_with_float_rounding_is_left_as_it_is():
     assert choices[4].mask != "none" and not np.array_equal(values[:, 4], moving[:, 0])
 
 
+def test_a_marker_sliding_on_the_floor_is_cleaned_though_its_height_never_changes():
+    """A channel constant along one axis (height exactly 0: a marker sliding on the floor,
+    a planar rig) is no fixed offset: its noisy x and z are smoothed."""
+    t = np.arange(600) / 120.0
+    truth = np.stack([30 * np.sin(t), np.zeros_like(t), 20 * np.cos(0.7 * t)], axis=-1)
+    noisy = truth + np.random.default_rng(0).normal(0.0, 0.3, truth.shape) * [1.0, 0.0, 1.0]
+    values, _, choices = auto_positions(noisy[:, None], 1 / 120)
+
+    def err(x):
+        return float(np.sqrt(np.mean((x - truth) ** 2)))
+
+    assert choices[0].mask != "none"
+    assert err(values[:, 0]) < err(noisy) / 2
+
+
 # ----------------------------------------------------------------------------- real clip
 
 

@@ -190,6 +190,18 @@ def spectral_radius(matrix: np.ndarray) -> float:
     return float(np.abs(np.linalg.eigvals(matrix)).max())
 
 
+def test_the_rotational_operator_is_the_positions_one_to_first_order():
+    """For tiny rotations about one axis ``rho_m`` on the rotations is the position operator
+    on their angles: every row for m = 2, the end rows for m = 3 (its interior is Eq. 18's
+    one-sided form, the positions' a symmetric one); both keep every quadratic."""
+    n = 12
+    np.testing.assert_allclose(operator_matrix("r", 2, n), operator_matrix("t", 2, n), atol=1e-6)
+    r, t = operator_matrix("r", 3, n), operator_matrix("t", 3, n)
+    np.testing.assert_allclose(r[[0, -1]], t[[0, -1]], atol=1e-6)
+    quadratic = np.vander(np.linspace(-1.0, 1.0, n), 3)
+    np.testing.assert_allclose(r @ quadratic, quadratic, atol=1e-6)
+
+
 @pytest.mark.parametrize(
     ("kind", "order", "limit"), [("r", 2, 8 / 9), ("r", 3, 0.454), ("t", 2, 8 / 9), ("t", 3, 0.620)]
 )

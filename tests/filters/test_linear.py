@@ -15,6 +15,7 @@ from motionclean.core import quat
 from motionclean.filters.linear import (
     displacement_coefficients,
     lee_shin,
+    lee_shin_between,
     lee_shin_positions,
     mirror_indices,
 )
@@ -373,3 +374,22 @@ def test_a_mask_longer_than_the_clip_is_eq_19_over_the_mirrored_clip(frames, k):
     expected = quat.multiply(q, quat.exp(s))
     assert np.degrees(quat.angle_between(lee_shin(q, mask), expected)).max() < 1e-12
     np.testing.assert_allclose(lee_shin_positions(p, mask), p + moved, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("k", [1, 3, 9])
+@pytest.mark.parametrize("iterations", [1, 2])
+def test_filtering_between_cuts_is_filtering_each_stretch_on_its_own(k, iterations):
+    """lee_shin_between is lee_shin run on each stretch between its cuts, concatenated:
+    the frames next to a cut included, stretches shorter than the mask (one frame: kept)
+    too, each column cut at its own steps."""
+    rng = np.random.default_rng(k + 10 * iterations)
+    q = noisy_signal(40, 5, seed=k)
+    cuts = rng.random((39, 5)) < 0.1
+    cuts[:, 0] = False  # a column with no cut: the plain pass
+    cuts[[12, 13, 30], 1] = True  # a stretch of one frame
+    mask = binomial(k)
+    out = lee_shin_between(q, displacement_coefficients(mask), cuts, iterations)
+    for j in range(q.shape[1]):
+        stretches = np.split(q[:, j], np.flatnonzero(cuts[:, j]) + 1)
+        expected = np.concatenate([lee_shin(s, mask, iterations) for s in stretches])
+        assert np.degrees(quat.angle_between(out[:, j], expected)).max() < 1e-9

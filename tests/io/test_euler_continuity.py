@@ -139,3 +139,23 @@ def test_new_frames_continue_the_curve_through_a_middle_angle_of_90_degrees(orde
         ["a"], [-1], np.zeros((1, 3)), clip.channels, 1 / 60, values
     )
     assert degrees_between(back.rotations, resampled.rotations).max() < 1e-4
+
+
+def test_new_frames_carry_no_whole_turn_past_a_leap_of_over_a_quarter_turn():
+    """New frames (another format's rotations) of a Z turn unwrapped past 180 degrees, then
+    one step of 100 degrees (a cut, a flip nothing repaired): the chain restarts there on
+    the principal angles instead of carrying the turn (307 onwards, written as -53); every
+    pose is kept."""
+    angle = np.r_[150.0 + 3.0 * np.arange(20), 307.0 + 3.0 * np.arange(20)]
+    channels = [("Zrotation", "Xrotation", "Yrotation")]
+    base = mc.Motion.from_channel_values(
+        ["a"], [-1], np.zeros((1, 3)), channels, 1 / 30, np.zeros((2, 3))
+    )
+    q = quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(angle))[:, None]
+    fresh = base.replace(rotations=q, translations=np.zeros((angle.size, 1, 3)))
+    assert not fresh.has_source_frames()
+    values = fresh.channel_values()
+    np.testing.assert_allclose(values[:20, 0], angle[:20], atol=1e-9)  # unwrapped up to it
+    np.testing.assert_allclose(values[20:, 0], angle[20:] - 360.0, atol=1e-9)
+    back = mc.Motion.from_channel_values(["a"], [-1], np.zeros((1, 3)), channels, 1 / 30, values)
+    assert degrees_between(back.rotations, q).max() < 1e-9

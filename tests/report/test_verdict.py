@@ -269,6 +269,33 @@ def test_verdict_words_follow_the_counts():
     assert "flips" not in text.replace("1 flip ", "")
 
 
+def test_one_held_pose_on_several_joints_is_counted_once():
+    """A recorder's dropout holds many joints over the same frames: the verdict counts the
+    distinct held runs, and the joints that held them."""
+    held = {"fill-gaps": {"held": [[40, 44], [90, 93]], "filled": [[40, 44], [90, 93]]}}
+    report = {
+        "frames": 200,
+        "joints": {name: held for name in ("Hips", "Spine", "LeftArm")},
+        "summary": {"noise_reduction": 0.5},
+        "contacts": None,
+    }
+    smoothing = {
+        "noise_removed": 0.5,
+        "change_deg_max": 0.02,
+        "change_deg_rms": 0.01,
+        "change_joint": "Hips",
+    }
+    text = build_verdict(report, smoothing)["text"]
+    assert "2 held poses bridged on 3 joints" in text, text
+
+
+def test_a_repaired_run_marks_its_own_frames_only():
+    """``[start, stop)`` runs: [5, 8) is frames 5, 6 and 7, at the clip's ends too."""
+    runs = {"despike": {"unflipped": [[5, 8], [10, 12]], "interpolated": [[0, 1]]}}
+    frames = repaired_frames({"J": runs}, 12)["J"]
+    assert np.array_equal(np.flatnonzero(frames), [0, 5, 6, 7, 10, 11])
+
+
 def test_a_capped_step_that_never_comes_back_is_told_as_such_not_as_a_spike(tmp_path, capsys):
     """An inertial suit's toe snapping flat in one direction, one step over despike's cap
     (an Xsens walk's "9 spikes repaired (RightToe 5, LeftToe 4)"): despike caps it as it
