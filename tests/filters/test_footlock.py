@@ -10,6 +10,7 @@ from helpers import SAMPLE, cut_bvh, run_cli
 
 from motionclean.core import kinematics, quat
 from motionclean.filters.footlock import (
+    FLOOR_FIRMNESS,
     Leg,
     Prior,
     _independent_share,
@@ -147,8 +148,11 @@ def test_the_change_goes_where_the_error_is_expected():
     assert moved[2][2] < 0.01 * moved[1][2]  # an exact knee barely bends
 
 
-def test_no_held_point_ends_below_the_floor_during_a_contact():
-    q, t = _leg_clip()
+@pytest.mark.parametrize("seed", [0, 3, 5])
+def test_no_held_point_ends_below_the_floor_during_a_contact(seed):
+    """On seeds 3 and 5 the toes' solve, one iteration, had left the toe's end 7.6 and 9.9
+    tolerances below the floor (the bound is FLOOR_FIRMNESS of one)."""
+    q, t = _leg_clip(seed=seed)
     contacts = np.zeros(60, dtype=bool)
     contacts[15:45] = True
     before = _points(q, t)
@@ -156,7 +160,7 @@ def test_no_held_point_ends_below_the_floor_during_a_contact():
     new_q, _ = _plant(q, t, contacts, floor=(np.array([0.0, 1.0, 0.0]), level))
     after = _points(new_q, t)
     assert (before[15:45, 3:, 1] < level - 0.01).any()
-    assert after[15:45, 3:, 1].min() > level - 0.005  # within the tolerance of the floor
+    assert after[15:45, 3:, 1].min() > level - 0.002 * FLOOR_FIRMNESS  # on the floor
 
 
 def test_planting_turns_with_the_clip():
