@@ -8,9 +8,8 @@ seen from its forearm moves far less than in the world, so its bridge follows th
 through the gap, as a pattern fill does. Per gap the rotation's donor is the one whose
 relative rotation is smoothest (least squared second differences) over
 :data:`DONOR_FRAMES` frames on each side, and the position's the one whose relative
-position is (over :data:`POSITION_DONOR_FRAMES`). A gap shorter than
-:data:`DONOR_FRAMES` bridges its rotation in the world frame: its own edge velocities say
-enough, and a donor only adds the donor's noise.
+position is (over :data:`POSITION_DONOR_FRAMES`), at any gap length: whether it helps is
+checked on the joint's own data, as the bridge is (below).
 
 The relative pose is bridged by the C1 cubic of :mod:`.interpolate` from frame ``a`` to
 frame ``b`` (``r_a exp(h(u))``, ``u = (f - a) / (b - a)``; positions the matching Hermite
@@ -689,9 +688,6 @@ def fill_gaps(
     if donors:
         donor = _choose_donors(rotations, translations, seen, todo)
         donor = _moving_with(rotations, translations, missing, todo.joint, donor)
-        # A gap shorter than the stretch donors are judged on is bridged better by the
-        # body's own rotation (its edge velocities say enough): donors from that length on.
-        donor[0, todo.lengths < DONOR_FRAMES] = -1
     inner = (todo.first > 0) & (todo.stop < n_frames)
     if donors and not inner.all():
         ends = todo.select(~inner)

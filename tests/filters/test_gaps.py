@@ -25,7 +25,6 @@ from motionclean.core import kinematics, quat
 from motionclean.core.errors import MotionError
 from motionclean.filters import lee_shin, masks
 from motionclean.filters.gaps import (
-    DONOR_FRAMES,
     EDGE_FRAMES,
     Gaps,
     _edge_gain,
@@ -221,18 +220,18 @@ def test_gaps_at_the_ends_hold_the_edge_sample_and_longer_ones_stay_missing():
     np.testing.assert_array_equal(filled.rotations[40:90], q[40:90])  # untouched
 
 
-def test_rotation_donors_start_at_gaps_as_long_as_the_stretch_they_are_judged_on(bodies):
-    """A gap of :data:`DONOR_FRAMES` frames may follow a donor, and on 131_02 that bridges
-    its rotation better than the world frame does; one frame shorter never takes one."""
+@pytest.mark.parametrize("length", [3, 9])
+def test_short_gaps_follow_a_donor_where_it_helps(bodies, length):
+    """Gaps shorter than the stretch donors are judged on had bridged their rotation in the
+    world frame whatever a donor would do: on 131_02's clean bodies a donor fills them
+    closer to the truth, and they take one."""
     q, p = bodies
-    short = planted(q.shape[0], q.shape[1], DONOR_FRAMES - 1, seed=10)
-    assert (fill_gaps(q, p, short, max_gap=DONOR_FRAMES).donor[0] == -1).all()
-    missing = planted(q.shape[0], q.shape[1], DONOR_FRAMES, seed=10)
-    filled = fill_gaps(q, p, missing, max_gap=DONOR_FRAMES)
-    alone = fill_gaps(q, p, missing, max_gap=DONOR_FRAMES, donors=False)
-    assert (filled.donor[0] >= 0).sum() > q.shape[1] // 2
+    missing = planted(q.shape[0], q.shape[1], length, seed=10)
+    filled = fill_gaps(q, p, missing, max_gap=length)
+    alone = fill_gaps(q, p, missing, max_gap=length, donors=False)
+    assert (filled.donor[0] >= 0).any()
     ours = errors(filled.rotations, filled.translations, q, p, missing)[0]
-    assert ours < 0.9 * errors(alone.rotations, alone.translations, q, p, missing)[0]
+    assert ours < 0.95 * errors(alone.rotations, alone.translations, q, p, missing)[0]
 
 
 def test_all_bodies_missing_on_the_same_frames_are_filled_without_donors(bodies):
