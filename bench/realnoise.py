@@ -36,7 +36,9 @@ second difference of the rotation in each sample's frame, percent), on the joint
 ``bench/quality.py`` scores (not RThumb, whose capture toggles by half-turns, nor any joint
 with a step above 30 degrees). Targets: 0.3 degrees RMS and 2 %.
 
-Run ``python bench/realnoise.py`` (about 20 s); ``--takes theia3d/gait ...`` for a subset.
+Run ``python bench/realnoise.py`` (about 20 s); ``--takes theia3d/gait ...`` for a subset,
+``--data DIR`` for takes kept aside in a folder laid out as ``../shared/realnoise``
+(``estimates/PIPELINE/TASK_participant_NN.csv`` and ``truth/`` with the same names).
 """
 
 from __future__ import annotations
