@@ -934,6 +934,15 @@ def _without(mask: np.ndarray, marked: np.ndarray) -> np.ndarray:
     return mask & ~touched[run]
 
 
+#: Most the median angle of a joint's other frames to their principal rotation may be for
+#: them to keep to a pose a flipped run can be judged against (a root turning evenly round
+#: has 90 degrees; turning over half a turn, 45; a joint a few frames of whose rest are
+#: themselves half a turn off still keeps to its pose).
+REST_TYPICAL_RAD = math.radians(60.0)
+#: A flipped run is left as it is only where, as it is, it keeps within this quantile of
+#: the angles of the joint's other frames to their principal rotation (and turning it back
+#: takes it further): it agrees with the rest of the clip.
+REST_SPREAD_QUANTILE = 0.9
 #: Quantile of a joint's known steps taken as how far it turns per frame during a dropout.
 DROPOUT_STEP_QUANTILE = 0.9
 #: Most a joint is taken to turn across a dropout when judging a half-turn there (radians).
@@ -1061,35 +1070,56 @@ def _unflip(
 
 
 def _agree_when_turned(samples, parity, turned_back, frame, slot, known=None) -> np.ndarray:
-    """``(F, S)``: the flipped runs of ``parity`` (F, S) that turning back brings nearer the
-    rest of the clip, every frame of such a run True.
+    """``(F, S)``: the flipped runs of ``parity`` (F, S) to turn back, every frame of such a
+    run True: all but those that agree with the rest of the clip as they are.
 
     ``samples`` (F, S, 4) are the columns that flip, ``turned_back`` (N, 4) their flipped
     frames ``(frame, slot)`` turned back by the half-turn. The rest of a column is its
     frames outside the runs (``known`` (F, S) ones only, when given), summed up by their
-    principal quaternion ``m`` (the largest eigenvector of ``sum q q^T``, sign-free); a run
-    is turned back only when its known frames' mean angle to ``m`` falls. A toggle found
-    where a capture slides into a half-turn over several frames and snaps back in one
-    (a markerless shoulder) leaves the run after the snap in the minority: that run agrees
-    with the rest as it is, and is left as it is.
+    principal quaternion ``m`` (the largest eigenvector of ``sum q q^T``, sign-free). A run
+    entered and left by half-turn steps is turned back. One that reaches the clip's first
+    or last frame (one step toggles it: which side flipped, the parity cannot see) is left
+    as it is when the rest keeps to a pose (the median angle to ``m`` at most
+    :data:`REST_TYPICAL_RAD`; a root turning round has no mean heading), the run's known
+    frames lie, as they are, within the rest's own spread about ``m`` (their mean angle to
+    it at most the rest's :data:`REST_SPREAD_QUANTILE` quantile) and turning them back
+    takes them further from it. A toggle found where a capture slides into a half-turn
+    over several frames and snaps back in one (a markerless shoulder) leaves the correct
+    run after the snap in the minority: it is left as it is. A genuine flip at an end of a
+    joint held near its usual pose lies outside that spread, and is turned back.
     """
-    n_frames, n_slots = parity.shape
     seen = np.ones_like(parity) if known is None else known
     rest = ~parity & seen
     scatter = np.einsum("fs,fsi,fsj->sij", rest.astype(np.float64), samples, samples)
     m = np.linalg.eigh(scatter)[1][..., -1]  # (S, 4)
+    typical, spread = _rest_angles(samples, rest, m)  # (S,) each, nan without rest frames
+    keeps_to_a_pose = typical <= REST_TYPICAL_RAD
     runs = run_labels(parity)
     label = runs[frame, slot]
     weight = seen[frame, slot].astype(np.float64)
     before = _dot_angle(np.abs(np.einsum("ni,ni->n", samples[frame, slot], m[slot])))
     after = _dot_angle(np.abs(np.einsum("ni,ni->n", turned_back, m[slot])))
     size = int(runs.max(initial=0)) + 1
-    nearer = np.bincount(label, weight * (after - before), size) < 0.0
-    unjudged = np.bincount(label, weight, size) == 0  # no known frame: as the parity says
     slot_of = np.zeros(size, dtype=np.intp)
     slot_of[label] = slot
-    unjudged |= ~rest.any(axis=0)[slot_of]  # nothing else known to compare with
-    return (nearer | unjudged)[runs] & parity
+    count = np.bincount(label, weight, size)
+    further = np.bincount(label, weight * (after - before), size) > 0.0
+    within = np.bincount(label, weight * before, size) <= count * spread[slot_of]
+    ends = np.zeros(size, dtype=bool)  # runs from the clip's first or to its last frame
+    ends[runs[0]] = ends[runs[-1]] = True
+    ends[0] = False
+    left = ends & (count > 0) & keeps_to_a_pose[slot_of] & within & further
+    return parity & ~left[runs]
+
+
+def _rest_angles(samples: np.ndarray, rest: np.ndarray, m: np.ndarray):
+    """The median and the :data:`REST_SPREAD_QUANTILE` quantile, ``(S,)`` each (radians;
+    nan for a column without rest frames), of the angles of each column's ``rest`` (F, S)
+    frames of ``samples`` (F, S, 4) to its principal quaternion ``m`` (S, 4)."""
+    angle = _dot_angle(np.abs(np.einsum("fsi,si->fs", samples, m)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a column without rest frames
+        return np.nanquantile(np.where(rest, angle, np.nan), [0.5, REST_SPREAD_QUANTILE], axis=0)
 
 
 def _fill_changed(out, mask, changed, after, metric: _Metric, limits: _Limits, cap) -> None:

@@ -51,7 +51,7 @@ noise, gets the straight line; a tracker with white noise gets smoothed bridges;
 that does not move with its would-be donor (a hip and an elbow, a hand and the head) is
 bridged on its own, and so is one that moves with it beside the gap but not over the
 clip (:func:`_moving_with`). A gap with no room for a trial takes what fills the joint's
-other gaps of similar length best (:func:`_pooled_for_untried`).
+other gaps of similar length best, unless it has a donor (:func:`_pooled_for_untried`).
 
 A gap at the start or end of the clip has one edge: the relative pose at that edge is held
 (with no donor: the edge sample itself; extrapolating a rotation at its edge velocity for
@@ -801,9 +801,10 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
     does better there; the smoothing spline if it is :data:`LINE_MARGIN` better still.
     Whatever a joint's motion and noise, its bridges are then no worse there than the
     straight line, and a donor that does not move with the joint (a hand with the head) is
-    dropped. A gap without room for a trial is judged on the joint's other gaps' trials
-    (:func:`_pooled_for_untried`); a joint with none keeps its donors and the full edge
-    velocities from its edge samples. Returns ``(donors (2, G), (weight, smooth) of the rotation,
+    dropped. A gap without room for a trial and without a donor is judged on the joint's
+    other gaps' trials (:func:`_pooled_for_untried`); one with a donor, or whose joint has
+    no tried gap, keeps its donors and the full edge velocities from its edge samples.
+    Returns ``(donors (2, G), (weight, smooth) of the rotation,
     (weight, smooth) of the position)``, each array (G,)."""
     n_gaps = gaps.joint.size
     uses = (-1, 0) if (donor >= 0).any() else (-1,)  # 0: the chosen donors
@@ -834,8 +835,8 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
                 ok = tried[k] & (gaps.lengths <= SPLINE_MAX_GAP) if w == SPLINE else tried[k]
                 total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
                 error[k, i] = np.where(ok, total, np.inf)
-    error = _pooled_for_untried(error, gaps)
     use_of, weight_of, smooth_of = (np.array(column) for column in zip(*options, strict=True))
+    error = _pooled_for_untried(error, gaps, use_of < 0, donor)
     spline = weight_of == SPLINE
     plain = ~smooth_of & ~spline
     # 1. donor and weight, from the edge samples: the straight line in the world wins
@@ -870,20 +871,28 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
     )
 
 
-def _pooled_for_untried(error: np.ndarray, gaps: Gaps) -> np.ndarray:
+def _pooled_for_untried(
+    error: np.ndarray, gaps: Gaps, world: np.ndarray, donor: np.ndarray
+) -> np.ndarray:
     """``error`` (2, O, G) (rotation and position, option, gap; inf: not tried) with each
-    gap that had no trial given, for each option, the geometric mean over the same joint's
-    tried gaps of that option's error over their best option's: the bridge that fills the
-    joint's other gaps best. (Between two dropouts a dance's markerless shoulder had no
-    room for a trial and took its full edge velocities, 1.8 times further from the truth
-    than the straight line its other gaps chose.)"""
-    finite = np.isfinite(error)
-    tried = finite.any(axis=1)  # (2, G)
-    if tried.all() or not tried.any():
+    gap that had no trial and no donor (``donor`` (2, G), -1) given, for each option in the
+    world frame (``world`` (O,) bool), the geometric mean over the same joint's tried gaps
+    of similar length of that option's error over their best world option's: the bridge
+    that fills the joint's other gaps best. (Between two dropouts a dance's markerless
+    shoulder had no room for a trial and took its full edge velocities, 1.8 times further
+    from the truth than the straight line its other gaps chose.) A gap with a donor keeps
+    it and the full edge velocities: the donor's options of other gaps are another donor's,
+    or none."""
+    error = error.copy()
+    finite = np.isfinite(error) & world[:, None]
+    tried = np.isfinite(error).any(axis=1)  # (2, G)
+    pick = ~tried & (donor < 0)  # (2, G)
+    if not pick.any() or not tried.any():
         return error
     tiny = 1e-24  # squared radians or length units: nothing, and no 0 / 0
-    best = np.where(tried, np.min(error, axis=1), 1.0)[:, None, :]
-    logs = np.where(finite, np.log((np.where(finite, error, 0.0) + tiny) / (best + tiny)), 0.0)
+    best = np.where(finite.any(axis=1), np.min(np.where(finite, error, np.inf), axis=1), 1.0)
+    ratio = (np.where(finite, error, 0.0) + tiny) / (best[:, None, :] + tiny)
+    logs = np.where(finite, np.log(ratio), 0.0)
     kinds, n_options = error.shape[:2]
     group = np.unique(gaps.joint * 64 + np.log2(gaps.lengths).astype(int), return_inverse=True)[1]
     n_groups = int(group.max()) + 1
@@ -895,11 +904,9 @@ def _pooled_for_untried(error: np.ndarray, gaps: Gaps) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         pooled = np.where(count > 0, np.exp(total / count), np.inf)
     pooled = pooled.reshape(kinds, n_options, n_groups)
-    out = error.copy()
     for k in range(kinds):
-        untried = ~tried[k]
-        out[k][:, untried] = pooled[k][:, group[untried]]
-    return out
+        error[k][:, pick[k]] = pooled[k][:, group[pick[k]]]
+    return error
 
 
 def _better(error: np.ndarray, chosen: np.ndarray, gaps: Gaps, margin: float) -> np.ndarray:
