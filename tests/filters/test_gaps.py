@@ -266,6 +266,31 @@ def test_a_follower_body_is_filled_from_its_donor(gap):
     np.testing.assert_allclose(filled.translations, p, atol=1e-12)
 
 
+def test_a_squeezed_gap_keeps_its_donor_when_the_joints_other_gap_has_none():
+    """A body rigidly attached to another, its gap squeezed between dropouts (no room for
+    a trial) and its other gap of that length where the carrier is missing too (no donor
+    there): the squeezed gap still follows its carrier, exactly. Judging it on the other
+    gap's options had dropped the donor (a walk's shin 0 -> 1.05 units off)."""
+    rng = np.random.default_rng(8)
+    n = 400
+    carrier_q = quat.make_continuous(
+        quat.exp(np.cumsum(rng.normal(size=(n, 3)) * 0.03, axis=0) / 2.0)
+    )
+    carrier_p = np.cumsum(rng.normal(size=(n, 3)) * 0.05, axis=0)
+    offset_q, offset_p = quat.normalize(np.array([0.9, 0.1, -0.3, 0.2])), np.array([0.1, 0.4, 0.0])
+    q = np.stack([carrier_q, quat.multiply(carrier_q, offset_q)], axis=1)
+    p = np.stack([carrier_p, carrier_p + quat.rotate(carrier_q, offset_p)], axis=1)
+    missing = np.zeros((n, 2), dtype=bool)
+    missing[100:120, 1] = True  # squeezed: the dropouts around it leave no room for a trial
+    for first in (76, 90, 130, 150):
+        missing[first : first + 4, 1] = True
+    missing[300:320] = True  # the other gap of that length: the carrier is missing too
+    filled = fill_gaps(q, p, missing, max_gap=30)
+    gap = slice(100, 120)
+    assert max_degrees(filled.rotations[gap, 1], quat.make_continuous(q)[gap, 1]) < 1e-6
+    np.testing.assert_allclose(filled.translations[gap, 1], p[gap, 1], atol=1e-9)
+
+
 def test_a_body_that_moves_with_the_gapped_one_only_beside_the_gap_is_no_donor():
     """Body 1 moves exactly with body 0 for 12 frames on each side of body 0's gap (the
     stretch donors are judged on) and does its own thing elsewhere, inside the gap too:
