@@ -708,6 +708,23 @@ def _scale(report: dict, smoothing: dict) -> tuple[float, str]:
     return 0.0, ""
 
 
+def _untold(joints: dict[str, dict]) -> str:
+    """``" (as optical: its source not told; ...)"`` where ``auto`` took the clip for an
+    optical capture because the clip could not tell its source (too few joints move above
+    the noise over 2-8 Hz), else "". A video estimate's noise wanders in the motion's band,
+    where the optical model does not look: two knee angles of VideoPose3D walks read "clean
+    capture: left as it was" at 2-7 times a tuned Butterworth's acceleration error (1.0-1.8
+    with ``--source video``)."""
+    untold = any(
+        note.get("source") == "auto"
+        and note.get("model") == "optical"
+        and note.get("source_measured")
+        and note.get("motion_slope") is None
+        for note in ((entry.get("auto") or {}) for entry in joints.values())
+    )
+    return " (as optical: its source not told; for video, --source video)" if untold else ""
+
+
 def _missing_words(joints: dict[str, dict]) -> list[str]:
     """ "NAME missing on frames ..." per set of runs left missing, and "a pose the capture
     held left as captured on NAME, frames ..." per set of held runs longer than
@@ -1018,6 +1035,7 @@ def build_verdict(
         lead = "clean capture, repaired" if done else "clean capture"
         if glitchy:
             lead = "glitchy capture, repaired"
+        lead += _untold(joints)
     else:
         parts = [removed] + done + briefly + grounded
         if positions_lead and position_removed is not None:
@@ -1046,6 +1064,8 @@ def build_verdict(
         lead = "clean capture, smoothed" if quiet else "noisy capture, cleaned"
         if quiet and glitchy:
             lead = "glitchy capture, repaired and smoothed"
+        if quiet:
+            lead += _untold(joints)
     parts += not_grounded
     if shown_feet:
         parts.append(shown_feet)

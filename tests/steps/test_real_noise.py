@@ -442,3 +442,21 @@ def test_a_pair_of_a_markerless_take_judges_its_change_by_the_wander_too(tmp_pat
     assert "motion taken for noise" not in told["text"]
     assert "motion taken for noise" not in report["verdict"]["text"]
     assert report["verdict"]["noise_level_deg"] == pytest.approx(told["noise_level_deg"], rel=0.5)
+
+
+def test_a_clip_that_cannot_tell_its_source_is_not_called_clean_unqualified(tmp_path, capsys):
+    """Two knee angles of a video estimate (a VideoPose3D walk: 2-7 times a tuned
+    Butterworth's acceleration error left in) read "clean capture: left as it was": the
+    clip could not tell its source and was taken for optical, whose noise it does not
+    show. The verdict now says so; a clip whose source was found does not."""
+    truth = smooth_coordinates(1200, seed=3)[:, :2]
+    e = np.degrees(2.0 * wander_noise(1200, 2, 3.0, 1.0, seed=3, rho=0.5)[:, :, 2])
+    source = tmp_path / "knees.csv"
+    write_channel_csv(source, truth + e, names=NAMES[:2])
+    code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "c.csv")
+    assert code == 0, err
+    assert "capture source: optical: the clip cannot tell" in out
+    verdict = next(line for line in out.splitlines() if line.startswith("verdict:"))
+    assert "(as optical: its source not told; for video, --source video)" in verdict
+    code, out, err = run_cli(capsys, "clean", corpus_clip("131_02.bvh"), "-o", tmp_path / "c.bvh")
+    assert code == 0 and "source not told" not in out
