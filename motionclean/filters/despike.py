@@ -18,7 +18,11 @@ one over its whole support. Two defects, two repairs:
    total path length). Toggles inside a spike (below) that is not itself entered and left
    by a toggle are dropped: the spike's ends share one state. The parity held by fewer
    frames is the flipped state; those frames are multiplied by ``f`` (``f q`` or
-   ``q f``), which keeps the real motion within a flipped run.
+   ``q f``), which keeps the real motion within a flipped run. A run that reaches the
+   clip's first or last frame (one toggle: the parity cannot see which side flipped) is
+   left as it is where it agrees with the rest of the joint's frames as it is
+   (:func:`_to_turn_back`): a capture that slid into half a turn off and snapped back in
+   one step leaves its correct frames after the snap in the minority.
 2. **Interpolate.** What remains (short spikes, ragged transitions) is replaced by
    interpolation between the good neighbours. A step is a *jump* when its angle exceeds
 
@@ -1028,8 +1032,10 @@ def _unflip(
     """Undo half-turn flips (steps of at least ``flip_rad``) in ``out`` (F, C, 4) in place;
     mark them in ``flipped`` and update ``steps`` (and ``seen``, the steps with those
     touching a missing sample, ``blind``, at zero) of the columns turned back, which are
-    returned. The flipped state is the one fewer ``known`` frames hold (all by default);
-    no step of ``cuts`` (F-1,) toggles it (a take that starts turned is no flip)."""
+    returned. The flipped state is the one fewer ``known`` frames hold (all by default),
+    but for a run at an end of the clip that agrees with the rest as it is
+    (:func:`_to_turn_back`); no step of ``cuts`` (F-1,) toggles it (a take that starts
+    turned is no flip)."""
     n_frames, n_cols = out.shape[:2]
     flat = out.reshape(n_frames * n_cols, out.shape[-1])  # frame a of column c at row a C + c
     cols, toggles, axis, left = _flip_toggles(flat, steps, flip_rad, across)
@@ -1056,9 +1062,9 @@ def _unflip(
     frame, slot = _nonzero(parity)
     i = frame * n_cols + cols[slot]
     turned_back = _half_turn(flat, i, slot, axis, left)
-    agree = _agree_when_turned(out.take(cols, axis=1), parity, turned_back, frame, slot, known_cols)
-    parity &= agree
-    flat[i[agree[frame, slot]]] = turned_back[agree[frame, slot]]
+    parity = _to_turn_back(out.take(cols, axis=1), parity, turned_back, frame, slot, known_cols)
+    kept = parity[frame, slot]
+    flat[i[kept]] = turned_back[kept]
     flipped[:, cols] = parity
     turned = cols[parity.any(axis=0)]
     samples = out.take(turned, axis=1)
@@ -1069,7 +1075,7 @@ def _unflip(
     return turned
 
 
-def _agree_when_turned(samples, parity, turned_back, frame, slot, known=None) -> np.ndarray:
+def _to_turn_back(samples, parity, turned_back, frame, slot, known=None) -> np.ndarray:
     """``(F, S)``: the flipped runs of ``parity`` (F, S) to turn back, every frame of such a
     run True: all but those that agree with the rest of the clip as they are.
 
@@ -1088,26 +1094,28 @@ def _agree_when_turned(samples, parity, turned_back, frame, slot, known=None) ->
     run after the snap in the minority: it is left as it is. A genuine flip at an end of a
     joint held near its usual pose lies outside that spread, and is turned back.
     """
+    runs = run_labels(parity)
+    size = int(runs.max(initial=0)) + 1
+    ends = np.zeros(size, dtype=bool)  # runs from the clip's first or to its last frame
+    ends[runs[0]] = ends[runs[-1]] = True
+    ends[0] = False
+    if not ends.any():
+        return parity
     seen = np.ones_like(parity) if known is None else known
     rest = ~parity & seen
     scatter = np.einsum("fs,fsi,fsj->sij", rest.astype(np.float64), samples, samples)
     m = np.linalg.eigh(scatter)[1][..., -1]  # (S, 4)
     typical, spread = _rest_angles(samples, rest, m)  # (S,) each, nan without rest frames
     keeps_to_a_pose = typical <= REST_TYPICAL_RAD
-    runs = run_labels(parity)
     label = runs[frame, slot]
     weight = seen[frame, slot].astype(np.float64)
-    before = _dot_angle(np.abs(np.einsum("ni,ni->n", samples[frame, slot], m[slot])))
-    after = _dot_angle(np.abs(np.einsum("ni,ni->n", turned_back, m[slot])))
-    size = int(runs.max(initial=0)) + 1
+    before = _dot_angle(_dot(samples[frame, slot], m[slot]))
+    after = _dot_angle(_dot(turned_back, m[slot]))
     slot_of = np.zeros(size, dtype=np.intp)
     slot_of[label] = slot
     count = np.bincount(label, weight, size)
     further = np.bincount(label, weight * (after - before), size) > 0.0
     within = np.bincount(label, weight * before, size) <= count * spread[slot_of]
-    ends = np.zeros(size, dtype=bool)  # runs from the clip's first or to its last frame
-    ends[runs[0]] = ends[runs[-1]] = True
-    ends[0] = False
     left = ends & (count > 0) & keeps_to_a_pose[slot_of] & within & further
     return parity & ~left[runs]
 
@@ -1116,7 +1124,7 @@ def _rest_angles(samples: np.ndarray, rest: np.ndarray, m: np.ndarray):
     """The median and the :data:`REST_SPREAD_QUANTILE` quantile, ``(S,)`` each (radians;
     nan for a column without rest frames), of the angles of each column's ``rest`` (F, S)
     frames of ``samples`` (F, S, 4) to its principal quaternion ``m`` (S, 4)."""
-    angle = _dot_angle(np.abs(np.einsum("fsi,si->fs", samples, m)))
+    angle = _dot_angle(_dot(samples, m[None]))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a column without rest frames
         return np.nanquantile(np.where(rest, angle, np.nan), [0.5, REST_SPREAD_QUANTILE], axis=0)

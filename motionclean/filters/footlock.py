@@ -39,9 +39,10 @@ ITERATIONS = 2
 #: a tolerance near zero its prior stops bounding the linearised step, which had turned a
 #: toe by 176 degrees at ``tolerance=1e-9`` (the defaults' steps stay far below it).
 MAX_TURN = 0.1
-#: ... and of the toes' solve, which starts where the ankles' left the legs: one iteration
-#: had left a toe's end up to 10 tolerances below the floor during a contact, where the
-#: bound is :data:`FLOOR_FIRMNESS` of one (the floor's row is linearised once).
+#: Gauss-Newton iterations of the toes' solve, which starts where the ankles' left the
+#: legs: one iteration had left a toe's end up to 10 tolerances below the floor during a
+#: contact, where the bound is :data:`FLOOR_FIRMNESS` of one (the floor's row is
+#: linearised once).
 TOE_ITERATIONS = 2
 #: Frames solved at a time (bounds the per-frame systems' memory).
 BLOCK_FRAMES = 4096

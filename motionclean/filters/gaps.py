@@ -81,8 +81,10 @@ POSITION_DONOR_FRAMES = 8
 CHI2_3_MEDIAN = 2.3660
 #: Gaps handled at a time when choosing donors (temporaries stay small).
 GAP_BLOCK = 256
-#: Most steps a joint's motion with a would-be donor is measured on (spread over the clip).
-MOVING_WITH_STEPS = 4096
+#: Most steps a joint's motion with a would-be donor is measured on (spread over the clip),
+#: and the steps of all pairs measured at a time (temporaries stay small).
+MOVING_WITH_STEPS = 1024
+PAIR_BLOCK = 1 << 18
 #: Frames taken as edges when weighing a joint's edge velocities against its noise, and the
 #: key of a (joint, gap length class) pair, ``joint * KEY + length``; gap lengths are
 #: weighed in classes a factor ``2 ** (1 / LENGTH_CLASSES)`` apart.
@@ -591,42 +593,61 @@ def _choose_donors(q, p, seen, gaps: Gaps) -> np.ndarray:
 def _moving_with(q, p, missing, joint, donor) -> np.ndarray:
     """``donor`` (2, G) with each rotation and position donor of the gaps' ``joint`` (G,)
     kept only where the joint moves with it over the whole clip: its steps relative to the
-    donor (:func:`_relative`) are smaller, in sum of squares, than its steps in the world,
-    over the steps where both are known (at most :data:`MOVING_WITH_STEPS` of them, spread
-    evenly); else the world (-1). A hand moves with its forearm; an elbow and an ankle that
-    happened to move alike beside a gap of a dance do not (bridged on such donors, a
-    markerless dance's arm gaps came out 1.5-2.5 times further from the truth than a
-    straight line)."""
+    donor (:func:`_relative`) are smaller, in mean square over the steps where both are
+    known, than its own steps in the world over the steps where it is known (at most
+    :data:`MOVING_WITH_STEPS` of them, spread evenly); else the world (-1). A hand moves
+    with its forearm; an elbow and an ankle that happened to move alike beside a gap of a
+    dance do not (bridged on such donors, a markerless dance's arm gaps came out 1.5-2.5
+    times further from the truth than a straight line). Pairs are measured
+    :data:`PAIR_BLOCK` steps' worth at a time."""
     n_frames, n_joints = missing.shape
-    if n_frames < 2:
+    if n_frames < 2 or (donor < 0).all():
         return donor
     count = min(n_frames - 1, MOVING_WITH_STEPS)
-    steps = np.unique(np.linspace(0, n_frames - 2, count).astype(np.intp))[:, None]
+    steps = np.unique(np.linspace(0, n_frames - 2, count).astype(np.intp))
+    known = ~(missing[steps] | missing[steps + 1])  # (S, J) steps known for each joint
     kept = donor.copy()
     for k in range(2):  # rotation donors, then position donors
-        pair, of_gap = np.unique(joint * (n_joints + 1) + donor[k] + 1, return_inverse=True)
-        whose, helper = np.divmod(pair, n_joints + 1)
-        helper = helper - 1
-        both = ~(
-            missing[steps, whose]
-            | missing[steps + 1, whose]
-            | missing[steps, np.maximum(helper, 0)]
-            | missing[steps + 1, np.maximum(helper, 0)]
-        )  # (steps, pairs)
-        shape = both.shape
-        moved = np.zeros((2, pair.size))
-        for use, helpers in enumerate((np.full(shape, -1), np.broadcast_to(helper, shape))):
-            donors = (helpers, np.full(shape, -1)) if k == 0 else (np.full(shape, -1), helpers)
-            before = _relative(q, p, np.broadcast_to(whose, shape), donors, steps + 0 * whose)
-            after = _relative(q, p, np.broadcast_to(whose, shape), donors, steps + 1 + 0 * whose)
-            if k == 0:
-                step = quat.angle_between(before[0], after[0]) ** 2
-            else:
-                step = np.sum((after[1] - before[1]) ** 2, axis=-1)
-            moved[use] = np.where(both, step, 0.0).sum(axis=0)
-        with_it = (helper < 0) | (moved[1] < moved[0])
-        kept[k] = np.where(with_it[of_gap], donor[k], -1)
+        has = donor[k] >= 0
+        if not has.any():
+            continue
+        pair, of_gap = np.unique(joint[has] * n_joints + donor[k, has], return_inverse=True)
+        whose, helper = np.divmod(pair, n_joints)
+        own = _mean_square_steps(q, p, steps, known, whose, None, k)
+        with_it = np.empty(pair.size, dtype=bool)
+        block = max(1, PAIR_BLOCK // steps.size)
+        for at in range(0, pair.size, block):
+            part = slice(at, at + block)
+            relative = _mean_square_steps(q, p, steps, known, whose[part], helper[part], k)
+            with_it[part] = relative < own[part]
+        kept[k, has] = np.where(with_it[of_gap], donor[k, has], -1)
     return kept
+
+
+def _mean_square_steps(q, p, steps, known, whose, helper, k: int) -> np.ndarray:
+    """``(P,)``: the mean square, over the ``steps`` (S,) that ``known`` (S, J) marks for
+    each joint ``whose`` (P,) (and for its ``helper``), of its steps from each step's frame
+    to the next: of its rotation (``k`` 0; angle, radians) or position (1), in the world
+    (``helper`` None) or relative to the helper (``d^-1 q``; ``d^-1 (p - c) d``)."""
+    at = steps[:, None]
+    seen = known[:, whose] if helper is None else known[:, whose] & known[:, helper]
+
+    def pose(frames):
+        if k == 0:
+            own = q[frames, whose]
+            return own if helper is None else quat.relative(q[frames, helper], own)
+        own = p[frames, whose]
+        if helper is None:
+            return own
+        return quat.rotate(quat.conjugate(q[frames, helper]), own - p[frames, helper])
+
+    before, after = pose(at), pose(at + 1)
+    if k == 0:
+        step = quat.angle_between(before, after) ** 2
+    else:
+        step = np.sum((after - before) ** 2, axis=-1)
+    total = np.where(seen, step, 0.0).sum(axis=0)
+    return total / np.maximum(seen.sum(axis=0), 1)
 
 
 # ----------------------------------------------------------------------------- filling
@@ -803,7 +824,8 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
     straight line, and a donor that does not move with the joint (a hand with the head) is
     dropped. A gap without room for a trial and without a donor is judged on the joint's
     other gaps' trials (:func:`_pooled_for_untried`); one with a donor, or whose joint has
-    no tried gap, keeps its donors and the full edge velocities from its edge samples.
+    no tried gap of the same octave of lengths, keeps its donors and the full edge
+    velocities from its edge samples.
     Returns ``(donors (2, G), (weight, smooth) of the rotation,
     (weight, smooth) of the position)``, each array (G,)."""
     n_gaps = gaps.joint.size
@@ -836,7 +858,7 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
                 total = np.bincount(owner, weights=squares[k], minlength=n_gaps)
                 error[k, i] = np.where(ok, total, np.inf)
     use_of, weight_of, smooth_of = (np.array(column) for column in zip(*options, strict=True))
-    error = _pooled_for_untried(error, gaps, use_of < 0, donor)
+    error = _pooled_for_untried(error, gaps, use_of < 0, donor, weight_of == SPLINE)
     spline = weight_of == SPLINE
     plain = ~smooth_of & ~spline
     # 1. donor and weight, from the edge samples: the straight line in the world wins
@@ -872,17 +894,19 @@ def _validated(rotations, translations, missing, seen, gaps: Gaps, donor: np.nda
 
 
 def _pooled_for_untried(
-    error: np.ndarray, gaps: Gaps, world: np.ndarray, donor: np.ndarray
+    error: np.ndarray, gaps: Gaps, world: np.ndarray, donor: np.ndarray, spline: np.ndarray
 ) -> np.ndarray:
     """``error`` (2, O, G) (rotation and position, option, gap; inf: not tried) with each
     gap that had no trial and no donor (``donor`` (2, G), -1) given, for each option in the
     world frame (``world`` (O,) bool), the geometric mean over the same joint's tried gaps
-    of similar length of that option's error over their best world option's: the bridge
-    that fills the joint's other gaps best. (Between two dropouts a dance's markerless
-    shoulder had no room for a trial and took its full edge velocities, 1.8 times further
-    from the truth than the straight line its other gaps chose.) A gap with a donor keeps
-    it and the full edge velocities: the donor's options of other gaps are another donor's,
-    or none."""
+    of the same octave of lengths (:func:`_octaves`) of that option's error over their
+    best world option's: the bridge that fills the joint's other gaps best. (Between two
+    dropouts a dance's markerless shoulder had no room for a trial and took its full edge
+    velocities, 1.8 times further from the truth than the straight line its other gaps
+    chose.) A gap with a donor keeps it and the full edge velocities: the donor's options
+    of other gaps are another donor's, or none. The smoothing spline (``spline`` (O,)
+    bool) is pooled only into gaps of up to :data:`SPLINE_MAX_GAP` frames, the longest it
+    bridges (a longer gap would take it and bridge on the full edge velocities)."""
     error = error.copy()
     finite = np.isfinite(error) & world[:, None]
     tried = np.isfinite(error).any(axis=1)  # (2, G)
@@ -894,7 +918,7 @@ def _pooled_for_untried(
     ratio = (np.where(finite, error, 0.0) + tiny) / (best[:, None, :] + tiny)
     logs = np.where(finite, np.log(ratio), 0.0)
     kinds, n_options = error.shape[:2]
-    group = np.unique(gaps.joint * 64 + np.log2(gaps.lengths).astype(int), return_inverse=True)[1]
+    group = _octaves(gaps)
     n_groups = int(group.max()) + 1
     row = np.arange(kinds * n_options).reshape(kinds, n_options, 1)  # (kind, option)
     key = (row * n_groups + group).ravel()  # ... and group
@@ -905,19 +929,29 @@ def _pooled_for_untried(
         pooled = np.where(count > 0, np.exp(total / count), np.inf)
     pooled = pooled.reshape(kinds, n_options, n_groups)
     for k in range(kinds):
-        error[k][:, pick[k]] = pooled[k][:, group[pick[k]]]
+        values = pooled[k][:, group[pick[k]]]  # (O, picked gaps)
+        values[np.ix_(spline, gaps.lengths[pick[k]] > SPLINE_MAX_GAP)] = np.inf
+        error[k][:, pick[k]] = values
     return error
+
+
+def _octaves(gaps: Gaps) -> np.ndarray:
+    """``(G,)`` labels ``0 ..``: the gaps of one joint whose lengths lie in one octave
+    ``[2^n, 2^(n+1))`` frames share a label (the gaps of "similar length")."""
+    octave = np.log2(gaps.lengths).astype(np.int64)
+    return np.unique(gaps.joint.astype(np.int64) * KEY + octave, return_inverse=True)[1]
 
 
 def _better(error: np.ndarray, chosen: np.ndarray, gaps: Gaps, margin: float) -> np.ndarray:
     """Per gap, whether a smoothed bridge of trial error ``error`` (G,) replaces the chosen
     one (``chosen``): where it does better on the gap's own trials, and by ``margin`` (the
-    geometric mean of the ratios) on those of the joint's gaps of lengths within a factor
-    of two. One gap's few trials would pick a smoothed bridge by chance where it is not
-    better: on clean captures, whose edge samples need no smoothing."""
+    geometric mean of the ratios) on those of the joint's gaps of the same octave of
+    lengths (:func:`_octaves`). One gap's few trials would pick a smoothed bridge by
+    chance where it is not better: on clean captures, whose edge samples need no
+    smoothing."""
     with np.errstate(divide="ignore", invalid="ignore"):  # inf / inf: neither was tried
         ratio = error / chosen
-    key = np.unique(gaps.joint * 64 + np.log2(gaps.lengths).astype(int), return_inverse=True)[1]
+    key = _octaves(gaps)
     finite = np.isfinite(ratio) & (ratio > 0)
     logs = np.log(np.where(finite, ratio, 1.0))
     total = np.bincount(key, weights=logs)

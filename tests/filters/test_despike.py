@@ -582,12 +582,13 @@ def test_corpus_cut_anywhere_keeps_genuine_motion_bit_for_bit(corpus, name):
                 np.testing.assert_array_equal(out[:, genuine], cut[:, genuine], f"{every} {start}")
 
 
+@pytest.mark.parametrize("at_end", [False, True])
 @pytest.mark.parametrize("turns", [1.0, 2.0])
-def test_a_flip_of_a_root_turning_round_is_repaired(turns):
-    """A run is turned back where that brings it nearer the rest of the joint's frames;
-    a root turning round has no pose the rest keeps to (its mean is any heading), and a
-    half-turn flip about its own up axis had been left in (180 degrees off for 40 frames):
-    there the parity rules, as before."""
+def test_a_flip_of_a_root_turning_round_at_an_end_is_repaired(turns, at_end):
+    """A run at an end of the clip is left as it is where it agrees with the rest as it is;
+    a root turning round keeps to no pose (its mean is any heading), and a half-turn flip
+    about its own up axis over the clip's first or last 40 frames had been left in (180
+    degrees off): there the parity rules."""
     rng = np.random.default_rng(0)
     n = 600
     yaw = np.linspace(0.0, 2.0 * np.pi * turns, n)
@@ -596,9 +597,38 @@ def test_a_flip_of_a_root_turning_round_is_repaired(turns):
         quat.exp(rng.normal(scale=0.005, size=(n, 3))),
     )
     q = truth.copy()
-    q[300:340] = quat.multiply(q[300:340], np.array([0.0, 0.0, 1.0, 0.0]))  # about up
+    run = slice(n - 40, n) if at_end else slice(0, 40)
+    q[run] = quat.multiply(q[run], np.array([0.0, 0.0, 1.0, 0.0]))  # about up
     out = despike(q[:, None], 1.0 / 60.0)[:, 0]
     assert np.degrees(quat.angle_between(out, truth)).max() < 6.0
+
+
+@pytest.mark.parametrize("at_end", [False, True])
+def test_an_end_flip_of_a_joint_that_moved_far_from_its_usual_pose_is_repaired(at_end):
+    """A joint that keeps near one pose, then over the clip's last (or first) 70 frames
+    turns 120 degrees away, the 60 frames there flipped by half a turn: flipped, that pose
+    lies nearer the usual one (turning it back takes it further), but outside the spread
+    of the joint's other frames about it: it does not agree with them, and is repaired."""
+    rng = np.random.default_rng(1)
+    n = 600
+    angle = np.zeros(n)
+    angle[-70:] = np.radians(120.0) * np.minimum(np.arange(70) / 10.0, 1.0)
+    truth = quat.multiply(
+        quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), angle),
+        quat.exp(rng.normal(scale=0.01, size=(n, 3))),
+    )
+    flip = np.array([0.0, 0.0, 0.0, 1.0])  # half a turn about z: 120 + 180, 60 from usual
+    q = truth.copy()
+    q[-60:] = quat.multiply(q[-60:], flip)
+    usual = quat.identity(())  # the pose the joint keeps to, near the rest's principal one
+    nearer = (
+        quat.angle_between(q[-60:], usual).mean() < quat.angle_between(truth[-60:], usual).mean()
+    )
+    assert nearer  # as it is, the flipped run lies nearer the usual pose than its truth
+    if not at_end:
+        truth, q = truth[::-1].copy(), q[::-1].copy()
+    out = despike(q[:, None], 1.0 / 60.0)[:, 0]
+    assert np.degrees(quat.angle_between(out, truth)).max() < 15.0  # (180: left flipped)
 
 
 @pytest.mark.parametrize("runs", [[(248, 328)], [(96, 235), (273, 288), (331, 364), (409, 422)]])
@@ -616,3 +646,25 @@ def test_a_flip_of_a_joint_held_far_from_its_usual_pose_is_repaired(runs):
         q[first:stop] = quat.multiply(q[first:stop], np.array([0.0, 1.0, 0.0, 0.0]))
     out = despike(q[:, None], clip.frame_time)[:, 0]
     assert degrees_between(out, truth).max() < 2.0
+
+
+def test_an_end_flip_inside_a_wide_rest_is_repaired_where_turning_it_back_brings_it_nearer():
+    """A joint that keeps near one pose but spends a third of the clip 150 degrees away
+    (its other frames spread widely about their principal rotation), its last 60 frames
+    flipped by half a turn: as it is, the run lies within that spread, but turned back it
+    lies nearer the rest: it is repaired (left as it is only where turning back takes it
+    further)."""
+    rng = np.random.default_rng(2)
+    n = 600
+    angle = np.zeros(n)
+    angle[300:500] = np.radians(150.0)
+    angle[-60:] = np.radians(-40.0)
+    angle = np.convolve(np.pad(angle, 4, mode="edge"), np.ones(9) / 9.0, mode="valid")
+    truth = quat.multiply(
+        quat.from_axis_angle(np.array([0.0, 0.0, 1.0]), angle),
+        quat.exp(rng.normal(scale=0.01, size=(n, 3))),
+    )
+    q = truth.copy()
+    q[-60:] = quat.multiply(q[-60:], np.array([0.0, 0.0, 0.0, 1.0]))
+    out = despike(q[:, None], 1.0 / 60.0)[:, 0]
+    assert np.degrees(quat.angle_between(out, truth)).max() < 15.0  # (180: left flipped)

@@ -26,9 +26,12 @@ from motionclean.core.errors import MotionError
 from motionclean.filters import lee_shin, masks
 from motionclean.filters.gaps import (
     EDGE_FRAMES,
+    SPLINE,
+    VELOCITY_WEIGHTS,
     Gaps,
     _edge_gain,
     _edge_weights,
+    _pooled_for_untried,
     fill_gaps,
 )
 from motionclean.io.bvh import format_bvh
@@ -663,3 +666,22 @@ def test_two_clip_commands_refuse_dropouts(tmp_path, capsys, command):
     code, _, err = run_cli(capsys, command, source, source, "-o", out)
     assert code == 1 and "has missing samples (tracker dropouts): fill them first" in err
     assert not out.exists()
+
+
+def test_a_squeezed_gap_too_long_for_the_spline_is_not_given_the_spline():
+    """Gaps are pooled by octave of lengths: a squeezed 40-frame gap had been given the
+    smoothing spline that won on its joint's 32-frame gap, which it cannot take (the
+    spline bridges up to SPLINE_MAX_GAP frames): it fell back on the full edge
+    velocities. A 20-frame squeezed gap of the same octave as 16-31 frames may take it."""
+    kinds = [(w, smooth) for w in VELOCITY_WEIGHTS for smooth in (False, True)]
+    options = [(w, smooth) for w, smooth in (*kinds, (SPLINE, False))]
+    spline = np.array([w == SPLINE for w, _ in options])
+    gaps = Gaps(np.zeros(4, int), np.array([100, 300, 500, 700]), np.array([132, 340, 516, 720]))
+    error = np.full((2, len(options), 4), np.inf)
+    error[:, :, 0] = np.where(spline, 0.3, 1.0)  # the spline best on the tried 32-frame gap
+    error[:, :, 2] = np.where(spline, 0.3, 1.0)  # ... and on the tried 16-frame gap
+    pooled = _pooled_for_untried(
+        error, gaps, np.ones(len(options), bool), np.full((2, 4), -1), spline
+    )
+    assert np.isinf(pooled[:, spline, 1]).all() and np.isfinite(pooled[:, ~spline, 1]).all()
+    assert np.isfinite(pooled[:, spline, 3]).all()  # 20 frames, pooled from the 16
