@@ -348,6 +348,8 @@ def _parse_hierarchy(lines: _Lines, path):
         if keyword not in handlers:
             spelled = next((k for k in (*handlers, "MOTION") if k.lower() == keyword.lower()), None)
             hint = f" (keywords are case-sensitive: {spelled})" if spelled else ""
+            if keyword in ("Frames:", "Frame"):  # the motion's header without its MOTION line
+                hint = " (a 'MOTION' line must come before the frame count)"
             _fail(f"unexpected {keyword[:40]!r} in HIERARCHY{hint}", path, number)
         handlers[keyword](tokens, text, number)
     skeleton.ended(lines.number)

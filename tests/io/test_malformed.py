@@ -25,6 +25,7 @@ CASES = {
     "latin1.bvh": (2, "not a text file"),
     "truncated_hierarchy.bvh": (9, "truncated hierarchy"),
     "missing_motion.bvh": (15, "missing MOTION"),
+    "motion_line_missing.bvh": (16, "'Frames:' in HIERARCHY (a 'MOTION' line must come before"),
     "unknown_channel.bvh": (9, "unknown channel 'Wrotation'"),
     "tab_separated.csv": (1, "the columns are tab-separated; CSV is read comma-separated"),
     "motive_no_columns.csv": (7, "no rigid body or marker columns"),
