@@ -17,7 +17,7 @@ import pytest
 from helpers import NOISY, cut_bvh, run_cli
 
 import motionclean as mc
-from motionclean.cli.batch import find_clips
+from motionclean.cli.batch import cluster_note, find_clips
 from motionclean.report.html import UNKNOWN_FIGURES, index_entries
 from motionclean.run.jobs import INDEX_FIGURES, FileResult, clean_file
 from motionclean.steps.pipeline import Pipeline
@@ -582,3 +582,15 @@ def test_a_warning_names_the_clip_as_the_folder_was_given(tree, tmp_path, capsys
         "motionclean: warning: in/walk/a.bvh: step 1 (lee-shin): joints pattern 'Nope' "
         "matches no joint\n"
     )
+
+
+def test_cluster_note_says_when_the_start_up_cost_more_than_each_worker_cleaned():
+    """The note compares the cluster's start-up with each worker's share of the cleaning
+    (the clips' seconds over the workers, not their sum), and is silent otherwise."""
+    results = [FileResult(f"c{k}.bvh", f"o{k}.bvh", "ok", seconds=0.3) for k in range(4)]
+    note = cluster_note(1.5, results, 2)
+    assert note is not None
+    assert "took 1.5 s, longer than the 0.6 s each of its 2 workers spent cleaning (1.2 s" in note
+    assert "--jobs" in note
+    assert cluster_note(0.5, results, 2) is None  # under the 0.6 s each worker cleaned
+    assert "longer than the 1.2 s it spent cleaning" in cluster_note(1.5, results, 1)

@@ -39,13 +39,14 @@ def test_a_local_cluster_writes_what_one_process_writes(tree, capsys):
     )
     assert code == 1 and "broken.bvh" in err and err.count("motionclean: error:") == 1
     assert "on 2 workers" in out and "4 cleaned" in out
-    # four clips of 60-120 frames: the cluster's start-up costs more than it gains, and the
-    # run says so
-    assert "note: starting the local Dask cluster took" in out and "--jobs" in out
-    spent = re.search(
-        r"longer than the ([\d.]+) s each of its 2 workers spent cleaning \(([\d.]+) s", out
-    )
-    assert spent and abs(2 * float(spent[1]) - float(spent[2])) <= 0.11, out  # (not the sum)
+    # four clips of 60-120 frames: the cluster's start-up usually costs more than it gains,
+    # and the run says so, with each worker's share (not the sum); on a loaded machine the
+    # cleaning may take longer than the start-up (the wording: test_cluster_note_...)
+    if "note: starting the local Dask cluster took" in out:
+        spent = re.search(
+            r"longer than the ([\d.]+) s each of its 2 workers spent cleaning \(([\d.]+) s", out
+        )
+        assert spent and abs(2 * float(spent[1]) - float(spent[2])) <= 0.11, out
     run_cli(capsys, "batch", tree / "in", "-o", tree / "serial", "-j", "1", "-q")
     code, out, _ = run_cli(
         capsys,
