@@ -247,13 +247,11 @@ def test_an_inputs_noise_leaves_out_its_flips_as_the_clean_verdict_does():
     assert value == f"{expected:,.0f}" and left in label
 
 
-def test_verdict_words_follow_the_counts():
-    joints = {
-        "RThumb": {"despike": {"unflipped": [[4, 9]], "interpolated": [], "frames_repaired": 5}},
-        "Head": {"despike": {"unflipped": [], "interpolated": [[2, 3], [7, 9]]}},
-    }
+def _half_cleaned(joints: dict, frames: int) -> str:
+    """The verdict's line of a report of ``joints`` over ``frames``, half its jitter removed,
+    changed by 0.02 degrees at most."""
     report = {
-        "frames": 20,
+        "frames": frames,
         "joints": joints,
         "summary": {"noise_reduction": 0.5},
         "contacts": None,
@@ -262,9 +260,17 @@ def test_verdict_words_follow_the_counts():
         "noise_removed": 0.5,
         "change_deg_max": 0.02,
         "change_deg_rms": 0.01,
-        "change_joint": "Head",
+        "change_joint": next(iter(joints)),
     }
-    text = build_verdict(report, smoothing)["text"]
+    return build_verdict(report, smoothing)["text"]
+
+
+def test_verdict_words_follow_the_counts():
+    joints = {
+        "RThumb": {"despike": {"unflipped": [[4, 9]], "interpolated": [], "frames_repaired": 5}},
+        "Head": {"despike": {"unflipped": [], "interpolated": [[2, 3], [7, 9]]}},
+    }
+    text = _half_cleaned(joints, 20)
     assert "1 flip repaired on RThumb" in text and "2 spikes repaired on Head" in text
     assert "flips" not in text.replace("1 flip ", "")
 
@@ -273,19 +279,7 @@ def test_one_held_pose_on_several_joints_is_counted_once():
     """A recorder's dropout holds many joints over the same frames: the verdict counts the
     distinct held runs, and the joints that held them."""
     held = {"fill-gaps": {"held": [[40, 44], [90, 93]], "filled": [[40, 44], [90, 93]]}}
-    report = {
-        "frames": 200,
-        "joints": {name: held for name in ("Hips", "Spine", "LeftArm")},
-        "summary": {"noise_reduction": 0.5},
-        "contacts": None,
-    }
-    smoothing = {
-        "noise_removed": 0.5,
-        "change_deg_max": 0.02,
-        "change_deg_rms": 0.01,
-        "change_joint": "Hips",
-    }
-    text = build_verdict(report, smoothing)["text"]
+    text = _half_cleaned({name: held for name in ("Hips", "Spine", "LeftArm")}, 200)
     assert "2 held poses bridged on 3 joints" in text, text
 
 
