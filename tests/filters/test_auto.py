@@ -20,6 +20,8 @@ from helpers import (
 import motionclean as mc
 from motionclean.core import quat
 from motionclean.filters.auto import (
+    NEAR_LEAST_RISK,
+    _smoothest_near_least,
     auto,
     auto_positions,
     candidates,
@@ -559,3 +561,25 @@ def test_five_seconds_written_with_a_rounded_frame_time_are_five_seconds():
     noisy = quat.multiply(truth, quat.exp(wander_noise(600, 6, 10.0, 4.0, seed=13, rho=0.5)))
     model, slope = found.found_source(noisy, 0.0083333)[:2]
     assert slope > found.MARKERLESS_SLOPE and model == "markerless"
+
+
+def test_the_markerless_choice_is_the_smoothest_of_the_candidates_near_the_least_risk():
+    """Under the markerless model every candidate's expected error may lie within a few
+    percent of the others' (the noise wanders where no filter takes it out): of those
+    within NEAR_LEAST_RISK of the least, the one passing the least white noise is chosen
+    (a video estimate's knees had been given a near pass-through); none further off."""
+    masks = [binomial(1), binomial(4), binomial(16)]  # lighter to heavier
+    least = 1.0
+    near = least * (1.0 + 0.9 * NEAR_LEAST_RISK)
+    far = least * (1.0 + 1.1 * NEAR_LEAST_RISK)
+    risk = np.array(
+        [
+            [1.2, 1.2, 1.2],  # the identity
+            [least, least, near],  # binomial(1)
+            [near, near, least],  # binomial(4)
+            [near, far, far],  # binomial(16)
+        ]
+    )
+    assert _smoothest_near_least(risk, masks).tolist() == [3, 2, 2]
+    gains = [np.sum(m**2) for m in masks]
+    assert gains[0] > gains[1] > gains[2]  # (the premise: heavier masks pass less noise)
