@@ -309,8 +309,9 @@ def describe_source(
     if slope is None:
         return f"{model} (the noise level was given)"
     if not math.isfinite(slope):
+        assumed = "optical or inertial" if model == "optical" else model
         return (
-            f"{model}: the clip cannot tell (too few joints move above the noise over "
+            f"{assumed}: the clip cannot tell (too few joints move above the noise over "
             f"{band}); give the source for a markerless or video capture"
         )
     if model == "optical" and slope > MARKERLESS_SLOPE:

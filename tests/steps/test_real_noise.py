@@ -455,7 +455,7 @@ def test_a_clip_that_cannot_tell_its_source_is_not_called_clean_unqualified(tmp_
     write_channel_csv(source, truth + e, names=NAMES[:2])
     code, out, err = run_cli(capsys, "clean", source, "-o", tmp_path / "c.csv")
     assert code == 0, err
-    assert "capture source: optical: the clip cannot tell" in out
+    assert "capture source: optical or inertial: the clip cannot tell" in out
     verdict = next(line for line in out.splitlines() if line.startswith("verdict:"))
     assert "(as optical: its source not told; for video, --source video)" in verdict
     code, out, err = run_cli(capsys, "clean", corpus_clip("131_02.bvh"), "-o", tmp_path / "c.bvh")
