@@ -531,12 +531,26 @@ def _frame_of(q, p, donor, frames):
 
 def _relative(q, p, joint, donors, frames):
     """Pose of ``joint`` at ``frames`` relative to ``donors = (rotation donor, position
-    donor)`` (-1: the world; same shapes): ``d^-1 q`` and ``e^-1 (p - c) e`` for the
-    rotation donor's ``d`` and the position donor's rotation ``e`` and position ``c``."""
-    d, _ = _frame_of(q, p, donors[0], frames)
-    e, c = _frame_of(q, p, donors[1], frames)
-    rel_q = quat.relative(d, q[frames, joint])
-    return rel_q, quat.rotate(quat.conjugate(e), p[frames, joint] - c)
+    donor)`` (-1: the world; same shapes): :func:`_relative_rotation` and
+    :func:`_relative_position`."""
+    return (
+        _relative_rotation(q, p, joint, donors[0], frames),
+        _relative_position(q, p, joint, donors[1], frames),
+    )
+
+
+def _relative_rotation(q, p, joint, donor, frames):
+    """``d^-1 q`` of ``joint`` at ``frames`` for the rotation ``d`` of ``donor`` (-1: the
+    world; same shapes)."""
+    d, _ = _frame_of(q, p, donor, frames)
+    return quat.relative(d, q[frames, joint])
+
+
+def _relative_position(q, p, joint, donor, frames):
+    """``e^-1 (p - c) e`` of ``joint`` at ``frames`` for the rotation ``e`` and position
+    ``c`` of ``donor`` (-1: the world; same shapes)."""
+    e, c = _frame_of(q, p, donor, frames)
+    return quat.rotate(quat.conjugate(e), p[frames, joint] - c)
 
 
 def _roughness(x: np.ndarray, rotations: bool) -> np.ndarray:
@@ -628,20 +642,19 @@ def _mean_square_steps(q, p, steps, known, whose, helper, k: int) -> np.ndarray:
     """``(P,)``: the mean square, over the ``steps`` (S,) that ``known`` (S, J) marks for
     each joint ``whose`` (P,) (and for its ``helper``), of its steps from each step's frame
     to the next: of its rotation (``k`` 0; angle, radians) or position (1), in the world
-    (``helper`` None) or relative to the helper (``d^-1 q``; ``d^-1 (p - c) d``)."""
-    at = steps[:, None]
-    seen = known[:, whose] if helper is None else known[:, whose] & known[:, helper]
-
-    def pose(frames):
-        if k == 0:
-            own = q[frames, whose]
-            return own if helper is None else quat.relative(q[frames, helper], own)
-        own = p[frames, whose]
-        if helper is None:
-            return own
-        return quat.rotate(quat.conjugate(q[frames, helper]), own - p[frames, helper])
-
-    before, after = pose(at), pose(at + 1)
+    (``helper`` None) or relative to the helper (:func:`_relative_rotation`,
+    :func:`_relative_position`)."""
+    shape = (steps.size, whose.size)
+    at = np.broadcast_to(steps[:, None], shape)
+    joints = np.broadcast_to(whose, shape)
+    if helper is None:  # in the world: the poses themselves
+        seen = known[:, whose]
+        before, after = ((q, p)[k][frames, joints] for frames in (at, at + 1))
+    else:
+        seen = known[:, whose] & known[:, helper]
+        donor = np.broadcast_to(helper, shape)
+        relative = _relative_rotation if k == 0 else _relative_position
+        before, after = (relative(q, p, joints, donor, frames) for frames in (at, at + 1))
     if k == 0:
         step = quat.angle_between(before, after) ** 2
     else:
@@ -916,18 +929,13 @@ def _pooled_for_untried(
     tiny = 1e-24  # squared radians or length units: nothing, and no 0 / 0
     best = np.where(finite.any(axis=1), np.min(np.where(finite, error, np.inf), axis=1), 1.0)
     ratio = (np.where(finite, error, 0.0) + tiny) / (best[:, None, :] + tiny)
-    logs = np.where(finite, np.log(ratio), 0.0)
     kinds, n_options = error.shape[:2]
     group = _octaves(gaps)
     n_groups = int(group.max()) + 1
     row = np.arange(kinds * n_options).reshape(kinds, n_options, 1)  # (kind, option)
     key = (row * n_groups + group).ravel()  # ... and group
-    size = kinds * n_options * n_groups
-    total = np.bincount(key, weights=logs.ravel(), minlength=size)
-    count = np.bincount(key, weights=finite.ravel(), minlength=size)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pooled = np.where(count > 0, np.exp(total / count), np.inf)
-    pooled = pooled.reshape(kinds, n_options, n_groups)
+    pooled = _geometric_means(ratio.ravel(), finite.ravel(), key, kinds * n_options * n_groups)
+    pooled = np.nan_to_num(pooled, nan=np.inf).reshape(kinds, n_options, n_groups)
     for k in range(kinds):
         values = pooled[k][:, group[pick[k]]]  # (O, picked gaps)
         values[np.ix_(spline, gaps.lengths[pick[k]] > SPLINE_MAX_GAP)] = np.inf
@@ -953,12 +961,18 @@ def _better(error: np.ndarray, chosen: np.ndarray, gaps: Gaps, margin: float) ->
         ratio = error / chosen
     key = _octaves(gaps)
     finite = np.isfinite(ratio) & (ratio > 0)
-    logs = np.log(np.where(finite, ratio, 1.0))
-    total = np.bincount(key, weights=logs)
-    count = np.bincount(key, weights=finite)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pooled = np.exp(total / count)[key]
+    pooled = _geometric_means(ratio, finite, key, int(key.max(initial=-1)) + 1)[key]
     return finite & (ratio < 1.0) & (pooled < 1.0 - margin)
+
+
+def _geometric_means(values: np.ndarray, valid: np.ndarray, key: np.ndarray, size: int):
+    """``(size,)``: the geometric mean of the positive ``values`` that ``valid`` marks, by
+    ``key`` (all three the same shape, keys ``0 .. size-1``); nan for a key with none."""
+    logs = np.log(np.where(valid, values, 1.0))
+    total = np.bincount(key, weights=np.where(valid, logs, 0.0), minlength=size)
+    count = np.bincount(key, weights=valid, minlength=size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.exp(total / count)
 
 
 def _ranks(lengths: np.ndarray) -> np.ndarray:
