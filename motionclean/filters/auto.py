@@ -295,6 +295,16 @@ UNFIT_WANDER = (
 )
 
 
+def noted_slope(note: dict) -> float | None:
+    """The motion slope an ``auto`` note (or a report's ``capture_source``) records, as
+    :func:`describe_source` takes it: the slope, nan where the clip could not tell (its
+    ``source_measured`` without a ``motion_slope``), None where the noise level was given."""
+    slope = note.get("motion_slope")
+    if slope is None and note.get("source_measured"):
+        return math.nan
+    return slope
+
+
 def describe_source(
     model: str, source: str, slope: float | None, seconds: float | None = None
 ) -> str:

@@ -26,7 +26,7 @@ from ..core.restpose import rest_frames, trim
 from ..core.takes import MAX_DEG_PER_S, MIN_DEG_PER_S, take_starts
 from ..core.threads import run_parts
 from ..core.words import columns, length_word, pad, plural
-from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise
+from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise, noted_slope
 from ..steps import REGISTRY
 from ..steps.base import brief_runs as summarised_runs
 from ..steps.base import format_params, fps_text
@@ -1251,9 +1251,7 @@ def format_noise_model(report: dict) -> str:
     if not notes and "capture_source" not in report:
         return ""
     first = notes[0] if notes else report["capture_source"]
-    slope = first.get("motion_slope")
-    if slope is None and first.get("source_measured"):
-        slope = math.nan
+    slope = noted_slope(first)
     seconds = report.get("frames", 0) * report.get("frame_time", 0.0)
     said = describe_source(first["model"], first["source"], slope, seconds or None)
     line = f"capture source: {said}"

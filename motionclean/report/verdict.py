@@ -61,7 +61,7 @@ from ..core.motion import UNCHANGED_TOLERANCE
 from ..core.rates import same_rate
 from ..core.takes import LONGEST_SPIKE_S, MAX_DEG_PER_S
 from ..core.words import length_word, percent, plural, significant
-from ..filters.auto import MIN_FRAMES
+from ..filters.auto import MIN_FRAMES, noted_slope
 from ..steps import REGISTRY
 from ..steps.base import BRIEF_RUNS, format_runs, fps_text
 from .thrash import THRASH_DEG_PER_S
@@ -715,12 +715,12 @@ def _untold(joints: dict[str, dict]) -> str:
     where the optical model does not look: two knee angles of VideoPose3D walks read "clean
     capture: left as it was" at 2-7 times a tuned Butterworth's acceleration error (1.0-1.8
     with ``--source video``)."""
+    notes = ((entry.get("auto") or {}) for entry in joints.values())
     untold = any(
         note.get("source") == "auto"
         and note.get("model") == "optical"
-        and note.get("source_measured")
-        and note.get("motion_slope") is None
-        for note in ((entry.get("auto") or {}) for entry in joints.values())
+        and math.isnan(noted_slope(note) or 0.0)
+        for note in notes
     )
     return " (as optical: its source not told; for video, --source video)" if untold else ""
 
