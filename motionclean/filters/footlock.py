@@ -35,6 +35,9 @@ from ..core.kinematics import depths, forward_arrays, hung_on
 #: Gauss-Newton iterations (the change is small: a third one moves no point of a noisy
 #: walk by more than 0.005 mm on a body 1.7 m tall).
 ITERATIONS = 2
+#: Iterations of the ankles' solve where the toes' solve goes on from it (and iterates
+#: the ankles' rows again): the toes' paths, taken from the legs it leaves, are smoothed.
+ANKLE_ITERATIONS_BEFORE_TOES = 1
 #: The most a joint turns in one iteration of the solve (radians; about 6 degrees): with
 #: a tolerance near zero its prior stops bounding the linearised step, which had turned a
 #: toe by 176 degrees at ``tolerance=1e-9`` (the defaults' steps stay far below it).
@@ -60,10 +63,6 @@ TOE_TOLERANCE = 1.6
 #: A toe's path is its motion smoothed by a kernel of this standard deviation, as a
 #: fraction of the hold window (``hold_frames``).
 TOE_SMOOTHING = 0.5
-#: The Levi-Civita symbol: ``(a x b)_j = eps[j, i, k] a_i b_k``.
-_LEVI_CIVITA = np.zeros((3, 3, 3))
-_LEVI_CIVITA[[0, 1, 2], [1, 2, 0], [2, 0, 1]] = 1.0
-_LEVI_CIVITA[[0, 1, 2], [2, 0, 1], [1, 2, 0]] = -1.0
 #: A held line's slope (a foot's drift) is halved where it stands this many standard
 #: errors clear of the scatter about it, kept nearly whole well beyond, dropped well within
 #: (:func:`held_lines`).
@@ -579,9 +578,11 @@ def plant(
     )
     frames = np.flatnonzero(rows.hold_weight.any(axis=1))
     q, t = q[frames], t[frames]
-    total = _solve_frames(q, t, part, problem, rows.take(frames))
-    part.write_back((out_q, out_t), frames, (q, t), rotations)
     toe_legs = [k for k, _ in held_toes(legs)]
+    # where toes are held, their solve goes on from this one with the ankles' rows too
+    iterations = ANKLE_ITERATIONS_BEFORE_TOES if toe_legs else ITERATIONS
+    total = _solve_frames(q, t, part, problem, rows.take(frames), iterations)
+    part.write_back((out_q, out_t), frames, (q, t), rotations)
     if toe_legs:
         toes = _Toes(
             contacts[:, toe_legs] if toe_contacts is None else toe_contacts,
@@ -782,7 +783,6 @@ def _solve(
     for _ in range(iterations):
         positions, world = forward_arrays(parents, q, t)
         points = _points(positions, world, problem, part.tip_offsets)  # (F, K, 3)
-        jac = _jacobian(positions, world, points, parents, problem, directions)
         residual = np.einsum("fkc,dc->fkd", rows.targets - points, directions)  # (F, K, 3)
         height = points @ normal - level
         # a point found below the floor is held on it from then on (the active set only
@@ -791,32 +791,33 @@ def _solve(
         residual[..., 2] = np.where(below, -height, 0.0)
         active = np.concatenate(
             [np.repeat(rows.hold_weight[..., None], 2, axis=-1), below[..., None]], axis=-1
-        )
-        jac = jac.reshape(n_frames, n_points * 3, problem.n_columns)
-        residual = residual.reshape(n_frames, -1)
+        ).reshape(n_frames, -1)
+        # rows no frame of the block asks for (a floor no point went below) are left out
+        asked = np.flatnonzero(active.any(axis=0))
+        jac = _jacobian(positions, world, points, parents, problem, directions, asked)
         # the residual seen from the prior's centre (the input), linearised here
-        from_input = residual + (jac @ total[..., None])[..., 0]
+        from_input = residual.reshape(n_frames, -1)[:, asked] + (jac @ total[..., None])[..., 0]
         if huber is None:  # from the input: a target far beyond the noise is motion
-            predicted = np.sqrt((jac * jac) @ spread)
+            predicted = np.zeros((n_frames, n_points * 3))
+            predicted[:, asked] = np.sqrt((jac * jac) @ spread)
+            off = np.zeros((n_frames, n_points * 3))
+            off[:, asked] = from_input
             # per point, along the ground (a sum over both horizontal rows: invariant)
             spread_h = np.sqrt(np.sum(predicted.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
-            off = np.sqrt(np.sum(from_input.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
+            off_h = np.sqrt(np.sum(off.reshape(n_frames, n_points, 3)[..., :2] ** 2, -1))
             weight = np.ones((n_frames, n_points, 3))  # the floor rows keep 1: no guess
-            weight[..., :2] = np.minimum(1.0, rows.robust * spread_h / np.maximum(off, 1e-300))[
+            weight[..., :2] = np.minimum(1.0, rows.robust * spread_h / np.maximum(off_h, 1e-300))[
                 ..., None
             ]
             huber = weight.reshape(n_frames, -1)
-        root_precision = np.sqrt(active.reshape(n_frames, -1) * huber * scale)
         # the solve in the rows' space (at most 3 per held point, fewer than the columns):
-        # z = P^-1 A^T (I + A P^-1 A^T)^-1 b with A = sqrt(M) J, b = sqrt(M) (e + J total);
-        # rows no frame of the block asks for (a floor no point went below) are left out
-        asked = np.flatnonzero(root_precision.any(axis=0))
-        root_precision = root_precision[:, asked]
-        a = jac[:, asked] * root_precision[..., None]
+        # z = P^-1 A^T (I + A P^-1 A^T)^-1 b with A = sqrt(M) J, b = sqrt(M) (e + J total)
+        root_precision = np.sqrt(active[:, asked] * huber[:, asked] * scale[asked])
+        a = jac * root_precision[..., None]
         spread_rows = a * spread
         gram = spread_rows @ a.transpose(0, 2, 1)
         gram[:, np.arange(gram.shape[1]), np.arange(gram.shape[1])] += 1.0
-        target = root_precision * from_input[:, asked]
+        target = root_precision * from_input
         mixed = np.linalg.solve(gram, target[..., None])
         step = (spread_rows.transpose(0, 2, 1) @ mixed)[..., 0] - total
         step *= _step_share(step, problem)[:, None]
@@ -859,32 +860,54 @@ def _jacobian(
     parents: np.ndarray,
     problem: _Problem,
     directions: np.ndarray,
+    rows: np.ndarray,
 ) -> np.ndarray:
-    """``(F, K, 3, C)``: how each held point moves along each row direction per column.
+    """``(F, R, C)``: how each held point moves along a row direction per column, for the
+    ``rows`` ``(R,)`` asked (ascending; row ``3 k + d`` is point ``k`` along ``directions[d]``).
 
     A rotation ``w`` (world axes) of joint ``v`` moves a point below it by ``w x (p -
     p_v)``: along ``u`` by ``w . ((p - p_v) x u)``; a hinge's column is that along its
     world axis ``h``, ``(p - p_v) . (u x h)``; a root translation column moves every point
     by its axis."""
     n_frames, n_points = points.shape[:2]
-    n_axes = problem.axes.size
-    jac = np.empty((n_frames, n_points, 3, problem.n_columns))
-    jac[..., :n_axes] = directions[:, problem.axes][None, None]
-    arm = points[:, :, None, :] - positions[:, None, problem.joints, :]  # (F, K, V, 3)
-    arm *= problem.moves[None, :, :, None]
-    n_free = int(np.count_nonzero(~problem.hinge))  # the first joints; their columns next
-    free_arm = arm[:, :, :n_free].reshape(n_frames, -1, 3)
-    crosses = np.einsum("jik,dk->dij", _LEVI_CIVITA, directions)  # a @ crosses[d] = a x u_d
-    for d in range(3):  # two rows along the ground, one off the floor
-        jac[:, :, d, n_axes : n_axes + 3 * n_free] = (free_arm @ crosses[d]).reshape(
-            n_frames, n_points, -1
-        )
-    if n_free < problem.joints.size:
-        hinged = problem.joints[n_free:]
-        axis = quat.rotate(world[:, parents[hinged]], problem.hinges[n_free:])  # (F, H, 3)
-        across = np.cross(directions[None, None], axis[:, :, None])  # (F, H, 3, 3): u x h
-        jac[..., n_axes + 3 * n_free :] = np.einsum("fkhc,fhdc->fkdh", arm[:, :, n_free:], across)
+    n_axes, n_columns = problem.axes.size, problem.n_columns
+    at = np.full(n_points * 3, -1)  # each row's place among those asked
+    at[rows] = np.arange(rows.size)
+    jac = np.zeros((n_frames, rows.size, n_columns))
+    jac[..., :n_axes] = directions[rows % 3][:, problem.axes]
+    point, joint = np.nonzero(problem.moves)  # the pairs (k, v) where v moves k
+    arm = points[:, point] - positions[:, problem.joints[joint]]  # (F, P, 3)
+    place = at[point[:, None] * 3 + np.arange(3)]  # (P, 3): each pair's rows' places
+    flat = jac.reshape(n_frames, -1)
+    hinge = problem.hinge[joint]
+    if not hinge.all():
+        free = ~hinge
+        columns = problem.columns[joint[free], None, None] + np.arange(3)  # (Pf, 1, 3)
+        into = (place[free][..., None] * n_columns + columns).ravel()  # (Pf * 9,)
+        kept = np.repeat(place[free].ravel() >= 0, 3)
+        values = _crosses(arm[:, free], directions).reshape(n_frames, -1)
+        flat[:, into[kept]] = values[:, kept]
+    if hinge.any():
+        hinged = problem.joints[joint[hinge]]
+        axis = quat.rotate(world[:, parents[hinged]], problem.hinges[joint[hinge]])  # (F, Ph, 3)
+        across = np.cross(directions[None, None], axis[:, :, None])  # (F, Ph, 3, 3): u x h
+        into = (place[hinge] * n_columns + problem.columns[joint[hinge], None]).ravel()
+        kept = place[hinge].ravel() >= 0
+        values = np.einsum("fpc,fpdc->fpd", arm[:, hinge], across).reshape(n_frames, -1)
+        flat[:, into[kept]] = values[:, kept]
     return jac
+
+
+def _crosses(a: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``(..., D, 3)``: the cross products ``a x u_d`` of vectors ``a`` ``(..., 3)`` with each
+    of the directions ``u`` ``(D, 3)``, component by component (a matrix product would
+    hand a long thin product to BLAS, whose threads then spin beside the clip's own)."""
+    out = np.empty((*a.shape[:-1], len(u), 3))
+    for d, (x, y, z) in enumerate(u.tolist()):
+        out[..., d, 0] = a[..., 1] * z - a[..., 2] * y
+        out[..., d, 1] = a[..., 2] * x - a[..., 0] * z
+        out[..., d, 2] = a[..., 0] * y - a[..., 1] * x
+    return out
 
 
 def _below_floor(height: np.ndarray, floor_tolerance: np.ndarray, grounded: np.ndarray):

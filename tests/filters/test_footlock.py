@@ -9,6 +9,7 @@ import pytest
 from helpers import SAMPLE, cut_bvh, run_cli
 
 from motionclean.core import kinematics, quat
+from motionclean.filters import footlock
 from motionclean.filters.footlock import (
     FLOOR_FIRMNESS,
     Leg,
@@ -132,6 +133,64 @@ def test_toes_held_loosely_leave_the_ankles_solve_as_it_was():
     assert np.degrees(quat.angle_between(alone, q)).max() > 0.05  # the ankles' solve acted
     assert np.degrees(quat.angle_between(loose, alone)).max() < 0.01
     np.testing.assert_allclose(loose_root, alone_root, atol=1e-5)
+
+
+def _turned(q, t, part, problem, column, by):
+    """The part's rotations and translations with the solve's variable ``column`` moved by
+    ``by`` as the solve moves it: a root translation, a free joint's turn about a world
+    axis, a hinge's turn about its axis in the parent's frame."""
+    q, t = q.copy(), t.copy()
+    if column < problem.axes.size:
+        t[:, 0, problem.axes[column]] += by
+        return q, t
+    v = int(np.searchsorted(problem.columns, column, side="right")) - 1
+    joint = problem.joints[v]
+    if problem.hinge[v]:
+        change = np.broadcast_to(by * problem.hinges[v], (len(q), 3))
+    else:
+        world = kinematics.forward_arrays(part.parents, q, t)[1]
+        parent = part.parents[joint]
+        change = quat.rotate(
+            quat.conjugate(world[:, parent]), by * np.eye(3)[column - problem.columns[v]]
+        )
+    q[:, joint] = quat.multiply(quat.exp(0.5 * change), q[:, joint])
+    return q, t
+
+
+def test_the_solves_jacobian_moves_the_held_points_as_its_variables_do():
+    """Every column of the solve's Jacobian, on the rows asked (a subset: a floor row left
+    out, a tilted floor's kept), is how the held points move along the rows' directions
+    when its variable moves (central differences)."""
+    q, t = _leg_clip(frames=6, seed=3)
+    part = footlock._Part.of(PARENTS, TIP, [3, 4, 5])
+    problem = footlock._problem(
+        part,
+        {part.joint(j) for j in (1, 2, 3, 4)},
+        {part.joint(2): HINGE},
+        [part.point(p, 5, [4]) for p in (3, 4, 5)],
+        np.radians(np.ones(5)),
+        np.array([1.0, 0.0, 1.0]),
+    )
+    tilted = np.array([0.1, 1.0, -0.2]) / np.linalg.norm([0.1, 1.0, -0.2])
+    directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], tilted])
+    rows = np.array([0, 1, 3, 4, 5, 6, 7])  # the ankle's floor row and the tip's left out
+    q, t = part.arrays(q, t)
+
+    def along(q, t):
+        positions, world = kinematics.forward_arrays(part.parents, q, t)
+        points = footlock._points(positions, world, problem, part.tip_offsets)
+        return (points @ directions.T).reshape(len(q), -1)[:, rows]
+
+    positions, world = kinematics.forward_arrays(part.parents, q, t)
+    points = footlock._points(positions, world, problem, part.tip_offsets)
+    jac = footlock._jacobian(positions, world, points, part.parents, problem, directions, rows)
+    assert jac.shape == (6, rows.size, problem.n_columns)
+    eps = 1e-6
+    for column in range(problem.n_columns):
+        moved = along(*_turned(q, t, part, problem, column, eps))
+        back = along(*_turned(q, t, part, problem, column, -eps))
+        np.testing.assert_allclose(jac[..., column], (moved - back) / (2 * eps), atol=1e-6)
+    assert np.abs(jac).max() > 1.0  # the arms are body lengths: not a Jacobian of zeros
 
 
 def test_the_change_goes_where_the_error_is_expected():
