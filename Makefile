@@ -14,13 +14,18 @@ BLENDER_STAMP := $(BLENDER_VENV)/.installed
 BLENDER45_VENV := .venv-blender45
 BLENDER45_STAMP := $(BLENDER45_VENV)/.installed
 
-.PHONY: demo test test-blender45 blender bench lint clean-venv
+.PHONY: demo test test-blender45 blender bench lint clean-venv bytecode
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test,dask]'
 	touch $(STAMP)
+
+# The package's bytecode, written once: where PYTHONDONTWRITEBYTECODE is set, every
+# process (each `motionclean` command, each test's subprocess) would compile it again.
+bytecode: $(STAMP)
+	$(BIN)/python -m compileall -q motionclean
 
 $(BLENDER_STAMP): pyproject.toml
 	$(PYTHON_BLENDER) -m venv $(BLENDER_VENV)
@@ -38,7 +43,7 @@ $(VENV)/.bench: $(STAMP)
 	$(BIN)/pip install --quiet -e '.[test,dask,bench]'
 	touch $(VENV)/.bench
 
-demo: $(STAMP)
+demo: $(STAMP) bytecode
 	mkdir -p $(OUT)
 	$(BIN)/motionclean info sample_data/131_02_noisy.bvh
 	$(BIN)/motionclean clean sample_data/131_02_noisy.bvh -o $(OUT)/131_02_clean.bvh \
@@ -46,7 +51,7 @@ demo: $(STAMP)
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
 # One test process per core, each taking whole files (their shared fixtures made once).
-test: lint $(BLENDER_STAMP)
+test: lint bytecode $(BLENDER_STAMP)
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # The extension's operator checks in Blender 4.5 LTS (bpy 4.5) instead of 5.0.
@@ -64,7 +69,7 @@ lint: $(STAMP)
 	$(BIN)/mypy motionclean
 	$(BIN)/lint-imports
 
-bench: $(VENV)/.bench
+bench: $(VENV)/.bench bytecode
 	$(BIN)/python bench/run_all.py
 
 clean-venv:
