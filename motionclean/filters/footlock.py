@@ -72,6 +72,13 @@ DRIFT_SIGNIFICANCE = 8.0
 #: its RMS over half a second, and a heel rising at a long stance's end (4 reaches over its
 #: last 5 %) goes further there while hardly moving the whole contact's RMS.
 WINDOW_REACH = 2.0
+#: A contact is held on one line (:func:`held_lines`' ``still_within``) only where it lasts
+#: this many hold windows: a stance, along whose windows' lines a filter's wander would
+#: slide the foot. A walking step's contact is shorter; held on one line, the heel's move
+#: within the noise's reach was taken out and the knee bent for it (GAMES-105's turns, 3
+#: degrees of noise: knee flexion error 1.011-1.018 of the pipeline without footlock on 4
+#: of 6 runs, 0.979-1.009 with it; bench/footlock.py's legs as close or closer).
+STILL_MIN_WINDOWS = 1.5
 #: Smallest expected error of a variable (radians, or length units for the root's
 #: translation): a joint the noise model calls exact barely moves.
 MIN_SIGMA = 1e-6
@@ -150,8 +157,9 @@ def held_lines(
     The line's slope is shrunk toward 0 by ``s^2 / (s^2 + (k e)^2)``, ``s`` its length, ``e``
     its standard error from the points' scatter about it (as many points as scatter
     independently, :func:`_independent_share`), ``k`` :data:`DRIFT_SIGNIFICANCE` (both
-    summed over the axes: the shrinkage turns with the clip). A contact that stays within
-    ``still_within`` of one line is held on it (:func:`_held_still`).
+    summed over the axes: the shrinkage turns with the clip). A stance (a contact of at
+    least :data:`STILL_MIN_WINDOWS` windows) that stays within ``still_within`` of one line
+    is held on it (:func:`_held_still`).
 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
@@ -186,14 +194,14 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
 def _held_still(
     points: np.ndarray, contacts: np.ndarray, held: np.ndarray, within: float, half: int
 ) -> np.ndarray:
-    """``held`` ``(F, ..., 3)``, but on each contact whose ``points`` stay within ``within``
-    (length units; 0: none) of one line through the whole contact (its slope shrunk as
-    :func:`held_lines` shrinks it), that line: within it in RMS over the contact (each
-    frame's farthest point), and within :data:`WINDOW_REACH` times it over every window of
-    ``2 half + 1`` frames, so a move at one end of a long stance (a heel rising) is not
-    averaged away. A window's line follows the
-    slow wander that smoothing leaves in noise, along which a foot standing for seconds
-    would slide; a contact that moves no more than the noise could make it is held as
+    """``held`` ``(F, ..., 3)``, but on each contact of at least :data:`STILL_MIN_WINDOWS`
+    windows whose ``points`` stay within ``within`` (length units; 0: none) of one line
+    through the whole contact (its slope shrunk as :func:`held_lines` shrinks it), that
+    line: within it in RMS over the contact (each frame's farthest point), and within
+    :data:`WINDOW_REACH` times it over every window of ``2 half + 1`` frames, so a move at
+    one end of a long stance (a heel rising) is not averaged away. A window's line follows
+    the slow wander that smoothing leaves in noise, along which a foot standing for seconds
+    would slide; a stance that moves no more than the noise could make it is held as
     standing (the noise's reach, ``within``, is what ``auto`` expects of the point:
     bench/footlock.py)."""
     starts = np.flatnonzero(contacts & ~np.r_[False, contacts[:-1]])
@@ -209,8 +217,10 @@ def _held_still(
     inside = np.flatnonzero(contacts)
     worst = np.maximum.reduceat(spread[inside], np.searchsorted(inside, starts))
     contact = np.searchsorted(starts, first)  # each contact frame's contact (from its start)
-    calm = (mean <= within * within) & (
-        worst[np.minimum(contact, starts.size - 1)] <= ((WINDOW_REACH * within) ** 2)
+    calm = (
+        (mean <= within * within)
+        & (worst[np.minimum(contact, starts.size - 1)] <= ((WINDOW_REACH * within) ** 2))
+        & (last + 1 - first >= STILL_MIN_WINDOWS * (2 * half + 1))
     )
     still = contacts & calm
     return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)

@@ -350,6 +350,35 @@ def test_a_contact_the_noise_alone_could_move_is_held_on_one_line():
     )
 
 
+def test_a_steps_contact_keeps_the_windows_lines_a_stance_is_held_on_one():
+    """A walking step's contact, shorter than ``STILL_MIN_WINDOWS`` hold windows, keeps
+    the windows' lines bit for bit even where it stays within the noise's reach of one
+    line (its small moves, a heel rising, are the foot's); the same wander over a stance
+    of several windows is held on one line."""
+    rng = np.random.default_rng(11)
+    n, width, hold = 400, 15, 60
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    points = np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+    reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
+    step = int(footlock.STILL_MIN_WINDOWS * (hold + 1)) - 5  # just short of a stance
+    contacts = np.zeros(n, dtype=bool)
+    contacts[20 : 20 + step] = contacts[150:390] = True
+    held = held_lines(points, contacts, hold, still_within=reach)
+    windows = held_lines(points, contacts, hold)
+    np.testing.assert_array_equal(held[:150], windows[:150])  # the step: as the windows
+    np.testing.assert_allclose(np.diff(held[150:390], 2, axis=0), 0.0, atol=1e-12)  # a line
+    assert not np.allclose(held[150:390], windows[150:390])
+    longer = contacts.copy()
+    longer[20 : 20 + step + 10] = True  # the step lasting a stance: held on one line too
+    np.testing.assert_allclose(
+        np.diff(held_lines(points, longer, hold, still_within=reach)[20 : 30 + step], 2, axis=0),
+        0.0,
+        atol=1e-12,
+    )
+
+
 def test_a_move_at_the_end_of_a_long_stance_keeps_the_windows_lines():
     """A foot standing 8 s under a filter's wander whose heel rises by 4 times the noise's
     reach over the contact's last 5 %: the whole contact's RMS hardly moves, but the
