@@ -55,7 +55,7 @@ test: lint bytecode $(BLENDER_STAMP)
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # The extension's operator checks in Blender 4.5 LTS (bpy 4.5) instead of 5.0.
-test-blender45: $(STAMP) $(BLENDER45_STAMP)
+test-blender45: $(STAMP) bytecode $(BLENDER45_STAMP)
 	MOTIONCLEAN_BLENDER_PYTHON=$(BLENDER45_VENV)/bin/python MOTIONCLEAN_BLENDER_OPERATOR_ONLY=1 \
 		$(BIN)/python -m pytest tests/blender
 

@@ -35,8 +35,9 @@ from ..core.kinematics import depths, forward_arrays, hung_on
 #: Gauss-Newton iterations (the change is small: a third one moves no point of a noisy
 #: walk by more than 0.005 mm on a body 1.7 m tall).
 ITERATIONS = 2
-#: Iterations of the ankles' solve where the toes' solve goes on from it (and iterates
-#: the ankles' rows again): the toes' paths, taken from the legs it leaves, are smoothed.
+#: Iterations of the ankles' solve where a toe is held, so that the toes' solve goes on
+#: from it and iterates the ankles' rows again (:data:`ITERATIONS` where none is): the
+#: toes' paths, taken from the legs it leaves, are smoothed.
 ANKLE_ITERATIONS_BEFORE_TOES = 1
 #: The most a joint turns in one iteration of the solve (radians; about 6 degrees): with
 #: a tolerance near zero its prior stops bounding the linearised step, which had turned a
@@ -548,8 +549,9 @@ def plant(
     times as closely, while their leg or the toe itself is in contact); a target further
     from a point than ``robust`` times the error the prior predicts for it is taken as
     motion, not noise, and followed less (Huber weights). ``still_within`` ``(n_legs,)``
-    (length units): a contact whose ankle stays that close to one line through it is held
-    on that line (:func:`held_lines`; default: none is). Frames where nothing is held, and
+    (length units): a stance (a contact of at least :data:`STILL_MIN_WINDOWS` hold
+    windows) whose ankle stays that close to one line through it is held on that line
+    (:func:`held_lines`; default: none is). Frames where nothing is held, and
     every joint that does not turn, are returned bit for bit; the root (the first joint of
     the legs) moves only along ``prior.root``'s non-zero axes.
     """
@@ -589,16 +591,13 @@ def plant(
     frames = np.flatnonzero(rows.hold_weight.any(axis=1))
     q, t = q[frames], t[frames]
     toe_legs = [k for k, _ in held_toes(legs)]
-    # where toes are held, their solve goes on from this one with the ankles' rows too
-    iterations = ANKLE_ITERATIONS_BEFORE_TOES if toe_legs else ITERATIONS
+    toes_held = contacts[:, toe_legs] if toe_contacts is None else toe_contacts
+    # where a toe is held, the toes' solve goes on from this one with the ankles' rows too
+    iterations = ANKLE_ITERATIONS_BEFORE_TOES if toes_held.any() else ITERATIONS
     total = _solve_frames(q, t, part, problem, rows.take(frames), iterations)
     part.write_back((out_q, out_t), frames, (q, t), rotations)
     if toe_legs:
-        toes = _Toes(
-            contacts[:, toe_legs] if toe_contacts is None else toe_contacts,
-            tolerance * toe_tolerance,
-            toe_legs,
-        )
+        toes = _Toes(toes_held, tolerance * toe_tolerance, toe_legs)
         out_q, out_t = _hold_toes(
             (rotations, translations),
             _Planted(out_q, out_t, frames, total, _column_keys(part, problem)),
@@ -704,7 +703,7 @@ def _hold_toes(
     toe_floor = tolerance * FLOOR_FIRMNESS
     below = _below_floor(track @ normal - level, toe_floor, grounded)
     # every frame the ankles' solve changed too: each gets the same iterations (no step
-    # where the toes' hold begins)
+    # where the toes' hold begins; a toe held somewhere asks for some frame: no early out)
     asked = ((weights > 0.0) | below).any(axis=1)
     if not asked.any():
         return planted.rotations, planted.root

@@ -119,9 +119,23 @@ def test_the_toes_are_held_too_and_the_ankle_stays_held():
     assert np.degrees(quat.angle_between(late[30:45, 3], ankle_only[30:45, 3])).max() > 0.05
 
 
+def test_toes_that_never_stand_leave_the_ankles_solve_whole():
+    """Toe contacts found nowhere (a foot that rolls through every stance): the ankles'
+    solve runs all its iterations, as with the toes left out, bit for bit (the toes'
+    solve, which would carry it on, has nothing to hold)."""
+    q, t = _leg_clip(seed=4)
+    contacts = np.zeros(60, dtype=bool)
+    contacts[10:45] = True
+    never = np.zeros((60, 2), dtype=bool)
+    with_toes = _plant(q, t, contacts, toe_contacts=never)
+    without = _plant(q, t, contacts, toes=False)
+    np.testing.assert_array_equal(with_toes[0], without[0])
+    np.testing.assert_array_equal(with_toes[1], without[1])
+
+
 def test_toes_held_loosely_leave_the_ankles_solve_as_it_was():
     """With the toes' rows all but off (a huge ``toe_tolerance``) the second solve only
-    carries the ankles' own on by one iteration from where it stopped, its prior still
+    carries the ankles' own on from where their one iteration stopped, its prior still
     centred on the input: every joint and the root as the ankles alone put them, within
     what a third iteration moves (0.002 of a 2.4-degree correction), whatever the two
     solves' columns are."""
@@ -356,20 +370,22 @@ def test_a_steps_contact_keeps_the_windows_lines_a_stance_is_held_on_one():
     line (its small moves, a heel rising, are the foot's); the same wander over a stance
     of several windows is held on one line."""
     rng = np.random.default_rng(11)
-    n, width, hold = 400, 15, 60
+    width, hold = 15, 60
+    n = int(footlock.STILL_MIN_WINDOWS * (hold + 1)) + 320
     white = rng.normal(scale=0.01, size=(n + width - 1, 3))
     points = np.stack(
         [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
     )
     reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
     step = int(footlock.STILL_MIN_WINDOWS * (hold + 1)) - 5  # just short of a stance
+    stance = slice(step + 60, step + 300)  # four windows, after the step
     contacts = np.zeros(n, dtype=bool)
-    contacts[20 : 20 + step] = contacts[150:390] = True
+    contacts[20 : 20 + step] = contacts[stance] = True
     held = held_lines(points, contacts, hold, still_within=reach)
     windows = held_lines(points, contacts, hold)
-    np.testing.assert_array_equal(held[:150], windows[:150])  # the step: as the windows
-    np.testing.assert_allclose(np.diff(held[150:390], 2, axis=0), 0.0, atol=1e-12)  # a line
-    assert not np.allclose(held[150:390], windows[150:390])
+    np.testing.assert_array_equal(held[: stance.start], windows[: stance.start])  # the step
+    np.testing.assert_allclose(np.diff(held[stance], 2, axis=0), 0.0, atol=1e-12)  # a line
+    assert not np.allclose(held[stance], windows[stance])
     longer = contacts.copy()
     longer[20 : 20 + step + 10] = True  # the step lasting a stance: held on one line too
     np.testing.assert_allclose(
