@@ -221,16 +221,21 @@ def test_the_change_goes_where_the_error_is_expected():
     assert moved[2][2] < 0.01 * moved[1][2]  # an exact knee barely bends
 
 
+@pytest.mark.parametrize("toes_stand", [True, False])
 @pytest.mark.parametrize("seed", [0, 3, 5])
-def test_no_held_point_ends_below_the_floor_during_a_contact(seed):
+def test_no_held_point_ends_below_the_floor_during_a_contact(seed, toes_stand):
     """On seeds 3 and 5 the toes' solve, one iteration, had left the toe's end 7.6 and 9.9
-    tolerances below the floor (the bound is FLOOR_FIRMNESS of one)."""
+    tolerances below the floor (the bound is FLOOR_FIRMNESS of one). Toes that do not
+    stand themselves while their leg does (no toe contact found) are kept above it too."""
     q, t = _leg_clip(seed=seed)
     contacts = np.zeros(60, dtype=bool)
     contacts[15:45] = True
     before = _points(q, t)
     level = np.quantile(before[15:45, 3:, 1], 0.3)  # above a third of the points' heights
-    new_q, _ = _plant(q, t, contacts, floor=(np.array([0.0, 1.0, 0.0]), level))
+    toe_contacts = None if toes_stand else np.zeros((60, 2), dtype=bool)
+    new_q, _ = _plant(
+        q, t, contacts, floor=(np.array([0.0, 1.0, 0.0]), level), toe_contacts=toe_contacts
+    )
     after = _points(new_q, t)
     assert (before[15:45, 3:, 1] < level - 0.01).any()
     assert after[15:45, 3:, 1].min() > level - 0.002 * FLOOR_FIRMNESS  # on the floor
