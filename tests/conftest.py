@@ -26,10 +26,13 @@ def noisy_path() -> Path:
     return NOISY
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def dask_scheduler() -> Iterator[str]:
-    """The address of a real Dask scheduler with one in-process worker, shared by the
-    session's tests (skips when the dask extra is missing)."""
+    """The address of a real Dask scheduler with one in-process worker, shared by a test
+    file's tests and closed after them: its threads draw from the ``random`` module, which
+    Hypothesis takes for a strategy's draw if it happens during a later file's property
+    test (the likely source of a deprecation warning in one CI run). Skips when the dask
+    extra is missing."""
     distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", dashboard_address=":0"
