@@ -1109,8 +1109,8 @@ def _to_turn_back(samples, parity, turned_back, frame, slot, known=None) -> np.n
     keeps_to_a_pose = typical <= REST_TYPICAL_RAD
     label = runs[frame, slot]
     weight = seen[frame, slot].astype(np.float64)
-    before = _dot_angle(_dot(samples[frame, slot], m[slot]))
-    after = _dot_angle(_dot(turned_back, m[slot]))
+    before = _rotation_distance(samples[frame, slot], m[slot])
+    after = _rotation_distance(turned_back, m[slot])
     slot_of = np.zeros(size, dtype=np.intp)
     slot_of[label] = slot
     count = np.bincount(label, weight, size)
@@ -1124,7 +1124,7 @@ def _rest_angles(samples: np.ndarray, rest: np.ndarray, m: np.ndarray):
     """The median and the :data:`REST_SPREAD_QUANTILE` quantile, ``(S,)`` each (radians;
     nan for a column without rest frames), of the angles of each column's ``rest`` (F, S)
     frames of ``samples`` (F, S, 4) to its principal quaternion ``m`` (S, 4)."""
-    angle = _dot_angle(_dot(samples, m[None]))
+    angle = _rotation_distance(samples, m[None])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # a column without rest frames
         return np.nanquantile(np.where(rest, angle, np.nan), [0.5, REST_SPREAD_QUANTILE], axis=0)

@@ -894,7 +894,7 @@ def _jacobian(
         columns = problem.columns[joint[free], None, None] + np.arange(3)  # (Pf, 1, 3)
         into = (place[free][..., None] * n_columns + columns).ravel()  # (Pf * 9,)
         kept = np.repeat(place[free].ravel() >= 0, 3)
-        values = _crosses(arm[:, free], directions).reshape(n_frames, -1)
+        values = np.cross(arm[:, free, None, :], directions).reshape(n_frames, -1)
         flat[:, into[kept]] = values[:, kept]
     if hinge.any():
         hinged = problem.joints[joint[hinge]]
@@ -905,18 +905,6 @@ def _jacobian(
         values = np.einsum("fpc,fpdc->fpd", arm[:, hinge], across).reshape(n_frames, -1)
         flat[:, into[kept]] = values[:, kept]
     return jac
-
-
-def _crosses(a: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``(..., D, 3)``: the cross products ``a x u_d`` of vectors ``a`` ``(..., 3)`` with each
-    of the directions ``u`` ``(D, 3)``, component by component (a matrix product would
-    hand a long thin product to BLAS, whose threads then spin beside the clip's own)."""
-    out = np.empty((*a.shape[:-1], len(u), 3))
-    for d, (x, y, z) in enumerate(u.tolist()):
-        out[..., d, 0] = a[..., 1] * z - a[..., 2] * y
-        out[..., d, 1] = a[..., 2] * x - a[..., 0] * z
-        out[..., d, 2] = a[..., 0] * y - a[..., 1] * x
-    return out
 
 
 def _below_floor(height: np.ndarray, floor_tolerance: np.ndarray, grounded: np.ndarray):

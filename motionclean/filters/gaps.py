@@ -969,7 +969,7 @@ def _geometric_means(values: np.ndarray, valid: np.ndarray, key: np.ndarray, siz
     """``(size,)``: the geometric mean of the positive ``values`` that ``valid`` marks, by
     ``key`` (all three the same shape, keys ``0 .. size-1``); nan for a key with none."""
     logs = np.log(np.where(valid, values, 1.0))
-    total = np.bincount(key, weights=np.where(valid, logs, 0.0), minlength=size)
+    total = np.bincount(key, weights=logs, minlength=size)  # log(1) = 0 where not valid
     count = np.bincount(key, weights=valid, minlength=size)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.exp(total / count)
