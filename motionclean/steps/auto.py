@@ -285,6 +285,8 @@ def _found_and_chosen(note: dict) -> str:
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
     chose = f"chose {format_params(note['filter'])}{along}"
+    if note["filter"].get("mask") == "mean":  # no mask: the clip's mean on every frame
+        chose = "held it at its mean over the clip (no motion above the noise)"
     if note.get("model") == "markerless":
         edge = note.get("wander_edge_hz")
         up_to = "up to the top" if edge is None else f"up to {edge:g} Hz"

@@ -29,7 +29,7 @@ from motionclean.filters.auto import (
     estimate_position_noise,
     noise_source,
 )
-from motionclean.filters.design import lowpass
+from motionclean.filters.design import lowpass, savgol
 from motionclean.filters.linear import lee_shin, lee_shin_positions
 from motionclean.filters.masks import binomial
 
@@ -583,3 +583,86 @@ def test_the_markerless_choice_is_the_smoothest_of_the_candidates_near_the_least
     assert _smoothest_near_least(risk, masks).tolist() == [3, 2, 2]
     gains = [np.sum(m**2) for m in masks]
     assert gains[0] > gains[1] > gains[2]  # (the premise: heavier masks pass less noise)
+
+
+# ----------------------------------------------------------------------------- held still
+
+
+def still_and_moving(frames: int, noise_deg: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(truth, noisy) ``(frames, 3, 4)``: a joint that never turns (a dummy root's
+    rotation, held at an arbitrary pose), a slow joint and a joint turning by one noise
+    level at 0.3 Hz, each with white noise of ``noise_deg`` at 30 fps."""
+    rng = np.random.default_rng(seed)
+    fixed = np.broadcast_to(quat.normalize(rng.normal(size=4)), (frames, 1, 4))
+    moving = smooth_synthetic(frames * 4, joints=1, seed=seed)[::4]  # (its 120 fps, every 4th)
+    t = np.arange(frames)[:, None] / 30.0
+    axis = np.array([0.0, 0.6, 0.8])
+    slight = quat.exp(math.radians(noise_deg) / 2 * np.sin(2 * np.pi * 0.3 * t)[..., None] * axis)
+    truth = np.concatenate([fixed, moving, slight], axis=1)
+    return truth, plant(truth, noise_deg, seed + 1)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_joint_whose_motion_the_noise_hides_is_held_at_its_mean(seed):
+    """A joint that never turns, with 3 degrees of white noise (a dummy root far from the
+    body, a rig's fixed joint): its mean over the clip is far closer to the truth than any
+    mask, and it is held there, the same rotation on every frame; the joints that move are
+    filtered as masks filter them, even one turning by no more than the noise."""
+    truth, noisy = still_and_moving(300, 3.0, seed)
+    values, _, choices = auto(noisy, 1 / 30)
+    assert [c.mask for c in choices][0] == "mean"
+    assert all(c.mask in ("binomial", "savgol", "lowpass") for c in choices[1:])
+    assert np.degrees(quat.angle_between(values[1:, 0], values[:-1, 0])).max() < 1e-9
+    held = rms_deg(values[:, 0], truth[:, 0])
+    assert held < 0.4  # the mean of 300 samples of 3 degrees: about 0.17
+    widest = max(h for family, h, _ in candidates(1 / 30) if family == "savgol")
+    masked = rms_deg(lee_shin(noisy[:, :1], savgol(widest, 2), 1), truth[:, :1])
+    assert held < 0.5 * masked
+    # the note's expected error is the mean's (its motion estimate is noisy: 0 here)
+    assert abs(choices[0].expected_error ** 2 - held**2) < 0.1 * 3.0**2
+    assert choices[0].params() == {"mask": "mean"} and choices[0].share == 1.0
+
+
+def test_holding_at_the_mean_is_coordinate_invariant_and_keeps_the_signs():
+    _, noisy = still_and_moving(300, 3.0, 4)
+    a = quat.normalize(np.array([0.4, -0.2, 0.8, 0.1]))
+    b = quat.normalize(np.array([0.1, 0.7, 0.2, -0.6]))
+    out = auto(noisy, 1 / 30)
+    moved = auto(quat.multiply(a, quat.multiply(noisy, b)), 1 / 30)
+    assert [c.mask for c in moved.choices] == [c.mask for c in out.choices]
+    assert out.choices[0].mask == "mean"
+    assert rms_deg(moved.values, quat.multiply(a, quat.multiply(out.values, b))) < 1e-9
+    # each held frame on its input sample's hemisphere: the column stays sign-continuous
+    flipped = noisy.copy()
+    flipped[::2, 0] *= -1.0
+    held = auto(quat.continuous(flipped), 1 / 30).values[:, 0]
+    assert np.all(np.sum(held * quat.continuous(flipped)[:, 0], axis=-1) > 0.0)
+
+
+def test_noise_that_wanders_is_not_taken_for_a_still_joint():
+    """The noise is read from the steps between frames, which a wander (AR(1), rho 0.8)
+    makes small: its slow swings read as motion, and the masks filter it."""
+    frames = 400
+    truth = np.broadcast_to(quat.normalize(np.array([0.9, 0.1, -0.3, 0.2])), (frames, 1, 4))
+    rng = np.random.default_rng(5)
+    e = np.zeros((frames, 1, 3))
+    for i in range(1, frames):
+        e[i] = 0.8 * e[i - 1] + rng.normal(scale=0.02, size=(1, 3))
+    out = auto(quat.multiply(truth, quat.exp(e)), 1 / 30)
+    assert out.choices[0].mask in ("binomial", "savgol", "lowpass")
+
+
+def test_a_still_position_channel_is_held_at_its_mean():
+    """A translation that never moves (a joint's position channel carrying its offset) with
+    noise: held at its mean; a moving root beside it is filtered."""
+    rng = np.random.default_rng(8)
+    frames = 400
+    still = np.broadcast_to([[[12.0, 94.0, -450.0]]], (frames, 1, 3))
+    t = np.arange(frames)[:, None, None] / 30.0
+    walk = np.concatenate([40.0 * t, 2.0 * np.sin(2 * np.pi * 1.8 * t), 0.0 * t], axis=-1)
+    truth = np.concatenate([still, walk], axis=1)
+    noisy = truth + rng.normal(scale=0.3, size=truth.shape)
+    values, _, choices = auto_positions(noisy, 1 / 30)
+    assert [c.mask for c in choices][0] == "mean" and choices[1].mask != "mean"
+    assert np.ptp(values[:, 0], axis=0).max() == 0.0
+    assert np.linalg.norm(values[0, 0] - still[0, 0]) < 0.1  # 0.3 * sqrt(3 / 400) = 0.026
