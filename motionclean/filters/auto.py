@@ -156,6 +156,10 @@ WORTHWHILE_GAIN = 0.1
 #: on the second's (1.05 -> 1.03, worst 1.65 -> 1.46) and on another lab's whole-body video
 #: angles (median 1.33 -> 1.12, worst 3.39 -> 1.73); the RMSE within 1.5 % of before.
 NEAR_LEAST_RISK = 0.03
+#: A column is held at its mean over the clip only in a clip this long (seconds, two noise
+#: windows): a shorter one reads the scatter about the mean too roughly (a clean 1 s walk
+#: at 30 fps had its forearm, turning by 1.9 degrees, held still).
+MEAN_MIN_SECONDS = 4.0
 #: Frames summed at a time for each column's mean over the clip (:func:`_clip_means`).
 MEAN_BLOCK = 1 << 16
 #: Values (segments x frames x 3) filtered per block when the choices are applied ...
@@ -700,7 +704,8 @@ def _select(
     # move ``x``, which may be ``out``)
     chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
     means, mean_risk = _clip_means(x, rotations, given, strength)
-    at_mean = choice.any(axis=0) & (mean_risk * n_frames < coverage @ chosen)
+    long_enough = n_frames * frame_time >= MEAN_MIN_SECONDS
+    at_mean = long_enough & choice.any(axis=0) & (mean_risk * n_frames < coverage @ chosen)
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         before, after = _end_rows(x, model, choice, masks, rotations)

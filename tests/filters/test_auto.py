@@ -623,6 +623,14 @@ def test_a_joint_whose_motion_the_noise_hides_is_held_at_its_mean(seed):
     assert choices[0].params() == {"mask": "mean"} and choices[0].share == 1.0
 
 
+def test_a_clip_under_four_seconds_holds_no_joint_at_its_mean():
+    """Over a short clip the scatter about the mean is read too roughly to tell a joint
+    that never turns from one that turns by the noise's size: the masks filter it."""
+    _, noisy = still_and_moving(300, 3.0, 1)
+    assert auto(noisy[:120], 1 / 30).choices[0].mask == "mean"  # 4 s
+    assert auto(noisy[:119], 1 / 30).choices[0].mask in ("binomial", "savgol", "lowpass")
+
+
 def test_holding_at_the_mean_is_coordinate_invariant_and_keeps_the_signs():
     _, noisy = still_and_moving(300, 3.0, 4)
     a = quat.normalize(np.array([0.4, -0.2, 0.8, 0.1]))
