@@ -210,6 +210,23 @@ class Page(HTMLParser):
         self.text.append(data)
 
 
+def on_a_dummy_root(source: Path, target: Path, away: float) -> Path:
+    """``source`` (a CMU BVH, root ``Hips``) as Bandai Namco's exporter hangs a body: under
+    a root at the origin that never turns (``Reference``, three rotation channels, all 0),
+    the body ``away`` length units from it along x."""
+    head, motion = source.read_text().split("MOTION", 1)
+    head = head.replace(
+        "ROOT Hips",
+        "ROOT Reference\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Hips",
+        1,
+    )
+    lines = motion.strip().splitlines()
+    rows = [row.split() for row in lines[2:]]
+    rows = [["0", "0", "0", f"{float(row[0]) + away:.4f}", *row[1:]] for row in rows]
+    target.write_text(f"{head}}}\nMOTION\n" + "\n".join(lines[:2] + [" ".join(r) for r in rows]))
+    return target
+
+
 def edited(motion: mc.Motion, seed: int) -> mc.Motion:
     """Most rotations turned a little, some by 170 degrees (leaps), some sign-flipped."""
     rng = np.random.default_rng(seed)

@@ -832,10 +832,11 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         return []
     frames = int(report["frames"])
     unit = length_word(report.get("length_unit"))
+    on = "the cleaned clip" if contacts.get("found_on") == "cleaned" else "the input"
     return [
         "<h2>Feet on the ground</h2>",
         '<div class="legend">'
-        f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on the input)'
+        f'<span><i class="key" style="background:{CONTACT}"></i>contact (found on {on})'
         "</span>"
         f'<span><i class="key" style="background:{BEFORE}"></i>before</span>'
         + (
@@ -847,7 +848,16 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         *_ground_lines(contacts, unit),
         *(
             [
-                '<p class="meta">The contacts shaded are found on the input by the report\'s '
+                '<p class="meta">The input\'s noise hides every contact: those shaded are '
+                "found on the cleaned clip, and both clips' skate and depth are measured on "
+                "them.</p>"
+            ]
+            if on == "the cleaned clip"
+            else []
+        ),
+        *(
+            [
+                f'<p class="meta">The contacts shaded are found on {on} by the report\'s '
                 "thresholds; footlock holds its own (its joint cards), found after smoothing, "
                 "at a start speed the noise allows: they can begin earlier or end later.</p>"
             ]

@@ -242,7 +242,9 @@ def contact_figures(
 ) -> tuple[dict | None, dict]:
     """The report's ``contacts`` section and the per-foot plot series.
 
-    Contacts are found on ``before`` with the footlock step's default thresholds; per foot
+    Contacts are found on ``before`` with the footlock step's default thresholds (on
+    ``after`` where ``before`` shows none, its noise hiding them: ``found_on``
+    ``"cleaned"``, else ``"input"``); per foot
     (keyed by ankle joint name): the contacts (``[first, stop)`` frame runs), skate (mean
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below each clip's own ground, units) before and after, over
@@ -321,6 +323,13 @@ def _contact_figures(
             ]
         )
     after_positions = None if after is None else _positions(after, points[1], used)
+    hidden = after_positions is not None and not contacts.any()
+    if hidden:
+        # the input's noise can hide every contact (a body swung by a noisy root metres
+        # from it): the cleaned clip's, on which both clips' skate and depth are measured
+        cleaned = found.FootScene.of_motion(after, feet, up, height, None, after_positions)
+        contacts = found.find_ground(cleaned, params).contacts
+        hidden = bool(contacts.any())
     upward = kinematics.up_name(before)
     after_floor, after_soles = (  # the cleaned clip's floor, where there are both
         (None, None)
@@ -363,6 +372,7 @@ def _contact_figures(
     floor, soles = standing.floor, standing.soles
     section: dict[str, Any] = {
         "up_axis": upward,
+        "found_on": "cleaned" if hidden else "input",
         "ground": ground if grounded else None,
         "floor": None
         if floor is None
@@ -512,6 +522,10 @@ def format_contacts(section: dict, joints: dict | None = None, unit: str = "unit
     report's, whose ankle notes say so)."""
     floor = format_floor(section, unit)
     lines = [] if floor is None else [floor]
+    if section.get("found_on") == "cleaned":  # (absent from older reports)
+        lines.append(
+            "contacts: none found in the input (its noise hides them); those of the cleaned clip"
+        )
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
         text = (

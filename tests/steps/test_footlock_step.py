@@ -14,6 +14,7 @@ from helpers import (
     SAMPLE,
     corpus_clip,
     degrees_between,
+    on_a_dummy_root,
     plant,
     run_cli,
     turned_copy,
@@ -420,23 +421,6 @@ def test_a_standing_foot_the_steps_before_made_slide_is_held():
     assert slides[0] > 3.0 * captured and slides[1] < 2.0 * captured
 
 
-def _on_a_dummy_root(source, target, away: float):
-    """``source`` (a CMU BVH, root ``Hips``) as Bandai Namco's exporter hangs a body: under
-    a root at the origin that never turns (``Reference``, three rotation channels, all 0),
-    the body ``away`` length units from it along x."""
-    head, motion = source.read_text().split("MOTION", 1)
-    head = head.replace(
-        "ROOT Hips",
-        "ROOT Reference\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Xrotation Yrotation\nJOINT Hips",
-        1,
-    )
-    lines = motion.strip().splitlines()
-    rows = [row.split() for row in lines[2:]]
-    rows = [["0", "0", "0", f"{float(row[0]) + away:.4f}", *row[1:]] for row in rows]
-    target.write_text(f"{head}}}\nMOTION\n" + "\n".join(lines[:2] + [" ".join(r) for r in rows]))
-    return target
-
-
 @pytest.mark.parametrize("seed", [1, 2])
 def test_noise_on_a_dummy_root_far_from_the_body_does_not_slide_the_feet(tmp_path, seed):
     """Bandai Namco's clips hang the body on a root that never turns, 4.6-5.4 m from the
@@ -446,7 +430,7 @@ def test_noise_on_a_dummy_root_far_from_the_body_does_not_slide_the_feet(tmp_pat
     from the same clip without the root's noise (before: 1.2-1.3 times their skate)."""
     source = corpus_clip("131_03.bvh")
     away = 3.0 * kinematics.body_height(mc.load(source))
-    clean = mc.load(_on_a_dummy_root(source, tmp_path / "dummy_root.bvh", away))
+    clean = mc.load(on_a_dummy_root(source, tmp_path / "dummy_root.bvh", away))
     assert clean.names[:2] == ["Reference", "Hips"]
     noisy = plant(clean.rotations, 3.0, seed)
     quiet = noisy.copy()
