@@ -323,8 +323,8 @@ def _contact_figures(
             ]
         )
     after_positions = None if after is None else _positions(after, points[1], used)
-    hidden = after_positions is not None and not contacts.any()
-    if hidden:
+    hidden = False
+    if after is not None and after_positions is not None and not contacts.any():
         # the input's noise can hide every contact (a body swung by a noisy root metres
         # from it): the cleaned clip's, on which both clips' skate and depth are measured
         cleaned = found.FootScene.of_motion(after, feet, up, height, None, after_positions)
