@@ -160,8 +160,6 @@ NEAR_LEAST_RISK = 0.03
 #: windows): a shorter one reads the scatter about the mean too roughly (a clean 1 s walk
 #: at 30 fps had its forearm, turning by 1.9 degrees, held still).
 MEAN_MIN_SECONDS = 4.0
-#: Frames summed at a time for each column's mean over the clip (:func:`_clip_means`).
-MEAN_BLOCK = 1 << 16
 #: Values (segments x frames x 3) filtered per block when the choices are applied ...
 APPLY_BLOCK = 1 << 20
 #: ... for this many windows at a time, whose frames are then moved.
@@ -703,9 +701,15 @@ def _select(
     # that is expected closer to the truth than the masks chosen (judged before the masks
     # move ``x``, which may be ``out``)
     chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
-    means, mean_risk = _clip_means(x, rotations, given, strength)
-    long_enough = n_frames * frame_time >= MEAN_MIN_SECONDS
-    at_mean = long_enough & choice.any(axis=0) & (mean_risk * n_frames < coverage @ chosen)
+    at_mean = np.zeros(n_cols, dtype=bool)
+    mean_risk = np.zeros(n_cols)
+    filtered = np.flatnonzero(choice.any(axis=0))
+    if n_frames * frame_time >= MEAN_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
+        means, risks = _clip_means(x, filtered, rotations, given, strength)
+        better = risks * n_frames < coverage @ chosen[:, filtered]
+        at_mean[filtered[better]] = True
+        mean_risk[filtered] = risks
+        means = means[better]
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         before, after = _end_rows(x, model, choice, masks, rotations)
@@ -719,7 +723,7 @@ def _select(
     elif out is not x:
         out[:] = x
     if at_mean.any():
-        out[:, at_mean] = _at_mean(means[at_mean], x[:, at_mean], rotations)
+        out[:, at_mean] = _at_mean(means, x[:, at_mean], rotations)
     share = np.zeros((len(masks) + 1, n_cols))
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
     main = np.argmax(share, axis=0)
@@ -731,7 +735,7 @@ def _select(
     if coloured is not None:  # what users are told leaves out the noise held below the fit
         held = _held_risk(coloured, model, masks, strength)
         chosen = chosen - np.take_along_axis(held, choice, axis=0)
-    error = to_rms(np.where(at_mean, mean_risk, np.maximum(coverage @ chosen, 0.0) / n_frames))
+    error = to_rms(np.maximum(np.where(at_mean, mean_risk, coverage @ chosen / n_frames), 0.0))
     local = to_level(model.sigma2)
     loud = _loud(local, model, frame_time)
     wander = np.zeros(n_cols)
@@ -768,46 +772,51 @@ def _select(
 
 
 def _clip_means(
-    x: np.ndarray, rotations: bool, given: np.ndarray | None, strength: float
+    x: np.ndarray, columns: np.ndarray, rotations: bool, given: np.ndarray | None, strength: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each column's mean over the clip ``(C, d)`` (rotations: the chordal mean, the
-    principal eigenvector of ``sum q q^T``, bi-invariant) and the expected squared error
-    per frame ``(C,)`` of holding the column there (log units, as the masks' risk): the
-    motion's variance about the mean, the samples' scatter about it less the noise's, plus
-    the mean's own noise, ``max(V - N, 0) + N / F``. ``N`` is the noise's variance (three
-    components) read from the steps between frames, ``N = E|x_(i+1) - x_i|^2 / 2``, exact
-    for white noise whatever the model's level; correlated noise reads lower, its wander
-    as motion, and the mean is then not chosen; ``given`` (per component) replaces it.
-    Rotations measure distances as ``sin^2`` of half the angle, equal to the squared log
-    within 1e-3 of itself up to 5 degrees. Sums over blocks of :data:`MEAN_BLOCK` frames,
-    positions taken from each column's first frame: no clip-long temporary."""
-    n_frames = x.shape[0]
-    bounds = [(a, min(a + MEAN_BLOCK, n_frames)) for a in range(0, n_frames, MEAN_BLOCK)]
-    origin = 0.0 if rotations else x[0]
-    moments = np.zeros((x.shape[1], x.shape[2], x.shape[2]) if rotations else x.shape[1:])
-    spread = np.zeros(x.shape[1])
-    steps = np.zeros(x.shape[1])
-    for a, b in bounds:
-        block = x[a:b] - origin
+    """The ``columns`` of ``x``: each one's mean over the clip ``(k, d)`` (rotations: the
+    chordal mean, the principal eigenvector of ``sum q q^T``, bi-invariant) and the
+    expected squared error per frame ``(k,)`` of holding it there, estimated as the masks'
+    risk is (log units; unbiased, so it may read below 0, and so a ``strength`` above 1
+    favours it as it favours the strongest masks): the samples' scatter about the mean
+    less the noise, plus the noise the mean keeps, ``V - N + 2 N / F`` (``E V`` is the
+    motion's variance about its mean plus ``N (1 - 1 / F)``). ``N`` is the noise's
+    variance (three components, times ``strength^2``) read from the steps between frames,
+    ``N = E|x_(i+1) - x_i|^2 / 2``: exact for white noise whatever the model's level;
+    correlated noise reads lower, its wander as motion, and the mean is then not chosen;
+    ``given`` (per component) replaces it. Rotations measure distances as ``sin^2`` of
+    half the angle, equal to the squared log within 1e-3 of itself up to 5 degrees. Sums
+    over blocks of about :data:`APPLY_BLOCK` values, positions taken from each column's
+    first frame: no clip-long temporary."""
+    n_frames, width = x.shape[0], x.shape[-1]
+    rows = max(1, APPLY_BLOCK // max(columns.size * width, 1))
+    origin = 0.0 if rotations else x[0, columns]
+    moments = np.zeros((columns.size, width, width) if rotations else (columns.size, width))
+    spread = np.zeros(columns.size)
+    steps = np.zeros(columns.size)
+    for a in range(0, n_frames, rows):
+        b = min(a + rows, n_frames)
         c = min(b, n_frames - 1)  # the steps from frames a .. c - 1 to the next
+        block = x[a : c + 1, columns]  # (one frame more: the step out of the block)
         if rotations:  # sum q q^T; steps 1 - (q_i . q_(i+1))^2
-            moments += np.einsum("fci,fcj->cij", block, block)
-            dots = np.einsum("fci,fci->fc", x[a:c], x[a + 1 : c + 1])
+            moments += np.einsum("fci,fcj->cij", block[: b - a], block[: b - a])
+            dots = np.einsum("fci,fci->fc", block[: c - a], block[1 : c - a + 1])
             steps += (c - a) - np.einsum("fc,fc->c", dots, dots)
         else:
+            step = np.diff(block, axis=0)
+            steps += np.einsum("fcd,fcd->c", step, step)
+            block = block[: b - a] - origin
             moments += block.sum(axis=0)
             spread += np.einsum("fcd,fcd->c", block, block)
-            step = x[a + 1 : c + 1] - x[a:c]
-            steps += np.einsum("fcd,fcd->c", step, step)
     if rotations:
         weights, vectors = np.linalg.eigh(moments / n_frames)
         means, spread = vectors[..., -1], 1.0 - weights[..., -1]
     else:
         shift = moments / n_frames
         means, spread = origin + shift, spread / n_frames - np.sum(shift * shift, axis=-1)
-    noise = steps / max(n_frames - 1, 1) / 2.0 if given is None else 3.0 * given
+    noise = steps / max(n_frames - 1, 1) / 2.0 if given is None else 3.0 * given[columns]
     noise = noise * strength**2
-    return means, np.maximum(spread - noise, 0.0) + noise / n_frames
+    return means, spread - noise + 2.0 * noise / n_frames
 
 
 def _at_mean(means: np.ndarray, x: np.ndarray, rotations: bool) -> np.ndarray:

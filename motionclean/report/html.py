@@ -848,9 +848,9 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         *_ground_lines(contacts, unit),
         *(
             [
-                '<p class="meta">The input\'s noise hides every contact: those shaded are '
-                "found on the cleaned clip, and both clips' skate and depth are measured on "
-                "them.</p>"
+                '<p class="meta">No contact is found on the input: those shaded are found '
+                "on the cleaned clip, as its ground and floor, and both clips' skate and depth "
+                "are measured on them.</p>"
             ]
             if on == "the cleaned clip"
             else []

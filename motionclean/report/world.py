@@ -243,8 +243,8 @@ def contact_figures(
     """The report's ``contacts`` section and the per-foot plot series.
 
     Contacts are found on ``before`` with the footlock step's default thresholds (on
-    ``after`` where ``before`` shows none, its noise hiding them: ``found_on``
-    ``"cleaned"``, else ``"input"``); per foot
+    ``after``, with its ground and floor, where ``before`` shows none, its noise or
+    dropouts hiding them: ``found_on`` ``"cleaned"``, else ``"input"``); per foot
     (keyed by ankle joint name): the contacts (``[first, stop)`` frame runs), skate (mean
     horizontal ankle speed during contacts, units/s and body heights/s) and ground
     penetration (deepest point below each clip's own ground, units) before and after, over
@@ -307,6 +307,16 @@ def _contact_figures(
     unknown = found.feet_unknown(kinematics.missing_points(before), skeleton_feet)
     scene = found.FootScene.of_motion(before, feet, up, height, None, positions, unknown)
     standing = found.find_ground(scene, params)
+    after_positions = None if after is None else _positions(after, points[1], used)
+    hidden = False  # the contacts, ground and floor are the cleaned clip's
+    if after is not None and after_positions is not None and not standing.contacts.any():
+        # an input can show no contact where the cleaned clip does (a body swung by a noisy
+        # root metres from it): the cleaned clip's, on which both clips are measured
+        missing = found.feet_unknown(kinematics.missing_points(after), skeleton_feet)
+        cleaned = found.FootScene.of_motion(after, feet, up, height, None, after_positions, missing)
+        found_there = found.find_ground(cleaned, params)
+        if found_there.contacts.any():
+            hidden, scene, standing = True, cleaned, found_there
     contacts, ground = standing.contacts, standing.height
     tilted = standing.floor if standing.tilted else None  # heights above it, else along up
     # a clip of several takes: each take's own contacts (a foot that teleports at a cut is
@@ -314,22 +324,15 @@ def _contact_figures(
     starts = take_starts(before)
     takes = take_spans(starts, before.n_frames)
     if starts.size and not math.isnan(ground):
+        where = scene.positions
         contacts = np.concatenate(
             [
                 found.detect(
-                    found.FootScene(positions[take], feet, up, height, dt), params, ground, tilted
+                    found.FootScene(where[take], feet, up, height, dt), params, ground, tilted
                 )[0]
                 for take in takes
             ]
         )
-    after_positions = None if after is None else _positions(after, points[1], used)
-    hidden = False
-    if after is not None and after_positions is not None and not contacts.any():
-        # the input's noise can hide every contact (a body swung by a noisy root metres
-        # from it): the cleaned clip's, on which both clips' skate and depth are measured
-        cleaned = found.FootScene.of_motion(after, feet, up, height, None, after_positions)
-        contacts = found.find_ground(cleaned, params).contacts
-        hidden = bool(contacts.any())
     upward = kinematics.up_name(before)
     after_floor, after_soles = (  # the cleaned clip's floor, where there are both
         (None, None)
@@ -353,7 +356,9 @@ def _contact_figures(
         grounds = [ground]
         if len(clips) > 1:
             moved = lowest[1][contacts] - lowest[0][contacts]
-            grounds.append(ground + float(np.median(moved)) if moved.size else ground)
+            shift = float(np.median(moved)) if moved.size else 0.0
+            # (the ground found on the cleaned clip: the input's is it moved back)
+            grounds = [ground - shift, ground] if hidden else [ground, ground + shift]
         depth = [found.penetration(low, g) for low, g in zip(lowest, grounds, strict=True)]
         held = [  # during the contacts alone
             found.penetration(np.where(contacts, low, np.inf), g)
@@ -523,9 +528,7 @@ def format_contacts(section: dict, joints: dict | None = None, unit: str = "unit
     floor = format_floor(section, unit)
     lines = [] if floor is None else [floor]
     if section.get("found_on") == "cleaned":  # (absent from older reports)
-        lines.append(
-            "contacts: none found in the input (its noise hides them); those of the cleaned clip"
-        )
+        lines.append("contacts: none found in the input; those of the cleaned clip, on its ground")
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
         text = (

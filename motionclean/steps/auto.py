@@ -165,6 +165,7 @@ def _run_auto(data: StepData, params: dict) -> StepData:
         data.rotation_notes[column] = {"auto": note}
     if translations is not None:
         shared["overwrite"] = data.owned or missing_p is not None
+        still = still_columns(translations)  # (before auto_positions may write into them)
         result = auto_positions(
             translations, data.frame_time, noise=params["position_noise"], **shared
         )
@@ -173,7 +174,6 @@ def _run_auto(data: StepData, params: dict) -> StepData:
             data.translations = hold_missing(result.values, missing_p)
         unseen = _unmeasured(translations.shape, missing_p)
         unit = kinematics.length_unit(data.motion) or "length"  # ("m" where the format says)
-        still = still_columns(translations)
         for column in range(data.translations.shape[1]):
             note = _auto_note(result, column, unit, unseen[column], still[column])
             data.translation_notes[column] = {"auto": note}

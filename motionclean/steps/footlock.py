@@ -230,7 +230,9 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     position = motion.layout.position_columns[root] >= 0
     if position.any() and root in set(data.translation_joints.tolist()):
         note = data.earlier.get(names[root], {}).get("position_auto")
-        if note is not None:
+        if note is not None and note.get("filter", {}).get("mask") == "mean":
+            level = 0.0  # held at its mean by auto: kept still
+        elif note is not None:
             level = float(note["expected_error"] or 0.0)  # (None: every sample missing)
         else:
             level = float(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
@@ -621,6 +622,9 @@ def test_a_joint_whose_motion_the_noise_hides_is_held_at_its_mean(seed):
     # the note's expected error is the mean's (its motion estimate is noisy: 0 here)
     assert abs(choices[0].expected_error ** 2 - held**2) < 0.1 * 3.0**2
     assert choices[0].params() == {"mask": "mean"} and choices[0].share == 1.0
+    # asked to smooth more, it is held all the more (its risk is estimated as the masks')
+    for strength in (1.5, 2.0):
+        assert auto(noisy, 1 / 30, strength=strength).choices[0].mask == "mean"
 
 
 def test_a_clip_under_four_seconds_holds_no_joint_at_its_mean():
@@ -640,11 +644,33 @@ def test_holding_at_the_mean_is_coordinate_invariant_and_keeps_the_signs():
     assert [c.mask for c in moved.choices] == [c.mask for c in out.choices]
     assert out.choices[0].mask == "mean"
     assert rms_deg(moved.values, quat.multiply(a, quat.multiply(out.values, b))) < 1e-9
-    # each held frame on its input sample's hemisphere: the column stays sign-continuous
-    flipped = noisy.copy()
-    flipped[::2, 0] *= -1.0
-    held = auto(quat.continuous(flipped), 1 / 30).values[:, 0]
-    assert np.all(np.sum(held * quat.continuous(flipped)[:, 0], axis=-1) > 0.0)
+    # each held frame on its input sample's hemisphere, whichever the input's is
+    for q in (noisy, -noisy):
+        held = auto(q, 1 / 30).values[:, 0]
+        assert np.all(np.sum(held * q[:, 0], axis=-1) > 0.0)
+
+
+@pytest.mark.parametrize("rotations", [True, False])
+def test_the_means_summed_in_blocks_are_the_clips(monkeypatch, rotations):
+    """The mean and its risk summed a few frames at a time (blocks of 1-7 frames, the
+    step out of each block counted once) are those of the whole clip at once."""
+    module = importlib.import_module("motionclean.filters.auto")  # (not the function)
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(23, 3, 4 if rotations else 3))
+    if rotations:
+        x = quat.continuous(quat.normalize(x * 0.1 + [1.0, 0.0, 0.0, 0.0]))
+    columns = np.array([0, 2])
+    whole = module._clip_means(x, columns, rotations, None, 1.0)
+    for rows in (1, 2, 7):
+        monkeypatch.setattr(module, "APPLY_BLOCK", rows * columns.size * x.shape[-1])
+        parts = module._clip_means(x, columns, rotations, None, 1.0)
+        np.testing.assert_allclose(parts[0], whole[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(parts[1], whole[1], rtol=0, atol=1e-12)
+    if not rotations:  # against the formula written out
+        y = x[:, columns]
+        noise = np.mean(np.sum(np.diff(y, axis=0) ** 2, axis=-1), axis=0) / 2
+        spread = np.mean(np.sum((y - y.mean(axis=0)) ** 2, axis=-1), axis=0)
+        np.testing.assert_allclose(whole[1], spread - noise + 2 * noise / 23, atol=1e-12)
 
 
 def test_noise_that_wanders_is_not_taken_for_a_still_joint():

@@ -31,13 +31,18 @@ def test_contacts_the_inputs_noise_hides_are_those_of_the_cleaned_clip(swung):
     section, series = world.contact_figures(noisy, clean)
     own, _ = world.contact_figures(clean)
     assert section is not None and own is not None and section["found_on"] == "cleaned"
+    # the cleaned clip's ground and floor too: its depth as measured on it alone
+    assert section["ground"] == own["ground"] and section["floor"] == own["floor"]
     for name, foot in section["feet"].items():
         assert foot["contacts"] == own["feet"][name]["contacts"] and foot["frames"] > 0
+        for depth in ("penetration", "penetration_during_contacts"):
+            assert foot[depth]["after"] == own["feet"][name][depth]["before"]
+            assert foot[depth]["before"] > 5.0 * foot[depth]["after"]
         assert series[name]["contacts"] == [tuple(run) for run in foot["contacts"]]
         skate = foot["skate_body_heights"]
         assert skate["before"] > 5.0 * skate["after"]
     lines = world.format_contacts(section)
-    assert any("none found in the input" in line for line in lines)
+    assert any(line.startswith("contacts: none found in the input") for line in lines)
     # where the input shows contacts, they stay the input's
     back, _ = world.contact_figures(clean, noisy)
     assert back is not None and back["found_on"] == "input"

@@ -449,3 +449,20 @@ def test_noise_on_a_dummy_root_far_from_the_body_does_not_slide_the_feet(tmp_pat
                 and degrees_between(out.rotations[0, 0], clean.rotations[0, 0]) < 0.5
             )
     assert np.all(skates[0] <= 1.05 * skates[1]), skates
+
+
+def test_a_root_position_held_at_its_mean_is_noted_as_held_and_kept_still():
+    """A root whose position channels carry a fixed place plus noise (0.5 % of the body's
+    height): auto holds them at their mean, its note says so (not "still throughout", which
+    its output alone would read), and footlock leaves them there."""
+    clip = mc.load(corpus_clip("131_03.bvh"))
+    rng = np.random.default_rng(2)
+    height = kinematics.body_height(clip)
+    translations = clip.translations.copy()
+    translations[:, 0] = translations[0, 0] + rng.normal(0.0, 0.005 * height, (clip.n_frames, 3))
+    noisy = clip.replace(translations=translations)
+    out, logs = Pipeline.default().run(noisy)
+    note = logs[2].notes["Hips"]["position_auto"]
+    assert note["filter"] == {"mask": "mean"} and "still" not in note
+    assert np.ptp(out.translations[:, 0], axis=0).max() == 0.0
+    assert np.linalg.norm(out.translations[0, 0] - clip.translations[0, 0]) < 0.002 * height
