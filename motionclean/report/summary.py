@@ -1192,7 +1192,11 @@ def format_table(report: dict, limit: int = 10) -> str:
             text += figure_text(after, 14, ",.0f") + figure_text(removed, 9, ".0%")
             text += figure_text(dev, 9, ".2f")
         if auto:
-            text += f"{figure_text(auto['noise'], 10, '.2f')}  {format_params(auto['filter'])}"
+            chosen = auto["filter"]
+            shown_filter = (
+                "held at its mean" if chosen.get("mask") == "mean" else format_params(chosen)
+            )
+            text += f"{figure_text(auto['noise'], 10, '.2f')}  {shown_filter}"
         return text
 
     for name in names[:limit]:

@@ -27,6 +27,8 @@ from motionclean.core import kinematics, quat
 from motionclean.filters import lee_shin
 from motionclean.filters.footlock import Prior
 from motionclean.filters.masks import binomial
+from motionclean.report.summary import build_report, format_table, note_text
+from motionclean.run.jobs import notes_by_joint
 from motionclean.steps import footlock
 from motionclean.steps.base import StepData
 from motionclean.steps.pipeline import DEFAULT_STEPS, Pipeline
@@ -442,7 +444,15 @@ def test_noise_on_a_dummy_root_far_from_the_body_does_not_slide_the_feet(tmp_pat
         positions = kinematics.forward(out, end_sites=True)[0]
         skates.append(found.skate(positions, scene.feet, contacts, scene.up, clean.frame_time))
         if rotations is noisy:
-            assert logs[2].notes["Reference"]["auto"]["filter"] == {"mask": "mean"}
+            note = logs[2].notes["Reference"]["auto"]
+            assert note["filter"] == {"mask": "mean"}
+            assert "held it at its mean over the clip" in note_text("auto", note)
+            report = build_report(clean.replace(rotations=noisy), out, notes=notes_by_joint(logs))
+            table = format_table(report, limit=clean.n_joints)
+            assert any(
+                r.startswith("Reference") and r.endswith("held at its mean")
+                for r in table.splitlines()
+            )
             steps = degrees_between(out.rotations[1:, 0], out.rotations[:-1, 0])
             assert (
                 steps.max() < 1e-9
