@@ -705,11 +705,11 @@ def _select(
     mean_risk = np.zeros(n_cols)
     filtered = np.flatnonzero(choice.any(axis=0))
     if n_frames * frame_time >= MEAN_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
-        means, risks = _clip_means(x, filtered, rotations, given, strength)
-        better = risks * n_frames < coverage @ chosen[:, filtered]
+        means, risks = _clip_means(x, rotations, given, strength)
+        better = risks[filtered] * n_frames < coverage @ chosen[:, filtered]
         at_mean[filtered[better]] = True
-        mean_risk[filtered] = risks
-        means = means[better]
+        mean_risk[filtered] = risks[filtered]
+        means = means[filtered[better]]
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         before, after = _end_rows(x, model, choice, masks, rotations)
@@ -772,11 +772,11 @@ def _select(
 
 
 def _clip_means(
-    x: np.ndarray, columns: np.ndarray, rotations: bool, given: np.ndarray | None, strength: float
+    x: np.ndarray, rotations: bool, given: np.ndarray | None, strength: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ``columns`` of ``x``: each one's mean over the clip ``(k, d)`` (rotations: the
-    chordal mean, the principal eigenvector of ``sum q q^T``, bi-invariant) and the
-    expected squared error per frame ``(k,)`` of holding it there, estimated as the masks'
+    """Each column's mean over the clip ``(C, d)`` (rotations: the chordal mean, the
+    principal eigenvector of ``sum q q^T``, bi-invariant) and the expected squared error
+    per frame ``(C,)`` of holding it there, estimated as the masks'
     risk is (log units; unbiased, so it may read below 0, and so a ``strength`` above 1
     favours it as it favours the strongest masks): the samples' scatter about the mean
     less the noise, plus the noise the mean keeps, ``V - N + 2 N / F`` (``E V`` is the
@@ -788,18 +788,19 @@ def _clip_means(
     half the angle, equal to the squared log within 1e-3 of itself up to 5 degrees. Sums
     over blocks of about :data:`APPLY_BLOCK` values, positions taken from each column's
     first frame: no clip-long temporary."""
-    n_frames, width = x.shape[0], x.shape[-1]
-    rows = max(1, APPLY_BLOCK // max(columns.size * width, 1))
-    origin = 0.0 if rotations else x[0, columns]
-    moments = np.zeros((columns.size, width, width) if rotations else (columns.size, width))
-    spread = np.zeros(columns.size)
-    steps = np.zeros(columns.size)
+    n_frames, n_cols, width = x.shape
+    rows = max(1, APPLY_BLOCK // max(n_cols * width, 1))
+    origin = 0.0 if rotations else x[0]
+    moments = np.zeros((n_cols, width, width) if rotations else (n_cols, width))
+    spread = np.zeros(n_cols)
+    steps = np.zeros(n_cols)
     for a in range(0, n_frames, rows):
         b = min(a + rows, n_frames)
         c = min(b, n_frames - 1)  # the steps from frames a .. c - 1 to the next
-        block = x[a : c + 1, columns]  # (one frame more: the step out of the block)
+        block = x[a : c + 1]  # (one frame more: the step out of the block)
         if rotations:  # sum q q^T; steps 1 - (q_i . q_(i+1))^2
-            moments += np.einsum("fci,fcj->cij", block[: b - a], block[: b - a])
+            inside = block[: b - a].transpose(1, 2, 0)  # (k, 4, f): a batch of 4 x 4 products
+            moments += np.matmul(inside, inside.transpose(0, 2, 1))
             dots = np.einsum("fci,fci->fc", block[: c - a], block[1 : c - a + 1])
             steps += (c - a) - np.einsum("fc,fc->c", dots, dots)
         else:
@@ -814,7 +815,7 @@ def _clip_means(
     else:
         shift = moments / n_frames
         means, spread = origin + shift, spread / n_frames - np.sum(shift * shift, axis=-1)
-    noise = steps / max(n_frames - 1, 1) / 2.0 if given is None else 3.0 * given[columns]
+    noise = steps / max(n_frames - 1, 1) / 2.0 if given is None else 3.0 * given
     noise = noise * strength**2
     return means, spread - noise + 2.0 * noise / n_frames
 
