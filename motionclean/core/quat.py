@@ -46,6 +46,7 @@ __all__ = [
     "multiply_planes",
     "normalize",
     "rotate",
+    "same_sign",
     "slerp",
     "to_euler",
 ]
@@ -429,6 +430,13 @@ def continuous(q: np.ndarray) -> np.ndarray:
         if np.any(np.einsum("...i,...i->...", a[: b.shape[0]], b) < 0.0):
             return make_continuous(q, axis=0)
     return q
+
+
+def same_sign(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """``q`` with each quaternion on the sign of ``reference`` (broadcast against it): the
+    same rotations, on the reference's hemisphere of S^3 (``q`` where the two are
+    orthogonal)."""
+    return np.where(np.sum(q * reference, axis=-1, keepdims=True) >= 0.0, q, -q)
 
 
 def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:

@@ -698,18 +698,15 @@ def _select(
         kept = np.take_along_axis(worth, judged[None], axis=0)[0]
         choice[:, coverage @ kept > (1.0 - WORTHWHILE_GAIN) ** 2 * (coverage @ worth[0])] = 0
     # a column whose motion the noise hides over the whole clip is held at its mean where
-    # that is expected closer to the truth than the masks chosen (judged before the masks
-    # move ``x``, which may be ``out``)
+    # that is expected closer to the truth than the masks chosen, and no mask runs on it
     chosen = np.take_along_axis(risk, choice[None], axis=0)[0]
     at_mean = np.zeros(n_cols, dtype=bool)
     mean_risk = np.zeros(n_cols)
-    filtered = np.flatnonzero(choice.any(axis=0))
-    if n_frames * frame_time >= MEAN_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
-        means, risks = _clip_means(x, rotations, given, strength)
-        better = risks[filtered] * n_frames < coverage @ chosen[:, filtered]
-        at_mean[filtered[better]] = True
-        mean_risk[filtered] = risks[filtered]
-        means = means[filtered[better]]
+    filtered = choice.any(axis=0)
+    if filtered.any() and n_frames * frame_time >= MEAN_MIN_SECONDS * (1.0 - FRAME_TIME_ROUNDING):
+        means, mean_risk = _clip_means(x, rotations, given, strength)
+        at_mean = filtered & (mean_risk * n_frames < coverage @ chosen)
+        choice[:, at_mean] = 0
     out = x if overwrite else np.empty_like(x)
     if np.any(choice):
         before, after = _end_rows(x, model, choice, masks, rotations)
@@ -722,8 +719,9 @@ def _select(
         )
     elif out is not x:
         out[:] = x
-    if at_mean.any():
-        out[:, at_mean] = _at_mean(means, x[:, at_mean], rotations)
+    if at_mean.any():  # (x as given there: no mask moved it)
+        held = np.broadcast_to(means[at_mean], out[:, at_mean].shape)
+        out[:, at_mean] = quat.same_sign(held, x[:, at_mean]) if rotations else held
     share = np.zeros((len(masks) + 1, n_cols))
     np.add.at(share, (choice, np.arange(n_cols)), coverage[:, None])
     main = np.argmax(share, axis=0)
@@ -731,7 +729,7 @@ def _select(
     # the windows' tapers is 1 - 2e-16 on some clips, where the identity's had read as
     # "filtered somewhere", and auto's lone outliers had been taken out of a Bandai Namco
     # run's arm it left as captured)
-    partly = ~(choice == main[None, :]).all(axis=0) & ~at_mean
+    partly = ~(choice == main[None, :]).all(axis=0)
     if coloured is not None:  # what users are told leaves out the noise held below the fit
         held = _held_risk(coloured, model, masks, strength)
         chosen = chosen - np.take_along_axis(held, choice, axis=0)
@@ -818,15 +816,6 @@ def _clip_means(
     noise = steps / max(n_frames - 1, 1) / 2.0 if given is None else 3.0 * given
     noise = noise * strength**2
     return means, spread - noise + 2.0 * noise / n_frames
-
-
-def _at_mean(means: np.ndarray, x: np.ndarray, rotations: bool) -> np.ndarray:
-    """``(F, C, d)``: each column's ``means`` ``(C, d)`` on every frame, a rotation on the
-    sign of the column's own sample (its quaternions stay continuous)."""
-    held = np.broadcast_to(means, x.shape)
-    if not rotations:
-        return held.copy()
-    return np.where(np.einsum("fci,fci->fc", x, held)[..., None] < 0.0, -held, held)
 
 
 def _smoothest_near_least(risk: np.ndarray, masks: list[np.ndarray]) -> np.ndarray:

@@ -418,7 +418,9 @@ class _Part:
         into the whole skeleton's rotations ``(F, J, 4)`` and root translations ``(F, 3)``
         ``into``, each rotation on the sign of ``reference`` ``(F, J, 4)``."""
         q, t = solved
-        into[0][frames[:, None], self.index] = _same_sign(q, reference[frames[:, None], self.index])
+        into[0][frames[:, None], self.index] = quat.same_sign(
+            q, reference[frames[:, None], self.index]
+        )
         into[1][frames] = t[:, 0]
 
 
@@ -611,11 +613,6 @@ def plant(
             hold_frames,
         )
     return out_q, out_t
-
-
-def _same_sign(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """``q`` with each quaternion's sign that of ``reference`` (the same rotation)."""
-    return np.where(np.sum(q * reference, axis=-1, keepdims=True) >= 0.0, q, -q)
 
 
 def _column_keys(part: _Part, problem: _Problem) -> list[tuple[int, int]]:

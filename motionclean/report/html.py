@@ -832,7 +832,8 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         return []
     frames = int(report["frames"])
     unit = length_word(report.get("length_unit"))
-    on = "the cleaned clip" if contacts.get("found_on") == "cleaned" else "the input"
+    cleaned = contacts.get("found_on") == "cleaned"
+    on = "the cleaned clip" if cleaned else "the input"
     return [
         "<h2>Feet on the ground</h2>",
         '<div class="legend">'
@@ -852,7 +853,7 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
                 "on the cleaned clip, as its ground and floor, and both clips' skate and depth "
                 "are measured on them.</p>"
             ]
-            if on == "the cleaned clip"
+            if cleaned
             else []
         ),
         *(

@@ -29,7 +29,7 @@ from ..core.words import columns, length_word, pad, plural
 from ..filters.auto import NEGLIGIBLE_DEG, describe_source, estimate_noise, noted_slope
 from ..steps import REGISTRY
 from ..steps.base import brief_runs as summarised_runs
-from ..steps.base import format_params, fps_text
+from ..steps.base import format_params, fps_text, held_at_mean
 from . import metrics
 from .html_world import world_series
 from .metrics import known, pair, rms_and_max
@@ -1192,9 +1192,8 @@ def format_table(report: dict, limit: int = 10) -> str:
             text += figure_text(after, 14, ",.0f") + figure_text(removed, 9, ".0%")
             text += figure_text(dev, 9, ".2f")
         if auto:
-            chosen = auto["filter"]
             shown_filter = (
-                "held at its mean" if chosen.get("mask") == "mean" else format_params(chosen)
+                "held at its mean" if held_at_mean(auto) else format_params(auto["filter"])
             )
             text += f"{figure_text(auto['noise'], 10, '.2f')}  {shown_filter}"
         return text

@@ -304,17 +304,19 @@ def _contact_figures(
     positions = _positions(before, points[0], used)
     dt = before.frame_time
     params = found.ContactParams()
-    unknown = found.feet_unknown(kinematics.missing_points(before), skeleton_feet)
-    scene = found.FootScene.of_motion(before, feet, up, height, None, positions, unknown)
-    standing = found.find_ground(scene, params)
+
+    def standing_on(clip: Motion, where: np.ndarray) -> tuple[found.FootScene, found.Ground]:
+        unknown = found.feet_unknown(kinematics.missing_points(clip), skeleton_feet)
+        scene = found.FootScene.of_motion(clip, feet, up, height, None, where, unknown)
+        return scene, found.find_ground(scene, params)
+
+    scene, standing = standing_on(before, positions)
     after_positions = None if after is None else _positions(after, points[1], used)
     hidden = False  # the contacts, ground and floor are the cleaned clip's
     if after is not None and after_positions is not None and not standing.contacts.any():
         # an input can show no contact where the cleaned clip does (a body swung by a noisy
         # root metres from it): the cleaned clip's, on which both clips are measured
-        missing = found.feet_unknown(kinematics.missing_points(after), skeleton_feet)
-        cleaned = found.FootScene.of_motion(after, feet, up, height, None, after_positions, missing)
-        found_there = found.find_ground(cleaned, params)
+        cleaned, found_there = standing_on(after, after_positions)
         if found_there.contacts.any():
             hidden, scene, standing = True, cleaned, found_there
     contacts, ground = standing.contacts, standing.height
@@ -337,6 +339,8 @@ def _contact_figures(
     after_floor, after_soles = (  # the cleaned clip's floor, where there are both
         (None, None)
         if after is None or after_positions is None or standing.floor is None
+        else (standing.floor, standing.soles)
+        if hidden  # (found on it)
         else _floor_under(after, after_positions, scene, standing.resting, upward)
     )
     # fewer than 2 frames find no ground: no contacts, and the skate, the depth below the

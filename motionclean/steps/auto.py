@@ -19,6 +19,7 @@ from .base import (
     brief_runs,
     crop_runs,
     format_params,
+    held_at_mean,
     page_runs,
     shift_runs,
 )
@@ -214,7 +215,7 @@ def _put_back(rotations: np.ndarray, result, lone: np.ndarray) -> np.ndarray:
     back[frames[~small], columns[~small]] = False
     if back.any():
         was, now = rotations[back], result.values[back]
-        result.values[back] = np.where(np.sum(was * now, -1, keepdims=True) < 0.0, -was, was)
+        result.values[back] = quat.same_sign(was, now)
     return back
 
 
@@ -284,9 +285,10 @@ def _found_and_chosen(note: dict) -> str:
     share = note.get("share", 1.0)
     along = "" if share >= 0.995 else f" on {share:.0%} of the clip, varying along it"
     band = f", low-passed below {note['band_hz']:g} Hz" if "band_hz" in note else ""
-    chose = f"chose {format_params(note['filter'])}{along}"
-    if note["filter"].get("mask") == "mean":  # no mask: the clip's mean on every frame
+    if held_at_mean(note):  # no mask: the clip's mean on every frame
         chose = "held it at its mean over the clip (no motion above the noise)"
+    else:
+        chose = f"chose {format_params(note['filter'])}{along}"
     if note.get("model") == "markerless":
         edge = note.get("wander_edge_hz")
         up_to = "up to the top" if edge is None else f"up to {edge:g} Hz"

@@ -311,6 +311,12 @@ def crop_runs(runs: list[list[int]], start: int, stop: int) -> list[list[int]]:
     return [[a, b] for a, b in cut if a < b]
 
 
+def held_at_mean(note: dict) -> bool:
+    """Whether an ``auto`` note (a joint's rotations or positions) says the column was held
+    at its mean over the clip (no mask: no motion above the noise)."""
+    return note.get("filter", {}).get("mask") == "mean"
+
+
 def format_params(params: dict) -> str:
     """A step's parameters as ``mask=binomial, k=3`` (floats in ``%g``)."""
     return ", ".join(

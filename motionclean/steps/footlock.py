@@ -33,6 +33,7 @@ from .base import (
     crop_runs,
     format_runs,
     given_up,
+    held_at_mean,
     shift_runs,
 )
 
@@ -208,6 +209,13 @@ def _expected_error(
     return float(np.sqrt(np.mean(spread) + np.sum(prior.root**2)))
 
 
+def _noted_error(note: dict) -> float:
+    """The error an ``auto`` note expects of its column (degrees, or length units), 0 where
+    it held the column at its mean (kept still: no motion above the noise) or every sample
+    was missing (nothing to move)."""
+    return 0.0 if held_at_mean(note) else float(note["expected_error"] or 0.0)
+
+
 def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     """Each joint's expected RMS rotation error (radians) and the root translation's
     (length units per axis) from ``auto``'s notes, or estimated from the clip without
@@ -218,11 +226,8 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     sigma = np.zeros(motion.n_joints)
     joints = sorted({j for leg in legs for j in (*leg.joints, *leg.foot)})
     noted = [j for j in joints if "auto" in data.earlier.get(names[j], {})]
-    for j in noted:  # (None: every sample missing, nothing to move: held, 0)
-        note = data.earlier[names[j]]["auto"]
-        if note.get("filter", {}).get("mask") == "mean":  # no motion above the noise: kept still
-            continue
-        sigma[j] = math.radians(note["expected_error"] or 0.0)
+    for j in noted:
+        sigma[j] = math.radians(_noted_error(data.earlier[names[j]]["auto"]))
     guessed = [j for j in joints if j not in noted]
     if guessed:
         sigma[guessed] = np.radians(estimate_noise(motion.rotations[:, guessed], motion.frame_time))
@@ -230,10 +235,8 @@ def _prior(data: StepData, legs: list[Leg], root: int) -> Prior:
     position = motion.layout.position_columns[root] >= 0
     if position.any() and root in set(data.translation_joints.tolist()):
         note = data.earlier.get(names[root], {}).get("position_auto")
-        if note is not None and note.get("filter", {}).get("mask") == "mean":
-            level = 0.0  # held at its mean by auto: kept still
-        elif note is not None:
-            level = float(note["expected_error"] or 0.0)  # (None: every sample missing)
+        if note is not None:
+            level = _noted_error(note)
         else:
             level = float(
                 estimate_position_noise(motion.translations[:, [root]], motion.frame_time)[0]
