@@ -223,6 +223,29 @@ def test_the_change_goes_where_the_error_is_expected():
     assert moved[2][2] < 0.01 * moved[1][2]  # an exact knee barely bends
 
 
+def test_the_knee_bends_less_than_its_prior_alone_would_have_it(monkeypatch):
+    """The hinge's change is weighed by HINGE_SHARE of its variance: against a share of 1,
+    the knee bends less and the hip takes more, and the ankle is held as closely."""
+    q, t = _leg_clip(seed=4)
+    contacts = np.zeros(60, dtype=bool)
+    contacts[10:50] = True
+    sigma = np.radians([0.001, 2.0, 2.0, 2.0, 2.0])
+    turned, slide = {}, {}
+    for share in (1.0, footlock.HINGE_SHARE):
+        monkeypatch.setattr(footlock, "HINGE_SHARE", share)
+        new_q, _ = _plant(q, t, contacts, sigma, toes=False)
+        turned[share] = np.degrees(quat.angle_between(new_q, q))[10:50]
+        ankle = _points(new_q, t)[10:50, 3][:, [0, 2]]
+        slide[share] = np.linalg.norm(np.diff(ankle, axis=0), axis=-1).mean()
+    assert footlock.HINGE_SHARE < 1.0
+    knee, hip = 2, 1
+    assert np.sqrt(np.mean(turned[footlock.HINGE_SHARE][:, knee] ** 2)) < 0.8 * np.sqrt(
+        np.mean(turned[1.0][:, knee] ** 2)
+    )
+    assert turned[footlock.HINGE_SHARE][:, hip].mean() > turned[1.0][:, hip].mean()
+    assert slide[footlock.HINGE_SHARE] <= 1.1 * slide[1.0] + 1e-9
+
+
 @pytest.mark.parametrize("toes_stand", [True, False])
 @pytest.mark.parametrize("seed", [0, 3, 5])
 def test_no_held_point_ends_below_the_floor_during_a_contact(seed, toes_stand):

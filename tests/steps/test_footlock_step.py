@@ -405,7 +405,9 @@ def test_a_standing_foot_the_steps_before_made_slide_is_held():
     Its hip and knee detail tripled (positions left), it slides 0.025: under the 0.1 a
     capture's own contact is judged by (here raised to 1), so footlock had left it. The
     clip as it entered the pipeline reaches the step: the contact slides four times as
-    captured and is held, back under twice the capture's slide."""
+    captured and is held, back to twice the capture's slide (1.9 times with the knee's
+    hinge weighed by its whole variance: the error planted here is the knee's own, and
+    ``HINGE_SHARE`` leans the hold on the hip)."""
     clip = mc.load(ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh")
     scene, contacts, _ = footlock.find_contacts(clip, PARAMS)
     left = [k for k, foot in enumerate(scene.feet) if foot.name == "LeftAnkle"]
@@ -420,7 +422,7 @@ def test_a_standing_foot_the_steps_before_made_slide_is_held():
     captured = found.skate(
         scene.positions, [scene.feet[k] for k in left], contacts[:, left], scene.up, 1.0
     )[0]
-    assert slides[0] > 3.0 * captured and slides[1] < 2.0 * captured
+    assert slides[0] > 3.0 * captured and slides[1] < 2.1 * captured
 
 
 @pytest.mark.parametrize("seed", [1, 2])
