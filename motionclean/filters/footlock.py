@@ -169,9 +169,12 @@ def held_lines(
     The line's slope is shrunk toward 0 by ``s^2 / (s^2 + (k e)^2)``, ``s`` its length, ``e``
     its standard error from the points' scatter about it (as many points as scatter
     independently, :func:`_independent_share`), ``k`` :data:`DRIFT_SIGNIFICANCE` (both
-    summed over the axes: the shrinkage turns with the clip). A stance (a contact of at
-    least :data:`STILL_MIN_WINDOWS` windows) that stays within ``still_within`` of one line
-    is held on it (:func:`_held_still`).
+    summed over the axes: the shrinkage turns with the clip). A contact no longer than one
+    window is held on one line through it, shrunk the same way (the windows cut to it fit
+    their lines on fewer points: at 30 fps a step's contact of 12 frames, whose windows'
+    slopes followed the noise a filter leaves). A stance (a contact of at least
+    :data:`STILL_MIN_WINDOWS` windows) that stays within ``still_within`` of one line is
+    held on it (:func:`_held_still`).
 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
@@ -185,7 +188,13 @@ def held_lines(
         return origin + np.where(contacts.reshape(shape), mean, points)
     half = int(min(hold_frames, 2 * len(points)) // 2)
     held = _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
-    return _held_still(points, contacts, held, still_within, half)
+    if not contacts.any():
+        return held
+    whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
+    first, last = _run_bounds(contacts)
+    short = contacts & (last + 1 - first <= 2 * half + 1)  # a contact within one window
+    held = np.where(short.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
+    return _held_still(points, contacts, held, whole, still_within, half)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -204,12 +213,17 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
 
 
 def _held_still(
-    points: np.ndarray, contacts: np.ndarray, held: np.ndarray, within: float, half: int
+    points: np.ndarray,
+    contacts: np.ndarray,
+    held: np.ndarray,
+    whole: np.ndarray,
+    within: float,
+    half: int,
 ) -> np.ndarray:
     """``held`` ``(F, ..., 3)``, but on each contact of at least :data:`STILL_MIN_WINDOWS`
     windows whose ``points`` stay within ``within`` (length units; 0: none) of one line
-    through the whole contact (its slope shrunk as :func:`held_lines` shrinks it), that
-    line: within it in RMS over the contact (each frame's farthest point), and within
+    through the whole contact (``whole``, its slope shrunk as :func:`held_lines` shrinks
+    it), that line: within it in RMS over the contact (each frame's farthest point), and within
     :data:`WINDOW_REACH` times it over every window of ``2 half + 1`` frames, so a move at
     one end of a long stance (a heel rising) is not averaged away. A window's line follows
     the slow wander that smoothing leaves in noise, along which a foot standing for seconds
@@ -219,7 +233,6 @@ def _held_still(
     starts = np.flatnonzero(contacts & ~np.r_[False, contacts[:-1]])
     if within <= 0.0 or not starts.size:
         return held
-    whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
     off = np.sum((points - whole) ** 2, axis=-1).reshape(len(points), -1).max(axis=1)
     index = np.arange(len(points))
     first, last = _run_bounds(contacts)

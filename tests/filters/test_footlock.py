@@ -425,6 +425,40 @@ def test_a_steps_contact_keeps_the_windows_lines_a_stance_is_held_on_one():
     )
 
 
+def test_a_contact_within_one_window_is_held_on_one_line():
+    """A step's contact no longer than one hold window (12 frames of a 15-frame window, as
+    at 30 fps) under a filter's wander is held on one line through it, shrunk as the
+    windows' are, and slides less than those windows' lines, which see fewer points near
+    its ends; a contact one frame longer than the window keeps the windows' lines bit for
+    bit. The same turned about any axis."""
+    rng = np.random.default_rng(13)
+    width, hold, n = 5, 15, 200
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    points = np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+    contacts = np.zeros(n, dtype=bool)
+    contacts[20:32] = contacts[60:72] = contacts[100:112] = True  # three steps of 12 frames
+    contacts[150:166] = True  # one of 16 frames: longer than the window
+    held = held_lines(points, contacts, hold)
+    windows = footlock._local_lines(points, contacts, hold // 2, 1, footlock.DRIFT_SIGNIFICANCE)
+    for start in (20, 60, 100):
+        np.testing.assert_allclose(np.diff(held[start : start + 12], 2, axis=0), 0.0, atol=1e-12)
+
+    def slide(p):
+        return sum(
+            np.linalg.norm(np.diff(p[a : a + 12], axis=0), axis=-1).sum() for a in (20, 60, 100)
+        )
+
+    assert slide(held) < 0.8 * slide(windows)
+    np.testing.assert_array_equal(held[150:166], windows[150:166])
+    np.testing.assert_array_equal(held[~contacts], points[~contacts])
+    turn = quat.from_axis_angle(np.array([0.3, 0.9, -0.2]) / np.linalg.norm([0.3, 0.9, -0.2]), 0.7)
+    np.testing.assert_allclose(
+        held_lines(quat.rotate(turn, points), contacts, hold), quat.rotate(turn, held), atol=1e-9
+    )
+
+
 def test_a_move_at_the_end_of_a_long_stance_keeps_the_windows_lines():
     """A foot standing 8 s under a filter's wander whose heel rises by 4 times the noise's
     reach over the contact's last 5 %: the whole contact's RMS hardly moves, but the
