@@ -608,10 +608,10 @@ def _still_line(names: list[str], per: str) -> list[str]:
 
 
 def _floors(report: dict, up: int) -> dict[str, Floor]:
-    """The floor planes the player draws: the input's (``contacts.floor``) under
-    ``"before"``, and the cleaned clip's (``contacts.floor_after``) under ``"after"`` where
-    it is not the input's (``same``: nothing moved the clip); none where no floor was
-    found."""
+    """The floor planes the player draws: the input's (``contacts.floor``; the cleaned
+    clip's where the contacts were found on it) under ``"before"``, and the cleaned clip's
+    (``contacts.floor_after``) under ``"after"`` where it is not the first (``same``:
+    nothing moved the clip); none where no floor was found."""
     contacts = report.get("contacts") or {}
     planes = {"before": contacts.get("floor"), "after": contacts.get("floor_after")}
     if not planes["after"] or planes["after"]["same"]:
@@ -656,6 +656,9 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     figures = report.get("world") or {}
     per = "the body height" if figures.get("body_height") else "the range the points travel"
     floors = _floors(report, world["up"])
+    # the input's floor, or the cleaned clip's where the input's noise hid every contact
+    hidden = (report.get("contacts") or {}).get("found_on") == "cleaned"
+    whose = {"before": "cleaned clip" if hidden else "input", "after": "cleaned clip"}
     axes = ""
     if figures:
         how = {"given": "given", "assumed": "assumed: the format's default"}.get(
@@ -677,7 +680,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
         )
         + "".join(
             f'<span><i class="key" style="background:{_floor_colour(floors, clip)}"></i>'
-            f"floor (the {'input' if clip == 'before' else 'cleaned clip'}'s)</span>"
+            f"floor (the {whose[clip]}'s)</span>"
             for clip in floors
         )
         + f"<span>{shown}; open a frame with #frame=N in the address</span>{axes}</div>",

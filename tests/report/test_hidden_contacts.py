@@ -9,6 +9,8 @@ from helpers import corpus_clip, on_a_dummy_root, plant
 import motionclean as mc
 from motionclean.core import kinematics
 from motionclean.report import world
+from motionclean.report.html import render_html
+from motionclean.report.summary import build_report, build_series
 
 
 @pytest.fixture(scope="module")
@@ -43,6 +45,11 @@ def test_contacts_the_inputs_noise_hides_are_those_of_the_cleaned_clip(swung):
         assert skate["before"] > 5.0 * skate["after"]
     lines = world.format_contacts(section)
     assert any(line.startswith("contacts: none found in the input") for line in lines)
+    # the page keys the player's floor line as the cleaned clip's, and the contacts too
+    series = build_series(noisy, clean)
+    page = render_html(build_report(noisy, clean, series=series), series)
+    assert "floor (the cleaned clip's)" in page and "floor (the input's)" not in page
+    assert "contact (found on the cleaned clip)" in page
     # where the input shows contacts, they stay the input's
     back, _ = world.contact_figures(clean, noisy)
     assert back is not None and back["found_on"] == "input"
