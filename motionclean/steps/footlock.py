@@ -451,10 +451,11 @@ STEP = StepSpec(
             0.5,
             "the ankle follows its least-squares straight line over this window, the toes "
             "their path smoothed by a kernel whose standard deviation is half of it, both cut "
-            "to the contact: jitter and sliding go, a steady drift (pivot) stays; a stance "
-            "(a contact of 1.5 windows or more) whose ankle stays within the noise's reach of "
-            "one line through it all is held on that line; inf holds every contact still at "
-            "its mean position",
+            "to the contact: jitter and sliding go, a steady drift (pivot) stays; a contact "
+            "within one window is held on one line through it, and a stance (a contact of "
+            "1.5 windows or more) whose ankle stays within the noise's reach of one line "
+            "through it all is held on that line; inf holds every contact still at its mean "
+            "position",
             minimum=0.0,
             exclusive_minimum=True,
             infinite_ok=True,
