@@ -44,7 +44,7 @@ from .summary import (
 )
 from .traces import COLUMNS, Trace, trace
 from .verdict import held_poses, jumps_left_out, removed_words
-from .world import depth_text, format_floor
+from .world import depth_text, format_floor, found_on_cleaned
 
 __all__ = ["index_entries", "page_carried", "render_html", "render_index"]
 
@@ -832,7 +832,7 @@ def _feet_section(report: dict, series: dict | None) -> list[str]:
         return []
     frames = int(report["frames"])
     unit = length_word(report.get("length_unit"))
-    cleaned = contacts.get("found_on") == "cleaned"
+    cleaned = found_on_cleaned(contacts)
     on = "the cleaned clip" if cleaned else "the input"
     return [
         "<h2>Feet on the ground</h2>",

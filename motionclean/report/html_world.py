@@ -18,7 +18,7 @@ from ..core.contacts import Floor
 from ..core.motion import Motion
 from ..core.restpose import rest_frames
 from ..core.words import length_word, significant
-from .world import contradiction_words, size_words
+from .world import contradiction_words, found_on_cleaned, size_words
 
 __all__ = ["world_section", "world_series"]
 
@@ -657,7 +657,7 @@ def world_section(report: dict, series: dict | None) -> list[str]:
     per = "the body height" if figures.get("body_height") else "the range the points travel"
     floors = _floors(report, world["up"])
     # the input's floor, or the cleaned clip's where the input's noise hid every contact
-    hidden = (report.get("contacts") or {}).get("found_on") == "cleaned"
+    hidden = found_on_cleaned(report.get("contacts"))
     whose = {"before": "cleaned clip" if hidden else "input", "after": "cleaned clip"}
     axes = ""
     if figures:

@@ -525,13 +525,19 @@ def depth_text(foot: dict, arrow: str, number: Callable[[float], str], unit: str
     return f"during contacts {change(standing)} {unit} (at any frame {anywhere})"
 
 
+def found_on_cleaned(section: dict | None) -> bool:
+    """Whether a report's ``contacts`` section was found on the cleaned clip (the input's
+    noise or dropouts hid every contact; ``found_on`` is absent from older reports)."""
+    return (section or {}).get("found_on") == "cleaned"
+
+
 def format_contacts(section: dict, joints: dict | None = None, unit: str = "units") -> list[str]:
     """One terminal line for the floor, then one per foot: contacts, skate before/after,
     penetration, and whether ``footlock`` left its sliding contacts (``joints``: the
     report's, whose ankle notes say so)."""
     floor = format_floor(section, unit)
     lines = [] if floor is None else [floor]
-    if section.get("found_on") == "cleaned":  # (absent from older reports)
+    if found_on_cleaned(section):
         lines.append("contacts: none found in the input; those of the cleaned clip, on its ground")
     for name, foot in section["feet"].items():
         skate = foot["skate_body_heights"]
