@@ -317,6 +317,15 @@ def test_targets_hold_contacts_and_ease_in_and_out(blend):
     assert np.all(np.diff(ramp_in) > 0.0) and np.all((ramp_in > 0.0) & (ramp_in < 1.0))
 
 
+def _wander(rng: np.random.Generator, n: int, width: int) -> np.ndarray:
+    """``(n, 3)`` white noise of 0.01 units averaged over ``width`` frames: the slow wander
+    a smoothing filter leaves in jitter."""
+    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
+    return np.stack(
+        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
+    )
+
+
 def _plain_lines(points, first, last, half):
     """Least-squares lines through windows of ``2 half + 1`` frames cut to ``first..last``,
     each evaluated at its frame, one window at a time."""
@@ -337,8 +346,7 @@ def test_a_held_line_keeps_a_drift_and_drops_the_slope_jitter_fits():
     n = 120
     contacts = np.zeros(n, dtype=bool)
     contacts[10:110] = True
-    white = rng.normal(scale=0.01, size=(n + 14, 3))
-    jitter = np.stack([np.convolve(white[:, a], np.ones(15) / 15, "valid") for a in range(3)], 1)
+    jitter = _wander(rng, n, 15)
     drift = np.arange(n)[:, None] * np.array([0.02, 0.0, 0.01]) + jitter
     held = held_lines(drift, contacts, 60)
     whole = slice(40, 80)  # frames whose windows lie inside the contact
@@ -366,10 +374,7 @@ def test_a_contact_the_noise_alone_could_move_is_held_on_one_line():
     axis."""
     rng = np.random.default_rng(7)
     n, width = 1000, 15
-    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
-    points = np.stack(
-        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
-    )
+    points = _wander(rng, n, width)
     reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))  # as auto's, a little over
     shuffle = 8 * reach / (1.0 + np.exp(-(np.arange(n) - 800) / 6.0))
     points[:, 0] += shuffle
@@ -402,10 +407,7 @@ def test_a_steps_contact_keeps_the_windows_lines_a_stance_is_held_on_one():
     rng = np.random.default_rng(11)
     width, hold = 15, 60
     n = int(footlock.STILL_MIN_WINDOWS * (hold + 1)) + 320
-    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
-    points = np.stack(
-        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
-    )
+    points = _wander(rng, n, width)
     reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
     step = int(footlock.STILL_MIN_WINDOWS * (hold + 1)) - 5  # just short of a stance
     stance = slice(step + 60, step + 300)  # four windows, after the step
@@ -433,10 +435,7 @@ def test_a_contact_within_one_window_is_held_on_one_line():
     bit. The same turned about any axis."""
     rng = np.random.default_rng(13)
     width, hold, n = 5, 15, 200
-    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
-    points = np.stack(
-        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
-    )
+    points = _wander(rng, n, width)
     contacts = np.zeros(n, dtype=bool)
     contacts[20:32] = contacts[60:72] = contacts[100:112] = True  # three steps of 12 frames
     contacts[150:166] = True  # one of 16 frames: longer than the window
@@ -466,10 +465,7 @@ def test_a_move_at_the_end_of_a_long_stance_keeps_the_windows_lines():
     one line, its target had ended about 4 reaches from the foot for the blend to catch)."""
     rng = np.random.default_rng(9)
     n, width = 1000, 15
-    white = rng.normal(scale=0.01, size=(n + width - 1, 3))
-    points = np.stack(
-        [np.convolve(white[:, a], np.ones(width) / width, "valid") for a in range(3)], 1
-    )
+    points = _wander(rng, n, width)
     reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
     contacts = np.ones(n, dtype=bool)
     points[:, 0] += 4 * reach / (1.0 + np.exp(-(np.arange(n) - 975) / 4.0))
