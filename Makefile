@@ -51,8 +51,10 @@ demo: $(STAMP) bytecode
 	@echo "wrote $(OUT)/131_02_clean.bvh, $(OUT)/131_02_report.html and $(OUT)/131_02_report.json"
 
 # One test process per core, each taking whole files (their shared fixtures made once).
+# Where PYTHONDONTWRITEBYTECODE is set, each process would rewrite the test modules'
+# assertions again on every run (about 10 s each); pytest keeps them in tests/__pycache__.
 test: lint bytecode $(BLENDER_STAMP)
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	env -u PYTHONDONTWRITEBYTECODE $(BIN)/python -m pytest -n auto --dist loadfile
 
 # The extension's operator checks in Blender 4.5 LTS (bpy 4.5) instead of 5.0.
 test-blender45: $(STAMP) bytecode $(BLENDER45_STAMP)
