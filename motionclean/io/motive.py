@@ -67,7 +67,6 @@ from ..core.words import plural
 from .bvh import BOM
 from .csv import (
     RIGID_CHANNELS,
-    TIME_TOLERANCE,
     Cells,
     CsvText,
     check_filled,
@@ -78,12 +77,11 @@ from .csv import (
     rigid_arrays,
     rigid_values,
     tracked_bodies,
-    uniform_frame_time,
     value_cells,
-    written_step,
 )
 from .files import refuse_binary
 from .text import ascii_float, stated_count, table_pieces
+from .timegrid import TIME_TOLERANCE, uniform_frame_time, written_step
 
 #: What every Motive export starts with (after an optional byte-order mark).
 SIGNATURE = b"Format Version,"

@@ -67,7 +67,7 @@ from ..core.errors import MotionError
 from ..core.motion import UNCHANGED_TOLERANCE, Motion, hold_missing, joint_major_zeros
 from ..core.regrid import grid_refusal, regridded
 from ..core.words import plural
-from .csv import Cells, CsvText, format_repr, format_values, off_grid, uniform_frame_time
+from .csv import Cells, CsvText, format_repr, format_values
 from .files import pieces, refuse_binary
 from .text import (
     bad_number_message,
@@ -81,6 +81,7 @@ from .text import (
     stated_count,
     table_pieces,
 )
+from .timegrid import off_grid, uniform_frame_time
 
 #: Channels of a rotational coordinate (a rotation about Z) and of a translational one.
 ROTATIONAL = ("Zrotation", "Xrotation", "Yrotation")
