@@ -26,7 +26,7 @@ from .motionclean.core.errors import MotionError, UsageError
 from .motionclean.core.rates import same_rate
 from .motionclean.io import write_together
 from .motionclean.io.blender_action import ActionClip, key_frames, read_action, write_action
-from .motionclean.report.summary import format_table
+from .motionclean.report.terminal import format_table
 from .motionclean.run.jobs import CleanedClip, clean_motion, pattern_warnings, render_report
 from .motionclean.steps.pipeline import Pipeline
 from .motionclean.steps.ranges import FrameRange

@@ -26,7 +26,7 @@ from ..core.errors import MotionError, UsageError
 from ..core.words import columns, last_columns, pad, plural
 from ..io import FORMATS, ReadOptions, atomic_write, remove_temporaries
 from ..report.html import index_entries, page_carried, render_index
-from ..report.summary import figure_text
+from ..report.terminal import figure_text
 from ..run import cluster
 from ..run.jobs import INDEX_FIGURES, WARNING, FileResult, Job, missing_folders, remove_empty
 from ..run.pool import default_workers, input_size, run_jobs

@@ -40,17 +40,13 @@ from ..report import metrics
 from ..report.summary import (
     build_report,
     build_series,
-    figure_text,
-    format_rest,
-    format_table,
-    format_takes,
     gap_notes,
     median_joint,
     noise_figures,
     pair_repairs,
-    short_names,
     unrepaired_jumps,
 )
+from ..report.terminal import figure_text, format_rest, format_table, format_takes, short_names
 from ..report.verdict import listed
 from ..report.world import (
     contact_figures,

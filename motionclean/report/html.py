@@ -30,18 +30,15 @@ from ..filters import noise
 from ..steps.base import fps_text
 from .html_world import world_section
 from .summary import (
-    format_noise_model,
-    format_rest,
-    format_takes,
     joint_count,
     json_safe,
     noisiest,
-    note_text,
     repaired_joints,
     resampled_to,
     same_pipeline,
     was_cleaned,
 )
+from .terminal import format_noise_model, format_rest, format_takes, note_text
 from .traces import COLUMNS, Trace, trace
 from .verdict import held_poses, jumps_left_out, removed_words
 from .world import depth_text, format_floor, found_on_cleaned

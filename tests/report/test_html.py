@@ -358,7 +358,7 @@ def test_contact_shades_and_the_takes_line_stay_bounded_on_a_long_clip():
     a span per plot column (a rect per contact had grown the page to 2.4 MB) and the takes
     line names a few cuts (it had listed all 802: 6,400 characters)."""
     from motionclean.report.html import _shaded
-    from motionclean.report.summary import format_takes
+    from motionclean.report.terminal import format_takes
 
     frames = 1_000_000
     runs = [(first, first + 40) for first in range(0, frames, 55)]  # 18,182 contacts

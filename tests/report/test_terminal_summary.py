@@ -5,13 +5,8 @@ from __future__ import annotations
 from helpers import NOISY, run_cli
 
 import motionclean as mc
-from motionclean.report.summary import (
-    LINE_LIMIT,
-    build_report,
-    format_repairs,
-    format_table,
-    note_text,
-)
+from motionclean.report.summary import build_report
+from motionclean.report.terminal import LINE_LIMIT, format_repairs, format_table, note_text
 from motionclean.steps.base import PAGE_RUNS
 
 

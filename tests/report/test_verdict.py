@@ -373,7 +373,7 @@ def test_repairs_on_several_joints_are_counted_per_joint():
 def test_the_terminal_table_says_its_totals_include_repairs(demo, tmp_path, capsys):
     """The page's total says "repairs included"; the table's all-joints row, the same
     figures, says so below it where a step repaired frames, and not otherwise."""
-    from motionclean.report.summary import format_table
+    from motionclean.report.terminal import format_table
 
     lines = format_table(demo.report).splitlines()
     row = next(k for k, line in enumerate(lines) if line.startswith("all joints"))

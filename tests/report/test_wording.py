@@ -11,7 +11,7 @@ from helpers import SAMPLE, bending_hand, corpus_clip, cut_bvh, run_cli, with_t_
 import motionclean as mc
 from motionclean.core.words import percent, whole_percent
 from motionclean.report.html_world import _frames
-from motionclean.report.summary import note_text
+from motionclean.report.terminal import note_text
 from motionclean.report.world import format_contacts, format_floor
 from motionclean.steps.base import fps_text
 

@@ -27,7 +27,8 @@ from motionclean.core import kinematics, quat
 from motionclean.filters import lee_shin
 from motionclean.filters.footlock import Prior
 from motionclean.filters.masks import binomial
-from motionclean.report.summary import build_report, format_table, note_text
+from motionclean.report.summary import build_report
+from motionclean.report.terminal import format_table, note_text
 from motionclean.run.jobs import notes_by_joint
 from motionclean.steps import footlock
 from motionclean.steps.base import StepData
