@@ -15,7 +15,8 @@ from motionclean.filters import lee_shin
 from motionclean.filters.masks import binomial
 from motionclean.report.summary import to_json
 from motionclean.steps import StepData, StepSpec
-from motionclean.steps.pipeline import REGISTRY, Pipeline, parse_inline, parse_value, select_joints
+from motionclean.steps.definition import parse_inline, parse_value
+from motionclean.steps.pipeline import REGISTRY, Pipeline, select_joints
 
 
 def test_inline_values_are_read_as_toml():
@@ -332,10 +333,10 @@ def test_steps_see_the_whole_clip_and_whole_clip_steps_replace_it(monkeypatch):
         )
         return halved, {motion.names[0]: {"halved": True}}
 
-    registry = dict(REGISTRY)
-    registry["halve"] = StepSpec("halve", "test", "-", (), run_motion=every_other_frame)
-    registry["look"] = StepSpec("look", "test", "-", (), run=run)
-    monkeypatch.setattr("motionclean.steps.pipeline.REGISTRY", registry)
+    monkeypatch.setitem(
+        REGISTRY, "halve", StepSpec("halve", "test", "-", (), run_motion=every_other_frame)
+    )
+    monkeypatch.setitem(REGISTRY, "look", StepSpec("look", "test", "-", (), run=run))
     pipeline = Pipeline.from_tables(
         [{"filter": "halve"}, {"filter": "look", "joints": ["Left*", "!LeftToe*"]}], "t"
     )

@@ -188,9 +188,7 @@ def test_a_range_after_a_whole_clip_step_counts_that_steps_frames(monkeypatch):
             source_rotations=None,
         ), {}
 
-    registry = dict(REGISTRY)
-    registry["halve"] = StepSpec("halve", "test", "-", (), run_motion=halve)
-    monkeypatch.setattr("motionclean.steps.pipeline.REGISTRY", registry)
+    monkeypatch.setitem(REGISTRY, "halve", StepSpec("halve", "test", "-", (), run_motion=halve))
     with pytest.raises(mc.MotionError, match="takes no frame range"):
         Pipeline.from_tables([{"filter": "halve", "frames": [0, 10]}], "t")
     late = [{"filter": "halve"}, {"filter": "lee-shin", "frames": [10, 200]}]
@@ -209,9 +207,7 @@ def test_ranges_are_checked_before_any_step_runs(monkeypatch):
         ran.append(True)
         return data
 
-    registry = dict(REGISTRY)
-    registry["record"] = StepSpec("record", "test", "-", (), run=record)
-    monkeypatch.setattr("motionclean.steps.pipeline.REGISTRY", registry)
+    monkeypatch.setitem(REGISTRY, "record", StepSpec("record", "test", "-", (), run=record))
     tables = [{"filter": "record"}, {"filter": "lee-shin", "frames": [10, 300]}]
     with pytest.raises(mc.MotionError, match="the clip has 300 frames"):
         Pipeline.from_tables(tables, "t").run(clip)
