@@ -252,7 +252,7 @@ class ReadOptions:
     frame_rate: float | None = None
     animation: str | None = None
     regrid: bool = False  # uneven OpenSim rows put on a grid (``resample``), not refused
-    #: Refuse an option the clip's format does not use (:func:`unused_options`), as the
+    #: Refuse an option the clip's format does not use (:data:`_OPTION_FORMATS`), as the
     #: commands that read the clips a user names do; ``batch`` and ``check`` read folders of
     #: mixed formats and let each file take what applies to it.
     strict: bool = False
@@ -264,7 +264,7 @@ class ReadOptions:
 
     def refuse_unused(self, *paths: str | os.PathLike) -> None:
         """UsageError naming the first option given that none of the clips at ``paths``
-        uses (:func:`unused_options`): ``--animation applies to glTF .gltf/.glb/.vrma files
+        uses (:data:`_OPTION_FORMATS`): ``--animation applies to glTF .gltf/.glb/.vrma files
         only, not to a .bvh file`` (``batch`` and ``check`` ask it of all their clips)."""
         kinds = {Path(path).suffix.lower() for path in paths}  # (what the rule reads)
         for field, option, suffixes, formats in _OPTION_FORMATS:
@@ -308,18 +308,6 @@ _OPTION_FORMATS = (
     ("frame_rate", "--input-fps", SMPL_SUFFIXES, "SMPL .npz/.pkl files"),
     ("animation", "--animation", GLTF_SUFFIXES, "glTF .gltf/.glb/.vrma files"),
 )
-
-
-def unused_options(path: str | os.PathLike, options: ReadOptions) -> list[tuple[str, str]]:
-    """The options given in ``options`` that a clip at ``path`` does not use, by its
-    suffix: ``(option, the files it applies to)`` pairs, e.g. ``("--animation", "glTF
-    .gltf/.glb/.vrma files")`` for a BVH file given an animation."""
-    suffix = Path(path).suffix.lower()
-    return [
-        (option, formats)
-        for field, option, suffixes, formats in _OPTION_FORMATS
-        if getattr(options, field) not in (None, ()) and suffix not in suffixes
-    ]
 
 
 def read_once(read: Callable[[str], object], path: str | os.PathLike):

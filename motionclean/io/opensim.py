@@ -106,7 +106,6 @@ class OpenSimText:
     ends: np.ndarray
     values: np.ndarray
     columns: np.ndarray
-    translational: np.ndarray  # (J,) axis index 0-2, or -1 for a rotational coordinate
     eol: bytes
     notes: tuple[str, ...] = ()
     stated_rows: str | None = None  # the header's nRows as written (None: no such line)
@@ -598,7 +597,6 @@ def parse_opensim(data: bytes, path, exclude: Iterable[str] = (), regrid: bool =
         cell_ends,
         values,
         np.array(kept, dtype=np.intp),
-        axes,
         eol,
         tuple(notes),
         stated,
