@@ -493,18 +493,6 @@ def test_despike_step_equals_the_filter_and_notes_list_the_repaired_frames(
 # ----------------------------------------------------------------------------- auto notes
 
 
-def note_mask(chosen: dict, frame_time: float) -> np.ndarray | None:
-    """The Lee-Shin mask an auto note names (None for ``mask=none``)."""
-    if chosen["mask"] == "binomial":
-        return binomial(chosen["k"])
-    if chosen["mask"] == "savgol":
-        return savgol(chosen["half_width"], chosen["degree"])
-    if chosen["mask"] == "lowpass":
-        return lowpass(chosen["cutoff_hz"], 1.0 / frame_time)
-    assert chosen == {"mask": "none"}
-    return None
-
-
 def test_auto_notes_report_the_estimated_noise_and_the_choice(clip):
     cleaned, logs = Pipeline.from_inline(["auto:joints=['*','!RThumb']"]).run(clip)
     notes = logs[0].notes
