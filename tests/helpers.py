@@ -47,6 +47,23 @@ EXPORTER_NAMES = (
     "Bip01 L Thigh",
 )
 NOISY = ROOT / "sample_data" / "131_02_noisy.bvh"
+#: The JSON report's top-level keys (README, "Conventions": the contract's six, then ours).
+REPORT_KEYS = frozenset(
+    {
+        "file",
+        "frames",
+        "frame_time",
+        "pipeline",
+        "joints",
+        "summary",
+        "world",
+        "contacts",
+        "gaps",
+        "rest_frames",
+        "take_starts",
+        "verdict",
+    }
+)
 #: Cuts of CMU 01_01 as fairmotion ships it (tests/data/fairmotion/README.md): its first 200
 #: frames, from the reference frame 0, and frames 1040-1199, where the left hand jitters.
 CMU_01_01_START = ROOT / "tests" / "data" / "fairmotion" / "01_01_start.bvh"

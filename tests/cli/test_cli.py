@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import ROOT, SAMPLE, degrees_between, run_cli, with_t_pose
+from helpers import REPORT_KEYS, ROOT, SAMPLE, degrees_between, run_cli, with_t_pose
 
 import motionclean as mc
 from motionclean.cli.options import one_line
@@ -62,20 +62,7 @@ def test_clean_writes_clip_and_json_report(noisy_path, tmp_path, capsys):
     assert code == 0, err
     assert "all joints" in stdout
     data = json.loads(report.read_text())
-    assert set(data) == {
-        "file",
-        "frames",
-        "frame_time",
-        "pipeline",
-        "joints",
-        "summary",
-        "world",
-        "contacts",
-        "gaps",
-        "rest_frames",
-        "take_starts",
-        "verdict",
-    }
+    assert set(data) == REPORT_KEYS
     assert data["pipeline"][0]["filter"] == "lee-shin" and data["pipeline"][0]["iterations"] == 5
     knee = data["joints"]["LeftKnee"]
     assert set(knee) >= {"angular_accel_rms", "angular_accel_max", "deviation_deg"}
