@@ -8,6 +8,7 @@ so they import this module as ``common``. It imports nothing from the package it
 from __future__ import annotations
 
 import math
+import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -52,3 +53,18 @@ def best_cpu(fn: Callable[[], object], repeats: int) -> float:
         fn()
         times.append(time.process_time() - start)
     return min(times)
+
+
+def cpu_ratio(base: Callable[[], object], other: Callable[[], object], rounds: int) -> float:
+    """Median over ``rounds`` of the process CPU time of ``other()`` over that of
+    ``base()`` timed just before it, after one untimed call of each: the pair sees the
+    same state of a shared machine, whose speed drifts between separate bests (footlock
+    on 131_02 read 0.79-1.80 default runs from two bests of five, 1.13-1.28 paired)."""
+    base(), other()
+
+    def cpu(fn: Callable[[], object]) -> float:
+        start = time.process_time()
+        fn()
+        return time.process_time() - start
+
+    return float(statistics.median(cpu(other) / cpu(base) for _ in range(rounds)))

@@ -13,8 +13,9 @@ truth) with the step's thresholds. Printed, per clip and seed:
   knee flexion error (RMS of the thigh-shin angle's error, degrees) and the largest knee
   step between frames, with footlock over without (target: within 1 %);
 * the cost of footlock: the step's time on the cleaned clip over the time of the default
-  without it on the noisy clip, process CPU time, best of 7 each (target <= 1.5 default
-  runs; ``MOTIONCLEAN_THREADS=1`` for single-threaded figures);
+  without it on the noisy clip, process CPU time, the median of 9 such pairs each timed
+  back to back (target <= 1.5 default runs; ``MOTIONCLEAN_THREADS=1`` for single-threaded
+  figures);
 * the change footlock makes to the clip as captured (legs, RMS and max, degrees; target RMS
   < 0.3) and to the clip smoothed by 20 passes of B^3 (all joints, RMS; target < 0.05);
 * the quality benchmark's default error (geodesic RMSE over the scored joints, 120 and
@@ -33,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from common import best_cpu, corpus_clips
+from common import corpus_clips, cpu_ratio
 from quality import NOISE_DEG, SUBSAMPLE, clean_base, plant_rotation_noise, rmse_deg, scored_joints
 
 import motionclean as mc
@@ -176,11 +177,10 @@ def walks(with_: Pipeline, lock: Pipeline, label: str) -> None:
         smoothed = np.degrees(quat.angle_between(smooth_a.rotations, smooth_b.rotations))
         for seed in SEEDS:
             planted, cleaned, locked, without, ankles, toes = walk.with_noise(seed, with_)
-            t_without = best_cpu(lambda c=planted: WITHOUT.run(c), 7)
-            t_lock = best_cpu(lambda c=cleaned: lock.run(c), 7)
+            cost = cpu_ratio(lambda c=planted: WITHOUT.run(c), lambda c=cleaned: lock.run(c), 9)
             print(
                 f"| {path.stem} | {seed} {figure_cells(locked, without, ankles, toes)}"
-                f"| {t_lock / t_without:.2f} "
+                f"| {cost:.2f} "
                 f"| {math.sqrt(np.mean(moved**2)):.4f}, {moved.max():.3f} "
                 f"| {math.sqrt(np.mean(smoothed**2)):.5f} |"
             )
