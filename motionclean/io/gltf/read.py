@@ -67,7 +67,7 @@ class Track:
 
 @dataclass(frozen=True, eq=False)
 class GltfSource:
-    """A glTF file as read, for the writer (see the module)."""
+    """A glTF file as read, for the writer (the package's docstring)."""
 
     raw: bytes
     document: dict
@@ -276,7 +276,7 @@ def _targets(animations: list[dict], read: tuple[int, ...], size: int, path) -> 
 
 
 def parse_gltf(data: bytes, path, animation: str | None = None) -> Motion:
-    """A clip of a ``.gltf`` or ``.glb`` file's bytes (see the module): the animation named
+    """A clip of a ``.gltf`` or ``.glb`` file's bytes (the package's docstring): the animation named
     ``animation`` (or of that index, as digits; default the first, or all of them where
     each keys other joints on one time base)."""
     glb = data[:4] == GLB_MAGIC or str(path).lower().endswith(GLB_SUFFIXES)

@@ -160,7 +160,8 @@ def key_step(times: np.ndarray) -> float:
 
 
 def sample_keys(keys: Keys, times: np.ndarray, rotation: bool) -> np.ndarray:
-    """Values of a channel at ``times`` (see the module)."""
+    """Values of a channel at ``times`` (``STEP``, ``LINEAR`` or ``CUBICSPLINE``: the package's
+    docstring)."""
     t = keys.times
     k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, max(t.size - 2, 0))
     if t.size == 1:

@@ -100,7 +100,7 @@ def vrma_pieces(motion: Motion, target: Path) -> Iterable[bytes]:
 
 
 def gltf_pieces(motion: Motion, target: Path, glb: bool) -> Iterable[bytes]:
-    """``motion`` written into the glTF it was read from (see the module), as a GLB or a
+    """``motion`` written into the glTF it was read from (the package's docstring), as a GLB or a
     ``.gltf`` (whose binary chunk, if it came from a GLB, becomes a data URI) to be saved at
     ``target``: the input's bytes when nothing changed and they find the files they name
     from there, else buffer files are embedded as data URIs, and image files too when
