@@ -191,10 +191,11 @@ def held_lines(
     if not contacts.any():
         return held
     whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
-    first, last = _run_bounds(contacts)
+    bounds = _run_bounds(contacts)
+    first, last = bounds
     short = contacts & (last + 1 - first <= 2 * half + 1)  # a contact within one window
     held = np.where(short.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
-    return _held_still(points, contacts, held, whole, still_within, half)
+    return _held_still(points, contacts, held, whole, bounds, still_within, half)
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -217,15 +218,17 @@ def _held_still(
     contacts: np.ndarray,
     held: np.ndarray,
     whole: np.ndarray,
+    bounds: tuple[np.ndarray, np.ndarray],
     within: float,
     half: int,
 ) -> np.ndarray:
     """``held`` ``(F, ..., 3)``, but on each contact of at least :data:`STILL_MIN_WINDOWS`
     windows whose ``points`` stay within ``within`` (length units; 0: none) of one line
     through the whole contact (``whole``, its slope shrunk as :func:`held_lines` shrinks
-    it), that line: within it in RMS over the contact (each frame's farthest point), and within
-    :data:`WINDOW_REACH` times it over every window of ``2 half + 1`` frames, so a move at
-    one end of a long stance (a heel rising) is not averaged away. A window's line follows
+    it; ``bounds``: each frame's contact, :func:`_run_bounds`), that line: within it in
+    RMS over the contact (each frame's farthest point), and within :data:`WINDOW_REACH`
+    times it over every window of ``2 half + 1`` frames, so a move at one end of a long
+    stance (a heel rising) is not averaged away. A window's line follows
     the slow wander that smoothing leaves in noise, along which a foot standing for seconds
     would slide; a stance that moves no more than the noise could make it is held as
     standing (the noise's reach, ``within``, is what ``auto`` expects of the point:
@@ -235,7 +238,7 @@ def _held_still(
         return held
     off = np.sum((points - whole) ** 2, axis=-1).reshape(len(points), -1).max(axis=1)
     index = np.arange(len(points))
-    first, last = _run_bounds(contacts)
+    first, last = bounds
     lo, hi = np.maximum(first, index - half), np.minimum(last, index + half) + 1
     spread = _window_sums(off, lo, hi) / (hi - lo)  # each frame's window
     mean = _window_sums(off, first, last + 1) / (last + 1 - first)  # its whole contact
