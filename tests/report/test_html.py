@@ -88,26 +88,30 @@ def test_spikes_are_clipped_and_labelled(cleaned):
     assert "clipped at" in text and "peak" in text
 
 
-def tiled(motion: mc.Motion, repeats: int) -> tuple[mc.Motion, mc.Motion]:
-    """The clip repeated ``repeats`` times, and the default's cleaning of it."""
-    long = motion.replace(
-        rotations=np.tile(motion.rotations, (repeats, 1, 1)),
-        translations=np.tile(motion.translations, (repeats, 1, 1)),
-    )
-    return long, Pipeline.default().run(long)[0]
+def tiled(motion: mc.Motion, after: mc.Motion, repeats: int) -> tuple[mc.Motion, mc.Motion]:
+    """The clip and its cleaning each repeated ``repeats`` times (the cleaned clip of a
+    long take without running the pipeline on it: the page's size is the question)."""
+
+    def repeated(clip: mc.Motion) -> mc.Motion:
+        return clip.replace(
+            rotations=np.tile(clip.rotations, (repeats, 1, 1)),
+            translations=np.tile(clip.translations, (repeats, 1, 1)),
+        )
+
+    return repeated(motion), repeated(after)
 
 
 @pytest.fixture(scope="module")
 def long_cleaned(cleaned) -> tuple[mc.Motion, mc.Motion, dict]:
-    """The noisy sample repeated to 12,000 frames, its cleaning and their series (made once
-    a module)."""
-    long, smooth = tiled(cleaned[0], 40)
+    """The noisy sample and its cleaning repeated to 12,000 frames, and their series (made
+    once a module)."""
+    long, smooth = tiled(cleaned[0], cleaned[1], 40)
     return long, smooth, build_series(long, smooth)
 
 
 def test_page_size_does_not_grow_with_clip_length(cleaned, long_cleaned):
     sizes = []
-    shorter = tiled(cleaned[0], 8)
+    shorter = tiled(cleaned[0], cleaned[1], 8)
     for long, smooth, series in (
         (*shorter, build_series(*shorter)),
         long_cleaned,
