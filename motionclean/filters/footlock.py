@@ -19,8 +19,9 @@ joints. Each is a Gauss-Newton solve of
 (``d_v`` the change of variable ``v`` as a rotation vector in world axes, radians, or a
 translation; ``s_v`` its expected RMS error per component; ``e_r`` the residual of row
 ``r``; ``w_r`` its weight: the Huber weight times the hold's weight, which eases from 0 to
-1 into a contact), all frames at once. The rows are vectors of world space and the prior
-is isotropic per joint, so the result turns with the clip: it is coordinate invariant.
+1 into a contact, or to :data:`STILL_FIRMNESS` into a stance held still), all frames at
+once. The rows are vectors of world space and the prior is isotropic per joint, so the
+result turns with the clip: it is coordinate invariant.
 """
 
 from __future__ import annotations
@@ -80,6 +81,18 @@ WINDOW_REACH = 2.0
 #: degrees of noise: knee flexion error 1.011-1.018 of the pipeline without footlock on 4
 #: of 6 runs, 0.979-1.009 with it; bench/footlock.py's legs as close or closer).
 STILL_MIN_WINDOWS = 1.5
+#: A stance held on one line (:func:`held_lines`' ``still_within``) is held this many times
+#: as firmly (its rows' precision: the tolerance divided by its square root), eased into and
+#: out of from there: the line is fitted to the whole stance, which the noise moves far less
+#: than a window's, and the tolerance's share of the noise had stayed as jitter of a standing
+#: foot. Measured with 3 degrees of noise, three seeds each (skate / the capture's own, at 1
+#: -> 4 -> 9): a LaFAN1 run's first 5 s standing at 30 fps, ankles 2.0-3.7 -> 0.7-1.4 ->
+#: 0.3-0.9; GAMES-105's idle stance 11-20 -> 4.3-7.2 -> 2.1-3.5; MocapBank's standing clip's
+#: left ankle 1.40-1.55 -> 0.48-0.53 -> 0.23-0.25; the legs' rotation error within 0.0015
+#: of before (CMU walks, LaFAN1, GAMES-105), the walks' skate as it was; the toes, on their
+#: paths, slide 9-31 % more on those stances (held still as well, they slid half as far,
+#: but the CMU walks' legs turned up to 0.9 % further from the truth).
+STILL_FIRMNESS = 9.0
 #: A knee's hinge angle is changed as if its expected error were half what the prior says
 #: (its variance times this): the ankle's correction leans on the hip, whose longer lever
 #: reaches the target with less turn, and the knee's flexion, which the eye follows, keeps
@@ -174,28 +187,37 @@ def held_lines(
     their lines on fewer points: at 30 fps a step's contact of 12 frames, whose windows'
     slopes followed the noise a filter leaves). A stance (a contact of at least
     :data:`STILL_MIN_WINDOWS` windows) that stays within ``still_within`` of one line is
-    held on it (:func:`_held_still`).
+    held on it (:func:`_still_stances`).
 
     Jitter and the sliding it causes go, and so does the slope that jitter alone fits over a
     short window; a steady drift (a pivot) that stands clear of the jitter stays.
     """
+    return _held_lines(points, contacts, hold_frames, still_within)[0]
+
+
+def _held_lines(
+    points: np.ndarray, contacts: np.ndarray, hold_frames: float, still_within: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`held_lines`, and the frames ``(F,)`` of the stances it holds on one line."""
+    none = np.zeros(len(points), dtype=bool)
     if not np.isfinite(hold_frames):
         first, last = _run_bounds(contacts)  # held still: the contact's mean position
         shape = (-1,) + (1,) * (points.ndim - 1)
         origin = points[first]  # place from each contact's first frame: the sums stay small
         points = points - origin
         mean = _window_sums(points, first, last + 1) / (last + 1 - first).reshape(shape)
-        return origin + np.where(contacts.reshape(shape), mean, points)
+        return origin + np.where(contacts.reshape(shape), mean, points), none
     half = int(min(hold_frames, 2 * len(points)) // 2)
     held = _local_lines(points, contacts, half, 1, DRIFT_SIGNIFICANCE)
     if not contacts.any():
-        return held
+        return held, none
     whole = _local_lines(points, contacts, len(points), 1, DRIFT_SIGNIFICANCE)
     bounds = _run_bounds(contacts)
     first, last = bounds
     short = contacts & (last + 1 - first <= 2 * half + 1)  # a contact within one window
     held = np.where(short.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
-    return _held_still(points, contacts, held, whole, bounds, still_within, half)
+    still = _still_stances(points, contacts, whole, bounds, still_within, half)
+    return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held), still
 
 
 def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) -> np.ndarray:
@@ -213,29 +235,27 @@ def held_paths(points: np.ndarray, contacts: np.ndarray, sigma_frames: float) ->
     return _local_lines(points, contacts, half, 3)
 
 
-def _held_still(
+def _still_stances(
     points: np.ndarray,
     contacts: np.ndarray,
-    held: np.ndarray,
     whole: np.ndarray,
     bounds: tuple[np.ndarray, np.ndarray],
     within: float,
     half: int,
 ) -> np.ndarray:
-    """``held`` ``(F, ..., 3)``, but on each contact of at least :data:`STILL_MIN_WINDOWS`
-    windows whose ``points`` stay within ``within`` (length units; 0: none) of one line
-    through the whole contact (``whole``, its slope shrunk as :func:`held_lines` shrinks
-    it; ``bounds``: each frame's contact, :func:`_run_bounds`), that line: within it in
-    RMS over the contact (each frame's farthest point), and within :data:`WINDOW_REACH`
-    times it over every window of ``2 half + 1`` frames, so a move at one end of a long
-    stance (a heel rising) is not averaged away. A window's line follows
-    the slow wander that smoothing leaves in noise, along which a foot standing for seconds
-    would slide; a stance that moves no more than the noise could make it is held as
-    standing (the noise's reach, ``within``, is what ``auto`` expects of the point:
-    bench/footlock.py)."""
+    """``(F,)``: the frames of each contact of at least :data:`STILL_MIN_WINDOWS` windows
+    whose ``points`` ``(F, ..., 3)`` stay within ``within`` (length units; 0: none) of one
+    line through the whole contact (``whole``, its slope shrunk as :func:`held_lines`
+    shrinks it; ``bounds``: each frame's contact, :func:`_run_bounds`): within it in RMS
+    over the contact (each frame's farthest point), and within :data:`WINDOW_REACH` times
+    it over every window of ``2 half + 1`` frames, so a move at one end of a long stance
+    (a heel rising) is not averaged away. A window's line follows the slow wander that
+    smoothing leaves in noise, along which a foot standing for seconds would slide; a
+    stance that moves no more than the noise could make it is held as standing (the
+    noise's reach, ``within``, is what ``auto`` expects of the point: bench/footlock.py)."""
     starts = np.flatnonzero(contacts & ~np.r_[False, contacts[:-1]])
     if within <= 0.0 or not starts.size:
-        return held
+        return np.zeros(len(points), dtype=bool)
     off = np.sum((points - whole) ** 2, axis=-1).reshape(len(points), -1).max(axis=1)
     index = np.arange(len(points))
     first, last = bounds
@@ -250,8 +270,7 @@ def _held_still(
         & (worst[np.minimum(contact, starts.size - 1)] <= ((WINDOW_REACH * within) ** 2))
         & (last + 1 - first >= STILL_MIN_WINDOWS * (2 * half + 1))
     )
-    still = contacts & calm
-    return np.where(still.reshape((-1,) + (1,) * (points.ndim - 1)), whole, held)
+    return contacts & calm
 
 
 def _local_lines(
@@ -355,21 +374,22 @@ def lock_targets(
     ``(F, k, 3)`` and ``(F,)``.
 
     During a contact the target is :func:`held_lines` with weight 1 (a still contact's
-    line within ``still_within``, length units; with ``path``, :func:`held_paths` with a
-    kernel of :data:`TOE_SMOOTHING` times ``hold_frames``, or the contact's mean where that
-    is infinite). Within
+    line within ``still_within``, length units, with weight :data:`STILL_FIRMNESS`; with
+    ``path``, :func:`held_paths` with a kernel of :data:`TOE_SMOOTHING` times
+    ``hold_frames``, or the contact's mean where that is infinite). Within
     ``blend_frames`` frames before a contact starts or after it ends, the weight eases from
-    0 to 1 (smoothstep) and the target moves from the points toward the contact's first or
-    last target; where the ramps of two contacts overlap, the target is their weighted
-    mean. Weight 0 elsewhere.
+    0 to the contact's (smoothstep) and the target moves from the points toward the
+    contact's first or last target; where the ramps of two contacts overlap, the target is
+    their weighted mean. Weight 0 elsewhere.
     """
     n = len(points)
     if not contacts.any():
         return points.copy(), np.zeros(n)
     if path and np.isfinite(hold_frames):
         held = held_paths(points, contacts, TOE_SMOOTHING * hold_frames)
+        still = np.zeros(n, dtype=bool)
     else:
-        held = held_lines(points, contacts, hold_frames, still_within)
+        held, still = _held_lines(points, contacts, hold_frames, still_within)
     last_in, next_in, w_prev, w_next = _eases(contacts, blend_frames)
     total = w_prev + w_next
     shape = (-1,) + (1,) * (points.ndim - 1)
@@ -382,7 +402,12 @@ def lock_targets(
         points + wp * (lock_prev - points) + wn * (lock_next - points),
     )
     target = np.where(contacts.reshape(shape), held, outside)
-    return target, np.where(contacts, 1.0, np.minimum(total, 1.0))
+    # a stance held still is held more firmly, and eased into and out of from that
+    firm = np.where(still, STILL_FIRMNESS, 1.0)
+    eased = (w_prev * firm[last_in.clip(0, n - 1)] + w_next * firm[next_in.clip(0, n - 1)]) / (
+        np.maximum(total, 1e-300)
+    )
+    return target, np.where(contacts, firm, np.minimum(total, 1.0) * eased)
 
 
 @dataclass(frozen=True)
@@ -525,9 +550,10 @@ def _problem(
 @dataclass(frozen=True)
 class _Rows:
     """What a solve asks of its held points, per frame ``F`` and point ``K``: the horizontal
-    position on ``targets`` ``(F, K, 3)`` with weight ``hold_weight`` ``(F, K)`` (0-1, the
-    blend of :func:`lock_targets`: the rows' precision grows with it, so a point eases into
-    its hold instead of being pinned from the ramp's first frame), within ``tolerance``
+    position on ``targets`` ``(F, K, 3)`` with weight ``hold_weight`` ``(F, K)`` (the blend
+    of :func:`lock_targets`, 0 to 1, :data:`STILL_FIRMNESS` on a still stance: the rows'
+    precision grows with it, so a point eases into its hold instead of being pinned from
+    the ramp's first frame), within ``tolerance``
     ``(K,)`` (length units); not below the floor ``(normal, offset)`` where ``grounded``,
     within ``floor_tolerance`` ``(K,)``. ``up`` is the up axis; a target further from a
     point than ``robust`` times the error the prior predicts for it is followed less
@@ -585,10 +611,10 @@ def plant(
     from a point than ``robust`` times the error the prior predicts for it is taken as
     motion, not noise, and followed less (Huber weights). ``still_within`` ``(n_legs,)``
     (length units): a stance (a contact of at least :data:`STILL_MIN_WINDOWS` hold
-    windows) whose ankle stays that close to one line through it is held on that line
-    (:func:`held_lines`; default: none is). Frames where nothing is held, and
-    every joint that does not turn, are returned bit for bit; the root (the first joint of
-    the legs) moves only along ``prior.root``'s non-zero axes.
+    windows) whose ankle stays that close to one line through it is held on that line,
+    :data:`STILL_FIRMNESS` times as firmly (:func:`held_lines`; default: none is). Frames
+    where nothing is held, and every joint that does not turn, are returned bit for bit;
+    the root (the first joint of the legs) moves only along ``prior.root``'s non-zero axes.
     """
     out_q = rotations.copy()
     if not legs:

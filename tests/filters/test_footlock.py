@@ -12,6 +12,7 @@ from motionclean.core import kinematics, quat
 from motionclean.filters import footlock
 from motionclean.filters.footlock import (
     FLOOR_FIRMNESS,
+    STILL_FIRMNESS,
     Leg,
     Prior,
     _independent_share,
@@ -363,6 +364,32 @@ def test_a_held_line_keeps_a_drift_and_drops_the_slope_jitter_fits():
     np.testing.assert_allclose(
         held_lines(quat.rotate(turn, drift), contacts, 60), quat.rotate(turn, held), atol=1e-9
     )
+
+
+@pytest.mark.parametrize("blend", [0, 6])
+def test_a_stance_held_still_is_held_firmly_and_eased_into_so(blend):
+    """The wander of the test above: the stance held on one line gets the rows' weight
+    STILL_FIRMNESS (its line is known far better than a window's), the shuffling contact
+    weight 1, and the ramps before and after the stance climb to its weight and fall from
+    it smoothly (no step of the weight larger than the smoothstep's steepest over a ramp of
+    that firmness); without ``still_within`` both contacts weigh 1."""
+    rng = np.random.default_rng(7)
+    n = 1000
+    points = _wander(rng, n, 15)
+    reach = 1.5 * np.sqrt(np.mean(np.sum(points**2, axis=-1)))
+    points[:, 0] += 8 * reach / (1.0 + np.exp(-(np.arange(n) - 800) / 6.0))
+    contacts = np.zeros(n, dtype=bool)
+    contacts[50:530] = contacts[600:990] = True
+    _, weight = lock_targets(points, contacts, blend, 60, still_within=reach)
+    np.testing.assert_array_equal(weight[50:530], STILL_FIRMNESS)
+    np.testing.assert_array_equal(weight[600:990], 1.0)
+    np.testing.assert_array_equal(lock_targets(points, contacts, blend, 60)[1][contacts], 1.0)
+    width = max(blend, 1)
+    steepest = 1.5 / (width + 1.0)  # smoothstep's slope at its middle, per frame
+    for ramp in (weight[50 - width - 1 : 51], weight[529 : 530 + width + 1][::-1]):
+        assert np.all(np.diff(ramp) > 0.0)
+        assert np.all(np.diff(ramp) <= STILL_FIRMNESS * steepest + 1e-12)
+    assert weight[50 - width - 1] == 0.0 and weight[530 + width] == 0.0
 
 
 def test_a_contact_the_noise_alone_could_move_is_held_on_one_line():

@@ -276,8 +276,9 @@ def test_a_foot_standing_through_the_clip_stays_where_it_stands(seed):
     degrees of noise on every joint the default had held the ankle on 0.5 s lines that
     follow the wander auto leaves, sliding 3-4 times the capture's own 0.007 body heights
     per second; the contact moves no more than that noise could move it, so it is held on
-    one line: under twice the capture's slide, and the legs closer to the truth than
-    without footlock."""
+    one line, and held firmly (a stance's line is known far better than a window's: at the
+    window's tolerance the ankle still slid 1.4-1.6 times the capture's own): under half
+    the capture's slide, and the legs closer to the truth than without footlock."""
     truth = mc.load(ROOT / "tests" / "data" / "exporters" / "mocapbank_walk.bvh")
     scene, contacts, _ = footlock.find_contacts(truth, PARAMS)
     feet = scene.feet
@@ -290,7 +291,7 @@ def test_a_foot_standing_through_the_clip_stays_where_it_stands(seed):
     def slide(clip_positions):
         return found.skate(clip_positions, foot, contacts[:, left], scene.up, truth.frame_time)[0]
 
-    assert slide(kinematics.upright_positions(out, None)) < 2.0 * slide(scene.positions)
+    assert slide(kinematics.upright_positions(out, None)) < 0.5 * slide(scene.positions)
     legs = [j for f in feet for j in (f.hip, f.knee, f.ankle)]
     assert degrees_between(out.rotations[:, legs], truth.rotations[:, legs]).mean() < (
         degrees_between(without.rotations[:, legs], truth.rotations[:, legs]).mean()
