@@ -248,14 +248,26 @@ def trim(motion: Motion, lead: int, trail: int) -> Motion:
     )
 
 
+#: A held pose at the end follows its motion's last frame where a step turned that frame by
+#: more than this many degrees: a flipped run un-flipped (despike's flip step, 150 degrees:
+#: the half-turn, then smoothed); a spike's repair or a cap turns it less (a MediaPipe
+#: estimate's forearm capped by 121 degrees at its last frame keeps its held pose).
+HALF_TURN_DEG = 150.0
+
+
 def held_end_follows(original: Motion, cleaned: Motion, trail: int) -> Motion:
     """``cleaned`` (``original`` cleaned, its ``trail`` trailing rest frames kept) with a held
     pose at the end turned, joint by joint, as its motion's last frame was turned by more
-    than a quarter turn (a half-turn run repaired up to the padding), where the input
-    stepped into the padding by less than an eighth: the padding repeats the motion's last
-    pose, and kept as it was it had made a new half-turn step into itself (a MediaPipe
-    estimate's forearm: 6 -> 179.5 degrees). Any other rest frames, and a held pose whose
-    joints were not so turned, come back bit for bit."""
+    than :data:`HALF_TURN_DEG` (a half-turn run repaired up to the padding), where kept as
+    it was the held pose would be further from that frame than the input stepped into it:
+    the padding repeats a pose of the motion (a tracker that lost the person, a video
+    estimator), and kept as it was it had made a new half-turn step into itself (a
+    MediaPipe estimate's forearm: 6 -> 179.5 degrees; another's arm, which stepped 49
+    degrees into the held pose, 49 -> 157). Only a pose the body steps into as it moves
+    (the step into it a jump, as :func:`rest_frames` judges one, on fewer than half of the
+    moving joints) is held motion: a T-pose or reference frames, entered by a jump of the
+    whole body, come back bit for bit, as does a held pose whose joints were not so
+    turned."""
     end = original.n_frames - trail
     if not trail or end < 1 or cleaned.n_frames != original.n_frames:
         return cleaned
@@ -265,13 +277,26 @@ def held_end_follows(original: Motion, cleaned: Motion, trail: int) -> Motion:
     last_in, last_out = original.rotations[end - 1], cleaned.rotations[end - 1]
     into = quat.angle_between(last_in, held[0])
     turned = quat.angle_between(last_in, last_out)
-    follow = (into < np.pi / 4.0) & (turned > np.pi / 2.0)
-    if not follow.any():
+    follow = (turned > np.radians(HALF_TURN_DEG)) & (quat.angle_between(last_out, held[0]) > into)
+    if not follow.any() or _entered_by_a_jump(original.rotations[:end], np.degrees(into)):
         return cleaned
     turn = quat.multiply(quat.conjugate(last_in[follow]), last_out[follow])  # (local)
     rotations = cleaned.rotations.copy()
     rotations[end:, follow] = quat.multiply(held[:, follow], turn)
     return cleaned.replace(rotations=rotations)
+
+
+def _entered_by_a_jump(motion: np.ndarray, into: np.ndarray) -> bool:
+    """Whether the steps ``into`` ``(J,)`` (degrees) from the last frame of ``motion``
+    ``(F, J, 4)`` into a pose are a jump, as :func:`_rest_run` judges the step out of a
+    rest pose: over :data:`JUMP_TIMES_MEDIAN` times the joint's median step while it moves
+    on at least :data:`MOST_JOINTS` of the joints that move."""
+    moving = np.any(motion != motion[:1], axis=(0, 2))
+    if not moving.any():
+        return True  # (no motion to tell a held pose of it from a reference)
+    typical = _typical_steps(motion, moving)
+    jump = into[moving] > JUMP_TIMES_MEDIAN * typical.while_moving[moving]
+    return bool(jump.mean() >= MOST_JOINTS)
 
 
 def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:

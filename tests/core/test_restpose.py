@@ -214,10 +214,13 @@ def test_a_zero_pose_counts_before_a_reference_frame_found_after_it():
     assert rest_frames(alone) == (1, 0)
 
 
-def test_a_held_end_follows_a_half_turn_repaired_up_to_it():
-    """A forearm half a turn off for its last 59 frames, its last pose held 12 frames more
-    (padding): despike un-flips the run, and the held frames turn with it (kept as they
-    were, they had made a new 180-degree step into themselves, as on a MediaPipe estimate);
+@pytest.mark.parametrize("into_deg", [0.0, 50.0])
+def test_a_held_end_follows_a_half_turn_repaired_up_to_it(into_deg):
+    """A forearm half a turn off for its last 59 frames, then a pose held 12 frames more
+    (padding: its last pose, or one the forearm stepped 50 degrees into, as a tracker that
+    lost the person): despike un-flips the run, and the held frames turn with it (kept as
+    they were, they had made a new half-turn step into themselves, as on MediaPipe
+    estimates: 6 -> 179.5 and 49 -> 157 degrees); the step into them is the input's, and
     every other joint's held frames come back bit for bit."""
     from motionclean.core import quat
     from motionclean.steps.pipeline import Pipeline
@@ -226,15 +229,44 @@ def test_a_held_end_follows_a_half_turn_repaired_up_to_it():
     elbow = clip.names.index("LeftElbow")
     q, t = clip.rotations.copy(), clip.translations.copy()
     q[240:, elbow] = quat.multiply(q[240:, elbow], quat.from_axis_angle(np.eye(3)[2], np.pi))
-    q = np.concatenate([q, np.repeat(q[-1:], 12, axis=0)])
+    last = q[-1:].copy()
+    last[0, elbow] = quat.multiply(
+        last[0, elbow], quat.from_axis_angle(np.eye(3)[0], np.radians(into_deg))
+    )
+    q = np.concatenate([q, np.repeat(last, 12, axis=0)])
     t = np.concatenate([t, np.repeat(t[-1:], 12, axis=0)])
     padded = clip.replace(rotations=q, translations=t, source_values=None, source_rotations=None)
-    assert rest_frames(padded) == (0, 13)
+    assert rest_frames(padded) == (0, 12 + (into_deg == 0.0))
     out, _ = Pipeline.default().run(padded)
     steps = np.degrees(quat.angle_between(out.rotations[1:, elbow], out.rotations[:-1, elbow]))
-    assert steps.max() < 20.0  # the input's one flip repaired, and no new one
+    into = np.degrees(quat.angle_between(q[299, elbow], q[300, elbow]))
+    assert steps[300:].max() == 0.0 and abs(steps[299] - into) < 1e-6  # held, entered as read
+    assert steps[:299].max() < 20.0  # the input's one flip repaired, and no new one
     others = [j for j in range(clip.n_joints) if j != elbow]
-    np.testing.assert_array_equal(out.rotations[299:, others], q[299:, others])
+    np.testing.assert_array_equal(out.rotations[300:, others], q[300:, others])
+
+
+def test_a_reference_pose_after_a_half_turn_repaired_up_to_it_is_kept():
+    """The same forearm's run, then a reference pose the whole body jumps into (every joint
+    at the skeleton's rest but the forearm, which holds the run's half-turned pose): no
+    motion held, it comes back bit for bit, the forearm's too."""
+    from motionclean.core import quat
+    from motionclean.steps.pipeline import Pipeline
+
+    clip = mc.load(SAMPLE)
+    elbow = clip.names.index("LeftElbow")
+    q, t = clip.rotations.copy(), clip.translations.copy()
+    q[240:, elbow] = quat.multiply(q[240:, elbow], quat.from_axis_angle(np.eye(3)[2], np.pi))
+    reference = quat.identity((3, clip.n_joints))
+    reference[:, elbow] = q[-1, elbow]
+    q = np.concatenate([q, reference])
+    t = np.concatenate([t, np.repeat(t[-1:], 3, axis=0)])
+    padded = clip.replace(rotations=q, translations=t, source_values=None, source_rotations=None)
+    assert rest_frames(padded) == (0, 3)
+    out, _ = Pipeline.default().run(padded)
+    np.testing.assert_array_equal(out.rotations[300:], q[300:])
+    turned = np.degrees(quat.angle_between(out.rotations[299, elbow], q[299, elbow]))
+    assert turned > 150.0  # (the run was un-flipped up to it)
 
 
 @pytest.mark.parametrize("step", [1, 4])
