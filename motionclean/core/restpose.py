@@ -185,7 +185,9 @@ def rest_frames(motion: Motion) -> tuple[int, int]:
     A rest frame (or a run of identical frames) at either end counts when the step from it
     into the motion is a jump on at least half of the joints that move at all (a joint whose
     rotation never changes says nothing) at once: larger than 8 times the joint's median
-    step while it moves, one of them by more than 15 degrees. No noise makes most joints jump
+    step while it moves (over the frames within the ends' rest poses, :func:`_inner_span`:
+    a joint that moves only out of the rest pose has none), one of them by more than 15
+    degrees. No noise makes most joints jump
     on the same frame; a pose held before the capture does, however small its turn on some
     joints (the reference frame of CMU conversions turns many by less than 15 degrees). A
     frame in the skeleton's rest pose (every rotation within :data:`ZERO_POSE_DEG` of zero)
@@ -219,12 +221,30 @@ def _rest_frames(motion: Motion) -> tuple[int, int]:
         if not still.size:
             break
         moving[still] = np.any(q[at : at + 4096, still] != q[:1, still], axis=(0, 2))
-    typical = _typical_steps(q, moving)
+    first, stop = _inner_span(q, p)
+    typical = _typical_steps(q[first:stop], moving)
     lead = _leading(q, p, typical, moving)
     trail = _leading(q[::-1], p[::-1], typical, moving)
     if lead + trail >= motion.n_frames - 4:
         return 0, 0
     return lead, trail
+
+
+def _inner_span(q: np.ndarray, translations: np.ndarray) -> tuple[int, int]:
+    """``(first, stop)``: the frames of rotations ``q`` ``(F, J, 4)`` within the first and
+    last :data:`REST_POSES` runs of identical frames (the most rest poses either end may
+    hold), over which the joints' typical steps are measured: the steps out of rest poses
+    are the ones judged, and a joint that moves only there (a T-pose's fingers, held for
+    the rest of a Rokoko clip) had made its typical step that jump itself. The whole clip
+    where too little lies between."""
+    first = stop = 0
+    for _ in range(REST_POSES):
+        if first < len(q):
+            first += _identical_run(q[first:], translations[first:])
+        if stop < len(q):
+            stop += _identical_run(q[::-1][stop:], translations[::-1][stop:])
+    stop = len(q) - stop
+    return (first, stop) if stop - first >= 2 else (0, len(q))
 
 
 def trim(motion: Motion, lead: int, trail: int) -> Motion:

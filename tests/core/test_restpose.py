@@ -56,6 +56,34 @@ def test_a_t_pose_first_frame_is_kept_bit_for_bit_and_out_of_the_figures(tmp_pat
     assert np.isclose(figures["world"]["body_height"], reference["world"]["body_height"])
 
 
+def test_a_reference_pose_out_of_which_most_joints_move_once_is_found():
+    """A Rokoko export's first frame sets its fingers (40 of its 53 moving joints), which
+    hold one pose for the rest of the clip: the step out of the reference frame was each
+    finger's only move, so it was its typical step and no jump, and the frame was taken
+    for motion (the fingers smoothed by up to 83 degrees, the verdict "needs a look"). The
+    typical steps are those of the frames within the rest poses: here the sample with two
+    thirds of its moving joints held after a posed first frame."""
+    from motionclean.core import quat
+    from motionclean.steps.pipeline import Pipeline
+
+    clip = mc.load(SAMPLE)
+    q = clip.rotations.copy()
+    moving = np.flatnonzero(np.any(q != q[:1], axis=(0, 2)))
+    held = moving[: 2 * moving.size // 3]
+    q[:, held] = q[:1, held]  # still after the reference frame, as the export's fingers
+    turn = quat.from_axis_angle(np.array([0.0, 0.6, 0.8]), np.radians(30.0))
+    reference = quat.multiply(q[:1], turn)  # every joint posed 30 degrees off
+    rows = np.concatenate([reference, q])
+    t = np.concatenate([clip.translations[:1], clip.translations])
+    posed = clip.replace(rotations=rows, translations=t, source_values=None, source_rotations=None)
+    motion = clip.replace(rotations=q, source_values=None, source_rotations=None)
+    assert rest_frames(posed) == (1, 0) and rest_frames(motion) == (0, 0)
+    out, _ = Pipeline.default().run(posed)
+    np.testing.assert_array_equal(out.rotations[0], rows[0])
+    alone, _ = Pipeline.default().run(motion)
+    assert degrees_between(out.rotations[1:], alone.rotations).max() < 1e-6
+
+
 def with_held_pose(source, target, frames: int, at_end: bool = False):
     """``source`` with its first (or last) frame repeated to ``frames`` identical frames, as
     exports padded with a held pose are."""
