@@ -262,11 +262,9 @@ def _run(data: StepData, params: dict) -> StepData:
         params, positions, [leg for _, leg in every_leg], prior, point_column, height
     )
     standing = found.find_ground(scene, thresholds)
+    captured = _captured(data, params, point_column)
     contacts = found.sliding_contacts(
-        scene,
-        standing.contacts,
-        params["min_skate"] * height,
-        before=_captured(data, params, point_column),
+        scene, standing.contacts, params["min_skate"] * height, before=captured
     )
     held: np.ndarray = np.asarray(contacts.any(axis=0))
     chosen = [(k, leg) for k, leg in every_leg if held[k]]
@@ -292,10 +290,18 @@ def _run(data: StepData, params: dict) -> StepData:
         return data
     kept, legs = [k for k, _ in chosen], [leg for _, leg in chosen]
     # the floor under every sole (those the fit leaves out too): no foot is pushed through
-    # it while it stands, none is lifted that stood below it as captured
+    # it while it stands, none is lifted that stood below it; but not below every sole as
+    # captured, where the steps before pushed the feet down (smoothing an Axis Studio
+    # sit-stand's ankles had sunk a toe 1.2 units under any the capture held)
     floor, soles = found.floor_of_contacts(scene.of_feet(kept), contacts[:, kept], 0.0)
     floor = floor or found.Floor.level(-np.inf, up)
-    floor = replace(floor, offset=floor.offset + float(floor.above(soles).min(initial=0.0)))
+    lowest = float(floor.above(soles).min(initial=0.0))
+    if captured is not None:
+        as_captured = replace(scene, positions=captured).of_feet(kept)
+        captured_soles = found.contact_soles(as_captured, contacts[:, kept])
+        if captured_soles.size:
+            lowest = max(lowest, float(floor.above(captured_soles).min()))
+    floor = replace(floor, offset=floor.offset + lowest)
     # the floor as the clip's own coordinates have it (the positions were turned upright)
     normal = kinematics.upright(floor.normal, up, _sign(motion, params))
     rotations, root_translation = plant(
