@@ -107,6 +107,24 @@ def _typical_steps(q: np.ndarray, moving: np.ndarray) -> Typical:
     return Typical(median, while_moving, float(np.percentile(body, 99.0)))
 
 
+def _moving_joints(q: np.ndarray) -> np.ndarray:
+    """``(J,)``: the joints of rotations ``q`` ``(F, J, 4)`` whose rotation ever changes
+    (read in blocks of frames, each joint until it is found to move)."""
+    moving = np.zeros(q.shape[1], dtype=bool)
+    for at in range(0, q.shape[0], 4096):
+        still = np.flatnonzero(~moving)  # (the others are known to: not read again)
+        if not still.size:
+            break
+        moving[still] = np.any(q[at : at + 4096, still] != q[:1, still], axis=(0, 2))
+    return moving
+
+
+def _jumps(steps: np.ndarray, typical: np.ndarray) -> np.ndarray:
+    """Which ``steps`` (degrees) are jumps: over :data:`JUMP_TIMES_MEDIAN` times the
+    joint's ``typical`` step."""
+    return steps > JUMP_TIMES_MEDIAN * typical
+
+
 def _rest_run(
     q: np.ndarray,
     translations: np.ndarray,
@@ -127,7 +145,7 @@ def _rest_run(
         return 0
     out = np.degrees(quat.angle_between(q[run - 1], q[run]))[moving]
     median, while_moving = typical.median[moving], typical.while_moving[moving]
-    jump = out > JUMP_TIMES_MEDIAN * while_moving
+    jump = _jumps(out, while_moving)
     if jump.mean() >= MOST_JOINTS and out[jump].max() > JUMP_DEG:
         return run
     if out.max() <= JUMP_DEG:
@@ -135,7 +153,7 @@ def _rest_run(
     # a zero pose (the skeleton's rest) before a pose: the joints that leave it jump
     if _zero_pose(q[run - 1], moving):
         posed = np.degrees(quat.angle(q[run, moving])) > ZERO_POSE_DEG
-        leaves = out[posed] > JUMP_TIMES_MEDIAN * median[posed]
+        leaves = _jumps(out[posed], median[posed])
         if posed.any() and leaves.mean() >= MOST_JOINTS:
             return run
     # ... or a pose mostly at it (an A-pose; noise or a low rate raising the joints'
@@ -215,12 +233,7 @@ def _rest_frames(motion: Motion) -> tuple[int, int]:
         return 0, 0
     q = motion.rotations if rotating.all() else motion.rotations[:, rotating]
     p = motion.translations
-    moving = np.zeros(q.shape[1], dtype=bool)
-    for at in range(0, q.shape[0], 4096):  # joints whose rotation ever changes
-        still = np.flatnonzero(~moving)  # (the others are known to: not read again)
-        if not still.size:
-            break
-        moving[still] = np.any(q[at : at + 4096, still] != q[:1, still], axis=(0, 2))
+    moving = _moving_joints(q)
     first, stop = _inner_span(q, p)
     typical = _typical_steps(q[first:stop], moving)
     lead = _leading(q, p, typical, moving)
@@ -311,12 +324,11 @@ def _entered_by_a_jump(motion: np.ndarray, into: np.ndarray) -> bool:
     ``(F, J, 4)`` into a pose are a jump, as :func:`_rest_run` judges the step out of a
     rest pose: over :data:`JUMP_TIMES_MEDIAN` times the joint's median step while it moves
     on at least :data:`MOST_JOINTS` of the joints that move."""
-    moving = np.any(motion != motion[:1], axis=(0, 2))
+    moving = _moving_joints(motion)
     if not moving.any():
         return True  # (no motion to tell a held pose of it from a reference)
     typical = _typical_steps(motion, moving)
-    jump = into[moving] > JUMP_TIMES_MEDIAN * typical.while_moving[moving]
-    return bool(jump.mean() >= MOST_JOINTS)
+    return bool(_jumps(into[moving], typical.while_moving[moving]).mean() >= MOST_JOINTS)
 
 
 def splice(original: Motion, middle: Motion, lead: int, trail: int) -> Motion:

@@ -394,8 +394,8 @@ def lock_targets(
     total = w_prev + w_next
     shape = (-1,) + (1,) * (points.ndim - 1)
     wp, wn = w_prev.reshape(shape), w_next.reshape(shape)
-    lock_prev = held[last_in.clip(0, n - 1)]
-    lock_next = held[next_in.clip(0, n - 1)]
+    prev_at, next_at = last_in.clip(0, n - 1), next_in.clip(0, n - 1)
+    lock_prev, lock_next = held[prev_at], held[next_at]
     outside = np.where(
         (total > 1.0).reshape(shape),
         (wp * lock_prev + wn * lock_next) / np.maximum(total, 1e-300).reshape(shape),
@@ -404,9 +404,7 @@ def lock_targets(
     target = np.where(contacts.reshape(shape), held, outside)
     # a stance held still is held more firmly, and eased into and out of from that
     firm = np.where(still, STILL_FIRMNESS, 1.0)
-    eased = (w_prev * firm[last_in.clip(0, n - 1)] + w_next * firm[next_in.clip(0, n - 1)]) / (
-        np.maximum(total, 1e-300)
-    )
+    eased = (w_prev * firm[prev_at] + w_next * firm[next_at]) / np.maximum(total, 1e-300)
     return target, np.where(contacts, firm, np.minimum(total, 1.0) * eased)
 
 

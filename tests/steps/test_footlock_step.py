@@ -38,7 +38,15 @@ PARAMS = {p.name: p.default for p in footlock.STEP.params}
 WITHOUT = Pipeline.from_tables([s for s in DEFAULT_STEPS if s["filter"] != "footlock"], "-")
 
 
-def _step(motion: mc.Motion, earlier: dict) -> mc.Motion:
+def _step(
+    motion: mc.Motion,
+    earlier: dict | None = None,
+    entered: mc.Motion | None = None,
+    params: dict | None = None,
+) -> mc.Motion:
+    """``motion`` through the footlock step alone (``params``: default ``min_skate=0``,
+    every contact fixed), with ``earlier`` steps' notes and the clip as ``entered`` the
+    pipeline; its rotations and root translation replaced."""
     data = StepData(
         motion.rotations,
         motion.translations[:, :1],
@@ -46,9 +54,10 @@ def _step(motion: mc.Motion, earlier: dict) -> mc.Motion:
         motion=motion,
         rotation_joints=np.arange(motion.n_joints),
         translation_joints=np.array([0]),
-        earlier=earlier,
+        earlier=earlier or {},
+        entered=entered,
     )
-    out = footlock.STEP.run(data, {**PARAMS, "min_skate": 0.0})  # type: ignore[misc]
+    out = footlock.STEP.run(data, params or {**PARAMS, "min_skate": 0.0})  # type: ignore[misc]
     translations = motion.translations.copy()
     translations[:, :1] = out.translations
     return motion.replace(rotations=out.rotations, translations=translations)
@@ -317,17 +326,7 @@ def test_a_foot_the_steps_before_sank_is_held_on_the_floor_the_capture_stood_on(
     rotations = entered.rotations.copy()
     rotations[:, foot.ankle] = quat.multiply(rotations[:, foot.ankle], pitch)
     sunk = entered.replace(rotations=rotations)
-    data = StepData(
-        sunk.rotations,
-        sunk.translations[:, :1],
-        sunk.frame_time,
-        motion=sunk,
-        rotation_joints=np.arange(sunk.n_joints),
-        translation_joints=np.array([0]),
-        entered=entered,
-    )
-    out = footlock.STEP.run(data, dict(PARAMS))  # type: ignore[misc]
-    planted = sunk.replace(rotations=out.rotations)
+    planted = _step(sunk, entered=entered, params=PARAMS)
 
     def lowest(motion):  # the left foot's lowest point along up, during its contacts
         points = kinematics.upright_positions(motion, None)[:, foot.points, scene.up]
